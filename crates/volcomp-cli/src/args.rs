@@ -1,0 +1,160 @@
+//! Raw command-line flags. They are turned into validated library options in
+//! `commands`, never used by the library directly.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+/// Volumetric error compensation of CNC part programs.
+#[derive(Parser, Debug)]
+#[command(name = "volcomp", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Print every motion volcomp understood, in the axis frame (mm).
+    Moves(MovesArgs),
+    /// Write a compensated copy of a program for a measured error map.
+    Compensate(CompensateArgs),
+    /// Simulate a program on a machine with an error map and report its errors.
+    Simulate(SimulateArgs),
+    /// Run the bundled example: the papers' circles and spiral on an example map.
+    Demo(DemoArgs),
+}
+
+/// How the program is set up on the machine.
+#[derive(Args, Debug, Clone)]
+pub struct MachineArgs {
+    /// TOML setup file: work offsets, tool lengths, reference points.
+    #[arg(long, value_name = "FILE")]
+    pub setup: Option<PathBuf>,
+    /// G54 work offset in mm (machine coordinates), overriding the setup's.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub work_offset: Option<String>,
+    /// Read I/J/K as absolute arc centres (as if the program began with G90.1).
+    #[arg(long)]
+    pub absolute_arc_centers: bool,
+    /// Refuse `K0` on G17 arcs as LinuxCNC does (accepted by default).
+    #[arg(long)]
+    pub strict_k0: bool,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MovesFormat {
+    Csv,
+    Json,
+}
+
+#[derive(Args, Debug)]
+pub struct MovesArgs {
+    /// The part program ("-" for standard input).
+    pub program: PathBuf,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = MovesFormat::Csv)]
+    pub format: MovesFormat,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// Solve q + e(q, s) = t to a tolerance (default).
+    Exact,
+    /// Iterative learning control, q ← q + γ·(t − actual(q)).
+    Ilc,
+    /// One step, q = t − e(t, s).
+    Direct,
+    /// Exact, but only with the positioning errors E_XX, E_YY, E_ZZ.
+    Pitch,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct MapArgs {
+    /// Error map: axis-table CSV (design §2).
+    #[arg(long, value_name = "MAP")]
+    pub map: PathBuf,
+    /// Clamp positions outside the map's range to its end instead of refusing.
+    #[arg(long)]
+    pub clamp: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct CompensateArgs {
+    /// The part program to compensate.
+    pub program: PathBuf,
+    #[command(flatten)]
+    pub map: MapArgs,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    /// Compensation method.
+    #[arg(long, value_enum, default_value_t = Method::Exact)]
+    pub method: Method,
+    /// Split feed moves into segments of at most this length (mm).
+    #[arg(long, value_name = "MM", conflicts_with = "segments")]
+    pub segment_length: Option<f64>,
+    /// Split every feed move into this many segments (as the papers do).
+    #[arg(long, value_name = "N")]
+    pub segments: Option<u32>,
+    /// Do not split feed moves (only arcs are linearised).
+    #[arg(long, conflicts_with_all = ["segments", "segment_length"])]
+    pub no_split: bool,
+    /// ILC gain γ, 0 < γ ≤ 1.
+    #[arg(long, default_value_t = 0.5)]
+    pub gain: f64,
+    /// ILC iteration limit.
+    #[arg(long, default_value_t = 20)]
+    pub max_iterations: u32,
+    /// Chord tolerance for linearising arcs (mm).
+    #[arg(long, value_name = "MM", default_value_t = 1e-4)]
+    pub chord_tolerance: f64,
+    /// Decimal places of written coordinates (default 4 in mm, 5 in inch).
+    #[arg(long)]
+    pub decimals: Option<u8>,
+    /// Largest correction accepted (mm); larger ones mean a wrong map unit.
+    #[arg(long, value_name = "MM", default_value_t = 0.1)]
+    pub max_correction: f64,
+    /// Choose error tables by the nominal move direction, as the papers do,
+    /// instead of the direction of the compensated command (for comparison).
+    #[arg(long)]
+    pub nominal_directions: bool,
+    /// Do not insert backlash take-up moves at reversals.
+    #[arg(long)]
+    pub no_take_up: bool,
+    /// Print a per-point report (CSV: line, iterations, residual) to this file.
+    #[arg(long, value_name = "FILE")]
+    pub report: Option<PathBuf>,
+    /// Output program.
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct SimulateArgs {
+    /// The program that runs on the machine.
+    pub program: PathBuf,
+    #[command(flatten)]
+    pub map: MapArgs,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    /// The original program whose nominal path PROGRAM is judged against.
+    #[arg(long, value_name = "ORIGINAL")]
+    pub reference: Option<PathBuf>,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Write per-segment error norms (CSV) for plotting.
+    #[arg(long, value_name = "FILE")]
+    pub errors_csv: Option<PathBuf>,
+    /// Chord tolerance for linearising arcs (mm).
+    #[arg(long, value_name = "MM", default_value_t = 1e-4)]
+    pub chord_tolerance: f64,
+}
+
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Where to write the example map and programs.
+    #[arg(long, value_name = "DIR", default_value = "volcomp-demo")]
+    pub out_dir: PathBuf,
+}

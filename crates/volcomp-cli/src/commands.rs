@@ -1,0 +1,161 @@
+//! One function per subcommand: validate flags into library options, run,
+//! print.
+
+use crate::args::{Cli, Command, MachineArgs, MovesArgs, MovesFormat};
+use crate::output::CliError;
+use std::fs::File;
+use std::io::{self, BufRead, BufReader, BufWriter, Write};
+use std::path::Path;
+use volcomp_gcode::number::{format_number, NumberStyle};
+use volcomp_gcode::{InterpOptions, MotionKind, Setup, Vec3, Walker};
+
+mod compensate;
+mod demo;
+mod simulate;
+
+pub fn run(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        Command::Moves(a) => moves(a),
+        Command::Compensate(a) => compensate::run(a),
+        Command::Simulate(a) => simulate::run(a),
+        Command::Demo(a) => demo::run(a),
+    }
+}
+
+/// The validated machine set-up of a program.
+pub struct Machine {
+    pub setup: Setup,
+    pub options: InterpOptions,
+}
+
+/// Parses `X,Y,Z` (three finite numbers).
+pub fn parse_triple(text: &str, flag: &str) -> Result<Vec3, CliError> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let nums: Option<Vec<f64>> = parts.iter().map(|p| p.parse::<f64>().ok()).collect();
+    match nums {
+        Some(v) if v.len() == 3 && v.iter().all(|x| x.is_finite()) => {
+            Ok(Vec3::new(v[0], v[1], v[2]))
+        }
+        _ => Err(CliError::Message(format!(
+            "{flag} expects three numbers in mm separated by commas, like 100,50,-200; got `{text}`"
+        ))),
+    }
+}
+
+impl Machine {
+    pub fn from_args(a: &MachineArgs) -> Result<Machine, CliError> {
+        let mut setup = match &a.setup {
+            Some(path) => {
+                let text =
+                    std::fs::read_to_string(path).map_err(|e| CliError::Io(path.clone(), e))?;
+                Setup::from_toml(&text)
+                    .map_err(|e| CliError::Message(format!("{}: {e}", path.display())))?
+            }
+            None => Setup::default(),
+        };
+        if let Some(w) = &a.work_offset {
+            setup.work_offsets_mm[0] = parse_triple(w, "--work-offset")?;
+        }
+        let options = InterpOptions {
+            accept_k0_on_xy_arcs: !a.strict_k0,
+            absolute_arc_centers: a.absolute_arc_centers,
+        };
+        Ok(Machine { setup, options })
+    }
+
+    /// A walker over a program file ("-" is standard input).
+    pub fn walk(&self, path: &Path) -> Result<Walker<Box<dyn BufRead>>, CliError> {
+        let reader: Box<dyn BufRead> = if path.as_os_str() == "-" {
+            Box::new(BufReader::with_capacity(1 << 16, io::stdin()))
+        } else {
+            let f = File::open(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+            Box::new(BufReader::with_capacity(1 << 16, f))
+        };
+        Ok(Walker::new(
+            reader,
+            Some(path.display().to_string()),
+            self.setup.clone(),
+            self.options,
+        ))
+    }
+}
+
+fn moves(a: MovesArgs) -> Result<(), CliError> {
+    let machine = Machine::from_args(&a.machine)?;
+    let mut walker = machine.walk(&a.program)?;
+    let stdout = io::stdout();
+    let mut out = BufWriter::with_capacity(1 << 16, stdout.lock());
+    let style = NumberStyle::fixed(6);
+    let mut row = String::with_capacity(160);
+    let json = a.format == MovesFormat::Json;
+    let mut first = true;
+    if json {
+        out.write_all(b"[").map_err(CliError::Stdout)?;
+    } else {
+        out.write_all(b"line,column,kind,source,x_mm,y_mm,z_mm,cx_mm,cy_mm,cz_mm\n")
+            .map_err(CliError::Stdout)?;
+    }
+    while let Some(ev) = walker.next_line()? {
+        for m in ev.motions {
+            row.clear();
+            let center = match m.kind {
+                MotionKind::Arc(arc) => Some(arc.center),
+                _ => None,
+            };
+            let source = match m.source {
+                volcomp_gcode::MotionSource::Program => "program",
+                volcomp_gcode::MotionSource::Machine => "g53",
+                volcomp_gcode::MotionSource::Reference => "reference",
+                volcomp_gcode::MotionSource::Cycle => "cycle",
+            };
+            let num = |v: f64, row: &mut String| format_number(v, style, row);
+            if json {
+                row.push_str(if first { "\n" } else { ",\n" });
+                row.push_str(&format!(
+                    "{{\"line\":{},\"column\":{},\"kind\":\"{}\",\"source\":\"{}\",\"end_mm\":[",
+                    m.line,
+                    m.column,
+                    m.kind.name(),
+                    source
+                ));
+                push_triple(m.end, &mut row, num);
+                row.push(']');
+                if let Some(c) = center {
+                    row.push_str(",\"center_mm\":[");
+                    push_triple(c, &mut row, num);
+                    row.push(']');
+                }
+                row.push('}');
+            } else {
+                row.push_str(&format!(
+                    "{},{},{},{},",
+                    m.line,
+                    m.column,
+                    m.kind.name(),
+                    source
+                ));
+                push_triple(m.end, &mut row, num);
+                row.push(',');
+                match center {
+                    Some(c) => push_triple(c, &mut row, num),
+                    None => row.push_str(",,"),
+                }
+                row.push('\n');
+            }
+            first = false;
+            out.write_all(row.as_bytes()).map_err(CliError::Stdout)?;
+        }
+    }
+    if json {
+        out.write_all(b"\n]\n").map_err(CliError::Stdout)?;
+    }
+    out.flush().map_err(CliError::Stdout)
+}
+
+fn push_triple(v: Vec3, row: &mut String, num: impl Fn(f64, &mut String)) {
+    num(v.x, row);
+    row.push(',');
+    num(v.y, row);
+    row.push(',');
+    num(v.z, row);
+}

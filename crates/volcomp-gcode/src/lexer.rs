@@ -1,0 +1,398 @@
+//! Byte-based, zero-copy lexer for one block (line) of RS274/NGC G-code.
+//!
+//! The lexer never copies the line: every token is a byte range into it, so a
+//! writer can splice edits into the original bytes and leave everything else
+//! (spacing, case, comments, number style, line ending) untouched.
+//!
+//! Rules follow LinuxCNC's reader: spaces and tabs are insignificant outside
+//! comments (so `X 1 0 . 5` is the word `X10.5`), letters are case-insensitive,
+//! `( … )` and `; …` are comments, a line holding only `%` is a tape marker and
+//! a leading `/` is the block-delete character. Constructs that volcomp refuses
+//! to interpret (`#` parameters, `[ ]` expressions, o-word control flow) are
+//! reported as [`LexErrorKind`]s with their column, never skipped silently.
+
+use std::ops::Range;
+
+/// One token of a line; all ranges are byte offsets into that line.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Token {
+    /// A letter followed by a number, e.g. `X-.5` or `g 1`.
+    Word(Word),
+    /// A parenthesised comment, range includes both parentheses.
+    Comment(Range<usize>),
+    /// A `;` comment, range runs to the end of the line content.
+    LineComment(Range<usize>),
+    /// The block-delete character `/` at the start of a block.
+    BlockDelete(usize),
+}
+
+/// A word: a letter and its numeric value, with where each part sits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Word {
+    /// The letter, upper-cased (`b'X'`).
+    pub letter: u8,
+    /// The numeric value as written (program units, not converted).
+    pub value: f64,
+    /// Range of the whole word, from the letter to the last byte of the number.
+    pub span: Range<usize>,
+    /// Range of the number only (may contain spaces, e.g. `1 0 . 5`).
+    pub value_span: Range<usize>,
+}
+
+/// Why a line could not be lexed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LexErrorKind {
+    /// A `(` comment without its `)`.
+    UnclosedComment,
+    /// A `(` inside a comment: LinuxCNC refuses nested comments.
+    NestedComment,
+    /// A letter not followed by a number.
+    MissingNumber(char),
+    /// `#` parameters are not interpreted by volcomp.
+    Parameter,
+    /// `[ ]` expressions are not interpreted by volcomp.
+    Expression,
+    /// o-word subroutines and control flow are not interpreted by volcomp.
+    OWord,
+    /// A byte that has no meaning in G-code.
+    UnexpectedByte(u8),
+    /// A number too long to be a coordinate.
+    NumberTooLong,
+}
+
+/// A lexing error at a byte column of the line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LexError {
+    /// What went wrong.
+    pub kind: LexErrorKind,
+    /// Byte offset in the line (0-based).
+    pub column: usize,
+}
+
+/// What kind of line this is, before its words are interpreted.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LineKind {
+    /// A line with only `%` (and white space): start or end of a tape.
+    Percent,
+    /// An `O` program number such as `O0001` or `O1001 (NAME)`.
+    ProgramNumber,
+    /// Anything else: a block of words and comments (possibly empty).
+    Block,
+}
+
+/// The tokens of one line. Tokens borrow nothing; ranges index the line.
+#[derive(Debug, Clone, Default)]
+pub struct Lexed {
+    /// Tokens in source order.
+    pub tokens: Vec<Token>,
+}
+
+impl Lexed {
+    /// The words of the line in source order.
+    pub fn words(&self) -> impl Iterator<Item = &Word> {
+        self.tokens.iter().filter_map(|t| match t {
+            Token::Word(w) => Some(w),
+            _ => None,
+        })
+    }
+
+    /// Whether the block starts with the block-delete character.
+    pub fn block_delete(&self) -> bool {
+        matches!(self.tokens.first(), Some(Token::BlockDelete(_)))
+    }
+}
+
+/// Blanks are insignificant outside comments. A stray `\r` (some files end
+/// lines with `\r\r\n`) counts as a blank, as it does for LinuxCNC.
+fn is_blank(b: u8) -> bool {
+    b == b' ' || b == b'\t' || b == b'\r'
+}
+
+/// Strips a trailing `\n`, `\r\n` or `\r` and returns the content length.
+pub fn content_len(line: &[u8]) -> usize {
+    let mut n = line.len();
+    if n > 0 && line[n - 1] == b'\n' {
+        n -= 1;
+    }
+    if n > 0 && line[n - 1] == b'\r' {
+        n -= 1;
+    }
+    n
+}
+
+/// Classifies a line (without its line ending).
+pub fn classify(content: &[u8]) -> LineKind {
+    let mut i = 0;
+    while i < content.len() && is_blank(content[i]) {
+        i += 1;
+    }
+    if i < content.len() && content[i] == b'%' {
+        return LineKind::Percent;
+    }
+    if i < content.len() && (content[i] == b'O' || content[i] == b'o') {
+        // `O0001`, `O1001 (NAME)` is a Fanuc program number; `o100 sub` is an o-word.
+        let mut j = i + 1;
+        while j < content.len() && (content[j].is_ascii_digit() || is_blank(content[j])) {
+            j += 1;
+        }
+        let has_digits = content[i + 1..j].iter().any(|b| b.is_ascii_digit());
+        let rest_is_comment = j == content.len() || content[j] == b'(' || content[j] == b';';
+        if has_digits && rest_is_comment {
+            return LineKind::ProgramNumber;
+        }
+    }
+    LineKind::Block
+}
+
+/// Lexes one line's content (without line ending) into `out`, reusing its
+/// allocation. The caller should first check [`classify`].
+pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
+    out.tokens.clear();
+    let n = content.len();
+    let mut i = 0;
+    while i < n && is_blank(content[i]) {
+        i += 1;
+    }
+    if i < n && content[i] == b'/' {
+        out.tokens.push(Token::BlockDelete(i));
+        i += 1;
+    }
+    while i < n {
+        let b = content[i];
+        match b {
+            _ if is_blank(b) => i += 1,
+            b'(' => {
+                let start = i;
+                i += 1;
+                loop {
+                    if i >= n {
+                        return Err(LexError {
+                            kind: LexErrorKind::UnclosedComment,
+                            column: start,
+                        });
+                    }
+                    match content[i] {
+                        b')' => break,
+                        b'(' => {
+                            return Err(LexError {
+                                kind: LexErrorKind::NestedComment,
+                                column: i,
+                            })
+                        }
+                        _ => i += 1,
+                    }
+                }
+                i += 1;
+                out.tokens.push(Token::Comment(start..i));
+            }
+            b';' => {
+                out.tokens.push(Token::LineComment(i..n));
+                i = n;
+            }
+            b'#' => {
+                return Err(LexError {
+                    kind: LexErrorKind::Parameter,
+                    column: i,
+                })
+            }
+            b'[' => {
+                return Err(LexError {
+                    kind: LexErrorKind::Expression,
+                    column: i,
+                })
+            }
+            _ if b.is_ascii_alphabetic() => {
+                let letter = b.to_ascii_uppercase();
+                let start = i;
+                i += 1;
+                let (value, value_span) = lex_number(content, &mut i, letter)?;
+                if letter == b'O' {
+                    return Err(LexError {
+                        kind: LexErrorKind::OWord,
+                        column: start,
+                    });
+                }
+                out.tokens.push(Token::Word(Word {
+                    letter,
+                    value,
+                    span: start..value_span.end,
+                    value_span,
+                }));
+            }
+            _ => {
+                return Err(LexError {
+                    kind: LexErrorKind::UnexpectedByte(b),
+                    column: i,
+                })
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Reads a number after a word letter, skipping blanks inside it.
+fn lex_number(content: &[u8], i: &mut usize, letter: u8) -> Result<(f64, Range<usize>), LexError> {
+    let n = content.len();
+    let mut buf = [0u8; 48];
+    let mut len = 0;
+    let mut start = None;
+    let mut end = *i;
+    let mut seen_digit = false;
+    let mut seen_dot = false;
+    let mut j = *i;
+    while j < n {
+        let c = content[j];
+        let accept = match c {
+            _ if is_blank(c) => {
+                j += 1;
+                continue;
+            }
+            b'+' | b'-' => len == 0,
+            b'.' => !seen_dot,
+            b'0'..=b'9' => true,
+            _ => false,
+        };
+        if !accept {
+            break;
+        }
+        if c == b'.' {
+            seen_dot = true;
+        }
+        if c.is_ascii_digit() {
+            seen_digit = true;
+        }
+        if len == buf.len() {
+            return Err(LexError {
+                kind: LexErrorKind::NumberTooLong,
+                column: j,
+            });
+        }
+        buf[len] = c;
+        len += 1;
+        start.get_or_insert(j);
+        j += 1;
+        end = j;
+    }
+    if !seen_digit {
+        let column = start.unwrap_or(*i);
+        let kind = match content
+            .get(*i..)
+            .and_then(|r| r.iter().find(|b| !is_blank(**b)))
+        {
+            Some(b'#') => LexErrorKind::Parameter,
+            Some(b'[') => LexErrorKind::Expression,
+            Some(b'<') if letter == b'O' => LexErrorKind::OWord,
+            _ => LexErrorKind::MissingNumber(letter as char),
+        };
+        return Err(LexError { kind, column });
+    }
+    // Safe: only ASCII digits, sign and dot were copied.
+    let text = std::str::from_utf8(&buf[..len]).unwrap_or("0");
+    let value = parse_decimal(text).ok_or(LexError {
+        kind: LexErrorKind::MissingNumber(letter as char),
+        column: *i,
+    })?;
+    *i = end;
+    Ok((value, start.unwrap_or(end)..end))
+}
+
+/// Parses `[+-]digits[.digits]`, also `10.` and `.5`, which Rust's parser
+/// accepts as well; kept as a function so the accepted grammar is in one place.
+fn parse_decimal(text: &str) -> Option<f64> {
+    let t = text.strip_prefix('+').unwrap_or(text);
+    let body = t.strip_prefix('-').unwrap_or(t);
+    if body == "." || body.is_empty() {
+        return None;
+    }
+    t.parse::<f64>().ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn words(line: &str) -> Vec<(char, f64, String)> {
+        let mut out = Lexed::default();
+        lex_block(line.as_bytes(), &mut out).unwrap();
+        out.words()
+            .map(|w| {
+                (
+                    w.letter as char,
+                    w.value,
+                    line[w.value_span.clone()].to_string(),
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn lexes_no_space_programs() {
+        let w = words("G1X10Y-5.5z.25");
+        assert_eq!(
+            w,
+            vec![
+                ('G', 1.0, "1".into()),
+                ('X', 10.0, "10".into()),
+                ('Y', -5.5, "-5.5".into()),
+                ('Z', 0.25, ".25".into()),
+            ]
+        );
+    }
+
+    #[test]
+    fn spaces_inside_words_are_insignificant() {
+        let w = words("X 1 0 . 5 G0Z  0.1000");
+        assert_eq!(w[0], ('X', 10.5, "1 0 . 5".into()));
+        assert_eq!(w[2], ('Z', 0.1, "0.1000".into()));
+    }
+
+    #[test]
+    fn comments_are_tokens_with_exact_ranges() {
+        let line = "N10 G0 (move) X1 ; done";
+        let mut out = Lexed::default();
+        lex_block(line.as_bytes(), &mut out).unwrap();
+        let comments: Vec<&str> = out
+            .tokens
+            .iter()
+            .filter_map(|t| match t {
+                Token::Comment(r) | Token::LineComment(r) => Some(&line[r.clone()]),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(comments, vec!["(move)", "; done"]);
+    }
+
+    #[test]
+    fn refuses_parameters_expressions_and_owords() {
+        let mut out = Lexed::default();
+        let e = lex_block(b"G1 X#1", &mut out).unwrap_err();
+        assert_eq!((e.kind, e.column), (LexErrorKind::Parameter, 4));
+        let e = lex_block(b"G1 X[1+2]", &mut out).unwrap_err();
+        assert_eq!(e.kind, LexErrorKind::Expression);
+        let e = lex_block(b"o100 sub", &mut out).unwrap_err();
+        assert_eq!(e.kind, LexErrorKind::OWord);
+        let e = lex_block(b"o<probe> call", &mut out).unwrap_err();
+        assert_eq!(e.kind, LexErrorKind::OWord);
+        let e = lex_block(b"#1 = 5", &mut out).unwrap_err();
+        assert_eq!((e.kind, e.column), (LexErrorKind::Parameter, 0));
+        let e = lex_block(b"G1 X1 (open", &mut out).unwrap_err();
+        assert_eq!((e.kind, e.column), (LexErrorKind::UnclosedComment, 6));
+    }
+
+    #[test]
+    fn classifies_percent_and_program_numbers() {
+        assert_eq!(classify(b"%"), LineKind::Percent);
+        assert_eq!(classify(b"  % "), LineKind::Percent);
+        assert_eq!(classify(b"O0001"), LineKind::ProgramNumber);
+        assert_eq!(classify(b"O1001 (PARALLEL)"), LineKind::ProgramNumber);
+        assert_eq!(classify(b"o100 sub"), LineKind::Block);
+        assert_eq!(classify(b"G1 X1"), LineKind::Block);
+    }
+
+    #[test]
+    fn content_len_strips_any_line_ending() {
+        assert_eq!(content_len(b"G1\r\n"), 2);
+        assert_eq!(content_len(b"G1\n"), 2);
+        assert_eq!(content_len(b"G1"), 2);
+    }
+}

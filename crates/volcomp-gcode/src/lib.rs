@@ -1,0 +1,25 @@
+//! The volcomp G-code engine: a lossless, byte-based reader/writer and a modal
+//! RS274/NGC interpreter whose motions are checked against LinuxCNC's `rs274`.
+//!
+//! Data flows one way: bytes → [`lexer`] (zero-copy tokens) → [`interp`]
+//! (motions in the axis frame) → consumers. Rewriting goes through
+//! [`edit`]: byte-range edits spliced into the original line, so whatever is
+//! not edited is kept byte for byte.
+#![warn(missing_docs)]
+
+pub mod arc;
+pub mod edit;
+pub mod error;
+pub mod geom;
+pub mod interp;
+pub mod lexer;
+pub mod number;
+pub mod program;
+pub mod setup;
+
+pub use arc::Arc;
+pub use error::{ErrorClass, GcodeError};
+pub use geom::{Plane, Units, Vec3};
+pub use interp::{FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource};
+pub use program::{LineEvent, Walker};
+pub use setup::Setup;

@@ -1,0 +1,197 @@
+//! Writing numbers back in the program's own style.
+//!
+//! CAM post-processors differ in how they print numbers: `0.5` or `.5`,
+//! `1.2000` or `1.2`, `10.` or `10`. A rewritten word must look like its
+//! neighbours, so the style is inferred from the numbers already in the
+//! program and only the decimal count is configurable. Scientific notation is
+//! never written: controllers do not read it.
+
+/// How a program prints its numbers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NumberStyle {
+    /// Digits after the decimal point (before trimming).
+    pub decimals: u8,
+    /// `0.5` (true) or `.5` (false).
+    pub leading_zero: bool,
+    /// Drop trailing zeros after the point (`1.2` instead of `1.2000`).
+    pub trim_trailing_zeros: bool,
+    /// When trimming leaves an integer, keep the point (`10.`), as Fanuc-style posts do.
+    pub trailing_dot: bool,
+}
+
+impl NumberStyle {
+    /// Fixed decimals with a leading zero: `0.5000`, `-12.0000`.
+    pub const fn fixed(decimals: u8) -> Self {
+        Self {
+            decimals,
+            leading_zero: true,
+            trim_trailing_zeros: false,
+            trailing_dot: false,
+        }
+    }
+
+    /// The same style with another number of decimals.
+    pub const fn with_decimals(self, decimals: u8) -> Self {
+        Self { decimals, ..self }
+    }
+}
+
+/// Counts style evidence over the numbers of a program.
+#[derive(Debug, Default, Clone)]
+pub struct StyleSurvey {
+    leading_zero: u32,
+    no_leading_zero: u32,
+    trailing_zero: u32,
+    trimmed_fraction: u32,
+    trailing_dot: u32,
+    bare_integer: u32,
+}
+
+impl StyleSurvey {
+    /// Records one number as written (blanks inside it are ignored).
+    pub fn record(&mut self, text: &[u8]) {
+        let digits: Vec<u8> = text
+            .iter()
+            .copied()
+            .filter(|b| *b != b' ' && *b != b'\t' && *b != b'+' && *b != b'-')
+            .collect();
+        match digits.iter().position(|b| *b == b'.') {
+            None => self.bare_integer += 1,
+            Some(dot) => {
+                let (int, frac) = (&digits[..dot], &digits[dot + 1..]);
+                if int.is_empty() {
+                    self.no_leading_zero += 1;
+                } else if int == b"0" {
+                    self.leading_zero += 1;
+                }
+                match frac.last() {
+                    None => self.trailing_dot += 1,
+                    Some(b'0') => self.trailing_zero += 1,
+                    Some(_) => self.trimmed_fraction += 1,
+                }
+            }
+        }
+    }
+
+    /// The style the evidence points to, with `decimals` digits at most.
+    pub fn style(&self, decimals: u8) -> NumberStyle {
+        let trim = self.trailing_zero == 0 && (self.trimmed_fraction + self.trailing_dot) > 0;
+        NumberStyle {
+            decimals,
+            leading_zero: self.no_leading_zero <= self.leading_zero,
+            trim_trailing_zeros: trim,
+            trailing_dot: trim && self.trailing_dot > 0 && self.trailing_dot >= self.bare_integer,
+        }
+    }
+}
+
+/// Appends `value` written in `style` to `out`.
+///
+/// The value is rounded half away from zero to `style.decimals` places; a
+/// result of zero is written without a minus sign.
+///
+/// ```
+/// use volcomp_gcode::number::{format_number, NumberStyle};
+/// let mut s = String::new();
+/// format_number(-0.25, NumberStyle::fixed(4), &mut s);
+/// assert_eq!(s, "-0.2500");
+/// ```
+pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
+    let scale = 10f64.powi(i32::from(style.decimals));
+    let scaled = (value * scale).round();
+    // Positions in millimetres or inches never come near 2^53; the guard keeps
+    // absurd values readable instead of wrapping.
+    if !scaled.is_finite() || scaled.abs() > 9.0e15 {
+        out.push_str(&format!(
+            "{value:.prec$}",
+            prec = usize::from(style.decimals)
+        ));
+        return;
+    }
+    let scaled = scaled as i64;
+    let negative = scaled < 0;
+    let magnitude = scaled.unsigned_abs();
+    let divisor = 10u64.pow(u32::from(style.decimals));
+    let int_part = magnitude / divisor;
+    let mut frac_part = magnitude % divisor;
+    let mut frac_digits = usize::from(style.decimals);
+    if style.trim_trailing_zeros {
+        while frac_digits > 0 && frac_part % 10 == 0 {
+            frac_part /= 10;
+            frac_digits -= 1;
+        }
+    }
+    if negative {
+        out.push('-');
+    }
+    if int_part != 0 || style.leading_zero || frac_digits == 0 {
+        out.push_str(&int_part.to_string());
+    }
+    if frac_digits > 0 {
+        out.push('.');
+        let s = frac_part.to_string();
+        for _ in s.len()..frac_digits {
+            out.push('0');
+        }
+        out.push_str(&s);
+    } else if style.trailing_dot || (!style.trim_trailing_zeros && style.decimals > 0) {
+        out.push('.');
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fmt(v: f64, st: NumberStyle) -> String {
+        let mut s = String::new();
+        format_number(v, st, &mut s);
+        s
+    }
+
+    #[test]
+    fn fixed_style() {
+        let st = NumberStyle::fixed(4);
+        assert_eq!(fmt(1.0, st), "1.0000");
+        assert_eq!(fmt(-0.00004, st), "0.0000");
+        assert_eq!(fmt(-0.00005, st), "-0.0001");
+        assert_eq!(fmt(12.34567, st), "12.3457");
+        assert_eq!(fmt(1e-12, st), "0.0000");
+    }
+
+    #[test]
+    fn fanuc_style_has_no_leading_zero_and_trailing_dot() {
+        let st = NumberStyle {
+            decimals: 4,
+            leading_zero: false,
+            trim_trailing_zeros: true,
+            trailing_dot: true,
+        };
+        assert_eq!(fmt(0.25, st), ".25");
+        assert_eq!(fmt(-0.25, st), "-.25");
+        assert_eq!(fmt(10.0, st), "10.");
+        assert_eq!(fmt(0.0, st), "0.");
+    }
+
+    #[test]
+    fn survey_infers_styles() {
+        let mut s = StyleSurvey::default();
+        for t in ["10.", ".25", "-.53", "1.5", "3"] {
+            s.record(t.as_bytes());
+        }
+        let st = s.style(4);
+        assert!(!st.leading_zero && st.trim_trailing_zeros && st.trailing_dot);
+        let mut s = StyleSurvey::default();
+        for t in ["0.2000", "10.0000", "-1.5000"] {
+            s.record(t.as_bytes());
+        }
+        assert_eq!(s.style(4), NumberStyle::fixed(4));
+    }
+
+    #[test]
+    fn never_scientific() {
+        let st = NumberStyle::fixed(5);
+        assert_eq!(fmt(1e-9, st), "0.00000");
+        assert_eq!(fmt(123456.0, st), "123456.00000");
+    }
+}
