@@ -122,6 +122,9 @@ pub struct CompensateArgs {
     /// Do not insert backlash take-up moves at reversals.
     #[arg(long)]
     pub no_take_up: bool,
+    /// Do not tag inserted lines with `(volcomp Ln)` comments.
+    #[arg(long)]
+    pub no_trace: bool,
     /// Print a per-point report (CSV: line, iterations, residual) to this file.
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,

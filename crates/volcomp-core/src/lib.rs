@@ -1,1 +1,15 @@
-//! core
+//! volcomp's core: error models, compensation of part programs, simulation
+//! and metrics. Data flows one way: an [`model::ErrorModel`] (e.g.
+//! [`axis_table::AxisTableMap`]) → [`solve`] (one point) →
+//! [`compensate`] (a whole program, written back through the G-code engine)
+//! → [`simulate`] (actual tool path and the metrics of design §5).
+#![warn(missing_docs)]
+
+pub mod axis_table;
+pub mod compensate;
+pub mod error;
+pub mod example;
+pub mod model;
+pub mod report;
+pub mod simulate;
+pub mod solve;

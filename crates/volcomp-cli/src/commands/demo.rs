@@ -1,5 +1,183 @@
-use crate::output::CliError;
+//! `volcomp demo`: the main job on the bundled example.
 
-pub fn run(_a: crate::args::DemoArgs) -> Result<(), CliError> {
-    Err(CliError::Message("not yet".into()))
+use super::compensate::compensate_file;
+use super::Machine;
+use crate::args::DemoArgs;
+use crate::output::{write_atomically, CliError};
+use std::io::Write as _;
+use std::path::Path;
+use volcomp_core::compensate::{CompensateOptions, DirectionPolicy, Segmentation};
+use volcomp_core::example::{demo_programs, example_map, DEMO_WORK_OFFSET_MM};
+use volcomp_core::model::ErrorModel;
+use volcomp_core::report::{simulate_program, SimReport};
+use volcomp_core::solve::Method;
+use volcomp_gcode::Vec3;
+
+/// One column of the demo table.
+pub struct Variant {
+    pub label: &'static str,
+    pub suffix: &'static str,
+    pub options: CompensateOptions,
+}
+
+/// The methods compared: the papers' direct and ILC ways (one point per
+/// program block, tables by nominal direction), pitch-only, and volcomp's.
+pub fn variants() -> Vec<Variant> {
+    let base = CompensateOptions::default();
+    let papers = CompensateOptions {
+        segmentation: Segmentation::Off,
+        directions: DirectionPolicy::Nominal,
+        take_up: false,
+        ..base
+    };
+    vec![
+        Variant {
+            label: "pitch",
+            suffix: "pitch",
+            options: CompensateOptions {
+                method: Method::Pitch,
+                ..base
+            },
+        },
+        Variant {
+            label: "ILC (papers' way)",
+            suffix: "ilc_papers",
+            options: CompensateOptions {
+                method: Method::Ilc {
+                    gain: 0.5,
+                    max_iterations: 20,
+                },
+                ..papers
+            },
+        },
+        Variant {
+            label: "ILC",
+            suffix: "ilc",
+            options: CompensateOptions {
+                method: Method::Ilc {
+                    gain: 0.5,
+                    max_iterations: 20,
+                },
+                ..base
+            },
+        },
+        Variant {
+            label: "exact",
+            suffix: "exact",
+            options: base,
+        },
+    ]
+}
+
+/// Simulates a compensated program against its original with exact targets.
+pub fn measure(
+    machine: &Machine,
+    model: &dyn ErrorModel,
+    program: &Path,
+    original: Option<&Path>,
+    targets: Option<Vec<(Vec3, Vec3)>>,
+) -> Result<SimReport, CliError> {
+    let mut walker = machine.walk(program)?;
+    let mut reference = match original {
+        Some(o) => Some(machine.walk(o)?),
+        None => None,
+    };
+    let mut iter = targets.map(|t| t.into_iter());
+    let targets: Option<&mut dyn Iterator<Item = (Vec3, Vec3)>> = iter
+        .as_mut()
+        .map(|i| i as &mut dyn Iterator<Item = (Vec3, Vec3)>);
+    Ok(simulate_program(
+        &mut walker,
+        &program.display().to_string(),
+        reference.as_mut(),
+        model,
+        1e-4,
+        targets,
+        |_| {},
+    )?)
+}
+
+fn rate(before: f64, after: f64) -> f64 {
+    if before > 0.0 {
+        100.0 * (1.0 - after / before)
+    } else {
+        0.0
+    }
+}
+
+pub fn run(a: DemoArgs) -> Result<(), CliError> {
+    std::fs::create_dir_all(&a.out_dir).map_err(|e| CliError::Io(a.out_dir.clone(), e))?;
+    let map = example_map();
+    let map_path = a.out_dir.join("example_map.csv");
+    write_atomically(&map_path, &[], |w| {
+        w.write_all(map.to_csv().as_bytes())
+            .map_err(|e| CliError::Io(map_path.clone(), e))
+    })?;
+    let mut setup = volcomp_gcode::Setup::default();
+    setup.work_offsets_mm[0] = DEMO_WORK_OFFSET_MM;
+    let machine = Machine {
+        setup,
+        options: Default::default(),
+    };
+    let variants = variants();
+    println!("volcomp demo — example map {} (X 0…600, Y 0…400, Z 0…300 mm; backlash 3/4/2 µm), work offset G54 = {:.0},{:.0},{:.0} mm", map_path.display(), DEMO_WORK_OFFSET_MM.x, DEMO_WORK_OFFSET_MM.y, DEMO_WORK_OFFSET_MM.z);
+    println!("RMS errors in µm; point = at the program's target points, contour = along the whole path (every 0.05 mm); in brackets: improvement over 'before'.\n");
+    print!("{:<44} {:>8}", "program", "before");
+    for v in &variants {
+        print!(" {:>24}", v.label);
+    }
+    println!();
+    for p in demo_programs() {
+        let original = a.out_dir.join(format!("{}.ngc", p.name));
+        write_atomically(&original, &[], |w| {
+            w.write_all(p.text.as_bytes())
+                .map_err(|e| CliError::Io(original.clone(), e))
+        })?;
+        let before = measure(&machine, &map, &original, None, None)?;
+        let mut cells = Vec::new();
+        for v in &variants {
+            let out = a.out_dir.join(format!("{}.{}.ngc", p.name, v.suffix));
+            let mut targets = Vec::new();
+            compensate_file(&original, &out, &machine, &map, &v.options, |r| {
+                if !r.rapid {
+                    targets.push((r.command_mm, r.target_mm));
+                }
+            })?;
+            let after = measure(&machine, &map, &out, Some(&original), Some(targets))?;
+            cells.push(after);
+        }
+        print!(
+            "{:<44} {:>8.3}",
+            format!("{} point", p.title),
+            before.point_rms_um
+        );
+        for c in &cells {
+            print!(
+                " {:>24}",
+                format!(
+                    "{:.3} ({:+.0}%)",
+                    c.point_rms_um,
+                    rate(before.point_rms_um, c.point_rms_um)
+                )
+            );
+        }
+        println!();
+        print!("{:<44} {:>8.3}", "  contour", before.contour_rms_um);
+        for c in &cells {
+            print!(
+                " {:>24}",
+                format!(
+                    "{:.3} ({:+.1}%)",
+                    c.contour_rms_um,
+                    rate(before.contour_rms_um, c.contour_rms_um)
+                )
+            );
+        }
+        println!();
+    }
+    println!(
+        "\nCompensated programs: {}/<program>.<method>.ngc",
+        a.out_dir.display()
+    );
+    Ok(())
 }

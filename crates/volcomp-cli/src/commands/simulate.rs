@@ -1,5 +1,88 @@
-use crate::output::CliError;
+//! `volcomp simulate`.
 
-pub fn run(_a: crate::args::SimulateArgs) -> Result<(), CliError> {
-    Err(CliError::Message("not yet".into()))
+use super::compensate::load_map;
+use super::Machine;
+use crate::args::SimulateArgs;
+use crate::output::{write_atomically, CliError};
+use std::io::Write;
+use volcomp_core::report::{simulate_program, SimReport};
+
+pub fn run(a: SimulateArgs) -> Result<(), CliError> {
+    if !(a.chord_tolerance.is_finite() && a.chord_tolerance > 0.0) {
+        return Err(CliError::Message(
+            "--chord-tolerance must be a positive length in mm".into(),
+        ));
+    }
+    let machine = Machine::from_args(&a.machine)?;
+    let model = load_map(&a.map)?;
+    let mut walker = machine.walk(&a.program)?;
+    let mut reference = match &a.reference {
+        Some(r) => Some(machine.walk(r)?),
+        None => None,
+    };
+    let mut rows: Option<Vec<u8>> = a
+        .errors_csv
+        .as_ref()
+        .map(|_| b"line,x_mm,y_mm,z_mm,point_error_um,contour_max_um\n".to_vec());
+    let report = simulate_program(
+        &mut walker,
+        &a.program.display().to_string(),
+        reference.as_mut(),
+        model.as_ref(),
+        a.chord_tolerance,
+        None,
+        |s| {
+            if let Some(r) = rows.as_mut() {
+                let _ = writeln!(
+                    r,
+                    "{},{:.6},{:.6},{:.6},{:.4},{:.4}",
+                    s.line,
+                    s.command_mm.x,
+                    s.command_mm.y,
+                    s.command_mm.z,
+                    s.point_um,
+                    s.contour_max_um
+                );
+            }
+        },
+    )?;
+    if let (Some(path), Some(bytes)) = (&a.errors_csv, rows) {
+        let mut inputs = vec![a.program.as_path()];
+        if let Some(r) = &a.reference {
+            inputs.push(r.as_path());
+        }
+        write_atomically(path, &inputs, |w| {
+            w.write_all(&bytes)
+                .map_err(|e| CliError::Io(path.clone(), e))
+        })?;
+    }
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    if a.json {
+        let text = serde_json::to_string(&report)?;
+        writeln!(out, "{text}").map_err(CliError::Stdout)?;
+    } else {
+        print_table(&mut out, &report, a.reference.is_some()).map_err(CliError::Stdout)?;
+    }
+    Ok(())
+}
+
+fn print_table(out: &mut dyn Write, r: &SimReport, with_reference: bool) -> std::io::Result<()> {
+    writeln!(out, "blocks              {}", r.blocks)?;
+    writeln!(out, "feed length         {:.3} mm", r.feed_length_mm)?;
+    let how = if with_reference {
+        " (distance to the reference path)"
+    } else {
+        ""
+    };
+    writeln!(
+        out,
+        "point error{how:<10}  RMS {:8.3} µm   max {:8.3} µm   ({} points)",
+        r.point_rms_um, r.point_max_um, r.points
+    )?;
+    writeln!(
+        out,
+        "contour error       RMS {:8.3} µm   max {:8.3} µm   ({} samples ≤ 0.05 mm apart)",
+        r.contour_rms_um, r.contour_max_um, r.samples
+    )
 }

@@ -1,0 +1,421 @@
+//! The axis-table error map (design §2): per axis and motion direction, the
+//! displacement errors that the axis' motion causes along X, Y and Z.
+//!
+//! `e(q, s) = E_X^{s_X}(q_X) + E_Y^{s_Y}(q_Y) + E_Z^{s_Z}(q_Z)` (vector sum, µm),
+//! each table linearly interpolated between its points (seed equation 1).
+//!
+//! The CSV reader is our own: the format is six plain columns, and what it
+//! must do well is name the row and column of every bad value, which a
+//! general CSV crate does not do for us.
+
+use crate::error::{MapFileError, ModelError};
+use crate::model::{Components, Direction, Directions, ErrorModel};
+use volcomp_gcode::Vec3;
+
+/// One table: strictly increasing positions and the error vector at each.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// Axis positions (mm), strictly increasing.
+    pub positions_mm: Vec<f64>,
+    /// Errors `(E_aX, E_aY, E_aZ)` in µm at each position.
+    pub errors_um: Vec<Vec3>,
+}
+
+impl Table {
+    /// Linear interpolation at `x_mm`; `None` outside the range.
+    pub fn eval(&self, x_mm: f64) -> Option<Vec3> {
+        let p = &self.positions_mm;
+        let (first, last) = (*p.first()?, *p.last()?);
+        if !(first..=last).contains(&x_mm) {
+            return None;
+        }
+        if p.len() == 1 {
+            return Some(self.errors_um[0]);
+        }
+        // Index of the interval [p[i], p[i+1]] that holds x.
+        let i = p.partition_point(|&v| v <= x_mm).clamp(1, p.len() - 1) - 1;
+        let t = (x_mm - p[i]) / (p[i + 1] - p[i]);
+        Some(self.errors_um[i].lerp(self.errors_um[i + 1], t))
+    }
+
+    /// `[first, last]` position.
+    pub fn range(&self) -> [f64; 2] {
+        [
+            self.positions_mm.first().copied().unwrap_or(0.0),
+            self.positions_mm.last().copied().unwrap_or(0.0),
+        ]
+    }
+}
+
+/// Forward and reverse tables of one axis (the same table when the file says `both`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisTables {
+    /// Table used while the axis moves forward.
+    pub forward: Table,
+    /// Table used while the axis moves in reverse.
+    pub reverse: Table,
+}
+
+impl AxisTables {
+    fn table(&self, d: Direction) -> &Table {
+        match d {
+            Direction::Forward => &self.forward,
+            Direction::Reverse => &self.reverse,
+        }
+    }
+}
+
+/// The axis-table map of a machine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisTableMap {
+    /// Tables of X, Y, Z.
+    pub axes: [AxisTables; 3],
+    /// Clamp positions outside a table to its end instead of refusing them.
+    pub clamp: bool,
+}
+
+const AXES: [char; 3] = ['X', 'Y', 'Z'];
+
+impl ErrorModel for AxisTableMap {
+    fn deviation_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Vec3, ModelError> {
+        let mut e = Vec3::ZERO;
+        for a in 0..3 {
+            let table = self.axes[a].table(s[a]);
+            let [lo, hi] = table.range();
+            let x = if self.clamp {
+                q_mm[a].clamp(lo, hi)
+            } else {
+                q_mm[a]
+            };
+            let v = table.eval(x).ok_or(ModelError::OutOfRange {
+                axis: AXES[a],
+                position_mm: q_mm[a],
+                min_mm: lo,
+                max_mm: hi,
+            })?;
+            match components {
+                Components::All => e += v,
+                Components::PositioningOnly => e[a] += v[a],
+            }
+        }
+        Ok(e)
+    }
+
+    fn range_mm(&self) -> [[f64; 2]; 3] {
+        let r = |a: usize| {
+            let f = self.axes[a].forward.range();
+            let b = self.axes[a].reverse.range();
+            [f[0].max(b[0]), f[1].min(b[1])]
+        };
+        [r(0), r(1), r(2)]
+    }
+}
+
+const COLUMNS: [&str; 6] = [
+    "axis",
+    "direction",
+    "position_mm",
+    "ex_um",
+    "ey_um",
+    "ez_um",
+];
+
+impl AxisTableMap {
+    /// Parses the CSV text of a map; `file` names it in errors.
+    ///
+    /// ```
+    /// use volcomp_core::axis_table::AxisTableMap;
+    /// use volcomp_core::model::{ErrorModel, Components, ALL_FORWARD};
+    /// use volcomp_gcode::Vec3;
+    /// let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+    ///            X,both,0,0,0,0\nX,both,10,2,0,0\n\
+    ///            Y,both,0,0,0,0\nY,both,10,0,0,0\n\
+    ///            Z,both,0,0,0,0\nZ,both,10,0,0,0\n";
+    /// let map = AxisTableMap::from_csv(csv, "m.csv").unwrap();
+    /// let e = map.deviation_um(Vec3::new(2.5, 1.0, 1.0), ALL_FORWARD, Components::All).unwrap();
+    /// assert!((e.x - 0.5).abs() < 1e-12);
+    /// ```
+    pub fn from_csv(text: &str, file: &str) -> Result<AxisTableMap, MapFileError> {
+        let err = |row: usize, column: usize, message: String, help: &str| MapFileError {
+            file: file.to_string(),
+            row,
+            column,
+            message,
+            help: help.to_string(),
+        };
+        let mut header: Option<[usize; 6]> = None;
+        // [axis][0 forward, 1 reverse, 2 both] → rows (position, errors, row number)
+        let mut rows: [[Vec<(f64, Vec3, usize)>; 3]; 3] = Default::default();
+        for (i, raw) in text.lines().enumerate() {
+            let row = i + 1;
+            let line = raw.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+            let Some(cols) = header else {
+                let mut idx = [usize::MAX; 6];
+                for (c, name) in fields.iter().enumerate() {
+                    let lower = name.to_ascii_lowercase();
+                    match COLUMNS.iter().position(|k| *k == lower) {
+                        Some(k) => idx[k] = c,
+                        None => {
+                            return Err(err(row, c + 1, format!("unknown column `{name}`"), "the header must name the columns axis,direction,position_mm,ex_um,ey_um,ez_um (positions in mm, errors in µm) in any order"))
+                        }
+                    }
+                }
+                if let Some(k) = idx.iter().position(|v| *v == usize::MAX) {
+                    return Err(err(row, 1, format!("the header has no `{}` column", COLUMNS[k]), "the header must name axis,direction,position_mm,ex_um,ey_um,ez_um; units are part of the names"));
+                }
+                header = Some(idx);
+                continue;
+            };
+            if fields.len() != 6 {
+                return Err(err(
+                    row,
+                    fields.len().min(6) + 1,
+                    format!("expected 6 fields, found {}", fields.len()),
+                    "each row is axis,direction,position_mm,ex_um,ey_um,ez_um",
+                ));
+            }
+            let axis_text = fields[cols[0]];
+            let axis = match axis_text.to_ascii_uppercase().as_str() {
+                "X" => 0,
+                "Y" => 1,
+                "Z" => 2,
+                _ => {
+                    return Err(err(
+                        row,
+                        cols[0] + 1,
+                        format!("unknown axis `{axis_text}`"),
+                        "use X, Y or Z",
+                    ))
+                }
+            };
+            let dir_text = fields[cols[1]];
+            let dir = match dir_text.to_ascii_lowercase().as_str() {
+                "forward" | "fwd" | "+" => 0,
+                "reverse" | "rev" | "-" => 1,
+                "both" => 2,
+                _ => {
+                    return Err(err(
+                        row,
+                        cols[1] + 1,
+                        format!("unknown direction `{dir_text}`"),
+                        "use forward, reverse or both",
+                    ))
+                }
+            };
+            let mut num = [0.0; 4];
+            for (k, slot) in num.iter_mut().enumerate() {
+                let c = cols[2 + k];
+                let v: f64 = fields[c].parse().map_err(|_| {
+                    err(
+                        row,
+                        c + 1,
+                        format!("`{}` is not a number", fields[c]),
+                        "write a decimal number such as -1.25",
+                    )
+                })?;
+                if !v.is_finite() {
+                    return Err(err(
+                        row,
+                        c + 1,
+                        format!("`{}` is not a finite number", fields[c]),
+                        "remove NaN/inf values; every table point needs a measured value",
+                    ));
+                }
+                *slot = v;
+            }
+            rows[axis][dir].push((num[0], Vec3::new(num[1], num[2], num[3]), row));
+        }
+        if header.is_none() {
+            return Err(err(
+                1,
+                1,
+                "the file has no header".into(),
+                "start with the line axis,direction,position_mm,ex_um,ey_um,ez_um",
+            ));
+        }
+        let last_row = text.lines().count().max(1);
+        let mut axes = Vec::with_capacity(3);
+        for (a, by_dir) in rows.into_iter().enumerate() {
+            let [fwd, rev, both] = by_dir;
+            let name = AXES[a];
+            let build =
+                |rows: Vec<(f64, Vec3, usize)>, label: &str| -> Result<Table, MapFileError> {
+                    if rows.len() < 2 {
+                        return Err(err(
+                            last_row,
+                            1,
+                            format!(
+                                "axis {name} has {} point(s) in its {label} table",
+                                rows.len()
+                            ),
+                            "give at least two points per table",
+                        ));
+                    }
+                    for w in rows.windows(2) {
+                        if w[1].0 <= w[0].0 {
+                            return Err(err(
+                                w[1].2,
+                                cols_position(&header),
+                                format!(
+                                    "axis {name} {label}: position {} does not increase after {}",
+                                    w[1].0, w[0].0
+                                ),
+                                "list each table's positions in strictly increasing order",
+                            ));
+                        }
+                    }
+                    Ok(Table {
+                        positions_mm: rows.iter().map(|r| r.0).collect(),
+                        errors_um: rows.iter().map(|r| r.1).collect(),
+                    })
+                };
+            let tables = match (fwd.is_empty(), rev.is_empty(), both.is_empty()) {
+                (true, true, false) => {
+                    let t = build(both, "both")?;
+                    AxisTables { forward: t.clone(), reverse: t }
+                }
+                (false, false, true) => AxisTables {
+                    forward: build(fwd, "forward")?,
+                    reverse: build(rev, "reverse")?,
+                },
+                (true, true, true) => return Err(err(last_row, 1, format!("axis {name} has no table"), "give forward and reverse tables, or one `both` table, for X, Y and Z")),
+                _ => return Err(err(last_row, 1, format!("axis {name} must have either a `both` table or both a forward and a reverse table"), "a single direction is not enough: the other direction's error would be a guess")),
+            };
+            axes.push(tables);
+        }
+        let axes: [AxisTables; 3] = axes.try_into().unwrap_or_else(|_| unreachable!());
+        Ok(AxisTableMap { axes, clamp: false })
+    }
+
+    /// Writes the map as CSV (design §2 layout).
+    pub fn to_csv(&self) -> String {
+        let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+        for (a, t) in self.axes.iter().enumerate() {
+            let same = t.forward == t.reverse;
+            let dirs: &[(&str, &Table)] = if same {
+                &[("both", &t.forward)]
+            } else {
+                &[("forward", &t.forward), ("reverse", &t.reverse)]
+            };
+            for (name, table) in dirs {
+                for (p, e) in table.positions_mm.iter().zip(&table.errors_um) {
+                    s.push_str(&format!(
+                        "{},{name},{p},{:.4},{:.4},{:.4}\n",
+                        AXES[a], e.x, e.y, e.z
+                    ));
+                }
+            }
+        }
+        s
+    }
+}
+
+fn cols_position(header: &Option<[usize; 6]>) -> usize {
+    header.map(|h| h[2] + 1).unwrap_or(3)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ALL_FORWARD;
+
+    const HEAD: &str = "axis,direction,position_mm,ex_um,ey_um,ez_um\n";
+
+    fn flat(axis: &str) -> String {
+        format!("{axis},both,0,0,0,0\n{axis},both,100,0,0,0\n")
+    }
+
+    #[test]
+    fn interpolates_by_hand() {
+        // X forward: 0 → 0 µm, 15 → 1.21 µm; at 5 mm: 1.21·5/15 = 0.40333… µm.
+        let csv = format!(
+            "{HEAD}# comment\nX,forward,0,0,0,0\nX,forward,15,1.21,-0.30,0.12\nX,reverse,0,1,0,0\nX,reverse,15,3,0,0\n{}{}",
+            flat("Y"),
+            flat("Z")
+        );
+        let m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        let e = m
+            .deviation_um(Vec3::new(5.0, 50.0, 50.0), ALL_FORWARD, Components::All)
+            .unwrap();
+        assert!((e.x - 1.21 / 3.0).abs() < 1e-12);
+        assert!((e.y + 0.1).abs() < 1e-12);
+        assert!((e.z - 0.04).abs() < 1e-12);
+        let s = [Direction::Reverse, Direction::Forward, Direction::Forward];
+        let e = m
+            .deviation_um(Vec3::new(7.5, 0.0, 0.0), s, Components::All)
+            .unwrap();
+        assert!((e.x - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn any_column_order() {
+        let csv = format!(
+            "position_mm,axis,ez_um,ey_um,ex_um,direction\n0,X,0,0,0,both\n10,X,3,2,1,both\n{}",
+            "0,Y,0,0,0,both\n10,Y,0,0,0,both\n0,Z,0,0,0,both\n10,Z,0,0,0,both\n"
+        );
+        let m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        let e = m
+            .deviation_um(Vec3::new(10.0, 0.0, 0.0), ALL_FORWARD, Components::All)
+            .unwrap();
+        assert_eq!(e, Vec3::new(1.0, 2.0, 3.0));
+    }
+
+    #[test]
+    fn bad_files_name_row_and_column() {
+        let csv = format!(
+            "{HEAD}X,both,0,0,0,0\nX,both,10,nan,0,0\n{}{}",
+            flat("Y"),
+            flat("Z")
+        );
+        let e = AxisTableMap::from_csv(&csv, "m.csv").unwrap_err();
+        assert_eq!((e.row, e.column), (3, 4));
+        let csv = format!(
+            "{HEAD}X,both,0,0,0,0\nX,both,0,1,0,0\n{}{}",
+            flat("Y"),
+            flat("Z")
+        );
+        let e = AxisTableMap::from_csv(&csv, "m.csv").unwrap_err();
+        assert_eq!((e.row, e.column), (3, 3));
+        assert!(e.message.contains("does not increase"));
+        let e = AxisTableMap::from_csv("axis,direction,position_in,ex_um,ey_um,ez_um\n", "m.csv")
+            .unwrap_err();
+        assert_eq!((e.row, e.column), (1, 3));
+        let csv = format!(
+            "{HEAD}X,forward,0,0,0,0\nX,forward,10,0,0,0\n{}{}",
+            flat("Y"),
+            flat("Z")
+        );
+        assert!(AxisTableMap::from_csv(&csv, "m.csv").is_err());
+    }
+
+    #[test]
+    fn out_of_range_is_an_error_unless_clamped() {
+        let csv = format!("{HEAD}{}{}{}", flat("X"), flat("Y"), flat("Z"));
+        let mut m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        let e = m
+            .deviation_um(Vec3::new(0.0, 100.5, 0.0), ALL_FORWARD, Components::All)
+            .unwrap_err();
+        assert!(matches!(e, ModelError::OutOfRange { axis: 'Y', .. }));
+        m.clamp = true;
+        assert!(m
+            .deviation_um(Vec3::new(0.0, 100.5, 0.0), ALL_FORWARD, Components::All)
+            .is_ok());
+    }
+
+    #[test]
+    fn csv_round_trip() {
+        let csv = format!("{HEAD}X,forward,0,0,0,0\nX,forward,15,1.21,-0.3,0.12\nX,reverse,0,1,0,0\nX,reverse,15,3,0,0\n{}{}", flat("Y"), flat("Z"));
+        let m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        let again = AxisTableMap::from_csv(&m.to_csv(), "again.csv").unwrap();
+        assert_eq!(m, again);
+    }
+}

@@ -1,0 +1,767 @@
+//! Compensation of a part program (design §4): every target point of every
+//! program motion is replaced by the command that, with the machine's error,
+//! lands the tool on it; the program is written back losslessly.
+//!
+//! Flow per line: the interpreter gives the line's motions in the axis frame;
+//! feed moves and arcs are split into target points (arcs linearised first,
+//! rapids only at their end); each target is solved by [`solve_consistent`]
+//! against the command the written program will really send (quantised to
+//! the written decimals); the line is rewritten by byte-range edits and the
+//! extra segments are inserted right after it, tagged with their source line.
+//!
+//! Reversals: when an axis must reverse on a feed move, a take-up move that
+//! moves only the reversing axes (and, by the backlash model, not the tool) is
+//! written before the segment, so the tool does not leave the path while the
+//! axis takes up its reversal value. Axes for which no consistent reversal
+//! exists (negative reversal value) are held and reported.
+
+use crate::error::{CompensationError, ModelError};
+use crate::model::{Directions, ErrorModel, ALL_FORWARD};
+use crate::simulate::next_state;
+use crate::solve::{solve_consistent, solve_fixed, Method};
+use std::io::{BufRead, Write};
+use volcomp_gcode::edit::{apply_edits, Edit};
+use volcomp_gcode::lexer::{LineKind, Word};
+use volcomp_gcode::number::{format_number, NumberStyle, StyleSurvey};
+use volcomp_gcode::{FeedMode, MotionKind, MotionSource, Units, Vec3, Walker};
+
+/// How feed moves are split into target points.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Segmentation {
+    /// One target per move (arcs are still linearised).
+    Off,
+    /// This many segments per block (as the papers do).
+    Count(u32),
+    /// Segments no longer than this (mm).
+    MaxLength(f64),
+}
+
+/// Which direction state chooses the error tables.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DirectionPolicy {
+    /// The direction of the command actually sent (design §2; default).
+    Commanded,
+    /// The direction of the nominal move, as the papers do (for comparison).
+    Nominal,
+}
+
+/// Options of [`compensate_program`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompensateOptions {
+    /// Point solver.
+    pub method: Method,
+    /// Splitting of feed moves.
+    pub segmentation: Segmentation,
+    /// Chord tolerance for arcs (mm).
+    pub chord_tolerance_mm: f64,
+    /// Written decimals; `None`: 4 in mm, 5 in inch.
+    pub decimals: Option<u8>,
+    /// Largest accepted correction (mm).
+    pub max_correction_mm: f64,
+    /// Table choice.
+    pub directions: DirectionPolicy,
+    /// Insert take-up moves at reversals on feed moves.
+    pub take_up: bool,
+    /// Tag inserted lines with `(volcomp Ln)`.
+    pub trace_comments: bool,
+}
+
+impl Default for CompensateOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::Exact,
+            segmentation: Segmentation::MaxLength(1.0),
+            chord_tolerance_mm: 1e-4,
+            decimals: None,
+            max_correction_mm: 0.1,
+            directions: DirectionPolicy::Commanded,
+            take_up: true,
+            trace_comments: true,
+        }
+    }
+}
+
+/// One compensated target point, for the per-point report.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointRecord {
+    /// Source line.
+    pub line: u64,
+    /// Nominal target (axis frame, mm).
+    pub target_mm: Vec3,
+    /// Command written (axis frame, mm).
+    pub command_mm: Vec3,
+    /// Solver iterations.
+    pub iterations: u32,
+    /// Model residual at the command (µm).
+    pub residual_um: f64,
+    /// Axes reversed on this move.
+    pub reversed: [bool; 3],
+    /// Axes held (no consistent reversal).
+    pub held: [bool; 3],
+    /// A take-up move was written before this point.
+    pub take_up: bool,
+    /// The point ends a rapid (measured by no metric: rapids do not cut).
+    pub rapid: bool,
+}
+
+/// What a compensation run did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CompensateSummary {
+    /// Lines read.
+    pub lines_in: u64,
+    /// Lines written.
+    pub lines_out: u64,
+    /// Target points compensated.
+    pub points: u64,
+    /// Largest model residual (µm).
+    pub max_residual_um: f64,
+    /// Largest correction `‖q − t‖` (µm).
+    pub max_correction_um: f64,
+    /// Take-up moves written.
+    pub take_ups: u64,
+    /// Lines where an axis was held, with the axis letter (first 100).
+    pub held: Vec<(u64, char)>,
+    /// Total number of holds.
+    pub held_count: u64,
+}
+
+/// Infers the program's number style and word spacing from its first bytes.
+pub fn survey_style(head: &[u8]) -> (StyleSurvey, bool) {
+    let mut survey = StyleSurvey::default();
+    let mut lexed = volcomp_gcode::lexer::Lexed::default();
+    let (mut spaced, mut compact) = (0u32, 0u32);
+    for line in head.split(|b| *b == b'\n') {
+        let content = &line[..volcomp_gcode::lexer::content_len(line)];
+        if volcomp_gcode::lexer::classify(content) != LineKind::Block
+            || volcomp_gcode::lexer::lex_block(content, &mut lexed).is_err()
+        {
+            continue;
+        }
+        let mut prev_end = None;
+        for w in lexed.words() {
+            if matches!(w.letter, b'X' | b'Y' | b'Z' | b'I' | b'J' | b'K' | b'R') {
+                survey.record(&content[w.value_span.clone()]);
+            }
+            if let Some(e) = prev_end {
+                if e == w.span.start {
+                    compact += 1;
+                } else {
+                    spaced += 1;
+                }
+            }
+            prev_end = Some(w.span.end);
+        }
+    }
+    (survey, spaced >= compact)
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum OutMode {
+    Rapid,
+    Feed,
+    Other,
+}
+
+/// Streams `walker`'s program to `out` with every program motion compensated.
+pub fn compensate_program<R: BufRead>(
+    walker: &mut Walker<R>,
+    file: &str,
+    model: &dyn ErrorModel,
+    survey: &StyleSurvey,
+    spaced: bool,
+    options: &CompensateOptions,
+    out: &mut dyn Write,
+    mut on_point: impl FnMut(&PointRecord),
+) -> Result<CompensateSummary, CompensationError> {
+    let mut st = State {
+        q_out: walker.interpreter().position(),
+        s: ALL_FORWARD,
+        s_nominal: ALL_FORWARD,
+        mode: None,
+        feed_known: false,
+        known: [false; 3],
+        summary: CompensateSummary::default(),
+        buf: Vec::with_capacity(1024),
+        text: String::with_capacity(128),
+    };
+    let sep = if spaced { " " } else { "" };
+    while let Some(ev) = walker.next_line()? {
+        st.summary.lines_in += 1;
+        st.buf.clear();
+        let program_motion = ev.motions.iter().any(|m| m.source == MotionSource::Program);
+        let cycle = ev.motions.iter().any(|m| m.source == MotionSource::Cycle);
+        if cycle {
+            return Err(CompensationError::AtLine {
+                file: file.into(),
+                line: ev.number,
+                message: "canned drilling cycles are not compensated yet".into(),
+                help: "post the holes as explicit G0/G1 moves (most CAM posts have an option to expand cycles)".into(),
+            });
+        }
+        for w in ev.lexed.words() {
+            if matches!(w.letter, b'X' | b'Y' | b'Z') && !ev.motions.is_empty() {
+                st.known[usize::from(w.letter - b'X')] = true;
+            }
+        }
+        if ev
+            .motions
+            .iter()
+            .any(|m| m.source == MotionSource::Reference)
+        {
+            st.known = [true; 3];
+        }
+        let all_known = st.known.iter().all(|k| *k);
+        if ev.after_end || ev.kind != LineKind::Block || !program_motion || !all_known {
+            out.write_all(ev.bytes)?;
+            st.summary.lines_out += 1;
+            for m in ev.motions {
+                // G53 and G28/G30 moves are sent as written: they are set-up
+                // moves in machine coordinates, not part geometry.
+                st.s = next_state(st.s, m.end - st.q_out);
+                st.s_nominal = st.s;
+                st.q_out = m.end;
+            }
+            if let Some(mode) = explicit_mode(ev.lexed.words()) {
+                st.mode = Some(mode);
+            }
+            st.feed_known |=
+                ev.interp.feed_mode() != FeedMode::InverseTime && has_feed(ev.lexed.words());
+            continue;
+        }
+        let motion = ev.motions[0];
+        let interp = ev.interp;
+        let units = interp.units();
+        let decimals = options.decimals.unwrap_or(match units {
+            Units::Mm => 4,
+            Units::Inch => 5,
+        });
+        let style: NumberStyle = survey.style(decimals);
+        let frame = Frame {
+            offset_mm: interp.frame_offset_mm(),
+            mm_per_unit: units.mm_per_unit(),
+            decimals,
+            absolute: interp.absolute(),
+        };
+        let targets = targets_of(&motion, options);
+        let feed_like = !matches!(motion.kind, MotionKind::Rapid);
+        if targets.len() > 1 && interp.feed_mode() == FeedMode::InverseTime {
+            return Err(CompensationError::AtLine {
+                file: file.into(),
+                line: ev.number,
+                message: "splitting a block under inverse-time feed (G93) would change its duration".into(),
+                help: "pass --no-split for straight moves, or post the program in G94 (units per minute)".into(),
+            });
+        }
+        let line_ending: &[u8] = line_ending(ev.bytes);
+        let content_len = volcomp_gcode::lexer::content_len(ev.bytes);
+        let content = &ev.bytes[..content_len];
+        // Solve every target first (the original line carries the first).
+        let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
+        let mut t_prev = motion.start;
+        let q_line_start = st.q_out;
+        for t in &targets {
+            let quantize = |q: Vec3| frame.quantize(q, st.q_out);
+            let point = match options.directions {
+                DirectionPolicy::Commanded => {
+                    solve_consistent(model, options.method, *t, st.q_out, st.s, &quantize)
+                }
+                DirectionPolicy::Nominal => {
+                    let s_nom = next_state(st.s_nominal, *t - t_prev);
+                    solve_fixed(model, options.method, *t, s_nom, [false; 3], Vec3::ZERO).map(
+                        |sol| {
+                            let q = quantize(sol.q_mm);
+                            crate::solve::PointSolution {
+                                q_mm: q,
+                                s: s_nom,
+                                iterations: sol.iterations,
+                                residual_um: sol.residual_um,
+                                reversed: [false; 3],
+                                held: [false; 3],
+                            }
+                        },
+                    )
+                }
+            }
+            .map_err(|source| model_error(file, ev.number, source))?;
+            let correction = (point.q_mm - *t).norm();
+            if correction > options.max_correction_mm {
+                return Err(CompensationError::AtLine {
+                    file: file.into(),
+                    line: ev.number,
+                    message: format!("the correction here would be {:.1} µm, above the limit of {:.1} µm", correction * 1e3, options.max_correction_mm * 1e3),
+                    help: "check that the map is in µm (not mm) and belongs to this machine; raise --max-correction only if the machine really is this far off".into(),
+                });
+            }
+            let mut take_up = None;
+            if options.take_up
+                && feed_like
+                && options.directions == DirectionPolicy::Commanded
+                && point.reversed.iter().any(|r| *r)
+            {
+                take_up = Some(
+                    take_up_command(model, st.q_out, st.s, point.s, point.reversed, &frame)
+                        .map_err(|source| model_error(file, ev.number, source))?,
+                );
+            }
+            // A take-up never goes past the segment's own command: the segment
+            // must continue in the new direction, not reverse once more.
+            if let Some(tu) = take_up.as_mut() {
+                for a in 0..3 {
+                    if point.reversed[a] && (tu[a] - point.q_mm[a]) * point.s[a].sign() > 0.0 {
+                        tu[a] = point.q_mm[a];
+                    }
+                }
+                st.q_out = *tu;
+            }
+            st.summary.points += 1;
+            st.summary.max_residual_um = st.summary.max_residual_um.max(point.residual_um);
+            st.summary.max_correction_um = st.summary.max_correction_um.max(correction * 1e3);
+            for a in 0..3 {
+                if point.held[a] {
+                    st.summary.held_count += 1;
+                    if st.summary.held.len() < 100 {
+                        st.summary.held.push((ev.number, ['X', 'Y', 'Z'][a]));
+                    }
+                }
+            }
+            st.summary.take_ups += u64::from(take_up.is_some());
+            on_point(&PointRecord {
+                line: ev.number,
+                target_mm: *t,
+                command_mm: point.q_mm,
+                iterations: point.iterations,
+                residual_um: point.residual_um,
+                reversed: point.reversed,
+                held: point.held,
+                take_up: take_up.is_some(),
+                rapid: !feed_like,
+            });
+            commands.push((point.q_mm, take_up));
+            st.q_out = point.q_mm;
+            st.s = point.s;
+            st.s_nominal = next_state(st.s_nominal, *t - t_prev);
+            t_prev = *t;
+        }
+        // Write: the commands were solved from the position before the line.
+        let mut pos = q_line_start;
+        let stop_word = if commands.len() > 1 {
+            stop_m_word(ev.lexed.words())
+        } else {
+            None
+        };
+        let needed = if feed_like {
+            OutMode::Feed
+        } else {
+            OutMode::Rapid
+        };
+        for (i, (q, take_up)) in commands.iter().enumerate() {
+            if let Some(tu) = take_up {
+                let tu_mode = if st.feed_known {
+                    OutMode::Feed
+                } else {
+                    OutMode::Rapid
+                };
+                st.write_inserted(
+                    &frame,
+                    style,
+                    sep,
+                    pos,
+                    *tu,
+                    tu_mode,
+                    ev.number,
+                    options.trace_comments,
+                    line_ending,
+                    "take-up",
+                );
+                pos = *tu;
+            }
+            if i == 0 {
+                let edits = st.original_line_edits(
+                    ev.lexed.words().collect(),
+                    content,
+                    &frame,
+                    style,
+                    sep,
+                    pos,
+                    *q,
+                    &motion.kind,
+                    needed,
+                    stop_word,
+                );
+                let mut edits = edits;
+                apply_edits(ev.bytes, &mut edits, &mut st.buf).map_err(|e| {
+                    CompensationError::AtLine {
+                        file: file.into(),
+                        line: ev.number,
+                        message: format!("internal edit error: {e}"),
+                        help: "please report this with the program line".into(),
+                    }
+                })?;
+                if content_len == ev.bytes.len() && commands.len() > 1 {
+                    st.buf.extend_from_slice(b"\n");
+                }
+                st.mode = Some(needed);
+                st.summary.lines_out += 1;
+            } else {
+                st.write_inserted(
+                    &frame,
+                    style,
+                    sep,
+                    pos,
+                    *q,
+                    needed,
+                    ev.number,
+                    options.trace_comments,
+                    if i + 1 == commands.len()
+                        && content_len == ev.bytes.len()
+                        && stop_word.is_none()
+                    {
+                        b""
+                    } else {
+                        line_ending
+                    },
+                    "",
+                );
+            }
+            pos = *q;
+        }
+        if let Some(w) = stop_word {
+            st.buf.extend_from_slice(&content[w.span.clone()]);
+            st.buf.extend_from_slice(line_ending);
+            st.summary.lines_out += 1;
+        }
+        st.feed_known |= has_feed(ev.lexed.words());
+        out.write_all(&st.buf)?;
+    }
+    Ok(st.summary)
+}
+
+fn model_error(file: &str, line: u64, source: ModelError) -> CompensationError {
+    CompensationError::Model {
+        file: file.into(),
+        line,
+        source,
+    }
+}
+
+struct State {
+    /// Axes whose position the program has set; until all three are known,
+    /// motions are written unchanged (the start position is not the program's).
+    known: [bool; 3],
+    q_out: Vec3,
+    s: Directions,
+    s_nominal: Directions,
+    mode: Option<OutMode>,
+    feed_known: bool,
+    summary: CompensateSummary,
+    buf: Vec<u8>,
+    text: String,
+}
+
+/// The program frame of a line and how its numbers are written.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    offset_mm: Vec3,
+    mm_per_unit: f64,
+    decimals: u8,
+    absolute: bool,
+}
+
+impl Frame {
+    fn round(&self, v: f64) -> f64 {
+        let k = 10f64.powi(i32::from(self.decimals));
+        (v * k).round() / k
+    }
+
+    /// Program-frame value (program units) of axis-frame `q`.
+    fn program(&self, q: Vec3) -> Vec3 {
+        (q - self.offset_mm) * (1.0 / self.mm_per_unit)
+    }
+
+    /// The word value to write for axis `a` when moving from `from` to `q`.
+    fn word_value(&self, q: Vec3, from: Vec3, a: usize) -> f64 {
+        if self.absolute {
+            self.round(self.program(q)[a])
+        } else {
+            self.round(self.program(q)[a] - self.program(from)[a])
+        }
+    }
+
+    /// The command the controller really executes for a wish `q` from `from`.
+    fn quantize(&self, q: Vec3, from: Vec3) -> Vec3 {
+        let mut out = q;
+        for a in 0..3 {
+            let v = self.word_value(q, from, a);
+            out[a] = if self.absolute {
+                v * self.mm_per_unit + self.offset_mm[a]
+            } else {
+                from[a] + v * self.mm_per_unit
+            };
+            // An axis whose written value would not change stays exactly put.
+            if (out[a] - from[a]).abs()
+                < 0.5 * 10f64.powi(-i32::from(self.decimals)) * self.mm_per_unit * 1e-3
+            {
+                out[a] = from[a];
+            }
+        }
+        out
+    }
+}
+
+/// The command that takes up the reversing axes' backlash at `q_prev`
+/// without moving the tool: for each reversing axis `a`, the position where
+/// the new direction's image along `a` equals the old one's.
+fn take_up_command(
+    model: &dyn ErrorModel,
+    q_prev: Vec3,
+    s_old: Directions,
+    s_new: Directions,
+    reversed: [bool; 3],
+    frame: &Frame,
+) -> Result<Vec3, ModelError> {
+    use crate::model::{actual_mm, Components};
+    let held = actual_mm(model, q_prev, s_old, Components::All)?;
+    let mut q = q_prev;
+    // Only the reversing axes move; their new state applies during the move.
+    let mut s = s_old;
+    for a in 0..3 {
+        if reversed[a] {
+            s[a] = s_new[a];
+        }
+    }
+    for _ in 0..8 {
+        let img = actual_mm(model, q, s, Components::All)?;
+        for a in 0..3 {
+            if reversed[a] {
+                q[a] += held[a] - img[a];
+            }
+        }
+    }
+    let mut out = frame.quantize(q, q_prev);
+    for a in 0..3 {
+        if !reversed[a] {
+            out[a] = q_prev[a];
+        } else if (out[a] - q_prev[a]) * s_new[a].sign() <= 0.0 {
+            // A negative reversal value needs no take-up: the axis engages at once.
+            out[a] = q_prev[a];
+        }
+    }
+    Ok(out)
+}
+
+impl State {
+    #[allow(clippy::too_many_arguments)]
+    fn write_inserted(
+        &mut self,
+        frame: &Frame,
+        style: NumberStyle,
+        sep: &str,
+        from: Vec3,
+        q: Vec3,
+        mode: OutMode,
+        line: u64,
+        trace: bool,
+        ending: &[u8],
+        note: &str,
+    ) {
+        self.text.clear();
+        if self.mode != Some(mode) {
+            self.text
+                .push_str(if mode == OutMode::Rapid { "G0" } else { "G1" });
+            self.mode = Some(mode);
+        }
+        for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+            if q[a] != from[a] {
+                if !self.text.is_empty() {
+                    self.text.push_str(sep);
+                }
+                self.text.push(letter);
+                format_number(frame.word_value(q, from, a), style, &mut self.text);
+            }
+        }
+        if self.text.is_empty() {
+            return;
+        }
+        if trace {
+            self.text.push_str(sep);
+            if note.is_empty() {
+                self.text.push_str(&format!("(volcomp L{line})"));
+            } else {
+                self.text.push_str(&format!("(volcomp L{line} {note})"));
+            }
+        }
+        if !self.buf.is_empty() && !self.buf.ends_with(b"\n") {
+            self.buf.extend_from_slice(b"\n");
+        }
+        self.buf.extend_from_slice(self.text.as_bytes());
+        self.buf
+            .extend_from_slice(if ending.is_empty() { b"\n" } else { ending });
+        self.summary.lines_out += 1;
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn original_line_edits(
+        &mut self,
+        words: Vec<&Word>,
+        content: &[u8],
+        frame: &Frame,
+        style: NumberStyle,
+        sep: &str,
+        from: Vec3,
+        q: Vec3,
+        kind: &MotionKind,
+        needed: OutMode,
+        stop_word: Option<&Word>,
+    ) -> Vec<Edit> {
+        let mut edits = Vec::new();
+        let is_arc = matches!(kind, MotionKind::Arc(_));
+        let mut has_motion_word = false;
+        let mut last_axis_end = None;
+        let mut first_axis_start = None;
+        let mut present = [false; 3];
+        for w in &words {
+            match w.letter {
+                b'G' if [0.0, 1.0, 2.0, 3.0].contains(&w.value) => {
+                    has_motion_word = true;
+                    if is_arc {
+                        let text = &content[w.value_span.clone()];
+                        let new = if text.len() >= 2 && text[0] == b'0' {
+                            "01"
+                        } else {
+                            "1"
+                        };
+                        edits.push(Edit::replace(w.value_span.clone(), new));
+                    }
+                }
+                b'X' | b'Y' | b'Z' => {
+                    let a = usize::from(w.letter - b'X');
+                    present[a] = true;
+                    first_axis_start.get_or_insert(w.span.start);
+                    last_axis_end = Some(w.span.end);
+                    let v = frame.word_value(q, from, a);
+                    let lsb = 0.5 * 10f64.powi(-i32::from(frame.decimals));
+                    if (v - w.value).abs() >= lsb * 0.999 {
+                        self.text.clear();
+                        format_number(v, style, &mut self.text);
+                        edits.push(Edit::replace(w.value_span.clone(), self.text.clone()));
+                    }
+                }
+                b'I' | b'J' | b'K' | b'R' | b'P' if is_arc => {
+                    edits.push(Edit::delete(
+                        blank_before(content, w.span.start)..w.span.end,
+                    ));
+                }
+                _ => {}
+            }
+        }
+        if let Some(w) = stop_word {
+            edits.push(Edit::delete(
+                blank_before(content, w.span.start)..w.span.end,
+            ));
+        }
+        let at = last_axis_end.unwrap_or(content.len());
+        for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+            if !present[a] && q[a] != from[a] {
+                self.text.clear();
+                self.text.push_str(sep);
+                self.text.push(letter);
+                format_number(frame.word_value(q, from, a), style, &mut self.text);
+                edits.push(Edit::insert(at, self.text.clone()));
+            }
+        }
+        if !has_motion_word && (self.mode != Some(needed) || is_arc) {
+            let code = if needed == OutMode::Rapid { "G0" } else { "G1" };
+            let at = first_axis_start.unwrap_or(0);
+            edits.push(Edit::insert(
+                at,
+                format!("{code}{}", if sep.is_empty() { "" } else { " " }),
+            ));
+        }
+        edits
+    }
+}
+
+/// Start of the blanks that precede byte `at` (so a deleted word takes its
+/// separating blank with it).
+fn blank_before(content: &[u8], at: usize) -> usize {
+    let mut i = at;
+    while i > 0 && (content[i - 1] == b' ' || content[i - 1] == b'\t') {
+        i -= 1;
+    }
+    i
+}
+
+fn line_ending(bytes: &[u8]) -> &[u8] {
+    let n = volcomp_gcode::lexer::content_len(bytes);
+    let e = &bytes[n..];
+    if e.is_empty() {
+        b"\n"
+    } else {
+        e
+    }
+}
+
+fn explicit_mode<'a>(words: impl Iterator<Item = &'a Word>) -> Option<OutMode> {
+    let mut mode = None;
+    for w in words {
+        if w.letter == b'G' {
+            mode = match w.value {
+                v if v == 0.0 => Some(OutMode::Rapid),
+                v if v == 1.0 => Some(OutMode::Feed),
+                v if v == 2.0 || v == 3.0 || (80.0..=89.0).contains(&v) => Some(OutMode::Other),
+                _ => mode,
+            };
+        }
+    }
+    mode
+}
+
+fn has_feed<'a>(mut words: impl Iterator<Item = &'a Word>) -> bool {
+    words.any(|w| w.letter == b'F' && w.value > 0.0)
+}
+
+fn stop_m_word<'a>(mut words: impl Iterator<Item = &'a Word>) -> Option<&'a Word> {
+    words.find(|w| w.letter == b'M' && [0.0, 1.0, 2.0, 30.0, 60.0].contains(&w.value))
+}
+
+/// Target points of a program motion (axis frame), the last one exactly the
+/// motion's end.
+pub fn targets_of(motion: &volcomp_gcode::Motion, options: &CompensateOptions) -> Vec<Vec3> {
+    let mut out = Vec::new();
+    match motion.kind {
+        MotionKind::Rapid => out.push(motion.end),
+        MotionKind::Feed => split_line(motion.start, motion.end, options.segmentation, &mut out),
+        MotionKind::Arc(arc) => {
+            let chords = arc.chord_count(options.chord_tolerance_mm);
+            match options.segmentation {
+                Segmentation::Count(n) => {
+                    let n = chords.max(n as usize);
+                    for k in 1..n {
+                        out.push(arc.point_at(k as f64 / n as f64));
+                    }
+                    out.push(arc.end);
+                }
+                _ => {
+                    let mut prev = arc.start;
+                    arc.for_each_chord_end(options.chord_tolerance_mm, |p| {
+                        split_line(prev, p, options.segmentation, &mut out);
+                        prev = p;
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+fn split_line(a: Vec3, b: Vec3, seg: Segmentation, out: &mut Vec<Vec3>) {
+    let n = match seg {
+        Segmentation::Off => 1,
+        Segmentation::Count(n) => n.max(1) as usize,
+        Segmentation::MaxLength(l) => (((b - a).norm() / l).ceil() as usize).max(1),
+    };
+    for k in 1..n {
+        out.push(a.lerp(b, k as f64 / n as f64));
+    }
+    out.push(b);
+}
