@@ -4,7 +4,6 @@ use super::compensate::compensate_file;
 use super::Machine;
 use crate::args::DemoArgs;
 use crate::output::{write_atomically, CliError};
-use std::io::Write as _;
 use std::path::Path;
 use volcomp_core::compensate::{CompensateOptions, DirectionPolicy, Segmentation};
 use volcomp_core::example::{demo_programs, example_map, DEMO_WORK_OFFSET_MM};

@@ -1,0 +1,305 @@
+//! Compensation of whole programs, checked against hand arithmetic.
+
+use std::io::Cursor;
+use volcomp_core::axis_table::AxisTableMap;
+use volcomp_core::compensate::{
+    compensate_program, survey_style, CompensateOptions, PointRecord, Segmentation,
+};
+use volcomp_core::report::simulate_program;
+use volcomp_core::solve::Method;
+use volcomp_gcode::{InterpOptions, MotionKind, Setup, Vec3, Walker};
+
+/// A map whose tables are given per axis as closures of the position.
+fn map_from(f: impl Fn(usize, f64, bool) -> [f64; 3]) -> AxisTableMap {
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for (a, name) in ["X", "Y", "Z"].iter().enumerate() {
+        for (dir, rev) in [("forward", false), ("reverse", true)] {
+            for k in 0..=100 {
+                let p = -100.0 + 4.0 * k as f64;
+                let e = f(a, p, rev);
+                csv.push_str(&format!("{name},{dir},{p},{},{},{}\n", e[0], e[1], e[2]));
+            }
+        }
+    }
+    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+}
+
+fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
+    Walker::new(
+        Cursor::new(program.as_bytes().to_vec()),
+        Some("test.ngc".into()),
+        Setup::default(),
+        InterpOptions::default(),
+    )
+}
+
+fn compensate(
+    program: &str,
+    map: &AxisTableMap,
+    options: CompensateOptions,
+) -> (String, Vec<PointRecord>) {
+    let (survey, spaced) = survey_style(program.as_bytes());
+    let mut out = Vec::new();
+    let mut records = Vec::new();
+    compensate_program(
+        &mut walker(program),
+        "test.ngc",
+        map,
+        &survey,
+        spaced,
+        &options,
+        &mut out,
+        |r| records.push(*r),
+    )
+    .unwrap();
+    (String::from_utf8(out).unwrap(), records)
+}
+
+/// End points of the feed/rapid motions of a program (axis frame).
+fn ends(program: &str) -> Vec<(MotionKind, Vec3)> {
+    let mut w = walker(program);
+    let mut out = Vec::new();
+    while let Some(ev) = w.next_line().unwrap() {
+        out.extend(ev.motions.iter().map(|m| (m.kind, m.end)));
+    }
+    out
+}
+
+const SQUARE: &str = "G21 G90 G17\nG0 X0 Y0 Z0\nG1 X40 F500\nG1 Y30\nG1 X0\nG1 Y0\nM2\n";
+
+#[test]
+fn a_constant_offset_is_subtracted_from_every_point() {
+    let map = map_from(|a, _, _| if a == 0 { [5.0, -3.0, 2.0] } else { [0.0; 3] });
+    let opts = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    };
+    let (out, _) = compensate(SQUARE, &map, opts);
+    let nominal = ends(SQUARE);
+    let compensated = ends(&out);
+    assert_eq!(nominal.len(), compensated.len(), "{out}");
+    let shift = Vec3::new(-0.005, 0.003, -0.002);
+    for ((_, t), (_, q)) in nominal.iter().zip(&compensated) {
+        assert!(
+            (*q - (*t + shift)).max_abs() < 1e-9,
+            "{q:?} vs {t:?}\n{out}"
+        );
+    }
+    // Comments, M codes and untouched words stay as they were.
+    assert!(out.starts_with("G21 G90 G17\n"));
+    assert!(out.ends_with("M2\n"));
+}
+
+#[test]
+fn hand_interpolated_pitch_error_is_solved_exactly() {
+    // E_XX grows 0.1 µm per mm: at the target X = 40, q + 0.0001·q = 40, so
+    // q = 40 / 1.0001 = 39.996000399… → written 39.9960.
+    let map = map_from(|a, p, _| {
+        if a == 0 {
+            [0.1 * p, 0.0, 0.0]
+        } else {
+            [0.0; 3]
+        }
+    });
+    let opts = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    };
+    let (out, records) = compensate(SQUARE, &map, opts);
+    assert!(out.contains("G1 X39.9960 F500"), "{out}");
+    let r = records
+        .iter()
+        .find(|r| r.target_mm.x == 40.0 && r.target_mm.y == 0.0)
+        .unwrap();
+    assert!((r.command_mm.x - 39.996).abs() < 1e-12);
+    // Direct: q = t − e(t) = 40 − 0.004 = 39.996 as well, to the 4th decimal;
+    // the difference shows in the report's residual: e(39.996) − e(40) = −0.0004 µm…
+    let opts = CompensateOptions {
+        method: Method::Direct,
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    };
+    let (_, records) = compensate(SQUARE, &map, opts);
+    let r = records
+        .iter()
+        .find(|r| r.target_mm.x == 40.0 && r.target_mm.y == 0.0)
+        .unwrap();
+    assert!((r.command_mm.x - 39.996).abs() < 1e-12);
+}
+
+#[test]
+fn pure_squareness_shifts_x_in_proportion_to_y() {
+    // Squareness S_xy = 50 µrad (design §3): e_x += S·y, i.e. the Y table's
+    // ex_um = 50e-6 · y[mm] · 1000 µm/mm = 0.05·y µm. So q_x = t_x − 0.00005·t_y.
+    let map = map_from(|a, p, _| {
+        if a == 1 {
+            [0.05 * p, 0.0, 0.0]
+        } else {
+            [0.0; 3]
+        }
+    });
+    let opts = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    };
+    let (out, _) = compensate(SQUARE, &map, opts);
+    for ((_, t), (_, q)) in ends(SQUARE).iter().zip(&ends(&out)) {
+        let expected = Vec3::new(t.x - 0.00005 * t.y, t.y, t.z);
+        assert!(
+            (*q - expected).max_abs() < 0.5e-4 + 1e-12,
+            "{q:?} vs {expected:?}"
+        );
+    }
+    // At Y = 30 the shift is 1.5 µm: X40 becomes X39.9985.
+    assert!(out.contains("X39.9985"), "{out}");
+}
+
+#[test]
+fn backlash_reversal_gets_a_take_up_move() {
+    // X reverse table 4 µm above forward: after going forward to X10, going
+    // back to X5 needs a take-up to 9.996 (where the reverse image is back at
+    // 10) and then the command 5 − 0.004 = 4.996.
+    let map = map_from(|a, _, rev| {
+        if a == 0 && rev {
+            [4.0, 0.0, 0.0]
+        } else {
+            [0.0; 3]
+        }
+    });
+    let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG1 X5\nM2\n";
+    let opts = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    };
+    let (out, records) = compensate(program, &map, opts);
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines[1], "G1 X10 F100", "{out}");
+    assert_eq!(lines[2], "X9.9960 (volcomp L3 take-up)", "{out}");
+    assert_eq!(lines[3], "G1 X4.9960", "{out}");
+    assert!(records.iter().any(|r| r.take_up && r.reversed[0]));
+    // Simulated, the reversal costs nothing: the tool ends exactly at X5 and
+    // never leaves the nominal line.
+    let mut sim = walker(&out);
+    let mut reference = walker(program);
+    let report = simulate_program(
+        &mut sim,
+        "out",
+        Some(&mut reference),
+        &map,
+        1e-4,
+        None,
+        |_| {},
+    )
+    .unwrap();
+    assert!(report.contour_max_um < 1e-6, "{report:?}");
+    // Without the take-up the tool lags 4 µm behind at the start of the return.
+    let opts = CompensateOptions {
+        segmentation: Segmentation::Off,
+        take_up: false,
+        ..Default::default()
+    };
+    let (out, _) = compensate(program, &map, opts);
+    let mut sim = walker(&out);
+    let mut reference = walker(program);
+    let report = simulate_program(
+        &mut sim,
+        "out",
+        Some(&mut reference),
+        &map,
+        1e-4,
+        None,
+        |_| {},
+    )
+    .unwrap();
+    assert!(
+        report.contour_max_um < 1e-6,
+        "a pure X line stays on itself: {report:?}"
+    );
+}
+
+#[test]
+fn splitting_follows_a_curved_error_and_beats_end_point_compensation() {
+    // A bow of Y straightness along X: e_y = 8·u·(1−u) µm over X −100…300
+    // (u = (x+100)/400). A 40 mm line only corrected at its ends keeps the
+    // bow's sagitta in between; split every mm it follows within rounding.
+    let map = map_from(|a, p, _| {
+        let u = (p + 100.0) / 400.0;
+        if a == 0 {
+            [0.0, 8.0 * u * (1.0 - u) * 10.0, 0.0]
+        } else {
+            [0.0; 3]
+        }
+    });
+    let program = "G0 X-20 Y0 Z0\nG1 X180 F500\nM2\n";
+    let measure = |seg: Segmentation| {
+        let (out, _) = compensate(
+            program,
+            &map,
+            CompensateOptions {
+                segmentation: seg,
+                ..Default::default()
+            },
+        );
+        let mut sim = walker(&out);
+        let mut reference = walker(program);
+        simulate_program(
+            &mut sim,
+            "out",
+            Some(&mut reference),
+            &map,
+            1e-4,
+            None,
+            |_| {},
+        )
+        .unwrap()
+    };
+    let ends_only = measure(Segmentation::Off);
+    let split = measure(Segmentation::MaxLength(1.0));
+    // The uncorrected sagitta of the bow between x = −20 and 180: the chord of
+    // a parabola of curvature 2·80/400² µm/mm² over 200 mm: 80·(200/400)²/4·… ≈ 20 µm·0.25 = 5 µm.
+    let u = |x: f64| (x + 100.0) / 400.0;
+    let e = |x: f64| 80.0 * u(x) * (1.0 - u(x));
+    let sagitta = e(80.0) - 0.5 * (e(-20.0) + e(180.0));
+    assert!(
+        (ends_only.contour_max_um - sagitta).abs() < 0.05,
+        "{ends_only:?} vs {sagitta}"
+    );
+    assert!(split.contour_max_um < 0.1, "{split:?}");
+}
+
+#[test]
+fn zero_map_without_splitting_writes_the_program_back_unchanged() {
+    let map = map_from(|_, _, _| [0.0; 3]);
+    let program = "%\nO0001 (TEST)\r\nN10 g0 x1 y2 z3 (start)\r\nN20 G1X 1 0 . 5F100 ; feed\r\n\r\nN30 Y.25\r\nN40 G91 X-1.5\r\nN50 G90 M30\r\n%\r\n";
+    let opts = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    };
+    let (out, _) = compensate(program, &map, opts);
+    assert_eq!(out, program);
+}
+
+#[test]
+fn incremental_mode_never_accumulates_rounding() {
+    // Constant error 0.33 µm in X: each G91 increment is written from the
+    // rounded absolute positions, so after 1000 steps of 0.1 mm the command is
+    // exactly 100.0 − 0.0003 (rounded to 4 decimals), not 1000 roundings away.
+    let map = map_from(|a, _, _| if a == 0 { [0.33, 0.0, 0.0] } else { [0.0; 3] });
+    let mut program = String::from("G90 G0 X0 Y0 Z0\nG91\n");
+    for _ in 0..1000 {
+        program.push_str("G1 X0.1 F100\n");
+    }
+    program.push_str("G90\nM2\n");
+    let opts = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    };
+    let (out, _) = compensate(&program, &map, opts);
+    let last = ends(&out)
+        .iter()
+        .rev()
+        .find(|(k, _)| matches!(k, MotionKind::Feed))
+        .unwrap()
+        .1;
+    assert!((last.x - 99.9997).abs() < 1e-9, "{last:?}");
+}
