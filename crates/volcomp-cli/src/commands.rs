@@ -127,13 +127,14 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
                 }
                 row.push('}');
             } else {
-                row.push_str(&format!(
-                    "{},{},{},{},",
-                    m.line,
-                    m.column,
-                    m.kind.name(),
-                    source
-                ));
+                push_uint(m.line, &mut row);
+                row.push(',');
+                push_uint(m.column as u64, &mut row);
+                row.push(',');
+                row.push_str(m.kind.name());
+                row.push(',');
+                row.push_str(source);
+                row.push(',');
                 push_triple(m.end, &mut row, num);
                 row.push(',');
                 match center {
@@ -150,6 +151,11 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
         out.write_all(b"\n]\n").map_err(CliError::Stdout)?;
     }
     out.flush().map_err(CliError::Stdout)
+}
+
+fn push_uint(v: u64, row: &mut String) {
+    use std::fmt::Write as _;
+    let _ = write!(row, "{v}");
 }
 
 fn push_triple(v: Vec3, row: &mut String, num: impl Fn(f64, &mut String)) {

@@ -67,6 +67,26 @@ pub fn write_atomically(
     let tmp = w
         .into_inner()
         .map_err(|e| CliError::Io(target.to_path_buf(), e.into_error()))?;
+    // The temporary file is private (0600); give the result the permissions
+    // of the input it was made from, or of an ordinary new file.
+    let permissions = inputs
+        .iter()
+        .find_map(|p| std::fs::metadata(p).ok().map(|m| m.permissions()))
+        .or_else(|| {
+            std::fs::metadata(&dir)
+                .ok()
+                .map(|m| m.permissions())
+                .map(|mut p| {
+                    use std::os::unix::fs::PermissionsExt as _;
+                    p.set_mode(0o644);
+                    p
+                })
+        });
+    if let Some(p) = permissions {
+        tmp.as_file()
+            .set_permissions(p)
+            .map_err(|e| CliError::Io(target.to_path_buf(), e))?;
+    }
     tmp.persist(target)
         .map_err(|e| CliError::Io(target.to_path_buf(), e.error))?;
     Ok(())

@@ -56,18 +56,39 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
         ("G0 X0 A10\n", 1, 7, "3-axis"),
         ("G1 X10 F100 (unclosed\n", 1, 13, "not closed"),
         ("X10\n", 1, 1, "motion mode"),
-        ("G0 X0 Y0 Z0\nG2 X10 Y0 I3 J0\n", 2, 1, "radius to end of arc"),
+        (
+            "G0 X0 Y0 Z0\nG2 X10 Y0 I3 J0\n",
+            2,
+            1,
+            "radius to end of arc",
+        ),
     ];
     for (program, line, col, words) in cases {
         std::fs::write(dir.join("p.ngc"), program).unwrap();
-        let o = volcomp(&["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"], &dir);
+        let o = volcomp(
+            &["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"],
+            &dir,
+        );
         let msg = stderr(&o);
         assert_eq!(o.status.code(), Some(2), "{program}: {msg}");
-        assert!(msg.contains(&format!("p.ngc:{line}:{col}:")), "{program}: {msg}");
-        assert!(msg.to_lowercase().contains(&words.to_lowercase()), "{program}: {msg}");
+        assert!(
+            msg.contains(&format!("p.ngc:{line}:{col}:")),
+            "{program}: {msg}"
+        );
+        assert!(
+            msg.to_lowercase().contains(&words.to_lowercase()),
+            "{program}: {msg}"
+        );
         assert!(msg.contains("help:"), "says what to do: {msg}");
-        assert!(!dir.join("out.ngc").exists(), "nothing written for {program}");
-        let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().contains(".tmp")).collect();
+        assert!(
+            !dir.join("out.ngc").exists(),
+            "nothing written for {program}"
+        );
+        let leftovers: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().contains(".tmp"))
+            .collect();
         assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
     }
 }
@@ -79,7 +100,10 @@ fn a_map_in_millimetres_is_refused() {
     // µm has values 1000 times too large: 150 at X = 10 here.
     write_map(&dir, |p| 15.0 * p);
     std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
-    let o = volcomp(&["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"], &dir);
+    let o = volcomp(
+        &["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"],
+        &dir,
+    );
     let msg = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{msg}");
     assert!(msg.contains("p.ngc:3:") && msg.contains("µm"), "{msg}");
@@ -91,12 +115,40 @@ fn out_of_range_names_axis_position_range_and_line() {
     let dir = tempdir("range");
     write_map(&dir, |_| 1.0);
     std::fs::write(dir.join("p.ngc"), "G0 X0 Y0 Z0\nG1 X350 F100\nM2\n").unwrap();
-    let o = volcomp(&["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc", "--no-split"], &dir);
+    let o = volcomp(
+        &[
+            "compensate",
+            "p.ngc",
+            "--map",
+            "map.csv",
+            "-o",
+            "out.ngc",
+            "--no-split",
+        ],
+        &dir,
+    );
     let msg = stderr(&o);
-    assert!(msg.contains("p.ngc:2:") && msg.contains("axis X = 350.0000 mm") && msg.contains("-100.0000 … 300.0000"), "{msg}");
+    assert!(
+        msg.contains("p.ngc:2:")
+            && msg.contains("axis X = 350.0000 mm")
+            && msg.contains("-100.0000 … 300.0000"),
+        "{msg}"
+    );
     assert!(!dir.join("out.ngc").exists());
     // With --clamp the error is held at the table end.
-    let o = volcomp(&["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc", "--no-split", "--clamp"], &dir);
+    let o = volcomp(
+        &[
+            "compensate",
+            "p.ngc",
+            "--map",
+            "map.csv",
+            "-o",
+            "out.ngc",
+            "--no-split",
+            "--clamp",
+        ],
+        &dir,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let out = std::fs::read_to_string(dir.join("out.ngc")).unwrap();
     assert!(out.contains("X349.9990"), "{out}");
@@ -107,9 +159,16 @@ fn the_input_is_never_overwritten() {
     let dir = tempdir("overwrite");
     write_map(&dir, |_| 1.0);
     std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
-    let o = volcomp(&["compensate", "p.ngc", "--map", "map.csv", "-o", "./p.ngc"], &dir);
+    let o = volcomp(
+        &["compensate", "p.ngc", "--map", "map.csv", "-o", "./p.ngc"],
+        &dir,
+    );
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("refusing to overwrite"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("refusing to overwrite"),
+        "{}",
+        stderr(&o)
+    );
     assert_eq!(std::fs::read_to_string(dir.join("p.ngc")).unwrap(), PROGRAM);
 }
 
@@ -118,15 +177,30 @@ fn bad_map_files_name_row_and_column() {
     let dir = tempdir("badmap");
     std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
     let cases = [
-        ("axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,0,0,0\nX,both,10,NaN,0,0\n", "map.csv:3:4:"),
+        (
+            "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,0,0,0\nX,both,10,NaN,0,0\n",
+            "map.csv:3:4:",
+        ),
         ("axis,direction,position_mm,ex_um,ey_um\n", "map.csv:1:1:"),
-        ("axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,10,0,0,0\nX,both,5,0,0,0\n", "map.csv:3:3:"),
-        ("axis,direction,position_mm,ex_mm,ey_um,ez_um\n", "map.csv:1:4:"),
-        ("axis,direction,position_mm,ex_um,ey_um,ez_um\nQ,both,0,0,0,0\n", "map.csv:2:1:"),
+        (
+            "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,10,0,0,0\nX,both,5,0,0,0\n",
+            "map.csv:3:3:",
+        ),
+        (
+            "axis,direction,position_mm,ex_mm,ey_um,ez_um\n",
+            "map.csv:1:4:",
+        ),
+        (
+            "axis,direction,position_mm,ex_um,ey_um,ez_um\nQ,both,0,0,0,0\n",
+            "map.csv:2:1:",
+        ),
     ];
     for (csv, located) in cases {
         std::fs::write(dir.join("map.csv"), csv).unwrap();
-        let o = volcomp(&["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"], &dir);
+        let o = volcomp(
+            &["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"],
+            &dir,
+        );
         assert_eq!(o.status.code(), Some(2));
         assert!(stderr(&o).contains(located), "{located}: {}", stderr(&o));
         assert!(!dir.join("out.ngc").exists());
@@ -145,22 +219,56 @@ fn simulate_json_reports_the_metrics_and_compensation_improves_them() {
         serde_json::from_slice(&o.stdout).unwrap()
     };
     let before = sim(&["simulate", "p.ngc", "--map", "map.csv", "--json"]);
-    for key in ["point_rms_um", "point_max_um", "contour_rms_um", "contour_max_um", "blocks"] {
+    for key in [
+        "point_rms_um",
+        "point_max_um",
+        "contour_rms_um",
+        "contour_max_um",
+        "blocks",
+    ] {
         assert!(before.get(key).is_some(), "{key} missing: {before}");
     }
     // At X = 10 the tool is 2 µm long: point errors are 2 µm at (10,0) and (10,10).
-    assert!((before["point_max_um"].as_f64().unwrap() - 2.0).abs() < 1e-9, "{before}");
-    let o = volcomp(&["compensate", "p.ngc", "--map", "map.csv", "-o", "c.ngc"], &dir);
+    assert!(
+        (before["point_max_um"].as_f64().unwrap() - 2.0).abs() < 1e-9,
+        "{before}"
+    );
+    let o = volcomp(
+        &["compensate", "p.ngc", "--map", "map.csv", "-o", "c.ngc"],
+        &dir,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
-    let after = sim(&["simulate", "c.ngc", "--map", "map.csv", "--reference", "p.ngc", "--json"]);
+    let after = sim(&[
+        "simulate",
+        "c.ngc",
+        "--map",
+        "map.csv",
+        "--reference",
+        "p.ngc",
+        "--json",
+    ]);
     assert!(after["contour_max_um"].as_f64().unwrap() < 0.06, "{after}");
 }
 
 #[test]
 fn moves_json_is_valid_and_lists_every_motion() {
     let dir = tempdir("moves");
-    std::fs::write(dir.join("p.ngc"), "G21 G90\nG0 X1 Y2 Z3\nG2 X5 Y2 I2 J0 F100\nM2\n").unwrap();
-    let o = volcomp(&["moves", "p.ngc", "--format", "json", "--work-offset", "100,0,-50"], &dir);
+    std::fs::write(
+        dir.join("p.ngc"),
+        "G21 G90\nG0 X1 Y2 Z3\nG2 X5 Y2 I2 J0 F100\nM2\n",
+    )
+    .unwrap();
+    let o = volcomp(
+        &[
+            "moves",
+            "p.ngc",
+            "--format",
+            "json",
+            "--work-offset",
+            "100,0,-50",
+        ],
+        &dir,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let rows = v.as_array().unwrap();
@@ -179,9 +287,16 @@ fn demo_runs_and_meets_the_issue_targets() {
     let text = String::from_utf8_lossy(&o.stdout);
     // Every contour row's exact column improves by at least 95 %.
     let mut rows = 0;
-    for line in text.lines().filter(|l| l.trim_start().starts_with("contour")) {
+    for line in text
+        .lines()
+        .filter(|l| l.trim_start().starts_with("contour"))
+    {
         let last = line.rsplit('(').next().unwrap();
-        let pct: f64 = last.trim_end_matches("%)").trim_start_matches('+').parse().unwrap();
+        let pct: f64 = last
+            .trim_end_matches("%)")
+            .trim_start_matches('+')
+            .parse()
+            .unwrap();
         assert!(pct >= 95.0, "{line}");
         rows += 1;
     }

@@ -274,15 +274,24 @@ impl Canon {
     }
 }
 
-fn numbers(args: &str) -> Result<Vec<f64>, String> {
-    args.split([',', ' '])
+/// The numbers of a call's argument list; at least `min` of them.
+fn numbers(args: &str, min: usize) -> Result<Vec<f64>, String> {
+    let v = args
+        .split([',', ' '])
         .map(str::trim)
         .filter(|s| !s.is_empty())
         .map(|s| {
             s.parse::<f64>()
                 .map_err(|_| format!("cannot read `{s}` as a number"))
         })
-        .collect()
+        .collect::<Result<Vec<f64>, String>>()?;
+    if v.len() < min {
+        return Err(format!(
+            "expected at least {min} numbers, found {}",
+            v.len()
+        ));
+    }
+    Ok(v)
 }
 
 /// Reads rs274's canonical-call listing into machine-frame motions.
@@ -290,22 +299,28 @@ fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
     let mut canon = Canon::new();
     let mut out = Vec::new();
     for raw in text.lines() {
-        // `   10 N..... STRAIGHT_FEED(10.0000, 2.0000, ...)`
-        let mut rest = raw.trim_start();
-        for _ in 0..2 {
-            rest = match rest.find(' ') {
-                Some(i) => rest[i..].trim_start(),
-                None => "",
-            };
-        }
-        let Some(open) = rest.find('(') else {
+        // `   10 N..... STRAIGHT_FEED(10.0000, 2.0000, ...)`: a call number,
+        // the block's N word (`N.....` when it has none), the call. The
+        // call's name is the upper-case identifier before the first `(`.
+        let Some(open) = raw.find('(') else {
             continue;
         };
-        let name = &rest[..open];
-        let Some(close) = rest.rfind(')') else {
+        let Some(close) = raw.rfind(')') else {
             continue;
         };
-        let args = &rest[open + 1..close];
+        let start = raw[..open]
+            .rfind(|c: char| !(c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_'))
+            .map_or(0, |k| k + 1);
+        let name = &raw[start..open];
+        let args = &raw[open + 1..close];
+        let n_word = raw[..start]
+            .split_whitespace()
+            .nth(1)
+            .filter(|n| !n.starts_with("N."));
+        let call = match n_word {
+            Some(n) => format!("{n} {}", &raw[start..=close]),
+            None => raw[start..=close].to_string(),
+        };
         let bad = |e: String| format!("rs274 output `{raw}`: {e}");
         match name {
             "USE_LENGTH_UNITS" => {
@@ -325,19 +340,19 @@ fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                 }
             }
             "SET_G5X_OFFSET" => {
-                let n = numbers(args).map_err(bad)?;
+                let n = numbers(args, 4).map_err(bad)?;
                 (canon.g5x, canon.g5x_tol) = canon.set(&n[1..4]);
             }
             "SET_G92_OFFSET" => {
-                let n = numbers(args).map_err(bad)?;
+                let n = numbers(args, 3).map_err(bad)?;
                 (canon.g92, canon.g92_tol) = canon.set(&n[0..3]);
             }
             "USE_TOOL_LENGTH_OFFSET" => {
-                let n = numbers(args).map_err(bad)?;
+                let n = numbers(args, 3).map_err(bad)?;
                 (canon.tlo, canon.tlo_tol) = canon.set(&n[0..3]);
             }
             "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" => {
-                let n = numbers(args).map_err(bad)?;
+                let n = numbers(args, 3).map_err(bad)?;
                 let kind = if name == "STRAIGHT_TRAVERSE" {
                     Kind::Rapid
                 } else {
@@ -348,13 +363,13 @@ fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     end: canon.machine([n[0], n[1], n[2]]),
                     center: None,
                     tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
-                    call: rest.to_string(),
+                    call: call.clone(),
                 });
             }
             "ARC_FEED" => {
                 // first_end, second_end, first_centre, second_centre,
                 // rotation, axis_end, a, b, c
-                let n = numbers(args).map_err(bad)?;
+                let n = numbers(args, 6).map_err(bad)?;
                 let (f, s, ax) = canon.plane;
                 let mut printed = [0.0; 3];
                 printed[f] = n[0];
@@ -373,7 +388,7 @@ fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     end,
                     center: Some([(f, cf), (s, cs)]),
                     tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
-                    call: rest.to_string(),
+                    call: call.clone(),
                 });
             }
             "STRAIGHT_PROBE" | "RIGID_TAP" | "NURBS_FEED" | "SPLINE_FEED" => {
@@ -382,7 +397,7 @@ fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     end: [f64::NAN; 3],
                     center: None,
                     tol: [0.0; 3],
-                    call: rest.to_string(),
+                    call: call.clone(),
                 });
             }
             _ => {}
@@ -482,7 +497,7 @@ fn run_rs274(tools: &Tools, program: &Path, work: &Path) -> Result<Rs274Run, Str
         .map(str::to_string)
         .collect();
     let rejected = if !out.status.success() || !chatter.is_empty() {
-        Some(format!("exit {}: {}", out.status, chatter.join(" | ")))
+        Some(format!("{}: {}", out.status, chatter.join(" | ")))
     } else {
         None
     };
@@ -552,12 +567,12 @@ fn differ(r: &RefMotion, v: &VolMotion) -> Option<String> {
     }
     let axis = ["X", "Y", "Z"];
     let mut why = Vec::new();
-    for a in 0..3 {
+    for (a, name) in axis.iter().enumerate() {
         let d = (r.end[a] - v.end[a]).abs();
         if d.is_nan() || d > r.tol[a] {
             why.push(format!(
-                "end {} off by {:.6} mm (tolerance {:.6})",
-                axis[a], d, r.tol[a]
+                "end {name} off by {d:.6} mm (tolerance {:.6})",
+                r.tol[a]
             ));
         }
     }
@@ -596,28 +611,61 @@ fn aligned(reference: &[RefMotion], i: usize, volcomp: &[VolMotion], j: usize) -
         .all(|(r, v)| differ(r, v).is_none())
 }
 
+/// Largest coordinate difference of a pair that agrees, mm.
+fn deviation(r: &RefMotion, v: &VolMotion) -> f64 {
+    let mut d = (0..3)
+        .map(|a| (r.end[a] - v.end[a]).abs())
+        .fold(0.0, f64::max);
+    if let (Some(rc), Some(vc)) = (r.center, v.center) {
+        for (a, value) in rc {
+            d = d.max((value - vc[a]).abs());
+        }
+    }
+    d
+}
+
+/// The result of comparing one program.
+struct Comparison {
+    /// Pairs of motions compared.
+    pairs: usize,
+    /// Largest difference among the pairs that agree, mm.
+    max_dev_mm: f64,
+    failures: Vec<String>,
+}
+
 /// Motions compared and failure messages.
 ///
 /// The sequences are compared in order. Where they stop agreeing, a few
 /// motions of look-ahead tell an extra motion on one side (reported as such,
 /// then skipped) from a motion that differs.
-fn compare(label: &str, reference: &[RefMotion], volcomp: &[VolMotion]) -> (usize, Vec<String>) {
+fn compare(label: &str, reference: &[RefMotion], volcomp: &[VolMotion]) -> Comparison {
     let mut failures = Vec::new();
     let (mut i, mut j, mut pairs, mut problems) = (0, 0, 0, 0);
+    let mut max_dev_mm = 0.0_f64;
     let mut report = |failures: &mut Vec<String>, msg: String| {
         problems += 1;
         if problems <= MAX_REPORTS_PER_FILE {
             failures.push(msg);
         }
     };
-    let near = |j: usize| {
-        volcomp
-            .get(j)
-            .or_else(|| volcomp.last())
-            .map_or("none".to_string(), |v| format!("volcomp line {}", v.line))
+    // Where, in volcomp's sequence, a motion volcomp lacks would go.
+    let between = |j: usize| match (
+        j.checked_sub(1).and_then(|p| volcomp.get(p)),
+        volcomp.get(j),
+    ) {
+        (Some(a), Some(b)) => format!(
+            "between volcomp motion #{} (line {}) and #{j} (line {})",
+            j - 1,
+            a.line,
+            b.line
+        ),
+        (None, Some(b)) => format!("before volcomp's first motion (line {})", b.line),
+        (Some(a), None) => format!("after volcomp's last motion (line {})", a.line),
+        (None, None) => "volcomp has no motion at all".to_string(),
     };
     while i < reference.len() && j < volcomp.len() {
         let Some(why) = differ(&reference[i], &volcomp[j]) else {
+            max_dev_mm = max_dev_mm.max(deviation(&reference[i], &volcomp[j]));
             i += 1;
             j += 1;
             pairs += 1;
@@ -630,8 +678,8 @@ fn compare(label: &str, reference: &[RefMotion], volcomp: &[VolMotion]) -> (usiz
             report(
                 &mut failures,
                 format!(
-                    "{label}: rs274 emits {k} motion(s) that volcomp does not, before volcomp motion #{j} ({}):{}\n    volcomp #{j}: {}",
-                    near(j),
+                    "{label}: rs274 emits {k} motion(s) that volcomp does not, {}:{}\n    volcomp #{j}: {}",
+                    between(j),
                     extra.concat(),
                     describe_vol(&volcomp[j])
                 ),
@@ -670,9 +718,9 @@ fn compare(label: &str, reference: &[RefMotion], volcomp: &[VolMotion]) -> (usiz
         report(
             &mut failures,
             format!(
-                "{label}: rs274 has {} more motion(s) at the end (after {}); the first is rs274 #{i}: {}",
+                "{label}: rs274 has {} more motion(s) at the end, {}; the first is rs274 #{i}: {}",
                 reference.len() - i,
-                near(j),
+                between(j),
                 describe_ref(&reference[i])
             ),
         );
@@ -695,7 +743,11 @@ fn compare(label: &str, reference: &[RefMotion], volcomp: &[VolMotion]) -> (usiz
             volcomp.len()
         ));
     }
-    (pairs, failures)
+    Comparison {
+        pairs,
+        max_dev_mm,
+        failures,
+    }
 }
 
 // ---------------------------------------------------------------------------
@@ -723,7 +775,30 @@ struct Outcome {
     motions: usize,
     /// Files compared in full.
     compared: usize,
+    /// Largest difference among agreeing motions, mm.
+    max_dev_mm: f64,
     failures: Vec<String>,
+}
+
+impl Outcome {
+    fn absorb(&mut self, c: Comparison) {
+        self.motions = c.pairs;
+        self.max_dev_mm = c.max_dev_mm;
+        self.compared = 1;
+        self.failures.extend(c.failures);
+    }
+    /// `, max deviation … µm` and a MISMATCH flag.
+    fn tail(&self) -> String {
+        format!(
+            " (max deviation {:.2} µm){}",
+            self.max_dev_mm * 1000.0,
+            if self.failures.is_empty() {
+                ""
+            } else {
+                ", MISMATCH"
+            }
+        )
+    }
 }
 
 fn run_plain(tools: &Tools, name: &str, path: &Path, fixture: bool, work: &Path) -> Outcome {
@@ -747,17 +822,8 @@ fn run_plain(tools: &Tools, name: &str, path: &Path, fixture: bool, work: &Path)
     }
     match run_volcomp(tools, path, &[]) {
         Ok(v) => {
-            (o.motions, o.failures) = compare(name, &rs.motions, &v);
-            o.compared = 1;
-            o.summary = format!(
-                "{name}: {} motions compared{}",
-                o.motions,
-                if o.failures.is_empty() {
-                    ""
-                } else {
-                    ", MISMATCH"
-                }
-            );
+            o.absorb(compare(name, &rs.motions, &v));
+            o.summary = format!("{name}: {} motions compared{}", o.motions, o.tail());
         }
         Err(e) => {
             o.failures.push(format!(
@@ -823,9 +889,7 @@ fn run_bearing_clamp(tools: &Tools, path: &Path, work: &Path) -> Outcome {
                 o.failures
                     .push(format!("{label}: rs274 still rejects it: {why}"));
             } else {
-                let (n, f) = compare(&label, &rs.motions, &v);
-                o.motions = n;
-                o.failures.extend(f);
+                o.absorb(compare(&label, &rs.motions, &v));
                 o.compared = 1;
             }
         }
@@ -836,7 +900,7 @@ fn run_bearing_clamp(tools: &Tools, path: &Path, work: &Path) -> Outcome {
         "{name}: {}; --strict-k0 names line {BEARING_CLAMP_K0_LINE}; {} motions compared against the copy without K0{}",
         notes.join("; "),
         o.motions,
-        if o.failures.is_empty() { "" } else { ", MISMATCH" }
+        o.tail()
     );
     o
 }
@@ -901,9 +965,7 @@ fn run_bottle(tools: &Tools, path: &Path, work: &Path) -> Outcome {
                 o.failures
                     .push(format!("{label}: rs274 rejects the copy: {why}"));
             } else {
-                let (n, f) = compare(&label, &rs.motions, &v);
-                o.motions = n;
-                o.failures.extend(f);
+                o.absorb(compare(&label, &rs.motions, &v));
                 o.compared = 1;
             }
         }
@@ -914,7 +976,7 @@ fn run_bottle(tools: &Tools, path: &Path, work: &Path) -> Outcome {
         "{name}: {}; volcomp refuses line {BOTTLE_ARC_LINE} with a G90.1 hint; {} motions compared (--absolute-arc-centers vs rs274 with G90.1){}",
         notes.join("; "),
         o.motions,
-        if o.failures.is_empty() { "" } else { ", MISMATCH" }
+        o.tail()
     );
     o
 }
@@ -972,12 +1034,18 @@ fn volcomp_moves_agree_with_rs274() {
     };
 
     let mut jobs = Vec::new();
-    let corpus = list_files(&corpus_dir, |n| n != "README.md");
-    assert!(
-        !corpus.is_empty(),
-        "no corpus files in {}",
-        corpus_dir.display()
-    );
+    // The corpus lives beside the repository (shared/corpus); without it only
+    // the fixtures are checked.
+    let corpus = if corpus_dir.is_dir() {
+        list_files(&corpus_dir, |n| n != "README.md")
+    } else {
+        eprintln!(
+            "!! rs274_agreement: no corpus at {}: only the fixtures are checked",
+            corpus_dir.display()
+        );
+        println!("corpus not found at {}", corpus_dir.display());
+        Vec::new()
+    };
     for (name, path) in corpus {
         jobs.push(match name.as_str() {
             BEARING_CLAMP => Job::BearingClamp { path },
@@ -1025,6 +1093,10 @@ fn volcomp_moves_agree_with_rs274() {
                     Job::BearingClamp { path } => run_bearing_clamp(&tools, path, &work),
                     Job::Bottle { path } => run_bottle(&tools, path, &work),
                 };
+                // Keep the work files of failing programs only.
+                if outcome.failures.is_empty() {
+                    let _ = std::fs::remove_dir_all(&work);
+                }
                 results.lock().unwrap().push((i, outcome));
             });
         }
@@ -1048,7 +1120,10 @@ fn volcomp_moves_agree_with_rs274() {
     if failures.is_empty() {
         let _ = std::fs::remove_dir_all(&dir);
     } else {
-        println!("(work files kept in {})", dir.display());
+        println!(
+            "(work files of the failing programs kept in {})",
+            dir.display()
+        );
         panic!(
             "volcomp moves disagrees with rs274:\n\n{}\n",
             failures.join("\n\n")

@@ -32,8 +32,7 @@ impl Table {
         if p.len() == 1 {
             return Some(self.errors_um[0]);
         }
-        // Index of the interval [p[i], p[i+1]] that holds x.
-        let i = p.partition_point(|&v| v <= x_mm).clamp(1, p.len() - 1) - 1;
+        let i = interval(p, x_mm);
         let t = (x_mm - p[i]) / (p[i + 1] - p[i]);
         Some(self.errors_um[i].lerp(self.errors_um[i + 1], t))
     }
@@ -45,6 +44,28 @@ impl Table {
             self.positions_mm.last().copied().unwrap_or(0.0),
         ]
     }
+}
+
+/// Index `i` of the interval `[p[i], p[i+1]]` that holds `x` (`p[0] ≤ x ≤ p[n−1]`).
+///
+/// Measured tables are nearly always evenly spaced, so the first guess is
+/// the proportional position, corrected by a step or two; uneven tables fall
+/// back to a binary search.
+fn interval(p: &[f64], x: f64) -> usize {
+    let last = p.len() - 2;
+    let span = p[last + 1] - p[0];
+    let guess = ((x - p[0]) / span * (last + 1) as f64) as usize;
+    let mut i = guess.min(last);
+    for _ in 0..3 {
+        if x < p[i] && i > 0 {
+            i -= 1;
+        } else if x >= p[i + 1] && i < last {
+            i += 1;
+        } else {
+            return i;
+        }
+    }
+    p.partition_point(|&v| v <= x).clamp(1, last + 1) - 1
 }
 
 /// Forward and reverse tables of one axis (the same table when the file says `both`).
@@ -354,6 +375,20 @@ mod tests {
             .deviation_um(Vec3::new(7.5, 0.0, 0.0), s, Components::All)
             .unwrap();
         assert!((e.x - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn interval_search_agrees_with_binary_search() {
+        let uneven = [0.0, 0.5, 3.0, 3.1, 10.0, 11.0, 40.0];
+        let even: Vec<f64> = (0..50).map(|k| k as f64 * 2.0).collect();
+        for p in [&uneven[..], &even[..]] {
+            let n = p.len();
+            for k in 0..=1000 {
+                let x = p[0] + (p[n - 1] - p[0]) * k as f64 / 1000.0;
+                let expected = p.partition_point(|&v| v <= x).clamp(1, n - 1) - 1;
+                assert_eq!(interval(p, x), expected, "x = {x}");
+            }
+        }
     }
 
     #[test]

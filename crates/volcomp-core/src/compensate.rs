@@ -125,8 +125,17 @@ pub struct CompensateSummary {
     pub held_count: u64,
 }
 
+/// How a program writes its numbers and separates its words.
+#[derive(Debug, Clone, Default)]
+pub struct ProgramStyle {
+    /// Evidence of the number style.
+    pub survey: StyleSurvey,
+    /// Words are separated by blanks (`G1 X1`), not written together (`G1X1`).
+    pub spaced: bool,
+}
+
 /// Infers the program's number style and word spacing from its first bytes.
-pub fn survey_style(head: &[u8]) -> (StyleSurvey, bool) {
+pub fn survey_style(head: &[u8]) -> ProgramStyle {
     let mut survey = StyleSurvey::default();
     let mut lexed = volcomp_gcode::lexer::Lexed::default();
     let (mut spaced, mut compact) = (0u32, 0u32);
@@ -152,7 +161,10 @@ pub fn survey_style(head: &[u8]) -> (StyleSurvey, bool) {
             prev_end = Some(w.span.end);
         }
     }
-    (survey, spaced >= compact)
+    ProgramStyle {
+        survey,
+        spaced: spaced >= compact,
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -167,8 +179,7 @@ pub fn compensate_program<R: BufRead>(
     walker: &mut Walker<R>,
     file: &str,
     model: &dyn ErrorModel,
-    survey: &StyleSurvey,
-    spaced: bool,
+    program_style: &ProgramStyle,
     options: &CompensateOptions,
     out: &mut dyn Write,
     mut on_point: impl FnMut(&PointRecord),
@@ -184,7 +195,8 @@ pub fn compensate_program<R: BufRead>(
         buf: Vec::with_capacity(1024),
         text: String::with_capacity(128),
     };
-    let sep = if spaced { " " } else { "" };
+    let sep = if program_style.spaced { " " } else { "" };
+    let survey = &program_style.survey;
     while let Some(ev) = walker.next_line()? {
         st.summary.lines_in += 1;
         st.buf.clear();
@@ -706,8 +718,8 @@ fn explicit_mode<'a>(words: impl Iterator<Item = &'a Word>) -> Option<OutMode> {
     for w in words {
         if w.letter == b'G' {
             mode = match w.value {
-                v if v == 0.0 => Some(OutMode::Rapid),
-                v if v == 1.0 => Some(OutMode::Feed),
+                0.0 => Some(OutMode::Rapid),
+                1.0 => Some(OutMode::Feed),
                 v if v == 2.0 || v == 3.0 || (80.0..=89.0).contains(&v) => Some(OutMode::Other),
                 _ => mode,
             };

@@ -38,15 +38,14 @@ fn compensate(
     map: &AxisTableMap,
     options: CompensateOptions,
 ) -> (String, Vec<PointRecord>) {
-    let (survey, spaced) = survey_style(program.as_bytes());
+    let style = survey_style(program.as_bytes());
     let mut out = Vec::new();
     let mut records = Vec::new();
     compensate_program(
         &mut walker(program),
         "test.ngc",
         map,
-        &survey,
-        spaced,
+        &style,
         &options,
         &mut out,
         |r| records.push(*r),

@@ -137,7 +137,7 @@ pub struct Interpreter {
     cycle_z: Option<f64>,
     finished: bool,
     percent_lines: u32,
-    words: WordTable,
+    words: Box<WordTable>,
 }
 
 /// The words of one block by letter, plus its G and M codes.
@@ -219,7 +219,7 @@ fn code_of(value: f64) -> Option<u16> {
 }
 
 fn code_name(letter: char, code: u16) -> String {
-    if code % 10 == 0 {
+    if code.is_multiple_of(10) {
         format!("{letter}{}", code / 10)
     } else {
         format!("{letter}{}.{}", code / 10, code % 10)
@@ -255,7 +255,7 @@ impl Interpreter {
             cycle_z: None,
             finished: false,
             percent_lines: 0,
-            words: WordTable::default(),
+            words: Box::default(),
         }
     }
 
@@ -411,11 +411,11 @@ impl Interpreter {
     }
 
     /// Target of axis words in the current coordinate system.
-    fn target(&self) -> Vec3 {
+    fn target(&self, w: &WordTable) -> Vec3 {
         let off = self.frame_offset_mm();
         let mut t = self.position;
         for (i, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
-            if let Some(v) = self.words.get(letter) {
+            if let Some(v) = w.get(letter) {
                 t[i] = if self.absolute {
                     self.to_mm(v) + off[i]
                 } else {
@@ -427,7 +427,19 @@ impl Interpreter {
     }
 
     fn run_block(&mut self, line: u64, out: &mut Vec<Motion>) -> Result<(), GcodeError> {
-        let w = self.words.clone();
+        // The table is moved out and back so its buffers are reused, not cloned.
+        let w = std::mem::take(&mut self.words);
+        let result = self.run_words(line, &w, out);
+        self.words = w;
+        result
+    }
+
+    fn run_words(
+        &mut self,
+        line: u64,
+        w: &WordTable,
+        out: &mut Vec<Motion>,
+    ) -> Result<(), GcodeError> {
         // 1-3: feed mode, feed rate.
         if w.has_g(930) {
             self.feed_mode = FeedMode::InverseTime;
@@ -579,9 +591,9 @@ impl Interpreter {
             .into_iter()
             .find(|c| w.has_g(*c));
         if w.has_g(100) {
-            self.g10(line)?;
+            self.g10(line, w)?;
         } else if w.has_g(280) || w.has_g(300) {
-            self.home(line, w.has_g(280), out)?;
+            self.home(line, w, w.has_g(280), out)?;
         } else if w.has_g(281) {
             self.setup.g28_mm = self.position;
         } else if w.has_g(301) {
@@ -611,8 +623,8 @@ impl Interpreter {
             self.g92 = self.g92_saved;
         }
         // 20: motion.
-        if axis_user.is_none() && (w.has_axis() || self.motion_word_col(&w).is_some()) {
-            self.motion(line, &w, out)?;
+        if axis_user.is_none() && (w.has_axis() || self.motion_word_col(w).is_some()) {
+            self.motion(line, w, out)?;
         }
         // 21: stop.
         if w.has_m(20) || w.has_m(300) {
@@ -703,7 +715,7 @@ impl Interpreter {
                 } else {
                     MotionKind::Feed
                 };
-                let t = self.target();
+                let t = self.target(w);
                 self.push(out, kind, MotionSource::Program, t, line, col, feed);
             }
             MotionMode::Cw | MotionMode::Ccw => {
@@ -754,7 +766,7 @@ impl Interpreter {
         clockwise: bool,
     ) -> Result<Arc, GcodeError> {
         let start = self.position;
-        let end = self.target();
+        let end = self.target(w);
         let plane = self.plane;
         let (u, v, _) = plane.axes();
         let letters = [b'I', b'J', b'K'];
@@ -900,8 +912,7 @@ impl Interpreter {
         })
     }
 
-    fn g10(&mut self, line: u64) -> Result<(), GcodeError> {
-        let w = &self.words;
+    fn g10(&mut self, line: u64, w: &WordTable) -> Result<(), GcodeError> {
         let col = w.g_col(100).unwrap_or(0);
         let l = w
             .get(b'L')
@@ -955,8 +966,13 @@ impl Interpreter {
         Ok(())
     }
 
-    fn home(&mut self, line: u64, g28: bool, out: &mut Vec<Motion>) -> Result<(), GcodeError> {
-        let w = self.words.clone();
+    fn home(
+        &mut self,
+        line: u64,
+        w: &WordTable,
+        g28: bool,
+        out: &mut Vec<Motion>,
+    ) -> Result<(), GcodeError> {
         let code = if g28 { 280 } else { 300 };
         let col = w.g_col(code).unwrap_or(0);
         let reference = if g28 {
@@ -964,7 +980,7 @@ impl Interpreter {
         } else {
             self.setup.g30_mm
         };
-        let intermediate = self.target();
+        let intermediate = self.target(w);
         let feed = self.to_mm(self.feed);
         self.push(
             out,

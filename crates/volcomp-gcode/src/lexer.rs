@@ -286,9 +286,7 @@ fn lex_number(content: &[u8], i: &mut usize, letter: u8) -> Result<(f64, Range<u
         };
         return Err(LexError { kind, column });
     }
-    // Safe: only ASCII digits, sign and dot were copied.
-    let text = std::str::from_utf8(&buf[..len]).unwrap_or("0");
-    let value = parse_decimal(text).ok_or(LexError {
+    let value = parse_decimal(&buf[..len]).ok_or(LexError {
         kind: LexErrorKind::MissingNumber(letter as char),
         column: *i,
     })?;
@@ -296,15 +294,47 @@ fn lex_number(content: &[u8], i: &mut usize, letter: u8) -> Result<(f64, Range<u
     Ok((value, start.unwrap_or(end)..end))
 }
 
-/// Parses `[+-]digits[.digits]`, also `10.` and `.5`, which Rust's parser
-/// accepts as well; kept as a function so the accepted grammar is in one place.
-fn parse_decimal(text: &str) -> Option<f64> {
-    let t = text.strip_prefix('+').unwrap_or(text);
-    let body = t.strip_prefix('-').unwrap_or(t);
-    if body == "." || body.is_empty() {
+/// Parses `[+-]digits[.digits]`, also `10.` and `.5`, to the nearest `f64`.
+///
+/// Fast path: with at most 15 significant digits the digits form an exact
+/// integer `m` and `m / 10^k` (both exact doubles) is one correctly rounded
+/// division, i.e. exactly what a full decimal parser returns. Longer numbers
+/// go through the standard library's parser.
+fn parse_decimal(text: &[u8]) -> Option<f64> {
+    let (negative, body) = match text.first() {
+        Some(b'-') => (true, &text[1..]),
+        Some(b'+') => (false, &text[1..]),
+        _ => (false, text),
+    };
+    let mut mantissa: u64 = 0;
+    let mut digits = 0u32;
+    let mut frac_digits = 0i32;
+    let mut seen_dot = false;
+    for &c in body {
+        match c {
+            b'.' => seen_dot = true,
+            b'0'..=b'9' => {
+                if mantissa == 0 && c == b'0' && !seen_dot {
+                    continue;
+                }
+                mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(c - b'0'));
+                digits += 1;
+                if seen_dot {
+                    frac_digits += 1;
+                }
+            }
+            _ => return None,
+        }
+    }
+    if !body.iter().any(u8::is_ascii_digit) {
         return None;
     }
-    t.parse::<f64>().ok()
+    let value = if digits <= 15 && frac_digits <= 22 {
+        mantissa as f64 / crate::number::pow10(frac_digits as u32)
+    } else {
+        std::str::from_utf8(body).ok()?.parse::<f64>().ok()?
+    };
+    Some(if negative { -value } else { value })
 }
 
 #[cfg(test)]
@@ -387,6 +417,29 @@ mod tests {
         assert_eq!(classify(b"O1001 (PARALLEL)"), LineKind::ProgramNumber);
         assert_eq!(classify(b"o100 sub"), LineKind::Block);
         assert_eq!(classify(b"G1 X1"), LineKind::Block);
+    }
+
+    #[test]
+    fn fast_decimal_parse_matches_the_standard_parser() {
+        for t in [
+            "0",
+            "10.",
+            ".5",
+            "-.53",
+            "+1.25",
+            "123.4567",
+            "-0.0001",
+            "0.1",
+            "0.3",
+            "99999.99999",
+            "1.2345678901234567",
+            "00012.5000",
+        ] {
+            let expected: f64 = t.trim_start_matches('+').parse().unwrap();
+            assert_eq!(parse_decimal(t.as_bytes()), Some(expected), "{t}");
+        }
+        assert_eq!(parse_decimal(b"."), None);
+        assert_eq!(parse_decimal(b"-"), None);
     }
 
     #[test]

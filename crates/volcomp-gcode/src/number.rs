@@ -97,7 +97,7 @@ impl StyleSurvey {
 /// assert_eq!(s, "-0.2500");
 /// ```
 pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
-    let scale = 10f64.powi(i32::from(style.decimals));
+    let scale = pow10(u32::from(style.decimals));
     let scaled = (value * scale).round();
     // Positions in millimetres or inches never come near 2^53; the guard keeps
     // absurd values readable instead of wrapping.
@@ -116,7 +116,7 @@ pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
     let mut frac_part = magnitude % divisor;
     let mut frac_digits = usize::from(style.decimals);
     if style.trim_trailing_zeros {
-        while frac_digits > 0 && frac_part % 10 == 0 {
+        while frac_digits > 0 && frac_part.is_multiple_of(10) {
             frac_part /= 10;
             frac_digits -= 1;
         }
@@ -125,18 +125,35 @@ pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
         out.push('-');
     }
     if int_part != 0 || style.leading_zero || frac_digits == 0 {
-        out.push_str(&int_part.to_string());
+        push_digits(int_part, 1, out);
     }
     if frac_digits > 0 {
         out.push('.');
-        let s = frac_part.to_string();
-        for _ in s.len()..frac_digits {
-            out.push('0');
-        }
-        out.push_str(&s);
+        push_digits(frac_part, frac_digits, out);
     } else if style.trailing_dot || (!style.trim_trailing_zeros && style.decimals > 0) {
         out.push('.');
     }
+}
+
+/// Appends the decimal digits of `v`, zero-padded to at least `width`.
+fn push_digits(v: u64, width: usize, out: &mut String) {
+    let mut buf = itoa::Buffer::new();
+    let digits = buf.format(v);
+    for _ in digits.len()..width {
+        out.push('0');
+    }
+    out.push_str(digits);
+}
+
+/// `10^k` for the decimal counts used here, exact as `f64`.
+pub(crate) fn pow10(k: u32) -> f64 {
+    const P: [f64; 23] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    ];
+    P.get(k as usize)
+        .copied()
+        .unwrap_or_else(|| 10f64.powi(k as i32))
 }
 
 #[cfg(test)]

@@ -89,7 +89,7 @@ pub fn compensate_file(
     std::fs::File::open(program)
         .and_then(|f| f.take(1 << 16).read_to_end(&mut head))
         .map_err(|e| CliError::Io(program.to_path_buf(), e))?;
-    let (survey, spaced) = survey_style(&head);
+    let style = survey_style(&head);
     let mut walker = machine.walk(program)?;
     let file = program.display().to_string();
     let mut summary = None;
@@ -98,8 +98,7 @@ pub fn compensate_file(
             &mut walker,
             &file,
             model,
-            &survey,
-            spaced,
+            &style,
             options,
             out,
             &mut on_point,
