@@ -133,8 +133,12 @@ pub struct Interpreter {
     next_tool: u32,
     position: Vec3,
     retract_to_r: bool,
+    /// Sticky R word of the canned cycle (program units, as written).
     cycle_r: Option<f64>,
+    /// Sticky Z word of the canned cycle (program units, as written).
     cycle_z: Option<f64>,
+    /// Z (axis frame) when the current run of cycle blocks began (`cycle_il`).
+    cycle_start_z: Option<f64>,
     finished: bool,
     percent_lines: u32,
     words: Box<WordTable>,
@@ -250,9 +254,10 @@ impl Interpreter {
             loaded_tool: 0,
             next_tool: 0,
             position,
-            retract_to_r: false,
+            retract_to_r: true,
             cycle_r: None,
             cycle_z: None,
+            cycle_start_z: None,
             finished: false,
             percent_lines: 0,
             words: Box::default(),
@@ -506,7 +511,9 @@ impl Interpreter {
         if w.has_g(430) {
             let col = w.g_col(430).unwrap_or(0);
             let h = match w.get(b'H') {
-                Some(h) if h >= 0.0 && h.fract() == 0.0 => h as u32,
+                // rs274 treats H0 like a missing H: the loaded tool.
+                Some(h) if h == 0.0 => self.loaded_tool,
+                Some(h) if h > 0.0 && h.fract() == 0.0 => h as u32,
                 Some(_) => {
                     return Err(invalid(
                         line,
@@ -579,13 +586,16 @@ impl Interpreter {
                 self.motion_mode = Some(mode);
             }
         }
+        let mode_before = self.motion_mode;
         for code in [810u16, 820, 850, 890] {
             if w.has_g(code) {
                 self.motion_mode = Some(MotionMode::Cycle(code));
-                self.cycle_r = None;
-                self.cycle_z = None;
             }
         }
+        if !matches!(self.motion_mode, Some(MotionMode::Cycle(_))) {
+            self.cycle_start_z = None;
+        }
+        let new_cycle = self.motion_mode != mode_before;
         // 19: non-modal codes that use axis words.
         let axis_user = [100u16, 280, 300, 920, 431]
             .into_iter()
@@ -624,7 +634,7 @@ impl Interpreter {
         }
         // 20: motion.
         if axis_user.is_none() && (w.has_axis() || self.motion_word_col(w).is_some()) {
-            self.motion(line, w, out)?;
+            self.motion(line, w, new_cycle, out)?;
         }
         // 21: stop.
         if w.has_m(20) || w.has_m(300) {
@@ -643,29 +653,32 @@ impl Interpreter {
         &mut self,
         line: u64,
         w: &WordTable,
+        new_cycle: bool,
         out: &mut Vec<Motion>,
     ) -> Result<(), GcodeError> {
         let col = self
             .motion_word_col(w)
             .or_else(|| [b'X', b'Y', b'Z'].into_iter().find_map(|l| w.col(l)))
             .unwrap_or(0);
+        let motion_word = self.motion_word_col(w).is_some();
         if !w.has_axis() {
-            // A motion code alone (e.g. `G1 F100`, `G80`): nothing moves.
-            if matches!(self.motion_mode, Some(MotionMode::Cw | MotionMode::Ccw))
-                && self.motion_word_col(w).is_some()
-                && (w.get(b'I').is_some()
-                    || w.get(b'J').is_some()
-                    || w.get(b'K').is_some()
-                    || w.get(b'R').is_some())
-            {
-                return Err(invalid(
-                    line,
-                    col,
-                    "arc without an end point",
-                    "give the end point's axis words",
-                ));
+            // LinuxCNC moves even without axis words when a motion code is on
+            // the line: G0/G1 make a zero-length move, G2/G3 with centre words
+            // a full circle; a cycle code alone does nothing.
+            match self.motion_mode {
+                Some(MotionMode::Rapid | MotionMode::Feed) if motion_word => {}
+                Some(MotionMode::Cw | MotionMode::Ccw) if motion_word => {
+                    if [b'I', b'J', b'K', b'R'].iter().all(|l| w.get(*l).is_none()) {
+                        return Err(invalid(
+                            line,
+                            col,
+                            "arc without end point or centre (R, I, J, K words all missing)",
+                            "give the end point and the centre (I/J/K) or radius (R)",
+                        ));
+                    }
+                }
+                _ => return Ok(()),
             }
-            return Ok(());
         }
         let Some(mode) = self.motion_mode else {
             return Err(invalid(
@@ -730,7 +743,7 @@ impl Interpreter {
                     feed,
                 );
             }
-            MotionMode::Cycle(code) => self.cycle(line, col, code, w, out)?,
+            MotionMode::Cycle(code) => self.cycle(line, col, code, w, new_cycle, out)?,
         }
         Ok(())
     }
@@ -1009,13 +1022,18 @@ impl Interpreter {
         Ok(())
     }
 
-    /// Expands G81/G82/G85/G89 in the XY plane as LinuxCNC does.
+    /// Expands G81/G82/G85/G89 in the XY plane as LinuxCNC 2.9 does
+    /// (`convert_cycle_xy` and its `CYCLE_MACRO`): R and Z are sticky while
+    /// the same cycle continues; the Z where the run of cycle blocks began is
+    /// the G98 clearance and the base of incremental R.
+    #[allow(clippy::too_many_arguments)]
     fn cycle(
         &mut self,
         line: u64,
         col: usize,
         code: u16,
         w: &WordTable,
+        new_cycle: bool,
         out: &mut Vec<Motion>,
     ) -> Result<(), GcodeError> {
         if self.plane != Plane::Xy {
@@ -1034,59 +1052,80 @@ impl Interpreter {
                 "post each hole explicitly",
             ));
         }
-        let off = self.frame_offset_mm();
-        let old_z = self.position.z;
+        if new_cycle {
+            if w.get(b'Z').is_none() {
+                return Err(invalid(
+                    line,
+                    col,
+                    "Z value unspecified in the first block of a canned cycle",
+                    "give the hole bottom Z",
+                ));
+            }
+            if w.get(b'R').is_none() {
+                return Err(invalid(
+                    line,
+                    col,
+                    "R clearance plane unspecified in the first block of a canned cycle",
+                    "give the R plane",
+                ));
+            }
+            if matches!(code, 820 | 890) && w.get(b'P').is_none() {
+                return Err(invalid(
+                    line,
+                    col,
+                    "dwell time P missing in the first block of G82/G89",
+                    "give P (seconds)",
+                ));
+            }
+        }
         if let Some(r) = w.get(b'R') {
-            self.cycle_r = Some(if self.absolute {
-                self.to_mm(r) + off.z
-            } else {
-                old_z + self.to_mm(r)
-            });
+            self.cycle_r = Some(r);
         }
-        let r_z = self.cycle_r.ok_or_else(|| {
-            invalid(
-                line,
-                col,
-                "canned cycle without R (retract plane)",
-                "add an R word",
-            )
-        })?;
         if let Some(z) = w.get(b'Z') {
-            self.cycle_z = Some(if self.absolute {
-                self.to_mm(z) + off.z
-            } else {
-                r_z + self.to_mm(z)
-            });
+            self.cycle_z = Some(z);
         }
-        let bottom = self
-            .cycle_z
-            .ok_or_else(|| invalid(line, col, "canned cycle without Z (bottom)", "add a Z word"))?;
-        if bottom > r_z {
+        let (Some(r_word), Some(z_word)) = (self.cycle_r, self.cycle_z) else {
             return Err(invalid(
                 line,
                 col,
-                "canned cycle Z is above R",
-                "Z is the bottom of the hole, R the retract plane",
+                "canned cycle without R or Z",
+                "give R and Z",
+            ));
+        };
+        let off = self.frame_offset_mm();
+        let current_z = self.position.z;
+        let start_z = *self.cycle_start_z.get_or_insert(current_z);
+        let (r, bottom, x, y) = if self.absolute {
+            let r = self.to_mm(r_word) + off.z;
+            let x = w
+                .get(b'X')
+                .map(|v| self.to_mm(v) + off.x)
+                .unwrap_or(self.position.x);
+            let y = w
+                .get(b'Y')
+                .map(|v| self.to_mm(v) + off.y)
+                .unwrap_or(self.position.y);
+            (r, self.to_mm(z_word) + off.z, x, y)
+        } else {
+            let r = self.to_mm(r_word) + start_z;
+            let x = self.position.x + w.get(b'X').map(|v| self.to_mm(v)).unwrap_or(0.0);
+            let y = self.position.y + w.get(b'Y').map(|v| self.to_mm(v)).unwrap_or(0.0);
+            (r, r + self.to_mm(z_word), x, y)
+        };
+        if r < bottom {
+            return Err(invalid(
+                line,
+                col,
+                "R less than Z in a canned cycle",
+                "Z is the bottom of the hole, R the retract plane above it",
             ));
         }
-        let mut xy = self.position;
-        for (i, l) in [b'X', b'Y'].into_iter().enumerate() {
-            if let Some(v) = w.get(l) {
-                xy[i] = if self.absolute {
-                    self.to_mm(v) + off[i]
-                } else {
-                    xy[i] + self.to_mm(v)
-                };
-            }
-        }
         let feed = self.to_mm(self.feed);
-        let clear_z = if self.retract_to_r {
-            r_z
-        } else {
-            r_z.max(old_z)
-        };
-        if self.position.z < r_z {
-            let p = Vec3::new(self.position.x, self.position.y, r_z);
+        let mut old_z = start_z;
+        let mut cur_z = current_z;
+        let at = |x: f64, y: f64, z: f64| Vec3::new(x, y, z);
+        if old_z < r {
+            let p = at(self.position.x, self.position.y, r);
             self.push(
                 out,
                 MotionKind::Rapid,
@@ -1096,72 +1135,99 @@ impl Interpreter {
                 col,
                 feed,
             );
+            old_z = r;
+            cur_z = r;
         }
-        let p = Vec3::new(xy.x, xy.y, self.position.z);
-        self.push(
-            out,
-            MotionKind::Rapid,
-            MotionSource::Cycle,
-            p,
-            line,
-            col,
-            feed,
-        );
-        if self.position.z != r_z {
-            let p = Vec3::new(xy.x, xy.y, r_z);
+        let clear = if self.retract_to_r { r } else { old_z };
+        if cur_z > r {
             self.push(
                 out,
                 MotionKind::Rapid,
                 MotionSource::Cycle,
-                p,
+                at(x, y, cur_z),
                 line,
                 col,
                 feed,
             );
+            self.push(
+                out,
+                MotionKind::Rapid,
+                MotionSource::Cycle,
+                at(x, y, r),
+                line,
+                col,
+                feed,
+            );
+        } else {
+            self.push(
+                out,
+                MotionKind::Rapid,
+                MotionSource::Cycle,
+                at(x, y, clear),
+                line,
+                col,
+                feed,
+            );
+            if clear > r {
+                self.push(
+                    out,
+                    MotionKind::Rapid,
+                    MotionSource::Cycle,
+                    at(x, y, r),
+                    line,
+                    col,
+                    feed,
+                );
+            }
         }
         self.push(
             out,
             MotionKind::Feed,
             MotionSource::Cycle,
-            Vec3::new(xy.x, xy.y, bottom),
+            at(x, y, bottom),
             line,
             col,
             feed,
         );
         match code {
-            810 | 820 => {
-                self.push(
-                    out,
-                    MotionKind::Rapid,
-                    MotionSource::Cycle,
-                    Vec3::new(xy.x, xy.y, clear_z),
-                    line,
-                    col,
-                    feed,
-                );
-            }
-            _ => {
+            810 | 820 => self.push(
+                out,
+                MotionKind::Rapid,
+                MotionSource::Cycle,
+                at(x, y, clear),
+                line,
+                col,
+                feed,
+            ),
+            850 => {
                 self.push(
                     out,
                     MotionKind::Feed,
                     MotionSource::Cycle,
-                    Vec3::new(xy.x, xy.y, r_z),
+                    at(x, y, r),
                     line,
                     col,
                     feed,
                 );
-                if clear_z != r_z {
-                    self.push(
-                        out,
-                        MotionKind::Rapid,
-                        MotionSource::Cycle,
-                        Vec3::new(xy.x, xy.y, clear_z),
-                        line,
-                        col,
-                        feed,
-                    );
-                }
+                self.push(
+                    out,
+                    MotionKind::Rapid,
+                    MotionSource::Cycle,
+                    at(x, y, clear),
+                    line,
+                    col,
+                    feed,
+                );
             }
+            _ => self.push(
+                out,
+                MotionKind::Feed,
+                MotionSource::Cycle,
+                at(x, y, clear),
+                line,
+                col,
+                feed,
+            ),
         }
         Ok(())
     }
