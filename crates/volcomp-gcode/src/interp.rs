@@ -512,7 +512,7 @@ impl Interpreter {
             let col = w.g_col(430).unwrap_or(0);
             let h = match w.get(b'H') {
                 // rs274 treats H0 like a missing H: the loaded tool.
-                Some(h) if h == 0.0 => self.loaded_tool,
+                Some(0.0) => self.loaded_tool,
                 Some(h) if h > 0.0 && h.fract() == 0.0 => h as u32,
                 Some(_) => {
                     return Err(invalid(
