@@ -150,6 +150,9 @@ pub struct SimulateArgs {
     /// Write per-segment error norms (CSV) for plotting.
     #[arg(long, value_name = "FILE")]
     pub errors_csv: Option<PathBuf>,
+    /// Plot the errors along the path (.svg or .png).
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
     /// Chord tolerance for linearising arcs (mm).
     #[arg(long, value_name = "MM", default_value_t = 1e-4)]
     pub chord_tolerance: f64,

@@ -5,6 +5,7 @@
 mod args;
 mod commands;
 mod output;
+mod plot;
 
 use clap::Parser;
 use std::process::ExitCode;

@@ -4,6 +4,7 @@ use super::compensate::load_map;
 use super::Machine;
 use crate::args::SimulateArgs;
 use crate::output::{write_atomically, CliError};
+use crate::plot::{write_charts, Chart, Series};
 use std::io::Write;
 use volcomp_core::report::{simulate_program, SimReport};
 
@@ -24,6 +25,9 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         .errors_csv
         .as_ref()
         .map(|_| b"line,x_mm,y_mm,z_mm,point_error_um,contour_max_um\n".to_vec());
+    let mut along: Vec<(f64, f64, f64)> = Vec::new();
+    let mut last: Option<volcomp_gcode::Vec3> = None;
+    let mut travelled = 0.0;
     let report = simulate_program(
         &mut walker,
         &a.program.display().to_string(),
@@ -32,6 +36,13 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         a.chord_tolerance,
         None,
         |s| {
+            if let Some(p) = last {
+                travelled += (s.command_mm - p).norm();
+            }
+            last = Some(s.command_mm);
+            if a.plot.is_some() {
+                along.push((travelled, s.point_um, s.contour_max_um));
+            }
             if let Some(r) = rows.as_mut() {
                 let _ = writeln!(
                     r,
@@ -55,6 +66,26 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
             w.write_all(&bytes)
                 .map_err(|e| CliError::Io(path.clone(), e))
         })?;
+    }
+    if let Some(path) = &a.plot {
+        let title = a.program.display().to_string();
+        let chart = Chart {
+            title: format!("{title}: error along the path"),
+            x_label: "commanded path length (mm)".into(),
+            y_label: "error (µm)".into(),
+            series: vec![
+                Series::markers(
+                    "point error",
+                    along.iter().map(|(s, p, _)| (*s, *p)).collect(),
+                ),
+                Series::line(
+                    "largest contour error per segment",
+                    along.iter().map(|(s, _, c)| (*s, *c)).collect(),
+                ),
+            ],
+            ..Chart::default()
+        };
+        write_charts(&[chart], path)?;
     }
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
