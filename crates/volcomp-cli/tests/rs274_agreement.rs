@@ -1144,3 +1144,148 @@ fn volcomp_moves_agree_with_rs274() {
         );
     }
 }
+
+/// An error map over ±5 m on every axis (clamped anyway): a few µm of
+/// positioning slope, waviness and straightness, with backlash, so that every
+/// program of the corpus is compensated, split and given take-up moves.
+fn wide_map() -> String {
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for (a, name) in ["X", "Y", "Z"].iter().enumerate() {
+        for (dir, backlash) in [("forward", 0.0), ("reverse", 3.0)] {
+            for k in 0..=1000 {
+                let p = -5000.0 + 10.0 * k as f64;
+                let wave = 2.0 * (p / 37.0).sin();
+                let mut e = [0.3 * wave, -0.2 * wave, 0.25 * wave];
+                e[a] = 0.004 * p / 10.0 + wave + backlash;
+                csv.push_str(&format!(
+                    "{name},{dir},{p},{:.4},{:.4},{:.4}\n",
+                    e[0], e[1], e[2]
+                ));
+            }
+        }
+    }
+    csv
+}
+
+#[test]
+fn compensated_corpus_programs_are_accepted_by_rs274() {
+    let Some(rs274) = find_rs274() else {
+        if std::env::var_os("CI").is_some() {
+            panic!("rs274 (Debian package linuxcnc-uspace) is not installed, and CI is set: CI must install it");
+        }
+        eprintln!("!! SKIPPED compensated_corpus_programs_are_accepted_by_rs274: rs274 is not installed");
+        println!("SKIPPED: rs274 not installed");
+        return;
+    };
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let corpus_dir = manifest.join("../../../shared/corpus");
+    if !corpus_dir.is_dir() {
+        eprintln!("!! no corpus at {}: nothing to check", corpus_dir.display());
+        return;
+    }
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos())
+        .unwrap_or(0);
+    let dir = std::env::temp_dir().join(format!(
+        "volcomp-rs274-compensated-{}-{nanos}",
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    let setup = dir.join("setup.toml");
+    std::fs::write(&setup, setup_toml()).unwrap();
+    let tool_table = dir.join("tools.tbl");
+    std::fs::write(&tool_table, rs274_tool_table()).unwrap();
+    let map = dir.join("map.csv");
+    std::fs::write(&map, wide_map()).unwrap();
+    let tools = Tools {
+        rs274,
+        volcomp: PathBuf::from(env!("CARGO_BIN_EXE_volcomp")),
+        dir: dir.clone(),
+        setup,
+        tool_table,
+        var_text: rs274_var_file(),
+    };
+    let files = list_files(&corpus_dir, |n| n != "README.md");
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<(String, Result<String, String>)>> = Mutex::new(Vec::new());
+    std::thread::scope(|s| {
+        for _ in 0..2 {
+            s.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::SeqCst);
+                let Some((name, path)) = files.get(i) else { break };
+                let work = tools.dir.join(format!("c{i}"));
+                let _ = std::fs::create_dir_all(&work);
+                let out = work.join("compensated.ngc");
+                let mut cmd = Command::new(&tools.volcomp);
+                cmd.arg("compensate")
+                    .arg(path)
+                    .arg("--setup")
+                    .arg(&tools.setup)
+                    .arg("--map")
+                    .arg(&map)
+                    .arg("--clamp")
+                    .arg("--segment-length")
+                    .arg("5")
+                    .arg("-o")
+                    .arg(&out);
+                if name == BOTTLE {
+                    cmd.arg("--absolute-arc-centers");
+                }
+                let result = match cmd.stdin(Stdio::null()).output() {
+                    Err(e) => Err(format!("cannot run volcomp: {e}")),
+                    Ok(o) if name.contains("wheelhub") && !o.status.success() => {
+                        // Canned cycles are not compensated yet: a clear refusal is fine.
+                        let msg = String::from_utf8_lossy(&o.stderr).into_owned();
+                        if msg.contains("canned") {
+                            Ok("refused (canned cycle), as documented".into())
+                        } else {
+                            Err(msg)
+                        }
+                    }
+                    Ok(o) if !o.status.success() => Err(format!(
+                        "volcomp compensate failed: {}",
+                        String::from_utf8_lossy(&o.stderr)
+                    )),
+                    Ok(o) => match run_rs274(&tools, &out, &work) {
+                        Err(e) => Err(e),
+                        Ok(run) => match run.rejected {
+                            Some(why) => Err(format!(
+                                "rs274 rejects the compensated program {}: {why}",
+                                out.display()
+                            )),
+                            None => Ok(format!(
+                                "{} motions; {}",
+                                run.motions.len(),
+                                String::from_utf8_lossy(&o.stderr).trim()
+                            )),
+                        },
+                    },
+                };
+                if result.is_ok() {
+                    let _ = std::fs::remove_dir_all(&work);
+                }
+                results.lock().unwrap().push((name.clone(), result));
+            });
+        }
+    });
+    let mut results = results.into_inner().unwrap();
+    results.sort();
+    let mut failures = Vec::new();
+    for (name, r) in &results {
+        match r {
+            Ok(summary) => println!("  {name}: accepted by rs274 ({summary})"),
+            Err(e) => failures.push(format!("{name}: {e}")),
+        }
+    }
+    println!(
+        "{} compensated corpus programs checked, {} failures",
+        results.len(),
+        failures.len()
+    );
+    if failures.is_empty() {
+        let _ = std::fs::remove_dir_all(&dir);
+    } else {
+        panic!("{}", failures.join("\n\n"));
+    }
+}
