@@ -1173,7 +1173,9 @@ fn compensated_corpus_programs_are_accepted_by_rs274() {
         if std::env::var_os("CI").is_some() {
             panic!("rs274 (Debian package linuxcnc-uspace) is not installed, and CI is set: CI must install it");
         }
-        eprintln!("!! SKIPPED compensated_corpus_programs_are_accepted_by_rs274: rs274 is not installed");
+        eprintln!(
+            "!! SKIPPED compensated_corpus_programs_are_accepted_by_rs274: rs274 is not installed"
+        );
         println!("SKIPPED: rs274 not installed");
         return;
     };
@@ -1213,7 +1215,9 @@ fn compensated_corpus_programs_are_accepted_by_rs274() {
         for _ in 0..2 {
             s.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::SeqCst);
-                let Some((name, path)) = files.get(i) else { break };
+                let Some((name, path)) = files.get(i) else {
+                    break;
+                };
                 let work = tools.dir.join(format!("c{i}"));
                 let _ = std::fs::create_dir_all(&work);
                 let out = work.join("compensated.ngc");
@@ -1234,15 +1238,6 @@ fn compensated_corpus_programs_are_accepted_by_rs274() {
                 }
                 let result = match cmd.stdin(Stdio::null()).output() {
                     Err(e) => Err(format!("cannot run volcomp: {e}")),
-                    Ok(o) if name.contains("wheelhub") && !o.status.success() => {
-                        // Canned cycles are not compensated yet: a clear refusal is fine.
-                        let msg = String::from_utf8_lossy(&o.stderr).into_owned();
-                        if msg.contains("canned") {
-                            Ok("refused (canned cycle), as documented".into())
-                        } else {
-                            Err(msg)
-                        }
-                    }
                     Ok(o) if !o.status.success() => Err(format!(
                         "volcomp compensate failed: {}",
                         String::from_utf8_lossy(&o.stderr)

@@ -202,14 +202,6 @@ pub fn compensate_program<R: BufRead>(
         st.buf.clear();
         let program_motion = ev.motions.iter().any(|m| m.source == MotionSource::Program);
         let cycle = ev.motions.iter().any(|m| m.source == MotionSource::Cycle);
-        if cycle {
-            return Err(CompensationError::AtLine {
-                file: file.into(),
-                line: ev.number,
-                message: "canned drilling cycles are not compensated yet".into(),
-                help: "post the holes as explicit G0/G1 moves (most CAM posts have an option to expand cycles)".into(),
-            });
-        }
         for w in ev.lexed.words() {
             if matches!(w.letter, b'X' | b'Y' | b'Z') && !ev.motions.is_empty() {
                 st.known[usize::from(w.letter - b'X')] = true;
@@ -223,6 +215,23 @@ pub fn compensate_program<R: BufRead>(
             st.known = [true; 3];
         }
         let all_known = st.known.iter().all(|k| *k);
+        if cycle && all_known && !ev.after_end {
+            st.write_cycle(
+                ev.number,
+                ev.bytes,
+                ev.lexed.words().collect(),
+                ev.motions,
+                ev.interp,
+                model,
+                options,
+                survey,
+                sep,
+                file,
+                &mut on_point,
+            )?;
+            out.write_all(&st.buf)?;
+            continue;
+        }
         if ev.after_end || ev.kind != LineKind::Block || !program_motion || !all_known {
             out.write_all(ev.bytes)?;
             st.summary.lines_out += 1;
@@ -268,92 +277,18 @@ pub fn compensate_program<R: BufRead>(
         let content_len = volcomp_gcode::lexer::content_len(ev.bytes);
         let content = &ev.bytes[..content_len];
         // Solve every target first (the original line carries the first).
-        let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
-        let mut t_prev = motion.start;
         let q_line_start = st.q_out;
-        for t in &targets {
-            let quantize = |q: Vec3| frame.quantize(q, st.q_out);
-            let point = match options.directions {
-                DirectionPolicy::Commanded => {
-                    solve_consistent(model, options.method, *t, st.q_out, st.s, &quantize)
-                }
-                DirectionPolicy::Nominal => {
-                    let s_nom = next_state(st.s_nominal, *t - t_prev);
-                    solve_fixed(model, options.method, *t, s_nom, [false; 3], Vec3::ZERO).map(
-                        |sol| {
-                            let q = quantize(sol.q_mm);
-                            crate::solve::PointSolution {
-                                q_mm: q,
-                                s: s_nom,
-                                iterations: sol.iterations,
-                                residual_um: sol.residual_um,
-                                reversed: [false; 3],
-                                held: [false; 3],
-                            }
-                        },
-                    )
-                }
-            }
-            .map_err(|source| model_error(file, ev.number, source))?;
-            let correction = (point.q_mm - *t).norm();
-            if correction > options.max_correction_mm {
-                return Err(CompensationError::AtLine {
-                    file: file.into(),
-                    line: ev.number,
-                    message: format!("the correction here would be {:.1} µm, above the limit of {:.1} µm", correction * 1e3, options.max_correction_mm * 1e3),
-                    help: "check that the map is in µm (not mm) and belongs to this machine; raise --max-correction only if the machine really is this far off".into(),
-                });
-            }
-            let mut take_up = None;
-            if options.take_up
-                && feed_like
-                && options.directions == DirectionPolicy::Commanded
-                && point.reversed.iter().any(|r| *r)
-            {
-                take_up = Some(
-                    take_up_command(model, st.q_out, st.s, point.s, point.reversed, &frame)
-                        .map_err(|source| model_error(file, ev.number, source))?,
-                );
-            }
-            // A take-up never goes past the segment's own command: the segment
-            // must continue in the new direction, not reverse once more.
-            if let Some(tu) = take_up.as_mut() {
-                for a in 0..3 {
-                    if point.reversed[a] && (tu[a] - point.q_mm[a]) * point.s[a].sign() > 0.0 {
-                        tu[a] = point.q_mm[a];
-                    }
-                }
-                st.q_out = *tu;
-            }
-            st.summary.points += 1;
-            st.summary.max_residual_um = st.summary.max_residual_um.max(point.residual_um);
-            st.summary.max_correction_um = st.summary.max_correction_um.max(correction * 1e3);
-            for a in 0..3 {
-                if point.held[a] {
-                    st.summary.held_count += 1;
-                    if st.summary.held.len() < 100 {
-                        st.summary.held.push((ev.number, ['X', 'Y', 'Z'][a]));
-                    }
-                }
-            }
-            st.summary.take_ups += u64::from(take_up.is_some());
-            on_point(&PointRecord {
-                line: ev.number,
-                target_mm: *t,
-                command_mm: point.q_mm,
-                iterations: point.iterations,
-                residual_um: point.residual_um,
-                reversed: point.reversed,
-                held: point.held,
-                take_up: take_up.is_some(),
-                rapid: !feed_like,
-            });
-            commands.push((point.q_mm, take_up));
-            st.q_out = point.q_mm;
-            st.s = point.s;
-            st.s_nominal = next_state(st.s_nominal, *t - t_prev);
-            t_prev = *t;
-        }
+        let commands = st.solve_targets(
+            model,
+            options,
+            &frame,
+            &targets,
+            motion.start,
+            feed_like,
+            file,
+            ev.number,
+            &mut on_point,
+        )?;
         // Write: the commands were solved from the position before the line.
         let mut pos = q_line_start;
         let stop_word = if commands.len() > 1 {
@@ -562,6 +497,251 @@ fn take_up_command(
 }
 
 impl State {
+    /// Writes a canned-cycle block as explicit moves: the block itself keeps
+    /// its other words with the cycle code turned into G80 and its cycle
+    /// words (X Y Z R P L) removed; each move of the expanded cycle follows,
+    /// compensated like any other, with the dwell of G82/G89 as G4.
+    #[allow(clippy::too_many_arguments)]
+    fn write_cycle(
+        &mut self,
+        line: u64,
+        bytes: &[u8],
+        words: Vec<&Word>,
+        motions: &[volcomp_gcode::Motion],
+        interp: &volcomp_gcode::Interpreter,
+        model: &dyn ErrorModel,
+        options: &CompensateOptions,
+        survey: &StyleSurvey,
+        sep: &str,
+        file: &str,
+        on_point: &mut dyn FnMut(&PointRecord),
+    ) -> Result<(), CompensationError> {
+        if interp.feed_mode() == FeedMode::InverseTime {
+            return Err(CompensationError::AtLine {
+                file: file.into(),
+                line,
+                message: "a canned cycle under inverse-time feed (G93) cannot be expanded with the same timing".into(),
+                help: "post the program in G94 (units per minute)".into(),
+            });
+        }
+        let content = &bytes[..volcomp_gcode::lexer::content_len(bytes)];
+        let ending = line_ending(bytes);
+        let mut edits = Vec::new();
+        for w in &words {
+            match w.letter {
+                b'G' if [81.0, 82.0, 85.0, 89.0].contains(&w.value) => {
+                    edits.push(Edit::replace(w.value_span.clone(), "80"));
+                }
+                b'X' | b'Y' | b'Z' | b'R' | b'P' | b'L' => {
+                    edits.push(Edit::delete(
+                        blank_before(content, w.span.start)..w.span.end,
+                    ));
+                }
+                _ => {}
+            }
+        }
+        apply_edits(bytes, &mut edits, &mut self.buf).map_err(|e| CompensationError::AtLine {
+            file: file.into(),
+            line,
+            message: format!("internal edit error: {e}"),
+            help: "please report this with the program line".into(),
+        })?;
+        if !self.buf.ends_with(b"\n") {
+            self.buf.extend_from_slice(ending);
+        }
+        self.summary.lines_out += 1;
+        self.mode = Some(OutMode::Other);
+        let units = interp.units();
+        let decimals = options.decimals.unwrap_or(match units {
+            Units::Mm => 4,
+            Units::Inch => 5,
+        });
+        let style = survey.style(decimals);
+        let frame = Frame {
+            offset_mm: interp.frame_offset_mm(),
+            mm_per_unit: units.mm_per_unit(),
+            decimals,
+            absolute: interp.absolute(),
+        };
+        let dwell = interp.canned_cycle().and_then(|(_, d)| d);
+        let mut dwell_written = false;
+        for m in motions {
+            let feed_like = matches!(m.kind, MotionKind::Feed);
+            let targets = targets_of(m, options);
+            let from = self.q_out;
+            let commands = self.solve_targets(
+                model, options, &frame, &targets, m.start, feed_like, file, line, on_point,
+            )?;
+            let mode = if feed_like {
+                OutMode::Feed
+            } else {
+                OutMode::Rapid
+            };
+            let mut pos = from;
+            for (q, take_up) in commands {
+                if let Some(tu) = take_up {
+                    self.write_inserted(
+                        &frame,
+                        style,
+                        sep,
+                        pos,
+                        tu,
+                        OutMode::Feed,
+                        line,
+                        options.trace_comments,
+                        ending,
+                        "take-up",
+                    );
+                    pos = tu;
+                }
+                if q == pos {
+                    // A zero-length move of the cycle: keep the modal state
+                    // the same as the controller would, but write nothing.
+                    continue;
+                }
+                self.write_inserted(
+                    &frame,
+                    style,
+                    sep,
+                    pos,
+                    q,
+                    mode,
+                    line,
+                    options.trace_comments,
+                    ending,
+                    "cycle",
+                );
+                pos = q;
+            }
+            if feed_like && !dwell_written {
+                if let Some(p) = dwell {
+                    let mut text = String::from("G4");
+                    text.push_str(sep);
+                    text.push('P');
+                    format_number(
+                        p,
+                        NumberStyle {
+                            decimals: 3,
+                            leading_zero: true,
+                            trim_trailing_zeros: true,
+                            trailing_dot: false,
+                        },
+                        &mut text,
+                    );
+                    self.buf.extend_from_slice(text.as_bytes());
+                    self.buf.extend_from_slice(ending);
+                    self.summary.lines_out += 1;
+                }
+                dwell_written = true;
+            }
+        }
+        Ok(())
+    }
+
+    /// Solves the targets of one motion in order; returns each command and
+    /// the take-up move written before it, if any.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_targets(
+        &mut self,
+        model: &dyn ErrorModel,
+        options: &CompensateOptions,
+        frame: &Frame,
+        targets: &[Vec3],
+        start: Vec3,
+        feed_like: bool,
+        file: &str,
+        line: u64,
+        on_point: &mut dyn FnMut(&PointRecord),
+    ) -> Result<Vec<(Vec3, Option<Vec3>)>, CompensationError> {
+        let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
+        let mut t_prev = start;
+        for t in targets {
+            let q_from = self.q_out;
+            let quantize = |q: Vec3| frame.quantize(q, q_from);
+            let point = match options.directions {
+                DirectionPolicy::Commanded => {
+                    solve_consistent(model, options.method, *t, self.q_out, self.s, &quantize)
+                }
+                DirectionPolicy::Nominal => {
+                    let s_nom = next_state(self.s_nominal, *t - t_prev);
+                    solve_fixed(model, options.method, *t, s_nom, [false; 3], Vec3::ZERO).map(
+                        |sol| {
+                            let q = quantize(sol.q_mm);
+                            crate::solve::PointSolution {
+                                q_mm: q,
+                                s: s_nom,
+                                iterations: sol.iterations,
+                                residual_um: sol.residual_um,
+                                reversed: [false; 3],
+                                held: [false; 3],
+                            }
+                        },
+                    )
+                }
+            }
+            .map_err(|source| model_error(file, line, source))?;
+            let correction = (point.q_mm - *t).norm();
+            if correction > options.max_correction_mm {
+                return Err(CompensationError::AtLine {
+                    file: file.into(),
+                    line,
+                    message: format!("the correction here would be {:.1} µm, above the limit of {:.1} µm", correction * 1e3, options.max_correction_mm * 1e3),
+                    help: "check that the map is in µm (not mm) and belongs to this machine; raise --max-correction only if the machine really is this far off".into(),
+                });
+            }
+            let mut take_up = None;
+            if options.take_up
+                && feed_like
+                && options.directions == DirectionPolicy::Commanded
+                && point.reversed.iter().any(|r| *r)
+            {
+                take_up = Some(
+                    take_up_command(model, self.q_out, self.s, point.s, point.reversed, frame)
+                        .map_err(|source| model_error(file, line, source))?,
+                );
+            }
+            // A take-up never goes past the segment's own command: the segment
+            // must continue in the new direction, not reverse once more.
+            if let Some(tu) = take_up.as_mut() {
+                for a in 0..3 {
+                    if point.reversed[a] && (tu[a] - point.q_mm[a]) * point.s[a].sign() > 0.0 {
+                        tu[a] = point.q_mm[a];
+                    }
+                }
+                self.q_out = *tu;
+            }
+            self.summary.points += 1;
+            self.summary.max_residual_um = self.summary.max_residual_um.max(point.residual_um);
+            self.summary.max_correction_um = self.summary.max_correction_um.max(correction * 1e3);
+            for a in 0..3 {
+                if point.held[a] {
+                    self.summary.held_count += 1;
+                    if self.summary.held.len() < 100 {
+                        self.summary.held.push((line, ['X', 'Y', 'Z'][a]));
+                    }
+                }
+            }
+            self.summary.take_ups += u64::from(take_up.is_some());
+            on_point(&PointRecord {
+                line,
+                target_mm: *t,
+                command_mm: point.q_mm,
+                iterations: point.iterations,
+                residual_um: point.residual_um,
+                reversed: point.reversed,
+                held: point.held,
+                take_up: take_up.is_some(),
+                rapid: !feed_like,
+            });
+            commands.push((point.q_mm, take_up));
+            self.q_out = point.q_mm;
+            self.s = point.s;
+            self.s_nominal = next_state(self.s_nominal, *t - t_prev);
+            t_prev = *t;
+        }
+        Ok(commands)
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn write_inserted(
         &mut self,

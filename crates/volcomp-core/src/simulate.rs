@@ -316,8 +316,15 @@ mod tests {
             samples.push((q.z, a.z))
         })
         .unwrap();
-        let (q_mid, a_mid) = samples[4]; // command 0.995
-        assert!((q_mid - 0.995).abs() < 1e-12 && (a_mid - 1.0).abs() < 1e-12);
+        // While the command is above 0.995 the tool stands at 1.0; below, it
+        // follows 5 µm above the command.
+        for (q, a) in &samples {
+            let expected = if *q >= 0.995 { 1.0 } else { q + 0.005 };
+            assert!(
+                (a - expected).abs() < 1e-12,
+                "command {q}: tool {a}, expected {expected}"
+            );
+        }
         let (_, a_end) = *samples.last().unwrap();
         assert!((a_end - 0.995).abs() < 1e-12);
     }

@@ -302,3 +302,39 @@ fn incremental_mode_never_accumulates_rounding() {
         .1;
     assert!((last.x - 99.9997).abs() < 1e-9, "{last:?}");
 }
+
+#[test]
+fn canned_cycles_are_written_as_compensated_moves() {
+    let map = map_from(|a, _, _| if a == 0 { [5.0, -3.0, 2.0] } else { [0.0; 3] });
+    let program = "G90 G0 X0 Y0 Z10\nG98 G81 X10 Y10 Z-5 R2 F100\nX20\nG82 X30 Y10 Z-4 R1 P0.5\nG80\nG0 Z20\nM2\n";
+    let opts = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    };
+    let (out, _) = compensate(program, &map, opts);
+    // The cycle blocks keep their other words, the cycle becomes G80.
+    assert!(out.contains("G98 G80 F100\n"), "{out}");
+    assert!(out.contains("G4 P0.5"), "{out}");
+    // The expanded moves are the original cycle's moves shifted by −e,
+    // without the zero-length ones.
+    let shift = Vec3::new(-0.005, 0.003, -0.002);
+    let nominal: Vec<Vec3> = {
+        let mut v = Vec::new();
+        let mut prev = Vec3::new(f64::NAN, 0.0, 0.0);
+        for (_, p) in ends(program) {
+            if p != prev {
+                v.push(p);
+            }
+            prev = p;
+        }
+        v
+    };
+    let written: Vec<Vec3> = ends(&out).into_iter().map(|(_, p)| p).collect();
+    assert_eq!(nominal.len(), written.len(), "{out}");
+    for (t, q) in nominal.iter().zip(&written).skip(1) {
+        assert!(
+            (*q - (*t + shift)).max_abs() < 1e-9,
+            "{q:?} vs {t:?}\n{out}"
+        );
+    }
+}

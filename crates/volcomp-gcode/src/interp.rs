@@ -139,6 +139,8 @@ pub struct Interpreter {
     cycle_z: Option<f64>,
     /// Z (axis frame) when the current run of cycle blocks began (`cycle_il`).
     cycle_start_z: Option<f64>,
+    /// Sticky dwell P of G82/G89 (seconds).
+    cycle_p: Option<f64>,
     finished: bool,
     percent_lines: u32,
     words: Box<WordTable>,
@@ -258,6 +260,7 @@ impl Interpreter {
             cycle_r: None,
             cycle_z: None,
             cycle_start_z: None,
+            cycle_p: None,
             finished: false,
             percent_lines: 0,
             words: Box::default(),
@@ -283,6 +286,18 @@ impl Interpreter {
     /// Whether G90 (absolute) is in effect.
     pub fn absolute(&self) -> bool {
         self.absolute
+    }
+
+    /// The canned cycle in effect (81, 82, 85 or 89) and, for G82/G89, the
+    /// dwell at the bottom in seconds.
+    pub fn canned_cycle(&self) -> Option<(u16, Option<f64>)> {
+        match self.motion_mode {
+            Some(MotionMode::Cycle(code)) => {
+                let dwell = matches!(code, 820 | 890).then_some(self.cycle_p).flatten();
+                Some((code / 10, dwell))
+            }
+            _ => None,
+        }
     }
 
     /// Feed mode in effect.
@@ -1083,6 +1098,9 @@ impl Interpreter {
         }
         if let Some(z) = w.get(b'Z') {
             self.cycle_z = Some(z);
+        }
+        if let Some(p) = w.get(b'P') {
+            self.cycle_p = Some(p);
         }
         let (Some(r_word), Some(z_word)) = (self.cycle_r, self.cycle_z) else {
             return Err(invalid(
