@@ -100,6 +100,18 @@ pub struct CompensateArgs {
     /// Do not split feed moves (only arcs are linearised).
     #[arg(long, conflicts_with_all = ["segments", "segment_length"])]
     pub no_split: bool,
+    /// Split feed moves adaptively: as finely as the map needs for the path
+    /// to stay within this contour tolerance (µm).
+    #[arg(long, value_name = "UM", conflicts_with_all = ["segments", "segment_length", "no_split"])]
+    pub contour_tolerance_um: Option<f64>,
+    /// Shortest segment of adaptive splitting (mm).
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 0.01,
+        requires = "contour_tolerance_um"
+    )]
+    pub min_segment_length: f64,
     /// ILC gain γ, 0 < γ ≤ 1.
     #[arg(long, default_value_t = 0.5)]
     pub gain: f64,

@@ -34,6 +34,16 @@ pub enum Segmentation {
     Count(u32),
     /// Segments no longer than this (mm).
     MaxLength(f64),
+    /// As many segments as the map needs: a segment is halved while the
+    /// error's departure from a straight line between its ends (which is what
+    /// compensating only the ends leaves on the path) exceeds the tolerance
+    /// at its quarter points, down to `min_length_mm`.
+    Adaptive {
+        /// Contour tolerance (mm).
+        tolerance_mm: f64,
+        /// Shortest segment (mm).
+        min_length_mm: f64,
+    },
 }
 
 /// Which direction state chooses the error tables.
@@ -263,7 +273,8 @@ pub fn compensate_program<R: BufRead>(
             decimals,
             absolute: interp.absolute(),
         };
-        let targets = targets_of(&motion, options);
+        let targets = targets_of(&motion, options, model, st.s)
+            .map_err(|source| model_error(file, ev.number, source))?;
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
         if targets.len() > 1 && interp.feed_mode() == FeedMode::InverseTime {
             return Err(CompensationError::AtLine {
@@ -567,7 +578,8 @@ impl State {
         let mut dwell_written = false;
         for m in motions {
             let feed_like = matches!(m.kind, MotionKind::Feed);
-            let targets = targets_of(m, options);
+            let targets = targets_of(m, options, model, self.s)
+                .map_err(|source| model_error(file, line, source))?;
             let from = self.q_out;
             let commands = self.solve_targets(
                 model, options, &frame, &targets, m.start, feed_like, file, line, on_point,
@@ -917,43 +929,100 @@ fn stop_m_word<'a>(mut words: impl Iterator<Item = &'a Word>) -> Option<&'a Word
 }
 
 /// Target points of a program motion (axis frame), the last one exactly the
-/// motion's end.
-pub fn targets_of(motion: &volcomp_gcode::Motion, options: &CompensateOptions) -> Vec<Vec3> {
+/// motion's end. `model` and `s` (the direction state before the motion)
+/// are only used by adaptive segmentation.
+pub fn targets_of(
+    motion: &volcomp_gcode::Motion,
+    options: &CompensateOptions,
+    model: &dyn ErrorModel,
+    s: Directions,
+) -> Result<Vec<Vec3>, ModelError> {
     let mut out = Vec::new();
+    let seg = options.segmentation;
     match motion.kind {
         MotionKind::Rapid => out.push(motion.end),
-        MotionKind::Feed => split_line(motion.start, motion.end, options.segmentation, &mut out),
+        MotionKind::Feed => split(motion.start, motion.end, seg, model, s, &mut out)?,
         MotionKind::Arc(arc) => {
             let chords = arc.chord_count(options.chord_tolerance_mm);
-            match options.segmentation {
-                Segmentation::Count(n) => {
-                    let n = chords.max(n as usize);
-                    for k in 1..n {
-                        out.push(arc.point_at(k as f64 / n as f64));
+            if let Segmentation::Count(n) = seg {
+                let n = chords.max(n as usize);
+                for k in 1..n {
+                    out.push(arc.point_at(k as f64 / n as f64));
+                }
+                out.push(arc.end);
+            } else {
+                let mut prev = arc.start;
+                let mut result = Ok(());
+                arc.for_each_chord_end(options.chord_tolerance_mm, |p| {
+                    if result.is_ok() {
+                        result = split(prev, p, seg, model, s, &mut out);
                     }
-                    out.push(arc.end);
-                }
-                _ => {
-                    let mut prev = arc.start;
-                    arc.for_each_chord_end(options.chord_tolerance_mm, |p| {
-                        split_line(prev, p, options.segmentation, &mut out);
-                        prev = p;
-                    });
-                }
+                    prev = p;
+                });
+                result?;
             }
         }
     }
-    out
+    Ok(out)
 }
 
-fn split_line(a: Vec3, b: Vec3, seg: Segmentation, out: &mut Vec<Vec3>) {
+fn split(
+    a: Vec3,
+    b: Vec3,
+    seg: Segmentation,
+    model: &dyn ErrorModel,
+    s: Directions,
+    out: &mut Vec<Vec3>,
+) -> Result<(), ModelError> {
     let n = match seg {
         Segmentation::Off => 1,
         Segmentation::Count(n) => n.max(1) as usize,
         Segmentation::MaxLength(l) => (((b - a).norm() / l).ceil() as usize).max(1),
+        Segmentation::Adaptive {
+            tolerance_mm,
+            min_length_mm,
+        } => {
+            let s = next_state(s, b - a);
+            let e = |p: Vec3| -> Result<Vec3, ModelError> {
+                Ok(model.deviation_um(p, s, crate::model::Components::All)? * 1e-3)
+            };
+            let (ea, eb) = (e(a)?, e(b)?);
+            return bisect(a, b, ea, eb, tolerance_mm, min_length_mm, &e, 0, out);
+        }
     };
     for k in 1..n {
         out.push(a.lerp(b, k as f64 / n as f64));
     }
     out.push(b);
+    Ok(())
+}
+
+/// Adaptive splitting of `a`–`b` (errors `ea`, `eb` at the ends, mm).
+#[allow(clippy::too_many_arguments)]
+fn bisect(
+    a: Vec3,
+    b: Vec3,
+    ea: Vec3,
+    eb: Vec3,
+    tol: f64,
+    min_len: f64,
+    e: &dyn Fn(Vec3) -> Result<Vec3, ModelError>,
+    depth: u32,
+    out: &mut Vec<Vec3>,
+) -> Result<(), ModelError> {
+    let mid = a.lerp(b, 0.5);
+    let em = e(mid)?;
+    let mut worst = (em - ea.lerp(eb, 0.5)).norm();
+    if worst <= tol {
+        for t in [0.25, 0.75] {
+            worst = worst.max((e(a.lerp(b, t))? - ea.lerp(eb, t)).norm());
+        }
+    }
+    if worst > tol && (b - a).norm() > 2.0 * min_len && depth < 40 {
+        bisect(a, mid, ea, em, tol, min_len, e, depth + 1, out)?;
+        bisect(mid, b, em, eb, tol, min_len, e, depth + 1, out)
+    } else {
+        out.push(b);
+        Ok(())
+    }
 }

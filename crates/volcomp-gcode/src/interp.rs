@@ -806,12 +806,12 @@ impl Interpreter {
         };
         let turns = match w.get(b'P') {
             None => 1,
-            Some(p) if p >= 1.0 && p.fract() == 0.0 => p as u32,
+            Some(p) if (1.0..=10_000.0).contains(&p) && p.fract() == 0.0 => p as u32,
             Some(_) => {
                 return Err(invalid(
                     line,
                     w.col(b'P').unwrap_or(col),
-                    "P on an arc must be a whole number of turns ≥ 1",
+                    "P on an arc must be a whole number of turns from 1 to 10000",
                     "fix the P word",
                 ))
             }

@@ -40,16 +40,34 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
             }
         }
     };
-    let segmentation = match (a.no_split, a.segments, a.segment_length) {
-        (true, _, _) => Segmentation::Off,
-        (_, Some(0), _) => return Err(CliError::Message("--segments must be at least 1".into())),
-        (_, Some(n), _) => Segmentation::Count(n),
-        (_, _, Some(l)) if !(l.is_finite() && l > 0.0) => {
+    let segmentation = match (
+        a.no_split,
+        a.segments,
+        a.segment_length,
+        a.contour_tolerance_um,
+    ) {
+        (true, ..) => Segmentation::Off,
+        (_, Some(0), ..) => return Err(CliError::Message("--segments must be at least 1".into())),
+        (_, Some(n), ..) => Segmentation::Count(n),
+        (_, _, Some(l), _) if !(l.is_finite() && l > 0.0) => {
             return Err(CliError::Message(format!(
                 "--segment-length must be a positive length in mm; got {l}"
             )))
         }
-        (_, _, Some(l)) => Segmentation::MaxLength(l),
+        (_, _, Some(l), _) => Segmentation::MaxLength(l),
+        (_, _, _, Some(t)) => {
+            if !(t.is_finite() && t > 0.0)
+                || !(a.min_segment_length.is_finite() && a.min_segment_length > 0.0)
+            {
+                return Err(CliError::Message(
+                    "--contour-tolerance-um and --min-segment-length must be positive".into(),
+                ));
+            }
+            Segmentation::Adaptive {
+                tolerance_mm: t * 1e-3,
+                min_length_mm: a.min_segment_length,
+            }
+        }
         _ => Segmentation::MaxLength(1.0),
     };
     if !(a.chord_tolerance.is_finite() && a.chord_tolerance > 0.0) {

@@ -65,6 +65,17 @@ pub fn variants() -> Vec<Variant> {
             suffix: "exact",
             options: base,
         },
+        Variant {
+            label: "exact, adaptive 0.05 µm",
+            suffix: "adaptive",
+            options: CompensateOptions {
+                segmentation: Segmentation::Adaptive {
+                    tolerance_mm: 0.05e-3,
+                    min_length_mm: 0.01,
+                },
+                ..base
+            },
+        },
     ]
 }
 
@@ -123,7 +134,7 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
     println!("RMS errors in µm; point = at the program's target points, contour = along the whole path (every 0.05 mm); in brackets: improvement over 'before'.\n");
     print!("{:<44} {:>8}", "program", "before");
     for v in &variants {
-        print!(" {:>24}", v.label);
+        print!(" {:>26}", v.label);
     }
     println!();
     for p in demo_programs() {
@@ -152,7 +163,7 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
         );
         for c in &cells {
             print!(
-                " {:>24}",
+                " {:>26}",
                 format!(
                     "{:.3} ({:+.0}%)",
                     c.point_rms_um,
@@ -164,7 +175,7 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
         print!("{:<44} {:>8.3}", "  contour", before.contour_rms_um);
         for c in &cells {
             print!(
-                " {:>24}",
+                " {:>26}",
                 format!(
                     "{:.3} ({:+.1}%)",
                     c.contour_rms_um,
