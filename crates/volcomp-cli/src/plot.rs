@@ -188,6 +188,22 @@ fn draw<DB: DrawingBackend>(
     Ok(())
 }
 
+/// Fills the background and draws the charts stacked vertically.
+fn render<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    charts: &[Chart],
+) -> Result<(), String> {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    for (area, chart) in root
+        .split_evenly((charts.len().max(1), 1))
+        .iter()
+        .zip(charts)
+    {
+        draw(area, chart)?;
+    }
+    root.present().map_err(|e| e.to_string())
+}
+
 /// Draws `charts` stacked vertically into `path` (`.svg` or `.png`), atomically.
 pub fn write_charts(charts: &[Chart], path: &Path) -> Result<(), CliError> {
     register();
@@ -202,16 +218,11 @@ pub fn write_charts(charts: &[Chart], path: &Path) -> Result<(), CliError> {
         Some("svg") => {
             let mut text = String::new();
             {
-                let root = SVGBackend::with_string(&mut text, (w, h)).into_drawing_area();
-                root.fill(&WHITE).map_err(|e| fail(e.to_string()))?;
-                for (area, chart) in root
-                    .split_evenly((charts.len().max(1), 1))
-                    .iter()
-                    .zip(charts)
-                {
-                    draw(area, chart).map_err(fail)?;
-                }
-                root.present().map_err(|e| fail(e.to_string()))?;
+                render(
+                    SVGBackend::with_string(&mut text, (w, h)).into_drawing_area(),
+                    charts,
+                )
+                .map_err(fail)?;
             }
             write_atomically(path, &[], |out| {
                 out.write_all(text.as_bytes())
@@ -231,16 +242,11 @@ pub fn write_charts(charts: &[Chart], path: &Path) -> Result<(), CliError> {
                 .tempfile_in(&dir)
                 .map_err(|e| CliError::Io(dir.clone(), e))?;
             {
-                let root = BitMapBackend::new(tmp.path(), (w, h)).into_drawing_area();
-                root.fill(&WHITE).map_err(|e| fail(e.to_string()))?;
-                for (area, chart) in root
-                    .split_evenly((charts.len().max(1), 1))
-                    .iter()
-                    .zip(charts)
-                {
-                    draw(area, chart).map_err(fail)?;
-                }
-                root.present().map_err(|e| fail(e.to_string()))?;
+                render(
+                    BitMapBackend::new(tmp.path(), (w, h)).into_drawing_area(),
+                    charts,
+                )
+                .map_err(fail)?;
             }
             {
                 use std::os::unix::fs::PermissionsExt as _;

@@ -303,3 +303,20 @@ fn demo_runs_and_meets_the_issue_targets() {
     assert_eq!(rows, 6, "{text}");
     assert!(dir.join("d/circle_d20_20seg.exact.ngc").exists());
 }
+
+#[test]
+fn simulate_draws_svg_and_png_plots() {
+    let dir = tempdir("plot");
+    write_map(&dir, |p| 0.2 * p);
+    std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
+    for (name, magic) in [("e.svg", &b"<svg"[..]), ("e.png", &b"\x89PNG"[..])] {
+        let o = volcomp(&["simulate", "p.ngc", "--map", "map.csv", "--plot", name], &dir);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let bytes = std::fs::read(dir.join(name)).unwrap();
+        assert!(bytes.windows(magic.len()).take(200).any(|w| w == magic), "{name} is not an image");
+        assert!(bytes.len() > 2000, "{name} is nearly empty");
+    }
+    let o = volcomp(&["simulate", "p.ngc", "--map", "map.csv", "--plot", "e.pdf"], &dir);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains(".svg or .png"), "{}", stderr(&o));
+}

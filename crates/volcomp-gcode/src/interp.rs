@@ -170,6 +170,17 @@ impl WordTable {
     fn g_col(&self, code: u16) -> Option<usize> {
         self.g.iter().find(|(c, _)| *c == code).map(|(_, col)| *col)
     }
+    /// `Some(true)` when the block has `on`, `Some(false)` when it has `off`
+    /// (two codes of one modal group, so never both).
+    fn switch(&self, on: u16, off: u16) -> Option<bool> {
+        if self.has_g(on) {
+            Some(true)
+        } else if self.has_g(off) {
+            Some(false)
+        } else {
+            None
+        }
+    }
     fn has_m(&self, code: u16) -> bool {
         self.m.iter().any(|(c, _)| *c == code)
     }
@@ -570,22 +581,15 @@ impl Interpreter {
                 self.work = i;
             }
         }
-        // 17: distance modes.
-        if w.has_g(900) {
-            self.absolute = true;
-        } else if w.has_g(910) {
-            self.absolute = false;
+        // 17: distance modes; 18: retract mode.
+        if let Some(on) = w.switch(900, 910) {
+            self.absolute = on;
         }
-        if w.has_g(901) {
-            self.arc_absolute = true;
-        } else if w.has_g(911) {
-            self.arc_absolute = false;
+        if let Some(on) = w.switch(901, 911) {
+            self.arc_absolute = on;
         }
-        // 18: retract mode.
-        if w.has_g(980) {
-            self.retract_to_r = false;
-        } else if w.has_g(990) {
-            self.retract_to_r = true;
+        if let Some(on) = w.switch(990, 980) {
+            self.retract_to_r = on;
         }
         // Motion mode changes.
         if w.has_g(800) {
