@@ -164,7 +164,7 @@ pub fn demo_programs() -> Vec<DemoProgram> {
         },
         DemoProgram {
             name: "spiral_d20_p1_60seg",
-            title: "spiral D20, pitch 1, 60 seg/turn, 3 turns",
+            title: "spiral D20, pitch 1, 60 seg/turn",
             text: polygon_program(
                 "spiral D20, pitch 1 mm, 60 segments per turn",
                 20.0,
