@@ -261,18 +261,7 @@ pub fn compensate_program<R: BufRead>(
         }
         let motion = ev.motions[0];
         let interp = ev.interp;
-        let units = interp.units();
-        let decimals = options.decimals.unwrap_or(match units {
-            Units::Mm => 4,
-            Units::Inch => 5,
-        });
-        let style: NumberStyle = survey.style(decimals);
-        let frame = Frame {
-            offset_mm: interp.frame_offset_mm(),
-            mm_per_unit: units.mm_per_unit(),
-            decimals,
-            absolute: interp.absolute(),
-        };
+        let (frame, style) = Frame::of(interp, options, survey);
         let targets = targets_of(&motion, options, model, st.s)
             .map_err(|source| model_error(file, ev.number, source))?;
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
@@ -426,6 +415,27 @@ struct Frame {
 }
 
 impl Frame {
+    /// The frame and number style of the line just interpreted: its offsets,
+    /// units and distance mode; 4 decimals in mm, 5 in inch unless overridden.
+    fn of(
+        interp: &volcomp_gcode::Interpreter,
+        options: &CompensateOptions,
+        survey: &StyleSurvey,
+    ) -> (Frame, NumberStyle) {
+        let units = interp.units();
+        let decimals = options.decimals.unwrap_or(match units {
+            Units::Mm => 4,
+            Units::Inch => 5,
+        });
+        let frame = Frame {
+            offset_mm: interp.frame_offset_mm(),
+            mm_per_unit: units.mm_per_unit(),
+            decimals,
+            absolute: interp.absolute(),
+        };
+        (frame, survey.style(decimals))
+    }
+
     fn round(&self, v: f64) -> f64 {
         let k = 10f64.powi(i32::from(self.decimals));
         (v * k).round() / k
@@ -562,18 +572,7 @@ impl State {
         }
         self.summary.lines_out += 1;
         self.mode = Some(OutMode::Other);
-        let units = interp.units();
-        let decimals = options.decimals.unwrap_or(match units {
-            Units::Mm => 4,
-            Units::Inch => 5,
-        });
-        let style = survey.style(decimals);
-        let frame = Frame {
-            offset_mm: interp.frame_offset_mm(),
-            mm_per_unit: units.mm_per_unit(),
-            decimals,
-            absolute: interp.absolute(),
-        };
+        let (frame, style) = Frame::of(interp, options, survey);
         let dwell = interp.canned_cycle().and_then(|(_, d)| d);
         let mut dwell_written = false;
         for m in motions {
