@@ -200,6 +200,7 @@ pub fn compensate_program<R: BufRead>(
         s_nominal: ALL_FORWARD,
         mode: None,
         feed_known: false,
+        frame_before: None,
         known: [false; 3],
         summary: CompensateSummary::default(),
         buf: Vec::with_capacity(1024),
@@ -240,6 +241,7 @@ pub fn compensate_program<R: BufRead>(
                 &mut on_point,
             )?;
             out.write_all(&st.buf)?;
+            st.frame_before = Some(Frame::of(ev.interp, options, survey));
             continue;
         }
         if ev.after_end || ev.kind != LineKind::Block || !program_motion || !all_known {
@@ -257,11 +259,15 @@ pub fn compensate_program<R: BufRead>(
             }
             st.feed_known |=
                 ev.interp.feed_mode() != FeedMode::InverseTime && has_feed(ev.lexed.words());
+            st.frame_before = Some(Frame::of(ev.interp, options, survey));
             continue;
         }
         let motion = ev.motions[0];
         let interp = ev.interp;
         let (frame, style) = Frame::of(interp, options, survey);
+        let (frame0, style0) = st.frame_before.unwrap_or((frame, style));
+        let feed_known_before = st.feed_known;
+        let feed_known_in_line = st.feed_known || has_feed(ev.lexed.words());
         let targets = targets_of(&motion, options, model, st.s)
             .map_err(|source| model_error(file, ev.number, source))?;
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
@@ -282,6 +288,7 @@ pub fn compensate_program<R: BufRead>(
             model,
             options,
             &frame,
+            &frame0,
             &targets,
             motion.start,
             feed_like,
@@ -303,14 +310,21 @@ pub fn compensate_program<R: BufRead>(
         };
         for (i, (q, take_up)) in commands.iter().enumerate() {
             if let Some(tu) = take_up {
-                let tu_mode = if st.feed_known {
+                // The first take-up runs before the line's own words: in the
+                // previous line's frame, distance mode, units and feed.
+                let (tu_frame, tu_style, tu_feed) = if i == 0 {
+                    (&frame0, style0, feed_known_before)
+                } else {
+                    (&frame, style, feed_known_in_line)
+                };
+                let tu_mode = if tu_feed {
                     OutMode::Feed
                 } else {
                     OutMode::Rapid
                 };
                 st.write_inserted(
-                    &frame,
-                    style,
+                    tu_frame,
+                    tu_style,
                     sep,
                     pos,
                     *tu,
@@ -377,7 +391,8 @@ pub fn compensate_program<R: BufRead>(
             st.buf.extend_from_slice(line_ending);
             st.summary.lines_out += 1;
         }
-        st.feed_known |= has_feed(ev.lexed.words());
+        st.feed_known = feed_known_in_line;
+        st.frame_before = Some((frame, style));
         out.write_all(&st.buf)?;
     }
     Ok(st.summary)
@@ -400,6 +415,9 @@ struct State {
     s_nominal: Directions,
     mode: Option<OutMode>,
     feed_known: bool,
+    /// Frame and number style in effect before the current line (after the
+    /// previous one): what a move written before the line's own words uses.
+    frame_before: Option<(Frame, NumberStyle)>,
     summary: CompensateSummary,
     buf: Vec<u8>,
     text: String,
@@ -581,7 +599,7 @@ impl State {
                 .map_err(|source| model_error(file, line, source))?;
             let from = self.q_out;
             let commands = self.solve_targets(
-                model, options, &frame, &targets, m.start, feed_like, file, line, on_point,
+                model, options, &frame, &frame, &targets, m.start, feed_like, file, line, on_point,
             )?;
             let mode = if feed_like {
                 OutMode::Feed
@@ -657,6 +675,7 @@ impl State {
         model: &dyn ErrorModel,
         options: &CompensateOptions,
         frame: &Frame,
+        first_take_up_frame: &Frame,
         targets: &[Vec3],
         start: Vec3,
         feed_like: bool,
@@ -707,8 +726,19 @@ impl State {
                 && point.reversed.iter().any(|r| *r)
             {
                 take_up = Some(
-                    take_up_command(model, self.q_out, self.s, point.s, point.reversed, frame)
-                        .map_err(|source| model_error(file, line, source))?,
+                    take_up_command(
+                        model,
+                        self.q_out,
+                        self.s,
+                        point.s,
+                        point.reversed,
+                        if commands.is_empty() {
+                            first_take_up_frame
+                        } else {
+                            frame
+                        },
+                    )
+                    .map_err(|source| model_error(file, line, source))?,
                 );
             }
             // A take-up never goes past the segment's own command: the segment
