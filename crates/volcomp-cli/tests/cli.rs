@@ -62,6 +62,26 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
             1,
             "radius to end of arc",
         ),
+        (
+            "G0 X0 Y0 Z0\nG2 X10 Y0 I5 J0 K1\n",
+            2,
+            17,
+            "K word given for an arc",
+        ),
+        ("M98 P100\n", 1, 1, "subprogram"),
+        ("G52 X10\n", 1, 1, "G52"),
+        ("G0 X1 X2\n", 1, 7, "twice"),
+        ("G0 G1 X1\n", 1, 4, "same modal group"),
+        (
+            "G0 X0 Y0 Z5\nG83 X1 Y1 Z-5 R1 Q1 F100\n",
+            2,
+            1,
+            "canned cycle",
+        ),
+        ("G0 X0 Y0 Z0\nG43 H7 Z5\n", 2, 1, "tool 7"),
+        ("G0 X0 Y0 Z0\nG1 X1 F-5\n", 2, 7, "negative feed"),
+        ("G0 X0 Y0 Z0\nG10 L1 P1 Z5\n", 2, 1, "G10 L1"),
+        ("G0 X0 Y0 Z0\nG3 X1 Y1 P0.5 R1 F10\n", 2, 10, "turns"),
     ];
     for (program, line, col, words) in cases {
         std::fs::write(dir.join("p.ngc"), program).unwrap();
@@ -310,13 +330,22 @@ fn simulate_draws_svg_and_png_plots() {
     write_map(&dir, |p| 0.2 * p);
     std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
     for (name, magic) in [("e.svg", &b"<svg"[..]), ("e.png", &b"\x89PNG"[..])] {
-        let o = volcomp(&["simulate", "p.ngc", "--map", "map.csv", "--plot", name], &dir);
+        let o = volcomp(
+            &["simulate", "p.ngc", "--map", "map.csv", "--plot", name],
+            &dir,
+        );
         assert!(o.status.success(), "{}", stderr(&o));
         let bytes = std::fs::read(dir.join(name)).unwrap();
-        assert!(bytes.windows(magic.len()).take(200).any(|w| w == magic), "{name} is not an image");
+        assert!(
+            bytes.windows(magic.len()).take(200).any(|w| w == magic),
+            "{name} is not an image"
+        );
         assert!(bytes.len() > 2000, "{name} is nearly empty");
     }
-    let o = volcomp(&["simulate", "p.ngc", "--map", "map.csv", "--plot", "e.pdf"], &dir);
+    let o = volcomp(
+        &["simulate", "p.ngc", "--map", "map.csv", "--plot", "e.pdf"],
+        &dir,
+    );
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains(".svg or .png"), "{}", stderr(&o));
 }
