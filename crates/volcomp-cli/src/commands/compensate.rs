@@ -56,9 +56,8 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
         }
         (_, _, Some(l), _) => Segmentation::MaxLength(l),
         (_, _, _, Some(t)) => {
-            if !(t.is_finite() && t > 0.0)
-                || !(a.min_segment_length.is_finite() && a.min_segment_length > 0.0)
-            {
+            let positive = |v: f64| v.is_finite() && v > 0.0;
+            if !(positive(t) && positive(a.min_segment_length)) {
                 return Err(CliError::Message(
                     "--contour-tolerance-um and --min-segment-length must be positive".into(),
                 ));
