@@ -1,0 +1,489 @@
+//! `volcomp straightness`: identify a straightness model from measured
+//! profiles, separating geometric error from vibration by comparing runs at
+//! several feed rates (docs/straightness.md), then plot it, export a
+//! Z-correction table or predict the deviation at points. The model file is
+//! also a `--map` for `compensate` and `simulate`.
+
+use crate::output::{write_atomically, CliError};
+use crate::plot::{write_charts, Chart, Series};
+use clap::{Args, Subcommand, ValueEnum};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use volcomp_core::straightness::identify::{fit, AxisFit, Fit, FitOptions, Normalisation};
+use volcomp_core::straightness::run::Run;
+use volcomp_core::straightness::{Axis, StraightnessModel};
+
+#[derive(Args, Debug)]
+pub struct StraightnessArgs {
+    #[command(subcommand)]
+    pub command: StraightnessCommand,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum StraightnessCommand {
+    /// Identify a straightness model (Fourier series + alignment) from runs at several feed rates.
+    Fit(FitArgs),
+    /// Draw the spectra, P̄(λ), σ(λ), the cut-off and measured vs modelled profiles (.svg or .png).
+    Plot(PlotArgs),
+    /// Write a model's Z-correction table (CSV) for a controller's cross compensation.
+    Table(TableArgs),
+    /// Print a model's predicted Z deviation at points.
+    Predict(PredictArgs),
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum AxisArg {
+    X,
+    Y,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum NormaliseArg {
+    /// One common scale for all feed rates: their mean total power (default).
+    Common,
+    /// Each feed rate's spectrum as fractions of its own total power.
+    PerRun,
+}
+
+/// The runs and the identification options (shared by `fit` and `plot`).
+#[derive(Args, Debug, Clone)]
+pub struct RunArgs {
+    /// Run files: CSV `position_mm,displacement_um` (Z deviation, actual − commanded),
+    /// evenly sampled, with `# feed_mm_per_min = F` (or a feed_mm_per_min column) and
+    /// `# axis = X|Y`. Repeats at one feed rate are averaged.
+    #[arg(required = true, value_name = "RUN")]
+    pub runs: Vec<PathBuf>,
+    /// The axis of runs whose file has no `# axis =` line.
+    #[arg(long, value_enum)]
+    pub axis: Option<AxisArg>,
+    /// σ_t: largest relative standard deviation (σ/P̄) across feed rates of a geometric line.
+    #[arg(long, value_name = "SIGMA", default_value_t = 0.05)]
+    pub sigma_t: f64,
+    /// P_t: smallest normalised mean power P̄ of a modelled line (0.01 = 1 % of the power).
+    #[arg(long, value_name = "P", default_value_t = 0.01)]
+    pub p_t: f64,
+    /// Fraction of the samples in each raised-cosine end of the taper window (0 … 0.5).
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.1)]
+    pub taper: f64,
+    /// How spectra are normalised before P̄ and σ are taken.
+    #[arg(long, value_enum, default_value_t = NormaliseArg::Common)]
+    pub normalise: NormaliseArg,
+    /// Use this number of harmonics m instead of the one the thresholds choose.
+    #[arg(long, value_name = "M")]
+    pub harmonics: Option<usize>,
+    /// The files' displacement has the opposite sign of the deviation (e.g.
+    /// workpiece relative to tool): negate it.
+    #[arg(long)]
+    pub negate: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct FitArgs {
+    #[command(flatten)]
+    pub runs: RunArgs,
+    /// Write the model (TOML) here; standard output without it.
+    #[arg(short, long, value_name = "MODEL")]
+    pub output: Option<PathBuf>,
+    /// Also draw the identification (.svg or .png).
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+}
+
+#[derive(Args, Debug)]
+pub struct PlotArgs {
+    #[command(flatten)]
+    pub runs: RunArgs,
+    /// The plot (.svg or .png).
+    #[arg(short, long, value_name = "FILE")]
+    pub output: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct TableArgs {
+    /// A model written by `volcomp straightness fit`.
+    pub model: PathBuf,
+    /// Distance between table rows (mm); keep it well under the cut-off wavelength.
+    #[arg(long, value_name = "MM", default_value_t = 1.0)]
+    pub step: f64,
+    /// Write the table here; standard output without it.
+    #[arg(short, long, value_name = "CSV")]
+    pub output: Option<PathBuf>,
+}
+
+#[derive(Args, Debug)]
+pub struct PredictArgs {
+    /// A model written by `volcomp straightness fit`.
+    pub model: PathBuf,
+    /// Points `X,Y` in mm (machine coordinates).
+    #[arg(required = true, value_name = "X,Y", allow_hyphen_values = true)]
+    pub points: Vec<String>,
+    /// Hold points outside the measured range at its end instead of refusing them.
+    #[arg(long)]
+    pub clamp: bool,
+}
+
+pub fn run(a: StraightnessArgs) -> Result<(), CliError> {
+    match a.command {
+        StraightnessCommand::Fit(a) => fit_cmd(a),
+        StraightnessCommand::Plot(a) => plot_cmd(a),
+        StraightnessCommand::Table(a) => table_cmd(a),
+        StraightnessCommand::Predict(a) => predict_cmd(a),
+    }
+}
+
+fn options(a: &RunArgs) -> FitOptions {
+    FitOptions {
+        sigma_t: a.sigma_t,
+        p_t: a.p_t,
+        taper_fraction: a.taper,
+        normalisation: match a.normalise {
+            NormaliseArg::Common => Normalisation::Common,
+            NormaliseArg::PerRun => Normalisation::PerRun,
+        },
+        harmonics: a.harmonics,
+    }
+}
+
+/// Reads the runs and identifies the model.
+fn identify(a: &RunArgs) -> Result<Fit, CliError> {
+    let mut runs = Vec::with_capacity(a.runs.len());
+    for path in &a.runs {
+        let text = std::fs::read_to_string(path).map_err(|e| CliError::Io(path.clone(), e))?;
+        let mut run = Run::from_csv(&text, &path.display().to_string())?;
+        if a.negate {
+            run.displacement_um.iter_mut().for_each(|v| *v = -*v);
+        }
+        runs.push(run);
+    }
+    let axis = a.axis.map(|x| match x {
+        AxisArg::X => Axis::X,
+        AxisArg::Y => Axis::Y,
+    });
+    Ok(fit(&runs, axis, &options(a))?)
+}
+
+fn summary(f: &Fit, o: &FitOptions) -> String {
+    let mut s = String::new();
+    for a in &f.axes {
+        let feeds: Vec<String> = a
+            .feeds
+            .iter()
+            .map(|g| format!("{} ({}×)", g.feed_mm_per_min, g.files.len()))
+            .collect();
+        let slope = match a.axis {
+            Axis::X => format!("β_zx = {:.3} µrad", f.model.beta_zx_urad),
+            Axis::Y => format!("α_yz = {:.3} µrad", f.model.alpha_yz_urad),
+        };
+        let n = a.positions_mm.len();
+        s.push_str(&format!(
+            "volcomp: straightness along {}: {} runs at {} mm/min; {n} samples every {:.4} mm from x_st = {:.4} mm, l = {:.4} mm\n",
+            a.axis.letter(),
+            a.runs,
+            feeds.join(", "),
+            a.spacing_mm,
+            a.positions_mm[0],
+            a.length_mm
+        ));
+        let how = if o.harmonics.is_some() {
+            "given by --harmonics".to_string()
+        } else {
+            format!(
+                "shortest wavelength with σ < {} and P̄ > {} ({} normalisation)",
+                o.sigma_t,
+                o.p_t,
+                o.normalisation.name()
+            )
+        };
+        s.push_str(&format!(
+            "  cut-off λ_c = {:.4} mm, m = {} harmonics ({how}); {slope}; measured − model RMS {:.4} µm\n",
+            a.cutoff_wavelength_mm, a.harmonics, a.residual_rms_um
+        ));
+        let rejected: Vec<String> = a
+            .feeds
+            .iter()
+            .filter_map(|g| {
+                g.strongest_rejected.map(|l| {
+                    format!(
+                        "{} mm/min: λ {:.4} mm = {:.1} Hz ({:.2} % of the power)",
+                        g.feed_mm_per_min,
+                        l.wavelength_mm,
+                        l.frequency_hz,
+                        100.0 * l.power
+                    )
+                })
+            })
+            .collect();
+        if !rejected.is_empty() {
+            s.push_str(&format!(
+                "  strongest rejected line per feed rate (vibration if its frequency stays put): {}\n",
+                rejected.join("; ")
+            ));
+        }
+        if !a.unstable_in_band.is_empty() {
+            let lines: Vec<String> = a
+                .unstable_in_band
+                .iter()
+                .map(|&k| format!("λ {:.3} mm (σ {:.3})", a.wavelength_mm(k), a.sigma[k]))
+                .collect();
+            s.push_str(&format!(
+                "volcomp: warning: strong lines longer than the cut-off vary with feed rate and are modelled anyway (slow vibration? thermal drift?): {}\n",
+                lines.join(", ")
+            ));
+        }
+        if let Some(m) = f.model.axis(a.axis) {
+            let [lo, hi] = m.recommended_range_mm;
+            s.push_str(&format!(
+                "  compensate inside {lo:.3} … {hi:.3} mm: within one cut-off wavelength of the measured ends the series is poor\n"
+            ));
+        }
+    }
+    s
+}
+
+/// Refuses a plot path that `write_charts` could not write, before any work.
+fn check_plot_path(path: &Path) -> Result<(), CliError> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some(e) if e.eq_ignore_ascii_case("svg") || e.eq_ignore_ascii_case("png") => Ok(()),
+        _ => Err(CliError::Message(format!(
+            "{}: plots are written as .svg or .png; choose one of those extensions",
+            path.display()
+        ))),
+    }
+}
+
+fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
+    if let Some(p) = &a.plot {
+        check_plot_path(p)?;
+    }
+    let o = options(&a.runs);
+    let f = identify(&a.runs)?;
+    let text = f.model.to_toml();
+    let inputs: Vec<&Path> = a.runs.runs.iter().map(PathBuf::as_path).collect();
+    if let Some(path) = &a.plot {
+        write_charts(&charts(&f, &o), path)?;
+    }
+    match &a.output {
+        Some(path) => {
+            write_atomically(path, &inputs, |w| {
+                w.write_all(text.as_bytes())
+                    .map_err(|e| CliError::Io(path.clone(), e))
+            })?;
+            eprint!("{}", summary(&f, &o));
+            eprintln!("volcomp: wrote {}", path.display());
+        }
+        None => {
+            eprint!("{}", summary(&f, &o));
+            std::io::stdout()
+                .write_all(text.as_bytes())
+                .map_err(CliError::Stdout)?;
+        }
+    }
+    if let Some(path) = &a.plot {
+        eprintln!("volcomp: wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
+    check_plot_path(&a.output)?;
+    let o = options(&a.runs);
+    let f = identify(&a.runs)?;
+    for input in &a.runs.runs {
+        if same_path(input, &a.output) {
+            return Err(CliError::Message(format!(
+                "refusing to overwrite the input {}: choose another output path with -o",
+                input.display()
+            )));
+        }
+    }
+    write_charts(&charts(&f, &o), &a.output)?;
+    eprint!("{}", summary(&f, &o));
+    eprintln!("volcomp: wrote {}", a.output.display());
+    Ok(())
+}
+
+fn same_path(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    }
+}
+
+/// Four charts per axis: the spectra per feed rate, P̄(λ) with P_t, σ(λ)
+/// with σ_t (all over log₁₀ λ, with the cut-off marked), and the measured
+/// mean profiles against the model.
+fn charts(f: &Fit, o: &FitOptions) -> Vec<Chart> {
+    let mut out = Vec::new();
+    for a in &f.axes {
+        let letter = a.axis.letter();
+        let half = a.mean_power.len() - 1;
+        let lg = |k: usize| a.wavelength_mm(k).log10();
+        let cutoff = vec![(
+            a.cutoff_wavelength_mm.log10(),
+            format!(
+                "cut-off λ_c = {:.3} mm (m = {})",
+                a.cutoff_wavelength_mm, a.harmonics
+            ),
+        )];
+        let x_label = "log₁₀ wavelength λ (mm)".to_string();
+        let (x_lo, x_hi) = (lg(half), lg(1));
+        out.push(Chart {
+            title: format!(
+                "{letter}: power spectra of the averaged runs per feed rate (normalised)"
+            ),
+            x_label: x_label.clone(),
+            y_label: "normalised power".into(),
+            series: a
+                .feeds
+                .iter()
+                .map(|g| {
+                    Series::line(
+                        format!("{} mm/min ({} runs)", g.feed_mm_per_min, g.files.len()),
+                        (1..=half).map(|k| (lg(k), g.power[k])).collect(),
+                    )
+                })
+                .collect(),
+            vlines: cutoff.clone(),
+            log_y: true,
+        });
+        out.push(Chart {
+            title: format!("{letter}: mean normalised power P(λ) across feed rates"),
+            x_label: x_label.clone(),
+            y_label: "mean power (normalised)".into(),
+            series: vec![
+                Series::line(
+                    "mean power P(λ)",
+                    (1..=half).map(|k| (lg(k), a.mean_power[k])).collect(),
+                ),
+                Series::line(
+                    format!("P_t = {}", o.p_t),
+                    vec![(x_lo, o.p_t), (x_hi, o.p_t)],
+                ),
+                Series::markers(
+                    "σ < σ_t and mean P > P_t",
+                    a.passing
+                        .iter()
+                        .map(|&k| (lg(k), a.mean_power[k]))
+                        .collect(),
+                ),
+            ],
+            vlines: cutoff.clone(),
+            log_y: true,
+        });
+        out.push(Chart {
+            title: format!("{letter}: relative standard deviation σ(λ) across feed rates"),
+            x_label,
+            y_label: "σ / mean power".into(),
+            series: vec![
+                Series::line("σ(λ)", (1..=half).map(|k| (lg(k), a.sigma[k])).collect()),
+                Series::line(
+                    format!("σ_t = {}", o.sigma_t),
+                    vec![(x_lo, o.sigma_t), (x_hi, o.sigma_t)],
+                ),
+            ],
+            vlines: cutoff,
+            log_y: true,
+        });
+        out.push(profile_chart(a));
+    }
+    out
+}
+
+fn profile_chart(a: &AxisFit) -> Chart {
+    let pts = |v: &[f64]| -> Vec<(f64, f64)> {
+        a.positions_mm
+            .iter()
+            .copied()
+            .zip(v.iter().copied())
+            .collect()
+    };
+    let mut series: Vec<Series> = a
+        .feeds
+        .iter()
+        .map(|g| {
+            Series::line(
+                format!("measured, mean at {} mm/min", g.feed_mm_per_min),
+                pts(&g.mean_profile_um),
+            )
+        })
+        .collect();
+    series.push(Series::line(
+        format!("model (m = {})", a.harmonics),
+        pts(&a.model_profile_um),
+    ));
+    let residual: Vec<f64> = a
+        .mean_profile_um
+        .iter()
+        .zip(&a.model_profile_um)
+        .map(|(m, p)| m - p)
+        .collect();
+    series.push(Series::line(
+        "mean of all feed rates − model",
+        pts(&residual),
+    ));
+    Chart {
+        title: format!(
+            "{}: measured vs modelled straightness e_z({})",
+            a.axis.letter(),
+            a.axis.letter().to_ascii_lowercase()
+        ),
+        x_label: format!("{} position (mm)", a.axis.letter()),
+        y_label: "Z deviation (µm)".into(),
+        series,
+        vlines: Vec::new(),
+        log_y: false,
+    }
+}
+
+fn load_model(path: &Path) -> Result<StraightnessModel, CliError> {
+    let text = std::fs::read_to_string(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+    Ok(StraightnessModel::from_toml(
+        &text,
+        &path.display().to_string(),
+    )?)
+}
+
+fn table_cmd(a: TableArgs) -> Result<(), CliError> {
+    let model = load_model(&a.model)?;
+    let csv = model.correction_table_csv(a.step)?;
+    match &a.output {
+        Some(path) => {
+            write_atomically(path, &[&a.model], |w| {
+                w.write_all(csv.as_bytes())
+                    .map_err(|e| CliError::Io(path.clone(), e))
+            })?;
+            eprintln!("volcomp: wrote {}", path.display());
+        }
+        None => std::io::stdout()
+            .write_all(csv.as_bytes())
+            .map_err(CliError::Stdout)?,
+    }
+    Ok(())
+}
+
+fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
+    let mut model = load_model(&a.model)?;
+    model.clamp = a.clamp;
+    let mut out = String::from("x_mm,y_mm,ez_um,z_correction_um\n");
+    for p in &a.points {
+        let v: Option<Vec<f64>> = p
+            .split(',')
+            .map(|t| t.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+            .collect();
+        let (x, y) = match v.as_deref() {
+            Some([x, y]) => (*x, *y),
+            _ => {
+                return Err(CliError::Message(format!(
+                    "point `{p}` is not two numbers X,Y in mm, like 120,-35.5"
+                )))
+            }
+        };
+        let e = model
+            .ez_um(x, y)
+            .map_err(|e| CliError::Message(format!("{}: point {x},{y}: {e}", a.model.display())))?;
+        out.push_str(&format!("{x},{y},{e:.6},{:.6}\n", -e));
+    }
+    std::io::stdout()
+        .write_all(out.as_bytes())
+        .map_err(CliError::Stdout)
+}
