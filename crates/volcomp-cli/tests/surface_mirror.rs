@@ -1,0 +1,361 @@
+//! `volcomp surface mirror` as a user meets it: the files it writes, the
+//! report, and located refusals of bad input with nothing written.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use volcomp_core::bspline::{self, Parameterization};
+use volcomp_core::mirror::{read_bspline_toml, write_bspline_toml, MaterialSide, NominalSurface};
+use volcomp_gcode::Vec3;
+
+fn volcomp(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_volcomp"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run volcomp")
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("volcomp-mirror-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn text(o: &Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// z = 0.003·((x − 40)² − (y − 25)²) over 80 × 50 mm, exact as a bicubic.
+fn saddle(x: f64, y: f64) -> f64 {
+    0.003 * ((x - 40.0).powi(2) - (y - 25.0).powi(2))
+}
+
+fn nominal() -> NominalSurface {
+    let mut pts = Vec::new();
+    for i in 0..4 {
+        for j in 0..4 {
+            let (x, y) = (80.0 * i as f64 / 3.0, 50.0 * j as f64 / 3.0);
+            pts.push([x, y, saddle(x, y)]);
+        }
+    }
+    let s = bspline::interpolate(&pts, 4, 4, 3, 3, &Parameterization::Uniform).unwrap();
+    NominalSurface::new(s, MaterialSide::Below, "t").unwrap()
+}
+
+/// The machine's error (µm, positive = material left).
+fn error_um(x: f64, y: f64) -> f64 {
+    3.0 + 0.002 * (x - 40.0).powi(2) + 0.03 * y
+}
+
+/// Writes nominal.toml, nominal-grid.csv, probes.csv (7 × 5 grid, no noise)
+/// and finish.ngc (tip CL, ball radius 2 mm) to `dir`.
+fn write_inputs(dir: &Path) {
+    let n = nominal();
+    std::fs::write(
+        dir.join("nominal.toml"),
+        write_bspline_toml(n.surface(), "test saddle"),
+    )
+    .unwrap();
+    let mut grid = String::from("i,j,x_mm,y_mm,z_mm\n");
+    for i in 0..=16 {
+        for j in 0..=10 {
+            let (x, y) = (5.0 * i as f64, 5.0 * j as f64);
+            grid.push_str(&format!("{i},{j},{x},{y},{:.9}\n", saddle(x, y)));
+        }
+    }
+    std::fs::write(dir.join("nominal-grid.csv"), grid).unwrap();
+    let mut probes = String::from("# probed after semi-finishing\nid,i,j,x_mm,y_mm,z_mm\n");
+    for i in 0..7 {
+        for j in 0..5 {
+            let (u, v) = (
+                (2.0 + 76.0 * i as f64 / 6.0) / 80.0,
+                (2.0 + 46.0 * j as f64 / 4.0) / 50.0,
+            );
+            let p = n.point(u, v);
+            let q = p + n.normal(u, v) * (0.3 + error_um(p.x, p.y) * 1e-3);
+            probes.push_str(&format!(
+                "P{i}{j},{i},{j},{:.6},{:.6},{:.6}\n",
+                q.x, q.y, q.z
+            ));
+        }
+    }
+    std::fs::write(dir.join("probes.csv"), probes).unwrap();
+    let mut prog = String::from("%\nO1234 (saddle finishing)\nG21 G90 G17\nG0 Z30.\n");
+    for pass in 0..6 {
+        let v = (5.0 + 8.0 * pass as f64) / 50.0;
+        for k in 0..=40 {
+            let u = k as f64 / 40.0;
+            let c = n.point(u, v) + n.normal(u, v) * 2.0 - Vec3::new(0.0, 0.0, 2.0);
+            if k == 0 {
+                prog.push_str(&format!(
+                    "G0 X{:.4} Y{:.4}\nG1 Z{:.4} F600.\n",
+                    c.x, c.y, c.z
+                ));
+            } else {
+                prog.push_str(&format!("X{:.4} Y{:.4} Z{:.4}\n", c.x, c.y, c.z));
+            }
+        }
+        prog.push_str("G0 Z30.\n");
+    }
+    prog.push_str("M30\n%\n");
+    std::fs::write(dir.join("finish.ngc"), prog).unwrap();
+}
+
+const RUN: &[&str] = &[
+    "surface",
+    "mirror",
+    "--nominal",
+    "nominal.toml",
+    "--measured",
+    "probes.csv",
+    "--stock",
+    "0.3",
+    "--finishing",
+    "finish.ngc",
+    "-o",
+    "finish.comp.ngc",
+    "--tool-radius",
+    "2",
+];
+
+#[test]
+fn writes_the_program_the_surface_and_the_report() {
+    let dir = tempdir("ok");
+    write_inputs(&dir);
+    let mut args = RUN.to_vec();
+    args.extend([
+        "--report",
+        "report.json",
+        "--baseline",
+        "finish.base.ngc",
+        "--no-split",
+    ]);
+    let o = volcomp(&args, &dir);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("tool-radius baseline") && out.contains("mirror, predicted"),
+        "{out}"
+    );
+    // The program: the same lines, only coordinates changed.
+    let before = std::fs::read_to_string(dir.join("finish.ngc")).unwrap();
+    let after = std::fs::read_to_string(dir.join("finish.comp.ngc")).unwrap();
+    assert_ne!(before, after);
+    for l in [
+        "%",
+        "O1234 (saddle finishing)",
+        "G21 G90 G17",
+        "G0 Z30.",
+        "M30",
+    ] {
+        assert!(after.lines().any(|a| a == l), "{l} kept");
+    }
+    let original: Vec<&str> = after
+        .lines()
+        .filter(|l| !l.contains("(volcomp L"))
+        .collect();
+    assert_eq!(original.len(), before.lines().count());
+    // The compensated CL points sit below the nominal CL points by the
+    // measured error (error field ≥ 3 µm, here at least 2.5 µm lower).
+    let n = nominal();
+    let first_cut = original
+        .iter()
+        .zip(before.lines())
+        .find(|(a, b)| a.starts_with('X') && *a != b)
+        .unwrap();
+    let z = |l: &str| -> f64 { l.split('Z').nth(1).unwrap().trim().parse().unwrap() };
+    assert!(z(first_cut.1) - z(first_cut.0) > 0.0025, "{first_cut:?}");
+    // The surface files: a grid and a B-spline that reads back as a nominal.
+    let grid = std::fs::read_to_string(dir.join("probes.compensated.csv")).unwrap();
+    assert!(grid.contains("i,j,x_mm,y_mm,z_mm,offset_um"));
+    assert_eq!(
+        grid.lines().filter(|l| !l.starts_with('#')).count(),
+        1 + 41 * 41
+    );
+    let toml = std::fs::read_to_string(dir.join("probes.compensated.toml")).unwrap();
+    let s = read_bspline_toml(&toml, "c.toml").unwrap();
+    let (u, v) = (0.5, 0.5);
+    let p = s.point(u, v);
+    let q = n.point(u, v);
+    let expected = error_um(q.x, q.y);
+    assert!(
+        ((q.z - p[2]) * 1e3 - expected).abs() < 0.3,
+        "{} vs {expected}",
+        (q.z - p[2]) * 1e3
+    );
+    // The report.
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["points"], 35);
+    assert_eq!(report["probe_points"].as_array().unwrap().len(), 35);
+    let mean = report["before"]["mean_um"].as_f64().unwrap();
+    assert!(mean > 3.0 && mean < 8.0, "{mean}");
+    assert!(report["baseline"]["mean_um"].as_f64().unwrap().abs() < 1e-9);
+    assert!(dir.join("finish.base.ngc").exists());
+    // JSON on stdout; feed moves split every 2 mm by default.
+    let mut args = RUN.to_vec();
+    args.extend(["--json", "--surface-out", "out/s"]);
+    std::fs::create_dir_all(dir.join("out")).unwrap();
+    let o = volcomp(&args, &dir);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(j["finishing"]["moved"].as_u64().unwrap() >= 6 * 41);
+    assert!(dir.join("out/s.csv").exists() && dir.join("out/s.toml").exists());
+}
+
+#[test]
+fn a_grid_nominal_and_an_interpolated_fit_work_too() {
+    let dir = tempdir("grid");
+    write_inputs(&dir);
+    let o = volcomp(
+        &[
+            "surface",
+            "mirror",
+            "--nominal",
+            "nominal-grid.csv",
+            "--measured",
+            "probes.csv",
+            "--stock",
+            "0.3",
+            "--fit",
+            "interpolate",
+            "--report",
+            "r.csv",
+        ],
+        &dir,
+    );
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("interpolation"), "{out}");
+    let grid = std::fs::read_to_string(dir.join("probes.compensated.csv")).unwrap();
+    // The grid nominal's own nodes.
+    assert_eq!(
+        grid.lines().filter(|l| !l.starts_with('#')).count(),
+        1 + 17 * 11
+    );
+    let r = std::fs::read_to_string(dir.join("r.csv")).unwrap();
+    assert!(r.lines().any(|l| l.starts_with("row,id,i,j,")));
+    assert_eq!(
+        r.lines()
+            .filter(|l| l.starts_with(|c: char| c.is_ascii_digit()))
+            .count(),
+        35
+    );
+}
+
+fn refused(dir: &Path, args: &[&str], expect: &[&str]) {
+    let o = volcomp(args, dir);
+    let (_, err) = text(&o);
+    assert!(!o.status.success(), "{args:?} should fail");
+    for e in expect {
+        assert!(err.contains(e), "{args:?}: `{e}` not in\n{err}");
+    }
+    for f in [
+        "finish.comp.ngc",
+        "probes.compensated.csv",
+        "probes.compensated.toml",
+    ] {
+        assert!(!dir.join(f).exists(), "{f} written despite {args:?}");
+    }
+}
+
+#[test]
+fn bad_input_is_refused_with_its_location_and_nothing_is_written() {
+    let dir = tempdir("bad");
+    write_inputs(&dir);
+    let probes = std::fs::read_to_string(dir.join("probes.csv")).unwrap();
+    let with = |name: &str, content: String| {
+        std::fs::write(dir.join(name), content).unwrap();
+    };
+    // RUN with `--measured` replaced and the flag/value pairs of `extra`
+    // replacing RUN's own.
+    let run = |measured: &str, extra: &[&str]| -> Vec<String> {
+        let mut v: Vec<String> = RUN.iter().map(|s| s.to_string()).collect();
+        v[5] = measured.into();
+        for pair in extra.chunks(2) {
+            match v.iter().position(|a| a == pair[0]) {
+                Some(k) => v[k + 1] = pair[1].into(),
+                None => v.extend(pair.iter().map(|s| s.to_string())),
+            }
+        }
+        v
+    };
+    let call = |measured: &str, extra: &[&str], expect: &[&str]| {
+        let v = run(measured, extra);
+        let refs: Vec<&str> = v.iter().map(String::as_str).collect();
+        refused(&dir, &refs, expect);
+    };
+    // NaN: file, row, column.
+    let lines: Vec<&str> = probes.lines().collect();
+    let mut nan = lines.clone();
+    let bad_row = lines[5].replacen(&lines[5].split(',').nth(4).unwrap().to_string(), "NaN", 1);
+    nan[5] = &bad_row;
+    with("nan.csv", nan.join("\n"));
+    call("nan.csv", &[], &["nan.csv:6:5:", "not a finite number"]);
+    // A point 1 mm off.
+    let mut far = lines.clone();
+    let f: Vec<String> = lines[4].split(',').map(String::from).collect();
+    let z: f64 = f[5].parse::<f64>().unwrap() + 1.0;
+    let far_row = format!("{},{},{},{},{},{z}", f[0], f[1], f[2], f[3], f[4]);
+    far[4] = &far_row;
+    with("far.csv", far.join("\n"));
+    call(
+        "far.csv",
+        &[],
+        &["far.csv:5:1:", "from the nominal surface"],
+    );
+    // Too few points.
+    with("few.csv", lines[..10].join("\n"));
+    call("few.csv", &[], &["too few", "4 × 4"]);
+    // Coordinates in mm, header says inches.
+    with(
+        "inch.csv",
+        probes.replace("x_mm,y_mm,z_mm", "x_in,y_in,z_in"),
+    );
+    call(
+        "inch.csv",
+        &[],
+        &["would if its coordinates were millimetres"],
+    );
+    // No unit at all.
+    with("nounit.csv", probes.replace("x_mm,y_mm,z_mm", "x,y,z"));
+    call(
+        "nounit.csv",
+        &[],
+        &["nounit.csv:2:1:", "does not say its unit"],
+    );
+    // A stock the curvature does not allow (concave radius ≈ 167 mm).
+    call("probes.csv", &["--stock", "200"], &["concave radius"]);
+    // A tool radius far too large, and a CL point that is not the program's.
+    call("probes.csv", &["--tool-radius", "500"], &["concave radius"]);
+    call(
+        "probes.csv",
+        &["--cl-point", "center"],
+        &["touches the nominal surface"],
+    );
+    // The finishing program needs -o and --tool-radius.
+    let o = volcomp(
+        &[
+            "surface",
+            "mirror",
+            "--nominal",
+            "nominal.toml",
+            "--measured",
+            "probes.csv",
+            "--stock",
+            "0.3",
+            "--finishing",
+            "finish.ngc",
+        ],
+        &dir,
+    );
+    assert!(!o.status.success());
+    // The input is never overwritten.
+    let mut v = RUN.to_vec();
+    v[11] = "finish.ngc";
+    refused(&dir, &v, &["refusing to overwrite"]);
+}
