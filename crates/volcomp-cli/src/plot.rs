@@ -131,6 +131,8 @@ fn draw<DB: DrawingBackend>(
         ($ctx:expr) => {{
             let mut ctx = $ctx;
             ctx.configure_mesh()
+                .x_label_formatter(&|v| tick(*v))
+                .y_label_formatter(&|v| tick(*v))
                 .x_desc(chart.x_label.as_str())
                 .y_desc(chart.y_label.as_str())
                 .label_style(("sans-serif", 12))
@@ -186,6 +188,20 @@ fn draw<DB: DrawingBackend>(
             .map_err(|e| e.to_string())?);
     }
     Ok(())
+}
+
+/// A tick label: short, no float noise (`0.5`, `1200`, `1e-6`).
+fn tick(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if !(1e-3..1e5).contains(&a) {
+        let s = format!("{v:.0e}");
+        s.replace("e0", "")
+    } else {
+        let s = format!("{v:.3}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    }
 }
 
 /// Fills the background and draws the charts stacked vertically.

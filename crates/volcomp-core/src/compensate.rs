@@ -16,7 +16,7 @@
 //! exists (negative reversal value) are held and reported.
 
 use crate::error::{CompensationError, ModelError};
-use crate::model::{Directions, ErrorModel, ALL_FORWARD};
+use crate::model::{Directions, ErrorModel, WithTool, ALL_FORWARD};
 use crate::simulate::next_state;
 use crate::solve::{solve_consistent, solve_fixed, Method};
 use std::io::{BufRead, Write};
@@ -209,6 +209,12 @@ pub fn compensate_program<R: BufRead>(
     let sep = if program_style.spaced { " " } else { "" };
     let survey = &program_style.survey;
     while let Some(ev) = walker.next_line()? {
+        // Models with Abbe terms see the tool that is active on this line.
+        let tool_model = WithTool {
+            model,
+            tool_length_offset_mm: ev.interp.tool_length_offset_mm(),
+        };
+        let model: &dyn ErrorModel = &tool_model;
         st.summary.lines_in += 1;
         st.buf.clear();
         let program_motion = ev.motions.iter().any(|m| m.source == MotionSource::Program);
@@ -749,7 +755,14 @@ impl State {
                         tu[a] = point.q_mm[a];
                     }
                 }
-                self.q_out = *tu;
+            }
+            // A take-up that does not move (negative reversal value, or one
+            // the segment itself covers) is not written and not counted.
+            if take_up == Some(self.q_out) {
+                take_up = None;
+            }
+            if let Some(tu) = take_up {
+                self.q_out = tu;
             }
             self.summary.points += 1;
             self.summary.max_residual_um = self.summary.max_residual_um.max(point.residual_um);
