@@ -22,6 +22,12 @@ pub enum Command {
     Simulate(SimulateArgs),
     /// Run the bundled example: the papers' circles and spiral on an example map.
     Demo(DemoArgs),
+    /// Evaluate, convert, plot and import error maps (21-component model, LinuxCNC comp files, ISO 230-2).
+    Map(crate::commands::map::MapCommand),
+    /// Free-form surfaces: `surface mirror` compensates a finishing program from probing.
+    Surface(crate::commands::surface::SurfaceArgs),
+    /// Straightness models from measured profiles: fit (geometric error vs vibration), plot, table, predict.
+    Straightness(crate::commands::straightness::StraightnessArgs),
 }
 
 /// How the program is set up on the machine.
@@ -72,7 +78,8 @@ pub enum Method {
 
 #[derive(Args, Debug, Clone)]
 pub struct MapArgs {
-    /// Error map: axis-table CSV (design §2).
+    /// Error map: axis-table CSV (design §2) or a TOML model (the 21-component
+    /// kinematic model of docs/kinematic.md, evaluated at each line's tool).
     #[arg(long, value_name = "MAP")]
     pub map: PathBuf,
     /// Clamp positions outside the map's range to its end instead of refusing.

@@ -11,7 +11,10 @@ use volcomp_gcode::{InterpOptions, MotionKind, Setup, Vec3, Walker};
 
 mod compensate;
 mod demo;
+pub mod map;
 mod simulate;
+pub mod straightness;
+pub mod surface;
 
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
@@ -19,6 +22,9 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Compensate(a) => compensate::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Demo(a) => demo::run(a),
+        Command::Map(a) => map::run(a),
+        Command::Surface(a) => surface::run(a),
+        Command::Straightness(a) => straightness::run(a),
     }
 }
 

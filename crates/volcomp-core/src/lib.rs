@@ -6,10 +6,19 @@
 #![warn(missing_docs)]
 
 pub mod axis_table;
+pub mod bspline;
 pub mod compensate;
 pub mod error;
 pub mod example;
+pub mod iso230_2;
+pub mod kinematic;
+pub mod kinematic_example;
+pub mod linuxcnc_comp;
+pub mod mirror;
 pub mod model;
+pub mod model_file;
 pub mod report;
 pub mod simulate;
 pub mod solve;
+pub mod straightness;
+pub mod topology;

@@ -106,6 +106,7 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
             continue;
         }
         report.blocks += 1;
+        sim.set_tool_length_offset(ev.interp.tool_length_offset_mm());
         // Until the program has set every axis, the machine is somewhere the
         // program does not say: follow without evaluating (as compensation does).
         for w in ev.lexed.words() {

@@ -21,7 +21,9 @@
 //! value) leave the tool still.
 
 use crate::error::ModelError;
-use crate::model::{actual_mm, Components, Direction, Directions, ErrorModel, ALL_FORWARD};
+use crate::model::{
+    actual_mm, Components, Direction, Directions, ErrorModel, WithTool, ALL_FORWARD,
+};
 use volcomp_gcode::Vec3;
 
 /// Largest distance between dense samples of the actual path (design §5).
@@ -30,6 +32,7 @@ pub const SAMPLE_SPACING_MM: f64 = 0.05;
 /// Simulates the actual tool position along a sequence of commands.
 pub struct Simulator<'m> {
     model: &'m dyn ErrorModel,
+    tool_length_offset_mm: Vec3,
     s: Directions,
     q: Vec3,
     actual: Option<Vec3>,
@@ -41,9 +44,20 @@ impl<'m> Simulator<'m> {
     pub fn new(model: &'m dyn ErrorModel, q_start_mm: Vec3) -> Self {
         Self {
             model,
+            tool_length_offset_mm: Vec3::ZERO,
             s: ALL_FORWARD,
             q: q_start_mm,
             actual: None,
+        }
+    }
+
+    /// Sets the tool length offset of the active tool (G43/G43.1, mm), which
+    /// models with Abbe terms evaluate at. A different tool puts the tip
+    /// elsewhere: the actual position is re-evaluated, not carried over.
+    pub fn set_tool_length_offset(&mut self, tool_length_offset_mm: Vec3) {
+        if tool_length_offset_mm != self.tool_length_offset_mm {
+            self.tool_length_offset_mm = tool_length_offset_mm;
+            self.actual = None;
         }
     }
 
@@ -77,7 +91,11 @@ impl<'m> Simulator<'m> {
         let q0 = self.q;
         let dq = q_end_mm - q0;
         let s_new = next_state(self.s, dq);
-        let image = |q: Vec3| actual_mm(self.model, q, s_new, Components::All);
+        let tool = WithTool {
+            model: self.model,
+            tool_length_offset_mm: self.tool_length_offset_mm,
+        };
+        let image = |q: Vec3| actual_mm(&tool, q, s_new, Components::All);
         let lag0 = match self.actual {
             Some(prev) => prev - image(q0)?,
             None => Vec3::ZERO,

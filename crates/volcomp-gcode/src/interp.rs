@@ -289,6 +289,13 @@ impl Interpreter {
         self.work_offsets[self.work] + self.g92 + self.tlo
     }
 
+    /// The tool length offset in effect (G43 `(0, 0, L)`, G43.1 any vector,
+    /// zero after G49), in mm: the part of [`Interpreter::frame_offset_mm`]
+    /// that comes from the tool.
+    pub fn tool_length_offset_mm(&self) -> Vec3 {
+        self.tlo
+    }
+
     /// Program units in effect.
     pub fn units(&self) -> Units {
         self.units

@@ -5,7 +5,6 @@ use crate::args::{CompensateArgs, MapArgs, Method as MethodArg};
 use crate::output::{write_atomically, CliError};
 use std::io::{Read, Write};
 use std::path::Path;
-use volcomp_core::axis_table::AxisTableMap;
 use volcomp_core::compensate::{
     compensate_program, survey_style, CompensateOptions, CompensateSummary, DirectionPolicy,
     PointRecord, Segmentation,
@@ -16,9 +15,18 @@ use volcomp_core::solve::Method;
 /// Loads the error map named by `--map`.
 pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
     let text = std::fs::read_to_string(&a.map).map_err(|e| CliError::Io(a.map.clone(), e))?;
-    let mut map = AxisTableMap::from_csv(&text, &a.map.display().to_string())?;
-    map.clamp = a.clamp;
-    Ok(Box::new(map))
+    // A straightness model (docs/straightness.md): TOML with `kind = "straightness"`.
+    if volcomp_core::straightness::StraightnessModel::is_model_toml(&text) {
+        let mut m = volcomp_core::straightness::StraightnessModel::from_toml(
+            &text,
+            &a.map.display().to_string(),
+        )?;
+        m.clamp = a.clamp;
+        return Ok(Box::new(m));
+    }
+    // Axis tables (.csv, design §2) or a 21-component kinematic model (.toml,
+    // docs/kinematic.md), which is evaluated at the tool active on each line.
+    Ok(super::map::load(&a.map, a.clamp)?.into_model())
 }
 
 /// Validated options from the raw flags.

@@ -1,0 +1,530 @@
+//! `volcomp map …` and the 21-component model in `compensate`/`simulate`,
+//! as a user meets them.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn volcomp(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_volcomp"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run volcomp")
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("volcomp-map-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn ok(o: &Output) {
+    assert_eq!(o.status.code(), Some(0), "{}{}", stdout(o), stderr(o));
+}
+
+/// A model whose only error is EAZ = 20 µrad (the spindle tilts about X).
+fn write_eaz_model(dir: &Path) {
+    std::fs::write(
+        dir.join("m.toml"),
+        "model = \"kinematic-21\"\nchain = \"w X' Y' b Z t\"\ntables = \"m.csv\"\n[squareness_urad]\nxy = 0\nyz = 0\nzx = 0\n",
+    )
+    .unwrap();
+    let mut csv =
+        String::from("axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad\n");
+    for a in ["X", "Y", "Z"] {
+        let ea = if a == "Z" { 20 } else { 0 };
+        csv.push_str(&format!(
+            "{a},both,-500,0,0,0,{ea},0,0\n{a},both,500,0,0,0,{ea},0,0\n"
+        ));
+    }
+    std::fs::write(dir.join("m.csv"), csv).unwrap();
+}
+
+fn json(o: &Output) -> serde_json::Value {
+    ok(o);
+    serde_json::from_str(&stdout(o)).unwrap()
+}
+
+#[test]
+fn eval_sees_the_tool_length() {
+    let dir = tempdir("eval");
+    write_eaz_model(&dir);
+    // e_y = EAZ · L: 20e-6 · 150 mm = 3.0 µm; 20e-6 · 50 mm = 1.0 µm; 0 at L = 0.
+    for (l, ey) in [("150", 3.0), ("50", 1.0), ("0", 0.0)] {
+        let v = json(&volcomp(
+            &[
+                "map",
+                "eval",
+                "m.toml",
+                "--at",
+                "10,20,30",
+                "--tool-length",
+                l,
+                "--json",
+            ],
+            &dir,
+        ));
+        let e = v["deviation_um"][1].as_f64().unwrap();
+        assert!((e - ey).abs() < 1e-6, "L = {l}: {v}");
+        assert_eq!(
+            v["abbe_arms_mm"]["Z"][2].as_f64().unwrap(),
+            -l.parse::<f64>().unwrap()
+        );
+        assert_eq!(v["components"]["EAZ"].as_f64().unwrap(), 20.0);
+    }
+    let o = volcomp(
+        &[
+            "map",
+            "eval",
+            "m.toml",
+            "--at",
+            "10,20,30",
+            "--tool-length",
+            "150",
+        ],
+        &dir,
+    );
+    ok(&o);
+    assert!(stdout(&o).contains("EAZ +20.00"), "{}", stdout(&o));
+}
+
+#[test]
+fn compensate_and_simulate_take_the_model_and_the_active_tool() {
+    let dir = tempdir("comp");
+    write_eaz_model(&dir);
+    std::fs::write(dir.join("setup.toml"), "units = \"mm\"\n[tools]\n1 = 150\n").unwrap();
+    let program = "G21 G90 G17\nG0 X0 Y0 Z50\nG43 H1 G0 Z20\nG1 X10 F500\nM2\n";
+    std::fs::write(dir.join("p.ngc"), program).unwrap();
+    let o = volcomp(
+        &[
+            "compensate",
+            "p.ngc",
+            "--map",
+            "m.toml",
+            "--setup",
+            "setup.toml",
+            "-o",
+            "out.ngc",
+        ],
+        &dir,
+    );
+    ok(&o);
+    let out = std::fs::read_to_string(dir.join("out.ngc")).unwrap();
+    // Tool 1 is 150 mm long: e_y = 3.0 µm, so Y is commanded 3 µm short.
+    assert!(out.contains("G43 H1 G0 Z20 Y-0.0030"), "{out}");
+    let v = json(&volcomp(
+        &[
+            "simulate",
+            "out.ngc",
+            "--map",
+            "m.toml",
+            "--setup",
+            "setup.toml",
+            "--reference",
+            "p.ngc",
+            "--json",
+        ],
+        &dir,
+    ));
+    assert!(v["contour_max_um"].as_f64().unwrap() < 1e-3, "{v}");
+    let v = json(&volcomp(
+        &[
+            "simulate",
+            "p.ngc",
+            "--map",
+            "m.toml",
+            "--setup",
+            "setup.toml",
+            "--json",
+        ],
+        &dir,
+    ));
+    assert!(
+        (v["point_max_um"].as_f64().unwrap() - 3.0).abs() < 1e-3,
+        "{v}"
+    );
+}
+
+#[test]
+fn example_converts_and_round_trips_through_linuxcnc() {
+    let dir = tempdir("convert");
+    ok(&volcomp(&["map", "example", "-o", "."], &dir));
+    for ty in ["0", "1"] {
+        let o = volcomp(
+            &[
+                "map",
+                "convert",
+                "example21.toml",
+                "--to",
+                "linuxcnc",
+                "--type",
+                ty,
+                "--units",
+                "mm",
+                "-o",
+                "comp",
+            ],
+            &dir,
+        );
+        ok(&o);
+        assert!(
+            stdout(&o).contains(&format!("COMP_FILE_TYPE = {ty}")),
+            "{}",
+            stdout(&o)
+        );
+        let x = std::fs::read_to_string(dir.join("comp/x.comp")).unwrap();
+        assert!(!x.contains('#') && x.lines().count() == 25, "{x}");
+        ok(&volcomp(
+            &[
+                "map",
+                "import-linuxcnc",
+                "--x",
+                "comp/x.comp",
+                "--y",
+                "comp/y.comp",
+                "--z",
+                "comp/z.comp",
+                "--type",
+                ty,
+                "--units",
+                "mm",
+                "-o",
+                "imported.toml",
+            ],
+            &dir,
+        ));
+        // Positioning-only compensation of both models agrees.
+        for at in ["0,0,0", "123,234,111", "600,400,300"] {
+            for d in ["fff", "rrr"] {
+                let a = json(&volcomp(
+                    &[
+                        "map",
+                        "eval",
+                        "example21.toml",
+                        "--at",
+                        at,
+                        "--direction",
+                        d,
+                        "--json",
+                    ],
+                    &dir,
+                ));
+                let b = json(&volcomp(
+                    &[
+                        "map",
+                        "eval",
+                        "imported.toml",
+                        "--at",
+                        at,
+                        "--direction",
+                        d,
+                        "--json",
+                    ],
+                    &dir,
+                ));
+                for k in 0..3 {
+                    let (x, y) = (
+                        a["positioning_um"][k].as_f64().unwrap(),
+                        b["positioning_um"][k].as_f64().unwrap(),
+                    );
+                    assert!((x - y).abs() < 1e-6, "{at} {d}: {a} {b}");
+                }
+            }
+        }
+    }
+    let o = volcomp(
+        &[
+            "map",
+            "convert",
+            "example21.toml",
+            "--to",
+            "axis-table",
+            "--tool-length",
+            "120",
+            "-o",
+            "tables.csv",
+        ],
+        &dir,
+    );
+    ok(&o);
+    assert!(
+        stderr(&o).contains("differs from the model by up to"),
+        "{}",
+        stderr(&o)
+    );
+    // At the reference point the axis tables give the model's deviation.
+    let a = json(&volcomp(
+        &[
+            "map",
+            "eval",
+            "example21.toml",
+            "--at",
+            "300,200,150",
+            "--tool-length",
+            "120",
+            "--json",
+        ],
+        &dir,
+    ));
+    let b = json(&volcomp(
+        &["map", "eval", "tables.csv", "--at", "300,200,150", "--json"],
+        &dir,
+    ));
+    for k in 0..3 {
+        let (x, y) = (
+            a["deviation_um"][k].as_f64().unwrap(),
+            b["deviation_um"][k].as_f64().unwrap(),
+        );
+        assert!((x - y).abs() < 1e-3, "{a} {b}");
+    }
+    // Without a tool length the conversion is refused (it depends on it).
+    let o = volcomp(
+        &[
+            "map",
+            "convert",
+            "example21.toml",
+            "--to",
+            "axis-table",
+            "-o",
+            "t2.csv",
+        ],
+        &dir,
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--tool-length"));
+    ok(&volcomp(
+        &[
+            "map",
+            "convert",
+            "example21.toml",
+            "--to",
+            "grid",
+            "--step",
+            "150",
+            "-o",
+            "grid.csv",
+        ],
+        &dir,
+    ));
+    let grid = std::fs::read_to_string(dir.join("grid.csv")).unwrap();
+    // 5 × 4 × 3 points and the header.
+    assert_eq!(
+        grid.lines().filter(|l| !l.starts_with('#')).count(),
+        61,
+        "{grid}"
+    );
+    ok(&volcomp(
+        &[
+            "map",
+            "convert",
+            "tables.csv",
+            "--to",
+            "model",
+            "-o",
+            "from_tables.toml",
+        ],
+        &dir,
+    ));
+    ok(&volcomp(
+        &["map", "plot", "example21.toml", "-o", "plot.svg"],
+        &dir,
+    ));
+    let svg = std::fs::read_to_string(dir.join("plot.svg")).unwrap();
+    assert!(
+        svg.contains("<svg") && svg.contains("EBX"),
+        "plot has the components"
+    );
+}
+
+#[test]
+fn dense_axis_tables_go_to_linuxcnc_with_a_resampling_step() {
+    let dir = tempdir("dense");
+    // 301 points every 2 mm: more than LinuxCNC's 256 per joint.
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for a in ["X", "Y", "Z"] {
+        for k in 0..=300 {
+            let p = 2.0 * k as f64;
+            csv.push_str(&format!("{a},both,{p},{},0,0\n", 0.01 * p));
+        }
+    }
+    std::fs::write(dir.join("dense.csv"), csv).unwrap();
+    let o = volcomp(
+        &[
+            "map",
+            "convert",
+            "dense.csv",
+            "--to",
+            "linuxcnc",
+            "--type",
+            "1",
+            "--units",
+            "mm",
+            "-o",
+            "comp",
+        ],
+        &dir,
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--step"), "{}", stderr(&o));
+    ok(&volcomp(
+        &[
+            "map",
+            "convert",
+            "dense.csv",
+            "--to",
+            "linuxcnc",
+            "--type",
+            "1",
+            "--units",
+            "mm",
+            "--step",
+            "10",
+            "-o",
+            "comp",
+        ],
+        &dir,
+    ));
+    let x = std::fs::read_to_string(dir.join("comp/x.comp")).unwrap();
+    // 0 … 600 every 10 mm: 61 lines; at 600 mm E_XX = 6 µm, trim −0.006 mm.
+    assert_eq!(x.lines().count(), 61);
+    assert_eq!(x.lines().last().unwrap(), "600 -0.006 -0.006");
+    // Without --type LinuxCNC's file type is not guessed.
+    let o = volcomp(
+        &[
+            "map",
+            "convert",
+            "dense.csv",
+            "--to",
+            "linuxcnc",
+            "--units",
+            "mm",
+            "-o",
+            "c2",
+        ],
+        &dir,
+    );
+    assert!(
+        stderr(&o).contains("--type 0 or --type 1"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn iso230_2_prints_the_figures_of_the_hand_example() {
+    let dir = tempdir("iso");
+    // The hand example of volcomp_core::iso230_2's tests:
+    // B = 3, B̄ = −2, R↑ = 8, R↓ = 4, R = 8, E = 6, M = 3.5, A = 10 (µm).
+    let runs = "target_mm,cycle,direction,deviation_um\n\
+        0,1,up,1\n0,2,up,2\n0,3,up,3\n0,1,down,4\n0,2,down,5\n0,3,down,6\n\
+        100,1,up,0\n100,2,up,2\n100,3,up,4\n100,1,down,2\n100,2,down,3\n100,3,down,4\n\
+        200,1,up,-2\n200,2,up,-1\n200,3,up,0\n200,1,down,1\n200,2,down,1\n200,3,down,1\n";
+    std::fs::write(dir.join("runs.csv"), runs).unwrap();
+    let o = volcomp(&["map", "iso230-2", "runs.csv"], &dir);
+    ok(&o);
+    let text = stdout(&o);
+    for want in [
+        "B  = 3.000",
+        "B̄ = -2.000",
+        "R↑ = 8.000",
+        "R↓ = 4.000",
+        "R = 8.000",
+        "E = 6.000",
+        "M  = 3.500",
+        "A = 10.000",
+    ] {
+        assert!(text.contains(want), "{want}: {text}");
+    }
+    let v = json(&volcomp(&["map", "iso230-2", "runs.csv", "--json"], &dir));
+    assert_eq!(v["axis"]["accuracy_um"].as_f64().unwrap(), 10.0);
+    ok(&volcomp(
+        &[
+            "map", "iso230-2", "runs.csv", "--axis", "x", "-o", "x.comp", "--type", "1", "--units",
+            "mm",
+        ],
+        &dir,
+    ));
+    // x̄↑ at 0 is 2 µm, x̄↓ 5 µm: trims −0.002 and −0.005 mm.
+    assert!(std::fs::read_to_string(dir.join("x.comp"))
+        .unwrap()
+        .starts_with("0 -0.002 -0.005\n"));
+}
+
+#[test]
+fn bad_model_files_name_file_row_and_column() {
+    let dir = tempdir("bad");
+    write_eaz_model(&dir);
+    let csv = std::fs::read_to_string(dir.join("m.csv")).unwrap();
+    let cases: Vec<(&str, String, String, &str)> = vec![
+        (
+            "nan",
+            std::fs::read_to_string(dir.join("m.toml")).unwrap(),
+            csv.replace("Y,both,500,0,0,0,0,0,0", "Y,both,500,0,nan,0,0,0,0"),
+            "m.csv:5:5:",
+        ),
+        (
+            "order",
+            std::fs::read_to_string(dir.join("m.toml")).unwrap(),
+            csv.replace("Y,both,500", "Y,both,-600"),
+            "m.csv:5:3:",
+        ),
+        (
+            "unit",
+            std::fs::read_to_string(dir.join("m.toml")).unwrap(),
+            csv.replace("ea_urad", "ea"),
+            "m.csv:1:7:",
+        ),
+        (
+            "missing",
+            std::fs::read_to_string(dir.join("m.toml"))
+                .unwrap()
+                .replace("zx = 0\n", ""),
+            csv.clone(),
+            "m.toml:4:1:",
+        ),
+        (
+            "axis",
+            std::fs::read_to_string(dir.join("m.toml")).unwrap(),
+            csv.lines()
+                .filter(|l| !l.starts_with('Z'))
+                .map(|l| format!("{l}\n"))
+                .collect(),
+            "EZZ",
+        ),
+    ];
+    for (name, toml, csv, want) in cases {
+        std::fs::write(dir.join("b.toml"), toml.replace("m.csv", "b.csv")).unwrap();
+        std::fs::write(dir.join("b.csv"), csv).unwrap();
+        let o = volcomp(&["map", "eval", "b.toml", "--at", "0,0,0"], &dir);
+        let msg = stderr(&o)
+            .replace("b.csv", "m.csv")
+            .replace("b.toml", "m.toml");
+        assert_eq!(o.status.code(), Some(2), "{name}: {msg}");
+        assert!(msg.contains(want) && msg.contains("help:"), "{name}: {msg}");
+    }
+    let o = volcomp(&["map", "eval", "m.json", "--at", "0,0,0"], &dir);
+    assert!(
+        stderr(&o).contains(".toml for a 21-component model"),
+        "{}",
+        stderr(&o)
+    );
+    // The component table given where a map is expected: pointed to its TOML.
+    let o = volcomp(
+        &["compensate", "x.ngc", "--map", "m.csv", "-o", "o.ngc"],
+        &dir,
+    );
+    assert!(
+        stderr(&o).contains("model = \"kinematic-21\""),
+        "{}",
+        stderr(&o)
+    );
+}
