@@ -160,8 +160,7 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
 }
 
 fn push_uint(v: u64, row: &mut String) {
-    use std::fmt::Write as _;
-    let _ = write!(row, "{v}");
+    row.push_str(itoa::Buffer::new().format(v));
 }
 
 fn push_triple(v: Vec3, row: &mut String, num: impl Fn(f64, &mut String)) {

@@ -232,6 +232,10 @@ pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
 
 /// Reads a number after a word letter, skipping blanks inside it.
 fn lex_number(content: &[u8], i: &mut usize, letter: u8) -> Result<(f64, Range<usize>), LexError> {
+    if let Some((value, span)) = lex_plain_number(content, *i) {
+        *i = span.end;
+        return Ok((value, span));
+    }
     let n = content.len();
     let mut buf = [0u8; 48];
     let mut len = 0;
@@ -292,6 +296,55 @@ fn lex_number(content: &[u8], i: &mut usize, letter: u8) -> Result<(f64, Range<u
     })?;
     *i = end;
     Ok((value, start.unwrap_or(end)..end))
+}
+
+/// The common case in one pass: a number written without blanks inside
+/// (`X-12.5`, `Z.25`, `F1200`) and at most 15 significant digits. Returns
+/// `None` for anything else, which [`lex_number`]'s general path handles.
+fn lex_plain_number(content: &[u8], start: usize) -> Option<(f64, Range<usize>)> {
+    let n = content.len();
+    let mut j = start;
+    let negative = match content.get(j) {
+        Some(b'-') => {
+            j += 1;
+            true
+        }
+        Some(b'+') => {
+            j += 1;
+            false
+        }
+        _ => false,
+    };
+    let (mut mantissa, mut digits, mut frac_digits) = (0u64, 0u32, 0u32);
+    let (mut seen_dot, mut any_digit) = (false, false);
+    while j < n {
+        match content[j] {
+            c @ b'0'..=b'9' => {
+                any_digit = true;
+                if mantissa != 0 || c != b'0' || seen_dot {
+                    mantissa = mantissa.wrapping_mul(10) + u64::from(c - b'0');
+                    digits += 1;
+                    frac_digits += u32::from(seen_dot);
+                }
+            }
+            b'.' if !seen_dot => seen_dot = true,
+            _ => break,
+        }
+        j += 1;
+    }
+    if !any_digit || digits > 15 {
+        return None;
+    }
+    // Blanks followed by more of the number (`X 1 0 . 5`) need the general path.
+    let mut k = j;
+    while k < n && is_blank(content[k]) {
+        k += 1;
+    }
+    if k > j && k < n && (content[k].is_ascii_digit() || (content[k] == b'.' && !seen_dot)) {
+        return None;
+    }
+    let value = mantissa as f64 / crate::number::pow10(frac_digits);
+    Some((if negative { -value } else { value }, start..j))
 }
 
 /// Parses `[+-]digits[.digits]`, also `10.` and `.5`, to the nearest `f64`.

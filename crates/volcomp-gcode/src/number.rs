@@ -98,7 +98,7 @@ impl StyleSurvey {
 /// ```
 pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
     let scale = pow10(u32::from(style.decimals));
-    let scaled = (value * scale).round();
+    let scaled = round_half_away(value * scale);
     // Positions in millimetres or inches never come near 2^53; the guard keeps
     // absurd values readable instead of wrapping.
     if !scaled.is_finite() || scaled.abs() > 9.0e15 {
@@ -132,6 +132,24 @@ pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
         push_digits(frac_part, frac_digits, out);
     } else if style.trailing_dot || (!style.trim_trailing_zeros && style.decimals > 0) {
         out.push('.');
+    }
+}
+
+/// `v.round()` (half away from zero) without the libm call that `round`
+/// compiles to on baseline x86-64: exact for |v| < 2^52, where `v − trunc(v)`
+/// is computed without rounding. Larger or non-finite values use `round`.
+fn round_half_away(v: f64) -> f64 {
+    if !(v.abs() < 4.0e15) {
+        return v.round();
+    }
+    let t = v as i64 as f64;
+    let frac = v - t;
+    if frac >= 0.5 {
+        t + 1.0
+    } else if frac <= -0.5 {
+        t - 1.0
+    } else {
+        t
     }
 }
 
@@ -203,6 +221,25 @@ mod tests {
             s.record(t.as_bytes());
         }
         assert_eq!(s.style(4), NumberStyle::fixed(4));
+    }
+
+    #[test]
+    fn rounding_matches_the_standard_round() {
+        for v in [
+            0.5,
+            -0.5,
+            1.5,
+            2.5,
+            -2.5,
+            0.49999999999999994,
+            123456.5,
+            -7.4999,
+            1e15 + 0.5,
+            3.0,
+            -0.0,
+        ] {
+            assert_eq!(round_half_away(v), v.round(), "{v}");
+        }
     }
 
     #[test]
