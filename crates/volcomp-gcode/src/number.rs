@@ -139,7 +139,7 @@ pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
 /// compiles to on baseline x86-64: exact for |v| < 2^52, where `v − trunc(v)`
 /// is computed without rounding. Larger or non-finite values use `round`.
 fn round_half_away(v: f64) -> f64 {
-    if !(v.abs() < 4.0e15) {
+    if v.is_nan() || v.abs() >= 4.0e15 {
         return v.round();
     }
     let t = v as i64 as f64;
