@@ -18,46 +18,55 @@ impl Vec3 {
     pub const ZERO: Vec3 = Vec3::new(0.0, 0.0, 0.0);
 
     /// Builds a vector.
+    #[inline]
     pub const fn new(x: f64, y: f64, z: f64) -> Self {
         Self { x, y, z }
     }
 
     /// Builds a vector from an array.
+    #[inline]
     pub const fn from_array(a: [f64; 3]) -> Self {
         Self::new(a[0], a[1], a[2])
     }
 
     /// The components as an array.
+    #[inline]
     pub const fn to_array(self) -> [f64; 3] {
         [self.x, self.y, self.z]
     }
 
     /// Dot product.
+    #[inline]
     pub fn dot(self, o: Vec3) -> f64 {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
 
     /// Euclidean norm.
+    #[inline]
     pub fn norm(self) -> f64 {
         self.dot(self).sqrt()
     }
 
     /// Largest absolute component.
+    #[inline]
     pub fn max_abs(self) -> f64 {
         self.x.abs().max(self.y.abs()).max(self.z.abs())
     }
 
     /// Whether every component is finite.
+    #[inline]
     pub fn is_finite(self) -> bool {
         self.x.is_finite() && self.y.is_finite() && self.z.is_finite()
     }
 
     /// Linear interpolation `self + t·(o − self)`.
+    #[inline]
     pub fn lerp(self, o: Vec3, t: f64) -> Vec3 {
         self + (o - self) * t
     }
 
     /// Component-wise map.
+    #[inline]
     pub fn map(self, f: impl Fn(f64) -> f64) -> Vec3 {
         Vec3::new(f(self.x), f(self.y), f(self.z))
     }
@@ -65,12 +74,14 @@ impl Vec3 {
 
 impl Add for Vec3 {
     type Output = Vec3;
+    #[inline]
     fn add(self, o: Vec3) -> Vec3 {
         Vec3::new(self.x + o.x, self.y + o.y, self.z + o.z)
     }
 }
 
 impl AddAssign for Vec3 {
+    #[inline]
     fn add_assign(&mut self, o: Vec3) {
         *self = *self + o;
     }
@@ -78,12 +89,14 @@ impl AddAssign for Vec3 {
 
 impl Sub for Vec3 {
     type Output = Vec3;
+    #[inline]
     fn sub(self, o: Vec3) -> Vec3 {
         Vec3::new(self.x - o.x, self.y - o.y, self.z - o.z)
     }
 }
 
 impl SubAssign for Vec3 {
+    #[inline]
     fn sub_assign(&mut self, o: Vec3) {
         *self = *self - o;
     }
@@ -91,6 +104,7 @@ impl SubAssign for Vec3 {
 
 impl Mul<f64> for Vec3 {
     type Output = Vec3;
+    #[inline]
     fn mul(self, k: f64) -> Vec3 {
         Vec3::new(self.x * k, self.y * k, self.z * k)
     }
@@ -98,6 +112,7 @@ impl Mul<f64> for Vec3 {
 
 impl Neg for Vec3 {
     type Output = Vec3;
+    #[inline]
     fn neg(self) -> Vec3 {
         Vec3::new(-self.x, -self.y, -self.z)
     }
@@ -105,6 +120,7 @@ impl Neg for Vec3 {
 
 impl Index<usize> for Vec3 {
     type Output = f64;
+    #[inline]
     fn index(&self, i: usize) -> &f64 {
         match i {
             0 => &self.x,
@@ -116,6 +132,7 @@ impl Index<usize> for Vec3 {
 }
 
 impl IndexMut<usize> for Vec3 {
+    #[inline]
     fn index_mut(&mut self, i: usize) -> &mut f64 {
         match i {
             0 => &mut self.x,
@@ -138,6 +155,7 @@ pub enum Units {
 
 impl Units {
     /// Millimetres per unit.
+    #[inline]
     pub const fn mm_per_unit(self) -> f64 {
         match self {
             Units::Mm => 1.0,
@@ -161,6 +179,7 @@ impl Plane {
     /// Axis indices `(u, v, w)`: the plane's first and second axes, then the
     /// helix axis, ordered so that G3 is counter-clockwise in `(u, v)` as in
     /// RS274/NGC's canonical ARC_FEED.
+    #[inline]
     pub const fn axes(self) -> (usize, usize, usize) {
         match self {
             Plane::Xy => (0, 1, 2),
