@@ -28,6 +28,7 @@ pub enum Command {
     Surface(crate::commands::surface::SurfaceArgs),
     /// Straightness models from measured profiles: fit (geometric error vs vibration), plot, table, predict.
     Straightness(crate::commands::straightness::StraightnessArgs),
+    Thermal(crate::commands::thermal::ThermalArgs),
 }
 
 /// How the program is set up on the machine.

@@ -15,6 +15,7 @@ pub mod map;
 mod simulate;
 pub mod straightness;
 pub mod surface;
+pub mod thermal;
 
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
@@ -25,6 +26,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Map(a) => map::run(a),
         Command::Surface(a) => surface::run(a),
         Command::Straightness(a) => straightness::run(a),
+        Command::Thermal(a) => thermal::run(a),
     }
 }
 

@@ -21,4 +21,5 @@ pub mod report;
 pub mod simulate;
 pub mod solve;
 pub mod straightness;
+pub mod thermal;
 pub mod topology;

@@ -1,0 +1,406 @@
+//! `volcomp thermal`: thermally varying volumetric error (docs/thermal.md).
+//! `fit` identifies the 21-component model with Legendre-polynomial
+//! components from ball-array measurements per cycle and regresses its
+//! parameters on temperatures; `predict` writes the 21-component model for a
+//! moment that `compensate --map` reads; `plot` draws parameter evolution,
+//! model fit and residuals; `example` writes synthetic inputs.
+
+use crate::output::{write_atomically, CliError};
+use crate::plot::{write_charts, Chart, Series};
+use clap::{Args, Subcommand};
+use std::path::{Path, PathBuf};
+use volcomp_core::thermal::example;
+use volcomp_core::thermal::files::{
+    self, parse_artifact, parse_measurements, parse_temperatures, FitOptions, ThermalModelFile,
+};
+use volcomp_core::thermal::identify::DEFAULT_RELATIVE_THRESHOLD;
+
+/// Thermally varying error: ball-array identification, temperature regression, prediction, plots.
+#[derive(Args, Debug)]
+pub struct ThermalArgs {
+    #[command(subcommand)]
+    pub command: ThermalCommand,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum ThermalCommand {
+    /// Identify the model per measurement cycle from ball-array data and regress it on temperatures.
+    Fit(FitArgs),
+    /// Write the 21-component model (TOML + CSV) predicted for one row of a temperature file.
+    Predict(PredictArgs),
+    /// Plot parameter evolution, regression fit and residuals (.svg or .png).
+    Plot(PlotArgs),
+    /// Write synthetic example inputs (artifact, measurements, temperatures of two tests).
+    Example(ExampleArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct FitArgs {
+    /// Measured sphere centres: cycle,time_h,placement,sphere,x_mm,y_mm,z_mm.
+    #[arg(long, value_name = "CSV")]
+    pub measurements: PathBuf,
+    /// Temperatures per cycle: cycle,time_h,<sensor>_C,…
+    #[arg(long, value_name = "CSV")]
+    pub temperatures: PathBuf,
+    /// Artifact: sphere,distance_mm (calibrated distance from sphere 1).
+    #[arg(long, value_name = "CSV")]
+    pub artifact: PathBuf,
+    /// Axis ranges the polynomials live on, mm: "X0:X1,Y0:Y1,Z0:Z1".
+    #[arg(long, value_name = "RANGES", allow_hyphen_values = true)]
+    pub ranges_mm: String,
+    /// Kinematic chain, workpiece to tool (docs/kinematic.md).
+    #[arg(long, default_value = "w X' Y' b Z t")]
+    pub chain: String,
+    /// Maximum Legendre order of the components.
+    #[arg(long, default_value_t = 2)]
+    pub order: usize,
+    /// Tool length offset of the probe (mm).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub probe_length_mm: f64,
+    /// Lagged cycles of every sensor in the regression (ARX-style inputs).
+    #[arg(long, default_value_t = 0)]
+    pub lags: usize,
+    /// Relative singular-value threshold for rank deficiency.
+    #[arg(long, default_value_t = DEFAULT_RELATIVE_THRESHOLD)]
+    pub threshold: f64,
+    /// Points per component table in predicted models.
+    #[arg(long, default_value_t = 61)]
+    pub table_samples: usize,
+    /// Output thermal model (TOML).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct PredictArgs {
+    /// Thermal model from `thermal fit`.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Temperatures (same sensor columns as for the fit).
+    #[arg(long, value_name = "CSV")]
+    pub temperatures: PathBuf,
+    /// Cycle number of the moment (default: the last row).
+    #[arg(long)]
+    pub cycle: Option<usize>,
+    /// Output 21-component model (TOML); the tables go beside it as <stem>.csv.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct PlotArgs {
+    /// Thermal model from `thermal fit`.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// How many parameters to draw (the largest drifts relative to their uncertainty first).
+    #[arg(long, default_value_t = 6)]
+    pub top: usize,
+    /// Output picture (.svg or .png).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct ExampleArgs {
+    /// Directory to write into (created if missing).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+pub fn run(a: ThermalArgs) -> Result<(), CliError> {
+    match a.command {
+        ThermalCommand::Fit(a) => fit_cmd(a),
+        ThermalCommand::Predict(a) => predict_cmd(a),
+        ThermalCommand::Plot(a) => plot_cmd(a),
+        ThermalCommand::Example(a) => example_cmd(a),
+    }
+}
+
+fn read(path: &Path) -> Result<String, CliError> {
+    std::fs::read_to_string(path).map_err(|e| CliError::Io(path.to_path_buf(), e))
+}
+
+fn parse_ranges(text: &str) -> Result<[[f64; 2]; 3], CliError> {
+    let bad = || {
+        CliError::Message(format!(
+            "--ranges-mm `{text}`: write three ranges lo:hi separated by commas, e.g. 0:600,0:400,0:300"
+        ))
+    };
+    let parts: Vec<&str> = text.split(',').collect();
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let mut r = [[0.0; 2]; 3];
+    for (a, p) in parts.iter().enumerate() {
+        let (lo, hi) = p.split_once(':').ok_or_else(bad)?;
+        r[a] = [
+            lo.trim().parse().map_err(|_| bad())?,
+            hi.trim().parse().map_err(|_| bad())?,
+        ];
+    }
+    Ok(r)
+}
+
+fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
+    let ranges_mm = parse_ranges(&a.ranges_mm)?;
+    let art_name = a.artifact.display().to_string();
+    let array = parse_artifact(&read(&a.artifact)?, &art_name)?;
+    let m_name = a.measurements.display().to_string();
+    let cycles = parse_measurements(&read(&a.measurements)?, &m_name, &array)?;
+    let t_name = a.temperatures.display().to_string();
+    let temps = parse_temperatures(&read(&a.temperatures)?, &t_name)?;
+    if !(a.threshold > 0.0 && a.threshold < 1.0) {
+        return Err(CliError::Message(format!(
+            "--threshold {}: give a relative threshold between 0 and 1 (default {DEFAULT_RELATIVE_THRESHOLD})",
+            a.threshold
+        )));
+    }
+    let options = FitOptions {
+        chain: a.chain.clone(),
+        ranges_mm,
+        order: a.order,
+        probe_length_mm: a.probe_length_mm,
+        lags: a.lags,
+        relative_threshold: a.threshold,
+        table_samples: a.table_samples,
+    };
+    let (file, idents) = files::fit(&array, &cycles, &temps, &t_name, &options)?;
+    let text = file.to_toml();
+    write_atomically(
+        &a.output,
+        &[&a.measurements, &a.temperatures, &a.artifact],
+        |w| {
+            w.write_all(text.as_bytes())
+                .map_err(|e| CliError::Io(a.output.clone(), e))
+        },
+    )?;
+    let first = &idents[0];
+    let s0: Vec<f64> = file.sigma0_um.clone();
+    let (lo, hi) = s0
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(*v), h.max(*v)));
+    println!(
+        "{} cycles, {} placements, {} observations per cycle; rank {} of {} parameters",
+        cycles.len(),
+        cycles[0].placements.len(),
+        first.observations,
+        first.rank,
+        first.theta.len()
+    );
+    println!("probing noise estimated from the residuals: {lo:.3} … {hi:.3} µm");
+    if file.unidentifiable.is_empty() {
+        println!("every parameter is identifiable");
+    } else {
+        println!(
+            "not identifiable from these placements (no values, zero in predicted models): {}",
+            file.unidentifiable.join(", ")
+        );
+    }
+    let worst = file
+        .params
+        .iter()
+        .max_by(|a, b| a.residual_rms.total_cmp(&b.residual_rms));
+    if let Some(p) = worst {
+        println!(
+            "regression on {} sensor(s), {} lag(s): largest residual RMS {:.3} {} ({})",
+            file.sensors.len(),
+            file.lags,
+            p.residual_rms,
+            p.unit,
+            p.name
+        );
+    }
+    println!("wrote {}", a.output.display());
+    Ok(())
+}
+
+fn load_model(path: &Path) -> Result<ThermalModelFile, CliError> {
+    Ok(ThermalModelFile::from_toml(
+        &read(path)?,
+        &path.display().to_string(),
+    )?)
+}
+
+fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
+    let model = load_model(&a.model)?;
+    let t_name = a.temperatures.display().to_string();
+    let temps = parse_temperatures(&read(&a.temperatures)?, &t_name)?;
+    let row = match a.cycle {
+        None => temps.values.len() - 1,
+        Some(c) => temps.cycles.iter().position(|&k| k == c).ok_or_else(|| {
+            CliError::Message(format!(
+                "{t_name}: no row for cycle {c}; cycles there are {}…{}",
+                temps.cycles[0],
+                temps.cycles[temps.cycles.len() - 1]
+            ))
+        })?,
+    };
+    let theta = model.predict(&temps, &t_name, row)?;
+    let stem = a
+        .output
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("model")
+        .to_string();
+    let csv_name = format!("{stem}.csv");
+    let csv_path = a.output.with_file_name(&csv_name);
+    let (toml, csv) = model.model_files(
+        &theta,
+        &csv_name,
+        &format!(
+            "volcomp thermal prediction for cycle {} (t = {} h) of {}",
+            temps.cycles[row], temps.time_h[row], t_name
+        ),
+    )?;
+    let inputs = [a.model.as_path(), a.temperatures.as_path()];
+    write_atomically(&csv_path, &inputs, |w| {
+        w.write_all(csv.as_bytes())
+            .map_err(|e| CliError::Io(csv_path.clone(), e))
+    })?;
+    write_atomically(&a.output, &inputs, |w| {
+        w.write_all(toml.as_bytes())
+            .map_err(|e| CliError::Io(a.output.clone(), e))
+    })?;
+    println!(
+        "wrote {} and {} (cycle {}, t = {} h); use it with `volcomp compensate --map {}`",
+        a.output.display(),
+        csv_path.display(),
+        temps.cycles[row],
+        temps.time_h[row],
+        a.output.display()
+    );
+    Ok(())
+}
+
+fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
+    let m = load_model(&a.model)?;
+    let t = &m.time_h;
+    let fitted = |p: &files::ParamFit| -> Vec<(f64, f64)> {
+        (m.lags..t.len())
+            .map(|c| {
+                let mut v = p.intercept;
+                for l in 0..=m.lags {
+                    for (s, temp) in m.temperatures_c[c - l].iter().enumerate() {
+                        v += p.per_kelvin[l * m.sensors.len() + s] * temp;
+                    }
+                }
+                (t[c], v)
+            })
+            .collect()
+    };
+    let mut order: Vec<&files::ParamFit> = m.params.iter().collect();
+    let spread = |p: &files::ParamFit| {
+        let (lo, hi) = p
+            .identified
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+                (l.min(*v), h.max(*v))
+            });
+        let sigma =
+            p.sigma.iter().filter(|s| s.is_finite()).sum::<f64>() / p.sigma.len().max(1) as f64;
+        // Drift in units of the identification's uncertainty: real drifts first.
+        (hi - lo) / sigma.max(1e-12)
+    };
+    order.sort_by(|a, b| spread(b).total_cmp(&spread(a)));
+    order.truncate(a.top.max(1));
+    let mut evolution = Chart {
+        title: "Parameters over time: identified (markers) and regression (lines)".into(),
+        x_label: "time (h)".into(),
+        y_label: "value − first cycle (µm or µrad)".into(),
+        ..Chart::default()
+    };
+    let mut residuals = Chart {
+        title: "Regression residuals".into(),
+        x_label: "time (h)".into(),
+        y_label: "identified − regression (µm or µrad)".into(),
+        ..Chart::default()
+    };
+    for p in &order {
+        let base = p.identified[0];
+        let label = format!("{} ({})", p.name, p.unit);
+        evolution.series.push(Series::markers(
+            label.clone(),
+            t.iter()
+                .zip(&p.identified)
+                .map(|(x, v)| (*x, v - base))
+                .collect(),
+        ));
+        let f = fitted(p);
+        evolution.series.push(Series::line(
+            format!("{label} fit"),
+            f.iter().map(|(x, v)| (*x, v - base)).collect(),
+        ));
+        residuals.series.push(Series::line(
+            label,
+            f.iter()
+                .map(|(x, v)| {
+                    let c = t.iter().position(|y| y == x).unwrap_or(0);
+                    (*x, p.identified[c] - v)
+                })
+                .collect(),
+        ));
+    }
+    let mut temps = Chart {
+        title: "Temperatures".into(),
+        x_label: "time (h)".into(),
+        y_label: "°C".into(),
+        ..Chart::default()
+    };
+    for (s, name) in m.sensors.iter().enumerate() {
+        temps.series.push(Series::line(
+            name.clone(),
+            t.iter()
+                .zip(&m.temperatures_c)
+                .map(|(x, v)| (*x, v[s]))
+                .collect(),
+        ));
+    }
+    let noise = Chart {
+        title: "Probing noise estimated from the artifact residuals per cycle".into(),
+        x_label: "time (h)".into(),
+        y_label: "σ0 (µm)".into(),
+        series: vec![Series::markers(
+            "σ0",
+            t.iter().zip(&m.sigma0_um).map(|(x, v)| (*x, *v)).collect(),
+        )],
+        ..Chart::default()
+    };
+    write_charts(&[evolution, residuals, temps, noise], &a.output)?;
+    println!("wrote {}", a.output.display());
+    Ok(())
+}
+
+fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
+    std::fs::create_dir_all(&a.output).map_err(|e| CliError::Io(a.output.clone(), e))?;
+    let array = example::artifact();
+    let mut files: Vec<(String, String)> =
+        vec![("artifact.csv".into(), example::artifact_csv(&array))];
+    for (test, name, seed) in [(0, "train", 7u64), (1, "check", 8)] {
+        let (times, temps, meas) = example::simulate_test(test, 12, 2.0, 0.5, seed);
+        files.push((
+            format!("measurements_{name}.csv"),
+            example::measurements_csv(&times, &meas),
+        ));
+        files.push((
+            format!("temperatures_{name}.csv"),
+            example::temperatures_csv(&example::SENSORS, &times, &temps),
+        ));
+    }
+    for (name, text) in &files {
+        let path = a.output.join(name);
+        write_atomically(&path, &[], |w| {
+            w.write_all(text.as_bytes())
+                .map_err(|e| CliError::Io(path.clone(), e))
+        })?;
+    }
+    let d = a.output.display();
+    let r = example::RANGES_MM;
+    println!("wrote the example into {d}; try:");
+    println!(
+        "  volcomp thermal fit --measurements {d}/measurements_train.csv --temperatures {d}/temperatures_train.csv \\\n      --artifact {d}/artifact.csv --ranges-mm {}:{},{}:{},{}:{} -o {d}/thermal.toml",
+        r[0][0], r[0][1], r[1][0], r[1][1], r[2][0], r[2][1]
+    );
+    println!("  volcomp thermal predict --model {d}/thermal.toml --temperatures {d}/temperatures_check.csv -o {d}/predicted.toml");
+    println!("  volcomp thermal plot --model {d}/thermal.toml -o {d}/thermal.svg");
+    Ok(())
+}
