@@ -143,7 +143,8 @@ pub struct Interpreter {
     cycle_p: Option<f64>,
     finished: bool,
     percent_lines: u32,
-    words: Box<WordTable>,
+    /// The current block's words; `None` only while the block runs.
+    words: Option<Box<WordTable>>,
 }
 
 /// The words of one block by letter, plus its G and M codes.
@@ -274,7 +275,7 @@ impl Interpreter {
             cycle_p: None,
             finished: false,
             percent_lines: 0,
-            words: Box::default(),
+            words: Some(Box::default()),
         }
     }
 
@@ -352,7 +353,7 @@ impl Interpreter {
     }
 
     fn collect_words(&mut self, line: u64, lexed: &Lexed) -> Result<(), GcodeError> {
-        let w = &mut self.words;
+        let w = self.words.get_or_insert_with(Box::default);
         w.values = [None; 26];
         w.g.clear();
         w.m.clear();
@@ -466,9 +467,11 @@ impl Interpreter {
 
     fn run_block(&mut self, line: u64, out: &mut Vec<Motion>) -> Result<(), GcodeError> {
         // The table is moved out and back so its buffers are reused, not cloned.
-        let w = std::mem::take(&mut self.words);
+        // Taken out (no allocation) so the block can be read while the
+        // interpreter changes, and put back for the next line to reuse.
+        let w = self.words.take().unwrap_or_default();
         let result = self.run_words(line, &w, out);
-        self.words = w;
+        self.words = Some(w);
         result
     }
 
