@@ -7,7 +7,7 @@ use std::fs::File;
 use std::io::{self, BufRead, BufReader, BufWriter, Write};
 use std::path::Path;
 use volcomp_gcode::number::{format_number, NumberStyle};
-use volcomp_gcode::{InterpOptions, MotionKind, Setup, Vec3, Walker};
+use volcomp_gcode::{InterpOptions, Motion, MotionKind, Setup, Vec3, Walker};
 
 mod compensate;
 mod demo;
@@ -88,14 +88,56 @@ impl Machine {
     }
 }
 
+/// Motions handed from the reading thread to the writing thread at a time.
+const MOVES_BATCH: usize = 4096;
+
+/// `volcomp moves`: one thread reads and interprets, the other formats and
+/// writes, with a bounded queue of batches between them, so memory stays
+/// constant and both cores work.
 fn moves(a: MovesArgs) -> Result<(), CliError> {
     let machine = Machine::from_args(&a.machine)?;
     let mut walker = machine.walk(&a.program)?;
+    let json = a.format == MovesFormat::Json;
+    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Motion>>(4);
+    let writer = std::thread::spawn(move || write_moves(rx, json));
+    let mut batch = Vec::with_capacity(MOVES_BATCH);
+    let mut read = || -> Result<(), CliError> {
+        loop {
+            let ev = match walker.next_line() {
+                Ok(Some(ev)) => ev,
+                Ok(None) => break,
+                Err(e) => {
+                    // Print what was understood up to the error, then report it.
+                    let _ = tx.send(std::mem::take(&mut batch));
+                    return Err(e.into());
+                }
+            };
+            batch.extend_from_slice(ev.motions);
+            if batch.len() >= MOVES_BATCH {
+                let full = std::mem::replace(&mut batch, Vec::with_capacity(MOVES_BATCH));
+                if tx.send(full).is_err() {
+                    // The writer stopped (e.g. a closed pipe): its error is reported below.
+                    return Ok(());
+                }
+            }
+        }
+        let _ = tx.send(std::mem::take(&mut batch));
+        Ok(())
+    };
+    let read_result = read();
+    drop(tx);
+    let write_result = writer
+        .join()
+        .unwrap_or_else(|_| Err(CliError::Message("the output thread failed".into())));
+    read_result?;
+    write_result
+}
+
+fn write_moves(rx: std::sync::mpsc::Receiver<Vec<Motion>>, json: bool) -> Result<(), CliError> {
     let stdout = io::stdout();
-    let mut out = BufWriter::with_capacity(1 << 16, stdout.lock());
+    let mut out = BufWriter::with_capacity(1 << 20, stdout.lock());
     let style = NumberStyle::fixed(6);
     let mut row = String::with_capacity(160);
-    let json = a.format == MovesFormat::Json;
     let mut first = true;
     if json {
         out.write_all(b"[").map_err(CliError::Stdout)?;
@@ -103,8 +145,8 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
         out.write_all(b"line,column,kind,source,x_mm,y_mm,z_mm,cx_mm,cy_mm,cz_mm\n")
             .map_err(CliError::Stdout)?;
     }
-    while let Some(ev) = walker.next_line()? {
-        for m in ev.motions {
+    for batch in rx {
+        for m in &batch {
             row.clear();
             let center = match m.kind {
                 MotionKind::Arc(arc) => Some(arc.center),

@@ -111,6 +111,26 @@ pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
     let scaled = scaled as i64;
     let negative = scaled < 0;
     let magnitude = scaled.unsigned_abs();
+    if style.leading_zero && !style.trim_trailing_zeros && style.decimals > 0 {
+        // Fixed decimals, the usual style: one conversion, then the point.
+        let mut buf = itoa::Buffer::new();
+        let digits = buf.format(magnitude).as_bytes();
+        let d = usize::from(style.decimals);
+        if negative {
+            out.push('-');
+        }
+        if digits.len() > d {
+            let (int, frac) = digits.split_at(digits.len() - d);
+            out.extend(int.iter().map(|&b| char::from(b)));
+            out.push('.');
+            out.extend(frac.iter().map(|&b| char::from(b)));
+        } else {
+            out.push_str("0.");
+            out.extend(std::iter::repeat_n('0', d - digits.len()));
+            out.extend(digits.iter().map(|&b| char::from(b)));
+        }
+        return;
+    }
     let divisor = 10u64.pow(u32::from(style.decimals));
     let int_part = magnitude / divisor;
     let mut frac_part = magnitude % divisor;
