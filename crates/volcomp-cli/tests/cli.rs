@@ -2,22 +2,10 @@
 //! nothing half-written, the input never overwritten.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn volcomp(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_volcomp"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run volcomp")
-}
-
-fn tempdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("volcomp-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+mod common;
+use common::{tempdir, volcomp};
 
 /// A map over −100…300 mm with `ex_um` on X given by `f(position)`.
 fn write_map(dir: &Path, f: impl Fn(f64) -> f64) -> PathBuf {

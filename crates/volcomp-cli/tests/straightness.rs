@@ -2,26 +2,10 @@
 //! model as a `--map`, and located refusals of bad runs.
 
 use std::f64::consts::PI;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
-fn volcomp(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_volcomp"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run volcomp")
-}
-
-fn tempdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "volcomp-straightness-{name}-{}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+mod common;
+use common::{tempdir, volcomp};
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

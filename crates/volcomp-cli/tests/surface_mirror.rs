@@ -1,26 +1,14 @@
 //! `volcomp surface mirror` as a user meets it: the files it writes, the
 //! report, and located refusals of bad input with nothing written.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 use volcomp_core::bspline::{self, Parameterization};
 use volcomp_core::mirror::{read_bspline_toml, write_bspline_toml, MaterialSide, NominalSurface};
 use volcomp_gcode::Vec3;
 
-fn volcomp(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_volcomp"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run volcomp")
-}
-
-fn tempdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("volcomp-mirror-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+mod common;
+use common::{tempdir, volcomp};
 
 fn text(o: &Output) -> (String, String) {
     (

@@ -1,23 +1,10 @@
 //! `volcomp thermal …` as a user meets it: example → fit → predict → the
 //! predicted model drives `compensate`; bad input is located.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn volcomp(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_volcomp"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run volcomp")
-}
-
-fn tempdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("volcomp-thermal-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+mod common;
+use common::{tempdir, volcomp};
 
 fn ok(o: &Output) -> String {
     assert!(
