@@ -86,6 +86,75 @@ impl AxisTables {
     }
 }
 
+/// Which table a CSV row belongs to (`direction` column).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum RowDirection {
+    /// `forward`, `fwd`, `+`.
+    Forward,
+    /// `reverse`, `rev`, `-`.
+    Reverse,
+    /// `both`: one table for both directions.
+    Both,
+}
+
+impl RowDirection {
+    /// Index 0, 1, 2 for forward, reverse, both.
+    pub(crate) fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// Reads a `direction` field (row and column are 1-based, for the error).
+pub(crate) fn direction_field(
+    text: &str,
+    file: &str,
+    row: usize,
+    column: usize,
+) -> Result<RowDirection, MapFileError> {
+    match text.to_ascii_lowercase().as_str() {
+        "forward" | "fwd" | "+" => Ok(RowDirection::Forward),
+        "reverse" | "rev" | "-" => Ok(RowDirection::Reverse),
+        "both" => Ok(RowDirection::Both),
+        _ => Err(MapFileError {
+            file: file.to_string(),
+            row,
+            column,
+            message: format!("unknown direction `{text}`"),
+            help: "use forward, reverse or both".into(),
+        }),
+    }
+}
+
+/// Reads a finite number field (row and column are 1-based, for the error).
+pub(crate) fn finite_field(
+    text: &str,
+    file: &str,
+    row: usize,
+    column: usize,
+) -> Result<f64, MapFileError> {
+    let err = |message: String, help: &str| MapFileError {
+        file: file.to_string(),
+        row,
+        column,
+        message,
+        help: help.to_string(),
+    };
+    let v: f64 = text.parse().map_err(|_| {
+        err(
+            format!("`{text}` is not a number"),
+            "write a decimal number such as -1.25",
+        )
+    })?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(err(
+            format!("`{text}` is not a finite number"),
+            "remove NaN/inf values; every table point needs a measured value",
+        ))
+    }
+}
+
 /// The axis-table map of a machine.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisTableMap {
@@ -218,40 +287,11 @@ impl AxisTableMap {
                     ))
                 }
             };
-            let dir_text = fields[cols[1]];
-            let dir = match dir_text.to_ascii_lowercase().as_str() {
-                "forward" | "fwd" | "+" => 0,
-                "reverse" | "rev" | "-" => 1,
-                "both" => 2,
-                _ => {
-                    return Err(err(
-                        row,
-                        cols[1] + 1,
-                        format!("unknown direction `{dir_text}`"),
-                        "use forward, reverse or both",
-                    ))
-                }
-            };
+            let dir = direction_field(fields[cols[1]], file, row, cols[1] + 1)?.index();
             let mut num = [0.0; 4];
             for (k, slot) in num.iter_mut().enumerate() {
                 let c = cols[2 + k];
-                let v: f64 = fields[c].parse().map_err(|_| {
-                    err(
-                        row,
-                        c + 1,
-                        format!("`{}` is not a number", fields[c]),
-                        "write a decimal number such as -1.25",
-                    )
-                })?;
-                if !v.is_finite() {
-                    return Err(err(
-                        row,
-                        c + 1,
-                        format!("`{}` is not a finite number", fields[c]),
-                        "remove NaN/inf values; every table point needs a measured value",
-                    ));
-                }
-                *slot = v;
+                *slot = finite_field(fields[c], file, row, c + 1)?;
             }
             rows[axis][dir].push((num[0], Vec3::new(num[1], num[2], num[3]), row));
         }

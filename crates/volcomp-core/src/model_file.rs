@@ -244,40 +244,21 @@ impl TableRows {
                     ))
                 }
             };
-            let dir_text = fields[cols[1]];
-            let dir = match dir_text.to_ascii_lowercase().as_str() {
-                "forward" | "fwd" | "+" => Dir::Forward,
-                "reverse" | "rev" | "-" => Dir::Reverse,
-                "both" => Dir::Both,
-                _ => {
-                    return Err(err(
-                        row,
-                        cols[1] + 1,
-                        format!("unknown direction `{dir_text}`"),
-                        "use forward, reverse or both",
-                    ))
-                }
+            let dir = match crate::axis_table::direction_field(
+                fields[cols[1]],
+                file,
+                row,
+                cols[1] + 1,
+            )? {
+                crate::axis_table::RowDirection::Forward => Dir::Forward,
+                crate::axis_table::RowDirection::Reverse => Dir::Reverse,
+                crate::axis_table::RowDirection::Both => Dir::Both,
             };
             let mut num = [0.0; 7];
             for (k, slot) in num.iter_mut().enumerate() {
                 let c = cols[2 + k];
-                let v: f64 = fields[c].parse().map_err(|_| {
-                    err(
-                        row,
-                        c + 1,
-                        format!("`{}` is not a number", fields[c]),
-                        "write a decimal number such as -1.25",
-                    )
-                })?;
-                if !v.is_finite() {
-                    return Err(err(
-                        row,
-                        c + 1,
-                        format!("`{}` is not a finite number", fields[c]),
-                        "remove NaN/inf values; every table point needs a measured value",
-                    ));
-                }
-                *slot = v * scale[2 + k];
+                *slot =
+                    crate::axis_table::finite_field(fields[c], file, row, c + 1)? * scale[2 + k];
             }
             self.rows.push(Row {
                 axis,
