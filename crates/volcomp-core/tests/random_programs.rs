@@ -157,3 +157,28 @@ proptest! {
         prop_assert!(after.contour_rms_um < 0.2 * before.contour_rms_um.max(0.5), "after {after:?}\nbefore {before:?}");
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Whatever the bytes, compensation and simulation end with a result or
+    /// a located error, never a panic.
+    #[test]
+    fn arbitrary_programs_never_panic_in_compensation(
+        lines in prop::collection::vec(
+            prop::collection::vec(prop::sample::select(b"GXYZIJKRPFM0123456789.-+ ()%;\n".to_vec()), 0..40),
+            0..30,
+        )
+    ) {
+        let mut text = String::from("G21 G90 G0 X0 Y0 Z0\n");
+        for l in &lines {
+            text.push_str(&String::from_utf8_lossy(l));
+            text.push('\n');
+        }
+        let map = example_map();
+        let style = survey_style(text.as_bytes());
+        let mut out = Vec::new();
+        let _ = compensate_program(&mut walker(&text), "fuzz.ngc", &map, &style, &CompensateOptions::default(), &mut out, |_| {});
+        let _ = simulate_program(&mut walker(&text), "fuzz.ngc", None::<&mut Walker<Cursor<Vec<u8>>>>, &map, 1e-4, None, |_| {});
+    }
+}
