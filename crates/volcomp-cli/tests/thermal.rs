@@ -32,11 +32,23 @@ fn example_fit_predict_compensate_plot() {
             "ex/artifact.csv",
             "--ranges-mm",
             "0:600,0:400,0:300",
+            "--bands",
+            "bands.csv",
             "-o",
             "thermal.toml",
         ],
         &d,
     ));
+    // The bands: 3 lines × 41 points × 3 components, each a 95 % interval
+    // around the estimate with a positive spread.
+    let bands = std::fs::read_to_string(d.join("bands.csv")).unwrap();
+    let rows: Vec<&str> = bands.lines().skip(1).collect();
+    assert_eq!(rows.len(), 3 * 41 * 3);
+    for r in rows {
+        let f: Vec<f64> = r.split(',').skip(3).map(|v| v.parse().unwrap()).collect();
+        let (est, std, lo, hi) = (f[0], f[1], f[2], f[3]);
+        assert!(lo <= est + 1e-9 && est <= hi + 1e-9 && std >= 0.0, "{r}");
+    }
     // Order 2 on the seed chain with the probe at the measuring point: the
     // rotations of Y about Z and every rotation of Z act on nothing the probe sees.
     assert!(out.contains("rank 25 of 33"), "{out}");

@@ -66,6 +66,14 @@ pub struct FitArgs {
     /// Points per component table in predicted models.
     #[arg(long, default_value_t = 61)]
     pub table_samples: usize,
+    /// Also write the 95 % Monte Carlo confidence bands of the last cycle's
+    /// identified TCP error along lines through the middle of the volume in
+    /// X, Y and Z: a CSV, or a plot (.svg/.png).
+    #[arg(long, value_name = "FILE")]
+    pub bands: Option<PathBuf>,
+    /// Monte Carlo draws for --bands.
+    #[arg(long, default_value_t = 400, requires = "bands")]
+    pub samples: usize,
     /// Output thermal model (TOML).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -174,6 +182,20 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
                 .map_err(|e| CliError::Io(a.output.clone(), e))
         },
     )?;
+    if let Some(path) = &a.bands {
+        let last = idents
+            .last()
+            .ok_or_else(|| CliError::Message("no cycles to draw bands for".into()))?;
+        let model = files::poly_model(&a.chain, ranges_mm, a.order, a.probe_length_mm)?;
+        write_bands(
+            path,
+            &model,
+            last,
+            ranges_mm,
+            a.probe_length_mm,
+            a.samples.max(10),
+        )?;
+    }
     let first = &idents[0];
     let s0: Vec<f64> = file.sigma0_um.clone();
     let (lo, hi) = s0
@@ -403,4 +425,71 @@ fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
     println!("  volcomp thermal predict --model {d}/thermal.toml --temperatures {d}/temperatures_check.csv -o {d}/predicted.toml");
     println!("  volcomp thermal plot --model {d}/thermal.toml -o {d}/thermal.svg");
     Ok(())
+}
+
+/// The 95 % Monte Carlo bands of the identified TCP error along lines
+/// through the middle of the volume (design: issue 7, uncertainty), as CSV
+/// or as a plot with one chart per axis line.
+fn write_bands(
+    path: &Path,
+    model: &volcomp_core::thermal::poly::PolyModel,
+    ident: &volcomp_core::thermal::identify::Identification,
+    ranges_mm: [[f64; 2]; 3],
+    probe_length_mm: f64,
+    samples: usize,
+) -> Result<(), CliError> {
+    use volcomp_gcode::Vec3;
+    let mid = Vec3::new(
+        0.5 * (ranges_mm[0][0] + ranges_mm[0][1]),
+        0.5 * (ranges_mm[1][0] + ranges_mm[1][1]),
+        0.5 * (ranges_mm[2][0] + ranges_mm[2][1]),
+    );
+    let tool = Vec3::new(0.0, 0.0, probe_length_mm);
+    let mut csv = String::from("line,position_mm,component,estimate_um,std_um,lo95_um,hi95_um\n");
+    let mut charts = Vec::new();
+    for (a, name) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+        let [lo, hi] = ranges_mm[a];
+        let line: Vec<Vec3> = (0..=40)
+            .map(|k| {
+                let mut p = mid;
+                p[a] = lo + (hi - lo) * f64::from(k) / 40.0;
+                p
+            })
+            .collect();
+        let bands =
+            volcomp_core::thermal::uncertainty::monte_carlo(model, ident, &line, tool, samples, 1);
+        // The component along the line's own axis: what a part dimension sees.
+        let mut series = [Vec::new(), Vec::new(), Vec::new()];
+        for (p, b) in line.iter().zip(&bands) {
+            for c in 0..3 {
+                csv.push_str(&format!(
+                    "{name},{:.3},{},{:.4},{:.4},{:.4},{:.4}\n",
+                    p[a],
+                    ['x', 'y', 'z'][c],
+                    b.estimate_um[c],
+                    b.std_um[c],
+                    b.lo_um[c],
+                    b.hi_um[c]
+                ));
+            }
+            series[0].push((p[a], b.estimate_um[a]));
+            series[1].push((p[a], b.lo_um[a]));
+            series[2].push((p[a], b.hi_um[a]));
+        }
+        let [est, lo95, hi95] = series;
+        charts.push(Chart {
+            title: format!("identified e_{} along {name} through the middle, 95 % Monte Carlo band ({samples} draws)", name.to_ascii_lowercase()),
+            x_label: format!("{name} (mm)"),
+            y_label: "deviation (µm)".into(),
+            series: vec![Series::line("estimate", est), Series::line("2.5 %", lo95), Series::line("97.5 %", hi95)],
+            ..Chart::default()
+        });
+    }
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("svg") | Some("png") => write_charts(&charts, path),
+        _ => write_atomically(path, &[], |w| {
+            w.write_all(csv.as_bytes())
+                .map_err(|e| CliError::Io(path.to_path_buf(), e))
+        }),
+    }
 }
