@@ -3,8 +3,9 @@
 //! * point error: at every commanded point of a feed move (G1, and the chord
 //!   ends of G2/G3), `‖actual − nominal‖`. Without a reference program the
 //!   nominal point is the command itself; with one (a compensated program
-//!   judged against its original) it is the closest point of the original's
-//!   nominal path, since the compensated commands are not nominal points;
+//!   judged against its original) it is the original's vertex (block end,
+//!   arc chord end) the point was aimed at when one lies within 0.02 mm,
+//!   otherwise the closest point of the original's path (split points);
 //! * contour error: the distance from the actual path, sampled every
 //!   ≤ 0.05 mm along feed moves, to the nominal path; RMS over arc length.
 //!
@@ -186,7 +187,7 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
                         (end - target).norm() * 1e3
                     }
                     (None, false) => (end - b).norm() * 1e3,
-                    (None, true) => window.distance(end).unwrap_or(0.0) * 1e3,
+                    (None, true) => window.point_error(end).unwrap_or(0.0) * 1e3,
                 };
                 point.add(point_um, 1.0);
                 on_segment(&SegmentError {

@@ -273,7 +273,25 @@ impl NominalWindow {
         }
         Some(best)
     }
+
+    /// Error (mm) of a commanded point judged against the nominal path: the
+    /// distance to the nominal vertex it was aimed at when one lies within
+    /// [`VERTEX_SNAP_MM`] (block ends and arc chord ends: the along-path error
+    /// counts there), otherwise the distance to the path.
+    pub fn point_error(&mut self, p: Vec3) -> Option<f64> {
+        let d = self.distance(p)?;
+        let (a, b, _) = self.segments[self.cursor];
+        let vertex = [a, b]
+            .into_iter()
+            .map(|v| (p - v).norm())
+            .fold(f64::INFINITY, f64::min);
+        Some(if vertex < VERTEX_SNAP_MM { vertex } else { d })
+    }
 }
+
+/// How close a commanded point must be to a nominal vertex to be judged
+/// against it (mm): far above any machine error, far below a segment.
+pub const VERTEX_SNAP_MM: f64 = 0.02;
 
 #[cfg(test)]
 mod tests {

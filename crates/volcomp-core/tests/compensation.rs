@@ -338,3 +338,40 @@ fn canned_cycles_are_written_as_compensated_moves() {
         );
     }
 }
+
+#[test]
+fn with_a_reference_points_at_block_ends_are_judged_against_their_vertex() {
+    // Pitch error 0.1 µm/mm along X. Uncompensated, the tool stops at
+    // X = 40.004 when commanded to X40: on the straight path to X80, so its
+    // distance to the path is 0, but it is 4 µm from the block end it was
+    // sent to; at X80 it is 8 µm off. Judged against itself as reference the
+    // point errors must be those along-path errors, 4 and 8 µm.
+    let map = map_from(|a, p, _| {
+        if a == 0 {
+            [0.1 * p, 0.0, 0.0]
+        } else {
+            [0.0; 3]
+        }
+    });
+    let program = "G0 X0 Y0 Z0\nG1 X40 F100\nG1 X80\nM2\n";
+    let mut errors = Vec::new();
+    let report = simulate_program(
+        &mut walker(program),
+        "p",
+        Some(&mut walker(program)),
+        &map,
+        1e-4,
+        None,
+        |s| errors.push(s.point_um),
+    )
+    .unwrap();
+    assert_eq!(errors.len(), 2);
+    assert!(
+        (errors[0] - 4.0).abs() < 1e-9 && (errors[1] - 8.0).abs() < 1e-9,
+        "{errors:?}"
+    );
+    assert!((report.point_max_um - 8.0).abs() < 1e-9);
+    // The contour error is a distance to the path: along a straight line the
+    // pitch error does not show in it, except past the end (8 µm beyond X80).
+    assert!((report.contour_max_um - 8.0).abs() < 1e-9);
+}
