@@ -5,7 +5,7 @@ use volcomp_core::axis_table::AxisTableMap;
 use volcomp_core::compensate::{
     compensate_program, survey_style, CompensateOptions, PointRecord, Segmentation,
 };
-use volcomp_core::report::simulate_program;
+use volcomp_core::report::{simulate_program, SimReport};
 use volcomp_core::solve::Method;
 use volcomp_gcode::{InterpOptions, MotionKind, Setup, Vec3, Walker};
 
@@ -62,6 +62,20 @@ fn ends(program: &str) -> Vec<(MotionKind, Vec3)> {
         out.extend(ev.motions.iter().map(|m| (m.kind, m.end)));
     }
     out
+}
+
+/// Simulates a compensated program against its original.
+fn against_original(out: &str, original: &str, map: &AxisTableMap) -> SimReport {
+    simulate_program(
+        &mut walker(out),
+        "out",
+        Some(&mut walker(original)),
+        map,
+        1e-4,
+        None,
+        |_| {},
+    )
+    .unwrap()
 }
 
 const SQUARE: &str = "G21 G90 G17\nG0 X0 Y0 Z0\nG1 X40 F500\nG1 Y30\nG1 X0\nG1 Y0\nM2\n";
@@ -178,38 +192,18 @@ fn backlash_reversal_gets_a_take_up_move() {
     assert!(records.iter().any(|r| r.take_up && r.reversed[0]));
     // Simulated, the reversal costs nothing: the tool ends exactly at X5 and
     // never leaves the nominal line.
-    let mut sim = walker(&out);
-    let mut reference = walker(program);
-    let report = simulate_program(
-        &mut sim,
-        "out",
-        Some(&mut reference),
-        &map,
-        1e-4,
-        None,
-        |_| {},
-    )
-    .unwrap();
+    let report = against_original(&out, program, &map);
     assert!(report.contour_max_um < 1e-6, "{report:?}");
-    // Without the take-up the tool lags 4 µm behind at the start of the return.
+    // Without the take-up the tool stands still for the first 4 µm of the
+    // return command; on a pure X line that lag lies along the path, so the
+    // contour error stays zero here too (take-ups matter across the path).
     let opts = CompensateOptions {
         segmentation: Segmentation::Off,
         take_up: false,
         ..Default::default()
     };
     let (out, _) = compensate(program, &map, opts);
-    let mut sim = walker(&out);
-    let mut reference = walker(program);
-    let report = simulate_program(
-        &mut sim,
-        "out",
-        Some(&mut reference),
-        &map,
-        1e-4,
-        None,
-        |_| {},
-    )
-    .unwrap();
+    let report = against_original(&out, program, &map);
     assert!(
         report.contour_max_um < 1e-6,
         "a pure X line stays on itself: {report:?}"
@@ -218,8 +212,8 @@ fn backlash_reversal_gets_a_take_up_move() {
 
 #[test]
 fn splitting_follows_a_curved_error_and_beats_end_point_compensation() {
-    // A bow of Y straightness along X: e_y = 8·u·(1−u) µm over X −100…300
-    // (u = (x+100)/400). A 40 mm line only corrected at its ends keeps the
+    // A bow of Y straightness along X: e_y = 80·u·(1−u) µm over X −100…300
+    // (u = (x+100)/400). A 200 mm line only corrected at its ends keeps the
     // bow's sagitta in between; split every mm it follows within rounding.
     let map = map_from(|a, p, _| {
         let u = (p + 100.0) / 400.0;
@@ -239,23 +233,12 @@ fn splitting_follows_a_curved_error_and_beats_end_point_compensation() {
                 ..Default::default()
             },
         );
-        let mut sim = walker(&out);
-        let mut reference = walker(program);
-        simulate_program(
-            &mut sim,
-            "out",
-            Some(&mut reference),
-            &map,
-            1e-4,
-            None,
-            |_| {},
-        )
-        .unwrap()
+        against_original(&out, program, &map)
     };
     let ends_only = measure(Segmentation::Off);
     let split = measure(Segmentation::MaxLength(1.0));
-    // The uncorrected sagitta of the bow between x = −20 and 180: the chord of
-    // a parabola of curvature 2·80/400² µm/mm² over 200 mm: 80·(200/400)²/4·… ≈ 20 µm·0.25 = 5 µm.
+    // The uncorrected sagitta of the bow between x = −20 and 180 (u = 0.2 …
+    // 0.7): e(80) − (e(−20) + e(180))/2 = 19.8 − (12.8 + 16.8)/2 = 5.0 µm.
     let u = |x: f64| (x + 100.0) / 400.0;
     let e = |x: f64| 80.0 * u(x) * (1.0 - u(x));
     let sagitta = e(80.0) - 0.5 * (e(-20.0) + e(180.0));
