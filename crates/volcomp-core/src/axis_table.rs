@@ -104,6 +104,27 @@ impl RowDirection {
     }
 }
 
+/// Reads an `axis` field: 0, 1, 2 for X, Y, Z (row and column 1-based).
+pub(crate) fn axis_field(
+    text: &str,
+    file: &str,
+    row: usize,
+    column: usize,
+) -> Result<usize, MapFileError> {
+    match text.to_ascii_uppercase().as_str() {
+        "X" => Ok(0),
+        "Y" => Ok(1),
+        "Z" => Ok(2),
+        _ => Err(MapFileError {
+            file: file.to_string(),
+            row,
+            column,
+            message: format!("unknown axis `{text}`"),
+            help: "use X, Y or Z".into(),
+        }),
+    }
+}
+
 /// Reads a `direction` field (row and column are 1-based, for the error).
 pub(crate) fn direction_field(
     text: &str,
@@ -273,20 +294,7 @@ impl AxisTableMap {
                     "each row is axis,direction,position_mm,ex_um,ey_um,ez_um",
                 ));
             }
-            let axis_text = fields[cols[0]];
-            let axis = match axis_text.to_ascii_uppercase().as_str() {
-                "X" => 0,
-                "Y" => 1,
-                "Z" => 2,
-                _ => {
-                    return Err(err(
-                        row,
-                        cols[0] + 1,
-                        format!("unknown axis `{axis_text}`"),
-                        "use X, Y or Z",
-                    ))
-                }
-            };
+            let axis = axis_field(fields[cols[0]], file, row, cols[0] + 1)?;
             let dir = direction_field(fields[cols[1]], file, row, cols[1] + 1)?.index();
             let mut num = [0.0; 4];
             for (k, slot) in num.iter_mut().enumerate() {

@@ -230,20 +230,7 @@ impl TableRows {
                     "each row has one value per header column",
                 ));
             }
-            let axis_text = fields[cols[0]];
-            let axis = match axis_text.to_ascii_uppercase().as_str() {
-                "X" => 0,
-                "Y" => 1,
-                "Z" => 2,
-                _ => {
-                    return Err(err(
-                        row,
-                        cols[0] + 1,
-                        format!("unknown axis `{axis_text}`"),
-                        "use X, Y or Z",
-                    ))
-                }
-            };
+            let axis = crate::axis_table::axis_field(fields[cols[0]], file, row, cols[0] + 1)?;
             let dir = match crate::axis_table::direction_field(
                 fields[cols[1]],
                 file,
