@@ -1,9 +1,9 @@
 //! `volcomp moves` against LinuxCNC's stand-alone interpreter `rs274`, motion
 //! by motion.
 //!
-//! Every program of the shared corpus (`../shared/corpus`) and every fixture
-//! under `tests/fixtures/rs274/` is run through both interpreters with the
-//! same machine set-up:
+//! Every program of the bundled corpus (`tests/corpus/` at the workspace
+//! root, see its `SOURCES.md`) and every fixture under `tests/fixtures/rs274/`
+//! is run through both interpreters with the same machine set-up:
 //!
 //! * a volcomp setup TOML (work offsets G54 … G59.3, tool lengths 1 … 99,
 //!   G28/G30 reference points, all in mm), and
@@ -20,7 +20,8 @@
 //! `SET_G92_OFFSET`, `USE_TOOL_LENGTH_OFFSET`, each printed in the units in
 //! effect when it was called); this test does the same:
 //! `q = printed + g5x + g92 + tool length offset`, converted to mm, which is
-//! the axis frame of design §1 that `volcomp moves` prints.
+//! the axis frame (machine coordinates, docs/design.md "Units, frames and
+//! signs") that `volcomp moves` prints.
 //!
 //! Tolerance per axis: rs274 prints four decimals, so a printed number is off
 //! by at most 0.5e-4 program units. The tolerance is 0.6e-4 program units
@@ -28,10 +29,11 @@
 //! non-zero offset component that entered the sum (each was rounded when it
 //! was printed), plus 1e-6 mm for volcomp's six printed decimals.
 //!
-//! Known rs274 rejections of corpus files are checked explicitly:
-//! BearingClamp.nc (`K0` on G17 arcs) and BOTTLE.NC (absolute arc centres).
-//! Both are also compared in full against rs274 runs on a fixed copy (K0
-//! words removed, resp. `G90.1` prepended).
+//! Known rs274 rejections are checked explicitly: the fixture
+//! `tests/fixtures/k0/helical_k0.nc` (`K0` on G17 helical arcs, as FreeCAD
+//! writes them) and the corpus file BOTTLE.NC (absolute arc centres). Both
+//! are also compared in full against rs274 runs on a fixed copy (K0 words
+//! removed, resp. `G90.1` prepended).
 //!
 //! The set-up: G54 … G59.3 offsets are distinct and non-zero, tool n is
 //! (16 + n) · 2.54 mm long, G28 and G30 are distinct points, the machine
@@ -69,8 +71,10 @@ const RESYNC_WINDOW: usize = 3;
 /// Longest run of extra motions on one side that is recognised as such.
 const MAX_EXTRA: usize = 8;
 
-const BEARING_CLAMP: &str = "SergeyPopovGit__CNC__BearingClamp.nc";
-const BEARING_CLAMP_K0_LINE: u64 = 11725;
+/// FreeCAD-style helical arcs with `K0.000` on G17 arcs (own fixture).
+const K0_FIXTURE: &str = "helical_k0.nc";
+/// The first G17 arc with a K word in it.
+const K0_LINE: u64 = 6;
 const BOTTLE: &str = "MaestroFusion360__easy_gcode_plot__BOTTLE.NC";
 const BOTTLE_ARC_LINE: u64 = 12;
 
@@ -775,8 +779,8 @@ enum Job {
         path: PathBuf,
         fixture: bool,
     },
-    /// BearingClamp.nc: rs274 refuses K0 on G17 arcs.
-    BearingClamp { path: PathBuf },
+    /// The K0 fixture: rs274 refuses K0 on G17 arcs.
+    K0 { path: PathBuf },
     /// BOTTLE.NC: absolute arc centres without G90.1.
     Bottle { path: PathBuf },
 }
@@ -850,8 +854,8 @@ fn run_plain(tools: &Tools, name: &str, path: &Path, fixture: bool, work: &Path)
     o
 }
 
-fn run_bearing_clamp(tools: &Tools, path: &Path, work: &Path) -> Outcome {
-    let name = BEARING_CLAMP;
+fn run_k0(tools: &Tools, path: &Path, work: &Path) -> Outcome {
+    let name = K0_FIXTURE;
     let mut o = Outcome::default();
     let mut notes = Vec::new();
     // rs274 on the original: refused at the first K0 arc.
@@ -872,12 +876,12 @@ fn run_bearing_clamp(tools: &Tools, path: &Path, work: &Path) -> Outcome {
     // … and refuses it with --strict-k0, naming the line.
     match run_volcomp(tools, path, &["--strict-k0"]) {
         Ok(_) => o.failures.push(format!(
-            "{name}: volcomp --strict-k0 must refuse K0 on the G17 arc of line {BEARING_CLAMP_K0_LINE}, but it succeeded"
+            "{name}: volcomp --strict-k0 must refuse K0 on the G17 arc of line {K0_LINE}, but it succeeded"
         )),
         Err(e) => {
-            if !e.contains(&format!(":{BEARING_CLAMP_K0_LINE}:")) {
+            if !e.contains(&format!(":{K0_LINE}:")) {
                 o.failures.push(format!(
-                    "{name}: volcomp --strict-k0 fails but does not name line {BEARING_CLAMP_K0_LINE}: {e}"
+                    "{name}: volcomp --strict-k0 fails but does not name line {K0_LINE}: {e}"
                 ));
             }
         }
@@ -893,7 +897,7 @@ fn run_bearing_clamp(tools: &Tools, path: &Path, work: &Path) -> Outcome {
     };
     let text = String::from_utf8_lossy(&text);
     let stripped = text.replace(" K0.000", "");
-    let copy = work.join("BearingClamp-without-K0.nc");
+    let copy = work.join("helical-without-K0.nc");
     std::fs::create_dir_all(work).unwrap();
     std::fs::write(&copy, stripped).unwrap();
     let label = format!("{name} (rs274 on a copy without K0)");
@@ -911,7 +915,7 @@ fn run_bearing_clamp(tools: &Tools, path: &Path, work: &Path) -> Outcome {
         (_, Err(_)) => {}
     }
     o.summary = format!(
-        "{name}: {}; --strict-k0 names line {BEARING_CLAMP_K0_LINE}; {} motions compared against the copy without K0{}",
+        "{name}: {}; --strict-k0 names line {K0_LINE}; {} motions compared against the copy without K0{}",
         notes.join("; "),
         o.motions,
         o.tail()
@@ -1009,6 +1013,19 @@ fn list_files(dir: &Path, keep: impl Fn(&str) -> bool) -> Vec<(String, PathBuf)>
     v
 }
 
+/// The bundled corpus: every program in `tests/corpus/` (not its SOURCES.md).
+/// It is part of the repository, so a missing or thin corpus is a failure.
+fn corpus_files(dir: &Path) -> Vec<(String, PathBuf)> {
+    let files = list_files(dir, |n| !n.ends_with(".md"));
+    assert!(
+        files.len() >= 11,
+        "expected the 11 bundled corpus programs in {}, found {}",
+        dir.display(),
+        files.len()
+    );
+    files
+}
+
 #[test]
 fn volcomp_moves_agree_with_rs274() {
     let Some(rs274) = find_rs274() else {
@@ -1022,7 +1039,7 @@ fn volcomp_moves_agree_with_rs274() {
     };
 
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let corpus_dir = manifest.join("../../../shared/corpus");
+    let corpus_dir = manifest.join("../../tests/corpus");
     let fixture_dir = manifest.join("tests/fixtures/rs274");
 
     let nanos = std::time::SystemTime::now()
@@ -1048,21 +1065,12 @@ fn volcomp_moves_agree_with_rs274() {
     };
 
     let mut jobs = Vec::new();
-    // The corpus lives beside the repository (shared/corpus); without it only
-    // the fixtures are checked.
-    let corpus = if corpus_dir.is_dir() {
-        list_files(&corpus_dir, |n| n != "README.md")
-    } else {
-        eprintln!(
-            "!! rs274_agreement: no corpus at {}: only the fixtures are checked",
-            corpus_dir.display()
-        );
-        println!("corpus not found at {}", corpus_dir.display());
-        Vec::new()
-    };
+    let corpus = corpus_files(&corpus_dir);
+    jobs.push(Job::K0 {
+        path: manifest.join("tests/fixtures/k0").join(K0_FIXTURE),
+    });
     for (name, path) in corpus {
         jobs.push(match name.as_str() {
-            BEARING_CLAMP => Job::BearingClamp { path },
             BOTTLE => Job::Bottle { path },
             _ => Job::Plain {
                 name: format!("corpus/{name}"),
@@ -1104,7 +1112,7 @@ fn volcomp_moves_agree_with_rs274() {
                         path,
                         fixture,
                     } => run_plain(&tools, name, path, *fixture, &work),
-                    Job::BearingClamp { path } => run_bearing_clamp(&tools, path, &work),
+                    Job::K0 { path } => run_k0(&tools, path, &work),
                     Job::Bottle { path } => run_bottle(&tools, path, &work),
                 };
                 // Keep the work files of failing programs only.
@@ -1180,11 +1188,7 @@ fn compensated_corpus_programs_are_accepted_by_rs274() {
         return;
     };
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let corpus_dir = manifest.join("../../../shared/corpus");
-    if !corpus_dir.is_dir() {
-        eprintln!("!! no corpus at {}: nothing to check", corpus_dir.display());
-        return;
-    }
+    let corpus_dir = manifest.join("../../tests/corpus");
     let nanos = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_nanos())
@@ -1208,7 +1212,11 @@ fn compensated_corpus_programs_are_accepted_by_rs274() {
         tool_table,
         var_text: rs274_var_file(),
     };
-    let files = list_files(&corpus_dir, |n| n != "README.md");
+    let mut files = corpus_files(&corpus_dir);
+    files.push((
+        K0_FIXTURE.to_string(),
+        manifest.join("tests/fixtures/k0").join(K0_FIXTURE),
+    ));
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<(String, Result<String, String>)>> = Mutex::new(Vec::new());
     std::thread::scope(|s| {
