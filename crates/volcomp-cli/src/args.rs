@@ -31,6 +31,32 @@ pub enum Command {
     Thermal(crate::commands::thermal::ThermalArgs),
 }
 
+/// A machine axis named on the command line.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum AxisArg {
+    X,
+    Y,
+    Z,
+}
+
+impl AxisArg {
+    /// 0, 1, 2 for X, Y, Z.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// The one value parser of every option that names an axis: `X`, `Y` or
+/// `Z`, in either case (`--axis X` and `--axis x` are the same).
+pub fn parse_axis(text: &str) -> Result<AxisArg, String> {
+    match text.trim() {
+        "X" | "x" => Ok(AxisArg::X),
+        "Y" | "y" => Ok(AxisArg::Y),
+        "Z" | "z" => Ok(AxisArg::Z),
+        _ => Err(format!("`{text}` is not an axis: write X, Y or Z")),
+    }
+}
+
 /// How the program is set up on the machine.
 #[derive(Args, Debug, Clone)]
 pub struct MachineArgs {

@@ -378,8 +378,12 @@ impl AxisTableMap {
             for (name, table) in dirs {
                 for (p, e) in table.positions_mm.iter().zip(&table.errors_um) {
                     s.push_str(&format!(
-                        "{},{name},{p},{:.4},{:.4},{:.4}\n",
-                        AXES[a], e.x, e.y, e.z
+                        "{},{name},{},{},{},{}\n",
+                        AXES[a],
+                        crate::numfmt::mm(*p),
+                        crate::numfmt::um(e.x),
+                        crate::numfmt::um(e.y),
+                        crate::numfmt::um(e.z)
                     ));
                 }
             }

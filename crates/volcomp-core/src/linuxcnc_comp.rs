@@ -203,14 +203,7 @@ pub fn parse(
 
 /// A number with up to ten decimals and no trailing zeros.
 fn number(v: f64) -> String {
-    let s = format!("{v:.10}");
-    let s = s.trim_end_matches('0');
-    let s = s.strip_suffix('.').unwrap_or(s);
-    if s == "-0" {
-        "0".into()
-    } else {
-        s.to_string()
-    }
+    crate::numfmt::fixed(v, 10)
 }
 
 /// Writes a comp file (no comments: LinuxCNC would stop reading at them).

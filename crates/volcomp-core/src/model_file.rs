@@ -29,6 +29,7 @@
 //! given in arc seconds instead (`ea_arcsec` …). Every bad value is reported
 //! with file, row and column.
 
+use crate::numfmt;
 use crate::axis_table::Table;
 use crate::error::MapFileError;
 use crate::kinematic::{
@@ -376,16 +377,8 @@ pub fn components_from_csv(text: &str, file: &str) -> Result<[AxisComponents; 3]
     rows.assemble()
 }
 
-/// The shortest decimal that reads back as `v` exactly (`0` for −0).
-fn num(v: f64) -> String {
-    if v == 0.0 {
-        "0".into()
-    } else {
-        format!("{v}")
-    }
-}
-
-/// Writes the tables as CSV (shortest exact decimal for every value).
+/// Writes the tables as CSV (positions, µm and µrad to the fixed precision
+/// of [`crate::numfmt`]).
 pub fn components_to_csv(axes: &[AxisComponents; 3]) -> String {
     let mut s = String::from(
         "# volcomp 21-component tables (ISO 230-1): for the rows of axis X, ex_um is EXX, ey_um EYX,\n\
@@ -406,13 +399,13 @@ pub fn components_to_csv(axes: &[AxisComponents; 3]) -> String {
                 s.push_str(&format!(
                     "{},{name},{},{},{},{},{},{},{}\n",
                     AXES[a],
-                    num(*p),
-                    num(l.x),
-                    num(l.y),
-                    num(l.z),
-                    num(g.x),
-                    num(g.y),
-                    num(g.z)
+                    numfmt::mm(*p),
+                    numfmt::um(l.x),
+                    numfmt::um(l.y),
+                    numfmt::um(l.z),
+                    numfmt::urad(g.x),
+                    numfmt::urad(g.y),
+                    numfmt::urad(g.z)
                 ));
             }
         }
@@ -722,7 +715,12 @@ fn toml_string(s: &str) -> String {
 }
 
 fn triple(v: Vec3) -> String {
-    format!("[{}, {}, {}]", num(v.x), num(v.y), num(v.z))
+    format!(
+        "[{}, {}, {}]",
+        numfmt::mm(v.x),
+        numfmt::mm(v.y),
+        numfmt::mm(v.z)
+    )
 }
 
 /// Writes the TOML description of `model`, naming `tables` as its table file.
@@ -754,7 +752,10 @@ pub fn model_to_toml(model: &KinematicModel, tables: &str, description: Option<&
     s.push_str(&format!("measuring_point_mm = {}\n", triple(line.point_mm)));
     let t = line.tool_offset_mm;
     if t.x == 0.0 && t.y == 0.0 {
-        s.push_str(&format!("measuring_tool_length_mm = {}\n", t.z));
+        s.push_str(&format!(
+            "measuring_tool_length_mm = {}\n",
+            numfmt::mm(t.z)
+        ));
     } else {
         s.push_str(&format!("measuring_tool_offset_mm = {}\n", triple(t)));
     }
@@ -772,7 +773,7 @@ pub fn model_to_toml(model: &KinematicModel, tables: &str, description: Option<&
             ));
             let t = m.tool_offset_mm;
             if t.x == 0.0 && t.y == 0.0 {
-                s.push_str(&format!("tool_length_mm = {}\n", t.z));
+                s.push_str(&format!("tool_length_mm = {}\n", numfmt::mm(t.z)));
             } else {
                 s.push_str(&format!("tool_offset_mm = {}\n", triple(t)));
             }

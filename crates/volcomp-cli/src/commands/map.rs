@@ -3,6 +3,7 @@
 //! LinuxCNC compensation files and ISO 230-2 positioning tests.
 
 use super::parse_triple;
+use crate::args::{parse_axis, AxisArg};
 use crate::output::{write_atomically, CliError};
 use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
@@ -15,6 +16,7 @@ use volcomp_core::kinematic_example;
 use volcomp_core::linuxcnc_comp::{self, CompFileType, MachineUnits, Positioning};
 use volcomp_core::model::{Components, Direction, Directions, ErrorModel};
 use volcomp_core::model_file;
+use volcomp_core::numfmt;
 use volcomp_core::topology::Topology;
 use volcomp_gcode::Vec3;
 
@@ -232,13 +234,6 @@ pub struct ImportArgs {
     pub chain: Option<String>,
 }
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum AxisArg {
-    X,
-    Y,
-    Z,
-}
-
 #[derive(Args, Debug)]
 pub struct IsoArgs {
     /// The test: CSV with target_mm, cycle, direction, deviation_um (or actual_mm).
@@ -250,8 +245,8 @@ pub struct IsoArgs {
     /// of the 21-component table for --axis) or .comp (LinuxCNC, with --type, --units).
     #[arg(short, long, value_name = "OUT", requires = "axis")]
     pub output: Option<PathBuf>,
-    /// The axis that was tested (for -o).
-    #[arg(long, value_enum)]
+    /// The axis that was tested (for -o): X, Y or Z.
+    #[arg(long, value_parser = parse_axis)]
     pub axis: Option<AxisArg>,
     #[command(flatten)]
     pub comp: CompArgs,
@@ -699,7 +694,15 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
                     for &z in &axes[2] {
                         let q = Vec3::new(x, y, z);
                         let e = model.deviation_with_tool_um(q, s, Components::All, tool)?;
-                        text.push_str(&format!("{x},{y},{z},{:.4},{:.4},{:.4}\n", e.x, e.y, e.z));
+                        text.push_str(&format!(
+                            "{},{},{},{},{},{}\n",
+                            numfmt::mm(x),
+                            numfmt::mm(y),
+                            numfmt::mm(z),
+                            numfmt::um(e.x),
+                            numfmt::um(e.y),
+                            numfmt::um(e.z)
+                        ));
                     }
                 }
             }
@@ -1146,7 +1149,7 @@ fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
         }
     }
     if let (Some(path), Some(axis)) = (&a.output, a.axis) {
-        let k = axis as usize;
+        let k = axis.index();
         let p = r.positioning();
         let ext = path
             .extension()
@@ -1168,7 +1171,14 @@ fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
                     for (x, e) in p.positions_mm.iter().zip(v.iter()) {
                         let mut lin = [0.0; 3];
                         lin[k] = *e;
-                        s.push_str(&format!("{},{dir},{x},{},{},{},0,0,0\n", AXES[k], lin[0], lin[1], lin[2]));
+                        s.push_str(&format!(
+                            "{},{dir},{},{},{},{},0,0,0\n",
+                            AXES[k],
+                            numfmt::mm(*x),
+                            numfmt::um(lin[0]),
+                            numfmt::um(lin[1]),
+                            numfmt::um(lin[2])
+                        ));
                     }
                 }
                 s

@@ -4,6 +4,7 @@
 //! Z-correction table or predict the deviation at points. The model file is
 //! also a `--map` for `compensate` and `simulate`.
 
+use crate::args::{parse_axis, AxisArg};
 use crate::output::{write_atomically, CliError};
 use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
@@ -11,6 +12,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use volcomp_core::straightness::identify::{fit, AxisFit, Fit, FitOptions, Normalisation};
 use volcomp_core::straightness::run::Run;
+use volcomp_core::numfmt;
 use volcomp_core::straightness::{Axis, StraightnessModel};
 
 #[derive(Args, Debug)]
@@ -32,12 +34,6 @@ pub enum StraightnessCommand {
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum AxisArg {
-    X,
-    Y,
-}
-
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum NormaliseArg {
     /// One common scale for all feed rates: their mean total power (default).
     Common,
@@ -53,8 +49,8 @@ pub struct RunArgs {
     /// `# axis = X|Y`. Repeats at one feed rate are averaged.
     #[arg(required = true, value_name = "RUN")]
     pub runs: Vec<PathBuf>,
-    /// The axis of runs whose file has no `# axis =` line.
-    #[arg(long, value_enum)]
+    /// The axis of runs whose file has no `# axis =` line: X or Y.
+    #[arg(long, value_parser = parse_axis)]
     pub axis: Option<AxisArg>,
     /// σ_t: largest relative standard deviation (σ/P̄) across feed rates of a geometric line.
     #[arg(long, value_name = "SIGMA", default_value_t = 0.05)]
@@ -114,7 +110,9 @@ pub struct TableArgs {
 pub struct PredictArgs {
     /// A model written by `volcomp straightness fit`.
     pub model: PathBuf,
-    /// Points `X,Y` in mm (machine coordinates).
+    /// Points `X,Y` in mm (machine coordinates), e.g. `120,35 250,-10 -5,20`.
+    /// A point may begin with a minus sign; `--clamp` may come before or
+    /// after the points.
     #[arg(required = true, value_name = "X,Y", allow_hyphen_values = true)]
     pub points: Vec<String>,
     /// Hold points outside the measured range at its end instead of refusing them.
@@ -155,10 +153,16 @@ fn identify(a: &RunArgs) -> Result<Fit, CliError> {
         }
         runs.push(run);
     }
-    let axis = a.axis.map(|x| match x {
-        AxisArg::X => Axis::X,
-        AxisArg::Y => Axis::Y,
-    });
+    let axis = match a.axis {
+        None => None,
+        Some(AxisArg::X) => Some(Axis::X),
+        Some(AxisArg::Y) => Some(Axis::Y),
+        Some(AxisArg::Z) => {
+            return Err(CliError::Message(
+                "--axis Z: straightness runs are profiles along X or Y (the Z deviation is what they measure); write --axis X or --axis Y".into(),
+            ))
+        }
+    };
     Ok(fit(&runs, axis, &options(a))?)
 }
 
@@ -463,9 +467,29 @@ fn table_cmd(a: TableArgs) -> Result<(), CliError> {
 
 fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
     let mut model = load_model(&a.model)?;
-    model.clamp = a.clamp;
+    // The points take values beginning with `-` (negative X), so clap hands
+    // a flag written after them over as a point: take it back here.
+    let (flags, points): (Vec<&String>, Vec<&String>) =
+        a.points.iter().partition(|p| p.starts_with("--"));
+    let mut clamp = a.clamp;
+    for f in flags {
+        match f.as_str() {
+            "--clamp" => clamp = true,
+            other => {
+                return Err(CliError::Message(format!(
+                    "unexpected option `{other}` among the points: `volcomp straightness predict` takes only --clamp (see --help)"
+                )))
+            }
+        }
+    }
+    if points.is_empty() {
+        return Err(CliError::Message(
+            "no points given: write them as X,Y in mm, like 120,35 250,-10".into(),
+        ));
+    }
+    model.clamp = clamp;
     let mut out = String::from("x_mm,y_mm,ez_um,z_correction_um\n");
-    for p in &a.points {
+    for p in points {
         let v: Option<Vec<f64>> = p
             .split(',')
             .map(|t| t.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
@@ -481,7 +505,13 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
         let e = model
             .ez_um(x, y)
             .map_err(|e| CliError::Message(format!("{}: point {x},{y}: {e}", a.model.display())))?;
-        out.push_str(&format!("{x},{y},{e:.6},{:.6}\n", -e));
+        out.push_str(&format!(
+            "{},{},{},{}\n",
+            numfmt::mm(x),
+            numfmt::mm(y),
+            numfmt::um(e),
+            numfmt::um(-e)
+        ));
     }
     std::io::stdout()
         .write_all(out.as_bytes())

@@ -141,7 +141,7 @@ pub fn artifact_csv(array: &BallArray) -> String {
         "# calibrated distance of each sphere from sphere 1 (mm)\nsphere,distance_mm\n",
     );
     for (i, d) in array.distances_mm.iter().enumerate() {
-        s.push_str(&format!("{},{}\n", i + 1, d));
+        s.push_str(&format!("{},{}\n", i + 1, crate::numfmt::mm(*d)));
     }
     s
 }
@@ -156,7 +156,8 @@ pub fn measurements_csv(times: &[f64], meas: &[Vec<PlacementMeasurement>]) -> St
         for (p, m) in places.iter().enumerate() {
             for (j, q) in m.centres_mm.iter().enumerate() {
                 s.push_str(&format!(
-                    "{c},{t},{},{},{:.5},{:.5},{:.5}\n",
+                    "{c},{},{},{},{:.5},{:.5},{:.5}\n",
+                    crate::numfmt::hours(*t),
                     p + 1,
                     j + 1,
                     q.x,
@@ -174,7 +175,11 @@ pub fn temperatures_csv(sensors: &[&str], times: &[f64], temps: &[Vec<f64>]) -> 
     let mut s = format!("cycle,time_h,{}\n", sensors.join(","));
     for (c, (t, v)) in times.iter().zip(temps).enumerate() {
         let vals: Vec<String> = v.iter().map(|x| format!("{x:.3}")).collect();
-        s.push_str(&format!("{c},{t},{}\n", vals.join(",")));
+        s.push_str(&format!(
+            "{c},{},{}\n",
+            crate::numfmt::hours(*t),
+            vals.join(",")
+        ));
     }
     s
 }
