@@ -105,7 +105,7 @@ pub enum Method {
 
 #[derive(Args, Debug, Clone)]
 pub struct MapArgs {
-    /// Error map: axis-table CSV (design §2) or a TOML model (the 21-component
+    /// Error map: axis-table CSV (docs/design.md, "The axis-table map") or a TOML model (the 21-component
     /// kinematic model of docs/kinematic.md, evaluated at each line's tool).
     #[arg(long, value_name = "MAP")]
     pub map: PathBuf,

@@ -20,8 +20,8 @@
 //! `SET_G92_OFFSET`, `USE_TOOL_LENGTH_OFFSET`, each printed in the units in
 //! effect when it was called); this test does the same:
 //! `q = printed + g5x + g92 + tool length offset`, converted to mm, which is
-//! the axis frame (machine coordinates, docs/design.md "Units, frames and
-//! signs") that `volcomp moves` prints.
+//! the axis frame (machine coordinates, docs/design.md,
+//! "Frames") that `volcomp moves` prints.
 //!
 //! Tolerance per axis: rs274 prints four decimals, so a printed number is off
 //! by at most 0.5e-4 program units. The tolerance is 0.6e-4 program units

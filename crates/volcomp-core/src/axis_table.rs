@@ -1,8 +1,9 @@
-//! The axis-table error map (design §2): per axis and motion direction, the
+//! The axis-table error map (docs/design.md, "The axis-table map"): per axis and motion direction, the
 //! displacement errors that the axis' motion causes along X, Y and Z.
 //!
 //! `e(q, s) = E_X^{s_X}(q_X) + E_Y^{s_Y}(q_Y) + E_Z^{s_Z}(q_Z)` (vector sum, µm),
-//! each table linearly interpolated between its points (seed equation 1).
+//! each table linearly interpolated between its points (the seed model of [Lu & Yeh 2018],
+//! docs/references.md).
 //!
 //! The CSV reader is our own: the format is six plain columns, and what it
 //! must do well is name the row and column of every bad value, which a
@@ -365,7 +366,7 @@ impl AxisTableMap {
         Ok(AxisTableMap { axes, clamp: false })
     }
 
-    /// Writes the map as CSV (design §2 layout).
+    /// Writes the map as CSV (the layout of docs/design.md, "The axis-table map").
     pub fn to_csv(&self) -> String {
         let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
         for (a, t) in self.axes.iter().enumerate() {

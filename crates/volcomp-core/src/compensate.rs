@@ -1,4 +1,4 @@
-//! Compensation of a part program (design §4): every target point of every
+//! Compensation of a part program (docs/design.md, "Compensation"): every target point of every
 //! program motion is replaced by the command that, with the machine's error,
 //! lands the tool on it; the program is written back losslessly.
 //!
@@ -49,7 +49,7 @@ pub enum Segmentation {
 /// Which direction state chooses the error tables.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DirectionPolicy {
-    /// The direction of the command actually sent (design §2; default).
+    /// The direction of the command actually sent (docs/design.md, "Direction state and backlash"; default).
     Commanded,
     /// The direction of the nominal move, as the papers do (for comparison).
     Nominal,

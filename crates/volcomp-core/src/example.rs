@@ -7,7 +7,7 @@
 //! a positioning slope (thermal/pitch error of the ball screw), a cyclic
 //! error at the screw lead, guideway bows in both straightness directions,
 //! a squareness-like linear straightness term, and backlash: the reverse
-//! positioning table lies a few µm above the forward one (design §2).
+//! positioning table lies a few µm above the forward one (docs/design.md, "Direction state and backlash").
 
 use crate::axis_table::{AxisTableMap, AxisTables, Table};
 use volcomp_gcode::Vec3;

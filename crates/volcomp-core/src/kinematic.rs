@@ -1,5 +1,5 @@
 //! The 21-component kinematic error model of a 3-axis machine (ISO 230-1,
-//! design §3), evaluated at the tool tip with homogeneous transformation
+//! docs/design.md, "The 21-component model"), evaluated at the tool tip with homogeneous transformation
 //! matrices (HTM) or in its first-order (small-angle) form.
 //!
 //! Per axis `a ∈ {X, Y, Z}`, six error motions over the axis position
@@ -11,11 +11,11 @@
 //! | Y    | EYY         | EXY, EZY     | EAY, EBY, ECY           |
 //! | Z    | EZZ         | EXZ, EYZ     | EAZ, EBZ, ECZ           |
 //!
-//! plus three squareness errors (design §3: X is the reference, Y moves along
+//! plus three squareness errors (docs/design.md, "The 21-component model": X is the reference, Y moves along
 //! `(S_xy, 1, 0)`, Z along `(S_zx, S_yz, 1)`), 21 in all. Linear errors in µm,
 //! angles in µrad, all of them *relative*: the motion of the tool with
 //! respect to the workpiece that the axis' motion causes (`e = actual −
-//! commanded`, design §1), the linear ones as measured at the axis'
+//! commanded`, docs/design.md, "Deviation sign"), the linear ones as measured at the axis'
 //! measuring point.
 //!
 //! The volumetric deviation at the tool tip (derivation in `docs/kinematic.md`):
@@ -33,7 +33,7 @@
 //! the exact rotation `Rz(E_C)·Ry(E_B)·Rx(E_A)`, `r'_k` the arm along the
 //! out-of-square axis directions `u_j`, and `d_k` the displacement the joints
 //! after `k` already caused. With every angle zero both forms are exactly the
-//! axis-table sum of design §2 (plus squareness).
+//! axis-table vector sum of docs/design.md (plus squareness).
 
 use crate::axis_table::{AxisTableMap, AxisTables, Table};
 use crate::error::ModelError;
@@ -144,7 +144,7 @@ impl AxisComponents {
     }
 }
 
-/// The three squareness errors (µrad), design §3: Y moves along
+/// The three squareness errors (µrad), docs/design.md, "The 21-component model": Y moves along
 /// `(S_xy, 1, 0)`, Z along `(S_zx, S_yz, 1)`.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Squareness {
@@ -515,7 +515,7 @@ impl KinematicModel {
         Ok(e + self.kinematics.squareness.of_axis_um(a, q_mm[a]))
     }
 
-    /// The axis-table map (design §2) that reproduces this model, for one
+    /// The axis-table map (docs/design.md, "The axis-table map") that reproduces this model, for one
     /// tool, along the three lines through a reference point `r`.
     ///
     /// Axis `a`'s table in direction `d` at its own table positions `x`:
@@ -600,7 +600,7 @@ impl KinematicModel {
         (positions, f, r)
     }
 
-    /// A model with the linear tables of an axis-table map (design §2) and
+    /// A model with the linear tables of an axis-table map (docs/design.md, "The axis-table map") and
     /// no angular errors: the same deviations everywhere (exactly, see
     /// [`Kinematics::htm_um`]), ready to receive measured angles.
     pub fn from_axis_tables(map: &AxisTableMap, topology: Topology) -> Self {

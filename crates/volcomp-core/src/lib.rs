@@ -2,7 +2,8 @@
 //! and metrics. Data flows one way: an [`model::ErrorModel`] (e.g.
 //! [`axis_table::AxisTableMap`]) → [`solve`] (one point) →
 //! [`compensate`] (a whole program, written back through the G-code engine)
-//! → [`simulate`] (actual tool path and the metrics of design §5).
+//! → [`simulate`] (actual tool path and the metrics of docs/design.md,
+//! "Simulation and metrics").
 #![warn(missing_docs)]
 
 pub mod axis_table;

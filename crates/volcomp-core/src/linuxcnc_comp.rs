@@ -18,7 +18,7 @@
 //! * reading stops at the first line that is not three numbers, so a comment
 //!   or blank line in the middle silently cuts the table short.
 //!
-//! In volcomp's sign (design §1, `e = actual − commanded`), with `e` the
+//! In volcomp's sign (docs/design.md, "Deviation sign": `e = actual − commanded`), with `e` the
 //! positioning error `E_aa` of the joint's axis in the matching direction:
 //!
 //! ```text
@@ -27,7 +27,7 @@
 //! ```
 //!
 //! so a correct file makes LinuxCNC command `nominal − e(nominal)`: the
-//! direct compensation of design §4 for the positioning error alone.
+//! direct compensation (docs/design.md, "Compensation") for the positioning error alone.
 
 use crate::error::MapFileError;
 

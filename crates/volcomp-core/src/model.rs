@@ -1,5 +1,5 @@
 //! What every error model gives: the deviation `e(q, s) = actual − commanded`
-//! (design §1) at an axis position `q` with motion-direction state `s`.
+//! (docs/design.md, "Deviation sign") at an axis position `q` with motion-direction state `s`.
 //!
 //! Compensation and simulation only talk to [`ErrorModel`], so richer models
 //! (21-component kinematic, thermal, grids) plug in without touching them.
@@ -7,7 +7,7 @@
 use crate::error::ModelError;
 use volcomp_gcode::Vec3;
 
-/// Direction of the most recent commanded motion of one axis (design §2).
+/// Direction of the most recent commanded motion of one axis (docs/design.md, "Direction state and backlash").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Direction {
     /// Increasing position.
@@ -48,7 +48,7 @@ impl Direction {
 /// Direction state of the three axes.
 pub type Directions = [Direction; 3];
 
-/// All axes forward: the state before any motion (design §2).
+/// All axes forward: the state before any motion (docs/design.md, "Direction state and backlash").
 pub const ALL_FORWARD: Directions = [Direction::Forward; 3];
 
 /// Which error components a model evaluation includes.

@@ -17,7 +17,7 @@
 //! tool_length_mm = 100
 //! ```
 //!
-//! The CSV extends the axis-table layout of design §2 by three angle columns:
+//! The CSV extends the axis-table layout of docs/design.md by three angle columns:
 //!
 //! ```text
 //! axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad

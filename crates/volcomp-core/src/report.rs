@@ -1,4 +1,4 @@
-//! Simulating a whole program and measuring it (design §5).
+//! Simulating a whole program and measuring it (docs/design.md, "Simulation and metrics").
 //!
 //! * point error: at every commanded point of a feed move (G1, and the chord
 //!   ends of G2/G3), `‖actual − nominal‖`. Without a reference program the

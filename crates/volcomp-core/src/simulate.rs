@@ -1,8 +1,10 @@
-//! Simulation of a machine with an error model, and the metrics of design §5.
+//! Simulation of a machine with an error model, and the metrics of
+//! docs/design.md, "Simulation and metrics".
 //!
 //! The controller moves linearly in the axis frame between consecutive
 //! commands; the tool follows the image of that motion under
-//! `q ↦ q + e(q, s)`, where `s` switches at the start of a move (design §2).
+//! `q ↦ q + e(q, s)`, where `s` switches at the start of a move
+//! (docs/design.md, "Direction state and backlash").
 //!
 //! A position cannot jump, so where a switch of `s` would make the image
 //! discontinuous (backlash at a reversal), the simulator keeps the tool where
@@ -26,7 +28,7 @@ use crate::model::{
 };
 use volcomp_gcode::Vec3;
 
-/// Largest distance between dense samples of the actual path (design §5).
+/// Largest distance between dense samples of the actual path (docs/design.md, "Simulation and metrics").
 pub const SAMPLE_SPACING_MM: f64 = 0.05;
 
 /// Simulates the actual tool position along a sequence of commands.

@@ -1,14 +1,14 @@
-//! Point compensation (design §4): find the command `q` with `q + e(q, s) = t`.
+//! Point compensation (docs/design.md, "Compensation"): find the command `q` with `q + e(q, s) = t`.
 //!
-//! * direct (seed eq. 2): `q = t − e(t, s)`
-//! * ILC (seed eq. 3): `q₀ = t`, `q_{i+1} = q_i + γ·(t − (q_i + e(q_i, s)))`,
+//! * direct [Lu & Yeh 2018]: `q = t − e(t, s)`
+//! * ILC [Lu & Yeh 2018]: `q₀ = t`, `q_{i+1} = q_i + γ·(t − (q_i + e(q_i, s)))`,
 //!   stopped when the residual falls under the tolerance or stops decreasing
 //! * exact: the same iteration with γ = 1 (a contraction, since |∂e/∂q| ≪ 1
 //!   for any real machine), run to the tolerance; failing to reach it is an error
 //! * pitch: exact, with only E_XX, E_YY, E_ZZ
 //!
 //! [`solve_consistent`] wraps them so that the direction state the tables were
-//! chosen by is the direction of the command actually sent (design §2).
+//! chosen by is the direction of the command actually sent (docs/design.md, "Direction state and backlash").
 
 use crate::error::ModelError;
 use crate::model::{actual_mm, Components, Direction, Directions, ErrorModel};

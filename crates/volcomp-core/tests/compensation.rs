@@ -142,7 +142,7 @@ fn hand_interpolated_pitch_error_is_solved_exactly() {
 
 #[test]
 fn pure_squareness_shifts_x_in_proportion_to_y() {
-    // Squareness S_xy = 50 µrad (design §3): e_x += S·y, i.e. the Y table's
+    // Squareness S_xy = 50 µrad (docs/design.md, "The 21-component model"): e_x += S·y, i.e. the Y table's
     // ex_um = 50e-6 · y[mm] · 1000 µm/mm = 0.05·y µm. So q_x = t_x − 0.00005·t_y.
     let map = map_from(|a, p, _| {
         if a == 1 {

@@ -24,7 +24,7 @@ pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
         m.clamp = a.clamp;
         return Ok(Box::new(m));
     }
-    // Axis tables (.csv, design §2) or a 21-component kinematic model (.toml,
+    // Axis tables (.csv, docs/design.md) or a 21-component kinematic model (.toml,
     // docs/kinematic.md), which is evaluated at the tool active on each line.
     Ok(super::map::load(&a.map, a.clamp)?.into_model())
 }

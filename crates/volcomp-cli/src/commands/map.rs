@@ -1,5 +1,5 @@
 //! `volcomp map`: evaluate, convert, plot and import error maps — the
-//! axis tables of design §2, the 21-component kinematic model (ISO 230-1),
+//! axis tables (docs/design.md), the 21-component kinematic model (ISO 230-1),
 //! LinuxCNC compensation files and ISO 230-2 positioning tests.
 
 use super::parse_triple;
@@ -95,7 +95,7 @@ impl From<FormArg> for Form {
 
 #[derive(Args, Debug)]
 pub struct EvalArgs {
-    /// Error map: axis-table CSV (design §2) or 21-component model TOML.
+    /// Error map: axis-table CSV (docs/design.md) or 21-component model TOML.
     pub map: PathBuf,
     /// Axis position (machine coordinates, mm).
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
@@ -118,7 +118,7 @@ pub struct EvalArgs {
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ConvertTarget {
-    /// Axis-table CSV (design §2) for one tool, exact on the lines through --at.
+    /// Axis-table CSV (docs/design.md) for one tool, exact on the lines through --at.
     AxisTable,
     /// A 3-D grid CSV: x_mm,y_mm,z_mm,ex_um,ey_um,ez_um every --step mm.
     Grid,
@@ -261,9 +261,9 @@ pub struct ExampleArgs {
 
 /// A loaded error map.
 pub enum LoadedMap {
-    /// Axis tables (design §2).
+    /// Axis tables (docs/design.md, "The axis-table map").
     Tables(Box<AxisTableMap>),
-    /// 21-component model (design §3).
+    /// 21-component model (docs/design.md, "The 21-component model").
     Kinematic(Box<KinematicModel>),
 }
 
@@ -284,7 +284,8 @@ impl LoadedMap {
 }
 
 /// Loads a map, choosing the format by extension: `.csv` axis tables
-/// (design §2), `.toml` a 21-component model (design §3).
+/// (docs/design.md, "The axis-table map"), `.toml` a 21-component model
+/// (docs/design.md, "The 21-component model").
 pub fn load(path: &Path, clamp: bool) -> Result<LoadedMap, CliError> {
     let ext = path
         .extension()
@@ -311,7 +312,7 @@ pub fn load(path: &Path, clamp: bool) -> Result<LoadedMap, CliError> {
             Ok(LoadedMap::Tables(Box::new(map)))
         }
         _ => Err(CliError::Message(format!(
-            "{}: choose the map format by extension: .csv for axis tables (design §2), .toml for a 21-component model",
+            "{}: choose the map format by extension: .csv for axis tables, .toml for a 21-component model (docs/design.md)",
             path.display()
         ))),
     }

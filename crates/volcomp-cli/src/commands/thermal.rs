@@ -428,7 +428,7 @@ fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
 }
 
 /// The 95 % Monte Carlo bands of the identified TCP error along lines
-/// through the middle of the volume (design: issue 7, uncertainty), as CSV
+/// through the middle of the volume (docs/thermal.md, "Confidence bands from the command line"), as CSV
 /// or as a plot with one chart per axis line.
 fn write_bands(
     path: &Path,

@@ -1,5 +1,5 @@
 //! Straightness error models from measured profiles, with the geometric
-//! error separated from vibration in the frequency domain (issue 5; the
+//! error separated from vibration in the frequency domain (docs/straightness.md, after the [Straightness study] of docs/references.md; the
 //! method and every choice made here are written up in
 //! `docs/straightness.md`).
 //!
@@ -308,7 +308,7 @@ impl StraightnessModel {
             "# volcomp straightness model (Z deviation from planar motion; docs/straightness.md)\n\
              # e_z(x, y) = offset_um + e_z(x) + e_z(y) + alpha_yz_urad*1e-3*y + beta_zx_urad*1e-3*x   [µm; x, y in mm]\n\
              # e_z(x) = sum over k = 1..harmonics of cos_um[k]*cos(2πk(x − start_mm)/length_mm) + sin_um[k]*sin(2πk(x − start_mm)/length_mm)\n\
-             # deviation = actual − commanded (design §1): a correction is −e_z.\n\
+             # deviation = actual − commanded (docs/design.md, \"Deviation sign\"): a correction is −e_z.\n\
              # The series is poor within one cut-off wavelength of the measured ends: compensate inside recommended_range_mm.\n\
              {body}"
         )
@@ -433,7 +433,7 @@ impl StraightnessModel {
         let mut out = String::new();
         out.push_str("# volcomp straightness Z-correction table\n");
         out.push_str("# Z deviation at (x, y) = ez_um of the X row at x + ez_um of the Y row at y; X rows include offset_um.\n");
-        out.push_str("# z_correction_um = −ez_um (design §1): add it to the commanded Z.\n");
+        out.push_str("# z_correction_um = −ez_um (deviation sign of docs/design.md): add it to the commanded Z.\n");
         for axis in [Axis::X, Axis::Y] {
             if let Some(m) = self.axis(axis) {
                 let [lo, hi] = m.recommended_range_mm;

@@ -15,7 +15,7 @@
 //!   spaced (every step within 2 % of the median step; samples are taken to
 //!   lie on the even grid `x_0 + i·Δx`, `Δx` = span / (N − 1)).
 //! * `displacement_um`: the Z deviation `e_z = actual − commanded` of the
-//!   tool relative to the workpiece (design §1), in µm.
+//!   tool relative to the workpiece (docs/design.md, "Deviation sign"), in µm.
 //! * The feed rate as a header comment `# feed_mm_per_min = F` (`:` works as
 //!   well as `=`) or as a column `feed_mm_per_min` with one value in every
 //!   row. The axis as `# axis = X` (or `Y`), or given for all files by the

@@ -1,7 +1,7 @@
 //! The ball-array artifact: spheres on a line with calibrated distances,
 //! placed at several positions and orientations in the working volume.
 //!
-//! Sign (design §1): commanded to `q` the machine puts the probe at
+//! Sign (docs/design.md, "Deviation sign"): commanded to `q` the machine puts the probe at
 //! `q + e(q)`. It touches a sphere whose true centre is `s` when
 //! `q + e(q) = s`, and it reports the commanded (scale) coordinates, so the
 //! **measured centre is `m = s − e(s)`** to first order. A distance between
