@@ -2,7 +2,7 @@
 //! displacement errors that the axis' motion causes along X, Y and Z.
 //!
 //! `e(q, s) = E_X^{s_X}(q_X) + E_Y^{s_Y}(q_Y) + E_Z^{s_Z}(q_Z)` (vector sum, µm),
-//! each table linearly interpolated between its points (the seed model of [Lu & Yeh 2018],
+//! each table linearly interpolated between its points (the seed model of the [Seed papers],
 //! docs/references.md).
 //!
 //! The CSV reader is our own: the format is six plain columns, and what it

@@ -1,7 +1,7 @@
 //! Point compensation (docs/design.md, "Compensation"): find the command `q` with `q + e(q, s) = t`.
 //!
-//! * direct [Lu & Yeh 2018]: `q = t − e(t, s)`
-//! * ILC [Lu & Yeh 2018]: `q₀ = t`, `q_{i+1} = q_i + γ·(t − (q_i + e(q_i, s)))`,
+//! * direct ([Seed papers], docs/references.md): `q = t − e(t, s)`
+//! * ILC ([Lu & Yeh 2018], docs/references.md): `q₀ = t`, `q_{i+1} = q_i + γ·(t − (q_i + e(q_i, s)))`,
 //!   stopped when the residual falls under the tolerance or stops decreasing
 //! * exact: the same iteration with γ = 1 (a contraction, since |∂e/∂q| ≪ 1
 //!   for any real machine), run to the tolerance; failing to reach it is an error
