@@ -81,7 +81,11 @@ fn part_program() -> String {
     // Face pass (zig-zag) over the rectangle.
     for k in 0..5 {
         let y = -20.0 + 10.0 * k as f64;
-        let (a, b) = if k % 2 == 0 { (-30.0, 30.0) } else { (30.0, -30.0) };
+        let (a, b) = if k % 2 == 0 {
+            (-30.0, 30.0)
+        } else {
+            (30.0, -30.0)
+        };
         let _ = writeln!(s, "G1 X{a} Y{y} F600\nX{b}");
     }
     s.push_str("G0 Z5\nG0 X-25 Y-20\nG1 Z-5 F300\n");
@@ -152,7 +156,11 @@ fn face_program() -> String {
     let mut s = String::from("(volcomp example: face pass for the straightness model)\nG21 G90 G17 G54\nG0 X20 Y20 Z5\nG1 Z0 F400\n");
     for k in 0..12 {
         let y = 20.0 + 10.0 * k as f64;
-        let (a, b) = if k % 2 == 0 { (20.0, 180.0) } else { (180.0, 20.0) };
+        let (a, b) = if k % 2 == 0 {
+            (20.0, 180.0)
+        } else {
+            (180.0, 20.0)
+        };
         let _ = writeln!(s, "G1 X{a} Y{y} F1200\nX{b}");
     }
     s.push_str("G0 Z5\nM2\n");

@@ -207,7 +207,11 @@ fn every_documented_command_runs_as_written() {
     let mut failures = Vec::new();
     let (mut ran, mut skipped) = (0, 0);
     for doc in documents(&root) {
-        let name = doc.strip_prefix(&root).unwrap_or(&doc).display().to_string();
+        let name = doc
+            .strip_prefix(&root)
+            .unwrap_or(&doc)
+            .display()
+            .to_string();
         let text = std::fs::read_to_string(&doc).unwrap();
         let commands = extract(&text);
         if commands.is_empty() {
@@ -254,7 +258,12 @@ fn a_failing_command_is_reported_with_its_stderr() {
     let err = run_shell("volcomp map iso230-2 no-such-runs.csv", &dir, &path_env).unwrap_err();
     assert!(err.contains("no-such-runs.csv"), "{err}");
     // A pipe fails when its first command fails (pipefail).
-    assert!(run_shell("volcomp map iso230-2 no-such-runs.csv | cat", &dir, &path_env).is_err());
+    assert!(run_shell(
+        "volcomp map iso230-2 no-such-runs.csv | cat",
+        &dir,
+        &path_env
+    )
+    .is_err());
     assert!(run_shell("volcomp --version | cat", &dir, &path_env).is_ok());
 }
 

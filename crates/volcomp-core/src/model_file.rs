@@ -29,13 +29,13 @@
 //! given in arc seconds instead (`ea_arcsec` …). Every bad value is reported
 //! with file, row and column.
 
-use crate::numfmt;
 use crate::axis_table::Table;
 use crate::error::MapFileError;
 use crate::kinematic::{
     AngleConvention, AxisComponents, ComponentTable, KinematicModel, Kinematics, MeasuringLine,
     Squareness,
 };
+use crate::numfmt;
 use crate::topology::Topology;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -752,10 +752,7 @@ pub fn model_to_toml(model: &KinematicModel, tables: &str, description: Option<&
     s.push_str(&format!("measuring_point_mm = {}\n", triple(line.point_mm)));
     let t = line.tool_offset_mm;
     if t.x == 0.0 && t.y == 0.0 {
-        s.push_str(&format!(
-            "measuring_tool_length_mm = {}\n",
-            numfmt::mm(t.z)
-        ));
+        s.push_str(&format!("measuring_tool_length_mm = {}\n", numfmt::mm(t.z)));
     } else {
         s.push_str(&format!("measuring_tool_offset_mm = {}\n", triple(t)));
     }

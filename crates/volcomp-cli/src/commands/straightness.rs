@@ -10,9 +10,9 @@ use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use volcomp_core::numfmt;
 use volcomp_core::straightness::identify::{fit, AxisFit, Fit, FitOptions, Normalisation};
 use volcomp_core::straightness::run::Run;
-use volcomp_core::numfmt;
 use volcomp_core::straightness::{Axis, StraightnessModel};
 
 #[derive(Args, Debug)]
