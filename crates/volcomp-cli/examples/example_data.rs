@@ -14,7 +14,7 @@
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use volcomp_core::bspline::{self, Parameterization};
 use volcomp_core::mirror::{write_bspline_toml, MaterialSide, NominalSurface};
 use volcomp_gcode::Vec3;
@@ -25,35 +25,55 @@ fn main() {
             .nth(1)
             .unwrap_or_else(|| "examples/data".into()),
     );
-    std::fs::create_dir_all(dir.join("runs")).expect("create the output directory");
-    let write = |name: &str, text: String| {
-        let path = dir.join(name);
-        std::fs::write(&path, text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    };
-    write("map.csv", volcomp_core::example::example_map().to_csv());
-    write("machine.toml", MACHINE.into());
-    write("part.ngc", part_program());
-    write("runs.csv", iso230_2_runs());
+    write_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    eprintln!("wrote the example data to {}", dir.display());
+}
+
+/// Every example file, by path relative to the data folder. The doc-test
+/// compares `examples/data/` with this, so the committed files cannot drift
+/// from their generator.
+pub fn files() -> Vec<(String, String)> {
+    let mut out = vec![
+        (
+            "map.csv".to_string(),
+            volcomp_core::example::example_map().to_csv(),
+        ),
+        ("machine.toml".into(), MACHINE.into()),
+        ("part.ngc".into(), part_program()),
+        ("runs.csv".into(), iso230_2_runs()),
+    ];
     for (axis, length) in [('x', 200.0), ('y', 150.0)] {
         for (j, feed) in [4800.0, 7200.0, 9600.0].into_iter().enumerate() {
-            write(
-                &format!("runs/{axis}-{feed}.csv"),
+            out.push((
+                format!("runs/{axis}-{feed}.csv"),
                 straightness_run(axis, length, feed, 1.3 * j as f64),
-            );
+            ));
         }
     }
-    write("face.ngc", face_program());
+    out.push(("face.ngc".into(), face_program()));
     let nominal = mirror_nominal();
-    write(
-        "face.toml",
+    out.push((
+        "face.toml".into(),
         write_bspline_toml(
             nominal.surface(),
             "volcomp example: saddle z = 0.003·((x − 40)² − (y − 25)²) over 80 × 50 mm",
         ),
-    );
-    write("probes.csv", probes(&nominal));
-    write("finish.ngc", finishing_program(&nominal));
-    eprintln!("wrote the example data to {}", dir.display());
+    ));
+    out.push(("probes.csv".into(), probes(&nominal)));
+    out.push(("finish.ngc".into(), finishing_program(&nominal)));
+    out
+}
+
+/// Writes [`files`] under `dir`.
+pub fn write_all(dir: &Path) -> Result<(), String> {
+    for (name, text) in files() {
+        let path = dir.join(&name);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
+        }
+        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    Ok(())
 }
 
 /// The set-up of `part.ngc` on the example machine (mm).

@@ -24,6 +24,11 @@ use std::time::{Duration, Instant};
 
 mod common;
 
+/// The generator of `examples/data/` (also `cargo run --example example_data`).
+#[allow(dead_code)]
+#[path = "../examples/example_data.rs"]
+mod example_data;
+
 /// Longest a documented command may take before it counts as hanging.
 const COMMAND_LIMIT: Duration = Duration::from_secs(600);
 
@@ -247,6 +252,21 @@ fn every_documented_command_runs_as_written() {
     assert!(failures.is_empty(), "\n{}\n", failures.join("\n\n"));
     // The docs hold dozens of commands; finding few means the extraction broke.
     assert!(ran >= 30, "only {ran} documented commands found");
+}
+
+#[test]
+fn the_example_data_is_what_its_generator_writes() {
+    let data = workspace_root().join("examples/data");
+    for (name, text) in example_data::files() {
+        let path = data.join(&name);
+        let committed =
+            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(
+            committed == text,
+            "{} differs from what crates/volcomp-cli/examples/example_data.rs writes: run `cargo run -p volcomp-cli --example example_data -- examples/data`",
+            path.display()
+        );
+    }
 }
 
 #[test]
