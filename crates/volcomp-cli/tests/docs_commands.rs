@@ -17,6 +17,11 @@
 //!   other `cargo` commands (test, build, install …) are not run here.
 //! * Blocks that must not run (INI snippets, output, placeholders) use
 //!   ```` ```text ````, ```` ```ini ```` or ```` ```sh-norun ````.
+//! * Commands use the files of `examples/data/` (see its README.md) or files
+//!   an earlier command of the same document wrote.
+//!
+//! `examples/data/` itself is checked against its generator
+//! (`crates/volcomp-cli/examples/example_data.rs`), byte for byte.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
