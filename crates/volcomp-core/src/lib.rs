@@ -17,6 +17,8 @@ pub mod linuxcnc_comp;
 pub mod mirror;
 pub mod model;
 pub mod model_file;
+pub mod output;
+pub mod provenance;
 pub mod report;
 pub mod simulate;
 pub mod solve;
