@@ -103,17 +103,17 @@ fn wrapped(label: &str, text: &str) -> Vec<String> {
     let mut lines = Vec::new();
     let mut rest = text.as_str();
     while !rest.is_empty() {
-        let take = if rest.len() <= room {
-            rest.len()
+        let (take, skip) = if rest.len() <= room {
+            (rest.len(), 0)
         } else {
             match rest[..room].rfind(", ") {
-                Some(k) if k > 0 => k + 1,
-                _ => room,
+                Some(k) if k > 0 => (k, 2),
+                _ => (room, 0),
             }
         };
         let (head, tail) = rest.split_at(take);
         lines.push(format!("({label} {})", head.trim()));
-        rest = tail.trim_start();
+        rest = tail[skip..].trim_start();
     }
     if lines.is_empty() {
         lines.push(format!("({label})"));

@@ -4,7 +4,7 @@
 
 use super::Machine;
 use crate::args::MachineArgs;
-use crate::output::{write_atomically, CliError};
+use crate::output::{check, write_atomically, CliError, OutputPlan};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
@@ -239,6 +239,23 @@ struct SurfaceFiles {
 }
 
 fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
+    {
+        let base = a
+            .surface_out
+            .clone()
+            .unwrap_or_else(|| default_base(&a.measured));
+        let mut plan = OutputPlan::new();
+        plan.input("--nominal", &a.nominal)
+            .input("--measured", &a.measured)
+            .input_opt("--finishing", a.finishing.as_ref())
+            .input_opt("--setup", a.machine.setup.as_ref())
+            .output_opt("-o", a.output.as_ref())
+            .output_opt("--baseline", a.baseline.as_ref())
+            .output("--surface-out (grid)", with_suffix(&base, ".csv"))
+            .output("--surface-out (B-spline)", with_suffix(&base, ".toml"))
+            .output_opt("--report", a.report.as_ref());
+        check(&plan)?;
+    }
     positive(a.stock, "--stock", "a positive length in mm")?;
     positive(a.max_error, "--max-error", "a positive length in mm")?;
     positive(a.tolerance, "--tolerance", "a positive number of µm")?;

@@ -13,7 +13,8 @@
 //! - Anything else — a character device (`/dev/null`, `/dev/full`, a
 //!   terminal), a FIFO, a socket, `/dev/stdout` — is opened and written
 //!   through, never replaced: renaming over it would destroy the device.
-//! - `-` is standard output.
+//! - `-` is standard output (spooled until commit, so a failed command
+//!   sends nothing rather than half a result).
 
 use super::signals;
 use std::fs::{File, OpenOptions, Permissions};
@@ -100,7 +101,10 @@ impl std::fmt::Display for OutputError {
 impl std::error::Error for OutputError {}
 
 enum Sink {
-    Stdout(io::Stdout),
+    /// Standard output, spooled in an unnamed temporary file until commit
+    /// (so a failure half-way sends nothing), or written directly when no
+    /// temporary file can be made.
+    Stdout(Option<File>),
     /// Written through: a device, FIFO or socket.
     Through(File),
     /// A temporary renamed over `target` on commit.
@@ -155,7 +159,7 @@ impl OutputFile {
         if path.as_os_str() == "-" {
             return Ok(OutputFile {
                 shown,
-                sink: Sink::Stdout(io::stdout()),
+                sink: Sink::Stdout(tempfile::tempfile().ok()),
                 committed: false,
             });
         }
@@ -221,7 +225,15 @@ impl OutputFile {
     /// Flushes and makes the content durable before it is put in place.
     fn finish(&mut self) -> Result<(), OutputError> {
         let r = match &mut self.sink {
-            Sink::Stdout(s) => s.flush(),
+            Sink::Stdout(None) => io::stdout().flush(),
+            Sink::Stdout(Some(spool)) => {
+                use std::io::Seek as _;
+                let mut out = io::stdout().lock();
+                spool
+                    .seek(io::SeekFrom::Start(0))
+                    .and_then(|_| io::copy(spool, &mut out))
+                    .and_then(|_| out.flush())
+            }
             Sink::Through(f) => f.flush(),
             Sink::Replace {
                 file, permissions, ..
@@ -261,16 +273,16 @@ impl OutputFile {
 impl Write for OutputFile {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
         match &mut self.sink {
-            Sink::Stdout(s) => s.write(buf),
-            Sink::Through(f) => f.write(buf),
+            Sink::Stdout(Some(f)) | Sink::Through(f) => f.write(buf),
+            Sink::Stdout(None) => io::stdout().write(buf),
             Sink::Replace { file, .. } => file.write(buf),
         }
     }
 
     fn flush(&mut self) -> io::Result<()> {
         match &mut self.sink {
-            Sink::Stdout(s) => s.flush(),
-            Sink::Through(f) => f.flush(),
+            Sink::Stdout(Some(f)) | Sink::Through(f) => f.flush(),
+            Sink::Stdout(None) => io::stdout().flush(),
             Sink::Replace { file, .. } => file.flush(),
         }
     }

@@ -19,7 +19,7 @@ mod plan;
 mod signals;
 
 pub use file::{commit_all, OutputError, OutputFile};
-pub use plan::{canonical_absent, OutputPlan, PlanError, Role};
+pub use plan::{canonical_absent, referenced_files, OutputPlan, PlanError, Role};
 pub use signals::install_cleanup;
 
 /// Whether the standard streams (descriptors 0, 1, 2) are open.

@@ -200,7 +200,7 @@ impl OutputPlan {
     pub fn map_input(&mut self, flag: &str, path: impl AsRef<Path>) -> &mut Self {
         let path = path.as_ref();
         self.input(flag, path);
-        for t in referenced_tables(path) {
+        for t in referenced_files(path) {
             self.input(format!("{flag} (its table {})", t.display()), t);
         }
         self
@@ -260,7 +260,7 @@ impl OutputPlan {
 
 /// The table files a 21-component model TOML names (`tables = "…"` or a
 /// list), resolved relative to the TOML; empty for anything else.
-fn referenced_tables(path: &Path) -> Vec<PathBuf> {
+pub fn referenced_files(path: &Path) -> Vec<PathBuf> {
     let is_toml = path
         .extension()
         .and_then(|e| e.to_str())
