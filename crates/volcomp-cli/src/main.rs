@@ -9,12 +9,31 @@ mod plot;
 
 use clap::Parser;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Whether descriptor 1 was closed when the process started (`volcomp …
+/// >&-`). Rust's runtime re-opens closed standard descriptors on
+/// `/dev/null` before `main`, so output written there would be lost with
+/// exit 0; this is recorded before that, from the ELF `.init_array`.
+static STDOUT_CLOSED_AT_START: AtomicBool = AtomicBool::new(false);
+
+#[cfg(target_os = "linux")]
+#[used]
+#[link_section = ".init_array"]
+static RECORD_STDOUT: extern "C" fn() = {
+    extern "C" fn record() {
+        // SAFETY: fcntl(F_GETFD) only queries the descriptor.
+        if unsafe { libc::fcntl(1, libc::F_GETFD) } == -1 {
+            STDOUT_CLOSED_AT_START.store(true, Ordering::Relaxed);
+        }
+    }
+    record
+};
 
 fn main() -> ExitCode {
-    // A closed standard output would lose results with exit 0 (and let the
-    // next opened file take its descriptor): refuse it first.
-    if let Err(why) = volcomp_core::output::check_standard_streams() {
-        eprintln!("error: {why}");
+    // A closed standard output would lose results with exit 0: refuse it.
+    if STDOUT_CLOSED_AT_START.load(Ordering::Relaxed) {
+        eprintln!("error: standard output is closed (`>&-`): volcomp writes results or messages there; redirect it to a file or to /dev/null");
         return ExitCode::from(2);
     }
     // A reader that goes away (`volcomp moves P | head`) ends volcomp as it

@@ -128,11 +128,30 @@ impl Staged {
         write: impl FnOnce(&mut dyn Write) -> Result<(), CliError>,
     ) -> Result<(), CliError> {
         let file = OutputFile::create(target).map_err(CliError::Output)?;
-        let mut w = BufWriter::with_capacity(1 << 16, file);
-        write(&mut w)?;
-        let file = w
-            .into_inner()
-            .map_err(|e| CliError::Io(target.to_path_buf(), e.into_error()))?;
+        let mut w = BufWriter::with_capacity(
+            1 << 16,
+            Tracking {
+                inner: file,
+                failed: None,
+            },
+        );
+        let result = write(&mut w);
+        let flushed = w.flush();
+        let tracked = w.into_inner().map_err(|e| e.into_error());
+        // A write error on this output is reported with its path, whatever
+        // the writer made of it.
+        let first_failure = match &tracked {
+            Ok(t) => t.failed.as_ref().map(|e| io::Error::new(e.kind(), e.to_string())),
+            Err(e) => Some(io::Error::new(e.kind(), e.to_string())),
+        };
+        if let Some(e) = first_failure {
+            return Err(CliError::Io(target.to_path_buf(), e));
+        }
+        result?;
+        flushed.map_err(|e| CliError::Io(target.to_path_buf(), e))?;
+        let file = tracked
+            .map_err(|e| CliError::Io(target.to_path_buf(), e))?
+            .inner;
         self.files.push(file);
         Ok(())
     }
@@ -157,6 +176,30 @@ impl Staged {
                 Err(CliError::Output(e))
             }
         }
+    }
+}
+
+/// Remembers the first write error of an output.
+struct Tracking {
+    inner: OutputFile,
+    failed: Option<io::Error>,
+}
+
+impl Write for Tracking {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.inner.write(buf).inspect_err(|e| {
+            if self.failed.is_none() {
+                self.failed = Some(io::Error::new(e.kind(), e.to_string()));
+            }
+        })
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush().inspect_err(|e| {
+            if self.failed.is_none() {
+                self.failed = Some(io::Error::new(e.kind(), e.to_string()));
+            }
+        })
     }
 }
 

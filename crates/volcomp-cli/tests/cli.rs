@@ -173,7 +173,7 @@ fn the_input_is_never_overwritten() {
     );
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("refusing to overwrite"),
+        stderr(&o).contains("refusing to write"),
         "{}",
         stderr(&o)
     );

@@ -345,5 +345,5 @@ fn bad_input_is_refused_with_its_location_and_nothing_is_written() {
     // The input is never overwritten.
     let mut v = RUN.to_vec();
     v[11] = "finish.ngc";
-    refused(&dir, &v, &["refusing to overwrite"]);
+    refused(&dir, &v, &["refusing to write"]);
 }
