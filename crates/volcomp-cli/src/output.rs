@@ -141,7 +141,10 @@ impl Staged {
         // A write error on this output is reported with its path, whatever
         // the writer made of it.
         let first_failure = match &tracked {
-            Ok(t) => t.failed.as_ref().map(|e| io::Error::new(e.kind(), e.to_string())),
+            Ok(t) => t
+                .failed
+                .as_ref()
+                .map(|e| io::Error::new(e.kind(), e.to_string())),
             Err(e) => Some(io::Error::new(e.kind(), e.to_string())),
         };
         if let Some(e) = first_failure {

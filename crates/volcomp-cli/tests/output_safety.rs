@@ -140,7 +140,10 @@ fn two_outputs_on_one_path_are_refused() {
     );
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{e}");
-    assert!(e.contains("--report") && e.contains("-o") && e.contains("same file"), "{e}");
+    assert!(
+        e.contains("--report") && e.contains("-o") && e.contains("same file"),
+        "{e}"
+    );
     assert!(!d.join("x.ngc").exists());
 }
 
@@ -199,14 +202,29 @@ fn map_convert_and_plot_never_replace_inputs() {
     std::fs::write(d.join("m.toml"), toml).unwrap();
     let before = snapshot(&d);
     let o = volcomp(
-        &["map", "convert", "m.toml", "--to", "model", "-o", "tables.toml"],
+        &[
+            "map",
+            "convert",
+            "m.toml",
+            "--to",
+            "model",
+            "-o",
+            "tables.toml",
+        ],
         &d,
     );
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{e}");
-    assert!(e.contains("refusing to write") && e.contains("tables.csv"), "{e}");
+    assert!(
+        e.contains("refusing to write") && e.contains("tables.csv"),
+        "{e}"
+    );
     assert_eq!(snapshot(&d), before);
-    refused_for_every_input(&d, &["map", "plot", "m.toml", "-o", "{OUT}"], &["tables.csv"]);
+    refused_for_every_input(
+        &d,
+        &["map", "plot", "m.toml", "-o", "{OUT}"],
+        &["tables.csv"],
+    );
 }
 
 #[test]
@@ -310,7 +328,10 @@ fn special_files_are_written_through_never_replaced() {
         let o = compensate_to(&d, "pipe.ngc");
         assert!(o.status.success(), "{}", stderr(&o));
         let got = String::from_utf8(reader.join().unwrap()).unwrap();
-        assert!(got.contains("(volcomp header end)") && got.contains("M2"), "{got}");
+        assert!(
+            got.contains("(volcomp header end)") && got.contains("M2"),
+            "{got}"
+        );
         assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
     }
     // A symbolic link to a regular file: the target gets the program, the
@@ -404,14 +425,21 @@ fn kills_mid_write_leave_no_temporary_and_the_old_output() {
             .status()
             .unwrap();
         let status = child.wait().unwrap();
-        assert!(still_running, "the run ended before SIGKILL could interrupt it; make the program larger");
+        assert!(
+            still_running,
+            "the run ended before SIGKILL could interrupt it; make the program larger"
+        );
         assert!(!status.success(), "{signal}: {status:?}");
         assert_eq!(
             std::fs::read_to_string(d.join("out.ngc")).unwrap(),
             "old program",
             "{signal}"
         );
-        assert!(temporaries(&d).is_empty(), "{signal}: {:?}", temporaries(&d));
+        assert!(
+            temporaries(&d).is_empty(),
+            "{signal}: {:?}",
+            temporaries(&d)
+        );
     }
 }
 
@@ -429,7 +457,11 @@ fn a_closed_standard_output_is_an_error() {
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("standard output is closed"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("standard output is closed"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
@@ -531,7 +563,11 @@ fn linuxcnc_filter_protocol() {
     let (code, filtered, progress, text) = run_as_axis(&d, &filter, &d.join("large.ngc"));
     assert_eq!(code, 0, "{text:?}");
     assert!(filtered.starts_with(volcomp_core::provenance::FIRST_LINE));
-    assert!(filtered.trim_end().ends_with("M2"), "{}", &filtered[filtered.len() - 80..]);
+    assert!(
+        filtered.trim_end().ends_with("M2"),
+        "{}",
+        &filtered[filtered.len() - 80..]
+    );
     assert!(progress.len() >= 10, "{progress:?}");
     assert!(progress.windows(2).all(|w| w[0] < w[1]), "{progress:?}");
     assert_eq!(progress.last(), Some(&100));
@@ -592,19 +628,31 @@ fn header_content_and_refusal_of_double_compensation() {
     ] {
         assert!(lines.contains(&want.as_str()), "missing {want}:\n{out}");
     }
-    let end = lines.iter().position(|l| *l == "(volcomp header end)").unwrap();
+    let end = lines
+        .iter()
+        .position(|l| *l == "(volcomp header end)")
+        .unwrap();
     assert_eq!(lines[end + 1], "G21 G90 G17", "{out}");
     // The same again is refused, naming the line, and writes nothing.
     let o = volcomp(
         &[
-            "compensate", "out.ngc", "--map", "map.csv", "--setup", "machine.toml", "-o",
+            "compensate",
+            "out.ngc",
+            "--map",
+            "map.csv",
+            "--setup",
+            "machine.toml",
+            "-o",
             "again.ngc",
         ],
         &d,
     );
     let e2 = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{e2}");
-    assert!(e2.contains("out.ngc:3") && e2.contains("--allow-recompensate"), "{e2}");
+    assert!(
+        e2.contains("out.ngc:3") && e2.contains("--allow-recompensate"),
+        "{e2}"
+    );
     assert!(!d.join("again.ngc").exists());
     let o = volcomp(
         &[

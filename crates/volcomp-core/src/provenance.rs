@@ -18,7 +18,8 @@
 //! byte-for-byte round trip compares.
 
 use crate::compensate::{
-    compensate_program, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, ProgramStyle, Segmentation,
+    compensate_program, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord,
+    ProgramStyle, Segmentation,
 };
 use crate::error::CompensationError;
 use crate::model::ErrorModel;
@@ -44,6 +45,9 @@ pub struct ProgramHeader {
     pub maps: Vec<(String, String)>,
     /// The set-up file's name, if one was given.
     pub setup_file: Option<String>,
+    /// Where a work offset came from when not from the set-up file
+    /// (e.g. a command-line flag).
+    pub work_offset_note: Option<String>,
     /// The set-up used.
     pub setup: Setup,
     /// The compensation options.
@@ -185,10 +189,15 @@ impl ProgramHeader {
             out.extend(wrapped("map", name));
             out.push(format!("(map sha256 {})", comment_text(sha)));
         }
-        out.extend(wrapped(
-            "setup",
-            self.setup_file.as_deref().unwrap_or("none given"),
-        ));
+        let mut setup = self
+            .setup_file
+            .clone()
+            .unwrap_or_else(|| "none given".into());
+        if let Some(note) = &self.work_offset_note {
+            setup.push_str(", ");
+            setup.push_str(note);
+        }
+        out.extend(wrapped("setup", &setup));
         let mut any = false;
         for (name, w) in WORK_OFFSETS.iter().zip(&self.setup.work_offsets_mm) {
             if w.x != 0.0 || w.y != 0.0 || w.z != 0.0 || *name == "G54" {
@@ -272,7 +281,9 @@ fn is_program_number(t: &str) -> bool {
     if b.len() < 2 || !(b[0] == b'O' || b[0] == b'o') || !b[1].is_ascii_digit() {
         return false;
     }
-    let rest = t[1..].trim_start_matches(|c: char| c.is_ascii_digit()).trim();
+    let rest = t[1..]
+        .trim_start_matches(|c: char| c.is_ascii_digit())
+        .trim();
     rest.is_empty() || rest.starts_with('(')
 }
 
@@ -337,7 +348,11 @@ impl<W: Write> Write for HeaderWriter<W> {
             let line: Vec<u8> = self.pending.drain(..=end).collect();
             let text = String::from_utf8_lossy(&line);
             let t = text.trim();
-            let eol = if line.ends_with(b"\r\n") { "\r\n" } else { "\n" };
+            let eol = if line.ends_with(b"\r\n") {
+                "\r\n"
+            } else {
+                "\n"
+            };
             if !self.seen_percent && !self.seen_number && t.starts_with('%') {
                 self.seen_percent = true;
             } else if !self.seen_number && is_program_number(t) {
@@ -372,7 +387,15 @@ pub fn compensate_program_with_header<R: BufRead>(
     on_point: impl FnMut(&PointRecord),
 ) -> Result<CompensateSummary, CompensationError> {
     let mut w = HeaderWriter::new(out, header.lines());
-    let summary = compensate_program(walker, file, model, program_style, options, &mut w, on_point)?;
+    let summary = compensate_program(
+        walker,
+        file,
+        model,
+        program_style,
+        options,
+        &mut w,
+        on_point,
+    )?;
     w.finish().map_err(CompensationError::from)?;
     Ok(summary)
 }
@@ -412,6 +435,7 @@ mod tests {
             version: "9.9.9".into(),
             maps: vec![("very (odd) name.csv".into(), sha256_hex(b"abc"))],
             setup_file: Some("machine.toml".into()),
+            work_offset_note: None,
             setup,
             options: CompensateOptions::default(),
             date_utc: iso8601_utc(0),
@@ -469,7 +493,10 @@ mod tests {
         let mut w = HeaderWriter::new(Vec::new(), header().lines());
         w.write_all(program.as_bytes()).unwrap();
         let with = String::from_utf8(w.finish().unwrap()).unwrap();
-        assert_eq!(find_compensation(with.as_bytes()), Some(Compensated::Header(3)));
+        assert_eq!(
+            find_compensation(with.as_bytes()),
+            Some(Compensated::Header(3))
+        );
         assert_eq!(strip_header(&with), program);
         assert_eq!(find_compensation(program.as_bytes()), None);
         assert_eq!(

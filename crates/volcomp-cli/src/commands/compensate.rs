@@ -6,17 +6,16 @@ use crate::output::{check, CliError, OutputPlan, Staged};
 use std::io::{BufRead, Read, Write};
 use std::path::{Path, PathBuf};
 use volcomp_core::compensate::{
-    survey_style, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord,
-    Segmentation,
+    survey_style, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, Segmentation,
 };
+use volcomp_core::model::ErrorModel;
 use volcomp_core::output::referenced_files;
 use volcomp_core::provenance::{
     compensate_program_with_header, find_compensation, iso8601_utc, sha256_hex, Compensated,
     ProgramHeader,
 };
-use volcomp_gcode::Walker;
-use volcomp_core::model::ErrorModel;
 use volcomp_core::solve::Method;
+use volcomp_gcode::Walker;
 
 /// Loads the error map named by `--map`.
 pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
@@ -122,10 +121,8 @@ fn open_program(program: &Path) -> Result<(Vec<u8>, Box<dyn BufRead>), CliError>
         let reader = std::io::Cursor::new(head.clone()).chain(stdin);
         return Ok((head, Box::new(reader)));
     }
-    let mut f = std::io::BufReader::with_capacity(
-        1 << 16,
-        std::fs::File::open(program).map_err(err)?,
-    );
+    let mut f =
+        std::io::BufReader::with_capacity(1 << 16, std::fs::File::open(program).map_err(err)?);
     (&mut f).take(1 << 16).read_to_end(&mut head).map_err(err)?;
     let reader = std::io::Cursor::new(head.clone()).chain(f);
     Ok((head, Box::new(reader)))
@@ -180,6 +177,7 @@ pub fn header_for(
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_else(|| p.display().to_string())
         }),
+        work_offset_note: None,
         setup: machine.setup.clone(),
         options: *options,
         date_utc: date_utc(),
@@ -292,10 +290,17 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     let machine = Machine::from_args(&a.machine)?;
     let model = load_map(&a.map)?;
     let opts = options(&a)?;
-    let header = header_for(&a.map.map, a.machine.setup.as_deref(), &machine, &opts)?;
+    let mut header = header_for(&a.map.map, a.machine.setup.as_deref(), &machine, &opts)?;
+    if a.machine.work_offset.is_some() {
+        header.work_offset_note = Some("G54 from --work-offset".into());
+    }
     // LinuxCNC's AXIS reads `FILTER_PROGRESS=n` (percent) from a filter's
     // standard error (axis.py, filter_program).
-    let total_lines = if a.filter { count_lines(&a.program) } else { None };
+    let total_lines = if a.filter {
+        count_lines(&a.program)
+    } else {
+        None
+    };
     let mut percent_shown = 0u64;
     let mut report: Option<Vec<u8>> = a.report.as_ref().map(|_| {
         b"line,target_x_mm,target_y_mm,target_z_mm,command_x_mm,command_y_mm,command_z_mm,iterations,residual_um,reversed,held,take_up\n".to_vec()

@@ -649,7 +649,10 @@ fn model_outputs(plan: &mut OutputPlan, flag: &str, out: &Path) {
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
     if is_toml {
-        plan.output(format!("{flag} (its tables beside it)"), out.with_extension("csv"));
+        plan.output(
+            format!("{flag} (its tables beside it)"),
+            out.with_extension("csv"),
+        );
     }
 }
 
@@ -1064,7 +1067,9 @@ fn read_comp(path: &Path, ty: CompFileType, units: MachineUnits) -> Result<Posit
 
 fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
-    plan.input("--x", &a.x).input("--y", &a.y).input("--z", &a.z);
+    plan.input("--x", &a.x)
+        .input("--y", &a.y)
+        .input("--z", &a.z);
     model_outputs(&mut plan, "-o", &a.output);
     check(&plan)?;
     let (ty, units) = a.comp.get()?;
@@ -1115,7 +1120,8 @@ fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
 
 fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
-    plan.input("RUNS", &a.runs).output_opt("-o", a.output.as_ref());
+    plan.input("RUNS", &a.runs)
+        .output_opt("-o", a.output.as_ref());
     check(&plan)?;
     let text = std::fs::read_to_string(&a.runs).map_err(|e| CliError::Io(a.runs.clone(), e))?;
     let r = iso230_2::from_csv(&text, &a.runs.display().to_string())?;

@@ -458,7 +458,8 @@ fn load_model(path: &Path) -> Result<StraightnessModel, CliError> {
 
 fn table_cmd(a: TableArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
-    plan.input("MODEL", &a.model).output_opt("-o", a.output.as_ref());
+    plan.input("MODEL", &a.model)
+        .output_opt("-o", a.output.as_ref());
     check(&plan)?;
     let model = load_model(&a.model)?;
     let csv = model.correction_table_csv(a.step)?;

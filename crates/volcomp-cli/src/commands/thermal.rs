@@ -252,7 +252,11 @@ fn load_model(path: &Path) -> Result<ThermalModelFile, CliError> {
 
 fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
     {
-        let stem = a.output.file_stem().and_then(|s| s.to_str()).unwrap_or("model");
+        let stem = a
+            .output
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("model");
         let mut plan = OutputPlan::new();
         plan.input("--model", &a.model)
             .input("--temperatures", &a.temperatures)

@@ -431,8 +431,14 @@ mod tests {
         let e = commit_all(vec![fa, fb]).unwrap_err();
         let text = e.to_string();
         assert!(matches!(e, OutputError::Partial { .. }), "{text}");
-        assert!(text.contains("written: ") && text.contains("a.txt"), "{text}");
-        assert!(text.contains("NOT written") && text.contains("b.txt"), "{text}");
+        assert!(
+            text.contains("written: ") && text.contains("a.txt"),
+            "{text}"
+        );
+        assert!(
+            text.contains("NOT written") && text.contains("b.txt"),
+            "{text}"
+        );
         assert_eq!(std::fs::read_to_string(&a).unwrap(), "A");
     }
 }

@@ -348,7 +348,11 @@ mod tests {
     fn model_tables_are_inputs() {
         let d = tempfile::tempdir().unwrap();
         let toml = d.path().join("model.toml");
-        std::fs::write(&toml, "model = \"kinematic-21\"\ntables = \"model_tables.csv\"\n").unwrap();
+        std::fs::write(
+            &toml,
+            "model = \"kinematic-21\"\ntables = \"model_tables.csv\"\n",
+        )
+        .unwrap();
         std::fs::write(d.path().join("model_tables.csv"), "x").unwrap();
         let mut p = OutputPlan::new();
         p.map_input("MAP", &toml)
