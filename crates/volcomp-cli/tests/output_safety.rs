@@ -396,9 +396,20 @@ fn large_program(dir: &Path, lines: usize) -> PathBuf {
 
 #[test]
 fn kills_mid_write_leave_no_temporary_and_the_old_output() {
-    let d = fixture("kills");
+    kills_mid_write("kills", false, &["TERM", "INT", "HUP", "KILL"]);
+}
+
+/// The portable path (named `.volcomp-*.tmp` files, removed by the signal
+/// handler), forced on Linux; SIGKILL cannot be handled there.
+#[test]
+fn kills_mid_write_with_named_temporaries() {
+    kills_mid_write("kills_named", true, &["TERM", "INT", "HUP"]);
+}
+
+fn kills_mid_write(name: &str, named: bool, signals: &[&str]) {
+    let d = fixture(name);
     large_program(&d, 400_000);
-    for signal in ["TERM", "INT", "HUP", "KILL"] {
+    for signal in signals {
         std::fs::write(d.join("out.ngc"), "old program").unwrap();
         let mut child = Command::new(env!("CARGO_BIN_EXE_volcomp"))
             .args([
@@ -414,11 +425,20 @@ fn kills_mid_write_leave_no_temporary_and_the_old_output() {
                 "out.ngc",
             ])
             .current_dir(&d)
+            .env_remove("VOLCOMP_NAMED_TEMPORARIES")
+            .envs(named.then_some(("VOLCOMP_NAMED_TEMPORARIES", "1")))
             .stderr(Stdio::null())
             .spawn()
             .unwrap();
         // Mid-write: the process has started and is compensating.
         std::thread::sleep(std::time::Duration::from_millis(700));
+        if named {
+            assert_eq!(
+                temporaries(&d).len(),
+                1,
+                "the named temporary exists mid-write"
+            );
+        }
         let still_running = child.try_wait().unwrap().is_none();
         Command::new("kill")
             .args([format!("-{signal}"), child.id().to_string()])
@@ -715,4 +735,64 @@ fn which(name: &str) -> Result<PathBuf, ()> {
         .map(|p| p.join(name))
         .find(|p| p.is_file())
         .ok_or(())
+}
+
+#[test]
+fn a_full_disk_on_a_later_output_says_what_was_written() {
+    let d = tempdir("later_output");
+    let o = volcomp(&["thermal", "example", "-o", "."], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = volcomp(
+        &[
+            "thermal",
+            "fit",
+            "--measurements",
+            "measurements_train.csv",
+            "--temperatures",
+            "temperatures_train.csv",
+            "--artifact",
+            "artifact.csv",
+            "--ranges-mm",
+            "0:600,0:400,0:300",
+            "-o",
+            "t.toml",
+            "--bands",
+            "/dev/full",
+        ],
+        &d,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("No space left"), "{e}");
+    assert!(
+        e.contains("written before the error: t.toml")
+            && e.contains("NOT written (left as they were): /dev/full"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_full_standard_output_is_an_error() {
+    let d = fixture("full_stdout");
+    for cmd in [
+        "moves part.ngc --setup machine.toml",
+        "compensate part.ngc --map map.csv --setup machine.toml -o -",
+        "simulate part.ngc --map map.csv --setup machine.toml",
+    ] {
+        let o = Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "'{}' {cmd} > /dev/full",
+                env!("CARGO_BIN_EXE_volcomp")
+            ))
+            .current_dir(&d)
+            .output()
+            .unwrap();
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{cmd}: {e}");
+        assert!(
+            e.contains("standard output") && e.contains("No space"),
+            "{cmd}: {e}"
+        );
+    }
 }

@@ -55,8 +55,10 @@ pub fn install_cleanup() -> io::Result<()> {
 /// A temporary in `dir`: unnamed where possible (`None`), else named and
 /// registered for clean-up.
 pub(super) fn create_temporary(dir: &Path) -> io::Result<(File, Option<PathBuf>)> {
+    // `VOLCOMP_NAMED_TEMPORARIES=1` forces the portable path (named files
+    // and signal clean-up) on Linux too, so that it can be tested there.
     #[cfg(target_os = "linux")]
-    {
+    if std::env::var_os("VOLCOMP_NAMED_TEMPORARIES").is_none() {
         use rustix::fs::{openat, Mode, OFlags, CWD};
         if let Ok(fd) = openat(
             CWD,
