@@ -41,8 +41,10 @@ pub const MAX_LINE: usize = 80;
 pub struct ProgramHeader {
     /// volcomp's version.
     pub version: String,
-    /// Each map file (a model TOML and its tables): file name and SHA-256 in hex.
-    pub maps: Vec<(String, String)>,
+    /// Each file the compensation depends on: a short label (`map`,
+    /// `surf`, `probes`; at most 6 characters so that the SHA-256 line fits
+    /// in [`MAX_LINE`]), the file name and its SHA-256 in hex.
+    pub files: Vec<(String, String, String)>,
     /// The set-up file's name, if one was given.
     pub setup_file: Option<String>,
     /// Where a work offset came from when not from the set-up file
@@ -50,10 +52,39 @@ pub struct ProgramHeader {
     pub work_offset_note: Option<String>,
     /// The set-up used.
     pub setup: Setup,
-    /// The compensation options.
-    pub options: CompensateOptions,
+    /// The method, in words.
+    pub method: String,
+    /// The options, in words.
+    pub options: String,
     /// When, as ISO 8601 UTC (see [`iso8601_utc`]).
     pub date_utc: String,
+}
+
+impl ProgramHeader {
+    /// The header of a map compensation (`compensate_program`): `maps` are
+    /// (file name, SHA-256) of the map and every table it names.
+    pub fn for_compensation(
+        maps: Vec<(String, String)>,
+        setup_file: Option<String>,
+        setup: Setup,
+        options: &CompensateOptions,
+        date_utc: String,
+    ) -> Self {
+        let (method, options) = describe_options(options);
+        Self {
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            files: maps
+                .into_iter()
+                .map(|(n, h)| ("map".to_string(), n, h))
+                .collect(),
+            setup_file,
+            work_offset_note: None,
+            setup,
+            method,
+            options,
+            date_utc,
+        }
+    }
 }
 
 /// The SHA-256 of `bytes` in lower-case hex (FIPS 180-4).
@@ -185,9 +216,10 @@ impl ProgramHeader {
     pub fn lines(&self) -> Vec<String> {
         let mut out = vec![FIRST_LINE.to_string()];
         out.extend(wrapped("volcomp", &self.version));
-        for (name, sha) in &self.maps {
-            out.extend(wrapped("map", name));
-            out.push(format!("(map sha256 {})", comment_text(sha)));
+        for (label, name, sha) in &self.files {
+            let label = comment_text(label);
+            out.extend(wrapped(&label, name));
+            out.push(format!("({label} sha256 {})", comment_text(sha)));
         }
         let mut setup = self
             .setup_file
@@ -217,9 +249,8 @@ impl ProgramHeader {
         for (t, l) in &self.setup.tool_lengths_mm {
             out.push(format!("(tool {t} length {} mm)", num(*l)));
         }
-        let (method, options) = describe_options(&self.options);
-        out.extend(wrapped("method", &method));
-        out.extend(wrapped("options", &options));
+        out.extend(wrapped("method", &self.method));
+        out.extend(wrapped("options", &self.options));
         out.extend(wrapped("date", &self.date_utc));
         out.push(LAST_LINE.to_string());
         out
@@ -431,15 +462,13 @@ mod tests {
         let mut setup = Setup::default();
         setup.work_offsets_mm[0] = volcomp_gcode::Vec3::new(150.0, 150.0, 100.0);
         setup.tool_lengths_mm.insert(1, 75.0);
-        ProgramHeader {
-            version: "9.9.9".into(),
-            maps: vec![("very (odd) name.csv".into(), sha256_hex(b"abc"))],
-            setup_file: Some("machine.toml".into()),
-            work_offset_note: None,
+        ProgramHeader::for_compensation(
+            vec![("very (odd) name.csv".into(), sha256_hex(b"abc"))],
+            Some("machine.toml".into()),
             setup,
-            options: CompensateOptions::default(),
-            date_utc: iso8601_utc(0),
-        }
+            &CompensateOptions::default(),
+            iso8601_utc(0),
+        )
     }
 
     #[test]

@@ -139,7 +139,7 @@ fn program_name(program: &Path) -> String {
 
 /// Now as ISO 8601 UTC, or `SOURCE_DATE_EPOCH` when set (the
 /// reproducible-builds convention), so a run can be repeated byte for byte.
-fn date_utc() -> String {
+pub fn date_utc() -> String {
     let secs = std::env::var("SOURCE_DATE_EPOCH")
         .ok()
         .and_then(|s| s.trim().parse::<i64>().ok())
@@ -163,25 +163,37 @@ pub fn header_for(
     let mut maps = Vec::new();
     for p in std::iter::once(map.to_path_buf()).chain(referenced_files(map)) {
         let bytes = std::fs::read(&p).map_err(|e| CliError::Io(p.clone(), e))?;
-        let name = p
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| p.display().to_string());
-        maps.push((name, sha256_hex(&bytes)));
+        maps.push((file_name(&p), sha256_hex(&bytes)));
     }
-    Ok(ProgramHeader {
-        version: env!("CARGO_PKG_VERSION").to_string(),
+    Ok(ProgramHeader::for_compensation(
         maps,
-        setup_file: setup_file.map(|p| {
-            p.file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_else(|| p.display().to_string())
-        }),
-        work_offset_note: None,
-        setup: machine.setup.clone(),
-        options: *options,
-        date_utc: date_utc(),
-    })
+        setup_file.map(file_name),
+        machine.setup.clone(),
+        options,
+        date_utc(),
+    ))
+}
+
+/// A path's last component, for messages and headers.
+pub fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| p.display().to_string())
+}
+
+/// Refuses a program whose first bytes show an earlier compensation.
+pub fn refuse_if_compensated(head: &[u8], file: &str) -> Result<(), CliError> {
+    let what = match find_compensation(head) {
+        Some(Compensated::Header(line)) => Some((line, "its volcomp header")),
+        Some(Compensated::Trace(line)) => Some((line, "a volcomp trace comment")),
+        None => None,
+    };
+    match what {
+        Some((line, what)) => Err(CliError::Message(format!(
+            "{file}:{line}: this program was compensated by volcomp already ({what} is here); compensating it again would apply every correction twice: compensate the original program, or pass --allow-recompensate if that is really meant"
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// Compensates `program` into `out` with `header` at its top; refuses a
@@ -200,16 +212,7 @@ pub fn compensate_into(
     let (head, reader) = open_program(program)?;
     let file = program_name(program);
     if !allow_recompensate {
-        let what = match find_compensation(&head) {
-            Some(Compensated::Header(line)) => Some((line, "its volcomp header")),
-            Some(Compensated::Trace(line)) => Some((line, "a volcomp trace comment")),
-            None => None,
-        };
-        if let Some((line, what)) = what {
-            return Err(CliError::Message(format!(
-                "{file}:{line}: this program was compensated by volcomp already ({what} is here); compensating it again would apply every correction twice: compensate the original program, or pass --allow-recompensate if that is really meant"
-            )));
-        }
+        refuse_if_compensated(&head, &file)?;
     }
     let style = survey_style(&head);
     let mut walker = Walker::new(
