@@ -796,3 +796,108 @@ fn a_full_standard_output_is_an_error() {
         );
     }
 }
+
+/// The remaining commands with file outputs: the plan is checked before any
+/// input is read, so placeholder inputs are enough to show the refusal.
+#[test]
+fn every_other_output_flag_against_every_input() {
+    let d = tempdir("other_commands");
+    for f in [
+        "thermal.toml",
+        "temps.csv",
+        "straight.toml",
+        "x.comp",
+        "y.comp",
+        "z.comp",
+        "runs.csv",
+        "map.csv",
+    ] {
+        std::fs::write(d.join(f), format!("placeholder {f}\n")).unwrap();
+    }
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (
+            vec![
+                "thermal",
+                "predict",
+                "--model",
+                "thermal.toml",
+                "--temperatures",
+                "temps.csv",
+                "-o",
+                "{OUT}",
+            ],
+            vec!["thermal.toml", "temps.csv"],
+        ),
+        (
+            vec!["thermal", "plot", "--model", "thermal.toml", "-o", "{OUT}"],
+            vec!["thermal.toml"],
+        ),
+        (
+            vec!["straightness", "table", "straight.toml", "-o", "{OUT}"],
+            vec!["straight.toml"],
+        ),
+        (
+            vec![
+                "map",
+                "import-linuxcnc",
+                "--x",
+                "x.comp",
+                "--y",
+                "y.comp",
+                "--z",
+                "z.comp",
+                "--type",
+                "1",
+                "--units",
+                "mm",
+                "-o",
+                "{OUT}",
+            ],
+            vec!["x.comp", "y.comp", "z.comp"],
+        ),
+        (
+            vec!["map", "iso230-2", "runs.csv", "--axis", "x", "-o", "{OUT}"],
+            vec!["runs.csv"],
+        ),
+    ];
+    for (args, inputs) in cases {
+        refused_for_every_input(&d, &args, &inputs);
+    }
+    // thermal predict writes OUT.toml and OUT.csv beside it: `-o temps.toml`
+    // would replace the temperatures.
+    let before = snapshot(&d);
+    let o = volcomp(
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--temperatures",
+            "temps.csv",
+            "-o",
+            "temps.toml",
+        ],
+        &d,
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("temps.csv"), "{}", stderr(&o));
+    assert_eq!(snapshot(&d), before);
+    // map convert --to linuxcnc writes x.comp, y.comp, z.comp into a
+    // directory: one of them a hard link to the map.
+    std::fs::create_dir(d.join("comp")).unwrap();
+    std::fs::hard_link(d.join("map.csv"), d.join("comp/y.comp")).unwrap();
+    let o = volcomp(
+        &[
+            "map", "convert", "map.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm", "-o",
+            "comp",
+        ],
+        &d,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("y.comp") && e.contains("MAP"), "{e}");
+    assert_eq!(
+        std::fs::read_to_string(d.join("map.csv")).unwrap(),
+        "placeholder map.csv\n"
+    );
+}
