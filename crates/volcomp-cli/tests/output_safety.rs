@@ -317,6 +317,19 @@ fn special_files_are_written_through_never_replaced() {
             .file_type()
             .is_char_device());
     }
+    // /dev/stdout (a symbolic link to the process's descriptor 1, here a
+    // pipe): the program arrives on standard output, the link stays.
+    let o = compensate_to(&d, "/dev/stdout");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("(volcomp header end)") && text.contains("M2"),
+        "{text}"
+    );
+    assert!(std::fs::symlink_metadata("/dev/stdout")
+        .unwrap()
+        .file_type()
+        .is_symlink());
     // A FIFO: the program arrives through it, the FIFO stays a FIFO.
     let fifo = d.join("pipe.ngc");
     let made = Command::new("mkfifo").arg(&fifo).status();
