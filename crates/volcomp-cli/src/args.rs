@@ -116,7 +116,7 @@ pub struct MapArgs {
 
 #[derive(Args, Debug)]
 pub struct CompensateArgs {
-    /// The part program to compensate.
+    /// The part program to compensate ("-" for standard input).
     pub program: PathBuf,
     #[command(flatten)]
     pub map: MapArgs,
@@ -174,9 +174,17 @@ pub struct CompensateArgs {
     /// Print a per-point report (CSV: line, iterations, residual) to this file.
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
-    /// Output program.
-    #[arg(short, long, value_name = "OUT")]
-    pub output: PathBuf,
+    /// Output program ("-" for standard output).
+    #[arg(short, long, value_name = "OUT", required_unless_present = "filter")]
+    pub output: Option<PathBuf>,
+    /// Run as a LinuxCNC [FILTER] program (docs/linuxcnc.md): the program
+    /// on standard output, `FILTER_PROGRESS=n` lines on standard error.
+    #[arg(long, conflicts_with = "output")]
+    pub filter: bool,
+    /// Compensate a program that volcomp compensated already (its header or
+    /// trace comments say so); the corrections are then applied twice.
+    #[arg(long)]
+    pub allow_recompensate: bool,
 }
 
 #[derive(Args, Debug)]

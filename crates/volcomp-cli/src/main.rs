@@ -9,8 +9,47 @@ mod plot;
 
 use clap::Parser;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Whether descriptor 1 was closed when the process started (`volcomp …
+/// >&-`). Rust's runtime re-opens closed standard descriptors on
+/// `/dev/null` before `main`, so output written there would be lost with
+/// exit 0; this is recorded before that, from the ELF `.init_array`.
+static STDOUT_CLOSED_AT_START: AtomicBool = AtomicBool::new(false);
+
+#[cfg(target_os = "linux")]
+#[used]
+#[link_section = ".init_array"]
+static RECORD_STDOUT: extern "C" fn() = {
+    extern "C" fn record() {
+        // SAFETY: fcntl(F_GETFD) only queries the descriptor.
+        if unsafe { libc::fcntl(1, libc::F_GETFD) } == -1 {
+            STDOUT_CLOSED_AT_START.store(true, Ordering::Relaxed);
+        }
+    }
+    record
+};
 
 fn main() -> ExitCode {
+    // A closed standard output would lose results with exit 0: refuse it.
+    if STDOUT_CLOSED_AT_START.load(Ordering::Relaxed) {
+        eprintln!("error: standard output is closed (`>&-`): volcomp writes results or messages there; redirect it to a file or to /dev/null");
+        return ExitCode::from(2);
+    }
+    // A reader that goes away (`volcomp moves P | head`) ends volcomp as it
+    // ends every Unix filter: quietly, killed by SIGPIPE (the shell sees
+    // status 141). Rust ignores SIGPIPE by default, which would turn it into
+    // a write error in the middle of printing. Temporaries are unnamed on
+    // Linux, so nothing is left behind.
+    // SAFETY: sets a signal disposition before any thread is started.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+    // Named temporaries (where the OS has no unnamed ones) are removed on
+    // SIGINT, SIGTERM and SIGHUP.
+    if let Err(e) = volcomp_core::output::install_cleanup() {
+        eprintln!("volcomp: warning: cannot watch for signals ({e}); an interrupted run may leave a .volcomp-*.tmp file");
+    }
     let cli = args::Cli::parse();
     match commands::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
@@ -20,6 +59,12 @@ fn main() -> ExitCode {
                 return ExitCode::SUCCESS;
             }
             eprintln!("error: {e}");
+            // Partial commits already list what was written.
+            if !matches!(e, output::CliError::Output(_)) {
+                if let Some(note) = output::outputs_note() {
+                    eprintln!("{note}");
+                }
+            }
             ExitCode::from(2)
         }
     }

@@ -222,6 +222,15 @@ fn render<DB: DrawingBackend>(
 
 /// Draws `charts` stacked vertically into `path` (`.svg` or `.png`), atomically.
 pub fn write_charts(charts: &[Chart], path: &Path) -> Result<(), CliError> {
+    let bytes = chart_bytes(charts, path)?;
+    write_atomically(path, &[], |out| {
+        out.write_all(&bytes)
+            .map_err(|e| CliError::Io(path.to_path_buf(), e))
+    })
+}
+
+/// The bytes of `charts` drawn as the file `path` names (`.svg` or `.png`).
+pub fn chart_bytes(charts: &[Chart], path: &Path) -> Result<Vec<u8>, CliError> {
     register();
     let ext = path
         .extension()
@@ -240,39 +249,25 @@ pub fn write_charts(charts: &[Chart], path: &Path) -> Result<(), CliError> {
                 )
                 .map_err(fail)?;
             }
-            write_atomically(path, &[], |out| {
-                out.write_all(text.as_bytes())
-                    .map_err(|e| CliError::Io(path.to_path_buf(), e))
-            })
+            Ok(text.into_bytes())
         }
         Some("png") => {
-            // The PNG encoder writes to a path: draw into a temporary file
-            // beside the target and rename it when complete.
-            let dir = match path.parent() {
-                Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-                _ => std::path::PathBuf::from("."),
-            };
-            let tmp = tempfile::Builder::new()
-                .prefix(".volcomp-")
-                .suffix(".png")
-                .tempfile_in(&dir)
-                .map_err(|e| CliError::Io(dir.clone(), e))?;
+            // Drawn in memory and encoded here, so the file goes through
+            // the same atomic output as every other.
+            let mut rgb = vec![0u8; w as usize * h as usize * 3];
             {
                 render(
-                    BitMapBackend::new(tmp.path(), (w, h)).into_drawing_area(),
+                    BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area(),
                     charts,
                 )
                 .map_err(fail)?;
             }
-            {
-                use std::os::unix::fs::PermissionsExt as _;
-                let _ = tmp
-                    .as_file()
-                    .set_permissions(std::fs::Permissions::from_mode(0o644));
-            }
-            tmp.persist(path)
-                .map_err(|e| CliError::Io(path.to_path_buf(), e.error))?;
-            Ok(())
+            let mut png = Vec::new();
+            use image::ImageEncoder as _;
+            image::codecs::png::PngEncoder::new(&mut png)
+                .write_image(&rgb, w, h, image::ColorType::Rgb8)
+                .map_err(|e| fail(e.to_string()))?;
+            Ok(png)
         }
         _ => Err(CliError::Message(format!(
             "{}: plots are written as .svg or .png; choose one of those extensions",

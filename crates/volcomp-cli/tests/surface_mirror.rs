@@ -142,10 +142,12 @@ fn writes_the_program_the_surface_and_the_report() {
     ] {
         assert!(after.lines().any(|a| a == l), "{l} kept");
     }
-    let original: Vec<&str> = after
-        .lines()
-        .filter(|l| !l.contains("(volcomp L"))
-        .collect();
+    // The header follows the % and O-number lines; the body is the rest.
+    let lines: Vec<&str> = after.lines().collect();
+    assert_eq!(lines[2], volcomp_core::provenance::FIRST_LINE);
+    assert!(after.contains("(method surface mirror)"), "{after}");
+    let body = volcomp_core::provenance::strip_header(&after);
+    let original: Vec<&str> = body.lines().filter(|l| !l.contains("(volcomp L")).collect();
     assert_eq!(original.len(), before.lines().count());
     // The compensated CL points sit below the nominal CL points by the
     // measured error (error field ≥ 3 µm, here at least 2.5 µm lower).
@@ -345,5 +347,5 @@ fn bad_input_is_refused_with_its_location_and_nothing_is_written() {
     // The input is never overwritten.
     let mut v = RUN.to_vec();
     v[11] = "finish.ngc";
-    refused(&dir, &v, &["refusing to overwrite"]);
+    refused(&dir, &v, &["refusing to write"]);
 }

@@ -19,6 +19,8 @@ pub mod mirror;
 pub mod model;
 pub mod model_file;
 pub mod numfmt;
+pub mod output;
+pub mod provenance;
 pub mod report;
 pub mod simulate;
 pub mod solve;

@@ -2,15 +2,20 @@
 
 use super::Machine;
 use crate::args::{CompensateArgs, MapArgs, Method as MethodArg};
-use crate::output::{write_atomically, CliError};
-use std::io::{Read, Write};
-use std::path::Path;
+use crate::output::{check, CliError, OutputPlan, Staged};
+use std::io::{BufRead, Read, Write};
+use std::path::{Path, PathBuf};
 use volcomp_core::compensate::{
-    compensate_program, survey_style, CompensateOptions, CompensateSummary, DirectionPolicy,
-    PointRecord, Segmentation,
+    survey_style, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, Segmentation,
 };
 use volcomp_core::model::ErrorModel;
+use volcomp_core::output::referenced_files;
+use volcomp_core::provenance::{
+    compensate_program_with_header, find_compensation, iso8601_utc, sha256_hex, Compensated,
+    ProgramHeader,
+};
 use volcomp_core::solve::Method;
+use volcomp_gcode::Walker;
 
 /// Loads the error map named by `--map`.
 pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
@@ -101,90 +106,277 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
     })
 }
 
-/// Compensates `program` into `output`; returns the summary and records.
+/// A program's first 64 KiB (for its number style and for signs of an
+/// earlier compensation) and a reader over the whole of it; `-` is
+/// standard input, read once.
+fn open_program(program: &Path) -> Result<(Vec<u8>, Box<dyn BufRead>), CliError> {
+    let mut head = Vec::with_capacity(1 << 16);
+    let err = |e| CliError::Io(program.to_path_buf(), e);
+    if program.as_os_str() == "-" {
+        let mut stdin = std::io::stdin().lock();
+        (&mut stdin)
+            .take(1 << 16)
+            .read_to_end(&mut head)
+            .map_err(err)?;
+        let reader = std::io::Cursor::new(head.clone()).chain(stdin);
+        return Ok((head, Box::new(reader)));
+    }
+    let mut f =
+        std::io::BufReader::with_capacity(1 << 16, std::fs::File::open(program).map_err(err)?);
+    (&mut f).take(1 << 16).read_to_end(&mut head).map_err(err)?;
+    let reader = std::io::Cursor::new(head.clone()).chain(f);
+    Ok((head, Box::new(reader)))
+}
+
+/// The program's name in messages.
+fn program_name(program: &Path) -> String {
+    if program.as_os_str() == "-" {
+        "<standard input>".into()
+    } else {
+        program.display().to_string()
+    }
+}
+
+/// Now as ISO 8601 UTC, or `SOURCE_DATE_EPOCH` when set (the
+/// reproducible-builds convention), so a run can be repeated byte for byte.
+pub fn date_utc() -> String {
+    let secs = std::env::var("SOURCE_DATE_EPOCH")
+        .ok()
+        .and_then(|s| s.trim().parse::<i64>().ok())
+        .unwrap_or_else(|| {
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_secs() as i64)
+                .unwrap_or(0)
+        });
+    iso8601_utc(secs)
+}
+
+/// The header of a program compensated with `map` (and the tables it
+/// names), the set-up file and the set-up used.
+pub fn header_for(
+    map: &Path,
+    setup_file: Option<&Path>,
+    machine: &Machine,
+    options: &CompensateOptions,
+) -> Result<ProgramHeader, CliError> {
+    let mut maps = Vec::new();
+    for p in std::iter::once(map.to_path_buf()).chain(referenced_files(map)) {
+        let bytes = std::fs::read(&p).map_err(|e| CliError::Io(p.clone(), e))?;
+        maps.push((file_name(&p), sha256_hex(&bytes)));
+    }
+    Ok(ProgramHeader::for_compensation(
+        maps,
+        setup_file.map(file_name),
+        machine.setup.clone(),
+        options,
+        date_utc(),
+    ))
+}
+
+/// A path's last component, for messages and headers.
+pub fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| p.display().to_string())
+}
+
+/// Refuses a program whose first bytes show an earlier compensation.
+pub fn refuse_if_compensated(head: &[u8], file: &str) -> Result<(), CliError> {
+    let what = match find_compensation(head) {
+        Some(Compensated::Header(line)) => Some((line, "its volcomp header")),
+        Some(Compensated::Trace(line)) => Some((line, "a volcomp trace comment")),
+        None => None,
+    };
+    match what {
+        Some((line, what)) => Err(CliError::Message(format!(
+            "{file}:{line}: this program was compensated by volcomp already ({what} is here); compensating it again would apply every correction twice: compensate the original program, or pass --allow-recompensate if that is really meant"
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Compensates `program` into `out` with `header` at its top; refuses a
+/// program volcomp compensated already unless `allow_recompensate`.
+#[allow(clippy::too_many_arguments)]
+pub fn compensate_into(
+    program: &Path,
+    out: &mut dyn Write,
+    machine: &Machine,
+    model: &dyn ErrorModel,
+    options: &CompensateOptions,
+    header: &ProgramHeader,
+    allow_recompensate: bool,
+    on_point: impl FnMut(&PointRecord),
+) -> Result<CompensateSummary, CliError> {
+    let (head, reader) = open_program(program)?;
+    let file = program_name(program);
+    if !allow_recompensate {
+        refuse_if_compensated(&head, &file)?;
+    }
+    let style = survey_style(&head);
+    let mut walker = Walker::new(
+        reader,
+        Some(file.clone()),
+        machine.setup.clone(),
+        machine.options,
+    );
+    Ok(compensate_program_with_header(
+        &mut walker,
+        &file,
+        model,
+        &style,
+        options,
+        header,
+        out,
+        on_point,
+    )?)
+}
+
+/// Compensates `program` into the file `output` (completely or not at all).
 pub fn compensate_file(
     program: &Path,
     output: &Path,
     machine: &Machine,
     model: &dyn ErrorModel,
     options: &CompensateOptions,
-    mut on_point: impl FnMut(&PointRecord),
+    header: &ProgramHeader,
+    on_point: impl FnMut(&PointRecord),
 ) -> Result<CompensateSummary, CliError> {
-    let mut head = Vec::with_capacity(1 << 16);
-    std::fs::File::open(program)
-        .and_then(|f| f.take(1 << 16).read_to_end(&mut head))
-        .map_err(|e| CliError::Io(program.to_path_buf(), e))?;
-    let style = survey_style(&head);
-    let mut walker = machine.walk(program)?;
-    let file = program.display().to_string();
+    let mut plan = OutputPlan::new();
+    plan.input("PROGRAM", program).output("-o", output);
+    check(&plan)?;
     let mut summary = None;
-    write_atomically(output, &[program], |out| {
-        let s = compensate_program(
-            &mut walker,
-            &file,
-            model,
-            &style,
-            options,
-            out,
-            &mut on_point,
-        )?;
-        summary = Some(s);
+    let mut staged = Staged::new();
+    staged.write(output, |out| {
+        summary = Some(compensate_into(
+            program, out, machine, model, options, header, false, on_point,
+        )?);
         Ok(())
     })?;
+    staged.commit()?;
     summary.ok_or_else(|| CliError::Message("compensation produced no summary".into()))
 }
 
+/// Lines of a program file, for progress in percent (`None` for standard
+/// input, whose length is unknown).
+fn count_lines(program: &Path) -> Option<u64> {
+    if program.as_os_str() == "-" {
+        return None;
+    }
+    let mut f = std::io::BufReader::new(std::fs::File::open(program).ok()?);
+    let mut n = 0u64;
+    loop {
+        let buf = f.fill_buf().ok()?;
+        if buf.is_empty() {
+            break;
+        }
+        n += buf.iter().filter(|&&b| b == b'\n').count() as u64;
+        let len = buf.len();
+        f.consume(len);
+    }
+    Some(n.max(1))
+}
+
 pub fn run(a: CompensateArgs) -> Result<(), CliError> {
+    let output = match (&a.output, a.filter) {
+        (Some(o), _) => o.clone(),
+        (None, _) => PathBuf::from("-"),
+    };
+    let mut plan = OutputPlan::new();
+    plan.input("PROGRAM", &a.program)
+        .map_input("--map", &a.map.map)
+        .input_opt("--setup", a.machine.setup.as_ref())
+        .output(if a.filter { "--filter output" } else { "-o" }, &output)
+        .output_opt("--report", a.report.as_ref());
+    check(&plan)?;
     let machine = Machine::from_args(&a.machine)?;
     let model = load_map(&a.map)?;
     let opts = options(&a)?;
+    let mut header = header_for(&a.map.map, a.machine.setup.as_deref(), &machine, &opts)?;
+    if a.machine.work_offset.is_some() {
+        header.work_offset_note = Some("G54 from --work-offset".into());
+    }
+    // LinuxCNC's AXIS reads `FILTER_PROGRESS=n` (percent) from a filter's
+    // standard error (axis.py, filter_program).
+    let total_lines = if a.filter {
+        count_lines(&a.program)
+    } else {
+        None
+    };
+    let mut percent_shown = 0u64;
     let mut report: Option<Vec<u8>> = a.report.as_ref().map(|_| {
         b"line,target_x_mm,target_y_mm,target_z_mm,command_x_mm,command_y_mm,command_z_mm,iterations,residual_um,reversed,held,take_up\n".to_vec()
     });
-    let summary = compensate_file(
-        &a.program,
-        &a.output,
-        &machine,
-        model.as_ref(),
-        &opts,
-        |p| {
-            if let Some(r) = report.as_mut() {
-                let axes = |f: [bool; 3]| -> String {
-                    ['X', 'Y', 'Z']
-                        .iter()
-                        .zip(f)
-                        .filter(|(_, b)| *b)
-                        .map(|(c, _)| *c)
-                        .collect()
-                };
-                let _ = writeln!(
-                    r,
-                    "{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{:.6},{},{},{}",
-                    p.line,
-                    p.target_mm.x,
-                    p.target_mm.y,
-                    p.target_mm.z,
-                    p.command_mm.x,
-                    p.command_mm.y,
-                    p.command_mm.z,
-                    p.iterations,
-                    p.residual_um,
-                    axes(p.reversed),
-                    axes(p.held),
-                    p.take_up
-                );
-            }
-        },
-    )?;
+    let mut staged = Staged::new();
+    let mut summary = None;
+    staged.write(&output, |out| {
+        summary = Some(compensate_into(
+            &a.program,
+            out,
+            &machine,
+            model.as_ref(),
+            &opts,
+            &header,
+            a.allow_recompensate,
+            |p| {
+                if let Some(total) = total_lines {
+                    let pct = (p.line.saturating_mul(100) / total).min(99);
+                    if pct > percent_shown {
+                        percent_shown = pct;
+                        eprintln!("FILTER_PROGRESS={pct}");
+                    }
+                }
+                if let Some(r) = report.as_mut() {
+                    let axes = |f: [bool; 3]| -> String {
+                        ['X', 'Y', 'Z']
+                            .iter()
+                            .zip(f)
+                            .filter(|(_, b)| *b)
+                            .map(|(c, _)| *c)
+                            .collect()
+                    };
+                    let _ = writeln!(
+                        r,
+                        "{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{:.6},{},{},{}",
+                        p.line,
+                        p.target_mm.x,
+                        p.target_mm.y,
+                        p.target_mm.z,
+                        p.command_mm.x,
+                        p.command_mm.y,
+                        p.command_mm.z,
+                        p.iterations,
+                        p.residual_um,
+                        axes(p.reversed),
+                        axes(p.held),
+                        p.take_up
+                    );
+                }
+            },
+        )?);
+        Ok(())
+    })?;
     if let (Some(path), Some(bytes)) = (&a.report, report) {
-        write_atomically(path, &[&a.program], |w| {
+        staged.write(path, |w| {
             w.write_all(&bytes)
                 .map_err(|e| CliError::Io(path.clone(), e))
         })?;
     }
+    staged.commit()?;
+    if a.filter {
+        eprintln!("FILTER_PROGRESS=100");
+    }
+    let summary =
+        summary.ok_or_else(|| CliError::Message("compensation produced no summary".into()))?;
+    let shown = if output.as_os_str() == "-" {
+        "standard output".to_string()
+    } else {
+        output.display().to_string()
+    };
     eprintln!(
         "volcomp: wrote {} ({} lines from {}; {} points compensated, largest correction {:.2} µm, largest residual {:.4} µm, {} take-up moves)",
-        a.output.display(),
+        shown,
         summary.lines_out,
         summary.lines_in,
         summary.points,

@@ -1,6 +1,6 @@
 //! `volcomp demo`: the main job on the bundled example.
 
-use super::compensate::compensate_file;
+use super::compensate::{compensate_file, header_for};
 use super::Machine;
 use crate::args::DemoArgs;
 use crate::output::{write_atomically, CliError};
@@ -148,7 +148,8 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
         for v in &variants {
             let out = a.out_dir.join(format!("{}.{}.ngc", p.name, v.suffix));
             let mut targets = Vec::new();
-            compensate_file(&original, &out, &machine, &map, &v.options, |r| {
+            let header = header_for(&map_path, None, &machine, &v.options)?;
+            compensate_file(&original, &out, &machine, &map, &v.options, &header, |r| {
                 if !r.rapid {
                     targets.push((r.command_mm, r.target_mm));
                 }

@@ -4,7 +4,7 @@
 
 use super::parse_triple;
 use crate::args::{parse_axis, AxisArg};
-use crate::output::{write_atomically, CliError};
+use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::Write;
@@ -636,7 +636,38 @@ fn largest_difference(
     Ok(worst)
 }
 
+/// The files a model written as `out` (.toml) consists of: it and its
+/// tables beside it (same stem, .csv).
+fn model_outputs(plan: &mut OutputPlan, flag: &str, out: &Path) {
+    plan.output(flag, out);
+    let is_toml = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if is_toml {
+        plan.output(
+            format!("{flag} (its tables beside it)"),
+            out.with_extension("csv"),
+        );
+    }
+}
+
 fn convert(a: ConvertArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.map_input("MAP", &a.map);
+    match a.to {
+        ConvertTarget::Linuxcnc => {
+            for axis in AXES {
+                let name = format!("{}.comp", axis.to_ascii_lowercase());
+                plan.output(format!("-o (its {name})"), a.output.join(&name));
+            }
+        }
+        ConvertTarget::Model => model_outputs(&mut plan, "-o", &a.output),
+        _ => {
+            plan.output("-o", &a.output);
+        }
+    }
+    check(&plan)?;
     let map = load(&a.map, false)?;
     let form: Form = a.form.into();
     match a.to {
@@ -943,6 +974,9 @@ fn component_series(
 }
 
 fn plot(a: PlotArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.map_input("MAP", &a.map).output("-o", &a.output);
+    check(&plan)?;
     let map = load(&a.map, false)?;
     let name = a
         .map
@@ -1036,6 +1070,12 @@ fn read_comp(path: &Path, ty: CompFileType, units: MachineUnits) -> Result<Posit
 }
 
 fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.input("--x", &a.x)
+        .input("--y", &a.y)
+        .input("--z", &a.z);
+    model_outputs(&mut plan, "-o", &a.output);
+    check(&plan)?;
     let (ty, units) = a.comp.get()?;
     let p = [
         read_comp(&a.x, ty, units)?,
@@ -1083,6 +1123,10 @@ fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
 }
 
 fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.input("RUNS", &a.runs)
+        .output_opt("-o", a.output.as_ref());
+    check(&plan)?;
     let text = std::fs::read_to_string(&a.runs).map_err(|e| CliError::Io(a.runs.clone(), e))?;
     let r = iso230_2::from_csv(&text, &a.runs.display().to_string())?;
     let stdout = std::io::stdout();

@@ -3,7 +3,7 @@
 use super::compensate::load_map;
 use super::Machine;
 use crate::args::SimulateArgs;
-use crate::output::{write_atomically, CliError};
+use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
 use std::io::Write;
 use volcomp_core::report::{simulate_program, SimReport};
@@ -14,6 +14,14 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
             "--chord-tolerance must be a positive length in mm".into(),
         ));
     }
+    let mut plan = OutputPlan::new();
+    plan.input("PROGRAM", &a.program)
+        .map_input("--map", &a.map.map)
+        .input_opt("--setup", a.machine.setup.as_ref())
+        .input_opt("--reference", a.reference.as_ref())
+        .output_opt("--errors-csv", a.errors_csv.as_ref())
+        .output_opt("--plot", a.plot.as_ref());
+    check(&plan)?;
     let machine = Machine::from_args(&a.machine)?;
     let model = load_map(&a.map)?;
     let mut walker = machine.walk(&a.program)?;

@@ -5,7 +5,7 @@
 //! also a `--map` for `compensate` and `simulate`.
 
 use crate::args::{parse_axis, AxisArg};
-use crate::output::{write_atomically, CliError};
+use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::Write;
@@ -256,6 +256,13 @@ fn check_plot_path(path: &Path) -> Result<(), CliError> {
 }
 
 fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    for r in &a.runs.runs {
+        plan.input("RUNS", r);
+    }
+    plan.output_opt("-o", a.output.as_ref())
+        .output_opt("--plot", a.plot.as_ref());
+    check(&plan)?;
     if let Some(p) = &a.plot {
         check_plot_path(p)?;
     }
@@ -289,6 +296,12 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
 }
 
 fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    for r in &a.runs.runs {
+        plan.input("RUNS", r);
+    }
+    plan.output("-o", &a.output);
+    check(&plan)?;
     check_plot_path(&a.output)?;
     let o = options(&a.runs);
     let f = identify(&a.runs)?;
@@ -448,6 +461,10 @@ fn load_model(path: &Path) -> Result<StraightnessModel, CliError> {
 }
 
 fn table_cmd(a: TableArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.input("MODEL", &a.model)
+        .output_opt("-o", a.output.as_ref());
+    check(&plan)?;
     let model = load_model(&a.model)?;
     let csv = model.correction_table_csv(a.step)?;
     match &a.output {

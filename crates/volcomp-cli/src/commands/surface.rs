@@ -2,9 +2,10 @@
 //! probing (the mirror method, `docs/mirror.md`). Flags, validation, files
 //! and printing; the method is `volcomp_core::mirror`.
 
+use super::compensate::{date_utc, file_name, refuse_if_compensated};
 use super::Machine;
 use crate::args::MachineArgs;
-use crate::output::{write_atomically, CliError};
+use crate::output::{check, write_atomically, CliError, OutputPlan};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
@@ -16,6 +17,7 @@ use volcomp_core::mirror::{
     DeviationStats, FinishingOptions, FinishingSummary, FitInfo, FitMethod, MatchedPoint,
     MaterialSide, MirrorOptions, MirrorResult, NominalSurface, SurfaceModel,
 };
+use volcomp_core::provenance::{sha256_hex, HeaderWriter, ProgramHeader};
 
 /// Free-form surfaces.
 #[derive(Args, Debug)]
@@ -149,6 +151,9 @@ pub struct MirrorArgs {
     /// Print the summary as one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Compensate a finishing program that volcomp compensated already.
+    #[arg(long)]
+    pub allow_recompensate: bool,
 }
 
 pub fn run(a: SurfaceArgs) -> Result<(), CliError> {
@@ -239,6 +244,23 @@ struct SurfaceFiles {
 }
 
 fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
+    {
+        let base = a
+            .surface_out
+            .clone()
+            .unwrap_or_else(|| default_base(&a.measured));
+        let mut plan = OutputPlan::new();
+        plan.input("--nominal", &a.nominal)
+            .input("--measured", &a.measured)
+            .input_opt("--finishing", a.finishing.as_ref())
+            .input_opt("--setup", a.machine.setup.as_ref())
+            .output_opt("-o", a.output.as_ref())
+            .output_opt("--baseline", a.baseline.as_ref())
+            .output("--surface-out (grid)", with_suffix(&base, ".csv"))
+            .output("--surface-out (B-spline)", with_suffix(&base, ".toml"))
+            .output_opt("--report", a.report.as_ref());
+        check(&plan)?;
+    }
     positive(a.stock, "--stock", "a positive length in mm")?;
     positive(a.max_error, "--max-error", "a positive length in mm")?;
     positive(a.tolerance, "--tolerance", "a positive number of µm")?;
@@ -334,18 +356,28 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
                 std::fs::File::open(program)
                     .and_then(|f| f.take(1 << 16).read_to_end(&mut head))
                     .map_err(|e| CliError::Io(program.clone(), e))?;
+                if !a.allow_recompensate {
+                    refuse_if_compensated(&head, &file)?;
+                }
                 let style = survey_style(&head);
                 let mut walker = machine.walk(program)?;
                 let mut summary = None;
+                let header = mirror_header(
+                    &a,
+                    &machine,
+                    out == a.baseline.as_deref().unwrap_or(Path::new("")),
+                )?;
                 write_atomically(out, &inputs, |w| {
+                    let mut w = HeaderWriter::new(w, header.lines());
                     summary = Some(compensate_finishing(
                         &mut walker,
                         &file,
                         &style,
                         &model,
                         &opts,
-                        w,
+                        &mut w,
                     )?);
+                    w.finish().map_err(|e| CliError::Io(out.to_path_buf(), e))?;
                     Ok(())
                 })?;
                 summary.ok_or_else(|| {
@@ -394,6 +426,57 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
             .map_err(CliError::Stdout)?;
     }
     Ok(())
+}
+
+/// The header of a mirror-compensated finishing program: the nominal
+/// surface and the probe points it was made from, the set-up and options.
+fn mirror_header(
+    a: &MirrorArgs,
+    machine: &Machine,
+    baseline: bool,
+) -> Result<ProgramHeader, CliError> {
+    let mut files = Vec::new();
+    for (label, p) in [("surf", &a.nominal), ("probes", &a.measured)] {
+        let bytes = std::fs::read(p).map_err(|e| CliError::Io(p.clone(), e))?;
+        files.push((label.to_string(), file_name(p), sha256_hex(&bytes)));
+    }
+    let fit = match a.fit {
+        Fit::LeastSquares => format!("least-squares fit within {} um", a.tolerance),
+        Fit::Interpolate => "interpolating fit".to_string(),
+    };
+    let split = if a.no_split {
+        "no split".to_string()
+    } else {
+        format!("segment length {} mm", a.segment_length)
+    };
+    let options = format!(
+        "stock {} mm, tool radius {} mm, CL point {}, {fit}, {split}, contact tolerance {} mm",
+        a.stock,
+        a.tool_radius.unwrap_or(0.0),
+        match a.cl_point {
+            Cl::Tip => "tip",
+            Cl::Center => "center",
+        },
+        a.contact_tolerance
+    );
+    Ok(ProgramHeader {
+        version: env!("CARGO_PKG_VERSION").to_string(),
+        files,
+        setup_file: a.machine.setup.as_deref().map(file_name),
+        work_offset_note: a
+            .machine
+            .work_offset
+            .as_ref()
+            .map(|_| "G54 from --work-offset".to_string()),
+        setup: machine.setup.clone(),
+        method: if baseline {
+            "surface mirror baseline, constant offset".into()
+        } else {
+            "surface mirror".into()
+        },
+        options,
+        date_utc: date_utc(),
+    })
 }
 
 fn write_surface(

@@ -5,7 +5,7 @@
 //! moment that `compensate --map` reads; `plot` draws parameter evolution,
 //! model fit and residuals; `example` writes synthetic inputs.
 
-use crate::output::{write_atomically, CliError};
+use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
@@ -150,6 +150,13 @@ fn parse_ranges(text: &str) -> Result<[[f64; 2]; 3], CliError> {
 }
 
 fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.input("--measurements", &a.measurements)
+        .input("--temperatures", &a.temperatures)
+        .input("--artifact", &a.artifact)
+        .output("-o", &a.output)
+        .output_opt("--bands", a.bands.as_ref());
+    check(&plan)?;
     let ranges_mm = parse_ranges(&a.ranges_mm)?;
     let art_name = a.artifact.display().to_string();
     let array = parse_artifact(&read(&a.artifact)?, &art_name)?;
@@ -244,6 +251,22 @@ fn load_model(path: &Path) -> Result<ThermalModelFile, CliError> {
 }
 
 fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
+    {
+        let stem = a
+            .output
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("model");
+        let mut plan = OutputPlan::new();
+        plan.input("--model", &a.model)
+            .input("--temperatures", &a.temperatures)
+            .output("-o", &a.output)
+            .output(
+                "-o (its tables beside it)",
+                a.output.with_file_name(format!("{stem}.csv")),
+            );
+        check(&plan)?;
+    }
     let model = load_model(&a.model)?;
     let t_name = a.temperatures.display().to_string();
     let temps = parse_temperatures(&read(&a.temperatures)?, &t_name)?;
@@ -295,6 +318,9 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
 }
 
 fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.input("--model", &a.model).output("-o", &a.output);
+    check(&plan)?;
     let m = load_model(&a.model)?;
     let t = &m.time_h;
     let fitted = |p: &files::ParamFit| -> Vec<(f64, f64)> {

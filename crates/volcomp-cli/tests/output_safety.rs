@@ -1,0 +1,662 @@
+//! Safe output on every command: no output ever replaces an input or another
+//! output, special files are written through (never replaced), nothing is
+//! half-written (kills, full disks), and a closed or full standard output
+//! is an error. The header and the LinuxCNC filter: `compensated_header.rs`.
+
+mod common;
+
+use common::{tempdir, volcomp};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A small axis-table map over 0…600 mm with a pitch error of 2 µm per 100 mm
+/// on every axis (hand-made, so the test does not depend on `map example`).
+fn write_map(dir: &Path) -> PathBuf {
+    let mut s = String::from("axis,position_mm,direction,ex_um,ey_um,ez_um\n");
+    for axis in ["X", "Y", "Z"] {
+        for dir in ["+", "-"] {
+            for k in 0..=6 {
+                let p = k as f64 * 100.0;
+                let e = 0.02 * p;
+                let (ex, ey, ez) = match axis {
+                    "X" => (e, 0.0, 0.0),
+                    "Y" => (0.0, e, 0.0),
+                    _ => (0.0, 0.0, e),
+                };
+                s.push_str(&format!("{axis},{p},{dir},{ex},{ey},{ez}\n"));
+            }
+        }
+    }
+    let path = dir.join("map.csv");
+    std::fs::write(&path, s).unwrap();
+    path
+}
+
+const PROGRAM: &str = "G21 G90 G17\nG0 X10 Y10 Z5\nG1 Z-1 F300\nG1 X60 Y40\nG1 X10\nG0 Z5\nM2\n";
+const SETUP: &str = "units = \"mm\"\n[work_offsets]\nG54 = [200, 150, 100]\n";
+
+fn fixture(name: &str) -> PathBuf {
+    let d = tempdir(name);
+    write_map(&d);
+    std::fs::write(d.join("part.ngc"), PROGRAM).unwrap();
+    std::fs::write(d.join("machine.toml"), SETUP).unwrap();
+    d
+}
+
+fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap())
+        .filter(|e| e.file_type().unwrap().is_file())
+        .map(|e| {
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+fn temporaries(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(".volcomp-"))
+        .collect()
+}
+
+/// Runs `args` (with `{OUT}` replaced by each input in turn) and checks that
+/// it is refused naming the path, and that no file in `dir` changed.
+fn refused_for_every_input(dir: &Path, args: &[&str], inputs: &[&str]) {
+    for input in inputs {
+        let before = snapshot(dir);
+        let argv: Vec<&str> = args
+            .iter()
+            .map(|a| if *a == "{OUT}" { *input } else { *a })
+            .collect();
+        let o = volcomp(&argv, dir);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{argv:?} must be refused: {e}");
+        assert!(
+            e.contains("refusing to write") && e.contains(input),
+            "{argv:?}: {e}"
+        );
+        assert_eq!(snapshot(dir), before, "{argv:?} changed a file");
+    }
+}
+
+#[test]
+fn compensate_outputs_never_replace_inputs() {
+    let d = fixture("comp_inputs");
+    let base = [
+        "compensate",
+        "part.ngc",
+        "--map",
+        "map.csv",
+        "--setup",
+        "machine.toml",
+    ];
+    let inputs = ["part.ngc", "map.csv", "machine.toml", "./sub/../map.csv"];
+    std::fs::create_dir_all(d.join("sub")).unwrap();
+    let mut a = base.to_vec();
+    a.extend(["-o", "{OUT}"]);
+    refused_for_every_input(&d, &a, &inputs);
+    let mut a = base.to_vec();
+    a.extend(["-o", "out.ngc", "--report", "{OUT}"]);
+    refused_for_every_input(&d, &a, &inputs);
+    // Through a symbolic link and a hard link to the map.
+    std::os::unix::fs::symlink("map.csv", d.join("link.csv")).unwrap();
+    std::fs::hard_link(d.join("map.csv"), d.join("hard.csv")).unwrap();
+    let mut a = base.to_vec();
+    a.extend(["-o", "{OUT}"]);
+    refused_for_every_input(&d, &a, &["link.csv", "hard.csv"]);
+}
+
+#[test]
+fn two_outputs_on_one_path_are_refused() {
+    let d = fixture("two_outputs");
+    let o = volcomp(
+        &[
+            "compensate",
+            "part.ngc",
+            "--map",
+            "map.csv",
+            "--work-offset",
+            "200,150,100",
+            "-o",
+            "x.ngc",
+            "--report",
+            "x.ngc",
+        ],
+        &d,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("--report") && e.contains("-o") && e.contains("same file"),
+        "{e}"
+    );
+    assert!(!d.join("x.ngc").exists());
+}
+
+#[test]
+fn simulate_outputs_never_replace_inputs() {
+    let d = fixture("sim_inputs");
+    std::fs::write(d.join("ref.ngc"), PROGRAM).unwrap();
+    let base = [
+        "simulate",
+        "part.ngc",
+        "--map",
+        "map.csv",
+        "--setup",
+        "machine.toml",
+        "--reference",
+        "ref.ngc",
+    ];
+    let inputs = ["part.ngc", "map.csv", "machine.toml", "ref.ngc"];
+    for flag in ["--errors-csv", "--plot"] {
+        let mut a = base.to_vec();
+        a.extend([flag, "{OUT}"]);
+        refused_for_every_input(&d, &a, &inputs);
+    }
+}
+
+#[test]
+fn map_convert_and_plot_never_replace_inputs() {
+    let d = tempdir("map_inputs");
+    let o = volcomp(&["map", "example", "-o", "."], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The model and the table it names are both inputs.
+    let inputs = ["example21.toml", "example21.csv"];
+    for to in ["axis-table", "grid"] {
+        refused_for_every_input(
+            &d,
+            &[
+                "map",
+                "convert",
+                "example21.toml",
+                "--to",
+                to,
+                "--tool-length",
+                "100",
+                "-o",
+                "{OUT}",
+            ],
+            &inputs,
+        );
+    }
+    // --to model writes OUT and OUT's .csv: `-o example21.toml` would
+    // replace both inputs, `-o x.toml` where x.csv is the input's table too.
+    std::fs::copy(d.join("example21.csv"), d.join("tables.csv")).unwrap();
+    let toml = std::fs::read_to_string(d.join("example21.toml"))
+        .unwrap()
+        .replace("example21.csv", "tables.csv");
+    std::fs::write(d.join("m.toml"), toml).unwrap();
+    let before = snapshot(&d);
+    let o = volcomp(
+        &[
+            "map",
+            "convert",
+            "m.toml",
+            "--to",
+            "model",
+            "-o",
+            "tables.toml",
+        ],
+        &d,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("refusing to write") && e.contains("tables.csv"),
+        "{e}"
+    );
+    assert_eq!(snapshot(&d), before);
+    refused_for_every_input(
+        &d,
+        &["map", "plot", "m.toml", "-o", "{OUT}"],
+        &["tables.csv"],
+    );
+}
+
+#[test]
+fn thermal_outputs_never_replace_inputs() {
+    let d = tempdir("thermal_inputs");
+    let o = volcomp(&["thermal", "example", "-o", "."], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let inputs = [
+        "measurements_train.csv",
+        "temperatures_train.csv",
+        "artifact.csv",
+    ];
+    let base = [
+        "thermal",
+        "fit",
+        "--measurements",
+        "measurements_train.csv",
+        "--temperatures",
+        "temperatures_train.csv",
+        "--artifact",
+        "artifact.csv",
+        "--ranges-mm",
+        "0:600,0:400,0:300",
+    ];
+    let mut a = base.to_vec();
+    a.extend(["-o", "{OUT}"]);
+    refused_for_every_input(&d, &a, &inputs);
+    let mut a = base.to_vec();
+    a.extend(["-o", "t.toml", "--bands", "{OUT}"]);
+    refused_for_every_input(&d, &a, &inputs);
+}
+
+#[test]
+fn straightness_outputs_never_replace_inputs() {
+    let d = tempdir("straight_inputs");
+    let mut s = String::from("position_mm,deviation_um\n");
+    for k in 0..=100 {
+        let x = k as f64 * 2.0;
+        s.push_str(&format!("{x},{}\n", (x / 40.0).sin()));
+    }
+    std::fs::write(d.join("run.csv"), &s).unwrap();
+    for args in [
+        vec!["straightness", "fit", "run.csv", "-o", "{OUT}"],
+        vec!["straightness", "plot", "run.csv", "-o", "{OUT}"],
+    ] {
+        let before = snapshot(&d);
+        let argv: Vec<&str> = args
+            .iter()
+            .map(|a| if *a == "{OUT}" { "run.csv" } else { *a })
+            .collect();
+        let o = volcomp(&argv, &d);
+        assert_eq!(o.status.code(), Some(2), "{argv:?}: {}", stderr(&o));
+        assert_eq!(snapshot(&d), before);
+    }
+}
+
+fn compensate_to(d: &Path, out: &str) -> std::process::Output {
+    volcomp(
+        &[
+            "compensate",
+            "part.ngc",
+            "--map",
+            "map.csv",
+            "--setup",
+            "machine.toml",
+            "-o",
+            out,
+        ],
+        d,
+    )
+}
+
+#[test]
+fn special_files_are_written_through_never_replaced() {
+    use std::os::unix::fs::FileTypeExt as _;
+    let d = fixture("special");
+    let o = compensate_to(&d, "/dev/null");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::metadata("/dev/null")
+        .unwrap()
+        .file_type()
+        .is_char_device());
+    if Path::new("/dev/full").exists() {
+        let o = compensate_to(&d, "/dev/full");
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(e.contains("/dev/full") && e.contains("No space"), "{e}");
+        assert!(std::fs::metadata("/dev/full")
+            .unwrap()
+            .file_type()
+            .is_char_device());
+    }
+    // /dev/stdout (a symbolic link to the process's descriptor 1, here a
+    // pipe): the program arrives on standard output, the link stays.
+    let o = compensate_to(&d, "/dev/stdout");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("(volcomp header end)") && text.contains("M2"),
+        "{text}"
+    );
+    assert!(std::fs::symlink_metadata("/dev/stdout")
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    // A FIFO: the program arrives through it, the FIFO stays a FIFO.
+    let fifo = d.join("pipe.ngc");
+    let made = Command::new("mkfifo").arg(&fifo).status();
+    if made.is_ok_and(|s| s.success()) {
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read(fifo).unwrap())
+        };
+        let o = compensate_to(&d, "pipe.ngc");
+        assert!(o.status.success(), "{}", stderr(&o));
+        let got = String::from_utf8(reader.join().unwrap()).unwrap();
+        assert!(
+            got.contains("(volcomp header end)") && got.contains("M2"),
+            "{got}"
+        );
+        assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
+    }
+    // A symbolic link to a regular file: the target gets the program, the
+    // link stays a link.
+    std::fs::write(d.join("real.ngc"), "old").unwrap();
+    std::os::unix::fs::symlink("real.ngc", d.join("link.ngc")).unwrap();
+    let o = compensate_to(&d, "link.ngc");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::symlink_metadata(d.join("link.ngc"))
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert!(std::fs::read_to_string(d.join("real.ngc"))
+        .unwrap()
+        .contains("M2"));
+    assert!(temporaries(&d).is_empty());
+}
+
+#[test]
+fn a_full_disk_leaves_the_old_output_and_no_temporary() {
+    let d = fixture("full");
+    std::fs::write(d.join("out.ngc"), "old program").unwrap();
+    // The report fails (/dev/full) after the program was staged: neither is
+    // put in place, the old program stays.
+    let o = volcomp(
+        &[
+            "compensate",
+            "part.ngc",
+            "--map",
+            "map.csv",
+            "--setup",
+            "machine.toml",
+            "-o",
+            "out.ngc",
+            "--report",
+            "/dev/full",
+        ],
+        &d,
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(d.join("out.ngc")).unwrap(),
+        "old program"
+    );
+    assert!(temporaries(&d).is_empty(), "{:?}", temporaries(&d));
+}
+
+/// A long program: enough lines that a compensation takes a while.
+fn large_program(dir: &Path, lines: usize) -> PathBuf {
+    let path = dir.join("large.ngc");
+    let mut f = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+    writeln!(f, "G21 G90 G17\nG0 X0 Y0 Z5\nG1 Z-1 F600").unwrap();
+    for k in 0..lines {
+        // Within the map over G54 = (200, 150, 100): X ≤ 449.5, Y ≤ 299.5.
+        let x = (k % 500) as f64 * 0.5;
+        let y = ((k / 500) % 300) as f64 * 0.5;
+        writeln!(f, "G1 X{x:.3} Y{y:.3}").unwrap();
+    }
+    writeln!(f, "M2").unwrap();
+    path
+}
+
+#[test]
+fn kills_mid_write_leave_no_temporary_and_the_old_output() {
+    kills_mid_write("kills", false, &["TERM", "INT", "HUP", "KILL"]);
+}
+
+/// The portable path (named `.volcomp-*.tmp` files, removed by the signal
+/// handler), forced on Linux; SIGKILL cannot be handled there.
+#[test]
+fn kills_mid_write_with_named_temporaries() {
+    kills_mid_write("kills_named", true, &["TERM", "INT", "HUP"]);
+}
+
+fn kills_mid_write(name: &str, named: bool, signals: &[&str]) {
+    let d = fixture(name);
+    large_program(&d, 400_000);
+    for signal in signals {
+        std::fs::write(d.join("out.ngc"), "old program").unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_volcomp"))
+            .args([
+                "compensate",
+                "large.ngc",
+                "--map",
+                "map.csv",
+                "--setup",
+                "machine.toml",
+                "--segments",
+                "4",
+                "-o",
+                "out.ngc",
+            ])
+            .current_dir(&d)
+            .env_remove("VOLCOMP_NAMED_TEMPORARIES")
+            .envs(named.then_some(("VOLCOMP_NAMED_TEMPORARIES", "1")))
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        // Mid-write: the process has started and is compensating.
+        std::thread::sleep(std::time::Duration::from_millis(700));
+        if named {
+            assert_eq!(
+                temporaries(&d).len(),
+                1,
+                "the named temporary exists mid-write"
+            );
+        }
+        let still_running = child.try_wait().unwrap().is_none();
+        Command::new("kill")
+            .args([format!("-{signal}"), child.id().to_string()])
+            .status()
+            .unwrap();
+        let status = child.wait().unwrap();
+        assert!(
+            still_running,
+            "the run ended before SIGKILL could interrupt it; make the program larger"
+        );
+        assert!(!status.success(), "{signal}: {status:?}");
+        assert_eq!(
+            std::fs::read_to_string(d.join("out.ngc")).unwrap(),
+            "old program",
+            "{signal}"
+        );
+        assert!(
+            temporaries(&d).is_empty(),
+            "{signal}: {:?}",
+            temporaries(&d)
+        );
+    }
+}
+
+#[test]
+fn a_closed_standard_output_is_an_error() {
+    let d = fixture("closed_stdout");
+    // `volcomp moves part.ngc >&-`
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "'{}' moves part.ngc >&-",
+            env!("CARGO_BIN_EXE_volcomp")
+        ))
+        .current_dir(&d)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("standard output is closed"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_full_disk_on_a_later_output_says_what_was_written() {
+    let d = tempdir("later_output");
+    let o = volcomp(&["thermal", "example", "-o", "."], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = volcomp(
+        &[
+            "thermal",
+            "fit",
+            "--measurements",
+            "measurements_train.csv",
+            "--temperatures",
+            "temperatures_train.csv",
+            "--artifact",
+            "artifact.csv",
+            "--ranges-mm",
+            "0:600,0:400,0:300",
+            "-o",
+            "t.toml",
+            "--bands",
+            "/dev/full",
+        ],
+        &d,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("No space left"), "{e}");
+    assert!(
+        e.contains("written before the error: t.toml")
+            && e.contains("NOT written (left as they were): /dev/full"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_full_standard_output_is_an_error() {
+    let d = fixture("full_stdout");
+    for cmd in [
+        "moves part.ngc --setup machine.toml",
+        "compensate part.ngc --map map.csv --setup machine.toml -o -",
+        "simulate part.ngc --map map.csv --setup machine.toml",
+    ] {
+        let o = Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "'{}' {cmd} > /dev/full",
+                env!("CARGO_BIN_EXE_volcomp")
+            ))
+            .current_dir(&d)
+            .output()
+            .unwrap();
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{cmd}: {e}");
+        assert!(
+            e.contains("standard output") && e.contains("No space"),
+            "{cmd}: {e}"
+        );
+    }
+}
+
+/// The remaining commands with file outputs: the plan is checked before any
+/// input is read, so placeholder inputs are enough to show the refusal.
+#[test]
+fn every_other_output_flag_against_every_input() {
+    let d = tempdir("other_commands");
+    for f in [
+        "thermal.toml",
+        "temps.csv",
+        "straight.toml",
+        "x.comp",
+        "y.comp",
+        "z.comp",
+        "runs.csv",
+        "map.csv",
+    ] {
+        std::fs::write(d.join(f), format!("placeholder {f}\n")).unwrap();
+    }
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (
+            vec![
+                "thermal",
+                "predict",
+                "--model",
+                "thermal.toml",
+                "--temperatures",
+                "temps.csv",
+                "-o",
+                "{OUT}",
+            ],
+            vec!["thermal.toml", "temps.csv"],
+        ),
+        (
+            vec!["thermal", "plot", "--model", "thermal.toml", "-o", "{OUT}"],
+            vec!["thermal.toml"],
+        ),
+        (
+            vec!["straightness", "table", "straight.toml", "-o", "{OUT}"],
+            vec!["straight.toml"],
+        ),
+        (
+            vec![
+                "map",
+                "import-linuxcnc",
+                "--x",
+                "x.comp",
+                "--y",
+                "y.comp",
+                "--z",
+                "z.comp",
+                "--type",
+                "1",
+                "--units",
+                "mm",
+                "-o",
+                "{OUT}",
+            ],
+            vec!["x.comp", "y.comp", "z.comp"],
+        ),
+        (
+            vec!["map", "iso230-2", "runs.csv", "--axis", "x", "-o", "{OUT}"],
+            vec!["runs.csv"],
+        ),
+    ];
+    for (args, inputs) in cases {
+        refused_for_every_input(&d, &args, &inputs);
+    }
+    // thermal predict writes OUT.toml and OUT.csv beside it: `-o temps.toml`
+    // would replace the temperatures.
+    let before = snapshot(&d);
+    let o = volcomp(
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--temperatures",
+            "temps.csv",
+            "-o",
+            "temps.toml",
+        ],
+        &d,
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("temps.csv"), "{}", stderr(&o));
+    assert_eq!(snapshot(&d), before);
+    // map convert --to linuxcnc writes x.comp, y.comp, z.comp into a
+    // directory: one of them a hard link to the map.
+    std::fs::create_dir(d.join("comp")).unwrap();
+    std::fs::hard_link(d.join("map.csv"), d.join("comp/y.comp")).unwrap();
+    let o = volcomp(
+        &[
+            "map", "convert", "map.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm", "-o",
+            "comp",
+        ],
+        &d,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("y.comp") && e.contains("MAP"), "{e}");
+    assert_eq!(
+        std::fs::read_to_string(d.join("map.csv")).unwrap(),
+        "placeholder map.csv\n"
+    );
+}
