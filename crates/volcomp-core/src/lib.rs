@@ -17,6 +17,7 @@ pub mod linuxcnc_comp;
 pub mod mirror;
 pub mod model;
 pub mod model_file;
+pub mod nominal;
 pub mod report;
 pub mod simulate;
 pub mod solve;
