@@ -76,19 +76,19 @@ impl NominalBlock {
     /// A block with one motion takes every command written for it (its
     /// splits, take-ups and arc chords). A block with several (an expanded
     /// canned cycle) is followed in order: a written rapid takes the next
-    /// rapid; a written feed move stays with the current feed motion while
-    /// it moves in that motion's direction and otherwise takes the next feed
-    /// motion it moves along (a take-up at the reversal of G85/G89 moves in
-    /// the direction of the return feed).
+    /// rapid; a written feed move stays with the current feed motion unless
+    /// it moves against that motion's direction, and otherwise takes the
+    /// next feed motion it does not move against (a take-up at the reversal
+    /// of G85/G89 moves in the direction of the return feed; one that moves
+    /// only an axis across the feed stays with it).
     pub fn pair(&mut self, from: Vec3, to: Vec3, feed: bool) -> Option<usize> {
         if self.motions.len() == 1 {
             self.set_current(0);
             return Some(0);
         }
         let d = to - from;
-        let along = |m: &Motion| {
-            is_feed_like(m) == feed && (!feed || d == Vec3::ZERO || d.dot(m.end - m.start) > 0.0)
-        };
+        let along =
+            |m: &Motion| is_feed_like(m) == feed && (!feed || d.dot(m.end - m.start) >= 0.0);
         if let Some(i) = self.current {
             if feed && along(&self.motions[i]) {
                 return Some(i);
@@ -233,6 +233,8 @@ mod tests {
         let p = |z: f64| Vec3::new(1.0, 1.0, z);
         assert_eq!(b.pair(Vec3::new(0.0, 0.0, 5.0), p(5.0), false), Some(0));
         assert_eq!(b.pair(p(5.0), p(4.0), true), Some(1));
+        // A take-up across the feed (Y only) stays with it.
+        assert_eq!(b.pair(p(4.0), Vec3::new(1.0, 1.002, 4.0), true), Some(1));
         assert_eq!(b.pair(p(4.0), p(0.0), true), Some(1));
         // The take-up (2 µm up) and the return belong to the second feed.
         assert_eq!(b.pair(p(0.0), p(0.002), true), Some(2));
