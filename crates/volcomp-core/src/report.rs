@@ -289,7 +289,8 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
                 MotionKind::Arc(arc) => (arc.length(), arc.chord_count(chord_tolerance_mm)),
                 _ => ((m.end - m.start).norm(), 1),
             };
-            if !(length <= MAX_MOVE_LENGTH_MM)
+            if length.is_nan()
+                || length > MAX_MOVE_LENGTH_MM
                 || chords as f64 > MAX_MOVE_LENGTH_MM / SAMPLE_SPACING_MM
             {
                 return Err(CompensationError::AtLine {
