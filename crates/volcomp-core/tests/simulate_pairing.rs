@@ -448,3 +448,52 @@ fn every_corpus_program_satisfies_the_facts() {
     // Every bundled program but one that the interpreter refuses reads.
     assert!(checked.len() >= 10, "only {checked:?}");
 }
+
+#[test]
+fn without_trace_comments_the_order_of_the_blocks_pairs_or_the_program_is_refused() {
+    let map = example_map();
+    let setup = setup_at(Vec3::new(300.0, 200.0, 150.0));
+    let interp = InterpOptions::default();
+    let text = "G21 G90 F500\nG0 X0 Y0 Z0\nG1 X10.5 Y3\nG1 Y20\nG1 X-7 Z-2\nG1 X0 Y0 Z0\nM2\n";
+    // One line per block (no splits, no take-ups): the order pairs them,
+    // with exactly the figures of the traced program.
+    let plain = CompensateOptions {
+        segmentation: Segmentation::Off,
+        take_up: false,
+        ..Default::default()
+    };
+    let (traced, _) = compensate(text, &map, &setup, interp, &plain);
+    let (untraced, _) = compensate(
+        text,
+        &map,
+        &setup,
+        interp,
+        &CompensateOptions {
+            trace_comments: false,
+            ..plain
+        },
+    );
+    let a = simulate(&traced, Some(text), &map, &setup, interp);
+    let b = simulate(&untraced, Some(text), &map, &setup, interp);
+    assert_eq!(a.report, b.report);
+    // Split lines without tags cannot be paired: refused, not misjudged.
+    let (split, _) = compensate(
+        text,
+        &map,
+        &setup,
+        interp,
+        &CompensateOptions {
+            trace_comments: false,
+            ..Default::default()
+        },
+    );
+    let mut w = walker(&split, &setup, interp);
+    let mut r = walker(text, &setup, interp);
+    let err = simulate_program(&mut w, "c.ngc", Some(&mut r), &map, 1e-4, |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("c.ngc:") && err.contains("--no-trace"),
+        "{err}"
+    );
+}
