@@ -130,10 +130,12 @@ impl NominalBlock {
 }
 
 /// Distance (mm) from `p` to an arc: to the arc's point at `p`'s angle about
-/// the arc's centre (the closest point of a circle; of a helix or spiral up
-/// to a term of order `distance² / radius`), or to the nearer end when that
-/// angle lies outside the sweep. On a multi-turn arc the turn nearest to
-/// `hint` (the previous sample's parameter) is taken, and `hint` follows.
+/// the arc's centre (the closest point of a circle), or to the nearer end
+/// when that angle lies outside the sweep. On a helix or spiral, whose
+/// closest point lies at another angle, the distance is then minimised along
+/// the arc (golden-section search) over the stretch that can hold a closer
+/// point. On a multi-turn arc the turn nearest to `hint` (the previous
+/// sample's parameter) is taken, and `hint` follows.
 pub fn arc_distance_mm(p: Vec3, arc: &Arc, hint: &mut f64) -> f64 {
     let (u, v, _) = arc.plane.axes();
     let mut best = (p - arc.start).norm();
@@ -160,8 +162,55 @@ pub fn arc_distance_mm(p: Vec3, arc: &Arc, hint: &mut f64) -> f64 {
             }
         }
     }
+    let (_, _, w) = arc.plane.axes();
+    let circle = arc.start[w] == arc.end[w] && arc.start_radius() == arc.end_radius();
+    let length = arc.length();
+    if !circle && best > 0.0 && length > 0.0 {
+        // Every point of the arc closer than `best` lies within 2·best of
+        // the point found, hence within π·best of it along the arc.
+        let h = std::f64::consts::PI * best / length;
+        let (t, d) = golden_minimum(
+            |t| (p - arc.point_at(t)).norm(),
+            (best_t - h).max(0.0),
+            (best_t + h).min(1.0),
+        );
+        if d < best {
+            best = d;
+            best_t = t;
+        }
+    }
     *hint = best_t;
     best
+}
+
+/// Minimum of `f` on `[a, b]` by golden-section search (the distance to a
+/// smooth curve near its closest point is unimodal), to 1e-12 of the
+/// interval: `(argument, value)`.
+fn golden_minimum(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> (f64, f64) {
+    let r = 0.5 * (5f64.sqrt() - 1.0);
+    let mut c = b - r * (b - a);
+    let mut d = a + r * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..60 {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - r * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + r * (b - a);
+            fd = f(d);
+        }
+    }
+    if fc < fd {
+        (c, fc)
+    } else {
+        (d, fd)
+    }
 }
 
 #[cfg(test)]
@@ -197,8 +246,9 @@ mod tests {
     #[test]
     fn a_helix_turn_is_chosen_by_the_previous_sample() {
         // Two full turns of radius 10, rising 2 mm: at angle 0 the helix is
-        // at z = 0, 1 and 2. A point at (10, 0, 1.001) is 1 µm from the
-        // middle turn.
+        // at z = 0, 1 and 2. A point at (10, 0, 1.001) is 1 µm above the
+        // middle turn, which rises 1 mm per 20π mm: its distance to the helix
+        // is 1 µm · cos(atan(1 / 20π)).
         let arc = Arc {
             start: Vec3::new(10.0, 0.0, 0.0),
             end: Vec3::new(10.0, 0.0, 2.0),
@@ -208,8 +258,41 @@ mod tests {
         };
         let mut hint = 0.5;
         let d = arc_distance_mm(Vec3::new(10.0, 0.0, 1.001), &arc, &mut hint);
-        assert!((d - 0.001).abs() < 1e-12, "{d}");
-        assert!((hint - 0.5).abs() < 1e-12);
+        let expected = 0.001 * (1.0 / (20.0 * std::f64::consts::PI)).atan().cos();
+        assert!((d - expected).abs() < 1e-12, "{d} vs {expected}");
+        assert!((hint - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_closest_point_of_a_steep_helix_is_found_off_its_angle() {
+        // Radius 0.3 mm, a quarter turn rising 0.5 mm. A point 10 µm from
+        // the helix along its normal in the plane of the axis direction and
+        // the tangent (binormal): its angle about the axis differs from its
+        // foot's, so the point at its angle is farther than 10 µm.
+        let r = 0.3;
+        let arc = Arc {
+            start: Vec3::new(r, 0.0, 0.0),
+            end: Vec3::new(0.0, r, 0.5),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: TAU / 4.0,
+        };
+        let t = 0.5;
+        let foot = arc.point_at(t);
+        let a = TAU / 8.0;
+        // Tangent (dθ/dt = π/2, dz/dt = 0.5) and the binormal-like normal
+        // orthogonal to it and to the radial direction.
+        let tangent = Vec3::new(-r * a.sin() * TAU / 4.0, r * a.cos() * TAU / 4.0, 0.5);
+        let radial = Vec3::new(a.cos(), a.sin(), 0.0);
+        let n = Vec3::new(
+            radial.y * tangent.z - radial.z * tangent.y,
+            radial.z * tangent.x - radial.x * tangent.z,
+            radial.x * tangent.y - radial.y * tangent.x,
+        );
+        let p = foot + n * (0.01 / n.norm());
+        let mut hint = 0.0;
+        let d = arc_distance_mm(p, &arc, &mut hint);
+        assert!((d - 0.01).abs() < 1e-6, "{d}");
     }
 
     #[test]

@@ -35,30 +35,81 @@ fn walker(text: &str, setup: &Setup, options: InterpOptions) -> Walker<Cursor<Ve
     )
 }
 
-/// The largest error the example map can produce, from its table rows
-/// alone (the map interpolates linearly between rows): per component, the
-/// sum over the three axes of the largest magnitude any row gives it; a
-/// dead-band lag mixes such components axis by axis, so the bound is the
-/// norm of that per-component bound (µm).
-fn map_bound_um(map: &AxisTableMap) -> f64 {
+/// The largest error the map can produce over the box `lo`…`hi` (axis
+/// frame, mm), from its table rows alone (the map interpolates linearly
+/// between rows, and holds the end rows outside the table when clamped):
+/// per component, the sum over the three axes of the largest magnitude any
+/// row in reach gives it; a dead-band lag mixes such components axis by
+/// axis, so the bound is the norm of that per-component bound (µm).
+fn map_bound_um(map: &AxisTableMap, lo: Vec3, hi: Vec3) -> f64 {
+    let csv = map.to_csv();
+    let rows: Vec<(usize, f64, [f64; 3])> = csv
+        .lines()
+        .skip(1)
+        .map(|row| {
+            let f: Vec<&str> = row.split(',').collect();
+            let a = match f[0] {
+                "X" => 0,
+                "Y" => 1,
+                "Z" => 2,
+                other => panic!("axis {other}"),
+            };
+            let e = [3, 4, 5].map(|k| f[k].parse::<f64>().unwrap());
+            (a, f[2].parse().unwrap(), e)
+        })
+        .collect();
     let mut per_axis = [[0.0f64; 3]; 3];
-    for row in map.to_csv().lines().skip(1) {
-        let f: Vec<&str> = row.split(',').collect();
-        let a = match f[0] {
-            "X" => 0,
-            "Y" => 1,
-            "Z" => 2,
-            other => panic!("axis {other}"),
-        };
-        for k in 0..3 {
-            let v: f64 = f[3 + k].parse().unwrap();
-            per_axis[a][k] = per_axis[a][k].max(v.abs());
+    for a in 0..3 {
+        let first = rows
+            .iter()
+            .filter(|r| r.0 == a)
+            .map(|r| r.1)
+            .fold(f64::MAX, f64::min);
+        let last = rows
+            .iter()
+            .filter(|r| r.0 == a)
+            .map(|r| r.1)
+            .fold(f64::MIN, f64::max);
+        // Rows one table step (2 mm) beyond the box bracket its ends.
+        let (from, to) = (lo[a].max(first) - 2.1, hi[a].min(last) + 2.1);
+        for (_, _, e) in rows.iter().filter(|r| r.0 == a && r.1 >= from && r.1 <= to) {
+            for k in 0..3 {
+                per_axis[a][k] = per_axis[a][k].max(e[k].abs());
+            }
         }
     }
     (0..3)
         .map(|k| (0..3).map(|a| per_axis[a][k]).sum::<f64>().powi(2))
         .sum::<f64>()
         .sqrt()
+}
+
+/// The box (axis frame, mm) of a program's moves.
+fn moves_box(text: &str, setup: &Setup, interp: InterpOptions) -> Result<(Vec3, Vec3), String> {
+    let mut w = walker(text, setup, interp);
+    let mut lo = Vec3::new(f64::MAX, f64::MAX, f64::MAX);
+    let mut hi = Vec3::new(f64::MIN, f64::MIN, f64::MIN);
+    while let Some(ev) = w.next_line().map_err(|e| e.to_string())? {
+        // Where the tool goes along the program's own moves (arcs bulge
+        // between their ends; the machine's start position is no part).
+        let program = ev
+            .motions
+            .iter()
+            .filter(|m| matches!(m.source, MotionSource::Program | MotionSource::Cycle));
+        for m in program {
+            let mut points = vec![m.end];
+            if let volcomp_gcode::MotionKind::Arc(arc) = m.kind {
+                points.extend((0..=64).map(|k| arc.point_at(f64::from(k) / 64.0)));
+            }
+            for p in points {
+                for a in 0..3 {
+                    lo[a] = lo[a].min(p[a]);
+                    hi[a] = hi[a].max(p[a]);
+                }
+            }
+        }
+    }
+    Ok((lo, hi))
 }
 
 struct Run {
@@ -124,7 +175,8 @@ fn check(
     interp: InterpOptions,
     strict: bool,
 ) -> (SimReport, SimReport) {
-    let bound = map_bound_um(map) + CHORD_TOLERANCE_MM * 1e3;
+    let (lo, hi) = moves_box(text, setup, interp).unwrap();
+    let bound = map_bound_um(map, lo, hi) + CHORD_TOLERANCE_MM * 1e3;
     let own = simulate(text, None, map, setup, interp);
     assert!(
         own.report.contour_max_um <= bound,
@@ -242,6 +294,23 @@ fn generated() -> Vec<(&'static str, String)> {
     // Repeated contours: a circle three times, then a two-turn helix down.
     let p = "G21 G90 G17 F500\nG0 X20 Y0 Z1\nG1 Z0\nG2 X20 Y0 I-20 J0\nG2 X20 Y0 I-20 J0\nG3 X20 Y0 I-20 J0\nG2 X20 Y0 Z-4 I-20 J0 P2\nG0 Z10\nM2\n".to_string();
     out.push(("repeated circles and helix", p));
+    // Steep helices of small radius (thread milling, helical entry): 0.3 mm
+    // radius rising 1 mm per quarter turn (the helix climbs twice as fast
+    // as it turns: a point's angle about the axis says little about where
+    // its closest point is).
+    let mut p = String::from("G21 G90 G17 F300\nG0 X0.3 Y0 Z1\nG1 Z0\n");
+    let quarter = [
+        ("0", "0.3", "-0.3", "0"),
+        ("-0.3", "0", "0", "-0.3"),
+        ("0", "-0.3", "0.3", "0"),
+        ("0.3", "0", "0", "0.3"),
+    ];
+    for k in 0..20 {
+        let (x, y, i, j) = quarter[k % 4];
+        p += &format!("G3 X{x} Y{y} Z{} I{i} J{j}\n", k + 1);
+    }
+    p += "G0 Z30\nM2\n";
+    out.push(("steep small helices", p));
     // Long rapids across the table between small contours, and drilling.
     let mut p = String::from("G21 G90 G17 F400\nG0 X-140 Y-90 Z20\n");
     for (x, y) in [(-140i32, -90i32), (140, 90), (-140, 90), (140, -90)] {
