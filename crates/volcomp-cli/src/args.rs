@@ -195,7 +195,8 @@ pub struct SimulateArgs {
     pub map: MapArgs,
     #[command(flatten)]
     pub machine: MachineArgs,
-    /// The original program whose nominal path PROGRAM is judged against.
+    /// The original program whose nominal path PROGRAM is judged against (PROGRAM
+    /// written by `volcomp compensate` from it: its `(volcomp Ln)` comments pair them).
     #[arg(long, value_name = "ORIGINAL")]
     pub reference: Option<PathBuf>,
     /// Print one JSON object instead of a table.

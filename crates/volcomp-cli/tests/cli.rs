@@ -333,3 +333,91 @@ fn simulate_draws_svg_and_png_plots() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains(".svg or .png"), "{}", stderr(&o));
 }
+
+#[test]
+fn every_demo_figure_is_what_simulate_reports() {
+    // The demo prints the commands that reproduce its cells; run them for
+    // the first program and compare with the printed figures (3 decimals).
+    let dir = tempdir("demo_reproduced");
+    let o = volcomp(&["demo", "--out-dir", "d"], &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        text.contains("volcomp simulate d/<program>.<method>.ngc --reference d/<program>.ngc --map d/example_map.csv --work-offset 250,200,150"),
+        "{text}"
+    );
+    let cells = |prefix: &str| -> Vec<String> {
+        let line = text
+            .lines()
+            .find(|l| l.trim_start().starts_with(prefix))
+            .unwrap_or_else(|| panic!("{prefix}: {text}"));
+        let after = &line[line.find(" point").map_or(0, |i| i + 6)..];
+        let after = after.trim_start().trim_start_matches("contour");
+        after
+            .split_whitespace()
+            .filter(|t| !t.starts_with('('))
+            .map(str::to_string)
+            .collect()
+    };
+    let point = cells("circle D20, 20 segments point");
+    let lines: Vec<&str> = text.lines().collect();
+    let at = lines
+        .iter()
+        .position(|l| l.starts_with("circle D20, 20 segments point"))
+        .unwrap();
+    let contour: Vec<String> = lines[at + 1]
+        .split_whitespace()
+        .skip(1)
+        .filter(|t| !t.starts_with('('))
+        .map(str::to_string)
+        .collect();
+    assert_eq!(point.len(), 6, "{point:?}");
+    assert_eq!(contour.len(), 6, "{contour:?}");
+    let programs = [
+        None,
+        Some("pitch"),
+        Some("ilc_papers"),
+        Some("ilc"),
+        Some("exact"),
+        Some("adaptive"),
+    ];
+    for (k, method) in programs.iter().enumerate() {
+        let mut args = vec!["simulate".to_string()];
+        match method {
+            None => args.push("d/circle_d20_20seg.ngc".into()),
+            Some(m) => {
+                args.push(format!("d/circle_d20_20seg.{m}.ngc"));
+                args.push("--reference".into());
+                args.push("d/circle_d20_20seg.ngc".into());
+            }
+        }
+        for a in [
+            "--map",
+            "d/example_map.csv",
+            "--work-offset",
+            "250,200,150",
+            "--json",
+        ] {
+            args.push(a.into());
+        }
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = volcomp(&args, &dir);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let fmt = |key: &str| format!("{:.3}", v[key].as_f64().unwrap());
+        assert_eq!(fmt("point_rms_um"), point[k], "{method:?}: {v}");
+        assert_eq!(fmt("contour_rms_um"), contour[k], "{method:?}: {v}");
+        assert_eq!(
+            v["nominal"],
+            if method.is_some() {
+                "reference"
+            } else {
+                "program"
+            }
+        );
+        assert!(v["point_definition"]
+            .as_str()
+            .unwrap()
+            .contains("end of every feed move"));
+    }
+}

@@ -18,6 +18,7 @@ pub mod linuxcnc_comp;
 pub mod mirror;
 pub mod model;
 pub mod model_file;
+pub mod nominal;
 pub mod numfmt;
 pub mod output;
 pub mod provenance;

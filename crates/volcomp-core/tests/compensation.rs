@@ -72,7 +72,6 @@ fn against_original(out: &str, original: &str, map: &AxisTableMap) -> SimReport 
         Some(&mut walker(original)),
         map,
         1e-4,
-        None,
         |_| {},
     )
     .unwrap()
@@ -344,8 +343,7 @@ fn with_a_reference_points_at_block_ends_are_judged_against_their_vertex() {
         Some(&mut walker(program)),
         &map,
         1e-4,
-        None,
-        |s| errors.push(s.point_um),
+        |s| errors.extend(s.point_um),
     )
     .unwrap();
     assert_eq!(errors.len(), 2);

@@ -93,7 +93,6 @@ fn simulate(
         Some(&mut reference),
         model,
         1e-4,
-        None,
         |_| {},
     )
     .unwrap()

@@ -142,9 +142,9 @@ proptest! {
         compensate_program(&mut walker(&text), "random.ngc", &map, &style, &options, &mut out, |_| {})
             .map_err(|e| TestCaseError::fail(format!("{e}\n{text}")))?;
         let out = String::from_utf8(out).unwrap();
-        let before = simulate_program(&mut walker(&text), "random.ngc", None::<&mut Walker<Cursor<Vec<u8>>>>, &map, 1e-4, None, |_| {})
+        let before = simulate_program(&mut walker(&text), "random.ngc", None::<&mut Walker<Cursor<Vec<u8>>>>, &map, 1e-4, |_| {})
             .map_err(|e| TestCaseError::fail(format!("{e}")))?;
-        let after = simulate_program(&mut walker(&out), "out.ngc", Some(&mut walker(&text)), &map, 1e-4, None, |_| {})
+        let after = simulate_program(&mut walker(&out), "out.ngc", Some(&mut walker(&text)), &map, 1e-4, |_| {})
             .map_err(|e| TestCaseError::fail(format!("{e}\n{out}")))?;
         // 1 mm segments on a map with 2 mm knots and ≤ 1 µm waviness leave
         // a few hundredths of a µm; the written decimals (0.1 µm in mm,
@@ -179,6 +179,6 @@ proptest! {
         let style = survey_style(text.as_bytes());
         let mut out = Vec::new();
         let _ = compensate_program(&mut walker(&text), "fuzz.ngc", &map, &style, &CompensateOptions::default(), &mut out, |_| {});
-        let _ = simulate_program(&mut walker(&text), "fuzz.ngc", None::<&mut Walker<Cursor<Vec<u8>>>>, &map, 1e-4, None, |_| {});
+        let _ = simulate_program(&mut walker(&text), "fuzz.ngc", None::<&mut Walker<Cursor<Vec<u8>>>>, &map, 1e-4, |_| {});
     }
 }

@@ -10,7 +10,6 @@ use volcomp_core::example::{demo_programs, example_map, DEMO_WORK_OFFSET_MM};
 use volcomp_core::model::ErrorModel;
 use volcomp_core::report::{simulate_program, SimReport};
 use volcomp_core::solve::Method;
-use volcomp_gcode::Vec3;
 
 /// One column of the demo table.
 pub struct Variant {
@@ -79,30 +78,27 @@ pub fn variants() -> Vec<Variant> {
     ]
 }
 
-/// Simulates a compensated program against its original with exact targets.
+/// Simulates a program, against its original when it is a compensated one:
+/// exactly what `volcomp simulate PROGRAM [--reference ORIGINAL]` does with
+/// the same map and work offset, so every figure of the demo can be
+/// reproduced with that command.
 pub fn measure(
     machine: &Machine,
     model: &dyn ErrorModel,
     program: &Path,
     original: Option<&Path>,
-    targets: Option<Vec<(Vec3, Vec3)>>,
 ) -> Result<SimReport, CliError> {
     let mut walker = machine.walk(program)?;
     let mut reference = match original {
         Some(o) => Some(machine.walk(o)?),
         None => None,
     };
-    let mut iter = targets.map(|t| t.into_iter());
-    let targets: Option<&mut dyn Iterator<Item = (Vec3, Vec3)>> = iter
-        .as_mut()
-        .map(|i| i as &mut dyn Iterator<Item = (Vec3, Vec3)>);
     Ok(simulate_program(
         &mut walker,
         &program.display().to_string(),
         reference.as_mut(),
         model,
         1e-4,
-        targets,
         |_| {},
     )?)
 }
@@ -131,7 +127,7 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
     };
     let variants = variants();
     println!("volcomp demo — example map {} (X 0…600, Y 0…400, Z 0…300 mm; backlash 3/4/2 µm), work offset G54 = {:.0},{:.0},{:.0} mm", map_path.display(), DEMO_WORK_OFFSET_MM.x, DEMO_WORK_OFFSET_MM.y, DEMO_WORK_OFFSET_MM.z);
-    println!("RMS errors in µm; point = at the program's target points, contour = along the whole path (every 0.05 mm); in brackets: improvement over 'before'.\n");
+    println!("RMS errors in µm; point = at the end of every feed block of the program, contour = distance of the actual path (every 0.05 mm) from the block it was written for; in brackets: improvement over 'before'.\n");
     print!("{:<44} {:>8}", "program", "before");
     for v in &variants {
         print!(" {:>26}", v.label);
@@ -143,18 +139,13 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
             w.write_all(p.text.as_bytes())
                 .map_err(|e| CliError::Io(original.clone(), e))
         })?;
-        let before = measure(&machine, &map, &original, None, None)?;
+        let before = measure(&machine, &map, &original, None)?;
         let mut cells = Vec::new();
         for v in &variants {
             let out = a.out_dir.join(format!("{}.{}.ngc", p.name, v.suffix));
-            let mut targets = Vec::new();
             let header = header_for(&map_path, None, &machine, &v.options)?;
-            compensate_file(&original, &out, &machine, &map, &v.options, &header, |r| {
-                if !r.rapid {
-                    targets.push((r.command_mm, r.target_mm));
-                }
-            })?;
-            let after = measure(&machine, &map, &out, Some(&original), Some(targets))?;
+            compensate_file(&original, &out, &machine, &map, &v.options, &header, |_| {})?;
+            let after = measure(&machine, &map, &out, Some(&original))?;
             cells.push(after);
         }
         print!(
@@ -189,6 +180,18 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
     println!(
         "\nCompensated programs: {}/<program>.<method>.ngc",
         a.out_dir.display()
+    );
+    let o = DEMO_WORK_OFFSET_MM;
+    println!(
+        "Every figure is what `volcomp simulate` reports; e.g. a 'before' cell:\n  volcomp simulate {dir}/<program>.ngc --map {map} --work-offset {},{},{}\nand a method's cell:\n  volcomp simulate {dir}/<program>.<method>.ngc --reference {dir}/<program>.ngc --map {map} --work-offset {},{},{}",
+        o.x,
+        o.y,
+        o.z,
+        o.x,
+        o.y,
+        o.z,
+        dir = a.out_dir.display(),
+        map = map_path.display()
     );
     Ok(())
 }

@@ -32,8 +32,8 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     let mut rows: Option<Vec<u8>> = a
         .errors_csv
         .as_ref()
-        .map(|_| b"line,x_mm,y_mm,z_mm,point_error_um,contour_max_um\n".to_vec());
-    let mut along: Vec<(f64, f64, f64)> = Vec::new();
+        .map(|_| b"line,nominal_line,x_mm,y_mm,z_mm,point_error_um,contour_max_um\n".to_vec());
+    let mut along: Vec<(f64, Option<f64>, f64)> = Vec::new();
     let mut last: Option<volcomp_gcode::Vec3> = None;
     let mut travelled = 0.0;
     let report = simulate_program(
@@ -42,7 +42,6 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         reference.as_mut(),
         model.as_ref(),
         a.chord_tolerance,
-        None,
         |s| {
             if let Some(p) = last {
                 travelled += (s.command_mm - p).norm();
@@ -52,14 +51,18 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
                 along.push((travelled, s.point_um, s.contour_max_um));
             }
             if let Some(r) = rows.as_mut() {
+                // The point error exists only where the command ends a
+                // nominal feed move; elsewhere the field is empty.
+                let point = s.point_um.map(|p| format!("{p:.4}")).unwrap_or_default();
                 let _ = writeln!(
                     r,
-                    "{},{:.6},{:.6},{:.6},{:.4},{:.4}",
+                    "{},{},{:.6},{:.6},{:.6},{},{:.4}",
                     s.line,
+                    s.nominal_line,
                     s.command_mm.x,
                     s.command_mm.y,
                     s.command_mm.z,
-                    s.point_um,
+                    point,
                     s.contour_max_um
                 );
             }
@@ -84,7 +87,10 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
             series: vec![
                 Series::markers(
                     "point error",
-                    along.iter().map(|(s, p, _)| (*s, *p)).collect(),
+                    along
+                        .iter()
+                        .filter_map(|(s, p, _)| p.map(|p| (*s, p)))
+                        .collect(),
                 ),
                 Series::line(
                     "largest contour error per segment",
@@ -109,19 +115,22 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
 fn print_table(out: &mut dyn Write, r: &SimReport, with_reference: bool) -> std::io::Result<()> {
     writeln!(out, "blocks              {}", r.blocks)?;
     writeln!(out, "feed length         {:.3} mm", r.feed_length_mm)?;
-    let how = if with_reference {
-        " (distance to the reference path)"
-    } else {
-        ""
-    };
     writeln!(
         out,
-        "point error{how:<10}  RMS {:8.3} µm   max {:8.3} µm   ({} points)",
+        "point error         RMS {:8.3} µm   max {:8.3} µm   ({} points)",
         r.point_rms_um, r.point_max_um, r.points
     )?;
     writeln!(
         out,
         "contour error       RMS {:8.3} µm   max {:8.3} µm   ({} samples ≤ 0.05 mm apart)",
         r.contour_rms_um, r.contour_max_um, r.samples
-    )
+    )?;
+    let nominal = if with_reference {
+        "the reference program (each line paired with the original block it was written for)"
+    } else {
+        "this program"
+    };
+    writeln!(out, "nominal path        {nominal}")?;
+    writeln!(out, "point error:   {}", r.point_definition)?;
+    writeln!(out, "contour error: {}", r.contour_definition)
 }
