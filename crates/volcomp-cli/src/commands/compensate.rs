@@ -118,7 +118,7 @@ pub fn compensate_file(
     let mut walker = machine.walk(program)?;
     let file = program.display().to_string();
     let mut summary = None;
-    write_atomically(output, &[program], |out| {
+    let written = write_atomically(output, &[program], |out| {
         let s = compensate_program(
             &mut walker,
             &file,
@@ -130,7 +130,9 @@ pub fn compensate_file(
         )?;
         summary = Some(s);
         Ok(())
-    })?;
+    });
+    crate::commands::print_warnings(&file, walker.warnings());
+    written?;
     summary.ok_or_else(|| CliError::Message("compensation produced no summary".into()))
 }
 
