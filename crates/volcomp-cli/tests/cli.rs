@@ -45,13 +45,13 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
         ("G1 X10 F100 (unclosed\n", 1, 13, "not closed"),
         ("X10\n", 1, 1, "motion mode"),
         (
-            "G0 X0 Y0 Z0\nG2 X10 Y0 I3 J0\n",
+            "G0 X0 Y0 Z0\nG2 X10 Y0 I3 J0 F100\n",
             2,
             1,
             "radius to end of arc",
         ),
         (
-            "G0 X0 Y0 Z0\nG2 X10 Y0 I5 J0 K1\n",
+            "G0 X0 Y0 Z0\nG2 X10 Y0 I5 J0 K1 F100\n",
             2,
             17,
             "K word given for an arc",
