@@ -38,8 +38,9 @@ pub struct GcodeError {
     /// that are not UTF-8 written as escapes (`\x1b`), so a hostile or binary
     /// line can neither flood nor drive the terminal.
     pub source_line: String,
-    /// Characters of `source_line` before the caret.
-    pub caret: usize,
+    /// Characters of `source_line` before the caret (the excerpt is bounded,
+    /// so this is small).
+    pub caret: u16,
     /// What is wrong.
     pub message: String,
     /// What to do about it.
@@ -73,7 +74,7 @@ impl GcodeError {
         let n = crate::lexer::content_len(line);
         let (text, caret) = excerpt(&line[..n], self.column.saturating_sub(1));
         self.source_line = text;
-        self.caret = caret;
+        self.caret = u16::try_from(caret).unwrap_or(u16::MAX);
         self
     }
 
@@ -95,7 +96,7 @@ impl fmt::Display for GcodeError {
                 "\n{:gutter$} |\n{} | {}",
                 "", self.line, self.source_line
             )?;
-            write!(f, "\n{:gutter$} | {}^", "", " ".repeat(self.caret))?;
+            write!(f, "\n{:gutter$} | {}^", "", " ".repeat(usize::from(self.caret)))?;
         }
         if !self.help.is_empty() {
             write!(f, "\n  help: {}", self.help)?;
