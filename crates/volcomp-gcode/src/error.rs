@@ -96,7 +96,12 @@ impl fmt::Display for GcodeError {
                 "\n{:gutter$} |\n{} | {}",
                 "", self.line, self.source_line
             )?;
-            write!(f, "\n{:gutter$} | {}^", "", " ".repeat(usize::from(self.caret)))?;
+            write!(
+                f,
+                "\n{:gutter$} | {}^",
+                "",
+                " ".repeat(usize::from(self.caret))
+            )?;
         }
         if !self.help.is_empty() {
             write!(f, "\n  help: {}", self.help)?;
