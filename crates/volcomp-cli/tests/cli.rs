@@ -337,3 +337,28 @@ fn simulate_draws_svg_and_png_plots() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains(".svg or .png"), "{}", stderr(&o));
 }
+
+#[test]
+fn assumptions_are_warned_about_on_stderr_with_file_and_line() {
+    let dir = tempdir("warn");
+    write_map(&dir, |_| 0.0);
+    // No G20/G21 before the first move, and a G28 with no reference point.
+    std::fs::write(
+        dir.join("p.ngc"),
+        "G90\nG0 X0 Y0 Z0\nG28\nG1 X10 F100\nM2\n",
+    )
+    .unwrap();
+    let o = volcomp(
+        &["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"],
+        &dir,
+    );
+    let msg = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{msg}");
+    assert!(
+        msg.contains("p.ngc:2:1: warning: ") && msg.contains("G20 or G21"),
+        "{msg}"
+    );
+    assert!(msg.contains("p.ngc:3:1: warning: G28"), "{msg}");
+    // Said once each.
+    assert_eq!(msg.matches("warning:").count(), 2, "{msg}");
+}
