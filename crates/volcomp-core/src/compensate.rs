@@ -365,6 +365,7 @@ pub fn compensate_program<R: BufRead>(
                     needed,
                     stop_word,
                     targets[0],
+                    motion.start,
                 );
                 let mut edits = edits;
                 apply_edits(ev.bytes, &mut edits, &mut st.buf).map_err(|e| {
@@ -894,6 +895,7 @@ impl State {
         needed: OutMode,
         stop_word: Option<&Word>,
         polar_nominal: Vec3,
+        polar_start: Vec3,
     ) -> Vec<Edit> {
         let mut edits = Vec::new();
         let is_arc = matches!(kind, MotionKind::Arc(_));
@@ -911,10 +913,18 @@ impl State {
         if let Some(first) = polar.first() {
             present[0] = true;
             present[1] = true;
-            let same = (0..2).all(|a| {
-                (frame.word_value(q, from, a) - frame.word_value(polar_nominal, from, a)).abs()
-                    < 0.5 * 10f64.powi(-i32::from(frame.decimals))
-            });
+            // In G91, or with only one of `@`/`^` in G90, the polar end point
+            // depends on the start: the words can only stay when the command
+            // starts where the nominal move did (to the written resolution).
+            let both = polar.len() == 2;
+            let half_lsb_mm = 0.5 * 10f64.powi(-i32::from(frame.decimals)) * frame.mm_per_unit;
+            let start_kept = (frame.absolute && both)
+                || (0..2).all(|a| (from[a] - polar_start[a]).abs() <= half_lsb_mm);
+            let same = start_kept
+                && (0..2).all(|a| {
+                    (frame.word_value(q, from, a) - frame.word_value(polar_nominal, from, a)).abs()
+                        < 0.5 * 10f64.powi(-i32::from(frame.decimals))
+                });
             if !same {
                 self.text.clear();
                 self.text.push('X');

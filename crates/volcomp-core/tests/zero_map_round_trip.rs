@@ -210,3 +210,66 @@ fn a_rewritten_word_never_has_fewer_decimals_than_the_original() {
     // e_x = −2 µm everywhere, so the command is X + 0.002 mm: 10.125456.
     assert_eq!(text, "G21 G90 G1 F100 Z0\nX10.125456 Y5.000001\n");
 }
+
+fn compensate_text(program: &str, map: &AxisTableMap) -> String {
+    let mut out = Vec::new();
+    compensate_program(
+        &mut Walker::new(
+            Cursor::new(program.as_bytes().to_vec()),
+            None,
+            Setup::default(),
+            InterpOptions::default(),
+        ),
+        "t.ngc",
+        map,
+        &survey_style(program.as_bytes()),
+        &CompensateOptions {
+            segmentation: Segmentation::Off,
+            ..CompensateOptions::default()
+        },
+        &mut out,
+        |_| {},
+    )
+    .unwrap();
+    String::from_utf8(out).unwrap()
+}
+
+#[test]
+fn polar_moves_are_kept_or_written_back_on_the_compensated_point() {
+    // Unchanged under a zero map: the polar words stay as written.
+    for program in [
+        "G21 G90 G0 Z0\nG1 F100 @10 ^0\n",
+        "G21 G90 G0 X5 Y0 Z0\nG91 G1 F100 @5\nG1 ^90\n",
+    ] {
+        assert_eq!(compensate_text(program, &zero_map()), program);
+    }
+    // e_x = −2 µm everywhere: the command is the target + 0.002 mm in X, and
+    // the polar words give way to that command's X and Y.
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for axis in ["X", "Y", "Z"] {
+        let ex = if axis == "X" { -2.0 } else { 0.0 };
+        csv.push_str(&format!(
+            "{axis},both,-1000,{ex},0,0\n{axis},both,1000,{ex},0,0\n"
+        ));
+    }
+    let map = AxisTableMap::from_csv(&csv, "shift.csv").unwrap();
+    // Target (10, 0, 0): X10.0020 Y0.0000.
+    assert_eq!(
+        compensate_text("G21 G90 G0 Z0\nG1 F100 @10 ^0\n", &map),
+        "G21 G90 G0 Z0\nG1 F100 X10.0000 Y0.0000\n".replace("X10.0000", "X10.0020")
+    );
+    // G91: from the (compensated) start X5.002 to the target (10, 0): the
+    // command 10.002 is 5.0000 further, Y stays 0.
+    assert_eq!(
+        compensate_text("G21 G90 G0 X5 Y0 Z0\nG91 G1 F100 @5\n", &map),
+        "G21 G90 G0 X5.0020 Y0 Z0\nG91 G1 F100 X5.0000 Y0.0000\n"
+    );
+    // G91 `^90` turns the start about the origin: from the compensated start
+    // (5.002, 0) it would land on (0, 5.002), not on the command (0.002, 5),
+    // although the target (0, 5) needs no correction in Y. So it is rewritten:
+    // X 0.002 − 5.002 = −5, Y 5.
+    assert_eq!(
+        compensate_text("G21 G90 G0 X5 Y0 Z0\nG91 G1 F100 ^90\n", &map),
+        "G21 G90 G0 X5.0020 Y0 Z0\nG91 G1 F100 X-5.0000 Y5.0000\n"
+    );
+}
