@@ -146,6 +146,8 @@ pub struct Interpreter {
     motion_mode: Option<MotionMode>,
     feed_mode: FeedMode,
     feed: f64,
+    /// Last S word (rev/min); G95 feed moves need it non-zero.
+    spindle_rpm: f64,
     work: usize,
     work_offsets: [Vec3; 9],
     g92: Vec3,
@@ -308,6 +310,7 @@ impl Interpreter {
             motion_mode: None,
             feed_mode: FeedMode::PerMinute,
             feed: 0.0,
+            spindle_rpm: 0.0,
             work: 0,
             work_offsets,
             g92: Vec3::ZERO,
@@ -653,6 +656,14 @@ impl Interpreter {
                 "set the feed rate with an F word (e.g. F500) on or before this line",
             ));
         }
+        if self.feed_mode == FeedMode::PerRevolution && self.spindle_rpm == 0.0 {
+            return Err(invalid(
+                line,
+                col,
+                "a feed move in feed per revolution (G95) with zero spindle speed would not move; LinuxCNC refuses it (\"Cannot feed with zero spindle speed in feed per rev mode\")",
+                "set the spindle speed with an S word on or before this line, or use G94",
+            ));
+        }
         Ok(())
     }
 
@@ -799,6 +810,17 @@ impl Interpreter {
                 ));
             }
             self.feed = f;
+        }
+        if let Some(s) = w.get(b'S') {
+            if s < 0.0 {
+                return Err(invalid(
+                    line,
+                    w.col(b'S').unwrap_or(0),
+                    "negative spindle speed",
+                    "S must be zero or positive",
+                ));
+            }
+            self.spindle_rpm = s;
         }
         // Checks of the whole block before anything changes state: words
         // nothing uses, feed moves without a feed rate (G93 and F are set).

@@ -155,6 +155,15 @@ fn feed_move_without_a_feed_rate_is_refused() {
         "inverse-time",
         "F word missing with inverse time",
     );
+    // G95 needs a spindle speed as well.
+    refused(
+        "S1000\nG95 F0.1 G1 X1\nS0\nG1 X2\n",
+        4,
+        1,
+        "zero spindle speed",
+        "Cannot feed with zero spindle speed in feed per rev mode",
+    );
+    accepted_by_both("G95 F0.1 S100 G2 X1 I0.5\n");
     // Rapids need no feed rate.
     accepted_by_both("G0 X1 F0\n");
     accepted_by_both("F100\nG1 X1\nG0 X2\nG1 X3\n");
