@@ -133,6 +133,7 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
         Ok(())
     };
     let read_result = read();
+    print_warnings(&a.program.display().to_string(), walker.warnings());
     drop(tx);
     let write_result = writer
         .join()
