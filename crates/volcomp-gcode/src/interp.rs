@@ -148,6 +148,9 @@ pub struct Interpreter {
     feed: f64,
     /// Last S word (rev/min); G95 feed moves need it non-zero.
     spindle_rpm: f64,
+    /// The plane before the current block's own G17/G18/G19: LinuxCNC checks
+    /// polar words against it (`enhance_block` runs before the block).
+    plane_before_block: Plane,
     work: usize,
     work_offsets: [Vec3; 9],
     g92: Vec3,
@@ -311,6 +314,7 @@ impl Interpreter {
             feed_mode: FeedMode::PerMinute,
             feed: 0.0,
             spindle_rpm: 0.0,
+            plane_before_block: Plane::Xy,
             work: 0,
             work_offsets,
             g92: Vec3::ZERO,
@@ -735,9 +739,9 @@ impl Interpreter {
             return Ok(());
         };
         let refuse = |msg: &str, help: &str| Err(invalid(line, col, msg, help));
-        if self.plane != Plane::Xy {
+        if self.plane_before_block != Plane::Xy {
             return refuse(
-                "polar coordinates (@, ^) are only defined in the XY plane (G17); LinuxCNC refuses them in G18/G19",
+                "polar coordinates (@, ^) are only defined in the XY plane (G17); LinuxCNC refuses them while G18 or G19 is in effect (\"Cannot use polar coordinate except in G17 plane\")",
                 "switch to G17 or give X/Y/Z words",
             );
         }
@@ -792,6 +796,7 @@ impl Interpreter {
         w: &WordTable,
         out: &mut Vec<Motion>,
     ) -> Result<(), GcodeError> {
+        self.plane_before_block = self.plane;
         // 1-3: feed mode, feed rate.
         if w.has_g(930) {
             self.feed_mode = FeedMode::InverseTime;

@@ -286,11 +286,18 @@ fn polar_words_are_refused_where_linuxcnc_refuses_them() {
         "indeterminate at the origin",
         "Must specify angle in polar coordinate if at the origin",
     );
-    // LinuxCNC 2.10 refuses polar words outside G17 (interp_internal.cc,
-    // `enhance_block`); older rs274 builds read them in XY regardless, so
-    // this one is not put to the installed rs274.
-    let e = run("G18 G0 @1 ^90\n").unwrap_err();
-    assert!(e.message.contains("XY plane"), "{e}");
+    // LinuxCNC checks the plane in effect before the block
+    // (`Interp::enhance_block`): G18 on an earlier line refuses polar words,
+    // G18 on the same line does not, and the move is still in X and Y.
+    refused(
+        "G18\nG0 @1 ^90\n",
+        2,
+        4,
+        "XY plane",
+        "Cannot use polar coordinate except in G17 plane",
+    );
+    let m = accepted_by_both("G18 G0 @1 ^90\nG17\n");
+    assert!(close(m[0].end, [0.0, 1.0, 0.0]), "{:?}", m[0].end);
     let e = run("G0 X1\nF1 G81 @1 R1 Z0\n").unwrap_err();
     assert!(e.message.contains("canned cycles"), "{e}");
     let e = run("G53 G0 @1 ^90\n").unwrap_err();
