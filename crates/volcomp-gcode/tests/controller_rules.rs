@@ -341,6 +341,24 @@ fn reference_points_missing_from_the_setup_are_warned_about() {
 }
 
 #[test]
+fn negative_spindle_speed_and_control_characters_are_refused() {
+    refused(
+        "S-100\n",
+        1,
+        1,
+        "negative spindle speed",
+        "Negative spindle speed used",
+    );
+    refused(
+        "G0 X1\u{7}\n",
+        1,
+        6,
+        "control character 0x07",
+        "Bad character",
+    );
+}
+
+#[test]
 fn a_byte_order_mark_is_skipped() {
     let m = run("\u{feff}G21\nG0 X1\n").unwrap();
     assert!(close(m[0].end, [1.0, 0.0, 0.0]));
