@@ -965,6 +965,11 @@ impl State {
                     let lsb = 0.5 * 10f64.powi(-i32::from(frame.decimals));
                     if (v - w.value).abs() >= lsb * 0.999 {
                         self.text.clear();
+                        // Never fewer decimals than the word replaced, even
+                        // past the grid's MAX_DECIMALS.
+                        let own =
+                            volcomp_gcode::number::decimals_of(&content[w.value_span.clone()]);
+                        let style = style.with_decimals(style.decimals.max(own.min(15)));
                         format_number(v, style, &mut self.text);
                         edits.push(Edit::replace(w.value_span.clone(), self.text.clone()));
                     }
