@@ -88,6 +88,14 @@ impl Machine {
     }
 }
 
+/// Prints what the G-code interpreter assumed (no units, no reference
+/// point, …) to stderr as `file:line:column: warning: …`.
+pub fn print_warnings(file: &str, warnings: &[volcomp_gcode::Warning]) {
+    for w in warnings {
+        eprintln!("{file}:{w}");
+    }
+}
+
 /// Motions handed from the reading thread to the writing thread at a time.
 const MOVES_BATCH: usize = 4096;
 
@@ -125,6 +133,7 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
         Ok(())
     };
     let read_result = read();
+    print_warnings(&a.program.display().to_string(), walker.warnings());
     drop(tx);
     let write_result = writer
         .join()

@@ -45,13 +45,13 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
         ("G1 X10 F100 (unclosed\n", 1, 13, "not closed"),
         ("X10\n", 1, 1, "motion mode"),
         (
-            "G0 X0 Y0 Z0\nG2 X10 Y0 I3 J0\n",
+            "G0 X0 Y0 Z0\nG2 X10 Y0 I3 J0 F100\n",
             2,
             1,
             "radius to end of arc",
         ),
         (
-            "G0 X0 Y0 Z0\nG2 X10 Y0 I5 J0 K1\n",
+            "G0 X0 Y0 Z0\nG2 X10 Y0 I5 J0 K1 F100\n",
             2,
             17,
             "K word given for an arc",
@@ -420,4 +420,29 @@ fn every_demo_figure_is_what_simulate_reports() {
             .unwrap()
             .contains("end of every feed move"));
     }
+}
+
+#[test]
+fn assumptions_are_warned_about_on_stderr_with_file_and_line() {
+    let dir = tempdir("warn");
+    write_map(&dir, |_| 0.0);
+    // No G20/G21 before the first move, and a G28 with no reference point.
+    std::fs::write(
+        dir.join("p.ngc"),
+        "G90\nG0 X0 Y0 Z0\nG28\nG1 X10 F100\nM2\n",
+    )
+    .unwrap();
+    let o = volcomp(
+        &["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"],
+        &dir,
+    );
+    let msg = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{msg}");
+    assert!(
+        msg.contains("p.ngc:2:1: warning: ") && msg.contains("G20 or G21"),
+        "{msg}"
+    );
+    assert!(msg.contains("p.ngc:3:1: warning: G28"), "{msg}");
+    // Said once each.
+    assert_eq!(msg.matches("warning:").count(), 2, "{msg}");
 }

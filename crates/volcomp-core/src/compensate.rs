@@ -64,7 +64,9 @@ pub struct CompensateOptions {
     pub segmentation: Segmentation,
     /// Chord tolerance for arcs (mm).
     pub chord_tolerance_mm: f64,
-    /// Written decimals; `None`: 4 in mm, 5 in inch.
+    /// Written decimals; `None`: 4 in mm, 5 in inch, or more where the
+    /// program writes more. A rewritten word never has fewer decimals than
+    /// the word it replaces.
     pub decimals: Option<u8>,
     /// Largest accepted correction (mm).
     pub max_correction_mm: f64,
@@ -223,6 +225,11 @@ pub fn compensate_program<R: BufRead>(
             if matches!(w.letter, b'X' | b'Y' | b'Z') && !ev.motions.is_empty() {
                 st.known[usize::from(w.letter - b'X')] = true;
             }
+            // A polar end point (`@` radius, `^` angle) sets X and Y.
+            if matches!(w.letter, b'@' | b'^') && !ev.motions.is_empty() {
+                st.known[0] = true;
+                st.known[1] = true;
+            }
         }
         if ev
             .motions
@@ -271,6 +278,9 @@ pub fn compensate_program<R: BufRead>(
         let motion = ev.motions[0];
         let interp = ev.interp;
         let (frame, style) = Frame::of(interp, options, survey);
+        // The line's words are quantised and written with at least their own
+        // decimals, so an unchanged word is written back as it was.
+        let (frame, style) = frame.with_line_decimals(ev.lexed.words(), ev.bytes, style);
         let (frame0, style0) = st.frame_before.unwrap_or((frame, style));
         let feed_known_before = st.feed_known;
         let feed_known_in_line = st.feed_known || has_feed(ev.lexed.words());
@@ -354,6 +364,8 @@ pub fn compensate_program<R: BufRead>(
                     &motion.kind,
                     needed,
                     stop_word,
+                    targets[0],
+                    motion.start,
                 );
                 let mut edits = edits;
                 apply_edits(ev.bytes, &mut edits, &mut st.buf).map_err(|e| {
@@ -447,10 +459,13 @@ impl Frame {
         survey: &StyleSurvey,
     ) -> (Frame, NumberStyle) {
         let units = interp.units();
-        let decimals = options.decimals.unwrap_or(match units {
-            Units::Mm => 4,
-            Units::Inch => 5,
-        });
+        let decimals = options.decimals.unwrap_or(
+            match units {
+                Units::Mm => 4,
+                Units::Inch => 5,
+            }
+            .max(survey.max_decimals()),
+        );
         let frame = Frame {
             offset_mm: interp.frame_offset_mm(),
             mm_per_unit: units.mm_per_unit(),
@@ -458,6 +473,27 @@ impl Frame {
             absolute: interp.absolute(),
         };
         (frame, survey.style(decimals))
+    }
+
+    /// This frame with at least as many decimals as any X, Y or Z word of
+    /// the line (up to [`volcomp_gcode::number::MAX_DECIMALS`]).
+    fn with_line_decimals<'a>(
+        mut self,
+        words: impl Iterator<Item = &'a Word>,
+        bytes: &[u8],
+        style: NumberStyle,
+    ) -> (Frame, NumberStyle) {
+        let most = words
+            .filter(|w| matches!(w.letter, b'X' | b'Y' | b'Z'))
+            .map(|w| volcomp_gcode::number::decimals_of(&bytes[w.value_span.clone()]))
+            .max()
+            .unwrap_or(0)
+            .min(volcomp_gcode::number::MAX_DECIMALS);
+        if most > self.decimals {
+            self.decimals = most;
+            return (self, style.with_decimals(most));
+        }
+        (self, style)
     }
 
     fn round(&self, v: f64) -> f64 {
@@ -858,6 +894,8 @@ impl State {
         kind: &MotionKind,
         needed: OutMode,
         stop_word: Option<&Word>,
+        polar_nominal: Vec3,
+        polar_start: Vec3,
     ) -> Vec<Edit> {
         let mut edits = Vec::new();
         let is_arc = matches!(kind, MotionKind::Arc(_));
@@ -865,6 +903,45 @@ impl State {
         let mut last_axis_end = None;
         let mut first_axis_start = None;
         let mut present = [false; 3];
+        // A polar end point (LinuxCNC `@` radius, `^` angle) is kept as
+        // written while its X and Y round to the command's; otherwise the
+        // polar words are replaced by the command's X and Y.
+        let polar: Vec<&&Word> = words
+            .iter()
+            .filter(|w| matches!(w.letter, b'@' | b'^'))
+            .collect();
+        if let Some(first) = polar.first() {
+            present[0] = true;
+            present[1] = true;
+            // In G91, or with only one of `@`/`^` in G90, the polar end point
+            // depends on the start: the words can only stay when the command
+            // starts where the nominal move did (to the written resolution).
+            let both = polar.len() == 2;
+            let half_lsb_mm = 0.5 * 10f64.powi(-i32::from(frame.decimals)) * frame.mm_per_unit;
+            let start_kept = (frame.absolute && both)
+                || (0..2).all(|a| (from[a] - polar_start[a]).abs() <= half_lsb_mm);
+            let same = start_kept
+                && (0..2).all(|a| {
+                    (frame.word_value(q, from, a) - frame.word_value(polar_nominal, from, a)).abs()
+                        < 0.5 * 10f64.powi(-i32::from(frame.decimals))
+                });
+            if !same {
+                self.text.clear();
+                self.text.push('X');
+                format_number(frame.word_value(q, from, 0), style, &mut self.text);
+                self.text.push_str(sep);
+                self.text.push('Y');
+                format_number(frame.word_value(q, from, 1), style, &mut self.text);
+                edits.push(Edit::replace(first.span.clone(), self.text.clone()));
+                for w in &polar[1..] {
+                    edits.push(Edit::delete(
+                        blank_before(content, w.span.start)..w.span.end,
+                    ));
+                }
+            }
+            first_axis_start = Some(first.span.start);
+            last_axis_end = Some(first.span.end);
+        }
         for w in &words {
             match w.letter {
                 b'G' if [0.0, 1.0, 2.0, 3.0].contains(&w.value) => {
@@ -888,6 +965,11 @@ impl State {
                     let lsb = 0.5 * 10f64.powi(-i32::from(frame.decimals));
                     if (v - w.value).abs() >= lsb * 0.999 {
                         self.text.clear();
+                        // Never fewer decimals than the word replaced, even
+                        // past the grid's MAX_DECIMALS.
+                        let own =
+                            volcomp_gcode::number::decimals_of(&content[w.value_span.clone()]);
+                        let style = style.with_decimals(style.decimals.max(own.min(15)));
                         format_number(v, style, &mut self.text);
                         edits.push(Edit::replace(w.value_span.clone(), self.text.clone()));
                     }

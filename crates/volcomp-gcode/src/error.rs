@@ -33,8 +33,14 @@ pub struct GcodeError {
     pub line: u64,
     /// 1-based column (byte) in the line.
     pub column: usize,
-    /// The offending line, without its line ending.
+    /// An excerpt of the offending line around the column (at most about
+    /// [`EXCERPT_BYTES`] bytes, cut with `…`), control characters and bytes
+    /// that are not UTF-8 written as escapes (`\x1b`), so a hostile or binary
+    /// line can neither flood nor drive the terminal.
     pub source_line: String,
+    /// Characters of `source_line` before the caret (the excerpt is bounded,
+    /// so this is small).
+    pub caret: u16,
     /// What is wrong.
     pub message: String,
     /// What to do about it.
@@ -56,15 +62,19 @@ impl GcodeError {
             line,
             column,
             source_line: String::new(),
+            caret: 0,
             message: message.into(),
             help: help.into(),
         }
     }
 
-    /// Attaches the source line (line ending stripped, invalid UTF-8 replaced).
+    /// Attaches an excerpt of the source line around the error's column
+    /// (line ending stripped; see [`excerpt`]).
     pub fn with_source_line(mut self, line: &[u8]) -> Self {
         let n = crate::lexer::content_len(line);
-        self.source_line = String::from_utf8_lossy(&line[..n]).into_owned();
+        let (text, caret) = excerpt(&line[..n], self.column.saturating_sub(1));
+        self.source_line = text;
+        self.caret = u16::try_from(caret).unwrap_or(u16::MAX);
         self
     }
 
@@ -86,12 +96,12 @@ impl fmt::Display for GcodeError {
                 "\n{:gutter$} |\n{} | {}",
                 "", self.line, self.source_line
             )?;
-            let caret_at = self
-                .source_line
-                .char_indices()
-                .take_while(|(i, _)| *i + 1 < self.column)
-                .count();
-            write!(f, "\n{:gutter$} | {}^", "", " ".repeat(caret_at))?;
+            write!(
+                f,
+                "\n{:gutter$} | {}^",
+                "",
+                " ".repeat(usize::from(self.caret))
+            )?;
         }
         if !self.help.is_empty() {
             write!(f, "\n  help: {}", self.help)?;
@@ -101,3 +111,115 @@ impl fmt::Display for GcodeError {
 }
 
 impl std::error::Error for GcodeError {}
+
+/// Bytes of a line shown on each side of an error's column at most.
+pub const EXCERPT_BYTES: usize = 60;
+
+/// A printable excerpt of `line` around byte `column` (0-based), and how many
+/// characters of it precede that byte (where the caret goes).
+///
+/// At most [`EXCERPT_BYTES`] bytes are kept on each side of the column; a cut
+/// is marked with `…`. Tabs are shown as `\t`, other control characters
+/// (ESC, BEL, NUL, DEL, …) and bytes that are not valid UTF-8 as `\xNN`:
+/// printing them raw would let a program's bytes drive the terminal.
+///
+/// ```
+/// let (text, caret) = volcomp_gcode::error::excerpt(b"G0 X1 \x1b[31m", 6);
+/// assert_eq!(text, "G0 X1 \\x1b[31m");
+/// assert_eq!(caret, 6);
+/// ```
+pub fn excerpt(line: &[u8], column: usize) -> (String, usize) {
+    let column = column.min(line.len());
+    let mut start = column.saturating_sub(EXCERPT_BYTES);
+    let mut end = (column + EXCERPT_BYTES).min(line.len());
+    // Cut on character boundaries where the bytes are UTF-8.
+    while start > 0 && start < line.len() && (line[start] & 0xC0) == 0x80 {
+        start -= 1;
+    }
+    while end < line.len() && (line[end] & 0xC0) == 0x80 {
+        end += 1;
+    }
+    let mut out = String::new();
+    let mut caret = 0;
+    if start > 0 {
+        out.push('…');
+        caret += 1;
+    }
+    let mut i = start;
+    let mut push = |s: &str, before: bool, out: &mut String| {
+        out.push_str(s);
+        if before {
+            caret += s.chars().count();
+        }
+    };
+    while i < end {
+        let before = i < column;
+        let b = line[i];
+        let width = match b {
+            0x00..=0x7F => 1,
+            0xC2..=0xDF => 2,
+            0xE0..=0xEF => 3,
+            0xF0..=0xF4 => 4,
+            _ => 0,
+        };
+        let ch = (width > 0 && i + width <= end)
+            .then(|| std::str::from_utf8(&line[i..i + width]).ok())
+            .flatten()
+            .and_then(|s| s.chars().next());
+        match ch {
+            Some('\t') => push("\\t", before, &mut out),
+            Some(c) if c.is_control() => {
+                let mut esc = String::new();
+                for byte in &line[i..i + width] {
+                    esc.push_str(&format!("\\x{byte:02x}"));
+                }
+                push(&esc, before, &mut out)
+            }
+            Some(c) => push(c.encode_utf8(&mut [0u8; 4]), before, &mut out),
+            None => {
+                push(&format!("\\x{b:02x}"), before, &mut out);
+                i += 1;
+                continue;
+            }
+        }
+        i += width;
+    }
+    if end < line.len() {
+        out.push('…');
+    }
+    (out, caret)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn excerpt_of_a_huge_line_is_bounded_and_marks_both_cuts() {
+        let mut line = vec![b'X'; 10_000_000];
+        line[5_000_000] = b'#';
+        let (text, caret) = excerpt(&line, 5_000_000);
+        assert_eq!(text.chars().count(), 2 * EXCERPT_BYTES + 2);
+        assert!(text.starts_with('…') && text.ends_with('…'));
+        assert_eq!(text.chars().nth(caret), Some('#'));
+    }
+
+    #[test]
+    fn control_bytes_and_invalid_utf8_are_escaped() {
+        let (text, caret) = excerpt(b"G1\x07 X\xe92 (caf\xc3\xa9)\x1b", 5);
+        assert_eq!(text, "G1\\x07 X\\xe92 (café)\\x1b");
+        // The caret sits under the escaped byte: `G1\x07 X` is 8 characters.
+        assert_eq!(caret, 8);
+        assert!(!text.chars().any(char::is_control));
+    }
+
+    #[test]
+    fn display_puts_the_caret_under_the_column() {
+        let e = GcodeError::new(ErrorClass::Invalid, 7, 5, "bad", "")
+            .with_source_line(b"\x1bG1 #1\r\n");
+        let shown = e.to_string();
+        assert!(shown.contains("7 | \\x1bG1 #1"), "{shown}");
+        assert!(shown.contains("  |        ^"), "{shown}");
+        assert!(!shown.contains('\x1b'));
+    }
+}

@@ -71,6 +71,28 @@ pub struct Motion {
     pub feed: f64,
 }
 
+/// Something the program left unsaid and volcomp assumed, said once per
+/// program so the user can check it (the program is still processed).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Warning {
+    /// 1-based line where the assumption was first needed.
+    pub line: u64,
+    /// 1-based column.
+    pub column: usize,
+    /// What was assumed and what to do if it is wrong.
+    pub message: String,
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}:{}: warning: {}",
+            self.line, self.column, self.message
+        )
+    }
+}
+
 /// Options that change interpretation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InterpOptions {
@@ -124,6 +146,11 @@ pub struct Interpreter {
     motion_mode: Option<MotionMode>,
     feed_mode: FeedMode,
     feed: f64,
+    /// Last S word (rev/min); G95 feed moves need it non-zero.
+    spindle_rpm: f64,
+    /// The plane before the current block's own G17/G18/G19: LinuxCNC checks
+    /// polar words against it (`enhance_block` runs before the block).
+    plane_before_block: Plane,
     work: usize,
     work_offsets: [Vec3; 9],
     g92: Vec3,
@@ -143,6 +170,12 @@ pub struct Interpreter {
     cycle_p: Option<f64>,
     finished: bool,
     percent_lines: u32,
+    /// Whether the program has said G20 or G21.
+    units_given: bool,
+    /// Assumptions made so far, in program order.
+    warnings: Vec<Warning>,
+    warned_units: bool,
+    warned_reference: [bool; 2],
     /// The current block's words; `None` only while the block runs.
     words: Option<Box<WordTable>>,
 }
@@ -150,17 +183,37 @@ pub struct Interpreter {
 /// The words of one block by letter, plus its G and M codes.
 #[derive(Debug, Clone, Default)]
 struct WordTable {
-    values: [Option<(f64, usize)>; 26],
+    /// `A`–`Z`, then LinuxCNC's polar words `@` (radius) and `^` (angle).
+    values: [Option<(f64, usize)>; 28],
+    /// Column of an `E` word written right after another word's number
+    /// (`X1e-05`): scientific notation, read by LinuxCNC as an E word.
+    exponent_col: Option<usize>,
     g: Vec<(u16, usize)>,
     m: Vec<(u16, usize)>,
 }
 
+/// Slot of a word letter in [`WordTable::values`].
+fn slot_of(letter: u8) -> usize {
+    match letter {
+        b'@' => 26,
+        b'^' => 27,
+        _ => usize::from(letter - b'A'),
+    }
+}
+
 impl WordTable {
     fn get(&self, letter: u8) -> Option<f64> {
-        self.values[usize::from(letter - b'A')].map(|(v, _)| v)
+        self.values[slot_of(letter)].map(|(v, _)| v)
     }
     fn col(&self, letter: u8) -> Option<usize> {
-        self.values[usize::from(letter - b'A')].map(|(_, c)| c)
+        self.values[slot_of(letter)].map(|(_, c)| c)
+    }
+    /// Whether the block has a polar word (`@` radius or `^` angle).
+    fn has_polar(&self) -> bool {
+        self.get(b'@').is_some() || self.get(b'^').is_some()
+    }
+    fn polar_col(&self) -> Option<usize> {
+        self.col(b'@').or(self.col(b'^'))
     }
     fn has_axis(&self) -> bool {
         self.get(b'X').is_some() || self.get(b'Y').is_some() || self.get(b'Z').is_some()
@@ -260,6 +313,8 @@ impl Interpreter {
             motion_mode: None,
             feed_mode: FeedMode::PerMinute,
             feed: 0.0,
+            spindle_rpm: 0.0,
+            plane_before_block: Plane::Xy,
             work: 0,
             work_offsets,
             g92: Vec3::ZERO,
@@ -275,6 +330,10 @@ impl Interpreter {
             cycle_p: None,
             finished: false,
             percent_lines: 0,
+            units_given: false,
+            warnings: Vec::new(),
+            warned_units: false,
+            warned_reference: [false; 2],
             words: Some(Box::default()),
         }
     }
@@ -330,6 +389,12 @@ impl Interpreter {
         self.finished
     }
 
+    /// What volcomp assumed because the program did not say it (at most one
+    /// warning of each kind per program).
+    pub fn warnings(&self) -> &[Warning] {
+        &self.warnings
+    }
+
     /// Notes a `%` line: the second one ends the program.
     pub fn percent_line(&mut self) {
         self.percent_lines += 1;
@@ -349,15 +414,31 @@ impl Interpreter {
             return Ok(());
         }
         self.collect_words(line, lexed)?;
-        self.run_block(line, out)
+        let before = out.len();
+        self.run_block(line, out)?;
+        if out.len() > before && !self.units_given && !self.warned_units {
+            self.warned_units = true;
+            self.warnings.push(Warning {
+                line,
+                column: out[before].column,
+                message: "the program moves before it selects its units (no G20 or G21 yet): millimetres (G21) are assumed, LinuxCNC's usual start-up state; if the program is in inches, add G20 at its start".into(),
+            });
+        }
+        Ok(())
     }
 
     fn collect_words(&mut self, line: u64, lexed: &Lexed) -> Result<(), GcodeError> {
         let w = self.words.get_or_insert_with(Box::default);
-        w.values = [None; 26];
+        w.values = [None; 28];
+        w.exponent_col = None;
         w.g.clear();
         w.m.clear();
+        let mut prev_number_end = None;
         for word in lexed.words() {
+            if word.letter == b'E' && prev_number_end == Some(word.span.start) {
+                w.exponent_col = Some(word.span.start);
+            }
+            prev_number_end = Some(word.span.end);
             let Word {
                 letter,
                 value,
@@ -425,11 +506,11 @@ impl Interpreter {
                 b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
                     return Err(unsupported(line, col, format!("axis word {} is not supported: volcomp compensates 3-axis (X, Y, Z) machines", *letter as char), "remove rotary/extra axis words or use a 3-axis program"));
                 }
-                b'N' if w.values[usize::from(b'N' - b'A')].is_none() => {
-                    w.values[usize::from(b'N' - b'A')] = Some((*value, col));
+                b'N' if w.values[slot_of(b'N')].is_none() => {
+                    w.values[slot_of(b'N')] = Some((*value, col));
                 }
                 _ => {
-                    let slot = &mut w.values[usize::from(letter - b'A')];
+                    let slot = &mut w.values[slot_of(*letter)];
                     if slot.is_some() {
                         return Err(invalid(
                             line,
@@ -441,6 +522,151 @@ impl Interpreter {
                     *slot = Some((*value, col));
                 }
             }
+        }
+        Ok(())
+    }
+
+    /// The motion a block will make, as LinuxCNC's `enhance_block` decides
+    /// it: the block's own group-1 code, else the modal motion when the block
+    /// has axis or polar words, or arc centre words in an arc mode.
+    fn motion_to_be(&self, w: &WordTable) -> Option<MotionMode> {
+        for (code, mode) in [
+            (0u16, MotionMode::Rapid),
+            (10, MotionMode::Feed),
+            (20, MotionMode::Cw),
+            (30, MotionMode::Ccw),
+            (810, MotionMode::Cycle(810)),
+            (820, MotionMode::Cycle(820)),
+            (850, MotionMode::Cycle(850)),
+            (890, MotionMode::Cycle(890)),
+        ] {
+            if w.has_g(code) {
+                return Some(mode);
+            }
+        }
+        if w.has_g(800) || [100u16, 280, 300, 920].iter().any(|c| w.has_g(*c)) {
+            return None;
+        }
+        let ijk = [b'I', b'J', b'K'].iter().any(|l| w.get(*l).is_some());
+        match self.motion_mode {
+            m if w.has_axis() || w.has_polar() => m,
+            m @ Some(MotionMode::Cw | MotionMode::Ccw) if ijk => m,
+            _ => None,
+        }
+    }
+
+    /// Refuses words that no code of the block uses, as LinuxCNC's
+    /// `Interp::check_other_codes` (src/emc/rs274ngc/interp_check.cc) does
+    /// for the codes volcomp interprets: a stray word is a sign that the
+    /// program means something volcomp (and the controller) would not do.
+    fn check_word_use(&self, line: u64, w: &WordTable) -> Result<(), GcodeError> {
+        let motion = self.motion_to_be(w);
+        let arc = matches!(motion, Some(MotionMode::Cw | MotionMode::Ccw));
+        let cycle = matches!(motion, Some(MotionMode::Cycle(_)));
+        let g10 = w.has_g(100);
+        let m_any = |codes: &[u16]| codes.iter().any(|c| w.has_m(*c));
+        let used = |letter: u8| -> Result<(), &'static str> {
+            let (ok, why) = match letter {
+                b'D' => (w.has_g(960), "D word with no G41, G41.1, G42, G42.1 or G96 to use it"),
+                b'E' => (m_any(&[660, 670, 680]), "E word with no G70, G76, M66, M67 or M68 to use it"),
+                b'H' => (w.has_g(430), "H word with no G43 or G76 to use it"),
+                b'I' => (arc || g10, "I word with no G2, G3 or G10 to use it"),
+                b'J' => (arc || g10, "J word with no G2, G3 or G10 to use it"),
+                b'K' => (arc, "K word with no G2 or G3 to use it"),
+                b'L' => (cycle || g10 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
+                b'P' => (
+                    g10 || w.has_g(40) || w.has_g(640) || arc
+                        || matches!(motion, Some(MotionMode::Cycle(820 | 890)))
+                        || m_any(&[500, 510, 520, 530, 620, 630, 640, 650, 660, 190]),
+                    "P word with no G2, G3, G4, G10, G64, G82, G89 or M19, M50–M53, M62–M66 to use it",
+                ),
+                b'Q' => (
+                    g10 || w.has_g(640) || m_any(&[660, 670, 680, 610, 190]),
+                    "Q word with no G10, G64, M19, M61, M66, M67 or M68 to use it",
+                ),
+                b'R' => (
+                    arc || cycle || g10 || w.has_g(640) || m_any(&[190]),
+                    "R word with no G2, G3, canned cycle, G10, G64 or M19 to use it",
+                ),
+                _ => (true, ""),
+            };
+            if ok {
+                Ok(())
+            } else {
+                Err(why)
+            }
+        };
+        for letter in *b"DEHIJKLPQR" {
+            let Some(col) = w.col(letter) else { continue };
+            if let Err(why) = used(letter) {
+                if letter == b'E' && w.exponent_col == Some(col) {
+                    return Err(invalid(
+                        line,
+                        col,
+                        "scientific notation (such as `1e-05`) is not G-code: the `e` starts an E word, which LinuxCNC refuses here (\"E word with no G70, G76, M66, M67 or M68 to use it\")",
+                        "write the number in plain decimals, e.g. X0.00001 instead of X1e-05",
+                    ));
+                }
+                return Err(invalid(
+                    line,
+                    col,
+                    format!("{why}; LinuxCNC refuses it too"),
+                    format!(
+                        "remove the {} word, or add the code that uses it",
+                        letter as char
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Refuses a feed move that LinuxCNC would refuse for want of a feed
+    /// rate (`Interp::convert_straight`, `convert_arc` and `convert_cycle` in
+    /// interp_convert.cc / interp_cycles.cc): F0 (or no F yet) in G94/G95,
+    /// or no F on the block itself under inverse time (G93).
+    fn check_feed(&self, line: u64, w: &WordTable, col: usize) -> Result<(), GcodeError> {
+        let Some(mode) = self.motion_to_be(w) else {
+            return Ok(());
+        };
+        let what = match mode {
+            MotionMode::Rapid => return Ok(()),
+            MotionMode::Feed => "Cannot do g1 with zero feed rate",
+            MotionMode::Cw | MotionMode::Ccw => "Cannot make arc with zero feed rate",
+            MotionMode::Cycle(_) => "Cannot feed with zero feed rate",
+        };
+        if self.feed_mode == FeedMode::InverseTime {
+            if w.get(b'F').is_none() && !matches!(mode, MotionMode::Cycle(_)) {
+                return Err(invalid(
+                    line,
+                    col,
+                    "F word missing with an inverse-time (G93) feed move: under G93 every feed move needs its own F",
+                    "give F (1 / minutes the move takes) on this line",
+                ));
+            }
+            return Ok(());
+        }
+        if self.feed == 0.0 {
+            let given = match w.col(b'F') {
+                Some(_) => "F0 is on this line",
+                None => "no F word has set a feed rate yet",
+            };
+            return Err(invalid(
+                line,
+                w.col(b'F').unwrap_or(col),
+                format!(
+                    "a feed move with zero feed rate ({given}); LinuxCNC refuses it: \"{what}\""
+                ),
+                "set the feed rate with an F word (e.g. F500) on or before this line",
+            ));
+        }
+        if self.feed_mode == FeedMode::PerRevolution && self.spindle_rpm == 0.0 {
+            return Err(invalid(
+                line,
+                col,
+                "a feed move in feed per revolution (G95) with zero spindle speed would not move; LinuxCNC refuses it (\"Cannot feed with zero spindle speed in feed per rev mode\")",
+                "set the spindle speed with an S word on or before this line, or use G94",
+            ));
         }
         Ok(())
     }
@@ -462,7 +688,96 @@ impl Interpreter {
                 };
             }
         }
+        if let Some((x, y)) = self.polar_end(w) {
+            t.x = self.to_mm(x) + off.x;
+            t.y = self.to_mm(y) + off.y;
+        }
         t
+    }
+
+    /// The XY end point (program units, current coordinate system) of a
+    /// block with polar words, as LinuxCNC's `Interp::find_ends`
+    /// (src/emc/rs274ngc/interp_find.cc) computes it: `@` is the radius and
+    /// `^` the angle in degrees about the origin of the current coordinate
+    /// system. In G90 a missing one is taken from the current point; in G91
+    /// `@` is added to the current radius and `^` to the current angle.
+    /// `None` when the block has no polar word. [`Self::check_polar`] has
+    /// refused the indeterminate cases (at the origin) beforehand.
+    fn polar_end(&self, w: &WordTable) -> Option<(f64, f64)> {
+        let (radius, theta_deg) = (w.get(b'@'), w.get(b'^'));
+        if radius.is_none() && theta_deg.is_none() {
+            return None;
+        }
+        let off = self.frame_offset_mm();
+        let k = 1.0 / self.units.mm_per_unit();
+        let (cx, cy) = ((self.position.x - off.x) * k, (self.position.y - off.y) * k);
+        let polar = |r: f64, theta_rad: f64| (r * theta_rad.cos(), r * theta_rad.sin());
+        Some(if self.absolute {
+            match (radius, theta_deg) {
+                (Some(r), Some(a)) => polar(r, a.to_radians()),
+                (Some(r), None) => polar(r, cy.atan2(cx)),
+                (None, Some(a)) => polar(cy.hypot(cx), a.to_radians()),
+                (None, None) => unreachable!("checked above"),
+            }
+        } else {
+            let (mut px, mut py) = (cx, cy);
+            if let Some(r) = radius {
+                (px, py) = polar(py.hypot(px) + r, py.atan2(px));
+            }
+            if let Some(a) = theta_deg {
+                (px, py) = polar(py.hypot(px), py.atan2(px) + a.to_radians());
+            }
+            (px, py)
+        })
+    }
+
+    /// Refuses polar words where LinuxCNC does (`Interp::enhance_block`,
+    /// `Interp::find_ends`): outside G17, beside X or Y, with G53 or a
+    /// canned cycle, or where the angle is undefined (at the origin).
+    fn check_polar(&self, line: u64, w: &WordTable, mode: MotionMode) -> Result<(), GcodeError> {
+        let Some(col) = w.polar_col() else {
+            return Ok(());
+        };
+        let refuse = |msg: &str, help: &str| Err(invalid(line, col, msg, help));
+        if self.plane_before_block != Plane::Xy {
+            return refuse(
+                "polar coordinates (@, ^) are only defined in the XY plane (G17); LinuxCNC refuses them while G18 or G19 is in effect (\"Cannot use polar coordinate except in G17 plane\")",
+                "switch to G17 or give X/Y/Z words",
+            );
+        }
+        if let Some(c) = w.col(b'X').or(w.col(b'Y')) {
+            return Err(invalid(
+                line,
+                c,
+                "cannot give both polar coordinates (@, ^) and an X or Y word",
+                "give the end point either as @ radius and ^ angle or as X and Y",
+            ));
+        }
+        if w.has_g(530) {
+            return refuse(
+                "polar coordinates cannot be used with G53",
+                "give X/Y words with G53",
+            );
+        }
+        if matches!(mode, MotionMode::Cycle(_)) {
+            return refuse(
+                "polar coordinates are not interpreted in canned cycles",
+                "give the hole position as X and Y",
+            );
+        }
+        let off = self.frame_offset_mm();
+        let at_origin = self.position.x == off.x && self.position.y == off.y;
+        if at_origin && (!self.absolute || w.get(b'^').is_none()) {
+            return refuse(
+                if self.absolute {
+                    "a polar radius without an angle is indeterminate at the origin; LinuxCNC refuses it (\"Must specify angle in polar coordinate if at the origin\")"
+                } else {
+                    "incremental (G91) polar motion is indeterminate at the origin; LinuxCNC refuses it"
+                },
+                "give the angle with ^, or start away from the origin",
+            );
+        }
+        Ok(())
     }
 
     fn run_block(&mut self, line: u64, out: &mut Vec<Motion>) -> Result<(), GcodeError> {
@@ -481,6 +796,7 @@ impl Interpreter {
         w: &WordTable,
         out: &mut Vec<Motion>,
     ) -> Result<(), GcodeError> {
+        self.plane_before_block = self.plane;
         // 1-3: feed mode, feed rate.
         if w.has_g(930) {
             self.feed_mode = FeedMode::InverseTime;
@@ -500,6 +816,29 @@ impl Interpreter {
             }
             self.feed = f;
         }
+        if let Some(s) = w.get(b'S') {
+            if s < 0.0 {
+                return Err(invalid(
+                    line,
+                    w.col(b'S').unwrap_or(0),
+                    "negative spindle speed",
+                    "S must be zero or positive",
+                ));
+            }
+            self.spindle_rpm = s;
+        }
+        // Checks of the whole block before anything changes state: words
+        // nothing uses, feed moves without a feed rate (G93 and F are set).
+        self.check_word_use(line, w)?;
+        let motion_col = self
+            .motion_word_col(w)
+            .or_else(|| {
+                [b'X', b'Y', b'Z', b'@', b'^']
+                    .into_iter()
+                    .find_map(|l| w.col(l))
+            })
+            .unwrap_or(0);
+        self.check_feed(line, w, motion_col)?;
         // 5-6: tool select and change.
         if let Some(t) = w.get(b'T') {
             if t < 0.0 || t.fract() != 0.0 {
@@ -540,8 +879,10 @@ impl Interpreter {
         }
         if w.has_g(200) {
             self.units = Units::Inch;
+            self.units_given = true;
         } else if w.has_g(210) {
             self.units = Units::Mm;
+            self.units_given = true;
         }
         // 14: tool length offset.
         if w.has_g(430) {
@@ -635,8 +976,10 @@ impl Interpreter {
             self.home(line, w, w.has_g(280), out)?;
         } else if w.has_g(281) {
             self.setup.g28_mm = self.position;
+            self.setup.g28_given = true;
         } else if w.has_g(301) {
             self.setup.g30_mm = self.position;
+            self.setup.g30_given = true;
         } else if w.has_g(920) {
             let off = self.work_offsets[self.work] + self.tlo;
             if !w.has_axis() {
@@ -662,7 +1005,17 @@ impl Interpreter {
             self.g92 = self.g92_saved;
         }
         // 20: motion.
-        if axis_user.is_none() && (w.has_axis() || self.motion_word_col(w).is_some()) {
+        if axis_user.is_some() && w.has_polar() {
+            return Err(invalid(
+                line,
+                w.polar_col().unwrap_or(0),
+                "polar coordinates (@, ^) can only be used for motion (not with G10, G28, G30 or G92); LinuxCNC refuses them too",
+                "give X/Y words instead",
+            ));
+        }
+        if axis_user.is_none()
+            && (w.has_axis() || w.has_polar() || self.motion_word_col(w).is_some())
+        {
             self.motion(line, w, new_cycle, out)?;
         }
         // 21: stop.
@@ -687,10 +1040,14 @@ impl Interpreter {
     ) -> Result<(), GcodeError> {
         let col = self
             .motion_word_col(w)
-            .or_else(|| [b'X', b'Y', b'Z'].into_iter().find_map(|l| w.col(l)))
+            .or_else(|| {
+                [b'X', b'Y', b'Z', b'@', b'^']
+                    .into_iter()
+                    .find_map(|l| w.col(l))
+            })
             .unwrap_or(0);
         let motion_word = self.motion_word_col(w).is_some();
-        if !w.has_axis() {
+        if !w.has_axis() && !w.has_polar() {
             // LinuxCNC moves even without axis words when a motion code is on
             // the line: G0/G1 make a zero-length move, G2/G3 with centre words
             // a full circle; a cycle code alone does nothing.
@@ -717,6 +1074,7 @@ impl Interpreter {
                 "add G0 or G1 to this line",
             ));
         };
+        self.check_polar(line, w, mode)?;
         let feed = self.to_mm(self.feed);
         let machine = w.has_g(530);
         if machine {
@@ -1017,11 +1375,21 @@ impl Interpreter {
     ) -> Result<(), GcodeError> {
         let code = if g28 { 280 } else { 300 };
         let col = w.g_col(code).unwrap_or(0);
-        let reference = if g28 {
-            self.setup.g28_mm
+        let (reference, given) = if g28 {
+            (self.setup.g28_mm, self.setup.g28_given)
         } else {
-            self.setup.g30_mm
+            (self.setup.g30_mm, self.setup.g30_given)
         };
+        let which = usize::from(!g28);
+        if !given && !self.warned_reference[which] {
+            self.warned_reference[which] = true;
+            let name = if g28 { "G28" } else { "G30" };
+            self.warnings.push(Warning {
+                line,
+                column: col + 1,
+                message: format!("{name} goes to the {name} reference point, which the set-up does not give: machine zero (0, 0, 0) is assumed, as LinuxCNC does with an unset {name} point; give it under [reference] in the set-up file (--setup), e.g. {name} = [x, y, z]"),
+            });
+        }
         let intermediate = self.target(w);
         let feed = self.to_mm(self.feed);
         self.push(

@@ -7,7 +7,9 @@
 //! Rules follow LinuxCNC's reader: spaces and tabs are insignificant outside
 //! comments (so `X 1 0 . 5` is the word `X10.5`), letters are case-insensitive,
 //! `( … )` and `; …` are comments, a line holding only `%` is a tape marker and
-//! a leading `/` is the block-delete character. Constructs that volcomp refuses
+//! a leading `/` is the block-delete character, `@` and `^` are LinuxCNC's
+//! polar words (radius and angle) and a UTF-8 byte-order mark at the start of
+//! a line is skipped as a blank. Constructs that volcomp refuses
 //! to interpret (`#` parameters, `[ ]` expressions, o-word control flow) are
 //! reported as [`LexErrorKind`]s with their column, never skipped silently.
 
@@ -16,7 +18,8 @@ use std::ops::Range;
 /// One token of a line; all ranges are byte offsets into that line.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Token {
-    /// A letter followed by a number, e.g. `X-.5` or `g 1`.
+    /// A letter (or LinuxCNC's polar `@`, `^`) followed by a number, e.g.
+    /// `X-.5`, `g 1` or `@12.5`.
     Word(Word),
     /// A parenthesised comment, range includes both parentheses.
     Comment(Range<usize>),
@@ -29,7 +32,7 @@ pub enum Token {
 /// A word: a letter and its numeric value, with where each part sits.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Word {
-    /// The letter, upper-cased (`b'X'`).
+    /// The letter, upper-cased (`b'X'`), or `b'@'` / `b'^'` for polar words.
     pub letter: u8,
     /// The numeric value as written (program units, not converted).
     pub value: f64,
@@ -108,6 +111,18 @@ fn is_blank(b: u8) -> bool {
     b == b' ' || b == b'\t' || b == b'\r'
 }
 
+/// The UTF-8 byte-order mark some editors write at the start of a file.
+pub const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// Length of a UTF-8 byte-order mark at the start of `content` (0 or 3).
+fn bom_len(content: &[u8]) -> usize {
+    if content.starts_with(UTF8_BOM) {
+        UTF8_BOM.len()
+    } else {
+        0
+    }
+}
+
 /// Strips a trailing `\n`, `\r\n` or `\r` and returns the content length.
 pub fn content_len(line: &[u8]) -> usize {
     let mut n = line.len();
@@ -122,7 +137,7 @@ pub fn content_len(line: &[u8]) -> usize {
 
 /// Classifies a line (without its line ending).
 pub fn classify(content: &[u8]) -> LineKind {
-    let mut i = 0;
+    let mut i = bom_len(content);
     while i < content.len() && is_blank(content[i]) {
         i += 1;
     }
@@ -149,7 +164,7 @@ pub fn classify(content: &[u8]) -> LineKind {
 pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
     out.tokens.clear();
     let n = content.len();
-    let mut i = 0;
+    let mut i = bom_len(content);
     while i < n && is_blank(content[i]) {
         i += 1;
     }
@@ -201,7 +216,7 @@ pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
                     column: i,
                 })
             }
-            _ if b.is_ascii_alphabetic() => {
+            _ if b.is_ascii_alphabetic() || b == b'@' || b == b'^' => {
                 let letter = b.to_ascii_uppercase();
                 let start = i;
                 i += 1;
@@ -279,10 +294,19 @@ fn lex_number(content: &[u8], i: &mut usize, letter: u8) -> Result<(f64, Range<u
     }
     if !seen_digit {
         let column = start.unwrap_or(*i);
-        let kind = match content
+        let next = content
             .get(*i..)
-            .and_then(|r| r.iter().find(|b| !is_blank(**b)))
+            .and_then(|r| r.iter().position(|b| !is_blank(*b)))
+            .map(|k| *i + k);
+        if let Some(at) =
+            next.filter(|&at| !content[at].is_ascii() || content[at].is_ascii_control())
         {
+            return Err(LexError {
+                kind: LexErrorKind::UnexpectedByte(content[at]),
+                column: at,
+            });
+        }
+        let kind = match next.map(|at| &content[at]) {
             Some(b'#') => LexErrorKind::Parameter,
             Some(b'[') => LexErrorKind::Expression,
             Some(b'<') if letter == b'O' => LexErrorKind::OWord,
@@ -493,6 +517,31 @@ mod tests {
         }
         assert_eq!(parse_decimal(b"."), None);
         assert_eq!(parse_decimal(b"-"), None);
+    }
+
+    #[test]
+    fn polar_words_and_a_leading_bom_are_read() {
+        let w = words("\u{feff}G1 @12.5 ^-30");
+        assert_eq!(w[1], ('@', 12.5, "12.5".into()));
+        assert_eq!(w[2], ('^', -30.0, "-30".into()));
+        assert_eq!(classify("\u{feff}%".as_bytes()), LineKind::Percent);
+    }
+
+    #[test]
+    fn scientific_notation_lexes_as_an_e_word_like_linuxcnc() {
+        // LinuxCNC's reader does the same; the interpreter then refuses the E word.
+        let w = words("G1 X1e-05");
+        assert_eq!(w[1], ('X', 1.0, "1".into()));
+        assert_eq!(w[2], ('E', -5.0, "-05".into()));
+    }
+
+    #[test]
+    fn non_ascii_bytes_outside_comments_are_located() {
+        let mut out = Lexed::default();
+        let e = lex_block(b"G1 X1 (caf\xe9) Y\xe92", &mut out).unwrap_err();
+        assert_eq!((e.kind, e.column), (LexErrorKind::UnexpectedByte(0xe9), 14));
+        let e = lex_block(b"G1 \xe9X1", &mut out).unwrap_err();
+        assert_eq!((e.kind, e.column), (LexErrorKind::UnexpectedByte(0xe9), 3));
     }
 
     #[test]

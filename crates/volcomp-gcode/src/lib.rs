@@ -20,6 +20,6 @@ pub mod setup;
 pub use arc::Arc;
 pub use error::{ErrorClass, GcodeError};
 pub use geom::{Plane, Units, Vec3};
-pub use interp::{FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource};
+pub use interp::{FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource, Warning};
 pub use program::{LineEvent, Walker};
 pub use setup::Setup;

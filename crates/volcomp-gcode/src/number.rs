@@ -45,11 +45,36 @@ pub struct StyleSurvey {
     trimmed_fraction: u32,
     trailing_dot: u32,
     bare_integer: u32,
+    max_decimals: u8,
+}
+
+/// Most decimals volcomp writes: beyond this an `f64` coordinate of a
+/// machine-sized value (metres, in mm) no longer holds the digits exactly.
+pub const MAX_DECIMALS: u8 = 9;
+
+/// Digits after the decimal point of a number as written (`0.096205` → 6,
+/// `10.` → 0, `12` → 0); blanks inside the number are ignored.
+///
+/// A rewritten word never carries fewer decimals than the word it replaces:
+/// the written value would otherwise be rounded coarser than the program's
+/// own, moving the tool even where the correction is zero.
+pub fn decimals_of(text: &[u8]) -> u8 {
+    match text.iter().position(|b| *b == b'.') {
+        None => 0,
+        Some(dot) => {
+            let n = text[dot + 1..]
+                .iter()
+                .filter(|b| b.is_ascii_digit())
+                .count();
+            u8::try_from(n).unwrap_or(u8::MAX)
+        }
+    }
 }
 
 impl StyleSurvey {
     /// Records one number as written (blanks inside it are ignored).
     pub fn record(&mut self, text: &[u8]) {
+        self.max_decimals = self.max_decimals.max(decimals_of(text));
         let digits: Vec<u8> = text
             .iter()
             .copied()
@@ -71,6 +96,11 @@ impl StyleSurvey {
                 }
             }
         }
+    }
+
+    /// The most decimals seen in one number (up to [`MAX_DECIMALS`]).
+    pub fn max_decimals(&self) -> u8 {
+        self.max_decimals.min(MAX_DECIMALS)
     }
 
     /// The style the evidence points to, with `decimals` digits at most.
@@ -260,6 +290,34 @@ mod tests {
         ] {
             assert_eq!(round_half_away(v), v.round(), "{v}");
         }
+    }
+
+    #[test]
+    fn decimals_are_counted_as_written() {
+        assert_eq!(decimals_of(b"0.096205"), 6);
+        assert_eq!(decimals_of(b"-.5"), 1);
+        assert_eq!(decimals_of(b"10."), 0);
+        assert_eq!(decimals_of(b"12"), 0);
+        assert_eq!(decimals_of(b"1 . 2 5"), 2);
+        let mut s = StyleSurvey::default();
+        for t in ["1.5", "0.096205", "2.25"] {
+            s.record(t.as_bytes());
+        }
+        assert_eq!(s.max_decimals(), 6);
+        s.record(b"0.1234567890123");
+        assert_eq!(s.max_decimals(), MAX_DECIMALS);
+    }
+
+    #[test]
+    fn six_decimal_word_survives_when_written_with_its_own_decimals() {
+        // The vcarve.ngc case: `Y 0.096205` written with 5 decimals loses a
+        // digit; with the word's own 6 decimals it comes back as it was.
+        let v: f64 = "0.096205".parse().unwrap();
+        let mut survey = StyleSurvey::default();
+        survey.record(b"0.096205");
+        survey.record(b"0.100000");
+        assert_ne!(fmt(v, survey.style(5)), "0.096205");
+        assert_eq!(fmt(v, survey.style(decimals_of(b"0.096205"))), "0.096205");
     }
 
     #[test]

@@ -52,6 +52,11 @@ impl<R: BufRead> Walker<R> {
         }
     }
 
+    /// What was assumed because the program did not say it, so far.
+    pub fn warnings(&self) -> &[crate::interp::Warning] {
+        self.interp.warnings()
+    }
+
     /// The interpreter (state after the last line read).
     pub fn interpreter(&self) -> &Interpreter {
         &self.interp
@@ -151,6 +156,18 @@ fn lex_message(kind: &LexErrorKind) -> (String, String) {
         LexErrorKind::OWord => (
             "o-word subroutines and control flow are not interpreted by volcomp".into(),
             "post the program with subroutines and loops expanded".into(),
+        ),
+        LexErrorKind::UnexpectedByte(0) => (
+            "NUL byte in the program: this is a binary file, or text in UTF-16".into(),
+            "save the program as plain text (ASCII or UTF-8)".into(),
+        ),
+        LexErrorKind::UnexpectedByte(b) if !b.is_ascii() => (
+            format!("byte 0x{b:02X} is not ASCII: outside comments G-code is ASCII (the file may be in another encoding, such as Latin-1 or UTF-16)"),
+            "remove the character or put it inside a comment; save the file as ASCII or UTF-8".into(),
+        ),
+        LexErrorKind::UnexpectedByte(b) if b.is_ascii_control() => (
+            format!("control character 0x{b:02X} is not G-code"),
+            "remove it; it may be a sign that the file is damaged or binary".into(),
         ),
         LexErrorKind::UnexpectedByte(b) => (
             format!("unexpected character {:?}", char::from(*b)),

@@ -35,6 +35,11 @@ pub struct Setup {
     pub g28_mm: Vec3,
     /// G30 reference point.
     pub g30_mm: Vec3,
+    /// Whether the set-up gives the G28 point (else it is machine zero,
+    /// and a program that uses G28 is warned about it).
+    pub g28_given: bool,
+    /// Whether the set-up gives the G30 point.
+    pub g30_given: bool,
     /// Machine position when the program starts.
     pub start_mm: Vec3,
 }
@@ -46,6 +51,8 @@ impl Default for Setup {
             tool_lengths_mm: BTreeMap::new(),
             g28_mm: Vec3::ZERO,
             g30_mm: Vec3::ZERO,
+            g28_given: false,
+            g30_given: false,
             start_mm: Vec3::ZERO,
         }
     }
@@ -133,8 +140,14 @@ impl Setup {
         }
         for (name, a) in raw.reference {
             match name.to_ascii_uppercase().as_str() {
-                "G28" => setup.g28_mm = vec("G28", a)?,
-                "G30" => setup.g30_mm = vec("G30", a)?,
+                "G28" => {
+                    setup.g28_mm = vec("G28", a)?;
+                    setup.g28_given = true;
+                }
+                "G30" => {
+                    setup.g30_mm = vec("G30", a)?;
+                    setup.g30_given = true;
+                }
                 _ => {
                     return Err(SetupError::Invalid(format!(
                         "unknown reference point `{name}` (expected G28 or G30)"

@@ -221,7 +221,7 @@ pub fn compensate_into(
         machine.setup.clone(),
         machine.options,
     );
-    Ok(compensate_program_with_header(
+    let result = compensate_program_with_header(
         &mut walker,
         &file,
         model,
@@ -230,7 +230,9 @@ pub fn compensate_into(
         header,
         out,
         on_point,
-    )?)
+    );
+    crate::commands::print_warnings(&file, walker.warnings());
+    Ok(result?)
 }
 
 /// Compensates `program` into the file `output` (completely or not at all).

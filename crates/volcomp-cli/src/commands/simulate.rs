@@ -67,7 +67,9 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
                 );
             }
         },
-    )?;
+    );
+    crate::commands::print_warnings(&a.program.display().to_string(), walker.warnings());
+    let report = report?;
     if let (Some(path), Some(bytes)) = (&a.errors_csv, rows) {
         let mut inputs = vec![a.program.as_path()];
         if let Some(r) = &a.reference {

@@ -1,0 +1,406 @@
+//! What LinuxCNC refuses, volcomp refuses, with the reason; what it accepts
+//! (polar `@`/`^` words, words that a code on the line uses), volcomp reads
+//! as it does; what a program leaves unsaid is warned about.
+//!
+//! Every refused program is also given to LinuxCNC's `rs274` when it is
+//! installed, and must be refused there with the quoted message: the rules
+//! are LinuxCNC's (src/emc/rs274ngc/interp_check.cc, interp_find.cc,
+//! interp_convert.cc), not ours.
+
+use std::io::Cursor;
+use std::path::Path;
+use std::process::Command;
+use volcomp_gcode::{GcodeError, InterpOptions, Motion, Setup, Vec3, Walker, Warning};
+
+fn run_with(program: &str, setup: Setup) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
+    let mut w = Walker::new(
+        Cursor::new(program.as_bytes().to_vec()),
+        Some("t.ngc".into()),
+        setup,
+        InterpOptions::default(),
+    );
+    let mut motions = Vec::new();
+    loop {
+        match w.next_line() {
+            Ok(Some(ev)) => motions.extend_from_slice(ev.motions),
+            Ok(None) => return (Ok(motions), w.warnings().to_vec()),
+            Err(e) => return (Err(e), w.warnings().to_vec()),
+        }
+    }
+}
+
+fn run(program: &str) -> Result<Vec<Motion>, GcodeError> {
+    run_with(program, Setup::default()).0
+}
+
+/// rs274's verdict on a program: `Some(message)` when it refuses it.
+fn rs274_error(program: &str) -> Option<Option<String>> {
+    let rs274 = ["/usr/bin/rs274", "/usr/local/bin/rs274"]
+        .into_iter()
+        .find(|p| Path::new(p).exists())?;
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("t.ngc");
+    std::fs::write(&file, format!("{program}M2\n")).unwrap();
+    // rs274 shares memory between its runs: concurrent runs die with a bus
+    // error, so the tests take turns, and a run killed by a signal is retried.
+    static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _turn = RS274.lock().unwrap_or_else(|e| e.into_inner());
+    let mut attempts = 0;
+    let out = loop {
+        let out = Command::new(rs274)
+            .arg("-g")
+            .arg(&file)
+            .current_dir(dir.path())
+            .stdin(std::process::Stdio::null())
+            .output()
+            .unwrap();
+        attempts += 1;
+        let crashed = out.status.code().is_none_or(|c| c > 128);
+        if !crashed || attempts == 3 {
+            assert!(!crashed, "rs274 crashed 3 times on {program:?}");
+            break out;
+        }
+    };
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    // rs274 prints canonical calls (numbered lines), "executing", and on a
+    // refusal the message followed by the offending block.
+    let error = text
+        .lines()
+        .map(str::trim)
+        .find(|l| {
+            !l.is_empty()
+                && !l.starts_with(|c: char| c.is_ascii_digit())
+                && *l != "executing"
+                && !program.lines().any(|p| p.trim() == *l)
+        })
+        .map(str::to_string);
+    Some(error)
+}
+
+/// Refused by volcomp at `line:column` with `needle` in the message, and by
+/// rs274 (when installed) with `linuxcnc` in its message.
+fn refused(program: &str, line: u64, column: usize, needle: &str, linuxcnc: &str) {
+    let e = run(program).expect_err(program);
+    assert_eq!((e.line, e.column), (line, column), "{program}: {e}");
+    assert!(e.message.contains(needle), "{program}: {e}");
+    assert!(!e.help.is_empty(), "{program}: no advice in {e}");
+    if let Some(verdict) = rs274_error(program) {
+        let msg = verdict.unwrap_or_else(|| panic!("rs274 accepts {program:?}"));
+        assert!(msg.contains(linuxcnc), "{program}: rs274 says {msg:?}");
+    }
+}
+
+fn accepted_by_both(program: &str) -> Vec<Motion> {
+    if let Some(verdict) = rs274_error(program) {
+        assert_eq!(verdict, None, "rs274 refuses {program:?}");
+    }
+    run(program).unwrap_or_else(|e| panic!("{program}: {e}"))
+}
+
+fn close(a: Vec3, b: [f64; 3]) -> bool {
+    (0..3).all(|i| (a[i] - b[i]).abs() < 1e-9)
+}
+
+#[test]
+fn feed_move_without_a_feed_rate_is_refused() {
+    refused(
+        "G1 Z-15\n",
+        1,
+        1,
+        "no F word",
+        "Cannot do g1 with zero feed rate",
+    );
+    refused(
+        "G21\nG1\n",
+        2,
+        1,
+        "zero feed rate",
+        "Cannot do g1 with zero feed rate",
+    );
+    refused(
+        "G0 X1\nG2 X2 I0.5\n",
+        2,
+        1,
+        "zero feed rate",
+        "Cannot make arc with zero feed rate",
+    );
+    refused(
+        "G81 X1 R1 Z0\n",
+        1,
+        1,
+        "zero feed rate",
+        "Cannot feed with zero feed rate",
+    );
+    // F0 is no feed rate either, even on the move's own line.
+    refused(
+        "G1 F0 X1\n",
+        1,
+        4,
+        "F0 is on this line",
+        "Cannot do g1 with zero feed rate",
+    );
+    refused(
+        "F100\nF0\nG1 X1\n",
+        3,
+        1,
+        "no F word",
+        "Cannot do g1 with zero feed rate",
+    );
+    // Under G93 every feed move needs its own F.
+    refused(
+        "G93 G1 X1 F10\nG1 X2\n",
+        2,
+        1,
+        "inverse-time",
+        "F word missing with inverse time",
+    );
+    // G95 needs a spindle speed as well.
+    refused(
+        "S1000\nG95 F0.1 G1 X1\nS0\nG1 X2\n",
+        4,
+        1,
+        "zero spindle speed",
+        "Cannot feed with zero spindle speed in feed per rev mode",
+    );
+    accepted_by_both("G95 F0.1 S100 G2 X1 I0.5\n");
+    // Rapids need no feed rate.
+    accepted_by_both("G0 X1 F0\n");
+    accepted_by_both("F100\nG1 X1\nG0 X2\nG1 X3\n");
+}
+
+#[test]
+fn scientific_notation_is_refused_with_the_reason() {
+    // LinuxCNC reads `1e-05` as X1 and an E word and refuses the E word;
+    // taking X1 would move the tool 1 mm instead of 10 nm.
+    refused(
+        "F100 G1 X1e-05\n",
+        1,
+        11,
+        "scientific notation",
+        "E word with no",
+    );
+    refused(
+        "F100 G1 X.1E-2\n",
+        1,
+        12,
+        "scientific notation",
+        "E word with no",
+    );
+    refused("F100 G1 X1 E2\n", 1, 12, "E word with no", "E word with no");
+}
+
+#[test]
+fn words_that_no_code_uses_are_refused() {
+    for (line, letter, linuxcnc) in [
+        ("F100 G1 X1 R2\n", 'R', "R word with no g code that uses it"),
+        ("F100 G1 X1 I2\n", 'I', "I word with no"),
+        ("F100 G1 X1 J2\n", 'J', "J word with no"),
+        ("F100 G1 X1 K0\n", 'K', "K word with no"),
+        ("F100 G1 X1 Q2\n", 'Q', "Q word with no"),
+        ("F100 G1 X1 P2\n", 'P', "P word with no"),
+        ("F100 G1 X1 L2\n", 'L', "L word with no"),
+        ("F100 G1 X1 D2\n", 'D', "D word with no"),
+        ("F100 G1 X1 H2\n", 'H', "H word with no"),
+        ("G0 X1 R2\n", 'R', "R word with no g code that uses it"),
+        ("G0 X1 P2\n", 'P', "P word with no"),
+        ("F100 G2 X1 R1 L2\n", 'L', "L word with no"),
+    ] {
+        let column = line.find(letter).unwrap() + 1;
+        refused(line, 1, column, &format!("{letter} word with no"), linuxcnc);
+    }
+}
+
+#[test]
+fn words_that_a_code_on_the_line_uses_are_accepted() {
+    accepted_by_both("G0 X1 Y0\nG2 F100 X2 I0.5\n");
+    accepted_by_both("G0 X1\nF100 G2 I1\n");
+    accepted_by_both("G0 X1 Y0\nG2 F100 X2 Y1 R1\n");
+    accepted_by_both("G4 P0.5\n");
+    accepted_by_both("G64 P0.01 Q0.01\n");
+    accepted_by_both("G10 L2 P1 X1\n");
+    accepted_by_both("G0 Z5\nF100 G82 X1 R1 Z0 P0.5\n");
+    accepted_by_both("G0 Z5\nF100 G81 X1 R1 Z0 L1\n");
+    accepted_by_both("F100 G1 X1 M67 E0 Q1\n");
+    accepted_by_both("F100 G1 X1 Q1 M61\n");
+    accepted_by_both("F100 G1 X1 D2 G96 S100\n");
+}
+
+#[test]
+fn polar_words_move_as_in_linuxcnc() {
+    // End points printed by rs274 -g for the same programs.
+    let m = accepted_by_both("F1 G1 @1 ^90\n");
+    assert!(close(m[0].end, [0.0, 1.0, 0.0]), "{:?}", m[0].end);
+    let m = accepted_by_both("G0 @1 ^30 Z1\n");
+    assert!(close(m[0].end, [0.75f64.sqrt(), 0.5, 1.0]));
+    // G90 `@` alone keeps the current angle, `^` alone the current radius.
+    let m = accepted_by_both("G0 X1 Y1\nG1 F1 @2\n");
+    assert!(close(m[1].end, [2f64.sqrt(), 2f64.sqrt(), 0.0]));
+    let m = accepted_by_both("G0 X1\nG1 F1 ^45\n");
+    assert!(close(m[1].end, [0.5f64.sqrt(), 0.5f64.sqrt(), 0.0]));
+    let m = accepted_by_both("G0 X1\nG1 F1 @-1\n");
+    assert!(close(m[1].end, [-1.0, 0.0, 0.0]));
+    // G91: `@` adds to the radius, `^` to the angle.
+    let m = accepted_by_both("G0 X1 Y1\nG91 G1 F1 @2\n");
+    let r = 2f64.sqrt() + 2.0;
+    assert!(close(m[1].end, [r * 0.5f64.sqrt(), r * 0.5f64.sqrt(), 0.0]));
+    let m = accepted_by_both("G0 X1 Y1\nG91 G1 F1 ^90\n");
+    assert!(close(m[1].end, [-1.0, 1.0, 0.0]));
+    // About the origin of the current coordinate system (here G55 = 10, 20).
+    let mut setup = Setup::default();
+    setup.work_offsets_mm[1] = Vec3::new(10.0, 20.0, 0.0);
+    let m = run_with("G55 G0 @2 ^90\n", setup).0.unwrap();
+    assert!(close(m[0].end, [10.0, 22.0, 0.0]));
+    // In inch, the radius is in inch.
+    let m = run("G20 G0 @1 ^0\n").unwrap();
+    assert!(close(m[0].end, [25.4, 0.0, 0.0]));
+}
+
+#[test]
+fn polar_words_are_refused_where_linuxcnc_refuses_them() {
+    refused(
+        "F1 G1 X1 ^90\n",
+        1,
+        7,
+        "both polar",
+        "Cannot specify both polar coordinate and X word",
+    );
+    refused(
+        "G0 X1\nG28 @1\n",
+        2,
+        5,
+        "only be used for motion",
+        "Polar coordinates can only be used for motion",
+    );
+    refused(
+        "G91 G0 @1\n",
+        1,
+        8,
+        "indeterminate at the origin",
+        "indeterminate when at the origin",
+    );
+    refused(
+        "G0 @1\n",
+        1,
+        4,
+        "indeterminate at the origin",
+        "Must specify angle in polar coordinate if at the origin",
+    );
+    // LinuxCNC checks the plane in effect before the block
+    // (`Interp::enhance_block`): G18 on an earlier line refuses polar words,
+    // G18 on the same line does not, and the move is still in X and Y.
+    refused(
+        "G18\nG0 @1 ^90\n",
+        2,
+        4,
+        "XY plane",
+        "Cannot use polar coordinate except in G17 plane",
+    );
+    let m = accepted_by_both("G18 G0 @1 ^90\nG17\n");
+    assert!(close(m[0].end, [0.0, 1.0, 0.0]), "{:?}", m[0].end);
+    let e = run("G0 X1\nF1 G81 @1 R1 Z0\n").unwrap_err();
+    assert!(e.message.contains("canned cycles"), "{e}");
+    let e = run("G53 G0 @1 ^90\n").unwrap_err();
+    assert!(e.message.contains("G53"), "{e}");
+}
+
+#[test]
+fn missing_units_are_warned_about_once() {
+    let (r, warnings) = run_with("G0 X1\nG0 X2\nG21\n", Setup::default());
+    r.unwrap();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert_eq!((warnings[0].line, warnings[0].column), (1, 1));
+    assert!(warnings[0].message.contains("G20 or G21"));
+    assert!(warnings[0].to_string().starts_with("1:1: warning: "));
+    for program in ["G21\nG0 X1\n", "G20 G0 X1\n", "(no motion)\n"] {
+        let (_, w) = run_with(program, Setup::default());
+        assert!(w.is_empty(), "{program}: {w:?}");
+    }
+}
+
+#[test]
+fn reference_points_missing_from_the_setup_are_warned_about() {
+    let program = "G21\nG0 X1\nG28\nG28 Z0\nG30\n";
+    let (r, warnings) = run_with(program, Setup::default());
+    let m = r.unwrap();
+    // G28 without a set-up point goes to machine zero, as LinuxCNC does.
+    assert!(close(m[2].end, [0.0, 0.0, 0.0]));
+    let lines: Vec<u64> = warnings.iter().map(|w| w.line).collect();
+    assert_eq!(lines, vec![3, 5], "{warnings:?}");
+    assert!(warnings[0].message.contains("G28") && warnings[0].message.contains("machine zero"));
+    assert!(warnings[1].message.contains("G30"));
+    let setup =
+        Setup::from_toml("units = \"mm\"\n[reference]\nG28 = [0, 0, 100]\nG30 = [0, 0, 50]\n")
+            .unwrap();
+    let (r, warnings) = run_with(program, setup);
+    r.unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    // G28.1 in the program sets the point: no warning either.
+    let (_, warnings) = run_with("G21\nG0 X1\nG28.1\nG0 X2\nG28\n", Setup::default());
+    assert!(warnings.is_empty(), "{warnings:?}");
+}
+
+#[test]
+fn negative_spindle_speed_and_control_characters_are_refused() {
+    refused(
+        "S-100\n",
+        1,
+        1,
+        "negative spindle speed",
+        "Negative spindle speed used",
+    );
+    refused(
+        "G0 X1\u{7}\n",
+        1,
+        6,
+        "control character 0x07",
+        "Bad character",
+    );
+}
+
+#[test]
+fn a_byte_order_mark_is_skipped() {
+    let m = run("\u{feff}G21\nG0 X1\n").unwrap();
+    assert!(close(m[0].end, [1.0, 0.0, 0.0]));
+}
+
+#[test]
+fn bytes_that_are_not_gcode_give_a_located_escaped_error() {
+    let e = run("G21\nG1 X\u{e9}2\n").unwrap_err();
+    assert_eq!((e.line, e.column), (2, 5));
+    assert!(e.message.contains("not ASCII"), "{e}");
+    let mut bytes = b"G21\nG0 X1 ".to_vec();
+    bytes.extend_from_slice(b"\xe9\x1b[31m\x07\n");
+    let mut w = Walker::new(
+        Cursor::new(bytes),
+        Some("t.ngc".into()),
+        Setup::default(),
+        InterpOptions::default(),
+    );
+    let e = loop {
+        match w.next_line() {
+            Ok(Some(_)) => {}
+            Ok(None) => panic!("accepted"),
+            Err(e) => break e,
+        }
+    };
+    assert_eq!((e.line, e.column), (2, 7));
+    let shown = e.to_string();
+    assert!(shown.contains("G0 X1 \\xe9\\x1b[31m\\x07"), "{shown}");
+    assert!(!shown.contains('\x1b') && !shown.contains('\x07'));
+    let e = run("G\0 1\n").unwrap_err();
+    assert!(e.message.contains("UTF-16"), "{e}");
+}
+
+#[test]
+fn an_error_on_a_huge_line_shows_a_bounded_excerpt() {
+    let mut program = String::from("G21\nG0");
+    for _ in 0..1_000_000 {
+        program.push_str(" X1");
+    }
+    program.push_str(" #1\n");
+    let e = run(&program).unwrap_err();
+    let shown = e.to_string();
+    assert!(shown.len() < 1000, "{} bytes shown", shown.len());
+    assert!(e.source_line.starts_with('…') && e.source_line.ends_with("#1"));
+}
