@@ -221,15 +221,8 @@ pub fn compensate_program<R: BufRead>(
         st.buf.clear();
         let program_motion = ev.motions.iter().any(|m| m.source == MotionSource::Program);
         let cycle = ev.motions.iter().any(|m| m.source == MotionSource::Cycle);
-        for w in ev.lexed.words() {
-            if matches!(w.letter, b'X' | b'Y' | b'Z') && !ev.motions.is_empty() {
-                st.known[usize::from(w.letter - b'X')] = true;
-            }
-            // A polar end point (`@` radius, `^` angle) sets X and Y.
-            if matches!(w.letter, b'@' | b'^') && !ev.motions.is_empty() {
-                st.known[0] = true;
-                st.known[1] = true;
-            }
+        if !ev.motions.is_empty() {
+            mark_axes_set(&ev.lexed, &mut st.known);
         }
         if ev
             .motions
@@ -1148,5 +1141,23 @@ fn bisect(
     } else {
         out.push(b);
         Ok(())
+    }
+}
+
+/// Marks the axes whose position a moving line states: its X, Y and Z words,
+/// and X and Y for a polar end point (`@` radius, `^` angle; LinuxCNC reads
+/// polar words in the XY plane only). Until a program has stated every axis,
+/// the machine is where the program does not say, and neither compensation
+/// nor simulation evaluates the map there.
+pub(crate) fn mark_axes_set(line: &volcomp_gcode::lexer::Lexed, known: &mut [bool; 3]) {
+    for w in line.words() {
+        match w.letter {
+            b'X' | b'Y' | b'Z' => known[usize::from(w.letter - b'X')] = true,
+            b'@' | b'^' => {
+                known[0] = true;
+                known[1] = true;
+            }
+            _ => {}
+        }
     }
 }

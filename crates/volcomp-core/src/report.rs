@@ -226,11 +226,7 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
         sim.set_tool_length_offset(ev.interp.tool_length_offset_mm());
         // Until the program has set every axis, the machine is somewhere the
         // program does not say: follow without evaluating (as compensation does).
-        for w in ev.lexed.words() {
-            if matches!(w.letter, b'X' | b'Y' | b'Z') {
-                known[usize::from(w.letter - b'X')] = true;
-            }
-        }
+        crate::compensate::mark_axes_set(&ev.lexed, &mut known);
         if ev
             .motions
             .iter()
