@@ -40,6 +40,7 @@
 
 pub mod identify;
 pub mod run;
+pub mod select;
 pub mod spectrum;
 
 use crate::error::{MapFileError, ModelError};
@@ -170,9 +171,17 @@ pub struct Identification {
     pub normalisation: String,
     /// `m` was given by the user instead of chosen by the thresholds.
     pub harmonics_forced: bool,
+    /// How `m` was chosen: `cross-validation` (the default) or `thresholds`
+    /// (the paper's σ_t, P_t; files written before the choice existed).
+    #[serde(default = "thresholds_rule")]
+    pub cutoff_rule: String,
     /// RMS of measured mean profile − model over the measured range (µm):
     /// what the model leaves out (vibration, noise, short wavelengths).
     pub fit_residual_rms_um: f64,
+}
+
+fn thresholds_rule() -> String {
+    "thresholds".into()
 }
 
 /// The straightness model of one axis.
@@ -563,6 +572,7 @@ mod tests {
                     p_t: 0.01,
                     normalisation: "common".into(),
                     harmonics_forced: false,
+                    cutoff_rule: "cross-validation".into(),
                     fit_residual_rms_um: 0.07,
                 }),
             }),
