@@ -45,7 +45,8 @@ pub enum Material {
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Fit {
-    /// Bicubic least squares within --tolerance (any probe pattern).
+    /// Bicubic least squares, the control net chosen by leave-one-out
+    /// cross-validation (any probe pattern).
     LeastSquares,
     /// Bicubic interpolation through every point (probe grid with i,j columns).
     Interpolate,
@@ -95,9 +96,16 @@ pub struct MirrorArgs {
     /// How the compensation points are fitted.
     #[arg(long, value_enum, default_value_t = Fit::LeastSquares)]
     pub fit: Fit,
-    /// Largest residual of the least-squares fit at any compensation point (µm).
-    #[arg(long, value_name = "UM", default_value_t = 1.0)]
-    pub tolerance: f64,
+    /// Only consider control nets whose residual at every compensation point is within
+    /// this (µm). Every residual includes the probe noise: give at least 3× its σ.
+    /// Without it the net is chosen by leave-one-out cross-validation alone.
+    #[arg(long, value_name = "UM")]
+    pub tolerance: Option<f64>,
+    /// Refuse (write nothing, exit non-zero) when the leave-one-out prediction of the
+    /// finishing error after compensation is worse (larger std) than not compensating;
+    /// without it a warning is printed.
+    #[arg(long)]
+    pub refuse_worse: bool,
     /// Parameters used to interpolate a grid nominal (CSV).
     #[arg(long, value_enum, default_value_t = GridParams::ChordLength)]
     pub grid_params: GridParams,
@@ -241,7 +249,9 @@ struct SurfaceFiles {
 fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
     positive(a.stock, "--stock", "a positive length in mm")?;
     positive(a.max_error, "--max-error", "a positive length in mm")?;
-    positive(a.tolerance, "--tolerance", "a positive number of µm")?;
+    if let Some(t) = a.tolerance {
+        positive(t, "--tolerance", "a positive number of µm")?;
+    }
     positive(
         a.contact_tolerance,
         "--contact-tolerance",
@@ -299,6 +309,24 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
         },
     };
     let result = mirror(&nominal, &probes, &options, &measured_file)?;
+    if result.compensation_predicted_worse() {
+        let p = result
+            .mirror_predicted
+            .as_ref()
+            .map_or(f64::NAN, |p| p.std_um);
+        let message = format!(
+            "the leave-one-out prediction of the finishing error after compensation (std {p:.3} µm) is worse than not compensating (std {:.3} µm): the fit ({} × {} control net) does not predict the error between the probe points",
+            result.before.std_um, result.fit.net.0, result.fit.net.1
+        );
+        if a.refuse_worse {
+            return Err(CliError::Message(format!(
+                "{measured_file}: {message}\n  help: probe more densely or check the probe points (an outlier?); nothing was written"
+            )));
+        }
+        eprintln!(
+            "volcomp: warning: {measured_file}: {message}; check the probe points, or pass --refuse-worse to refuse"
+        );
+    }
     let inputs: Vec<&Path> = [
         Some(a.nominal.as_path()),
         Some(a.measured.as_path()),
@@ -647,12 +675,22 @@ fn report_csv(a: &MirrorArgs, r: &MirrorResult) -> String {
 }
 
 fn fit_text(f: &FitInfo) -> String {
-    match f.tolerance_um {
-        Some(t) => format!(
-            "least squares, bicubic, {} × {} control points; residual max {:.3} µm (tolerance {t} µm), RMS {:.3} µm",
-            f.net.0, f.net.1, f.max_residual_um, f.rms_residual_um
+    match f.method.as_str() {
+        "least-squares" => format!(
+            "least squares, bicubic, {} × {} control points (least leave-one-out error{}); residual max {:.3} µm, RMS {:.3} µm; probe noise σ ≈ {} µm; leave-one-out RMS {} µm",
+            f.net.0,
+            f.net.1,
+            f.tolerance_um
+                .map(|t| format!(" among nets within ±{t} µm"))
+                .unwrap_or_default(),
+            f.max_residual_um,
+            f.rms_residual_um,
+            f.noise_estimate_um
+                .map_or("?".into(), |v| format!("{v:.3}")),
+            f.leave_one_out_rms_um
+                .map_or("?".into(), |v| format!("{v:.3}")),
         ),
-        None => format!(
+        _ => format!(
             "interpolation, bicubic, {} × {} control points; residual max {:.3} µm",
             f.net.0, f.net.1, f.max_residual_um
         ),
