@@ -158,6 +158,7 @@ mod tests {
     /// others, predict the left-out profile, sum the squared error less its
     /// mean.
     #[test]
+    #[allow(clippy::needless_range_loop)]
     fn matches_brute_force_refits() {
         let n = 48;
         let x: Vec<f64> = (0..n).map(|i| 3.0 + 0.5 * i as f64).collect();
@@ -238,7 +239,7 @@ mod tests {
     #[test]
     fn refuses_too_little() {
         let x: Vec<f64> = (0..8).map(f64::from).collect();
-        assert!(cross_validate(&[x.clone()], &x).is_none());
+        assert!(cross_validate(std::slice::from_ref(&x), &x).is_none());
         assert!(cross_validate(&[x.clone(), vec![0.0; 7]], &x).is_none());
     }
 }
