@@ -551,3 +551,47 @@ fn cross_validated_cutoff_follows_leads_that_are_no_harmonic_of_l() {
     // The family is one where the paper's thresholds cut too early.
     assert!(worst_paper > 10.0, "paper rule worst {worst_paper:.1} %");
 }
+
+/// The paper's rule is still available and behaves as before on the
+/// standard machine (lead 10 mm, 40.02 periods over l): the cut-off sits at
+/// the lead's harmonic plus the taper's leakage (±N/N_t = ±10 harmonics),
+/// and the model is within the same bounds against the truth.
+#[test]
+fn paper_thresholds_remain_available() {
+    let mut rng = Rng(1);
+    let runs = runs(&[X, Y], 3, &mut rng);
+    let paper = FitOptions {
+        cutoff: CutoffRule::Thresholds,
+        ..FitOptions::default()
+    };
+    let f = fit(&runs, None, &paper).expect("fit");
+    for (truth, a) in [X, Y].iter().zip(&f.axes) {
+        let l = truth.samples as f64 * truth.spacing_mm;
+        let k_lead = l / truth.lead_mm;
+        assert!(
+            a.harmonics as f64 >= k_lead.floor() && a.harmonics as f64 <= k_lead + 10.0,
+            "{:?}: m = {}",
+            truth.axis,
+            a.harmonics
+        );
+        let am = f.model.axis(truth.axis).unwrap();
+        assert_eq!(
+            am.identification.as_ref().unwrap().cutoff_rule,
+            "thresholds"
+        );
+        let [lo, hi] = am.recommended_range_mm;
+        let eval = |p: f64| match truth.axis {
+            Axis::X => f.model.ez_um(p, 0.0).unwrap(),
+            Axis::Y => f.model.ez_um(X.start_mm, p).unwrap(),
+        };
+        let inner = (0..truth.samples)
+            .map(|i| truth.start_mm + i as f64 * truth.spacing_mm)
+            .filter(|p| (lo..=hi).contains(p));
+        let inner_rms = rms(inner.map(|p| eval(p) - truth.geometric_um(p)));
+        println!(
+            "paper rule {:?}: m = {}, model − truth RMS {inner_rms:.4} µm inside",
+            truth.axis, a.harmonics
+        );
+        assert!(inner_rms < VIB_UM / 5.0);
+    }
+}

@@ -15,8 +15,10 @@
 //! 5. `P̄(λ_k) = mean_j p_j(k)` and
 //!    `σ(λ_k) = sqrt(Σ_j (p_j(k) − P̄)² / (n_v − 1)) / P̄(λ_k)`
 //!    (sample standard deviation relative to the mean).
-//! 6. The cut-off `λ_c` is the shortest `λ_k` with `σ(λ_k) < σ_t` and
-//!    `P̄(λ_k) > P_t`; `m = l/λ_c` (= that `k`).
+//! 6. `m` (and `λ_c = l/m`) by [`CutoffRule`]: by default the `m` whose
+//!    model, fitted to the other feed rates, best predicts each left-out
+//!    feed rate ([`super::select`]); or the paper's rule, the shortest `λ_k`
+//!    with `σ(λ_k) < σ_t` and `P̄(λ_k) > P_t`.
 //! 7. The model of the axis is the least-squares fit of
 //!    `c + s·x + Σ_{k=1..m} a_k·cos(2πk(x − x_st)/l) + b_k·sin(2πk(x − x_st)/l)`
 //!    to the average of all feed rates' profiles (each feed rate weighted

@@ -29,8 +29,11 @@
 //! ([`spectrum::power_spectrum`]). Geometric error sits at the same
 //! wavelength at every feed rate; vibration of frequency `f` sits at
 //! `λ = v_j / f` and moves. With `P̄(λ)` the mean and `σ(λ)` the relative
-//! standard deviation across feed rates, the shortest wavelength with
-//! `σ(λ) < σ_t` and `P̄(λ) > P_t` is the cut-off `λ_c`, and `m = l / λ_c`.
+//! standard deviation across feed rates, the paper's cut-off `λ_c` is the
+//! shortest wavelength with `σ(λ) < σ_t` and `P̄(λ) > P_t`, and
+//! `m = l / λ_c`. By default `m` is instead chosen by leave-one-feed-rate-out
+//! cross-validation ([`select`]), which follows a lead that is no harmonic
+//! of `l` further and still rejects vibration.
 //!
 //! # Use
 //!
