@@ -100,19 +100,20 @@ pub fn cross_validate(profiles: &[Vec<f64>], positions_mm: &[f64]) -> Option<Cro
     let hz: Vec<Vec<(f64, f64)>> = profiles.iter().map(|p| harmonics(p)).collect();
     let total_xx: f64 = hx.iter().map(|&v| dot(v, v)).sum();
     let mut cv = vec![0.0; half];
-    for j in 0..nv {
-        let z = &hz[j];
-        let w: Vec<(f64, f64)> = (0..=half)
-            .map(|k| {
-                let (mut a, mut b) = (0.0, 0.0);
-                for (i, h) in hz.iter().enumerate() {
-                    if i != j {
-                        a += h[k].0;
-                        b += h[k].1;
-                    }
-                }
-                (a / (nv - 1) as f64, b / (nv - 1) as f64)
-            })
+    // Σ_j Z_jk, so that each fold's mean of the others costs O(N).
+    let mut sum = vec![(0.0, 0.0); half + 1];
+    for h in &hz {
+        for (t, v) in sum.iter_mut().zip(h) {
+            t.0 += v.0;
+            t.1 += v.1;
+        }
+    }
+    let others = (nv - 1) as f64;
+    for z in &hz {
+        let w: Vec<(f64, f64)> = sum
+            .iter()
+            .zip(z)
+            .map(|(t, v)| ((t.0 - v.0) / others, (t.1 - v.1) / others))
             .collect();
         // Suffix sums over k > m of ⟨X,X⟩, ⟨X,W⟩, ⟨X,Z⟩, ⟨Z,Z⟩.
         let (mut txx, mut txw, mut txz, mut tzz) = (0.0, 0.0, 0.0, 0.0);
