@@ -404,4 +404,14 @@ fn warns_or_refuses_when_compensation_is_predicted_worse() {
         "{err}"
     );
     assert!(dir.join("finish.comp.ngc").exists());
+    // The JSON summary says so too.
+    std::fs::remove_file(dir.join("finish.comp.ngc")).unwrap();
+    args.push("--json");
+    let o = volcomp(&args, &dir);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("\"compensation_predicted_worse\":true"),
+        "{out}"
+    );
 }

@@ -525,6 +525,8 @@ struct SummaryJson<'a> {
     baseline_offset_um: f64,
     baseline: DeviationStats,
     mirror_predicted: Option<DeviationStats>,
+    /// The leave-one-out prediction is worse (larger std) than no compensation.
+    compensation_predicted_worse: bool,
     mirror_fit: DeviationStats,
     #[serde(skip_serializing_if = "Option::is_none")]
     surface: Option<&'a SurfaceFiles>,
@@ -554,6 +556,7 @@ fn summary_json<'a>(
         baseline_offset_um: r.baseline_offset_um,
         baseline: r.baseline,
         mirror_predicted: r.mirror_predicted,
+        compensation_predicted_worse: r.compensation_predicted_worse(),
         mirror_fit: r.mirror_fit,
         surface,
         finishing: finishing.map(|f| FinishingJson::new(&f.output, &f.summary)),
