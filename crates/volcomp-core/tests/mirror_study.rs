@@ -472,6 +472,25 @@ fn realistic_probe_noise_with_a_corner_outlier() {
                 "mean after {}",
                 o.after.mean_um
             );
+            // The former default, ±1 µm on every residual, either refuses
+            // (the noise exceeds it) or is pushed to a net at least as large.
+            let strict = MirrorOptions {
+                stock_mm: STOCK_MM,
+                fit: FitMethod::LeastSquares {
+                    tolerance_um: Some(1.0),
+                },
+                ..MirrorOptions::default()
+            };
+            match mirror(&nominal, &probes, &strict, "probes.csv") {
+                Err(e) => eprintln!(
+                    "  ±1 µm tolerance: refused ({})",
+                    e.to_string().lines().next().unwrap_or("")
+                ),
+                Ok(s) => {
+                    eprintln!("  ±1 µm tolerance: net {:?}", s.fit.net);
+                    assert!(s.fit.net.0 * s.fit.net.1 >= r.fit.net.0 * r.fit.net.1);
+                }
+            }
         }
     }
 }
