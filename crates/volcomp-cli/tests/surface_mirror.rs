@@ -349,3 +349,71 @@ fn bad_input_is_refused_with_its_location_and_nothing_is_written() {
     v[11] = "finish.ngc";
     refused(&dir, &v, &["refusing to write"]);
 }
+
+/// Probes whose error is a constant undercut plus unstructured noise
+/// (σ ≈ 0.5 µm, a fixed pseudo-random sequence): no surface predicts the
+/// error between probes, so the leave-one-out prediction of any fit is worse
+/// than not compensating. The default warns and writes; `--refuse-worse`
+/// refuses and writes nothing.
+#[test]
+fn warns_or_refuses_when_compensation_is_predicted_worse() {
+    let dir = tempdir("worse");
+    write_inputs(&dir);
+    let n = nominal();
+    let mut state: u64 = 12345;
+    let mut uniform = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut probes = String::from("id,i,j,x_mm,y_mm,z_mm\n");
+    for i in 0..7 {
+        for j in 0..5 {
+            let (u, v) = (
+                (2.0 + 76.0 * i as f64 / 6.0) / 80.0,
+                (2.0 + 46.0 * j as f64 / 4.0) / 50.0,
+            );
+            // Uniform on ±0.87 µm: σ = 0.5 µm.
+            let noise_um = 0.87 * (2.0 * uniform() - 1.0);
+            let p = n.point(u, v);
+            let q = p + n.normal(u, v) * (0.3 + (3.0 + noise_um) * 1e-3);
+            probes.push_str(&format!(
+                "P{i}{j},{i},{j},{:.6},{:.6},{:.6}\n",
+                q.x, q.y, q.z
+            ));
+        }
+    }
+    std::fs::write(dir.join("noise.csv"), probes).unwrap();
+    let mut args = RUN.to_vec();
+    args[5] = "noise.csv";
+    args.push("--refuse-worse");
+    let o = volcomp(&args, &dir);
+    let (_, err) = text(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("worse than not compensating") && err.contains("nothing was written"),
+        "{err}"
+    );
+    assert!(!dir.join("finish.comp.ngc").exists());
+    assert!(!dir.join("noise.compensated.csv").exists());
+    args.pop();
+    let o = volcomp(&args, &dir);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("warning") && err.contains("worse than not compensating"),
+        "{err}"
+    );
+    assert!(dir.join("finish.comp.ngc").exists());
+    // The JSON summary says so too.
+    std::fs::remove_file(dir.join("finish.comp.ngc")).unwrap();
+    args.push("--json");
+    let o = volcomp(&args, &dir);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("\"compensation_predicted_worse\":true"),
+        "{out}"
+    );
+}

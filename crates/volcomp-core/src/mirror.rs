@@ -889,12 +889,16 @@ impl NominalSurface {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum FitMethod {
     /// Bicubic least squares: among the control nets (4 × 4 up to as many
-    /// coefficients as points) whose residual at every compensation point is
-    /// within the tolerance (µm), the one with the smallest leave-one-out
-    /// error, i.e. the best predicted compensation.
+    /// coefficients as points), the one with the smallest leave-one-out
+    /// error, i.e. the best predicted compensation (cross-validation: Hastie,
+    /// Tibshirani & Friedman, *The Elements of Statistical Learning*, 2009,
+    /// §7.10). The complexity is chosen by the data: a net that fits the
+    /// probe noise predicts each left-out point badly and is not chosen.
     LeastSquares {
-        /// Largest accepted residual (µm).
-        tolerance_um: f64,
+        /// With `Some(t)`, only nets whose residual at every compensation
+        /// point is within `t` µm are considered (the probe noise then must
+        /// stay within `t`: `t` ≳ 3σ). `None` (the default): every net.
+        tolerance_um: Option<f64>,
     },
     /// Bicubic interpolation (A9.4) of a probe grid given by `i, j` columns.
     Interpolate,
@@ -921,7 +925,7 @@ impl Default for MirrorOptions {
             stock_mm: 0.2,
             probe_radius_mm: None,
             max_error_mm: 0.1,
-            fit: FitMethod::LeastSquares { tolerance_um: 1.0 },
+            fit: FitMethod::LeastSquares { tolerance_um: None },
         }
     }
 }
@@ -975,6 +979,12 @@ pub struct FitInfo {
     pub max_residual_um: f64,
     /// RMS residual (µm).
     pub rms_residual_um: f64,
+    /// Estimated probe noise `σ̂ = sqrt(Σ r² / (n − p))` (least squares;
+    /// `p` the control net's coefficients), µm.
+    pub noise_estimate_um: Option<f64>,
+    /// RMS of the leave-one-out prediction errors of the chosen net (least
+    /// squares), µm: the criterion the net was chosen by.
+    pub leave_one_out_rms_um: Option<f64>,
     /// Parameter rectangle the field is defined on (u0, u1, v0, v1).
     pub domain: [f64; 4],
 }
@@ -1049,6 +1059,20 @@ pub struct MirrorResult {
     /// Leave-one-out prediction of the errors after mirror compensation
     /// (least squares only).
     pub mirror_predicted: Option<DeviationStats>,
+}
+
+impl MirrorResult {
+    /// Whether the leave-one-out prediction of the finishing error after
+    /// mirror compensation has a larger standard deviation than the
+    /// measured error itself (no compensation): the fit does not predict
+    /// the error where it was not probed, and compensating would likely
+    /// make the surface worse. `false` when there is no prediction
+    /// (interpolation).
+    pub fn compensation_predicted_worse(&self) -> bool {
+        self.mirror_predicted
+            .as_ref()
+            .is_some_and(|p| p.std_um > self.before.std_um)
+    }
 }
 
 /// Fewest probe points of a bicubic least-squares fit.
@@ -1274,9 +1298,9 @@ fn too_few(n: usize) -> MirrorError {
 fn fit_least_squares(
     nominal: &NominalSurface,
     points: &[MatchedPoint],
-    tolerance_um: f64,
+    tolerance_um: Option<f64>,
 ) -> Result<Fitted, MirrorError> {
-    if !(tolerance_um.is_finite() && tolerance_um > 0.0) {
+    if let Some(tolerance_um) = tolerance_um.filter(|t| !(t.is_finite() && *t > 0.0)) {
         return Err(method_error(
             format!("the fitting tolerance must be positive; got {tolerance_um} µm"),
             "pass --tolerance in µm, e.g. 1",
@@ -1354,7 +1378,7 @@ fn fit_least_squares(
         if best_residual.is_none_or(|b| max < b.0) {
             best_residual = Some((max, (su + 3, sv + 3)));
         }
-        if max > tolerance_um {
+        if tolerance_um.is_some_and(|t| max > t) {
             continue;
         }
         let loo: Option<f64> = fit
@@ -1368,18 +1392,20 @@ fn fit_least_squares(
             chosen = Some((score, fit, (su + 3, sv + 3)));
         }
     }
-    if let Some((_, fit, net)) = chosen {
+    if let Some((score, fit, net)) = chosen {
         let max = fit.residuals.iter().map(|r| r[0].abs()).fold(0.0, f64::max);
-        let rms = (fit.residuals.iter().map(|r| r[0] * r[0]).sum::<f64>()
-            / fit.residuals.len() as f64)
-            .sqrt();
+        let rss = fit.residuals.iter().map(|r| r[0] * r[0]).sum::<f64>();
+        let rms = (rss / fit.residuals.len() as f64).sqrt();
+        let dof = fit.residuals.len().saturating_sub(net.0 * net.1);
         let info = FitInfo {
             method: "least-squares".into(),
             degree: (3, 3),
             net,
-            tolerance_um: Some(tolerance_um),
+            tolerance_um,
             max_residual_um: max,
             rms_residual_um: rms,
+            noise_estimate_um: (dof > 0).then(|| (rss / dof as f64).sqrt()),
+            leave_one_out_rms_um: score.is_finite().then_some(score),
             domain: dom,
         };
         let loo = fit.leave_one_out.iter().map(|l| l.map(|x| x[0])).collect();
@@ -1392,12 +1418,13 @@ fn fit_least_squares(
         ));
     }
     let (max, net) = best_residual.unwrap_or((f64::NAN, (4, 4)));
+    let tol = tolerance_um.map_or("the tolerance".to_string(), |t| format!("±{t} µm"));
     Err(method_error(
         format!(
-            "the compensation points cannot be fitted within ±{tolerance_um} µm with fewer coefficients than points (best: {max:.3} µm with a {} × {} control net, {} points)",
+            "the compensation points cannot be fitted within {tol} with fewer coefficients than points (best: {max:.3} µm with a {} × {} control net, {} points)",
             net.0, net.1, points.len()
         ),
-        "probe more points where the error changes quickly, or loosen --tolerance (it must exceed the probe's noise)",
+        "leave --tolerance out (the fit is then chosen by leave-one-out cross-validation), or loosen it: every residual includes the probe noise, so it must exceed about 3 σ of the noise",
     ))
 }
 
@@ -1524,6 +1551,8 @@ fn fit_interpolation(points: &[MatchedPoint], file: &str) -> Result<Fitted, Mirr
         tolerance_um: None,
         max_residual_um: max,
         rms_residual_um: rms,
+        noise_estimate_um: None,
+        leave_one_out_rms_um: None,
         domain: [us[0], us[nu - 1], vs[0], vs[nv - 1]],
     };
     Ok((field, info, None))

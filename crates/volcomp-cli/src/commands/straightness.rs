@@ -11,7 +11,9 @@ use clap::{Args, Subcommand, ValueEnum};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use volcomp_core::numfmt;
-use volcomp_core::straightness::identify::{fit, AxisFit, Fit, FitOptions, Normalisation};
+use volcomp_core::straightness::identify::{
+    fit, AxisFit, CutoffRule, Fit, FitOptions, Normalisation,
+};
 use volcomp_core::straightness::run::Run;
 use volcomp_core::straightness::{Axis, StraightnessModel};
 
@@ -41,6 +43,14 @@ pub enum NormaliseArg {
     PerRun,
 }
 
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CutoffArg {
+    /// m that best predicts each left-out feed rate from the others (default).
+    CrossValidation,
+    /// The paper's rule: shortest wavelength with σ < σ_t and P̄ > P_t.
+    Thresholds,
+}
+
 /// The runs and the identification options (shared by `fit` and `plot`).
 #[derive(Args, Debug, Clone)]
 pub struct RunArgs {
@@ -64,7 +74,11 @@ pub struct RunArgs {
     /// How spectra are normalised before P̄ and σ are taken.
     #[arg(long, value_enum, default_value_t = NormaliseArg::Common)]
     pub normalise: NormaliseArg,
-    /// Use this number of harmonics m instead of the one the thresholds choose.
+    /// How the number of harmonics m is chosen (σ_t and P_t apply to `thresholds`;
+    /// they still mark the lines reported as rejected).
+    #[arg(long, value_enum, default_value_t = CutoffArg::CrossValidation)]
+    pub cutoff: CutoffArg,
+    /// Use this number of harmonics m instead of the one the rule chooses.
     #[arg(long, value_name = "M")]
     pub harmonics: Option<usize>,
     /// The files' displacement has the opposite sign of the deviation (e.g.
@@ -139,6 +153,10 @@ fn options(a: &RunArgs) -> FitOptions {
             NormaliseArg::PerRun => Normalisation::PerRun,
         },
         harmonics: a.harmonics,
+        cutoff: match a.cutoff {
+            CutoffArg::CrossValidation => CutoffRule::CrossValidation,
+            CutoffArg::Thresholds => CutoffRule::Thresholds,
+        },
     }
 }
 
@@ -190,6 +208,8 @@ fn summary(f: &Fit, o: &FitOptions) -> String {
         ));
         let how = if o.harmonics.is_some() {
             "given by --harmonics".to_string()
+        } else if o.cutoff == CutoffRule::CrossValidation {
+            "best prediction of each left-out feed rate from the others".to_string()
         } else {
             format!(
                 "shortest wavelength with σ < {} and P̄ > {} ({} normalisation)",

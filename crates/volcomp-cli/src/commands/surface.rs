@@ -47,7 +47,8 @@ pub enum Material {
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Fit {
-    /// Bicubic least squares within --tolerance (any probe pattern).
+    /// Bicubic least squares, the control net chosen by leave-one-out
+    /// cross-validation (any probe pattern).
     LeastSquares,
     /// Bicubic interpolation through every point (probe grid with i,j columns).
     Interpolate,
@@ -97,9 +98,16 @@ pub struct MirrorArgs {
     /// How the compensation points are fitted.
     #[arg(long, value_enum, default_value_t = Fit::LeastSquares)]
     pub fit: Fit,
-    /// Largest residual of the least-squares fit at any compensation point (µm).
-    #[arg(long, value_name = "UM", default_value_t = 1.0)]
-    pub tolerance: f64,
+    /// Only consider control nets whose residual at every compensation point is within
+    /// this (µm). Every residual includes the probe noise: give at least 3× its σ.
+    /// Without it the net is chosen by leave-one-out cross-validation alone.
+    #[arg(long, value_name = "UM")]
+    pub tolerance: Option<f64>,
+    /// Refuse (write nothing, exit non-zero) when the leave-one-out prediction of the
+    /// finishing error after compensation is worse (larger std) than not compensating;
+    /// without it a warning is printed.
+    #[arg(long)]
+    pub refuse_worse: bool,
     /// Parameters used to interpolate a grid nominal (CSV).
     #[arg(long, value_enum, default_value_t = GridParams::ChordLength)]
     pub grid_params: GridParams,
@@ -263,7 +271,9 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
     }
     positive(a.stock, "--stock", "a positive length in mm")?;
     positive(a.max_error, "--max-error", "a positive length in mm")?;
-    positive(a.tolerance, "--tolerance", "a positive number of µm")?;
+    if let Some(t) = a.tolerance {
+        positive(t, "--tolerance", "a positive number of µm")?;
+    }
     positive(
         a.contact_tolerance,
         "--contact-tolerance",
@@ -321,6 +331,24 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
         },
     };
     let result = mirror(&nominal, &probes, &options, &measured_file)?;
+    if result.compensation_predicted_worse() {
+        let p = result
+            .mirror_predicted
+            .as_ref()
+            .map_or(f64::NAN, |p| p.std_um);
+        let message = format!(
+            "the leave-one-out prediction of the finishing error after compensation (std {p:.3} µm) is worse than not compensating (std {:.3} µm): the fit ({} × {} control net) does not predict the error between the probe points",
+            result.before.std_um, result.fit.net.0, result.fit.net.1
+        );
+        if a.refuse_worse {
+            return Err(CliError::Message(format!(
+                "{measured_file}: {message}\n  help: probe more densely or check the probe points (an outlier?); nothing was written"
+            )));
+        }
+        eprintln!(
+            "volcomp: warning: {measured_file}: {message}; check the probe points, or pass --refuse-worse to refuse"
+        );
+    }
     let inputs: Vec<&Path> = [
         Some(a.nominal.as_path()),
         Some(a.measured.as_path()),
@@ -441,7 +469,10 @@ fn mirror_header(
         files.push((label.to_string(), file_name(p), sha256_hex(&bytes)));
     }
     let fit = match a.fit {
-        Fit::LeastSquares => format!("least-squares fit within {} um", a.tolerance),
+        Fit::LeastSquares => match a.tolerance {
+            Some(t) => format!("least-squares fit within {t} um"),
+            None => "least-squares fit, net by leave-one-out".to_string(),
+        },
         Fit::Interpolate => "interpolating fit".to_string(),
     };
     let split = if a.no_split {
@@ -580,6 +611,8 @@ struct SummaryJson<'a> {
     baseline_offset_um: f64,
     baseline: DeviationStats,
     mirror_predicted: Option<DeviationStats>,
+    /// The leave-one-out prediction is worse (larger std) than no compensation.
+    compensation_predicted_worse: bool,
     mirror_fit: DeviationStats,
     #[serde(skip_serializing_if = "Option::is_none")]
     surface: Option<&'a SurfaceFiles>,
@@ -609,6 +642,7 @@ fn summary_json<'a>(
         baseline_offset_um: r.baseline_offset_um,
         baseline: r.baseline,
         mirror_predicted: r.mirror_predicted,
+        compensation_predicted_worse: r.compensation_predicted_worse(),
         mirror_fit: r.mirror_fit,
         surface,
         finishing: finishing.map(|f| FinishingJson::new(&f.output, &f.summary)),
@@ -730,12 +764,22 @@ fn report_csv(a: &MirrorArgs, r: &MirrorResult) -> String {
 }
 
 fn fit_text(f: &FitInfo) -> String {
-    match f.tolerance_um {
-        Some(t) => format!(
-            "least squares, bicubic, {} × {} control points; residual max {:.3} µm (tolerance {t} µm), RMS {:.3} µm",
-            f.net.0, f.net.1, f.max_residual_um, f.rms_residual_um
+    match f.method.as_str() {
+        "least-squares" => format!(
+            "least squares, bicubic, {} × {} control points (least leave-one-out error{}); residual max {:.3} µm, RMS {:.3} µm; probe noise σ ≈ {} µm; leave-one-out RMS {} µm",
+            f.net.0,
+            f.net.1,
+            f.tolerance_um
+                .map(|t| format!(" among nets within ±{t} µm"))
+                .unwrap_or_default(),
+            f.max_residual_um,
+            f.rms_residual_um,
+            f.noise_estimate_um
+                .map_or("?".into(), |v| format!("{v:.3}")),
+            f.leave_one_out_rms_um
+                .map_or("?".into(), |v| format!("{v:.3}")),
         ),
-        None => format!(
+        _ => format!(
             "interpolation, bicubic, {} × {} control points; residual max {:.3} µm",
             f.net.0, f.net.1, f.max_residual_um
         ),

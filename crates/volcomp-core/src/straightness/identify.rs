@@ -15,8 +15,10 @@
 //! 5. `P̄(λ_k) = mean_j p_j(k)` and
 //!    `σ(λ_k) = sqrt(Σ_j (p_j(k) − P̄)² / (n_v − 1)) / P̄(λ_k)`
 //!    (sample standard deviation relative to the mean).
-//! 6. The cut-off `λ_c` is the shortest `λ_k` with `σ(λ_k) < σ_t` and
-//!    `P̄(λ_k) > P_t`; `m = l/λ_c` (= that `k`).
+//! 6. `m` (and `λ_c = l/m`) by [`CutoffRule`]: by default the `m` whose
+//!    model, fitted to the other feed rates, best predicts each left-out
+//!    feed rate ([`super::select`]); or the paper's rule, the shortest `λ_k`
+//!    with `σ(λ_k) < σ_t` and `P̄(λ_k) > P_t`.
 //! 7. The model of the axis is the least-squares fit of
 //!    `c + s·x + Σ_{k=1..m} a_k·cos(2πk(x − x_st)/l) + b_k·sin(2πk(x − x_st)/l)`
 //!    to the average of all feed rates' profiles (each feed rate weighted
@@ -24,6 +26,7 @@
 //!    term (`β_zx` for X, `α_yz` for Y).
 
 use super::run::{same_feed, Run};
+use super::select::{cross_validate, CrossValidation};
 use super::spectrum::{
     fourier_coefficients, least_squares_line, power_spectrum, taper_samples, taper_window,
 };
@@ -56,6 +59,31 @@ impl Normalisation {
     }
 }
 
+/// How the number of harmonics `m` is chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CutoffRule {
+    /// Leave-one-feed-rate-out cross-validation ([`super::select`]): the `m`
+    /// whose series, fitted to the other feed rates, best predicts each
+    /// left-out feed rate. Follows a lead that is no harmonic of `l` as far
+    /// as it is predictable, and rejects vibration (which the other feed
+    /// rates, at other wavelengths, cannot predict). The default.
+    #[default]
+    CrossValidation,
+    /// The paper's rule: the shortest wavelength with `σ < σ_t` and
+    /// `P̄ > P_t`.
+    Thresholds,
+}
+
+impl CutoffRule {
+    /// `cross-validation` or `thresholds`.
+    pub fn name(self) -> &'static str {
+        match self {
+            CutoffRule::CrossValidation => "cross-validation",
+            CutoffRule::Thresholds => "thresholds",
+        }
+    }
+}
+
 /// Options of the identification.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FitOptions {
@@ -70,8 +98,10 @@ pub struct FitOptions {
     pub taper_fraction: f64,
     /// How spectra are normalised.
     pub normalisation: Normalisation,
-    /// Use this `m` instead of the one the thresholds give.
+    /// Use this `m` instead of the one the rule gives.
     pub harmonics: Option<usize>,
+    /// How `m` is chosen when it is not given.
+    pub cutoff: CutoffRule,
 }
 
 impl Default for FitOptions {
@@ -82,6 +112,7 @@ impl Default for FitOptions {
             taper_fraction: 0.1,
             normalisation: Normalisation::Common,
             harmonics: None,
+            cutoff: CutoffRule::CrossValidation,
         }
     }
 }
@@ -137,6 +168,9 @@ pub struct AxisFit {
     pub sigma: Vec<f64>,
     /// Harmonics passing both thresholds.
     pub passing: Vec<usize>,
+    /// Leave-one-feed-rate-out cross-validation of `m` (computed whatever
+    /// the rule, for the record; `None` only if it cannot be formed).
+    pub cross_validation: Option<CrossValidation>,
     /// `m`.
     pub harmonics: usize,
     /// `λ_c = l/m` (mm).
@@ -285,6 +319,7 @@ pub fn fit(
                 p_t: options.p_t,
                 normalisation: options.normalisation.name().to_string(),
                 harmonics_forced: options.harmonics.is_some(),
+                cutoff_rule: options.cutoff.name().to_string(),
                 fit_residual_rms_um: a.residual_rms_um,
             }),
         };
@@ -432,7 +467,13 @@ fn fit_axis(axis: Axis, runs: &[&Run], o: &FitOptions) -> Result<AxisFit, Straig
     let passing: Vec<usize> = (1..=half)
         .filter(|&k| sigma[k] < o.sigma_t && mean_power[k] > o.p_t)
         .collect();
-    let m = match (o.harmonics, passing.last()) {
+    let profiles: Vec<Vec<f64>> = feeds.iter().map(|f| f.mean_profile_um.clone()).collect();
+    let cross_validation = cross_validate(&profiles, &positions);
+    let chosen = match o.cutoff {
+        CutoffRule::Thresholds => passing.last().copied(),
+        CutoffRule::CrossValidation => cross_validation.as_ref().map(|c| c.harmonics),
+    };
+    let m = match (o.harmonics, chosen) {
         (Some(h), _) => {
             if h > half {
                 return Err(runs_error(
@@ -442,7 +483,7 @@ fn fit_axis(axis: Axis, runs: &[&Run], o: &FitOptions) -> Result<AxisFit, Straig
             }
             h
         }
-        (None, Some(&k)) => k,
+        (None, Some(k)) => k,
         (None, None) => {
             let best = (1..=half)
                 .filter(|&k| mean_power[k] > o.p_t)
@@ -517,6 +558,7 @@ fn fit_axis(axis: Axis, runs: &[&Run], o: &FitOptions) -> Result<AxisFit, Straig
         mean_power,
         sigma,
         passing,
+        cross_validation,
         harmonics: m,
         cutoff_wavelength_mm: length_mm / m as f64,
         unstable_in_band,

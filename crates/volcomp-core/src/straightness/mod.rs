@@ -29,8 +29,11 @@
 //! ([`spectrum::power_spectrum`]). Geometric error sits at the same
 //! wavelength at every feed rate; vibration of frequency `f` sits at
 //! `λ = v_j / f` and moves. With `P̄(λ)` the mean and `σ(λ)` the relative
-//! standard deviation across feed rates, the shortest wavelength with
-//! `σ(λ) < σ_t` and `P̄(λ) > P_t` is the cut-off `λ_c`, and `m = l / λ_c`.
+//! standard deviation across feed rates, the paper's cut-off `λ_c` is the
+//! shortest wavelength with `σ(λ) < σ_t` and `P̄(λ) > P_t`, and
+//! `m = l / λ_c`. By default `m` is instead chosen by leave-one-feed-rate-out
+//! cross-validation ([`select`]), which follows a lead that is no harmonic
+//! of `l` further and still rejects vibration.
 //!
 //! # Use
 //!
@@ -40,6 +43,7 @@
 
 pub mod identify;
 pub mod run;
+pub mod select;
 pub mod spectrum;
 
 use crate::error::{MapFileError, ModelError};
@@ -170,9 +174,17 @@ pub struct Identification {
     pub normalisation: String,
     /// `m` was given by the user instead of chosen by the thresholds.
     pub harmonics_forced: bool,
+    /// How `m` was chosen: `cross-validation` (the default) or `thresholds`
+    /// (the paper's σ_t, P_t; files written before the choice existed).
+    #[serde(default = "thresholds_rule")]
+    pub cutoff_rule: String,
     /// RMS of measured mean profile − model over the measured range (µm):
     /// what the model leaves out (vibration, noise, short wavelengths).
     pub fit_residual_rms_um: f64,
+}
+
+fn thresholds_rule() -> String {
+    "thresholds".into()
 }
 
 /// The straightness model of one axis.
@@ -563,6 +575,7 @@ mod tests {
                     p_t: 0.01,
                     normalisation: "common".into(),
                     harmonics_forced: false,
+                    cutoff_rule: "cross-validation".into(),
                     fit_residual_rms_um: 0.07,
                 }),
             }),
