@@ -25,27 +25,80 @@ pub enum ModelError {
     },
 }
 
-/// An error-map file is malformed.
+/// A located error in an input file (a table, a model or set-up file): file,
+/// 1-based row and column, optionally the source line (shown bounded and
+/// escaped with a caret, by the same renderer as G-code errors), what is
+/// wrong and what to do.
 ///
 /// ```
 /// use volcomp_core::error::MapFileError;
-/// let e = MapFileError { file: "m.csv".into(), row: 3, column: 2, message: "not a number".into(), help: "write 1.5".into() };
+/// let e = MapFileError::new("m.csv", 3, 2, "not a number", "write 1.5");
 /// assert_eq!(e.to_string(), "m.csv:3:2: not a number\n  help: write 1.5");
 /// ```
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{file}:{row}:{column}: {message}\n  help: {help}")]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct MapFileError {
     /// File name.
     pub file: String,
     /// 1-based line of the file.
     pub row: usize,
-    /// 1-based column (field number for CSV).
+    /// 1-based column (field number for CSV, character for TOML).
     pub column: usize,
     /// What is wrong.
     pub message: String,
     /// What to do.
     pub help: String,
+    /// The offending line, when known (empty: no excerpt is shown).
+    pub source_line: String,
+    /// Byte offset of the caret in `source_line`.
+    pub caret_byte: usize,
 }
+
+impl MapFileError {
+    /// A located error without a source excerpt.
+    pub fn new(
+        file: impl Into<String>,
+        row: usize,
+        column: usize,
+        message: impl Into<String>,
+        help: impl Into<String>,
+    ) -> Self {
+        Self {
+            file: file.into(),
+            row,
+            column,
+            message: message.into(),
+            help: help.into(),
+            source_line: String::new(),
+            caret_byte: 0,
+        }
+    }
+
+    /// Attaches the source line and the caret's byte offset in it.
+    pub fn with_source(mut self, line: &str, caret_byte: usize) -> Self {
+        self.source_line = line.to_string();
+        self.caret_byte = caret_byte;
+        self
+    }
+}
+
+impl std::fmt::Display for MapFileError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        volcomp_gcode::error::render_located(
+            f,
+            &volcomp_gcode::error::Location {
+                file: &self.file,
+                line: self.row as u64,
+                column: self.column,
+                source_line: &self.source_line,
+                caret_byte: self.caret_byte,
+            },
+            &self.message,
+            &self.help,
+        )
+    }
+}
+
+impl std::error::Error for MapFileError {}
 
 /// Compensation or simulation of a program failed.
 #[derive(Debug, thiserror::Error)]

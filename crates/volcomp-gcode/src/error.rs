@@ -78,26 +78,105 @@ impl GcodeError {
 impl fmt::Display for GcodeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let file = self.file.as_deref().unwrap_or("<input>");
-        write!(f, "{file}:{}:{}: {}", self.line, self.column, self.message)?;
-        if !self.source_line.is_empty() {
-            let gutter = self.line.to_string().len();
-            write!(
-                f,
-                "\n{:gutter$} |\n{} | {}",
-                "", self.line, self.source_line
-            )?;
-            let caret_at = self
-                .source_line
-                .char_indices()
-                .take_while(|(i, _)| *i + 1 < self.column)
-                .count();
-            write!(f, "\n{:gutter$} | {}^", "", " ".repeat(caret_at))?;
-        }
-        if !self.help.is_empty() {
-            write!(f, "\n  help: {}", self.help)?;
-        }
-        Ok(())
+        let caret = self.column.saturating_sub(1);
+        render_located(
+            f,
+            &Location {
+                file,
+                line: self.line,
+                column: self.column,
+                source_line: &self.source_line,
+                caret_byte: caret,
+            },
+            &self.message,
+            &self.help,
+        )
     }
+}
+
+/// Where a located diagnostic points: file, 1-based line and column, and the
+/// source line with the byte offset of the caret in it.
+#[derive(Debug, Clone, Copy)]
+pub struct Location<'a> {
+    /// File name as the user gave it.
+    pub file: &'a str,
+    /// 1-based line (row).
+    pub line: u64,
+    /// 1-based column: byte column in a program, field number in a table.
+    pub column: usize,
+    /// The offending line (may be empty: then no excerpt is shown).
+    pub source_line: &'a str,
+    /// Byte offset in `source_line` under which the caret is drawn.
+    pub caret_byte: usize,
+}
+
+/// Characters of the source line shown at most on either side of the caret.
+const EXCERPT_HALF_WIDTH: usize = 60;
+
+/// A bounded, escaped excerpt of `line` around byte `caret_byte`: at most
+/// `2 × EXCERPT_HALF_WIDTH` characters, `…` where the line was cut, control
+/// characters shown as `\x1b`-style escapes so that no terminal escape
+/// sequence of the input reaches the user's terminal. Returns the excerpt and
+/// the caret's character offset in it.
+///
+/// ```
+/// let (s, at) = volcomp_gcode::error::excerpt("G1 X\u{1b}[31m5", 4);
+/// assert_eq!(s, "G1 X\\x1b[31m5");
+/// assert_eq!(at, 4);
+/// ```
+pub fn excerpt(line: &str, caret_byte: usize) -> (String, usize) {
+    let caret_byte = caret_byte.min(line.len());
+    let caret_char = line
+        .char_indices()
+        .take_while(|(i, _)| *i < caret_byte)
+        .count();
+    let total = line.chars().count();
+    let start = caret_char.saturating_sub(EXCERPT_HALF_WIDTH);
+    let end = (caret_char + EXCERPT_HALF_WIDTH).min(total);
+    let mut out = String::new();
+    let mut at = 0;
+    if start > 0 {
+        out.push('…');
+    }
+    for (k, c) in line.chars().enumerate().skip(start).take(end - start) {
+        if k == caret_char {
+            at = out.chars().count();
+        }
+        if c.is_control() {
+            out.push_str(&format!("\\x{:02x}", c as u32));
+        } else {
+            out.push(c);
+        }
+    }
+    if caret_char >= end {
+        at = out.chars().count();
+    }
+    if end < total {
+        out.push('…');
+    }
+    (out, at)
+}
+
+/// Renders a located diagnostic the one way volcomp shows every located
+/// error: `file:line:column: message`, the source line with a caret under
+/// the column (bounded and escaped, see [`excerpt`]), and `help: …`.
+pub fn render_located(
+    f: &mut impl fmt::Write,
+    at: &Location<'_>,
+    message: &str,
+    help: &str,
+) -> fmt::Result {
+    write!(f, "{}:{}:{}: {}", at.file, at.line, at.column, message)?;
+    if !at.source_line.is_empty() {
+        let (text, caret) = excerpt(at.source_line, at.caret_byte);
+        let gutter = at.line.to_string().len();
+        write!(f, "\n{:gutter$} |\n{} | {}", "", at.line, text)?;
+        write!(f, "\n{:gutter$} | {}^", "", " ".repeat(caret))?;
+    }
+    if !help.is_empty() {
+        write!(f, "\n  help: {help}")?;
+    }
+    Ok(())
 }
 
 impl std::error::Error for GcodeError {}
