@@ -3,16 +3,17 @@
 use volcomp_gcode::GcodeError;
 
 /// An error model could not be evaluated.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum ModelError {
     /// A position lies outside the range the map was measured on.
     ///
     /// ```
     /// use volcomp_core::error::ModelError;
     /// let e = ModelError::OutOfRange { axis: 'X', position_mm: 510.0, min_mm: 0.0, max_mm: 500.0 };
-    /// assert!(e.to_string().contains("X = 510.0000 mm"));
+    /// assert!(e.to_string().starts_with("axis X = 510 mm is outside the map's range 0 … 500 mm"));
+    /// let e = ModelError::OutOfRange { axis: 'X', position_mm: 250_000.0, min_mm: 0.0, max_mm: 500.0 };
+    /// assert!(e.to_string().contains("µm"));
     /// ```
-    #[error("axis {axis} = {position_mm:.4} mm is outside the map's range {min_mm:.4} … {max_mm:.4} mm; measure the machine over the whole working range, or pass --clamp to hold the error at the nearest table end")]
     OutOfRange {
         /// Axis letter.
         axis: char,
@@ -23,6 +24,67 @@ pub enum ModelError {
         /// End of the table.
         max_mm: f64,
     },
+}
+
+impl std::error::Error for ModelError {}
+
+/// A length in mm with sensible precision: at most four decimals, trailing
+/// zeros dropped, scientific notation beyond ±1e9 (a huge value must not
+/// print as hundreds of digits).
+pub fn fmt_mm(v: f64) -> String {
+    if !v.is_finite() || v.abs() >= 1e9 {
+        return format!("{v:.3e}");
+    }
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.to_string()
+    }
+}
+
+/// When `x_mm` lies outside `[lo, hi]` but inside it after a unit factor,
+/// the unit that factor suggests for the map's positions.
+fn other_unit(x_mm: f64, lo: f64, hi: f64) -> Option<&'static str> {
+    let margin = 0.05 * (hi - lo).abs();
+    let inside = |v: f64| v >= lo - margin && v <= hi + margin;
+    if inside(x_mm * 1e3) {
+        Some("µm (the map's numbers are 1000 times the program's: is the map in µm, the program in mm?)")
+    } else if inside(x_mm * 1e-3) {
+        Some("metres (the map's numbers are 1/1000 of the program's: is the map in metres or the program in µm?)")
+    } else if inside(x_mm / 25.4) {
+        Some("inches (is the map in inches while the program is in mm?)")
+    } else if inside(x_mm * 25.4) {
+        Some("mm while the program is in inches")
+    } else {
+        None
+    }
+}
+
+impl std::fmt::Display for ModelError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            ModelError::OutOfRange {
+                axis,
+                position_mm,
+                min_mm,
+                max_mm,
+            } => {
+                write!(
+                    f,
+                    "axis {axis} = {} mm is outside the map's range {} … {} mm",
+                    fmt_mm(position_mm),
+                    fmt_mm(min_mm),
+                    fmt_mm(max_mm)
+                )?;
+                if let Some(unit) = other_unit(position_mm, min_mm, max_mm) {
+                    write!(f, "; the map may be in another unit: {unit}")?;
+                }
+                write!(f, "; check the work offset and the units of the program and the map, measure the machine over the whole working range, or use the clamp option to hold the error at the nearest table end")
+            }
+        }
+    }
 }
 
 /// A located error in an input file (a table, a model or set-up file): file,
@@ -100,6 +162,19 @@ impl std::fmt::Display for MapFileError {
 
 impl std::error::Error for MapFileError {}
 
+/// "while compensating the target …: the command …" when a target is known.
+fn target_note(target_mm: &Option<volcomp_gcode::Vec3>, source: &ModelError) -> String {
+    match (target_mm, source) {
+        (Some(t), ModelError::OutOfRange { .. }) => format!(
+            "the target X {} Y {} Z {} mm (machine axes) lies on the map, but the command that compensates it does not: ",
+            fmt_mm(t.x),
+            fmt_mm(t.y),
+            fmt_mm(t.z)
+        ),
+        _ => String::new(),
+    }
+}
+
 /// Compensation or simulation of a program failed.
 #[derive(Debug, thiserror::Error)]
 pub enum CompensationError {
@@ -117,15 +192,21 @@ pub enum CompensationError {
     ///
     /// ```
     /// use volcomp_core::error::{CompensationError, ModelError};
-    /// let e = CompensationError::Model { file: "p.ngc".into(), line: 7, source: ModelError::OutOfRange { axis: 'Y', position_mm: -1.0, min_mm: 0.0, max_mm: 300.0 } };
+    /// let e = CompensationError::Model { file: "p.ngc".into(), line: 7, target_mm: None, source: ModelError::OutOfRange { axis: 'Y', position_mm: -1.0, min_mm: 0.0, max_mm: 300.0 } };
     /// assert!(e.to_string().starts_with("p.ngc:7: axis Y"));
+    /// let e = CompensationError::Model { file: "p.ngc".into(), line: 7, target_mm: Some(volcomp_gcode::Vec3::new(1.0, 0.0, 2.0)), source: ModelError::OutOfRange { axis: 'Y', position_mm: -0.001, min_mm: 0.0, max_mm: 300.0 } };
+    /// assert!(e.to_string().contains("target X 1 Y 0 Z 2 mm"));
     /// ```
-    #[error("{file}:{line}: {source}")]
+    #[error("{file}:{line}: {}{source}", target_note(target_mm, source))]
     Model {
         /// Program file.
         file: String,
         /// 1-based program line.
         line: u64,
+        /// The target (machine axis frame, mm) being compensated, when the
+        /// failure is at the command that reaches it rather than at the
+        /// target itself.
+        target_mm: Option<volcomp_gcode::Vec3>,
         /// What went wrong.
         source: ModelError,
     },

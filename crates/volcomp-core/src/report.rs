@@ -98,6 +98,7 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
     let mut contour = ErrorStats::default();
     let mut report = SimReport::default();
     let model_err = |line: u64, source| CompensationError::Model {
+        target_mm: None,
         file: file.to_string(),
         line,
         source,

@@ -127,7 +127,8 @@ pub fn compensate_file(
             options,
             out,
             &mut on_point,
-        )?;
+        )
+        .map_err(|e| machine.explain(e))?;
         summary = Some(s);
         Ok(())
     })?;
@@ -136,6 +137,7 @@ pub fn compensate_file(
 
 pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     let machine = Machine::from_args(&a.machine)?;
+    machine.warn_without_work_offset();
     let model = load_map(&a.map)?;
     let opts = options(&a)?;
     let mut report: Option<Vec<u8>> = a.report.as_ref().map(|_| {

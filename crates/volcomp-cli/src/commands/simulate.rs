@@ -15,6 +15,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         ));
     }
     let machine = Machine::from_args(&a.machine)?;
+    machine.warn_without_work_offset();
     let model = load_map(&a.map)?;
     let mut walker = machine.walk(&a.program)?;
     let mut reference = match &a.reference {
@@ -56,7 +57,8 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
                 );
             }
         },
-    )?;
+    )
+    .map_err(|e| machine.explain(e))?;
     if let (Some(path), Some(bytes)) = (&a.errors_csv, rows) {
         let mut inputs = vec![a.program.as_path()];
         if let Some(r) = &a.reference {
