@@ -3,10 +3,10 @@
 
 use crate::args::{Cli, Command, MachineArgs, MovesArgs, MovesFormat};
 use crate::output::CliError;
-use volcomp_core::error::CompensationError;
 use std::fs::File;
 use std::io::{self, BufRead, BufReader, BufWriter, Write};
 use std::path::Path;
+use volcomp_core::error::CompensationError;
 use volcomp_gcode::number::{format_number, NumberStyle};
 use volcomp_gcode::{InterpOptions, Motion, MotionKind, Setup, Vec3, Walker};
 

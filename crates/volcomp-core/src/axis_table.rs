@@ -111,7 +111,12 @@ pub(crate) fn axis_field(t: &CsvTable, r: &Record, col: usize) -> Result<usize, 
         "X" => Ok(0),
         "Y" => Ok(1),
         "Z" => Ok(2),
-        _ => Err(t.error(r, col, format!("unknown axis `{}`", shown(text)), "use X, Y or Z")),
+        _ => Err(t.error(
+            r,
+            col,
+            format!("unknown axis `{}`", shown(text)),
+            "use X, Y or Z",
+        )),
     }
 }
 
@@ -244,22 +249,23 @@ impl AxisTableMap {
         for (a, by_dir) in rows.into_iter().enumerate() {
             let [fwd, rev, both] = by_dir;
             let name = AXES[a];
-            let build =
-                |rows: Vec<(f64, Vec3, usize)>, label: &str| -> Result<Table, MapFileError> {
-                    if rows.len() < 2 {
-                        return Err(err(
-                            last_row,
-                            1,
-                            format!(
-                                "axis {name} has {} point(s) in its {label} table",
-                                rows.len()
-                            ),
-                            "give at least two points per table",
-                        ));
-                    }
-                    for w in rows.windows(2) {
-                        if w[1].0 <= w[0].0 {
-                            return Err(t.error_at(
+            let build = |rows: Vec<(f64, Vec3, usize)>,
+                         label: &str|
+             -> Result<Table, MapFileError> {
+                if rows.len() < 2 {
+                    return Err(err(
+                        last_row,
+                        1,
+                        format!(
+                            "axis {name} has {} point(s) in its {label} table",
+                            rows.len()
+                        ),
+                        "give at least two points per table",
+                    ));
+                }
+                for w in rows.windows(2) {
+                    if w[1].0 <= w[0].0 {
+                        return Err(t.error_at(
                                 w[1].2,
                                 cols_position(&header) - 1,
                                 format!(
@@ -268,13 +274,13 @@ impl AxisTableMap {
                                 ),
                                 "list each table's positions in strictly increasing order",
                             ));
-                        }
                     }
-                    Ok(Table {
-                        positions_mm: rows.iter().map(|r| r.0).collect(),
-                        errors_um: rows.iter().map(|r| r.1).collect(),
-                    })
-                };
+                }
+                Ok(Table {
+                    positions_mm: rows.iter().map(|r| r.0).collect(),
+                    errors_um: rows.iter().map(|r| r.1).collect(),
+                })
+            };
             let tables = match (fwd.is_empty(), rev.is_empty(), both.is_empty()) {
                 (true, true, false) => {
                     let t = build(both, "both")?;

@@ -11,8 +11,10 @@ pub enum ModelError {
     /// use volcomp_core::error::ModelError;
     /// let e = ModelError::OutOfRange { axis: 'X', position_mm: 510.0, min_mm: 0.0, max_mm: 500.0 };
     /// assert!(e.to_string().starts_with("axis X = 510 mm is outside the map's range 0 … 500 mm"));
-    /// let e = ModelError::OutOfRange { axis: 'X', position_mm: 250_000.0, min_mm: 0.0, max_mm: 500.0 };
-    /// assert!(e.to_string().contains("µm"));
+    /// let e = ModelError::OutOfRange { axis: 'X', position_mm: 250.0, min_mm: 0.0, max_mm: 0.5 };
+    /// assert!(e.to_string().contains("another unit: metres"));
+    /// let e = ModelError::OutOfRange { axis: 'X', position_mm: 250.0, min_mm: 0.0, max_mm: 200.0 };
+    /// assert!(!e.to_string().contains("another unit"));
     /// ```
     OutOfRange {
         /// Axis letter.
@@ -44,17 +46,23 @@ pub fn fmt_mm(v: f64) -> String {
     }
 }
 
-/// When `x_mm` lies outside `[lo, hi]` but inside it after a unit factor,
-/// the unit that factor suggests for the map's positions.
+/// When `x_mm` lies far outside `[lo, hi]` (more than five spans away) but
+/// inside it after a unit factor, the unit that factor suggests for the
+/// map's positions.
 fn other_unit(x_mm: f64, lo: f64, hi: f64) -> Option<&'static str> {
-    let margin = 0.05 * (hi - lo).abs();
+    let span = (hi - lo).abs();
+    let distance = (lo - x_mm).max(x_mm - hi);
+    if distance <= 5.0 * span {
+        return None;
+    }
+    let margin = 0.05 * span;
     let inside = |v: f64| v >= lo - margin && v <= hi + margin;
     if inside(x_mm * 1e3) {
-        Some("µm (the map's numbers are 1000 times the program's: is the map in µm, the program in mm?)")
+        Some("µm (the map's numbers are 1000 times the program's)")
     } else if inside(x_mm * 1e-3) {
-        Some("metres (the map's numbers are 1/1000 of the program's: is the map in metres or the program in µm?)")
+        Some("metres (the map's numbers are 1/1000 of the program's)")
     } else if inside(x_mm / 25.4) {
-        Some("inches (is the map in inches while the program is in mm?)")
+        Some("inches (the map's numbers are 1/25.4 of the program's)")
     } else if inside(x_mm * 25.4) {
         Some("mm while the program is in inches")
     } else {

@@ -266,7 +266,8 @@ pub fn from_csv(text: &str, file: &str) -> Result<Iso230_2Report, MapFileError> 
     let actual = t.column("actual_mm").is_some();
     let cols = [
         t.require("target_mm")?,
-        t.column_of(&["cycle", "run"]).ok_or_else(|| t.missing("cycle", "the run number"))?,
+        t.column_of(&["cycle", "run"])
+            .ok_or_else(|| t.missing("cycle", "the run number"))?,
         t.require("direction")?,
         t.column_of(&["deviation_um", "actual_mm"])
             .ok_or_else(|| t.missing("deviation_um", "or actual_mm"))?,

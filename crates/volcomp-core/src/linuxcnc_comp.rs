@@ -96,7 +96,9 @@ pub struct Positioning {
 fn next_field(line: &str, at: usize) -> usize {
     let rest = &line[at.min(line.len())..];
     let word = rest.len() - rest.trim_start().len();
-    let after = rest[word..].find(char::is_whitespace).map_or(rest.len(), |i| word + i);
+    let after = rest[word..]
+        .find(char::is_whitespace)
+        .map_or(rest.len(), |i| word + i);
     let gap = rest[after..].len() - rest[after..].trim_start().len();
     at + after + gap
 }
@@ -152,8 +154,7 @@ pub fn parse(
 ) -> Result<Positioning, MapFileError> {
     let err = |row: usize, column: usize, message: String, help: &str| {
         let src = text.lines().nth(row.wrapping_sub(1)).unwrap_or("");
-        let caret = (0..column.saturating_sub(1))
-            .fold(0, |at, _| next_field(src, at));
+        let caret = (0..column.saturating_sub(1)).fold(0, |at, _| next_field(src, at));
         MapFileError::new(file, row, column, message, help).with_source(src, caret)
     };
     let k = units.mm_per_unit();
@@ -414,11 +415,28 @@ mod tests {
         let e = parse(t0, "x.comp", CompFileType::Type1, MachineUnits::Mm).unwrap_err();
         assert!(e.help.contains("type 0"), "{e}");
         // Both readings implausible: no type is suggested.
-        let e = parse("0 0 0\n10 5 -5\n", "x.comp", CompFileType::Type1, MachineUnits::Mm)
-            .unwrap_err();
+        let e = parse(
+            "0 0 0\n10 5 -5\n",
+            "x.comp",
+            CompFileType::Type1,
+            MachineUnits::Mm,
+        )
+        .unwrap_err();
         assert!(e.help.contains("machine units"), "{e}");
         // An inch file: 0.05 in = 1.27 mm is refused, 0.03 in is not.
-        assert!(parse("0 0 0\n1 0.05 0\n", "x.comp", CompFileType::Type1, MachineUnits::Inch).is_err());
-        assert!(parse("0 0 0\n1 0.03 0\n", "x.comp", CompFileType::Type1, MachineUnits::Inch).is_ok());
+        assert!(parse(
+            "0 0 0\n1 0.05 0\n",
+            "x.comp",
+            CompFileType::Type1,
+            MachineUnits::Inch
+        )
+        .is_err());
+        assert!(parse(
+            "0 0 0\n1 0.03 0\n",
+            "x.comp",
+            CompFileType::Type1,
+            MachineUnits::Inch
+        )
+        .is_ok());
     }
 }

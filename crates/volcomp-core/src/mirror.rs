@@ -208,7 +208,11 @@ impl Csv {
                             .error_at(
                                 t.header_line,
                                 c,
-                                format!("column `{}` gives {letter} again (first in column {})", t.header[c], first + 1),
+                                format!(
+                                    "column `{}` gives {letter} again (first in column {})",
+                                    t.header[c],
+                                    first + 1
+                                ),
                                 "give each coordinate once",
                             )
                             .into());

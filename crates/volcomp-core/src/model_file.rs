@@ -30,8 +30,8 @@
 //! with file, row and column.
 
 use crate::axis_table::Table;
-use crate::io::table::{CsvTable, Header, UnknownColumns};
 use crate::error::MapFileError;
+use crate::io::table::{CsvTable, Header, UnknownColumns};
 use crate::kinematic::{
     AngleConvention, AxisComponents, ComponentTable, KinematicModel, Kinematics, MeasuringLine,
     Squareness,
@@ -193,7 +193,10 @@ impl TableRows {
                 return Err(t.error_at(
                     t.header_line,
                     c,
-                    format!("column `{name}` gives the same component as column {}", cols[k] + 1),
+                    format!(
+                        "column `{name}` gives the same component as column {}",
+                        cols[k] + 1
+                    ),
                     "name each column once",
                 ));
             }

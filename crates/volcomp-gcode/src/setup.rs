@@ -86,7 +86,10 @@ impl At<'_> {
         let offset = offset.min(self.text.len());
         let before = &self.text.as_bytes()[..offset];
         let line = before.iter().filter(|&&b| b == b'\n').count() as u64 + 1;
-        let start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        let start = before
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |i| i + 1);
         let end = self.text[start..]
             .find('\n')
             .map_or(self.text.len(), |i| start + i);
@@ -235,7 +238,10 @@ impl Setup {
 fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let before = &text.as_bytes()[..offset.min(text.len())];
     let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
-    let start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let start = before
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(0, |i| i + 1);
     (line, before.len() - start + 1)
 }
 
@@ -268,8 +274,11 @@ mod tests {
 
     #[test]
     fn positions_need_exactly_three_values() {
-        let e = Setup::from_toml_in("units = \"mm\"\n[work_offsets]\nG54 = [250, 200, 150, 1]\n", "s.toml")
-            .unwrap_err();
+        let e = Setup::from_toml_in(
+            "units = \"mm\"\n[work_offsets]\nG54 = [250, 200, 150, 1]\n",
+            "s.toml",
+        )
+        .unwrap_err();
         assert_eq!((e.0.line, e.0.column), (3, 7), "{e}");
         assert!(e.to_string().contains("G54 has 4 value(s)"), "{e}");
         let e = Setup::from_toml_in("units = \"mm\"\nstart = [1, 2]\n", "s.toml").unwrap_err();
@@ -284,7 +293,10 @@ mod tests {
         let e = Setup::from_toml_in("units = \"mm\"\n[tools]\n1 = 75\nT1 = 80\n", "s.toml")
             .unwrap_err();
         assert_eq!(e.0.line, 4, "{e}");
-        assert!(e.to_string().contains("both give the length of tool 1"), "{e}");
+        assert!(
+            e.to_string().contains("both give the length of tool 1"),
+            "{e}"
+        );
         assert!(e.to_string().contains("(line 3)"), "{e}");
     }
 
@@ -293,7 +305,10 @@ mod tests {
         let e = Setup::from_toml_in("units = \"mm\"\n[work_offsets]\nG60 = [0,0,0]\n", "s.toml")
             .unwrap_err();
         assert_eq!((e.0.line, e.0.column), (3, 1), "{e}");
-        assert!(e.to_string().starts_with("s.toml:3:1: unknown work offset"), "{e}");
+        assert!(
+            e.to_string().starts_with("s.toml:3:1: unknown work offset"),
+            "{e}"
+        );
         let e = Setup::from_toml_in("units = \"mm\"\nbogus = 1\n", "s.toml").unwrap_err();
         assert_eq!(e.0.line, 2, "{e}");
         let e = Setup::from_toml_in("units = \"cm\"\n", "s.toml").unwrap_err();

@@ -83,13 +83,19 @@ pub fn utf8<'a>(bytes: &'a [u8], file: &str) -> Result<&'a str, MapFileError> {
         let at = e.valid_up_to();
         let before = &bytes[..at];
         let row = before.iter().filter(|&&b| b == b'\n').count() + 1;
-        let line_start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        let line_start = before
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |i| i + 1);
         let line_end = bytes[at..]
             .iter()
             .position(|&b| b == b'\n')
             .map_or(bytes.len(), |i| at + i);
         let line = String::from_utf8_lossy(&bytes[line_start..line_end]);
-        let column = String::from_utf8_lossy(&bytes[line_start..at]).chars().count() + 1;
+        let column = String::from_utf8_lossy(&bytes[line_start..at])
+            .chars()
+            .count()
+            + 1;
         MapFileError::new(
             file,
             row,
@@ -239,7 +245,10 @@ impl CsvTable {
             return Err(self.error_at(
                 line,
                 0,
-                format!("the header `{}` is one field", shown(record.get(0).unwrap_or(""))),
+                format!(
+                    "the header `{}` is one field",
+                    shown(record.get(0).unwrap_or(""))
+                ),
                 SEMICOLON_HINT,
             ));
         }
@@ -248,7 +257,10 @@ impl CsvTable {
                 return Err(self.error_at(
                     line,
                     c,
-                    format!("column `{name}` appears twice (first as column {})", first + 1),
+                    format!(
+                        "column `{name}` appears twice (first as column {})",
+                        first + 1
+                    ),
                     "name each column once",
                 ));
             }
@@ -261,7 +273,12 @@ impl CsvTable {
                         spec.layout
                     )
                 };
-                return Err(self.error_at(line, c, format!("unknown column `{}`", shown(name)), help));
+                return Err(self.error_at(
+                    line,
+                    c,
+                    format!("unknown column `{}`", shown(name)),
+                    help,
+                ));
             }
         }
         self.header = names;
@@ -320,7 +337,9 @@ impl CsvTable {
     }
 
     fn source(&self, line: usize) -> &str {
-        self.lines.get(line.wrapping_sub(1)).map_or("", String::as_str)
+        self.lines
+            .get(line.wrapping_sub(1))
+            .map_or("", String::as_str)
     }
 
     /// An error at `line` and 0-based column `col` (reported 1-based, with
@@ -466,8 +485,12 @@ mod tests {
 
     #[test]
     fn bom_quotes_order_and_case() {
-        let t = CsvTable::parse("\u{feff}B_UM , a_mm\r\n\"2\",1\r\n\n  # c\n3,4\n", "t.csv", &H)
-            .unwrap();
+        let t = CsvTable::parse(
+            "\u{feff}B_UM , a_mm\r\n\"2\",1\r\n\n  # c\n3,4\n",
+            "t.csv",
+            &H,
+        )
+        .unwrap();
         let (a, b) = (t.require("a_mm").unwrap(), t.require("b_um").unwrap());
         assert_eq!((a, b), (1, 0));
         assert_eq!(t.records().unwrap().len(), 2);
@@ -482,7 +505,10 @@ mod tests {
         let e = t.number(&t.records().unwrap()[0], 1).unwrap_err();
         assert_eq!((e.row, e.column), (2, 2));
         let s = e.to_string();
-        assert!(s.starts_with("t.csv:2:2: column 2 `b_um`: `x` is not a number"), "{s}");
+        assert!(
+            s.starts_with("t.csv:2:2: column 2 `b_um`: `x` is not a number"),
+            "{s}"
+        );
         assert!(s.contains("in µm"), "{s}");
         assert!(s.contains("2 | 1,x\n  |   ^"), "{s}");
     }
@@ -518,7 +544,10 @@ mod tests {
     fn excerpts_are_bounded_and_escaped() {
         let long = format!("a_mm,b_um\n1,\u{1b}]0;{}\n", "9".repeat(100_000));
         let t = CsvTable::parse(&long, "t.csv", &H).unwrap();
-        let s = t.number(&t.records().unwrap()[0], 1).unwrap_err().to_string();
+        let s = t
+            .number(&t.records().unwrap()[0], 1)
+            .unwrap_err()
+            .to_string();
         assert!(!s.contains('\u{1b}'));
         assert!(s.contains("\\x1b"));
         assert!(s.len() < 1000, "{}", s.len());

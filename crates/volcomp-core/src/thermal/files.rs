@@ -556,7 +556,23 @@ impl ThermalModelFile {
 
     /// Predicted parameters (full vector, `None` for the unidentifiable) at
     /// row `row` of `temps` (its sensors must match the model's by name).
+    /// Temperatures outside the training range are refused
+    /// ([`super::checks::check_training_range`]).
     pub fn predict(
+        &self,
+        temps: &Temperatures,
+        temps_file: &str,
+        row: usize,
+    ) -> Result<Vec<Option<f64>>, ThermalError> {
+        if temps.sensors == self.sensors {
+            super::checks::check_training_range(self, temps, temps_file, row)?;
+        }
+        self.predict_extrapolating(temps, temps_file, row)
+    }
+
+    /// As [`Self::predict`], but without refusing temperatures outside the
+    /// training range (the caller has asked to extrapolate).
+    pub fn predict_extrapolating(
         &self,
         temps: &Temperatures,
         temps_file: &str,
