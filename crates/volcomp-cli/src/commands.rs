@@ -39,6 +39,13 @@ pub struct Machine {
     pub no_work_offset: bool,
 }
 
+/// Reads a text input; bytes that are not UTF-8 are reported by line and
+/// column (a byte-order mark is dropped).
+pub fn read_utf8(path: &Path) -> Result<String, CliError> {
+    let bytes = std::fs::read(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+    Ok(volcomp_core::io::table::utf8(&bytes, &path.display().to_string())?.to_string())
+}
+
 /// The first words of every message about a missing work offset.
 pub const NO_WORK_OFFSET: &str = "no work offset was given (G54 = 0)";
 

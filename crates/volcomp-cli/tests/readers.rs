@@ -104,6 +104,16 @@ fn bom_quotes_semicolons_and_bad_bytes_in_a_map() {
         "{msg}"
     );
     assert!(msg.contains("\\x1b"), "{msg}");
+    // A byte that is not UTF-8 is located.
+    let mut bytes = good.as_bytes().to_vec();
+    let at = good.find("X,both,100").unwrap() + 9;
+    bytes[at] = 0xe9;
+    std::fs::write(d.join("map.csv"), bytes).unwrap();
+    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
+    assert!(
+        msg.contains("map.csv:3:10:") && msg.contains("UTF-8"),
+        "{msg}"
+    );
 }
 
 #[test]

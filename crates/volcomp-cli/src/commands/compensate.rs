@@ -14,7 +14,7 @@ use volcomp_core::solve::Method;
 
 /// Loads the error map named by `--map`.
 pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
-    let text = std::fs::read_to_string(&a.map).map_err(|e| CliError::Io(a.map.clone(), e))?;
+    let text = super::read_utf8(&a.map)?;
     // A straightness model (docs/straightness.md): TOML with `kind = "straightness"`.
     if volcomp_core::straightness::StraightnessModel::is_model_toml(&text) {
         let mut m = volcomp_core::straightness::StraightnessModel::from_toml(
