@@ -261,3 +261,20 @@ fn a_sphere_far_off_warns_about_the_noise() {
     let o = fit(&d, "ex/measurements_train.csv");
     assert!(!stderr(&o).contains("probing noise"), "{}", stderr(&o));
 }
+
+#[test]
+fn a_target_on_the_map_edge_is_reported_with_its_command() {
+    let d = tempdir("edge");
+    // X error +5 µm everywhere: the command for target X0 is X−0.005, off
+    // the map's 0 … 100 mm although the target is on it.
+    let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,5,0,0\nX,both,100,5,0,0\nY,both,0,0,0,0\nY,both,100,0,0,0\nZ,both,0,0,0,0\nZ,both,100,0,0,0\n";
+    std::fs::write(d.join("map.csv"), csv).unwrap();
+    std::fs::write(d.join("p.ngc"), "G21 G90\nG0 X50 Y50 Z50\nG1 X0 F100\nM2\n").unwrap();
+    let o = compensate(&d, &["--work-offset", "0,0,0", "--no-split"]);
+    let msg = stderr(&o);
+    assert!(!o.status.success(), "{msg}");
+    assert!(msg.contains("p.ngc:3:"), "{msg}");
+    assert!(msg.contains("the target X 0 Y 50 Z 50 mm"), "{msg}");
+    assert!(msg.contains("axis X = -0.005 mm"), "{msg}");
+    assert!(!msg.contains("no work offset"), "{msg}");
+}
