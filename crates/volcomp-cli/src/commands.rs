@@ -6,6 +6,7 @@ use crate::output::CliError;
 use std::fs::File;
 use std::io::{self, BufRead, BufReader, BufWriter, Write};
 use std::path::Path;
+use volcomp_core::error::CompensationError;
 use volcomp_gcode::number::{format_number, NumberStyle};
 use volcomp_gcode::{InterpOptions, Motion, MotionKind, Setup, Vec3, Walker};
 
@@ -34,7 +35,19 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
 pub struct Machine {
     pub setup: Setup,
     pub options: InterpOptions,
+    /// Neither --setup nor --work-offset was given: G54 is zero.
+    pub no_work_offset: bool,
 }
+
+/// Reads a text input; bytes that are not UTF-8 are reported by line and
+/// column (a byte-order mark is dropped).
+pub fn read_utf8(path: &Path) -> Result<String, CliError> {
+    let bytes = std::fs::read(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+    Ok(volcomp_core::io::table::utf8(&bytes, &path.display().to_string())?.to_string())
+}
+
+/// The first words of every message about a missing work offset.
+pub const NO_WORK_OFFSET: &str = "no work offset was given (G54 = 0)";
 
 /// Parses `X,Y,Z` (three finite numbers).
 pub fn parse_triple(text: &str, flag: &str) -> Result<Vec3, CliError> {
@@ -56,8 +69,8 @@ impl Machine {
             Some(path) => {
                 let text =
                     std::fs::read_to_string(path).map_err(|e| CliError::Io(path.clone(), e))?;
-                Setup::from_toml(&text)
-                    .map_err(|e| CliError::Message(format!("{}: {e}", path.display())))?
+                Setup::from_toml_in(&text, &path.display().to_string())
+                    .map_err(|e| CliError::Message(e.to_string()))?
             }
             None => Setup::default(),
         };
@@ -68,7 +81,33 @@ impl Machine {
             accept_k0_on_xy_arcs: !a.strict_k0,
             absolute_arc_centers: a.absolute_arc_centers,
         };
-        Ok(Machine { setup, options })
+        Ok(Machine {
+            setup,
+            options,
+            no_work_offset: a.setup.is_none() && a.work_offset.is_none(),
+        })
+    }
+
+    /// Warns on standard error when no work offset was given.
+    pub fn warn_without_work_offset(&self) {
+        if self.no_work_offset {
+            eprintln!("volcomp: warning: {NO_WORK_OFFSET}: program coordinates are taken as machine coordinates; give the offsets with --setup FILE or --work-offset X,Y,Z");
+        }
+    }
+
+    /// Renders a compensation or simulation error with the CLI's flags: an
+    /// out-of-range position first names a missing work offset, then the
+    /// flags that fix it.
+    pub fn explain(&self, e: CompensationError) -> CliError {
+        match &e {
+            CompensationError::Model { .. } if self.no_work_offset => CliError::Message(format!(
+                "{NO_WORK_OFFSET}: {e}\n  help: give the program's work offsets with --setup FILE or --work-offset X,Y,Z first; --clamp holds the error at the table ends"
+            )),
+            CompensationError::Model { .. } => CliError::Message(format!(
+                "{e}\n  help: check --setup / --work-offset; --clamp holds the error at the table ends"
+            )),
+            _ => CliError::from(e),
+        }
     }
 
     /// A walker over a program file ("-" is standard input).

@@ -138,8 +138,18 @@ fn out_of_range_names_axis_position_range_and_line() {
     let msg = stderr(&o);
     assert!(
         msg.contains("p.ngc:2:")
-            && msg.contains("axis X = 350.0000 mm")
-            && msg.contains("-100.0000 … 300.0000"),
+            && msg.contains("axis X = 350 mm")
+            && msg.contains("-100 … 300 mm"),
+        "{msg}"
+    );
+    // No --setup, no --work-offset: said first, in the warning and the error.
+    assert!(
+        msg.starts_with("volcomp: warning: no work offset was given (G54 = 0)"),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("error: no work offset was given (G54 = 0): p.ngc:2:")
+            || msg.contains("no work offset was given (G54 = 0): p.ngc:2:"),
         "{msg}"
     );
     assert!(!dir.join("out.ngc").exists());
@@ -185,7 +195,7 @@ fn bad_map_files_name_row_and_column() {
             "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,0,0,0\nX,both,10,NaN,0,0\n",
             "map.csv:3:4:",
         ),
-        ("axis,direction,position_mm,ex_um,ey_um\n", "map.csv:1:1:"),
+        ("axis,direction,position_mm,ex_um,ey_um\n", "map.csv:1:6:"),
         (
             "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,10,0,0,0\nX,both,5,0,0,0\n",
             "map.csv:3:3:",

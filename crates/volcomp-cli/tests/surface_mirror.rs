@@ -316,7 +316,7 @@ fn bad_input_is_refused_with_its_location_and_nothing_is_written() {
     call(
         "nounit.csv",
         &[],
-        &["nounit.csv:2:1:", "does not say its unit"],
+        &["nounit.csv:2:4:", "does not say its unit"],
     );
     // A stock the curvature does not allow (concave radius ≈ 167 mm).
     call("probes.csv", &["--stock", "200"], &["concave radius"]);

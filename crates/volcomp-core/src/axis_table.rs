@@ -5,11 +5,11 @@
 //! each table linearly interpolated between its points (the seed model of the [Seed papers],
 //! docs/references.md).
 //!
-//! The CSV reader is our own: the format is six plain columns, and what it
-//! must do well is name the row and column of every bad value, which a
-//! general CSV crate does not do for us.
+//! The CSV is read by [`crate::io::table`], which names the row and column
+//! of every bad value.
 
 use crate::error::{MapFileError, ModelError};
+use crate::io::table::{shown, CsvTable, Header, Record, UnknownColumns};
 use crate::model::{Components, Direction, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
 
@@ -105,75 +105,39 @@ impl RowDirection {
     }
 }
 
-/// Reads an `axis` field: 0, 1, 2 for X, Y, Z (row and column 1-based).
-pub(crate) fn axis_field(
-    text: &str,
-    file: &str,
-    row: usize,
-    column: usize,
-) -> Result<usize, MapFileError> {
+/// Reads an `axis` field: 0, 1, 2 for X, Y, Z.
+pub(crate) fn axis_field(t: &CsvTable, r: &Record, col: usize) -> Result<usize, MapFileError> {
+    let text = t.text(r, col);
     match text.to_ascii_uppercase().as_str() {
         "X" => Ok(0),
         "Y" => Ok(1),
         "Z" => Ok(2),
-        _ => Err(MapFileError {
-            file: file.to_string(),
-            row,
-            column,
-            message: format!("unknown axis `{text}`"),
-            help: "use X, Y or Z".into(),
-        }),
+        _ => Err(t.error(
+            r,
+            col,
+            format!("unknown axis `{}`", shown(text)),
+            "use X, Y or Z",
+        )),
     }
 }
 
-/// Reads a `direction` field (row and column are 1-based, for the error).
+/// Reads a `direction` field.
 pub(crate) fn direction_field(
-    text: &str,
-    file: &str,
-    row: usize,
-    column: usize,
+    t: &CsvTable,
+    r: &Record,
+    col: usize,
 ) -> Result<RowDirection, MapFileError> {
+    let text = t.text(r, col);
     match text.to_ascii_lowercase().as_str() {
         "forward" | "fwd" | "+" => Ok(RowDirection::Forward),
         "reverse" | "rev" | "-" => Ok(RowDirection::Reverse),
         "both" => Ok(RowDirection::Both),
-        _ => Err(MapFileError {
-            file: file.to_string(),
-            row,
-            column,
-            message: format!("unknown direction `{text}`"),
-            help: "use forward, reverse or both".into(),
-        }),
-    }
-}
-
-/// Reads a finite number field (row and column are 1-based, for the error).
-pub(crate) fn finite_field(
-    text: &str,
-    file: &str,
-    row: usize,
-    column: usize,
-) -> Result<f64, MapFileError> {
-    let err = |message: String, help: &str| MapFileError {
-        file: file.to_string(),
-        row,
-        column,
-        message,
-        help: help.to_string(),
-    };
-    let v: f64 = text.parse().map_err(|_| {
-        err(
-            format!("`{text}` is not a number"),
-            "write a decimal number such as -1.25",
-        )
-    })?;
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(err(
-            format!("`{text}` is not a finite number"),
-            "remove NaN/inf values; every table point needs a measured value",
-        ))
+        _ => Err(t.error(
+            r,
+            col,
+            format!("unknown direction `{}`", shown(text)),
+            "use forward, reverse or both",
+        )),
     }
 }
 
@@ -253,101 +217,71 @@ impl AxisTableMap {
     /// assert!((e.x - 0.5).abs() < 1e-12);
     /// ```
     pub fn from_csv(text: &str, file: &str) -> Result<AxisTableMap, MapFileError> {
-        let err = |row: usize, column: usize, message: String, help: &str| MapFileError {
-            file: file.to_string(),
-            row,
-            column,
-            message,
-            help: help.to_string(),
+        let err = |row: usize, column: usize, message: String, help: &str| {
+            MapFileError::new(file, row, column, message, help)
         };
-        let mut header: Option<[usize; 6]> = None;
+        let t = CsvTable::parse(
+            text,
+            file,
+            &Header {
+                known: &COLUMNS,
+                unknown: UnknownColumns::Refuse,
+                layout: "axis,direction,position_mm,ex_um,ey_um,ez_um (positions in mm, errors in µm) in any order",
+            },
+        )?;
+        let mut cols = [0; 6];
+        for (k, name) in COLUMNS.iter().enumerate() {
+            cols[k] = t.require(name)?;
+        }
+        let header = Some(cols);
         // [axis][0 forward, 1 reverse, 2 both] → rows (position, errors, row number)
         let mut rows: [[Vec<(f64, Vec3, usize)>; 3]; 3] = Default::default();
-        for (i, raw) in text.lines().enumerate() {
-            let row = i + 1;
-            let line = raw.trim();
-            if line.is_empty() || line.starts_with('#') {
-                continue;
-            }
-            let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-            let Some(cols) = header else {
-                let mut idx = [usize::MAX; 6];
-                for (c, name) in fields.iter().enumerate() {
-                    let lower = name.to_ascii_lowercase();
-                    match COLUMNS.iter().position(|k| *k == lower) {
-                        Some(k) => idx[k] = c,
-                        None => {
-                            return Err(err(row, c + 1, format!("unknown column `{name}`"), "the header must name the columns axis,direction,position_mm,ex_um,ey_um,ez_um (positions in mm, errors in µm) in any order"))
-                        }
-                    }
-                }
-                if let Some(k) = idx.iter().position(|v| *v == usize::MAX) {
-                    return Err(err(row, 1, format!("the header has no `{}` column", COLUMNS[k]), "the header must name axis,direction,position_mm,ex_um,ey_um,ez_um; units are part of the names"));
-                }
-                header = Some(idx);
-                continue;
-            };
-            if fields.len() != 6 {
-                return Err(err(
-                    row,
-                    fields.len().min(6) + 1,
-                    format!("expected 6 fields, found {}", fields.len()),
-                    "each row is axis,direction,position_mm,ex_um,ey_um,ez_um",
-                ));
-            }
-            let axis = axis_field(fields[cols[0]], file, row, cols[0] + 1)?;
-            let dir = direction_field(fields[cols[1]], file, row, cols[1] + 1)?.index();
+        for r in t.records()? {
+            let axis = axis_field(&t, r, cols[0])?;
+            let dir = direction_field(&t, r, cols[1])?.index();
             let mut num = [0.0; 4];
             for (k, slot) in num.iter_mut().enumerate() {
-                let c = cols[2 + k];
-                *slot = finite_field(fields[c], file, row, c + 1)?;
+                *slot = t.number(r, cols[2 + k])?;
             }
-            rows[axis][dir].push((num[0], Vec3::new(num[1], num[2], num[3]), row));
+            rows[axis][dir].push((num[0], Vec3::new(num[1], num[2], num[3]), r.line));
         }
-        if header.is_none() {
-            return Err(err(
-                1,
-                1,
-                "the file has no header".into(),
-                "start with the line axis,direction,position_mm,ex_um,ey_um,ez_um",
-            ));
-        }
-        let last_row = text.lines().count().max(1);
+        let last_row = t.last_line();
         let mut axes = Vec::with_capacity(3);
         for (a, by_dir) in rows.into_iter().enumerate() {
             let [fwd, rev, both] = by_dir;
             let name = AXES[a];
-            let build =
-                |rows: Vec<(f64, Vec3, usize)>, label: &str| -> Result<Table, MapFileError> {
-                    if rows.len() < 2 {
-                        return Err(err(
-                            last_row,
-                            1,
-                            format!(
-                                "axis {name} has {} point(s) in its {label} table",
-                                rows.len()
-                            ),
-                            "give at least two points per table",
-                        ));
-                    }
-                    for w in rows.windows(2) {
-                        if w[1].0 <= w[0].0 {
-                            return Err(err(
+            let build = |rows: Vec<(f64, Vec3, usize)>,
+                         label: &str|
+             -> Result<Table, MapFileError> {
+                if rows.len() < 2 {
+                    return Err(err(
+                        last_row,
+                        1,
+                        format!(
+                            "axis {name} has {} point(s) in its {label} table",
+                            rows.len()
+                        ),
+                        "give at least two points per table",
+                    ));
+                }
+                for w in rows.windows(2) {
+                    if w[1].0 <= w[0].0 {
+                        return Err(t.error_at(
                                 w[1].2,
-                                cols_position(&header),
+                                cols_position(&header) - 1,
                                 format!(
-                                    "axis {name} {label}: position {} does not increase after {}",
-                                    w[1].0, w[0].0
+                                    "axis {name} {label}: position {} does not increase after {} (row {})",
+                                    w[1].0, w[0].0, w[0].2
                                 ),
                                 "list each table's positions in strictly increasing order",
                             ));
-                        }
                     }
-                    Ok(Table {
-                        positions_mm: rows.iter().map(|r| r.0).collect(),
-                        errors_um: rows.iter().map(|r| r.1).collect(),
-                    })
-                };
+                }
+                Ok(Table {
+                    positions_mm: rows.iter().map(|r| r.0).collect(),
+                    errors_um: rows.iter().map(|r| r.1).collect(),
+                })
+            };
             let tables = match (fwd.is_empty(), rev.is_empty(), both.is_empty()) {
                 (true, true, false) => {
                     let t = build(both, "both")?;

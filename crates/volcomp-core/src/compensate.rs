@@ -413,6 +413,26 @@ fn model_error(file: &str, line: u64, source: ModelError) -> CompensationError {
     CompensationError::Model {
         file: file.into(),
         line,
+        target_mm: None,
+        source,
+    }
+}
+
+/// A model error at the command that compensates target `t`: reported with
+/// the target when the target itself lies inside the map's range.
+fn command_error(
+    model: &dyn ErrorModel,
+    file: &str,
+    line: u64,
+    t: Vec3,
+    source: ModelError,
+) -> CompensationError {
+    let r = model.range_mm();
+    let inside = (0..3).all(|a| t[a] >= r[a][0] && t[a] <= r[a][1]);
+    CompensationError::Model {
+        file: file.into(),
+        line,
+        target_mm: inside.then_some(t),
         source,
     }
 }
@@ -744,7 +764,7 @@ impl State {
                     )
                 }
             }
-            .map_err(|source| model_error(file, line, source))?;
+            .map_err(|source| command_error(model, file, line, *t, source))?;
             let correction = (point.q_mm - *t).norm();
             if correction > options.max_correction_mm {
                 return Err(CompensationError::AtLine {

@@ -42,6 +42,7 @@
 //! all the same and reported in [`Iso230_2Report::notes`].
 
 use crate::error::MapFileError;
+use crate::io::table::{CsvTable, Header, UnknownColumns};
 use std::collections::BTreeMap;
 
 /// Statistics at one target position (µm).
@@ -217,131 +218,90 @@ pub fn evaluate(data: &[(f64, Vec<f64>, Vec<f64>)]) -> Result<Iso230_2Report, St
 
 /// Reads a test CSV (layout in the module documentation) and evaluates it.
 pub fn from_csv(text: &str, file: &str) -> Result<Iso230_2Report, MapFileError> {
-    let err = |row, column, message: String, help: &str| MapFileError {
-        file: file.to_string(),
-        row,
-        column,
-        message,
-        help: help.to_string(),
-    };
-    let layout = "the header names target_mm, cycle, direction and deviation_um (or actual_mm), in any order";
-    // [target, cycle, direction, value]; value_is_actual
-    let mut header: Option<([usize; 4], bool, usize)> = None;
-    let mut groups: BTreeMap<u64, (f64, Vec<f64>, Vec<f64>)> = BTreeMap::new();
-    let mut seen: BTreeMap<(u64, i64, bool), usize> = BTreeMap::new();
-    let mut last_row = 1;
-    for (i, raw) in text.lines().enumerate() {
-        let row = i + 1;
-        last_row = row;
-        let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
+    let layout = "target_mm, cycle, direction and deviation_um (or actual_mm), in any order";
+    let t = CsvTable::parse(
+        text,
+        file,
+        &Header {
+            known: &[],
+            unknown: UnknownColumns::Keep,
+            layout,
+        },
+    )?;
+    let help = format!("the header names {layout}");
+    for (c, name) in t.header.iter().enumerate() {
+        match name.as_str() {
+            "target_mm" | "cycle" | "run" | "direction" | "deviation_um" | "actual_mm" => {}
+            "target" | "deviation" | "actual" | "position" => {
+                return Err(t.error_at(
+                    t.header_line,
+                    c,
+                    format!("column `{name}` has no unit"),
+                    "write target_mm, deviation_um (µm) or actual_mm (mm)",
+                ))
+            }
+            _ => {
+                return Err(t.error_at(
+                    t.header_line,
+                    c,
+                    format!("unknown column `{}`", crate::io::table::shown(name)),
+                    help,
+                ))
+            }
         }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        let Some((cols, actual, width)) = header else {
-            let mut idx = [usize::MAX; 4];
-            let mut actual = false;
-            for (c, name) in fields.iter().enumerate() {
-                let lower = name.to_ascii_lowercase();
-                let k = match lower.as_str() {
-                    "target_mm" => 0,
-                    "cycle" | "run" => 1,
-                    "direction" => 2,
-                    "deviation_um" => 3,
-                    "actual_mm" => {
-                        actual = true;
-                        3
-                    }
-                    "target" | "deviation" | "actual" | "position" => {
-                        return Err(err(
-                            row,
-                            c + 1,
-                            format!("column `{name}` has no unit"),
-                            "write target_mm, deviation_um (µm) or actual_mm (mm)",
-                        ))
-                    }
-                    _ => return Err(err(row, c + 1, format!("unknown column `{name}`"), layout)),
-                };
-                if idx[k] != usize::MAX {
-                    return Err(err(
-                        row,
-                        c + 1,
-                        format!("column `{name}` repeats an earlier one"),
-                        layout,
-                    ));
-                }
-                idx[k] = c;
-            }
-            if let Some(k) = idx.iter().position(|v| *v == usize::MAX) {
-                let name = ["target_mm", "cycle", "direction", "deviation_um"][k];
-                return Err(err(
-                    row,
-                    fields.len() + 1,
-                    format!("the header has no `{name}` column"),
-                    layout,
-                ));
-            }
-            header = Some((idx, actual, fields.len()));
-            continue;
-        };
-        if fields.len() != width {
-            return Err(err(
-                row,
-                fields.len().min(width) + 1,
-                format!("expected {width} fields, found {}", fields.len()),
-                layout,
+    }
+    let twice = |a: &str, b: &str| -> Result<(), MapFileError> {
+        if let (Some(_), Some(cb)) = (t.column(a), t.column(b)) {
+            return Err(t.error_at(
+                t.header_line,
+                cb,
+                format!("columns `{a}` and `{b}` give the same quantity"),
+                "give one of them",
             ));
         }
-        let num = |k: usize| -> Result<f64, MapFileError> {
-            let c = cols[k];
-            match fields[c].parse::<f64>() {
-                Ok(v) if v.is_finite() => Ok(v),
-                Ok(_) => Err(err(
-                    row,
-                    c + 1,
-                    format!("`{}` is not a finite number", fields[c]),
-                    "every approach needs a measured value",
-                )),
-                Err(_) => Err(err(
-                    row,
-                    c + 1,
-                    format!("`{}` is not a number", fields[c]),
-                    "write a decimal number such as -1.25",
-                )),
-            }
-        };
-        let target = num(0)?;
-        let cycle_text = fields[cols[1]];
-        let cycle: i64 = cycle_text.parse().map_err(|_| {
-            err(
-                row,
-                cols[1] + 1,
-                format!("`{cycle_text}` is not a cycle number"),
-                "number the approaches 1, 2, 3 …",
-            )
+        Ok(())
+    };
+    twice("cycle", "run")?;
+    twice("deviation_um", "actual_mm")?;
+    let actual = t.column("actual_mm").is_some();
+    let cols = [
+        t.require("target_mm")?,
+        t.column_of(&["cycle", "run"])
+            .ok_or_else(|| t.missing("cycle", "the run number"))?,
+        t.require("direction")?,
+        t.column_of(&["deviation_um", "actual_mm"])
+            .ok_or_else(|| t.missing("deviation_um", "or actual_mm"))?,
+    ];
+    let mut groups: BTreeMap<u64, (f64, Vec<f64>, Vec<f64>)> = BTreeMap::new();
+    let mut seen: BTreeMap<(u64, i64, bool), usize> = BTreeMap::new();
+    for r in t.records()? {
+        let target = t.number(r, cols[0])?;
+        let cycle: i64 = t.integer(r, cols[1]).map_err(|mut e| {
+            e.help = "number the approaches 1, 2, 3 …".into();
+            e
         })?;
-        let dir_text = fields[cols[2]];
+        let dir_text = t.text(r, cols[2]);
         let up = match dir_text.to_ascii_lowercase().as_str() {
             "up" | "+" | "forward" | "fwd" | "↑" => true,
             "down" | "-" | "reverse" | "rev" | "↓" => false,
             _ => {
-                return Err(err(
-                    row,
-                    cols[2] + 1,
-                    format!("unknown direction `{dir_text}`"),
+                return Err(t.error(
+                    r,
+                    cols[2],
+                    format!("unknown direction `{}`", crate::io::table::shown(dir_text)),
                     "write up (approach in the positive direction) or down",
                 ))
             }
         };
-        let value = num(3)?;
+        let value = t.number(r, cols[3])?;
         let deviation_um = if actual {
             (value - target) * 1e3
         } else {
             value
         };
         let key = target.to_bits();
-        if let Some(first) = seen.insert((key, cycle, up), row) {
-            return Err(err(row, cols[1] + 1, format!("target {target} mm, cycle {cycle}, direction {dir_text} was already given on row {first}"), "give each approach once"));
+        if let Some(first) = seen.insert((key, cycle, up), r.line) {
+            return Err(t.error(r, cols[1], format!("target {target} mm, cycle {cycle}, direction {dir_text} was already given on row {first}"), "give each approach once"));
         }
         let g = groups
             .entry(key)
@@ -352,13 +312,11 @@ pub fn from_csv(text: &str, file: &str) -> Result<Iso230_2Report, MapFileError> 
             g.2.push(deviation_um);
         }
     }
-    if header.is_none() {
-        return Err(err(1, 1, "the file has no header".into(), layout));
-    }
     let data: Vec<(f64, Vec<f64>, Vec<f64>)> = groups.into_values().collect();
     evaluate(&data).map_err(|m| {
-        err(
-            last_row,
+        MapFileError::new(
+            file,
+            t.last_line(),
             1,
             m,
             "ISO 230-2 approaches every target several times from both sides",

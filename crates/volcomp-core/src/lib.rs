@@ -11,6 +11,7 @@ pub mod bspline;
 pub mod compensate;
 pub mod error;
 pub mod example;
+pub mod io;
 pub mod iso230_2;
 pub mod kinematic;
 pub mod kinematic_example;

@@ -92,6 +92,52 @@ pub struct Positioning {
     pub reverse_um: Vec<f64>,
 }
 
+/// Byte offset of the next blank-separated field after the one at `at`.
+fn next_field(line: &str, at: usize) -> usize {
+    let rest = &line[at.min(line.len())..];
+    let word = rest.len() - rest.trim_start().len();
+    let after = rest[word..]
+        .find(char::is_whitespace)
+        .map_or(rest.len(), |i| word + i);
+    let gap = rest[after..].len() - rest[after..].trim_start().len();
+    at + after + gap
+}
+
+/// The largest positioning error (mm) a comp file can plausibly describe:
+/// screw errors are micrometres to a few tenths of a millimetre; an error of
+/// a millimetre or more means the columns were read as the wrong type.
+pub const PLAUSIBLE_ERROR_MM: f64 = 1.0;
+
+/// A line whose error, read as `ty`, is implausibly large: the message and
+/// help (naming the other type when that reading is plausible).
+fn type_mismatch(v: [f64; 3], ty: CompFileType, units: MachineUnits) -> Option<(String, String)> {
+    let k = units.mm_per_unit();
+    let as0 = (v[1] - v[0]).abs().max((v[2] - v[0]).abs()) * k;
+    let as1 = v[1].abs().max(v[2].abs()) * k;
+    let (this, other, other_ty) = match ty {
+        CompFileType::Type0 => (as0, as1, 1),
+        CompFileType::Type1 => (as1, as0, 0),
+    };
+    if this <= PLAUSIBLE_ERROR_MM {
+        return None;
+    }
+    let what = match ty {
+        CompFileType::Type0 => "actual positions",
+        CompFileType::Type1 => "trims",
+    };
+    let message = format!(
+        "read as COMP_FILE_TYPE {}, the {what} on this line mean an error of {this:.3} mm at nominal {}",
+        ty.number(),
+        v[0]
+    );
+    let help = if other <= PLAUSIBLE_ERROR_MM {
+        format!("the file looks like COMP_FILE_TYPE {other_ty} (errors of at most {other:.4} mm): read it as type {other_ty}")
+    } else {
+        format!("a comp file describes errors of micrometres, not {PLAUSIBLE_ERROR_MM} mm or more: check the file's type (0: nominal actual actual; 1: nominal trim trim) and its machine units")
+    };
+    Some((message, help))
+}
+
 /// Reads a comp file; `file` names it in errors.
 ///
 /// ```
@@ -106,12 +152,10 @@ pub fn parse(
     ty: CompFileType,
     units: MachineUnits,
 ) -> Result<Positioning, MapFileError> {
-    let err = |row, column, message: String, help: &str| MapFileError {
-        file: file.to_string(),
-        row,
-        column,
-        message,
-        help: help.to_string(),
+    let err = |row: usize, column: usize, message: String, help: &str| {
+        let src = text.lines().nth(row.wrapping_sub(1)).unwrap_or("");
+        let caret = (0..column.saturating_sub(1)).fold(0, |at, _| next_field(src, at));
+        MapFileError::new(file, row, column, message, help).with_source(src, caret)
     };
     let k = units.mm_per_unit();
     let mut out = Positioning {
@@ -171,6 +215,9 @@ pub fn parse(
             ));
         }
         prev_nominal = v[0];
+        if let Some((message, help)) = type_mismatch(v, ty, units) {
+            return Err(err(row, 2, message, &help));
+        }
         let (fwd, rev) = match ty {
             CompFileType::Type0 => (v[1] - v[0], v[2] - v[0]),
             CompFileType::Type1 => (-v[1], -v[2]),
@@ -345,5 +392,44 @@ mod tests {
             reverse_um: vec![0.0; 300],
         };
         assert!(write(&many, CompFileType::Type1, MachineUnits::Mm).is_err());
+    }
+
+    #[test]
+    fn a_file_of_the_other_type_is_refused() {
+        // Type 1 (trims of a few µm) read as type 0: "actual" 0.002 at
+        // nominal 1000 means errors of 999.998 and 1000.003 mm.
+        let t1 = "0 0.001 -0.001\n1000 0.002 -0.003\n";
+        let e = parse(t1, "x.comp", CompFileType::Type0, MachineUnits::Mm).unwrap_err();
+        assert_eq!((e.row, e.column), (2, 2), "{e}");
+        assert!(e.message.contains("1000.003 mm"), "{e}");
+        assert!(e.help.contains("type 1"), "{e}");
+        // Type 0 read as type 1: trims of 1000 mm.
+        let t0 = "0 0.001 -0.001\n1000 1000.002 999.997\n";
+        let e = parse(t0, "x.comp", CompFileType::Type1, MachineUnits::Mm).unwrap_err();
+        assert!(e.help.contains("type 0"), "{e}");
+        // Both readings implausible: no type is suggested.
+        let e = parse(
+            "0 0 0\n10 5 -5\n",
+            "x.comp",
+            CompFileType::Type1,
+            MachineUnits::Mm,
+        )
+        .unwrap_err();
+        assert!(e.help.contains("machine units"), "{e}");
+        // An inch file: 0.05 in = 1.27 mm is refused, 0.03 in is not.
+        assert!(parse(
+            "0 0 0\n1 0.05 0\n",
+            "x.comp",
+            CompFileType::Type1,
+            MachineUnits::Inch
+        )
+        .is_err());
+        assert!(parse(
+            "0 0 0\n1 0.03 0\n",
+            "x.comp",
+            CompFileType::Type1,
+            MachineUnits::Inch
+        )
+        .is_ok());
     }
 }

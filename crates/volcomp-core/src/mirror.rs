@@ -45,7 +45,8 @@ use crate::compensate::{
     compensate_program, CompensateOptions, CompensateSummary, DirectionPolicy, ProgramStyle,
     Segmentation,
 };
-use crate::error::{CompensationError, ModelError};
+use crate::error::{CompensationError, MapFileError, ModelError};
+use crate::io::table::{CsvTable, Header, Record, UnknownColumns};
 use crate::model::{Components, Directions, ErrorModel};
 use crate::solve::Method;
 use std::io::{BufRead, Write};
@@ -70,6 +71,9 @@ pub enum MirrorError {
         /// What to do.
         help: String,
     },
+    /// A located error in a table file.
+    #[error(transparent)]
+    File(#[from] MapFileError),
     /// A file as a whole.
     #[error("{file}: {message}\n  help: {help}")]
     InFile {
@@ -164,74 +168,33 @@ pub fn deviation_stats(values: impl IntoIterator<Item = f64>) -> DeviationStats 
 
 // ---- CSV ---------------------------------------------------------------------
 
-struct CsvRow<'a> {
-    line: usize,
-    fields: Vec<&'a str>,
+/// A probe-point or grid table, read by [`crate::io::table`]; columns
+/// other than those looked up are ignored.
+struct Csv {
+    table: CsvTable,
 }
 
-struct Csv<'a> {
-    file: &'a str,
-    header_line: usize,
-    header: Vec<String>,
-    rows: Vec<CsvRow<'a>>,
-}
-
-fn read_csv<'a>(text: &'a str, file: &'a str) -> Result<Csv<'a>, MirrorError> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut header: Option<(usize, Vec<String>)> = None;
-    let mut rows = Vec::new();
-    for (k, raw) in text.lines().enumerate() {
-        let line = k + 1;
-        let t = raw.trim();
-        if t.is_empty() || t.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = t.split(',').map(str::trim).collect();
-        match &header {
-            None => {
-                header = Some((
-                    line,
-                    fields.iter().map(|f| f.to_ascii_lowercase()).collect(),
-                ))
-            }
-            Some((_, h)) => {
-                if fields.len() != h.len() {
-                    return Err(MirrorError::AtRow {
-                        file: file.into(),
-                        row: line,
-                        column: fields.len().min(h.len()) + 1,
-                        message: format!(
-                            "{} fields where the header has {}",
-                            fields.len(),
-                            h.len()
-                        ),
-                        help: "give every row one value per header column".into(),
-                    });
-                }
-                rows.push(CsvRow { line, fields });
-            }
-        }
-    }
-    let (header_line, header) = header.ok_or_else(|| MirrorError::InFile {
-        file: file.into(),
-        message: "the file is empty".into(),
-        help: "write a header line (e.g. x_mm,y_mm,z_mm) and one row per point".into(),
-    })?;
-    Ok(Csv {
+fn read_csv(text: &str, file: &str) -> Result<Csv, MirrorError> {
+    let table = CsvTable::parse(
+        text,
         file,
-        header_line,
-        header,
-        rows,
-    })
+        &Header {
+            known: &[],
+            unknown: UnknownColumns::Keep,
+            layout: "x_mm,y_mm,z_mm (or x_in,y_in,z_in)",
+        },
+    )?;
+    Ok(Csv { table })
 }
 
-impl Csv<'_> {
+impl Csv {
     fn column(&self, names: &[&str]) -> Option<usize> {
-        self.header.iter().position(|h| names.contains(&h.as_str()))
+        self.table.column_of(names)
     }
 
     /// The x, y, z columns and their unit (`x_mm`… or `x_in`…).
     fn xyz(&self) -> Result<([usize; 3], Units), MirrorError> {
+        let t = &self.table;
         let mut found: [Option<(usize, Units)>; 3] = [None; 3];
         for (a, letter) in ["x", "y", "z"].iter().enumerate() {
             for (suffix, unit) in [
@@ -240,33 +203,51 @@ impl Csv<'_> {
                 ("_inch", Units::Inch),
             ] {
                 if let Some(c) = self.column(&[&format!("{letter}{suffix}")]) {
+                    if let Some((first, _)) = found[a] {
+                        return Err(t
+                            .error_at(
+                                t.header_line,
+                                c,
+                                format!(
+                                    "column `{}` gives {letter} again (first in column {})",
+                                    t.header[c],
+                                    first + 1
+                                ),
+                                "give each coordinate once",
+                            )
+                            .into());
+                    }
                     found[a] = Some((c, unit));
                 }
             }
             if found[a].is_none() {
-                let bare = self.column(&[letter]).is_some();
-                return Err(MirrorError::AtRow {
-                    file: self.file.into(),
-                    row: self.header_line,
-                    column: 1,
-                    message: if bare {
-                        format!("column `{letter}` does not say its unit")
-                    } else {
-                        format!("no `{letter}_mm` column in the header")
-                    },
-                    help: "name the coordinate columns with their unit: x_mm,y_mm,z_mm (or x_in,y_in,z_in); volcomp never guesses a unit".into(),
-                });
+                let help = "name the coordinate columns with their unit: x_mm,y_mm,z_mm (or x_in,y_in,z_in); volcomp never guesses a unit";
+                return Err(match self.column(&[letter]) {
+                    Some(c) => t.error_at(
+                        t.header_line,
+                        c,
+                        format!("column `{letter}` does not say its unit"),
+                        help,
+                    ),
+                    None => {
+                        let mut e = t.missing(&format!("{letter}_mm"), "");
+                        e.help = help.into();
+                        e
+                    }
+                }
+                .into());
             }
         }
         let units: Vec<Units> = found.iter().flatten().map(|f| f.1).collect();
         if units.iter().any(|u| *u != units[0]) {
-            return Err(MirrorError::AtRow {
-                file: self.file.into(),
-                row: self.header_line,
-                column: 1,
-                message: "the coordinate columns mix millimetres and inches".into(),
-                help: "write all three coordinates in one unit".into(),
-            });
+            return Err(MapFileError::new(
+                &t.file,
+                t.header_line,
+                1,
+                "the coordinate columns mix millimetres and inches",
+                "write all three coordinates in one unit",
+            )
+            .into());
         }
         Ok((
             [0, 1, 2].map(|a| found[a].map(|f| f.0).unwrap_or(0)),
@@ -274,47 +255,23 @@ impl Csv<'_> {
         ))
     }
 
-    fn number(&self, row: &CsvRow<'_>, col: usize) -> Result<f64, MirrorError> {
-        let text = row.fields[col];
-        let err = |message: String| MirrorError::AtRow {
-            file: self.file.into(),
-            row: row.line,
-            column: col + 1,
-            message,
-            help: format!(
-                "write a finite decimal number in column `{}`",
-                self.header[col]
-            ),
-        };
-        match text.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
-            Ok(_) => Err(err(format!("`{text}` is not a finite number"))),
-            Err(_) if text.is_empty() => Err(err("the value is missing".into())),
-            Err(_) => Err(err(format!("`{text}` is not a number"))),
-        }
+    fn integer(&self, row: &Record, col: usize) -> Result<i64, MirrorError> {
+        self.table.integer(row, col).map_err(|mut e| {
+            e.help = format!(
+                "column `{}` holds a grid index (0, 1, 2, …)",
+                self.table.header[col]
+            );
+            e.into()
+        })
     }
 
-    fn integer(&self, row: &CsvRow<'_>, col: usize) -> Result<i64, MirrorError> {
-        row.fields[col]
-            .parse::<i64>()
-            .map_err(|_| MirrorError::AtRow {
-                file: self.file.into(),
-                row: row.line,
-                column: col + 1,
-                message: format!("`{}` is not a whole number", row.fields[col]),
-                help: format!(
-                    "column `{}` holds a grid index (0, 1, 2, …)",
-                    self.header[col]
-                ),
-            })
-    }
-
-    fn point(&self, row: &CsvRow<'_>, cols: [usize; 3], units: Units) -> Result<Vec3, MirrorError> {
+    fn point(&self, row: &Record, cols: [usize; 3], units: Units) -> Result<Vec3, MirrorError> {
         let k = units.mm_per_unit();
+        let t = &self.table;
         Ok(Vec3::new(
-            self.number(row, cols[0])? * k,
-            self.number(row, cols[1])? * k,
-            self.number(row, cols[2])? * k,
+            t.number(row, cols[0])? * k,
+            t.number(row, cols[1])? * k,
+            t.number(row, cols[2])? * k,
         ))
     }
 }
@@ -348,15 +305,15 @@ pub fn read_probe_points(text: &str, file: &str) -> Result<Vec<ProbePoint>, Mirr
         _ => {
             return Err(MirrorError::AtRow {
                 file: file.into(),
-                row: csv.header_line,
+                row: csv.table.header_line,
                 column: 1,
                 message: "only one of the grid index columns i, j is present".into(),
                 help: "give both i and j, or neither".into(),
             })
         }
     };
-    let mut out = Vec::with_capacity(csv.rows.len());
-    for row in &csv.rows {
+    let mut out = Vec::with_capacity(csv.table.records()?.len());
+    for row in csv.table.records()? {
         out.push(ProbePoint {
             row: row.line,
             id: id.map(|c| row.fields[c].to_string()),
@@ -396,14 +353,14 @@ pub struct PointGrid {
 pub fn read_grid_csv(text: &str, file: &str) -> Result<PointGrid, MirrorError> {
     let csv = read_csv(text, file)?;
     let (cols, units) = csv.xyz()?;
-    let mut pts = Vec::with_capacity(csv.rows.len());
-    for row in &csv.rows {
+    let mut pts = Vec::with_capacity(csv.table.records()?.len());
+    for row in csv.table.records()? {
         pts.push((row.line, csv.point(row, cols, units)?));
     }
     let idx: Vec<(i64, i64)> = match (csv.column(&["i"]), csv.column(&["j"])) {
         (Some(ci), Some(cj)) => {
-            let mut v = Vec::with_capacity(csv.rows.len());
-            for row in &csv.rows {
+            let mut v = Vec::with_capacity(csv.table.records()?.len());
+            for row in csv.table.records()? {
                 v.push((csv.integer(row, ci)?, csv.integer(row, cj)?));
             }
             v
@@ -2079,7 +2036,7 @@ mod tests {
         let e = read_probe_points("# c\nx_mm,y_mm,z_mm\n1,2,3\n1,NaN,3\n", "p.csv").unwrap_err();
         assert!(
             e.to_string()
-                .starts_with("p.csv:4:2: `NaN` is not a finite number"),
+                .starts_with("p.csv:4:2: column 2 `y_mm`: `NaN` is not a finite number"),
             "{e}"
         );
         let e = read_probe_points("x,y,z\n1,2,3\n", "p.csv").unwrap_err();

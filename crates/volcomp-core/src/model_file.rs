@@ -31,6 +31,7 @@
 
 use crate::axis_table::Table;
 use crate::error::MapFileError;
+use crate::io::table::{CsvTable, Header, UnknownColumns};
 use crate::kinematic::{
     AngleConvention, AxisComponents, ComponentTable, KinematicModel, Kinematics, MeasuringLine,
     Squareness,
@@ -67,13 +68,7 @@ pub enum ModelFileError {
 }
 
 fn map_err(file: &str, row: usize, column: usize, message: String, help: &str) -> MapFileError {
-    MapFileError {
-        file: file.to_string(),
-        row,
-        column,
-        message,
-        help: help.to_string(),
-    }
+    MapFileError::new(file, row, column, message, help)
 }
 
 // ---------------------------------------------------------------------------
@@ -181,72 +176,49 @@ const COLUMN_MEANING: [&str; 9] = [
 impl TableRows {
     /// Adds the rows of one CSV file; `file` names it in errors.
     pub fn add_csv(&mut self, text: &str, file: &str) -> Result<(), MapFileError> {
-        let err = |row, column, message, help: &str| map_err(file, row, column, message, help);
-        let mut header: Option<([usize; 9], [f64; 9], usize)> = None;
-        let mut last_row = 1;
-        for (i, raw) in text.lines().enumerate() {
-            let row = i + 1;
-            last_row = row;
-            let line = raw.trim();
-            if line.is_empty() || line.starts_with('#') {
-                continue;
-            }
-            let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-            let Some((cols, scale, width)) = header else {
-                let mut idx = [usize::MAX; 9];
-                let mut factor = [1.0; 9];
-                for (c, name) in fields.iter().enumerate() {
-                    let (k, f) = header_slot(name)
-                        .map_err(|(message, help)| err(row, c + 1, message, help))?;
-                    if idx[k] != usize::MAX {
-                        return Err(err(
-                            row,
-                            c + 1,
-                            format!("column `{name}` appears twice"),
-                            "name each column once",
-                        ));
-                    }
-                    idx[k] = c;
-                    factor[k] = f;
-                }
-                if let Some(k) = idx.iter().position(|v| *v == usize::MAX) {
-                    return Err(err(
-                        row,
-                        fields.len() + 1,
-                        format!(
-                            "the header has no `{}` column ({})",
-                            COLUMN_NAMES[k], COLUMN_MEANING[k]
-                        ),
-                        "the 21-component table needs axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad; write 0 for a component that was not measured",
-                    ));
-                }
-                header = Some((idx, factor, fields.len()));
-                continue;
-            };
-            if fields.len() != width {
-                return Err(err(
-                    row,
-                    fields.len().min(width) + 1,
-                    format!("expected {width} fields, found {}", fields.len()),
-                    "each row has one value per header column",
+        let t = CsvTable::parse(
+            text,
+            file,
+            &Header {
+                known: &[],
+                unknown: UnknownColumns::Keep,
+                layout: CSV_HEADER,
+            },
+        )?;
+        let mut cols = [usize::MAX; 9];
+        let mut scale = [1.0; 9];
+        for (c, name) in t.header.iter().enumerate() {
+            let (k, f) = header_slot(name)
+                .map_err(|(message, help)| t.error_at(t.header_line, c, message, help))?;
+            if cols[k] != usize::MAX {
+                return Err(t.error_at(
+                    t.header_line,
+                    c,
+                    format!(
+                        "column `{name}` gives the same component as column {}",
+                        cols[k] + 1
+                    ),
+                    "name each column once",
                 ));
             }
-            let axis = crate::axis_table::axis_field(fields[cols[0]], file, row, cols[0] + 1)?;
-            let dir = match crate::axis_table::direction_field(
-                fields[cols[1]],
-                file,
-                row,
-                cols[1] + 1,
-            )? {
+            cols[k] = c;
+            scale[k] = f;
+        }
+        if let Some(k) = cols.iter().position(|v| *v == usize::MAX) {
+            let mut e = t.missing(COLUMN_NAMES[k], COLUMN_MEANING[k]);
+            e.help = "the 21-component table needs axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad; write 0 for a component that was not measured".into();
+            return Err(e);
+        }
+        for r in t.records()? {
+            let axis = crate::axis_table::axis_field(&t, r, cols[0])?;
+            let dir = match crate::axis_table::direction_field(&t, r, cols[1])? {
                 crate::axis_table::RowDirection::Forward => Dir::Forward,
                 crate::axis_table::RowDirection::Reverse => Dir::Reverse,
                 crate::axis_table::RowDirection::Both => Dir::Both,
             };
             let mut num = [0.0; 7];
             for (k, slot) in num.iter_mut().enumerate() {
-                let c = cols[2 + k];
-                *slot =
-                    crate::axis_table::finite_field(fields[c], file, row, c + 1)? * scale[2 + k];
+                *slot = t.number(r, cols[2 + k])? * scale[2 + k];
             }
             self.rows.push(Row {
                 axis,
@@ -255,18 +227,11 @@ impl TableRows {
                 linear_um: Vec3::new(num[1], num[2], num[3]),
                 angular_urad: Vec3::new(num[4], num[5], num[6]),
                 file: file.to_string(),
-                row,
+                row: r.line,
                 position_column: cols[2] + 1,
             });
         }
-        if header.is_none() {
-            return Err(err(
-                1,
-                1,
-                "the file has no header".into(),
-                &format!("start with the line {CSV_HEADER}"),
-            ));
-        }
+        let last_row = t.last_line();
         self.last = Some((file.to_string(), last_row));
         Ok(())
     }

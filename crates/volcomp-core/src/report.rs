@@ -214,6 +214,7 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
         on_segment(&segment);
     };
     let model_err = |line: u64, source| CompensationError::Model {
+        target_mm: None,
         file: file.to_string(),
         line,
         source,

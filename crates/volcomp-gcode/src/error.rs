@@ -88,26 +88,71 @@ impl GcodeError {
 impl fmt::Display for GcodeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let file = self.file.as_deref().unwrap_or("<input>");
-        write!(f, "{file}:{}:{}: {}", self.line, self.column, self.message)?;
-        if !self.source_line.is_empty() {
-            let gutter = self.line.to_string().len();
-            write!(
-                f,
-                "\n{:gutter$} |\n{} | {}",
-                "", self.line, self.source_line
-            )?;
-            write!(
-                f,
-                "\n{:gutter$} | {}^",
-                "",
-                " ".repeat(usize::from(self.caret))
-            )?;
-        }
-        if !self.help.is_empty() {
-            write!(f, "\n  help: {}", self.help)?;
-        }
-        Ok(())
+        render_excerpt(
+            f,
+            file,
+            self.line,
+            self.column,
+            &self.source_line,
+            usize::from(self.caret),
+            &self.message,
+            &self.help,
+        )
     }
+}
+
+/// Where a located diagnostic points: file, 1-based line and column, and the
+/// source line with the byte offset of the caret in it.
+#[derive(Debug, Clone, Copy)]
+pub struct Location<'a> {
+    /// File name as the user gave it.
+    pub file: &'a str,
+    /// 1-based line (row).
+    pub line: u64,
+    /// 1-based column: byte column in a program, field number in a table.
+    pub column: usize,
+    /// The offending line (may be empty: then no excerpt is shown).
+    pub source_line: &'a str,
+    /// Byte offset in `source_line` under which the caret is drawn.
+    pub caret_byte: usize,
+}
+
+/// Renders a located diagnostic the one way volcomp shows every located
+/// error: `file:line:column: message`, the source line with a caret under
+/// the column (bounded and escaped, see [`excerpt`]), and `help: …`.
+pub fn render_located(
+    f: &mut impl fmt::Write,
+    at: &Location<'_>,
+    message: &str,
+    help: &str,
+) -> fmt::Result {
+    let (text, caret) = excerpt(at.source_line.as_bytes(), at.caret_byte);
+    render_excerpt(f, at.file, at.line, at.column, &text, caret, message, help)
+}
+
+/// The one shape of a located diagnostic, given an excerpt already bounded
+/// and escaped by [`excerpt`] and the caret's character offset in it.
+#[allow(clippy::too_many_arguments)]
+fn render_excerpt(
+    f: &mut impl fmt::Write,
+    file: &str,
+    line: u64,
+    column: usize,
+    text: &str,
+    caret: usize,
+    message: &str,
+    help: &str,
+) -> fmt::Result {
+    write!(f, "{file}:{line}:{column}: {message}")?;
+    if !text.is_empty() {
+        let gutter = line.to_string().len();
+        write!(f, "\n{:gutter$} |\n{line} | {text}", "")?;
+        write!(f, "\n{:gutter$} | {}^", "", " ".repeat(caret))?;
+    }
+    if !help.is_empty() {
+        write!(f, "\n  help: {help}")?;
+    }
+    Ok(())
 }
 
 impl std::error::Error for GcodeError {}

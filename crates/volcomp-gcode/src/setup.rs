@@ -16,6 +16,7 @@
 //! Lengths are converted to millimetres on load; a file without `units`
 //! is refused rather than guessed.
 
+use crate::error::{ErrorClass, GcodeError};
 use crate::geom::{Units, Vec3};
 use std::collections::BTreeMap;
 
@@ -58,105 +59,203 @@ impl Default for Setup {
     }
 }
 
-/// Why a setup file was refused.
+/// Why a setup file was refused: a located error (file, line, column, the
+/// line, what to do) for every case, TOML syntax included.
 #[derive(Debug, thiserror::Error)]
-pub enum SetupError {
-    /// The TOML did not parse or had the wrong shape.
-    #[error("{0}")]
-    Toml(#[from] toml::de::Error),
-    /// A value made no sense.
-    #[error("{0}")]
-    Invalid(String),
-}
+#[error(transparent)]
+pub struct SetupError(pub Box<GcodeError>);
+
+/// A value with its byte range in the file.
+type Sp<T> = toml::Spanned<T>;
 
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawSetup {
-    units: Option<Units>,
-    start: Option<[f64; 3]>,
+    units: Option<Sp<Units>>,
+    start: Option<Sp<Vec<f64>>>,
     #[serde(default)]
-    work_offsets: BTreeMap<String, [f64; 3]>,
+    work_offsets: BTreeMap<Sp<String>, Sp<Vec<f64>>>,
     #[serde(default)]
-    tools: BTreeMap<String, f64>,
+    tools: BTreeMap<Sp<String>, Sp<f64>>,
     #[serde(default)]
-    reference: BTreeMap<String, [f64; 3]>,
+    reference: BTreeMap<Sp<String>, Sp<Vec<f64>>>,
+}
+
+/// Builds located errors for one set-up file.
+struct At<'a> {
+    text: &'a str,
+    file: &'a str,
+}
+
+impl At<'_> {
+    /// A located error at byte `offset` of the text.
+    fn error(&self, offset: usize, message: String, help: &str) -> SetupError {
+        let offset = offset.min(self.text.len());
+        let before = &self.text.as_bytes()[..offset];
+        let line = before.iter().filter(|&&b| b == b'\n').count() as u64 + 1;
+        let start = before
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |i| i + 1);
+        let end = self.text[start..]
+            .find('\n')
+            .map_or(self.text.len(), |i| start + i);
+        let column = offset - start + 1;
+        SetupError(Box::new(
+            GcodeError::new(ErrorClass::Invalid, line, column, message, help)
+                .with_source_line(&self.text.as_bytes()[start..end])
+                .with_file(self.file),
+        ))
+    }
+
+    /// A position of three finite numbers, in mm.
+    fn vec(&self, name: &str, a: &Sp<Vec<f64>>, mm_per_unit: f64) -> Result<Vec3, SetupError> {
+        let v = a.get_ref();
+        if v.len() != 3 {
+            return Err(self.error(
+                a.span().start,
+                format!("{name} has {} value(s); a position has three", v.len()),
+                "write [X, Y, Z], e.g. [250, 200, 150]",
+            ));
+        }
+        let p = Vec3::new(v[0], v[1], v[2]) * mm_per_unit;
+        if p.is_finite() {
+            Ok(p)
+        } else {
+            Err(self.error(
+                a.span().start,
+                format!("{name} is not a finite position"),
+                "write three finite numbers",
+            ))
+        }
+    }
 }
 
 impl Setup {
-    /// Parses a setup file's text.
+    /// Parses a setup file's text (errors name the file `<setup>`).
     ///
     /// ```
     /// let s = volcomp_gcode::Setup::from_toml("units = \"inch\"\n[tools]\n3 = 2.0\n").unwrap();
     /// assert_eq!(s.tool_lengths_mm[&3], 50.8);
     /// ```
     pub fn from_toml(text: &str) -> Result<Setup, SetupError> {
-        let raw: RawSetup = toml::from_str(text)?;
-        let units = raw.units.ok_or_else(|| {
-            SetupError::Invalid(
-                "missing `units = \"mm\"` or `units = \"inch\"`: volcomp does not guess the unit of offsets"
-                    .into(),
+        Self::from_toml_in(text, "<setup>")
+    }
+
+    /// Parses a setup file's text; `file` names it in errors, which carry
+    /// line and column.
+    ///
+    /// ```
+    /// let e = volcomp_gcode::Setup::from_toml_in("units = \"mm\"\n[work_offsets]\nG54 = [250, 200, 150, 1]\n", "s.toml").unwrap_err();
+    /// assert!(e.to_string().starts_with("s.toml:3:7: G54 has 4 value(s)"));
+    /// ```
+    pub fn from_toml_in(text: &str, file: &str) -> Result<Setup, SetupError> {
+        let at = At { text, file };
+        let raw: RawSetup = toml::from_str(text).map_err(|e| {
+            let offset = e.span().map_or(0, |s| s.start);
+            at.error(
+                offset,
+                e.message().to_string(),
+                "the set-up file has the keys units, start, [work_offsets], [tools] and [reference]",
             )
         })?;
-        let k = units.mm_per_unit();
-        let vec = |name: &str, a: [f64; 3]| -> Result<Vec3, SetupError> {
-            let v = Vec3::from_array(a) * k;
-            if v.is_finite() {
-                Ok(v)
-            } else {
-                Err(SetupError::Invalid(format!(
-                    "{name} is not a finite number"
-                )))
-            }
-        };
+        let units = raw.units.ok_or_else(|| {
+            at.error(
+                0,
+                "missing `units = \"mm\"` or `units = \"inch\"`".into(),
+                "say the unit of the offsets: volcomp does not guess it",
+            )
+        })?;
+        let k = units.get_ref().mm_per_unit();
         let mut setup = Setup::default();
-        if let Some(s) = raw.start {
-            setup.start_mm = vec("start", s)?;
+        if let Some(s) = &raw.start {
+            setup.start_mm = at.vec("start", s, k)?;
         }
-        for (name, a) in raw.work_offsets {
-            let upper = name.to_ascii_uppercase();
+        for (name, a) in &raw.work_offsets {
+            let upper = name.get_ref().to_ascii_uppercase();
             let i = WORK_SYSTEMS
                 .iter()
                 .position(|w| *w == upper)
                 .ok_or_else(|| {
-                    SetupError::Invalid(format!(
-                        "unknown work offset `{name}` (expected one of {})",
-                        WORK_SYSTEMS.join(", ")
-                    ))
+                    at.error(
+                        name.span().start,
+                        format!("unknown work offset `{}`", name.get_ref()),
+                        &format!("use one of {}", WORK_SYSTEMS.join(", ")),
+                    )
                 })?;
-            setup.work_offsets_mm[i] = vec(&name, a)?;
+            setup.work_offsets_mm[i] = at.vec(name.get_ref(), a, k)?;
         }
-        for (name, length) in raw.tools {
-            let n: u32 = name.trim_start_matches(['T', 't']).parse().map_err(|_| {
-                SetupError::Invalid(format!(
-                    "tool `{name}` is not a tool number such as 1 or T1"
-                ))
-            })?;
-            if !length.is_finite() {
-                return Err(SetupError::Invalid(format!(
-                    "tool {n} length is not finite"
-                )));
+        let mut seen: BTreeMap<u32, &Sp<String>> = BTreeMap::new();
+        for (name, length) in &raw.tools {
+            let n: u32 = name
+                .get_ref()
+                .trim_start_matches(['T', 't'])
+                .parse()
+                .map_err(|_| {
+                    at.error(
+                        name.span().start,
+                        format!("tool `{}` is not a tool number", name.get_ref()),
+                        "write the tool number, such as 1 or T1",
+                    )
+                })?;
+            if let Some(first) = seen.insert(n, name) {
+                let (a, b) = if first.span().start < name.span().start {
+                    (first, name)
+                } else {
+                    (name, first)
+                };
+                let (line, _) = line_col(text, a.span().start);
+                return Err(at.error(
+                    b.span().start,
+                    format!(
+                        "`{}` and `{}` (line {line}) both give the length of tool {n}",
+                        b.get_ref(),
+                        a.get_ref()
+                    ),
+                    "give each tool once",
+                ));
             }
-            setup.tool_lengths_mm.insert(n, length * k);
+            if !length.get_ref().is_finite() {
+                return Err(at.error(
+                    length.span().start,
+                    format!("tool {n} length is not finite"),
+                    "write the tool length as a finite number",
+                ));
+            }
+            setup.tool_lengths_mm.insert(n, length.get_ref() * k);
         }
-        for (name, a) in raw.reference {
-            match name.to_ascii_uppercase().as_str() {
+        for (name, a) in &raw.reference {
+            match name.get_ref().to_ascii_uppercase().as_str() {
                 "G28" => {
-                    setup.g28_mm = vec("G28", a)?;
+                    setup.g28_mm = at.vec("G28", a, k)?;
                     setup.g28_given = true;
                 }
                 "G30" => {
-                    setup.g30_mm = vec("G30", a)?;
+                    setup.g30_mm = at.vec("G30", a, k)?;
                     setup.g30_given = true;
                 }
                 _ => {
-                    return Err(SetupError::Invalid(format!(
-                        "unknown reference point `{name}` (expected G28 or G30)"
-                    )))
+                    return Err(at.error(
+                        name.span().start,
+                        format!("unknown reference point `{}`", name.get_ref()),
+                        "use G28 or G30",
+                    ))
                 }
             }
         }
         Ok(setup)
     }
+}
+
+/// 1-based line and byte column of `offset`.
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text.as_bytes()[..offset.min(text.len())];
+    let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+    let start = before
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(0, |i| i + 1);
+    (line, before.len() - start + 1)
 }
 
 #[cfg(test)]
@@ -184,5 +283,48 @@ mod tests {
             .contains("units"));
         assert!(Setup::from_toml("units=\"mm\"\n[work_offsets]\nG60=[0,0,0]\n").is_err());
         assert!(Setup::from_toml("units=\"cm\"\n").is_err());
+    }
+
+    #[test]
+    fn positions_need_exactly_three_values() {
+        let e = Setup::from_toml_in(
+            "units = \"mm\"\n[work_offsets]\nG54 = [250, 200, 150, 1]\n",
+            "s.toml",
+        )
+        .unwrap_err();
+        assert_eq!((e.0.line, e.0.column), (3, 7), "{e}");
+        assert!(e.to_string().contains("G54 has 4 value(s)"), "{e}");
+        let e = Setup::from_toml_in("units = \"mm\"\nstart = [1, 2]\n", "s.toml").unwrap_err();
+        assert_eq!((e.0.line, e.0.column), (2, 9), "{e}");
+        let e = Setup::from_toml_in("units = \"mm\"\n[reference]\nG28 = [0,0,0,0]\n", "s.toml")
+            .unwrap_err();
+        assert_eq!(e.0.line, 3, "{e}");
+    }
+
+    #[test]
+    fn one_tool_given_twice_is_refused() {
+        let e = Setup::from_toml_in("units = \"mm\"\n[tools]\n1 = 75\nT1 = 80\n", "s.toml")
+            .unwrap_err();
+        assert_eq!(e.0.line, 4, "{e}");
+        assert!(
+            e.to_string().contains("both give the length of tool 1"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("(line 3)"), "{e}");
+    }
+
+    #[test]
+    fn errors_are_located() {
+        let e = Setup::from_toml_in("units = \"mm\"\n[work_offsets]\nG60 = [0,0,0]\n", "s.toml")
+            .unwrap_err();
+        assert_eq!((e.0.line, e.0.column), (3, 1), "{e}");
+        assert!(
+            e.to_string().starts_with("s.toml:3:1: unknown work offset"),
+            "{e}"
+        );
+        let e = Setup::from_toml_in("units = \"mm\"\nbogus = 1\n", "s.toml").unwrap_err();
+        assert_eq!(e.0.line, 2, "{e}");
+        let e = Setup::from_toml_in("units = \"cm\"\n", "s.toml").unwrap_err();
+        assert_eq!(e.0.line, 1, "{e}");
     }
 }

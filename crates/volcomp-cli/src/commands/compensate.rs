@@ -19,7 +19,7 @@ use volcomp_gcode::Walker;
 
 /// Loads the error map named by `--map`.
 pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
-    let text = std::fs::read_to_string(&a.map).map_err(|e| CliError::Io(a.map.clone(), e))?;
+    let text = super::read_utf8(&a.map)?;
     // A straightness model (docs/straightness.md): TOML with `kind = "straightness"`.
     if volcomp_core::straightness::StraightnessModel::is_model_toml(&text) {
         let mut m = volcomp_core::straightness::StraightnessModel::from_toml(
@@ -232,7 +232,7 @@ pub fn compensate_into(
         on_point,
     );
     crate::commands::print_warnings(&file, walker.warnings());
-    Ok(result?)
+    result.map_err(|e| machine.explain(e))
 }
 
 /// Compensates `program` into the file `output` (completely or not at all).
@@ -293,6 +293,7 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         .output_opt("--report", a.report.as_ref());
     check(&plan)?;
     let machine = Machine::from_args(&a.machine)?;
+    machine.warn_without_work_offset();
     let model = load_map(&a.map)?;
     let opts = options(&a)?;
     let mut header = header_for(&a.map.map, a.machine.setup.as_deref(), &machine, &opts)?;

@@ -124,6 +124,7 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
     let machine = Machine {
         setup,
         options: Default::default(),
+        no_work_offset: false,
     };
     let variants = variants();
     println!("volcomp demo — example map {} (X 0…600, Y 0…400, Z 0…300 mm; backlash 3/4/2 µm), work offset G54 = {:.0},{:.0},{:.0} mm", map_path.display(), DEMO_WORK_OFFSET_MM.x, DEMO_WORK_OFFSET_MM.y, DEMO_WORK_OFFSET_MM.z);

@@ -298,8 +298,7 @@ pub fn load(path: &Path, clamp: bool) -> Result<LoadedMap, CliError> {
             Ok(LoadedMap::Kinematic(Box::new(m)))
         }
         Some("csv") => {
-            let text =
-                std::fs::read_to_string(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+            let text = super::read_utf8(path)?;
             let mut map = AxisTableMap::from_csv(&text, &path.display().to_string()).map_err(|e| {
                 let header = text.lines().find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
                 if header.is_some_and(|h| h.contains("ea_") || h.contains("eb_") || h.contains("ec_")) {
@@ -1060,7 +1059,7 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
 }
 
 fn read_comp(path: &Path, ty: CompFileType, units: MachineUnits) -> Result<Positioning, CliError> {
-    let text = std::fs::read_to_string(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+    let text = super::read_utf8(path)?;
     Ok(linuxcnc_comp::parse(
         &text,
         &path.display().to_string(),

@@ -23,6 +23,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         .output_opt("--plot", a.plot.as_ref());
     check(&plan)?;
     let machine = Machine::from_args(&a.machine)?;
+    machine.warn_without_work_offset();
     let model = load_map(&a.map)?;
     let mut walker = machine.walk(&a.program)?;
     let mut reference = match &a.reference {
@@ -69,7 +70,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         },
     );
     crate::commands::print_warnings(&a.program.display().to_string(), walker.warnings());
-    let report = report?;
+    let report = report.map_err(|e| machine.explain(e))?;
     if let (Some(path), Some(bytes)) = (&a.errors_csv, rows) {
         let mut inputs = vec![a.program.as_path()];
         if let Some(r) = &a.reference {

@@ -539,9 +539,12 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
                 )))
             }
         };
-        let e = model
-            .ez_um(x, y)
-            .map_err(|e| CliError::Message(format!("{}: point {x},{y}: {e}", a.model.display())))?;
+        let e = model.ez_um(x, y).map_err(|e| {
+            CliError::Message(format!(
+                "{}: point {x},{y}: {e}\n  help: --clamp holds the error at the table ends",
+                a.model.display()
+            ))
+        })?;
         out.push_str(&format!(
             "{},{},{},{}\n",
             numfmt::mm(x),

@@ -93,6 +93,10 @@ pub struct PredictArgs {
     /// Output 21-component model (TOML); the tables go beside it as <stem>.csv.
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Predict even at temperatures outside the training range (with a
+    /// warning) instead of refusing.
+    #[arg(long)]
+    pub extrapolate: bool,
 }
 
 #[derive(Args, Debug)]
@@ -203,6 +207,9 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
             a.samples.max(10),
         )?;
     }
+    for w in volcomp_core::thermal::checks::noise_warnings(&cycles, &idents) {
+        eprintln!("volcomp: warning: {m_name}: {w}");
+    }
     let first = &idents[0];
     let s0: Vec<f64> = file.sigma0_um.clone();
     let (lo, hi) = s0
@@ -280,7 +287,18 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
             ))
         })?,
     };
-    let theta = model.predict(&temps, &t_name, row)?;
+    let theta = if a.extrapolate {
+        if let Err(e) =
+            volcomp_core::thermal::checks::check_training_range(&model, &temps, &t_name, row)
+        {
+            eprintln!("volcomp: warning: {e} (--extrapolate)");
+        }
+        model.predict_extrapolating(&temps, &t_name, row)?
+    } else {
+        model.predict(&temps, &t_name, row).map_err(|e| {
+            CliError::Message(format!("{e}\n  help: pass --extrapolate to predict anyway"))
+        })?
+    };
     let stem = a
         .output
         .file_stem()

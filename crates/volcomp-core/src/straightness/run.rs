@@ -26,6 +26,7 @@
 
 use super::{Axis, StraightnessError};
 use crate::error::MapFileError;
+use crate::io::table::{comment_lines, shown, CsvTable, Header, UnknownColumns};
 
 /// Fewest samples a run may have.
 pub const MIN_SAMPLES: usize = 16;
@@ -84,180 +85,114 @@ impl Run {
     /// ```
     pub fn from_csv(text: &str, file: &str) -> Result<Run, StraightnessError> {
         let err = |row: usize, column: usize, message: String, help: &str| {
-            StraightnessError::from(MapFileError {
-                file: file.to_string(),
-                row,
-                column,
-                message,
-                help: help.to_string(),
-            })
+            StraightnessError::from(MapFileError::new(file, row, column, message, help))
         };
         let mut axis: Option<(Axis, usize)> = None;
         let mut feed_comment: Option<(f64, usize)> = None;
-        // Column indices of position, displacement, feed.
-        let mut header: Option<(usize, usize, Option<usize>, usize)> = None;
+        for (row, comment) in &comment_lines(text) {
+            let row = *row;
+            let Some((key, value)) = comment.split_once(['=', ':']) else {
+                continue;
+            };
+            let (key, value) = (key.trim().to_ascii_lowercase(), value.trim());
+            match key.as_str() {
+                "axis" => {
+                    let a = Axis::parse(value).ok_or_else(|| {
+                        err(
+                            row,
+                            1,
+                            format!("unknown axis `{}`", shown(value)),
+                            "write `# axis = X` or `# axis = Y`: the axis whose motion the run follows",
+                        )
+                    })?;
+                    axis = Some((a, row));
+                }
+                "feed_mm_per_min" => {
+                    let f = parse_feed(value).ok_or_else(|| {
+                        err(
+                            row,
+                            1,
+                            format!("feed rate `{}` is not a positive number", shown(value)),
+                            "write the feed rate in mm/min, like `# feed_mm_per_min = 4800`",
+                        )
+                    })?;
+                    feed_comment = Some((f, row));
+                }
+                k if k.starts_with("feed") => {
+                    return Err(err(
+                        row,
+                        1,
+                        format!("feed rate key `{}` has no known unit", shown(k)),
+                        "write the feed rate in mm/min as `# feed_mm_per_min = 4800`",
+                    ))
+                }
+                _ => {}
+            }
+        }
+        let t = CsvTable::parse(
+            text,
+            file,
+            &Header {
+                known: &["position_mm", "displacement_um", "feed_mm_per_min"],
+                unknown: UnknownColumns::Refuse,
+                layout: "position_mm,displacement_um and optionally feed_mm_per_min (positions in mm, Z deviation in µm, feed in mm/min)",
+            },
+        )?;
+        let pc = t.require("position_mm")?;
+        let dc = t.require("displacement_um")?;
+        let fc = t.column("feed_mm_per_min");
         let mut positions = Vec::new();
         let mut values = Vec::new();
         let mut rows = Vec::new();
         let mut feed_column: Option<(f64, usize)> = None;
-        for (i, raw) in text.lines().enumerate() {
-            let row = i + 1;
-            let line = raw.trim();
-            if line.is_empty() {
-                continue;
-            }
-            if let Some(comment) = line.strip_prefix('#') {
-                let Some((key, value)) = comment.split_once(['=', ':']) else {
-                    continue;
-                };
-                let (key, value) = (key.trim().to_ascii_lowercase(), value.trim());
-                match key.as_str() {
-                    "axis" => {
-                        let a = Axis::parse(value).ok_or_else(|| {
-                            err(
-                                row,
-                                1,
-                                format!("unknown axis `{value}`"),
-                                "write `# axis = X` or `# axis = Y`: the axis whose motion the run follows",
-                            )
-                        })?;
-                        axis = Some((a, row));
-                    }
-                    "feed_mm_per_min" => {
-                        let f = parse_feed(value).ok_or_else(|| {
-                            err(
-                                row,
-                                1,
-                                format!("feed rate `{value}` is not a positive number"),
-                                "write the feed rate in mm/min, like `# feed_mm_per_min = 4800`",
-                            )
-                        })?;
-                        feed_comment = Some((f, row));
-                    }
-                    k if k.starts_with("feed") => {
-                        return Err(err(
-                            row,
-                            1,
-                            format!("feed rate key `{}` has no known unit", key),
-                            "write the feed rate in mm/min as `# feed_mm_per_min = 4800`",
-                        ))
-                    }
-                    _ => {}
-                }
-                continue;
-            }
-            let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-            let Some((pc, dc, fc, width)) = header else {
-                let (mut p, mut d, mut f) = (None, None, None);
-                for (c, name) in fields.iter().enumerate() {
-                    let slot = match name.to_ascii_lowercase().as_str() {
-                        "position_mm" => &mut p,
-                        "displacement_um" => &mut d,
-                        "feed_mm_per_min" => &mut f,
-                        _ => {
-                            return Err(err(
-                                row,
-                                c + 1,
-                                format!("unknown column `{name}`"),
-                                "the header names position_mm,displacement_um and optionally feed_mm_per_min (positions in mm, Z deviation in µm, feed in mm/min); units are part of the names",
-                            ))
-                        }
-                    };
-                    if slot.is_some() {
-                        return Err(err(
-                            row,
-                            c + 1,
-                            format!("column `{name}` appears twice"),
-                            "name each column once",
-                        ));
-                    }
-                    *slot = Some(c);
-                }
-                let (Some(p), Some(d)) = (p, d) else {
-                    let missing = if p.is_none() {
-                        "position_mm"
-                    } else {
-                        "displacement_um"
-                    };
-                    return Err(err(
-                        row,
-                        1,
-                        format!("the header has no `{missing}` column"),
-                        "the header must name position_mm and displacement_um (and may name feed_mm_per_min)",
-                    ));
-                };
-                header = Some((p, d, f, fields.len()));
-                continue;
-            };
-            if fields.len() != width {
-                return Err(err(
-                    row,
-                    fields.len().min(width) + 1,
-                    format!("{} fields, the header has {width}", fields.len()),
-                    "every row needs one value per header column",
-                ));
-            }
-            let num = |c: usize, what: &str| -> Result<f64, StraightnessError> {
-                match fields[c].parse::<f64>() {
-                    Ok(v) if v.is_finite() => Ok(v),
-                    _ => Err(err(
-                        row,
-                        c + 1,
-                        format!("{what} `{}` is not a finite number", fields[c]),
-                        "write a plain decimal number; remove or re-measure rows with missing values (NaN, empty)",
-                    )),
-                }
-            };
-            let x = num(pc, "position_mm")?;
-            let z = num(dc, "displacement_um")?;
+        for r in t.records()? {
+            let row = r.line;
+            let x = t.number(r, pc)?;
+            let z = t.number(r, dc)?;
             if let Some(fc) = fc {
-                let f = num(fc, "feed_mm_per_min")?;
+                let f = t.number(r, fc)?;
                 if f <= 0.0 {
-                    return Err(err(
-                        row,
-                        fc + 1,
-                        format!("feed rate {f} is not positive"),
-                        "give the feed rate of the run in mm/min",
-                    ));
+                    return Err(t
+                        .error(
+                            r,
+                            fc,
+                            format!("feed rate {f} is not positive"),
+                            "give the feed rate of the run in mm/min",
+                        )
+                        .into());
                 }
                 match feed_column {
                     None => feed_column = Some((f, row)),
                     Some((f0, r0)) if !same_feed(f0, f) => {
-                        return Err(err(
-                            row,
-                            fc + 1,
+                        return Err(t.error(
+                            r,
+                            fc,
                             format!("feed rate {f} differs from {f0} on row {r0}"),
                             "a run is one pass at one feed rate: split passes at different feeds into separate files",
-                        ))
+                        ).into())
                     }
                     _ => {}
                 }
             }
             if let Some(&last) = positions.last() {
                 if x <= last {
-                    return Err(err(
-                        row,
-                        pc + 1,
-                        format!(
-                            "position {x} mm does not increase (previous row {}: {last} mm)",
-                            rows.last().copied().unwrap_or(0)
-                        ),
-                        "sort the samples by position and remove repeated positions",
-                    ));
+                    return Err(t
+                        .error(
+                            r,
+                            pc,
+                            format!(
+                                "position {x} mm does not increase (previous row {}: {last} mm)",
+                                rows.last().copied().unwrap_or(0)
+                            ),
+                            "sort the samples by position and remove repeated positions",
+                        )
+                        .into());
                 }
             }
             positions.push(x);
             values.push(z);
             rows.push(row);
         }
-        let Some((pc, _, _, _)) = header else {
-            return Err(err(
-                1,
-                1,
-                "no header row and no samples".into(),
-                "a run is a CSV with the header position_mm,displacement_um and one sample per row",
-            ));
-        };
         if positions.len() < MIN_SAMPLES {
             return Err(err(
                 rows.last().copied().unwrap_or(1),

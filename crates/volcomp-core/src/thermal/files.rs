@@ -15,6 +15,7 @@ use super::poly::PolyModel;
 use super::regression::{features, Regression};
 use super::ThermalError;
 use crate::error::MapFileError;
+use crate::io::table::{CsvTable, Header, UnknownColumns};
 use crate::kinematic::Kinematics;
 use crate::topology::Topology;
 use std::collections::BTreeMap;
@@ -24,124 +25,63 @@ use volcomp_gcode::Vec3;
 pub const THERMAL_KIND: &str = "volcomp-thermal-1";
 
 fn err(file: &str, row: usize, column: usize, message: String, help: &str) -> MapFileError {
-    MapFileError {
-        file: file.into(),
-        row,
-        column,
-        message,
-        help: help.into(),
-    }
+    MapFileError::new(file, row, column, message, help)
 }
 
-/// A parsed CSV: header names (lower case) and located rows.
-struct Csv {
-    header: Vec<String>,
-    /// (1-based line, fields)
-    rows: Vec<(usize, Vec<String>)>,
-}
-
-fn parse_csv(text: &str, file: &str, required: &[&str]) -> Result<Csv, MapFileError> {
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-    let (hrow, hline) = lines.next().ok_or_else(|| {
-        err(
-            file,
-            1,
-            1,
-            "the file is empty".into(),
-            &format!("start with the header `{}`", required.join(",")),
-        )
-    })?;
-    let header: Vec<String> = hline
-        .split(',')
-        .map(|s| s.trim().to_ascii_lowercase())
-        .collect();
-    for (k, r) in required.iter().enumerate() {
-        if header.get(k).map(String::as_str) != Some(*r) {
-            return Err(err(
-                file,
-                hrow,
-                k + 1,
-                format!(
-                    "header column {} must be `{r}`, found `{}`",
-                    k + 1,
-                    header.get(k).map_or("", String::as_str)
-                ),
-                &format!("the header starts `{}`", required.join(",")),
-            ));
-        }
-    }
-    let mut rows = Vec::new();
-    for (row, line) in lines {
-        let fields: Vec<String> = line.split(',').map(|s| s.trim().to_string()).collect();
-        if fields.len() != header.len() {
-            return Err(err(
-                file,
-                row,
-                fields.len().min(header.len()) + 1,
-                format!("{} fields, the header has {}", fields.len(), header.len()),
-                "give one value per header column, separated by commas",
-            ));
-        }
-        rows.push((row, fields));
-    }
-    Ok(Csv { header, rows })
-}
-
-fn number(file: &str, row: usize, col: usize, name: &str, s: &str) -> Result<f64, MapFileError> {
-    match s.parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
-        _ => Err(err(
-            file,
-            row,
-            col + 1,
-            format!("`{s}` in column `{name}` is not a finite number"),
-            "write a decimal number such as 12.5",
-        )),
-    }
-}
-
-fn index(file: &str, row: usize, col: usize, name: &str, s: &str) -> Result<usize, MapFileError> {
-    s.parse::<usize>().map_err(|_| {
-        err(
-            file,
-            row,
-            col + 1,
-            format!("`{s}` in column `{name}` is not a whole number ≥ 0"),
-            "write an integer such as 3",
-        )
-    })
+/// Reads a thermal CSV whose header must name `required` (any order);
+/// returns the table and the required columns' indices. With `others`
+/// false, any other column is refused.
+fn parse_csv(
+    text: &str,
+    file: &str,
+    required: &[&str],
+    others: bool,
+) -> Result<(CsvTable, Vec<usize>), MapFileError> {
+    let layout = required.join(",");
+    let t = CsvTable::parse(
+        text,
+        file,
+        &Header {
+            known: required,
+            unknown: if others {
+                UnknownColumns::Keep
+            } else {
+                UnknownColumns::Refuse
+            },
+            layout: &layout,
+        },
+    )?;
+    let cols = required
+        .iter()
+        .map(|r| t.require(r))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((t, cols))
 }
 
 /// Reads the artifact definition.
 pub fn parse_artifact(text: &str, file: &str) -> Result<BallArray, MapFileError> {
-    let csv = parse_csv(text, file, &["sphere", "distance_mm"])?;
+    let (csv, c) = parse_csv(text, file, &["sphere", "distance_mm"], false)?;
     let mut d = Vec::new();
-    for (row, f) in &csv.rows {
-        let sphere = index(file, *row, 0, "sphere", &f[0])?;
+    for r in csv.records()? {
+        let sphere = csv.index(r, c[0])?;
         if sphere != d.len() + 1 {
-            return Err(err(
-                file,
-                *row,
-                1,
+            return Err(csv.error(
+                r,
+                c[0],
                 format!("sphere {sphere} where sphere {} was expected", d.len() + 1),
                 "number the spheres 1, 2, 3 … in order",
             ));
         }
-        let v = number(file, *row, 1, "distance_mm", &f[1])?;
+        let v = csv.number(r, c[1])?;
         let ok = if d.is_empty() {
             v == 0.0
         } else {
             v > d[d.len() - 1]
         };
         if !ok {
-            return Err(err(
-                file,
-                *row,
-                2,
+            return Err(csv.error(
+                r,
+                c[1],
                 format!("distance {v} mm is not valid here"),
                 "sphere 1 has distance 0; the others strictly increasing distances from sphere 1",
             ));
@@ -151,7 +91,7 @@ pub fn parse_artifact(text: &str, file: &str) -> Result<BallArray, MapFileError>
     if d.len() < 3 {
         return Err(err(
             file,
-            csv.rows.last().map_or(1, |r| r.0),
+            csv.last_line(),
             1,
             format!("{} spheres", d.len()),
             "a ball array needs at least 3 spheres",
@@ -178,7 +118,7 @@ pub fn parse_measurements(
     file: &str,
     array: &BallArray,
 ) -> Result<Vec<Cycle>, MapFileError> {
-    let csv = parse_csv(
+    let (csv, c) = parse_csv(
         text,
         file,
         &[
@@ -190,18 +130,19 @@ pub fn parse_measurements(
             "y_mm",
             "z_mm",
         ],
+        false,
     )?;
     type Spheres = BTreeMap<usize, (usize, Vec3)>;
     let mut cycles: BTreeMap<usize, (f64, usize, BTreeMap<String, Spheres>)> = BTreeMap::new();
-    for (row, f) in &csv.rows {
-        let cycle = index(file, *row, 0, "cycle", &f[0])?;
-        let time = number(file, *row, 1, "time_h", &f[1])?;
-        let sphere = index(file, *row, 3, "sphere", &f[3])?;
+    for r in csv.records()? {
+        let row = &r.line;
+        let cycle = csv.index(r, c[0])?;
+        let time = csv.number(r, c[1])?;
+        let sphere = csv.index(r, c[3])?;
         if sphere == 0 || sphere > array.len() {
-            return Err(err(
-                file,
-                *row,
-                4,
+            return Err(csv.error(
+                r,
+                c[3],
                 format!(
                     "sphere {sphere} does not exist: the artifact has {}",
                     array.len()
@@ -210,15 +151,14 @@ pub fn parse_measurements(
             ));
         }
         let mut p = Vec3::ZERO;
-        for c in 0..3 {
-            p[c] = number(file, *row, 4 + c, &csv.header[4 + c], &f[4 + c])?;
+        for k in 0..3 {
+            p[k] = csv.number(r, c[4 + k])?;
         }
         let entry = cycles.entry(cycle).or_insert((time, *row, BTreeMap::new()));
         if entry.0 != time {
-            return Err(err(
-                file,
-                *row,
-                2,
+            return Err(csv.error(
+                r,
+                c[1],
                 format!(
                     "cycle {cycle} has time {time} h here but {} h on line {}",
                     entry.0, entry.1
@@ -226,13 +166,13 @@ pub fn parse_measurements(
                 "give every row of a cycle the same time_h",
             ));
         }
-        let spheres = entry.2.entry(f[2].clone()).or_default();
+        let label = csv.text(r, c[2]).to_string();
+        let spheres = entry.2.entry(label.clone()).or_default();
         if let Some((first, _)) = spheres.insert(sphere, (*row, p)) {
-            return Err(err(
-                file,
-                *row,
-                4,
-                format!("sphere {sphere} of placement {} in cycle {cycle} again (first on line {first})", f[2]),
+            return Err(csv.error(
+                r,
+                c[3],
+                format!("sphere {sphere} of placement {label} in cycle {cycle} again (first on line {first})"),
                 "give each sphere once per placement and cycle",
             ));
         }
@@ -290,38 +230,40 @@ pub struct Temperatures {
 
 /// Reads a temperature file (rows in time order).
 pub fn parse_temperatures(text: &str, file: &str) -> Result<Temperatures, MapFileError> {
-    let csv = parse_csv(text, file, &["cycle", "time_h"])?;
-    let sensors: Vec<String> = csv.header[2..].to_vec();
-    if sensors.is_empty() {
+    let (csv, c) = parse_csv(text, file, &["cycle", "time_h"], true)?;
+    let sensor_cols: Vec<usize> = (0..csv.header.len()).filter(|k| !c.contains(k)).collect();
+    if sensor_cols.is_empty() {
         return Err(err(
             file,
-            1,
-            3,
+            csv.header_line,
+            csv.header.len() + 1,
             "no sensor columns".into(),
             "add one column per sensor after cycle,time_h, e.g. spindle_C",
         ));
     }
+    for &k in &sensor_cols {
+        sensor_unit(&csv, k)?;
+    }
     let mut t = Temperatures {
-        sensors,
+        sensors: sensor_cols.iter().map(|&k| csv.header[k].clone()).collect(),
         cycles: Vec::new(),
         time_h: Vec::new(),
         values: Vec::new(),
     };
-    for (row, f) in &csv.rows {
-        let cycle = index(file, *row, 0, "cycle", &f[0])?;
-        let time = number(file, *row, 1, "time_h", &f[1])?;
+    for r in csv.records()? {
+        let cycle = csv.index(r, c[0])?;
+        let time = csv.number(r, c[1])?;
         if t.time_h.last().is_some_and(|&last| time <= last) {
-            return Err(err(
-                file,
-                *row,
-                2,
+            return Err(csv.error(
+                r,
+                c[1],
                 format!("time {time} h does not increase"),
                 "sort the rows by time, one row per cycle",
             ));
         }
         let mut v = Vec::new();
-        for (c, field) in f.iter().enumerate().skip(2) {
-            v.push(number(file, *row, c, &csv.header[c], field)?);
+        for &k in &sensor_cols {
+            v.push(csv.number(r, k)?);
         }
         t.cycles.push(cycle);
         t.time_h.push(time);
@@ -330,13 +272,31 @@ pub fn parse_temperatures(text: &str, file: &str) -> Result<Temperatures, MapFil
     if t.values.is_empty() {
         return Err(err(
             file,
-            1,
+            csv.header_line,
             1,
             "no temperatures".into(),
             "add one row per cycle",
         ));
     }
     Ok(t)
+}
+
+/// Checks that sensor column `k` says its unit: `<name>_C` (°C). Other
+/// units are refused rather than converted or guessed.
+fn sensor_unit(csv: &CsvTable, k: usize) -> Result<(), MapFileError> {
+    let name = &csv.header[k];
+    let at = |message: String, help: &str| csv.error_at(csv.header_line, k, message, help);
+    match name.rsplit_once('_').map(|(_, u)| u) {
+        Some("c") => Ok(()),
+        Some("k" | "f" | "degf") => Err(at(
+            format!("sensor column `{name}` is not in °C"),
+            "convert the temperatures to degrees Celsius and name the column <name>_C",
+        )),
+        _ => Err(at(
+            format!("sensor column `{name}` does not say its unit"),
+            "name every sensor column with its unit, e.g. spindle_C for °C: volcomp never guesses a unit",
+        )),
+    }
 }
 
 /// One parameter in a thermal model file. Values are in `unit` (`um` for
@@ -596,7 +556,23 @@ impl ThermalModelFile {
 
     /// Predicted parameters (full vector, `None` for the unidentifiable) at
     /// row `row` of `temps` (its sensors must match the model's by name).
+    /// Temperatures outside the training range are refused
+    /// ([`super::checks::check_training_range`]).
     pub fn predict(
+        &self,
+        temps: &Temperatures,
+        temps_file: &str,
+        row: usize,
+    ) -> Result<Vec<Option<f64>>, ThermalError> {
+        if temps.sensors == self.sensors {
+            super::checks::check_training_range(self, temps, temps_file, row)?;
+        }
+        self.predict_extrapolating(temps, temps_file, row)
+    }
+
+    /// As [`Self::predict`], but without refusing temperatures outside the
+    /// training range (the caller has asked to extrapolate).
+    pub fn predict_extrapolating(
         &self,
         temps: &Temperatures,
         temps_file: &str,

@@ -11,6 +11,7 @@
 //! `volcomp compensate --map` reads.
 
 pub mod artifact;
+pub mod checks;
 pub mod example;
 pub mod files;
 pub mod identify;

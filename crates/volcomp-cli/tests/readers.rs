@@ -1,0 +1,280 @@
+//! Input files read the same way everywhere, and what used to be accepted
+//! silently is refused or warned about: located, with what to do.
+
+use std::path::Path;
+use std::process::Output;
+
+mod common;
+use common::{tempdir, volcomp};
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A flat map over `lo…hi` mm on every axis.
+fn flat_map(dir: &Path, lo: f64, hi: f64) {
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for a in ["X", "Y", "Z"] {
+        csv.push_str(&format!("{a},both,{lo},0,0,0\n{a},both,{hi},1,0,0\n"));
+    }
+    std::fs::write(dir.join("map.csv"), csv).unwrap();
+}
+
+fn compensate(dir: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"];
+    args.extend_from_slice(extra);
+    volcomp(&args, dir)
+}
+
+#[test]
+fn a_map_in_metres_is_suspected_and_numbers_stay_short() {
+    let d = tempdir("unit");
+    // Map positions in metres (0 … 0.5), program in mm.
+    flat_map(&d, 0.0, 0.5);
+    std::fs::write(
+        d.join("p.ngc"),
+        "G21 G90\nG0 X250 Y250 Z250\nG1 X300 F100\nM2\n",
+    )
+    .unwrap();
+    let o = compensate(&d, &["--work-offset", "0,0,0"]);
+    let msg = stderr(&o);
+    assert!(!o.status.success());
+    assert!(
+        msg.contains("axis X = 250 mm is outside the map's range 0 … 0.5 mm"),
+        "{msg}"
+    );
+    assert!(msg.contains("another unit: metres"), "{msg}");
+    assert!(!msg.contains("no work offset"), "{msg}");
+    // A huge position prints in scientific notation, not 300 digits.
+    flat_map(&d, 0.0, 500.0);
+    std::fs::write(
+        d.join("p.ngc"),
+        format!("G21 G90\nG0 X{} Y1 Z1\nM2\n", "9".repeat(40)),
+    )
+    .unwrap();
+    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
+    assert!(msg.len() < 2000, "{msg}");
+    assert!(!msg.contains(&"9".repeat(20)), "{msg}");
+}
+
+#[test]
+fn bom_quotes_semicolons_and_bad_bytes_in_a_map() {
+    let d = tempdir("csv");
+    std::fs::write(
+        d.join("p.ngc"),
+        "G21 G90\nG0 X10 Y10 Z10\nG1 X20 F100\nM2\n",
+    )
+    .unwrap();
+    let good = "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,0,0,0\nX,both,100,1,0,0\nY,both,0,0,0,0\nY,both,100,0,0,0\nZ,both,0,0,0,0\nZ,both,100,0,0,0\n";
+    // A byte-order mark and quoted fields are read.
+    let bom = format!(
+        "\u{feff}{}",
+        good.replace("X,both,100,1", "\"X\",\"both\",\"100\",\"1\"")
+    );
+    std::fs::write(d.join("map.csv"), bom).unwrap();
+    let o = compensate(&d, &["--work-offset", "0,0,0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Semicolons: the hint says what volcomp reads.
+    std::fs::write(d.join("map.csv"), good.replace(',', ";")).unwrap();
+    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
+    assert!(
+        msg.contains("map.csv:1:1:") && msg.contains("';' as separator"),
+        "{msg}"
+    );
+    // A decimal comma: one field too many, with the hint.
+    std::fs::write(
+        d.join("map.csv"),
+        good.replace("X,both,100,1,0,0", "X,both,100,1,5,0,0"),
+    )
+    .unwrap();
+    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
+    assert!(
+        msg.contains("map.csv:3:7:") && msg.contains("decimal commas"),
+        "{msg}"
+    );
+    // A terminal escape in a field is shown escaped.
+    std::fs::write(
+        d.join("map.csv"),
+        good.replace("X,both,100,1", "X,both,100,\u{1b}[2J"),
+    )
+    .unwrap();
+    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
+    assert!(
+        msg.contains("map.csv:3:4:") && !msg.contains('\u{1b}'),
+        "{msg}"
+    );
+    assert!(msg.contains("\\x1b"), "{msg}");
+    // A byte that is not UTF-8 is located.
+    let mut bytes = good.as_bytes().to_vec();
+    let at = good.find("X,both,100").unwrap() + 9;
+    bytes[at] = 0xe9;
+    std::fs::write(d.join("map.csv"), bytes).unwrap();
+    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
+    assert!(
+        msg.contains("map.csv:3:10:") && msg.contains("UTF-8"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn set_up_errors_are_located() {
+    let d = tempdir("setup");
+    flat_map(&d, -1000.0, 1000.0);
+    std::fs::write(d.join("p.ngc"), "G21 G90\nG0 X10 Y10 Z10\nM2\n").unwrap();
+    std::fs::write(
+        d.join("s.toml"),
+        "units = \"mm\"\n[work_offsets]\nG54 = [250, 200, 150, 1]\n",
+    )
+    .unwrap();
+    let msg = stderr(&compensate(&d, &["--setup", "s.toml"]));
+    assert!(msg.contains("s.toml:3:7: G54 has 4 value(s)"), "{msg}");
+    assert!(!d.join("out.ngc").exists());
+    std::fs::write(
+        d.join("s.toml"),
+        "units = \"mm\"\n[tools]\n1 = 75\nT1 = 80\n",
+    )
+    .unwrap();
+    let msg = stderr(&compensate(&d, &["--setup", "s.toml"]));
+    assert!(
+        msg.contains("s.toml:4:1:") && msg.contains("tool 1"),
+        "{msg}"
+    );
+}
+
+fn thermal_example(d: &Path) {
+    let o = volcomp(&["thermal", "example", "-o", "ex"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+fn fit(d: &Path, measurements: &str) -> Output {
+    volcomp(
+        &[
+            "thermal",
+            "fit",
+            "--measurements",
+            measurements,
+            "--temperatures",
+            "ex/temperatures_train.csv",
+            "--artifact",
+            "ex/artifact.csv",
+            "--ranges-mm",
+            "0:600,0:400,0:300",
+            "-o",
+            "thermal.toml",
+        ],
+        d,
+    )
+}
+
+#[test]
+fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
+    let d = tempdir("thermal");
+    thermal_example(&d);
+    let t = std::fs::read_to_string(d.join("ex/temperatures_train.csv")).unwrap();
+    std::fs::write(d.join("bare.csv"), t.replacen("bed_C", "bed", 1)).unwrap();
+    let o = volcomp(
+        &[
+            "thermal",
+            "fit",
+            "--measurements",
+            "ex/measurements_train.csv",
+            "--temperatures",
+            "bare.csv",
+            "--artifact",
+            "ex/artifact.csv",
+            "--ranges-mm",
+            "0:600,0:400,0:300",
+            "-o",
+            "thermal.toml",
+        ],
+        &d,
+    );
+    let msg = stderr(&o);
+    assert!(
+        msg.contains("bare.csv:1:3:") && msg.contains("does not say its unit"),
+        "{msg}"
+    );
+    assert!(fit(&d, "ex/measurements_train.csv").status.success());
+    // The check run at the example's temperatures predicts; at 1000 °C it
+    // is refused unless --extrapolate.
+    let predict = |temps: &str, extra: &[&str]| {
+        let mut args = vec![
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--temperatures",
+            temps,
+            "-o",
+            "pred.toml",
+        ];
+        args.extend_from_slice(extra);
+        volcomp(&args, &d)
+    };
+    let o = predict("ex/temperatures_check.csv", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut lines: Vec<String> = t.lines().map(str::to_string).collect();
+    let last = lines.len() - 1;
+    let mut f: Vec<String> = lines[last].split(',').map(str::to_string).collect();
+    f[2] = "1000".into();
+    lines[last] = f.join(",");
+    std::fs::write(d.join("hot.csv"), lines.join("\n") + "\n").unwrap();
+    let o = predict("hot.csv", &[]);
+    let msg = stderr(&o);
+    assert!(!o.status.success());
+    assert!(
+        msg.contains("bed_c") && msg.contains("1000 °C") && msg.contains("--extrapolate"),
+        "{msg}"
+    );
+    let o = predict("hot.csv", &["--extrapolate"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("warning"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_sphere_far_off_warns_about_the_noise() {
+    let d = tempdir("sigma");
+    thermal_example(&d);
+    let m = std::fs::read_to_string(d.join("ex/measurements_train.csv")).unwrap();
+    // Move one sphere centre 10 mm along x in the first data row.
+    let mut out = String::new();
+    let mut done = false;
+    for l in m.lines() {
+        let mut f: Vec<String> = l.split(',').map(str::to_string).collect();
+        if !done && !l.starts_with('#') && f.len() == 7 && f[4].parse::<f64>().is_ok() {
+            let x: f64 = f[4].parse().unwrap();
+            f[4] = format!("{}", x + 10.0);
+            done = true;
+        }
+        out.push_str(&f.join(","));
+        out.push('\n');
+    }
+    std::fs::write(d.join("off.csv"), out).unwrap();
+    let o = fit(&d, "off.csv");
+    let msg = stderr(&o);
+    assert!(
+        msg.contains("warning") && msg.contains("probing noise"),
+        "{msg}"
+    );
+    assert!(msg.contains("largest residuals"), "{msg}");
+    // The untouched data warn about nothing.
+    let o = fit(&d, "ex/measurements_train.csv");
+    assert!(!stderr(&o).contains("probing noise"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_target_on_the_map_edge_is_reported_with_its_command() {
+    let d = tempdir("edge");
+    // X error +5 µm everywhere: the command for target X0 is X−0.005, off
+    // the map's 0 … 100 mm although the target is on it.
+    let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,5,0,0\nX,both,100,5,0,0\nY,both,0,0,0,0\nY,both,100,0,0,0\nZ,both,0,0,0,0\nZ,both,100,0,0,0\n";
+    std::fs::write(d.join("map.csv"), csv).unwrap();
+    std::fs::write(d.join("p.ngc"), "G21 G90\nG0 X50 Y50 Z50\nG1 X0 F100\nM2\n").unwrap();
+    let o = compensate(&d, &["--work-offset", "0,0,0", "--no-split"]);
+    let msg = stderr(&o);
+    assert!(!o.status.success(), "{msg}");
+    assert!(msg.contains("p.ngc:3:"), "{msg}");
+    assert!(msg.contains("the target X 0 Y 50 Z 50 mm"), "{msg}");
+    assert!(msg.contains("axis X = -0.005 mm"), "{msg}");
+    assert!(!msg.contains("no work offset"), "{msg}");
+}

@@ -1,0 +1,562 @@
+//! The one reader of every CSV table volcomp takes (axis tables, the
+//! 21-component tables, ISO 230-2 runs, thermal files, straightness runs,
+//! probe points and surface grids).
+//!
+//! Rules, the same for every table (RFC 4180 records via the `csv` crate):
+//! a UTF-8 byte-order mark is stripped; lines whose first non-blank
+//! character is `#` and blank lines are skipped (the `#` lines are kept in
+//! [`CsvTable::comments`] for formats that carry `# key = value` metadata);
+//! quoted fields are accepted; fields are trimmed; the first record is the
+//! header, whose names are matched case-insensitively in any order; a column
+//! named twice is refused; unknown columns are refused or kept as the
+//! caller says. Every error names file, row and column (the 1-based field
+//! number and the header name) and shows the line, bounded and escaped.
+
+use crate::error::MapFileError;
+
+/// What to do with header names the format does not know.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UnknownColumns {
+    /// Refuse the file, naming the column (a misspelt unit must not be
+    /// ignored).
+    Refuse,
+    /// Keep them; the caller looks up only the columns it needs.
+    Keep,
+}
+
+/// The header a format expects.
+#[derive(Debug, Clone, Copy)]
+pub struct Header<'a> {
+    /// Every name the format knows (lower case), required or not.
+    pub known: &'a [&'a str],
+    /// Unknown names: refused or kept.
+    pub unknown: UnknownColumns,
+    /// What the header should look like, for the help of header errors.
+    pub layout: &'a str,
+}
+
+/// One data record: its 1-based line and trimmed fields.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Record {
+    /// 1-based line where the record starts.
+    pub line: usize,
+    /// Trimmed fields, one per header column.
+    pub fields: Vec<String>,
+}
+
+/// A table read from CSV text.
+#[derive(Debug, Clone)]
+pub struct CsvTable {
+    /// File name, for errors.
+    pub file: String,
+    /// 1-based line of the header.
+    pub header_line: usize,
+    /// Header names, trimmed and lower case.
+    pub header: Vec<String>,
+    /// `#` lines: 1-based line and the text after `#`, trimmed.
+    pub comments: Vec<(usize, String)>,
+    /// Data records in file order (see [`CsvTable::records`]).
+    records: Vec<Record>,
+    /// The first record whose field count differs from the header's,
+    /// reported by [`CsvTable::records`] (after the caller's header checks,
+    /// so that a missing column is named before a row that lacks it).
+    width_error: Option<MapFileError>,
+    /// Source lines (for excerpts), indexed by line − 1.
+    lines: Vec<String>,
+}
+
+/// The hint for a file that uses `;` between fields (a spreadsheet saved
+/// with a decimal-comma locale).
+const SEMICOLON_HINT: &str = "the file uses ';' as separator: volcomp reads comma-separated values with '.' decimals; export it as CSV with ',' between fields and '.' in numbers";
+
+/// Decodes `bytes` as UTF-8 (after a byte-order mark), locating the first
+/// invalid byte by line and column.
+///
+/// ```
+/// use volcomp_core::io::table::utf8;
+/// let e = utf8(b"a,b\n1,\xff\n", "t.csv").unwrap_err();
+/// assert_eq!((e.row, e.column), (2, 3));
+/// ```
+pub fn utf8<'a>(bytes: &'a [u8], file: &str) -> Result<&'a str, MapFileError> {
+    let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
+    std::str::from_utf8(bytes).map_err(|e| {
+        let at = e.valid_up_to();
+        let before = &bytes[..at];
+        let row = before.iter().filter(|&&b| b == b'\n').count() + 1;
+        let line_start = before
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |i| i + 1);
+        let line_end = bytes[at..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(bytes.len(), |i| at + i);
+        let line = String::from_utf8_lossy(&bytes[line_start..line_end]);
+        let column = String::from_utf8_lossy(&bytes[line_start..at])
+            .chars()
+            .count()
+            + 1;
+        MapFileError::new(
+            file,
+            row,
+            column,
+            format!("byte 0x{:02x} is not UTF-8 text", bytes[at]),
+            "save the file as UTF-8 (plain text); volcomp does not guess a text encoding",
+        )
+        .with_source(&line, at - line_start)
+    })
+}
+
+/// The `#` lines of a table: 1-based line and the text after `#`, trimmed
+/// (formats such as straightness runs carry `# key = value` metadata).
+pub fn comment_lines(text: &str) -> Vec<(usize, String)> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    text.split('\n')
+        .enumerate()
+        .filter_map(|(i, l)| {
+            l.trim_start()
+                .strip_prefix('#')
+                .map(|c| (i + 1, c.trim().to_string()))
+        })
+        .collect()
+}
+
+/// Byte offset of field `k` (0-based) in a CSV line, honouring quotes.
+fn field_offset(line: &str, k: usize) -> usize {
+    let mut field = 0;
+    let mut quoted = false;
+    for (i, c) in line.char_indices() {
+        if field == k {
+            return i + (line[i..].len() - line[i..].trim_start().len());
+        }
+        match c {
+            '"' => quoted = !quoted,
+            ',' if !quoted => field += 1,
+            _ => {}
+        }
+    }
+    line.len()
+}
+
+impl CsvTable {
+    /// Reads CSV text. `file` names it in errors.
+    ///
+    /// ```
+    /// use volcomp_core::io::table::{CsvTable, Header, UnknownColumns};
+    /// let h = Header { known: &["x_mm", "name"], unknown: UnknownColumns::Refuse, layout: "x_mm,name" };
+    /// let t = CsvTable::parse("\u{feff}# made by hand\nName, X_mm\n\"a, b\",1.5\n", "t.csv", &h).unwrap();
+    /// let x = t.require("x_mm").unwrap();
+    /// let r = &t.records().unwrap()[0];
+    /// assert_eq!(t.number(r, x).unwrap(), 1.5);
+    /// assert_eq!(r.fields[0], "a, b");
+    /// let e = t.require("y_mm");
+    /// assert!(e.is_err());
+    /// ```
+    pub fn parse(text: &str, file: &str, header: &Header<'_>) -> Result<CsvTable, MapFileError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let lines: Vec<String> = text
+            .split('\n')
+            .map(|l| l.strip_suffix('\r').unwrap_or(l).to_string())
+            .collect();
+        let comments = comment_lines(text);
+        let mut table = CsvTable {
+            file: file.to_string(),
+            header_line: 0,
+            header: Vec::new(),
+            comments,
+            records: Vec::new(),
+            width_error: None,
+            lines,
+        };
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .trim(csv::Trim::All)
+            .from_reader(text.as_bytes());
+        let mut record = csv::StringRecord::new();
+        loop {
+            let more = reader.read_record(&mut record).map_err(|e| {
+                let line = e.position().map_or(1, |p| p.line() as usize);
+                table.error_at(
+                    line,
+                    0,
+                    format!("unreadable CSV record: {e}"),
+                    "close every quoted field with a \"; write \"\" for a quote inside one",
+                )
+            })?;
+            if !more {
+                break;
+            }
+            let line = record.position().map_or(1, |p| p.line() as usize);
+            if record.iter().all(str::is_empty)
+                || record.get(0).is_some_and(|f| f.starts_with('#'))
+                || table
+                    .lines
+                    .get(line - 1)
+                    .is_some_and(|l| l.trim_start().starts_with('#'))
+            {
+                continue;
+            }
+            if table.header_line == 0 {
+                table.set_header(line, &record, header)?;
+                continue;
+            }
+            let fields: Vec<String> = record.iter().map(str::to_string).collect();
+            let width = table.header.len();
+            if fields.len() != width {
+                let help = if fields.len() > width {
+                    "give one value per header column; if the numbers use decimal commas (1,5), write them with '.' (1.5)"
+                } else {
+                    "give one value per header column, separated by commas"
+                };
+                if table.width_error.is_none() {
+                    table.width_error = Some(table.error_at(
+                        line,
+                        fields.len().min(width),
+                        format!("{} fields where the header has {width}", fields.len()),
+                        help,
+                    ));
+                }
+                continue;
+            }
+            table.records.push(Record { line, fields });
+        }
+        if table.header_line == 0 {
+            return Err(MapFileError::new(
+                file,
+                1,
+                1,
+                "the file has no header",
+                format!("start with the header line {}", header.layout),
+            ));
+        }
+        Ok(table)
+    }
+
+    fn set_header(
+        &mut self,
+        line: usize,
+        record: &csv::StringRecord,
+        spec: &Header<'_>,
+    ) -> Result<(), MapFileError> {
+        self.header_line = line;
+        let names: Vec<String> = record.iter().map(|f| f.to_ascii_lowercase()).collect();
+        if names.len() == 1 && names[0].contains(';') {
+            return Err(self.error_at(
+                line,
+                0,
+                format!(
+                    "the header `{}` is one field",
+                    shown(record.get(0).unwrap_or(""))
+                ),
+                SEMICOLON_HINT,
+            ));
+        }
+        for (c, name) in names.iter().enumerate() {
+            if let Some(first) = names[..c].iter().position(|n| n == name) {
+                return Err(self.error_at(
+                    line,
+                    c,
+                    format!(
+                        "column `{name}` appears twice (first as column {})",
+                        first + 1
+                    ),
+                    "name each column once",
+                ));
+            }
+            if spec.unknown == UnknownColumns::Refuse && !spec.known.contains(&name.as_str()) {
+                let help = if name.contains(';') {
+                    SEMICOLON_HINT.to_string()
+                } else {
+                    format!(
+                        "the header names {} (units are part of the names)",
+                        spec.layout
+                    )
+                };
+                return Err(self.error_at(
+                    line,
+                    c,
+                    format!("unknown column `{}`", shown(name)),
+                    help,
+                ));
+            }
+        }
+        self.header = names;
+        Ok(())
+    }
+
+    /// The data records in file order, or the error for the first record
+    /// whose field count differs from the header's.
+    pub fn records(&self) -> Result<&[Record], MapFileError> {
+        match &self.width_error {
+            Some(e) => Err(e.clone()),
+            None => Ok(&self.records),
+        }
+    }
+
+    /// The 0-based index of column `name` (lower case), if present.
+    pub fn column(&self, name: &str) -> Option<usize> {
+        self.header.iter().position(|h| h == name)
+    }
+
+    /// The 0-based index of the first of `names` present.
+    pub fn column_of(&self, names: &[&str]) -> Option<usize> {
+        names.iter().find_map(|n| self.column(n))
+    }
+
+    /// The 0-based index of column `name`, or an error naming it.
+    pub fn require(&self, name: &str) -> Result<usize, MapFileError> {
+        self.column(name).ok_or_else(|| self.missing(name, ""))
+    }
+
+    /// The error for a missing column `name`; `meaning` says what it holds.
+    pub fn missing(&self, name: &str, meaning: &str) -> MapFileError {
+        let what = if meaning.is_empty() {
+            String::new()
+        } else {
+            format!(" ({meaning})")
+        };
+        let raw = self.source(self.header_line);
+        let help = if raw.contains(';') && !raw.contains(',') {
+            SEMICOLON_HINT.to_string()
+        } else {
+            format!("the header names {}", self.layout_hint())
+        };
+        MapFileError::new(
+            &self.file,
+            self.header_line,
+            self.header.len() + 1,
+            format!("the header has no `{name}` column{what}"),
+            help,
+        )
+        .with_source(raw, raw.len())
+    }
+
+    fn layout_hint(&self) -> String {
+        format!("its columns by name; found {}", self.header.join(","))
+    }
+
+    fn source(&self, line: usize) -> &str {
+        self.lines
+            .get(line.wrapping_sub(1))
+            .map_or("", String::as_str)
+    }
+
+    /// An error at `line` and 0-based column `col` (reported 1-based, with
+    /// the header name when there is one), showing the line.
+    pub fn error_at(
+        &self,
+        line: usize,
+        col: usize,
+        message: impl Into<String>,
+        help: impl Into<String>,
+    ) -> MapFileError {
+        let message = match self.header.get(col) {
+            Some(name) if line != self.header_line => {
+                format!("column {} `{name}`: {}", col + 1, message.into())
+            }
+            _ => message.into(),
+        };
+        let src = self.source(line);
+        MapFileError::new(&self.file, line, col + 1, message, help)
+            .with_source(src, field_offset(src, col))
+    }
+
+    /// The error for a record's field.
+    pub fn error(
+        &self,
+        record: &Record,
+        col: usize,
+        message: impl Into<String>,
+        help: impl Into<String>,
+    ) -> MapFileError {
+        self.error_at(record.line, col, message, help)
+    }
+
+    /// The text of a record's field.
+    pub fn text<'r>(&self, record: &'r Record, col: usize) -> &'r str {
+        record.fields.get(col).map_or("", String::as_str)
+    }
+
+    /// A finite number; the error names the unit the column's name gives
+    /// (`_mm`, `_um`, `_urad`, `_h`, `_c`, …).
+    pub fn number(&self, record: &Record, col: usize) -> Result<f64, MapFileError> {
+        let raw = self.text(record, col);
+        let text = shown(raw);
+        let unit = self.header.get(col).and_then(|h| unit_of(h));
+        let in_unit = unit.map_or(String::new(), |u| format!(" in {u}"));
+        match raw.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            Ok(_) => Err(self.error(
+                record,
+                col,
+                format!("`{text}` is not a finite number"),
+                format!("write the measured value{in_unit}; remove NaN/inf values"),
+            )),
+            Err(_) if raw.is_empty() => Err(self.error(
+                record,
+                col,
+                "the value is missing",
+                format!("write a decimal number{in_unit} such as -1.25"),
+            )),
+            Err(_) => {
+                let help = if text.contains(',') {
+                    "write numbers with '.' decimals (1.5, not 1,5)".to_string()
+                } else {
+                    format!("write a decimal number{in_unit} such as -1.25")
+                };
+                Err(self.error(record, col, format!("`{text}` is not a number"), help))
+            }
+        }
+    }
+
+    /// A whole number (may be negative).
+    pub fn integer(&self, record: &Record, col: usize) -> Result<i64, MapFileError> {
+        let text = self.text(record, col);
+        text.parse::<i64>().map_err(|_| {
+            let text = shown(text);
+            self.error(
+                record,
+                col,
+                format!("`{text}` is not a whole number"),
+                "write an integer such as 3",
+            )
+        })
+    }
+
+    /// A whole number ≥ 0.
+    pub fn index(&self, record: &Record, col: usize) -> Result<usize, MapFileError> {
+        let text = self.text(record, col);
+        text.parse::<usize>().map_err(|_| {
+            let text = shown(text);
+            self.error(
+                record,
+                col,
+                format!("`{text}` is not a whole number ≥ 0"),
+                "write an integer such as 3",
+            )
+        })
+    }
+
+    /// The last line of the file that holds a record (or the header).
+    pub fn last_line(&self) -> usize {
+        self.records
+            .last()
+            .map_or(self.header_line.max(1), |r| r.line)
+    }
+}
+
+/// A field's text as shown in a message: at most 40 characters, control
+/// characters escaped.
+pub fn shown(text: &str) -> String {
+    let (mut s, _) = volcomp_gcode::error::excerpt(text.as_bytes(), 0);
+    if s.chars().count() > 40 {
+        s = s.chars().take(40).collect::<String>() + "…";
+    }
+    s
+}
+
+/// The unit a column name ends in, spelled out.
+pub fn unit_of(name: &str) -> Option<&'static str> {
+    let (_, suffix) = name.rsplit_once('_')?;
+    Some(match suffix {
+        "mm" => "mm",
+        "um" => "µm",
+        "urad" => "µrad",
+        "in" | "inch" => "inch",
+        "h" => "hours",
+        "c" => "°C",
+        "k" => "K",
+        "s" => "seconds",
+        "min" => "mm/min",
+        _ => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const H: Header<'static> = Header {
+        known: &["a_mm", "b_um"],
+        unknown: UnknownColumns::Refuse,
+        layout: "a_mm,b_um",
+    };
+
+    #[test]
+    fn bom_quotes_order_and_case() {
+        let t = CsvTable::parse(
+            "\u{feff}B_UM , a_mm\r\n\"2\",1\r\n\n  # c\n3,4\n",
+            "t.csv",
+            &H,
+        )
+        .unwrap();
+        let (a, b) = (t.require("a_mm").unwrap(), t.require("b_um").unwrap());
+        assert_eq!((a, b), (1, 0));
+        assert_eq!(t.records().unwrap().len(), 2);
+        assert_eq!(t.number(&t.records().unwrap()[0], b).unwrap(), 2.0);
+        assert_eq!(t.records().unwrap()[1].line, 5);
+        assert_eq!(t.comments, vec![(4, "c".to_string())]);
+    }
+
+    #[test]
+    fn errors_name_row_column_and_header() {
+        let t = CsvTable::parse("a_mm,b_um\n1,x\n", "t.csv", &H).unwrap();
+        let e = t.number(&t.records().unwrap()[0], 1).unwrap_err();
+        assert_eq!((e.row, e.column), (2, 2));
+        let s = e.to_string();
+        assert!(
+            s.starts_with("t.csv:2:2: column 2 `b_um`: `x` is not a number"),
+            "{s}"
+        );
+        assert!(s.contains("in µm"), "{s}");
+        assert!(s.contains("2 | 1,x\n  |   ^"), "{s}");
+    }
+
+    #[test]
+    fn duplicate_unknown_and_missing_columns() {
+        let e = CsvTable::parse("a_mm,A_MM\n", "t.csv", &H).unwrap_err();
+        assert_eq!((e.row, e.column), (1, 2));
+        assert!(e.message.contains("twice"));
+        let e = CsvTable::parse("a_mm,c\n", "t.csv", &H).unwrap_err();
+        assert_eq!((e.row, e.column), (1, 2));
+        let keep = Header {
+            unknown: UnknownColumns::Keep,
+            ..H
+        };
+        let t = CsvTable::parse("a_mm,c\n", "t.csv", &keep).unwrap();
+        let e = t.require("b_um").unwrap_err();
+        assert!(e.message.contains("`b_um`"));
+        assert!(CsvTable::parse("# only\n", "t.csv", &H).is_err());
+    }
+
+    #[test]
+    fn semicolons_and_decimal_commas_get_a_hint() {
+        let e = CsvTable::parse("a_mm;b_um\n1,5;2\n", "t.csv", &H).unwrap_err();
+        assert!(e.help.contains("';' as separator"), "{e}");
+        let t = CsvTable::parse("a_mm,b_um\n1,5,2\n", "t.csv", &H).unwrap();
+        let e = t.records().unwrap_err();
+        assert_eq!((e.row, e.column), (2, 3));
+        assert!(e.help.contains("decimal commas"), "{e}");
+    }
+
+    #[test]
+    fn excerpts_are_bounded_and_escaped() {
+        let long = format!("a_mm,b_um\n1,\u{1b}]0;{}\n", "9".repeat(100_000));
+        let t = CsvTable::parse(&long, "t.csv", &H).unwrap();
+        let s = t
+            .number(&t.records().unwrap()[0], 1)
+            .unwrap_err()
+            .to_string();
+        assert!(!s.contains('\u{1b}'));
+        assert!(s.contains("\\x1b"));
+        assert!(s.len() < 1000, "{}", s.len());
+    }
+
+    #[test]
+    fn non_utf8_is_located() {
+        let e = utf8(b"a_mm,b_um\n1,2\n3,\xe9\n", "t.csv").unwrap_err();
+        assert_eq!((e.row, e.column), (3, 3));
+        assert_eq!(utf8(b"\xef\xbb\xbfa", "t").unwrap(), "a");
+    }
+}
