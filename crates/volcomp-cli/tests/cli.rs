@@ -443,7 +443,16 @@ fn assumptions_are_warned_about_on_stderr_with_file_and_line() {
     )
     .unwrap();
     let o = volcomp(
-        &["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"],
+        &[
+            "compensate",
+            "p.ngc",
+            "--map",
+            "map.csv",
+            "--work-offset",
+            "0,0,0",
+            "-o",
+            "out.ngc",
+        ],
         &dir,
     );
     let msg = stderr(&o);
