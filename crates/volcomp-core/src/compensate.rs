@@ -222,7 +222,7 @@ pub fn compensate_program<R: BufRead>(
         let program_motion = ev.motions.iter().any(|m| m.source == MotionSource::Program);
         let cycle = ev.motions.iter().any(|m| m.source == MotionSource::Cycle);
         if !ev.motions.is_empty() {
-            mark_axes_set(&ev.lexed, &mut st.known);
+            mark_axes_set(ev.lexed, &mut st.known);
         }
         if ev
             .motions

@@ -227,7 +227,7 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
         sim.set_tool_length_offset(ev.interp.tool_length_offset_mm());
         // Until the program has set every axis, the machine is somewhere the
         // program does not say: follow without evaluating (as compensation does).
-        crate::compensate::mark_axes_set(&ev.lexed, &mut known);
+        crate::compensate::mark_axes_set(ev.lexed, &mut known);
         if ev
             .motions
             .iter()
