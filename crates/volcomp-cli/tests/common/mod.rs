@@ -2,6 +2,7 @@
 //! fresh directory per test.
 #![allow(dead_code)]
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -25,4 +26,61 @@ pub fn tempdir(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
+}
+
+// A small part on a pitch-error map, shared by the output-safety and header tests.
+
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A small axis-table map over 0…600 mm with a pitch error of 2 µm per 100 mm
+/// on every axis (hand-made, so the test does not depend on `map example`).
+pub fn write_map(dir: &Path) -> PathBuf {
+    let mut s = String::from("axis,position_mm,direction,ex_um,ey_um,ez_um\n");
+    for axis in ["X", "Y", "Z"] {
+        for dir in ["+", "-"] {
+            for k in 0..=6 {
+                let p = k as f64 * 100.0;
+                let e = 0.02 * p;
+                let (ex, ey, ez) = match axis {
+                    "X" => (e, 0.0, 0.0),
+                    "Y" => (0.0, e, 0.0),
+                    _ => (0.0, 0.0, e),
+                };
+                s.push_str(&format!("{axis},{p},{dir},{ex},{ey},{ez}\n"));
+            }
+        }
+    }
+    let path = dir.join("map.csv");
+    std::fs::write(&path, s).unwrap();
+    path
+}
+
+pub const PROGRAM: &str =
+    "G21 G90 G17\nG0 X10 Y10 Z5\nG1 Z-1 F300\nG1 X60 Y40\nG1 X10\nG0 Z5\nM2\n";
+
+pub const SETUP: &str = "units = \"mm\"\n[work_offsets]\nG54 = [200, 150, 100]\n";
+
+pub fn fixture(name: &str) -> PathBuf {
+    let d = tempdir(name);
+    write_map(&d);
+    std::fs::write(d.join("part.ngc"), PROGRAM).unwrap();
+    std::fs::write(d.join("machine.toml"), SETUP).unwrap();
+    d
+}
+
+/// A long program: enough lines that a compensation takes a while.
+pub fn large_program(dir: &Path, lines: usize) -> PathBuf {
+    let path = dir.join("large.ngc");
+    let mut f = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+    writeln!(f, "G21 G90 G17\nG0 X0 Y0 Z5\nG1 Z-1 F600").unwrap();
+    for k in 0..lines {
+        // Within the map over G54 = (200, 150, 100): X ≤ 449.5, Y ≤ 299.5.
+        let x = (k % 500) as f64 * 0.5;
+        let y = ((k / 500) % 300) as f64 * 0.5;
+        writeln!(f, "G1 X{x:.3} Y{y:.3}").unwrap();
+    }
+    writeln!(f, "M2").unwrap();
+    path
 }
