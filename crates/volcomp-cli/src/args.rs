@@ -126,7 +126,12 @@ pub struct CompensateArgs {
     #[arg(long, value_enum, default_value_t = Method::Exact)]
     pub method: Method,
     /// Split feed moves into segments of at most this length (mm).
-    #[arg(long, value_name = "MM", conflicts_with = "segments")]
+    #[arg(
+        long,
+        value_name = "MM",
+        conflicts_with = "segments",
+        allow_negative_numbers = true
+    )]
     pub segment_length: Option<f64>,
     /// Split every feed move into this many segments (as the papers do).
     #[arg(long, value_name = "N")]
@@ -136,7 +141,7 @@ pub struct CompensateArgs {
     pub no_split: bool,
     /// Split feed moves adaptively: as finely as the map needs for the path
     /// to stay within this contour tolerance (µm).
-    #[arg(long, value_name = "UM", conflicts_with_all = ["segments", "segment_length", "no_split"])]
+    #[arg(long, value_name = "UM", conflicts_with_all = ["segments", "segment_length", "no_split"], allow_negative_numbers = true)]
     pub contour_tolerance_um: Option<f64>,
     /// Shortest segment of adaptive splitting (mm).
     #[arg(
@@ -147,19 +152,37 @@ pub struct CompensateArgs {
     )]
     pub min_segment_length: f64,
     /// ILC gain γ, 0 < γ ≤ 1.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
     pub gain: f64,
-    /// ILC iteration limit.
+    /// ILC iteration limit (at least 1).
     #[arg(long, default_value_t = 20)]
     pub max_iterations: u32,
+    /// Largest model residual accepted at a point (µm) with the exact and
+    /// ILC solvers; a point that is not reached is an error at its line.
+    #[arg(long, value_name = "UM", default_value_t = volcomp_core::compensate::DEFAULT_MAX_RESIDUAL_UM, allow_negative_numbers = true)]
+    pub max_residual_um: f64,
+    /// Largest output accepted, in bytes (suffixes K, M, G: powers of 1024),
+    /// or `none`; a bigger output is refused and nothing is written.
+    #[arg(long, value_name = "BYTES", default_value = "256M", value_parser = parse_size)]
+    pub max_output_size: SizeLimit,
     /// Chord tolerance for linearising arcs (mm).
-    #[arg(long, value_name = "MM", default_value_t = 1e-4)]
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 1e-4,
+        allow_negative_numbers = true
+    )]
     pub chord_tolerance: f64,
     /// Decimal places of written coordinates (default 4 in mm, 5 in inch).
     #[arg(long)]
     pub decimals: Option<u8>,
     /// Largest correction accepted (mm); larger ones mean a wrong map unit.
-    #[arg(long, value_name = "MM", default_value_t = 0.1)]
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 0.1,
+        allow_negative_numbers = true
+    )]
     pub max_correction: f64,
     /// Choose error tables by the nominal move direction, as the papers do,
     /// instead of the direction of the compensated command (for comparison).
@@ -209,7 +232,12 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
     /// Chord tolerance for linearising arcs (mm).
-    #[arg(long, value_name = "MM", default_value_t = 1e-4)]
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 1e-4,
+        allow_negative_numbers = true
+    )]
     pub chord_tolerance: f64,
 }
 
@@ -218,4 +246,32 @@ pub struct DemoArgs {
     /// Where to write the example map and programs.
     #[arg(long, value_name = "DIR", default_value = "volcomp-demo")]
     pub out_dir: PathBuf,
+}
+
+/// A limit in bytes; `None`: no limit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SizeLimit(pub Option<u64>);
+
+/// Parses a byte count such as `1048576`, `64K`, `256M`, `2G` (powers of
+/// 1024), or `none` (no limit).
+pub fn parse_size(text: &str) -> Result<SizeLimit, String> {
+    let t = text.trim();
+    if t.eq_ignore_ascii_case("none") {
+        return Ok(SizeLimit(None));
+    }
+    let (digits, factor) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
+        Some('K') => (&t[..t.len() - 1], 1u64 << 10),
+        Some('M') => (&t[..t.len() - 1], 1 << 20),
+        Some('G') => (&t[..t.len() - 1], 1 << 30),
+        _ => (t, 1),
+    };
+    digits
+        .parse::<u64>()
+        .ok()
+        .and_then(|n| n.checked_mul(factor))
+        .filter(|n| *n > 0)
+        .map(|n| SizeLimit(Some(n)))
+        .ok_or_else(|| {
+            format!("`{text}` is not a size: write a whole number of bytes, optionally with K, M or G (1024-based), or `none`")
+        })
 }

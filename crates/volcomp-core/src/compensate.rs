@@ -76,6 +76,14 @@ pub struct CompensateOptions {
     pub take_up: bool,
     /// Tag inserted lines with `(volcomp Ln)`.
     pub trace_comments: bool,
+    /// Largest model residual `‖t − (q + e(q))‖` accepted at a point (µm),
+    /// for the solvers that aim at the target (exact, ILC); `None` checks
+    /// only that the residual is finite. A point past it is an error at its
+    /// line: a program whose points do not reach their targets is never
+    /// written as a success. Points with a held axis are exempt (their
+    /// residual is the reversal value the take-up cannot cover,
+    /// docs/compensation.md).
+    pub max_residual_um: Option<f64>,
 }
 
 impl Default for CompensateOptions {
@@ -89,9 +97,17 @@ impl Default for CompensateOptions {
             directions: DirectionPolicy::Commanded,
             take_up: true,
             trace_comments: true,
+            max_residual_um: Some(DEFAULT_MAX_RESIDUAL_UM),
         }
     }
 }
+
+/// Default of [`CompensateOptions::max_residual_um`]: 1 µm, ten times the
+/// solver's own tolerance plus the rounding of a written coordinate (half a
+/// step of 0.1 µm in mm, 0.254 µm in inch, on three axes), so a converged
+/// point always passes and an unconverged one (ILC stopped early, a map the
+/// solver cannot invert) never does.
+pub const DEFAULT_MAX_RESIDUAL_UM: f64 = 1.0;
 
 /// One compensated target point, for the per-point report.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -277,6 +293,7 @@ pub fn compensate_program<R: BufRead>(
         let (frame0, style0) = st.frame_before.unwrap_or((frame, style));
         let feed_known_before = st.feed_known;
         let feed_known_in_line = st.feed_known || has_feed(ev.lexed.words());
+        check_target_count(&motion, options, file, ev.number)?;
         let targets = targets_of(&motion, options, model, st.s)
             .map_err(|source| model_error(file, ev.number, source))?;
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
@@ -650,6 +667,7 @@ impl State {
         let mut dwell_written = false;
         for m in motions {
             let feed_like = matches!(m.kind, MotionKind::Feed);
+            check_target_count(m, options, file, line)?;
             let targets = targets_of(m, options, model, self.s)
                 .map_err(|source| model_error(file, line, source))?;
             let from = self.q_out;
@@ -765,6 +783,7 @@ impl State {
                 }
             }
             .map_err(|source| command_error(model, file, line, *t, source))?;
+            check_converged(&point, options, *t, file, line)?;
             let correction = (point.q_mm - *t).norm();
             if correction > options.max_correction_mm {
                 return Err(CompensationError::AtLine {
@@ -1065,6 +1084,53 @@ fn stop_m_word<'a>(mut words: impl Iterator<Item = &'a Word>) -> Option<&'a Word
     words.find(|w| w.letter == b'M' && [0.0, 1.0, 2.0, 30.0, 60.0].contains(&w.value))
 }
 
+/// An upper bound of the number of targets [`targets_of`] makes of
+/// `motion`, computed in O(1) so that a block asking for unbounded work is
+/// refused before any point is generated.
+pub fn target_count_bound(motion: &volcomp_gcode::Motion, options: &CompensateOptions) -> f64 {
+    let per = |len_mm: f64| -> f64 {
+        match options.segmentation {
+            Segmentation::Off => 1.0,
+            Segmentation::Count(n) => f64::from(n.max(1)),
+            Segmentation::MaxLength(l) => (len_mm / l).ceil().max(1.0),
+            // `bisect` halves only segments longer than twice the minimum,
+            // at most 40 levels deep.
+            Segmentation::Adaptive { min_length_mm, .. } => {
+                (len_mm / min_length_mm).floor().min(2f64.powi(40)) + 1.0
+            }
+        }
+    };
+    match motion.kind {
+        MotionKind::Rapid => 1.0,
+        MotionKind::Feed => per((motion.end - motion.start).norm()),
+        MotionKind::Arc(arc) => {
+            let chords = arc.chord_count(options.chord_tolerance_mm) as f64;
+            match options.segmentation {
+                Segmentation::Count(n) => chords.max(f64::from(n)),
+                _ => chords * per(arc.length() / chords),
+            }
+        }
+    }
+}
+
+/// Refuses a motion whose targets would pass
+/// [`crate::limits::MAX_POINTS_PER_BLOCK`].
+fn check_target_count(
+    motion: &volcomp_gcode::Motion,
+    options: &CompensateOptions,
+    file: &str,
+    line: u64,
+) -> Result<(), CompensationError> {
+    crate::limits::check_points(target_count_bound(motion, options)).map_err(|message| {
+        CompensationError::AtLine {
+            file: file.into(),
+            line,
+            message,
+            help: "split the move in the program, or pass a coarser --segment-length, --segments, --chord-tolerance or --min-segment-length".into(),
+        }
+    })
+}
+
 /// Target points of a program motion (axis frame), the last one exactly the
 /// motion's end. `model` and `s` (the direction state before the motion)
 /// are only used by adaptive segmentation.
@@ -1180,4 +1246,37 @@ pub(crate) fn mark_axes_set(line: &volcomp_gcode::lexer::Lexed, known: &mut [boo
             _ => {}
         }
     }
+}
+
+/// Refuses a solved point whose command or residual is not finite, or whose
+/// residual passes [`CompensateOptions::max_residual_um`] (no held axis).
+fn check_converged(
+    point: &crate::solve::PointSolution,
+    options: &CompensateOptions,
+    target_mm: Vec3,
+    file: &str,
+    line: u64,
+) -> Result<(), CompensationError> {
+    let finite = point.residual_um.is_finite() && (0..3).all(|a| point.q_mm[a].is_finite());
+    let held = point.held.iter().any(|h| *h);
+    let too_far = options
+        .max_residual_um
+        .is_some_and(|max| !held && point.residual_um > max);
+    if finite && !too_far {
+        return Ok(());
+    }
+    Err(CompensationError::AtLine {
+        file: file.into(),
+        line,
+        message: format!(
+            "the point X {:.4} Y {:.4} Z {:.4} mm (machine axes) is not reached: the model residual after {} iteration(s) is {} µm{}",
+            target_mm[0],
+            target_mm[1],
+            target_mm[2],
+            point.iterations,
+            if point.residual_um.is_finite() { format!("{:.3}", point.residual_um) } else { "not finite".into() },
+            options.max_residual_um.map_or(String::new(), |m| format!(", above the {m} µm accepted")),
+        ),
+        help: "with ILC raise the iteration limit or the gain; check that the map is smooth and in µm; the residual limit is an option (--max-residual-um)".into(),
+    })
 }

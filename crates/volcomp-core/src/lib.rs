@@ -15,6 +15,7 @@ pub mod io;
 pub mod iso230_2;
 pub mod kinematic;
 pub mod kinematic_example;
+pub mod limits;
 pub mod linuxcnc_comp;
 pub mod mirror;
 pub mod model;

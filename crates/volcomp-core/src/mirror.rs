@@ -1902,6 +1902,8 @@ pub fn compensate_finishing<R: BufRead>(
         directions: DirectionPolicy::Commanded,
         take_up: false,
         trace_comments: options.trace_comments,
+        // The direct step is exact for a displacement field (no iteration).
+        max_residual_um: None,
     };
     let mut s = FinishingSummary {
         min_offset_um: f64::INFINITY,

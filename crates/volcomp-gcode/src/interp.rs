@@ -268,6 +268,35 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
     })
 }
 
+/// Largest absolute machine coordinate volcomp accepts (mm): 100 m, beyond
+/// the travel of the largest machine tools (gantry mills reach some tens of
+/// metres) and far beyond any error map. A coordinate past it is a typo, a
+/// wrong unit or a runaway offset; refusing it here, before any move is split
+/// or solved, keeps the work per block bounded. LinuxCNC itself accepts any
+/// finite double and stops at the soft limits of the machine's INI file
+/// (`[AXIS_n]MIN_LIMIT`/`MAX_LIMIT`); volcomp has no INI file, so it uses
+/// this generous fixed bound. In inch programs it is 3937 in.
+pub const MAX_COORDINATE_MM: f64 = 100_000.0;
+
+/// Refuses a point (axis frame, mm) with a coordinate beyond
+/// [`MAX_COORDINATE_MM`] or not finite.
+fn check_reach(line: u64, col: usize, what: &str, p: Vec3) -> Result<(), GcodeError> {
+    for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+        let v = p[a];
+        if !(v.abs() <= MAX_COORDINATE_MM) {
+            return Err(invalid(
+                line,
+                col,
+                format!(
+                    "the {what} of this move has {letter} = {v:e} mm in machine coordinates, beyond the ±{MAX_COORDINATE_MM} mm volcomp accepts"
+                ),
+                "check the coordinate, the units (G20/G21) and the offsets (G92, G10, work offsets) in effect",
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn invalid(line: u64, col: usize, msg: impl Into<String>, help: impl Into<String>) -> GcodeError {
     GcodeError::new(ErrorClass::Invalid, line, col + 1, msg, help)
 }
@@ -1105,7 +1134,7 @@ impl Interpreter {
             } else {
                 MotionKind::Feed
             };
-            self.push(out, kind, MotionSource::Machine, t, line, col, feed);
+            self.push(out, kind, MotionSource::Machine, t, line, col, feed)?;
             return Ok(());
         }
         match mode {
@@ -1116,7 +1145,7 @@ impl Interpreter {
                     MotionKind::Feed
                 };
                 let t = self.target(w);
-                self.push(out, kind, MotionSource::Program, t, line, col, feed);
+                self.push(out, kind, MotionSource::Program, t, line, col, feed)?;
             }
             MotionMode::Cw | MotionMode::Ccw => {
                 let arc = self.arc(line, col, w, mode == MotionMode::Cw)?;
@@ -1128,7 +1157,7 @@ impl Interpreter {
                     line,
                     col,
                     feed,
-                );
+                )?;
             }
             MotionMode::Cycle(code) => self.cycle(line, col, code, w, new_cycle, out)?,
         }
@@ -1145,7 +1174,11 @@ impl Interpreter {
         line: u64,
         column: usize,
         feed: f64,
-    ) {
+    ) -> Result<(), GcodeError> {
+        check_reach(line, column, "end point", end)?;
+        if let MotionKind::Arc(arc) = kind {
+            check_reach(line, column, "arc centre", arc.center)?;
+        }
         out.push(Motion {
             kind,
             source,
@@ -1156,6 +1189,7 @@ impl Interpreter {
             feed,
         });
         self.position = end;
+        Ok(())
     }
 
     fn arc(
@@ -1400,7 +1434,7 @@ impl Interpreter {
             line,
             col,
             feed,
-        );
+        )?;
         let mut fin = intermediate;
         for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
             if !w.has_axis() || w.get(l).is_some() {
@@ -1415,7 +1449,7 @@ impl Interpreter {
             line,
             col,
             feed,
-        );
+        )?;
         Ok(())
     }
 
@@ -1534,7 +1568,7 @@ impl Interpreter {
                 line,
                 col,
                 feed,
-            );
+            )?;
             old_z = r;
             cur_z = r;
         }
@@ -1548,7 +1582,7 @@ impl Interpreter {
                 line,
                 col,
                 feed,
-            );
+            )?;
             self.push(
                 out,
                 MotionKind::Rapid,
@@ -1557,7 +1591,7 @@ impl Interpreter {
                 line,
                 col,
                 feed,
-            );
+            )?;
         } else {
             self.push(
                 out,
@@ -1567,7 +1601,7 @@ impl Interpreter {
                 line,
                 col,
                 feed,
-            );
+            )?;
             if clear > r {
                 self.push(
                     out,
@@ -1577,7 +1611,7 @@ impl Interpreter {
                     line,
                     col,
                     feed,
-                );
+                )?;
             }
         }
         self.push(
@@ -1588,7 +1622,7 @@ impl Interpreter {
             line,
             col,
             feed,
-        );
+        )?;
         match code {
             810 | 820 => self.push(
                 out,
@@ -1598,7 +1632,7 @@ impl Interpreter {
                 line,
                 col,
                 feed,
-            ),
+            )?,
             850 => {
                 self.push(
                     out,
@@ -1608,7 +1642,7 @@ impl Interpreter {
                     line,
                     col,
                     feed,
-                );
+                )?;
                 self.push(
                     out,
                     MotionKind::Rapid,
@@ -1617,7 +1651,7 @@ impl Interpreter {
                     line,
                     col,
                     feed,
-                );
+                )?;
             }
             _ => self.push(
                 out,
@@ -1627,7 +1661,7 @@ impl Interpreter {
                 line,
                 col,
                 feed,
-            ),
+            )?,
         }
         Ok(())
     }

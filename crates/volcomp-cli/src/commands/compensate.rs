@@ -87,6 +87,23 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
             "--chord-tolerance must be a positive length in mm".into(),
         ));
     }
+    if !(a.max_correction.is_finite() && a.max_correction > 0.0) {
+        return Err(CliError::Message(format!(
+            "--max-correction must be a positive length in mm; got {}",
+            a.max_correction
+        )));
+    }
+    if matches!(a.method, MethodArg::Ilc) && a.max_iterations == 0 {
+        return Err(CliError::Message(
+            "--max-iterations must be at least 1 (ILC needs one step to move any point)".into(),
+        ));
+    }
+    if !(a.max_residual_um.is_finite() && a.max_residual_um > 0.0) {
+        return Err(CliError::Message(format!(
+            "--max-residual-um must be a positive number of µm; got {}",
+            a.max_residual_um
+        )));
+    }
     if a.decimals.is_some_and(|d| !(1..=9).contains(&d)) {
         return Err(CliError::Message("--decimals must be 1 … 9".into()));
     }
@@ -103,6 +120,10 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
         },
         take_up: !a.no_take_up,
         trace_comments: !a.no_trace,
+        // Direct and pitch do not aim at the full model's target: their
+        // residual is the method's own error, checked for finiteness only.
+        max_residual_um: matches!(a.method, MethodArg::Exact | MethodArg::Ilc)
+            .then_some(a.max_residual_um),
     })
 }
 
@@ -313,10 +334,12 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     });
     let mut staged = Staged::new();
     let mut summary = None;
+    let mut report_too_big = false;
     staged.write(&output, |out| {
+        let mut out = volcomp_core::limits::LimitedWriter::new(out, a.max_output_size.0);
         summary = Some(compensate_into(
             &a.program,
-            out,
+            &mut out,
             &machine,
             model.as_ref(),
             &opts,
@@ -331,6 +354,10 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
                     }
                 }
                 if let Some(r) = report.as_mut() {
+                    if a.max_output_size.0.is_some_and(|max| r.len() as u64 > max) {
+                        report_too_big = true;
+                        return;
+                    }
                     let axes = |f: [bool; 3]| -> String {
                         ['X', 'Y', 'Z']
                             .iter()
@@ -360,6 +387,12 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         )?);
         Ok(())
     })?;
+    if report_too_big {
+        return Err(CliError::Message(format!(
+            "the --report file would exceed the limit of {} bytes (--max-output-size); nothing was written",
+            a.max_output_size.0.unwrap_or(u64::MAX)
+        )));
+    }
     if let (Some(path), Some(bytes)) = (&a.report, report) {
         staged.write(path, |w| {
             w.write_all(&bytes)

@@ -1,0 +1,116 @@
+//! Limits that keep the work of one run bounded whatever the input.
+//!
+//! A program line can ask for an unbounded amount of work: a move of 100 m
+//! split into 1 µm segments, a 10,000-turn helix linearised to 1 nm. Every
+//! such request is measured *before* any point is generated, and refused with
+//! a located error when it passes these limits; the output as a whole is
+//! capped by [`LimitedWriter`]. `docs/errors.md` ("Limits") lists them.
+
+use std::io::{self, Write};
+
+/// Most target points one program block may be split into: one million,
+/// i.e. 1 mm segments along 1 km of path, or a 10 mm-radius helix of about
+/// 1,400 turns at the default 0.1 µm chord tolerance. A block's points are
+/// held in memory while it is solved (about 130 bytes each with its written
+/// line), so this bounds memory to some 130 MB per block.
+pub const MAX_POINTS_PER_BLOCK: u64 = 1_000_000;
+
+/// Default cap on the bytes one output may take: 256 MiB, about eight
+/// million compensated lines, several times the largest programs of the
+/// bundled real-world corpus after splitting at 1 mm. Larger outputs are
+/// almost always a wrong segment length or unit; the CLI's
+/// `--max-output-size` raises or removes the cap.
+pub const DEFAULT_MAX_OUTPUT_BYTES: u64 = 256 * 1024 * 1024;
+
+/// Checks that `points` (which may be a float estimate, possibly infinite or
+/// NaN) stays within [`MAX_POINTS_PER_BLOCK`]; the error says how many.
+///
+/// ```
+/// use volcomp_core::limits::check_points;
+/// assert!(check_points(1000.0).is_ok());
+/// assert!(check_points(2.0e6).unwrap_err().contains("2000000"));
+/// assert!(check_points(f64::NAN).is_err());
+/// ```
+pub fn check_points(points: f64) -> Result<(), String> {
+    if points <= MAX_POINTS_PER_BLOCK as f64 {
+        Ok(())
+    } else {
+        Err(format!(
+            "this block would be split into {points:.0} points, more than the {MAX_POINTS_PER_BLOCK} volcomp handles in one block"
+        ))
+    }
+}
+
+/// A writer that refuses to pass more than `limit` bytes to `inner`.
+///
+/// The write that would cross the limit fails with an error of kind
+/// [`io::ErrorKind::FileTooLarge`] and writes nothing of that call; the
+/// caller discards the partial output (the CLI writes into a temporary file
+/// that is only renamed into place on success).
+#[derive(Debug)]
+pub struct LimitedWriter<W> {
+    inner: W,
+    written: u64,
+    limit: u64,
+}
+
+impl<W: Write> LimitedWriter<W> {
+    /// Wraps `inner`; `limit: None` passes everything.
+    pub fn new(inner: W, limit: Option<u64>) -> Self {
+        Self {
+            inner,
+            written: 0,
+            limit: limit.unwrap_or(u64::MAX),
+        }
+    }
+
+    /// Bytes passed so far.
+    pub fn written(&self) -> u64 {
+        self.written
+    }
+}
+
+impl<W: Write> Write for LimitedWriter<W> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        if self.written.saturating_add(buf.len() as u64) > self.limit {
+            return Err(io::Error::new(
+                io::ErrorKind::FileTooLarge,
+                format!(
+                    "the output would exceed the limit of {} bytes (--max-output-size); nothing was written",
+                    self.limit
+                ),
+            ));
+        }
+        let n = self.inner.write(buf)?;
+        self.written += n as u64;
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn limited_writer_refuses_the_write_that_crosses_the_limit() {
+        let mut w = LimitedWriter::new(Vec::new(), Some(10));
+        w.write_all(b"0123456789").unwrap();
+        let e = w.write_all(b"x").unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::FileTooLarge);
+        assert_eq!(w.written(), 10);
+        let mut unlimited = LimitedWriter::new(Vec::new(), None);
+        unlimited.write_all(&[0u8; 100]).unwrap();
+        assert_eq!(unlimited.written(), 100);
+    }
+
+    #[test]
+    fn point_limit_is_inclusive() {
+        assert!(check_points(MAX_POINTS_PER_BLOCK as f64).is_ok());
+        assert!(check_points(MAX_POINTS_PER_BLOCK as f64 + 1.0).is_err());
+        assert!(check_points(f64::INFINITY).is_err());
+    }
+}
