@@ -54,7 +54,11 @@ fn a_map_in_metres_is_suspected_and_numbers_stay_short() {
     .unwrap();
     let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
     assert!(msg.len() < 2000, "{msg}");
-    assert!(!msg.contains(&"9".repeat(20)), "{msg}");
+    // The message (its first line; the excerpt below shows the source) gives
+    // the number in scientific notation.
+    let first = msg.lines().next().unwrap_or_default();
+    assert!(!first.contains(&"9".repeat(20)), "{msg}");
+    assert!(first.contains("1e40"), "{msg}");
 }
 
 #[test]

@@ -77,8 +77,8 @@ pub struct CompensateOptions {
     /// Tag inserted lines with `(volcomp Ln)`.
     pub trace_comments: bool,
     /// Largest model residual `‖t − (q + e(q))‖` accepted at a point (µm),
-    /// for the solvers that aim at the target (exact, ILC); `None` checks
-    /// only that the residual is finite. A point past it is an error at its
+    /// for the solvers that aim at the target (exact, ILC; direct and pitch
+    /// are checked for finiteness only); `None` checks only finiteness. A point past it is an error at its
     /// line: a program whose points do not reach their targets is never
     /// written as a success. Points with a held axis are exempt (their
     /// residual is the reversal value the take-up cannot cover,
@@ -1259,9 +1259,12 @@ fn check_converged(
 ) -> Result<(), CompensationError> {
     let finite = point.residual_um.is_finite() && (0..3).all(|a| point.q_mm[a].is_finite());
     let held = point.held.iter().any(|h| *h);
+    // Direct and pitch do not aim at the full model's target: their
+    // residual is the method's own error, checked for finiteness only.
+    let aims = matches!(options.method, Method::Exact | Method::Ilc { .. });
     let too_far = options
         .max_residual_um
-        .is_some_and(|max| !held && point.residual_um > max);
+        .is_some_and(|max| aims && !held && point.residual_um > max);
     if finite && !too_far {
         return Ok(());
     }
