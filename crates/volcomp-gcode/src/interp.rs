@@ -283,7 +283,7 @@ pub const MAX_COORDINATE_MM: f64 = 100_000.0;
 fn check_reach(line: u64, col: usize, what: &str, p: Vec3) -> Result<(), GcodeError> {
     for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
         let v = p[a];
-        if !(v.abs() <= MAX_COORDINATE_MM) {
+        if v.is_nan() || v.abs() > MAX_COORDINATE_MM {
             return Err(invalid(
                 line,
                 col,
