@@ -5,22 +5,11 @@
 
 mod common;
 
-use common::{fixture, stderr, volcomp};
+use common::{compensate_with, fixture, stderr, volcomp};
 use std::path::Path;
 
 fn compensate(dir: &Path, extra: &[&str]) -> std::process::Output {
-    let mut args = vec![
-        "compensate",
-        "part.ngc",
-        "--map",
-        "map.csv",
-        "--setup",
-        "machine.toml",
-        "-o",
-        "out.ngc",
-    ];
-    args.extend_from_slice(extra);
-    volcomp(&args, dir)
+    compensate_with(dir, "out.ngc", extra)
 }
 
 /// The command fails, says `needle`, and writes no output.

@@ -4,26 +4,10 @@
 
 mod common;
 
-use common::{fixture, large_program, stderr, volcomp, PROGRAM};
+use common::{compensate_to, fixture, large_program, stderr, volcomp, PROGRAM};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-
-fn compensate_to(d: &Path, out: &str) -> std::process::Output {
-    volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            out,
-        ],
-        d,
-    )
-}
 
 #[test]
 fn standard_input_and_output() {

@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{fixture, large_program, stderr, tempdir, volcomp, PROGRAM};
+use common::{compensate_to, fixture, large_program, stderr, tempdir, volcomp, PROGRAM};
 use std::path::Path;
 use std::process::{Command, Stdio};
 
@@ -239,22 +239,6 @@ fn straightness_outputs_never_replace_inputs() {
         assert_eq!(o.status.code(), Some(2), "{argv:?}: {}", stderr(&o));
         assert_eq!(snapshot(&d), before);
     }
-}
-
-fn compensate_to(d: &Path, out: &str) -> std::process::Output {
-    volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            out,
-        ],
-        d,
-    )
 }
 
 #[test]

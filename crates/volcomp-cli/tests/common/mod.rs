@@ -84,3 +84,25 @@ pub fn large_program(dir: &Path, lines: usize) -> PathBuf {
     writeln!(f, "M2").unwrap();
     path
 }
+
+/// `volcomp compensate part.ngc --map map.csv --setup machine.toml -o OUT
+/// EXTRA…` in a [`fixture`] directory.
+pub fn compensate_with(d: &Path, out: &str, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "compensate",
+        "part.ngc",
+        "--map",
+        "map.csv",
+        "--setup",
+        "machine.toml",
+        "-o",
+        out,
+    ];
+    args.extend_from_slice(extra);
+    volcomp(&args, d)
+}
+
+/// [`compensate_with`] without extra options.
+pub fn compensate_to(d: &Path, out: &str) -> Output {
+    compensate_with(d, out, &[])
+}
