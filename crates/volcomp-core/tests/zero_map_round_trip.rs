@@ -151,26 +151,7 @@ fn inch_program_with_six_decimals_keeps_them() {
     // are written with 5 by default, which used to drop the sixth digit.
     let program = "G20 G90 G1 F10\nX 0.0238 Y 0.096205 Z-0.012345\nX1.5 Y0.25\n";
     let map = zero_map();
-    let mut out = Vec::new();
-    compensate_program(
-        &mut Walker::new(
-            Cursor::new(program.as_bytes().to_vec()),
-            None,
-            Setup::default(),
-            InterpOptions::default(),
-        ),
-        "t.ngc",
-        &map,
-        &survey_style(program.as_bytes()),
-        &CompensateOptions {
-            segmentation: Segmentation::Off,
-            ..CompensateOptions::default()
-        },
-        &mut out,
-        |_| {},
-    )
-    .unwrap();
-    assert_eq!(String::from_utf8(out).unwrap(), program);
+    assert_eq!(compensate_text(program, &map), program);
 }
 
 #[test]
@@ -186,52 +167,17 @@ fn a_rewritten_word_never_has_fewer_decimals_than_the_original() {
     }
     let map = AxisTableMap::from_csv(&csv, "shift.csv").unwrap();
     let program = "G21 G90 G1 F100 Z0\nX10.123456 Y5.000001\n";
-    let mut out = Vec::new();
-    compensate_program(
-        &mut Walker::new(
-            Cursor::new(program.as_bytes().to_vec()),
-            None,
-            Setup::default(),
-            InterpOptions::default(),
-        ),
-        "t.ngc",
+    let text = compensate_text_with(
+        program,
         &map,
-        &survey_style(program.as_bytes()),
         &CompensateOptions {
             segmentation: Segmentation::Off,
             decimals: Some(3),
             ..CompensateOptions::default()
         },
-        &mut out,
-        |_| {},
-    )
-    .unwrap();
-    let text = String::from_utf8(out).unwrap();
+    );
     // e_x = −2 µm everywhere, so the command is X + 0.002 mm: 10.125456.
     assert_eq!(text, "G21 G90 G1 F100 Z0\nX10.125456 Y5.000001\n");
-}
-
-fn compensate_text(program: &str, map: &AxisTableMap) -> String {
-    let mut out = Vec::new();
-    compensate_program(
-        &mut Walker::new(
-            Cursor::new(program.as_bytes().to_vec()),
-            None,
-            Setup::default(),
-            InterpOptions::default(),
-        ),
-        "t.ngc",
-        map,
-        &survey_style(program.as_bytes()),
-        &CompensateOptions {
-            segmentation: Segmentation::Off,
-            ..CompensateOptions::default()
-        },
-        &mut out,
-        |_| {},
-    )
-    .unwrap();
-    String::from_utf8(out).unwrap()
 }
 
 #[test]
@@ -272,4 +218,38 @@ fn polar_moves_are_kept_or_written_back_on_the_compensated_point() {
         compensate_text("G21 G90 G0 X5 Y0 Z0\nG91 G1 F100 ^90\n", &map),
         "G21 G90 G0 X5.0020 Y0 Z0\nG91 G1 F100 X-5.0000 Y5.0000\n"
     );
+}
+
+/// Compensates `program` (named `t.ngc`, default set-up) and returns the
+/// written text.
+fn compensate_text_with(program: &str, map: &AxisTableMap, options: &CompensateOptions) -> String {
+    let mut out = Vec::new();
+    compensate_program(
+        &mut Walker::new(
+            Cursor::new(program.as_bytes().to_vec()),
+            None,
+            Setup::default(),
+            InterpOptions::default(),
+        ),
+        "t.ngc",
+        map,
+        &survey_style(program.as_bytes()),
+        options,
+        &mut out,
+        |_| {},
+    )
+    .unwrap();
+    String::from_utf8(out).unwrap()
+}
+
+/// [`compensate_text_with`] without splitting.
+fn compensate_text(program: &str, map: &AxisTableMap) -> String {
+    compensate_text_with(
+        program,
+        map,
+        &CompensateOptions {
+            segmentation: Segmentation::Off,
+            ..CompensateOptions::default()
+        },
+    )
 }
