@@ -15,8 +15,8 @@
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use volcomp_core::bspline::{self, Parameterization};
-use volcomp_core::mirror::{write_bspline_toml, MaterialSide, NominalSurface};
+use volcomp_core::surface::bspline::{self, Parameterization};
+use volcomp_core::surface::mirror::{write_bspline_toml, MaterialSide, NominalSurface};
 use volcomp_gcode::Vec3;
 
 fn main() {

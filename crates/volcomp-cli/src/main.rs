@@ -47,7 +47,7 @@ fn main() -> ExitCode {
     }
     // Named temporaries (where the OS has no unnamed ones) are removed on
     // SIGINT, SIGTERM and SIGHUP.
-    if let Err(e) = volcomp_core::output::install_cleanup() {
+    if let Err(e) = volcomp_core::io::output::install_cleanup() {
         eprintln!("volcomp: warning: cannot watch for signals ({e}); an interrupted run may leave a .volcomp-*.tmp file");
     }
     let cli = args::Cli::parse();

@@ -1,5 +1,5 @@
 //! Writing results through the library's output layer
-//! (`volcomp_core::output`), and the CLI's error type.
+//! (`volcomp_core::io::output`), and the CLI's error type.
 //!
 //! Every command first declares its inputs and outputs in an
 //! [`OutputPlan`] and checks it ([`check`]) before any work; then it
@@ -10,8 +10,8 @@ use std::fmt;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-pub use volcomp_core::output::OutputPlan;
-use volcomp_core::output::{commit_all, OutputError, OutputFile};
+pub use volcomp_core::io::output::OutputPlan;
+use volcomp_core::io::output::{commit_all, OutputError, OutputFile};
 
 /// Everything that can stop a command, with a message meant for a person.
 #[derive(Debug)]
@@ -206,7 +206,7 @@ impl Write for Tracking {
     }
 }
 
-/// Writes one output completely or not at all (see `volcomp_core::output`);
+/// Writes one output completely or not at all (see `volcomp_core::io::output`);
 /// refuses to write over any of `inputs`. Commands with several outputs
 /// check an [`OutputPlan`] first and use [`Staged`].
 pub fn write_atomically(

@@ -53,9 +53,9 @@ fn standard_input_and_output() {
         &d,
     );
     let from_file = String::from_utf8(o.stdout).unwrap();
-    let body = |s: &str| volcomp_core::provenance::strip_header(s);
+    let body = |s: &str| volcomp_core::io::provenance::strip_header(s);
     assert_eq!(body(&from_stdin), body(&from_file));
-    assert!(from_stdin.starts_with(volcomp_core::provenance::FIRST_LINE));
+    assert!(from_stdin.starts_with(volcomp_core::io::provenance::FIRST_LINE));
     assert!(from_stdin.contains("G1"), "{from_stdin}");
 }
 
@@ -107,7 +107,7 @@ fn linuxcnc_filter_protocol() {
     );
     let (code, filtered, progress, text) = run_as_axis(&d, &filter, &d.join("large.ngc"));
     assert_eq!(code, 0, "{text:?}");
-    assert!(filtered.starts_with(volcomp_core::provenance::FIRST_LINE));
+    assert!(filtered.starts_with(volcomp_core::io::provenance::FIRST_LINE));
     assert!(
         filtered.trim_end().ends_with("M2"),
         "{}",
@@ -157,7 +157,7 @@ fn header_content_and_refusal_of_double_compensation() {
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines[0], "%");
     assert_eq!(lines[1], "O0042 (PART)");
-    assert_eq!(lines[2], volcomp_core::provenance::FIRST_LINE);
+    assert_eq!(lines[2], volcomp_core::io::provenance::FIRST_LINE);
     let map_sha = {
         use sha2_check::sha256_hex;
         sha256_hex(&std::fs::read(d.join("map.csv")).unwrap())

@@ -410,7 +410,7 @@ fn dense_axis_tables_go_to_linuxcnc_with_a_resampling_step() {
 #[test]
 fn iso230_2_prints_the_figures_of_the_hand_example() {
     let dir = tempdir("iso");
-    // The hand example of volcomp_core::iso230_2's tests:
+    // The hand example of volcomp_core::identify::iso230_2's tests:
     // B = 3, B̄ = −2, R↑ = 8, R↓ = 4, R = 8, E = 6, M = 3.5, A = 10 (µm).
     let runs = "target_mm,cycle,direction,deviation_um\n\
         0,1,up,1\n0,2,up,2\n0,3,up,3\n0,1,down,4\n0,2,down,5\n0,3,down,6\n\

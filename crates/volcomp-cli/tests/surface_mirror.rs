@@ -3,8 +3,8 @@
 
 use std::path::Path;
 use std::process::Output;
-use volcomp_core::bspline::{self, Parameterization};
-use volcomp_core::mirror::{read_bspline_toml, write_bspline_toml, MaterialSide, NominalSurface};
+use volcomp_core::surface::bspline::{self, Parameterization};
+use volcomp_core::surface::mirror::{read_bspline_toml, write_bspline_toml, MaterialSide, NominalSurface};
 use volcomp_gcode::Vec3;
 
 mod common;
@@ -144,9 +144,9 @@ fn writes_the_program_the_surface_and_the_report() {
     }
     // The header follows the % and O-number lines; the body is the rest.
     let lines: Vec<&str> = after.lines().collect();
-    assert_eq!(lines[2], volcomp_core::provenance::FIRST_LINE);
+    assert_eq!(lines[2], volcomp_core::io::provenance::FIRST_LINE);
     assert!(after.contains("(method surface mirror)"), "{after}");
-    let body = volcomp_core::provenance::strip_header(&after);
+    let body = volcomp_core::io::provenance::strip_header(&after);
     let original: Vec<&str> = body.lines().filter(|l| !l.contains("(volcomp L")).collect();
     assert_eq!(original.len(), before.lines().count());
     // The compensated CL points sit below the nominal CL points by the

@@ -4,13 +4,13 @@
 use std::io::Cursor;
 use std::path::Path;
 use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, Segmentation};
-use volcomp_core::kinematic::{AxisComponents, ComponentTable, Form, KinematicModel, Kinematics};
-use volcomp_core::kinematic_example::{example_files, example_model};
-use volcomp_core::linuxcnc_comp::{self, CompFileType, MachineUnits, Positioning};
+use volcomp_core::model::kinematic::{AxisComponents, ComponentTable, Form, KinematicModel, Kinematics};
+use volcomp_core::example::kinematic::{example_files, example_model};
+use volcomp_core::io::linuxcnc_comp::{self, CompFileType, MachineUnits, Positioning};
 use volcomp_core::model::{Components, ErrorModel, ALL_FORWARD};
-use volcomp_core::model_file::{self, read_model};
-use volcomp_core::report::simulate_program;
-use volcomp_core::topology::Topology;
+use volcomp_core::io::model_file::{self, read_model};
+use volcomp_core::simulate::report::simulate_program;
+use volcomp_core::model::topology::Topology;
 use volcomp_gcode::{InterpOptions, Setup, Vec3, Walker};
 
 fn data(name: &str) -> std::path::PathBuf {
@@ -85,7 +85,7 @@ fn simulate(
     program: &str,
     original: &str,
     model: &dyn ErrorModel,
-) -> volcomp_core::report::SimReport {
+) -> volcomp_core::simulate::report::SimReport {
     let mut reference = walker(original);
     simulate_program(
         &mut walker(program),
@@ -166,7 +166,7 @@ fn model_to_linuxcnc_and_back_loses_nothing_the_format_holds() {
                 linuxcnc_comp::parse(&text, "c.comp", ty, units).unwrap()
             });
             let tables = back.clone().map(|p| {
-                let t = |v: &[f64]| volcomp_core::axis_table::Table {
+                let t = |v: &[f64]| volcomp_core::model::axis_table::Table {
                     positions_mm: p.positions_mm.clone(),
                     errors_um: v.iter().map(|e| Vec3::new(*e, *e, *e)).collect(),
                 };

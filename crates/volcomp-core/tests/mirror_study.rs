@@ -16,9 +16,9 @@
 //! standard deviation as it was (6.2 → 6.1 µm).
 
 use std::io::BufReader;
-use volcomp_core::bspline::{self, Parameterization};
+use volcomp_core::surface::bspline::{self, Parameterization};
 use volcomp_core::compensate::survey_style;
-use volcomp_core::mirror::{
+use volcomp_core::surface::mirror::{
     compensate_finishing, deviation_stats, mirror, BallTool, ClPoint, DeviationField,
     DeviationStats, FinishingOptions, FitMethod, MaterialSide, MirrorOptions, NominalSurface,
     ProbePoint, SurfaceModel,
@@ -283,7 +283,7 @@ fn run_probes(
     probes: &[ProbePoint],
     fit: FitMethod,
     noise_um: f64,
-) -> (Outcome, volcomp_core::mirror::MirrorResult) {
+) -> (Outcome, volcomp_core::surface::mirror::MirrorResult) {
     let nominal = nominal.clone();
     let opts = MirrorOptions {
         stock_mm: STOCK_MM,

@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::io::Cursor;
 use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions};
 use volcomp_core::example::{example_map, DEMO_WORK_OFFSET_MM};
-use volcomp_core::report::simulate_program;
+use volcomp_core::simulate::report::simulate_program;
 use volcomp_gcode::{InterpOptions, Setup, Walker};
 
 #[derive(Debug, Clone)]

@@ -16,12 +16,12 @@
 
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
-use volcomp_core::axis_table::AxisTableMap;
+use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::compensate::{
     compensate_program, survey_style, CompensateOptions, PointRecord, Segmentation,
 };
 use volcomp_core::example::example_map;
-use volcomp_core::report::{simulate_program, SegmentError, SimReport};
+use volcomp_core::simulate::report::{simulate_program, SegmentError, SimReport};
 use volcomp_gcode::{InterpOptions, MotionSource, Setup, Vec3, Walker};
 
 const CHORD_TOLERANCE_MM: f64 = 1e-4;

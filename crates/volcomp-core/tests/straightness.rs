@@ -7,10 +7,10 @@
 
 use std::f64::consts::PI;
 use volcomp_core::model::{ErrorModel, ALL_FORWARD};
-use volcomp_core::solve::{solve_fixed, Method};
-use volcomp_core::straightness::identify::{fit, CutoffRule, Fit, FitOptions, Normalisation};
-use volcomp_core::straightness::run::Run;
-use volcomp_core::straightness::{Axis, StraightnessModel};
+use volcomp_core::compensate::solve::{solve_fixed, Method};
+use volcomp_core::identify::straightness::identify::{fit, CutoffRule, Fit, FitOptions, Normalisation};
+use volcomp_core::identify::straightness::run::Run;
+use volcomp_core::identify::straightness::{Axis, StraightnessModel};
 use volcomp_gcode::Vec3;
 
 /// splitmix64 + Box–Muller: reproducible Gaussian noise without a crate.

@@ -9,20 +9,20 @@ use volcomp_core::compensate::{
     survey_style, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, Segmentation,
 };
 use volcomp_core::model::ErrorModel;
-use volcomp_core::output::referenced_files;
-use volcomp_core::provenance::{
+use volcomp_core::io::output::referenced_files;
+use volcomp_core::io::provenance::{
     compensate_program_with_header, find_compensation, iso8601_utc, sha256_hex, Compensated,
     ProgramHeader,
 };
-use volcomp_core::solve::Method;
+use volcomp_core::compensate::solve::Method;
 use volcomp_gcode::Walker;
 
 /// Loads the error map named by `--map`.
 pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
     let text = super::read_utf8(&a.map)?;
     // A straightness model (docs/straightness.md): TOML with `kind = "straightness"`.
-    if volcomp_core::straightness::StraightnessModel::is_model_toml(&text) {
-        let mut m = volcomp_core::straightness::StraightnessModel::from_toml(
+    if volcomp_core::identify::straightness::StraightnessModel::is_model_toml(&text) {
+        let mut m = volcomp_core::identify::straightness::StraightnessModel::from_toml(
             &text,
             &a.map.display().to_string(),
         )?;

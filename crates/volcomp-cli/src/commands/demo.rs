@@ -8,8 +8,8 @@ use std::path::Path;
 use volcomp_core::compensate::{CompensateOptions, DirectionPolicy, Segmentation};
 use volcomp_core::example::{demo_programs, example_map, DEMO_WORK_OFFSET_MM};
 use volcomp_core::model::ErrorModel;
-use volcomp_core::report::{simulate_program, SimReport};
-use volcomp_core::solve::Method;
+use volcomp_core::simulate::report::{simulate_program, SimReport};
+use volcomp_core::compensate::solve::Method;
 
 /// One column of the demo table.
 pub struct Variant {

@@ -9,15 +9,15 @@ use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use volcomp_core::axis_table::{AxisTableMap, AxisTables, Table};
-use volcomp_core::iso230_2;
-use volcomp_core::kinematic::{angular_name, linear_name, Form, KinematicModel};
-use volcomp_core::kinematic_example;
-use volcomp_core::linuxcnc_comp::{self, CompFileType, MachineUnits, Positioning};
+use volcomp_core::model::axis_table::{AxisTableMap, AxisTables, Table};
+use volcomp_core::identify::iso230_2;
+use volcomp_core::model::kinematic::{angular_name, linear_name, Form, KinematicModel};
+use volcomp_core::example::kinematic as kinematic_example;
+use volcomp_core::io::linuxcnc_comp::{self, CompFileType, MachineUnits, Positioning};
 use volcomp_core::model::{Components, Direction, Directions, ErrorModel};
-use volcomp_core::model_file;
-use volcomp_core::numfmt;
-use volcomp_core::topology::Topology;
+use volcomp_core::io::model_file;
+use volcomp_core::io::numfmt;
+use volcomp_core::model::topology::Topology;
 use volcomp_gcode::Vec3;
 
 /// Evaluate, convert, plot and import error maps.

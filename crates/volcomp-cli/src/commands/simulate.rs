@@ -6,7 +6,7 @@ use crate::args::SimulateArgs;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
 use std::io::Write;
-use volcomp_core::report::{simulate_program, SimReport};
+use volcomp_core::simulate::report::{simulate_program, SimReport};
 
 pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     if !(a.chord_tolerance.is_finite() && a.chord_tolerance > 0.0) {

@@ -10,12 +10,12 @@ use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use volcomp_core::numfmt;
-use volcomp_core::straightness::identify::{
+use volcomp_core::io::numfmt;
+use volcomp_core::identify::straightness::identify::{
     fit, AxisFit, CutoffRule, Fit, FitOptions, Normalisation,
 };
-use volcomp_core::straightness::run::Run;
-use volcomp_core::straightness::{Axis, StraightnessModel};
+use volcomp_core::identify::straightness::run::Run;
+use volcomp_core::identify::straightness::{Axis, StraightnessModel};
 
 #[derive(Args, Debug)]
 pub struct StraightnessArgs {

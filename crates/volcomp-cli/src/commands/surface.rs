@@ -1,6 +1,6 @@
 //! `volcomp surface mirror`: free-form surface compensation from on-machine
 //! probing (the mirror method, `docs/mirror.md`). Flags, validation, files
-//! and printing; the method is `volcomp_core::mirror`.
+//! and printing; the method is `volcomp_core::surface::mirror`.
 
 use super::compensate::{date_utc, file_name, refuse_if_compensated};
 use super::Machine;
@@ -9,15 +9,15 @@ use crate::output::{check, write_atomically, CliError, OutputPlan};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
-use volcomp_core::bspline::Parameterization;
+use volcomp_core::surface::bspline::Parameterization;
 use volcomp_core::compensate::survey_style;
-use volcomp_core::mirror::{
+use volcomp_core::surface::mirror::{
     compensate_finishing, mirror, program_frame_offset, read_bspline_toml, read_grid_csv,
     read_probe_points, write_bspline_toml, BallTool, ClPoint, CompensatedSurface, DeviationField,
     DeviationStats, FinishingOptions, FinishingSummary, FitInfo, FitMethod, MatchedPoint,
     MaterialSide, MirrorOptions, MirrorResult, NominalSurface, SurfaceModel,
 };
-use volcomp_core::provenance::{sha256_hex, HeaderWriter, ProgramHeader};
+use volcomp_core::io::provenance::{sha256_hex, HeaderWriter, ProgramHeader};
 
 /// Free-form surfaces.
 #[derive(Args, Debug)]

@@ -9,11 +9,11 @@ use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
-use volcomp_core::thermal::example;
-use volcomp_core::thermal::files::{
+use volcomp_core::example::thermal as example;
+use volcomp_core::identify::thermal::files::{
     self, parse_artifact, parse_measurements, parse_temperatures, FitOptions, ThermalModelFile,
 };
-use volcomp_core::thermal::identify::DEFAULT_RELATIVE_THRESHOLD;
+use volcomp_core::identify::thermal::identify::DEFAULT_RELATIVE_THRESHOLD;
 
 /// Thermally varying error: ball-array identification, temperature regression, prediction, plots.
 #[derive(Args, Debug)]
@@ -207,7 +207,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
             a.samples.max(10),
         )?;
     }
-    for w in volcomp_core::thermal::checks::noise_warnings(&cycles, &idents) {
+    for w in volcomp_core::identify::thermal::checks::noise_warnings(&cycles, &idents) {
         eprintln!("volcomp: warning: {m_name}: {w}");
     }
     let first = &idents[0];
@@ -289,7 +289,7 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
     };
     let theta = if a.extrapolate {
         if let Err(e) =
-            volcomp_core::thermal::checks::check_training_range(&model, &temps, &t_name, row)
+            volcomp_core::identify::thermal::checks::check_training_range(&model, &temps, &t_name, row)
         {
             eprintln!("volcomp: warning: {e} (--extrapolate)");
         }
@@ -476,8 +476,8 @@ fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
 /// or as a plot with one chart per axis line.
 fn write_bands(
     path: &Path,
-    model: &volcomp_core::thermal::poly::PolyModel,
-    ident: &volcomp_core::thermal::identify::Identification,
+    model: &volcomp_core::identify::thermal::poly::PolyModel,
+    ident: &volcomp_core::identify::thermal::identify::Identification,
     ranges_mm: [[f64; 2]; 3],
     probe_length_mm: f64,
     samples: usize,
@@ -501,7 +501,7 @@ fn write_bands(
             })
             .collect();
         let bands =
-            volcomp_core::thermal::uncertainty::monte_carlo(model, ident, &line, tool, samples, 1);
+            volcomp_core::identify::thermal::uncertainty::monte_carlo(model, ident, &line, tool, samples, 1);
         // The component along the line's own axis: what a part dimension sees.
         let mut series = [Vec::new(), Vec::new(), Vec::new()];
         for (p, b) in line.iter().zip(&bands) {

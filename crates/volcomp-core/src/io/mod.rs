@@ -1,4 +1,16 @@
 //! File formats: the readers and writers of every file volcomp takes or
 //! writes live here (the G-code program itself is read by `volcomp-gcode`).
+//!
+//! * [`table`]: the one located CSV reader every table file goes through.
+//! * [`model_file`]: model files (TOML + CSV tables of the 21-component model).
+//! * [`linuxcnc_comp`]: LinuxCNC's screw-compensation files, read and written.
+//! * [`provenance`]: the header volcomp writes at the top of a compensated program.
+//! * [`numfmt`]: how computed numbers are written.
+//! * [`output`]: safe output (plans checked before work, atomic files).
 
+pub mod linuxcnc_comp;
+pub mod model_file;
+pub mod numfmt;
+pub mod output;
+pub mod provenance;
 pub mod table;

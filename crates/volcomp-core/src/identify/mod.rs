@@ -1,0 +1,15 @@
+//! Identification: error models built from measurements.
+//!
+//! * [`iso230_2`]: accuracy and repeatability of positioning of one axis from
+//!   bidirectional laser runs (ISO 230-2:2014, clause 3).
+//! * [`straightness`]: guideway straightness from profiles measured at
+//!   several feed rates, vibration separated in the Fourier domain.
+//! * [`thermal`]: a thermally varying 21-component model from repeated
+//!   ball-array artifact measurements, with uncertainty.
+//!
+//! Each module turns measurement files (read through [`crate::io`]) into a
+//! model that [`crate::model`] evaluates.
+
+pub mod iso230_2;
+pub mod straightness;
+pub mod thermal;

@@ -1,0 +1,636 @@
+//! Input and output files of the thermal workflow (formats in
+//! `docs/thermal.md`). Every bad value is reported with file, row and column.
+//!
+//! * artifact: `sphere,distance_mm` — calibrated distance from sphere 1;
+//! * measurements: `cycle,time_h,placement,sphere,x_mm,y_mm,z_mm` — measured
+//!   sphere centres in machine coordinates, every placement of a cycle with
+//!   every sphere;
+//! * temperatures: `cycle,time_h,<sensor>…` — one row per cycle, one column
+//!   per sensor (°C; name them `<name>_C`);
+//! * the thermal model: TOML, [`ThermalModelFile`].
+
+use super::artifact::{BallArray, PlacementMeasurement};
+use super::identify::{identify, Identification};
+use super::poly::PolyModel;
+use super::regression::{features, Regression};
+use super::ThermalError;
+use crate::error::MapFileError;
+use crate::io::table::{CsvTable, Header, UnknownColumns};
+use crate::model::kinematic::Kinematics;
+use crate::model::topology::Topology;
+use std::collections::BTreeMap;
+use volcomp_gcode::Vec3;
+
+/// The `model` value of a thermal model file.
+pub const THERMAL_KIND: &str = "volcomp-thermal-1";
+
+fn err(file: &str, row: usize, column: usize, message: String, help: &str) -> MapFileError {
+    MapFileError::new(file, row, column, message, help)
+}
+
+/// Reads a thermal CSV whose header must name `required` (any order);
+/// returns the table and the required columns' indices. With `others`
+/// false, any other column is refused.
+fn parse_csv(
+    text: &str,
+    file: &str,
+    required: &[&str],
+    others: bool,
+) -> Result<(CsvTable, Vec<usize>), MapFileError> {
+    let layout = required.join(",");
+    let t = CsvTable::parse(
+        text,
+        file,
+        &Header {
+            known: required,
+            unknown: if others {
+                UnknownColumns::Keep
+            } else {
+                UnknownColumns::Refuse
+            },
+            layout: &layout,
+        },
+    )?;
+    let cols = required
+        .iter()
+        .map(|r| t.require(r))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((t, cols))
+}
+
+/// Reads the artifact definition.
+pub fn parse_artifact(text: &str, file: &str) -> Result<BallArray, MapFileError> {
+    let (csv, c) = parse_csv(text, file, &["sphere", "distance_mm"], false)?;
+    let mut d = Vec::new();
+    for r in csv.records()? {
+        let sphere = csv.index(r, c[0])?;
+        if sphere != d.len() + 1 {
+            return Err(csv.error(
+                r,
+                c[0],
+                format!("sphere {sphere} where sphere {} was expected", d.len() + 1),
+                "number the spheres 1, 2, 3 … in order",
+            ));
+        }
+        let v = csv.number(r, c[1])?;
+        let ok = if d.is_empty() {
+            v == 0.0
+        } else {
+            v > d[d.len() - 1]
+        };
+        if !ok {
+            return Err(csv.error(
+                r,
+                c[1],
+                format!("distance {v} mm is not valid here"),
+                "sphere 1 has distance 0; the others strictly increasing distances from sphere 1",
+            ));
+        }
+        d.push(v);
+    }
+    if d.len() < 3 {
+        return Err(err(
+            file,
+            csv.last_line(),
+            1,
+            format!("{} spheres", d.len()),
+            "a ball array needs at least 3 spheres",
+        ));
+    }
+    Ok(BallArray { distances_mm: d })
+}
+
+/// One measurement cycle: its number, time and the measured placements
+/// (in order of placement label).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cycle {
+    /// Cycle number as in the file.
+    pub cycle: usize,
+    /// Time (h).
+    pub time_h: f64,
+    /// Placements, ordered by label.
+    pub placements: Vec<PlacementMeasurement>,
+}
+
+/// Reads measured sphere centres grouped by cycle (ordered by cycle number).
+pub fn parse_measurements(
+    text: &str,
+    file: &str,
+    array: &BallArray,
+) -> Result<Vec<Cycle>, MapFileError> {
+    let (csv, c) = parse_csv(
+        text,
+        file,
+        &[
+            "cycle",
+            "time_h",
+            "placement",
+            "sphere",
+            "x_mm",
+            "y_mm",
+            "z_mm",
+        ],
+        false,
+    )?;
+    type Spheres = BTreeMap<usize, (usize, Vec3)>;
+    let mut cycles: BTreeMap<usize, (f64, usize, BTreeMap<String, Spheres>)> = BTreeMap::new();
+    for r in csv.records()? {
+        let row = &r.line;
+        let cycle = csv.index(r, c[0])?;
+        let time = csv.number(r, c[1])?;
+        let sphere = csv.index(r, c[3])?;
+        if sphere == 0 || sphere > array.len() {
+            return Err(csv.error(
+                r,
+                c[3],
+                format!(
+                    "sphere {sphere} does not exist: the artifact has {}",
+                    array.len()
+                ),
+                "number spheres from 1 as in the artifact file",
+            ));
+        }
+        let mut p = Vec3::ZERO;
+        for k in 0..3 {
+            p[k] = csv.number(r, c[4 + k])?;
+        }
+        let entry = cycles.entry(cycle).or_insert((time, *row, BTreeMap::new()));
+        if entry.0 != time {
+            return Err(csv.error(
+                r,
+                c[1],
+                format!(
+                    "cycle {cycle} has time {time} h here but {} h on line {}",
+                    entry.0, entry.1
+                ),
+                "give every row of a cycle the same time_h",
+            ));
+        }
+        let label = csv.text(r, c[2]).to_string();
+        let spheres = entry.2.entry(label.clone()).or_default();
+        if let Some((first, _)) = spheres.insert(sphere, (*row, p)) {
+            return Err(csv.error(
+                r,
+                c[3],
+                format!("sphere {sphere} of placement {label} in cycle {cycle} again (first on line {first})"),
+                "give each sphere once per placement and cycle",
+            ));
+        }
+    }
+    let mut out = Vec::new();
+    for (cycle, (time_h, row, placements)) in cycles {
+        let mut list = Vec::new();
+        for (label, spheres) in placements {
+            if spheres.len() != array.len() {
+                let missing = (1..=array.len())
+                    .find(|s| !spheres.contains_key(s))
+                    .unwrap_or(0);
+                return Err(err(
+                    file,
+                    row,
+                    4,
+                    format!("cycle {cycle}, placement {label}: sphere {missing} is missing"),
+                    "measure every sphere of the artifact in every placement",
+                ));
+            }
+            list.push(PlacementMeasurement {
+                centres_mm: spheres.values().map(|(_, p)| *p).collect(),
+            });
+        }
+        out.push(Cycle {
+            cycle,
+            time_h,
+            placements: list,
+        });
+    }
+    if out.is_empty() {
+        return Err(err(
+            file,
+            1,
+            1,
+            "no measurements".into(),
+            "add rows below the header",
+        ));
+    }
+    Ok(out)
+}
+
+/// Temperatures per cycle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Temperatures {
+    /// Sensor names (header).
+    pub sensors: Vec<String>,
+    /// Cycle numbers.
+    pub cycles: Vec<usize>,
+    /// Times (h).
+    pub time_h: Vec<f64>,
+    /// `values[t][s]` in °C.
+    pub values: Vec<Vec<f64>>,
+}
+
+/// Reads a temperature file (rows in time order).
+pub fn parse_temperatures(text: &str, file: &str) -> Result<Temperatures, MapFileError> {
+    let (csv, c) = parse_csv(text, file, &["cycle", "time_h"], true)?;
+    let sensor_cols: Vec<usize> = (0..csv.header.len()).filter(|k| !c.contains(k)).collect();
+    if sensor_cols.is_empty() {
+        return Err(err(
+            file,
+            csv.header_line,
+            csv.header.len() + 1,
+            "no sensor columns".into(),
+            "add one column per sensor after cycle,time_h, e.g. spindle_C",
+        ));
+    }
+    for &k in &sensor_cols {
+        sensor_unit(&csv, k)?;
+    }
+    let mut t = Temperatures {
+        sensors: sensor_cols.iter().map(|&k| csv.header[k].clone()).collect(),
+        cycles: Vec::new(),
+        time_h: Vec::new(),
+        values: Vec::new(),
+    };
+    for r in csv.records()? {
+        let cycle = csv.index(r, c[0])?;
+        let time = csv.number(r, c[1])?;
+        if t.time_h.last().is_some_and(|&last| time <= last) {
+            return Err(csv.error(
+                r,
+                c[1],
+                format!("time {time} h does not increase"),
+                "sort the rows by time, one row per cycle",
+            ));
+        }
+        let mut v = Vec::new();
+        for &k in &sensor_cols {
+            v.push(csv.number(r, k)?);
+        }
+        t.cycles.push(cycle);
+        t.time_h.push(time);
+        t.values.push(v);
+    }
+    if t.values.is_empty() {
+        return Err(err(
+            file,
+            csv.header_line,
+            1,
+            "no temperatures".into(),
+            "add one row per cycle",
+        ));
+    }
+    Ok(t)
+}
+
+/// Checks that sensor column `k` says its unit: `<name>_C` (°C). Other
+/// units are refused rather than converted or guessed.
+fn sensor_unit(csv: &CsvTable, k: usize) -> Result<(), MapFileError> {
+    let name = &csv.header[k];
+    let at = |message: String, help: &str| csv.error_at(csv.header_line, k, message, help);
+    match name.rsplit_once('_').map(|(_, u)| u) {
+        Some("c") => Ok(()),
+        Some("k" | "f" | "degf") => Err(at(
+            format!("sensor column `{name}` is not in °C"),
+            "convert the temperatures to degrees Celsius and name the column <name>_C",
+        )),
+        _ => Err(at(
+            format!("sensor column `{name}` does not say its unit"),
+            "name every sensor column with its unit, e.g. spindle_C for °C: volcomp never guesses a unit",
+        )),
+    }
+}
+
+/// One parameter in a thermal model file. Values are in `unit` (`um` for
+/// linear components, `urad` for angles and squareness).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ParamFit {
+    /// Parameter name, e.g. `EXX.P1`.
+    pub name: String,
+    /// `um` or `urad`.
+    pub unit: String,
+    /// Regression intercept (unit).
+    pub intercept: f64,
+    /// Slopes (unit per kelvin) per sensor, lag 0 first, then lag 1 …
+    pub per_kelvin: Vec<f64>,
+    /// RMS of the regression residuals (unit).
+    pub residual_rms: f64,
+    /// Identified value per cycle (unit).
+    pub identified: Vec<f64>,
+    /// Standard uncertainty of the identified value per cycle (unit).
+    pub sigma: Vec<f64>,
+}
+
+/// The thermal model file (TOML).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ThermalModelFile {
+    /// Always [`THERMAL_KIND`].
+    pub model: String,
+    /// Kinematic chain, e.g. `w X' Y' b Z t`.
+    pub chain: String,
+    /// Axis ranges `[lo, hi]` (mm) the polynomials are defined on.
+    pub ranges_mm: [[f64; 2]; 3],
+    /// Maximum Legendre order.
+    pub order: usize,
+    /// Tool length offset of the probe (mm), also the measuring tool length
+    /// of the written 21-component models.
+    pub probe_length_mm: f64,
+    /// Temperature sensor names, in regressor order.
+    pub sensors: Vec<String>,
+    /// Number of lagged cycles in the regression.
+    pub lags: usize,
+    /// Points per component table in predicted models.
+    pub table_samples: usize,
+    /// Cycle times (h) of the training data.
+    pub time_h: Vec<f64>,
+    /// Training temperatures per cycle (°C), `temperatures_c[t][s]`.
+    pub temperatures_c: Vec<Vec<f64>>,
+    /// Estimated probing noise per cycle (µm).
+    pub sigma0_um: Vec<f64>,
+    /// Parameters the artifact placements cannot identify: no values, zero
+    /// in predicted models.
+    pub unidentifiable: Vec<String>,
+    /// The identifiable parameters.
+    pub params: Vec<ParamFit>,
+}
+
+/// Options of [`fit`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOptions {
+    /// Kinematic chain text, e.g. `w X' Y' b Z t`.
+    pub chain: String,
+    /// Axis ranges (mm).
+    pub ranges_mm: [[f64; 2]; 3],
+    /// Maximum Legendre order.
+    pub order: usize,
+    /// Probe tool length offset (mm).
+    pub probe_length_mm: f64,
+    /// Lagged cycles in the regression.
+    pub lags: usize,
+    /// Relative singular-value threshold.
+    pub relative_threshold: f64,
+    /// Points per table in predicted models.
+    pub table_samples: usize,
+}
+
+/// The polynomial model of a chain, ranges, order and probe length.
+pub fn poly_model(
+    chain: &str,
+    ranges_mm: [[f64; 2]; 3],
+    order: usize,
+    probe_length_mm: f64,
+) -> Result<PolyModel, ThermalError> {
+    let topology: Topology = chain
+        .parse()
+        .map_err(|e: crate::model::topology::TopologyError| ThermalError::Invalid(e.to_string()))?;
+    for (a, r) in ranges_mm.iter().enumerate() {
+        if !(r[0].is_finite() && r[1].is_finite() && r[1] > r[0]) {
+            return Err(ThermalError::Invalid(format!(
+                "the range of axis {} is {}…{} mm: give lo < hi",
+                ['X', 'Y', 'Z'][a],
+                r[0],
+                r[1]
+            )));
+        }
+    }
+    if !(1..=8).contains(&order) {
+        return Err(ThermalError::Invalid(format!(
+            "Legendre order {order}: use 1 … 8 (2 is the default)"
+        )));
+    }
+    if !probe_length_mm.is_finite() {
+        return Err(ThermalError::Invalid(
+            "the probe length is not finite".into(),
+        ));
+    }
+    let mut k = Kinematics::new(topology);
+    for m in &mut k.measuring {
+        m.tool_offset_mm = Vec3::new(0.0, 0.0, probe_length_mm);
+    }
+    Ok(PolyModel::new(k, ranges_mm, order))
+}
+
+/// Identifies every cycle and fits the regression: the thermal model file
+/// and the per-cycle identifications (in cycle order).
+pub fn fit(
+    array: &BallArray,
+    cycles: &[Cycle],
+    temps: &Temperatures,
+    temps_file: &str,
+    o: &FitOptions,
+) -> Result<(ThermalModelFile, Vec<Identification>), ThermalError> {
+    let model = poly_model(&o.chain, o.ranges_mm, o.order, o.probe_length_mm)?;
+    let probe = Vec3::new(0.0, 0.0, o.probe_length_mm);
+    let mut idents = Vec::new();
+    let mut t_rows = Vec::new();
+    for c in cycles {
+        for (p, pm) in c.placements.iter().enumerate() {
+            for (j, q) in pm.centres_mm.iter().enumerate() {
+                for a in 0..3 {
+                    let [lo, hi] = o.ranges_mm[a];
+                    if q[a] < lo - 1.0 || q[a] > hi + 1.0 {
+                        return Err(ThermalError::Invalid(format!(
+                            "cycle {}, placement {} (in label order), sphere {}: {} = {} mm lies outside \
+                             the axis range {lo}…{hi} mm; widen --ranges-mm to the machine's travel",
+                            c.cycle,
+                            p + 1,
+                            j + 1,
+                            ['X', 'Y', 'Z'][a],
+                            q[a]
+                        )));
+                    }
+                }
+            }
+        }
+        let row = temps
+            .cycles
+            .iter()
+            .position(|&k| k == c.cycle)
+            .ok_or_else(|| {
+                ThermalError::Invalid(format!(
+                    "{temps_file}: no temperatures for measurement cycle {} — add a row `{},{},…`",
+                    c.cycle, c.cycle, c.time_h
+                ))
+            })?;
+        let id = identify(&model, array, &c.placements, probe, o.relative_threshold)
+            .map_err(|e| ThermalError::Invalid(format!("cycle {}: {e}", c.cycle)))?;
+        idents.push(id);
+        t_rows.push(temps.values[row].clone());
+    }
+    let ident: Vec<usize> = (0..model.len())
+        .filter(|&i| idents.iter().all(|id| id.theta[i].is_some()))
+        .collect();
+    let outputs: Vec<Vec<f64>> = idents
+        .iter()
+        .map(|id| ident.iter().map(|&i| id.theta[i].unwrap_or(0.0)).collect())
+        .collect();
+    let reg = Regression::fit(&t_rows, &outputs, o.lags)?;
+    let params = ident
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| ParamFit {
+            name: model.params[i].name(),
+            unit: model.params[i].unit().into(),
+            intercept: reg.coefficients[k][0],
+            per_kelvin: reg.coefficients[k][1..].to_vec(),
+            residual_rms: reg.residual_rms[k],
+            identified: outputs.iter().map(|o| o[k]).collect(),
+            sigma: idents
+                .iter()
+                .map(|id| id.sigma[i].unwrap_or(f64::NAN))
+                .collect(),
+        })
+        .collect();
+    let file = ThermalModelFile {
+        model: THERMAL_KIND.into(),
+        chain: o.chain.clone(),
+        ranges_mm: o.ranges_mm,
+        order: o.order,
+        probe_length_mm: o.probe_length_mm,
+        sensors: temps.sensors.clone(),
+        lags: o.lags,
+        table_samples: o.table_samples,
+        time_h: cycles.iter().map(|c| c.time_h).collect(),
+        temperatures_c: t_rows,
+        sigma0_um: idents
+            .iter()
+            .map(|id| id.sigma0_um.unwrap_or(f64::NAN))
+            .collect(),
+        unidentifiable: (0..model.len())
+            .filter(|i| !ident.contains(i))
+            .map(|i| model.params[i].name())
+            .collect(),
+        params,
+    };
+    Ok((file, idents))
+}
+
+impl ThermalModelFile {
+    /// Reads the TOML text.
+    pub fn from_toml(text: &str, file: &str) -> Result<Self, ThermalError> {
+        let m: ThermalModelFile = toml::from_str(text).map_err(|e| {
+            let (row, column) = e.span().map_or((1, 1), |s| {
+                let before = &text[..s.start.min(text.len())];
+                let row = before.matches('\n').count() + 1;
+                let col = before.len() - before.rfind('\n').map_or(0, |p| p + 1) + 1;
+                (row, col)
+            });
+            ThermalError::File(err(
+                file,
+                row,
+                column,
+                e.message().to_string(),
+                "write the file with `volcomp thermal fit`",
+            ))
+        })?;
+        if m.model != THERMAL_KIND {
+            return Err(ThermalError::File(err(
+                file,
+                1,
+                1,
+                format!("model = \"{}\" is not a thermal model", m.model),
+                &format!("a thermal model file has model = \"{THERMAL_KIND}\""),
+            )));
+        }
+        Ok(m)
+    }
+
+    /// Writes the TOML text.
+    pub fn to_toml(&self) -> String {
+        let body = toml::to_string(self).unwrap_or_else(|e| format!("# cannot serialise: {e}\n"));
+        format!(
+            "# volcomp thermal model (docs/thermal.md): parameters of the 21-component model with\n\
+             # Legendre-polynomial components, regressed on temperatures. Per parameter: intercept\n\
+             # (its unit), per_kelvin (unit/K per sensor, lag 0 first), identified values and sigma\n\
+             # per training cycle. unit is um for linear components, urad for angles/squareness.\n{body}"
+        )
+    }
+
+    /// The polynomial model the file describes.
+    pub fn poly_model(&self) -> Result<PolyModel, ThermalError> {
+        poly_model(
+            &self.chain,
+            self.ranges_mm,
+            self.order,
+            self.probe_length_mm,
+        )
+    }
+
+    /// Predicted parameters (full vector, `None` for the unidentifiable) at
+    /// row `row` of `temps` (its sensors must match the model's by name).
+    /// Temperatures outside the training range are refused
+    /// ([`super::checks::check_training_range`]).
+    pub fn predict(
+        &self,
+        temps: &Temperatures,
+        temps_file: &str,
+        row: usize,
+    ) -> Result<Vec<Option<f64>>, ThermalError> {
+        if temps.sensors == self.sensors {
+            super::checks::check_training_range(self, temps, temps_file, row)?;
+        }
+        self.predict_extrapolating(temps, temps_file, row)
+    }
+
+    /// As [`Self::predict`], but without refusing temperatures outside the
+    /// training range (the caller has asked to extrapolate).
+    pub fn predict_extrapolating(
+        &self,
+        temps: &Temperatures,
+        temps_file: &str,
+        row: usize,
+    ) -> Result<Vec<Option<f64>>, ThermalError> {
+        if temps.sensors != self.sensors {
+            return Err(ThermalError::Invalid(format!(
+                "{temps_file}: sensors {:?}, the model was fitted on {:?} — give the same columns in the same order",
+                temps.sensors, self.sensors
+            )));
+        }
+        if row < self.lags {
+            return Err(ThermalError::Invalid(format!(
+                "{temps_file}: the model uses {} lagged cycles; give at least {} rows up to the moment",
+                self.lags,
+                self.lags + 1
+            )));
+        }
+        let model = self.poly_model()?;
+        let mut theta = vec![None; model.len()];
+        let f = features(&temps.values, row, self.lags).unwrap_or_default();
+        for p in &self.params {
+            let i = model.index(&p.name).ok_or_else(|| {
+                ThermalError::Invalid(format!("unknown parameter `{}` in the model", p.name))
+            })?;
+            if p.per_kelvin.len() + 1 != f.len() {
+                return Err(ThermalError::Invalid(format!(
+                    "parameter `{}` has {} slopes, expected {}",
+                    p.name,
+                    p.per_kelvin.len(),
+                    f.len() - 1
+                )));
+            }
+            theta[i] = Some(
+                p.intercept
+                    + p.per_kelvin
+                        .iter()
+                        .zip(&f[1..])
+                        .map(|(b, t)| b * t)
+                        .sum::<f64>(),
+            );
+        }
+        Ok(theta)
+    }
+
+    /// The 21-component model files `(toml, csv)` for parameters `theta`,
+    /// the TOML naming `tables` as its CSV.
+    pub fn model_files(
+        &self,
+        theta: &[Option<f64>],
+        tables: &str,
+        description: &str,
+    ) -> Result<(String, String), ThermalError> {
+        let model = self.poly_model()?;
+        let km = model.to_kinematic_model(theta, self.table_samples.max(2));
+        Ok((
+            crate::io::model_file::model_to_toml(&km, tables, Some(description)),
+            crate::io::model_file::components_to_csv(&km.axes),
+        ))
+    }
+}

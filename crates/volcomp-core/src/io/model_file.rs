@@ -1,0 +1,925 @@
+//! Files of the 21-component model: a TOML description and CSV component
+//! tables (format documented in `docs/kinematic.md`).
+//!
+//! ```toml
+//! model = "kinematic-21"             # required: what this file is
+//! chain = "w X' Y' b Z t"            # required: workpiece → tool
+//! tables = "machine.csv"             # required: one file or a list, relative to this one
+//! angles = "relative"                # or "moving-part" (default relative)
+//! measuring_point_mm = [0, 0, 0]     # axis positions of the measuring lines
+//! measuring_tool_length_mm = 0       # tool length offset of the reflector
+//! [squareness_urad]                  # required, all three
+//! xy = 0.0                           # Y moves along (S_xy, 1, 0)
+//! yz = 0.0                           # Z moves along (S_zx, S_yz, 1)
+//! zx = 0.0
+//! [measuring.X]                      # optional: where X alone was measured
+//! point_mm = [0, 150, 200]
+//! tool_length_mm = 100
+//! ```
+//!
+//! The CSV extends the axis-table layout of docs/design.md by three angle columns:
+//!
+//! ```text
+//! axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad
+//! X,forward,0,0.00,0.00,0.00,0.0,0.0,0.0
+//! ```
+//!
+//! For the rows of axis X, `ex_um` is EXX, `ey_um` EYX, `ez_um` EZX, `ea_urad`
+//! EAX, `eb_urad` EBX, `ec_urad` ECX; likewise for Y and Z. Angles may be
+//! given in arc seconds instead (`ea_arcsec` …). Every bad value is reported
+//! with file, row and column.
+
+use crate::model::axis_table::Table;
+use crate::error::MapFileError;
+use crate::io::table::{CsvTable, Header, UnknownColumns};
+use crate::model::kinematic::{
+    AngleConvention, AxisComponents, ComponentTable, KinematicModel, Kinematics, MeasuringLine,
+    Squareness,
+};
+use crate::io::numfmt;
+use crate::model::topology::Topology;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use toml::Spanned;
+use volcomp_gcode::Vec3;
+
+/// The `model` value that identifies a 21-component model file.
+pub const MODEL_KIND: &str = "kinematic-21";
+
+/// Micro-radians per arc second.
+pub const URAD_PER_ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0) * 1e6;
+
+const AXES: [char; 3] = ['X', 'Y', 'Z'];
+
+/// A model file could not be read.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModelFileError {
+    /// The file itself could not be read.
+    #[error("{path}: {message}")]
+    Io {
+        /// File name.
+        path: String,
+        /// What the system said.
+        message: String,
+    },
+    /// The content is malformed (located).
+    #[error(transparent)]
+    Format(#[from] MapFileError),
+}
+
+fn map_err(file: &str, row: usize, column: usize, message: String, help: &str) -> MapFileError {
+    MapFileError::new(file, row, column, message, help)
+}
+
+// ---------------------------------------------------------------------------
+// CSV component tables
+
+/// Header of the CSV component table.
+pub const CSV_HEADER: &str = "axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad";
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Dir {
+    Forward,
+    Reverse,
+    Both,
+}
+
+/// One parsed row, located.
+#[derive(Debug, Clone)]
+struct Row {
+    axis: usize,
+    dir: Dir,
+    position_mm: f64,
+    linear_um: Vec3,
+    angular_urad: Vec3,
+    file: String,
+    row: usize,
+    position_column: usize,
+}
+
+/// Rows of one or more CSV files, assembled into per-axis tables.
+#[derive(Debug, Default)]
+pub struct TableRows {
+    rows: Vec<Row>,
+    last: Option<(String, usize)>,
+}
+
+const BASE_COLUMNS: [&str; 3] = ["axis", "direction", "position_mm"];
+
+/// Parses the header field `name` into a column slot and a unit factor.
+fn header_slot(name: &str) -> Result<(usize, f64), (String, &'static str)> {
+    let lower = name.to_ascii_lowercase();
+    if let Some(k) = BASE_COLUMNS.iter().position(|c| *c == lower) {
+        return Ok((k, 1.0));
+    }
+    let (stem, unit) = match lower.split_once('_') {
+        Some((s, u)) => (s, Some(u)),
+        None => (lower.as_str(), None),
+    };
+    let linear = ["ex", "ey", "ez"].iter().position(|c| *c == stem);
+    let angular = ["ea", "eb", "ec"].iter().position(|c| *c == stem);
+    match (linear, angular, unit) {
+        (Some(k), _, Some("um")) => Ok((3 + k, 1.0)),
+        (_, Some(k), Some("urad")) => Ok((6 + k, 1.0)),
+        (_, Some(k), Some("arcsec")) => Ok((6 + k, URAD_PER_ARCSEC)),
+        (Some(_), _, None) => Err((
+            format!("column `{name}` has no unit"),
+            "linear errors are in micrometres: write ex_um, ey_um, ez_um",
+        )),
+        (_, Some(_), None) => Err((
+            format!("column `{name}` has no unit"),
+            "angular errors are in microradians or arc seconds: write ea_urad (or ea_arcsec), eb_urad, ec_urad",
+        )),
+        (Some(_), _, Some(_)) => Err((
+            format!("column `{name}`: linear errors must be in µm"),
+            "write ex_um, ey_um, ez_um with values in micrometres",
+        )),
+        (_, Some(_), Some(_)) => Err((
+            format!("column `{name}`: angles must be in µrad or arc seconds"),
+            "write ea_urad, eb_urad, ec_urad (or _arcsec)",
+        )),
+        _ if stem == "position" => Err((
+            format!("column `{name}`: positions must be in mm"),
+            "write position_mm with values in millimetres",
+        )),
+        _ => Err((
+            format!("unknown column `{name}`"),
+            "the header names axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad in any order",
+        )),
+    }
+}
+
+const COLUMN_NAMES: [&str; 9] = [
+    "axis",
+    "direction",
+    "position_mm",
+    "ex_um",
+    "ey_um",
+    "ez_um",
+    "ea_urad",
+    "eb_urad",
+    "ec_urad",
+];
+
+const COLUMN_MEANING: [&str; 9] = [
+    "the axis the row belongs to",
+    "forward, reverse or both",
+    "the axis position",
+    "the error along X: EXX, EXY, EXZ",
+    "the error along Y: EYX, EYY, EYZ",
+    "the error along Z: EZX, EZY, EZZ",
+    "the rotation about X: EAX, EAY, EAZ",
+    "the rotation about Y: EBX, EBY, EBZ",
+    "the rotation about Z: ECX, ECY, ECZ",
+];
+
+impl TableRows {
+    /// Adds the rows of one CSV file; `file` names it in errors.
+    pub fn add_csv(&mut self, text: &str, file: &str) -> Result<(), MapFileError> {
+        let t = CsvTable::parse(
+            text,
+            file,
+            &Header {
+                known: &[],
+                unknown: UnknownColumns::Keep,
+                layout: CSV_HEADER,
+            },
+        )?;
+        let mut cols = [usize::MAX; 9];
+        let mut scale = [1.0; 9];
+        for (c, name) in t.header.iter().enumerate() {
+            let (k, f) = header_slot(name)
+                .map_err(|(message, help)| t.error_at(t.header_line, c, message, help))?;
+            if cols[k] != usize::MAX {
+                return Err(t.error_at(
+                    t.header_line,
+                    c,
+                    format!(
+                        "column `{name}` gives the same component as column {}",
+                        cols[k] + 1
+                    ),
+                    "name each column once",
+                ));
+            }
+            cols[k] = c;
+            scale[k] = f;
+        }
+        if let Some(k) = cols.iter().position(|v| *v == usize::MAX) {
+            let mut e = t.missing(COLUMN_NAMES[k], COLUMN_MEANING[k]);
+            e.help = "the 21-component table needs axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad; write 0 for a component that was not measured".into();
+            return Err(e);
+        }
+        for r in t.records()? {
+            let axis = crate::model::axis_table::axis_field(&t, r, cols[0])?;
+            let dir = match crate::model::axis_table::direction_field(&t, r, cols[1])? {
+                crate::model::axis_table::RowDirection::Forward => Dir::Forward,
+                crate::model::axis_table::RowDirection::Reverse => Dir::Reverse,
+                crate::model::axis_table::RowDirection::Both => Dir::Both,
+            };
+            let mut num = [0.0; 7];
+            for (k, slot) in num.iter_mut().enumerate() {
+                *slot = t.number(r, cols[2 + k])? * scale[2 + k];
+            }
+            self.rows.push(Row {
+                axis,
+                dir,
+                position_mm: num[0],
+                linear_um: Vec3::new(num[1], num[2], num[3]),
+                angular_urad: Vec3::new(num[4], num[5], num[6]),
+                file: file.to_string(),
+                row: r.line,
+                position_column: cols[2] + 1,
+            });
+        }
+        let last_row = t.last_line();
+        self.last = Some((file.to_string(), last_row));
+        Ok(())
+    }
+
+    /// The per-axis tables; every axis needs a `both` table or a forward and
+    /// a reverse one, each with at least two strictly increasing positions.
+    pub fn assemble(self) -> Result<[AxisComponents; 3], MapFileError> {
+        let (last_file, last_row) = self.last.clone().unwrap_or_default();
+        let at_end = |message: String, help: &str| map_err(&last_file, last_row, 1, message, help);
+        let mut by: [[Vec<&Row>; 3]; 3] = Default::default();
+        for r in &self.rows {
+            let d = match r.dir {
+                Dir::Forward => 0,
+                Dir::Reverse => 1,
+                Dir::Both => 2,
+            };
+            by[r.axis][d].push(r);
+        }
+        let build =
+            |rows: &[&Row], a: usize, label: &str| -> Result<ComponentTable, MapFileError> {
+                let name = AXES[a];
+                if rows.len() < 2 {
+                    return Err(at_end(
+                        format!(
+                            "axis {name} has {} point(s) in its {label} table",
+                            rows.len()
+                        ),
+                        "give at least two points per table",
+                    ));
+                }
+                for w in rows.windows(2) {
+                    if w[1].position_mm <= w[0].position_mm {
+                        return Err(map_err(
+                            &w[1].file,
+                            w[1].row,
+                            w[1].position_column,
+                            format!(
+                                "axis {name} {label}: position {} does not increase after {}",
+                                w[1].position_mm, w[0].position_mm
+                            ),
+                            "list each table's positions in strictly increasing order",
+                        ));
+                    }
+                }
+                let table = ComponentTable::new(
+                    rows.iter().map(|r| r.position_mm).collect(),
+                    rows.iter().map(|r| r.linear_um).collect(),
+                    rows.iter().map(|r| r.angular_urad).collect(),
+                );
+                table.ok_or_else(|| {
+                    at_end(
+                        format!("axis {name} {label}: bad table"),
+                        "check the positions",
+                    )
+                })
+            };
+        let mut axes = Vec::with_capacity(3);
+        for (a, d) in by.iter().enumerate() {
+            let name = AXES[a];
+            let comps = format!(
+                "E{name}{name}, E{}{name}, E{}{name}, EA{name}, EB{name}, EC{name}",
+                AXES[(a + 1) % 3],
+                AXES[(a + 2) % 3]
+            );
+            let t = match (d[0].is_empty(), d[1].is_empty(), d[2].is_empty()) {
+                (true, true, false) => AxisComponents::both(build(&d[2], a, "both")?),
+                (false, false, true) => AxisComponents {
+                    forward: build(&d[0], a, "forward")?,
+                    reverse: build(&d[1], a, "reverse")?,
+                },
+                (true, true, true) => {
+                    return Err(at_end(
+                        format!("axis {name} has no rows: the model is missing {comps}"),
+                        "give a `both` table, or forward and reverse tables, for each of X, Y and Z",
+                    ))
+                }
+                _ => {
+                    return Err(at_end(
+                        format!("axis {name} must have either a `both` table or both a forward and a reverse table"),
+                        "a single direction is not enough: the other direction's error would be a guess",
+                    ))
+                }
+            };
+            axes.push(t);
+        }
+        let mut it = axes.into_iter();
+        match (it.next(), it.next(), it.next()) {
+            (Some(x), Some(y), Some(z)) => Ok([x, y, z]),
+            _ => unreachable!("three axes were pushed"),
+        }
+    }
+}
+
+/// Parses one CSV that holds the tables of all three axes.
+///
+/// ```
+/// use volcomp_core::io::model_file::components_from_csv;
+/// let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad\n\
+///            X,both,0,0,0,0,0,0,0\nX,both,100,1,0,0,0,0,5\n\
+///            Y,both,0,0,0,0,0,0,0\nY,both,100,0,2,0,0,0,0\n\
+///            Z,both,0,0,0,0,0,0,0\nZ,both,100,0,0,3,0,0,0\n";
+/// let axes = components_from_csv(csv, "m.csv").unwrap();
+/// assert_eq!(axes[0].forward.angular_urad.errors_um[1].z, 5.0);
+/// ```
+pub fn components_from_csv(text: &str, file: &str) -> Result<[AxisComponents; 3], MapFileError> {
+    let mut rows = TableRows::default();
+    rows.add_csv(text, file)?;
+    rows.assemble()
+}
+
+/// Writes the tables as CSV (positions, µm and µrad to the fixed precision
+/// of [`crate::io::numfmt`]).
+pub fn components_to_csv(axes: &[AxisComponents; 3]) -> String {
+    let mut s = String::from(
+        "# volcomp 21-component tables (ISO 230-1): for the rows of axis X, ex_um is EXX, ey_um EYX,\n\
+         # ez_um EZX, ea_urad EAX, eb_urad EBX, ec_urad ECX; likewise for Y and Z.\n",
+    );
+    s.push_str(CSV_HEADER);
+    s.push('\n');
+    for (a, t) in axes.iter().enumerate() {
+        let dirs: Vec<(&str, &ComponentTable)> = if t.forward == t.reverse {
+            vec![("both", &t.forward)]
+        } else {
+            vec![("forward", &t.forward), ("reverse", &t.reverse)]
+        };
+        for (name, table) in dirs {
+            for (k, p) in table.positions_mm().iter().enumerate() {
+                let l = table.linear_um.errors_um[k];
+                let g = table.angular_urad.errors_um[k];
+                s.push_str(&format!(
+                    "{},{name},{},{},{},{},{},{},{}\n",
+                    AXES[a],
+                    numfmt::mm(*p),
+                    numfmt::um(l.x),
+                    numfmt::um(l.y),
+                    numfmt::um(l.z),
+                    numfmt::urad(g.x),
+                    numfmt::urad(g.y),
+                    numfmt::urad(g.z)
+                ));
+            }
+        }
+    }
+    s
+}
+
+// ---------------------------------------------------------------------------
+// TOML description
+
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum RawTables {
+    One(String),
+    Many(Vec<String>),
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSquareness {
+    xy: Option<Spanned<f64>>,
+    yz: Option<Spanned<f64>>,
+    zx: Option<Spanned<f64>>,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLine {
+    point_mm: Option<Spanned<[f64; 3]>>,
+    tool_length_mm: Option<Spanned<f64>>,
+    tool_offset_mm: Option<Spanned<[f64; 3]>>,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawModel {
+    model: Option<Spanned<String>>,
+    description: Option<String>,
+    chain: Option<Spanned<String>>,
+    tables: Option<Spanned<RawTables>>,
+    angles: Option<Spanned<String>>,
+    measuring_point_mm: Option<Spanned<[f64; 3]>>,
+    measuring_tool_length_mm: Option<Spanned<f64>>,
+    measuring_tool_offset_mm: Option<Spanned<[f64; 3]>>,
+    squareness_urad: Option<Spanned<RawSquareness>>,
+    measuring: Option<BTreeMap<Spanned<String>, Spanned<RawLine>>>,
+}
+
+/// 1-based (row, column) of byte `offset` in `text`.
+fn row_col(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let row = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map(|i| i + 1).unwrap_or(0);
+    (row, before[line_start..].chars().count() + 1)
+}
+
+/// What a TOML model file says, before its tables are read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelHeader {
+    /// Free text.
+    pub description: Option<String>,
+    /// Kinematics (chain, measuring lines, squareness, angle convention).
+    pub kinematics: Kinematics,
+    /// Table files as written, with the (row, column) where each is named.
+    pub tables: Vec<(String, usize, usize)>,
+}
+
+/// Parses the TOML description; `file` names it in errors.
+pub fn parse_header(text: &str, file: &str) -> Result<ModelHeader, MapFileError> {
+    let at = |offset: usize, message: String, help: &str| {
+        let (row, column) = row_col(text, offset);
+        map_err(file, row, column, message, help)
+    };
+    let raw: RawModel = toml::from_str(text).map_err(|e| {
+        let offset = e.span().map(|s| s.start).unwrap_or(0);
+        let message = e.message().trim().to_string();
+        let help = if message.contains("unknown field") {
+            "keys carry their unit (measuring_point_mm, squareness_urad …); see docs/kinematic.md for the keys of a model file"
+        } else {
+            "see docs/kinematic.md for the format of a model file"
+        };
+        at(offset, message, help)
+    })?;
+    match &raw.model {
+        Some(m) if m.get_ref() == MODEL_KIND => {}
+        Some(m) => {
+            return Err(at(
+                m.span().start,
+                format!("`model = \"{}\"` is not a 21-component model", m.get_ref()),
+                &format!("a 21-component model file says model = \"{MODEL_KIND}\""),
+            ))
+        }
+        None => {
+            return Err(at(
+                0,
+                "the file does not say what model it is".into(),
+                &format!("start the file with model = \"{MODEL_KIND}\""),
+            ))
+        }
+    }
+    let Some(chain) = &raw.chain else {
+        return Err(at(0, "the model has no `chain`".into(), "name the kinematic chain from workpiece to tool, e.g. chain = \"w X' Y' b Z t\" (table on X, X on Y, spindle on Z)"));
+    };
+    let topology = Topology::parse(chain.get_ref()).map_err(|e| {
+        // Point at the character inside the string (after the opening quote).
+        let start = chain.span().start + 1;
+        let offset = text[start..]
+            .char_indices()
+            .nth(e.column.saturating_sub(1))
+            .map(|(i, _)| start + i)
+            .unwrap_or(start);
+        at(offset, format!("chain: {}", e.message), &e.help)
+    })?;
+    let angles = match raw.angles.as_ref().map(|a| (a.get_ref().as_str(), a.span().start)) {
+        None | Some(("relative", _)) => AngleConvention::Relative,
+        Some(("moving-part", _)) => AngleConvention::MovingPart,
+        Some((other, offset)) => {
+            return Err(at(
+                offset,
+                format!("unknown angle convention `{other}`"),
+                "write angles = \"relative\" (tool relative to workpiece) or \"moving-part\" (as measured on the moving carriage)",
+            ))
+        }
+    };
+    let sq_help = "give all three squareness errors in µrad: [squareness_urad] xy = …, yz = …, zx = … (Y moves along (xy, 1, 0), Z along (zx, yz, 1)); write 0 for a square machine";
+    let Some(sq) = &raw.squareness_urad else {
+        return Err(at(
+            text.len(),
+            "the model has no squareness errors (`[squareness_urad]` is missing)".into(),
+            sq_help,
+        ));
+    };
+    let sq_start = sq.span().start;
+    let sq = sq.get_ref();
+    let get = |v: &Option<Spanned<f64>>, name: &str| -> Result<f64, MapFileError> {
+        match v {
+            Some(x) if x.get_ref().is_finite() => Ok(*x.get_ref()),
+            Some(x) => Err(at(
+                x.span().start,
+                format!("squareness {name} is not a finite number"),
+                sq_help,
+            )),
+            None => Err(at(
+                sq_start,
+                format!("squareness `{name}` is missing"),
+                sq_help,
+            )),
+        }
+    };
+    let squareness = Squareness {
+        xy_urad: get(&sq.xy, "xy")?,
+        yz_urad: get(&sq.yz, "yz")?,
+        zx_urad: get(&sq.zx, "zx")?,
+    };
+    let finite3 = |v: &Spanned<[f64; 3]>, what: &str| -> Result<Vec3, MapFileError> {
+        if v.get_ref().iter().all(|x| x.is_finite()) {
+            Ok(Vec3::from_array(*v.get_ref()))
+        } else {
+            Err(at(
+                v.span().start,
+                format!("{what} has a value that is not a finite number"),
+                "write three numbers in mm",
+            ))
+        }
+    };
+    let tool = |length: &Option<Spanned<f64>>,
+                offset: &Option<Spanned<[f64; 3]>>,
+                what: &str|
+     -> Result<Option<Vec3>, MapFileError> {
+        match (length, offset) {
+            (Some(l), Some(_)) => Err(at(
+                l.span().start,
+                format!("{what}: give a tool length or a tool offset vector, not both"),
+                "tool_length_mm = L is the offset (0, 0, L)",
+            )),
+            (Some(l), None) if l.get_ref().is_finite() => {
+                Ok(Some(Vec3::new(0.0, 0.0, *l.get_ref())))
+            }
+            (Some(l), None) => Err(at(
+                l.span().start,
+                format!("{what}: the tool length is not a finite number"),
+                "write the length in mm",
+            )),
+            (None, Some(o)) => finite3(o, what).map(Some),
+            (None, None) => Ok(None),
+        }
+    };
+    let point = match &raw.measuring_point_mm {
+        Some(p) => finite3(p, "measuring_point_mm")?,
+        None => Vec3::ZERO,
+    };
+    let tool_offset = tool(
+        &raw.measuring_tool_length_mm,
+        &raw.measuring_tool_offset_mm,
+        "measuring tool",
+    )?
+    .unwrap_or(Vec3::ZERO);
+    let mut measuring = [MeasuringLine {
+        point_mm: point,
+        tool_offset_mm: tool_offset,
+    }; 3];
+    for (name, line) in raw.measuring.iter().flatten() {
+        let a = match name.get_ref().to_ascii_uppercase().as_str() {
+            "X" => 0,
+            "Y" => 1,
+            "Z" => 2,
+            other => {
+                return Err(at(
+                    name.span().start,
+                    format!("`[measuring.{other}]` is not an axis"),
+                    "per-axis measuring lines are [measuring.X], [measuring.Y], [measuring.Z]",
+                ))
+            }
+        };
+        let l = line.get_ref();
+        if let Some(p) = &l.point_mm {
+            measuring[a].point_mm = finite3(p, "point_mm")?;
+        }
+        if let Some(t) = tool(
+            &l.tool_length_mm,
+            &l.tool_offset_mm,
+            &format!("measuring.{}", AXES[a]),
+        )? {
+            measuring[a].tool_offset_mm = t;
+        }
+    }
+    let Some(tables) = &raw.tables else {
+        return Err(at(
+            text.len(),
+            "the model names no component tables (`tables` is missing)".into(),
+            "write tables = \"components.csv\" (relative to this file) or a list of files",
+        ));
+    };
+    let (row, column) = row_col(text, tables.span().start);
+    let names = match tables.get_ref() {
+        RawTables::One(s) => vec![s.clone()],
+        RawTables::Many(v) => v.clone(),
+    };
+    if names.is_empty() {
+        return Err(map_err(
+            file,
+            row,
+            column,
+            "`tables` is empty".into(),
+            "name at least one CSV file",
+        ));
+    }
+    Ok(ModelHeader {
+        description: raw.description,
+        kinematics: Kinematics {
+            topology,
+            measuring,
+            squareness,
+            angles,
+        },
+        tables: names.into_iter().map(|n| (n, row, column)).collect(),
+    })
+}
+
+/// Reads a table file named in a model file: `(display name, text)`, or why not.
+pub type TableReader<'a> = dyn FnMut(&str) -> Result<(String, String), String> + 'a;
+
+/// Parses a model from its TOML text; `read_table(name)` returns the text
+/// of a table file named in it (or why it cannot), and its display name.
+pub fn parse_model(
+    text: &str,
+    file: &str,
+    read_table: &mut TableReader<'_>,
+) -> Result<KinematicModel, MapFileError> {
+    let header = parse_header(text, file)?;
+    let mut rows = TableRows::default();
+    for (name, row, column) in &header.tables {
+        let (shown, csv) = read_table(name).map_err(|why| {
+            map_err(
+                file,
+                *row,
+                *column,
+                format!("cannot read the table `{name}`: {why}"),
+                "table paths are relative to the model file",
+            )
+        })?;
+        rows.add_csv(&csv, &shown)?;
+    }
+    let axes = rows.assemble()?;
+    Ok(KinematicModel::new(axes, header.kinematics))
+}
+
+/// Reads a model file and the tables it names (relative to its directory).
+pub fn read_model(path: &Path) -> Result<KinematicModel, ModelFileError> {
+    let text = std::fs::read_to_string(path).map_err(|e| ModelFileError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut read = |name: &str| -> Result<(String, String), String> {
+        let p: PathBuf = dir.join(name);
+        std::fs::read_to_string(&p)
+            .map(|t| (p.display().to_string(), t))
+            .map_err(|e| e.to_string())
+    };
+    Ok(parse_model(&text, &path.display().to_string(), &mut read)?)
+}
+
+fn toml_string(s: &str) -> String {
+    toml::Value::String(s.to_string()).to_string()
+}
+
+fn triple(v: Vec3) -> String {
+    format!(
+        "[{}, {}, {}]",
+        numfmt::mm(v.x),
+        numfmt::mm(v.y),
+        numfmt::mm(v.z)
+    )
+}
+
+/// Writes the TOML description of `model`, naming `tables` as its table file.
+pub fn model_to_toml(model: &KinematicModel, tables: &str, description: Option<&str>) -> String {
+    let k = &model.kinematics;
+    let mut s = String::from(
+        "# volcomp 21-component kinematic error model (ISO 230-1); see docs/kinematic.md\n",
+    );
+    s.push_str(&format!("model = \"{MODEL_KIND}\"\n"));
+    if let Some(d) = description {
+        s.push_str(&format!("description = {}\n", toml_string(d)));
+    }
+    s.push_str(&format!("chain = \"{}\"\n", k.topology));
+    s.push_str(&format!("tables = {}\n", toml_string(tables)));
+    s.push_str(&format!(
+        "angles = \"{}\"\n",
+        match k.angles {
+            AngleConvention::Relative => "relative",
+            AngleConvention::MovingPart => "moving-part",
+        }
+    ));
+    let first = k.measuring[0];
+    let same = k.measuring.iter().all(|m| *m == first);
+    let line = if same {
+        first
+    } else {
+        MeasuringLine::default()
+    };
+    s.push_str(&format!("measuring_point_mm = {}\n", triple(line.point_mm)));
+    let t = line.tool_offset_mm;
+    if t.x == 0.0 && t.y == 0.0 {
+        s.push_str(&format!("measuring_tool_length_mm = {}\n", numfmt::mm(t.z)));
+    } else {
+        s.push_str(&format!("measuring_tool_offset_mm = {}\n", triple(t)));
+    }
+    s.push_str("\n[squareness_urad]  # Y moves along (xy, 1, 0), Z along (zx, yz, 1)\n");
+    s.push_str(&format!(
+        "xy = {}\nyz = {}\nzx = {}\n",
+        k.squareness.xy_urad, k.squareness.yz_urad, k.squareness.zx_urad
+    ));
+    if !same {
+        for (a, m) in k.measuring.iter().enumerate() {
+            s.push_str(&format!(
+                "\n[measuring.{}]\npoint_mm = {}\n",
+                AXES[a],
+                triple(m.point_mm)
+            ));
+            let t = m.tool_offset_mm;
+            if t.x == 0.0 && t.y == 0.0 {
+                s.push_str(&format!("tool_length_mm = {}\n", numfmt::mm(t.z)));
+            } else {
+                s.push_str(&format!("tool_offset_mm = {}\n", triple(t)));
+            }
+        }
+    }
+    s
+}
+
+/// A positioning-only model (straightness, angles and squareness zero) from
+/// positioning tables `E_aa` per axis: what a LinuxCNC comp file or an
+/// ISO 230-2 test gives.
+pub fn positioning_model(
+    tables: [(Table, Table); 3],
+    topology: Topology,
+) -> Option<KinematicModel> {
+    let mut axes = Vec::with_capacity(3);
+    for (a, (fwd, rev)) in tables.into_iter().enumerate() {
+        let build = |t: Table| {
+            let n = t.positions_mm.len();
+            let linear = t
+                .errors_um
+                .iter()
+                .map(|e| {
+                    let mut v = Vec3::ZERO;
+                    v[a] = e[a];
+                    v
+                })
+                .collect();
+            ComponentTable::new(t.positions_mm, linear, vec![Vec3::ZERO; n])
+        };
+        let f = build(fwd)?;
+        let r = build(rev)?;
+        axes.push(AxisComponents {
+            forward: f,
+            reverse: r,
+        });
+    }
+    let mut it = axes.into_iter();
+    let axes = [it.next()?, it.next()?, it.next()?];
+    Some(KinematicModel::new(axes, Kinematics::new(topology)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CSV: &str = "axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad\n\
+        X,forward,0,0,0,0,0,0,0\nX,forward,100,1,0.5,0,2,0,4\n\
+        X,reverse,0,2,0,0,0,0,0\nX,reverse,100,3,0.5,0,2,0,4\n\
+        Y,both,0,0,0,0,0,0,0\nY,both,100,0,2,0,0,0,0\n\
+        Z,both,0,0,0,0,0,0,0\nZ,both,100,0,0,3,0,1,0\n";
+
+    const TOML: &str = "model = \"kinematic-21\"\nchain = \"w X' Y' b Z t\"\ntables = \"t.csv\"\n\
+        measuring_point_mm = [0, 50, 60]\nmeasuring_tool_length_mm = 100\n\
+        [squareness_urad]\nxy = 10\nyz = -5\nzx = 2.5\n\
+        [measuring.Z]\npoint_mm = [10, 20, 0]\ntool_length_mm = 50\n";
+
+    fn load(toml: &str, csv: &str) -> Result<KinematicModel, MapFileError> {
+        let csv = csv.to_string();
+        parse_model(toml, "m.toml", &mut |name| {
+            if name == "t.csv" {
+                Ok(("t.csv".into(), csv.clone()))
+            } else {
+                Err("No such file or directory (os error 2)".into())
+            }
+        })
+    }
+
+    #[test]
+    fn reads_a_model() {
+        let m = load(TOML, CSV).unwrap();
+        let k = &m.kinematics;
+        assert_eq!(k.topology, Topology::SEED);
+        assert_eq!(k.squareness.zx_urad, 2.5);
+        assert_eq!(k.measuring[0].point_mm, Vec3::new(0.0, 50.0, 60.0));
+        assert_eq!(k.measuring[0].tool_offset_mm, Vec3::new(0.0, 0.0, 100.0));
+        assert_eq!(k.measuring[2].point_mm, Vec3::new(10.0, 20.0, 0.0));
+        assert_eq!(k.measuring[2].tool_offset_mm, Vec3::new(0.0, 0.0, 50.0));
+        assert_eq!(
+            m.axes[0].reverse.linear_um.errors_um[1],
+            Vec3::new(3.0, 0.5, 0.0)
+        );
+        assert_eq!(
+            m.axes[2].forward.angular_urad.errors_um[1],
+            Vec3::new(0.0, 1.0, 0.0)
+        );
+        // Written out and read back: the same model.
+        let toml = model_to_toml(&m, "t.csv", Some("test \"machine\""));
+        let again = load(&toml, &components_to_csv(&m.axes)).unwrap();
+        assert_eq!(again, m);
+    }
+
+    #[test]
+    fn arc_seconds_are_converted() {
+        let csv = CSV.replace("ec_urad", "ec_arcsec");
+        let m = load(TOML, &csv).unwrap();
+        let v = m.axes[0].forward.angular_urad.errors_um[1].z;
+        // 4″ = 4 · π/648000 rad = 19.392547 µrad
+        assert!((v - 19.392_547).abs() < 1e-6, "{v}");
+    }
+
+    fn err(toml: &str, csv: &str) -> MapFileError {
+        load(toml, csv).unwrap_err()
+    }
+
+    #[test]
+    fn bad_tables_name_file_row_and_column() {
+        // NaN in EZX of X reverse at 100 mm: row 5, column 6.
+        let e = err(
+            TOML,
+            &CSV.replace(
+                "X,reverse,100,3,0.5,0,2,0,4",
+                "X,reverse,100,3,0.5,NaN,2,0,4",
+            ),
+        );
+        assert_eq!((e.file.as_str(), e.row, e.column), ("t.csv", 5, 6), "{e}");
+        // Non-increasing position.
+        let e = err(TOML, &CSV.replace("Y,both,100", "Y,both,0"));
+        assert_eq!((e.row, e.column), (7, 3), "{e}");
+        assert!(e.message.contains("does not increase"), "{e}");
+        // A unit missing in the header.
+        let e = err(TOML, &CSV.replace("eb_urad", "eb"));
+        assert_eq!((e.row, e.column), (1, 8), "{e}");
+        assert!(e.message.contains("no unit"), "{e}");
+        // A component missing from the header.
+        let e = err(TOML, &CSV.replace(",ec_urad", ""));
+        assert_eq!(e.row, 1, "{e}");
+        assert!(e.message.contains("ec_urad"), "{e}");
+        // An axis missing.
+        let no_z: String = CSV
+            .lines()
+            .filter(|l| !l.starts_with('Z'))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let e = err(TOML, &no_z);
+        assert!(e.message.contains("EZZ"), "{e}");
+        assert_eq!(e.file, "t.csv");
+        // Wrong field count.
+        let e = err(
+            TOML,
+            &CSV.replace("Y,both,0,0,0,0,0,0,0", "Y,both,0,0,0,0,0,0"),
+        );
+        assert_eq!((e.row, e.column), (6, 9), "{e}");
+    }
+
+    #[test]
+    fn bad_descriptions_name_row_and_column() {
+        let e = err(&TOML.replace("zx = 2.5\n", ""), CSV);
+        assert!(e.message.contains("`zx` is missing"), "{e}");
+        assert_eq!(e.row, 6, "{e}");
+        let e = err(&TOML.replace("w X' Y' b Z t", "w X' Y' b X t"), CSV);
+        assert_eq!((e.row, e.column), (2, 20), "{e}");
+        assert!(e.message.contains("twice"), "{e}");
+        let e = err(&TOML.replace("measuring_point_mm", "measuring_point"), CSV);
+        assert_eq!(e.row, 4, "{e}");
+        assert!(e.message.contains("unknown field"), "{e}");
+        assert!(e.help.contains("unit"), "{e}");
+        let e = err(&TOML.replace("t.csv", "missing.csv"), CSV);
+        assert_eq!((e.file.as_str(), e.row, e.column), ("m.toml", 3, 10), "{e}");
+        let e = err(&TOML.replace("kinematic-21", "thermal"), CSV);
+        assert_eq!((e.row, e.column), (1, 9), "{e}");
+        let e = err(&TOML.replace("model = \"kinematic-21\"\n", ""), CSV);
+        assert!(e.message.contains("what model"), "{e}");
+        let e = err(
+            &TOML.replace("[squareness_urad]\nxy = 10\nyz = -5\nzx = 2.5\n", ""),
+            CSV,
+        );
+        assert!(e.message.contains("squareness"), "{e}");
+        let e = err(
+            &TOML.replace(
+                "measuring_point_mm = [0, 50, 60]",
+                "measuring_point_mm = [0, nan, 60]",
+            ),
+            CSV,
+        );
+        assert_eq!(e.row, 4, "{e}");
+        let e = err(
+            &TOML.replace(
+                "tables = \"t.csv\"\n",
+                "tables = \"t.csv\"\nangles = \"absolute\"\n",
+            ),
+            CSV,
+        );
+        assert!(e.message.contains("angle convention"), "{e}");
+        assert_eq!((e.row, e.column), (4, 10), "{e}");
+    }
+}

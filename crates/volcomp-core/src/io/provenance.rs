@@ -1,0 +1,536 @@
+//! The header of a compensated program: what it was compensated for.
+//!
+//! A compensated program is valid for one machine state only: the map it
+//! was made with, the set-up (work offsets, tool lengths) and the options.
+//! Its first lines — after a leading `%` line and an O-number line, where
+//! present — say so in comments, so that an operator can tell which map a
+//! program on the controller belongs to, and volcomp can refuse to
+//! compensate a compensated program a second time (that would apply every
+//! correction twice).
+//!
+//! The comments are written so that every common controller accepts them:
+//! parenthesised (RS274/NGC, NIST IR 6556 §3.3.4; Fanuc, Haas, Siemens in
+//! ISO mode), no nested parentheses, printable ASCII only, and lines of at
+//! most [`MAX_LINE`] characters.
+//!
+//! The header is the block of lines from [`FIRST_LINE`] to [`LAST_LINE`];
+//! [`strip_header`] removes it, which gives back the program body that a
+//! byte-for-byte round trip compares.
+
+use crate::compensate::{
+    compensate_program, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord,
+    ProgramStyle, Segmentation,
+};
+use crate::error::CompensationError;
+use crate::model::ErrorModel;
+use crate::compensate::solve::Method;
+use std::io::{self, BufRead, Write};
+use volcomp_gcode::{Setup, Walker};
+
+/// The header's first line; its presence marks a compensated program.
+pub const FIRST_LINE: &str = "(volcomp compensated program - do not compensate again)";
+/// The header's last line: the program body starts after it.
+pub const LAST_LINE: &str = "(volcomp header end)";
+/// The longest header line, parentheses included: 80 columns, the width
+/// of a classic terminal (a SHA-256 line takes 77); controllers accept far
+/// longer blocks (LinuxCNC 256 characters, `LINELEN` in rs274ngc.hh).
+pub const MAX_LINE: usize = 80;
+
+/// What a compensated program was made for.
+#[derive(Debug, Clone)]
+pub struct ProgramHeader {
+    /// volcomp's version.
+    pub version: String,
+    /// Each file the compensation depends on: a short label (`map`,
+    /// `surf`, `probes`; at most 6 characters so that the SHA-256 line fits
+    /// in [`MAX_LINE`]), the file name and its SHA-256 in hex.
+    pub files: Vec<(String, String, String)>,
+    /// The set-up file's name, if one was given.
+    pub setup_file: Option<String>,
+    /// Where a work offset came from when not from the set-up file
+    /// (e.g. a command-line flag).
+    pub work_offset_note: Option<String>,
+    /// The set-up used.
+    pub setup: Setup,
+    /// The method, in words.
+    pub method: String,
+    /// The options, in words.
+    pub options: String,
+    /// When, as ISO 8601 UTC (see [`iso8601_utc`]).
+    pub date_utc: String,
+}
+
+impl ProgramHeader {
+    /// The header of a map compensation (`compensate_program`): `maps` are
+    /// (file name, SHA-256) of the map and every table it names.
+    pub fn for_compensation(
+        maps: Vec<(String, String)>,
+        setup_file: Option<String>,
+        setup: Setup,
+        options: &CompensateOptions,
+        date_utc: String,
+    ) -> Self {
+        let (method, options) = describe_options(options);
+        Self {
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            files: maps
+                .into_iter()
+                .map(|(n, h)| ("map".to_string(), n, h))
+                .collect(),
+            setup_file,
+            work_offset_note: None,
+            setup,
+            method,
+            options,
+            date_utc,
+        }
+    }
+}
+
+/// The SHA-256 of `bytes` in lower-case hex (FIPS 180-4).
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::Digest as _;
+    let digest = sha2::Sha256::digest(bytes);
+    digest.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Seconds since 1970-01-01T00:00:00Z as ISO 8601 (`2024-02-29T12:00:00Z`),
+/// by the days-to-civil algorithm of H. Hinnant, "chrono-Compatible
+/// Low-Level Date Algorithms" (proleptic Gregorian calendar).
+pub fn iso8601_utc(unix_seconds: i64) -> String {
+    let days = unix_seconds.div_euclid(86_400);
+    let secs = unix_seconds.rem_euclid(86_400);
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        secs / 3600,
+        secs % 3600 / 60,
+        secs % 60
+    )
+}
+
+/// Text safe inside a comment: printable ASCII, parentheses turned into
+/// brackets (a `)` would end the comment, a `(` would nest one).
+pub fn comment_text(s: &str) -> String {
+    s.chars()
+        .map(|c| match c {
+            '(' => '[',
+            ')' => ']',
+            c if c.is_ascii_graphic() || c == ' ' => c,
+            _ => '?',
+        })
+        .collect()
+}
+
+/// `(label text)` lines of at most [`MAX_LINE`] characters, broken at
+/// `, ` where possible; continuation lines repeat the label.
+fn wrapped(label: &str, text: &str) -> Vec<String> {
+    let text = comment_text(text);
+    let room = MAX_LINE - label.len() - 3;
+    let mut lines = Vec::new();
+    let mut rest = text.as_str();
+    while !rest.is_empty() {
+        let (take, skip) = if rest.len() <= room {
+            (rest.len(), 0)
+        } else {
+            match rest[..room].rfind(", ") {
+                Some(k) if k > 0 => (k, 2),
+                _ => (room, 0),
+            }
+        };
+        let (head, tail) = rest.split_at(take);
+        lines.push(format!("({label} {})", head.trim()));
+        rest = tail[skip..].trim_start();
+    }
+    if lines.is_empty() {
+        lines.push(format!("({label})"));
+    }
+    lines
+}
+
+fn num(v: f64) -> String {
+    // Display never uses an exponent; trim float noise to 6 decimals.
+    let s = format!("{:.6}", v);
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.into()
+    }
+}
+
+/// The method and options in words.
+pub fn describe_options(o: &CompensateOptions) -> (String, String) {
+    let method = match o.method {
+        Method::Exact => "exact".to_string(),
+        Method::Direct => "direct".to_string(),
+        Method::Pitch => "pitch".to_string(),
+        Method::Ilc {
+            gain,
+            max_iterations,
+        } => format!("ilc gain {}, max iterations {max_iterations}", num(gain)),
+    };
+    let split = match o.segmentation {
+        Segmentation::Off => "no split".to_string(),
+        Segmentation::Count(n) => format!("segments {n}"),
+        Segmentation::MaxLength(l) => format!("segment length {} mm", num(l)),
+        Segmentation::Adaptive {
+            tolerance_mm,
+            min_length_mm,
+        } => format!(
+            "contour tolerance {} um, min segment {} mm",
+            num(tolerance_mm * 1e3),
+            num(min_length_mm)
+        ),
+    };
+    let mut parts = vec![
+        split,
+        format!("chord tolerance {} mm", num(o.chord_tolerance_mm)),
+        format!("max correction {} mm", num(o.max_correction_mm)),
+        match o.directions {
+            DirectionPolicy::Commanded => "commanded directions".into(),
+            DirectionPolicy::Nominal => "nominal directions".into(),
+        },
+        if o.take_up { "take-up" } else { "no take-up" }.into(),
+    ];
+    if let Some(d) = o.decimals {
+        parts.push(format!("decimals {d}"));
+    }
+    (method, parts.join(", "))
+}
+
+const WORK_OFFSETS: [&str; 9] = [
+    "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
+];
+
+impl ProgramHeader {
+    /// The header's lines, without line endings.
+    pub fn lines(&self) -> Vec<String> {
+        let mut out = vec![FIRST_LINE.to_string()];
+        out.extend(wrapped("volcomp", &self.version));
+        for (label, name, sha) in &self.files {
+            let label = comment_text(label);
+            out.extend(wrapped(&label, name));
+            out.push(format!("({label} sha256 {})", comment_text(sha)));
+        }
+        let mut setup = self
+            .setup_file
+            .clone()
+            .unwrap_or_else(|| "none given".into());
+        if let Some(note) = &self.work_offset_note {
+            setup.push_str(", ");
+            setup.push_str(note);
+        }
+        out.extend(wrapped("setup", &setup));
+        let mut any = false;
+        for (name, w) in WORK_OFFSETS.iter().zip(&self.setup.work_offsets_mm) {
+            if w.x != 0.0 || w.y != 0.0 || w.z != 0.0 || *name == "G54" {
+                any = true;
+                out.push(format!(
+                    "({name} X{} Y{} Z{} mm)",
+                    num(w.x),
+                    num(w.y),
+                    num(w.z)
+                ));
+            }
+        }
+        debug_assert!(any);
+        if self.setup.tool_lengths_mm.is_empty() {
+            out.push("(tool lengths none)".into());
+        }
+        for (t, l) in &self.setup.tool_lengths_mm {
+            out.push(format!("(tool {t} length {} mm)", num(*l)));
+        }
+        out.extend(wrapped("method", &self.method));
+        out.extend(wrapped("options", &self.options));
+        out.extend(wrapped("date", &self.date_utc));
+        out.push(LAST_LINE.to_string());
+        out
+    }
+}
+
+/// How a program shows that volcomp compensated it already.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Compensated {
+    /// It carries a header, starting on this line (1-based).
+    Header(u64),
+    /// It carries `(volcomp L…)` trace comments (written by versions
+    /// without a header), the first on this line.
+    Trace(u64),
+}
+
+/// Looks for signs of an earlier compensation in the start of a program.
+pub fn find_compensation(head: &[u8]) -> Option<Compensated> {
+    let mut trace = None;
+    for (k, line) in head.split(|&b| b == b'\n').enumerate() {
+        let line = String::from_utf8_lossy(line);
+        let t = line.trim();
+        if t.starts_with("(volcomp compensated program") {
+            return Some(Compensated::Header(k as u64 + 1));
+        }
+        if trace.is_none() && t.contains("(volcomp L") {
+            trace = Some(Compensated::Trace(k as u64 + 1));
+        }
+    }
+    trace
+}
+
+/// The program without its header (unchanged when it has none).
+pub fn strip_header(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut inside = false;
+    let mut done = false;
+    for line in text.split_inclusive('\n') {
+        let t = line.trim();
+        if !done && !inside && t == FIRST_LINE {
+            inside = true;
+            continue;
+        }
+        if inside {
+            if t == LAST_LINE {
+                inside = false;
+                done = true;
+            }
+            continue;
+        }
+        out.push_str(line);
+    }
+    out
+}
+
+/// Is this line a program-number line (`O1234`, optionally with a comment)?
+fn is_program_number(t: &str) -> bool {
+    let b = t.as_bytes();
+    if b.len() < 2 || !(b[0] == b'O' || b[0] == b'o') || !b[1].is_ascii_digit() {
+        return false;
+    }
+    let rest = t[1..]
+        .trim_start_matches(|c: char| c.is_ascii_digit())
+        .trim();
+    rest.is_empty() || rest.starts_with('(')
+}
+
+/// A writer that inserts the header after a leading `%` line and an
+/// O-number line (where present), before the first other line.
+pub struct HeaderWriter<W: Write> {
+    inner: W,
+    header: Option<Vec<String>>,
+    pending: Vec<u8>,
+    seen_percent: bool,
+    seen_number: bool,
+}
+
+impl<W: Write> HeaderWriter<W> {
+    /// Wraps `inner`; `lines` are the header's lines.
+    pub fn new(inner: W, lines: Vec<String>) -> Self {
+        Self {
+            inner,
+            header: Some(lines),
+            pending: Vec::new(),
+            seen_percent: false,
+            seen_number: false,
+        }
+    }
+
+    fn emit_header(&mut self, eol: &str) -> io::Result<()> {
+        if let Some(lines) = self.header.take() {
+            for l in lines {
+                self.inner.write_all(l.as_bytes())?;
+                self.inner.write_all(eol.as_bytes())?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the header if the program ended before its first block.
+    pub fn finish(mut self) -> io::Result<W> {
+        if self.header.is_some() {
+            let pending = std::mem::take(&mut self.pending);
+            if !pending.is_empty() {
+                // A last line without a line ending.
+                self.inner.write_all(&pending)?;
+                self.inner.write_all(b"\n")?;
+            }
+            self.emit_header("\n")?;
+        }
+        self.inner.flush()?;
+        Ok(self.inner)
+    }
+}
+
+impl<W: Write> Write for HeaderWriter<W> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        if self.header.is_none() {
+            return self.inner.write(buf);
+        }
+        self.pending.extend_from_slice(buf);
+        while self.header.is_some() {
+            let Some(end) = self.pending.iter().position(|&b| b == b'\n') else {
+                break;
+            };
+            let line: Vec<u8> = self.pending.drain(..=end).collect();
+            let text = String::from_utf8_lossy(&line);
+            let t = text.trim();
+            let eol = if line.ends_with(b"\r\n") {
+                "\r\n"
+            } else {
+                "\n"
+            };
+            if !self.seen_percent && !self.seen_number && t.starts_with('%') {
+                self.seen_percent = true;
+            } else if !self.seen_number && is_program_number(t) {
+                self.seen_number = true;
+            } else {
+                self.emit_header(eol)?;
+            }
+            self.inner.write_all(&line)?;
+        }
+        if self.header.is_none() && !self.pending.is_empty() {
+            let rest = std::mem::take(&mut self.pending);
+            self.inner.write_all(&rest)?;
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// [`compensate_program`] with the header inserted at the top of the output.
+#[allow(clippy::too_many_arguments)]
+pub fn compensate_program_with_header<R: BufRead>(
+    walker: &mut Walker<R>,
+    file: &str,
+    model: &dyn ErrorModel,
+    program_style: &ProgramStyle,
+    options: &CompensateOptions,
+    header: &ProgramHeader,
+    out: &mut dyn Write,
+    on_point: impl FnMut(&PointRecord),
+) -> Result<CompensateSummary, CompensationError> {
+    let mut w = HeaderWriter::new(out, header.lines());
+    let summary = compensate_program(
+        walker,
+        file,
+        model,
+        program_style,
+        options,
+        &mut w,
+        on_point,
+    )?;
+    w.finish().map_err(CompensationError::from)?;
+    Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dates_against_known_days() {
+        // Hand-checked: the epoch, a leap day, the last second of 1999.
+        assert_eq!(iso8601_utc(0), "1970-01-01T00:00:00Z");
+        assert_eq!(iso8601_utc(951_782_400), "2000-02-29T00:00:00Z");
+        assert_eq!(iso8601_utc(946_684_799), "1999-12-31T23:59:59Z");
+        assert_eq!(iso8601_utc(-1), "1969-12-31T23:59:59Z");
+    }
+
+    #[test]
+    fn sha256_of_abc() {
+        // FIPS 180-2, appendix B.1.
+        assert_eq!(
+            sha256_hex(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+    }
+
+    #[test]
+    fn comment_text_is_plain_ascii_without_parentheses() {
+        assert_eq!(comment_text("a(b)ü\t"), "a[b]??");
+    }
+
+    fn header() -> ProgramHeader {
+        let mut setup = Setup::default();
+        setup.work_offsets_mm[0] = volcomp_gcode::Vec3::new(150.0, 150.0, 100.0);
+        setup.tool_lengths_mm.insert(1, 75.0);
+        ProgramHeader::for_compensation(
+            vec![("very (odd) name.csv".into(), sha256_hex(b"abc"))],
+            Some("machine.toml".into()),
+            setup,
+            &CompensateOptions::default(),
+            iso8601_utc(0),
+        )
+    }
+
+    #[test]
+    fn header_lines_are_plain_short_comments() {
+        let lines = header().lines();
+        assert_eq!(lines[0], FIRST_LINE);
+        assert_eq!(lines.last().unwrap(), LAST_LINE);
+        for l in &lines {
+            assert!(l.len() <= MAX_LINE, "{l}");
+            assert!(l.starts_with('(') && l.ends_with(')'), "{l}");
+            assert_eq!(l.matches('(').count(), 1, "{l}");
+            assert_eq!(l.matches(')').count(), 1, "{l}");
+            assert!(l.is_ascii());
+        }
+        let all = lines.join("\n");
+        assert!(all.contains("(map very [odd] name.csv)"));
+        assert!(all.contains("(map sha256 ba7816bf"));
+        assert!(all.contains("(G54 X150 Y150 Z100 mm)"));
+        assert!(all.contains("(tool 1 length 75 mm)"));
+        assert!(all.contains("(method exact)"));
+        assert!(all.contains("(date 1970-01-01T00:00:00Z)"));
+    }
+
+    fn insert(program: &str) -> String {
+        let mut w = HeaderWriter::new(Vec::new(), vec!["(H1)".into(), "(H2)".into()]);
+        // Byte by byte: the position must not depend on how writes are cut.
+        for b in program.as_bytes() {
+            w.write_all(std::slice::from_ref(b)).unwrap();
+        }
+        String::from_utf8(w.finish().unwrap()).unwrap()
+    }
+
+    #[test]
+    fn header_position() {
+        assert_eq!(insert("G0 X1\nM2\n"), "(H1)\n(H2)\nG0 X1\nM2\n");
+        assert_eq!(insert("%\nG0 X1\n%\n"), "%\n(H1)\n(H2)\nG0 X1\n%\n");
+        assert_eq!(
+            insert("%\r\nO1234 (PART)\r\nG0 X1\r\n"),
+            "%\r\nO1234 (PART)\r\n(H1)\r\n(H2)\r\nG0 X1\r\n"
+        );
+        assert_eq!(insert("O0001\nG0 X1\n"), "O0001\n(H1)\n(H2)\nG0 X1\n");
+        // A LinuxCNC subroutine is not a program number.
+        assert_eq!(insert("o100 sub\nM2\n"), "(H1)\n(H2)\no100 sub\nM2\n");
+        assert_eq!(insert("%\n"), "%\n(H1)\n(H2)\n");
+        assert_eq!(insert(""), "(H1)\n(H2)\n");
+    }
+
+    #[test]
+    fn strip_and_find() {
+        let program = "%\nO12\nG0 X1\nM2\n%\n";
+        let mut w = HeaderWriter::new(Vec::new(), header().lines());
+        w.write_all(program.as_bytes()).unwrap();
+        let with = String::from_utf8(w.finish().unwrap()).unwrap();
+        assert_eq!(
+            find_compensation(with.as_bytes()),
+            Some(Compensated::Header(3))
+        );
+        assert_eq!(strip_header(&with), program);
+        assert_eq!(find_compensation(program.as_bytes()), None);
+        assert_eq!(
+            find_compensation(b"G0 X1\nG1 X2 (volcomp L2)\n"),
+            Some(Compensated::Trace(2))
+        );
+    }
+}

@@ -1,0 +1,443 @@
+//! The axis-table error map (docs/design.md, "The axis-table map"): per axis and motion direction, the
+//! displacement errors that the axis' motion causes along X, Y and Z.
+//!
+//! `e(q, s) = E_X^{s_X}(q_X) + E_Y^{s_Y}(q_Y) + E_Z^{s_Z}(q_Z)` (vector sum, µm),
+//! each table linearly interpolated between its points (the seed model of the [Seed papers],
+//! docs/references.md).
+//!
+//! The CSV is read by [`crate::io::table`], which names the row and column
+//! of every bad value.
+
+use crate::error::{MapFileError, ModelError};
+use crate::io::table::{shown, CsvTable, Header, Record, UnknownColumns};
+use crate::model::{Components, Direction, Directions, ErrorModel};
+use volcomp_gcode::Vec3;
+
+/// One table: strictly increasing positions and the error vector at each.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// Axis positions (mm), strictly increasing.
+    pub positions_mm: Vec<f64>,
+    /// Errors `(E_aX, E_aY, E_aZ)` in µm at each position.
+    pub errors_um: Vec<Vec3>,
+}
+
+impl Table {
+    /// Linear interpolation at `x_mm`; `None` outside the range.
+    pub fn eval(&self, x_mm: f64) -> Option<Vec3> {
+        let p = &self.positions_mm;
+        let (first, last) = (*p.first()?, *p.last()?);
+        if !(first..=last).contains(&x_mm) {
+            return None;
+        }
+        if p.len() == 1 {
+            return Some(self.errors_um[0]);
+        }
+        let i = interval(p, x_mm);
+        let t = (x_mm - p[i]) / (p[i + 1] - p[i]);
+        Some(self.errors_um[i].lerp(self.errors_um[i + 1], t))
+    }
+
+    /// `[first, last]` position.
+    pub fn range(&self) -> [f64; 2] {
+        [
+            self.positions_mm.first().copied().unwrap_or(0.0),
+            self.positions_mm.last().copied().unwrap_or(0.0),
+        ]
+    }
+}
+
+/// Index `i` of the interval `[p[i], p[i+1]]` that holds `x` (`p[0] ≤ x ≤ p[n−1]`).
+///
+/// Measured tables are nearly always evenly spaced, so the first guess is
+/// the proportional position, corrected by a step or two; uneven tables fall
+/// back to a binary search.
+fn interval(p: &[f64], x: f64) -> usize {
+    let last = p.len() - 2;
+    let span = p[last + 1] - p[0];
+    let guess = ((x - p[0]) / span * (last + 1) as f64) as usize;
+    let mut i = guess.min(last);
+    for _ in 0..3 {
+        if x < p[i] && i > 0 {
+            i -= 1;
+        } else if x >= p[i + 1] && i < last {
+            i += 1;
+        } else {
+            return i;
+        }
+    }
+    p.partition_point(|&v| v <= x).clamp(1, last + 1) - 1
+}
+
+/// Forward and reverse tables of one axis (the same table when the file says `both`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisTables {
+    /// Table used while the axis moves forward.
+    pub forward: Table,
+    /// Table used while the axis moves in reverse.
+    pub reverse: Table,
+}
+
+impl AxisTables {
+    fn table(&self, d: Direction) -> &Table {
+        match d {
+            Direction::Forward => &self.forward,
+            Direction::Reverse => &self.reverse,
+        }
+    }
+}
+
+/// Which table a CSV row belongs to (`direction` column).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum RowDirection {
+    /// `forward`, `fwd`, `+`.
+    Forward,
+    /// `reverse`, `rev`, `-`.
+    Reverse,
+    /// `both`: one table for both directions.
+    Both,
+}
+
+impl RowDirection {
+    /// Index 0, 1, 2 for forward, reverse, both.
+    pub(crate) fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// Reads an `axis` field: 0, 1, 2 for X, Y, Z.
+pub(crate) fn axis_field(t: &CsvTable, r: &Record, col: usize) -> Result<usize, MapFileError> {
+    let text = t.text(r, col);
+    match text.to_ascii_uppercase().as_str() {
+        "X" => Ok(0),
+        "Y" => Ok(1),
+        "Z" => Ok(2),
+        _ => Err(t.error(
+            r,
+            col,
+            format!("unknown axis `{}`", shown(text)),
+            "use X, Y or Z",
+        )),
+    }
+}
+
+/// Reads a `direction` field.
+pub(crate) fn direction_field(
+    t: &CsvTable,
+    r: &Record,
+    col: usize,
+) -> Result<RowDirection, MapFileError> {
+    let text = t.text(r, col);
+    match text.to_ascii_lowercase().as_str() {
+        "forward" | "fwd" | "+" => Ok(RowDirection::Forward),
+        "reverse" | "rev" | "-" => Ok(RowDirection::Reverse),
+        "both" => Ok(RowDirection::Both),
+        _ => Err(t.error(
+            r,
+            col,
+            format!("unknown direction `{}`", shown(text)),
+            "use forward, reverse or both",
+        )),
+    }
+}
+
+/// The axis-table map of a machine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisTableMap {
+    /// Tables of X, Y, Z.
+    pub axes: [AxisTables; 3],
+    /// Clamp positions outside a table to its end instead of refusing them.
+    pub clamp: bool,
+}
+
+const AXES: [char; 3] = ['X', 'Y', 'Z'];
+
+impl ErrorModel for AxisTableMap {
+    fn deviation_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Vec3, ModelError> {
+        let mut e = Vec3::ZERO;
+        for a in 0..3 {
+            let table = self.axes[a].table(s[a]);
+            let [lo, hi] = table.range();
+            let x = if self.clamp {
+                q_mm[a].clamp(lo, hi)
+            } else {
+                q_mm[a]
+            };
+            let v = table.eval(x).ok_or(ModelError::OutOfRange {
+                axis: AXES[a],
+                position_mm: q_mm[a],
+                min_mm: lo,
+                max_mm: hi,
+            })?;
+            match components {
+                Components::All => e += v,
+                Components::PositioningOnly => e[a] += v[a],
+            }
+        }
+        Ok(e)
+    }
+
+    fn range_mm(&self) -> [[f64; 2]; 3] {
+        let r = |a: usize| {
+            let f = self.axes[a].forward.range();
+            let b = self.axes[a].reverse.range();
+            [f[0].max(b[0]), f[1].min(b[1])]
+        };
+        [r(0), r(1), r(2)]
+    }
+}
+
+const COLUMNS: [&str; 6] = [
+    "axis",
+    "direction",
+    "position_mm",
+    "ex_um",
+    "ey_um",
+    "ez_um",
+];
+
+impl AxisTableMap {
+    /// Parses the CSV text of a map; `file` names it in errors.
+    ///
+    /// ```
+    /// use volcomp_core::model::axis_table::AxisTableMap;
+    /// use volcomp_core::model::{ErrorModel, Components, ALL_FORWARD};
+    /// use volcomp_gcode::Vec3;
+    /// let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+    ///            X,both,0,0,0,0\nX,both,10,2,0,0\n\
+    ///            Y,both,0,0,0,0\nY,both,10,0,0,0\n\
+    ///            Z,both,0,0,0,0\nZ,both,10,0,0,0\n";
+    /// let map = AxisTableMap::from_csv(csv, "m.csv").unwrap();
+    /// let e = map.deviation_um(Vec3::new(2.5, 1.0, 1.0), ALL_FORWARD, Components::All).unwrap();
+    /// assert!((e.x - 0.5).abs() < 1e-12);
+    /// ```
+    pub fn from_csv(text: &str, file: &str) -> Result<AxisTableMap, MapFileError> {
+        let err = |row: usize, column: usize, message: String, help: &str| {
+            MapFileError::new(file, row, column, message, help)
+        };
+        let t = CsvTable::parse(
+            text,
+            file,
+            &Header {
+                known: &COLUMNS,
+                unknown: UnknownColumns::Refuse,
+                layout: "axis,direction,position_mm,ex_um,ey_um,ez_um (positions in mm, errors in µm) in any order",
+            },
+        )?;
+        let mut cols = [0; 6];
+        for (k, name) in COLUMNS.iter().enumerate() {
+            cols[k] = t.require(name)?;
+        }
+        let header = Some(cols);
+        // [axis][0 forward, 1 reverse, 2 both] → rows (position, errors, row number)
+        let mut rows: [[Vec<(f64, Vec3, usize)>; 3]; 3] = Default::default();
+        for r in t.records()? {
+            let axis = axis_field(&t, r, cols[0])?;
+            let dir = direction_field(&t, r, cols[1])?.index();
+            let mut num = [0.0; 4];
+            for (k, slot) in num.iter_mut().enumerate() {
+                *slot = t.number(r, cols[2 + k])?;
+            }
+            rows[axis][dir].push((num[0], Vec3::new(num[1], num[2], num[3]), r.line));
+        }
+        let last_row = t.last_line();
+        let mut axes = Vec::with_capacity(3);
+        for (a, by_dir) in rows.into_iter().enumerate() {
+            let [fwd, rev, both] = by_dir;
+            let name = AXES[a];
+            let build = |rows: Vec<(f64, Vec3, usize)>,
+                         label: &str|
+             -> Result<Table, MapFileError> {
+                if rows.len() < 2 {
+                    return Err(err(
+                        last_row,
+                        1,
+                        format!(
+                            "axis {name} has {} point(s) in its {label} table",
+                            rows.len()
+                        ),
+                        "give at least two points per table",
+                    ));
+                }
+                for w in rows.windows(2) {
+                    if w[1].0 <= w[0].0 {
+                        return Err(t.error_at(
+                                w[1].2,
+                                cols_position(&header) - 1,
+                                format!(
+                                    "axis {name} {label}: position {} does not increase after {} (row {})",
+                                    w[1].0, w[0].0, w[0].2
+                                ),
+                                "list each table's positions in strictly increasing order",
+                            ));
+                    }
+                }
+                Ok(Table {
+                    positions_mm: rows.iter().map(|r| r.0).collect(),
+                    errors_um: rows.iter().map(|r| r.1).collect(),
+                })
+            };
+            let tables = match (fwd.is_empty(), rev.is_empty(), both.is_empty()) {
+                (true, true, false) => {
+                    let t = build(both, "both")?;
+                    AxisTables { forward: t.clone(), reverse: t }
+                }
+                (false, false, true) => AxisTables {
+                    forward: build(fwd, "forward")?,
+                    reverse: build(rev, "reverse")?,
+                },
+                (true, true, true) => return Err(err(last_row, 1, format!("axis {name} has no table"), "give forward and reverse tables, or one `both` table, for X, Y and Z")),
+                _ => return Err(err(last_row, 1, format!("axis {name} must have either a `both` table or both a forward and a reverse table"), "a single direction is not enough: the other direction's error would be a guess")),
+            };
+            axes.push(tables);
+        }
+        let axes: [AxisTables; 3] = axes.try_into().unwrap_or_else(|_| unreachable!());
+        Ok(AxisTableMap { axes, clamp: false })
+    }
+
+    /// Writes the map as CSV (the layout of docs/design.md, "The axis-table map").
+    pub fn to_csv(&self) -> String {
+        let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+        for (a, t) in self.axes.iter().enumerate() {
+            let same = t.forward == t.reverse;
+            let dirs: &[(&str, &Table)] = if same {
+                &[("both", &t.forward)]
+            } else {
+                &[("forward", &t.forward), ("reverse", &t.reverse)]
+            };
+            for (name, table) in dirs {
+                for (p, e) in table.positions_mm.iter().zip(&table.errors_um) {
+                    s.push_str(&format!(
+                        "{},{name},{},{},{},{}\n",
+                        AXES[a],
+                        crate::io::numfmt::mm(*p),
+                        crate::io::numfmt::um(e.x),
+                        crate::io::numfmt::um(e.y),
+                        crate::io::numfmt::um(e.z)
+                    ));
+                }
+            }
+        }
+        s
+    }
+}
+
+fn cols_position(header: &Option<[usize; 6]>) -> usize {
+    header.map(|h| h[2] + 1).unwrap_or(3)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ALL_FORWARD;
+
+    const HEAD: &str = "axis,direction,position_mm,ex_um,ey_um,ez_um\n";
+
+    fn flat(axis: &str) -> String {
+        format!("{axis},both,0,0,0,0\n{axis},both,100,0,0,0\n")
+    }
+
+    #[test]
+    fn interpolates_by_hand() {
+        // X forward: 0 → 0 µm, 15 → 1.21 µm; at 5 mm: 1.21·5/15 = 0.40333… µm.
+        let csv = format!(
+            "{HEAD}# comment\nX,forward,0,0,0,0\nX,forward,15,1.21,-0.30,0.12\nX,reverse,0,1,0,0\nX,reverse,15,3,0,0\n{}{}",
+            flat("Y"),
+            flat("Z")
+        );
+        let m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        let e = m
+            .deviation_um(Vec3::new(5.0, 50.0, 50.0), ALL_FORWARD, Components::All)
+            .unwrap();
+        assert!((e.x - 1.21 / 3.0).abs() < 1e-12);
+        assert!((e.y + 0.1).abs() < 1e-12);
+        assert!((e.z - 0.04).abs() < 1e-12);
+        let s = [Direction::Reverse, Direction::Forward, Direction::Forward];
+        let e = m
+            .deviation_um(Vec3::new(7.5, 0.0, 0.0), s, Components::All)
+            .unwrap();
+        assert!((e.x - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn interval_search_agrees_with_binary_search() {
+        let uneven = [0.0, 0.5, 3.0, 3.1, 10.0, 11.0, 40.0];
+        let even: Vec<f64> = (0..50).map(|k| k as f64 * 2.0).collect();
+        for p in [&uneven[..], &even[..]] {
+            let n = p.len();
+            for k in 0..=1000 {
+                let x = p[0] + (p[n - 1] - p[0]) * k as f64 / 1000.0;
+                let expected = p.partition_point(|&v| v <= x).clamp(1, n - 1) - 1;
+                assert_eq!(interval(p, x), expected, "x = {x}");
+            }
+        }
+    }
+
+    #[test]
+    fn any_column_order() {
+        let csv = format!(
+            "position_mm,axis,ez_um,ey_um,ex_um,direction\n0,X,0,0,0,both\n10,X,3,2,1,both\n{}",
+            "0,Y,0,0,0,both\n10,Y,0,0,0,both\n0,Z,0,0,0,both\n10,Z,0,0,0,both\n"
+        );
+        let m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        let e = m
+            .deviation_um(Vec3::new(10.0, 0.0, 0.0), ALL_FORWARD, Components::All)
+            .unwrap();
+        assert_eq!(e, Vec3::new(1.0, 2.0, 3.0));
+    }
+
+    #[test]
+    fn bad_files_name_row_and_column() {
+        let csv = format!(
+            "{HEAD}X,both,0,0,0,0\nX,both,10,nan,0,0\n{}{}",
+            flat("Y"),
+            flat("Z")
+        );
+        let e = AxisTableMap::from_csv(&csv, "m.csv").unwrap_err();
+        assert_eq!((e.row, e.column), (3, 4));
+        let csv = format!(
+            "{HEAD}X,both,0,0,0,0\nX,both,0,1,0,0\n{}{}",
+            flat("Y"),
+            flat("Z")
+        );
+        let e = AxisTableMap::from_csv(&csv, "m.csv").unwrap_err();
+        assert_eq!((e.row, e.column), (3, 3));
+        assert!(e.message.contains("does not increase"));
+        let e = AxisTableMap::from_csv("axis,direction,position_in,ex_um,ey_um,ez_um\n", "m.csv")
+            .unwrap_err();
+        assert_eq!((e.row, e.column), (1, 3));
+        let csv = format!(
+            "{HEAD}X,forward,0,0,0,0\nX,forward,10,0,0,0\n{}{}",
+            flat("Y"),
+            flat("Z")
+        );
+        assert!(AxisTableMap::from_csv(&csv, "m.csv").is_err());
+    }
+
+    #[test]
+    fn out_of_range_is_an_error_unless_clamped() {
+        let csv = format!("{HEAD}{}{}{}", flat("X"), flat("Y"), flat("Z"));
+        let mut m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        let e = m
+            .deviation_um(Vec3::new(0.0, 100.5, 0.0), ALL_FORWARD, Components::All)
+            .unwrap_err();
+        assert!(matches!(e, ModelError::OutOfRange { axis: 'Y', .. }));
+        m.clamp = true;
+        assert!(m
+            .deviation_um(Vec3::new(0.0, 100.5, 0.0), ALL_FORWARD, Components::All)
+            .is_ok());
+    }
+
+    #[test]
+    fn csv_round_trip() {
+        let csv = format!("{HEAD}X,forward,0,0,0,0\nX,forward,15,1.21,-0.3,0.12\nX,reverse,0,1,0,0\nX,reverse,15,3,0,0\n{}{}", flat("Y"), flat("Z"));
+        let m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        let again = AxisTableMap::from_csv(&m.to_csv(), "again.csv").unwrap();
+        assert_eq!(m, again);
+    }
+}

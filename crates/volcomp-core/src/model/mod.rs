@@ -1,0 +1,170 @@
+//! What every error model gives: the deviation `e(q, s) = actual − commanded`
+//! (docs/design.md, "Deviation sign") at an axis position `q` with motion-direction state `s`.
+//!
+//! Compensation and simulation only talk to [`ErrorModel`], so richer models
+//! (21-component kinematic, thermal, grids) plug in without touching them.
+
+pub mod axis_table;
+pub mod kinematic;
+pub mod topology;
+
+use crate::error::ModelError;
+use volcomp_gcode::Vec3;
+
+/// Direction of the most recent commanded motion of one axis (docs/design.md, "Direction state and backlash").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Direction {
+    /// Increasing position.
+    Forward,
+    /// Decreasing position.
+    Reverse,
+}
+
+impl Direction {
+    /// The other direction.
+    pub fn flipped(self) -> Direction {
+        match self {
+            Direction::Forward => Direction::Reverse,
+            Direction::Reverse => Direction::Forward,
+        }
+    }
+
+    /// `+1` forward, `−1` reverse.
+    pub fn sign(self) -> f64 {
+        match self {
+            Direction::Forward => 1.0,
+            Direction::Reverse => -1.0,
+        }
+    }
+
+    /// The direction of a change `delta`, or `None` when it is zero.
+    pub fn of_delta(delta: f64) -> Option<Direction> {
+        if delta > 0.0 {
+            Some(Direction::Forward)
+        } else if delta < 0.0 {
+            Some(Direction::Reverse)
+        } else {
+            None
+        }
+    }
+}
+
+/// Direction state of the three axes.
+pub type Directions = [Direction; 3];
+
+/// All axes forward: the state before any motion (docs/design.md, "Direction state and backlash").
+pub const ALL_FORWARD: Directions = [Direction::Forward; 3];
+
+/// Which error components a model evaluation includes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Components {
+    /// Every component of the model.
+    All,
+    /// Only the positioning errors E_XX, E_YY, E_ZZ: what an ordinary
+    /// controller's pitch compensation already covers.
+    PositioningOnly,
+}
+
+/// A volumetric error model of a 3-axis machine.
+pub trait ErrorModel: Send + Sync {
+    /// Deviation `e(q, s)` in µm at axis position `q_mm` (axis frame).
+    fn deviation_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Vec3, ModelError>;
+
+    /// The axis ranges the model is defined on, `[min, max]` per axis (mm).
+    fn range_mm(&self) -> [[f64; 2]; 3];
+
+    /// Deviation `e(q, s)` in µm with the active tool's length offset
+    /// `tool_length_offset_mm`: the vector the controller adds to a programmed
+    /// position (G43: `(0, 0, L)`; G43.1: any vector), so the tool tip lies at
+    /// `−tool_length_offset_mm` from the spindle's gauge point.
+    ///
+    /// Models whose error does not depend on the tool (the axis tables) keep
+    /// this default, which ignores the offset. Models with Abbe terms (the
+    /// 21-component kinematic model) use it for the arms of the angular errors.
+    fn deviation_with_tool_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+        tool_length_offset_mm: Vec3,
+    ) -> Result<Vec3, ModelError> {
+        let _ = tool_length_offset_mm;
+        self.deviation_um(q_mm, s, components)
+    }
+
+    /// Whether [`ErrorModel::deviation_with_tool_um`] depends on the tool offset.
+    fn uses_tool_offset(&self) -> bool {
+        false
+    }
+}
+
+/// A model seen with a fixed tool length offset: what compensation and
+/// simulation evaluate for the tool that is active on a program line.
+///
+/// ```
+/// use volcomp_core::model::{ErrorModel, WithTool, Components, ALL_FORWARD};
+/// use volcomp_core::model::axis_table::AxisTableMap;
+/// use volcomp_gcode::Vec3;
+/// let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+///            X,both,0,0,0,0\nX,both,10,2,0,0\nY,both,0,0,0,0\nY,both,10,0,0,0\n\
+///            Z,both,0,0,0,0\nZ,both,10,0,0,0\n";
+/// let map = AxisTableMap::from_csv(csv, "m.csv").unwrap();
+/// let tool = WithTool { model: &map, tool_length_offset_mm: Vec3::new(0.0, 0.0, 100.0) };
+/// let q = Vec3::new(5.0, 1.0, 1.0);
+/// // Axis tables do not depend on the tool.
+/// assert_eq!(tool.deviation_um(q, ALL_FORWARD, Components::All).unwrap(),
+///            map.deviation_um(q, ALL_FORWARD, Components::All).unwrap());
+/// ```
+#[derive(Clone, Copy)]
+pub struct WithTool<'a> {
+    /// The model.
+    pub model: &'a dyn ErrorModel,
+    /// Tool length offset of the active tool (mm, as the controller applies it).
+    pub tool_length_offset_mm: Vec3,
+}
+
+impl ErrorModel for WithTool<'_> {
+    fn deviation_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Vec3, ModelError> {
+        self.model
+            .deviation_with_tool_um(q_mm, s, components, self.tool_length_offset_mm)
+    }
+
+    fn range_mm(&self) -> [[f64; 2]; 3] {
+        self.model.range_mm()
+    }
+
+    fn deviation_with_tool_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+        tool_length_offset_mm: Vec3,
+    ) -> Result<Vec3, ModelError> {
+        self.model
+            .deviation_with_tool_um(q_mm, s, components, tool_length_offset_mm)
+    }
+
+    fn uses_tool_offset(&self) -> bool {
+        self.model.uses_tool_offset()
+    }
+}
+
+/// `q + e(q, s)`: where the tool actually is when commanded to `q_mm`.
+pub fn actual_mm(
+    model: &dyn ErrorModel,
+    q_mm: Vec3,
+    s: Directions,
+    components: Components,
+) -> Result<Vec3, ModelError> {
+    Ok(q_mm + model.deviation_um(q_mm, s, components)? * 1e-3)
+}

@@ -1,0 +1,329 @@
+//! Which nominal move each simulated command was written for, and the
+//! distance of an actual tool position from that move.
+//!
+//! Nothing here searches the nominal path for the closest part: a program
+//! that volcomp wrote says where each of its lines comes from. Every line
+//! that volcomp inserts carries a trace comment `(volcomp Ln)`,
+//! `(volcomp Ln take-up)` or `(volcomp Ln cycle)` naming the original line
+//! `n`; every other line is an original line, rewritten in place, in the
+//! original's order. A program judged against itself is paired line by line.
+//! The path a command was meant to follow is then the original block's
+//! motion, known exactly (its straight segment, or its arc as RS274/NGC
+//! states it, see [`volcomp_gcode::Arc`]).
+
+use crate::simulate::point_segment_distance;
+use std::f64::consts::TAU;
+use volcomp_gcode::{Arc, Motion, MotionKind, Vec3};
+
+/// The trace comment of a line written by volcomp, if it carries one:
+/// the original line number it names.
+///
+/// ```
+/// use volcomp_core::simulate::nominal::trace_tag;
+/// assert_eq!(trace_tag(b"G1 X1 (volcomp L12 take-up)\n"), Some(12));
+/// assert_eq!(trace_tag(b"G1 X1 (cut)\n"), None);
+/// ```
+pub fn trace_tag(line: &[u8]) -> Option<u64> {
+    const TAG: &[u8] = b"(volcomp L";
+    let at = line.windows(TAG.len()).position(|w| w == TAG)? + TAG.len();
+    let digits = line[at..].iter().take_while(|b| b.is_ascii_digit()).count();
+    if digits == 0 || digits > 18 {
+        return None;
+    }
+    let text = std::str::from_utf8(&line[at..at + digits]).ok()?;
+    text.parse().ok()
+}
+
+/// Whether a motion moves at feed (a straight feed or an arc), as opposed to
+/// a rapid.
+pub fn is_feed_like(m: &Motion) -> bool {
+    !matches!(m.kind, MotionKind::Rapid)
+}
+
+/// One original block and how far its written commands have got through it.
+#[derive(Debug, Clone)]
+pub struct NominalBlock {
+    /// 1-based line of the original program.
+    pub line: u64,
+    /// The block's motions in the original program, in order.
+    pub motions: Vec<Motion>,
+    /// Index of the motion the last written command was paired with.
+    current: Option<usize>,
+    /// The original line itself (rewritten) has been seen in the written
+    /// program: later untagged lines belong to later blocks.
+    pub own_line_written: bool,
+    /// Arc parameter of the last sample judged against the current motion
+    /// (which turn of a multi-turn arc a sample is on).
+    arc_hint: f64,
+}
+
+impl NominalBlock {
+    /// A block of the original program with its motions.
+    pub fn new(line: u64, motions: &[Motion], own_line_written: bool) -> Self {
+        Self {
+            line,
+            motions: motions.to_vec(),
+            current: None,
+            own_line_written,
+            arc_hint: 0.0,
+        }
+    }
+
+    /// Pairs the next written motion, which moves the command from `from`
+    /// to `to` at feed (`feed`) or rapid, with one of the block's motions,
+    /// in order; `None` when the block has no such motion left.
+    ///
+    /// A block with one motion takes every command written for it (its
+    /// splits, take-ups and arc chords). A block with several (an expanded
+    /// canned cycle) is followed in order: a written rapid takes the next
+    /// rapid; a written feed move stays with the current feed motion unless
+    /// it moves against that motion's direction, and otherwise takes the
+    /// next feed motion it does not move against (a take-up at the reversal
+    /// of G85/G89 moves in the direction of the return feed; one that moves
+    /// only an axis across the feed stays with it).
+    pub fn pair(&mut self, from: Vec3, to: Vec3, feed: bool) -> Option<usize> {
+        if self.motions.len() == 1 {
+            self.set_current(0);
+            return Some(0);
+        }
+        let d = to - from;
+        let along =
+            |m: &Motion| is_feed_like(m) == feed && (!feed || d.dot(m.end - m.start) >= 0.0);
+        if let Some(i) = self.current {
+            if feed && along(&self.motions[i]) {
+                return Some(i);
+            }
+        }
+        let start = self.current.map_or(0, |i| i + 1);
+        let j = (start..self.motions.len()).find(|&j| {
+            let m = &self.motions[j];
+            along(m) && !(feed && m.start == m.end)
+        })?;
+        self.set_current(j);
+        Some(j)
+    }
+
+    /// Pairs written motion `i` of a line that is this block's own line,
+    /// unchanged in its number of motions, with the block's motion `i`.
+    pub fn pair_index(&mut self, i: usize) -> Option<usize> {
+        (i < self.motions.len()).then(|| {
+            self.set_current(i);
+            i
+        })
+    }
+
+    fn set_current(&mut self, i: usize) {
+        if self.current != Some(i) {
+            self.current = Some(i);
+            self.arc_hint = 0.0;
+        }
+    }
+
+    /// Distance (mm) from `p` to motion `i` of the block.
+    pub fn distance_mm(&mut self, i: usize, p: Vec3) -> f64 {
+        let m = self.motions[i];
+        match m.kind {
+            MotionKind::Arc(arc) => arc_distance_mm(p, &arc, &mut self.arc_hint),
+            _ => point_segment_distance(p, m.start, m.end),
+        }
+    }
+}
+
+/// Distance (mm) from `p` to an arc: to the arc's point at `p`'s angle about
+/// the arc's centre (the closest point of a circle), or to the nearer end
+/// when that angle lies outside the sweep. On a helix or spiral, whose
+/// closest point lies at another angle, the distance is then minimised along
+/// the arc (golden-section search) over the stretch that can hold a closer
+/// point. On a multi-turn arc the turn nearest to `hint` (the previous
+/// sample's parameter) is taken, and `hint` follows.
+pub fn arc_distance_mm(p: Vec3, arc: &Arc, hint: &mut f64) -> f64 {
+    let (u, v, _) = arc.plane.axes();
+    let mut best = (p - arc.start).norm();
+    let mut best_t = 0.0;
+    let end = (p - arc.end).norm();
+    if end < best {
+        best = end;
+        best_t = 1.0;
+    }
+    if arc.sweep_rad != 0.0 && arc.sweep_rad.is_finite() {
+        let a0 = (arc.start[v] - arc.center[v]).atan2(arc.start[u] - arc.center[u]);
+        let ap = (p[v] - arc.center[v]).atan2(p[u] - arc.center[u]);
+        let period = TAU / arc.sweep_rad.abs();
+        let t0 = ((ap - a0) / arc.sweep_rad).rem_euclid(period);
+        let k0 = ((*hint - t0) / period).round();
+        for k in [k0 - 1.0, k0, k0 + 1.0] {
+            let t = t0 + k * period;
+            if (0.0..=1.0).contains(&t) {
+                let d = (p - arc.point_at(t)).norm();
+                if d < best {
+                    best = d;
+                    best_t = t;
+                }
+            }
+        }
+    }
+    let (_, _, w) = arc.plane.axes();
+    let circle = arc.start[w] == arc.end[w] && arc.start_radius() == arc.end_radius();
+    let length = arc.length();
+    if !circle && best > 0.0 && length > 0.0 {
+        // Every point of the arc closer than `best` lies within 2·best of
+        // the point found, hence within π·best of it along the arc.
+        let h = std::f64::consts::PI * best / length;
+        let (t, d) = golden_minimum(
+            |t| (p - arc.point_at(t)).norm(),
+            (best_t - h).max(0.0),
+            (best_t + h).min(1.0),
+        );
+        if d < best {
+            best = d;
+            best_t = t;
+        }
+    }
+    *hint = best_t;
+    best
+}
+
+/// Minimum of `f` on `[a, b]` by golden-section search (the distance to a
+/// smooth curve near its closest point is unimodal), to 1e-12 of the
+/// interval: `(argument, value)`.
+fn golden_minimum(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> (f64, f64) {
+    let r = 0.5 * (5f64.sqrt() - 1.0);
+    let mut c = b - r * (b - a);
+    let mut d = a + r * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..60 {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - r * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + r * (b - a);
+            fd = f(d);
+        }
+    }
+    if fc < fd {
+        (c, fc)
+    } else {
+        (d, fd)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use volcomp_gcode::{MotionSource, Plane};
+
+    fn quarter() -> Arc {
+        // Centre (0,0,0), radius 10, from (10,0) counter-clockwise to (0,10).
+        Arc {
+            start: Vec3::new(10.0, 0.0, 0.0),
+            end: Vec3::new(0.0, 10.0, 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: TAU / 4.0,
+        }
+    }
+
+    #[test]
+    fn distance_to_a_circle_is_radial_inside_the_sweep_and_to_the_end_outside() {
+        let arc = quarter();
+        let mut hint = 0.0;
+        // At 45°, 3 µm outside the radius and 4 µm above the plane: 5 µm.
+        let c = std::f64::consts::FRAC_1_SQRT_2 * 10.003;
+        let d = arc_distance_mm(Vec3::new(c, c, 0.004), &arc, &mut hint);
+        assert!((d - 0.005).abs() < 1e-12, "{d}");
+        // At −90° (outside the sweep), the nearer end is the start (10,0):
+        // from (0,−10) that is √200.
+        let d = arc_distance_mm(Vec3::new(0.0, -10.0, 0.0), &arc, &mut hint);
+        assert!((d - 200f64.sqrt()).abs() < 1e-12, "{d}");
+    }
+
+    #[test]
+    fn a_helix_turn_is_chosen_by_the_previous_sample() {
+        // Two full turns of radius 10, rising 2 mm: at angle 0 the helix is
+        // at z = 0, 1 and 2. A point at (10, 0, 1.001) is 1 µm above the
+        // middle turn, which rises 1 mm per 20π mm: its distance to the helix
+        // is 1 µm · cos(atan(1 / 20π)).
+        let arc = Arc {
+            start: Vec3::new(10.0, 0.0, 0.0),
+            end: Vec3::new(10.0, 0.0, 2.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: 2.0 * TAU,
+        };
+        let mut hint = 0.5;
+        let d = arc_distance_mm(Vec3::new(10.0, 0.0, 1.001), &arc, &mut hint);
+        let expected = 0.001 * (1.0 / (20.0 * std::f64::consts::PI)).atan().cos();
+        assert!((d - expected).abs() < 1e-12, "{d} vs {expected}");
+        assert!((hint - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_closest_point_of_a_steep_helix_is_found_off_its_angle() {
+        // Radius 0.3 mm, a quarter turn rising 0.5 mm. A point 10 µm from
+        // the helix along its normal in the plane of the axis direction and
+        // the tangent (binormal): its angle about the axis differs from its
+        // foot's, so the point at its angle is farther than 10 µm.
+        let r = 0.3;
+        let arc = Arc {
+            start: Vec3::new(r, 0.0, 0.0),
+            end: Vec3::new(0.0, r, 0.5),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: TAU / 4.0,
+        };
+        let t = 0.5;
+        let foot = arc.point_at(t);
+        let a = TAU / 8.0;
+        // Tangent (dθ/dt = π/2, dz/dt = 0.5) and the binormal-like normal
+        // orthogonal to it and to the radial direction.
+        let tangent = Vec3::new(-r * a.sin() * TAU / 4.0, r * a.cos() * TAU / 4.0, 0.5);
+        let radial = Vec3::new(a.cos(), a.sin(), 0.0);
+        let n = Vec3::new(
+            radial.y * tangent.z - radial.z * tangent.y,
+            radial.z * tangent.x - radial.x * tangent.z,
+            radial.x * tangent.y - radial.y * tangent.x,
+        );
+        let p = foot + n * (0.01 / n.norm());
+        let mut hint = 0.0;
+        let d = arc_distance_mm(p, &arc, &mut hint);
+        assert!((d - 0.01).abs() < 1e-6, "{d}");
+    }
+
+    #[test]
+    fn a_cycle_is_followed_in_order() {
+        // G85-like: rapid to the hole, feed down, feed back up.
+        let m = |kind, a: [f64; 3], b: [f64; 3]| Motion {
+            kind,
+            source: MotionSource::Cycle,
+            start: Vec3::new(a[0], a[1], a[2]),
+            end: Vec3::new(b[0], b[1], b[2]),
+            line: 7,
+            column: 1,
+            feed: 100.0,
+        };
+        let motions = [
+            m(MotionKind::Rapid, [0.0, 0.0, 5.0], [1.0, 1.0, 5.0]),
+            m(MotionKind::Feed, [1.0, 1.0, 5.0], [1.0, 1.0, 0.0]),
+            m(MotionKind::Feed, [1.0, 1.0, 0.0], [1.0, 1.0, 5.0]),
+        ];
+        let mut b = NominalBlock::new(7, &motions, true);
+        let p = |z: f64| Vec3::new(1.0, 1.0, z);
+        assert_eq!(b.pair(Vec3::new(0.0, 0.0, 5.0), p(5.0), false), Some(0));
+        assert_eq!(b.pair(p(5.0), p(4.0), true), Some(1));
+        // A take-up across the feed (Y only) stays with it.
+        assert_eq!(b.pair(p(4.0), Vec3::new(1.0, 1.002, 4.0), true), Some(1));
+        assert_eq!(b.pair(p(4.0), p(0.0), true), Some(1));
+        // The take-up (2 µm up) and the return belong to the second feed.
+        assert_eq!(b.pair(p(0.0), p(0.002), true), Some(2));
+        assert_eq!(b.pair(p(0.002), p(5.0), true), Some(2));
+        // Nothing is left for another rapid.
+        assert_eq!(b.pair(p(5.0), p(6.0), false), None);
+        assert_eq!(trace_tag(b"G1 Z0 (volcomp L7 cycle)"), Some(7));
+    }
+}
