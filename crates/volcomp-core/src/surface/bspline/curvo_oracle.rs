@@ -1,28 +1,22 @@
 //! Cross-checks against the `curvo` crate (an independent NURBS implementation).
 
 use super::*;
+use crate::rng::Rng;
 use curvo::prelude::{Interpolation, NurbsCurve3D, NurbsSurface3D};
 use nalgebra::{Point3, Point4};
-
-fn lcg(seed: &mut u64) -> f64 {
-    *seed = seed
-        .wrapping_mul(6_364_136_223_846_793_005)
-        .wrapping_add(1_442_695_040_888_963_407);
-    (*seed >> 11) as f64 / (1u64 << 53) as f64
-}
 
 fn surfaces() -> (BSplineSurface<3>, NurbsSurface3D<f64>) {
     let knots_u = vec![0.0, 0.0, 0.0, 0.0, 0.25, 0.6, 0.6, 1.0, 1.0, 1.0, 1.0];
     let knots_v = vec![0.0, 0.0, 0.0, 0.3, 0.5, 1.0, 1.0, 1.0];
     let (cu, cv) = (7, 5);
-    let mut seed = 42;
+    let mut rng = Rng::new(42);
     let control: Vec<[f64; 3]> = (0..cu * cv)
         .map(|k| {
             let (i, j) = (k / cv, k % cv);
             [
-                12.0 * i as f64 + 2.0 * lcg(&mut seed),
-                9.0 * j as f64 + 2.0 * lcg(&mut seed),
-                6.0 * (lcg(&mut seed) - 0.5),
+                12.0 * i as f64 + 2.0 * rng.uniform(),
+                9.0 * j as f64 + 2.0 * rng.uniform(),
+                6.0 * (rng.uniform() - 0.5),
             ]
         })
         .collect();
@@ -53,12 +47,12 @@ fn surfaces() -> (BSplineSurface<3>, NurbsSurface3D<f64>) {
 #[test]
 fn points_and_derivatives_agree_with_curvo() {
     let (ours, theirs) = surfaces();
-    let mut seed = 1;
+    let mut rng = Rng::new(1);
     for k in 0..300 {
         let (u, v) = if k < 4 {
             ([0.0, 1.0][k % 2], [0.0, 1.0][k / 2])
         } else {
-            (lcg(&mut seed), lcg(&mut seed))
+            (rng.uniform(), rng.uniform())
         };
         let p = ours.point(u, v);
         let q = theirs.point_at(u, v);
@@ -85,14 +79,14 @@ fn points_and_derivatives_agree_with_curvo() {
 fn closest_points_are_never_farther_than_curvos() {
     let (ours, theirs) = surfaces();
     let index = ProjectionIndex::new(&ours, 8);
-    let mut seed = 5;
+    let mut rng = Rng::new(5);
     for _ in 0..40 {
-        let (u, v) = (lcg(&mut seed), lcg(&mut seed));
+        let (u, v) = (rng.uniform(), rng.uniform());
         let base = ours.point(u, v);
         let target = [
-            base[0] + 4.0 * (lcg(&mut seed) - 0.5),
-            base[1] + 4.0 * (lcg(&mut seed) - 0.5),
-            base[2] + 4.0 * (lcg(&mut seed) - 0.5),
+            base[0] + 4.0 * (rng.uniform() - 0.5),
+            base[1] + 4.0 * (rng.uniform() - 0.5),
+            base[2] + 4.0 * (rng.uniform() - 0.5),
         ];
         let mine = ours.closest_point(&index, target, 50.0, None).unwrap();
         // curvo's own start (an adaptive tessellation) is slow in tests:

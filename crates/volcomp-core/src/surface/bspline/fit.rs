@@ -4,8 +4,7 @@
 
 use super::basis::{averaged_knots, basis_funs, check_knots, find_span};
 use super::{BSplineError, BSplineSurface, MAX_ORDER};
-use faer::linalg::solvers::{DenseSolveCore, Solve};
-use faer::{Mat, Side};
+use crate::linalg::{lu_solve, Cholesky, Matrix};
 
 /// How interpolation parameters are chosen.
 #[derive(Debug, Clone, PartialEq)]
@@ -116,9 +115,9 @@ fn check_params(t: &[f64], count: usize, dir: char) -> Result<(), BSplineError> 
 }
 
 /// Collocation matrix `N_{j,p}(t_k)` of curve interpolation (A9.1's matrix).
-fn collocation(params: &[f64], knots: &[f64], p: usize) -> Mat<f64> {
+fn collocation(params: &[f64], knots: &[f64], p: usize) -> Matrix {
     let n = params.len();
-    let mut a = Mat::<f64>::zeros(n, n);
+    let mut a = Matrix::zeros(n, n);
     let mut b = [0.0; MAX_ORDER];
     for (k, t) in params.iter().enumerate() {
         let span = find_span(n - 1, p, *t, knots);
@@ -131,20 +130,21 @@ fn collocation(params: &[f64], knots: &[f64], p: usize) -> Mat<f64> {
 }
 
 /// Solves `A X = B` by LU with partial pivoting and checks the result.
-fn solve_dense(a: &Mat<f64>, mut b: Mat<f64>, what: &str) -> Result<Mat<f64>, BSplineError> {
-    let lu = a.partial_piv_lu();
-    let rhs = b.clone();
-    lu.solve_in_place(b.as_mut());
+fn solve_dense(a: &Matrix, b: Matrix, what: &str) -> Result<Matrix, BSplineError> {
+    let singular = || {
+        BSplineError::Singular(format!(
+            "{what}: the points do not determine the control points (repeated parameters?)"
+        ))
+    };
+    let x = lu_solve(a, &b).ok_or_else(singular)?;
     // A singular (or nearly singular) system shows as non-finite values or a
     // residual far above rounding.
-    let scale = rhs.norm_max().max(1e-300);
-    let resid = (a * &b - &rhs).norm_max();
-    if !b.norm_max().is_finite() || resid > 1e-8 * scale {
-        return Err(BSplineError::Singular(format!(
-            "{what}: the points do not determine the control points (repeated parameters?)"
-        )));
+    let scale = b.amax().max(1e-300);
+    let resid = (a * &x - &b).amax();
+    if x.iter().any(|v| !v.is_finite()) || !(resid <= 1e-8 * scale) {
+        return Err(singular());
     }
-    Ok(b)
+    Ok(x)
 }
 
 /// Global surface interpolation (A9.4): the surface of degrees `(p, q)`
@@ -187,13 +187,13 @@ pub fn interpolate<const N: usize>(
     let knots_v = averaged_knots(&vl, q);
     // Along u: one system, count_v · N right-hand sides.
     let au = collocation(&uk, &knots_u, p);
-    let bu = Mat::<f64>::from_fn(count_u, count_v * N, |k, c| {
+    let bu = Matrix::from_fn(count_u, count_v * N, |k, c| {
         points[k * count_v + c / N][c % N]
     });
     let r = solve_dense(&au, bu, "interpolation along u")?;
     // Along v: count_u · N right-hand sides.
     let av = collocation(&vl, &knots_v, q);
-    let bv = Mat::<f64>::from_fn(count_v, count_u * N, |l, c| r[(c / N, l * N + c % N)]);
+    let bv = Matrix::from_fn(count_v, count_u * N, |l, c| r[(c / N, l * N + c % N)]);
     let s = solve_dense(&av, bv, "interpolation along v")?;
     let mut control = vec![[0.0; N]; count_u * count_v];
     for i in 0..count_u {
@@ -251,8 +251,8 @@ pub fn fit_least_squares<const N: usize>(
             (p + 1) * (q + 1)
         )));
     }
-    let mut ata = Mat::<f64>::zeros(unknowns, unknowns);
-    let mut atb = Mat::<f64>::zeros(unknowns, N);
+    let mut ata = Matrix::zeros(unknowns, unknowns);
+    let mut atb = Matrix::zeros(unknowns, N);
     let mut rows: Vec<(
         [usize; MAX_ORDER * MAX_ORDER],
         [f64; MAX_ORDER * MAX_ORDER],
@@ -299,7 +299,7 @@ pub fn fit_least_squares<const N: usize>(
                 .collect()
         };
         let (gu, gv) = (greville(&knots_u, p, nu), greville(&knots_v, q, nv));
-        let mut pen = Mat::<f64>::zeros(unknowns, unknowns);
+        let mut pen = Matrix::zeros(unknowns, unknowns);
         let mut add = |terms: &[(usize, f64)]| {
             for (i, a) in terms {
                 for (j, b) in terms {
@@ -338,18 +338,17 @@ pub fn fit_least_squares<const N: usize>(
         let tr_pen: f64 = (0..unknowns).map(|k| pen[(k, k)]).sum();
         if tr_pen > 0.0 {
             let lambda = smoothing * tr_data / tr_pen;
-            ata += &pen * faer::Scale(lambda);
+            ata += &pen * lambda;
         }
     }
-    let llt = ata.llt(Side::Lower).map_err(|_| {
+    let llt = Cholesky::new(ata).ok_or_else(|| {
         BSplineError::Singular(format!(
             "{} points do not determine a {nu} × {nv} control net (too few, or all on one curve)",
             uv.len()
         ))
     })?;
-    let mut sol = atb.clone();
-    llt.solve_in_place(sol.as_mut());
-    if !sol.norm_max().is_finite() {
+    let sol = llt.solve(&atb);
+    if sol.iter().any(|x| !x.is_finite()) {
         return Err(BSplineError::Singular(
             "the normal equations are singular".into(),
         ));

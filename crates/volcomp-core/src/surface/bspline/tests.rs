@@ -4,33 +4,21 @@
 
 use super::eval::{norm3, sub3};
 use super::*;
-
-/// A deterministic generator for test data (SplitMix64).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+use crate::rng::Rng;
 
 /// A cubic × quadratic surface with non-uniform interior knots.
 fn sample_surface() -> BSplineSurface<3> {
     let knots_u = vec![0.0, 0.0, 0.0, 0.0, 0.3, 0.55, 1.0, 1.0, 1.0, 1.0];
     let knots_v = vec![0.0, 0.0, 0.0, 0.4, 1.0, 1.0, 1.0];
     let (cu, cv) = (6, 4);
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     let control = (0..cu * cv)
         .map(|k| {
             let (i, j) = (k / cv, k % cv);
             [
-                10.0 * i as f64 + rng.next(),
-                8.0 * j as f64 + rng.next(),
-                5.0 * (rng.next() - 0.5),
+                10.0 * i as f64 + rng.uniform(),
+                8.0 * j as f64 + rng.uniform(),
+                5.0 * (rng.uniform() - 0.5),
             ]
         })
         .collect();
@@ -67,10 +55,10 @@ fn basis_matches_the_book_example() {
 
 #[test]
 fn partition_of_unity_and_derivative_sums() {
-    let mut rng = Rng(1);
+    let mut rng = Rng::new(1);
     let knots = [0.0, 0.0, 0.0, 0.0, 0.2, 0.2, 0.7, 1.0, 1.0, 1.0, 1.0];
     for _ in 0..200 {
-        let u = rng.next();
+        let u = rng.uniform();
         let i = find_span(6, 3, u, &knots);
         let mut d = [[0.0; MAX_ORDER]; MAX_DERIVATIVE + 1];
         ders_basis_funs(i, u, 3, 2, &knots, &mut d);
@@ -86,10 +74,10 @@ fn partition_of_unity_and_derivative_sums() {
 #[test]
 fn derivatives_match_finite_differences() {
     let s = sample_surface();
-    let mut rng = Rng(3);
+    let mut rng = Rng::new(3);
     let h = 1e-6;
     for _ in 0..50 {
-        let (u, v) = (0.05 + 0.9 * rng.next(), 0.05 + 0.9 * rng.next());
+        let (u, v) = (0.05 + 0.9 * rng.uniform(), 0.05 + 0.9 * rng.uniform());
         let d = s.derivatives(u, v, 2);
         let p = s.point(u, v);
         for c in 0..3 {
@@ -133,9 +121,9 @@ fn interpolation_reproduces_a_biquadratic_exactly() {
     }
     for (p, q) in [(2, 2), (3, 3), (3, 2)] {
         let s = interpolate(&pts, cu, cv, p, q, &Parameterization::Uniform).unwrap();
-        let mut rng = Rng(5);
+        let mut rng = Rng::new(5);
         for _ in 0..100 {
-            let (u, v) = (rng.next(), rng.next());
+            let (u, v) = (rng.uniform(), rng.uniform());
             let pt = s.point(u, v);
             assert!((pt[0] - 100.0 * u).abs() < 1e-10 && (pt[1] - 60.0 * v).abs() < 1e-10);
             assert!((pt[2] - f(pt[0], pt[1])).abs() < 1e-10, "degree ({p},{q})");
@@ -152,15 +140,15 @@ fn interpolation_reproduces_a_biquadratic_exactly() {
 
 #[test]
 fn interpolation_passes_through_every_mesh_point() {
-    let mut rng = Rng(11);
+    let mut rng = Rng::new(11);
     let (cu, cv) = (8, 6);
     let pts: Vec<[f64; 3]> = (0..cu * cv)
         .map(|k| {
             let (i, j) = (k / cv, k % cv);
             [
-                i as f64 * 5.0 + rng.next(),
-                j as f64 * 4.0 + rng.next(),
-                3.0 * rng.next(),
+                i as f64 * 5.0 + rng.uniform(),
+                j as f64 * 4.0 + rng.uniform(),
+                3.0 * rng.uniform(),
             ]
         })
         .collect();
@@ -182,8 +170,8 @@ fn least_squares_reproduces_what_the_space_contains_and_smooths_noise() {
     // A bicubic polynomial field lies in every bicubic spline space:
     // least squares without penalty recovers it exactly.
     let f = |u: f64, v: f64| 2.0 + u - 3.0 * v * v + u * u * u * v - 0.5 * u * v;
-    let mut rng = Rng(21);
-    let uv: Vec<(f64, f64)> = (0..200).map(|_| (rng.next(), rng.next())).collect();
+    let mut rng = Rng::new(21);
+    let uv: Vec<(f64, f64)> = (0..200).map(|_| (rng.uniform(), rng.uniform())).collect();
     let vals: Vec<[f64; 1]> = uv.iter().map(|(u, v)| [f(*u, *v)]).collect();
     let fit = fit_least_squares(
         &uv,
@@ -196,7 +184,7 @@ fn least_squares_reproduces_what_the_space_contains_and_smooths_noise() {
     )
     .unwrap();
     for _ in 0..50 {
-        let (u, v) = (rng.next(), rng.next());
+        let (u, v) = (rng.uniform(), rng.uniform());
         assert!((fit.surface.point(u, v)[0] - f(u, v)).abs() < 1e-9);
     }
     assert!(fit.residuals.iter().all(|r| r[0].abs() < 1e-9));
@@ -217,7 +205,7 @@ fn least_squares_reproduces_what_the_space_contains_and_smooths_noise() {
     // Leave-one-out residuals agree with refitting without the point.
     let noisy: Vec<[f64; 1]> = uv
         .iter()
-        .map(|(u, v)| [f(*u, *v) + 0.1 * (rng.next() - 0.5)])
+        .map(|(u, v)| [f(*u, *v) + 0.1 * (rng.uniform() - 0.5)])
         .collect();
     let knots = || (uniform_knots(0.0, 1.0, 3, 3), uniform_knots(0.0, 1.0, 3, 3));
     let (ku, kv) = knots();
@@ -293,11 +281,11 @@ fn invalid_definitions_are_refused() {
 fn closest_point_is_orthogonal_and_beats_every_sample() {
     let s = sample_surface();
     let index = ProjectionIndex::new(&s, 8);
-    let mut rng = Rng(9);
+    let mut rng = Rng::new(9);
     for _ in 0..100 {
-        let (u, v) = (0.05 + 0.9 * rng.next(), 0.05 + 0.9 * rng.next());
+        let (u, v) = (0.05 + 0.9 * rng.uniform(), 0.05 + 0.9 * rng.uniform());
         let n = s.unit_normal(u, v).unwrap();
-        let h = 3.0 * (rng.next() - 0.5);
+        let h = 3.0 * (rng.uniform() - 0.5);
         let p = s.point(u, v);
         let target = [p[0] + h * n[0], p[1] + h * n[1], p[2] + h * n[2]];
         let c = s.closest_point(&index, target, 10.0, None).unwrap();
