@@ -2,10 +2,12 @@
 //! as a grid of points (CSV) or as a B-spline surface (TOML), and the writer
 //! of that TOML format. Every CSV goes through [`crate::io::table`].
 
+use super::nominal::{MaterialSide, NominalSurface};
 use super::MirrorError;
 use crate::error::MapFileError;
 use crate::io::table::{CsvTable, Header, Record, UnknownColumns};
-use crate::surface::bspline::{self, BSplineSurface};
+use crate::surface::bspline::{self, BSplineSurface, Parameterization};
+use std::path::Path;
 use volcomp_gcode::{Units, Vec3};
 
 /// A probe-point or grid table, read by [`crate::io::table`]; columns
@@ -468,6 +470,53 @@ pub fn write_bspline_toml(surface: &BSplineSurface<3>, comment: &str) -> String 
     }
     let _ = writeln!(s, "]");
     s
+}
+
+/// The file formats of a nominal surface.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NominalFormat {
+    /// A B-spline surface, TOML ([`read_bspline_toml`]).
+    BSplineToml,
+    /// A grid of points, CSV ([`read_grid_csv`]), interpolated.
+    GridCsv,
+}
+
+impl NominalFormat {
+    /// The format a file name's extension says (`.toml`, `.csv`, any case).
+    pub fn of_path(path: &Path) -> Result<Self, MirrorError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        match ext.as_str() {
+            "toml" => Ok(Self::BSplineToml),
+            "csv" => Ok(Self::GridCsv),
+            _ => Err(MirrorError::NominalFormat {
+                file: path.display().to_string(),
+            }),
+        }
+    }
+}
+
+/// Reads a nominal surface from the text of `file` in `format`: a B-spline
+/// surface as it is, a grid interpolated with the parameters `params`;
+/// `side` is where the material is.
+pub fn read_nominal(
+    text: &str,
+    file: &str,
+    format: NominalFormat,
+    side: MaterialSide,
+    params: &Parameterization,
+) -> Result<NominalSurface, MirrorError> {
+    match format {
+        NominalFormat::BSplineToml => {
+            NominalSurface::new(read_bspline_toml(text, file)?, side, file)
+        }
+        NominalFormat::GridCsv => {
+            NominalSurface::from_grid(&read_grid_csv(text, file)?, params, side, file)
+        }
+    }
 }
 
 #[cfg(test)]

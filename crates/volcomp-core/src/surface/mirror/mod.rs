@@ -44,6 +44,7 @@ mod fit;
 mod io;
 mod method;
 mod nominal;
+pub mod report;
 mod stats;
 
 pub use compensated::{CompensatedSurface, GridNode};
@@ -52,7 +53,8 @@ pub use finishing::{
     FinishingSummary, SurfaceModel,
 };
 pub use io::{
-    read_bspline_toml, read_grid_csv, read_probe_points, write_bspline_toml, PointGrid, ProbePoint,
+    read_bspline_toml, read_grid_csv, read_nominal, read_probe_points, write_bspline_toml,
+    NominalFormat, PointGrid, ProbePoint,
 };
 pub use method::{
     match_points, mirror, DeviationField, FitInfo, FitMethod, MatchedPoint, MirrorOptions,
@@ -102,6 +104,14 @@ pub enum MirrorError {
         message: String,
         /// What to do.
         help: String,
+    },
+    /// A nominal surface file whose name does not say its format.
+    #[error(
+        "{file}: the nominal surface must be a B-spline surface (.toml) or a grid of points (.csv)"
+    )]
+    NominalFormat {
+        /// File name.
+        file: String,
     },
     /// Reading or writing the finishing program failed.
     #[error(transparent)]
