@@ -4,6 +4,8 @@
 use super::MachineArgs;
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::PathBuf;
+use volcomp_core::surface::bspline::Parameterization;
+use volcomp_core::surface::mirror::{FitMethod, MaterialSide};
 
 /// Free-form surfaces.
 #[derive(Args, Debug)]
@@ -148,4 +150,35 @@ pub struct MirrorArgs {
     /// Compensate a finishing program that volcomp compensated already.
     #[arg(long)]
     pub allow_recompensate: bool,
+}
+
+impl MirrorArgs {
+    /// The material side the flags give.
+    pub fn material_side(&self) -> MaterialSide {
+        match self.material {
+            Material::Below => MaterialSide::Below,
+            Material::Above => MaterialSide::Above,
+            Material::NormalOut => MaterialSide::NormalOut,
+            Material::NormalIn => MaterialSide::NormalIn,
+        }
+    }
+
+    /// The parameters of a grid nominal the flags give.
+    pub fn grid_parameterization(&self) -> Parameterization {
+        match self.grid_params {
+            GridParams::ChordLength => Parameterization::ChordLength,
+            GridParams::Centripetal => Parameterization::Centripetal,
+            GridParams::Uniform => Parameterization::Uniform,
+        }
+    }
+
+    /// The fit the flags give.
+    pub fn fit_method(&self) -> FitMethod {
+        match self.fit {
+            Fit::LeastSquares => FitMethod::LeastSquares {
+                tolerance_um: self.tolerance,
+            },
+            Fit::Interpolate => FitMethod::Interpolate,
+        }
+    }
 }

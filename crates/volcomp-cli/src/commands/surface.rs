@@ -4,23 +4,20 @@
 
 use super::compensate::{date_utc, file_name, refuse_if_compensated};
 use super::Machine;
-use crate::args::surface::{
-    Cl, Fit, GridParams, Material, MirrorArgs, SurfaceArgs, SurfaceCommand,
-};
+use crate::args::surface::{Cl, MirrorArgs, SurfaceArgs, SurfaceCommand};
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use volcomp_core::compensate::survey_style;
 use volcomp_core::io::provenance::{sha256_hex, HeaderWriter, ProgramHeader};
-use volcomp_core::surface::bspline::Parameterization;
 use volcomp_core::surface::mirror::report::{
-    compensated_surface_text, fit_text, header_method, header_options, report_csv, stats_table,
-    summary_json, FinishingJson, RunInputs, SurfaceFiles,
+    compensated_surface_text, header_method, header_options, report_csv, summary_json,
+    summary_text, FinishingJson, RunInputs, SurfaceFiles,
 };
 use volcomp_core::surface::mirror::{
     compensate_finishing, mirror, program_frame_offset, read_nominal, read_probe_points, BallTool,
-    ClPoint, CompensatedSurface, DeviationField, FinishingOptions, FinishingSummary, FitMethod,
-    MaterialSide, MirrorOptions, MirrorResult, NominalFormat, NominalSurface, SurfaceModel,
+    ClPoint, CompensatedSurface, DeviationField, FinishingOptions, FinishingSummary, MirrorOptions,
+    MirrorResult, NominalFormat, NominalSurface, SurfaceModel,
 };
 
 pub fn run(a: SurfaceArgs) -> Result<(), CliError> {
@@ -52,19 +49,14 @@ fn positive(v: f64, flag: &str, what: &str) -> Result<(), CliError> {
 fn load_nominal(a: &MirrorArgs) -> Result<NominalSurface, CliError> {
     let file = a.nominal.display().to_string();
     let text = read_text(&a.nominal)?;
-    let side = match a.material {
-        Material::Below => MaterialSide::Below,
-        Material::Above => MaterialSide::Above,
-        Material::NormalOut => MaterialSide::NormalOut,
-        Material::NormalIn => MaterialSide::NormalIn,
-    };
-    let params = match a.grid_params {
-        GridParams::ChordLength => Parameterization::ChordLength,
-        GridParams::Centripetal => Parameterization::Centripetal,
-        GridParams::Uniform => Parameterization::Uniform,
-    };
     let format = NominalFormat::of_path(&a.nominal)?;
-    Ok(read_nominal(&text, &file, format, side, &params)?)
+    Ok(read_nominal(
+        &text,
+        &file,
+        format,
+        a.material_side(),
+        &a.grid_parameterization(),
+    )?)
 }
 
 /// The run as the reports name it.
@@ -89,13 +81,6 @@ fn with_suffix(base: &Path, suffix: &str) -> PathBuf {
     let mut s = base.as_os_str().to_owned();
     s.push(suffix);
     PathBuf::from(s)
-}
-
-/// What the finishing part of the run did, for printing.
-struct FinishingRun {
-    output: PathBuf,
-    summary: FinishingSummary,
-    baseline: Option<(PathBuf, FinishingSummary)>,
 }
 
 fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
@@ -170,7 +155,7 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
         stock_mm: a.stock,
         probe_radius_mm: a.probe_radius,
         max_error_mm: a.max_error,
-        fit: fit_method(&a),
+        fit: a.fit_method(),
     };
     let result = mirror(&nominal, &probes, &options, &measured_file)?;
     if result.compensation_predicted_worse() {
@@ -202,7 +187,7 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
 
     // The finishing program first: it is the step most likely to be refused,
     // and nothing should be written then.
-    let finishing = match (&a.finishing, &a.output, tool) {
+    let (finishing, baseline_program) = match (&a.finishing, &a.output, tool) {
         (Some(program), Some(output), Some(tool)) => {
             if program.as_os_str() == "-" {
                 return Err(CliError::Message(
@@ -255,7 +240,9 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
                     CliError::Message("the finishing run produced no summary".into())
                 })
             };
-            let summary = run_one(&result.field, output)?;
+            let json =
+                |p: &Path, s: &FinishingSummary| FinishingJson::new(&p.display().to_string(), s);
+            let summary = json(output, &run_one(&result.field, output)?);
             let baseline = match &a.baseline {
                 Some(path) => {
                     let s = nominal.surface();
@@ -264,17 +251,13 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
                         s.domain_u(),
                         s.domain_v(),
                     );
-                    Some((path.clone(), run_one(&constant, path)?))
+                    Some(json(path, &run_one(&constant, path)?))
                 }
                 None => None,
             };
-            Some(FinishingRun {
-                output: output.clone(),
-                summary,
-                baseline,
-            })
+            (Some(summary), baseline)
         }
-        _ => None,
+        _ => (None, None),
     };
 
     let surface = write_surface(&a, &nominal, &result, &inputs)?;
@@ -284,7 +267,6 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
     if a.json {
-        let (finishing, baseline_program) = finishing_json(finishing.as_ref());
         let text = serde_json::to_string(&summary_json(
             &run_inputs(&a),
             &result,
@@ -295,8 +277,14 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
         ))?;
         writeln!(out, "{text}").map_err(CliError::Stdout)?;
     } else {
-        print_summary(&mut out, &a, &result, &surface, finishing.as_ref())
-            .map_err(CliError::Stdout)?;
+        let text = summary_text(
+            &run_inputs(&a),
+            &result,
+            &surface,
+            finishing.as_ref(),
+            baseline_program.as_ref(),
+        );
+        out.write_all(text.as_bytes()).map_err(CliError::Stdout)?;
     }
     Ok(())
 }
@@ -328,7 +316,7 @@ fn mirror_header(
         options: header_options(
             a.stock,
             tool,
-            &fit_method(a),
+            &a.fit_method(),
             (!a.no_split).then_some(a.segment_length),
             a.contact_tolerance,
         ),
@@ -371,15 +359,6 @@ fn write_surface(
     })
 }
 
-/// The summaries of the finishing programs written, for the JSON summary.
-fn finishing_json(f: Option<&FinishingRun>) -> (Option<FinishingJson>, Option<FinishingJson>) {
-    let json = |p: &Path, s: &FinishingSummary| FinishingJson::new(&p.display().to_string(), s);
-    (
-        f.map(|f| json(&f.output, &f.summary)),
-        f.and_then(|f| f.baseline.as_ref()).map(|(p, s)| json(p, s)),
-    )
-}
-
 fn write_report(
     path: &Path,
     a: &MirrorArgs,
@@ -398,86 +377,4 @@ fn write_report(
         w.write_all(&bytes)
             .map_err(|e| CliError::Io(path.to_path_buf(), e))
     })
-}
-
-fn print_summary(
-    out: &mut dyn Write,
-    a: &MirrorArgs,
-    r: &MirrorResult,
-    surface: &SurfaceFiles,
-    finishing: Option<&FinishingRun>,
-) -> std::io::Result<()> {
-    writeln!(
-        out,
-        "probe points  {} ({}), stock {} mm{}",
-        r.points.len(),
-        a.measured.display(),
-        a.stock,
-        a.probe_radius
-            .map(|p| format!(", probe radius {p} mm"))
-            .unwrap_or_default()
-    )?;
-    writeln!(out, "fit           {}", fit_text(&r.fit))?;
-    writeln!(out)?;
-    for line in stats_table(r) {
-        writeln!(out, "{line}")?;
-    }
-    writeln!(
-        out,
-        "(profile: 2·max|d|, the zone centred on the nominal; range: max − min; error > 0: material left)"
-    )?;
-    writeln!(out)?;
-    writeln!(
-        out,
-        "baseline      constant offset {:.3} µm (a tool-radius change): removes the mean only",
-        r.baseline_offset_um
-    )?;
-    writeln!(
-        out,
-        "surface       {} ({} × {} nodes), {} (bicubic {} × {}, within {:.3} µm of S_F + offset·n)",
-        surface.grid,
-        surface.grid_nodes.0,
-        surface.grid_nodes.1,
-        surface.bspline,
-        surface.bspline_net.0,
-        surface.bspline_net.1,
-        surface.bspline_error_um
-    )?;
-    if let Some(f) = finishing {
-        let line = |path: &Path, s: &FinishingSummary| {
-            format!(
-                "{} ({} lines from {}; {} of {} feed points on the surface moved by {:.3} … {:.3} µm{})",
-                path.display(),
-                s.program.lines_out,
-                s.program.lines_in,
-                s.in_contact,
-                s.feed_points,
-                s.min_offset_um,
-                s.max_offset_um,
-                if s.outside_field > 0 {
-                    format!(
-                        "; {} outside the probed area took the value at its edge",
-                        s.outside_field
-                    )
-                } else {
-                    String::new()
-                }
-            )
-        };
-        writeln!(out, "finishing     {}", line(&f.output, &f.summary))?;
-        if let Some((p, s)) = &f.baseline {
-            writeln!(out, "baseline      {}", line(p, s))?;
-        }
-    }
-    Ok(())
-}
-
-/// The library's fit option for the flags.
-fn fit_method(a: &MirrorArgs) -> FitMethod {
-    match a.fit {
-        Fit::LeastSquares => FitMethod::LeastSquares {
-            tolerance_um: a.tolerance,
-        },
-        Fit::Interpolate => FitMethod::Interpolate,
-    }
 }

@@ -336,6 +336,85 @@ pub fn summary_json<'a>(
     }
 }
 
+/// The summary a person reads after a run: probe points and fit, the
+/// statistics table, the baseline, the surface files and the finishing
+/// programs written (`baseline_program` only with `finishing`).
+pub fn summary_text(
+    inputs: &RunInputs,
+    r: &MirrorResult,
+    surface: &SurfaceFiles,
+    finishing: Option<&FinishingJson>,
+    baseline_program: Option<&FinishingJson>,
+) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "probe points  {} ({}), stock {} mm{}",
+        r.points.len(),
+        inputs.measured,
+        inputs.stock_mm,
+        inputs
+            .probe_radius_mm
+            .map(|p| format!(", probe radius {p} mm"))
+            .unwrap_or_default()
+    );
+    let _ = writeln!(out, "fit           {}", fit_text(&r.fit));
+    let _ = writeln!(out);
+    for line in stats_table(r) {
+        let _ = writeln!(out, "{line}");
+    }
+    let _ = writeln!(
+        out,
+        "(profile: 2·max|d|, the zone centred on the nominal; range: max − min; error > 0: material left)"
+    );
+    let _ = writeln!(out);
+    let _ = writeln!(
+        out,
+        "baseline      constant offset {:.3} µm (a tool-radius change): removes the mean only",
+        r.baseline_offset_um
+    );
+    let _ = writeln!(
+        out,
+        "surface       {} ({} × {} nodes), {} (bicubic {} × {}, within {:.3} µm of S_F + offset·n)",
+        surface.grid,
+        surface.grid_nodes.0,
+        surface.grid_nodes.1,
+        surface.bspline,
+        surface.bspline_net.0,
+        surface.bspline_net.1,
+        surface.bspline_error_um
+    );
+    if let Some(f) = finishing {
+        let _ = writeln!(out, "finishing     {}", finishing_line(f));
+        if let Some(b) = baseline_program {
+            let _ = writeln!(out, "baseline      {}", finishing_line(b));
+        }
+    }
+    out
+}
+
+/// What a finishing program's rewrite did, in one line.
+fn finishing_line(s: &FinishingJson) -> String {
+    format!(
+        "{} ({} lines from {}; {} of {} feed points on the surface moved by {:.3} … {:.3} µm{})",
+        s.output,
+        s.lines_out,
+        s.lines_in,
+        s.moved,
+        s.feed_points,
+        s.min_offset_um,
+        s.max_offset_um,
+        if s.outside_probed_area > 0 {
+            format!(
+                "; {} outside the probed area took the value at its edge",
+                s.outside_probed_area
+            )
+        } else {
+            String::new()
+        }
+    )
+}
+
 /// The `method` line of a compensated finishing program's header.
 pub fn header_method(baseline: bool) -> &'static str {
     if baseline {
