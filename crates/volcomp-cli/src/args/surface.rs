@@ -5,7 +5,7 @@ use super::MachineArgs;
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::PathBuf;
 use volcomp_core::surface::bspline::Parameterization;
-use volcomp_core::surface::mirror::{FitMethod, MaterialSide};
+use volcomp_core::surface::mirror::{advice, FitMethod, MaterialSide, MirrorError};
 
 /// Free-form surfaces.
 #[derive(Args, Debug)]
@@ -180,5 +180,108 @@ impl MirrorArgs {
             },
             Fit::Interpolate => FitMethod::Interpolate,
         }
+    }
+}
+
+/// The library's advice (`surface::mirror::advice`) in terms of this
+/// command's flags.
+const FLAG_HELP: &[(&str, &str)] = &[
+    (
+        advice::STOCK_POSITIVE,
+        "pass --stock with the allowance the semi-finishing pass leaves, e.g. 0.2",
+    ),
+    (advice::MAX_ERROR_POSITIVE, "pass --max-error in mm, e.g. 0.1"),
+    (
+        advice::STOCK_TOO_LARGE,
+        "check --stock (mm), the material side (--material), and that the nominal is the finishing surface; a smaller probe ball helps",
+    ),
+    (
+        advice::MATERIAL_REVERSED,
+        "the material side looks reversed: check --material",
+    ),
+    (
+        advice::POINT_OFF,
+        "check the stock (--stock), the probe radius (--probe-radius), the frame of the points (the program's work coordinates), or raise --max-error if the part is really this far off",
+    ),
+    (
+        advice::OVERHANG,
+        "a 3-axis ball-end pass cannot reach an overhang; if the surface is not a height field, say the side with --material normal-out or normal-in",
+    ),
+    (advice::TOLERANCE_POSITIVE, "pass --tolerance in µm, e.g. 1"),
+    (
+        advice::TOLERANCE_UNMET,
+        "leave --tolerance out (the fit is then chosen by leave-one-out cross-validation), or loosen it: every residual includes the probe noise, so it must exceed about 3 σ of the noise",
+    ),
+    (
+        advice::INTERPOLATION_NEEDS_GRID,
+        "--fit interpolate needs a complete probe grid: i,j columns with one point per node",
+    ),
+    (
+        advice::INTERPOLATION_NEEDS_INDICES,
+        "--fit interpolate needs a complete probe grid: i,j columns with one point per node; or use --fit least-squares for scattered points",
+    ),
+    (
+        advice::GRID_OFF_PARAMETER_LINES,
+        "use --fit least-squares, which takes every point where it lies",
+    ),
+    (advice::INTERPOLATION_FAILED, "use --fit least-squares"),
+    (
+        advice::TOOL_RADIUS_POSITIVE,
+        "pass --tool-radius with the ball-end mill's radius in mm (half its diameter)",
+    ),
+    (
+        advice::CONTACT_TOLERANCE_POSITIVE,
+        "pass --contact-tolerance in mm, e.g. 0.02",
+    ),
+    (
+        advice::BALL_TOO_LARGE,
+        "check --tool-radius (a radius, not a diameter) and --material",
+    ),
+    (
+        advice::SEGMENT_LENGTH_POSITIVE,
+        "pass --segment-length in mm, or --no-split",
+    ),
+    (
+        advice::NO_CONTACT,
+        "check --tool-radius and --cl-point, and that the program and the surface share a frame (work offset, G43 tool length) and units",
+    ),
+];
+
+/// A refusal of the mirror method with its help naming this command's
+/// flags where the library's names an option.
+pub fn flag_help(mut e: MirrorError) -> MirrorError {
+    if let MirrorError::AtRow { help, .. }
+    | MirrorError::InFile { help, .. }
+    | MirrorError::Method { help, .. } = &mut e
+    {
+        if let Some((_, flags)) = FLAG_HELP.iter().find(|(lib, _)| lib == help) {
+            *help = (*flags).to_string();
+        }
+    }
+    e
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_advice_has_distinct_flag_help_that_names_a_flag() {
+        for (k, (lib, flags)) in FLAG_HELP.iter().enumerate() {
+            assert!(!lib.contains("--"), "{lib}");
+            assert!(flags.contains("--"), "{flags}");
+            assert!(
+                FLAG_HELP[k + 1..].iter().all(|(other, _)| other != lib),
+                "{lib} twice"
+            );
+        }
+        let e = flag_help(MirrorError::Method {
+            message: "m".into(),
+            help: advice::MATERIAL_REVERSED.into(),
+        });
+        assert_eq!(
+            e.to_string(),
+            "m\n  help: the material side looks reversed: check --material"
+        );
     }
 }

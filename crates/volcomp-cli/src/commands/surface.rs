@@ -4,7 +4,7 @@
 
 use super::compensate::{date_utc, file_name, refuse_if_compensated};
 use super::Machine;
-use crate::args::surface::{Cl, MirrorArgs, SurfaceArgs, SurfaceCommand};
+use crate::args::surface::{flag_help, Cl, MirrorArgs, SurfaceArgs, SurfaceCommand};
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
@@ -56,7 +56,8 @@ fn load_nominal(a: &MirrorArgs) -> Result<NominalSurface, CliError> {
         format,
         a.material_side(),
         &a.grid_parameterization(),
-    )?)
+    )
+    .map_err(flag_help)?)
 }
 
 /// The run as the reports name it.
@@ -157,7 +158,7 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
         max_error_mm: a.max_error,
         fit: a.fit_method(),
     };
-    let result = mirror(&nominal, &probes, &options, &measured_file)?;
+    let result = mirror(&nominal, &probes, &options, &measured_file).map_err(flag_help)?;
     if result.compensation_predicted_worse() {
         let p = result
             .mirror_predicted
@@ -206,7 +207,8 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
             let run_one = |field: &DeviationField,
                            out: &Path|
              -> Result<FinishingSummary, CliError> {
-                let model = SurfaceModel::new(&nominal, field, tool, frame, a.contact_tolerance)?;
+                let model = SurfaceModel::new(&nominal, field, tool, frame, a.contact_tolerance)
+                    .map_err(flag_help)?;
                 let mut head = Vec::with_capacity(1 << 16);
                 std::fs::File::open(program)
                     .and_then(|f| f.take(1 << 16).read_to_end(&mut head))
@@ -225,14 +227,10 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
                 )?;
                 write_atomically(out, &inputs, |w| {
                     let mut w = HeaderWriter::new(w, header.lines());
-                    summary = Some(compensate_finishing(
-                        &mut walker,
-                        &file,
-                        &style,
-                        &model,
-                        &opts,
-                        &mut w,
-                    )?);
+                    summary = Some(
+                        compensate_finishing(&mut walker, &file, &style, &model, &opts, &mut w)
+                            .map_err(flag_help)?,
+                    );
                     w.finish().map_err(|e| CliError::Io(out.to_path_buf(), e))?;
                     Ok(())
                 })?;

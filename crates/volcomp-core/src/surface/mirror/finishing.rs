@@ -4,7 +4,7 @@
 
 use super::method::DeviationField;
 use super::nominal::NominalSurface;
-use super::{fmt_point, method_error, MirrorError};
+use super::{advice, fmt_point, method_error, MirrorError};
 use crate::compensate::solve::Method;
 use crate::compensate::{
     compensate_program, CompensateOptions, CompensateSummary, DirectionPolicy, ProgramStyle,
@@ -81,13 +81,13 @@ impl<'a> SurfaceModel<'a> {
         if !(r.is_finite() && r > 0.0) {
             return Err(method_error(
                 format!("the tool radius must be positive; got {r} mm"),
-                "pass --tool-radius with the ball-end mill's radius in mm (half its diameter)",
+                advice::TOOL_RADIUS_POSITIVE,
             ));
         }
         if !(contact_tolerance_mm.is_finite() && contact_tolerance_mm > 0.0) {
             return Err(method_error(
                 format!("the contact tolerance must be positive; got {contact_tolerance_mm} mm"),
-                "pass --contact-tolerance in mm, e.g. 0.02",
+                advice::CONTACT_TOLERANCE_POSITIVE,
             ));
         }
         if let Some((rho, at)) = nominal.min_concave_radius() {
@@ -97,7 +97,7 @@ impl<'a> SurfaceModel<'a> {
                         "the ball radius {r} mm exceeds the nominal surface's smallest concave radius of curvature, {rho:.4} mm at {}: the ball cannot touch the surface there, so CL points have no single contact point",
                         fmt_point(at)
                     ),
-                    "check --tool-radius (a radius, not a diameter) and --material",
+                    advice::BALL_TOO_LARGE,
                 ));
             }
         }
@@ -259,7 +259,7 @@ pub fn compensate_finishing<R: BufRead>(
         Some(l) => {
             return Err(method_error(
                 format!("the segment length must be positive; got {l} mm"),
-                "pass --segment-length in mm, or --no-split",
+                advice::SEGMENT_LENGTH_POSITIVE,
             ))
         }
         None => Segmentation::Off,
@@ -306,7 +306,7 @@ pub fn compensate_finishing<R: BufRead>(
                     ClPoint::Centre => "ball centre",
                 }
             ),
-            help: "check --tool-radius and --cl-point, and that the program and the surface share a frame (work offset, G43 tool length) and units".into(),
+            help: advice::NO_CONTACT.into(),
         });
     }
     s.program = program;

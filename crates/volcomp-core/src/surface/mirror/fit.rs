@@ -4,7 +4,7 @@
 
 use super::method::{DeviationField, FitInfo, MatchedPoint, MIN_POINTS};
 use super::nominal::NominalSurface;
-use super::{method_error, MirrorError};
+use super::{advice, method_error, MirrorError};
 use crate::surface::bspline::{self, BSplineError, LeastSquaresFit, Parameterization};
 use volcomp_gcode::Vec3;
 
@@ -47,7 +47,7 @@ pub(super) fn fit_least_squares(
     if let Some(tolerance_um) = tolerance_um.filter(|t| !(t.is_finite() && *t > 0.0)) {
         return Err(method_error(
             format!("the fitting tolerance must be positive; got {tolerance_um} µm"),
-            "pass --tolerance in µm, e.g. 1",
+            advice::TOLERANCE_POSITIVE,
         ));
     }
     if points.len() < MIN_POINTS {
@@ -168,7 +168,7 @@ pub(super) fn fit_least_squares(
             "the compensation points cannot be fitted within {tol} with fewer coefficients than points (best: {max:.3} µm with a {} × {} control net, {} points)",
             net.0, net.1, points.len()
         ),
-        "leave --tolerance out (the fit is then chosen by leave-one-out cross-validation), or loosen it: every residual includes the probe noise, so it must exceed about 3 σ of the noise",
+        advice::TOLERANCE_UNMET,
     ))
 }
 
@@ -176,12 +176,12 @@ pub(super) fn fit_interpolation(
     points: &[MatchedPoint],
     file: &str,
 ) -> Result<Fitted, MirrorError> {
-    let help = "--fit interpolate needs a complete probe grid: i,j columns with one point per node";
+    let help = advice::INTERPOLATION_NEEDS_GRID;
     if points.iter().any(|p| p.grid.is_none()) {
         return Err(MirrorError::InFile {
             file: file.into(),
             message: "the probe points have no i,j grid indices".into(),
-            help: format!("{help}; or use --fit least-squares for scattered points"),
+            help: advice::INTERPOLATION_NEEDS_INDICES.into(),
         });
     }
     let idx: Vec<(i64, i64)> = points.iter().map(|p| p.grid.unwrap_or((0, 0))).collect();
@@ -261,7 +261,7 @@ pub(super) fn fit_interpolation(
         return Err(MirrorError::InFile {
             file: file.into(),
             message: "the probe grid does not follow the surface's parameter lines closely enough to interpolate (rows cross or wander by more than a quarter of their spacing)".into(),
-            help: "use --fit least-squares, which takes every point where it lies".into(),
+            help: advice::GRID_OFF_PARAMETER_LINES.into(),
         });
     }
     let mut vals = Vec::with_capacity(nu * nv);
@@ -281,7 +281,7 @@ pub(super) fn fit_interpolation(
     .map_err(|e| {
         method_error(
             format!("interpolation failed: {e}"),
-            "use --fit least-squares",
+            advice::INTERPOLATION_FAILED,
         )
     })?;
     let field = DeviationField::new(surface);

@@ -6,7 +6,7 @@ use super::fit::{fit_interpolation, fit_least_squares};
 use super::io::ProbePoint;
 use super::nominal::NominalSurface;
 use super::stats::{deviation_stats, DeviationStats};
-use super::{fmt_point, method_error, MirrorError};
+use super::{advice, fmt_point, method_error, MirrorError};
 use crate::surface::bspline::BSplineSurface;
 use volcomp_gcode::Vec3;
 
@@ -214,7 +214,7 @@ pub fn match_points(
     if !(d.is_finite() && d > 0.0) {
         return Err(method_error(
             format!("the stock must be a positive length in mm; got {d}"),
-            "pass --stock with the allowance the semi-finishing pass leaves, e.g. 0.2",
+            advice::STOCK_POSITIVE,
         ));
     }
     let r = options.probe_radius_mm.unwrap_or(0.0);
@@ -228,7 +228,7 @@ pub fn match_points(
     if !(max_err.is_finite() && max_err > 0.0) {
         return Err(method_error(
             format!("the largest accepted error must be positive; got {max_err} mm"),
-            "pass --max-error in mm, e.g. 0.1",
+            advice::MAX_ERROR_POSITIVE,
         ));
     }
     if let Some((rho, at)) = nominal.min_concave_radius() {
@@ -239,7 +239,7 @@ pub fn match_points(
                     if r > 0.0 { format!(" plus the probe radius {r} mm") } else { String::new() },
                     fmt_point(at)
                 ),
-                "check --stock (mm), the material side (--material), and that the nominal is the finishing surface; a smaller probe ball helps",
+                advice::STOCK_TOO_LARGE,
             ));
         }
     }
@@ -332,7 +332,7 @@ fn far_point(
                 fmt_point(p),
                 -f.height_mm
             ),
-            "the material side looks reversed: check --material".into(),
+            advice::MATERIAL_REVERSED.into(),
         ),
         Some(f) => at(
             format!(
@@ -341,7 +341,7 @@ fn far_point(
                 f.height_mm,
                 if expected > 0.0 { " + probe radius" } else { "" }
             ),
-            "check the stock (--stock), the probe radius (--probe-radius), the frame of the points (the program's work coordinates), or raise --max-error if the part is really this far off".into(),
+            advice::POINT_OFF.into(),
         ),
         None => at(
             format!("point {} is far from the nominal surface", fmt_point(p)),

@@ -38,6 +38,7 @@
 //! surface that contains every deviation, `2·max|d|`; the range `max − min`
 //! (the zone allowed to float) is reported too.
 
+pub mod advice;
 mod compensated;
 mod finishing;
 mod fit;

@@ -2,7 +2,7 @@
 //! regularity check, the smallest concave radius, and closest-point queries.
 
 use super::io::PointGrid;
-use super::{fmt_point, v3, MirrorError};
+use super::{advice, fmt_point, v3, MirrorError};
 use crate::surface::bspline::{self, BSplineSurface, Parameterization, ProjectionIndex};
 use volcomp_gcode::Vec3;
 
@@ -110,7 +110,7 @@ impl NominalSurface {
                             if want > 0.0 { "below" } else { "above" },
                             fmt_point(v3(surface.point(*u, *v)))
                         ),
-                        help: "a 3-axis ball-end pass cannot reach an overhang; if the surface is not a height field, say the side with --material normal-out or normal-in".into(),
+                        help: advice::OVERHANG.into(),
                     });
                 }
                 sign
