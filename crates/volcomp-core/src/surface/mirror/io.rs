@@ -591,4 +591,54 @@ mod tests {
             .to_string();
         assert!(e.contains("knots_u"), "{e}");
     }
+
+    #[test]
+    fn the_nominal_format_is_the_extension_in_any_case() {
+        use std::path::Path;
+        assert_eq!(
+            NominalFormat::of_path(Path::new("a/face.TOML")).unwrap(),
+            NominalFormat::BSplineToml
+        );
+        assert_eq!(
+            NominalFormat::of_path(Path::new("grid.csv")).unwrap(),
+            NominalFormat::GridCsv
+        );
+        let e = NominalFormat::of_path(Path::new("face.ngc")).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "face.ngc: the nominal surface must be a B-spline surface (.toml) or a grid of points (.csv)"
+        );
+    }
+
+    #[test]
+    fn read_nominal_reads_both_formats() {
+        // The plane z = 0 as a B-spline file and as a 4 × 3 grid of points.
+        let text = write_bspline_toml(&plane_surface(), "plane");
+        let n = read_nominal(
+            &text,
+            "s.toml",
+            NominalFormat::BSplineToml,
+            MaterialSide::Below,
+            &Parameterization::Uniform,
+        )
+        .unwrap();
+        assert!((n.point(0.5, 0.5) - Vec3::new(15.0, 15.0, 0.0)).norm() < 1e-12);
+        let mut grid = String::from("x_mm,y_mm,z_mm\n");
+        for y in [0.0, 10.0, 20.0] {
+            for x in [0.0, 10.0, 20.0, 30.0] {
+                grid.push_str(&format!("{x},{y},0\n"));
+            }
+        }
+        let n = read_nominal(
+            &grid,
+            "g.csv",
+            NominalFormat::GridCsv,
+            MaterialSide::Below,
+            &Parameterization::Uniform,
+        )
+        .unwrap();
+        // Uniform parameters: node (i, j) at (i/3, j/2), normal +Z.
+        assert!((n.point(1.0 / 3.0, 0.5) - Vec3::new(10.0, 10.0, 0.0)).norm() < 1e-9);
+        assert!((n.normal(0.2, 0.7) - Vec3::new(0.0, 0.0, 1.0)).norm() < 1e-12);
+    }
 }

@@ -453,3 +453,182 @@ pub fn header_options(
         },
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_support::plane_surface;
+    use super::super::{mirror, MaterialSide, MirrorOptions, NominalSurface, ProbePoint};
+    use super::*;
+    use volcomp_gcode::Vec3;
+
+    fn stats(mean: f64) -> DeviationStats {
+        DeviationStats {
+            count: 3,
+            mean_um: mean,
+            std_um: 1.5,
+            min_um: -2.25,
+            max_um: 3.0,
+            profile_um: 6.0,
+            range_um: 5.25,
+        }
+    }
+
+    #[test]
+    fn a_stats_line_is_a_name_column_and_six_right_aligned_numbers() {
+        let want = "x".to_string()
+            + &" ".repeat(29)
+            + "     0.000     1.500    -2.250     3.000     6.000     5.250";
+        assert_eq!(stats_line("x", &stats(0.0004)), want);
+        // A mean that rounds to zero is written without a minus sign.
+        assert_eq!(stats_line("x", &stats(-0.0004)), want);
+        assert!(stats_line("x", &stats(-0.0006)).contains("   -0.001 "));
+    }
+
+    #[test]
+    fn the_header_options_name_every_choice() {
+        let tool = BallTool {
+            radius_mm: 3.0,
+            cl: ClPoint::Centre,
+        };
+        assert_eq!(
+            header_options(
+                0.2,
+                &tool,
+                &FitMethod::LeastSquares {
+                    tolerance_um: Some(1.5)
+                },
+                Some(2.0),
+                0.02
+            ),
+            "stock 0.2 mm, tool radius 3 mm, CL point center, least-squares fit within 1.5 um, segment length 2 mm, contact tolerance 0.02 mm"
+        );
+        let tip = BallTool {
+            cl: ClPoint::Tip,
+            ..tool
+        };
+        let o = header_options(0.3, &tip, &FitMethod::Interpolate, None, 0.05);
+        assert_eq!(
+            o,
+            "stock 0.3 mm, tool radius 3 mm, CL point tip, interpolating fit, no split, contact tolerance 0.05 mm"
+        );
+        assert_eq!(
+            header_method(true),
+            "surface mirror baseline, constant offset"
+        );
+        assert_eq!(header_method(false), "surface mirror");
+    }
+
+    /// The mirror method on a flat plate at z = 0 with 5 × 5 probe points
+    /// 0.2 mm + 3 µm above it (a uniform 3 µm undercut).
+    fn flat_run() -> (RunInputs, MirrorResult) {
+        let nominal = NominalSurface::new(plane_surface(), MaterialSide::Below, "s").unwrap();
+        let probes: Vec<ProbePoint> = (0..25)
+            .map(|k| ProbePoint {
+                row: k + 2,
+                id: Some(format!("P{k}")),
+                grid: Some(((k / 5) as i64, (k % 5) as i64)),
+                position_mm: Vec3::new(
+                    3.0 + 6.0 * (k / 5) as f64,
+                    3.0 + 6.0 * (k % 5) as f64,
+                    0.203,
+                ),
+            })
+            .collect();
+        let r = mirror(&nominal, &probes, &MirrorOptions::default(), "p.csv").unwrap();
+        let inputs = RunInputs {
+            nominal: "s.toml".into(),
+            measured: "p.csv".into(),
+            stock_mm: 0.2,
+            probe_radius_mm: None,
+        };
+        (inputs, r)
+    }
+
+    #[test]
+    fn the_csv_report_has_the_summary_then_one_row_per_point() {
+        let (inputs, r) = flat_run();
+        let text = report_csv(&inputs, &r);
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(
+            lines[0],
+            "# volcomp surface mirror: nominal s.toml, probe points p.csv, stock 0.2 mm, 25 points"
+        );
+        // A uniform 3 µm undercut: the baseline offset is −3 µm.
+        assert_eq!(
+            lines[2],
+            "# tool-radius baseline: constant offset -3.0000 µm"
+        );
+        let header = lines.iter().position(|l| l.starts_with("row,")).unwrap();
+        assert_eq!(lines[header].split(',').count(), 24);
+        assert_eq!(lines.len(), header + 1 + 25);
+        let first: Vec<&str> = lines[header + 1].split(',').collect();
+        assert_eq!(first.len(), 24);
+        assert_eq!(&first[..4], &["2", "P0", "0", "0"]);
+        // Measured point, nominal point, normal, error and its mirror: by
+        // hand, P_R = (3, 3, 0.203), P_P = (3, 3, 0), n = +Z, error 3 µm,
+        // D_M = 203 − 100 = 103 µm, P_C = P_R − 2·D_M·n = (3, 3, −0.003).
+        assert_eq!(&first[4..7], &["3.000000", "3.000000", "0.203000"]);
+        assert_eq!(&first[9..12], &["3.000000", "3.000000", "0.000000"]);
+        assert_eq!(first[14], "1.000000000");
+        assert_eq!(&first[15..17], &["3.0000", "103.0000"]);
+        assert_eq!(first[19], "-0.003000");
+        assert_eq!(first[20], "-3.0000");
+        assert_eq!(first[23], "0.0000");
+    }
+
+    #[test]
+    fn the_summary_text_names_the_files_and_the_finishing_programs() {
+        let (inputs, r) = flat_run();
+        let surface = SurfaceFiles {
+            grid: "g.csv".into(),
+            grid_nodes: (41, 41),
+            bspline: "g.toml".into(),
+            bspline_net: (7, 7),
+            bspline_error_um: 0.05,
+        };
+        let text = summary_text(&inputs, &r, &surface, None, None);
+        assert!(
+            text.starts_with("probe points  25 (p.csv), stock 0.2 mm\n"),
+            "{text}"
+        );
+        assert!(text.contains(
+            "\nsurface       g.csv (41 × 41 nodes), g.toml (bicubic 7 × 7, within 0.050 µm of S_F + offset·n)\n"
+        ), "{text}");
+        assert!(!text.contains("finishing"), "{text}");
+        let f = FinishingJson {
+            output: "f.ngc".into(),
+            lines_in: 10,
+            lines_out: 12,
+            feed_points: 8,
+            moved: 6,
+            outside_probed_area: 1,
+            min_offset_um: -3.0,
+            max_offset_um: -2.5,
+        };
+        let text = summary_text(&inputs, &r, &surface, Some(&f), Some(&f));
+        let want = "f.ngc (12 lines from 10; 6 of 8 feed points on the surface moved by -3.000 … -2.500 µm; 1 outside the probed area took the value at its edge)";
+        assert!(
+            text.contains(&format!("\nfinishing     {want}\n")),
+            "{text}"
+        );
+        assert!(
+            text.ends_with(&format!("\nbaseline      {want}\n")),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn the_fit_text_of_an_interpolation() {
+        let (_, r) = flat_run();
+        let f = FitInfo {
+            method: "interpolation".into(),
+            net: (7, 5),
+            max_residual_um: 0.0001,
+            ..r.fit
+        };
+        assert_eq!(
+            fit_text(&f),
+            "interpolation, bicubic, 7 × 5 control points; residual max 0.000 µm"
+        );
+    }
+}
