@@ -141,7 +141,7 @@ fn solve_dense(a: &Matrix, b: Matrix, what: &str) -> Result<Matrix, BSplineError
     // residual far above rounding.
     let scale = b.amax().max(1e-300);
     let resid = (a * &x - &b).amax();
-    if x.iter().any(|v| !v.is_finite()) || !(resid <= 1e-8 * scale) {
+    if x.iter().any(|v| !v.is_finite()) || resid.is_nan() || resid > 1e-8 * scale {
         return Err(singular());
     }
     Ok(x)
