@@ -250,7 +250,7 @@ const FLAG_HELP: &[(&str, &str)] = &[
 /// A refusal of the mirror method with its help naming this command's
 /// flags where the library's names an option.
 pub fn flag_help(mut e: MirrorError) -> MirrorError {
-    if let MirrorError::AtRow { help, .. }
+    if let MirrorError::File(volcomp_core::error::MapFileError { help, .. })
     | MirrorError::InFile { help, .. }
     | MirrorError::Method { help, .. } = &mut e
     {

@@ -10,6 +10,7 @@ use crate::compensate::{
     compensate_program, CompensateOptions, CompensateSummary, DirectionPolicy, ProgramStyle,
     Segmentation,
 };
+use crate::error::MapFileError;
 use crate::error::ModelError;
 use crate::model::{Components, Directions, ErrorModel};
 use std::io::{BufRead, Write};
@@ -182,7 +183,7 @@ pub fn program_frame_offset<R: BufRead>(
         match first {
             None => first = Some((o, ev.number)),
             Some((f, line)) if (f - o).norm() > 1e-9 => {
-                return Err(MirrorError::AtRow {
+                return Err(MirrorError::File(MapFileError {
                     file: file.into(),
                     row: ev.number as usize,
                     column: 1,
@@ -190,7 +191,9 @@ pub fn program_frame_offset<R: BufRead>(
                         "the program frame changes here (work offset, tool length or G92 differ from line {line}'s)"
                     ),
                     help: "the surface and the points are in one program frame: compensate each setup's part of the program separately".into(),
-                });
+                    source_line: String::new(),
+                    caret_byte: 0,
+                }));
             }
             _ => {}
         }

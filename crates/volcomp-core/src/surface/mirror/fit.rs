@@ -5,6 +5,7 @@
 use super::method::{DeviationField, FitInfo, MatchedPoint, MIN_POINTS};
 use super::nominal::NominalSurface;
 use super::{advice, method_error, MirrorError};
+use crate::error::MapFileError;
 use crate::surface::bspline::{self, BSplineError, LeastSquaresFit, Parameterization};
 use volcomp_gcode::Vec3;
 
@@ -203,13 +204,15 @@ pub(super) fn fit_interpolation(
     for (k, (i, j)) in idx.iter().enumerate() {
         let c = (i - i0) as usize * nj + (j - j0) as usize;
         if at[c].is_some() {
-            return Err(MirrorError::AtRow {
+            return Err(MirrorError::File(MapFileError {
                 file: file.into(),
                 row: points[k].row,
                 column: 1,
                 message: format!("a second probe point for grid node ({i}, {j})"),
                 help: help.into(),
-            });
+                source_line: String::new(),
+                caret_byte: 0,
+            }));
         }
         at[c] = Some(k);
     }

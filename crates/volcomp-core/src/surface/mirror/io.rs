@@ -145,13 +145,15 @@ pub fn read_probe_points(text: &str, file: &str) -> Result<Vec<ProbePoint>, Mirr
         (Some(i), Some(j)) => Some((i, j)),
         (None, None) => None,
         _ => {
-            return Err(MirrorError::AtRow {
+            return Err(MirrorError::File(MapFileError {
                 file: file.into(),
                 row: csv.table.header_line,
                 column: 1,
                 message: "only one of the grid index columns i, j is present".into(),
                 help: "give both i and j, or neither".into(),
-            })
+                source_line: String::new(),
+                caret_byte: 0,
+            }))
         }
     };
     let mut out = Vec::with_capacity(csv.table.records()?.len());
@@ -257,13 +259,15 @@ pub fn read_grid_csv(text: &str, file: &str) -> Result<PointGrid, MirrorError> {
     for ((line, p), (i, j)) in pts.iter().zip(&idx) {
         let k = (i - i0) as usize * count_v + (j - j0) as usize;
         if grid[k].is_some() {
-            return Err(MirrorError::AtRow {
+            return Err(MirrorError::File(MapFileError {
                 file: file.into(),
                 row: *line,
                 column: 1,
                 message: format!("a second point for grid node ({i}, {j})"),
                 help: help.into(),
-            });
+                source_line: String::new(),
+                caret_byte: 0,
+            }));
         }
         grid[k] = Some(p.to_array());
     }
@@ -328,23 +332,27 @@ fn line_col(text: &str, at: usize) -> (usize, usize) {
 pub fn read_bspline_toml(text: &str, file: &str) -> Result<BSplineSurface<3>, MirrorError> {
     let at = |span: std::ops::Range<usize>, message: String, help: &str| {
         let (row, column) = line_col(text, span.start);
-        MirrorError::AtRow {
+        MirrorError::File(MapFileError {
             file: file.into(),
             row,
             column,
             message,
             help: help.into(),
-        }
+            source_line: String::new(),
+            caret_byte: 0,
+        })
     };
     let raw: RawSurface = toml::from_str(text).map_err(|e| {
         let (row, column) = e.span().map_or((1, 1), |s| line_col(text, s.start));
-        MirrorError::AtRow {
+        MirrorError::File(MapFileError {
             file: file.into(),
             row,
             column,
             message: e.message().trim().to_string(),
             help: "see docs/mirror.md for the B-spline surface format (units, degree_u, degree_v, knots_u, knots_v, control_points)".into(),
-        }
+            source_line: String::new(),
+            caret_byte: 0,
+        })
     })?;
     let _ = raw.name;
     if let Some(w) = raw.weights {

@@ -7,6 +7,7 @@ use super::io::ProbePoint;
 use super::nominal::NominalSurface;
 use super::stats::{deviation_stats, DeviationStats};
 use super::{advice, fmt_point, method_error, MirrorError};
+use crate::error::MapFileError;
 use crate::surface::bspline::BSplineSurface;
 use volcomp_gcode::Vec3;
 
@@ -248,12 +249,16 @@ pub fn match_points(
     let mut hint = None;
     for pp in probes {
         let p = pp.position_mm;
-        let at = |message: String, help: String| MirrorError::AtRow {
-            file: file.into(),
-            row: pp.row,
-            column: 1,
-            message,
-            help,
+        let at = |message: String, help: String| {
+            MirrorError::File(MapFileError {
+                file: file.into(),
+                row: pp.row,
+                column: 1,
+                message,
+                help,
+                source_line: String::new(),
+                caret_byte: 0,
+            })
         };
         let radius = expected + max_err;
         let foot = nominal

@@ -71,21 +71,7 @@ use volcomp_gcode::{GcodeError, Vec3};
 /// where, and what to do.
 #[derive(Debug, thiserror::Error)]
 pub enum MirrorError {
-    /// A value in a file (row and column are 1-based; column 0: the whole row).
-    #[error("{file}:{row}:{column}: {message}\n  help: {help}")]
-    AtRow {
-        /// File name.
-        file: String,
-        /// 1-based line.
-        row: usize,
-        /// 1-based column (CSV field number, or character column in TOML).
-        column: usize,
-        /// What is wrong.
-        message: String,
-        /// What to do.
-        help: String,
-    },
-    /// A located error in a table file.
+    /// A located error in an input file (file, row, column, what to do).
     #[error(transparent)]
     File(#[from] MapFileError),
     /// A file as a whole.
