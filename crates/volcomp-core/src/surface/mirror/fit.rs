@@ -2,7 +2,7 @@
 //! net chosen by leave-one-out cross-validation, or interpolation of a probe
 //! grid.
 
-use super::method::{DeviationField, FitInfo, MatchedPoint, MIN_POINTS};
+use super::method::{DeviationField, FitInfo, FitKind, MatchedPoint, MIN_POINTS};
 use super::nominal::NominalSurface;
 use super::{advice, method_error, MirrorError};
 use crate::error::MapFileError;
@@ -143,7 +143,7 @@ pub(super) fn fit_least_squares(
         let rms = (rss / fit.residuals.len() as f64).sqrt();
         let dof = fit.residuals.len().saturating_sub(net.0 * net.1);
         let info = FitInfo {
-            method: "least-squares".into(),
+            method: FitKind::LeastSquares,
             degree: (3, 3),
             net,
             tolerance_um,
@@ -295,7 +295,7 @@ pub(super) fn fit_interpolation(
     let max = res.iter().map(|r| r.abs()).fold(0.0, f64::max);
     let rms = (res.iter().map(|r| r * r).sum::<f64>() / res.len() as f64).sqrt();
     let info = FitInfo {
-        method: "interpolation".into(),
+        method: FitKind::Interpolation,
         degree: (3, 3),
         net: (nu, nv),
         tolerance_um: None,

@@ -90,11 +90,31 @@ pub struct MatchedPoint {
     pub predicted_um: Option<f64>,
 }
 
+/// Which fit was made (written `least-squares` or `interpolation`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum FitKind {
+    /// Bicubic least squares, net by leave-one-out.
+    #[serde(rename = "least-squares")]
+    LeastSquares,
+    /// Bicubic interpolation of a probe grid.
+    #[serde(rename = "interpolation")]
+    Interpolation,
+}
+
+impl std::fmt::Display for FitKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            FitKind::LeastSquares => "least-squares",
+            FitKind::Interpolation => "interpolation",
+        })
+    }
+}
+
 /// How the compensation points were fitted.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct FitInfo {
-    /// `least-squares` or `interpolation`.
-    pub method: String,
+    /// Least squares or interpolation.
+    pub method: FitKind,
     /// Degrees (u, v).
     pub degree: (usize, usize),
     /// Control net (u, v).

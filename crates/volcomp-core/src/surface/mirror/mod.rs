@@ -58,7 +58,7 @@ pub use io::{
     NominalFormat, PointGrid, ProbePoint,
 };
 pub use method::{
-    match_points, mirror, DeviationField, FitInfo, FitMethod, MatchedPoint, MirrorOptions,
+    match_points, mirror, DeviationField, FitInfo, FitKind, FitMethod, MatchedPoint, MirrorOptions,
     MirrorResult, MIN_POINTS,
 };
 pub use nominal::{Foot, MaterialSide, NominalSurface};

@@ -9,7 +9,7 @@
 use super::compensated::{CompensatedSurface, GridNode};
 use super::finishing::{BallTool, ClPoint, FinishingSummary};
 use super::io::write_bspline_toml;
-use super::method::{FitInfo, FitMethod, MatchedPoint, MirrorResult};
+use super::method::{FitInfo, FitKind, FitMethod, MatchedPoint, MirrorResult};
 use super::stats::DeviationStats;
 use super::MirrorError;
 use std::fmt::Write as _;
@@ -30,8 +30,8 @@ pub struct RunInputs {
 
 /// One line of text describing the fit.
 pub fn fit_text(f: &FitInfo) -> String {
-    match f.method.as_str() {
-        "least-squares" => format!(
+    match f.method {
+        FitKind::LeastSquares => format!(
             "least squares, bicubic, {} × {} control points (least leave-one-out error{}); residual max {:.3} µm, RMS {:.3} µm; probe noise σ ≈ {} µm; leave-one-out RMS {} µm",
             f.net.0,
             f.net.1,
@@ -45,7 +45,7 @@ pub fn fit_text(f: &FitInfo) -> String {
             f.leave_one_out_rms_um
                 .map_or("?".into(), |v| format!("{v:.3}")),
         ),
-        _ => format!(
+        FitKind::Interpolation => format!(
             "interpolation, bicubic, {} × {} control points; residual max {:.3} µm",
             f.net.0, f.net.1, f.max_residual_um
         ),
@@ -621,7 +621,7 @@ mod tests {
     fn the_fit_text_of_an_interpolation() {
         let (_, r) = flat_run();
         let f = FitInfo {
-            method: "interpolation".into(),
+            method: FitKind::Interpolation,
             net: (7, 5),
             max_residual_um: 0.0001,
             ..r.fit
