@@ -24,6 +24,11 @@
 //! `[U[p], U[n+1]] × [V[q], V[m+1]]`; parameters outside are clamped.
 //! Dense linear systems are solved through the crate's one linear-algebra
 //! module (nalgebra).
+//!
+//! Where each part lives: `basis` (knot vectors, A2.1–A2.3, eq. 9.8),
+//! `eval` (construction, A3.5, A3.6, normals and curvatures), `fit` (A9.3,
+//! A9.4, §9.4), `inversion` (§6.1 and the sample index), and the tests
+//! (`tests`: closed forms; `curvo_oracle`: an independent implementation).
 
 mod basis;
 #[cfg(test)]

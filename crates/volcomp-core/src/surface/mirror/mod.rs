@@ -37,6 +37,25 @@
 //! error of ISO 1101 style: the width of the zone centred on the nominal
 //! surface that contains every deviation, `2·max|d|`; the range `max − min`
 //! (the zone allowed to float) is reported too.
+//!
+//! Where each part lives:
+//!
+//! * `io`: the input files — probe points and grid nominals (CSV, through
+//!   [`crate::io::table`]), B-spline nominals (TOML), the format dispatch
+//!   ([`read_nominal`], [`NominalFormat`]).
+//! * `nominal`: the ideal surface `S_F` ([`NominalSurface`]): material side,
+//!   regularity, concave radius, closest points.
+//! * `method`: matching, mirror and compensation points ([`mirror`],
+//!   [`match_points`]), the deviation field and the result types.
+//! * `fit`: least squares with the control net chosen by leave-one-out, or
+//!   interpolation of a probe grid.
+//! * `compensated`: `S_C = S_F + δ·n` as grid nodes and as a B-spline.
+//! * `finishing`: the ball-end finishing program's rewrite
+//!   ([`compensate_finishing`]).
+//! * `stats`: [`DeviationStats`].
+//! * [`report`]: the summary, the CSV report, the JSON structures and the
+//!   compensated surface files as text.
+//! * [`advice`]: the help texts of refusals that point at an option.
 
 pub mod advice;
 mod compensated;
