@@ -4,6 +4,8 @@
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
+pub mod surface;
+
 /// Volumetric error compensation of CNC part programs.
 #[derive(Parser, Debug)]
 #[command(name = "volcomp", version, about)]
@@ -25,7 +27,7 @@ pub enum Command {
     /// Evaluate, convert, plot and import error maps (21-component model, LinuxCNC comp files, ISO 230-2).
     Map(crate::commands::map::MapCommand),
     /// Free-form surfaces: `surface mirror` compensates a finishing program from probing.
-    Surface(crate::commands::surface::SurfaceArgs),
+    Surface(surface::SurfaceArgs),
     /// Straightness models from measured profiles: fit (geometric error vs vibration), plot, table, predict.
     Straightness(crate::commands::straightness::StraightnessArgs),
     Thermal(crate::commands::thermal::ThermalArgs),

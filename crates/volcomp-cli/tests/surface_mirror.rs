@@ -4,7 +4,9 @@
 use std::path::Path;
 use std::process::Output;
 use volcomp_core::surface::bspline::{self, Parameterization};
-use volcomp_core::surface::mirror::{read_bspline_toml, write_bspline_toml, MaterialSide, NominalSurface};
+use volcomp_core::surface::mirror::{
+    read_bspline_toml, write_bspline_toml, MaterialSide, NominalSurface,
+};
 use volcomp_gcode::Vec3;
 
 mod common;

@@ -16,8 +16,8 @@
 //! standard deviation as it was (6.2 → 6.1 µm).
 
 use std::io::BufReader;
-use volcomp_core::surface::bspline::{self, Parameterization};
 use volcomp_core::compensate::survey_style;
+use volcomp_core::surface::bspline::{self, Parameterization};
 use volcomp_core::surface::mirror::{
     compensate_finishing, deviation_stats, mirror, BallTool, ClPoint, DeviationField,
     DeviationStats, FinishingOptions, FitMethod, MaterialSide, MirrorOptions, NominalSurface,
