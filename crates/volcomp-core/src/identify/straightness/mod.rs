@@ -41,6 +41,7 @@
 //! writes its TOML file (`kind = "straightness"`) and exports a
 //! Z-correction table.
 
+pub mod files;
 pub mod identify;
 pub mod run;
 pub mod select;

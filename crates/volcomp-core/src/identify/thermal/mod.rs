@@ -17,6 +17,7 @@ pub mod identify;
 pub mod legendre;
 pub mod poly;
 pub mod regression;
+pub mod report;
 pub mod uncertainty;
 
 /// Something in the thermal workflow cannot be done.
