@@ -12,6 +12,7 @@ pub mod example;
 pub mod identify;
 pub mod io;
 pub mod limits;
+pub(crate) mod linalg;
 pub mod model;
 pub mod rng;
 pub mod simulate;
