@@ -14,7 +14,8 @@ use volcomp_core::identify::straightness::files::{self, LoadError};
 use volcomp_core::identify::straightness::identify::{
     fit, AxisFit, CutoffRule, Fit, FitOptions, Normalisation,
 };
-use volcomp_core::identify::straightness::{Axis, StraightnessModel};
+use volcomp_core::identify::straightness::option_error::FitOption;
+use volcomp_core::identify::straightness::{Axis, StraightnessError, StraightnessModel};
 
 #[derive(Args, Debug)]
 pub struct StraightnessArgs {
@@ -175,7 +176,24 @@ fn identify(a: &RunArgs) -> Result<Fit, CliError> {
             ))
         }
     };
-    Ok(fit(&runs, axis, &options(a))?)
+    fit(&runs, axis, &options(a)).map_err(|e| match e {
+        StraightnessError::Option(o) => {
+            CliError::Message(format!("{}\n  help: {}", o.message(flag), o.help(flag)))
+        }
+        e => e.into(),
+    })
+}
+
+/// The flag of an identification option, for messages.
+fn flag(o: FitOption) -> String {
+    match o {
+        FitOption::SigmaT => "--sigma-t",
+        FitOption::PT => "--p-t",
+        FitOption::Taper => "--taper",
+        FitOption::Harmonics => "--harmonics",
+        FitOption::Axis => "--axis",
+    }
+    .into()
 }
 
 fn summary(f: &Fit, o: &FitOptions) -> String {

@@ -16,6 +16,7 @@ use volcomp_core::identify::thermal::files::{
 use volcomp_core::identify::thermal::identify::DEFAULT_RELATIVE_THRESHOLD;
 use volcomp_core::identify::thermal::report::{self, LoadError};
 use volcomp_core::identify::thermal::uncertainty::{axis_line_bands, LineBands};
+use volcomp_core::identify::thermal::ThermalError;
 
 /// Thermally varying error: ball-array identification, temperature regression, prediction, plots.
 #[derive(Args, Debug)]
@@ -185,7 +186,11 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         relative_threshold: a.threshold,
         table_samples: a.table_samples,
     };
-    let (file, idents) = files::fit(&array, &cycles, &temps, &t_name, &options)?;
+    let (file, idents) =
+        files::fit(&array, &cycles, &temps, &t_name, &options).map_err(|e| match e {
+            ThermalError::OutsideRange(r) => CliError::Message(r.describe("--ranges-mm")),
+            e => e.into(),
+        })?;
     let text = file.to_toml();
     write_atomically(
         &a.output,

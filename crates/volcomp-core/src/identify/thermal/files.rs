@@ -427,15 +427,14 @@ pub fn fit(
                 for a in 0..3 {
                     let [lo, hi] = o.ranges_mm[a];
                     if q[a] < lo - 1.0 || q[a] > hi + 1.0 {
-                        return Err(ThermalError::Invalid(format!(
-                            "cycle {}, placement {} (in label order), sphere {}: {} = {} mm lies outside \
-                             the axis range {lo}…{hi} mm; widen --ranges-mm to the machine's travel",
-                            c.cycle,
-                            p + 1,
-                            j + 1,
-                            ['X', 'Y', 'Z'][a],
-                            q[a]
-                        )));
+                        return Err(ThermalError::OutsideRange(super::OutsideRange {
+                            cycle: c.cycle,
+                            placement: p + 1,
+                            sphere: j + 1,
+                            axis: ['X', 'Y', 'Z'][a],
+                            value_mm: q[a],
+                            range_mm: [lo, hi],
+                        }));
                     }
                 }
             }

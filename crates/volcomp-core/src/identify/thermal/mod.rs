@@ -29,4 +29,61 @@ pub enum ThermalError {
     /// A malformed input file (located).
     #[error(transparent)]
     File(#[from] crate::error::MapFileError),
+    /// A measured sphere centre lies outside the axis ranges of the model.
+    #[error("{}", .0.describe("the axis ranges"))]
+    OutsideRange(OutsideRange),
+}
+
+/// A measured sphere centre outside the axis ranges the polynomials live on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutsideRange {
+    /// Cycle number as in the file.
+    pub cycle: usize,
+    /// Placement, 1-based in label order.
+    pub placement: usize,
+    /// Sphere, 1-based.
+    pub sphere: usize,
+    /// The axis letter.
+    pub axis: char,
+    /// The coordinate (mm).
+    pub value_mm: f64,
+    /// The axis range (mm).
+    pub range_mm: [f64; 2],
+}
+
+impl OutsideRange {
+    /// The message, naming the axis-ranges option as `ranges`.
+    pub fn describe(&self, ranges: &str) -> String {
+        let [lo, hi] = self.range_mm;
+        format!(
+            "cycle {}, placement {} (in label order), sphere {}: {} = {} mm lies outside \
+             the axis range {lo}…{hi} mm; widen {ranges} to the machine's travel",
+            self.cycle, self.placement, self.sphere, self.axis, self.value_mm
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn outside_range_names_the_option_as_asked() {
+        let e = OutsideRange {
+            cycle: 0,
+            placement: 1,
+            sphere: 2,
+            axis: 'X',
+            value_mm: 160.5,
+            range_mm: [0.0, 60.0],
+        };
+        assert_eq!(
+            ThermalError::OutsideRange(e.clone()).to_string(),
+            "cycle 0, placement 1 (in label order), sphere 2: X = 160.5 mm lies outside the axis \
+             range 0…60 mm; widen the axis ranges to the machine's travel"
+        );
+        assert!(e
+            .describe("--ranges-mm")
+            .ends_with("widen --ranges-mm to the machine's travel"));
+    }
 }
