@@ -626,7 +626,9 @@ mod tests {
         );
         let no_axis = [run("a.csv", None, 4800.0, 200, g)];
         assert!(msg(fit(&no_axis, None, &o)).contains("or pass the default axis"));
-        assert!(msg(fit(&one, Some(Axis::Y), &o)).contains("says axis X but the default axis says Y"));
+        assert!(
+            msg(fit(&one, Some(Axis::Y), &o)).contains("says axis X but the default axis says Y")
+        );
         for bad in [
             FitOptions { sigma_t: 0.0, ..o },
             FitOptions { p_t: 1.5, ..o },
