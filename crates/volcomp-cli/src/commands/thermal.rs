@@ -279,16 +279,7 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
     let model = load_model(&a.model)?;
     let t_name = a.temperatures.display().to_string();
     let temps = parse_temperatures(&read(&a.temperatures)?, &t_name)?;
-    let row = match a.cycle {
-        None => temps.values.len() - 1,
-        Some(c) => temps.cycles.iter().position(|&k| k == c).ok_or_else(|| {
-            CliError::Message(format!(
-                "{t_name}: no row for cycle {c}; cycles there are {}…{}",
-                temps.cycles[0],
-                temps.cycles[temps.cycles.len() - 1]
-            ))
-        })?,
-    };
+    let row = temps.row_of(a.cycle, &t_name)?;
     let theta = if a.extrapolate {
         if let Err(e) = volcomp_core::identify::thermal::checks::check_training_range(
             &model, &temps, &t_name, row,

@@ -29,6 +29,30 @@ pub enum ThermalError {
     /// A malformed input file (located).
     #[error(transparent)]
     File(#[from] crate::error::MapFileError),
+    /// The kinematic chain does not parse.
+    #[error(transparent)]
+    Chain(#[from] crate::model::topology::TopologyError),
+    /// One measurement cycle could not be identified.
+    #[error("cycle {cycle}: {source}")]
+    Cycle {
+        /// Cycle number as in the file.
+        cycle: usize,
+        /// Why.
+        #[source]
+        source: Box<ThermalError>,
+    },
+    /// A temperature file has no row for the cycle asked for.
+    #[error("{file}: no row for cycle {cycle}; cycles there are {first}…{last}")]
+    NoSuchCycle {
+        /// The temperature file.
+        file: String,
+        /// The cycle asked for.
+        cycle: usize,
+        /// The file's first cycle.
+        first: usize,
+        /// The file's last cycle.
+        last: usize,
+    },
     /// A measured sphere centre lies outside the axis ranges of the model.
     #[error("{}", .0.describe("the axis ranges"))]
     OutsideRange(OutsideRange),

@@ -203,6 +203,23 @@ mod tests {
     }
 
     #[test]
+    fn rows_are_found_by_cycle_or_default_to_the_last() {
+        let t = super::super::files::Temperatures {
+            sensors: vec!["a_C".into()],
+            cycles: vec![3, 4, 5],
+            time_h: vec![0.0, 1.0, 2.0],
+            values: vec![vec![20.0], vec![21.0], vec![22.0]],
+        };
+        assert_eq!(t.row_of(None, "t.csv"), Ok(2));
+        assert_eq!(t.row_of(Some(4), "t.csv"), Ok(1));
+        let e = t.row_of(Some(9), "t.csv").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "t.csv: no row for cycle 9; cycles there are 3…5"
+        );
+    }
+
+    #[test]
     fn a_missing_model_file_names_the_path() {
         let e = load_model(Path::new("/nonexistent/thermal.toml")).unwrap_err();
         assert!(matches!(e, LoadError::Io { .. }));
