@@ -213,10 +213,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         eprintln!("volcomp: warning: {m_name}: {w}");
     }
     let first = &idents[0];
-    let s0: Vec<f64> = file.sigma0_um.clone();
-    let (lo, hi) = s0
-        .iter()
-        .fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(*v), h.max(*v)));
+    let (lo, hi) = file.sigma0_range_um();
     println!(
         "{} cycles, {} placements, {} observations per cycle; rank {} of {} parameters",
         cycles.len(),
@@ -234,10 +231,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
             file.unidentifiable.join(", ")
         );
     }
-    let worst = file
-        .params
-        .iter()
-        .max_by(|a, b| a.residual_rms.total_cmp(&b.residual_rms));
+    let worst = file.largest_residual();
     if let Some(p) = worst {
         println!(
             "regression on {} sensor(s), {} lag(s): largest residual RMS {:.3} {} ({})",

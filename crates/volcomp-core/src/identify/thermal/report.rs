@@ -64,6 +64,22 @@ impl ThermalModelFile {
             .collect()
     }
 
+    /// Smallest and largest probing noise σ0 over the training cycles (µm);
+    /// `(∞, 0)` without cycles, NaN (unknown) cycles ignored.
+    pub fn sigma0_range_um(&self) -> (f64, f64) {
+        self.sigma0_um
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(*v), h.max(*v)))
+    }
+
+    /// The parameter whose regression leaves the largest residual RMS (the
+    /// last of equal ones).
+    pub fn largest_residual(&self) -> Option<&ParamFit> {
+        self.params
+            .iter()
+            .max_by(|a, b| a.residual_rms.total_cmp(&b.residual_rms))
+    }
+
     /// The `top` (at least one) parameters that drift most over the
     /// training cycles relative to their identification uncertainty (range
     /// of the identified values over the mean finite σ): real drifts first.
@@ -200,6 +216,21 @@ mod tests {
              Y,12.500,y,2.0000,0.2000,1.5000,2.5000\n\
              Y,12.500,z,3.0000,0.3000,2.5000,3.5000\n"
         );
+    }
+
+    #[test]
+    fn noise_range_and_largest_residual() {
+        let mut a = param(0.0, vec![]);
+        a.residual_rms = 0.3;
+        let mut b = param(0.0, vec![]);
+        b.name = "EYY.P1".into();
+        b.residual_rms = 0.7;
+        let mut m = file(0, vec![a, b]);
+        m.sigma0_um = vec![0.5, f64::NAN, 0.25, 0.75];
+        assert_eq!(m.sigma0_range_um(), (0.25, 0.75));
+        assert_eq!(m.largest_residual().unwrap().name, "EYY.P1");
+        m.params.clear();
+        assert!(m.largest_residual().is_none());
     }
 
     #[test]
