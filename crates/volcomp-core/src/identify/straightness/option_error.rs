@@ -186,13 +186,14 @@ pub(crate) fn check_options(o: &FitOptions) -> Result<(), OptionError> {
 mod tests {
     use super::*;
 
+    /// A front end's own names for the options.
     fn flag(o: FitOption) -> String {
         match o {
-            FitOption::SigmaT => "--sigma-t",
-            FitOption::PT => "--p-t",
-            FitOption::Taper => "--taper",
-            FitOption::Harmonics => "--harmonics",
-            FitOption::Axis => "--axis",
+            FitOption::SigmaT => "<sigma-t>",
+            FitOption::PT => "<p-t>",
+            FitOption::Taper => "<taper>",
+            FitOption::Harmonics => "<harmonics>",
+            FitOption::Axis => "<axis>",
         }
         .into()
     }
@@ -206,7 +207,7 @@ mod tests {
         };
         assert_eq!(
             e.message(flag),
-            "a.csv: the file says axis X but --axis says Y"
+            "a.csv: the file says axis X but <axis> says Y"
         );
         assert_eq!(
             e.to_string(),
@@ -215,7 +216,7 @@ mod tests {
         let e = OptionError::NoSteadyLine {
             message: "axis X: nothing steady".into(),
         };
-        assert_eq!(e.help(flag), "repeat the runs at each feed rate to average noise and vibration down, or relax --sigma-t / --p-t, or choose the number of harmonics with --harmonics");
+        assert_eq!(e.help(flag), "repeat the runs at each feed rate to average noise and vibration down, or relax <sigma-t> / <p-t>, or choose the number of harmonics with <harmonics>");
         assert!(!e.to_string().contains("--"), "{e}");
     }
 

@@ -107,7 +107,7 @@ mod tests {
              range 0…60 mm; widen the axis ranges to the machine's travel"
         );
         assert!(e
-            .describe("--ranges-mm")
-            .ends_with("widen --ranges-mm to the machine's travel"));
+            .describe("<ranges>")
+            .ends_with("widen <ranges> to the machine's travel"));
     }
 }
