@@ -1,6 +1,9 @@
-//! The crate's one linear-algebra choice: dense matrices and their solvers
-//! from `nalgebra`, behind small functions so that the numerical code says
-//! what it solves, not how a library spells it. Internal (`pub(crate)`).
+//! The crate's one linear-algebra choice: dense matrices and their
+//! decompositions from `nalgebra`, behind small crate-internal functions so
+//! that the numerical code says what it solves, not how a library spells it,
+//! and the choice of library stays in one place.
+
+use nalgebra::DMatrix;
 
 // ---- Dense solves of the B-spline fits (surface::bspline) ------------------
 
@@ -100,3 +103,183 @@ mod bspline_solver_tests {
 }
 
 // ---- end of the B-spline solves ---------------------------------------------
+
+// ---- identification of thermal models (identify/thermal) ------------------
+
+/// Singular values of `a`, largest first (`min(rows, cols)` of them), or
+/// `None` if the iteration does not converge.
+pub(crate) fn singular_values(a: &DMatrix<f64>) -> Option<Vec<f64>> {
+    let svd = nalgebra::SVD::try_new(a.clone(), false, false, f64::EPSILON, 0)?;
+    Some(svd.singular_values.iter().copied().collect())
+}
+
+/// Least-squares solution `X` of `A·X ≈ B` (every column of `B` a
+/// right-hand side) by Householder QR: `R·X = Qᵀ·B` (Golub & Van Loan,
+/// *Matrix Computations*, 4th ed., §5.3.3). `A` must have at least as many
+/// rows as columns and full column rank; `None` otherwise or when the row
+/// counts differ.
+pub(crate) fn least_squares(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let (m, n) = a.shape();
+    if m < n || b.nrows() != m {
+        return None;
+    }
+    let qr = a.clone().qr();
+    let mut qtb = b.clone();
+    qr.q_tr_mul(&mut qtb);
+    let r = qr.r();
+    let mut x = qtb.rows(0, n).into_owned();
+    r.solve_upper_triangular_mut(&mut x).then_some(x)
+}
+
+/// Whitening by a covariance `C` (symmetric positive definite): solves
+/// `L·X = B` in place, `C = L·Lᵀ` the Cholesky factorisation, so that the
+/// rows of `X` have unit covariance when those of `B` have covariance `C`.
+/// `None` (and `b` unchanged) if `C` is not positive definite or the sizes
+/// differ.
+pub(crate) fn whiten(c: &DMatrix<f64>, b: &mut DMatrix<f64>) -> Option<()> {
+    if !c.is_square() || c.nrows() != b.nrows() {
+        return None;
+    }
+    let l = nalgebra::Cholesky::new(c.clone())?.unpack();
+    let mut x = b.clone();
+    if !l.solve_lower_triangular_mut(&mut x) {
+        return None;
+    }
+    *b = x;
+    Some(())
+}
+
+/// A singular value decomposition `A = U·diag(s)·Vᵀ` with the full right
+/// basis: `s` has `min(m, n)` values, largest first, `u` is `m × min(m, n)`,
+/// `v` is `n × n` (its columns past the rank span the null space of `A`).
+/// Each column of `v` (with its column of `u`) is signed so that its entry
+/// of largest magnitude (the first of equal ones) is positive: singular
+/// vectors are only defined up to sign, and results built on them (Monte
+/// Carlo draws along them) must not depend on the algorithm's choice.
+pub(crate) struct Svd {
+    /// Left singular vectors (columns).
+    pub u: DMatrix<f64>,
+    /// Singular values, largest first.
+    pub s: Vec<f64>,
+    /// Right singular vectors (columns), a complete basis of `ℝⁿ`.
+    pub v: DMatrix<f64>,
+}
+
+/// The SVD of `a` with a complete right basis ([`Svd`]), or `None` if the
+/// iteration does not converge. With fewer rows than columns, `a` is padded
+/// with zero rows, which adds zero singular values and leaves `V` a basis of
+/// the same row space and null space.
+pub(crate) fn svd_full_v(a: &DMatrix<f64>) -> Option<Svd> {
+    let (m, n) = a.shape();
+    let k = m.min(n);
+    let padded = if m < n {
+        a.clone().resize_vertically(n, 0.0)
+    } else {
+        a.clone()
+    };
+    let svd = nalgebra::SVD::try_new(padded, true, true, f64::EPSILON, 0)?;
+    let mut u = svd.u?.rows(0, m).columns(0, k).into_owned();
+    let mut v = svd.v_t?.transpose();
+    for j in 0..n {
+        let col = v.column(j);
+        let largest = col.iter().copied().fold(
+            0.0f64,
+            |best, x| if x.abs() > best.abs() { x } else { best },
+        );
+        if largest < 0.0 {
+            v.column_mut(j).neg_mut();
+            if j < k {
+                u.column_mut(j).neg_mut();
+            }
+        }
+    }
+    let s = svd.singular_values.iter().take(k).copied().collect();
+    Some(Svd { u, s, v })
+}
+
+#[cfg(test)]
+mod thermal_tests {
+    use super::*;
+
+    #[test]
+    fn singular_values_of_a_scaled_rotation() {
+        // [[3, 0], [0, −2], [0, 0]]: singular values 3 and 2, largest first.
+        let a = DMatrix::from_row_slice(3, 2, &[0.0, -2.0, 3.0, 0.0, 0.0, 0.0]);
+        let s = singular_values(&a).unwrap();
+        assert_eq!(s.len(), 2);
+        assert!(
+            (s[0] - 3.0).abs() < 1e-14 && (s[1] - 2.0).abs() < 1e-14,
+            "{s:?}"
+        );
+    }
+
+    #[test]
+    fn least_squares_fits_a_line() {
+        // y = 1 + 2x at x = 0, 1, 2 with residuals +0.1, −0.2, +0.1: the
+        // normal equations give intercept 1 − 0 and slope 2 exactly (the
+        // residuals sum to zero and are orthogonal to x − 1).
+        let a = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 1.0, 1.0, 1.0, 2.0]);
+        let b = DMatrix::from_row_slice(3, 2, &[1.1, 0.0, 2.8, 1.0, 5.1, 2.0]);
+        let x = least_squares(&a, &b).unwrap();
+        assert!((x[(0, 0)] - 1.0).abs() < 1e-12, "{x}");
+        assert!((x[(1, 0)] - 2.0).abs() < 1e-12, "{x}");
+        // Second right-hand side: y = x exactly.
+        assert!(
+            x[(0, 1)].abs() < 1e-12 && (x[(1, 1)] - 1.0).abs() < 1e-12,
+            "{x}"
+        );
+        assert!(least_squares(&a.transpose(), &b).is_none(), "wide A");
+    }
+
+    #[test]
+    fn whitening_by_i_plus_ones() {
+        // C = [[2, 1], [1, 2]] = L·Lᵀ with L = [[√2, 0], [1/√2, √(3/2)]].
+        // L·x = (√2, 1/√2 + √(3/2)) has x = (1, 1).
+        let c = DMatrix::from_row_slice(2, 2, &[2.0, 1.0, 1.0, 2.0]);
+        let h = 0.5f64.sqrt();
+        let mut b = DMatrix::from_column_slice(2, 1, &[2f64.sqrt(), h + 1.5f64.sqrt()]);
+        whiten(&c, &mut b).unwrap();
+        assert!(
+            (b[(0, 0)] - 1.0).abs() < 1e-14 && (b[(1, 0)] - 1.0).abs() < 1e-14,
+            "{b}"
+        );
+        let not_pd = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
+        assert!(whiten(&not_pd, &mut b).is_none());
+    }
+
+    #[test]
+    fn full_right_basis_of_a_wide_matrix() {
+        // A = [1, 1, 0]: one singular value √2 along (1, 1, 0)/√2; the
+        // null space is spanned by (1, −1, 0)/√2 and (0, 0, 1).
+        let a = DMatrix::from_row_slice(1, 3, &[1.0, 1.0, 0.0]);
+        let svd = svd_full_v(&a).unwrap();
+        assert_eq!(svd.s.len(), 1);
+        assert!((svd.s[0] - 2f64.sqrt()).abs() < 1e-14);
+        assert_eq!(svd.u.shape(), (1, 1));
+        assert_eq!(svd.v.shape(), (3, 3));
+        // Signed so that the largest entry is positive: (1, 1, 0)/√2, and
+        // U = [1] to match.
+        let v0 = svd.v.column(0);
+        assert!((v0[0] - 0.5f64.sqrt()).abs() < 1e-14 && v0[2].abs() < 1e-14);
+        assert!((svd.u[(0, 0)] - 1.0).abs() < 1e-14);
+        for k in 0..3 {
+            let col = svd.v.column(k);
+            let big = col
+                .iter()
+                .copied()
+                .fold(0.0f64, |b, x| if x.abs() > b.abs() { x } else { b });
+            assert!(big > 0.0, "column {k}: {col}");
+        }
+        // A·v = 0 for the null-space columns, and V is orthonormal.
+        for k in 1..3 {
+            assert!((&a * svd.v.column(k))[0].abs() < 1e-14);
+        }
+        let vtv = svd.v.transpose() * &svd.v;
+        assert!((vtv - DMatrix::identity(3, 3)).norm() < 1e-14);
+        // Reconstruction A = U·s·V₁ᵀ.
+        let rebuilt = &svd.u * svd.s[0] * svd.v.column(0).transpose();
+        assert!((rebuilt - a).norm() < 1e-14);
+    }
+}
+
+// ---- end of identify/thermal ----------------------------------------------

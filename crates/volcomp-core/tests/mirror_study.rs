@@ -17,6 +17,7 @@
 
 use std::io::BufReader;
 use volcomp_core::compensate::survey_style;
+use volcomp_core::rng::Rng;
 use volcomp_core::surface::bspline::{self, Parameterization};
 use volcomp_core::surface::mirror::{
     compensate_finishing, deviation_stats, mirror, BallTool, ClPoint, DeviationField,
@@ -24,25 +25,6 @@ use volcomp_core::surface::mirror::{
     ProbePoint, SurfaceModel,
 };
 use volcomp_gcode::{InterpOptions, MotionKind, MotionSource, Setup, Vec3, Walker};
-
-/// SplitMix64 with Box–Muller: a tiny deterministic generator.
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-
-    fn normal(&mut self) -> f64 {
-        let (a, b) = (self.uniform(), self.uniform());
-        (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
-    }
-}
 
 const LENGTH_X: f64 = 100.0;
 const LENGTH_Y: f64 = 60.0;
@@ -270,7 +252,7 @@ struct Outcome {
 
 fn run(shape: Shape, fit: FitMethod, jitter: f64, seed: u64) -> Outcome {
     let nominal = shape.nominal();
-    let mut rng = Rng(seed);
+    let mut rng = Rng::splitmix64(seed);
     let probes = probe(shape, &nominal, &mut rng, jitter);
     run_probes(shape, &nominal, &probes, fit, NOISE_UM).0
 }
@@ -438,7 +420,7 @@ fn realistic_probe_noise_with_a_corner_outlier() {
     for (s, (shape, want)) in study.into_iter().enumerate() {
         for (k, noise) in [0.2, 0.3, 0.5].into_iter().enumerate() {
             let nominal = shape.nominal();
-            let mut rng = Rng(1000 + 10 * s as u64 + k as u64);
+            let mut rng = Rng::splitmix64(1000 + 10 * s as u64 + k as u64);
             let probes = probe_noisy(shape, &nominal, &mut rng, 2.0, noise, 4.0 * noise);
             let fit = MirrorOptions::default().fit;
             let (o, r) = run_probes(shape, &nominal, &probes, fit, noise);
@@ -503,7 +485,7 @@ fn realistic_probe_noise_with_a_corner_outlier() {
 #[test]
 fn warns_when_compensation_is_predicted_worse() {
     let nominal = Shape::Flat.nominal();
-    let mut rng = Rng(77);
+    let mut rng = Rng::splitmix64(77);
     let probes = probe_noisy(Shape::Flat, &nominal, &mut rng, 2.0, 0.5, 0.0);
     let opts = MirrorOptions {
         stock_mm: STOCK_MM,

@@ -6,31 +6,15 @@
 //! from running the code.
 
 use std::f64::consts::PI;
-use volcomp_core::model::{ErrorModel, ALL_FORWARD};
 use volcomp_core::compensate::solve::{solve_fixed, Method};
-use volcomp_core::identify::straightness::identify::{fit, CutoffRule, Fit, FitOptions, Normalisation};
+use volcomp_core::identify::straightness::identify::{
+    fit, CutoffRule, Fit, FitOptions, Normalisation,
+};
 use volcomp_core::identify::straightness::run::Run;
 use volcomp_core::identify::straightness::{Axis, StraightnessModel};
+use volcomp_core::model::{ErrorModel, ALL_FORWARD};
+use volcomp_core::rng::Rng;
 use volcomp_gcode::Vec3;
-
-/// splitmix64 + Box–Muller: reproducible Gaussian noise without a crate.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f64 {
-        ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    fn gauss(&mut self) -> f64 {
-        (-2.0 * self.uniform().ln()).sqrt() * (2.0 * PI * self.uniform()).cos()
-    }
-}
 
 /// One axis of the synthetic machine.
 #[derive(Clone, Copy)]
@@ -113,7 +97,7 @@ fn measure(t: &Truth, feed: f64, vib_um: f64, phase: f64, rng: &mut Rng, name: &
         .map(|&p| {
             t.geometric_um(p)
                 + vib_um * (2.0 * PI * p / lambda + phase).sin()
-                + NOISE_UM * rng.gauss()
+                + NOISE_UM * rng.normal()
         })
         .collect();
     Run {
@@ -177,7 +161,7 @@ fn flatness_p_v(pts: &[(f64, f64, f64)]) -> f64 {
 }
 
 fn fitted(seed: u64) -> Fit {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::splitmix64(seed);
     let runs = runs(&[X, Y], 3, &mut rng);
     fit(&runs, None, &FitOptions::default()).expect("fit")
 }
@@ -272,7 +256,7 @@ fn compensation_cuts_flatness_and_straightness_p_v() {
     let [y0, y1] = model.y.as_ref().unwrap().recommended_range_mm;
     let feed = 7200.0;
     let lambda = vib_wavelength_mm(feed);
-    let mut rng = Rng(99);
+    let mut rng = Rng::splitmix64(99);
     let (mut before, mut after) = (Vec::new(), Vec::new());
     let (mut pass_before, mut pass_after) = (Vec::new(), Vec::new());
     let mut y = y0;
@@ -281,7 +265,7 @@ fn compensation_cuts_flatness_and_straightness_p_v() {
         let (mut b, mut a) = (Vec::new(), Vec::new());
         let mut x = x0;
         while x <= x1 {
-            let vib = VIB_UM * (2.0 * PI * x / lambda + phase).sin() + NOISE_UM * rng.gauss();
+            let vib = VIB_UM * (2.0 * PI * x / lambda + phase).sin() + NOISE_UM * rng.normal();
             let geo = |x: f64, y: f64| X.geometric_um(x) + Y.geometric_um(y);
             // Uncompensated: the tool is off by the deviation.
             let eb = geo(x, y) + vib;
@@ -347,7 +331,7 @@ fn common_normalisation_survives_feed_dependent_vibration() {
     // geometric lines shrink to about G/(G + 0.8²/2) ≈ 1/3 of the others'
     // (G ≈ 0.15 µm², the X truth's power), so no geometric line is steady
     // to 5 %; one common normalisation leaves them equal.
-    let mut rng = Rng(7);
+    let mut rng = Rng::splitmix64(7);
     let mut runs = Vec::new();
     for feed in FEEDS {
         let amp = if feed == 9600.0 { 0.8 } else { 0.05 };
@@ -465,7 +449,7 @@ fn family_member(mc: &Machine, options: &FitOptions, seed: u64) -> (f64, usize, 
         lead_mm: mc.lead_mm,
         ..X
     };
-    let mut rng = Rng(seed);
+    let mut rng = Rng::splitmix64(seed);
     let mut runs = Vec::new();
     for feed in FEEDS {
         let lambda = feed / 60.0 / mc.vib_hz;
@@ -479,7 +463,7 @@ fn family_member(mc: &Machine, options: &FitOptions, seed: u64) -> (f64, usize, 
                 .map(|&p| {
                     truth.geometric_um(p)
                         + VIB_UM * (2.0 * PI * p / lambda + phase).sin()
-                        + mc.noise_um * rng.gauss()
+                        + mc.noise_um * rng.normal()
                 })
                 .collect();
             runs.push(Run {
@@ -558,7 +542,7 @@ fn cross_validated_cutoff_follows_leads_that_are_no_harmonic_of_l() {
 /// and the model is within the same bounds against the truth.
 #[test]
 fn paper_thresholds_remain_available() {
-    let mut rng = Rng(1);
+    let mut rng = Rng::splitmix64(1);
     let runs = runs(&[X, Y], 3, &mut rng);
     let paper = FitOptions {
         cutoff: CutoffRule::Thresholds,

@@ -3,19 +3,21 @@
 //! linearly with three temperature signals, measured with a ball array and
 //! 0.5 µm probing noise.
 
-use volcomp_core::model::kinematic::Kinematics;
-use volcomp_core::model::{Components, ErrorModel, ALL_FORWARD};
-use volcomp_core::io::model_file;
 use volcomp_core::identify::thermal::artifact::{
     simulate_measurement, standard_placements, BallArray, Placement, PlacementMeasurement,
 };
-use volcomp_core::identify::thermal::identify::{identify, Identification, DEFAULT_RELATIVE_THRESHOLD};
+use volcomp_core::identify::thermal::identify::{
+    identify, Identification, DEFAULT_RELATIVE_THRESHOLD,
+};
 use volcomp_core::identify::thermal::legendre::legendre;
 use volcomp_core::identify::thermal::poly::PolyModel;
 use volcomp_core::identify::thermal::regression::Regression;
-use volcomp_core::rng::Rng;
 use volcomp_core::identify::thermal::uncertainty::{analytic_std_um, monte_carlo};
+use volcomp_core::io::model_file;
+use volcomp_core::model::kinematic::Kinematics;
 use volcomp_core::model::topology::Topology;
+use volcomp_core::model::{Components, ErrorModel, ALL_FORWARD};
+use volcomp_core::rng::Rng;
 use volcomp_gcode::Vec3;
 
 const RANGES: [[f64; 2]; 3] = [[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]];

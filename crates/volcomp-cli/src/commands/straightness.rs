@@ -10,12 +10,12 @@ use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use volcomp_core::io::numfmt;
+use volcomp_core::identify::straightness::files::{self, LoadError};
 use volcomp_core::identify::straightness::identify::{
     fit, AxisFit, CutoffRule, Fit, FitOptions, Normalisation,
 };
-use volcomp_core::identify::straightness::run::Run;
-use volcomp_core::identify::straightness::{Axis, StraightnessModel};
+use volcomp_core::identify::straightness::option_error::FitOption;
+use volcomp_core::identify::straightness::{Axis, StraightnessError, StraightnessModel};
 
 #[derive(Args, Debug)]
 pub struct StraightnessArgs {
@@ -164,12 +164,7 @@ fn options(a: &RunArgs) -> FitOptions {
 fn identify(a: &RunArgs) -> Result<Fit, CliError> {
     let mut runs = Vec::with_capacity(a.runs.len());
     for path in &a.runs {
-        let text = std::fs::read_to_string(path).map_err(|e| CliError::Io(path.clone(), e))?;
-        let mut run = Run::from_csv(&text, &path.display().to_string())?;
-        if a.negate {
-            run.displacement_um.iter_mut().for_each(|v| *v = -*v);
-        }
-        runs.push(run);
+        runs.push(files::load_run(path, a.negate).map_err(load_error)?);
     }
     let axis = match a.axis {
         None => None,
@@ -181,7 +176,24 @@ fn identify(a: &RunArgs) -> Result<Fit, CliError> {
             ))
         }
     };
-    Ok(fit(&runs, axis, &options(a))?)
+    fit(&runs, axis, &options(a)).map_err(|e| match e {
+        StraightnessError::Option(o) => {
+            CliError::Message(format!("{}\n  help: {}", o.message(flag), o.help(flag)))
+        }
+        e => e.into(),
+    })
+}
+
+/// The flag of an identification option, for messages.
+fn flag(o: FitOption) -> String {
+    match o {
+        FitOption::SigmaT => "--sigma-t",
+        FitOption::PT => "--p-t",
+        FitOption::Taper => "--taper",
+        FitOption::Harmonics => "--harmonics",
+        FitOption::Axis => "--axis",
+    }
+    .into()
 }
 
 fn summary(f: &Fit, o: &FitOptions) -> String {
@@ -472,12 +484,16 @@ fn profile_chart(a: &AxisFit) -> Chart {
     }
 }
 
+/// An unreadable file stays an I/O error on its path; bad content is a message.
+fn load_error(e: LoadError) -> CliError {
+    match e {
+        LoadError::Io { path, source } => CliError::Io(path, source),
+        LoadError::Content(e) => e.into(),
+    }
+}
+
 fn load_model(path: &Path) -> Result<StraightnessModel, CliError> {
-    let text = std::fs::read_to_string(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
-    Ok(StraightnessModel::from_toml(
-        &text,
-        &path.display().to_string(),
-    )?)
+    files::load_model(path).map_err(load_error)
 }
 
 fn table_cmd(a: TableArgs) -> Result<(), CliError> {
@@ -525,7 +541,7 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
         ));
     }
     model.clamp = clamp;
-    let mut out = String::from("x_mm,y_mm,ez_um,z_correction_um\n");
+    let mut out = String::from(files::PREDICTION_HEADER);
     for p in points {
         let v: Option<Vec<f64>> = p
             .split(',')
@@ -539,19 +555,13 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
                 )))
             }
         };
-        let e = model.ez_um(x, y).map_err(|e| {
+        let row = files::prediction_row(&model, x, y).map_err(|e| {
             CliError::Message(format!(
-                "{}: point {x},{y}: {e}\n  help: --clamp holds the error at the table ends",
+                "{}: {e}\n  help: --clamp holds the error at the table ends",
                 a.model.display()
             ))
         })?;
-        out.push_str(&format!(
-            "{},{},{},{}\n",
-            numfmt::mm(x),
-            numfmt::mm(y),
-            numfmt::um(e),
-            numfmt::um(-e)
-        ));
+        out.push_str(&row);
     }
     std::io::stdout()
         .write_all(out.as_bytes())

@@ -14,6 +14,9 @@ use volcomp_core::identify::thermal::files::{
     self, parse_artifact, parse_measurements, parse_temperatures, FitOptions, ThermalModelFile,
 };
 use volcomp_core::identify::thermal::identify::DEFAULT_RELATIVE_THRESHOLD;
+use volcomp_core::identify::thermal::report::{self, LoadError};
+use volcomp_core::identify::thermal::uncertainty::{axis_line_bands, LineBands};
+use volcomp_core::identify::thermal::ThermalError;
 
 /// Thermally varying error: ball-array identification, temperature regression, prediction, plots.
 #[derive(Args, Debug)]
@@ -183,7 +186,11 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         relative_threshold: a.threshold,
         table_samples: a.table_samples,
     };
-    let (file, idents) = files::fit(&array, &cycles, &temps, &t_name, &options)?;
+    let (file, idents) =
+        files::fit(&array, &cycles, &temps, &t_name, &options).map_err(|e| match e {
+            ThermalError::OutsideRange(r) => CliError::Message(r.describe("--ranges-mm")),
+            e => e.into(),
+        })?;
     let text = file.to_toml();
     write_atomically(
         &a.output,
@@ -198,23 +205,15 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
             .last()
             .ok_or_else(|| CliError::Message("no cycles to draw bands for".into()))?;
         let model = files::poly_model(&a.chain, ranges_mm, a.order, a.probe_length_mm)?;
-        write_bands(
-            path,
-            &model,
-            last,
-            ranges_mm,
-            a.probe_length_mm,
-            a.samples.max(10),
-        )?;
+        let samples = a.samples.max(10);
+        let lines = axis_line_bands(&model, last, ranges_mm, a.probe_length_mm, samples);
+        write_bands(path, &lines, samples)?;
     }
     for w in volcomp_core::identify::thermal::checks::noise_warnings(&cycles, &idents) {
         eprintln!("volcomp: warning: {m_name}: {w}");
     }
     let first = &idents[0];
-    let s0: Vec<f64> = file.sigma0_um.clone();
-    let (lo, hi) = s0
-        .iter()
-        .fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(*v), h.max(*v)));
+    let (lo, hi) = file.sigma0_range_um();
     println!(
         "{} cycles, {} placements, {} observations per cycle; rank {} of {} parameters",
         cycles.len(),
@@ -232,10 +231,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
             file.unidentifiable.join(", ")
         );
     }
-    let worst = file
-        .params
-        .iter()
-        .max_by(|a, b| a.residual_rms.total_cmp(&b.residual_rms));
+    let worst = file.largest_residual();
     if let Some(p) = worst {
         println!(
             "regression on {} sensor(s), {} lag(s): largest residual RMS {:.3} {} ({})",
@@ -251,10 +247,10 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
 }
 
 fn load_model(path: &Path) -> Result<ThermalModelFile, CliError> {
-    Ok(ThermalModelFile::from_toml(
-        &read(path)?,
-        &path.display().to_string(),
-    )?)
+    report::load_model(path).map_err(|e| match e {
+        LoadError::Io { path, source } => CliError::Io(path, source),
+        LoadError::Model(e) => e.into(),
+    })
 }
 
 fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
@@ -277,20 +273,11 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
     let model = load_model(&a.model)?;
     let t_name = a.temperatures.display().to_string();
     let temps = parse_temperatures(&read(&a.temperatures)?, &t_name)?;
-    let row = match a.cycle {
-        None => temps.values.len() - 1,
-        Some(c) => temps.cycles.iter().position(|&k| k == c).ok_or_else(|| {
-            CliError::Message(format!(
-                "{t_name}: no row for cycle {c}; cycles there are {}…{}",
-                temps.cycles[0],
-                temps.cycles[temps.cycles.len() - 1]
-            ))
-        })?,
-    };
+    let row = temps.row_of(a.cycle, &t_name)?;
     let theta = if a.extrapolate {
-        if let Err(e) =
-            volcomp_core::identify::thermal::checks::check_training_range(&model, &temps, &t_name, row)
-        {
+        if let Err(e) = volcomp_core::identify::thermal::checks::check_training_range(
+            &model, &temps, &t_name, row,
+        ) {
             eprintln!("volcomp: warning: {e} (--extrapolate)");
         }
         model.predict_extrapolating(&temps, &t_name, row)?
@@ -341,34 +328,7 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
     check(&plan)?;
     let m = load_model(&a.model)?;
     let t = &m.time_h;
-    let fitted = |p: &files::ParamFit| -> Vec<(f64, f64)> {
-        (m.lags..t.len())
-            .map(|c| {
-                let mut v = p.intercept;
-                for l in 0..=m.lags {
-                    for (s, temp) in m.temperatures_c[c - l].iter().enumerate() {
-                        v += p.per_kelvin[l * m.sensors.len() + s] * temp;
-                    }
-                }
-                (t[c], v)
-            })
-            .collect()
-    };
-    let mut order: Vec<&files::ParamFit> = m.params.iter().collect();
-    let spread = |p: &files::ParamFit| {
-        let (lo, hi) = p
-            .identified
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-                (l.min(*v), h.max(*v))
-            });
-        let sigma =
-            p.sigma.iter().filter(|s| s.is_finite()).sum::<f64>() / p.sigma.len().max(1) as f64;
-        // Drift in units of the identification's uncertainty: real drifts first.
-        (hi - lo) / sigma.max(1e-12)
-    };
-    order.sort_by(|a, b| spread(b).total_cmp(&spread(a)));
-    order.truncate(a.top.max(1));
+    let order = m.by_drift(a.top);
     let mut evolution = Chart {
         title: "Parameters over time: identified (markers) and regression (lines)".into(),
         x_label: "time (h)".into(),
@@ -391,7 +351,7 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
                 .map(|(x, v)| (*x, v - base))
                 .collect(),
         ));
-        let f = fitted(p);
+        let f = m.fitted(p);
         evolution.series.push(Series::line(
             format!("{label} fit"),
             f.iter().map(|(x, v)| (*x, v - base)).collect(),
@@ -438,20 +398,7 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
 
 fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
     std::fs::create_dir_all(&a.output).map_err(|e| CliError::Io(a.output.clone(), e))?;
-    let array = example::artifact();
-    let mut files: Vec<(String, String)> =
-        vec![("artifact.csv".into(), example::artifact_csv(&array))];
-    for (test, name, seed) in [(0, "train", 7u64), (1, "check", 8)] {
-        let (times, temps, meas) = example::simulate_test(test, 12, 2.0, 0.5, seed);
-        files.push((
-            format!("measurements_{name}.csv"),
-            example::measurements_csv(&times, &meas),
-        ));
-        files.push((
-            format!("temperatures_{name}.csv"),
-            example::temperatures_csv(&example::SENSORS, &times, &temps),
-        ));
-    }
+    let files = example::example_files();
     for (name, text) in &files {
         let path = a.output.join(name);
         write_atomically(&path, &[], |w| {
@@ -474,66 +421,41 @@ fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
 /// The 95 % Monte Carlo bands of the identified TCP error along lines
 /// through the middle of the volume (docs/thermal.md, "Confidence bands from the command line"), as CSV
 /// or as a plot with one chart per axis line.
-fn write_bands(
-    path: &Path,
-    model: &volcomp_core::identify::thermal::poly::PolyModel,
-    ident: &volcomp_core::identify::thermal::identify::Identification,
-    ranges_mm: [[f64; 2]; 3],
-    probe_length_mm: f64,
-    samples: usize,
-) -> Result<(), CliError> {
-    use volcomp_gcode::Vec3;
-    let mid = Vec3::new(
-        0.5 * (ranges_mm[0][0] + ranges_mm[0][1]),
-        0.5 * (ranges_mm[1][0] + ranges_mm[1][1]),
-        0.5 * (ranges_mm[2][0] + ranges_mm[2][1]),
-    );
-    let tool = Vec3::new(0.0, 0.0, probe_length_mm);
-    let mut csv = String::from("line,position_mm,component,estimate_um,std_um,lo95_um,hi95_um\n");
-    let mut charts = Vec::new();
-    for (a, name) in ['X', 'Y', 'Z'].into_iter().enumerate() {
-        let [lo, hi] = ranges_mm[a];
-        let line: Vec<Vec3> = (0..=40)
-            .map(|k| {
-                let mut p = mid;
-                p[a] = lo + (hi - lo) * f64::from(k) / 40.0;
-                p
-            })
-            .collect();
-        let bands =
-            volcomp_core::identify::thermal::uncertainty::monte_carlo(model, ident, &line, tool, samples, 1);
-        // The component along the line's own axis: what a part dimension sees.
-        let mut series = [Vec::new(), Vec::new(), Vec::new()];
-        for (p, b) in line.iter().zip(&bands) {
-            for c in 0..3 {
-                csv.push_str(&format!(
-                    "{name},{:.3},{},{:.4},{:.4},{:.4},{:.4}\n",
-                    p[a],
-                    ['x', 'y', 'z'][c],
-                    b.estimate_um[c],
-                    b.std_um[c],
-                    b.lo_um[c],
-                    b.hi_um[c]
-                ));
-            }
-            series[0].push((p[a], b.estimate_um[a]));
-            series[1].push((p[a], b.lo_um[a]));
-            series[2].push((p[a], b.hi_um[a]));
-        }
-        let [est, lo95, hi95] = series;
-        charts.push(Chart {
-            title: format!("identified e_{} along {name} through the middle, 95 % Monte Carlo band ({samples} draws)", name.to_ascii_lowercase()),
-            x_label: format!("{name} (mm)"),
-            y_label: "deviation (µm)".into(),
-            series: vec![Series::line("estimate", est), Series::line("2.5 %", lo95), Series::line("97.5 %", hi95)],
-            ..Chart::default()
-        });
-    }
+fn write_bands(path: &Path, lines: &[LineBands], samples: usize) -> Result<(), CliError> {
     match path.extension().and_then(|e| e.to_str()) {
-        Some("svg") | Some("png") => write_charts(&charts, path),
-        _ => write_atomically(path, &[], |w| {
-            w.write_all(csv.as_bytes())
-                .map_err(|e| CliError::Io(path.to_path_buf(), e))
-        }),
+        Some("svg") | Some("png") => write_charts(&band_charts(lines, samples), path),
+        _ => {
+            let csv = report::bands_csv(lines);
+            write_atomically(path, &[], |w| {
+                w.write_all(csv.as_bytes())
+                    .map_err(|e| CliError::Io(path.to_path_buf(), e))
+            })
+        }
     }
+}
+
+/// One chart per axis line: the component along the line's own axis (what a
+/// part dimension sees), its estimate and 2.5 / 97.5 % quantiles.
+fn band_charts(lines: &[LineBands], samples: usize) -> Vec<Chart> {
+    lines
+        .iter()
+        .map(|l| {
+            let a = l.axis;
+            let name = ['X', 'Y', 'Z'][a];
+            let mut series = [Vec::new(), Vec::new(), Vec::new()];
+            for (p, b) in l.points_mm.iter().zip(&l.bands) {
+                series[0].push((p[a], b.estimate_um[a]));
+                series[1].push((p[a], b.lo_um[a]));
+                series[2].push((p[a], b.hi_um[a]));
+            }
+            let [est, lo95, hi95] = series;
+            Chart {
+                title: format!("identified e_{} along {name} through the middle, 95 % Monte Carlo band ({samples} draws)", name.to_ascii_lowercase()),
+                x_label: format!("{name} (mm)"),
+                y_label: "deviation (µm)".into(),
+                series: vec![Series::line("estimate", est), Series::line("2.5 %", lo95), Series::line("97.5 %", hi95)],
+                ..Chart::default()
+            }
+        })
+        .collect()
 }

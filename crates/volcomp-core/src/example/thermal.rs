@@ -7,9 +7,9 @@ use crate::identify::thermal::artifact::{
     simulate_measurement, standard_placements, BallArray, Placement, PlacementMeasurement,
 };
 use crate::identify::thermal::poly::PolyModel;
-use crate::rng::Rng;
 use crate::model::kinematic::Kinematics;
 use crate::model::topology::Topology;
+use crate::rng::Rng;
 use volcomp_gcode::Vec3;
 
 /// Axis ranges (mm).
@@ -182,4 +182,51 @@ pub fn temperatures_csv(sensors: &[&str], times: &[f64], temps: &[Vec<f64>]) -> 
         ));
     }
     s
+}
+
+/// The example's input files as `(file name, text)`: the artifact, and the
+/// measurements and temperatures of a training test (`train`, seed 7) and a
+/// check test (`check`, seed 8), 12 cycles every 2 h with 0.5 µm probing
+/// noise each.
+pub fn example_files() -> Vec<(String, String)> {
+    let array = artifact();
+    let mut files: Vec<(String, String)> = vec![("artifact.csv".into(), artifact_csv(&array))];
+    for (test, name, seed) in [(0, "train", 7u64), (1, "check", 8)] {
+        let (times, temps, meas) = simulate_test(test, 12, 2.0, 0.5, seed);
+        files.push((
+            format!("measurements_{name}.csv"),
+            measurements_csv(&times, &meas),
+        ));
+        files.push((
+            format!("temperatures_{name}.csv"),
+            temperatures_csv(&SENSORS, &times, &temps),
+        ));
+    }
+    files
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn example_files_are_the_artifact_and_two_tests() {
+        let files = example_files();
+        let names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "artifact.csv",
+                "measurements_train.csv",
+                "temperatures_train.csv",
+                "measurements_check.csv",
+                "temperatures_check.csv"
+            ]
+        );
+        // 12 cycles: a header and 12 rows of temperatures; the two tests
+        // differ (different seeds and temperature histories).
+        assert_eq!(files[2].1.lines().count(), 13);
+        assert_ne!(files[1].1, files[3].1);
+        assert_eq!(files[0].1, artifact_csv(&artifact()));
+    }
 }

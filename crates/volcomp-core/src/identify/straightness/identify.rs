@@ -25,6 +25,7 @@
 //!    equally), line and series together; the slope `s` is the alignment
 //!    term (`β_zx` for X, `α_yz` for Y).
 
+use super::option_error::{check_options, OptionError};
 use super::run::{same_feed, Run};
 use super::select::{cross_validate, CrossValidation};
 use super::spectrum::{
@@ -217,34 +218,6 @@ fn runs_error(message: String, help: &str) -> StraightnessError {
     }
 }
 
-fn check_options(o: &FitOptions) -> Result<(), StraightnessError> {
-    if !(o.sigma_t.is_finite() && o.sigma_t > 0.0) {
-        return Err(runs_error(
-            format!("σ_t = {} is not a positive number", o.sigma_t),
-            "--sigma-t is the largest relative standard deviation across feed rates of a geometric line, e.g. 0.05",
-        ));
-    }
-    if !(o.p_t.is_finite() && o.p_t > 0.0 && o.p_t < 1.0) {
-        return Err(runs_error(
-            format!("P_t = {} is not between 0 and 1", o.p_t),
-            "--p-t is the smallest normalised mean power of a modelled line, e.g. 0.01 (1 % of the power)",
-        ));
-    }
-    if !(o.taper_fraction.is_finite() && (0.0..=0.5).contains(&o.taper_fraction)) {
-        return Err(runs_error(
-            format!("taper fraction {} is not in 0 … 0.5", o.taper_fraction),
-            "--taper is the fraction of the samples in each raised-cosine end, e.g. 0.1",
-        ));
-    }
-    if o.harmonics == Some(0) {
-        return Err(runs_error(
-            "--harmonics 0 leaves no straightness to model".into(),
-            "give at least 1 harmonic, or leave --harmonics out to let the thresholds choose",
-        ));
-    }
-    Ok(())
-}
-
 /// Identifies the model from `runs` (X and/or Y). Runs whose file does not
 /// name its axis take `default_axis`.
 pub fn fit(
@@ -263,22 +236,19 @@ pub fn fit(
     for r in runs {
         let axis = match (r.axis, default_axis) {
             (Some(a), Some(d)) if a != d => {
-                return Err(runs_error(
-                    format!(
-                        "{}: the file says axis {} but --axis says {}",
-                        r.file,
-                        a.letter(),
-                        d.letter()
-                    ),
-                    "--axis is for files without an `# axis =` line; remove one of the two",
-                ))
+                return Err(OptionError::AxisConflict {
+                    file: r.file.clone(),
+                    file_axis: a,
+                    given: d,
+                }
+                .into())
             }
             (Some(a), _) | (None, Some(a)) => a,
             (None, None) => {
-                return Err(runs_error(
-                    format!("{}: the run does not say which axis moved", r.file),
-                    "add a header comment `# axis = X` (or Y) to the file, or pass --axis",
-                ))
+                return Err(OptionError::NoAxis {
+                    file: r.file.clone(),
+                }
+                .into())
             }
         };
         by_axis[axis as usize].push(r);
@@ -476,10 +446,13 @@ fn fit_axis(axis: Axis, runs: &[&Run], o: &FitOptions) -> Result<AxisFit, Straig
     let m = match (o.harmonics, chosen) {
         (Some(h), _) => {
             if h > half {
-                return Err(runs_error(
-                    format!("axis {letter}: --harmonics {h} is more than the {half} harmonics {n} samples can resolve"),
-                    "give fewer harmonics, or sample the profile more densely",
-                ));
+                return Err(OptionError::TooManyHarmonics {
+                    axis,
+                    harmonics: h,
+                    resolvable: half,
+                    samples: n,
+                }
+                .into());
             }
             h
         }
@@ -496,15 +469,15 @@ fn fit_axis(axis: Axis, runs: &[&Run], o: &FitOptions) -> Result<AxisFit, Straig
                 ),
                 None => "; no line carries more than P_t of the power".into(),
             };
-            return Err(runs_error(
-                format!(
+            return Err(OptionError::NoSteadyLine {
+                message: format!(
                     "axis {letter}: no wavelength is both steady across the feed rates {} mm/min (σ < σ_t = {}) and strong (P̄ > P_t = {}){hint}",
                     fmt_feeds(&groups.iter().map(|g| g.0).collect::<Vec<_>>()),
                     o.sigma_t,
                     o.p_t
                 ),
-                "repeat the runs at each feed rate to average noise and vibration down, or relax --sigma-t / --p-t, or choose the number of harmonics with --harmonics",
-            ));
+            }
+            .into());
         }
     };
     let unstable_in_band: Vec<usize> = (1..=m)
@@ -652,8 +625,10 @@ mod tests {
             "{e}"
         );
         let no_axis = [run("a.csv", None, 4800.0, 200, g)];
-        assert!(msg(fit(&no_axis, None, &o)).contains("--axis"));
-        assert!(msg(fit(&one, Some(Axis::Y), &o)).contains("says axis X but --axis says Y"));
+        assert!(msg(fit(&no_axis, None, &o)).contains("or pass the default axis"));
+        assert!(
+            msg(fit(&one, Some(Axis::Y), &o)).contains("says axis X but the default axis says Y")
+        );
         for bad in [
             FitOptions { sigma_t: 0.0, ..o },
             FitOptions { p_t: 1.5, ..o },

@@ -41,7 +41,9 @@
 //! writes its TOML file (`kind = "straightness"`) and exports a
 //! Z-correction table.
 
+pub mod files;
 pub mod identify;
+pub mod option_error;
 pub mod run;
 pub mod select;
 pub mod spectrum;
@@ -101,6 +103,9 @@ pub enum StraightnessError {
         /// What to do.
         help: String,
     },
+    /// An option cannot be used with these runs.
+    #[error(transparent)]
+    Option(#[from] option_error::OptionError),
     /// A model file is malformed.
     #[error("{file}: {message}\n  help: {help}")]
     ModelFile {

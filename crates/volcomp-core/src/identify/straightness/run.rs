@@ -71,6 +71,12 @@ impl Run {
         }
     }
 
+    /// Negates the displacement: for files whose sign is the opposite of
+    /// the deviation `actual − commanded` (e.g. workpiece relative to tool).
+    pub fn negate(&mut self) {
+        self.displacement_um.iter_mut().for_each(|v| *v = -*v);
+    }
+
     /// Parses the CSV text of a run; `file` names it in errors.
     ///
     /// ```

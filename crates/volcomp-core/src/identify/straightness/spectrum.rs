@@ -189,17 +189,10 @@ mod tests {
     use super::*;
     use std::f64::consts::PI;
 
-    /// Deterministic pseudo-random numbers in [−1, 1).
+    /// Deterministic pseudo-random numbers in (−1, 1).
     fn noise(n: usize, seed: u64) -> Vec<f64> {
-        let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-        (0..n)
-            .map(|_| {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-            })
-            .collect()
+        let mut rng = crate::rng::Rng::new(seed);
+        (0..n).map(|_| 2.0 * rng.uniform() - 1.0).collect()
     }
 
     #[test]

@@ -228,6 +228,27 @@ pub struct Temperatures {
     pub values: Vec<Vec<f64>>,
 }
 
+impl Temperatures {
+    /// The row of `cycle` in the file named `file`, or the last row without
+    /// a cycle (the latest moment).
+    pub fn row_of(&self, cycle: Option<usize>, file: &str) -> Result<usize, ThermalError> {
+        match cycle {
+            None => Ok(self.values.len().saturating_sub(1)),
+            Some(c) => {
+                self.cycles
+                    .iter()
+                    .position(|&k| k == c)
+                    .ok_or_else(|| ThermalError::NoSuchCycle {
+                        file: file.to_string(),
+                        cycle: c,
+                        first: self.cycles.first().copied().unwrap_or(0),
+                        last: self.cycles.last().copied().unwrap_or(0),
+                    })
+            }
+        }
+    }
+}
+
 /// Reads a temperature file (rows in time order).
 pub fn parse_temperatures(text: &str, file: &str) -> Result<Temperatures, MapFileError> {
     let (csv, c) = parse_csv(text, file, &["cycle", "time_h"], true)?;
@@ -378,9 +399,7 @@ pub fn poly_model(
     order: usize,
     probe_length_mm: f64,
 ) -> Result<PolyModel, ThermalError> {
-    let topology: Topology = chain
-        .parse()
-        .map_err(|e: crate::model::topology::TopologyError| ThermalError::Invalid(e.to_string()))?;
+    let topology: Topology = chain.parse().map_err(ThermalError::Chain)?;
     for (a, r) in ranges_mm.iter().enumerate() {
         if !(r[0].is_finite() && r[1].is_finite() && r[1] > r[0]) {
             return Err(ThermalError::Invalid(format!(
@@ -427,15 +446,14 @@ pub fn fit(
                 for a in 0..3 {
                     let [lo, hi] = o.ranges_mm[a];
                     if q[a] < lo - 1.0 || q[a] > hi + 1.0 {
-                        return Err(ThermalError::Invalid(format!(
-                            "cycle {}, placement {} (in label order), sphere {}: {} = {} mm lies outside \
-                             the axis range {lo}…{hi} mm; widen --ranges-mm to the machine's travel",
-                            c.cycle,
-                            p + 1,
-                            j + 1,
-                            ['X', 'Y', 'Z'][a],
-                            q[a]
-                        )));
+                        return Err(ThermalError::OutsideRange(super::OutsideRange {
+                            cycle: c.cycle,
+                            placement: p + 1,
+                            sphere: j + 1,
+                            axis: ['X', 'Y', 'Z'][a],
+                            value_mm: q[a],
+                            range_mm: [lo, hi],
+                        }));
                     }
                 }
             }
@@ -450,8 +468,13 @@ pub fn fit(
                     c.cycle, c.cycle, c.time_h
                 ))
             })?;
-        let id = identify(&model, array, &c.placements, probe, o.relative_threshold)
-            .map_err(|e| ThermalError::Invalid(format!("cycle {}: {e}", c.cycle)))?;
+        let id =
+            identify(&model, array, &c.placements, probe, o.relative_threshold).map_err(|e| {
+                ThermalError::Cycle {
+                    cycle: c.cycle,
+                    source: Box::new(e),
+                }
+            })?;
         idents.push(id);
         t_rows.push(temps.values[row].clone());
     }

@@ -1,5 +1,5 @@
 //! Identification of the polynomial parameters from ball-array distances by
-//! linear least squares (SVD, `faer`), with rank-deficiency detection and
+//! linear least squares (SVD, [`crate::linalg::svd_full_v`]), with rank-deficiency detection and
 //! parameter covariance.
 //!
 //! Observation of sphere `j` of a placement (see [`super::artifact`]):
@@ -25,7 +25,8 @@
 use super::artifact::{observations, BallArray, PlacementMeasurement};
 use super::poly::PolyModel;
 use super::ThermalError;
-use faer::{Mat, Side};
+use crate::linalg;
+use nalgebra::DMatrix;
 use volcomp_gcode::Vec3;
 
 /// Default relative singular-value threshold (of the largest, after column
@@ -130,16 +131,14 @@ pub fn identify(
         ));
     }
     // Whitening per placement block: solve L·w = block, L·Lᵀ = I + 11ᵀ.
-    let mut a = Mat::<f64>::from_fn(m, n + 1, |i, j| if j < n { rows[i][j] } else { y[i] });
+    let mut a = DMatrix::<f64>::from_fn(m, n + 1, |i, j| if j < n { rows[i][j] } else { y[i] });
     let mut start = 0;
     for &len in &blocks {
-        let c = Mat::<f64>::from_fn(len, len, |i, j| if i == j { 2.0 } else { 1.0 });
-        let llt = c
-            .llt(Side::Lower)
-            .map_err(|_| ThermalError::Invalid("whitening failed".into()))?;
-        let l = llt.L();
-        let mut block = a.as_mut().subrows_mut(start, len);
-        l.solve_lower_triangular_in_place(block.as_mut());
+        let c = DMatrix::<f64>::from_fn(len, len, |i, j| if i == j { 2.0 } else { 1.0 });
+        let mut block = a.rows(start, len).into_owned();
+        linalg::whiten(&c, &mut block)
+            .ok_or_else(|| ThermalError::Invalid("whitening failed".into()))?;
+        a.rows_mut(start, len).copy_from(&block);
         start += len;
     }
     // Column scaling by physics, not by column norm (a norm would blow up
@@ -161,13 +160,11 @@ pub fn identify(
             }
         })
         .collect();
-    let js = Mat::<f64>::from_fn(m, n, |i, j| a[(i, j)] / scale[j]);
-    let svd = js
-        .svd()
-        .map_err(|_| ThermalError::Invalid("the SVD did not converge".into()))?;
-    let (u, s, v) = (svd.U(), svd.S().column_vector(), svd.V());
-    let k_all = m.min(n);
-    let singular_values: Vec<f64> = (0..k_all).map(|i| s[i]).collect();
+    let js = DMatrix::<f64>::from_fn(m, n, |i, j| a[(i, j)] / scale[j]);
+    let svd = linalg::svd_full_v(&js)
+        .ok_or_else(|| ThermalError::Invalid("the SVD did not converge".into()))?;
+    let (u, s, v) = (&svd.u, &svd.s, &svd.v);
+    let singular_values: Vec<f64> = s.clone();
     let smax = singular_values.first().copied().unwrap_or(0.0);
     let rank = singular_values
         .iter()

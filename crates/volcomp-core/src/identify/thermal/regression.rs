@@ -8,11 +8,11 @@
 //! The intercept carries the parameter's value at 0 °C of every sensor (in
 //! practice, the cold state); the slopes its change per kelvin. One least
 //! squares problem with every parameter as a right-hand side, solved by QR
-//! (`faer`).
+//! ([`crate::linalg::least_squares`]).
 
 use super::ThermalError;
-use faer::linalg::solvers::SolveLstsq;
-use faer::Mat;
+use crate::linalg;
+use nalgebra::DMatrix;
 
 /// A fitted regression.
 #[derive(Debug, Clone, PartialEq)]
@@ -67,9 +67,9 @@ impl Regression {
                  measure more cycles or use fewer sensors/lags"
             )));
         }
-        let x = Mat::<f64>::from_fn(m, p, |i, j| rows[i][j]);
+        let x = DMatrix::<f64>::from_fn(m, p, |i, j| rows[i][j]);
         // Collinearity check on the column-scaled regressors.
-        let xs = Mat::<f64>::from_fn(m, p, |i, j| {
+        let xs = DMatrix::<f64>::from_fn(m, p, |i, j| {
             let n = (0..m).map(|r| rows[r][j] * rows[r][j]).sum::<f64>().sqrt();
             if n > 0.0 {
                 rows[i][j] / n
@@ -77,9 +77,8 @@ impl Regression {
                 0.0
             }
         });
-        let sv = xs
-            .singular_values()
-            .map_err(|_| ThermalError::Invalid("the SVD did not converge".into()))?;
+        let sv = linalg::singular_values(&xs)
+            .ok_or_else(|| ThermalError::Invalid("the SVD did not converge".into()))?;
         let (smax, smin) = (sv[0], sv[sv.len() - 1]);
         if smin.is_nan() || smin <= 1e-8 * smax {
             return Err(ThermalError::Invalid(
@@ -88,8 +87,10 @@ impl Regression {
                     .into(),
             ));
         }
-        let y = Mat::<f64>::from_fn(m, outs, |i, j| outputs[i + lags][j]);
-        let beta = x.qr().solve_lstsq(&y);
+        let y = DMatrix::<f64>::from_fn(m, outs, |i, j| outputs[i + lags][j]);
+        let beta = linalg::least_squares(&x, &y).ok_or_else(|| {
+            ThermalError::Invalid("the regression's least-squares problem is singular".into())
+        })?;
         let coefficients: Vec<Vec<f64>> = (0..outs)
             .map(|j| (0..p).map(|i| beta[(i, j)]).collect())
             .collect();

@@ -98,10 +98,105 @@ pub fn monte_carlo(
         .collect()
 }
 
+/// The Monte Carlo bands along one straight line through the middle of the
+/// volume, parallel to one machine axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineBands {
+    /// The axis the line runs along: 0 = X, 1 = Y, 2 = Z.
+    pub axis: usize,
+    /// The points of the line (mm), evenly spaced over the axis range.
+    pub points_mm: Vec<Vec3>,
+    /// The band at each point.
+    pub bands: Vec<Band>,
+}
+
+/// Intervals per axis line in [`axis_line_bands`]: 41 points per line.
+pub const LINE_INTERVALS: u32 = 40;
+
+/// The 95 % Monte Carlo bands of the identified tool-tip error along three
+/// lines through the middle of the axis ranges, one along each of X, Y and
+/// Z ([`LINE_INTERVALS`] + 1 points each, `samples` draws, seed 1), for a
+/// probe of length `probe_length_mm` along the tool axis: what a part
+/// dimension along each axis sees of the identification's uncertainty.
+pub fn axis_line_bands(
+    model: &PolyModel,
+    ident: &Identification,
+    ranges_mm: [[f64; 2]; 3],
+    probe_length_mm: f64,
+    samples: usize,
+) -> Vec<LineBands> {
+    let mid = Vec3::new(
+        0.5 * (ranges_mm[0][0] + ranges_mm[0][1]),
+        0.5 * (ranges_mm[1][0] + ranges_mm[1][1]),
+        0.5 * (ranges_mm[2][0] + ranges_mm[2][1]),
+    );
+    let tool = Vec3::new(0.0, 0.0, probe_length_mm);
+    (0..3)
+        .map(|axis| {
+            let [lo, hi] = ranges_mm[axis];
+            let points_mm: Vec<Vec3> = (0..=LINE_INTERVALS)
+                .map(|k| {
+                    let mut p = mid;
+                    p[axis] = lo + (hi - lo) * f64::from(k) / f64::from(LINE_INTERVALS);
+                    p
+                })
+                .collect();
+            let bands = monte_carlo(model, ident, &points_mm, tool, samples, 1);
+            LineBands {
+                axis,
+                points_mm,
+                bands,
+            }
+        })
+        .collect()
+}
+
 fn quantile(sorted: &[f64], p: f64) -> f64 {
     let pos = p * (sorted.len() - 1) as f64;
     let i = pos.floor() as usize;
     let j = (i + 1).min(sorted.len() - 1);
     let f = pos - i as f64;
     sorted[i] * (1.0 - f) + sorted[j] * f
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_lines_run_through_the_middle_of_the_ranges() {
+        let model = crate::example::thermal::poly_model();
+        let n = model.len();
+        // Zero parameters with no uncertainty: every draw is the estimate 0.
+        let ident = Identification {
+            theta: vec![Some(0.0); n],
+            sigma: vec![Some(0.0); n],
+            rank: n,
+            singular_values: Vec::new(),
+            null_space: Vec::new(),
+            sigma0_um: Some(0.0),
+            residuals_um: Vec::new(),
+            observations: 0,
+            cov_factor: vec![vec![0.0]; n],
+        };
+        let ranges = [[0.0, 600.0], [-100.0, 300.0], [10.0, 30.0]];
+        let lines = axis_line_bands(&model, &ident, ranges, 50.0, 10);
+        assert_eq!(lines.len(), 3);
+        // Middle: (300, 100, 20); the line along Y steps (300 + 100) / 40 = 10 mm.
+        let y = &lines[1];
+        assert_eq!(y.axis, 1);
+        assert_eq!(y.points_mm.len(), 41);
+        assert_eq!(y.points_mm[0], Vec3::new(300.0, -100.0, 20.0));
+        assert_eq!(y.points_mm[1], Vec3::new(300.0, -90.0, 20.0));
+        assert_eq!(y.points_mm[40], Vec3::new(300.0, 300.0, 20.0));
+        assert_eq!(lines[2].points_mm[20], Vec3::new(300.0, 100.0, 20.0));
+        for l in &lines {
+            assert_eq!(l.bands.len(), 41);
+            for b in &l.bands {
+                assert_eq!(b.estimate_um, Vec3::ZERO);
+                assert_eq!(b.std_um, Vec3::ZERO);
+                assert_eq!((b.lo_um, b.hi_um), (Vec3::ZERO, Vec3::ZERO));
+            }
+        }
+    }
 }
