@@ -9,15 +9,16 @@ use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use volcomp_core::model::axis_table::{AxisTableMap, AxisTables, Table};
-use volcomp_core::identify::iso230_2;
-use volcomp_core::model::kinematic::{angular_name, linear_name, Form, KinematicModel};
 use volcomp_core::example::kinematic as kinematic_example;
+use volcomp_core::identify::iso230_2;
 use volcomp_core::io::linuxcnc_comp::{self, CompFileType, MachineUnits, Positioning};
-use volcomp_core::model::{Components, Direction, Directions, ErrorModel};
 use volcomp_core::io::model_file;
 use volcomp_core::io::numfmt;
+use volcomp_core::io::{load_model, LoadOptions, LoadedModel};
+use volcomp_core::model::axis_table::{AxisTableMap, AxisTables, Table};
+use volcomp_core::model::kinematic::{angular_name, linear_name, Form, KinematicModel};
 use volcomp_core::model::topology::Topology;
+use volcomp_core::model::{Components, Direction, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
 
 /// Evaluate, convert, plot and import error maps.
@@ -259,60 +260,36 @@ pub struct ExampleArgs {
     pub output: PathBuf,
 }
 
-/// A loaded error map.
-pub enum LoadedMap {
-    /// Axis tables (docs/design.md, "The axis-table map").
+/// Loads a map through the library's one model loader (axis-table CSV,
+/// 21-component model TOML, straightness model TOML).
+pub fn load(path: &Path, clamp: bool) -> Result<LoadedModel, CliError> {
+    Ok(load_model(path, &LoadOptions { clamp })?)
+}
+
+/// The maps `volcomp map` works on.
+enum Map {
     Tables(Box<AxisTableMap>),
-    /// 21-component model (docs/design.md, "The 21-component model").
     Kinematic(Box<KinematicModel>),
 }
 
-impl LoadedMap {
-    pub fn model(&self) -> &dyn ErrorModel {
+impl Map {
+    fn model(&self) -> &dyn ErrorModel {
         match self {
-            LoadedMap::Tables(m) => m.as_ref(),
-            LoadedMap::Kinematic(m) => m.as_ref(),
-        }
-    }
-
-    pub fn into_model(self) -> Box<dyn ErrorModel> {
-        match self {
-            LoadedMap::Tables(m) => m,
-            LoadedMap::Kinematic(m) => m,
+            Map::Tables(m) => m.as_ref(),
+            Map::Kinematic(m) => m.as_ref(),
         }
     }
 }
 
-/// Loads a map, choosing the format by extension: `.csv` axis tables
-/// (docs/design.md, "The axis-table map"), `.toml` a 21-component model
-/// (docs/design.md, "The 21-component model").
-pub fn load(path: &Path, clamp: bool) -> Result<LoadedMap, CliError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("toml") => {
-            let mut m = model_file::read_model(path)?;
-            m.clamp = clamp;
-            Ok(LoadedMap::Kinematic(Box::new(m)))
-        }
-        Some("csv") => {
-            let text = super::read_utf8(path)?;
-            let mut map = AxisTableMap::from_csv(&text, &path.display().to_string()).map_err(|e| {
-                let header = text.lines().find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
-                if header.is_some_and(|h| h.contains("ea_") || h.contains("eb_") || h.contains("ec_")) {
-                    CliError::Message(format!("{e}\n  note: this looks like the component table of a 21-component model; pass its TOML description (model = \"{}\") as the map", model_file::MODEL_KIND))
-                } else {
-                    e.into()
-                }
-            })?;
-            map.clamp = clamp;
-            Ok(LoadedMap::Tables(Box::new(map)))
-        }
-        _ => Err(CliError::Message(format!(
-            "{}: choose the map format by extension: .csv for axis tables, .toml for a 21-component model (docs/design.md)",
-            path.display()
+/// Loads axis tables or a 21-component model; `volcomp map` takes no other kind.
+fn load_map(path: &Path, clamp: bool) -> Result<Map, CliError> {
+    match load(path, clamp)? {
+        LoadedModel::AxisTables(m) => Ok(Map::Tables(m)),
+        LoadedModel::Kinematic(m) => Ok(Map::Kinematic(m)),
+        other => Err(CliError::Message(format!(
+            "{}: `volcomp map` reads axis tables and 21-component models, not a {} model; use it with compensate or simulate",
+            path.display(),
+            other.kind().name()
         ))),
     }
 }
@@ -371,7 +348,7 @@ fn json3(v: Vec3) -> serde_json::Value {
 }
 
 fn eval(a: EvalArgs) -> Result<(), CliError> {
-    let map = load(&a.map, a.clamp)?;
+    let map = load_map(&a.map, a.clamp)?;
     let q = parse_triple(&a.at, "--at")?;
     let s = parse_directions(&a.direction)?;
     let tool = a.tool.offset()?.unwrap_or(Vec3::ZERO);
@@ -381,7 +358,7 @@ fn eval(a: EvalArgs) -> Result<(), CliError> {
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
     match &map {
-        LoadedMap::Tables(m) => {
+        Map::Tables(m) => {
             let per_axis: Vec<Vec3> = (0..3)
                 .map(|k| {
                     let t = match s[k] {
@@ -439,7 +416,7 @@ fn eval(a: EvalArgs) -> Result<(), CliError> {
                 }
             }
         }
-        LoadedMap::Kinematic(m) => {
+        Map::Kinematic(m) => {
             let mut m = (**m).clone();
             m.form = a.form.into();
             let e = m.deviation_with_tool_um(q, s, Components::All, tool)?;
@@ -667,11 +644,11 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
         }
     }
     check(&plan)?;
-    let map = load(&a.map, false)?;
+    let map = load_map(&a.map, false)?;
     let form: Form = a.form.into();
     match a.to {
         ConvertTarget::AxisTable => {
-            let LoadedMap::Kinematic(m) = &map else {
+            let Map::Kinematic(m) = &map else {
                 return Err(CliError::Message(format!(
                     "{} already is an axis-table map",
                     a.map.display()
@@ -747,8 +724,8 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
         ConvertTarget::Linuxcnc => {
             let (ty, units) = a.comp.get()?;
             let tables: [Positioning; 3] = match &map {
-                LoadedMap::Tables(t) => [0, 1, 2].map(|k| positioning_of_tables(t, k)),
-                LoadedMap::Kinematic(m) => {
+                Map::Tables(t) => [0, 1, 2].map(|k| positioning_of_tables(t, k)),
+                Map::Kinematic(m) => {
                     let tool = a.tool.offset()?;
                     if a.at.is_none() && tool.is_none() {
                         // The positioning errors as measured, at the measuring line.
@@ -816,11 +793,11 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
         }
         ConvertTarget::Model => {
             let model = match map {
-                LoadedMap::Tables(t) => {
+                Map::Tables(t) => {
                     let topology = parse_chain(a.chain.as_deref())?;
                     KinematicModel::from_axis_tables(t.as_ref(), topology)
                 }
-                LoadedMap::Kinematic(m) => *m,
+                Map::Kinematic(m) => *m,
             };
             write_model(&model, &a.output, &[&a.map], None)
         }
@@ -976,7 +953,7 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
     plan.map_input("MAP", &a.map).output("-o", &a.output);
     check(&plan)?;
-    let map = load(&a.map, false)?;
+    let map = load_map(&a.map, false)?;
     let name = a
         .map
         .file_name()
@@ -985,7 +962,7 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
     let mut charts = Vec::new();
     let column = |t: &Table, d: usize| -> Vec<f64> { t.errors_um.iter().map(|e| e[d]).collect() };
     match &map {
-        LoadedMap::Tables(m) => {
+        Map::Tables(m) => {
             for (k, t) in m.axes.iter().enumerate() {
                 let mut series = Vec::new();
                 for d in 0..3 {
@@ -1004,7 +981,7 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
                 });
             }
         }
-        LoadedMap::Kinematic(m) => {
+        Map::Kinematic(m) => {
             let k = &m.kinematics;
             for (ax, t) in m.axes.iter().enumerate() {
                 let mut linear = Vec::new();

@@ -29,14 +29,14 @@
 //! given in arc seconds instead (`ea_arcsec` …). Every bad value is reported
 //! with file, row and column.
 
-use crate::model::axis_table::Table;
 use crate::error::MapFileError;
+use crate::io::numfmt;
 use crate::io::table::{CsvTable, Header, UnknownColumns};
+use crate::model::axis_table::Table;
 use crate::model::kinematic::{
     AngleConvention, AxisComponents, ComponentTable, KinematicModel, Kinematics, MeasuringLine,
     Squareness,
 };
-use crate::io::numfmt;
 use crate::model::topology::Topology;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -45,6 +45,9 @@ use volcomp_gcode::Vec3;
 
 /// The `model` value that identifies a 21-component model file.
 pub const MODEL_KIND: &str = "kinematic-21";
+
+/// The `format_version` of model files this library reads (optional in the file).
+pub const FORMAT_VERSION: i64 = 1;
 
 /// Micro-radians per arc second.
 pub const URAD_PER_ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0) * 1e6;
@@ -408,6 +411,7 @@ struct RawLine {
 #[serde(deny_unknown_fields)]
 struct RawModel {
     model: Option<Spanned<String>>,
+    format_version: Option<Spanned<i64>>,
     description: Option<String>,
     chain: Option<Spanned<String>>,
     tables: Option<Spanned<RawTables>>,
@@ -420,7 +424,7 @@ struct RawModel {
 }
 
 /// 1-based (row, column) of byte `offset` in `text`.
-fn row_col(text: &str, offset: usize) -> (usize, usize) {
+pub(crate) fn row_col(text: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(text.len());
     let before = &text[..offset];
     let row = before.matches('\n').count() + 1;
@@ -470,6 +474,18 @@ pub fn parse_header(text: &str, file: &str) -> Result<ModelHeader, MapFileError>
                 "the file does not say what model it is".into(),
                 &format!("start the file with model = \"{MODEL_KIND}\""),
             ))
+        }
+    }
+    if let Some(v) = &raw.format_version {
+        if *v.get_ref() != FORMAT_VERSION {
+            return Err(at(
+                v.span().start,
+                format!(
+                    "format_version {} is not supported (this volcomp reads {FORMAT_VERSION})",
+                    v.get_ref()
+                ),
+                "write the file again with this volcomp, or leave format_version out",
+            ));
         }
     }
     let Some(chain) = &raw.chain else {
@@ -665,6 +681,12 @@ pub fn read_model(path: &Path) -> Result<KinematicModel, ModelFileError> {
         path: path.display().to_string(),
         message: e.to_string(),
     })?;
+    model_from_text(path, &text)
+}
+
+/// Parses the model file `path` whose text is `text`, reading the tables it
+/// names relative to its directory.
+pub fn model_from_text(path: &Path, text: &str) -> Result<KinematicModel, ModelFileError> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut read = |name: &str| -> Result<(String, String), String> {
         let p: PathBuf = dir.join(name);
@@ -672,7 +694,7 @@ pub fn read_model(path: &Path) -> Result<KinematicModel, ModelFileError> {
             .map(|t| (p.display().to_string(), t))
             .map_err(|e| e.to_string())
     };
-    Ok(parse_model(&text, &path.display().to_string(), &mut read)?)
+    Ok(parse_model(text, &path.display().to_string(), &mut read)?)
 }
 
 fn toml_string(s: &str) -> String {
