@@ -81,16 +81,7 @@ impl MachineUnits {
     }
 }
 
-/// The positioning error of one axis per direction, in volcomp's sign.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Positioning {
-    /// Commanded positions (mm), strictly increasing.
-    pub positions_mm: Vec<f64>,
-    /// `E_aa` while moving forward (µm).
-    pub forward_um: Vec<f64>,
-    /// `E_aa` while moving in reverse (µm).
-    pub reverse_um: Vec<f64>,
-}
+pub use crate::model::positioning::Positioning;
 
 /// Byte offset of the next blank-separated field after the one at `at`.
 fn next_field(line: &str, at: usize) -> usize {

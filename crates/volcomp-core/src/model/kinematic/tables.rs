@@ -5,6 +5,7 @@ use super::{AxisComponents, ComponentTable, Form, KinematicModel, Kinematics};
 use crate::error::ModelError;
 use crate::model::axis_table::{AxisTableMap, AxisTables, Table};
 use crate::model::topology::Topology;
+use crate::model::positioning::grid_axis;
 use crate::model::Direction;
 use volcomp_gcode::Vec3;
 
@@ -128,5 +129,93 @@ impl KinematicModel {
         p.sort_by(f64::total_cmp);
         p.dedup();
         p
+    }
+
+    /// The measuring point (axis positions, mm) and the measuring tool offset
+    /// (mm) shared by the three axes' measuring lines, each `None` when the
+    /// axes were measured along different lines or with different tools.
+    pub fn shared_measuring(&self) -> (Option<Vec3>, Option<Vec3>) {
+        let l = self.kinematics.measuring;
+        let p = (l[0].point_mm == l[1].point_mm && l[1].point_mm == l[2].point_mm)
+            .then_some(l[0].point_mm);
+        let t = (l[0].tool_offset_mm == l[1].tool_offset_mm
+            && l[1].tool_offset_mm == l[2].tool_offset_mm)
+            .then_some(l[0].tool_offset_mm);
+        (p, t)
+    }
+
+    /// The largest `|e_model − e_tables|` (µm) over a 5×5×5 grid of the
+    /// model's range, all axes forward, for the tool `tool_offset_mm`: how
+    /// far axis tables made by [`KinematicModel::to_axis_tables`] stray from
+    /// the model away from their reference lines.
+    pub fn largest_difference_um(
+        &self,
+        tool_offset_mm: Vec3,
+        map: &AxisTableMap,
+    ) -> Result<f64, ModelError> {
+        use crate::model::{Components, ErrorModel};
+        let r = self.range_mm();
+        let axes: Vec<Vec<f64>> = (0..3)
+            .map(|a| grid_axis(r[a][0], r[a][1], (r[a][1] - r[a][0]) / 4.0))
+            .collect();
+        let mut worst: f64 = 0.0;
+        for &x in &axes[0] {
+            for &y in &axes[1] {
+                for &z in &axes[2] {
+                    let q = Vec3::new(x, y, z);
+                    let s = [Direction::Forward; 3];
+                    let e = self.deviation_with_tool_um(q, s, Components::All, tool_offset_mm)?;
+                    let t = map.deviation_um(q, s, Components::All)?;
+                    worst = worst.max((e - t).norm());
+                }
+            }
+        }
+        Ok(worst)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::kinematic::MeasuringLine;
+
+    fn flat() -> KinematicModel {
+        let t = ComponentTable::zeros(vec![0.0, 100.0]).unwrap();
+        let axes = [0, 1, 2].map(|_| AxisComponents::both(t.clone()));
+        KinematicModel::new(axes, Kinematics::new(Topology::SEED))
+    }
+
+    #[test]
+    fn shared_measuring_only_when_all_three_agree() {
+        let mut m = flat();
+        let line = MeasuringLine {
+            point_mm: Vec3::new(1.0, 2.0, 3.0),
+            tool_offset_mm: Vec3::new(0.0, 0.0, 50.0),
+        };
+        m.kinematics.measuring = [line; 3];
+        assert_eq!(
+            m.shared_measuring(),
+            (Some(Vec3::new(1.0, 2.0, 3.0)), Some(Vec3::new(0.0, 0.0, 50.0)))
+        );
+        m.kinematics.measuring[2].point_mm.x = 9.0;
+        assert_eq!(m.shared_measuring(), (None, Some(Vec3::new(0.0, 0.0, 50.0))));
+        m.kinematics.measuring[1].tool_offset_mm.z = 0.0;
+        assert_eq!(m.shared_measuring(), (None, None));
+    }
+
+    #[test]
+    fn largest_difference_of_a_shifted_map() {
+        // The model is zero everywhere; tables with a constant 3 µm in X on
+        // the X axis and 4 µm in Y on the Y axis differ from it by |(3, 4, 0)| = 5 µm.
+        let m = flat();
+        let mut map = m.to_axis_tables(Vec3::ZERO, Vec3::ZERO, Form::Htm).unwrap();
+        for e in map.axes[0].forward.errors_um.iter_mut() {
+            e.x = 3.0;
+        }
+        for e in map.axes[1].forward.errors_um.iter_mut() {
+            e.y = 4.0;
+        }
+        let d = m.largest_difference_um(Vec3::ZERO, &map).unwrap();
+        assert!((d - 5.0).abs() < 1e-12, "{d}");
     }
 }
