@@ -7,6 +7,7 @@
 pub mod axis_table;
 pub mod kinematic;
 pub mod positioning;
+pub mod query;
 pub mod topology;
 
 use crate::error::ModelError;
