@@ -36,6 +36,7 @@ use crate::model::kinematic::{
     AngleConvention, AxisComponents, ComponentTable, KinematicModel, Kinematics, MeasuringLine,
     Squareness,
 };
+use crate::model::positioning::Positioning;
 use crate::model::topology::Topology;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -67,6 +68,12 @@ pub enum ModelFileError {
     /// The content is malformed (located).
     #[error(transparent)]
     Format(#[from] MapFileError),
+    /// A model is to be written under a name that does not end in `.toml`.
+    #[error("{path}: a 21-component model is written as a .toml file (its tables go to a .csv beside it)")]
+    NotToml {
+        /// The name given.
+        path: String,
+    },
 }
 
 fn map_err(file: &str, row: usize, column: usize, message: String, help: &str) -> MapFileError {
@@ -461,6 +468,68 @@ pub fn model_to_toml(model: &KinematicModel, tables: &str, description: Option<&
     s
 }
 
+/// The two files of a model to be written as `toml_path`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelFiles {
+    /// The TOML description (`toml_path` itself).
+    pub toml: String,
+    /// Where the component tables go: beside it, same stem, `.csv`.
+    pub csv_path: PathBuf,
+    /// The component tables.
+    pub csv: String,
+}
+
+/// The TOML description and CSV tables of `model` written as `toml_path`
+/// (which must end in `.toml`); the description names the CSV by its file
+/// name, so the pair can be moved together.
+pub fn model_files(
+    model: &KinematicModel,
+    toml_path: &Path,
+    description: Option<&str>,
+) -> Result<ModelFiles, ModelFileError> {
+    let is_toml = toml_path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if !is_toml {
+        return Err(ModelFileError::NotToml {
+            path: toml_path.display().to_string(),
+        });
+    }
+    let csv_path = toml_path.with_extension("csv");
+    let csv_name = csv_path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    Ok(ModelFiles {
+        toml: model_to_toml(model, &csv_name, description),
+        csv: components_to_csv(&model.axes),
+        csv_path,
+    })
+}
+
+/// Rows of the component table (header [`CSV_HEADER`] included) that hold
+/// only the positioning error `p` of axis `axis` (0 = X), both directions,
+/// under the comment line `# {comment}`.
+pub fn positioning_rows_csv(p: &Positioning, axis: usize, comment: &str) -> String {
+    let mut s = format!("# {comment}\n{CSV_HEADER}\n");
+    for (dir, v) in [("forward", &p.forward_um), ("reverse", &p.reverse_um)] {
+        for (x, e) in p.positions_mm.iter().zip(v.iter()) {
+            let mut lin = [0.0; 3];
+            lin[axis] = *e;
+            s.push_str(&format!(
+                "{},{dir},{},{},{},{},0,0,0\n",
+                AXES[axis],
+                numfmt::mm(*x),
+                numfmt::um(lin[0]),
+                numfmt::um(lin[1]),
+                numfmt::um(lin[2])
+            ));
+        }
+    }
+    s
+}
+
 /// A positioning-only model (straightness, angles and squareness zero) from
 /// positioning tables `E_aa` per axis: what a LinuxCNC comp file or an
 /// ISO 230-2 test gives.
@@ -638,5 +707,33 @@ mod tests {
         );
         assert!(e.message.contains("angle convention"), "{e}");
         assert_eq!((e.row, e.column), (4, 10), "{e}");
+    }
+
+    #[test]
+    fn model_files_need_a_toml_name_and_put_the_csv_beside_it() {
+        let m = crate::example::kinematic::example_model();
+        let f = model_files(&m, Path::new("out/m.TOML"), Some("d")).unwrap();
+        assert_eq!(f.csv_path, Path::new("out/m.csv"));
+        assert!(f.toml.contains("tables = \"m.csv\"\n"));
+        assert!(f.toml.contains("description = \"d\"\n"));
+        assert!(f.csv.lines().any(|l| l == CSV_HEADER));
+        let e = model_files(&m, Path::new("m.csv"), None).unwrap_err();
+        assert!(matches!(e, ModelFileError::NotToml { .. }));
+    }
+
+    #[test]
+    fn positioning_rows_hold_the_axis_own_column() {
+        let p = Positioning {
+            positions_mm: vec![0.0, 50.0],
+            forward_um: vec![1.0, 2.5],
+            reverse_um: vec![-1.0, 0.0],
+        };
+        let s = positioning_rows_csv(&p, 1, "test");
+        assert_eq!(
+            s,
+            format!(
+                "# test\n{CSV_HEADER}\nY,forward,0,0,1,0,0,0,0\nY,forward,50,0,2.5,0,0,0,0\nY,reverse,0,0,-1,0,0,0,0\nY,reverse,50,0,0,0,0,0,0\n"
+            )
+        );
     }
 }
