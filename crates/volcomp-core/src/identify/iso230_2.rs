@@ -155,7 +155,9 @@ pub enum TooFewApproaches {
 /// Each target needs at least two approaches per direction; at least two targets.
 pub fn evaluate(data: &[(f64, Vec<f64>, Vec<f64>)]) -> Result<Iso230_2Report, TooFewApproaches> {
     if data.len() < 2 {
-        return Err(TooFewApproaches::Targets { targets: data.len() });
+        return Err(TooFewApproaches::Targets {
+            targets: data.len(),
+        });
     }
     let mut targets = Vec::with_capacity(data.len());
     for (p, up, down) in data {

@@ -31,7 +31,12 @@ pub enum GridError {
 /// or [`GridError::TooManyPoints`].
 pub fn grid_axes(range_mm: [[f64; 2]; 3], step_mm: f64) -> Result<[Vec<f64>; 3], GridError> {
     let points: f64 = (0..3)
-        .map(|k| ((range_mm[k][1] - range_mm[k][0]) / step_mm).ceil().max(1.0) + 1.0)
+        .map(|k| {
+            ((range_mm[k][1] - range_mm[k][0]) / step_mm)
+                .ceil()
+                .max(1.0)
+                + 1.0
+        })
         .product();
     if points > MAX_POINTS {
         return Err(GridError::TooManyPoints { step_mm, points });
@@ -99,7 +104,10 @@ mod tests {
         assert!(lines[1].ends_with("directions +++ (X, Y, Z; + forward, - reverse)"));
         assert_eq!(lines[2], "x_mm,y_mm,z_mm,ex_um,ey_um,ez_um");
         // Z varies fastest, then Y, then X; the 10th point is x = 5, y = 0, z = 0: ex = 1 µm.
-        let f: Vec<f64> = lines[3 + 9].split(',').map(|v| v.parse().unwrap()).collect();
+        let f: Vec<f64> = lines[3 + 9]
+            .split(',')
+            .map(|v| v.parse().unwrap())
+            .collect();
         assert_eq!(f, vec![5.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
     }
 
@@ -108,7 +116,9 @@ mod tests {
         let r = [[0.0, 1000.0]; 3];
         // 1001³ ≈ 1e9 points at 1 mm.
         let e = grid_axes(r, 1.0).unwrap_err();
-        assert!(matches!(e, GridError::TooManyPoints { points, .. } if points == 1001.0f64.powi(3)));
+        assert!(
+            matches!(e, GridError::TooManyPoints { points, .. } if points == 1001.0f64.powi(3))
+        );
         assert_eq!(grid_axes(r, 500.0).unwrap()[2], vec![0.0, 500.0, 1000.0]);
     }
 }

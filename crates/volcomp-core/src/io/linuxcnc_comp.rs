@@ -497,7 +497,10 @@ mod tests {
         };
         let e = write(&p, CompFileType::Type1, MachineUnits::Mm).unwrap_err();
         assert_eq!(e, CompWriteError::TooManyPoints { points: 257 });
-        assert_eq!(e.to_string(), "257 points: LinuxCNC takes at most 256 per joint");
+        assert_eq!(
+            e.to_string(),
+            "257 points: LinuxCNC takes at most 256 per joint"
+        );
     }
 
     #[test]
@@ -509,8 +512,12 @@ mod tests {
         let p = read(&path, CompFileType::Type1, MachineUnits::Inch).unwrap();
         assert_eq!(p.positions_mm, vec![0.0, 25.4]);
         assert!((p.forward_um[1] - 2.54).abs() < 1e-9);
-        let e = read(&dir.path().join("none.comp"), CompFileType::Type1, MachineUnits::Mm)
-            .unwrap_err();
+        let e = read(
+            &dir.path().join("none.comp"),
+            CompFileType::Type1,
+            MachineUnits::Mm,
+        )
+        .unwrap_err();
         assert!(matches!(e, CompReadError::Io { .. }));
     }
 }

@@ -274,14 +274,18 @@ impl Discriminator {
                 ),
             )),
             Some(k) if ModelKind::from_name(k.get_ref()).is_none() => {
-                let (row, column) = model_file::row_col(text, k.span().start);
+                let at = k.span().start.min(text.len());
+                let (row, column) = model_file::row_col(text, at);
+                let line_start = text[..at].rfind('\n').map_or(0, |i| i + 1);
+                let line = text[line_start..].lines().next().unwrap_or("");
                 Err(MapFileError::new(
                     file,
                     row,
                     column,
                     format!("`{}` is not a kind of model this volcomp knows", k.get_ref()),
                     format!("the known kinds are {known}"),
-                ))
+                )
+                .with_source(line, at - line_start))
             }
             Some(_) => Ok(()),
         }

@@ -131,9 +131,15 @@ mod tests {
 
     #[test]
     fn grid_axis_ends_on_the_range() {
-        assert_eq!(grid_axis(0.0, 100.0, 25.0), vec![0.0, 25.0, 50.0, 75.0, 100.0]);
+        assert_eq!(
+            grid_axis(0.0, 100.0, 25.0),
+            vec![0.0, 25.0, 50.0, 75.0, 100.0]
+        );
         // 90 / 25 = 3.6 → 4 intervals of 22.5 mm.
-        assert_eq!(grid_axis(0.0, 90.0, 25.0), vec![0.0, 22.5, 45.0, 67.5, 90.0]);
+        assert_eq!(
+            grid_axis(0.0, 90.0, 25.0),
+            vec![0.0, 22.5, 45.0, 67.5, 90.0]
+        );
         // A step longer than the range: the two ends.
         assert_eq!(grid_axis(-5.0, 5.0, 100.0), vec![-5.0, 5.0]);
     }

@@ -4,9 +4,7 @@
 
 use crate::error::ModelError;
 use crate::model::axis_table::{AxisTableMap, Table};
-use crate::model::kinematic::{
-    angular_name, linear_name, ComponentValues, Form, KinematicModel,
-};
+use crate::model::kinematic::{angular_name, linear_name, ComponentValues, Form, KinematicModel};
 use crate::model::{Components, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
 
@@ -213,13 +211,23 @@ mod tests {
         let q = Vec3::new(5.0, 10.0, 2.5);
         let p = m.per_axis_um(q, [R, F, F]).unwrap();
         // X reverse half way to 4 → 2; Y at its end (0, 1, 1); Z a quarter of −6.
-        assert_eq!(p, [Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 1.0), Vec3::new(0.0, 0.0, -1.5)]);
+        assert_eq!(
+            p,
+            [
+                Vec3::new(2.0, 0.0, 0.0),
+                Vec3::new(0.0, 1.0, 1.0),
+                Vec3::new(0.0, 0.0, -1.5)
+            ]
+        );
         let e = m.deviation_um(q, [R, F, F], Components::All).unwrap();
         assert_eq!(p[0] + p[1] + p[2], e);
         // Outside a table: refused, or held at the end when clamped.
         let far = Vec3::new(20.0, 0.0, 0.0);
         assert!(m.per_axis_um(far, [F; 3]).is_err());
-        assert_eq!(map(true).per_axis_um(far, [F; 3]).unwrap()[0], Vec3::new(2.0, 0.0, 0.0));
+        assert_eq!(
+            map(true).per_axis_um(far, [F; 3]).unwrap()[0],
+            Vec3::new(2.0, 0.0, 0.0)
+        );
     }
 
     #[test]
@@ -250,7 +258,8 @@ mod tests {
         assert!((r.deviation_first_order_um - want).norm() < 1e-12);
         assert_eq!(r.positioning_um, Vec3::new(1.0, 0.5, -3.0));
         assert_eq!(r.squareness_um, Vec3::ZERO);
-        let sum = r.axis_contributions_um[0] + r.axis_contributions_um[1] + r.axis_contributions_um[2];
+        let sum =
+            r.axis_contributions_um[0] + r.axis_contributions_um[1] + r.axis_contributions_um[2];
         assert!((sum - want).norm() < 1e-12);
         let (lin, ang) = km.component_series(2);
         assert_eq!(lin.len(), 3);

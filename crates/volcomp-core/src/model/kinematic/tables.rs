@@ -4,8 +4,8 @@
 use super::{AxisComponents, ComponentTable, Form, KinematicModel, Kinematics};
 use crate::error::ModelError;
 use crate::model::axis_table::{AxisTableMap, AxisTables, Table};
-use crate::model::topology::Topology;
 use crate::model::positioning::grid_axis;
+use crate::model::topology::Topology;
 use crate::model::Direction;
 use volcomp_gcode::Vec3;
 
@@ -195,10 +195,16 @@ mod tests {
         m.kinematics.measuring = [line; 3];
         assert_eq!(
             m.shared_measuring(),
-            (Some(Vec3::new(1.0, 2.0, 3.0)), Some(Vec3::new(0.0, 0.0, 50.0)))
+            (
+                Some(Vec3::new(1.0, 2.0, 3.0)),
+                Some(Vec3::new(0.0, 0.0, 50.0))
+            )
         );
         m.kinematics.measuring[2].point_mm.x = 9.0;
-        assert_eq!(m.shared_measuring(), (None, Some(Vec3::new(0.0, 0.0, 50.0))));
+        assert_eq!(
+            m.shared_measuring(),
+            (None, Some(Vec3::new(0.0, 0.0, 50.0)))
+        );
         m.kinematics.measuring[1].tool_offset_mm.z = 0.0;
         assert_eq!(m.shared_measuring(), (None, None));
     }
