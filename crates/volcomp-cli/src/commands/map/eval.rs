@@ -80,7 +80,7 @@ pub(super) fn eval(a: EvalArgs) -> Result<(), CliError> {
                 let mut comps = serde_json::Map::new();
                 let mut arms = serde_json::Map::new();
                 let mut contrib = serde_json::Map::new();
-                for ax in 0..3 {
+                for (ax, axis) in AXES.iter().enumerate() {
                     for d in 0..3 {
                         comps.insert(linear_name(d, ax), serde_json::json!(v.linear_um[ax][d]));
                     }
@@ -90,8 +90,8 @@ pub(super) fn eval(a: EvalArgs) -> Result<(), CliError> {
                             serde_json::json!(v.angular_urad[ax][d]),
                         );
                     }
-                    arms.insert(AXES[ax].to_string(), json3(r.abbe_arms_mm[ax]));
-                    contrib.insert(AXES[ax].to_string(), json3(r.axis_contributions_um[ax]));
+                    arms.insert(axis.to_string(), json3(r.abbe_arms_mm[ax]));
+                    contrib.insert(axis.to_string(), json3(r.axis_contributions_um[ax]));
                 }
                 let j = serde_json::json!({
                     "map": a.map.display().to_string(),

@@ -304,10 +304,10 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
     let mut charts = Vec::new();
     match &map {
         Map::Tables(m) => {
-            for k in 0..3 {
+            for (k, axis) in AXES.iter().enumerate() {
                 charts.push(Chart {
-                    title: format!("{name}: errors caused by {} (axis tables)", AXES[k]),
-                    x_label: format!("{} position (mm)", AXES[k]),
+                    title: format!("{name}: errors caused by {axis} (axis tables)"),
+                    x_label: format!("{axis} position (mm)"),
                     y_label: "error (µm)".into(),
                     series: series(m.component_series(k)),
                     ..Chart::default()
@@ -316,7 +316,7 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
         }
         Map::Kinematic(m) => {
             let k = &m.kinematics;
-            for ax in 0..3 {
+            for (ax, axis) in AXES.iter().enumerate() {
                 let (linear, angular) = m.component_series(ax);
                 let extra = match ax {
                     0 => format!(" (chain {})", k.topology),
@@ -327,18 +327,15 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
                     ),
                 };
                 charts.push(Chart {
-                    title: format!(
-                        "{name}: positioning and straightness of {}{extra}",
-                        AXES[ax]
-                    ),
-                    x_label: format!("{} position (mm)", AXES[ax]),
+                    title: format!("{name}: positioning and straightness of {}{extra}", axis),
+                    x_label: format!("{} position (mm)", axis),
                     y_label: "error (µm)".into(),
                     series: series(linear),
                     ..Chart::default()
                 });
                 charts.push(Chart {
-                    title: format!("{name}: angular errors of {}", AXES[ax]),
-                    x_label: format!("{} position (mm)", AXES[ax]),
+                    title: format!("{name}: angular errors of {}", axis),
+                    x_label: format!("{} position (mm)", axis),
                     y_label: "rotation (µrad)".into(),
                     series: series(angular),
                     ..Chart::default()
