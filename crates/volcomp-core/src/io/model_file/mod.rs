@@ -350,7 +350,7 @@ pub fn parse_header(text: &str, file: &str) -> Result<ModelHeader, MapFileError>
 }
 
 /// Reads a table file named in a model file: `(display name, text)`, or why not.
-pub type TableReader<'a> = dyn FnMut(&str) -> Result<(String, String), String> + 'a;
+pub type TableReader<'a> = dyn FnMut(&str) -> Result<(String, String), std::io::Error> + 'a;
 
 /// Parses a model from its TOML text; `read_table(name)` returns the text
 /// of a table file named in it (or why it cannot), and its display name.
@@ -390,11 +390,9 @@ pub fn read_model(path: &Path) -> Result<KinematicModel, ModelFileError> {
 /// names relative to its directory.
 pub fn model_from_text(path: &Path, text: &str) -> Result<KinematicModel, ModelFileError> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut read = |name: &str| -> Result<(String, String), String> {
+    let mut read = |name: &str| -> Result<(String, String), std::io::Error> {
         let p: PathBuf = dir.join(name);
-        std::fs::read_to_string(&p)
-            .map(|t| (p.display().to_string(), t))
-            .map_err(|e| e.to_string())
+        std::fs::read_to_string(&p).map(|t| (p.display().to_string(), t))
     };
     Ok(parse_model(text, &path.display().to_string(), &mut read)?)
 }
@@ -585,7 +583,10 @@ mod tests {
             if name == "t.csv" {
                 Ok(("t.csv".into(), csv.clone()))
             } else {
-                Err("No such file or directory (os error 2)".into())
+                Err(std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    "No such file or directory (os error 2)",
+                ))
             }
         })
     }
