@@ -79,6 +79,9 @@ fn unknown_model_kind_lists_the_known_ones() {
     let text = String::from_utf8(o.stderr).unwrap();
     // Row 2, column 9: the opening quote of the value.
     assert!(text.contains("m.toml:2:9:"), "{text}");
-    assert!(text.contains("\"kinematic-21\", \"straightness\""), "{text}");
+    assert!(
+        text.contains("\"kinematic-21\", \"straightness\""),
+        "{text}"
+    );
     insta::assert_snapshot!("unknown_model_kind", text);
 }
