@@ -130,20 +130,43 @@ fn min(it: impl Iterator<Item = f64>) -> f64 {
     it.fold(f64::INFINITY, f64::min)
 }
 
+/// A test too small to evaluate.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TooFewApproaches {
+    /// Fewer than two target positions.
+    #[error("{targets} target position(s); the test needs at least two (the standard asks for five or more)")]
+    Targets {
+        /// Target positions in the test.
+        targets: usize,
+    },
+    /// A target with fewer than two approaches in a direction.
+    #[error("target {target_mm} mm has {up} approach(es) up and {down} down; each direction needs at least two (the standard asks for five)")]
+    Approaches {
+        /// The target (mm).
+        target_mm: f64,
+        /// Approaches from below.
+        up: usize,
+        /// Approaches from above.
+        down: usize,
+    },
+}
+
 /// Evaluates deviations grouped per target: `(P_i, x_ij↑, x_ij↓)` in mm and µm.
 /// Each target needs at least two approaches per direction; at least two targets.
-pub fn evaluate(data: &[(f64, Vec<f64>, Vec<f64>)]) -> Result<Iso230_2Report, String> {
+pub fn evaluate(data: &[(f64, Vec<f64>, Vec<f64>)]) -> Result<Iso230_2Report, TooFewApproaches> {
     if data.len() < 2 {
-        return Err(format!("{} target position(s); the test needs at least two (the standard asks for five or more)", data.len()));
+        return Err(TooFewApproaches::Targets {
+            targets: data.len(),
+        });
     }
     let mut targets = Vec::with_capacity(data.len());
     for (p, up, down) in data {
         if up.len() < 2 || down.len() < 2 {
-            return Err(format!(
-                "target {p} mm has {} approach(es) up and {} down; each direction needs at least two (the standard asks for five)",
-                up.len(),
-                down.len()
-            ));
+            return Err(TooFewApproaches::Approaches {
+                target_mm: *p,
+                up: up.len(),
+                down: down.len(),
+            });
         }
         let (mu, md) = (mean(up), mean(down));
         let (su, sd) = (stdev(up, mu), stdev(down, md));
@@ -318,7 +341,7 @@ pub fn from_csv(text: &str, file: &str) -> Result<Iso230_2Report, MapFileError> 
             file,
             t.last_line(),
             1,
-            m,
+            m.to_string(),
             "ISO 230-2 approaches every target several times from both sides",
         )
     })

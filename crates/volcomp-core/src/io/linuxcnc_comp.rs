@@ -81,16 +81,7 @@ impl MachineUnits {
     }
 }
 
-/// The positioning error of one axis per direction, in volcomp's sign.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Positioning {
-    /// Commanded positions (mm), strictly increasing.
-    pub positions_mm: Vec<f64>,
-    /// `E_aa` while moving forward (µm).
-    pub forward_um: Vec<f64>,
-    /// `E_aa` while moving in reverse (µm).
-    pub reverse_um: Vec<f64>,
-}
+pub use crate::model::positioning::Positioning;
 
 /// Byte offset of the next blank-separated field after the one at `at`.
 fn next_field(line: &str, at: usize) -> usize {
@@ -248,6 +239,66 @@ pub fn parse(
     Ok(out)
 }
 
+/// A comp file could not be written.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum CompWriteError {
+    /// The table has more points than LinuxCNC holds per joint.
+    #[error("{points} points: LinuxCNC takes at most {MAX_ENTRIES} per joint")]
+    TooManyPoints {
+        /// Points in the table.
+        points: usize,
+    },
+}
+
+/// A comp file could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum CompReadError {
+    /// The file could not be read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What the system said.
+        source: std::io::Error,
+    },
+    /// The content is malformed (located).
+    #[error(transparent)]
+    Format(#[from] MapFileError),
+}
+
+/// Reads the comp file `path` (see [`parse`]).
+pub fn read(
+    path: &std::path::Path,
+    ty: CompFileType,
+    units: MachineUnits,
+) -> Result<Positioning, CompReadError> {
+    let bytes = std::fs::read(path).map_err(|source| CompReadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let file = path.display().to_string();
+    let text = crate::io::table::utf8(&bytes, &file)?;
+    Ok(parse(text, &file, ty, units)?)
+}
+
+/// The axis-table CSV of comp files read as `tables` (positioning errors
+/// only), under a comment that says where they came from.
+pub fn imported_tables_csv(
+    tables: &crate::model::axis_table::AxisTableMap,
+    ty: CompFileType,
+    units: MachineUnits,
+) -> String {
+    format!(
+        "# imported from LinuxCNC comp files (type {}, {}): positioning errors only\n{}",
+        ty.number(),
+        match units {
+            MachineUnits::Mm => "mm",
+            MachineUnits::Inch => "inch",
+        },
+        tables.to_csv()
+    )
+}
+
 /// A number with up to ten decimals and no trailing zeros.
 fn number(v: f64) -> String {
     crate::io::numfmt::fixed(v, 10)
@@ -262,12 +313,15 @@ fn number(v: f64) -> String {
 /// assert_eq!(write(&p, CompFileType::Type1, MachineUnits::Mm).unwrap(), "0 0 -0.003\n100 -0.002 -0.005\n");
 /// assert_eq!(write(&p, CompFileType::Type0, MachineUnits::Mm).unwrap(), "0 0 0.003\n100 100.002 100.005\n");
 /// ```
-pub fn write(p: &Positioning, ty: CompFileType, units: MachineUnits) -> Result<String, String> {
+pub fn write(
+    p: &Positioning,
+    ty: CompFileType,
+    units: MachineUnits,
+) -> Result<String, CompWriteError> {
     if p.positions_mm.len() > MAX_ENTRIES {
-        return Err(format!(
-            "{} points: LinuxCNC takes at most {MAX_ENTRIES} per joint",
-            p.positions_mm.len()
-        ));
+        return Err(CompWriteError::TooManyPoints {
+            points: p.positions_mm.len(),
+        });
     }
     let k = units.mm_per_unit();
     let mut s = String::new();
@@ -431,5 +485,39 @@ mod tests {
             MachineUnits::Inch
         )
         .is_ok());
+    }
+
+    #[test]
+    fn too_many_points_is_a_typed_error() {
+        let n = MAX_ENTRIES + 1;
+        let p = Positioning {
+            positions_mm: (0..n).map(|i| i as f64).collect(),
+            forward_um: vec![0.0; n],
+            reverse_um: vec![0.0; n],
+        };
+        let e = write(&p, CompFileType::Type1, MachineUnits::Mm).unwrap_err();
+        assert_eq!(e, CompWriteError::TooManyPoints { points: 257 });
+        assert_eq!(
+            e.to_string(),
+            "257 points: LinuxCNC takes at most 256 per joint"
+        );
+    }
+
+    #[test]
+    fn read_reads_a_file_and_names_a_missing_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.comp");
+        // Type 1 in inches: trim −0.0001 in at 1 in → e = +2.54 µm at 25.4 mm.
+        std::fs::write(&path, "0 0 0\n1 -0.0001 0\n").unwrap();
+        let p = read(&path, CompFileType::Type1, MachineUnits::Inch).unwrap();
+        assert_eq!(p.positions_mm, vec![0.0, 25.4]);
+        assert!((p.forward_um[1] - 2.54).abs() < 1e-9);
+        let e = read(
+            &dir.path().join("none.comp"),
+            CompFileType::Type1,
+            MachineUnits::Mm,
+        )
+        .unwrap_err();
+        assert!(matches!(e, CompReadError::Io { .. }));
     }
 }

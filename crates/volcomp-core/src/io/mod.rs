@@ -1,6 +1,8 @@
 //! File formats: the readers and writers of every file volcomp takes or
 //! writes live here (the G-code program itself is read by `volcomp-gcode`).
 //!
+//! * [`load_model`]: every model file (axis tables, 21-component, straightness) behind one function.
+//! * [`grid`]: the 3-D grid CSV of a model.
 //! * [`table`]: the one located CSV reader every table file goes through.
 //! * [`model_file`]: model files (TOML + CSV tables of the 21-component model).
 //! * [`linuxcnc_comp`]: LinuxCNC's screw-compensation files, read and written.
@@ -8,9 +10,13 @@
 //! * [`numfmt`]: how computed numbers are written.
 //! * [`output`]: safe output (plans checked before work, atomic files).
 
+pub mod grid;
 pub mod linuxcnc_comp;
+pub mod load;
 pub mod model_file;
 pub mod numfmt;
 pub mod output;
 pub mod provenance;
 pub mod table;
+
+pub use load::{load_model, LoadError, LoadOptions, LoadedModel, ModelKind};

@@ -79,7 +79,8 @@ pub struct AxisTables {
 }
 
 impl AxisTables {
-    fn table(&self, d: Direction) -> &Table {
+    /// The table of direction `d`.
+    pub fn table(&self, d: Direction) -> &Table {
         match d {
             Direction::Forward => &self.forward,
             Direction::Reverse => &self.reverse,

@@ -6,6 +6,8 @@
 
 pub mod axis_table;
 pub mod kinematic;
+pub mod positioning;
+pub mod query;
 pub mod topology;
 
 use crate::error::ModelError;
@@ -167,4 +169,86 @@ pub fn actual_mm(
     components: Components,
 ) -> Result<Vec3, ModelError> {
     Ok(q_mm + model.deviation_um(q_mm, s, components)? * 1e-3)
+}
+
+/// A direction state that could not be read (see [`parse_directions`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("a direction state is forward, reverse or one letter per axis (f/r or +/-) like frf; got `{text}`")]
+pub struct DirectionsError {
+    /// The text as given.
+    pub text: String,
+}
+
+/// Reads a direction state: `forward` (`fwd`, `+`), `reverse` (`rev`, `-`)
+/// for all three axes, or one letter per axis X, Y, Z (`f`/`+` forward,
+/// `r`/`-` reverse), case-insensitive.
+///
+/// ```
+/// use volcomp_core::model::{parse_directions, Direction::{Forward as F, Reverse as R}};
+/// assert_eq!(parse_directions("frf").unwrap(), [F, R, F]);
+/// assert!(parse_directions("fr").is_err());
+/// ```
+pub fn parse_directions(text: &str) -> Result<Directions, DirectionsError> {
+    let lower = text.trim().to_ascii_lowercase();
+    let one = |c: char| match c {
+        'f' | '+' => Some(Direction::Forward),
+        'r' | '-' => Some(Direction::Reverse),
+        _ => None,
+    };
+    match lower.as_str() {
+        "forward" | "fwd" | "+" => Ok([Direction::Forward; 3]),
+        "reverse" | "rev" | "-" => Ok([Direction::Reverse; 3]),
+        _ => {
+            let v: Vec<Option<Direction>> = lower.chars().map(one).collect();
+            match v.as_slice() {
+                [Some(x), Some(y), Some(z)] => Ok([*x, *y, *z]),
+                _ => Err(DirectionsError {
+                    text: text.to_string(),
+                }),
+            }
+        }
+    }
+}
+
+/// A direction state as three signs, X Y Z: `+` forward, `-` reverse.
+///
+/// ```
+/// use volcomp_core::model::{direction_letters, Direction::{Forward as F, Reverse as R}};
+/// assert_eq!(direction_letters([F, R, F]), "+-+");
+/// ```
+pub fn direction_letters(s: Directions) -> String {
+    s.iter()
+        .map(|d| match d {
+            Direction::Forward => '+',
+            Direction::Reverse => '-',
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod direction_tests {
+    use super::*;
+    use Direction::{Forward as F, Reverse as R};
+
+    #[test]
+    fn directions_parse() {
+        assert_eq!(parse_directions("forward").unwrap(), [F, F, F]);
+        assert_eq!(parse_directions(" FWD ").unwrap(), [F, F, F]);
+        assert_eq!(parse_directions("-").unwrap(), [R, R, R]);
+        assert_eq!(parse_directions("rev").unwrap(), [R, R, R]);
+        assert_eq!(parse_directions("frf").unwrap(), [F, R, F]);
+        assert_eq!(parse_directions("+-+").unwrap(), [F, R, F]);
+        assert_eq!(parse_directions("RRF").unwrap(), [R, R, F]);
+        let e = parse_directions("fr").unwrap_err();
+        assert_eq!(e.text, "fr");
+        assert!(parse_directions("frx").is_err());
+        assert!(parse_directions("frfr").is_err());
+    }
+
+    #[test]
+    fn letters_round_trip() {
+        for s in [[F, F, F], [R, F, R], [F, R, R]] {
+            assert_eq!(parse_directions(&direction_letters(s)).unwrap(), s);
+        }
+    }
 }

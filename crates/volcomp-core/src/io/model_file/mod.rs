@@ -29,14 +29,14 @@
 //! given in arc seconds instead (`ea_arcsec` …). Every bad value is reported
 //! with file, row and column.
 
-use crate::model::axis_table::Table;
 use crate::error::MapFileError;
-use crate::io::table::{CsvTable, Header, UnknownColumns};
+use crate::io::numfmt;
+use crate::model::axis_table::Table;
 use crate::model::kinematic::{
     AngleConvention, AxisComponents, ComponentTable, KinematicModel, Kinematics, MeasuringLine,
     Squareness,
 };
-use crate::io::numfmt;
+use crate::model::positioning::Positioning;
 use crate::model::topology::Topology;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -45,6 +45,9 @@ use volcomp_gcode::Vec3;
 
 /// The `model` value that identifies a 21-component model file.
 pub const MODEL_KIND: &str = "kinematic-21";
+
+/// The `format_version` of model files this library reads (optional in the file).
+pub const FORMAT_VERSION: i64 = 1;
 
 /// Micro-radians per arc second.
 pub const URAD_PER_ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0) * 1e6;
@@ -65,318 +68,20 @@ pub enum ModelFileError {
     /// The content is malformed (located).
     #[error(transparent)]
     Format(#[from] MapFileError),
+    /// A model is to be written under a name that does not end in `.toml`.
+    #[error("{path}: a 21-component model is written as a .toml file (its tables go to a .csv beside it)")]
+    NotToml {
+        /// The name given.
+        path: String,
+    },
 }
 
 fn map_err(file: &str, row: usize, column: usize, message: String, help: &str) -> MapFileError {
     MapFileError::new(file, row, column, message, help)
 }
 
-// ---------------------------------------------------------------------------
-// CSV component tables
-
-/// Header of the CSV component table.
-pub const CSV_HEADER: &str = "axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad";
-
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Dir {
-    Forward,
-    Reverse,
-    Both,
-}
-
-/// One parsed row, located.
-#[derive(Debug, Clone)]
-struct Row {
-    axis: usize,
-    dir: Dir,
-    position_mm: f64,
-    linear_um: Vec3,
-    angular_urad: Vec3,
-    file: String,
-    row: usize,
-    position_column: usize,
-}
-
-/// Rows of one or more CSV files, assembled into per-axis tables.
-#[derive(Debug, Default)]
-pub struct TableRows {
-    rows: Vec<Row>,
-    last: Option<(String, usize)>,
-}
-
-const BASE_COLUMNS: [&str; 3] = ["axis", "direction", "position_mm"];
-
-/// Parses the header field `name` into a column slot and a unit factor.
-fn header_slot(name: &str) -> Result<(usize, f64), (String, &'static str)> {
-    let lower = name.to_ascii_lowercase();
-    if let Some(k) = BASE_COLUMNS.iter().position(|c| *c == lower) {
-        return Ok((k, 1.0));
-    }
-    let (stem, unit) = match lower.split_once('_') {
-        Some((s, u)) => (s, Some(u)),
-        None => (lower.as_str(), None),
-    };
-    let linear = ["ex", "ey", "ez"].iter().position(|c| *c == stem);
-    let angular = ["ea", "eb", "ec"].iter().position(|c| *c == stem);
-    match (linear, angular, unit) {
-        (Some(k), _, Some("um")) => Ok((3 + k, 1.0)),
-        (_, Some(k), Some("urad")) => Ok((6 + k, 1.0)),
-        (_, Some(k), Some("arcsec")) => Ok((6 + k, URAD_PER_ARCSEC)),
-        (Some(_), _, None) => Err((
-            format!("column `{name}` has no unit"),
-            "linear errors are in micrometres: write ex_um, ey_um, ez_um",
-        )),
-        (_, Some(_), None) => Err((
-            format!("column `{name}` has no unit"),
-            "angular errors are in microradians or arc seconds: write ea_urad (or ea_arcsec), eb_urad, ec_urad",
-        )),
-        (Some(_), _, Some(_)) => Err((
-            format!("column `{name}`: linear errors must be in µm"),
-            "write ex_um, ey_um, ez_um with values in micrometres",
-        )),
-        (_, Some(_), Some(_)) => Err((
-            format!("column `{name}`: angles must be in µrad or arc seconds"),
-            "write ea_urad, eb_urad, ec_urad (or _arcsec)",
-        )),
-        _ if stem == "position" => Err((
-            format!("column `{name}`: positions must be in mm"),
-            "write position_mm with values in millimetres",
-        )),
-        _ => Err((
-            format!("unknown column `{name}`"),
-            "the header names axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad in any order",
-        )),
-    }
-}
-
-const COLUMN_NAMES: [&str; 9] = [
-    "axis",
-    "direction",
-    "position_mm",
-    "ex_um",
-    "ey_um",
-    "ez_um",
-    "ea_urad",
-    "eb_urad",
-    "ec_urad",
-];
-
-const COLUMN_MEANING: [&str; 9] = [
-    "the axis the row belongs to",
-    "forward, reverse or both",
-    "the axis position",
-    "the error along X: EXX, EXY, EXZ",
-    "the error along Y: EYX, EYY, EYZ",
-    "the error along Z: EZX, EZY, EZZ",
-    "the rotation about X: EAX, EAY, EAZ",
-    "the rotation about Y: EBX, EBY, EBZ",
-    "the rotation about Z: ECX, ECY, ECZ",
-];
-
-impl TableRows {
-    /// Adds the rows of one CSV file; `file` names it in errors.
-    pub fn add_csv(&mut self, text: &str, file: &str) -> Result<(), MapFileError> {
-        let t = CsvTable::parse(
-            text,
-            file,
-            &Header {
-                known: &[],
-                unknown: UnknownColumns::Keep,
-                layout: CSV_HEADER,
-            },
-        )?;
-        let mut cols = [usize::MAX; 9];
-        let mut scale = [1.0; 9];
-        for (c, name) in t.header.iter().enumerate() {
-            let (k, f) = header_slot(name)
-                .map_err(|(message, help)| t.error_at(t.header_line, c, message, help))?;
-            if cols[k] != usize::MAX {
-                return Err(t.error_at(
-                    t.header_line,
-                    c,
-                    format!(
-                        "column `{name}` gives the same component as column {}",
-                        cols[k] + 1
-                    ),
-                    "name each column once",
-                ));
-            }
-            cols[k] = c;
-            scale[k] = f;
-        }
-        if let Some(k) = cols.iter().position(|v| *v == usize::MAX) {
-            let mut e = t.missing(COLUMN_NAMES[k], COLUMN_MEANING[k]);
-            e.help = "the 21-component table needs axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad; write 0 for a component that was not measured".into();
-            return Err(e);
-        }
-        for r in t.records()? {
-            let axis = crate::model::axis_table::axis_field(&t, r, cols[0])?;
-            let dir = match crate::model::axis_table::direction_field(&t, r, cols[1])? {
-                crate::model::axis_table::RowDirection::Forward => Dir::Forward,
-                crate::model::axis_table::RowDirection::Reverse => Dir::Reverse,
-                crate::model::axis_table::RowDirection::Both => Dir::Both,
-            };
-            let mut num = [0.0; 7];
-            for (k, slot) in num.iter_mut().enumerate() {
-                *slot = t.number(r, cols[2 + k])? * scale[2 + k];
-            }
-            self.rows.push(Row {
-                axis,
-                dir,
-                position_mm: num[0],
-                linear_um: Vec3::new(num[1], num[2], num[3]),
-                angular_urad: Vec3::new(num[4], num[5], num[6]),
-                file: file.to_string(),
-                row: r.line,
-                position_column: cols[2] + 1,
-            });
-        }
-        let last_row = t.last_line();
-        self.last = Some((file.to_string(), last_row));
-        Ok(())
-    }
-
-    /// The per-axis tables; every axis needs a `both` table or a forward and
-    /// a reverse one, each with at least two strictly increasing positions.
-    pub fn assemble(self) -> Result<[AxisComponents; 3], MapFileError> {
-        let (last_file, last_row) = self.last.clone().unwrap_or_default();
-        let at_end = |message: String, help: &str| map_err(&last_file, last_row, 1, message, help);
-        let mut by: [[Vec<&Row>; 3]; 3] = Default::default();
-        for r in &self.rows {
-            let d = match r.dir {
-                Dir::Forward => 0,
-                Dir::Reverse => 1,
-                Dir::Both => 2,
-            };
-            by[r.axis][d].push(r);
-        }
-        let build =
-            |rows: &[&Row], a: usize, label: &str| -> Result<ComponentTable, MapFileError> {
-                let name = AXES[a];
-                if rows.len() < 2 {
-                    return Err(at_end(
-                        format!(
-                            "axis {name} has {} point(s) in its {label} table",
-                            rows.len()
-                        ),
-                        "give at least two points per table",
-                    ));
-                }
-                for w in rows.windows(2) {
-                    if w[1].position_mm <= w[0].position_mm {
-                        return Err(map_err(
-                            &w[1].file,
-                            w[1].row,
-                            w[1].position_column,
-                            format!(
-                                "axis {name} {label}: position {} does not increase after {}",
-                                w[1].position_mm, w[0].position_mm
-                            ),
-                            "list each table's positions in strictly increasing order",
-                        ));
-                    }
-                }
-                let table = ComponentTable::new(
-                    rows.iter().map(|r| r.position_mm).collect(),
-                    rows.iter().map(|r| r.linear_um).collect(),
-                    rows.iter().map(|r| r.angular_urad).collect(),
-                );
-                table.ok_or_else(|| {
-                    at_end(
-                        format!("axis {name} {label}: bad table"),
-                        "check the positions",
-                    )
-                })
-            };
-        let mut axes = Vec::with_capacity(3);
-        for (a, d) in by.iter().enumerate() {
-            let name = AXES[a];
-            let comps = format!(
-                "E{name}{name}, E{}{name}, E{}{name}, EA{name}, EB{name}, EC{name}",
-                AXES[(a + 1) % 3],
-                AXES[(a + 2) % 3]
-            );
-            let t = match (d[0].is_empty(), d[1].is_empty(), d[2].is_empty()) {
-                (true, true, false) => AxisComponents::both(build(&d[2], a, "both")?),
-                (false, false, true) => AxisComponents {
-                    forward: build(&d[0], a, "forward")?,
-                    reverse: build(&d[1], a, "reverse")?,
-                },
-                (true, true, true) => {
-                    return Err(at_end(
-                        format!("axis {name} has no rows: the model is missing {comps}"),
-                        "give a `both` table, or forward and reverse tables, for each of X, Y and Z",
-                    ))
-                }
-                _ => {
-                    return Err(at_end(
-                        format!("axis {name} must have either a `both` table or both a forward and a reverse table"),
-                        "a single direction is not enough: the other direction's error would be a guess",
-                    ))
-                }
-            };
-            axes.push(t);
-        }
-        let mut it = axes.into_iter();
-        match (it.next(), it.next(), it.next()) {
-            (Some(x), Some(y), Some(z)) => Ok([x, y, z]),
-            _ => unreachable!("three axes were pushed"),
-        }
-    }
-}
-
-/// Parses one CSV that holds the tables of all three axes.
-///
-/// ```
-/// use volcomp_core::io::model_file::components_from_csv;
-/// let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad\n\
-///            X,both,0,0,0,0,0,0,0\nX,both,100,1,0,0,0,0,5\n\
-///            Y,both,0,0,0,0,0,0,0\nY,both,100,0,2,0,0,0,0\n\
-///            Z,both,0,0,0,0,0,0,0\nZ,both,100,0,0,3,0,0,0\n";
-/// let axes = components_from_csv(csv, "m.csv").unwrap();
-/// assert_eq!(axes[0].forward.angular_urad.errors_um[1].z, 5.0);
-/// ```
-pub fn components_from_csv(text: &str, file: &str) -> Result<[AxisComponents; 3], MapFileError> {
-    let mut rows = TableRows::default();
-    rows.add_csv(text, file)?;
-    rows.assemble()
-}
-
-/// Writes the tables as CSV (positions, µm and µrad to the fixed precision
-/// of [`crate::io::numfmt`]).
-pub fn components_to_csv(axes: &[AxisComponents; 3]) -> String {
-    let mut s = String::from(
-        "# volcomp 21-component tables (ISO 230-1): for the rows of axis X, ex_um is EXX, ey_um EYX,\n\
-         # ez_um EZX, ea_urad EAX, eb_urad EBX, ec_urad ECX; likewise for Y and Z.\n",
-    );
-    s.push_str(CSV_HEADER);
-    s.push('\n');
-    for (a, t) in axes.iter().enumerate() {
-        let dirs: Vec<(&str, &ComponentTable)> = if t.forward == t.reverse {
-            vec![("both", &t.forward)]
-        } else {
-            vec![("forward", &t.forward), ("reverse", &t.reverse)]
-        };
-        for (name, table) in dirs {
-            for (k, p) in table.positions_mm().iter().enumerate() {
-                let l = table.linear_um.errors_um[k];
-                let g = table.angular_urad.errors_um[k];
-                s.push_str(&format!(
-                    "{},{name},{},{},{},{},{},{},{}\n",
-                    AXES[a],
-                    numfmt::mm(*p),
-                    numfmt::um(l.x),
-                    numfmt::um(l.y),
-                    numfmt::um(l.z),
-                    numfmt::urad(g.x),
-                    numfmt::urad(g.y),
-                    numfmt::urad(g.z)
-                ));
-            }
-        }
-    }
-    s
-}
+mod tables;
+pub use tables::{components_from_csv, components_to_csv, TableRows, CSV_HEADER};
 
 // ---------------------------------------------------------------------------
 // TOML description
@@ -408,6 +113,7 @@ struct RawLine {
 #[serde(deny_unknown_fields)]
 struct RawModel {
     model: Option<Spanned<String>>,
+    format_version: Option<Spanned<i64>>,
     description: Option<String>,
     chain: Option<Spanned<String>>,
     tables: Option<Spanned<RawTables>>,
@@ -420,7 +126,7 @@ struct RawModel {
 }
 
 /// 1-based (row, column) of byte `offset` in `text`.
-fn row_col(text: &str, offset: usize) -> (usize, usize) {
+pub(crate) fn row_col(text: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(text.len());
     let before = &text[..offset];
     let row = before.matches('\n').count() + 1;
@@ -470,6 +176,18 @@ pub fn parse_header(text: &str, file: &str) -> Result<ModelHeader, MapFileError>
                 "the file does not say what model it is".into(),
                 &format!("start the file with model = \"{MODEL_KIND}\""),
             ))
+        }
+    }
+    if let Some(v) = &raw.format_version {
+        if *v.get_ref() != FORMAT_VERSION {
+            return Err(at(
+                v.span().start,
+                format!(
+                    "format_version {} is not supported (this volcomp reads {FORMAT_VERSION})",
+                    v.get_ref()
+                ),
+                "write the file again with this volcomp, or leave format_version out",
+            ));
         }
     }
     let Some(chain) = &raw.chain else {
@@ -632,7 +350,7 @@ pub fn parse_header(text: &str, file: &str) -> Result<ModelHeader, MapFileError>
 }
 
 /// Reads a table file named in a model file: `(display name, text)`, or why not.
-pub type TableReader<'a> = dyn FnMut(&str) -> Result<(String, String), String> + 'a;
+pub type TableReader<'a> = dyn FnMut(&str) -> Result<(String, String), std::io::Error> + 'a;
 
 /// Parses a model from its TOML text; `read_table(name)` returns the text
 /// of a table file named in it (or why it cannot), and its display name.
@@ -665,14 +383,18 @@ pub fn read_model(path: &Path) -> Result<KinematicModel, ModelFileError> {
         path: path.display().to_string(),
         message: e.to_string(),
     })?;
+    model_from_text(path, &text)
+}
+
+/// Parses the model file `path` whose text is `text`, reading the tables it
+/// names relative to its directory.
+pub fn model_from_text(path: &Path, text: &str) -> Result<KinematicModel, ModelFileError> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut read = |name: &str| -> Result<(String, String), String> {
+    let mut read = |name: &str| -> Result<(String, String), std::io::Error> {
         let p: PathBuf = dir.join(name);
-        std::fs::read_to_string(&p)
-            .map(|t| (p.display().to_string(), t))
-            .map_err(|e| e.to_string())
+        std::fs::read_to_string(&p).map(|t| (p.display().to_string(), t))
     };
-    Ok(parse_model(&text, &path.display().to_string(), &mut read)?)
+    Ok(parse_model(text, &path.display().to_string(), &mut read)?)
 }
 
 fn toml_string(s: &str) -> String {
@@ -744,6 +466,68 @@ pub fn model_to_toml(model: &KinematicModel, tables: &str, description: Option<&
     s
 }
 
+/// The two files of a model to be written as `toml_path`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelFiles {
+    /// The TOML description (`toml_path` itself).
+    pub toml: String,
+    /// Where the component tables go: beside it, same stem, `.csv`.
+    pub csv_path: PathBuf,
+    /// The component tables.
+    pub csv: String,
+}
+
+/// The TOML description and CSV tables of `model` written as `toml_path`
+/// (which must end in `.toml`); the description names the CSV by its file
+/// name, so the pair can be moved together.
+pub fn model_files(
+    model: &KinematicModel,
+    toml_path: &Path,
+    description: Option<&str>,
+) -> Result<ModelFiles, ModelFileError> {
+    let is_toml = toml_path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if !is_toml {
+        return Err(ModelFileError::NotToml {
+            path: toml_path.display().to_string(),
+        });
+    }
+    let csv_path = toml_path.with_extension("csv");
+    let csv_name = csv_path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    Ok(ModelFiles {
+        toml: model_to_toml(model, &csv_name, description),
+        csv: components_to_csv(&model.axes),
+        csv_path,
+    })
+}
+
+/// Rows of the component table (header [`CSV_HEADER`] included) that hold
+/// only the positioning error `p` of axis `axis` (0 = X), both directions,
+/// under the comment line `# {comment}`.
+pub fn positioning_rows_csv(p: &Positioning, axis: usize, comment: &str) -> String {
+    let mut s = format!("# {comment}\n{CSV_HEADER}\n");
+    for (dir, v) in [("forward", &p.forward_um), ("reverse", &p.reverse_um)] {
+        for (x, e) in p.positions_mm.iter().zip(v.iter()) {
+            let mut lin = [0.0; 3];
+            lin[axis] = *e;
+            s.push_str(&format!(
+                "{},{dir},{},{},{},{},0,0,0\n",
+                AXES[axis],
+                numfmt::mm(*x),
+                numfmt::um(lin[0]),
+                numfmt::um(lin[1]),
+                numfmt::um(lin[2])
+            ));
+        }
+    }
+    s
+}
+
 /// A positioning-only model (straightness, angles and squareness zero) from
 /// positioning tables `E_aa` per axis: what a LinuxCNC comp file or an
 /// ISO 230-2 test gives.
@@ -799,7 +583,10 @@ mod tests {
             if name == "t.csv" {
                 Ok(("t.csv".into(), csv.clone()))
             } else {
-                Err("No such file or directory (os error 2)".into())
+                Err(std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    "No such file or directory (os error 2)",
+                ))
             }
         })
     }
@@ -921,5 +708,33 @@ mod tests {
         );
         assert!(e.message.contains("angle convention"), "{e}");
         assert_eq!((e.row, e.column), (4, 10), "{e}");
+    }
+
+    #[test]
+    fn model_files_need_a_toml_name_and_put_the_csv_beside_it() {
+        let m = crate::example::kinematic::example_model();
+        let f = model_files(&m, Path::new("out/m.TOML"), Some("d")).unwrap();
+        assert_eq!(f.csv_path, Path::new("out/m.csv"));
+        assert!(f.toml.contains("tables = \"m.csv\"\n"));
+        assert!(f.toml.contains("description = \"d\"\n"));
+        assert!(f.csv.lines().any(|l| l == CSV_HEADER));
+        let e = model_files(&m, Path::new("m.csv"), None).unwrap_err();
+        assert!(matches!(e, ModelFileError::NotToml { .. }));
+    }
+
+    #[test]
+    fn positioning_rows_hold_the_axis_own_column() {
+        let p = Positioning {
+            positions_mm: vec![0.0, 50.0],
+            forward_um: vec![1.0, 2.5],
+            reverse_um: vec![-1.0, 0.0],
+        };
+        let s = positioning_rows_csv(&p, 1, "test");
+        assert_eq!(
+            s,
+            format!(
+                "# test\n{CSV_HEADER}\nY,forward,0,0,1,0,0,0,0\nY,forward,50,0,2.5,0,0,0,0\nY,reverse,0,0,-1,0,0,0,0\nY,reverse,50,0,0,0,0,0,0\n"
+            )
+        );
     }
 }

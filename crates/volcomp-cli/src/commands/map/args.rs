@@ -1,0 +1,249 @@
+//! The arguments of `volcomp map` and their turning into library values.
+
+use crate::args::{parse_axis, AxisArg};
+use crate::commands::parse_triple;
+use crate::output::CliError;
+use clap::{Args, Subcommand, ValueEnum};
+use std::path::PathBuf;
+use volcomp_core::io::linuxcnc_comp::{CompFileType, MachineUnits};
+use volcomp_core::model::kinematic::Form;
+use volcomp_gcode::Vec3;
+
+/// Evaluate, convert, plot and import error maps.
+#[derive(Args, Debug)]
+pub struct MapCommand {
+    #[command(subcommand)]
+    pub command: MapSub,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum MapSub {
+    /// The deviation e = actual − commanded (µm) at one axis position, with
+    /// each component and Abbe arm of a 21-component model.
+    Eval(EvalArgs),
+    /// Convert a map: 21-component model → axis tables for a tool, a 3-D
+    /// grid, LinuxCNC comp files, or axis tables → 21-component model.
+    Convert(ConvertArgs),
+    /// Plot every component over its axis (.svg or .png).
+    Plot(PlotArgs),
+    /// Read LinuxCNC comp files (COMP_FILE_TYPE 0 or 1) into a map.
+    ImportLinuxcnc(ImportArgs),
+    /// Evaluate an ISO 230-2 bidirectional positioning test: B, R↑, R↓, R, E, M, A.
+    #[command(name = "iso230-2")]
+    Iso230_2(IsoArgs),
+    /// Write the example 21-component model (TOML + CSV).
+    Example(ExampleArgs),
+}
+
+/// The tool whose tip the map is evaluated at.
+#[derive(Args, Debug, Clone)]
+pub struct ToolArgs {
+    /// Tool length (mm) as G43 applies it: the tip lies this far below the
+    /// spindle's gauge point. Default 0 (the gauge point).
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub tool_length: Option<f64>,
+    /// Tool length offset vector (mm) as G43.1 applies it, for angle heads.
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true,
+        conflicts_with = "tool_length"
+    )]
+    pub tool_offset: Option<String>,
+}
+
+impl ToolArgs {
+    pub(super) fn offset(&self) -> Result<Option<Vec3>, CliError> {
+        match (&self.tool_length, &self.tool_offset) {
+            (Some(l), _) if !l.is_finite() => Err(CliError::Message(format!(
+                "--tool-length must be a length in mm; got {l}"
+            ))),
+            (Some(l), _) => Ok(Some(Vec3::new(0.0, 0.0, *l))),
+            (None, Some(t)) => parse_triple(t, "--tool-offset").map(Some),
+            (None, None) => Ok(None),
+        }
+    }
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FormArg {
+    /// Exact products of homogeneous transformation matrices.
+    Htm,
+    /// The small-angle (first-order) form.
+    FirstOrder,
+}
+
+impl From<FormArg> for Form {
+    fn from(f: FormArg) -> Form {
+        match f {
+            FormArg::Htm => Form::Htm,
+            FormArg::FirstOrder => Form::FirstOrder,
+        }
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct EvalArgs {
+    /// Error map: axis-table CSV (docs/design.md) or 21-component model TOML.
+    pub map: PathBuf,
+    /// Axis position (machine coordinates, mm).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub at: String,
+    #[command(flatten)]
+    pub tool: ToolArgs,
+    /// Direction state: forward, reverse, or one letter per axis (f/r or +/-), e.g. frf.
+    #[arg(long, default_value = "forward", allow_hyphen_values = true)]
+    pub direction: String,
+    /// Evaluation of the 21-component model.
+    #[arg(long, value_enum, default_value_t = FormArg::Htm)]
+    pub form: FormArg,
+    /// Hold the error at a table end outside its range.
+    #[arg(long)]
+    pub clamp: bool,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ConvertTarget {
+    /// Axis-table CSV (docs/design.md) for one tool, exact on the lines through --at.
+    AxisTable,
+    /// A 3-D grid CSV: x_mm,y_mm,z_mm,ex_um,ey_um,ez_um every --step mm.
+    Grid,
+    /// LinuxCNC comp files x.comp, y.comp, z.comp in the directory -o.
+    Linuxcnc,
+    /// A 21-component model (TOML + CSV beside it).
+    Model,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum UnitsArg {
+    Mm,
+    Inch,
+}
+
+impl From<UnitsArg> for MachineUnits {
+    fn from(u: UnitsArg) -> MachineUnits {
+        match u {
+            UnitsArg::Mm => MachineUnits::Mm,
+            UnitsArg::Inch => MachineUnits::Inch,
+        }
+    }
+}
+
+/// The LinuxCNC side of a comp file.
+#[derive(Args, Debug, Clone)]
+pub struct CompArgs {
+    /// COMP_FILE_TYPE: 0 (nominal, actual forward, actual reverse) or
+    /// 1 (nominal, trim forward, trim reverse; trim = nominal − actual).
+    #[arg(long = "type", value_name = "0|1")]
+    pub comp_type: Option<u8>,
+    /// The machine's [TRAJ] LINEAR_UNITS, the unit of every number in the file.
+    #[arg(long, value_enum)]
+    pub units: Option<UnitsArg>,
+}
+
+impl CompArgs {
+    pub(super) fn get(&self) -> Result<(CompFileType, MachineUnits), CliError> {
+        let ty = match self.comp_type {
+            Some(n) => CompFileType::from_number(n).ok_or_else(|| {
+                CliError::Message(format!("--type must be 0 or 1 (COMP_FILE_TYPE); got {n}"))
+            })?,
+            None => return Err(CliError::Message("LinuxCNC comp files need --type 0 or --type 1: type 0 holds actual positions, type 1 the trims nominal − actual; check COMP_FILE_TYPE in the machine's INI file".into())),
+        };
+        let units = self.units.ok_or_else(|| {
+            CliError::Message("LinuxCNC comp files are in machine units: pass --units mm or --units inch as [TRAJ] LINEAR_UNITS says".into())
+        })?;
+        Ok((ty, units.into()))
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct ConvertArgs {
+    /// Error map: axis-table CSV or 21-component model TOML.
+    pub map: PathBuf,
+    /// What to write.
+    #[arg(long, value_enum)]
+    pub to: ConvertTarget,
+    /// Output file (a directory for --to linuxcnc).
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
+    /// Reference axis position (mm) whose three lines the axis tables
+    /// reproduce exactly (default: the model's measuring point); for
+    /// LinuxCNC files, where the positioning error is taken.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub at: Option<String>,
+    #[command(flatten)]
+    pub tool: ToolArgs,
+    /// Grid spacing (mm, default 25); for --to linuxcnc, resample the
+    /// positioning tables at this spacing (LinuxCNC holds 256 points per joint).
+    #[arg(long, value_name = "MM")]
+    pub step: Option<f64>,
+    /// Direction state of the grid (forward, reverse or one letter per axis).
+    #[arg(long, default_value = "forward", allow_hyphen_values = true)]
+    pub direction: String,
+    #[command(flatten)]
+    pub comp: CompArgs,
+    /// Kinematic chain for --to model from axis tables (default w X' Y' b Z t).
+    #[arg(long, value_name = "CHAIN")]
+    pub chain: Option<String>,
+    /// Evaluation of the 21-component model.
+    #[arg(long, value_enum, default_value_t = FormArg::Htm)]
+    pub form: FormArg,
+}
+
+#[derive(Args, Debug)]
+pub struct PlotArgs {
+    /// Error map: axis-table CSV or 21-component model TOML.
+    pub map: PathBuf,
+    /// Output plot (.svg or .png).
+    #[arg(short, long, value_name = "FILE")]
+    pub output: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct ImportArgs {
+    /// Comp file of the X joint.
+    #[arg(long, value_name = "FILE")]
+    pub x: PathBuf,
+    /// Comp file of the Y joint.
+    #[arg(long, value_name = "FILE")]
+    pub y: PathBuf,
+    /// Comp file of the Z joint.
+    #[arg(long, value_name = "FILE")]
+    pub z: PathBuf,
+    #[command(flatten)]
+    pub comp: CompArgs,
+    /// Output: an axis-table .csv or a 21-component model .toml (CSV beside it).
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
+    /// Kinematic chain of the model (.toml output; default w X' Y' b Z t).
+    #[arg(long, value_name = "CHAIN")]
+    pub chain: Option<String>,
+}
+
+#[derive(Args, Debug)]
+pub struct IsoArgs {
+    /// The test: CSV with target_mm, cycle, direction, deviation_um (or actual_mm).
+    pub runs: PathBuf,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+    /// Write the mean deviations x̄↑, x̄↓ as a positioning table: .csv (rows
+    /// of the 21-component table for --axis) or .comp (LinuxCNC, with --type, --units).
+    #[arg(short, long, value_name = "OUT", requires = "axis")]
+    pub output: Option<PathBuf>,
+    /// The axis that was tested (for -o): X, Y or Z.
+    #[arg(long, value_parser = parse_axis)]
+    pub axis: Option<AxisArg>,
+    #[command(flatten)]
+    pub comp: CompArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct ExampleArgs {
+    /// Directory to write example21.toml and example21.csv to.
+    #[arg(short, long, value_name = "DIR", default_value = ".")]
+    pub output: PathBuf,
+}

@@ -1,0 +1,454 @@
+//! `volcomp map`: evaluate, convert, plot and import error maps — the
+//! axis tables (docs/design.md), the 21-component kinematic model (ISO 230-1),
+//! LinuxCNC compensation files and ISO 230-2 positioning tests.
+//!
+//! The formats and the computations are the library's (`volcomp_core::io`,
+//! `volcomp_core::model`); this module turns flags into options, calls it and
+//! prints.
+
+mod args;
+mod eval;
+mod iso;
+
+pub use args::*;
+
+use crate::commands::parse_triple;
+use crate::output::{check, write_atomically, CliError, OutputPlan};
+use crate::plot::{write_charts, Chart, Series};
+use std::io::Write;
+use std::path::Path;
+use volcomp_core::example::kinematic as kinematic_example;
+use volcomp_core::identify::iso230_2;
+use volcomp_core::io::grid::{self, GridError};
+use volcomp_core::io::linuxcnc_comp::{self, Positioning};
+use volcomp_core::io::model_file;
+use volcomp_core::io::{load_model, LoadOptions, LoadedModel};
+use volcomp_core::model::axis_table::AxisTableMap;
+use volcomp_core::model::kinematic::{Form, KinematicModel};
+use volcomp_core::model::query::ComponentSeries;
+use volcomp_core::model::topology::Topology;
+use volcomp_core::model::{parse_directions, Directions, ErrorModel};
+use volcomp_gcode::Vec3;
+
+const AXES: [char; 3] = ['X', 'Y', 'Z'];
+
+/// Loads a map through the library's one model loader (axis-table CSV,
+/// 21-component model TOML, straightness model TOML).
+pub fn load(path: &Path, clamp: bool) -> Result<LoadedModel, CliError> {
+    Ok(load_model(path, &LoadOptions { clamp })?)
+}
+
+/// The maps `volcomp map` works on.
+enum Map {
+    Tables(Box<AxisTableMap>),
+    Kinematic(Box<KinematicModel>),
+}
+
+impl Map {
+    fn model(&self) -> &dyn ErrorModel {
+        match self {
+            Map::Tables(m) => m.as_ref(),
+            Map::Kinematic(m) => m.as_ref(),
+        }
+    }
+}
+
+/// Loads axis tables or a 21-component model; `volcomp map` takes no other kind.
+fn load_map(path: &Path, clamp: bool) -> Result<Map, CliError> {
+    match load(path, clamp)? {
+        LoadedModel::AxisTables(m) => Ok(Map::Tables(m)),
+        LoadedModel::Kinematic(m) => Ok(Map::Kinematic(m)),
+        other => Err(CliError::Message(format!(
+            "{}: `volcomp map` reads axis tables and 21-component models, not a {} model; use it with compensate or simulate",
+            path.display(),
+            other.kind().name()
+        ))),
+    }
+}
+
+pub fn run(cmd: MapCommand) -> Result<(), CliError> {
+    match cmd.command {
+        MapSub::Eval(a) => eval::eval(a),
+        MapSub::Convert(a) => convert(a),
+        MapSub::Plot(a) => plot(a),
+        MapSub::ImportLinuxcnc(a) => import_linuxcnc(a),
+        MapSub::Iso230_2(a) => iso230_2(a),
+        MapSub::Example(a) => example(a),
+    }
+}
+
+/// `--direction`, read by the library.
+fn directions(text: &str) -> Result<Directions, CliError> {
+    parse_directions(text).map_err(|e| {
+        CliError::Message(format!(
+            "--direction expects forward, reverse or one letter per axis (f/r or +/-) like frf; got `{}`",
+            e.text
+        ))
+    })
+}
+
+/// `--chain`, read by the library; the seed chain when not given.
+fn chain(text: Option<&str>) -> Result<Topology, CliError> {
+    match text {
+        Some(c) => c
+            .parse::<Topology>()
+            .map_err(|e| CliError::Message(format!("--chain: {e}"))),
+        None => Ok(Topology::SEED),
+    }
+}
+
+fn positive_step(step: Option<f64>) -> Result<Option<f64>, CliError> {
+    match step {
+        Some(s) if !(s.is_finite() && s > 0.0) => Err(CliError::Message(format!(
+            "--step must be a positive length in mm; got {s}"
+        ))),
+        other => Ok(other),
+    }
+}
+
+/// Writes `text` to `path` atomically, refusing to overwrite `inputs`.
+fn write_text(path: &Path, inputs: &[&Path], text: &str) -> Result<(), CliError> {
+    write_atomically(path, inputs, |w| {
+        w.write_all(text.as_bytes())
+            .map_err(|e| CliError::Io(path.to_path_buf(), e))
+    })
+}
+
+/// The files a model written as `out` (.toml) consists of: it and its
+/// tables beside it (same stem, .csv).
+fn model_outputs(plan: &mut OutputPlan, flag: &str, out: &Path) {
+    plan.output(flag, out);
+    let is_toml = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if is_toml {
+        plan.output(
+            format!("{flag} (its tables beside it)"),
+            out.with_extension("csv"),
+        );
+    }
+}
+
+/// Writes `model` as `out` (TOML) and its tables beside it (same stem, .csv).
+fn write_model(
+    model: &KinematicModel,
+    out: &Path,
+    inputs: &[&Path],
+    description: Option<&str>,
+) -> Result<(), CliError> {
+    let files = model_file::model_files(model, out, description)?;
+    write_text(&files.csv_path, inputs, &files.csv)?;
+    write_text(out, inputs, &files.toml)?;
+    eprintln!(
+        "volcomp: wrote {} and {}",
+        out.display(),
+        files.csv_path.display()
+    );
+    Ok(())
+}
+
+fn convert(a: ConvertArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.map_input("MAP", &a.map);
+    match a.to {
+        ConvertTarget::Linuxcnc => {
+            for axis in AXES {
+                let name = format!("{}.comp", axis.to_ascii_lowercase());
+                plan.output(format!("-o (its {name})"), a.output.join(&name));
+            }
+        }
+        ConvertTarget::Model => model_outputs(&mut plan, "-o", &a.output),
+        _ => {
+            plan.output("-o", &a.output);
+        }
+    }
+    check(&plan)?;
+    let map = load_map(&a.map, false)?;
+    let form: Form = a.form.into();
+    match a.to {
+        ConvertTarget::AxisTable => {
+            let Map::Kinematic(m) = &map else {
+                return Err(CliError::Message(format!(
+                    "{} already is an axis-table map",
+                    a.map.display()
+                )));
+            };
+            let mut m = (**m).clone();
+            m.form = form;
+            let Some(tool) = a.tool.offset()? else {
+                return Err(CliError::Message("axis tables hold the deviation for one tool: pass --tool-length MM (or --tool-offset X,Y,Z), e.g. the length of the tool the program uses".into()));
+            };
+            let reference = match (&a.at, m.shared_measuring().0) {
+                (Some(t), _) => parse_triple(t, "--at")?,
+                (None, Some(p)) => p,
+                (None, None) => return Err(CliError::Message("the model's axes were measured along different lines: pass --at X,Y,Z, the position whose three lines the axis tables should reproduce (e.g. the middle of the part)".into())),
+            };
+            let tables = m.to_axis_tables(reference, tool, form)?;
+            let worst = m.largest_difference_um(tool, &tables)?;
+            write_text(&a.output, &[&a.map], &tables.to_csv())?;
+            eprintln!(
+                "volcomp: wrote {} for tool length offset ({}, {}, {}) mm, exact on the lines through ({}, {}, {}) mm; elsewhere it differs from the model by up to {worst:.3} µm (the Abbe cross terms an axis-table map cannot hold)",
+                a.output.display(), tool.x, tool.y, tool.z, reference.x, reference.y, reference.z
+            );
+            Ok(())
+        }
+        ConvertTarget::Grid => {
+            let step = positive_step(a.step)?.unwrap_or(25.0);
+            let s = directions(&a.direction)?;
+            let tool = a.tool.offset()?.unwrap_or(Vec3::ZERO);
+            let name = a.map.display().to_string();
+            let (text, count) =
+                grid::grid_csv(map.model(), &name, tool, s, step).map_err(|e| match e {
+                    GridError::TooManyPoints { step_mm, points } => CliError::Message(format!(
+                        "a {step_mm} mm grid over this range has {points} points; choose a larger --step"
+                    )),
+                    other => other.into(),
+                })?;
+            write_text(&a.output, &[&a.map], &text)?;
+            eprintln!("volcomp: wrote {} ({count} points)", a.output.display());
+            Ok(())
+        }
+        ConvertTarget::Linuxcnc => convert_linuxcnc(&a, &map, form),
+        ConvertTarget::Model => {
+            let model = match map {
+                Map::Tables(t) => {
+                    KinematicModel::from_axis_tables(t.as_ref(), chain(a.chain.as_deref())?)
+                }
+                Map::Kinematic(m) => *m,
+            };
+            write_model(&model, &a.output, &[&a.map], None)
+        }
+    }
+}
+
+fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliError> {
+    let (ty, units) = a.comp.get()?;
+    let tables: [Positioning; 3] = match map {
+        Map::Tables(t) => [0, 1, 2].map(|k| t.positioning(k)),
+        Map::Kinematic(m) => {
+            let tool = a.tool.offset()?;
+            if a.at.is_none() && tool.is_none() {
+                // The positioning errors as measured, at the measuring line.
+                [0, 1, 2].map(|k| m.positioning_table(k))
+            } else {
+                let (shared_p, shared_t) = m.shared_measuring();
+                let reference =
+                    match (&a.at, shared_p) {
+                        (Some(t), _) => parse_triple(t, "--at")?,
+                        (None, Some(p)) => p,
+                        (None, None) => return Err(CliError::Message(
+                            "pass --at X,Y,Z: the model's axes were measured along different lines"
+                                .into(),
+                        )),
+                    };
+                let tool = match (tool, shared_t) {
+                    (Some(t), _) | (None, Some(t)) => t,
+                    (None, None) => return Err(CliError::Message("pass --tool-length MM".into())),
+                };
+                let t = m.to_axis_tables(reference, tool, form)?;
+                [0, 1, 2].map(|k| t.positioning(k))
+            }
+        }
+    };
+    let tables = match positive_step(a.step)? {
+        Some(step) => tables.map(|p| p.resample(step)),
+        None => tables,
+    };
+    std::fs::create_dir_all(&a.output).map_err(|e| CliError::Io(a.output.clone(), e))?;
+    let mut names = Vec::new();
+    for (k, p) in tables.iter().enumerate() {
+        let text = linuxcnc_comp::write(p, ty, units).map_err(|m| {
+            CliError::Message(format!(
+                "axis {}: {m}; pass --step MM to resample the table (linear interpolation) at a spacing LinuxCNC can hold",
+                AXES[k]
+            ))
+        })?;
+        let path = a
+            .output
+            .join(format!("{}.comp", AXES[k].to_ascii_lowercase()));
+        write_text(&path, &[&a.map], &text)?;
+        names.push(path);
+    }
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    writeln!(out, "# LinuxCNC INI lines (joints 0, 1, 2 = X, Y, Z with trivkins); remove BACKLASH, the comp files hold the reversal").map_err(CliError::Stdout)?;
+    for (k, p) in names.iter().enumerate() {
+        writeln!(
+            out,
+            "[JOINT_{k}]\nCOMP_FILE = {}\nCOMP_FILE_TYPE = {}",
+            p.display(),
+            ty.number()
+        )
+        .map_err(CliError::Stdout)?;
+    }
+    Ok(())
+}
+
+fn series(s: Vec<ComponentSeries>) -> Vec<Series> {
+    s.into_iter()
+        .map(|c| Series::line(c.name, c.points))
+        .collect()
+}
+
+fn plot(a: PlotArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.map_input("MAP", &a.map).output("-o", &a.output);
+    check(&plan)?;
+    let map = load_map(&a.map, false)?;
+    let name = a
+        .map
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| a.map.display().to_string());
+    let mut charts = Vec::new();
+    match &map {
+        Map::Tables(m) => {
+            for (k, axis) in AXES.iter().enumerate() {
+                charts.push(Chart {
+                    title: format!("{name}: errors caused by {axis} (axis tables)"),
+                    x_label: format!("{axis} position (mm)"),
+                    y_label: "error (µm)".into(),
+                    series: series(m.component_series(k)),
+                    ..Chart::default()
+                });
+            }
+        }
+        Map::Kinematic(m) => {
+            let k = &m.kinematics;
+            for (ax, axis) in AXES.iter().enumerate() {
+                let (linear, angular) = m.component_series(ax);
+                let extra = match ax {
+                    0 => format!(" (chain {})", k.topology),
+                    1 => format!(" (squareness S_xy {} µrad)", k.squareness.xy_urad),
+                    _ => format!(
+                        " (squareness S_yz {}, S_zx {} µrad)",
+                        k.squareness.yz_urad, k.squareness.zx_urad
+                    ),
+                };
+                charts.push(Chart {
+                    title: format!("{name}: positioning and straightness of {}{extra}", axis),
+                    x_label: format!("{} position (mm)", axis),
+                    y_label: "error (µm)".into(),
+                    series: series(linear),
+                    ..Chart::default()
+                });
+                charts.push(Chart {
+                    title: format!("{name}: angular errors of {}", axis),
+                    x_label: format!("{} position (mm)", axis),
+                    y_label: "rotation (µrad)".into(),
+                    series: series(angular),
+                    ..Chart::default()
+                });
+            }
+        }
+    }
+    write_charts(&charts, &a.output)?;
+    eprintln!(
+        "volcomp: wrote {} ({} charts)",
+        a.output.display(),
+        charts.len()
+    );
+    Ok(())
+}
+
+fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.input("--x", &a.x)
+        .input("--y", &a.y)
+        .input("--z", &a.z);
+    model_outputs(&mut plan, "-o", &a.output);
+    check(&plan)?;
+    let (ty, units) = a.comp.get()?;
+    let p = [
+        linuxcnc_comp::read(&a.x, ty, units)?,
+        linuxcnc_comp::read(&a.y, ty, units)?,
+        linuxcnc_comp::read(&a.z, ty, units)?,
+    ];
+    let tables = AxisTableMap::from_positioning(&p);
+    let inputs: [&Path; 3] = [&a.x, &a.y, &a.z];
+    let ext = a
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("csv") => {
+            let text = linuxcnc_comp::imported_tables_csv(&tables, ty, units);
+            write_text(&a.output, &inputs, &text)?;
+            eprintln!("volcomp: wrote {}", a.output.display());
+            Ok(())
+        }
+        Some("toml") => {
+            let model = KinematicModel::from_axis_tables(&tables, chain(a.chain.as_deref())?);
+            write_model(
+                &model,
+                &a.output,
+                &inputs,
+                Some("imported from LinuxCNC comp files: positioning errors only"),
+            )
+        }
+        _ => Err(CliError::Message(format!(
+            "{}: write an axis-table .csv or a 21-component .toml",
+            a.output.display()
+        ))),
+    }
+}
+
+fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.input("RUNS", &a.runs)
+        .output_opt("-o", a.output.as_ref());
+    check(&plan)?;
+    let text = std::fs::read_to_string(&a.runs).map_err(|e| CliError::Io(a.runs.clone(), e))?;
+    let r = iso230_2::from_csv(&text, &a.runs.display().to_string())?;
+    if a.json {
+        let stdout = std::io::stdout();
+        let mut out = stdout.lock();
+        writeln!(out, "{}", serde_json::to_string(&r)?).map_err(CliError::Stdout)?;
+    } else {
+        iso::print_iso230_2(&a.runs, &r)?;
+    }
+    if let (Some(path), Some(axis)) = (&a.output, a.axis) {
+        let k = axis.index();
+        let p = r.positioning();
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        let text = match ext.as_deref() {
+            Some("comp") => {
+                let (ty, units) = a.comp.get()?;
+                linuxcnc_comp::write(&p, ty, units)?
+            }
+            Some("csv") => model_file::positioning_rows_csv(
+                &p,
+                k,
+                &format!(
+                    "ISO 230-2 mean unidirectional deviations of {} from {}: positioning only",
+                    AXES[k],
+                    a.runs.display()
+                ),
+            ),
+            _ => return Err(CliError::Message(format!("{}: write the positioning table as .csv (21-component table rows) or .comp (LinuxCNC)", path.display()))),
+        };
+        write_text(path, &[&a.runs], &text)?;
+        eprintln!("volcomp: wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn example(a: ExampleArgs) -> Result<(), CliError> {
+    std::fs::create_dir_all(&a.output).map_err(|e| CliError::Io(a.output.clone(), e))?;
+    let (toml, csv) = kinematic_example::example_files("example21.csv");
+    let csv_path = a.output.join("example21.csv");
+    let toml_path = a.output.join("example21.toml");
+    write_text(&csv_path, &[], &csv)?;
+    write_text(&toml_path, &[], &toml)?;
+    eprintln!(
+        "volcomp: wrote {} and {}",
+        toml_path.display(),
+        csv_path.display()
+    );
+    Ok(())
+}
