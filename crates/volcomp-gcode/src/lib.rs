@@ -19,7 +19,7 @@ pub mod setup;
 
 pub use arc::Arc;
 pub use error::{ErrorClass, GcodeError};
-pub use geom::{Plane, Units, Vec3};
+pub use geom::{Axis, Plane, Units, Vec3};
 pub use interp::{FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource, Warning};
 pub use program::{LineEvent, Walker};
 pub use setup::Setup;
