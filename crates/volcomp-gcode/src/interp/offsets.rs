@@ -44,7 +44,7 @@ impl Interpreter {
                         line,
                         col,
                         format!("G43 uses tool {h}, which the setup has no length for"),
-                        format!("add `{h} = LENGTH` under [tools] in the setup file (--setup)"),
+                        format!("add `{h} = LENGTH` under [tools] in the set-up file (the tool lengths of the set-up, `Setup::tool_lengths_mm`)"),
                     )
                 })?
             };
@@ -173,7 +173,7 @@ impl Interpreter {
             self.warnings.push(Warning {
                 line,
                 column: col + 1,
-                message: format!("{name} goes to the {name} reference point, which the set-up does not give: machine zero (0, 0, 0) is assumed, as LinuxCNC does with an unset {name} point; give it under [reference] in the set-up file (--setup), e.g. {name} = [x, y, z]"),
+                message: format!("{name} goes to the {name} reference point, which the set-up does not give: machine zero (0, 0, 0) is assumed, as LinuxCNC does with an unset {name} point; give it under [reference] in the set-up file (the reference points of the set-up), e.g. {name} = [x, y, z]"),
             });
         }
         let intermediate = self.target(w);
