@@ -155,8 +155,9 @@ impl std::error::Error for Diagnostic {}
 pub struct GcodeError {
     /// Kind of failure.
     pub class: ErrorClass,
-    /// Where it is, what is wrong and what to do.
-    pub diagnostic: Diagnostic,
+    /// Where it is, what is wrong and what to do (boxed, so that a
+    /// `Result<_, GcodeError>` stays two words wide on the success path).
+    pub diagnostic: Box<Diagnostic>,
 }
 
 impl GcodeError {
@@ -170,20 +171,20 @@ impl GcodeError {
     ) -> Self {
         Self {
             class,
-            diagnostic: Diagnostic::new(line, column, message, help),
+            diagnostic: Box::new(Diagnostic::new(line, column, message, help)),
         }
     }
 
     /// Attaches an excerpt of the source line around the error's column
     /// (line ending stripped; see [`excerpt`]).
     pub fn with_source_line(mut self, line: &[u8]) -> Self {
-        self.diagnostic = self.diagnostic.with_source_line(line);
+        *self.diagnostic = std::mem::take(&mut *self.diagnostic).with_source_line(line);
         self
     }
 
     /// Attaches the file name.
     pub fn with_file(mut self, file: impl Into<String>) -> Self {
-        self.diagnostic = self.diagnostic.with_file(file);
+        self.diagnostic.file = Some(file.into());
         self
     }
 }

@@ -7,7 +7,7 @@ use super::words::WordTable;
 use super::{invalid, Interpreter, Motion, MotionKind, MotionSource};
 use crate::arc::{sweep_angle, Arc};
 use crate::error::GcodeError;
-use crate::geom::{Plane, Units, Vec3};
+use crate::geom::{Axis, Plane, Units, Vec3};
 
 /// Largest absolute machine coordinate volcomp accepts (mm): 100 m, beyond
 /// the travel of the largest machine tools (gantry mills reach some tens of
@@ -22,8 +22,8 @@ pub const MAX_COORDINATE_MM: f64 = 100_000.0;
 /// Refuses a point (axis frame, mm) with a coordinate beyond
 /// [`MAX_COORDINATE_MM`] or not finite.
 fn check_reach(line: u64, col: usize, what: &str, p: Vec3) -> Result<(), GcodeError> {
-    for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
-        let v = p[a];
+    for a in Axis::ALL {
+        let (v, letter) = (p[a], a.letter());
         if v.is_nan() || v.abs() > MAX_COORDINATE_MM {
             return Err(invalid(
                 line,
