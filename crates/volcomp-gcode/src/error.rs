@@ -351,6 +351,39 @@ mod tests {
     }
 
     #[test]
+    fn a_table_location_renders_in_the_same_shape() {
+        // Row 12, field 3 of a CSV line: the caret goes under the byte the
+        // caller names (the start of the third field), not under byte 3.
+        let mut shown = String::new();
+        let at = Location {
+            file: "x.csv",
+            line: 12,
+            column: 3,
+            source_line: "100,0.5,abc",
+            caret_byte: 8,
+        };
+        render_located(&mut shown, &at, "`abc` is not a number", "write 1.5").unwrap();
+        assert_eq!(
+            shown,
+            "x.csv:12:3: `abc` is not a number\n   |\n12 | 100,0.5,abc\n   |         ^\n  help: write 1.5"
+        );
+        assert_eq!(
+            at.diagnostic("`abc` is not a number", "write 1.5")
+                .to_string(),
+            shown
+        );
+    }
+
+    #[test]
+    fn a_diagnostic_without_file_excerpt_or_help_is_one_line() {
+        let d = Diagnostic::new(4, 1, "program ends without M2", "");
+        assert_eq!(d.to_string(), "<input>:4:1: program ends without M2");
+        let e = GcodeError::new(ErrorClass::Io, 9, 2, "cannot read", "check it").with_file("a.ngc");
+        assert_eq!((e.line, e.column, e.file.as_deref()), (9, 2, Some("a.ngc")));
+        assert_eq!(e.to_string(), "a.ngc:9:2: cannot read\n  help: check it");
+    }
+
+    #[test]
     fn display_puts_the_caret_under_the_column() {
         let e = GcodeError::new(ErrorClass::Invalid, 7, 5, "bad", "")
             .with_source_line(b"\x1bG1 #1\r\n");
