@@ -1,4 +1,6 @@
-//! Errors that point at the file, line and column, show the line and say what to do.
+//! Errors that point at the file, line and column, show the line and say
+//! what to do: one [`Diagnostic`] shape for every located error, and
+//! [`GcodeError`], the one error type of this crate.
 
 use std::fmt;
 
@@ -14,7 +16,132 @@ pub enum ErrorClass {
     Io,
 }
 
-/// A located error in a G-code program.
+/// One located diagnostic, the one shape in which volcomp shows every
+/// error in an input file (a program, a table, a model or set-up file):
+///
+/// ```text
+/// part.ngc:3:4: F word missing with an inverse-time (G93) feed move
+///   |
+/// 3 | G1 X10
+///   |    ^
+///   help: give F (1 / minutes the move takes) on this line
+/// ```
+///
+/// `file:line:column: message` (the form compilers use, which editors can
+/// jump to), the source line with a caret under the column, and what to do.
+/// [`Diagnostic::render`] (and `Display`, which calls it) is the only code
+/// that draws this shape.
+///
+/// ```
+/// use volcomp_gcode::error::Diagnostic;
+/// let d = Diagnostic::new(2, 4, "bad word", "remove it")
+///     .with_source_line(b"G1 Q1\n")
+///     .with_file("part.ngc");
+/// assert_eq!(
+///     d.to_string(),
+///     "part.ngc:2:4: bad word\n  |\n2 | G1 Q1\n  |    ^\n  help: remove it"
+/// );
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Diagnostic {
+    /// File name as the user gave it, when known (shown as `<input>`
+    /// otherwise).
+    pub file: Option<String>,
+    /// 1-based line number (row of a table).
+    pub line: u64,
+    /// 1-based column: the byte in a program line, the field in a table.
+    pub column: usize,
+    /// An excerpt of the offending line around the column (at most about
+    /// [`EXCERPT_BYTES`] bytes each side, cut with `…`), control characters
+    /// and bytes that are not UTF-8 written as escapes (`\x1b`), so a hostile
+    /// or binary line can neither flood nor drive the terminal. Empty: no
+    /// excerpt is shown.
+    pub source_line: String,
+    /// Characters of `source_line` before the caret (the excerpt is bounded,
+    /// so this is small).
+    pub caret: u16,
+    /// What is wrong.
+    pub message: String,
+    /// What to do about it (empty: no `help:` line).
+    pub help: String,
+}
+
+impl Diagnostic {
+    /// A diagnostic at a 1-based line and column, without file or excerpt.
+    pub fn new(
+        line: u64,
+        column: usize,
+        message: impl Into<String>,
+        help: impl Into<String>,
+    ) -> Self {
+        Self {
+            file: None,
+            line,
+            column,
+            source_line: String::new(),
+            caret: 0,
+            message: message.into(),
+            help: help.into(),
+        }
+    }
+
+    /// Attaches an excerpt of the source line with the caret under the
+    /// diagnostic's column, read as a byte column (line ending stripped; see
+    /// [`excerpt`]).
+    pub fn with_source_line(self, line: &[u8]) -> Self {
+        let n = crate::lexer::content_len(line);
+        let caret_byte = self.column.saturating_sub(1);
+        self.with_source(&line[..n], caret_byte)
+    }
+
+    /// Attaches an excerpt of `line` with the caret under byte `caret_byte`
+    /// (for tables, where the column is a field number, not a byte).
+    pub fn with_source(mut self, line: &[u8], caret_byte: usize) -> Self {
+        let (text, caret) = excerpt(line, caret_byte);
+        self.source_line = text;
+        self.caret = u16::try_from(caret).unwrap_or(u16::MAX);
+        self
+    }
+
+    /// Attaches the file name.
+    pub fn with_file(mut self, file: impl Into<String>) -> Self {
+        self.file = Some(file.into());
+        self
+    }
+
+    /// Draws the diagnostic: `file:line:column: message`, the excerpt with
+    /// a caret (when there is one) and `help: …` (when there is help).
+    pub fn render(&self, f: &mut impl fmt::Write) -> fmt::Result {
+        let file = self.file.as_deref().unwrap_or("<input>");
+        let line = self.line;
+        write!(f, "{file}:{line}:{}: {}", self.column, self.message)?;
+        if !self.source_line.is_empty() {
+            let gutter = line.to_string().len();
+            write!(f, "\n{:gutter$} |\n{line} | {}", "", self.source_line)?;
+            let pad = " ".repeat(usize::from(self.caret));
+            write!(f, "\n{:gutter$} | {pad}^", "")?;
+        }
+        if !self.help.is_empty() {
+            write!(f, "\n  help: {}", self.help)?;
+        }
+        Ok(())
+    }
+}
+
+impl fmt::Display for Diagnostic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.render(f)
+    }
+}
+
+impl std::error::Error for Diagnostic {}
+
+/// The error of every fallible operation of volcomp-gcode that a user's
+/// input can cause: a [`Diagnostic`] (where, what, what to do) and its
+/// [`ErrorClass`].
+///
+/// It dereferences to its diagnostic, so `e.line`, `e.message` and
+/// `e.help` read (and write) the diagnostic's fields.
 ///
 /// ```
 /// use volcomp_gcode::{GcodeError, ErrorClass};
@@ -22,29 +149,15 @@ pub enum ErrorClass {
 ///     .with_source_line(b"G1 X#1")
 ///     .with_file("part.ngc");
 /// assert!(e.to_string().starts_with("part.ngc:3:5: bad word"));
+/// assert_eq!((e.line, e.column), (3, 5));
 /// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct GcodeError {
     /// Kind of failure.
     pub class: ErrorClass,
-    /// File name, when known.
-    pub file: Option<String>,
-    /// 1-based line number.
-    pub line: u64,
-    /// 1-based column (byte) in the line.
-    pub column: usize,
-    /// An excerpt of the offending line around the column (at most about
-    /// [`EXCERPT_BYTES`] bytes, cut with `…`), control characters and bytes
-    /// that are not UTF-8 written as escapes (`\x1b`), so a hostile or binary
-    /// line can neither flood nor drive the terminal.
-    pub source_line: String,
-    /// Characters of `source_line` before the caret (the excerpt is bounded,
-    /// so this is small).
-    pub caret: u16,
-    /// What is wrong.
-    pub message: String,
-    /// What to do about it.
-    pub help: String,
+    /// Where it is, what is wrong and what to do (boxed, so that a
+    /// `Result<_, GcodeError>` stays two words wide on the success path).
+    pub diagnostic: Box<Diagnostic>,
 }
 
 impl GcodeError {
@@ -58,51 +171,48 @@ impl GcodeError {
     ) -> Self {
         Self {
             class,
-            file: None,
-            line,
-            column,
-            source_line: String::new(),
-            caret: 0,
-            message: message.into(),
-            help: help.into(),
+            diagnostic: Box::new(Diagnostic::new(line, column, message, help)),
         }
     }
 
     /// Attaches an excerpt of the source line around the error's column
     /// (line ending stripped; see [`excerpt`]).
     pub fn with_source_line(mut self, line: &[u8]) -> Self {
-        let n = crate::lexer::content_len(line);
-        let (text, caret) = excerpt(&line[..n], self.column.saturating_sub(1));
-        self.source_line = text;
-        self.caret = u16::try_from(caret).unwrap_or(u16::MAX);
+        *self.diagnostic = std::mem::take(&mut *self.diagnostic).with_source_line(line);
         self
     }
 
     /// Attaches the file name.
     pub fn with_file(mut self, file: impl Into<String>) -> Self {
-        self.file = Some(file.into());
+        self.diagnostic.file = Some(file.into());
         self
+    }
+}
+
+impl std::ops::Deref for GcodeError {
+    type Target = Diagnostic;
+    fn deref(&self) -> &Diagnostic {
+        &self.diagnostic
+    }
+}
+
+impl std::ops::DerefMut for GcodeError {
+    fn deref_mut(&mut self) -> &mut Diagnostic {
+        &mut self.diagnostic
     }
 }
 
 impl fmt::Display for GcodeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let file = self.file.as_deref().unwrap_or("<input>");
-        render_excerpt(
-            f,
-            file,
-            self.line,
-            self.column,
-            &self.source_line,
-            usize::from(self.caret),
-            &self.message,
-            &self.help,
-        )
+        self.diagnostic.render(f)
     }
 }
 
-/// Where a located diagnostic points: file, 1-based line and column, and the
-/// source line with the byte offset of the caret in it.
+impl std::error::Error for GcodeError {}
+
+/// Where a located diagnostic points, for callers that hold borrowed text:
+/// file, 1-based line and column, and the source line with the byte offset
+/// of the caret in it. [`render_located`] turns it into a [`Diagnostic`].
 #[derive(Debug, Clone, Copy)]
 pub struct Location<'a> {
     /// File name as the user gave it.
@@ -117,45 +227,27 @@ pub struct Location<'a> {
     pub caret_byte: usize,
 }
 
+impl Location<'_> {
+    /// The diagnostic at this location.
+    pub fn diagnostic(&self, message: &str, help: &str) -> Diagnostic {
+        Diagnostic::new(self.line, self.column, message, help)
+            .with_file(self.file)
+            .with_source(self.source_line.as_bytes(), self.caret_byte)
+    }
+}
+
 /// Renders a located diagnostic the one way volcomp shows every located
-/// error: `file:line:column: message`, the source line with a caret under
-/// the column (bounded and escaped, see [`excerpt`]), and `help: …`.
+/// error ([`Diagnostic::render`]): `file:line:column: message`, the source
+/// line with a caret under the column (bounded and escaped, see
+/// [`excerpt`]), and `help: …`.
 pub fn render_located(
     f: &mut impl fmt::Write,
     at: &Location<'_>,
     message: &str,
     help: &str,
 ) -> fmt::Result {
-    let (text, caret) = excerpt(at.source_line.as_bytes(), at.caret_byte);
-    render_excerpt(f, at.file, at.line, at.column, &text, caret, message, help)
+    at.diagnostic(message, help).render(f)
 }
-
-/// The one shape of a located diagnostic, given an excerpt already bounded
-/// and escaped by [`excerpt`] and the caret's character offset in it.
-#[allow(clippy::too_many_arguments)]
-fn render_excerpt(
-    f: &mut impl fmt::Write,
-    file: &str,
-    line: u64,
-    column: usize,
-    text: &str,
-    caret: usize,
-    message: &str,
-    help: &str,
-) -> fmt::Result {
-    write!(f, "{file}:{line}:{column}: {message}")?;
-    if !text.is_empty() {
-        let gutter = line.to_string().len();
-        write!(f, "\n{:gutter$} |\n{line} | {text}", "")?;
-        write!(f, "\n{:gutter$} | {}^", "", " ".repeat(caret))?;
-    }
-    if !help.is_empty() {
-        write!(f, "\n  help: {help}")?;
-    }
-    Ok(())
-}
-
-impl std::error::Error for GcodeError {}
 
 /// Bytes of a line shown on each side of an error's column at most.
 pub const EXCERPT_BYTES: usize = 60;
@@ -256,6 +348,39 @@ mod tests {
         // The caret sits under the escaped byte: `G1\x07 X` is 8 characters.
         assert_eq!(caret, 8);
         assert!(!text.chars().any(char::is_control));
+    }
+
+    #[test]
+    fn a_table_location_renders_in_the_same_shape() {
+        // Row 12, field 3 of a CSV line: the caret goes under the byte the
+        // caller names (the start of the third field), not under byte 3.
+        let mut shown = String::new();
+        let at = Location {
+            file: "x.csv",
+            line: 12,
+            column: 3,
+            source_line: "100,0.5,abc",
+            caret_byte: 8,
+        };
+        render_located(&mut shown, &at, "`abc` is not a number", "write 1.5").unwrap();
+        assert_eq!(
+            shown,
+            "x.csv:12:3: `abc` is not a number\n   |\n12 | 100,0.5,abc\n   |         ^\n  help: write 1.5"
+        );
+        assert_eq!(
+            at.diagnostic("`abc` is not a number", "write 1.5")
+                .to_string(),
+            shown
+        );
+    }
+
+    #[test]
+    fn a_diagnostic_without_file_excerpt_or_help_is_one_line() {
+        let d = Diagnostic::new(4, 1, "program ends without M2", "");
+        assert_eq!(d.to_string(), "<input>:4:1: program ends without M2");
+        let e = GcodeError::new(ErrorClass::Io, 9, 2, "cannot read", "check it").with_file("a.ngc");
+        assert_eq!((e.line, e.column, e.file.as_deref()), (9, 2, Some("a.ngc")));
+        assert_eq!(e.to_string(), "a.ngc:9:2: cannot read\n  help: check it");
     }
 
     #[test]

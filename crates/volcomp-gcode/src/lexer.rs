@@ -13,6 +13,7 @@
 //! to interpret (`#` parameters, `[ ]` expressions, o-word control flow) are
 //! reported as [`LexErrorKind`]s with their column, never skipped silently.
 
+use crate::error::{ErrorClass, GcodeError};
 use std::ops::Range;
 
 /// One token of a line; all ranges are byte offsets into that line.
@@ -70,6 +71,68 @@ pub struct LexError {
     pub kind: LexErrorKind,
     /// Byte offset in the line (0-based).
     pub column: usize,
+}
+
+impl LexError {
+    /// The [`GcodeError`] this is on 1-based `line` (column made 1-based,
+    /// no file or excerpt yet: [`crate::Walker`] adds them): what is wrong
+    /// and what to do, [`ErrorClass::Unsupported`] for the constructs
+    /// volcomp does not interpret (parameters, expressions, o-words).
+    pub fn at_line(&self, line: u64) -> GcodeError {
+        let (message, help) = lex_message(&self.kind);
+        let class = match self.kind {
+            LexErrorKind::Parameter | LexErrorKind::Expression | LexErrorKind::OWord => {
+                ErrorClass::Unsupported
+            }
+            _ => ErrorClass::Invalid,
+        };
+        GcodeError::new(class, line, self.column + 1, message, help)
+    }
+}
+
+fn lex_message(kind: &LexErrorKind) -> (String, String) {
+    match kind {
+        LexErrorKind::UnclosedComment => {
+            ("comment is not closed".into(), "add the closing `)`".into())
+        }
+        LexErrorKind::NestedComment => (
+            "nested comment".into(),
+            "comments cannot contain `(`".into(),
+        ),
+        LexErrorKind::MissingNumber(c) => (
+            format!("{c} word without a number"),
+            "every letter needs a number, e.g. X10".into(),
+        ),
+        LexErrorKind::Parameter => (
+            "`#` parameters are not interpreted by volcomp".into(),
+            "post the program with numeric values (no variables)".into(),
+        ),
+        LexErrorKind::Expression => (
+            "`[ ]` expressions are not interpreted by volcomp".into(),
+            "post the program with numeric values (no expressions)".into(),
+        ),
+        LexErrorKind::OWord => (
+            "o-word subroutines and control flow are not interpreted by volcomp".into(),
+            "post the program with subroutines and loops expanded".into(),
+        ),
+        LexErrorKind::UnexpectedByte(0) => (
+            "NUL byte in the program: this is a binary file, or text in UTF-16".into(),
+            "save the program as plain text (ASCII or UTF-8)".into(),
+        ),
+        LexErrorKind::UnexpectedByte(b) if !b.is_ascii() => (
+            format!("byte 0x{b:02X} is not ASCII: outside comments G-code is ASCII (the file may be in another encoding, such as Latin-1 or UTF-16)"),
+            "remove the character or put it inside a comment; save the file as ASCII or UTF-8".into(),
+        ),
+        LexErrorKind::UnexpectedByte(b) if b.is_ascii_control() => (
+            format!("control character 0x{b:02X} is not G-code"),
+            "remove it; it may be a sign that the file is damaged or binary".into(),
+        ),
+        LexErrorKind::UnexpectedByte(b) => (
+            format!("unexpected character {:?}", char::from(*b)),
+            "remove it or put it inside a comment".into(),
+        ),
+        LexErrorKind::NumberTooLong => ("number too long".into(), "write at most 40 digits".into()),
+    }
 }
 
 /// What kind of line this is, before its words are interpreted.

@@ -5,6 +5,11 @@
 //! (motions in the axis frame) → consumers. Rewriting goes through
 //! [`edit`]: byte-range edits spliced into the original line, so whatever is
 //! not edited is kept byte for byte.
+//!
+//! It sits on `volcomp-geom` (points and axes, re-exported here as [`Vec3`]
+//! and [`Axis`]) and below the models of `volcomp-core`. Every refusal is a
+//! [`GcodeError`]: a located [`Diagnostic`] (file, line, column, the line
+//! with a caret, what to do) and its [`ErrorClass`].
 #![warn(missing_docs)]
 
 pub mod arc;
@@ -18,8 +23,8 @@ pub mod program;
 pub mod setup;
 
 pub use arc::Arc;
-pub use error::{ErrorClass, GcodeError};
-pub use geom::{Plane, Units, Vec3};
+pub use error::{Diagnostic, ErrorClass, GcodeError};
+pub use geom::{Axis, Plane, Units, Vec3};
 pub use interp::{FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource, Warning};
 pub use program::{LineEvent, Walker};
 pub use setup::Setup;

@@ -5,7 +5,7 @@
 
 use crate::error::{ErrorClass, GcodeError};
 use crate::interp::{InterpOptions, Interpreter, Motion};
-use crate::lexer::{self, LexErrorKind, Lexed, LineKind};
+use crate::lexer::{self, Lexed, LineKind};
 use crate::setup::Setup;
 use std::io::BufRead;
 
@@ -101,15 +101,7 @@ impl<R: BufRead> Walker<R> {
                 LineKind::ProgramNumber => {}
                 LineKind::Block => {
                     if let Err(e) = lexer::lex_block(content, &mut self.lexed) {
-                        let (msg, help) = lex_message(&e.kind);
-                        let class = match e.kind {
-                            LexErrorKind::Parameter
-                            | LexErrorKind::Expression
-                            | LexErrorKind::OWord => ErrorClass::Unsupported,
-                            _ => ErrorClass::Invalid,
-                        };
-                        let err = GcodeError::new(class, self.number, e.column + 1, msg, help);
-                        return Err(self.locate(err));
+                        return Err(self.locate(e.at_line(self.number)));
                     }
                     if let Err(e) = self
                         .interp
@@ -129,50 +121,5 @@ impl<R: BufRead> Walker<R> {
             interp: &self.interp,
             after_end,
         }))
-    }
-}
-
-fn lex_message(kind: &LexErrorKind) -> (String, String) {
-    match kind {
-        LexErrorKind::UnclosedComment => {
-            ("comment is not closed".into(), "add the closing `)`".into())
-        }
-        LexErrorKind::NestedComment => (
-            "nested comment".into(),
-            "comments cannot contain `(`".into(),
-        ),
-        LexErrorKind::MissingNumber(c) => (
-            format!("{c} word without a number"),
-            "every letter needs a number, e.g. X10".into(),
-        ),
-        LexErrorKind::Parameter => (
-            "`#` parameters are not interpreted by volcomp".into(),
-            "post the program with numeric values (no variables)".into(),
-        ),
-        LexErrorKind::Expression => (
-            "`[ ]` expressions are not interpreted by volcomp".into(),
-            "post the program with numeric values (no expressions)".into(),
-        ),
-        LexErrorKind::OWord => (
-            "o-word subroutines and control flow are not interpreted by volcomp".into(),
-            "post the program with subroutines and loops expanded".into(),
-        ),
-        LexErrorKind::UnexpectedByte(0) => (
-            "NUL byte in the program: this is a binary file, or text in UTF-16".into(),
-            "save the program as plain text (ASCII or UTF-8)".into(),
-        ),
-        LexErrorKind::UnexpectedByte(b) if !b.is_ascii() => (
-            format!("byte 0x{b:02X} is not ASCII: outside comments G-code is ASCII (the file may be in another encoding, such as Latin-1 or UTF-16)"),
-            "remove the character or put it inside a comment; save the file as ASCII or UTF-8".into(),
-        ),
-        LexErrorKind::UnexpectedByte(b) if b.is_ascii_control() => (
-            format!("control character 0x{b:02X} is not G-code"),
-            "remove it; it may be a sign that the file is damaged or binary".into(),
-        ),
-        LexErrorKind::UnexpectedByte(b) => (
-            format!("unexpected character {:?}", char::from(*b)),
-            "remove it or put it inside a comment".into(),
-        ),
-        LexErrorKind::NumberTooLong => ("number too long".into(), "write at most 40 digits".into()),
     }
 }

@@ -59,11 +59,11 @@ impl Default for Setup {
     }
 }
 
-/// Why a setup file was refused: a located error (file, line, column, the
-/// line, what to do) for every case, TOML syntax included.
-#[derive(Debug, thiserror::Error)]
-#[error(transparent)]
-pub struct SetupError(pub Box<GcodeError>);
+/// Why a setup file was refused: a [`GcodeError`] located in the set-up
+/// file (file, line, column, the line, what to do) for every case, TOML
+/// syntax included. An alias, kept so that code naming it still compiles:
+/// volcomp-gcode has one error type.
+pub type SetupError = GcodeError;
 
 /// A value with its byte range in the file.
 type Sp<T> = toml::Spanned<T>;
@@ -101,11 +101,9 @@ impl At<'_> {
             .find('\n')
             .map_or(self.text.len(), |i| start + i);
         let column = offset - start + 1;
-        SetupError(Box::new(
-            GcodeError::new(ErrorClass::Invalid, line, column, message, help)
-                .with_source_line(&self.text.as_bytes()[start..end])
-                .with_file(self.file),
-        ))
+        GcodeError::new(ErrorClass::Invalid, line, column, message, help)
+            .with_source_line(&self.text.as_bytes()[start..end])
+            .with_file(self.file)
     }
 
     /// A position of three finite numbers, in mm.
@@ -292,20 +290,20 @@ mod tests {
             "s.toml",
         )
         .unwrap_err();
-        assert_eq!((e.0.line, e.0.column), (3, 7), "{e}");
+        assert_eq!((e.line, e.column), (3, 7), "{e}");
         assert!(e.to_string().contains("G54 has 4 value(s)"), "{e}");
         let e = Setup::from_toml_in("units = \"mm\"\nstart = [1, 2]\n", "s.toml").unwrap_err();
-        assert_eq!((e.0.line, e.0.column), (2, 9), "{e}");
+        assert_eq!((e.line, e.column), (2, 9), "{e}");
         let e = Setup::from_toml_in("units = \"mm\"\n[reference]\nG28 = [0,0,0,0]\n", "s.toml")
             .unwrap_err();
-        assert_eq!(e.0.line, 3, "{e}");
+        assert_eq!(e.line, 3, "{e}");
     }
 
     #[test]
     fn one_tool_given_twice_is_refused() {
         let e = Setup::from_toml_in("units = \"mm\"\n[tools]\n1 = 75\nT1 = 80\n", "s.toml")
             .unwrap_err();
-        assert_eq!(e.0.line, 4, "{e}");
+        assert_eq!(e.line, 4, "{e}");
         assert!(
             e.to_string().contains("both give the length of tool 1"),
             "{e}"
@@ -317,14 +315,14 @@ mod tests {
     fn errors_are_located() {
         let e = Setup::from_toml_in("units = \"mm\"\n[work_offsets]\nG60 = [0,0,0]\n", "s.toml")
             .unwrap_err();
-        assert_eq!((e.0.line, e.0.column), (3, 1), "{e}");
+        assert_eq!((e.line, e.column), (3, 1), "{e}");
         assert!(
             e.to_string().starts_with("s.toml:3:1: unknown work offset"),
             "{e}"
         );
         let e = Setup::from_toml_in("units = \"mm\"\nbogus = 1\n", "s.toml").unwrap_err();
-        assert_eq!(e.0.line, 2, "{e}");
+        assert_eq!(e.line, 2, "{e}");
         let e = Setup::from_toml_in("units = \"cm\"\n", "s.toml").unwrap_err();
-        assert_eq!(e.0.line, 1, "{e}");
+        assert_eq!(e.line, 1, "{e}");
     }
 }

@@ -1,0 +1,477 @@
+//! A modal RS274/NGC interpreter that turns blocks into motions in the axis
+//! frame (machine coordinates, mm).
+//!
+//! It follows LinuxCNC's semantics and order of execution within a block
+//! (feed mode, F, S, T, M6, spindle/coolant, dwell, plane, units, cutter
+//! compensation, tool length, coordinate system, path control, distance
+//! mode, retract mode, G10/G28/G30/G92, motion, stop). The frame relation is
+//! `q = p + work_offset + tool_length_offset + G92` (axis position = program
+//! position + offsets).
+//!
+//! | file | concern |
+//! | --- | --- |
+//! | `mod.rs` | the motions it yields, the modal state, the order of execution within a block |
+//! | `options.rs` | [`InterpOptions`], feed and motion modes |
+//! | `words.rs` | decoding a block: words by letter, G/M codes, modal groups, unused words |
+//! | `motion.rs` | straight moves, arcs, polar end points, feed-rate and reach checks |
+//! | `cycle.rs` | canned cycles G81, G82, G85, G89 |
+//! | `offsets.rs` | tool length offsets, G10, G92, G28/G30 |
+//! | `warnings.rs` | [`Warning`]: what was assumed |
+//!
+//! What it does not interpret faithfully it refuses, naming the column: no
+//! guess is ever made about a construct's meaning.
+
+mod cycle;
+mod motion;
+mod offsets;
+mod options;
+mod warnings;
+mod words;
+
+pub use motion::MAX_COORDINATE_MM;
+pub use options::{FeedMode, InterpOptions};
+pub use warnings::Warning;
+
+use crate::arc::Arc;
+use crate::error::{ErrorClass, GcodeError};
+use crate::geom::{Plane, Units, Vec3};
+use crate::lexer::Lexed;
+use crate::setup::Setup;
+use options::MotionMode;
+use words::WordTable;
+
+/// What a motion is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MotionKind {
+    /// G0.
+    Rapid,
+    /// G1.
+    Feed,
+    /// G2/G3.
+    Arc(Arc),
+}
+
+impl MotionKind {
+    /// `rapid`, `feed`, `arc_cw` or `arc_ccw`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            MotionKind::Rapid => "rapid",
+            MotionKind::Feed => "feed",
+            MotionKind::Arc(a) if a.clockwise() => "arc_cw",
+            MotionKind::Arc(_) => "arc_ccw",
+        }
+    }
+}
+
+/// Where a motion comes from, which decides how compensation treats it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MotionSource {
+    /// An ordinary G0/G1/G2/G3 in the work coordinate system.
+    Program,
+    /// A G53 one-shot move in machine coordinates.
+    Machine,
+    /// A G28/G30 move (intermediate point or reference point).
+    Reference,
+    /// A move expanded from a canned drilling cycle.
+    Cycle,
+}
+
+/// One motion, in the axis frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Motion {
+    /// Rapid, feed or arc.
+    pub kind: MotionKind,
+    /// Where it comes from.
+    pub source: MotionSource,
+    /// Start point (mm, axis frame).
+    pub start: Vec3,
+    /// End point (mm, axis frame).
+    pub end: Vec3,
+    /// 1-based source line.
+    pub line: u64,
+    /// 1-based column of the motion word, or of the first axis word.
+    pub column: usize,
+    /// Feed rate in mm/min (or inverse-time value under G93).
+    pub feed: f64,
+}
+
+/// The interpreter's modal state.
+#[derive(Debug, Clone)]
+pub struct Interpreter {
+    setup: Setup,
+    options: InterpOptions,
+    units: Units,
+    absolute: bool,
+    arc_absolute: bool,
+    plane: Plane,
+    motion_mode: Option<MotionMode>,
+    feed_mode: FeedMode,
+    feed: f64,
+    /// Last S word (rev/min); G95 feed moves need it non-zero.
+    spindle_rpm: f64,
+    /// The plane before the current block's own G17/G18/G19: LinuxCNC checks
+    /// polar words against it (`enhance_block` runs before the block).
+    plane_before_block: Plane,
+    work: usize,
+    work_offsets: [Vec3; 9],
+    g92: Vec3,
+    g92_saved: Vec3,
+    tlo: Vec3,
+    loaded_tool: u32,
+    next_tool: u32,
+    position: Vec3,
+    retract_to_r: bool,
+    /// Sticky R word of the canned cycle (program units, as written).
+    cycle_r: Option<f64>,
+    /// Sticky Z word of the canned cycle (program units, as written).
+    cycle_z: Option<f64>,
+    /// Z (axis frame) when the current run of cycle blocks began (`cycle_il`).
+    cycle_start_z: Option<f64>,
+    /// Sticky dwell P of G82/G89 (seconds).
+    cycle_p: Option<f64>,
+    finished: bool,
+    percent_lines: u32,
+    /// Whether the program has said G20 or G21.
+    units_given: bool,
+    /// Assumptions made so far, in program order.
+    warnings: Vec<Warning>,
+    warned_units: bool,
+    warned_reference: [bool; 2],
+    /// The current block's words; `None` only while the block runs.
+    words: Option<Box<WordTable>>,
+}
+
+fn invalid(line: u64, col: usize, msg: impl Into<String>, help: impl Into<String>) -> GcodeError {
+    GcodeError::new(ErrorClass::Invalid, line, col + 1, msg, help)
+}
+
+fn unsupported(
+    line: u64,
+    col: usize,
+    msg: impl Into<String>,
+    help: impl Into<String>,
+) -> GcodeError {
+    GcodeError::new(ErrorClass::Unsupported, line, col + 1, msg, help)
+}
+
+impl Interpreter {
+    /// A fresh interpreter in LinuxCNC's start state (G17 G21 G90 G91.1 G94
+    /// G54 G49, no motion mode) with the machine at `setup.start_mm`.
+    pub fn new(setup: Setup, options: InterpOptions) -> Self {
+        let work_offsets = setup.work_offsets_mm;
+        let position = setup.start_mm;
+        Self {
+            setup,
+            options,
+            units: Units::Mm,
+            absolute: true,
+            arc_absolute: options.absolute_arc_centers,
+            plane: Plane::Xy,
+            motion_mode: None,
+            feed_mode: FeedMode::PerMinute,
+            feed: 0.0,
+            spindle_rpm: 0.0,
+            plane_before_block: Plane::Xy,
+            work: 0,
+            work_offsets,
+            g92: Vec3::ZERO,
+            g92_saved: Vec3::ZERO,
+            tlo: Vec3::ZERO,
+            loaded_tool: 0,
+            next_tool: 0,
+            position,
+            retract_to_r: true,
+            cycle_r: None,
+            cycle_z: None,
+            cycle_start_z: None,
+            cycle_p: None,
+            finished: false,
+            percent_lines: 0,
+            units_given: false,
+            warnings: Vec::new(),
+            warned_units: false,
+            warned_reference: [false; 2],
+            words: Some(Box::default()),
+        }
+    }
+
+    /// The current commanded position (mm, axis frame).
+    pub fn position(&self) -> Vec3 {
+        self.position
+    }
+
+    /// `q − p`: what is added to a program position (in mm) to get the axis
+    /// position, i.e. work offset + G92 + tool length offset.
+    pub fn frame_offset_mm(&self) -> Vec3 {
+        self.work_offsets[self.work] + self.g92 + self.tlo
+    }
+
+    /// The tool length offset in effect (G43 `(0, 0, L)`, G43.1 any vector,
+    /// zero after G49), in mm: the part of [`Interpreter::frame_offset_mm`]
+    /// that comes from the tool.
+    pub fn tool_length_offset_mm(&self) -> Vec3 {
+        self.tlo
+    }
+
+    /// Program units in effect.
+    pub fn units(&self) -> Units {
+        self.units
+    }
+
+    /// Whether G90 (absolute) is in effect.
+    pub fn absolute(&self) -> bool {
+        self.absolute
+    }
+
+    /// The canned cycle in effect (81, 82, 85 or 89) and, for G82/G89, the
+    /// dwell at the bottom in seconds.
+    pub fn canned_cycle(&self) -> Option<(u16, Option<f64>)> {
+        match self.motion_mode {
+            Some(MotionMode::Cycle(code)) => {
+                let dwell = matches!(code, 820 | 890).then_some(self.cycle_p).flatten();
+                Some((code / 10, dwell))
+            }
+            _ => None,
+        }
+    }
+
+    /// Feed mode in effect.
+    pub fn feed_mode(&self) -> FeedMode {
+        self.feed_mode
+    }
+
+    /// Whether the program has ended (M2, M30 or the closing `%`); later
+    /// lines are not executed, as on a controller.
+    pub fn finished(&self) -> bool {
+        self.finished
+    }
+
+    /// What volcomp assumed because the program did not say it (at most one
+    /// warning of each kind per program).
+    pub fn warnings(&self) -> &[Warning] {
+        &self.warnings
+    }
+
+    /// Notes a `%` line: the second one ends the program.
+    pub fn percent_line(&mut self) {
+        self.percent_lines += 1;
+        if self.percent_lines >= 2 {
+            self.finished = true;
+        }
+    }
+
+    /// Executes one lexed block, appending its motions to `out`.
+    pub fn execute(
+        &mut self,
+        line: u64,
+        lexed: &Lexed,
+        out: &mut Vec<Motion>,
+    ) -> Result<(), GcodeError> {
+        if self.finished {
+            return Ok(());
+        }
+        self.collect_words(line, lexed)?;
+        let before = out.len();
+        self.run_block(line, out)?;
+        if out.len() > before && !self.units_given && !self.warned_units {
+            self.warned_units = true;
+            self.warnings.push(Warning {
+                line,
+                column: out[before].column,
+                message: "the program moves before it selects its units (no G20 or G21 yet): millimetres (G21) are assumed, LinuxCNC's usual start-up state; if the program is in inches, add G20 at its start".into(),
+            });
+        }
+        Ok(())
+    }
+
+    fn to_mm(&self, v: f64) -> f64 {
+        v * self.units.mm_per_unit()
+    }
+
+    fn run_block(&mut self, line: u64, out: &mut Vec<Motion>) -> Result<(), GcodeError> {
+        // The table is moved out and back so its buffers are reused, not cloned.
+        // Taken out (no allocation) so the block can be read while the
+        // interpreter changes, and put back for the next line to reuse.
+        let w = self.words.take().unwrap_or_default();
+        let result = self.run_words(line, &w, out);
+        self.words = Some(w);
+        result
+    }
+
+    fn run_words(
+        &mut self,
+        line: u64,
+        w: &WordTable,
+        out: &mut Vec<Motion>,
+    ) -> Result<(), GcodeError> {
+        self.plane_before_block = self.plane;
+        // 1-3: feed mode, feed rate.
+        if w.has_g(930) {
+            self.feed_mode = FeedMode::InverseTime;
+        } else if w.has_g(940) {
+            self.feed_mode = FeedMode::PerMinute;
+        } else if w.has_g(950) {
+            self.feed_mode = FeedMode::PerRevolution;
+        }
+        if let Some(f) = w.get(b'F') {
+            if f < 0.0 {
+                return Err(invalid(
+                    line,
+                    w.col(b'F').unwrap_or(0),
+                    "negative feed rate",
+                    "F must be positive",
+                ));
+            }
+            self.feed = f;
+        }
+        if let Some(s) = w.get(b'S') {
+            if s < 0.0 {
+                return Err(invalid(
+                    line,
+                    w.col(b'S').unwrap_or(0),
+                    "negative spindle speed",
+                    "S must be zero or positive",
+                ));
+            }
+            self.spindle_rpm = s;
+        }
+        // Checks of the whole block before anything changes state: words
+        // nothing uses, feed moves without a feed rate (G93 and F are set).
+        self.check_word_use(line, w)?;
+        let motion_col = self
+            .motion_word_col(w)
+            .or_else(|| {
+                [b'X', b'Y', b'Z', b'@', b'^']
+                    .into_iter()
+                    .find_map(|l| w.col(l))
+            })
+            .unwrap_or(0);
+        self.check_feed(line, w, motion_col)?;
+        // 5-6: tool select and change.
+        if let Some(t) = w.get(b'T') {
+            if t < 0.0 || t.fract() != 0.0 {
+                return Err(invalid(
+                    line,
+                    w.col(b'T').unwrap_or(0),
+                    "T must be a non-negative whole number",
+                    "fix the tool number",
+                ));
+            }
+            self.next_tool = t as u32;
+        }
+        if w.has_m(60) {
+            self.loaded_tool = self.next_tool;
+        }
+        if w.has_m(610) {
+            let q = w
+                .get(b'Q')
+                .ok_or_else(|| invalid(line, 0, "M61 needs a Q word", "write M61 Qn"))?;
+            self.loaded_tool = q.max(0.0) as u32;
+        }
+        // 10: dwell (passed through).
+        if w.has_g(40) && w.get(b'P').is_none() {
+            return Err(invalid(
+                line,
+                w.g_col(40).unwrap_or(0),
+                "G4 dwell without P",
+                "write G4 Pseconds",
+            ));
+        }
+        // 11-12: plane, units.
+        if w.has_g(170) {
+            self.plane = Plane::Xy;
+        } else if w.has_g(180) {
+            self.plane = Plane::Zx;
+        } else if w.has_g(190) {
+            self.plane = Plane::Yz;
+        }
+        if w.has_g(200) {
+            self.units = Units::Inch;
+            self.units_given = true;
+        } else if w.has_g(210) {
+            self.units = Units::Mm;
+            self.units_given = true;
+        }
+        // 14: tool length offset.
+        self.tool_length_offset(line, w)?;
+        // 15: coordinate system.
+        for (i, code) in [540, 550, 560, 570, 580, 590, 591, 592, 593]
+            .into_iter()
+            .enumerate()
+        {
+            if w.has_g(code) {
+                self.work = i;
+            }
+        }
+        // 17: distance modes; 18: retract mode.
+        if let Some(on) = w.switch(900, 910) {
+            self.absolute = on;
+        }
+        if let Some(on) = w.switch(901, 911) {
+            self.arc_absolute = on;
+        }
+        if let Some(on) = w.switch(990, 980) {
+            self.retract_to_r = on;
+        }
+        // Motion mode changes.
+        if w.has_g(800) {
+            self.motion_mode = None;
+        }
+        for (code, mode) in [
+            (0u16, MotionMode::Rapid),
+            (10, MotionMode::Feed),
+            (20, MotionMode::Cw),
+            (30, MotionMode::Ccw),
+        ] {
+            if w.has_g(code) {
+                self.motion_mode = Some(mode);
+            }
+        }
+        let mode_before = self.motion_mode;
+        for code in [810u16, 820, 850, 890] {
+            if w.has_g(code) {
+                self.motion_mode = Some(MotionMode::Cycle(code));
+            }
+        }
+        if !matches!(self.motion_mode, Some(MotionMode::Cycle(_))) {
+            self.cycle_start_z = None;
+        }
+        let new_cycle = self.motion_mode != mode_before;
+        // 19: non-modal codes that use axis words.
+        let axis_user = [100u16, 280, 300, 920, 431]
+            .into_iter()
+            .find(|c| w.has_g(*c));
+        if w.has_g(100) {
+            self.g10(line, w)?;
+        } else if w.has_g(280) || w.has_g(300) {
+            self.home(line, w, w.has_g(280), out)?;
+        } else if w.has_g(281) {
+            self.setup.g28_mm = self.position;
+            self.setup.g28_given = true;
+        } else if w.has_g(301) {
+            self.setup.g30_mm = self.position;
+            self.setup.g30_given = true;
+        } else if [920, 921, 922, 923].into_iter().any(|c| w.has_g(c)) {
+            self.g92(line, w)?;
+        }
+        // 20: motion.
+        if axis_user.is_some() && w.has_polar() {
+            return Err(invalid(
+                line,
+                w.polar_col().unwrap_or(0),
+                "polar coordinates (@, ^) can only be used for motion (not with G10, G28, G30 or G92); LinuxCNC refuses them too",
+                "give X/Y words instead",
+            ));
+        }
+        if axis_user.is_none()
+            && (w.has_axis() || w.has_polar() || self.motion_word_col(w).is_some())
+        {
+            self.motion(line, w, new_cycle, out)?;
+        }
+        // 21: stop.
+        if w.has_m(20) || w.has_m(300) {
+            self.finished = true;
+        }
+        Ok(())
+    }
+}

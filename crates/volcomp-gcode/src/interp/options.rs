@@ -1,0 +1,43 @@
+//! What the caller chooses ([`InterpOptions`]) and the modal modes a
+//! program switches between (feed mode, motion mode).
+
+/// Options that change interpretation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InterpOptions {
+    /// Accept `K0` on G17 arcs (FreeCAD writes it; LinuxCNC refuses it).
+    /// A non-zero K on a G17 arc is refused either way.
+    pub accept_k0_on_xy_arcs: bool,
+    /// Interpret arc centres as absolute from the start, as if G90.1 began
+    /// the program.
+    pub absolute_arc_centers: bool,
+}
+
+impl Default for InterpOptions {
+    fn default() -> Self {
+        Self {
+            accept_k0_on_xy_arcs: true,
+            absolute_arc_centers: false,
+        }
+    }
+}
+
+/// Feed-rate mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FeedMode {
+    /// G93: F is the inverse of the block's duration in minutes.
+    InverseTime,
+    /// G94: units per minute.
+    PerMinute,
+    /// G95: units per revolution.
+    PerRevolution,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum MotionMode {
+    Rapid,
+    Feed,
+    Cw,
+    Ccw,
+    /// Canned cycle: G81, G82, G85 or G89 (code × 10).
+    Cycle(u16),
+}
