@@ -146,7 +146,7 @@ fn compensate_accepts_the_example_model_file() {
 }
 
 fn positioning(m: &KinematicModel, a: usize) -> Positioning {
-    let (p, f, r) = m.positioning(a);
+    let (p, f, r) = m.positioning(volcomp_geom::Axis::ALL[a]);
     Positioning {
         positions_mm: p,
         forward_um: f,

@@ -2,6 +2,7 @@
 //! controller's pitch compensation holds (LinuxCNC comp files, ISO 230-2
 //! mean deviations), and their conversions to and from the models.
 
+use volcomp_geom::Axis;
 use crate::model::axis_table::{AxisTableMap, AxisTables, Table};
 use crate::model::kinematic::KinematicModel;
 use volcomp_gcode::Vec3;
@@ -65,7 +66,8 @@ impl AxisTableMap {
     /// `E_aa` of axis `a` at the union of its forward and reverse positions
     /// (each table held at its end value outside its range, as a
     /// controller's table would).
-    pub fn positioning(&self, a: usize) -> Positioning {
+    pub fn positioning(&self, axis: Axis) -> Positioning {
+        let a = axis.index();
         let mut positions: Vec<f64> = self.axes[a]
             .forward
             .positions_mm
@@ -115,8 +117,8 @@ impl AxisTableMap {
 impl KinematicModel {
     /// The positioning errors `E_aa` of axis `a` as tabulated: see
     /// [`KinematicModel::positioning`].
-    pub fn positioning_table(&self, a: usize) -> Positioning {
-        let (positions_mm, forward_um, reverse_um) = self.positioning(a);
+    pub fn positioning_table(&self, axis: Axis) -> Positioning {
+        let (positions_mm, forward_um, reverse_um) = self.positioning(axis);
         Positioning {
             positions_mm,
             forward_um,
@@ -183,7 +185,7 @@ mod tests {
             clamp: false,
         };
         map.axes[0].reverse = table(&[5.0, 20.0], &[2.0, 5.0], 0);
-        let p = map.positioning(0);
+        let p = map.positioning(Axis::X);
         assert_eq!(p.positions_mm, vec![0.0, 5.0, 10.0, 20.0]);
         // Forward 0→1 over 0…10, held at 1 beyond.
         assert_eq!(p.forward_um, vec![0.0, 0.5, 1.0, 1.0]);
@@ -203,6 +205,6 @@ mod tests {
         assert_eq!(m.axes[1].forward.errors_um[1], Vec3::new(0.0, 3.0, 0.0));
         assert_eq!(m.axes[2].reverse.errors_um[0], Vec3::new(0.0, 0.0, 1.0));
         // And back: the positioning of the tables is what went in.
-        assert_eq!(m.positioning(1), p(3.0));
+        assert_eq!(m.positioning(Axis::Y), p(3.0));
     }
 }

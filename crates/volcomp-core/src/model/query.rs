@@ -2,6 +2,7 @@
 //! the component values and Abbe arms of the 21-component model at a
 //! point, and each component as a series over its axis (for plots).
 
+use volcomp_geom::Axis;
 use crate::error::ModelError;
 use crate::model::axis_table::{AxisTableMap, Table};
 use crate::model::kinematic::{angular_name, linear_name, ComponentValues, Form, KinematicModel};
@@ -138,7 +139,8 @@ fn column(t: &Table, d: usize) -> Vec<f64> {
 impl AxisTableMap {
     /// The series of axis `a`'s table: the errors along X, Y, Z it causes
     /// (named E_XA, E_YA, E_ZA), per direction where they differ.
-    pub fn component_series(&self, a: usize) -> Vec<ComponentSeries> {
+    pub fn component_series(&self, axis: Axis) -> Vec<ComponentSeries> {
+        let a = axis.index();
         let t = &self.axes[a];
         (0..3)
             .flat_map(|d| {
@@ -155,7 +157,8 @@ impl AxisTableMap {
 impl KinematicModel {
     /// The series of axis `a`: its positioning and straightness errors (µm),
     /// then its angular errors (µrad), per direction where they differ.
-    pub fn component_series(&self, a: usize) -> (Vec<ComponentSeries>, Vec<ComponentSeries>) {
+    pub fn component_series(&self, axis: Axis) -> (Vec<ComponentSeries>, Vec<ComponentSeries>) {
+        let a = axis.index();
         let t = &self.axes[a];
         let mut linear = Vec::new();
         let mut angular = Vec::new();
@@ -233,12 +236,12 @@ mod tests {
     #[test]
     fn series_merge_equal_directions() {
         let m = map(false);
-        let x = m.component_series(0);
+        let x = m.component_series(Axis::X);
         // E_XX differs by direction (two series); E_YX and E_ZX agree (one each).
         let names: Vec<&str> = x.iter().map(|s| s.name.as_str()).collect();
         assert_eq!(names, ["EXX forward", "EXX reverse", "EYX", "EZX"]);
         assert_eq!(x[1].points, vec![(0.0, 0.0), (10.0, 4.0)]);
-        let y = m.component_series(1);
+        let y = m.component_series(Axis::Y);
         assert_eq!(y.len(), 3);
         assert_eq!(y[2].points, vec![(0.0, 0.0), (10.0, 1.0)]);
     }
@@ -261,7 +264,7 @@ mod tests {
         let sum =
             r.axis_contributions_um[0] + r.axis_contributions_um[1] + r.axis_contributions_um[2];
         assert!((sum - want).norm() < 1e-12);
-        let (lin, ang) = km.component_series(2);
+        let (lin, ang) = km.component_series(Axis::Z);
         assert_eq!(lin.len(), 3);
         assert!(ang.iter().all(|s| s.points.iter().all(|p| p.1 == 0.0)));
     }

@@ -12,6 +12,7 @@ mod iso;
 
 pub use args::*;
 
+use volcomp_geom::Axis;
 use crate::commands::parse_triple;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
@@ -225,12 +226,12 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
 fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliError> {
     let (ty, units) = a.comp.get()?;
     let tables: [Positioning; 3] = match map {
-        Map::Tables(t) => [0, 1, 2].map(|k| t.positioning(k)),
+        Map::Tables(t) => Axis::ALL.map(|k| t.positioning(k)),
         Map::Kinematic(m) => {
             let tool = a.tool.offset()?;
             if a.at.is_none() && tool.is_none() {
                 // The positioning errors as measured, at the measuring line.
-                [0, 1, 2].map(|k| m.positioning_table(k))
+                Axis::ALL.map(|k| m.positioning_table(k))
             } else {
                 let (shared_p, shared_t) = m.shared_measuring();
                 let reference =
@@ -247,7 +248,7 @@ fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliErr
                     (None, None) => return Err(CliError::Message("pass --tool-length MM".into())),
                 };
                 let t = m.to_axis_tables(reference, tool, form)?;
-                [0, 1, 2].map(|k| t.positioning(k))
+                Axis::ALL.map(|k| t.positioning(k))
             }
         }
     };
@@ -309,7 +310,7 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
                     title: format!("{name}: errors caused by {axis} (axis tables)"),
                     x_label: format!("{axis} position (mm)"),
                     y_label: "error (µm)".into(),
-                    series: series(m.component_series(k)),
+                    series: series(m.component_series(Axis::ALL[k])),
                     ..Chart::default()
                 });
             }
@@ -317,7 +318,7 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
         Map::Kinematic(m) => {
             let k = &m.kinematics;
             for (ax, axis) in AXES.iter().enumerate() {
-                let (linear, angular) = m.component_series(ax);
+                let (linear, angular) = m.component_series(Axis::ALL[ax]);
                 let extra = match ax {
                     0 => format!(" (chain {})", k.topology),
                     1 => format!(" (squareness S_xy {} µrad)", k.squareness.xy_urad),
@@ -423,7 +424,7 @@ fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
             }
             Some("csv") => model_file::positioning_rows_csv(
                 &p,
-                k,
+                Axis::ALL[k],
                 &format!(
                     "ISO 230-2 mean unidirectional deviations of {} from {}: positioning only",
                     AXES[k],

@@ -29,6 +29,7 @@
 //! given in arc seconds instead (`ea_arcsec` …). Every bad value is reported
 //! with file, row and column.
 
+use volcomp_geom::Axis;
 use crate::error::MapFileError;
 use crate::io::numfmt;
 use crate::model::axis_table::Table;
@@ -509,7 +510,8 @@ pub fn model_files(
 /// Rows of the component table (header [`CSV_HEADER`] included) that hold
 /// only the positioning error `p` of axis `axis` (0 = X), both directions,
 /// under the comment line `# {comment}`.
-pub fn positioning_rows_csv(p: &Positioning, axis: usize, comment: &str) -> String {
+pub fn positioning_rows_csv(p: &Positioning, axis: Axis, comment: &str) -> String {
+    let axis = axis.index();
     let mut s = format!("# {comment}\n{CSV_HEADER}\n");
     for (dir, v) in [("forward", &p.forward_um), ("reverse", &p.reverse_um)] {
         for (x, e) in p.positions_mm.iter().zip(v.iter()) {
@@ -729,7 +731,7 @@ mod tests {
             forward_um: vec![1.0, 2.5],
             reverse_um: vec![-1.0, 0.0],
         };
-        let s = positioning_rows_csv(&p, 1, "test");
+        let s = positioning_rows_csv(&p, Axis::Y, "test");
         assert_eq!(
             s,
             format!(

@@ -1,6 +1,7 @@
 //! Conversions between the 21-component model and tables: axis tables for
 //! one tool, positioning tables, and a model from axis tables.
 
+use volcomp_geom::Axis;
 use super::{AxisComponents, ComponentTable, Form, KinematicModel, Kinematics};
 use crate::error::ModelError;
 use crate::model::axis_table::{AxisTableMap, AxisTables, Table};
@@ -76,8 +77,9 @@ impl KinematicModel {
     /// The positioning errors `E_aa` of axis `a` as tabulated (µm), forward
     /// and reverse at the union of both tables' positions (each table held
     /// at its end value outside its range, as a controller's table would).
-    pub fn positioning(&self, a: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-        let positions = self.positions_mm(a);
+    pub fn positioning(&self, axis: Axis) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let a = axis.index();
+        let positions = self.positions_mm(axis);
         let along = |t: &ComponentTable| -> Vec<f64> {
             let [lo, hi] = t.range();
             positions
@@ -118,7 +120,8 @@ impl KinematicModel {
     }
 
     /// The union of the table positions of axis `a` (both directions).
-    pub fn positions_mm(&self, a: usize) -> Vec<f64> {
+    pub fn positions_mm(&self, axis: Axis) -> Vec<f64> {
+        let a = axis.index();
         let mut p: Vec<f64> = self.axes[a]
             .forward
             .positions_mm()
