@@ -16,3 +16,9 @@ pub mod model;
 pub mod rng;
 pub mod simulate;
 pub mod surface;
+
+pub use compensate::{CompensateOptions, CompensateSummary, Compensator, MachineSetup, Segmentation};
+pub use error::{Error, ErrorKind};
+pub use model::axis_table::AxisTableMap;
+pub use model::ErrorModel;
+pub use simulate::{SimReport, Simulation};

@@ -564,7 +564,7 @@ fn without_trace_comments_the_order_of_the_blocks_pairs_or_the_program_is_refuse
         .unwrap_err()
         .to_string();
     assert!(
-        err.starts_with("c.ngc:") && err.contains("--no-trace"),
+        err.starts_with("c.ngc:") && err.contains("without trace comments"),
         "{err}"
     );
 }

@@ -17,6 +17,7 @@
 
 mod cycle;
 mod frame;
+mod front;
 mod lines;
 mod options;
 mod points;
@@ -27,6 +28,9 @@ mod targets;
 pub use options::{
     CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, Segmentation,
     DEFAULT_MAX_RESIDUAL_UM,
+};
+pub use front::{
+    file_name, header_for_map, refuse_if_compensated, Compensator, MachineSetup, HEAD_BYTES,
 };
 pub use style::{survey_style, ProgramStyle};
 pub(crate) use targets::mark_axes_set;
@@ -144,7 +148,7 @@ pub fn compensate_program<R: BufRead>(
                 file: file.into(),
                 line: ev.number,
                 message: "splitting a block under inverse-time feed (G93) would change its duration".into(),
-                help: "pass --no-split for straight moves, or post the program in G94 (units per minute)".into(),
+                help: crate::error::help::SPLIT_UNDER_INVERSE_TIME.into(),
             });
         }
         let line_ending: &[u8] = line_ending(ev.bytes);

@@ -89,6 +89,7 @@ pub const DEFAULT_MAX_RESIDUAL_UM: f64 = 1.0;
 
 /// One compensated target point, for the per-point report.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct PointRecord {
     /// Source line.
     pub line: u64,
@@ -112,6 +113,7 @@ pub struct PointRecord {
 
 /// What a compensation run did.
 #[derive(Debug, Clone, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct CompensateSummary {
     /// Lines read.
     pub lines_in: u64,

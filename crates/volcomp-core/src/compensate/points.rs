@@ -102,7 +102,7 @@ impl State {
                     file: file.into(),
                     line,
                     message: format!("the correction here would be {:.1} µm, above the limit of {:.1} µm", correction * 1e3, options.max_correction_mm * 1e3),
-                    help: "check that the map is in µm (not mm) and belongs to this machine; raise --max-correction only if the machine really is this far off".into(),
+                    help: crate::error::help::CORRECTION_LIMIT.into(),
                 });
             }
             let mut take_up = None;
@@ -209,6 +209,6 @@ fn check_converged(
             if point.residual_um.is_finite() { format!("{:.3}", point.residual_um) } else { "not finite".into() },
             options.max_residual_um.map_or(String::new(), |m| format!(", above the {m} µm accepted")),
         ),
-        help: "with ILC raise the iteration limit or the gain; check that the map is smooth and in µm; the residual limit is an option (--max-residual-um)".into(),
+        help: crate::error::help::RESIDUAL_LIMIT.into(),
     })
 }

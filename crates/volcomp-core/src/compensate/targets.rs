@@ -50,7 +50,7 @@ pub(super) fn check_target_count(
             file: file.into(),
             line,
             message,
-            help: "split the move in the program, or pass a coarser --segment-length, --segments, --chord-tolerance or --min-segment-length".into(),
+            help: crate::error::help::TOO_MANY_POINTS.into(),
         }
     })
 }
