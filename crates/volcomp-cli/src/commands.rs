@@ -7,8 +7,9 @@ use std::fs::File;
 use std::io::{self, BufRead, BufReader, BufWriter, Write};
 use std::path::Path;
 use volcomp_core::error::CompensationError;
+use volcomp_core::MachineSetup;
 use volcomp_gcode::number::{format_number, NumberStyle};
-use volcomp_gcode::{InterpOptions, Motion, MotionKind, Setup, Vec3, Walker};
+use volcomp_gcode::{InterpOptions, Motion, MotionKind, Vec3, Walker};
 
 mod compensate;
 mod demo;
@@ -31,19 +32,15 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
     }
 }
 
-/// The validated machine set-up of a program.
-pub struct Machine {
-    pub setup: Setup,
-    pub options: InterpOptions,
-    /// Neither --setup nor --work-offset was given: G54 is zero.
-    pub no_work_offset: bool,
-}
+/// The validated machine set-up of a program (the library's
+/// [`MachineSetup`]), with the CLI's rendering of its errors.
+pub struct Machine(pub MachineSetup);
 
-/// Reads a text input; bytes that are not UTF-8 are reported by line and
-/// column (a byte-order mark is dropped).
-pub fn read_utf8(path: &Path) -> Result<String, CliError> {
-    let bytes = std::fs::read(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
-    Ok(volcomp_core::io::table::utf8(&bytes, &path.display().to_string())?.to_string())
+impl std::ops::Deref for Machine {
+    type Target = MachineSetup;
+    fn deref(&self) -> &MachineSetup {
+        &self.0
+    }
 }
 
 /// The first words of every message about a missing work offset.
@@ -65,27 +62,20 @@ pub fn parse_triple(text: &str, flag: &str) -> Result<Vec3, CliError> {
 
 impl Machine {
     pub fn from_args(a: &MachineArgs) -> Result<Machine, CliError> {
-        let mut setup = match &a.setup {
-            Some(path) => {
-                let text =
-                    std::fs::read_to_string(path).map_err(|e| CliError::Io(path.clone(), e))?;
-                Setup::from_toml_in(&text, &path.display().to_string())
-                    .map_err(|e| CliError::Message(e.to_string()))?
-            }
-            None => Setup::default(),
+        let mut machine = match &a.setup {
+            Some(path) => MachineSetup::from_setup_file(path).map_err(|e| match e {
+                volcomp_core::Error::Io { path, source } => CliError::Io(path, source),
+                e => CliError::from(e),
+            })?,
+            None => MachineSetup::unset(),
         };
         if let Some(w) = &a.work_offset {
-            setup.work_offsets_mm[0] = parse_triple(w, "--work-offset")?;
+            machine = machine.with_work_offset(parse_triple(w, "--work-offset")?);
         }
-        let options = InterpOptions {
+        Ok(Machine(machine.with_interp_options(InterpOptions {
             accept_k0_on_xy_arcs: !a.strict_k0,
             absolute_arc_centers: a.absolute_arc_centers,
-        };
-        Ok(Machine {
-            setup,
-            options,
-            no_work_offset: a.setup.is_none() && a.work_offset.is_none(),
-        })
+        })))
     }
 
     /// Warns on standard error when no work offset was given.
@@ -98,14 +88,20 @@ impl Machine {
     /// Renders a compensation or simulation error with the CLI's flags: an
     /// out-of-range position first names a missing work offset, then the
     /// flags that fix it.
-    pub fn explain(&self, e: CompensationError) -> CliError {
+    pub fn explain(&self, e: volcomp_core::Error) -> CliError {
         match &e {
-            CompensationError::Model { .. } if self.no_work_offset => CliError::Message(format!(
-                "{NO_WORK_OFFSET}: {e}\n  help: give the program's work offsets with --setup FILE or --work-offset X,Y,Z first; --clamp holds the error at the table ends"
-            )),
-            CompensationError::Model { .. } => CliError::Message(format!(
-                "{e}\n  help: check --setup / --work-offset; --clamp holds the error at the table ends"
-            )),
+            volcomp_core::Error::Compensation(CompensationError::Model { .. })
+                if self.no_work_offset =>
+            {
+                CliError::reworded(format!(
+                    "{NO_WORK_OFFSET}: {e}\n  help: give the program's work offsets with --setup FILE or --work-offset X,Y,Z first; --clamp holds the error at the table ends"
+                ), e)
+            }
+            volcomp_core::Error::Compensation(CompensationError::Model { .. }) => {
+                CliError::reworded(format!(
+                    "{e}\n  help: check --setup / --work-offset; --clamp holds the error at the table ends"
+                ), e)
+            }
             _ => CliError::from(e),
         }
     }
@@ -118,12 +114,7 @@ impl Machine {
             let f = File::open(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
             Box::new(BufReader::with_capacity(1 << 16, f))
         };
-        Ok(Walker::new(
-            reader,
-            Some(path.display().to_string()),
-            self.setup.clone(),
-            self.options,
-        ))
+        Ok(self.walker(reader, &path.display().to_string()))
     }
 }
 
@@ -176,7 +167,7 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
     drop(tx);
     let write_result = writer
         .join()
-        .unwrap_or_else(|_| Err(CliError::Message("the output thread failed".into())));
+        .unwrap_or_else(|_| Err(CliError::Internal("the output thread failed".into())));
     read_result?;
     write_result
 }

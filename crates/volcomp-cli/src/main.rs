@@ -4,6 +4,7 @@
 
 mod args;
 mod commands;
+mod flags;
 mod output;
 mod plot;
 
@@ -34,7 +35,7 @@ fn main() -> ExitCode {
     // A closed standard output would lose results with exit 0: refuse it.
     if STDOUT_CLOSED_AT_START.load(Ordering::Relaxed) {
         eprintln!("error: standard output is closed (`>&-`): volcomp writes results or messages there; redirect it to a file or to /dev/null");
-        return ExitCode::from(2);
+        return ExitCode::from(output::EXIT_BAD_INPUT);
     }
     // A reader that goes away (`volcomp moves P | head`) ends volcomp as it
     // ends every Unix filter: quietly, killed by SIGPIPE (the shell sees
@@ -52,11 +53,11 @@ fn main() -> ExitCode {
     }
     let cli = args::Cli::parse();
     match commands::run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => ExitCode::from(output::EXIT_OK),
         Err(e) => {
             // A closed pipe (`volcomp moves … | head`) is not an error.
             if e.is_broken_pipe() {
-                return ExitCode::SUCCESS;
+                return ExitCode::from(output::EXIT_OK);
             }
             eprintln!("error: {e}");
             // Partial commits already list what was written.
@@ -65,7 +66,7 @@ fn main() -> ExitCode {
                     eprintln!("{note}");
                 }
             }
-            ExitCode::from(2)
+            ExitCode::from(e.exit_code())
         }
     }
 }

@@ -12,11 +12,12 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 pub use volcomp_core::io::output::OutputPlan;
 use volcomp_core::io::output::{commit_all, OutputError, OutputFile};
+use volcomp_core::ErrorKind;
 
 /// Everything that can stop a command, with a message meant for a person.
 #[derive(Debug)]
 pub enum CliError {
-    /// A message that already says what and where.
+    /// Bad input or usage, in a message that already says what and where.
     Message(String),
     /// An I/O failure on a named path.
     Io(PathBuf, io::Error),
@@ -24,9 +25,45 @@ pub enum CliError {
     Stdout(io::Error),
     /// An output could not be written (or only some were).
     Output(OutputError),
+    /// A library error, kept whole (its cause chain is its `source()`);
+    /// `text`, when set, is the CLI's own wording of it (with flag names).
+    Library {
+        /// What kind of failure (chooses the exit status).
+        kind: ErrorKind,
+        /// The CLI's wording, if it rewords the library's message.
+        text: Option<String>,
+        /// The error itself.
+        error: Box<dyn std::error::Error + Send + Sync + 'static>,
+    },
+    /// A bug in volcomp.
+    Internal(String),
 }
 
+/// Exit status of a run that succeeded.
+pub const EXIT_OK: u8 = 0;
+/// Exit status of an internal error (a bug: please report it).
+pub const EXIT_INTERNAL: u8 = 1;
+/// Exit status of bad input or usage, or of an input or output that could
+/// not be read or written (clap's usage errors are 2 as well).
+pub const EXIT_BAD_INPUT: u8 = 2;
+/// Exit status of a program refused by the interpreter or the compensation
+/// (unsupported or invalid G-code, a point outside the map, a residual or a
+/// correction above its limit, a program compensated already).
+pub const EXIT_REFUSED: u8 = 3;
+
 impl CliError {
+    /// A library error worded by the CLI (e.g. with its flag names).
+    pub fn reworded(text: String, error: impl std::error::Error + Send + Sync + 'static) -> Self {
+        match CliError::from(error) {
+            CliError::Library { kind, error, .. } => CliError::Library {
+                kind,
+                text: Some(text),
+                error,
+            },
+            other => other,
+        }
+    }
+
     /// A closed standard output (e.g. piped into `head`).
     pub fn is_broken_pipe(&self) -> bool {
         let pipe = |e: &io::Error| e.kind() == io::ErrorKind::BrokenPipe;
@@ -34,7 +71,37 @@ impl CliError {
             CliError::Stdout(e) => pipe(e),
             CliError::Io(p, e) => p.as_os_str() == "-" && pipe(e),
             CliError::Output(o) => o.is_stdout() && o.io_error().is_some_and(pipe),
-            CliError::Message(_) => false,
+            CliError::Message(_) | CliError::Library { .. } | CliError::Internal(_) => false,
+        }
+    }
+
+    /// The process exit status for this error (docs/errors.md, "Exit codes").
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CliError::Library { kind, .. } => match kind {
+                ErrorKind::RefusedProgram => EXIT_REFUSED,
+                ErrorKind::Internal => EXIT_INTERNAL,
+                ErrorKind::BadInput | ErrorKind::Io => EXIT_BAD_INPUT,
+                _ => EXIT_INTERNAL,
+            },
+            CliError::Internal(_) => EXIT_INTERNAL,
+            CliError::Message(_) | CliError::Io(..) | CliError::Stdout(_) | CliError::Output(_) => {
+                EXIT_BAD_INPUT
+            }
+        }
+    }
+
+    /// The cause of this error, if it keeps one (the library error itself,
+    /// whose own `source()` goes on down the chain).
+    #[allow(dead_code)] // the chain is kept for callers and tests that walk it
+    pub fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            CliError::Library { error, .. } => {
+                Some(error.as_ref() as &(dyn std::error::Error + 'static))
+            }
+            CliError::Io(_, e) | CliError::Stdout(e) => Some(e),
+            CliError::Output(e) => Some(e),
+            CliError::Message(_) | CliError::Internal(_) => None,
         }
     }
 }
@@ -49,13 +116,45 @@ impl fmt::Display for CliError {
             CliError::Io(p, e) => write!(f, "{}: {e}", p.display()),
             CliError::Stdout(e) => write!(f, "cannot write to standard output: {e}"),
             CliError::Output(e) => write!(f, "{e}"),
+            CliError::Library {
+                text: Some(text), ..
+            } => f.write_str(text),
+            CliError::Library { error, .. } => write!(f, "{error}"),
+            CliError::Internal(m) => write!(f, "internal error: {m}; please report it"),
         }
     }
 }
 
-impl<E: std::error::Error> From<E> for CliError {
+/// The kind of a library error, found by its type; errors of other crates
+/// (and library errors without a kind) are bad input.
+fn kind_of(e: &(dyn std::error::Error + 'static)) -> ErrorKind {
+    use volcomp_core::error::{CompensationError, ModelError};
+    if let Some(e) = e.downcast_ref::<volcomp_core::Error>() {
+        e.kind()
+    } else if let Some(e) = e.downcast_ref::<CompensationError>() {
+        e.kind()
+    } else if let Some(e) = e.downcast_ref::<volcomp_gcode::GcodeError>() {
+        volcomp_core::Error::from(e.clone()).kind()
+    } else if e.downcast_ref::<ModelError>().is_some() {
+        ErrorKind::RefusedProgram
+    } else if let Some(e) = e.downcast_ref::<volcomp_core::surface::mirror::MirrorError>() {
+        match e {
+            volcomp_core::surface::mirror::MirrorError::Program(c) => c.kind(),
+            _ => ErrorKind::BadInput,
+        }
+    } else {
+        ErrorKind::BadInput
+    }
+}
+
+impl<E: std::error::Error + Send + Sync + 'static> From<E> for CliError {
     fn from(e: E) -> Self {
-        CliError::Message(e.to_string())
+        let kind = kind_of(&e);
+        CliError::Library {
+            kind,
+            text: crate::flags::reword(&e),
+            error: Box::new(e),
+        }
     }
 }
 
@@ -223,4 +322,55 @@ pub fn write_atomically(
     let mut staged = Staged::new();
     staged.write(target, write)?;
     staged.commit()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use volcomp_core::error::{CompensationError, ModelError};
+
+    #[test]
+    fn a_library_error_keeps_its_cause_chain_and_its_kind() {
+        let model = ModelError::OutOfRange {
+            axis: 'X',
+            position_mm: 700.0,
+            min_mm: 0.0,
+            max_mm: 600.0,
+        };
+        let e = CliError::from(volcomp_core::Error::from(CompensationError::Model {
+            file: "p.ngc".into(),
+            line: 3,
+            target_mm: None,
+            source: model.clone(),
+        }));
+        assert_eq!(e.exit_code(), EXIT_REFUSED);
+        assert!(e.to_string().starts_with("p.ngc:3: axis X = 700 mm"), "{e}");
+        // CliError → volcomp_core::Error → CompensationError → ModelError.
+        let core = e.source().unwrap();
+        let compensation = std::error::Error::source(core).unwrap();
+        assert!(compensation.downcast_ref::<CompensationError>().is_some());
+        let cause = std::error::Error::source(compensation).unwrap();
+        assert_eq!(cause.downcast_ref::<ModelError>(), Some(&model));
+    }
+
+    #[test]
+    fn exit_codes_follow_the_kind() {
+        let bad = CliError::from(volcomp_core::error::MapFileError::new(
+            "m.csv", 2, 1, "x", "y",
+        ));
+        assert_eq!(bad.exit_code(), EXIT_BAD_INPUT);
+        assert_eq!(
+            CliError::Message("usage".into()).exit_code(),
+            EXIT_BAD_INPUT
+        );
+        assert_eq!(CliError::Internal("bug".into()).exit_code(), EXIT_INTERNAL);
+        let g = volcomp_gcode::GcodeError::new(
+            volcomp_gcode::ErrorClass::Unsupported,
+            1,
+            1,
+            "G52",
+            "h",
+        );
+        assert_eq!(CliError::from(g).exit_code(), EXIT_REFUSED);
+    }
 }

@@ -246,3 +246,201 @@ pub enum CompensationError {
     #[error("cannot write the output: {0}")]
     Io(#[from] std::io::Error),
 }
+
+/// What kind of failure an [`Error`] is, for callers that act on it (a
+/// command line's exit status, a service's response code) without matching
+/// every variant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// An input file or an option is malformed or inconsistent: fix the input.
+    BadInput,
+    /// The G-code interpreter or the compensation refused the program:
+    /// unsupported or invalid G-code, a point outside the model's range, a
+    /// residual or correction above its limit, a program compensated already.
+    RefusedProgram,
+    /// Reading or writing a file failed.
+    Io,
+    /// A bug: the library reached a state it should not.
+    Internal,
+}
+
+/// Where an earlier compensation by volcomp shows in a program.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CompensatedEvidence {
+    /// The provenance header volcomp writes at the top.
+    Header,
+    /// A `(volcomp Ln)` trace comment on an inserted line.
+    Trace,
+}
+
+impl std::fmt::Display for CompensatedEvidence {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            CompensatedEvidence::Header => "its volcomp header",
+            CompensatedEvidence::Trace => "a volcomp trace comment",
+        })
+    }
+}
+
+/// Every error of the library: one variant per domain, each keeping the
+/// domain's own error as its [`source`](std::error::Error::source), so a
+/// caller can match the domain, ask [`Error::kind`], or walk the cause chain.
+/// The text is the domain error's own.
+///
+/// ```
+/// use volcomp_core::error::{Error, ErrorKind, MapFileError};
+/// use std::error::Error as _;
+/// let e = Error::from(MapFileError::new("m.csv", 3, 2, "not a number", "write 1.5"));
+/// assert_eq!(e.kind(), ErrorKind::BadInput);
+/// assert_eq!(e.to_string(), "m.csv:3:2: not a number\n  help: write 1.5");
+/// assert!(e.source().unwrap().downcast_ref::<MapFileError>().is_some());
+/// ```
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// An error model could not be evaluated.
+    #[error("{0}")]
+    Model(#[from] ModelError),
+    /// A located error in a table, model or set-up file.
+    #[error("{0}")]
+    MapFile(#[from] MapFileError),
+    /// A model file could not be read.
+    #[error("{0}")]
+    ModelFile(#[from] crate::io::model_file::ModelFileError),
+    /// Compensation or simulation of a program failed.
+    #[error("{0}")]
+    Compensation(#[from] CompensationError),
+    /// A G-code program could not be read or interpreted.
+    #[error("{0}")]
+    Gcode(#[from] GcodeError),
+    /// The thermal workflow failed.
+    #[error("{0}")]
+    Thermal(#[from] crate::identify::thermal::ThermalError),
+    /// Straightness identification failed.
+    #[error("{0}")]
+    Straightness(#[from] crate::identify::straightness::StraightnessError),
+    /// The mirror (surface) method refused its input.
+    #[error("{0}")]
+    Mirror(#[from] crate::surface::mirror::MirrorError),
+    /// A B-spline surface could not be built or evaluated.
+    #[error("{0}")]
+    BSpline(#[from] crate::surface::bspline::BSplineError),
+    /// A machine set-up file was refused (bad input, not a refused program).
+    #[error("{0}")]
+    Setup(#[source] GcodeError),
+    /// A kinematic topology was refused.
+    #[error("{0}")]
+    Topology(#[from] crate::model::topology::TopologyError),
+    /// Outputs name an input or each other.
+    #[error("{0}")]
+    OutputPlan(#[from] crate::io::output::PlanError),
+    /// An output could not be written.
+    #[error("{0}")]
+    Output(#[from] crate::io::output::OutputError),
+    /// Reading or writing `path` failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file, as named by the caller.
+        path: std::path::PathBuf,
+        /// What the system said.
+        source: std::io::Error,
+    },
+    /// The program was compensated by volcomp already: compensating it again
+    /// would apply every correction twice.
+    #[error("{file}:{line}: this program was compensated by volcomp already ({evidence} is here); compensating it again would apply every correction twice: compensate the original program, or allow recompensation if that is really meant")]
+    AlreadyCompensated {
+        /// Program name.
+        file: String,
+        /// 1-based line of the evidence.
+        line: u64,
+        /// What shows the earlier compensation.
+        evidence: CompensatedEvidence,
+    },
+}
+
+impl Error {
+    /// An I/O error on `path`.
+    pub fn io(path: impl Into<std::path::PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+
+    /// The kind of failure (see [`ErrorKind`]).
+    ///
+    /// ```
+    /// use volcomp_core::error::{Error, ErrorKind, ModelError};
+    /// use volcomp_gcode::{ErrorClass, GcodeError};
+    /// let unsupported = GcodeError::new(ErrorClass::Unsupported, 1, 1, "G52", "remove it");
+    /// assert_eq!(Error::from(unsupported).kind(), ErrorKind::RefusedProgram);
+    /// let far = ModelError::OutOfRange { axis: 'X', position_mm: 9.0, min_mm: 0.0, max_mm: 1.0 };
+    /// assert_eq!(Error::from(far).kind(), ErrorKind::RefusedProgram);
+    /// assert_eq!(Error::io("a.csv", std::io::Error::other("gone")).kind(), ErrorKind::Io);
+    /// ```
+    pub fn kind(&self) -> ErrorKind {
+        use crate::io::model_file::ModelFileError;
+        use crate::surface::mirror::MirrorError;
+        match self {
+            Error::Model(_) | Error::AlreadyCompensated { .. } => ErrorKind::RefusedProgram,
+            Error::Compensation(e) => e.kind(),
+            Error::Gcode(e) => gcode_kind(e),
+            Error::Mirror(MirrorError::Program(e)) => e.kind(),
+            Error::ModelFile(ModelFileError::Io { .. }) => ErrorKind::Io,
+            Error::Io { .. } | Error::Output(_) => ErrorKind::Io,
+            Error::MapFile(_)
+            | Error::ModelFile(_)
+            | Error::Setup(_)
+            | Error::Thermal(_)
+            | Error::Straightness(_)
+            | Error::Mirror(_)
+            | Error::BSpline(_)
+            | Error::Topology(_)
+            | Error::OutputPlan(_) => ErrorKind::BadInput,
+        }
+    }
+}
+
+/// An interpreter error refuses the program unless reading it failed.
+fn gcode_kind(e: &GcodeError) -> ErrorKind {
+    match e.class {
+        volcomp_gcode::ErrorClass::Io => ErrorKind::Io,
+        _ => ErrorKind::RefusedProgram,
+    }
+}
+
+impl CompensationError {
+    /// The kind of failure: everything located at a program line refuses the
+    /// program; failing to read or write it is I/O.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            CompensationError::Gcode(e) => gcode_kind(e),
+            CompensationError::Model { .. } | CompensationError::AtLine { .. } => {
+                ErrorKind::RefusedProgram
+            }
+            CompensationError::Io(_) => ErrorKind::Io,
+        }
+    }
+}
+
+/// Help texts of located compensation and simulation errors
+/// ([`CompensationError::AtLine`]) that name an option. They speak of the
+/// options of [`crate::compensate::CompensateOptions`] and of the builders;
+/// a front end that spells options its own way (a command line's flags)
+/// recognises these texts and says them in its words.
+pub mod help {
+    /// Splitting a block under inverse-time feed (G93).
+    pub const SPLIT_UNDER_INVERSE_TIME: &str =
+        "turn segmentation off for straight moves, or post the program in G94 (units per minute)";
+    /// A block would give more points than the limit.
+    pub const TOO_MANY_POINTS: &str = "split the move in the program, or choose a coarser segmentation (a longer segment length, fewer segments, a larger chord tolerance or a longer minimum segment length)";
+    /// A correction above the largest accepted.
+    pub const CORRECTION_LIMIT: &str = "check that the map is in µm (not mm) and belongs to this machine; raise the largest accepted correction only if the machine really is this far off";
+    /// A point whose residual is above the largest accepted.
+    pub const RESIDUAL_LIMIT: &str = "with ILC raise the iteration limit or the gain; check that the map is smooth and in µm; the largest accepted residual is an option";
+    /// A simulated line that does not pair with the reference.
+    pub const REFERENCE_PAIRING: &str = "give as the reference the original program this one was compensated from by volcomp (its `(volcomp Ln)` comments pair the two; a program written without trace comments cannot be paired once lines were split or take-ups inserted)";
+    /// The reference moves on after the simulated program ends.
+    pub const REFERENCE_LEFT: &str = "give as the reference the original program this one was compensated from, and simulate the whole compensated program";
+}

@@ -8,6 +8,7 @@
 
 pub mod compensate;
 pub mod error;
+#[cfg(any(test, feature = "examples"))]
 pub mod example;
 pub mod identify;
 pub mod io;
@@ -17,3 +18,11 @@ pub mod model;
 pub mod rng;
 pub mod simulate;
 pub mod surface;
+
+pub use compensate::{
+    CompensateOptions, CompensateSummary, Compensator, MachineSetup, Segmentation,
+};
+pub use error::{Error, ErrorKind};
+pub use model::axis_table::AxisTableMap;
+pub use model::ErrorModel;
+pub use simulate::{SimReport, Simulation};

@@ -1,12 +1,12 @@
 //! Compensation of whole programs, checked against hand arithmetic.
 
 use std::io::Cursor;
-use volcomp_core::model::axis_table::AxisTableMap;
+use volcomp_core::compensate::solve::Method;
 use volcomp_core::compensate::{
     compensate_program, survey_style, CompensateOptions, PointRecord, Segmentation,
 };
+use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::simulate::report::{simulate_program, SimReport};
-use volcomp_core::compensate::solve::Method;
 use volcomp_gcode::{InterpOptions, MotionKind, Setup, Vec3, Walker};
 
 /// A map whose tables are given per axis as closures of the position.

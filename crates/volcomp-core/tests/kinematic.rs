@@ -4,13 +4,15 @@
 use std::io::Cursor;
 use std::path::Path;
 use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, Segmentation};
-use volcomp_core::model::kinematic::{AxisComponents, ComponentTable, Form, KinematicModel, Kinematics};
 use volcomp_core::example::kinematic::{example_files, example_model};
 use volcomp_core::io::linuxcnc_comp::{self, CompFileType, MachineUnits, Positioning};
-use volcomp_core::model::{Components, ErrorModel, ALL_FORWARD};
 use volcomp_core::io::model_file::{self, read_model};
-use volcomp_core::simulate::report::simulate_program;
+use volcomp_core::model::kinematic::{
+    AxisComponents, ComponentTable, Form, KinematicModel, Kinematics,
+};
 use volcomp_core::model::topology::Topology;
+use volcomp_core::model::{Components, ErrorModel, ALL_FORWARD};
+use volcomp_core::simulate::report::simulate_program;
 use volcomp_gcode::{InterpOptions, Setup, Vec3, Walker};
 
 fn data(name: &str) -> std::path::PathBuf {

@@ -16,11 +16,11 @@
 
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
-use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::compensate::{
     compensate_program, survey_style, CompensateOptions, PointRecord, Segmentation,
 };
 use volcomp_core::example::example_map;
+use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::simulate::report::{simulate_program, SegmentError, SimReport};
 use volcomp_gcode::{InterpOptions, MotionSource, Setup, Vec3, Walker};
 
@@ -564,7 +564,7 @@ fn without_trace_comments_the_order_of_the_blocks_pairs_or_the_program_is_refuse
         .unwrap_err()
         .to_string();
     assert!(
-        err.starts_with("c.ngc:") && err.contains("--no-trace"),
+        err.starts_with("c.ngc:") && err.contains("without trace comments"),
         "{err}"
     );
 }

@@ -9,8 +9,8 @@
 use std::collections::BTreeSet;
 use std::io::Cursor;
 use std::path::PathBuf;
-use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, Segmentation};
+use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_gcode::{InterpOptions, MotionKind, MotionSource, Setup, Walker};
 
 const CORPUS: [&str; 11] = [

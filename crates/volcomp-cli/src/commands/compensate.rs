@@ -5,32 +5,19 @@ use crate::args::{CompensateArgs, MapArgs, Method as MethodArg};
 use crate::output::{check, CliError, OutputPlan, Staged};
 use std::io::{BufRead, Read, Write};
 use std::path::{Path, PathBuf};
-use volcomp_core::compensate::{
-    survey_style, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, Segmentation,
-};
-use volcomp_core::model::ErrorModel;
-use volcomp_core::io::output::referenced_files;
-use volcomp_core::io::provenance::{
-    compensate_program_with_header, find_compensation, iso8601_utc, sha256_hex, Compensated,
-    ProgramHeader,
-};
+pub use volcomp_core::compensate::file_name;
 use volcomp_core::compensate::solve::Method;
-use volcomp_gcode::Walker;
+use volcomp_core::compensate::{
+    header_for_map, CompensateOptions, CompensateSummary, Compensator, DirectionPolicy,
+    PointRecord, Segmentation,
+};
+use volcomp_core::io::provenance::{iso8601_utc, ProgramHeader};
+use volcomp_core::model::ErrorModel;
 
 /// Loads the error map named by `--map`.
 pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
-    let text = super::read_utf8(&a.map)?;
-    // A straightness model (docs/straightness.md): TOML with `kind = "straightness"`.
-    if volcomp_core::identify::straightness::StraightnessModel::is_model_toml(&text) {
-        let mut m = volcomp_core::identify::straightness::StraightnessModel::from_toml(
-            &text,
-            &a.map.display().to_string(),
-        )?;
-        m.clamp = a.clamp;
-        return Ok(Box::new(m));
-    }
-    // Axis tables (.csv, docs/design.md) or a 21-component kinematic model (.toml,
-    // docs/kinematic.md), which is evaluated at the tool active on each line.
+    // Axis tables (.csv), a 21-component kinematic model or a straightness
+    // model (TOML, told apart by their `model` key): docs/kinematic.md.
     Ok(super::map::load(&a.map, a.clamp)?.into_model())
 }
 
@@ -127,26 +114,13 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
     })
 }
 
-/// A program's first 64 KiB (for its number style and for signs of an
-/// earlier compensation) and a reader over the whole of it; `-` is
-/// standard input, read once.
-fn open_program(program: &Path) -> Result<(Vec<u8>, Box<dyn BufRead>), CliError> {
-    let mut head = Vec::with_capacity(1 << 16);
-    let err = |e| CliError::Io(program.to_path_buf(), e);
+/// A reader over a program; `-` is standard input.
+fn open_program(program: &Path) -> Result<Box<dyn Read>, CliError> {
     if program.as_os_str() == "-" {
-        let mut stdin = std::io::stdin().lock();
-        (&mut stdin)
-            .take(1 << 16)
-            .read_to_end(&mut head)
-            .map_err(err)?;
-        let reader = std::io::Cursor::new(head.clone()).chain(stdin);
-        return Ok((head, Box::new(reader)));
+        return Ok(Box::new(std::io::stdin().lock()));
     }
-    let mut f =
-        std::io::BufReader::with_capacity(1 << 16, std::fs::File::open(program).map_err(err)?);
-    (&mut f).take(1 << 16).read_to_end(&mut head).map_err(err)?;
-    let reader = std::io::Cursor::new(head.clone()).chain(f);
-    Ok((head, Box::new(reader)))
+    let f = std::fs::File::open(program).map_err(|e| CliError::Io(program.to_path_buf(), e))?;
+    Ok(Box::new(f))
 }
 
 /// The program's name in messages.
@@ -181,40 +155,15 @@ pub fn header_for(
     machine: &Machine,
     options: &CompensateOptions,
 ) -> Result<ProgramHeader, CliError> {
-    let mut maps = Vec::new();
-    for p in std::iter::once(map.to_path_buf()).chain(referenced_files(map)) {
-        let bytes = std::fs::read(&p).map_err(|e| CliError::Io(p.clone(), e))?;
-        maps.push((file_name(&p), sha256_hex(&bytes)));
-    }
-    Ok(ProgramHeader::for_compensation(
-        maps,
-        setup_file.map(file_name),
-        machine.setup.clone(),
-        options,
-        date_utc(),
-    ))
-}
-
-/// A path's last component, for messages and headers.
-pub fn file_name(p: &Path) -> String {
-    p.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| p.display().to_string())
+    header_for_map(map, setup_file, &machine.setup, options, date_utc()).map_err(|e| match e {
+        volcomp_core::Error::Io { path, source } => CliError::Io(path, source),
+        e => CliError::from(e),
+    })
 }
 
 /// Refuses a program whose first bytes show an earlier compensation.
 pub fn refuse_if_compensated(head: &[u8], file: &str) -> Result<(), CliError> {
-    let what = match find_compensation(head) {
-        Some(Compensated::Header(line)) => Some((line, "its volcomp header")),
-        Some(Compensated::Trace(line)) => Some((line, "a volcomp trace comment")),
-        None => None,
-    };
-    match what {
-        Some((line, what)) => Err(CliError::Message(format!(
-            "{file}:{line}: this program was compensated by volcomp already ({what} is here); compensating it again would apply every correction twice: compensate the original program, or pass --allow-recompensate if that is really meant"
-        ))),
-        None => Ok(()),
-    }
+    Ok(volcomp_core::compensate::refuse_if_compensated(head, file)?)
 }
 
 /// Compensates `program` into `out` with `header` at its top; refuses a
@@ -230,30 +179,18 @@ pub fn compensate_into(
     allow_recompensate: bool,
     on_point: impl FnMut(&PointRecord),
 ) -> Result<CompensateSummary, CliError> {
-    let (head, reader) = open_program(program)?;
+    let reader = open_program(program)?;
     let file = program_name(program);
-    if !allow_recompensate {
-        refuse_if_compensated(&head, &file)?;
-    }
-    let style = survey_style(&head);
-    let mut walker = Walker::new(
-        reader,
-        Some(file.clone()),
-        machine.setup.clone(),
-        machine.options,
-    );
-    let result = compensate_program_with_header(
-        &mut walker,
-        &file,
-        model,
-        &style,
-        options,
-        header,
-        out,
-        on_point,
-    );
-    crate::commands::print_warnings(&file, walker.warnings());
-    result.map_err(|e| machine.explain(e))
+    Compensator::new(model)
+        .setup(machine.0.clone())
+        .options(*options)
+        .header(header.clone())
+        .file_name(file.as_str())
+        .allow_recompensate(allow_recompensate)
+        .on_point(on_point)
+        .on_warning(|w| eprintln!("{file}:{w}"))
+        .run(reader, out)
+        .map_err(|e| machine.explain(e))
 }
 
 /// Compensates `program` into the file `output` (completely or not at all).
@@ -278,7 +215,7 @@ pub fn compensate_file(
         Ok(())
     })?;
     staged.commit()?;
-    summary.ok_or_else(|| CliError::Message("compensation produced no summary".into()))
+    summary.ok_or_else(|| CliError::Internal("compensation produced no summary".into()))
 }
 
 /// Lines of a program file, for progress in percent (`None` for standard
@@ -404,7 +341,7 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         eprintln!("FILTER_PROGRESS=100");
     }
     let summary =
-        summary.ok_or_else(|| CliError::Message("compensation produced no summary".into()))?;
+        summary.ok_or_else(|| CliError::Internal("compensation produced no summary".into()))?;
     let shown = if output.as_os_str() == "-" {
         "standard output".to_string()
     } else {

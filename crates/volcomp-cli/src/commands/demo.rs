@@ -5,11 +5,12 @@ use super::Machine;
 use crate::args::DemoArgs;
 use crate::output::{write_atomically, CliError};
 use std::path::Path;
+use volcomp_core::compensate::solve::Method;
 use volcomp_core::compensate::{CompensateOptions, DirectionPolicy, Segmentation};
 use volcomp_core::example::{demo_programs, example_map, DEMO_WORK_OFFSET_MM};
 use volcomp_core::model::ErrorModel;
-use volcomp_core::simulate::report::{simulate_program, SimReport};
-use volcomp_core::compensate::solve::Method;
+use volcomp_core::MachineSetup;
+use volcomp_core::{SimReport, Simulation};
 
 /// One column of the demo table.
 pub struct Variant {
@@ -88,19 +89,13 @@ pub fn measure(
     program: &Path,
     original: Option<&Path>,
 ) -> Result<SimReport, CliError> {
-    let mut walker = machine.walk(program)?;
-    let mut reference = match original {
-        Some(o) => Some(machine.walk(o)?),
-        None => None,
-    };
-    Ok(simulate_program(
-        &mut walker,
-        &program.display().to_string(),
-        reference.as_mut(),
-        model,
-        1e-4,
-        |_| {},
-    )?)
+    let mut simulation = Simulation::new(model)
+        .setup(machine.0.clone())
+        .file_name(program.display().to_string());
+    if let Some(o) = original {
+        simulation = simulation.reference_named(o.display().to_string(), super::simulate::open(o)?);
+    }
+    Ok(simulation.run(super::simulate::open(program)?)?)
 }
 
 fn rate(before: f64, after: f64) -> f64 {
@@ -119,13 +114,7 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
         w.write_all(map.to_csv().as_bytes())
             .map_err(|e| CliError::Io(map_path.clone(), e))
     })?;
-    let mut setup = volcomp_gcode::Setup::default();
-    setup.work_offsets_mm[0] = DEMO_WORK_OFFSET_MM;
-    let machine = Machine {
-        setup,
-        options: Default::default(),
-        no_work_offset: false,
-    };
+    let machine = Machine(MachineSetup::default().with_work_offset(DEMO_WORK_OFFSET_MM));
     let variants = variants();
     println!("volcomp demo — example map {} (X 0…600, Y 0…400, Z 0…300 mm; backlash 3/4/2 µm), work offset G54 = {:.0},{:.0},{:.0} mm", map_path.display(), DEMO_WORK_OFFSET_MM.x, DEMO_WORK_OFFSET_MM.y, DEMO_WORK_OFFSET_MM.z);
     println!("RMS errors in µm; point = at the end of every feed block of the program, contour = distance of the actual path (every 0.05 mm) from the block it was written for; in brackets: improvement over 'before'.\n");

@@ -6,7 +6,7 @@ use crate::args::SimulateArgs;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
 use std::io::Write;
-use volcomp_core::simulate::report::{simulate_program, SimReport};
+use volcomp_core::{SimReport, Simulation};
 
 pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     if !(a.chord_tolerance.is_finite() && a.chord_tolerance > 0.0) {
@@ -25,11 +25,14 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     let machine = Machine::from_args(&a.machine)?;
     machine.warn_without_work_offset();
     let model = load_map(&a.map)?;
-    let mut walker = machine.walk(&a.program)?;
-    let mut reference = match &a.reference {
-        Some(r) => Some(machine.walk(r)?),
-        None => None,
-    };
+    let name = a.program.display().to_string();
+    let mut simulation = Simulation::new(model.as_ref())
+        .setup(machine.0.clone())
+        .file_name(name.as_str())
+        .chord_tolerance_mm(a.chord_tolerance);
+    if let Some(r) = &a.reference {
+        simulation = simulation.reference_named(r.display().to_string(), open(r)?);
+    }
     let mut rows: Option<Vec<u8>> = a
         .errors_csv
         .as_ref()
@@ -37,13 +40,9 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     let mut along: Vec<(f64, Option<f64>, f64)> = Vec::new();
     let mut last: Option<volcomp_gcode::Vec3> = None;
     let mut travelled = 0.0;
-    let report = simulate_program(
-        &mut walker,
-        &a.program.display().to_string(),
-        reference.as_mut(),
-        model.as_ref(),
-        a.chord_tolerance,
-        |s| {
+    let report = simulation
+        .on_warning(|w| eprintln!("{name}:{w}"))
+        .on_segment(|s| {
             if let Some(p) = last {
                 travelled += (s.command_mm - p).norm();
             }
@@ -67,9 +66,8 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
                     s.contour_max_um
                 );
             }
-        },
-    );
-    crate::commands::print_warnings(&a.program.display().to_string(), walker.warnings());
+        })
+        .run(open(&a.program)?);
     let report = report.map_err(|e| machine.explain(e))?;
     if let (Some(path), Some(bytes)) = (&a.errors_csv, rows) {
         let mut inputs = vec![a.program.as_path()];
@@ -113,6 +111,15 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         print_table(&mut out, &report, a.reference.is_some()).map_err(CliError::Stdout)?;
     }
     Ok(())
+}
+
+/// A reader over a program file ("-" is standard input).
+pub fn open(path: &std::path::Path) -> Result<Box<dyn std::io::Read>, CliError> {
+    if path.as_os_str() == "-" {
+        return Ok(Box::new(std::io::stdin()));
+    }
+    let f = std::fs::File::open(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+    Ok(Box::new(f))
 }
 
 fn print_table(out: &mut dyn Write, r: &SimReport, with_reference: bool) -> std::io::Result<()> {

@@ -165,15 +165,10 @@ pub fn load_model(path: &Path, options: &LoadOptions) -> Result<LoadedModel, Loa
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    let bytes = std::fs::read(path).map_err(|source| match ext.as_deref() {
-        Some("csv" | "toml") => LoadError::Io {
-            path: path.to_path_buf(),
-            source,
-        },
-        // Neither the name nor the content tells the format.
-        _ => LoadError::UnknownFormat {
-            path: path.to_path_buf(),
-        },
+    // A file that cannot be read is reported as such, whatever its name.
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
+        path: path.to_path_buf(),
+        source,
     })?;
     let file = path.display().to_string();
     let text = crate::io::table::utf8(&bytes, &file)?;

@@ -17,13 +17,13 @@
 //! [`strip_header`] removes it, which gives back the program body that a
 //! byte-for-byte round trip compares.
 
+use crate::compensate::solve::Method;
 use crate::compensate::{
     compensate_program, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord,
     ProgramStyle, Segmentation,
 };
 use crate::error::CompensationError;
 use crate::model::ErrorModel;
-use crate::compensate::solve::Method;
 use std::io::{self, BufRead, Write};
 use volcomp_gcode::{Setup, Walker};
 

@@ -2,10 +2,10 @@
 //! controller's pitch compensation holds (LinuxCNC comp files, ISO 230-2
 //! mean deviations), and their conversions to and from the models.
 
-use volcomp_geom::Axis;
 use crate::model::axis_table::{AxisTableMap, AxisTables, Table};
 use crate::model::kinematic::KinematicModel;
 use volcomp_gcode::Vec3;
+use volcomp_geom::Axis;
 
 /// The positioning error of one axis per direction, in volcomp's sign
 /// (`e = actual − commanded`).

@@ -2,12 +2,12 @@
 //! the component values and Abbe arms of the 21-component model at a
 //! point, and each component as a series over its axis (for plots).
 
-use volcomp_geom::Axis;
 use crate::error::ModelError;
 use crate::model::axis_table::{AxisTableMap, Table};
 use crate::model::kinematic::{angular_name, linear_name, ComponentValues, Form, KinematicModel};
 use crate::model::{Components, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
+use volcomp_geom::Axis;
 
 impl AxisTableMap {
     /// What each axis' table gives at `q_mm` with direction state `s` (µm),

@@ -22,8 +22,12 @@
 //! take-up move (a command that moves only the reversing axis by its reversal
 //! value) leave the tool still.
 
+mod front;
 pub mod nominal;
 pub mod report;
+
+pub use front::{Simulation, DEFAULT_CHORD_TOLERANCE_MM};
+pub use report::{SegmentError, SimReport};
 
 use crate::error::ModelError;
 use crate::model::{
@@ -188,6 +192,7 @@ pub fn point_segment_distance(p: Vec3, a: Vec3, b: Vec3) -> f64 {
 
 /// Running RMS and maximum of an error, optionally weighted.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct ErrorStats {
     sum_sq_weighted: f64,
     weight: f64,

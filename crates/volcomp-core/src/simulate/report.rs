@@ -45,11 +45,12 @@ pub const CONTOUR_DEFINITION: &str = "for every actual position sampled <= 0.05 
 
 /// Longest feed move simulated (mm): the actual path is sampled every
 /// [`SAMPLE_SPACING_MM`], so a longer move (a unit or coordinate mistake
-/// under `--clamp`) is refused rather than sampled for minutes.
+/// with the clamp option) is refused rather than sampled for minutes.
 pub const MAX_MOVE_LENGTH_MM: f64 = 100_000.0;
 
 /// Metrics of one simulated program, in µm.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct SimReport {
     /// RMS point error.
     pub point_rms_um: f64,
@@ -78,6 +79,7 @@ pub struct SimReport {
 
 /// One measured feed command, for plots.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct SegmentError {
     /// Source line of the simulated program.
     pub line: u64,
@@ -114,7 +116,7 @@ fn mismatch(file: &str, line: u64, message: String) -> CompensationError {
         file: file.to_string(),
         line,
         message,
-        help: "pass as --reference the original program this one was compensated from by volcomp (its `(volcomp Ln)` comments pair the two; a program written with --no-trace cannot be paired once lines were split or take-ups inserted)".into(),
+        help: crate::error::help::REFERENCE_PAIRING.into(),
     }
 }
 
@@ -347,8 +349,11 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
             return Err(CompensationError::AtLine {
                 file: file.to_string(),
                 line: 0,
-                message: format!("the program ends, but the reference still moves at its line {}", b.line),
-                help: "pass as --reference the original program this one was compensated from, and simulate the whole compensated program".into(),
+                message: format!(
+                    "the program ends, but the reference still moves at its line {}",
+                    b.line
+                ),
+                help: crate::error::help::REFERENCE_LEFT.into(),
             });
         }
     }

@@ -12,7 +12,6 @@ mod iso;
 
 pub use args::*;
 
-use volcomp_geom::Axis;
 use crate::commands::parse_triple;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
@@ -30,6 +29,7 @@ use volcomp_core::model::query::ComponentSeries;
 use volcomp_core::model::topology::Topology;
 use volcomp_core::model::{parse_directions, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
+use volcomp_geom::Axis;
 
 const AXES: [char; 3] = ['X', 'Y', 'Z'];
 

@@ -29,7 +29,6 @@
 //! given in arc seconds instead (`ea_arcsec` …). Every bad value is reported
 //! with file, row and column.
 
-use volcomp_geom::Axis;
 use crate::error::MapFileError;
 use crate::io::numfmt;
 use crate::model::axis_table::Table;
@@ -43,6 +42,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 use volcomp_gcode::Vec3;
+use volcomp_geom::Axis;
 
 /// The `model` value that identifies a 21-component model file.
 pub const MODEL_KIND: &str = "kinematic-21";

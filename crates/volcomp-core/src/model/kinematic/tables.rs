@@ -1,7 +1,6 @@
 //! Conversions between the 21-component model and tables: axis tables for
 //! one tool, positioning tables, and a model from axis tables.
 
-use volcomp_geom::Axis;
 use super::{AxisComponents, ComponentTable, Form, KinematicModel, Kinematics};
 use crate::error::ModelError;
 use crate::model::axis_table::{AxisTableMap, AxisTables, Table};
@@ -9,6 +8,7 @@ use crate::model::positioning::grid_axis;
 use crate::model::topology::Topology;
 use crate::model::Direction;
 use volcomp_gcode::Vec3;
+use volcomp_geom::Axis;
 
 impl KinematicModel {
     /// The axis-table map (docs/design.md, "The axis-table map") that reproduces this model, for one

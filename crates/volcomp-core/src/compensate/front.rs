@@ -1,0 +1,334 @@
+//! The front door of compensation: a machine set-up ([`MachineSetup`]) and
+//! a builder ([`Compensator`]) that reads a program, refuses one volcomp
+//! compensated already, surveys its number style, interprets it and writes
+//! it compensated, with the provenance header on top.
+//!
+//! ```
+//! use volcomp_core::{AxisTableMap, CompensateOptions, Compensator, MachineSetup, Segmentation};
+//! # fn main() -> Result<(), volcomp_core::Error> {
+//! // A machine without error: the program comes back unchanged.
+//! let map = AxisTableMap::from_csv(
+//!     "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+//!      X,both,0,0,0,0\nX,both,100,0,0,0\nY,both,0,0,0,0\n\
+//!      Y,both,100,0,0,0\nZ,both,0,0,0,0\nZ,both,100,0,0,0\n",
+//!     "zero.csv",
+//! )?;
+//! let program = "G21 G90\nG0 X10 Y10 Z10\nG1 X20 F100\n";
+//! let mut out = Vec::new();
+//! let summary = Compensator::new(&map)
+//!     .setup(MachineSetup::default())
+//!     .options(CompensateOptions { segmentation: Segmentation::Off, ..Default::default() })
+//!     .run(program.as_bytes(), &mut out)?;
+//! assert_eq!(summary.lines_in, 3);
+//! assert_eq!(String::from_utf8(out).unwrap(), program);
+//! # Ok(())
+//! # }
+//! ```
+
+use super::{compensate_program, survey_style, CompensateOptions, CompensateSummary, PointRecord};
+use crate::error::{CompensatedEvidence, Error};
+use crate::io::provenance::{compensate_program_with_header, find_compensation, Compensated};
+use crate::io::provenance::{sha256_hex, ProgramHeader};
+use crate::model::ErrorModel;
+use std::io::{BufReader, Read, Write};
+use std::path::Path;
+use volcomp_gcode::{InterpOptions, Setup, Vec3, Walker, Warning};
+
+/// How many bytes of a program are read first: for its number style and for
+/// signs of an earlier compensation.
+pub const HEAD_BYTES: u64 = 1 << 16;
+
+/// The machine a program runs on: its set-up (work offsets, tool lengths,
+/// start position, units), the interpreter's options, and whether any work
+/// offset was given at all.
+#[derive(Debug, Clone, Default)]
+pub struct MachineSetup {
+    /// Work offsets, tools, start position (LinuxCNC's set-up).
+    pub setup: Setup,
+    /// How the interpreter reads what controllers disagree on.
+    pub interp: InterpOptions,
+    /// No set-up file and no work offset were given: G54 is zero, so program
+    /// coordinates are taken as machine coordinates.
+    pub no_work_offset: bool,
+}
+
+impl From<Setup> for MachineSetup {
+    fn from(setup: Setup) -> Self {
+        Self {
+            setup,
+            ..Self::default()
+        }
+    }
+}
+
+impl MachineSetup {
+    /// A machine with nothing set: G54 = 0 (and [`Self::no_work_offset`]).
+    pub fn unset() -> Self {
+        Self {
+            no_work_offset: true,
+            ..Self::default()
+        }
+    }
+
+    /// The set-up read from a set-up TOML file (docs/setup.md).
+    pub fn from_setup_file(path: &Path) -> Result<Self, Error> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Self::from_setup_toml(&text, &path.display().to_string())
+    }
+
+    /// The set-up of a set-up TOML text; `file` names it in errors.
+    pub fn from_setup_toml(text: &str, file: &str) -> Result<Self, Error> {
+        Ok(Setup::from_toml_in(text, file)
+            .map_err(Error::Setup)?
+            .into())
+    }
+
+    /// This set-up with G54 set to `offset_mm` (machine coordinates of the
+    /// program zero).
+    pub fn with_work_offset(mut self, offset_mm: Vec3) -> Self {
+        self.setup.work_offsets_mm[0] = offset_mm;
+        self.no_work_offset = false;
+        self
+    }
+
+    /// This set-up with the interpreter's options.
+    pub fn with_interp_options(mut self, interp: InterpOptions) -> Self {
+        self.interp = interp;
+        self
+    }
+
+    /// An interpreter over `program`, naming it `file` in its errors.
+    pub fn walker<R: std::io::BufRead>(&self, program: R, file: &str) -> Walker<R> {
+        Walker::new(
+            program,
+            Some(file.to_string()),
+            self.setup.clone(),
+            self.interp,
+        )
+    }
+}
+
+/// Refuses a program whose first bytes (`head`) show an earlier compensation
+/// by volcomp: compensating it again would apply every correction twice.
+pub fn refuse_if_compensated(head: &[u8], file: &str) -> Result<(), Error> {
+    let (line, evidence) = match find_compensation(head) {
+        Some(Compensated::Header(line)) => (line, CompensatedEvidence::Header),
+        Some(Compensated::Trace(line)) => (line, CompensatedEvidence::Trace),
+        None => return Ok(()),
+    };
+    Err(Error::AlreadyCompensated {
+        file: file.to_string(),
+        line,
+        evidence,
+    })
+}
+
+/// The header of a program compensated with the map file `map` (and the
+/// tables it names, each hashed with SHA-256), the set-up file's name and
+/// the set-up used, dated `date_utc` (ISO 8601).
+pub fn header_for_map(
+    map: &Path,
+    setup_file: Option<&Path>,
+    setup: &Setup,
+    options: &CompensateOptions,
+    date_utc: String,
+) -> Result<ProgramHeader, Error> {
+    let mut maps = Vec::new();
+    for p in std::iter::once(map.to_path_buf()).chain(crate::io::output::referenced_files(map)) {
+        let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+        maps.push((file_name(&p), sha256_hex(&bytes)));
+    }
+    Ok(ProgramHeader::for_compensation(
+        maps,
+        setup_file.map(file_name),
+        setup.clone(),
+        options,
+        date_utc,
+    ))
+}
+
+/// A path's last component, for messages and headers.
+pub fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| p.display().to_string())
+}
+
+/// Compensates a program for a machine's errors (see the [module
+/// doc](self) for an example).
+///
+/// Defaults: [`MachineSetup::default`], [`CompensateOptions::default`], no
+/// header, the program named `<program>` in messages, a program compensated
+/// already is refused.
+pub struct Compensator<'a> {
+    model: &'a dyn ErrorModel,
+    setup: MachineSetup,
+    options: CompensateOptions,
+    header: Option<ProgramHeader>,
+    file: String,
+    allow_recompensate: bool,
+    on_point: Option<Box<dyn FnMut(&PointRecord) + 'a>>,
+    on_warning: Option<Box<dyn FnMut(&Warning) + 'a>>,
+}
+
+impl<'a> Compensator<'a> {
+    /// A compensation of programs for `model`'s errors.
+    pub fn new(model: &'a dyn ErrorModel) -> Self {
+        Self {
+            model,
+            setup: MachineSetup::default(),
+            options: CompensateOptions::default(),
+            header: None,
+            file: "<program>".into(),
+            allow_recompensate: false,
+            on_point: None,
+            on_warning: None,
+        }
+    }
+
+    /// The machine the program runs on.
+    pub fn setup(mut self, setup: impl Into<MachineSetup>) -> Self {
+        self.setup = setup.into();
+        self
+    }
+
+    /// How to compensate.
+    pub fn options(mut self, options: CompensateOptions) -> Self {
+        self.options = options;
+        self
+    }
+
+    /// The provenance header written at the top of the output.
+    pub fn header(mut self, header: ProgramHeader) -> Self {
+        self.header = Some(header);
+        self
+    }
+
+    /// The program's name in messages (a file name, `<standard input>`).
+    pub fn file_name(mut self, name: impl Into<String>) -> Self {
+        self.file = name.into();
+        self
+    }
+
+    /// Compensate even a program volcomp compensated already.
+    pub fn allow_recompensate(mut self, allow: bool) -> Self {
+        self.allow_recompensate = allow;
+        self
+    }
+
+    /// Called with every compensated target point, in order.
+    pub fn on_point(mut self, f: impl FnMut(&PointRecord) + 'a) -> Self {
+        self.on_point = Some(Box::new(f));
+        self
+    }
+
+    /// Called, once the run ends (also when it fails), with what the
+    /// interpreter assumed (no units, no reference point, …).
+    pub fn on_warning(mut self, f: impl FnMut(&Warning) + 'a) -> Self {
+        self.on_warning = Some(Box::new(f));
+        self
+    }
+
+    /// Reads `program`, writes it compensated to `out`, and says what it did.
+    /// Nothing is written past an error; the caller discards a partial
+    /// output (see [`crate::io::output`] for outputs written completely or
+    /// not at all).
+    pub fn run<R: Read, W: Write>(
+        mut self,
+        mut program: R,
+        mut out: W,
+    ) -> Result<CompensateSummary, Error> {
+        let mut head = Vec::with_capacity(HEAD_BYTES as usize);
+        (&mut program)
+            .take(HEAD_BYTES)
+            .read_to_end(&mut head)
+            .map_err(|e| Error::io(&self.file, e))?;
+        if !self.allow_recompensate {
+            refuse_if_compensated(&head, &self.file)?;
+        }
+        let style = survey_style(&head);
+        let reader = BufReader::with_capacity(
+            HEAD_BYTES as usize,
+            std::io::Cursor::new(head).chain(program),
+        );
+        let mut walker = self.setup.walker(reader, &self.file);
+        let mut no_op = |_: &PointRecord| {};
+        let on_point: &mut dyn FnMut(&PointRecord) = match self.on_point.as_mut() {
+            Some(f) => f.as_mut(),
+            None => &mut no_op,
+        };
+        let result = match &self.header {
+            Some(h) => compensate_program_with_header(
+                &mut walker,
+                &self.file,
+                self.model,
+                &style,
+                &self.options,
+                h,
+                &mut out,
+                on_point,
+            ),
+            None => compensate_program(
+                &mut walker,
+                &self.file,
+                self.model,
+                &style,
+                &self.options,
+                &mut out,
+                on_point,
+            ),
+        };
+        if let Some(f) = self.on_warning.as_mut() {
+            walker.warnings().iter().for_each(f);
+        }
+        Ok(result?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::axis_table::AxisTableMap;
+
+    fn zero_map() -> AxisTableMap {
+        let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+        for a in ["X", "Y", "Z"] {
+            csv.push_str(&format!("{a},both,0,0,0,0\n{a},both,100,0,0,0\n"));
+        }
+        AxisTableMap::from_csv(&csv, "zero.csv").unwrap()
+    }
+
+    #[test]
+    fn a_compensated_program_is_refused_unless_allowed() {
+        let map = zero_map();
+        let program = "G0 X1 Y1 Z1\nG1 X2 F100 (volcomp L2)\n";
+        let e = Compensator::new(&map)
+            .file_name("p.ngc")
+            .run(program.as_bytes(), Vec::new())
+            .unwrap_err();
+        assert_eq!(e.kind(), crate::error::ErrorKind::RefusedProgram);
+        assert!(e
+            .to_string()
+            .starts_with("p.ngc:2: this program was compensated"));
+        let ok = Compensator::new(&map)
+            .allow_recompensate(true)
+            .run(program.as_bytes(), Vec::new());
+        assert!(ok.is_ok(), "{ok:?}");
+    }
+
+    #[test]
+    fn points_and_warnings_reach_the_callbacks() {
+        // 1 mm segments on a 3 mm feed move: 3 targets, plus the rapid's end.
+        let map = zero_map();
+        let (mut points, mut warnings) = (0, 0);
+        let summary = Compensator::new(&map)
+            .on_point(|_| points += 1)
+            .on_warning(|_| warnings += 1)
+            .run("G0 X1 Y1 Z1\nG1 X4 F100\n".as_bytes(), Vec::new())
+            .unwrap();
+        assert_eq!(points, 4);
+        assert_eq!(summary.points, 4);
+        // No G20/G21: the interpreter says it assumed mm.
+        assert!(warnings >= 1);
+    }
+}

@@ -1,0 +1,237 @@
+//! Writing lines: inserted moves, byte-range edits of an original line, and
+//! the small lexical helpers they need.
+
+use super::frame::Frame;
+use super::State;
+use volcomp_gcode::edit::Edit;
+use volcomp_gcode::lexer::Word;
+use volcomp_gcode::number::{format_number, NumberStyle};
+use volcomp_gcode::{MotionKind, Vec3};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum OutMode {
+    Rapid,
+    Feed,
+    Other,
+}
+
+impl State {
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn write_inserted(
+        &mut self,
+        frame: &Frame,
+        style: NumberStyle,
+        sep: &str,
+        from: Vec3,
+        q: Vec3,
+        mode: OutMode,
+        line: u64,
+        trace: bool,
+        ending: &[u8],
+        note: &str,
+    ) {
+        self.text.clear();
+        if self.mode != Some(mode) {
+            self.text
+                .push_str(if mode == OutMode::Rapid { "G0" } else { "G1" });
+            self.mode = Some(mode);
+        }
+        for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+            if q[a] != from[a] {
+                if !self.text.is_empty() {
+                    self.text.push_str(sep);
+                }
+                self.text.push(letter);
+                format_number(frame.word_value(q, from, a), style, &mut self.text);
+            }
+        }
+        if self.text.is_empty() {
+            return;
+        }
+        if trace {
+            self.text.push_str(sep);
+            if note.is_empty() {
+                self.text.push_str(&format!("(volcomp L{line})"));
+            } else {
+                self.text.push_str(&format!("(volcomp L{line} {note})"));
+            }
+        }
+        if !self.buf.is_empty() && !self.buf.ends_with(b"\n") {
+            self.buf.extend_from_slice(b"\n");
+        }
+        self.buf.extend_from_slice(self.text.as_bytes());
+        self.buf
+            .extend_from_slice(if ending.is_empty() { b"\n" } else { ending });
+        self.summary.lines_out += 1;
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn original_line_edits(
+        &mut self,
+        words: Vec<&Word>,
+        content: &[u8],
+        frame: &Frame,
+        style: NumberStyle,
+        sep: &str,
+        from: Vec3,
+        q: Vec3,
+        kind: &MotionKind,
+        needed: OutMode,
+        stop_word: Option<&Word>,
+        polar_nominal: Vec3,
+        polar_start: Vec3,
+    ) -> Vec<Edit> {
+        let mut edits = Vec::new();
+        let is_arc = matches!(kind, MotionKind::Arc(_));
+        let mut has_motion_word = false;
+        let mut last_axis_end = None;
+        let mut first_axis_start = None;
+        let mut present = [false; 3];
+        // A polar end point (LinuxCNC `@` radius, `^` angle) is kept as
+        // written while its X and Y round to the command's; otherwise the
+        // polar words are replaced by the command's X and Y.
+        let polar: Vec<&&Word> = words
+            .iter()
+            .filter(|w| matches!(w.letter, b'@' | b'^'))
+            .collect();
+        if let Some(first) = polar.first() {
+            present[0] = true;
+            present[1] = true;
+            // In G91, or with only one of `@`/`^` in G90, the polar end point
+            // depends on the start: the words can only stay when the command
+            // starts where the nominal move did (to the written resolution).
+            let both = polar.len() == 2;
+            let half_lsb_mm = 0.5 * 10f64.powi(-i32::from(frame.decimals)) * frame.mm_per_unit;
+            let start_kept = (frame.absolute && both)
+                || (0..2).all(|a| (from[a] - polar_start[a]).abs() <= half_lsb_mm);
+            let same = start_kept
+                && (0..2).all(|a| {
+                    (frame.word_value(q, from, a) - frame.word_value(polar_nominal, from, a)).abs()
+                        < 0.5 * 10f64.powi(-i32::from(frame.decimals))
+                });
+            if !same {
+                self.text.clear();
+                self.text.push('X');
+                format_number(frame.word_value(q, from, 0), style, &mut self.text);
+                self.text.push_str(sep);
+                self.text.push('Y');
+                format_number(frame.word_value(q, from, 1), style, &mut self.text);
+                edits.push(Edit::replace(first.span.clone(), self.text.clone()));
+                for w in &polar[1..] {
+                    edits.push(Edit::delete(
+                        blank_before(content, w.span.start)..w.span.end,
+                    ));
+                }
+            }
+            first_axis_start = Some(first.span.start);
+            last_axis_end = Some(first.span.end);
+        }
+        for w in &words {
+            match w.letter {
+                b'G' if [0.0, 1.0, 2.0, 3.0].contains(&w.value) => {
+                    has_motion_word = true;
+                    if is_arc {
+                        let text = &content[w.value_span.clone()];
+                        let new = if text.len() >= 2 && text[0] == b'0' {
+                            "01"
+                        } else {
+                            "1"
+                        };
+                        edits.push(Edit::replace(w.value_span.clone(), new));
+                    }
+                }
+                b'X' | b'Y' | b'Z' => {
+                    let a = usize::from(w.letter - b'X');
+                    present[a] = true;
+                    first_axis_start.get_or_insert(w.span.start);
+                    last_axis_end = Some(w.span.end);
+                    let v = frame.word_value(q, from, a);
+                    let lsb = 0.5 * 10f64.powi(-i32::from(frame.decimals));
+                    if (v - w.value).abs() >= lsb * 0.999 {
+                        self.text.clear();
+                        // Never fewer decimals than the word replaced, even
+                        // past the grid's MAX_DECIMALS.
+                        let own =
+                            volcomp_gcode::number::decimals_of(&content[w.value_span.clone()]);
+                        let style = style.with_decimals(style.decimals.max(own.min(15)));
+                        format_number(v, style, &mut self.text);
+                        edits.push(Edit::replace(w.value_span.clone(), self.text.clone()));
+                    }
+                }
+                b'I' | b'J' | b'K' | b'R' | b'P' if is_arc => {
+                    edits.push(Edit::delete(
+                        blank_before(content, w.span.start)..w.span.end,
+                    ));
+                }
+                _ => {}
+            }
+        }
+        if let Some(w) = stop_word {
+            edits.push(Edit::delete(
+                blank_before(content, w.span.start)..w.span.end,
+            ));
+        }
+        let at = last_axis_end.unwrap_or(content.len());
+        for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+            if !present[a] && q[a] != from[a] {
+                self.text.clear();
+                self.text.push_str(sep);
+                self.text.push(letter);
+                format_number(frame.word_value(q, from, a), style, &mut self.text);
+                edits.push(Edit::insert(at, self.text.clone()));
+            }
+        }
+        if !has_motion_word && (self.mode != Some(needed) || is_arc) {
+            let code = if needed == OutMode::Rapid { "G0" } else { "G1" };
+            let at = first_axis_start.unwrap_or(0);
+            edits.push(Edit::insert(
+                at,
+                format!("{code}{}", if sep.is_empty() { "" } else { " " }),
+            ));
+        }
+        edits
+    }
+}
+
+/// Start of the blanks that precede byte `at` (so a deleted word takes its
+/// separating blank with it).
+pub(super) fn blank_before(content: &[u8], at: usize) -> usize {
+    let mut i = at;
+    while i > 0 && (content[i - 1] == b' ' || content[i - 1] == b'\t') {
+        i -= 1;
+    }
+    i
+}
+
+pub(super) fn line_ending(bytes: &[u8]) -> &[u8] {
+    let n = volcomp_gcode::lexer::content_len(bytes);
+    let e = &bytes[n..];
+    if e.is_empty() {
+        b"\n"
+    } else {
+        e
+    }
+}
+
+pub(super) fn explicit_mode<'a>(words: impl Iterator<Item = &'a Word>) -> Option<OutMode> {
+    let mut mode = None;
+    for w in words {
+        if w.letter == b'G' {
+            mode = match w.value {
+                0.0 => Some(OutMode::Rapid),
+                1.0 => Some(OutMode::Feed),
+                v if v == 2.0 || v == 3.0 || (80.0..=89.0).contains(&v) => Some(OutMode::Other),
+                _ => mode,
+            };
+        }
+    }
+    mode
+}
+
+pub(super) fn has_feed<'a>(mut words: impl Iterator<Item = &'a Word>) -> bool {
+    words.any(|w| w.letter == b'F' && w.value > 0.0)
+}
+
+pub(super) fn stop_m_word<'a>(mut words: impl Iterator<Item = &'a Word>) -> Option<&'a Word> {
+    words.find(|w| w.letter == b'M' && [0.0, 1.0, 2.0, 30.0, 60.0].contains(&w.value))
+}

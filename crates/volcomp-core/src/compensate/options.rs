@@ -1,0 +1,134 @@
+//! Options and results of a program compensation.
+
+use crate::compensate::solve::Method;
+use volcomp_gcode::Vec3;
+
+/// How feed moves are split into target points.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Segmentation {
+    /// One target per move (arcs are still linearised).
+    Off,
+    /// This many segments per block (as the papers do).
+    Count(u32),
+    /// Segments no longer than this (mm).
+    MaxLength(f64),
+    /// As many segments as the map needs: a segment is halved while the
+    /// error's departure from a straight line between its ends (which is what
+    /// compensating only the ends leaves on the path) exceeds the tolerance
+    /// at its quarter points, down to `min_length_mm`.
+    Adaptive {
+        /// Contour tolerance (mm).
+        tolerance_mm: f64,
+        /// Shortest segment (mm).
+        min_length_mm: f64,
+    },
+}
+
+/// Which direction state chooses the error tables.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DirectionPolicy {
+    /// The direction of the command actually sent (docs/design.md, "Direction state and backlash"; default).
+    Commanded,
+    /// The direction of the nominal move, as the papers do (for comparison).
+    Nominal,
+}
+
+/// Options of [`compensate_program`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompensateOptions {
+    /// Point solver.
+    pub method: Method,
+    /// Splitting of feed moves.
+    pub segmentation: Segmentation,
+    /// Chord tolerance for arcs (mm).
+    pub chord_tolerance_mm: f64,
+    /// Written decimals; `None`: 4 in mm, 5 in inch, or more where the
+    /// program writes more. A rewritten word never has fewer decimals than
+    /// the word it replaces.
+    pub decimals: Option<u8>,
+    /// Largest accepted correction (mm).
+    pub max_correction_mm: f64,
+    /// Table choice.
+    pub directions: DirectionPolicy,
+    /// Insert take-up moves at reversals on feed moves.
+    pub take_up: bool,
+    /// Tag inserted lines with `(volcomp Ln)`.
+    pub trace_comments: bool,
+    /// Largest model residual `‖t − (q + e(q))‖` accepted at a point (µm),
+    /// for the solvers that aim at the target (exact, ILC; direct and pitch
+    /// are checked for finiteness only); `None` checks only finiteness. A point past it is an error at its
+    /// line: a program whose points do not reach their targets is never
+    /// written as a success. Points with a held axis are exempt (their
+    /// residual is the reversal value the take-up cannot cover,
+    /// docs/compensation.md).
+    pub max_residual_um: Option<f64>,
+}
+
+impl Default for CompensateOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::Exact,
+            segmentation: Segmentation::MaxLength(1.0),
+            chord_tolerance_mm: 1e-4,
+            decimals: None,
+            max_correction_mm: 0.1,
+            directions: DirectionPolicy::Commanded,
+            take_up: true,
+            trace_comments: true,
+            max_residual_um: Some(DEFAULT_MAX_RESIDUAL_UM),
+        }
+    }
+}
+
+/// Default of [`CompensateOptions::max_residual_um`]: 1 µm, ten times the
+/// solver's own tolerance plus the rounding of a written coordinate (half a
+/// step of 0.1 µm in mm, 0.254 µm in inch, on three axes), so a converged
+/// point always passes and an unconverged one (ILC stopped early, a map the
+/// solver cannot invert) never does.
+pub const DEFAULT_MAX_RESIDUAL_UM: f64 = 1.0;
+
+/// One compensated target point, for the per-point report.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct PointRecord {
+    /// Source line.
+    pub line: u64,
+    /// Nominal target (axis frame, mm).
+    pub target_mm: Vec3,
+    /// Command written (axis frame, mm).
+    pub command_mm: Vec3,
+    /// Solver iterations.
+    pub iterations: u32,
+    /// Model residual at the command (µm).
+    pub residual_um: f64,
+    /// Axes reversed on this move.
+    pub reversed: [bool; 3],
+    /// Axes held (no consistent reversal).
+    pub held: [bool; 3],
+    /// A take-up move was written before this point.
+    pub take_up: bool,
+    /// The point ends a rapid (measured by no metric: rapids do not cut).
+    pub rapid: bool,
+}
+
+/// What a compensation run did.
+#[derive(Debug, Clone, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct CompensateSummary {
+    /// Lines read.
+    pub lines_in: u64,
+    /// Lines written.
+    pub lines_out: u64,
+    /// Target points compensated.
+    pub points: u64,
+    /// Largest model residual (µm).
+    pub max_residual_um: f64,
+    /// Largest correction `‖q − t‖` (µm).
+    pub max_correction_um: f64,
+    /// Take-up moves written.
+    pub take_ups: u64,
+    /// Lines where an axis was held, with the axis letter (first 100).
+    pub held: Vec<(u64, char)>,
+    /// Total number of holds.
+    pub held_count: u64,
+}
