@@ -12,11 +12,22 @@ fn compensate(dir: &Path, extra: &[&str]) -> std::process::Output {
     compensate_with(dir, "out.ngc", extra)
 }
 
-/// The command fails, says `needle`, and writes no output.
+/// The command fails as bad input (exit 2), says `needle`, and writes no
+/// output.
 fn refused(dir: &Path, o: &std::process::Output, needle: &str) {
+    refused_with(dir, o, needle, 2)
+}
+
+/// The program is refused (exit 3, docs/errors.md), the message says
+/// `needle`, and no output is written.
+fn refused_program(dir: &Path, o: &std::process::Output, needle: &str) {
+    refused_with(dir, o, needle, 3)
+}
+
+fn refused_with(dir: &Path, o: &std::process::Output, needle: &str, code: i32) {
     let msg = stderr(o);
     assert!(!o.status.success(), "accepted: {msg}");
-    assert_eq!(o.status.code(), Some(2), "{msg}");
+    assert_eq!(o.status.code(), Some(code), "{msg}");
     assert!(msg.contains(needle), "`{needle}` not in: {msg}");
     assert!(!dir.join("out.ngc").exists(), "an output was written");
 }
@@ -50,10 +61,10 @@ fn options_asking_for_unbounded_work_are_refused() {
     // 50 mm of feed in 4e9 segments, or arcs linearised within 1e-15 mm.
     let d = fixture("segments");
     let o = compensate(&d, &["--segments", "4000000000"]);
-    refused(&d, &o, "more than the 1000000");
+    refused_program(&d, &o, "more than the 1000000");
     let d = fixture("segment_length");
     let o = compensate(&d, &["--segment-length", "1e-9"]);
-    refused(&d, &o, "more than the 1000000");
+    refused_program(&d, &o, "more than the 1000000");
     let d = fixture("chord");
     std::fs::write(
         d.join("part.ngc"),
@@ -61,7 +72,7 @@ fn options_asking_for_unbounded_work_are_refused() {
     )
     .unwrap();
     let o = compensate(&d, &["--chord-tolerance", "1e-15"]);
-    refused(&d, &o, "more than the 1000000");
+    refused_program(&d, &o, "more than the 1000000");
 }
 
 #[test]
@@ -94,7 +105,7 @@ fn an_unconverged_point_is_an_error_not_a_success() {
     // 2 µm per 100 mm at X ≈ 260 mm that is about 2.6 µm, above 1 µm.
     let d = fixture("ilc1");
     let o = compensate(&d, &["--method", "ilc", "--max-iterations", "1"]);
-    refused(&d, &o, "is not reached");
+    refused_program(&d, &o, "is not reached");
     assert!(stderr(&o).contains("part.ngc:"), "{}", stderr(&o));
     // Twenty steps converge (0.5^20 of the error).
     let o = compensate(&d, &["--method", "ilc", "--max-iterations", "20"]);

@@ -78,7 +78,8 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
             &dir,
         );
         let msg = stderr(&o);
-        assert_eq!(o.status.code(), Some(2), "{program}: {msg}");
+        // A refused program (exit 3, docs/errors.md).
+        assert_eq!(o.status.code(), Some(3), "{program}: {msg}");
         assert!(
             msg.contains(&format!("p.ngc:{line}:{col}:")),
             "{program}: {msg}"
@@ -113,7 +114,8 @@ fn a_map_in_millimetres_is_refused() {
         &dir,
     );
     let msg = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{msg}");
+    // A correction above its limit refuses the program (exit 3, docs/errors.md).
+    assert_eq!(o.status.code(), Some(3), "{msg}");
     assert!(msg.contains("p.ngc:3:") && msg.contains("µm"), "{msg}");
     assert!(!dir.join("out.ngc").exists());
 }

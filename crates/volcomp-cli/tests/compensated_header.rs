@@ -193,7 +193,8 @@ fn header_content_and_refusal_of_double_compensation() {
         &d,
     );
     let e2 = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{e2}");
+    // Compensating twice refuses the program (exit 3, docs/errors.md).
+    assert_eq!(o.status.code(), Some(3), "{e2}");
     assert!(
         e2.contains("out.ngc:3") && e2.contains("--allow-recompensate"),
         "{e2}"

@@ -499,6 +499,8 @@ fn bad_model_files_name_file_row_and_column() {
         assert_eq!(o.status.code(), Some(2), "{name}: {msg}");
         assert!(msg.contains(want) && msg.contains("help:"), "{name}: {msg}");
     }
+    // A file whose name and content name no model kind: the formats listed.
+    std::fs::write(dir.join("m.json"), "{}\n").unwrap();
     let o = volcomp(&["map", "eval", "m.json", "--at", "0,0,0"], &dir);
     assert!(
         stderr(&o).contains(".toml for a 21-component model"),

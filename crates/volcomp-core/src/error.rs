@@ -326,6 +326,9 @@ pub enum Error {
     /// A B-spline surface could not be built or evaluated.
     #[error("{0}")]
     BSpline(#[from] crate::surface::bspline::BSplineError),
+    /// A model file could not be loaded ([`crate::io::load_model`]).
+    #[error("{0}")]
+    Load(#[source] Box<crate::io::LoadError>),
     /// A machine set-up file was refused (bad input, not a refused program).
     #[error("{0}")]
     Setup(#[source] GcodeError),
@@ -359,6 +362,12 @@ pub enum Error {
     },
 }
 
+impl From<crate::io::LoadError> for Error {
+    fn from(e: crate::io::LoadError) -> Self {
+        Error::Load(Box::new(e))
+    }
+}
+
 impl Error {
     /// An I/O error on `path`.
     pub fn io(path: impl Into<std::path::PathBuf>, source: std::io::Error) -> Self {
@@ -389,9 +398,11 @@ impl Error {
             Error::Mirror(MirrorError::Program(e)) => e.kind(),
             Error::ModelFile(ModelFileError::Io { .. }) => ErrorKind::Io,
             Error::Io { .. } | Error::Output(_) => ErrorKind::Io,
+            Error::Load(e) if matches!(**e, crate::io::LoadError::Io { .. }) => ErrorKind::Io,
             Error::MapFile(_)
             | Error::ModelFile(_)
             | Error::Setup(_)
+            | Error::Load(_)
             | Error::Thermal(_)
             | Error::Straightness(_)
             | Error::Mirror(_)

@@ -154,6 +154,9 @@ pub fn file_name(p: &Path) -> String {
         .unwrap_or_else(|| p.display().to_string())
 }
 
+/// A caller's function called on each item as it is produced.
+type Callback<'a, T> = Box<dyn FnMut(&T) + 'a>;
+
 /// Compensates a program for a machine's errors (see the [module
 /// doc](self) for an example).
 ///
@@ -167,8 +170,8 @@ pub struct Compensator<'a> {
     header: Option<ProgramHeader>,
     file: String,
     allow_recompensate: bool,
-    on_point: Option<Box<dyn FnMut(&PointRecord) + 'a>>,
-    on_warning: Option<Box<dyn FnMut(&Warning) + 'a>>,
+    on_point: Option<Callback<'a, PointRecord>>,
+    on_warning: Option<Callback<'a, Warning>>,
 }
 
 impl<'a> Compensator<'a> {

@@ -27,6 +27,9 @@ use volcomp_gcode::Warning;
 /// Chord tolerance used to linearise arcs when none is given (mm).
 pub const DEFAULT_CHORD_TOLERANCE_MM: f64 = 1e-4;
 
+/// A caller's function called on each item as it is produced.
+type Callback<'a, T> = Box<dyn FnMut(&T) + 'a>;
+
 /// Simulates a program and measures its point and contour errors (see
 /// [`crate::simulate::report`] for the definitions).
 ///
@@ -39,8 +42,8 @@ pub struct Simulation<'a> {
     reference: Option<(String, Box<dyn Read + 'a>)>,
     chord_tolerance_mm: f64,
     file: String,
-    on_segment: Option<Box<dyn FnMut(&SegmentError) + 'a>>,
-    on_warning: Option<Box<dyn FnMut(&Warning) + 'a>>,
+    on_segment: Option<Callback<'a, SegmentError>>,
+    on_warning: Option<Callback<'a, Warning>>,
 }
 
 impl<'a> Simulation<'a> {
