@@ -60,6 +60,9 @@ fn main() -> ExitCode {
                 return ExitCode::from(output::EXIT_OK);
             }
             eprintln!("error: {e}");
+            if e.passed_size_limit() {
+                eprintln!("  help: raise the limit with --max-output-size SIZE (e.g. 1G), or remove it with --max-output-size none");
+            }
             // Partial commits already list what was written.
             if !matches!(e, output::CliError::Output(_)) {
                 if let Some(note) = output::outputs_note() {

@@ -75,6 +75,22 @@ impl CliError {
         }
     }
 
+    /// Whether an output passed its size limit (the library's
+    /// [`volcomp_core::limits::LimitedWriter`] reports it as an I/O error of
+    /// kind `FileTooLarge`, somewhere in the cause chain).
+    pub fn passed_size_limit(&self) -> bool {
+        let mut next = self.source();
+        while let Some(e) = next {
+            if e.downcast_ref::<io::Error>()
+                .is_some_and(|io| io.kind() == io::ErrorKind::FileTooLarge)
+            {
+                return true;
+            }
+            next = e.source();
+        }
+        false
+    }
+
     /// The process exit status for this error (docs/errors.md, "Exit codes").
     pub fn exit_code(&self) -> u8 {
         match self {
@@ -93,7 +109,6 @@ impl CliError {
 
     /// The cause of this error, if it keeps one (the library error itself,
     /// whose own `source()` goes on down the chain).
-    #[allow(dead_code)] // the chain is kept for callers and tests that walk it
     pub fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
             CliError::Library { error, .. } => {

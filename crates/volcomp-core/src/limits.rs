@@ -19,7 +19,7 @@ pub const MAX_POINTS_PER_BLOCK: u64 = 1_000_000;
 /// million compensated lines, several times the largest programs of the
 /// bundled real-world corpus after splitting at 1 mm. Larger outputs are
 /// almost always a wrong segment length or unit; the CLI's
-/// `--max-output-size` raises or removes the cap.
+/// The caller may raise or remove the cap (`None`).
 pub const DEFAULT_MAX_OUTPUT_BYTES: u64 = 256 * 1024 * 1024;
 
 /// Checks that `points` (which may be a float estimate, possibly infinite or
@@ -76,7 +76,7 @@ impl<W: Write> Write for LimitedWriter<W> {
             return Err(io::Error::new(
                 io::ErrorKind::FileTooLarge,
                 format!(
-                    "the output would exceed the limit of {} bytes (--max-output-size); nothing was written",
+                    "the output would exceed its size limit of {} bytes; nothing was written",
                     self.limit
                 ),
             ));
