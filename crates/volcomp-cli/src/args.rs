@@ -3,6 +3,7 @@
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
+use volcomp_geom::Axis;
 
 pub mod surface;
 
@@ -33,28 +34,13 @@ pub enum Command {
     Thermal(crate::commands::thermal::ThermalArgs),
 }
 
-/// A machine axis named on the command line.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum AxisArg {
-    X,
-    Y,
-    Z,
-}
-
-impl AxisArg {
-    /// 0, 1, 2 for X, Y, Z.
-    pub fn index(self) -> usize {
-        self as usize
-    }
-}
-
 /// The one value parser of every option that names an axis: `X`, `Y` or
 /// `Z`, in either case (`--axis X` and `--axis x` are the same).
-pub fn parse_axis(text: &str) -> Result<AxisArg, String> {
+pub fn parse_axis(text: &str) -> Result<Axis, String> {
     match text.trim() {
-        "X" | "x" => Ok(AxisArg::X),
-        "Y" | "y" => Ok(AxisArg::Y),
-        "Z" | "z" => Ok(AxisArg::Z),
+        "X" | "x" => Ok(Axis::X),
+        "Y" | "y" => Ok(Axis::Y),
+        "Z" | "z" => Ok(Axis::Z),
         _ => Err(format!("`{text}` is not an axis: write X, Y or Z")),
     }
 }

@@ -4,7 +4,7 @@
 //! Z-correction table or predict the deviation at points. The model file is
 //! also a `--map` for `compensate` and `simulate`.
 
-use crate::args::{parse_axis, AxisArg};
+use crate::args::parse_axis;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
@@ -61,7 +61,7 @@ pub struct RunArgs {
     pub runs: Vec<PathBuf>,
     /// The axis of runs whose file has no `# axis =` line: X or Y.
     #[arg(long, value_parser = parse_axis)]
-    pub axis: Option<AxisArg>,
+    pub axis: Option<volcomp_geom::Axis>,
     /// σ_t: largest relative standard deviation (σ/P̄) across feed rates of a geometric line.
     #[arg(long, value_name = "SIGMA", default_value_t = 0.05)]
     pub sigma_t: f64,
@@ -168,9 +168,9 @@ fn identify(a: &RunArgs) -> Result<Fit, CliError> {
     }
     let axis = match a.axis {
         None => None,
-        Some(AxisArg::X) => Some(Axis::X),
-        Some(AxisArg::Y) => Some(Axis::Y),
-        Some(AxisArg::Z) => {
+        Some(volcomp_geom::Axis::X) => Some(Axis::X),
+        Some(volcomp_geom::Axis::Y) => Some(Axis::Y),
+        Some(volcomp_geom::Axis::Z) => {
             return Err(CliError::Message(
                 "--axis Z: straightness runs are profiles along X or Y (the Z deviation is what they measure); write --axis X or --axis Y".into(),
             ))

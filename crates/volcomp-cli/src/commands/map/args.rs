@@ -1,6 +1,6 @@
 //! The arguments of `volcomp map` and their turning into library values.
 
-use crate::args::{parse_axis, AxisArg};
+use crate::args::parse_axis;
 use crate::commands::parse_triple;
 use crate::output::CliError;
 use clap::{Args, Subcommand, ValueEnum};
@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use volcomp_core::io::linuxcnc_comp::{CompFileType, MachineUnits};
 use volcomp_core::model::kinematic::Form;
 use volcomp_gcode::Vec3;
+use volcomp_geom::Axis;
 
 /// Evaluate, convert, plot and import error maps.
 #[derive(Args, Debug)]
@@ -236,7 +237,7 @@ pub struct IsoArgs {
     pub output: Option<PathBuf>,
     /// The axis that was tested (for -o): X, Y or Z.
     #[arg(long, value_parser = parse_axis)]
-    pub axis: Option<AxisArg>,
+    pub axis: Option<Axis>,
     #[command(flatten)]
     pub comp: CompArgs,
 }
