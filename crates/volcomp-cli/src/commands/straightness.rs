@@ -10,7 +10,7 @@ use crate::plot::{write_charts, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use volcomp_core::identify::straightness::files::{self, LoadError};
+use volcomp_core::identify::straightness::files;
 use volcomp_core::identify::straightness::identify::{
     fit, AxisFit, CutoffRule, Fit, FitOptions, Normalisation,
 };
@@ -164,7 +164,7 @@ fn options(a: &RunArgs) -> FitOptions {
 fn identify(a: &RunArgs) -> Result<Fit, CliError> {
     let mut runs = Vec::with_capacity(a.runs.len());
     for path in &a.runs {
-        runs.push(files::load_run(path, a.negate).map_err(load_error)?);
+        runs.push(files::load_run(path, a.negate).map_err(CliError::from)?);
     }
     let axis = match a.axis {
         None => None,
@@ -484,16 +484,8 @@ fn profile_chart(a: &AxisFit) -> Chart {
     }
 }
 
-/// An unreadable file stays an I/O error on its path; bad content is a message.
-fn load_error(e: LoadError) -> CliError {
-    match e {
-        LoadError::Io { path, source } => CliError::Io(path, source),
-        LoadError::Content(e) => e.into(),
-    }
-}
-
 fn load_model(path: &Path) -> Result<StraightnessModel, CliError> {
-    files::load_model(path).map_err(load_error)
+    files::load_model(path).map_err(CliError::from)
 }
 
 fn table_cmd(a: TableArgs) -> Result<(), CliError> {

@@ -14,7 +14,7 @@ use volcomp_core::identify::thermal::files::{
     self, parse_artifact, parse_measurements, parse_temperatures, FitOptions, ThermalModelFile,
 };
 use volcomp_core::identify::thermal::identify::DEFAULT_RELATIVE_THRESHOLD;
-use volcomp_core::identify::thermal::report::{self, LoadError};
+use volcomp_core::identify::thermal::report;
 use volcomp_core::identify::thermal::uncertainty::{axis_line_bands, LineBands};
 use volcomp_core::identify::thermal::ThermalError;
 
@@ -247,10 +247,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
 }
 
 fn load_model(path: &Path) -> Result<ThermalModelFile, CliError> {
-    report::load_model(path).map_err(|e| match e {
-        LoadError::Io { path, source } => CliError::Io(path, source),
-        LoadError::Model(e) => e.into(),
-    })
+    report::load_model(path).map_err(CliError::from)
 }
 
 fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {

@@ -3,37 +3,20 @@
 //! (`x_mm,y_mm,ez_um,z_correction_um`).
 
 use super::run::Run;
-use super::{StraightnessError, StraightnessModel};
+use super::StraightnessModel;
+use crate::error::Error;
 use crate::error::ModelError;
 use crate::io::numfmt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// A run or model file could not be loaded.
-#[derive(Debug, thiserror::Error)]
-pub enum LoadError {
-    /// The file could not be read.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The file's content is not valid (located).
-    #[error(transparent)]
-    Content(#[from] StraightnessError),
-}
-
-fn read(path: &Path) -> Result<String, LoadError> {
-    std::fs::read_to_string(path).map_err(|source| LoadError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+fn read(path: &Path) -> Result<String, Error> {
+    std::fs::read_to_string(path).map_err(|source| Error::io(path, source))
 }
 
 /// Reads a straightness model file ([`StraightnessModel::from_toml`]).
-pub fn load_model(path: &Path) -> Result<StraightnessModel, LoadError> {
+/// Errors: [`Error::Io`] when the file cannot be read, [`Error::Straightness`]
+/// (located) when its content is not a model.
+pub fn load_model(path: &Path) -> Result<StraightnessModel, Error> {
     Ok(StraightnessModel::from_toml(
         &read(path)?,
         &path.display().to_string(),
@@ -43,7 +26,8 @@ pub fn load_model(path: &Path) -> Result<StraightnessModel, LoadError> {
 /// Reads one run file ([`Run::from_csv`]); with `negate`, the file's
 /// displacement has the opposite sign of the deviation (e.g. workpiece
 /// relative to tool) and is negated.
-pub fn load_run(path: &Path, negate: bool) -> Result<Run, LoadError> {
+/// Errors as [`load_model`].
+pub fn load_run(path: &Path, negate: bool) -> Result<Run, Error> {
     let mut run = Run::from_csv(&read(path)?, &path.display().to_string())?;
     if negate {
         run.negate();
@@ -177,7 +161,7 @@ mod tests {
     #[test]
     fn a_missing_file_names_its_path() {
         let e = load_model(Path::new("/nonexistent/s.toml")).unwrap_err();
-        assert!(matches!(e, LoadError::Io { .. }));
+        assert!(matches!(e, Error::Io { .. }));
         assert!(e.to_string().starts_with("/nonexistent/s.toml: "), "{e}");
     }
 }

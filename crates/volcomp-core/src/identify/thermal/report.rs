@@ -6,32 +6,15 @@
 use super::files::{ParamFit, ThermalModelFile};
 use super::regression::Regression;
 use super::uncertainty::LineBands;
-use super::ThermalError;
-use std::path::{Path, PathBuf};
-
-/// A thermal model file could not be loaded.
-#[derive(Debug, thiserror::Error)]
-pub enum LoadError {
-    /// The file could not be read.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The file is not a valid thermal model (located).
-    #[error(transparent)]
-    Model(#[from] ThermalError),
-}
+use crate::error::Error;
+use std::path::Path;
 
 /// Reads and checks a thermal model file (TOML, [`ThermalModelFile`]).
-pub fn load_model(path: &Path) -> Result<ThermalModelFile, LoadError> {
-    let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+///
+/// Errors: [`Error::Io`] when the file cannot be read, [`Error::Thermal`]
+/// (located) when its content is not a thermal model.
+pub fn load_model(path: &Path) -> Result<ThermalModelFile, Error> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::io(path, source))?;
     Ok(ThermalModelFile::from_toml(
         &text,
         &path.display().to_string(),
@@ -253,7 +236,7 @@ mod tests {
     #[test]
     fn a_missing_model_file_names_the_path() {
         let e = load_model(Path::new("/nonexistent/thermal.toml")).unwrap_err();
-        assert!(matches!(e, LoadError::Io { .. }));
+        assert!(matches!(e, Error::Io { .. }));
         assert!(
             e.to_string().starts_with("/nonexistent/thermal.toml: "),
             "{e}"
