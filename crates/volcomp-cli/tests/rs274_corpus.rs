@@ -1,0 +1,323 @@
+//! `volcomp moves` against LinuxCNC's `rs274` on an external corpus of real
+//! programs: the measurement behind "volcomp reads what LinuxCNC reads".
+//!
+//! The corpus is not bundled (hundreds of programs under their own
+//! licences); name its directory with `VOLCOMP_EVAL_CORPUS` and run
+//!
+//! ```text
+//! VOLCOMP_EVAL_CORPUS=/path/to/programs \
+//!   cargo test -p volcomp-cli --test rs274_corpus -- --ignored --nocapture
+//! ```
+//!
+//! Every file ending in `.ngc`, `.nc`, `.gcode`, `.tap` or `.cnc` below the
+//! directory is run through both interpreters with the set-up of the
+//! agreement test (`rs274_agreement.rs`). Each program falls in one class:
+//!
+//! * both accept → compared motion by motion (a difference is a failure);
+//! * rs274 accepts, volcomp refuses → counted, grouped by volcomp's message;
+//! * rs274 refuses, volcomp accepts → a failure (volcomp must not accept
+//!   what LinuxCNC refuses), unless volcomp's motions end where rs274's
+//!   stopped at its error (rs274 refused at run time, volcomp at …);
+//! * both refuse → counted.
+//!
+//! Every program both accept is then compensated (`volcomp compensate`,
+//! default options) for a ripple map defined over ±5 m (3 µm positioning and
+//! 1 µm straightness waves of 40 mm, 30 mm and 25 mm period on X, Y and Z,
+//! so the correction is at most 5·√3 ≈ 8.7 µm), and the compensated program
+//! must be accepted by rs274 and follow the original path: each original
+//! motion's end point is matched, in order, by an end point of the
+//! compensated program within the largest correction plus rs274's printing
+//! tolerance.
+//!
+//! `VOLCOMP_EVAL_REPORT` names a file for the full per-program table.
+//! The test fails on any disagreement; the acceptance rate is printed (the
+//! issue's target is at least 95 % of what rs274 accepts).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+#[allow(dead_code)]
+mod rs274;
+
+use rs274::compare::compare;
+use rs274::*;
+
+/// Seconds either interpreter may take on one program.
+const TIMEOUT_S: u32 = 120;
+
+/// Largest rs274 output (512-byte blocks: 64 MB).
+const MAX_OUTPUT_BLOCKS: u32 = 131_072;
+
+fn programs(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut entries: Vec<_> = rd.filter_map(|e| e.ok()).map(|e| e.path()).collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            programs(&p, out);
+        } else if let Some(ext) = p.extension().and_then(|e| e.to_str()) {
+            if ["ngc", "nc", "gcode", "tap", "cnc"].contains(&ext.to_ascii_lowercase().as_str()) {
+                out.push(p);
+            }
+        }
+    }
+}
+
+enum Class {
+    Agree(usize),
+    Mismatch(Vec<String>),
+    Refused(String),
+    AcceptedRejected(String),
+    BothRefuse,
+}
+
+/// The first line of volcomp's error message, without its location, so that
+/// refusals group by cause.
+fn cause(stderr: &str) -> String {
+    let line = stderr
+        .lines()
+        .find(|l| l.contains("error"))
+        .unwrap_or_else(|| stderr.lines().next().unwrap_or(""));
+    let msg = line.rsplit(": ").next().unwrap_or(line);
+    msg.trim().chars().take(90).collect()
+}
+
+#[test]
+#[ignore = "needs VOLCOMP_EVAL_CORPUS and rs274"]
+fn external_corpus() {
+    let Some(dir) = std::env::var_os("VOLCOMP_EVAL_CORPUS").map(PathBuf::from) else {
+        panic!("set VOLCOMP_EVAL_CORPUS to a directory of G-code programs");
+    };
+    let rs274 = find_rs274().expect("rs274 is not installed (apt install linuxcnc-uspace)");
+    let mut files = Vec::new();
+    programs(&dir, &mut files);
+    assert!(!files.is_empty(), "no programs below {}", dir.display());
+
+    let work = std::env::temp_dir().join(format!("volcomp-rs274-corpus-{}", std::process::id()));
+    std::fs::create_dir_all(&work).unwrap();
+    // rs274 may loop for ever on a bad program (LinuxCNC's own tests have
+    // endless G71 loops): run it under `timeout` and a file-size limit
+    // (512-byte blocks in POSIX sh), so a runaway run is a rejection.
+    let wrapper = work.join("rs274-timeout.sh");
+    std::fs::write(
+        &wrapper,
+        format!(
+            "#!/bin/sh\nulimit -f {MAX_OUTPUT_BLOCKS}\nexec timeout {TIMEOUT_S} {} \"$@\"\n",
+            rs274.display()
+        ),
+    )
+    .unwrap();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&wrapper, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let map = work.join("ripple.csv");
+    std::fs::write(&map, ripple_map()).unwrap();
+    let setup = work.join("setup.toml");
+    std::fs::write(&setup, setup_toml()).unwrap();
+    let tool_table = work.join("tools.tbl");
+    std::fs::write(&tool_table, rs274_tool_table()).unwrap();
+    let tools = Tools {
+        rs274: wrapper,
+        volcomp: PathBuf::from(env!("CARGO_BIN_EXE_volcomp")),
+        dir: work.clone(),
+        setup,
+        tool_table,
+        var_text: rs274_var_file(),
+    };
+
+    let results: Mutex<Vec<(PathBuf, Class)>> = Mutex::new(Vec::new());
+    let next = Mutex::new(0usize);
+    let threads = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(2);
+    std::thread::scope(|s| {
+        for t in 0..threads {
+            let (files, tools, results, next, work, map) =
+                (&files, &tools, &results, &next, &work, &map);
+            s.spawn(move || loop {
+                let i = {
+                    let mut n = next.lock().unwrap();
+                    let i = *n;
+                    *n += 1;
+                    i
+                };
+                let Some(path) = files.get(i) else { break };
+                let w = work.join(format!("t{t}-{i}"));
+                let class = classify(tools, path, &w, map);
+                let _ = std::fs::remove_dir_all(&w);
+                results.lock().unwrap().push((path.clone(), class));
+            });
+        }
+    });
+    let mut results = results.into_inner().unwrap();
+    results.sort_by(|a, b| a.0.cmp(&b.0));
+
+    let (mut agree, mut refused, mut both, mut motions) = (0, 0, 0, 0usize);
+    let mut failures = Vec::new();
+    let mut causes: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    let mut table = String::from("| program | result |\n|---|---|\n");
+    for (path, class) in &results {
+        let name = path
+            .strip_prefix(&dir)
+            .unwrap_or(path)
+            .display()
+            .to_string();
+        let row = match class {
+            Class::Agree(n) => {
+                agree += 1;
+                motions += n;
+                format!("agree ({n} motions)")
+            }
+            Class::Mismatch(f) => {
+                failures.push(format!("{name}: {}", f.join("; ")));
+                format!("MISMATCH: {}", f.join("; "))
+            }
+            Class::Refused(c) => {
+                refused += 1;
+                causes.entry(c.clone()).or_default().push(name.clone());
+                format!("refused by volcomp: {c}")
+            }
+            Class::AcceptedRejected(why) => {
+                failures.push(format!(
+                    "{name}: volcomp accepts a program rs274 rejects ({why})"
+                ));
+                format!("ACCEPTED although rs274 rejects: {why}")
+            }
+            Class::BothRefuse => {
+                both += 1;
+                "both refuse".into()
+            }
+        };
+        table.push_str(&format!("| {name} | {row} |\n"));
+    }
+    let accepted_by_rs274 = agree + refused + failures.len();
+    println!(
+        "{} programs; rs274 accepts {accepted_by_rs274}; volcomp accepts and agrees on {agree} ({:.1} %, {motions} motions); volcomp refuses {refused}; both refuse {both}; disagreements {}",
+        results.len(),
+        100.0 * agree as f64 / accepted_by_rs274.max(1) as f64,
+        failures.len()
+    );
+    let mut by_count: Vec<_> = causes.into_iter().collect();
+    by_count.sort_by(|a, b| b.1.len().cmp(&a.1.len()));
+    for (c, names) in &by_count {
+        println!("  {:4} × {c}   e.g. {}", names.len(), names[0]);
+    }
+    if let Some(report) = std::env::var_os("VOLCOMP_EVAL_REPORT") {
+        std::fs::write(report, &table).unwrap();
+    }
+    for f in &failures {
+        println!("FAIL {f}");
+    }
+    let _ = std::fs::remove_dir_all(&work);
+    assert!(failures.is_empty(), "{} disagreements", failures.len());
+}
+
+/// Largest correction of [`ripple_map`] (mm): 3 + 1 + 1 µm per component.
+const MAX_CORRECTION_MM: f64 = 5.0e-3 * 1.732_050_808;
+
+/// The ripple map of the module doc, as an axis-table CSV.
+fn ripple_map() -> String {
+    let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for (a, axis, period) in [(0, "X", 40.0), (1, "Y", 30.0), (2, "Z", 25.0)] {
+        for k in -1000..=1000 {
+            let p = f64::from(k) * 5.0;
+            let w = (2.0 * std::f64::consts::PI * p / period).sin();
+            let mut e = [w, w, w];
+            e[a] = 3.0 * w;
+            s.push_str(&format!(
+                "{axis},both,{p},{:.6},{:.6},{:.6}\n",
+                e[0], e[1], e[2]
+            ));
+        }
+    }
+    s
+}
+
+/// Whether every motion of `original` is matched in order by a motion of
+/// `compensated` ending within `tol` mm (per axis) of it; the first miss.
+fn follows(original: &[RefMotion], compensated: &[RefMotion]) -> Result<(), String> {
+    let mut j = 0;
+    for (i, m) in original.iter().enumerate() {
+        let tol = MAX_CORRECTION_MM + m.tol.iter().cloned().fold(0.0, f64::max);
+        let close = |c: &RefMotion| (0..3).all(|a| (c.end[a] - m.end[a]).abs() <= tol);
+        match compensated[j..].iter().position(close) {
+            Some(k) => j += k + 1,
+            None => {
+                return Err(format!(
+                    "original motion #{i} ({}) has no compensated counterpart within {:.4} mm",
+                    rs274::compare::describe_ref(m),
+                    tol
+                ))
+            }
+        }
+    }
+    Ok(())
+}
+
+fn compensate_and_check(
+    tools: &Tools,
+    path: &Path,
+    work: &Path,
+    map: &Path,
+    original: &[RefMotion],
+) -> Result<(), String> {
+    let out = work.join("compensated.ngc");
+    let run = std::process::Command::new(&tools.volcomp)
+        .arg("compensate")
+        .arg("--map")
+        .arg(map)
+        .arg("--setup")
+        .arg(&tools.setup)
+        .arg("-o")
+        .arg(&out)
+        .arg(path)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .map_err(|e| format!("cannot run volcomp: {e}"))?;
+    if !run.status.success() {
+        return Err(format!(
+            "volcomp compensate refuses a program it reads: {}",
+            cause(&String::from_utf8_lossy(&run.stderr))
+        ));
+    }
+    let rs = run_rs274(tools, &out, &work.join("out"))?;
+    if let Some(why) = rs.rejected {
+        if !why.starts_with("exit status: 0:") {
+            return Err(format!("rs274 rejects the compensated program: {why}"));
+        }
+    }
+    follows(original, &rs.motions)
+}
+
+fn classify(tools: &Tools, path: &Path, work: &Path, map: &Path) -> Class {
+    let rs = match run_rs274(tools, path, work) {
+        Ok(r) => r,
+        Err(e) => return Class::Mismatch(vec![format!("rs274 output unreadable: {e}")]),
+    };
+    let vol = run_volcomp(tools, path, &[]);
+    // rs274 prints `(print, …)` and `(debug, …)` comments: only its exit
+    // status tells a rejection.
+    let rejected = rs
+        .rejected
+        .filter(|why| !why.starts_with("exit status: 0:"));
+    match (rejected, vol) {
+        (None, Ok(v)) => {
+            let c = compare("", &rs.motions, &v);
+            if !c.failures.is_empty() {
+                return Class::Mismatch(c.failures);
+            }
+            match compensate_and_check(tools, path, work, map, &rs.motions) {
+                Ok(()) => Class::Agree(c.pairs),
+                Err(e) => Class::Mismatch(vec![e]),
+            }
+        }
+        (None, Err(e)) => Class::Refused(cause(&e)),
+        (Some(why), Ok(_)) => Class::AcceptedRejected(why.chars().take(200).collect()),
+        (Some(_), Err(_)) => Class::BothRefuse,
+    }
+}
