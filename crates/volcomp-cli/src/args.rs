@@ -60,6 +60,10 @@ pub struct MachineArgs {
     /// Refuse `K0` on G17 arcs as LinuxCNC does (accepted by default).
     #[arg(long)]
     pub strict_k0: bool,
+    /// Accept a program that ends without M2, M30 or a closing `%`
+    /// (LinuxCNC refuses it; grbl-family and other controllers run it).
+    #[arg(long)]
+    pub allow_no_program_end: bool,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]

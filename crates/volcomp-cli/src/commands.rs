@@ -75,6 +75,7 @@ impl Machine {
         Ok(Machine(machine.with_interp_options(InterpOptions {
             accept_k0_on_xy_arcs: !a.strict_k0,
             absolute_arc_centers: a.absolute_arc_centers,
+            require_program_end: !a.allow_no_program_end,
         })))
     }
 

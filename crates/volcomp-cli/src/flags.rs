@@ -6,6 +6,7 @@
 use volcomp_core::error::{help, CompensationError};
 use volcomp_core::surface::mirror::MirrorError;
 use volcomp_core::Error;
+use volcomp_gcode::interp::PROGRAM_END_HELP;
 
 /// Each library help text that names an option, with the CLI's wording.
 const HELP: [(&str, &str); 6] = [
@@ -54,6 +55,12 @@ fn compensation<'e>(e: &'e (dyn std::error::Error + 'static)) -> Option<&'e Comp
 /// `e`'s text with the options it names said as the CLI's flags, when it
 /// names any (`None`: the library's text stands).
 pub fn reword(e: &(dyn std::error::Error + 'static)) -> Option<String> {
+    let text = e.to_string();
+    if text.ends_with(PROGRAM_END_HELP) {
+        return Some(format!(
+            "{text}, or pass --allow-no-program-end if the controller runs programs without one"
+        ));
+    }
     if let Some(Error::AlreadyCompensated { .. }) = e.downcast_ref::<Error>() {
         return Some(e.to_string().replacen(
             "or allow recompensation if",

@@ -89,6 +89,12 @@ impl<R: BufRead> Walker<R> {
             }
         })?;
         if n == 0 {
+            if let Err(e) = self.interp.end_of_input(self.number) {
+                return Err(match &self.file {
+                    Some(f) => e.with_file(f.clone()),
+                    None => e,
+                });
+            }
             return Ok(None);
         }
         self.number += 1;
@@ -97,8 +103,12 @@ impl<R: BufRead> Walker<R> {
         let after_end = self.interp.finished();
         if !after_end {
             match kind {
-                LineKind::Percent => self.interp.percent_line(),
-                LineKind::ProgramNumber => {}
+                LineKind::Percent => {
+                    if let Err(e) = self.interp.percent_line(self.number) {
+                        return Err(self.locate(e));
+                    }
+                }
+                LineKind::ProgramNumber => self.interp.note_nonblank_line(),
                 LineKind::Block => {
                     if let Err(e) = lexer::lex_block(content, &mut self.lexed) {
                         return Err(self.locate(e.at_line(self.number)));

@@ -16,6 +16,7 @@
 //! | `motion.rs` | straight moves, arcs, polar end points, feed-rate and reach checks |
 //! | `cycle.rs` | canned cycles G81, G82, G85, G89 |
 //! | `offsets.rs` | tool length offsets, G10, G92, G28/G30 |
+//! | `tape.rs` | the start and end of a program: `%` lines, the required program end |
 //! | `warnings.rs` | [`Warning`]: what was assumed |
 //!
 //! What it does not interpret faithfully it refuses, naming the column: no
@@ -25,11 +26,13 @@ mod cycle;
 mod motion;
 mod offsets;
 mod options;
+mod tape;
 mod warnings;
 mod words;
 
 pub use motion::MAX_COORDINATE_MM;
 pub use options::{FeedMode, InterpOptions};
+pub use tape::PROGRAM_END_HELP;
 pub use warnings::Warning;
 
 use crate::arc::Arc;
@@ -130,7 +133,10 @@ pub struct Interpreter {
     /// Sticky dwell P of G82/G89 (seconds).
     cycle_p: Option<f64>,
     finished: bool,
-    percent_lines: u32,
+    /// Whether the first non-blank line was `%` (the program "uses percents").
+    uses_percents: bool,
+    /// Whether a non-blank line has been read.
+    nonblank_seen: bool,
     /// Whether the program has said G20 or G21.
     units_given: bool,
     /// Assumptions made so far, in program order.
@@ -186,7 +192,8 @@ impl Interpreter {
             cycle_start_z: None,
             cycle_p: None,
             finished: false,
-            percent_lines: 0,
+            uses_percents: false,
+            nonblank_seen: false,
             units_given: false,
             warnings: Vec::new(),
             warned_units: false,
@@ -252,14 +259,6 @@ impl Interpreter {
         &self.warnings
     }
 
-    /// Notes a `%` line: the second one ends the program.
-    pub fn percent_line(&mut self) {
-        self.percent_lines += 1;
-        if self.percent_lines >= 2 {
-            self.finished = true;
-        }
-    }
-
     /// Executes one lexed block, appending its motions to `out`.
     pub fn execute(
         &mut self,
@@ -269,6 +268,9 @@ impl Interpreter {
     ) -> Result<(), GcodeError> {
         if self.finished {
             return Ok(());
+        }
+        if !lexed.tokens.is_empty() {
+            self.nonblank_seen = true;
         }
         self.collect_words(line, lexed)?;
         let before = out.len();

@@ -10,6 +10,13 @@ pub struct InterpOptions {
     /// Interpret arc centres as absolute from the start, as if G90.1 began
     /// the program.
     pub absolute_arc_centers: bool,
+    /// Refuse a program that ends without M2 or M30 (or, if its first
+    /// non-blank line is `%`, without a closing `%` line), as LinuxCNC does
+    /// (`Interp::read`, rs274ngc_pre.cc: "File ended with no percent sign or
+    /// program end"). Other controllers run such programs, and a library
+    /// caller may read a fragment, so the default does not require it; the
+    /// `volcomp` command line does, unless told otherwise.
+    pub require_program_end: bool,
 }
 
 impl Default for InterpOptions {
@@ -17,6 +24,7 @@ impl Default for InterpOptions {
         Self {
             accept_k0_on_xy_arcs: true,
             absolute_arc_centers: false,
+            require_program_end: false,
         }
     }
 }

@@ -270,8 +270,9 @@ impl Interpreter {
                     "Q word with no G10, G64, M19, M61, M66, M67 or M68 to use it",
                 ),
                 b'R' => (
-                    arc || cycle || g10 || w.has_g(640) || m_any(&[190]),
-                    "R word with no G2, G3, canned cycle, G10, G64 or M19 to use it",
+                    // LinuxCNC 2.9 has no G64 R (it came with 2.10's planner).
+                    arc || cycle || g10 || m_any(&[190]),
+                    "R word with no G2, G3, canned cycle, G10 or M19 to use it",
                 ),
                 _ => (true, ""),
             };
