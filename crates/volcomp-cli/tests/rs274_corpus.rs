@@ -37,7 +37,6 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-#[allow(dead_code)]
 mod rs274;
 
 use rs274::compare::compare;
@@ -203,7 +202,7 @@ fn external_corpus() {
         failures.len()
     );
     let mut by_count: Vec<_> = causes.into_iter().collect();
-    by_count.sort_by(|a, b| b.1.len().cmp(&a.1.len()));
+    by_count.sort_by_key(|b| std::cmp::Reverse(b.1.len()));
     for (c, names) in &by_count {
         println!("  {:4} × {c}   e.g. {}", names.len(), names[0]);
     }
