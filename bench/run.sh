@@ -20,3 +20,12 @@ for cmd in "moves $work/big.ngc" "compensate $work/big.ngc --map $work/demo/exam
   /usr/bin/time -f "max RSS %M KiB: volcomp ${cmd%% *}" $vc $cmd > /dev/null 2> "$work/time.txt" || true
   tail -1 "$work/time.txt"
 done
+# Control flow: a 16-line program whose while-loop executes 1,000,000 feed
+# moves (bench/gen_loop.py), read by both interpreters.
+python3 bench/gen_loop.py 1000000 > "$work/loop.ngc"
+hyperfine --warmup 1 --runs ${RUNS:-5} --export-markdown "$work/loop.md" \
+  -n "rs274 -g (loop)" "rs274 -g -t $work/tools.tbl $work/loop.ngc $work/rs274-loop.out < /dev/null" \
+  -n "volcomp moves (loop)" "$vc moves $work/loop.ngc > $work/loop.csv"
+cat "$work/loop.md"
+/usr/bin/time -f "max RSS %M KiB: volcomp moves (loop)" $vc moves "$work/loop.ngc" > /dev/null 2> "$work/time.txt" || true
+tail -1 "$work/time.txt"
