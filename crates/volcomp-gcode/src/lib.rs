@@ -18,6 +18,7 @@ pub mod error;
 pub mod geom;
 pub mod interp;
 pub mod lexer;
+pub mod ngc;
 pub mod number;
 pub mod program;
 pub mod setup;

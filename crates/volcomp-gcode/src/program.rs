@@ -1,20 +1,48 @@
-//! Streaming a program line by line: read, lex, interpret.
+//! Running a program line by line: read, evaluate, lex, interpret.
 //!
-//! Memory does not grow with the program: one line buffer, one token buffer
-//! and the motions of the current line are reused for every line.
+//! Lines come out **in execution order**. A program of literal lines is
+//! streamed: one line buffer, one token buffer, the motions of the current
+//! line; memory does not grow with the program. Lines with parameters or
+//! expressions are evaluated and rendered as literal lines first
+//! ([`crate::ngc`]); o-word control flow (and M98/M99) makes the walker
+//! keep the program's lines from the first control statement on, so that
+//! loops can go back and calls can find their subroutines, and yield each
+//! executed line as often as it runs — a flat program.
 
 use crate::error::{ErrorClass, GcodeError};
 use crate::interp::{InterpOptions, Interpreter, Motion};
 use crate::lexer::{self, Lexed, LineKind};
+use crate::ngc::flow::{Flow, Pos, MAIN};
+use crate::ngc::line::{self, Statement};
+use crate::ngc::norm::Norm;
+use crate::ngc::params::Scope;
+use crate::ngc::source::Lines;
 use crate::setup::Setup;
 use std::io::BufRead;
+use std::path::PathBuf;
+
+/// Line `p` of the main program or a subroutine file, if held.
+fn bytes_of<'a>(main: &'a Lines, flow: &'a crate::ngc::flow::Flow, p: Pos) -> Option<&'a [u8]> {
+    if p.src == MAIN {
+        main.get(p.line)
+    } else {
+        flow.lines(p.src).and_then(|l| l.get(p.line))
+    }
+}
 
 /// One line of the program after it has been executed.
 pub struct LineEvent<'a> {
-    /// 1-based line number.
+    /// 1-based line number in its file.
     pub number: u64,
-    /// The line's bytes, including its line ending.
+    /// The subroutine file the line comes from (`None`: the program itself).
+    pub file: Option<&'a str>,
+    /// The line's bytes, including its line ending: the original bytes, or
+    /// for a line with parameters or expressions the literal line they
+    /// evaluated to.
     pub bytes: &'a [u8],
+    /// Whether `bytes` were rendered from a line with parameters or
+    /// expressions.
+    pub rendered: bool,
     /// What kind of line it is.
     pub kind: LineKind,
     /// Its tokens (empty for `%` and program-number lines).
@@ -27,28 +55,53 @@ pub struct LineEvent<'a> {
     pub after_end: bool,
 }
 
-/// Reads, lexes and interprets a program one line at a time.
+/// Reads, evaluates, lexes and interprets a program one line at a time.
 pub struct Walker<R> {
-    reader: R,
-    file: Option<String>,
-    number: u64,
-    buf: Vec<u8>,
+    pub(crate) reader: R,
+    pub(crate) file: Option<String>,
+    /// The main program's lines (only the current one until control flow
+    /// needs more).
+    pub(crate) main: Lines,
+    pub(crate) flow: Flow,
+    pub(crate) buf: Vec<u8>,
+    pub(crate) rendered: bool,
     lexed: Lexed,
     motions: Vec<Motion>,
-    interp: Interpreter,
+    pub(crate) interp: Interpreter,
+    /// The line the last event came from.
+    pub(crate) current: Pos,
+    /// Where lines after the program end are copied from (main program).
+    after_end_at: Option<usize>,
 }
 
 impl<R: BufRead> Walker<R> {
-    /// Starts reading `reader`; `file` names it in error messages.
+    /// Starts reading `reader`; `file` names it in error messages (and, when
+    /// it is a path, its directory is searched for subroutine files).
     pub fn new(reader: R, file: Option<String>, setup: Setup, options: InterpOptions) -> Self {
+        let mut dirs: Vec<PathBuf> = setup.subroutine_path.clone();
+        if let Some(dir) = file
+            .as_deref()
+            .map(std::path::Path::new)
+            .and_then(|p| p.parent())
+        {
+            dirs.push(if dir.as_os_str().is_empty() {
+                PathBuf::from(".")
+            } else {
+                dir.to_path_buf()
+            });
+        }
         Self {
             reader,
             file,
-            number: 0,
+            main: Lines::default(),
+            flow: Flow::new(dirs),
             buf: Vec::with_capacity(256),
+            rendered: false,
             lexed: Lexed::default(),
             motions: Vec::with_capacity(16),
             interp: Interpreter::new(setup, options),
+            current: Pos { src: MAIN, line: 0 },
+            after_end_at: None,
         }
     }
 
@@ -57,79 +110,242 @@ impl<R: BufRead> Walker<R> {
         self.interp.warnings()
     }
 
+    pub(crate) fn lexed_ref(&self) -> &Lexed {
+        &self.lexed
+    }
+
     /// The interpreter (state after the last line read).
     pub fn interpreter(&self) -> &Interpreter {
         &self.interp
     }
 
-    fn locate(&self, e: GcodeError) -> GcodeError {
-        let e = e.with_source_line(&self.buf);
-        match &self.file {
-            Some(f) => e.with_file(f.clone()),
+    /// The name of the file of source `src`.
+    pub(crate) fn file_name(&self, src: usize) -> Option<String> {
+        if src == MAIN {
+            self.file.clone()
+        } else {
+            self.flow.file_name(src).map(str::to_string)
+        }
+    }
+
+    /// `e` located in the current line (its file, its original text).
+    pub(crate) fn locate(&self, e: GcodeError) -> GcodeError {
+        let e = match self.line_bytes(self.current) {
+            Some(bytes) => e.with_source_line(bytes),
+            None => e,
+        };
+        match self.file_name(self.current.src) {
+            Some(f) => e.with_file(f),
             None => e,
         }
     }
 
-    /// The next line, or `None` at the end of the input.
-    pub fn next_line(&mut self) -> Result<Option<LineEvent<'_>>, GcodeError> {
-        self.buf.clear();
-        self.motions.clear();
-        self.lexed.tokens.clear();
-        let n = self.reader.read_until(b'\n', &mut self.buf).map_err(|e| {
-            let err = GcodeError::new(
-                ErrorClass::Io,
-                self.number + 1,
-                1,
-                format!("cannot read: {e}"),
-                "check that the file is readable",
-            );
-            match &self.file {
-                Some(f) => err.with_file(f.clone()),
-                None => err,
-            }
-        })?;
-        if n == 0 {
-            if let Err(e) = self.interp.end_of_input(self.number) {
+    pub(crate) fn line_bytes(&self, p: Pos) -> Option<&[u8]> {
+        bytes_of(&self.main, &self.flow, p)
+    }
+
+    /// Makes line `p` available (reads the main program up to it).
+    pub(crate) fn fetch(&mut self, p: Pos) -> Result<bool, GcodeError> {
+        if p.src == MAIN {
+            if let Err(e) = self.main.fill_to(&mut self.reader, p.line) {
+                let err = GcodeError::new(
+                    ErrorClass::Io,
+                    p.line as u64 + 1,
+                    1,
+                    format!("cannot read: {e}"),
+                    "check that the file is readable",
+                );
                 return Err(match &self.file {
-                    Some(f) => e.with_file(f.clone()),
-                    None => e,
+                    Some(f) => err.with_file(f.clone()),
+                    None => err,
                 });
             }
-            return Ok(None);
         }
-        self.number += 1;
-        let content = &self.buf[..lexer::content_len(&self.buf)];
-        let kind = lexer::classify(content);
-        let after_end = self.interp.finished();
-        if !after_end {
-            match kind {
-                LineKind::Percent => {
-                    if let Err(e) = self.interp.percent_line(self.number) {
-                        return Err(self.locate(e));
-                    }
+        Ok(self.line_bytes(p).is_some())
+    }
+
+    /// The next line, or `None` at the end of the input.
+    pub fn next_line(&mut self) -> Result<Option<LineEvent<'_>>, GcodeError> {
+        self.motions.clear();
+        self.lexed.tokens.clear();
+        loop {
+            if self.interp.finished() {
+                return self.next_after_end();
+            }
+            let pos = self.flow.pos;
+            if !self.fetch(pos)? {
+                self.end_of_source(pos)?;
+                if self.interp.finished() {
+                    continue;
                 }
-                LineKind::ProgramNumber => self.interp.note_nonblank_line(),
-                LineKind::Block => {
-                    if let Err(e) = lexer::lex_block(content, &mut self.lexed) {
-                        return Err(self.locate(e.at_line(self.number)));
-                    }
-                    if let Err(e) = self
-                        .interp
-                        .execute(self.number, &self.lexed, &mut self.motions)
-                    {
-                        return Err(self.locate(e));
-                    }
-                }
+                return Ok(None);
+            }
+            self.current = pos;
+            self.flow.pos.line += 1;
+            if !self.flow.keeps_lines() && pos.src == MAIN {
+                self.main.forget_before(pos.line);
+            }
+            if let Err(e) = self.flow.count_line(pos.line as u64 + 1) {
+                return Err(self.locate(e));
+            }
+            if let Some(ev_kind) = self.prepare(pos)? {
+                return Ok(Some(self.event(pos, ev_kind, false)));
             }
         }
-        Ok(Some(LineEvent {
-            number: self.number,
+    }
+
+    fn event(&self, pos: Pos, kind: LineKind, after_end: bool) -> LineEvent<'_> {
+        LineEvent {
+            number: pos.line as u64 + 1,
+            file: if pos.src == MAIN {
+                None
+            } else {
+                self.flow.file_name(pos.src)
+            },
             bytes: &self.buf,
+            rendered: self.rendered,
             kind,
             lexed: &self.lexed,
             motions: &self.motions,
             interp: &self.interp,
             after_end,
-        }))
+        }
+    }
+
+    /// Evaluates, lexes and executes line `pos`; `None` when it yields no
+    /// event (control statements, parameter settings alone).
+    fn prepare(&mut self, pos: Pos) -> Result<Option<LineKind>, GcodeError> {
+        self.buf.clear();
+        self.rendered = false;
+        let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
+        let content_len = lexer::content_len(original);
+        let kind = lexer::classify(&original[..content_len]);
+        match kind {
+            LineKind::Percent => {
+                self.buf.extend_from_slice(original);
+                if pos.src == MAIN {
+                    let r = self.interp.percent_line(pos.line as u64 + 1);
+                    r.map_err(|e| self.locate(e))?;
+                }
+                return Ok(Some(kind));
+            }
+            LineKind::ProgramNumber => {
+                self.buf.extend_from_slice(original);
+                self.interp.note_nonblank_line();
+                self.flow.keep_lines();
+                return Ok(Some(kind));
+            }
+            LineKind::Block => {}
+        }
+        if line::needs_ngc(&original[..content_len]) {
+            let norm = Norm::of(&original[..content_len]);
+            let stmt = line::parse(&norm).map_err(|e| self.expr_error(pos, e))?;
+            match stmt {
+                Statement::OWord(o) => {
+                    self.flow.keep_lines();
+                    self.control(pos, o)?;
+                    return Ok(None);
+                }
+                Statement::Block { words, settings } => {
+                    if !words.is_empty() || !settings.is_empty() {
+                        let line_no = pos.line as u64 + 1;
+                        let mut out = std::mem::take(&mut self.buf);
+                        let values = {
+                            let scope = Scope {
+                                params: &self.flow.params,
+                                interp: &self.interp,
+                                line: line_no,
+                            };
+                            let original = self.line_bytes(pos).unwrap_or(&[]);
+                            line::render(
+                                &original[..content_len],
+                                &words,
+                                &settings,
+                                &scope,
+                                &mut out,
+                            )
+                        };
+                        let values = values.map_err(|e| self.expr_error(pos, e))?;
+                        let original = self.line_bytes(pos).unwrap_or(&[]);
+                        out.extend_from_slice(&original[content_len..]);
+                        self.buf = out;
+                        self.rendered = true;
+                        // Settings take effect after the line is read.
+                        self.flow
+                            .apply_settings(&settings, &values, &self.interp)
+                            .map_err(|e| self.expr_error(pos, e))?;
+                        if words.is_empty()
+                            && self.buf[..lexer::content_len(&self.buf)]
+                                .iter()
+                                .all(|b| matches!(b, b' ' | b'\t' | b'\r'))
+                        {
+                            return Ok(None);
+                        }
+                    } else {
+                        let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
+                        self.buf.extend_from_slice(original);
+                    }
+                }
+            }
+        } else {
+            self.buf.extend_from_slice(original);
+        }
+        let n = lexer::content_len(&self.buf);
+        if let Err(e) = lexer::lex_block(&self.buf[..n], &mut self.lexed) {
+            let e = e.at_line(pos.line as u64 + 1);
+            return Err(self.locate_rendered(e));
+        }
+        if let Some(m) = self.fanuc_call()? {
+            self.flow.keep_lines();
+            self.fanuc(pos, m)?;
+            return Ok(None);
+        }
+        let line_no = pos.line as u64 + 1;
+        if let Err(e) = self.interp.execute(line_no, &self.lexed, &mut self.motions) {
+            return Err(self.locate_rendered(e));
+        }
+        Ok(Some(kind))
+    }
+
+    /// Locates an error of a rendered line: the caret under the rendered
+    /// text when the line was rendered, else under the original.
+    fn locate_rendered(&self, e: GcodeError) -> GcodeError {
+        if self.rendered {
+            let e = e.with_source_line(&self.buf);
+            match self.file_name(self.current.src) {
+                Some(f) => e.with_file(f),
+                None => e,
+            }
+        } else {
+            self.locate(e)
+        }
+    }
+
+    /// Lines after the end of the program, copied as they are.
+    fn next_after_end(&mut self) -> Result<Option<LineEvent<'_>>, GcodeError> {
+        let at = match self.after_end_at {
+            Some(at) => at,
+            None => {
+                let at = self.flow.main_resume_line(self.current);
+                self.after_end_at = Some(at);
+                at
+            }
+        };
+        let pos = Pos {
+            src: MAIN,
+            line: at,
+        };
+        if !self.fetch(pos)? {
+            return Ok(None);
+        }
+        self.after_end_at = Some(at + 1);
+        self.main.forget_before(at);
+        self.buf.clear();
+        self.rendered = false;
+        let bytes = self.main.get(at).unwrap_or(&[]);
+        self.buf.extend_from_slice(bytes);
+        let kind = lexer::classify(&self.buf[..lexer::content_len(&self.buf)]);
+        self.current = pos;
+        Ok(Some(self.event(pos, kind, true)))
     }
 }

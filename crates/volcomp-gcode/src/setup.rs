@@ -43,6 +43,10 @@ pub struct Setup {
     pub g30_given: bool,
     /// Machine position when the program starts.
     pub start_mm: Vec3,
+    /// Directories searched for subroutine files (`o<name> call` finds
+    /// `name.ngc`), before the program's own directory. Relative entries of
+    /// a set-up file are relative to that file.
+    pub subroutine_path: Vec<std::path::PathBuf>,
 }
 
 impl Default for Setup {
@@ -55,6 +59,7 @@ impl Default for Setup {
             g28_given: false,
             g30_given: false,
             start_mm: Vec3::ZERO,
+            subroutine_path: Vec::new(),
         }
     }
 }
@@ -73,6 +78,8 @@ type Sp<T> = toml::Spanned<T>;
 struct RawSetup {
     units: Option<Sp<Units>>,
     start: Option<Sp<Vec<f64>>>,
+    #[serde(default)]
+    subroutine_path: Vec<String>,
     #[serde(default)]
     work_offsets: BTreeMap<Sp<String>, Sp<Vec<f64>>>,
     #[serde(default)]
@@ -154,7 +161,7 @@ impl Setup {
             at.error(
                 offset,
                 e.message().to_string(),
-                "the set-up file has the keys units, start, [work_offsets], [tools] and [reference]",
+                "the set-up file has the keys units, start, subroutine_path, [work_offsets], [tools] and [reference]",
             )
         })?;
         let units = raw.units.ok_or_else(|| {
@@ -168,6 +175,14 @@ impl Setup {
         let mut setup = Setup::default();
         if let Some(s) = &raw.start {
             setup.start_mm = at.vec("start", s, k)?;
+        }
+        let base = std::path::Path::new(file).parent();
+        for dir in &raw.subroutine_path {
+            let d = std::path::PathBuf::from(dir);
+            setup.subroutine_path.push(match base {
+                Some(b) if d.is_relative() => b.join(d),
+                _ => d,
+            });
         }
         for (name, a) in &raw.work_offsets {
             let upper = name.get_ref().to_ascii_uppercase();

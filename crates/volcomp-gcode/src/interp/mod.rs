@@ -26,12 +26,14 @@ mod cycle;
 mod motion;
 mod offsets;
 mod options;
+mod state;
 mod tape;
 mod warnings;
 mod words;
 
 pub use motion::MAX_COORDINATE_MM;
 pub use options::{FeedMode, InterpOptions};
+pub use state::Unanswerable;
 pub use tape::PROGRAM_END_HELP;
 pub use warnings::Warning;
 

@@ -1,0 +1,377 @@
+//! One line that is not plain literal G-code: its words with expression
+//! values, its parameter settings, or its o-word statement (LinuxCNC's
+//! `read_items`, `read_parameter_setting`, `read_o`, interp_read.cc), and
+//! its rendering as a literal line.
+
+use super::expr::{eval, to_integer, Expr, ExprError, Lookup, Param, Parser};
+use super::norm::Norm;
+use std::ops::Range;
+
+/// A word whose value is an expression (`X[#1+2]`, `Z#<safe>`).
+#[derive(Debug, Clone)]
+pub struct ExprWord {
+    /// The letter, lower case.
+    pub letter: u8,
+    /// Its value.
+    pub value: Expr,
+    /// Original bytes of the value (after the letter).
+    pub span: Range<usize>,
+    /// Original column of the letter.
+    pub col: usize,
+}
+
+/// `#… = value`.
+#[derive(Debug, Clone)]
+pub struct Setting {
+    /// The parameter set.
+    pub target: Param,
+    /// The value.
+    pub value: Expr,
+    /// Original bytes of the whole setting.
+    pub span: Range<usize>,
+    /// Original column of the `#`.
+    pub col: usize,
+}
+
+/// The keyword of an o-word line.
+#[derive(Debug, Clone, PartialEq)]
+pub enum OKind {
+    /// `sub`
+    Sub,
+    /// `endsub [value]`
+    Endsub(Option<Expr>),
+    /// `return [value]`
+    Return(Option<Expr>),
+    /// `call [a] [b] …`
+    Call(Vec<Expr>),
+    /// `do`
+    Do,
+    /// `while [cond]`
+    While(Expr),
+    /// `endwhile`
+    Endwhile,
+    /// `repeat [n]`
+    Repeat(Expr),
+    /// `endrepeat`
+    Endrepeat,
+    /// `if [cond]`
+    If(Expr),
+    /// `elseif [cond]`
+    Elseif(Expr),
+    /// `else`
+    Else,
+    /// `endif`
+    Endif,
+    /// `break`
+    Break,
+    /// `continue`
+    Continue,
+}
+
+impl OKind {
+    /// The keyword as written in programs.
+    pub fn keyword(&self) -> &'static str {
+        match self {
+            OKind::Sub => "sub",
+            OKind::Endsub(_) => "endsub",
+            OKind::Return(_) => "return",
+            OKind::Call(_) => "call",
+            OKind::Do => "do",
+            OKind::While(_) => "while",
+            OKind::Endwhile => "endwhile",
+            OKind::Repeat(_) => "repeat",
+            OKind::Endrepeat => "endrepeat",
+            OKind::If(_) => "if",
+            OKind::Elseif(_) => "elseif",
+            OKind::Else => "else",
+            OKind::Endif => "endif",
+            OKind::Break => "break",
+            OKind::Continue => "continue",
+        }
+    }
+}
+
+/// An o-word line.
+#[derive(Debug, Clone)]
+pub struct OWord {
+    /// The label: a number (as its decimal integer) or a `<name>` (lower case).
+    pub label: String,
+    /// The statement.
+    pub kind: OKind,
+    /// Original column of the `o`.
+    pub col: usize,
+}
+
+/// What a non-literal line holds.
+#[derive(Debug, Clone)]
+pub enum Statement {
+    /// Words (some with expressions) and parameter settings.
+    Block {
+        /// Words whose values are expressions, in order.
+        words: Vec<ExprWord>,
+        /// Parameter settings, in order.
+        settings: Vec<Setting>,
+    },
+    /// An o-word statement.
+    OWord(OWord),
+}
+
+fn skip_comments(p: &mut Parser, n: &Norm) {
+    loop {
+        match n.byte(p.pos) {
+            b'(' => {
+                while p.pos < n.text.len() && n.byte(p.pos) != b')' {
+                    p.pos += 1;
+                }
+                p.pos += 1;
+            }
+            b';' => p.pos = n.text.len(),
+            _ => return,
+        }
+    }
+}
+
+/// Whether `content` may need the expression layer: a `#` or `[`, or an
+/// o-word statement (a cheap test; [`parse`] decides).
+pub fn needs_ngc(content: &[u8]) -> bool {
+    if content.iter().any(|&b| b == b'#' || b == b'[') {
+        return true;
+    }
+    let mut i = 0;
+    while i < content.len() && matches!(content[i], b' ' | b'\t' | b'/') {
+        i += 1;
+    }
+    i < content.len()
+        && matches!(content[i], b'o' | b'O')
+        && content[i + 1..]
+            .iter()
+            .find(|b| !matches!(b, b' ' | b'\t'))
+            .is_some_and(|b| *b == b'<' || b.is_ascii_digit() || *b == b'#' || *b == b'[')
+        && !is_program_number(&content[i + 1..])
+}
+
+/// `O0001` or `O1001 (NAME)`: a Fanuc program number, not an o-word statement.
+fn is_program_number(rest: &[u8]) -> bool {
+    let mut j = 0;
+    let mut digits = false;
+    while j < rest.len() && (rest[j].is_ascii_digit() || matches!(rest[j], b' ' | b'\t')) {
+        digits |= rest[j].is_ascii_digit();
+        j += 1;
+    }
+    digits && (j == rest.len() || rest[j] == b'(' || rest[j] == b';' || rest[j] == b'\r')
+}
+
+fn expect_bracket(p: &mut Parser, what: &str) -> Result<Expr, ExprError> {
+    p.bracketed().map_err(|mut e| {
+        if e.message == "`[` expected here" {
+            e.message = format!("`{what}` needs a condition or value in brackets");
+            e.help = format!("write e.g. `o100 {what} [#1 LT 10]`");
+        }
+        e
+    })
+}
+
+/// Parses a normalised line.
+pub fn parse(n: &Norm) -> Result<Statement, ExprError> {
+    let mut p = Parser::new(n, 0);
+    if n.byte(0) == b'/' {
+        p.pos = 1;
+    }
+    if n.byte(p.pos) == b'o' {
+        return parse_oword(n, p).map(Statement::OWord);
+    }
+    let mut words = Vec::new();
+    let mut settings = Vec::new();
+    while p.pos < n.text.len() {
+        let c = n.byte(p.pos);
+        match c {
+            b'(' | b';' => skip_comments(&mut p, n),
+            b'#' => {
+                let start = p.pos;
+                let (target, col) = p.param_ref()?;
+                if n.byte(p.pos) != b'=' {
+                    return Err(ExprError::new(
+                        p.col(),
+                        "`=` is missing in this parameter setting",
+                        "write #1 = value (a parameter can only be read as a word's value)",
+                    ));
+                }
+                p.pos += 1;
+                let value = p.value()?;
+                settings.push(Setting {
+                    target,
+                    value,
+                    span: n.span(start, p.pos),
+                    col,
+                });
+            }
+            b'a'..=b'z' => {
+                let col = n.col(p.pos);
+                p.pos += 1;
+                let vstart = p.pos;
+                let value = p.value()?;
+                if !matches!(value, Expr::Num(_)) {
+                    words.push(ExprWord {
+                        letter: c,
+                        value,
+                        span: n.span(vstart, p.pos),
+                        col,
+                    });
+                }
+            }
+            _ => {
+                return Err(ExprError::new(
+                    p.col(),
+                    format!("unexpected character {:?}", char::from(c)),
+                    "remove it or put it inside a comment",
+                ))
+            }
+        }
+    }
+    Ok(Statement::Block { words, settings })
+}
+
+fn parse_oword(n: &Norm, mut p: Parser) -> Result<OWord, ExprError> {
+    let col = p.col();
+    p.pos += 1;
+    let label = if n.byte(p.pos) == b'<' {
+        p.name()?
+    } else {
+        let lcol = p.col();
+        let v = p.value()?;
+        let Expr::Num(v) = v else {
+            return Err(ExprError::new(
+                lcol,
+                "an o-word label must be a number or a <name>",
+                "write e.g. o100 or o<name>",
+            ));
+        };
+        to_integer(v, lcol)?.to_string()
+    };
+    let rest = &n.text[p.pos.min(n.text.len())..];
+    let keywords: [&str; 15] = [
+        "sub",
+        "endsub",
+        "call",
+        "do",
+        "while",
+        "repeat",
+        "if",
+        "elseif",
+        "else",
+        "endif",
+        "break",
+        "continue",
+        "endwhile",
+        "endrepeat",
+        "return",
+    ];
+    let Some(kw) = keywords.iter().find(|k| rest.starts_with(k.as_bytes())) else {
+        return Err(ExprError::new(
+            p.col(),
+            "unknown o-word statement",
+            "o-words are sub, endsub, return, call, if, elseif, else, endif, while, endwhile, do, repeat, endrepeat, break, continue",
+        ));
+    };
+    p.pos += kw.len();
+    let optional = |p: &mut Parser| -> Result<Option<Expr>, ExprError> {
+        if n.byte(p.pos) == b'[' {
+            Ok(Some(p.bracketed()?))
+        } else {
+            Ok(None)
+        }
+    };
+    let kind = match *kw {
+        "sub" => OKind::Sub,
+        "endsub" => OKind::Endsub(optional(&mut p)?),
+        "return" => OKind::Return(optional(&mut p)?),
+        "call" => {
+            let mut args = Vec::new();
+            loop {
+                skip_comments(&mut p, n);
+                if n.byte(p.pos) != b'[' {
+                    break;
+                }
+                if args.len() >= 30 {
+                    return Err(ExprError::new(
+                        p.col(),
+                        "more than 30 arguments in a call",
+                        "a subroutine takes at most 30 arguments (#1 to #30)",
+                    ));
+                }
+                args.push(p.bracketed()?);
+            }
+            OKind::Call(args)
+        }
+        "do" => OKind::Do,
+        "while" => OKind::While(expect_bracket(&mut p, "while")?),
+        "repeat" => OKind::Repeat(expect_bracket(&mut p, "repeat")?),
+        "if" => OKind::If(expect_bracket(&mut p, "if")?),
+        "elseif" => OKind::Elseif(expect_bracket(&mut p, "elseif")?),
+        "else" => OKind::Else,
+        "endif" => OKind::Endif,
+        "break" => OKind::Break,
+        "continue" => OKind::Continue,
+        "endwhile" => OKind::Endwhile,
+        _ => OKind::Endrepeat,
+    };
+    skip_comments(&mut p, n);
+    if p.pos < n.text.len() {
+        return Err(ExprError::new(
+            p.col(),
+            format!("unexpected text after `{kw}`"),
+            "an o-word line holds only its statement (and comments)",
+        ));
+    }
+    Ok(OWord { label, kind, col })
+}
+
+/// Formats a value so that the lexer reads back the same number: the
+/// shortest representation that round-trips, never with an exponent.
+pub fn format_value(v: f64, out: &mut Vec<u8>) {
+    let v = if v == 0.0 { 0.0 } else { v };
+    let s = format!("{v}");
+    if s.len() <= 40 {
+        out.extend_from_slice(s.as_bytes());
+    } else {
+        // Only for magnitudes below 1e-20 or above 1e39, far outside any
+        // machine: 15 decimals keep every position to 1e-15 mm.
+        let t = format!("{v:.15}");
+        let t = t.trim_end_matches('0').trim_end_matches('.');
+        out.extend_from_slice(t.as_bytes());
+    }
+}
+
+/// Evaluates the words of a block statement and writes the literal line:
+/// the original bytes with every expression value replaced by its number
+/// and every parameter setting removed. Returns the values of the settings
+/// (to apply after the line, as LinuxCNC does).
+pub fn render(
+    content: &[u8],
+    words: &[ExprWord],
+    settings: &[Setting],
+    lk: &dyn Lookup,
+    out: &mut Vec<u8>,
+) -> Result<Vec<f64>, ExprError> {
+    let mut edits: Vec<(Range<usize>, Option<f64>)> =
+        Vec::with_capacity(words.len() + settings.len());
+    for w in words {
+        edits.push((w.span.clone(), Some(eval(&w.value, lk)?)));
+    }
+    let mut values = Vec::with_capacity(settings.len());
+    for s in settings {
+        values.push(eval(&s.value, lk)?);
+        edits.push((s.span.clone(), None));
+    }
+    edits.sort_by_key(|e| e.0.start);
+    let mut at = 0;
+    for (span, value) in edits {
+        out.extend_from_slice(&content[at..span.start]);
+        if let Some(v) = value {
+            format_value(v, out);
+        }
+        at = span.end;
+    }
+    out.extend_from_slice(&content[at..]);
+    Ok(values)
+}
