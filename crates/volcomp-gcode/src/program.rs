@@ -30,6 +30,20 @@ fn bytes_of<'a>(main: &'a Lines, flow: &'a crate::ngc::flow::Flow, p: Pos) -> Op
     }
 }
 
+/// The message of an `(abort, …)` comment, which ends the program with an
+/// error in LinuxCNC (`convert_comment`, interp_convert.cc).
+fn abort_comment(content: &[u8], lexed: &Lexed) -> Option<String> {
+    lexed.tokens.iter().find_map(|t| match t {
+        lexer::Token::Comment(r) => {
+            let text = String::from_utf8_lossy(&content[r.start + 1..r.end - 1]);
+            let t = text.trim_start();
+            (t.len() >= 6 && t.is_char_boundary(6) && t[..6].eq_ignore_ascii_case("abort,"))
+                .then(|| t[6..].trim().to_string())
+        }
+        _ => None,
+    })
+}
+
 /// One line of the program after it has been executed.
 pub struct LineEvent<'a> {
     /// 1-based line number in its file.
@@ -75,21 +89,11 @@ pub struct Walker<R> {
 }
 
 impl<R: BufRead> Walker<R> {
-    /// Starts reading `reader`; `file` names it in error messages (and, when
-    /// it is a path, its directory is searched for subroutine files).
+    /// Starts reading `reader`; `file` names it in error messages.
     pub fn new(reader: R, file: Option<String>, setup: Setup, options: InterpOptions) -> Self {
-        let mut dirs: Vec<PathBuf> = setup.subroutine_path.clone();
-        if let Some(dir) = file
-            .as_deref()
-            .map(std::path::Path::new)
-            .and_then(|p| p.parent())
-        {
-            dirs.push(if dir.as_os_str().is_empty() {
-                PathBuf::from(".")
-            } else {
-                dir.to_path_buf()
-            });
-        }
+        // As in LinuxCNC, subroutine files are looked for only on the
+        // subroutine path (its SUBROUTINE_PATH), not beside the program.
+        let dirs: Vec<PathBuf> = setup.subroutine_path.clone();
         Self {
             reader,
             file,
@@ -294,6 +298,15 @@ impl<R: BufRead> Walker<R> {
         if let Err(e) = lexer::lex_block(&self.buf[..n], &mut self.lexed) {
             let e = e.at_line(pos.line as u64 + 1);
             return Err(self.locate_rendered(e));
+        }
+        if let Some(msg) = abort_comment(&self.buf[..n], &self.lexed) {
+            return Err(self.locate_rendered(GcodeError::new(
+                ErrorClass::Invalid,
+                pos.line as u64 + 1,
+                1,
+                format!("the program aborts here: {msg}"),
+                "an (abort, …) comment stops the program in LinuxCNC; remove it if the program should run",
+            )));
         }
         if let Some(m) = self.fanuc_call()? {
             self.flow.keep_lines();

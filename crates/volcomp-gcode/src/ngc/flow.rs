@@ -307,9 +307,25 @@ impl<R: BufRead> Walker<R> {
             }
             let bytes = self.line_bytes(p).unwrap_or(&[]);
             let content = &bytes[..lexer::content_len(bytes)];
+            // LinuxCNC reads no further than the `%` that ends the tape.
+            if p.src == MAIN && lexer::classify(content) == LineKind::Percent {
+                return Ok(None);
+            }
             if let Some((l, kw)) = peek(content) {
                 if l == label && keywords.contains(&kw) {
                     return Ok(Some((p, kw)));
+                }
+                if kw == "sub" && keywords == ["endsub"] {
+                    self.current = p;
+                    return Err(self.at_current(
+                        format!(
+                            "subroutine o{} is defined inside the definition of o{}",
+                            show_label(&l),
+                            show_label(label)
+                        ),
+                        "LinuxCNC does not nest subroutine definitions: end the first with its endsub before the next sub",
+                        0,
+                    ));
                 }
             }
             p = p.next();
