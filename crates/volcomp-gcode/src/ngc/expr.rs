@@ -128,6 +128,8 @@ pub enum Expr {
     Atan(Box<Expr>, Box<Expr>),
     /// `EXISTS[#<name>]`: 1 if the named parameter exists.
     Exists(String),
+    /// `EXISTS[#n]`: 1 if `n` is a parameter number (1–5602).
+    ExistsNumbered(Box<Expr>, usize),
     /// `a op b`.
     Binary {
         /// The operator.
@@ -407,16 +409,22 @@ impl<'a> Parser<'a> {
         }
         if name == b"exists" {
             self.pos += 1;
-            if self.peek() != b'#' || self.at(1) != b'<' {
-                return Err(self.err("EXISTS takes a named parameter", "write EXISTS[#<name>]"));
+            if self.peek() != b'#' {
+                return Err(self.err(
+                    "EXISTS takes a parameter",
+                    "write EXISTS[#<name>] (or EXISTS[#n])",
+                ));
             }
-            self.pos += 1;
-            let pname = self.name()?;
+            let (param, pcol) = self.param_ref()?;
             if self.peek() != b']' {
                 return Err(self.err("`]` expected", "write EXISTS[#<name>]"));
             }
             self.pos += 1;
-            return Ok(Expr::Exists(pname));
+            return Ok(match param {
+                Param::Named(pname) => Expr::Exists(pname),
+                // LinuxCNC: a numbered parameter exists when its number is in range.
+                Param::Numbered(index) => Expr::ExistsNumbered(index, pcol),
+            });
         }
         let arg = self.bracketed()?;
         match func {
@@ -547,6 +555,10 @@ fn eval_inner(e: &Expr, lk: &dyn Lookup) -> Result<f64, ExprError> {
         },
         Expr::Neg(v) => -eval(v, lk)?,
         Expr::Exists(name) => f64::from(u8::from(lk.exists(name))),
+        Expr::ExistsNumbered(index, col) => {
+            let n = to_integer(eval(index, lk)?, *col)?;
+            f64::from(u8::from(n >= 1 && (n as usize) <= MAX_PARAMETERS))
+        }
         Expr::Atan(y, x) => eval(y, lk)?.atan2(eval(x, lk)?).to_degrees(),
         Expr::Unary { func, arg, col } => {
             let v = eval(arg, lk)?;
