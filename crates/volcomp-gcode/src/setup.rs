@@ -43,6 +43,10 @@ pub struct Setup {
     pub g30_given: bool,
     /// Machine position when the program starts.
     pub start_mm: Vec3,
+    /// The machine's length units: the units the set-up file is written
+    /// in, as LinuxCNC's `[TRAJ]LINEAR_UNITS`. LinuxCNC keeps the offset,
+    /// reference-point and tool parameters (#5161–#5409) in them.
+    pub machine_units: crate::geom::Units,
     /// Directories searched for subroutine files (`o<name> call` finds
     /// `name.ngc`), before the program's own directory. Relative entries of
     /// a set-up file are relative to that file.
@@ -60,6 +64,7 @@ impl Default for Setup {
             g30_given: false,
             start_mm: Vec3::ZERO,
             subroutine_path: Vec::new(),
+            machine_units: crate::geom::Units::Mm,
         }
     }
 }
@@ -172,7 +177,10 @@ impl Setup {
             )
         })?;
         let k = units.get_ref().mm_per_unit();
-        let mut setup = Setup::default();
+        let mut setup = Setup {
+            machine_units: *units.get_ref(),
+            ..Setup::default()
+        };
         if let Some(s) = &raw.start {
             setup.start_mm = at.vec("start", s, k)?;
         }
