@@ -77,6 +77,11 @@ pub struct MovesArgs {
     /// Output format.
     #[arg(long, value_enum, default_value_t = MovesFormat::Csv)]
     pub format: MovesFormat,
+    /// Add the extra axes' end values to every row (CSV columns a_deg,
+    /// b_deg, c_deg, u_mm, v_mm, w_mm). JSON gives them without this flag
+    /// on every motion where one is not zero.
+    #[arg(long)]
+    pub extra_axes: bool,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]

@@ -125,6 +125,7 @@ fn walker(text: &str) -> Walker<Cursor<Vec<u8>>> {
     let opts = InterpOptions {
         accept_k0_on_xy_arcs: true,
         absolute_arc_centers: false,
+        ..InterpOptions::default()
     };
     Walker::new(Cursor::new(text.as_bytes().to_vec()), None, setup, opts)
 }

@@ -22,12 +22,15 @@
 //! guess is ever made about a construct's meaning.
 
 mod cycle;
+mod extra;
 mod motion;
 mod offsets;
 mod options;
+mod spline;
 mod warnings;
 mod words;
 
+pub use extra::{ExtraAxes, EXTRA_LETTERS};
 pub use motion::MAX_COORDINATE_MM;
 pub use options::{FeedMode, InterpOptions};
 pub use warnings::Warning;
@@ -74,6 +77,8 @@ pub enum MotionSource {
     Reference,
     /// A move expanded from a canned drilling cycle.
     Cycle,
+    /// A chord of a G5, G5.1 or G5.2/G5.3 spline.
+    Spline,
 }
 
 /// One motion, in the axis frame.
@@ -93,6 +98,9 @@ pub struct Motion {
     pub column: usize,
     /// Feed rate in mm/min (or inverse-time value under G93).
     pub feed: f64,
+    /// The extra axes A, B, C, U, V, W at its start and end (not
+    /// compensated; moved linearly over the motion).
+    pub extra: ExtraAxes,
 }
 
 /// The interpreter's modal state.
@@ -137,6 +145,16 @@ pub struct Interpreter {
     warnings: Vec<Warning>,
     warned_units: bool,
     warned_reference: [bool; 2],
+    /// Extra axes A, B, C (degrees), U, V, W (mm) now, and at the end of
+    /// the current block's motion.
+    extra: [f64; 6],
+    extra_target: [f64; 6],
+    uses_extra_axes: bool,
+    /// The last G5 block's end tangent (second control point relative to
+    /// the end, mm, axis frame), for G5 blocks that omit I and J.
+    spline_tangent: Option<(f64, f64)>,
+    /// The NURBS block being collected (G5.2 … G5.3).
+    nurbs: Option<Box<spline::NurbsBlock>>,
     /// The current block's words; `None` only while the block runs.
     words: Option<Box<WordTable>>,
 }
@@ -191,6 +209,11 @@ impl Interpreter {
             warnings: Vec::new(),
             warned_units: false,
             warned_reference: [false; 2],
+            extra: [0.0; 6],
+            extra_target: [0.0; 6],
+            uses_extra_axes: false,
+            spline_tangent: None,
+            nurbs: None,
             words: Some(Box::default()),
         }
     }
@@ -422,11 +445,16 @@ impl Interpreter {
             (10, MotionMode::Feed),
             (20, MotionMode::Cw),
             (30, MotionMode::Ccw),
+            (50, MotionMode::Spline(50)),
+            (51, MotionMode::Spline(51)),
+            (52, MotionMode::Spline(52)),
+            (53, MotionMode::Spline(53)),
         ] {
             if w.has_g(code) {
                 self.motion_mode = Some(mode);
             }
         }
+        self.end_spline_block_unless(self.motion_mode);
         let mode_before = self.motion_mode;
         for code in [810u16, 820, 850, 890] {
             if w.has_g(code) {
@@ -437,6 +465,7 @@ impl Interpreter {
             self.cycle_start_z = None;
         }
         let new_cycle = self.motion_mode != mode_before;
+        self.extra_target(line, w)?;
         // 19: non-modal codes that use axis words.
         let axis_user = [100u16, 280, 300, 920, 431]
             .into_iter()

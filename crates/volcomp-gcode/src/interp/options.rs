@@ -10,6 +10,9 @@ pub struct InterpOptions {
     /// Interpret arc centres as absolute from the start, as if G90.1 began
     /// the program.
     pub absolute_arc_centers: bool,
+    /// Largest distance (mm) between a G5/G5.1/G5.2 spline and the chords
+    /// the interpreter linearises it into.
+    pub spline_tolerance_mm: f64,
 }
 
 impl Default for InterpOptions {
@@ -17,6 +20,7 @@ impl Default for InterpOptions {
         Self {
             accept_k0_on_xy_arcs: true,
             absolute_arc_centers: false,
+            spline_tolerance_mm: 1e-4,
         }
     }
 }
@@ -40,4 +44,7 @@ pub(super) enum MotionMode {
     Ccw,
     /// Canned cycle: G81, G82, G85 or G89 (code × 10).
     Cycle(u16),
+    /// Spline: G5 (50), G5.1 (51), G5.2 (52); G5.3 (53) only while its
+    /// block runs.
+    Spline(u16),
 }

@@ -43,7 +43,10 @@ impl WordTable {
         self.col(b'@').or(self.col(b'^'))
     }
     pub(super) fn has_axis(&self) -> bool {
-        self.get(b'X').is_some() || self.get(b'Y').is_some() || self.get(b'Z').is_some()
+        self.get(b'X').is_some()
+            || self.get(b'Y').is_some()
+            || self.get(b'Z').is_some()
+            || self.extra_col().is_some()
     }
     pub(super) fn has_g(&self, code: u16) -> bool {
         self.g.iter().any(|(c, _)| *c == code)
@@ -70,7 +73,7 @@ impl WordTable {
 /// Modal group of a supported G code (×10), or why it is refused.
 fn g_group(code: u16) -> Result<u8, &'static str> {
     Ok(match code {
-        0 | 10 | 20 | 30 | 800 | 810 | 820 | 850 | 890 => 1,
+        0 | 10 | 20 | 30 | 50 | 51 | 52 | 53 | 800 | 810 | 820 | 850 | 890 => 1,
         170 | 180 | 190 => 2,
         900 | 910 => 3,
         901 | 911 => 4,
@@ -90,7 +93,7 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         160 => return Err("polar coordinates (G16) are not interpreted; post the program in Cartesian coordinates"),
         520 => return Err("G52 local offsets are not interpreted yet; use G92 or a work offset"),
         730 | 760 | 830 | 840 | 860 | 870 | 880 => return Err("this canned cycle is not expanded by volcomp (G81, G82, G85 and G89 are); post the cycle as explicit moves"),
-        50 | 51 | 52 | 53 | 70 | 80 | 330 | 331 | 380..=385 | 430..=439 => return Err("this G code moves the machine in a way volcomp does not model"),
+        70 | 80 | 330 | 331 | 380..=385 | 430..=439 => return Err("this G code moves the machine in a way volcomp does not model"),
         _ => return Err("unknown G code"),
     })
 }
@@ -188,9 +191,6 @@ impl Interpreter {
                     }
                     w.m.push((code, col));
                 }
-                b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
-                    return Err(unsupported(line, col, format!("axis word {} is not supported: volcomp compensates 3-axis (X, Y, Z) machines", *letter as char), "remove rotary/extra axis words or use a 3-axis program"));
-                }
                 b'N' if w.values[slot_of(b'N')].is_none() => {
                     w.values[slot_of(b'N')] = Some((*value, col));
                 }
@@ -220,6 +220,10 @@ impl Interpreter {
             (10, MotionMode::Feed),
             (20, MotionMode::Cw),
             (30, MotionMode::Ccw),
+            (50, MotionMode::Spline(50)),
+            (51, MotionMode::Spline(51)),
+            (52, MotionMode::Spline(52)),
+            (53, MotionMode::Spline(53)),
             (810, MotionMode::Cycle(810)),
             (820, MotionMode::Cycle(820)),
             (850, MotionMode::Cycle(850)),
@@ -249,24 +253,26 @@ impl Interpreter {
         let arc = matches!(motion, Some(MotionMode::Cw | MotionMode::Ccw));
         let cycle = matches!(motion, Some(MotionMode::Cycle(_)));
         let g10 = w.has_g(100);
+        let spline = |codes: &[u16]| codes.iter().any(|c| motion == Some(MotionMode::Spline(*c)));
+        let (g5, g5_ij, g52) = (spline(&[50]), spline(&[50, 51]), spline(&[52]));
         let m_any = |codes: &[u16]| codes.iter().any(|c| w.has_m(*c));
         let used = |letter: u8| -> Result<(), &'static str> {
             let (ok, why) = match letter {
                 b'D' => (w.has_g(960), "D word with no G41, G41.1, G42, G42.1 or G96 to use it"),
                 b'E' => (m_any(&[660, 670, 680]), "E word with no G70, G76, M66, M67 or M68 to use it"),
                 b'H' => (w.has_g(430), "H word with no G43 or G76 to use it"),
-                b'I' => (arc || g10, "I word with no G2, G3 or G10 to use it"),
-                b'J' => (arc || g10, "J word with no G2, G3 or G10 to use it"),
+                b'I' => (arc || g10 || g5_ij, "I word with no G2, G3, G5, G5.1 or G10 to use it"),
+                b'J' => (arc || g10 || g5_ij, "J word with no G2, G3, G5, G5.1 or G10 to use it"),
                 b'K' => (arc, "K word with no G2 or G3 to use it"),
-                b'L' => (cycle || g10 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
+                b'L' => (cycle || g10 || g52 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
                 b'P' => (
-                    g10 || w.has_g(40) || w.has_g(640) || arc
+                    g10 || w.has_g(40) || w.has_g(640) || arc || g5 || g52
                         || matches!(motion, Some(MotionMode::Cycle(820 | 890)))
                         || m_any(&[500, 510, 520, 530, 620, 630, 640, 650, 660, 190]),
                     "P word with no G2, G3, G4, G10, G64, G82, G89 or M19, M50–M53, M62–M66 to use it",
                 ),
                 b'Q' => (
-                    g10 || w.has_g(640) || m_any(&[660, 670, 680, 610, 190]),
+                    g10 || g5 || w.has_g(640) || m_any(&[660, 670, 680, 610, 190]),
                     "Q word with no G10, G64, M19, M61, M66, M67 or M68 to use it",
                 ),
                 b'R' => (
@@ -307,7 +313,7 @@ impl Interpreter {
     }
 
     pub(super) fn motion_word_col(&self, w: &WordTable) -> Option<usize> {
-        [0u16, 10, 20, 30, 810, 820, 850, 890]
+        [0u16, 10, 20, 30, 50, 51, 52, 53, 810, 820, 850, 890]
             .into_iter()
             .find_map(|c| w.g_col(c))
     }
