@@ -159,6 +159,8 @@ pub struct RefMotion {
     pub center: Option<[(usize, f64); 2]>,
     /// Tolerance per axis, mm.
     pub tol: [f64; 3],
+    /// A, B, C at the end (degrees; NaN where rs274 gives none).
+    pub abc: [f64; 3],
     /// The canonical call as rs274 printed it.
     pub call: String,
 }
@@ -170,6 +172,8 @@ pub struct VolMotion {
     pub kind: Kind,
     pub end: [f64; 3],
     pub center: Option<[f64; 3]>,
+    /// A, B, C at the end (degrees).
+    pub abc: [f64; 3],
 }
 
 /// What rs274 made of a program.
@@ -322,7 +326,7 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                 (canon.tlo, canon.tlo_tol) = canon.set(&n[0..3]);
             }
             "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" => {
-                let n = numbers(args, 3).map_err(bad)?;
+                let n = numbers(args, 6).map_err(bad)?;
                 let kind = if name == "STRAIGHT_TRAVERSE" {
                     Kind::Rapid
                 } else {
@@ -333,13 +337,14 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     end: canon.machine([n[0], n[1], n[2]]),
                     center: None,
                     tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
+                    abc: [n[3], n[4], n[5]],
                     call: call.clone(),
                 });
             }
             "ARC_FEED" => {
                 // first_end, second_end, first_centre, second_centre,
                 // rotation, axis_end, a, b, c
-                let n = numbers(args, 6).map_err(bad)?;
+                let n = numbers(args, 9).map_err(bad)?;
                 let (f, s, ax) = canon.plane;
                 let mut printed = [0.0; 3];
                 printed[f] = n[0];
@@ -358,6 +363,7 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     end,
                     center: Some([(f, cf), (s, cs)]),
                     tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
+                    abc: [n[6], n[7], n[8]],
                     call: call.clone(),
                 });
             }
@@ -367,6 +373,7 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     end: [f64::NAN; 3],
                     center: None,
                     tol: [0.0; 3],
+                    abc: [f64::NAN; 3],
                     call: call.clone(),
                 });
             }
@@ -379,14 +386,16 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
 pub fn parse_volcomp_csv(text: &str) -> Result<Vec<VolMotion>, String> {
     let mut lines = text.lines();
     let header = lines.next().unwrap_or("");
-    if header != "line,column,kind,source,x_mm,y_mm,z_mm,cx_mm,cy_mm,cz_mm" {
+    if header
+        != "line,column,kind,source,x_mm,y_mm,z_mm,cx_mm,cy_mm,cz_mm,a_deg,b_deg,c_deg,u_mm,v_mm,w_mm"
+    {
         return Err(format!("unexpected CSV header `{header}`"));
     }
     let mut out = Vec::new();
     for row in lines {
         let f: Vec<&str> = row.split(',').collect();
-        if f.len() != 10 {
-            return Err(format!("CSV row `{row}` does not have 10 fields"));
+        if f.len() != 16 {
+            return Err(format!("CSV row `{row}` does not have 16 fields"));
         }
         let num = |s: &str| {
             s.parse::<f64>()
@@ -401,11 +410,32 @@ pub fn parse_volcomp_csv(text: &str) -> Result<Vec<VolMotion>, String> {
         } else {
             Some([num(f[7])?, num(f[8])?, num(f[9])?])
         };
+        let abc = [num(f[10])?, num(f[11])?, num(f[12])?];
+        // A spline's chords are one NURBS_FEED in rs274 (which prints no
+        // control points): they are compared as one motion of that kind, and
+        // the spline's end point through the next motion's start.
+        if f[3] == "spline" {
+            if out
+                .last()
+                .is_some_and(|m: &VolMotion| m.line == line && m.kind.name() == "NURBS_FEED")
+            {
+                continue;
+            }
+            out.push(VolMotion {
+                line,
+                kind: Kind::Other("NURBS_FEED".into()),
+                end: [f64::NAN; 3],
+                center: None,
+                abc,
+            });
+            continue;
+        }
         out.push(VolMotion {
             line,
             kind: Kind::from_volcomp(f[2]),
             end,
             center,
+            abc,
         });
     }
     Ok(out)
@@ -482,6 +512,7 @@ pub fn run_volcomp(
 ) -> Result<Vec<VolMotion>, String> {
     let out = Command::new(&tools.volcomp)
         .arg("moves")
+        .arg("--extra-axes")
         .arg("--setup")
         .arg(&tools.setup)
         .args(extra)

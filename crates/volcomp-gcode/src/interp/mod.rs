@@ -445,10 +445,9 @@ impl Interpreter {
             (10, MotionMode::Feed),
             (20, MotionMode::Cw),
             (30, MotionMode::Ccw),
-            (50, MotionMode::Spline(50)),
-            (51, MotionMode::Spline(51)),
+            // G5 and G5.1 leave the motion mode as it was, and G5.3 is
+            // non-modal (`Interp::convert_motion`, interp_convert.cc).
             (52, MotionMode::Spline(52)),
-            (53, MotionMode::Spline(53)),
         ] {
             if w.has_g(code) {
                 self.motion_mode = Some(mode);

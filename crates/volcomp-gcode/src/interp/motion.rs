@@ -219,7 +219,11 @@ impl Interpreter {
             })
             .unwrap_or(0);
         let motion_word = self.motion_word_col(w).is_some();
-        if let Some(MotionMode::Spline(code)) = self.motion_mode {
+        let block_spline = [50u16, 51, 53].into_iter().find(|c| w.has_g(*c));
+        if let Some(code) = block_spline.or(match self.motion_mode {
+            Some(MotionMode::Spline(52)) => Some(52),
+            _ => None,
+        }) {
             return self.spline(line, col, w, code, out);
         }
         if !w.has_axis() && !w.has_polar() {

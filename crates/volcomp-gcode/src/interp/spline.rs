@@ -247,6 +247,12 @@ impl Interpreter {
             }
             52 => return self.nurbs_point(line, col, w),
             _ => {
+                if let Some(c) = [0u16, 10, 20, 30, 50, 51, 800, 810, 820, 850, 890]
+                    .into_iter()
+                    .find_map(|c| w.g_col(c))
+                {
+                    return Err(invalid(line, c, "between G5.2 and G5.3 only further G5.2 codes are allowed; LinuxCNC refuses another motion code on the G5.3 line", "put this motion on a line of its own after G5.3"));
+                }
                 let Some(block) = self.nurbs.take() else {
                     return Err(invalid(
                         line,

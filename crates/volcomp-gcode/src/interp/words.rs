@@ -73,7 +73,7 @@ impl WordTable {
 /// Modal group of a supported G code (×10), or why it is refused.
 fn g_group(code: u16) -> Result<u8, &'static str> {
     Ok(match code {
-        0 | 10 | 20 | 30 | 50 | 51 | 52 | 53 | 800 | 810 | 820 | 850 | 890 => 1,
+        0 | 10 | 20 | 30 | 50 | 51 | 52 | 800 | 810 | 820 | 850 | 890 => 1,
         170 | 180 | 190 => 2,
         900 | 910 => 3,
         901 | 911 => 4,
@@ -86,7 +86,7 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         610 | 611 | 640 => 13,
         960 | 970 => 14,
         150 | 500 | 690 => 16, // cancel polar / scaling / rotation: no-ops here
-        40 | 100 | 280 | 281 | 300 | 301 | 530 | 920 | 921 | 922 | 923 => 0,
+        40 | 53 | 100 | 280 | 281 | 300 | 301 | 530 | 920 | 921 | 922 | 923 => 0,
         410 | 411 | 420 | 421 => return Err("cutter radius compensation (G41/G42) changes the path by the tool radius, which volcomp does not model; post the program with compensation computed in CAM (\"in computer\"), or pass it through without volcomp"),
         680 | 681 => return Err("coordinate rotation (G68) is not a pure translation between program and axis frame; post the program without rotation"),
         510 | 511 => return Err("scaling (G51) is not a pure translation between program and axis frame; post the program without scaling"),
