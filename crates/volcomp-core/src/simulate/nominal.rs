@@ -340,6 +340,7 @@ mod tests {
             line: 7,
             column: 1,
             feed: 100.0,
+            extra: Default::default(),
         };
         let motions = [
             m(MotionKind::Rapid, [0.0, 0.0, 5.0], [1.0, 1.0, 5.0]),

@@ -87,14 +87,39 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         960 | 970 => 14,
         150 | 500 | 690 => 16, // cancel polar / scaling / rotation: no-ops here
         40 | 53 | 100 | 280 | 281 | 300 | 301 | 530 | 920 | 921 | 922 | 923 => 0,
-        410 | 411 | 420 | 421 => return Err("cutter radius compensation (G41/G42) changes the path by the tool radius, which volcomp does not model; post the program with compensation computed in CAM (\"in computer\"), or pass it through without volcomp"),
+        410 | 411 | 420 | 421 => return Err(CUTTER_COMP),
         680 | 681 => return Err("coordinate rotation (G68) is not a pure translation between program and axis frame; post the program without rotation"),
         510 | 511 => return Err("scaling (G51) is not a pure translation between program and axis frame; post the program without scaling"),
         160 => return Err("polar coordinates (G16) are not interpreted; post the program in Cartesian coordinates"),
         520 => return Err("G52 local offsets are not interpreted yet; use G92 or a work offset"),
         730 | 760 | 830 | 840 | 860 | 870 | 880 => return Err("this canned cycle is not expanded by volcomp (G81, G82, G85 and G89 are); post the cycle as explicit moves"),
-        70 | 80 | 330 | 331 | 380..=385 | 430..=439 => return Err("this G code moves the machine in a way volcomp does not model"),
-        _ => return Err("unknown G code"),
+        380..=385 => return Err("probing ends where the probe touches, which is known only when the machine runs; volcomp cannot know the path after it (LinuxCNC's later moves may use the probed position, #5061–#5069)"),
+        330 | 331 => return Err("spindle-synchronised motion (G33, G33.1 rigid tapping; G76 threading likewise) is tied to the spindle's rotation; volcomp does not alter it; run threading as a separate, uncompensated program"),
+        70 | 80 => return Err("lathe diameter/radius mode (G7/G8) is for lathes; volcomp compensates the X, Y, Z of milling machines"),
+        700..=722 => return Err("lathe roughing and finishing cycles (G70–G72) are for lathes; volcomp compensates the X, Y, Z of milling machines"),
+        430..=439 => return Err("this tool length offset (G43.2) is not interpreted; give the summed length to G43 H in the set-up's tool table"),
+        _ => return Err("unknown G code: LinuxCNC does not know it either, unless the machine's INI file remaps it to a subroutine, which volcomp cannot see; write out what it does in the program"),
+    })
+}
+
+/// Why G41/G42 are refused (docs/gcode.md, "What volcomp refuses, and why").
+const CUTTER_COMP: &str = "cutter radius compensation (G41, G42, G41.1, G42.1) is computed by the controller from the tool's diameter, with entry moves, corner arcs and one block of look-ahead; volcomp does not reproduce it, and a compensated offset path could not be handed back to G41/G42; post the program with the tool-centre path (compensation computed in CAM, \"in computer\") and compensate that";
+
+/// Modal group of an M code (×10) as LinuxCNC 2.9 has them
+/// (`Interp::_ems`, src/emc/rs274ngc/interp_array.cc), or why it is refused.
+fn m_group(code: u16) -> Result<u8, &'static str> {
+    Ok(match code / 10 {
+        0 | 1 | 2 | 30 | 60 | 99 => 4,
+        3..=5 | 19 | 70..=71 => 7,
+        6 | 61 => 6,
+        7..=9 => 8,
+        48..=53 => 9,
+        62..=65 | 67 | 68 => 5,
+        66 => return Err("M66 waits for an input of the machine and stores its state in #5399; what it reads is known only when the machine runs; remove the M66 (and what depends on #5399) to compensate the program"),
+        72 | 73 => return Err("M72/M73 restore modal state saved earlier (units, distance mode, feed, …); volcomp does not model the restore; state the modes explicitly instead"),
+        98 => 10,
+        100..=199 => return Err("M100–M199 run the machine's own user programs (files in its PROGRAM_PREFIX), which volcomp cannot see; LinuxCNC refuses them when the file is missing (\"Unknown m code used\"); remove it, or run that part uncompensated"),
+        _ => return Err("unknown M code (\"Unknown m code used\" in LinuxCNC, or above M199: \"M-code greater than 199\"); a remapped M code runs the machine's own subroutine, which volcomp cannot see"),
     })
 }
 
@@ -181,6 +206,26 @@ impl Interpreter {
                             "M codes are whole numbers",
                         )
                     })?;
+                    let group = m_group(code).map_err(|why| {
+                        unsupported(
+                            line,
+                            col,
+                            format!("{} is not supported: {why}", code_name('M', code)),
+                            "remove or replace this code; volcomp never guesses what a code means",
+                        )
+                    })?;
+                    if let Some((other, _)) = w.m.iter().find(|(c, _)| m_group(*c) == Ok(group)) {
+                        return Err(invalid(
+                            line,
+                            col,
+                            format!(
+                                "{} and {} are in the same modal group; LinuxCNC refuses it (\"Two M codes used from same modal group\")",
+                                code_name('M', *other),
+                                code_name('M', code)
+                            ),
+                            "keep one of them on this line",
+                        ));
+                    }
                     if matches!(code, 980 | 990) {
                         return Err(unsupported(
                             line,
