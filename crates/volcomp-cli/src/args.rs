@@ -158,7 +158,7 @@ pub struct CompensateArgs {
     /// or `none`; a bigger output is refused and nothing is written.
     #[arg(long, value_name = "BYTES", default_value = "256M", value_parser = parse_size)]
     pub max_output_size: SizeLimit,
-    /// Chord tolerance for linearising arcs (mm).
+    /// Chord tolerance for linearising arcs and splines (mm).
     #[arg(
         long,
         value_name = "MM",
@@ -224,7 +224,7 @@ pub struct SimulateArgs {
     /// Plot the errors along the path (.svg or .png).
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
-    /// Chord tolerance for linearising arcs (mm).
+    /// Chord tolerance for linearising arcs and splines (mm).
     #[arg(
         long,
         value_name = "MM",
