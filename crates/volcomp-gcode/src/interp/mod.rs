@@ -15,6 +15,8 @@
 //! | `words.rs` | decoding a block: words by letter, G/M codes, modal groups, unused words |
 //! | `motion.rs` | straight moves, arcs, polar end points, feed-rate and reach checks |
 //! | `cycle.rs` | canned cycles G81, G82, G85, G89 |
+//! | `spline.rs` | splines G5, G5.1, G5.2/G5.3, linearised within the spline tolerance |
+//! | `extra.rs` | the extra axes A, B, C, U, V, W, carried through (not compensated) |
 //! | `offsets.rs` | tool length offsets, G10, G92, G28/G30 |
 //! | `warnings.rs` | [`Warning`]: what was assumed |
 //!
