@@ -32,7 +32,7 @@
 //! Linearisation: on the controller, `NURBS_FEED` (src/emc/task/emccanon.cc)
 //! splits the curve into `4 × control points` pieces and moves each as a
 //! biarc through the exact curve's points and tangents. volcomp follows the
-//! exact curve with chords no farther than
+//! exact curve with chords (counted per knot span) no farther than
 //! [`InterpOptions::spline_tolerance_mm`](super::InterpOptions) from it (the
 //! count from the largest second difference of the curve sampled densely),
 //! the last chord ending exactly at the end point. The path therefore
@@ -50,6 +50,8 @@ use crate::geom::{Plane, Vec3};
 pub const MAX_SPLINE_CHORDS: usize = 100_000;
 /// Most control points of one G5.2 block.
 pub const MAX_NURBS_POINTS: usize = 10_000;
+/// Highest NURBS order (L) accepted.
+pub const MAX_NURBS_ORDER: usize = 20;
 
 /// The control points of a G5.2 block being read: `[x, y, weight]` in the
 /// axis frame (mm), and the order.
@@ -131,31 +133,41 @@ impl<'a> Nurbs<'a> {
     }
 }
 
-/// Parameters `u_1 … u_N = u_max` of the chord ends that keep every chord
-/// within `tol` of the curve: `N = ⌈1.25 · u_max · √(M / 8 tol)⌉` with `M`
-/// the largest `|C''|` estimated from second differences on a dense
-/// sampling (the sagitta of a chord over `Δu` is at most `Δu² · M / 8`).
-/// `None` when the curve is undefined somewhere or needs more than
-/// [`MAX_SPLINE_CHORDS`] chords.
-fn chord_count(curve: &Nurbs<'_>, tol: f64) -> Option<usize> {
-    let u_max = curve.u_max();
-    let m = (32.0 * u_max).clamp(64.0, 32.0 * MAX_NURBS_POINTS as f64) as usize;
-    let h = u_max / m as f64;
-    let mut pts = Vec::with_capacity(m + 1);
-    for i in 0..=m {
-        pts.push(curve.point(h * i as f64)?);
-    }
-    let mut max_dd = 0.0f64;
-    for w in pts.windows(3) {
-        let ddx = w[0].0 - 2.0 * w[1].0 + w[2].0;
-        let ddy = w[0].1 - 2.0 * w[1].1 + w[2].1;
-        max_dd = max_dd.max(ddx.hypot(ddy) / (h * h));
-    }
+/// Parameters of the chord ends (the last one `u_max`) that keep every
+/// chord within `tol` of the curve. Each knot span `[j, j + 1]` gets its own
+/// count `⌈1.25 · √(M_j / 8 tol)⌉`, `M_j` the largest `|C''|` estimated from
+/// second differences on 32 samples of the span (the sagitta of a chord
+/// over `Δu` is at most `Δu² · M / 8`), so a sharp bend in one span does not
+/// multiply the chords of the others. `None` when the curve is undefined
+/// somewhere or needs more than [`MAX_SPLINE_CHORDS`] chords.
+fn chord_params(curve: &Nurbs<'_>, tol: f64) -> Option<Vec<f64>> {
+    const SAMPLES: usize = 32;
     let tol = if tol > 0.0 { tol } else { 1e-4 };
-    let n = (1.25 * u_max * (max_dd / (8.0 * tol)).sqrt())
-        .ceil()
-        .max(1.0);
-    (n <= MAX_SPLINE_CHORDS as f64).then_some(n as usize)
+    let spans = curve.u_max() as usize;
+    let h = 1.0 / SAMPLES as f64;
+    let mut params = Vec::new();
+    let mut pts = Vec::with_capacity(SAMPLES + 1);
+    for j in 0..spans {
+        pts.clear();
+        for i in 0..=SAMPLES {
+            pts.push(curve.point(j as f64 + h * i as f64)?);
+        }
+        let mut max_dd = 0.0f64;
+        for w in pts.windows(3) {
+            let ddx = w[0].0 - 2.0 * w[1].0 + w[2].0;
+            let ddy = w[0].1 - 2.0 * w[1].1 + w[2].1;
+            max_dd = max_dd.max(ddx.hypot(ddy) / (h * h));
+        }
+        let n = (1.25 * (max_dd / (8.0 * tol)).sqrt()).ceil().max(1.0);
+        if params.len() as f64 + n > MAX_SPLINE_CHORDS as f64 {
+            return None;
+        }
+        let n = n as usize;
+        for k in 1..=n {
+            params.push(j as f64 + k as f64 / n as f64);
+        }
+    }
+    Some(params)
 }
 
 impl Interpreter {
@@ -275,7 +287,7 @@ impl Interpreter {
         };
         let curve = Nurbs::new(&points, order)
             .ok_or_else(|| invalid(line, col, "degenerate spline", "check the control points"))?;
-        let n = chord_count(&curve, self.options.spline_tolerance_mm).ok_or_else(|| {
+        let params = chord_params(&curve, self.options.spline_tolerance_mm).ok_or_else(|| {
             invalid(
                 line,
                 col,
@@ -285,14 +297,12 @@ impl Interpreter {
         })?;
         let last = points[points.len() - 1];
         let feed = self.to_mm(self.feed);
-        let u_max = curve.u_max();
-        for k in 1..=n {
-            let (x, y) = if k == n {
+        let n = params.len();
+        for (k, u) in params.into_iter().enumerate() {
+            let (x, y) = if k + 1 == n {
                 (last[0], last[1])
             } else {
-                curve
-                    .point(u_max * k as f64 / n as f64)
-                    .unwrap_or((last[0], last[1]))
+                curve.point(u).unwrap_or((last[0], last[1]))
             };
             let end = Vec3::new(x, y, p0.z);
             self.push(
@@ -361,11 +371,11 @@ impl Interpreter {
                 ));
             }
             if l > 3.0 {
-                if l > MAX_NURBS_POINTS as f64 {
+                if l > MAX_NURBS_ORDER as f64 {
                     return Err(invalid(
                         line,
                         w.col(b'L').unwrap_or(col),
-                        format!("NURBS order L above {MAX_NURBS_POINTS}"),
+                        format!("NURBS order L above {MAX_NURBS_ORDER}: LinuxCNC's evaluation takes time exponential in the order, and CAM writes orders of 3 to 5"),
                         "use a smaller order",
                     ));
                 }
@@ -472,10 +482,11 @@ mod tests {
         ];
         let c = Nurbs::new(&pts, 4).unwrap();
         let tol = 1e-3;
-        let n = chord_count(&c, tol).unwrap();
+        let params = chord_params(&c, tol).unwrap();
+        let n = params.len();
         let mut worst = 0.0f64;
         for k in 0..n {
-            let (u0, u1) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
+            let (u0, u1) = (if k == 0 { 0.0 } else { params[k - 1] }, params[k]);
             let a = c.point(u0).unwrap();
             let b = c.point(u1).unwrap();
             for s in 1..20 {
