@@ -123,8 +123,9 @@ impl<'a> Nurbs<'a> {
                 } else {
                     0.0
                 };
-                for c in 0..3 {
-                    d[j][c] = (1.0 - a) * d[j - 1][c] + a * d[j][c];
+                let prev = d[j - 1];
+                for (v, pv) in d[j].iter_mut().zip(prev) {
+                    *v = (1.0 - a) * pv + a * *v;
                 }
             }
         }
