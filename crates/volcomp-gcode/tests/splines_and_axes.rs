@@ -181,3 +181,152 @@ fn g28_without_words_sends_the_extra_axes_home() {
     assert_eq!(last.extra.end, [0.0; 6]);
     assert_eq!(m[m.len() - 2].extra.end[0], 30.0);
 }
+
+/// rs274's refusal message for `program`, `None` when it accepts it or is
+/// not installed (then only volcomp's side is checked).
+fn rs274_refusal(program: &str) -> Option<String> {
+    let rs274 = ["/usr/bin/rs274", "/usr/local/bin/rs274"]
+        .into_iter()
+        .find(|p| std::path::Path::new(p).exists())?;
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("t.ngc");
+    std::fs::write(&file, format!("{program}M2\n")).unwrap();
+    static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _turn = RS274.lock().unwrap_or_else(|e| e.into_inner());
+    for _ in 0..3 {
+        let out = std::process::Command::new(rs274)
+            .arg("-g")
+            .arg(&file)
+            .current_dir(dir.path())
+            .env("HOME", dir.path())
+            .stdin(std::process::Stdio::null())
+            .output()
+            .unwrap();
+        if out.status.code().is_none_or(|c| c > 128) {
+            continue;
+        }
+        let text = String::from_utf8_lossy(&out.stdout).into_owned()
+            + &String::from_utf8_lossy(&out.stderr);
+        return text
+            .lines()
+            .map(str::trim)
+            .find(|l| {
+                !l.is_empty()
+                    && !l.starts_with(|c: char| c.is_ascii_digit())
+                    && *l != "executing"
+                    && !program.lines().any(|p| p.trim() == *l)
+            })
+            .map(str::to_string);
+    }
+    panic!("rs274 crashed 3 times on {program:?}");
+}
+
+#[test]
+fn refusals_that_linuxcnc_shares_are_refused_by_rs274_too() {
+    // (program, volcomp's message contains, rs274's message contains)
+    let cases = [
+        (
+            "G18 F100\nG5 I0 J1 P1 Q1 X1 Y1\n",
+            "XY plane",
+            "Splines must be in the XY plane",
+        ),
+        (
+            "F100\nG5 I1 P1 Q1 X1 Y1\n",
+            "both I and J",
+            "Must specify both I and J, or neither",
+        ),
+        (
+            "F100\nG5 I1 J1 X1 Y1\n",
+            "both P and Q",
+            "Must specify both P and Q with G5",
+        ),
+        (
+            "F100\nG5.1 I1 X1 Y1\n",
+            "both I and J",
+            "Must specify both I and J with G5.1",
+        ),
+        (
+            "F100\nG5 I1 J1 P1 Q1 X1 Y1 Z1\n",
+            "Z word",
+            "Splines may not have motion in Z",
+        ),
+        (
+            "F100\nG5 I1 J1 P1 Q1 X1 Y1 A1\n",
+            "extra axes",
+            "Splines may not have motion in Z",
+        ),
+        (
+            "F100\nG5.3\n",
+            "without a G5.2",
+            "Cannot use G5.3 without G5.2 first",
+        ),
+        (
+            "F100\nG5.2 X1 P1\n",
+            "both X and Y",
+            "You must specify both X and Y",
+        ),
+        (
+            "F100\nG5.2 X1 Y1 P1 L4\nX2 Y2 P1\nG5.3\n",
+            "order L = 4",
+            "at least equal to the order L = 4",
+        ),
+        (
+            "F100\nG5.2 X1 Y1 P1\nX2 Y2\n",
+            "positive weight",
+            "Must specify positive weight P",
+        ),
+        (
+            "G5.1 I1 J1 X1 Y1\n",
+            "zero feed rate",
+            "Cannot make arc with zero feed rate",
+        ),
+        (
+            "G0 X0 Y0 Z0\nG81 X1 Y1 Z-1 R1 A3 F100\n",
+            "canned cycle",
+            "Cannot put an a in canned cycle",
+        ),
+        ("M10\n", "unknown M code", "Unknown m code used"),
+        ("M200\n", "unknown M code", "M-code greater than 199"),
+        ("M150\n", "M100–M199", "Unknown m code used"),
+        (
+            "M3 M4\n",
+            "same modal group",
+            "Two m codes used from same modal group",
+        ),
+        (
+            "M7 M8\n",
+            "same modal group",
+            "Two m codes used from same modal group",
+        ),
+        ("M72\n", "M72/M73", "Cannot restore context"),
+        ("G999\n", "unknown G code", "G-code out of range"),
+    ];
+    for (prog, ours, theirs) in cases {
+        let e = run(prog).expect_err(prog);
+        assert!(e.to_string().contains(ours), "{prog}: {e}");
+        if let Some(msg) = rs274_refusal(prog) {
+            assert!(msg.contains(theirs), "{prog}: rs274 says {msg:?}");
+        } else if ["/usr/bin/rs274", "/usr/local/bin/rs274"]
+            .iter()
+            .any(|p| std::path::Path::new(p).exists())
+        {
+            panic!("{prog}: rs274 accepts it");
+        }
+    }
+}
+
+#[test]
+fn accepted_here_as_in_rs274() {
+    // Programs LinuxCNC runs that volcomp runs too.
+    for prog in [
+        "G21 F100\nG0 X0 Y0 Z0\nG1 X1 A10 B2 C3\nG2 X2 Y1 I1 J0 A20\n",
+        "G21 F100\nG0 X0 Y0\nG5 I0 J1 P1 Q-1 X2 Y0\nX3\n",
+        "G21 F100\nG0 X0 Y0\nG5.2 P2 L4\nX1 Y1 P1\nX2 Y1 P1\nX3 Y0 P1\nG5.3\n",
+        "M62 P0\nM48\nM53 P1\nM19\nM61 Q1\n",
+    ] {
+        run(prog).unwrap_or_else(|e| panic!("{prog}: {e}"));
+        if let Some(msg) = rs274_refusal(prog) {
+            panic!("{prog}: rs274 refuses it: {msg}");
+        }
+    }
+}
