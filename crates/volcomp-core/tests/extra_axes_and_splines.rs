@@ -167,3 +167,14 @@ fn nurbs_control_point_lines_lose_their_spline_words() {
         "{out}"
     );
 }
+
+#[test]
+fn a_program_stop_on_a_spline_block_runs_after_its_segments() {
+    let out = compensate("G21 G90 F100\nG0 X0 Y0 Z0\nG5.1 I0 J10 X20 Y0 M2\n", 1000.0);
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(*lines.last().unwrap(), "M2", "{out}");
+    assert!(
+        lines[lines.len() - 2].starts_with("X20.0000 Y0.0000"),
+        "{out}"
+    );
+}

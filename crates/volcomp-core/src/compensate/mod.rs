@@ -135,7 +135,7 @@ pub fn compensate_program<R: BufRead>(
                     &mut on_point,
                 )?;
             } else {
-                st.write_spline_block(ev.number, ev.bytes, &words, file)?;
+                st.write_spline_block(ev.number, ev.bytes, &words, None, file)?;
             }
             st.feed_known |=
                 ev.interp.feed_mode() != FeedMode::InverseTime && has_feed(ev.lexed.words());

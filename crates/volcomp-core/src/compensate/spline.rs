@@ -15,7 +15,7 @@
 //! mode from before the spline (LinuxCNC's G5/G5.1 leave it unchanged).
 
 use super::frame::Frame;
-use super::lines::{blank_before, line_ending, OutMode};
+use super::lines::{blank_before, line_ending, stop_m_word, OutMode};
 use super::targets::{check_target_count, targets_of};
 use super::{model_error, CompensateOptions, PointRecord, State};
 use crate::error::CompensationError;
@@ -26,20 +26,23 @@ use volcomp_gcode::number::StyleSurvey;
 use volcomp_gcode::FeedMode;
 
 impl State {
-    /// Writes `bytes` with its spline words removed; nothing when only
-    /// blanks remain.
+    /// Writes `bytes` with its spline words (and `stop`, a program stop
+    /// that must come after the segments) removed; nothing when only blanks
+    /// remain.
     pub(super) fn write_spline_block(
         &mut self,
         line: u64,
         bytes: &[u8],
         words: &[&Word],
+        stop: Option<&Word>,
         file: &str,
     ) -> Result<(), CompensationError> {
         let content = &bytes[..volcomp_gcode::lexer::content_len(bytes)];
         let mut edits = Vec::new();
         for w in words {
             let spline_code = w.letter == b'G' && [5.0, 5.1, 5.2, 5.3].contains(&w.value);
-            if spline_code || b"XYIJPQL@^".contains(&w.letter) {
+            let is_stop = stop.is_some_and(|s| s.span == w.span);
+            if spline_code || is_stop || b"XYIJPQL@^".contains(&w.letter) {
                 edits.push(Edit::delete(
                     blank_before(content, w.span.start)..w.span.end,
                 ));
@@ -88,7 +91,10 @@ impl State {
                 help: "post the program in G94 (units per minute)".into(),
             });
         }
-        self.write_spline_block(line, bytes, &words, file)?;
+        // A program stop on the block (M0, M1, M2, M30, M60) runs after the
+        // segments, as it ran after the spline.
+        let stop = stop_m_word(words.iter().copied());
+        self.write_spline_block(line, bytes, &words, stop, file)?;
         let ending = line_ending(bytes);
         let (frame, style) = Frame::of(interp, options, survey);
         self.mode = Some(OutMode::Other);
@@ -131,6 +137,12 @@ impl State {
                 );
                 pos = q;
             }
+        }
+        if let Some(w) = stop {
+            let content = &bytes[..volcomp_gcode::lexer::content_len(bytes)];
+            self.buf.extend_from_slice(&content[w.span.clone()]);
+            self.buf.extend_from_slice(ending);
+            self.summary.lines_out += 1;
         }
         Ok(())
     }
