@@ -157,7 +157,12 @@ impl Interpreter {
     /// Refuses polar words where LinuxCNC does (`Interp::enhance_block`,
     /// `Interp::find_ends`): outside G17, beside X or Y, with G53 or a
     /// canned cycle, or where the angle is undefined (at the origin).
-    fn check_polar(&self, line: u64, w: &WordTable, mode: MotionMode) -> Result<(), GcodeError> {
+    pub(super) fn check_polar(
+        &self,
+        line: u64,
+        w: &WordTable,
+        mode: MotionMode,
+    ) -> Result<(), GcodeError> {
         let Some(col) = w.polar_col() else {
             return Ok(());
         };

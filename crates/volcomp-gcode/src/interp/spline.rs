@@ -210,6 +210,9 @@ impl Interpreter {
                 "select G17 before the spline",
             ));
         }
+        if matches!(code, 50 | 51) {
+            self.check_polar(line, w, MotionMode::Spline(code))?;
+        }
         let p0 = self.position;
         let k = self.units.mm_per_unit();
         let mm = |v: f64| v * k;
