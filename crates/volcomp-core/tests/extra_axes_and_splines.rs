@@ -59,6 +59,24 @@ fn a_split_g1_carries_its_share_of_a_on_every_segment() {
 }
 
 #[test]
+fn split_a_words_are_in_the_program_frame_under_g92() {
+    // At A30, G92 A0: A40 in the program is A70 on the machine; the split
+    // segments write program values A10 … A40.
+    let out = compensate(
+        "G21 G90 F100\nG0 X0 Y0 Z0 A30\nG92 A0\nG1 X20 A40\nM2\n",
+        5.0,
+    );
+    let a: Vec<&str> = out
+        .lines()
+        .filter(|l| l.contains("X") && l.contains('A') && !l.starts_with("G0"))
+        .collect();
+    assert_eq!(a.len(), 4, "{out}");
+    for (k, l) in a.iter().enumerate() {
+        assert!(l.contains(&format!("A{}.0000", 10 * (k + 1))), "{l}");
+    }
+}
+
+#[test]
 fn incremental_extra_axes_are_split_into_increments_that_add_up() {
     // G91: X20 C-30 in four segments: C-7.5 each, summing to C-30.
     let out = compensate("G21 G90 F100\nG0 X0 Y0 Z0\nG91 G1 X20 C-30 B1\nM2\n", 5.0);

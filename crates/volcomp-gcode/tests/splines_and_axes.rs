@@ -162,7 +162,6 @@ fn extra_axes_are_carried_linearly_and_uncompensated() {
 fn extra_axes_refusals() {
     let cases = [
         ("G0 X0 Y0 Z0\nG81 X1 Y1 Z-1 R1 A3 F100\n", "canned cycle"),
-        ("G92 X0 A10\n", "G92"),
         ("G10 L2 P1 X0 A10\n", "G10"),
         ("G28 A0\n", "G28"),
     ];
@@ -170,6 +169,15 @@ fn extra_axes_refusals() {
         let e = run(prog).expect_err(prog);
         assert!(e.to_string().contains(want), "{prog}: {e}");
     }
+}
+
+#[test]
+fn g92_offsets_the_extra_axes() {
+    // At A30, G92 A0 makes the current A program 0: A90 is then A120 on the
+    // machine; G92.1 clears it (A90 is A90), G53 ignores it.
+    let m = run("G0 X0 A30\nG92 A0\nG0 A90\nG92.1\nG0 A90\nG92 A0\nG53 G0 A10\nM2\n").unwrap();
+    let a: Vec<f64> = m.iter().map(|x| x.extra.end[0]).collect();
+    assert_eq!(a, [30.0, 120.0, 90.0, 10.0]);
 }
 
 #[test]

@@ -196,9 +196,17 @@ pub struct Canon {
     pub tlo_tol: [f64; 3],
     /// In-plane axes (first, second) and the normal axis of ARC_FEED.
     pub plane: (usize, usize, usize),
+    /// A, B, C parts of the G5x and G92 offsets (degrees).
+    pub g5x_abc: [f64; 3],
+    pub g92_abc: [f64; 3],
 }
 
 impl Canon {
+    /// A, B, C as printed (program frame) plus the offsets in effect.
+    pub fn abc(&self, printed: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|i| printed[i] + self.g5x_abc[i] + self.g92_abc[i])
+    }
+
     pub fn new() -> Self {
         Self {
             mm_per_unit: 1.0,
@@ -209,6 +217,8 @@ impl Canon {
             g92_tol: [0.0; 3],
             tlo_tol: [0.0; 3],
             plane: (0, 1, 2),
+            g5x_abc: [0.0; 3],
+            g92_abc: [0.0; 3],
         }
     }
 
@@ -314,12 +324,14 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                 }
             }
             "SET_G5X_OFFSET" => {
-                let n = numbers(args, 4).map_err(bad)?;
+                let n = numbers(args, 7).map_err(bad)?;
                 (canon.g5x, canon.g5x_tol) = canon.set(&n[1..4]);
+                canon.g5x_abc = [n[4], n[5], n[6]];
             }
             "SET_G92_OFFSET" => {
-                let n = numbers(args, 3).map_err(bad)?;
+                let n = numbers(args, 6).map_err(bad)?;
                 (canon.g92, canon.g92_tol) = canon.set(&n[0..3]);
+                canon.g92_abc = [n[3], n[4], n[5]];
             }
             "USE_TOOL_LENGTH_OFFSET" => {
                 let n = numbers(args, 3).map_err(bad)?;
@@ -337,7 +349,7 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     end: canon.machine([n[0], n[1], n[2]]),
                     center: None,
                     tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
-                    abc: [n[3], n[4], n[5]],
+                    abc: canon.abc([n[3], n[4], n[5]]),
                     call: call.clone(),
                 });
             }
@@ -363,7 +375,7 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     end,
                     center: Some([(f, cf), (s, cs)]),
                     tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
-                    abc: [n[6], n[7], n[8]],
+                    abc: canon.abc([n[6], n[7], n[8]]),
                     call: call.clone(),
                 });
             }

@@ -26,15 +26,24 @@ pub(super) struct ExtraPlan {
 }
 
 impl ExtraPlan {
-    /// `None` unless the motion moves an extra axis and is split.
+    /// `None` unless the motion moves an extra axis and is split. `offset`
+    /// is what the interpreter adds to the extra axes' program values
+    /// ([`volcomp_gcode::Interpreter::extra_offset`]).
     pub(super) fn new(
         extra: ExtraAxes,
+        offset: [f64; 6],
         start: Vec3,
         targets: &[Vec3],
         frame: &Frame,
     ) -> Option<Self> {
         if !extra.moves() || targets.len() < 2 {
             return None;
+        }
+        // Program values: what the words say.
+        let mut extra = extra;
+        for (i, off) in offset.iter().enumerate() {
+            extra.start[i] -= off;
+            extra.end[i] -= off;
         }
         let mut acc = Vec::with_capacity(targets.len());
         let (mut len, mut prev) = (0.0, start);

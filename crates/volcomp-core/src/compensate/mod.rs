@@ -202,7 +202,13 @@ pub fn compensate_program<R: BufRead>(
             &mut on_point,
         )?;
         // Extra axes (A … W) of a split motion: each segment carries its share.
-        let mut extra_plan = extra::ExtraPlan::new(motion.extra, motion.start, &targets, &frame);
+        let mut extra_plan = extra::ExtraPlan::new(
+            motion.extra,
+            interp.extra_offset(),
+            motion.start,
+            &targets,
+            &frame,
+        );
         // Write: the commands were solved from the position before the line.
         let mut pos = q_line_start;
         let stop_word = if commands.len() > 1 {

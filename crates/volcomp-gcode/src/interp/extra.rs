@@ -11,10 +11,12 @@
 //! when `compensate` splits a motion into segments each segment carries its
 //! share of the extra axes' motion.
 //!
-//! Offsets: volcomp's set-up gives work offsets, G92 and reference points
-//! for X, Y and Z only; the extra axes are taken with zero offsets, and a
-//! G10, G92, G28 or G30 with an extra-axis word is refused (it would set an
-//! offset or a reference volcomp does not track). As in LinuxCNC
+//! Offsets: volcomp's set-up gives work offsets and reference points for X,
+//! Y and Z only; the extra axes have zero work offsets. G92 (`G92 X0 Y0 Z0
+//! A0` is common) sets, clears (G92.1, G92.2) and restores (G92.3) an offset
+//! of the extra axes as LinuxCNC does for every axis. A G10, G28 or G30 with
+//! an extra-axis word is refused (it would set a work offset or a reference
+//! point volcomp does not track). As in LinuxCNC
 //! (`Interp::convert_cycle`, interp_cycles.cc: "Cannot put an a in canned
 //! cycle"), canned cycles refuse them.
 
@@ -70,14 +72,38 @@ impl Interpreter {
     /// LinuxCNC (see the module documentation).
     pub(super) fn extra_target(&mut self, line: u64, w: &WordTable) -> Result<(), GcodeError> {
         self.extra_target = self.extra;
+        // G92.1 / G92.2 / G92.3 act on every axis, named or not.
+        if w.has_g(921) {
+            self.extra_g92 = [0.0; 6];
+            self.extra_g92_saved = [0.0; 6];
+        } else if w.has_g(922) {
+            self.extra_g92 = [0.0; 6];
+        } else if w.has_g(923) {
+            self.extra_g92 = self.extra_g92_saved;
+        }
         let Some(col) = w.extra_col() else {
+            if w.has_g(920) {
+                self.extra_g92_saved = self.extra_g92;
+            }
             return Ok(());
         };
         let letter = EXTRA_LETTERS
             .into_iter()
             .find(|l| w.col(*l) == Some(col))
             .unwrap_or(b'A') as char;
-        if let Some(code) = [100u16, 280, 300, 920].into_iter().find(|c| w.has_g(*c)) {
+        if w.has_g(920) {
+            // G92: the current position gets the given program values.
+            for (i, l) in EXTRA_LETTERS.into_iter().enumerate() {
+                if let Some(v) = w.get(l) {
+                    let v = if i >= 3 { self.to_mm(v) } else { v };
+                    self.extra_g92[i] = self.extra[i] - v;
+                }
+            }
+            self.extra_g92_saved = self.extra_g92;
+            self.uses_extra_axes = true;
+            return Ok(());
+        }
+        if let Some(code) = [100u16, 280, 300].into_iter().find(|c| w.has_g(*c)) {
             return Err(unsupported(
                 line,
                 col,
@@ -106,7 +132,12 @@ impl Interpreter {
         for (i, l) in EXTRA_LETTERS.into_iter().enumerate() {
             if let Some(v) = w.get(l) {
                 let v = if i >= 3 { self.to_mm(v) } else { v };
-                self.extra_target[i] = if self.absolute { v } else { self.extra[i] + v };
+                let g92 = if w.has_g(530) { 0.0 } else { self.extra_g92[i] };
+                self.extra_target[i] = if self.absolute {
+                    v + g92
+                } else {
+                    self.extra[i] + v
+                };
                 if !self.extra_target[i].is_finite()
                     || self.extra_target[i].abs() > super::MAX_COORDINATE_MM * 100.0
                 {
@@ -125,6 +156,12 @@ impl Interpreter {
     /// Whether the program has named an extra axis (A B C U V W) so far.
     pub fn uses_extra_axes(&self) -> bool {
         self.uses_extra_axes
+    }
+
+    /// What is added to an extra axis's program value to get its position
+    /// (its G92 offset; the work offsets of the extra axes are zero).
+    pub fn extra_offset(&self) -> [f64; 6] {
+        self.extra_g92
     }
 
     /// The extra axes' current position (A, B, C in degrees, U, V, W in mm).

@@ -151,6 +151,9 @@ pub struct Interpreter {
     /// the current block's motion.
     extra: [f64; 6],
     extra_target: [f64; 6],
+    /// G92 offsets of the extra axes, and the ones G92.3 restores.
+    extra_g92: [f64; 6],
+    extra_g92_saved: [f64; 6],
     uses_extra_axes: bool,
     /// The last G5 block's end tangent (second control point relative to
     /// the end, mm, axis frame), for G5 blocks that omit I and J.
@@ -213,6 +216,8 @@ impl Interpreter {
             warned_reference: [false; 2],
             extra: [0.0; 6],
             extra_target: [0.0; 6],
+            extra_g92: [0.0; 6],
+            extra_g92_saved: [0.0; 6],
             uses_extra_axes: false,
             spline_tangent: None,
             nurbs: None,
