@@ -48,7 +48,7 @@ pub fn differ(r: &RefMotion, v: &VolMotion) -> Option<String> {
     let mut why = Vec::new();
     for (a, name) in ["A", "B", "C"].iter().enumerate() {
         let d = (r.abc[a] - v.abc[a]).abs();
-        if d.is_nan() || d > PRINT_TOL {
+        if d.is_nan() || d > r.abc_tol[a] + SLACK_MM {
             why.push(format!("end {name} off by {d:.6} degrees"));
         }
     }

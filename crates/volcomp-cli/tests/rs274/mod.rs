@@ -161,6 +161,9 @@ pub struct RefMotion {
     pub tol: [f64; 3],
     /// A, B, C at the end (degrees; NaN where rs274 gives none).
     pub abc: [f64; 3],
+    /// Their tolerance: the print rounding, once more for each non-zero
+    /// offset added (degrees).
+    pub abc_tol: [f64; 3],
     /// The canonical call as rs274 printed it.
     pub call: String,
 }
@@ -202,6 +205,15 @@ pub struct Canon {
 }
 
 impl Canon {
+    /// Tolerance of [`Canon::abc`]: the print rounding of each term.
+    pub fn abc_tol(&self) -> [f64; 3] {
+        [0, 1, 2].map(|i| {
+            let terms =
+                1 + usize::from(self.g5x_abc[i] != 0.0) + usize::from(self.g92_abc[i] != 0.0);
+            PRINT_TOL * terms as f64
+        })
+    }
+
     /// A, B, C as printed (program frame) plus the offsets in effect.
     pub fn abc(&self, printed: [f64; 3]) -> [f64; 3] {
         [0, 1, 2].map(|i| printed[i] + self.g5x_abc[i] + self.g92_abc[i])
@@ -350,6 +362,7 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     center: None,
                     tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
                     abc: canon.abc([n[3], n[4], n[5]]),
+                    abc_tol: canon.abc_tol(),
                     call: call.clone(),
                 });
             }
@@ -376,6 +389,7 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     center: Some([(f, cf), (s, cs)]),
                     tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
                     abc: canon.abc([n[6], n[7], n[8]]),
+                    abc_tol: canon.abc_tol(),
                     call: call.clone(),
                 });
             }
@@ -386,6 +400,7 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     center: None,
                     tol: [0.0; 3],
                     abc: [f64::NAN; 3],
+                    abc_tol: [0.0; 3],
                     call: call.clone(),
                 });
             }
