@@ -25,6 +25,7 @@
 
 mod cycle;
 mod extra;
+mod modal;
 mod motion;
 mod offsets;
 mod options;
@@ -151,6 +152,8 @@ pub struct Interpreter {
     /// the current block's motion.
     extra: [f64; 6],
     extra_target: [f64; 6],
+    /// The modal state M70 saved (M72 restores it).
+    saved_modes: Option<modal::SavedModes>,
     /// G92 offsets of the extra axes, and the ones G92.3 restores.
     extra_g92: [f64; 6],
     extra_g92_saved: [f64; 6],
@@ -216,6 +219,7 @@ impl Interpreter {
             warned_reference: [false; 2],
             extra: [0.0; 6],
             extra_target: [0.0; 6],
+            saved_modes: None,
             extra_g92: [0.0; 6],
             extra_g92_saved: [0.0; 6],
             uses_extra_axes: false,
@@ -398,6 +402,8 @@ impl Interpreter {
                 .ok_or_else(|| invalid(line, 0, "M61 needs a Q word", "write M61 Qn"))?;
             self.loaded_tool = q.max(0.0) as u32;
         }
+        // M70/M71/M72: save, invalidate, restore the modal state.
+        self.modal_save_restore(line, w)?;
         // 10: dwell (passed through).
         if w.has_g(40) && w.get(b'P').is_none() {
             return Err(invalid(

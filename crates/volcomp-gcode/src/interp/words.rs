@@ -110,13 +110,14 @@ const CUTTER_COMP: &str = "cutter radius compensation (G41, G42, G41.1, G42.1) i
 fn m_group(code: u16) -> Result<u8, &'static str> {
     Ok(match code / 10 {
         0 | 1 | 2 | 30 | 60 | 99 => 4,
-        3..=5 | 19 | 70..=71 => 7,
+        3..=5 | 19 | 70 | 71 => 7,
         6 | 61 => 6,
         7..=9 => 8,
         48..=53 => 9,
         62..=65 | 67 | 68 => 5,
         66 => return Err("M66 waits for an input of the machine and stores its state in #5399; what it reads is known only when the machine runs; remove the M66 (and what depends on #5399) to compensate the program"),
-        72 | 73 => return Err("M72/M73 restore modal state saved earlier (units, distance mode, feed, …); volcomp does not model the restore; state the modes explicitly instead"),
+        72 => 7,
+        73 => return Err("M73 saves the modal state and restores it when the subroutine returns; volcomp does not restore it at the return; state the modes explicitly instead (M70 and M72 are interpreted)"),
         98 => 10,
         100..=199 => return Err("M100–M199 run the machine's own user programs (files in its PROGRAM_PREFIX), which volcomp cannot see; LinuxCNC refuses them when the file is missing (\"Unknown m code used\"); remove it, or run that part uncompensated"),
         _ => return Err("unknown M code (\"Unknown m code used\" in LinuxCNC, or above M199: \"M-code greater than 199\"); a remapped M code runs the machine's own subroutine, which volcomp cannot see"),
