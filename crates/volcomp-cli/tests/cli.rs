@@ -41,7 +41,14 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
         ("G51 X0 Y0 P2\n", 1, 1, "scaling"),
         ("G16\n", 1, 1, "polar"),
         ("G0 X0\nG0 G7 X1\n", 2, 4, "G7"),
-        ("G0 X0 A10\n", 1, 7, "3-axis"),
+        (
+            "G0 X0 Y0 Z0\nG81 X1 Y1 Z-1 R1 A3 F100\n",
+            2,
+            18,
+            "canned cycle",
+        ),
+        ("G0 X0 Y0 Z0\nG38.2 Z-5 F100\n", 2, 1, "probe"),
+        ("G0 X0 Y0 Z0\nM66 P0 L0\n", 2, 1, "input"),
         ("G1 X10 F100 (unclosed\n", 1, 13, "not closed"),
         ("X10\n", 1, 1, "motion mode"),
         (

@@ -166,6 +166,11 @@ pub struct RefMotion {
     pub center: Option<[(usize, f64); 2]>,
     /// Tolerance per axis, mm.
     pub tol: [f64; 3],
+    /// A, B, C at the end (degrees; NaN where rs274 gives none).
+    pub abc: [f64; 3],
+    /// Their tolerance: the print rounding, once more for each non-zero
+    /// offset added (degrees).
+    pub abc_tol: [f64; 3],
     /// The canonical call as rs274 printed it.
     pub call: String,
 }
@@ -177,6 +182,8 @@ pub struct VolMotion {
     pub kind: Kind,
     pub end: [f64; 3],
     pub center: Option<[f64; 3]>,
+    /// A, B, C at the end (degrees).
+    pub abc: [f64; 3],
 }
 
 /// What rs274 made of a program.
@@ -199,9 +206,26 @@ pub struct Canon {
     pub tlo_tol: [f64; 3],
     /// In-plane axes (first, second) and the normal axis of ARC_FEED.
     pub plane: (usize, usize, usize),
+    /// A, B, C parts of the G5x and G92 offsets (degrees).
+    pub g5x_abc: [f64; 3],
+    pub g92_abc: [f64; 3],
 }
 
 impl Canon {
+    /// Tolerance of [`Canon::abc`]: the print rounding of each term.
+    pub fn abc_tol(&self) -> [f64; 3] {
+        [0, 1, 2].map(|i| {
+            let terms =
+                1 + usize::from(self.g5x_abc[i] != 0.0) + usize::from(self.g92_abc[i] != 0.0);
+            PRINT_TOL * terms as f64
+        })
+    }
+
+    /// A, B, C as printed (program frame) plus the offsets in effect.
+    pub fn abc(&self, printed: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|i| printed[i] + self.g5x_abc[i] + self.g92_abc[i])
+    }
+
     pub fn new() -> Self {
         Self {
             mm_per_unit: 1.0,
@@ -212,6 +236,8 @@ impl Canon {
             g92_tol: [0.0; 3],
             tlo_tol: [0.0; 3],
             plane: (0, 1, 2),
+            g5x_abc: [0.0; 3],
+            g92_abc: [0.0; 3],
         }
     }
 
@@ -317,19 +343,21 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                 }
             }
             "SET_G5X_OFFSET" => {
-                let n = numbers(args, 4).map_err(bad)?;
+                let n = numbers(args, 7).map_err(bad)?;
                 (canon.g5x, canon.g5x_tol) = canon.set(&n[1..4]);
+                canon.g5x_abc = [n[4], n[5], n[6]];
             }
             "SET_G92_OFFSET" => {
-                let n = numbers(args, 3).map_err(bad)?;
+                let n = numbers(args, 6).map_err(bad)?;
                 (canon.g92, canon.g92_tol) = canon.set(&n[0..3]);
+                canon.g92_abc = [n[3], n[4], n[5]];
             }
             "USE_TOOL_LENGTH_OFFSET" => {
                 let n = numbers(args, 3).map_err(bad)?;
                 (canon.tlo, canon.tlo_tol) = canon.set(&n[0..3]);
             }
             "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" => {
-                let n = numbers(args, 3).map_err(bad)?;
+                let n = numbers(args, 6).map_err(bad)?;
                 let kind = if name == "STRAIGHT_TRAVERSE" {
                     Kind::Rapid
                 } else {
@@ -340,13 +368,15 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     end: canon.machine([n[0], n[1], n[2]]),
                     center: None,
                     tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
+                    abc: canon.abc([n[3], n[4], n[5]]),
+                    abc_tol: canon.abc_tol(),
                     call: call.clone(),
                 });
             }
             "ARC_FEED" => {
                 // first_end, second_end, first_centre, second_centre,
                 // rotation, axis_end, a, b, c
-                let n = numbers(args, 6).map_err(bad)?;
+                let n = numbers(args, 9).map_err(bad)?;
                 let (f, s, ax) = canon.plane;
                 let mut printed = [0.0; 3];
                 printed[f] = n[0];
@@ -365,6 +395,8 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     end,
                     center: Some([(f, cf), (s, cs)]),
                     tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
+                    abc: canon.abc([n[6], n[7], n[8]]),
+                    abc_tol: canon.abc_tol(),
                     call: call.clone(),
                 });
             }
@@ -374,6 +406,8 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     end: [f64::NAN; 3],
                     center: None,
                     tol: [0.0; 3],
+                    abc: [f64::NAN; 3],
+                    abc_tol: [0.0; 3],
                     call: call.clone(),
                 });
             }
@@ -386,14 +420,16 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
 pub fn parse_volcomp_csv(text: &str) -> Result<Vec<VolMotion>, String> {
     let mut lines = text.lines();
     let header = lines.next().unwrap_or("");
-    if header != "line,column,kind,source,x_mm,y_mm,z_mm,cx_mm,cy_mm,cz_mm" {
+    if header
+        != "line,column,kind,source,x_mm,y_mm,z_mm,cx_mm,cy_mm,cz_mm,a_deg,b_deg,c_deg,u_mm,v_mm,w_mm"
+    {
         return Err(format!("unexpected CSV header `{header}`"));
     }
     let mut out = Vec::new();
     for row in lines {
         let f: Vec<&str> = row.split(',').collect();
-        if f.len() != 10 {
-            return Err(format!("CSV row `{row}` does not have 10 fields"));
+        if f.len() != 16 {
+            return Err(format!("CSV row `{row}` does not have 16 fields"));
         }
         let num = |s: &str| {
             s.parse::<f64>()
@@ -408,11 +444,32 @@ pub fn parse_volcomp_csv(text: &str) -> Result<Vec<VolMotion>, String> {
         } else {
             Some([num(f[7])?, num(f[8])?, num(f[9])?])
         };
+        let abc = [num(f[10])?, num(f[11])?, num(f[12])?];
+        // A spline's chords are one NURBS_FEED in rs274 (which prints no
+        // control points): they are compared as one motion of that kind, and
+        // the spline's end point through the next motion's start.
+        if f[3] == "spline" {
+            if out
+                .last()
+                .is_some_and(|m: &VolMotion| m.line == line && m.kind.name() == "NURBS_FEED")
+            {
+                continue;
+            }
+            out.push(VolMotion {
+                line,
+                kind: Kind::Other("NURBS_FEED".into()),
+                end: [f64::NAN; 3],
+                center: None,
+                abc,
+            });
+            continue;
+        }
         out.push(VolMotion {
             line,
             kind: Kind::from_volcomp(f[2]),
             end,
             center,
+            abc,
         });
     }
     Ok(out)
@@ -489,6 +546,7 @@ pub fn run_volcomp(
 ) -> Result<Vec<VolMotion>, String> {
     let out = Command::new(&tools.volcomp)
         .arg("moves")
+        .arg("--extra-axes")
         .arg("--setup")
         .arg(&tools.setup)
         .args(extra)
