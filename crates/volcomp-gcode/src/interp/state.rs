@@ -67,6 +67,10 @@ impl Interpreter {
                 }
             }
             5399 => return Err(Unanswerable::RunTime),
+            // Tool changer fault and reason: LinuxCNC re-reads them from the
+            // machine before every line (rs274ngc_pre.cc, `read`), whatever
+            // the program set.
+            5600 | 5601 => return Err(Unanswerable::RunTime),
             5400 => f64::from(self.loaded_tool),
             5401..=5409 => xyz(self.tlo, n - 5401),
             5410..=5413 => 0.0,

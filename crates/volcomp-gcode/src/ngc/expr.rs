@@ -128,7 +128,7 @@ pub enum Expr {
     Atan(Box<Expr>, Box<Expr>),
     /// `EXISTS[#<name>]`: 1 if the named parameter exists.
     Exists(String),
-    /// `EXISTS[#n]`: 1 if `n` is a parameter number (1–5602).
+    /// `EXISTS[#n]`: 1 if `n` is a parameter number (1–5601).
     ExistsNumbered(Box<Expr>, usize),
     /// `a op b`.
     Binary {
@@ -176,7 +176,9 @@ pub trait Lookup {
     fn exists(&self, name: &str) -> bool;
 }
 
-/// Largest parameter number plus one (LinuxCNC's `RS274NGC_MAX_PARAMETERS`).
+/// Largest parameter number plus one (LinuxCNC's `RS274NGC_MAX_PARAMETERS`):
+/// valid numbers are 1 to 5601 (`index >= 1 && index < RS274NGC_MAX_PARAMETERS`
+/// in `read_parameter` and `read_parameter_setting`, interp_read.cc).
 pub const MAX_PARAMETERS: usize = 5602;
 
 /// Deepest nesting of brackets and parameters read (a bound on recursion).
@@ -515,11 +517,11 @@ pub fn to_integer(v: f64, col: usize) -> Result<i64, ExprError> {
 /// The parameter number `index` evaluates to, checked against LinuxCNC's range.
 pub fn param_number(index: &Expr, col: usize, lk: &dyn Lookup) -> Result<usize, ExprError> {
     let n = to_integer(eval(index, lk)?, col)?;
-    if n < 1 || n as usize >= MAX_PARAMETERS + 1 {
+    if n < 1 || n as usize >= MAX_PARAMETERS {
         return Err(ExprError::new(
             col,
             format!("parameter number {n} is out of range"),
-            "numbered parameters are #1 to #5602",
+            "numbered parameters are #1 to #5601",
         ));
     }
     Ok(n as usize)
@@ -557,7 +559,7 @@ fn eval_inner(e: &Expr, lk: &dyn Lookup) -> Result<f64, ExprError> {
         Expr::Exists(name) => f64::from(u8::from(lk.exists(name))),
         Expr::ExistsNumbered(index, col) => {
             let n = to_integer(eval(index, lk)?, *col)?;
-            f64::from(u8::from(n >= 1 && (n as usize) <= MAX_PARAMETERS))
+            f64::from(u8::from(n >= 1 && (n as usize) < MAX_PARAMETERS))
         }
         Expr::Atan(y, x) => eval(y, lk)?.atan2(eval(x, lk)?).to_degrees(),
         Expr::Unary { func, arg, col } => {

@@ -150,6 +150,18 @@ pub fn needs_ngc(content: &[u8]) -> bool {
         && !is_program_number(&content[i + 1..])
 }
 
+/// Whether normalised `text` is a number the lexer reads: an optional
+/// sign, then digits and at most one point.
+fn is_plain_number(text: &[u8]) -> bool {
+    let digits = match text.first() {
+        Some(b'+' | b'-') => &text[1..],
+        _ => text,
+    };
+    !digits.is_empty()
+        && digits.iter().all(|b| b.is_ascii_digit() || *b == b'.')
+        && digits.iter().filter(|b| **b == b'.').count() <= 1
+}
+
 /// `O0001` or `O1001 (NAME)`: a Fanuc program number, not an o-word statement.
 fn is_program_number(rest: &[u8]) -> bool {
     let mut j = 0;
@@ -210,7 +222,10 @@ pub fn parse(n: &Norm) -> Result<Statement, ExprError> {
                 p.pos += 1;
                 let vstart = p.pos;
                 let value = p.value()?;
-                if !matches!(value, Expr::Num(_)) {
+                // A plain number (`X10`, `Y-.5`) stays as written; anything
+                // else is rendered, including `X[1]`, `X[-1]` and `X+-1`,
+                // which parse to a number too but are not literal G-code.
+                if !is_plain_number(&n.text[vstart..p.pos.min(n.text.len())]) {
                     words.push(ExprWord {
                         letter: c,
                         value,
@@ -356,11 +371,14 @@ pub fn render(
     let mut edits: Vec<(Range<usize>, Option<f64>)> =
         Vec::with_capacity(words.len() + settings.len());
     for w in words {
-        edits.push((w.span.clone(), Some(eval(&w.value, lk)?)));
+        let lk = Declared::new(lk, settings, w.col);
+        edits.push((w.span.clone(), Some(eval(&w.value, &lk)?)));
     }
     let mut values = Vec::with_capacity(settings.len());
     for s in settings {
-        values.push(eval(&s.value, lk)?);
+        // The setting's own name is declared before its value is read.
+        let lk = Declared::new(lk, settings, s.col + 1);
+        values.push(eval(&s.value, &lk)?);
         edits.push((s.span.clone(), None));
     }
     edits.sort_by_key(|e| e.0.start);
@@ -374,4 +392,49 @@ pub fn render(
     }
     out.extend_from_slice(&content[at..]);
     Ok(values)
+}
+
+/// LinuxCNC declares a named parameter when it reads the name of a setting
+/// (`read_named_parameter_setting` calls `add_named_param`, value 0, before
+/// the line's settings are applied): a read further along the same line of
+/// a name that did not exist before finds it, with the value 0, and
+/// `EXISTS` gives 1. `#<n> = [#<n> + 1]` on a first use sets 1.
+struct Declared<'a> {
+    inner: &'a dyn Lookup,
+    settings: &'a [Setting],
+    /// Settings whose `#` stands before this column are read already.
+    before: usize,
+}
+
+impl<'a> Declared<'a> {
+    fn new(inner: &'a dyn Lookup, settings: &'a [Setting], before: usize) -> Self {
+        Self {
+            inner,
+            settings,
+            before,
+        }
+    }
+
+    fn declared(&self, name: &str) -> bool {
+        self.settings
+            .iter()
+            .any(|s| s.col < self.before && matches!(&s.target, Param::Named(n) if n == name))
+    }
+}
+
+impl Lookup for Declared<'_> {
+    fn numbered(&self, n: usize, col: usize) -> Result<f64, ExprError> {
+        self.inner.numbered(n, col)
+    }
+
+    fn named(&self, name: &str, col: usize) -> Result<f64, ExprError> {
+        if !self.inner.exists(name) && self.declared(name) {
+            return Ok(0.0);
+        }
+        self.inner.named(name, col)
+    }
+
+    fn exists(&self, name: &str) -> bool {
+        self.inner.exists(name) || self.declared(name)
+    }
 }

@@ -184,3 +184,35 @@ fn a_loop_that_never_ends_is_stopped() {
     let e = flow.count_line(3).unwrap_err().to_string();
     assert!(e.contains("without ending"), "{e}");
 }
+
+#[test]
+fn bracketed_numbers_and_double_signs_are_rendered() {
+    // `[1]` is an expression (LinuxCNC's read_real_expression), `+-7` a
+    // unary plus before -7 (read_real_value): both render to plain numbers.
+    let v = xs("G21\n#2=1\nG0 X[1]\nG0 X[-2]\nG0 X[[3]]\nG0 X+-7 Y#2\nM2\n").unwrap();
+    assert_eq!(v, vec![1.0, -2.0, 3.0, -7.0]);
+}
+
+#[test]
+fn a_setting_declares_its_name_for_the_rest_of_the_line() {
+    // add_named_param at read time: the new name reads 0 further along
+    // the line, so a first `#<c> = [#<c> + 1]` sets 1, and EXISTS is 1.
+    let v =
+        xs("G21\n#<c> = [#<c> + 1]\nG0 X#<c>\n#<n> = 5 G0 X[EXISTS[#<n>] + #<n>]\nM2\n").unwrap();
+    assert_eq!(v, vec![1.0, 1.0]);
+    // Read before the setting on the line: still not defined.
+    let e = xs("G21\nG0 X#<q> #<q> = 5\nM2\n").unwrap_err();
+    assert!(e.contains("p.ngc:2:5"), "{e}");
+}
+
+#[test]
+fn parameter_numbers_stop_at_5601_and_the_tool_changer_ones_are_refused() {
+    assert_eq!(x_of("#5599"), 0.0);
+    assert_eq!(x_of("[EXISTS[#5601] + EXISTS[#5602] * 2]"), 1.0);
+    let e = xs("G21\nG0 X#5602\nM2\n").unwrap_err();
+    assert!(e.contains("p.ngc:2:5") && e.contains("out of range"), "{e}");
+    let e = xs("G21\n#5602 = 1\nM2\n").unwrap_err();
+    assert!(e.contains("out of range"), "{e}");
+    let e = xs("G21\nG0 X#5601\nM2\n").unwrap_err();
+    assert!(e.contains("tool changer"), "{e}");
+}
