@@ -39,13 +39,13 @@ pub fn parse(text: &str, file: &str) -> Result<BTreeMap<usize, f64>, GcodeError>
             )
             .with_source_line(line.as_bytes())
         })?;
-        if !(1..=5602).contains(&index) {
+        if !(1..5602).contains(&index) {
             return Err(error(
                 file,
                 n,
                 col,
                 format!("parameter number {index} is out of range"),
-                "parameters are #1 to #5602",
+                "parameters are #1 to #5601",
             )
             .with_source_line(line.as_bytes()));
         }

@@ -515,11 +515,11 @@ pub fn to_integer(v: f64, col: usize) -> Result<i64, ExprError> {
 /// The parameter number `index` evaluates to, checked against LinuxCNC's range.
 pub fn param_number(index: &Expr, col: usize, lk: &dyn Lookup) -> Result<usize, ExprError> {
     let n = to_integer(eval(index, lk)?, col)?;
-    if n < 1 || n as usize >= MAX_PARAMETERS + 1 {
+    if n < 1 || n as usize >= MAX_PARAMETERS {
         return Err(ExprError::new(
             col,
             format!("parameter number {n} is out of range"),
-            "numbered parameters are #1 to #5602",
+            "numbered parameters are #1 to #5601 (LinuxCNC: below RS274NGC_MAX_PARAMETERS = 5602)",
         ));
     }
     Ok(n as usize)
@@ -557,7 +557,7 @@ fn eval_inner(e: &Expr, lk: &dyn Lookup) -> Result<f64, ExprError> {
         Expr::Exists(name) => f64::from(u8::from(lk.exists(name))),
         Expr::ExistsNumbered(index, col) => {
             let n = to_integer(eval(index, lk)?, *col)?;
-            f64::from(u8::from(n >= 1 && (n as usize) <= MAX_PARAMETERS))
+            f64::from(u8::from(n >= 1 && (n as usize) < MAX_PARAMETERS))
         }
         Expr::Atan(y, x) => eval(y, lk)?.atan2(eval(x, lk)?).to_degrees(),
         Expr::Unary { func, arg, col } => {
