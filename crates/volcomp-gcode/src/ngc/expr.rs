@@ -128,7 +128,7 @@ pub enum Expr {
     Atan(Box<Expr>, Box<Expr>),
     /// `EXISTS[#<name>]`: 1 if the named parameter exists.
     Exists(String),
-    /// `EXISTS[#n]`: 1 if `n` is a parameter number (1–5602).
+    /// `EXISTS[#n]`: 1 if `n` is a parameter number (1–5601).
     ExistsNumbered(Box<Expr>, usize),
     /// `a op b`.
     Binary {

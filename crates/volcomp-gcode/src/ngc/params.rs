@@ -1,7 +1,7 @@
 //! Parameter storage as LinuxCNC 2.9 keeps it (interp_read.cc,
 //! interp_namedparams.cc, interp_o_word.cc `enter_context`/`leave_context`):
 //!
-//! * numbered #1–#5602: global storage, except that #1–#30 belong to the
+//! * numbered #1–#5601: global storage, except that #1–#30 belong to the
 //!   call level — a call saves the caller's #1–#30, passes its arguments in
 //!   them (the rest 0) and the return restores them; unset ones read 0;
 //! * named `#<_name>` (leading underscore): global; `#<name>`: local to the
@@ -51,7 +51,7 @@ impl Default for Params {
 }
 
 impl Params {
-    /// Sets numbered parameter `n` (1–5602) from outside the program (a
+    /// Sets numbered parameter `n` (1–5601) from outside the program (a
     /// `.var` file).
     pub fn preset(&mut self, n: usize, v: f64) {
         if let Some(p) = self.numbered.get_mut(n) {
