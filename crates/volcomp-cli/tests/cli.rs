@@ -34,9 +34,9 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
     write_map(&dir, |_| 0.0);
     let cases = [
         ("G41 D1\n", 1, 1, "cutter radius compensation"),
-        ("G1 X#1 F10\n", 1, 5, "parameters"),
-        ("G0 X0 Y0 Z0\nG1 X[1+2] F10\n", 2, 5, "expressions"),
-        ("o100 sub\n", 1, 1, "o-word"),
+        ("G1 X#<nope> F10\n", 1, 5, "#<nope> is not defined"),
+        ("G0 X0 Y0 Z0\nG1 X[1/0] F10\n", 2, 7, "division by zero"),
+        ("o100 sub\n", 1, 1, "o100 endsub"),
         ("G0 X0\nG68 X0 Y0 R30\n", 2, 1, "rotation"),
         ("G51 X0 Y0 P2\n", 1, 1, "scaling"),
         ("G16\n", 1, 1, "polar"),
@@ -63,7 +63,7 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
             17,
             "K word given for an arc",
         ),
-        ("M98 P100\n", 1, 1, "subprogram"),
+        ("M98 P100\n", 1, 1, "no line O100"),
         ("G52 X10\n", 1, 1, "G52"),
         ("G0 X1 X2\n", 1, 7, "twice"),
         ("G0 G1 X1\n", 1, 4, "same modal group"),

@@ -22,6 +22,7 @@ pub mod ngc;
 pub mod number;
 pub mod program;
 pub mod setup;
+pub mod varfile;
 
 pub use arc::Arc;
 pub use error::{Diagnostic, ErrorClass, GcodeError};

@@ -194,6 +194,7 @@ impl Interpreter {
     pub fn new(setup: Setup, options: InterpOptions) -> Self {
         let work_offsets = setup.work_offsets_mm;
         let position = setup.start_mm;
+        let (work, g92) = (setup.work_system.min(8), setup.g92_mm);
         Self {
             setup,
             options,
@@ -206,9 +207,9 @@ impl Interpreter {
             feed: 0.0,
             spindle_rpm: 0.0,
             plane_before_block: Plane::Xy,
-            work: 0,
+            work,
             work_offsets,
-            g92: Vec3::ZERO,
+            g92,
             g92_saved: Vec3::ZERO,
             tlo: Vec3::ZERO,
             loaded_tool: 0,

@@ -20,6 +20,10 @@ pub struct InterpOptions {
     /// Largest distance (mm) between a G5/G5.1/G5.2 spline and the chords
     /// the interpreter linearises it into.
     pub spline_tolerance_mm: f64,
+    /// Most lines one run executes, counting every pass of a loop and every
+    /// line of a called subroutine; a program past it is refused as a loop
+    /// that never ends (default [`crate::ngc::flow::MAX_EXECUTED_LINES`]).
+    pub max_executed_lines: u64,
 }
 
 impl Default for InterpOptions {
@@ -29,6 +33,7 @@ impl Default for InterpOptions {
             absolute_arc_centers: false,
             require_program_end: false,
             spline_tolerance_mm: 1e-4,
+            max_executed_lines: crate::ngc::flow::MAX_EXECUTED_LINES,
         }
     }
 }

@@ -176,9 +176,7 @@ pub trait Lookup {
     fn exists(&self, name: &str) -> bool;
 }
 
-/// Largest parameter number plus one (LinuxCNC's `RS274NGC_MAX_PARAMETERS`):
-/// valid numbers are 1 to 5601 (`index >= 1 && index < RS274NGC_MAX_PARAMETERS`
-/// in `read_parameter` and `read_parameter_setting`, interp_read.cc).
+/// Largest parameter number plus one (LinuxCNC's `RS274NGC_MAX_PARAMETERS`).
 pub const MAX_PARAMETERS: usize = 5602;
 
 /// Deepest nesting of brackets and parameters read (a bound on recursion).
@@ -521,7 +519,7 @@ pub fn param_number(index: &Expr, col: usize, lk: &dyn Lookup) -> Result<usize, 
         return Err(ExprError::new(
             col,
             format!("parameter number {n} is out of range"),
-            "numbered parameters are #1 to #5601",
+            "numbered parameters are #1 to #5601 (LinuxCNC: below RS274NGC_MAX_PARAMETERS = 5602)",
         ));
     }
     Ok(n as usize)

@@ -35,8 +35,9 @@ use std::path::PathBuf;
 /// The source index of the main program.
 pub const MAIN: usize = 0;
 
-/// Most lines one run executes (counting every pass of a loop): 100
-/// million, some 20 times the million-move loop of the benchmarks.
+/// Most lines one run executes by default (counting every pass of a loop):
+/// 100 million, some 20 times the million-move loop of the benchmarks
+/// ([`crate::InterpOptions::max_executed_lines`]).
 pub const MAX_EXECUTED_LINES: u64 = 100_000_000;
 
 /// Most nested subroutine calls (LinuxCNC's `INTERP_SUB_ROUTINE_LEVELS`
@@ -103,11 +104,12 @@ pub struct Flow {
     dirs: Vec<PathBuf>,
     keep: bool,
     executed: u64,
+    max_executed: u64,
 }
 
 impl Flow {
     /// A program about to start, with subroutine files searched in `dirs`.
-    pub fn new(dirs: Vec<PathBuf>) -> Self {
+    pub fn new(dirs: Vec<PathBuf>, max_executed: u64) -> Self {
         Self {
             pos: Pos { src: MAIN, line: 0 },
             params: Params::default(),
@@ -118,6 +120,7 @@ impl Flow {
             dirs,
             keep: false,
             executed: 0,
+            max_executed,
         }
     }
 
@@ -134,12 +137,15 @@ impl Flow {
     /// Counts one executed line (`line`: 1-based, for the error).
     pub fn count_line(&mut self, line: u64) -> Result<(), GcodeError> {
         self.executed += 1;
-        if self.executed > MAX_EXECUTED_LINES {
+        if self.executed > self.max_executed {
             return Err(GcodeError::new(
                 ErrorClass::Invalid,
                 line,
                 1,
-                format!("the program has executed {MAX_EXECUTED_LINES} lines without ending: a loop that never ends?"),
+                format!(
+                    "the program has executed {} lines without ending: a loop that never ends?",
+                    self.max_executed
+                ),
                 "check the loop's condition; volcomp stops a run at this many executed lines",
             ));
         }

@@ -174,15 +174,63 @@ fn bad_programs_are_refused_where_they_go_wrong() {
 
 #[test]
 fn a_loop_that_never_ends_is_stopped() {
-    // 100 million executed lines take a while in a debug build; a shorter
-    // bound is not configurable, so this checks the error's shape on the
-    // counter directly.
-    let mut flow = super::flow::Flow::new(Vec::new());
-    for _ in 0..super::flow::MAX_EXECUTED_LINES {
-        flow.count_line(3).unwrap();
+    let options = InterpOptions {
+        max_executed_lines: 10_000,
+        ..InterpOptions::default()
+    };
+    let mut w = Walker::new(
+        Cursor::new(b"G21\no1 while [1]\nG0 X1\no1 endwhile\nM2\n".to_vec()),
+        Some("p.ngc".into()),
+        Setup::default(),
+        options,
+    );
+    let e = loop {
+        match w.next_line() {
+            Ok(Some(_)) => {}
+            Ok(None) => panic!("an endless loop ended"),
+            Err(e) => break e.to_string(),
+        }
+    };
+    assert!(e.contains("executed 10000 lines without ending"), "{e}");
+}
+
+#[test]
+fn a_var_file_sets_the_start_state_and_presets_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    // G28 at X 1 in, G55 (the one in use, #5220 = 2) at X 10 in, #100 = 2.
+    std::fs::write(
+        dir.path().join("m.var"),
+        "100\t2.000000\n5161\t1.000000\n5220\t2.000000\n5241\t10.000000\n",
+    )
+    .unwrap();
+    let toml = "units = \"inch\"\nvar_file = \"m.var\"\n";
+    let file = dir.path().join("setup.toml");
+    let setup = Setup::from_toml_in(toml, &file.display().to_string()).unwrap();
+    // G21 X#100 = 2 mm in G55: machine X = 254 + 2 mm; G28 through the
+    // current point to 25.4 mm; #5241 reads 10 (inches, the machine's unit)
+    // in a G21 program: X10 mm in G55. rs274 -v with this file prints the
+    // same four moves.
+    let v = xs_with("G21 G0 X#100\nG28\nG0 X[#5241]\nM2\n", setup).unwrap();
+    let want = [256.0, 256.0, 25.4, 264.0];
+    assert_eq!(v.len(), 4, "{v:?}");
+    for (a, b) in v.iter().zip(want) {
+        assert!((a - b).abs() < 1e-9, "{v:?}");
     }
-    let e = flow.count_line(3).unwrap_err().to_string();
-    assert!(e.contains("without ending"), "{e}");
+    // Both a var file and tables: one place only.
+    let both = format!("{toml}[work_offsets]\nG54 = [0, 0, 0]\n");
+    let e = Setup::from_toml_in(&both, &file.display().to_string()).unwrap_err();
+    assert!(e.to_string().contains("both a var_file"), "{e}");
+    // A bad line is located.
+    std::fs::write(dir.path().join("m.var"), "5161 1\n5162 x\n").unwrap();
+    let e = Setup::from_toml_in(toml, &file.display().to_string()).unwrap_err();
+    assert!(e.to_string().contains("m.var:2:6"), "{e}");
+    // LinuxCNC requires ascending numbers ("Parameter file out of order").
+    std::fs::write(dir.path().join("m.var"), "5162 1\n5161 1\n").unwrap();
+    let e = Setup::from_toml_in(toml, &file.display().to_string()).unwrap_err();
+    assert!(
+        e.to_string().contains("m.var:2:1") && e.to_string().contains("order"),
+        "{e}"
+    );
 }
 
 #[test]
