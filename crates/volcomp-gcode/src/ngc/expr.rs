@@ -11,7 +11,7 @@
 //! Semantics kept exactly: operators of equal precedence associate to the
 //! left (`2**3**2` is 64), precedence `**` > `* / MOD` > `+ -` >
 //! `EQ NE GT GE LT LE` > `AND OR XOR`; comparisons and logic give 1 or 0
-//! (EQ/NE/LE/GE within 1e-6); `MOD` is never negative; trigonometry in
+//! (EQ/NE within 0.0001, as the Debian LinuxCNC 2.9.0~pre1 `rs274` does); `MOD` is never negative; trigonometry in
 //! degrees; `ROUND` rounds half away from zero; `FIX`/`FUP` are floor/ceil.
 
 use super::norm::Norm;
@@ -606,7 +606,10 @@ fn eval_inner(e: &Expr, lk: &dyn Lookup) -> Result<f64, ExprError> {
         Expr::Binary { op, a, b, col } => {
             let (a, b) = (eval(a, lk)?, eval(b, lk)?);
             let truth = |t: bool| f64::from(u8::from(t));
-            const TOL: f64 = 1e-6;
+            // EQ/NE within 0.0001, LE/GE exact: the rule of the LinuxCNC
+            // 2.9.0~pre1 interpreter Debian ships (`rs274`, the oracle);
+            // the 2.9.0 release (commit 014777a816) uses 1e-6 for all four.
+            const TOL: f64 = 1e-4;
             match op {
                 Op::Divide => {
                     if b == 0.0 {
@@ -646,8 +649,8 @@ fn eval_inner(e: &Expr, lk: &dyn Lookup) -> Result<f64, ExprError> {
                 Op::Gt => truth(a > b),
                 Op::Eq => truth((a - b).abs() < TOL),
                 Op::Ne => truth((a - b).abs() >= TOL),
-                Op::Le => truth((a - b).abs() < TOL || a <= b),
-                Op::Ge => truth((a - b).abs() < TOL || a >= b),
+                Op::Le => truth(a <= b),
+                Op::Ge => truth(a >= b),
             }
         }
     })

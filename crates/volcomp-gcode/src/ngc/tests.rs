@@ -43,9 +43,12 @@ fn operators_follow_linuxcnc_precedence_and_rules() {
     assert_eq!(x_of("[1 + 1 EQ 2]"), 1.0);
     assert_eq!(x_of("[1 LT 2 AND 3 GT 4]"), 0.0);
     assert_eq!(x_of("[0 OR 2 XOR 1]"), 0.0);
-    // EQ within 1e-6.
-    assert_eq!(x_of("[1 EQ 1.0000001]"), 1.0);
-    assert_eq!(x_of("[1 NE 1.00001]"), 1.0);
+    // EQ/NE within 0.0001 and LE exact, as the rs274 of Debian's LinuxCNC
+    // 2.9.0~pre1 (checked: `[0.1 EQ 0.10005]` is true there, and a loop
+    // `while [#1 LE 0.3]` stepping 0.1 from 0 runs 3 times).
+    assert_eq!(x_of("[1 EQ 1.00005]"), 1.0);
+    assert_eq!(x_of("[1 NE 1.0002]"), 1.0);
+    assert_eq!(x_of("[0.30000000000000004 LE 0.3]"), 0.0);
 }
 
 #[test]
