@@ -44,10 +44,16 @@ use rs274::*;
 
 /// Differences that are artifacts of the stand-alone `rs274`, not of
 /// LinuxCNC: reported, not failed. (File name, why.)
-const RS274_ARTIFACTS: &[(&str, &str)] = &[(
-    "nc_files/skeleton.ngc",
-    "`T1 M06 G43 H1` on one line: after M6 the interpreter re-reads the position from the canonical layer at the next block; LinuxCNC's (emccanon.cc GET_EXTERNAL_POSITION_*) subtracts the new tool offset, the stand-alone rs274's (saicanon.cc) does not, so rs274 alone moves Z by the tool length on the next move",
-)];
+const RS274_ARTIFACTS: &[(&str, &str)] = &[
+    (
+        "nc_files/skeleton.ngc",
+        "`T1 M06 G43 H1` on one line: after M6 the interpreter re-reads the position from the canonical layer at the next block; LinuxCNC's (emccanon.cc GET_EXTERNAL_POSITION_*) subtracts the new tool offset, the stand-alone rs274's (saicanon.cc) does not, so rs274 alone moves Z by the tool length on the next move",
+    ),
+    (
+        "nc_files/cone.ngc",
+        "a W word: the stand-alone rs274 is an XYZABC machine and refuses U, V, W; LinuxCNC configured with those axes runs them, and volcomp carries them through (docs/gcode.md)",
+    ),
+];
 
 /// Seconds either interpreter may take on one program.
 const TIMEOUT_S: u32 = 120;
@@ -197,10 +203,18 @@ fn external_corpus() {
                 format!("refused by volcomp: {c}")
             }
             Class::AcceptedRejected(why) => {
-                failures.push(format!(
-                    "{name}: volcomp accepts a program rs274 rejects ({why})"
-                ));
-                format!("ACCEPTED although rs274 rejects: {why}")
+                match RS274_ARTIFACTS.iter().find(|(n, _)| name.ends_with(n)) {
+                    Some((_, art)) => {
+                        println!("known rs274 artifact, not a failure: {name}: {art}");
+                        format!("accepted, rs274 refuses (rs274 artifact: {art})")
+                    }
+                    None => {
+                        failures.push(format!(
+                            "{name}: volcomp accepts a program rs274 rejects ({why})"
+                        ));
+                        format!("ACCEPTED although rs274 rejects: {why}")
+                    }
+                }
             }
             Class::BothRefuse => {
                 both += 1;
@@ -261,8 +275,13 @@ fn ripple_map() -> String {
 fn follows(original: &[RefMotion], compensated: &[RefMotion]) -> Result<(), String> {
     let mut j = 0;
     for (i, m) in original.iter().enumerate() {
-        // A motion that does not move (a cycle's rapid to where the tool
-        // already is) may be left out of the compensated program.
+        // A NURBS block has no single end point in rs274's output (its
+        // control points are compared by the agreement part); a motion that
+        // does not move (a cycle's rapid to where the tool already is) may
+        // be left out of the compensated program.
+        if m.end.iter().any(|v| v.is_nan()) {
+            continue;
+        }
         if i > 0 && (0..3).all(|a| (original[i - 1].end[a] - m.end[a]).abs() < 1e-9) {
             continue;
         }
@@ -290,18 +309,27 @@ fn compensate_and_check(
     original: &[RefMotion],
 ) -> Result<(), String> {
     let out = work.join("compensated.ngc");
-    let run = std::process::Command::new(&tools.volcomp)
-        .arg("compensate")
-        .arg("--map")
-        .arg(map)
-        .arg("--setup")
-        .arg(&tools.setup)
-        .arg("-o")
-        .arg(&out)
-        .arg(path)
-        .stdin(std::process::Stdio::null())
-        .output()
-        .map_err(|e| format!("cannot run volcomp: {e}"))?;
+    let compensate = |extra: &[&str]| {
+        std::process::Command::new(&tools.volcomp)
+            .arg("compensate")
+            .arg("--map")
+            .arg(map)
+            .arg("--setup")
+            .arg(&tools.setup)
+            .arg("-o")
+            .arg(&out)
+            .args(extra)
+            .arg(path)
+            .stdin(std::process::Stdio::null())
+            .output()
+            .map_err(|e| format!("cannot run volcomp: {e}"))
+    };
+    let mut run = compensate(&[])?;
+    // Under G93 volcomp does not split moves by default (a split would
+    // change each block's duration): its message says to pass --no-split.
+    if !run.status.success() && String::from_utf8_lossy(&run.stderr).contains("--no-split") {
+        run = compensate(&["--no-split"])?;
+    }
     if !run.status.success() {
         return Err(format!(
             "volcomp compensate refuses a program it reads: {}",

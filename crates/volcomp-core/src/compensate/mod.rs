@@ -235,6 +235,17 @@ pub fn compensate_program<R: BufRead>(
                 } else {
                     OutMode::Rapid
                 };
+                // Under G93 every feed move needs its own F (LinuxCNC: "F
+                // word missing with inverse time g1 move"): the take-up
+                // carries the block's, so it takes no longer than the block.
+                if interp.feed_mode() == FeedMode::InverseTime {
+                    if let Some(w) = ev.lexed.words().find(|w| w.letter == b'F') {
+                        st.extra_text = format!(
+                            "{sep}{}",
+                            String::from_utf8_lossy(&ev.bytes[w.span.clone()])
+                        );
+                    }
+                }
                 st.write_inserted(
                     tu_frame,
                     tu_style,
