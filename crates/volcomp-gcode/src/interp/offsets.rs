@@ -1,11 +1,15 @@
 //! Coordinate systems and offsets: tool length offsets (G43, G43.1, G49),
-//! work offsets set by the program (G10 L2/L20), G92 and its variants, and
-//! the reference points G28/G30.
+//! work offsets set by the program (G10 L2/L20), tool table writes (G10
+//! L1/L10/L11), G52 local offsets, G92 and its variants, and the reference
+//! points G28/G30.
 //!
 //! They only move the frame: `q = p + work_offset + tool_length_offset +
 //! G92` (machine = program + offsets), as in LinuxCNC's `Interp`
 //! (src/emc/rs274ngc/interp_convert.cc: `convert_tool_length_offset`,
-//! `convert_setup`, `convert_axis_offsets`, `convert_home`).
+//! `convert_setup`, `convert_setup_tool`, `convert_axis_offsets`,
+//! `convert_home`). G52 is LinuxCNC's G92 offset set directly: both write
+//! the one offset `axis_offset` (and #5211–#5219), so G92.1 clears a G52
+//! offset and G92.3 restores it.
 
 use super::words::WordTable;
 use super::{invalid, unsupported, Interpreter, Motion, MotionKind, MotionSource, Warning};
@@ -36,6 +40,7 @@ impl Interpreter {
                 }
                 None => self.loaded_tool,
             };
+            let xy = self.tool_xy_mm.get(&h).copied().unwrap_or([0.0; 2]);
             let length = if h == 0 {
                 0.0
             } else {
@@ -48,7 +53,11 @@ impl Interpreter {
                     )
                 })?
             };
-            self.tlo = Vec3::new(0.0, 0.0, length);
+            self.tlo = if h == 0 {
+                Vec3::ZERO
+            } else {
+                Vec3::new(xy[0], xy[1], length)
+            };
         } else if w.has_g(431) {
             let mut tlo = Vec3::ZERO;
             for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
@@ -65,7 +74,17 @@ impl Interpreter {
     /// coordinates), G92.1 (clear and forget), G92.2 (clear, remember),
     /// G92.3 (restore the remembered one).
     pub(super) fn g92(&mut self, line: u64, w: &WordTable) -> Result<(), GcodeError> {
-        if w.has_g(920) {
+        if w.has_g(520) {
+            // G52: the shared offset gets the given values (program units),
+            // the current point keeps its axis position
+            // (`convert_axis_offsets`, G_52 branch).
+            for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+                if let Some(v) = w.get(l) {
+                    self.g92[i] = self.to_mm(v);
+                }
+            }
+            self.g92_saved = self.g92;
+        } else if w.has_g(920) {
             let off = self.work_offsets[self.work] + self.tlo;
             if !w.has_axis() {
                 return Err(invalid(
@@ -92,28 +111,31 @@ impl Interpreter {
         Ok(())
     }
 
-    /// G10 L2 (set work offset P to the given machine coordinates) and
-    /// G10 L20 (set it so the current point has the given program
-    /// coordinates); other L numbers (tool tables) are refused.
+    /// G10 L2 (set work offset P to the given machine coordinates), G10
+    /// L20 (set it so the current point has the given program
+    /// coordinates), and the tool table writes G10 L1/L10/L11.
     pub(super) fn g10(&mut self, line: u64, w: &WordTable) -> Result<(), GcodeError> {
         let col = w.g_col(100).unwrap_or(0);
         let l = w
             .get(b'L')
             .ok_or_else(|| invalid(line, col, "G10 without L", "write G10 L2 Pn X.. Y.. Z.."))?;
+        if l == 1.0 || l == 10.0 || l == 11.0 {
+            return self.g10_tool(line, w, l as u8);
+        }
         if l != 2.0 && l != 20.0 {
-            return Err(unsupported(
+            return Err(invalid(
                 line,
-                col,
-                format!("G10 L{l} is not interpreted (only L2 and L20, work offsets)"),
-                "set tool data in the setup file instead",
+                w.col(b'L').unwrap_or(col),
+                format!("G10 L{l}: LinuxCNC knows only L1, L2, L10, L11 and L20"),
+                "write L1/L10/L11 (tool table) or L2/L20 (work offsets)",
             ));
         }
-        if w.get(b'R').is_some_and(|r| r != 0.0) {
+        if let Some(r) = w.get(b'R').filter(|r| *r != 0.0) {
             return Err(unsupported(
                 line,
-                col,
-                "G10 with a rotation R is not a translation",
-                "remove the R word",
+                w.col(b'R').unwrap_or(col),
+                format!("G10 L{l} R{r} rotates the coordinate system about Z: volcomp does not yet follow rotated coordinate systems (motions in a rotated frame, and writing corrections back through the rotation)"),
+                "post the program without the rotation (R0 or no R word), e.g. with the rotation applied by the CAM",
             ));
         }
         let p = w.get(b'P').ok_or_else(|| {
@@ -146,6 +168,86 @@ impl Interpreter {
                 self.position[i] - self.g92[i] - self.tlo[i] - v
             };
         }
+        Ok(())
+    }
+
+    /// G10 L1 (tool P's offsets are the given values), L10 (set them so
+    /// the current point has the given program coordinates in the active
+    /// system, without the tool offset) and L11 (likewise in G59.3,
+    /// ignoring G92), as `Interp::convert_setup_tool`. The tool table is
+    /// the set-up's (`tool_lengths_mm`, Z) plus X/Y offsets kept here; it
+    /// takes effect at the next G43, as on LinuxCNC.
+    fn g10_tool(&mut self, line: u64, w: &WordTable, l: u8) -> Result<(), GcodeError> {
+        let col = w.g_col(100).unwrap_or(0);
+        let p = w.get(b'P').ok_or_else(|| {
+            invalid(line, col, format!("G10 L{l} without P"), "write P and the tool number")
+        })?;
+        let pcol = w.col(b'P').unwrap_or(col);
+        if p.fract() != 0.0 || p < 1.0 {
+            return Err(invalid(
+                line,
+                pcol,
+                format!("G10 L{l} P{p}: P must be a tool number (a whole number, 1 or more)"),
+                "fix the P word",
+            ));
+        }
+        let tool = p as u32;
+        if !self.setup.tool_lengths_mm.contains_key(&tool) {
+            return Err(invalid(
+                line,
+                pcol,
+                format!("G10 L{l} writes tool {tool}, which is not in the tool table (LinuxCNC refuses it too)"),
+                format!("add `{tool} = LENGTH` under [tools] in the set-up file"),
+            ));
+        }
+        let any = [b'X', b'Y', b'Z', b'R', b'Q', b'I', b'J']
+            .into_iter()
+            .any(|le| w.get(le).is_some());
+        if !any {
+            return Err(invalid(
+                line,
+                col,
+                format!("G10 L{l} without offsets has no effect (LinuxCNC refuses it)"),
+                "give X, Y, Z (or R, Q, I, J)",
+            ));
+        }
+        if let Some(q) = w.get(b'Q') {
+            if q.fract() != 0.0 || q > 9.0 {
+                return Err(invalid(
+                    line,
+                    w.col(b'Q').unwrap_or(col),
+                    "Q in G10 is the tool orientation, a whole number up to 9",
+                    "fix the Q word",
+                ));
+            }
+        }
+        let xy = self.tool_xy_mm.get(&tool).copied().unwrap_or([0.0; 2]);
+        let mut off = [xy[0], xy[1], self.setup.tool_lengths_mm[&tool]];
+        // The current point in the destination system, without the tool
+        // offset (`find_current_in_system_without_tlo`); L11 writes
+        // relative to G59.3 and ignores G92.
+        let (system, g92) = if l == 11 {
+            (8, Vec3::ZERO)
+        } else {
+            (self.work, self.g92)
+        };
+        let here = self.position - self.work_offsets[system] - g92;
+        for (i, le) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+            if let Some(v) = w.get(le) {
+                let v = self.to_mm(v);
+                off[i] = if l == 1 { v } else { here[i] - v };
+                if !off[i].is_finite() || off[i].abs() > super::MAX_COORDINATE_MM {
+                    return Err(invalid(
+                        line,
+                        w.col(le).unwrap_or(col),
+                        "tool offset out of range",
+                        "check the value",
+                    ));
+                }
+            }
+        }
+        self.setup.tool_lengths_mm.insert(tool, off[2]);
+        self.tool_xy_mm.insert(tool, [off[0], off[1]]);
         Ok(())
     }
 
