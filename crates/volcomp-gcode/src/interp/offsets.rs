@@ -180,7 +180,12 @@ impl Interpreter {
     fn g10_tool(&mut self, line: u64, w: &WordTable, l: u8) -> Result<(), GcodeError> {
         let col = w.g_col(100).unwrap_or(0);
         let p = w.get(b'P').ok_or_else(|| {
-            invalid(line, col, format!("G10 L{l} without P"), "write P and the tool number")
+            invalid(
+                line,
+                col,
+                format!("G10 L{l} without P"),
+                "write P and the tool number",
+            )
         })?;
         let pcol = w.col(b'P').unwrap_or(col);
         if p.fract() != 0.0 || p < 1.0 {
