@@ -159,3 +159,19 @@ fn rotation_is_refused_at_the_r_word() {
     // The caret names the R word (column 14).
     assert!(text.contains(":2:14"), "{text}");
 }
+
+#[test]
+fn g52_g92_g10_beside_a_motion_code_or_without_axes_are_refused() {
+    // LinuxCNC's enhance_block: "Cannot use two g codes that both use axis
+    // values", "All axes missing with g52 or g92" (checked with rs274).
+    let s = || tools(&[(1, 10.0)]);
+    for (p, what) in [
+        ("G52 X1 G0\nM2\n", "both use the axis words"),
+        ("G1 F10 G92 X1\nM2\n", "both use the axis words"),
+        ("G10 L1 P1 Z1 G0 X1\nM2\n", "both use the axis words"),
+        ("G52\nM2\n", "without axis words"),
+    ] {
+        let e = run_with(p, s()).unwrap_err();
+        assert!(e.to_string().contains(what), "{p}: {e}");
+    }
+}

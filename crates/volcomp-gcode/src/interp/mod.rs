@@ -490,6 +490,7 @@ impl Interpreter {
         let axis_user = [100u16, 280, 300, 520, 920, 431]
             .into_iter()
             .find(|c| w.has_g(*c));
+        self.check_axis_users(line, w, axis_user)?;
         if w.has_g(100) {
             self.g10(line, w)?;
         } else if w.has_g(280) || w.has_g(300) {

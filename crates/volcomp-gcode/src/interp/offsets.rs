@@ -256,6 +256,37 @@ impl Interpreter {
         Ok(())
     }
 
+    /// LinuxCNC's `Interp::enhance_block` checks of G10, G28, G30, G52 and
+    /// G92 (the modal group 0 codes that use axis words): not beside a
+    /// motion code, and G52/G92 need an axis word.
+    pub(super) fn check_axis_users(
+        &self,
+        line: u64,
+        w: &WordTable,
+        axis_user: Option<u16>,
+    ) -> Result<(), GcodeError> {
+        let Some(code) = axis_user.filter(|c| *c != 431) else {
+            return Ok(());
+        };
+        if let Some(col) = self.motion_word_col(w) {
+            return Err(invalid(
+                line,
+                col,
+                format!("G{} and a motion code on one line both use the axis words; LinuxCNC refuses it (\"Cannot use two g codes that both use axis values\")", f64::from(code) / 10.0),
+                "put the motion on its own line",
+            ));
+        }
+        if (code == 520 || code == 920) && !w.has_axis() {
+            return Err(invalid(
+                line,
+                w.g_col(code).unwrap_or(0),
+                format!("G{} without axis words; LinuxCNC refuses it (\"All axes missing with g52 or g92\")", code / 10),
+                format!("write G{} X.. Y.. Z..", code / 10),
+            ));
+        }
+        Ok(())
+    }
+
     /// G28/G30: a rapid to the intermediate point given by the axis words,
     /// then to the reference point of the set-up (only on the axes named
     /// when axis words are given), warning once when the set-up gives none.
