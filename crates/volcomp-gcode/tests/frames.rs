@@ -152,12 +152,59 @@ fn g10_tool_writes_are_refused_where_linuxcnc_refuses_them() {
 }
 
 #[test]
-fn rotation_is_refused_at_the_r_word() {
-    let e = run("G21\nG10 L2 P1 X0 R90\nM2\n").unwrap_err();
-    let text = e.to_string();
-    assert!(text.contains("rotat"), "{text}");
-    // The caret names the R word (column 14).
-    assert!(text.contains(":2:14"), "{text}");
+fn r90_maps_program_x_to_axis_y() {
+    // G10 L2 P1 X10 Y5 R90: q = Rot(90°)·p + (10, 5): program (1, 0) is
+    // axis (10 + 0, 5 + 1) = (10, 6); program (0, 2) is (10 − 2, 5) = (8, 5).
+    let m = run("G21\nG10 L2 P1 X10 Y5 R90\nG0 X1 Y0\nG0 X0 Y2\nM2\n").unwrap();
+    close(end(&m[0]), [10.0, 6.0, 0.0]);
+    close(end(&m[1]), [8.0, 5.0, 0.0]);
+}
+
+#[test]
+fn rotated_g91_and_arc_centres_are_in_the_program_frame() {
+    // R90, no offset: from program (0, 0), G91 X1 moves along axis +Y to
+    // (0, 1); G3 X-1 Y1 I-1 J0 (program, incremental centre) from program
+    // (1, 0): centre program (0, 0) → axis (0, 0), end program (0, 1) →
+    // axis (−1, 0).
+    let m = run("G21\nG10 L2 P1 R90\nG0 X0 Y0\nG91 G1 X1 F100\nG90 G3 X0 Y1 I-1 J0\nM2\n").unwrap();
+    close(end(&m[1]), [0.0, 1.0, 0.0]);
+    close(end(&m[2]), [-1.0, 0.0, 0.0]);
+    match m[2].kind {
+        volcomp_gcode::MotionKind::Arc(a) => {
+            assert!(a.center.x.abs() < 1e-9 && a.center.y.abs() < 1e-9, "{a:?}");
+        }
+        k => panic!("{k:?}"),
+    }
+}
+
+#[test]
+fn rotated_g92_is_added_before_the_rotation() {
+    // R90 at axis (0, 5) = program (5, 0); G92 X0: G92 offset X 5 (program
+    // frame); G0 X1 → program 1 + 5 = 6 rotated → axis (0, 6).
+    let m = run("G21\nG10 L2 P1 R90\nG0 X5 Y0\nG92 X0\nG0 X1\nM2\n").unwrap();
+    close(end(&m[0]), [0.0, 5.0, 0.0]);
+    close(end(&m[1]), [0.0, 6.0, 0.0]);
+}
+
+#[test]
+fn what_volcomp_does_not_follow_under_rotation_is_refused() {
+    for (p, what) in [
+        (
+            "G21\nG10 L2 P1 R30\nG18 G2 X1 Z0 I0.5 K0 F10\nM2\n",
+            "G18/G19",
+        ),
+        (
+            "G21\nG10 L2 P1 R30\nG81 X1 Y1 Z-1 R1 F10\nM2\n",
+            "canned cycles",
+        ),
+        (
+            "G21\nG10 L20 P1 X0 R30\nM2\n",
+            "R is not allowed with G10 L20",
+        ),
+    ] {
+        let e = run(p).unwrap_err();
+        assert!(e.to_string().contains(what), "{p}: {e}");
+    }
 }
 
 #[test]

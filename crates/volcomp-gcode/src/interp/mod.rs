@@ -136,6 +136,8 @@ pub struct Interpreter {
     /// X and Y offsets of tools written by G10 L1/L10/L11 (the set-up's
     /// tool table has lengths only, Z); G43 applies them.
     tool_xy_mm: std::collections::BTreeMap<u32, [f64; 2]>,
+    /// Rotation about Z of each coordinate system (degrees, G10 L2/L20 R).
+    rotation_deg: [f64; 9],
     loaded_tool: u32,
     next_tool: u32,
     position: Vec3,
@@ -215,6 +217,7 @@ impl Interpreter {
             g92_saved: Vec3::ZERO,
             tlo: Vec3::ZERO,
             tool_xy_mm: std::collections::BTreeMap::new(),
+            rotation_deg: [0.0; 9],
             loaded_tool: 0,
             next_tool: 0,
             position,

@@ -94,9 +94,14 @@ impl Interpreter {
                     "write G92 X.. Y.. Z..",
                 ));
             }
+            let rotated = self.to_program_mm(self.position) + self.g92;
             for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
                 if let Some(v) = w.get(l) {
-                    self.g92[i] = self.position[i] - off[i] - self.to_mm(v);
+                    self.g92[i] = if self.rotation() == 0.0 {
+                        self.position[i] - off[i] - self.to_mm(v)
+                    } else {
+                        rotated[i] - self.to_mm(v)
+                    };
                 }
             }
             self.g92_saved = self.g92;
@@ -130,12 +135,12 @@ impl Interpreter {
                 "write L1/L10/L11 (tool table) or L2/L20 (work offsets)",
             ));
         }
-        if let Some(r) = w.get(b'R').filter(|r| *r != 0.0) {
-            return Err(unsupported(
+        if l == 20.0 && w.get(b'R').is_some() {
+            return Err(invalid(
                 line,
                 w.col(b'R').unwrap_or(col),
-                format!("G10 L{l} R{r} rotates the coordinate system about Z: volcomp does not yet follow rotated coordinate systems (motions in a rotated frame, and writing corrections back through the rotation)"),
-                "post the program without the rotation (R0 or no R word), e.g. with the rotation applied by the CAM",
+                "R is not allowed with G10 L20; LinuxCNC refuses it (\"R not allowed in G10 L20\")",
+                "set the rotation with G10 L2 P.. R..",
             ));
         }
         let p = w.get(b'P').ok_or_else(|| {
@@ -155,6 +160,17 @@ impl Interpreter {
             ));
         }
         let idx = if p == 0.0 { self.work } else { p as usize - 1 };
+        if l == 20.0 && self.rotation_deg[idx] != 0.0 {
+            return Err(unsupported(
+                line,
+                col,
+                "G10 L20 on a rotated coordinate system is not interpreted",
+                "set the offset with G10 L2 (machine coordinates) instead",
+            ));
+        }
+        if let Some(r) = w.get(b'R') {
+            self.rotation_deg[idx] = r;
+        }
         let vals: Vec<(usize, f64)> = [b'X', b'Y', b'Z']
             .into_iter()
             .enumerate()
@@ -231,6 +247,15 @@ impl Interpreter {
         // The current point in the destination system, without the tool
         // offset (`find_current_in_system_without_tlo`); L11 writes
         // relative to G59.3 and ignores G92.
+        let system = if l == 11 { 8 } else { self.work };
+        if l != 1 && self.rotation_deg[system] != 0.0 {
+            return Err(unsupported(
+                line,
+                col,
+                format!("G10 L{l} relative to a rotated coordinate system is not interpreted"),
+                "set the tool offsets with G10 L1 instead",
+            ));
+        }
         let (system, g92) = if l == 11 {
             (8, Vec3::ZERO)
         } else {
@@ -285,6 +310,119 @@ impl Interpreter {
             ));
         }
         Ok(())
+    }
+
+    /// The rotation about Z of the active coordinate system (degrees).
+    pub(super) fn rotation(&self) -> f64 {
+        self.rotation_deg[self.work]
+    }
+
+    /// The rotation about Z (degrees, counter-clockwise) of the active
+    /// coordinate system, set by G10 L2 … R; 0 when not rotated. When it is
+    /// not 0, [`Interpreter::frame_offset_mm`] alone does not relate program
+    /// and axis coordinates.
+    pub fn rotation_deg(&self) -> f64 {
+        self.rotation()
+    }
+
+    /// Axis position of program point `p` (mm): LinuxCNC's canonical
+    /// `rotate_and_offset_pos` (src/emc/task/emccanon.cc),
+    /// `q = Rot(R)·(p + G92) + work_offset + tool_offset`.
+    pub(super) fn to_axis(&self, p: Vec3) -> Vec3 {
+        let r = self.rotation();
+        if r == 0.0 {
+            return p + self.frame_offset_mm();
+        }
+        let (x, y) = rotate(p.x + self.g92.x, p.y + self.g92.y, r);
+        Vec3::new(x, y, p.z + self.g92.z) + self.work_offsets[self.work] + self.tlo
+    }
+
+    /// Program point (mm) of axis position `q`: the inverse of
+    /// [`Self::to_axis`].
+    pub(super) fn to_program_mm(&self, q: Vec3) -> Vec3 {
+        let r = self.rotation();
+        if r == 0.0 {
+            return q - self.frame_offset_mm();
+        }
+        let d = q - self.work_offsets[self.work] - self.tlo;
+        let (x, y) = rotate(d.x, d.y, -r);
+        Vec3::new(x, y, d.z) - self.g92
+    }
+
+    /// The end point of a G0/G1 (or a G28/G30 intermediate point) in a
+    /// rotated coordinate system: the words change the program point
+    /// (absolute or incremental, in the rotated frame, as LinuxCNC's
+    /// `current_x…` are), which is then rotated into the axis frame.
+    pub(super) fn rotated_target(&self, w: &WordTable) -> Vec3 {
+        let mut p = self.to_program_mm(self.position);
+        for (i, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+            if let Some(v) = w.get(letter) {
+                p[i] = if self.absolute {
+                    self.to_mm(v)
+                } else {
+                    p[i] + self.to_mm(v)
+                };
+            }
+        }
+        if let Some((x, y)) = self.polar_end_of(w) {
+            p.x = self.to_mm(x);
+            p.y = self.to_mm(y);
+        }
+        self.to_axis(p)
+    }
+
+    /// An arc's centre (axis frame) from its centre words in a rotated
+    /// system: absolute (G90.1) or relative to the start (G91.1) in the
+    /// program frame, then rotated like any program point.
+    pub(super) fn rotated_center(
+        &self,
+        w: &WordTable,
+        start: Vec3,
+        axes: [(usize, u8); 2],
+    ) -> Vec3 {
+        let mut c = self.to_program_mm(start);
+        for (axis, letter) in axes {
+            let val = w.get(letter).map(|x| self.to_mm(x)).unwrap_or(0.0);
+            c[axis] = if self.arc_absolute {
+                val
+            } else {
+                c[axis] + val
+            };
+        }
+        self.to_axis(c)
+    }
+
+    /// In a rotated coordinate system, volcomp follows G0, G1, G2/G3 in
+    /// G17, G53 and G28/G30; canned cycles, splines and G18/G19 arcs (which
+    /// LinuxCNC turns out of their axis planes) are refused.
+    pub(super) fn check_rotated(
+        &self,
+        line: u64,
+        col: usize,
+        w: &WordTable,
+        mode: super::options::MotionMode,
+    ) -> Result<(), GcodeError> {
+        use super::options::MotionMode as M;
+        if self.rotation() == 0.0 || w.has_g(530) {
+            return Ok(());
+        }
+        let what = match mode {
+            M::Cycle(_) => "canned cycles",
+            M::Spline(_) => "splines",
+            M::Cw | M::Ccw if self.plane != crate::geom::Plane::Xy => {
+                "arcs in G18/G19 (LinuxCNC turns their plane with the rotation, out of the axis planes)"
+            }
+            _ => return Ok(()),
+        };
+        Err(unsupported(
+            line,
+            col,
+            format!(
+                "{what} in a rotated coordinate system (G10 L2 R{}) are not interpreted",
+                self.rotation()
+            ),
+            "post the program without the rotation, or with explicit G1/G2/G3 moves in G17",
+        ))
     }
 
     /// G28/G30: a rapid to the intermediate point given by the axis words,
@@ -346,4 +484,11 @@ impl Interpreter {
         )?;
         Ok(())
     }
+}
+
+/// LinuxCNC's `Interp::rotate`: `(x, y)` turned by `theta` degrees about
+/// the origin, counter-clockwise.
+pub(super) fn rotate(x: f64, y: f64, theta_deg: f64) -> (f64, f64) {
+    let (sin, cos) = theta_deg.to_radians().sin_cos();
+    (x * cos - y * sin, x * sin + y * cos)
 }
