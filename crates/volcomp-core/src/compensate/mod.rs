@@ -84,17 +84,6 @@ pub fn compensate_program<R: BufRead>(
         let model: &dyn ErrorModel = &tool_model;
         st.summary.lines_in += 1;
         st.buf.clear();
-        if ev.interp.rotation_deg() != 0.0 && !ev.motions.is_empty() && !ev.after_end {
-            return Err(CompensationError::AtLine {
-                file: file.into(),
-                line: ev.number,
-                message: format!(
-                    "a motion in a rotated coordinate system (G10 L2 R{}): compensate does not yet write corrections back through the rotation",
-                    ev.interp.rotation_deg()
-                ),
-                help: "post the program without the rotation (the rotation applied by the CAM); `volcomp moves` and `simulate` read it".into(),
-            });
-        }
         let program_motion = ev.motions.iter().any(|m| m.source == MotionSource::Program);
         let cycle = ev.motions.iter().any(|m| m.source == MotionSource::Cycle);
         let spline = ev.motions.iter().any(|m| m.source == MotionSource::Spline);

@@ -325,6 +325,14 @@ impl Interpreter {
         self.rotation()
     }
 
+    /// The parts of the frame around the rotation, in mm: what is added to
+    /// a program point before it is rotated (G92, G52) and after (work
+    /// offset + tool length offset), so that
+    /// `q = Rot(rotation_deg)·(p + before) + after`.
+    pub fn frame_parts_mm(&self) -> (Vec3, Vec3) {
+        (self.g92, self.work_offsets[self.work] + self.tlo)
+    }
+
     /// Axis position of program point `p` (mm): LinuxCNC's canonical
     /// `rotate_and_offset_pos` (src/emc/task/emccanon.cc),
     /// `q = Rot(R)·(p + G92) + work_offset + tool_offset`.
