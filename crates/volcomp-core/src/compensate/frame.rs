@@ -184,3 +184,44 @@ fn rotate(x: f64, y: f64, theta_deg: f64) -> (f64, f64) {
     let (sin, cos) = theta_deg.to_radians().sin_cos();
     (x * cos - y * sin, x * sin + y * cos)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rotated(deg: f64, absolute: bool) -> Frame {
+        Frame {
+            offset_mm: Vec3::ZERO,
+            mm_per_unit: 1.0,
+            decimals: 4,
+            absolute,
+            rotation_deg: deg,
+            before_mm: Vec3::new(1.0, 0.0, 0.0),
+            after_mm: Vec3::new(10.0, 5.0, 2.0),
+        }
+    }
+
+    #[test]
+    fn r90_program_x_is_axis_y() {
+        // q = Rot(90°)(p + (1, 0, 0)) + (10, 5, 2): program (2, 0, 0) is
+        // Rot90 (3, 0) = (0, 3), so axis (10, 8, 2); and back.
+        let f = rotated(90.0, true);
+        let q = Vec3::new(10.0, 8.0, 2.0);
+        let p = f.program(q);
+        assert!((p.x - 2.0).abs() < 1e-12 && p.y.abs() < 1e-12 && p.z.abs() < 1e-12);
+        // An axis-X correction of +0.1 is a program −Y word of 0.1 (R90
+        // turns program −Y onto axis +X), X unchanged.
+        let q2 = Vec3::new(10.1, 8.0, 2.0);
+        assert!(f.changes(q2, q, 1) && !f.changes(q2, q, 0) && !f.changes(q2, q, 2));
+        assert_eq!(f.word_value(q2, q, 1), -0.1);
+        assert_eq!(f.word_value(q2, q, 0), 2.0);
+        // In G91 the increment is in the program frame as well.
+        let g91 = rotated(90.0, false);
+        assert_eq!(g91.word_value(q2, q, 1), -0.1);
+        assert_eq!(g91.word_value(q2, q, 0), 0.0);
+        // What the controller executes for the rounded words.
+        let out = f.quantize(Vec3::new(10.100004, 8.0, 2.0), q);
+        assert!((out.x - 10.1).abs() < 1e-12 && (out.y - 8.0).abs() < 1e-12);
+        assert_eq!(out.z, 2.0);
+    }
+}
