@@ -515,7 +515,7 @@ pub fn to_integer(v: f64, col: usize) -> Result<i64, ExprError> {
 /// The parameter number `index` evaluates to, checked against LinuxCNC's range.
 pub fn param_number(index: &Expr, col: usize, lk: &dyn Lookup) -> Result<usize, ExprError> {
     let n = to_integer(eval(index, lk)?, col)?;
-    if n < 1 || n as usize >= MAX_PARAMETERS + 1 {
+    if n < 1 || n as usize > MAX_PARAMETERS {
         return Err(ExprError::new(
             col,
             format!("parameter number {n} is out of range"),
