@@ -161,12 +161,8 @@ impl Interpreter {
         }
         let idx = if p == 0.0 { self.work } else { p as usize - 1 };
         if l == 20.0 && self.rotation_deg[idx] != 0.0 {
-            return Err(unsupported(
-                line,
-                col,
-                "G10 L20 on a rotated coordinate system is not interpreted",
-                "set the offset with G10 L2 (machine coordinates) instead",
-            ));
+            self.g10_l20_rotated(w, idx);
+            return Ok(());
         }
         if let Some(r) = w.get(b'R') {
             self.rotation_deg[idx] = r;
@@ -185,6 +181,30 @@ impl Interpreter {
             };
         }
         Ok(())
+    }
+
+    /// G10 L20 on a system rotated by `r` (`Interp::convert_setup`): the
+    /// current point `c` in that system (`find_current_in_system`:
+    /// `Rot(−r)(q − tool − work) − G92`) and the wished point `t` (the words,
+    /// or `c` where missing) are both turned back by `r`, and the new work
+    /// offset is `Rot(r)c + work − Rot(r)t` in X/Y, `c + work − Z` in Z.
+    fn g10_l20_rotated(&mut self, w: &WordTable, idx: usize) {
+        let r = self.rotation_deg[idx];
+        let wo = self.work_offsets[idx];
+        let d = self.position - self.tlo - wo;
+        let (cx, cy) = rotate(d.x, d.y, -r);
+        let c = Vec3::new(cx, cy, d.z) - self.g92;
+        if w.get(b'X').is_some() || w.get(b'Y').is_some() {
+            let tx = w.get(b'X').map(|v| self.to_mm(v)).unwrap_or(c.x);
+            let ty = w.get(b'Y').map(|v| self.to_mm(v)).unwrap_or(c.y);
+            let (ox, oy) = rotate(c.x, c.y, r);
+            let (tx, ty) = rotate(tx, ty, r);
+            self.work_offsets[idx].x = ox + wo.x - tx;
+            self.work_offsets[idx].y = oy + wo.y - ty;
+        }
+        if let Some(z) = w.get(b'Z') {
+            self.work_offsets[idx].z = c.z + wo.z - self.to_mm(z);
+        }
     }
 
     /// G10 L1 (tool P's offsets are the given values), L10 (set them so
@@ -247,25 +267,47 @@ impl Interpreter {
         // The current point in the destination system, without the tool
         // offset (`find_current_in_system_without_tlo`); L11 writes
         // relative to G59.3 and ignores G92.
-        let system = if l == 11 { 8 } else { self.work };
-        if l != 1 && self.rotation_deg[system] != 0.0 {
-            return Err(unsupported(
-                line,
-                col,
-                format!("G10 L{l} relative to a rotated coordinate system is not interpreted"),
-                "set the tool offsets with G10 L1 instead",
-            ));
-        }
         let (system, g92) = if l == 11 {
             (8, Vec3::ZERO)
         } else {
             (self.work, self.g92)
         };
-        let here = self.position - self.work_offsets[system] - g92;
+        // The current point in the destination system without the tool
+        // offset, `Rot(−r)(q − work) − G92` (rotate by 0 is exact).
+        let r = self.rotation_deg[system];
+        let d = self.position - self.work_offsets[system];
+        let (hx, hy) = rotate(d.x, d.y, -r);
+        let here = Vec3::new(hx, hy, d.z) - g92;
+        let word = |le: u8| w.get(le).map(|v| self.to_mm(v));
+        if l != 1 {
+            // `convert_setup_tool`: X/Y offsets are set in the rotated
+            // frame; with one of X, Y the old offset's component along the
+            // other rotated axis is kept.
+            let (ox, oy) = rotate(off[0], off[1], -r);
+            let (a, b) = match (word(b'X'), word(b'Y')) {
+                (Some(x), Some(y)) => rotate(here.x - x, here.y - y, r),
+                (Some(x), None) => {
+                    let (kx, ky) = rotate(0.0, oy, r);
+                    let (tx, ty) = rotate(here.x - x, 0.0, r);
+                    (tx + kx, ty + ky)
+                }
+                (None, Some(y)) => {
+                    let (kx, ky) = rotate(ox, 0.0, r);
+                    let (tx, ty) = rotate(0.0, here.y - y, r);
+                    (tx + kx, ty + ky)
+                }
+                (None, None) => (off[0], off[1]),
+            };
+            off[0] = a;
+            off[1] = b;
+        }
         for (i, le) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
-            if let Some(v) = w.get(le) {
-                let v = self.to_mm(v);
-                off[i] = if l == 1 { v } else { here[i] - v };
+            if let Some(v) = word(le) {
+                if l == 1 {
+                    off[i] = v;
+                } else if i == 2 {
+                    off[i] = here.z - v;
+                }
                 if !off[i].is_finite() || off[i].abs() > super::MAX_COORDINATE_MM {
                     return Err(invalid(
                         line,
