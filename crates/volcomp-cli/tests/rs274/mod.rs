@@ -209,6 +209,10 @@ pub struct Canon {
     /// A, B, C parts of the G5x and G92 offsets (degrees).
     pub g5x_abc: [f64; 3],
     pub g92_abc: [f64; 3],
+    /// SET_XY_ROTATION (degrees): the canon turns `printed + G92` about Z
+    /// before adding the G5x and tool offsets (`rotate_and_offset_pos`,
+    /// src/emc/task/emccanon.cc).
+    pub rot_deg: f64,
 }
 
 impl Canon {
@@ -238,6 +242,7 @@ impl Canon {
             plane: (0, 1, 2),
             g5x_abc: [0.0; 3],
             g92_abc: [0.0; 3],
+            rot_deg: 0.0,
         }
     }
 
@@ -246,6 +251,11 @@ impl Canon {
     }
 
     pub fn tol(&self, axis: usize) -> f64 {
+        if self.rot_deg != 0.0 && axis < 2 {
+            // A rotation mixes the X and Y allowances.
+            let t = |a: usize| self.g5x_tol[a] + self.g92_tol[a] + self.tlo_tol[a];
+            return 2.0 * PRINT_TOL * self.mm_per_unit + t(0) + t(1) + SLACK_MM;
+        }
         PRINT_TOL * self.mm_per_unit
             + self.g5x_tol[axis]
             + self.g92_tol[axis]
@@ -269,6 +279,12 @@ impl Canon {
     }
 
     pub fn machine(&self, printed: [f64; 3]) -> [f64; 3] {
+        if self.rot_deg != 0.0 {
+            let p = [0, 1, 2].map(|a| printed[a] * self.mm_per_unit + self.g92[a]);
+            let (sin, cos) = self.rot_deg.to_radians().sin_cos();
+            let r = [p[0] * cos - p[1] * sin, p[0] * sin + p[1] * cos, p[2]];
+            return [0, 1, 2].map(|a| r[a] + self.g5x[a] + self.tlo[a]);
+        }
         let mut q = [0.0; 3];
         for a in 0..3 {
             q[a] = printed[a] * self.mm_per_unit + self.offset(a);
@@ -352,6 +368,9 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                 (canon.g92, canon.g92_tol) = canon.set(&n[0..3]);
                 canon.g92_abc = [n[3], n[4], n[5]];
             }
+            "SET_XY_ROTATION" => {
+                canon.rot_deg = numbers(args, 1).map_err(bad)?[0];
+            }
             "USE_TOOL_LENGTH_OFFSET" => {
                 let n = numbers(args, 3).map_err(bad)?;
                 (canon.tlo, canon.tlo_tol) = canon.set(&n[0..3]);
@@ -383,8 +402,16 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                 printed[s] = n[1];
                 printed[ax] = n[5];
                 let end = canon.machine(printed);
-                let cf = n[2] * canon.mm_per_unit + canon.offset(f);
-                let cs = n[3] * canon.mm_per_unit + canon.offset(s);
+                let (cf, cs) = if canon.rot_deg != 0.0 {
+                    // volcomp follows rotated arcs in G17 only.
+                    let c = canon.machine([n[2], n[3], n[5]]);
+                    (c[f], c[s])
+                } else {
+                    (
+                        n[2] * canon.mm_per_unit + canon.offset(f),
+                        n[3] * canon.mm_per_unit + canon.offset(s),
+                    )
+                };
                 let kind = if n[4] < 0.0 {
                     Kind::ArcCw
                 } else {

@@ -1,5 +1,14 @@
 //! The program frame of a line (work offset, units, distance mode) and the
 //! quantisation of commands to the written decimals.
+//!
+//! In a rotated coordinate system (G10 L2 … R) the frame is LinuxCNC's
+//! `q = Rot(R)·(p + G92) + work_offset + tool_offset` (emccanon.cc
+//! `rotate_and_offset_pos`): the compensated axis point `q` is written back
+//! as the program point `p = Rot(−R)·(q − work_offset − tool_offset) − G92`,
+//! so a correction along axis X may change both the X and the Y word (and
+//! under G91 both increments, taken in the rotated frame). Without a
+//! rotation the frame is the plain translation `p = q − offset`, computed
+//! exactly as before.
 
 use super::CompensateOptions;
 use volcomp_gcode::lexer::Word;
@@ -13,6 +22,11 @@ pub(super) struct Frame {
     pub(super) mm_per_unit: f64,
     pub(super) decimals: u8,
     pub(super) absolute: bool,
+    /// Rotation about Z (degrees), and the offsets added before (G92) and
+    /// after (work + tool) it; unused when the rotation is 0.
+    pub(super) rotation_deg: f64,
+    pub(super) before_mm: Vec3,
+    pub(super) after_mm: Vec3,
 }
 
 impl Frame {
@@ -36,6 +50,9 @@ impl Frame {
             mm_per_unit: units.mm_per_unit(),
             decimals,
             absolute: interp.absolute(),
+            rotation_deg: interp.rotation_deg(),
+            before_mm: interp.frame_parts_mm().0,
+            after_mm: interp.frame_parts_mm().1,
         };
         (frame, survey.style(decimals))
     }
@@ -68,7 +85,37 @@ impl Frame {
 
     /// Program-frame value (program units) of axis-frame `q`.
     pub(super) fn program(&self, q: Vec3) -> Vec3 {
+        if self.rotation_deg != 0.0 {
+            return self.program_mm(q) * (1.0 / self.mm_per_unit);
+        }
         (q - self.offset_mm) * (1.0 / self.mm_per_unit)
+    }
+
+    /// Program point in mm of axis point `q` in a rotated frame.
+    fn program_mm(&self, q: Vec3) -> Vec3 {
+        let d = q - self.after_mm;
+        let (x, y) = rotate(d.x, d.y, -self.rotation_deg);
+        Vec3::new(x, y, d.z) - self.before_mm
+    }
+
+    /// Axis point of program point `p` (mm) in a rotated frame.
+    fn axis(&self, p: Vec3) -> Vec3 {
+        let (x, y) = rotate(
+            p.x + self.before_mm.x,
+            p.y + self.before_mm.y,
+            self.rotation_deg,
+        );
+        Vec3::new(x, y, p.z + self.before_mm.z) + self.after_mm
+    }
+
+    /// Whether moving from `from` to `q` changes program coordinate `a`
+    /// (so its word must be written): the axis coordinate itself without a
+    /// rotation, the rotated-frame coordinate with one.
+    pub(super) fn changes(&self, q: Vec3, from: Vec3, a: usize) -> bool {
+        if self.rotation_deg == 0.0 {
+            return q[a] != from[a];
+        }
+        (self.program_mm(q)[a] - self.program_mm(from)[a]).abs() > 1e-9
     }
 
     /// The word value to write for axis `a` when moving from `from` to `q`.
@@ -82,6 +129,9 @@ impl Frame {
 
     /// The command the controller really executes for a wish `q` from `from`.
     pub(super) fn quantize(&self, q: Vec3, from: Vec3) -> Vec3 {
+        if self.rotation_deg != 0.0 {
+            return self.quantize_rotated(q, from);
+        }
         let mut out = q;
         for a in 0..3 {
             let v = self.word_value(q, from, a);
@@ -98,5 +148,80 @@ impl Frame {
             }
         }
         out
+    }
+
+    /// [`Self::quantize`] in a rotated frame: the words are rounded in the
+    /// program frame and the controller's point is the rotated program
+    /// point; a program coordinate whose word would not change stays put.
+    fn quantize_rotated(&self, q: Vec3, from: Vec3) -> Vec3 {
+        let p_from = self.program_mm(from);
+        let mut p = p_from;
+        let mut moved = false;
+        for a in 0..3 {
+            let v = self.word_value(q, from, a) * self.mm_per_unit;
+            let new = if self.absolute { v } else { p_from[a] + v };
+            if (new - p_from[a]).abs()
+                >= 0.5 * 10f64.powi(-i32::from(self.decimals)) * self.mm_per_unit * 1e-3
+            {
+                p[a] = new;
+                moved = true;
+            }
+        }
+        if !moved {
+            return from;
+        }
+        let mut out = self.axis(p);
+        if p[2] == p_from[2] {
+            out.z = from.z;
+        }
+        out
+    }
+}
+
+/// LinuxCNC's `rotate`: `(x, y)` turned by `theta_deg` degrees about the
+/// origin, counter-clockwise.
+fn rotate(x: f64, y: f64, theta_deg: f64) -> (f64, f64) {
+    let (sin, cos) = theta_deg.to_radians().sin_cos();
+    (x * cos - y * sin, x * sin + y * cos)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rotated(deg: f64, absolute: bool) -> Frame {
+        Frame {
+            offset_mm: Vec3::ZERO,
+            mm_per_unit: 1.0,
+            decimals: 4,
+            absolute,
+            rotation_deg: deg,
+            before_mm: Vec3::new(1.0, 0.0, 0.0),
+            after_mm: Vec3::new(10.0, 5.0, 2.0),
+        }
+    }
+
+    #[test]
+    fn r90_program_x_is_axis_y() {
+        // q = Rot(90°)(p + (1, 0, 0)) + (10, 5, 2): program (2, 0, 0) is
+        // Rot90 (3, 0) = (0, 3), so axis (10, 8, 2); and back.
+        let f = rotated(90.0, true);
+        let q = Vec3::new(10.0, 8.0, 2.0);
+        let p = f.program(q);
+        assert!((p.x - 2.0).abs() < 1e-12 && p.y.abs() < 1e-12 && p.z.abs() < 1e-12);
+        // An axis-X correction of +0.1 is a program −Y word of 0.1 (R90
+        // turns program −Y onto axis +X), X unchanged.
+        let q2 = Vec3::new(10.1, 8.0, 2.0);
+        assert!(f.changes(q2, q, 1) && !f.changes(q2, q, 0) && !f.changes(q2, q, 2));
+        assert_eq!(f.word_value(q2, q, 1), -0.1);
+        assert_eq!(f.word_value(q2, q, 0), 2.0);
+        // In G91 the increment is in the program frame as well.
+        let g91 = rotated(90.0, false);
+        assert_eq!(g91.word_value(q2, q, 1), -0.1);
+        assert_eq!(g91.word_value(q2, q, 0), 0.0);
+        // What the controller executes for the rounded words.
+        let out = f.quantize(Vec3::new(10.100004, 8.0, 2.0), q);
+        assert!((out.x - 10.1).abs() < 1e-12 && (out.y - 8.0).abs() < 1e-12);
+        assert_eq!(out.z, 2.0);
     }
 }

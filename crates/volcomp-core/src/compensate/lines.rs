@@ -37,7 +37,7 @@ impl State {
             self.mode = Some(mode);
         }
         for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
-            if q[a] != from[a] {
+            if frame.changes(q, from, a) {
                 if !self.text.is_empty() {
                     self.text.push_str(sep);
                 }
@@ -181,7 +181,7 @@ impl State {
         }
         let at = last_axis_end.unwrap_or(content.len());
         for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
-            if !present[a] && q[a] != from[a] {
+            if !present[a] && frame.changes(q, from, a) {
                 self.text.clear();
                 self.text.push_str(sep);
                 self.text.push(letter);

@@ -82,7 +82,7 @@ impl Interpreter {
             self.extra_g92 = self.extra_g92_saved;
         }
         let Some(col) = w.extra_col() else {
-            if w.has_g(920) {
+            if w.has_g(920) || w.has_g(520) {
                 self.extra_g92_saved = self.extra_g92;
             }
             return Ok(());
@@ -91,12 +91,13 @@ impl Interpreter {
             .into_iter()
             .find(|l| w.col(*l) == Some(col))
             .unwrap_or(b'A') as char;
-        if w.has_g(920) {
-            // G92: the current position gets the given program values.
+        if w.has_g(920) || w.has_g(520) {
+            // G92: the current position gets the given program values;
+            // G52: the offset is the given value (it shares G92's offset).
             for (i, l) in EXTRA_LETTERS.into_iter().enumerate() {
                 if let Some(v) = w.get(l) {
                     let v = if i >= 3 { self.to_mm(v) } else { v };
-                    self.extra_g92[i] = self.extra[i] - v;
+                    self.extra_g92[i] = if w.has_g(520) { v } else { self.extra[i] - v };
                 }
             }
             self.extra_g92_saved = self.extra_g92;

@@ -17,7 +17,7 @@
 //! | `cycle.rs` | canned cycles G81, G82, G85, G89 |
 //! | `spline.rs` | splines G5, G5.1, G5.2/G5.3, linearised within the spline tolerance |
 //! | `extra.rs` | the extra axes A, B, C, U, V, W, carried through (not compensated) |
-//! | `offsets.rs` | tool length offsets, G10, G92, G28/G30 |
+//! | `offsets.rs` | tool length offsets, G10 (work offsets, tool table writes), G52, G92, G28/G30 |
 //! | `tape.rs` | the start and end of a program: `%` lines, the required program end |
 //! | `warnings.rs` | [`Warning`]: what was assumed |
 //!
@@ -133,6 +133,11 @@ pub struct Interpreter {
     g92: Vec3,
     g92_saved: Vec3,
     tlo: Vec3,
+    /// X and Y offsets of tools written by G10 L1/L10/L11 (the set-up's
+    /// tool table has lengths only, Z); G43 applies them.
+    tool_xy_mm: std::collections::BTreeMap<u32, [f64; 2]>,
+    /// Rotation about Z of each coordinate system (degrees, G10 L2/L20 R).
+    rotation_deg: [f64; 9],
     loaded_tool: u32,
     next_tool: u32,
     position: Vec3,
@@ -212,6 +217,8 @@ impl Interpreter {
             g92,
             g92_saved: Vec3::ZERO,
             tlo: Vec3::ZERO,
+            tool_xy_mm: std::collections::BTreeMap::new(),
+            rotation_deg: [0.0; 9],
             loaded_tool: 0,
             next_tool: 0,
             position,
@@ -484,9 +491,10 @@ impl Interpreter {
         let new_cycle = self.motion_mode != mode_before;
         self.extra_target(line, w)?;
         // 19: non-modal codes that use axis words.
-        let axis_user = [100u16, 280, 300, 920, 431]
+        let axis_user = [100u16, 280, 300, 520, 920, 431]
             .into_iter()
             .find(|c| w.has_g(*c));
+        self.check_axis_users(line, w, axis_user)?;
         if w.has_g(100) {
             self.g10(line, w)?;
         } else if w.has_g(280) || w.has_g(300) {
@@ -497,7 +505,7 @@ impl Interpreter {
         } else if w.has_g(301) {
             self.setup.g30_mm = self.position;
             self.setup.g30_given = true;
-        } else if [920, 921, 922, 923].into_iter().any(|c| w.has_g(c)) {
+        } else if [520, 920, 921, 922, 923].into_iter().any(|c| w.has_g(c)) {
             self.g92(line, w)?;
         }
         // 20: motion.
@@ -505,7 +513,7 @@ impl Interpreter {
             return Err(invalid(
                 line,
                 w.polar_col().unwrap_or(0),
-                "polar coordinates (@, ^) can only be used for motion (not with G10, G28, G30 or G92); LinuxCNC refuses them too",
+                "polar coordinates (@, ^) can only be used for motion (not with G10, G28, G30, G52 or G92); LinuxCNC refuses them too",
                 "give X/Y words instead",
             ));
         }

@@ -100,6 +100,9 @@ impl Interpreter {
 
     /// Target of axis words in the current coordinate system.
     pub(super) fn target(&self, w: &WordTable) -> Vec3 {
+        if self.rotation() != 0.0 {
+            return self.rotated_target(w);
+        }
         let off = self.frame_offset_mm();
         let mut t = self.position;
         for (i, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
@@ -126,14 +129,18 @@ impl Interpreter {
     /// `@` is added to the current radius and `^` to the current angle.
     /// `None` when the block has no polar word. [`Self::check_polar`] has
     /// refused the indeterminate cases (at the origin) beforehand.
+    pub(super) fn polar_end_of(&self, w: &WordTable) -> Option<(f64, f64)> {
+        self.polar_end(w)
+    }
+
     fn polar_end(&self, w: &WordTable) -> Option<(f64, f64)> {
         let (radius, theta_deg) = (w.get(b'@'), w.get(b'^'));
         if radius.is_none() && theta_deg.is_none() {
             return None;
         }
-        let off = self.frame_offset_mm();
+        let here = self.to_program_mm(self.position);
         let k = 1.0 / self.units.mm_per_unit();
-        let (cx, cy) = ((self.position.x - off.x) * k, (self.position.y - off.y) * k);
+        let (cx, cy) = (here.x * k, here.y * k);
         let polar = |r: f64, theta_rad: f64| (r * theta_rad.cos(), r * theta_rad.sin());
         Some(if self.absolute {
             match (radius, theta_deg) {
@@ -193,8 +200,8 @@ impl Interpreter {
                 "give the hole position as X and Y",
             );
         }
-        let off = self.frame_offset_mm();
-        let at_origin = self.position.x == off.x && self.position.y == off.y;
+        let here = self.to_program_mm(self.position);
+        let at_origin = here.x == 0.0 && here.y == 0.0;
         if at_origin && (!self.absolute || w.get(b'^').is_none()) {
             return refuse(
                 if self.absolute {
@@ -259,6 +266,7 @@ impl Interpreter {
             ));
         };
         self.check_polar(line, w, mode)?;
+        self.check_rotated(line, col, w, mode)?;
         let feed = self.to_mm(self.feed);
         let machine = w.has_g(530);
         if machine {
@@ -457,8 +465,14 @@ impl Interpreter {
                     ),
                 ));
             }
+            if self.rotation() != 0.0 {
+                center = self.rotated_center(w, start, [(u, lu), (v, lv)]);
+            }
             let off = self.frame_offset_mm();
-            for (axis, letter) in [(u, lu), (v, lv)] {
+            for (axis, letter) in [(u, lu), (v, lv)]
+                .into_iter()
+                .filter(|_| self.rotation() == 0.0)
+            {
                 let val = w.get(letter).map(|x| self.to_mm(x));
                 center[axis] = if self.arc_absolute {
                     val.map(|x| x + off[axis]).unwrap_or(off[axis])

@@ -1,11 +1,15 @@
 //! Coordinate systems and offsets: tool length offsets (G43, G43.1, G49),
-//! work offsets set by the program (G10 L2/L20), G92 and its variants, and
-//! the reference points G28/G30.
+//! work offsets set by the program (G10 L2/L20), tool table writes (G10
+//! L1/L10/L11), G52 local offsets, G92 and its variants, and the reference
+//! points G28/G30.
 //!
 //! They only move the frame: `q = p + work_offset + tool_length_offset +
 //! G92` (machine = program + offsets), as in LinuxCNC's `Interp`
 //! (src/emc/rs274ngc/interp_convert.cc: `convert_tool_length_offset`,
-//! `convert_setup`, `convert_axis_offsets`, `convert_home`).
+//! `convert_setup`, `convert_setup_tool`, `convert_axis_offsets`,
+//! `convert_home`). G52 is LinuxCNC's G92 offset set directly: both write
+//! the one offset `axis_offset` (and #5211–#5219), so G92.1 clears a G52
+//! offset and G92.3 restores it.
 
 use super::words::WordTable;
 use super::{invalid, unsupported, Interpreter, Motion, MotionKind, MotionSource, Warning};
@@ -36,6 +40,7 @@ impl Interpreter {
                 }
                 None => self.loaded_tool,
             };
+            let xy = self.tool_xy_mm.get(&h).copied().unwrap_or([0.0; 2]);
             let length = if h == 0 {
                 0.0
             } else {
@@ -48,7 +53,11 @@ impl Interpreter {
                     )
                 })?
             };
-            self.tlo = Vec3::new(0.0, 0.0, length);
+            self.tlo = if h == 0 {
+                Vec3::ZERO
+            } else {
+                Vec3::new(xy[0], xy[1], length)
+            };
         } else if w.has_g(431) {
             let mut tlo = Vec3::ZERO;
             for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
@@ -65,7 +74,17 @@ impl Interpreter {
     /// coordinates), G92.1 (clear and forget), G92.2 (clear, remember),
     /// G92.3 (restore the remembered one).
     pub(super) fn g92(&mut self, line: u64, w: &WordTable) -> Result<(), GcodeError> {
-        if w.has_g(920) {
+        if w.has_g(520) {
+            // G52: the shared offset gets the given values (program units),
+            // the current point keeps its axis position
+            // (`convert_axis_offsets`, G_52 branch).
+            for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+                if let Some(v) = w.get(l) {
+                    self.g92[i] = self.to_mm(v);
+                }
+            }
+            self.g92_saved = self.g92;
+        } else if w.has_g(920) {
             let off = self.work_offsets[self.work] + self.tlo;
             if !w.has_axis() {
                 return Err(invalid(
@@ -75,9 +94,14 @@ impl Interpreter {
                     "write G92 X.. Y.. Z..",
                 ));
             }
+            let rotated = self.to_program_mm(self.position) + self.g92;
             for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
                 if let Some(v) = w.get(l) {
-                    self.g92[i] = self.position[i] - off[i] - self.to_mm(v);
+                    self.g92[i] = if self.rotation() == 0.0 {
+                        self.position[i] - off[i] - self.to_mm(v)
+                    } else {
+                        rotated[i] - self.to_mm(v)
+                    };
                 }
             }
             self.g92_saved = self.g92;
@@ -92,28 +116,31 @@ impl Interpreter {
         Ok(())
     }
 
-    /// G10 L2 (set work offset P to the given machine coordinates) and
-    /// G10 L20 (set it so the current point has the given program
-    /// coordinates); other L numbers (tool tables) are refused.
+    /// G10 L2 (set work offset P to the given machine coordinates), G10
+    /// L20 (set it so the current point has the given program
+    /// coordinates), and the tool table writes G10 L1/L10/L11.
     pub(super) fn g10(&mut self, line: u64, w: &WordTable) -> Result<(), GcodeError> {
         let col = w.g_col(100).unwrap_or(0);
         let l = w
             .get(b'L')
             .ok_or_else(|| invalid(line, col, "G10 without L", "write G10 L2 Pn X.. Y.. Z.."))?;
+        if l == 1.0 || l == 10.0 || l == 11.0 {
+            return self.g10_tool(line, w, l as u8);
+        }
         if l != 2.0 && l != 20.0 {
-            return Err(unsupported(
+            return Err(invalid(
                 line,
-                col,
-                format!("G10 L{l} is not interpreted (only L2 and L20, work offsets)"),
-                "set tool data in the setup file instead",
+                w.col(b'L').unwrap_or(col),
+                format!("G10 L{l}: LinuxCNC knows only L1, L2, L10, L11 and L20"),
+                "write L1/L10/L11 (tool table) or L2/L20 (work offsets)",
             ));
         }
-        if w.get(b'R').is_some_and(|r| r != 0.0) {
-            return Err(unsupported(
+        if l == 20.0 && w.get(b'R').is_some() {
+            return Err(invalid(
                 line,
-                col,
-                "G10 with a rotation R is not a translation",
-                "remove the R word",
+                w.col(b'R').unwrap_or(col),
+                "R is not allowed with G10 L20; LinuxCNC refuses it (\"R not allowed in G10 L20\")",
+                "set the rotation with G10 L2 P.. R..",
             ));
         }
         let p = w.get(b'P').ok_or_else(|| {
@@ -133,6 +160,13 @@ impl Interpreter {
             ));
         }
         let idx = if p == 0.0 { self.work } else { p as usize - 1 };
+        if l == 20.0 && self.rotation_deg[idx] != 0.0 {
+            self.g10_l20_rotated(w, idx);
+            return Ok(());
+        }
+        if let Some(r) = w.get(b'R') {
+            self.rotation_deg[idx] = r;
+        }
         let vals: Vec<(usize, f64)> = [b'X', b'Y', b'Z']
             .into_iter()
             .enumerate()
@@ -147,6 +181,298 @@ impl Interpreter {
             };
         }
         Ok(())
+    }
+
+    /// G10 L20 on a system rotated by `r` (`Interp::convert_setup`): the
+    /// current point `c` in that system (`find_current_in_system`:
+    /// `Rot(−r)(q − tool − work) − G92`) and the wished point `t` (the words,
+    /// or `c` where missing) are both turned back by `r`, and the new work
+    /// offset is `Rot(r)c + work − Rot(r)t` in X/Y, `c + work − Z` in Z.
+    fn g10_l20_rotated(&mut self, w: &WordTable, idx: usize) {
+        let r = self.rotation_deg[idx];
+        let wo = self.work_offsets[idx];
+        let d = self.position - self.tlo - wo;
+        let (cx, cy) = rotate(d.x, d.y, -r);
+        let c = Vec3::new(cx, cy, d.z) - self.g92;
+        if w.get(b'X').is_some() || w.get(b'Y').is_some() {
+            let tx = w.get(b'X').map(|v| self.to_mm(v)).unwrap_or(c.x);
+            let ty = w.get(b'Y').map(|v| self.to_mm(v)).unwrap_or(c.y);
+            let (ox, oy) = rotate(c.x, c.y, r);
+            let (tx, ty) = rotate(tx, ty, r);
+            self.work_offsets[idx].x = ox + wo.x - tx;
+            self.work_offsets[idx].y = oy + wo.y - ty;
+        }
+        if let Some(z) = w.get(b'Z') {
+            self.work_offsets[idx].z = c.z + wo.z - self.to_mm(z);
+        }
+    }
+
+    /// G10 L1 (tool P's offsets are the given values), L10 (set them so
+    /// the current point has the given program coordinates in the active
+    /// system, without the tool offset) and L11 (likewise in G59.3,
+    /// ignoring G92), as `Interp::convert_setup_tool`. The tool table is
+    /// the set-up's (`tool_lengths_mm`, Z) plus X/Y offsets kept here; it
+    /// takes effect at the next G43, as on LinuxCNC.
+    fn g10_tool(&mut self, line: u64, w: &WordTable, l: u8) -> Result<(), GcodeError> {
+        let col = w.g_col(100).unwrap_or(0);
+        let p = w.get(b'P').ok_or_else(|| {
+            invalid(
+                line,
+                col,
+                format!("G10 L{l} without P"),
+                "write P and the tool number",
+            )
+        })?;
+        let pcol = w.col(b'P').unwrap_or(col);
+        if p.fract() != 0.0 || p < 1.0 {
+            return Err(invalid(
+                line,
+                pcol,
+                format!("G10 L{l} P{p}: P must be a tool number (a whole number, 1 or more)"),
+                "fix the P word",
+            ));
+        }
+        let tool = p as u32;
+        if !self.setup.tool_lengths_mm.contains_key(&tool) {
+            return Err(invalid(
+                line,
+                pcol,
+                format!("G10 L{l} writes tool {tool}, which is not in the tool table (LinuxCNC refuses it too)"),
+                format!("add `{tool} = LENGTH` under [tools] in the set-up file"),
+            ));
+        }
+        let any = [b'X', b'Y', b'Z', b'R', b'Q', b'I', b'J']
+            .into_iter()
+            .any(|le| w.get(le).is_some());
+        if !any {
+            return Err(invalid(
+                line,
+                col,
+                format!("G10 L{l} without offsets has no effect (LinuxCNC refuses it)"),
+                "give X, Y, Z (or R, Q, I, J)",
+            ));
+        }
+        if let Some(q) = w.get(b'Q') {
+            if q.fract() != 0.0 || q > 9.0 {
+                return Err(invalid(
+                    line,
+                    w.col(b'Q').unwrap_or(col),
+                    "Q in G10 is the tool orientation, a whole number up to 9",
+                    "fix the Q word",
+                ));
+            }
+        }
+        let xy = self.tool_xy_mm.get(&tool).copied().unwrap_or([0.0; 2]);
+        let mut off = [xy[0], xy[1], self.setup.tool_lengths_mm[&tool]];
+        // The current point in the destination system, without the tool
+        // offset (`find_current_in_system_without_tlo`); L11 writes
+        // relative to G59.3 and ignores G92.
+        let (system, g92) = if l == 11 {
+            (8, Vec3::ZERO)
+        } else {
+            (self.work, self.g92)
+        };
+        // The current point in the destination system without the tool
+        // offset, `Rot(−r)(q − work) − G92` (rotate by 0 is exact).
+        let r = self.rotation_deg[system];
+        let d = self.position - self.work_offsets[system];
+        let (hx, hy) = rotate(d.x, d.y, -r);
+        let here = Vec3::new(hx, hy, d.z) - g92;
+        let word = |le: u8| w.get(le).map(|v| self.to_mm(v));
+        if l != 1 {
+            // `convert_setup_tool`: X/Y offsets are set in the rotated
+            // frame; with one of X, Y the old offset's component along the
+            // other rotated axis is kept.
+            let (ox, oy) = rotate(off[0], off[1], -r);
+            let (a, b) = match (word(b'X'), word(b'Y')) {
+                (Some(x), Some(y)) => rotate(here.x - x, here.y - y, r),
+                (Some(x), None) => {
+                    let (kx, ky) = rotate(0.0, oy, r);
+                    let (tx, ty) = rotate(here.x - x, 0.0, r);
+                    (tx + kx, ty + ky)
+                }
+                (None, Some(y)) => {
+                    let (kx, ky) = rotate(ox, 0.0, r);
+                    let (tx, ty) = rotate(0.0, here.y - y, r);
+                    (tx + kx, ty + ky)
+                }
+                (None, None) => (off[0], off[1]),
+            };
+            off[0] = a;
+            off[1] = b;
+        }
+        for (i, le) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+            if let Some(v) = word(le) {
+                if l == 1 {
+                    off[i] = v;
+                } else if i == 2 {
+                    off[i] = here.z - v;
+                }
+                if !off[i].is_finite() || off[i].abs() > super::MAX_COORDINATE_MM {
+                    return Err(invalid(
+                        line,
+                        w.col(le).unwrap_or(col),
+                        "tool offset out of range",
+                        "check the value",
+                    ));
+                }
+            }
+        }
+        self.setup.tool_lengths_mm.insert(tool, off[2]);
+        self.tool_xy_mm.insert(tool, [off[0], off[1]]);
+        Ok(())
+    }
+
+    /// LinuxCNC's `Interp::enhance_block` checks of G10, G28, G30, G52 and
+    /// G92 (the modal group 0 codes that use axis words): not beside a
+    /// motion code, and G52/G92 need an axis word.
+    pub(super) fn check_axis_users(
+        &self,
+        line: u64,
+        w: &WordTable,
+        axis_user: Option<u16>,
+    ) -> Result<(), GcodeError> {
+        let Some(code) = axis_user.filter(|c| *c != 431) else {
+            return Ok(());
+        };
+        if let Some(col) = self.motion_word_col(w) {
+            return Err(invalid(
+                line,
+                col,
+                format!("G{} and a motion code on one line both use the axis words; LinuxCNC refuses it (\"Cannot use two g codes that both use axis values\")", f64::from(code) / 10.0),
+                "put the motion on its own line",
+            ));
+        }
+        if (code == 520 || code == 920) && !w.has_axis() {
+            return Err(invalid(
+                line,
+                w.g_col(code).unwrap_or(0),
+                format!("G{} without axis words; LinuxCNC refuses it (\"All axes missing with g52 or g92\")", code / 10),
+                format!("write G{} X.. Y.. Z..", code / 10),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The rotation about Z of the active coordinate system (degrees).
+    pub(super) fn rotation(&self) -> f64 {
+        self.rotation_deg[self.work]
+    }
+
+    /// The rotation about Z (degrees, counter-clockwise) of the active
+    /// coordinate system, set by G10 L2 … R; 0 when not rotated. When it is
+    /// not 0, [`Interpreter::frame_offset_mm`] alone does not relate program
+    /// and axis coordinates.
+    pub fn rotation_deg(&self) -> f64 {
+        self.rotation()
+    }
+
+    /// The parts of the frame around the rotation, in mm: what is added to
+    /// a program point before it is rotated (G92, G52) and after (work
+    /// offset + tool length offset), so that
+    /// `q = Rot(rotation_deg)·(p + before) + after`.
+    pub fn frame_parts_mm(&self) -> (Vec3, Vec3) {
+        (self.g92, self.work_offsets[self.work] + self.tlo)
+    }
+
+    /// Axis position of program point `p` (mm): LinuxCNC's canonical
+    /// `rotate_and_offset_pos` (src/emc/task/emccanon.cc),
+    /// `q = Rot(R)·(p + G92) + work_offset + tool_offset`.
+    pub(super) fn to_axis(&self, p: Vec3) -> Vec3 {
+        let r = self.rotation();
+        if r == 0.0 {
+            return p + self.frame_offset_mm();
+        }
+        let (x, y) = rotate(p.x + self.g92.x, p.y + self.g92.y, r);
+        Vec3::new(x, y, p.z + self.g92.z) + self.work_offsets[self.work] + self.tlo
+    }
+
+    /// Program point (mm) of axis position `q`: the inverse of
+    /// [`Self::to_axis`].
+    pub(super) fn to_program_mm(&self, q: Vec3) -> Vec3 {
+        let r = self.rotation();
+        if r == 0.0 {
+            return q - self.frame_offset_mm();
+        }
+        let d = q - self.work_offsets[self.work] - self.tlo;
+        let (x, y) = rotate(d.x, d.y, -r);
+        Vec3::new(x, y, d.z) - self.g92
+    }
+
+    /// The end point of a G0/G1 (or a G28/G30 intermediate point) in a
+    /// rotated coordinate system: the words change the program point
+    /// (absolute or incremental, in the rotated frame, as LinuxCNC's
+    /// `current_x…` are), which is then rotated into the axis frame.
+    pub(super) fn rotated_target(&self, w: &WordTable) -> Vec3 {
+        let mut p = self.to_program_mm(self.position);
+        for (i, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+            if let Some(v) = w.get(letter) {
+                p[i] = if self.absolute {
+                    self.to_mm(v)
+                } else {
+                    p[i] + self.to_mm(v)
+                };
+            }
+        }
+        if let Some((x, y)) = self.polar_end_of(w) {
+            p.x = self.to_mm(x);
+            p.y = self.to_mm(y);
+        }
+        self.to_axis(p)
+    }
+
+    /// An arc's centre (axis frame) from its centre words in a rotated
+    /// system: absolute (G90.1) or relative to the start (G91.1) in the
+    /// program frame, then rotated like any program point.
+    pub(super) fn rotated_center(
+        &self,
+        w: &WordTable,
+        start: Vec3,
+        axes: [(usize, u8); 2],
+    ) -> Vec3 {
+        let mut c = self.to_program_mm(start);
+        for (axis, letter) in axes {
+            let val = w.get(letter).map(|x| self.to_mm(x)).unwrap_or(0.0);
+            c[axis] = if self.arc_absolute {
+                val
+            } else {
+                c[axis] + val
+            };
+        }
+        self.to_axis(c)
+    }
+
+    /// In a rotated coordinate system, volcomp follows G0, G1, G2/G3 in
+    /// G17, G53 and G28/G30; canned cycles, splines and G18/G19 arcs (which
+    /// LinuxCNC turns out of their axis planes) are refused.
+    pub(super) fn check_rotated(
+        &self,
+        line: u64,
+        col: usize,
+        w: &WordTable,
+        mode: super::options::MotionMode,
+    ) -> Result<(), GcodeError> {
+        use super::options::MotionMode as M;
+        if self.rotation() == 0.0 || w.has_g(530) {
+            return Ok(());
+        }
+        let what = match mode {
+            M::Cycle(_) => "canned cycles",
+            M::Spline(_) => "splines",
+            M::Cw | M::Ccw if self.plane != crate::geom::Plane::Xy => {
+                "arcs in G18/G19 (LinuxCNC turns their plane with the rotation, out of the axis planes)"
+            }
+            _ => return Ok(()),
+        };
+        Err(unsupported(
+            line,
+            col,
+            format!(
+                "{what} in a rotated coordinate system (G10 L2 R{}) are not interpreted",
+                self.rotation()
+            ),
+            "post the program without the rotation, or with explicit G1/G2/G3 moves in G17",
+        ))
     }
 
     /// G28/G30: a rapid to the intermediate point given by the axis words,
@@ -208,4 +534,11 @@ impl Interpreter {
         )?;
         Ok(())
     }
+}
+
+/// LinuxCNC's `Interp::rotate`: `(x, y)` turned by `theta` degrees about
+/// the origin, counter-clockwise.
+pub(super) fn rotate(x: f64, y: f64, theta_deg: f64) -> (f64, f64) {
+    let (sin, cos) = theta_deg.to_radians().sin_cos();
+    (x * cos - y * sin, x * sin + y * cos)
 }

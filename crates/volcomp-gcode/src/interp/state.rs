@@ -34,7 +34,7 @@ impl Interpreter {
     /// The current position in program coordinates and units (LinuxCNC's
     /// `current_x…`: axis position minus work offset, G92 and tool offset).
     pub fn program_position(&self) -> Vec3 {
-        let p = self.position - self.frame_offset_mm();
+        let p = self.to_program_mm(self.position);
         Vec3::new(
             self.prog_units(p[0]),
             self.prog_units(p[1]),
@@ -60,8 +60,8 @@ impl Interpreter {
                 if i < 9 {
                     xyz(self.work_offsets[k], i)
                 } else if i == 9 {
-                    // Rotation R of G10 L2: volcomp refuses rotations, so 0.
-                    0.0
+                    // Rotation R of G10 L2 (degrees).
+                    self.rotation_deg[k]
                 } else {
                     return Err(Unanswerable::NotPredefined);
                 }

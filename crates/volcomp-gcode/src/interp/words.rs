@@ -86,12 +86,11 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         610 | 611 | 640 => 13,
         960 | 970 => 14,
         150 | 500 | 690 => 16, // cancel polar / scaling / rotation: no-ops here
-        40 | 53 | 100 | 280 | 281 | 300 | 301 | 530 | 920 | 921 | 922 | 923 => 0,
+        40 | 53 | 100 | 280 | 281 | 300 | 301 | 520 | 530 | 920 | 921 | 922 | 923 => 0,
         410 | 411 | 420 | 421 => return Err(CUTTER_COMP),
         680 | 681 => return Err("coordinate rotation (G68) is not a pure translation between program and axis frame; post the program without rotation"),
         510 | 511 => return Err("scaling (G51) is not a pure translation between program and axis frame; post the program without scaling"),
         160 => return Err("polar coordinates (G16) are not interpreted; post the program in Cartesian coordinates"),
-        520 => return Err("G52 local offsets are not interpreted yet; use G92 or a work offset"),
         730 | 760 | 830 | 840 | 860 | 870 | 880 => return Err("this canned cycle is not expanded by volcomp (G81, G82, G85 and G89 are); post the cycle as explicit moves"),
         380..=385 => return Err("probing ends where the probe touches, which is known only when the machine runs; volcomp cannot know the path after it (LinuxCNC's later moves may use the probed position, #5061–#5069)"),
         330 | 331 => return Err("spindle-synchronised motion (G33, G33.1 rigid tapping; G76 threading likewise) is tied to the spindle's rotation; volcomp does not alter it; run threading as a separate, uncompensated program"),
@@ -279,7 +278,7 @@ impl Interpreter {
                 return Some(mode);
             }
         }
-        if w.has_g(800) || [100u16, 280, 300, 920].iter().any(|c| w.has_g(*c)) {
+        if w.has_g(800) || [100u16, 280, 300, 520, 920].iter().any(|c| w.has_g(*c)) {
             return None;
         }
         let ijk = [b'I', b'J', b'K'].iter().any(|l| w.get(*l).is_some());

@@ -180,6 +180,20 @@ pub fn program_frame_offset<R: BufRead>(
             continue;
         }
         let o = ev.interp.frame_offset_mm();
+        if ev.interp.rotation_deg() != 0.0 {
+            return Err(MirrorError::File(MapFileError {
+                file: file.into(),
+                row: ev.number as usize,
+                column: 1,
+                message: format!(
+                    "this cut is in a rotated coordinate system (G10 L2 R{}); the surface mirror relates program and axis frames by a translation only",
+                    ev.interp.rotation_deg()
+                ),
+                help: "post the finishing program without the rotation".into(),
+                source_line: String::new(),
+                caret_byte: 0,
+            }));
+        }
         match first {
             None => first = Some((o, ev.number)),
             Some((f, line)) if (f - o).norm() > 1e-9 => {
