@@ -49,6 +49,9 @@ pub struct Setup {
     pub machine_units: crate::geom::Units,
     /// G92 offset in effect when the program starts (a `.var` file's #5211…).
     pub g92_mm: Vec3,
+    /// Rotation of each coordinate system's XY plane at the start, degrees
+    /// (a `.var` file's #5230 + 20·k; G10 L2 R sets it in a program).
+    pub rotations_deg: [f64; 9],
     /// The coordinate system in use when the program starts (0 = G54; a
     /// `.var` file's #5220).
     pub work_system: usize,
@@ -75,6 +78,7 @@ impl Default for Setup {
             machine_units: crate::geom::Units::Mm,
             g92_mm: Vec3::ZERO,
             work_system: 0,
+            rotations_deg: [0.0; 9],
             parameters: BTreeMap::new(),
         }
     }

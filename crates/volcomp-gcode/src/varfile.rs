@@ -8,9 +8,9 @@
 //! The parameters the interpreter owns become its start state: #5161–#5163
 //! the G28 point, #5181–#5183 the G30 point, #5211–#5213 the G92 offset,
 //! #5220 the coordinate system in use (1–9), #5221 + 20·(k−1) + {0, 1, 2}
-//! the offsets of coordinate system k (G54…G59.3). Rotations (#5230 …) other
-//! than 0 are refused (volcomp does not rotate coordinate systems). Every
-//! other parameter is preset for the program to read.
+//! the offsets of coordinate system k (G54…G59.3) and #5230 + 20·(k−1) its
+//! rotation (degrees). Every other parameter is preset for the program to
+//! read.
 
 use crate::error::{ErrorClass, GcodeError};
 use crate::geom::Vec3;
@@ -124,20 +124,7 @@ pub fn apply(
     for k in 0..9 {
         let base = 5221 + 20 * k;
         setup.work_offsets_mm[k] = vec(base);
-        let r = get(base + 9);
-        if r != 0.0 {
-            return Err(error(
-                file,
-                0,
-                1,
-                format!(
-                    "#{} rotates coordinate system {} by {r}°, which volcomp does not do",
-                    base + 9,
-                    k + 1
-                ),
-                "set the rotation to 0 in the parameter file",
-            ));
-        }
+        setup.rotations_deg[k] = get(base + 9);
     }
     for (&n, &v) in params {
         if !(5161..=5428).contains(&n) {

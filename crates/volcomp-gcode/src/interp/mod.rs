@@ -199,7 +199,7 @@ impl Interpreter {
     pub fn new(setup: Setup, options: InterpOptions) -> Self {
         let work_offsets = setup.work_offsets_mm;
         let position = setup.start_mm;
-        let (work, g92) = (setup.work_system.min(8), setup.g92_mm);
+        let (work, g92, rotation_deg) = (setup.work_system.min(8), setup.g92_mm, setup.rotations_deg);
         Self {
             setup,
             options,
@@ -218,7 +218,7 @@ impl Interpreter {
             g92_saved: Vec3::ZERO,
             tlo: Vec3::ZERO,
             tool_xy_mm: std::collections::BTreeMap::new(),
-            rotation_deg: [0.0; 9],
+            rotation_deg,
             loaded_tool: 0,
             next_tool: 0,
             position,
