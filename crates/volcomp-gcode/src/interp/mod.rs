@@ -14,7 +14,7 @@
 //! | `options.rs` | [`InterpOptions`], feed and motion modes |
 //! | `words.rs` | decoding a block: words by letter, G/M codes, modal groups, unused words |
 //! | `motion.rs` | straight moves, arcs, polar end points, feed-rate and reach checks |
-//! | `cycle.rs` | canned cycles G81, G82, G85, G89 |
+//! | `cycle/` | canned cycles G73, G81–G89 |
 //! | `offsets.rs` | tool length offsets, G10, G92, G28/G30 |
 //! | `tape.rs` | the start and end of a program: `%` lines, the required program end |
 //! | `warnings.rs` | [`Warning`]: what was assumed |
@@ -130,8 +130,16 @@ pub struct Interpreter {
     cycle_r: Option<f64>,
     /// Sticky Z word of the canned cycle (program units, as written).
     cycle_z: Option<f64>,
-    /// Z (axis frame) when the current run of cycle blocks began (`cycle_il`).
+    /// Normal-axis coordinate (program frame and units) when the current
+    /// run of cycle blocks began (LinuxCNC's `cycle_il`).
     cycle_start_z: Option<f64>,
+    /// Sticky peck depth Q of G73/G83.
+    cycle_q: Option<f64>,
+    /// Sticky I, J, K of G87.
+    cycle_ijk: [f64; 3],
+    /// Spindle direction from M3 (1), M4 (-1), M5 (0), for the cycles that
+    /// need it turning (G84, G86, G87, G88).
+    spindle_dir: i8,
     /// Sticky dwell P of G82/G89 (seconds).
     cycle_p: Option<f64>,
     finished: bool,
@@ -192,6 +200,9 @@ impl Interpreter {
             cycle_r: None,
             cycle_z: None,
             cycle_start_z: None,
+            cycle_q: None,
+            cycle_ijk: [0.0; 3],
+            spindle_dir: 0,
             cycle_p: None,
             finished: false,
             uses_percents: false,
@@ -372,6 +383,14 @@ impl Interpreter {
                 .ok_or_else(|| invalid(line, 0, "M61 needs a Q word", "write M61 Qn"))?;
             self.loaded_tool = q.max(0.0) as u32;
         }
+        // 7: spindle direction (only tracked for the canned cycles).
+        if w.has_m(30) {
+            self.spindle_dir = 1;
+        } else if w.has_m(40) {
+            self.spindle_dir = -1;
+        } else if w.has_m(50) {
+            self.spindle_dir = 0;
+        }
         // 10: dwell (passed through).
         if w.has_g(40) && w.get(b'P').is_none() {
             return Err(invalid(
@@ -432,7 +451,7 @@ impl Interpreter {
             }
         }
         let mode_before = self.motion_mode;
-        for code in [810u16, 820, 850, 890] {
+        for code in [730u16, 810, 820, 830, 840, 850, 860, 870, 880, 890] {
             if w.has_g(code) {
                 self.motion_mode = Some(MotionMode::Cycle(code));
             }

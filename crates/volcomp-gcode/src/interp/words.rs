@@ -70,7 +70,7 @@ impl WordTable {
 /// Modal group of a supported G code (×10), or why it is refused.
 fn g_group(code: u16) -> Result<u8, &'static str> {
     Ok(match code {
-        0 | 10 | 20 | 30 | 800 | 810 | 820 | 850 | 890 => 1,
+        0 | 10 | 20 | 30 | 730 | 800 | 810..=890 if code % 10 == 0 => 1,
         170 | 180 | 190 => 2,
         900 | 910 => 3,
         901 | 911 => 4,
@@ -89,11 +89,14 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         510 | 511 => return Err("scaling (G51) is not a pure translation between program and axis frame; post the program without scaling"),
         160 => return Err("polar coordinates (G16) are not interpreted; post the program in Cartesian coordinates"),
         520 => return Err("G52 local offsets are not interpreted yet; use G92 or a work offset"),
-        730 | 760 | 830 | 840 | 860 | 870 | 880 => return Err("this canned cycle is not expanded by volcomp (G81, G82, G85 and G89 are); post the cycle as explicit moves"),
+        740 | 760 => return Err("this canned cycle is not expanded by volcomp (G73 and G81–G89 are); post the cycle as explicit moves"),
         50 | 51 | 52 | 53 | 70 | 80 | 330 | 331 | 380..=385 | 430..=439 => return Err("this G code moves the machine in a way volcomp does not model"),
         _ => return Err("unknown G code"),
     })
 }
+
+/// The canned cycles volcomp expands (G-code × 10).
+pub(super) const CYCLE_CODES: [u16; 10] = [730, 810, 820, 830, 840, 850, 860, 870, 880, 890];
 
 fn code_of(value: f64) -> Option<u16> {
     let c = (value * 10.0).round();
@@ -220,11 +223,10 @@ impl Interpreter {
             (10, MotionMode::Feed),
             (20, MotionMode::Cw),
             (30, MotionMode::Ccw),
-            (810, MotionMode::Cycle(810)),
-            (820, MotionMode::Cycle(820)),
-            (850, MotionMode::Cycle(850)),
-            (890, MotionMode::Cycle(890)),
-        ] {
+        ]
+        .into_iter()
+        .chain(CYCLE_CODES.map(|c| (c, MotionMode::Cycle(c))))
+        {
             if w.has_g(code) {
                 return Some(mode);
             }
@@ -249,25 +251,27 @@ impl Interpreter {
         let arc = matches!(motion, Some(MotionMode::Cw | MotionMode::Ccw));
         let cycle = matches!(motion, Some(MotionMode::Cycle(_)));
         let g10 = w.has_g(100);
+        let g87 = motion == Some(MotionMode::Cycle(870));
         let m_any = |codes: &[u16]| codes.iter().any(|c| w.has_m(*c));
         let used = |letter: u8| -> Result<(), &'static str> {
             let (ok, why) = match letter {
                 b'D' => (w.has_g(960), "D word with no G41, G41.1, G42, G42.1 or G96 to use it"),
                 b'E' => (m_any(&[660, 670, 680]), "E word with no G70, G76, M66, M67 or M68 to use it"),
                 b'H' => (w.has_g(430), "H word with no G43 or G76 to use it"),
-                b'I' => (arc || g10, "I word with no G2, G3 or G10 to use it"),
-                b'J' => (arc || g10, "J word with no G2, G3 or G10 to use it"),
-                b'K' => (arc, "K word with no G2 or G3 to use it"),
+                b'I' => (arc || g10 || g87, "I word with no G2, G3, G10 or G87 to use it"),
+                b'J' => (arc || g10 || g87, "J word with no G2, G3, G10 or G87 to use it"),
+                b'K' => (arc || g87, "K word with no G2, G3 or G87 to use it"),
                 b'L' => (cycle || g10 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
                 b'P' => (
                     g10 || w.has_g(40) || w.has_g(640) || arc
-                        || matches!(motion, Some(MotionMode::Cycle(820 | 890)))
+                        || matches!(motion, Some(MotionMode::Cycle(820 | 840 | 860 | 880 | 890)))
                         || m_any(&[500, 510, 520, 530, 620, 630, 640, 650, 660, 190]),
-                    "P word with no G2, G3, G4, G10, G64, G82, G89 or M19, M50–M53, M62–M66 to use it",
+                    "P word with no G2, G3, G4, G10, G64, G82, G84, G86, G88, G89 or M19, M50–M53, M62–M66 to use it",
                 ),
                 b'Q' => (
-                    g10 || w.has_g(640) || m_any(&[660, 670, 680, 610, 190]),
-                    "Q word with no G10, G64, M19, M61, M66, M67 or M68 to use it",
+                    g10 || w.has_g(640) || m_any(&[660, 670, 680, 610, 190])
+                        || matches!(motion, Some(MotionMode::Cycle(730 | 830))),
+                    "Q word with no G10, G64, G73, G83, M19, M61, M66, M67 or M68 to use it",
                 ),
                 b'R' => (
                     // LinuxCNC 2.9 has no G64 R (it came with 2.10's planner).
@@ -308,8 +312,9 @@ impl Interpreter {
     }
 
     pub(super) fn motion_word_col(&self, w: &WordTable) -> Option<usize> {
-        [0u16, 10, 20, 30, 810, 820, 850, 890]
+        [0u16, 10, 20, 30]
             .into_iter()
+            .chain(CYCLE_CODES)
             .find_map(|c| w.g_col(c))
     }
 }
