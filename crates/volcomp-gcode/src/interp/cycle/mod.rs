@@ -6,9 +6,6 @@
 //! Everything is computed in program units and the program frame, as
 //! LinuxCNC does, and each end point is then carried to the axis frame in mm.
 
-#[cfg(test)]
-mod tests;
-
 use super::words::WordTable;
 use super::{invalid, Interpreter, Motion, MotionKind, MotionSource};
 use crate::error::GcodeError;
@@ -156,7 +153,7 @@ impl Interpreter {
                     return Err(invalid(
                         line,
                         c,
-                        "cannot do zero repeats of canned cycle; LinuxCNC refuses L0 too",
+                        "cannot do zero repeats of cycle (L0); LinuxCNC refuses it too",
                         "remove L (one repeat) or give L1 or more",
                     ));
                 }
