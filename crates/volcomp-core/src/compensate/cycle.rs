@@ -1,4 +1,7 @@
-//! Canned cycles (G81, G82, G85, G89) written as explicit, compensated moves.
+//! Canned cycles written as explicit, compensated moves: G73, G81, G82,
+//! G83, G85, G86 and G89, with the dwells and spindle stops/restarts
+//! LinuxCNC 2.9 makes in them (src/emc/rs274ngc/interp_cycles.cc). G84,
+//! G87 and G88 are refused: see `refusal`.
 
 use super::frame::Frame;
 use super::lines::{blank_before, line_ending, OutMode};
@@ -14,8 +17,10 @@ use volcomp_gcode::{FeedMode, MotionKind};
 impl State {
     /// Writes a canned-cycle block as explicit moves: the block itself keeps
     /// its other words with the cycle code turned into G80 and its cycle
-    /// words (X Y Z R P L) removed; each move of the expanded cycle follows,
-    /// compensated like any other, with the dwell of G82/G89 as G4.
+    /// words (X Y Z R P Q L) removed; each move of the expanded cycle
+    /// follows, compensated like any other, with the dwell of G82/G86/G89 as
+    /// G4 and G86's spindle stop (M5) and restart (M3/M4) where LinuxCNC
+    /// makes them.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn write_cycle(
         &mut self,
@@ -39,15 +44,24 @@ impl State {
                 help: "post the program in G94 (units per minute)".into(),
             });
         }
+        let code = interp.canned_cycle().map(|(c, _)| c).unwrap_or(0);
+        if let Some((message, help)) = refusal(code) {
+            return Err(CompensationError::AtLine {
+                file: file.into(),
+                line,
+                message: message.into(),
+                help: help.into(),
+            });
+        }
         let content = &bytes[..volcomp_gcode::lexer::content_len(bytes)];
         let ending = line_ending(bytes);
         let mut edits = Vec::new();
         for w in &words {
             match w.letter {
-                b'G' if [81.0, 82.0, 85.0, 89.0].contains(&w.value) => {
+                b'G' if [73.0, 81.0, 82.0, 83.0, 85.0, 86.0, 89.0].contains(&w.value) => {
                     edits.push(Edit::replace(w.value_span.clone(), "80"));
                 }
-                b'X' | b'Y' | b'Z' | b'R' | b'P' | b'L' => {
+                b'X' | b'Y' | b'Z' | b'R' | b'P' | b'Q' | b'L' => {
                     edits.push(Edit::delete(
                         blank_before(content, w.span.start)..w.span.end,
                     ));
@@ -68,7 +82,16 @@ impl State {
         self.mode = Some(OutMode::Other);
         let (frame, style) = Frame::of(interp, options, survey);
         let dwell = interp.canned_cycle().and_then(|(_, d)| d);
-        let mut dwell_written = false;
+        let restart = if interp.spindle_direction() < 0 {
+            "M4"
+        } else {
+            "M3"
+        };
+        // Feed moves of the block so far: G89 dwells after its feed down
+        // (even) but not after its feed out (odd).
+        let mut feeds = 0usize;
+        // G86 restarts the spindle after the rapid out of the hole.
+        let mut restart_due = false;
         for m in motions {
             let feed_like = matches!(m.kind, MotionKind::Feed);
             check_target_count(m, options, file, line)?;
@@ -119,28 +142,66 @@ impl State {
                 );
                 pos = q;
             }
-            if feed_like && !dwell_written {
-                if let Some(p) = dwell {
-                    let mut text = String::from("G4");
-                    text.push_str(sep);
-                    text.push('P');
-                    format_number(
-                        p,
-                        NumberStyle {
-                            decimals: 3,
-                            leading_zero: true,
-                            trim_trailing_zeros: true,
-                            trailing_dot: false,
-                        },
-                        &mut text,
-                    );
-                    self.buf.extend_from_slice(text.as_bytes());
-                    self.buf.extend_from_slice(ending);
-                    self.summary.lines_out += 1;
+            if restart_due && !feed_like {
+                self.write_word_line(restart, ending);
+                restart_due = false;
+            }
+            if feed_like {
+                let at_bottom = match code {
+                    82 | 86 => true,
+                    89 => feeds % 2 == 0,
+                    _ => false,
+                };
+                feeds += 1;
+                if at_bottom {
+                    if let Some(p) = dwell {
+                        let mut text = String::from("G4");
+                        text.push_str(sep);
+                        text.push('P');
+                        format_number(
+                            p,
+                            NumberStyle {
+                                decimals: 3,
+                                leading_zero: true,
+                                trim_trailing_zeros: true,
+                                trailing_dot: false,
+                            },
+                            &mut text,
+                        );
+                        self.write_word_line(&text, ending);
+                    }
+                    if code == 86 {
+                        self.write_word_line("M5", ending);
+                        restart_due = true;
+                    }
                 }
-                dwell_written = true;
             }
         }
         Ok(())
+    }
+
+    fn write_word_line(&mut self, text: &str, ending: &[u8]) {
+        self.buf.extend_from_slice(text.as_bytes());
+        self.buf.extend_from_slice(ending);
+        self.summary.lines_out += 1;
+    }
+}
+
+/// Why a canned cycle cannot be written back as explicit moves.
+fn refusal(code: u16) -> Option<(&'static str, &'static str)> {
+    match code {
+        84 => Some((
+            "G84 tapping cannot be compensated: LinuxCNC 2.9 runs its stroke with feed and spindle overrides disabled and reverses the spindle at the bottom without waiting for it to reach speed; written as explicit moves the stroke would lose both, and compensated it would no longer be purely along the tap's axis, which breaks the tap or the thread",
+            "tap these holes in a separate program that is not compensated, or drill them with volcomp and tap them uncompensated",
+        )),
+        87 => Some((
+            "G87 back boring cannot be written as explicit moves that run the same: it stops the spindle in an orientation (ORIENT_SPINDLE) that only the cycle makes, to pass the boring bar through the hole",
+            "run the back-boring operation in a separate program that is not compensated",
+        )),
+        88 => Some((
+            "G88 cannot be written as explicit moves that run the same: the operator retracts the spindle by hand at its program stop, and LinuxCNC then takes the tool to be at the clearance plane, which explicit moves cannot state",
+            "run the G88 holes in a separate program that is not compensated, or use G86 or G85",
+        )),
+        _ => None,
     }
 }

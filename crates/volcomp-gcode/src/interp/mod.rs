@@ -243,12 +243,14 @@ impl Interpreter {
         self.absolute
     }
 
-    /// The canned cycle in effect (81, 82, 85 or 89) and, for G82/G89, the
-    /// dwell at the bottom in seconds.
+    /// The canned cycle in effect (73, 81–89) and, for G82/G86/G88/G89 (and
+    /// G84 when given), the dwell at the bottom in seconds.
     pub fn canned_cycle(&self) -> Option<(u16, Option<f64>)> {
         match self.motion_mode {
             Some(MotionMode::Cycle(code)) => {
-                let dwell = matches!(code, 820 | 890).then_some(self.cycle_p).flatten();
+                let dwell = matches!(code, 820 | 840 | 860 | 880 | 890)
+                    .then_some(self.cycle_p)
+                    .flatten();
                 Some((code / 10, dwell))
             }
             _ => None,

@@ -62,6 +62,12 @@ impl Ctx {
 }
 
 impl Interpreter {
+    /// The spindle direction as M3 (1), M4 (-1) or M5/none (0) left it:
+    /// what G86 restarts after its retract.
+    pub fn spindle_direction(&self) -> i8 {
+        self.spindle_dir
+    }
+
     fn cycle_move(
         &mut self,
         cx: &Ctx,
