@@ -149,7 +149,7 @@ impl State {
             if feed_like {
                 let at_bottom = match code {
                     82 | 86 => true,
-                    89 => feeds % 2 == 0,
+                    89 => feeds.is_multiple_of(2),
                     _ => false,
                 };
                 feeds += 1;

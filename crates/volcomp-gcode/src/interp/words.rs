@@ -70,7 +70,7 @@ impl WordTable {
 /// Modal group of a supported G code (×10), or why it is refused.
 fn g_group(code: u16) -> Result<u8, &'static str> {
     Ok(match code {
-        0 | 10 | 20 | 30 | 730 | 800 | 810..=890 if code % 10 == 0 => 1,
+        0 | 10 | 20 | 30 | 730 | 800 | 810..=890 if code.is_multiple_of(10) => 1,
         170 | 180 | 190 => 2,
         900 | 910 => 3,
         901 | 911 => 4,
