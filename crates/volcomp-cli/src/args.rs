@@ -81,6 +81,11 @@ pub struct MovesArgs {
     /// Output format.
     #[arg(long, value_enum, default_value_t = MovesFormat::Csv)]
     pub format: MovesFormat,
+    /// Add the extra axes' end values to every row (CSV columns a_deg,
+    /// b_deg, c_deg, u_mm, v_mm, w_mm). JSON gives them without this flag
+    /// on every motion where one is not zero.
+    #[arg(long)]
+    pub extra_axes: bool,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -157,7 +162,7 @@ pub struct CompensateArgs {
     /// or `none`; a bigger output is refused and nothing is written.
     #[arg(long, value_name = "BYTES", default_value = "256M", value_parser = parse_size)]
     pub max_output_size: SizeLimit,
-    /// Chord tolerance for linearising arcs (mm).
+    /// Chord tolerance for linearising arcs and splines (mm).
     #[arg(
         long,
         value_name = "MM",
@@ -223,7 +228,7 @@ pub struct SimulateArgs {
     /// Plot the errors along the path (.svg or .png).
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
-    /// Chord tolerance for linearising arcs (mm).
+    /// Chord tolerance for linearising arcs and splines (mm).
     #[arg(
         long,
         value_name = "MM",

@@ -76,6 +76,7 @@ impl Machine {
             accept_k0_on_xy_arcs: !a.strict_k0,
             absolute_arc_centers: a.absolute_arc_centers,
             require_program_end: !a.allow_no_program_end,
+            ..InterpOptions::default()
         })))
     }
 
@@ -138,7 +139,8 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
     let mut walker = machine.walk(&a.program)?;
     let json = a.format == MovesFormat::Json;
     let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Motion>>(4);
-    let writer = std::thread::spawn(move || write_moves(rx, json));
+    let extra = a.extra_axes;
+    let writer = std::thread::spawn(move || write_moves(rx, json, extra));
     let mut batch = Vec::with_capacity(MOVES_BATCH);
     let mut read = || -> Result<(), CliError> {
         loop {
@@ -173,7 +175,11 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
     write_result
 }
 
-fn write_moves(rx: std::sync::mpsc::Receiver<Vec<Motion>>, json: bool) -> Result<(), CliError> {
+fn write_moves(
+    rx: std::sync::mpsc::Receiver<Vec<Motion>>,
+    json: bool,
+    extra_columns: bool,
+) -> Result<(), CliError> {
     let stdout = io::stdout();
     let mut out = BufWriter::with_capacity(1 << 20, stdout.lock());
     let style = NumberStyle::fixed(6);
@@ -182,8 +188,13 @@ fn write_moves(rx: std::sync::mpsc::Receiver<Vec<Motion>>, json: bool) -> Result
     if json {
         out.write_all(b"[").map_err(CliError::Stdout)?;
     } else {
-        out.write_all(b"line,column,kind,source,x_mm,y_mm,z_mm,cx_mm,cy_mm,cz_mm\n")
+        out.write_all(b"line,column,kind,source,x_mm,y_mm,z_mm,cx_mm,cy_mm,cz_mm")
             .map_err(CliError::Stdout)?;
+        if extra_columns {
+            out.write_all(b",a_deg,b_deg,c_deg,u_mm,v_mm,w_mm")
+                .map_err(CliError::Stdout)?;
+        }
+        out.write_all(b"\n").map_err(CliError::Stdout)?;
     }
     for batch in rx {
         for m in &batch {
@@ -197,6 +208,7 @@ fn write_moves(rx: std::sync::mpsc::Receiver<Vec<Motion>>, json: bool) -> Result
                 volcomp_gcode::MotionSource::Machine => "g53",
                 volcomp_gcode::MotionSource::Reference => "reference",
                 volcomp_gcode::MotionSource::Cycle => "cycle",
+                volcomp_gcode::MotionSource::Spline => "spline",
             };
             let num = |v: f64, row: &mut String| format_number(v, style, row);
             if json {
@@ -215,6 +227,11 @@ fn write_moves(rx: std::sync::mpsc::Receiver<Vec<Motion>>, json: bool) -> Result
                     push_triple(c, &mut row, num);
                     row.push(']');
                 }
+                if extra_columns || m.extra.end != [0.0; 6] {
+                    row.push_str(",\"extra\":[");
+                    push_extra(&m.extra.end, &mut row, num);
+                    row.push(']');
+                }
                 row.push('}');
             } else {
                 push_uint(m.line, &mut row);
@@ -231,6 +248,10 @@ fn write_moves(rx: std::sync::mpsc::Receiver<Vec<Motion>>, json: bool) -> Result
                     Some(c) => push_triple(c, &mut row, num),
                     None => row.push_str(",,"),
                 }
+                if extra_columns {
+                    row.push(',');
+                    push_extra(&m.extra.end, &mut row, num);
+                }
                 row.push('\n');
             }
             first = false;
@@ -241,6 +262,16 @@ fn write_moves(rx: std::sync::mpsc::Receiver<Vec<Motion>>, json: bool) -> Result
         out.write_all(b"\n]\n").map_err(CliError::Stdout)?;
     }
     out.flush().map_err(CliError::Stdout)
+}
+
+/// A, B, C (degrees), U, V, W (mm), comma-separated.
+fn push_extra(v: &[f64; 6], row: &mut String, num: impl Fn(f64, &mut String)) {
+    for (i, x) in v.iter().enumerate() {
+        if i > 0 {
+            row.push(',');
+        }
+        num(*x, row);
+    }
 }
 
 fn push_uint(v: u64, row: &mut String) {

@@ -22,10 +22,14 @@ pub mod ngc;
 pub mod number;
 pub mod program;
 pub mod setup;
+pub mod varfile;
 
 pub use arc::Arc;
 pub use error::{Diagnostic, ErrorClass, GcodeError};
 pub use geom::{Axis, Plane, Units, Vec3};
-pub use interp::{FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource, Warning};
+pub use interp::{
+    ExtraAxes, FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource, Warning,
+    EXTRA_LETTERS,
+};
 pub use program::{LineEvent, Walker};
 pub use setup::Setup;

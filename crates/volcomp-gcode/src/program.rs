@@ -94,11 +94,15 @@ impl<R: BufRead> Walker<R> {
         // As in LinuxCNC, subroutine files are looked for only on the
         // subroutine path (its SUBROUTINE_PATH), not beside the program.
         let dirs: Vec<PathBuf> = setup.subroutine_path.clone();
+        let mut flow = Flow::new(dirs);
+        for (&n, &v) in &setup.parameters {
+            flow.params.preset(n, v);
+        }
         Self {
             reader,
             file,
             main: Lines::default(),
-            flow: Flow::new(dirs),
+            flow,
             buf: Vec::with_capacity(256),
             rendered: false,
             lexed: Lexed::default(),

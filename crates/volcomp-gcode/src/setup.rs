@@ -43,6 +43,18 @@ pub struct Setup {
     pub g30_given: bool,
     /// Machine position when the program starts.
     pub start_mm: Vec3,
+    /// The machine's length units: the units the set-up file is written
+    /// in, as LinuxCNC's `[TRAJ]LINEAR_UNITS`. LinuxCNC keeps the offset,
+    /// reference-point and tool parameters (#5161–#5409) in them.
+    pub machine_units: crate::geom::Units,
+    /// G92 offset in effect when the program starts (a `.var` file's #5211…).
+    pub g92_mm: Vec3,
+    /// The coordinate system in use when the program starts (0 = G54; a
+    /// `.var` file's #5220).
+    pub work_system: usize,
+    /// Numbered parameters preset from a `.var` file (not the ones the
+    /// interpreter owns).
+    pub parameters: BTreeMap<usize, f64>,
     /// Directories searched for subroutine files (`o<name> call` finds
     /// `name.ngc`), before the program's own directory. Relative entries of
     /// a set-up file are relative to that file.
@@ -60,6 +72,10 @@ impl Default for Setup {
             g30_given: false,
             start_mm: Vec3::ZERO,
             subroutine_path: Vec::new(),
+            machine_units: crate::geom::Units::Mm,
+            g92_mm: Vec3::ZERO,
+            work_system: 0,
+            parameters: BTreeMap::new(),
         }
     }
 }
@@ -80,6 +96,7 @@ struct RawSetup {
     start: Option<Sp<Vec<f64>>>,
     #[serde(default)]
     subroutine_path: Vec<String>,
+    var_file: Option<Sp<String>>,
     #[serde(default)]
     work_offsets: BTreeMap<Sp<String>, Sp<Vec<f64>>>,
     #[serde(default)]
@@ -161,7 +178,7 @@ impl Setup {
             at.error(
                 offset,
                 e.message().to_string(),
-                "the set-up file has the keys units, start, subroutine_path, [work_offsets], [tools] and [reference]",
+                "the set-up file has the keys units, start, subroutine_path, var_file, [work_offsets], [tools] and [reference]",
             )
         })?;
         let units = raw.units.ok_or_else(|| {
@@ -172,7 +189,10 @@ impl Setup {
             )
         })?;
         let k = units.get_ref().mm_per_unit();
-        let mut setup = Setup::default();
+        let mut setup = Setup {
+            machine_units: *units.get_ref(),
+            ..Setup::default()
+        };
         if let Some(s) = &raw.start {
             setup.start_mm = at.vec("start", s, k)?;
         }
@@ -236,6 +256,30 @@ impl Setup {
                 ));
             }
             setup.tool_lengths_mm.insert(n, length.get_ref() * k);
+        }
+        if let Some(var) = &raw.var_file {
+            if !raw.work_offsets.is_empty() || !raw.reference.is_empty() {
+                return Err(at.error(
+                    var.span().start,
+                    "the set-up gives both a var_file and [work_offsets] or [reference]".into(),
+                    "give the offsets and reference points in one place: the var file (LinuxCNC's own) or the set-up's tables",
+                ));
+            }
+            let path = std::path::PathBuf::from(var.get_ref());
+            let path = match base {
+                Some(b) if path.is_relative() => b.join(path),
+                _ => path,
+            };
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                at.error(
+                    var.span().start,
+                    format!("cannot read the var file {}: {e}", path.display()),
+                    "check the path (relative paths are relative to the set-up file)",
+                )
+            })?;
+            let shown = path.display().to_string();
+            let params = crate::varfile::parse(&text, &shown)?;
+            crate::varfile::apply(&mut setup, &params, k, &shown)?;
         }
         for (name, a) in &raw.reference {
             match name.get_ref().to_ascii_uppercase().as_str() {

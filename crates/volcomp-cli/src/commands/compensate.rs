@@ -250,7 +250,11 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         .output(if a.filter { "--filter output" } else { "-o" }, &output)
         .output_opt("--report", a.report.as_ref());
     check(&plan)?;
-    let machine = Machine::from_args(&a.machine)?;
+    let machine = Machine(
+        Machine::from_args(&a.machine)?
+            .0
+            .with_spline_tolerance(a.chord_tolerance),
+    );
     machine.warn_without_work_offset();
     let model = load_map(&a.map)?;
     let opts = options(&a)?;

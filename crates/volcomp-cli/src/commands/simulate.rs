@@ -22,7 +22,11 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         .output_opt("--errors-csv", a.errors_csv.as_ref())
         .output_opt("--plot", a.plot.as_ref());
     check(&plan)?;
-    let machine = Machine::from_args(&a.machine)?;
+    let machine = Machine(
+        Machine::from_args(&a.machine)?
+            .0
+            .with_spline_tolerance(a.chord_tolerance),
+    );
     machine.warn_without_work_offset();
     let model = load_map(&a.map)?;
     let name = a.program.display().to_string();

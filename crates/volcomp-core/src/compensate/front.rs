@@ -97,6 +97,13 @@ impl MachineSetup {
         self
     }
 
+    /// This set-up with splines (G5, G5.1, G5.2) linearised within
+    /// `tolerance_mm`, like arcs within the chord tolerance.
+    pub fn with_spline_tolerance(mut self, tolerance_mm: f64) -> Self {
+        self.interp.spline_tolerance_mm = tolerance_mm;
+        self
+    }
+
     /// An interpreter over `program`, naming it `file` in its errors.
     pub fn walker<R: std::io::BufRead>(&self, program: R, file: &str) -> Walker<R> {
         Walker::new(

@@ -45,6 +45,14 @@ impl State {
                 format_number(frame.word_value(q, from, a), style, &mut self.text);
             }
         }
+        if !self.extra_text.is_empty() {
+            if self.text.is_empty() {
+                self.text
+                    .push_str(if mode == OutMode::Rapid { "G0" } else { "G1" });
+                self.mode = Some(mode);
+            }
+            self.text.push_str(&std::mem::take(&mut self.extra_text));
+        }
         if self.text.is_empty() {
             return;
         }

@@ -16,12 +16,14 @@
 //! exists (negative reversal value) are held and reported.
 
 mod cycle;
+mod extra;
 mod frame;
 mod front;
 mod lines;
 mod options;
 mod points;
 pub mod solve;
+mod spline;
 mod style;
 mod targets;
 
@@ -69,6 +71,7 @@ pub fn compensate_program<R: BufRead>(
         summary: CompensateSummary::default(),
         buf: Vec::with_capacity(1024),
         text: String::with_capacity(128),
+        extra_text: String::new(),
     };
     let sep = if program_style.spaced { " " } else { "" };
     let survey = &program_style.survey;
@@ -83,6 +86,7 @@ pub fn compensate_program<R: BufRead>(
         st.buf.clear();
         let program_motion = ev.motions.iter().any(|m| m.source == MotionSource::Program);
         let cycle = ev.motions.iter().any(|m| m.source == MotionSource::Cycle);
+        let spline = ev.motions.iter().any(|m| m.source == MotionSource::Spline);
         if !ev.motions.is_empty() {
             mark_axes_set(ev.lexed, &mut st.known);
         }
@@ -108,6 +112,33 @@ pub fn compensate_program<R: BufRead>(
                 file,
                 &mut on_point,
             )?;
+            out.write_all(&st.buf)?;
+            st.frame_before = Some(Frame::of(ev.interp, options, survey));
+            continue;
+        }
+        if (spline || ev.interp.in_nurbs_block()) && all_known && !ev.after_end {
+            // Splines become compensated G1 segments (compensate/spline.rs);
+            // a G5.2 control-point line loses its spline words.
+            let words: Vec<_> = ev.lexed.words().collect();
+            if spline {
+                st.write_spline(
+                    ev.number,
+                    ev.bytes,
+                    words,
+                    ev.motions,
+                    ev.interp,
+                    model,
+                    options,
+                    survey,
+                    sep,
+                    file,
+                    &mut on_point,
+                )?;
+            } else {
+                st.write_spline_block(ev.number, ev.bytes, &words, None, file)?;
+            }
+            st.feed_known |=
+                ev.interp.feed_mode() != FeedMode::InverseTime && has_feed(ev.lexed.words());
             out.write_all(&st.buf)?;
             st.frame_before = Some(Frame::of(ev.interp, options, survey));
             continue;
@@ -170,6 +201,14 @@ pub fn compensate_program<R: BufRead>(
             ev.number,
             &mut on_point,
         )?;
+        // Extra axes (A … W) of a split motion: each segment carries its share.
+        let mut extra_plan = extra::ExtraPlan::new(
+            motion.extra,
+            interp.extra_offset(),
+            motion.start,
+            &targets,
+            &frame,
+        );
         // Write: the commands were solved from the position before the line.
         let mut pos = q_line_start;
         let stop_word = if commands.len() > 1 {
@@ -226,6 +265,12 @@ pub fn compensate_program<R: BufRead>(
                     motion.start,
                 );
                 let mut edits = edits;
+                if let Some(plan) = extra_plan.as_mut() {
+                    let words: Vec<_> = ev.lexed.words().collect();
+                    for (span, text) in plan.first_edits(&words, content, style) {
+                        edits.push(volcomp_gcode::edit::Edit::replace(span, text));
+                    }
+                }
                 apply_edits(ev.bytes, &mut edits, &mut st.buf).map_err(|e| {
                     CompensationError::AtLine {
                         file: file.into(),
@@ -240,6 +285,9 @@ pub fn compensate_program<R: BufRead>(
                 st.mode = Some(needed);
                 st.summary.lines_out += 1;
             } else {
+                if let Some(plan) = extra_plan.as_mut() {
+                    st.extra_text = plan.words_for(i, style, sep);
+                }
                 st.write_inserted(
                     &frame,
                     style,
@@ -317,4 +365,6 @@ struct State {
     summary: CompensateSummary,
     buf: Vec<u8>,
     text: String,
+    /// Extra-axis words (A … W) for the next inserted command.
+    extra_text: String,
 }

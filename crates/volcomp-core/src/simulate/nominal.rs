@@ -15,6 +15,11 @@ use crate::simulate::point_segment_distance;
 use std::f64::consts::TAU;
 use volcomp_gcode::{Arc, Motion, MotionKind, Vec3};
 
+/// How far (mm) a compensated spline command may end from the chord it was
+/// written for (corrections are micrometres), and how much farther the
+/// pairing looks ahead.
+const SPLINE_PAIRING_MM: f64 = 1.0;
+
 /// The trace comment of a line written by volcomp, if it carries one:
 /// the original line number it names.
 ///
@@ -86,6 +91,12 @@ impl NominalBlock {
             self.set_current(0);
             return Some(0);
         }
+        if feed && self.motions[0].source == volcomp_gcode::MotionSource::Spline {
+            if let Some(j) = self.pair_spline(to) {
+                self.set_current(j);
+                return Some(j);
+            }
+        }
         let d = to - from;
         let along =
             |m: &Motion| is_feed_like(m) == feed && (!feed || d.dot(m.end - m.start) >= 0.0);
@@ -101,6 +112,29 @@ impl NominalBlock {
         })?;
         self.set_current(j);
         Some(j)
+    }
+
+    /// A spline's chords all run the same way, so a command is paired by
+    /// position: with the chord, from the current one on, that minimises
+    /// its distance to the chord plus half its distance to the chord's end
+    /// (so a command ending at a chord's end pairs with that chord, not the
+    /// next one that starts there). The scan stops once the chords are
+    /// [`SPLINE_PAIRING_MM`] farther than the best.
+    fn pair_spline(&self, to: Vec3) -> Option<usize> {
+        let mut best: Option<(f64, usize)> = None;
+        for j in self.current.unwrap_or(0)..self.motions.len() {
+            let m = &self.motions[j];
+            let seg = point_segment_distance(to, m.start, m.end);
+            if best.is_some_and(|(b, _)| seg > b + SPLINE_PAIRING_MM) {
+                break;
+            }
+            let score = seg + 0.5 * (to - m.end).norm();
+            if best.is_none_or(|(b, _)| score < b) {
+                best = Some((score, j));
+            }
+        }
+        best.filter(|(b, _)| *b <= SPLINE_PAIRING_MM)
+            .map(|(_, j)| j)
     }
 
     /// Pairs written motion `i` of a line that is this block's own line,
@@ -306,6 +340,7 @@ mod tests {
             line: 7,
             column: 1,
             feed: 100.0,
+            extra: Default::default(),
         };
         let motions = [
             m(MotionKind::Rapid, [0.0, 0.0, 5.0], [1.0, 1.0, 5.0]),

@@ -99,7 +99,10 @@ pub struct SegmentError {
 
 fn is_measured(m: &Motion) -> bool {
     !matches!(m.kind, MotionKind::Rapid)
-        && matches!(m.source, MotionSource::Program | MotionSource::Cycle)
+        && matches!(
+            m.source,
+            MotionSource::Program | MotionSource::Cycle | MotionSource::Spline
+        )
 }
 
 /// The last measured command, waiting to know whether the next command
@@ -152,8 +155,11 @@ fn advance<S: BufRead>(
             if b.line != n {
                 return Err(mismatch(file, line, format!("this line is marked as written for line {n} of the reference, but the reference's next moving line is line {}", b.line)));
             }
-            // A canned cycle's own line is written without its moves.
-            b.own_line_written = b.motions.iter().any(|m| m.source == MotionSource::Cycle);
+            // A canned cycle's or a spline's own line is written without its moves.
+            b.own_line_written = b
+                .motions
+                .iter()
+                .any(|m| matches!(m.source, MotionSource::Cycle | MotionSource::Spline));
             *block = Some(b);
         }
         None => {
@@ -337,7 +343,11 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
                 key,
                 segment,
                 actual_end_mm: end,
-                target_mm: is_measured(&nominal).then_some(nominal.end),
+                // A spline is one feed move of the program: its point error
+                // is at its end, not at the ends of its chords.
+                target_mm: (is_measured(&nominal)
+                    && (nominal.source != MotionSource::Spline || idx + 1 == blk.motions.len()))
+                .then_some(nominal.end),
             });
         }
     }

@@ -15,6 +15,8 @@
 //! | `words.rs` | decoding a block: words by letter, G/M codes, modal groups, unused words |
 //! | `motion.rs` | straight moves, arcs, polar end points, feed-rate and reach checks |
 //! | `cycle/` | canned cycles G73, G81–G89 |
+//! | `spline.rs` | splines G5, G5.1, G5.2/G5.3, linearised within the spline tolerance |
+//! | `extra.rs` | the extra axes A, B, C, U, V, W, carried through (not compensated) |
 //! | `offsets.rs` | tool length offsets, G10, G92, G28/G30 |
 //! | `tape.rs` | the start and end of a program: `%` lines, the required program end |
 //! | `warnings.rs` | [`Warning`]: what was assumed |
@@ -23,14 +25,18 @@
 //! guess is ever made about a construct's meaning.
 
 mod cycle;
+mod extra;
+mod modal;
 mod motion;
 mod offsets;
 mod options;
+mod spline;
 mod state;
 mod tape;
 mod warnings;
 mod words;
 
+pub use extra::{ExtraAxes, EXTRA_LETTERS};
 pub use motion::MAX_COORDINATE_MM;
 pub use options::{FeedMode, InterpOptions};
 pub use state::Unanswerable;
@@ -79,6 +85,8 @@ pub enum MotionSource {
     Reference,
     /// A move expanded from a canned drilling cycle.
     Cycle,
+    /// A chord of a G5, G5.1 or G5.2/G5.3 spline.
+    Spline,
 }
 
 /// One motion, in the axis frame.
@@ -98,6 +106,9 @@ pub struct Motion {
     pub column: usize,
     /// Feed rate in mm/min (or inverse-time value under G93).
     pub feed: f64,
+    /// The extra axes A, B, C, U, V, W at its start and end (not
+    /// compensated; moved linearly over the motion).
+    pub extra: ExtraAxes,
 }
 
 /// The interpreter's modal state.
@@ -153,6 +164,21 @@ pub struct Interpreter {
     warnings: Vec<Warning>,
     warned_units: bool,
     warned_reference: [bool; 2],
+    /// Extra axes A, B, C (degrees), U, V, W (mm) now, and at the end of
+    /// the current block's motion.
+    extra: [f64; 6],
+    extra_target: [f64; 6],
+    /// The modal state M70 saved (M72 restores it).
+    saved_modes: Option<modal::SavedModes>,
+    /// G92 offsets of the extra axes, and the ones G92.3 restores.
+    extra_g92: [f64; 6],
+    extra_g92_saved: [f64; 6],
+    uses_extra_axes: bool,
+    /// The last G5 block's end tangent (second control point relative to
+    /// the end, mm, axis frame), for G5 blocks that omit I and J.
+    spline_tangent: Option<(f64, f64)>,
+    /// The NURBS block being collected (G5.2 … G5.3).
+    nurbs: Option<Box<spline::NurbsBlock>>,
     /// The current block's words; `None` only while the block runs.
     words: Option<Box<WordTable>>,
 }
@@ -176,6 +202,7 @@ impl Interpreter {
     pub fn new(setup: Setup, options: InterpOptions) -> Self {
         let work_offsets = setup.work_offsets_mm;
         let position = setup.start_mm;
+        let (work, g92) = (setup.work_system.min(8), setup.g92_mm);
         Self {
             setup,
             options,
@@ -188,9 +215,9 @@ impl Interpreter {
             feed: 0.0,
             spindle_rpm: 0.0,
             plane_before_block: Plane::Xy,
-            work: 0,
+            work,
             work_offsets,
-            g92: Vec3::ZERO,
+            g92,
             g92_saved: Vec3::ZERO,
             tlo: Vec3::ZERO,
             loaded_tool: 0,
@@ -211,6 +238,14 @@ impl Interpreter {
             warnings: Vec::new(),
             warned_units: false,
             warned_reference: [false; 2],
+            extra: [0.0; 6],
+            extra_target: [0.0; 6],
+            saved_modes: None,
+            extra_g92: [0.0; 6],
+            extra_g92_saved: [0.0; 6],
+            uses_extra_axes: false,
+            spline_tangent: None,
+            nurbs: None,
             words: Some(Box::default()),
         }
     }
@@ -393,6 +428,8 @@ impl Interpreter {
         } else if w.has_m(50) {
             self.spindle_dir = 0;
         }
+        // M70/M71/M72: save, invalidate, restore the modal state.
+        self.modal_save_restore(line, w)?;
         // 10: dwell (passed through).
         if w.has_g(40) && w.get(b'P').is_none() {
             return Err(invalid(
@@ -447,11 +484,15 @@ impl Interpreter {
             (10, MotionMode::Feed),
             (20, MotionMode::Cw),
             (30, MotionMode::Ccw),
+            // G5 and G5.1 leave the motion mode as it was, and G5.3 is
+            // non-modal (`Interp::convert_motion`, interp_convert.cc).
+            (52, MotionMode::Spline(52)),
         ] {
             if w.has_g(code) {
                 self.motion_mode = Some(mode);
             }
         }
+        self.end_spline_block_unless(self.motion_mode);
         let mode_before = self.motion_mode;
         for code in [730u16, 810, 820, 830, 840, 850, 860, 870, 880, 890] {
             if w.has_g(code) {
@@ -462,6 +503,7 @@ impl Interpreter {
             self.cycle_start_z = None;
         }
         let new_cycle = self.motion_mode != mode_before;
+        self.extra_target(line, w)?;
         // 19: non-modal codes that use axis words.
         let axis_user = [100u16, 280, 300, 920, 431]
             .into_iter()

@@ -57,6 +57,10 @@ impl Interpreter {
             MotionMode::Feed => "Cannot do g1 with zero feed rate",
             MotionMode::Cw | MotionMode::Ccw => "Cannot make arc with zero feed rate",
             MotionMode::Cycle(_) => "Cannot feed with zero feed rate",
+            MotionMode::Spline(53) => return Ok(()),
+            MotionMode::Spline(52) if self.feed_mode != FeedMode::PerMinute => return Ok(()),
+            MotionMode::Spline(52) => "Cannot make a NURBS with 0 feedrate",
+            MotionMode::Spline(_) => "Cannot make arc with zero feed rate",
         };
         if self.feed_mode == FeedMode::InverseTime {
             if w.get(b'F').is_none() && !matches!(mode, MotionMode::Cycle(_)) {
@@ -153,7 +157,12 @@ impl Interpreter {
     /// Refuses polar words where LinuxCNC does (`Interp::enhance_block`,
     /// `Interp::find_ends`): outside G17, beside X or Y, with G53 or a
     /// canned cycle, or where the angle is undefined (at the origin).
-    fn check_polar(&self, line: u64, w: &WordTable, mode: MotionMode) -> Result<(), GcodeError> {
+    pub(super) fn check_polar(
+        &self,
+        line: u64,
+        w: &WordTable,
+        mode: MotionMode,
+    ) -> Result<(), GcodeError> {
         let Some(col) = w.polar_col() else {
             return Ok(());
         };
@@ -215,6 +224,13 @@ impl Interpreter {
             })
             .unwrap_or(0);
         let motion_word = self.motion_word_col(w).is_some();
+        let block_spline = [50u16, 51, 53].into_iter().find(|c| w.has_g(*c));
+        if let Some(code) = block_spline.or(match self.motion_mode {
+            Some(MotionMode::Spline(52)) => Some(52),
+            _ => None,
+        }) {
+            return self.spline(line, col, w, code, out);
+        }
         if !w.has_axis() && !w.has_polar() {
             // LinuxCNC moves even without axis words when a motion code is on
             // the line: G0/G1 make a zero-length move, G2/G3 with centre words
@@ -299,6 +315,7 @@ impl Interpreter {
                 )?;
             }
             MotionMode::Cycle(code) => self.cycle(line, col, code, w, new_cycle, out)?,
+            MotionMode::Spline(code) => self.spline(line, col, w, code, out)?,
         }
         Ok(())
     }
@@ -326,8 +343,13 @@ impl Interpreter {
             line,
             column: column + 1,
             feed,
+            extra: super::ExtraAxes {
+                start: self.extra,
+                end: self.extra_target,
+            },
         });
         self.position = end;
+        self.extra = self.extra_target;
         Ok(())
     }
 

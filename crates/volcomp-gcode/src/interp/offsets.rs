@@ -188,6 +188,10 @@ impl Interpreter {
             feed,
         )?;
         let mut fin = intermediate;
+        if !w.has_axis() {
+            // All axes go to the reference point; the extra axes' is 0.
+            self.extra_target = [0.0; 6];
+        }
         for (i, l) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
             if !w.has_axis() || w.get(l).is_some() {
                 fin[i] = reference[i];

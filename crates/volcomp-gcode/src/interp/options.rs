@@ -17,6 +17,9 @@ pub struct InterpOptions {
     /// caller may read a fragment, so the default does not require it; the
     /// `volcomp` command line does, unless told otherwise.
     pub require_program_end: bool,
+    /// Largest distance (mm) between a G5/G5.1/G5.2 spline and the chords
+    /// the interpreter linearises it into.
+    pub spline_tolerance_mm: f64,
 }
 
 impl Default for InterpOptions {
@@ -25,6 +28,7 @@ impl Default for InterpOptions {
             accept_k0_on_xy_arcs: true,
             absolute_arc_centers: false,
             require_program_end: false,
+            spline_tolerance_mm: 1e-4,
         }
     }
 }
@@ -48,4 +52,7 @@ pub(super) enum MotionMode {
     Ccw,
     /// Canned cycle: G81, G82, G85 or G89 (code × 10).
     Cycle(u16),
+    /// Spline: G5 (50), G5.1 (51), G5.2 (52); G5.3 (53) only while its
+    /// block runs.
+    Spline(u16),
 }

@@ -1,8 +1,9 @@
 //! The interpreter's state as LinuxCNC's predefined parameters show it
 //! (numbered: the RS274/NGC parameter table of the LinuxCNC manual,
 //! "Numbered Parameters"; named: src/emc/rs274ngc/interp_namedparams.cc,
-//! `lookup_named_param`). Lengths are in the current program units, as
-//! LinuxCNC keeps them (it converts them when G20/G21 switch).
+//! `lookup_named_param`). Offsets, reference points and tool offsets are in
+//! the machine's units (LinuxCNC's `USER_TO_PROGRAM_LEN`, units.h), the
+//! current position (#5420…, `#<_x>`) in the program's.
 
 use super::options::MotionMode;
 use super::{FeedMode, Interpreter};
@@ -23,8 +24,11 @@ impl Interpreter {
         mm / self.units.mm_per_unit()
     }
 
-    fn prog_vec(&self, v: Vec3, axis: usize) -> f64 {
-        self.prog_units(v[axis])
+    /// A length of the machine's own parameters (offsets, reference
+    /// points, tool): in the machine's units (`USER` units in LinuxCNC's
+    /// units.h), whatever G20/G21 say.
+    fn machine_vec(&self, v: Vec3, axis: usize) -> f64 {
+        v[axis] / self.setup.machine_units.mm_per_unit()
     }
 
     /// The current position in program coordinates and units (LinuxCNC's
@@ -42,7 +46,7 @@ impl Interpreter {
     /// (#5161–#5169 G28, #5181–#5189 G30, #5210–#5219 G92, #5220–#5390
     /// coordinate systems, #5400–#5409 tool, #5420–#5428 position), or why not.
     pub fn numbered_parameter(&self, n: usize) -> Result<f64, Unanswerable> {
-        let xyz = |v: Vec3, k: usize| if k < 3 { self.prog_vec(v, k) } else { 0.0 };
+        let xyz = |v: Vec3, k: usize| if k < 3 { self.machine_vec(v, k) } else { 0.0 };
         Ok(match n {
             5061..=5070 => return Err(Unanswerable::RunTime),
             5161..=5169 => xyz(self.setup.g28_mm, n - 5161),

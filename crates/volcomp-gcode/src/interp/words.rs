@@ -43,7 +43,10 @@ impl WordTable {
         self.col(b'@').or(self.col(b'^'))
     }
     pub(super) fn has_axis(&self) -> bool {
-        self.get(b'X').is_some() || self.get(b'Y').is_some() || self.get(b'Z').is_some()
+        self.get(b'X').is_some()
+            || self.get(b'Y').is_some()
+            || self.get(b'Z').is_some()
+            || self.extra_col().is_some()
     }
     pub(super) fn has_g(&self, code: u16) -> bool {
         self.g.iter().any(|(c, _)| *c == code)
@@ -70,7 +73,7 @@ impl WordTable {
 /// Modal group of a supported G code (×10), or why it is refused.
 fn g_group(code: u16) -> Result<u8, &'static str> {
     Ok(match code {
-        0 | 10 | 20 | 30 | 730 | 800 | 810..=890 if code.is_multiple_of(10) => 1,
+        0 | 10 | 20 | 30 | 50 | 51 | 52 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => 1,
         170 | 180 | 190 => 2,
         900 | 910 => 3,
         901 | 911 => 4,
@@ -83,15 +86,41 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         610 | 611 | 640 => 13,
         960 | 970 => 14,
         150 | 500 | 690 => 16, // cancel polar / scaling / rotation: no-ops here
-        40 | 100 | 280 | 281 | 300 | 301 | 530 | 920 | 921 | 922 | 923 => 0,
-        410 | 411 | 420 | 421 => return Err("cutter radius compensation (G41/G42) changes the path by the tool radius, which volcomp does not model; post the program with compensation computed in CAM (\"in computer\"), or pass it through without volcomp"),
+        40 | 53 | 100 | 280 | 281 | 300 | 301 | 530 | 920 | 921 | 922 | 923 => 0,
+        410 | 411 | 420 | 421 => return Err(CUTTER_COMP),
         680 | 681 => return Err("coordinate rotation (G68) is not a pure translation between program and axis frame; post the program without rotation"),
         510 | 511 => return Err("scaling (G51) is not a pure translation between program and axis frame; post the program without scaling"),
         160 => return Err("polar coordinates (G16) are not interpreted; post the program in Cartesian coordinates"),
         520 => return Err("G52 local offsets are not interpreted yet; use G92 or a work offset"),
         740 | 760 => return Err("this canned cycle is not expanded by volcomp (G73 and G81–G89 are); post the cycle as explicit moves"),
-        50 | 51 | 52 | 53 | 70 | 80 | 330 | 331 | 380..=385 | 430..=439 => return Err("this G code moves the machine in a way volcomp does not model"),
-        _ => return Err("unknown G code"),
+        380..=385 => return Err("probing ends where the probe touches, which is known only when the machine runs; volcomp cannot know the path after it (LinuxCNC's later moves may use the probed position, #5061–#5069)"),
+        330 | 331 => return Err("spindle-synchronised motion (G33, G33.1 rigid tapping; G76 threading likewise) is tied to the spindle's rotation; volcomp does not alter it; run threading as a separate, uncompensated program"),
+        70 | 80 => return Err("lathe diameter/radius mode (G7/G8) is for lathes; volcomp compensates the X, Y, Z of milling machines"),
+        700..=722 => return Err("lathe roughing and finishing cycles (G70–G72) are for lathes; volcomp compensates the X, Y, Z of milling machines"),
+        430..=439 => return Err("this tool length offset (G43.2) is not interpreted; give the summed length to G43 H in the set-up's tool table"),
+        _ => return Err("unknown G code: LinuxCNC does not know it either, unless the machine's INI file remaps it to a subroutine, which volcomp cannot see; write out what it does in the program"),
+    })
+}
+
+/// Why G41/G42 are refused (docs/gcode.md, "What volcomp refuses, and why").
+const CUTTER_COMP: &str = "cutter radius compensation (G41, G42, G41.1, G42.1) is computed by the controller from the tool's diameter, with entry moves, corner arcs and one block of look-ahead; volcomp does not reproduce it, and a compensated offset path could not be handed back to G41/G42; post the program with the tool-centre path (compensation computed in CAM, \"in computer\") and compensate that";
+
+/// Modal group of an M code (×10) as LinuxCNC 2.9 has them
+/// (`Interp::_ems`, src/emc/rs274ngc/interp_array.cc), or why it is refused.
+fn m_group(code: u16) -> Result<u8, &'static str> {
+    Ok(match code / 10 {
+        0 | 1 | 2 | 30 | 60 | 99 => 4,
+        3..=5 | 19 | 70 | 71 => 7,
+        6 | 61 => 6,
+        7..=9 => 8,
+        48..=53 => 9,
+        62..=65 | 67 | 68 => 5,
+        66 => return Err("M66 waits for an input of the machine and stores its state in #5399; what it reads is known only when the machine runs; remove the M66 (and what depends on #5399) to compensate the program"),
+        72 => 7,
+        73 => return Err("M73 saves the modal state and restores it when the subroutine returns; volcomp does not restore it at the return; state the modes explicitly instead (M70 and M72 are interpreted)"),
+        98 => 10,
+        100..=199 => return Err("M100–M199 run the machine's own user programs (files in its PROGRAM_PREFIX), which volcomp cannot see; LinuxCNC refuses them when the file is missing (\"Unknown m code used\"); remove it, or run that part uncompensated"),
+        _ => return Err("unknown M code (\"Unknown m code used\" in LinuxCNC, or above M199: \"M-code greater than 199\"); a remapped M code runs the machine's own subroutine, which volcomp cannot see"),
     })
 }
 
@@ -181,6 +210,26 @@ impl Interpreter {
                             "M codes are whole numbers",
                         )
                     })?;
+                    let group = m_group(code).map_err(|why| {
+                        unsupported(
+                            line,
+                            col,
+                            format!("{} is not supported: {why}", code_name('M', code)),
+                            "remove or replace this code; volcomp never guesses what a code means",
+                        )
+                    })?;
+                    if let Some((other, _)) = w.m.iter().find(|(c, _)| m_group(*c) == Ok(group)) {
+                        return Err(invalid(
+                            line,
+                            col,
+                            format!(
+                                "{} and {} are in the same modal group; LinuxCNC refuses it (\"Two M codes used from same modal group\")",
+                                code_name('M', *other),
+                                code_name('M', code)
+                            ),
+                            "keep one of them on this line",
+                        ));
+                    }
                     if matches!(code, 980 | 990) {
                         return Err(unsupported(
                             line,
@@ -190,9 +239,6 @@ impl Interpreter {
                         ));
                     }
                     w.m.push((code, col));
-                }
-                b'A' | b'B' | b'C' | b'U' | b'V' | b'W' => {
-                    return Err(unsupported(line, col, format!("axis word {} is not supported: volcomp compensates 3-axis (X, Y, Z) machines", *letter as char), "remove rotary/extra axis words or use a 3-axis program"));
                 }
                 b'N' if w.values[slot_of(b'N')].is_none() => {
                     w.values[slot_of(b'N')] = Some((*value, col));
@@ -223,6 +269,10 @@ impl Interpreter {
             (10, MotionMode::Feed),
             (20, MotionMode::Cw),
             (30, MotionMode::Ccw),
+            (50, MotionMode::Spline(50)),
+            (51, MotionMode::Spline(51)),
+            (52, MotionMode::Spline(52)),
+            (53, MotionMode::Spline(53)),
         ]
         .into_iter()
         .chain(CYCLE_CODES.map(|c| (c, MotionMode::Cycle(c))))
@@ -252,24 +302,26 @@ impl Interpreter {
         let cycle = matches!(motion, Some(MotionMode::Cycle(_)));
         let g10 = w.has_g(100);
         let g87 = motion == Some(MotionMode::Cycle(870));
+        let spline = |codes: &[u16]| codes.iter().any(|c| motion == Some(MotionMode::Spline(*c)));
+        let (g5, g5_ij, g52) = (spline(&[50]), spline(&[50, 51]), spline(&[52]));
         let m_any = |codes: &[u16]| codes.iter().any(|c| w.has_m(*c));
         let used = |letter: u8| -> Result<(), &'static str> {
             let (ok, why) = match letter {
                 b'D' => (w.has_g(960), "D word with no G41, G41.1, G42, G42.1 or G96 to use it"),
                 b'E' => (m_any(&[660, 670, 680]), "E word with no G70, G76, M66, M67 or M68 to use it"),
                 b'H' => (w.has_g(430), "H word with no G43 or G76 to use it"),
-                b'I' => (arc || g10 || g87, "I word with no G2, G3, G10 or G87 to use it"),
-                b'J' => (arc || g10 || g87, "J word with no G2, G3, G10 or G87 to use it"),
+                b'I' => (arc || g10 || g5_ij || g87, "I word with no G2, G3, G5, G5.1, G10 or G87 to use it"),
+                b'J' => (arc || g10 || g5_ij || g87, "J word with no G2, G3, G5, G5.1, G10 or G87 to use it"),
                 b'K' => (arc || g87, "K word with no G2, G3 or G87 to use it"),
-                b'L' => (cycle || g10 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
+                b'L' => (cycle || g10 || g52 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
                 b'P' => (
-                    g10 || w.has_g(40) || w.has_g(640) || arc
+                    g10 || w.has_g(40) || w.has_g(640) || arc || g5 || g52
                         || matches!(motion, Some(MotionMode::Cycle(820 | 840 | 860 | 880 | 890)))
                         || m_any(&[500, 510, 520, 530, 620, 630, 640, 650, 660, 190]),
                     "P word with no G2, G3, G4, G10, G64, G82, G84, G86, G88, G89 or M19, M50–M53, M62–M66 to use it",
                 ),
                 b'Q' => (
-                    g10 || w.has_g(640) || m_any(&[660, 670, 680, 610, 190])
+                    g10 || g5 || w.has_g(640) || m_any(&[660, 670, 680, 610, 190])
                         || matches!(motion, Some(MotionMode::Cycle(730 | 830))),
                     "Q word with no G10, G64, G73, G83, M19, M61, M66, M67 or M68 to use it",
                 ),
@@ -312,7 +364,7 @@ impl Interpreter {
     }
 
     pub(super) fn motion_word_col(&self, w: &WordTable) -> Option<usize> {
-        [0u16, 10, 20, 30]
+        [0u16, 10, 20, 30, 50, 51, 52, 53]
             .into_iter()
             .chain(CYCLE_CODES)
             .find_map(|c| w.g_col(c))

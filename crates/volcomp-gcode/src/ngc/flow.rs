@@ -810,10 +810,13 @@ impl<R: BufRead> Walker<R> {
                     show_label(&f.name)
                 ));
             }
-            w.flow
-                .loops
-                .last()
-                .map(|l| format!("the loop o{} is not closed", show_label(&l.label)))
+            w.flow.loops.last().map(|l| {
+                format!(
+                    "the loop o{} (opened on line {}) is not closed",
+                    show_label(&l.label),
+                    l.start.line + 1
+                )
+            })
         };
         if pos.src != MAIN || !self.flow.frames.is_empty() || !self.flow.loops.is_empty() {
             let what = open(self).unwrap_or_else(|| "a subroutine is not closed".into());
