@@ -28,6 +28,23 @@ fn axes(plane: Plane) -> [usize; 3] {
 const AXIS_LETTER: [u8; 3] = [b'X', b'Y', b'Z'];
 const CENTRE_LETTER: [u8; 3] = [b'I', b'J', b'K'];
 
+/// The program-unit value LinuxCNC holds for a coordinate volcomp keeps in
+/// mm in the axis frame: the round trip (v·k + offset − offset)/k can land
+/// one bit off the number the program wrote (0.08 in → 0.07999999999999999),
+/// and the cycle compares it exactly with R (LinuxCNC: `old_cc < r`), so the
+/// value is snapped to ten decimals when it is that close to them.
+fn snap(v: f64) -> f64 {
+    if v.abs() >= 1e5 {
+        return v;
+    }
+    let s = (v * 1e10).round() / 1e10;
+    if (s - v).abs() < 1e-9 {
+        s
+    } else {
+        v
+    }
+}
+
 fn plane_name(plane: Plane) -> &'static str {
     match plane {
         Plane::Xy => "XY",
@@ -201,9 +218,9 @@ impl Interpreter {
         let mm = self.units.mm_per_unit();
         let off = self.frame_offset_mm();
         let prog = [
-            (self.position.x - off.x) / mm,
-            (self.position.y - off.y) / mm,
-            (self.position.z - off.z) / mm,
+            snap((self.position.x - off.x) / mm),
+            snap((self.position.y - off.y) / mm),
+            snap((self.position.z - off.z) / mm),
         ];
         let (cur_a, cur_b) = (prog[ax[0]], prog[ax[1]]);
         let mut current_cc = prog[ax[2]];
