@@ -1,6 +1,6 @@
 //! Canned cycles written back by `compensate`: G73/G83 pecks, G86's
 //! spindle stop and restart, G82/G89 dwells with L repeats, and the cycles
-//! that are refused (G84, G87, G88). Expected text derived from LinuxCNC
+//! that are refused (G87, G88); G84's strokes written unaltered. Expected text derived from LinuxCNC
 //! 2.9's interp_cycles.cc by hand.
 
 use std::io::Cursor;
@@ -120,9 +120,8 @@ fn g89_dwells_only_at_the_bottom_of_each_repeat() {
 }
 
 #[test]
-fn tapping_back_boring_and_manual_retract_are_refused_with_reasons() {
+fn back_boring_and_manual_retract_are_refused_with_reasons() {
     for (block, what) in [
-        ("G84 X10 Y10 Z-5 R2", "G84"),
         ("G87 X10 Y10 Z-5 R2 I1 J0 K-3", "G87"),
         ("G88 X10 Y10 Z-5 R2 P1", "G88"),
     ] {
@@ -130,4 +129,32 @@ fn tapping_back_boring_and_manual_retract_are_refused_with_reasons() {
         let e = compensate(&program).unwrap_err();
         assert!(e.contains(what) && e.contains(":3"), "{e}");
     }
+}
+
+#[test]
+fn g84_strokes_are_the_nominal_strokes_moved_with_the_hole() {
+    // LinuxCNC 2.9's G84 (convert_cycle_g74_g84): feed down, M5, M4, dwell,
+    // feed up, M5, M3, with feed and speed overrides disabled for it.
+    let program =
+        "G21 G90 G17 S500 M3\nG0 X0 Y0 Z10\nG99 G84 X10 Y10 Z-5 R2 P0.5 F100 L2\nG80\nM2\n";
+    let out = compensate(program).unwrap();
+    let lines: Vec<&str> = out.lines().collect();
+    let tops: Vec<usize> = (0..lines.len()).filter(|&i| lines[i] == "M49").collect();
+    assert_eq!(tops.len(), 2, "{out}");
+    for i in tops {
+        assert_eq!(&lines[i + 2..i + 5], &["M5", "M4", "G4 P0.5"], "{out}");
+        assert_eq!(&lines[i + 6..i + 9], &["M5", "M3", "M48"], "{out}");
+    }
+    // The written moves: every move but the strokes is the nominal one
+    // shifted by −e; each stroke is a pure Z move of the nominal 7 mm, down
+    // from and back up to the compensated R point.
+    let written = ends(&out);
+    let shift = Vec3::new(-0.005, 0.003, -0.002);
+    let top = Vec3::new(10.0, 10.0, 2.0) + shift;
+    let bottom = top + Vec3::new(0.0, 0.0, -7.0);
+    let n = written.len();
+    assert!((written[n - 1] - top).max_abs() < 1e-9, "{out}");
+    assert!((written[n - 2] - bottom).max_abs() < 1e-9, "{out}");
+    assert!((written[n - 3] - top).max_abs() < 1e-9, "{out}");
+    assert!((written[n - 4] - bottom).max_abs() < 1e-9, "{out}");
 }

@@ -1,7 +1,8 @@
-//! Canned cycles written as explicit, compensated moves: G73, G81, G82,
-//! G83, G85, G86 and G89, with the dwells and spindle stops/restarts
-//! LinuxCNC 2.9 makes in them (src/emc/rs274ngc/interp_cycles.cc). G84,
-//! G87 and G88 are refused: see `refusal`.
+//! Canned cycles written as explicit, compensated moves: G73, G81–G86 and
+//! G89, with the dwells and spindle stops/restarts LinuxCNC 2.9 makes in
+//! them (src/emc/rs274ngc/interp_cycles.cc); G84's tapping strokes are
+//! written unaltered (see `write_tap_stroke`). G87 and G88 are refused:
+//! see `refusal`.
 
 use super::frame::Frame;
 use super::lines::{blank_before, line_ending, OutMode};
@@ -9,6 +10,7 @@ use super::targets::{check_target_count, targets_of};
 use super::{model_error, CompensateOptions, PointRecord, State};
 use crate::error::CompensationError;
 use crate::model::ErrorModel;
+use crate::simulate::next_state;
 use volcomp_gcode::edit::{apply_edits, Edit};
 use volcomp_gcode::lexer::Word;
 use volcomp_gcode::number::{format_number, NumberStyle, StyleSurvey};
@@ -58,7 +60,7 @@ impl State {
         let mut edits = Vec::new();
         for w in &words {
             match w.letter {
-                b'G' if [73.0, 81.0, 82.0, 83.0, 85.0, 86.0, 89.0].contains(&w.value) => {
+                b'G' if [73.0, 81.0, 82.0, 83.0, 84.0, 85.0, 86.0, 89.0].contains(&w.value) => {
                     edits.push(Edit::replace(w.value_span.clone(), "80"));
                 }
                 b'X' | b'Y' | b'Z' | b'R' | b'P' | b'Q' | b'L' => {
@@ -94,6 +96,11 @@ impl State {
         let mut restart_due = false;
         for m in motions {
             let feed_like = matches!(m.kind, MotionKind::Feed);
+            if code == 84 && feed_like {
+                self.write_tap_stroke(m, &frame, style, sep, line, options, ending, feeds, dwell);
+                feeds += 1;
+                continue;
+            }
             check_target_count(m, options, file, line)?;
             let targets = targets_of(m, options, model, self.s)
                 .map_err(|source| model_error(file, line, source))?;
@@ -180,6 +187,73 @@ impl State {
         Ok(())
     }
 
+    /// One feed stroke of G84 (even `feeds`: down, odd: up), written so the
+    /// tapping stroke is not altered: it is the nominal stroke translated
+    /// rigidly to where the compensated positioning left the tool, so its
+    /// direction and length are exactly the controller's. Around it, what
+    /// LinuxCNC 2.9's `convert_cycle_g74_g84` does with canon calls, as
+    /// M-codes: overrides disabled (M49) for the stroke, at the bottom the
+    /// spindle stopped and reversed (M5 M4) and the dwell, at the top the
+    /// spindle stopped and restarted clockwise (M5 M3) and the overrides
+    /// enabled again (M48).
+    #[allow(clippy::too_many_arguments)]
+    fn write_tap_stroke(
+        &mut self,
+        m: &volcomp_gcode::Motion,
+        frame: &Frame,
+        style: NumberStyle,
+        sep: &str,
+        line: u64,
+        options: &CompensateOptions,
+        ending: &[u8],
+        feeds: usize,
+        dwell: Option<f64>,
+    ) {
+        let down = feeds.is_multiple_of(2);
+        if down {
+            self.write_word_line("M49", ending);
+        }
+        let from = self.q_out;
+        let q = from + (m.end - m.start);
+        if q != from {
+            self.write_inserted(
+                frame,
+                style,
+                sep,
+                from,
+                q,
+                OutMode::Feed,
+                line,
+                options.trace_comments,
+                ending,
+                "tap",
+            );
+        }
+        self.s = next_state(self.s, q - from);
+        self.s_nominal = self.s;
+        self.q_out = q;
+        if down {
+            self.write_word_line("M5", ending);
+            self.write_word_line("M4", ending);
+            let mut text = format!("G4{sep}P");
+            format_number(
+                dwell.unwrap_or(0.0),
+                NumberStyle {
+                    decimals: 3,
+                    leading_zero: true,
+                    trim_trailing_zeros: true,
+                    trailing_dot: false,
+                },
+                &mut text,
+            );
+            self.write_word_line(&text, ending);
+        } else {
+            self.write_word_line("M5", ending);
+            self.write_word_line("M3", ending);
+            self.write_word_line("M48", ending);
+        }
+    }
+
     fn write_word_line(&mut self, text: &str, ending: &[u8]) {
         self.buf.extend_from_slice(text.as_bytes());
         self.buf.extend_from_slice(ending);
@@ -190,10 +264,6 @@ impl State {
 /// Why a canned cycle cannot be written back as explicit moves.
 fn refusal(code: u16) -> Option<(&'static str, &'static str)> {
     match code {
-        84 => Some((
-            "G84 tapping cannot be compensated: LinuxCNC 2.9 runs its stroke with feed and spindle overrides disabled and reverses the spindle at the bottom without waiting for it to reach speed; written as explicit moves the stroke would lose both, and compensated it would no longer be purely along the tap's axis, which breaks the tap or the thread",
-            "tap these holes in a separate program that is not compensated, or drill them with volcomp and tap them uncompensated",
-        )),
         87 => Some((
             "G87 back boring cannot be written as explicit moves that run the same: it stops the spindle in an orientation (ORIENT_SPINDLE) that only the cycle makes, to pass the boring bar through the hole",
             "run the back-boring operation in a separate program that is not compensated",
