@@ -200,7 +200,7 @@ fn refused(program: &str, line: u64, column: usize, needle: &str, linuxcnc: &str
 #[test]
 fn cycle_errors_are_located_as_linuxcnc_raises_them() {
     let head = "G21 F100\nG0 Z5\n";
-    let cases: [(&str, u64, usize, &str); 8] = [
+    let cases: [(&str, u64, usize, &str); 9] = [
         ("G83 X1 Z-1 R1 Q0\n", 3, 15, "negative or zero q value used"),
         ("G83 X1 Z-1 R1\n", 3, 1, "q word missing with g83"),
         (
@@ -223,6 +223,12 @@ fn cycle_errors_are_located_as_linuxcnc_raises_them() {
             3,
             5,
             "y value unspecified in xz plane canned cycle",
+        ),
+        (
+            "G0 X0 Y0\nG91 G81 ^30 Z-1 R-1 L2\n",
+            4,
+            9,
+            "incremental motion with polar coordinates is indeterminate when at the origin",
         ),
     ];
     for (block, line, col, msg) in cases {

@@ -63,7 +63,7 @@ impl State {
                 b'G' if [73.0, 81.0, 82.0, 83.0, 84.0, 85.0, 86.0, 89.0].contains(&w.value) => {
                     edits.push(Edit::replace(w.value_span.clone(), "80"));
                 }
-                b'X' | b'Y' | b'Z' | b'R' | b'P' | b'Q' | b'L' => {
+                b'X' | b'Y' | b'Z' | b'R' | b'P' | b'Q' | b'L' | b'@' | b'^' => {
                     edits.push(Edit::delete(
                         blank_before(content, w.span.start)..w.span.end,
                     ));

@@ -188,10 +188,8 @@ impl Interpreter {
             );
         }
         if matches!(mode, MotionMode::Cycle(_)) {
-            return refuse(
-                "polar coordinates are not interpreted in canned cycles",
-                "give the hole position as X and Y",
-            );
+            // The cycle places the hole itself (interp/cycle).
+            return Ok(());
         }
         let off = self.frame_offset_mm();
         let at_origin = self.position.x == off.x && self.position.y == off.y;

@@ -226,13 +226,28 @@ impl Interpreter {
         let mut current_cc = prog[ax[2]];
         let mut old_cc = *self.cycle_start_z.get_or_insert(current_cc);
         let (mut aa, mut bb, r, cc, inc_a, inc_b);
+        // Polar words (G17 only, checked before): `@` radius, `^` angle in
+        // degrees about the program origin, as in convert_cycle_xy.
+        let (polar_r, polar_t) = (w.get(b'@'), w.get(b'^'));
+        let (mut inc_radius, mut inc_theta) = (0.0, 0.0);
         if self.absolute {
             r = r_word;
             cc = c_word;
-            aa = w.get(la).unwrap_or(cur_a);
-            bb = w.get(lb).unwrap_or(cur_b);
+            if polar_r.is_some() || polar_t.is_some() {
+                let radius = polar_r.unwrap_or_else(|| cur_b.hypot(cur_a));
+                let theta = polar_t
+                    .map(f64::to_radians)
+                    .unwrap_or_else(|| cur_b.atan2(cur_a));
+                aa = radius * theta.cos();
+                bb = radius * theta.sin();
+            } else {
+                aa = w.get(la).unwrap_or(cur_a);
+                bb = w.get(lb).unwrap_or(cur_b);
+            }
             (inc_a, inc_b) = (0.0, 0.0);
         } else {
+            inc_radius = polar_r.unwrap_or(0.0);
+            inc_theta = polar_t.map(f64::to_radians).unwrap_or(0.0);
             inc_a = w.get(la).unwrap_or(0.0);
             inc_b = w.get(lb).unwrap_or(0.0);
             r = r_word + old_cc;
@@ -366,6 +381,27 @@ impl Interpreter {
         for rep in 0..repeats {
             aa += inc_a;
             bb += inc_b;
+            for (inc, radial) in [(inc_radius, true), (inc_theta, false)] {
+                if inc == 0.0 {
+                    continue;
+                }
+                if aa == 0.0 && bb == 0.0 {
+                    return Err(invalid(
+                        line,
+                        w.col(if radial { b'@' } else { b'^' }).unwrap_or(col),
+                        "incremental motion with polar coordinates is indeterminate when at the origin; LinuxCNC refuses it too",
+                        "start the cycle away from the origin, or give the holes in G90",
+                    ));
+                }
+                let (mut radius, mut theta) = (bb.hypot(aa), bb.atan2(aa));
+                if radial {
+                    radius += inc;
+                } else {
+                    theta += inc;
+                }
+                aa = radius * theta.cos();
+                bb = radius * theta.sin();
+            }
             if rep == 0 && current_cc > r {
                 self.cycle_move(&cx, out, false, aa, bb, current_cc)?;
                 self.cycle_move(&cx, out, false, aa, bb, r)?;
