@@ -158,3 +158,22 @@ fn g84_strokes_are_the_nominal_strokes_moved_with_the_hole() {
     assert!((written[n - 3] - top).max_abs() < 1e-9, "{out}");
     assert!((written[n - 4] - bottom).max_abs() < 1e-9, "{out}");
 }
+
+#[test]
+fn g74_reverses_the_other_way() {
+    let program = "G21 G90 G17 S500 M4\nG0 X0 Y0 Z10\nG99 G74 X10 Y10 Z-5 R2 P0.5 F100\nG80\nM2\n";
+    let out = compensate(program).unwrap();
+    let lines: Vec<&str> = out.lines().collect();
+    let i = lines.iter().position(|l| *l == "M49").unwrap();
+    assert_eq!(&lines[i + 2..i + 5], &["M5", "M3", "G4 P0.5"], "{out}");
+    assert_eq!(&lines[i + 6..i + 9], &["M5", "M4", "M48"], "{out}");
+    shifted_by_minus_e_except_strokes(&out);
+}
+
+fn shifted_by_minus_e_except_strokes(out: &str) {
+    // The stroke from the compensated R point is the nominal 7 mm in Z.
+    let written = ends(out);
+    let n = written.len();
+    let dz = written[n - 2].z - written[n - 3].z;
+    assert!((dz + 7.0).abs() < 1e-9, "{out}");
+}

@@ -200,7 +200,7 @@ fn refused(program: &str, line: u64, column: usize, needle: &str, linuxcnc: &str
 #[test]
 fn cycle_errors_are_located_as_linuxcnc_raises_them() {
     let head = "G21 F100\nG0 Z5\n";
-    let cases: [(&str, u64, usize, &str); 9] = [
+    let cases: [(&str, u64, usize, &str); 11] = [
         ("G83 X1 Z-1 R1 Q0\n", 3, 15, "negative or zero q value used"),
         ("G83 X1 Z-1 R1\n", 3, 1, "q word missing with g83"),
         (
@@ -216,6 +216,13 @@ fn cycle_errors_are_located_as_linuxcnc_raises_them() {
             "cannot do zero repeats of cycle",
         ),
         ("G84 X1 Z-1 R1\n", 3, 1, "spindle not turning in g84"),
+        (
+            "M3\nG74 X1 Z-1 R1\n",
+            4,
+            1,
+            "spindle turning clockwise in g74",
+        ),
+        ("M4\nG74 X1 Z-1 R1 L2\n", 4, 15, "L word with no"),
         ("G86 X1 Z-1 R1 P1\n", 3, 1, "spindle not turning in g86"),
         ("G87 X1 Z-1 R1 I1 J1\n", 3, 1, "k word missing with g87"),
         (

@@ -60,7 +60,9 @@ impl State {
         let mut edits = Vec::new();
         for w in &words {
             match w.letter {
-                b'G' if [73.0, 81.0, 82.0, 83.0, 84.0, 85.0, 86.0, 89.0].contains(&w.value) => {
+                b'G' if [73.0, 74.0, 81.0, 82.0, 83.0, 84.0, 85.0, 86.0, 89.0]
+                    .contains(&w.value) =>
+                {
                     edits.push(Edit::replace(w.value_span.clone(), "80"));
                 }
                 b'X' | b'Y' | b'Z' | b'R' | b'P' | b'Q' | b'L' | b'@' | b'^' => {
@@ -96,8 +98,11 @@ impl State {
         let mut restart_due = false;
         for m in motions {
             let feed_like = matches!(m.kind, MotionKind::Feed);
-            if code == 84 && feed_like {
-                self.write_tap_stroke(m, &frame, style, sep, line, options, ending, feeds, dwell);
+            if matches!(code, 74 | 84) && feed_like {
+                let left_hand = code == 74;
+                self.write_tap_stroke(
+                    m, &frame, style, sep, line, options, ending, feeds, dwell, left_hand,
+                );
                 feeds += 1;
                 continue;
             }
@@ -187,7 +192,8 @@ impl State {
         Ok(())
     }
 
-    /// One feed stroke of G84 (even `feeds`: down, odd: up), written so the
+    /// One feed stroke of G84 or G74 (even `feeds`: down, odd: up; G74 turns
+    /// the spindle the other way), written so the
     /// tapping stroke is not altered: it is the nominal stroke translated
     /// rigidly to where the compensated positioning left the tool, so its
     /// direction and length are exactly the controller's. Around it, what
@@ -208,7 +214,13 @@ impl State {
         ending: &[u8],
         feeds: usize,
         dwell: Option<f64>,
+        left_hand: bool,
     ) {
+        let (reverse, forward) = if left_hand {
+            ("M3", "M4")
+        } else {
+            ("M4", "M3")
+        };
         let down = feeds.is_multiple_of(2);
         if down {
             self.write_word_line("M49", ending);
@@ -234,7 +246,7 @@ impl State {
         self.q_out = q;
         if down {
             self.write_word_line("M5", ending);
-            self.write_word_line("M4", ending);
+            self.write_word_line(reverse, ending);
             let mut text = format!("G4{sep}P");
             format_number(
                 dwell.unwrap_or(0.0),
@@ -249,7 +261,7 @@ impl State {
             self.write_word_line(&text, ending);
         } else {
             self.write_word_line("M5", ending);
-            self.write_word_line("M3", ending);
+            self.write_word_line(forward, ending);
             self.write_word_line("M48", ending);
         }
     }

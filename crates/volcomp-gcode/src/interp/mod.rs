@@ -283,7 +283,7 @@ impl Interpreter {
     pub fn canned_cycle(&self) -> Option<(u16, Option<f64>)> {
         match self.motion_mode {
             Some(MotionMode::Cycle(code)) => {
-                let dwell = matches!(code, 820 | 840 | 860 | 880 | 890)
+                let dwell = matches!(code, 740 | 820 | 840 | 860 | 880 | 890)
                     .then_some(self.cycle_p)
                     .flatten();
                 Some((code / 10, dwell))
@@ -494,7 +494,7 @@ impl Interpreter {
         }
         self.end_spline_block_unless(self.motion_mode);
         let mode_before = self.motion_mode;
-        for code in [730u16, 810, 820, 830, 840, 850, 860, 870, 880, 890] {
+        for code in [730u16, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890] {
             if w.has_g(code) {
                 self.motion_mode = Some(MotionMode::Cycle(code));
             }

@@ -73,7 +73,7 @@ impl WordTable {
 /// Modal group of a supported G code (×10), or why it is refused.
 fn g_group(code: u16) -> Result<u8, &'static str> {
     Ok(match code {
-        0 | 10 | 20 | 30 | 50 | 51 | 52 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => 1,
+        0 | 10 | 20 | 30 | 50 | 51 | 52 | 730 | 740 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => 1,
         170 | 180 | 190 => 2,
         900 | 910 => 3,
         901 | 911 => 4,
@@ -92,7 +92,7 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         510 | 511 => return Err("scaling (G51) is not a pure translation between program and axis frame; post the program without scaling"),
         160 => return Err("polar coordinates (G16) are not interpreted; post the program in Cartesian coordinates"),
         520 => return Err("G52 local offsets are not interpreted yet; use G92 or a work offset"),
-        740 | 760 => return Err("this canned cycle is not expanded by volcomp (G73 and G81–G89 are); post the cycle as explicit moves"),
+        760 => return Err("G76 threading is a lathe cycle, not expanded by volcomp (G73, G74 and G81–G89 are); post the cycle as explicit moves"),
         380..=385 => return Err("probing ends where the probe touches, which is known only when the machine runs; volcomp cannot know the path after it (LinuxCNC's later moves may use the probed position, #5061–#5069)"),
         330 | 331 => return Err("spindle-synchronised motion (G33, G33.1 rigid tapping; G76 threading likewise) is tied to the spindle's rotation; volcomp does not alter it; run threading as a separate, uncompensated program"),
         70 | 80 => return Err("lathe diameter/radius mode (G7/G8) is for lathes; volcomp compensates the X, Y, Z of milling machines"),
@@ -125,7 +125,7 @@ fn m_group(code: u16) -> Result<u8, &'static str> {
 }
 
 /// The canned cycles volcomp expands (G-code × 10).
-pub(super) const CYCLE_CODES: [u16; 10] = [730, 810, 820, 830, 840, 850, 860, 870, 880, 890];
+pub(super) const CYCLE_CODES: [u16; 11] = [730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890];
 
 fn code_of(value: f64) -> Option<u16> {
     let c = (value * 10.0).round();
@@ -313,12 +313,13 @@ impl Interpreter {
                 b'I' => (arc || g10 || g5_ij || g87, "I word with no G2, G3, G5, G5.1, G10 or G87 to use it"),
                 b'J' => (arc || g10 || g5_ij || g87, "J word with no G2, G3, G5, G5.1, G10 or G87 to use it"),
                 b'K' => (arc || g87, "K word with no G2, G3 or G87 to use it"),
-                b'L' => (cycle || g10 || g52 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
+                // LinuxCNC allows L with G73 and G81–G89 only, not G74.
+                b'L' => ((cycle && motion != Some(MotionMode::Cycle(740))) || g10 || g52 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
                 b'P' => (
                     g10 || w.has_g(40) || w.has_g(640) || arc || g5 || g52
-                        || matches!(motion, Some(MotionMode::Cycle(820 | 840 | 860 | 880 | 890)))
+                        || matches!(motion, Some(MotionMode::Cycle(740 | 820 | 840 | 860 | 880 | 890)))
                         || m_any(&[500, 510, 520, 530, 620, 630, 640, 650, 660, 190]),
-                    "P word with no G2, G3, G4, G10, G64, G82, G84, G86, G88, G89 or M19, M50–M53, M62–M66 to use it",
+                    "P word with no G2, G3, G4, G10, G64, G74, G82, G84, G86, G88, G89 or M19, M50–M53, M62–M66 to use it",
                 ),
                 b'Q' => (
                     g10 || g5 || w.has_g(640) || m_any(&[660, 670, 680, 610, 190])

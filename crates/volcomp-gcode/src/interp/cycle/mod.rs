@@ -1,4 +1,4 @@
-//! Canned cycles G73, G81–G89, expanded into the rapid and feed moves
+//! Canned cycles G73, G74, G81–G89, expanded into the rapid and feed moves
 //! LinuxCNC 2.9 makes for them (src/emc/rs274ngc/interp_cycles.cc:
 //! `convert_cycle`, `convert_cycle_xy/yz/zx` with their `CYCLE_MACRO` repeat
 //! loop, and `convert_cycle_g73` … `convert_cycle_g89`).
@@ -303,7 +303,7 @@ impl Interpreter {
                 }
             }
         }
-        if matches!(code, 820 | 840 | 860 | 880 | 890) {
+        if matches!(code, 740 | 820 | 840 | 860 | 880 | 890) {
             if let Some(p) = w.get(b'P') {
                 self.cycle_p = Some(p);
             }
@@ -345,6 +345,18 @@ impl Interpreter {
                         "spindle turning counterclockwise in G84; LinuxCNC refuses it too"
                     },
                     "start the spindle clockwise (M3) before right-hand tapping",
+                ))
+            }
+            740 if self.spindle_dir != -1 => {
+                return Err(invalid(
+                    line,
+                    col,
+                    if self.spindle_dir == 0 {
+                        "spindle not turning in G74; LinuxCNC refuses it too"
+                    } else {
+                        "spindle turning clockwise in G74; LinuxCNC refuses it too"
+                    },
+                    "start the spindle counterclockwise (M4) before left-hand tapping",
                 ))
             }
             860 | 870 | 880 if self.spindle_dir == 0 => {
@@ -450,7 +462,7 @@ impl Interpreter {
             // `y, bottom_z, x`), so its feed moves there do not go along
             // the hole axis; volcomp reproduces them as the controller
             // runs them.
-            840 => {
+            740 | 840 => {
                 let (down, up) = match cx.ax[2] {
                     2 => ([aa, bb, bottom], [aa, bb, clear]),
                     0 => ([bottom, aa, bb], [clear, aa, bb]),
