@@ -68,10 +68,10 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
         ("G0 X1 X2\n", 1, 7, "twice"),
         ("G0 G1 X1\n", 1, 4, "same modal group"),
         (
-            "G0 X0 Y0 Z5\nG83 X1 Y1 Z-5 R1 Q1 F100\n",
+            "G0 X0 Y0 Z5\nG83 X1 Y1 Z-5 R1 Q0 F100\n",
             2,
-            1,
-            "canned cycle",
+            18,
+            "zero Q value",
         ),
         ("G0 X0 Y0 Z0\nG43 H7 Z5\n", 2, 1, "tool 7"),
         ("G0 X0 Y0 Z0\nG1 X1 F-5\n", 2, 7, "negative feed"),

@@ -298,8 +298,14 @@ fn polar_words_are_refused_where_linuxcnc_refuses_them() {
     );
     let m = accepted_by_both("G18 G0 @1 ^90\nG17\n");
     assert!(close(m[0].end, [0.0, 1.0, 0.0]), "{:?}", m[0].end);
-    let e = run("G0 X1\nF1 G81 @1 R1 Z0\n").unwrap_err();
-    assert!(e.message.contains("canned cycles"), "{e}");
+    // In a canned cycle, @ alone keeps the current angle (atan2 of the
+    // current point: 0 here): the hole is at (1, 0).
+    let m = accepted_by_both("G21 G0 X1\nF1 G81 @1 R1 Z0\n");
+    let feed = m
+        .iter()
+        .find(|m| matches!(m.kind, volcomp_gcode::MotionKind::Feed))
+        .unwrap();
+    assert!(close(feed.end, [1.0, 0.0, 0.0]), "{:?}", feed.end);
     let e = run("G53 G0 @1 ^90\n").unwrap_err();
     assert!(e.message.contains("G53"), "{e}");
 }

@@ -14,7 +14,7 @@
 //! | `options.rs` | [`InterpOptions`], feed and motion modes |
 //! | `words.rs` | decoding a block: words by letter, G/M codes, modal groups, unused words |
 //! | `motion.rs` | straight moves, arcs, polar end points, feed-rate and reach checks |
-//! | `cycle.rs` | canned cycles G81, G82, G85, G89 |
+//! | `cycle/` | canned cycles G73, G81–G89 |
 //! | `spline.rs` | splines G5, G5.1, G5.2/G5.3, linearised within the spline tolerance |
 //! | `extra.rs` | the extra axes A, B, C, U, V, W, carried through (not compensated) |
 //! | `offsets.rs` | tool length offsets, G10 (work offsets, tool table writes), G52, G92, G28/G30 |
@@ -146,8 +146,16 @@ pub struct Interpreter {
     cycle_r: Option<f64>,
     /// Sticky Z word of the canned cycle (program units, as written).
     cycle_z: Option<f64>,
-    /// Z (axis frame) when the current run of cycle blocks began (`cycle_il`).
+    /// Normal-axis coordinate (program frame and units) when the current
+    /// run of cycle blocks began (LinuxCNC's `cycle_il`).
     cycle_start_z: Option<f64>,
+    /// Sticky peck depth Q of G73/G83.
+    cycle_q: Option<f64>,
+    /// Sticky I, J, K of G87.
+    cycle_ijk: [f64; 3],
+    /// Spindle direction from M3 (1), M4 (-1), M5 (0), for the cycles that
+    /// need it turning (G84, G86, G87, G88).
+    spindle_dir: i8,
     /// Sticky dwell P of G82/G89 (seconds).
     cycle_p: Option<f64>,
     finished: bool,
@@ -226,6 +234,9 @@ impl Interpreter {
             cycle_r: None,
             cycle_z: None,
             cycle_start_z: None,
+            cycle_q: None,
+            cycle_ijk: [0.0; 3],
+            spindle_dir: 0,
             cycle_p: None,
             finished: false,
             uses_percents: false,
@@ -274,12 +285,14 @@ impl Interpreter {
         self.absolute
     }
 
-    /// The canned cycle in effect (81, 82, 85 or 89) and, for G82/G89, the
-    /// dwell at the bottom in seconds.
+    /// The canned cycle in effect (73, 81–89) and, for G82/G86/G88/G89 (and
+    /// G84 when given), the dwell at the bottom in seconds.
     pub fn canned_cycle(&self) -> Option<(u16, Option<f64>)> {
         match self.motion_mode {
             Some(MotionMode::Cycle(code)) => {
-                let dwell = matches!(code, 820 | 890).then_some(self.cycle_p).flatten();
+                let dwell = matches!(code, 740 | 820 | 840 | 860 | 880 | 890)
+                    .then_some(self.cycle_p)
+                    .flatten();
                 Some((code / 10, dwell))
             }
             _ => None,
@@ -414,6 +427,14 @@ impl Interpreter {
                 .ok_or_else(|| invalid(line, 0, "M61 needs a Q word", "write M61 Qn"))?;
             self.loaded_tool = q.max(0.0) as u32;
         }
+        // 7: spindle direction (only tracked for the canned cycles).
+        if w.has_m(30) {
+            self.spindle_dir = 1;
+        } else if w.has_m(40) {
+            self.spindle_dir = -1;
+        } else if w.has_m(50) {
+            self.spindle_dir = 0;
+        }
         // M70/M71/M72: save, invalidate, restore the modal state.
         self.modal_save_restore(line, w)?;
         // 10: dwell (passed through).
@@ -480,7 +501,7 @@ impl Interpreter {
         }
         self.end_spline_block_unless(self.motion_mode);
         let mode_before = self.motion_mode;
-        for code in [810u16, 820, 850, 890] {
+        for code in [730u16, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890] {
             if w.has_g(code) {
                 self.motion_mode = Some(MotionMode::Cycle(code));
             }

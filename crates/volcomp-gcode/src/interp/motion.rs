@@ -195,10 +195,8 @@ impl Interpreter {
             );
         }
         if matches!(mode, MotionMode::Cycle(_)) {
-            return refuse(
-                "polar coordinates are not interpreted in canned cycles",
-                "give the hole position as X and Y",
-            );
+            // The cycle places the hole itself (interp/cycle).
+            return Ok(());
         }
         let here = self.to_program_mm(self.position);
         let at_origin = here.x == 0.0 && here.y == 0.0;

@@ -73,7 +73,7 @@ impl WordTable {
 /// Modal group of a supported G code (×10), or why it is refused.
 fn g_group(code: u16) -> Result<u8, &'static str> {
     Ok(match code {
-        0 | 10 | 20 | 30 | 50 | 51 | 52 | 800 | 810 | 820 | 850 | 890 => 1,
+        0 | 10 | 20 | 30 | 50 | 51 | 52 | 730 | 740 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => 1,
         170 | 180 | 190 => 2,
         900 | 910 => 3,
         901 | 911 => 4,
@@ -91,7 +91,7 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         680 | 681 => return Err("coordinate rotation (G68) is not a pure translation between program and axis frame; post the program without rotation"),
         510 | 511 => return Err("scaling (G51) is not a pure translation between program and axis frame; post the program without scaling"),
         160 => return Err("polar coordinates (G16) are not interpreted; post the program in Cartesian coordinates"),
-        730 | 760 | 830 | 840 | 860 | 870 | 880 => return Err("this canned cycle is not expanded by volcomp (G81, G82, G85 and G89 are); post the cycle as explicit moves"),
+        760 => return Err("G76 threading is a lathe cycle, not expanded by volcomp (G73, G74 and G81–G89 are); post the cycle as explicit moves"),
         380..=385 => return Err("probing ends where the probe touches, which is known only when the machine runs; volcomp cannot know the path after it (LinuxCNC's later moves may use the probed position, #5061–#5069)"),
         330 | 331 => return Err("spindle-synchronised motion (G33, G33.1 rigid tapping; G76 threading likewise) is tied to the spindle's rotation; volcomp does not alter it; run threading as a separate, uncompensated program"),
         70 | 80 => return Err("lathe diameter/radius mode (G7/G8) is for lathes; volcomp compensates the X, Y, Z of milling machines"),
@@ -122,6 +122,9 @@ fn m_group(code: u16) -> Result<u8, &'static str> {
         _ => return Err("unknown M code (\"Unknown m code used\" in LinuxCNC, or above M199: \"M-code greater than 199\"); a remapped M code runs the machine's own subroutine, which volcomp cannot see"),
     })
 }
+
+/// The canned cycles volcomp expands (G-code × 10).
+pub(super) const CYCLE_CODES: [u16; 11] = [730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890];
 
 fn code_of(value: f64) -> Option<u16> {
     let c = (value * 10.0).round();
@@ -269,11 +272,10 @@ impl Interpreter {
             (51, MotionMode::Spline(51)),
             (52, MotionMode::Spline(52)),
             (53, MotionMode::Spline(53)),
-            (810, MotionMode::Cycle(810)),
-            (820, MotionMode::Cycle(820)),
-            (850, MotionMode::Cycle(850)),
-            (890, MotionMode::Cycle(890)),
-        ] {
+        ]
+        .into_iter()
+        .chain(CYCLE_CODES.map(|c| (c, MotionMode::Cycle(c))))
+        {
             if w.has_g(code) {
                 return Some(mode);
             }
@@ -298,6 +300,7 @@ impl Interpreter {
         let arc = matches!(motion, Some(MotionMode::Cw | MotionMode::Ccw));
         let cycle = matches!(motion, Some(MotionMode::Cycle(_)));
         let g10 = w.has_g(100);
+        let g87 = motion == Some(MotionMode::Cycle(870));
         let spline = |codes: &[u16]| codes.iter().any(|c| motion == Some(MotionMode::Spline(*c)));
         let (g5, g5_ij, g52) = (spline(&[50]), spline(&[50, 51]), spline(&[52]));
         let m_any = |codes: &[u16]| codes.iter().any(|c| w.has_m(*c));
@@ -306,19 +309,21 @@ impl Interpreter {
                 b'D' => (w.has_g(960), "D word with no G41, G41.1, G42, G42.1 or G96 to use it"),
                 b'E' => (m_any(&[660, 670, 680]), "E word with no G70, G76, M66, M67 or M68 to use it"),
                 b'H' => (w.has_g(430), "H word with no G43 or G76 to use it"),
-                b'I' => (arc || g10 || g5_ij, "I word with no G2, G3, G5, G5.1 or G10 to use it"),
-                b'J' => (arc || g10 || g5_ij, "J word with no G2, G3, G5, G5.1 or G10 to use it"),
-                b'K' => (arc, "K word with no G2 or G3 to use it"),
-                b'L' => (cycle || g10 || g52 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
+                b'I' => (arc || g10 || g5_ij || g87, "I word with no G2, G3, G5, G5.1, G10 or G87 to use it"),
+                b'J' => (arc || g10 || g5_ij || g87, "J word with no G2, G3, G5, G5.1, G10 or G87 to use it"),
+                b'K' => (arc || g87, "K word with no G2, G3 or G87 to use it"),
+                // LinuxCNC allows L with G73 and G81–G89 only, not G74.
+                b'L' => ((cycle && motion != Some(MotionMode::Cycle(740))) || g10 || g52 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
                 b'P' => (
                     g10 || w.has_g(40) || w.has_g(640) || arc || g5 || g52
-                        || matches!(motion, Some(MotionMode::Cycle(820 | 890)))
+                        || matches!(motion, Some(MotionMode::Cycle(740 | 820 | 840 | 860 | 880 | 890)))
                         || m_any(&[500, 510, 520, 530, 620, 630, 640, 650, 660, 190]),
-                    "P word with no G2, G3, G4, G10, G64, G82, G89 or M19, M50–M53, M62–M66 to use it",
+                    "P word with no G2, G3, G4, G10, G64, G74, G82, G84, G86, G88, G89 or M19, M50–M53, M62–M66 to use it",
                 ),
                 b'Q' => (
-                    g10 || g5 || w.has_g(640) || m_any(&[660, 670, 680, 610, 190]),
-                    "Q word with no G10, G64, M19, M61, M66, M67 or M68 to use it",
+                    g10 || g5 || w.has_g(640) || m_any(&[660, 670, 680, 610, 190])
+                        || matches!(motion, Some(MotionMode::Cycle(730 | 830))),
+                    "Q word with no G10, G64, G73, G83, M19, M61, M66, M67 or M68 to use it",
                 ),
                 b'R' => (
                     // LinuxCNC 2.9 has no G64 R (it came with 2.10's planner).
@@ -359,8 +364,9 @@ impl Interpreter {
     }
 
     pub(super) fn motion_word_col(&self, w: &WordTable) -> Option<usize> {
-        [0u16, 10, 20, 30, 50, 51, 52, 53, 810, 820, 850, 890]
+        [0u16, 10, 20, 30, 50, 51, 52, 53]
             .into_iter()
+            .chain(CYCLE_CODES)
             .find_map(|c| w.g_col(c))
     }
 }

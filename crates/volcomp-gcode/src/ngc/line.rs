@@ -217,7 +217,7 @@ pub fn parse(n: &Norm) -> Result<Statement, ExprError> {
                     col,
                 });
             }
-            b'a'..=b'z' => {
+            b'a'..=b'z' | b'@' | b'^' => {
                 let col = n.col(p.pos);
                 p.pos += 1;
                 let vstart = p.pos;

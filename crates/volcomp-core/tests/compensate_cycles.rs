@@ -1,0 +1,179 @@
+//! Canned cycles written back by `compensate`: G73/G83 pecks, G86's
+//! spindle stop and restart, G82/G89 dwells with L repeats, and the cycles
+//! that are refused (G87, G88); G84's strokes written unaltered. Expected text derived from LinuxCNC
+//! 2.9's interp_cycles.cc by hand.
+
+use std::io::Cursor;
+use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, Segmentation};
+use volcomp_core::model::axis_table::AxisTableMap;
+use volcomp_gcode::{InterpOptions, Setup, Vec3, Walker};
+
+/// A map that shifts every point by (5, -3, 2) µm.
+fn constant_map() -> AxisTableMap {
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for (a, name) in ["X", "Y", "Z"].iter().enumerate() {
+        for dir in ["forward", "reverse"] {
+            for k in 0..=100 {
+                let p = -100.0 + 4.0 * k as f64;
+                let e = if a == 0 { [5.0, -3.0, 2.0] } else { [0.0; 3] };
+                csv.push_str(&format!("{name},{dir},{p},{},{},{}\n", e[0], e[1], e[2]));
+            }
+        }
+    }
+    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+}
+
+fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
+    Walker::new(
+        Cursor::new(program.as_bytes().to_vec()),
+        Some("test.ngc".into()),
+        Setup::default(),
+        InterpOptions::default(),
+    )
+}
+
+fn compensate(program: &str) -> Result<String, String> {
+    let map = constant_map();
+    let style = survey_style(program.as_bytes());
+    let mut out = Vec::new();
+    let options = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    };
+    compensate_program(
+        &mut walker(program),
+        "test.ngc",
+        &map,
+        &style,
+        &options,
+        &mut out,
+        |_| {},
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(String::from_utf8(out).unwrap())
+}
+
+/// End points of the motions of a program (axis frame), zero-length ones
+/// dropped.
+fn ends(program: &str) -> Vec<Vec3> {
+    let mut w = walker(program);
+    let mut out: Vec<Vec3> = Vec::new();
+    while let Some(ev) = w.next_line().unwrap() {
+        for m in ev.motions {
+            if out.last() != Some(&m.end) {
+                out.push(m.end);
+            }
+        }
+    }
+    out
+}
+
+fn shifted_by_minus_e(program: &str, out: &str) {
+    let shift = Vec3::new(-0.005, 0.003, -0.002);
+    let nominal = ends(program);
+    let written = ends(out);
+    assert_eq!(nominal.len(), written.len(), "{out}");
+    for (t, q) in nominal.iter().zip(&written).skip(1) {
+        assert!(
+            (*q - (*t + shift)).max_abs() < 1e-9,
+            "{q:?} vs {t:?}\n{out}"
+        );
+    }
+}
+
+#[test]
+fn peck_cycles_are_written_as_their_compensated_moves() {
+    let program = "G21 G90 G17\nG0 X0 Y0 Z10\nG98 G83 X10 Y10 Z-5 R2 Q2 F100\nG99 G73 X20 Z-3 R1 Q1.5\nG80\nG0 Z20\nM2\n";
+    let out = compensate(program).unwrap();
+    assert!(out.contains("G98 G80 F100\n"), "{out}");
+    assert!(out.contains("G99 G80\n"), "{out}");
+    assert!(!out.contains('Q'), "{out}");
+    shifted_by_minus_e(program, &out);
+}
+
+#[test]
+fn g86_stops_the_spindle_at_the_bottom_and_restarts_it_after_the_retract() {
+    let program =
+        "G21 G90 G17 S1000 M4\nG0 X0 Y0 Z10\nG98 G86 X10 Y10 Z-5 R2 P0.25 F100 L2\nG80\nM2\n";
+    let out = compensate(program).unwrap();
+    // Each repeat: … feed to the bottom, G4 P0.25, M5, rapid out, M4.
+    let lines: Vec<&str> = out.lines().collect();
+    let dwells: Vec<usize> = (0..lines.len())
+        .filter(|&i| lines[i] == "G4 P0.25")
+        .collect();
+    assert_eq!(dwells.len(), 2, "{out}");
+    for i in dwells {
+        assert!(lines[i - 1].starts_with("G1"), "{out}");
+        assert_eq!(lines[i + 1], "M5", "{out}");
+        assert!(lines[i + 2].starts_with("G0"), "{out}");
+        assert_eq!(lines[i + 3], "M4", "{out}");
+    }
+    shifted_by_minus_e(program, &out);
+}
+
+#[test]
+fn g89_dwells_only_at_the_bottom_of_each_repeat() {
+    let program = "G21 G90 G17\nG0 X0 Y0 Z10\nG91 G99 G89 X5 Z-4 R-8 P0.5 F100 L3\nG90 G80\nM2\n";
+    let out = compensate(program).unwrap();
+    assert_eq!(out.matches("G4 P0.5").count(), 3, "{out}");
+    shifted_by_minus_e(program, &out);
+}
+
+#[test]
+fn back_boring_and_manual_retract_are_refused_with_reasons() {
+    for (block, what) in [
+        ("G87 X10 Y10 Z-5 R2 I1 J0 K-3", "G87"),
+        ("G88 X10 Y10 Z-5 R2 P1", "G88"),
+    ] {
+        let program = format!("G21 G90 G17 S500 M3\nG0 X0 Y0 Z10\nF100 {block}\nG80\nM2\n");
+        let e = compensate(&program).unwrap_err();
+        assert!(e.contains(what) && e.contains(":3"), "{e}");
+    }
+}
+
+#[test]
+fn g84_strokes_are_the_nominal_strokes_moved_with_the_hole() {
+    // LinuxCNC 2.9's G84 (convert_cycle_g74_g84): feed down, M5, M4, dwell,
+    // feed up, M5, M3, with feed and speed overrides disabled for it.
+    let program =
+        "G21 G90 G17 S500 M3\nG0 X0 Y0 Z10\nG99 G84 X10 Y10 Z-5 R2 P0.5 F100 L2\nG80\nM2\n";
+    let out = compensate(program).unwrap();
+    let lines: Vec<&str> = out.lines().collect();
+    let tops: Vec<usize> = (0..lines.len()).filter(|&i| lines[i] == "M49").collect();
+    assert_eq!(tops.len(), 2, "{out}");
+    for i in tops {
+        assert_eq!(&lines[i + 2..i + 5], &["M5", "M4", "G4 P0.5"], "{out}");
+        assert_eq!(&lines[i + 6..i + 9], &["M5", "M3", "M48"], "{out}");
+    }
+    // The written moves: every move but the strokes is the nominal one
+    // shifted by −e; each stroke is a pure Z move of the nominal 7 mm, down
+    // from and back up to the compensated R point.
+    let written = ends(&out);
+    let shift = Vec3::new(-0.005, 0.003, -0.002);
+    let top = Vec3::new(10.0, 10.0, 2.0) + shift;
+    let bottom = top + Vec3::new(0.0, 0.0, -7.0);
+    let n = written.len();
+    assert!((written[n - 1] - top).max_abs() < 1e-9, "{out}");
+    assert!((written[n - 2] - bottom).max_abs() < 1e-9, "{out}");
+    assert!((written[n - 3] - top).max_abs() < 1e-9, "{out}");
+    assert!((written[n - 4] - bottom).max_abs() < 1e-9, "{out}");
+}
+
+#[test]
+fn g74_reverses_the_other_way() {
+    let program = "G21 G90 G17 S500 M4\nG0 X0 Y0 Z10\nG99 G74 X10 Y10 Z-5 R2 P0.5 F100\nG80\nM2\n";
+    let out = compensate(program).unwrap();
+    let lines: Vec<&str> = out.lines().collect();
+    let i = lines.iter().position(|l| *l == "M49").unwrap();
+    assert_eq!(&lines[i + 2..i + 5], &["M5", "M3", "G4 P0.5"], "{out}");
+    assert_eq!(&lines[i + 6..i + 9], &["M5", "M4", "M48"], "{out}");
+    shifted_by_minus_e_except_strokes(&out);
+}
+
+fn shifted_by_minus_e_except_strokes(out: &str) {
+    // The stroke from the compensated R point is the nominal 7 mm in Z.
+    let written = ends(out);
+    let n = written.len();
+    let dz = written[n - 2].z - written[n - 3].z;
+    assert!((dz + 7.0).abs() < 1e-9, "{out}");
+}
