@@ -207,7 +207,8 @@ impl Interpreter {
     pub fn new(setup: Setup, options: InterpOptions) -> Self {
         let work_offsets = setup.work_offsets_mm;
         let position = setup.start_mm;
-        let (work, g92, rotation_deg) = (setup.work_system.min(8), setup.g92_mm, setup.rotations_deg);
+        let (work, g92, rotation_deg) =
+            (setup.work_system.min(8), setup.g92_mm, setup.rotations_deg);
         Self {
             setup,
             options,
