@@ -64,7 +64,7 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
             "K word given for an arc",
         ),
         ("M98 P100\n", 1, 1, "no line O100"),
-        ("G52 X10\n", 1, 1, "G52"),
+        ("G0 X0 Y0 Z0\nG33 Z-5 K1\n", 2, 1, "spindle-synchronised"),
         ("G0 X1 X2\n", 1, 7, "twice"),
         ("G0 G1 X1\n", 1, 4, "same modal group"),
         (
@@ -75,7 +75,7 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
         ),
         ("G0 X0 Y0 Z0\nG43 H7 Z5\n", 2, 1, "tool 7"),
         ("G0 X0 Y0 Z0\nG1 X1 F-5\n", 2, 7, "negative feed"),
-        ("G0 X0 Y0 Z0\nG10 L1 P1 Z5\n", 2, 1, "G10 L1"),
+        ("G0 X0 Y0 Z0\nG10 L20 P1 R30 X0\n", 2, 12, "R is not allowed with G10 L20"),
         ("G0 X0 Y0 Z0\nG3 X1 Y1 P0.5 R1 F10\n", 2, 10, "turns"),
     ];
     for (program, line, col, words) in cases {
