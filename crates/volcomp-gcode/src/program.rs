@@ -21,6 +21,17 @@ use crate::setup::Setup;
 use std::io::BufRead;
 use std::path::PathBuf;
 
+/// Longest line LinuxCNC reads, line ending included (`LINELEN` − 2 =
+/// 253 bytes with its `\n`; `Interp::read`, rs274ngc_pre.cc).
+const MAX_LINE_BYTES: usize = 252;
+
+/// Whether LinuxCNC refuses `line` (with its ending) as "Command too long":
+/// `fgets` into a 255-byte buffer, refused when it fills 254 bytes.
+fn too_long(line: &[u8]) -> bool {
+    let with_newline = line.len() + usize::from(!line.ends_with(b"\n"));
+    with_newline >= MAX_LINE_BYTES + 2
+}
+
 /// Line `p` of the main program or a subroutine file, if held.
 fn bytes_of<'a>(main: &'a Lines, flow: &'a crate::ngc::flow::Flow, p: Pos) -> Option<&'a [u8]> {
     if p.src == MAIN {
@@ -227,6 +238,16 @@ impl<R: BufRead> Walker<R> {
         self.rendered = false;
         let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
         let content_len = lexer::content_len(original);
+        if too_long(original) {
+            let e = GcodeError::new(
+                ErrorClass::Invalid,
+                pos.line as u64 + 1,
+                MAX_LINE_BYTES + 1,
+                format!("the line is {} characters long; LinuxCNC reads at most {MAX_LINE_BYTES} (\"Command too long\")", content_len),
+                "split the line, or shorten its comment",
+            );
+            return Err(self.locate(e));
+        }
         let kind = lexer::classify(&original[..content_len]);
         match kind {
             LineKind::Percent => {
