@@ -75,7 +75,12 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
         ),
         ("G0 X0 Y0 Z0\nG43 H7 Z5\n", 2, 1, "tool 7"),
         ("G0 X0 Y0 Z0\nG1 X1 F-5\n", 2, 7, "negative feed"),
-        ("G0 X0 Y0 Z0\nG10 L20 P1 R30 X0\n", 2, 12, "R is not allowed with G10 L20"),
+        (
+            "G0 X0 Y0 Z0\nG10 L20 P1 R30 X0\n",
+            2,
+            12,
+            "R is not allowed with G10 L20",
+        ),
         ("G0 X0 Y0 Z0\nG3 X1 Y1 P0.5 R1 F10\n", 2, 10, "turns"),
     ];
     for (program, line, col, words) in cases {
