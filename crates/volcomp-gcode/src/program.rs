@@ -167,13 +167,24 @@ impl<R: BufRead> Walker<R> {
     pub(crate) fn fetch(&mut self, p: Pos) -> Result<bool, GcodeError> {
         if p.src == MAIN {
             if let Err(e) = self.main.fill_to(&mut self.reader, p.line) {
-                let err = GcodeError::new(
-                    ErrorClass::Io,
-                    p.line as u64 + 1,
-                    1,
-                    format!("cannot read: {e}"),
-                    "check that the file is readable",
-                );
+                let err = if e.kind() == std::io::ErrorKind::InvalidData {
+                    // A line too long to hold: the line after those held.
+                    GcodeError::new(
+                        ErrorClass::Invalid,
+                        self.main.read_so_far() as u64 + 1,
+                        MAX_LINE_BYTES + 1,
+                        e.to_string(),
+                        "split the line, or shorten its comment",
+                    )
+                } else {
+                    GcodeError::new(
+                        ErrorClass::Io,
+                        p.line as u64 + 1,
+                        1,
+                        format!("cannot read: {e}"),
+                        "check that the file is readable",
+                    )
+                };
                 return Err(match &self.file {
                     Some(f) => err.with_file(f.clone()),
                     None => err,

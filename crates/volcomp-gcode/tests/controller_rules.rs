@@ -400,13 +400,66 @@ fn bytes_that_are_not_gcode_give_a_located_escaped_error() {
 
 #[test]
 fn an_error_on_a_huge_line_shows_a_bounded_excerpt() {
+    // 60 kB: under the reader's 1 MiB bound, far over LinuxCNC's 252.
     let mut program = String::from("G21\nG0");
-    for _ in 0..1_000_000 {
+    for _ in 0..20_000 {
         program.push_str(" X1");
     }
     program.push_str(" #1\n");
     let e = run(&program).unwrap_err();
     let shown = e.to_string();
     assert!(shown.len() < 1000, "{} bytes shown", shown.len());
-    assert!(e.source_line.starts_with('…') && e.source_line.ends_with("#1"));
+    // LinuxCNC refuses the line for its length before reading a word of it.
+    assert_eq!(e.line, 2, "{shown}");
+    assert!(e.message.contains("LinuxCNC reads at most 252"), "{shown}");
+    assert!(
+        e.source_line.starts_with('…') && e.source_line.ends_with('…'),
+        "{shown}"
+    );
+}
+
+#[test]
+fn a_line_longer_than_linuxcnc_reads_is_refused_at_its_length() {
+    // 252 characters are read; 253 are "Command too long" in rs274.
+    let body = |n: usize| format!("G21\n({})\n", "c".repeat(n - 2));
+    run(&format!("{}M2\n", body(252))).expect("a 252-character line is read");
+    let e = run(&format!("{}M2\n", body(253))).unwrap_err();
+    assert_eq!(e.line, 2, "{e}");
+    assert!(e.message.contains("Command too long"), "{e}");
+    if let Some(verdict) = rs274_error(&body(252)) {
+        assert_eq!(verdict, None, "rs274 reads 252 characters");
+        let refusal = rs274_error(&body(253)).unwrap();
+        assert!(refusal.unwrap().contains("too long"));
+    }
+}
+
+#[test]
+fn a_line_of_gigabytes_is_refused_without_holding_it() {
+    // 64 MiB of one line without a line feed: the reader stops at its
+    // bound of 1 MiB instead of holding the line.
+    struct Endless(u64);
+    impl std::io::Read for Endless {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let n = (buf.len() as u64).min(self.0) as usize;
+            buf[..n].fill(b'X');
+            self.0 -= n as u64;
+            Ok(n)
+        }
+    }
+    let reader = std::io::BufReader::new(std::io::Read::chain(&b"G21\n"[..], Endless(64 << 20)));
+    let mut w = Walker::new(
+        reader,
+        Some("t.ngc".into()),
+        Setup::default(),
+        InterpOptions::default(),
+    );
+    let e = loop {
+        match w.next_line() {
+            Ok(Some(_)) => {}
+            Ok(None) => panic!("the endless line was read"),
+            Err(e) => break e,
+        }
+    };
+    assert_eq!(e.line, 2, "{e}");
+    assert!(e.message.contains("longer than 1048576 bytes"), "{e}");
 }

@@ -3,6 +3,9 @@
 
 use std::io::BufRead;
 
+/// Longest line held in memory, line feed included (1 MiB).
+pub const MAX_HELD_LINE_BYTES: usize = 1 << 20;
+
 /// The lines of one file. Line `i` (0-based, absolute) is held when
 /// `base <= i < base + starts.len()`.
 #[derive(Debug, Default)]
@@ -73,12 +76,34 @@ impl Lines {
     }
 
     /// Reads lines from `reader` until line `i` is held or the input ends.
+    ///
+    /// A line longer than [`MAX_HELD_LINE_BYTES`] is an
+    /// [`std::io::ErrorKind::InvalidData`] error, raised before more of it is
+    /// held: memory stays bounded whatever the input (a file of one line
+    /// without a line feed, say). LinuxCNC itself reads at most 252
+    /// characters a line; the reader refuses those lines with that message,
+    /// the larger bound here only keeps the bytes after a program's end
+    /// (copied as they are) from being cut.
     pub fn fill_to<R: BufRead>(&mut self, reader: &mut R, i: usize) -> std::io::Result<()> {
+        use std::io::Read;
         while !self.eof && self.read_so_far() <= i {
             let start = self.bytes.len();
-            let n = reader.read_until(b'\n', &mut self.bytes)?;
+            let limit = MAX_HELD_LINE_BYTES as u64 + 1;
+            let n = reader
+                .by_ref()
+                .take(limit)
+                .read_until(b'\n', &mut self.bytes)?;
             if n == 0 {
                 self.eof = true;
+            } else if n as u64 == limit && self.bytes.last() != Some(&b'\n') {
+                self.bytes.truncate(start);
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    format!(
+                        "line {} is longer than {MAX_HELD_LINE_BYTES} bytes (LinuxCNC reads at most 252 characters a line)",
+                        self.read_so_far() + 1
+                    ),
+                ));
             } else {
                 self.starts.push(start);
             }
