@@ -194,6 +194,10 @@ pub struct CompensateArgs {
     /// Print a per-point report (CSV: line, iterations, residual) to this file.
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
+    /// Write a self-contained HTML report of the run (inputs and their
+    /// SHA-256, set-up, method; errors before and after; pictures).
+    #[arg(long, value_name = "FILE.html")]
+    pub report_html: Option<PathBuf>,
     /// Output program ("-" for standard output).
     #[arg(short, long, value_name = "OUT", required_unless_present = "filter")]
     pub output: Option<PathBuf>,
@@ -228,6 +232,10 @@ pub struct SimulateArgs {
     /// Plot the errors along the path (.svg or .png).
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
+    /// Write a self-contained HTML report (with --reference: the reference
+    /// on its own as "before", PROGRAM as "after").
+    #[arg(long, value_name = "FILE.html")]
+    pub report_html: Option<PathBuf>,
     /// Chord tolerance for linearising arcs and splines (mm).
     #[arg(
         long,

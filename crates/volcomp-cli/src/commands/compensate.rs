@@ -13,6 +13,11 @@ use volcomp_core::compensate::{
 };
 use volcomp_core::io::provenance::{iso8601_utc, ProgramHeader};
 use volcomp_core::model::ErrorModel;
+use volcomp_core::report::compensation::{
+    compensation_sections, header_facts, lines_to_quote, quote_lines, trace_program,
+    LargestCorrections,
+};
+use volcomp_core::report::{Document, InputFile};
 
 /// Loads the error map named by `--map`.
 pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
@@ -238,6 +243,116 @@ fn count_lines(program: &Path) -> Option<u64> {
     Some(n.max(1))
 }
 
+/// A writer that also keeps a copy of what passes through it.
+struct Tee<'a, 'b> {
+    inner: &'a mut dyn Write,
+    copy: Option<&'b mut Vec<u8>>,
+}
+
+impl Write for Tee<'_, '_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        if let Some(c) = self.copy.as_mut() {
+            c.extend_from_slice(&buf[..n]);
+        }
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Where the report names a program.
+fn shown(path: &Path) -> String {
+    if path.as_os_str() == "-" {
+        "standard output".into()
+    } else {
+        path.display().to_string()
+    }
+}
+
+/// The command line as typed, for a report.
+pub fn command_line() -> String {
+    std::env::args().collect::<Vec<_>>().join(" ")
+}
+
+/// The files of a program header (map and its tables) as report inputs.
+pub fn header_inputs(header: &ProgramHeader) -> Vec<InputFile> {
+    header
+        .files
+        .iter()
+        .map(|(label, name, sha)| InputFile {
+            role: label.clone(),
+            name: name.clone(),
+            bytes: std::fs::metadata(name).ok().map(|m| m.len()),
+            sha256: sha.clone(),
+        })
+        .collect()
+}
+
+/// The HTML report of a compensation: the original simulated alone
+/// ("before") and the compensated program against it ("after").
+#[allow(clippy::too_many_arguments)]
+fn report_html(
+    a: &CompensateArgs,
+    output: &Path,
+    machine: &Machine,
+    model: &dyn ErrorModel,
+    header: &ProgramHeader,
+    summary: &CompensateSummary,
+    corrections: &LargestCorrections,
+    written: &[u8],
+) -> Result<String, CliError> {
+    let name = program_name(&a.program);
+    let before = trace_program(
+        model,
+        &machine.0,
+        a.chord_tolerance,
+        "before",
+        &name,
+        open_program(&a.program)?,
+        None,
+        |_| {},
+    )
+    .map_err(|e| machine.explain(e))?;
+    let after = trace_program(
+        model,
+        &machine.0,
+        a.chord_tolerance,
+        "after",
+        &shown(output),
+        written,
+        Some((name.clone(), open_program(&a.program)?)),
+        |_| {},
+    )
+    .map_err(|e| machine.explain(e))?;
+    let want = lines_to_quote(
+        corrections,
+        Some(summary),
+        &before.warnings.iter().map(|w| w.0).collect::<Vec<_>>(),
+    );
+    let quoted = quote_lines(std::io::BufReader::new(open_program(&a.program)?), &want)
+        .map_err(|e| CliError::Io(a.program.clone(), e))?;
+    let mut inputs = vec![InputFile::read("program", &a.program)?];
+    inputs.extend(header_inputs(header));
+    if let Some(s) = &a.machine.setup {
+        inputs.push(InputFile::read("set-up", s)?);
+    }
+    let mut facts = vec![
+        ("command".to_string(), command_line()),
+        ("program".to_string(), name.clone()),
+        ("compensated program".to_string(), shown(output)),
+    ];
+    facts.extend(header_facts(header));
+    let doc = Document {
+        title: format!("volcomp compensation report: {name}"),
+        facts,
+        inputs,
+        sections: compensation_sections("", &before, &after, summary, corrections, &quoted),
+    };
+    Ok(doc.to_html())
+}
+
 pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     let output = match (&a.output, a.filter) {
         (Some(o), _) => o.clone(),
@@ -248,8 +363,14 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         .map_input("--map", &a.map.map)
         .input_opt("--setup", a.machine.setup.as_ref())
         .output(if a.filter { "--filter output" } else { "-o" }, &output)
-        .output_opt("--report", a.report.as_ref());
+        .output_opt("--report", a.report.as_ref())
+        .output_opt("--report-html", a.report_html.as_ref());
     check(&plan)?;
+    if a.report_html.is_some() && a.program.as_os_str() == "-" {
+        return Err(CliError::Message(
+            "--report-html simulates the original program again after compensating it, so it needs PROGRAM as a file: standard input can be read only once".into(),
+        ));
+    }
     let machine = Machine(
         Machine::from_args(&a.machine)?
             .0
@@ -276,8 +397,15 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     let mut staged = Staged::new();
     let mut summary = None;
     let mut report_too_big = false;
+    // The compensated program, kept for the HTML report's simulation.
+    let mut written: Option<Vec<u8>> = a.report_html.as_ref().map(|_| Vec::new());
+    let mut corrections = LargestCorrections::default();
     staged.write(&output, |out| {
-        let mut out = volcomp_core::limits::LimitedWriter::new(out, a.max_output_size.0);
+        let mut tee = Tee {
+            inner: out,
+            copy: written.as_mut(),
+        };
+        let mut out = volcomp_core::limits::LimitedWriter::new(&mut tee, a.max_output_size.0);
         summary = Some(compensate_into(
             &a.program,
             &mut out,
@@ -287,6 +415,9 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
             &header,
             a.allow_recompensate,
             |p| {
+                if a.report_html.is_some() {
+                    corrections.push(p);
+                }
                 if let Some(total) = total_lines {
                     let pct = (p.line.saturating_mul(100) / total).min(99);
                     if pct > percent_shown {
@@ -340,12 +471,28 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
                 .map_err(|e| CliError::Io(path.clone(), e))
         })?;
     }
+    let summary =
+        summary.ok_or_else(|| CliError::Internal("compensation produced no summary".into()))?;
+    if let (Some(path), Some(written)) = (&a.report_html, written) {
+        let html = report_html(
+            &a,
+            &output,
+            &machine,
+            model.as_ref(),
+            &header,
+            &summary,
+            &corrections,
+            &written,
+        )?;
+        staged.write(path, |w| {
+            w.write_all(html.as_bytes())
+                .map_err(|e| CliError::Io(path.clone(), e))
+        })?;
+    }
     staged.commit()?;
     if a.filter {
         eprintln!("FILTER_PROGRESS=100");
     }
-    let summary =
-        summary.ok_or_else(|| CliError::Internal("compensation produced no summary".into()))?;
     let shown = if output.as_os_str() == "-" {
         "standard output".to_string()
     } else {

@@ -1,6 +1,6 @@
 //! `volcomp demo`: the main job on the bundled example.
 
-use super::compensate::{compensate_file, header_for};
+use super::compensate::{command_line, compensate_file, date_utc, header_for};
 use super::Machine;
 use crate::args::DemoArgs;
 use crate::output::{write_atomically, CliError};
@@ -9,6 +9,12 @@ use volcomp_core::compensate::solve::Method;
 use volcomp_core::compensate::{CompensateOptions, DirectionPolicy, Segmentation};
 use volcomp_core::example::{demo_programs, example_map, DEMO_WORK_OFFSET_MM};
 use volcomp_core::model::ErrorModel;
+use volcomp_core::report::compensation::{
+    compensation_sections, lines_to_quote, quote_lines, setup_facts, trace_program,
+    LargestCorrections,
+};
+use volcomp_core::report::{Block, Document, InputFile, Section, Table};
+use volcomp_core::simulate::DEFAULT_CHORD_TOLERANCE_MM;
 use volcomp_core::MachineSetup;
 use volcomp_core::{SimReport, Simulation};
 
@@ -123,21 +129,107 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
         print!(" {:>26}", v.label);
     }
     println!();
+    // The report: an overview of every cell, then each program before and
+    // after the default method ("exact").
+    let mut overview = Table {
+        headers: vec!["program".into(), "error RMS (µm)".into(), "before".into()],
+        rows: Vec::new(),
+        numeric: vec![false, false, true],
+    };
+    for v in &variants {
+        overview.headers.push(v.label.into());
+        overview.numeric.push(true);
+    }
+    let mut sections = Vec::new();
+    let mut inputs = vec![InputFile::read("map", &map_path)?];
     for p in demo_programs() {
         let original = a.out_dir.join(format!("{}.ngc", p.name));
         write_atomically(&original, &[], |w| {
             w.write_all(p.text.as_bytes())
                 .map_err(|e| CliError::Io(original.clone(), e))
         })?;
-        let before = measure(&machine, &map, &original, None)?;
+        inputs.push(InputFile::read("program", &original)?);
+        let name = original.display().to_string();
+        let traced_before = trace_program(
+            &map,
+            &machine.0,
+            DEFAULT_CHORD_TOLERANCE_MM,
+            "before",
+            &name,
+            super::simulate::open(&original)?,
+            None,
+            |_| {},
+        )?;
+        let before = traced_before.report;
         let mut cells = Vec::new();
         for v in &variants {
             let out = a.out_dir.join(format!("{}.{}.ngc", p.name, v.suffix));
             let header = header_for(&map_path, None, &machine, &v.options)?;
-            compensate_file(&original, &out, &machine, &map, &v.options, &header, |_| {})?;
-            let after = measure(&machine, &map, &out, Some(&original))?;
-            cells.push(after);
+            let mut corrections = LargestCorrections::default();
+            let summary =
+                compensate_file(&original, &out, &machine, &map, &v.options, &header, |pt| {
+                    corrections.push(pt)
+                })?;
+            if v.suffix != "exact" {
+                cells.push(measure(&machine, &map, &out, Some(&original))?);
+                continue;
+            }
+            // The same simulation as `measure`, keeping the pictures.
+            let after = trace_program(
+                &map,
+                &machine.0,
+                DEFAULT_CHORD_TOLERANCE_MM,
+                &format!("after ({})", v.label),
+                &out.display().to_string(),
+                super::simulate::open(&out)?,
+                Some((name.clone(), super::simulate::open(&original)?)),
+                |_| {},
+            )?;
+            cells.push(after.report);
+            let want = lines_to_quote(
+                &corrections,
+                Some(&summary),
+                &traced_before
+                    .warnings
+                    .iter()
+                    .map(|w| w.0)
+                    .collect::<Vec<_>>(),
+            );
+            let quoted = quote_lines(p.text.as_bytes(), &want)
+                .map_err(|e| CliError::Io(original.clone(), e))?;
+            sections.extend(compensation_sections(
+                p.title,
+                &traced_before,
+                &after,
+                &summary,
+                &corrections,
+                &quoted,
+            ));
         }
+        let mut point_row = vec![
+            p.title.to_string(),
+            "point".into(),
+            format!("{:.3}", before.point_rms_um),
+        ];
+        let mut contour_row = vec![
+            String::new(),
+            "contour".into(),
+            format!("{:.3}", before.contour_rms_um),
+        ];
+        for c in &cells {
+            point_row.push(format!(
+                "{:.3} ({:+.0} %)",
+                c.point_rms_um,
+                -rate(before.point_rms_um, c.point_rms_um)
+            ));
+            contour_row.push(format!(
+                "{:.3} ({:+.1} %)",
+                c.contour_rms_um,
+                -rate(before.contour_rms_um, c.contour_rms_um)
+            ));
+        }
+        overview.rows.push(point_row);
+        overview.rows.push(contour_row);
         print!(
             "{:<44} {:>8.3}",
             format!("{} point", p.title),
@@ -167,11 +259,42 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
         }
         println!();
     }
+    let o = DEMO_WORK_OFFSET_MM;
+    let mut all = vec![Section {
+        id: "overview".into(),
+        title: "Every program with every method".into(),
+        blocks: vec![
+            Block::Text(format!("RMS errors in µm of each demo program on the example machine (work offset G54 = {}, {}, {} mm), before compensation and after each method; in brackets the change against 'before'. The following sections show each program before and after the default method (exact).", o.x, o.y, o.z)),
+            Block::Table(overview),
+        ],
+    }];
+    all.extend(sections);
+    let mut facts = vec![
+        ("command".to_string(), command_line()),
+        ("volcomp".to_string(), env!("CARGO_PKG_VERSION").to_string()),
+        ("date (UTC)".to_string(), date_utc()),
+        ("map".to_string(), map_path.display().to_string()),
+    ];
+    facts.extend(setup_facts(&machine.0.setup, None));
+    let doc = Document {
+        title: "volcomp demo report".into(),
+        facts,
+        inputs,
+        sections: all,
+    };
+    let report_path = a.out_dir.join("report.html");
+    write_atomically(&report_path, &[], |w| {
+        w.write_all(doc.to_html().as_bytes())
+            .map_err(|e| CliError::Io(report_path.clone(), e))
+    })?;
     println!(
         "\nCompensated programs: {}/<program>.<method>.ngc",
         a.out_dir.display()
     );
-    let o = DEMO_WORK_OFFSET_MM;
+    println!(
+        "Report (open in a browser, prints on A4): {}",
+        report_path.display()
+    );
     println!(
         "Every figure is what `volcomp simulate` reports; e.g. a 'before' cell:\n  volcomp simulate {dir}/<program>.ngc --map {map} --work-offset {},{},{}\nand a method's cell:\n  volcomp simulate {dir}/<program>.<method>.ngc --reference {dir}/<program>.ngc --map {map} --work-offset {},{},{}",
         o.x,

@@ -1,11 +1,16 @@
 //! `volcomp simulate`.
 
-use super::compensate::load_map;
+use super::compensate::{command_line, date_utc, load_map};
 use super::Machine;
 use crate::args::SimulateArgs;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
 use std::io::Write;
+use volcomp_core::report::compensation::{
+    lines_to_quote, quote_lines, setup_facts, simulation_sections, trace_program, Traced,
+};
+use volcomp_core::report::trace::PathTrace;
+use volcomp_core::report::{Document, InputFile};
 use volcomp_core::{SimReport, Simulation};
 
 pub fn run(a: SimulateArgs) -> Result<(), CliError> {
@@ -20,7 +25,8 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         .input_opt("--setup", a.machine.setup.as_ref())
         .input_opt("--reference", a.reference.as_ref())
         .output_opt("--errors-csv", a.errors_csv.as_ref())
-        .output_opt("--plot", a.plot.as_ref());
+        .output_opt("--plot", a.plot.as_ref())
+        .output_opt("--report-html", a.report_html.as_ref());
     check(&plan)?;
     let machine = Machine(
         Machine::from_args(&a.machine)?
@@ -44,9 +50,17 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     let mut along: Vec<(f64, Option<f64>, f64)> = Vec::new();
     let mut last: Option<volcomp_gcode::Vec3> = None;
     let mut travelled = 0.0;
+    let mut trace = a.report_html.as_ref().map(|_| PathTrace::default());
+    let mut warnings: Vec<(u64, String)> = Vec::new();
     let report = simulation
-        .on_warning(|w| eprintln!("{name}:{w}"))
+        .on_warning(|w| {
+            eprintln!("{name}:{w}");
+            warnings.push((w.line, w.message.clone()));
+        })
         .on_segment(|s| {
+            if let Some(t) = trace.as_mut() {
+                t.push(s);
+            }
             if let Some(p) = last {
                 travelled += (s.command_mm - p).norm();
             }
@@ -106,6 +120,23 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         };
         write_charts(&[chart], path)?;
     }
+    if let (Some(path), Some(trace)) = (&a.report_html, trace) {
+        let after = Traced {
+            label: name.clone(),
+            report,
+            trace,
+            warnings,
+        };
+        let html = report_html(&a, &machine, model.as_ref(), after)?;
+        let mut inputs = vec![a.program.as_path()];
+        if let Some(r) = &a.reference {
+            inputs.push(r.as_path());
+        }
+        write_atomically(path, &inputs, |w| {
+            w.write_all(html.as_bytes())
+                .map_err(|e| CliError::Io(path.clone(), e))
+        })?;
+    }
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
     if a.json {
@@ -115,6 +146,78 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         print_table(&mut out, &report, a.reference.is_some()).map_err(CliError::Stdout)?;
     }
     Ok(())
+}
+
+/// The HTML report of a simulation; with a reference, the reference on
+/// its own is simulated too, as "before".
+fn report_html(
+    a: &SimulateArgs,
+    machine: &Machine,
+    model: &dyn volcomp_core::ErrorModel,
+    after: Traced,
+) -> Result<String, CliError> {
+    let before = match &a.reference {
+        Some(r) => Some(
+            trace_program(
+                model,
+                &machine.0,
+                a.chord_tolerance,
+                &r.display().to_string(),
+                &r.display().to_string(),
+                open(r)?,
+                None,
+                |_| {},
+            )
+            .map_err(|e| machine.explain(e))?,
+        ),
+        None => None,
+    };
+    let want = lines_to_quote(
+        &Default::default(),
+        None,
+        &after.warnings.iter().map(|w| w.0).collect::<Vec<_>>(),
+    );
+    let quoted = if a.program.as_os_str() == "-" {
+        Default::default()
+    } else {
+        quote_lines(std::io::BufReader::new(open(&a.program)?), &want)
+            .map_err(|e| CliError::Io(a.program.clone(), e))?
+    };
+    let mut inputs = Vec::new();
+    if a.program.as_os_str() == "-" {
+        inputs.push(InputFile {
+            role: "program".into(),
+            name: "<standard input>".into(),
+            bytes: None,
+            sha256: "(standard input: not kept)".into(),
+        });
+    } else {
+        inputs.push(InputFile::read("program", &a.program)?);
+    }
+    if let Some(r) = &a.reference {
+        inputs.push(InputFile::read("reference", r)?);
+    }
+    inputs.push(InputFile::read("map", &a.map.map)?);
+    if let Some(s) = &a.machine.setup {
+        inputs.push(InputFile::read("set-up", s)?);
+    }
+    let mut facts = vec![
+        ("command".to_string(), command_line()),
+        ("volcomp".to_string(), env!("CARGO_PKG_VERSION").to_string()),
+        ("date (UTC)".to_string(), date_utc()),
+        (
+            "chord tolerance".to_string(),
+            format!("{} mm", a.chord_tolerance),
+        ),
+    ];
+    facts.extend(setup_facts(&machine.0.setup, None));
+    let doc = Document {
+        title: format!("volcomp simulation report: {}", a.program.display()),
+        facts,
+        inputs,
+        sections: simulation_sections("", before.as_ref(), &after, &quoted),
+    };
+    Ok(doc.to_html())
 }
 
 /// A reader over a program file ("-" is standard input).

@@ -86,8 +86,15 @@ pub struct SegmentError {
     /// Line of the nominal program (the reference, or the program itself)
     /// whose move this command was written for.
     pub nominal_line: u64,
+    /// Commanded start point (axis frame, mm).
+    pub start_mm: Vec3,
     /// Commanded end point (axis frame, mm).
     pub command_mm: Vec3,
+    /// The commanded arc, when the command is a G2/G3 (for drawing it).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub arc: Option<volcomp_gcode::Arc>,
+    /// Commanded path length (mm; an arc's length along the arc).
+    pub length_mm: f64,
     /// The nominal move's end point when this command is the last written
     /// for a nominal feed move (a point of the point error).
     pub target_mm: Option<Vec3>,
@@ -331,7 +338,13 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
             let segment = SegmentError {
                 line: m.line,
                 nominal_line: blk.line,
+                start_mm: m.start,
                 command_mm: m.end,
+                arc: match m.kind {
+                    MotionKind::Arc(arc) => Some(arc),
+                    _ => None,
+                },
+                length_mm: length,
                 target_mm: None,
                 point_um: None,
                 contour_max_um: seg_max,

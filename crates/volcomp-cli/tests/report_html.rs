@@ -1,0 +1,330 @@
+//! The HTML reports: what they hold, that their figures are the ones the
+//! commands print, that they are self-contained and reproducible, and (with
+//! Debian's `chromium`) that the demo's report renders and prints.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+mod common;
+use common::{fixture, stderr, tempdir, volcomp};
+
+/// What the report must never hold: a script, or anything fetched from
+/// outside the file (the SVG namespace is a name, not a fetch).
+fn assert_self_contained(html: &str) {
+    let without_ns = html.replace("xmlns=\"http://www.w3.org/2000/svg\"", "");
+    for bad in [
+        "http://", "https://", "src=", "<script", "<img", "<link", "url(",
+    ] {
+        assert!(!without_ns.contains(bad), "the report holds {bad:?}");
+    }
+}
+
+/// The cell after `row` in the report's first table row starting with it.
+fn cells(html: &str, row: &str) -> Vec<String> {
+    let at = html
+        .find(&format!("<td>{row}</td>"))
+        .unwrap_or_else(|| panic!("no row {row}"));
+    let end = at + html[at..].find("</tr>").unwrap();
+    html[at..end]
+        .split("<td")
+        .skip(1)
+        .map(|c| {
+            let c = &c[c.find('>').unwrap() + 1..];
+            c[..c.find("</td>").unwrap()].to_string()
+        })
+        .collect()
+}
+
+fn sha256sum(path: &Path) -> Option<String> {
+    let o = Command::new("sha256sum").arg(path).output().ok()?;
+    Some(
+        String::from_utf8_lossy(&o.stdout)
+            .split(' ')
+            .next()?
+            .to_string(),
+    )
+}
+
+fn simulate_json(dir: &Path, args: &[&str]) -> serde_json::Value {
+    let mut all = vec![
+        "simulate",
+        "--map",
+        "map.csv",
+        "--setup",
+        "machine.toml",
+        "--json",
+    ];
+    all.extend_from_slice(args);
+    let o = volcomp(&all, dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+#[test]
+fn a_compensation_report_holds_the_runs_figures_and_inputs() {
+    let dir = fixture("report-compensate");
+    let run = |out: &str| {
+        Command::new(env!("CARGO_BIN_EXE_volcomp"))
+            .args([
+                "compensate",
+                "part.ngc",
+                "--map",
+                "map.csv",
+                "--setup",
+                "machine.toml",
+                "-o",
+                "part.comp.ngc",
+                "--report-html",
+                out,
+            ])
+            .current_dir(&dir)
+            .env("SOURCE_DATE_EPOCH", "86400")
+            .output()
+            .unwrap()
+    };
+    let o = run("report.html");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert_self_contained(&html);
+    // SOURCE_DATE_EPOCH = one day after the epoch.
+    assert!(html.contains("1970-01-02T00:00:00Z"));
+    // Every section, each a page of the print.
+    for id in [
+        "run",
+        "results",
+        "plan",
+        "along",
+        "histogram",
+        "corrections",
+    ] {
+        assert!(html.contains(&format!("<section id=\"{id}\">")), "{id}");
+    }
+    assert_eq!(html.matches("<svg").count(), 4);
+    assert_eq!(html.matches("</svg>").count(), 4);
+    // The inputs are named with their SHA-256, as sha256sum computes it.
+    for f in ["part.ngc", "map.csv", "machine.toml"] {
+        if let Some(sum) = sha256sum(&dir.join(f)) {
+            assert!(html.contains(&sum), "{f} {sum}");
+        }
+    }
+    // "before" is what `volcomp simulate` reports for the original,
+    // "after" what it reports for the compensated program against it.
+    let before = simulate_json(&dir, &["part.ngc"]);
+    let after = simulate_json(&dir, &["part.comp.ngc", "--reference", "part.ngc"]);
+    for (row, key) in [
+        ("point error, RMS", "point_rms_um"),
+        ("point error, max", "point_max_um"),
+        ("contour error, RMS", "contour_rms_um"),
+        ("contour error, max", "contour_max_um"),
+    ] {
+        let c = cells(&html, row);
+        assert_eq!(
+            c[1],
+            format!("{:.3}", before[key].as_f64().unwrap()),
+            "{row}"
+        );
+        assert_eq!(
+            c[2],
+            format!("{:.3}", after[key].as_f64().unwrap()),
+            "{row}"
+        );
+    }
+    // The program's lines are quoted beside the largest corrections: the
+    // map grows with the position, so the largest correction is at the
+    // largest coordinates: line 4 (G1 X60 Y40).
+    assert!(
+        html.contains("<td class=\"n\">4</td><td>G1 X60 Y40</td>"),
+        "{html}"
+    );
+    // The same inputs and date give the same report, byte for byte.
+    let o = run("again.html");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let again = std::fs::read_to_string(dir.join("again.html")).unwrap();
+    assert_eq!(
+        html.replace("report.html", "again.html"),
+        again,
+        "the report is not reproducible"
+    );
+}
+
+#[test]
+fn a_report_needs_the_program_as_a_file_and_never_overwrites_an_input() {
+    let dir = fixture("report-refusals");
+    let o = volcomp(
+        &[
+            "compensate",
+            "-",
+            "--map",
+            "map.csv",
+            "-o",
+            "x.ngc",
+            "--report-html",
+            "r.html",
+        ],
+        &dir,
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--report-html"), "{}", stderr(&o));
+    assert!(!dir.join("r.html").exists() && !dir.join("x.ngc").exists());
+    let before = std::fs::read(dir.join("part.ngc")).unwrap();
+    let o = volcomp(
+        &[
+            "simulate",
+            "part.ngc",
+            "--map",
+            "map.csv",
+            "--report-html",
+            "part.ngc",
+        ],
+        &dir,
+    );
+    assert!(!o.status.success());
+    assert_eq!(std::fs::read(dir.join("part.ngc")).unwrap(), before);
+}
+
+#[test]
+fn a_simulation_report_with_a_reference_shows_both() {
+    let dir = fixture("report-simulate");
+    let o = volcomp(
+        &[
+            "compensate",
+            "part.ngc",
+            "--map",
+            "map.csv",
+            "--setup",
+            "machine.toml",
+            "-o",
+            "c.ngc",
+        ],
+        &dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = volcomp(
+        &[
+            "simulate",
+            "c.ngc",
+            "--reference",
+            "part.ngc",
+            "--map",
+            "map.csv",
+            "--setup",
+            "machine.toml",
+            "--report-html",
+            "sim.html",
+        ],
+        &dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(dir.join("sim.html")).unwrap();
+    assert_self_contained(&html);
+    let reference = simulate_json(&dir, &["part.ngc"]);
+    let c = cells(&html, "contour error, max");
+    assert_eq!(
+        c[1],
+        format!("{:.3}", reference["contour_max_um"].as_f64().unwrap())
+    );
+    // Two panels on one colour scale: one colour bar.
+    assert!(html.contains(">part.ngc</text>") && html.contains(">c.ngc</text>"));
+}
+
+fn chromium() -> Option<PathBuf> {
+    for name in ["chromium", "chromium-browser"] {
+        let o = Command::new("sh")
+            .args(["-c", &format!("command -v {name}")])
+            .output()
+            .ok()?;
+        if o.status.success() {
+            let p = String::from_utf8_lossy(&o.stdout).trim().to_string();
+            if !p.is_empty() {
+                return Some(PathBuf::from(p));
+            }
+        }
+    }
+    None
+}
+
+/// Chromium without a desktop: no network, no profile left behind.
+fn headless(chromium: &Path, profile: &Path) -> Command {
+    let mut c = Command::new(chromium);
+    c.args([
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--no-first-run",
+        "--hide-scrollbars",
+    ])
+    .arg(format!("--user-data-dir={}", profile.display()));
+    c
+}
+
+#[test]
+fn the_demo_report_renders_and_prints_in_chromium() {
+    let dir = tempdir("demo-report");
+    let o = volcomp(&["demo", "--out-dir", "demo"], &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("demo/report.html"), "{stdout}");
+    let report = dir.join("demo/report.html");
+    let html = std::fs::read_to_string(&report).unwrap();
+    assert_self_contained(&html);
+    // The overview, then five sections per program.
+    let programs = html.matches("<td>program</td>").count();
+    assert!(programs >= 2, "{programs}");
+    let sections = html.matches("<section id=").count();
+    assert_eq!(sections, 2 + 5 * programs);
+    for kind in ["results", "plan", "along", "histogram", "corrections"] {
+        assert_eq!(
+            html.matches(&format!("-{kind}\">\n<h2>")).count(),
+            programs,
+            "{kind}"
+        );
+    }
+    let Some(chromium) = chromium() else {
+        if std::env::var("CI").is_ok_and(|v| v == "true") {
+            panic!("chromium is not installed, and CI=true: .ci/run installs it");
+        }
+        eprintln!("SKIPPED: chromium is not installed; the demo report was not rendered (apt-get install --no-install-recommends chromium)");
+        return;
+    };
+    let profile = dir.join("profile");
+    let png = dir.join("report.png");
+    let o = headless(&chromium, &profile)
+        .arg(format!("--screenshot={}", png.display()))
+        .arg("--window-size=900,1400")
+        .arg(format!("file://{}", report.display()))
+        .output()
+        .unwrap();
+    assert!(o.status.success() && png.exists(), "{}", stderr(&o));
+    // Non-blank: the first page has text, tables and links in colour.
+    let img = image::open(&png).unwrap().to_rgb8();
+    assert_eq!((img.width(), img.height()), (900, 1400));
+    let ink = img
+        .pixels()
+        .filter(|p| p.0.iter().any(|c| *c < 200))
+        .count();
+    let share = ink as f64 / (900.0 * 1400.0);
+    assert!(share > 0.01 && share < 0.6, "ink {share}");
+    let pdf = dir.join("report.pdf");
+    let o = headless(&chromium, &profile)
+        .arg(format!("--print-to-pdf={}", pdf.display()))
+        .arg("--no-pdf-header-footer")
+        .arg(format!("file://{}", report.display()))
+        .output()
+        .unwrap();
+    assert!(o.status.success() && pdf.exists(), "{}", stderr(&o));
+    let bytes = std::fs::read(&pdf).unwrap();
+    // Page objects: `/Type /Page` not followed by `s` (that is `/Pages`).
+    let text = String::from_utf8_lossy(&bytes).replace("/Type/Page", "/Type /Page");
+    let pages = text
+        .match_indices("/Type /Page")
+        .filter(|(i, _)| !text[i + 11..].starts_with('s'))
+        .count();
+    // Every section starts a page; none needs more than two.
+    assert!(
+        pages >= sections && pages <= 2 * sections,
+        "{pages} pages for {sections} sections"
+    );
+}

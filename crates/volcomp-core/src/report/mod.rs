@@ -1,0 +1,334 @@
+//! Reports people hand on: one self-contained HTML file per run, with what
+//! was done and with what (the inputs and their SHA-256, the set-up, the
+//! method and options, volcomp's version, the date), the figures in tables
+//! and the pictures as inline SVG.
+//!
+//! Everything here is a pure function from results to strings: no terminal,
+//! no network, no file written (a front end writes the string through
+//! [`crate::io::output`]). The HTML needs no script and names no external
+//! resource, so it reads the same offline, archived or printed: the style
+//! sheet sets A4 pages and starts every section on a new page (CSS Paged
+//! Media, [CSS Fragmentation 3] `break-before`).
+//!
+//! * [`svg`]: the charts (x–y with legends below the data, plan views on
+//!   one colour scale with a colour bar, histograms);
+//! * [`trace`]: what a report keeps of a simulated program, bounded in
+//!   memory, peaks kept;
+//! * [`compensation`]: the sections of a compensation or a simulation
+//!   (before/after tables, plan view, error along the path, histogram,
+//!   largest corrections, held axes and warnings).
+
+pub mod compensation;
+pub mod svg;
+pub mod trace;
+
+use crate::error::Error;
+use std::fmt::Write as _;
+use std::io::Read;
+use std::path::Path;
+use svg::escape;
+
+/// A file a run read, identified by its SHA-256.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct InputFile {
+    /// What the file was to the run (`program`, `map`, `set-up`, …).
+    pub role: String,
+    /// Its name as the user gave it.
+    pub name: String,
+    /// Its size (bytes), when known.
+    pub bytes: Option<u64>,
+    /// Its SHA-256, lower-case hex (FIPS 180-4).
+    pub sha256: String,
+}
+
+impl InputFile {
+    /// Reads `path` once to size and hash it.
+    pub fn read(role: impl Into<String>, path: &Path) -> Result<Self, Error> {
+        use sha2::Digest as _;
+        let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let mut hasher = sha2::Sha256::new();
+        let mut buf = vec![0u8; 1 << 16];
+        let mut bytes = 0u64;
+        loop {
+            let n = f.read(&mut buf).map_err(|e| Error::io(path, e))?;
+            if n == 0 {
+                break;
+            }
+            bytes += n as u64;
+            hasher.update(&buf[..n]);
+        }
+        Ok(Self {
+            role: role.into(),
+            name: path.display().to_string(),
+            bytes: Some(bytes),
+            sha256: hasher
+                .finalize()
+                .iter()
+                .map(|b| format!("{b:02x}"))
+                .collect(),
+        })
+    }
+
+    /// An input held in memory (standard input, or a file already read).
+    pub fn from_bytes(role: impl Into<String>, name: impl Into<String>, data: &[u8]) -> Self {
+        Self {
+            role: role.into(),
+            name: name.into(),
+            bytes: Some(data.len() as u64),
+            sha256: crate::io::provenance::sha256_hex(data),
+        }
+    }
+}
+
+/// A table; cells are plain text (escaped when rendered).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Table {
+    /// Column headings (with units).
+    pub headers: Vec<String>,
+    /// Rows of cells.
+    pub rows: Vec<Vec<String>>,
+    /// Columns aligned right (numbers).
+    pub numeric: Vec<bool>,
+}
+
+/// One piece of a section.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Block {
+    /// A paragraph of plain text.
+    Text(String),
+    /// A table.
+    Table(Table),
+    /// An inline SVG drawing (from [`svg`]) and its caption.
+    Figure {
+        /// The `<svg>` element.
+        svg: String,
+        /// What it shows.
+        caption: String,
+    },
+    /// Program lines, quoted: `(line number, text)`.
+    Lines(Vec<(u64, String)>),
+}
+
+/// A section: a page of the printed report.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Section {
+    /// Anchor (letters, digits, '-').
+    pub id: String,
+    /// Heading.
+    pub title: String,
+    /// Content, in order.
+    pub blocks: Vec<Block>,
+}
+
+/// A whole report.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Document {
+    /// The title.
+    pub title: String,
+    /// What was done and with what: `(what, value)` rows of the first
+    /// section (version, date, command, method, options, set-up).
+    pub facts: Vec<(String, String)>,
+    /// The files read.
+    pub inputs: Vec<InputFile>,
+    /// The sections after the first.
+    pub sections: Vec<Section>,
+}
+
+/// The style sheet: A4 pages, one section per page, tables and figures
+/// kept whole, narrow screens served by scaling the drawings.
+const CSS: &str = r#"
+@page { size: A4; margin: 15mm 14mm; }
+* { box-sizing: border-box; }
+body { font-family: "DejaVu Sans", Helvetica, Arial, sans-serif; font-size: 11pt; color: #111; margin: 0 auto; max-width: 190mm; padding: 8px; line-height: 1.35; }
+h1 { font-size: 17pt; margin: 0 0 4px 0; }
+h2 { font-size: 14pt; border-bottom: 2px solid #0072B2; padding-bottom: 2px; margin: 0 0 8px 0; }
+section { margin-bottom: 28px; }
+section + section { break-before: page; page-break-before: always; }
+table { border-collapse: collapse; margin: 6px 0 10px 0; font-size: 9.5pt; break-inside: avoid; }
+th, td { border: 1px solid #bbb; padding: 2px 6px; text-align: left; vertical-align: top; }
+th { background: #eef3f8; }
+td.n { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+td.h { font-family: "DejaVu Sans Mono", monospace; font-size: 8pt; word-break: break-all; }
+figure { margin: 6px 0 14px 0; break-inside: avoid; }
+figure svg { display: block; width: 100%; height: auto; }
+figcaption { font-size: 9.5pt; color: #333; margin-top: 2px; }
+pre { font-family: "DejaVu Sans Mono", monospace; font-size: 8.5pt; background: #f6f6f6; padding: 4px 6px; white-space: pre-wrap; word-break: break-all; break-inside: avoid; }
+nav ol { margin: 4px 0; padding-left: 22px; }
+.table-wrap { overflow-x: auto; }
+@media print { nav { display: none; } .table-wrap { overflow: visible; } }
+"#;
+
+fn anchor(id: &str) -> String {
+    id.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
+        .collect()
+}
+
+fn table_html(out: &mut String, t: &Table) {
+    out.push_str("<div class=\"table-wrap\"><table>");
+    if !t.headers.is_empty() {
+        out.push_str("<thead><tr>");
+        for h in &t.headers {
+            let _ = write!(out, "<th>{}</th>", escape(h));
+        }
+        out.push_str("</tr></thead>");
+    }
+    out.push_str("<tbody>");
+    for row in &t.rows {
+        out.push_str("<tr>");
+        for (i, cell) in row.iter().enumerate() {
+            let class = if t.numeric.get(i).copied().unwrap_or(false) {
+                " class=\"n\""
+            } else {
+                ""
+            };
+            let _ = write!(out, "<td{class}>{}</td>", escape(cell));
+        }
+        out.push_str("</tr>");
+    }
+    out.push_str("</tbody></table></div>\n");
+}
+
+impl Document {
+    /// The report as one HTML document (UTF-8), with no script and no
+    /// external resource.
+    pub fn to_html(&self) -> String {
+        let mut out = String::with_capacity(1 << 16);
+        let _ = write!(
+            out,
+            "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<meta name=\"generator\" content=\"volcomp {}\">\n<title>{}</title>\n<style>{CSS}</style>\n</head>\n<body>\n",
+            env!("CARGO_PKG_VERSION"),
+            escape(&self.title)
+        );
+        let _ = write!(
+            out,
+            "<section id=\"run\">\n<h1>{}</h1>\n<h2>What was done, with what</h2>\n",
+            escape(&self.title)
+        );
+        let facts = Table {
+            headers: vec![],
+            rows: self
+                .facts
+                .iter()
+                .map(|(k, v)| vec![k.clone(), v.clone()])
+                .collect(),
+            numeric: vec![],
+        };
+        table_html(&mut out, &facts);
+        if !self.inputs.is_empty() {
+            out.push_str("<div class=\"table-wrap\"><table><thead><tr><th>input</th><th>file</th><th>bytes</th><th>SHA-256</th></tr></thead><tbody>");
+            for f in &self.inputs {
+                let _ = write!(
+                    out,
+                    "<tr><td>{}</td><td>{}</td><td class=\"n\">{}</td><td class=\"h\">{}</td></tr>",
+                    escape(&f.role),
+                    escape(&f.name),
+                    f.bytes.map_or("–".to_string(), |b| b.to_string()),
+                    escape(&f.sha256)
+                );
+            }
+            out.push_str("</tbody></table></div>\n");
+        }
+        if !self.sections.is_empty() {
+            out.push_str("<nav><b>Contents</b><ol>");
+            for s in &self.sections {
+                let _ = write!(
+                    out,
+                    "<li><a href=\"#{}\">{}</a></li>",
+                    anchor(&s.id),
+                    escape(&s.title)
+                );
+            }
+            out.push_str("</ol></nav>\n");
+        }
+        out.push_str("</section>\n");
+        for s in &self.sections {
+            let _ = write!(
+                out,
+                "<section id=\"{}\">\n<h2>{}</h2>\n",
+                anchor(&s.id),
+                escape(&s.title)
+            );
+            for b in &s.blocks {
+                match b {
+                    Block::Text(t) => {
+                        let _ = writeln!(out, "<p>{}</p>", escape(t));
+                    }
+                    Block::Table(t) => table_html(&mut out, t),
+                    Block::Figure { svg, caption } => {
+                        let _ = writeln!(
+                            out,
+                            "<figure>{svg}<figcaption>{}</figcaption></figure>",
+                            escape(caption)
+                        );
+                    }
+                    Block::Lines(lines) => {
+                        out.push_str("<pre>");
+                        for (n, text) in lines {
+                            let _ = writeln!(out, "{n:>7}  {}", escape(text));
+                        }
+                        out.push_str("</pre>\n");
+                    }
+                }
+            }
+            out.push_str("</section>\n");
+        }
+        out.push_str("</body>\n</html>\n");
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_input_is_identified_by_its_sha256() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.ngc");
+        std::fs::write(&p, b"abc").unwrap();
+        let f = InputFile::read("program", &p).unwrap();
+        // FIPS 180-2, appendix B.1: SHA-256("abc").
+        assert_eq!(
+            f.sha256,
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+        assert_eq!(f.bytes, Some(3));
+        assert_eq!(
+            f,
+            InputFile::from_bytes("program", p.display().to_string(), b"abc")
+        );
+    }
+
+    #[test]
+    fn the_document_is_self_contained_and_breaks_pages_between_sections() {
+        let d = Document {
+            title: "t <1>".into(),
+            facts: vec![("volcomp".into(), "0.1.0".into())],
+            inputs: vec![InputFile::from_bytes("map", "m.csv", b"")],
+            sections: vec![Section {
+                id: "a b".into(),
+                title: "A".into(),
+                blocks: vec![
+                    Block::Text("x & y".into()),
+                    Block::Lines(vec![(12, "G1 X<1>".into())]),
+                ],
+            }],
+        };
+        let html = d.to_html();
+        assert!(html.starts_with("<!DOCTYPE html>"));
+        assert!(html.contains("<title>t &lt;1&gt;</title>"));
+        assert!(html.contains("section + section { break-before: page;"));
+        assert!(html.contains("<section id=\"a-b\">"));
+        assert!(html.contains("     12  G1 X&lt;1&gt;"));
+        // SHA-256 of the empty string (FIPS 180-2 test vectors).
+        assert!(html.contains("e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855"));
+        assert!(!html.contains("<script"));
+        // No resource outside the document (the SVG namespace is a name,
+        // not a fetch).
+        let outside = html
+            .replace("xmlns=\"http://www.w3.org/2000/svg\"", "")
+            .contains("http");
+        assert!(!outside);
+    }
+}
