@@ -13,6 +13,10 @@ pub mod surface;
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
+    /// No progress bar and no summary line on standard error (bars are
+    /// drawn only on a terminal, for large inputs).
+    #[arg(long, global = true)]
+    pub quiet: bool,
 }
 
 #[derive(Subcommand, Debug)]

@@ -7,6 +7,7 @@ mod commands;
 mod flags;
 mod output;
 mod plot;
+mod progress;
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -52,6 +53,7 @@ fn main() -> ExitCode {
         eprintln!("volcomp: warning: cannot watch for signals ({e}); an interrupted run may leave a .volcomp-*.tmp file");
     }
     let cli = args::Cli::parse();
+    progress::set_quiet(cli.quiet);
     match commands::run(cli) {
         Ok(()) => ExitCode::from(output::EXIT_OK),
         Err(e) => {

@@ -88,6 +88,7 @@ pub mod limits;
 pub(crate) mod linalg;
 pub mod model;
 pub mod prelude;
+pub mod progress;
 pub mod report;
 pub mod rng;
 pub mod simulate;

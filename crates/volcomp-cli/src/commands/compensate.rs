@@ -3,6 +3,7 @@
 use super::Machine;
 use crate::args::{CompensateArgs, MapArgs, Method as MethodArg};
 use crate::output::{check, CliError, OutputPlan, Staged};
+use crate::progress::Bar;
 use std::io::{BufRead, Read, Write};
 use std::path::{Path, PathBuf};
 pub use volcomp_core::compensate::file_name;
@@ -13,6 +14,7 @@ use volcomp_core::compensate::{
 };
 use volcomp_core::io::provenance::{iso8601_utc, ProgramHeader};
 use volcomp_core::model::ErrorModel;
+use volcomp_core::progress::Counted;
 use volcomp_core::report::compensation::{
     compensation_sections, header_facts, lines_to_quote, quote_lines, trace_program,
     LargestCorrections,
@@ -184,9 +186,10 @@ pub fn compensate_into(
     allow_recompensate: bool,
     on_point: impl FnMut(&PointRecord),
 ) -> Result<CompensateSummary, CliError> {
-    let reader = open_program(program)?;
+    let bar = Bar::reading(&format!("compensating {}", program.display()), program);
+    let reader = Counted::new(open_program(program)?, bar.clone());
     let file = program_name(program);
-    Compensator::new(model)
+    let result = Compensator::new(model)
         .setup(machine.0.clone())
         .options(*options)
         .header(header.clone())
@@ -195,7 +198,9 @@ pub fn compensate_into(
         .on_point(on_point)
         .on_warning(|w| eprintln!("{file}:{w}"))
         .run(reader, out)
-        .map_err(|e| machine.explain(e))
+        .map_err(|e| machine.explain(e));
+    bar.finish();
+    result
 }
 
 /// Compensates `program` into the file `output` (completely or not at all).

@@ -218,12 +218,12 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
         ];
         for c in &cells {
             point_row.push(format!(
-                "{:.3} ({:+.0} %)",
+                "{:.3} ({:+.0}\u{a0}%)",
                 c.point_rms_um,
                 -rate(before.point_rms_um, c.point_rms_um)
             ));
             contour_row.push(format!(
-                "{:.3} ({:+.1} %)",
+                "{:.3} ({:+.1}\u{a0}%)",
                 c.contour_rms_um,
                 -rate(before.contour_rms_um, c.contour_rms_um)
             ));

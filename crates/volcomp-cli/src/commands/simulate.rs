@@ -5,7 +5,9 @@ use super::Machine;
 use crate::args::SimulateArgs;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
+use crate::progress::Bar;
 use std::io::Write;
+use volcomp_core::progress::Counted;
 use volcomp_core::report::compensation::{
     lines_to_quote, quote_lines, setup_facts, simulation_sections, trace_program, Traced,
 };
@@ -51,6 +53,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     let mut last: Option<volcomp_gcode::Vec3> = None;
     let mut travelled = 0.0;
     let mut trace = a.report_html.as_ref().map(|_| PathTrace::default());
+    let bar = Bar::reading(&format!("simulating {}", a.program.display()), &a.program);
     let mut warnings: Vec<(u64, String)> = Vec::new();
     let report = simulation
         .on_warning(|w| {
@@ -85,7 +88,8 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
                 );
             }
         })
-        .run(open(&a.program)?);
+        .run(Counted::new(open(&a.program)?, bar.clone()));
+    bar.finish();
     let report = report.map_err(|e| machine.explain(e))?;
     if let (Some(path), Some(bytes)) = (&a.errors_csv, rows) {
         let mut inputs = vec![a.program.as_path()];

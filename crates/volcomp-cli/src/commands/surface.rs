@@ -6,10 +6,12 @@ use super::compensate::{date_utc, file_name, refuse_if_compensated};
 use super::Machine;
 use crate::args::surface::{flag_help, Cl, MirrorArgs, SurfaceArgs, SurfaceCommand};
 use crate::output::{check, write_atomically, CliError, OutputPlan};
+use crate::progress::Bar;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use volcomp_core::compensate::survey_style;
 use volcomp_core::io::provenance::{sha256_hex, HeaderWriter, ProgramHeader};
+use volcomp_core::progress::Counted;
 use volcomp_core::surface::mirror::report::{
     compensated_surface_text, header_method, header_options, report_csv, summary_json,
     summary_text, FinishingJson, RunInputs, SurfaceFiles,
@@ -217,7 +219,14 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
                     refuse_if_compensated(&head, &file)?;
                 }
                 let style = survey_style(&head);
-                let mut walker = machine.walk(program)?;
+                let bar = Bar::reading(&format!("mirroring {}", program.display()), program);
+                let f =
+                    std::fs::File::open(program).map_err(|e| CliError::Io(program.clone(), e))?;
+                let reader: Box<dyn std::io::BufRead> = Box::new(Counted::new(
+                    std::io::BufReader::with_capacity(1 << 16, f),
+                    bar.clone(),
+                ));
+                let mut walker = machine.walker(reader, &program.display().to_string());
                 let mut summary = None;
                 let header = mirror_header(
                     &a,
@@ -225,7 +234,7 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
                     &tool,
                     out == a.baseline.as_deref().unwrap_or(Path::new("")),
                 )?;
-                write_atomically(out, &inputs, |w| {
+                let written = write_atomically(out, &inputs, |w| {
                     let mut w = HeaderWriter::new(w, header.lines());
                     summary = Some(
                         compensate_finishing(&mut walker, &file, &style, &model, &opts, &mut w)
@@ -233,7 +242,9 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
                     );
                     w.finish().map_err(|e| CliError::Io(out.to_path_buf(), e))?;
                     Ok(())
-                })?;
+                });
+                bar.finish();
+                written?;
                 summary.ok_or_else(|| {
                     CliError::Message("the finishing run produced no summary".into())
                 })

@@ -7,6 +7,7 @@
 
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
+use crate::progress::Bar;
 use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
 use volcomp_core::example::thermal as example;
@@ -15,7 +16,9 @@ use volcomp_core::identify::thermal::files::{
 };
 use volcomp_core::identify::thermal::identify::DEFAULT_RELATIVE_THRESHOLD;
 use volcomp_core::identify::thermal::report;
-use volcomp_core::identify::thermal::uncertainty::{axis_line_bands, LineBands};
+use volcomp_core::identify::thermal::uncertainty::{
+    axis_line_bands_with_progress, LineBands, LINE_INTERVALS,
+};
 use volcomp_core::identify::thermal::ThermalError;
 
 /// Thermally varying error: ball-array identification, temperature regression, prediction, plots.
@@ -206,7 +209,22 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
             .ok_or_else(|| CliError::Message("no cycles to draw bands for".into()))?;
         let model = files::poly_model(&a.chain, ranges_mm, a.order, a.probe_length_mm)?;
         let samples = a.samples.max(10);
-        let lines = axis_line_bands(&model, last, ranges_mm, a.probe_length_mm, samples);
+        // 123 points × `samples` draws: a bar from 100 000 model evaluations.
+        let points = 3 * (u64::from(LINE_INTERVALS) + 1);
+        let mut bar = Bar::items(
+            "Monte Carlo bands (points)",
+            points,
+            points * samples as u64 >= 100_000,
+        );
+        let lines = axis_line_bands_with_progress(
+            &model,
+            last,
+            ranges_mm,
+            a.probe_length_mm,
+            samples,
+            &mut bar,
+        );
+        bar.finish();
         write_bands(path, &lines, samples)?;
     }
     for w in volcomp_core::identify::thermal::checks::noise_warnings(&cycles, &idents) {

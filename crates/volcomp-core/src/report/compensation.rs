@@ -176,7 +176,7 @@ pub fn setup_facts(
 
 fn pct(before: f64, after: f64) -> String {
     if before > 0.0 {
-        format!("{:+.1} %", -100.0 * (1.0 - after / before))
+        format!("{:+.1}\u{a0}%", -100.0 * (1.0 - after / before))
     } else {
         "–".into()
     }
@@ -635,9 +635,9 @@ mod tests {
         // 10 → 2.5: −75 %; 4 → 5: +25 %.
         assert_eq!(
             table.rows[0],
-            vec!["point error, RMS", "10.000", "2.500", "-75.0 %"]
+            vec!["point error, RMS", "10.000", "2.500", "-75.0\u{a0}%"]
         );
-        assert_eq!(table.rows[3][3], "+25.0 %");
+        assert_eq!(table.rows[3][3], "+25.0\u{a0}%");
     }
 
     #[test]

@@ -147,7 +147,7 @@ section + section { break-before: page; page-break-before: always; }
 table { border-collapse: collapse; margin: 6px 0 10px 0; font-size: 9.5pt; break-inside: avoid; }
 th, td { border: 1px solid #bbb; padding: 2px 6px; text-align: left; vertical-align: top; }
 th { background: #eef3f8; }
-td.n { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+td.n { text-align: right; font-variant-numeric: tabular-nums; }
 td.h { font-family: "DejaVu Sans Mono", monospace; font-size: 8pt; word-break: break-all; }
 figure { margin: 6px 0 14px 0; break-inside: avoid; }
 figure svg { display: block; width: 100%; height: auto; }

@@ -54,6 +54,27 @@ pub fn monte_carlo(
     samples: usize,
     seed: u64,
 ) -> Vec<Band> {
+    monte_carlo_with_progress(
+        model,
+        ident,
+        trajectory_mm,
+        tool_mm,
+        samples,
+        seed,
+        &mut crate::progress::Silent,
+    )
+}
+
+/// [`monte_carlo`], telling `progress` of each trajectory point done.
+pub fn monte_carlo_with_progress(
+    model: &PolyModel,
+    ident: &Identification,
+    trajectory_mm: &[Vec3],
+    tool_mm: Vec3,
+    samples: usize,
+    seed: u64,
+    progress: &mut dyn crate::progress::Progress,
+) -> Vec<Band> {
     let base = estimate(ident);
     let rank = ident.cov_factor.first().map_or(0, Vec::len);
     let mut rng = Rng::new(seed);
@@ -69,7 +90,9 @@ pub fn monte_carlo(
         .collect();
     trajectory_mm
         .iter()
-        .map(|&q| {
+        .enumerate()
+        .map(|(i, &q)| {
+            progress.advance_to(i as u64);
             let estimate_um = model.deviation_um(&base, q, tool_mm, false);
             let mut vals: [Vec<f64>; 3] = Default::default();
             for d in &draws {
@@ -125,13 +148,42 @@ pub fn axis_line_bands(
     probe_length_mm: f64,
     samples: usize,
 ) -> Vec<LineBands> {
+    axis_line_bands_with_progress(
+        model,
+        ident,
+        ranges_mm,
+        probe_length_mm,
+        samples,
+        &mut crate::progress::Silent,
+    )
+}
+
+/// [`axis_line_bands`], telling `progress` of the points done out of
+/// `3 (LINE_INTERVALS + 1)`.
+pub fn axis_line_bands_with_progress(
+    model: &PolyModel,
+    ident: &Identification,
+    ranges_mm: [[f64; 2]; 3],
+    probe_length_mm: f64,
+    samples: usize,
+    progress: &mut dyn crate::progress::Progress,
+) -> Vec<LineBands> {
+    /// The points of the lines before this one, added.
+    struct Offset<'a>(u64, &'a mut dyn crate::progress::Progress);
+    impl crate::progress::Progress for Offset<'_> {
+        fn advance_to(&mut self, done: u64) {
+            self.1.advance_to(self.0 + done);
+        }
+    }
+    let per_line = u64::from(LINE_INTERVALS) + 1;
+    progress.start("Monte Carlo bands", Some(3 * per_line));
     let mid = Vec3::new(
         0.5 * (ranges_mm[0][0] + ranges_mm[0][1]),
         0.5 * (ranges_mm[1][0] + ranges_mm[1][1]),
         0.5 * (ranges_mm[2][0] + ranges_mm[2][1]),
     );
     let tool = Vec3::new(0.0, 0.0, probe_length_mm);
-    (0..3)
+    let lines = (0..3)
         .map(|axis| {
             let [lo, hi] = ranges_mm[axis];
             let points_mm: Vec<Vec3> = (0..=LINE_INTERVALS)
@@ -141,14 +193,18 @@ pub fn axis_line_bands(
                     p
                 })
                 .collect();
-            let bands = monte_carlo(model, ident, &points_mm, tool, samples, 1);
+            let mut offset = Offset(axis as u64 * per_line, &mut *progress);
+            let bands =
+                monte_carlo_with_progress(model, ident, &points_mm, tool, samples, 1, &mut offset);
             LineBands {
                 axis,
                 points_mm,
                 bands,
             }
         })
-        .collect()
+        .collect::<Vec<_>>();
+    progress.advance_to(3 * per_line);
+    lines
 }
 
 fn quantile(sorted: &[f64], p: f64) -> f64 {
@@ -180,7 +236,21 @@ mod tests {
             cov_factor: vec![vec![0.0]; n],
         };
         let ranges = [[0.0, 600.0], [-100.0, 300.0], [10.0, 30.0]];
-        let lines = axis_line_bands(&model, &ident, ranges, 50.0, 10);
+        // Progress: 3 lines × 41 points, told in order, ending at 123.
+        struct Log(Vec<u64>, Option<u64>);
+        impl crate::progress::Progress for Log {
+            fn start(&mut self, _: &str, total: Option<u64>) {
+                self.1 = total;
+            }
+            fn advance_to(&mut self, done: u64) {
+                self.0.push(done);
+            }
+        }
+        let mut log = Log(Vec::new(), None);
+        let lines = axis_line_bands_with_progress(&model, &ident, ranges, 50.0, 10, &mut log);
+        assert_eq!(log.1, Some(123));
+        assert_eq!(log.0, (0..=123).collect::<Vec<u64>>());
+        assert_eq!(lines, axis_line_bands(&model, &ident, ranges, 50.0, 10));
         assert_eq!(lines.len(), 3);
         // Middle: (300, 100, 20); the line along Y steps (300 + 100) / 40 = 10 mm.
         let y = &lines[1];
