@@ -30,6 +30,9 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
     /// Draw markers instead of a line.
     pub markers: bool,
+    /// Palette index; by default the series' position. Markers and the
+    /// line fitted to them share one colour this way.
+    pub colour: Option<usize>,
 }
 
 impl Series {
@@ -39,6 +42,7 @@ impl Series {
             label: label.into(),
             points,
             markers: false,
+            colour: None,
         }
     }
 
@@ -48,7 +52,14 @@ impl Series {
             label: label.into(),
             points,
             markers: true,
+            colour: None,
         }
+    }
+
+    /// The same series drawn in palette colour `index`.
+    pub fn colour(mut self, index: usize) -> Self {
+        self.colour = Some(index);
+        self
     }
 }
 
@@ -63,23 +74,39 @@ pub struct Chart {
     pub vlines: Vec<(f64, String)>,
     /// Logarithmic y axis (values must be positive).
     pub log_y: bool,
+    /// Logarithmic x axis (values must be positive).
+    pub log_x: bool,
 }
 
-const PALETTE: [RGBColor; 6] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(255, 127, 14),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
+/// Okabe and Ito's colours ([Okabe & Ito 2008]), as in the HTML reports:
+/// blue, vermillion, bluish green, reddish purple, orange, sky blue, yellow,
+/// black.
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(240, 228, 66),
+    RGBColor(0, 0, 0),
 ];
+
+fn series_colour(i: usize, s: &Series) -> RGBColor {
+    PALETTE[s.colour.unwrap_or(i) % PALETTE.len()]
+}
 
 fn bounds(chart: &Chart) -> ((f64, f64), (f64, f64)) {
     let pts = chart
         .series
         .iter()
         .flat_map(|s| s.points.iter())
-        .filter(|(x, y)| x.is_finite() && y.is_finite() && (!chart.log_y || *y > 0.0));
+        .filter(|(x, y)| {
+            x.is_finite()
+                && y.is_finite()
+                && (!chart.log_y || *y > 0.0)
+                && (!chart.log_x || *x > 0.0)
+        });
     let (mut x0, mut x1, mut y0, mut y1) = (
         f64::INFINITY,
         f64::NEG_INFINITY,
@@ -106,7 +133,11 @@ fn bounds(chart: &Chart) -> ((f64, f64), (f64, f64)) {
             (a, b)
         }
     };
-    let (x0, x1) = pad(x0, x1);
+    let (x0, x1) = if chart.log_x {
+        (x0 * 0.9, x1 * 1.1)
+    } else {
+        pad(x0, x1)
+    };
     let (y0, y1) = if chart.log_y {
         (y0 * 0.8, y1 * 1.25)
     } else {
@@ -121,9 +152,12 @@ fn draw<DB: DrawingBackend>(
     chart: &Chart,
 ) -> Result<(), String> {
     let ((x0, x1), (y0, y1)) = bounds(chart);
-    let mut builder = ChartBuilder::on(area);
+    // The legend has its own column right of the plot: it never covers data.
+    let (w, _) = area.dim_in_pixel();
+    let (plot_area, legend_area) = area.split_horizontally(w * 70 / 100);
+    let mut builder = ChartBuilder::on(&plot_area);
     builder
-        .caption(&chart.title, ("sans-serif", 18))
+        .caption(&chart.title, ("sans-serif", 16))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60);
@@ -139,53 +173,89 @@ fn draw<DB: DrawingBackend>(
                 .draw()
                 .map_err(|e| e.to_string())?;
             for (i, s) in chart.series.iter().enumerate() {
-                let color = PALETTE[i % PALETTE.len()];
+                let color = series_colour(i, s);
                 let pts: Vec<(f64, f64)> = s
                     .points
                     .iter()
                     .copied()
-                    .filter(|(x, y)| x.is_finite() && y.is_finite() && (!chart.log_y || *y > 0.0))
+                    .filter(|(x, y)| {
+                        x.is_finite()
+                            && y.is_finite()
+                            && (!chart.log_y || *y > 0.0)
+                            && (!chart.log_x || *x > 0.0)
+                    })
                     .collect();
-                let anno = if s.markers {
-                    ctx.draw_series(pts.iter().map(|p| Circle::new(*p, 2, color.filled())))
-                        .map_err(|e| e.to_string())?
+                if s.markers {
+                    ctx.draw_series(pts.iter().map(|p| Circle::new(*p, 3, color.filled())))
+                        .map_err(|e| e.to_string())?;
                 } else {
-                    ctx.draw_series(LineSeries::new(pts, color.stroke_width(1)))
-                        .map_err(|e| e.to_string())?
-                };
-                anno.label(s.label.as_str()).legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
-                });
+                    ctx.draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                        .map_err(|e| e.to_string())?;
+                }
             }
-            for (x, label) in &chart.vlines {
+            for (x, _) in &chart.vlines {
                 ctx.draw_series(LineSeries::new(
                     vec![(*x, y0), (*x, y1)],
                     BLACK.stroke_width(1),
                 ))
-                .map_err(|e| e.to_string())?
-                .label(label.as_str())
-                .legend(|(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 16, y)], BLACK.stroke_width(1))
-                });
-            }
-            if !chart.series.is_empty() {
-                ctx.configure_series_labels()
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .label_font(("sans-serif", 12))
-                    .draw()
-                    .map_err(|e| e.to_string())?;
+                .map_err(|e| e.to_string())?;
             }
         }};
     }
-    if chart.log_y {
-        body!(builder
-            .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
-            .map_err(|e| e.to_string())?);
-    } else {
-        body!(builder
+    match (chart.log_x, chart.log_y) {
+        (false, false) => body!(builder
             .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(|e| e.to_string())?);
+            .map_err(|e| e.to_string())?),
+        (false, true) => body!(builder
+            .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+            .map_err(|e| e.to_string())?),
+        (true, false) => body!(builder
+            .build_cartesian_2d((x0..x1).log_scale(), y0..y1)
+            .map_err(|e| e.to_string())?),
+        (true, true) => body!(builder
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .map_err(|e| e.to_string())?),
+    }
+    legend(&legend_area, chart)
+}
+
+/// The legend in its own area: each entry's swatch drawn as its series
+/// (a filled circle for markers, a line for lines) in the series' colour.
+fn legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    chart: &Chart,
+) -> Result<(), String> {
+    let (_, h) = area.dim_in_pixel();
+    let row = 18i32;
+    let mut y = 40i32;
+    let font = ("sans-serif", 12).into_font().color(&BLACK);
+    let entries: Vec<(RGBColor, bool, &str)> = chart
+        .series
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (series_colour(i, s), s.markers, s.label.as_str()))
+        .chain(chart.vlines.iter().map(|(_, l)| (BLACK, false, l.as_str())))
+        .collect();
+    for (k, (colour, markers, label)) in entries.iter().enumerate() {
+        if y + row > h as i32 - 8 {
+            let rest = format!("… {} more", entries.len() - k);
+            area.draw(&Text::new(rest, (4, y), font.clone()))
+                .map_err(|e| e.to_string())?;
+            break;
+        }
+        if *markers {
+            area.draw(&Circle::new((12, y), 3, colour.filled()))
+                .map_err(|e| e.to_string())?;
+        } else {
+            area.draw(&PathElement::new(
+                vec![(2, y), (22, y)],
+                colour.stroke_width(2),
+            ))
+            .map_err(|e| e.to_string())?;
+        }
+        area.draw(&Text::new(label.to_string(), (28, y - 7), font.clone()))
+            .map_err(|e| e.to_string())?;
+        y += row;
     }
     Ok(())
 }
@@ -273,5 +343,61 @@ pub fn chart_bytes(charts: &[Chart], path: &Path) -> Result<Vec<u8>, CliError> {
             "{}: plots are written as .svg or .png; choose one of those extensions",
             path.display()
         ))),
+    }
+}
+
+#[cfg(test)]
+mod legend_tests {
+    use super::*;
+
+    fn svg(chart: Chart) -> String {
+        let bytes = chart_bytes(&[chart], Path::new("t.svg")).unwrap();
+        String::from_utf8(bytes).unwrap()
+    }
+
+    #[test]
+    fn markers_and_their_fit_share_a_colour_and_the_legend_is_beside_the_plot() {
+        let s = svg(Chart {
+            title: "t".into(),
+            x_label: "time (h)".into(),
+            y_label: "value (µm)".into(),
+            series: vec![
+                Series::markers("p identified", vec![(0.0, 1.0), (1.0, 2.0)]).colour(2),
+                Series::line("p regression", vec![(0.0, 1.0), (1.0, 2.0)]).colour(2),
+            ],
+            ..Chart::default()
+        });
+        // Palette entry 2 (bluish green, 0 158 115) for both; no other
+        // palette colour is used.
+        assert!(s.contains("#009E73"), "{s}");
+        for other in ["#0072B2", "#D55E00"] {
+            assert!(!s.contains(other), "{other}");
+        }
+        // The legend's text starts right of the plot area (70 % of 900 px).
+        let at = s.find(">\np regression\n<").unwrap();
+        let x: f64 = s[..at]
+            .rsplit("x=\"")
+            .next()
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(x > 630.0, "{x}");
+    }
+
+    #[test]
+    fn a_logarithmic_x_axis_is_labelled_in_the_values_themselves() {
+        let s = svg(Chart {
+            title: "spectrum".into(),
+            x_label: "wavelength λ (mm, logarithmic)".into(),
+            y_label: "power (1)".into(),
+            series: vec![Series::line("P", vec![(0.5, 1.0), (5.0, 2.0), (50.0, 3.0)])],
+            log_x: true,
+            ..Chart::default()
+        });
+        // Ticks in mm (1, 10 …), not their logarithms (0, 1 …).
+        assert!(s.contains(">\n10\n<") && s.contains(">\n1\n<"), "{s}");
     }
 }

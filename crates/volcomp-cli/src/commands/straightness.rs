@@ -359,29 +359,30 @@ fn same_path(a: &Path, b: &Path) -> bool {
 }
 
 /// Four charts per axis: the spectra per feed rate, P̄(λ) with P_t, σ(λ)
-/// with σ_t (all over log₁₀ λ, with the cut-off marked), and the measured
+/// with σ_t (all over the wavelength λ in mm on a logarithmic axis, with the
+/// cut-off marked), and the measured
 /// mean profiles against the model.
 fn charts(f: &Fit, o: &FitOptions) -> Vec<Chart> {
     let mut out = Vec::new();
     for a in &f.axes {
         let letter = a.axis.letter();
         let half = a.mean_power.len() - 1;
-        let lg = |k: usize| a.wavelength_mm(k).log10();
+        let lg = |k: usize| a.wavelength_mm(k);
         let cutoff = vec![(
-            a.cutoff_wavelength_mm.log10(),
+            a.cutoff_wavelength_mm,
             format!(
                 "cut-off λ_c = {:.3} mm (m = {})",
                 a.cutoff_wavelength_mm, a.harmonics
             ),
         )];
-        let x_label = "log₁₀ wavelength λ (mm)".to_string();
+        let x_label = "wavelength λ (mm, logarithmic)".to_string();
         let (x_lo, x_hi) = (lg(half), lg(1));
         out.push(Chart {
             title: format!(
                 "{letter}: power spectra of the averaged runs per feed rate (normalised)"
             ),
             x_label: x_label.clone(),
-            y_label: "normalised power".into(),
+            y_label: "normalised power (1)".into(),
             series: a
                 .feeds
                 .iter()
@@ -394,11 +395,12 @@ fn charts(f: &Fit, o: &FitOptions) -> Vec<Chart> {
                 .collect(),
             vlines: cutoff.clone(),
             log_y: true,
+            log_x: true,
         });
         out.push(Chart {
             title: format!("{letter}: mean normalised power P(λ) across feed rates"),
             x_label: x_label.clone(),
-            y_label: "mean power (normalised)".into(),
+            y_label: "mean normalised power (1)".into(),
             series: vec![
                 Series::line(
                     "mean power P(λ)",
@@ -418,11 +420,12 @@ fn charts(f: &Fit, o: &FitOptions) -> Vec<Chart> {
             ],
             vlines: cutoff.clone(),
             log_y: true,
+            log_x: true,
         });
         out.push(Chart {
             title: format!("{letter}: relative standard deviation σ(λ) across feed rates"),
             x_label,
-            y_label: "σ / mean power".into(),
+            y_label: "σ / mean power (1)".into(),
             series: vec![
                 Series::line("σ(λ)", (1..=half).map(|k| (lg(k), a.sigma[k])).collect()),
                 Series::line(
@@ -432,6 +435,7 @@ fn charts(f: &Fit, o: &FitOptions) -> Vec<Chart> {
             ],
             vlines: cutoff,
             log_y: true,
+            log_x: true,
         });
         out.push(profile_chart(a));
     }
@@ -481,6 +485,7 @@ fn profile_chart(a: &AxisFit) -> Chart {
         series,
         vlines: Vec::new(),
         log_y: false,
+        log_x: false,
     }
 }
 

@@ -344,47 +344,79 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
     let m = load_model(&a.model)?;
     let t = &m.time_h;
     let order = m.by_drift(a.top);
-    let mut evolution = Chart {
-        title: "Parameters over time: identified (markers) and regression (lines)".into(),
-        x_label: "time (h)".into(),
-        y_label: "value − first cycle (µm or µrad)".into(),
-        ..Chart::default()
-    };
-    let mut residuals = Chart {
-        title: "Regression residuals".into(),
-        x_label: "time (h)".into(),
-        y_label: "identified − regression (µm or µrad)".into(),
-        ..Chart::default()
-    };
+    // One chart per unit: linear parameters in µm and angular ones in µrad
+    // never share an axis. Each parameter's markers (identified) and line
+    // (regression) share one colour.
+    let mut units: Vec<&str> = Vec::new();
     for p in &order {
-        let base = p.identified[0];
-        let label = format!("{} ({})", p.name, p.unit);
-        evolution.series.push(Series::markers(
-            label.clone(),
-            t.iter()
-                .zip(&p.identified)
-                .map(|(x, v)| (*x, v - base))
-                .collect(),
-        ));
-        let f = m.fitted(p);
-        evolution.series.push(Series::line(
-            format!("{label} fit"),
-            f.iter().map(|(x, v)| (*x, v - base)).collect(),
-        ));
-        residuals.series.push(Series::line(
-            label,
-            f.iter()
-                .map(|(x, v)| {
-                    let c = t.iter().position(|y| y == x).unwrap_or(0);
-                    (*x, p.identified[c] - v)
-                })
-                .collect(),
-        ));
+        if !units.contains(&p.unit.as_str()) {
+            units.push(p.unit.as_str());
+        }
+    }
+    let mut charts = Vec::new();
+    // The files spell units in ASCII ("um", "urad"); the charts in symbols.
+    let symbol = |u: &str| match u {
+        "um" => "µm".to_string(),
+        "urad" => "µrad".to_string(),
+        u => u.to_string(),
+    };
+    for unit_file in &units {
+        let unit = symbol(unit_file);
+        let mut evolution = Chart {
+            title: format!(
+                "Parameters in {unit} over time: identified (markers) and regression (lines)"
+            ),
+            x_label: "time (h)".into(),
+            y_label: format!("value − first cycle ({unit})"),
+            ..Chart::default()
+        };
+        let mut residuals = Chart {
+            title: format!("Regression residuals of the parameters in {unit}"),
+            x_label: "time (h)".into(),
+            y_label: format!("identified − regression ({unit})"),
+            ..Chart::default()
+        };
+        for (colour, p) in order.iter().filter(|p| p.unit == *unit_file).enumerate() {
+            let base = p.identified[0];
+            let label = format!("{} ({unit})", p.name);
+            evolution.series.push(
+                Series::markers(
+                    format!("{label} identified"),
+                    t.iter()
+                        .zip(&p.identified)
+                        .map(|(x, v)| (*x, v - base))
+                        .collect(),
+                )
+                .colour(colour),
+            );
+            let f = m.fitted(p);
+            evolution.series.push(
+                Series::line(
+                    format!("{label} regression"),
+                    f.iter().map(|(x, v)| (*x, v - base)).collect(),
+                )
+                .colour(colour),
+            );
+            residuals.series.push(
+                Series::line(
+                    label,
+                    f.iter()
+                        .map(|(x, v)| {
+                            let c = t.iter().position(|y| y == x).unwrap_or(0);
+                            (*x, p.identified[c] - v)
+                        })
+                        .collect(),
+                )
+                .colour(colour),
+            );
+        }
+        charts.push(evolution);
+        charts.push(residuals);
     }
     let mut temps = Chart {
         title: "Temperatures".into(),
         x_label: "time (h)".into(),
-        y_label: "°C".into(),
+        y_label: "temperature (°C)".into(),
         ..Chart::default()
     };
     for (s, name) in m.sensors.iter().enumerate() {
@@ -406,7 +438,9 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
         )],
         ..Chart::default()
     };
-    write_charts(&[evolution, residuals, temps, noise], &a.output)?;
+    charts.push(temps);
+    charts.push(noise);
+    write_charts(&charts, &a.output)?;
     println!("wrote {}", a.output.display());
     Ok(())
 }
