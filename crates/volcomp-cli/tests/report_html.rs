@@ -328,3 +328,42 @@ fn the_demo_report_renders_and_prints_in_chromium() {
         "{pages} pages for {sections} sections"
     );
 }
+
+#[test]
+fn a_positioning_test_report_has_the_bidirectional_plot_and_figures() {
+    let dir = tempdir("report-iso");
+    let runs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/data/runs.csv");
+    std::fs::copy(&runs, dir.join("runs.csv")).unwrap();
+    let o = volcomp(
+        &[
+            "map",
+            "iso230-2",
+            "runs.csv",
+            "--axis",
+            "X",
+            "--report-html",
+            "iso.html",
+            "--json",
+        ],
+        &dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let html = std::fs::read_to_string(dir.join("iso.html")).unwrap();
+    assert_self_contained(&html);
+    for id in ["run", "iso230-2", "iso230-2-targets"] {
+        assert!(html.contains(&format!("<section id=\"{id}\">")), "{id}");
+    }
+    // The figures are the evaluation's (printed by --json), to the µm/1000.
+    let a = &json["axis"];
+    let cell = |row: &str| cells(&html, row);
+    assert_eq!(
+        cell("A accuracy of positioning")[3],
+        format!("{:.3}", a["accuracy_um"].as_f64().unwrap())
+    );
+    assert_eq!(
+        cell("E systematic positional deviation")[1],
+        format!("{:.3}", a["systematic_up_um"].as_f64().unwrap())
+    );
+    assert!(html.contains("positional deviation x = P − Pᵢ (µm)"));
+}

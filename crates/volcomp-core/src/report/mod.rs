@@ -19,6 +19,7 @@
 //!   largest corrections, held axes and warnings).
 
 pub mod compensation;
+pub mod iso230_2;
 pub mod svg;
 pub mod trace;
 

@@ -240,6 +240,10 @@ pub struct IsoArgs {
     pub axis: Option<Axis>,
     #[command(flatten)]
     pub comp: CompArgs,
+    /// Write a self-contained HTML report: the standard's bidirectional
+    /// plot (x̄ ± 2s per direction) and the figures B, R, E, M, A.
+    #[arg(long, value_name = "FILE.html")]
+    pub report_html: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]

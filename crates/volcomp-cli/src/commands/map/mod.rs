@@ -399,10 +399,37 @@ fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
 fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
     plan.input("RUNS", &a.runs)
-        .output_opt("-o", a.output.as_ref());
+        .output_opt("-o", a.output.as_ref())
+        .output_opt("--report-html", a.report_html.as_ref());
     check(&plan)?;
     let text = std::fs::read_to_string(&a.runs).map_err(|e| CliError::Io(a.runs.clone(), e))?;
     let r = iso230_2::from_csv(&text, &a.runs.display().to_string())?;
+    if let Some(path) = &a.report_html {
+        let axis = a.axis.map_or("not given (--axis)".to_string(), |x| {
+            AXES[x.index()].to_string()
+        });
+        let doc = volcomp_core::report::Document {
+            title: format!("volcomp positioning test report: {}", a.runs.display()),
+            facts: vec![
+                ("command".into(), super::compensate::command_line()),
+                ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
+                ("date (UTC)".into(), super::compensate::date_utc()),
+                ("axis".into(), axis),
+                (
+                    "evaluation".into(),
+                    "ISO 230-2:2014, clause 3 (bidirectional)".into(),
+                ),
+            ],
+            inputs: vec![volcomp_core::report::InputFile::from_bytes(
+                "runs",
+                a.runs.display().to_string(),
+                text.as_bytes(),
+            )],
+            sections: volcomp_core::report::iso230_2::sections(&r),
+        };
+        write_text(path, &[&a.runs], &doc.to_html())?;
+        eprintln!("volcomp: wrote {}", path.display());
+    }
     if a.json {
         let stdout = std::io::stdout();
         let mut out = stdout.lock();
