@@ -367,3 +367,33 @@ fn a_positioning_test_report_has_the_bidirectional_plot_and_figures() {
     );
     assert!(html.contains("positional deviation x = P − Pᵢ (µm)"));
 }
+
+#[test]
+fn a_map_report_draws_every_component_over_its_axis() {
+    let dir = tempdir("report-map");
+    let o = volcomp(&["map", "example", "-o", "models"], &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = volcomp(
+        &["map", "plot", "models/example21.toml", "-o", "map.html"],
+        &dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(dir.join("map.html")).unwrap();
+    assert_self_contained(&html);
+    // Three axes, each a page with its linear (µm) and angular (µrad) chart.
+    assert_eq!(html.matches("<section id=\"map-").count(), 3);
+    assert_eq!(html.matches("<svg").count(), 6);
+    assert_eq!(html.matches(">error (µm)</text>").count(), 3);
+    assert_eq!(html.matches(">rotation (µrad)</text>").count(), 3);
+    // The 18 components of the three axes (squareness is in the titles);
+    // the example's positioning errors differ by direction: drawn apart.
+    for axis in ["X", "Y", "Z"] {
+        for c in ["X", "Y", "Z", "A", "B", "C"] {
+            let name = format!("E{c}{axis}");
+            let alone = html.contains(&format!(">{name}</text>"));
+            let apart = html.contains(&format!(">{name} forward</text>"))
+                && html.contains(&format!(">{name} reverse</text>"));
+            assert!(alone || apart, "{name}");
+        }
+    }
+}

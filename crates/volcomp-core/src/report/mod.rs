@@ -20,6 +20,7 @@
 
 pub mod compensation;
 pub mod iso230_2;
+pub mod map;
 pub mod svg;
 pub mod trace;
 

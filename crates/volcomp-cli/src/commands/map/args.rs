@@ -198,7 +198,7 @@ pub struct ConvertArgs {
 pub struct PlotArgs {
     /// Error map: axis-table CSV or 21-component model TOML.
     pub map: PathBuf,
-    /// Output plot (.svg or .png).
+    /// Output plot (.svg or .png), or a self-contained HTML report (.html).
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
 }

@@ -25,9 +25,9 @@ use volcomp_core::io::model_file;
 use volcomp_core::io::{load_model, LoadOptions, LoadedModel};
 use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::model::kinematic::{Form, KinematicModel};
-use volcomp_core::model::query::ComponentSeries;
 use volcomp_core::model::topology::Topology;
 use volcomp_core::model::{parse_directions, Directions, ErrorModel};
+use volcomp_core::report::map::ComponentChart;
 use volcomp_gcode::Vec3;
 use volcomp_geom::Axis;
 
@@ -286,12 +286,6 @@ fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliErr
     Ok(())
 }
 
-fn series(s: Vec<ComponentSeries>) -> Vec<Series> {
-    s.into_iter()
-        .map(|c| Series::line(c.name, c.points))
-        .collect()
-}
-
 fn plot(a: PlotArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
     plan.map_input("MAP", &a.map).output("-o", &a.output);
@@ -302,16 +296,15 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| a.map.display().to_string());
-    let mut charts = Vec::new();
+    let mut charts: Vec<ComponentChart> = Vec::new();
     match &map {
         Map::Tables(m) => {
             for (k, axis) in AXES.iter().enumerate() {
-                charts.push(Chart {
+                charts.push(ComponentChart {
                     title: format!("{name}: errors caused by {axis} (axis tables)"),
                     x_label: format!("{axis} position (mm)"),
                     y_label: "error (µm)".into(),
-                    series: series(m.component_series(Axis::ALL[k])),
-                    ..Chart::default()
+                    series: m.component_series(Axis::ALL[k]),
                 });
             }
         }
@@ -327,24 +320,58 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
                         k.squareness.yz_urad, k.squareness.zx_urad
                     ),
                 };
-                charts.push(Chart {
+                charts.push(ComponentChart {
                     title: format!("{name}: positioning and straightness of {}{extra}", axis),
                     x_label: format!("{} position (mm)", axis),
                     y_label: "error (µm)".into(),
-                    series: series(linear),
-                    ..Chart::default()
+                    series: linear,
                 });
-                charts.push(Chart {
+                charts.push(ComponentChart {
                     title: format!("{name}: angular errors of {}", axis),
                     x_label: format!("{} position (mm)", axis),
                     y_label: "rotation (µrad)".into(),
-                    series: series(angular),
-                    ..Chart::default()
+                    series: angular,
                 });
             }
         }
     }
-    write_charts(&charts, &a.output)?;
+    let is_html = a
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("html"));
+    if is_html {
+        let mut inputs = vec![volcomp_core::report::InputFile::read("map", &a.map)?];
+        if let Map::Tables(_) = &map {
+            inputs[0].role = "map (axis tables)".into();
+        }
+        let doc = volcomp_core::report::Document {
+            title: format!("volcomp error map report: {name}"),
+            facts: vec![
+                ("command".into(), super::compensate::command_line()),
+                ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
+                ("date (UTC)".into(), super::compensate::date_utc()),
+            ],
+            inputs,
+            sections: volcomp_core::report::map::sections(&charts),
+        };
+        write_text(&a.output, &[&a.map], &doc.to_html())?;
+    } else {
+        let drawn: Vec<Chart> = charts
+            .iter()
+            .map(|c| Chart {
+                title: c.title.clone(),
+                x_label: c.x_label.clone(),
+                y_label: c.y_label.clone(),
+                series: c
+                    .series
+                    .iter()
+                    .map(|s| Series::line(s.name.clone(), s.points.clone()))
+                    .collect(),
+                ..Chart::default()
+            })
+            .collect();
+        write_charts(&drawn, &a.output)?;
+    }
     eprintln!(
         "volcomp: wrote {} ({} charts)",
         a.output.display(),
