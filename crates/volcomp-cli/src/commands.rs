@@ -12,6 +12,7 @@ use volcomp_gcode::number::{format_number, NumberStyle};
 use volcomp_gcode::{InterpOptions, Motion, MotionKind, Vec3, Walker};
 
 mod compensate;
+pub use compensate::{command_line, date_utc};
 mod demo;
 pub mod map;
 mod simulate;

@@ -347,6 +347,99 @@ pub fn chart_bytes(charts: &[Chart], path: &Path) -> Result<Vec<u8>, CliError> {
     }
 }
 
+/// A chart as the library's report draws it: the same series, colours,
+/// marks, axes (logarithmic too) and reference lines.
+pub fn to_report_chart(c: &Chart) -> volcomp_core::report::svg::Chart {
+    use volcomp_core::report::svg::{self as rs, Mark};
+    let series = c
+        .series
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let colour = series_colour(i, s);
+            rs::Series::xy(
+                s.label.clone(),
+                &format!("#{:02X}{:02X}{:02X}", colour.0, colour.1, colour.2),
+                if s.markers { Mark::Markers } else { Mark::Line },
+                &s.points,
+            )
+        })
+        .collect();
+    rs::Chart {
+        x_label: c.x_label.clone(),
+        y_label: c.y_label.clone(),
+        plot_height: 230.0,
+        series,
+        vrules: c.vlines.clone(),
+        log_x: c.log_x,
+        log_y: c.log_y,
+        ..rs::Chart::default()
+    }
+}
+
+/// Draws `charts` into `path`: `.svg` or `.png` as [`write_charts`], or
+/// `.html` as a self-contained report titled `title` naming `inputs`
+/// (role, file) with their SHA-256; charts whose titles share the text
+/// before ": " share a page, others go two to a page.
+pub fn write_charts_or_report(
+    charts: &[Chart],
+    path: &Path,
+    title: &str,
+    inputs: &[(&str, &Path)],
+) -> Result<(), CliError> {
+    let is_html = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("html"));
+    if !is_html {
+        return write_charts(charts, path);
+    }
+    use volcomp_core::report::charts::{sections, Titled};
+    let mut groups: Vec<(String, Vec<Titled>)> = Vec::new();
+    for c in charts {
+        let key = c.title.split_once(": ").map(|(k, _)| k.to_string());
+        let titled = Titled {
+            title: c.title.clone(),
+            chart: to_report_chart(c),
+        };
+        match (groups.last_mut(), &key) {
+            (Some((heading, list)), Some(k)) if heading == k => list.push(titled),
+            (Some((heading, list)), None) if heading.is_empty() && list.len() < 2 => {
+                list.push(titled)
+            }
+            _ => groups.push((key.unwrap_or_default(), vec![titled])),
+        }
+    }
+    for (heading, list) in &mut groups {
+        if heading.is_empty() {
+            *heading = list
+                .iter()
+                .map(|t| t.title.as_str())
+                .collect::<Vec<_>>()
+                .join("; ");
+        }
+    }
+    let mut files = Vec::new();
+    for (role, p) in inputs {
+        files.push(volcomp_core::report::InputFile::read(*role, p)?);
+    }
+    let doc = volcomp_core::report::Document {
+        title: title.to_string(),
+        facts: vec![
+            ("command".into(), crate::commands::command_line()),
+            ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
+            ("date (UTC)".into(), crate::commands::date_utc()),
+        ],
+        inputs: files,
+        sections: sections(&groups),
+    };
+    let input_paths: Vec<&Path> = inputs.iter().map(|(_, p)| *p).collect();
+    let html = doc.to_html();
+    write_atomically(path, &input_paths, |out| {
+        out.write_all(html.as_bytes())
+            .map_err(|e| CliError::Io(path.to_path_buf(), e))
+    })
+}
+
 #[cfg(test)]
 mod legend_tests {
     use super::*;

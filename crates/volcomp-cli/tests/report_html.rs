@@ -397,3 +397,92 @@ fn a_map_report_draws_every_component_over_its_axis() {
         }
     }
 }
+
+#[test]
+fn straightness_and_thermal_reports_keep_units_apart_and_wavelengths_in_mm() {
+    let dir = tempdir("report-charts");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/data/runs");
+    std::fs::create_dir_all(dir.join("runs")).unwrap();
+    let mut runs = Vec::new();
+    for e in std::fs::read_dir(&data).unwrap() {
+        let p = e.unwrap().path();
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        if name.starts_with("x-") && name.ends_with(".csv") {
+            std::fs::copy(&p, dir.join("runs").join(&name)).unwrap();
+            runs.push(format!("runs/{name}"));
+        }
+    }
+    assert!(runs.len() >= 2, "{runs:?}");
+    let mut args = vec!["straightness", "plot"];
+    args.extend(runs.iter().map(String::as_str));
+    args.extend(["-o", "st.html"]);
+    let o = volcomp(&args, &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(dir.join("st.html")).unwrap();
+    assert_self_contained(&html);
+    assert!(!html.contains("log₁₀"));
+    assert!(html.contains(">wavelength λ (mm, logarithmic)</text>"));
+    // Decade ticks in mm: 1 mm and 10 mm are labelled as such.
+    assert!(html.contains(">1</text>") && html.contains(">10</text>"));
+    // Every input named with its SHA-256.
+    for r in &runs {
+        assert!(html.contains(&format!("<td>{r}</td>")), "{r}");
+    }
+
+    let o = volcomp(&["thermal", "example", "-o", "ex"], &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = volcomp(
+        &[
+            "thermal",
+            "fit",
+            "--measurements",
+            "ex/measurements_train.csv",
+            "--temperatures",
+            "ex/temperatures_train.csv",
+            "--artifact",
+            "ex/artifact.csv",
+            "--ranges-mm",
+            "0:600,0:400,0:300",
+            "-o",
+            "thermal.toml",
+        ],
+        &dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = volcomp(
+        &[
+            "thermal",
+            "plot",
+            "--model",
+            "thermal.toml",
+            "-o",
+            "th.html",
+        ],
+        &dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(dir.join("th.html")).unwrap();
+    assert_self_contained(&html);
+    // No axis mixes µm and µrad; both have their own charts.
+    assert!(!html.contains("µm or µrad"));
+    let axis_labels: Vec<&str> = html
+        .split("transform=\"rotate(-90")
+        .skip(1)
+        .map(|s| &s[s.find('>').unwrap() + 1..s.find("</text>").unwrap()])
+        .collect();
+    assert!(
+        axis_labels.iter().any(|l| l.contains("(µm)")),
+        "{axis_labels:?}"
+    );
+    assert!(
+        axis_labels.iter().any(|l| l.contains("(µrad)")),
+        "{axis_labels:?}"
+    );
+    assert!(axis_labels
+        .iter()
+        .all(|l| !(l.contains("µm") && l.contains("µrad"))));
+    assert!(
+        axis_labels.iter().all(|l| l.contains('(')),
+        "a unit missing: {axis_labels:?}"
+    );
+}

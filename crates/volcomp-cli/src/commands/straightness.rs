@@ -6,7 +6,7 @@
 
 use crate::args::parse_axis;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
-use crate::plot::{write_charts, Chart, Series};
+use crate::plot::{write_charts_or_report, Chart, Series};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -103,7 +103,7 @@ pub struct FitArgs {
 pub struct PlotArgs {
     #[command(flatten)]
     pub runs: RunArgs,
-    /// The plot (.svg or .png).
+    /// The plot (.svg or .png), or a self-contained HTML report (.html).
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
 }
@@ -276,12 +276,13 @@ fn summary(f: &Fit, o: &FitOptions) -> String {
     s
 }
 
-/// Refuses a plot path that `write_charts` could not write, before any work.
+/// Refuses a plot path that `write_charts_or_report` could not write,
+/// before any work.
 fn check_plot_path(path: &Path) -> Result<(), CliError> {
     match path.extension().and_then(|e| e.to_str()) {
-        Some(e) if e.eq_ignore_ascii_case("svg") || e.eq_ignore_ascii_case("png") => Ok(()),
+        Some(e) if ["svg", "png", "html"].iter().any(|x| e.eq_ignore_ascii_case(x)) => Ok(()),
         _ => Err(CliError::Message(format!(
-            "{}: plots are written as .svg or .png; choose one of those extensions",
+            "{}: plots are written as .svg or .png, reports as .html; choose one of those extensions",
             path.display()
         ))),
     }
@@ -303,7 +304,8 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
     let text = f.model.to_toml();
     let inputs: Vec<&Path> = a.runs.runs.iter().map(PathBuf::as_path).collect();
     if let Some(path) = &a.plot {
-        write_charts(&charts(&f, &o), path)?;
+        let roles: Vec<(&str, &Path)> = inputs.iter().map(|p| ("profile", *p)).collect();
+        write_charts_or_report(&charts(&f, &o), path, "volcomp straightness report", &roles)?;
     }
     match &a.output {
         Some(path) => {
@@ -345,7 +347,18 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
             )));
         }
     }
-    write_charts(&charts(&f, &o), &a.output)?;
+    let roles: Vec<(&str, &Path)> = a
+        .runs
+        .runs
+        .iter()
+        .map(|p| ("profile", p.as_path()))
+        .collect();
+    write_charts_or_report(
+        &charts(&f, &o),
+        &a.output,
+        "volcomp straightness report",
+        &roles,
+    )?;
     eprint!("{}", summary(&f, &o));
     eprintln!("volcomp: wrote {}", a.output.display());
     Ok(())

@@ -6,7 +6,7 @@
 //! model fit and residuals; `example` writes synthetic inputs.
 
 use crate::output::{check, write_atomically, CliError, OutputPlan};
-use crate::plot::{write_charts, Chart, Series};
+use crate::plot::{write_charts, write_charts_or_report, Chart, Series};
 use crate::progress::Bar;
 use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
@@ -113,7 +113,7 @@ pub struct PlotArgs {
     /// How many parameters to draw (the largest drifts relative to their uncertainty first).
     #[arg(long, default_value_t = 6)]
     pub top: usize,
-    /// Output picture (.svg or .png).
+    /// Output picture (.svg or .png), or a self-contained HTML report (.html).
     #[arg(short, long)]
     pub output: PathBuf,
 }
@@ -440,7 +440,12 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
     };
     charts.push(temps);
     charts.push(noise);
-    write_charts(&charts, &a.output)?;
+    write_charts_or_report(
+        &charts,
+        &a.output,
+        "volcomp thermal model report",
+        &[("model", a.model.as_path())],
+    )?;
     println!("wrote {}", a.output.display());
     Ok(())
 }

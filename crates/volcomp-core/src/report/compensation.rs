@@ -368,6 +368,7 @@ pub fn picture_sections(before: Option<&Measured>, after: &Measured) -> Vec<Sect
                     series: contour_series,
                     rules: vec![],
                     y_from_zero: true,
+                    ..Chart::default()
                 }),
                 caption: "The largest contour error of each feed command over the commanded feed path length. Long paths are decimated into bins drawn from their smallest to their largest value, so every peak stays visible.".into(),
             },
@@ -379,6 +380,7 @@ pub fn picture_sections(before: Option<&Measured>, after: &Measured) -> Vec<Sect
                     series: point_series,
                     rules: vec![],
                     y_from_zero: true,
+                    ..Chart::default()
                 }),
                 caption: "The point error at the end of every feed move of the program (the largest per bin on long paths).".into(),
             },

@@ -75,6 +75,7 @@ pub fn sections(r: &Iso230_2Report) -> Vec<Section> {
         series,
         rules: vec![],
         y_from_zero: true,
+        ..Chart::default()
     });
     let a = &r.axis;
     let figures = Table {

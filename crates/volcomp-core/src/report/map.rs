@@ -56,6 +56,7 @@ pub fn sections(charts: &[ComponentChart]) -> Vec<Section> {
                     series,
                     rules: vec![],
                     y_from_zero: true,
+                    ..Chart::default()
                 }),
                 caption: format!("{}. Each component over the position of the axis it depends on; where the forward and reverse tables differ, the reverse one is dashed in the same colour.", c.title),
             }

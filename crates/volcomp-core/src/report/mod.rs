@@ -18,6 +18,7 @@
 //!   (before/after tables, plan view, error along the path, histogram,
 //!   largest corrections, held axes and warnings).
 
+pub mod charts;
 pub mod compensation;
 pub mod iso230_2;
 pub mod map;

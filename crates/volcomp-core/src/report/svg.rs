@@ -164,6 +164,40 @@ pub struct Chart {
     pub rules: Vec<(f64, String)>,
     /// Force y = 0 into the range.
     pub y_from_zero: bool,
+    /// Vertical reference lines `(x, label)` (e.g. a cut-off), in the legend.
+    pub vrules: Vec<(f64, String)>,
+    /// Logarithmic x axis, ticks at the decades (non-positive x not drawn).
+    pub log_x: bool,
+    /// Logarithmic y axis, ticks at the decades (non-positive y not drawn).
+    pub log_y: bool,
+}
+
+/// A decade's label: `0.01`, `1`, `1000`, or `1e-5`, `1e6` beyond.
+pub fn decade_label(exponent: f64) -> String {
+    let k = exponent.round() as i32;
+    if (-3..=4).contains(&k) {
+        let v = 10f64.powi(k);
+        tick_label(v, v)
+    } else {
+        format!("1e{k}").replace('-', "−")
+    }
+}
+
+/// Decade ticks covering `[lo, hi]` (exponents), every `n`-th decade so
+/// that there are at most about eight.
+fn decade_ticks(lo: f64, hi: f64) -> (Vec<f64>, f64) {
+    let (a, b) = (lo.floor(), hi.ceil().max(lo.floor() + 1.0));
+    let step = ((b - a) / 8.0).ceil().max(1.0);
+    let mut t = Vec::new();
+    let mut k = a;
+    while k <= b + 1e-9 {
+        t.push(k);
+        k += step;
+    }
+    if *t.last().unwrap_or(&a) < b {
+        t.push(k);
+    }
+    (t, step)
 }
 
 fn series_range(series: &[Series]) -> ((f64, f64), (f64, f64)) {
@@ -211,6 +245,7 @@ fn f(v: f64) -> String {
 
 /// The frame, grid, ticks and labels of a plot area (no y tick labels
 /// when `y_label` is empty: a panel sharing its neighbour's y scale).
+#[allow(clippy::too_many_arguments)]
 fn axes(
     svg: &mut String,
     xs: Scale,
@@ -219,7 +254,15 @@ fn axes(
     yt: &(Vec<f64>, f64),
     x_label: &str,
     y_label: &str,
+    log: (bool, bool),
 ) {
+    let label = |t: f64, step: f64, log: bool| {
+        if log {
+            decade_label(t)
+        } else {
+            tick_label(t, step)
+        }
+    };
     let (left, right, top, bottom) = (xs.p0, xs.p1, ys.p1, ys.p0);
     for &t in &xt.0 {
         let x = xs.at(t);
@@ -227,7 +270,7 @@ fn axes(
             svg,
             r##"<line x1="{x}" y1="{top}" x2="{x}" y2="{bottom}" stroke="#ddd"/><text x="{x}" y="{}" text-anchor="middle">{}</text>"##,
             f(bottom + 18.0),
-            tick_label(t, xt.1),
+            label(t, xt.1, log.0),
             x = f(x),
             top = f(top),
             bottom = f(bottom)
@@ -249,7 +292,7 @@ fn axes(
                 r##"<text x="{}" y="{}" text-anchor="end">{}</text>"##,
                 f(left - 6.0),
                 f(y + 5.0),
-                tick_label(t, yt.1)
+                label(t, yt.1, log.1)
             );
         }
     }
@@ -359,23 +402,85 @@ fn legend_height(names: &[&Series]) -> f64 {
 
 /// An x–y chart as an SVG element.
 pub fn chart(c: &Chart) -> String {
-    let ((x0, x1), (mut y0, mut y1)) = series_range(&c.series);
-    for (y, _) in &c.rules {
+    // On a logarithmic axis everything is drawn in decades (log10).
+    let tx = |v: f64| {
+        if !c.log_x {
+            v
+        } else if v > 0.0 {
+            v.log10()
+        } else {
+            f64::NAN
+        }
+    };
+    let ty = |v: f64| {
+        if !c.log_y {
+            v
+        } else if v > 0.0 {
+            v.log10()
+        } else {
+            f64::NAN
+        }
+    };
+    let series: Vec<Series> = c
+        .series
+        .iter()
+        .map(|s| Series {
+            points: s
+                .points
+                .iter()
+                .map(|&(x, a, b)| match s.mark {
+                    Mark::ErrorBars => (tx(x), ty(a), b),
+                    _ => (tx(x), ty(a), ty(b)),
+                })
+                .collect(),
+            ..s.clone()
+        })
+        .collect();
+    let rules: Vec<(f64, String)> = c.rules.iter().map(|(y, l)| (ty(*y), l.clone())).collect();
+    let vrules: Vec<(f64, String)> = c.vrules.iter().map(|(x, l)| (tx(*x), l.clone())).collect();
+    let ((mut x0, mut x1), (mut y0, mut y1)) = series_range(&series);
+    for (y, _) in rules.iter().filter(|r| r.0.is_finite()) {
         y0 = y0.min(*y);
         y1 = y1.max(*y);
     }
-    if c.y_from_zero {
+    for (x, _) in vrules.iter().filter(|r| r.0.is_finite()) {
+        x0 = x0.min(*x);
+        x1 = x1.max(*x);
+    }
+    if c.y_from_zero && !c.log_y {
         y0 = y0.min(0.0);
         y1 = y1.max(0.0);
     }
-    let xt = nice_ticks(x0, x1, 8);
-    let yt = nice_ticks(y0, y1, 6);
+    let xt = if c.log_x {
+        decade_ticks(x0, x1)
+    } else {
+        nice_ticks(x0, x1, 8)
+    };
+    let yt = if c.log_y {
+        decade_ticks(y0, y1)
+    } else {
+        nice_ticks(y0, y1, 6)
+    };
     let plot_h = if c.plot_height > 0.0 {
         c.plot_height
     } else {
         260.0
     };
-    let shown: Vec<&Series> = c.series.iter().filter(|s| !s.name.is_empty()).collect();
+    // Vertical rules are listed in the legend as black dotted lines.
+    let rule_series: Vec<Series> = vrules
+        .iter()
+        .map(|(_, l)| Series {
+            name: l.clone(),
+            colour: "#000000".into(),
+            mark: Mark::Dashed,
+            points: vec![],
+        })
+        .collect();
+    let shown: Vec<&Series> = series
+        .iter()
+        .chain(&rule_series)
+        .filter(|s| !s.name.is_empty())
+        .collect();
     let height = TOP + plot_h + AXIS_BELOW + legend_height(&shown) + 6.0;
     let xs = Scale {
         d0: xt.0[0],
@@ -390,8 +495,26 @@ pub fn chart(c: &Chart) -> String {
         p1: TOP,
     };
     let mut svg = open_svg(height, &format!("{} over {}", c.y_label, c.x_label));
-    axes(&mut svg, xs, ys, &xt, &yt, &c.x_label, &c.y_label);
-    for (y, label) in &c.rules {
+    axes(
+        &mut svg,
+        xs,
+        ys,
+        &xt,
+        &yt,
+        &c.x_label,
+        &c.y_label,
+        (c.log_x, c.log_y),
+    );
+    for (x, _) in vrules.iter().filter(|r| r.0.is_finite()) {
+        let px = f(xs.at(*x));
+        let _ = write!(
+            svg,
+            r##"<line x1="{px}" y1="{}" x2="{px}" y2="{}" stroke="#000" stroke-dasharray="6 4"/>"##,
+            f(ys.p1),
+            f(ys.p0)
+        );
+    }
+    for (y, label) in rules.iter().filter(|r| r.0.is_finite()) {
         let py = f(ys.at(*y));
         let _ = write!(
             svg,
@@ -403,7 +526,7 @@ pub fn chart(c: &Chart) -> String {
             escape(label)
         );
     }
-    for s in &c.series {
+    for s in &series {
         draw_series(&mut svg, s, xs, ys);
     }
     legend(&mut svg, TOP + plot_h + AXIS_BELOW, &shown);
@@ -588,6 +711,7 @@ pub fn plan_view(
             &yt_in,
             x_label,
             if k == 0 { y_label } else { "" },
+            (false, false),
         );
         let _ = write!(
             svg,
@@ -716,8 +840,8 @@ pub fn histogram(
         y_label: y_label.into(),
         plot_height: 220.0,
         series: chart_series,
-        rules: Vec::new(),
         y_from_zero: true,
+        ..Chart::default()
     };
     chart(&c)
 }
@@ -806,5 +930,40 @@ mod tests {
             .parse()
             .unwrap();
         assert!(y > TOP + 200.0 + 40.0, "{y}");
+    }
+}
+
+#[cfg(test)]
+mod log_tests {
+    use super::*;
+
+    #[test]
+    fn logarithmic_axes_are_labelled_at_the_decades_in_the_values() {
+        assert_eq!(decade_label(-2.0), "0.01");
+        assert_eq!(decade_label(3.0), "1000");
+        assert_eq!(decade_label(-5.0), "1e−5");
+        // 0.5 … 200 mm: decades −1 … 3.
+        let (t, step) = decade_ticks(0.5f64.log10(), 200f64.log10());
+        assert_eq!((t, step), (vec![-1.0, 0.0, 1.0, 2.0, 3.0], 1.0));
+        let svg = chart(&Chart {
+            x_label: "wavelength λ (mm)".into(),
+            y_label: "power (1)".into(),
+            series: vec![Series::xy(
+                "P",
+                PALETTE[0],
+                Mark::Line,
+                &[(0.5, 1e-6), (10.0, 0.1), (200.0, 0.01), (-1.0, 5.0)],
+            )],
+            vrules: vec![(4.0, "cut-off 4 mm".into())],
+            log_x: true,
+            log_y: true,
+            ..Chart::default()
+        });
+        for label in [">0.1<", ">1<", ">10<", ">100<", ">1000<", ">1e−6<"] {
+            assert!(svg.contains(label), "{label}");
+        }
+        // The non-positive point is not drawn (three points, one path).
+        assert_eq!(svg.matches(" L").count(), 2);
+        assert!(svg.contains(">cut-off 4 mm</text>"));
     }
 }
