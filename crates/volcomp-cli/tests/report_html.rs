@@ -486,3 +486,55 @@ fn straightness_and_thermal_reports_keep_units_apart_and_wavelengths_in_mm() {
         "a unit missing: {axis_labels:?}"
     );
 }
+
+#[test]
+fn a_mirror_report_has_the_statistics_and_the_probe_points() {
+    let dir = tempdir("report-mirror");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/data");
+    for f in ["face.toml", "probes.csv", "finish.ngc"] {
+        std::fs::copy(data.join(f), dir.join(f)).unwrap();
+    }
+    let run = |extra: &[&str], out: &str| {
+        let mut args = vec![
+            "surface",
+            "mirror",
+            "--nominal",
+            "face.toml",
+            "--measured",
+            "probes.csv",
+            "--stock",
+            "0.2",
+            "--finishing",
+            "finish.ngc",
+            "--tool-radius",
+            "3",
+            "-o",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        let o = volcomp(&args, &dir);
+        assert!(o.status.success(), "{}", stderr(&o));
+        o
+    };
+    run(&["--report", "mirror.html"], "a.ngc");
+    let o = run(&["--json"], "b.ngc");
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let html = std::fs::read_to_string(dir.join("mirror.html")).unwrap();
+    assert_self_contained(&html);
+    for id in ["run", "mirror", "mirror-points"] {
+        assert!(html.contains(&format!("<section id=\"{id}\">")), "{id}");
+    }
+    // The statistics are those of the summary (--json), to the nm.
+    let row = cells(&html, "measured (no compensation)");
+    let before = &json["before"];
+    assert_eq!(row[1], before["count"].to_string());
+    assert_eq!(row[3], format!("{:.3}", before["std_um"].as_f64().unwrap()));
+    assert_eq!(
+        row[6],
+        format!("{:.3}", before["profile_um"].as_f64().unwrap())
+    );
+    // One dot per probe point.
+    let dots = html.matches(" L").count();
+    assert!(dots >= before["count"].as_u64().unwrap() as usize);
+    assert!(html.contains("semi-finishing error (µm)"));
+}

@@ -140,8 +140,9 @@ pub struct MirrorArgs {
     pub no_trace: bool,
     #[command(flatten)]
     pub machine: MachineArgs,
-    /// Write a report: .json (summary and every point) or CSV (one row per
-    /// point, the summary in `#` lines).
+    /// Write a report: .json (summary and every point), .html (a
+    /// self-contained page with the statistics and the probe points) or CSV
+    /// (one row per point, the summary in `#` lines).
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
     /// Print the summary as one JSON object instead of a table.

@@ -374,7 +374,32 @@ fn write_report(
     r: &MirrorResult,
     inputs: &[&Path],
 ) -> Result<(), CliError> {
-    let bytes = if extension(path) == "json" {
+    let bytes = if extension(path) == "html" {
+        let mut files = Vec::new();
+        for p in inputs {
+            files.push(volcomp_core::report::InputFile::read("input", p)?);
+        }
+        let run = run_inputs(a);
+        let doc = volcomp_core::report::Document {
+            title: format!("volcomp mirror compensation report: {}", run.measured),
+            facts: vec![
+                ("command".into(), crate::commands::command_line()),
+                ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
+                ("date (UTC)".into(), crate::commands::date_utc()),
+                ("nominal surface".into(), run.nominal.clone()),
+                ("probe points".into(), run.measured.clone()),
+                ("stock D".into(), format!("{} mm", run.stock_mm)),
+                (
+                    "probe ball radius".into(),
+                    run.probe_radius_mm
+                        .map_or("points are surface points".into(), |r| format!("{r} mm")),
+                ),
+            ],
+            inputs: files,
+            sections: volcomp_core::report::mirror::sections(r),
+        };
+        doc.to_html().into_bytes()
+    } else if extension(path) == "json" {
         let j = summary_json(&run_inputs(a), r, None, None, None, true);
         let mut text = serde_json::to_string_pretty(&j)?;
         text.push('\n');

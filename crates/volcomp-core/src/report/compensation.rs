@@ -304,7 +304,8 @@ pub fn picture_sections(before: Option<&Measured>, after: &Measured) -> Vec<Sect
     let panels: Vec<PlanPanel> = runs.iter().map(|(m, _)| plan_panel(m)).collect();
     let plan = svg::plan_view(
         &panels,
-        vmax,
+        (0.0, vmax),
+        2.0,
         "largest contour error per command (µm)",
         "X (mm)",
         "Y (mm)",

@@ -22,6 +22,7 @@ pub mod charts;
 pub mod compensation;
 pub mod iso230_2;
 pub mod map;
+pub mod mirror;
 pub mod svg;
 pub mod trace;
 

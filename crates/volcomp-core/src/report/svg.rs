@@ -629,12 +629,14 @@ pub struct PlanPanel {
 /// per level, drawn from the lowest to the highest so peaks stay on top).
 const LEVELS: usize = 32;
 
-/// Plan views side by side on one colour scale `[0, value_max]` with its
-/// colour bar on the right, labelled `value_label`; axes labelled
-/// `x_label`, `y_label`, equal scale in x and y.
+/// Plan views side by side on one colour scale `value_range` (low, high)
+/// with its colour bar on the right, labelled `value_label`; axes labelled
+/// `x_label`, `y_label`, equal scale in x and y. A piece of one point is
+/// drawn as a dot; lines and dots are `stroke_px` wide.
 pub fn plan_view(
     panels: &[PlanPanel],
-    value_max: f64,
+    value_range: (f64, f64),
+    stroke_px: f64,
     value_label: &str,
     x_label: &str,
     y_label: &str,
@@ -675,11 +677,17 @@ pub fn plan_view(
             panels.len()
         ),
     );
-    let vmax = if value_max > 0.0 && value_max.is_finite() {
-        value_max
+    let vmin = if value_range.0.is_finite() {
+        value_range.0
     } else {
-        1.0
+        0.0
     };
+    let vmax = if value_range.1 > vmin && value_range.1.is_finite() {
+        value_range.1
+    } else {
+        vmin + 1.0
+    };
+    let span = vmax - vmin;
     for (k, panel) in panels.iter().enumerate() {
         let left = LEFT + k as f64 * (panel_w + gap);
         let xs = Scale {
@@ -722,7 +730,7 @@ pub fn plan_view(
         );
         let mut paths = vec![String::new(); LEVELS];
         for piece in &panel.pieces {
-            let level = ((piece.value / vmax) * LEVELS as f64).floor();
+            let level = (((piece.value - vmin) / span) * LEVELS as f64).floor();
             let level = if level.is_nan() {
                 0
             } else {
@@ -730,7 +738,14 @@ pub fn plan_view(
             };
             let d = &mut paths[level];
             let mut pen_up = true;
-            for q in &piece.points {
+            let dot;
+            let points: &[[f64; 2]] = if piece.points.len() == 1 {
+                dot = [piece.points[0], piece.points[0]];
+                &dot
+            } else {
+                &piece.points
+            };
+            for q in points {
                 if !(q[0].is_finite() && q[1].is_finite()) {
                     pen_up = true;
                     continue;
@@ -752,8 +767,9 @@ pub fn plan_view(
             let colour = hex(viridis((level as f64 + 0.5) / LEVELS as f64));
             let _ = write!(
                 svg,
-                r##"<path d="{}" fill="none" stroke="{colour}" stroke-width="2" stroke-linecap="round" stroke-linejoin="round"/>"##,
-                d.trim_end()
+                r##"<path d="{}" fill="none" stroke="{colour}" stroke-width="{}" stroke-linecap="round" stroke-linejoin="round"/>"##,
+                d.trim_end(),
+                f(stroke_px)
             );
         }
     }
@@ -779,9 +795,12 @@ pub fn plan_view(
         f(top),
         f(panel_h)
     );
-    let bt = nice_ticks(0.0, vmax, 5);
-    for &t in bt.0.iter().filter(|t| **t <= vmax * (1.0 + 1e-9)) {
-        let y = top + panel_h - t / vmax * panel_h;
+    let bt = nice_ticks(vmin, vmax, 5);
+    for &t in
+        bt.0.iter()
+            .filter(|t| **t <= vmax + span * 1e-9 && **t >= vmin - span * 1e-9)
+    {
+        let y = top + panel_h - (t - vmin) / span * panel_h;
         let _ = write!(
             svg,
             r##"<line x1="{}" y1="{y}" x2="{}" y2="{y}" stroke="#444"/><text x="{}" y="{}">{}</text>"##,
