@@ -306,7 +306,7 @@ pub fn picture_sections(before: Option<&Measured>, after: &Measured) -> Vec<Sect
         &panels,
         (0.0, vmax),
         2.0,
-        "largest contour error per command (µm)",
+        "contour error (µm)",
         "X (mm)",
         "Y (mm)",
     );

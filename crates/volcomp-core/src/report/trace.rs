@@ -1,9 +1,14 @@
 //! What a report keeps of a simulated program, in bounded memory whatever
-//! its length: the path in plan view and the error along it, decimated by
-//! merging neighbours in pairs so that every peak survives (the colour of a
-//! merged piece and the band of a merged bin are their largest, and
-//! smallest, values), and the distribution of the contour error by path
-//! length on bins that double in width as larger values arrive.
+//! its length: the path in plan view and the error along it, decimated so
+//! that every peak survives (the colour of a merged piece and the band of a
+//! merged bin are their largest, and smallest, values), and the
+//! distribution of the contour error by path length on bins that double in
+//! width as larger values arrive.
+//!
+//! Decimation keeps every bin (and plan piece) the same number of commands:
+//! commands fill the last bin up to the current span; when the bins pass
+//! their limit, neighbours merge in pairs and the span doubles, so early
+//! and late parts of a long program are drawn at the same resolution.
 
 use crate::simulate::SegmentError;
 
@@ -28,6 +33,8 @@ pub struct PlanRun {
     pub points: Vec<[f64; 2]>,
     /// Largest contour error along it (µm).
     pub max_um: f64,
+    /// Commands merged into it.
+    pub commands: u64,
 }
 
 /// A bin of the error along the path: commanded path length from `s0_mm`
@@ -45,6 +52,8 @@ pub struct PathBin {
     pub contour_max_um: f64,
     /// Largest point error in the bin (µm), if a point ends there.
     pub point_max_um: Option<f64>,
+    /// Commands merged into it.
+    pub commands: u64,
 }
 
 /// Path length by contour error on bins `[k w, (k + 1) w)` whose width `w`
@@ -111,7 +120,7 @@ impl LengthHistogram {
 }
 
 /// What a report keeps of one simulated program.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct PathTrace {
     /// The plan view, in order.
     pub plan: Vec<PlanRun>,
@@ -121,6 +130,10 @@ pub struct PathTrace {
     pub histogram: LengthHistogram,
     /// Commanded feed path length so far (mm).
     pub travelled_mm: f64,
+    /// Commands per plan piece (a power of two).
+    pub plan_span: u64,
+    /// Commands per bin (a power of two).
+    pub bin_span: u64,
 }
 
 fn merge_runs(a: PlanRun, b: PlanRun) -> PlanRun {
@@ -145,6 +158,7 @@ fn merge_runs(a: PlanRun, b: PlanRun) -> PlanRun {
     PlanRun {
         points,
         max_um: a.max_um.max(b.max_um),
+        commands: a.commands + b.commands,
     }
 }
 
@@ -158,6 +172,7 @@ fn merge_bins(a: PathBin, b: PathBin) -> PathBin {
             (Some(x), Some(y)) => Some(x.max(y)),
             (x, y) => x.or(y),
         },
+        commands: a.commands + b.commands,
     }
 }
 
@@ -169,6 +184,19 @@ fn halve<T>(items: &mut Vec<T>, merge: impl Fn(T, T) -> T) {
         match it.next() {
             Some(b) => items.push(merge(a, b)),
             None => items.push(a),
+        }
+    }
+}
+
+impl Default for PathTrace {
+    fn default() -> Self {
+        Self {
+            plan: Vec::new(),
+            bins: Vec::new(),
+            histogram: LengthHistogram::default(),
+            travelled_mm: 0.0,
+            plan_span: 1,
+            bin_span: 1,
         }
     }
 }
@@ -197,20 +225,39 @@ impl PathTrace {
         let run = PlanRun {
             points,
             max_um: s.contour_max_um,
+            commands: 1,
         };
-        self.plan.push(run);
+        match self.plan.pop() {
+            Some(last) if last.commands < self.plan_span => self.plan.push(merge_runs(last, run)),
+            Some(last) => {
+                self.plan.push(last);
+                self.plan.push(run);
+            }
+            None => self.plan.push(run),
+        }
         if self.plan.len() > PLAN_PIECES {
             halve(&mut self.plan, merge_runs);
+            self.plan_span *= 2;
         }
-        self.bins.push(PathBin {
+        let bin = PathBin {
             s0_mm: s0,
             s1_mm: self.travelled_mm,
             contour_min_um: s.contour_max_um,
             contour_max_um: s.contour_max_um,
             point_max_um: s.point_um,
-        });
+            commands: 1,
+        };
+        match self.bins.pop() {
+            Some(last) if last.commands < self.bin_span => self.bins.push(merge_bins(last, bin)),
+            Some(last) => {
+                self.bins.push(last);
+                self.bins.push(bin);
+            }
+            None => self.bins.push(bin),
+        }
         if self.bins.len() > PATH_BINS {
             halve(&mut self.bins, merge_bins);
+            self.bin_span *= 2;
         }
         self.histogram.add(s.contour_max_um, length);
     }
@@ -264,6 +311,23 @@ mod tests {
         let w = t.histogram.width_um;
         assert!((t.histogram.length_mm[(1.0 / w) as usize] - 99_999.0).abs() < 1e-6);
         assert!((t.histogram.length_mm[(50.0 / w) as usize] - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn early_and_late_parts_keep_the_same_resolution() {
+        let mut t = PathTrace::default();
+        for i in 0..100_000 {
+            t.push(&seg(i as f64, i as f64 + 1.0, 1.0, None));
+        }
+        // 100 000 commands in at most 2048 bins: 64 per bin (2¹⁶ / 2048 · 2
+        // would be too few, 128 too many), every bin but the last full.
+        assert_eq!(t.bin_span, 64);
+        let full = &t.bins[..t.bins.len() - 1];
+        assert!(full.iter().all(|b| b.commands == 64));
+        assert!(full.iter().all(|b| (b.s1_mm - b.s0_mm - 64.0).abs() < 1e-9));
+        assert_eq!(t.bins.iter().map(|b| b.commands).sum::<u64>(), 100_000);
+        let pieces = &t.plan[..t.plan.len() - 1];
+        assert!(pieces.iter().all(|r| r.commands == t.plan_span));
     }
 
     #[test]
