@@ -139,7 +139,8 @@ pub struct Document {
 }
 
 /// The style sheet: A4 pages, one section per page, tables and figures
-/// kept whole, narrow screens served by scaling the drawings.
+/// kept whole; on a narrow (phone) screen drawings keep a readable width
+/// and scroll sideways rather than shrink their text.
 const CSS: &str = r#"
 @page { size: A4; margin: 15mm 14mm; }
 * { box-sizing: border-box; }
@@ -159,7 +160,9 @@ figcaption { font-size: 9.5pt; color: #333; margin-top: 2px; }
 pre { font-family: "DejaVu Sans Mono", monospace; font-size: 8.5pt; background: #f6f6f6; padding: 4px 6px; white-space: pre-wrap; word-break: break-all; break-inside: avoid; }
 nav ol { margin: 4px 0; padding-left: 22px; }
 .table-wrap { overflow-x: auto; }
-@media print { nav { display: none; } .table-wrap { overflow: visible; } }
+figure { overflow-x: auto; }
+@media (max-width: 600px) { body { font-size: 10pt; } figure svg { min-width: 560px; } }
+@media print { nav { display: none; } .table-wrap, figure { overflow: visible; } figure svg { min-width: 0; } }
 "#;
 
 fn anchor(id: &str) -> String {
