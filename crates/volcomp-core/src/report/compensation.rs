@@ -795,3 +795,51 @@ pub fn simulation_sections(
     });
     prefixed(prefix, sections)
 }
+
+#[cfg(test)]
+mod held_tests {
+    use super::*;
+
+    #[test]
+    fn held_axes_and_warnings_are_listed_with_their_program_lines() {
+        let summary = CompensateSummary {
+            held: vec![(3, 'X'), (7, 'Z')],
+            held_count: 5,
+            ..CompensateSummary::default()
+        };
+        let quoted: BTreeMap<u64, String> = [
+            (3, "G1 X5".to_string()),
+            (4, "G1 X6 F100".to_string()),
+            (7, "G1 Z-1".to_string()),
+        ]
+        .into();
+        let warnings = vec![(4, "no feed rate before this line; F100 assumed".to_string())];
+        let s = corrections_section(&LargestCorrections::default(), &summary, &warnings, &quoted);
+        let lines: Vec<&Vec<(u64, String)>> = s
+            .blocks
+            .iter()
+            .filter_map(|b| match b {
+                Block::Lines(l) => Some(l),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(
+            lines[0],
+            &vec![
+                (3, "[X held]  G1 X5".to_string()),
+                (7, "[Z held]  G1 Z-1".to_string())
+            ]
+        );
+        assert_eq!(lines[1][0].0, 4);
+        assert!(lines[1][0].1.starts_with("warning: no feed rate"));
+        assert_eq!(lines[1][1], (4, "G1 X6 F100".to_string()));
+        // 5 holds, 2 listed: said so.
+        assert!(s
+            .blocks
+            .iter()
+            .any(|b| matches!(b, Block::Text(t) if t.contains("the first 2 are listed"))));
+        // The lines to quote: the held and warned lines.
+        let want = lines_to_quote(&LargestCorrections::default(), Some(&summary), &[4]);
+        assert_eq!(want, [3, 4, 7].into());
+    }
+}
