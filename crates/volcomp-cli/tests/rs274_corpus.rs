@@ -49,10 +49,6 @@ const RS274_ARTIFACTS: &[(&str, &str)] = &[
         "nc_files/skeleton.ngc",
         "`T1 M06 G43 H1` on one line: after M6 the interpreter re-reads the position from the canonical layer at the next block; LinuxCNC's (emccanon.cc GET_EXTERNAL_POSITION_*) subtracts the new tool offset, the stand-alone rs274's (saicanon.cc) does not, so rs274 alone moves Z by the tool length on the next move",
     ),
-    (
-        "nc_files/cone.ngc",
-        "a W word: the stand-alone rs274 is an XYZABC machine and refuses U, V, W; LinuxCNC configured with those axes runs them, and volcomp carries them through (docs/gcode.md)",
-    ),
 ];
 
 /// Seconds either interpreter may take on one program.

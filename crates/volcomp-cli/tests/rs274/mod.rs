@@ -330,12 +330,28 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
         let start = raw[..open]
             .rfind(|c: char| !(c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_'))
             .map_or(0, |k| k + 1);
+        // An N word of six digits or more runs into the call's name
+        // (`4818 N1001100STRAIGHT_FEED(`): the digits after `N` are the N
+        // word's, not the name's.
+        let glued = &raw[start..open];
+        let glued_n = if glued.starts_with('N') {
+            1 + glued[1..].bytes().take_while(u8::is_ascii_digit).count()
+        } else {
+            0
+        };
+        let (start, glued_n_word) = if glued_n > 1 {
+            (start + glued_n, Some(&raw[start..start + glued_n]))
+        } else {
+            (start, None)
+        };
         let name = &raw[start..open];
         let args = &raw[open + 1..close];
-        let n_word = raw[..start]
-            .split_whitespace()
-            .nth(1)
-            .filter(|n| !n.starts_with("N."));
+        let n_word = glued_n_word.or_else(|| {
+            raw[..start]
+                .split_whitespace()
+                .nth(1)
+                .filter(|n| !n.starts_with("N."))
+        });
         let call = match n_word {
             Some(n) => format!("{n} {}", &raw[start..=close]),
             None => raw[start..=close].to_string(),

@@ -37,6 +37,7 @@ mod warnings;
 mod words;
 
 pub use extra::{ExtraAxes, EXTRA_LETTERS};
+pub use motion::K0_HELP;
 pub use motion::MAX_COORDINATE_MM;
 pub use options::{FeedMode, InterpOptions};
 pub use state::Unanswerable;

@@ -9,6 +9,11 @@ use crate::arc::{sweep_angle, Arc};
 use crate::error::GcodeError;
 use crate::geom::{Axis, Plane, Units, Vec3};
 
+/// Help of the refusal of `K0` on an XY arc; a front end may say how its
+/// user accepts K0 instead.
+pub const K0_HELP: &str =
+    "remove the K0 words (a zero K says nothing about an XY arc), or accept K0 on XY arcs in the options";
+
 /// Largest absolute machine coordinate volcomp accepts (mm): 100 m, beyond
 /// the travel of the largest machine tools (gantry mills reach some tens of
 /// metres) and far beyond any error map. A coordinate past it is a typo, a
@@ -390,8 +395,16 @@ impl Interpreter {
             }
         };
         if let Some(k) = w.get(lw) {
-            let ok = k == 0.0 && plane == Plane::Xy && self.options.accept_k0_on_xy_arcs;
-            if !ok {
+            let k0_xy = k == 0.0 && plane == Plane::Xy;
+            if k0_xy && !self.options.accept_k0_on_xy_arcs {
+                return Err(invalid(
+                    line,
+                    w.col(lw).unwrap_or(col),
+                    "K0 given for an arc in the XY plane; LinuxCNC refuses it (\"K word given for arc in xy plane\")",
+                    K0_HELP,
+                ));
+            }
+            if !k0_xy {
                 return Err(invalid(
                     line,
                     w.col(lw).unwrap_or(col),

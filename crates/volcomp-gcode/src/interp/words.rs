@@ -6,6 +6,7 @@ use super::options::MotionMode;
 use super::{invalid, unsupported, Interpreter};
 use crate::error::GcodeError;
 use crate::lexer::{Lexed, Word};
+use crate::setup::AxisLetters;
 
 /// The words of one block by letter, plus its G and M codes.
 #[derive(Debug, Clone, Default)]
@@ -144,6 +145,7 @@ fn code_name(letter: char, code: u16) -> String {
 
 impl Interpreter {
     pub(super) fn collect_words(&mut self, line: u64, lexed: &Lexed) -> Result<(), GcodeError> {
+        let axes = self.setup.axes;
         let w = self.words.get_or_insert_with(Box::default);
         w.values = [None; 28];
         w.exponent_col = None;
@@ -241,6 +243,25 @@ impl Interpreter {
                 }
                 b'N' if w.values[slot_of(b'N')].is_none() => {
                     w.values[slot_of(b'N')] = Some((*value, col));
+                }
+                l if AxisLetters::ALL.contains(l) && !axes.contains(*l) => {
+                    // Interp::init drops the reader of every axis the
+                    // machine lacks (rs274ngc_pre.cc, GET_EXTERNAL_AXIS_MASK).
+                    return Err(invalid(
+                        line,
+                        col,
+                        format!(
+                            "the machine has no {} axis (its axes are {}); LinuxCNC refuses the word (\"Bad character '{}' used\")",
+                            *l as char,
+                            axes.letters(),
+                            l.to_ascii_lowercase() as char
+                        ),
+                        format!(
+                            "if the machine has it, name it in the set-up file: axes = \"{}{}\"",
+                            axes.letters(),
+                            *l as char
+                        ),
+                    ));
                 }
                 _ => {
                     let slot = &mut w.values[slot_of(*letter)];
