@@ -334,11 +334,9 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
         // (`4818 N1001100STRAIGHT_FEED(`): the digits after `N` are the N
         // word's, not the name's.
         let glued = &raw[start..open];
-        let glued_n = if glued.starts_with('N') {
-            1 + glued[1..].bytes().take_while(u8::is_ascii_digit).count()
-        } else {
-            0
-        };
+        let glued_n = glued.strip_prefix('N').map_or(0, |digits| {
+            1 + digits.bytes().take_while(u8::is_ascii_digit).count()
+        });
         let (start, glued_n_word) = if glued_n > 1 {
             (start + glued_n, Some(&raw[start..start + glued_n]))
         } else {
