@@ -441,7 +441,26 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     call: call.clone(),
                 });
             }
-            "STRAIGHT_PROBE" | "RIGID_TAP" | "NURBS_FEED" | "SPLINE_FEED" => {
+            "RIGID_TAP" => {
+                // In to the point at the spindle's feed, and back out to
+                // where the tap started (emccanon.cc RIGID_TAP): volcomp
+                // gives the two strokes as two feed moves.
+                let n = numbers(args, 3).map_err(bad)?;
+                let start = out.last().map_or([0.0; 3], |m: &RefMotion| m.end);
+                let abc = out.last().map_or([0.0; 3], |m: &RefMotion| m.abc);
+                for end in [canon.machine([n[0], n[1], n[2]]), start] {
+                    out.push(RefMotion {
+                        kind: Kind::Feed,
+                        end,
+                        center: None,
+                        tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
+                        abc,
+                        abc_tol: canon.abc_tol(),
+                        call: call.clone(),
+                    });
+                }
+            }
+            "STRAIGHT_PROBE" | "NURBS_FEED" | "SPLINE_FEED" => {
                 out.push(RefMotion {
                     kind: Kind::Other(name.to_string()),
                     end: [f64::NAN; 3],

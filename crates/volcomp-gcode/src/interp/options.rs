@@ -61,4 +61,6 @@ pub(super) enum MotionMode {
     /// Spline: G5 (50), G5.1 (51), G5.2 (52); G5.3 (53) only while its
     /// block runs.
     Spline(u16),
+    /// Spindle-synchronised motion: G33 (330) or G33.1 rigid tapping (331).
+    Synced(u16),
 }
