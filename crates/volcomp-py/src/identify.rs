@@ -1,13 +1,17 @@
-//! Identification: ISO 230-2 figures of positioning from run arrays.
+//! Identification: ISO 230-2 figures of positioning from run arrays;
+//! straightness models from profiles at several feed rates.
 
 use crate::errors::{bad_input, IntoPy};
 use crate::inputs::{f64_rows, f64_vec, source};
+use crate::model::Model;
 use numpy::prelude::*;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use volcomp_core::identify::iso230_2 as iso;
 use volcomp_core::identify::iso230_2::Iso230_2Report;
+use volcomp_core::identify::straightness;
+use volcomp_core::io::LoadedModel;
 
 /// The report as `{"targets": {column: array}, "axis": {figure: float},
 /// "notes": [str]}`.
@@ -152,4 +156,174 @@ pub fn iso230_2_csv<'py>(
         .map_err(|_| bad_input(format!("{}: not UTF-8 text", src.name)))?;
     let report = iso::from_csv(&text, &src.name).py_err()?;
     report_dict(py, &report)
+}
+
+/// One run of `straightness_fit`: a CSV (text or pathlib.Path) or a dict of
+/// arrays.
+fn straightness_run(
+    obj: &Bound<'_, PyAny>,
+    k: usize,
+    negate: bool,
+) -> PyResult<straightness::run::Run> {
+    let mut run = if let Ok(d) = obj.cast::<PyDict>() {
+        let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
+            d.get_item(key)?.ok_or_else(|| {
+                bad_input(format!(
+                    "runs[{k}]: the dict needs \"positions_mm\", \"displacement_um\" and \"feed_mm_per_min\" (and may give \"axis\", \"name\")"
+                ))
+            })
+        };
+        let name: String = match d.get_item("name")? {
+            Some(n) => n.extract()?,
+            None => format!("runs[{k}]"),
+        };
+        let axis = match d.get_item("axis")? {
+            None => None,
+            Some(a) => Some(straightness_axis(&a.extract::<String>()?)?),
+        };
+        let feed: f64 = get("feed_mm_per_min")?.extract().map_err(|_| {
+            bad_input(format!(
+                "runs[{k}]: feed_mm_per_min must be a number (mm/min)"
+            ))
+        })?;
+        straightness::run::Run::from_arrays(
+            &name,
+            axis,
+            feed,
+            f64_vec(&get("positions_mm")?, &format!("runs[{k}] positions_mm"))?,
+            f64_vec(
+                &get("displacement_um")?,
+                &format!("runs[{k}] displacement_um"),
+            )?,
+        )
+        .py_err()?
+    } else {
+        let src = source(obj, &format!("runs[{k}]"), None)?;
+        let text = String::from_utf8(src.bytes)
+            .map_err(|_| bad_input(format!("{}: not UTF-8 text", src.name)))?;
+        straightness::run::Run::from_csv(&text, &src.name).py_err()?
+    };
+    if negate {
+        run.negate();
+    }
+    Ok(run)
+}
+
+fn straightness_axis(text: &str) -> PyResult<straightness::Axis> {
+    straightness::Axis::parse(text).ok_or_else(|| {
+        bad_input(format!(
+            "axis {text:?}: straightness runs are profiles along X or Y; give \"X\" or \"Y\""
+        ))
+    })
+}
+
+/// Identifies a straightness model from profiles at several feed rates,
+/// the geometric error told from vibration by comparing them
+/// (docs/straightness.md, [Straightness study]).
+///
+/// `runs`: a list of runs, each a CSV (text, or a pathlib.Path; the layout
+/// of docs/straightness.md) or a dict `{"positions_mm": (n,),
+/// "displacement_um": (n,), "feed_mm_per_min": float, "axis": "X"|"Y",
+/// "name": str}` (positions evenly spaced; the Z deviation actual −
+/// commanded in µm). `axis` names the axis of runs that do not say;
+/// `negate` flips the sign of every run. Options as `volcomp straightness
+/// fit`: `sigma_t`, `p_t`, `taper_fraction`, `normalisation` ("common" or
+/// "per-run"), `harmonics` (force m), `cutoff` ("cross-validation" or
+/// "thresholds").
+///
+/// Returns `(model, report)`: the model (a `Model` of kind
+/// "straightness": `model.deviation_um(q)[:, 2]` is its prediction e_z) and
+/// per axis a dict of what was found (`harmonics`, `cutoff_wavelength_mm`,
+/// `residual_rms_um`, `positions_mm`, `mean_profile_um`,
+/// `model_profile_um`, `feeds_mm_per_min`, `mean_power`, `sigma`, ...).
+#[pyfunction]
+#[pyo3(signature = (runs, *, axis = None, negate = false, sigma_t = 0.05, p_t = 0.01, taper_fraction = 0.1, normalisation = "common", harmonics = None, cutoff = "cross-validation"))]
+#[allow(clippy::too_many_arguments)]
+pub fn straightness_fit<'py>(
+    py: Python<'py>,
+    runs: Vec<Bound<'py, PyAny>>,
+    axis: Option<&str>,
+    negate: bool,
+    sigma_t: f64,
+    p_t: f64,
+    taper_fraction: f64,
+    normalisation: &str,
+    harmonics: Option<usize>,
+    cutoff: &str,
+) -> PyResult<(Model, Bound<'py, PyDict>)> {
+    use straightness::identify::{CutoffRule, FitOptions, Normalisation};
+    let options = FitOptions {
+        sigma_t,
+        p_t,
+        taper_fraction,
+        normalisation: match normalisation {
+            "common" => Normalisation::Common,
+            "per-run" => Normalisation::PerRun,
+            n => {
+                return Err(bad_input(format!(
+                    "normalisation must be \"common\" or \"per-run\"; got {n:?}"
+                )))
+            }
+        },
+        harmonics,
+        cutoff: match cutoff {
+            "cross-validation" => CutoffRule::CrossValidation,
+            "thresholds" => CutoffRule::Thresholds,
+            c => {
+                return Err(bad_input(format!(
+                    "cutoff must be \"cross-validation\" or \"thresholds\"; got {c:?}"
+                )))
+            }
+        },
+    };
+    let axis = axis.map(straightness_axis).transpose()?;
+    let runs = runs
+        .iter()
+        .enumerate()
+        .map(|(k, r)| straightness_run(r, k, negate))
+        .collect::<PyResult<Vec<_>>>()?;
+    let fit = py
+        .detach(|| straightness::identify::fit(&runs, axis, &options))
+        .py_err()?;
+    let report = PyDict::new(py);
+    for a in &fit.axes {
+        let d = PyDict::new(py);
+        d.set_item("harmonics", a.harmonics)?;
+        d.set_item("cutoff_wavelength_mm", a.cutoff_wavelength_mm)?;
+        d.set_item("residual_rms_um", a.residual_rms_um)?;
+        d.set_item("runs", a.runs)?;
+        d.set_item("spacing_mm", a.spacing_mm)?;
+        d.set_item("length_mm", a.length_mm)?;
+        d.set_item("line_intercept_um", a.line.0)?;
+        d.set_item("line_slope_um_per_mm", a.line.1)?;
+        d.set_item("positions_mm", PyArray1::from_slice(py, &a.positions_mm))?;
+        d.set_item(
+            "mean_profile_um",
+            PyArray1::from_slice(py, &a.mean_profile_um),
+        )?;
+        d.set_item(
+            "model_profile_um",
+            PyArray1::from_slice(py, &a.model_profile_um),
+        )?;
+        d.set_item(
+            "feeds_mm_per_min",
+            PyArray1::from_vec(py, a.feeds.iter().map(|f| f.feed_mm_per_min).collect()),
+        )?;
+        d.set_item("mean_power", PyArray1::from_slice(py, &a.mean_power))?;
+        d.set_item("sigma", PyArray1::from_slice(py, &a.sigma))?;
+        d.set_item(
+            "passing",
+            PyArray1::from_vec(py, a.passing.iter().map(|k| *k as u64).collect()),
+        )?;
+        d.set_item(
+            "unstable_in_band",
+            PyArray1::from_vec(py, a.unstable_in_band.iter().map(|k| *k as u64).collect()),
+        )?;
+        report.set_item(a.axis.letter().to_string(), d)?;
+    }
+    let model = Model {
+        loaded: LoadedModel::Straightness(Box::new(fit.model)),
+        path: None,
+    };
+    Ok((model, report))
 }

@@ -29,5 +29,6 @@ fn _volcomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(program::moves, m)?)?;
     m.add_function(wrap_pyfunction!(identify::iso230_2, m)?)?;
     m.add_function(wrap_pyfunction!(identify::iso230_2_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(identify::straightness_fit, m)?)?;
     Ok(())
 }

@@ -263,7 +263,8 @@ fn options(
 }
 
 /// The provenance header: the model's file (and the tables it names) with
-/// their SHA-256, or, for a model built from arrays, its CSV text's.
+/// their SHA-256, or, for a model built in memory, that of its file text
+/// (the axis tables' CSV, the straightness model's TOML).
 fn header(
     model: &Model,
     m: &Machine,
@@ -276,6 +277,13 @@ fn header(
         }
         (None, LoadedModel::AxisTables(t)) => ProgramHeader::for_compensation(
             vec![("arrays".into(), sha256_hex(t.to_csv().as_bytes()))],
+            m.setup_file.as_deref().map(file_name),
+            m.setup.setup.clone(),
+            opts,
+            date_utc,
+        ),
+        (None, LoadedModel::Straightness(t)) => ProgramHeader::for_compensation(
+            vec![("arrays".into(), sha256_hex(t.to_toml().as_bytes()))],
             m.setup_file.as_deref().map(file_name),
             m.setup.setup.clone(),
             opts,

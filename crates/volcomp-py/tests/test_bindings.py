@@ -326,3 +326,45 @@ def test_errors_form_one_hierarchy():
     for cls in (volcomp.BadInputError, volcomp.RefusedProgramError, volcomp.VolcompIOError):
         assert issubclass(cls, volcomp.VolcompError)
     assert issubclass(volcomp.VolcompError, Exception)
+
+
+def test_straightness_fit_matches_the_cli(cli, data):
+    files = ["runs/x-4800.csv", "runs/x-7200.csv", "runs/x-9600.csv"]
+    run(cli, "straightness", "fit", *files, "-o", "straightness.toml", cwd=data)
+    out = run(cli, "straightness", "predict", "straightness.toml", "120,35", "100,-10", cwd=data)
+    rows = list(csv.DictReader(io.StringIO(out)))
+    model, report = volcomp.straightness_fit([data / f for f in files])
+    assert model.kind == "straightness"
+    e = model.deviation_um([[float(r["x_mm"]), float(r["y_mm"]), 0.0] for r in rows])
+    np.testing.assert_allclose(e[:, 2], [float(r["ez_um"]) for r in rows], atol=5e-5)
+    np.testing.assert_array_equal(e[:, :2], 0.0)
+    # The same runs as arrays give the same model.
+    runs = []
+    for f in files:
+        text = (data / f).read_text()
+        feed = float(next(l for l in text.splitlines() if "feed_mm_per_min" in l).split("=")[1])
+        rows_ = list(csv.DictReader(l for l in text.splitlines() if not l.startswith("#")))
+        xz = np.array([[float(r["position_mm"]), float(r["displacement_um"])] for r in rows_])
+        runs.append({"positions_mm": xz[:, 0], "displacement_um": xz[:, 1], "feed_mm_per_min": feed, "axis": "X"})
+    model2, report2 = volcomp.straightness_fit(runs)
+    assert report2["X"]["harmonics"] == report["X"]["harmonics"]
+    np.testing.assert_allclose(model2.deviation_um([[120.0, 35.0, 0.0]]), e[:1], atol=1e-9)
+
+
+def test_straightness_of_a_pure_slope_by_hand():
+    # e_z = 2 µrad · x over 0 … 200 mm, the same at every feed rate: the
+    # model is the line made zero-mean over the range, 0.002·(x − 100) µm.
+    x = np.linspace(0.0, 200.0, 401)
+    runs = [
+        {"positions_mm": x, "displacement_um": 0.002 * x, "feed_mm_per_min": f, "axis": "X"}
+        for f in (4800.0, 7200.0, 9600.0)
+    ]
+    model, report = volcomp.straightness_fit(runs)
+    e = model.deviation_um([[150.0, 0, 0], [0.0, 0, 0], [200.0, 0, 0]])
+    np.testing.assert_allclose(e[:, 2], [0.1, -0.2, 0.2], atol=1e-9)
+    assert report["X"]["line_slope_um_per_mm"] == pytest.approx(0.002, abs=1e-12)
+    # An uneven grid is refused with the sample that breaks it.
+    x2 = x.copy()
+    x2[7] += 0.1
+    with pytest.raises(volcomp.BadInputError, match="sample 7"):
+        volcomp.straightness_fit([dict(runs[0], positions_mm=x2)] + runs[1:])

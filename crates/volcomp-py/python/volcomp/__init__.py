@@ -2,7 +2,7 @@
 
 Error models (axis tables, the 21-component kinematic model, straightness),
 the compensation and simulation of G-code programs, and identification
-(ISO 230-2), over the Rust library that the ``volcomp`` command uses.
+(ISO 230-2, straightness), over the Rust library that the ``volcomp`` command uses.
 Conventions: positions in mm in the machine's axis frame, errors in µm,
 angles in µrad, the deviation ``e = actual − commanded`` (docs/design.md).
 
@@ -25,6 +25,7 @@ from ._volcomp import (
     iso230_2_csv,
     moves,
     simulate,
+    straightness_fit,
 )
 
 __all__ = [
@@ -42,4 +43,5 @@ __all__ = [
     "iso230_2_csv",
     "moves",
     "simulate",
+    "straightness_fit",
 ]
