@@ -14,6 +14,7 @@ mod identify;
 mod inputs;
 mod model;
 mod program;
+mod thermal;
 
 /// The compiled part of the `volcomp` package.
 #[pymodule]
@@ -30,5 +31,7 @@ fn _volcomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify::iso230_2, m)?)?;
     m.add_function(wrap_pyfunction!(identify::iso230_2_csv, m)?)?;
     m.add_function(wrap_pyfunction!(identify::straightness_fit, m)?)?;
+    m.add_class::<thermal::ThermalModel>()?;
+    m.add_function(wrap_pyfunction!(thermal::thermal_fit, m)?)?;
     Ok(())
 }

@@ -264,7 +264,8 @@ fn options(
 
 /// The provenance header: the model's file (and the tables it names) with
 /// their SHA-256, or, for a model built in memory, that of its file text
-/// (the axis tables' CSV, the straightness model's TOML).
+/// (the axis tables' CSV, the straightness model's TOML, the 21-component
+/// model's TOML and table CSV).
 fn header(
     model: &Model,
     m: &Machine,
@@ -289,10 +290,19 @@ fn header(
             opts,
             date_utc,
         ),
-        (None, _) => {
-            return Err(bad_input(
-                "this model was not loaded from a file, so the compensated program's header cannot name it",
-            ))
+        (None, LoadedModel::Kinematic(k)) => {
+            let csv = volcomp_core::io::model_file::components_to_csv(&k.axes);
+            let toml = volcomp_core::io::model_file::model_to_toml(k, "arrays.csv", None);
+            ProgramHeader::for_compensation(
+                vec![(
+                    "arrays".into(),
+                    sha256_hex(format!("{toml}{csv}").as_bytes()),
+                )],
+                m.setup_file.as_deref().map(file_name),
+                m.setup.setup.clone(),
+                opts,
+                date_utc,
+            )
         }
     };
     if m.work_offset_given {

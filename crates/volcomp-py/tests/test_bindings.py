@@ -368,3 +368,37 @@ def test_straightness_of_a_pure_slope_by_hand():
     x2[7] += 0.1
     with pytest.raises(volcomp.BadInputError, match="sample 7"):
         volcomp.straightness_fit([dict(runs[0], positions_mm=x2)] + runs[1:])
+
+
+def test_thermal_fit_and_predict_match_the_cli(cli, data):
+    run(cli, "thermal", "example", "-o", "th", cwd=data)
+    run(
+        cli, "thermal", "fit", "--measurements", "th/measurements_train.csv",
+        "--temperatures", "th/temperatures_train.csv", "--artifact", "th/artifact.csv",
+        "--ranges-mm", "0:600,0:400,0:300", "-o", "thermal.toml", cwd=data,
+    )
+    run(cli, "thermal", "predict", "--model", "thermal.toml", "--temperatures", "th/temperatures_check.csv", "-o", "now.toml", cwd=data)
+    th = data / "th"
+    model, report = volcomp.thermal_fit(
+        th / "measurements_train.csv", th / "temperatures_train.csv", th / "artifact.csv",
+        ranges_mm=[(0, 600), (0, 400), (0, 300)], bands_samples=50,
+    )
+    # The fitted model file is the CLI's, byte for byte.
+    assert model.to_toml() == (data / "thermal.toml").read_text()
+    now = model.predict(th / "temperatures_check.csv")
+    assert now.kind == "kinematic-21"
+    cli_now = volcomp.Model.load(data / "now.toml")
+    q = [[100.0, 50.0, 20.0], [500.0, 350.0, 250.0], [300.0, 200.0, 150.0]]
+    # The CLI's file holds the tables rounded as written (µm to 4 decimals).
+    np.testing.assert_allclose(now.deviation_um(q), cli_now.deviation_um(q), atol=2e-3)
+    # A loaded model predicts the same as the fitted one.
+    again = volcomp.ThermalModel.load(data / "thermal.toml").predict(th / "temperatures_check.csv")
+    np.testing.assert_array_equal(again.deviation_um(q), now.deviation_um(q))
+    bands = report["bands"]
+    assert set(bands) == {"X", "Y", "Z"}
+    for b in bands.values():
+        assert b["points_mm"].shape == b["lo_um"].shape == b["hi_um"].shape
+        assert (b["lo_um"] <= b["hi_um"]).all()
+    # The compensated program of an in-memory model names its hash.
+    r = volcomp.compensate(data / "part.ngc", now, setup=data / "machine.toml")
+    assert "(map arrays)" in r.text

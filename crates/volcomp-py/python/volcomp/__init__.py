@@ -2,7 +2,7 @@
 
 Error models (axis tables, the 21-component kinematic model, straightness),
 the compensation and simulation of G-code programs, and identification
-(ISO 230-2, straightness), over the Rust library that the ``volcomp`` command uses.
+(ISO 230-2, straightness, thermal), over the Rust library that the ``volcomp`` command uses.
 Conventions: positions in mm in the machine's axis frame, errors in µm,
 angles in µrad, the deviation ``e = actual − commanded`` (docs/design.md).
 
@@ -16,6 +16,7 @@ from ._volcomp import (
     Model,
     RefusedProgramError,
     SimulationResult,
+    ThermalModel,
     VolcompError,
     VolcompIOError,
     VolcompWarning,
@@ -26,6 +27,7 @@ from ._volcomp import (
     moves,
     simulate,
     straightness_fit,
+    thermal_fit,
 )
 
 __all__ = [
@@ -34,6 +36,7 @@ __all__ = [
     "Model",
     "RefusedProgramError",
     "SimulationResult",
+    "ThermalModel",
     "VolcompError",
     "VolcompIOError",
     "VolcompWarning",
@@ -44,4 +47,5 @@ __all__ = [
     "moves",
     "simulate",
     "straightness_fit",
+    "thermal_fit",
 ]

@@ -216,3 +216,43 @@ def straightness_fit(
     """A straightness model from runs at several feed rates (CSV text,
     pathlib.Path, or dicts of positions_mm, displacement_um,
     feed_mm_per_min, axis); returns (model, report per axis)."""
+
+class ThermalModel:
+    """The regression of the 21-component model on temperatures
+    (docs/thermal.md)."""
+
+    @staticmethod
+    def load(path: Union[str, os.PathLike[str]]) -> ThermalModel:
+        """Loads a thermal model file (TOML)."""
+    @property
+    def sensors(self) -> list[str]:
+        """The sensors, in column order."""
+    @property
+    def unidentifiable(self) -> list[str]:
+        """Parameters the placements could not identify."""
+    @property
+    def sigma0_um(self) -> F64:
+        """Probing noise per training cycle (µm)."""
+    def to_toml(self) -> str:
+        """The model file's text."""
+    def predict(
+        self, temperatures: Text, *, cycle: Optional[int] = None, extrapolate: bool = False
+    ) -> Model:
+        """The 21-component model at a row of a temperature CSV."""
+
+def thermal_fit(
+    measurements: Text,
+    temperatures: Text,
+    artifact: Text,
+    *,
+    ranges_mm: Sequence[Sequence[float]],
+    chain: str = "w X' Y' b Z t",
+    order: int = 2,
+    probe_length_mm: float = 0.0,
+    lags: int = 0,
+    threshold: float = 1e-3,
+    table_samples: int = 61,
+    bands_samples: Optional[int] = None,
+) -> tuple[ThermalModel, dict[str, Any]]:
+    """Fits a thermal model from artifact cycles and temperatures (CSV text
+    or pathlib.Path); with bands_samples, the 95 % Monte Carlo bands."""
