@@ -12,6 +12,7 @@ use pyo3::prelude::*;
 mod errors;
 mod identify;
 mod inputs;
+mod mirror;
 mod model;
 mod program;
 mod thermal;
@@ -33,5 +34,6 @@ fn _volcomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify::straightness_fit, m)?)?;
     m.add_class::<thermal::ThermalModel>()?;
     m.add_function(wrap_pyfunction!(thermal::thermal_fit, m)?)?;
+    m.add_function(wrap_pyfunction!(mirror::mirror, m)?)?;
     Ok(())
 }

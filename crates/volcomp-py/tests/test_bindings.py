@@ -402,3 +402,34 @@ def test_thermal_fit_and_predict_match_the_cli(cli, data):
     # The compensated program of an in-memory model names its hash.
     r = volcomp.compensate(data / "part.ngc", now, setup=data / "machine.toml")
     assert "(map arrays)" in r.text
+
+
+def test_mirror_matches_the_cli(cli, data, monkeypatch):
+    out = run(
+        cli, "surface", "mirror", "--nominal", "face.toml", "--measured", "probes.csv", "--stock", "0.2",
+        "--finishing", "finish.ngc", "-o", "finish.comp.ngc", "--tool-radius", "3", "--json", cwd=data,
+    )
+    expected = json.loads(out)
+    # The files are named in the outputs as given: relative, as to the CLI.
+    monkeypatch.chdir(data)
+    r = volcomp.mirror(
+        pathlib.Path("face.toml"), pathlib.Path("probes.csv"), stock_mm=0.2, finishing=pathlib.Path("finish.ngc"),
+        tool_radius_mm=3.0, date_utc=EPOCH_ISO,
+    )
+    assert r["program"] == (data / "finish.comp.ngc").read_text()
+    assert r["surface_grid_csv"] == (data / "probes.compensated.csv").read_text()
+    assert r["surface_bspline_toml"] == (data / "probes.compensated.toml").read_text()
+    got = r["summary"]
+    # Everything but the names of the files the CLI wrote.
+    for k, v in expected.items():
+        if k in ("surface", "finishing"):
+            v = {kk: vv for kk, vv in v.items() if kk not in ("grid", "bspline", "output")}
+            g = {kk: vv for kk, vv in got[k].items() if kk not in ("grid", "bspline", "output")}
+            assert g == v, k
+        else:
+            assert got[k] == v, k
+    # The nominal given as text needs its format.
+    with pytest.raises(volcomp.BadInputError, match="nominal_format"):
+        volcomp.mirror((data / "face.toml").read_text(), data / "probes.csv", stock_mm=0.2)
+    r2 = volcomp.mirror((data / "face.toml").read_text(), data / "probes.csv", stock_mm=0.2, nominal_format="bspline")
+    assert r2["summary"]["before"] == expected["before"]

@@ -2,7 +2,8 @@
 
 Error models (axis tables, the 21-component kinematic model, straightness),
 the compensation and simulation of G-code programs, and identification
-(ISO 230-2, straightness, thermal), over the Rust library that the ``volcomp`` command uses.
+(ISO 230-2, straightness, thermal) and mirror compensation of
+free-form surfaces, over the Rust library that the ``volcomp`` command uses.
 Conventions: positions in mm in the machine's axis frame, errors in µm,
 angles in µrad, the deviation ``e = actual − commanded`` (docs/design.md).
 
@@ -24,6 +25,7 @@ from ._volcomp import (
     compensate,
     iso230_2,
     iso230_2_csv,
+    mirror,
     moves,
     simulate,
     straightness_fit,
@@ -44,6 +46,7 @@ __all__ = [
     "compensate",
     "iso230_2",
     "iso230_2_csv",
+    "mirror",
     "moves",
     "simulate",
     "straightness_fit",

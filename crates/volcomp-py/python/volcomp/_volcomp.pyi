@@ -256,3 +256,34 @@ def thermal_fit(
 ) -> tuple[ThermalModel, dict[str, Any]]:
     """Fits a thermal model from artifact cycles and temperatures (CSV text
     or pathlib.Path); with bands_samples, the 95 % Monte Carlo bands."""
+
+def mirror(
+    nominal: Text,
+    measured: Text,
+    *,
+    stock_mm: float,
+    nominal_format: Optional[Literal["bspline", "grid"]] = None,
+    material: Literal["below", "above", "normal-out", "normal-in"] = "below",
+    probe_radius_mm: Optional[float] = None,
+    max_error_mm: float = 0.1,
+    fit: Literal["least-squares", "interpolate"] = "least-squares",
+    tolerance_um: Optional[float] = None,
+    grid_params: Literal["chord-length", "centripetal", "uniform"] = "chord-length",
+    grid_size: int = 41,
+    finishing: Optional[Text] = None,
+    tool_radius_mm: Optional[float] = None,
+    cl_point: Literal["tip", "center"] = "tip",
+    contact_tolerance_mm: float = 0.02,
+    segment_length_mm: Optional[float] = 2.0,
+    decimals: Optional[int] = None,
+    trace: bool = True,
+    setup: Optional[Text] = None,
+    work_offset_mm: Optional[Sequence[float]] = None,
+    absolute_arc_centers: bool = False,
+    strict_k0: bool = False,
+    allow_no_program_end: bool = False,
+    allow_recompensate: bool = False,
+    date_utc: Optional[str] = None,
+) -> dict[str, Any]:
+    """Mirror compensation of a free-form surface from probe points; with
+    finishing and tool_radius_mm, the compensated finishing program."""
