@@ -433,3 +433,32 @@ def test_mirror_matches_the_cli(cli, data, monkeypatch):
         volcomp.mirror((data / "face.toml").read_text(), data / "probes.csv", stock_mm=0.2)
     r2 = volcomp.mirror((data / "face.toml").read_text(), data / "probes.csv", stock_mm=0.2, nominal_format="bspline")
     assert r2["summary"]["before"] == expected["before"]
+
+
+def test_evaluation_releases_the_gil():
+    # The main thread wakes from a 20 ms sleep while the worker is inside
+    # the evaluation (2 million points: 0.1 s in a release build, seconds
+    # in a debug one). Had the evaluation kept the GIL, the main thread could
+    # not run again before it returned.
+    import threading
+    import time
+
+    m = volcomp.Model.from_csv(HAND_CSV)
+    q = np.tile([[50.0, 100.0, 30.0]], (2_000_000, 1))
+    started = threading.Event()
+    out = {}
+
+    def work():
+        started.set()
+        out["start"] = time.perf_counter()
+        out["e"] = m.deviation_um(q)
+        out["end"] = time.perf_counter()
+
+    worker = threading.Thread(target=work)
+    worker.start()
+    started.wait()
+    time.sleep(0.02)
+    woke = time.perf_counter()
+    worker.join()
+    np.testing.assert_allclose(out["e"][-1], [5.0, 1.0, -2.0], atol=1e-12)
+    assert out["start"] < woke < out["end"], (out["start"], woke, out["end"])
