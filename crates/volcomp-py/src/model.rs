@@ -280,6 +280,116 @@ impl Model {
         })
     }
 
+    /// A 21-component kinematic model (ISO 230-1, docs/kinematic.md) from
+    /// arrays. Each of `x`, `y`, `z` is a triple `(positions_mm (n,),
+    /// linear_um (n, 3), angular_urad (n, 3))` used in both directions (or a
+    /// dict `{"forward": (...), "reverse": (...)}`): the axis' E_X, E_Y, E_Z
+    /// (µm) and E_A, E_B, E_C (µrad) at strictly increasing positions.
+    /// `chain` (workpiece to tool, default the model files' "w X' Y' b Z
+    /// t"), `squareness_urad` (xy, yz, zx), `measuring_point_mm` and
+    /// `measuring_tool_length_mm` (where the linear errors were measured),
+    /// `angles` ("relative" or "moving-part") as the keys of a model file.
+    #[staticmethod]
+    #[pyo3(signature = (x, y, z, *, chain = "w X' Y' b Z t", squareness_urad = (0.0, 0.0, 0.0), measuring_point_mm = (0.0, 0.0, 0.0), measuring_tool_length_mm = 0.0, angles = "relative", clamp = false))]
+    #[allow(clippy::too_many_arguments)]
+    fn from_components(
+        x: &Bound<'_, PyAny>,
+        y: &Bound<'_, PyAny>,
+        z: &Bound<'_, PyAny>,
+        chain: &str,
+        squareness_urad: (f64, f64, f64),
+        measuring_point_mm: (f64, f64, f64),
+        measuring_tool_length_mm: f64,
+        angles: &str,
+        clamp: bool,
+    ) -> PyResult<Model> {
+        use volcomp_core::model::kinematic::{
+            AngleConvention, AxisComponents, KinematicModel, Kinematics, MeasuringLine,
+        };
+        let topology: volcomp_core::model::topology::Topology = chain.parse().py_err()?;
+        let angles = match angles {
+            "relative" => AngleConvention::Relative,
+            "moving-part" => AngleConvention::MovingPart,
+            a => {
+                return Err(bad_input(format!(
+                    "angles must be \"relative\" or \"moving-part\"; got {a:?}"
+                )))
+            }
+        };
+        let (sq_xy, sq_yz, sq_zx) = squareness_urad;
+        let (px, py_, pz) = measuring_point_mm;
+        for (v, what) in [
+            (sq_xy, "squareness_urad"),
+            (sq_yz, "squareness_urad"),
+            (sq_zx, "squareness_urad"),
+            (px, "measuring_point_mm"),
+            (py_, "measuring_point_mm"),
+            (pz, "measuring_point_mm"),
+            (measuring_tool_length_mm, "measuring_tool_length_mm"),
+        ] {
+            if !v.is_finite() {
+                return Err(bad_input(format!("{what} must be finite; got {v}")));
+            }
+        }
+        let mut k = Kinematics::new(topology);
+        k.measuring = [MeasuringLine {
+            point_mm: Vec3::new(px, py_, pz),
+            tool_offset_mm: Vec3::new(0.0, 0.0, measuring_tool_length_mm),
+        }; 3];
+        k.squareness.xy_urad = sq_xy;
+        k.squareness.yz_urad = sq_yz;
+        k.squareness.zx_urad = sq_zx;
+        k.angles = angles;
+        let axis = |obj: &Bound<'_, PyAny>, name: char| -> PyResult<AxisComponents> {
+            let triple = |o: &Bound<'_, PyAny>,
+                          what: String|
+             -> PyResult<volcomp_core::model::kinematic::ComponentTable> {
+                let t = o.cast::<PyTuple>().map_err(|_| {
+                    bad_input(format!(
+                        "{what} must be a triple (positions_mm, linear_um, angular_urad)"
+                    ))
+                })?;
+                if t.len() != 3 {
+                    return Err(bad_input(format!(
+                        "{what} must be a triple (positions_mm, linear_um, angular_urad)"
+                    )));
+                }
+                let p = f64_vec(&t.get_item(0)?, &format!("{what} positions_mm"))?;
+                let l = f64_rows(&t.get_item(1)?, &format!("{what} linear_um"), 3)?;
+                let a = f64_rows(&t.get_item(2)?, &format!("{what} angular_urad"), 3)?;
+                // The checks of an axis table (lengths, finite, increasing).
+                let lin = table(p.clone(), l.as_slice()?, &what)?;
+                let ang = table(p, a.as_slice()?, &what)?;
+                volcomp_core::model::kinematic::ComponentTable::new(
+                    lin.positions_mm,
+                    lin.errors_um,
+                    ang.errors_um,
+                )
+                .ok_or_else(|| bad_input(format!("{what}: the table is not valid")))
+            };
+            if let Ok(d) = obj.cast::<PyDict>() {
+                let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
+                    d.get_item(key)?.ok_or_else(|| {
+                        bad_input(format!(
+                            "axis {name}: the dict needs both \"forward\" and \"reverse\""
+                        ))
+                    })
+                };
+                return Ok(AxisComponents {
+                    forward: triple(&get("forward")?, format!("axis {name} forward"))?,
+                    reverse: triple(&get("reverse")?, format!("axis {name} reverse"))?,
+                });
+            }
+            Ok(AxisComponents::both(triple(obj, format!("axis {name}"))?))
+        };
+        let mut km = KinematicModel::new([axis(x, 'X')?, axis(y, 'Y')?, axis(z, 'Z')?], k);
+        km.clamp = clamp;
+        Ok(Model {
+            loaded: LoadedModel::Kinematic(Box::new(km)),
+            path: None,
+        })
+    }
+
     /// The kind of model: `"axis-table"`, `"kinematic-21"` or `"straightness"`.
     #[getter]
     fn kind(&self) -> &'static str {

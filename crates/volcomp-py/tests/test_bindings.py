@@ -462,3 +462,32 @@ def test_evaluation_releases_the_gil():
     worker.join()
     np.testing.assert_allclose(out["e"][-1], [5.0, 1.0, -2.0], atol=1e-12)
     assert out["start"] < woke < out["end"], (out["start"], woke, out["end"])
+
+
+def test_kinematic_model_from_arrays_matches_the_file(cli, data):
+    # example21.toml: chain "w X' Y' b Z t", measuring point (300, 200, 150)
+    # mm, measuring tool 100 mm, squareness xy 12, yz -8, zx 6 µrad.
+    run(cli, "map", "example", "-o", "models/", cwd=data)
+    loaded = volcomp.Model.load(data / "models" / "example21.toml")
+    c = loaded.components()
+    axes = []
+    for a in "XYZ":
+        d = {}
+        for direction in ("forward", "reverse"):
+            t = c[a][direction]
+            d[direction] = (t["position_mm"], t["linear_um"], t["angular_urad"])
+        axes.append(d)
+    built = volcomp.Model.from_components(
+        *axes, squareness_urad=(12.0, -8.0, 6.0), measuring_point_mm=(300.0, 200.0, 150.0),
+        measuring_tool_length_mm=100.0,
+    )
+    assert built.kind == "kinematic-21"
+    q = [[100.0, 50.0, 20.0], [550.0, 10.0, 280.0], [0.0, 400.0, 0.0]]
+    for tool in ([0.0, 0.0, 120.0], [0.0, 0.0, 0.0]):
+        for dirs in ([1, 1, 1], [-1, 1, -1]):
+            np.testing.assert_allclose(
+                built.deviation_um(q, tool_offset_mm=tool, directions=dirs),
+                loaded.deviation_um(q, tool_offset_mm=tool, directions=dirs), atol=1e-12,
+            )
+    with pytest.raises(volcomp.BadInputError, match="chain|Chain|topology"):
+        volcomp.Model.from_components(*axes, chain="nonsense")

@@ -55,6 +55,21 @@ class Model:
     ) -> Model:
         """An axis-table map from arrays: per axis (positions_mm (n,),
         errors_um (n, 3)) or {"forward": (p, e), "reverse": (p, e)}."""
+    @staticmethod
+    def from_components(
+        x: Any,
+        y: Any,
+        z: Any,
+        *,
+        chain: str = "w X' Y' b Z t",
+        squareness_urad: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        measuring_point_mm: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        measuring_tool_length_mm: float = 0.0,
+        angles: Literal["relative", "moving-part"] = "relative",
+        clamp: bool = False,
+    ) -> Model:
+        """A 21-component model from arrays: per axis (positions_mm (n,),
+        linear_um (n, 3), angular_urad (n, 3)) or {"forward": ..., "reverse": ...}."""
     @property
     def kind(self) -> Literal["axis-table", "kinematic-21", "straightness"]:
         """The kind of model."""
