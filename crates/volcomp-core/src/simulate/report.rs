@@ -88,6 +88,10 @@ pub struct SegmentError {
     pub nominal_line: u64,
     /// Commanded end point (axis frame, mm).
     pub command_mm: Vec3,
+    /// Simulated tool position once the command has run (axis frame, mm):
+    /// the command plus the model's error, with the backlash lag of
+    /// docs/design.md, "Direction state and backlash".
+    pub actual_mm: Vec3,
     /// The nominal move's end point when this command is the last written
     /// for a nominal feed move (a point of the point error).
     pub target_mm: Option<Vec3>,
@@ -332,6 +336,7 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
                 line: m.line,
                 nominal_line: blk.line,
                 command_mm: m.end,
+                actual_mm: end,
                 target_mm: None,
                 point_um: None,
                 contour_max_um: seg_max,
