@@ -61,8 +61,12 @@ pub struct MachineArgs {
     /// Read I/J/K as absolute arc centres (as if the program began with G90.1).
     #[arg(long)]
     pub absolute_arc_centers: bool,
-    /// Refuse `K0` on G17 arcs as LinuxCNC does (accepted by default).
+    /// Accept `K0` on G17 arcs (FreeCAD writes it; LinuxCNC refuses it, and
+    /// so does volcomp by default).
     #[arg(long)]
+    pub accept_k0: bool,
+    /// Refuse `K0` on G17 arcs: the default now, kept for old scripts.
+    #[arg(long, hide = true, conflicts_with = "accept_k0")]
     pub strict_k0: bool,
     /// Accept a program that ends without M2, M30 or a closing `%`
     /// (LinuxCNC refuses it; grbl-family and other controllers run it).

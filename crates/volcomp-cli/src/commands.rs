@@ -74,7 +74,7 @@ impl Machine {
             machine = machine.with_work_offset(parse_triple(w, "--work-offset")?);
         }
         Ok(Machine(machine.with_interp_options(InterpOptions {
-            accept_k0_on_xy_arcs: !a.strict_k0,
+            accept_k0_on_xy_arcs: a.accept_k0 && !a.strict_k0,
             absolute_arc_centers: a.absolute_arc_centers,
             require_program_end: !a.allow_no_program_end,
             ..InterpOptions::default()
@@ -210,6 +210,7 @@ fn write_moves(
                 volcomp_gcode::MotionSource::Reference => "reference",
                 volcomp_gcode::MotionSource::Cycle => "cycle",
                 volcomp_gcode::MotionSource::Spline => "spline",
+                volcomp_gcode::MotionSource::SpindleSynced => "spindle_synced",
             };
             let num = |v: f64, row: &mut String| format_number(v, style, row);
             if json {

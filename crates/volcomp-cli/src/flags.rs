@@ -6,7 +6,7 @@
 use volcomp_core::error::{help, CompensationError};
 use volcomp_core::surface::mirror::MirrorError;
 use volcomp_core::Error;
-use volcomp_gcode::interp::PROGRAM_END_HELP;
+use volcomp_gcode::interp::{K0_HELP, PROGRAM_END_HELP};
 
 /// Each library help text that names an option, with the CLI's wording.
 const HELP: [(&str, &str); 6] = [
@@ -59,6 +59,13 @@ pub fn reword(e: &(dyn std::error::Error + 'static)) -> Option<String> {
     if text.ends_with(PROGRAM_END_HELP) {
         return Some(format!(
             "{text}, or pass --allow-no-program-end if the controller runs programs without one"
+        ));
+    }
+    if text.ends_with(K0_HELP) {
+        return Some(text.replacen(
+            "or accept K0 on XY arcs in the options",
+            "or pass --accept-k0",
+            1,
         ));
     }
     if let Some(Error::AlreadyCompensated { .. }) = e.downcast_ref::<Error>() {

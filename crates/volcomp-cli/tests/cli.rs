@@ -40,7 +40,7 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
         ("G0 X0\nG68 X0 Y0 R30\n", 2, 1, "rotation"),
         ("G51 X0 Y0 P2\n", 1, 1, "scaling"),
         ("G16\n", 1, 1, "polar"),
-        ("G0 X0\nG0 G7 X1\n", 2, 4, "G7"),
+        ("G0 X0\nG0 G70 X1\n", 2, 4, "G70"),
         (
             "G0 X0 Y0 Z0\nG81 X1 Y1 Z-1 R1 A3 F100\n",
             2,
@@ -64,7 +64,7 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
             "K word given for an arc",
         ),
         ("M98 P100\n", 1, 1, "no line O100"),
-        ("G0 X0 Y0 Z0\nG33 Z-5 K1\n", 2, 1, "spindle-synchronised"),
+        ("G0 X0 Y0 Z0\nG33 Z-5 K1\n", 2, 1, "Spindle not turning"),
         ("G0 X1 X2\n", 1, 7, "twice"),
         ("G0 G1 X1\n", 1, 4, "same modal group"),
         (

@@ -368,12 +368,123 @@ impl From<crate::io::LoadError> for Error {
     }
 }
 
+/// Where an error is: the file, and the 1-based line (row) and column when
+/// the error points into the file. What a front end shows beside the message
+/// (the Python bindings put it on their exceptions).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct ErrorLocation {
+    /// The file (or program name) as the caller named it, when known.
+    pub file: Option<String>,
+    /// 1-based line of a program or row of a table; `None` for a file as a whole.
+    pub line: Option<u64>,
+    /// 1-based column (byte of a program line, field of a table, character
+    /// of a TOML line); `None` when the error is a whole line.
+    pub column: Option<usize>,
+}
+
+impl ErrorLocation {
+    fn at(file: Option<&str>, line: u64, column: Option<usize>) -> Self {
+        Self {
+            file: file.map(str::to_string),
+            line: (line > 0).then_some(line),
+            column: column.filter(|c| *c > 0),
+        }
+    }
+
+    fn file(file: impl Into<String>) -> Self {
+        Self {
+            file: Some(file.into()),
+            ..Self::default()
+        }
+    }
+
+    fn of_map_file(e: &MapFileError) -> Self {
+        Self::at(Some(&e.file), e.row as u64, Some(e.column))
+    }
+
+    fn of_gcode(e: &GcodeError, file: Option<&str>) -> Self {
+        let d = &e.diagnostic;
+        Self::at(d.file.as_deref().or(file), d.line, Some(d.column))
+    }
+
+    fn of_compensation(e: &CompensationError) -> Option<Self> {
+        match e {
+            CompensationError::Gcode(g) => Some(Self::of_gcode(g, None)),
+            CompensationError::Model { file, line, .. }
+            | CompensationError::AtLine { file, line, .. } => {
+                Some(Self::at(Some(file), *line, None))
+            }
+            CompensationError::Io(_) => None,
+        }
+    }
+}
+
 impl Error {
     /// An I/O error on `path`.
     pub fn io(path: impl Into<std::path::PathBuf>, source: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
             source,
+        }
+    }
+
+    /// Where the error is (file, line, column), when it points into a file
+    /// or program; `None` for errors of the inputs as a whole.
+    ///
+    /// ```
+    /// use volcomp_core::error::{Error, MapFileError};
+    /// let e = Error::from(MapFileError::new("m.csv", 3, 2, "not a number", "write 1.5"));
+    /// let at = e.location().unwrap();
+    /// assert_eq!((at.file.as_deref(), at.line, at.column), (Some("m.csv"), Some(3), Some(2)));
+    /// ```
+    pub fn location(&self) -> Option<ErrorLocation> {
+        use crate::identify::straightness::StraightnessError;
+        use crate::identify::thermal::ThermalError;
+        use crate::io::model_file::ModelFileError;
+        use crate::io::LoadError;
+        use crate::surface::mirror::MirrorError;
+        let model_file = |e: &ModelFileError| match e {
+            ModelFileError::Format(f) => ErrorLocation::of_map_file(f),
+            ModelFileError::Io { path, .. } | ModelFileError::NotToml { path } => {
+                ErrorLocation::file(path.clone())
+            }
+        };
+        let straightness = |e: &StraightnessError| match e {
+            StraightnessError::File(f) => Some(ErrorLocation::of_map_file(f)),
+            StraightnessError::ModelFile { file, .. } => Some(ErrorLocation::file(file.clone())),
+            _ => None,
+        };
+        match self {
+            Error::MapFile(e) => Some(ErrorLocation::of_map_file(e)),
+            Error::ModelFile(e) => Some(model_file(e)),
+            Error::Compensation(e) => ErrorLocation::of_compensation(e),
+            Error::Gcode(e) | Error::Setup(e) => Some(ErrorLocation::of_gcode(e, None)),
+            Error::Thermal(ThermalError::File(f)) => Some(ErrorLocation::of_map_file(f)),
+            Error::Thermal(ThermalError::NoSuchCycle { file, .. }) => {
+                Some(ErrorLocation::file(file.clone()))
+            }
+            Error::Straightness(e) => straightness(e),
+            Error::Mirror(MirrorError::File(f)) => Some(ErrorLocation::of_map_file(f)),
+            Error::Mirror(MirrorError::InFile { file, .. })
+            | Error::Mirror(MirrorError::NominalFormat { file }) => {
+                Some(ErrorLocation::file(file.clone()))
+            }
+            Error::Mirror(MirrorError::Program(e)) => ErrorLocation::of_compensation(e),
+            Error::Load(e) => match e.as_ref() {
+                LoadError::Io { path, .. } | LoadError::UnknownFormat { path } => {
+                    Some(ErrorLocation::file(path.display().to_string()))
+                }
+                LoadError::File(f) | LoadError::ComponentTable { source: f } => {
+                    Some(ErrorLocation::of_map_file(f))
+                }
+                LoadError::Kinematic(k) => Some(model_file(k)),
+                LoadError::Straightness(s) => straightness(s),
+            },
+            Error::Io { path, .. } => Some(ErrorLocation::file(path.display().to_string())),
+            Error::AlreadyCompensated { file, line, .. } => {
+                Some(ErrorLocation::at(Some(file), *line, None))
+            }
+            _ => None,
         }
     }
 

@@ -196,3 +196,93 @@ fn a_program_stop_on_a_spline_block_runs_after_its_segments() {
         "{out}"
     );
 }
+
+/// A map that shifts every point by +5 µm in X: every compensated X
+/// command is the target less 5 µm.
+fn shift_map() -> AxisTableMap {
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    csv.push_str("X,both,-10000,5,0,0\nX,both,10000,5,0,0\n");
+    for axis in ["Y", "Z"] {
+        csv.push_str(&format!(
+            "{axis},both,-10000,0,0,0\n{axis},both,10000,0,0,0\n"
+        ));
+    }
+    AxisTableMap::from_csv(&csv, "shift.csv").unwrap()
+}
+
+#[test]
+fn spindle_synchronised_moves_are_written_as_they_are_and_followed_in_g91() {
+    // G33 is sent as written (its pitch ties Z to the spindle). Under G91
+    // it moves from where the compensated rapid left the machine
+    // (X9.995), so the next increment to the nominal X11 - 5 µm is 1.
+    let program =
+        "G21 G90\nG0 X10 Y0 Z0\nS100 M3\nG91 G33 Z-5 K1\nG1 X1 F100\nG90 G33.1 Z-8 K1\nM2\n";
+    let bytes = program.as_bytes().to_vec();
+    let mut walker = Walker::new(
+        Cursor::new(bytes.clone()),
+        Some("t.ngc".into()),
+        Setup::default(),
+        InterpOptions::default(),
+    );
+    let options = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..CompensateOptions::default()
+    };
+    let mut out = Vec::new();
+    compensate_program(
+        &mut walker,
+        "t.ngc",
+        &shift_map(),
+        &survey_style(&bytes),
+        &options,
+        &mut out,
+        |_| {},
+    )
+    .unwrap();
+    let out = String::from_utf8(out).unwrap();
+    let lines: Vec<&str> = out.lines().filter(|l| !l.starts_with('(')).collect();
+    assert_eq!(lines[1], "G0 X9.9950 Y0 Z0", "{out}");
+    assert_eq!(lines[3], "G91 G33 Z-5 K1", "{out}");
+    assert!(
+        lines[4] == "G1 X1 F100" || lines[4] == "G1 X1.0000 F100",
+        "{out}"
+    );
+    assert_eq!(lines[5], "G90 G33.1 Z-8 K1", "{out}");
+}
+
+#[test]
+fn in_lathe_diameter_mode_compensated_x_words_are_diameters() {
+    // G7: X40 is the radius 20; the +5 µm map makes the command 19.995,
+    // written as the diameter 39.9900; under G91 the increment to the
+    // nominal radius 18 (diameter 36, X-4) is written doubled too, and G8
+    // writes radii again.
+    let program = "G21 G18 G90 F100\nG0 X50 Y0 Z0\nG7 G1 X40 Z-1\nG91 X-4\nG90 G8 X30\nM2\n";
+    let bytes = program.as_bytes().to_vec();
+    let mut walker = Walker::new(
+        Cursor::new(bytes.clone()),
+        Some("t.ngc".into()),
+        Setup::default(),
+        InterpOptions::default(),
+    );
+    let options = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..CompensateOptions::default()
+    };
+    let mut out = Vec::new();
+    compensate_program(
+        &mut walker,
+        "t.ngc",
+        &shift_map(),
+        &survey_style(&bytes),
+        &options,
+        &mut out,
+        |_| {},
+    )
+    .unwrap();
+    let out = String::from_utf8(out).unwrap();
+    let lines: Vec<&str> = out.lines().filter(|l| !l.starts_with('(')).collect();
+    assert_eq!(lines[1], "G0 X49.9950 Y0 Z0", "{out}");
+    assert_eq!(lines[2], "G7 G1 X39.9900 Z-1", "{out}");
+    assert!(lines[3] == "G91 X-4" || lines[3] == "G91 X-4.0000", "{out}");
+    assert_eq!(lines[4], "G90 G8 X29.9950", "{out}");
+}

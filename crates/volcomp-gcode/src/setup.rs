@@ -62,6 +62,72 @@ pub struct Setup {
     /// `name.ngc`), before the program's own directory. Relative entries of
     /// a set-up file are relative to that file.
     pub subroutine_path: Vec<std::path::PathBuf>,
+    /// The machine's axes, as LinuxCNC's axis mask (`[TRAJ]COORDINATES`):
+    /// a program word for an axis the machine lacks is refused as LinuxCNC
+    /// refuses it ("Bad character 'u' used"). The default, X Y Z A B C, is
+    /// the stand-alone interpreter's machine (`GET_EXTERNAL_AXIS_MASK` is
+    /// 0x3f in saicanon.cc).
+    pub axes: AxisLetters,
+}
+
+/// A set of the nine axis letters X Y Z A B C U V W.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AxisLetters(u16);
+
+impl AxisLetters {
+    /// The nine letters, in LinuxCNC's order.
+    pub const ALL: [u8; 9] = *b"XYZABCUVW";
+
+    /// X Y Z A B C: LinuxCNC's stand-alone interpreter's machine.
+    pub const XYZABC: AxisLetters = AxisLetters(0x3f);
+
+    /// Whether `letter` (upper case) is one of the set's axes.
+    pub fn contains(self, letter: u8) -> bool {
+        Self::ALL
+            .iter()
+            .position(|l| *l == letter)
+            .is_some_and(|i| self.0 & (1 << i) != 0)
+    }
+
+    /// The set of the letters of `text` (e.g. `"XYZABCUVW"`, any case, any
+    /// order, spaces allowed); `Err` names the first character that is no
+    /// axis letter or is given twice.
+    pub fn parse(text: &str) -> Result<AxisLetters, (usize, String)> {
+        let mut bits = 0u16;
+        for (at, c) in text.char_indices() {
+            if c == ' ' {
+                continue;
+            }
+            let up = c.to_ascii_uppercase() as u8;
+            let Some(i) = Self::ALL
+                .iter()
+                .position(|l| *l == up)
+                .filter(|_| c.is_ascii())
+            else {
+                return Err((at, format!("`{c}` is not an axis letter")));
+            };
+            if bits & (1 << i) != 0 {
+                return Err((at, format!("axis {} is given twice", up as char)));
+            }
+            bits |= 1 << i;
+        }
+        Ok(AxisLetters(bits))
+    }
+
+    /// The letters, in LinuxCNC's order (`"XYZABC"`).
+    pub fn letters(self) -> String {
+        Self::ALL
+            .iter()
+            .filter(|l| self.contains(**l))
+            .map(|l| *l as char)
+            .collect()
+    }
+}
+
+impl Default for AxisLetters {
+    fn default() -> Self {
+        Self::XYZABC
+    }
 }
 
 impl Default for Setup {
@@ -80,6 +146,7 @@ impl Default for Setup {
             work_system: 0,
             rotations_deg: [0.0; 9],
             parameters: BTreeMap::new(),
+            axes: AxisLetters::XYZABC,
         }
     }
 }
@@ -101,6 +168,7 @@ struct RawSetup {
     #[serde(default)]
     subroutine_path: Vec<String>,
     var_file: Option<Sp<String>>,
+    axes: Option<Sp<String>>,
     #[serde(default)]
     work_offsets: BTreeMap<Sp<String>, Sp<Vec<f64>>>,
     #[serde(default)]
@@ -182,7 +250,7 @@ impl Setup {
             at.error(
                 offset,
                 e.message().to_string(),
-                "the set-up file has the keys units, start, subroutine_path, var_file, [work_offsets], [tools] and [reference]",
+                "the set-up file has the keys units, start, axes, subroutine_path, var_file, [work_offsets], [tools] and [reference]",
             )
         })?;
         let units = raw.units.ok_or_else(|| {
@@ -199,6 +267,27 @@ impl Setup {
         };
         if let Some(s) = &raw.start {
             setup.start_mm = at.vec("start", s, k)?;
+        }
+        if let Some(a) = &raw.axes {
+            // The value's text starts after its opening quote.
+            let axes = AxisLetters::parse(a.get_ref()).map_err(|(at_char, why)| {
+                at.error(
+                    a.span().start + 1 + at_char,
+                    why,
+                    "write the machine's axes, e.g. axes = \"XYZA\" or \"XYZABCUVW\"",
+                )
+            })?;
+            if let Some(l) = b"XYZ".iter().find(|l| !axes.contains(**l)) {
+                return Err(at.error(
+                    a.span().start,
+                    format!(
+                        "axes has no {}: volcomp compensates machines with X, Y and Z",
+                        *l as char
+                    ),
+                    "list X, Y and Z and the machine's other axes",
+                ));
+            }
+            setup.axes = axes;
         }
         let base = std::path::Path::new(file).parent();
         for dir in &raw.subroutine_path {
@@ -334,6 +423,24 @@ mod tests {
         assert_eq!(s.tool_lengths_mm[&2], 40.5);
         assert_eq!(s.g30_mm.z, -5.0);
         assert_eq!(s.start_mm, Vec3::new(1.0, 2.0, 3.0));
+    }
+
+    #[test]
+    fn axes_are_read_checked_and_default_to_xyzabc() {
+        assert_eq!(Setup::default().axes.letters(), "XYZABC");
+        let s = Setup::from_toml("units = \"mm\"\naxes = \"xyz uvw\"\n").unwrap();
+        assert_eq!(s.axes.letters(), "XYZUVW");
+        assert!(s.axes.contains(b'U') && !s.axes.contains(b'A'));
+        let e = Setup::from_toml_in("units = \"mm\"\naxes = \"XYZQ\"\n", "s.toml").unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("s.toml:2:12: `Q` is not an axis letter"),
+            "{e}"
+        );
+        let e = Setup::from_toml("units = \"mm\"\naxes = \"XYZX\"\n").unwrap_err();
+        assert!(e.message.contains("axis X is given twice"), "{e}");
+        let e = Setup::from_toml("units = \"mm\"\naxes = \"XYA\"\n").unwrap_err();
+        assert!(e.message.contains("axes has no Z"), "{e}");
     }
 
     #[test]

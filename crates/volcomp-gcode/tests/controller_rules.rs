@@ -463,3 +463,40 @@ fn a_line_of_gigabytes_is_refused_without_holding_it() {
     assert_eq!(e.line, 2, "{e}");
     assert!(e.message.contains("longer than 1048576 bytes"), "{e}");
 }
+
+#[test]
+fn spindle_synchronised_moves_are_refused_where_linuxcnc_refuses_them() {
+    // interp_check.cc: K required, F refused; convert_straight: the
+    // spindle must turn.
+    refused(
+        "S100 M3\nG33 Z-5\n",
+        2,
+        1,
+        "K word missing with G33",
+        "K word missing",
+    );
+    refused(
+        "S100 M3\nG33 Z-5 K1 F100\n",
+        2,
+        12,
+        "F word used with G33",
+        "F word used",
+    );
+    refused(
+        "G33 Z-5 K1\n",
+        1,
+        1,
+        "Spindle not turning in G33",
+        "Spindle not turning",
+    );
+    refused(
+        "G33.1 Z-5 K1\n",
+        1,
+        1,
+        "Spindle not turning in G33.1",
+        "Spindle not turning",
+    );
+    // A G33.1 is in and back out: the tool ends where it started.
+    let m = accepted_by_both("G21 G0 X1 Y2 Z3\nS100 M3\nG33.1 Z-5 K1\n");
+    assert!(close(m[1].end, [1.0, 2.0, -5.0]) && close(m[2].end, [1.0, 2.0, 3.0]));
+}

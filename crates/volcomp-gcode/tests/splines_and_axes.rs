@@ -8,10 +8,23 @@ use std::io::Cursor;
 use volcomp_gcode::{GcodeError, InterpOptions, Motion, MotionKind, MotionSource, Setup, Walker};
 
 fn run(program: &str) -> Result<Vec<Motion>, GcodeError> {
+    run_with(program, Setup::default())
+}
+
+/// On a machine with all nine axes (the default is X Y Z A B C).
+fn run_nine(program: &str) -> Result<Vec<Motion>, GcodeError> {
+    let setup = Setup {
+        axes: volcomp_gcode::AxisLetters::parse("XYZABCUVW").unwrap(),
+        ..Setup::default()
+    };
+    run_with(program, setup)
+}
+
+fn run_with(program: &str, setup: Setup) -> Result<Vec<Motion>, GcodeError> {
     let mut w = Walker::new(
         Cursor::new(program.as_bytes().to_vec()),
         Some("t.ngc".into()),
-        Setup::default(),
+        setup,
         InterpOptions::default(),
     );
     let mut motions = Vec::new();
@@ -141,7 +154,7 @@ fn spline_refusals_follow_linuxcnc() {
 
 #[test]
 fn extra_axes_are_carried_linearly_and_uncompensated() {
-    let m = run(
+    let m = run_nine(
         "G21 G90 F100\nG0 X0 Y0 Z0\nG1 X10 A90 B-5\nG2 X20 Y0 I5 J0 C30 W2\nG91 G1 A-10 U1\nG20 G1 U1 A1\nM2\n",
     )
     .unwrap();
@@ -353,4 +366,20 @@ fn accepted_here_as_in_rs274() {
             panic!("{prog}: rs274 refuses it: {msg}");
         }
     }
+}
+
+#[test]
+fn words_of_axes_the_machine_lacks_are_refused_as_linuxcnc_refuses_them() {
+    // The default machine is rs274's X Y Z A B C: U is refused at its column.
+    let e = run("G21 G90 F100\nG1 X1 U2\nM2\n").unwrap_err();
+    assert_eq!((e.line, e.column), (2, 7), "{e}");
+    assert!(e.message.contains("Bad character 'u' used"), "{e}");
+    assert!(e.help.contains("axes = \"XYZABCU\""), "{e}");
+    // A machine of X, Y, Z alone refuses A too; one with U accepts it.
+    let xyz = Setup {
+        axes: volcomp_gcode::AxisLetters::parse("XYZ").unwrap(),
+        ..Setup::default()
+    };
+    assert!(run_with("G21 F100\nG1 X1 A2\nM2\n", xyz).is_err());
+    assert!(run_nine("G21 F100\nG1 X1 U2\nM2\n").is_ok());
 }

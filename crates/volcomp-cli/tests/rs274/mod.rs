@@ -330,12 +330,26 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
         let start = raw[..open]
             .rfind(|c: char| !(c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_'))
             .map_or(0, |k| k + 1);
+        // An N word of six digits or more runs into the call's name
+        // (`4818 N1001100STRAIGHT_FEED(`): the digits after `N` are the N
+        // word's, not the name's.
+        let glued = &raw[start..open];
+        let glued_n = glued.strip_prefix('N').map_or(0, |digits| {
+            1 + digits.bytes().take_while(u8::is_ascii_digit).count()
+        });
+        let (start, glued_n_word) = if glued_n > 1 {
+            (start + glued_n, Some(&raw[start..start + glued_n]))
+        } else {
+            (start, None)
+        };
         let name = &raw[start..open];
         let args = &raw[open + 1..close];
-        let n_word = raw[..start]
-            .split_whitespace()
-            .nth(1)
-            .filter(|n| !n.starts_with("N."));
+        let n_word = glued_n_word.or_else(|| {
+            raw[..start]
+                .split_whitespace()
+                .nth(1)
+                .filter(|n| !n.starts_with("N."))
+        });
         let call = match n_word {
             Some(n) => format!("{n} {}", &raw[start..=close]),
             None => raw[start..=close].to_string(),
@@ -427,7 +441,26 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                     call: call.clone(),
                 });
             }
-            "STRAIGHT_PROBE" | "RIGID_TAP" | "NURBS_FEED" | "SPLINE_FEED" => {
+            "RIGID_TAP" => {
+                // In to the point at the spindle's feed, and back out to
+                // where the tap started (emccanon.cc RIGID_TAP): volcomp
+                // gives the two strokes as two feed moves.
+                let n = numbers(args, 3).map_err(bad)?;
+                let start = out.last().map_or([0.0; 3], |m: &RefMotion| m.end);
+                let abc = out.last().map_or([0.0; 3], |m: &RefMotion| m.abc);
+                for end in [canon.machine([n[0], n[1], n[2]]), start] {
+                    out.push(RefMotion {
+                        kind: Kind::Feed,
+                        end,
+                        center: None,
+                        tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
+                        abc,
+                        abc_tol: canon.abc_tol(),
+                        call: call.clone(),
+                    });
+                }
+            }
+            "STRAIGHT_PROBE" | "NURBS_FEED" | "SPLINE_FEED" => {
                 out.push(RefMotion {
                     kind: Kind::Other(name.to_string()),
                     end: [f64::NAN; 3],

@@ -27,6 +27,9 @@ pub(super) struct Frame {
     pub(super) rotation_deg: f64,
     pub(super) before_mm: Vec3,
     pub(super) after_mm: Vec3,
+    /// Written X word per program X: 2 in lathe diameter mode (G7), where
+    /// an X word is a diameter, else 1.
+    pub(super) x_word_scale: f64,
 }
 
 impl Frame {
@@ -53,6 +56,7 @@ impl Frame {
             rotation_deg: interp.rotation_deg(),
             before_mm: interp.frame_parts_mm().0,
             after_mm: interp.frame_parts_mm().1,
+            x_word_scale: if interp.diameter_mode() { 2.0 } else { 1.0 },
         };
         (frame, survey.style(decimals))
     }
@@ -118,12 +122,14 @@ impl Frame {
         (self.program_mm(q)[a] - self.program_mm(from)[a]).abs() > 1e-9
     }
 
-    /// The word value to write for axis `a` when moving from `from` to `q`.
+    /// The word value to write for axis `a` when moving from `from` to `q`
+    /// (in G7 an X word is the diameter: twice the program coordinate).
     pub(super) fn word_value(&self, q: Vec3, from: Vec3, a: usize) -> f64 {
+        let k = if a == 0 { self.x_word_scale } else { 1.0 };
         if self.absolute {
-            self.round(self.program(q)[a])
+            self.round(self.program(q)[a] * k)
         } else {
-            self.round(self.program(q)[a] - self.program(from)[a])
+            self.round((self.program(q)[a] - self.program(from)[a]) * k)
         }
     }
 
@@ -134,7 +140,8 @@ impl Frame {
         }
         let mut out = q;
         for a in 0..3 {
-            let v = self.word_value(q, from, a);
+            let k = if a == 0 { self.x_word_scale } else { 1.0 };
+            let v = self.word_value(q, from, a) / k;
             out[a] = if self.absolute {
                 v * self.mm_per_unit + self.offset_mm[a]
             } else {
@@ -158,7 +165,8 @@ impl Frame {
         let mut p = p_from;
         let mut moved = false;
         for a in 0..3 {
-            let v = self.word_value(q, from, a) * self.mm_per_unit;
+            let k = if a == 0 { self.x_word_scale } else { 1.0 };
+            let v = self.word_value(q, from, a) / k * self.mm_per_unit;
             let new = if self.absolute { v } else { p_from[a] + v };
             if (new - p_from[a]).abs()
                 >= 0.5 * 10f64.powi(-i32::from(self.decimals)) * self.mm_per_unit * 1e-3
@@ -198,6 +206,7 @@ mod tests {
             rotation_deg: deg,
             before_mm: Vec3::new(1.0, 0.0, 0.0),
             after_mm: Vec3::new(10.0, 5.0, 2.0),
+            x_word_scale: 1.0,
         }
     }
 

@@ -148,10 +148,19 @@ pub fn compensate_program<R: BufRead>(
             st.summary.lines_out += 1;
             for m in ev.motions {
                 // G53 and G28/G30 moves are sent as written: they are set-up
-                // moves in machine coordinates, not part geometry.
-                st.s = next_state(st.s, m.end - st.q_out);
+                // moves in machine coordinates, not part geometry. So are
+                // spindle-synchronised moves (G33, G33.1), whose pitch ties
+                // the feed axis to the spindle: written as they are, in G91
+                // they move by their increment from where the last command
+                // left the machine.
+                let end = if m.source == MotionSource::SpindleSynced && !ev.interp.absolute() {
+                    st.q_out + (m.end - m.start)
+                } else {
+                    m.end
+                };
+                st.s = next_state(st.s, end - st.q_out);
                 st.s_nominal = st.s;
-                st.q_out = m.end;
+                st.q_out = end;
             }
             if let Some(mode) = explicit_mode(ev.lexed.words()) {
                 st.mode = Some(mode);

@@ -282,6 +282,7 @@ mod tests {
             nominal_line: 1,
             start_mm: Vec3::new(x0, 0.0, 0.0),
             command_mm: Vec3::new(x1, 0.0, 0.0),
+            actual_mm: Vec3::new(x1, 0.0, 0.0),
             arc: None,
             length_mm: (x1 - x0).abs(),
             target_mm: None,

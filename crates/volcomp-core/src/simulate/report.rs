@@ -95,6 +95,10 @@ pub struct SegmentError {
     pub arc: Option<volcomp_gcode::Arc>,
     /// Commanded path length (mm; an arc's length along the arc).
     pub length_mm: f64,
+    /// Simulated tool position once the command has run (axis frame, mm):
+    /// the command plus the model's error, with the backlash lag of
+    /// docs/design.md, "Direction state and backlash".
+    pub actual_mm: Vec3,
     /// The nominal move's end point when this command is the last written
     /// for a nominal feed move (a point of the point error).
     pub target_mm: Option<Vec3>,
@@ -345,6 +349,7 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
                     _ => None,
                 },
                 length_mm: length,
+                actual_mm: end,
                 target_mm: None,
                 point_um: None,
                 contour_max_um: seg_max,

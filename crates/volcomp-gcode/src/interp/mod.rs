@@ -37,6 +37,7 @@ mod warnings;
 mod words;
 
 pub use extra::{ExtraAxes, EXTRA_LETTERS};
+pub use motion::K0_HELP;
 pub use motion::MAX_COORDINATE_MM;
 pub use options::{FeedMode, InterpOptions};
 pub use state::Unanswerable;
@@ -87,6 +88,9 @@ pub enum MotionSource {
     Cycle,
     /// A chord of a G5, G5.1 or G5.2/G5.3 spline.
     Spline,
+    /// A spindle-synchronised move: G33, or the stroke in and out of a G33.1
+    /// rigid tap. Its feed is the spindle's (pitch × speed), not F.
+    SpindleSynced,
 }
 
 /// One motion, in the axis frame.
@@ -156,6 +160,8 @@ pub struct Interpreter {
     /// Spindle direction from M3 (1), M4 (-1), M5 (0), for the cycles that
     /// need it turning (G84, G86, G87, G88).
     spindle_dir: i8,
+    /// Lathe diameter mode (G7): X words are diameters.
+    diameter_mode: bool,
     /// Sticky dwell P of G82/G89 (seconds).
     cycle_p: Option<f64>,
     finished: bool,
@@ -238,6 +244,7 @@ impl Interpreter {
             cycle_q: None,
             cycle_ijk: [0.0; 3],
             spindle_dir: 0,
+            diameter_mode: false,
             cycle_p: None,
             finished: false,
             uses_percents: false,
@@ -284,6 +291,12 @@ impl Interpreter {
     /// Whether G90 (absolute) is in effect.
     pub fn absolute(&self) -> bool {
         self.absolute
+    }
+
+    /// Whether lathe diameter mode (G7) is in effect: a written X word is
+    /// twice the program's X coordinate.
+    pub fn diameter_mode(&self) -> bool {
+        self.diameter_mode
     }
 
     /// The canned cycle in effect (73, 81–89) and, for G82/G86/G88/G89 (and
@@ -492,6 +505,8 @@ impl Interpreter {
             (10, MotionMode::Feed),
             (20, MotionMode::Cw),
             (30, MotionMode::Ccw),
+            (330, MotionMode::Synced(330)),
+            (331, MotionMode::Synced(331)),
             // G5 and G5.1 leave the motion mode as it was, and G5.3 is
             // non-modal (`Interp::convert_motion`, interp_convert.cc).
             (52, MotionMode::Spline(52)),

@@ -9,6 +9,11 @@ use crate::arc::{sweep_angle, Arc};
 use crate::error::GcodeError;
 use crate::geom::{Axis, Plane, Units, Vec3};
 
+/// Help of the refusal of `K0` on an XY arc; a front end may say how its
+/// user accepts K0 instead.
+pub const K0_HELP: &str =
+    "remove the K0 words (a zero K says nothing about an XY arc), or accept K0 on XY arcs in the options";
+
 /// Largest absolute machine coordinate volcomp accepts (mm): 100 m, beyond
 /// the travel of the largest machine tools (gantry mills reach some tens of
 /// metres) and far beyond any error map. A coordinate past it is a typo, a
@@ -61,6 +66,8 @@ impl Interpreter {
             MotionMode::Spline(52) if self.feed_mode != FeedMode::PerMinute => return Ok(()),
             MotionMode::Spline(52) => "Cannot make a NURBS with 0 feedrate",
             MotionMode::Spline(_) => "Cannot make arc with zero feed rate",
+            // The spindle sets the feed (K per revolution).
+            MotionMode::Synced(_) => return Ok(()),
         };
         if self.feed_mode == FeedMode::InverseTime {
             if w.get(b'F').is_none() && !matches!(mode, MotionMode::Cycle(_)) {
@@ -322,6 +329,73 @@ impl Interpreter {
             }
             MotionMode::Cycle(code) => self.cycle(line, col, code, w, new_cycle, out)?,
             MotionMode::Spline(code) => self.spline(line, col, w, code, out)?,
+            MotionMode::Synced(code) => self.synced(line, col, w, code, feed, out)?,
+        }
+        Ok(())
+    }
+
+    /// G33 (a straight move at K per spindle revolution) and G33.1 (rigid
+    /// tapping: in to the end point at K per revolution and back out to
+    /// the start), as `Interp::convert_straight` (interp_convert.cc) makes
+    /// them, with the checks of `check_other_codes` (interp_check.cc): K
+    /// required, no F, the spindle turning. The feed of the motions is the
+    /// modal F, which the controller does not use for them.
+    fn synced(
+        &mut self,
+        line: u64,
+        col: usize,
+        w: &WordTable,
+        code: u16,
+        feed: f64,
+        out: &mut Vec<Motion>,
+    ) -> Result<(), GcodeError> {
+        let name = if code == 330 { "G33" } else { "G33.1" };
+        if w.get(b'K').is_none() {
+            return Err(invalid(
+                line,
+                col,
+                format!("K word missing with {name}: K is the distance per spindle revolution"),
+                "give the pitch with K",
+            ));
+        }
+        if let Some(c) = w.col(b'F') {
+            return Err(invalid(
+                line,
+                c,
+                format!("F word used with {name}: the spindle sets the feed (K per revolution)"),
+                "remove the F word",
+            ));
+        }
+        if self.spindle_dir == 0 {
+            return Err(invalid(
+                line,
+                col,
+                format!("Spindle not turning in {name}"),
+                "start the spindle with M3 or M4 before this line",
+            ));
+        }
+        let start = self.position;
+        let t = self.target(w);
+        self.push(
+            out,
+            MotionKind::Feed,
+            MotionSource::SpindleSynced,
+            t,
+            line,
+            col,
+            feed,
+        )?;
+        if code == 331 {
+            // RIGID_TAP returns to where it started.
+            self.push(
+                out,
+                MotionKind::Feed,
+                MotionSource::SpindleSynced,
+                start,
+                line,
+                col,
+                feed,
+            )?;
         }
         Ok(())
     }
@@ -390,8 +464,16 @@ impl Interpreter {
             }
         };
         if let Some(k) = w.get(lw) {
-            let ok = k == 0.0 && plane == Plane::Xy && self.options.accept_k0_on_xy_arcs;
-            if !ok {
+            let k0_xy = k == 0.0 && plane == Plane::Xy;
+            if k0_xy && !self.options.accept_k0_on_xy_arcs {
+                return Err(invalid(
+                    line,
+                    w.col(lw).unwrap_or(col),
+                    "K0 given for an arc in the XY plane; LinuxCNC refuses it (\"K word given for arc in xy plane\")",
+                    K0_HELP,
+                ));
+            }
+            if !k0_xy {
                 return Err(invalid(
                     line,
                     w.col(lw).unwrap_or(col),

@@ -4,8 +4,9 @@
 /// Options that change interpretation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InterpOptions {
-    /// Accept `K0` on G17 arcs (FreeCAD writes it; LinuxCNC refuses it).
-    /// A non-zero K on a G17 arc is refused either way.
+    /// Accept `K0` on G17 arcs (FreeCAD writes it; LinuxCNC refuses it, so
+    /// the default refuses it too). A non-zero K on a G17 arc is refused
+    /// either way.
     pub accept_k0_on_xy_arcs: bool,
     /// Interpret arc centres as absolute from the start, as if G90.1 began
     /// the program.
@@ -29,7 +30,7 @@ pub struct InterpOptions {
 impl Default for InterpOptions {
     fn default() -> Self {
         Self {
-            accept_k0_on_xy_arcs: true,
+            accept_k0_on_xy_arcs: false,
             absolute_arc_centers: false,
             require_program_end: false,
             spline_tolerance_mm: 1e-4,
@@ -60,4 +61,6 @@ pub(super) enum MotionMode {
     /// Spline: G5 (50), G5.1 (51), G5.2 (52); G5.3 (53) only while its
     /// block runs.
     Spline(u16),
+    /// Spindle-synchronised motion: G33 (330) or G33.1 rigid tapping (331).
+    Synced(u16),
 }

@@ -109,6 +109,7 @@ impl Interpreter {
                 Some(MotionMode::Cw) => 20.0,
                 Some(MotionMode::Ccw) => 30.0,
                 Some(MotionMode::Cycle(code)) => f64::from(code),
+                Some(MotionMode::Synced(code)) => f64::from(code),
                 #[allow(unreachable_patterns)]
                 _ => return Err(Unanswerable::NotPredefined),
             },
@@ -136,7 +137,7 @@ impl Interpreter {
             "_retract_r_plane" => truth(self.retract_to_r),
             "_retract_old_z" => truth(!self.retract_to_r),
             "_ijk_absolute_mode" => truth(self.arc_absolute),
-            "_lathe_diameter_mode" => 0.0,
+            "_lathe_diameter_mode" => truth(self.diameter_mode),
             "_lathe_radius_mode" => 0.0,
             "_feed" => self.feed,
             "_rpm" => self.spindle_rpm,

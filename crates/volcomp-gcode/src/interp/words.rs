@@ -6,6 +6,7 @@ use super::options::MotionMode;
 use super::{invalid, unsupported, Interpreter};
 use crate::error::GcodeError;
 use crate::lexer::{Lexed, Word};
+use crate::setup::AxisLetters;
 
 /// The words of one block by letter, plus its G and M codes.
 #[derive(Debug, Clone, Default)]
@@ -79,6 +80,7 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         901 | 911 => 4,
         930 | 940 | 950 => 5,
         200 | 210 => 6,
+        70 | 80 => 15,
         400 => 7,
         430 | 431 | 490 => 8,
         980 | 990 => 10,
@@ -93,8 +95,7 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         160 => return Err("polar coordinates (G16) are not interpreted; post the program in Cartesian coordinates"),
         760 => return Err("G76 threading is a lathe cycle, not expanded by volcomp (G73, G74 and G81–G89 are); post the cycle as explicit moves"),
         380..=385 => return Err("probing ends where the probe touches, which is known only when the machine runs; volcomp cannot know the path after it (LinuxCNC's later moves may use the probed position, #5061–#5069)"),
-        330 | 331 => return Err("spindle-synchronised motion (G33, G33.1 rigid tapping; G76 threading likewise) is tied to the spindle's rotation; volcomp does not alter it; run threading as a separate, uncompensated program"),
-        70 | 80 => return Err("lathe diameter/radius mode (G7/G8) is for lathes; volcomp compensates the X, Y, Z of milling machines"),
+        330 | 331 => 1,
         700..=722 => return Err("lathe roughing and finishing cycles (G70–G72) are for lathes; volcomp compensates the X, Y, Z of milling machines"),
         430..=439 => return Err("this tool length offset (G43.2) is not interpreted; give the summed length to G43 H in the set-up's tool table"),
         _ => return Err("unknown G code: LinuxCNC does not know it either, unless the machine's INI file remaps it to a subroutine, which volcomp cannot see; write out what it does in the program"),
@@ -144,6 +145,7 @@ fn code_name(letter: char, code: u16) -> String {
 
 impl Interpreter {
     pub(super) fn collect_words(&mut self, line: u64, lexed: &Lexed) -> Result<(), GcodeError> {
+        let axes = self.setup.axes;
         let w = self.words.get_or_insert_with(Box::default);
         w.values = [None; 28];
         w.exponent_col = None;
@@ -242,6 +244,25 @@ impl Interpreter {
                 b'N' if w.values[slot_of(b'N')].is_none() => {
                     w.values[slot_of(b'N')] = Some((*value, col));
                 }
+                l if AxisLetters::ALL.contains(l) && !axes.contains(*l) => {
+                    // Interp::init drops the reader of every axis the
+                    // machine lacks (rs274ngc_pre.cc, GET_EXTERNAL_AXIS_MASK).
+                    return Err(invalid(
+                        line,
+                        col,
+                        format!(
+                            "the machine has no {} axis (its axes are {}); LinuxCNC refuses the word (\"Bad character '{}' used\")",
+                            *l as char,
+                            axes.letters(),
+                            l.to_ascii_lowercase() as char
+                        ),
+                        format!(
+                            "if the machine has it, name it in the set-up file: axes = \"{}{}\"",
+                            axes.letters(),
+                            *l as char
+                        ),
+                    ));
+                }
                 _ => {
                     let slot = &mut w.values[slot_of(*letter)];
                     if slot.is_some() {
@@ -254,6 +275,19 @@ impl Interpreter {
                     }
                     *slot = Some((*value, col));
                 }
+            }
+        }
+        // Lathe diameter mode (G7): an X word is a diameter. LinuxCNC halves
+        // it as it reads it (`Interp::read_x`) and again corrects it when
+        // the line itself switches the mode (`convert_lathe_diameter_mode`,
+        // interp_convert.cc), so every use of the line's X word (motion,
+        // G92, G10, G52, cycles) sees half of it exactly when the mode after
+        // the line's G7/G8 is diameter. I and K are not scaled.
+        self.diameter_mode = w.switch(70, 80).unwrap_or(self.diameter_mode);
+        if self.diameter_mode {
+            let x = &mut w.values[slot_of(b'X')];
+            if let Some((v, _)) = x.as_mut() {
+                *v /= 2.0;
             }
         }
         Ok(())
@@ -272,6 +306,8 @@ impl Interpreter {
             (51, MotionMode::Spline(51)),
             (52, MotionMode::Spline(52)),
             (53, MotionMode::Spline(53)),
+            (330, MotionMode::Synced(330)),
+            (331, MotionMode::Synced(331)),
         ]
         .into_iter()
         .chain(CYCLE_CODES.map(|c| (c, MotionMode::Cycle(c))))
@@ -301,6 +337,8 @@ impl Interpreter {
         let cycle = matches!(motion, Some(MotionMode::Cycle(_)));
         let g10 = w.has_g(100);
         let g87 = motion == Some(MotionMode::Cycle(870));
+        let synced = matches!(motion, Some(MotionMode::Synced(_)));
+        let tap = motion == Some(MotionMode::Synced(331));
         let spline = |codes: &[u16]| codes.iter().any(|c| motion == Some(MotionMode::Spline(*c)));
         let (g5, g5_ij, g52) = (spline(&[50]), spline(&[50, 51]), spline(&[52]));
         let m_any = |codes: &[u16]| codes.iter().any(|c| w.has_m(*c));
@@ -309,9 +347,9 @@ impl Interpreter {
                 b'D' => (w.has_g(960), "D word with no G41, G41.1, G42, G42.1 or G96 to use it"),
                 b'E' => (m_any(&[660, 670, 680]), "E word with no G70, G76, M66, M67 or M68 to use it"),
                 b'H' => (w.has_g(430), "H word with no G43 or G76 to use it"),
-                b'I' => (arc || g10 || g5_ij || g87, "I word with no G2, G3, G5, G5.1, G10 or G87 to use it"),
+                b'I' => (arc || g10 || g5_ij || g87 || tap, "I word with no G2, G3, G5, G5.1, G10, G33.1 or G87 to use it"),
                 b'J' => (arc || g10 || g5_ij || g87, "J word with no G2, G3, G5, G5.1, G10 or G87 to use it"),
-                b'K' => (arc || g87, "K word with no G2, G3 or G87 to use it"),
+                b'K' => (arc || g87 || synced, "K word with no G2, G3, G33, G33.1 or G87 to use it"),
                 // LinuxCNC allows L with G73 and G81–G89 only, not G74.
                 b'L' => ((cycle && motion != Some(MotionMode::Cycle(740))) || g10 || g52 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
                 b'P' => (
@@ -364,7 +402,7 @@ impl Interpreter {
     }
 
     pub(super) fn motion_word_col(&self, w: &WordTable) -> Option<usize> {
-        [0u16, 10, 20, 30, 50, 51, 52, 53]
+        [0u16, 10, 20, 30, 50, 51, 52, 53, 330, 331]
             .into_iter()
             .chain(CYCLE_CODES)
             .find_map(|c| w.g_col(c))

@@ -77,6 +77,96 @@ impl Run {
         self.displacement_um.iter_mut().for_each(|v| *v = -*v);
     }
 
+    /// A run from arrays (positions in mm, Z deviations in µm), checked as
+    /// [`Run::from_csv`] checks a file: equal lengths, finite values, a
+    /// positive feed rate, at least [`MIN_SAMPLES`] samples, strictly
+    /// increasing and evenly spaced positions; `name` names it in errors.
+    ///
+    /// ```
+    /// use volcomp_core::identify::straightness::run::Run;
+    /// let x: Vec<f64> = (0..20).map(|i| i as f64 * 0.5).collect();
+    /// let z = vec![0.0; 20];
+    /// assert!(Run::from_arrays("r", None, 4800.0, x.clone(), z.clone()).is_ok());
+    /// let mut uneven = x.clone();
+    /// uneven[5] += 0.1;
+    /// let e = Run::from_arrays("r", None, 4800.0, uneven, z).unwrap_err();
+    /// assert!(e.to_string().contains("sample 5"));
+    /// ```
+    pub fn from_arrays(
+        name: &str,
+        axis: Option<Axis>,
+        feed_mm_per_min: f64,
+        positions_mm: Vec<f64>,
+        displacement_um: Vec<f64>,
+    ) -> Result<Run, StraightnessError> {
+        let fail = |message: String, help: &str| {
+            Err(StraightnessError::Runs {
+                message: format!("{name}: {message}"),
+                help: help.to_string(),
+            })
+        };
+        if !(feed_mm_per_min.is_finite() && feed_mm_per_min > 0.0) {
+            return fail(
+                format!("feed rate {feed_mm_per_min} is not positive"),
+                "give the feed rate of the run in mm/min",
+            );
+        }
+        if positions_mm.len() != displacement_um.len() {
+            return fail(
+                format!(
+                    "{} positions but {} displacements",
+                    positions_mm.len(),
+                    displacement_um.len()
+                ),
+                "give one displacement (µm) per position (mm)",
+            );
+        }
+        let n = positions_mm.len();
+        if n < MIN_SAMPLES {
+            return fail(
+                format!("{n} samples; a run needs at least {MIN_SAMPLES}"),
+                "sample the profile densely: several samples per shortest wavelength of interest",
+            );
+        }
+        for (i, (x, z)) in positions_mm.iter().zip(&displacement_um).enumerate() {
+            if !x.is_finite() || !z.is_finite() {
+                return fail(
+                    format!("sample {i} is not finite (position {x}, displacement {z})"),
+                    "remove or fill the missing samples before fitting",
+                );
+            }
+            if i > 0 && *x <= positions_mm[i - 1] {
+                return fail(
+                    format!(
+                        "sample {i}: position {x} mm does not increase (sample {}: {} mm)",
+                        i - 1,
+                        positions_mm[i - 1]
+                    ),
+                    "sort the samples by position and remove repeated positions",
+                );
+            }
+        }
+        let mut steps: Vec<f64> = positions_mm.windows(2).map(|w| w[1] - w[0]).collect();
+        steps.sort_by(f64::total_cmp);
+        let step = steps[steps.len() / 2];
+        for i in 1..n {
+            let d = positions_mm[i] - positions_mm[i - 1];
+            if (d - step).abs() > SPACING_TOLERANCE * step {
+                return fail(
+                    format!("unequal sampling: step {d:.6} mm from sample {} to sample {i}, the run's typical step is {step:.6} mm", i - 1),
+                    "the spectrum needs evenly spaced samples: resample the run onto an even grid (or fill the missing samples) before fitting",
+                );
+            }
+        }
+        Ok(Run {
+            file: name.to_string(),
+            axis,
+            feed_mm_per_min,
+            positions_mm,
+            displacement_um,
+        })
+    }
+
     /// Parses the CSV text of a run; `file` names it in errors.
     ///
     /// ```

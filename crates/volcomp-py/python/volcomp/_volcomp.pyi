@@ -1,0 +1,304 @@
+"""Type stubs of volcomp's compiled module (see the docstrings of each
+function for units and conventions; walk-through in docs/python.md)."""
+
+import os
+from typing import Any, Literal, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+Text = Union[str, bytes, os.PathLike[str]]
+"""A content (str or bytes) or a file (pathlib.Path)."""
+ArrayLike = npt.ArrayLike
+F64 = npt.NDArray[np.float64]
+
+class VolcompError(Exception):
+    """Any error of volcomp."""
+
+    file: Optional[str]
+    """The file (or program name) the error is in, when known."""
+    line: Optional[int]
+    """1-based line of a program or row of a table."""
+    column: Optional[int]
+    """1-based column (byte of a program line, field of a table)."""
+    message: str
+    """What is wrong and what to do."""
+
+class BadInputError(VolcompError):
+    """An input file, array or option is malformed or inconsistent."""
+
+class RefusedProgramError(VolcompError):
+    """The interpreter or the compensation refused the program."""
+
+class VolcompIOError(VolcompError):
+    """A file could not be read or written."""
+
+class VolcompWarning(UserWarning):
+    """What the G-code interpreter assumed."""
+
+class Model:
+    """An error model: e(q, s) = actual − commanded (µm) at axis positions
+    q (mm) with motion directions s (docs/design.md)."""
+
+    @staticmethod
+    def load(path: Union[str, os.PathLike[str]], *, clamp: bool = False) -> Model:
+        """Loads an axis-table CSV, a 21-component model or a straightness
+        model (TOML); clamp=True holds positions outside a table at its end."""
+    @staticmethod
+    def from_csv(text: Text, *, name: str = "<map>", clamp: bool = False) -> Model:
+        """An axis-table map from its CSV text (or a pathlib.Path)."""
+    @staticmethod
+    def from_axis_tables(
+        x: Any, y: Any, z: Any, *, clamp: bool = False
+    ) -> Model:
+        """An axis-table map from arrays: per axis (positions_mm (n,),
+        errors_um (n, 3)) or {"forward": (p, e), "reverse": (p, e)}."""
+    @staticmethod
+    def from_components(
+        x: Any,
+        y: Any,
+        z: Any,
+        *,
+        chain: str = "w X' Y' b Z t",
+        squareness_urad: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        measuring_point_mm: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        measuring_tool_length_mm: float = 0.0,
+        angles: Literal["relative", "moving-part"] = "relative",
+        clamp: bool = False,
+    ) -> Model:
+        """A 21-component model from arrays: per axis (positions_mm (n,),
+        linear_um (n, 3), angular_urad (n, 3)) or {"forward": ..., "reverse": ...}."""
+    @property
+    def kind(self) -> Literal["axis-table", "kinematic-21", "straightness"]:
+        """The kind of model."""
+    @property
+    def path(self) -> Optional[str]:
+        """The file the model was loaded from."""
+    @property
+    def uses_tool_offset(self) -> bool:
+        """Whether the deviation depends on the tool offset (Abbe arms)."""
+    @property
+    def range_mm(self) -> F64:
+        """(3, 2): [min, max] per axis X, Y, Z (mm)."""
+    def deviation_um(
+        self,
+        positions_mm: ArrayLike,
+        *,
+        directions: Optional[ArrayLike] = None,
+        tool_offset_mm: Optional[ArrayLike] = None,
+        positioning_only: bool = False,
+        outside: Literal["raise", "nan"] = "raise",
+    ) -> F64:
+        """e (µm, shape (N, 3)) at positions (N, 3) mm; directions ±1 of
+        shape (3,) or (N, 3); tool offset (3,) or (N, 3) mm."""
+    def components(self) -> dict[str, Any]:
+        """The components as arrays per axis and direction."""
+    def component(self, name: str) -> tuple[F64, F64, F64]:
+        """One ISO 230-1 component ("EXX", "EBY", ...) as (position_mm,
+        forward, reverse)."""
+    def to_csv(self) -> str:
+        """An axis-table map as CSV text."""
+
+class CompensateResult:
+    """The compensated program and what was done."""
+
+    data: bytes
+    """The compensated program."""
+    lines_in: int
+    lines_out: int
+    points: int
+    max_residual_um: float
+    max_correction_um: float
+    take_ups: int
+    held: list[tuple[int, str]]
+    held_count: int
+    warnings: list[dict[str, Any]]
+    """Dicts with file, line, column, message."""
+    point_records: Optional[dict[str, Any]]
+    """With points=True: line, target_mm (N, 3), command_mm (N, 3),
+    iterations, residual_um, reversed, held, take_up, rapid."""
+    @property
+    def text(self) -> str:
+        """The compensated program as text."""
+    def summary(self) -> dict[str, Any]:
+        """The summary as a dict."""
+
+class SimulationResult:
+    """Metrics of a simulated program (µm)."""
+
+    point_rms_um: float
+    point_max_um: float
+    contour_rms_um: float
+    contour_max_um: float
+    blocks: int
+    points: int
+    samples: int
+    feed_length_mm: float
+    nominal: str
+    point_definition: str
+    contour_definition: str
+    warnings: list[dict[str, Any]]
+    segments: Optional[dict[str, Any]]
+    """With segments=True: line, nominal_line, command_mm, actual_mm,
+    target_mm (N, 3; NaN where none), point_um, contour_max_um."""
+    def as_dict(self) -> dict[str, Any]:
+        """The metrics as a dict (the CLI's simulate --json keys)."""
+
+def compensate(
+    program: Text,
+    model: Model,
+    *,
+    setup: Optional[Text] = None,
+    work_offset_mm: Optional[Sequence[float]] = None,
+    absolute_arc_centers: bool = False,
+    strict_k0: bool = False,
+    allow_no_program_end: bool = False,
+    method: Literal["exact", "ilc", "direct", "pitch"] = "exact",
+    gain: float = 0.5,
+    max_iterations: int = 20,
+    segment_length_mm: Optional[float] = None,
+    segments: Optional[int] = None,
+    no_split: bool = False,
+    contour_tolerance_um: Optional[float] = None,
+    min_segment_length_mm: float = 0.01,
+    max_residual_um: float = 1.0,
+    chord_tolerance_mm: float = 1e-4,
+    decimals: Optional[int] = None,
+    max_correction_mm: float = 0.1,
+    nominal_directions: bool = False,
+    take_up: bool = True,
+    trace: bool = True,
+    allow_recompensate: bool = False,
+    max_output_bytes: Optional[int] = 268435456,
+    points: bool = False,
+    name: Optional[str] = None,
+    date_utc: Optional[str] = None,
+) -> CompensateResult:
+    """Compensates a program for the model's errors (the options of
+    `volcomp compensate`)."""
+
+def simulate(
+    program: Text,
+    model: Model,
+    *,
+    reference: Optional[Text] = None,
+    setup: Optional[Text] = None,
+    work_offset_mm: Optional[Sequence[float]] = None,
+    absolute_arc_centers: bool = False,
+    strict_k0: bool = False,
+    allow_no_program_end: bool = False,
+    chord_tolerance_mm: float = 1e-4,
+    segments: bool = False,
+    name: Optional[str] = None,
+) -> SimulationResult:
+    """Simulates a program and measures it against its nominal path."""
+
+def moves(
+    program: Text,
+    *,
+    setup: Optional[Text] = None,
+    work_offset_mm: Optional[Sequence[float]] = None,
+    absolute_arc_centers: bool = False,
+    strict_k0: bool = False,
+    allow_no_program_end: bool = False,
+    extra_axes: bool = False,
+    name: Optional[str] = None,
+) -> dict[str, npt.NDArray[Any]]:
+    """One row per motion as a dict of columns (the `volcomp moves` CSV)."""
+
+def iso230_2(
+    target_mm: ArrayLike, up_um: ArrayLike, down_um: ArrayLike
+) -> dict[str, Any]:
+    """ISO 230-2 figures from deviations (µm) of shape (m targets, n runs)."""
+
+def iso230_2_csv(runs: Text, *, name: Optional[str] = None) -> dict[str, Any]:
+    """ISO 230-2 figures from a test CSV (text or pathlib.Path)."""
+
+def straightness_fit(
+    runs: Sequence[Union[Text, dict[str, Any]]],
+    *,
+    axis: Optional[Literal["X", "Y"]] = None,
+    negate: bool = False,
+    sigma_t: float = 0.05,
+    p_t: float = 0.01,
+    taper_fraction: float = 0.1,
+    normalisation: Literal["common", "per-run"] = "common",
+    harmonics: Optional[int] = None,
+    cutoff: Literal["cross-validation", "thresholds"] = "cross-validation",
+) -> tuple[Model, dict[str, dict[str, Any]]]:
+    """A straightness model from runs at several feed rates (CSV text,
+    pathlib.Path, or dicts of positions_mm, displacement_um,
+    feed_mm_per_min, axis); returns (model, report per axis)."""
+
+class ThermalModel:
+    """The regression of the 21-component model on temperatures
+    (docs/thermal.md)."""
+
+    @staticmethod
+    def load(path: Union[str, os.PathLike[str]]) -> ThermalModel:
+        """Loads a thermal model file (TOML)."""
+    @property
+    def sensors(self) -> list[str]:
+        """The sensors, in column order."""
+    @property
+    def unidentifiable(self) -> list[str]:
+        """Parameters the placements could not identify."""
+    @property
+    def sigma0_um(self) -> F64:
+        """Probing noise per training cycle (µm)."""
+    def to_toml(self) -> str:
+        """The model file's text."""
+    def predict(
+        self, temperatures: Text, *, cycle: Optional[int] = None, extrapolate: bool = False
+    ) -> Model:
+        """The 21-component model at a row of a temperature CSV."""
+
+def thermal_fit(
+    measurements: Text,
+    temperatures: Text,
+    artifact: Text,
+    *,
+    ranges_mm: Sequence[Sequence[float]],
+    chain: str = "w X' Y' b Z t",
+    order: int = 2,
+    probe_length_mm: float = 0.0,
+    lags: int = 0,
+    threshold: float = 1e-3,
+    table_samples: int = 61,
+    bands_samples: Optional[int] = None,
+) -> tuple[ThermalModel, dict[str, Any]]:
+    """Fits a thermal model from artifact cycles and temperatures (CSV text
+    or pathlib.Path); with bands_samples, the 95 % Monte Carlo bands."""
+
+def mirror(
+    nominal: Text,
+    measured: Text,
+    *,
+    stock_mm: float,
+    nominal_format: Optional[Literal["bspline", "grid"]] = None,
+    material: Literal["below", "above", "normal-out", "normal-in"] = "below",
+    probe_radius_mm: Optional[float] = None,
+    max_error_mm: float = 0.1,
+    fit: Literal["least-squares", "interpolate"] = "least-squares",
+    tolerance_um: Optional[float] = None,
+    grid_params: Literal["chord-length", "centripetal", "uniform"] = "chord-length",
+    grid_size: int = 41,
+    finishing: Optional[Text] = None,
+    tool_radius_mm: Optional[float] = None,
+    cl_point: Literal["tip", "center"] = "tip",
+    contact_tolerance_mm: float = 0.02,
+    segment_length_mm: Optional[float] = 2.0,
+    decimals: Optional[int] = None,
+    trace: bool = True,
+    setup: Optional[Text] = None,
+    work_offset_mm: Optional[Sequence[float]] = None,
+    absolute_arc_centers: bool = False,
+    strict_k0: bool = False,
+    allow_no_program_end: bool = False,
+    allow_recompensate: bool = False,
+    date_utc: Optional[str] = None,
+) -> dict[str, Any]:
+    """Mirror compensation of a free-form surface from probe points; with
+    finishing and tool_radius_mm, the compensated finishing program."""

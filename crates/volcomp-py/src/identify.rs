@@ -1,0 +1,329 @@
+//! Identification: ISO 230-2 figures of positioning from run arrays;
+//! straightness models from profiles at several feed rates.
+
+use crate::errors::{bad_input, IntoPy};
+use crate::inputs::{f64_rows, f64_vec, source};
+use crate::model::Model;
+use numpy::prelude::*;
+use numpy::PyArray1;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use volcomp_core::identify::iso230_2 as iso;
+use volcomp_core::identify::iso230_2::Iso230_2Report;
+use volcomp_core::identify::straightness;
+use volcomp_core::io::LoadedModel;
+
+/// The report as `{"targets": {column: array}, "axis": {figure: float},
+/// "notes": [str]}`.
+fn report_dict<'py>(py: Python<'py>, r: &Iso230_2Report) -> PyResult<Bound<'py, PyDict>> {
+    let t = PyDict::new(py);
+    let col =
+        |f: &dyn Fn(&iso::TargetStats) -> f64| -> Vec<f64> { r.targets.iter().map(f).collect() };
+    t.set_item("target_mm", PyArray1::from_vec(py, col(&|s| s.target_mm)))?;
+    t.set_item(
+        "n_up",
+        PyArray1::from_vec(py, r.targets.iter().map(|s| s.n_up as u64).collect()),
+    )?;
+    t.set_item(
+        "n_down",
+        PyArray1::from_vec(py, r.targets.iter().map(|s| s.n_down as u64).collect()),
+    )?;
+    for (name, f) in [
+        (
+            "mean_up_um",
+            (|s: &iso::TargetStats| s.mean_up_um) as fn(&_) -> f64,
+        ),
+        ("mean_down_um", |s| s.mean_down_um),
+        ("s_up_um", |s| s.s_up_um),
+        ("s_down_um", |s| s.s_down_um),
+        ("reversal_um", |s| s.reversal_um),
+        ("mean_um", |s| s.mean_um),
+        ("repeatability_up_um", |s| s.repeatability_up_um),
+        ("repeatability_down_um", |s| s.repeatability_down_um),
+        ("repeatability_um", |s| s.repeatability_um),
+    ] {
+        t.set_item(name, PyArray1::from_vec(py, col(&f)))?;
+    }
+    let a = &r.axis;
+    let ax = PyDict::new(py);
+    for (name, v) in [
+        ("reversal_b_um", a.reversal_b_um),
+        ("mean_reversal_um", a.mean_reversal_um),
+        ("repeatability_up_um", a.repeatability_up_um),
+        ("repeatability_down_um", a.repeatability_down_um),
+        ("repeatability_um", a.repeatability_um),
+        ("systematic_up_um", a.systematic_up_um),
+        ("systematic_down_um", a.systematic_down_um),
+        ("systematic_um", a.systematic_um),
+        ("mean_range_um", a.mean_range_um),
+        ("accuracy_up_um", a.accuracy_up_um),
+        ("accuracy_down_um", a.accuracy_down_um),
+        ("accuracy_um", a.accuracy_um),
+    ] {
+        ax.set_item(name, v)?;
+    }
+    let d = PyDict::new(py);
+    d.set_item("targets", t)?;
+    d.set_item("axis", ax)?;
+    d.set_item("notes", r.notes.clone())?;
+    Ok(d)
+}
+
+/// ISO 230-2:2014 figures of a bidirectional positioning test (clause 3).
+///
+/// `target_mm`: the m target positions P_i, shape (m,). `up_um`, `down_um`:
+/// the positional deviations x_ij = P_ij − P_i (µm, actual minus target)
+/// approaching in the positive and the negative direction, shape (m, n),
+/// one row per target, one column per run (NaN: no approach in that run).
+/// Each target needs at least two approaches per direction.
+/// Returns `{"targets": {...arrays per target...}, "axis": {"reversal_b_um",
+/// "repeatability_um", "systematic_um", "accuracy_um", ...}, "notes": [...]}`.
+#[pyfunction]
+pub fn iso230_2<'py>(
+    py: Python<'py>,
+    target_mm: &Bound<'py, PyAny>,
+    up_um: &Bound<'py, PyAny>,
+    down_um: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let targets = f64_vec(target_mm, "target_mm")?;
+    let m = targets.len();
+    let rows = |obj: &Bound<'py, PyAny>, what: &str| -> PyResult<Vec<Vec<f64>>> {
+        let np = py.import("numpy")?;
+        let arr = np.call_method1("asarray", (obj,))?;
+        let ndim: usize = arr.getattr("ndim")?.extract()?;
+        if ndim != 2 {
+            return Err(bad_input(format!(
+                "{what} must have shape ({m}, n): one row per target, one column per run"
+            )));
+        }
+        let cols: usize = arr.getattr("shape")?.get_item(1)?.extract()?;
+        let a = f64_rows(&arr, what, cols)?;
+        if a.shape()[0] != m {
+            return Err(bad_input(format!(
+                "{what} has {} rows but target_mm has {m} targets",
+                a.shape()[0]
+            )));
+        }
+        let v = a.as_array();
+        let mut out = Vec::with_capacity(m);
+        for (i, row) in v.rows().into_iter().enumerate() {
+            let mut r = Vec::with_capacity(cols);
+            for (j, x) in row.iter().enumerate() {
+                if x.is_nan() {
+                    continue;
+                }
+                if !x.is_finite() {
+                    return Err(bad_input(format!(
+                        "{what}[{i}, {j}] is {x}; give finite deviations in µm (NaN for a missing approach)"
+                    )));
+                }
+                r.push(*x);
+            }
+            out.push(r);
+        }
+        Ok(out)
+    };
+    if let Some(i) = targets.iter().position(|t| !t.is_finite()) {
+        return Err(bad_input(format!(
+            "target_mm[{i}] is {}; give finite positions in mm",
+            targets[i]
+        )));
+    }
+    let up = rows(up_um, "up_um")?;
+    let down = rows(down_um, "down_um")?;
+    let data: Vec<(f64, Vec<f64>, Vec<f64>)> = targets
+        .into_iter()
+        .zip(up)
+        .zip(down)
+        .map(|((t, u), d)| (t, u, d))
+        .collect();
+    let report = iso::evaluate(&data).map_err(|e| bad_input(e.to_string()))?;
+    report_dict(py, &report)
+}
+
+/// ISO 230-2 figures from a test CSV (`target_mm,cycle,direction,
+/// deviation_um` or `actual_mm`, docs/kinematic.md): its text (str) or a
+/// file (pathlib.Path). Returns what `iso230_2` returns.
+#[pyfunction]
+#[pyo3(signature = (runs, *, name = None))]
+pub fn iso230_2_csv<'py>(
+    py: Python<'py>,
+    runs: &Bound<'py, PyAny>,
+    name: Option<&str>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let src = source(runs, "runs", name)?;
+    let text = String::from_utf8(src.bytes)
+        .map_err(|_| bad_input(format!("{}: not UTF-8 text", src.name)))?;
+    let report = iso::from_csv(&text, &src.name).py_err()?;
+    report_dict(py, &report)
+}
+
+/// One run of `straightness_fit`: a CSV (text or pathlib.Path) or a dict of
+/// arrays.
+fn straightness_run(
+    obj: &Bound<'_, PyAny>,
+    k: usize,
+    negate: bool,
+) -> PyResult<straightness::run::Run> {
+    let mut run = if let Ok(d) = obj.cast::<PyDict>() {
+        let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
+            d.get_item(key)?.ok_or_else(|| {
+                bad_input(format!(
+                    "runs[{k}]: the dict needs \"positions_mm\", \"displacement_um\" and \"feed_mm_per_min\" (and may give \"axis\", \"name\")"
+                ))
+            })
+        };
+        let name: String = match d.get_item("name")? {
+            Some(n) => n.extract()?,
+            None => format!("runs[{k}]"),
+        };
+        let axis = match d.get_item("axis")? {
+            None => None,
+            Some(a) => Some(straightness_axis(&a.extract::<String>()?)?),
+        };
+        let feed: f64 = get("feed_mm_per_min")?.extract().map_err(|_| {
+            bad_input(format!(
+                "runs[{k}]: feed_mm_per_min must be a number (mm/min)"
+            ))
+        })?;
+        straightness::run::Run::from_arrays(
+            &name,
+            axis,
+            feed,
+            f64_vec(&get("positions_mm")?, &format!("runs[{k}] positions_mm"))?,
+            f64_vec(
+                &get("displacement_um")?,
+                &format!("runs[{k}] displacement_um"),
+            )?,
+        )
+        .py_err()?
+    } else {
+        let src = source(obj, &format!("runs[{k}]"), None)?;
+        let text = String::from_utf8(src.bytes)
+            .map_err(|_| bad_input(format!("{}: not UTF-8 text", src.name)))?;
+        straightness::run::Run::from_csv(&text, &src.name).py_err()?
+    };
+    if negate {
+        run.negate();
+    }
+    Ok(run)
+}
+
+fn straightness_axis(text: &str) -> PyResult<straightness::Axis> {
+    straightness::Axis::parse(text).ok_or_else(|| {
+        bad_input(format!(
+            "axis {text:?}: straightness runs are profiles along X or Y; give \"X\" or \"Y\""
+        ))
+    })
+}
+
+/// Identifies a straightness model from profiles at several feed rates,
+/// the geometric error told from vibration by comparing them
+/// (docs/straightness.md, [Straightness study]).
+///
+/// `runs`: a list of runs, each a CSV (text, or a pathlib.Path; the layout
+/// of docs/straightness.md) or a dict `{"positions_mm": (n,),
+/// "displacement_um": (n,), "feed_mm_per_min": float, "axis": "X"|"Y",
+/// "name": str}` (positions evenly spaced; the Z deviation actual −
+/// commanded in µm). `axis` names the axis of runs that do not say;
+/// `negate` flips the sign of every run. Options as `volcomp straightness
+/// fit`: `sigma_t`, `p_t`, `taper_fraction`, `normalisation` ("common" or
+/// "per-run"), `harmonics` (force m), `cutoff` ("cross-validation" or
+/// "thresholds").
+///
+/// Returns `(model, report)`: the model (a `Model` of kind
+/// "straightness": `model.deviation_um(q)[:, 2]` is its prediction e_z) and
+/// per axis a dict of what was found (`harmonics`, `cutoff_wavelength_mm`,
+/// `residual_rms_um`, `positions_mm`, `mean_profile_um`,
+/// `model_profile_um`, `feeds_mm_per_min`, `mean_power`, `sigma`, ...).
+#[pyfunction]
+#[pyo3(signature = (runs, *, axis = None, negate = false, sigma_t = 0.05, p_t = 0.01, taper_fraction = 0.1, normalisation = "common", harmonics = None, cutoff = "cross-validation"))]
+#[allow(clippy::too_many_arguments)]
+pub fn straightness_fit<'py>(
+    py: Python<'py>,
+    runs: Vec<Bound<'py, PyAny>>,
+    axis: Option<&str>,
+    negate: bool,
+    sigma_t: f64,
+    p_t: f64,
+    taper_fraction: f64,
+    normalisation: &str,
+    harmonics: Option<usize>,
+    cutoff: &str,
+) -> PyResult<(Model, Bound<'py, PyDict>)> {
+    use straightness::identify::{CutoffRule, FitOptions, Normalisation};
+    let options = FitOptions {
+        sigma_t,
+        p_t,
+        taper_fraction,
+        normalisation: match normalisation {
+            "common" => Normalisation::Common,
+            "per-run" => Normalisation::PerRun,
+            n => {
+                return Err(bad_input(format!(
+                    "normalisation must be \"common\" or \"per-run\"; got {n:?}"
+                )))
+            }
+        },
+        harmonics,
+        cutoff: match cutoff {
+            "cross-validation" => CutoffRule::CrossValidation,
+            "thresholds" => CutoffRule::Thresholds,
+            c => {
+                return Err(bad_input(format!(
+                    "cutoff must be \"cross-validation\" or \"thresholds\"; got {c:?}"
+                )))
+            }
+        },
+    };
+    let axis = axis.map(straightness_axis).transpose()?;
+    let runs = runs
+        .iter()
+        .enumerate()
+        .map(|(k, r)| straightness_run(r, k, negate))
+        .collect::<PyResult<Vec<_>>>()?;
+    let fit = py
+        .detach(|| straightness::identify::fit(&runs, axis, &options))
+        .py_err()?;
+    let report = PyDict::new(py);
+    for a in &fit.axes {
+        let d = PyDict::new(py);
+        d.set_item("harmonics", a.harmonics)?;
+        d.set_item("cutoff_wavelength_mm", a.cutoff_wavelength_mm)?;
+        d.set_item("residual_rms_um", a.residual_rms_um)?;
+        d.set_item("runs", a.runs)?;
+        d.set_item("spacing_mm", a.spacing_mm)?;
+        d.set_item("length_mm", a.length_mm)?;
+        d.set_item("line_intercept_um", a.line.0)?;
+        d.set_item("line_slope_um_per_mm", a.line.1)?;
+        d.set_item("positions_mm", PyArray1::from_slice(py, &a.positions_mm))?;
+        d.set_item(
+            "mean_profile_um",
+            PyArray1::from_slice(py, &a.mean_profile_um),
+        )?;
+        d.set_item(
+            "model_profile_um",
+            PyArray1::from_slice(py, &a.model_profile_um),
+        )?;
+        d.set_item(
+            "feeds_mm_per_min",
+            PyArray1::from_vec(py, a.feeds.iter().map(|f| f.feed_mm_per_min).collect()),
+        )?;
+        d.set_item("mean_power", PyArray1::from_slice(py, &a.mean_power))?;
+        d.set_item("sigma", PyArray1::from_slice(py, &a.sigma))?;
+        d.set_item(
+            "passing",
+            PyArray1::from_vec(py, a.passing.iter().map(|k| *k as u64).collect()),
+        )?;
+        d.set_item(
+            "unstable_in_band",
+            PyArray1::from_vec(py, a.unstable_in_band.iter().map(|k| *k as u64).collect()),
+        )?;
+        report.set_item(a.axis.letter().to_string(), d)?;
+    }
+    let model = Model {
+        loaded: LoadedModel::Straightness(Box::new(fit.model)),
+        path: None,
+    };
+    Ok((model, report))
+}
