@@ -2,6 +2,7 @@
 //! writes live here (the G-code program itself is read by `volcomp-gcode`).
 //!
 //! * [`load_model`]: every model file (axis tables, 21-component, straightness) behind one function.
+//! * [`controllers`]: controller compensation tables (Siemens, LinuxCNC, Klipper, Marlin …), written and read.
 //! * [`grid`]: the 3-D grid CSV of a model.
 //! * [`table`]: the one located CSV reader every table file goes through.
 //! * [`model_file`]: model files (TOML + CSV tables of the 21-component model).
@@ -10,6 +11,7 @@
 //! * [`numfmt`]: how computed numbers are written.
 //! * [`output`]: safe output (plans checked before work, atomic files).
 
+pub mod controllers;
 pub mod grid;
 pub mod linuxcnc_comp;
 pub mod load;

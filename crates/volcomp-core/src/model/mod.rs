@@ -5,6 +5,7 @@
 //! (21-component kinematic, thermal, grids) plug in without touching them.
 
 pub mod axis_table;
+pub mod controller;
 pub mod kinematic;
 pub mod positioning;
 pub mod query;

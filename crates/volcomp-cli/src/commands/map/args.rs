@@ -25,6 +25,9 @@ pub enum MapSub {
     /// Convert a map: 21-component model → axis tables for a tool, a 3-D
     /// grid, LinuxCNC comp files, or axis tables → 21-component model.
     Convert(ConvertArgs),
+    /// Export the map as a controller's own compensation tables (Siemens,
+    /// Heidenhain, LinuxCNC, Klipper, Marlin: docs/controllers.md).
+    Export(ExportArgs),
     /// Plot every component over its axis (.svg or .png).
     Plot(PlotArgs),
     /// Read LinuxCNC comp files (COMP_FILE_TYPE 0 or 1) into a map.
@@ -247,4 +250,57 @@ pub struct ExampleArgs {
     /// Directory to write example21.toml and example21.csv to.
     #[arg(short, long, value_name = "DIR", default_value = ".")]
     pub output: PathBuf,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ExportFormat {
+    /// LinuxCNC comp files x.comp, y.comp, z.comp (with --type, --units).
+    Linuxcnc,
+    /// Siemens Sinumerik leadscrew error compensation %_N_AX_EEC_INI.
+    SiemensEec,
+    /// Heidenhain TNC compensation value tables X.COM, Y.COM, Z.COM and VOLCOMP.CMA.
+    Heidenhain,
+    /// Klipper [skew_correction] profile from the model's squareness.
+    Klipper,
+    /// Marlin M852 I J K from the model's squareness.
+    Marlin,
+}
+
+#[derive(Args, Debug)]
+pub struct ExportArgs {
+    /// Error map: axis-table CSV or 21-component model TOML.
+    pub map: PathBuf,
+    /// The controller's format.
+    #[arg(long, value_enum)]
+    pub to: ExportFormat,
+    /// Directory to write the controller's files to.
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// Spacing of the table's points (mm): required by equidistant tables
+    /// (siemens-eec); resamples the others (linear interpolation).
+    #[arg(long, value_name = "MM")]
+    pub step: Option<f64>,
+    /// Where the positioning error of a 21-component model is taken (axis
+    /// position, mm; default: its measuring lines).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub at: Option<String>,
+    #[command(flatten)]
+    pub tool: ToolArgs,
+    #[command(flatten)]
+    pub comp: CompArgs,
+    /// siemens-eec: the machine axis names of X, Y, Z.
+    #[arg(long, value_name = "X,Y,Z", default_value = "X1,Y1,Z1")]
+    pub axis_names: String,
+    /// siemens-eec: the NC's resolution of a compensation value (µm), 1/MD10200 mm.
+    #[arg(long, value_name = "UM", default_value_t = 1.0)]
+    pub resolution_um: f64,
+    /// siemens-eec: MD38000 $MA_MM_ENC_COMP_MAX_POINTS of the machine.
+    #[arg(long, value_name = "N", default_value_t = 5000)]
+    pub max_points: usize,
+    /// klipper: the profile's name (SKEW_PROFILE LOAD=NAME).
+    #[arg(long, value_name = "NAME", default_value = "volcomp")]
+    pub profile: String,
+    /// Evaluation of the 21-component model (with --at or a tool).
+    #[arg(long, value_enum, default_value_t = FormArg::Htm)]
+    pub form: FormArg,
 }

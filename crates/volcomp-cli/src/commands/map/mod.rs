@@ -8,6 +8,7 @@
 
 mod args;
 mod eval;
+mod export;
 mod iso;
 
 pub use args::*;
@@ -71,6 +72,7 @@ pub fn run(cmd: MapCommand) -> Result<(), CliError> {
     match cmd.command {
         MapSub::Eval(a) => eval::eval(a),
         MapSub::Convert(a) => convert(a),
+        MapSub::Export(a) => export::export(a),
         MapSub::Plot(a) => plot(a),
         MapSub::ImportLinuxcnc(a) => import_linuxcnc(a),
         MapSub::Iso230_2(a) => iso230_2(a),
@@ -223,19 +225,25 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
     }
 }
 
-fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliError> {
-    let (ty, units) = a.comp.get()?;
-    let tables: [Positioning; 3] = match map {
+/// The positioning tables `E_aa` of a map: the axis tables' own, or a
+/// 21-component model's as measured (or at `--at` for the tool).
+fn positioning_tables(
+    map: &Map,
+    at: Option<&str>,
+    tool: &ToolArgs,
+    form: Form,
+) -> Result<[Positioning; 3], CliError> {
+    Ok(match map {
         Map::Tables(t) => Axis::ALL.map(|k| t.positioning(k)),
         Map::Kinematic(m) => {
-            let tool = a.tool.offset()?;
-            if a.at.is_none() && tool.is_none() {
+            let tool = tool.offset()?;
+            if at.is_none() && tool.is_none() {
                 // The positioning errors as measured, at the measuring line.
                 Axis::ALL.map(|k| m.positioning_table(k))
             } else {
                 let (shared_p, shared_t) = m.shared_measuring();
                 let reference =
-                    match (&a.at, shared_p) {
+                    match (at, shared_p) {
                         (Some(t), _) => parse_triple(t, "--at")?,
                         (None, Some(p)) => p,
                         (None, None) => return Err(CliError::Message(
@@ -251,7 +259,12 @@ fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliErr
                 Axis::ALL.map(|k| t.positioning(k))
             }
         }
-    };
+    })
+}
+
+fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliError> {
+    let (ty, units) = a.comp.get()?;
+    let tables = positioning_tables(map, a.at.as_deref(), &a.tool, form)?;
     let tables = match positive_step(a.step)? {
         Some(step) => tables.map(|p| p.resample(step)),
         None => tables,

@@ -1,0 +1,119 @@
+//! `volcomp map export --to FORMAT`: the library's controller writers
+//! (`volcomp_core::io::controllers`), their notes and rounding printed.
+
+use super::{
+    load_map, positioning_tables, positive_step, write_text, ExportArgs, ExportFormat, Map,
+};
+use crate::output::{check, CliError, OutputPlan};
+use std::io::Write;
+use volcomp_core::io::controllers::{self, siemens, Export, Positioning};
+
+/// The tables resampled every `step` mm when a step is given.
+fn stepped(tables: [Positioning; 3], step: Option<f64>) -> [Positioning; 3] {
+    match step {
+        Some(s) => tables.map(|p| p.resample(s)),
+        None => tables,
+    }
+}
+
+pub fn export(a: ExportArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.map_input("MAP", &a.map);
+    let names: &[&str] = match a.to {
+        ExportFormat::Linuxcnc => &["x.comp", "y.comp", "z.comp"],
+        ExportFormat::SiemensEec => &["%_N_AX_EEC_INI"],
+        ExportFormat::Heidenhain => &["X.COM", "Y.COM", "Z.COM", "VOLCOMP.CMA"],
+        ExportFormat::Klipper => &["skew_correction.cfg"],
+        ExportFormat::Marlin => &["skew.gcode"],
+    };
+    for n in names {
+        plan.output(format!("-o (its {n})"), a.output.join(n));
+    }
+    check(&plan)?;
+    let map = load_map(&a.map, false)?;
+    let step = positive_step(a.step)?;
+    let form = a.form.into();
+    let e: Export = match a.to {
+        ExportFormat::Klipper | ExportFormat::Marlin => {
+            let Map::Kinematic(m) = &map else {
+                return Err(CliError::Message(format!(
+                    "{}: axis tables hold no squareness; export the skew of a 21-component model (map convert --to model, then set [squareness_urad])",
+                    a.map.display()
+                )));
+            };
+            let s = &m.kinematics.squareness;
+            let sq = [s.xy_urad, s.yz_urad, s.zx_urad];
+            if a.to == ExportFormat::Klipper {
+                controllers::skew::klipper(sq, &a.profile)?
+            } else {
+                controllers::skew::marlin(sq)?
+            }
+        }
+        ExportFormat::Linuxcnc => {
+            let (ty, units) = a.comp.get()?;
+            let t = stepped(
+                positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
+                step,
+            );
+            controllers::linuxcnc::export(&t.map(Some), ty, units)?
+        }
+        ExportFormat::Heidenhain => {
+            let t = stepped(
+                positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
+                step,
+            );
+            controllers::heidenhain::export(&t.map(Some))?
+        }
+        ExportFormat::SiemensEec => {
+            let Some(step) = step else {
+                return Err(CliError::Message("a Siemens EEC table is equidistant: pass --step MM, the spacing of its interpolation points ($AA_ENC_COMP_STEP)".into()));
+            };
+            if !(a.resolution_um.is_finite() && a.resolution_um > 0.0) {
+                return Err(CliError::Message(format!(
+                    "--resolution-um must be positive; got {}",
+                    a.resolution_um
+                )));
+            }
+            let names: Vec<String> = a
+                .axis_names
+                .split(',')
+                .map(|n| n.trim().to_string())
+                .collect();
+            let [x, y, z] = names.as_slice() else {
+                return Err(CliError::Message(format!(
+                    "--axis-names takes three machine axis names, e.g. X1,Y1,Z1; got `{}`",
+                    a.axis_names
+                )));
+            };
+            let t = positioning_tables(&map, a.at.as_deref(), &a.tool, form)?;
+            let o = siemens::EecOptions {
+                axis_names: [x.clone(), y.clone(), z.clone()],
+                step_mm: step,
+                resolution_um: a.resolution_um,
+                max_points: a.max_points,
+            };
+            siemens::export(&t.map(Some), &o)?
+        }
+    };
+    std::fs::create_dir_all(&a.output).map_err(|err| CliError::Io(a.output.clone(), err))?;
+    for f in &e.files {
+        write_text(&a.output.join(&f.name), &[&a.map], &f.text)?;
+    }
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    for n in &e.notes {
+        writeln!(out, "# {n}").map_err(CliError::Stdout)?;
+    }
+    let unit = match a.to {
+        ExportFormat::Klipper | ExportFormat::Marlin => "µrad",
+        _ => "µm",
+    };
+    eprintln!(
+        "volcomp: wrote {} file(s) to {}; rounded to the controller's resolution {} {unit}: largest change {:.4} {unit}",
+        e.files.len(),
+        a.output.display(),
+        e.rounding.resolution_um,
+        e.rounding.max_um
+    );
+    Ok(())
+}
