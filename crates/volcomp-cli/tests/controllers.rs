@@ -314,3 +314,39 @@ fn exports_refuse_what_the_controller_cannot_hold() {
         &dir,
     ));
 }
+
+#[test]
+fn an_etalon_file_becomes_a_model() {
+    let dir = tempdir("etalon");
+    // C0Y = −12 µrad (S_xy = 12), EXX 5 µm at 100 mm, EYY −4 µm at 200 mm;
+    // C0B (rotary axis B) is reported as not used.
+    let etalon = "[C0Y]\nVALUE = -0.000012\n[C0B]\nVALUE = 0.0000223\n[EXX]\nGridpoints = {\n 0 0\n 100 0.005\n}\n[EYY]\nGridpoints = {\n 0 0\n 200 -0.004\n}\n[EZZ]\nGridpoints = {\n 0 0\n 100 0\n}\n";
+    std::fs::write(dir.join("machine.etalon"), etalon).unwrap();
+    let o = volcomp(
+        &[
+            "map",
+            "import",
+            "machine.etalon",
+            "--from",
+            "etalon",
+            "-o",
+            "m.toml",
+        ],
+        &dir,
+    );
+    ok(&o);
+    assert!(
+        text(&o).contains("not used (rotary axes or zero): C0B"),
+        "{}",
+        text(&o)
+    );
+    assert!(text(&o).contains("EYX"), "{}", text(&o));
+    // At (50, 100, 0): e_x = 2.5 + 12·100·10⁻³ = 3.7 µm, e_y = −2 µm.
+    let v = json(&volcomp(
+        &["map", "eval", "m.toml", "--at", "50,100,0", "--json"],
+        &dir,
+    ));
+    let e = &v["deviation_um"];
+    assert!((e[0].as_f64().unwrap() - 3.7).abs() < 1e-9, "{v}");
+    assert!((e[1].as_f64().unwrap() - -2.0).abs() < 1e-9, "{v}");
+}

@@ -32,6 +32,8 @@ pub enum MapSub {
     Plot(PlotArgs),
     /// Read LinuxCNC comp files (COMP_FILE_TYPE 0 or 1) into a map.
     ImportLinuxcnc(ImportArgs),
+    /// Read an ISO 230-1 parameter file (ISG CSV, Etalon exchange format) into a 21-component model.
+    Import(ImportParamsArgs),
     /// Evaluate an ISO 230-2 bidirectional positioning test: B, R↑, R↓, R, E, M, A.
     #[command(name = "iso230-2")]
     Iso230_2(IsoArgs),
@@ -260,6 +262,10 @@ pub enum ExportFormat {
     SiemensEec,
     /// Heidenhain TNC compensation value tables X.COM, Y.COM, Z.COM and VOLCOMP.CMA.
     Heidenhain,
+    /// Beckhoff/ISG leadscrew error compensation lists achskw_x.lis … (kw.ssfk, 0.1 µm).
+    IsgSsfk,
+    /// Beckhoff/ISG volumetric compensation: volcomp.csv (ISG CSV, ISO 230-1 names) and volcomp.lis.
+    IsgCsv,
     /// Klipper [skew_correction] profile from the model's squareness.
     Klipper,
     /// Marlin M852 I J K from the model's squareness.
@@ -294,13 +300,38 @@ pub struct ExportArgs {
     /// siemens-eec: the NC's resolution of a compensation value (µm), 1/MD10200 mm.
     #[arg(long, value_name = "UM", default_value_t = 1.0)]
     pub resolution_um: f64,
-    /// siemens-eec: MD38000 $MA_MM_ENC_COMP_MAX_POINTS of the machine.
-    #[arg(long, value_name = "N", default_value_t = 5000)]
-    pub max_points: usize,
+    /// The controller's largest number of points per table: siemens-eec
+    /// MD38000 $MA_MM_ENC_COMP_MAX_POINTS (default 5000), isg-ssfk
+    /// P-COMP-00059 (default 1500).
+    #[arg(long, value_name = "N")]
+    pub max_points: Option<usize>,
     /// klipper: the profile's name (SKEW_PROFILE LOAD=NAME).
     #[arg(long, value_name = "NAME", default_value = "volcomp")]
     pub profile: String,
     /// Evaluation of the 21-component model (with --at or a tool).
     #[arg(long, value_enum, default_value_t = FormArg::Htm)]
     pub form: FormArg,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ParamsFormat {
+    /// ISG CSV (volumetric compensation of the ISG kernel / TwinCAT CNC).
+    IsgCsv,
+    /// Etalon exchange format, "Vendor" variant ([EXX] Gridpoints, [C0Y] VALUE).
+    Etalon,
+}
+
+#[derive(Args, Debug)]
+pub struct ImportParamsArgs {
+    /// The parameter file (lengths in mm, angles in rad).
+    pub file: PathBuf,
+    /// Its format.
+    #[arg(long, value_enum)]
+    pub from: ParamsFormat,
+    /// Output: a 21-component model .toml (its tables .csv beside it).
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
+    /// Kinematic chain of the model (default w X' Y' b Z t).
+    #[arg(long, value_name = "CHAIN")]
+    pub chain: Option<String>,
 }

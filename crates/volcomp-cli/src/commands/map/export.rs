@@ -23,6 +23,8 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
         ExportFormat::Linuxcnc => &["x.comp", "y.comp", "z.comp"],
         ExportFormat::SiemensEec => &["%_N_AX_EEC_INI"],
         ExportFormat::Heidenhain => &["X.COM", "Y.COM", "Z.COM", "VOLCOMP.CMA"],
+        ExportFormat::IsgSsfk => &["achskw_x.lis", "achskw_y.lis", "achskw_z.lis"],
+        ExportFormat::IsgCsv => &["volcomp.csv", "volcomp.lis"],
         ExportFormat::Klipper => &["skew_correction.cfg"],
         ExportFormat::Marlin => &["skew.gcode"],
     };
@@ -57,6 +59,26 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
             );
             controllers::linuxcnc::export(&t.map(Some), ty, units)?
         }
+        ExportFormat::IsgSsfk => {
+            let t = stepped(
+                positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
+                step,
+            );
+            controllers::isg::ssfk_export(
+                &t.map(Some),
+                a.max_points.unwrap_or(controllers::isg::SSFK_MAX_POINTS),
+            )?
+        }
+        ExportFormat::IsgCsv => {
+            let model = match &map {
+                Map::Kinematic(m) => (**m).clone(),
+                Map::Tables(t) => volcomp_core::model::kinematic::KinematicModel::from_axis_tables(
+                    t,
+                    volcomp_core::model::topology::Topology::SEED,
+                ),
+            };
+            controllers::isg::csv_export(&model)
+        }
         ExportFormat::Heidenhain => {
             let t = stepped(
                 positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
@@ -90,7 +112,7 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
                 axis_names: [x.clone(), y.clone(), z.clone()],
                 step_mm: step,
                 resolution_um: a.resolution_um,
-                max_points: a.max_points,
+                max_points: a.max_points.unwrap_or(5000),
             };
             siemens::export(&t.map(Some), &o)?
         }

@@ -75,6 +75,7 @@ pub fn run(cmd: MapCommand) -> Result<(), CliError> {
         MapSub::Export(a) => export::export(a),
         MapSub::Plot(a) => plot(a),
         MapSub::ImportLinuxcnc(a) => import_linuxcnc(a),
+        MapSub::Import(a) => import_params(a),
         MapSub::Iso230_2(a) => iso230_2(a),
         MapSub::Example(a) => example(a),
     }
@@ -407,6 +408,50 @@ fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
             a.output.display()
         ))),
     }
+}
+
+fn import_params(a: ImportParamsArgs) -> Result<(), CliError> {
+    use volcomp_core::io::exchange;
+    let mut plan = OutputPlan::new();
+    plan.input("FILE", &a.file);
+    model_outputs(&mut plan, "-o", &a.output);
+    check(&plan)?;
+    let bytes = std::fs::read(&a.file).map_err(|e| CliError::Io(a.file.clone(), e))?;
+    let name = a.file.display().to_string();
+    let text = volcomp_core::io::table::utf8(&bytes, &name)?;
+    let params = match a.from {
+        ParamsFormat::IsgCsv => exchange::parse_isg_csv(text, &name)?,
+        ParamsFormat::Etalon => exchange::parse_etalon(text, &name)?,
+    };
+    let imported = exchange::to_model(&params, &name, text, chain(a.chain.as_deref())?)?;
+    if let Some(dir) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| CliError::Io(dir.to_path_buf(), e))?;
+    }
+    if !imported.assumed_zero.is_empty() {
+        eprintln!(
+            "volcomp: not in the file, taken as zero: {}",
+            imported.assumed_zero.join(", ")
+        );
+    }
+    if !imported.not_used.is_empty() {
+        eprintln!(
+            "volcomp: not used (rotary axes or zero): {}",
+            imported.not_used.join(", ")
+        );
+    }
+    write_model(
+        &imported.model,
+        &a.output,
+        &[&a.file],
+        Some(&format!(
+            "imported from {} ({})",
+            name,
+            match a.from {
+                ParamsFormat::IsgCsv => "ISG CSV",
+                ParamsFormat::Etalon => "Etalon exchange format",
+            }
+        )),
+    )
 }
 
 fn iso230_2(a: IsoArgs) -> Result<(), CliError> {

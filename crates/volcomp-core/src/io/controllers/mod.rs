@@ -18,6 +18,7 @@
 //! only the residual.
 
 pub mod heidenhain;
+pub mod isg;
 pub mod linuxcnc;
 pub mod siemens;
 pub mod skew;
@@ -34,6 +35,10 @@ pub enum Format {
     SiemensEec,
     /// Heidenhain TNC compensation value tables `.COM` and their assignment `.CMA`, [`heidenhain`].
     Heidenhain,
+    /// Beckhoff/ISG leadscrew error compensation lists (`kw.ssfk.*`), [`isg`].
+    IsgSsfk,
+    /// Beckhoff/ISG volumetric compensation ISG CSV, [`isg::csv_export`].
+    IsgCsv,
     /// Klipper `[skew_correction]` profile, [`skew`].
     Klipper,
     /// Marlin `M852`, [`skew`].
@@ -47,6 +52,8 @@ impl Format {
             Format::Linuxcnc => "linuxcnc",
             Format::SiemensEec => "siemens-eec",
             Format::Heidenhain => "heidenhain",
+            Format::IsgSsfk => "isg-ssfk",
+            Format::IsgCsv => "isg-csv",
             Format::Klipper => "klipper",
             Format::Marlin => "marlin",
         }
@@ -290,7 +297,8 @@ fn read_text(path: &std::path::Path) -> Result<String, ControllerReadError> {
 /// a Heidenhain `.COM` table (its axis from the name, `X.COM`) or `.CMA`
 /// assignment (its active line's `.COM` tables, beside it), a Siemens EEC
 /// file (`$AA_ENC_COMP`; machine axes by their first letter, `X1` is X),
-/// a Klipper `[skew_correction …]` profile or a Marlin `M852` line.
+/// an ISG leadscrew compensation list (`kw.ssfk.*`, its axis from
+/// `kopf.log_achs_name`), a Klipper `[skew_correction …]` profile or a Marlin `M852` line.
 pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerReadError> {
     let text = read_text(path)?;
     let file = path.display().to_string();
@@ -327,6 +335,25 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             squareness_urad: None,
         });
     }
+    if text.contains("kw.ssfk.") {
+        let p = isg::ssfk_parse(&text, &file)?;
+        let axis = isg_axis(&text).ok_or_else(|| {
+            located(
+                &file,
+                &text,
+                1,
+                "the list does not name its axis",
+                "give kopf.log_achs_name X, Y or Z",
+            )
+        })?;
+        let mut axes = [None, None, None];
+        axes[axis] = Some(p);
+        return Ok(ControllerCorrection {
+            format: Format::IsgSsfk,
+            axes,
+            squareness_urad: None,
+        });
+    }
     if text.contains("$AA_ENC_COMP") {
         return Ok(siemens::parse(&text, &file, None)?);
     }
@@ -342,6 +369,20 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
         "expected a Heidenhain X.COM or .CMA table, a Siemens %_N_AX_EEC_INI, a Klipper [skew_correction] profile or a Marlin M852 line (docs/controllers.md)",
     )
     .into())
+}
+
+/// The axis of an ISG compensation list: the first letter of
+/// `kopf.log_achs_name` (X, Y or Z).
+fn isg_axis(text: &str) -> Option<usize> {
+    text.lines().find_map(|l| {
+        let mut f = l.split_whitespace();
+        match (f.next(), f.next()) {
+            (Some("kopf.log_achs_name"), Some(name)) => {
+                "XYZ".find(name.chars().next()?.to_ascii_uppercase())
+            }
+            _ => None,
+        }
+    })
 }
 
 /// The axis letter of index `a`.
