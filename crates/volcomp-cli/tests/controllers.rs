@@ -284,6 +284,18 @@ fn exports_refuse_what_the_controller_cannot_hold() {
         &dir,
     );
     assert!(text(&o).contains("no squareness"), "{}", text(&o));
+    // Fanuc: a step is required; the tape is read back as a controller.
+    let o = volcomp(
+        &["map", "export", "m.csv", "--to", "fanuc", "-o", "f"],
+        &dir,
+    );
+    assert!(text(&o).contains("parameter 3624"), "{}", text(&o));
+    ok(&volcomp(
+        &[
+            "map", "export", "m.csv", "--to", "fanuc", "--step", "25", "-o", "f",
+        ],
+        &dir,
+    ));
     // LinuxCNC via map export: the tables as comp files, within 256 points.
     ok(&volcomp(
         &[
@@ -300,8 +312,8 @@ fn exports_refuse_what_the_controller_cannot_hold() {
         &dir,
     ));
     std::fs::write(dir.join("part.ngc"), PART).unwrap();
-    ok(&volcomp(
-        &[
+    for c in ["tnc/VOLCOMP.CMA", "f/pitch.tap"] {
+        let args = [
             "simulate",
             "part.ngc",
             "--map",
@@ -309,10 +321,10 @@ fn exports_refuse_what_the_controller_cannot_hold() {
             "--work-offset",
             "100,100,50",
             "--controller",
-            "tnc/VOLCOMP.CMA",
-        ],
-        &dir,
-    ));
+            c,
+        ];
+        ok(&volcomp(&args, &dir));
+    }
 }
 
 #[test]

@@ -266,6 +266,8 @@ pub enum ExportFormat {
     IsgSsfk,
     /// Beckhoff/ISG volumetric compensation: volcomp.csv (ISG CSV, ISO 230-1 names) and volcomp.lis.
     IsgCsv,
+    /// Fanuc pitch error compensation: parameters 3620–3624 and the data, as a tape pitch.tap.
+    Fanuc,
     /// Klipper [skew_correction] profile from the model's squareness.
     Klipper,
     /// Marlin M852 I J K from the model's squareness.
@@ -305,6 +307,16 @@ pub struct ExportArgs {
     /// P-COMP-00059 (default 1500).
     #[arg(long, value_name = "N")]
     pub max_points: Option<usize>,
+    /// fanuc: the detection unit (µm; 1 for IS-B).
+    #[arg(long, value_name = "UM", default_value_t = 1.0)]
+    pub detection_unit_um: f64,
+    /// fanuc: the sign of the values (not in the public documentation):
+    /// correction = −e (default) or error = +e.
+    #[arg(long, value_enum, default_value_t = FanucSignArg::Correction)]
+    pub fanuc_sign: FanucSignArg,
+    /// fanuc: the tape's data number of compensation point 0.
+    #[arg(long, value_name = "N", default_value_t = 10000)]
+    pub fanuc_data_offset: u32,
     /// klipper: the profile's name (SKEW_PROFILE LOAD=NAME).
     #[arg(long, value_name = "NAME", default_value = "volcomp")]
     pub profile: String,
@@ -334,4 +346,12 @@ pub struct ImportParamsArgs {
     /// Kinematic chain of the model (default w X' Y' b Z t).
     #[arg(long, value_name = "CHAIN")]
     pub chain: Option<String>,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FanucSignArg {
+    /// The values are the correction the control outputs, −e.
+    Correction,
+    /// The values are the error, +e.
+    Error,
 }

@@ -1,6 +1,7 @@
 //! `volcomp map export --to FORMAT`: the library's controller writers
 //! (`volcomp_core::io::controllers`), their notes and rounding printed.
 
+use super::FanucSignArg;
 use super::{
     load_map, positioning_tables, positive_step, write_text, ExportArgs, ExportFormat, Map,
 };
@@ -25,6 +26,7 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
         ExportFormat::Heidenhain => &["X.COM", "Y.COM", "Z.COM", "VOLCOMP.CMA"],
         ExportFormat::IsgSsfk => &["achskw_x.lis", "achskw_y.lis", "achskw_z.lis"],
         ExportFormat::IsgCsv => &["volcomp.csv", "volcomp.lis"],
+        ExportFormat::Fanuc => &["pitch.tap"],
         ExportFormat::Klipper => &["skew_correction.cfg"],
         ExportFormat::Marlin => &["skew.gcode"],
     };
@@ -58,6 +60,29 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
                 step,
             );
             controllers::linuxcnc::export(&t.map(Some), ty, units)?
+        }
+        ExportFormat::Fanuc => {
+            let Some(step) = step else {
+                return Err(CliError::Message("Fanuc pitch error compensation is equidistant: pass --step MM, the interval of its points (parameter 3624)".into()));
+            };
+            if !(a.detection_unit_um.is_finite() && a.detection_unit_um > 0.0) {
+                return Err(CliError::Message(format!(
+                    "--detection-unit-um must be positive; got {}",
+                    a.detection_unit_um
+                )));
+            }
+            let t = positioning_tables(&map, a.at.as_deref(), &a.tool, form)?;
+            let o = controllers::fanuc::FanucOptions {
+                step_mm: step,
+                detection_unit_um: a.detection_unit_um,
+                sign: match a.fanuc_sign {
+                    FanucSignArg::Correction => controllers::fanuc::FanucSign::Correction,
+                    FanucSignArg::Error => controllers::fanuc::FanucSign::Error,
+                },
+                data_offset: a.fanuc_data_offset,
+                ..controllers::fanuc::FanucOptions::default()
+            };
+            controllers::fanuc::export(&t.map(Some), &o)?
         }
         ExportFormat::IsgSsfk => {
             let t = stepped(

@@ -17,6 +17,7 @@
 //! `model::controller` subtracts from the map so that volcomp compensates
 //! only the residual.
 
+pub mod fanuc;
 pub mod heidenhain;
 pub mod isg;
 pub mod linuxcnc;
@@ -39,6 +40,8 @@ pub enum Format {
     IsgSsfk,
     /// Beckhoff/ISG volumetric compensation ISG CSV, [`isg::csv_export`].
     IsgCsv,
+    /// Fanuc pitch error compensation (parameters 3620–3624 and data), [`fanuc`].
+    Fanuc,
     /// Klipper `[skew_correction]` profile, [`skew`].
     Klipper,
     /// Marlin `M852`, [`skew`].
@@ -54,6 +57,7 @@ impl Format {
             Format::Heidenhain => "heidenhain",
             Format::IsgSsfk => "isg-ssfk",
             Format::IsgCsv => "isg-csv",
+            Format::Fanuc => "fanuc",
             Format::Klipper => "klipper",
             Format::Marlin => "marlin",
         }
@@ -297,7 +301,8 @@ fn read_text(path: &std::path::Path) -> Result<String, ControllerReadError> {
 /// a Heidenhain `.COM` table (its axis from the name, `X.COM`) or `.CMA`
 /// assignment (its active line's `.COM` tables, beside it), a Siemens EEC
 /// file (`$AA_ENC_COMP`; machine axes by their first letter, `X1` is X),
-/// an ISG leadscrew compensation list (`kw.ssfk.*`, its axis from
+/// a Fanuc pitch error tape as `map export --to fanuc` writes it (its
+/// default assumptions), an ISG leadscrew compensation list (`kw.ssfk.*`, its axis from
 /// `kopf.log_achs_name`), a Klipper `[skew_correction …]` profile or a Marlin `M852` line.
 pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerReadError> {
     let text = read_text(path)?;
@@ -353,6 +358,9 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             axes,
             squareness_urad: None,
         });
+    }
+    if text.lines().any(|l| l.trim_start().starts_with("N3620")) {
+        return Ok(fanuc::parse(&text, &file, &fanuc::FanucOptions::default())?);
     }
     if text.contains("$AA_ENC_COMP") {
         return Ok(siemens::parse(&text, &file, None)?);
