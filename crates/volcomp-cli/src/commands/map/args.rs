@@ -272,6 +272,10 @@ pub enum ExportFormat {
     Klipper,
     /// Marlin M852 I J K from the model's squareness.
     Marlin,
+    /// RepRapFirmware M556 S X Y Z from the model's squareness.
+    Rrf,
+    /// grblHAL backlash settings $160–$162 (the mean reversal value).
+    Grblhal,
 }
 
 #[derive(Args, Debug)]

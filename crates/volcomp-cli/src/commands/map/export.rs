@@ -29,6 +29,8 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
         ExportFormat::Fanuc => &["pitch.tap"],
         ExportFormat::Klipper => &["skew_correction.cfg"],
         ExportFormat::Marlin => &["skew.gcode"],
+        ExportFormat::Rrf => &["m556.g"],
+        ExportFormat::Grblhal => &["backlash.txt"],
     };
     for n in names {
         plan.output(format!("-o (its {n})"), a.output.join(n));
@@ -38,7 +40,11 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
     let step = positive_step(a.step)?;
     let form = a.form.into();
     let e: Export = match a.to {
-        ExportFormat::Klipper | ExportFormat::Marlin => {
+        ExportFormat::Grblhal => {
+            let t = positioning_tables(&map, a.at.as_deref(), &a.tool, form)?;
+            controllers::grbl::export(&t.map(Some))?
+        }
+        ExportFormat::Klipper | ExportFormat::Marlin | ExportFormat::Rrf => {
             let Map::Kinematic(m) = &map else {
                 return Err(CliError::Message(format!(
                     "{}: axis tables hold no squareness; export the skew of a 21-component model (map convert --to model, then set [squareness_urad])",
@@ -47,10 +53,10 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
             };
             let s = &m.kinematics.squareness;
             let sq = [s.xy_urad, s.yz_urad, s.zx_urad];
-            if a.to == ExportFormat::Klipper {
-                controllers::skew::klipper(sq, &a.profile)?
-            } else {
-                controllers::skew::marlin(sq)?
+            match a.to {
+                ExportFormat::Klipper => controllers::skew::klipper(sq, &a.profile)?,
+                ExportFormat::Marlin => controllers::skew::marlin(sq)?,
+                _ => controllers::skew::rrf(sq)?,
             }
         }
         ExportFormat::Linuxcnc => {
@@ -152,7 +158,7 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
         writeln!(out, "# {n}").map_err(CliError::Stdout)?;
     }
     let unit = match a.to {
-        ExportFormat::Klipper | ExportFormat::Marlin => "µrad",
+        ExportFormat::Klipper | ExportFormat::Marlin | ExportFormat::Rrf => "µrad",
         _ => "µm",
     };
     eprintln!(

@@ -18,6 +18,7 @@
 //! only the residual.
 
 pub mod fanuc;
+pub mod grbl;
 pub mod heidenhain;
 pub mod isg;
 pub mod linuxcnc;
@@ -46,6 +47,10 @@ pub enum Format {
     Klipper,
     /// Marlin `M852`, [`skew`].
     Marlin,
+    /// RepRapFirmware `M556`, [`skew::rrf`].
+    Rrf,
+    /// grblHAL backlash settings `$160`–`$162`, [`grbl`].
+    Grblhal,
 }
 
 impl Format {
@@ -60,6 +65,8 @@ impl Format {
             Format::Fanuc => "fanuc",
             Format::Klipper => "klipper",
             Format::Marlin => "marlin",
+            Format::Rrf => "rrf",
+            Format::Grblhal => "grblhal",
         }
     }
 }
@@ -303,7 +310,8 @@ fn read_text(path: &std::path::Path) -> Result<String, ControllerReadError> {
 /// file (`$AA_ENC_COMP`; machine axes by their first letter, `X1` is X),
 /// a Fanuc pitch error tape as `map export --to fanuc` writes it (its
 /// default assumptions), an ISG leadscrew compensation list (`kw.ssfk.*`, its axis from
-/// `kopf.log_achs_name`), a Klipper `[skew_correction …]` profile or a Marlin `M852` line.
+/// `kopf.log_achs_name`), grblHAL `$160`–`$162` lines, a Klipper
+/// `[skew_correction …]` profile, a Marlin `M852` or a RepRapFirmware `M556` line.
 pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerReadError> {
     let text = read_text(path)?;
     let file = path.display().to_string();
@@ -359,14 +367,17 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             squareness_urad: None,
         });
     }
+    if text.lines().any(|l| l.trim_start().starts_with("$16")) {
+        return Ok(grbl::parse(&text, &file)?);
+    }
     if text.lines().any(|l| l.trim_start().starts_with("N3620")) {
         return Ok(fanuc::parse(&text, &file, &fanuc::FanucOptions::default())?);
     }
     if text.contains("$AA_ENC_COMP") {
         return Ok(siemens::parse(&text, &file, None)?);
     }
-    if text.contains("[skew_correction") || text.lines().any(|l| l.trim_start().starts_with("M852"))
-    {
+    let starts = |w: &str| text.lines().any(|l| l.trim_start().starts_with(w));
+    if text.contains("[skew_correction") || starts("M852") || starts("M556") {
         return Ok(skew::parse(&text, &file)?);
     }
     Err(located(
@@ -374,7 +385,7 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
         &text,
         1,
         "not a controller file volcomp reads",
-        "expected a Heidenhain X.COM or .CMA table, a Siemens %_N_AX_EEC_INI, a Klipper [skew_correction] profile or a Marlin M852 line (docs/controllers.md)",
+        "expected a Heidenhain X.COM or .CMA table, a Siemens %_N_AX_EEC_INI, an ISG kw.ssfk list, a Fanuc pitch tape, grblHAL $160-$162 lines, a Klipper [skew_correction] profile, a Marlin M852 or a RepRapFirmware M556 line (docs/controllers.md)",
     )
     .into())
 }

@@ -147,12 +147,73 @@ pub fn marlin(squareness: [f64; 3]) -> Result<Export, LimitError> {
     })
 }
 
+/// The sample length of the `M556` line volcomp writes (mm): RepRapFirmware
+/// ignores `S` below 10.
+pub const RRF_SAMPLE_MM: f64 = 100.0;
+
+/// RepRapFirmware's `M556 S X Y Z` for the squareness (µrad).
+///
+/// RepRapFirmware ([RRF M556]) sets `tanXY = X/S`, `tanYZ = Y/S`,
+/// `tanXZ = Z/S` and commands the motors to `x + tanXY·y + tanXZ·z`,
+/// `y + tanYZ·z` (`Move::AxisTransform`) — the correction itself, where
+/// Klipper and Marlin hold the error. The toolhead then lands at
+/// `x + (tanXY + S_xy)·y + …`, so `tanXY = −S_xy·10⁻⁶`, `tanYZ = −S_yz·10⁻⁶`,
+/// `tanXZ = −S_zx·10⁻⁶` (exact to first order: the neglected product
+/// `S_xy·S_yz·z` is 10⁻¹⁰ of z for 10 µrad). volcomp writes `S100` and the
+/// deviations over those 100 mm.
+pub fn rrf(squareness: [f64; 3]) -> Result<Export, LimitError> {
+    let mut rounding = Rounding {
+        resolution_um: 1e-3,
+        max_um: 0.0,
+    };
+    let [xy, yz, zx] = squareness;
+    // Deviations over S in mm, written with 7 decimals: 10⁻⁷ / 100 = 0.001 µrad.
+    let mut dev = |s_urad: f64| -> f64 {
+        let d = -s_urad * 1e-6 * RRF_SAMPLE_MM;
+        let r = super::round_to(d, 1e-7);
+        rounding.max_um = rounding.max_um.max((r - d).abs() / RRF_SAMPLE_MM * 1e6);
+        r
+    };
+    let (x, y, z) = (dev(xy), dev(yz), dev(zx));
+    let text = format!(
+        "; volcomp: squareness S_xy {} urad, S_yz {} urad, S_zx {} urad as RepRapFirmware axis compensation\nM556 S{} X{} Y{} Z{}\n",
+        fixed(xy, 4),
+        fixed(yz, 4),
+        fixed(zx, 4),
+        fixed(RRF_SAMPLE_MM, 0),
+        fixed(x, 7),
+        fixed(y, 7),
+        fixed(z, 7)
+    );
+    Ok(Export {
+        files: vec![ExportFile {
+            name: "m556.g".into(),
+            text,
+        }],
+        applied: ControllerCorrection {
+            format: Format::Rrf,
+            axes: [None, None, None],
+            squareness_urad: Some([
+                -x / RRF_SAMPLE_MM * 1e6,
+                -y / RRF_SAMPLE_MM * 1e6,
+                -z / RRF_SAMPLE_MM * 1e6,
+            ]),
+        },
+        rounding,
+        notes: vec![
+            "put the M556 line in config.g (the XY term corrects X, RepRapFirmware's default)"
+                .into(),
+        ],
+    })
+}
+
 /// Reads a Klipper profile section (`[skew_correction NAME]` with
 /// `xy_skew`, `xz_skew`, `yz_skew`) or a Marlin `M852` line: the
 /// squareness the firmware corrects.
 pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> {
     let mut f = [None; 3];
     let mut format = None;
+    let mut rrf_squareness = None;
     for (i, raw) in text.lines().enumerate() {
         let row = i + 1;
         let line = raw.split(['#', ';']).next().unwrap_or("").trim();
@@ -180,6 +241,39 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
             };
             f[k] = Some(number(value)?);
             format = Some(Format::Klipper);
+        } else if let Some(rest) = line.strip_prefix("M556") {
+            let mut sample = None;
+            let mut d = [0.0; 3];
+            for word in rest.split_whitespace() {
+                let (letter, value) = word.split_at(1);
+                let v = number(value)?;
+                match letter {
+                    "S" => sample = Some(v),
+                    "X" => d[0] = v,
+                    "Y" => d[1] = v,
+                    "Z" => d[2] = v,
+                    _ => {
+                        return Err(located(
+                            file,
+                            text,
+                            row,
+                            format!("`{word}` is not a word of M556"),
+                            "M556 takes S, X, Y, Z",
+                        ))
+                    }
+                }
+            }
+            let s = sample.filter(|s| *s >= 10.0).ok_or_else(|| {
+                located(
+                    file,
+                    text,
+                    row,
+                    "M556 without S ≥ 10",
+                    "RepRapFirmware ignores M556 without S of at least 10 mm",
+                )
+            })?;
+            // tanXY = X/S, tanYZ = Y/S, tanXZ = Z/S; S_xy = −tanXY … (see `rrf`).
+            rrf_squareness = Some([-d[0] / s * 1e6, -d[1] / s * 1e6, -d[2] / s * 1e6]);
         } else if let Some(rest) = line.strip_prefix("M852") {
             for word in rest.split_whitespace() {
                 let (letter, value) = word.split_at(1);
@@ -202,13 +296,20 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
             format = Some(Format::Marlin);
         }
     }
+    if let Some(sq) = rrf_squareness {
+        return Ok(ControllerCorrection {
+            format: Format::Rrf,
+            axes: [None, None, None],
+            squareness_urad: Some(sq),
+        });
+    }
     let Some(format) = format else {
         return Err(located(
             file,
             text,
             1,
             "no skew factors found",
-            "expected a Klipper section with xy_skew, xz_skew, yz_skew or a Marlin M852 line",
+            "expected a Klipper section with xy_skew, xz_skew, yz_skew, a Marlin M852 or a RepRapFirmware M556 line",
         ));
     };
     Ok(applied(format, f.map(|v| v.unwrap_or(0.0))))
@@ -238,6 +339,25 @@ mod tests {
         for (a, b) in s.iter().zip([12.0, -8.0, 6.0]) {
             assert!((a - b).abs() < 1e-9, "{s:?}");
         }
+    }
+
+    #[test]
+    fn rrf_by_hand() {
+        // S_xy = 12, S_yz = −8, S_zx = 6 µrad: over S = 100 mm the
+        // corrections are X = −0.0012, Y = +0.0008, Z = −0.0006 mm. At
+        // (0, 200, 100) RepRapFirmware commands x + (−0.0012/100)·200 +
+        // (−0.0006/100)·100 = x − 0.003 mm: the 3 µm the machine adds.
+        let e = rrf([12.0, -8.0, 6.0]).unwrap();
+        let t = &e.files[0].text;
+        assert!(t.contains("M556 S100 X-0.0012 Y0.0008 Z-0.0006\n"), "{t}");
+        assert!(((-0.0012 / 100.0) * 200.0 + (-0.0006 / 100.0) * 100.0 - -0.003f64).abs() < 1e-15);
+        let back = parse(t, "m556.g").unwrap();
+        assert_eq!(back.format, Format::Rrf);
+        let s = back.squareness_urad.unwrap();
+        for (a, b) in s.iter().zip([12.0, -8.0, 6.0]) {
+            assert!((a - b).abs() < 1e-9, "{s:?}");
+        }
+        assert!(parse("M556 S5 X1\n", "m.g").is_err());
     }
 
     #[test]
