@@ -312,7 +312,7 @@ fn exports_refuse_what_the_controller_cannot_hold() {
         &dir,
     ));
     std::fs::write(dir.join("part.ngc"), PART).unwrap();
-    for c in ["tnc/VOLCOMP.CMA", "f/pitch.tap"] {
+    for c in ["tnc/VOLCOMP.CMA", "f/pitch.tap", "lc/comp.ini"] {
         let args = [
             "simulate",
             "part.ngc",

@@ -21,7 +21,7 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
     plan.map_input("MAP", &a.map);
     let names: &[&str] = match a.to {
-        ExportFormat::Linuxcnc => &["x.comp", "y.comp", "z.comp"],
+        ExportFormat::Linuxcnc => &["x.comp", "y.comp", "z.comp", "comp.ini"],
         ExportFormat::SiemensEec => &["%_N_AX_EEC_INI"],
         ExportFormat::Heidenhain => &["X.COM", "Y.COM", "Z.COM", "VOLCOMP.CMA"],
         ExportFormat::IsgSsfk => &["achskw_x.lis", "achskw_y.lis", "achskw_z.lis"],

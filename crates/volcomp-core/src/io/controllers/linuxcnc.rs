@@ -60,6 +60,25 @@ pub fn export(
         applied[a] = Some(back);
         files.push(ExportFile { name, text });
     }
+    let mut ini = format!(
+        "# volcomp: LinuxCNC compensation (joints 0, 1, 2 = X, Y, Z with trivkins); merge into the machine's INI file\n[TRAJ]\nLINEAR_UNITS = {}\n",
+        match units {
+            MachineUnits::Mm => "mm",
+            MachineUnits::Inch => "inch",
+        }
+    );
+    for f in &files {
+        let a = "xyz".find(&f.name[..1]).unwrap_or(0);
+        ini.push_str(&format!(
+            "\n[JOINT_{a}]\nCOMP_FILE = {}\nCOMP_FILE_TYPE = {}\nBACKLASH = 0\n",
+            f.name,
+            ty.number()
+        ));
+    }
+    files.push(ExportFile {
+        name: "comp.ini".into(),
+        text: ini,
+    });
     Ok(Export {
         files,
         applied: ControllerCorrection {
@@ -69,6 +88,109 @@ pub fn export(
         },
         rounding,
         notes,
+    })
+}
+
+/// Reads the compensation a LinuxCNC INI file configures: `[TRAJ]
+/// LINEAR_UNITS` (`mm`/`metric` or `inch`/`in`/`imperial`) and, for joints
+/// 0, 1, 2 (X, Y, Z with trivkins), `COMP_FILE` (relative to the INI's
+/// folder) and `COMP_FILE_TYPE`. `read_file` reads a named comp file.
+pub fn parse_ini(
+    text: &str,
+    file: &str,
+    mut read_file: impl FnMut(&str) -> Result<(String, String), super::ControllerReadError>,
+) -> Result<ControllerCorrection, super::ControllerReadError> {
+    let err = |row: usize, m: String, h: &str| super::located(file, text, row, m, h);
+    let mut section = String::new();
+    let mut units: Option<(String, usize)> = None;
+    let mut comp: [(Option<(String, usize)>, Option<(String, usize)>); 3] = Default::default();
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        if let Some(sname) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+            section = sname.trim().to_string();
+            continue;
+        }
+        let Some((k, v)) = line.split_once('=') else {
+            continue;
+        };
+        let (k, v) = (k.trim(), v.trim().to_string());
+        match (section.as_str(), k) {
+            ("TRAJ", "LINEAR_UNITS") => units = Some((v, i + 1)),
+            (sec, "COMP_FILE" | "COMP_FILE_TYPE") => {
+                if let Some(j) = sec
+                    .strip_prefix("JOINT_")
+                    .and_then(|n| n.parse::<usize>().ok())
+                    .filter(|&j| j < 3)
+                {
+                    if k == "COMP_FILE" {
+                        comp[j].0 = Some((v, i + 1));
+                    } else {
+                        comp[j].1 = Some((v, i + 1));
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    let Some((u, urow)) = units else {
+        return Err(err(
+            1,
+            "no [TRAJ] LINEAR_UNITS".into(),
+            "comp files are in machine units: the INI must say LINEAR_UNITS",
+        )
+        .into());
+    };
+    let units = match u.to_ascii_lowercase().as_str() {
+        "mm" | "metric" => MachineUnits::Mm,
+        "inch" | "in" | "imperial" => MachineUnits::Inch,
+        _ => {
+            return Err(err(
+                urow,
+                format!("LINEAR_UNITS = {u}"),
+                "volcomp reads mm (metric) or inch (imperial)",
+            )
+            .into())
+        }
+    };
+    let mut axes: [Option<Positioning>; 3] = [None, None, None];
+    for (j, (f, t)) in comp.iter().enumerate() {
+        let Some((name, row)) = f else { continue };
+        let ty = match t {
+            Some((n, trow)) => n
+                .parse::<u8>()
+                .ok()
+                .and_then(CompFileType::from_number)
+                .ok_or_else(|| {
+                    err(
+                        *trow,
+                        format!("COMP_FILE_TYPE = {n}"),
+                        "COMP_FILE_TYPE is 0 or 1",
+                    )
+                })?,
+            None => {
+                return Err(err(
+                    *row,
+                    format!("[JOINT_{j}] has COMP_FILE but no COMP_FILE_TYPE"),
+                    "give COMP_FILE_TYPE 0 or 1",
+                )
+                .into())
+            }
+        };
+        let (path, body) = read_file(name)?;
+        axes[j] = Some(linuxcnc_comp::parse(&body, &path, ty, units)?);
+    }
+    if axes.iter().all(Option::is_none) {
+        return Err(err(
+            1,
+            "no [JOINT_0…2] COMP_FILE".into(),
+            "the INI configures no screw compensation for joints 0, 1, 2",
+        )
+        .into());
+    }
+    Ok(ControllerCorrection {
+        format: Format::Linuxcnc,
+        axes,
+        squareness_urad: None,
     })
 }
 
@@ -90,8 +212,21 @@ mod tests {
             MachineUnits::Mm,
         )
         .unwrap();
-        assert_eq!(e.files.len(), 1);
+        assert_eq!(e.files.len(), 2);
         assert_eq!(e.files[0].name, "y.comp");
+        assert!(
+            e.files[1].text.contains(
+                "LINEAR_UNITS = mm\n\n[JOINT_1]\nCOMP_FILE = y.comp\nCOMP_FILE_TYPE = 1\n"
+            ),
+            "{}",
+            e.files[1].text
+        );
+        let back = parse_ini(&e.files[1].text, "comp.ini", |n| {
+            assert_eq!(n, "y.comp");
+            Ok((n.to_string(), e.files[0].text.clone()))
+        })
+        .unwrap();
+        assert_eq!(back, e.applied);
         assert_eq!(e.files[0].text, "0 0 -0.003\n100 -0.002 -0.005\n");
         assert_eq!(e.applied.axes[1].as_ref(), Some(&p));
         assert!(e.rounding.max_um < 1e-6);

@@ -308,7 +308,8 @@ fn read_text(path: &std::path::Path) -> Result<String, ControllerReadError> {
 /// a Heidenhain `.COM` table (its axis from the name, `X.COM`) or `.CMA`
 /// assignment (its active line's `.COM` tables, beside it), a Siemens EEC
 /// file (`$AA_ENC_COMP`; machine axes by their first letter, `X1` is X),
-/// a Fanuc pitch error tape as `map export --to fanuc` writes it (its
+/// a LinuxCNC INI file (`*.ini` with `[JOINT_n] COMP_FILE`, its comp files
+/// beside it), a Fanuc pitch error tape as `map export --to fanuc` writes it (its
 /// default assumptions), an ISG leadscrew compensation list (`kw.ssfk.*`, its axis from
 /// `kopf.log_achs_name`), grblHAL `$160`–`$162` lines, a Klipper
 /// `[skew_correction …]` profile, a Marlin `M852` or a RepRapFirmware `M556` line.
@@ -346,6 +347,13 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             format: Format::Heidenhain,
             axes,
             squareness_urad: None,
+        });
+    }
+    if name.ends_with(".INI") && text.contains("COMP_FILE") {
+        let dir = path.parent().unwrap_or(std::path::Path::new("."));
+        return linuxcnc::parse_ini(&text, &file, |n| {
+            let p = dir.join(n);
+            Ok((p.display().to_string(), read_text(&p)?))
         });
     }
     if text.contains("kw.ssfk.") {
