@@ -103,7 +103,9 @@ pub fn parse_ini(
     let err = |row: usize, m: String, h: &str| super::located(file, text, row, m, h);
     let mut section = String::new();
     let mut units: Option<(String, usize)> = None;
-    let mut comp: [(Option<(String, usize)>, Option<(String, usize)>); 3] = Default::default();
+    // Per joint: (COMP_FILE, COMP_FILE_TYPE), each with its row.
+    type Entry = Option<(String, usize)>;
+    let mut comp: [(Entry, Entry); 3] = Default::default();
     for (i, raw) in text.lines().enumerate() {
         let line = raw.split('#').next().unwrap_or("").trim();
         if let Some(sname) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
