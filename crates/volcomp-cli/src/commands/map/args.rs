@@ -32,6 +32,9 @@ pub enum MapSub {
     Plot(PlotArgs),
     /// Read LinuxCNC comp files (COMP_FILE_TYPE 0 or 1) into a map.
     ImportLinuxcnc(ImportArgs),
+    /// Build a 21-component model from measurement runs (a plan TOML and one
+    /// ISO 230-2 run file per component; docs/build.md).
+    Build(BuildArgs),
     /// Read an ISO 230-1 parameter file (ISG CSV, Etalon exchange format) into a 21-component model.
     Import(ImportParamsArgs),
     /// Evaluate an ISO 230-2 bidirectional positioning test: B, R↑, R↓, R, E, M, A.
@@ -358,4 +361,13 @@ pub enum FanucSignArg {
     Correction,
     /// The values are the error, +e.
     Error,
+}
+
+#[derive(Args, Debug)]
+pub struct BuildArgs {
+    /// The plan (TOML): which run file measures which component, where, the reference point.
+    pub plan: PathBuf,
+    /// Output: a 21-component model .toml (its tables .csv beside it).
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
 }

@@ -76,6 +76,7 @@ pub fn run(cmd: MapCommand) -> Result<(), CliError> {
         MapSub::Plot(a) => plot(a),
         MapSub::ImportLinuxcnc(a) => import_linuxcnc(a),
         MapSub::Import(a) => import_params(a),
+        MapSub::Build(a) => build_model(a),
         MapSub::Iso230_2(a) => iso230_2(a),
         MapSub::Example(a) => example(a),
     }
@@ -408,6 +409,47 @@ fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
             a.output.display()
         ))),
     }
+}
+
+fn build_model(a: BuildArgs) -> Result<(), CliError> {
+    use volcomp_core::identify::build;
+    let read = |p: &Path| -> Result<String, CliError> {
+        let bytes = std::fs::read(p).map_err(|e| CliError::Io(p.to_path_buf(), e))?;
+        Ok(volcomp_core::io::table::utf8(&bytes, &p.display().to_string())?.to_string())
+    };
+    let plan_text = read(&a.plan)?;
+    let plan_name = a.plan.display().to_string();
+    let (plan, runs) = build::parse_plan(&plan_text, &plan_name)?;
+    let dir = a.plan.parent().unwrap_or(Path::new("")).to_path_buf();
+    let paths: Vec<std::path::PathBuf> = runs.iter().map(|(_, f)| dir.join(f)).collect();
+    let mut out_plan = OutputPlan::new();
+    out_plan.input("PLAN", &a.plan);
+    for (p, (c, _)) in paths.iter().zip(&runs) {
+        out_plan.input(format!("the run of {c}"), p);
+    }
+    model_outputs(&mut out_plan, "-o", &a.output);
+    check(&out_plan)?;
+    let mut read_runs = Vec::new();
+    for (p, (c, _)) in paths.iter().zip(&runs) {
+        read_runs.push(build::read_run(c, &read(p)?, &p.display().to_string())?);
+    }
+    let (model, summary) = build::build(&plan, &read_runs, &plan_name)?;
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    for l in summary.lines() {
+        writeln!(out, "{l}").map_err(CliError::Stdout)?;
+    }
+    if let Some(d) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).map_err(|e| CliError::Io(d.to_path_buf(), e))?;
+    }
+    let mut inputs: Vec<&Path> = vec![&a.plan];
+    inputs.extend(paths.iter().map(|p| p.as_path()));
+    write_model(
+        &model,
+        &a.output,
+        &inputs,
+        Some(&format!("built from the runs of {plan_name}")),
+    )
 }
 
 fn import_params(a: ImportParamsArgs) -> Result<(), CliError> {
