@@ -263,6 +263,8 @@ pub enum ExportFormat {
     Linuxcnc,
     /// Siemens Sinumerik leadscrew error compensation %_N_AX_EEC_INI.
     SiemensEec,
+    /// Siemens Sinumerik sag/cross-axis compensation %_N_NC_CEC_INI (the straightness).
+    SiemensCec,
     /// Heidenhain TNC compensation value tables X.COM, Y.COM, Z.COM and VOLCOMP.CMA.
     Heidenhain,
     /// Beckhoff/ISG leadscrew error compensation lists achskw_x.lis … (kw.ssfk, 0.1 µm).
@@ -324,6 +326,10 @@ pub struct ExportArgs {
     /// fanuc: the tape's data number of compensation point 0.
     #[arg(long, value_name = "N", default_value_t = 10000)]
     pub fanuc_data_offset: u32,
+    /// siemens-cec: the sign of the values (the manual does not settle it):
+    /// error = +e (default, as the leadscrew tables) or correction = −e.
+    #[arg(long, value_enum, default_value_t = CecSignArg::Error)]
+    pub cec_sign: CecSignArg,
     /// klipper: the profile's name (SKEW_PROFILE LOAD=NAME).
     #[arg(long, value_name = "NAME", default_value = "volcomp")]
     pub profile: String,
@@ -370,4 +376,12 @@ pub struct BuildArgs {
     /// Output: a 21-component model .toml (its tables .csv beside it).
     #[arg(short, long, value_name = "OUT")]
     pub output: PathBuf,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CecSignArg {
+    /// The values are the measured error, +e.
+    Error,
+    /// The values are the correction, −e.
+    Correction,
 }

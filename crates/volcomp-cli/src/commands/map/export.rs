@@ -1,13 +1,58 @@
 //! `volcomp map export --to FORMAT`: the library's controller writers
 //! (`volcomp_core::io::controllers`), their notes and rounding printed.
 
-use super::FanucSignArg;
 use super::{
     load_map, positioning_tables, positive_step, write_text, ExportArgs, ExportFormat, Map,
 };
+use super::{CecSignArg, FanucSignArg};
 use crate::output::{check, CliError, OutputPlan};
 use std::io::Write;
 use volcomp_core::io::controllers::{self, siemens, Export, Positioning};
+
+/// The machine axis names of `--axis-names`.
+fn axis_names(text: &str) -> Result<[String; 3], CliError> {
+    let names: Vec<String> = text.split(',').map(|n| n.trim().to_string()).collect();
+    match names.as_slice() {
+        [x, y, z] => Ok([x.clone(), y.clone(), z.clone()]),
+        _ => Err(CliError::Message(format!(
+            "--axis-names takes three machine axis names, e.g. X1,Y1,Z1; got `{text}`"
+        ))),
+    }
+}
+
+/// The straightness tables of a map that are not zero: `(axis, direction, E_da)`.
+fn straightness_tables(map: &Map) -> Vec<(usize, usize, Positioning)> {
+    use volcomp_core::model::axis_table::Table;
+    let pair = |f: &Table, r: &Table, d: usize| -> Positioning {
+        let [lo, hi] = r.range();
+        Positioning {
+            positions_mm: f.positions_mm.clone(),
+            forward_um: f.errors_um.iter().map(|e| e[d]).collect(),
+            reverse_um: f
+                .positions_mm
+                .iter()
+                .map(|&x| r.eval(x.clamp(lo, hi)).map_or(0.0, |e| e[d]))
+                .collect(),
+        }
+    };
+    let mut out = Vec::new();
+    for a in 0..3 {
+        for d in (0..3).filter(|&d| d != a) {
+            let p = match map {
+                Map::Tables(t) => pair(&t.axes[a].forward, &t.axes[a].reverse, d),
+                Map::Kinematic(m) => pair(
+                    &m.axes[a].forward.linear_um,
+                    &m.axes[a].reverse.linear_um,
+                    d,
+                ),
+            };
+            if p.forward_um.iter().chain(&p.reverse_um).any(|v| *v != 0.0) {
+                out.push((a, d, p));
+            }
+        }
+    }
+    out
+}
 
 /// The tables resampled every `step` mm when a step is given.
 fn stepped(tables: [Positioning; 3], step: Option<f64>) -> [Positioning; 3] {
@@ -23,6 +68,7 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
     let names: &[&str] = match a.to {
         ExportFormat::Linuxcnc => &["x.comp", "y.comp", "z.comp", "comp.ini"],
         ExportFormat::SiemensEec => &["%_N_AX_EEC_INI"],
+        ExportFormat::SiemensCec => &["%_N_NC_CEC_INI"],
         ExportFormat::Heidenhain => &["X.COM", "Y.COM", "Z.COM", "VOLCOMP.CMA"],
         ExportFormat::IsgSsfk => &["achskw_x.lis", "achskw_y.lis", "achskw_z.lis"],
         ExportFormat::IsgCsv => &["volcomp.csv", "volcomp.lis"],
@@ -116,6 +162,25 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
                 step,
             );
             controllers::heidenhain::export(&t.map(Some))?
+        }
+        ExportFormat::SiemensCec => {
+            let Some(step) = step else {
+                return Err(CliError::Message(
+                    "a Siemens CEC table is equidistant: pass --step MM ($AN_CEC_STEP)".into(),
+                ));
+            };
+            let names = axis_names(&a.axis_names)?;
+            let o = siemens::EecOptions {
+                axis_names: names,
+                step_mm: step,
+                resolution_um: a.resolution_um,
+                max_points: a.max_points.unwrap_or(5000),
+            };
+            let sign = match a.cec_sign {
+                CecSignArg::Error => siemens::CecSign::Error,
+                CecSignArg::Correction => siemens::CecSign::Correction,
+            };
+            siemens::cec_export(&straightness_tables(&map), &o, sign)?
         }
         ExportFormat::SiemensEec => {
             let Some(step) = step else {

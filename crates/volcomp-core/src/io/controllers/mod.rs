@@ -35,6 +35,8 @@ pub enum Format {
     Linuxcnc,
     /// Siemens Sinumerik leadscrew/encoder error compensation `%_N_AX_EEC_INI`, [`siemens`].
     SiemensEec,
+    /// Siemens Sinumerik sag/cross-axis compensation `%_N_NC_CEC_INI` (straightness), [`siemens::cec_export`].
+    SiemensCec,
     /// Heidenhain TNC compensation value tables `.COM` and their assignment `.CMA`, [`heidenhain`].
     Heidenhain,
     /// Beckhoff/ISG leadscrew error compensation lists (`kw.ssfk.*`), [`isg`].
@@ -59,6 +61,7 @@ impl Format {
         match self {
             Format::Linuxcnc => "linuxcnc",
             Format::SiemensEec => "siemens-eec",
+            Format::SiemensCec => "siemens-cec",
             Format::Heidenhain => "heidenhain",
             Format::IsgSsfk => "isg-ssfk",
             Format::IsgCsv => "isg-csv",

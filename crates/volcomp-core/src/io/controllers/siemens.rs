@@ -441,3 +441,267 @@ mod tests {
         assert!(e.message.contains("not a number"));
     }
 }
+
+/// The sign of sag/cross compensation values (the function manual's
+/// wording does not settle it; a switch).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CecSign {
+    /// The measured error `e` (as for the leadscrew tables; default).
+    Error,
+    /// The correction `−e`.
+    Correction,
+}
+
+/// One cross-compensation table read back: input axis, output axis and the
+/// table (µm in volcomp's sign over the input axis' position).
+pub type CecTable = (usize, usize, Positioning);
+
+/// The file `%_N_NC_CEC_INI` for straightness tables: one table per
+/// `(input axis a, output axis d, E_da)` in `tables` (volcomp's sign, µm,
+/// the mean of both directions), equidistant every `o.step_mm`
+/// ([Siemens K3], "Sag compensation / cross-axis compensation":
+/// `$AN_CEC[t,N]`, `_INPUT_AXIS`, `_OUTPUT_AXIS`, `_STEP`, `_MIN`, `_MAX`,
+/// `_DIRECTION` 0 (both directions), `_MULT_BY_TABLE` 0, `_IS_MODULO` 0;
+/// at most `MD18342 $MN_MM_CEC_MAX_POINTS` points per table).
+pub fn cec_export(
+    tables: &[(usize, usize, Positioning)],
+    o: &EecOptions,
+    sign: CecSign,
+) -> Result<Export, LimitError> {
+    let mut rounding = Rounding {
+        resolution_um: o.resolution_um,
+        max_um: 0.0,
+    };
+    let k = match sign {
+        CecSign::Error => 1.0,
+        CecSign::Correction => -1.0,
+    };
+    let mut text = format!(
+        "%_N_NC_CEC_INI\nCHANDATA(1)\n; volcomp: straightness as cross-axis compensation, values in mm = {}\n",
+        if k > 0.0 { "measured error (actual - commanded)" } else { "correction (commanded - actual)" }
+    );
+    let mut notes = Vec::new();
+    for (t, (a, d, table)) in tables.iter().enumerate() {
+        let (inp, out) = (&o.axis_names[*a], &o.axis_names[*d]);
+        let lo = table.positions_mm[0];
+        let hi = table.positions_mm[table.positions_mm.len() - 1];
+        let n = points_covering(lo, hi, o.step_mm);
+        if n > o.max_points {
+            return Err(LimitError {
+                format: "siemens-cec",
+                axis: axis_letter(*a),
+                message: format!(
+                    "{n} points every {} mm for E{}{}; MD18342 $MN_MM_CEC_MAX_POINTS allows {}",
+                    o.step_mm,
+                    axis_letter(*d),
+                    axis_letter(*a),
+                    o.max_points
+                ),
+                help: format!(
+                    "choose a step of at least {} mm",
+                    fixed((hi - lo) / (o.max_points - 1) as f64, 3)
+                ),
+            });
+        }
+        let (mean, _) = bidirectional_mean(table);
+        let sampled = equidistant(&mean, lo, o.step_mm, n);
+        for (i, v) in sampled.forward_um.iter().enumerate() {
+            let r = rounding.round(*v);
+            text.push_str(&format!("$AN_CEC[{t},{i}]={}\n", fixed(k * r * 1e-3, 7)));
+        }
+        text.push_str(&format!(
+            "$AN_CEC_INPUT_AXIS[{t}]={inp}\n$AN_CEC_OUTPUT_AXIS[{t}]={out}\n$AN_CEC_STEP[{t}]={}\n$AN_CEC_MIN[{t}]={}\n$AN_CEC_MAX[{t}]={}\n$AN_CEC_DIRECTION[{t}]=0\n$AN_CEC_MULT_BY_TABLE[{t}]=0\n$AN_CEC_IS_MODULO[{t}]=0\n",
+            fixed(o.step_mm, 6),
+            fixed(lo, 6),
+            fixed(sampled.positions_mm[n - 1], 6)
+        ));
+        notes.push(format!("table {t}: E{}{} ({out} as a function of {inp}), {n} points: MD18342 $MN_MM_CEC_MAX_POINTS[{t}] >= {n}; enable with MD32710 $MA_CEC_ENABLE[{out}] = 1 and $SN_CEC_TABLE_ENABLE[{t}] = 1", axis_letter(*d), axis_letter(*a)));
+    }
+    text.push_str("M17\n");
+    Ok(Export {
+        files: vec![ExportFile {
+            name: "%_N_NC_CEC_INI".into(),
+            text,
+        }],
+        applied: ControllerCorrection {
+            format: Format::SiemensCec,
+            axes: [None, None, None],
+            squareness_urad: None,
+        },
+        rounding,
+        notes,
+    })
+}
+
+/// Reads a `%_N_NC_CEC_INI` as written by [`cec_export`] (machine axes by
+/// the first letter of their names): the tables in volcomp's sign (µm).
+pub fn cec_parse(text: &str, file: &str, sign: CecSign) -> Result<Vec<CecTable>, ReadError> {
+    use std::collections::BTreeMap;
+    let err = |row: usize, m: String, h: &str| located(file, text, row, m, h);
+    let k = match sign {
+        CecSign::Error => 1.0,
+        CecSign::Correction => -1.0,
+    };
+    #[derive(Default)]
+    struct T {
+        values: BTreeMap<usize, f64>,
+        input: Option<usize>,
+        output: Option<usize>,
+        step: Option<f64>,
+        min: Option<f64>,
+        max: Option<f64>,
+    }
+    let mut tables: BTreeMap<usize, T> = BTreeMap::new();
+    for (i, raw) in text.lines().enumerate() {
+        let row = i + 1;
+        let line = raw.split(';').next().unwrap_or("").trim();
+        if line.is_empty() || line.starts_with('%') || line.starts_with("CHANDATA") || line == "M17"
+        {
+            continue;
+        }
+        let Some((lhs, rhs)) = line.split_once('=') else {
+            return Err(err(
+                row,
+                format!("`{line}` is not an assignment"),
+                "a CEC file holds lines `$AN_CEC...[...]=value`",
+            ));
+        };
+        let (var, args) = lhs
+            .trim()
+            .strip_suffix(']')
+            .and_then(|s| s.split_once('['))
+            .ok_or_else(|| {
+                err(
+                    row,
+                    format!("`{}` has no index", lhs.trim()),
+                    "write e.g. $AN_CEC[0,5]",
+                )
+            })?;
+        let idx: Vec<usize> = args
+            .split(',')
+            .map(|s| {
+                s.trim().parse().map_err(|_| {
+                    err(
+                        row,
+                        format!("`{s}` is not an index"),
+                        "indices are 0, 1, 2 …",
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let t = tables.entry(idx[0]).or_default();
+        let rhs = rhs.trim();
+        let num = || -> Result<f64, ReadError> {
+            rhs.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| err(row, format!("`{rhs}` is not a number"), "values in mm"))
+        };
+        let axis = || -> Result<usize, ReadError> {
+            "XYZ"
+                .find(rhs.chars().next().unwrap_or(' ').to_ascii_uppercase())
+                .ok_or_else(|| {
+                    err(
+                        row,
+                        format!("machine axis `{rhs}`"),
+                        "machine axes X…, Y…, Z…",
+                    )
+                })
+        };
+        match (var, idx.len()) {
+            ("$AN_CEC", 2) => {
+                t.values.insert(idx[1], num()? * 1e3 * k);
+            }
+            ("$AN_CEC_INPUT_AXIS", 1) => t.input = Some(axis()?),
+            ("$AN_CEC_OUTPUT_AXIS", 1) => t.output = Some(axis()?),
+            ("$AN_CEC_STEP", 1) => t.step = Some(num()?),
+            ("$AN_CEC_MIN", 1) => t.min = Some(num()?),
+            ("$AN_CEC_MAX", 1) => t.max = Some(num()?),
+            ("$AN_CEC_DIRECTION" | "$AN_CEC_MULT_BY_TABLE" | "$AN_CEC_IS_MODULO", 1) if num()? == 0.0 => {}
+            _ => return Err(err(row, format!("`{}` is not read", lhs.trim()), "volcomp reads CEC tables for both directions, without table multiplication or modulo")),
+        }
+    }
+    let mut out = Vec::new();
+    for (t, v) in tables {
+        let (Some(i), Some(o), Some(step), Some(min)) = (v.input, v.output, v.step, v.min) else {
+            return Err(err(
+                1,
+                format!("table {t} lacks _INPUT_AXIS, _OUTPUT_AXIS, _STEP or _MIN"),
+                "give every table's parameters",
+            ));
+        };
+        let n = v.values.len();
+        if v.values.keys().copied().ne(0..n)
+            || v.max
+                .is_some_and(|m| ((m - min) / step - (n - 1) as f64).abs() > 1e-6)
+        {
+            return Err(err(
+                1,
+                format!(
+                    "table {t}: points 0 … {} do not match _MIN, _STEP, _MAX",
+                    n.saturating_sub(1)
+                ),
+                "give every point; the last lies at _MAX",
+            ));
+        }
+        let vals: Vec<f64> = v.values.into_values().collect();
+        out.push((
+            i,
+            o,
+            Positioning {
+                positions_mm: (0..n).map(|k| min + step * k as f64).collect(),
+                forward_um: vals.clone(),
+                reverse_um: vals,
+            },
+        ));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod cec_tests {
+    use super::*;
+
+    #[test]
+    fn straightness_table_by_hand() {
+        // E_ZY (Z deviation along Y): 0, −3.4, −1.2 µm at 0, 100, 200 mm,
+        // every 100 mm at 1 µm: 0, −0.003, −0.001 mm (−3.4 → −3, −1.2 → −1).
+        let ezy = Positioning {
+            positions_mm: vec![0.0, 100.0, 200.0],
+            forward_um: vec![0.0, -3.4, -1.2],
+            reverse_um: vec![0.0, -3.4, -1.2],
+        };
+        let o = EecOptions {
+            step_mm: 100.0,
+            ..EecOptions::default()
+        };
+        let e = cec_export(&[(1, 2, ezy)], &o, CecSign::Error).unwrap();
+        let t = &e.files[0].text;
+        for line in [
+            "$AN_CEC[0,0]=0\n",
+            "$AN_CEC[0,1]=-0.003\n",
+            "$AN_CEC[0,2]=-0.001\n",
+            "$AN_CEC_INPUT_AXIS[0]=Y1\n",
+            "$AN_CEC_OUTPUT_AXIS[0]=Z1\n",
+            "$AN_CEC_STEP[0]=100\n",
+            "$AN_CEC_MAX[0]=200\n",
+            "$AN_CEC_DIRECTION[0]=0\n",
+        ] {
+            assert!(t.contains(line), "{line} missing in\n{t}");
+        }
+        assert!((e.rounding.max_um - 0.4).abs() < 1e-9);
+        let back = cec_parse(t, "cec.ini", CecSign::Error).unwrap();
+        assert_eq!(back.len(), 1);
+        assert_eq!((back[0].0, back[0].1), (1, 2));
+        assert_eq!(back[0].2.forward_um, vec![0.0, -3.0, -1.0]);
+        // The other sign as a switch.
+        let c = cec_export(&[(1, 2, back[0].2.clone())], &o, CecSign::Correction).unwrap();
+        assert!(c.files[0].text.contains("$AN_CEC[0,1]=0.003\n"));
+        assert_eq!(
+            cec_parse(&c.files[0].text, "c", CecSign::Correction).unwrap()[0]
+                .2
+                .forward_um,
+            vec![0.0, -3.0, -1.0]
+        );
+    }
+}
