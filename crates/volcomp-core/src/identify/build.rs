@@ -73,10 +73,10 @@ pub struct BuildSummary {
 pub struct Plan {
     /// The machine's chain.
     pub chain: Topology,
-    /// Where each axis' linear errors were measured (axis positions, mm).
-    pub measuring_point_mm: Vec3,
-    /// The reflector's tool length offset (mm, as G43 applies it).
-    pub measuring_tool_length_mm: f64,
+    /// Where each axis' (X, Y, Z) linear errors were measured: the axis
+    /// positions (mm) and the reflector's tool length offset (mm, as G43
+    /// applies it).
+    pub measuring: [(Vec3, f64); 3],
     /// Where the angular errors are zero (axis positions, mm).
     pub reference_point_mm: Vec3,
     /// Straightness reference line.
@@ -342,9 +342,9 @@ pub fn build(
             reverse: t(lr, ar)?,
         });
     }
-    for m in kin.measuring.iter_mut() {
-        m.point_mm = plan.measuring_point_mm;
-        m.tool_offset_mm = Vec3::new(0.0, 0.0, plan.measuring_tool_length_mm);
+    for (m, (point, tool)) in kin.measuring.iter_mut().zip(plan.measuring) {
+        m.point_mm = point;
+        m.tool_offset_mm = Vec3::new(0.0, 0.0, tool);
     }
     let axes: [AxisComponents; 3] = axes
         .try_into()
@@ -362,6 +362,10 @@ pub fn build(
 /// measuring_tool_length_mm = 0       # the reflector's tool length offset
 /// reference_point_mm = [0, 0, 0]     # where the angular errors are zero
 /// straightness_reference = "least-squares"   # or "end-points"
+///
+/// [measuring.Z]                      # optional, per axis: where it was measured
+/// point_mm = [200, 150, 0]
+/// tool_length_mm = 100
 ///
 /// [runs]                             # component = run file (relative to the plan)
 /// EXX = "runs/exx.csv"
@@ -381,7 +385,18 @@ struct PlanFile {
     reference_point_mm: Option<[f64; 3]>,
     #[serde(default)]
     straightness_reference: Option<String>,
+    #[serde(default)]
+    measuring: std::collections::BTreeMap<String, AxisMeasuring>,
     runs: std::collections::BTreeMap<String, String>,
+}
+
+/// `[measuring.X]`: where one axis was measured, when not at the plan's
+/// common measuring point.
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AxisMeasuring {
+    point_mm: Option<[f64; 3]>,
+    tool_length_mm: Option<f64>,
 }
 
 /// Reads a plan: the [`Plan`] and the `(component, run file)` pairs in the
@@ -456,11 +471,33 @@ pub fn parse_plan(text: &str, file: &str) -> Result<(Plan, Vec<(String, String)>
         }
     }
     let v = |a: Option<[f64; 3]>| a.map_or(Vec3::ZERO, |[x, y, z]| Vec3::new(x, y, z));
+    let common = (
+        v(p.measuring_point_mm),
+        p.measuring_tool_length_mm.unwrap_or(0.0),
+    );
+    let mut measuring = [common; 3];
+    for (axis, m) in &p.measuring {
+        let a = AXES
+            .iter()
+            .position(|c| c.to_string() == *axis)
+            .ok_or_else(|| {
+                MapFileError::new(
+                    file,
+                    1,
+                    1,
+                    format!("[measuring.{axis}] is not an axis"),
+                    "write [measuring.X], [measuring.Y] or [measuring.Z]",
+                )
+            })?;
+        measuring[a] = (
+            m.point_mm.map_or(common.0, |[x, y, z]| Vec3::new(x, y, z)),
+            m.tool_length_mm.unwrap_or(common.1),
+        );
+    }
     Ok((
         Plan {
             chain,
-            measuring_point_mm: v(p.measuring_point_mm),
-            measuring_tool_length_mm: p.measuring_tool_length_mm.unwrap_or(0.0),
+            measuring,
             reference_point_mm: v(p.reference_point_mm),
             reference_line,
         },
