@@ -312,7 +312,26 @@ fn exports_refuse_what_the_controller_cannot_hold() {
         &dir,
     ));
     std::fs::write(dir.join("part.ngc"), PART).unwrap();
-    for c in ["tnc/VOLCOMP.CMA", "f/pitch.tap", "lc/comp.ini"] {
+    ok(&volcomp(
+        &[
+            "map",
+            "export",
+            "m.csv",
+            "--to",
+            "siemens-cec",
+            "--step",
+            "25",
+            "-o",
+            "cec",
+        ],
+        &dir,
+    ));
+    for c in [
+        "tnc/VOLCOMP.CMA",
+        "f/pitch.tap",
+        "lc/comp.ini",
+        "cec/%_N_NC_CEC_INI",
+    ] {
         let args = [
             "simulate",
             "part.ngc",

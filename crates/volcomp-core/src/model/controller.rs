@@ -69,6 +69,20 @@ impl<M: ErrorModel> ControllerResidual<M> {
                 for a in 0..3 {
                     c[a] = t.correction_um(a, q_mm[a], s[a] == Direction::Forward);
                 }
+                if components == Components::All {
+                    for (i, o, table) in &t.cross {
+                        let v = if s[*i] == Direction::Forward {
+                            &table.forward_um
+                        } else {
+                            &table.reverse_um
+                        };
+                        c[*o] += crate::io::controllers::interpolate_held(
+                            &table.positions_mm,
+                            v,
+                            q_mm[*i],
+                        );
+                    }
+                }
                 if let (Some([xy, yz, zx]), Components::All) = (t.squareness_urad, components) {
                     // µrad · mm = 10⁻³ µm (docs/design.md, "The 21-component model").
                     c[0] += (xy * q_mm.y + zx * q_mm.z) * 1e-3;
@@ -145,6 +159,7 @@ mod tests {
                 format: Format::SiemensEec,
                 axes: [Some(table), None, None],
                 squareness_urad: None,
+                cross: Vec::new(),
             })),
         };
         let q = Vec3::new(25.0, 10.0, 10.0);
@@ -173,6 +188,33 @@ mod tests {
     }
 
     #[test]
+    fn a_cross_table_corrects_its_output_axis() {
+        // The controller corrects E_YX = 0 → 3 µm over X 0 … 100 (the map's
+        // straightness): at x = 50 the residual in Y is 1.5 − 1.5 = 0.
+        let r = ControllerResidual {
+            map: map(),
+            controller: ControllerApplies::Tables(Box::new(ControllerCorrection {
+                format: Format::SiemensCec,
+                axes: [None, None, None],
+                squareness_urad: None,
+                cross: vec![(
+                    0,
+                    1,
+                    Positioning {
+                        positions_mm: vec![0.0, 100.0],
+                        forward_um: vec![0.0, 3.0],
+                        reverse_um: vec![0.0, 3.0],
+                    },
+                )],
+            })),
+        };
+        let v = r
+            .deviation_um(Vec3::new(50.0, 0.0, 0.0), [F, F, F], Components::All)
+            .unwrap();
+        assert!((v - Vec3::new(5.0, 0.0, 0.0)).norm() < 1e-12, "{v:?}");
+    }
+
+    #[test]
     fn squareness_of_a_firmware_is_subtracted() {
         let r = ControllerResidual {
             map: map(),
@@ -180,6 +222,7 @@ mod tests {
                 format: Format::Klipper,
                 axes: [None, None, None],
                 squareness_urad: Some([10.0, -20.0, 30.0]),
+                cross: Vec::new(),
             })),
         };
         // At (0, 50, 20): c = (10·50 + 30·20, −20·20, 0)·10⁻³ = (1.1, −0.4, 0) µm; e = 0.

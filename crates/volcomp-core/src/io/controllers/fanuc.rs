@@ -239,6 +239,7 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
             format: Format::Fanuc,
             axes: applied,
             squareness_urad: None,
+            cross: Vec::new(),
         },
         rounding,
         notes,
@@ -380,6 +381,7 @@ pub fn parse(text: &str, file: &str, o: &FanucOptions) -> Result<ControllerCorre
         format: Format::Fanuc,
         axes,
         squareness_urad: None,
+        cross: Vec::new(),
     })
 }
 

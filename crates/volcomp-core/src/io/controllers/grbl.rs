@@ -79,6 +79,7 @@ pub fn export(p: &[Option<Positioning>; 3]) -> Result<Export, LimitError> {
             format: Format::Grblhal,
             axes: applied,
             squareness_urad: None,
+            cross: Vec::new(),
         },
         rounding,
         notes,
@@ -133,6 +134,7 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
         format: Format::Grblhal,
         axes,
         squareness_urad: None,
+        cross: Vec::new(),
     })
 }
 

@@ -154,6 +154,7 @@ pub fn export(p: &[Option<Positioning>; 3]) -> Result<Export, LimitError> {
             format: Format::Heidenhain,
             axes: applied,
             squareness_urad: None,
+            cross: Vec::new(),
         },
         rounding,
         notes: vec![

@@ -85,6 +85,7 @@ pub fn export(
             format: Format::Linuxcnc,
             axes: applied,
             squareness_urad: None,
+            cross: Vec::new(),
         },
         rounding,
         notes,
@@ -193,6 +194,7 @@ pub fn parse_ini(
         format: Format::Linuxcnc,
         axes,
         squareness_urad: None,
+        cross: Vec::new(),
     })
 }
 

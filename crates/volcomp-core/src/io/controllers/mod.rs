@@ -93,6 +93,10 @@ pub struct ControllerCorrection {
     /// The squareness the controller corrects, `[S_xy, S_yz, S_zx]` (µrad,
     /// docs/design.md, "The 21-component model"), if any.
     pub squareness_urad: Option<[f64; 3]>,
+    /// Cross-axis tables `(input axis, output axis, table)`: the error
+    /// (µm) along the output axis as a function of the input axis'
+    /// position (Siemens CEC), linearly interpolated, ends held.
+    pub cross: Vec<siemens::CecTable>,
 }
 
 impl ControllerCorrection {
@@ -310,7 +314,8 @@ fn read_text(path: &std::path::Path) -> Result<String, ControllerReadError> {
 /// Reads a controller file, telling the format by its name and content:
 /// a Heidenhain `.COM` table (its axis from the name, `X.COM`) or `.CMA`
 /// assignment (its active line's `.COM` tables, beside it), a Siemens EEC
-/// file (`$AA_ENC_COMP`; machine axes by their first letter, `X1` is X),
+/// file (`$AA_ENC_COMP`) or a sag/cross-axis file (`$AN_CEC`, read with the
+/// default sign: the error; machine axes by their first letter, `X1` is X),
 /// a LinuxCNC INI file (`*.ini` with `[JOINT_n] COMP_FILE`, its comp files
 /// beside it), a Fanuc pitch error tape as `map export --to fanuc` writes it (its
 /// default assumptions), an ISG leadscrew compensation list (`kw.ssfk.*`, its axis from
@@ -333,6 +338,7 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             format: Format::Heidenhain,
             axes,
             squareness_urad: None,
+            cross: Vec::new(),
         });
     }
     if name.ends_with(".CMA") {
@@ -350,6 +356,7 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             format: Format::Heidenhain,
             axes,
             squareness_urad: None,
+            cross: Vec::new(),
         });
     }
     if name.ends_with(".INI") && text.contains("COMP_FILE") {
@@ -376,6 +383,7 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             format: Format::IsgSsfk,
             axes,
             squareness_urad: None,
+            cross: Vec::new(),
         });
     }
     if text.lines().any(|l| l.trim_start().starts_with("$16")) {
@@ -383,6 +391,14 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
     }
     if text.lines().any(|l| l.trim_start().starts_with("N3620")) {
         return Ok(fanuc::parse(&text, &file, &fanuc::FanucOptions::default())?);
+    }
+    if text.contains("$AN_CEC") {
+        return Ok(ControllerCorrection {
+            format: Format::SiemensCec,
+            axes: [None, None, None],
+            squareness_urad: None,
+            cross: siemens::cec_parse(&text, &file, siemens::CecSign::Error)?,
+        });
     }
     if text.contains("$AA_ENC_COMP") {
         return Ok(siemens::parse(&text, &file, None)?);

@@ -134,6 +134,7 @@ pub fn export(p: &[Option<Positioning>; 3], o: &EecOptions) -> Result<Export, Li
             format: Format::SiemensEec,
             axes: applied,
             squareness_urad: None,
+            cross: Vec::new(),
         },
         rounding,
         notes,
@@ -340,6 +341,7 @@ pub fn parse(
         format: Format::SiemensEec,
         axes,
         squareness_urad: None,
+        cross: Vec::new(),
     })
 }
 
@@ -518,6 +520,13 @@ pub fn cec_export(
         notes.push(format!("table {t}: E{}{} ({out} as a function of {inp}), {n} points: MD18342 $MN_MM_CEC_MAX_POINTS[{t}] >= {n}; enable with MD32710 $MA_CEC_ENABLE[{out}] = 1 and $SN_CEC_TABLE_ENABLE[{t}] = 1", axis_letter(*d), axis_letter(*a)));
     }
     text.push_str("M17\n");
+    // What the NC applies: the written values read back.
+    let cross = cec_parse(&text, "%_N_NC_CEC_INI", sign).map_err(|e| LimitError {
+        format: "siemens-cec",
+        axis: 'X',
+        message: e.to_string(),
+        help: "the tables cannot be written as a CEC file".into(),
+    })?;
     Ok(Export {
         files: vec![ExportFile {
             name: "%_N_NC_CEC_INI".into(),
@@ -527,6 +536,7 @@ pub fn cec_export(
             format: Format::SiemensCec,
             axes: [None, None, None],
             squareness_urad: None,
+            cross,
         },
         rounding,
         notes,
@@ -691,6 +701,7 @@ mod cec_tests {
         }
         assert!((e.rounding.max_um - 0.4).abs() < 1e-9);
         let back = cec_parse(t, "cec.ini", CecSign::Error).unwrap();
+        assert_eq!(back, e.applied.cross);
         assert_eq!(back.len(), 1);
         assert_eq!((back[0].0, back[0].1), (1, 2));
         assert_eq!(back[0].2.forward_um, vec![0.0, -3.0, -1.0]);

@@ -63,6 +63,7 @@ fn applied(format: Format, f: [f64; 3]) -> ControllerCorrection {
         format,
         axes: [None, None, None],
         squareness_urad: Some(squareness_urad(f)),
+        cross: Vec::new(),
     }
 }
 
@@ -198,6 +199,7 @@ pub fn rrf(squareness: [f64; 3]) -> Result<Export, LimitError> {
                 -y / RRF_SAMPLE_MM * 1e6,
                 -z / RRF_SAMPLE_MM * 1e6,
             ]),
+            cross: Vec::new(),
         },
         rounding,
         notes: vec![
@@ -301,6 +303,7 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
             format: Format::Rrf,
             axes: [None, None, None],
             squareness_urad: Some(sq),
+            cross: Vec::new(),
         });
     }
     let Some(format) = format else {
