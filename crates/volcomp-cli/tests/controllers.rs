@@ -381,3 +381,39 @@ fn an_etalon_file_becomes_a_model() {
     assert!((e[0].as_f64().unwrap() - 3.7).abs() < 1e-9, "{v}");
     assert!((e[1].as_f64().unwrap() - -2.0).abs() < 1e-9, "{v}");
 }
+
+#[test]
+fn an_isg_volumetric_compensation_leaves_nothing() {
+    // The controller applies the whole map through the ISG volumetric
+    // compensation (volcomp.csv + volcomp.lis exported from it): the
+    // machine's error is then only the export's rounding (10⁻⁴ µm), and the
+    // map has one table for both directions, so no reversal is left either.
+    let dir = tempdir("isg-volcomp");
+    write_map(&dir);
+    std::fs::write(dir.join("part.ngc"), PART).unwrap();
+    ok(&volcomp(
+        &["map", "export", "m.csv", "--to", "isg-csv", "-o", "isg"],
+        &dir,
+    ));
+    let before = simulate(&dir, "part.ngc", false);
+    let args = [
+        "simulate",
+        "part.ngc",
+        "--map",
+        "m.csv",
+        "--work-offset",
+        "100,100,50",
+        "--json",
+        "--controller",
+        "isg/volcomp.lis",
+    ];
+    let with = json(&volcomp(&args, &dir));
+    let (b, w) = (
+        before["point_max_um"].as_f64().unwrap(),
+        with["point_max_um"].as_f64().unwrap(),
+    );
+    assert!(
+        b > 5.0 && w < 0.001,
+        "without {b} µm, with the ISG compensation {w} µm"
+    );
+}

@@ -24,7 +24,7 @@ pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
     // model (TOML, told apart by their `model` key): docs/kinematic.md.
     let map = super::map::load(&a.map, a.clamp)?.into_model();
     let controller = match (&a.controller, a.controller_compensates) {
-        (Some(file), _) => ControllerApplies::Tables(Box::new(controllers::read(file)?)),
+        (Some(file), _) => controllers::read_applies(file)?,
         (None, Some(ControllerCompensates::Positioning)) => ControllerApplies::MapPositioning,
         (None, None) => return Ok(map),
     };

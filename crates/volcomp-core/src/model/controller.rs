@@ -30,6 +30,10 @@ use volcomp_gcode::Vec3;
 pub enum ControllerApplies {
     /// The tables (and squareness) of a controller file, as read or exported.
     Tables(Box<ControllerCorrection>),
+    /// A full volumetric compensation from a 21-component model (the ISG
+    /// volumetric compensation's parameter files): the controller removes
+    /// that model's whole deviation.
+    Model(Box<crate::model::kinematic::KinematicModel>),
     /// The map's own positioning errors `E_XX`, `E_YY`, `E_ZZ`, exactly (an
     /// ideal pitch compensation: what a controller would apply from a table
     /// made from the same measurement at infinite resolution).
@@ -63,6 +67,10 @@ impl<M: ErrorModel> ControllerResidual<M> {
                     .map
                     .deviation_with_tool_um(q_mm, s, Components::PositioningOnly, t),
                 None => self.map.deviation_um(q_mm, s, Components::PositioningOnly),
+            },
+            ControllerApplies::Model(m) => match tool {
+                Some(t) => m.deviation_with_tool_um(q_mm, s, components, t),
+                None => m.deviation_um(q_mm, s, components),
             },
             ControllerApplies::Tables(t) => {
                 let mut c = Vec3::ZERO;

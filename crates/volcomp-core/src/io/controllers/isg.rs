@@ -315,6 +315,74 @@ mod tests {
     }
 }
 
+/// Reads an ISG volumetric compensation configuration list (`*.lis`): its
+/// `file[0]` (relative to the list's folder) in `file_format[0]` `ISG_CSV`
+/// or `ETALON`, into a 21-component model on the seed chain, measured at
+/// the origin (the list's kinematic configuration is not read:
+/// docs/controllers.md).
+pub fn read_volcomp_lis(
+    path: &std::path::Path,
+) -> Result<crate::model::kinematic::KinematicModel, super::ControllerReadError> {
+    let text = super::read_text(path)?;
+    let file = path.display().to_string();
+    let mut name = None;
+    let mut format = None;
+    for (i, raw) in text.lines().enumerate() {
+        let mut f = raw.split_whitespace();
+        match (f.next(), f.next()) {
+            (Some("file[0]"), Some(v)) => name = Some((v.to_string(), i + 1)),
+            (Some("file_format[0]"), Some(v)) => format = Some((v.to_string(), i + 1)),
+            _ => {}
+        }
+    }
+    let Some((csv, row)) = name else {
+        return Err(located(
+            &file,
+            &text,
+            1,
+            "no file[0]",
+            "the list names its parameter file: file[0] volcomp.csv",
+        )
+        .into());
+    };
+    let dir = path.parent().unwrap_or(std::path::Path::new("."));
+    let p = dir.join(&csv);
+    let body = super::read_text(&p).map_err(|e| match e {
+        super::ControllerReadError::Io { .. } => located(
+            &file,
+            &text,
+            row,
+            format!("cannot read {}", p.display()),
+            "file[0] is read relative to the list's folder",
+        )
+        .into(),
+        other => other,
+    })?;
+    let pname = p.display().to_string();
+    let params = match format.as_ref().map(|(f, _)| f.as_str()) {
+        Some("ISG_CSV") | None => crate::io::exchange::parse_isg_csv(&body, &pname)?,
+        Some("ETALON") => crate::io::exchange::parse_etalon(&body, &pname)?,
+        Some(f) => {
+            let row = format.as_ref().map_or(1, |x| x.1);
+            return Err(located(
+                &file,
+                &text,
+                row,
+                format!("file_format[0] {f}"),
+                "volcomp reads ISG_CSV and ETALON parameter files",
+            )
+            .into());
+        }
+    };
+    Ok(crate::io::exchange::to_model(
+        &params,
+        &pname,
+        &body,
+        crate::model::topology::Topology::SEED,
+    )?
+    .model)
+}
+
 /// Decimals of a written length (mm): 10⁻⁷ mm = 0.0001 µm.
 const CSV_MM_DECIMALS: usize = 7;
 /// Decimals of a written angle (rad): 10⁻¹⁰ rad = 0.0001 µrad.

@@ -302,7 +302,7 @@ pub enum ControllerReadError {
     Format(#[from] MapFileError),
 }
 
-fn read_text(path: &std::path::Path) -> Result<String, ControllerReadError> {
+pub(crate) fn read_text(path: &std::path::Path) -> Result<String, ControllerReadError> {
     let bytes = std::fs::read(path).map_err(|source| ControllerReadError::Io {
         path: path.to_path_buf(),
         source,
@@ -415,6 +415,24 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
         "expected a Heidenhain X.COM or .CMA table, a Siemens %_N_AX_EEC_INI, an ISG kw.ssfk list, a Fanuc pitch tape, grblHAL $160-$162 lines, a Klipper [skew_correction] profile, a Marlin M852 or a RepRapFirmware M556 line (docs/controllers.md)",
     )
     .into())
+}
+
+/// What the controller named by `path` compensates: an ISG volumetric
+/// compensation list (`*.lis` with `file_format`) is a whole model
+/// ([`isg::read_volcomp_lis`]); anything else a table ([`read`]).
+pub fn read_applies(
+    path: &std::path::Path,
+) -> Result<crate::model::controller::ControllerApplies, ControllerReadError> {
+    use crate::model::controller::ControllerApplies;
+    let is_lis = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("lis"));
+    if is_lis && read_text(path)?.contains("file_format") {
+        return Ok(ControllerApplies::Model(Box::new(isg::read_volcomp_lis(
+            path,
+        )?)));
+    }
+    Ok(ControllerApplies::Tables(Box::new(read(path)?)))
 }
 
 /// The axis of an ISG compensation list: the first letter of
