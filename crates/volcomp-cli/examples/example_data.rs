@@ -50,6 +50,8 @@ pub fn files() -> Vec<(String, String)> {
             ));
         }
     }
+    // Measurement runs of a known machine for `volcomp map build` (docs/build.md).
+    out.extend(volcomp_core::example::build::files());
     out.push(("face.ngc".into(), face_program()));
     let nominal = mirror_nominal();
     out.push((

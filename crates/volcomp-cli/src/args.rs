@@ -117,6 +117,22 @@ pub struct MapArgs {
     /// Clamp positions outside the map's range to its end instead of refusing.
     #[arg(long)]
     pub clamp: bool,
+    /// A compensation table the controller applies itself (exported or read
+    /// from it: Siemens EEC, Heidenhain .COM/.CMA, Klipper, Marlin;
+    /// docs/controllers.md): only the rest of the map is compensated.
+    #[arg(long, value_name = "FILE", conflicts_with = "controller_compensates")]
+    pub controller: Option<PathBuf>,
+    /// What the controller compensates from this very map: `positioning`
+    /// (its pitch tables hold the map's E_XX, E_YY, E_ZZ).
+    #[arg(long, value_enum, value_name = "WHAT")]
+    pub controller_compensates: Option<ControllerCompensates>,
+}
+
+/// What a controller compensates itself (`--controller-compensates`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ControllerCompensates {
+    /// The positioning errors E_XX, E_YY, E_ZZ (pitch/leadscrew compensation).
+    Positioning,
 }
 
 #[derive(Args, Debug)]

@@ -204,14 +204,7 @@ fn write_moves(
                 MotionKind::Arc(arc) => Some(arc.center),
                 _ => None,
             };
-            let source = match m.source {
-                volcomp_gcode::MotionSource::Program => "program",
-                volcomp_gcode::MotionSource::Machine => "g53",
-                volcomp_gcode::MotionSource::Reference => "reference",
-                volcomp_gcode::MotionSource::Cycle => "cycle",
-                volcomp_gcode::MotionSource::Spline => "spline",
-                volcomp_gcode::MotionSource::SpindleSynced => "spindle_synced",
-            };
+            let source = m.source.name();
             let num = |v: f64, row: &mut String| format_number(v, style, row);
             if json {
                 row.push_str(if first { "\n" } else { ",\n" });

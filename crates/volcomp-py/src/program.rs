@@ -20,7 +20,7 @@ use volcomp_core::io::LoadedModel;
 use volcomp_core::limits::LimitedWriter;
 use volcomp_core::simulate::report::SegmentError;
 use volcomp_core::{Error, Simulation};
-use volcomp_gcode::{MotionKind, MotionSource, Vec3, Warning};
+use volcomp_gcode::{MotionKind, Vec3, Warning};
 
 /// Default largest output of `compensate` (bytes): the CLI's default of
 /// `--max-output-size`, 256 MiB.
@@ -703,13 +703,7 @@ pub fn moves<'py>(
                     c.line.push(mo.line);
                     c.column.push(mo.column as u64);
                     c.kind.push(mo.kind.name());
-                    c.source.push(match mo.source {
-                        MotionSource::Program => "program",
-                        MotionSource::Machine => "g53",
-                        MotionSource::Reference => "reference",
-                        MotionSource::Cycle => "cycle",
-                        MotionSource::Spline => "spline",
-                    });
+                    c.source.push(mo.source.name());
                     let centre = match mo.kind {
                         MotionKind::Arc(arc) => arc.center,
                         _ => Vec3::new(f64::NAN, f64::NAN, f64::NAN),

@@ -1,7 +1,7 @@
 //! `volcomp compensate`.
 
 use super::Machine;
-use crate::args::{CompensateArgs, MapArgs, Method as MethodArg};
+use crate::args::{CompensateArgs, ControllerCompensates, MapArgs, Method as MethodArg};
 use crate::output::{check, CliError, OutputPlan, Staged};
 use crate::progress::Bar;
 use std::io::{BufRead, Read, Write};
@@ -12,7 +12,9 @@ use volcomp_core::compensate::{
     header_for_map, CompensateOptions, CompensateSummary, Compensator, DirectionPolicy,
     PointRecord, Segmentation,
 };
+use volcomp_core::io::controllers;
 use volcomp_core::io::provenance::{iso8601_utc, ProgramHeader};
+use volcomp_core::model::controller::{ControllerApplies, ControllerResidual};
 use volcomp_core::model::ErrorModel;
 use volcomp_core::progress::Counted;
 use volcomp_core::report::compensation::{
@@ -21,11 +23,42 @@ use volcomp_core::report::compensation::{
 };
 use volcomp_core::report::{Document, InputFile};
 
-/// Loads the error map named by `--map`.
+/// Loads the error map named by `--map`; with `--controller` or
+/// `--controller-compensates`, the residual the controller leaves
+/// (`volcomp_core::model::controller`).
 pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
     // Axis tables (.csv), a 21-component kinematic model or a straightness
     // model (TOML, told apart by their `model` key): docs/kinematic.md.
-    Ok(super::map::load(&a.map, a.clamp)?.into_model())
+    let map = super::map::load(&a.map, a.clamp)?.into_model();
+    let controller = match (&a.controller, a.controller_compensates) {
+        (Some(file), _) => controllers::read_applies(file)?,
+        (None, Some(ControllerCompensates::Positioning)) => ControllerApplies::MapPositioning,
+        (None, None) => return Ok(map),
+    };
+    Ok(Box::new(ControllerResidual { map, controller }))
+}
+
+/// Adds the controller file (`--controller`) to a program's header, so the
+/// program says which controller table it was made for.
+pub fn note_controller(header: &mut ProgramHeader, a: &MapArgs) -> Result<(), CliError> {
+    if let Some(file) = &a.controller {
+        let bytes = std::fs::read(file).map_err(|e| CliError::Io(file.clone(), e))?;
+        let name = file
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| file.display().to_string());
+        header.files.push((
+            "ctrl".into(),
+            name,
+            volcomp_core::io::provenance::sha256_hex(&bytes),
+        ));
+    }
+    if a.controller_compensates.is_some() {
+        header
+            .options
+            .push_str("; the controller compensates the positioning errors");
+    }
+    Ok(())
 }
 
 /// Validated options from the raw flags.
@@ -366,6 +399,7 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
     plan.input("PROGRAM", &a.program)
         .map_input("--map", &a.map.map)
+        .input_opt("--controller", a.map.controller.as_ref())
         .input_opt("--setup", a.machine.setup.as_ref())
         .output(if a.filter { "--filter output" } else { "-o" }, &output)
         .output_opt("--report", a.report.as_ref())
@@ -385,6 +419,7 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     let model = load_map(&a.map)?;
     let opts = options(&a)?;
     let mut header = header_for(&a.map.map, a.machine.setup.as_deref(), &machine, &opts)?;
+    note_controller(&mut header, &a.map)?;
     if a.machine.work_offset.is_some() {
         header.work_offset_note = Some("G54 from --work-offset".into());
     }

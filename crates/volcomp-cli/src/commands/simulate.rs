@@ -24,6 +24,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
     plan.input("PROGRAM", &a.program)
         .map_input("--map", &a.map.map)
+        .input_opt("--controller", a.map.controller.as_ref())
         .input_opt("--setup", a.machine.setup.as_ref())
         .input_opt("--reference", a.reference.as_ref())
         .output_opt("--errors-csv", a.errors_csv.as_ref())

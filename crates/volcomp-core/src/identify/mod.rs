@@ -10,6 +10,7 @@
 //! Each module turns measurement files (read through [`crate::io`]) into a
 //! model that [`crate::model`] evaluates.
 
+pub mod build;
 pub mod iso230_2;
 pub mod straightness;
 pub mod thermal;

@@ -2,6 +2,8 @@
 //! writes live here (the G-code program itself is read by `volcomp-gcode`).
 //!
 //! * [`load_model`]: every model file (axis tables, 21-component, straightness) behind one function.
+//! * [`controllers`]: controller compensation tables (Siemens, LinuxCNC, Klipper, Marlin …), written and read.
+//! * [`exchange`]: ISO 230-1 parameter files (ISG CSV, Etalon exchange format) read into the 21-component model.
 //! * [`grid`]: the 3-D grid CSV of a model.
 //! * [`table`]: the one located CSV reader every table file goes through.
 //! * [`model_file`]: model files (TOML + CSV tables of the 21-component model).
@@ -10,6 +12,8 @@
 //! * [`numfmt`]: how computed numbers are written.
 //! * [`output`]: safe output (plans checked before work, atomic files).
 
+pub mod controllers;
+pub mod exchange;
 pub mod grid;
 pub mod linuxcnc_comp;
 pub mod load;

@@ -5,6 +5,7 @@
 //! (21-component kinematic, thermal, grids) plug in without touching them.
 
 pub mod axis_table;
+pub mod controller;
 pub mod kinematic;
 pub mod positioning;
 pub mod query;
@@ -158,6 +159,37 @@ impl ErrorModel for WithTool<'_> {
 
     fn uses_tool_offset(&self) -> bool {
         self.model.uses_tool_offset()
+    }
+}
+
+/// A boxed model is the model (every method forwarded), so wrappers such as
+/// [`controller::ControllerResidual`] take a model loaded at run time.
+impl<M: ErrorModel + ?Sized> ErrorModel for Box<M> {
+    fn deviation_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Vec3, ModelError> {
+        (**self).deviation_um(q_mm, s, components)
+    }
+
+    fn range_mm(&self) -> [[f64; 2]; 3] {
+        (**self).range_mm()
+    }
+
+    fn deviation_with_tool_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+        tool_length_offset_mm: Vec3,
+    ) -> Result<Vec3, ModelError> {
+        (**self).deviation_with_tool_um(q_mm, s, components, tool_length_offset_mm)
+    }
+
+    fn uses_tool_offset(&self) -> bool {
+        (**self).uses_tool_offset()
     }
 }
 

@@ -93,6 +93,21 @@ pub enum MotionSource {
     SpindleSynced,
 }
 
+impl MotionSource {
+    /// `program`, `g53`, `reference`, `cycle`, `spline` or
+    /// `spindle_synced`: the name `volcomp moves` prints.
+    pub fn name(&self) -> &'static str {
+        match self {
+            MotionSource::Program => "program",
+            MotionSource::Machine => "g53",
+            MotionSource::Reference => "reference",
+            MotionSource::Cycle => "cycle",
+            MotionSource::Spline => "spline",
+            MotionSource::SpindleSynced => "spindle_synced",
+        }
+    }
+}
+
 /// One motion, in the axis frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Motion {

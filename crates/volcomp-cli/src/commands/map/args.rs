@@ -25,10 +25,18 @@ pub enum MapSub {
     /// Convert a map: 21-component model → axis tables for a tool, a 3-D
     /// grid, LinuxCNC comp files, or axis tables → 21-component model.
     Convert(ConvertArgs),
+    /// Export the map as a controller's own compensation tables (Siemens,
+    /// Heidenhain, LinuxCNC, Klipper, Marlin: docs/controllers.md).
+    Export(ExportArgs),
     /// Plot every component over its axis (.svg or .png).
     Plot(PlotArgs),
     /// Read LinuxCNC comp files (COMP_FILE_TYPE 0 or 1) into a map.
     ImportLinuxcnc(ImportArgs),
+    /// Build a 21-component model from measurement runs (a plan TOML and one
+    /// ISO 230-2 run file per component; docs/build.md).
+    Build(BuildArgs),
+    /// Read an ISO 230-1 parameter file (ISG CSV, Etalon exchange format) into a 21-component model.
+    Import(ImportParamsArgs),
     /// Evaluate an ISO 230-2 bidirectional positioning test: B, R↑, R↓, R, E, M, A.
     #[command(name = "iso230-2")]
     Iso230_2(IsoArgs),
@@ -251,4 +259,133 @@ pub struct ExampleArgs {
     /// Directory to write example21.toml and example21.csv to.
     #[arg(short, long, value_name = "DIR", default_value = ".")]
     pub output: PathBuf,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ExportFormat {
+    /// LinuxCNC comp files x.comp, y.comp, z.comp (with --type, --units).
+    Linuxcnc,
+    /// Siemens Sinumerik leadscrew error compensation %_N_AX_EEC_INI.
+    SiemensEec,
+    /// Siemens Sinumerik sag/cross-axis compensation %_N_NC_CEC_INI (the straightness).
+    SiemensCec,
+    /// Heidenhain TNC compensation value tables X.COM, Y.COM, Z.COM and VOLCOMP.CMA.
+    Heidenhain,
+    /// Beckhoff/ISG leadscrew error compensation lists achskw_x.lis … (kw.ssfk, 0.1 µm).
+    IsgSsfk,
+    /// Beckhoff/ISG volumetric compensation: volcomp.csv (ISG CSV, ISO 230-1 names) and volcomp.lis.
+    IsgCsv,
+    /// Fanuc pitch error compensation: parameters 3620–3624 and the data, as a tape pitch.tap.
+    Fanuc,
+    /// Klipper [skew_correction] profile from the model's squareness.
+    Klipper,
+    /// Marlin M852 I J K from the model's squareness.
+    Marlin,
+    /// RepRapFirmware M556 S X Y Z from the model's squareness.
+    Rrf,
+    /// grblHAL backlash settings $160–$162 (the mean reversal value).
+    Grblhal,
+}
+
+#[derive(Args, Debug)]
+pub struct ExportArgs {
+    /// Error map: axis-table CSV or 21-component model TOML.
+    pub map: PathBuf,
+    /// The controller's format.
+    #[arg(long, value_enum)]
+    pub to: ExportFormat,
+    /// Directory to write the controller's files to.
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// Spacing of the table's points (mm): required by equidistant tables
+    /// (siemens-eec); resamples the others (linear interpolation).
+    #[arg(long, value_name = "MM")]
+    pub step: Option<f64>,
+    /// Where the positioning error of a 21-component model is taken (axis
+    /// position, mm; default: its measuring lines).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub at: Option<String>,
+    #[command(flatten)]
+    pub tool: ToolArgs,
+    #[command(flatten)]
+    pub comp: CompArgs,
+    /// siemens-eec: the machine axis names of X, Y, Z.
+    #[arg(long, value_name = "X,Y,Z", default_value = "X1,Y1,Z1")]
+    pub axis_names: String,
+    /// siemens-eec: the NC's resolution of a compensation value (µm), 1/MD10200 mm.
+    #[arg(long, value_name = "UM", default_value_t = 1.0)]
+    pub resolution_um: f64,
+    /// The controller's largest number of points per table: siemens-eec
+    /// MD38000 $MA_MM_ENC_COMP_MAX_POINTS (default 5000), isg-ssfk
+    /// P-COMP-00059 (default 1500).
+    #[arg(long, value_name = "N")]
+    pub max_points: Option<usize>,
+    /// fanuc: the detection unit (µm; 1 for IS-B).
+    #[arg(long, value_name = "UM", default_value_t = 1.0)]
+    pub detection_unit_um: f64,
+    /// fanuc: the sign of the values (not in the public documentation):
+    /// correction = −e (default) or error = +e.
+    #[arg(long, value_enum, default_value_t = FanucSignArg::Correction)]
+    pub fanuc_sign: FanucSignArg,
+    /// fanuc: the tape's data number of compensation point 0.
+    #[arg(long, value_name = "N", default_value_t = 10000)]
+    pub fanuc_data_offset: u32,
+    /// siemens-cec: the sign of the values (the manual does not settle it):
+    /// error = +e (default, as the leadscrew tables) or correction = −e.
+    #[arg(long, value_enum, default_value_t = CecSignArg::Error)]
+    pub cec_sign: CecSignArg,
+    /// klipper: the profile's name (SKEW_PROFILE LOAD=NAME).
+    #[arg(long, value_name = "NAME", default_value = "volcomp")]
+    pub profile: String,
+    /// Evaluation of the 21-component model (with --at or a tool).
+    #[arg(long, value_enum, default_value_t = FormArg::Htm)]
+    pub form: FormArg,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ParamsFormat {
+    /// ISG CSV (volumetric compensation of the ISG kernel / TwinCAT CNC).
+    IsgCsv,
+    /// Etalon exchange format, "Vendor" variant ([EXX] Gridpoints, [C0Y] VALUE).
+    Etalon,
+}
+
+#[derive(Args, Debug)]
+pub struct ImportParamsArgs {
+    /// The parameter file (lengths in mm, angles in rad).
+    pub file: PathBuf,
+    /// Its format.
+    #[arg(long, value_enum)]
+    pub from: ParamsFormat,
+    /// Output: a 21-component model .toml (its tables .csv beside it).
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
+    /// Kinematic chain of the model (default w X' Y' b Z t).
+    #[arg(long, value_name = "CHAIN")]
+    pub chain: Option<String>,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FanucSignArg {
+    /// The values are the correction the control outputs, −e.
+    Correction,
+    /// The values are the error, +e.
+    Error,
+}
+
+#[derive(Args, Debug)]
+pub struct BuildArgs {
+    /// The plan (TOML): which run file measures which component, where, the reference point.
+    pub plan: PathBuf,
+    /// Output: a 21-component model .toml (its tables .csv beside it).
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CecSignArg {
+    /// The values are the measured error, +e.
+    Error,
+    /// The values are the correction, −e.
+    Correction,
 }

@@ -8,6 +8,7 @@
 
 mod args;
 mod eval;
+mod export;
 mod iso;
 
 pub use args::*;
@@ -71,8 +72,11 @@ pub fn run(cmd: MapCommand) -> Result<(), CliError> {
     match cmd.command {
         MapSub::Eval(a) => eval::eval(a),
         MapSub::Convert(a) => convert(a),
+        MapSub::Export(a) => export::export(a),
         MapSub::Plot(a) => plot(a),
         MapSub::ImportLinuxcnc(a) => import_linuxcnc(a),
+        MapSub::Import(a) => import_params(a),
+        MapSub::Build(a) => build_model(a),
         MapSub::Iso230_2(a) => iso230_2(a),
         MapSub::Example(a) => example(a),
     }
@@ -223,19 +227,25 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
     }
 }
 
-fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliError> {
-    let (ty, units) = a.comp.get()?;
-    let tables: [Positioning; 3] = match map {
+/// The positioning tables `E_aa` of a map: the axis tables' own, or a
+/// 21-component model's as measured (or at `--at` for the tool).
+fn positioning_tables(
+    map: &Map,
+    at: Option<&str>,
+    tool: &ToolArgs,
+    form: Form,
+) -> Result<[Positioning; 3], CliError> {
+    Ok(match map {
         Map::Tables(t) => Axis::ALL.map(|k| t.positioning(k)),
         Map::Kinematic(m) => {
-            let tool = a.tool.offset()?;
-            if a.at.is_none() && tool.is_none() {
+            let tool = tool.offset()?;
+            if at.is_none() && tool.is_none() {
                 // The positioning errors as measured, at the measuring line.
                 Axis::ALL.map(|k| m.positioning_table(k))
             } else {
                 let (shared_p, shared_t) = m.shared_measuring();
                 let reference =
-                    match (&a.at, shared_p) {
+                    match (at, shared_p) {
                         (Some(t), _) => parse_triple(t, "--at")?,
                         (None, Some(p)) => p,
                         (None, None) => return Err(CliError::Message(
@@ -251,7 +261,12 @@ fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliErr
                 Axis::ALL.map(|k| t.positioning(k))
             }
         }
-    };
+    })
+}
+
+fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliError> {
+    let (ty, units) = a.comp.get()?;
+    let tables = positioning_tables(map, a.at.as_deref(), &a.tool, form)?;
     let tables = match positive_step(a.step)? {
         Some(step) => tables.map(|p| p.resample(step)),
         None => tables,
@@ -421,6 +436,91 @@ fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
             a.output.display()
         ))),
     }
+}
+
+fn build_model(a: BuildArgs) -> Result<(), CliError> {
+    use volcomp_core::identify::build;
+    let read = |p: &Path| -> Result<String, CliError> {
+        let bytes = std::fs::read(p).map_err(|e| CliError::Io(p.to_path_buf(), e))?;
+        Ok(volcomp_core::io::table::utf8(&bytes, &p.display().to_string())?.to_string())
+    };
+    let plan_text = read(&a.plan)?;
+    let plan_name = a.plan.display().to_string();
+    let (plan, runs) = build::parse_plan(&plan_text, &plan_name)?;
+    let dir = a.plan.parent().unwrap_or(Path::new("")).to_path_buf();
+    let paths: Vec<std::path::PathBuf> = runs.iter().map(|(_, f)| dir.join(f)).collect();
+    let mut out_plan = OutputPlan::new();
+    out_plan.input("PLAN", &a.plan);
+    for (p, (c, _)) in paths.iter().zip(&runs) {
+        out_plan.input(format!("the run of {c}"), p);
+    }
+    model_outputs(&mut out_plan, "-o", &a.output);
+    check(&out_plan)?;
+    let mut read_runs = Vec::new();
+    for (p, (c, _)) in paths.iter().zip(&runs) {
+        read_runs.push(build::read_run(c, &read(p)?, &p.display().to_string())?);
+    }
+    let (model, summary) = build::build(&plan, &read_runs, &plan_name)?;
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    for l in summary.lines() {
+        writeln!(out, "{l}").map_err(CliError::Stdout)?;
+    }
+    if let Some(d) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).map_err(|e| CliError::Io(d.to_path_buf(), e))?;
+    }
+    let mut inputs: Vec<&Path> = vec![&a.plan];
+    inputs.extend(paths.iter().map(|p| p.as_path()));
+    write_model(
+        &model,
+        &a.output,
+        &inputs,
+        Some(&format!("built from the runs of {plan_name}")),
+    )
+}
+
+fn import_params(a: ImportParamsArgs) -> Result<(), CliError> {
+    use volcomp_core::io::exchange;
+    let mut plan = OutputPlan::new();
+    plan.input("FILE", &a.file);
+    model_outputs(&mut plan, "-o", &a.output);
+    check(&plan)?;
+    let bytes = std::fs::read(&a.file).map_err(|e| CliError::Io(a.file.clone(), e))?;
+    let name = a.file.display().to_string();
+    let text = volcomp_core::io::table::utf8(&bytes, &name)?;
+    let params = match a.from {
+        ParamsFormat::IsgCsv => exchange::parse_isg_csv(text, &name)?,
+        ParamsFormat::Etalon => exchange::parse_etalon(text, &name)?,
+    };
+    let imported = exchange::to_model(&params, &name, text, chain(a.chain.as_deref())?)?;
+    if let Some(dir) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| CliError::Io(dir.to_path_buf(), e))?;
+    }
+    if !imported.assumed_zero.is_empty() {
+        eprintln!(
+            "volcomp: not in the file, taken as zero: {}",
+            imported.assumed_zero.join(", ")
+        );
+    }
+    if !imported.not_used.is_empty() {
+        eprintln!(
+            "volcomp: not used (rotary axes or zero): {}",
+            imported.not_used.join(", ")
+        );
+    }
+    write_model(
+        &imported.model,
+        &a.output,
+        &[&a.file],
+        Some(&format!(
+            "imported from {} ({})",
+            name,
+            match a.from {
+                ParamsFormat::IsgCsv => "ISG CSV",
+                ParamsFormat::Etalon => "Etalon exchange format",
+            }
+        )),
+    )
 }
 
 fn iso230_2(a: IsoArgs) -> Result<(), CliError> {

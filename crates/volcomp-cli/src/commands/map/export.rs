@@ -1,0 +1,237 @@
+//! `volcomp map export --to FORMAT`: the library's controller writers
+//! (`volcomp_core::io::controllers`), their notes and rounding printed.
+
+use super::{
+    load_map, positioning_tables, positive_step, write_text, ExportArgs, ExportFormat, Map,
+};
+use super::{CecSignArg, FanucSignArg};
+use crate::output::{check, CliError, OutputPlan};
+use std::io::Write;
+use volcomp_core::io::controllers::{self, siemens, Export, Positioning};
+
+/// The machine axis names of `--axis-names`.
+fn axis_names(text: &str) -> Result<[String; 3], CliError> {
+    let names: Vec<String> = text.split(',').map(|n| n.trim().to_string()).collect();
+    match names.as_slice() {
+        [x, y, z] => Ok([x.clone(), y.clone(), z.clone()]),
+        _ => Err(CliError::Message(format!(
+            "--axis-names takes three machine axis names, e.g. X1,Y1,Z1; got `{text}`"
+        ))),
+    }
+}
+
+/// The straightness tables of a map that are not zero: `(axis, direction, E_da)`.
+fn straightness_tables(map: &Map) -> Vec<(usize, usize, Positioning)> {
+    use volcomp_core::model::axis_table::Table;
+    let pair = |f: &Table, r: &Table, d: usize| -> Positioning {
+        let [lo, hi] = r.range();
+        Positioning {
+            positions_mm: f.positions_mm.clone(),
+            forward_um: f.errors_um.iter().map(|e| e[d]).collect(),
+            reverse_um: f
+                .positions_mm
+                .iter()
+                .map(|&x| r.eval(x.clamp(lo, hi)).map_or(0.0, |e| e[d]))
+                .collect(),
+        }
+    };
+    let mut out = Vec::new();
+    for a in 0..3 {
+        for d in (0..3).filter(|&d| d != a) {
+            let p = match map {
+                Map::Tables(t) => pair(&t.axes[a].forward, &t.axes[a].reverse, d),
+                Map::Kinematic(m) => pair(
+                    &m.axes[a].forward.linear_um,
+                    &m.axes[a].reverse.linear_um,
+                    d,
+                ),
+            };
+            if p.forward_um.iter().chain(&p.reverse_um).any(|v| *v != 0.0) {
+                out.push((a, d, p));
+            }
+        }
+    }
+    out
+}
+
+/// The tables resampled every `step` mm when a step is given.
+fn stepped(tables: [Positioning; 3], step: Option<f64>) -> [Positioning; 3] {
+    match step {
+        Some(s) => tables.map(|p| p.resample(s)),
+        None => tables,
+    }
+}
+
+pub fn export(a: ExportArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.map_input("MAP", &a.map);
+    let names: &[&str] = match a.to {
+        ExportFormat::Linuxcnc => &["x.comp", "y.comp", "z.comp", "comp.ini"],
+        ExportFormat::SiemensEec => &["%_N_AX_EEC_INI"],
+        ExportFormat::SiemensCec => &["%_N_NC_CEC_INI"],
+        ExportFormat::Heidenhain => &["X.COM", "Y.COM", "Z.COM", "VOLCOMP.CMA"],
+        ExportFormat::IsgSsfk => &["achskw_x.lis", "achskw_y.lis", "achskw_z.lis"],
+        ExportFormat::IsgCsv => &["volcomp.csv", "volcomp.lis"],
+        ExportFormat::Fanuc => &["pitch.tap"],
+        ExportFormat::Klipper => &["skew_correction.cfg"],
+        ExportFormat::Marlin => &["skew.gcode"],
+        ExportFormat::Rrf => &["m556.g"],
+        ExportFormat::Grblhal => &["backlash.txt"],
+    };
+    for n in names {
+        plan.output(format!("-o (its {n})"), a.output.join(n));
+    }
+    check(&plan)?;
+    let map = load_map(&a.map, false)?;
+    let step = positive_step(a.step)?;
+    let form = a.form.into();
+    let e: Export = match a.to {
+        ExportFormat::Grblhal => {
+            let t = positioning_tables(&map, a.at.as_deref(), &a.tool, form)?;
+            controllers::grbl::export(&t.map(Some))?
+        }
+        ExportFormat::Klipper | ExportFormat::Marlin | ExportFormat::Rrf => {
+            let Map::Kinematic(m) = &map else {
+                return Err(CliError::Message(format!(
+                    "{}: axis tables hold no squareness; export the skew of a 21-component model (map convert --to model, then set [squareness_urad])",
+                    a.map.display()
+                )));
+            };
+            let s = &m.kinematics.squareness;
+            let sq = [s.xy_urad, s.yz_urad, s.zx_urad];
+            match a.to {
+                ExportFormat::Klipper => controllers::skew::klipper(sq, &a.profile)?,
+                ExportFormat::Marlin => controllers::skew::marlin(sq)?,
+                _ => controllers::skew::rrf(sq)?,
+            }
+        }
+        ExportFormat::Linuxcnc => {
+            let (ty, units) = a.comp.get()?;
+            let t = stepped(
+                positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
+                step,
+            );
+            controllers::linuxcnc::export(&t.map(Some), ty, units)?
+        }
+        ExportFormat::Fanuc => {
+            let Some(step) = step else {
+                return Err(CliError::Message("Fanuc pitch error compensation is equidistant: pass --step MM, the interval of its points (parameter 3624)".into()));
+            };
+            if !(a.detection_unit_um.is_finite() && a.detection_unit_um > 0.0) {
+                return Err(CliError::Message(format!(
+                    "--detection-unit-um must be positive; got {}",
+                    a.detection_unit_um
+                )));
+            }
+            let t = positioning_tables(&map, a.at.as_deref(), &a.tool, form)?;
+            let o = controllers::fanuc::FanucOptions {
+                step_mm: step,
+                detection_unit_um: a.detection_unit_um,
+                sign: match a.fanuc_sign {
+                    FanucSignArg::Correction => controllers::fanuc::FanucSign::Correction,
+                    FanucSignArg::Error => controllers::fanuc::FanucSign::Error,
+                },
+                data_offset: a.fanuc_data_offset,
+                ..controllers::fanuc::FanucOptions::default()
+            };
+            controllers::fanuc::export(&t.map(Some), &o)?
+        }
+        ExportFormat::IsgSsfk => {
+            let t = stepped(
+                positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
+                step,
+            );
+            controllers::isg::ssfk_export(
+                &t.map(Some),
+                a.max_points.unwrap_or(controllers::isg::SSFK_MAX_POINTS),
+            )?
+        }
+        ExportFormat::IsgCsv => {
+            let model = match &map {
+                Map::Kinematic(m) => (**m).clone(),
+                Map::Tables(t) => volcomp_core::model::kinematic::KinematicModel::from_axis_tables(
+                    t,
+                    volcomp_core::model::topology::Topology::SEED,
+                ),
+            };
+            controllers::isg::csv_export(&model)
+        }
+        ExportFormat::Heidenhain => {
+            let t = stepped(
+                positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
+                step,
+            );
+            controllers::heidenhain::export(&t.map(Some))?
+        }
+        ExportFormat::SiemensCec => {
+            let Some(step) = step else {
+                return Err(CliError::Message(
+                    "a Siemens CEC table is equidistant: pass --step MM ($AN_CEC_STEP)".into(),
+                ));
+            };
+            let names = axis_names(&a.axis_names)?;
+            let o = siemens::EecOptions {
+                axis_names: names,
+                step_mm: step,
+                resolution_um: a.resolution_um,
+                max_points: a.max_points.unwrap_or(5000),
+            };
+            let sign = match a.cec_sign {
+                CecSignArg::Error => siemens::CecSign::Error,
+                CecSignArg::Correction => siemens::CecSign::Correction,
+            };
+            siemens::cec_export(&straightness_tables(&map), &o, sign)?
+        }
+        ExportFormat::SiemensEec => {
+            let Some(step) = step else {
+                return Err(CliError::Message("a Siemens EEC table is equidistant: pass --step MM, the spacing of its interpolation points ($AA_ENC_COMP_STEP)".into()));
+            };
+            if !(a.resolution_um.is_finite() && a.resolution_um > 0.0) {
+                return Err(CliError::Message(format!(
+                    "--resolution-um must be positive; got {}",
+                    a.resolution_um
+                )));
+            }
+            let names: Vec<String> = a
+                .axis_names
+                .split(',')
+                .map(|n| n.trim().to_string())
+                .collect();
+            let [x, y, z] = names.as_slice() else {
+                return Err(CliError::Message(format!(
+                    "--axis-names takes three machine axis names, e.g. X1,Y1,Z1; got `{}`",
+                    a.axis_names
+                )));
+            };
+            let t = positioning_tables(&map, a.at.as_deref(), &a.tool, form)?;
+            let o = siemens::EecOptions {
+                axis_names: [x.clone(), y.clone(), z.clone()],
+                step_mm: step,
+                resolution_um: a.resolution_um,
+                max_points: a.max_points.unwrap_or(5000),
+            };
+            siemens::export(&t.map(Some), &o)?
+        }
+    };
+    std::fs::create_dir_all(&a.output).map_err(|err| CliError::Io(a.output.clone(), err))?;
+    for f in &e.files {
+        write_text(&a.output.join(&f.name), &[&a.map], &f.text)?;
+    }
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    for n in &e.notes {
+        writeln!(out, "# {n}").map_err(CliError::Stdout)?;
+    }
+    let unit = match a.to {
+        ExportFormat::Klipper | ExportFormat::Marlin | ExportFormat::Rrf => "µrad",
+        _ => "µm",
+    };
+    eprintln!(
+        "volcomp: wrote {} file(s) to {}; rounded to the controller's resolution {} {unit}: largest change {:.4} {unit}",
+        e.files.len(),
+        a.output.display(),
+        e.rounding.resolution_um,
+        e.rounding.max_um
+    );
+    Ok(())
+}

@@ -1,0 +1,419 @@
+//! `volcomp map export` and `--controller`: a machine whose controller
+//! applies a pitch table volcomp exported, compensated for the rest only.
+
+use std::path::Path;
+use std::process::Output;
+
+mod common;
+use common::{tempdir, volcomp};
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn ok(o: &Output) {
+    assert_eq!(o.status.code(), Some(0), "{}", text(o));
+}
+
+fn json(o: &Output) -> serde_json::Value {
+    ok(o);
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+/// Axis tables of a machine with large pitch errors (a slope of 20 µm/m
+/// and a 200 mm ball-screw wave of ±3 µm on X, similar on Y and Z) and
+/// small straightness (≤ 1.2 µm), one table for both directions, every 25 mm.
+fn write_map(dir: &Path) {
+    let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    let tau = std::f64::consts::TAU;
+    for (axis, len) in [("X", 600), ("Y", 400), ("Z", 300)] {
+        for k in 0..=(len / 25) {
+            let p = 25.0 * k as f64;
+            let pitch = 0.02 * p + 3.0 * (tau * p / 200.0).sin();
+            let straight = 1.2 * (p / len as f64) * (1.0 - p / len as f64) * 4.0;
+            let (ex, ey, ez) = match axis {
+                "X" => (pitch, straight, -0.5 * straight),
+                "Y" => (0.5 * straight, pitch, straight),
+                _ => (straight, -straight, pitch),
+            };
+            s.push_str(&format!("{axis},both,{p},{ex:.4},{ey:.4},{ez:.4}\n"));
+        }
+    }
+    std::fs::write(dir.join("m.csv"), s).unwrap();
+}
+
+const PART: &str = "G21 G90 G17\nG0 X0 Y0 Z10\nG1 Z0 F500\nG1 X200 Y0\nG1 X200 Y150\nG2 X100 Y250 I-100 J0\nG1 X0 Y250\nG1 X0 Y0\nG0 Z10\nM2\n";
+
+fn simulate(dir: &Path, program: &str, controller: bool) -> serde_json::Value {
+    let mut args = vec![
+        "simulate",
+        program,
+        "--map",
+        "m.csv",
+        "--work-offset",
+        "100,100,50",
+        "--json",
+    ];
+    if program != "part.ngc" {
+        args.extend(["--reference", "part.ngc"]);
+    }
+    if controller {
+        args.extend(["--controller", "eec/%_N_AX_EEC_INI"]);
+    }
+    json(&volcomp(&args, dir))
+}
+
+#[test]
+fn only_the_residual_is_compensated_on_a_machine_with_a_pitch_table() {
+    let dir = tempdir("hybrid");
+    write_map(&dir);
+    std::fs::write(dir.join("part.ngc"), PART).unwrap();
+    // The controller's table: Siemens EEC every 10 mm at its 1 µm resolution.
+    ok(&volcomp(
+        &[
+            "map",
+            "export",
+            "m.csv",
+            "--to",
+            "siemens-eec",
+            "--step",
+            "10",
+            "-o",
+            "eec",
+        ],
+        &dir,
+    ));
+    let comp = |out: &str, controller: bool| {
+        let mut a = vec![
+            "compensate",
+            "part.ngc",
+            "--map",
+            "m.csv",
+            "--work-offset",
+            "100,100,50",
+            "--decimals",
+            "6",
+            "--segment-length",
+            "0.5",
+            // Arcs linearised to 1 nm: the default 0.1 µm chord would be
+            // most of what is left.
+            "--chord-tolerance",
+            "0.000001",
+            "-o",
+            out,
+        ];
+        if controller {
+            a.extend(["--controller", "eec/%_N_AX_EEC_INI"]);
+        }
+        ok(&volcomp(&a, &dir));
+    };
+    comp("hybrid.ngc", true);
+    comp("twice.ngc", false);
+    // The machine is the map with the controller's table active.
+    let before = simulate(&dir, "part.ngc", true);
+    let hybrid = simulate(&dir, "hybrid.ngc", true);
+    let twice = simulate(&dir, "twice.ngc", true);
+    for key in [
+        "point_rms_um",
+        "point_max_um",
+        "contour_rms_um",
+        "contour_max_um",
+    ] {
+        let (b, h) = (before[key].as_f64().unwrap(), hybrid[key].as_f64().unwrap());
+        assert!(
+            h <= 0.01 * b,
+            "{key}: {h} µm after is not 99 % below {b} µm"
+        );
+    }
+    // Compensating the whole map on that machine removes the pitch error
+    // twice: the error along the path grows (the tool lands off by −c, the
+    // controller's own correction).
+    for key in ["point_rms_um", "contour_rms_um", "contour_max_um"] {
+        let (b, t) = (before[key].as_f64().unwrap(), twice[key].as_f64().unwrap());
+        assert!(
+            t > 2.0 * b,
+            "{key}: compensated twice {t} µm, uncompensated {b} µm"
+        );
+    }
+    // The header names the controller table it was made for.
+    let h = std::fs::read_to_string(dir.join("hybrid.ngc")).unwrap();
+    assert!(
+        h.contains("(ctrl %_N_AX_EEC_INI)") && h.contains("(ctrl sha256 "),
+        "{}",
+        &h[..400]
+    );
+}
+
+#[test]
+fn compensating_twice_worsens_the_positioning_axis() {
+    // Along X alone at Y = Z = 0 (machine 100, 50): the straightness there
+    // is ≤ 1.2 µm, the pitch error up to 12 µm + 3 µm. Uncompensated on the
+    // machine with its pitch table the X error is the table's residual
+    // (≤ 0.5 µm rounding + interpolation); compensated for the whole map it
+    // is the pitch error itself.
+    let dir = tempdir("twice-x");
+    write_map(&dir);
+    let mut part = String::from("G21 G90\nG0 X0 Y0 Z0\n");
+    for k in 1..=8 {
+        part.push_str(&format!("G1 X{} F500\n", 50 * k));
+    }
+    part.push_str("M2\n");
+    std::fs::write(dir.join("part.ngc"), part).unwrap();
+    ok(&volcomp(
+        &[
+            "map",
+            "export",
+            "m.csv",
+            "--to",
+            "siemens-eec",
+            "--step",
+            "10",
+            "-o",
+            "eec",
+        ],
+        &dir,
+    ));
+    ok(&volcomp(
+        &[
+            "compensate",
+            "part.ngc",
+            "--map",
+            "m.csv",
+            "--work-offset",
+            "100,100,50",
+            "--decimals",
+            "6",
+            "-o",
+            "twice.ngc",
+        ],
+        &dir,
+    ));
+    let before = simulate(&dir, "part.ngc", true);
+    let twice = simulate(&dir, "twice.ngc", true);
+    let (b, t) = (
+        before["point_max_um"].as_f64().unwrap(),
+        twice["point_max_um"].as_f64().unwrap(),
+    );
+    // The last stop, machine X = 500 (a table point): E_XX = 0.02·500 +
+    // 3·sin(5π) = 10 µm, which the double compensation leaves in full (the
+    // straightness there, ≤ 1.5 µm in all, is in both). Uncompensated, the
+    // X error is the table's rounding (≤ 0.5 µm) and the straightness:
+    // E_YX(500) = 4.8·(5/6)(1/6) = 0.67, E_XY(100) = 0.45, E_XZ(50) = 0.67 µm.
+    assert!(t > 9.0 && b < 1.5, "twice {t} µm, uncompensated {b} µm");
+}
+
+#[test]
+fn controller_compensates_positioning_is_the_ideal_table() {
+    let dir = tempdir("ideal");
+    write_map(&dir);
+    std::fs::write(dir.join("part.ngc"), PART).unwrap();
+    ok(&volcomp(
+        &[
+            "compensate",
+            "part.ngc",
+            "--map",
+            "m.csv",
+            "--work-offset",
+            "100,100,50",
+            "--decimals",
+            "6",
+            "--controller-compensates",
+            "positioning",
+            "-o",
+            "rest.ngc",
+        ],
+        &dir,
+    ));
+    let t = std::fs::read_to_string(dir.join("rest.ngc")).unwrap();
+    assert!(t.contains("the controller compensates the positioning errors"));
+    let o = volcomp(
+        &[
+            "compensate",
+            "part.ngc",
+            "--map",
+            "m.csv",
+            "--controller",
+            "nothing.txt",
+            "--controller-compensates",
+            "positioning",
+            "-o",
+            "x.ngc",
+        ],
+        &dir,
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+}
+
+#[test]
+fn exports_refuse_what_the_controller_cannot_hold() {
+    let dir = tempdir("limits");
+    write_map(&dir);
+    // 600 mm every 0.1 mm is 6001 points: more than MD38000 = 5000.
+    let o = volcomp(
+        &[
+            "map",
+            "export",
+            "m.csv",
+            "--to",
+            "siemens-eec",
+            "--step",
+            "0.1",
+            "-o",
+            "eec",
+        ],
+        &dir,
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("6001 interpolation points"),
+        "{}",
+        text(&o)
+    );
+    // Siemens needs a step; axis tables have no squareness for Klipper.
+    let o = volcomp(
+        &["map", "export", "m.csv", "--to", "siemens-eec", "-o", "eec"],
+        &dir,
+    );
+    assert!(text(&o).contains("--step"), "{}", text(&o));
+    let o = volcomp(
+        &["map", "export", "m.csv", "--to", "klipper", "-o", "k"],
+        &dir,
+    );
+    assert!(text(&o).contains("no squareness"), "{}", text(&o));
+    // Fanuc: a step is required; the tape is read back as a controller.
+    let o = volcomp(
+        &["map", "export", "m.csv", "--to", "fanuc", "-o", "f"],
+        &dir,
+    );
+    assert!(text(&o).contains("parameter 3624"), "{}", text(&o));
+    ok(&volcomp(
+        &[
+            "map", "export", "m.csv", "--to", "fanuc", "--step", "25", "-o", "f",
+        ],
+        &dir,
+    ));
+    // LinuxCNC via map export: the tables as comp files, within 256 points.
+    ok(&volcomp(
+        &[
+            "map", "export", "m.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm", "-o",
+            "lc",
+        ],
+        &dir,
+    ));
+    let x = std::fs::read_to_string(dir.join("lc/x.comp")).unwrap();
+    assert_eq!(x.lines().count(), 25);
+    // Heidenhain: the tables and their assignment, read back as a controller.
+    ok(&volcomp(
+        &["map", "export", "m.csv", "--to", "heidenhain", "-o", "tnc"],
+        &dir,
+    ));
+    std::fs::write(dir.join("part.ngc"), PART).unwrap();
+    ok(&volcomp(
+        &[
+            "map",
+            "export",
+            "m.csv",
+            "--to",
+            "siemens-cec",
+            "--step",
+            "25",
+            "-o",
+            "cec",
+        ],
+        &dir,
+    ));
+    for c in [
+        "tnc/VOLCOMP.CMA",
+        "f/pitch.tap",
+        "lc/comp.ini",
+        "cec/%_N_NC_CEC_INI",
+    ] {
+        let args = [
+            "simulate",
+            "part.ngc",
+            "--map",
+            "m.csv",
+            "--work-offset",
+            "100,100,50",
+            "--controller",
+            c,
+        ];
+        ok(&volcomp(&args, &dir));
+    }
+}
+
+#[test]
+fn an_etalon_file_becomes_a_model() {
+    let dir = tempdir("etalon");
+    // C0Y = −12 µrad (S_xy = 12), EXX 5 µm at 100 mm, EYY −4 µm at 200 mm;
+    // C0B (rotary axis B) is reported as not used.
+    let etalon = "[C0Y]\nVALUE = -0.000012\n[C0B]\nVALUE = 0.0000223\n[EXX]\nGridpoints = {\n 0 0\n 100 0.005\n}\n[EYY]\nGridpoints = {\n 0 0\n 200 -0.004\n}\n[EZZ]\nGridpoints = {\n 0 0\n 100 0\n}\n";
+    std::fs::write(dir.join("machine.etalon"), etalon).unwrap();
+    let o = volcomp(
+        &[
+            "map",
+            "import",
+            "machine.etalon",
+            "--from",
+            "etalon",
+            "-o",
+            "m.toml",
+        ],
+        &dir,
+    );
+    ok(&o);
+    assert!(
+        text(&o).contains("not used (rotary axes or zero): C0B"),
+        "{}",
+        text(&o)
+    );
+    assert!(text(&o).contains("EYX"), "{}", text(&o));
+    // At (50, 100, 0): e_x = 2.5 + 12·100·10⁻³ = 3.7 µm, e_y = −2 µm.
+    let v = json(&volcomp(
+        &["map", "eval", "m.toml", "--at", "50,100,0", "--json"],
+        &dir,
+    ));
+    let e = &v["deviation_um"];
+    assert!((e[0].as_f64().unwrap() - 3.7).abs() < 1e-9, "{v}");
+    assert!((e[1].as_f64().unwrap() - -2.0).abs() < 1e-9, "{v}");
+}
+
+#[test]
+fn an_isg_volumetric_compensation_leaves_nothing() {
+    // The controller applies the whole map through the ISG volumetric
+    // compensation (volcomp.csv + volcomp.lis exported from it): the
+    // machine's error is then only the export's rounding (10⁻⁴ µm), and the
+    // map has one table for both directions, so no reversal is left either.
+    let dir = tempdir("isg-volcomp");
+    write_map(&dir);
+    std::fs::write(dir.join("part.ngc"), PART).unwrap();
+    ok(&volcomp(
+        &["map", "export", "m.csv", "--to", "isg-csv", "-o", "isg"],
+        &dir,
+    ));
+    let before = simulate(&dir, "part.ngc", false);
+    let args = [
+        "simulate",
+        "part.ngc",
+        "--map",
+        "m.csv",
+        "--work-offset",
+        "100,100,50",
+        "--json",
+        "--controller",
+        "isg/volcomp.lis",
+    ];
+    let with = json(&volcomp(&args, &dir));
+    let (b, w) = (
+        before["point_max_um"].as_f64().unwrap(),
+        with["point_max_um"].as_f64().unwrap(),
+    );
+    assert!(
+        b > 5.0 && w < 0.001,
+        "without {b} µm, with the ISG compensation {w} µm"
+    );
+}

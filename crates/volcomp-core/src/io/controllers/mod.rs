@@ -1,0 +1,504 @@
+//! Controller compensation tables: what volcomp writes for, and reads
+//! from, the controllers that compensate positioning errors themselves
+//! (docs/controllers.md, one section per vendor, citing its document).
+//!
+//! Every format goes through the same three steps:
+//!
+//! 1. the positioning error `E_aa` of each axis, per direction, in
+//!    volcomp's sign (`e = actual − commanded`, µm; docs/design.md,
+//!    "Deviation sign"): a [`Positioning`] per axis;
+//! 2. the controller's layout: its points (equidistant tables are sampled
+//!    by [`equidistant`]), its direction handling, its sign and unit;
+//! 3. the controller's resolution: every written value is rounded to it
+//!    and the largest rounding is reported ([`Rounding`]).
+//!
+//! Each writer also returns the correction the controller will apply
+//! ([`ControllerCorrection`]: the written values read back), which
+//! `model::controller` subtracts from the map so that volcomp compensates
+//! only the residual.
+
+pub mod fanuc;
+pub mod grbl;
+pub mod heidenhain;
+pub mod isg;
+pub mod linuxcnc;
+pub mod siemens;
+pub mod skew;
+
+use crate::error::MapFileError;
+pub use crate::model::positioning::Positioning;
+
+/// The vendor formats of `volcomp map export`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// LinuxCNC `COMP_FILE` (types 0 and 1), [`linuxcnc`].
+    Linuxcnc,
+    /// Siemens Sinumerik leadscrew/encoder error compensation `%_N_AX_EEC_INI`, [`siemens`].
+    SiemensEec,
+    /// Siemens Sinumerik sag/cross-axis compensation `%_N_NC_CEC_INI` (straightness), [`siemens::cec_export`].
+    SiemensCec,
+    /// Heidenhain TNC compensation value tables `.COM` and their assignment `.CMA`, [`heidenhain`].
+    Heidenhain,
+    /// Beckhoff/ISG leadscrew error compensation lists (`kw.ssfk.*`), [`isg`].
+    IsgSsfk,
+    /// Beckhoff/ISG volumetric compensation ISG CSV, [`isg::csv_export`].
+    IsgCsv,
+    /// Fanuc pitch error compensation (parameters 3620–3624 and data), [`fanuc`].
+    Fanuc,
+    /// Klipper `[skew_correction]` profile, [`skew`].
+    Klipper,
+    /// Marlin `M852`, [`skew`].
+    Marlin,
+    /// RepRapFirmware `M556`, [`skew::rrf`].
+    Rrf,
+    /// grblHAL backlash settings `$160`–`$162`, [`grbl`].
+    Grblhal,
+}
+
+impl Format {
+    /// The name used on the command line and in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Linuxcnc => "linuxcnc",
+            Format::SiemensEec => "siemens-eec",
+            Format::SiemensCec => "siemens-cec",
+            Format::Heidenhain => "heidenhain",
+            Format::IsgSsfk => "isg-ssfk",
+            Format::IsgCsv => "isg-csv",
+            Format::Fanuc => "fanuc",
+            Format::Klipper => "klipper",
+            Format::Marlin => "marlin",
+            Format::Rrf => "rrf",
+            Format::Grblhal => "grblhal",
+        }
+    }
+}
+
+/// The positioning correction a controller applies, in volcomp's sign: the
+/// error `c_a(q, s)` (µm) the controller's table says axis `a` has at the
+/// commanded position `q`, which it removes by commanding `q − c`.
+///
+/// Tables are interpolated linearly between their points and hold their
+/// end values outside (LinuxCNC `compute_screw_comp`, Siemens K3 "the first
+/// and last compensation values remain active over the entire traversing
+/// range", Fanuc and Heidenhain: the compensation accumulated at the last
+/// point). An axis without a table is `None`. A controller without
+/// direction-dependent tables has `forward_um == reverse_um`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ControllerCorrection {
+    /// The format the correction was read from or written to.
+    pub format: Format,
+    /// Per axis X, Y, Z.
+    pub axes: [Option<Positioning>; 3],
+    /// The squareness the controller corrects, `[S_xy, S_yz, S_zx]` (µrad,
+    /// docs/design.md, "The 21-component model"), if any.
+    pub squareness_urad: Option<[f64; 3]>,
+    /// Cross-axis tables `(input axis, output axis, table)`: the error
+    /// (µm) along the output axis as a function of the input axis'
+    /// position (Siemens CEC), linearly interpolated, ends held.
+    pub cross: Vec<siemens::CecTable>,
+}
+
+impl ControllerCorrection {
+    /// `c_a(q, s)` in µm: the table of axis `axis` (0, 1, 2) at `q_mm` in
+    /// direction `forward` (or reverse), linearly interpolated, ends held;
+    /// 0 for an axis without a table.
+    pub fn correction_um(&self, axis: usize, q_mm: f64, forward: bool) -> f64 {
+        match &self.axes[axis] {
+            None => 0.0,
+            Some(p) => {
+                let v = if forward {
+                    &p.forward_um
+                } else {
+                    &p.reverse_um
+                };
+                interpolate_held(&p.positions_mm, v, q_mm)
+            }
+        }
+    }
+}
+
+/// Linear interpolation in a table with strictly increasing `x`, holding
+/// the end values outside it (as the controllers of this module do).
+///
+/// ```
+/// use volcomp_core::io::controllers::interpolate_held;
+/// let x = [0.0, 10.0, 20.0];
+/// let v = [0.0, 4.0, 2.0];
+/// assert_eq!(interpolate_held(&x, &v, 5.0), 2.0);
+/// assert_eq!(interpolate_held(&x, &v, -3.0), 0.0);
+/// assert_eq!(interpolate_held(&x, &v, 25.0), 2.0);
+/// ```
+pub fn interpolate_held(x: &[f64], v: &[f64], at: f64) -> f64 {
+    let n = x.len();
+    if n == 0 {
+        return 0.0;
+    }
+    if at <= x[0] {
+        return v[0];
+    }
+    if at >= x[n - 1] {
+        return v[n - 1];
+    }
+    let i = x.partition_point(|&p| p <= at) - 1;
+    let t = (at - x[i]) / (x[i + 1] - x[i]);
+    v[i] + (v[i + 1] - v[i]) * t
+}
+
+/// The table `p` sampled at `n` points `start_mm + k·step_mm` (k = 0 … n−1),
+/// interpolated linearly and held at its ends beyond its range: the layout
+/// of controllers whose tables have a start and a fixed spacing.
+pub fn equidistant(p: &Positioning, start_mm: f64, step_mm: f64, n: usize) -> Positioning {
+    let positions: Vec<f64> = (0..n).map(|k| start_mm + step_mm * k as f64).collect();
+    Positioning {
+        forward_um: positions
+            .iter()
+            .map(|&x| interpolate_held(&p.positions_mm, &p.forward_um, x))
+            .collect(),
+        reverse_um: positions
+            .iter()
+            .map(|&x| interpolate_held(&p.positions_mm, &p.reverse_um, x))
+            .collect(),
+        positions_mm: positions,
+    }
+}
+
+/// The number of points of an equidistant table from `lo_mm` that covers
+/// `hi_mm` with spacing `step_mm`: `⌈(hi − lo)/step⌉ + 1` (the last point
+/// may lie beyond `hi_mm`; the table is held there).
+///
+/// ```
+/// use volcomp_core::io::controllers::points_covering;
+/// assert_eq!(points_covering(0.0, 100.0, 10.0), 11);
+/// assert_eq!(points_covering(0.0, 95.0, 10.0), 11);
+/// ```
+pub fn points_covering(lo_mm: f64, hi_mm: f64, step_mm: f64) -> usize {
+    // A tolerance of 1e-9 of a step keeps 100/10 at 10 intervals.
+    (((hi_mm - lo_mm) / step_mm - 1e-9).ceil().max(1.0) as usize) + 1
+}
+
+/// The mean of the forward and reverse tables (ISO 230-2's mean
+/// bidirectional positional deviation `x̄_i`) for a controller that holds
+/// one table per axis, and the largest reversal value `|x̄↑ − x̄↓|` it
+/// leaves to the controller's backlash compensation.
+pub fn bidirectional_mean(p: &Positioning) -> (Positioning, f64) {
+    let mean: Vec<f64> = p
+        .forward_um
+        .iter()
+        .zip(&p.reverse_um)
+        .map(|(f, r)| 0.5 * (f + r))
+        .collect();
+    let reversal = p
+        .forward_um
+        .iter()
+        .zip(&p.reverse_um)
+        .map(|(f, r)| (r - f).abs())
+        .fold(0.0, f64::max);
+    (
+        Positioning {
+            positions_mm: p.positions_mm.clone(),
+            forward_um: mean.clone(),
+            reverse_um: mean,
+        },
+        reversal,
+    )
+}
+
+/// How much rounding to a controller's resolution changed the values.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Rounding {
+    /// The controller's resolution (µm).
+    pub resolution_um: f64,
+    /// The largest `|written − exact|` (µm), at most half the resolution.
+    pub max_um: f64,
+}
+
+impl Rounding {
+    /// Rounds `v_um` to the resolution and records the change.
+    pub fn round(&mut self, v_um: f64) -> f64 {
+        let r = round_to(v_um, self.resolution_um);
+        self.max_um = self.max_um.max((r - v_um).abs());
+        r
+    }
+}
+
+/// `v` rounded to the nearest multiple of `resolution` (halves away from zero).
+///
+/// ```
+/// use volcomp_core::io::controllers::round_to;
+/// assert_eq!(round_to(1.25, 0.5), 1.5);
+/// assert_eq!(round_to(-2.4, 1.0), -2.0);
+/// ```
+pub fn round_to(v: f64, resolution: f64) -> f64 {
+    (v / resolution).round() * resolution
+}
+
+/// A table a controller cannot hold, with what to do.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{format}: axis {axis}: {message}; {help}")]
+pub struct LimitError {
+    /// The format's name.
+    pub format: &'static str,
+    /// The axis (X, Y, Z).
+    pub axis: char,
+    /// What exceeds the limit.
+    pub message: String,
+    /// What to do (e.g. a larger step).
+    pub help: String,
+}
+
+/// One file of an export.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExportFile {
+    /// The file name the vendor expects (no directory).
+    pub name: String,
+    /// Its content.
+    pub text: String,
+}
+
+/// What an exporter made.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Export {
+    /// The files to write.
+    pub files: Vec<ExportFile>,
+    /// The correction the controller applies from them (what was written,
+    /// read back in volcomp's sign).
+    pub applied: ControllerCorrection,
+    /// The rounding to the controller's resolution.
+    pub rounding: Rounding,
+    /// Lines to show the user: settings to make on the controller, what
+    /// the format leaves out.
+    pub notes: Vec<String>,
+}
+
+/// A located error in a controller file.
+pub type ReadError = MapFileError;
+
+/// The located error for `row` (1-based) of `text`.
+pub(crate) fn located(
+    file: &str,
+    text: &str,
+    row: usize,
+    message: impl Into<String>,
+    help: impl Into<String>,
+) -> MapFileError {
+    let src = text.lines().nth(row.saturating_sub(1)).unwrap_or("");
+    MapFileError::new(file, row, 1, message, help).with_source(src, 0)
+}
+
+/// A controller file could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ControllerReadError {
+    /// The file could not be read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What the system said.
+        source: std::io::Error,
+    },
+    /// The content is malformed (located).
+    #[error(transparent)]
+    Format(#[from] MapFileError),
+}
+
+pub(crate) fn read_text(path: &std::path::Path) -> Result<String, ControllerReadError> {
+    let bytes = std::fs::read(path).map_err(|source| ControllerReadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let file = path.display().to_string();
+    Ok(crate::io::table::utf8(&bytes, &file)?.to_string())
+}
+
+/// Reads a controller file, telling the format by its name and content:
+/// a Heidenhain `.COM` table (its axis from the name, `X.COM`) or `.CMA`
+/// assignment (its active line's `.COM` tables, beside it), a Siemens EEC
+/// file (`$AA_ENC_COMP`) or a sag/cross-axis file (`$AN_CEC`, read with the
+/// default sign: the error; machine axes by their first letter, `X1` is X),
+/// a LinuxCNC INI file (`*.ini` with `[JOINT_n] COMP_FILE`, its comp files
+/// beside it), a Fanuc pitch error tape as `map export --to fanuc` writes it (its
+/// default assumptions), an ISG leadscrew compensation list (`kw.ssfk.*`, its axis from
+/// `kopf.log_achs_name`), grblHAL `$160`–`$162` lines, a Klipper
+/// `[skew_correction …]` profile, a Marlin `M852` or a RepRapFirmware `M556` line.
+pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerReadError> {
+    let text = read_text(path)?;
+    let file = path.display().to_string();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_uppercase())
+        .unwrap_or_default();
+    if name.ends_with(".COM") {
+        let axis = "XYZ".find(name.chars().next().unwrap_or(' ')).ok_or_else(|| {
+            located(&file, &text, 1, format!("`{name}` does not say its axis"), "name the table after its axis (X.COM, Y.COM, Z.COM) or pass the .CMA that assigns it")
+        })?;
+        let mut axes = [None, None, None];
+        axes[axis] = Some(heidenhain::parse_com(&text, &file, axis)?);
+        return Ok(ControllerCorrection {
+            format: Format::Heidenhain,
+            axes,
+            squareness_urad: None,
+            cross: Vec::new(),
+        });
+    }
+    if name.ends_with(".CMA") {
+        let assigned = heidenhain::parse_cma(&text, &file)?;
+        let dir = path.parent().unwrap_or(std::path::Path::new("."));
+        let mut axes = [None, None, None];
+        for (a, com) in assigned.iter().enumerate() {
+            if let Some(com) = com {
+                let p = dir.join(com);
+                let t = read_text(&p)?;
+                axes[a] = Some(heidenhain::parse_com(&t, &p.display().to_string(), a)?);
+            }
+        }
+        return Ok(ControllerCorrection {
+            format: Format::Heidenhain,
+            axes,
+            squareness_urad: None,
+            cross: Vec::new(),
+        });
+    }
+    if name.ends_with(".INI") && text.contains("COMP_FILE") {
+        let dir = path.parent().unwrap_or(std::path::Path::new("."));
+        return linuxcnc::parse_ini(&text, &file, |n| {
+            let p = dir.join(n);
+            Ok((p.display().to_string(), read_text(&p)?))
+        });
+    }
+    if text.contains("kw.ssfk.") {
+        let p = isg::ssfk_parse(&text, &file)?;
+        let axis = isg_axis(&text).ok_or_else(|| {
+            located(
+                &file,
+                &text,
+                1,
+                "the list does not name its axis",
+                "give kopf.log_achs_name X, Y or Z",
+            )
+        })?;
+        let mut axes = [None, None, None];
+        axes[axis] = Some(p);
+        return Ok(ControllerCorrection {
+            format: Format::IsgSsfk,
+            axes,
+            squareness_urad: None,
+            cross: Vec::new(),
+        });
+    }
+    if text.lines().any(|l| l.trim_start().starts_with("$16")) {
+        return Ok(grbl::parse(&text, &file)?);
+    }
+    if text.lines().any(|l| l.trim_start().starts_with("N3620")) {
+        return Ok(fanuc::parse(&text, &file, &fanuc::FanucOptions::default())?);
+    }
+    if text.contains("$AN_CEC") {
+        return Ok(ControllerCorrection {
+            format: Format::SiemensCec,
+            axes: [None, None, None],
+            squareness_urad: None,
+            cross: siemens::cec_parse(&text, &file, siemens::CecSign::Error)?,
+        });
+    }
+    if text.contains("$AA_ENC_COMP") {
+        return Ok(siemens::parse(&text, &file, None)?);
+    }
+    let starts = |w: &str| text.lines().any(|l| l.trim_start().starts_with(w));
+    if text.contains("[skew_correction") || starts("M852") || starts("M556") {
+        return Ok(skew::parse(&text, &file)?);
+    }
+    Err(located(
+        &file,
+        &text,
+        1,
+        "not a controller file volcomp reads",
+        "expected a Heidenhain X.COM or .CMA table, a Siemens %_N_AX_EEC_INI, an ISG kw.ssfk list, a Fanuc pitch tape, grblHAL $160-$162 lines, a Klipper [skew_correction] profile, a Marlin M852 or a RepRapFirmware M556 line (docs/controllers.md)",
+    )
+    .into())
+}
+
+/// What the controller named by `path` compensates: an ISG volumetric
+/// compensation list (`*.lis` with `file_format`) is a whole model
+/// ([`isg::read_volcomp_lis`]); anything else a table ([`read`]).
+pub fn read_applies(
+    path: &std::path::Path,
+) -> Result<crate::model::controller::ControllerApplies, ControllerReadError> {
+    use crate::model::controller::ControllerApplies;
+    let is_lis = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("lis"));
+    if is_lis && read_text(path)?.contains("file_format") {
+        return Ok(ControllerApplies::Model(Box::new(isg::read_volcomp_lis(
+            path,
+        )?)));
+    }
+    Ok(ControllerApplies::Tables(Box::new(read(path)?)))
+}
+
+/// The axis of an ISG compensation list: the first letter of
+/// `kopf.log_achs_name` (X, Y or Z).
+fn isg_axis(text: &str) -> Option<usize> {
+    text.lines().find_map(|l| {
+        let mut f = l.split_whitespace();
+        match (f.next(), f.next()) {
+            (Some("kopf.log_achs_name"), Some(name)) => {
+                "XYZ".find(name.chars().next()?.to_ascii_uppercase())
+            }
+            _ => None,
+        }
+    })
+}
+
+/// The axis letter of index `a`.
+pub(crate) fn axis_letter(a: usize) -> char {
+    ['X', 'Y', 'Z'][a]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equidistant_samples_and_holds_the_ends() {
+        let p = Positioning {
+            positions_mm: vec![0.0, 20.0],
+            forward_um: vec![0.0, 8.0],
+            reverse_um: vec![2.0, 2.0],
+        };
+        // From −10 every 10 mm, 5 points: −10 (held 0), 0, 10 (4), 20 (8), 30 (held 8).
+        let e = equidistant(&p, -10.0, 10.0, 5);
+        assert_eq!(e.positions_mm, vec![-10.0, 0.0, 10.0, 20.0, 30.0]);
+        assert_eq!(e.forward_um, vec![0.0, 0.0, 4.0, 8.0, 8.0]);
+        assert_eq!(e.reverse_um, vec![2.0; 5]);
+    }
+
+    #[test]
+    fn bidirectional_mean_and_reversal() {
+        let p = Positioning {
+            positions_mm: vec![0.0, 10.0],
+            forward_um: vec![1.0, 2.0],
+            reverse_um: vec![3.0, 7.0],
+        };
+        let (m, b) = bidirectional_mean(&p);
+        assert_eq!(m.forward_um, vec![2.0, 4.5]);
+        assert_eq!(m.reverse_um, m.forward_um);
+        assert_eq!(b, 5.0);
+    }
+
+    #[test]
+    fn rounding_reports_the_largest_change() {
+        let mut r = Rounding {
+            resolution_um: 0.1,
+            max_um: 0.0,
+        };
+        assert!((r.round(1.234) - 1.2).abs() < 1e-12);
+        assert!((r.round(-0.06) - -0.1).abs() < 1e-12);
+        assert!((r.max_um - 0.04).abs() < 1e-12);
+    }
+
+    #[test]
+    fn points_covering_counts_intervals() {
+        assert_eq!(points_covering(-200.0, 600.0, 1.0), 801);
+        assert_eq!(points_covering(0.0, 0.5, 10.0), 2);
+    }
+}

@@ -1,0 +1,390 @@
+//! Squareness as 3-D printer firmware corrects it: Klipper's
+//! `[skew_correction]` profiles (`xy_skew`, `xz_skew`, `yz_skew`) and
+//! Marlin's `M852 I J K` (docs/controllers.md, "Skew correction").
+//!
+//! Both firmwares apply the same transform (Klipper's module is a port of
+//! Marlin's `planner.h`, [Klipper skew], [Marlin M852]): the toolhead ends
+//! at the motor position `m` moved by
+//!
+//! ```text
+//! x = m_x + m_y·xy + m_z·xz,     y = m_y + m_z·yz,     z = m_z
+//! ```
+//!
+//! and the firmware commands the exact inverse. volcomp's squareness
+//! (docs/design.md, "The 21-component model": Y moves along `(S_xy, 1, 0)`,
+//! Z along `(S_zx, S_yz, 1)`) is the same transform:
+//! `e_x = S_xy·y + S_zx·z`, `e_y = S_yz·z`. Hence, with S in µrad,
+//!
+//! ```text
+//! xy = S_xy·10⁻⁶,   xz = S_zx·10⁻⁶,   yz = S_yz·10⁻⁶
+//! ```
+//!
+//! (the firmware's factor is the tangent of the angle's deviation from 90°,
+//! which is exactly `S·10⁻⁶` for volcomp's direction vectors).
+
+use super::{
+    located, ControllerCorrection, Export, ExportFile, Format, LimitError, ReadError, Rounding,
+};
+use crate::io::numfmt::fixed;
+
+/// Decimals written for a skew factor: 10⁻⁹ = 0.001 µrad.
+pub const DECIMALS: usize = 9;
+
+/// The firmware's three factors `[xy, xz, yz]` of volcomp's squareness
+/// `[S_xy, S_yz, S_zx]` (µrad).
+///
+/// ```
+/// use volcomp_core::io::controllers::skew::factors;
+/// assert_eq!(factors([12.0, -8.0, 6.0]), [12e-6, 6e-6, -8e-6]);
+/// ```
+pub fn factors(squareness_urad: [f64; 3]) -> [f64; 3] {
+    let [xy, yz, zx] = squareness_urad;
+    [xy * 1e-6, zx * 1e-6, yz * 1e-6]
+}
+
+/// volcomp's squareness `[S_xy, S_yz, S_zx]` (µrad) of the firmware's
+/// factors `[xy, xz, yz]`: the inverse of [`factors`].
+pub fn squareness_urad(factors: [f64; 3]) -> [f64; 3] {
+    let [xy, xz, yz] = factors;
+    [xy * 1e6, yz * 1e6, xz * 1e6]
+}
+
+fn rounded(squareness: [f64; 3], rounding: &mut Rounding) -> [f64; 3] {
+    factors(squareness).map(|f| {
+        let r = super::round_to(f, 10f64.powi(-(DECIMALS as i32)));
+        rounding.max_um = rounding.max_um.max((r - f).abs() * 1e6);
+        r
+    })
+}
+
+/// The correction the firmware applies with `factors`.
+fn applied(format: Format, f: [f64; 3]) -> ControllerCorrection {
+    ControllerCorrection {
+        format,
+        axes: [None, None, None],
+        squareness_urad: Some(squareness_urad(f)),
+        cross: Vec::new(),
+    }
+}
+
+/// A Klipper profile `[skew_correction NAME]` for the squareness (µrad).
+/// The rounding is reported in µrad (in [`Rounding::max_um`]'s field).
+pub fn klipper(squareness: [f64; 3], profile: &str) -> Result<Export, LimitError> {
+    if profile.is_empty() || profile.chars().any(|c| c.is_whitespace() || c == ']') {
+        return Err(LimitError {
+            format: "klipper",
+            axis: 'X',
+            message: format!("`{profile}` is not a profile name"),
+            help: "name the profile with letters, digits and _ (it is loaded with SKEW_PROFILE LOAD=NAME)".into(),
+        });
+    }
+    let mut rounding = Rounding {
+        resolution_um: 1e-3,
+        max_um: 0.0,
+    };
+    let f = rounded(squareness, &mut rounding);
+    let text = format!(
+        "# volcomp: squareness S_xy {} urad, S_yz {} urad, S_zx {} urad as Klipper skew factors\n[skew_correction {profile}]\nxy_skew = {}\nxz_skew = {}\nyz_skew = {}\n",
+        fixed(squareness[0], 4),
+        fixed(squareness[1], 4),
+        fixed(squareness[2], 4),
+        fixed(f[0], DECIMALS),
+        fixed(f[1], DECIMALS),
+        fixed(f[2], DECIMALS)
+    );
+    Ok(Export {
+        files: vec![ExportFile {
+            name: "skew_correction.cfg".into(),
+            text,
+        }],
+        applied: applied(Format::Klipper, f),
+        rounding,
+        notes: vec![
+            "printer.cfg: [skew_correction] and this profile section (or [include skew_correction.cfg])".into(),
+            format!("load it after homing: SKEW_PROFILE LOAD={profile}"),
+        ],
+    })
+}
+
+/// Marlin's `M852 I J K` line (with `G21`: Marlin reads the factors as
+/// linear units) for the squareness (µrad). Marlin refuses factors outside
+/// `SKEW_FACTOR_MIN … SKEW_FACTOR_MAX` = −1 … 1.
+pub fn marlin(squareness: [f64; 3]) -> Result<Export, LimitError> {
+    let mut rounding = Rounding {
+        resolution_um: 1e-3,
+        max_um: 0.0,
+    };
+    let f = rounded(squareness, &mut rounding);
+    for (k, v) in f.iter().enumerate() {
+        if !(-1.0..=1.0).contains(v) {
+            return Err(LimitError {
+                format: "marlin",
+                axis: ['X', 'X', 'Y'][k],
+                message: format!("skew factor {v} is outside SKEW_FACTOR_MIN … SKEW_FACTOR_MAX (−1 … 1)"),
+                help: "a squareness of more than 45° is not a machine error: check the model's units (µrad)".into(),
+            });
+        }
+    }
+    let text = format!(
+        "; volcomp: squareness S_xy {} urad, S_yz {} urad, S_zx {} urad as Marlin skew factors\nG21\nM852 I{} J{} K{}\nM500\n",
+        fixed(squareness[0], 4),
+        fixed(squareness[1], 4),
+        fixed(squareness[2], 4),
+        fixed(f[0], DECIMALS),
+        fixed(f[1], DECIMALS),
+        fixed(f[2], DECIMALS)
+    );
+    Ok(Export {
+        files: vec![ExportFile {
+            name: "skew.gcode".into(),
+            text,
+        }],
+        applied: applied(Format::Marlin, f),
+        rounding,
+        notes: vec![
+            "Marlin needs SKEW_CORRECTION and SKEW_CORRECTION_GCODE; J and K (XZ, YZ) need SKEW_CORRECTION_FOR_Z".into(),
+            "M500 stores the factors in EEPROM".into(),
+        ],
+    })
+}
+
+/// The sample length of the `M556` line volcomp writes (mm): RepRapFirmware
+/// ignores `S` below 10.
+pub const RRF_SAMPLE_MM: f64 = 100.0;
+
+/// RepRapFirmware's `M556 S X Y Z` for the squareness (µrad).
+///
+/// RepRapFirmware ([RRF M556]) sets `tanXY = X/S`, `tanYZ = Y/S`,
+/// `tanXZ = Z/S` and commands the motors to `x + tanXY·y + tanXZ·z`,
+/// `y + tanYZ·z` (`Move::AxisTransform`) — the correction itself, where
+/// Klipper and Marlin hold the error. The toolhead then lands at
+/// `x + (tanXY + S_xy)·y + …`, so `tanXY = −S_xy·10⁻⁶`, `tanYZ = −S_yz·10⁻⁶`,
+/// `tanXZ = −S_zx·10⁻⁶` (exact to first order: the neglected product
+/// `S_xy·S_yz·z` is 10⁻¹⁰ of z for 10 µrad). volcomp writes `S100` and the
+/// deviations over those 100 mm.
+pub fn rrf(squareness: [f64; 3]) -> Result<Export, LimitError> {
+    let mut rounding = Rounding {
+        resolution_um: 1e-3,
+        max_um: 0.0,
+    };
+    let [xy, yz, zx] = squareness;
+    // Deviations over S in mm, written with 7 decimals: 10⁻⁷ / 100 = 0.001 µrad.
+    let mut dev = |s_urad: f64| -> f64 {
+        let d = -s_urad * 1e-6 * RRF_SAMPLE_MM;
+        let r = super::round_to(d, 1e-7);
+        rounding.max_um = rounding.max_um.max((r - d).abs() / RRF_SAMPLE_MM * 1e6);
+        r
+    };
+    let (x, y, z) = (dev(xy), dev(yz), dev(zx));
+    let text = format!(
+        "; volcomp: squareness S_xy {} urad, S_yz {} urad, S_zx {} urad as RepRapFirmware axis compensation\nM556 S{} X{} Y{} Z{}\n",
+        fixed(xy, 4),
+        fixed(yz, 4),
+        fixed(zx, 4),
+        fixed(RRF_SAMPLE_MM, 0),
+        fixed(x, 7),
+        fixed(y, 7),
+        fixed(z, 7)
+    );
+    Ok(Export {
+        files: vec![ExportFile {
+            name: "m556.g".into(),
+            text,
+        }],
+        applied: ControllerCorrection {
+            format: Format::Rrf,
+            axes: [None, None, None],
+            squareness_urad: Some([
+                -x / RRF_SAMPLE_MM * 1e6,
+                -y / RRF_SAMPLE_MM * 1e6,
+                -z / RRF_SAMPLE_MM * 1e6,
+            ]),
+            cross: Vec::new(),
+        },
+        rounding,
+        notes: vec![
+            "put the M556 line in config.g (the XY term corrects X, RepRapFirmware's default)"
+                .into(),
+        ],
+    })
+}
+
+/// Reads a Klipper profile section (`[skew_correction NAME]` with
+/// `xy_skew`, `xz_skew`, `yz_skew`) or a Marlin `M852` line: the
+/// squareness the firmware corrects.
+pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> {
+    let mut f = [None; 3];
+    let mut format = None;
+    let mut rrf_squareness = None;
+    for (i, raw) in text.lines().enumerate() {
+        let row = i + 1;
+        let line = raw.split(['#', ';']).next().unwrap_or("").trim();
+        let number = |s: &str| -> Result<f64, ReadError> {
+            s.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    located(
+                        file,
+                        text,
+                        row,
+                        format!("`{}` is not a number", s.trim()),
+                        "a skew factor is a number such as 0.000012",
+                    )
+                })
+        };
+        if let Some((key, value)) = line.split_once(['=', ':']) {
+            let k = match key.trim() {
+                "xy_skew" => 0,
+                "xz_skew" => 1,
+                "yz_skew" => 2,
+                _ => continue,
+            };
+            f[k] = Some(number(value)?);
+            format = Some(Format::Klipper);
+        } else if let Some(rest) = line.strip_prefix("M556") {
+            let mut sample = None;
+            let mut d = [0.0; 3];
+            for word in rest.split_whitespace() {
+                let (letter, value) = word.split_at(1);
+                let v = number(value)?;
+                match letter {
+                    "S" => sample = Some(v),
+                    "X" => d[0] = v,
+                    "Y" => d[1] = v,
+                    "Z" => d[2] = v,
+                    _ => {
+                        return Err(located(
+                            file,
+                            text,
+                            row,
+                            format!("`{word}` is not a word of M556"),
+                            "M556 takes S, X, Y, Z",
+                        ))
+                    }
+                }
+            }
+            let s = sample.filter(|s| *s >= 10.0).ok_or_else(|| {
+                located(
+                    file,
+                    text,
+                    row,
+                    "M556 without S ≥ 10",
+                    "RepRapFirmware ignores M556 without S of at least 10 mm",
+                )
+            })?;
+            // tanXY = X/S, tanYZ = Y/S, tanXZ = Z/S; S_xy = −tanXY … (see `rrf`).
+            rrf_squareness = Some([-d[0] / s * 1e6, -d[1] / s * 1e6, -d[2] / s * 1e6]);
+        } else if let Some(rest) = line.strip_prefix("M852") {
+            for word in rest.split_whitespace() {
+                let (letter, value) = word.split_at(1);
+                let k = match letter {
+                    "I" | "S" => 0,
+                    "J" => 1,
+                    "K" => 2,
+                    _ => {
+                        return Err(located(
+                            file,
+                            text,
+                            row,
+                            format!("`{word}` is not a word of M852"),
+                            "M852 takes I (XY), J (XZ), K (YZ)",
+                        ))
+                    }
+                };
+                f[k] = Some(number(value)?);
+            }
+            format = Some(Format::Marlin);
+        }
+    }
+    if let Some(sq) = rrf_squareness {
+        return Ok(ControllerCorrection {
+            format: Format::Rrf,
+            axes: [None, None, None],
+            squareness_urad: Some(sq),
+            cross: Vec::new(),
+        });
+    }
+    let Some(format) = format else {
+        return Err(located(
+            file,
+            text,
+            1,
+            "no skew factors found",
+            "expected a Klipper section with xy_skew, xz_skew, yz_skew, a Marlin M852 or a RepRapFirmware M556 line",
+        ));
+    };
+    Ok(applied(format, f.map(|v| v.unwrap_or(0.0))))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn klipper_by_hand() {
+        // S_xy = 12 µrad, S_yz = −8 µrad, S_zx = 6 µrad: xy = 0.000012,
+        // xz = 0.000006, yz = −0.000008. At (0, 200, 100) mm the machine is
+        // off by e_x = 12·200 + 6·100 = 3000 µrad·mm = 3.0 µm, e_y = −0.8 µm,
+        // which is x_phys − x_motor = 200·xy + 100·xz = 0.0030 mm in
+        // Klipper's calc_unskew.
+        let e = klipper([12.0, -8.0, 6.0], "volcomp").unwrap();
+        let t = &e.files[0].text;
+        assert!(t.contains("[skew_correction volcomp]\nxy_skew = 0.000012\nxz_skew = 0.000006\nyz_skew = -0.000008\n"), "{t}");
+        let [xy, xz, yz] = factors([12.0, -8.0, 6.0]);
+        assert!(((200.0 * xy + 100.0 * xz) * 1e3 - 3.0).abs() < 1e-12);
+        assert!((100.0 * yz * 1e3 - -0.8).abs() < 1e-12);
+        assert!(e.rounding.max_um < 1e-9, "{:?}", e.rounding);
+        let back = parse(t, "skew.cfg").unwrap();
+        assert_eq!(back.format, Format::Klipper);
+        let s = back.squareness_urad.unwrap();
+        for (a, b) in s.iter().zip([12.0, -8.0, 6.0]) {
+            assert!((a - b).abs() < 1e-9, "{s:?}");
+        }
+    }
+
+    #[test]
+    fn rrf_by_hand() {
+        // S_xy = 12, S_yz = −8, S_zx = 6 µrad: over S = 100 mm the
+        // corrections are X = −0.0012, Y = +0.0008, Z = −0.0006 mm. At
+        // (0, 200, 100) RepRapFirmware commands x + (−0.0012/100)·200 +
+        // (−0.0006/100)·100 = x − 0.003 mm: the 3 µm the machine adds.
+        let e = rrf([12.0, -8.0, 6.0]).unwrap();
+        let t = &e.files[0].text;
+        assert!(t.contains("M556 S100 X-0.0012 Y0.0008 Z-0.0006\n"), "{t}");
+        assert!(((-0.0012 / 100.0) * 200.0 + (-0.0006 / 100.0) * 100.0 - -0.003f64).abs() < 1e-15);
+        let back = parse(t, "m556.g").unwrap();
+        assert_eq!(back.format, Format::Rrf);
+        let s = back.squareness_urad.unwrap();
+        for (a, b) in s.iter().zip([12.0, -8.0, 6.0]) {
+            assert!((a - b).abs() < 1e-9, "{s:?}");
+        }
+        assert!(parse("M556 S5 X1\n", "m.g").is_err());
+    }
+
+    #[test]
+    fn marlin_by_hand_with_rounding() {
+        // 0.0004 µrad is below the 0.001 µrad written: 10.0004 → 0.00001.
+        let e = marlin([10.0004, 0.0, -2.5]).unwrap();
+        let t = &e.files[0].text;
+        assert!(
+            t.contains("G21\nM852 I0.00001 J-0.0000025 K0\nM500\n"),
+            "{t}"
+        );
+        assert!(
+            (e.rounding.max_um - 0.0004).abs() < 1e-9,
+            "{:?}",
+            e.rounding
+        );
+        let back = parse(t, "skew.gcode").unwrap();
+        assert_eq!(back.format, Format::Marlin);
+        let s = back.squareness_urad.unwrap();
+        assert!((s[0] - 10.0).abs() < 1e-9 && (s[2] - -2.5).abs() < 1e-9 && s[1] == 0.0);
+        let err = marlin([2e6, 0.0, 0.0]).unwrap_err();
+        assert!(err.message.contains("outside"), "{err}");
+        assert!(klipper([0.0; 3], "my profile").is_err());
+        let bad = parse("M852 I0.1 Q2\n", "s.gcode").unwrap_err();
+        assert!(bad.message.contains("Q2"));
+    }
+}
