@@ -209,6 +209,7 @@ fn write_moves(
                 volcomp_gcode::MotionSource::Reference => "reference",
                 volcomp_gcode::MotionSource::Cycle => "cycle",
                 volcomp_gcode::MotionSource::Spline => "spline",
+                volcomp_gcode::MotionSource::CutterComp => "cutter_comp",
             };
             let num = |v: f64, row: &mut String| format_number(v, style, row);
             if json {
