@@ -15,6 +15,7 @@
 //! axis takes up its reversal value. Axes for which no consistent reversal
 //! exists (negative reversal value) are held and reported.
 
+mod cutter;
 mod cycle;
 mod extra;
 mod frame;
@@ -112,6 +113,35 @@ pub fn compensate_program<R: BufRead>(
                 file,
                 &mut on_point,
             )?;
+            out.write_all(&st.buf)?;
+            st.frame_before = Some(Frame::of(ev.interp, options, survey));
+            continue;
+        }
+        let cutter = ev.interp.cutter_comp_on()
+            || ev
+                .motions
+                .iter()
+                .any(|m| m.source == MotionSource::CutterComp);
+        if cutter && !ev.after_end && ev.kind == LineKind::Block {
+            // Cutter compensation becomes compensated G0/G1 segments of the
+            // tool-centre path under G40 (compensate/cutter.rs).
+            st.write_cutter(
+                ev.number,
+                ev.bytes,
+                ev.lexed.words().collect(),
+                ev.motions,
+                ev.interp,
+                model,
+                options,
+                survey,
+                sep,
+                file,
+                &mut on_point,
+            )?;
+            st.mode = Some(OutMode::Other);
+            st.known = [true; 3];
+            st.feed_known |=
+                ev.interp.feed_mode() != FeedMode::InverseTime && has_feed(ev.lexed.words());
             out.write_all(&st.buf)?;
             st.frame_before = Some(Frame::of(ev.interp, options, survey));
             continue;

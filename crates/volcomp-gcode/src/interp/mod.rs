@@ -585,6 +585,15 @@ impl Interpreter {
         if w.has_m(20) || w.has_m(300) {
             self.finished = true;
         }
+        // After a tool change LinuxCNC reads the position back from the
+        // machine (`Interp::read` re-synchronises when `toolchange_flag` is
+        // set): after G40 that is where the tool is, on the offset path,
+        // not the programmed point.
+        if w.has_m(60) {
+            if let Some(p) = self.motion_start.take() {
+                self.position = p;
+            }
+        }
         Ok(())
     }
 }

@@ -1,0 +1,182 @@
+//! Cutter radius compensation (G41/G42) written back as the compensated
+//! tool-centre path under G40.
+//!
+//! The interpreter computes the tool-centre path as LinuxCNC does
+//! (volcomp-gcode, `interp/comp.rs`). A compensated tool-centre path cannot
+//! be handed back to G41/G42: the controller would offset it again, by a
+//! radius measured along a different path. So every block run while
+//! compensation is on is written without its G40/G41/G42 (G41.1, G42.1), D,
+//! motion code and coordinate words, and its moves follow as compensated
+//! G0/G1 segments (arcs linearised within the chord tolerance), which the
+//! controller runs with compensation off.
+//!
+//! LinuxCNC gives a compensated move out one block late (it waits for the
+//! next move to know the corner): moves that come from an earlier block are
+//! written before the block that released them, the block's own moves (a
+//! corner arc, the exit move after G40) after it. The non-motion words of
+//! a block (F, S, M, comments) thus stay between the moves they were
+//! between in LinuxCNC's queue.
+
+use super::frame::Frame;
+use super::lines::{blank_before, line_ending, stop_m_word, OutMode};
+use super::targets::{check_target_count, targets_of};
+use super::{model_error, CompensateOptions, PointRecord, State};
+use crate::error::CompensationError;
+use crate::model::ErrorModel;
+use volcomp_gcode::edit::{apply_edits, Edit};
+use volcomp_gcode::lexer::Word;
+use volcomp_gcode::number::StyleSurvey;
+use volcomp_gcode::{FeedMode, Motion, MotionKind};
+
+/// G codes removed from a block under compensation (×10): cutter
+/// compensation and motion codes.
+const REMOVED_G: [f64; 9] = [40.0, 41.0, 41.1, 42.0, 42.1, 0.0, 1.0, 2.0, 3.0];
+
+impl State {
+    /// Writes a block run while cutter compensation is on (or that turned
+    /// it on or off) and its moves (see the module documentation).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn write_cutter(
+        &mut self,
+        line: u64,
+        bytes: &[u8],
+        words: Vec<&Word>,
+        motions: &[Motion],
+        interp: &volcomp_gcode::Interpreter,
+        model: &dyn ErrorModel,
+        options: &CompensateOptions,
+        survey: &StyleSurvey,
+        sep: &str,
+        file: &str,
+        on_point: &mut dyn FnMut(&PointRecord),
+    ) -> Result<(), CompensationError> {
+        if interp.feed_mode() == FeedMode::InverseTime && !motions.is_empty() {
+            return Err(CompensationError::AtLine {
+                file: file.into(),
+                line,
+                message: "a cutter-compensated path under inverse-time feed (G93) cannot be written as segments with the same durations".into(),
+                help: "post the program in G94 (units per minute)".into(),
+            });
+        }
+        if motions.iter().any(|m| m.extra.moves()) {
+            return Err(CompensationError::AtLine {
+                file: file.into(),
+                line,
+                message: "a cutter-compensated move that also moves A, B, C, U, V or W is not written back".into(),
+                help: "move the extra axes outside the compensated (G41/G42) part".into(),
+            });
+        }
+        let (frame, style) = Frame::of(interp, options, survey);
+        let ending = line_ending(bytes);
+        let (earlier, own): (Vec<&Motion>, Vec<&Motion>) =
+            motions.iter().partition(|m| m.line != line);
+        self.write_cutter_moves(
+            &earlier, &frame, style, sep, model, options, file, ending, on_point,
+        )?;
+        let arc = motions
+            .iter()
+            .any(|m| m.line == line && matches!(m.kind, MotionKind::Arc(_)));
+        let comp_code = words
+            .iter()
+            .any(|w| w.letter == b'G' && [41.0, 41.1, 42.0, 42.1].contains(&w.value));
+        let stop = stop_m_word(words.iter().copied());
+        let content = &bytes[..volcomp_gcode::lexer::content_len(bytes)];
+        let mut edits = Vec::new();
+        for w in &words {
+            let remove = match w.letter {
+                b'G' => REMOVED_G.contains(&w.value),
+                b'X' | b'Y' | b'Z' | b'I' | b'J' | b'K' | b'R' | b'@' | b'^' => true,
+                b'P' => arc,
+                b'D' | b'L' => comp_code,
+                _ => stop.is_some_and(|s| s.span == w.span),
+            };
+            if remove {
+                edits.push(Edit::delete(
+                    blank_before(content, w.span.start)..w.span.end,
+                ));
+            }
+        }
+        let mut out = Vec::new();
+        apply_edits(bytes, &mut edits, &mut out).map_err(|e| CompensationError::AtLine {
+            file: file.into(),
+            line,
+            message: format!("internal edit error: {e}"),
+            help: "please report this with the program line".into(),
+        })?;
+        if !out.iter().all(|b| b.is_ascii_whitespace()) {
+            self.buf.extend_from_slice(&out);
+            if !self.buf.ends_with(b"\n") {
+                self.buf.extend_from_slice(ending);
+            }
+            self.summary.lines_out += 1;
+        }
+        self.write_cutter_moves(
+            &own, &frame, style, sep, model, options, file, ending, on_point,
+        )?;
+        if let Some(w) = stop {
+            self.buf.extend_from_slice(&content[w.span.clone()]);
+            self.buf.extend_from_slice(ending);
+            self.summary.lines_out += 1;
+        }
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn write_cutter_moves(
+        &mut self,
+        motions: &[&Motion],
+        frame: &Frame,
+        style: volcomp_gcode::number::NumberStyle,
+        sep: &str,
+        model: &dyn ErrorModel,
+        options: &CompensateOptions,
+        file: &str,
+        ending: &[u8],
+        on_point: &mut dyn FnMut(&PointRecord),
+    ) -> Result<(), CompensationError> {
+        for m in motions {
+            let line = m.line;
+            check_target_count(m, options, file, line)?;
+            let targets = targets_of(m, options, model, self.s)
+                .map_err(|source| model_error(file, line, source))?;
+            let rapid = matches!(m.kind, MotionKind::Rapid);
+            let mode = if rapid { OutMode::Rapid } else { OutMode::Feed };
+            let from = self.q_out;
+            let commands = self.solve_targets(
+                model, options, frame, frame, &targets, m.start, !rapid, file, line, on_point,
+            )?;
+            let mut pos = from;
+            for (q, take_up) in commands {
+                if let Some(tu) = take_up {
+                    self.write_inserted(
+                        frame,
+                        style,
+                        sep,
+                        pos,
+                        tu,
+                        OutMode::Feed,
+                        line,
+                        options.trace_comments,
+                        ending,
+                        "take-up",
+                    );
+                    pos = tu;
+                }
+                self.write_inserted(
+                    frame,
+                    style,
+                    sep,
+                    pos,
+                    q,
+                    mode,
+                    line,
+                    options.trace_comments,
+                    ending,
+                    "cutter comp",
+                );
+                pos = q;
+            }
+        }
+        Ok(())
+    }
+}
