@@ -67,11 +67,14 @@ impl State {
             });
         }
         let (frame, style) = Frame::of(interp, options, survey);
+        // Moves released by this block are written before it, so in the
+        // modes (G90/G91, G20/G21) in effect before it.
+        let (frame0, style0) = self.frame_before.unwrap_or((frame, style));
         let ending = line_ending(bytes);
         let (earlier, own): (Vec<&Motion>, Vec<&Motion>) =
             motions.iter().partition(|m| m.line != line);
         self.write_cutter_moves(
-            &earlier, &frame, style, sep, model, options, file, ending, on_point,
+            &earlier, &frame0, style0, sep, model, options, file, ending, on_point,
         )?;
         let arc = motions
             .iter()
