@@ -25,12 +25,33 @@ use crate::error::CompensationError;
 use crate::model::ErrorModel;
 use volcomp_gcode::edit::{apply_edits, Edit};
 use volcomp_gcode::lexer::Word;
-use volcomp_gcode::number::StyleSurvey;
-use volcomp_gcode::{FeedMode, Motion, MotionKind};
+use volcomp_gcode::number::{format_number, StyleSurvey};
+use volcomp_gcode::{FeedMode, Motion, MotionKind, MotionSource};
 
 /// G codes removed from a block under compensation (×10): cutter
 /// compensation and motion codes.
 const REMOVED_G: [f64; 9] = [40.0, 41.0, 41.1, 42.0, 42.1, 0.0, 1.0, 2.0, 3.0];
+
+/// The rate (mm/min) LinuxCNC runs a G93 move at: a compensated move has
+/// it already (the interpreter's `comp_feed_mm`); any other move's is its
+/// length times its inverse time, at least 0.1 units/min
+/// (`inverse_time_rate_straight`/`_arc`, interp_inverse.cc).
+fn rate_mm_per_min(m: &Motion, units: volcomp_gcode::Units) -> f64 {
+    if m.source == MotionSource::CutterComp {
+        return m.feed;
+    }
+    let length_mm = match m.kind {
+        MotionKind::Arc(a) => {
+            let (_, _, w) = a.plane.axes();
+            (a.start_radius() * a.sweep_rad.abs()).hypot(a.end[w] - a.start[w])
+        }
+        _ => (m.end - m.start).norm(),
+    };
+    // `feed` holds the block's F (min⁻¹) times mm per program unit.
+    let k = units.mm_per_unit();
+    let inverse_per_min = m.feed / k;
+    ((length_mm / k) * inverse_per_min).max(0.1) * k
+}
 
 impl State {
     /// Writes a block run while cutter compensation is on (or that turned
@@ -50,14 +71,6 @@ impl State {
         file: &str,
         on_point: &mut dyn FnMut(&PointRecord),
     ) -> Result<(), CompensationError> {
-        if interp.feed_mode() == FeedMode::InverseTime && !motions.is_empty() {
-            return Err(CompensationError::AtLine {
-                file: file.into(),
-                line,
-                message: "a cutter-compensated path under inverse-time feed (G93) cannot be written as segments with the same durations".into(),
-                help: "post the program in G94 (units per minute)".into(),
-            });
-        }
         if motions.iter().any(|m| m.extra.moves()) {
             return Err(CompensationError::AtLine {
                 file: file.into(),
@@ -73,8 +86,11 @@ impl State {
         let ending = line_ending(bytes);
         let (earlier, own): (Vec<&Motion>, Vec<&Motion>) =
             motions.iter().partition(|m| m.line != line);
+        let units = interp.units();
+        let g93_before = self.g93_before;
         self.write_cutter_moves(
-            &earlier, &frame0, style0, sep, model, options, file, ending, on_point,
+            &earlier, &frame0, style0, sep, model, options, file, ending, units, g93_before,
+            on_point,
         )?;
         let arc = motions
             .iter()
@@ -113,8 +129,9 @@ impl State {
             }
             self.summary.lines_out += 1;
         }
+        let g93_after = interp.feed_mode() == FeedMode::InverseTime;
         self.write_cutter_moves(
-            &own, &frame, style, sep, model, options, file, ending, on_point,
+            &own, &frame, style, sep, model, options, file, ending, units, g93_after, on_point,
         )?;
         if let Some(w) = stop {
             self.buf.extend_from_slice(&content[w.span.clone()]);
@@ -135,10 +152,34 @@ impl State {
         options: &CompensateOptions,
         file: &str,
         ending: &[u8],
+        units: volcomp_gcode::Units,
+        program_in_g93: bool,
         on_point: &mut dyn FnMut(&PointRecord),
     ) -> Result<(), CompensationError> {
+        // A move computed under inverse time (G93) runs, in LinuxCNC, at the
+        // rate its programmed length gives (units/min): written as G94 with
+        // that F, and G93 restored after the moves for the program's later
+        // blocks.
+        let mut forced_g94 = false;
         for m in motions {
             let line = m.line;
+            if m.feed_mode == FeedMode::InverseTime && !matches!(m.kind, MotionKind::Rapid) {
+                let mut text = String::new();
+                if !forced_g94 {
+                    text.push_str("G94");
+                    text.push_str(sep);
+                    forced_g94 = true;
+                }
+                text.push('F');
+                format_number(
+                    rate_mm_per_min(m, units) / units.mm_per_unit(),
+                    style,
+                    &mut text,
+                );
+                self.buf.extend_from_slice(text.as_bytes());
+                self.buf.extend_from_slice(ending);
+                self.summary.lines_out += 1;
+            }
             check_target_count(m, options, file, line)?;
             let targets = targets_of(m, options, model, self.s)
                 .map_err(|source| model_error(file, line, source))?;
@@ -179,6 +220,11 @@ impl State {
                 );
                 pos = q;
             }
+        }
+        if forced_g94 && program_in_g93 {
+            self.buf.extend_from_slice(b"G93");
+            self.buf.extend_from_slice(ending);
+            self.summary.lines_out += 1;
         }
         Ok(())
     }

@@ -68,6 +68,8 @@ pub fn compensate_program<R: BufRead>(
         mode: None,
         feed_known: false,
         frame_before: None,
+        g93_before: false,
+        g93_last: false,
         known: [false; 3],
         summary: CompensateSummary::default(),
         buf: Vec::with_capacity(1024),
@@ -77,6 +79,8 @@ pub fn compensate_program<R: BufRead>(
     let sep = if program_style.spaced { " " } else { "" };
     let survey = &program_style.survey;
     while let Some(ev) = walker.next_line()? {
+        let g93_now = ev.interp.feed_mode() == FeedMode::InverseTime;
+        st.g93_before = std::mem::replace(&mut st.g93_last, g93_now);
         // Models with Abbe terms see the tool that is active on this line.
         let tool_model = WithTool {
             model,
@@ -403,6 +407,10 @@ struct State {
     /// Frame and number style in effect before the current line (after the
     /// previous one): what a move written before the line's own words uses.
     frame_before: Option<(Frame, NumberStyle)>,
+    /// Whether inverse time (G93) was in effect before the current line,
+    /// and after it.
+    g93_before: bool,
+    g93_last: bool,
     summary: CompensateSummary,
     buf: Vec<u8>,
     text: String,

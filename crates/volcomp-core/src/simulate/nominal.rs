@@ -340,6 +340,7 @@ mod tests {
             line: 7,
             column: 1,
             feed: 100.0,
+            feed_mode: volcomp_gcode::FeedMode::PerMinute,
             extra: Default::default(),
         };
         let motions = [

@@ -88,6 +88,7 @@ struct Queued {
     line: u64,
     column: usize,
     feed: f64,
+    feed_mode: super::FeedMode,
     extra_end: [f64; 6],
 }
 
@@ -193,6 +194,18 @@ impl Interpreter {
     /// Whether this block's motion goes through the compensation.
     pub(super) fn comp_active(&self) -> bool {
         self.comp.as_ref().is_some_and(|c| c.radius_mm > 0.0)
+    }
+
+    /// The feed of a compensated move: under inverse time (G93) LinuxCNC
+    /// runs it, corner arcs included, at the programmed length times F
+    /// (at least 0.1 units/min; `inverse_time_rate_straight`/`_arc`,
+    /// interp_inverse.cc), in mm/min here.
+    fn comp_feed_mm(&self, feed_mm: f64, programmed_length_mm: f64) -> f64 {
+        if self.feed_mode != super::FeedMode::InverseTime {
+            return feed_mm;
+        }
+        let length = programmed_length_mm / self.units.mm_per_unit();
+        self.to_mm((length * self.feed).max(0.1))
     }
 
     fn mm_tol(&self, program_units: f64) -> f64 {
@@ -523,12 +536,14 @@ impl Interpreter {
     #[allow(clippy::too_many_arguments)]
     fn enqueue(&mut self, kind: QKind, end: [f64; 3], line: u64, column: usize, feed: f64) {
         let extra_end = self.extra_target;
+        let feed_mode = self.feed_mode;
         self.comp_mut().queue.push(Queued {
             kind,
             end,
             line,
             column,
             feed,
+            feed_mode,
             extra_end,
         });
     }
@@ -576,6 +591,7 @@ impl Interpreter {
                 line: q.line,
                 column: q.column + 1,
                 feed: q.feed,
+                feed_mode: q.feed_mode,
                 extra: ExtraAxes {
                     start: c.emitted_extra,
                     end: q.extra_end,
@@ -669,6 +685,7 @@ impl Interpreter {
         feed: f64,
         out: &mut Vec<Motion>,
     ) -> Result<(), GcodeError> {
+        let feed = self.comp_feed_mm(feed, (target - self.words_base()).norm());
         let c = self.comp_ref();
         let plane = c.plane;
         let (side, radius) = (c.side, c.radius_mm);
@@ -905,6 +922,11 @@ impl Interpreter {
         let programmed = self.arc(line, col, w, clockwise);
         self.position = tool_at;
         let programmed = programmed?;
+        let helix_mm = plane_of(programmed.end, plane)[2] - plane_of(programmed.start, plane)[2];
+        let feed = self.comp_feed_mm(
+            feed,
+            (programmed.start_radius() * programmed.sweep_rad.abs()).hypot(helix_mm),
+        );
         let inside_by_code =
             (side == Side::Left && !clockwise) || (side == Side::Right && clockwise);
         let cur = plane_of(self.position, plane);

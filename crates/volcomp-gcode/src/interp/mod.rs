@@ -112,8 +112,13 @@ pub struct Motion {
     pub line: u64,
     /// 1-based column of the motion word, or of the first axis word.
     pub column: usize,
-    /// Feed rate in mm/min (or inverse-time value under G93).
+    /// Feed rate in mm/min (or inverse-time value under G93; a
+    /// [`MotionSource::CutterComp`] move computed under G93 has the rate in
+    /// mm/min LinuxCNC runs it at, `inverse_time_rate_*`: the programmed
+    /// length times the block's F).
     pub feed: f64,
+    /// The feed mode (G93, G94, G95) the motion was computed in.
+    pub feed_mode: FeedMode,
     /// The extra axes A, B, C, U, V, W at its start and end (not
     /// compensated; moved linearly over the motion).
     pub extra: ExtraAxes,

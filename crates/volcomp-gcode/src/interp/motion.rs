@@ -373,6 +373,7 @@ impl Interpreter {
             line,
             column: column + 1,
             feed,
+            feed_mode: self.feed_mode,
             extra: super::ExtraAxes {
                 start: self.extra,
                 end: self.extra_target,
