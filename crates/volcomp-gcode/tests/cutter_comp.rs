@@ -127,6 +127,12 @@ fn refusals_have_linuxcncs_messages() {
         e.contains("Cannot turn cutter radius comp on when on"),
         "{e}"
     );
+    let e = message("G21 F100\nG0 X0 Y-5\nG41.1 D2 G1 X0 Y0\n#1 = #5420\nG40 G0 X-20\nM2\n");
+    assert!(
+        e.contains("t.ngc:4:")
+            && e.contains("Cannot read current position with cutter radius compensation on"),
+        "{e}"
+    );
     // A tool whose diameter the set-up does not give.
     let e = message("G21 F100\nG41 D7\nM2\n");
     assert!(

@@ -15,7 +15,9 @@
 //! written before the block that released them, the block's own moves (a
 //! corner arc, the exit move after G40) after it. The non-motion words of
 //! a block (F, S, M, comments) thus stay between the moves they were
-//! between in LinuxCNC's queue.
+//! between in LinuxCNC's queue. The segments are tagged `(volcomp Ln)` with
+//! the line of the block that released them: that block's motions are
+//! what `volcomp simulate --reference` pairs them with.
 
 use super::frame::Frame;
 use super::lines::{blank_before, line_ending, stop_m_word, OutMode};
@@ -89,7 +91,7 @@ impl State {
         let units = interp.units();
         let g93_before = self.g93_before;
         self.write_cutter_moves(
-            &earlier, &frame0, style0, sep, model, options, file, ending, units, g93_before,
+            &earlier, line, &frame0, style0, sep, model, options, file, ending, units, g93_before,
             on_point,
         )?;
         let arc = motions
@@ -131,7 +133,8 @@ impl State {
         }
         let g93_after = interp.feed_mode() == FeedMode::InverseTime;
         self.write_cutter_moves(
-            &own, &frame, style, sep, model, options, file, ending, units, g93_after, on_point,
+            &own, line, &frame, style, sep, model, options, file, ending, units, g93_after,
+            on_point,
         )?;
         if let Some(w) = stop {
             self.buf.extend_from_slice(&content[w.span.clone()]);
@@ -142,9 +145,12 @@ impl State {
     }
 
     #[allow(clippy::too_many_arguments)]
+    /// Writes `motions`, tagged with `tag_line`, the block that released
+    /// them (the line `volcomp simulate --reference` pairs them with).
     fn write_cutter_moves(
         &mut self,
         motions: &[&Motion],
+        tag_line: u64,
         frame: &Frame,
         style: volcomp_gcode::number::NumberStyle,
         sep: &str,
@@ -199,7 +205,7 @@ impl State {
                         pos,
                         tu,
                         OutMode::Feed,
-                        line,
+                        tag_line,
                         options.trace_comments,
                         ending,
                         "take-up",
@@ -213,7 +219,7 @@ impl State {
                     pos,
                     q,
                     mode,
-                    line,
+                    tag_line,
                     options.trace_comments,
                     ending,
                     "cutter comp",

@@ -176,6 +176,12 @@ impl Interpreter {
         })
     }
 
+    /// Whether G41/G42 is in effect with a radius above 0, so that moves are
+    /// offset (and given out one block late).
+    pub fn cutter_comp_offsetting(&self) -> bool {
+        self.comp_active()
+    }
+
     /// Whether G41/G42 (or G41.1/G42.1) is in effect.
     pub fn cutter_comp_on(&self) -> bool {
         self.comp.is_some()
