@@ -539,7 +539,6 @@ impl Interpreter {
         self.comp.as_mut().expect("cutter compensation is on")
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn enqueue(&mut self, kind: QKind, end: [f64; 3], line: u64, column: usize, feed: f64) {
         let extra_end = self.extra_target;
         let feed_mode = self.feed_mode;
@@ -735,7 +734,7 @@ impl Interpreter {
             return Ok(());
         }
         let op = plane_of(c.program, plane);
-        let (opx, opy, opz) = (op[0], op[1], op[2]);
+        let (opx, opy) = (op[0], op[1]);
         let mut end = [cx, cy];
         if py == opy && px == opx {
             // No motion in the plane: along the normal axis only.
@@ -749,7 +748,6 @@ impl Interpreter {
                 col,
                 feed,
             );
-            let _ = opz;
         } else {
             let mut theta = (cy - opy).atan2(cx - opx);
             let mut alpha = (py - opy).atan2(px - opx);
