@@ -102,8 +102,6 @@ pub(super) struct CutterComp {
     orientation: i32,
     /// The plane it was turned on in (G17 or G18).
     plane: Plane,
-    /// The program units it was turned on in.
-    units: Units,
     /// LinuxCNC's `cutter_comp_firstmove`.
     first_move: bool,
     /// The programmed point (LinuxCNC's `program_x…`), axis frame, mm.
@@ -358,7 +356,6 @@ impl Interpreter {
             radius_mm,
             orientation,
             plane: self.plane,
-            units: self.units,
             first_move: true,
             program: self.position,
             queue: Vec::new(),
@@ -525,18 +522,6 @@ impl Interpreter {
                     "turn compensation off with G40 before this block",
                 ));
             }
-        }
-        // LinuxCNC rescales its queue (`qc_scale`) but keeps the radius's
-        // number in the new unit; volcomp does not follow that.
-        let switch = w.g_col(200).or(w.g_col(210));
-        let changed = self.comp.as_ref().is_some_and(|c| c.units != self.units);
-        if let Some(col) = switch.filter(|_| changed) {
-            return Err(invalid(
-                line,
-                col,
-                "a change of units (G20/G21) while cutter radius compensation is on is not followed by volcomp",
-                "change units with compensation off (G40), or keep one unit",
-            ));
         }
         Ok(())
     }
