@@ -101,3 +101,44 @@ fn tool_centre_path_is_written_under_g40() {
         );
     }
 }
+
+/// Under the bundled example map, the compensated tool-centre path, run on
+/// the machine and paired with the original (`--reference`), is at least
+/// five times closer to LinuxCNC's tool-centre path than the original run
+/// uncompensated (the criterion of the library's front-door example).
+#[test]
+fn compensation_shrinks_the_contour_error_of_a_compensated_path() {
+    use std::path::Path;
+    use volcomp_core::prelude::*;
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/data");
+    let model = load_model(&data.join("map.csv"), &LoadOptions::default())
+        .unwrap()
+        .into_model();
+    let machine = MachineSetup::from_setup_toml(
+        "units = \"mm\"\nstart = [10, 10, 10]\n[tool_diameters]\n3 = 6\n[tools]\n3 = 50\n",
+        "s.toml",
+    )
+    .unwrap();
+    let program = b"G21 G90 F600\nT3 M6\nG43 H3\nG0 X40 Y20 Z20\nG42 D3 G1 X60 Y20\nY60\nG2 X100 Y60 R20\nG1 Y20\nX60\nG40 G0 X40 Y10\nM2\n";
+    let mut compensated = Vec::new();
+    Compensator::new(model.as_ref())
+        .setup(machine.clone())
+        .run(program.as_slice(), &mut compensated)
+        .unwrap();
+    let before = Simulation::new(model.as_ref())
+        .setup(machine.clone())
+        .run(program.as_slice())
+        .unwrap();
+    let after = Simulation::new(model.as_ref())
+        .setup(machine)
+        .reference(program.as_slice())
+        .run(compensated.as_slice())
+        .unwrap();
+    assert!(before.contour_max_um > 1.0, "{before:?}");
+    assert!(
+        after.contour_max_um < before.contour_max_um / 5.0,
+        "before {:.3} µm, after {:.3} µm",
+        before.contour_max_um,
+        after.contour_max_um
+    );
+}

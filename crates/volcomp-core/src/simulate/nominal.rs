@@ -102,7 +102,7 @@ impl NominalBlock {
             .iter()
             .any(|m| m.source == volcomp_gcode::MotionSource::CutterComp)
         {
-            if let Some(j) = self.pair_nearest(to) {
+            if let Some(j) = self.pair_nearest(to, feed) {
                 self.set_current(j);
                 return Some(j);
             }
@@ -149,12 +149,16 @@ impl NominalBlock {
 
     /// A block of the cutter-compensated tool-centre path (a released move,
     /// a corner arc, a move along the normal axis, in any mix) is paired by
-    /// position: the motion, from the current one on, nearest to the
-    /// command's end (arcs measured to the arc), the earlier one where two
+    /// position: the motion of the command's kind (feed or rapid), from the
+    /// current one on, nearest to the command's end (arcs measured to the
+    /// arc), the earlier one where two
     /// are as near (a command at a corner belongs to the move it ends).
-    fn pair_nearest(&mut self, to: Vec3) -> Option<usize> {
+    fn pair_nearest(&mut self, to: Vec3, feed: bool) -> Option<usize> {
         let mut best: Option<(f64, usize)> = None;
         for j in self.current.unwrap_or(0)..self.motions.len() {
+            if is_feed_like(&self.motions[j]) != feed {
+                continue;
+            }
             let score = self.distance_mm(j, to);
             if best.is_none_or(|(b, _)| score < b - 1e-9) {
                 best = Some((score, j));
