@@ -33,7 +33,7 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
     let dir = tempdir("refuse");
     write_map(&dir, |_| 0.0);
     let cases = [
-        ("G41 D1\n", 1, 1, "cutter radius compensation"),
+        ("G41 D1\n", 1, 5, "diameter the set-up does not give"),
         ("G1 X#<nope> F10\n", 1, 5, "#<nope> is not defined"),
         ("G0 X0 Y0 Z0\nG1 X[1/0] F10\n", 2, 7, "division by zero"),
         ("o100 sub\n", 1, 1, "o100 endsub"),

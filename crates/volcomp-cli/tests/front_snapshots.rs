@@ -66,9 +66,10 @@ fn compensate_refusal_with_caret() {
     );
     let msg = stderr(&o);
     // A refused program (docs/errors.md, "Exit codes"), located at line 3,
-    // column 1 (G41), nothing written.
+    // column 5 (the D word: tool 1 has no diameter in the set-up, which
+    // cutter radius compensation needs), nothing written.
     assert_eq!(o.status.code(), Some(3), "{msg}");
-    assert!(msg.contains("p.ngc:3:1:"), "{msg}");
+    assert!(msg.contains("p.ngc:3:5:"), "{msg}");
     assert!(!dir.join("out.ngc").exists());
     insta::assert_snapshot!("compensate_refusal_with_caret", msg);
 }

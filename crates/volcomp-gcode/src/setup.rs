@@ -8,6 +8,8 @@
 //! G54 = [100.0, 50.0, -200.0]
 //! [tools]                      # tool number = length (along Z)
 //! 1 = 75.0
+//! [tool_diameters]             # tool number = diameter (G41/G42)
+//! 1 = 6.0
 //! [reference]                  # G28 / G30 positions (machine coordinates)
 //! G28 = [0, 0, 0]
 //! G30 = [0, 0, 0]
@@ -32,6 +34,10 @@ pub struct Setup {
     pub work_offsets_mm: [Vec3; 9],
     /// Tool lengths by tool number.
     pub tool_lengths_mm: BTreeMap<u32, f64>,
+    /// Tool diameters by tool number (LinuxCNC's tool table `D`), for
+    /// cutter radius compensation G41/G42. A negative diameter puts the
+    /// tool on the other side, as in LinuxCNC.
+    pub tool_diameters_mm: BTreeMap<u32, f64>,
     /// G28 reference point.
     pub g28_mm: Vec3,
     /// G30 reference point.
@@ -135,6 +141,7 @@ impl Default for Setup {
         Self {
             work_offsets_mm: [Vec3::ZERO; 9],
             tool_lengths_mm: BTreeMap::new(),
+            tool_diameters_mm: BTreeMap::new(),
             g28_mm: Vec3::ZERO,
             g30_mm: Vec3::ZERO,
             g28_given: false,
@@ -173,6 +180,8 @@ struct RawSetup {
     work_offsets: BTreeMap<Sp<String>, Sp<Vec<f64>>>,
     #[serde(default)]
     tools: BTreeMap<Sp<String>, Sp<f64>>,
+    #[serde(default)]
+    tool_diameters: BTreeMap<Sp<String>, Sp<f64>>,
     #[serde(default)]
     reference: BTreeMap<Sp<String>, Sp<Vec<f64>>>,
 }
@@ -250,7 +259,7 @@ impl Setup {
             at.error(
                 offset,
                 e.message().to_string(),
-                "the set-up file has the keys units, start, axes, subroutine_path, var_file, [work_offsets], [tools] and [reference]",
+                "the set-up file has the keys units, start, axes, subroutine_path, var_file, [work_offsets], [tools], [tool_diameters] and [reference]",
             )
         })?;
         let units = raw.units.ok_or_else(|| {
@@ -311,45 +320,8 @@ impl Setup {
                 })?;
             setup.work_offsets_mm[i] = at.vec(name.get_ref(), a, k)?;
         }
-        let mut seen: BTreeMap<u32, &Sp<String>> = BTreeMap::new();
-        for (name, length) in &raw.tools {
-            let n: u32 = name
-                .get_ref()
-                .trim_start_matches(['T', 't'])
-                .parse()
-                .map_err(|_| {
-                    at.error(
-                        name.span().start,
-                        format!("tool `{}` is not a tool number", name.get_ref()),
-                        "write the tool number, such as 1 or T1",
-                    )
-                })?;
-            if let Some(first) = seen.insert(n, name) {
-                let (a, b) = if first.span().start < name.span().start {
-                    (first, name)
-                } else {
-                    (name, first)
-                };
-                let (line, _) = line_col(text, a.span().start);
-                return Err(at.error(
-                    b.span().start,
-                    format!(
-                        "`{}` and `{}` (line {line}) both give the length of tool {n}",
-                        b.get_ref(),
-                        a.get_ref()
-                    ),
-                    "give each tool once",
-                ));
-            }
-            if !length.get_ref().is_finite() {
-                return Err(at.error(
-                    length.span().start,
-                    format!("tool {n} length is not finite"),
-                    "write the tool length as a finite number",
-                ));
-            }
-            setup.tool_lengths_mm.insert(n, length.get_ref() * k);
-        }
+        setup.tool_lengths_mm = tool_table(&at, &raw.tools, "length", k)?;
+        setup.tool_diameters_mm = tool_table(&at, &raw.tool_diameters, "diameter", k)?;
         if let Some(var) = &raw.var_file {
             if !raw.work_offsets.is_empty() || !raw.reference.is_empty() {
                 return Err(at.error(
@@ -395,6 +367,58 @@ impl Setup {
         }
         Ok(setup)
     }
+}
+
+/// A table of one number per tool (`[tools]` lengths, `[tool_diameters]`),
+/// in mm; keys `1` or `T1`, each tool once.
+fn tool_table(
+    at: &At<'_>,
+    raw: &BTreeMap<Sp<String>, Sp<f64>>,
+    what: &str,
+    mm_per_unit: f64,
+) -> Result<BTreeMap<u32, f64>, SetupError> {
+    let text = at.text;
+    let mut out = BTreeMap::new();
+    let mut seen: BTreeMap<u32, &Sp<String>> = BTreeMap::new();
+    for (name, value) in raw {
+        let n: u32 = name
+            .get_ref()
+            .trim_start_matches(['T', 't'])
+            .parse()
+            .map_err(|_| {
+                at.error(
+                    name.span().start,
+                    format!("tool `{}` is not a tool number", name.get_ref()),
+                    "write the tool number, such as 1 or T1",
+                )
+            })?;
+        if let Some(first) = seen.insert(n, name) {
+            let (a, b) = if first.span().start < name.span().start {
+                (first, name)
+            } else {
+                (name, first)
+            };
+            let (line, _) = line_col(text, a.span().start);
+            return Err(at.error(
+                b.span().start,
+                format!(
+                    "`{}` and `{}` (line {line}) both give the {what} of tool {n}",
+                    b.get_ref(),
+                    a.get_ref()
+                ),
+                "give each tool once",
+            ));
+        }
+        if !value.get_ref().is_finite() {
+            return Err(at.error(
+                value.span().start,
+                format!("tool {n} {what} is not finite"),
+                &format!("write the tool {what} as a finite number"),
+            ));
+        }
+        out.insert(n, value.get_ref() * mm_per_unit);
+    }
+    Ok(out)
 }
 
 /// 1-based line and byte column of `offset`.

@@ -68,6 +68,13 @@ pub fn tool_length(n: u32) -> Hundredths {
     Hundredths(10 * (16 + i64::from(n)))
 }
 
+/// Tool n's diameter: n · 0.05 in (1.27 mm), for cutter radius
+/// compensation (G41/G42 D n); the same in rs274's tool table (`D`) and in
+/// the set-up's `[tool_diameters]`.
+pub fn tool_diameter(n: u32) -> Hundredths {
+    Hundredths(5 * i64::from(n))
+}
+
 pub const G28_POINT: [Hundredths; 3] = [Hundredths(500), Hundredths(250), Hundredths(100)];
 pub const G30_POINT: [Hundredths; 3] = [Hundredths(-300), Hundredths(400), Hundredths(200)];
 
@@ -91,6 +98,10 @@ pub fn setup_toml() -> String {
     for n in 1..=99 {
         writeln!(s, "{n} = {}", tool_length(n).inch()).unwrap();
     }
+    s.push_str("\n[tool_diameters]\n");
+    for n in 1..=99 {
+        writeln!(s, "{n} = {}", tool_diameter(n).inch()).unwrap();
+    }
     s.push_str("\n[reference]\n");
     writeln!(s, "G28 = {}", triple_inch(G28_POINT)).unwrap();
     writeln!(s, "G30 = {}", triple_inch(G30_POINT)).unwrap();
@@ -100,7 +111,13 @@ pub fn setup_toml() -> String {
 pub fn rs274_tool_table() -> String {
     let mut s = String::new();
     for n in 1..=99 {
-        writeln!(s, "T{n} P{n} Z{} D0", tool_length(n).inch()).unwrap();
+        writeln!(
+            s,
+            "T{n} P{n} Z{} D{}",
+            tool_length(n).inch(),
+            tool_diameter(n).inch()
+        )
+        .unwrap();
     }
     s
 }

@@ -15,6 +15,7 @@
 //! axis takes up its reversal value. Axes for which no consistent reversal
 //! exists (negative reversal value) are held and reported.
 
+mod cutter;
 mod cycle;
 mod extra;
 mod frame;
@@ -67,6 +68,8 @@ pub fn compensate_program<R: BufRead>(
         mode: None,
         feed_known: false,
         frame_before: None,
+        g93_before: false,
+        g93_last: false,
         known: [false; 3],
         summary: CompensateSummary::default(),
         buf: Vec::with_capacity(1024),
@@ -76,6 +79,8 @@ pub fn compensate_program<R: BufRead>(
     let sep = if program_style.spaced { " " } else { "" };
     let survey = &program_style.survey;
     while let Some(ev) = walker.next_line()? {
+        let g93_now = ev.interp.feed_mode() == FeedMode::InverseTime;
+        st.g93_before = std::mem::replace(&mut st.g93_last, g93_now);
         // Models with Abbe terms see the tool that is active on this line.
         let tool_model = WithTool {
             model,
@@ -112,6 +117,35 @@ pub fn compensate_program<R: BufRead>(
                 file,
                 &mut on_point,
             )?;
+            out.write_all(&st.buf)?;
+            st.frame_before = Some(Frame::of(ev.interp, options, survey));
+            continue;
+        }
+        let cutter = ev.interp.cutter_comp_on()
+            || ev
+                .motions
+                .iter()
+                .any(|m| m.source == MotionSource::CutterComp);
+        if cutter && !ev.after_end && ev.kind == LineKind::Block {
+            // Cutter compensation becomes compensated G0/G1 segments of the
+            // tool-centre path under G40 (compensate/cutter.rs).
+            st.write_cutter(
+                ev.number,
+                ev.bytes,
+                ev.lexed.words().collect(),
+                ev.motions,
+                ev.interp,
+                model,
+                options,
+                survey,
+                sep,
+                file,
+                &mut on_point,
+            )?;
+            st.mode = Some(OutMode::Other);
+            st.known = [true; 3];
+            st.feed_known |=
+                ev.interp.feed_mode() != FeedMode::InverseTime && has_feed(ev.lexed.words());
             out.write_all(&st.buf)?;
             st.frame_before = Some(Frame::of(ev.interp, options, survey));
             continue;
@@ -382,6 +416,10 @@ struct State {
     /// Frame and number style in effect before the current line (after the
     /// previous one): what a move written before the line's own words uses.
     frame_before: Option<(Frame, NumberStyle)>,
+    /// Whether inverse time (G93) was in effect before the current line,
+    /// and after it.
+    g93_before: bool,
+    g93_last: bool,
     summary: CompensateSummary,
     buf: Vec<u8>,
     text: String,

@@ -97,6 +97,16 @@ impl NominalBlock {
                 return Some(j);
             }
         }
+        if self
+            .motions
+            .iter()
+            .any(|m| m.source == volcomp_gcode::MotionSource::CutterComp)
+        {
+            if let Some(j) = self.pair_nearest(to, feed) {
+                self.set_current(j);
+                return Some(j);
+            }
+        }
         let d = to - from;
         let along =
             |m: &Motion| is_feed_like(m) == feed && (!feed || d.dot(m.end - m.start) >= 0.0);
@@ -130,6 +140,27 @@ impl NominalBlock {
             }
             let score = seg + 0.5 * (to - m.end).norm();
             if best.is_none_or(|(b, _)| score < b) {
+                best = Some((score, j));
+            }
+        }
+        best.filter(|(b, _)| *b <= SPLINE_PAIRING_MM)
+            .map(|(_, j)| j)
+    }
+
+    /// A block of the cutter-compensated tool-centre path (a released move,
+    /// a corner arc, a move along the normal axis, in any mix) is paired by
+    /// position: the motion of the command's kind (feed or rapid), from the
+    /// current one on, nearest to the command's end (arcs measured to the
+    /// arc), the earlier one where two
+    /// are as near (a command at a corner belongs to the move it ends).
+    fn pair_nearest(&mut self, to: Vec3, feed: bool) -> Option<usize> {
+        let mut best: Option<(f64, usize)> = None;
+        for j in self.current.unwrap_or(0)..self.motions.len() {
+            if is_feed_like(&self.motions[j]) != feed {
+                continue;
+            }
+            let score = self.distance_mm(j, to);
+            if best.is_none_or(|(b, _)| score < b - 1e-9) {
                 best = Some((score, j));
             }
         }
@@ -340,6 +371,7 @@ mod tests {
             line: 7,
             column: 1,
             feed: 100.0,
+            feed_mode: volcomp_gcode::FeedMode::PerMinute,
             extra: Default::default(),
         };
         let motions = [

@@ -112,7 +112,10 @@ fn is_measured(m: &Motion) -> bool {
     !matches!(m.kind, MotionKind::Rapid)
         && matches!(
             m.source,
-            MotionSource::Program | MotionSource::Cycle | MotionSource::Spline
+            MotionSource::Program
+                | MotionSource::Cycle
+                | MotionSource::Spline
+                | MotionSource::CutterComp
         )
 }
 
@@ -166,11 +169,14 @@ fn advance<S: BufRead>(
             if b.line != n {
                 return Err(mismatch(file, line, format!("this line is marked as written for line {n} of the reference, but the reference's next moving line is line {}", b.line)));
             }
-            // A canned cycle's or a spline's own line is written without its moves.
-            b.own_line_written = b
-                .motions
-                .iter()
-                .any(|m| matches!(m.source, MotionSource::Cycle | MotionSource::Spline));
+            // A canned cycle's, a spline's or a cutter-compensated block's
+            // own line is written without its moves.
+            b.own_line_written = b.motions.iter().any(|m| {
+                matches!(
+                    m.source,
+                    MotionSource::Cycle | MotionSource::Spline | MotionSource::CutterComp
+                )
+            });
             *block = Some(b);
         }
         None => {

@@ -14,6 +14,7 @@
 //! | `options.rs` | [`InterpOptions`], feed and motion modes |
 //! | `words.rs` | decoding a block: words by letter, G/M codes, modal groups, unused words |
 //! | `motion.rs` | straight moves, arcs, polar end points, feed-rate and reach checks |
+//! | `comp.rs` | cutter radius compensation G40, G41, G42, G41.1, G42.1: the tool-centre path, as LinuxCNC computes it |
 //! | `cycle/` | canned cycles G73, G81–G89 |
 //! | `spline.rs` | splines G5, G5.1, G5.2/G5.3, linearised within the spline tolerance |
 //! | `extra.rs` | the extra axes A, B, C, U, V, W, carried through (not compensated) |
@@ -24,6 +25,7 @@
 //! What it does not interpret faithfully it refuses, naming the column: no
 //! guess is ever made about a construct's meaning.
 
+mod comp;
 mod cycle;
 mod extra;
 mod modal;
@@ -91,11 +93,17 @@ pub enum MotionSource {
     /// A spindle-synchronised move: G33, or the stroke in and out of a G33.1
     /// rigid tap. Its feed is the spindle's (pitch × speed), not F.
     SpindleSynced,
+    /// A move of the tool-centre path under cutter radius compensation
+    /// (G41/G42): LinuxCNC gives it out one block late (it waits for the
+    /// next move to know the corner), so it can come with a later line's
+    /// motions; its `line` is the block it comes from. Corner arcs come
+    /// from the block after the corner.
+    CutterComp,
 }
 
 impl MotionSource {
-    /// `program`, `g53`, `reference`, `cycle`, `spline` or
-    /// `spindle_synced`: the name `volcomp moves` prints.
+    /// `program`, `g53`, `reference`, `cycle`, `spline`, `spindle_synced`
+    /// or `cutter_comp`: the name `volcomp moves` prints.
     pub fn name(&self) -> &'static str {
         match self {
             MotionSource::Program => "program",
@@ -104,6 +112,7 @@ impl MotionSource {
             MotionSource::Cycle => "cycle",
             MotionSource::Spline => "spline",
             MotionSource::SpindleSynced => "spindle_synced",
+            MotionSource::CutterComp => "cutter_comp",
         }
     }
 }
@@ -123,8 +132,13 @@ pub struct Motion {
     pub line: u64,
     /// 1-based column of the motion word, or of the first axis word.
     pub column: usize,
-    /// Feed rate in mm/min (or inverse-time value under G93).
+    /// Feed rate in mm/min (or inverse-time value under G93; a
+    /// [`MotionSource::CutterComp`] move computed under G93 has the rate in
+    /// mm/min LinuxCNC runs it at, `inverse_time_rate_*`: the programmed
+    /// length times the block's F).
     pub feed: f64,
+    /// The feed mode (G93, G94, G95) the motion was computed in.
+    pub feed_mode: FeedMode,
     /// The extra axes A, B, C, U, V, W at its start and end (not
     /// compensated; moved linearly over the motion).
     pub extra: ExtraAxes,
@@ -207,6 +221,15 @@ pub struct Interpreter {
     nurbs: Option<Box<spline::NurbsBlock>>,
     /// The current block's words; `None` only while the block runs.
     words: Option<Box<WordTable>>,
+    /// Cutter radius compensation while G41/G42 is in effect.
+    comp: Option<Box<comp::CutterComp>>,
+    /// After G40 the next move must be straight (LinuxCNC's
+    /// `arc_not_allowed`).
+    arc_not_allowed: bool,
+    /// Where the next motion starts when that is not `position`: after G40
+    /// the tool is on the offset path while the program continues from the
+    /// programmed point.
+    motion_start: Option<Vec3>,
 }
 
 fn invalid(line: u64, col: usize, msg: impl Into<String>, help: impl Into<String>) -> GcodeError {
@@ -277,6 +300,9 @@ impl Interpreter {
             spline_tangent: None,
             nurbs: None,
             words: Some(Box::default()),
+            comp: None,
+            arc_not_allowed: false,
+            motion_start: None,
         }
     }
 
@@ -490,6 +516,15 @@ impl Interpreter {
             self.units = Units::Mm;
             self.units_given = true;
         }
+        // 13: cutter radius compensation.
+        self.comp_refusals(line, w)?;
+        if w.has_g(400) {
+            self.comp_off(line, w.g_col(400).unwrap_or(0), out)?;
+        }
+        if let Some(code) = [410u16, 420, 411, 421].into_iter().find(|c| w.has_g(*c)) {
+            let d = w.get(b'D').map(|v| (v, w.col(b'D').unwrap_or(0)));
+            self.comp_on(line, w.g_col(code).unwrap_or(0), code, d, w.get(b'L'))?;
+        }
         // 14: tool length offset.
         self.tool_length_offset(line, w)?;
         // 15: coordinate system.
@@ -574,9 +609,26 @@ impl Interpreter {
         {
             self.motion(line, w, new_cycle, out)?;
         }
-        // 21: stop.
+        // 21: stop. LinuxCNC's `convert_stop` gives out the move waiting in
+        // the cutter compensation queue, and M2/M30 turn compensation off.
+        if let Some(code) = [0u16, 10, 20, 300, 600].into_iter().find(|c| w.has_m(*c)) {
+            let col = w.m_col(code).unwrap_or(0);
+            self.comp_flush_at_stop(line, col, out)?;
+            if code == 20 || code == 300 {
+                self.comp = None;
+            }
+        }
         if w.has_m(20) || w.has_m(300) {
             self.finished = true;
+        }
+        // After a tool change LinuxCNC reads the position back from the
+        // machine (`Interp::read` re-synchronises when `toolchange_flag` is
+        // set): after G40 that is where the tool is, on the offset path,
+        // not the programmed point.
+        if w.has_m(60) {
+            if let Some(p) = self.motion_start.take() {
+                self.position = p;
+            }
         }
         Ok(())
     }

@@ -26,7 +26,7 @@ pub const MAX_COORDINATE_MM: f64 = 100_000.0;
 
 /// Refuses a point (axis frame, mm) with a coordinate beyond
 /// [`MAX_COORDINATE_MM`] or not finite.
-fn check_reach(line: u64, col: usize, what: &str, p: Vec3) -> Result<(), GcodeError> {
+pub(super) fn check_reach(line: u64, col: usize, what: &str, p: Vec3) -> Result<(), GcodeError> {
     for a in Axis::ALL {
         let (v, letter) = (p[a], a.letter());
         if v.is_nan() || v.abs() > MAX_COORDINATE_MM {
@@ -111,7 +111,7 @@ impl Interpreter {
             return self.rotated_target(w);
         }
         let off = self.frame_offset_mm();
-        let mut t = self.position;
+        let mut t = self.words_base();
         for (i, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
             if let Some(v) = w.get(letter) {
                 t[i] = if self.absolute {
@@ -145,7 +145,7 @@ impl Interpreter {
         if radius.is_none() && theta_deg.is_none() {
             return None;
         }
-        let here = self.to_program_mm(self.position);
+        let here = self.to_program_mm(self.words_base());
         let k = 1.0 / self.units.mm_per_unit();
         let (cx, cy) = (here.x * k, here.y * k);
         let polar = |r: f64, theta_rad: f64| (r * theta_rad.cos(), r * theta_rad.sin());
@@ -274,7 +274,16 @@ impl Interpreter {
         self.check_rotated(line, col, w, mode)?;
         let feed = self.to_mm(self.feed);
         let machine = w.has_g(530);
+        if machine && self.comp_active() {
+            return Err(invalid(
+                line,
+                w.g_col(530).unwrap_or(col),
+                "G53 with cutter radius compensation on; LinuxCNC refuses it (\"Cannot use g53 with cutter radius comp\")",
+                "turn compensation off with G40 before the G53 move",
+            ));
+        }
         if machine {
+            self.arc_not_allowed = false;
             if !matches!(mode, MotionMode::Rapid | MotionMode::Feed) {
                 return Err(invalid(
                     line,
@@ -313,9 +322,24 @@ impl Interpreter {
                     MotionKind::Feed
                 };
                 let t = self.target(w);
+                self.arc_not_allowed = false;
+                if self.comp_active() {
+                    return self.comp_straight(line, col, mode == MotionMode::Rapid, t, feed, out);
+                }
                 self.push(out, kind, MotionSource::Program, t, line, col, feed)?;
             }
             MotionMode::Cw | MotionMode::Ccw => {
+                if self.arc_not_allowed {
+                    return Err(invalid(
+                        line,
+                        col,
+                        "an arc right after G40; LinuxCNC refuses it (\"The move just after exiting cutter compensation mode must be straight, not an arc\")",
+                        "make the exit move after G40 a G0 or G1",
+                    ));
+                }
+                if self.comp_active() {
+                    return self.comp_arc(line, col, w, mode == MotionMode::Cw, feed, out);
+                }
                 let arc = self.arc(line, col, w, mode == MotionMode::Cw)?;
                 self.push(
                     out,
@@ -418,11 +442,12 @@ impl Interpreter {
         out.push(Motion {
             kind,
             source,
-            start: self.position,
+            start: self.motion_start.take().unwrap_or(self.position),
             end,
             line,
             column: column + 1,
             feed,
+            feed_mode: self.feed_mode,
             extra: super::ExtraAxes {
                 start: self.extra,
                 end: self.extra_target,
@@ -433,7 +458,7 @@ impl Interpreter {
         Ok(())
     }
 
-    fn arc(
+    pub(super) fn arc(
         &self,
         line: u64,
         col: usize,

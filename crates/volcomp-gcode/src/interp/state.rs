@@ -118,7 +118,7 @@ impl Interpreter {
                 Plane::Zx => 180.0,
                 Plane::Yz => 190.0,
             },
-            "_ccomp" => 400.0,
+            "_ccomp" => self.comp_side_code().unwrap_or(400.0),
             "_metric" => truth(self.units == Units::Mm),
             "_imperial" => truth(self.units == Units::Inch),
             "_absolute" => truth(self.absolute),

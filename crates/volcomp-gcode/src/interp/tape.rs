@@ -51,6 +51,14 @@ impl Interpreter {
     /// must have ended (M2, M30, closing `%`) unless the options say
     /// otherwise.
     pub fn end_of_input(&self, last_line: u64) -> Result<(), GcodeError> {
+        if !self.finished && self.comp_pending() {
+            return Err(invalid(
+                last_line.max(1),
+                0,
+                "the file ends with cutter radius compensation on and its last move still waiting for the next block (LinuxCNC gives it out only at G40 or the program end)",
+                "turn compensation off with G40 and end the program with M2",
+            ));
+        }
         if self.finished || !self.options.require_program_end {
             return Ok(());
         }

@@ -69,6 +69,9 @@ impl WordTable {
     pub(super) fn has_m(&self, code: u16) -> bool {
         self.m.iter().any(|(c, _)| *c == code)
     }
+    pub(super) fn m_col(&self, code: u16) -> Option<usize> {
+        self.m.iter().find(|(c, _)| *c == code).map(|(_, col)| *col)
+    }
 }
 
 /// Modal group of a supported G code (×10), or why it is refused.
@@ -81,7 +84,7 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         930 | 940 | 950 => 5,
         200 | 210 => 6,
         70 | 80 => 15,
-        400 => 7,
+        400 | 410 | 411 | 420 | 421 => 7,
         430 | 431 | 490 => 8,
         980 | 990 => 10,
         540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => 12,
@@ -89,7 +92,6 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         960 | 970 => 14,
         150 | 500 | 690 => 16, // cancel polar / scaling / rotation: no-ops here
         40 | 53 | 100 | 280 | 281 | 300 | 301 | 520 | 530 | 920 | 921 | 922 | 923 => 0,
-        410 | 411 | 420 | 421 => return Err(CUTTER_COMP),
         680 | 681 => return Err("coordinate rotation (G68) is not a pure translation between program and axis frame; post the program without rotation"),
         510 | 511 => return Err("scaling (G51) is not a pure translation between program and axis frame; post the program without scaling"),
         160 => return Err("polar coordinates (G16) are not interpreted; post the program in Cartesian coordinates"),
@@ -101,9 +103,6 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         _ => return Err("unknown G code: LinuxCNC does not know it either, unless the machine's INI file remaps it to a subroutine, which volcomp cannot see; write out what it does in the program"),
     })
 }
-
-/// Why G41/G42 are refused (docs/gcode.md, "What volcomp refuses, and why").
-const CUTTER_COMP: &str = "cutter radius compensation (G41, G42, G41.1, G42.1) is computed by the controller from the tool's diameter, with entry moves, corner arcs and one block of look-ahead; volcomp does not reproduce it, and a compensated offset path could not be handed back to G41/G42; post the program with the tool-centre path (compensation computed in CAM, \"in computer\") and compensate that";
 
 /// Modal group of an M code (×10) as LinuxCNC 2.9 has them
 /// (`Interp::_ems`, src/emc/rs274ngc/interp_array.cc), or why it is refused.
@@ -336,6 +335,7 @@ impl Interpreter {
         let arc = matches!(motion, Some(MotionMode::Cw | MotionMode::Ccw));
         let cycle = matches!(motion, Some(MotionMode::Cycle(_)));
         let g10 = w.has_g(100);
+        let comp = [410u16, 411, 420, 421].iter().any(|c| w.has_g(*c));
         let g87 = motion == Some(MotionMode::Cycle(870));
         let synced = matches!(motion, Some(MotionMode::Synced(_)));
         let tap = motion == Some(MotionMode::Synced(331));
@@ -344,14 +344,14 @@ impl Interpreter {
         let m_any = |codes: &[u16]| codes.iter().any(|c| w.has_m(*c));
         let used = |letter: u8| -> Result<(), &'static str> {
             let (ok, why) = match letter {
-                b'D' => (w.has_g(960), "D word with no G41, G41.1, G42, G42.1 or G96 to use it"),
+                b'D' => (comp || w.has_g(960), "D word with no G41, G41.1, G42, G42.1 or G96 to use it"),
                 b'E' => (m_any(&[660, 670, 680]), "E word with no G70, G76, M66, M67 or M68 to use it"),
                 b'H' => (w.has_g(430), "H word with no G43 or G76 to use it"),
                 b'I' => (arc || g10 || g5_ij || g87 || tap, "I word with no G2, G3, G5, G5.1, G10, G33.1 or G87 to use it"),
                 b'J' => (arc || g10 || g5_ij || g87, "J word with no G2, G3, G5, G5.1, G10 or G87 to use it"),
                 b'K' => (arc || g87 || synced, "K word with no G2, G3, G33, G33.1 or G87 to use it"),
                 // LinuxCNC allows L with G73 and G81–G89 only, not G74.
-                b'L' => ((cycle && motion != Some(MotionMode::Cycle(740))) || g10 || g52 || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
+                b'L' => ((cycle && motion != Some(MotionMode::Cycle(740))) || g10 || g52 || comp || m_any(&[660]), "L word with no G10, canned cycle or M66 to use it"),
                 b'P' => (
                     g10 || w.has_g(40) || w.has_g(640) || arc || g5 || g52
                         || matches!(motion, Some(MotionMode::Cycle(740 | 820 | 840 | 860 | 880 | 890)))

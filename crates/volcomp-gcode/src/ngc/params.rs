@@ -157,6 +157,15 @@ pub struct Scope<'a> {
 
 impl Lookup for Scope<'_> {
     fn numbered(&self, n: usize, col: usize) -> Result<f64, ExprError> {
+        if (5420..=5428).contains(&n) && self.interp.cutter_comp_on() {
+            // interp_read.cc, `read_parameter`: the programmed and the
+            // tool's position differ while compensation is on.
+            return Err(ExprError::new(
+                col,
+                format!("#{n} (current position) read with cutter radius compensation on; LinuxCNC refuses it (\"Cannot read current position with cutter radius compensation on\")"),
+                "read the position before G41/G42 or after G40",
+            ));
+        }
         match self.interp.numbered_parameter(n) {
             Ok(v) => Ok(v),
             Err(Unanswerable::RunTime) => Err(ExprError::new(

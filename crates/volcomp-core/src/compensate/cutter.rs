@@ -1,0 +1,237 @@
+//! Cutter radius compensation (G41/G42) written back as the compensated
+//! tool-centre path under G40.
+//!
+//! The interpreter computes the tool-centre path as LinuxCNC does
+//! (volcomp-gcode, `interp/comp.rs`). A compensated tool-centre path cannot
+//! be handed back to G41/G42: the controller would offset it again, by a
+//! radius measured along a different path. So every block run while
+//! compensation is on is written without its G40/G41/G42 (G41.1, G42.1), D,
+//! motion code and coordinate words, and its moves follow as compensated
+//! G0/G1 segments (arcs linearised within the chord tolerance), which the
+//! controller runs with compensation off.
+//!
+//! LinuxCNC gives a compensated move out one block late (it waits for the
+//! next move to know the corner): moves that come from an earlier block are
+//! written before the block that released them, the block's own moves (a
+//! corner arc, the exit move after G40) after it. The non-motion words of
+//! a block (F, S, M, comments) thus stay between the moves they were
+//! between in LinuxCNC's queue. The segments are tagged `(volcomp Ln)` with
+//! the line of the block that released them: that block's motions are
+//! what `volcomp simulate --reference` pairs them with.
+
+use super::frame::Frame;
+use super::lines::{blank_before, line_ending, stop_m_word, OutMode};
+use super::targets::{check_target_count, targets_of};
+use super::{model_error, CompensateOptions, PointRecord, State};
+use crate::error::CompensationError;
+use crate::model::ErrorModel;
+use volcomp_gcode::edit::{apply_edits, Edit};
+use volcomp_gcode::lexer::Word;
+use volcomp_gcode::number::{format_number, StyleSurvey};
+use volcomp_gcode::{FeedMode, Motion, MotionKind, MotionSource};
+
+/// G codes removed from a block under compensation (×10): cutter
+/// compensation and motion codes.
+const REMOVED_G: [f64; 9] = [40.0, 41.0, 41.1, 42.0, 42.1, 0.0, 1.0, 2.0, 3.0];
+
+/// The rate (mm/min) LinuxCNC runs a G93 move at: a compensated move has
+/// it already (the interpreter's `comp_feed_mm`); any other move's is its
+/// length times its inverse time, at least 0.1 units/min
+/// (`inverse_time_rate_straight`/`_arc`, interp_inverse.cc).
+fn rate_mm_per_min(m: &Motion, units: volcomp_gcode::Units) -> f64 {
+    if m.source == MotionSource::CutterComp {
+        return m.feed;
+    }
+    let length_mm = match m.kind {
+        MotionKind::Arc(a) => {
+            let (_, _, w) = a.plane.axes();
+            (a.start_radius() * a.sweep_rad.abs()).hypot(a.end[w] - a.start[w])
+        }
+        _ => (m.end - m.start).norm(),
+    };
+    // `feed` holds the block's F (min⁻¹) times mm per program unit.
+    let k = units.mm_per_unit();
+    let inverse_per_min = m.feed / k;
+    ((length_mm / k) * inverse_per_min).max(0.1) * k
+}
+
+impl State {
+    /// Writes a block run while cutter compensation is on (or that turned
+    /// it on or off) and its moves (see the module documentation).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn write_cutter(
+        &mut self,
+        line: u64,
+        bytes: &[u8],
+        words: Vec<&Word>,
+        motions: &[Motion],
+        interp: &volcomp_gcode::Interpreter,
+        model: &dyn ErrorModel,
+        options: &CompensateOptions,
+        survey: &StyleSurvey,
+        sep: &str,
+        file: &str,
+        on_point: &mut dyn FnMut(&PointRecord),
+    ) -> Result<(), CompensationError> {
+        if motions.iter().any(|m| m.extra.moves()) {
+            return Err(CompensationError::AtLine {
+                file: file.into(),
+                line,
+                message: "a cutter-compensated move that also moves A, B, C, U, V or W is not written back".into(),
+                help: "move the extra axes outside the compensated (G41/G42) part".into(),
+            });
+        }
+        let (frame, style) = Frame::of(interp, options, survey);
+        // Moves released by this block are written before it, so in the
+        // modes (G90/G91, G20/G21) in effect before it.
+        let (frame0, style0) = self.frame_before.unwrap_or((frame, style));
+        let ending = line_ending(bytes);
+        let (earlier, own): (Vec<&Motion>, Vec<&Motion>) =
+            motions.iter().partition(|m| m.line != line);
+        let units = interp.units();
+        let g93_before = self.g93_before;
+        self.write_cutter_moves(
+            &earlier, line, &frame0, style0, sep, model, options, file, ending, units, g93_before,
+            on_point,
+        )?;
+        let arc = motions
+            .iter()
+            .any(|m| m.line == line && matches!(m.kind, MotionKind::Arc(_)));
+        let comp_code = words
+            .iter()
+            .any(|w| w.letter == b'G' && [41.0, 41.1, 42.0, 42.1].contains(&w.value));
+        let stop = stop_m_word(words.iter().copied());
+        let content = &bytes[..volcomp_gcode::lexer::content_len(bytes)];
+        let mut edits = Vec::new();
+        for w in &words {
+            let remove = match w.letter {
+                b'G' => REMOVED_G.contains(&w.value),
+                b'X' | b'Y' | b'Z' | b'I' | b'J' | b'K' | b'R' | b'@' | b'^' => true,
+                b'P' => arc,
+                b'D' | b'L' => comp_code,
+                _ => stop.is_some_and(|s| s.span == w.span),
+            };
+            if remove {
+                edits.push(Edit::delete(
+                    blank_before(content, w.span.start)..w.span.end,
+                ));
+            }
+        }
+        let mut out = Vec::new();
+        apply_edits(bytes, &mut edits, &mut out).map_err(|e| CompensationError::AtLine {
+            file: file.into(),
+            line,
+            message: format!("internal edit error: {e}"),
+            help: "please report this with the program line".into(),
+        })?;
+        if !out.iter().all(|b| b.is_ascii_whitespace()) {
+            self.buf.extend_from_slice(&out);
+            if !self.buf.ends_with(b"\n") {
+                self.buf.extend_from_slice(ending);
+            }
+            self.summary.lines_out += 1;
+        }
+        let g93_after = interp.feed_mode() == FeedMode::InverseTime;
+        self.write_cutter_moves(
+            &own, line, &frame, style, sep, model, options, file, ending, units, g93_after,
+            on_point,
+        )?;
+        if let Some(w) = stop {
+            self.buf.extend_from_slice(&content[w.span.clone()]);
+            self.buf.extend_from_slice(ending);
+            self.summary.lines_out += 1;
+        }
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    /// Writes `motions`, tagged with `tag_line`, the block that released
+    /// them (the line `volcomp simulate --reference` pairs them with).
+    fn write_cutter_moves(
+        &mut self,
+        motions: &[&Motion],
+        tag_line: u64,
+        frame: &Frame,
+        style: volcomp_gcode::number::NumberStyle,
+        sep: &str,
+        model: &dyn ErrorModel,
+        options: &CompensateOptions,
+        file: &str,
+        ending: &[u8],
+        units: volcomp_gcode::Units,
+        program_in_g93: bool,
+        on_point: &mut dyn FnMut(&PointRecord),
+    ) -> Result<(), CompensationError> {
+        // A move computed under inverse time (G93) runs, in LinuxCNC, at the
+        // rate its programmed length gives (units/min): written as G94 with
+        // that F, and G93 restored after the moves for the program's later
+        // blocks.
+        let mut forced_g94 = false;
+        for m in motions {
+            let line = m.line;
+            if m.feed_mode == FeedMode::InverseTime && !matches!(m.kind, MotionKind::Rapid) {
+                let mut text = String::new();
+                if !forced_g94 {
+                    text.push_str("G94");
+                    text.push_str(sep);
+                    forced_g94 = true;
+                }
+                text.push('F');
+                format_number(
+                    rate_mm_per_min(m, units) / units.mm_per_unit(),
+                    style,
+                    &mut text,
+                );
+                self.buf.extend_from_slice(text.as_bytes());
+                self.buf.extend_from_slice(ending);
+                self.summary.lines_out += 1;
+            }
+            check_target_count(m, options, file, line)?;
+            let targets = targets_of(m, options, model, self.s)
+                .map_err(|source| model_error(file, line, source))?;
+            let rapid = matches!(m.kind, MotionKind::Rapid);
+            let mode = if rapid { OutMode::Rapid } else { OutMode::Feed };
+            let from = self.q_out;
+            let commands = self.solve_targets(
+                model, options, frame, frame, &targets, m.start, !rapid, file, line, on_point,
+            )?;
+            let mut pos = from;
+            for (q, take_up) in commands {
+                if let Some(tu) = take_up {
+                    self.write_inserted(
+                        frame,
+                        style,
+                        sep,
+                        pos,
+                        tu,
+                        OutMode::Feed,
+                        tag_line,
+                        options.trace_comments,
+                        ending,
+                        "take-up",
+                    );
+                    pos = tu;
+                }
+                self.write_inserted(
+                    frame,
+                    style,
+                    sep,
+                    pos,
+                    q,
+                    mode,
+                    tag_line,
+                    options.trace_comments,
+                    ending,
+                    "cutter comp",
+                );
+                pos = q;
+            }
+        }
+        if forced_g94 && program_in_g93 {
+            self.buf.extend_from_slice(b"G93");
+            self.buf.extend_from_slice(ending);
+            self.summary.lines_out += 1;
+        }
+        Ok(())
+    }
+}
