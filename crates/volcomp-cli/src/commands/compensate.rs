@@ -55,7 +55,8 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
             )))
         }
         (_, _, Some(l), _) => Segmentation::MaxLength(l),
-        (_, _, _, Some(t)) => {
+        (_, _, _, t) => {
+            let t = t.unwrap_or(volcomp_core::compensate::DEFAULT_CONTOUR_TOLERANCE_UM);
             let positive = |v: f64| v.is_finite() && v > 0.0;
             if !(positive(t) && positive(a.min_segment_length)) {
                 return Err(CliError::Message(
@@ -67,7 +68,6 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
                 min_length_mm: a.min_segment_length,
             }
         }
-        _ => Segmentation::MaxLength(1.0),
     };
     if !(a.chord_tolerance.is_finite() && a.chord_tolerance > 0.0) {
         return Err(CliError::Message(

@@ -32,7 +32,7 @@ pub use front::{
 };
 pub use options::{
     CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, Segmentation,
-    DEFAULT_MAX_RESIDUAL_UM,
+    DEFAULT_CONTOUR_TOLERANCE_UM, DEFAULT_MAX_RESIDUAL_UM, DEFAULT_MIN_SEGMENT_LENGTH_MM,
 };
 pub use style::{survey_style, ProgramStyle};
 pub(crate) use targets::mark_axes_set;

@@ -68,7 +68,10 @@ impl Default for CompensateOptions {
     fn default() -> Self {
         Self {
             method: Method::Exact,
-            segmentation: Segmentation::MaxLength(1.0),
+            segmentation: Segmentation::Adaptive {
+                tolerance_mm: DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
+                min_length_mm: DEFAULT_MIN_SEGMENT_LENGTH_MM,
+            },
             chord_tolerance_mm: 1e-4,
             decimals: None,
             max_correction_mm: 0.1,
@@ -79,6 +82,19 @@ impl Default for CompensateOptions {
         }
     }
 }
+
+/// Default contour tolerance of adaptive segmentation (µm): 0.1 µm, the
+/// step of a coordinate written with 4 decimals in mm (rounding moves each
+/// written point by up to 0.05 µm per axis, 0.087 µm in space). A finer
+/// tolerance would buy nothing the written numbers can carry; a coarser one
+/// would add a path error larger than the rounding (docs/compensation.md,
+/// "Adaptive segmentation").
+pub const DEFAULT_CONTOUR_TOLERANCE_UM: f64 = 0.1;
+
+/// Default shortest segment of adaptive segmentation (mm): 10 µm, a hundred
+/// times the written step, so a segment never degenerates into a
+/// micrometre block.
+pub const DEFAULT_MIN_SEGMENT_LENGTH_MM: f64 = 0.01;
 
 /// Default of [`CompensateOptions::max_residual_um`]: 1 µm, ten times the
 /// solver's own tolerance plus the rounding of a written coordinate (half a

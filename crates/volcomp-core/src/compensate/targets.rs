@@ -113,8 +113,19 @@ fn split(
             let e = |p: Vec3| -> Result<Vec3, ModelError> {
                 Ok(model.deviation_um(p, s, crate::model::Components::All)? * 1e-3)
             };
-            let (ea, eb) = (e(a)?, e(b)?);
-            return bisect(a, b, ea, eb, tolerance_mm, min_length_mm, &e, 0, out);
+            // Cut first where a table changes slope (the error is affine
+            // between its points), then bisect what the map still bends.
+            let mut from = a;
+            let mut e_from = e(a)?;
+            for cut in knot_cuts(model, a, b, s, min_length_mm) {
+                let p = a.lerp(b, cut);
+                let ep = e(p)?;
+                bisect(from, p, e_from, ep, tolerance_mm, min_length_mm, &e, 0, out)?;
+                from = p;
+                e_from = ep;
+            }
+            let eb = e(b)?;
+            return bisect(from, b, e_from, eb, tolerance_mm, min_length_mm, &e, 0, out);
         }
     };
     for k in 1..n {
@@ -122,6 +133,46 @@ fn split(
     }
     out.push(b);
     Ok(())
+}
+
+/// Parameters `λ ∈ (0, 1)` (increasing) where the line `a`–`b` crosses a
+/// knot of the model's tables ([`ErrorModel::knots_mm`]) for the direction
+/// state `s` of the move, leaving out cuts closer than `min_length_mm` to
+/// the previous cut or to `b`: at most `|b − a| / min_length_mm` of them.
+fn knot_cuts(
+    model: &dyn ErrorModel,
+    a: Vec3,
+    b: Vec3,
+    s: Directions,
+    min_length_mm: f64,
+) -> Vec<f64> {
+    let length = (b - a).norm();
+    let mut cuts = Vec::new();
+    if !(length > 2.0 * min_length_mm) {
+        return cuts;
+    }
+    for axis in 0..3 {
+        let (lo, hi) = (a[axis].min(b[axis]), a[axis].max(b[axis]));
+        if hi <= lo {
+            continue;
+        }
+        let knots = model.knots_mm(axis, s[axis]);
+        let first = knots.partition_point(|k| *k <= lo);
+        for k in knots[first..].iter().take_while(|k| **k < hi) {
+            cuts.push((k - a[axis]) / (b[axis] - a[axis]));
+        }
+    }
+    cuts.sort_by(f64::total_cmp);
+    let min_step = min_length_mm / length;
+    let mut kept: Vec<f64> = Vec::with_capacity(cuts.len());
+    let mut last = 0.0;
+    for c in cuts {
+        if c - last >= min_step && 1.0 - c >= min_step {
+            kept.push(c);
+            last = c;
+        }
+    }
+    kept
 }
 
 /// Adaptive splitting of `a`–`b` (errors `ea`, `eb` at the ends, mm).
@@ -168,6 +219,121 @@ pub(crate) fn mark_axes_set(line: &volcomp_gcode::lexer::Lexed, known: &mut [boo
                 known[1] = true;
             }
             _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::axis_table::AxisTableMap;
+    use crate::model::{Components, ALL_FORWARD};
+    use volcomp_gcode::{Motion, MotionSource};
+
+    fn feed(a: Vec3, b: Vec3) -> Motion {
+        Motion {
+            kind: MotionKind::Feed,
+            start: a,
+            end: b,
+            line: 1,
+            column: 1,
+            feed: 100.0,
+            source: MotionSource::Program,
+            extra: Default::default(),
+        }
+    }
+
+    fn adaptive(tol_um: f64) -> CompensateOptions {
+        CompensateOptions {
+            segmentation: Segmentation::Adaptive {
+                tolerance_mm: tol_um * 1e-3,
+                min_length_mm: 0.01,
+            },
+            ..CompensateOptions::default()
+        }
+    }
+
+    fn map(x_rows: &str) -> AxisTableMap {
+        let csv = format!(
+            "axis,direction,position_mm,ex_um,ey_um,ez_um\n{x_rows}\
+             Y,both,-100,0,0,0\nY,both,100,0,0,0\nZ,both,-100,0,0,0\nZ,both,100,0,0,0\n"
+        );
+        AxisTableMap::from_csv(&csv, "m.csv").unwrap()
+    }
+
+    /// An error that is affine along the move needs no split at all: the
+    /// chord between two compensated points follows the target exactly.
+    #[test]
+    fn a_linear_map_needs_no_split() {
+        let m = map("X,both,-100,-20,5,1\nX,both,100,20,-5,-1\n");
+        let (a, b) = (Vec3::new(-80.0, 3.0, 0.0), Vec3::new(90.0, -7.0, 4.0));
+        let t = targets_of(&feed(a, b), &adaptive(0.1), &m, ALL_FORWARD).unwrap();
+        assert_eq!(t, vec![b]);
+    }
+
+    /// A table's points are the only places a piecewise linear map bends:
+    /// a move across two of them is cut exactly there and nowhere else,
+    /// however large the slope change (here 4 µm/mm).
+    #[test]
+    fn a_table_is_cut_at_its_points_only() {
+        let m = map(
+            "X,both,0,0,0,0\nX,both,5,20,0,0\nX,both,10,0,0,0\nX,both,15,20,3,0\nX,both,20,0,0,0\n",
+        );
+        let (a, b) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(14.0, 0.0, 0.0));
+        let t = targets_of(&feed(a, b), &adaptive(0.1), &m, ALL_FORWARD).unwrap();
+        assert_eq!(
+            t,
+            vec![Vec3::new(5.0, 0.0, 0.0), Vec3::new(10.0, 0.0, 0.0), b]
+        );
+    }
+
+    /// A bow `e_y = 4A·u(1 − u)`, `u = x/L`, departs from the chord of a
+    /// piece of length `h` by `A·(h/L)²` at its middle (the same for every
+    /// piece). With A = 10 µm and a tolerance of 0.1 µm, halving stops at
+    /// the first `h = L/2^k` with `10/4^k ≤ 0.1`: k = 4 (10/256 = 0.039;
+    /// k = 3 gives 10/64 = 0.156 > 0.1), so exactly 16 equal pieces.
+    #[test]
+    fn a_quadratic_bow_needs_the_predicted_pieces() {
+        struct Bow;
+        impl ErrorModel for Bow {
+            fn deviation_um(
+                &self,
+                q: Vec3,
+                _: Directions,
+                _: Components,
+            ) -> Result<Vec3, ModelError> {
+                let u = q.x / 80.0;
+                Ok(Vec3::new(0.0, 40.0 * u * (1.0 - u), 0.0))
+            }
+            fn range_mm(&self) -> [[f64; 2]; 3] {
+                [[-1e3, 1e3]; 3]
+            }
+        }
+        let (a, b) = (Vec3::ZERO, Vec3::new(80.0, 0.0, 0.0));
+        let t = targets_of(&feed(a, b), &adaptive(0.1), &Bow, ALL_FORWARD).unwrap();
+        let expected: Vec<Vec3> = (1..=16)
+            .map(|k| Vec3::new(5.0 * k as f64, 0.0, 0.0))
+            .collect();
+        assert_eq!(t, expected);
+        // A tolerance just above the 8-piece departure keeps 8 pieces.
+        let t = targets_of(&feed(a, b), &adaptive(0.16), &Bow, ALL_FORWARD).unwrap();
+        assert_eq!(t.len(), 8);
+    }
+
+    /// Knots closer than the shortest segment to a cut or to the end are
+    /// left out, so the count stays within [`target_count_bound`].
+    #[test]
+    fn knot_cuts_respect_the_shortest_segment() {
+        let rows: String = (0..=1000)
+            .map(|k| format!("X,both,{},{},0,0\n", f64::from(k) * 0.001, (k % 2) * 5))
+            .collect();
+        let m = map(&rows);
+        let (a, b) = (Vec3::new(0.0005, 0.0, 0.0), Vec3::new(0.9995, 0.0, 0.0));
+        let o = adaptive(0.1);
+        let t = targets_of(&feed(a, b), &o, &m, ALL_FORWARD).unwrap();
+        assert!(t.len() as f64 <= target_count_bound(&feed(a, b), &o));
+        for w in t.windows(2) {
+            assert!((w[1] - w[0]).norm() >= 0.01 - 1e-12);
         }
     }
 }

@@ -191,6 +191,13 @@ impl ErrorModel for AxisTableMap {
         };
         [r(0), r(1), r(2)]
     }
+
+    /// The table's points: linear interpolation changes slope only there.
+    fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
+        self.axes
+            .get(axis)
+            .map_or(&[], |t| t.table(d).positions_mm.as_slice())
+    }
 }
 
 const COLUMNS: [&str; 6] = [
