@@ -172,6 +172,10 @@ pub struct CompensateArgs {
         allow_negative_numbers = true
     )]
     pub chord_tolerance: f64,
+    /// Write arcs as G1 lines within --chord-tolerance instead of as
+    /// compensated arcs (pieces of the original arc).
+    #[arg(long)]
+    pub arcs_as_lines: bool,
     /// Decimal places of written coordinates (default 4 in mm, 5 in inch).
     #[arg(long)]
     pub decimals: Option<u8>,

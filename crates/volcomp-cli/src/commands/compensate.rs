@@ -98,6 +98,7 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
         method,
         segmentation,
         chord_tolerance_mm: a.chord_tolerance,
+        arcs_as_arcs: !a.arcs_as_lines,
         decimals: a.decimals,
         max_correction_mm: a.max_correction,
         directions: if a.nominal_directions {

@@ -40,8 +40,12 @@ pub struct CompensateOptions {
     pub method: Method,
     /// Splitting of feed moves.
     pub segmentation: Segmentation,
-    /// Chord tolerance for arcs (mm).
+    /// Chord tolerance for arcs (mm), when they are linearised.
     pub chord_tolerance_mm: f64,
+    /// Write compensated arcs as arcs (pieces of the original arc, each
+    /// compensated at its ends and middle; docs/compensation.md, "Arcs as
+    /// arcs"); `false` linearises them within the chord tolerance.
+    pub arcs_as_arcs: bool,
     /// Written decimals; `None`: 4 in mm, 5 in inch, or more where the
     /// program writes more. A rewritten word never has fewer decimals than
     /// the word it replaces.
@@ -73,6 +77,7 @@ impl Default for CompensateOptions {
                 min_length_mm: DEFAULT_MIN_SEGMENT_LENGTH_MM,
             },
             chord_tolerance_mm: 1e-4,
+            arcs_as_arcs: true,
             decimals: None,
             max_correction_mm: 0.1,
             directions: DirectionPolicy::Commanded,

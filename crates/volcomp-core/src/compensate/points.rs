@@ -69,6 +69,7 @@ impl State {
         on_point: &mut dyn FnMut(&PointRecord),
     ) -> Result<Vec<(Vec3, Option<Vec3>)>, CompensationError> {
         let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
+        self.states.clear();
         let mut t_prev = start;
         for t in targets {
             let q_from = self.q_out;
@@ -172,6 +173,7 @@ impl State {
                 rapid: !feed_like,
             });
             commands.push((point.q_mm, take_up));
+            self.states.push(point.s);
             self.q_out = point.q_mm;
             self.s = point.s;
             self.s_nominal = next_state(self.s_nominal, *t - t_prev);

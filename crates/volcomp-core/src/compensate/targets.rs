@@ -27,6 +27,10 @@ pub fn target_count_bound(motion: &volcomp_gcode::Motion, options: &CompensateOp
     match motion.kind {
         MotionKind::Rapid => 1.0,
         MotionKind::Feed => per((motion.end - motion.start).norm()),
+        MotionKind::Arc(arc) if options.arcs_as_arcs => {
+            let (_, min_length_mm) = arc_tolerances(options);
+            (arc.length() / min_length_mm).floor().min(2f64.powi(40)) + 1.0
+        }
         MotionKind::Arc(arc) => {
             let chords = arc.chord_count(options.chord_tolerance_mm) as f64;
             match options.segmentation {
@@ -69,6 +73,12 @@ pub fn targets_of(
     match motion.kind {
         MotionKind::Rapid => out.push(motion.end),
         MotionKind::Feed => split(motion.start, motion.end, seg, model, s, &mut out)?,
+        MotionKind::Arc(arc) if options.arcs_as_arcs => {
+            let (tolerance_mm, min_length_mm) = arc_tolerances(options);
+            for l in super::arcs::arc_pieces(&arc, model, s, tolerance_mm, min_length_mm)? {
+                out.push(if l >= 1.0 { arc.end } else { arc.point_at(l) });
+            }
+        }
         MotionKind::Arc(arc) => {
             let chords = arc.chord_count(options.chord_tolerance_mm);
             if let Segmentation::Count(n) = seg {
@@ -91,6 +101,21 @@ pub fn targets_of(
         }
     }
     Ok(out)
+}
+
+/// Contour tolerance and shortest piece (mm) of arcs written as arcs: those
+/// of adaptive segmentation, or its defaults under another segmentation.
+pub(super) fn arc_tolerances(options: &CompensateOptions) -> (f64, f64) {
+    match options.segmentation {
+        Segmentation::Adaptive {
+            tolerance_mm,
+            min_length_mm,
+        } => (tolerance_mm, min_length_mm),
+        _ => (
+            super::DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
+            super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
+        ),
+    }
 }
 
 fn split(
@@ -148,7 +173,7 @@ fn knot_cuts(
 ) -> Vec<f64> {
     let length = (b - a).norm();
     let mut cuts = Vec::new();
-    if !(length > 2.0 * min_length_mm) {
+    if length <= 2.0 * min_length_mm || !length.is_finite() {
         return cuts;
     }
     for axis in 0..3 {

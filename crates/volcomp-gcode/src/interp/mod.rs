@@ -286,6 +286,12 @@ impl Interpreter {
         self.absolute
     }
 
+    /// Whether arc centres (I, J, K) are absolute (G90.1) rather than
+    /// relative to the arc's start (G91.1).
+    pub fn arc_absolute(&self) -> bool {
+        self.arc_absolute
+    }
+
     /// The canned cycle in effect (73, 81–89) and, for G82/G86/G88/G89 (and
     /// G84 when given), the dwell at the bottom in seconds.
     pub fn canned_cycle(&self) -> Option<(u16, Option<f64>)> {

@@ -1,0 +1,339 @@
+//! Compensated arcs written as arcs (docs/compensation.md, "Arcs as arcs").
+//!
+//! A G2/G3 is cut into pieces of the original arc: at the quarter points of
+//! the circle (where an axis of the plane reverses, so each piece has one
+//! direction state and a take-up can go between pieces), where it crosses a
+//! point of the map's tables (where a linearly interpolated map bends), and
+//! then by bisection while the estimated contour error of a piece exceeds
+//! the contour tolerance. Each piece's end is compensated exactly by the
+//! point solver; its centre is that of the circle through the compensated
+//! start, the compensated middle and the compensated end, so the actual path
+//! lands on the nominal arc at three points of every piece.
+
+use crate::error::ModelError;
+use crate::model::{Components, Direction, Directions, ErrorModel};
+use crate::simulate::next_state;
+use crate::simulate::nominal::arc_distance_mm;
+use std::f64::consts::{FRAC_PI_2, TAU};
+use volcomp_gcode::{Arc, Vec3};
+
+/// Centre `(u, v)` of the circle through three points of a plane, or `None`
+/// when they are collinear to within 1e-12 of the squared chord.
+pub(super) fn circle_through(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<[f64; 2]> {
+    let (bx, by) = (b[0] - a[0], b[1] - a[1]);
+    let (cx, cy) = (c[0] - a[0], c[1] - a[1]);
+    let (b2, c2) = (bx * bx + by * by, cx * cx + cy * cy);
+    let d = 2.0 * (bx * cy - by * cx);
+    if d.abs() <= 1e-12 * b2.max(c2) || !d.is_finite() {
+        return None;
+    }
+    Some([
+        a[0] + (cy * b2 - by * c2) / d,
+        a[1] + (bx * c2 - cx * b2) / d,
+    ])
+}
+
+/// The arc the controller runs from `start` to `end` in `arc`'s plane and
+/// turning direction, about the centre of the circle through `start`, `mid`
+/// and `end` (the helix axis linear from start to end, as LinuxCNC
+/// interpolates it). `None` when the three points are collinear or the
+/// circle does not pass `mid` between `start` and `end` in that direction.
+pub(super) fn commanded_arc(nominal: &Arc, start: Vec3, mid: Vec3, end: Vec3) -> Option<Arc> {
+    let (u, v, w) = nominal.plane.axes();
+    let c = circle_through([start[u], start[v]], [mid[u], mid[v]], [end[u], end[v]])?;
+    let mut center = start;
+    center[u] = c[0];
+    center[v] = c[1];
+    center[w] = start[w];
+    let angle = |p: Vec3| (p[v] - c[1]).atan2(p[u] - c[0]);
+    let cw = nominal.clockwise();
+    let sweep = volcomp_gcode::arc::sweep_angle(angle(start), angle(end), cw, 1);
+    let to_mid = volcomp_gcode::arc::sweep_angle(angle(start), angle(mid), cw, 1);
+    if to_mid.abs() >= sweep.abs() || !sweep.is_finite() {
+        return None;
+    }
+    Some(Arc {
+        start,
+        end,
+        center,
+        plane: nominal.plane,
+        sweep_rad: sweep,
+    })
+}
+
+/// The sub-arc of `arc` between parameters `a` and `b`.
+pub(super) fn sub_arc(arc: &Arc, a: f64, b: f64) -> Arc {
+    let (_, _, w) = arc.plane.axes();
+    let start = arc.point_at(a);
+    let mut center = arc.center;
+    center[w] = start[w];
+    Arc {
+        start,
+        end: arc.point_at(b),
+        center,
+        plane: arc.plane,
+        sweep_rad: arc.sweep_rad * (b - a),
+    }
+}
+
+/// The command `q` with `q + e(q, s) = t` by fixed-point iteration (the
+/// map's slope is of the order of 10⁻⁵, so a few steps reach 1e-12 mm); for
+/// estimates only — written points come from the program's own solver.
+fn solve_quick(model: &dyn ErrorModel, t: Vec3, s: Directions) -> Result<Vec3, ModelError> {
+    let mut q = t;
+    for _ in 0..6 {
+        q = t - model.deviation_um(q, s, Components::All)? * 1e-3;
+    }
+    Ok(q)
+}
+
+/// The largest distance (mm) from the nominal arc of the actual path of the
+/// piece `[a, b]` of `arc`, compensated at its ends and middle, with the
+/// direction state `s` during the piece: sampled at a quarter, half and
+/// three quarters of the commanded piece. Infinite when no circle fits.
+pub(super) fn piece_departure_mm(
+    arc: &Arc,
+    a: f64,
+    b: f64,
+    model: &dyn ErrorModel,
+    s: Directions,
+) -> Result<f64, ModelError> {
+    let nominal = sub_arc(arc, a, b);
+    let s = next_state(s, nominal.end - nominal.start);
+    let qa = solve_quick(model, nominal.start, s)?;
+    let qm = solve_quick(model, nominal.point_at(0.5), s)?;
+    let qb = solve_quick(model, nominal.end, s)?;
+    let Some(cmd) = commanded_arc(&nominal, qa, qm, qb) else {
+        return Ok(f64::INFINITY);
+    };
+    let mut worst: f64 = 0.0;
+    let mut hint = 0.0;
+    for f in [0.25, 0.5, 0.75] {
+        let p = cmd.point_at(f);
+        let actual = p + model.deviation_um(p, s, Components::All)? * 1e-3;
+        worst = worst.max(arc_distance_mm(actual, &nominal, &mut hint));
+    }
+    Ok(worst)
+}
+
+/// Parameters in `(0, 1)` (unsorted) where `arc` reaches a quarter point of
+/// its circle (an axis of the plane reverses there) or crosses a point of
+/// the model's tables on an axis of the plane or, on a helix, its axis.
+fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> Vec<f64> {
+    let (u, v, w) = arc.plane.axes();
+    let sweep = arc.sweep_rad;
+    let mut cuts = Vec::new();
+    if sweep == 0.0 || !sweep.is_finite() {
+        return cuts;
+    }
+    let a0 = (arc.start[v] - arc.center[v]).atan2(arc.start[u] - arc.center[u]);
+    let r = 0.5 * (arc.start_radius() + arc.end_radius());
+    // Every angle θ + 2πm (any m) that lies inside the sweep.
+    let at_angle = |theta: f64, cuts: &mut Vec<f64>| {
+        let first = ((theta - a0) / sweep).rem_euclid(TAU / sweep.abs());
+        let mut t = first;
+        while t < 1.0 {
+            if t > 0.0 {
+                cuts.push(t);
+            }
+            t += TAU / sweep.abs();
+        }
+    };
+    for k in 0..4 {
+        at_angle(f64::from(k) * FRAC_PI_2, &mut cuts);
+    }
+    let both = |axis: usize| -> Vec<f64> {
+        let mut k: Vec<f64> = model.knots_mm(axis, Direction::Forward).to_vec();
+        k.extend_from_slice(model.knots_mm(axis, Direction::Reverse));
+        k
+    };
+    for knot in both(u) {
+        let c = (knot - arc.center[u]) / r;
+        if c.abs() < 1.0 {
+            let alpha = c.acos();
+            at_angle(alpha, &mut cuts);
+            at_angle(-alpha, &mut cuts);
+        }
+    }
+    for knot in both(v) {
+        let s = (knot - arc.center[v]) / r;
+        if s.abs() < 1.0 {
+            let beta = s.asin();
+            at_angle(beta, &mut cuts);
+            at_angle(std::f64::consts::PI - beta, &mut cuts);
+        }
+    }
+    let (w0, w1) = (arc.start[w], arc.end[w]);
+    if w1 != w0 {
+        let (lo, hi) = (w0.min(w1), w0.max(w1));
+        for knot in both(w) {
+            if knot > lo && knot < hi {
+                cuts.push((knot - w0) / (w1 - w0));
+            }
+        }
+    }
+    cuts
+}
+
+/// The end parameters of the pieces of `arc` (increasing, the last 1.0):
+/// cut at quarter points and table points, then halved while a piece's
+/// estimated departure ([`piece_departure_mm`]) exceeds `tolerance_mm`;
+/// no piece shorter than `min_length_mm` along the arc except where a
+/// quarter point needs it, so at most `length / min + 4·turns + 4` pieces.
+pub(super) fn arc_pieces(
+    arc: &Arc,
+    model: &dyn ErrorModel,
+    s: Directions,
+    tolerance_mm: f64,
+    min_length_mm: f64,
+) -> Result<Vec<f64>, ModelError> {
+    let length = arc.length();
+    let mut cuts = arc_cuts(arc, model);
+    cuts.sort_by(f64::total_cmp);
+    let min_step = if length > 0.0 {
+        min_length_mm / length
+    } else {
+        1.0
+    };
+    let mut kept = Vec::with_capacity(cuts.len() + 1);
+    let mut last = 0.0;
+    for c in cuts {
+        if c - last >= min_step && 1.0 - c >= min_step {
+            kept.push(c);
+            last = c;
+        }
+    }
+    kept.push(1.0);
+    let mut out = Vec::with_capacity(kept.len());
+    let mut from = 0.0;
+    for to in kept {
+        bisect_arc(arc, from, to, model, s, tolerance_mm, min_step, 0, &mut out)?;
+        from = to;
+    }
+    Ok(out)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn bisect_arc(
+    arc: &Arc,
+    a: f64,
+    b: f64,
+    model: &dyn ErrorModel,
+    s: Directions,
+    tol: f64,
+    min_step: f64,
+    depth: u32,
+    out: &mut Vec<f64>,
+) -> Result<(), ModelError> {
+    if b - a > 2.0 * min_step && depth < 40 && piece_departure_mm(arc, a, b, model, s)? > tol {
+        let m = 0.5 * (a + b);
+        bisect_arc(arc, a, m, model, s, tol, min_step, depth + 1, out)?;
+        return bisect_arc(arc, m, b, model, s, tol, min_step, depth + 1, out);
+    }
+    out.push(b);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ALL_FORWARD;
+    use volcomp_gcode::Plane;
+
+    #[test]
+    fn circle_through_three_points_of_a_known_circle() {
+        // Centre (3, −2), radius 5: points at 0°, 90° and 210°.
+        let p = |deg: f64| {
+            let a = deg.to_radians();
+            [3.0 + 5.0 * a.cos(), -2.0 + 5.0 * a.sin()]
+        };
+        let c = circle_through(p(0.0), p(90.0), p(210.0)).unwrap();
+        assert!((c[0] - 3.0).abs() < 1e-12 && (c[1] + 2.0).abs() < 1e-12);
+        assert!(circle_through([0.0, 0.0], [1.0, 1.0], [2.0, 2.0]).is_none());
+    }
+
+    /// A map with a smooth bend along X in Z (`e_z = k·x²`) and in-plane
+    /// terms: on an XY arc the helix axis is matched at the two ends only,
+    /// so the error left in a piece is the departure of
+    /// `g(θ) = e_z(R cos θ) = k R² cos² θ` from its chord in θ, which at
+    /// the middle is `−g''·Δ²/8 = k R² cos(2θ_m) Δ²/4`: second order in the
+    /// piece, so halving it divides the error by 4. The in-plane part,
+    /// matched at three points, is of higher order.
+    #[test]
+    fn the_error_of_a_piece_is_second_order() {
+        struct Bend;
+        impl ErrorModel for Bend {
+            fn deviation_um(
+                &self,
+                q: Vec3,
+                _: Directions,
+                _: Components,
+            ) -> Result<Vec3, ModelError> {
+                Ok(Vec3::new(
+                    0.02 * q.x * q.y,
+                    -0.03 * q.x * q.x,
+                    0.05 * q.x * q.x,
+                ))
+            }
+            fn range_mm(&self) -> [[f64; 2]; 3] {
+                [[-1e3, 1e3]; 3]
+            }
+        }
+        // A quarter of a circle of radius 20 about the origin, G3.
+        let arc = Arc {
+            start: Vec3::new(20.0, 0.0, 0.0),
+            end: Vec3::new(0.0, 20.0, 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: FRAC_PI_2,
+        };
+        // Pieces from 0° of 8°, 4° and 2°.
+        let d_um =
+            |deg: f64| piece_departure_mm(&arc, 0.0, deg / 90.0, &Bend, ALL_FORWARD).unwrap() * 1e3;
+        let hand_um = |deg: f64| {
+            let delta = f64::to_radians(deg);
+            0.05 * 400.0 * delta.cos() * delta * delta / 4.0
+        };
+        for deg in [8.0, 4.0, 2.0] {
+            // 4°: 0.05 · 400 · cos 4° · 0.0698² / 4 = 0.02431 µm.
+            let (d, h) = (d_um(deg), hand_um(deg));
+            assert!((d - h).abs() < 0.02 * h, "{deg}°: {d} µm, by hand {h} µm");
+        }
+        assert!((d_um(8.0) / d_um(4.0) - 4.0).abs() < 0.1);
+        assert!((d_um(4.0) / d_um(2.0) - 4.0).abs() < 0.1);
+    }
+
+    #[test]
+    fn pieces_end_at_quarter_points() {
+        struct Zero;
+        impl ErrorModel for Zero {
+            fn deviation_um(
+                &self,
+                _: Vec3,
+                _: Directions,
+                _: Components,
+            ) -> Result<Vec3, ModelError> {
+                Ok(Vec3::ZERO)
+            }
+            fn range_mm(&self) -> [[f64; 2]; 3] {
+                [[-1e3, 1e3]; 3]
+            }
+        }
+        // A full G2 circle from 45°: quarter points at 0°, −90°, −180°, −270°.
+        let s = 10.0 * std::f64::consts::FRAC_1_SQRT_2;
+        let p = Vec3::new(s, s, 0.0);
+        let arc = Arc {
+            start: p,
+            end: p,
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: -TAU,
+        };
+        let t = arc_pieces(&arc, &Zero, ALL_FORWARD, 1e-4, 0.01).unwrap();
+        let expected = [0.125, 0.375, 0.625, 0.875, 1.0];
+        assert_eq!(t.len(), 5);
+        for (a, b) in t.iter().zip(expected) {
+            assert!((a - b).abs() < 1e-12, "{t:?}");
+        }
+    }
+}
