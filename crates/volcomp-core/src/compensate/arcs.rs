@@ -61,6 +61,32 @@ pub(super) fn commanded_arc(nominal: &Arc, start: Vec3, mid: Vec3, end: Vec3) ->
     })
 }
 
+/// The centre to write for a compensated piece of the nominal arc `piece`
+/// (commanded `start`, `mid`, `end`), or `None` to write the piece as a G1
+/// chord: when the piece departs from its own chord by no more than
+/// `chord_tolerance_mm` (its sagitta `r(1 − cos(Δ/2))`: then the three
+/// points are so close to collinear that the rounding of the written ends
+/// would decide the circle), or when the circle found is not the nominal
+/// one moved by a correction (its sagitta off by more than half: the
+/// rounding of the ends, up to 0.09 µm, then dominates a sagitta of a
+/// few tenths of a µm, and the chord is within that of the arc).
+pub(super) fn piece_center(
+    piece: &Arc,
+    start: Vec3,
+    mid: Vec3,
+    end: Vec3,
+    chord_tolerance_mm: f64,
+) -> Option<Vec3> {
+    let r = piece.start_radius().max(piece.end_radius());
+    let sagitta = r * (1.0 - (0.5 * piece.sweep_rad.abs()).min(FRAC_PI_2).cos());
+    if sagitta <= chord_tolerance_mm {
+        return None;
+    }
+    let cmd = commanded_arc(piece, start, mid, end)?;
+    let fitted = cmd.start_radius() * (1.0 - (0.5 * cmd.sweep_rad.abs()).min(FRAC_PI_2).cos());
+    ((fitted - sagitta).abs() <= 0.5 * sagitta).then_some(cmd.center)
+}
+
 /// The sub-arc of `arc` between parameters `a` and `b`.
 pub(super) fn sub_arc(arc: &Arc, a: f64, b: f64) -> Arc {
     let (_, _, w) = arc.plane.axes();

@@ -257,7 +257,13 @@ pub fn compensate_program<R: BufRead>(
                     .map_err(|source| command_error(model, file, ev.number, t_mid, source))?
                     .q_mm;
                     words.push(ArcWords {
-                        center: arcs::commanded_arc(&piece, start, q_mid, *q).map(|a| a.center),
+                        center: arcs::piece_center(
+                            &piece,
+                            start,
+                            q_mid,
+                            *q,
+                            options.chord_tolerance_mm,
+                        ),
                         plane: arc.plane,
                         clockwise: arc.clockwise(),
                         radius_style,
