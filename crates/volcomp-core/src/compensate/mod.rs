@@ -173,11 +173,14 @@ pub fn compensate_program<R: BufRead>(
         let feed_known_before = st.feed_known;
         let feed_known_in_line = st.feed_known || has_feed(ev.lexed.words());
         // Arcs are written as arcs unless the line needs what that path
-        // does not write: a rotated frame, polar words, extra axes.
+        // does not write: a rotated frame, polar words, extra axes, or
+        // centres read as absolute by option (the program does not say so,
+        // so no other reader would read the written centres alike).
         let arc_nominal = match motion.kind {
             MotionKind::Arc(arc)
                 if options.arcs_as_arcs
                     && frame.rotation_deg == 0.0
+                    && !(interp.arc_absolute() && interp.arc_absolute_by_option())
                     && !motion.extra.moves()
                     && !ev.lexed.words().any(|w| matches!(w.letter, b'@' | b'^')) =>
             {
