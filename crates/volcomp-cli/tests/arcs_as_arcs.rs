@@ -78,6 +78,11 @@ fn blocks(text: &str) -> usize {
 }
 
 fn volcomp(args: &[&str], dir: &Path) -> String {
+    volcomp_both(args, dir).0
+}
+
+/// Standard output and standard error of a successful run.
+fn volcomp_both(args: &[&str], dir: &Path) -> (String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_volcomp"))
         .args(args)
         .current_dir(dir)
@@ -88,7 +93,10 @@ fn volcomp(args: &[&str], dir: &Path) -> String {
         "volcomp {args:?}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    String::from_utf8_lossy(&out.stdout).into_owned()
+    (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 /// `(contour_rms_um, contour_max_um)` of `simulate --json`.
@@ -118,12 +126,22 @@ fn arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
         let common = ["--map", "ripple.csv", "--work-offset", "250,200,150"];
         let mut args = vec!["compensate", name, "-o", &out];
         args.extend(common);
-        volcomp(&args, d);
+        let (_, said) = volcomp_both(&args, d);
         let mut args = vec!["compensate", name, "--arcs-as-lines", "-o", &lines];
         args.extend(common);
         volcomp(&args, d);
         let written = std::fs::read_to_string(d.join(&out)).unwrap();
         let linear = std::fs::read_to_string(d.join(&lines)).unwrap();
+        // The size it reports is the files' own, counted here.
+        let size = format!(
+            "size {} -> {} bytes, {} -> {} blocks",
+            text.len(),
+            written.len(),
+            blocks(text),
+            blocks(&written)
+        );
+        assert!(said.contains(&size), "{name}: {said} (expected {size})");
+        assert!(said.contains("µm estimated"), "{said}");
         let arcs = written
             .lines()
             .filter(|l| {

@@ -362,6 +362,25 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         summary.max_residual_um,
         summary.take_ups
     );
+    let ratio = if summary.blocks_in > 0 {
+        format!(
+            " (x{:.2})",
+            summary.blocks_out as f64 / summary.blocks_in as f64
+        )
+    } else {
+        String::new()
+    };
+    eprintln!(
+        "volcomp: size {} -> {} bytes, {} -> {} blocks{ratio}; largest contour deviation the segmentation leaves: {}",
+        summary.bytes_in,
+        summary.bytes_out,
+        summary.blocks_in,
+        summary.blocks_out,
+        match summary.max_estimated_contour_um {
+            Some(um) => format!("{um:.3} µm estimated (plus the rounding of the written numbers)"),
+            None => "not estimated (fixed segmentation)".into(),
+        }
+    );
     if summary.held_count > 0 {
         let first: Vec<String> = summary
             .held

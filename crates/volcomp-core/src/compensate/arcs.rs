@@ -77,14 +77,19 @@ pub(super) fn piece_center(
     end: Vec3,
     chord_tolerance_mm: f64,
 ) -> Option<Vec3> {
-    let r = piece.start_radius().max(piece.end_radius());
-    let sagitta = r * (1.0 - (0.5 * piece.sweep_rad.abs()).min(FRAC_PI_2).cos());
+    let sagitta = sagitta_mm(piece);
     if sagitta <= chord_tolerance_mm {
         return None;
     }
     let cmd = commanded_arc(piece, start, mid, end)?;
     let fitted = cmd.start_radius() * (1.0 - (0.5 * cmd.sweep_rad.abs()).min(FRAC_PI_2).cos());
     ((fitted - sagitta).abs() <= 0.5 * sagitta).then_some(cmd.center)
+}
+
+/// How far an arc departs from its chord: `r(1 − cos(Δ/2))` (mm).
+pub(super) fn sagitta_mm(arc: &Arc) -> f64 {
+    let r = arc.start_radius().max(arc.end_radius());
+    r * (1.0 - (0.5 * arc.sweep_rad.abs()).min(FRAC_PI_2).cos())
 }
 
 /// The sub-arc of `arc` between parameters `a` and `b`.
@@ -212,6 +217,7 @@ pub(super) fn arc_pieces(
     s: Directions,
     tolerance_mm: f64,
     min_length_mm: f64,
+    worst_mm: &mut f64,
 ) -> Result<Vec<f64>, ModelError> {
     let length = arc.length();
     let mut cuts = arc_cuts(arc, model);
@@ -233,7 +239,18 @@ pub(super) fn arc_pieces(
     let mut out = Vec::with_capacity(kept.len());
     let mut from = 0.0;
     for to in kept {
-        bisect_arc(arc, from, to, model, s, tolerance_mm, min_step, 0, &mut out)?;
+        bisect_arc(
+            arc,
+            from,
+            to,
+            model,
+            s,
+            tolerance_mm,
+            min_step,
+            0,
+            &mut out,
+            worst_mm,
+        )?;
         from = to;
     }
     Ok(out)
@@ -250,12 +267,20 @@ fn bisect_arc(
     min_step: f64,
     depth: u32,
     out: &mut Vec<f64>,
+    worst_mm: &mut f64,
 ) -> Result<(), ModelError> {
-    if b - a > 2.0 * min_step && depth < 40 && piece_departure_mm(arc, a, b, model, s)? > tol {
+    let d = piece_departure_mm(arc, a, b, model, s)?;
+    if b - a > 2.0 * min_step && depth < 40 && d > tol {
         let m = 0.5 * (a + b);
-        bisect_arc(arc, a, m, model, s, tol, min_step, depth + 1, out)?;
-        return bisect_arc(arc, m, b, model, s, tol, min_step, depth + 1, out);
+        bisect_arc(arc, a, m, model, s, tol, min_step, depth + 1, out, worst_mm)?;
+        return bisect_arc(arc, m, b, model, s, tol, min_step, depth + 1, out, worst_mm);
     }
+    // A piece with no fitting circle is written as its chord.
+    *worst_mm = worst_mm.max(if d.is_finite() {
+        d
+    } else {
+        sagitta_mm(&sub_arc(arc, a, b))
+    });
     out.push(b);
     Ok(())
 }
@@ -355,7 +380,9 @@ mod tests {
             plane: Plane::Xy,
             sweep_rad: -TAU,
         };
-        let t = arc_pieces(&arc, &Zero, ALL_FORWARD, 1e-4, 0.01).unwrap();
+        let mut worst = 0.0;
+        let t = arc_pieces(&arc, &Zero, ALL_FORWARD, 1e-4, 0.01, &mut worst).unwrap();
+        assert!(worst < 1e-12, "{worst}");
         let expected = [0.125, 0.375, 0.625, 0.875, 1.0];
         assert_eq!(t.len(), 5);
         for (a, b) in t.iter().zip(expected) {

@@ -267,6 +267,8 @@ impl<'a> Compensator<'a> {
             Some(f) => f.as_mut(),
             None => &mut no_op,
         };
+        // The whole output is counted here, the header included.
+        let mut out = super::size::Counted::new(&mut out);
         let result = match &self.header {
             Some(h) => compensate_program_with_header(
                 &mut walker,
@@ -288,6 +290,10 @@ impl<'a> Compensator<'a> {
                 on_point,
             ),
         };
+        let result = result.map(|mut summary| {
+            (summary.bytes_out, summary.blocks_out) = out.finish();
+            summary
+        });
         if let Some(f) = self.on_warning.as_mut() {
             walker.warnings().iter().for_each(f);
         }

@@ -23,6 +23,7 @@ mod front;
 mod lines;
 mod options;
 mod points;
+mod size;
 pub mod solve;
 mod spline;
 mod style;
@@ -74,7 +75,11 @@ pub fn compensate_program<R: BufRead>(
         text: String::with_capacity(128),
         extra_text: String::new(),
         states: Vec::new(),
+        estimate_mm: 0.0,
+        blocks_in: size::Blocks::default(),
     };
+    let mut out = size::Counted::new(out);
+    let out = &mut out;
     let sep = if program_style.spaced { " " } else { "" };
     let survey = &program_style.survey;
     while let Some(ev) = walker.next_line()? {
@@ -85,6 +90,8 @@ pub fn compensate_program<R: BufRead>(
         };
         let model: &dyn ErrorModel = &tool_model;
         st.summary.lines_in += 1;
+        st.summary.bytes_in += ev.bytes.len() as u64;
+        st.blocks_in.scan(ev.bytes);
         st.buf.clear();
         let program_motion = ev.motions.iter().any(|m| m.source == MotionSource::Program);
         let cycle = ev.motions.iter().any(|m| m.source == MotionSource::Cycle);
@@ -197,8 +204,15 @@ pub fn compensate_program<R: BufRead>(
         let pieces: Vec<f64> = match arc_nominal {
             Some(arc) => {
                 let (tolerance_mm, min_length_mm) = targets::arc_tolerances(options);
-                arcs::arc_pieces(&arc, model, st.s, tolerance_mm, min_length_mm)
-                    .map_err(|source| model_error(file, ev.number, source))?
+                arcs::arc_pieces(
+                    &arc,
+                    model,
+                    st.s,
+                    tolerance_mm,
+                    min_length_mm,
+                    &mut st.estimate_mm,
+                )
+                .map_err(|source| model_error(file, ev.number, source))?
             }
             None => Vec::new(),
         };
@@ -207,8 +221,10 @@ pub fn compensate_program<R: BufRead>(
                 .iter()
                 .map(|l| if *l >= 1.0 { arc.end } else { arc.point_at(*l) })
                 .collect(),
-            None => targets_of(&motion, options, model, st.s)
-                .map_err(|source| model_error(file, ev.number, source))?,
+            None => {
+                targets::targets_with_estimate(&motion, options, model, st.s, &mut st.estimate_mm)
+                    .map_err(|source| model_error(file, ev.number, source))?
+            }
         };
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
         if targets.len() > 1 && interp.feed_mode() == FeedMode::InverseTime {
@@ -441,6 +457,11 @@ pub fn compensate_program<R: BufRead>(
         st.frame_before = Some((frame, style));
         out.write_all(&st.buf)?;
     }
+    st.summary.blocks_in = st.blocks_in.finish();
+    (st.summary.bytes_out, st.summary.blocks_out) = out.finish();
+    st.summary.max_estimated_contour_um =
+        matches!(options.segmentation, Segmentation::Adaptive { .. })
+            .then_some(st.estimate_mm * 1e3);
     Ok(st.summary)
 }
 
@@ -491,4 +512,8 @@ struct State {
     extra_text: String,
     /// Direction state of each command of the last [`State::solve_targets`].
     states: Vec<Directions>,
+    /// Largest contour error the segmentation estimates it leaves (mm).
+    estimate_mm: f64,
+    /// Block counting of the input and the output ([`size::Blocks`]).
+    blocks_in: size::Blocks,
 }

@@ -140,6 +140,20 @@ pub struct CompensateSummary {
     pub lines_in: u64,
     /// Lines written.
     pub lines_out: u64,
+    /// Bytes read.
+    pub bytes_in: u64,
+    /// Bytes written (with the provenance header when
+    /// [`crate::compensate::Compensator`] writes one).
+    pub bytes_out: u64,
+    /// Blocks read: lines with more than comments, blanks and `%`.
+    pub blocks_in: u64,
+    /// Blocks written, counted alike.
+    pub blocks_out: u64,
+    /// The largest contour error (µm) the adaptive segmentation estimates
+    /// it leaves on a feed move (docs/compensation.md, "Adaptive
+    /// segmentation", "Arcs as arcs"; without the rounding of the written
+    /// numbers); `None` under a fixed segmentation, which estimates nothing.
+    pub max_estimated_contour_um: Option<f64>,
     /// Target points compensated.
     pub points: u64,
     /// Largest model residual (µm).

@@ -68,14 +68,31 @@ pub fn targets_of(
     model: &dyn ErrorModel,
     s: Directions,
 ) -> Result<Vec<Vec3>, ModelError> {
+    let mut worst = 0.0;
+    targets_with_estimate(motion, options, model, s, &mut worst)
+}
+
+/// [`targets_of`], raising `worst_mm` to the largest contour error the
+/// adaptive segmentation estimates it leaves (docs/compensation.md,
+/// "Adaptive segmentation"; chords of linearised arcs add the chord
+/// tolerance). Other segmentations estimate nothing.
+pub(super) fn targets_with_estimate(
+    motion: &volcomp_gcode::Motion,
+    options: &CompensateOptions,
+    model: &dyn ErrorModel,
+    s: Directions,
+    worst_mm: &mut f64,
+) -> Result<Vec<Vec3>, ModelError> {
     let mut out = Vec::new();
     let seg = options.segmentation;
     match motion.kind {
         MotionKind::Rapid => out.push(motion.end),
-        MotionKind::Feed => split(motion.start, motion.end, seg, model, s, &mut out)?,
+        MotionKind::Feed => split(motion.start, motion.end, seg, model, s, &mut out, worst_mm)?,
         MotionKind::Arc(arc) if options.arcs_as_arcs => {
             let (tolerance_mm, min_length_mm) = arc_tolerances(options);
-            for l in super::arcs::arc_pieces(&arc, model, s, tolerance_mm, min_length_mm)? {
+            let pieces =
+                super::arcs::arc_pieces(&arc, model, s, tolerance_mm, min_length_mm, worst_mm)?;
+            for l in pieces {
                 out.push(if l >= 1.0 { arc.end } else { arc.point_at(l) });
             }
         }
@@ -90,13 +107,17 @@ pub fn targets_of(
             } else {
                 let mut prev = arc.start;
                 let mut result = Ok(());
+                let mut worst = 0.0;
                 arc.for_each_chord_end(options.chord_tolerance_mm, |p| {
                     if result.is_ok() {
-                        result = split(prev, p, seg, model, s, &mut out);
+                        result = split(prev, p, seg, model, s, &mut out, &mut worst);
                     }
                     prev = p;
                 });
                 result?;
+                if matches!(seg, Segmentation::Adaptive { .. }) {
+                    *worst_mm = worst_mm.max(worst + options.chord_tolerance_mm);
+                }
             }
         }
     }
@@ -125,6 +146,7 @@ fn split(
     model: &dyn ErrorModel,
     s: Directions,
     out: &mut Vec<Vec3>,
+    worst_mm: &mut f64,
 ) -> Result<(), ModelError> {
     let n = match seg {
         Segmentation::Off => 1,
@@ -145,12 +167,34 @@ fn split(
             for cut in knot_cuts(model, a, b, s, min_length_mm) {
                 let p = a.lerp(b, cut);
                 let ep = e(p)?;
-                bisect(from, p, e_from, ep, tolerance_mm, min_length_mm, &e, 0, out)?;
+                bisect(
+                    from,
+                    p,
+                    e_from,
+                    ep,
+                    tolerance_mm,
+                    min_length_mm,
+                    &e,
+                    0,
+                    out,
+                    worst_mm,
+                )?;
                 from = p;
                 e_from = ep;
             }
             let eb = e(b)?;
-            return bisect(from, b, e_from, eb, tolerance_mm, min_length_mm, &e, 0, out);
+            return bisect(
+                from,
+                b,
+                e_from,
+                eb,
+                tolerance_mm,
+                min_length_mm,
+                &e,
+                0,
+                out,
+                worst_mm,
+            );
         }
     };
     for k in 1..n {
@@ -212,6 +256,7 @@ fn bisect(
     e: &dyn Fn(Vec3) -> Result<Vec3, ModelError>,
     depth: u32,
     out: &mut Vec<Vec3>,
+    worst_mm: &mut f64,
 ) -> Result<(), ModelError> {
     let mid = a.lerp(b, 0.5);
     let em = e(mid)?;
@@ -222,9 +267,17 @@ fn bisect(
         }
     }
     if worst > tol && (b - a).norm() > 2.0 * min_len && depth < 40 {
-        bisect(a, mid, ea, em, tol, min_len, e, depth + 1, out)?;
-        bisect(mid, b, em, eb, tol, min_len, e, depth + 1, out)
+        bisect(a, mid, ea, em, tol, min_len, e, depth + 1, out, worst_mm)?;
+        bisect(mid, b, em, eb, tol, min_len, e, depth + 1, out, worst_mm)
     } else {
+        // Accepted past the tolerance (shortest segment): only the middle
+        // was looked at, so the quarters are added to the estimate.
+        if worst > tol {
+            for t in [0.25, 0.75] {
+                worst = worst.max((e(a.lerp(b, t))? - ea.lerp(eb, t)).norm());
+            }
+        }
+        *worst_mm = worst_mm.max(worst);
         out.push(b);
         Ok(())
     }
