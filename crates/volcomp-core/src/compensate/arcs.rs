@@ -122,6 +122,7 @@ fn solve_quick(model: &dyn ErrorModel, t: Vec3, s: Directions) -> Result<Vec3, M
 /// piece `[a, b]` of `arc`, compensated at its ends and middle, with the
 /// direction state `s` during the piece: sampled at a quarter, half and
 /// three quarters of the commanded piece. Infinite when no circle fits.
+#[cfg(test)]
 pub(super) fn piece_departure_mm(
     arc: &Arc,
     a: f64,
@@ -129,33 +130,60 @@ pub(super) fn piece_departure_mm(
     model: &dyn ErrorModel,
     s: Directions,
 ) -> Result<f64, ModelError> {
+    Ok(piece_departure_at_mm(arc, a, b, model, s, &[])?.0)
+}
+
+/// [`piece_departure_mm`], sampled also at the parameters `extra` of `arc`
+/// (inside `[a, b]`); with the one of them that departs most and its
+/// departure.
+#[allow(clippy::type_complexity)]
+fn piece_departure_at_mm(
+    arc: &Arc,
+    a: f64,
+    b: f64,
+    model: &dyn ErrorModel,
+    s: Directions,
+    extra: &[f64],
+) -> Result<(f64, Option<(f64, f64)>), ModelError> {
     let nominal = sub_arc(arc, a, b);
     let s = next_state(s, nominal.end - nominal.start);
     let qa = solve_quick(model, nominal.start, s)?;
     let qm = solve_quick(model, nominal.point_at(0.5), s)?;
     let qb = solve_quick(model, nominal.end, s)?;
     let Some(cmd) = commanded_arc(&nominal, qa, qm, qb) else {
-        return Ok(f64::INFINITY);
+        return Ok((f64::INFINITY, None));
     };
     let mut worst: f64 = 0.0;
     let mut hint = 0.0;
-    for f in [0.25, 0.5, 0.75] {
+    let mut at = |f: f64| -> Result<f64, ModelError> {
         let p = cmd.point_at(f);
         let actual = p + model.deviation_um(p, s, Components::All)? * 1e-3;
-        worst = worst.max(arc_distance_mm(actual, &nominal, &mut hint));
+        Ok(arc_distance_mm(actual, &nominal, &mut hint))
+    };
+    for f in [0.25, 0.5, 0.75] {
+        worst = worst.max(at(f)?);
     }
-    Ok(worst)
+    let mut cut: Option<(f64, f64)> = None;
+    for &t in extra {
+        let d = at((t - a) / (b - a))?;
+        worst = worst.max(d);
+        if cut.is_none_or(|(_, dc)| d > dc) {
+            cut = Some((t, d));
+        }
+    }
+    Ok((worst, cut))
 }
 
 /// Parameters in `(0, 1)` (unsorted) where `arc` reaches a quarter point of
-/// its circle (an axis of the plane reverses there) or crosses a point of
-/// the model's tables on an axis of the plane or, on a helix, its axis.
-fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> Vec<f64> {
+/// its circle (an axis of the plane reverses there), and those where it
+/// crosses a point of the model's tables on an axis of the plane or, on a
+/// helix, its axis.
+fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> (Vec<f64>, Vec<f64>) {
     let (u, v, w) = arc.plane.axes();
     let sweep = arc.sweep_rad;
     let mut cuts = Vec::new();
     if sweep == 0.0 || !sweep.is_finite() {
-        return cuts;
+        return (cuts, Vec::new());
     }
     let a0 = (arc.start[v] - arc.center[v]).atan2(arc.start[u] - arc.center[u]);
     let r = 0.5 * (arc.start_radius() + arc.end_radius());
@@ -173,6 +201,7 @@ fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> Vec<f64> {
     for k in 0..4 {
         at_angle(f64::from(k) * FRAC_PI_2, &mut cuts);
     }
+    let quarters = std::mem::take(&mut cuts);
     let both = |axis: usize| -> Vec<f64> {
         let mut k: Vec<f64> = model.knots_mm(axis, Direction::Forward).to_vec();
         k.extend_from_slice(model.knots_mm(axis, Direction::Reverse));
@@ -203,7 +232,7 @@ fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> Vec<f64> {
             }
         }
     }
-    cuts
+    (quarters, cuts)
 }
 
 /// The end parameters of the pieces of `arc` (increasing, the last 1.0):
@@ -220,8 +249,9 @@ pub(super) fn arc_pieces(
     worst_mm: &mut f64,
 ) -> Result<Vec<f64>, ModelError> {
     let length = arc.length();
-    let mut cuts = arc_cuts(arc, model);
+    let (mut cuts, mut knots) = arc_cuts(arc, model);
     cuts.sort_by(f64::total_cmp);
+    knots.sort_by(f64::total_cmp);
     let min_step = if length > 0.0 {
         min_length_mm / length
     } else {
@@ -247,6 +277,7 @@ pub(super) fn arc_pieces(
             s,
             tolerance_mm,
             min_step,
+            &knots,
             0,
             &mut out,
             worst_mm,
@@ -256,6 +287,11 @@ pub(super) fn arc_pieces(
     Ok(out)
 }
 
+/// Splits the piece `[a, b]` of `arc` while its estimated departure — at
+/// ¼, ½, ¾ and at the table points it crosses (`knots`, sorted) — exceeds
+/// `tol`: at the table point that departs most when that one is past the
+/// tolerance (a kink of the map), else in the middle; never into pieces
+/// shorter than `min_step` (of the parameter).
 #[allow(clippy::too_many_arguments)]
 fn bisect_arc(
     arc: &Arc,
@@ -265,15 +301,46 @@ fn bisect_arc(
     s: Directions,
     tol: f64,
     min_step: f64,
+    knots: &[f64],
     depth: u32,
     out: &mut Vec<f64>,
     worst_mm: &mut f64,
 ) -> Result<(), ModelError> {
-    let d = piece_departure_mm(arc, a, b, model, s)?;
-    if b - a > 2.0 * min_step && depth < 40 && d > tol {
-        let m = 0.5 * (a + b);
-        bisect_arc(arc, a, m, model, s, tol, min_step, depth + 1, out, worst_mm)?;
-        return bisect_arc(arc, m, b, model, s, tol, min_step, depth + 1, out, worst_mm);
+    let lo = knots.partition_point(|k| *k < a + min_step);
+    let hi = knots.partition_point(|k| *k <= b - min_step);
+    let inside = &knots[lo..hi.max(lo)];
+    let (d, cut) = piece_departure_at_mm(arc, a, b, model, s, inside)?;
+    if b - a > 2.0 * min_step && depth < 64 && d > tol {
+        let m = match cut {
+            Some((t, dc)) if dc > tol => t,
+            _ => 0.5 * (a + b),
+        };
+        bisect_arc(
+            arc,
+            a,
+            m,
+            model,
+            s,
+            tol,
+            min_step,
+            knots,
+            depth + 1,
+            out,
+            worst_mm,
+        )?;
+        return bisect_arc(
+            arc,
+            m,
+            b,
+            model,
+            s,
+            tol,
+            min_step,
+            knots,
+            depth + 1,
+            out,
+            worst_mm,
+        );
     }
     // A piece with no fitting circle is written as its chord.
     *worst_mm = worst_mm.max(if d.is_finite() {
