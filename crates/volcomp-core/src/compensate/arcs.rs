@@ -17,6 +17,11 @@ use crate::simulate::nominal::arc_distance_mm;
 use std::f64::consts::{FRAC_PI_2, TAU};
 use volcomp_gcode::{Arc, Vec3};
 
+/// Pieces (and table crossings) generated at most for one arc: past
+/// [`crate::limits::MAX_POINTS_PER_BLOCK`] the generation stops and the
+/// caller refuses the block, so the work stays bounded.
+const LIMIT: u64 = crate::limits::MAX_POINTS_PER_BLOCK;
+
 /// Centre `(u, v)` of the circle through three points of a plane, or `None`
 /// when they are collinear to within 1e-12 of the squared chord.
 pub(super) fn circle_through(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<[f64; 2]> {
@@ -63,13 +68,13 @@ pub(super) fn commanded_arc(nominal: &Arc, start: Vec3, mid: Vec3, end: Vec3) ->
 
 /// The centre to write for a compensated piece of the nominal arc `piece`
 /// (commanded `start`, `mid`, `end`), or `None` to write the piece as a G1
-/// chord: when the piece departs from its own chord by no more than
-/// `chord_tolerance_mm` (its sagitta `r(1 − cos(Δ/2))`: then the three
-/// points are so close to collinear that the rounding of the written ends
-/// would decide the circle), or when the circle found is not the nominal
-/// one moved by a correction (its sagitta off by more than half: the
-/// rounding of the ends, up to 0.09 µm, then dominates a sagitta of a
-/// few tenths of a µm, and the chord is within that of the arc).
+/// chord when the piece departs from its own chord by no more than
+/// `chord_tolerance_mm` (its sagitta `r(1 − cos(Δ/2))`). The centre is
+/// that of the circle through the three points, unless that circle is not
+/// the nominal one moved by a correction (its sagitta off by more than
+/// half: the rounding of the written ends, up to 0.09 µm, then dominates
+/// a sagitta of a few tenths of a µm, or the points are collinear): then
+/// the nominal centre moved by the mean correction of the two ends.
 pub(super) fn piece_center(
     piece: &Arc,
     start: Vec3,
@@ -81,9 +86,21 @@ pub(super) fn piece_center(
     if sagitta <= chord_tolerance_mm {
         return None;
     }
-    let cmd = commanded_arc(piece, start, mid, end)?;
-    let fitted = cmd.start_radius() * (1.0 - (0.5 * cmd.sweep_rad.abs()).min(FRAC_PI_2).cos());
-    ((fitted - sagitta).abs() <= 0.5 * sagitta).then_some(cmd.center)
+    if let Some(cmd) = commanded_arc(piece, start, mid, end) {
+        let fitted = cmd.start_radius() * (1.0 - (0.5 * cmd.sweep_rad.abs()).min(FRAC_PI_2).cos());
+        if (fitted - sagitta).abs() <= 0.5 * sagitta {
+            return Some(cmd.center);
+        }
+    }
+    // The nominal circle moved by the mean correction of the ends: its
+    // radius to the written ends differs by half the difference of their
+    // corrections (µm), far inside LinuxCNC's radius tolerance.
+    let (u, v, _) = piece.plane.axes();
+    let shift = ((start - piece.start) + (end - piece.end)) * 0.5;
+    let mut center = piece.center;
+    center[u] += shift[u];
+    center[v] += shift[v];
+    Some(center)
 }
 
 /// How far an arc departs from its chord: `r(1 − cos(Δ/2))` (mm).
@@ -191,7 +208,7 @@ fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> (Vec<f64>, Vec<f64>) {
     let at_angle = |theta: f64, cuts: &mut Vec<f64>| {
         let first = ((theta - a0) / sweep).rem_euclid(TAU / sweep.abs());
         let mut t = first;
-        while t < 1.0 {
+        while t < 1.0 && cuts.len() as u64 <= LIMIT {
             if t > 0.0 {
                 cuts.push(t);
             }
@@ -227,7 +244,7 @@ fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> (Vec<f64>, Vec<f64>) {
     if w1 != w0 {
         let (lo, hi) = (w0.min(w1), w0.max(w1));
         for knot in both(w) {
-            if knot > lo && knot < hi {
+            if knot > lo && knot < hi && cuts.len() as u64 <= LIMIT {
                 cuts.push((knot - w0) / (w1 - w0));
             }
         }
@@ -310,7 +327,7 @@ fn bisect_arc(
     let hi = knots.partition_point(|k| *k <= b - min_step);
     let inside = &knots[lo..hi.max(lo)];
     let (d, cut) = piece_departure_at_mm(arc, a, b, model, s, inside)?;
-    if b - a > 2.0 * min_step && depth < 64 && d > tol {
+    if b - a > 2.0 * min_step && depth < 64 && d > tol && (out.len() as u64) <= LIMIT {
         let m = match cut {
             Some((t, dc)) if dc > tol => t,
             _ => 0.5 * (a + b),

@@ -204,7 +204,7 @@ pub fn compensate_program<R: BufRead>(
         let pieces: Vec<f64> = match arc_nominal {
             Some(arc) => {
                 let (tolerance_mm, min_length_mm) = targets::arc_tolerances(options);
-                arcs::arc_pieces(
+                let pieces = arcs::arc_pieces(
                     &arc,
                     model,
                     st.s,
@@ -212,7 +212,16 @@ pub fn compensate_program<R: BufRead>(
                     min_length_mm,
                     &mut st.estimate_mm,
                 )
-                .map_err(|source| model_error(file, ev.number, source))?
+                .map_err(|source| model_error(file, ev.number, source))?;
+                crate::limits::check_points(pieces.len() as f64).map_err(|message| {
+                    CompensationError::AtLine {
+                        file: file.into(),
+                        line: ev.number,
+                        message,
+                        help: crate::error::help::TOO_MANY_POINTS.into(),
+                    }
+                })?;
+                pieces
             }
             None => Vec::new(),
         };

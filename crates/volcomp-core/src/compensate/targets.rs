@@ -27,9 +27,11 @@ pub fn target_count_bound(motion: &volcomp_gcode::Motion, options: &CompensateOp
     match motion.kind {
         MotionKind::Rapid => 1.0,
         MotionKind::Feed => per((motion.end - motion.start).norm()),
+        // Arcs as arcs: at least the quarter points; the table points and
+        // the bisection depend on the map, so `arcs::arc_pieces` stops
+        // generating past the limit and the caller refuses the block then.
         MotionKind::Arc(arc) if options.arcs_as_arcs => {
-            let (_, min_length_mm) = arc_tolerances(options);
-            (arc.length() / min_length_mm).floor().min(2f64.powi(40)) + 1.0
+            4.0 * (arc.sweep_rad.abs() / std::f64::consts::TAU).ceil() + 1.0
         }
         MotionKind::Arc(arc) => {
             let chords = arc.chord_count(options.chord_tolerance_mm) as f64;
