@@ -162,8 +162,15 @@ fn split(
             let e = |p: Vec3| -> Result<Vec3, ModelError> {
                 Ok(model.deviation_um(p, s, crate::model::Components::All)? * 1e-3)
             };
-            let (ea, eb) = (e(a)?, e(b)?);
             let knots = |p: Vec3, q: Vec3| knot_cuts(model, p, q, s, min_length_mm);
+            // A piecewise linear map is affine between table points: a move
+            // that crosses none needs no split and no evaluation.
+            let linear = model.piecewise_linear();
+            if linear && knots(a, b).is_empty() {
+                out.push(b);
+                return Ok(());
+            }
+            let (ea, eb) = (e(a)?, e(b)?);
             return refine(
                 a,
                 b,
@@ -173,6 +180,7 @@ fn split(
                 min_length_mm,
                 &e,
                 &knots,
+                linear,
                 0,
                 out,
                 worst_mm,
@@ -244,13 +252,16 @@ fn refine(
     min_len: f64,
     e: &dyn Fn(Vec3) -> Result<Vec3, ModelError>,
     knots: &dyn Fn(Vec3, Vec3) -> Vec<f64>,
+    linear: bool,
     depth: u32,
     out: &mut Vec<Vec3>,
     worst_mm: &mut f64,
 ) -> Result<(), ModelError> {
     let mut worst: f64 = 0.0;
-    for t in [0.25, 0.5, 0.75] {
-        worst = worst.max((e(a.lerp(b, t))? - ea.lerp(eb, t)).norm());
+    if !linear {
+        for t in [0.25, 0.5, 0.75] {
+            worst = worst.max((e(a.lerp(b, t))? - ea.lerp(eb, t)).norm());
+        }
     }
     let mut cut: Option<(f64, f64, Vec3)> = None;
     for t in knots(a, b) {
@@ -276,6 +287,7 @@ fn refine(
             min_len,
             e,
             knots,
+            linear,
             depth + 1,
             out,
             worst_mm,
@@ -289,6 +301,7 @@ fn refine(
             min_len,
             e,
             knots,
+            linear,
             depth + 1,
             out,
             worst_mm,

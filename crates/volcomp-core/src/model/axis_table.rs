@@ -198,6 +198,12 @@ impl ErrorModel for AxisTableMap {
             .get(axis)
             .map_or(&[], |t| t.table(d).positions_mm.as_slice())
     }
+
+    /// A sum of per-axis tables interpolated linearly (held at the ends
+    /// when clamped): affine between table points.
+    fn piecewise_linear(&self) -> bool {
+        true
+    }
 }
 
 const COLUMNS: [&str; 6] = [

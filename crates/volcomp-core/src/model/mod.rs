@@ -116,6 +116,15 @@ pub trait ErrorModel: Send + Sync {
         let _ = (axis, d);
         &[]
     }
+
+    /// Whether the error, with the direction state fixed, is the sum of
+    /// per-axis functions each linear between its [`ErrorModel::knots_mm`]
+    /// (and constant outside a clamped range): then `e` is affine along a
+    /// straight move between two knot crossings, exactly, and adaptive
+    /// segmentation needs to look at the knots only.
+    fn piecewise_linear(&self) -> bool {
+        false
+    }
 }
 
 /// A model seen with a fixed tool length offset: what compensation and
@@ -175,6 +184,10 @@ impl ErrorModel for WithTool<'_> {
 
     fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
         self.model.knots_mm(axis, d)
+    }
+
+    fn piecewise_linear(&self) -> bool {
+        self.model.piecewise_linear()
     }
 }
 
