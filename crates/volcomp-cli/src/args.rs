@@ -146,7 +146,8 @@ pub struct CompensateArgs {
     /// Compensation method.
     #[arg(long, value_enum, default_value_t = Method::Exact)]
     pub method: Method,
-    /// Split feed moves into segments of at most this length (mm).
+    /// Split feed moves into segments of at most this length (mm) instead
+    /// of adaptively.
     #[arg(
         long,
         value_name = "MM",
@@ -160,16 +161,17 @@ pub struct CompensateArgs {
     /// Do not split feed moves (only arcs are linearised).
     #[arg(long, conflicts_with_all = ["segments", "segment_length"])]
     pub no_split: bool,
-    /// Split feed moves adaptively: as finely as the map needs for the path
-    /// to stay within this contour tolerance (µm).
+    /// Contour tolerance (µm, default 0.1): feed moves are split adaptively,
+    /// at the map's table points and where the map bends the path by more
+    /// than this (the default segmentation).
     #[arg(long, value_name = "UM", conflicts_with_all = ["segments", "segment_length", "no_split"], allow_negative_numbers = true)]
     pub contour_tolerance_um: Option<f64>,
     /// Shortest segment of adaptive splitting (mm).
     #[arg(
         long,
         value_name = "MM",
-        default_value_t = 0.01,
-        requires = "contour_tolerance_um"
+        default_value_t = volcomp_core::compensate::DEFAULT_MIN_SEGMENT_LENGTH_MM,
+        conflicts_with_all = ["segments", "segment_length", "no_split"]
     )]
     pub min_segment_length: f64,
     /// ILC gain γ, 0 < γ ≤ 1.
@@ -194,6 +196,10 @@ pub struct CompensateArgs {
         allow_negative_numbers = true
     )]
     pub chord_tolerance: f64,
+    /// Write arcs as G1 lines within --chord-tolerance instead of as
+    /// compensated arcs (pieces of the original arc).
+    #[arg(long)]
+    pub arcs_as_lines: bool,
     /// Decimal places of written coordinates (default 4 in mm, 5 in inch).
     #[arg(long)]
     pub decimals: Option<u8>,

@@ -58,7 +58,8 @@ fn a_far_coordinate_is_refused_at_its_line_before_any_work() {
 
 #[test]
 fn options_asking_for_unbounded_work_are_refused() {
-    // 50 mm of feed in 4e9 segments, or arcs linearised within 1e-15 mm.
+    // 50 mm of feed in 4e9 segments, arcs linearised within 1e-15 mm, or
+    // adaptive pieces (lines and arcs as arcs) down to 1e-9 mm.
     let d = fixture("segments");
     let o = compensate(&d, &["--segments", "4000000000"]);
     refused_program(&d, &o, "more than the 1000000");
@@ -71,7 +72,9 @@ fn options_asking_for_unbounded_work_are_refused() {
         "G21 G90 G17\nG0 X10 Y10 Z5\nG1 Z-1 F300\nG2 X30 Y10 I10 J0\nM2\n",
     )
     .unwrap();
-    let o = compensate(&d, &["--chord-tolerance", "1e-15"]);
+    let o = compensate(&d, &["--arcs-as-lines", "--chord-tolerance", "1e-15"]);
+    refused_program(&d, &o, "more than the 1000000");
+    let o = compensate(&d, &["--min-segment-length", "1e-9"]);
     refused_program(&d, &o, "more than the 1000000");
 }
 

@@ -75,6 +75,11 @@ fn compensate(dir: &Path) {
             "map.csv",
             "--output",
             "out.ngc",
+            // Fixed segments: the map is affine, so adaptive splitting
+            // would leave the lines whole, and the split lines' trace
+            // comments are what pairs the output with the original here.
+            "--segment-length",
+            "1",
             "rot.ngc",
         ],
         dir,

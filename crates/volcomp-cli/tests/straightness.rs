@@ -133,6 +133,9 @@ fn fit_plot_table_predict_and_compensate() {
             "0,0,0",
             "--decimals",
             "5",
+            // Fixed 1 mm segments: every one shows the lead's correction.
+            "--segment-length",
+            "1",
             "-o",
             "p.comp.ngc",
         ],

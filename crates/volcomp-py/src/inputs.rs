@@ -147,7 +147,7 @@ pub struct MachineArgs<'a, 'py> {
     pub setup: Option<&'a Bound<'py, PyAny>>,
     pub work_offset_mm: Option<Vec<f64>>,
     pub absolute_arc_centers: bool,
-    pub strict_k0: bool,
+    pub accept_k0: bool,
     pub allow_no_program_end: bool,
     pub chord_tolerance_mm: f64,
 }
@@ -181,7 +181,7 @@ pub fn machine(a: MachineArgs<'_, '_>) -> PyResult<Machine> {
     }
     let setup = setup
         .with_interp_options(InterpOptions {
-            accept_k0_on_xy_arcs: !a.strict_k0,
+            accept_k0_on_xy_arcs: a.accept_k0,
             absolute_arc_centers: a.absolute_arc_centers,
             require_program_end: !a.allow_no_program_end,
             ..InterpOptions::default()

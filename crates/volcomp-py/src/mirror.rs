@@ -50,7 +50,7 @@ fn positive(v: f64, name: &str, what: &str) -> PyResult<()> {
 /// `predicted_worse` (the leave-one-out prediction says compensating is
 /// worse than not).
 #[pyfunction]
-#[pyo3(signature = (nominal, measured, *, stock_mm, nominal_format = None, material = "below", probe_radius_mm = None, max_error_mm = 0.1, fit = "least-squares", tolerance_um = None, grid_params = "chord-length", grid_size = 41, finishing = None, tool_radius_mm = None, cl_point = "tip", contact_tolerance_mm = 0.02, segment_length_mm = Some(2.0), decimals = None, trace = true, setup = None, work_offset_mm = None, absolute_arc_centers = false, strict_k0 = false, allow_no_program_end = false, allow_recompensate = false, date_utc = None))]
+#[pyo3(signature = (nominal, measured, *, stock_mm, nominal_format = None, material = "below", probe_radius_mm = None, max_error_mm = 0.1, fit = "least-squares", tolerance_um = None, grid_params = "chord-length", grid_size = 41, finishing = None, tool_radius_mm = None, cl_point = "tip", contact_tolerance_mm = 0.02, segment_length_mm = Some(2.0), decimals = None, trace = true, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, allow_recompensate = false, date_utc = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn mirror<'py>(
     py: Python<'py>,
@@ -75,7 +75,7 @@ pub fn mirror<'py>(
     setup: Option<&Bound<'py, PyAny>>,
     work_offset_mm: Option<Vec<f64>>,
     absolute_arc_centers: bool,
-    strict_k0: bool,
+    accept_k0: bool,
     allow_no_program_end: bool,
     allow_recompensate: bool,
     date_utc: Option<String>,
@@ -209,7 +209,7 @@ pub fn mirror<'py>(
                 setup,
                 work_offset_mm,
                 absolute_arc_centers,
-                strict_k0,
+                accept_k0,
                 allow_no_program_end,
                 chord_tolerance_mm: 1e-4,
             })?;

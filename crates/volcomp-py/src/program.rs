@@ -163,6 +163,7 @@ fn options(
     nominal_directions: bool,
     take_up: bool,
     trace: bool,
+    arcs_as_lines: bool,
 ) -> PyResult<CompensateOptions> {
     let method = match method {
         "exact" => Method::Exact,
@@ -216,7 +217,8 @@ fn options(
             )));
         }
         Segmentation::MaxLength(l)
-    } else if let Some(t) = contour_tolerance_um {
+    } else {
+        let t = contour_tolerance_um.unwrap_or(volcomp_core::compensate::DEFAULT_CONTOUR_TOLERANCE_UM);
         if !(positive(t) && positive(min_segment_length_mm)) {
             return Err(bad_input(
                 "contour_tolerance_um and min_segment_length_mm must be positive",
@@ -226,8 +228,6 @@ fn options(
             tolerance_mm: t * 1e-3,
             min_length_mm: min_segment_length_mm,
         }
-    } else {
-        Segmentation::MaxLength(1.0)
     };
     if !positive(max_correction_mm) {
         return Err(bad_input(format!(
@@ -246,6 +246,7 @@ fn options(
         method,
         segmentation,
         chord_tolerance_mm,
+        arcs_as_arcs: !arcs_as_lines,
         decimals,
         max_correction_mm,
         directions: if nominal_directions {
@@ -317,17 +318,18 @@ fn header(
 /// `program`: its text (str or bytes) or a file (pathlib.Path). The machine:
 /// `setup` (a set-up TOML file as pathlib.Path, or its text), or
 /// `work_offset_mm` (G54 in machine coordinates), `absolute_arc_centers`,
-/// `strict_k0`, `allow_no_program_end`. The method: `"exact"` (default),
+/// `accept_k0`, `allow_no_program_end`. The method: `"exact"` (default),
 /// `"ilc"` (with `gain`, `max_iterations`), `"direct"`, `"pitch"`.
-/// Splitting: `segment_length_mm` (default 1 mm), `segments`, `no_split`
-/// or `contour_tolerance_um` (adaptive, with `min_segment_length_mm`).
+/// Splitting: adaptive within `contour_tolerance_um` (default 0.1 µm, with
+/// `min_segment_length_mm`), or `segment_length_mm`, `segments`,
+/// `no_split`; arcs are written as arcs unless `arcs_as_lines`.
 /// Limits: `max_residual_um`, `max_correction_mm`, `max_output_bytes`
 /// (None: no limit). Output: `decimals`, `trace` (the `(volcomp Ln)`
 /// comments), `take_up` (backlash take-up moves), `nominal_directions`.
 /// `points=True` adds the per-point records. `date_utc` dates the header
 /// (default: now, or SOURCE_DATE_EPOCH).
 #[pyfunction]
-#[pyo3(signature = (program, model, *, setup = None, work_offset_mm = None, absolute_arc_centers = false, strict_k0 = false, allow_no_program_end = false, method = "exact", gain = 0.5, max_iterations = 20, segment_length_mm = None, segments = None, no_split = false, contour_tolerance_um = None, min_segment_length_mm = 0.01, max_residual_um = 1.0, chord_tolerance_mm = 1e-4, decimals = None, max_correction_mm = 0.1, nominal_directions = false, take_up = true, trace = true, allow_recompensate = false, max_output_bytes = Some(DEFAULT_MAX_OUTPUT_BYTES), points = false, name = None, date_utc = None))]
+#[pyo3(signature = (program, model, *, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, method = "exact", gain = 0.5, max_iterations = 20, segment_length_mm = None, segments = None, no_split = false, contour_tolerance_um = None, min_segment_length_mm = 0.01, max_residual_um = 1.0, chord_tolerance_mm = 1e-4, decimals = None, max_correction_mm = 0.1, nominal_directions = false, take_up = true, trace = true, arcs_as_lines = false, allow_recompensate = false, max_output_bytes = Some(DEFAULT_MAX_OUTPUT_BYTES), points = false, name = None, date_utc = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn compensate(
     py: Python<'_>,
@@ -336,7 +338,7 @@ pub fn compensate(
     setup: Option<&Bound<'_, PyAny>>,
     work_offset_mm: Option<Vec<f64>>,
     absolute_arc_centers: bool,
-    strict_k0: bool,
+    accept_k0: bool,
     allow_no_program_end: bool,
     method: &str,
     gain: f64,
@@ -353,6 +355,7 @@ pub fn compensate(
     nominal_directions: bool,
     take_up: bool,
     trace: bool,
+    arcs_as_lines: bool,
     allow_recompensate: bool,
     max_output_bytes: Option<u64>,
     points: bool,
@@ -363,7 +366,7 @@ pub fn compensate(
         setup,
         work_offset_mm,
         absolute_arc_centers,
-        strict_k0,
+        accept_k0,
         allow_no_program_end,
         chord_tolerance_mm,
     })?;
@@ -384,6 +387,7 @@ pub fn compensate(
         nominal_directions,
         take_up,
         trace,
+        arcs_as_lines,
     )?;
     let model = model.get();
     let src = source(program, "program", name)?;
@@ -549,7 +553,7 @@ impl SimulationResult {
 /// `program`, `reference`, `setup`: text or pathlib.Path. Machine options
 /// as in `compensate`. `segments=True` adds the per-command arrays.
 #[pyfunction]
-#[pyo3(signature = (program, model, *, reference = None, setup = None, work_offset_mm = None, absolute_arc_centers = false, strict_k0 = false, allow_no_program_end = false, chord_tolerance_mm = 1e-4, segments = false, name = None))]
+#[pyo3(signature = (program, model, *, reference = None, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, chord_tolerance_mm = 1e-4, segments = false, name = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
     py: Python<'_>,
@@ -559,7 +563,7 @@ pub fn simulate(
     setup: Option<&Bound<'_, PyAny>>,
     work_offset_mm: Option<Vec<f64>>,
     absolute_arc_centers: bool,
-    strict_k0: bool,
+    accept_k0: bool,
     allow_no_program_end: bool,
     chord_tolerance_mm: f64,
     segments: bool,
@@ -569,7 +573,7 @@ pub fn simulate(
         setup,
         work_offset_mm,
         absolute_arc_centers,
-        strict_k0,
+        accept_k0,
         allow_no_program_end,
         chord_tolerance_mm,
     })?;
@@ -661,7 +665,7 @@ pub fn simulate(
 /// `extra_axes=True` `a_deg`, `b_deg`, `c_deg`, `u_mm`, `v_mm`, `w_mm`.
 /// Interpreter warnings are issued as `VolcompWarning`.
 #[pyfunction]
-#[pyo3(signature = (program, *, setup = None, work_offset_mm = None, absolute_arc_centers = false, strict_k0 = false, allow_no_program_end = false, extra_axes = false, name = None))]
+#[pyo3(signature = (program, *, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, extra_axes = false, name = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn moves<'py>(
     py: Python<'py>,
@@ -669,7 +673,7 @@ pub fn moves<'py>(
     setup: Option<&Bound<'py, PyAny>>,
     work_offset_mm: Option<Vec<f64>>,
     absolute_arc_centers: bool,
-    strict_k0: bool,
+    accept_k0: bool,
     allow_no_program_end: bool,
     extra_axes: bool,
     name: Option<&str>,
@@ -678,7 +682,7 @@ pub fn moves<'py>(
         setup,
         work_offset_mm,
         absolute_arc_centers,
-        strict_k0,
+        accept_k0,
         allow_no_program_end,
         chord_tolerance_mm: volcomp_gcode::InterpOptions::default().spline_tolerance_mm,
     })?;

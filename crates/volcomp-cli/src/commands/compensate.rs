@@ -95,7 +95,8 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
             )))
         }
         (_, _, Some(l), _) => Segmentation::MaxLength(l),
-        (_, _, _, Some(t)) => {
+        (_, _, _, t) => {
+            let t = t.unwrap_or(volcomp_core::compensate::DEFAULT_CONTOUR_TOLERANCE_UM);
             let positive = |v: f64| v.is_finite() && v > 0.0;
             if !(positive(t) && positive(a.min_segment_length)) {
                 return Err(CliError::Message(
@@ -107,7 +108,6 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
                 min_length_mm: a.min_segment_length,
             }
         }
-        _ => Segmentation::MaxLength(1.0),
     };
     if !(a.chord_tolerance.is_finite() && a.chord_tolerance > 0.0) {
         return Err(CliError::Message(
@@ -138,6 +138,7 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
         method,
         segmentation,
         chord_tolerance_mm: a.chord_tolerance,
+        arcs_as_arcs: !a.arcs_as_lines,
         decimals: a.decimals,
         max_correction_mm: a.max_correction,
         directions: if a.nominal_directions {
@@ -547,6 +548,25 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         summary.max_correction_um,
         summary.max_residual_um,
         summary.take_ups
+    );
+    let ratio = if summary.blocks_in > 0 {
+        format!(
+            " (x{:.2})",
+            summary.blocks_out as f64 / summary.blocks_in as f64
+        )
+    } else {
+        String::new()
+    };
+    eprintln!(
+        "volcomp: size {} -> {} bytes, {} -> {} blocks{ratio}; largest contour deviation the segmentation leaves: {}",
+        summary.bytes_in,
+        summary.bytes_out,
+        summary.blocks_in,
+        summary.blocks_out,
+        match summary.max_estimated_contour_um {
+            Some(um) => format!("{um:.3} µm estimated (plus the rounding of the written numbers)"),
+            None => "not estimated (fixed segmentation)".into(),
+        }
     );
     if summary.held_count > 0 {
         let first: Vec<String> = summary

@@ -12,7 +12,76 @@ use volcomp_gcode::{MotionKind, Vec3};
 pub(super) enum OutMode {
     Rapid,
     Feed,
+    /// G2.
+    Cw,
+    /// G3.
+    Ccw,
     Other,
+}
+
+impl OutMode {
+    /// The motion word of the mode.
+    pub(super) fn code(self) -> &'static str {
+        match self {
+            OutMode::Rapid => "G0",
+            OutMode::Cw => "G2",
+            OutMode::Ccw => "G3",
+            _ => "G1",
+        }
+    }
+}
+
+/// How a compensated arc piece is written: its centre (axis frame), or as
+/// a chord when no circle fits (three collinear points).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct ArcWords {
+    pub(super) center: Option<Vec3>,
+    pub(super) plane: volcomp_gcode::Plane,
+    pub(super) clockwise: bool,
+    /// The program gives radii (R) rather than centres.
+    pub(super) radius_style: bool,
+    /// Centres are absolute (G90.1).
+    pub(super) absolute_centers: bool,
+}
+
+impl ArcWords {
+    pub(super) fn mode(&self) -> OutMode {
+        match (self.center, self.clockwise) {
+            (None, _) => OutMode::Feed,
+            (Some(_), true) => OutMode::Cw,
+            (Some(_), false) => OutMode::Ccw,
+        }
+    }
+
+    /// The centre words (` I… J…`, or ` R…`) of the piece from `from`, in
+    /// the frame's units; empty for a chord.
+    pub(super) fn text(&self, frame: &Frame, style: NumberStyle, sep: &str, from: Vec3) -> String {
+        let Some(c) = self.center else {
+            return String::new();
+        };
+        let (u, v, _) = self.plane.axes();
+        let mut t = String::new();
+        if self.radius_style {
+            t.push_str(sep);
+            t.push('R');
+            let r = (from[u] - c[u]).hypot(from[v] - c[v]) / frame.mm_per_unit;
+            format_number(r, style, &mut t);
+            return t;
+        }
+        let mut axes = [u, v];
+        axes.sort_unstable();
+        for a in axes {
+            t.push_str(sep);
+            t.push(['I', 'J', 'K'][a]);
+            let value = if self.absolute_centers {
+                frame.program(c)[a]
+            } else {
+                (c[a] - from[a]) / frame.mm_per_unit
+            };
+            format_number(value, style, &mut t);
+        }
+        t
+    }
 }
 
 impl State {
@@ -63,6 +132,64 @@ impl State {
             } else {
                 self.text.push_str(&format!("(volcomp L{line} {note})"));
             }
+        }
+        if !self.buf.is_empty() && !self.buf.ends_with(b"\n") {
+            self.buf.extend_from_slice(b"\n");
+        }
+        self.buf.extend_from_slice(self.text.as_bytes());
+        self.buf
+            .extend_from_slice(if ending.is_empty() { b"\n" } else { ending });
+        self.summary.lines_out += 1;
+    }
+
+    /// Writes one compensated arc piece from `from` to `q` as an inserted
+    /// line (`G2`/`G3` always written, both axes of the plane, the helix
+    /// axis where it moves, the centre words), or as a G1 chord.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn write_inserted_arc(
+        &mut self,
+        frame: &Frame,
+        style: NumberStyle,
+        sep: &str,
+        from: Vec3,
+        q: Vec3,
+        arc: &ArcWords,
+        line: u64,
+        trace: bool,
+        ending: &[u8],
+    ) {
+        if arc.center.is_none() {
+            self.write_inserted(
+                frame,
+                style,
+                sep,
+                from,
+                q,
+                OutMode::Feed,
+                line,
+                trace,
+                ending,
+                "",
+            );
+            return;
+        }
+        let mode = arc.mode();
+        let (u, v, _) = arc.plane.axes();
+        self.text.clear();
+        self.text.push_str(mode.code());
+        self.mode = Some(mode);
+        for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+            if a == u || a == v || frame.changes(q, from, a) {
+                self.text.push_str(sep);
+                self.text.push(letter);
+                format_number(frame.word_value(q, from, a), style, &mut self.text);
+            }
+        }
+        let centre = arc.text(frame, style, sep, from);
+        self.text.push_str(&centre);
+        if trace {
+            self.text.push_str(sep);
+            self.text.push_str(&format!("(volcomp L{line})"));
         }
         if !self.buf.is_empty() && !self.buf.ends_with(b"\n") {
             self.buf.extend_from_slice(b"\n");
@@ -190,7 +317,7 @@ impl State {
             }
         }
         if !has_motion_word && (self.mode != Some(needed) || is_arc) {
-            let code = if needed == OutMode::Rapid { "G0" } else { "G1" };
+            let code = needed.code();
             let at = first_axis_start.unwrap_or(0);
             edits.push(Edit::insert(
                 at,
@@ -199,6 +326,33 @@ impl State {
         }
         edits
     }
+}
+
+/// Edits that replace an arc line's centre words: every I, J, K, R and P
+/// word is deleted (a piece never turns more than a quarter, so it needs no
+/// P) and `centre` is inserted after the last axis word (or at the end).
+pub(super) fn arc_line_edits<'a>(
+    words: impl Iterator<Item = &'a Word>,
+    content: &[u8],
+    centre: String,
+) -> Vec<Edit> {
+    let mut edits = Vec::new();
+    let mut at = None;
+    for w in words {
+        match w.letter {
+            b'I' | b'J' | b'K' | b'R' | b'P' => {
+                edits.push(Edit::delete(
+                    blank_before(content, w.span.start)..w.span.end,
+                ));
+            }
+            b'X' | b'Y' | b'Z' => at = Some(w.span.end),
+            _ => {}
+        }
+    }
+    // No axis word (the end is the start: a full circle): at the end.
+    let at = at.unwrap_or(content.len());
+    edits.push(Edit::insert(at, centre));
+    edits
 }
 
 /// Start of the blanks that precede byte `at` (so a deleted word takes its
@@ -228,7 +382,9 @@ pub(super) fn explicit_mode<'a>(words: impl Iterator<Item = &'a Word>) -> Option
             mode = match w.value {
                 0.0 => Some(OutMode::Rapid),
                 1.0 => Some(OutMode::Feed),
-                v if v == 2.0 || v == 3.0 || (80.0..=89.0).contains(&v) => Some(OutMode::Other),
+                2.0 => Some(OutMode::Cw),
+                3.0 => Some(OutMode::Ccw),
+                v if (80.0..=89.0).contains(&v) => Some(OutMode::Other),
                 _ => mode,
             };
         }

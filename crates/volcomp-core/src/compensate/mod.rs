@@ -15,6 +15,7 @@
 //! axis takes up its reversal value. Axes for which no consistent reversal
 //! exists (negative reversal value) are held and reported.
 
+mod arcs;
 mod cutter;
 mod cycle;
 mod extra;
@@ -23,6 +24,7 @@ mod front;
 mod lines;
 mod options;
 mod points;
+mod size;
 pub mod solve;
 mod spline;
 mod style;
@@ -33,7 +35,7 @@ pub use front::{
 };
 pub use options::{
     CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, Segmentation,
-    DEFAULT_MAX_RESIDUAL_UM,
+    DEFAULT_CONTOUR_TOLERANCE_UM, DEFAULT_MAX_RESIDUAL_UM, DEFAULT_MIN_SEGMENT_LENGTH_MM,
 };
 pub use style::{survey_style, ProgramStyle};
 pub(crate) use targets::mark_axes_set;
@@ -43,7 +45,7 @@ use crate::error::{CompensationError, ModelError};
 use crate::model::{Directions, ErrorModel, WithTool, ALL_FORWARD};
 use crate::simulate::next_state;
 use frame::Frame;
-use lines::{explicit_mode, has_feed, line_ending, stop_m_word, OutMode};
+use lines::{arc_line_edits, explicit_mode, has_feed, line_ending, stop_m_word, ArcWords, OutMode};
 use std::io::{BufRead, Write};
 use targets::check_target_count;
 use volcomp_gcode::edit::apply_edits;
@@ -75,7 +77,12 @@ pub fn compensate_program<R: BufRead>(
         buf: Vec::with_capacity(1024),
         text: String::with_capacity(128),
         extra_text: String::new(),
+        states: Vec::new(),
+        estimate_mm: 0.0,
+        blocks_in: size::Blocks::default(),
     };
+    let mut out = size::Counted::new(out);
+    let out = &mut out;
     let sep = if program_style.spaced { " " } else { "" };
     let survey = &program_style.survey;
     while let Some(ev) = walker.next_line()? {
@@ -88,6 +95,8 @@ pub fn compensate_program<R: BufRead>(
         };
         let model: &dyn ErrorModel = &tool_model;
         st.summary.lines_in += 1;
+        st.summary.bytes_in += ev.bytes.len() as u64;
+        st.blocks_in.scan(ev.bytes);
         st.buf.clear();
         let program_motion = ev.motions.iter().any(|m| m.source == MotionSource::Program);
         let cycle = ev.motions.iter().any(|m| m.source == MotionSource::Cycle);
@@ -213,9 +222,62 @@ pub fn compensate_program<R: BufRead>(
         let (frame0, style0) = st.frame_before.unwrap_or((frame, style));
         let feed_known_before = st.feed_known;
         let feed_known_in_line = st.feed_known || has_feed(ev.lexed.words());
+        // Arcs are written as arcs unless the line needs what that path
+        // does not write: a rotated frame, polar words, extra axes, or
+        // centres read as absolute by option (the program does not say so,
+        // so no other reader would read the written centres alike).
+        let arc_nominal = match motion.kind {
+            MotionKind::Arc(arc)
+                if options.arcs_as_arcs
+                    && frame.rotation_deg == 0.0
+                    && !(interp.arc_absolute() && interp.arc_absolute_by_option())
+                    && !motion.extra.moves()
+                    && !ev.lexed.words().any(|w| matches!(w.letter, b'@' | b'^')) =>
+            {
+                Some(arc)
+            }
+            _ => None,
+        };
+        let line_options = CompensateOptions {
+            arcs_as_arcs: arc_nominal.is_some(),
+            ..*options
+        };
+        let options = &line_options;
         check_target_count(&motion, options, file, ev.number)?;
-        let targets = targets_of(&motion, options, model, st.s)
-            .map_err(|source| model_error(file, ev.number, source))?;
+        let pieces: Vec<f64> = match arc_nominal {
+            Some(arc) => {
+                let (tolerance_mm, min_length_mm) = targets::arc_tolerances(options);
+                let pieces = arcs::arc_pieces(
+                    &arc,
+                    model,
+                    st.s,
+                    tolerance_mm,
+                    min_length_mm,
+                    &mut st.estimate_mm,
+                )
+                .map_err(|source| model_error(file, ev.number, source))?;
+                crate::limits::check_points(pieces.len() as f64).map_err(|message| {
+                    CompensationError::AtLine {
+                        file: file.into(),
+                        line: ev.number,
+                        message,
+                        help: crate::error::help::TOO_MANY_POINTS.into(),
+                    }
+                })?;
+                pieces
+            }
+            None => Vec::new(),
+        };
+        let targets = match arc_nominal {
+            Some(arc) => pieces
+                .iter()
+                .map(|l| if *l >= 1.0 { arc.end } else { arc.point_at(*l) })
+                .collect(),
+            None => {
+                targets::targets_with_estimate(&motion, options, model, st.s, &mut st.estimate_mm)
+                    .map_err(|source| model_error(file, ev.number, source))?
+            }
+        };
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
         if targets.len() > 1 && interp.feed_mode() == FeedMode::InverseTime {
             return Err(CompensationError::AtLine {
@@ -244,6 +306,47 @@ pub fn compensate_program<R: BufRead>(
             ev.number,
             &mut on_point,
         )?;
+        // Arc pieces: the centre of each, through its compensated start,
+        // middle and end (compensate/arcs.rs).
+        let arc_words: Vec<ArcWords> = match arc_nominal {
+            Some(arc) => {
+                let radius_style = ev.lexed.words().any(|w| w.letter == b'R');
+                let (mut from, mut l_from) = (q_line_start, 0.0);
+                let mut words = Vec::with_capacity(commands.len());
+                for (i, (q, take_up)) in commands.iter().enumerate() {
+                    let start = take_up.unwrap_or(from);
+                    let piece = arcs::sub_arc(&arc, l_from, pieces[i]);
+                    let t_mid = piece.point_at(0.5);
+                    let q_mid = solve::solve_fixed(
+                        model,
+                        options.method,
+                        t_mid,
+                        st.states[i],
+                        [false; 3],
+                        Vec3::ZERO,
+                    )
+                    .map_err(|source| command_error(model, file, ev.number, t_mid, source))?
+                    .q_mm;
+                    words.push(ArcWords {
+                        center: arcs::piece_center(
+                            &piece,
+                            start,
+                            q_mid,
+                            *q,
+                            options.chord_tolerance_mm,
+                        ),
+                        plane: arc.plane,
+                        clockwise: arc.clockwise(),
+                        radius_style,
+                        absolute_centers: interp.arc_absolute(),
+                    });
+                    from = *q;
+                    l_from = pieces[i];
+                }
+                words
+            }
+            None => Vec::new(),
+        };
         // Extra axes (A … W) of a split motion: each segment carries its share.
         let mut extra_plan = extra::ExtraPlan::new(
             motion.extra,
@@ -264,6 +367,8 @@ pub fn compensate_program<R: BufRead>(
         } else {
             OutMode::Rapid
         };
+        let first_arc = arc_words.first().filter(|w| w.center.is_some());
+        let needed_first = first_arc.map_or(needed, |w| w.mode());
         for (i, (q, take_up)) in commands.iter().enumerate() {
             if let Some(tu) = take_up {
                 // The first take-up runs before the line's own words: in the
@@ -312,13 +417,24 @@ pub fn compensate_program<R: BufRead>(
                     sep,
                     pos,
                     *q,
-                    &motion.kind,
-                    needed,
+                    if first_arc.is_some() {
+                        &MotionKind::Feed
+                    } else {
+                        &motion.kind
+                    },
+                    needed_first,
                     stop_word,
                     targets[0],
                     motion.start,
                 );
                 let mut edits = edits;
+                if let Some(w) = first_arc {
+                    edits.extend(arc_line_edits(
+                        ev.lexed.words(),
+                        content,
+                        w.text(&frame, style, sep, pos),
+                    ));
+                }
                 if let Some(plan) = extra_plan.as_mut() {
                     let words: Vec<_> = ev.lexed.words().collect();
                     for (span, text) in plan.first_edits(&words, content, style) {
@@ -336,8 +452,28 @@ pub fn compensate_program<R: BufRead>(
                 if content_len == ev.bytes.len() && commands.len() > 1 {
                     st.buf.extend_from_slice(b"\n");
                 }
-                st.mode = Some(needed);
+                st.mode = Some(needed_first);
                 st.summary.lines_out += 1;
+            } else if let Some(w) = arc_words.get(i) {
+                let ending: &[u8] = if i + 1 == commands.len()
+                    && content_len == ev.bytes.len()
+                    && stop_word.is_none()
+                {
+                    b""
+                } else {
+                    line_ending
+                };
+                st.write_inserted_arc(
+                    &frame,
+                    style,
+                    sep,
+                    pos,
+                    *q,
+                    w,
+                    ev.number,
+                    options.trace_comments,
+                    ending,
+                );
             } else {
                 if let Some(plan) = extra_plan.as_mut() {
                     st.extra_text = plan.words_for(i, style, sep);
@@ -373,6 +509,11 @@ pub fn compensate_program<R: BufRead>(
         st.frame_before = Some((frame, style));
         out.write_all(&st.buf)?;
     }
+    st.summary.blocks_in = st.blocks_in.finish();
+    (st.summary.bytes_out, st.summary.blocks_out) = out.finish();
+    st.summary.max_estimated_contour_um =
+        matches!(options.segmentation, Segmentation::Adaptive { .. })
+            .then_some(st.estimate_mm * 1e3);
     Ok(st.summary)
 }
 
@@ -425,4 +566,10 @@ struct State {
     text: String,
     /// Extra-axis words (A … W) for the next inserted command.
     extra_text: String,
+    /// Direction state of each command of the last [`State::solve_targets`].
+    states: Vec<Directions>,
+    /// Largest contour error the segmentation estimates it leaves (mm).
+    estimate_mm: f64,
+    /// Block counting of the input and the output ([`size::Blocks`]).
+    blocks_in: size::Blocks,
 }

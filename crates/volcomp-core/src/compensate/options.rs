@@ -40,8 +40,12 @@ pub struct CompensateOptions {
     pub method: Method,
     /// Splitting of feed moves.
     pub segmentation: Segmentation,
-    /// Chord tolerance for arcs (mm).
+    /// Chord tolerance for arcs (mm), when they are linearised.
     pub chord_tolerance_mm: f64,
+    /// Write compensated arcs as arcs (pieces of the original arc, each
+    /// compensated at its ends and middle; docs/compensation.md, "Arcs as
+    /// arcs"); `false` linearises them within the chord tolerance.
+    pub arcs_as_arcs: bool,
     /// Written decimals; `None`: 4 in mm, 5 in inch, or more where the
     /// program writes more. A rewritten word never has fewer decimals than
     /// the word it replaces.
@@ -68,8 +72,12 @@ impl Default for CompensateOptions {
     fn default() -> Self {
         Self {
             method: Method::Exact,
-            segmentation: Segmentation::MaxLength(1.0),
+            segmentation: Segmentation::Adaptive {
+                tolerance_mm: DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
+                min_length_mm: DEFAULT_MIN_SEGMENT_LENGTH_MM,
+            },
             chord_tolerance_mm: 1e-4,
+            arcs_as_arcs: true,
             decimals: None,
             max_correction_mm: 0.1,
             directions: DirectionPolicy::Commanded,
@@ -79,6 +87,19 @@ impl Default for CompensateOptions {
         }
     }
 }
+
+/// Default contour tolerance of adaptive segmentation (µm): 0.1 µm, the
+/// step of a coordinate written with 4 decimals in mm (rounding moves each
+/// written point by up to 0.05 µm per axis, 0.087 µm in space). A finer
+/// tolerance would buy nothing the written numbers can carry; a coarser one
+/// would add a path error larger than the rounding (docs/compensation.md,
+/// "Adaptive segmentation").
+pub const DEFAULT_CONTOUR_TOLERANCE_UM: f64 = 0.1;
+
+/// Default shortest segment of adaptive segmentation (mm): 10 µm, a hundred
+/// times the written step, so a segment never degenerates into a
+/// micrometre block.
+pub const DEFAULT_MIN_SEGMENT_LENGTH_MM: f64 = 0.01;
 
 /// Default of [`CompensateOptions::max_residual_um`]: 1 µm, ten times the
 /// solver's own tolerance plus the rounding of a written coordinate (half a
@@ -119,6 +140,20 @@ pub struct CompensateSummary {
     pub lines_in: u64,
     /// Lines written.
     pub lines_out: u64,
+    /// Bytes read.
+    pub bytes_in: u64,
+    /// Bytes written (with the provenance header when
+    /// [`crate::compensate::Compensator`] writes one).
+    pub bytes_out: u64,
+    /// Blocks read: lines with more than comments, blanks and `%`.
+    pub blocks_in: u64,
+    /// Blocks written, counted alike.
+    pub blocks_out: u64,
+    /// The largest contour error (µm) the adaptive segmentation estimates
+    /// it leaves on a feed move (docs/compensation.md, "Adaptive
+    /// segmentation", "Arcs as arcs"; without the rounding of the written
+    /// numbers); `None` under a fixed segmentation, which estimates nothing.
+    pub max_estimated_contour_um: Option<f64>,
     /// Target points compensated.
     pub points: u64,
     /// Largest model residual (µm).

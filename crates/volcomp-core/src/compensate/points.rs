@@ -19,30 +19,43 @@ fn take_up_command(
     s_old: Directions,
     s_new: Directions,
     reversed: [bool; 3],
+    toward: Vec3,
     frame: &Frame,
 ) -> Result<Vec3, ModelError> {
     use crate::model::{actual_mm, Components};
     let held = actual_mm(model, q_prev, s_old, Components::All)?;
     let mut q = q_prev;
-    // Only the reversing axes move; their new state applies during the move.
+    // The reversing axes move, with their new state during the move. The
+    // other axes follow too where the tool would otherwise step (the new
+    // direction's straightness differs from the old one's), but only
+    // toward the segment's own command `toward` and not past it, so no
+    // axis reverses for it.
     let mut s = s_old;
     for a in 0..3 {
         if reversed[a] {
             s[a] = s_new[a];
         }
     }
+    let mut moves = reversed;
     for _ in 0..8 {
         let img = actual_mm(model, q, s, Components::All)?;
         for a in 0..3 {
             if reversed[a] {
                 q[a] += held[a] - img[a];
+            } else {
+                let next = q[a] + held[a] - img[a];
+                let (d, room) = (next - q_prev[a], toward[a] - q_prev[a]);
+                moves[a] = d * room > 0.0 && d.abs() <= room.abs();
+                q[a] = if moves[a] { next } else { q_prev[a] };
             }
         }
     }
     let mut out = frame.quantize(q, q_prev);
     for a in 0..3 {
         if !reversed[a] {
-            out[a] = q_prev[a];
+            if !moves[a] {
+                out[a] = q_prev[a];
+            }
         } else if (out[a] - q_prev[a]) * s_new[a].sign() <= 0.0 {
             // A negative reversal value needs no take-up: the axis engages at once.
             out[a] = q_prev[a];
@@ -69,6 +82,7 @@ impl State {
         on_point: &mut dyn FnMut(&PointRecord),
     ) -> Result<Vec<(Vec3, Option<Vec3>)>, CompensationError> {
         let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
+        self.states.clear();
         let mut t_prev = start;
         for t in targets {
             let q_from = self.q_out;
@@ -122,6 +136,7 @@ impl State {
                         self.s,
                         point.s,
                         point.reversed,
+                        point.q_mm,
                         if commands.is_empty() {
                             first_take_up_frame
                         } else {
@@ -172,6 +187,7 @@ impl State {
                 rapid: !feed_like,
             });
             commands.push((point.q_mm, take_up));
+            self.states.push(point.s);
             self.q_out = point.q_mm;
             self.s = point.s;
             self.s_nominal = next_state(self.s_nominal, *t - t_prev);

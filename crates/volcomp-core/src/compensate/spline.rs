@@ -16,7 +16,7 @@
 
 use super::frame::Frame;
 use super::lines::{blank_before, line_ending, stop_m_word, OutMode};
-use super::targets::{check_target_count, targets_of};
+use super::targets::{check_target_count, targets_with_estimate};
 use super::{model_error, CompensateOptions, PointRecord, State};
 use crate::error::CompensationError;
 use crate::model::ErrorModel;
@@ -100,7 +100,7 @@ impl State {
         self.mode = Some(OutMode::Other);
         for m in motions {
             check_target_count(m, options, file, line)?;
-            let targets = targets_of(m, options, model, self.s)
+            let targets = targets_with_estimate(m, options, model, self.s, &mut self.estimate_mm)
                 .map_err(|source| model_error(file, line, source))?;
             let from = self.q_out;
             let commands = self.solve_targets(

@@ -27,6 +27,12 @@ pub fn target_count_bound(motion: &volcomp_gcode::Motion, options: &CompensateOp
     match motion.kind {
         MotionKind::Rapid => 1.0,
         MotionKind::Feed => per((motion.end - motion.start).norm()),
+        // Arcs as arcs: at least the quarter points; the table points and
+        // the bisection depend on the map, so `arcs::arc_pieces` stops
+        // generating past the limit and the caller refuses the block then.
+        MotionKind::Arc(arc) if options.arcs_as_arcs => {
+            4.0 * (arc.sweep_rad.abs() / std::f64::consts::TAU).ceil() + 1.0
+        }
         MotionKind::Arc(arc) => {
             let chords = arc.chord_count(options.chord_tolerance_mm) as f64;
             match options.segmentation {
@@ -64,11 +70,34 @@ pub fn targets_of(
     model: &dyn ErrorModel,
     s: Directions,
 ) -> Result<Vec<Vec3>, ModelError> {
+    let mut worst = 0.0;
+    targets_with_estimate(motion, options, model, s, &mut worst)
+}
+
+/// [`targets_of`], raising `worst_mm` to the largest contour error the
+/// adaptive segmentation estimates it leaves (docs/compensation.md,
+/// "Adaptive segmentation"; chords of linearised arcs add the chord
+/// tolerance). Other segmentations estimate nothing.
+pub(super) fn targets_with_estimate(
+    motion: &volcomp_gcode::Motion,
+    options: &CompensateOptions,
+    model: &dyn ErrorModel,
+    s: Directions,
+    worst_mm: &mut f64,
+) -> Result<Vec<Vec3>, ModelError> {
     let mut out = Vec::new();
     let seg = options.segmentation;
     match motion.kind {
         MotionKind::Rapid => out.push(motion.end),
-        MotionKind::Feed => split(motion.start, motion.end, seg, model, s, &mut out)?,
+        MotionKind::Feed => split(motion.start, motion.end, seg, model, s, &mut out, worst_mm)?,
+        MotionKind::Arc(arc) if options.arcs_as_arcs => {
+            let (tolerance_mm, min_length_mm) = arc_tolerances(options);
+            let pieces =
+                super::arcs::arc_pieces(&arc, model, s, tolerance_mm, min_length_mm, worst_mm)?;
+            for l in pieces {
+                out.push(if l >= 1.0 { arc.end } else { arc.point_at(l) });
+            }
+        }
         MotionKind::Arc(arc) => {
             let chords = arc.chord_count(options.chord_tolerance_mm);
             if let Segmentation::Count(n) = seg {
@@ -80,17 +109,36 @@ pub fn targets_of(
             } else {
                 let mut prev = arc.start;
                 let mut result = Ok(());
+                let mut worst = 0.0;
                 arc.for_each_chord_end(options.chord_tolerance_mm, |p| {
                     if result.is_ok() {
-                        result = split(prev, p, seg, model, s, &mut out);
+                        result = split(prev, p, seg, model, s, &mut out, &mut worst);
                     }
                     prev = p;
                 });
                 result?;
+                if matches!(seg, Segmentation::Adaptive { .. }) {
+                    *worst_mm = worst_mm.max(worst + options.chord_tolerance_mm);
+                }
             }
         }
     }
     Ok(out)
+}
+
+/// Contour tolerance and shortest piece (mm) of arcs written as arcs: those
+/// of adaptive segmentation, or its defaults under another segmentation.
+pub(super) fn arc_tolerances(options: &CompensateOptions) -> (f64, f64) {
+    match options.segmentation {
+        Segmentation::Adaptive {
+            tolerance_mm,
+            min_length_mm,
+        } => (tolerance_mm, min_length_mm),
+        _ => (
+            super::DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
+            super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
+        ),
+    }
 }
 
 fn split(
@@ -100,6 +148,7 @@ fn split(
     model: &dyn ErrorModel,
     s: Directions,
     out: &mut Vec<Vec3>,
+    worst_mm: &mut f64,
 ) -> Result<(), ModelError> {
     let n = match seg {
         Segmentation::Off => 1,
@@ -113,8 +162,29 @@ fn split(
             let e = |p: Vec3| -> Result<Vec3, ModelError> {
                 Ok(model.deviation_um(p, s, crate::model::Components::All)? * 1e-3)
             };
+            let knots = |p: Vec3, q: Vec3| knot_cuts(model, p, q, s, min_length_mm);
+            // A piecewise linear map is affine between table points: a move
+            // that crosses none needs no split and no evaluation.
+            let linear = model.piecewise_linear();
+            if linear && knots(a, b).is_empty() {
+                out.push(b);
+                return Ok(());
+            }
             let (ea, eb) = (e(a)?, e(b)?);
-            return bisect(a, b, ea, eb, tolerance_mm, min_length_mm, &e, 0, out);
+            return refine(
+                a,
+                b,
+                ea,
+                eb,
+                tolerance_mm,
+                min_length_mm,
+                &e,
+                &knots,
+                linear,
+                0,
+                out,
+                worst_mm,
+            );
         }
     };
     for k in 1..n {
@@ -124,9 +194,56 @@ fn split(
     Ok(())
 }
 
+/// Parameters `λ ∈ (0, 1)` (increasing) where the line `a`–`b` crosses a
+/// knot of the model's tables ([`ErrorModel::knots_mm`]) for the direction
+/// state `s` of the move, leaving out cuts closer than `min_length_mm` to
+/// the previous cut or to `b`: at most `|b − a| / min_length_mm` of them.
+fn knot_cuts(
+    model: &dyn ErrorModel,
+    a: Vec3,
+    b: Vec3,
+    s: Directions,
+    min_length_mm: f64,
+) -> Vec<f64> {
+    let length = (b - a).norm();
+    let mut cuts = Vec::new();
+    if length <= 2.0 * min_length_mm || !length.is_finite() {
+        return cuts;
+    }
+    for axis in 0..3 {
+        let (lo, hi) = (a[axis].min(b[axis]), a[axis].max(b[axis]));
+        if hi <= lo {
+            continue;
+        }
+        let knots = model.knots_mm(axis, s[axis]);
+        let first = knots.partition_point(|k| *k <= lo);
+        for k in knots[first..].iter().take_while(|k| **k < hi) {
+            cuts.push((k - a[axis]) / (b[axis] - a[axis]));
+        }
+    }
+    cuts.sort_by(f64::total_cmp);
+    let min_step = min_length_mm / length;
+    let mut kept: Vec<f64> = Vec::with_capacity(cuts.len());
+    let mut last = 0.0;
+    for c in cuts {
+        if c - last >= min_step && 1.0 - c >= min_step {
+            kept.push(c);
+            last = c;
+        }
+    }
+    kept
+}
+
 /// Adaptive splitting of `a`–`b` (errors `ea`, `eb` at the ends, mm).
+///
+/// The departure of the map from its chord is taken at the quarter points
+/// and at every table point the piece crosses (`knots`: where a piecewise
+/// linear map bends, so the largest departure of such a map lies at one of
+/// them). A piece within the tolerance is kept whole, even across table
+/// points; otherwise it is cut at the table point that departs most or,
+/// with none, halved — never into pieces shorter than `min_len`.
 #[allow(clippy::too_many_arguments)]
-fn bisect(
+fn refine(
     a: Vec3,
     b: Vec3,
     ea: Vec3,
@@ -134,24 +251,65 @@ fn bisect(
     tol: f64,
     min_len: f64,
     e: &dyn Fn(Vec3) -> Result<Vec3, ModelError>,
+    knots: &dyn Fn(Vec3, Vec3) -> Vec<f64>,
+    linear: bool,
     depth: u32,
     out: &mut Vec<Vec3>,
+    worst_mm: &mut f64,
 ) -> Result<(), ModelError> {
-    let mid = a.lerp(b, 0.5);
-    let em = e(mid)?;
-    let mut worst = (em - ea.lerp(eb, 0.5)).norm();
-    if worst <= tol {
-        for t in [0.25, 0.75] {
+    let mut worst: f64 = 0.0;
+    if !linear {
+        for t in [0.25, 0.5, 0.75] {
             worst = worst.max((e(a.lerp(b, t))? - ea.lerp(eb, t)).norm());
         }
     }
-    if worst > tol && (b - a).norm() > 2.0 * min_len && depth < 40 {
-        bisect(a, mid, ea, em, tol, min_len, e, depth + 1, out)?;
-        bisect(mid, b, em, eb, tol, min_len, e, depth + 1, out)
-    } else {
-        out.push(b);
-        Ok(())
+    let mut cut: Option<(f64, f64, Vec3)> = None;
+    for t in knots(a, b) {
+        let ep = e(a.lerp(b, t))?;
+        let d = (ep - ea.lerp(eb, t)).norm();
+        worst = worst.max(d);
+        if cut.is_none_or(|(_, dc, _)| d > dc) {
+            cut = Some((t, d, ep));
+        }
     }
+    if worst > tol && (b - a).norm() > 2.0 * min_len && depth < 64 {
+        let (t, em) = match cut {
+            Some((t, d, ep)) if d > tol => (t, ep),
+            _ => (0.5, e(a.lerp(b, 0.5))?),
+        };
+        let m = a.lerp(b, t);
+        refine(
+            a,
+            m,
+            ea,
+            em,
+            tol,
+            min_len,
+            e,
+            knots,
+            linear,
+            depth + 1,
+            out,
+            worst_mm,
+        )?;
+        return refine(
+            m,
+            b,
+            em,
+            eb,
+            tol,
+            min_len,
+            e,
+            knots,
+            linear,
+            depth + 1,
+            out,
+            worst_mm,
+        );
+    }
+    *worst_mm = worst_mm.max(worst);
+    out.push(b);
+    Ok(())
 }
 
 /// Marks the axes whose position a moving line states: its X, Y and Z words,
@@ -168,6 +326,138 @@ pub(crate) fn mark_axes_set(line: &volcomp_gcode::lexer::Lexed, known: &mut [boo
                 known[1] = true;
             }
             _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::axis_table::AxisTableMap;
+    use crate::model::{Components, ALL_FORWARD};
+    use volcomp_gcode::{Motion, MotionSource};
+
+    fn feed(a: Vec3, b: Vec3) -> Motion {
+        Motion {
+            kind: MotionKind::Feed,
+            start: a,
+            end: b,
+            line: 1,
+            column: 1,
+            feed: 100.0,
+            source: MotionSource::Program,
+            extra: Default::default(),
+            feed_mode: volcomp_gcode::interp::FeedMode::PerMinute,
+        }
+    }
+
+    fn adaptive(tol_um: f64) -> CompensateOptions {
+        CompensateOptions {
+            segmentation: Segmentation::Adaptive {
+                tolerance_mm: tol_um * 1e-3,
+                min_length_mm: 0.01,
+            },
+            ..CompensateOptions::default()
+        }
+    }
+
+    fn map(x_rows: &str) -> AxisTableMap {
+        let csv = format!(
+            "axis,direction,position_mm,ex_um,ey_um,ez_um\n{x_rows}\
+             Y,both,-100,0,0,0\nY,both,100,0,0,0\nZ,both,-100,0,0,0\nZ,both,100,0,0,0\n"
+        );
+        AxisTableMap::from_csv(&csv, "m.csv").unwrap()
+    }
+
+    /// An error that is affine along the move needs no split at all: the
+    /// chord between two compensated points follows the target exactly.
+    #[test]
+    fn a_linear_map_needs_no_split() {
+        let m = map("X,both,-100,-20,5,1\nX,both,100,20,-5,-1\n");
+        let (a, b) = (Vec3::new(-80.0, 3.0, 0.0), Vec3::new(90.0, -7.0, 4.0));
+        let t = targets_of(&feed(a, b), &adaptive(0.1), &m, ALL_FORWARD).unwrap();
+        assert_eq!(t, vec![b]);
+    }
+
+    /// A table's points are the only places a piecewise linear map bends:
+    /// a move across two of them is cut exactly there and nowhere else,
+    /// however large the slope change (here 4 µm/mm).
+    #[test]
+    fn a_table_is_cut_at_its_points_only() {
+        let m = map(
+            "X,both,0,0,0,0\nX,both,5,20,0,0\nX,both,10,0,0,0\nX,both,15,20,3,0\nX,both,20,0,0,0\n",
+        );
+        let (a, b) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(14.0, 0.0, 0.0));
+        let t = targets_of(&feed(a, b), &adaptive(0.1), &m, ALL_FORWARD).unwrap();
+        assert_eq!(
+            t,
+            vec![Vec3::new(5.0, 0.0, 0.0), Vec3::new(10.0, 0.0, 0.0), b]
+        );
+    }
+
+    /// A bow `e_y = 4A·u(1 − u)`, `u = x/L`, departs from the chord of a
+    /// piece of length `h` by `A·(h/L)²` at its middle (the same for every
+    /// piece). With A = 10 µm and a tolerance of 0.1 µm, halving stops at
+    /// the first `h = L/2^k` with `10/4^k ≤ 0.1`: k = 4 (10/256 = 0.039;
+    /// k = 3 gives 10/64 = 0.156 > 0.1), so exactly 16 equal pieces.
+    #[test]
+    fn a_quadratic_bow_needs_the_predicted_pieces() {
+        struct Bow;
+        impl ErrorModel for Bow {
+            fn deviation_um(
+                &self,
+                q: Vec3,
+                _: Directions,
+                _: Components,
+            ) -> Result<Vec3, ModelError> {
+                let u = q.x / 80.0;
+                Ok(Vec3::new(0.0, 40.0 * u * (1.0 - u), 0.0))
+            }
+            fn range_mm(&self) -> [[f64; 2]; 3] {
+                [[-1e3, 1e3]; 3]
+            }
+        }
+        let (a, b) = (Vec3::ZERO, Vec3::new(80.0, 0.0, 0.0));
+        let t = targets_of(&feed(a, b), &adaptive(0.1), &Bow, ALL_FORWARD).unwrap();
+        let expected: Vec<Vec3> = (1..=16)
+            .map(|k| Vec3::new(5.0 * k as f64, 0.0, 0.0))
+            .collect();
+        assert_eq!(t, expected);
+        // A tolerance just above the 8-piece departure keeps 8 pieces.
+        let t = targets_of(&feed(a, b), &adaptive(0.16), &Bow, ALL_FORWARD).unwrap();
+        assert_eq!(t.len(), 8);
+    }
+
+    /// A table point is a cut only where the kink matters: the departure
+    /// of a kink of slope change `Δs` at the middle of a piece of length
+    /// `L` is `Δs·L/4`. Table X at 0, 5, 10 mm with 0, 1, 0 µm bends by
+    /// 0.4 µm/mm at 5 mm: a 0.8 mm move across it departs 0.08 µm (kept
+    /// whole at 0.1 µm), a 2 mm move 0.2 µm (cut there, and only there).
+    #[test]
+    fn a_table_point_is_cut_only_where_its_kink_matters() {
+        let m = map("X,both,0,0,0,0\nX,both,5,1,0,0\nX,both,10,0,0,0\n");
+        let (a, b) = (Vec3::new(4.6, 0.0, 0.0), Vec3::new(5.4, 0.0, 0.0));
+        let t = targets_of(&feed(a, b), &adaptive(0.1), &m, ALL_FORWARD).unwrap();
+        assert_eq!(t, vec![b]);
+        let (a, b) = (Vec3::new(4.0, 0.0, 0.0), Vec3::new(6.0, 0.0, 0.0));
+        let t = targets_of(&feed(a, b), &adaptive(0.1), &m, ALL_FORWARD).unwrap();
+        assert_eq!(t, vec![Vec3::new(5.0, 0.0, 0.0), b]);
+    }
+
+    /// Knots closer than the shortest segment to a cut or to the end are
+    /// left out, so the count stays within [`target_count_bound`].
+    #[test]
+    fn knot_cuts_respect_the_shortest_segment() {
+        let rows: String = (0..=1000)
+            .map(|k| format!("X,both,{},{},0,0\n", f64::from(k) * 0.001, (k % 2) * 5))
+            .collect();
+        let m = map(&rows);
+        let (a, b) = (Vec3::new(0.0005, 0.0, 0.0), Vec3::new(0.9995, 0.0, 0.0));
+        let o = adaptive(0.1);
+        let t = targets_of(&feed(a, b), &o, &m, ALL_FORWARD).unwrap();
+        assert!(t.len() as f64 <= target_count_bound(&feed(a, b), &o));
+        for w in t.windows(2) {
+            assert!((w[1] - w[0]).norm() >= 0.01 - 1e-12);
         }
     }
 }

@@ -191,6 +191,19 @@ impl ErrorModel for AxisTableMap {
         };
         [r(0), r(1), r(2)]
     }
+
+    /// The table's points: linear interpolation changes slope only there.
+    fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
+        self.axes
+            .get(axis)
+            .map_or(&[], |t| t.table(d).positions_mm.as_slice())
+    }
+
+    /// A sum of per-axis tables interpolated linearly (held at the ends
+    /// when clamped): affine between table points.
+    fn piecewise_linear(&self) -> bool {
+        true
+    }
 }
 
 const COLUMNS: [&str; 6] = [

@@ -104,6 +104,28 @@ pub trait ErrorModel: Send + Sync {
     fn uses_tool_offset(&self) -> bool {
         false
     }
+
+    /// Axis positions (mm, increasing) where the error of axis `axis`
+    /// (0 = X, 1 = Y, 2 = Z) moving in direction `d` may change slope: the
+    /// points of a linearly interpolated table. Between two of them, with the
+    /// other axes still, the error is affine in the position, so a compensated
+    /// chord between two solved points follows the target line exactly
+    /// (docs/compensation.md, "Adaptive segmentation"). Models that are not
+    /// piecewise linear keep the default (none); compensation then relies on
+    /// bisection alone.
+    fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
+        let _ = (axis, d);
+        &[]
+    }
+
+    /// Whether the error, with the direction state fixed, is the sum of
+    /// per-axis functions each linear between its [`ErrorModel::knots_mm`]
+    /// (and constant outside a clamped range): then `e` is affine along a
+    /// straight move between two knot crossings, exactly, and adaptive
+    /// segmentation needs to look at the knots only.
+    fn piecewise_linear(&self) -> bool {
+        false
+    }
 }
 
 /// A model seen with a fixed tool length offset: what compensation and
@@ -159,6 +181,14 @@ impl ErrorModel for WithTool<'_> {
 
     fn uses_tool_offset(&self) -> bool {
         self.model.uses_tool_offset()
+    }
+
+    fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
+        self.model.knots_mm(axis, d)
+    }
+
+    fn piecewise_linear(&self) -> bool {
+        self.model.piecewise_linear()
     }
 }
 

@@ -340,6 +340,19 @@ impl Interpreter {
         self.diameter_mode
     }
 
+    /// Whether arc centres (I, J, K) are absolute (G90.1) rather than
+    /// relative to the arc's start (G91.1).
+    pub fn arc_absolute(&self) -> bool {
+        self.arc_absolute
+    }
+
+    /// Whether the program is read with absolute arc centres by option
+    /// (`InterpOptions::absolute_arc_centers`: posted for a controller that
+    /// reads I, J, K as absolute without G90.1).
+    pub fn arc_absolute_by_option(&self) -> bool {
+        self.options.absolute_arc_centers
+    }
+
     /// The canned cycle in effect (73, 81–89) and, for G82/G86/G88/G89 (and
     /// G84 when given), the dwell at the bottom in seconds.
     pub fn canned_cycle(&self) -> Option<(u16, Option<f64>)> {

@@ -285,6 +285,8 @@ pub fn compensate_finishing<R: BufRead>(
         method: Method::Direct,
         segmentation,
         chord_tolerance_mm: options.chord_tolerance_mm,
+        // The mirrored surface is followed along chords, as before.
+        arcs_as_arcs: false,
         decimals: options.decimals,
         // |δ| never exceeds the largest control coefficient (convex hull).
         max_correction_mm: model.field.max_abs_um() * 1e-3 + 1e-3,

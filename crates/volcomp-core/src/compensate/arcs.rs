@@ -1,0 +1,476 @@
+//! Compensated arcs written as arcs (docs/compensation.md, "Arcs as arcs").
+//!
+//! A G2/G3 is cut into pieces of the original arc: at the quarter points of
+//! the circle (where an axis of the plane reverses, so each piece has one
+//! direction state and a take-up can go between pieces), where it crosses a
+//! point of the map's tables (where a linearly interpolated map bends), and
+//! then by bisection while the estimated contour error of a piece exceeds
+//! the contour tolerance. Each piece's end is compensated exactly by the
+//! point solver; its centre is that of the circle through the compensated
+//! start, the compensated middle and the compensated end, so the actual path
+//! lands on the nominal arc at three points of every piece.
+
+use crate::error::ModelError;
+use crate::model::{Components, Direction, Directions, ErrorModel};
+use crate::simulate::next_state;
+use crate::simulate::nominal::arc_distance_mm;
+use std::f64::consts::{FRAC_PI_2, TAU};
+use volcomp_gcode::{Arc, Vec3};
+
+/// Pieces (and table crossings) generated at most for one arc: past
+/// [`crate::limits::MAX_POINTS_PER_BLOCK`] the generation stops and the
+/// caller refuses the block, so the work stays bounded.
+const LIMIT: u64 = crate::limits::MAX_POINTS_PER_BLOCK;
+
+/// Centre `(u, v)` of the circle through three points of a plane, or `None`
+/// when they are collinear to within 1e-12 of the squared chord.
+pub(super) fn circle_through(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<[f64; 2]> {
+    let (bx, by) = (b[0] - a[0], b[1] - a[1]);
+    let (cx, cy) = (c[0] - a[0], c[1] - a[1]);
+    let (b2, c2) = (bx * bx + by * by, cx * cx + cy * cy);
+    let d = 2.0 * (bx * cy - by * cx);
+    if d.abs() <= 1e-12 * b2.max(c2) || !d.is_finite() {
+        return None;
+    }
+    Some([
+        a[0] + (cy * b2 - by * c2) / d,
+        a[1] + (bx * c2 - cx * b2) / d,
+    ])
+}
+
+/// The arc the controller runs from `start` to `end` in `arc`'s plane and
+/// turning direction, about the centre of the circle through `start`, `mid`
+/// and `end` (the helix axis linear from start to end, as LinuxCNC
+/// interpolates it). `None` when the three points are collinear or the
+/// circle does not pass `mid` between `start` and `end` in that direction.
+pub(super) fn commanded_arc(nominal: &Arc, start: Vec3, mid: Vec3, end: Vec3) -> Option<Arc> {
+    let (u, v, w) = nominal.plane.axes();
+    let c = circle_through([start[u], start[v]], [mid[u], mid[v]], [end[u], end[v]])?;
+    let mut center = start;
+    center[u] = c[0];
+    center[v] = c[1];
+    center[w] = start[w];
+    let angle = |p: Vec3| (p[v] - c[1]).atan2(p[u] - c[0]);
+    let cw = nominal.clockwise();
+    let sweep = volcomp_gcode::arc::sweep_angle(angle(start), angle(end), cw, 1);
+    let to_mid = volcomp_gcode::arc::sweep_angle(angle(start), angle(mid), cw, 1);
+    if to_mid.abs() >= sweep.abs() || !sweep.is_finite() {
+        return None;
+    }
+    Some(Arc {
+        start,
+        end,
+        center,
+        plane: nominal.plane,
+        sweep_rad: sweep,
+    })
+}
+
+/// The centre to write for a compensated piece of the nominal arc `piece`
+/// (commanded `start`, `mid`, `end`), or `None` to write the piece as a G1
+/// chord when the piece departs from its own chord by no more than
+/// `chord_tolerance_mm` (its sagitta `r(1 − cos(Δ/2))`). The centre is
+/// that of the circle through the three points, unless that circle is not
+/// the nominal one moved by a correction (its sagitta off by more than
+/// half: the rounding of the written ends, up to 0.09 µm, then dominates
+/// a sagitta of a few tenths of a µm, or the points are collinear): then
+/// the nominal centre moved by the mean correction of the two ends.
+pub(super) fn piece_center(
+    piece: &Arc,
+    start: Vec3,
+    mid: Vec3,
+    end: Vec3,
+    chord_tolerance_mm: f64,
+) -> Option<Vec3> {
+    let sagitta = sagitta_mm(piece);
+    if sagitta <= chord_tolerance_mm {
+        return None;
+    }
+    if let Some(cmd) = commanded_arc(piece, start, mid, end) {
+        let fitted = cmd.start_radius() * (1.0 - (0.5 * cmd.sweep_rad.abs()).min(FRAC_PI_2).cos());
+        if (fitted - sagitta).abs() <= 0.5 * sagitta {
+            return Some(cmd.center);
+        }
+    }
+    // The nominal circle moved by the mean correction of the ends: its
+    // radius to the written ends differs by half the difference of their
+    // corrections (µm), far inside LinuxCNC's radius tolerance.
+    let (u, v, _) = piece.plane.axes();
+    let shift = ((start - piece.start) + (end - piece.end)) * 0.5;
+    let mut center = piece.center;
+    center[u] += shift[u];
+    center[v] += shift[v];
+    Some(center)
+}
+
+/// How far an arc departs from its chord: `r(1 − cos(Δ/2))` (mm).
+pub(super) fn sagitta_mm(arc: &Arc) -> f64 {
+    let r = arc.start_radius().max(arc.end_radius());
+    r * (1.0 - (0.5 * arc.sweep_rad.abs()).min(FRAC_PI_2).cos())
+}
+
+/// The sub-arc of `arc` between parameters `a` and `b`.
+pub(super) fn sub_arc(arc: &Arc, a: f64, b: f64) -> Arc {
+    let (_, _, w) = arc.plane.axes();
+    let start = arc.point_at(a);
+    let mut center = arc.center;
+    center[w] = start[w];
+    Arc {
+        start,
+        end: arc.point_at(b),
+        center,
+        plane: arc.plane,
+        sweep_rad: arc.sweep_rad * (b - a),
+    }
+}
+
+/// The command `q` with `q + e(q, s) = t` by fixed-point iteration (the
+/// map's slope is of the order of 10⁻⁵, so a few steps reach 1e-12 mm); for
+/// estimates only — written points come from the program's own solver.
+fn solve_quick(model: &dyn ErrorModel, t: Vec3, s: Directions) -> Result<Vec3, ModelError> {
+    let mut q = t;
+    for _ in 0..6 {
+        q = t - model.deviation_um(q, s, Components::All)? * 1e-3;
+    }
+    Ok(q)
+}
+
+/// The largest distance (mm) from the nominal arc of the actual path of the
+/// piece `[a, b]` of `arc`, compensated at its ends and middle, with the
+/// direction state `s` during the piece: sampled at a quarter, half and
+/// three quarters of the commanded piece. Infinite when no circle fits.
+#[cfg(test)]
+pub(super) fn piece_departure_mm(
+    arc: &Arc,
+    a: f64,
+    b: f64,
+    model: &dyn ErrorModel,
+    s: Directions,
+) -> Result<f64, ModelError> {
+    Ok(piece_departure_at_mm(arc, a, b, model, s, &[])?.0)
+}
+
+/// [`piece_departure_mm`], sampled also at the parameters `extra` of `arc`
+/// (inside `[a, b]`); with the one of them that departs most and its
+/// departure.
+#[allow(clippy::type_complexity)]
+fn piece_departure_at_mm(
+    arc: &Arc,
+    a: f64,
+    b: f64,
+    model: &dyn ErrorModel,
+    s: Directions,
+    extra: &[f64],
+) -> Result<(f64, Option<(f64, f64)>), ModelError> {
+    let nominal = sub_arc(arc, a, b);
+    let s = next_state(s, nominal.end - nominal.start);
+    let qa = solve_quick(model, nominal.start, s)?;
+    let qm = solve_quick(model, nominal.point_at(0.5), s)?;
+    let qb = solve_quick(model, nominal.end, s)?;
+    let Some(cmd) = commanded_arc(&nominal, qa, qm, qb) else {
+        return Ok((f64::INFINITY, None));
+    };
+    let mut worst: f64 = 0.0;
+    let mut hint = 0.0;
+    let mut at = |f: f64| -> Result<f64, ModelError> {
+        let p = cmd.point_at(f);
+        let actual = p + model.deviation_um(p, s, Components::All)? * 1e-3;
+        Ok(arc_distance_mm(actual, &nominal, &mut hint))
+    };
+    for f in [0.25, 0.5, 0.75] {
+        worst = worst.max(at(f)?);
+    }
+    let mut cut: Option<(f64, f64)> = None;
+    for &t in extra {
+        let d = at((t - a) / (b - a))?;
+        worst = worst.max(d);
+        if cut.is_none_or(|(_, dc)| d > dc) {
+            cut = Some((t, d));
+        }
+    }
+    Ok((worst, cut))
+}
+
+/// Parameters in `(0, 1)` (unsorted) where `arc` reaches a quarter point of
+/// its circle (an axis of the plane reverses there), and those where it
+/// crosses a point of the model's tables on an axis of the plane or, on a
+/// helix, its axis.
+fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> (Vec<f64>, Vec<f64>) {
+    let (u, v, w) = arc.plane.axes();
+    let sweep = arc.sweep_rad;
+    let mut cuts = Vec::new();
+    if sweep == 0.0 || !sweep.is_finite() {
+        return (cuts, Vec::new());
+    }
+    let a0 = (arc.start[v] - arc.center[v]).atan2(arc.start[u] - arc.center[u]);
+    let r = 0.5 * (arc.start_radius() + arc.end_radius());
+    // Every angle θ + 2πm (any m) that lies inside the sweep.
+    let at_angle = |theta: f64, cuts: &mut Vec<f64>| {
+        let first = ((theta - a0) / sweep).rem_euclid(TAU / sweep.abs());
+        let mut t = first;
+        while t < 1.0 && cuts.len() as u64 <= LIMIT {
+            if t > 0.0 {
+                cuts.push(t);
+            }
+            t += TAU / sweep.abs();
+        }
+    };
+    for k in 0..4 {
+        at_angle(f64::from(k) * FRAC_PI_2, &mut cuts);
+    }
+    let quarters = std::mem::take(&mut cuts);
+    let both = |axis: usize| -> Vec<f64> {
+        let mut k: Vec<f64> = model.knots_mm(axis, Direction::Forward).to_vec();
+        k.extend_from_slice(model.knots_mm(axis, Direction::Reverse));
+        k
+    };
+    for knot in both(u) {
+        let c = (knot - arc.center[u]) / r;
+        if c.abs() < 1.0 {
+            let alpha = c.acos();
+            at_angle(alpha, &mut cuts);
+            at_angle(-alpha, &mut cuts);
+        }
+    }
+    for knot in both(v) {
+        let s = (knot - arc.center[v]) / r;
+        if s.abs() < 1.0 {
+            let beta = s.asin();
+            at_angle(beta, &mut cuts);
+            at_angle(std::f64::consts::PI - beta, &mut cuts);
+        }
+    }
+    let (w0, w1) = (arc.start[w], arc.end[w]);
+    if w1 != w0 {
+        let (lo, hi) = (w0.min(w1), w0.max(w1));
+        for knot in both(w) {
+            if knot > lo && knot < hi && cuts.len() as u64 <= LIMIT {
+                cuts.push((knot - w0) / (w1 - w0));
+            }
+        }
+    }
+    (quarters, cuts)
+}
+
+/// The end parameters of the pieces of `arc` (increasing, the last 1.0):
+/// cut at quarter points and table points, then halved while a piece's
+/// estimated departure ([`piece_departure_mm`]) exceeds `tolerance_mm`;
+/// no piece shorter than `min_length_mm` along the arc except where a
+/// quarter point needs it, so at most `length / min + 4·turns + 4` pieces.
+pub(super) fn arc_pieces(
+    arc: &Arc,
+    model: &dyn ErrorModel,
+    s: Directions,
+    tolerance_mm: f64,
+    min_length_mm: f64,
+    worst_mm: &mut f64,
+) -> Result<Vec<f64>, ModelError> {
+    let length = arc.length();
+    let (mut cuts, mut knots) = arc_cuts(arc, model);
+    cuts.sort_by(f64::total_cmp);
+    knots.sort_by(f64::total_cmp);
+    let min_step = if length > 0.0 {
+        min_length_mm / length
+    } else {
+        1.0
+    };
+    let mut kept = Vec::with_capacity(cuts.len() + 1);
+    let mut last = 0.0;
+    for c in cuts {
+        if c - last >= min_step && 1.0 - c >= min_step {
+            kept.push(c);
+            last = c;
+        }
+    }
+    kept.push(1.0);
+    let mut out = Vec::with_capacity(kept.len());
+    let mut from = 0.0;
+    for to in kept {
+        bisect_arc(
+            arc,
+            from,
+            to,
+            model,
+            s,
+            tolerance_mm,
+            min_step,
+            &knots,
+            0,
+            &mut out,
+            worst_mm,
+        )?;
+        from = to;
+    }
+    Ok(out)
+}
+
+/// Splits the piece `[a, b]` of `arc` while its estimated departure — at
+/// ¼, ½, ¾ and at the table points it crosses (`knots`, sorted) — exceeds
+/// `tol`: at the table point that departs most when that one is past the
+/// tolerance (a kink of the map), else in the middle; never into pieces
+/// shorter than `min_step` (of the parameter).
+#[allow(clippy::too_many_arguments)]
+fn bisect_arc(
+    arc: &Arc,
+    a: f64,
+    b: f64,
+    model: &dyn ErrorModel,
+    s: Directions,
+    tol: f64,
+    min_step: f64,
+    knots: &[f64],
+    depth: u32,
+    out: &mut Vec<f64>,
+    worst_mm: &mut f64,
+) -> Result<(), ModelError> {
+    let lo = knots.partition_point(|k| *k < a + min_step);
+    let hi = knots.partition_point(|k| *k <= b - min_step);
+    let inside = &knots[lo..hi.max(lo)];
+    let (d, cut) = piece_departure_at_mm(arc, a, b, model, s, inside)?;
+    if b - a > 2.0 * min_step && depth < 64 && d > tol && (out.len() as u64) <= LIMIT {
+        let m = match cut {
+            Some((t, dc)) if dc > tol => t,
+            _ => 0.5 * (a + b),
+        };
+        bisect_arc(
+            arc,
+            a,
+            m,
+            model,
+            s,
+            tol,
+            min_step,
+            knots,
+            depth + 1,
+            out,
+            worst_mm,
+        )?;
+        return bisect_arc(
+            arc,
+            m,
+            b,
+            model,
+            s,
+            tol,
+            min_step,
+            knots,
+            depth + 1,
+            out,
+            worst_mm,
+        );
+    }
+    // A piece with no fitting circle is written as its chord.
+    *worst_mm = worst_mm.max(if d.is_finite() {
+        d
+    } else {
+        sagitta_mm(&sub_arc(arc, a, b))
+    });
+    out.push(b);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ALL_FORWARD;
+    use volcomp_gcode::Plane;
+
+    #[test]
+    fn circle_through_three_points_of_a_known_circle() {
+        // Centre (3, −2), radius 5: points at 0°, 90° and 210°.
+        let p = |deg: f64| {
+            let a = deg.to_radians();
+            [3.0 + 5.0 * a.cos(), -2.0 + 5.0 * a.sin()]
+        };
+        let c = circle_through(p(0.0), p(90.0), p(210.0)).unwrap();
+        assert!((c[0] - 3.0).abs() < 1e-12 && (c[1] + 2.0).abs() < 1e-12);
+        assert!(circle_through([0.0, 0.0], [1.0, 1.0], [2.0, 2.0]).is_none());
+    }
+
+    /// A map with a smooth bend along X in Z (`e_z = k·x²`) and in-plane
+    /// terms: on an XY arc the helix axis is matched at the two ends only,
+    /// so the error left in a piece is the departure of
+    /// `g(θ) = e_z(R cos θ) = k R² cos² θ` from its chord in θ, which at
+    /// the middle is `−g''·Δ²/8 = k R² cos(2θ_m) Δ²/4`: second order in the
+    /// piece, so halving it divides the error by 4. The in-plane part,
+    /// matched at three points, is of higher order.
+    #[test]
+    fn the_error_of_a_piece_is_second_order() {
+        struct Bend;
+        impl ErrorModel for Bend {
+            fn deviation_um(
+                &self,
+                q: Vec3,
+                _: Directions,
+                _: Components,
+            ) -> Result<Vec3, ModelError> {
+                Ok(Vec3::new(
+                    0.02 * q.x * q.y,
+                    -0.03 * q.x * q.x,
+                    0.05 * q.x * q.x,
+                ))
+            }
+            fn range_mm(&self) -> [[f64; 2]; 3] {
+                [[-1e3, 1e3]; 3]
+            }
+        }
+        // A quarter of a circle of radius 20 about the origin, G3.
+        let arc = Arc {
+            start: Vec3::new(20.0, 0.0, 0.0),
+            end: Vec3::new(0.0, 20.0, 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: FRAC_PI_2,
+        };
+        // Pieces from 0° of 8°, 4° and 2°.
+        let d_um =
+            |deg: f64| piece_departure_mm(&arc, 0.0, deg / 90.0, &Bend, ALL_FORWARD).unwrap() * 1e3;
+        let hand_um = |deg: f64| {
+            let delta = f64::to_radians(deg);
+            0.05 * 400.0 * delta.cos() * delta * delta / 4.0
+        };
+        for deg in [8.0, 4.0, 2.0] {
+            // 4°: 0.05 · 400 · cos 4° · 0.0698² / 4 = 0.02431 µm.
+            let (d, h) = (d_um(deg), hand_um(deg));
+            assert!((d - h).abs() < 0.02 * h, "{deg}°: {d} µm, by hand {h} µm");
+        }
+        assert!((d_um(8.0) / d_um(4.0) - 4.0).abs() < 0.1);
+        assert!((d_um(4.0) / d_um(2.0) - 4.0).abs() < 0.1);
+    }
+
+    #[test]
+    fn pieces_end_at_quarter_points() {
+        struct Zero;
+        impl ErrorModel for Zero {
+            fn deviation_um(
+                &self,
+                _: Vec3,
+                _: Directions,
+                _: Components,
+            ) -> Result<Vec3, ModelError> {
+                Ok(Vec3::ZERO)
+            }
+            fn range_mm(&self) -> [[f64; 2]; 3] {
+                [[-1e3, 1e3]; 3]
+            }
+        }
+        // A full G2 circle from 45°: quarter points at 0°, −90°, −180°, −270°.
+        let s = 10.0 * std::f64::consts::FRAC_1_SQRT_2;
+        let p = Vec3::new(s, s, 0.0);
+        let arc = Arc {
+            start: p,
+            end: p,
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: -TAU,
+        };
+        let mut worst = 0.0;
+        let t = arc_pieces(&arc, &Zero, ALL_FORWARD, 1e-4, 0.01, &mut worst).unwrap();
+        assert!(worst < 1e-12, "{worst}");
+        let expected = [0.125, 0.375, 0.625, 0.875, 1.0];
+        assert_eq!(t.len(), 5);
+        for (a, b) in t.iter().zip(expected) {
+            assert!((a - b).abs() < 1e-12, "{t:?}");
+        }
+    }
+}

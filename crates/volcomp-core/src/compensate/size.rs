@@ -1,0 +1,97 @@
+//! The size of a program: bytes and blocks (lines with more than comments,
+//! blanks and `%`), counted alike for the input and the output.
+
+use std::io::Write;
+
+/// Counts blocks in bytes given in any pieces: a line is a block when it
+/// holds a character outside parenthesised comments, before any `;`
+/// comment, that is neither blank nor `%`.
+#[derive(Debug, Default, Clone, Copy)]
+pub(super) struct Blocks {
+    count: u64,
+    /// The current line has a word character.
+    word: bool,
+    /// Inside `( … )`.
+    paren: bool,
+    /// After `;` (the rest of the line is a comment).
+    semicolon: bool,
+}
+
+impl Blocks {
+    pub(super) fn scan(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            match b {
+                b'\n' => {
+                    self.count += u64::from(self.word);
+                    *self = Blocks {
+                        count: self.count,
+                        ..Blocks::default()
+                    };
+                }
+                _ if self.semicolon => {}
+                b'(' => self.paren = true,
+                b')' if self.paren => self.paren = false,
+                _ if self.paren => {}
+                b';' => self.semicolon = true,
+                b' ' | b'\t' | b'\r' | b'%' => {}
+                _ => self.word = true,
+            }
+        }
+    }
+
+    /// The count, the last line included when it has no line end.
+    pub(super) fn finish(self) -> u64 {
+        self.count + u64::from(self.word)
+    }
+}
+
+/// A writer that counts the bytes and blocks passing through it.
+pub(super) struct Counted<'a> {
+    inner: &'a mut dyn Write,
+    bytes: u64,
+    blocks: Blocks,
+}
+
+impl<'a> Counted<'a> {
+    pub(super) fn new(inner: &'a mut dyn Write) -> Self {
+        Counted {
+            inner,
+            bytes: 0,
+            blocks: Blocks::default(),
+        }
+    }
+
+    /// `(bytes, blocks)` written.
+    pub(super) fn finish(&self) -> (u64, u64) {
+        (self.bytes, self.blocks.finish())
+    }
+}
+
+impl Write for Counted<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.bytes += n as u64;
+        self.blocks.scan(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blocks_are_lines_with_more_than_comments() {
+        let mut b = Blocks::default();
+        // 1: words; 2: comment only; 3: blank; 4: '%'; 5: words after a
+        // comment; 6: ';' comment only; 7: words split across two pieces,
+        // no line end.
+        b.scan(b"G1 X1\n(only a comment)\n   \n%\n(c) X2\n; note X3\nG");
+        b.scan(b"0 X4");
+        assert_eq!(b.finish(), 3);
+    }
+}
