@@ -271,7 +271,7 @@ pub enum ExportFormat {
     IsgSsfk,
     /// Beckhoff/ISG volumetric compensation: volcomp.csv (ISG CSV, ISO 230-1 names) and volcomp.lis.
     IsgCsv,
-    /// Fanuc pitch error compensation: parameters 3620–3624 and the data, as a tape pitch.tap.
+    /// Fanuc pitch error compensation: parameters 3620–3624 (3605#0, 3626, 3627 per direction) and the data, as a tape pitch.tap.
     Fanuc,
     /// Klipper [skew_correction] profile from the model's squareness.
     Klipper,

@@ -1,6 +1,6 @@
 //! Fanuc pitch error compensation data as a parameter tape ([Fanuc
-//! parameters], parameters 3620–3624 and the pitch error compensation
-//! data; docs/controllers.md).
+//! parameters], parameters 3620–3624, for bidirectional tables 3605#0,
+//! 3626, 3627, and the pitch error compensation data; docs/controllers.md).
 //!
 //! What the parameter manual says and this module does:
 //!
@@ -27,9 +27,22 @@
 //! * the interval 3624 in detection units; the axes numbered one after the
 //!   other from point 0 (X, then Y, then Z).
 //!
-//! The table is unidirectional (3605#0 = 0): volcomp writes the mean of
-//! the forward and reverse errors and reports the reversal for the
-//! backlash compensation (parameter 1851).
+//! Direction ([`FanucBidirectional`], the bidirectional pitch error
+//! compensation report of [Fanuc parameters]): where the forward and
+//! reverse errors differ by more than the detection unit (or always, or
+//! never), the axis gets 3605#0 = 1 and a second table for travel in the
+//! − direction, points 3626 … 3626 + (3622 − 3621), with the same
+//! reference point offset, magnification and interval; 3627 is the
+//! absolute compensation at the reference position for the direction
+//! opposite to the reference position return. The reader gives each
+//! direction its table ([`ControllerCorrection`]'s `forward_um`,
+//! `reverse_um`). Otherwise the table is unidirectional (3605#0 = 0): the
+//! mean of the forward and reverse errors, the reversal reported for the
+//! backlash compensation (parameter 1851). Assumed where the report is
+//! silent: the − table follows the + table's points; 3627 in detection
+//! units (not magnified) with the values' sign; 3605 written as the whole
+//! byte (`P00000001`, its other bits 0); the reference position return
+//! direction (1006#5) a switch ([`FanucReturn`], + by default).
 
 use super::{
     axis_letter, bidirectional_mean, equidistant, located, ControllerCorrection, Export,
