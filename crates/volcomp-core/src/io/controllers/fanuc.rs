@@ -136,10 +136,13 @@ pub const REFERENCE_RANGE: (i64, i64) = (-32768, 32767);
 /// wanted absolute correction `c` (detection units) with `base` at the
 /// reference point `r` (`c[r]` rounds to `base`).
 fn increments(c: &[f64], r: usize, base: i64, m: i64) -> (Vec<i64>, Vec<i64>) {
-    let abs_m: Vec<i64> = c
+    let mut abs_m: Vec<i64> = c
         .iter()
         .map(|c| ((c - base as f64) / m as f64).round() as i64)
         .collect();
+    // The reference point holds `base` (3627 or 0) by definition, even
+    // where `c[r]` lies half a unit from it.
+    abs_m[r] = 0;
     let values = (0..c.len())
         .map(|i| if i == 0 { 0 } else { abs_m[i] - abs_m[i - 1] })
         .collect();
@@ -741,6 +744,25 @@ mod tests {
         };
         let c = export(&[Some(close), None, None], &FanucOptions::default()).unwrap();
         assert!(!c.files[0].text.contains("N3605"), "{}", c.files[0].text);
+        // A reversal of 2.5 units: 3627 = round(−2.5) = −3 (halves away
+        // from zero); relative to it the − table wants +0.5 everywhere:
+        // 1, 0 (the reference holds 3627), 1 → values 0, −1, +1; the
+        // control applies −2, −3, −2 units, each 0.5 from −2.5.
+        let tie = Positioning {
+            positions_mm: vec![-10.0, 0.0, 10.0],
+            forward_um: vec![0.0, 0.0, 0.0],
+            reverse_um: vec![2.5, 2.5, 2.5],
+        };
+        let t = export(&[Some(tie), None, None], &FanucOptions::default()).unwrap();
+        assert!(
+            t.files[0].text.contains("N3627 A1 P-3\n")
+                && t.files[0]
+                    .text
+                    .contains("N10003 P0\nN10004 P-1\nN10005 P1\n"),
+            "{}",
+            t.files[0].text
+        );
+        assert!((t.rounding.max_um - 0.5).abs() < 1e-9, "{:?}", t.rounding);
         // The reference return in the − direction: the − table is zero at
         // the reference (where the reverse error 5 stays), 3627 holds the +
         // table's value there: −(0 − 5) = 5.
