@@ -417,3 +417,82 @@ fn an_isg_volumetric_compensation_leaves_nothing() {
         "without {b} µm, with the ISG compensation {w} µm"
     );
 }
+
+#[test]
+fn fanuc_bidirectional_tables_hold_the_reversal() {
+    let dir = tempdir("fanuc-bidirectional");
+    // The map of write_map with a reversal of 8 µm (+ 2 µm along X) on
+    // every axis: the reverse table is the forward one shifted.
+    write_map(&dir);
+    let both = std::fs::read_to_string(dir.join("m.csv")).unwrap();
+    let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for line in both.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let p: f64 = f[2].parse().unwrap();
+        let mut v: Vec<f64> = f[3..].iter().map(|x| x.parse().unwrap()).collect();
+        s.push_str(&format!(
+            "{},forward,{},{},{},{}\n",
+            f[0], f[2], v[0], v[1], v[2]
+        ));
+        let a = "XYZ".find(f[0]).unwrap();
+        v[a] += 8.0 + 2.0 * p / 600.0;
+        s.push_str(&format!(
+            "{},reverse,{},{},{},{}\n",
+            f[0], f[2], v[0], v[1], v[2]
+        ));
+    }
+    std::fs::write(dir.join("m.csv"), s).unwrap();
+    std::fs::write(dir.join("part.ngc"), PART).unwrap();
+    let export = |out: &str, mode: &str| {
+        let o = volcomp(
+            &[
+                "map",
+                "export",
+                "m.csv",
+                "--to",
+                "fanuc",
+                "--step",
+                "25",
+                "--fanuc-bidirectional",
+                mode,
+                "-o",
+                out,
+            ],
+            &dir,
+        );
+        ok(&o);
+        std::fs::read_to_string(dir.join(out).join("pitch.tap")).unwrap()
+    };
+    let auto = export("auto", "auto");
+    assert!(
+        auto.contains("N3605 A1 P00000001 A2 P00000001 A3 P00000001\n"),
+        "{auto}"
+    );
+    // X: points 0 … 24 (+), 25 … 49 (−); Y 50 … 66, 67 … 83; Z 84 … 96, 97 … 109.
+    assert!(auto.contains("N3626 A1 P25 A2 P67 A3 P97\n"), "{auto}");
+    let off = export("off", "off");
+    assert!(!off.contains("N3605") && !off.contains("N3626"), "{off}");
+    // The machine as the controller leaves it: with one table per
+    // direction only the rounding and the straightness are left; with the
+    // mean, half the reversal too.
+    let sim = |c: &str| {
+        json(&volcomp(
+            &[
+                "simulate",
+                "part.ngc",
+                "--map",
+                "m.csv",
+                "--work-offset",
+                "100,100,50",
+                "--json",
+                "--controller",
+                c,
+            ],
+            &dir,
+        ))["point_max_um"]
+            .as_f64()
+            .unwrap()
+    };
+    let (b, u) = (sim("auto/pitch.tap"), sim("off/pitch.tap"));
+    assert!(b < 2.5 && u > 4.0, "bidirectional {b} µm, mean {u} µm");
+}

@@ -275,7 +275,7 @@ pub enum ExportFormat {
     IsgSsfk,
     /// Beckhoff/ISG volumetric compensation: volcomp.csv (ISG CSV, ISO 230-1 names) and volcomp.lis.
     IsgCsv,
-    /// Fanuc pitch error compensation: parameters 3620–3624 and the data, as a tape pitch.tap.
+    /// Fanuc pitch error compensation: parameters 3620–3624 (3605#0, 3626, 3627 per direction) and the data, as a tape pitch.tap.
     Fanuc,
     /// Klipper [skew_correction] profile from the model's squareness.
     Klipper,
@@ -330,6 +330,14 @@ pub struct ExportArgs {
     /// fanuc: the tape's data number of compensation point 0.
     #[arg(long, value_name = "N", default_value_t = 10000)]
     pub fanuc_data_offset: u32,
+    /// fanuc: one table per direction (3605#0, 3626, 3627): auto = where
+    /// forward and reverse differ by more than the detection unit.
+    #[arg(long, value_enum, default_value_t = FanucBidirectionalArg::Auto)]
+    pub fanuc_bidirectional: FanucBidirectionalArg,
+    /// fanuc: the direction of the reference position return (1006#5),
+    /// whose table is zero at the reference; 3627 holds the other's value.
+    #[arg(long, value_enum, default_value_t = FanucReturnArg::Positive)]
+    pub fanuc_reference_return: FanucReturnArg,
     /// siemens-cec: the sign of the values (the manual does not settle it):
     /// error = +e (default, as the leadscrew tables) or correction = −e.
     #[arg(long, value_enum, default_value_t = CecSignArg::Error)]
@@ -363,6 +371,24 @@ pub struct ImportParamsArgs {
     /// Kinematic chain of the model (default w X' Y' b Z t).
     #[arg(long, value_name = "CHAIN")]
     pub chain: Option<String>,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FanucBidirectionalArg {
+    /// Bidirectional where the reversal exceeds the detection unit.
+    Auto,
+    /// Always bidirectional.
+    On,
+    /// One table, the mean of both directions.
+    Off,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FanucReturnArg {
+    /// Reference position return in the + direction (1006#5 = 0).
+    Positive,
+    /// Reference position return in the − direction (1006#5 = 1).
+    Negative,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]

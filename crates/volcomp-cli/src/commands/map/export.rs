@@ -4,7 +4,7 @@
 use super::{
     load_map, positioning_tables, positive_step, write_text, ExportArgs, ExportFormat, Map,
 };
-use super::{CecSignArg, FanucSignArg};
+use super::{CecSignArg, FanucBidirectionalArg, FanucReturnArg, FanucSignArg};
 use crate::output::{check, CliError, OutputPlan};
 use std::io::Write;
 use volcomp_core::io::controllers::{self, siemens, Export, Positioning};
@@ -132,6 +132,15 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
                     FanucSignArg::Error => controllers::fanuc::FanucSign::Error,
                 },
                 data_offset: a.fanuc_data_offset,
+                bidirectional: match a.fanuc_bidirectional {
+                    FanucBidirectionalArg::Auto => controllers::fanuc::FanucBidirectional::Auto,
+                    FanucBidirectionalArg::On => controllers::fanuc::FanucBidirectional::On,
+                    FanucBidirectionalArg::Off => controllers::fanuc::FanucBidirectional::Off,
+                },
+                reference_return: match a.fanuc_reference_return {
+                    FanucReturnArg::Positive => controllers::fanuc::FanucReturn::Positive,
+                    FanucReturnArg::Negative => controllers::fanuc::FanucReturn::Negative,
+                },
                 ..controllers::fanuc::FanucOptions::default()
             };
             controllers::fanuc::export(&t.map(Some), &o)?

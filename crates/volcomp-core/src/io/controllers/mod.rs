@@ -43,7 +43,7 @@ pub enum Format {
     IsgSsfk,
     /// Beckhoff/ISG volumetric compensation ISG CSV, [`isg::csv_export`].
     IsgCsv,
-    /// Fanuc pitch error compensation (parameters 3620–3624 and data), [`fanuc`].
+    /// Fanuc pitch error compensation (parameters 3620–3624, 3605#0/3626/3627 if bidirectional, and data), [`fanuc`].
     Fanuc,
     /// Klipper `[skew_correction]` profile, [`skew`].
     Klipper,
