@@ -218,7 +218,8 @@ fn options(
         }
         Segmentation::MaxLength(l)
     } else {
-        let t = contour_tolerance_um.unwrap_or(volcomp_core::compensate::DEFAULT_CONTOUR_TOLERANCE_UM);
+        let t =
+            contour_tolerance_um.unwrap_or(volcomp_core::compensate::DEFAULT_CONTOUR_TOLERANCE_UM);
         if !(positive(t) && positive(min_segment_length_mm)) {
             return Err(bad_input(
                 "contour_tolerance_um and min_segment_length_mm must be positive",
