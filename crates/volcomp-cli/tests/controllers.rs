@@ -99,8 +99,10 @@ fn only_the_residual_is_compensated_on_a_machine_with_a_pitch_table() {
             "6",
             "--segment-length",
             "0.5",
-            // Arcs linearised to 1 nm: the default 0.1 µm chord would be
-            // most of what is left.
+            // Arcs linearised to 1 nm: the default 0.1 µm contour
+            // tolerance (arcs as arcs or chords) would be most of what is
+            // left of a residual this small.
+            "--arcs-as-lines",
             "--chord-tolerance",
             "0.000001",
             "-o",

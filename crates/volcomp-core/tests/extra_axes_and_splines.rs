@@ -21,6 +21,10 @@ fn zero_map() -> AxisTableMap {
 }
 
 fn compensate(program: &str, segment_mm: f64) -> String {
+    compensate_with(program, &zero_map(), Segmentation::MaxLength(segment_mm))
+}
+
+fn compensate_with(program: &str, map: &AxisTableMap, segmentation: Segmentation) -> String {
     let bytes = program.as_bytes().to_vec();
     let mut walker = Walker::new(
         Cursor::new(bytes.clone()),
@@ -29,14 +33,14 @@ fn compensate(program: &str, segment_mm: f64) -> String {
         InterpOptions::default(),
     );
     let options = CompensateOptions {
-        segmentation: Segmentation::MaxLength(segment_mm),
+        segmentation,
         ..CompensateOptions::default()
     };
     let mut out = Vec::new();
     compensate_program(
         &mut walker,
         "t.ngc",
-        &zero_map(),
+        map,
         &survey_style(&bytes),
         &options,
         &mut out,
@@ -217,29 +221,7 @@ fn spindle_synchronised_moves_are_written_as_they_are_and_followed_in_g91() {
     // (X9.995), so the next increment to the nominal X11 - 5 µm is 1.
     let program =
         "G21 G90\nG0 X10 Y0 Z0\nS100 M3\nG91 G33 Z-5 K1\nG1 X1 F100\nG90 G33.1 Z-8 K1\nM2\n";
-    let bytes = program.as_bytes().to_vec();
-    let mut walker = Walker::new(
-        Cursor::new(bytes.clone()),
-        Some("t.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    );
-    let options = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..CompensateOptions::default()
-    };
-    let mut out = Vec::new();
-    compensate_program(
-        &mut walker,
-        "t.ngc",
-        &shift_map(),
-        &survey_style(&bytes),
-        &options,
-        &mut out,
-        |_| {},
-    )
-    .unwrap();
-    let out = String::from_utf8(out).unwrap();
+    let out = compensate_with(program, &shift_map(), Segmentation::Off);
     let lines: Vec<&str> = out.lines().filter(|l| !l.starts_with('(')).collect();
     assert_eq!(lines[1], "G0 X9.9950 Y0 Z0", "{out}");
     assert_eq!(lines[3], "G91 G33 Z-5 K1", "{out}");
@@ -257,29 +239,7 @@ fn in_lathe_diameter_mode_compensated_x_words_are_diameters() {
     // nominal radius 18 (diameter 36, X-4) is written doubled too, and G8
     // writes radii again.
     let program = "G21 G18 G90 F100\nG0 X50 Y0 Z0\nG7 G1 X40 Z-1\nG91 X-4\nG90 G8 X30\nM2\n";
-    let bytes = program.as_bytes().to_vec();
-    let mut walker = Walker::new(
-        Cursor::new(bytes.clone()),
-        Some("t.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    );
-    let options = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..CompensateOptions::default()
-    };
-    let mut out = Vec::new();
-    compensate_program(
-        &mut walker,
-        "t.ngc",
-        &shift_map(),
-        &survey_style(&bytes),
-        &options,
-        &mut out,
-        |_| {},
-    )
-    .unwrap();
-    let out = String::from_utf8(out).unwrap();
+    let out = compensate_with(program, &shift_map(), Segmentation::Off);
     let lines: Vec<&str> = out.lines().filter(|l| !l.starts_with('(')).collect();
     assert_eq!(lines[1], "G0 X49.9950 Y0 Z0", "{out}");
     assert_eq!(lines[2], "G7 G1 X39.9900 Z-1", "{out}");
