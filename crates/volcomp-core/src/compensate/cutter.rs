@@ -186,6 +186,13 @@ impl State {
                 self.buf.extend_from_slice(ending);
                 self.summary.lines_out += 1;
             }
+            // The tool-centre path is written as G0/G1 segments: its arcs
+            // (corner arcs and offset arcs) are linearised, whatever the
+            // program's other arcs do.
+            let options = &CompensateOptions {
+                arcs_as_arcs: false,
+                ..options.clone()
+            };
             check_target_count(m, options, file, line)?;
             let targets = targets_of(m, options, model, self.s)
                 .map_err(|source| model_error(file, line, source))?;
