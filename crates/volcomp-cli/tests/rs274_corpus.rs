@@ -50,6 +50,10 @@ const RS274_ARTIFACTS: &[(&str, &str)] = &[
         "`T1 M06 G43 H1` on one line: after M6 the interpreter re-reads the position from the canonical layer at the next block; LinuxCNC's (emccanon.cc GET_EXTERNAL_POSITION_*) subtracts the new tool offset, the stand-alone rs274's (saicanon.cc) does not, so rs274 alone moves Z by the tool length on the next move",
     ),
     (
+        "nc_files/mmount.ngc",
+        "`T1 M6 G43` on one line, at each tool change: the same stand-alone rs274 artifact as skeleton.ngc (saicanon.cc does not subtract the new tool offset when the position is re-read after M6)",
+    ),
+    (
         "violation_checks/tap-discrimant-error-orig.ngc",
         "G43 in G20, then G21: on a change of units the interpreter re-reads the tool offset from the canonical layer (convert_length_units); LinuxCNC's (emccanon.cc GET_EXTERNAL_TOOL_LENGTH_ZOFFSET) converts it to the new units, the stand-alone rs274's (saicanon.cc) returns the number it was given in the old ones, so rs274 alone takes a tool length of 2 in as 2 mm",
     ),

@@ -191,7 +191,7 @@ impl State {
             // program's other arcs do.
             let options = &CompensateOptions {
                 arcs_as_arcs: false,
-                ..options.clone()
+                ..*options
             };
             check_target_count(m, options, file, line)?;
             let targets = targets_of(m, options, model, self.s)
