@@ -142,3 +142,36 @@ fn compensation_shrinks_the_contour_error_of_a_compensated_path() {
         after.contour_max_um
     );
 }
+
+/// After G40 the machine stands at the tool-centre point, and LinuxCNC's G53
+/// move keeps the programmed point of the axes it does not name (the
+/// interpreter's G53 here goes from the tool centre X9 Y10 to X10 Y10, as
+/// rs274 does on LinuxCNC's mmount.ngc): the G53 line written as it was
+/// would leave X at the tool centre, so it gains an X word (Y is where it
+/// was and stays unwritten).
+#[test]
+fn a_g53_move_after_g40_keeps_the_programmed_point() {
+    let program =
+        "G21 G90 F100\nG0 X0 Y-5 Z5\nG41.1 D2 G1 X0 Y0\nX10\nY10\nG0 Z6\nG40\nG53 G0 Z0\nM2\n";
+    let text = compensate(program);
+    let g53 = text.lines().find(|l| l.contains("G53")).unwrap();
+    assert!(g53.contains("X10") && !g53.contains('Y'), "{text}");
+    let end = |p: &str| {
+        let mut w = Walker::new(
+            Cursor::new(p.as_bytes().to_vec()),
+            None,
+            Setup::default(),
+            InterpOptions::default(),
+        );
+        let mut last = None;
+        while let Some(ev) = w.next_line().unwrap() {
+            if let Some(m) = ev.motions.last() {
+                last = Some(m.end);
+            }
+        }
+        last.unwrap()
+    };
+    let (a, b) = (end(program), end(&text));
+    assert_eq!([a.x, a.y, a.z], [10.0, 10.0, 0.0]);
+    assert_eq!([b.x, b.y, b.z], [10.0, 10.0, 0.0], "{text}");
+}

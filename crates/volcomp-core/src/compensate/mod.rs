@@ -187,7 +187,19 @@ pub fn compensate_program<R: BufRead>(
             continue;
         }
         if ev.after_end || ev.kind != LineKind::Block || !program_motion || !all_known {
-            out.write_all(ev.bytes)?;
+            let added = g53_words_to_add(&ev, all_known, options, survey);
+            if added.is_empty() {
+                out.write_all(ev.bytes)?;
+            } else {
+                // The machine is not where the interpreter's G53 move starts
+                // (the tool-centre point a cutter-compensated move left it
+                // at, while LinuxCNC's G53 keeps the programmed point of the
+                // axes the line does not name): those axes are written.
+                let ending = line_ending(ev.bytes);
+                out.write_all(&ev.bytes[..ev.bytes.len() - ending.len()])?;
+                out.write_all(added.as_bytes())?;
+                out.write_all(ending)?;
+            }
             st.summary.lines_out += 1;
             for m in ev.motions {
                 // G53 and G28/G30 moves are sent as written: they are set-up
@@ -572,4 +584,35 @@ struct State {
     estimate_mm: f64,
     /// Block counting of the input and the output ([`size::Blocks`]).
     blocks_in: size::Blocks,
+}
+
+/// The axis words a G53 line written as it is must gain so that the machine
+/// ends where the interpreter's G53 move ends: the axes the line does not
+/// name but the move changes (after cutter radius compensation the move
+/// starts at the tool-centre point and LinuxCNC's G53 keeps the programmed
+/// point of the other axes). G53 words are machine coordinates in program
+/// units.
+fn g53_words_to_add(
+    ev: &volcomp_gcode::LineEvent<'_>,
+    all_known: bool,
+    options: &CompensateOptions,
+    survey: &volcomp_gcode::number::StyleSurvey,
+) -> String {
+    let mut text = String::new();
+    let [m] = ev.motions else {
+        return text;
+    };
+    if ev.after_end || !all_known || m.source != MotionSource::Machine {
+        return text;
+    }
+    let (frame, style) = Frame::of(ev.interp, options, survey);
+    let named = |letter: u8| ev.lexed.words().any(|w| w.letter == letter);
+    for (a, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+        if !named(letter) && (m.end[a] - m.start[a]).abs() > 1e-9 {
+            text.push(' ');
+            text.push(letter as char);
+            volcomp_gcode::number::format_number(m.end[a] / frame.mm_per_unit, style, &mut text);
+        }
+    }
+    text
 }
