@@ -218,6 +218,11 @@ pub struct CompensateArgs {
     /// Do not insert backlash take-up moves at reversals.
     #[arg(long)]
     pub no_take_up: bool,
+    /// Write every take-up as a block of its own, even where the move that
+    /// reverses can take it up within the contour tolerance (the default
+    /// folds those, so the controller does not stop for them).
+    #[arg(long, conflicts_with = "no_take_up")]
+    pub separate_take_ups: bool,
     /// Do not tag inserted lines with `(volcomp Ln)` comments.
     #[arg(long)]
     pub no_trace: bool,

@@ -181,6 +181,7 @@ fn backlash_reversal_gets_a_take_up_move() {
     let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG1 X5\nM2\n";
     let opts = CompensateOptions {
         segmentation: Segmentation::Off,
+        fold_take_ups: false,
         ..Default::default()
     };
     let (out, records) = compensate(program, &map, opts);
@@ -207,6 +208,78 @@ fn backlash_reversal_gets_a_take_up_move() {
         report.contour_max_um < 1e-6,
         "a pure X line stays on itself: {report:?}"
     );
+}
+
+/// X reverse table 4 µm above forward (a reversal value of 4 µm).
+fn x_backlash_map(ex_per_y_um_per_mm: f64) -> AxisTableMap {
+    map_from(move |a, p, rev| match (a, rev) {
+        (0, true) => [4.0, 0.0, 0.0],
+        (1, _) => [ex_per_y_um_per_mm * p, 0.0, 0.0],
+        _ => [0.0; 3],
+    })
+}
+
+#[test]
+fn a_take_up_along_the_path_is_folded_into_the_move() {
+    // Back along the same line: the 4 µm the X axis takes up lag along the
+    // path, so the move itself takes them up (no block of its own) and the
+    // tool never leaves the line; the command is the same 5 − 0.004.
+    let map = x_backlash_map(0.0);
+    let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG1 X5\nM2\n";
+    let (out, records) = compensate(program, &map, CompensateOptions::default());
+    assert!(!out.contains("take-up"), "{out}");
+    assert!(out.contains("G1 X4.9960"), "{out}");
+    let reversal = records.iter().find(|r| r.reversed[0]).expect("X reverses");
+    assert!(!reversal.take_up);
+    let report = against_original(&out, program, &map);
+    assert!(report.contour_max_um < 1e-6, "{report:?}");
+}
+
+#[test]
+fn a_take_up_across_the_path_stays_a_block() {
+    // Reversing at 45°: folded, the tool would stand still while the X
+    // motor crosses its 4 µm band, 4·sin 45° = 2.8 µm off the new line; a
+    // lead piece would have to end within 0.1 µm / sin 45° of the corner
+    // along X (far shorter than 20 × 4 µm): the take-up stays a block.
+    let map = x_backlash_map(0.0);
+    let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG1 X5 Y5\nM2\n";
+    let (out, _) = compensate(program, &map, CompensateOptions::default());
+    assert!(out.contains("X9.9960 (volcomp L3 take-up)"), "{out}");
+    let report = against_original(&out, program, &map);
+    assert!(report.contour_max_um < 0.1, "{report:?}");
+}
+
+#[test]
+fn a_take_up_gets_a_lead_piece_where_the_compensation_moves_the_axis() {
+    // e_x = 0.1 µm per mm of Y: on the pure Y move back, the X command
+    // falls by 0.1 µm/mm, so X reverses there with nominal X not moving.
+    // Folded into the whole 20 mm move the X command travels 4 + 2 µm, the
+    // band (4 µm) is crossed after 2/3 of it and the tool is then
+    // 4·(2/6) = 1.3 µm beside the line. Over a lead piece of length ℓ (mm)
+    // it travels 4 + 0.1ℓ: off by 4·0.1ℓ/(4 + 0.1ℓ) ≤ 0.1 µm for
+    // ℓ ≤ 1.03 mm, plus the written step of 0.1 µm on the travel: the
+    // longest of 10, 5, 2.5, 1.25, 0.625 mm that passes is 1.25 mm (travel
+    // written 4.1 µm) or 0.625 mm.
+    let map = x_backlash_map(0.1);
+    let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG1 Y20\nM2\n";
+    let (out, records) = compensate(program, &map, CompensateOptions::default());
+    assert!(!out.contains("take-up"), "{out}");
+    let line3: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
+    assert!(line3.len() >= 2, "{out}");
+    let lead = line3[0];
+    assert!(lead.reversed[0] && !lead.take_up, "{lead:?}");
+    let y = lead.target_mm.y;
+    assert!((0.6..=1.3).contains(&y), "lead piece ends at Y {y}: {out}");
+    assert!(lead.command_mm.x < 10.0 - 0.004, "{lead:?}");
+    let report = against_original(&out, program, &map);
+    assert!(report.contour_max_um < 0.1 + 0.09, "{report:?}");
+    // Separate take-ups: a block, and the path as exact.
+    let opts = CompensateOptions {
+        fold_take_ups: false,
+        ..Default::default()
+    };
+    let (out, _) = compensate(program, &map, opts);
+    assert!(out.contains("take-up"), "{out}");
 }
 
 #[test]

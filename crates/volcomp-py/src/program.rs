@@ -99,6 +99,8 @@ pub struct CompensateResult {
     pub max_correction_um: f64,
     /// Take-up moves written.
     pub take_ups: u64,
+    /// Take-ups folded into the move that reverses (no block written).
+    pub take_ups_folded: u64,
     /// `(line, axis)` where an axis was held (first 100).
     pub held: Vec<(u64, char)>,
     /// Total number of holds.
@@ -130,6 +132,7 @@ impl CompensateResult {
         d.set_item("max_residual_um", self.max_residual_um)?;
         d.set_item("max_correction_um", self.max_correction_um)?;
         d.set_item("take_ups", self.take_ups)?;
+        d.set_item("take_ups_folded", self.take_ups_folded)?;
         d.set_item("held", self.held.clone())?;
         d.set_item("held_count", self.held_count)?;
         d.set_item("warnings", self.warnings.clone_ref(py))?;
@@ -162,9 +165,15 @@ fn options(
     max_correction_mm: f64,
     nominal_directions: bool,
     take_up: bool,
+    separate_take_ups: bool,
     trace: bool,
     arcs_as_lines: bool,
 ) -> PyResult<CompensateOptions> {
+    if separate_take_ups && !take_up {
+        return Err(bad_input(
+            "separate_take_ups=True needs take_up=True (there are no take-ups to write)",
+        ));
+    }
     let method = match method {
         "exact" => Method::Exact,
         "direct" => Method::Direct,
@@ -256,6 +265,7 @@ fn options(
             DirectionPolicy::Commanded
         },
         take_up,
+        fold_take_ups: !separate_take_ups,
         trace_comments: trace,
         // Direct and pitch do not aim at the full model's target: their
         // residual is the method's own error, checked for finiteness only.
@@ -326,11 +336,13 @@ fn header(
 /// `no_split`; arcs are written as arcs unless `arcs_as_lines`.
 /// Limits: `max_residual_um`, `max_correction_mm`, `max_output_bytes`
 /// (None: no limit). Output: `decimals`, `trace` (the `(volcomp Ln)`
-/// comments), `take_up` (backlash take-up moves), `nominal_directions`.
+/// comments), `take_up` (backlash take-up moves; `separate_take_ups`
+/// writes each as a block of its own instead of folding into the move
+/// those it can), `nominal_directions`.
 /// `points=True` adds the per-point records. `date_utc` dates the header
 /// (default: now, or SOURCE_DATE_EPOCH).
 #[pyfunction]
-#[pyo3(signature = (program, model, *, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, method = "exact", gain = 0.5, max_iterations = 20, segment_length_mm = None, segments = None, no_split = false, contour_tolerance_um = None, min_segment_length_mm = 0.01, max_residual_um = 1.0, chord_tolerance_mm = 1e-4, decimals = None, max_correction_mm = 0.1, nominal_directions = false, take_up = true, trace = true, arcs_as_lines = false, allow_recompensate = false, max_output_bytes = Some(DEFAULT_MAX_OUTPUT_BYTES), points = false, name = None, date_utc = None))]
+#[pyo3(signature = (program, model, *, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, method = "exact", gain = 0.5, max_iterations = 20, segment_length_mm = None, segments = None, no_split = false, contour_tolerance_um = None, min_segment_length_mm = 0.01, max_residual_um = 1.0, chord_tolerance_mm = 1e-4, decimals = None, max_correction_mm = 0.1, nominal_directions = false, take_up = true, separate_take_ups = false, trace = true, arcs_as_lines = false, allow_recompensate = false, max_output_bytes = Some(DEFAULT_MAX_OUTPUT_BYTES), points = false, name = None, date_utc = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn compensate(
     py: Python<'_>,
@@ -355,6 +367,7 @@ pub fn compensate(
     max_correction_mm: f64,
     nominal_directions: bool,
     take_up: bool,
+    separate_take_ups: bool,
     trace: bool,
     arcs_as_lines: bool,
     allow_recompensate: bool,
@@ -387,6 +400,7 @@ pub fn compensate(
         max_correction_mm,
         nominal_directions,
         take_up,
+        separate_take_ups,
         trace,
         arcs_as_lines,
     )?;
@@ -428,6 +442,7 @@ pub fn compensate(
         max_residual_um: summary.max_residual_um,
         max_correction_um: summary.max_correction_um,
         take_ups: summary.take_ups,
+        take_ups_folded: summary.take_ups_folded,
         held: summary.held,
         held_count: summary.held_count,
         warnings: warnings_list(py, &src.name, &warnings)?.unbind(),

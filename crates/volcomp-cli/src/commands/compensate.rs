@@ -147,6 +147,7 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
             DirectionPolicy::Commanded
         },
         take_up: !a.no_take_up,
+        fold_take_ups: !a.separate_take_ups,
         trace_comments: !a.no_trace,
         // Direct and pitch do not aim at the full model's target: their
         // residual is the method's own error, checked for finiteness only.
@@ -540,14 +541,15 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         output.display().to_string()
     };
     eprintln!(
-        "volcomp: wrote {} ({} lines from {}; {} points compensated, largest correction {:.2} µm, largest residual {:.4} µm, {} take-up moves)",
+        "volcomp: wrote {} ({} lines from {}; {} points compensated, largest correction {:.2} µm, largest residual {:.4} µm, {} take-up moves, {} take-ups folded into their moves)",
         shown,
         summary.lines_out,
         summary.lines_in,
         summary.points,
         summary.max_correction_um,
         summary.max_residual_um,
-        summary.take_ups
+        summary.take_ups,
+        summary.take_ups_folded
     );
     let ratio = if summary.blocks_in > 0 {
         format!(

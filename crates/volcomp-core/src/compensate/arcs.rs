@@ -304,6 +304,103 @@ pub(super) fn arc_pieces(
     Ok(out)
 }
 
+/// A reversal folded into an arc: the piece that ends at target `index`
+/// is a take-up ramp, on which `axis` runs in `direction` from its start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Ramp {
+    pub(super) index: usize,
+    pub(super) axis: usize,
+    pub(super) direction: Direction,
+}
+
+/// Take-up ramps (docs/compensation.md, "Take-ups folded into the move"):
+/// where an axis of the plane reverses at a quarter point of `arc` (inside
+/// it, or at its start after a move the other way), the first `ℓ` of arc
+/// after that point becomes a piece of its own, written as a chord on
+/// which the axis already runs in its new direction. Under the dead band
+/// the tool then stays at the quarter point's height while the axis takes
+/// up its reversal value, and the arc falls away from that height by
+/// `ℓ²/(2r)` at most over the ramp: `ℓ = √(r·tol)` keeps it to half the
+/// tolerance (the chord's own sagitta, `ℓ²/(8r)`, is smaller). The
+/// controller blends a chord a few degrees off the tangent; it must stop
+/// for a take-up block square to the path.
+///
+/// A quarter point gets no ramp where no take-up would be written (the
+/// reversal value there is not positive), where the ramp would be shorter
+/// than `min_length_mm`, or where the next cut is nearer than two ramps.
+/// Returns the new piece ends and the ramps.
+pub(super) fn take_up_ramps(
+    arc: &Arc,
+    pieces: &[f64],
+    model: &dyn ErrorModel,
+    s_before: Directions,
+    tolerance_mm: f64,
+    min_length_mm: f64,
+) -> Result<(Vec<f64>, Vec<Ramp>), ModelError> {
+    let length = arc.length();
+    let r = 0.5 * (arc.start_radius() + arc.end_radius());
+    let ramp_mm = (r * tolerance_mm).sqrt();
+    let mut out = Vec::with_capacity(pieces.len() + 4);
+    let mut ramps = Vec::new();
+    if !(length > 0.0 && ramp_mm >= min_length_mm && ramp_mm.is_finite()) {
+        return Ok((pieces.to_vec(), ramps));
+    }
+    let (u, v, _) = arc.plane.axes();
+    let step = ramp_mm / length;
+    // The plane axis whose coordinate is extreme at parameter `t`, if `t`
+    // is a quarter point (the tangent has no component along it).
+    let extreme_axis = |t: f64| -> Option<usize> {
+        let p = arc.point_at(t);
+        let (du, dv) = (p[u] - arc.center[u], p[v] - arc.center[v]);
+        let rad = du.hypot(dv);
+        if rad == 0.0 {
+            None
+        } else if du.abs() <= 1e-9 * rad {
+            Some(v)
+        } else if dv.abs() <= 1e-9 * rad {
+            Some(u)
+        } else {
+            None
+        }
+    };
+    let mut from = 0.0;
+    let mut s = s_before;
+    for &to in pieces {
+        if let Some(a) = extreme_axis(from) {
+            let (p0, p1) = (arc.point_at(from), arc.point_at(from + step));
+            let new = Direction::of_delta(p1[a] - p0[a]);
+            // Inside the arc the axis came the other way; at its start, the
+            // direction state says where it came from.
+            let old = if from > 0.0 {
+                new.map(Direction::flipped)
+            } else {
+                Some(s[a])
+            };
+            if let (Some(new), Some(old)) = (new, old) {
+                let mut s_old = s;
+                s_old[a] = old;
+                let mut s_new = s;
+                s_new[a] = new;
+                let e_old = model.deviation_um(p0, s_old, Components::All)?;
+                let e_new = model.deviation_um(p0, s_new, Components::All)?;
+                let take_up_um = (e_old[a] - e_new[a]) * new.sign();
+                if old != new && take_up_um > 0.0 && to - from >= 2.0 * step {
+                    out.push(from + step);
+                    ramps.push(Ramp {
+                        index: out.len() - 1,
+                        axis: a,
+                        direction: new,
+                    });
+                }
+            }
+        }
+        out.push(to);
+        s = next_state(s, arc.point_at(to) - arc.point_at(from));
+        from = to;
+    }
+    Ok((out, ramps))
+}
+
 /// Splits the piece `[a, b]` of `arc` while its estimated departure — at
 /// ¼, ½, ¾ and at the table points it crosses (`knots`, sorted) — exceeds
 /// `tol`: at the table point that departs most when that one is past the

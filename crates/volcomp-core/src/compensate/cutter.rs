@@ -194,13 +194,23 @@ impl State {
                 ..*options
             };
             check_target_count(m, options, file, line)?;
-            let targets = targets_of(m, options, model, self.s)
+            let mut targets = targets_of(m, options, model, self.s)
                 .map_err(|source| model_error(file, line, source))?;
             let rapid = matches!(m.kind, MotionKind::Rapid);
             let mode = if rapid { OutMode::Rapid } else { OutMode::Feed };
             let from = self.q_out;
             let commands = self.solve_targets(
-                model, options, frame, frame, &targets, m.start, !rapid, file, line, on_point,
+                model,
+                options,
+                frame,
+                frame,
+                &mut targets,
+                false,
+                m.start,
+                !rapid,
+                file,
+                line,
+                on_point,
             )?;
             let mut pos = from;
             for (q, take_up) in commands {

@@ -107,11 +107,22 @@ impl State {
                 continue;
             }
             check_target_count(m, options, file, line)?;
-            let targets = targets_with_estimate(m, options, model, self.s, &mut self.estimate_mm)
-                .map_err(|source| model_error(file, line, source))?;
+            let mut targets =
+                targets_with_estimate(m, options, model, self.s, &mut self.estimate_mm)
+                    .map_err(|source| model_error(file, line, source))?;
             let from = self.q_out;
             let commands = self.solve_targets(
-                model, options, &frame, &frame, &targets, m.start, feed_like, file, line, on_point,
+                model,
+                options,
+                &frame,
+                &frame,
+                &mut targets,
+                false,
+                m.start,
+                feed_like,
+                file,
+                line,
+                on_point,
             )?;
             let mode = if feed_like {
                 OutMode::Feed

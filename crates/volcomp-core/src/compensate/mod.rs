@@ -78,6 +78,8 @@ pub fn compensate_program<R: BufRead>(
         text: String::with_capacity(128),
         extra_text: String::new(),
         states: Vec::new(),
+        ramps: Vec::new(),
+        ramps_written: Vec::new(),
         estimate_mm: 0.0,
         blocks_in: size::Blocks::default(),
     };
@@ -276,11 +278,29 @@ pub fn compensate_program<R: BufRead>(
                         help: crate::error::help::TOO_MANY_POINTS.into(),
                     }
                 })?;
-                pieces
+                if options.take_up
+                    && options.fold_take_ups
+                    && options.directions == DirectionPolicy::Commanded
+                    && !matches!(motion.kind, MotionKind::Rapid)
+                {
+                    let (pieces, ramps) = arcs::take_up_ramps(
+                        &arc,
+                        &pieces,
+                        model,
+                        st.s,
+                        options.fold_tolerance_mm(),
+                        min_length_mm,
+                    )
+                    .map_err(|source| model_error(file, ev.number, source))?;
+                    st.ramps = ramps;
+                    pieces
+                } else {
+                    pieces
+                }
             }
             None => Vec::new(),
         };
-        let targets = match arc_nominal {
+        let mut targets = match arc_nominal {
             Some(arc) => pieces
                 .iter()
                 .map(|l| if *l >= 1.0 { arc.end } else { arc.point_at(*l) })
@@ -306,12 +326,21 @@ pub fn compensate_program<R: BufRead>(
         let content = &ev.bytes[..content_len];
         // Solve every target first (the original line carries the first).
         let q_line_start = st.q_out;
+        // A take-up may get a lead piece of a line (compensate/points.rs)
+        // where the segmentation adapts to the path anyway; not on arc
+        // pieces, on moves that carry extra axes, or under inverse time.
+        let may_lead = arc_nominal.is_none()
+            && feed_like
+            && !motion.extra.moves()
+            && interp.feed_mode() != FeedMode::InverseTime
+            && matches!(options.segmentation, Segmentation::Adaptive { .. });
         let commands = st.solve_targets(
             model,
             options,
             &frame,
             &frame0,
-            &targets,
+            &mut targets,
+            may_lead,
             motion.start,
             feed_like,
             file,
@@ -325,6 +354,7 @@ pub fn compensate_program<R: BufRead>(
                 let radius_style = ev.lexed.words().any(|w| w.letter == b'R');
                 let (mut from, mut l_from) = (q_line_start, 0.0);
                 let mut words = Vec::with_capacity(commands.len());
+                let ramps = std::mem::take(&mut st.ramps_written);
                 for (i, (q, take_up)) in commands.iter().enumerate() {
                     let start = take_up.unwrap_or(from);
                     let piece = arcs::sub_arc(&arc, l_from, pieces[i]);
@@ -339,14 +369,14 @@ pub fn compensate_program<R: BufRead>(
                     )
                     .map_err(|source| command_error(model, file, ev.number, t_mid, source))?
                     .q_mm;
+                    // A take-up ramp is written as its chord.
+                    let ramp = ramps.iter().any(|r| r.index == i);
                     words.push(ArcWords {
-                        center: arcs::piece_center(
-                            &piece,
-                            start,
-                            q_mid,
-                            *q,
-                            options.chord_tolerance_mm,
-                        ),
+                        center: if ramp {
+                            None
+                        } else {
+                            arcs::piece_center(&piece, start, q_mid, *q, options.chord_tolerance_mm)
+                        },
                         plane: arc.plane,
                         clockwise: arc.clockwise(),
                         radius_style,
@@ -580,6 +610,11 @@ struct State {
     extra_text: String,
     /// Direction state of each command of the last [`State::solve_targets`].
     states: Vec<Directions>,
+    /// Take-up ramps of the targets the next [`State::solve_targets`]
+    /// solves (compensate/arcs.rs, [`arcs::take_up_ramps`]); it takes them.
+    ramps: Vec<arcs::Ramp>,
+    /// The ramps the last [`State::solve_targets`] took, for the writer.
+    ramps_written: Vec<arcs::Ramp>,
     /// Largest contour error the segmentation estimates it leaves (mm).
     estimate_mm: f64,
     /// Block counting of the input and the output ([`size::Blocks`]).

@@ -56,6 +56,13 @@ pub struct CompensateOptions {
     pub directions: DirectionPolicy,
     /// Insert take-up moves at reversals on feed moves.
     pub take_up: bool,
+    /// Fold a take-up into the move that reverses (write no separate block)
+    /// where the dead band leaves the tool within the contour tolerance of
+    /// the path while the axis takes up its reversal value: where the
+    /// reversing axis hardly moves on that move (docs/compensation.md,
+    /// "Take-ups folded into the move"). A separate take-up block forces the
+    /// controller's planner to stop; a folded one does not.
+    pub fold_take_ups: bool,
     /// Tag inserted lines with `(volcomp Ln)`.
     pub trace_comments: bool,
     /// Largest model residual `‖t − (q + e(q))‖` accepted at a point (µm),
@@ -82,8 +89,20 @@ impl Default for CompensateOptions {
             max_correction_mm: 0.1,
             directions: DirectionPolicy::Commanded,
             take_up: true,
+            fold_take_ups: true,
             trace_comments: true,
             max_residual_um: Some(DEFAULT_MAX_RESIDUAL_UM),
+        }
+    }
+}
+
+impl CompensateOptions {
+    /// The contour error (mm) a folded take-up may leave: the adaptive
+    /// segmentation's tolerance, or its default under a fixed segmentation.
+    pub fn fold_tolerance_mm(&self) -> f64 {
+        match self.segmentation {
+            Segmentation::Adaptive { tolerance_mm, .. } => tolerance_mm,
+            _ => DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
         }
     }
 }
@@ -162,6 +181,8 @@ pub struct CompensateSummary {
     pub max_correction_um: f64,
     /// Take-up moves written.
     pub take_ups: u64,
+    /// Take-ups folded into the move that reverses (no block written).
+    pub take_ups_folded: u64,
     /// Lines where an axis was held, with the axis letter (first 100).
     pub held: Vec<(u64, char)>,
     /// Total number of holds.

@@ -64,6 +64,127 @@ fn take_up_command(
     Ok(out)
 }
 
+/// The jump of the tool's image at `q_prev` when the `reversed` axes switch
+/// from `s_old` to `s_new` (mm): the lag the simulator's dead band starts
+/// with, and what a take-up move covers (the written take-up is rounded to
+/// the output's step, so it is not used here).
+fn switch_lag_mm(
+    model: &dyn ErrorModel,
+    q_prev: Vec3,
+    s_old: Directions,
+    s_new: Directions,
+    reversed: [bool; 3],
+) -> Result<Vec3, ModelError> {
+    use crate::model::{actual_mm, Components};
+    let mut s = s_old;
+    for a in 0..3 {
+        if reversed[a] {
+            s[a] = s_new[a];
+        }
+    }
+    Ok(actual_mm(model, q_prev, s_old, Components::All)?
+        - actual_mm(model, q_prev, s, Components::All)?)
+}
+
+/// The contour error (mm) left by folding the take-up of `lag` (see
+/// [`switch_lag_mm`]) into the move from `q_prev` to the command `q`,
+/// whose nominal travel is `nominal_delta`, under the dead band of the
+/// simulator (docs/design.md, "Simulation and metrics"; simulate/mod.rs).
+///
+/// At the switch the tool stays where it was, `lag` behind the new
+/// direction's image, while the command carries the image onto the path
+/// linearly over the move: at the fraction `λ` of the move the image is
+/// `(1 − λ)·lag` short of the nominal point, so the tool is off it by
+/// `lag_k·(λ − p_k(λ))` on axis `k`, where `p_k` is how much of its lag
+/// is gone. An axis whose command travels `T_k = |q_k − q_prev_k|` towards
+/// its lag `b_k = |lag_k|` (a reversing axis crossing its band) takes it up
+/// after the fraction `b_k / T_k`: `|λ − p_k|` peaks at
+/// `|T_k − b_k| / max(T_k, b_k)` (at the band's end if the command travels
+/// further, at the move's end if less — the rest then carries into the next
+/// move). An axis that stands still loses its lag in step with the fastest
+/// of those (`r = max T_j / b_j`): at most `|r − 1| / max(r, 1)`; an axis
+/// that moves away from its lag loses it at once: all of it. Only the part
+/// across the move's direction leaves the path (a lag along it is the tool
+/// arriving later). Zero where every command crosses exactly its band.
+fn fold_deviation_mm(lag: Vec3, q_prev: Vec3, q: Vec3, nominal_delta: Vec3) -> f64 {
+    let dq = q - q_prev;
+    let mut rate: f64 = 0.0;
+    for k in 0..3 {
+        if lag[k] * dq[k] > 0.0 {
+            rate = rate.max(dq[k].abs() / lag[k].abs());
+        }
+    }
+    let mut off = Vec3::ZERO;
+    for k in 0..3 {
+        let share = if lag[k] == 0.0 {
+            0.0
+        } else if lag[k] * dq[k] > 0.0 {
+            let (t, b) = (dq[k].abs(), lag[k].abs());
+            (t - b).abs() / t.max(b)
+        } else if dq[k] == 0.0 {
+            (rate - 1.0).abs() / rate.max(1.0)
+        } else {
+            1.0
+        };
+        off[k] = lag[k] * share;
+    }
+    let length = nominal_delta.norm();
+    if length > 0.0 {
+        let u = nominal_delta * (1.0 / length);
+        (off - u * off.dot(u)).norm()
+    } else {
+        off.norm()
+    }
+}
+
+/// A lead piece for a take-up that the whole move cannot fold (see
+/// [`fold_deviation_mm`]): the point at a fraction ½, ¼, … of the move from
+/// `t_prev` towards `t` on which the reversing axes, running their new way
+/// from the start, take up the lag `lag` with the tool within the fold
+/// tolerance of the path; the longest such piece. Over a short piece the
+/// command's travel beyond the band (the nominal path's or the
+/// compensation's own along the reversing axis) is small, so the tool
+/// catches the path again sooner.
+///
+/// No piece shorter than the shortest segment, nor than twenty times the
+/// lag (the piece then turns from the path by less than 1/20 rad, which a
+/// controller blends; a steeper one is a take-up block in all but name).
+#[allow(clippy::too_many_arguments)]
+fn lead_target(
+    model: &dyn ErrorModel,
+    options: &CompensateOptions,
+    quantize: &dyn Fn(Vec3) -> Vec3,
+    q_prev: Vec3,
+    lag: Vec3,
+    t_prev: Vec3,
+    t: Vec3,
+    point: &crate::compensate::solve::PointSolution,
+) -> Result<Option<Vec3>, ModelError> {
+    let length = (t - t_prev).norm();
+    let shortest = match options.segmentation {
+        super::Segmentation::Adaptive { min_length_mm, .. } => min_length_mm,
+        _ => super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
+    }
+    .max(20.0 * lag.norm());
+    let mut piece = 0.5 * length;
+    while piece >= shortest && piece > 0.0 {
+        let lead = t_prev + (t - t_prev) * (piece / length);
+        let sol = solve_fixed(model, options.method, lead, point.s, [false; 3], q_prev)?;
+        let q = quantize(sol.q_mm);
+        let consistent = (0..3).all(|a| {
+            !point.reversed[a]
+                || crate::model::Direction::of_delta(q[a] - q_prev[a]) == Some(point.s[a])
+        });
+        if consistent
+            && fold_deviation_mm(lag, q_prev, q, lead - t_prev) <= options.fold_tolerance_mm()
+        {
+            return Ok(Some(lead));
+        }
+        piece *= 0.5;
+    }
+    Ok(None)
+}
+
 impl State {
     /// Solves the targets of one motion in order; returns each command and
     /// the take-up move written before it, if any.
@@ -74,7 +195,8 @@ impl State {
         options: &CompensateOptions,
         frame: &Frame,
         first_take_up_frame: &Frame,
-        targets: &[Vec3],
+        targets: &mut Vec<Vec3>,
+        may_lead: bool,
         start: Vec3,
         feed_like: bool,
         file: &str,
@@ -83,13 +205,32 @@ impl State {
     ) -> Result<Vec<(Vec3, Option<Vec3>)>, CompensationError> {
         let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
         self.states.clear();
+        self.ramps_written = std::mem::take(&mut self.ramps);
+        let mut ramps = self.ramps_written.iter().peekable();
         let mut t_prev = start;
-        for t in targets {
+        let mut forced: Option<Directions> = None;
+        // The index of the last lead piece inserted: neither it nor the
+        // target after it gets another (the work stays bounded).
+        let mut last_lead: Option<usize> = None;
+        let mut index = 0;
+        while index < targets.len() {
+            let t = &targets[index];
             let q_from = self.q_out;
+            // On a take-up ramp, or a lead piece, the reversing axis runs its
+            // new way from the start: the solver starts from that state.
+            let mut s_from = forced.take().unwrap_or(self.s);
+            if let Some(r) = ramps.next_if(|r| r.index == index) {
+                s_from[r.axis] = r.direction;
+            }
             let quantize = |q: Vec3| frame.quantize(q, q_from);
             let point = match options.directions {
                 DirectionPolicy::Commanded => {
-                    solve_consistent(model, options.method, *t, self.q_out, self.s, &quantize)
+                    solve_consistent(model, options.method, *t, self.q_out, s_from, &quantize).map(
+                        |mut p| {
+                            p.reversed = [0, 1, 2].map(|a| p.s[a] != self.s[a]);
+                            p
+                        },
+                    )
                 }
                 DirectionPolicy::Nominal => {
                     let s_nom = next_state(self.s_nominal, *t - t_prev);
@@ -160,6 +301,33 @@ impl State {
             if take_up == Some(self.q_out) {
                 take_up = None;
             }
+            // Where the dead band keeps the tool on the path while the axis
+            // takes up its reversal value, the move itself takes it up.
+            if take_up.is_some() && options.fold_take_ups {
+                let lag = switch_lag_mm(model, self.q_out, self.s, point.s, point.reversed)
+                    .map_err(|source| model_error(file, line, source))?;
+                if fold_deviation_mm(lag, self.q_out, point.q_mm, *t - t_prev)
+                    <= options.fold_tolerance_mm()
+                {
+                    take_up = None;
+                    self.summary.take_ups_folded += 1;
+                } else if may_lead && feed_like && last_lead.is_none_or(|l| index > l + 1) {
+                    let lead = lead_target(
+                        model, options, &quantize, self.q_out, lag, t_prev, *t, &point,
+                    )
+                    .map_err(|source| model_error(file, line, source))?;
+                    if let Some(lead) = lead {
+                        // Solve the lead piece first (it takes the take-up up),
+                        // then this target again from there.
+                        targets.insert(index, lead);
+                        last_lead = Some(index);
+                        // The state the point was solved in: its reversing
+                        // axes switched, the others as they were.
+                        forced = Some(point.s);
+                        continue;
+                    }
+                }
+            }
             if let Some(tu) = take_up {
                 self.q_out = tu;
             }
@@ -192,6 +360,7 @@ impl State {
             self.s = point.s;
             self.s_nominal = next_state(self.s_nominal, *t - t_prev);
             t_prev = *t;
+            index += 1;
         }
         Ok(commands)
     }

@@ -100,11 +100,22 @@ impl State {
         self.mode = Some(OutMode::Other);
         for m in motions {
             check_target_count(m, options, file, line)?;
-            let targets = targets_with_estimate(m, options, model, self.s, &mut self.estimate_mm)
-                .map_err(|source| model_error(file, line, source))?;
+            let mut targets =
+                targets_with_estimate(m, options, model, self.s, &mut self.estimate_mm)
+                    .map_err(|source| model_error(file, line, source))?;
             let from = self.q_out;
             let commands = self.solve_targets(
-                model, options, &frame, &frame, &targets, m.start, true, file, line, on_point,
+                model,
+                options,
+                &frame,
+                &frame,
+                &mut targets,
+                false,
+                m.start,
+                true,
+                file,
+                line,
+                on_point,
             )?;
             let mut pos = from;
             for (q, take_up) in commands {

@@ -199,7 +199,12 @@ pub fn describe_options(o: &CompensateOptions) -> (String, String) {
             DirectionPolicy::Commanded => "commanded directions".into(),
             DirectionPolicy::Nominal => "nominal directions".into(),
         },
-        if o.take_up { "take-up" } else { "no take-up" }.into(),
+        match (o.take_up, o.fold_take_ups) {
+            (false, _) => "no take-up",
+            (true, true) => "take-ups folded where within tolerance",
+            (true, false) => "take-ups as separate blocks",
+        }
+        .into(),
     ];
     if let Some(d) = o.decimals {
         parts.push(format!("decimals {d}"));

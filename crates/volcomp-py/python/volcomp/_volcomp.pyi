@@ -112,6 +112,7 @@ class CompensateResult:
     max_residual_um: float
     max_correction_um: float
     take_ups: int
+    take_ups_folded: int
     held: list[tuple[int, str]]
     held_count: int
     warnings: list[dict[str, Any]]
@@ -169,6 +170,7 @@ def compensate(
     max_correction_mm: float = 0.1,
     nominal_directions: bool = False,
     take_up: bool = True,
+    separate_take_ups: bool = False,
     trace: bool = True,
     arcs_as_lines: bool = False,
     allow_recompensate: bool = False,

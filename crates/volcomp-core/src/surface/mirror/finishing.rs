@@ -292,6 +292,7 @@ pub fn compensate_finishing<R: BufRead>(
         max_correction_mm: model.field.max_abs_um() * 1e-3 + 1e-3,
         directions: DirectionPolicy::Commanded,
         take_up: false,
+        fold_take_ups: false,
         trace_comments: options.trace_comments,
         // The direct step is exact for a displacement field (no iteration).
         max_residual_um: None,
