@@ -283,6 +283,49 @@ fn a_take_up_gets_a_lead_piece_where_the_compensation_moves_the_axis() {
 }
 
 #[test]
+fn an_arc_takes_up_its_reversals_on_ramps_at_its_quarter_points() {
+    // X reverses where the circle of radius 25 mm starts (after a move in
+    // +X, the arc leaves (25, 0) in −X) and at (−25, 0). Each reversal gets
+    // a ramp: the first ℓ = √(r·tol) = √(25 mm · 0.1 µm) = 0.05 mm of arc
+    // after the quarter point, written as a chord with X already in its new
+    // direction (so X carries its 4 µm there), and no take-up block. The
+    // first ramp ends at angle 0.05/25 = 2 mrad: (24.99995, 0.05), and with
+    // X reversing (reverse table +4 µm) its command is X 24.99595.
+    let map = x_backlash_map(0.0);
+    let program = "G0 X0 Y0 Z0\nG1 X25 F100\nG3 X25 Y0 I-25 J0\nM2\n";
+    let (out, records) = compensate(program, &map, CompensateOptions::default());
+    assert!(!out.contains("take-up"), "{out}");
+    let arc: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
+    let first = arc[0];
+    assert!(
+        (first.target_mm - Vec3::new(24.99995, 0.05, 0.0)).max_abs() < 1e-6,
+        "{first:?}"
+    );
+    assert!(
+        (first.command_mm.x - 24.99595).abs() <= 0.5e-4 + 1e-9,
+        "{first:?}"
+    );
+    assert!(first.reversed[0] && !first.take_up);
+    // The third line of the output is that ramp, as a chord.
+    let third = out.lines().nth(2).unwrap();
+    assert!(third.starts_with("G1 "), "{out}");
+    // The second ramp starts at (−25, 0) and ends 0.05 mm further on.
+    let second = arc
+        .iter()
+        .find(|r| r.reversed[0] && r.target_mm.x < 0.0)
+        .expect("X reverses at (−25, 0)");
+    assert!(
+        (second.target_mm - Vec3::new(-24.99995, -0.05, 0.0)).max_abs() < 1e-6,
+        "{second:?}"
+    );
+    assert!(!second.take_up);
+    // Simulated: within half the tolerance on the ramps plus the rounding
+    // of the written numbers (0.05 µm per axis).
+    let report = against_original(&out, program, &map);
+    assert!(report.contour_max_um < 0.05 + 0.071 + 0.01, "{report:?}");
+}
+
+#[test]
 fn splitting_follows_a_curved_error_and_beats_end_point_compensation() {
     // A bow of Y straightness along X: e_y = 80·u·(1−u) µm over X −100…300
     // (u = (x+100)/400). A 200 mm line only corrected at its ends keeps the

@@ -401,3 +401,75 @@ fn check_converged(
         help: crate::error::help::RESIDUAL_LIMIT.into(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::fold_deviation_mm;
+    use volcomp_gcode::Vec3;
+
+    const UM: f64 = 1e-3;
+
+    #[test]
+    fn a_lag_along_the_move_leaves_the_path_not_at_all() {
+        // X reverses by 4 µm and the move goes on along X for 5 mm: the
+        // band is crossed after 0.1 % of it, the tool waits on the line.
+        let lag = Vec3::new(-4.0 * UM, 0.0, 0.0);
+        let q0 = Vec3::new(10.0, 0.0, 0.0);
+        let q = Vec3::new(5.0 - 0.004, 0.0, 0.0);
+        assert!(fold_deviation_mm(lag, q0, q, Vec3::new(-5.0, 0.0, 0.0)) < 1e-12);
+    }
+
+    #[test]
+    fn a_still_axis_whose_command_crosses_exactly_its_band_costs_nothing() {
+        // Z reverses by 2 µm on a move along X that the nominal path makes
+        // at constant Z: the Z command travels exactly the 2 µm.
+        let lag = Vec3::new(0.0, 0.0, 2.0 * UM);
+        let q0 = Vec3::new(0.0, 0.0, 0.0);
+        let q = Vec3::new(4.0, 0.0, 2.0 * UM);
+        assert!(fold_deviation_mm(lag, q0, q, Vec3::new(4.0, 0.0, 0.0)) < 1e-12);
+    }
+
+    #[test]
+    fn travel_past_the_band_leaves_its_share_across_the_path() {
+        // The Z command travels 2.5 µm for a 2 µm band: crossed after 4/5 of
+        // the move, when the image is still 1/5 of the lag short: 0.4 µm,
+        // across a move along X.
+        let lag = Vec3::new(0.0, 0.0, 2.0 * UM);
+        let q = Vec3::new(4.0, 0.0, 2.5 * UM);
+        let d = fold_deviation_mm(lag, Vec3::ZERO, q, Vec3::new(4.0, 0.0, 0.0));
+        assert!((d - 0.4 * UM).abs() < 1e-12, "{d}");
+        // Travelling only 1.5 µm, 0.5 µm of the band is left at the end.
+        let q = Vec3::new(4.0, 0.0, 1.5 * UM);
+        let d = fold_deviation_mm(lag, Vec3::ZERO, q, Vec3::new(4.0, 0.0, 0.0));
+        assert!((d - 0.5 * UM).abs() < 1e-12, "{d}");
+    }
+
+    #[test]
+    fn a_reversal_at_45_degrees_leaves_the_lag_times_sin_45() {
+        // X reverses by 4 µm onto a move of 5 mm at 45°: the X command
+        // travels 5 mm + 4 µm, the share is 5/5.004 of the lag, and its part
+        // across the move is that times sin 45°.
+        let lag = Vec3::new(-4.0 * UM, 0.0, 0.0);
+        let q = Vec3::new(-5.004, 5.0, 0.0);
+        let d = fold_deviation_mm(lag, Vec3::ZERO, q, Vec3::new(-5.0, 5.0, 0.0));
+        let expected = 4.0 * UM * (5.0 / 5.004) * std::f64::consts::FRAC_1_SQRT_2;
+        assert!((d - expected).abs() < 1e-12, "{d} vs {expected}");
+    }
+
+    #[test]
+    fn a_transverse_lag_of_an_axis_moving_away_counts_in_full() {
+        // On a plunge of 1 mm, Y reverses (its command crosses exactly its
+        // 4 µm band) and that shifts X by 0.3 µm (the straightness tables
+        // differ by direction). X moving away from that lag loses it at
+        // once: 0.3 µm across the plunge. X standing still loses it in step
+        // with Y's progress, which keeps pace with the command: nothing.
+        let lag = Vec3::new(0.3 * UM, 4.0 * UM, 0.0);
+        let plunge = Vec3::new(0.0, 0.0, -1.0);
+        let q = Vec3::new(-1.0 * UM, 4.0 * UM, -1.0);
+        let d = fold_deviation_mm(lag, Vec3::ZERO, q, plunge);
+        assert!((d - 0.3 * UM).abs() < 1e-12, "{d}");
+        let q = Vec3::new(0.0, 4.0 * UM, -1.0);
+        let d = fold_deviation_mm(lag, Vec3::ZERO, q, plunge);
+        assert!(d < 1e-12, "{d}");
+    }
+}
