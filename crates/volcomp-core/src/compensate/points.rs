@@ -465,7 +465,7 @@ mod tests {
         // with Y's progress, which keeps pace with the command: nothing.
         let lag = Vec3::new(0.3 * UM, 4.0 * UM, 0.0);
         let plunge = Vec3::new(0.0, 0.0, -1.0);
-        let q = Vec3::new(-1.0 * UM, 4.0 * UM, -1.0);
+        let q = Vec3::new(-UM, 4.0 * UM, -1.0);
         let d = fold_deviation_mm(lag, Vec3::ZERO, q, plunge);
         assert!((d - 0.3 * UM).abs() < 1e-12, "{d}");
         let q = Vec3::new(0.0, 4.0 * UM, -1.0);
