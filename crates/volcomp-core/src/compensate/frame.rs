@@ -10,7 +10,7 @@
 //! rotation the frame is the plain translation `p = q − offset`, computed
 //! exactly as before.
 
-use super::CompensateOptions;
+use super::{CompensateOptions, DEFAULT_DECIMALS_INCH, DEFAULT_DECIMALS_MM};
 use volcomp_gcode::lexer::Word;
 use volcomp_gcode::number::{NumberStyle, StyleSurvey};
 use volcomp_gcode::{Units, Vec3};
@@ -34,7 +34,8 @@ pub(super) struct Frame {
 
 impl Frame {
     /// The frame and number style of the line just interpreted: its offsets,
-    /// units and distance mode; 4 decimals in mm, 5 in inch unless overridden.
+    /// units and distance mode; [`DEFAULT_DECIMALS_MM`] in mm,
+    /// [`DEFAULT_DECIMALS_INCH`] in inch, unless overridden.
     pub(super) fn of(
         interp: &volcomp_gcode::Interpreter,
         options: &CompensateOptions,
@@ -43,8 +44,8 @@ impl Frame {
         let units = interp.units();
         let decimals = options.decimals.unwrap_or(
             match units {
-                Units::Mm => 4,
-                Units::Inch => 5,
+                Units::Mm => DEFAULT_DECIMALS_MM,
+                Units::Inch => DEFAULT_DECIMALS_INCH,
             }
             .max(survey.max_decimals()),
         );

@@ -35,7 +35,8 @@ pub use front::{
 };
 pub use options::{
     CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, Segmentation,
-    DEFAULT_CONTOUR_TOLERANCE_UM, DEFAULT_MAX_RESIDUAL_UM, DEFAULT_MIN_SEGMENT_LENGTH_MM,
+    DEFAULT_CONTOUR_TOLERANCE_UM, DEFAULT_DECIMALS_INCH, DEFAULT_DECIMALS_MM,
+    DEFAULT_MAX_RESIDUAL_UM, DEFAULT_MIN_SEGMENT_LENGTH_MM,
 };
 pub use style::{survey_style, ProgramStyle};
 pub(crate) use targets::mark_axes_set;

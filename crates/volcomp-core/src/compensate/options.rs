@@ -46,8 +46,9 @@ pub struct CompensateOptions {
     /// compensated at its ends and middle; docs/compensation.md, "Arcs as
     /// arcs"); `false` linearises them within the chord tolerance.
     pub arcs_as_arcs: bool,
-    /// Written decimals; `None`: 4 in mm, 5 in inch, or more where the
-    /// program writes more. A rewritten word never has fewer decimals than
+    /// Written decimals; `None`: [`DEFAULT_DECIMALS_MM`] in mm,
+    /// [`DEFAULT_DECIMALS_INCH`] in inch, or more where the program writes
+    /// more. A rewritten word never has fewer decimals than
     /// the word it replaces.
     pub decimals: Option<u8>,
     /// Largest accepted correction (mm).
@@ -114,6 +115,18 @@ impl CompensateOptions {
 /// would add a path error larger than the rounding (docs/compensation.md,
 /// "Adaptive segmentation").
 pub const DEFAULT_CONTOUR_TOLERANCE_UM: f64 = 0.1;
+
+/// Decimals written in mm by default: 4, a step of 0.1 µm, the default
+/// contour tolerance.
+pub const DEFAULT_DECIMALS_MM: u8 = 4;
+
+/// Decimals written in inch by default: 6, a step of 0.0254 µm. Five would
+/// be a step of 0.254 µm, two and a half times the mm step: its rounding
+/// (up to 0.22 µm in space) would then be the largest error left on the
+/// path, above the contour tolerance; six keeps inch programs at least as
+/// fine as mm ones. LinuxCNC reads any number of decimals; a controller
+/// with a coarser input increment takes `--decimals`.
+pub const DEFAULT_DECIMALS_INCH: u8 = 6;
 
 /// Default shortest segment of adaptive segmentation (mm): 10 µm, a hundred
 /// times the written step, so a segment never degenerates into a
