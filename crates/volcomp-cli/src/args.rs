@@ -200,7 +200,7 @@ pub struct CompensateArgs {
     /// compensated arcs (pieces of the original arc).
     #[arg(long)]
     pub arcs_as_lines: bool,
-    /// Decimal places of written coordinates (default 4 in mm, 6 in inch).
+    /// Decimal places of written coordinates (default 5 in mm, 6 in inch).
     #[arg(long)]
     pub decimals: Option<u8>,
     /// Largest correction accepted (mm); larger ones mean a wrong map unit.

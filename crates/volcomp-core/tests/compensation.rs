@@ -38,6 +38,12 @@ fn compensate(
     map: &AxisTableMap,
     options: CompensateOptions,
 ) -> (String, Vec<PointRecord>) {
+    // The words expected below were derived by hand with 4 decimals (a step
+    // of 0.1 µm); the default's own decimals are checked on their own.
+    let options = CompensateOptions {
+        decimals: options.decimals.or(Some(4)),
+        ..options
+    };
     let style = survey_style(program.as_bytes());
     let mut out = Vec::new();
     let mut records = Vec::new();
@@ -323,6 +329,43 @@ fn an_arc_takes_up_its_reversals_on_ramps_at_its_quarter_points() {
     // of the written numbers (0.05 µm per axis).
     let report = against_original(&out, program, &map);
     assert!(report.contour_max_um < 0.05 + 0.071 + 0.01, "{report:?}");
+}
+
+#[test]
+fn coordinates_are_written_with_5_decimals_in_mm_and_6_in_inch() {
+    // A constant −1.2345 µm in X: X10 becomes X10.0012345, written to the
+    // default step of 0.01 µm in mm (X10.00123) and 0.0254 µm in inch
+    // (10 in = 254 mm: 254.0012345 mm = 10.0000486 in).
+    let map = map_from(|a, _, _| {
+        if a == 0 {
+            [-1.2345, 0.0, 0.0]
+        } else {
+            [0.0; 3]
+        }
+    });
+    let mm = "G21 G90 G0 X0 Y0 Z0\nG1 X10 F100\nM2\n";
+    let out = compensate_text_default(mm, &map);
+    assert!(out.contains("G1 X10.00123 F100"), "{out}");
+    let inch = "G20 G90 G0 X0 Y0 Z0\nG1 X10 F100\nM2\n";
+    let out = compensate_text_default(inch, &map);
+    assert!(out.contains("G1 X10.000049 F100"), "{out}");
+}
+
+/// [`compensate`] with the default decimals.
+fn compensate_text_default(program: &str, map: &AxisTableMap) -> String {
+    let style = survey_style(program.as_bytes());
+    let mut out = Vec::new();
+    compensate_program(
+        &mut walker(program),
+        "test.ngc",
+        map,
+        &style,
+        &CompensateOptions::default(),
+        &mut out,
+        |_| {},
+    )
+    .unwrap();
+    String::from_utf8(out).unwrap()
 }
 
 #[test]

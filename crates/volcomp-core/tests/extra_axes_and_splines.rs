@@ -32,8 +32,10 @@ fn compensate_with(program: &str, map: &AxisTableMap, segmentation: Segmentation
         Setup::default(),
         InterpOptions::default(),
     );
+    // The words expected below are written with 4 decimals (0.1 µm).
     let options = CompensateOptions {
         segmentation,
+        decimals: Some(4),
         ..CompensateOptions::default()
     };
     let mut out = Vec::new();

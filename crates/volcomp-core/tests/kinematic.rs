@@ -65,8 +65,10 @@ fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
 
 fn compensate(program: &str, model: &dyn ErrorModel) -> String {
     let mut out = Vec::new();
+    // The words expected below are written with 4 decimals (0.1 µm).
     let opts = CompensateOptions {
         segmentation: Segmentation::Off,
+        decimals: Some(4),
         ..Default::default()
     };
     compensate_program(

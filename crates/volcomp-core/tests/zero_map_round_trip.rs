@@ -148,10 +148,14 @@ fn zero_map_without_splitting_gives_every_line_back_outside_arcs_and_cycles() {
 #[test]
 fn inch_program_with_six_decimals_keeps_them() {
     // vcarve.ngc is in inch with 6 decimals (`Y 0.096205`); inch programs
-    // are written with 5 by default, which used to drop the sixth digit.
+    // were once written with 5 by default, which dropped the sixth digit.
     let program = "G20 G90 G1 F10\nX 0.0238 Y 0.096205 Z-0.012345\nX1.5 Y0.25\n";
     let map = zero_map();
-    assert_eq!(compensate_text(program, &map), program);
+    let options = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..CompensateOptions::default()
+    };
+    assert_eq!(compensate_text_with(program, &map, &options), program);
 }
 
 #[test]
@@ -247,8 +251,10 @@ fn compensate_text(program: &str, map: &AxisTableMap) -> String {
     compensate_text_with(
         program,
         map,
+        // The words expected are written with 4 decimals (0.1 µm).
         &CompensateOptions {
             segmentation: Segmentation::Off,
+            decimals: Some(4),
             ..CompensateOptions::default()
         },
     )

@@ -132,7 +132,7 @@ pub struct MirrorArgs {
     /// Do not split feed moves (arcs are still linearised).
     #[arg(long)]
     pub no_split: bool,
-    /// Decimal places of written coordinates (default 4 in mm, 6 in inch).
+    /// Decimal places of written coordinates (default 5 in mm, 6 in inch).
     #[arg(long)]
     pub decimals: Option<u8>,
     /// Do not tag inserted lines with `(volcomp Ln)` comments.

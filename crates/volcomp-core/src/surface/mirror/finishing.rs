@@ -223,7 +223,7 @@ pub struct FinishingOptions {
     pub segment_length_mm: Option<f64>,
     /// Chord tolerance for linearising arcs (mm).
     pub chord_tolerance_mm: f64,
-    /// Written decimals (`None`: 4 in mm, 6 in inch).
+    /// Written decimals (`None`: 5 in mm, 6 in inch).
     pub decimals: Option<u8>,
     /// Tag inserted lines with `(volcomp Ln)`.
     pub trace_comments: bool,
