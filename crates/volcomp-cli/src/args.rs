@@ -275,7 +275,7 @@ pub struct SimulateArgs {
     #[arg(
         long,
         value_name = "MM",
-        default_value_t = 1e-4,
+        default_value_t = volcomp_core::simulate::DEFAULT_CHORD_TOLERANCE_MM,
         allow_negative_numbers = true
     )]
     pub chord_tolerance: f64,

@@ -569,7 +569,7 @@ impl SimulationResult {
 /// `program`, `reference`, `setup`: text or pathlib.Path. Machine options
 /// as in `compensate`. `segments=True` adds the per-command arrays.
 #[pyfunction]
-#[pyo3(signature = (program, model, *, reference = None, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, chord_tolerance_mm = 1e-4, segments = false, name = None))]
+#[pyo3(signature = (program, model, *, reference = None, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, chord_tolerance_mm = 1e-5, segments = false, name = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
     py: Python<'_>,

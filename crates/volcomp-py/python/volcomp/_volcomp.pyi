@@ -192,7 +192,7 @@ def simulate(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    chord_tolerance_mm: float = 1e-4,
+    chord_tolerance_mm: float = 1e-5,
     segments: bool = False,
     name: Optional[str] = None,
 ) -> SimulationResult:
