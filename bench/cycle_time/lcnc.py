@@ -135,7 +135,9 @@ def run_program(program, work_dir, timeout_s=600.0):
             p = os.path.join(run_dir, name)
             if os.path.exists(p):
                 with open(p) as f:
-                    logs += f"\n--- {name} (end) ---\n" + "".join(f.readlines()[-20:])
+                    # rtapi_app says this once per module loaded: noise here.
+                    kept = [x for x in f if not x.startswith("Running with fallback_uid")]
+                logs += f"\n--- {name} (end) ---\n" + "".join(kept[-20:])
         raise LinuxCncError(
             f"{program}: LinuxCNC run failed (exit {proc.returncode}): {detail}"
             f"{logs}\n(run folder {run_dir})"

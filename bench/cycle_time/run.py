@@ -123,6 +123,32 @@ def blocks(path):
     return n
 
 
+SERVO_PERIOD_S = 0.001
+
+
+def slow_moves(volcomp, path, setup, feed_mm_min):
+    """(take-ups, short moves) of a program: take-up blocks (volcomp's
+    trace comment `(volcomp Ln take-up)`), and straight feed moves shorter than the
+    distance F covers in one servo cycle. LinuxCNC 2.9 caps a segment's
+    speed at its length per servo cycle (src/emc/tp/tc.c,
+    tcClampVelocityByLength), so the planner must slow below F for each of
+    them, whatever the blending."""
+    with open(path) as f:
+        take_ups = sum(1 for line in f if re.search(r"\(volcomp L\d+ take-up\)", line))
+    r = run([volcomp, "moves", path, "--setup", setup, "--quiet"], "volcomp moves")
+    rows = list(csv.DictReader(r.stdout.splitlines()))
+    limit_mm = feed_mm_min / 60.0 * SERVO_PERIOD_S
+    short = 0
+    prev = None
+    for row in rows:
+        p = tuple(float(row[k]) for k in ("x_mm", "y_mm", "z_mm"))
+        if prev is not None and row["kind"] == "feed":
+            if sum((a - b) ** 2 for a, b in zip(p, prev)) ** 0.5 < limit_mm:
+                short += 1
+        prev = p
+    return take_ups, short
+
+
 def run(cmd, what):
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
@@ -205,6 +231,9 @@ def main():
                         f"{r0['end_machine_mm']} (machine mm): the run did not complete"
                     )
                 row[f"{label} blocks"] = blocks(out)
+                take_ups, short = slow_moves(volcomp, out, setup, feed)
+                row[f"{label} take-ups"] = take_ups
+                row[f"{label} short moves"] = short
                 row[f"{label} s"] = r["moving_s"]
                 row[f"{label} feed_s"] = r["feed_s"]
             rows.append(row)
@@ -221,20 +250,23 @@ def main():
         f"Simulated times on {lcnc.linuxcnc_version()}, {version}; "
         "Δ = compensated / original − 1.",
         "",
-        "Cutting time (a G1/G2/G3 move active), s:",
+        "Cutting time (a G1/G2/G3 move active), s; blocks: lines with more than "
+        "comments; take-ups: volcomp's take-up blocks; short: feed lines shorter "
+        "than F covers in one servo cycle (LinuxCNC caps their speed below F):",
         "",
     ]
     head = "| program | F mm/min | blocks | original |"
     rule = "|---|---:|---:|---:|"
     for label, _ in variants:
-        head += f" {label}: blocks | s | Δ |"
+        head += f" {label}: blocks (take-ups, short) | s | Δ |"
         rule += "---:|---:|---:|"
     lines += [head, rule]
     for row in rows:
         line = (f"| {row['program']} | {row['feed_mm_min']} | {row['blocks']} "
                 f"| {row['original_feed_s']:.3f} |")
         for label, _ in variants:
-            line += (f" {row[f'{label} blocks']} | {row[f'{label} feed_s']:.3f} "
+            line += (f" {row[f'{label} blocks']} ({row[f'{label} take-ups']}, "
+                     f"{row[f'{label} short moves']}) | {row[f'{label} feed_s']:.3f} "
                      f"| {pct(row[f'{label} feed_s'], row['original_feed_s'])} |")
         lines.append(line)
     lines += [

@@ -150,8 +150,9 @@ def run(program, run_timeout_s):
     moving0_s = pin_value("ct-time-moving.out")
     feed0_s = pin_value("ct-time-feed.out")
     wall0 = time.monotonic()
+    # No wait_complete here: the run command completes only with the program.
     x.c.auto(linuxcnc.AUTO_RUN, 0)
-    x.command_done("run")
+    log("command: run")
 
     def finished(s):
         # Idle interpreter, empty motion queue, in position, and the
