@@ -1,0 +1,148 @@
+"""Run one G-code program on LinuxCNC 2.9's simulated machine (config/) and
+return its simulated machining time. Used by check.py and run.py.
+
+One LinuxCNC at a time: LinuxCNC keeps one lock file (/tmp/linuxcnc.lock)
+and one set of shared-memory segments per machine, and its start-up script
+stops any other running instance, so a run refuses to start while another
+LinuxCNC is up rather than stop it.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+CONFIG = os.path.join(HERE, "config")
+LOCKFILE = "/tmp/linuxcnc.lock"
+
+
+class LinuxCncError(Exception):
+    pass
+
+
+def linuxcnc_running():
+    """Processes of a running LinuxCNC (its real-time host, task, server)."""
+    found = []
+    for name in ("rtapi_app", "milltask", "linuxcncsvr"):
+        r = subprocess.run(["pidof", name], capture_output=True, text=True)
+        if r.returncode == 0:
+            found.append(f"{name} ({r.stdout.strip()})")
+    return found
+
+
+def linuxcnc_version():
+    """The installed LinuxCNC package's version (Debian), or the script's."""
+    r = subprocess.run(
+        ["dpkg-query", "-W", "-f", "${Version}", "linuxcnc-uspace"],
+        capture_output=True,
+        text=True,
+    )
+    if r.returncode == 0 and r.stdout.strip():
+        return f"linuxcnc-uspace {r.stdout.strip()}"
+    return "(version unknown: not a Debian package)"
+
+
+def check_installed():
+    for tool in ("linuxcnc", "halcmd"):
+        if shutil.which(tool) is None:
+            raise LinuxCncError(
+                f"`{tool}` not found: install LinuxCNC 2.9 (Debian 12: "
+                "apt-get install linuxcnc-uspace)"
+            )
+    r = subprocess.run(
+        ["/usr/bin/python3", "-c", "import linuxcnc, hal"], capture_output=True
+    )
+    if r.returncode != 0:
+        raise LinuxCncError(
+            "/usr/bin/python3 cannot import the `linuxcnc` and `hal` modules "
+            "(they come with linuxcnc-uspace)"
+        )
+
+
+def run_program(program, work_dir, timeout_s=600.0):
+    """Runs `program` once on a fresh copy of config/ under `work_dir`.
+
+    Returns the display's result: moving_s (simulated time from the first
+    motion to the end of the last, s), feed_s (time with a G1/G2/G3 active,
+    s), end_machine_mm, wall_s. Raises LinuxCncError, with LinuxCNC's own
+    log, when the run fails or takes longer than `timeout_s` (wall clock).
+    """
+    program = os.path.abspath(program)
+    if not os.path.isfile(program):
+        raise LinuxCncError(f"{program}: no such program")
+    if os.path.exists(LOCKFILE) or linuxcnc_running():
+        raise LinuxCncError(
+            f"another LinuxCNC is running ({LOCKFILE} exists or "
+            f"{', '.join(linuxcnc_running()) or 'lock file left'}): "
+            "wait for it to end, or stop it yourself if it is yours"
+        )
+    os.makedirs(work_dir, exist_ok=True)
+    run_dir = tempfile.mkdtemp(prefix="run-", dir=work_dir)
+    machine = os.path.join(run_dir, "machine")
+    shutil.copytree(CONFIG, machine)
+    result_path = os.path.join(run_dir, "result.jsonl")
+    env = dict(os.environ)
+    env.update(
+        CT_RESULT=result_path,
+        CT_LOG=os.path.join(run_dir, "display.log"),
+        CT_RUN_TIMEOUT_S=str(timeout_s),
+        # LinuxCNC copies its logs to $HOME when it fails: keep them here.
+        HOME=run_dir,
+    )
+    if os.geteuid() == 0:
+        # uspace rtapi_app refuses to run as root unless given a user to
+        # fall back to (src/rtapi/uspace_rtapi_app.cc); it then creates its
+        # socket as that user, so the socket's folder (and every folder above
+        # it) must be open to them: a folder of its own under /tmp.
+        uid = int(env.get("RTAPI_UID", "65534"))
+        fifo_dir = tempfile.mkdtemp(prefix="ct-rtapi-", dir="/tmp")
+        os.chown(fifo_dir, uid, -1)
+        env["RTAPI_UID"] = str(uid)
+        env["RTAPI_FIFO_PATH"] = os.path.join(fifo_dir, "rtapi_fifo")
+    else:
+        fifo_dir = None
+    cmd = ["linuxcnc", os.path.join(machine, "machine.ini"), program]
+    t0 = time.monotonic()
+    try:
+        proc = subprocess.run(
+            cmd,
+            env=env,
+            cwd=run_dir,
+            stdin=subprocess.DEVNULL,
+            capture_output=True,
+            text=True,
+            timeout=timeout_s + 60.0,
+        )
+    except subprocess.TimeoutExpired:
+        raise LinuxCncError(
+            f"{program}: LinuxCNC did not finish within {timeout_s + 60.0:.0f} s "
+            f"(logs in {run_dir})"
+        )
+    finally:
+        if fifo_dir is not None:
+            shutil.rmtree(fifo_dir, ignore_errors=True)
+    results = []
+    if os.path.exists(result_path):
+        with open(result_path) as f:
+            results = [json.loads(line) for line in f if line.strip()]
+    if proc.returncode != 0 or len(results) != 1 or "error" in results[0]:
+        detail = results[0].get("error") if results else "no result written"
+        logs = ""
+        for name in ("linuxcnc_debug.txt", "display.log"):
+            p = os.path.join(run_dir, name)
+            if os.path.exists(p):
+                with open(p) as f:
+                    # rtapi_app says this once per module loaded: noise here.
+                    kept = [x for x in f if not x.startswith("Running with fallback_uid")]
+                logs += f"\n--- {name} (end) ---\n" + "".join(kept[-20:])
+        raise LinuxCncError(
+            f"{program}: LinuxCNC run failed (exit {proc.returncode}): {detail}"
+            f"{logs}\n(run folder {run_dir})"
+        )
+    result = results[0]
+    result["run_wall_s"] = round(time.monotonic() - t0, 3)
+    result["run_dir"] = run_dir
+    return result

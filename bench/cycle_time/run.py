@@ -1,0 +1,302 @@
+#!/usr/bin/env python3
+"""Cycle time of compensated programs against their originals, on LinuxCNC
+2.9's own trajectory planner (the simulated machine of config/).
+
+    run.py VOLCOMP WORK_DIR
+
+1. `VOLCOMP demo` writes the demo's map and programs into WORK_DIR/demo;
+   the programs are the demo's originals, programs/*.ngc (a G2 full circle,
+   a zigzag pocket) and the repository's examples/data/part.ngc.
+2. Every program gets an F3000 and an F6000 variant: every F word is
+   rewritten (G0 moves stay rapids).
+3. Each variant is compensated with the demo's map and the machine's set-up
+   (setup.toml) three ways: the defaults, --no-take-up, and
+   --no-split --no-take-up (a way whose flag the binary lacks is skipped
+   and said so).
+4. Original and compensated programs run one after the other on LinuxCNC;
+   two Markdown tables of simulated times (servo-thread timers,
+   config/machine.hal) go to standard output and WORK_DIR/table.md, every
+   figure to WORK_DIR/results.csv: the cutting time (a G1/G2/G3 segment
+   active) and the whole program (first motion to the end of the last,
+   with the rapids from home at machine 0, the same in both programs).
+
+Any failure (compensate, LinuxCNC, a run that ends elsewhere than its
+original) stops the script with an error; no number is printed for it.
+"""
+
+import csv
+import glob
+import os
+import re
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, HERE)
+import lcnc  # noqa: E402
+
+FEEDS_MM_MIN = (3000, 6000)
+# (label, extra `compensate` arguments)
+VARIANTS = [
+    ("defaults", []),
+    ("--no-take-up", ["--no-take-up"]),
+    ("--no-split --no-take-up", ["--no-split", "--no-take-up"]),
+]
+# A compensated program ends where its original does, within the largest
+# correction `compensate` accepts by default (--max-correction 0.1 mm).
+END_TOLERANCE_MM = 0.1
+
+
+class BenchError(Exception):
+    pass
+
+
+def split_comment(line):
+    """(code, comment) of one G-code line: parenthesised comments and
+    everything after ';' go to the comment part, in order."""
+    code, comment = [], []
+    depth = 0
+    for i, ch in enumerate(line):
+        if depth == 0 and ch == ";":
+            comment.append(line[i:])
+            break
+        if ch == "(":
+            depth += 1
+        if depth > 0:
+            comment.append(ch)
+            code.append("\0")  # keeps word boundaries around the comment
+        else:
+            code.append(ch)
+        if ch == ")" and depth > 0:
+            depth -= 1
+    return "".join(code), "".join(comment)
+
+
+F_WORD = re.compile(r"[Ff]\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+F_OTHER = re.compile(r"[Ff]\s*[#\[<]")
+
+
+def set_feed(text, feed_mm_min, name):
+    """`text` with every F word's value replaced by `feed_mm_min`.
+
+    Refuses (BenchError, with the line) an F given by an expression or a
+    parameter, inverse-time or per-revolution feed (G93, G95), and a
+    program without any F word.
+    """
+    out = []
+    count = 0
+    for n, line in enumerate(text.splitlines(keepends=True), start=1):
+        code, _ = split_comment(line)
+        if re.search(r"[Gg]\s*0*9[35](?![\d.])", code):
+            raise BenchError(f"{name}:{n}: G93/G95 feed mode: F is not mm/min there")
+        if F_OTHER.search(code):
+            raise BenchError(f"{name}:{n}: F given by an expression or parameter")
+        if not F_WORD.search(code):
+            out.append(line)
+            continue
+        # `code` is `line` with comments blanked out (same length): the
+        # matches are positions in `line` outside comments.
+        new = []
+        last = 0
+        for m in F_WORD.finditer(code):
+            new.append(line[last : m.start()])
+            new.append(f"F{feed_mm_min}")
+            last = m.end()
+            count += 1
+        new.append(line[last:])
+        out.append("".join(new))
+    if count == 0:
+        raise BenchError(f"{name}: no F word to rewrite")
+    return "".join(out)
+
+
+def blocks(path):
+    """Lines with more than comments (and other than '%')."""
+    n = 0
+    with open(path) as f:
+        for line in f:
+            code, _ = split_comment(line)
+            code = code.replace("\0", "").strip()
+            if code and code != "%":
+                n += 1
+    return n
+
+
+SERVO_PERIOD_S = 0.001
+
+
+def slow_moves(volcomp, path, setup, feed_mm_min):
+    """(take-ups, short moves) of a program: take-up blocks (volcomp's
+    trace comment `(volcomp Ln take-up)`), and straight feed moves shorter than the
+    distance F covers in one servo cycle. LinuxCNC 2.9 caps a segment's
+    speed at its length per servo cycle (src/emc/tp/tc.c,
+    tcClampVelocityByLength), so the planner must slow below F for each of
+    them, whatever the blending."""
+    with open(path) as f:
+        take_ups = sum(1 for line in f if re.search(r"\(volcomp L\d+ take-up\)", line))
+    r = run([volcomp, "moves", path, "--setup", setup, "--quiet"], "volcomp moves")
+    rows = list(csv.DictReader(r.stdout.splitlines()))
+    limit_mm = feed_mm_min / 60.0 * SERVO_PERIOD_S
+    short = 0
+    prev = None
+    for row in rows:
+        p = tuple(float(row[k]) for k in ("x_mm", "y_mm", "z_mm"))
+        if prev is not None and row["kind"] == "feed":
+            if sum((a - b) ** 2 for a, b in zip(p, prev)) ** 0.5 < limit_mm:
+                short += 1
+        prev = p
+    return take_ups, short
+
+
+def run(cmd, what):
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise BenchError(f"{what} failed (exit {r.returncode}): {' '.join(cmd)}\n{r.stderr}")
+    return r
+
+
+def pct(new, old):
+    return f"{(new / old - 1.0) * 100.0:+.1f} %"
+
+
+def main():
+    if len(sys.argv) != 3:
+        print(__doc__, file=sys.stderr)
+        return 2
+    volcomp, work = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
+    if not os.access(volcomp, os.X_OK):
+        raise BenchError(f"{volcomp}: not an executable volcomp binary")
+    lcnc.check_installed()
+    os.makedirs(work, exist_ok=True)
+    version = run([volcomp, "--version"], "volcomp --version").stdout.strip()
+    helptext = run([volcomp, "compensate", "--help"], "volcomp compensate --help").stdout
+    variants = []
+    for label, args in VARIANTS:
+        missing = [a for a in args if a not in helptext]
+        if missing:
+            print(f"note: {version} has no {' '.join(missing)}: variant '{label}' skipped",
+                  file=sys.stderr)
+        else:
+            variants.append((label, args))
+
+    demo = os.path.join(work, "demo")
+    run([volcomp, "demo", "--out-dir", demo, "--quiet"], "volcomp demo")
+    map_csv = os.path.join(demo, "example_map.csv")
+    if not os.path.isfile(map_csv):
+        raise BenchError(f"volcomp demo wrote no {map_csv}")
+    originals = sorted(
+        p for p in glob.glob(os.path.join(demo, "*.ngc"))
+        if "." not in os.path.basename(p)[: -len(".ngc")]
+    )
+    if not originals:
+        raise BenchError(f"volcomp demo wrote no original program into {demo}")
+    originals += sorted(glob.glob(os.path.join(HERE, "programs", "*.ngc")))
+    originals.append(os.path.join(REPO, "examples", "data", "part.ngc"))
+    setup = os.path.join(HERE, "setup.toml")
+
+    progs = os.path.join(work, "programs")
+    os.makedirs(progs, exist_ok=True)
+    runs = os.path.join(work, "runs")
+    rows = []
+    for original in originals:
+        stem = os.path.basename(original)[: -len(".ngc")]
+        with open(original) as f:
+            text = f.read()
+        for feed in FEEDS_MM_MIN:
+            base = os.path.join(progs, f"{stem}.F{feed}.ngc")
+            with open(base, "w") as f:
+                f.write(set_feed(text, feed, original))
+            r0 = lcnc.run_program(base, runs)
+            row = {
+                "program": stem,
+                "feed_mm_min": feed,
+                "blocks": blocks(base),
+                "original_s": r0["moving_s"],
+                "original_feed_s": r0["feed_s"],
+            }
+            for label, args in variants:
+                tag = label.replace("--", "").replace(" ", "_")
+                out = os.path.join(progs, f"{stem}.F{feed}.{tag}.ngc")
+                run(
+                    [volcomp, "compensate", base, "--map", map_csv, "--setup", setup,
+                     "--quiet", "-o", out] + args,
+                    f"volcomp compensate ({label})",
+                )
+                r = lcnc.run_program(out, runs)
+                dev = max(abs(a - b) for a, b in zip(r["end_machine_mm"], r0["end_machine_mm"]))
+                if dev > END_TOLERANCE_MM:
+                    raise BenchError(
+                        f"{out} ended at {r['end_machine_mm']}, its original at "
+                        f"{r0['end_machine_mm']} (machine mm): the run did not complete"
+                    )
+                row[f"{label} blocks"] = blocks(out)
+                take_ups, short = slow_moves(volcomp, out, setup, feed)
+                row[f"{label} take-ups"] = take_ups
+                row[f"{label} short moves"] = short
+                row[f"{label} s"] = r["moving_s"]
+                row[f"{label} feed_s"] = r["feed_s"]
+            rows.append(row)
+            print(f"  {stem} F{feed}: " + ", ".join(
+                f"{k} {v}" for k, v in row.items() if k.endswith(" s") or k == "original_s"),
+                file=sys.stderr)
+
+    with open(os.path.join(work, "results.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+
+    lines = [
+        f"Simulated times on {lcnc.linuxcnc_version()}, {version}; "
+        "Δ = compensated / original − 1.",
+        "",
+        "Cutting time (a G1/G2/G3 move active), s; blocks: lines with more than "
+        "comments; take-ups: volcomp's take-up blocks; short: feed lines shorter "
+        "than F covers in one servo cycle (LinuxCNC caps their speed below F):",
+        "",
+    ]
+    head = "| program | F mm/min | blocks | original |"
+    rule = "|---|---:|---:|---:|"
+    for label, _ in variants:
+        head += f" {label}: blocks (take-ups, short) | s | Δ |"
+        rule += "---:|---:|---:|"
+    lines += [head, rule]
+    for row in rows:
+        line = (f"| {row['program']} | {row['feed_mm_min']} | {row['blocks']} "
+                f"| {row['original_feed_s']:.3f} |")
+        for label, _ in variants:
+            line += (f" {row[f'{label} blocks']} ({row[f'{label} take-ups']}, "
+                     f"{row[f'{label} short moves']}) | {row[f'{label} feed_s']:.3f} "
+                     f"| {pct(row[f'{label} feed_s'], row['original_feed_s'])} |")
+        lines.append(line)
+    lines += [
+        "",
+        "Whole program (first motion to end of the last, with the rapids from "
+        "home at machine 0), s:",
+        "",
+    ]
+    head = "| program | F mm/min | original |"
+    rule = "|---|---:|---:|"
+    for label, _ in variants:
+        head += f" {label}: s | Δ |"
+        rule += "---:|---:|"
+    lines += [head, rule]
+    for row in rows:
+        line = f"| {row['program']} | {row['feed_mm_min']} | {row['original_s']:.3f} |"
+        for label, _ in variants:
+            line += (f" {row[f'{label} s']:.3f} "
+                     f"| {pct(row[f'{label} s'], row['original_s'])} |")
+        lines.append(line)
+    table = "\n".join(lines) + "\n"
+    with open(os.path.join(work, "table.md"), "w") as f:
+        f.write(table)
+    print(table)
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except (BenchError, lcnc.LinuxCncError) as err:
+        print(f"run.py: {err}", file=sys.stderr)
+        sys.exit(1)
