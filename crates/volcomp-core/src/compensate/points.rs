@@ -146,9 +146,17 @@ fn fold_deviation_mm(lag: Vec3, q_prev: Vec3, q: Vec3, nominal_delta: Vec3) -> f
 /// compensation's own along the reversing axis) is small, so the tool
 /// catches the path again sooner.
 ///
-/// No piece shorter than the shortest segment, nor than twenty times the
-/// lag (the piece then turns from the path by less than 1/20 rad, which a
-/// controller blends; a steeper one is a take-up block in all but name).
+/// No piece shorter than the shortest segment, than twenty times the lag
+/// (the piece then turns from the path by less than 1/20 rad, which a
+/// controller blends; a steeper one is a take-up block in all but name),
+/// nor than [`MIN_LEAD_MM`].
+/// Shortest lead piece (mm): LinuxCNC runs a segment no faster than its
+/// length per servo period (`tcClampVelocityByLength`, src/emc/tp/tc.c),
+/// and a blend may take half of it; 0.2 mm keeps 100 mm/s (F6000) with
+/// the default period of 1 ms. A shorter piece would slow the machine as a
+/// take-up block does, if less.
+const MIN_LEAD_MM: f64 = 0.2;
+
 #[allow(clippy::too_many_arguments)]
 fn lead_target(
     model: &dyn ErrorModel,
@@ -165,7 +173,8 @@ fn lead_target(
         super::Segmentation::Adaptive { min_length_mm, .. } => min_length_mm,
         _ => super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
     }
-    .max(20.0 * lag.norm());
+    .max(20.0 * lag.norm())
+    .max(MIN_LEAD_MM);
     let mut piece = 0.5 * length;
     while piece >= shortest && piece > 0.0 {
         let lead = t_prev + (t - t_prev) * (piece / length);
