@@ -87,6 +87,21 @@ impl NominalBlock {
     /// of G85/G89 moves in the direction of the return feed; one that moves
     /// only an axis across the feed stays with it).
     pub fn pair(&mut self, from: Vec3, to: Vec3, feed: bool) -> Option<usize> {
+        self.pair_via(from, None, to, feed)
+    }
+
+    /// [`Self::pair`], knowing also the command's middle point `mid` (an
+    /// arc command's point at half its sweep): in a cutter-compensated
+    /// block the command is paired by its end and its middle, so one whose
+    /// end lies at a corner, where two motions meet, pairs with the motion
+    /// it runs along, not with the one that starts there.
+    pub fn pair_via(
+        &mut self,
+        from: Vec3,
+        mid: Option<Vec3>,
+        to: Vec3,
+        feed: bool,
+    ) -> Option<usize> {
         if self.motions.len() == 1 {
             self.set_current(0);
             return Some(0);
@@ -102,7 +117,7 @@ impl NominalBlock {
             .iter()
             .any(|m| m.source == volcomp_gcode::MotionSource::CutterComp)
         {
-            if let Some(j) = self.pair_nearest(to, feed) {
+            if let Some(j) = self.pair_nearest(mid, to, feed) {
                 self.set_current(j);
                 return Some(j);
             }
@@ -153,13 +168,18 @@ impl NominalBlock {
     /// current one on, nearest to the command's end (arcs measured to the
     /// arc), the earlier one where two
     /// are as near (a command at a corner belongs to the move it ends).
-    fn pair_nearest(&mut self, to: Vec3, feed: bool) -> Option<usize> {
+    /// With the command's middle `mid`, the score is the mean of the
+    /// distances of the end and the middle.
+    fn pair_nearest(&mut self, mid: Option<Vec3>, to: Vec3, feed: bool) -> Option<usize> {
         let mut best: Option<(f64, usize)> = None;
         for j in self.current.unwrap_or(0)..self.motions.len() {
             if is_feed_like(&self.motions[j]) != feed {
                 continue;
             }
-            let score = self.distance_mm(j, to);
+            let score = match mid {
+                Some(p) => 0.5 * (self.distance_mm(j, p) + self.distance_mm(j, to)),
+                None => self.distance_mm(j, to),
+            };
             if best.is_none_or(|(b, _)| score < b - 1e-9) {
                 best = Some((score, j));
             }

@@ -137,13 +137,19 @@ fn mismatch(file: &str, line: u64, message: String) -> CompensationError {
     }
 }
 
-/// The next block of `reference` that moves.
+/// The next block of `reference` that moves, and whether cutter radius
+/// compensation is on after it (compensation then writes the block as the
+/// tool-centre path, compensate/cutter.rs: its own line carries no move,
+/// even when a zero radius leaves its motions the program's own).
 fn next_block<S: BufRead>(
     reference: &mut Walker<S>,
-) -> Result<Option<NominalBlock>, CompensationError> {
+) -> Result<Option<(NominalBlock, bool)>, CompensationError> {
     while let Some(ev) = reference.next_line()? {
         if !ev.motions.is_empty() {
-            return Ok(Some(NominalBlock::new(ev.number, ev.motions, false)));
+            return Ok(Some((
+                NominalBlock::new(ev.number, ev.motions, false),
+                ev.interp.cutter_comp_on(),
+            )));
         }
     }
     Ok(None)
@@ -163,7 +169,7 @@ fn advance<S: BufRead>(
             if block.as_ref().is_some_and(|b| b.line == n) {
                 return Ok(());
             }
-            let Some(mut b) = next_block(reference)? else {
+            let Some((mut b, cutter)) = next_block(reference)? else {
                 return Err(mismatch(file, line, format!("this line is marked as written for line {n} of the reference, which has no moving line left")));
             };
             if b.line != n {
@@ -171,12 +177,13 @@ fn advance<S: BufRead>(
             }
             // A canned cycle's, a spline's or a cutter-compensated block's
             // own line is written without its moves.
-            b.own_line_written = b.motions.iter().any(|m| {
-                matches!(
-                    m.source,
-                    MotionSource::Cycle | MotionSource::Spline | MotionSource::CutterComp
-                )
-            });
+            b.own_line_written = cutter
+                || b.motions.iter().any(|m| {
+                    matches!(
+                        m.source,
+                        MotionSource::Cycle | MotionSource::Spline | MotionSource::CutterComp
+                    )
+                });
             *block = Some(b);
         }
         None => {
@@ -184,7 +191,7 @@ fn advance<S: BufRead>(
                 b.own_line_written = true;
                 return Ok(());
             }
-            let Some(mut b) = next_block(reference)? else {
+            let Some((mut b, _)) = next_block(reference)? else {
                 return Err(mismatch(
                     file,
                     line,
@@ -280,7 +287,11 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
             let paired = if by_index {
                 blk.pair_index(i)
             } else {
-                blk.pair(m.start, m.end, is_feed_like(m))
+                let mid = match m.kind {
+                    MotionKind::Arc(arc) => arc.point_at(0.5),
+                    _ => (m.start + m.end) * 0.5,
+                };
+                blk.pair_via(m.start, Some(mid), m.end, is_feed_like(m))
             };
             let Some(idx) = paired else {
                 return Err(mismatch(
@@ -379,7 +390,7 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
         commit(p, None, &mut point);
     }
     if let Some(r) = reference {
-        if let Some(b) = next_block(r)? {
+        if let Some((b, _)) = next_block(r)? {
             return Err(CompensationError::AtLine {
                 file: file.to_string(),
                 line: 0,
