@@ -186,24 +186,55 @@ impl State {
                 self.buf.extend_from_slice(ending);
                 self.summary.lines_out += 1;
             }
-            // The tool-centre path is written as G0/G1 segments: its arcs
-            // (corner arcs and offset arcs) are linearised, whatever the
-            // program's other arcs do.
+            // A tool-centre arc (an offset arc of a program arc, or a corner
+            // arc) is written as compensated pieces of itself, as program
+            // arcs are (compensate/arcs.rs), unless arcs are linearised by
+            // option or the frame needs what that path does not write (a
+            // rotation; centres absolute only by option).
+            let arc = match m.kind {
+                MotionKind::Arc(a)
+                    if options.arcs_as_arcs
+                        && frame.rotation_deg == 0.0
+                        && !(frame.arc_absolute && frame.arc_absolute_by_option) =>
+                {
+                    Some(a)
+                }
+                _ => None,
+            };
             let options = &CompensateOptions {
-                arcs_as_arcs: false,
+                arcs_as_arcs: arc.is_some(),
                 ..*options
             };
             check_target_count(m, options, file, line)?;
-            let targets = targets_of(m, options, model, self.s)
-                .map_err(|source| model_error(file, line, source))?;
+            let (targets, pieces) = match arc {
+                Some(a) => {
+                    let pieces = self.pieces_of_arc(&a, model, options, file, line)?;
+                    let targets = pieces
+                        .iter()
+                        .map(|l| if *l >= 1.0 { a.end } else { a.point_at(*l) })
+                        .collect();
+                    (targets, pieces)
+                }
+                None => (
+                    targets_of(m, options, model, self.s)
+                        .map_err(|source| model_error(file, line, source))?,
+                    Vec::new(),
+                ),
+            };
             let rapid = matches!(m.kind, MotionKind::Rapid);
             let mode = if rapid { OutMode::Rapid } else { OutMode::Feed };
             let from = self.q_out;
             let commands = self.solve_targets(
                 model, options, frame, frame, &targets, m.start, !rapid, file, line, on_point,
             )?;
+            let words = match arc {
+                Some(a) => self.arc_piece_words(
+                    &a, &pieces, &commands, from, model, options, frame, style, false, file, line,
+                )?,
+                None => Vec::new(),
+            };
             let mut pos = from;
-            for (q, take_up) in commands {
+            for (i, (q, take_up)) in commands.into_iter().enumerate() {
                 if let Some(tu) = take_up {
                     self.write_inserted(
                         frame,
@@ -219,18 +250,33 @@ impl State {
                     );
                     pos = tu;
                 }
-                self.write_inserted(
-                    frame,
-                    style,
-                    sep,
-                    pos,
-                    q,
-                    mode,
-                    tag_line,
-                    options.trace_comments,
-                    ending,
-                    "cutter comp",
-                );
+                if let Some(w) = words.get(i) {
+                    self.write_inserted_arc(
+                        frame,
+                        style,
+                        sep,
+                        pos,
+                        q,
+                        w,
+                        tag_line,
+                        options.trace_comments,
+                        ending,
+                        "cutter comp",
+                    );
+                } else {
+                    self.write_inserted(
+                        frame,
+                        style,
+                        sep,
+                        pos,
+                        q,
+                        mode,
+                        tag_line,
+                        options.trace_comments,
+                        ending,
+                        "cutter comp",
+                    );
+                }
                 pos = q;
             }
         }

@@ -257,27 +257,7 @@ pub fn compensate_program<R: BufRead>(
         let options = &line_options;
         check_target_count(&motion, options, file, ev.number)?;
         let pieces: Vec<f64> = match arc_nominal {
-            Some(arc) => {
-                let (tolerance_mm, min_length_mm) = targets::arc_tolerances(options);
-                let pieces = arcs::arc_pieces(
-                    &arc,
-                    model,
-                    st.s,
-                    tolerance_mm,
-                    min_length_mm,
-                    &mut st.estimate_mm,
-                )
-                .map_err(|source| model_error(file, ev.number, source))?;
-                crate::limits::check_points(pieces.len() as f64).map_err(|message| {
-                    CompensationError::AtLine {
-                        file: file.into(),
-                        line: ev.number,
-                        message,
-                        help: crate::error::help::TOO_MANY_POINTS.into(),
-                    }
-                })?;
-                pieces
-            }
+            Some(arc) => st.pieces_of_arc(&arc, model, options, file, ev.number)?,
             None => Vec::new(),
         };
         let targets = match arc_nominal {
@@ -321,42 +301,19 @@ pub fn compensate_program<R: BufRead>(
         // Arc pieces: the centre of each, through its compensated start,
         // middle and end (compensate/arcs.rs).
         let arc_words: Vec<ArcWords> = match arc_nominal {
-            Some(arc) => {
-                let radius_style = ev.lexed.words().any(|w| w.letter == b'R');
-                let (mut from, mut l_from) = (q_line_start, 0.0);
-                let mut words = Vec::with_capacity(commands.len());
-                for (i, (q, take_up)) in commands.iter().enumerate() {
-                    let start = take_up.unwrap_or(from);
-                    let piece = arcs::sub_arc(&arc, l_from, pieces[i]);
-                    let t_mid = piece.point_at(0.5);
-                    let q_mid = solve::solve_fixed(
-                        model,
-                        options.method,
-                        t_mid,
-                        st.states[i],
-                        [false; 3],
-                        Vec3::ZERO,
-                    )
-                    .map_err(|source| command_error(model, file, ev.number, t_mid, source))?
-                    .q_mm;
-                    words.push(ArcWords {
-                        center: arcs::piece_center(
-                            &piece,
-                            start,
-                            q_mid,
-                            *q,
-                            options.chord_tolerance_mm,
-                        ),
-                        plane: arc.plane,
-                        clockwise: arc.clockwise(),
-                        radius_style,
-                        absolute_centers: interp.arc_absolute(),
-                    });
-                    from = *q;
-                    l_from = pieces[i];
-                }
-                words
-            }
+            Some(arc) => st.arc_piece_words(
+                &arc,
+                &pieces,
+                &commands,
+                q_line_start,
+                model,
+                options,
+                &frame,
+                style,
+                ev.lexed.words().any(|w| w.letter == b'R'),
+                file,
+                ev.number,
+            )?,
             None => Vec::new(),
         };
         // Extra axes (A … W) of a split motion: each segment carries its share.
@@ -485,6 +442,7 @@ pub fn compensate_program<R: BufRead>(
                     ev.number,
                     options.trace_comments,
                     ending,
+                    "",
                 );
             } else {
                 if let Some(plan) = extra_plan.as_mut() {
