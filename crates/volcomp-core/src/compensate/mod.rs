@@ -188,7 +188,26 @@ pub fn compensate_program<R: BufRead>(
         }
         if ev.after_end || ev.kind != LineKind::Block || !program_motion || !all_known {
             let added = g53_words_to_add(&ev, all_known, options, survey);
-            if added.is_empty() {
+            let mut offset_edits = if all_known && !ev.after_end {
+                offset_setting_edits(&ev, st.q_out, options, survey)
+            } else {
+                Vec::new()
+            };
+            if !offset_edits.is_empty() {
+                // The machine is not at the nominal point (the last command
+                // carried its correction): a G92 or G10 L20 written as it
+                // was would take the correction into the offset it sets.
+                st.buf.clear();
+                apply_edits(ev.bytes, &mut offset_edits, &mut st.buf).map_err(|e| {
+                    CompensationError::AtLine {
+                        file: file.into(),
+                        line: ev.number,
+                        message: format!("internal edit error: {e}"),
+                        help: "please report this with the program line".into(),
+                    }
+                })?;
+                out.write_all(&st.buf)?;
+            } else if added.is_empty() {
                 out.write_all(ev.bytes)?;
             } else {
                 // The machine is not where the interpreter's G53 move starts
@@ -542,6 +561,58 @@ struct State {
     estimate_mm: f64,
     /// Block counting of the input and the output ([`size::Blocks`]).
     blocks_in: size::Blocks,
+}
+
+/// Edits of a line that sets an offset from the current point (G92, or
+/// G10 L20: "the current point has these coordinates"), so that the offset
+/// it sets in the written program is the original's: the written program
+/// stands at the last command `q_out`, not at the nominal point, and
+/// LinuxCNC (`convert_axis_offsets`, `convert_setup`, interp_convert.cc)
+/// makes the offset the difference between the current point and the words.
+/// Each X, Y, Z word gains the difference of the two points (program frame
+/// and units; in G7 an X word is a diameter). G10 L20 in a rotated system
+/// is left as it is.
+fn offset_setting_edits(
+    ev: &volcomp_gcode::LineEvent<'_>,
+    q_out: Vec3,
+    options: &CompensateOptions,
+    survey: &volcomp_gcode::number::StyleSurvey,
+) -> Vec<volcomp_gcode::edit::Edit> {
+    let mut edits = Vec::new();
+    if ev.kind != LineKind::Block || !ev.motions.is_empty() {
+        return edits;
+    }
+    let g = |v: f64| ev.lexed.words().any(|w| w.letter == b'G' && w.value == v);
+    let l20 = g(10.0)
+        && ev
+            .lexed
+            .words()
+            .any(|w| w.letter == b'L' && w.value == 20.0);
+    let (frame, style) = Frame::of(ev.interp, options, survey);
+    if !(g(92.0) || (l20 && frame.rotation_deg == 0.0)) {
+        return edits;
+    }
+    let d = frame.program(q_out) - frame.program(ev.interp.position());
+    let content = &ev.bytes[..volcomp_gcode::lexer::content_len(ev.bytes)];
+    for w in ev.lexed.words() {
+        if !matches!(w.letter, b'X' | b'Y' | b'Z') {
+            continue;
+        }
+        let a = usize::from(w.letter - b'X');
+        let k = if a == 0 { frame.x_word_scale } else { 1.0 };
+        if d[a] == 0.0 {
+            continue;
+        }
+        let own = volcomp_gcode::number::decimals_of(&content[w.value_span.clone()]);
+        let style = style.with_decimals(style.decimals.max(own.min(15)));
+        let mut text = String::new();
+        volcomp_gcode::number::format_number(w.value + d[a] * k, style, &mut text);
+        edits.push(volcomp_gcode::edit::Edit::replace(
+            w.value_span.clone(),
+            text,
+        ));
+    }
+    edits
 }
 
 /// The axis words a G53 line written as it is must gain so that the machine
