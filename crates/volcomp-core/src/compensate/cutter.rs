@@ -6,9 +6,28 @@
 //! be handed back to G41/G42: the controller would offset it again, by a
 //! radius measured along a different path. So every block run while
 //! compensation is on is written without its G40/G41/G42 (G41.1, G42.1), D,
-//! motion code and coordinate words, and its moves follow as compensated
-//! G0/G1 segments (arcs linearised within the chord tolerance), which the
-//! controller runs with compensation off.
+//! motion code and coordinate words, and its moves follow, compensated, as
+//! G0/G1 segments and G2/G3 arc pieces, which the controller runs with
+//! compensation off.
+//!
+//! A tool-centre arc (an offset arc of a program arc, radius ± the tool
+//! radius about the same centre, or a corner arc LinuxCNC inserts at a
+//! convex corner, radius = the tool radius about the programmed corner) is
+//! written as program arcs are (docs/compensation.md, "Arcs as arcs"; the
+//! shared [`State::pieces_of_arc`] and [`State::arc_piece_words`]): cut at
+//! quarter points, table points and by bisection against the contour
+//! tolerance, each piece's end compensated exactly, its centre that of the
+//! circle through the compensated start, middle and end, with take-ups
+//! between pieces. The pieces are inserted G2/G3 lines in the plane of the
+//! compensation (G17 or G18: LinuxCNC refuses a plane change while it is
+//! on), with I/J/K from the piece's start (G91.1) or absolute (G90.1) in
+//! the program's units and number style, X/Y/Z in the distance mode in
+//! effect where the line is written, as the inserted G0/G1 lines are. A
+//! piece whose sagitta is within the chord tolerance, or that LinuxCNC
+//! would not read as that arc (a tiny corner arc whose rounded ends cross),
+//! is written as a G1 to its compensated end. With `--arcs-as-lines`, or in
+//! a rotated frame, or with centres absolute only by option, tool-centre
+//! arcs are linearised within the chord tolerance.
 //!
 //! LinuxCNC gives a compensated move out one block late (it waits for the
 //! next move to know the corner): moves that come from an earlier block are

@@ -459,3 +459,60 @@ pub(super) fn has_feed<'a>(mut words: impl Iterator<Item = &'a Word>) -> bool {
 pub(super) fn stop_m_word<'a>(mut words: impl Iterator<Item = &'a Word>) -> Option<&'a Word> {
     words.find(|w| w.letter == b'M' && [0.0, 1.0, 2.0, 30.0, 60.0].contains(&w.value))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use volcomp_gcode::Plane;
+
+    fn frame(mm_per_unit: f64) -> Frame {
+        Frame {
+            offset_mm: Vec3::ZERO,
+            mm_per_unit,
+            decimals: 4,
+            absolute: true,
+            rotation_deg: 0.0,
+            before_mm: Vec3::ZERO,
+            after_mm: Vec3::ZERO,
+            x_word_scale: 1.0,
+            arc_absolute: false,
+            arc_absolute_by_option: false,
+        }
+    }
+
+    /// Whether the G3 from `a` to `b` about `c` (mm, XY) is read as meant,
+    /// written in mm (`k` = 1) or inch (`k` = 25.4) with 4 decimals.
+    fn readable(a: [f64; 2], b: [f64; 2], c: [f64; 2], k: f64) -> bool {
+        let w = ArcWords {
+            center: Some(Vec3::new(c[0], c[1], 0.0)),
+            plane: Plane::Xy,
+            clockwise: false,
+            radius_style: false,
+            absolute_centers: false,
+        };
+        let p = |v: [f64; 2]| Vec3::new(v[0], v[1], 0.0);
+        w.readable(&frame(k), NumberStyle::fixed(4), p(a), p(b))
+    }
+
+    #[test]
+    fn pieces_linuxcnc_would_misread_are_not_readable() {
+        // A quarter of radius 1 about the origin.
+        assert!(readable([1.0, 0.0], [0.0, 1.0], [0.0, 0.0], 1.0));
+        // Rounded ends 0.5 µm apart that crossed over: counter-clockwise
+        // from 0.0005 rad to 0 is almost a full turn as read.
+        assert!(!readable([1.0, 0.0005], [1.0, 0.0], [0.0, 0.0], 1.0));
+        // A chord of one step (0.1 µm).
+        assert!(!readable([1.0, 0.0], [1.0, 0.0001], [0.0, 0.0], 1.0));
+        // Radius 0.5 µm, below RADIUS_TOLERANCE (1.27 µm).
+        assert!(!readable([0.0, 0.0], [0.0005, 0.0005], [0.0005, 0.0], 1.0));
+        // End radius 1.05 against 1 at the start: 0.05 mm and 5 % apart,
+        // past the spiral tolerance in mm (0.028 mm) — refused; in inch
+        // (0.0028 in = 0.072 mm) accepted (both must be exceeded).
+        assert!(!readable([1.0, 0.0], [0.0, 1.05], [0.0, 0.0], 1.0));
+        assert!(readable([25.4, 0.0], [0.0, 25.4 + 0.05], [0.0, 0.0], 25.4));
+        // The centre is read from the rounded I: meant 1.26 µm from the
+        // start (below the 1.27 µm), written I0.0013, read 1.3 µm from the
+        // start and from the end (0.0013, −0.0013), a quarter turn.
+        assert!(readable([0.0, 0.0], [0.0013, -0.0013], [0.00126, 0.0], 1.0));
+    }
+}

@@ -413,4 +413,48 @@ mod tests {
         assert_eq!(b.pair(p(5.0), p(6.0), false), None);
         assert_eq!(trace_tag(b"G1 Z0 (volcomp L7 cycle)"), Some(7));
     }
+
+    /// A tool-centre path: a side to (10, 0), the corner arc about (10, 1)
+    /// to (11, 1). The side's last command, compensated, ends 1 µm past
+    /// the corner, (10.001, 0): 1 µm from the side's end but only
+    /// √(1 + 10⁻⁶) − 1 ≈ 0.5 nm from the arc's circle, so by its end alone
+    /// it would pair with the arc; its middle (7.5, 0) lies on the side and
+    /// 2.5 mm from the arc, so by both it pairs with the side.
+    #[test]
+    fn a_command_ending_at_a_corner_pairs_with_the_move_it_runs_along() {
+        let m = |kind, a: [f64; 2], b: [f64; 2]| Motion {
+            kind,
+            source: MotionSource::CutterComp,
+            start: Vec3::new(a[0], a[1], 0.0),
+            end: Vec3::new(b[0], b[1], 0.0),
+            line: 7,
+            column: 1,
+            feed: 100.0,
+            feed_mode: volcomp_gcode::FeedMode::PerMinute,
+            extra: Default::default(),
+        };
+        let corner = Arc {
+            start: Vec3::new(10.0, 0.0, 0.0),
+            end: Vec3::new(11.0, 1.0, 0.0),
+            center: Vec3::new(10.0, 1.0, 0.0),
+            plane: Plane::Xy,
+            sweep_rad: TAU / 4.0,
+        };
+        let motions = [
+            m(MotionKind::Feed, [0.0, 0.0], [10.0, 0.0]),
+            m(MotionKind::Arc(corner), [10.0, 0.0], [11.0, 1.0]),
+        ];
+        let (from, to) = (Vec3::new(5.0, 0.0, 0.0), Vec3::new(10.001, 0.0, 0.0));
+        let mid = (from + to) * 0.5;
+        let mut b = NominalBlock::new(7, &motions, true);
+        assert_eq!(b.pair(from, to, true), Some(1));
+        let mut b = NominalBlock::new(7, &motions, true);
+        assert_eq!(b.pair_via(from, Some(mid), to, true), Some(0));
+        // The arc's own command then pairs with the arc.
+        let arc_mid = corner.point_at(0.5);
+        assert_eq!(
+            b.pair_via(to, Some(arc_mid), Vec3::new(11.0, 1.0, 0.0), true),
+            Some(1)
+        );
+    }
 }
