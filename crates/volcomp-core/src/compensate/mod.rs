@@ -600,10 +600,11 @@ fn offset_setting_edits(
         }
         let a = usize::from(w.letter - b'X');
         let k = if a == 0 { frame.x_word_scale } else { 1.0 };
-        if d[a] == 0.0 {
+        let own = volcomp_gcode::number::decimals_of(&content[w.value_span.clone()]);
+        // Less than half a step of the written resolution: the word stays.
+        if (d[a] * k).abs() < 0.5 * 10f64.powi(-i32::from(style.decimals.max(own))) {
             continue;
         }
-        let own = volcomp_gcode::number::decimals_of(&content[w.value_span.clone()]);
         let style = style.with_decimals(style.decimals.max(own.min(15)));
         let mut text = String::new();
         volcomp_gcode::number::format_number(w.value + d[a] * k, style, &mut text);
