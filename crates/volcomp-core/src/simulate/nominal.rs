@@ -171,6 +171,28 @@ impl NominalBlock {
     /// With the command's middle `mid`, the score is the mean of the
     /// distances of the end and the middle.
     fn pair_nearest(&mut self, mid: Option<Vec3>, to: Vec3, feed: bool) -> Option<usize> {
+        self.nearest(mid, to, feed).map(|(_, j)| j)
+    }
+
+    /// Whether this is a block of the cutter-compensated tool-centre path.
+    pub fn is_cutter(&self) -> bool {
+        self.motions
+            .iter()
+            .any(|m| m.source == volcomp_gcode::MotionSource::CutterComp)
+    }
+
+    /// The score (mm) by which a command would pair with this block's
+    /// nearest motion ([`Self::pair_via`] on a cutter-compensated block),
+    /// or `None` when none is near enough; the block's pairing state is
+    /// left as it was.
+    pub fn nearest_mm(&mut self, mid: Option<Vec3>, to: Vec3, feed: bool) -> Option<f64> {
+        let hint = self.arc_hint;
+        let d = self.nearest(mid, to, feed).map(|(d, _)| d);
+        self.arc_hint = hint;
+        d
+    }
+
+    fn nearest(&mut self, mid: Option<Vec3>, to: Vec3, feed: bool) -> Option<(f64, usize)> {
         let mut best: Option<(f64, usize)> = None;
         for j in self.current.unwrap_or(0)..self.motions.len() {
             if is_feed_like(&self.motions[j]) != feed {
@@ -185,7 +207,6 @@ impl NominalBlock {
             }
         }
         best.filter(|(b, _)| *b <= SPLINE_PAIRING_MM)
-            .map(|(_, j)| j)
     }
 
     /// Pairs written motion `i` of a line that is this block's own line,
