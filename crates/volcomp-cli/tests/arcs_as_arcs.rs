@@ -4,7 +4,9 @@
 //! be accepted by LinuxCNC's `rs274` (its radius-consistency rule of
 //! interp_arc.cc `arc_data_ijk`/`arc_data_r` included), keep its arcs as
 //! G2/G3, be far smaller than the linearised output, and follow the nominal
-//! path (`volcomp simulate --reference`) within 0.5 µm.
+//! path (`volcomp simulate --reference`) within 0.5 µm. The same for the
+//! tool-centre arcs of cutter-compensated programs (LinuxCNC's own test
+//! programs among them).
 //!
 //! Without rs274 the acceptance part is skipped loudly, except when `CI`
 //! is set: there it fails.
@@ -197,6 +199,125 @@ fn arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
             );
             let arc_feeds = text.matches("ARC_FEED").count();
             assert_eq!(arc_feeds, arcs, "{name}: {text}");
+        }
+    }
+}
+
+/// LinuxCNC's cutter radius compensation test programs and the project's
+/// own (tests/fixtures/rs274, see tests/corpus/SOURCES.md).
+const CUTTER_FIXTURES: &[&str] = &[
+    "cutter_comp_g41_1_g18.ngc",
+    "cutter_comp_units_switch.ngc",
+    "linuxcnc_ccomp_crazy_paths.ngc",
+    "linuxcnc_ccomp_inside_corners.ngc",
+    "linuxcnc_ccomp_mill_g90g91g92.ngc",
+    "linuxcnc_ccomp_mill_line_arc_entry.ngc",
+    "linuxcnc_ccomp_mill_zchanges.ngc",
+];
+
+/// Those that move before they set every axis (LinuxCNC's tests never set
+/// Z, the units test neither): their first moves are written unchanged
+/// (docs/compensation.md: where the machine starts is not the program's to
+/// say), so the first compensated move starts off the path by the map's
+/// error there, up to 3 µm with the ripple map.
+const MOVE_BEFORE_EVERY_AXIS_IS_SET: &[&str] = &[
+    "cutter_comp_units_switch.ngc",
+    "linuxcnc_ccomp_crazy_paths.ngc",
+    "linuxcnc_ccomp_mill_line_arc_entry.ngc",
+];
+
+/// Cutter-compensated programs keep their tool-centre arcs (offset arcs and
+/// corner arcs) as arcs: with the ripple map every output is accepted by
+/// rs274 (which reads as many arcs as it has G2/G3 lines), is far smaller
+/// than the linearised one (`--arcs-as-lines`), and follows the original's
+/// tool-centre path (`simulate --reference`) as closely as the linearised
+/// one does: contour max within 0.5 µm (the bound of the test above),
+/// except at the uncompensated start of the programs that move before they
+/// set every axis, and there no farther than the linearised output.
+#[test]
+fn cutter_compensated_arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
+    let dir = common::tempdir("cutter_arcs");
+    let d = dir.as_path();
+    std::fs::write(d.join("ripple.csv"), ripple_map()).unwrap();
+    std::fs::write(d.join("setup.toml"), rs274::setup_toml()).unwrap();
+    std::fs::write(d.join("tools.tbl"), rs274::rs274_tool_table()).unwrap();
+    let tools = rs274::find_rs274().map(|rs274| rs274::Tools {
+        rs274,
+        volcomp: env!("CARGO_BIN_EXE_volcomp").into(),
+        dir: d.to_path_buf(),
+        setup: d.join("setup.toml"),
+        tool_table: d.join("tools.tbl"),
+        var_text: rs274::rs274_var_file(),
+    });
+    if tools.is_none() {
+        assert!(std::env::var_os("CI").is_none(), "rs274 is required in CI");
+        eprintln!("SKIPPED the rs274 part: rs274 not found");
+    }
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/rs274");
+    let common = ["--map", "ripple.csv", "--setup", "setup.toml"];
+    for name in CUTTER_FIXTURES {
+        let original = fixtures.join(name);
+        let original = original.to_str().unwrap();
+        let (arcs, lines) = (format!("{name}.arcs.ngc"), format!("{name}.lines.ngc"));
+        let mut args = vec!["compensate", original, "-o", &arcs];
+        args.extend(common);
+        volcomp(&args, d);
+        let mut args = vec!["compensate", original, "--arcs-as-lines", "-o", &lines];
+        args.extend(common);
+        volcomp(&args, d);
+        let written = std::fs::read_to_string(d.join(&arcs)).unwrap();
+        let linear = std::fs::read_to_string(d.join(&lines)).unwrap();
+        let arc_lines = written
+            .lines()
+            .filter(|l| {
+                l.contains("cutter comp") && l.split_whitespace().any(|w| matches!(w, "G2" | "G3"))
+            })
+            .count();
+        assert!(arc_lines >= 1, "{name}: no tool-centre arc\n{written}");
+        assert!(
+            blocks(&written) * 3 < blocks(&linear),
+            "{name}: {} blocks as arcs, {} as lines",
+            blocks(&written),
+            blocks(&linear)
+        );
+        let judge = |out: &str| {
+            let mut args = vec!["simulate", out, "--reference", original, "--json"];
+            args.extend(common);
+            contour(&volcomp(&args, d))
+        };
+        let ((rms, max), (rms_lines, max_lines)) = (judge(&arcs), judge(&lines));
+        assert!(
+            rms <= rms_lines + 0.01,
+            "{name}: contour rms {rms} µm as arcs, {rms_lines} µm as lines"
+        );
+        if MOVE_BEFORE_EVERY_AXIS_IS_SET.contains(name) {
+            assert!(
+                max <= max_lines + 0.01 && rms <= 0.2,
+                "{name}: contour max {max} µm (as lines {max_lines}), rms {rms} µm"
+            );
+        } else {
+            assert!(max <= 0.5, "{name}: contour max {max} µm");
+        }
+        if let Some(tools) = &tools {
+            let run =
+                rs274::run_rs274(tools, &d.join(&arcs), &d.join(format!("rs-{name}"))).unwrap();
+            assert!(
+                run.rejected.is_none(),
+                "{name}: rs274 refuses the compensated program: {:?}\n{written}",
+                run.rejected
+            );
+            let arc_feeds = run
+                .motions
+                .iter()
+                .filter(|m| matches!(m.kind, rs274::Kind::ArcCw | rs274::Kind::ArcCcw))
+                .count();
+            // As many arcs as volcomp's own reading of the output has.
+            let moves = volcomp(&["moves", &arcs, "--setup", "setup.toml", "--quiet"], d);
+            let read = moves
+                .lines()
+                .filter(|l| l.contains(",arc_cw,") || l.contains(",arc_ccw,"))
+                .count();
+            assert_eq!(arc_feeds, read, "{name}");
         }
     }
 }

@@ -108,6 +108,30 @@ fn a_constant_offset_is_subtracted_from_every_point() {
     assert!(out.ends_with("M2\n"));
 }
 
+/// G92 (and G10 L20) set an offset from the current point. After a
+/// compensated move the written program stands at the command, 5 µm short
+/// in X of the nominal point (a constant +5 µm X error): `G92 X0` written
+/// as it is would make the offset 9.995 instead of 10 and carry the
+/// correction into every later point. Written as `G92 X-0.005` the offset
+/// is 9.995 − (−0.005) = 10, and `X5` then runs to 14.995 (15 − 5 µm).
+#[test]
+fn offsets_set_from_the_current_point_keep_the_nominal_offset() {
+    let map = map_from(|a, _, _| if a == 0 { [5.0, 0.0, 0.0] } else { [0.0; 3] });
+    let opts = CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    };
+    for set in ["G92", "G10 L20 P1"] {
+        let program = format!("G21 G90\nG0 X10 Y0 Z0\n{set} X0\nG1 X5 F100\nM2\n");
+        let (out, _) = compensate(&program, &map, opts);
+        let line = out.lines().find(|l| l.starts_with(set)).unwrap();
+        let x: f64 = line[line.find('X').unwrap() + 1..].parse().unwrap();
+        assert!((x + 0.005).abs() < 1e-12, "{out}");
+        let last = ends(&out).last().unwrap().1;
+        assert!((last.x - 14.995).abs() < 1e-9, "{last:?}\n{out}");
+    }
+}
+
 #[test]
 fn hand_interpolated_pitch_error_is_solved_exactly() {
     // E_XX grows 0.1 µm per mm: at the target X = 40, q + 0.0001·q = 40, so

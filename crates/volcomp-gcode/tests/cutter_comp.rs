@@ -117,6 +117,27 @@ fn refusals_have_linuxcncs_messages() {
         e.contains("Cutter radius compensation allowed only in XY, XZ planes"),
         "{e}"
     );
+    // A plane change is refused even with the G40 that turns compensation
+    // off in the same block (rs274: the plane is set at step 11, G40 at 13).
+    for block in ["G18", "G18 G40 G1 X20 Y-5"] {
+        let e = message(&format!(
+            "G21 F100\nG0 X0 Y-5\nG41.1 D2 G1 X0 Y0\nX10\n{block}\nM2\n"
+        ));
+        assert!(
+            e.contains("t.ngc:5:")
+                && e.contains("Cannot change planes with cutter radius compensation on"),
+            "{block}: {e}"
+        );
+    }
+    // What comes after G40 in LinuxCNC's order passes in G40's block, as
+    // in rs274 (G55 and G43 H1 with G40: the exit move runs).
+    for block in ["G40 G55 G1 X20 Y-5", "G40 G43 H1 G1 X20 Y-5"] {
+        let mut s = Setup::default();
+        s.tool_lengths_mm.insert(1, 10.0);
+        let program = format!("G21 F100\nG0 X0 Y-5\nG41.1 D2 G1 X0 Y0\nX10\n{block}\nM2\n");
+        let r = run_with(&program, s);
+        assert!(r.is_ok(), "{block}: {r:?}");
+    }
     let e = message("G21 F100\nG41.1 D2\nG55\nM2\n");
     assert!(
         e.contains("Cannot change coordinate systems with cutter radius compensation on"),

@@ -10,11 +10,15 @@
 //! start, the compensated middle and the compensated end, so the actual path
 //! lands on the nominal arc at three points of every piece.
 
-use crate::error::ModelError;
+use super::frame::Frame;
+use super::lines::ArcWords;
+use super::{command_error, model_error, solve, CompensateOptions, State};
+use crate::error::{CompensationError, ModelError};
 use crate::model::{Components, Direction, Directions, ErrorModel};
 use crate::simulate::next_state;
 use crate::simulate::nominal::arc_distance_mm;
 use std::f64::consts::{FRAC_PI_2, TAU};
+use volcomp_gcode::number::NumberStyle;
 use volcomp_gcode::{Arc, Vec3};
 
 /// Pieces (and table crossings) generated at most for one arc: past
@@ -464,6 +468,128 @@ fn bisect_arc(
     });
     out.push(b);
     Ok(())
+}
+
+impl State {
+    /// The end parameters of the pieces of `arc` ([`arc_pieces`]) from the
+    /// current direction state, with the options' contour tolerance and
+    /// shortest piece; refused past [`crate::limits::MAX_POINTS_PER_BLOCK`].
+    /// Raises the estimate of the contour error left.
+    pub(super) fn pieces_of_arc(
+        &mut self,
+        arc: &Arc,
+        model: &dyn ErrorModel,
+        options: &CompensateOptions,
+        file: &str,
+        line: u64,
+    ) -> Result<Vec<f64>, CompensationError> {
+        let (tolerance_mm, min_length_mm) = super::targets::arc_tolerances(options);
+        let pieces = arc_pieces(
+            arc,
+            model,
+            self.s,
+            tolerance_mm,
+            min_length_mm,
+            &mut self.estimate_mm,
+        )
+        .map_err(|source| model_error(file, line, source))?;
+        crate::limits::check_points(pieces.len() as f64).map_err(|message| {
+            CompensationError::AtLine {
+                file: file.into(),
+                line,
+                message,
+                help: crate::error::help::TOO_MANY_POINTS.into(),
+            }
+        })?;
+        // Reversals at quarter points are taken up on ramps where they can
+        // be folded ([`take_up_ramps`]); the next solve takes the ramps.
+        if options.take_up
+            && options.fold_take_ups
+            && options.directions == super::DirectionPolicy::Commanded
+        {
+            let (pieces, ramps) = take_up_ramps(
+                arc,
+                &pieces,
+                model,
+                self.s,
+                options.fold_tolerance_mm(),
+                min_length_mm,
+            )
+            .map_err(|source| model_error(file, line, source))?;
+            self.ramps = ramps;
+            return Ok(pieces);
+        }
+        Ok(pieces)
+    }
+
+    /// How each solved piece of `arc` is written (module documentation):
+    /// `commands` are the solved ends of `pieces` (each with the take-up
+    /// written before it), the first starting at `from`; the direction
+    /// state of each is that of the last [`State::solve_targets`]. A piece
+    /// is written as a G1 to its compensated end (no centre) when its
+    /// sagitta is within the chord tolerance ([`piece_center`]), or when
+    /// the controller would not read the written words as that piece
+    /// ([`ArcWords::readable`]: a zero radius, start and end radii that
+    /// LinuxCNC refuses as different, a chord shorter than two steps of the
+    /// written resolution, or rounded ends that turn the piece into (nearly)
+    /// a full circle). The chord error of such a line is the piece's
+    /// sagitta: within the chord tolerance in the first case; in the
+    /// second it is added to the estimate of the contour error left (for a
+    /// chord of two steps, 0.2 µm in mm, on LinuxCNC's smallest radius
+    /// 1.27 µm it is at most `c²/(8r)` ≈ 0.004 µm).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn arc_piece_words(
+        &mut self,
+        arc: &Arc,
+        pieces: &[f64],
+        commands: &[(Vec3, Option<Vec3>)],
+        from: Vec3,
+        model: &dyn ErrorModel,
+        options: &CompensateOptions,
+        frame: &Frame,
+        style: NumberStyle,
+        radius_style: bool,
+        file: &str,
+        line: u64,
+    ) -> Result<Vec<ArcWords>, CompensationError> {
+        let (mut from, mut l_from) = (from, 0.0);
+        let mut words = Vec::with_capacity(commands.len());
+        let ramps = std::mem::take(&mut self.ramps_written);
+        for (i, (q, take_up)) in commands.iter().enumerate() {
+            let start = take_up.unwrap_or(from);
+            let piece = sub_arc(arc, l_from, pieces[i]);
+            let t_mid = piece.point_at(0.5);
+            let q_mid = solve::solve_fixed(
+                model,
+                options.method,
+                t_mid,
+                self.states[i],
+                [false; 3],
+                Vec3::ZERO,
+            )
+            .map_err(|source| command_error(model, file, line, t_mid, source))?
+            .q_mm;
+            let mut w = ArcWords {
+                center: piece_center(&piece, start, q_mid, *q, options.chord_tolerance_mm),
+                plane: arc.plane,
+                clockwise: arc.clockwise(),
+                radius_style,
+                absolute_centers: frame.arc_absolute,
+            };
+            // A take-up ramp is written as its chord.
+            if ramps.iter().any(|r| r.index == i) {
+                w.center = None;
+            }
+            if w.center.is_some() && !w.readable(frame, style, start, *q) {
+                w.center = None;
+                self.estimate_mm = self.estimate_mm.max(sagitta_mm(&piece));
+            }
+            words.push(w);
+            from = *q;
+            l_from = pieces[i];
+        }
+        Ok(words)
+    }
 }
 
 #[cfg(test)]

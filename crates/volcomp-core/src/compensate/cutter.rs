@@ -6,9 +6,28 @@
 //! be handed back to G41/G42: the controller would offset it again, by a
 //! radius measured along a different path. So every block run while
 //! compensation is on is written without its G40/G41/G42 (G41.1, G42.1), D,
-//! motion code and coordinate words, and its moves follow as compensated
-//! G0/G1 segments (arcs linearised within the chord tolerance), which the
-//! controller runs with compensation off.
+//! motion code and coordinate words, and its moves follow, compensated, as
+//! G0/G1 segments and G2/G3 arc pieces, which the controller runs with
+//! compensation off.
+//!
+//! A tool-centre arc (an offset arc of a program arc, radius ± the tool
+//! radius about the same centre, or a corner arc LinuxCNC inserts at a
+//! convex corner, radius = the tool radius about the programmed corner) is
+//! written as program arcs are (docs/compensation.md, "Arcs as arcs"; the
+//! shared [`State::pieces_of_arc`] and [`State::arc_piece_words`]): cut at
+//! quarter points, table points and by bisection against the contour
+//! tolerance, each piece's end compensated exactly, its centre that of the
+//! circle through the compensated start, middle and end, with take-ups
+//! between pieces. The pieces are inserted G2/G3 lines in the plane of the
+//! compensation (G17 or G18: LinuxCNC refuses a plane change while it is
+//! on), with I/J/K from the piece's start (G91.1) or absolute (G90.1) in
+//! the program's units and number style, X/Y/Z in the distance mode in
+//! effect where the line is written, as the inserted G0/G1 lines are. A
+//! piece whose sagitta is within the chord tolerance, or that LinuxCNC
+//! would not read as that arc (a tiny corner arc whose rounded ends cross),
+//! is written as a G1 to its compensated end. With `--arcs-as-lines`, or in
+//! a rotated frame, or with centres absolute only by option, tool-centre
+//! arcs are linearised within the chord tolerance.
 //!
 //! LinuxCNC gives a compensated move out one block late (it waits for the
 //! next move to know the corner): moves that come from an earlier block are
@@ -186,16 +205,41 @@ impl State {
                 self.buf.extend_from_slice(ending);
                 self.summary.lines_out += 1;
             }
-            // The tool-centre path is written as G0/G1 segments: its arcs
-            // (corner arcs and offset arcs) are linearised, whatever the
-            // program's other arcs do.
+            // A tool-centre arc (an offset arc of a program arc, or a corner
+            // arc) is written as compensated pieces of itself, as program
+            // arcs are (compensate/arcs.rs), unless arcs are linearised by
+            // option or the frame needs what that path does not write (a
+            // rotation; centres absolute only by option).
+            let arc = match m.kind {
+                MotionKind::Arc(a)
+                    if options.arcs_as_arcs
+                        && frame.rotation_deg == 0.0
+                        && !(frame.arc_absolute && frame.arc_absolute_by_option) =>
+                {
+                    Some(a)
+                }
+                _ => None,
+            };
             let options = &CompensateOptions {
-                arcs_as_arcs: false,
+                arcs_as_arcs: arc.is_some(),
                 ..*options
             };
             check_target_count(m, options, file, line)?;
-            let mut targets = targets_of(m, options, model, self.s)
-                .map_err(|source| model_error(file, line, source))?;
+            let (mut targets, pieces) = match arc {
+                Some(a) => {
+                    let pieces = self.pieces_of_arc(&a, model, options, file, line)?;
+                    let targets = pieces
+                        .iter()
+                        .map(|l| if *l >= 1.0 { a.end } else { a.point_at(*l) })
+                        .collect();
+                    (targets, pieces)
+                }
+                None => (
+                    targets_of(m, options, model, self.s)
+                        .map_err(|source| model_error(file, line, source))?,
+                    Vec::new(),
+                ),
+            };
             let rapid = matches!(m.kind, MotionKind::Rapid);
             let mode = if rapid { OutMode::Rapid } else { OutMode::Feed };
             let from = self.q_out;
@@ -212,8 +256,14 @@ impl State {
                 line,
                 on_point,
             )?;
+            let words = match arc {
+                Some(a) => self.arc_piece_words(
+                    &a, &pieces, &commands, from, model, options, frame, style, false, file, line,
+                )?,
+                None => Vec::new(),
+            };
             let mut pos = from;
-            for (q, take_up) in commands {
+            for (i, (q, take_up)) in commands.into_iter().enumerate() {
                 if let Some(tu) = take_up {
                     self.write_inserted(
                         frame,
@@ -229,18 +279,33 @@ impl State {
                     );
                     pos = tu;
                 }
-                self.write_inserted(
-                    frame,
-                    style,
-                    sep,
-                    pos,
-                    q,
-                    mode,
-                    tag_line,
-                    options.trace_comments,
-                    ending,
-                    "cutter comp",
-                );
+                if let Some(w) = words.get(i) {
+                    self.write_inserted_arc(
+                        frame,
+                        style,
+                        sep,
+                        pos,
+                        q,
+                        w,
+                        tag_line,
+                        options.trace_comments,
+                        ending,
+                        "cutter comp",
+                    );
+                } else {
+                    self.write_inserted(
+                        frame,
+                        style,
+                        sep,
+                        pos,
+                        q,
+                        mode,
+                        tag_line,
+                        options.trace_comments,
+                        ending,
+                        "cutter comp",
+                    );
+                }
                 pos = q;
             }
         }

@@ -30,6 +30,10 @@ pub(super) struct Frame {
     /// Written X word per program X: 2 in lathe diameter mode (G7), where
     /// an X word is a diameter, else 1.
     pub(super) x_word_scale: f64,
+    /// Arc centres (I, J, K) are absolute (G90.1), and whether only by
+    /// option (`--absolute-arc-centers`: the program does not say so).
+    pub(super) arc_absolute: bool,
+    pub(super) arc_absolute_by_option: bool,
 }
 
 impl Frame {
@@ -58,6 +62,8 @@ impl Frame {
             before_mm: interp.frame_parts_mm().0,
             after_mm: interp.frame_parts_mm().1,
             x_word_scale: if interp.diameter_mode() { 2.0 } else { 1.0 },
+            arc_absolute: interp.arc_absolute(),
+            arc_absolute_by_option: interp.arc_absolute_by_option(),
         };
         (frame, survey.style(decimals))
     }
@@ -208,6 +214,8 @@ mod tests {
             before_mm: Vec3::new(1.0, 0.0, 0.0),
             after_mm: Vec3::new(10.0, 5.0, 2.0),
             x_word_scale: 1.0,
+            arc_absolute: false,
+            arc_absolute_by_option: false,
         }
     }
 

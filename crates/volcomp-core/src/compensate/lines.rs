@@ -53,6 +53,60 @@ impl ArcWords {
         }
     }
 
+    /// Whether LinuxCNC reads the piece written from `from` to `q` (axis
+    /// points on the written grid) with these words as the intended arc of
+    /// at most half a turn. The centre is taken as the controller reads it
+    /// from the rounded I/J/K words (for R, the circle through the ends:
+    /// only the radius and the chord are checked); refused, as
+    /// `arc_data_ijk` (src/emc/rs274ngc/interp_arc.cc) refuses them:
+    /// a radius below `RADIUS_TOLERANCE_INCH` (0.00005 in, also in mm), or
+    /// start and end radii that differ by more than 100 × the spiral
+    /// tolerance, or by more than 0.1 % and the spiral tolerance
+    /// (`CENTER_ARC_RADIUS_TOLERANCE_*`, interp_internal.hh: 2·0.01·√2 mm,
+    /// 2·0.001·√2 in). Also refused here: a chord shorter than two steps of
+    /// the written resolution, and a sweep as read of half a turn or more
+    /// (pieces turn at most a quarter: the rounded ends crossed over, and
+    /// the controller would run the long way round, a full circle when
+    /// they coincide).
+    pub(super) fn readable(&self, frame: &Frame, style: NumberStyle, from: Vec3, q: Vec3) -> bool {
+        let Some(c) = self.center else {
+            return true;
+        };
+        let (u, v, _) = self.plane.axes();
+        let k = frame.mm_per_unit;
+        let step_mm = 10f64.powi(-i32::from(style.decimals)) * k;
+        let chord_mm = (q[u] - from[u]).hypot(q[v] - from[v]);
+        let inch = (k - 1.0).abs() > 1e-9;
+        let radius_tolerance_mm = 0.00005 * 25.4;
+        let spiral_mm = if inch { 0.002 } else { 0.02 } * std::f64::consts::SQRT_2 * k;
+        if chord_mm < 2.0 * step_mm {
+            return false;
+        }
+        let mut read = c;
+        if !self.radius_style {
+            let round = |x: f64| (x / step_mm).round() * step_mm;
+            for a in [u, v] {
+                read[a] = if self.absolute_centers {
+                    frame.offset_mm[a] + round(c[a] - frame.offset_mm[a])
+                } else {
+                    from[a] + round(c[a] - from[a])
+                };
+            }
+        }
+        let r1 = (from[u] - read[u]).hypot(from[v] - read[v]);
+        let r2 = (q[u] - read[u]).hypot(q[v] - read[v]);
+        if r1.min(r2) < radius_tolerance_mm {
+            return false;
+        }
+        let abs_err = (r1 - r2).abs();
+        if abs_err > 100.0 * spiral_mm || (abs_err / r1.max(r2) > 0.001 && abs_err > spiral_mm) {
+            return false;
+        }
+        let angle = |p: Vec3| (p[v] - read[v]).atan2(p[u] - read[u]);
+        let sweep = volcomp_gcode::arc::sweep_angle(angle(from), angle(q), self.clockwise, 1);
+        sweep.abs() < std::f64::consts::PI
+    }
+
     /// The centre words (` I… J…`, or ` R…`) of the piece from `from`, in
     /// the frame's units; empty for a chord.
     pub(super) fn text(&self, frame: &Frame, style: NumberStyle, sep: &str, from: Vec3) -> String {
@@ -144,7 +198,8 @@ impl State {
 
     /// Writes one compensated arc piece from `from` to `q` as an inserted
     /// line (`G2`/`G3` always written, both axes of the plane, the helix
-    /// axis where it moves, the centre words), or as a G1 chord.
+    /// axis where it moves, the centre words), or as a G1 chord; `note`
+    /// follows the line number in the trace comment.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn write_inserted_arc(
         &mut self,
@@ -157,6 +212,7 @@ impl State {
         line: u64,
         trace: bool,
         ending: &[u8],
+        note: &str,
     ) {
         if arc.center.is_none() {
             self.write_inserted(
@@ -169,7 +225,7 @@ impl State {
                 line,
                 trace,
                 ending,
-                "",
+                note,
             );
             return;
         }
@@ -189,7 +245,11 @@ impl State {
         self.text.push_str(&centre);
         if trace {
             self.text.push_str(sep);
-            self.text.push_str(&format!("(volcomp L{line})"));
+            if note.is_empty() {
+                self.text.push_str(&format!("(volcomp L{line})"));
+            } else {
+                self.text.push_str(&format!("(volcomp L{line} {note})"));
+            }
         }
         if !self.buf.is_empty() && !self.buf.ends_with(b"\n") {
             self.buf.extend_from_slice(b"\n");
@@ -398,4 +458,61 @@ pub(super) fn has_feed<'a>(mut words: impl Iterator<Item = &'a Word>) -> bool {
 
 pub(super) fn stop_m_word<'a>(mut words: impl Iterator<Item = &'a Word>) -> Option<&'a Word> {
     words.find(|w| w.letter == b'M' && [0.0, 1.0, 2.0, 30.0, 60.0].contains(&w.value))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use volcomp_gcode::Plane;
+
+    fn frame(mm_per_unit: f64) -> Frame {
+        Frame {
+            offset_mm: Vec3::ZERO,
+            mm_per_unit,
+            decimals: 4,
+            absolute: true,
+            rotation_deg: 0.0,
+            before_mm: Vec3::ZERO,
+            after_mm: Vec3::ZERO,
+            x_word_scale: 1.0,
+            arc_absolute: false,
+            arc_absolute_by_option: false,
+        }
+    }
+
+    /// Whether the G3 from `a` to `b` about `c` (mm, XY) is read as meant,
+    /// written in mm (`k` = 1) or inch (`k` = 25.4) with 4 decimals.
+    fn readable(a: [f64; 2], b: [f64; 2], c: [f64; 2], k: f64) -> bool {
+        let w = ArcWords {
+            center: Some(Vec3::new(c[0], c[1], 0.0)),
+            plane: Plane::Xy,
+            clockwise: false,
+            radius_style: false,
+            absolute_centers: false,
+        };
+        let p = |v: [f64; 2]| Vec3::new(v[0], v[1], 0.0);
+        w.readable(&frame(k), NumberStyle::fixed(4), p(a), p(b))
+    }
+
+    #[test]
+    fn pieces_linuxcnc_would_misread_are_not_readable() {
+        // A quarter of radius 1 about the origin.
+        assert!(readable([1.0, 0.0], [0.0, 1.0], [0.0, 0.0], 1.0));
+        // Rounded ends 0.5 µm apart that crossed over: counter-clockwise
+        // from 0.0005 rad to 0 is almost a full turn as read.
+        assert!(!readable([1.0, 0.0005], [1.0, 0.0], [0.0, 0.0], 1.0));
+        // A chord of one step (0.1 µm).
+        assert!(!readable([1.0, 0.0], [1.0, 0.0001], [0.0, 0.0], 1.0));
+        // Radius 0.5 µm, below RADIUS_TOLERANCE (1.27 µm).
+        assert!(!readable([0.0, 0.0], [0.0005, 0.0005], [0.0005, 0.0], 1.0));
+        // End radius 1.05 against 1 at the start: 0.05 mm and 5 % apart,
+        // past the spiral tolerance in mm (0.028 mm) — refused; in inch
+        // (0.0028 in = 0.072 mm) accepted (both must be exceeded).
+        assert!(!readable([1.0, 0.0], [0.0, 1.05], [0.0, 0.0], 1.0));
+        assert!(readable([25.4, 0.0], [0.0, 25.4 + 0.05], [0.0, 0.0], 25.4));
+        // The centre is read from the rounded I: meant 1.26 µm from the
+        // start (below the 1.27 µm), written I0.0013, read 1.3 µm from the
+        // start and from the end (0.0013, −0.0013), a quarter turn.
+        assert!(readable([0.0, 0.0], [0.0013, -0.0013], [0.00126, 0.0], 1.0));
+    }
 }

@@ -191,7 +191,26 @@ pub fn compensate_program<R: BufRead>(
         }
         if ev.after_end || ev.kind != LineKind::Block || !program_motion || !all_known {
             let added = g53_words_to_add(&ev, all_known, options, survey);
-            if added.is_empty() {
+            let mut offset_edits = if all_known && !ev.after_end {
+                offset_setting_edits(&ev, st.q_out, options, survey)
+            } else {
+                Vec::new()
+            };
+            if !offset_edits.is_empty() {
+                // The machine is not at the nominal point (the last command
+                // carried its correction): a G92 or G10 L20 written as it
+                // was would take the correction into the offset it sets.
+                st.buf.clear();
+                apply_edits(ev.bytes, &mut offset_edits, &mut st.buf).map_err(|e| {
+                    CompensationError::AtLine {
+                        file: file.into(),
+                        line: ev.number,
+                        message: format!("internal edit error: {e}"),
+                        help: "please report this with the program line".into(),
+                    }
+                })?;
+                out.write_all(&st.buf)?;
+            } else if added.is_empty() {
                 out.write_all(ev.bytes)?;
             } else {
                 // The machine is not where the interpreter's G53 move starts
@@ -260,45 +279,7 @@ pub fn compensate_program<R: BufRead>(
         let options = &line_options;
         check_target_count(&motion, options, file, ev.number)?;
         let pieces: Vec<f64> = match arc_nominal {
-            Some(arc) => {
-                let (tolerance_mm, min_length_mm) = targets::arc_tolerances(options);
-                let pieces = arcs::arc_pieces(
-                    &arc,
-                    model,
-                    st.s,
-                    tolerance_mm,
-                    min_length_mm,
-                    &mut st.estimate_mm,
-                )
-                .map_err(|source| model_error(file, ev.number, source))?;
-                crate::limits::check_points(pieces.len() as f64).map_err(|message| {
-                    CompensationError::AtLine {
-                        file: file.into(),
-                        line: ev.number,
-                        message,
-                        help: crate::error::help::TOO_MANY_POINTS.into(),
-                    }
-                })?;
-                if options.take_up
-                    && options.fold_take_ups
-                    && options.directions == DirectionPolicy::Commanded
-                    && !matches!(motion.kind, MotionKind::Rapid)
-                {
-                    let (pieces, ramps) = arcs::take_up_ramps(
-                        &arc,
-                        &pieces,
-                        model,
-                        st.s,
-                        options.fold_tolerance_mm(),
-                        min_length_mm,
-                    )
-                    .map_err(|source| model_error(file, ev.number, source))?;
-                    st.ramps = ramps;
-                    pieces
-                } else {
-                    pieces
-                }
-            }
+            Some(arc) => st.pieces_of_arc(&arc, model, options, file, ev.number)?,
             None => Vec::new(),
         };
         let mut targets = match arc_nominal {
@@ -351,43 +332,19 @@ pub fn compensate_program<R: BufRead>(
         // Arc pieces: the centre of each, through its compensated start,
         // middle and end (compensate/arcs.rs).
         let arc_words: Vec<ArcWords> = match arc_nominal {
-            Some(arc) => {
-                let radius_style = ev.lexed.words().any(|w| w.letter == b'R');
-                let (mut from, mut l_from) = (q_line_start, 0.0);
-                let mut words = Vec::with_capacity(commands.len());
-                let ramps = std::mem::take(&mut st.ramps_written);
-                for (i, (q, take_up)) in commands.iter().enumerate() {
-                    let start = take_up.unwrap_or(from);
-                    let piece = arcs::sub_arc(&arc, l_from, pieces[i]);
-                    let t_mid = piece.point_at(0.5);
-                    let q_mid = solve::solve_fixed(
-                        model,
-                        options.method,
-                        t_mid,
-                        st.states[i],
-                        [false; 3],
-                        Vec3::ZERO,
-                    )
-                    .map_err(|source| command_error(model, file, ev.number, t_mid, source))?
-                    .q_mm;
-                    // A take-up ramp is written as its chord.
-                    let ramp = ramps.iter().any(|r| r.index == i);
-                    words.push(ArcWords {
-                        center: if ramp {
-                            None
-                        } else {
-                            arcs::piece_center(&piece, start, q_mid, *q, options.chord_tolerance_mm)
-                        },
-                        plane: arc.plane,
-                        clockwise: arc.clockwise(),
-                        radius_style,
-                        absolute_centers: interp.arc_absolute(),
-                    });
-                    from = *q;
-                    l_from = pieces[i];
-                }
-                words
-            }
+            Some(arc) => st.arc_piece_words(
+                &arc,
+                &pieces,
+                &commands,
+                q_line_start,
+                model,
+                options,
+                &frame,
+                style,
+                ev.lexed.words().any(|w| w.letter == b'R'),
+                file,
+                ev.number,
+            )?,
             None => Vec::new(),
         };
         // Extra axes (A … W) of a split motion: each segment carries its share.
@@ -516,6 +473,7 @@ pub fn compensate_program<R: BufRead>(
                     ev.number,
                     options.trace_comments,
                     ending,
+                    "",
                 );
             } else {
                 if let Some(plan) = extra_plan.as_mut() {
@@ -620,6 +578,59 @@ struct State {
     estimate_mm: f64,
     /// Block counting of the input and the output ([`size::Blocks`]).
     blocks_in: size::Blocks,
+}
+
+/// Edits of a line that sets an offset from the current point (G92, or
+/// G10 L20: "the current point has these coordinates"), so that the offset
+/// it sets in the written program is the original's: the written program
+/// stands at the last command `q_out`, not at the nominal point, and
+/// LinuxCNC (`convert_axis_offsets`, `convert_setup`, interp_convert.cc)
+/// makes the offset the difference between the current point and the words.
+/// Each X, Y, Z word gains the difference of the two points (program frame
+/// and units; in G7 an X word is a diameter). G10 L20 in a rotated system
+/// is left as it is.
+fn offset_setting_edits(
+    ev: &volcomp_gcode::LineEvent<'_>,
+    q_out: Vec3,
+    options: &CompensateOptions,
+    survey: &volcomp_gcode::number::StyleSurvey,
+) -> Vec<volcomp_gcode::edit::Edit> {
+    let mut edits = Vec::new();
+    if ev.kind != LineKind::Block || !ev.motions.is_empty() {
+        return edits;
+    }
+    let g = |v: f64| ev.lexed.words().any(|w| w.letter == b'G' && w.value == v);
+    let l20 = g(10.0)
+        && ev
+            .lexed
+            .words()
+            .any(|w| w.letter == b'L' && w.value == 20.0);
+    let (frame, style) = Frame::of(ev.interp, options, survey);
+    if !(g(92.0) || (l20 && frame.rotation_deg == 0.0)) {
+        return edits;
+    }
+    let d = frame.program(q_out) - frame.program(ev.interp.position());
+    let content = &ev.bytes[..volcomp_gcode::lexer::content_len(ev.bytes)];
+    for w in ev.lexed.words() {
+        if !matches!(w.letter, b'X' | b'Y' | b'Z') {
+            continue;
+        }
+        let a = usize::from(w.letter - b'X');
+        let k = if a == 0 { frame.x_word_scale } else { 1.0 };
+        let own = volcomp_gcode::number::decimals_of(&content[w.value_span.clone()]);
+        // Less than half a step of the written resolution: the word stays.
+        if (d[a] * k).abs() < 0.5 * 10f64.powi(-i32::from(style.decimals.max(own))) {
+            continue;
+        }
+        let style = style.with_decimals(style.decimals.max(own.min(15)));
+        let mut text = String::new();
+        volcomp_gcode::number::format_number(w.value + d[a] * k, style, &mut text);
+        edits.push(volcomp_gcode::edit::Edit::replace(
+            w.value_span.clone(),
+            text,
+        ));
+    }
+    edits
 }
 
 /// The axis words a G53 line written as it is must gain so that the machine

@@ -87,6 +87,21 @@ impl NominalBlock {
     /// of G85/G89 moves in the direction of the return feed; one that moves
     /// only an axis across the feed stays with it).
     pub fn pair(&mut self, from: Vec3, to: Vec3, feed: bool) -> Option<usize> {
+        self.pair_via(from, None, to, feed)
+    }
+
+    /// [`Self::pair`], knowing also the command's middle point `mid` (an
+    /// arc command's point at half its sweep): in a cutter-compensated
+    /// block the command is paired by its end and its middle, so one whose
+    /// end lies at a corner, where two motions meet, pairs with the motion
+    /// it runs along, not with the one that starts there.
+    pub fn pair_via(
+        &mut self,
+        from: Vec3,
+        mid: Option<Vec3>,
+        to: Vec3,
+        feed: bool,
+    ) -> Option<usize> {
         if self.motions.len() == 1 {
             self.set_current(0);
             return Some(0);
@@ -102,7 +117,7 @@ impl NominalBlock {
             .iter()
             .any(|m| m.source == volcomp_gcode::MotionSource::CutterComp)
         {
-            if let Some(j) = self.pair_nearest(to, feed) {
+            if let Some(j) = self.pair_nearest(mid, to, feed) {
                 self.set_current(j);
                 return Some(j);
             }
@@ -153,19 +168,45 @@ impl NominalBlock {
     /// current one on, nearest to the command's end (arcs measured to the
     /// arc), the earlier one where two
     /// are as near (a command at a corner belongs to the move it ends).
-    fn pair_nearest(&mut self, to: Vec3, feed: bool) -> Option<usize> {
+    /// With the command's middle `mid`, the score is the mean of the
+    /// distances of the end and the middle.
+    fn pair_nearest(&mut self, mid: Option<Vec3>, to: Vec3, feed: bool) -> Option<usize> {
+        self.nearest(mid, to, feed).map(|(_, j)| j)
+    }
+
+    /// Whether this is a block of the cutter-compensated tool-centre path.
+    pub fn is_cutter(&self) -> bool {
+        self.motions
+            .iter()
+            .any(|m| m.source == volcomp_gcode::MotionSource::CutterComp)
+    }
+
+    /// The score (mm) by which a command would pair with this block's
+    /// nearest motion ([`Self::pair_via`] on a cutter-compensated block),
+    /// or `None` when none is near enough; the block's pairing state is
+    /// left as it was.
+    pub fn nearest_mm(&mut self, mid: Option<Vec3>, to: Vec3, feed: bool) -> Option<f64> {
+        let hint = self.arc_hint;
+        let d = self.nearest(mid, to, feed).map(|(d, _)| d);
+        self.arc_hint = hint;
+        d
+    }
+
+    fn nearest(&mut self, mid: Option<Vec3>, to: Vec3, feed: bool) -> Option<(f64, usize)> {
         let mut best: Option<(f64, usize)> = None;
         for j in self.current.unwrap_or(0)..self.motions.len() {
             if is_feed_like(&self.motions[j]) != feed {
                 continue;
             }
-            let score = self.distance_mm(j, to);
+            let score = match mid {
+                Some(p) => 0.5 * (self.distance_mm(j, p) + self.distance_mm(j, to)),
+                None => self.distance_mm(j, to),
+            };
             if best.is_none_or(|(b, _)| score < b - 1e-9) {
                 best = Some((score, j));
             }
         }
         best.filter(|(b, _)| *b <= SPLINE_PAIRING_MM)
-            .map(|(_, j)| j)
     }
 
     /// Pairs written motion `i` of a line that is this block's own line,
@@ -392,5 +433,49 @@ mod tests {
         // Nothing is left for another rapid.
         assert_eq!(b.pair(p(5.0), p(6.0), false), None);
         assert_eq!(trace_tag(b"G1 Z0 (volcomp L7 cycle)"), Some(7));
+    }
+
+    /// A tool-centre path: a side to (10, 0), the corner arc about (10, 1)
+    /// to (11, 1). The side's last command, compensated, ends 1 µm past
+    /// the corner, (10.001, 0): 1 µm from the side's end but only
+    /// √(1 + 10⁻⁶) − 1 ≈ 0.5 nm from the arc's circle, so by its end alone
+    /// it would pair with the arc; its middle (7.5, 0) lies on the side and
+    /// 2.5 mm from the arc, so by both it pairs with the side.
+    #[test]
+    fn a_command_ending_at_a_corner_pairs_with_the_move_it_runs_along() {
+        let m = |kind, a: [f64; 2], b: [f64; 2]| Motion {
+            kind,
+            source: MotionSource::CutterComp,
+            start: Vec3::new(a[0], a[1], 0.0),
+            end: Vec3::new(b[0], b[1], 0.0),
+            line: 7,
+            column: 1,
+            feed: 100.0,
+            feed_mode: volcomp_gcode::FeedMode::PerMinute,
+            extra: Default::default(),
+        };
+        let corner = Arc {
+            start: Vec3::new(10.0, 0.0, 0.0),
+            end: Vec3::new(11.0, 1.0, 0.0),
+            center: Vec3::new(10.0, 1.0, 0.0),
+            plane: Plane::Xy,
+            sweep_rad: TAU / 4.0,
+        };
+        let motions = [
+            m(MotionKind::Feed, [0.0, 0.0], [10.0, 0.0]),
+            m(MotionKind::Arc(corner), [10.0, 0.0], [11.0, 1.0]),
+        ];
+        let (from, to) = (Vec3::new(5.0, 0.0, 0.0), Vec3::new(10.001, 0.0, 0.0));
+        let mid = (from + to) * 0.5;
+        let mut b = NominalBlock::new(7, &motions, true);
+        assert_eq!(b.pair(from, to, true), Some(1));
+        let mut b = NominalBlock::new(7, &motions, true);
+        assert_eq!(b.pair_via(from, Some(mid), to, true), Some(0));
+        // The arc's own command then pairs with the arc.
+        let arc_mid = corner.point_at(0.5);
+        assert_eq!(
+            b.pair_via(to, Some(arc_mid), Vec3::new(11.0, 1.0, 0.0), true),
+            Some(1)
+        );
     }
 }

@@ -128,6 +128,14 @@ struct Pending {
     target_mm: Option<Vec3>,
 }
 
+/// The middle of a written command: an arc's point at half its sweep.
+fn command_middle(m: &Motion) -> Vec3 {
+    match m.kind {
+        MotionKind::Arc(arc) => arc.point_at(0.5),
+        _ => (m.start + m.end) * 0.5,
+    }
+}
+
 fn mismatch(file: &str, line: u64, message: String) -> CompensationError {
     CompensationError::AtLine {
         file: file.to_string(),
@@ -137,33 +145,81 @@ fn mismatch(file: &str, line: u64, message: String) -> CompensationError {
     }
 }
 
-/// The next block of `reference` that moves.
-fn next_block<S: BufRead>(
-    reference: &mut Walker<S>,
-) -> Result<Option<NominalBlock>, CompensationError> {
-    while let Some(ev) = reference.next_line()? {
-        if !ev.motions.is_empty() {
-            return Ok(Some(NominalBlock::new(ev.number, ev.motions, false)));
-        }
-    }
-    Ok(None)
+/// The reference program's moving blocks, in order, with one block of
+/// look-ahead.
+struct RefBlocks<'a, S: BufRead> {
+    walker: &'a mut Walker<S>,
+    peeked: Option<Option<(NominalBlock, bool)>>,
 }
+
+impl<S: BufRead> RefBlocks<'_, S> {
+    /// The next block that moves, and whether cutter radius compensation
+    /// is on after it (compensation then writes the block as the
+    /// tool-centre path, compensate/cutter.rs: its own line carries no
+    /// move, even when a zero radius leaves its motions the program's own).
+    fn next(&mut self) -> Result<Option<(NominalBlock, bool)>, CompensationError> {
+        if let Some(b) = self.peeked.take() {
+            return Ok(b);
+        }
+        while let Some(ev) = self.walker.next_line()? {
+            if !ev.motions.is_empty() {
+                return Ok(Some((
+                    NominalBlock::new(ev.number, ev.motions, false),
+                    ev.interp.cutter_comp_on(),
+                )));
+            }
+        }
+        Ok(None)
+    }
+
+    fn peek(&mut self) -> Result<Option<&mut (NominalBlock, bool)>, CompensationError> {
+        if self.peeked.is_none() {
+            let b = self.next()?;
+            self.peeked = Some(b);
+        }
+        Ok(self.peeked.as_mut().and_then(|b| b.as_mut()))
+    }
+}
+
+/// A written command as the pairing sees it: its middle, its end, and
+/// whether it is a feed.
+type Probe = (Vec3, Vec3, bool);
 
 /// Moves the pairing to the original block of a written line: the block the
 /// trace comment names, or (untagged) the original line itself, in order.
+///
+/// A block run again (a loop or a subroutine called over and over) has the
+/// same line number each time. A cutter-compensated block's own line is not
+/// written, so where one run's tagged lines end is not seen: a command
+/// tagged with the current block's line is paired with the next run of that
+/// block instead when it lies nearer to that run's motions (by its middle
+/// and its end, [`NominalBlock::nearest_mm`]).
 fn advance<S: BufRead>(
-    reference: &mut Walker<S>,
+    reference: &mut RefBlocks<'_, S>,
     block: &mut Option<NominalBlock>,
     tag: Option<u64>,
+    probe: Option<Probe>,
     file: &str,
     line: u64,
 ) -> Result<(), CompensationError> {
     match tag {
         Some(n) => {
-            if block.as_ref().is_some_and(|b| b.line == n) {
-                return Ok(());
+            if let Some(b) = block.as_mut().filter(|b| b.line == n) {
+                let (Some((mid, to, feed)), true) = (probe, b.is_cutter()) else {
+                    return Ok(());
+                };
+                let here = b.nearest_mm(Some(mid), to, feed).unwrap_or(f64::INFINITY);
+                let next = match reference.peek()? {
+                    Some((nb, _)) if nb.line == n && nb.is_cutter() => {
+                        nb.nearest_mm(Some(mid), to, feed)
+                    }
+                    _ => None,
+                };
+                if !next.is_some_and(|d| d + 1e-6 < here) {
+                    return Ok(());
+                }
             }
-            let Some(mut b) = next_block(reference)? else {
+            let Some((mut b, cutter)) = reference.next()? else {
                 return Err(mismatch(file, line, format!("this line is marked as written for line {n} of the reference, which has no moving line left")));
             };
             if b.line != n {
@@ -171,12 +227,13 @@ fn advance<S: BufRead>(
             }
             // A canned cycle's, a spline's or a cutter-compensated block's
             // own line is written without its moves.
-            b.own_line_written = b.motions.iter().any(|m| {
-                matches!(
-                    m.source,
-                    MotionSource::Cycle | MotionSource::Spline | MotionSource::CutterComp
-                )
-            });
+            b.own_line_written = cutter
+                || b.motions.iter().any(|m| {
+                    matches!(
+                        m.source,
+                        MotionSource::Cycle | MotionSource::Spline | MotionSource::CutterComp
+                    )
+                });
             *block = Some(b);
         }
         None => {
@@ -184,7 +241,7 @@ fn advance<S: BufRead>(
                 b.own_line_written = true;
                 return Ok(());
             }
-            let Some(mut b) = next_block(reference)? else {
+            let Some((mut b, _)) = reference.next()? else {
                 return Err(mismatch(
                     file,
                     line,
@@ -205,11 +262,15 @@ fn advance<S: BufRead>(
 pub fn simulate_program<R: BufRead, S: BufRead>(
     program: &mut Walker<R>,
     file: &str,
-    mut reference: Option<&mut Walker<S>>,
+    reference: Option<&mut Walker<S>>,
     model: &dyn ErrorModel,
     chord_tolerance_mm: f64,
     mut on_segment: impl FnMut(&SegmentError),
 ) -> Result<SimReport, CompensationError> {
+    let mut reference = reference.map(|walker| RefBlocks {
+        walker,
+        peeked: None,
+    });
     let mut known = [false; 3];
     let mut sim = Simulator::new(model, program.interpreter().position());
     let mut block: Option<NominalBlock> = None;
@@ -261,14 +322,18 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
             known = [true; 3];
         }
         let all_known = known.iter().all(|k| *k);
-        let tag = match reference.as_deref_mut() {
+        let tag = match reference.as_mut() {
             None => {
                 block = Some(NominalBlock::new(ev.number, ev.motions, true));
                 None
             }
             Some(r) => {
                 let tag = trace_tag(ev.bytes);
-                advance(r, &mut block, tag, file, ev.number)?;
+                let probe = ev
+                    .motions
+                    .first()
+                    .map(|m| (command_middle(m), m.end, is_feed_like(m)));
+                advance(r, &mut block, tag, probe, file, ev.number)?;
                 tag
             }
         };
@@ -280,7 +345,7 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
             let paired = if by_index {
                 blk.pair_index(i)
             } else {
-                blk.pair(m.start, m.end, is_feed_like(m))
+                blk.pair_via(m.start, Some(command_middle(m)), m.end, is_feed_like(m))
             };
             let Some(idx) = paired else {
                 return Err(mismatch(
@@ -378,8 +443,8 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
     if let Some(p) = pending.take() {
         commit(p, None, &mut point);
     }
-    if let Some(r) = reference {
-        if let Some(b) = next_block(r)? {
+    if let Some(mut r) = reference {
+        if let Some((b, _)) = r.next()? {
             return Err(CompensationError::AtLine {
                 file: file.to_string(),
                 line: 0,

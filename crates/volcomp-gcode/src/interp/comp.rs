@@ -428,6 +428,11 @@ impl Interpreter {
             return Ok(());
         }
         let g = |codes: &[u16]| codes.iter().find_map(|c| w.g_col(*c));
+        // What LinuxCNC checks after step 13 (tool length offsets, work
+        // systems, offsets, G28/G30, control and retract modes, motions,
+        // G10) passes when the block's own G40 has turned compensation off.
+        let g40 = w.has_g(400);
+        let after_g40 = |col: Option<usize>| col.filter(|_| !g40);
         let m = |codes: &[u16]| codes.iter().find_map(|c| w.m_col(*c));
         let plane_code = match self.plane {
             Plane::Xy => 170,
@@ -446,7 +451,7 @@ impl Interpreter {
                 "Cannot change planes with cutter radius compensation on",
             ),
             (
-                g(&[410, 420, 411, 421]).filter(|_| !w.has_g(400)),
+                after_g40(g(&[410, 420, 411, 421])),
                 "Cannot turn cutter radius comp on when on",
             ),
             (
@@ -454,46 +459,46 @@ impl Interpreter {
                 "Cannot change tools with cutter radius compensation on",
             ),
             (
-                g(&[430, 431, 490]),
+                after_g40(g(&[430, 431, 490])),
                 "Cannot change tool offset with cutter radius compensation on",
             ),
             (
-                g(&[540, 550, 560, 570, 580, 590, 591, 592, 593]),
+                after_g40(g(&[540, 550, 560, 570, 580, 590, 591, 592, 593])),
                 "Cannot change coordinate systems with cutter radius compensation on",
             ),
             (
-                g(&[520, 920, 921, 922, 923]),
+                after_g40(g(&[520, 920, 921, 922, 923])),
                 "Cannot change axis offsets with cutter radius comp",
             ),
             (
-                g(&[280, 300]),
+                after_g40(g(&[280, 300])),
                 "Cannot use g28 or g30 with cutter radius comp",
             ),
             (
-                g(&[281, 301]),
+                after_g40(g(&[281, 301])),
                 "Cannot set reference point with cutter compensation in effect",
             ),
             (
-                g(&[610, 611, 640]),
+                after_g40(g(&[610, 611, 640])),
                 "Cannot change control mode with cutter radius compensation on",
             ),
             (
-                g(&[980, 990]),
+                after_g40(g(&[980, 990])),
                 "Cannot change retract mode with cutter radius compensation on",
             ),
             (
-                g(&super::words::CYCLE_CODES),
+                after_g40(g(&super::words::CYCLE_CODES)),
                 "Cannot use canned cycles with cutter compensation on",
             ),
             (
-                g(&[50, 51, 52, 53]),
+                after_g40(g(&[50, 51, 52, 53])),
                 "Cannot convert spline with cutter radius compensation",
             ),
             (
-                g(&[100]).filter(|_| {
+                after_g40(g(&[100]).filter(|_| {
                     matches!(w.get(b'L').map(|l| l.round() as i64), Some(2 | 20))
                         && (p_active == Some(0) || p_active == Some(self.work as i64 + 1))
-                }),
+                })),
                 "Cannot change the active coordinate system with cutter radius compensation on",
             ),
             (

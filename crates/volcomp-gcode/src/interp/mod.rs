@@ -514,6 +514,12 @@ impl Interpreter {
                 "write G4 Pseconds",
             ));
         }
+        // What LinuxCNC refuses while cutter compensation is on, checked
+        // before step 11: `convert_set_plane` compares the plane with the
+        // one in effect, before a G40 of the same block (step 13) turns
+        // compensation off; the others are made at later steps, after the
+        // G40 of the block.
+        self.comp_refusals(line, w)?;
         // 11-12: plane, units.
         if w.has_g(170) {
             self.plane = Plane::Xy;
@@ -530,7 +536,6 @@ impl Interpreter {
             self.units_given = true;
         }
         // 13: cutter radius compensation.
-        self.comp_refusals(line, w)?;
         if w.has_g(400) {
             self.comp_off(line, w.g_col(400).unwrap_or(0), out)?;
         }
