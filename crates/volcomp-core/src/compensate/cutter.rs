@@ -137,12 +137,7 @@ impl State {
             }
         }
         let mut out = Vec::new();
-        apply_edits(bytes, &mut edits, &mut out).map_err(|e| CompensationError::AtLine {
-            file: file.into(),
-            line,
-            message: format!("internal edit error: {e}"),
-            help: "please report this with the program line".into(),
-        })?;
+        apply_edits(bytes, &mut edits, &mut out).map_err(|e| super::edit_error(file, line, e))?;
         if !out.iter().all(|b| b.is_ascii_whitespace()) {
             self.buf.extend_from_slice(&out);
             if !self.buf.ends_with(b"\n") {
@@ -249,7 +244,7 @@ impl State {
                 frame,
                 frame,
                 &mut targets,
-                false,
+                super::points::Leads::Nowhere,
                 m.start,
                 !rapid,
                 file,

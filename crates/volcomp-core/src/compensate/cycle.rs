@@ -6,8 +6,7 @@
 
 use super::frame::Frame;
 use super::lines::{blank_before, line_ending, OutMode};
-use super::targets::{check_target_count, targets_with_estimate};
-use super::{model_error, CompensateOptions, PointRecord, State};
+use super::{CompensateOptions, PointRecord, State};
 use crate::error::CompensationError;
 use crate::model::ErrorModel;
 use crate::simulate::next_state;
@@ -73,12 +72,8 @@ impl State {
                 _ => {}
             }
         }
-        apply_edits(bytes, &mut edits, &mut self.buf).map_err(|e| CompensationError::AtLine {
-            file: file.into(),
-            line,
-            message: format!("internal edit error: {e}"),
-            help: "please report this with the program line".into(),
-        })?;
+        apply_edits(bytes, &mut edits, &mut self.buf)
+            .map_err(|e| super::edit_error(file, line, e))?;
         if !self.buf.ends_with(b"\n") {
             self.buf.extend_from_slice(ending);
         }
@@ -106,24 +101,9 @@ impl State {
                 feeds += 1;
                 continue;
             }
-            check_target_count(m, options, file, line)?;
-            let mut targets =
-                targets_with_estimate(m, options, model, self.s, &mut self.estimate_mm)
-                    .map_err(|source| model_error(file, line, source))?;
             let from = self.q_out;
-            let commands = self.solve_targets(
-                model,
-                options,
-                &frame,
-                &frame,
-                &mut targets,
-                false,
-                m.start,
-                feed_like,
-                file,
-                line,
-                on_point,
-            )?;
+            let commands =
+                self.solve_motion(model, options, &frame, m, feed_like, file, line, on_point)?;
             let mode = if feed_like {
                 OutMode::Feed
             } else {

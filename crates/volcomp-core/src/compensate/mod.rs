@@ -201,14 +201,8 @@ pub fn compensate_program<R: BufRead>(
                 // carried its correction): a G92 or G10 L20 written as it
                 // was would take the correction into the offset it sets.
                 st.buf.clear();
-                apply_edits(ev.bytes, &mut offset_edits, &mut st.buf).map_err(|e| {
-                    CompensationError::AtLine {
-                        file: file.into(),
-                        line: ev.number,
-                        message: format!("internal edit error: {e}"),
-                        help: "please report this with the program line".into(),
-                    }
-                })?;
+                apply_edits(ev.bytes, &mut offset_edits, &mut st.buf)
+                    .map_err(|e| edit_error(file, ev.number, e))?;
                 out.write_all(&st.buf)?;
             } else if added.is_empty() {
                 out.write_all(ev.bytes)?;
@@ -278,7 +272,7 @@ pub fn compensate_program<R: BufRead>(
         };
         let options = &line_options;
         check_target_count(&motion, options, file, ev.number)?;
-        let pieces: Vec<f64> = match arc_nominal {
+        let mut pieces: Vec<f64> = match arc_nominal {
             Some(arc) => st.pieces_of_arc(&arc, model, options, file, ev.number)?,
             None => Vec::new(),
         };
@@ -308,21 +302,28 @@ pub fn compensate_program<R: BufRead>(
         let content = &ev.bytes[..content_len];
         // Solve every target first (the original line carries the first).
         let q_line_start = st.q_out;
-        // A take-up may get a lead piece of a line (compensate/points.rs)
-        // where the segmentation adapts to the path anyway; not on arc
-        // pieces, on moves that carry extra axes, or under inverse time.
-        let may_lead = arc_nominal.is_none()
-            && feed_like
+        // A take-up may get a lead piece of a line or an arc piece
+        // (compensate/points.rs) where the segmentation adapts to the path
+        // anyway; not on moves that carry extra axes, or under inverse time.
+        let may_lead = feed_like
             && !motion.extra.moves()
             && interp.feed_mode() != FeedMode::InverseTime
             && matches!(options.segmentation, Segmentation::Adaptive { .. });
+        let leads = match (&arc_nominal, may_lead) {
+            (_, false) => points::Leads::Nowhere,
+            (Some(arc), true) => points::Leads::Arc {
+                arc,
+                pieces: &mut pieces,
+            },
+            (None, true) => points::Leads::Lines,
+        };
         let commands = st.solve_targets(
             model,
             options,
             &frame,
             &frame0,
             &mut targets,
-            may_lead,
+            leads,
             motion.start,
             feed_like,
             file,
@@ -441,14 +442,8 @@ pub fn compensate_program<R: BufRead>(
                         edits.push(volcomp_gcode::edit::Edit::replace(span, text));
                     }
                 }
-                apply_edits(ev.bytes, &mut edits, &mut st.buf).map_err(|e| {
-                    CompensationError::AtLine {
-                        file: file.into(),
-                        line: ev.number,
-                        message: format!("internal edit error: {e}"),
-                        help: "please report this with the program line".into(),
-                    }
-                })?;
+                apply_edits(ev.bytes, &mut edits, &mut st.buf)
+                    .map_err(|e| edit_error(file, ev.number, e))?;
                 if content_len == ev.bytes.len() && commands.len() > 1 {
                     st.buf.extend_from_slice(b"\n");
                 }
@@ -516,6 +511,17 @@ pub fn compensate_program<R: BufRead>(
         matches!(options.segmentation, Segmentation::Adaptive { .. })
             .then_some(st.estimate_mm * 1e3);
     Ok(st.summary)
+}
+
+/// An edit of a line that did not apply (overlapping spans): a bug of
+/// ours, reported at the line.
+fn edit_error(file: &str, line: u64, e: impl std::fmt::Display) -> CompensationError {
+    CompensationError::AtLine {
+        file: file.into(),
+        line,
+        message: format!("internal edit error: {e}"),
+        help: "please report this with the program line".into(),
+    }
 }
 
 fn model_error(file: &str, line: u64, source: ModelError) -> CompensationError {

@@ -137,9 +137,16 @@ fn fold_deviation_mm(lag: Vec3, q_prev: Vec3, q: Vec3, nominal_delta: Vec3) -> f
     }
 }
 
+/// Shortest lead piece (mm): LinuxCNC runs a segment no faster than its
+/// length per servo period (`tcClampVelocityByLength`, src/emc/tp/tc.c),
+/// and a blend may take half of it; 0.2 mm keeps 100 mm/s (F6000) with
+/// the default period of 1 ms. A shorter piece would slow the machine as a
+/// take-up block does, if less.
+const MIN_LEAD_MM: f64 = 0.2;
+
 /// A lead piece for a take-up that the whole move cannot fold (see
 /// [`fold_deviation_mm`]): the point at a fraction ½, ¼, … of the move from
-/// `t_prev` towards `t` on which the reversing axes, running their new way
+/// `t_prev`, on its line or arc, on which the reversing axes, running their new way
 /// from the start, take up the lag `lag` with the tool within the fold
 /// tolerance of the path; the longest such piece. Over a short piece the
 /// command's travel beyond the band (the nominal path's or the
@@ -150,13 +157,10 @@ fn fold_deviation_mm(lag: Vec3, q_prev: Vec3, q: Vec3, nominal_delta: Vec3) -> f
 /// (the piece then turns from the path by less than 1/20 rad, which a
 /// controller blends; a steeper one is a take-up block in all but name),
 /// nor than [`MIN_LEAD_MM`].
-/// Shortest lead piece (mm): LinuxCNC runs a segment no faster than its
-/// length per servo period (`tcClampVelocityByLength`, src/emc/tp/tc.c),
-/// and a blend may take half of it; 0.2 mm keeps 100 mm/s (F6000) with
-/// the default period of 1 ms. A shorter piece would slow the machine as a
-/// take-up block does, if less.
-const MIN_LEAD_MM: f64 = 0.2;
-
+///
+/// `at(f)` is the target at the fraction `f` of the move (of length
+/// `length`, mm) from the previous target, on its line or arc; the result
+/// is the fraction of the lead piece.
 #[allow(clippy::too_many_arguments)]
 fn lead_target(
     model: &dyn ErrorModel,
@@ -165,10 +169,10 @@ fn lead_target(
     q_prev: Vec3,
     lag: Vec3,
     t_prev: Vec3,
-    t: Vec3,
+    at: &dyn Fn(f64) -> Vec3,
+    length: f64,
     point: &crate::compensate::solve::PointSolution,
-) -> Result<Option<Vec3>, ModelError> {
-    let length = (t - t_prev).norm();
+) -> Result<Option<f64>, ModelError> {
     let shortest = match options.segmentation {
         super::Segmentation::Adaptive { min_length_mm, .. } => min_length_mm,
         _ => super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
@@ -177,7 +181,7 @@ fn lead_target(
     .max(MIN_LEAD_MM);
     let mut piece = 0.5 * length;
     while piece >= shortest && piece > 0.0 {
-        let lead = t_prev + (t - t_prev) * (piece / length);
+        let lead = at(piece / length);
         let sol = solve_fixed(model, options.method, lead, point.s, [false; 3], q_prev)?;
         let q = quantize(sol.q_mm);
         let consistent = (0..3).all(|a| {
@@ -187,14 +191,63 @@ fn lead_target(
         if consistent
             && fold_deviation_mm(lag, q_prev, q, lead - t_prev) <= options.fold_tolerance_mm()
         {
-            return Ok(Some(lead));
+            return Ok(Some(piece / length));
         }
         piece *= 0.5;
     }
     Ok(None)
 }
 
+/// Where [`State::solve_targets`] may put a lead piece (see [`lead_target`]).
+pub(super) enum Leads<'a> {
+    /// Nowhere: fixed segmentations, cycles, splines, moves with extra
+    /// axes, inverse time.
+    Nowhere,
+    /// On the straight moves between the targets.
+    Lines,
+    /// On the pieces of `arc`, whose end parameters `pieces` are kept in
+    /// step with the targets.
+    Arc {
+        arc: &'a volcomp_gcode::Arc,
+        pieces: &'a mut Vec<f64>,
+    },
+}
+
 impl State {
+    /// Solves one whole motion of a block written as segments (a canned
+    /// cycle's, a spline's): its targets as the segmentation gives them,
+    /// without lead pieces ([`State::solve_targets`]).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn solve_motion(
+        &mut self,
+        model: &dyn ErrorModel,
+        options: &CompensateOptions,
+        frame: &Frame,
+        m: &volcomp_gcode::Motion,
+        feed_like: bool,
+        file: &str,
+        line: u64,
+        on_point: &mut dyn FnMut(&PointRecord),
+    ) -> Result<Vec<(Vec3, Option<Vec3>)>, CompensationError> {
+        super::targets::check_target_count(m, options, file, line)?;
+        let mut targets =
+            super::targets::targets_with_estimate(m, options, model, self.s, &mut self.estimate_mm)
+                .map_err(|source| model_error(file, line, source))?;
+        self.solve_targets(
+            model,
+            options,
+            frame,
+            frame,
+            &mut targets,
+            Leads::Nowhere,
+            m.start,
+            feed_like,
+            file,
+            line,
+            on_point,
+        )
+    }
+
     /// Solves the targets of one motion in order; returns each command and
     /// the take-up move written before it, if any.
     #[allow(clippy::too_many_arguments)]
@@ -205,7 +258,7 @@ impl State {
         frame: &Frame,
         first_take_up_frame: &Frame,
         targets: &mut Vec<Vec3>,
-        may_lead: bool,
+        mut leads: Leads<'_>,
         start: Vec3,
         feed_like: bool,
         file: &str,
@@ -214,8 +267,8 @@ impl State {
     ) -> Result<Vec<(Vec3, Option<Vec3>)>, CompensationError> {
         let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
         self.states.clear();
-        self.ramps_written = std::mem::take(&mut self.ramps);
-        let mut ramps = self.ramps_written.iter().peekable();
+        let mut ramps = std::mem::take(&mut self.ramps);
+        let mut next_ramp = 0;
         let mut t_prev = start;
         let mut forced: Option<Directions> = None;
         // The index of the last lead piece inserted: neither it nor the
@@ -228,8 +281,9 @@ impl State {
             // On a take-up ramp, or a lead piece, the reversing axis runs its
             // new way from the start: the solver starts from that state.
             let mut s_from = forced.take().unwrap_or(self.s);
-            if let Some(r) = ramps.next_if(|r| r.index == index) {
+            if let Some(r) = ramps.get(next_ramp).filter(|r| r.index == index) {
                 s_from[r.axis] = r.direction;
+                next_ramp += 1;
             }
             let quantize = |q: Vec3| frame.quantize(q, q_from);
             let point = match options.directions {
@@ -320,15 +374,45 @@ impl State {
                 {
                     take_up = None;
                     self.summary.take_ups_folded += 1;
-                } else if may_lead && feed_like && last_lead.is_none_or(|l| index > l + 1) {
+                } else if feed_like
+                    && !matches!(leads, Leads::Nowhere)
+                    && last_lead.is_none_or(|l| index > l + 1)
+                {
+                    let t = *t;
+                    let (l_prev, l_end) = match &leads {
+                        Leads::Arc { pieces, .. } => (
+                            if index == 0 { 0.0 } else { pieces[index - 1] },
+                            pieces[index],
+                        ),
+                        _ => (0.0, 1.0),
+                    };
+                    let (length, at): (f64, Box<dyn Fn(f64) -> Vec3>) = match &leads {
+                        Leads::Arc { arc, .. } => {
+                            let arc = **arc;
+                            (
+                                arc.length() * (l_end - l_prev),
+                                Box::new(move |f| arc.point_at(l_prev + (l_end - l_prev) * f)),
+                            )
+                        }
+                        _ => (
+                            (t - t_prev).norm(),
+                            Box::new(move |f| t_prev + (t - t_prev) * f),
+                        ),
+                    };
                     let lead = lead_target(
-                        model, options, &quantize, self.q_out, lag, t_prev, *t, &point,
+                        model, options, &quantize, self.q_out, lag, t_prev, &*at, length, &point,
                     )
                     .map_err(|source| model_error(file, line, source))?;
-                    if let Some(lead) = lead {
+                    if let Some(f) = lead {
                         // Solve the lead piece first (it takes the take-up up),
                         // then this target again from there.
-                        targets.insert(index, lead);
+                        targets.insert(index, at(f));
+                        if let Leads::Arc { pieces, .. } = &mut leads {
+                            pieces.insert(index, l_prev + (l_end - l_prev) * f);
+                        }
+                        for r in ramps.iter_mut().filter(|r| r.index >= index) {
+                            r.index += 1;
+                        }
                         last_lead = Some(index);
                         // The state the point was solved in: its reversing
                         // axes switched, the others as they were.
@@ -371,6 +455,7 @@ impl State {
             t_prev = *t;
             index += 1;
         }
+        self.ramps_written = ramps;
         Ok(commands)
     }
 }

@@ -16,8 +16,7 @@
 
 use super::frame::Frame;
 use super::lines::{blank_before, line_ending, stop_m_word, OutMode};
-use super::targets::{check_target_count, targets_with_estimate};
-use super::{model_error, CompensateOptions, PointRecord, State};
+use super::{CompensateOptions, PointRecord, State};
 use crate::error::CompensationError;
 use crate::model::ErrorModel;
 use volcomp_gcode::edit::{apply_edits, Edit};
@@ -49,12 +48,7 @@ impl State {
             }
         }
         let mut out = Vec::new();
-        apply_edits(bytes, &mut edits, &mut out).map_err(|e| CompensationError::AtLine {
-            file: file.into(),
-            line,
-            message: format!("internal edit error: {e}"),
-            help: "please report this with the program line".into(),
-        })?;
+        apply_edits(bytes, &mut edits, &mut out).map_err(|e| super::edit_error(file, line, e))?;
         if out.iter().all(|b| b.is_ascii_whitespace()) {
             return Ok(());
         }
@@ -99,24 +93,9 @@ impl State {
         let (frame, style) = Frame::of(interp, options, survey);
         self.mode = Some(OutMode::Other);
         for m in motions {
-            check_target_count(m, options, file, line)?;
-            let mut targets =
-                targets_with_estimate(m, options, model, self.s, &mut self.estimate_mm)
-                    .map_err(|source| model_error(file, line, source))?;
             let from = self.q_out;
-            let commands = self.solve_targets(
-                model,
-                options,
-                &frame,
-                &frame,
-                &mut targets,
-                false,
-                m.start,
-                true,
-                file,
-                line,
-                on_point,
-            )?;
+            let commands =
+                self.solve_motion(model, options, &frame, m, true, file, line, on_point)?;
             let mut pos = from;
             for (q, take_up) in commands {
                 if let Some(tu) = take_up {
