@@ -18,16 +18,23 @@ pub(super) struct Blocks {
 }
 
 impl Blocks {
-    pub(super) fn scan(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            match b {
-                b'\n' => {
-                    self.count += u64::from(self.word);
-                    *self = Blocks {
-                        count: self.count,
-                        ..Blocks::default()
-                    };
+    pub(super) fn scan(&mut self, mut bytes: &[u8]) {
+        while let Some((&b, rest)) = bytes.split_first() {
+            if self.word || self.semicolon {
+                // Nothing more on this line can change the count: skip to
+                // its end (most lines start with a word).
+                match memchr::memchr(b'\n', bytes) {
+                    Some(end) => {
+                        self.end_line();
+                        bytes = &bytes[end + 1..];
+                        continue;
+                    }
+                    None => return,
                 }
+            }
+            bytes = rest;
+            match b {
+                b'\n' => self.end_line(),
                 _ if self.semicolon => {}
                 b'(' => self.paren = true,
                 b')' if self.paren => self.paren = false,
@@ -37,6 +44,14 @@ impl Blocks {
                 _ => self.word = true,
             }
         }
+    }
+
+    fn end_line(&mut self) {
+        self.count += u64::from(self.word);
+        *self = Blocks {
+            count: self.count,
+            ..Blocks::default()
+        };
     }
 
     /// The count, the last line included when it has no line end.
