@@ -13,8 +13,9 @@ pub mod surface;
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
-    /// No progress bar and no summary line on standard error (bars are
-    /// drawn only on a terminal, for large inputs).
+    /// No progress bar, summary line or report of what was written on
+    /// standard error; warnings and errors still show (bars are drawn only
+    /// on a terminal, for large inputs).
     #[arg(long, global = true)]
     pub quiet: bool,
 }

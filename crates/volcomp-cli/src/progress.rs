@@ -10,9 +10,26 @@ use std::time::Instant;
 
 static QUIET: AtomicBool = AtomicBool::new(false);
 
-/// `--quiet`: no progress bar and no summary line.
+/// `--quiet`: no progress bar, no summary line, no report of what was
+/// written ([`note!`](crate::note)); warnings and errors still show.
 pub fn set_quiet(quiet: bool) {
     QUIET.store(quiet, Ordering::Relaxed);
+}
+
+/// Whether `--quiet` was given.
+pub fn quiet() -> bool {
+    QUIET.load(Ordering::Relaxed)
+}
+
+/// `eprintln!` of a report line (what a command wrote, and its size),
+/// unless `--quiet`.
+#[macro_export]
+macro_rules! note {
+    ($($arg:tt)*) => {
+        if !$crate::progress::quiet() {
+            eprintln!($($arg)*);
+        }
+    };
 }
 
 /// Smallest input (bytes) whose reading gets a bar: 1 MiB, about 40 000

@@ -540,7 +540,7 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     } else {
         output.display().to_string()
     };
-    eprintln!(
+    crate::note!(
         "volcomp: wrote {} ({} lines from {}; {} points compensated, largest correction {:.2} µm, largest residual {:.4} µm, {} take-up moves, {} take-ups folded into their moves)",
         shown,
         summary.lines_out,
@@ -559,7 +559,7 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     } else {
         String::new()
     };
-    eprintln!(
+    crate::note!(
         "volcomp: size {} -> {} bytes, {} -> {} blocks{ratio}; largest contour deviation the segmentation leaves: {}",
         summary.bytes_in,
         summary.bytes_out,

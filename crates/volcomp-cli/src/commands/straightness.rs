@@ -314,7 +314,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
                     .map_err(|e| CliError::Io(path.clone(), e))
             })?;
             eprint!("{}", summary(&f, &o));
-            eprintln!("volcomp: wrote {}", path.display());
+            crate::note!("volcomp: wrote {}", path.display());
         }
         None => {
             eprint!("{}", summary(&f, &o));
@@ -324,7 +324,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         }
     }
     if let Some(path) = &a.plot {
-        eprintln!("volcomp: wrote {}", path.display());
+        crate::note!("volcomp: wrote {}", path.display());
     }
     Ok(())
 }
@@ -360,7 +360,7 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
         &roles,
     )?;
     eprint!("{}", summary(&f, &o));
-    eprintln!("volcomp: wrote {}", a.output.display());
+    crate::note!("volcomp: wrote {}", a.output.display());
     Ok(())
 }
 
@@ -519,7 +519,7 @@ fn table_cmd(a: TableArgs) -> Result<(), CliError> {
                 w.write_all(csv.as_bytes())
                     .map_err(|e| CliError::Io(path.clone(), e))
             })?;
-            eprintln!("volcomp: wrote {}", path.display());
+            crate::note!("volcomp: wrote {}", path.display());
         }
         None => std::io::stdout()
             .write_all(csv.as_bytes())

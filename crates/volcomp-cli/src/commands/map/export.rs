@@ -235,7 +235,7 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
         ExportFormat::Klipper | ExportFormat::Marlin | ExportFormat::Rrf => "µrad",
         _ => "µm",
     };
-    eprintln!(
+    crate::note!(
         "volcomp: wrote {} file(s) to {}; rounded to the controller's resolution {} {unit}: largest change {:.4} {unit}",
         e.files.len(),
         a.output.display(),

@@ -145,7 +145,7 @@ fn write_model(
     let files = model_file::model_files(model, out, description)?;
     write_text(&files.csv_path, inputs, &files.csv)?;
     write_text(out, inputs, &files.toml)?;
-    eprintln!(
+    crate::note!(
         "volcomp: wrote {} and {}",
         out.display(),
         files.csv_path.display()
@@ -192,7 +192,7 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
             let tables = m.to_axis_tables(reference, tool, form)?;
             let worst = m.largest_difference_um(tool, &tables)?;
             write_text(&a.output, &[&a.map], &tables.to_csv())?;
-            eprintln!(
+            crate::note!(
                 "volcomp: wrote {} for tool length offset ({}, {}, {}) mm, exact on the lines through ({}, {}, {}) mm; elsewhere it differs from the model by up to {worst:.3} µm (the Abbe cross terms an axis-table map cannot hold)",
                 a.output.display(), tool.x, tool.y, tool.z, reference.x, reference.y, reference.z
             );
@@ -211,7 +211,7 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
                     other => other.into(),
                 })?;
             write_text(&a.output, &[&a.map], &text)?;
-            eprintln!("volcomp: wrote {} ({count} points)", a.output.display());
+            crate::note!("volcomp: wrote {} ({count} points)", a.output.display());
             Ok(())
         }
         ConvertTarget::Linuxcnc => convert_linuxcnc(&a, &map, form),
@@ -387,7 +387,7 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
             .collect();
         write_charts(&drawn, &a.output)?;
     }
-    eprintln!(
+    crate::note!(
         "volcomp: wrote {} ({} charts)",
         a.output.display(),
         charts.len()
@@ -419,7 +419,7 @@ fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
         Some("csv") => {
             let text = linuxcnc_comp::imported_tables_csv(&tables, ty, units);
             write_text(&a.output, &inputs, &text)?;
-            eprintln!("volcomp: wrote {}", a.output.display());
+            crate::note!("volcomp: wrote {}", a.output.display());
             Ok(())
         }
         Some("toml") => {
@@ -555,7 +555,7 @@ fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
             sections: volcomp_core::report::iso230_2::sections(&r),
         };
         write_text(path, &[&a.runs], &doc.to_html())?;
-        eprintln!("volcomp: wrote {}", path.display());
+        crate::note!("volcomp: wrote {}", path.display());
     }
     if a.json {
         let stdout = std::io::stdout();
@@ -588,7 +588,7 @@ fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
             _ => return Err(CliError::Message(format!("{}: write the positioning table as .csv (21-component table rows) or .comp (LinuxCNC)", path.display()))),
         };
         write_text(path, &[&a.runs], &text)?;
-        eprintln!("volcomp: wrote {}", path.display());
+        crate::note!("volcomp: wrote {}", path.display());
     }
     Ok(())
 }
@@ -600,7 +600,7 @@ fn example(a: ExampleArgs) -> Result<(), CliError> {
     let toml_path = a.output.join("example21.toml");
     write_text(&csv_path, &[], &csv)?;
     write_text(&toml_path, &[], &toml)?;
-    eprintln!(
+    crate::note!(
         "volcomp: wrote {} and {}",
         toml_path.display(),
         csv_path.display()
