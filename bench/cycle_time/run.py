@@ -10,8 +10,10 @@
 2. Every program gets an F3000 and an F6000 variant: every F word is
    rewritten (G0 moves stay rapids).
 3. Each variant is compensated with the demo's map and the machine's set-up
-   (setup.toml) three ways: the defaults, --no-take-up, and
-   --no-split --no-take-up (a way whose flag the binary lacks is skipped
+   (setup.toml) four ways: the defaults, --take-up-tolerance-um 5 (take-ups
+   folded where they leave at most 5 µm), --no-take-up, and
+   --no-split --no-take-up (CT_VARIANTS="defaults;--no-take-up" keeps only
+   the ways named; a way whose flag the binary lacks is skipped
    and said so).
 4. Original and compensated programs run one after the other on LinuxCNC;
    two Markdown tables of simulated times (servo-thread timers,
@@ -40,9 +42,14 @@ FEEDS_MM_MIN = (3000, 6000)
 # (label, extra `compensate` arguments)
 VARIANTS = [
     ("defaults", []),
+    ("--take-up-tolerance-um 5", ["--take-up-tolerance-um", "5"]),
     ("--no-take-up", ["--no-take-up"]),
     ("--no-split --no-take-up", ["--no-split", "--no-take-up"]),
 ]
+# CT_VARIANTS="defaults;--no-take-up" keeps only those (labels, ';'-separated).
+if os.environ.get("CT_VARIANTS"):
+    _keep = os.environ["CT_VARIANTS"].split(";")
+    VARIANTS = [v for v in VARIANTS if v[0] in _keep]
 # A compensated program ends where its original does, within the largest
 # correction `compensate` accepts by default (--max-correction 0.1 mm).
 END_TOLERANCE_MM = 0.1

@@ -224,6 +224,16 @@ pub struct CompensateArgs {
     /// folds those, so the controller does not stop for them).
     #[arg(long, conflicts_with = "no_take_up")]
     pub separate_take_ups: bool,
+    /// The contour error a take-up folded into its move may leave (µm;
+    /// default: the contour tolerance). Larger folds more take-ups, so the
+    /// controller stops less, at the price of up to that error at reversals
+    /// (docs/compensation.md, "Take-ups folded into the move").
+    #[arg(
+        long,
+        value_name = "UM",
+        conflicts_with_all = ["no_take_up", "separate_take_ups"]
+    )]
+    pub take_up_tolerance_um: Option<f64>,
     /// Do not tag inserted lines with `(volcomp Ln)` comments.
     #[arg(long)]
     pub no_trace: bool,

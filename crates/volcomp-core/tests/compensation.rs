@@ -280,6 +280,29 @@ fn a_take_up_across_the_path_stays_a_block() {
 }
 
 #[test]
+fn a_larger_take_up_tolerance_folds_the_corner_and_leaves_what_the_bound_says() {
+    // The 45° reversal of the test above, folded with a take-up tolerance of
+    // 5 µm: no block, and the tool stands still at the corner while X
+    // crosses its band, leaving the new line by 4 µm · (5 / 5.004) · sin 45°
+    // = 2.826 µm at most (the simulator's dead band, a second method).
+    let map = x_backlash_map(0.0);
+    let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG1 X5 Y5\nM2\n";
+    let opts = CompensateOptions {
+        take_up_tolerance_mm: Some(5e-3),
+        ..Default::default()
+    };
+    let (out, _) = compensate(program, &map, opts);
+    assert!(!out.contains("take-up"), "{out}");
+    let report = against_original(&out, program, &map);
+    let expected = 4.0 * (5.0 / 5.004) * std::f64::consts::FRAC_1_SQRT_2;
+    assert!(
+        (report.contour_max_um - expected).abs() < 0.06,
+        "{} vs {expected}: {out}",
+        report.contour_max_um
+    );
+}
+
+#[test]
 fn a_take_up_gets_a_lead_piece_where_the_compensation_moves_the_axis() {
     // e_x = 0.1 µm per mm of Y: on the pure Y move back, the X command
     // falls by 0.1 µm/mm, so X reverses there with nominal X not moving.

@@ -166,9 +166,17 @@ fn options(
     nominal_directions: bool,
     take_up: bool,
     separate_take_ups: bool,
+    take_up_tolerance_um: Option<f64>,
     trace: bool,
     arcs_as_lines: bool,
 ) -> PyResult<CompensateOptions> {
+    if let Some(t) = take_up_tolerance_um {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(bad_input(format!(
+                "take_up_tolerance_um must be a positive number of µm; got {t}"
+            )));
+        }
+    }
     if separate_take_ups && !take_up {
         return Err(bad_input(
             "separate_take_ups=True needs take_up=True (there are no take-ups to write)",
@@ -266,6 +274,7 @@ fn options(
         },
         take_up,
         fold_take_ups: !separate_take_ups,
+        take_up_tolerance_mm: take_up_tolerance_um.map(|t| t * 1e-3),
         trace_comments: trace,
         // Direct and pitch do not aim at the full model's target: their
         // residual is the method's own error, checked for finiteness only.
@@ -338,11 +347,12 @@ fn header(
 /// (None: no limit). Output: `decimals`, `trace` (the `(volcomp Ln)`
 /// comments), `take_up` (backlash take-up moves; `separate_take_ups`
 /// writes each as a block of its own instead of folding into the move
-/// those it can), `nominal_directions`.
+/// those it can; `take_up_tolerance_um` lets a fold leave more than the
+/// contour tolerance), `nominal_directions`.
 /// `points=True` adds the per-point records. `date_utc` dates the header
 /// (default: now, or SOURCE_DATE_EPOCH).
 #[pyfunction]
-#[pyo3(signature = (program, model, *, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, method = "exact", gain = 0.5, max_iterations = 20, segment_length_mm = None, segments = None, no_split = false, contour_tolerance_um = None, min_segment_length_mm = 0.01, max_residual_um = 1.0, chord_tolerance_mm = 1e-4, decimals = None, max_correction_mm = 0.1, nominal_directions = false, take_up = true, separate_take_ups = false, trace = true, arcs_as_lines = false, allow_recompensate = false, max_output_bytes = Some(DEFAULT_MAX_OUTPUT_BYTES), points = false, name = None, date_utc = None))]
+#[pyo3(signature = (program, model, *, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, method = "exact", gain = 0.5, max_iterations = 20, segment_length_mm = None, segments = None, no_split = false, contour_tolerance_um = None, min_segment_length_mm = 0.01, max_residual_um = 1.0, chord_tolerance_mm = 1e-4, decimals = None, max_correction_mm = 0.1, nominal_directions = false, take_up = true, separate_take_ups = false, take_up_tolerance_um = None, trace = true, arcs_as_lines = false, allow_recompensate = false, max_output_bytes = Some(DEFAULT_MAX_OUTPUT_BYTES), points = false, name = None, date_utc = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn compensate(
     py: Python<'_>,
@@ -368,6 +378,7 @@ pub fn compensate(
     nominal_directions: bool,
     take_up: bool,
     separate_take_ups: bool,
+    take_up_tolerance_um: Option<f64>,
     trace: bool,
     arcs_as_lines: bool,
     allow_recompensate: bool,
@@ -401,6 +412,7 @@ pub fn compensate(
         nominal_directions,
         take_up,
         separate_take_ups,
+        take_up_tolerance_um,
         trace,
         arcs_as_lines,
     )?;

@@ -131,6 +131,13 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
             a.max_residual_um
         )));
     }
+    if let Some(t) = a.take_up_tolerance_um {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(CliError::Message(format!(
+                "--take-up-tolerance-um must be a positive number of µm; got {t}"
+            )));
+        }
+    }
     if a.decimals.is_some_and(|d| !(1..=9).contains(&d)) {
         return Err(CliError::Message("--decimals must be 1 … 9".into()));
     }
@@ -148,6 +155,7 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
         },
         take_up: !a.no_take_up,
         fold_take_ups: !a.separate_take_ups,
+        take_up_tolerance_mm: a.take_up_tolerance_um.map(|t| t * 1e-3),
         trace_comments: !a.no_trace,
         // Direct and pitch do not aim at the full model's target: their
         // residual is the method's own error, checked for finiteness only.

@@ -64,6 +64,12 @@ pub struct CompensateOptions {
     /// "Take-ups folded into the move"). A separate take-up block forces the
     /// controller's planner to stop; a folded one does not.
     pub fold_take_ups: bool,
+    /// The contour error a folded take-up may leave (mm); `None`: the
+    /// contour tolerance ([`CompensateOptions::fold_tolerance_mm`]). A
+    /// larger one trades accuracy at reversals for fewer stops: at a corner
+    /// where the reversing axis moves on both sides, the tool leaves the
+    /// path by up to the reversal value.
+    pub take_up_tolerance_mm: Option<f64>,
     /// Tag inserted lines with `(volcomp Ln)`.
     pub trace_comments: bool,
     /// Largest model residual `‖t − (q + e(q))‖` accepted at a point (µm),
@@ -91,6 +97,7 @@ impl Default for CompensateOptions {
             directions: DirectionPolicy::Commanded,
             take_up: true,
             fold_take_ups: true,
+            take_up_tolerance_mm: None,
             trace_comments: true,
             max_residual_um: Some(DEFAULT_MAX_RESIDUAL_UM),
         }
@@ -98,9 +105,13 @@ impl Default for CompensateOptions {
 }
 
 impl CompensateOptions {
-    /// The contour error (mm) a folded take-up may leave: the adaptive
-    /// segmentation's tolerance, or its default under a fixed segmentation.
+    /// The contour error (mm) a folded take-up may leave: the take-up
+    /// tolerance if given, else the adaptive segmentation's tolerance, or
+    /// its default under a fixed segmentation.
     pub fn fold_tolerance_mm(&self) -> f64 {
+        if let Some(t) = self.take_up_tolerance_mm {
+            return t;
+        }
         match self.segmentation {
             Segmentation::Adaptive { tolerance_mm, .. } => tolerance_mm,
             _ => DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,

@@ -206,6 +206,9 @@ pub fn describe_options(o: &CompensateOptions) -> (String, String) {
         }
         .into(),
     ];
+    if let (true, true, Some(t)) = (o.take_up, o.fold_take_ups, o.take_up_tolerance_mm) {
+        parts.push(format!("take-up tolerance {} um", num(t * 1e3)));
+    }
     if let Some(d) = o.decimals {
         parts.push(format!("decimals {d}"));
     }

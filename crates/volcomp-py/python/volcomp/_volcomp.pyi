@@ -171,6 +171,7 @@ def compensate(
     nominal_directions: bool = False,
     take_up: bool = True,
     separate_take_ups: bool = False,
+    take_up_tolerance_um: Optional[float] = None,
     trace: bool = True,
     arcs_as_lines: bool = False,
     allow_recompensate: bool = False,

@@ -293,6 +293,7 @@ pub fn compensate_finishing<R: BufRead>(
         directions: DirectionPolicy::Commanded,
         take_up: false,
         fold_take_ups: false,
+        take_up_tolerance_mm: None,
         trace_comments: options.trace_comments,
         // The direct step is exact for a displacement field (no iteration).
         max_residual_um: None,
