@@ -139,8 +139,9 @@ pub fn compensate_program<R: BufRead>(
                 .iter()
                 .any(|m| m.source == MotionSource::CutterComp);
         if cutter && !ev.after_end && ev.kind == LineKind::Block {
-            // Cutter compensation becomes compensated G0/G1 segments of the
-            // tool-centre path under G40 (compensate/cutter.rs).
+            // Cutter compensation becomes the compensated tool-centre path
+            // under G40: G0/G1 segments and G2/G3 arc pieces
+            // (compensate/cutter.rs).
             st.write_cutter(
                 ev.number,
                 ev.bytes,

@@ -35,7 +35,6 @@ impl Blocks {
             bytes = rest;
             match b {
                 b'\n' => self.end_line(),
-                _ if self.semicolon => {}
                 b'(' => self.paren = true,
                 b')' if self.paren => self.paren = false,
                 _ if self.paren => {}
