@@ -179,6 +179,13 @@ impl State {
         if self.text.is_empty() {
             return;
         }
+        self.push_inserted(sep, line, trace, ending, note);
+    }
+
+    /// Ends the inserted line in `self.text` (its trace comment, `(volcomp
+    /// Ln note)`, when asked for) and appends it to the buffer on a line of
+    /// its own.
+    fn push_inserted(&mut self, sep: &str, line: u64, trace: bool, ending: &[u8], note: &str) {
         if trace {
             self.text.push_str(sep);
             if note.is_empty() {
@@ -243,21 +250,7 @@ impl State {
         }
         let centre = arc.text(frame, style, sep, from);
         self.text.push_str(&centre);
-        if trace {
-            self.text.push_str(sep);
-            if note.is_empty() {
-                self.text.push_str(&format!("(volcomp L{line})"));
-            } else {
-                self.text.push_str(&format!("(volcomp L{line} {note})"));
-            }
-        }
-        if !self.buf.is_empty() && !self.buf.ends_with(b"\n") {
-            self.buf.extend_from_slice(b"\n");
-        }
-        self.buf.extend_from_slice(self.text.as_bytes());
-        self.buf
-            .extend_from_slice(if ending.is_empty() { b"\n" } else { ending });
-        self.summary.lines_out += 1;
+        self.push_inserted(sep, line, trace, ending, note);
     }
 
     #[allow(clippy::too_many_arguments)]
