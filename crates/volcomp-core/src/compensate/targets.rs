@@ -333,6 +333,7 @@ mod tests {
             source: MotionSource::Program,
             extra: Default::default(),
             feed_mode: volcomp_gcode::interp::FeedMode::PerMinute,
+            path_mode: Default::default(),
         }
     }
 
