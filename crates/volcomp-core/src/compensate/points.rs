@@ -65,76 +65,88 @@ fn take_up_command(
 }
 
 /// The jump of the tool's image at `q_prev` when the `reversed` axes switch
-/// from `s_old` to `s_new` (mm): the lag the simulator's dead band starts
-/// with, and what a take-up move covers (the written take-up is rounded to
-/// the output's step, so it is not used here).
-fn switch_lag_mm(
+/// from `s_old` to `s_new`, axis by axis (mm): the lag each reversing axis'
+/// carriage starts with under the simulator's dead band (simulate/mod.rs),
+/// its own component and what its tables change across. They add up to the
+/// whole jump. The written take-up is rounded to the output's step, so it
+/// is not used here.
+fn switch_lags_mm(
     model: &dyn ErrorModel,
     q_prev: Vec3,
     s_old: Directions,
     s_new: Directions,
     reversed: [bool; 3],
-) -> Result<Vec3, ModelError> {
+) -> Result<[Vec3; 3], ModelError> {
     use crate::model::{actual_mm, Components};
+    let mut lags = [Vec3::ZERO; 3];
     let mut s = s_old;
     for a in 0..3 {
-        if reversed[a] {
+        if reversed[a] && s_new[a] != s[a] {
+            let before = actual_mm(model, q_prev, s, Components::All)?;
             s[a] = s_new[a];
+            lags[a] = before - actual_mm(model, q_prev, s, Components::All)?;
         }
     }
-    Ok(actual_mm(model, q_prev, s_old, Components::All)?
-        - actual_mm(model, q_prev, s, Components::All)?)
+    Ok(lags)
 }
 
-/// The contour error (mm) left by folding the take-up of `lag` (see
-/// [`switch_lag_mm`]) into the move from `q_prev` to the command `q`,
-/// whose nominal travel is `nominal_delta`, under the dead band of the
-/// simulator (docs/design.md, "Simulation and metrics"; simulate/mod.rs).
+/// The contour error (mm) left by folding the take-up of `lags` (see
+/// [`switch_lags_mm`]) into the move from `q_prev` to the command `q`,
+/// whose nominal travel is `nominal_delta`, under the simulator's dead band
+/// (docs/compensation.md, "Take-ups folded into the move"; simulate/mod.rs).
 ///
-/// At the switch the tool stays where it was, `lag` behind the new
-/// direction's image, while the command carries the image onto the path
-/// linearly over the move: at the fraction `λ` of the move the image is
-/// `(1 − λ)·lag` short of the nominal point, so the tool is off it by
-/// `lag_k·(λ − p_k(λ))` on axis `k`, where `p_k` is how much of its lag
-/// is gone. An axis whose command travels `T_k = |q_k − q_prev_k|` towards
-/// its lag `b_k = |lag_k|` (a reversing axis crossing its band) takes it up
-/// after the fraction `b_k / T_k`: `|λ − p_k|` peaks at
-/// `|T_k − b_k| / max(T_k, b_k)` (at the band's end if the command travels
-/// further, at the move's end if less — the rest then carries into the next
-/// move). An axis that stands still loses its lag in step with the fastest
-/// of those (`r = max T_j / b_j`): at most `|r − 1| / max(r, 1)`; an axis
-/// that moves away from its lag loses it at once: all of it. Only the part
-/// across the move's direction leaves the path (a lag along it is the tool
-/// arriving later). Zero where every command crosses exactly its band.
-fn fold_deviation_mm(lag: Vec3, q_prev: Vec3, q: Vec3, nominal_delta: Vec3) -> f64 {
+/// The command is solved for the new direction, so the image of the
+/// command runs from `(1 − λ)·ℓ` short of the nominal point at the start
+/// (`ℓ = Σ ℓ_a`, the whole jump) onto it at the end, linearly over the
+/// move (the map is affine at this scale). The tool is the image plus what
+/// each carriage still lags, `ℓ_a·f_a(λ)`: so it is off the nominal point by
+/// `Σ_a ℓ_a·(f_a(λ) − 1 + λ)`. For an axis whose command travels
+/// `T_a = |q_a − q_prev_a|` toward its own lag `b_a = |ℓ_a[a]|`, the part
+/// left is `f_a = max(0, 1 − r_a λ)`, `r_a = T_a / b_a`, so its term peaks at
+/// `|r_a − 1| / max(r_a, 1)` of `ℓ_a` (at `λ = 1/r_a` if the command crosses
+/// the band, at the end if not: the rest then carries into the next move);
+/// an axis that stands still keeps its lag (`f_a = 1`: all of it at the
+/// end); one that moves away from it, or has no reversal value of its own,
+/// loses it at once (`f_a = 0`: all of it at the start). The offsets are
+/// piecewise linear in `λ`, so the largest is at `λ = 0`, `1` or a `1/r_a`.
+/// Only the part across the move's direction leaves the path (a lag along
+/// it is the tool arriving later). Zero where every reversing axis'
+/// command crosses exactly its band.
+fn fold_deviation_mm(lags: &[Vec3; 3], q_prev: Vec3, q: Vec3, nominal_delta: Vec3) -> f64 {
     let dq = q - q_prev;
-    let mut rate: f64 = 0.0;
-    for k in 0..3 {
-        if lag[k] * dq[k] > 0.0 {
-            rate = rate.max(dq[k].abs() / lag[k].abs());
+    // The ratio r_a of each reversing axis, `None` where its lag is gone
+    // at once.
+    let ratio = |a: usize| -> Option<f64> {
+        let own = lags[a][a];
+        (own != 0.0 && own * dq[a] >= 0.0).then(|| dq[a].abs() / own.abs())
+    };
+    let offset = |lambda: f64| -> Vec3 {
+        let mut off = Vec3::ZERO;
+        for (a, lag) in lags.iter().enumerate() {
+            if *lag == Vec3::ZERO {
+                continue;
+            }
+            let left = ratio(a).map_or(0.0, |r| (1.0 - r * lambda).max(0.0));
+            off += *lag * (left - 1.0 + lambda);
+        }
+        off
+    };
+    let length = nominal_delta.norm();
+    let across = |off: Vec3| -> f64 {
+        if length > 0.0 {
+            let u = nominal_delta * (1.0 / length);
+            (off - u * off.dot(u)).norm()
+        } else {
+            off.norm()
+        }
+    };
+    let mut worst = across(offset(0.0)).max(across(offset(1.0)));
+    for a in 0..3 {
+        if let Some(r) = ratio(a).filter(|r| *r > 1.0) {
+            worst = worst.max(across(offset(1.0 / r)));
         }
     }
-    let mut off = Vec3::ZERO;
-    for k in 0..3 {
-        let share = if lag[k] == 0.0 {
-            0.0
-        } else if lag[k] * dq[k] > 0.0 {
-            let (t, b) = (dq[k].abs(), lag[k].abs());
-            (t - b).abs() / t.max(b)
-        } else if dq[k] == 0.0 {
-            (rate - 1.0).abs() / rate.max(1.0)
-        } else {
-            1.0
-        };
-        off[k] = lag[k] * share;
-    }
-    let length = nominal_delta.norm();
-    if length > 0.0 {
-        let u = nominal_delta * (1.0 / length);
-        (off - u * off.dot(u)).norm()
-    } else {
-        off.norm()
-    }
+    worst
 }
 
 /// Shortest lead piece (mm): LinuxCNC runs a segment no faster than its
@@ -147,7 +159,7 @@ const MIN_LEAD_MM: f64 = 0.2;
 /// A lead piece for a take-up that the whole move cannot fold (see
 /// [`fold_deviation_mm`]): the point at a fraction ½, ¼, … of the move from
 /// `t_prev`, on its line or arc, on which the reversing axes, running their new way
-/// from the start, take up the lag `lag` with the tool within the fold
+/// from the start, take up the lags `lags` with the tool within the fold
 /// tolerance of the path; the longest such piece. Over a short piece the
 /// command's travel beyond the band (the nominal path's or the
 /// compensation's own along the reversing axis) is small, so the tool
@@ -167,7 +179,7 @@ fn lead_target(
     options: &CompensateOptions,
     quantize: &dyn Fn(Vec3) -> Vec3,
     q_prev: Vec3,
-    lag: Vec3,
+    lags: &[Vec3; 3],
     t_prev: Vec3,
     at: &dyn Fn(f64) -> Vec3,
     length: f64,
@@ -177,7 +189,7 @@ fn lead_target(
         super::Segmentation::Adaptive { min_length_mm, .. } => min_length_mm,
         _ => super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
     }
-    .max(20.0 * lag.norm())
+    .max(20.0 * lags.iter().fold(Vec3::ZERO, |s, l| s + *l).norm())
     .max(MIN_LEAD_MM);
     let mut piece = 0.5 * length;
     while piece >= shortest && piece > 0.0 {
@@ -189,7 +201,7 @@ fn lead_target(
                 || crate::model::Direction::of_delta(q[a] - q_prev[a]) == Some(point.s[a])
         });
         if consistent
-            && fold_deviation_mm(lag, q_prev, q, lead - t_prev) <= options.fold_tolerance_mm()
+            && fold_deviation_mm(lags, q_prev, q, lead - t_prev) <= options.fold_tolerance_mm()
         {
             return Ok(Some(piece / length));
         }
@@ -376,9 +388,9 @@ impl State<'_> {
             // Where the dead band keeps the tool on the path while the axis
             // takes up its reversal value, the move itself takes it up.
             if take_up.is_some() && options.fold_take_ups {
-                let lag = switch_lag_mm(model, self.q_out, self.s, point.s, point.reversed)
+                let lags = switch_lags_mm(model, self.q_out, self.s, point.s, point.reversed)
                     .map_err(|source| model_error(file, line, source))?;
-                if fold_deviation_mm(lag, self.q_out, point.q_mm, *t - t_prev)
+                if fold_deviation_mm(&lags, self.q_out, point.q_mm, *t - t_prev)
                     <= options.fold_tolerance_mm()
                 {
                     take_up = None;
@@ -409,7 +421,7 @@ impl State<'_> {
                         ),
                     };
                     let lead = lead_target(
-                        model, options, &quantize, self.q_out, lag, t_prev, &*at, length, &point,
+                        model, options, &quantize, self.q_out, &lags, t_prev, &*at, length, &point,
                     )
                     .map_err(|source| model_error(file, line, source))?;
                     if let Some(f) = lead {
@@ -512,24 +524,30 @@ mod tests {
 
     const UM: f64 = 1e-3;
 
+    /// The lags of one reversing axis `a`.
+    fn one(a: usize, lag: Vec3) -> [Vec3; 3] {
+        let mut l = [Vec3::ZERO; 3];
+        l[a] = lag;
+        l
+    }
+
     #[test]
     fn a_lag_along_the_move_leaves_the_path_not_at_all() {
         // X reverses by 4 µm and the move goes on along X for 5 mm: the
         // band is crossed after 0.1 % of it, the tool waits on the line.
-        let lag = Vec3::new(-4.0 * UM, 0.0, 0.0);
+        let lags = one(0, Vec3::new(-4.0 * UM, 0.0, 0.0));
         let q0 = Vec3::new(10.0, 0.0, 0.0);
         let q = Vec3::new(5.0 - 0.004, 0.0, 0.0);
-        assert!(fold_deviation_mm(lag, q0, q, Vec3::new(-5.0, 0.0, 0.0)) < 1e-12);
+        assert!(fold_deviation_mm(&lags, q0, q, Vec3::new(-5.0, 0.0, 0.0)) < 1e-12);
     }
 
     #[test]
     fn a_still_axis_whose_command_crosses_exactly_its_band_costs_nothing() {
         // Z reverses by 2 µm on a move along X that the nominal path makes
         // at constant Z: the Z command travels exactly the 2 µm.
-        let lag = Vec3::new(0.0, 0.0, 2.0 * UM);
-        let q0 = Vec3::new(0.0, 0.0, 0.0);
+        let lags = one(2, Vec3::new(0.0, 0.0, 2.0 * UM));
         let q = Vec3::new(4.0, 0.0, 2.0 * UM);
-        assert!(fold_deviation_mm(lag, q0, q, Vec3::new(4.0, 0.0, 0.0)) < 1e-12);
+        assert!(fold_deviation_mm(&lags, Vec3::ZERO, q, Vec3::new(4.0, 0.0, 0.0)) < 1e-12);
     }
 
     #[test]
@@ -537,13 +555,13 @@ mod tests {
         // The Z command travels 2.5 µm for a 2 µm band: crossed after 4/5 of
         // the move, when the image is still 1/5 of the lag short: 0.4 µm,
         // across a move along X.
-        let lag = Vec3::new(0.0, 0.0, 2.0 * UM);
+        let lags = one(2, Vec3::new(0.0, 0.0, 2.0 * UM));
         let q = Vec3::new(4.0, 0.0, 2.5 * UM);
-        let d = fold_deviation_mm(lag, Vec3::ZERO, q, Vec3::new(4.0, 0.0, 0.0));
+        let d = fold_deviation_mm(&lags, Vec3::ZERO, q, Vec3::new(4.0, 0.0, 0.0));
         assert!((d - 0.4 * UM).abs() < 1e-12, "{d}");
         // Travelling only 1.5 µm, 0.5 µm of the band is left at the end.
         let q = Vec3::new(4.0, 0.0, 1.5 * UM);
-        let d = fold_deviation_mm(lag, Vec3::ZERO, q, Vec3::new(4.0, 0.0, 0.0));
+        let d = fold_deviation_mm(&lags, Vec3::ZERO, q, Vec3::new(4.0, 0.0, 0.0));
         assert!((d - 0.5 * UM).abs() < 1e-12, "{d}");
     }
 
@@ -552,27 +570,42 @@ mod tests {
         // X reverses by 4 µm onto a move of 5 mm at 45°: the X command
         // travels 5 mm + 4 µm, the share is 5/5.004 of the lag, and its part
         // across the move is that times sin 45°.
-        let lag = Vec3::new(-4.0 * UM, 0.0, 0.0);
+        let lags = one(0, Vec3::new(-4.0 * UM, 0.0, 0.0));
         let q = Vec3::new(-5.004, 5.0, 0.0);
-        let d = fold_deviation_mm(lag, Vec3::ZERO, q, Vec3::new(-5.0, 5.0, 0.0));
+        let d = fold_deviation_mm(&lags, Vec3::ZERO, q, Vec3::new(-5.0, 5.0, 0.0));
         let expected = 4.0 * UM * (5.0 / 5.004) * std::f64::consts::FRAC_1_SQRT_2;
         assert!((d - expected).abs() < 1e-12, "{d} vs {expected}");
     }
 
     #[test]
-    fn a_transverse_lag_of_an_axis_moving_away_counts_in_full() {
+    fn a_transverse_lag_fades_with_its_own_axis_whatever_the_others_do() {
         // On a plunge of 1 mm, Y reverses (its command crosses exactly its
         // 4 µm band) and that shifts X by 0.3 µm (the straightness tables
-        // differ by direction). X moving away from that lag loses it at
-        // once: 0.3 µm across the plunge. X standing still loses it in step
-        // with Y's progress, which keeps pace with the command: nothing.
-        let lag = Vec3::new(0.3 * UM, 4.0 * UM, 0.0);
+        // differ by direction). The shift is Y's carriage's: it fades as Y
+        // engages, in step with the command, whether the X command moves
+        // (1 µm away from it) or not: nothing leaves the path.
+        let lags = one(1, Vec3::new(0.3 * UM, 4.0 * UM, 0.0));
         let plunge = Vec3::new(0.0, 0.0, -1.0);
-        let q = Vec3::new(-UM, 4.0 * UM, -1.0);
-        let d = fold_deviation_mm(lag, Vec3::ZERO, q, plunge);
-        assert!((d - 0.3 * UM).abs() < 1e-12, "{d}");
-        let q = Vec3::new(0.0, 4.0 * UM, -1.0);
-        let d = fold_deviation_mm(lag, Vec3::ZERO, q, plunge);
-        assert!(d < 1e-12, "{d}");
+        for x in [-UM, 0.0] {
+            let q = Vec3::new(x, 4.0 * UM, -1.0);
+            let d = fold_deviation_mm(&lags, Vec3::ZERO, q, plunge);
+            assert!(d < 1e-12, "{d}");
+        }
+        // Where Y's command travels only half its band, half of both
+        // components is still there at the end: √(0.15² + 2²) µm across.
+        let q = Vec3::new(0.0, 2.0 * UM, -1.0);
+        let d = fold_deviation_mm(&lags, Vec3::ZERO, q, plunge);
+        assert!((d - 0.15f64.hypot(2.0) * UM).abs() < 1e-12, "{d}");
+    }
+
+    #[test]
+    fn a_lag_with_no_reversal_value_of_its_own_switches_at_once() {
+        // X's tables change Y by 0.5 µm with the direction but X itself has
+        // no reversal value there: the carriage engages at once, the tool
+        // steps by 0.5 µm across a move along X at the start.
+        let lags = one(0, Vec3::new(0.0, 0.5 * UM, 0.0));
+        let q = Vec3::new(-3.0, 0.0, 0.0);
+        let d = fold_deviation_mm(&lags, Vec3::ZERO, q, Vec3::new(-3.0, 0.0, 0.0));
+        assert!((d - 0.5 * UM).abs() < 1e-12, "{d}");
     }
 }

@@ -6,21 +6,28 @@
 //! `q ↦ q + e(q, s)`, where `s` switches at the start of a move
 //! (docs/design.md, "Direction state and backlash").
 //!
-//! A position cannot jump, so where a switch of `s` would make the image
-//! discontinuous (backlash at a reversal), the simulator keeps the tool where
-//! it was and carries the difference as a *lag* `actual − image(q, s)`: a
-//! dead band. Each component of the lag shrinks by the command travel of its
-//! own axis while that axis moves towards the tool (the axis takes up its
-//! reversal value, the tool stands still), and stays 0 once engaged. Lag in a
-//! component whose own axis does not catch up (the transverse part of another
-//! axis' switch) fades in proportion to the take-up progress of the axes that
-//! do. A lag in the direction of motion (negative reversal value) vanishes at
-//! once: nothing physical delays it, and the model says it happens. A lag that
-//! is not taken up by the end of a move carries into the next one.
+//! A position cannot jump, so backlash is simulated as a *dead band* per
+//! axis. When an axis' command reverses, the tool keeps where it was: the
+//! switch of that axis' tables is carried as a *lag*, the jump
+//! `e(q, s_before) − e(q, s_after)` of the image, all three components of
+//! it (the axis' own reversal value and what its tables add across, its
+//! straightness changing with the direction). The lag belongs to the
+//! reversing axis' carriage and fades as that carriage takes up its band:
+//! its own component shrinks by the axis' command travel toward it (the
+//! motor crosses the band, the tool stands still along the axis), and the
+//! components across shrink in the same proportion (the carriage engages
+//! as a whole). A lag stays while its axis does not move, whatever the
+//! other axes do, and carries into the next move; it vanishes at once when
+//! its axis moves away from it (a negative reversal value: the tables say
+//! the tool is ahead, nothing delays it) or when the axis has no reversal
+//! value of its own there (it engages at once). An axis that reverses again
+//! before its band is crossed adds the new switch to what is left.
 //!
-//! This is what a real axis with backlash does, and it is what makes a
-//! take-up move (a command that moves only the reversing axis by its reversal
-//! value) leave the tool still.
+//! This is a backlash gap: the carriage of axis `a` sits at a fraction
+//! `β_a` across its band and its tables act as `e_old + β_a (e_new − e_old)`,
+//! `β_a` growing with the motor's travel over the band width. It is what
+//! makes a take-up move (a command that moves only the reversing axis by
+//! its reversal value) leave the tool still.
 
 mod front;
 pub mod nominal;
@@ -44,7 +51,10 @@ pub struct Simulator<'m> {
     tool_length_offset_mm: Vec3,
     s: Directions,
     q: Vec3,
-    actual: Option<Vec3>,
+    /// Whether the actual position is known (the last move was evaluated).
+    tracked: bool,
+    /// The lag each axis' carriage still carries (mm; module documentation).
+    lags: [Vec3; 3],
 }
 
 impl<'m> Simulator<'m> {
@@ -56,7 +66,8 @@ impl<'m> Simulator<'m> {
             tool_length_offset_mm: Vec3::ZERO,
             s: ALL_FORWARD,
             q: q_start_mm,
-            actual: None,
+            tracked: false,
+            lags: [Vec3::ZERO; 3],
         }
     }
 
@@ -66,7 +77,7 @@ impl<'m> Simulator<'m> {
     pub fn set_tool_length_offset(&mut self, tool_length_offset_mm: Vec3) {
         if tool_length_offset_mm != self.tool_length_offset_mm {
             self.tool_length_offset_mm = tool_length_offset_mm;
-            self.actual = None;
+            self.forget();
         }
     }
 
@@ -85,7 +96,12 @@ impl<'m> Simulator<'m> {
     pub fn move_untracked(&mut self, q_end_mm: Vec3) {
         self.s = next_state(self.s, q_end_mm - self.q);
         self.q = q_end_mm;
-        self.actual = None;
+        self.forget();
+    }
+
+    fn forget(&mut self) {
+        self.tracked = false;
+        self.lags = [Vec3::ZERO; 3];
     }
 
     /// Moves to `q_end_mm`, calling `sample(actual, command)` at points no
@@ -104,12 +120,19 @@ impl<'m> Simulator<'m> {
             model: self.model,
             tool_length_offset_mm: self.tool_length_offset_mm,
         };
-        let image = |q: Vec3| actual_mm(&tool, q, s_new, Components::All);
-        let lag0 = match self.actual {
-            Some(prev) => prev - image(q0)?,
-            None => Vec3::ZERO,
-        };
-        let lag = Lag::new(lag0, dq);
+        if self.tracked {
+            // Each reversing axis' switch, one axis at a time: the lags
+            // add up to the whole jump of the image.
+            let mut s = self.s;
+            for a in 0..3 {
+                if s_new[a] != s[a] {
+                    let before = actual_mm(&tool, q0, s, Components::All)?;
+                    s[a] = s_new[a];
+                    self.lags[a] += before - actual_mm(&tool, q0, s, Components::All)?;
+                }
+            }
+        }
+        let bands = [0, 1, 2].map(|a| Band::new(self.lags[a], a, dq[a]));
         let length = dq.norm();
         let n = if spacing_mm.is_finite() && spacing_mm > 0.0 {
             ((length / spacing_mm).ceil() as usize).max(1)
@@ -120,50 +143,51 @@ impl<'m> Simulator<'m> {
         for i in 1..=n {
             let lambda = i as f64 / n as f64;
             let q = if i == n { q_end_mm } else { q0 + dq * lambda };
-            let a = image(q)? + lag.at(lambda);
+            let mut a = actual_mm(&tool, q, s_new, Components::All)?;
+            for (k, band) in bands.iter().enumerate() {
+                a += self.lags[k] * band.left(lambda);
+            }
             sample(a, q);
             end = a;
         }
+        for (k, band) in bands.iter().enumerate() {
+            self.lags[k] *= band.left(1.0);
+        }
         self.s = s_new;
         self.q = q_end_mm;
-        self.actual = Some(end);
+        self.tracked = true;
         Ok(end)
     }
 }
 
-/// The dead-band lag along one move (see the module documentation).
-struct Lag {
-    lag0: Vec3,
-    dq: Vec3,
-    catching: [bool; 3],
+/// How much of one axis' lag is left along a move (module documentation).
+struct Band {
+    /// The axis' own lag (mm, absolute), and its command travel toward it
+    /// over the whole move; `None`: the lag is gone at once.
+    own_mm: f64,
+    travel_mm: Option<f64>,
 }
 
-impl Lag {
-    fn new(lag0: Vec3, dq: Vec3) -> Self {
-        let catching = [0, 1, 2].map(|k| lag0[k] * dq[k] > 0.0);
-        Self { lag0, dq, catching }
+impl Band {
+    fn new(lag: Vec3, axis: usize, dq: f64) -> Self {
+        let own = lag[axis];
+        let travel = if own == 0.0 || own * dq < 0.0 {
+            None
+        } else {
+            Some(dq.abs())
+        };
+        Band {
+            own_mm: own.abs(),
+            travel_mm: travel,
+        }
     }
 
-    /// Lag after the fraction `lambda` of the move.
-    fn at(&self, lambda: f64) -> Vec3 {
-        let mut progress: f64 = 0.0;
-        for k in 0..3 {
-            if self.catching[k] {
-                progress = progress.max((self.dq[k].abs() * lambda / self.lag0[k].abs()).min(1.0));
-            }
+    /// The fraction of the lag left after the fraction `lambda` of the move.
+    fn left(&self, lambda: f64) -> f64 {
+        match self.travel_mm {
+            None => 0.0,
+            Some(t) => ((self.own_mm - t * lambda) / self.own_mm).max(0.0),
         }
-        let mut lag = Vec3::ZERO;
-        for k in 0..3 {
-            lag[k] = if self.catching[k] {
-                let left = (self.lag0[k].abs() - self.dq[k].abs() * lambda).max(0.0);
-                left.copysign(self.lag0[k])
-            } else if self.dq[k] != 0.0 && self.lag0[k] * self.dq[k] < 0.0 {
-                0.0
-            } else {
-                self.lag0[k] * (1.0 - progress)
-            };
-        }
-        lag
     }
 }
 
@@ -291,6 +315,72 @@ mod tests {
         }
         let (_, a_end) = *samples.last().unwrap();
         assert!((a_end - 0.995).abs() < 1e-12);
+    }
+
+    /// X with a 4 µm band whose reverse tables also move the tool +1 µm
+    /// along Y (its straightness differs by direction).
+    struct XBand;
+
+    impl ErrorModel for XBand {
+        fn deviation_um(
+            &self,
+            _q: Vec3,
+            s: Directions,
+            _c: Components,
+        ) -> Result<Vec3, ModelError> {
+            Ok(if s[0] == Direction::Reverse {
+                Vec3::new(4.0, 1.0, 0.0)
+            } else {
+                Vec3::ZERO
+            })
+        }
+        fn range_mm(&self) -> [[f64; 2]; 3] {
+            [[-1e3, 1e3]; 3]
+        }
+    }
+
+    #[test]
+    fn a_transverse_lag_fades_with_its_own_axis_take_up_only() {
+        // X forward to 1 mm, then back by 2 µm: half its band. The switch
+        // is the jump (−4, −1) µm; half of it is left, the tool has not
+        // moved along X and has moved 0.5 µm along Y.
+        let m = XBand;
+        let mut sim = Simulator::new(&m, Vec3::ZERO);
+        sim.move_to(Vec3::new(1.0, 0.0, 0.0), 0.05, |_, _| {})
+            .unwrap();
+        let a = sim
+            .move_to(Vec3::new(0.998, 0.0, 0.0), f64::INFINITY, |_, _| {})
+            .unwrap();
+        assert!(
+            (a.x - 1.0).abs() < 1e-12 && (a.y - 0.0005).abs() < 1e-12,
+            "{a:?}"
+        );
+        // A move along Y alone: X's carriage stays where it is in its band,
+        // so does the half of the Y shift it has not made yet.
+        let a = sim
+            .move_to(Vec3::new(0.998, 1.0, 0.0), 0.05, |_, _| {})
+            .unwrap();
+        assert!(
+            (a.x - 1.0).abs() < 1e-12 && (a.y - 1.0005).abs() < 1e-12,
+            "{a:?}"
+        );
+        // X moves back 3 µm more: 2 µm close its band (the Y shift fades
+        // in step, 0.25 µm per µm), 1 µm moves the tool.
+        let mut ys = Vec::new();
+        let a = sim
+            .move_to(Vec3::new(0.995, 1.0, 0.0), 0.0005, |a, q| {
+                ys.push((q.x, a.y))
+            })
+            .unwrap();
+        assert!(
+            (a.x - 0.999).abs() < 1e-12 && (a.y - 1.001).abs() < 1e-12,
+            "{a:?}"
+        );
+        for (qx, y) in ys {
+            let taken_um = ((0.998 - qx) * 1e3).min(2.0);
+            let expected = 1.0005 + 0.00025 * taken_um;
+            assert!((y - expected).abs() < 1e-12, "at X {qx}: {y} vs {expected}");
+        }
     }
 
     #[test]
