@@ -62,14 +62,18 @@ def check_installed():
         )
 
 
-def run_program(program, work_dir, timeout_s=600.0):
+def run_program(program, work_dir, timeout_s=None):
     """Runs `program` once on a fresh copy of config/ under `work_dir`.
 
     Returns the display's result: moving_s (simulated time from the first
     motion to the end of the last, s), feed_s (time with a G1/G2/G3 active,
     s), end_machine_mm, wall_s. Raises LinuxCncError, with LinuxCNC's own
-    log, when the run fails or takes longer than `timeout_s` (wall clock).
+    log, when the run fails or takes longer than `timeout_s` (wall clock;
+    default CT_TIMEOUT_S from the environment, else 600 s: a loaded machine
+    runs the simulation slower than real time, the figures stay exact).
     """
+    if timeout_s is None:
+        timeout_s = float(os.environ.get("CT_TIMEOUT_S", "600"))
     program = os.path.abspath(program)
     if not os.path.isfile(program):
         raise LinuxCncError(f"{program}: no such program")

@@ -7,14 +7,18 @@
 1. `VOLCOMP demo` writes the demo's map and programs into WORK_DIR/demo;
    the programs are the demo's originals, programs/*.ngc (a G2 full circle,
    a zigzag pocket) and the repository's examples/data/part.ngc.
-2. Every program gets an F3000 and an F6000 variant: every F word is
-   rewritten (G0 moves stay rapids).
+2. Every program gets an F3000 and an F6000 variant (every F word is
+   rewritten; G0 moves stay rapids) in each path-control mode: a line
+   `G61`, `G64 P0.005` or `G64` put before its first line (after a leading
+   `%`). CT_MODES="G61;G64" keeps only the modes named; CT_PROGRAMS="g2;zigzag"
+   only the programs whose name contains one of the words; CT_EXTRA=DIR adds
+   the programs of DIR (e.g. bench/eval/make_set.py's, one mode each: the
+   mode line is added to those too).
 3. Each variant is compensated with the demo's map and the machine's set-up
-   (setup.toml) four ways: the defaults, --take-up-tolerance-um 5 (take-ups
-   folded where they leave at most 5 µm), --no-take-up, and
-   --no-split --no-take-up (CT_VARIANTS="defaults;--no-take-up" keeps only
-   the ways named; a way whose flag the binary lacks is skipped
-   and said so).
+   (setup.toml) with the defaults, or the ways CT_VARIANTS names among
+   "defaults", "--take-up-tolerance-um 5" (take-ups folded where they leave
+   at most 5 µm), "--no-take-up" and "--no-split --no-take-up"
+   (';'-separated; a way whose flag the binary lacks is skipped and said so).
 4. Original and compensated programs run one after the other on LinuxCNC;
    two Markdown tables of simulated times (servo-thread timers,
    config/machine.hal) go to standard output and WORK_DIR/table.md, every
@@ -39,6 +43,9 @@ sys.path.insert(0, HERE)
 import lcnc  # noqa: E402
 
 FEEDS_MM_MIN = (3000, 6000)
+MODES = ["G61", "G64 P0.005", "G64"]
+if os.environ.get("CT_MODES"):
+    MODES = os.environ["CT_MODES"].split(";")
 # (label, extra `compensate` arguments)
 VARIANTS = [
     ("defaults", []),
@@ -46,10 +53,10 @@ VARIANTS = [
     ("--no-take-up", ["--no-take-up"]),
     ("--no-split --no-take-up", ["--no-split", "--no-take-up"]),
 ]
-# CT_VARIANTS="defaults;--no-take-up" keeps only those (labels, ';'-separated).
-if os.environ.get("CT_VARIANTS"):
-    _keep = os.environ["CT_VARIANTS"].split(";")
-    VARIANTS = [v for v in VARIANTS if v[0] in _keep]
+# Only the defaults unless CT_VARIANTS="defaults;--no-take-up" names others
+# (labels, ';'-separated).
+_keep = os.environ.get("CT_VARIANTS", "defaults").split(";")
+VARIANTS = [v for v in VARIANTS if v[0] in _keep]
 # A compensated program ends where its original does, within the largest
 # correction `compensate` accepts by default (--max-correction 0.1 mm).
 END_TOLERANCE_MM = 0.1
@@ -116,6 +123,14 @@ def set_feed(text, feed_mm_min, name):
     if count == 0:
         raise BenchError(f"{name}: no F word to rewrite")
     return "".join(out)
+
+
+def with_mode(text, mode):
+    """`text` with the line `mode` before its first line, or after a
+    leading `%` line (LinuxCNC reads what follows `%` as the program)."""
+    lines = text.splitlines(keepends=True)
+    at = 1 if lines and lines[0].strip() == "%" else 0
+    return "".join(lines[:at] + [f"{mode}\n"] + lines[at:])
 
 
 def blocks(path):
@@ -200,6 +215,11 @@ def main():
         raise BenchError(f"volcomp demo wrote no original program into {demo}")
     originals += sorted(glob.glob(os.path.join(HERE, "programs", "*.ngc")))
     originals.append(os.path.join(REPO, "examples", "data", "part.ngc"))
+    if os.environ.get("CT_EXTRA"):
+        originals += sorted(glob.glob(os.path.join(os.environ["CT_EXTRA"], "*.ngc")))
+    if os.environ.get("CT_PROGRAMS"):
+        words = os.environ["CT_PROGRAMS"].split(";")
+        originals = [p for p in originals if any(w in os.path.basename(p) for w in words)]
     setup = os.path.join(HERE, "setup.toml")
 
     progs = os.path.join(work, "programs")
@@ -210,13 +230,15 @@ def main():
         stem = os.path.basename(original)[: -len(".ngc")]
         with open(original) as f:
             text = f.read()
-        for feed in FEEDS_MM_MIN:
-            base = os.path.join(progs, f"{stem}.F{feed}.ngc")
+        for mode, feed in [(m, f) for m in MODES for f in FEEDS_MM_MIN]:
+            mtag = mode.replace(" ", "").replace(".", "")
+            base = os.path.join(progs, f"{stem}.{mtag}.F{feed}.ngc")
             with open(base, "w") as f:
-                f.write(set_feed(text, feed, original))
+                f.write(with_mode(set_feed(text, feed, original), mode))
             r0 = lcnc.run_program(base, runs)
             row = {
                 "program": stem,
+                "mode": mode,
                 "feed_mm_min": feed,
                 "blocks": blocks(base),
                 "original_s": r0["moving_s"],
@@ -224,7 +246,7 @@ def main():
             }
             for label, args in variants:
                 tag = label.replace("--", "").replace(" ", "_")
-                out = os.path.join(progs, f"{stem}.F{feed}.{tag}.ngc")
+                out = os.path.join(progs, f"{stem}.{mtag}.F{feed}.{tag}.ngc")
                 run(
                     [volcomp, "compensate", base, "--map", map_csv, "--setup", setup,
                      "--quiet", "-o", out] + args,
@@ -244,7 +266,7 @@ def main():
                 row[f"{label} s"] = r["moving_s"]
                 row[f"{label} feed_s"] = r["feed_s"]
             rows.append(row)
-            print(f"  {stem} F{feed}: " + ", ".join(
+            print(f"  {stem} {mode} F{feed}: " + ", ".join(
                 f"{k} {v}" for k, v in row.items() if k.endswith(" s") or k == "original_s"),
                 file=sys.stderr)
 
@@ -262,14 +284,14 @@ def main():
         "than F covers in one servo cycle (LinuxCNC caps their speed below F):",
         "",
     ]
-    head = "| program | F mm/min | blocks | original |"
-    rule = "|---|---:|---:|---:|"
+    head = "| program | mode | F mm/min | blocks | original |"
+    rule = "|---|---|---:|---:|---:|"
     for label, _ in variants:
         head += f" {label}: blocks (take-ups, short) | s | Δ |"
         rule += "---:|---:|---:|"
     lines += [head, rule]
     for row in rows:
-        line = (f"| {row['program']} | {row['feed_mm_min']} | {row['blocks']} "
+        line = (f"| {row['program']} | {row['mode']} | {row['feed_mm_min']} | {row['blocks']} "
                 f"| {row['original_feed_s']:.3f} |")
         for label, _ in variants:
             line += (f" {row[f'{label} blocks']} ({row[f'{label} take-ups']}, "
@@ -282,14 +304,14 @@ def main():
         "home at machine 0), s:",
         "",
     ]
-    head = "| program | F mm/min | original |"
-    rule = "|---|---:|---:|"
+    head = "| program | mode | F mm/min | original |"
+    rule = "|---|---|---:|---:|"
     for label, _ in variants:
         head += f" {label}: s | Δ |"
         rule += "---:|---:|"
     lines += [head, rule]
     for row in rows:
-        line = f"| {row['program']} | {row['feed_mm_min']} | {row['original_s']:.3f} |"
+        line = f"| {row['program']} | {row['mode']} | {row['feed_mm_min']} | {row['original_s']:.3f} |"
         for label, _ in variants:
             line += (f" {row[f'{label} s']:.3f} "
                      f"| {pct(row[f'{label} s'], row['original_s'])} |")

@@ -114,6 +114,7 @@ def read_program(path, offset_mm):
     pos = None  # program coordinates, program units
     absolute, arc_abs, mm_per_unit, plane = True, False, 1.0, (0, 1, 2)
     motion = None
+    feed = 0.0
     moves = []
     for n, raw in enumerate(open(path), 1):
         text = strip_comments(raw).strip()
@@ -143,6 +144,8 @@ def read_program(path, offset_mm):
                 plane = (1, 2, 0)
             elif code in (0, 1, 2, 3):
                 motion = int(code)
+        if "F" in val:
+            feed = val["F"] * mm_per_unit
         axes = [k for k in "XYZ" if k in val]
         if not axes or motion is None:
             continue
@@ -155,7 +158,8 @@ def read_program(path, offset_mm):
         to_axis = lambda p: [p[a] * mm_per_unit + offset_mm[a] for a in range(3)]
         s_ax, e_ax = to_axis(start), to_axis(end)
         if motion in (0, 1):
-            moves.append({"kind": "rapid" if motion == 0 else "line", "start": s_ax, "end": e_ax, "line": n})
+            moves.append({"kind": "rapid" if motion == 0 else "line", "start": s_ax, "end": e_ax, "line": n,
+                          "feed": feed})
             continue
         u, v, w = plane
         cw = motion == 2
@@ -194,7 +198,7 @@ def read_program(path, offset_mm):
         centre = list(s_ax)
         centre[u], centre[v] = cu, cv
         moves.append({"kind": "arc", "start": s_ax, "end": e_ax, "centre": centre,
-                      "plane": plane, "sweep": sweep, "line": n})
+                      "plane": plane, "sweep": sweep, "line": n, "feed": feed})
     return moves
 
 
@@ -285,23 +289,32 @@ def distance(p, m):
 
 
 class Nominal:
-    """The original program's feed moves; nearest distance, searched near a
-    cursor that follows the program (both programs run in the same order)."""
+    """The original program's feed moves; the distance to the nearest one,
+    found through a grid of cells (each move listed in every cell its
+    bounding box, grown by 0.2 mm, touches)."""
+
+    CELL_MM = 2.0
 
     def __init__(self, moves):
         self.moves = [m for m in moves if m["kind"] != "rapid"]
-        self.cursor = 0
+        self.grid = {}
+        for i, m in enumerate(self.moves):
+            pts = [m["start"], m["end"]]
+            if m["kind"] == "arc":
+                pts += [arc_point(m, k / 64) for k in range(65)]
+            lo = [min(p[k] for p in pts) - 0.2 for k in range(3)]
+            hi = [max(p[k] for p in pts) + 0.2 for k in range(3)]
+            c0 = [int(math.floor(lo[k] / self.CELL_MM)) for k in range(3)]
+            c1 = [int(math.floor(hi[k] / self.CELL_MM)) for k in range(3)]
+            for x in range(c0[0], c1[0] + 1):
+                for y in range(c0[1], c1[1] + 1):
+                    for z in range(c0[2], c1[2] + 1):
+                        self.grid.setdefault((x, y, z), []).append(i)
 
     def distance_mm(self, p):
-        lo = max(0, self.cursor - 5)
-        hi = min(len(self.moves), self.cursor + 60)
-        best, at = float("inf"), self.cursor
-        for i in range(lo, hi):
-            d = distance(p, self.moves[i])
-            if d < best:
-                best, at = d, i
-        self.cursor = at
-        return best
+        cell = tuple(int(math.floor(p[k] / self.CELL_MM)) for k in range(3))
+        near = self.grid.get(cell) or range(len(self.moves))
+        return min(distance(p, self.moves[i]) for i in near)
 
 
 # ---------------------------------------------------------------- readings

@@ -101,6 +101,8 @@ pub struct CompensateResult {
     pub take_ups: u64,
     /// Take-ups folded into the move that reverses (no block written).
     pub take_ups_folded: u64,
+    /// The largest excursion from the path a folded take-up leaves (µm).
+    pub max_fold_excursion_um: f64,
     /// `(line, axis)` where an axis was held (first 100).
     pub held: Vec<(u64, char)>,
     /// Total number of holds.
@@ -133,6 +135,7 @@ impl CompensateResult {
         d.set_item("max_correction_um", self.max_correction_um)?;
         d.set_item("take_ups", self.take_ups)?;
         d.set_item("take_ups_folded", self.take_ups_folded)?;
+        d.set_item("max_fold_excursion_um", self.max_fold_excursion_um)?;
         d.set_item("held", self.held.clone())?;
         d.set_item("held_count", self.held_count)?;
         d.set_item("warnings", self.warnings.clone_ref(py))?;
@@ -275,6 +278,7 @@ fn options(
         take_up,
         fold_take_ups: !separate_take_ups,
         take_up_tolerance_mm: take_up_tolerance_um.map(|t| t * 1e-3),
+        planner: Default::default(),
         trace_comments: trace,
         // Direct and pitch do not aim at the full model's target: their
         // residual is the method's own error, checked for finiteness only.
@@ -455,6 +459,7 @@ pub fn compensate(
         max_correction_um: summary.max_correction_um,
         take_ups: summary.take_ups,
         take_ups_folded: summary.take_ups_folded,
+        max_fold_excursion_um: summary.max_fold_excursion_um,
         held: summary.held,
         held_count: summary.held_count,
         warnings: warnings_list(py, &src.name, &warnings)?.unbind(),

@@ -156,6 +156,7 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
         take_up: !a.no_take_up,
         fold_take_ups: !a.separate_take_ups,
         take_up_tolerance_mm: a.take_up_tolerance_um.map(|t| t * 1e-3),
+        planner: Default::default(),
         trace_comments: !a.no_trace,
         // Direct and pitch do not aim at the full model's target: their
         // residual is the method's own error, checked for finiteness only.
@@ -549,15 +550,14 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         output.display().to_string()
     };
     crate::note!(
-        "volcomp: wrote {} ({} lines from {}; {} points compensated, largest correction {:.2} µm, largest residual {:.4} µm, {} take-up moves, {} take-ups folded into their moves)",
+        "volcomp: wrote {} ({} lines from {}; {} points compensated, largest correction {:.2} µm, largest residual {:.4} µm; {})",
         shown,
         summary.lines_out,
         summary.lines_in,
         summary.points,
         summary.max_correction_um,
         summary.max_residual_um,
-        summary.take_ups,
-        summary.take_ups_folded
+        summary.reversals_text()
     );
     let ratio = if summary.blocks_in > 0 {
         format!(

@@ -307,101 +307,123 @@ pub(super) fn arc_pieces(
     Ok(out)
 }
 
-/// A reversal folded into an arc: the piece that ends at target `index`
-/// is a take-up ramp, on which `axis` runs in `direction` from its start.
+/// A take-up at a quarter point written as an S-curve (compensate/scurve.rs):
+/// the piece that ends at target `index` runs across the quarter point,
+/// where `axis` turns to `direction`; the tool stays within `deviation_mm`
+/// of the path (the local model's bound).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct Ramp {
+pub(super) struct Transition {
     pub(super) index: usize,
     pub(super) axis: usize,
     pub(super) direction: Direction,
+    pub(super) deviation_mm: f64,
 }
 
-/// Take-up ramps (docs/compensation.md, "Take-ups folded into the move"):
-/// where an axis of the plane reverses at a quarter point of `arc` (inside
-/// it, or at its start after a move the other way), the first `ℓ` of arc
-/// after that point becomes a piece of its own, written as a chord on
-/// which the axis already runs in its new direction. Under the dead band
-/// the tool then stays at the quarter point's height while the axis takes
-/// up its reversal value, and the arc falls away from that height by
-/// `ℓ²/(2r)` at most over the ramp: `ℓ = √(r·tol)` keeps it to half the
-/// tolerance (the chord's own sagitta, `ℓ²/(8r)`, is smaller). The
-/// controller blends a chord a few degrees off the tangent; it must stop
-/// for a take-up block square to the path.
-///
-/// A quarter point gets no ramp where no take-up would be written (the
-/// reversal value there is not positive), where the ramp would be shorter
-/// than `min_length_mm`, or where the next cut is nearer than two ramps.
-/// Returns the new piece ends and the ramps.
-pub(super) fn take_up_ramps(
+/// The plane axis whose coordinate is extreme at parameter `t` of `arc`
+/// (the tangent has no component along it), if `t` is a quarter point.
+fn extreme_axis(arc: &Arc, t: f64) -> Option<usize> {
+    let (u, v, _) = arc.plane.axes();
+    let p = arc.point_at(t);
+    let (du, dv) = (p[u] - arc.center[u], p[v] - arc.center[v]);
+    let rad = du.hypot(dv);
+    if rad == 0.0 {
+        None
+    } else if du.abs() <= 1e-9 * rad {
+        Some(v)
+    } else if dv.abs() <= 1e-9 * rad {
+        Some(u)
+    } else {
+        None
+    }
+}
+
+/// S-curve take-ups at the quarter points inside `arc` (pieces ending at
+/// `pieces`): where the reversing axis has a positive reversal value
+/// there and `tolerance_mm(b)` (the tolerance the rule gives for a band
+/// `b`, `None`: no S-curve) asks for one, the quarter-point cut becomes the
+/// two ends of the window [`scurve::best_window`] finds for the feed
+/// `v_mm_s`, cuts inside it are dropped, and the piece between is the
+/// transition. A window that does not fit between the neighbouring cuts
+/// (kept at least `min_step` apart) is not used: the take-up is then
+/// decided as any other.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn plan_transitions(
     arc: &Arc,
     pieces: &[f64],
     model: &dyn ErrorModel,
     s_before: Directions,
-    tolerance_mm: f64,
+    tolerance_mm: &dyn Fn(f64) -> Option<f64>,
+    v_mm_s: f64,
+    planner: &super::PlannerLimits,
     min_length_mm: f64,
-) -> Result<(Vec<f64>, Vec<Ramp>), ModelError> {
+) -> Result<(Vec<f64>, Vec<Transition>), ModelError> {
     let length = arc.length();
     let r = 0.5 * (arc.start_radius() + arc.end_radius());
-    let ramp_mm = (r * tolerance_mm).sqrt();
-    let mut out = Vec::with_capacity(pieces.len() + 4);
-    let mut ramps = Vec::new();
-    if !(length > 0.0 && ramp_mm >= min_length_mm && ramp_mm.is_finite()) {
-        return Ok((pieces.to_vec(), ramps));
+    let mut out: Vec<f64> = pieces.to_vec();
+    let mut found: Vec<(f64, f64, usize, Direction, f64)> = Vec::new();
+    if !(length > 0.0 && r > 0.0 && v_mm_s > 0.0) {
+        return Ok((out, Vec::new()));
     }
-    let (u, v, _) = arc.plane.axes();
-    let step = ramp_mm / length;
-    // The plane axis whose coordinate is extreme at parameter `t`, if `t`
-    // is a quarter point (the tangent has no component along it).
-    let extreme_axis = |t: f64| -> Option<usize> {
-        let p = arc.point_at(t);
-        let (du, dv) = (p[u] - arc.center[u], p[v] - arc.center[v]);
-        let rad = du.hypot(dv);
-        if rad == 0.0 {
-            None
-        } else if du.abs() <= 1e-9 * rad {
-            Some(v)
-        } else if dv.abs() <= 1e-9 * rad {
-            Some(u)
-        } else {
-            None
-        }
-    };
-    let mut from = 0.0;
+    let min_step = min_length_mm / length;
+    // 10 µm along the arc: the axis moves by 5·10⁻⁵ µm/mm of radius there,
+    // far above the rounding of the point's angle.
+    let step = 0.01 / length.max(1e-9);
     let mut s = s_before;
+    let mut from = 0.0;
     for &to in pieces {
-        if let Some(a) = extreme_axis(from) {
-            let (p0, p1) = (arc.point_at(from), arc.point_at(from + step));
-            let new = Direction::of_delta(p1[a] - p0[a]);
-            // Inside the arc the axis came the other way; at its start, the
-            // direction state says where it came from.
-            let old = if from > 0.0 {
-                new.map(Direction::flipped)
-            } else {
-                Some(s[a])
-            };
-            if let (Some(new), Some(old)) = (new, old) {
-                let mut s_old = s;
-                s_old[a] = old;
-                let mut s_new = s;
-                s_new[a] = new;
-                let e_old = model.deviation_um(p0, s_old, Components::All)?;
-                let e_new = model.deviation_um(p0, s_new, Components::All)?;
-                let take_up_um = (e_old[a] - e_new[a]) * new.sign();
-                if old != new && take_up_um > 0.0 && to - from >= 2.0 * step {
-                    out.push(from + step);
-                    ramps.push(Ramp {
-                        index: out.len() - 1,
-                        axis: a,
-                        direction: new,
-                    });
-                }
-            }
-        }
-        out.push(to);
         s = next_state(s, arc.point_at(to) - arc.point_at(from));
         from = to;
+        if to >= 1.0 {
+            break;
+        }
+        let Some(a) = extreme_axis(arc, to) else {
+            continue;
+        };
+        let (p0, p1) = (arc.point_at(to), arc.point_at(to + step));
+        let Some(new) = Direction::of_delta(p1[a] - p0[a]) else {
+            continue;
+        };
+        let mut s_old = s;
+        s_old[a] = new.flipped();
+        let mut s_new = s;
+        s_new[a] = new;
+        let e_old = model.deviation_um(p0, s_old, Components::All)?;
+        let e_new = model.deviation_um(p0, s_new, Components::All)?;
+        let band_mm = (e_old[a] - e_new[a]) * new.sign() * 1e-3;
+        if band_mm <= 0.0 {
+            continue;
+        }
+        let Some(tol) = tolerance_mm(band_mm) else {
+            continue;
+        };
+        // What the local model leaves out (the map's change over the
+        // window, the rounding of the written words) takes a little of the
+        // tolerance.
+        let Some(w) = super::scurve::best_window(r, band_mm, 0.85 * tol, v_mm_s, planner) else {
+            continue;
+        };
+        let (lo, hi) = (to - w.before_mm / length, to + w.after_mm / length);
+        found.push((lo, hi, a, new, w.deviation_mm));
     }
-    Ok((out, ramps))
+    let mut transitions = Vec::new();
+    for (lo, hi, a, new, dev) in found {
+        let before = out.iter().rev().find(|c| **c < lo).copied().unwrap_or(0.0);
+        let after = out.iter().find(|c| **c > hi).copied().unwrap_or(1.0);
+        if lo - before < min_step || after - hi < min_step {
+            continue;
+        }
+        out.retain(|c| *c < lo || *c > hi);
+        let at = out.partition_point(|c| *c < lo);
+        out.insert(at, lo);
+        out.insert(at + 1, hi);
+        transitions.push(Transition {
+            index: at + 1,
+            axis: a,
+            direction: new,
+            deviation_mm: dev,
+        });
+    }
+    Ok((out, transitions))
 }
 
 /// Splits the piece `[a, b]` of `arc` while its estimated departure — at
@@ -488,6 +510,7 @@ impl State<'_> {
         arc: &Arc,
         model: &dyn ErrorModel,
         line: u64,
+        run: &super::points::Run,
     ) -> Result<Vec<f64>, CompensationError> {
         let (options, file) = (self.walk.options, self.walk.file);
         let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm();
@@ -508,24 +531,35 @@ impl State<'_> {
                 help: crate::error::help::TOO_MANY_POINTS.into(),
             }
         })?;
-        // Reversals at quarter points are taken up on ramps where they can
-        // be folded ([`take_up_ramps`]); the next solve takes the ramps.
-        if options.take_up
+        // Quarter points where the rule asks for a take-up the planner runs
+        // through: S-curves ([`plan_transitions`]); the next solve takes
+        // them.
+        self.transitions.clear();
+        if !(options.take_up
             && options.fold_take_ups
-            && options.directions == super::DirectionPolicy::Commanded
+            && options.directions == super::DirectionPolicy::Commanded)
         {
-            let (pieces, ramps) = take_up_ramps(
-                arc,
-                &pieces,
-                model,
-                self.s,
-                options.fold_tolerance_mm(),
-                min_length_mm,
-            )
-            .map_err(|source| model_error(file, line, source))?;
-            self.ramps = ramps;
             return Ok(pieces);
         }
+        let rule = options.take_up_rule(run.mode);
+        let contour = options.fold_tolerance_mm();
+        let tolerance = |band_mm: f64| match rule {
+            super::TakeUpRule::Exact { smooth: true } => Some(contour),
+            super::TakeUpRule::Within(t) if t < band_mm => Some(t),
+            _ => None,
+        };
+        let (pieces, transitions) = plan_transitions(
+            arc,
+            &pieces,
+            model,
+            self.s,
+            &tolerance,
+            run.feed_mm_min.unwrap_or(0.0) / 60.0,
+            &options.planner,
+            min_length_mm,
+        )
+        .map_err(|source| model_error(file, line, source))?;
+        self.transitions = transitions;
         Ok(pieces)
     }
 
@@ -561,9 +595,9 @@ impl State<'_> {
             pieces,
             radius_style,
         } = p;
+        let start0 = from;
         let (mut from, mut l_from) = (from, 0.0);
         let mut words = Vec::with_capacity(commands.len());
-        let ramps = std::mem::take(&mut self.ramps_written);
         for (i, (q, take_up)) in commands.iter().enumerate() {
             let start = take_up.unwrap_or(from);
             let piece = sub_arc(arc, l_from, pieces[i]);
@@ -584,11 +618,8 @@ impl State<'_> {
                 clockwise: arc.clockwise(),
                 radius_style,
                 absolute_centers: frame.arc_absolute,
+                second: None,
             };
-            // A take-up ramp is written as its chord.
-            if ramps.iter().any(|r| r.index == i) {
-                w.center = None;
-            }
             if w.center.is_some() && !w.readable(frame, style, start, *q) {
                 w.center = None;
                 self.estimate_mm = self.estimate_mm.max(sagitta_mm(&piece));
@@ -596,6 +627,89 @@ impl State<'_> {
             words.push(w);
             from = *q;
             l_from = pieces[i];
+        }
+        let transitions = std::mem::take(&mut self.transitions_written);
+        for t in transitions {
+            let i = t.index;
+            if i == 0 || i + 1 >= words.len() {
+                continue;
+            }
+            let start_of = |k: usize| -> Vec3 {
+                commands[k]
+                    .1
+                    .unwrap_or(if k == 0 { start0 } else { commands[k - 1].0 })
+            };
+            let (u, v, w) = arc.plane.axes();
+            let p2 = |p: Vec3| [p[u], p[v]];
+            let tangent = |words: &ArcWords, from: Vec3, to: Vec3, at_end: bool| -> [f64; 2] {
+                let at = if at_end { to } else { from };
+                match words.center {
+                    Some(c) => {
+                        let (du, dv) = (at[u] - c[u], at[v] - c[v]);
+                        let n = du.hypot(dv);
+                        let t = [-dv / n, du / n];
+                        if words.clockwise {
+                            [-t[0], -t[1]]
+                        } else {
+                            t
+                        }
+                    }
+                    None => {
+                        let (du, dv) = (to[u] - from[u], to[v] - from[v]);
+                        let n = du.hypot(dv);
+                        [du / n, dv / n]
+                    }
+                }
+            };
+            let (s_prev, e_prev) = (start_of(i - 1), commands[i - 1].0);
+            let (s_next, e_next) = (start_of(i + 1), commands[i + 1].0);
+            let t1 = tangent(&words[i - 1], s_prev, e_prev, true);
+            let t2 = tangent(&words[i + 1], s_next, e_next, false);
+            let (a, b) = (start_of(i), commands[i].0);
+            let Some([arc1, arc2]) = super::scurve::biarc(p2(a), t1, p2(b), t2) else {
+                continue;
+            };
+            let (l1, l2) = (arc1.length(), arc2.length());
+            let mut joint = a;
+            joint[u] = arc1.end[0];
+            joint[v] = arc1.end[1];
+            joint[w] = a[w] + (b[w] - a[w]) * l1 / (l1 + l2);
+            let joint = frame.quantize(joint, a);
+            let center = |arc: &super::scurve::BiarcArc, at_w: f64| {
+                arc.center().map(|c| {
+                    let mut p = a;
+                    p[u] = c[0];
+                    p[v] = c[1];
+                    p[w] = at_w;
+                    p
+                })
+            };
+            let mut first = ArcWords {
+                center: center(&arc1, a[w]),
+                clockwise: arc1.radius < 0.0,
+                second: None,
+                ..words[i]
+            };
+            let mut second = ArcWords {
+                center: center(&arc2, joint[w]),
+                clockwise: arc2.radius < 0.0,
+                second: None,
+                ..words[i]
+            };
+            if first.center.is_some() && !first.readable(frame, style, a, joint) {
+                first.center = None;
+            }
+            if second.center.is_some() && !second.readable(frame, style, joint, b) {
+                second.center = None;
+            }
+            words[i] = ArcWords {
+                second: Some(super::lines::SecondArc {
+                    joint,
+                    center: second.center,
+                    clockwise: second.clockwise,
+                }),
+                ..first
+            };
         }
         Ok(words)
     }

@@ -40,7 +40,7 @@
 
 use super::arcs::Piecewise;
 use super::lines::{blank_before, stop_m_word, OutMode};
-use super::points::{Leads, Targets};
+use super::points::{Leads, Run, Targets};
 use super::targets::{check_target_count, targets_of};
 use super::walk::{Line, Place};
 use super::{model_error, CompensateOptions, State};
@@ -206,9 +206,13 @@ impl State<'_> {
                 ..*options
             };
             check_target_count(m, options, file, line)?;
+            let run = Run {
+                corner_before: true,
+                ..Run::of(m, None, &options.planner)
+            };
             let (mut targets, pieces) = match arc {
                 Some(a) => {
-                    let pieces = self.pieces_of_arc(&a, model, line)?;
+                    let pieces = self.pieces_of_arc(&a, model, line, &run)?;
                     let targets = pieces
                         .iter()
                         .map(|l| if *l >= 1.0 { a.end } else { a.point_at(*l) })
@@ -232,6 +236,7 @@ impl State<'_> {
                     leads: Leads::Nowhere,
                     start: m.start,
                     feed_like: !rapid,
+                    run,
                 },
                 line,
             )?;

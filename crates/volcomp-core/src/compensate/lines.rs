@@ -43,6 +43,19 @@ pub(super) struct ArcWords {
     pub(super) radius_style: bool,
     /// Centres are absolute (G90.1).
     pub(super) absolute_centers: bool,
+    /// A piece written as two arcs (an S-curve take-up, compensate/scurve.rs):
+    /// the first ends at `joint`, the second runs from there about its own
+    /// centre, each turning its own way.
+    pub(super) second: Option<SecondArc>,
+}
+
+/// The second arc of a piece written as two: where the first ends (axis
+/// frame), and the second's centre and direction.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct SecondArc {
+    pub(super) joint: Vec3,
+    pub(super) center: Option<Vec3>,
+    pub(super) clockwise: bool,
 }
 
 impl ArcWords {
@@ -234,6 +247,21 @@ impl State<'_> {
         arc: &ArcWords,
         note: &str,
     ) {
+        if let Some(second) = arc.second {
+            let first = ArcWords {
+                second: None,
+                ..*arc
+            };
+            let next = ArcWords {
+                center: second.center,
+                clockwise: second.clockwise,
+                second: None,
+                ..*arc
+            };
+            self.write_inserted_arc(at, from, second.joint, &first, note);
+            self.write_inserted_arc(at, second.joint, q, &next, note);
+            return;
+        }
         if arc.center.is_none() {
             self.write_inserted(at, from, q, OutMode::Feed, note);
             return;
@@ -489,6 +517,7 @@ mod tests {
             clockwise: false,
             radius_style: false,
             absolute_centers: false,
+            second: None,
         };
         let p = |v: [f64; 2]| Vec3::new(v[0], v[1], 0.0);
         w.readable(&frame(k), NumberStyle::fixed(4), p(a), p(b))

@@ -21,9 +21,11 @@ mod cycle;
 mod extra;
 mod frame;
 mod front;
+mod joins;
 mod lines;
 mod options;
 mod points;
+mod scurve;
 mod size;
 pub mod solve;
 mod spline;
@@ -34,11 +36,13 @@ mod walk;
 pub use front::{
     file_name, header_for_map, refuse_if_compensated, Compensator, MachineSetup, HEAD_BYTES,
 };
+pub use joins::PlannerLimits;
 pub use options::{
-    CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, Segmentation,
+    CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, Segmentation, TakeUpRule,
     DEFAULT_CONTOUR_TOLERANCE_UM, DEFAULT_DECIMALS_INCH, DEFAULT_DECIMALS_MM,
     DEFAULT_MAX_RESIDUAL_UM, DEFAULT_MIN_SEGMENT_LENGTH_MM,
 };
+pub use scurve::{least_cost_s, least_speed_mm_s};
 pub use style::{survey_style, ProgramStyle};
 pub(crate) use targets::mark_axes_set;
 pub use targets::{target_count_bound, targets_of};
@@ -99,6 +103,7 @@ impl<'w> State<'w> {
             s_nominal: ALL_FORWARD,
             mode: None,
             feed_known: false,
+            last_tangent: None,
             frame_before: None,
             g93_before: false,
             g93_last: false,
@@ -108,8 +113,8 @@ impl<'w> State<'w> {
             text: String::with_capacity(128),
             extra_text: String::new(),
             states: Vec::new(),
-            ramps: Vec::new(),
-            ramps_written: Vec::new(),
+            transitions: Vec::new(),
+            transitions_written: Vec::new(),
             estimate_mm: 0.0,
             blocks_in: size::Blocks::default(),
         }
@@ -125,6 +130,7 @@ impl<'w> State<'w> {
     ) -> Result<(Frame, NumberStyle), CompensationError> {
         let ev = line.ev;
         let own = (line.frame, line.style);
+        let before = self.last_tangent.take();
         let has = |source| ev.motions.iter().any(|m| m.source == source);
         let program_motion = has(MotionSource::Program);
         let runs = line.all_known && !ev.after_end;
@@ -160,8 +166,13 @@ impl<'w> State<'w> {
         }
         if ev.after_end || ev.kind != LineKind::Block || !program_motion || !line.all_known {
             self.pass_through(line, out)?;
+            if ev.motions.is_empty() {
+                // No motion between: the next one follows the last.
+                self.last_tangent = before;
+            }
             return Ok(own);
         }
+        self.last_tangent = before;
         self.write_motion_line(line)
     }
 
@@ -276,8 +287,9 @@ impl<'w> State<'w> {
             ..*options
         };
         check_target_count(&motion, &line_options, file, ev.number)?;
+        let run = points::Run::of(&motion, self.last_tangent, &options.planner);
         let mut pieces: Vec<f64> = match arc_nominal {
-            Some(arc) => self.pieces_of_arc(&arc, model, ev.number)?,
+            Some(arc) => self.pieces_of_arc(&arc, model, ev.number, &run)?,
             None => Vec::new(),
         };
         let mut targets = match arc_nominal {
@@ -295,6 +307,9 @@ impl<'w> State<'w> {
             .map_err(|source| model_error(file, ev.number, source))?,
         };
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
+        if arc_nominal.is_none() && matches!(motion.kind, MotionKind::Feed) {
+            points::protect_blends(&mut targets, motion.start, run.protect_mm);
+        }
         if targets.len() > 1 && interp.feed_mode() == FeedMode::InverseTime {
             return Err(CompensationError::AtLine {
                 file: file.into(),
@@ -333,6 +348,7 @@ impl<'w> State<'w> {
                 leads,
                 start: motion.start,
                 feed_like,
+                run,
             },
             ev.number,
         )?;
@@ -479,6 +495,8 @@ impl<'w> State<'w> {
             self.summary.lines_out += 1;
         }
         self.feed_known = feed_known_in_line;
+        self.last_tangent =
+            feed_like.then(|| (points::tangents(&motion).1, points::length_mm(&motion)));
         Ok((frame, style))
     }
 }
@@ -537,6 +555,10 @@ struct State<'w> {
     s_nominal: Directions,
     mode: Option<OutMode>,
     feed_known: bool,
+    /// The end tangent and the length of the last motion, where it was a
+    /// compensated feed motion of the program (for the corner test of the
+    /// next, and its blend).
+    last_tangent: Option<(Vec3, f64)>,
     /// Frame and number style in effect before the current line (after the
     /// previous one): what a move written before the line's own words uses.
     frame_before: Option<(Frame, NumberStyle)>,
@@ -551,11 +573,12 @@ struct State<'w> {
     extra_text: String,
     /// Direction state of each command of the last [`State::solve_targets`].
     states: Vec<Directions>,
-    /// Take-up ramps of the targets the next [`State::solve_targets`]
-    /// solves (compensate/arcs.rs, [`arcs::take_up_ramps`]); it takes them.
-    ramps: Vec<arcs::Ramp>,
-    /// The ramps the last [`State::solve_targets`] took, for the writer.
-    ramps_written: Vec<arcs::Ramp>,
+    /// S-curve take-ups of the arc the next [`State::solve_targets`] solves
+    /// ([`arcs::plan_transitions`]); it takes them.
+    transitions: Vec<arcs::Transition>,
+    /// The transitions the last [`State::solve_targets`] took, for the
+    /// writer.
+    transitions_written: Vec<arcs::Transition>,
     /// Largest contour error the segmentation estimates it leaves (mm).
     estimate_mm: f64,
     /// Block counting of the input and the output ([`size::Blocks`]).

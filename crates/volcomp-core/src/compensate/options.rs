@@ -1,7 +1,8 @@
 //! Options and results of a program compensation.
 
+use crate::compensate::joins::PlannerLimits;
 use crate::compensate::solve::Method;
-use volcomp_gcode::Vec3;
+use volcomp_gcode::{PathMode, Vec3};
 
 /// How feed moves are split into target points.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,12 +65,15 @@ pub struct CompensateOptions {
     /// "Take-ups folded into the move"). A separate take-up block forces the
     /// controller's planner to stop; a folded one does not.
     pub fold_take_ups: bool,
-    /// The contour error a folded take-up may leave (mm); `None`: the
-    /// contour tolerance ([`CompensateOptions::fold_tolerance_mm`]). A
-    /// larger one trades accuracy at reversals for fewer stops: at a corner
-    /// where the reversing axis moves on both sides, the tool leaves the
-    /// path by up to the reversal value.
+    /// The contour error a folded take-up may leave (mm), for the whole
+    /// program; `None`: the program's path-control mode decides every
+    /// reversal ([`TakeUpRule`]). A larger one trades accuracy at reversals
+    /// for fewer stops: at a corner where the reversing axis moves on both
+    /// sides, the tool leaves the path by up to the reversal value.
     pub take_up_tolerance_mm: Option<f64>,
+    /// The machine's limits that decide how its planner joins the pieces
+    /// written ([`PlannerLimits`]).
+    pub planner: PlannerLimits,
     /// Tag inserted lines with `(volcomp Ln)`.
     pub trace_comments: bool,
     /// Largest model residual `‖t − (q + e(q))‖` accepted at a point (µm),
@@ -98,13 +102,56 @@ impl Default for CompensateOptions {
             take_up: true,
             fold_take_ups: true,
             take_up_tolerance_mm: None,
+            planner: PlannerLimits::default(),
             trace_comments: true,
             max_residual_um: Some(DEFAULT_MAX_RESIDUAL_UM),
         }
     }
 }
 
+/// How the take-up at a reversal is written, from the program's
+/// path-control mode (docs/compensation.md, "Reversals by path-control
+/// mode"), unless [`CompensateOptions::take_up_tolerance_mm`] sets one
+/// tolerance for the whole program.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TakeUpRule {
+    /// G61 and G61.1: exactly, the tool within the contour tolerance: a
+    /// take-up folded where that holds, else a block where the machine
+    /// stops anyway (a corner, every block end under G61.1); under G61
+    /// (`smooth`) where the path runs on through the reversal, a take-up
+    /// piece the planner joins without a stop, else a block.
+    Exact {
+        /// Take up on pieces the planner joins as tangent where the path is
+        /// smooth (G61); `false`: blocks (G61.1 stops at every block end).
+        smooth: bool,
+    },
+    /// G64 P p (or the take-up tolerance): folded where the tool stays
+    /// within this distance (mm) of the path, else on a lead piece within
+    /// it, else a block (the machine stops, the tool stays on the path).
+    Within(f64),
+    /// G64 without P: every take-up folded, never a block; the tool may
+    /// leave the path at the reversal by up to the reversal value. A lead
+    /// piece keeps the excursion within the contour tolerance where one
+    /// fits.
+    Always,
+}
+
 impl CompensateOptions {
+    /// The rule for a take-up on a motion run in `mode`.
+    pub fn take_up_rule(&self, mode: PathMode) -> TakeUpRule {
+        if let Some(t) = self.take_up_tolerance_mm {
+            return TakeUpRule::Within(t);
+        }
+        match mode {
+            PathMode::ExactPath => TakeUpRule::Exact { smooth: true },
+            PathMode::ExactStop => TakeUpRule::Exact { smooth: false },
+            PathMode::Blend { tolerance_mm, .. } if tolerance_mm > 0.0 => {
+                TakeUpRule::Within(tolerance_mm)
+            }
+            PathMode::Blend { .. } => TakeUpRule::Always,
+        }
+    }
+
     /// The contour error (mm) a folded take-up may leave: the take-up
     /// tolerance if given, else the adaptive segmentation's tolerance, or
     /// its default under a fixed segmentation.
@@ -230,8 +277,33 @@ pub struct CompensateSummary {
     pub take_ups: u64,
     /// Take-ups folded into the move that reverses (no block written).
     pub take_ups_folded: u64,
+    /// The largest excursion from the path a folded take-up may leave
+    /// (µm): the bound of docs/compensation.md, "Take-ups folded into the
+    /// move", at most the reversal value.
+    pub max_fold_excursion_um: f64,
     /// Lines where an axis was held, with the axis letter (first 100).
     pub held: Vec<(u64, char)>,
     /// Total number of holds.
     pub held_count: u64,
+}
+
+impl CompensateSummary {
+    /// What the compensation did at reversals, in one line (no
+    /// parentheses: it is also a comment of the header): how many take-ups
+    /// were folded into their moves and the largest excursion from the path
+    /// that leaves (µm), how many were written as take-up blocks (the
+    /// machine stops for each).
+    pub fn reversals_text(&self) -> String {
+        format!(
+            "reversals: {} folded, up to {:.3} um off the path; {} take-up {}",
+            self.take_ups_folded,
+            self.max_fold_excursion_um,
+            self.take_ups,
+            if self.take_ups == 1 {
+                "block"
+            } else {
+                "blocks"
+            }
+        )
+    }
 }

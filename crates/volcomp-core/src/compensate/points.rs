@@ -3,7 +3,9 @@
 //! solver did not reach.
 
 use super::frame::Frame;
-use super::{command_error, model_error, CompensateOptions, DirectionPolicy, PointRecord, State};
+use super::{
+    command_error, model_error, CompensateOptions, DirectionPolicy, PointRecord, State, TakeUpRule,
+};
 use crate::compensate::solve::{solve_consistent, solve_fixed, Method};
 use crate::error::{CompensationError, ModelError};
 use crate::model::{Directions, ErrorModel};
@@ -149,26 +151,15 @@ fn fold_deviation_mm(lags: &[Vec3; 3], q_prev: Vec3, q: Vec3, nominal_delta: Vec
     worst
 }
 
-/// Shortest lead piece (mm): LinuxCNC runs a segment no faster than its
-/// length per servo period (`tcClampVelocityByLength`, src/emc/tp/tc.c),
-/// and a blend may take half of it; 0.2 mm keeps 100 mm/s (F6000) with
-/// the default period of 1 ms. A shorter piece would slow the machine as a
-/// take-up block does, if less.
-const MIN_LEAD_MM: f64 = 0.2;
-
 /// A lead piece for a take-up that the whole move cannot fold (see
 /// [`fold_deviation_mm`]): the point at a fraction ½, ¼, … of the move from
-/// `t_prev`, on its line or arc, on which the reversing axes, running their new way
-/// from the start, take up the lags `lags` with the tool within the fold
-/// tolerance of the path; the longest such piece. Over a short piece the
+/// `t_prev`, on its line or arc, on which the reversing axes, running their
+/// new way from the start, take up the lags `lags` with the tool within
+/// `tolerance_mm` of the path; the longest such piece, and none shorter
+/// than `shortest_mm` ([`State::lead_shortest_mm`]). Over a short piece the
 /// command's travel beyond the band (the nominal path's or the
 /// compensation's own along the reversing axis) is small, so the tool
 /// catches the path again sooner.
-///
-/// No piece shorter than the shortest segment, than twenty times the lag
-/// (the piece then turns from the path by less than 1/20 rad, which a
-/// controller blends; a steeper one is a take-up block in all but name),
-/// nor than [`MIN_LEAD_MM`].
 ///
 /// `at(f)` is the target at the fraction `f` of the move (of length
 /// `length`, mm) from the previous target, on its line or arc; the result
@@ -180,19 +171,13 @@ fn lead_target(
     quantize: &dyn Fn(Vec3) -> Vec3,
     q_prev: Vec3,
     lags: &[Vec3; 3],
+    (shortest_mm, tolerance_mm): (f64, f64),
     t_prev: Vec3,
-    at: &dyn Fn(f64) -> Vec3,
-    length: f64,
+    (at, length): (&dyn Fn(f64) -> Vec3, f64),
     point: &crate::compensate::solve::PointSolution,
 ) -> Result<Option<f64>, ModelError> {
-    let shortest = match options.segmentation {
-        super::Segmentation::Adaptive { min_length_mm, .. } => min_length_mm,
-        _ => super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
-    }
-    .max(20.0 * lags.iter().fold(Vec3::ZERO, |s, l| s + *l).norm())
-    .max(MIN_LEAD_MM);
     let mut piece = 0.5 * length;
-    while piece >= shortest && piece > 0.0 {
+    while piece >= shortest_mm && piece > 0.0 {
         let lead = at(piece / length);
         let sol = solve_fixed(model, options.method, lead, point.s, [false; 3], q_prev)?;
         let q = quantize(sol.q_mm);
@@ -200,14 +185,144 @@ fn lead_target(
             !point.reversed[a]
                 || crate::model::Direction::of_delta(q[a] - q_prev[a]) == Some(point.s[a])
         });
-        if consistent
-            && fold_deviation_mm(lags, q_prev, q, lead - t_prev) <= options.fold_tolerance_mm()
-        {
+        if consistent && fold_deviation_mm(lags, q_prev, q, lead - t_prev) <= tolerance_mm {
             return Ok(Some(piece / length));
         }
         piece *= 0.5;
     }
     Ok(None)
+}
+
+/// How a motion runs on the machine, for the take-up decisions
+/// ([`super::TakeUpRule`]): its path-control mode, its feed (mm/min; `None`
+/// where not per minute), whether it is an arc, and whether the original
+/// program has a corner where it begins (a join the planner does not take
+/// as tangent: the machine stops there under G61, so a take-up block there
+/// costs nothing).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Run {
+    pub(super) mode: volcomp_gcode::PathMode,
+    pub(super) feed_mm_min: Option<f64>,
+    pub(super) arc: bool,
+    pub(super) corner_before: bool,
+    /// Under G64, how far from the corner before it (and, taken alike, from
+    /// its end) a piece must reach so the planner's blend there is not cut
+    /// short: twice the blend distance the feed needs, at most the length
+    /// a blend may take of either neighbour (half of it); 0 elsewhere
+    /// ([`protect_blends`]).
+    pub(super) protect_mm: f64,
+}
+
+impl Run {
+    /// The run of `m`, which follows a motion whose end tangent and length
+    /// were `before` (`None`: not a feed motion, or unknown — taken as a
+    /// corner).
+    pub(super) fn of(
+        m: &volcomp_gcode::Motion,
+        before: Option<(Vec3, f64)>,
+        planner: &super::PlannerLimits,
+    ) -> Run {
+        let feed_mm_min =
+            (m.feed_mode == volcomp_gcode::FeedMode::PerMinute && m.feed > 0.0).then_some(m.feed);
+        let arc = matches!(m.kind, volcomp_gcode::MotionKind::Arc(_));
+        let (t2, _) = tangents(m);
+        let (corner_before, protect_mm) = match (before, feed_mm_min) {
+            (Some((t1, prev_len)), Some(f)) => {
+                let corner = planner.kink_ratio(t1, t2, f / 60.0, arc) >= 1.0;
+                let blend = matches!(m.path_mode, volcomp_gcode::PathMode::Blend { .. });
+                let protect = if corner && blend {
+                    let d = planner
+                        .blend_distance_mm(t1, t2, f / 60.0)
+                        .min(0.5 * prev_len)
+                        .min(0.5 * length_mm(m));
+                    2.0 * d
+                } else {
+                    0.0
+                };
+                (corner, protect)
+            }
+            _ => (true, 0.0),
+        };
+        Run {
+            mode: m.path_mode,
+            feed_mm_min,
+            arc,
+            corner_before,
+            protect_mm,
+        }
+    }
+}
+
+/// The length of a motion (mm): of its line, or of its arc (helix).
+pub(super) fn length_mm(m: &volcomp_gcode::Motion) -> f64 {
+    match m.kind {
+        volcomp_gcode::MotionKind::Arc(arc) => arc.length(),
+        _ => (m.end - m.start).norm(),
+    }
+}
+
+/// Keeps the split points of a line from `start` through `targets` out of
+/// the blend zones at its ends: none nearer than `protect_mm` to either
+/// end (docs/compensation.md, "Pieces the planner runs at full speed").
+/// Where points were dropped, one is put at that distance, so the rest of
+/// the line keeps its own; the pieces at the ends then run whole, and the
+/// planner blends the corners as it blends the original's.
+pub(super) fn protect_blends(targets: &mut Vec<Vec3>, start: Vec3, protect_mm: f64) {
+    let Some(&end) = targets.last() else { return };
+    let length = (end - start).norm();
+    if protect_mm <= 0.0 || targets.len() < 2 || length <= 0.0 {
+        return;
+    }
+    if length <= 2.0 * protect_mm {
+        targets.clear();
+        targets.push(end);
+        return;
+    }
+    let u = (end - start) * (1.0 / length);
+    let along = |p: Vec3| (p - start).dot(u);
+    let splits = &targets[..targets.len() - 1];
+    let near_start = splits.iter().any(|p| along(*p) <= protect_mm);
+    let near_end = splits.iter().any(|p| along(*p) >= length - protect_mm);
+    let inner: Vec<Vec3> = splits
+        .iter()
+        .copied()
+        .filter(|p| along(*p) > protect_mm && along(*p) < length - protect_mm)
+        .collect();
+    targets.clear();
+    if near_start {
+        targets.push(start + u * protect_mm);
+    }
+    targets.extend(inner);
+    if near_end {
+        targets.push(start + u * (length - protect_mm));
+    }
+    targets.push(end);
+}
+
+/// The unit tangents of a motion at its start and its end.
+pub(super) fn tangents(m: &volcomp_gcode::Motion) -> (Vec3, Vec3) {
+    let unit = |v: Vec3| {
+        let n = v.norm();
+        if n > 0.0 {
+            v * (1.0 / n)
+        } else {
+            Vec3::ZERO
+        }
+    };
+    match m.kind {
+        volcomp_gcode::MotionKind::Arc(arc) => {
+            let h = 1e-6 / arc.sweep_rad.abs().max(1e-9);
+            let h = h.min(1e-3);
+            (
+                unit(arc.point_at(h) - arc.start),
+                unit(arc.end - arc.point_at(1.0 - h)),
+            )
+        }
+        _ => {
+            let t = unit(m.end - m.start);
+            (t, t)
+        }
+    }
 }
 
 /// Where [`State::solve_targets`] may put a lead piece (see [`lead_target`]).
@@ -234,6 +349,7 @@ pub(super) struct Targets<'a> {
     pub(super) leads: Leads<'a>,
     pub(super) start: Vec3,
     pub(super) feed_like: bool,
+    pub(super) run: Run,
 }
 
 impl State<'_> {
@@ -253,6 +369,10 @@ impl State<'_> {
         let mut targets =
             super::targets::targets_with_estimate(m, options, model, self.s, &mut self.estimate_mm)
                 .map_err(|source| model_error(file, line, source))?;
+        let run = Run {
+            corner_before: true,
+            ..Run::of(m, None, &options.planner)
+        };
         self.solve_targets(
             model,
             (frame, frame),
@@ -261,6 +381,7 @@ impl State<'_> {
                 leads: Leads::Nowhere,
                 start: m.start,
                 feed_like,
+                run,
             },
             line,
         )
@@ -285,13 +406,14 @@ impl State<'_> {
             mut leads,
             start,
             feed_like,
+            run,
         } = motion;
+        let rule = options.take_up_rule(run.mode);
         let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
         self.states.clear();
-        let mut ramps = std::mem::take(&mut self.ramps);
-        let mut next_ramp = 0;
         let mut t_prev = start;
         let mut forced: Option<Directions> = None;
+        let mut transitions = std::mem::take(&mut self.transitions);
         // The index of the last lead piece inserted: neither it nor the
         // target after it gets another (the work stays bounded).
         let mut last_lead: Option<usize> = None;
@@ -299,12 +421,13 @@ impl State<'_> {
         while index < targets.len() {
             let t = &targets[index];
             let q_from = self.q_out;
-            // On a take-up ramp, or a lead piece, the reversing axis runs its
-            // new way from the start: the solver starts from that state.
+            // On a lead piece the reversing axis runs its new way from the
+            // start, across an S-curve it ends so: the solver starts from
+            // that state.
             let mut s_from = forced.take().unwrap_or(self.s);
-            if let Some(r) = ramps.get(next_ramp).filter(|r| r.index == index) {
-                s_from[r.axis] = r.direction;
-                next_ramp += 1;
+            let transition = transitions.iter().find(|tr| tr.index == index).copied();
+            if let Some(tr) = transition {
+                s_from[tr.axis] = tr.direction;
             }
             let quantize = |q: Vec3| frame.quantize(q, q_from);
             let point = match options.directions {
@@ -334,6 +457,21 @@ impl State<'_> {
                 }
             }
             .map_err(|source| command_error(model, file, line, *t, source))?;
+            // Across an S-curve only its own axis reverses: another axis
+            // that would (its straightness changing with the S-curve's axis'
+            // direction, by tenths of a micrometre) is held for the piece,
+            // and reverses on the next one, where the piece is long enough
+            // to take its band up gently.
+            let mut point = point;
+            if let Some(tr) = transition {
+                for a in (0..3).filter(|a| *a != tr.axis) {
+                    if point.reversed[a] {
+                        point.q_mm[a] = self.q_out[a];
+                        point.s[a] = self.s[a];
+                        point.reversed[a] = false;
+                    }
+                }
+            }
             check_converged(&point, options, *t, file, line)?;
             let correction = (point.q_mm - *t).norm();
             if correction > options.max_correction_mm {
@@ -387,18 +525,41 @@ impl State<'_> {
             }
             // Where the dead band keeps the tool on the path while the axis
             // takes up its reversal value, the move itself takes it up.
+            if let (Some(tr), true) = (transition, take_up.is_some()) {
+                // Taken up on the S-curve (compensate/scurve.rs).
+                take_up = None;
+                self.note_fold(tr.deviation_mm);
+            }
             if take_up.is_some() && options.fold_take_ups {
                 let lags = switch_lags_mm(model, self.q_out, self.s, point.s, point.reversed)
                     .map_err(|source| model_error(file, line, source))?;
-                if fold_deviation_mm(&lags, self.q_out, point.q_mm, *t - t_prev)
-                    <= options.fold_tolerance_mm()
-                {
+                let bound = fold_deviation_mm(&lags, self.q_out, point.q_mm, *t - t_prev);
+                // The contour tolerance first (a fold or a lead piece that
+                // keeps the tool on the path); what G64 allows beyond it
+                // (`allowed` below) only where no such piece exists.
+                let tolerance = match rule {
+                    TakeUpRule::Within(t) => t.min(options.fold_tolerance_mm()),
+                    _ => options.fold_tolerance_mm(),
+                };
+                // Where the path runs on through the reversal: inside a
+                // move, or where the original joins its moves without a
+                // corner.
+                let smooth = index > 0 || !run.corner_before;
+                let shortest = self.lead_shortest_mm(rule, &run, &lags, smooth).map(|s| {
+                    if index == 0 {
+                        s.max(run.protect_mm)
+                    } else {
+                        s
+                    }
+                });
+                if bound <= tolerance {
                     take_up = None;
-                    self.summary.take_ups_folded += 1;
-                } else if feed_like
-                    && !matches!(leads, Leads::Nowhere)
-                    && last_lead.is_none_or(|l| index > l + 1)
-                {
+                    self.note_fold(bound);
+                } else if let Some(shortest) = shortest.filter(|_| {
+                    feed_like
+                        && !matches!(leads, Leads::Nowhere)
+                        && last_lead.is_none_or(|l| index > l + 1)
+                }) {
                     let t = *t;
                     let (l_prev, l_end) = match &leads {
                         Leads::Arc { pieces, .. } => (
@@ -420,10 +581,56 @@ impl State<'_> {
                             Box::new(move |f| t_prev + (t - t_prev) * f),
                         ),
                     };
-                    let lead = lead_target(
-                        model, options, &quantize, self.q_out, &lags, t_prev, &*at, length, &point,
+                    let mut lead = lead_target(
+                        model,
+                        options,
+                        &quantize,
+                        self.q_out,
+                        &lags,
+                        (shortest, tolerance),
+                        t_prev,
+                        (&*at, length),
+                        &point,
                     )
                     .map_err(|source| model_error(file, line, source))?;
+                    // Under G64 a take-up that no lead piece keeps within
+                    // the tolerance still gets the shortest one the planner
+                    // runs at speed, where the rule allows what it leaves:
+                    // the rest of the move then runs in the new direction,
+                    // so the excursion stays at the reversal instead of
+                    // fading along the whole move.
+                    let allowed = match rule {
+                        TakeUpRule::Always => Some(f64::INFINITY),
+                        TakeUpRule::Within(t) => Some(t),
+                        TakeUpRule::Exact { .. } => None,
+                    };
+                    if let (None, Some(allowed)) = (lead, allowed) {
+                        if length >= 2.0 * shortest {
+                            let f = shortest / length;
+                            let lead_t = at(f);
+                            let q = solve_fixed(
+                                model,
+                                options.method,
+                                lead_t,
+                                point.s,
+                                [false; 3],
+                                self.q_out,
+                            )
+                            .map(|sol| quantize(sol.q_mm))
+                            .map_err(|source| model_error(file, line, source))?;
+                            let consistent = (0..3).all(|a| {
+                                !point.reversed[a]
+                                    || crate::model::Direction::of_delta(q[a] - self.q_out[a])
+                                        == Some(point.s[a])
+                            });
+                            let b = fold_deviation_mm(&lags, self.q_out, q, lead_t - t_prev);
+                            if consistent && b <= allowed {
+                                self.summary.max_fold_excursion_um =
+                                    self.summary.max_fold_excursion_um.max(b * 1e3);
+                                lead = Some(f);
+                            }
+                        }
+                    }
                     if let Some(f) = lead {
                         // Solve the lead piece first (it takes the take-up up),
                         // then this target again from there.
@@ -431,8 +638,8 @@ impl State<'_> {
                         if let Leads::Arc { pieces, .. } = &mut leads {
                             pieces.insert(index, l_prev + (l_end - l_prev) * f);
                         }
-                        for r in ramps.iter_mut().filter(|r| r.index >= index) {
-                            r.index += 1;
+                        for tr in transitions.iter_mut().filter(|tr| tr.index >= index) {
+                            tr.index += 1;
                         }
                         last_lead = Some(index);
                         // The state the point was solved in: its reversing
@@ -440,6 +647,17 @@ impl State<'_> {
                         forced = Some(point.s);
                         continue;
                     }
+                }
+                let allowed = match rule {
+                    TakeUpRule::Always => f64::INFINITY,
+                    TakeUpRule::Within(t) => t,
+                    TakeUpRule::Exact { .. } => 0.0,
+                };
+                if take_up.is_some() && bound <= allowed {
+                    // G64: folded all the same, the tool leaving the path by
+                    // the bound (at most the reversal value; within P).
+                    take_up = None;
+                    self.note_fold(bound);
                 }
             }
             if let Some(tu) = take_up {
@@ -476,8 +694,73 @@ impl State<'_> {
             t_prev = *t;
             index += 1;
         }
-        self.ramps_written = ramps;
+        self.transitions_written = transitions;
         Ok(commands)
+    }
+}
+
+impl State<'_> {
+    /// Counts a folded take-up and the excursion its bound allows.
+    fn note_fold(&mut self, bound_mm: f64) {
+        self.summary.take_ups_folded += 1;
+        self.summary.max_fold_excursion_um = self.summary.max_fold_excursion_um.max(bound_mm * 1e3);
+    }
+
+    /// The shortest lead piece (mm) the rule allows on a motion run as
+    /// `run` for a take-up of `lags`, or `None` where the rule writes no
+    /// lead piece: a block or a fold instead.
+    ///
+    /// * Exact (G61), where the path is `smooth` through the reversal: a
+    ///   piece the planner joins as tangent at both ends, which turns from
+    ///   the path by about `b/L` along the reversing axis (`b` its own lag):
+    ///   `L ≥ b / (½ tolerance)` with the planner's tangency tolerance at
+    ///   the feed ([`super::PlannerLimits::tangent_tolerance`]; half of it,
+    ///   so the compensation's own turn fits too). Not at a corner (the
+    ///   machine stops there anyway: a block), nor under G61.1 (every block
+    ///   end stops).
+    /// * G64 (with or without P): a piece the planner blends at full speed:
+    ///   at least twice the feed per servo period (it caps a segment's
+    ///   speed at its length per period, and a blend may take half), and
+    ///   `v·√(b/a_n)`: the blend at either end of a piece of length `L`
+    ///   turning by `b/L` has the radius `L²/b` (`R = tan θ · L/2`), run at
+    ///   `√(a_n R)`. Never shorter than twenty times the lag.
+    ///
+    /// Never shorter than the shortest segment.
+    fn lead_shortest_mm(
+        &self,
+        rule: TakeUpRule,
+        run: &Run,
+        lags: &[Vec3; 3],
+        smooth: bool,
+    ) -> Option<f64> {
+        let options = self.walk.options;
+        let planner = &options.planner;
+        let min_segment = match options.segmentation {
+            super::Segmentation::Adaptive { min_length_mm, .. } => min_length_mm,
+            _ => super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
+        };
+        let v = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+        let own = |a: usize| lags[a][a].abs();
+        let shortest = match rule {
+            TakeUpRule::Exact { smooth: true } if smooth => {
+                let tol = planner.tangent_tolerance(v.max(1e-9), run.arc);
+                (0..3).fold(0.0f64, |m, a| m.max(own(a) / (0.5 * tol[a])))
+            }
+            TakeUpRule::Exact { .. } => return None,
+            TakeUpRule::Within(_) | TakeUpRule::Always => {
+                let a_n = planner
+                    .max_acceleration_mm_s2
+                    .iter()
+                    .fold(f64::INFINITY, |m, x| m.min(*x))
+                    * 0.75f64.sqrt();
+                let b = (0..3).fold(0.0f64, |m, a| m.max(own(a)));
+                let total = lags.iter().fold(Vec3::ZERO, |s, l| s + *l).norm();
+                (2.0 * v * planner.servo_period_s)
+                    .max(v * (b / a_n).sqrt())
+                    .max(20.0 * total)
+            }
+        };
+        Some(shortest.max(min_segment))
     }
 }
 
@@ -596,6 +879,24 @@ mod tests {
         let q = Vec3::new(0.0, 2.0 * UM, -1.0);
         let d = fold_deviation_mm(&lags, Vec3::ZERO, q, plunge);
         assert!((d - 0.15f64.hypot(2.0) * UM).abs() < 1e-12, "{d}");
+    }
+
+    #[test]
+    fn no_split_point_inside_a_blend_zone() {
+        // A 10 mm line split at 0.5, 3, 5 and 9.7 mm, blend zones of 1 mm
+        // at both ends: 0.5 and 9.7 go, 1 and 9 come in their place.
+        let x = |v: f64| Vec3::new(v, 0.0, 0.0);
+        let mut t = vec![x(0.5), x(3.0), x(5.0), x(9.7), x(10.0)];
+        super::protect_blends(&mut t, x(0.0), 1.0);
+        assert_eq!(t, vec![x(1.0), x(3.0), x(5.0), x(9.0), x(10.0)]);
+        // Nothing near the ends: nothing changes.
+        let mut t = vec![x(3.0), x(10.0)];
+        super::protect_blends(&mut t, x(0.0), 1.0);
+        assert_eq!(t, vec![x(3.0), x(10.0)]);
+        // A line shorter than both zones runs whole.
+        let mut t = vec![x(0.7), x(1.5)];
+        super::protect_blends(&mut t, x(0.0), 1.0);
+        assert_eq!(t, vec![x(1.5)]);
     }
 
     #[test]

@@ -24,7 +24,11 @@ use crate::compensate::{
 };
 use crate::error::CompensationError;
 use crate::model::ErrorModel;
-use std::io::{self, BufRead, Write};
+use std::io::{self, BufRead, Seek, Write};
+
+/// How much of a compensated program's body is kept in memory while its
+/// header waits for the summary (bytes); the rest goes to a temporary file.
+const BODY_IN_MEMORY: usize = 16 << 20;
 use volcomp_gcode::{Setup, Walker};
 
 /// The header's first line; its presence marks a compensated program.
@@ -201,7 +205,7 @@ pub fn describe_options(o: &CompensateOptions) -> (String, String) {
         },
         match (o.take_up, o.fold_take_ups) {
             (false, _) => "no take-up",
-            (true, true) => "take-ups folded where within tolerance",
+            (true, true) => "take-ups by path-control mode",
             (true, false) => "take-ups as separate blocks",
         }
         .into(),
@@ -425,16 +429,29 @@ pub fn compensate_program_with_header<R: BufRead>(
     out: &mut dyn Write,
     on_point: impl FnMut(&PointRecord),
 ) -> Result<CompensateSummary, CompensationError> {
-    let mut w = HeaderWriter::new(out, header.lines());
+    // The header says what was done at reversals, which is known once the
+    // program has been written: the body waits in a spool (in memory up to
+    // BODY_IN_MEMORY, then in an unnamed temporary file) until then.
+    let mut body = tempfile::SpooledTempFile::new(BODY_IN_MEMORY);
     let summary = compensate_program(
         walker,
         file,
         model,
         program_style,
         options,
-        &mut w,
+        &mut body,
         on_point,
     )?;
+    let mut lines = header.lines();
+    let end = lines.len().saturating_sub(1);
+    lines.insert(
+        end,
+        format!("({})", comment_text(&summary.reversals_text())),
+    );
+    let mut w = HeaderWriter::new(out, lines);
+    body.seek(io::SeekFrom::Start(0))
+        .map_err(CompensationError::from)?;
+    io::copy(&mut body, &mut w).map_err(CompensationError::from)?;
     w.finish().map_err(CompensationError::from)?;
     Ok(summary)
 }

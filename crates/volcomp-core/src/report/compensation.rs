@@ -443,7 +443,18 @@ pub fn summary_table(s: &CompensateSummary) -> Table {
                 "largest model residual (µm)".into(),
                 format!("{:.4}", s.max_residual_um),
             ],
-            vec!["take-up moves written".into(), s.take_ups.to_string()],
+            vec![
+                "take-up blocks written (a stop each)".into(),
+                s.take_ups.to_string(),
+            ],
+            vec![
+                "take-ups folded into their moves".into(),
+                s.take_ups_folded.to_string(),
+            ],
+            vec![
+                "largest excursion at a folded reversal (µm)".into(),
+                format!("{:.3}", s.max_fold_excursion_um),
+            ],
             vec!["points with an axis held".into(), s.held_count.to_string()],
         ],
         numeric: vec![false, true],

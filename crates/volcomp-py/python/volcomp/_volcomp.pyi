@@ -113,6 +113,7 @@ class CompensateResult:
     max_correction_um: float
     take_ups: int
     take_ups_folded: int
+    max_fold_excursion_um: float
     held: list[tuple[int, str]]
     held_count: int
     warnings: list[dict[str, Any]]

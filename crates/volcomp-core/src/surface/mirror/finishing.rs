@@ -294,6 +294,7 @@ pub fn compensate_finishing<R: BufRead>(
         take_up: false,
         fold_take_ups: false,
         take_up_tolerance_mm: None,
+        planner: Default::default(),
         trace_comments: options.trace_comments,
         // The direct step is exact for a displacement field (no iteration).
         max_residual_um: None,

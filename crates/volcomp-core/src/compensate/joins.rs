@@ -1,0 +1,165 @@
+//! How the controller's trajectory planner joins the pieces a compensation
+//! writes: LinuxCNC 2.9's rules ([LinuxCNC tp] in docs/references.md), so
+//! the pieces are ones it runs at the programmed feed and joins without a
+//! stop where the original had none (docs/compensation.md, "Pieces the
+//! planner runs at full speed").
+//!
+//! * **Tangency** (`tpSetupTangent`, src/emc/tp/tp.c): two segments join
+//!   without a stop or a blend when, with `v` the slower one's target
+//!   velocity (its feed, capped by its length per servo period `T`),
+//!   `a_inst = v/T + a` and `Δt` the change of the unit tangent,
+//!   `max_i a_inst·|Δt_i| / A_i` stays below `ARC_BLEND_KINK_RATIO` (0.1 by
+//!   default), the ratio doubled where an arc takes part
+//!   (`BLEND_ACC_RATIO_TANGENTIAL` 0.5, blendmath.h). Otherwise G61 stops
+//!   there (TC_TERM_COND_EXACT: `tpChooseBestBlend` makes no blend) and G64
+//!   blends; G61.1 stops at every block end.
+//! * **Length clamp** (`tcClampVelocityByLength`, src/emc/tp/tc.c): a
+//!   segment runs no faster than its length per servo period.
+//! * **Blend distance** (`blendComputeParameters`, src/emc/tp/blendmath.c;
+//!   `tcFindBlendTolerance`, tc.c): under G64 a corner of deflection `φ`
+//!   (half-angle `θ = (π − φ)/2` between the segments) is rounded by an arc
+//!   of radius `R = tan θ · d` that leaves the segments `d` before and after
+//!   the corner, `d` at most half of each neighbour; its speed is
+//!   `√(a_n R)`, `a_n = A·√(1 − 0.5²)` (`BLEND_ACC_RATIO_NORMAL`). A piece
+//!   next to a corner shorter than twice the `d` the feed needs slows the
+//!   corner down.
+
+use volcomp_gcode::Vec3;
+
+/// `ARC_BLEND_KINK_RATIO`'s default ([TRAJ] in the INI, initraj.cc).
+const KINK_RATIO: f64 = 0.1;
+
+/// `BLEND_ACC_RATIO_TANGENTIAL` (blendmath.h): the share of the
+/// acceleration an arc may use along its path; the tangency ratio is
+/// divided by it where an arc takes part.
+const ARC_TANGENTIAL_RATIO: f64 = 0.5;
+
+/// The machine's limits that the planner's joins depend on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlannerLimits {
+    /// Largest acceleration of X, Y, Z (mm/s²; LinuxCNC's `[AXIS_*]
+    /// MAX_ACCELERATION`).
+    pub max_acceleration_mm_s2: [f64; 3],
+    /// The servo period (s; LinuxCNC's `[EMCMOT] SERVO_PERIOD`, 1 ms by
+    /// default).
+    pub servo_period_s: f64,
+}
+
+impl Default for PlannerLimits {
+    /// 1,000 mm/s² per axis (the cycle-time benchmark's machine,
+    /// bench/cycle_time/config) and LinuxCNC's default 1 ms servo period.
+    fn default() -> Self {
+        Self {
+            max_acceleration_mm_s2: [1000.0; 3],
+            servo_period_s: 0.001,
+        }
+    }
+}
+
+impl PlannerLimits {
+    /// The target velocity (mm/s) of a segment of `length_mm` at
+    /// `feed_mm_min`: the feed, capped by the length per servo period.
+    pub fn segment_velocity_mm_s(&self, feed_mm_min: f64, length_mm: f64) -> f64 {
+        (feed_mm_min / 60.0).min(length_mm / self.servo_period_s)
+    }
+
+    /// The shortest segment (mm) the planner runs at `feed_mm_min`: its
+    /// length per servo period.
+    pub fn shortest_at_feed_mm(&self, feed_mm_min: f64) -> f64 {
+        feed_mm_min / 60.0 * self.servo_period_s
+    }
+
+    /// How far the unit tangent may turn along axis `i` at a join run at
+    /// `v_mm_s` for the planner to take it as tangent (see the module
+    /// documentation); halved where an arc takes part.
+    pub fn tangent_tolerance(&self, v_mm_s: f64, arc: bool) -> [f64; 3] {
+        let a = self
+            .max_acceleration_mm_s2
+            .iter()
+            .fold(0.0f64, |m, x| m.max(*x));
+        let a_inst = v_mm_s / self.servo_period_s + a;
+        let k = if arc {
+            KINK_RATIO * ARC_TANGENTIAL_RATIO
+        } else {
+            KINK_RATIO
+        };
+        self.max_acceleration_mm_s2.map(|ai| k * ai / a_inst)
+    }
+
+    /// How much of the tangency tolerance the turn from unit tangent `t1`
+    /// to `t2` uses at `v_mm_s` (below 1: tangent).
+    pub fn kink_ratio(&self, t1: Vec3, t2: Vec3, v_mm_s: f64, arc: bool) -> f64 {
+        let tol = self.tangent_tolerance(v_mm_s, arc);
+        (0..3).fold(0.0f64, |m, i| m.max((t2[i] - t1[i]).abs() / tol[i]))
+    }
+
+    /// The normal acceleration of a blend (mm/s²): the smallest axis limit
+    /// times `BLEND_ACC_RATIO_NORMAL` (a blend's plane may lie along any
+    /// two axes).
+    fn blend_normal_acceleration(&self) -> f64 {
+        let a = self
+            .max_acceleration_mm_s2
+            .iter()
+            .fold(f64::INFINITY, |m, x| m.min(*x));
+        a * (1.0 - ARC_TANGENTIAL_RATIO * ARC_TANGENTIAL_RATIO).sqrt()
+    }
+
+    /// The distance (mm) before and after a G64 corner from unit tangent
+    /// `t1` to `t2` that a blend at `v_mm_s` needs: `d = R / tan θ` with
+    /// `R = v²/a_n` (module documentation); 0 where the segments are
+    /// collinear.
+    pub fn blend_distance_mm(&self, t1: Vec3, t2: Vec3, v_mm_s: f64) -> f64 {
+        let cos_phi = t1.dot(t2).clamp(-1.0, 1.0);
+        let phi = cos_phi.acos();
+        if phi <= 1e-12 {
+            return 0.0;
+        }
+        let theta = 0.5 * (std::f64::consts::PI - phi);
+        let radius = v_mm_s * v_mm_s / self.blend_normal_acceleration();
+        radius / theta.tan()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_tangency_tolerance_is_the_kink_ratio_of_the_instant_acceleration() {
+        // F6000 (100 mm/s), 1 ms, 1000 mm/s²: a_inst = 100 000 + 1000;
+        // 0.1 · 1000 / 101 000 = 0.990 mrad for lines, half with an arc.
+        let p = PlannerLimits::default();
+        let t = p.tangent_tolerance(100.0, false);
+        assert!((t[0] - 0.1 * 1000.0 / 101_000.0).abs() < 1e-15, "{t:?}");
+        let t = p.tangent_tolerance(100.0, true);
+        assert!((t[2] - 0.05 * 1000.0 / 101_000.0).abs() < 1e-15, "{t:?}");
+        // A turn of 0.8 mrad about Z between two lines along X: tangent at
+        // F6000, not with an arc.
+        let a = 0.8e-3f64;
+        let (t1, t2) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(a.cos(), a.sin(), 0.0));
+        assert!(p.kink_ratio(t1, t2, 100.0, false) < 1.0);
+        assert!(p.kink_ratio(t1, t2, 100.0, true) > 1.0);
+    }
+
+    #[test]
+    fn a_right_angle_blend_at_full_speed_needs_its_radius() {
+        // 90°: θ = 45°, d = R = v² / (1000·√0.75) = 10 000 / 866.03 = 11.547 mm.
+        let p = PlannerLimits::default();
+        let d = p.blend_distance_mm(Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), 100.0);
+        assert!(
+            (d - 10_000.0 / (1000.0 * 0.75f64.sqrt())).abs() < 1e-9,
+            "{d}"
+        );
+        // Collinear: nothing to blend.
+        let x = Vec3::new(1.0, 0.0, 0.0);
+        assert_eq!(p.blend_distance_mm(x, x, 100.0), 0.0);
+    }
+
+    #[test]
+    fn a_segment_shorter_than_its_feed_per_period_is_slowed() {
+        let p = PlannerLimits::default();
+        assert!((p.shortest_at_feed_mm(6000.0) - 0.1).abs() < 1e-12);
+        assert!((p.segment_velocity_mm_s(6000.0, 0.05) - 50.0).abs() < 1e-9);
+        assert!((p.segment_velocity_mm_s(6000.0, 1.0) - 100.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,376 @@
+//! Take-ups at the quarter points of an arc that run on without a stop:
+//! the reversing axis crosses its dead band on a tangent-continuous
+//! S-curve, two arcs that the planner joins without a corner
+//! (docs/compensation.md, "A take-up where the path runs on").
+//!
+//! At a quarter point the arc's normal lies along the reversing axis. In a
+//! frame local to the point, `x` along the path and `y` along that axis
+//! (toward the extreme), the nominal arc is `y_n(x) = √(R² − x²) − R`; the
+//! command must go from following it (the old direction's tables) to
+//! following it `b` lower (the new direction's tables: `b` the axis' own
+//! lag). Under a dead band the tool follows the command until the command
+//! peaks, then stands still while the command falls by `b` across the
+//! band, then follows it again `b` higher. So with the S-curve `y_c(x)`
+//! and its peak `y_p`, the tool is off the path by
+//!
+//! * `y_c − y_n` before the peak,
+//! * `y_p − y_n` while the band is crossed (the tool frozen at the peak),
+//! * `y_c + b − y_n` once engaged.
+//!
+//! The S-curve is the biarc from the arc at `x = −w₁` (old command, the
+//! arc's tangent) to the arc `b` lower at `x = w₂` (new command), the
+//! joint where both arcs are as far from their ends along their tangents
+//! (the equal-distance biarc). LinuxCNC runs an arc of radius `ρ` at no
+//! more than `√(a_n ρ)` (`pmCircleActualMaxVel`, blendmath.c;
+//! `a_n = √0.75 · A`), so a tight S-curve slows the machine: the window is
+//! chosen, among lengths growing by ×1.25, as the one that keeps the tool
+//! within the tolerance at the least time cost.
+//!
+//! **The least time.** The tool is within `tol` of the nominal path while
+//! frozen only where `y_n` stays within a band of `2·tol`: a window of
+//! `4√(R·tol)` along the path. Across it the axis must move `b` relative
+//! to the path and be at rest relative to it at both ends (outside, it
+//! follows the path on one side of the band or the other): at a relative
+//! acceleration `a_r`, in no less than `2√(b/a_r)`; the axis' own limit
+//! `A` bounds `a_r + v²/R`. So the feed through the point is at most
+//! `v* = 2·√(A·R·tol / (b + 4·tol))` ([`least_speed_mm_s`]), and slowing
+//! from `v` to `v*` and back at the path acceleration `a_t` costs at least
+//! `(v − v*)²/(a_t·v)` ([`least_cost_s`]).
+
+use super::joins::PlannerLimits;
+
+/// A point or vector of the plane.
+type P2 = [f64; 2];
+
+fn sub(a: P2, b: P2) -> P2 {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+fn dot(a: P2, b: P2) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+fn left(a: P2) -> P2 {
+    [-a[1], a[0]]
+}
+
+/// One arc of a biarc: from `start`, tangent `tangent` there, to `end`;
+/// `radius` signed (positive: the centre on the left of the tangent, the
+/// arc turns counter-clockwise), infinite for a straight piece.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct BiarcArc {
+    pub(super) start: P2,
+    pub(super) end: P2,
+    pub(super) tangent: P2,
+    pub(super) radius: f64,
+}
+
+impl BiarcArc {
+    /// The arc through `start` with unit tangent `t` there that ends at
+    /// `end`.
+    fn through(start: P2, t: P2, end: P2) -> BiarcArc {
+        let d = sub(end, start);
+        let across = dot(d, left(t));
+        let radius = if across.abs() <= 1e-15 * dot(d, d).sqrt().max(1e-300) {
+            f64::INFINITY
+        } else {
+            dot(d, d) / (2.0 * across)
+        };
+        BiarcArc {
+            start,
+            end,
+            tangent: t,
+            radius,
+        }
+    }
+
+    /// The centre (`None` for a straight piece).
+    pub(super) fn center(&self) -> Option<P2> {
+        self.radius.is_finite().then(|| {
+            let n = left(self.tangent);
+            [
+                self.start[0] + n[0] * self.radius,
+                self.start[1] + n[1] * self.radius,
+            ]
+        })
+    }
+
+    /// The signed angle swept (rad; 0 for a straight piece).
+    fn sweep(&self) -> f64 {
+        let Some(c) = self.center() else { return 0.0 };
+        let a0 = (self.start[1] - c[1]).atan2(self.start[0] - c[0]);
+        let a1 = (self.end[1] - c[1]).atan2(self.end[0] - c[0]);
+        let mut s = a1 - a0;
+        // Less than half a turn, in the arc's direction.
+        let pi = std::f64::consts::PI;
+        if self.radius > 0.0 {
+            while s < 0.0 {
+                s += 2.0 * pi;
+            }
+        } else {
+            while s > 0.0 {
+                s -= 2.0 * pi;
+            }
+        }
+        s
+    }
+
+    /// The point at the fraction `f` of the arc.
+    fn point(&self, f: f64) -> P2 {
+        match self.center() {
+            None => [
+                self.start[0] + (self.end[0] - self.start[0]) * f,
+                self.start[1] + (self.end[1] - self.start[1]) * f,
+            ],
+            Some(c) => {
+                let a0 = (self.start[1] - c[1]).atan2(self.start[0] - c[0]);
+                let a = a0 + self.sweep() * f;
+                let r = self.radius.abs();
+                [c[0] + r * a.cos(), c[1] + r * a.sin()]
+            }
+        }
+    }
+
+    /// Its length.
+    pub(super) fn length(&self) -> f64 {
+        if self.radius.is_finite() {
+            (self.radius * self.sweep()).abs()
+        } else {
+            dot(sub(self.end, self.start), sub(self.end, self.start)).sqrt()
+        }
+    }
+
+    /// The unit tangent at its end.
+    pub(super) fn end_tangent(&self) -> P2 {
+        match self.center() {
+            None => self.tangent,
+            Some(c) => {
+                let r = sub(self.end, c);
+                let n = dot(r, r).sqrt();
+                let t = left([r[0] / n, r[1] / n]);
+                if self.radius > 0.0 {
+                    t
+                } else {
+                    [-t[0], -t[1]]
+                }
+            }
+        }
+    }
+}
+
+/// The equal-distance biarc from `p1` (unit tangent `t1`) to `p2` (unit
+/// tangent `t2`): two arcs joined tangent-continuously at the point `d`
+/// along `t1` from `p1` and `d` back along `t2` from `p2` meet halfway.
+pub(super) fn biarc(p1: P2, t1: P2, p2: P2, t2: P2) -> Option<[BiarcArc; 2]> {
+    let v = sub(p2, p1);
+    let t = [t1[0] + t2[0], t1[1] + t2[1]];
+    let denom = 2.0 * (1.0 - dot(t1, t2));
+    let vt = dot(v, t);
+    let d = if denom.abs() < 1e-14 {
+        let vt2 = dot(v, t2);
+        if vt2.abs() < 1e-300 {
+            return None;
+        }
+        dot(v, v) / (4.0 * vt2)
+    } else {
+        (-vt + (vt * vt + denom * dot(v, v)).sqrt()) / denom
+    };
+    if !(d > 0.0 && d.is_finite()) {
+        return None;
+    }
+    let joint = [
+        0.5 * (p1[0] + d * t1[0] + p2[0] - d * t2[0]),
+        0.5 * (p1[1] + d * t1[1] + p2[1] - d * t2[1]),
+    ];
+    let a1 = BiarcArc::through(p1, t1, joint);
+    let tj = a1.end_tangent();
+    let a2 = BiarcArc::through(joint, tj, p2);
+    Some([a1, a2])
+}
+
+/// The S-curve of a quarter point in its local frame (module
+/// documentation): the window before and after the point (mm along the
+/// path), the largest distance of the tool from the path under
+/// the dead band (mm), the slowest speed the planner runs it at (mm/s),
+/// and the time it costs (s) against running through at the feed.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Window {
+    pub(super) before_mm: f64,
+    pub(super) after_mm: f64,
+    pub(super) deviation_mm: f64,
+    /// The slowest speed on the S-curve (the tests compare it with the
+    /// bound).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub(super) speed_mm_s: f64,
+    pub(super) cost_s: f64,
+}
+
+/// The biarc of the window `w1`, `w2` on an arc of radius `r` for a band
+/// `b` (mm), and the tool's largest distance from the path under the dead
+/// band; `None` where no biarc fits or the band is not crossed inside the
+/// window.
+pub(super) fn window_deviation(r: f64, b: f64, w1: f64, w2: f64) -> Option<([BiarcArc; 2], f64)> {
+    if w1 >= r || w2 >= r {
+        return None;
+    }
+    let y_n = |x: f64| (r * r - x * x).sqrt() - r;
+    let unit = |x: f64| {
+        let dy = -x / (r * r - x * x).sqrt();
+        let n = (1.0 + dy * dy).sqrt();
+        [1.0 / n, dy / n]
+    };
+    let p1 = [-w1, y_n(-w1)];
+    let p2 = [w2, y_n(w2) - b];
+    let arcs = biarc(p1, unit(-w1), p2, unit(w2))?;
+    // Sample the command along both arcs, in order.
+    let n = 200;
+    let mut pts: Vec<P2> = Vec::with_capacity(2 * n + 1);
+    pts.push(p1);
+    for a in &arcs {
+        for k in 1..=n {
+            pts.push(a.point(k as f64 / n as f64));
+        }
+    }
+    // x must advance along the path.
+    if pts.windows(2).any(|p| p[1][0] <= p[0][0]) {
+        return None;
+    }
+    let peak = pts.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p[1]));
+    let mut worst: f64 = 0.0;
+    let mut state = 0; // 0 rising, 1 frozen, 2 engaged
+    let mut last_y = f64::NEG_INFINITY;
+    for p in &pts {
+        let (x, y) = (p[0], p[1]);
+        if state == 0 && y < last_y {
+            state = 1;
+        }
+        if state == 1 && y <= peak - b {
+            state = 2;
+        }
+        let dev = match state {
+            0 => y - y_n(x),
+            1 => peak - y_n(x),
+            _ => y + b - y_n(x),
+        };
+        worst = worst.max(dev.abs());
+        last_y = y;
+    }
+    // Not engaged by the end of the window: the band is not crossed.
+    if state != 2 {
+        return None;
+    }
+    Some((arcs, worst))
+}
+
+/// The window that takes up a band `b` (mm) at a quarter point of an arc
+/// of radius `r` fed at `v` (mm/s) with the tool within `tol` (mm) of the
+/// path, at the least time on `planner`'s machine; `None` where no window
+/// up to a quarter of the radius keeps it within `tol`.
+pub(super) fn best_window(
+    r: f64,
+    b: f64,
+    tol: f64,
+    v: f64,
+    planner: &PlannerLimits,
+) -> Option<Window> {
+    let a_min = planner
+        .max_acceleration_mm_s2
+        .iter()
+        .fold(f64::INFINITY, |m, x| m.min(*x));
+    let a_n = a_min * 0.75f64.sqrt();
+    // The path acceleration on the arc (`pmCircleActualMaxVel`).
+    let a_t = a_min * (1.0 - ((v * v / r) / a_min).min(1.0).powi(2)).sqrt();
+    let lengths: Vec<f64> = (0..40)
+        .map(|k| 0.005 * 1.25f64.powi(k))
+        .filter(|w| *w <= 0.25 * r)
+        .collect();
+    let mut best: Option<Window> = None;
+    for &w1 in &lengths {
+        for &w2 in &lengths {
+            let Some((arcs, dev)) = window_deviation(r, b, w1, w2) else {
+                continue;
+            };
+            if dev > tol {
+                continue;
+            }
+            // Each arc runs at no more than √(a_n ρ), nor than its length
+            // per servo period.
+            let speed = arcs.iter().fold(v, |m, a| {
+                let rho = a.radius.abs();
+                let cap = if rho.is_finite() {
+                    (a_n * rho).sqrt()
+                } else {
+                    f64::INFINITY
+                };
+                m.min(cap).min(a.length() / planner.servo_period_s)
+            });
+            let len = arcs[0].length() + arcs[1].length();
+            let cost = (v - speed).powi(2) / (a_t * v) + len * (1.0 / speed - 1.0 / v);
+            if best.is_none_or(|b| cost < b.cost_s) {
+                best = Some(Window {
+                    before_mm: w1,
+                    after_mm: w2,
+                    deviation_mm: dev,
+                    speed_mm_s: speed,
+                    cost_s: cost,
+                });
+            }
+        }
+    }
+    best
+}
+
+/// The highest feed (mm/s) at which any command takes up a band `b` at a
+/// quarter point of radius `r` with the tool within `tol` of the path, on
+/// an axis of acceleration `a` (module documentation):
+/// `2·√(a·r·tol / (b + 4·tol))`.
+pub fn least_speed_mm_s(r: f64, b: f64, tol: f64, a: f64) -> f64 {
+    2.0 * (a * r * tol / (b + 4.0 * tol)).sqrt()
+}
+
+/// The least time (s) a take-up at a quarter point costs against running
+/// through at `v`: slowing to [`least_speed_mm_s`] and back at the path
+/// acceleration `a_t` (0 where `v` is below it).
+pub fn least_cost_s(v: f64, r: f64, b: f64, tol: f64, a: f64, a_t: f64) -> f64 {
+    let vs = least_speed_mm_s(r, b, tol, a);
+    if vs >= v {
+        0.0
+    } else {
+        (v - vs).powi(2) / (a_t * v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_biarc_joins_its_ends_tangent_continuously() {
+        // From the origin along +x to (4, −1) along +x: an S.
+        let [a1, a2] = biarc([0.0, 0.0], [1.0, 0.0], [4.0, -1.0], [1.0, 0.0]).unwrap();
+        assert!(a1.radius < 0.0 && a2.radius > 0.0, "{a1:?} {a2:?}");
+        let tj = a1.end_tangent();
+        assert!((tj[0] - a2.tangent[0]).abs() < 1e-12 && (tj[1] - a2.tangent[1]).abs() < 1e-12);
+        let te = a2.end_tangent();
+        assert!((te[0] - 1.0).abs() < 1e-12 && te[1].abs() < 1e-12, "{te:?}");
+        // Symmetric S: the joint at the middle, both radii equal:
+        // ρ = (2² + 0.5²) / (2·0.5) = 4.25.
+        assert!((a1.end[0] - 2.0).abs() < 1e-12 && (a1.end[1] + 0.5).abs() < 1e-12);
+        assert!((a1.radius + 4.25).abs() < 1e-12 && (a2.radius - 4.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_window_keeps_the_tool_within_tolerance_and_no_faster_than_the_bound() {
+        // Ø50 at F6000, a 4 µm band, 0.1 µm: the bound v* = 2√(1000·25·1e-4
+        // / 0.0044) = 47.67 mm/s; the S-curve found runs no faster, and not
+        // much slower.
+        let p = PlannerLimits::default();
+        let (r, b, tol) = (25.0, 0.004, 1e-4);
+        let vs = least_speed_mm_s(r, b, tol, 1000.0);
+        assert!((vs - 2.0 * (2.5f64 / 0.0044).sqrt()).abs() < 1e-9);
+        let w = best_window(r, b, tol, 100.0, &p).unwrap();
+        assert!(w.deviation_mm <= tol, "{w:?}");
+        assert!(w.speed_mm_s <= vs * 1.0001, "{} vs {vs}", w.speed_mm_s);
+        assert!(w.speed_mm_s >= 0.6 * vs, "{} vs {vs}", w.speed_mm_s);
+    }
+}
