@@ -4,6 +4,7 @@
 //! other.
 
 use volcomp_core::error::{help, CompensationError};
+use volcomp_core::request::OptionError;
 use volcomp_core::surface::mirror::MirrorError;
 use volcomp_core::Error;
 use volcomp_gcode::interp::{K0_HELP, PROGRAM_END_HELP};
@@ -55,6 +56,13 @@ fn compensation<'e>(e: &'e (dyn std::error::Error + 'static)) -> Option<&'e Comp
 /// `e`'s text with the options it names said as the CLI's flags, when it
 /// names any (`None`: the library's text stands).
 pub fn reword(e: &(dyn std::error::Error + 'static)) -> Option<String> {
+    let option = match e.downcast_ref::<Error>() {
+        Some(Error::Option(o)) => Some(o),
+        _ => e.downcast_ref::<OptionError>(),
+    };
+    if let Some(o) = option {
+        return Some(o.render(&crate::options::Flags));
+    }
     let text = e.to_string();
     if text.ends_with(PROGRAM_END_HELP) {
         return Some(format!(

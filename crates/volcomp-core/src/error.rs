@@ -341,6 +341,10 @@ pub enum Error {
     /// An output could not be written.
     #[error("{0}")]
     Output(#[from] crate::io::output::OutputError),
+    /// An option's value was refused (named as the library names it; a
+    /// front end spells it its own way with [`crate::request::OptionError::render`]).
+    #[error("{0}")]
+    Option(#[from] crate::request::OptionError),
     /// Reading or writing `path` failed.
     #[error("{}: {source}", path.display())]
     Io {
@@ -519,7 +523,8 @@ impl Error {
             | Error::Mirror(_)
             | Error::BSpline(_)
             | Error::Topology(_)
-            | Error::OutputPlan(_) => ErrorKind::BadInput,
+            | Error::OutputPlan(_)
+            | Error::Option(_) => ErrorKind::BadInput,
         }
     }
 }

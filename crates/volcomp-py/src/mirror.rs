@@ -150,7 +150,7 @@ pub fn mirror<'py>(
         (None, Some(p)) => NominalFormat::of_path(p).py_err()?,
         (None, None) => {
             return Err(bad_input(
-                "nominal given as text: say its format with nominal_format=\"bspline\" (TOML) or \"grid\" (CSV)",
+                "nominal given as a file object: say its format with nominal_format=\"bspline\" (TOML) or \"grid\" (CSV)",
             ))
         }
     };

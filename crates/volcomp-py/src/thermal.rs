@@ -78,7 +78,7 @@ impl ThermalModel {
     }
 
     /// The 21-component model at one moment: the row of `temperatures` (a
-    /// CSV as text or pathlib.Path, docs/thermal.md) of cycle `cycle`, or
+    /// CSV: a path or a file object, docs/thermal.md) of cycle `cycle`, or
     /// the last row. Temperatures outside the training range are refused
     /// unless `extrapolate=True`.
     #[pyo3(signature = (temperatures, *, cycle = None, extrapolate = false))]

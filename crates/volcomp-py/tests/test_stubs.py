@@ -30,6 +30,12 @@ def params(node, skip_self):
     return pos, [p.arg for p in a.kwonlyargs]
 
 
+def kw_defaults(node):
+    """Keyword-only parameters with their defaults (literals)."""
+    a = node.args
+    return {p.arg: ast.literal_eval(d) if d is not None else inspect.Parameter.empty for p, d in zip(a.kwonlyargs, a.kw_defaults)}
+
+
 def runtime_params(f):
     sig = inspect.signature(f)
     pos = [p.name for p in sig.parameters.values() if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
@@ -70,3 +76,17 @@ def test_function_parameters_match():
             if skip and rt[0] and rt[0][0] == "self":
                 rt = (rt[0][1:], rt[1])
             assert rt == params(node, True), f"{cname}.{mname}"
+
+
+def test_the_librarys_options_are_in_the_stubs_with_their_defaults():
+    """compensate, simulate and moves take the library's options (the CLI's
+    flags are built from the same table): the stubs list each, with its
+    default. A new option of the library fails here until its stub line is
+    written (the expected line is in the message)."""
+    funcs, _ = stub_defs()
+    for job in ("compensate", "simulate", "moves"):
+        stub = kw_defaults(funcs[job])
+        for o in volcomp._volcomp._options(job):
+            line = f"    {o['name']}: {o['type']} = {o['default']!r},"
+            assert o["name"] in stub, f"{job}: add to the stub: {line}"
+            assert stub[o["name"]] == o["default"], f"{job}: {line}"

@@ -1,51 +1,42 @@
 //! `volcomp simulate`.
 
-use super::compensate::{command_line, date_utc, load_map};
-use super::Machine;
+use super::compensate::command_line;
+use super::{Machine, MachineExt};
 use crate::args::SimulateArgs;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
 use crate::progress::Bar;
 use std::io::Write;
+use volcomp_core::io::provenance::now_utc;
 use volcomp_core::progress::Counted;
 use volcomp_core::report::compensation::{
     lines_to_quote, quote_lines, setup_facts, simulation_sections, trace_program, Traced,
 };
 use volcomp_core::report::trace::PathTrace;
 use volcomp_core::report::{Document, InputFile};
-use volcomp_core::{SimReport, Simulation};
+use volcomp_core::SimReport;
 
 pub fn run(a: SimulateArgs) -> Result<(), CliError> {
-    if !(a.chord_tolerance.is_finite() && a.chord_tolerance > 0.0) {
-        return Err(CliError::Message(
-            "--chord-tolerance must be a positive length in mm".into(),
-        ));
-    }
+    a.job.chord_tolerance_mm()?;
+    let reference = a.job.reference.as_ref().and_then(|r| r.path());
     let mut plan = OutputPlan::new();
     plan.input("PROGRAM", &a.program)
-        .map_input("--map", &a.map.map)
+        .map_input("--map", a.map.path()?)
         .input_opt("--controller", a.map.controller.as_ref())
-        .input_opt("--setup", a.machine.setup.as_ref())
-        .input_opt("--reference", a.reference.as_ref())
+        .input_opt(
+            "--setup",
+            a.job.machine.setup.as_ref().and_then(|s| s.path()),
+        )
+        .input_opt("--reference", reference)
         .output_opt("--errors-csv", a.errors_csv.as_ref())
         .output_opt("--plot", a.plot.as_ref())
         .output_opt("--report-html", a.report_html.as_ref());
     check(&plan)?;
-    let machine = Machine(
-        Machine::from_args(&a.machine)?
-            .0
-            .with_spline_tolerance(a.chord_tolerance),
-    );
+    let machine = a.job.prepare(super::machine(&a.job.machine)?)?;
     machine.warn_without_work_offset();
-    let model = load_map(&a.map)?;
+    let model = a.map.load()?;
     let name = a.program.display().to_string();
-    let mut simulation = Simulation::new(model.as_ref())
-        .setup(machine.0.clone())
-        .file_name(name.as_str())
-        .chord_tolerance_mm(a.chord_tolerance);
-    if let Some(r) = &a.reference {
-        simulation = simulation.reference_named(r.display().to_string(), open(r)?);
-    }
+    let simulation = a.job.simulation(model.as_ref(), &machine, &name)?;
     let mut rows: Option<Vec<u8>> = a
         .errors_csv
         .as_ref()
@@ -91,12 +82,10 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         })
         .run(Counted::new(open(&a.program)?, bar.clone()));
     bar.finish();
-    let report = report.map_err(|e| machine.explain(e))?;
+    let report = report.map_err(|e| machine.refused(e))?;
     if let (Some(path), Some(bytes)) = (&a.errors_csv, rows) {
         let mut inputs = vec![a.program.as_path()];
-        if let Some(r) = &a.reference {
-            inputs.push(r.as_path());
-        }
+        inputs.extend(reference);
         write_atomically(path, &inputs, |w| {
             w.write_all(&bytes)
                 .map_err(|e| CliError::Io(path.clone(), e))
@@ -134,9 +123,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         };
         let html = report_html(&a, &machine, model.as_ref(), after)?;
         let mut inputs = vec![a.program.as_path()];
-        if let Some(r) = &a.reference {
-            inputs.push(r.as_path());
-        }
+        inputs.extend(reference);
         write_atomically(path, &inputs, |w| {
             w.write_all(html.as_bytes())
                 .map_err(|e| CliError::Io(path.clone(), e))
@@ -148,7 +135,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         let text = serde_json::to_string(&report)?;
         writeln!(out, "{text}").map_err(CliError::Stdout)?;
     } else {
-        print_table(&mut out, &report, a.reference.is_some()).map_err(CliError::Stdout)?;
+        print_table(&mut out, &report, a.job.reference.is_some()).map_err(CliError::Stdout)?;
     }
     Ok(())
 }
@@ -161,19 +148,19 @@ fn report_html(
     model: &dyn volcomp_core::ErrorModel,
     after: Traced,
 ) -> Result<String, CliError> {
-    let before = match &a.reference {
+    let before = match &a.job.reference {
         Some(r) => Some(
             trace_program(
                 model,
-                &machine.0,
-                a.chord_tolerance,
-                &r.display().to_string(),
-                &r.display().to_string(),
-                open(r)?,
+                &machine.setup,
+                a.job.chord_tolerance_mm,
+                &r.name(),
+                &r.name(),
+                r.reader()?,
                 None,
                 |_| {},
             )
-            .map_err(|e| machine.explain(e))?,
+            .map_err(|e| machine.refused(e))?,
         ),
         None => None,
     };
@@ -199,23 +186,23 @@ fn report_html(
     } else {
         inputs.push(InputFile::read("program", &a.program)?);
     }
-    if let Some(r) = &a.reference {
+    if let Some(r) = a.job.reference.as_ref().and_then(|r| r.path()) {
         inputs.push(InputFile::read("reference", r)?);
     }
-    inputs.push(InputFile::read("map", &a.map.map)?);
-    if let Some(s) = &a.machine.setup {
+    inputs.push(InputFile::read("map", a.map.path()?)?);
+    if let Some(s) = &machine.setup_file {
         inputs.push(InputFile::read("set-up", s)?);
     }
     let mut facts = vec![
         ("command".to_string(), command_line()),
         ("volcomp".to_string(), env!("CARGO_PKG_VERSION").to_string()),
-        ("date (UTC)".to_string(), date_utc()),
+        ("date (UTC)".to_string(), now_utc()),
         (
             "chord tolerance".to_string(),
-            format!("{} mm", a.chord_tolerance),
+            format!("{} mm", a.job.chord_tolerance_mm),
         ),
     ];
-    facts.extend(setup_facts(&machine.0.setup, None));
+    facts.extend(setup_facts(&machine.setup.setup, None));
     let doc = Document {
         title: format!("volcomp simulation report: {}", a.program.display()),
         facts,

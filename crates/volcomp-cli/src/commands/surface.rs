@@ -2,14 +2,16 @@
 //! probing (the mirror method, `docs/mirror.md`). Flags, validation, files
 //! and printing; the method is `volcomp_core::surface::mirror`.
 
-use super::compensate::{date_utc, file_name, refuse_if_compensated};
-use super::Machine;
+use super::compensate::file_name;
+use super::{Machine, MachineExt};
 use crate::args::surface::{flag_help, Cl, MirrorArgs, SurfaceArgs, SurfaceCommand};
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::progress::Bar;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
+use volcomp_core::compensate::refuse_if_compensated;
 use volcomp_core::compensate::survey_style;
+use volcomp_core::io::provenance::now_utc;
 use volcomp_core::io::provenance::{sha256_hex, HeaderWriter, ProgramHeader};
 use volcomp_core::progress::Counted;
 use volcomp_core::surface::mirror::report::{
@@ -96,7 +98,7 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
         plan.input("--nominal", &a.nominal)
             .input("--measured", &a.measured)
             .input_opt("--finishing", a.finishing.as_ref())
-            .input_opt("--setup", a.machine.setup.as_ref())
+            .input_opt("--setup", a.machine.setup.as_ref().and_then(|s| s.path()))
             .output_opt("-o", a.output.as_ref())
             .output_opt("--baseline", a.baseline.as_ref())
             .output("--surface-out (grid)", with_suffix(&base, ".csv"))
@@ -197,7 +199,7 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
                     "--finishing needs a file: the program is read twice (its frame first)".into(),
                 ));
             }
-            let machine = Machine::from_args(&a.machine)?;
+            let machine = super::machine(&a.machine)?;
             let file = program.display().to_string();
             let frame = program_frame_offset(&mut machine.walk(program)?, &file)?;
             let opts = FinishingOptions {
@@ -226,7 +228,7 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
                     std::io::BufReader::with_capacity(1 << 16, f),
                     bar.clone(),
                 ));
-                let mut walker = machine.walker(reader, &program.display().to_string());
+                let mut walker = machine.setup.walker(reader, &program.display().to_string());
                 let mut summary = None;
                 let header = mirror_header(
                     &a,
@@ -314,13 +316,11 @@ fn mirror_header(
     Ok(ProgramHeader {
         version: env!("CARGO_PKG_VERSION").to_string(),
         files,
-        setup_file: a.machine.setup.as_deref().map(file_name),
-        work_offset_note: a
-            .machine
-            .work_offset
-            .as_ref()
-            .map(|_| "G54 from --work-offset".to_string()),
-        setup: machine.setup.clone(),
+        setup_file: machine.setup_file.as_deref().map(file_name),
+        work_offset_note: machine
+            .work_offset_given
+            .then(|| "G54 from --work-offset".to_string()),
+        setup: machine.setup.setup.clone(),
         method: header_method(baseline).into(),
         options: header_options(
             a.stock,
@@ -329,7 +329,7 @@ fn mirror_header(
             (!a.no_split).then_some(a.segment_length),
             a.contact_tolerance,
         ),
-        date_utc: date_utc(),
+        date_utc: now_utc(),
     })
 }
 
@@ -385,7 +385,7 @@ fn write_report(
             facts: vec![
                 ("command".into(), crate::commands::command_line()),
                 ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
-                ("date (UTC)".into(), crate::commands::date_utc()),
+                ("date (UTC)".into(), now_utc()),
                 ("nominal surface".into(), run.nominal.clone()),
                 ("probe points".into(), run.measured.clone()),
                 ("stock D".into(), format!("{} mm", run.stock_mm)),
