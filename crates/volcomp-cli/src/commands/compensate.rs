@@ -9,15 +9,14 @@ use std::io::{BufRead, Read, Write};
 use std::path::{Path, PathBuf};
 pub use volcomp_core::compensate::file_name;
 use volcomp_core::compensate::{CompensateSummary, PointRecord};
-use volcomp_core::io::provenance::{now_utc, ProgramHeader};
+use volcomp_core::io::provenance::now_utc;
+use volcomp_core::limits::LimitedWriter;
 use volcomp_core::model::ErrorModel;
 use volcomp_core::progress::Counted;
 use volcomp_core::report::compensation::{
-    compensation_sections, header_facts, lines_to_quote, quote_lines, trace_program,
-    LargestCorrections,
+    held_warning, point_csv_row, summary_lines, LargestCorrections, POINT_CSV_HEADER,
 };
-use volcomp_core::report::{Document, InputFile};
-use volcomp_core::request::{Compensation, ModelSource};
+use volcomp_core::request::{Compensation, ModelSource, RunNames};
 
 /// A reader over a program; `-` is standard input.
 fn open_program(program: &Path) -> Result<Box<dyn Read>, CliError> {
@@ -132,98 +131,27 @@ pub fn command_line() -> String {
     std::env::args().collect::<Vec<_>>().join(" ")
 }
 
-/// The files of a program header (map and its tables) as report inputs.
-pub fn header_inputs(header: &ProgramHeader) -> Vec<InputFile> {
-    header
-        .files
-        .iter()
-        .map(|(label, name, sha)| InputFile {
-            role: label.clone(),
-            name: name.clone(),
-            bytes: std::fs::metadata(name).ok().map(|m| m.len()),
-            sha256: sha.clone(),
-        })
-        .collect()
+/// What the run kept besides the program: the summary, the largest
+/// corrections and the program written (for the HTML report), the
+/// per-point CSV.
+struct Kept {
+    summary: CompensateSummary,
+    corrections: LargestCorrections,
+    written: Option<Vec<u8>>,
+    points_csv: Option<String>,
 }
 
-/// The HTML report of a compensation: the original simulated alone
-/// ("before") and the compensated program against it ("after").
-#[allow(clippy::too_many_arguments)]
-fn report_html(
-    a: &CompensateArgs,
-    output: &Path,
-    job: &Compensation,
-    model: &dyn ErrorModel,
-    summary: &CompensateSummary,
-    corrections: &LargestCorrections,
-    written: &[u8],
-) -> Result<String, CliError> {
-    let (machine, header) = (&job.machine, &job.header);
-    let name = program_name(&a.program);
-    let before = trace_program(
-        model,
-        &machine.setup,
-        a.job.chord_tolerance_mm,
-        "before",
-        &name,
-        open_program(&a.program)?,
-        None,
-        |_| {},
-    )
-    .map_err(|e| machine.refused(e))?;
-    let after = trace_program(
-        model,
-        &machine.setup,
-        a.job.chord_tolerance_mm,
-        "after",
-        &shown(output),
-        written,
-        Some((name.clone(), open_program(&a.program)?)),
-        |_| {},
-    )
-    .map_err(|e| machine.refused(e))?;
-    let want = lines_to_quote(
-        corrections,
-        Some(summary),
-        &before.warnings.iter().map(|w| w.0).collect::<Vec<_>>(),
-    );
-    let quoted = quote_lines(std::io::BufReader::new(open_program(&a.program)?), &want)
-        .map_err(|e| CliError::Io(a.program.clone(), e))?;
-    let mut inputs = vec![InputFile::read("program", &a.program)?];
-    inputs.extend(header_inputs(header));
-    if let Some(s) = &machine.setup_file {
-        inputs.push(InputFile::read("set-up", s)?);
-    }
-    let mut facts = vec![
-        ("command".to_string(), command_line()),
-        ("program".to_string(), name.clone()),
-        ("compensated program".to_string(), shown(output)),
-    ];
-    facts.extend(header_facts(header));
-    let doc = Document {
-        title: format!("volcomp compensation report: {name}"),
-        facts,
-        inputs,
-        sections: compensation_sections("", &before, &after, summary, corrections, &quoted),
-    };
-    Ok(doc.to_html())
-}
-
-pub fn run(a: CompensateArgs) -> Result<(), CliError> {
-    let output = match (&a.output, a.filter) {
-        (Some(o), _) => o.clone(),
-        (None, _) => PathBuf::from("-"),
-    };
-    let map_path = a.map.path()?;
+/// The inputs and outputs of a run, checked before any work.
+fn plan(a: &CompensateArgs, map: &Path, output: &Path) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
     plan.input("PROGRAM", &a.program)
-        .map_input("--map", map_path)
+        .map_input("--map", map)
         .input_opt("--controller", a.map.controller.as_ref())
         .input_opt(
             "--setup",
             a.job.machine.setup.as_ref().and_then(|s| s.path()),
         )
-        .output(if a.filter { "--filter output" } else { "-o" }, &output)
+        .output(if a.filter { "--filter output" } else { "-o" }, output)
         .output_opt("--report", a.report.as_ref())
         .output_opt("--report-html", a.report_html.as_ref());
     check(&plan)?;
@@ -232,6 +160,74 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
             "--report-html simulates the original program again after compensating it, so it needs PROGRAM as a file: standard input can be read only once".into(),
         ));
     }
+    Ok(())
+}
+
+/// Writes the compensated program to `output`, keeping what the other
+/// outputs need. As a LinuxCNC filter, prints `FILTER_PROGRESS=n`
+/// (percent), which AXIS reads from a filter's standard error (axis.py,
+/// filter_program).
+fn write_program(
+    a: &CompensateArgs,
+    output: &Path,
+    job: &Compensation,
+    model: &dyn ErrorModel,
+    staged: &mut Staged,
+) -> Result<Kept, CliError> {
+    let total_lines = a.filter.then(|| count_lines(&a.program)).flatten();
+    let mut percent_shown = 0u64;
+    let mut points_csv = a.report.as_ref().map(|_| POINT_CSV_HEADER.to_string());
+    let mut corrections = LargestCorrections::default();
+    let mut written = a.report_html.as_ref().map(|_| Vec::new());
+    let mut summary = None;
+    let max = job.max_output_bytes;
+    staged.write(output, |out| {
+        let mut tee = Tee {
+            inner: out,
+            copy: written.as_mut(),
+        };
+        let mut out = LimitedWriter::new(&mut tee, max);
+        let on_point = |p: &PointRecord| {
+            corrections.push(p);
+            if let Some(pct) = total_lines.map(|t| (p.line.saturating_mul(100) / t).min(99)) {
+                if pct > percent_shown {
+                    percent_shown = pct;
+                    eprintln!("FILTER_PROGRESS={pct}");
+                }
+            }
+            // Past the size limit the report is refused below.
+            if let Some(r) = points_csv
+                .as_mut()
+                .filter(|r| max.is_none_or(|m| r.len() as u64 <= m))
+            {
+                point_csv_row(p, r);
+            }
+        };
+        summary = Some(compensate_into(&a.program, &mut out, job, model, on_point)?);
+        Ok(())
+    })?;
+    if let Some(r) = &points_csv {
+        if max.is_some_and(|m| r.len() as u64 > m) {
+            return Err(CliError::Message(format!(
+                "the --report file would exceed the limit of {} bytes (--max-output-size); nothing was written",
+                max.unwrap_or(u64::MAX)
+            )));
+        }
+    }
+    let summary =
+        summary.ok_or_else(|| CliError::Internal("compensation produced no summary".into()))?;
+    Ok(Kept {
+        summary,
+        corrections,
+        written,
+        points_csv,
+    })
+}
+
+pub fn run(a: CompensateArgs) -> Result<(), CliError> {
+    let output = a.output.clone().unwrap_or_else(|| PathBuf::from("-"));
+    let map_path = a.map.path()?;
+    plan(&a, map_path, &output)?;
     let machine = super::machine(&a.job.machine)?;
     machine.warn_without_work_offset();
     let model = a.map.load()?;
@@ -239,159 +235,38 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         .job
         .prepare(machine, ModelSource::File(map_path), now_utc(), &Flags)?;
     a.map.note(&mut job.header)?;
-    // LinuxCNC's AXIS reads `FILTER_PROGRESS=n` (percent) from a filter's
-    // standard error (axis.py, filter_program).
-    let total_lines = if a.filter {
-        count_lines(&a.program)
-    } else {
-        None
-    };
-    let mut percent_shown = 0u64;
-    let mut report: Option<Vec<u8>> = a.report.as_ref().map(|_| {
-        b"line,target_x_mm,target_y_mm,target_z_mm,command_x_mm,command_y_mm,command_z_mm,iterations,residual_um,reversed,held,take_up\n".to_vec()
-    });
     let mut staged = Staged::new();
-    let mut summary = None;
-    let mut report_too_big = false;
-    // The compensated program, kept for the HTML report's simulation.
-    let mut written: Option<Vec<u8>> = a.report_html.as_ref().map(|_| Vec::new());
-    let mut corrections = LargestCorrections::default();
-    staged.write(&output, |out| {
-        let mut tee = Tee {
-            inner: out,
-            copy: written.as_mut(),
+    let kept = write_program(&a, &output, &job, model.as_ref(), &mut staged)?;
+    if let (Some(path), Some(csv)) = (&a.report, &kept.points_csv) {
+        staged.write_bytes(path, csv.as_bytes())?;
+    }
+    if let (Some(path), Some(written)) = (&a.report_html, &kept.written) {
+        let names = RunNames {
+            command: &command_line(),
+            program: &program_name(&a.program),
+            output: &shown(&output),
         };
-        let mut out = volcomp_core::limits::LimitedWriter::new(&mut tee, job.max_output_bytes);
-        summary = Some(compensate_into(
-            &a.program,
-            &mut out,
-            &job,
-            model.as_ref(),
-            |p| {
-                if a.report_html.is_some() {
-                    corrections.push(p);
-                }
-                if let Some(total) = total_lines {
-                    let pct = (p.line.saturating_mul(100) / total).min(99);
-                    if pct > percent_shown {
-                        percent_shown = pct;
-                        eprintln!("FILTER_PROGRESS={pct}");
-                    }
-                }
-                if let Some(r) = report.as_mut() {
-                    if job.max_output_bytes.is_some_and(|max| r.len() as u64 > max) {
-                        report_too_big = true;
-                        return;
-                    }
-                    let axes = |f: [bool; 3]| -> String {
-                        ['X', 'Y', 'Z']
-                            .iter()
-                            .zip(f)
-                            .filter(|(_, b)| *b)
-                            .map(|(c, _)| *c)
-                            .collect()
-                    };
-                    let _ = writeln!(
-                        r,
-                        "{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{:.6},{},{},{}",
-                        p.line,
-                        p.target_mm.x,
-                        p.target_mm.y,
-                        p.target_mm.z,
-                        p.command_mm.x,
-                        p.command_mm.y,
-                        p.command_mm.z,
-                        p.iterations,
-                        p.residual_um,
-                        axes(p.reversed),
-                        axes(p.held),
-                        p.take_up
-                    );
-                }
-            },
-        )?);
-        Ok(())
-    })?;
-    if report_too_big {
-        return Err(CliError::Message(format!(
-            "the --report file would exceed the limit of {} bytes (--max-output-size); nothing was written",
-            job.max_output_bytes.unwrap_or(u64::MAX)
-        )));
-    }
-    if let (Some(path), Some(bytes)) = (&a.report, report) {
-        staged.write(path, |w| {
-            w.write_all(&bytes)
-                .map_err(|e| CliError::Io(path.clone(), e))
-        })?;
-    }
-    let summary =
-        summary.ok_or_else(|| CliError::Internal("compensation produced no summary".into()))?;
-    if let (Some(path), Some(written)) = (&a.report_html, written) {
-        let html = report_html(
-            &a,
-            &output,
-            &job,
-            model.as_ref(),
-            &summary,
-            &corrections,
-            &written,
-        )?;
-        staged.write(path, |w| {
-            w.write_all(html.as_bytes())
-                .map_err(|e| CliError::Io(path.clone(), e))
-        })?;
+        let html = job
+            .report_html(
+                model.as_ref(),
+                &a.program,
+                written,
+                &kept.summary,
+                &kept.corrections,
+                names,
+            )
+            .map_err(|e| job.machine.refused(e))?;
+        staged.write_bytes(path, html.as_bytes())?;
     }
     staged.commit()?;
     if a.filter {
         eprintln!("FILTER_PROGRESS=100");
     }
-    let shown = if output.as_os_str() == "-" {
-        "standard output".to_string()
-    } else {
-        output.display().to_string()
-    };
-    crate::note!(
-        "volcomp: wrote {} ({} lines from {}; {} points compensated, largest correction {:.2} µm, largest residual {:.4} µm, {} take-up moves, {} take-ups folded into their moves)",
-        shown,
-        summary.lines_out,
-        summary.lines_in,
-        summary.points,
-        summary.max_correction_um,
-        summary.max_residual_um,
-        summary.take_ups,
-        summary.take_ups_folded
-    );
-    let ratio = if summary.blocks_in > 0 {
-        format!(
-            " (x{:.2})",
-            summary.blocks_out as f64 / summary.blocks_in as f64
-        )
-    } else {
-        String::new()
-    };
-    crate::note!(
-        "volcomp: size {} -> {} bytes, {} -> {} blocks{ratio}; largest contour deviation the segmentation leaves: {}",
-        summary.bytes_in,
-        summary.bytes_out,
-        summary.blocks_in,
-        summary.blocks_out,
-        match summary.max_estimated_contour_um {
-            Some(um) => format!("{um:.3} µm estimated (plus the rounding of the written numbers)"),
-            None => "not estimated (fixed segmentation)".into(),
-        }
-    );
-    if summary.held_count > 0 {
-        let first: Vec<String> = summary
-            .held
-            .iter()
-            .take(10)
-            .map(|(l, a)| format!("line {l} ({a})"))
-            .collect();
-        eprintln!(
-            "volcomp: warning: {} point(s) kept an axis still because the map's reversal value is negative there (forward error above reverse), so no command can reverse by less than it: {}",
-            summary.held_count,
-            first.join(", ")
-        );
+    for line in summary_lines(&kept.summary, &shown(&output)) {
+        crate::note!("volcomp: {line}");
+    }
+    if let Some(w) = held_warning(&kept.summary) {
+        eprintln!("volcomp: warning: {w}");
     }
     Ok(())
 }

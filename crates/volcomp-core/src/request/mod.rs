@@ -21,6 +21,7 @@ mod compensate;
 mod machine;
 mod map;
 pub mod option;
+mod report;
 mod simulate;
 
 pub use compensate::{
@@ -32,6 +33,7 @@ pub use option::{
     did_you_mean, render, Input, Kind, Names, OptionError, OptionInfo, Request, Spelling,
     UnknownOption, Value,
 };
+pub use report::{header_inputs, RunNames};
 pub use simulate::{SimulateRequest, SIMULATE_OPTIONS};
 
 /// Every option of every request, for a front end that spells a name it
