@@ -9,8 +9,7 @@ use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyString};
 use std::path::PathBuf;
-use volcomp_core::request::{Input, Machine, MachineRequest};
-use volcomp_gcode::Vec3;
+use volcomp_core::request::{Input, Machine};
 
 /// A text input: its bytes, the name messages give it, and its path when it
 /// came from a file.
@@ -126,54 +125,6 @@ pub fn f64_vec(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<f64>> {
         .extract()
         .map_err(|_| bad_input(format!("{what} must be a 1-D array of numbers")))?;
     Ok(arr.as_array().to_vec())
-}
-
-/// Three finite numbers in mm.
-pub fn triple_mm(v: &[f64], what: &str) -> PyResult<Vec3> {
-    if v.len() != 3 || !v.iter().all(|x| x.is_finite()) {
-        return Err(bad_input(format!(
-            "{what} must be three finite numbers in mm (X, Y, Z); got {v:?}"
-        )));
-    }
-    Ok(Vec3::new(v[0], v[1], v[2]))
-}
-
-/// The machine options of functions that do not take the library's
-/// machine options as keywords yet.
-pub struct MachineArgs<'a, 'py> {
-    pub setup: Option<&'a Bound<'py, PyAny>>,
-    pub work_offset_mm: Option<Vec<f64>>,
-    pub absolute_arc_centers: bool,
-    pub accept_k0: bool,
-    pub allow_no_program_end: bool,
-    pub chord_tolerance_mm: f64,
-}
-
-/// The machine, built and checked by the library.
-pub fn machine(a: MachineArgs<'_, '_>) -> PyResult<Machine> {
-    if !(a.chord_tolerance_mm.is_finite() && a.chord_tolerance_mm > 0.0) {
-        return Err(bad_input(format!(
-            "chord_tolerance_mm must be a positive length in mm; got {}",
-            a.chord_tolerance_mm
-        )));
-    }
-    let request = MachineRequest {
-        setup: a
-            .setup
-            .map(|s| crate::request::input(s, "setup"))
-            .transpose()?,
-        work_offset_mm: a
-            .work_offset_mm
-            .map(|w| triple_mm(&w, "work_offset_mm").map(|v| [v.x, v.y, v.z]))
-            .transpose()?,
-        absolute_arc_centers: a.absolute_arc_centers,
-        accept_k0: a.accept_k0,
-        strict_k0: false,
-        allow_no_program_end: a.allow_no_program_end,
-    };
-    let mut m = request.machine().map_err(crate::request::library_error)?;
-    m.setup = m.setup.with_spline_tolerance(a.chord_tolerance_mm);
-    Ok(m)
 }
 
 /// Warns (`VolcompWarning`) that no work offset was given, as the CLI does.

@@ -10,8 +10,8 @@ use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString};
 use volcomp_core::request::{
-    self, CompensateRequest, Input, Kind, MachineRequest, OptionInfo, Request, SimulateRequest,
-    Spelling, Value,
+    self, CompensateRequest, Input, Kind, MachineRequest, MirrorRequest, OptionInfo, Request,
+    SimulateRequest, Spelling, Value,
 };
 use volcomp_core::Error;
 
@@ -39,13 +39,10 @@ pub fn keywords(text: &str) -> String {
     request::render(text, &Keywords)
 }
 
-/// The library's error as the exception of its kind, an option's error
-/// said with keywords.
+/// The library's error as the exception of its kind, options said as
+/// keywords.
 pub fn library_error(e: Error) -> PyErr {
-    match e {
-        Error::Option(o) => bad_input(o.render(&Keywords)),
-        e => to_py(e),
-    }
+    to_py(e)
 }
 
 /// An input file: a path (str or os.PathLike) is read by the library, a
@@ -216,6 +213,7 @@ pub fn options<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyList>> 
         "compensate" => CompensateRequest::OPTIONS,
         "simulate" => SimulateRequest::OPTIONS,
         "moves" => MachineRequest::OPTIONS,
+        "mirror" => MirrorRequest::OPTIONS,
         _ => return Err(bad_input(format!("no job `{job}`"))),
     };
     let list = PyList::empty(py);

@@ -84,9 +84,12 @@ def test_the_librarys_options_are_in_the_stubs_with_their_defaults():
     default. A new option of the library fails here until its stub line is
     written (the expected line is in the message)."""
     funcs, _ = stub_defs()
-    for job in ("compensate", "simulate", "moves"):
+    for job in ("compensate", "simulate", "moves", "mirror"):
         stub = kw_defaults(funcs[job])
+        own = {p.arg for p in funcs[job].args.args}
         for o in volcomp._volcomp._options(job):
+            if o["name"] in own:
+                continue
             line = f"    {o['name']}: {o['type']} = {o['default']!r},"
             assert o["name"] in stub, f"{job}: add to the stub: {line}"
             assert stub[o["name"]] == o["default"], f"{job}: {line}"

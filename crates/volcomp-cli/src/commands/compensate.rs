@@ -7,7 +7,6 @@ use crate::output::{check, CliError, OutputPlan, Staged};
 use crate::progress::Bar;
 use std::io::{BufRead, Read, Write};
 use std::path::{Path, PathBuf};
-pub use volcomp_core::compensate::file_name;
 use volcomp_core::compensate::{CompensateSummary, PointRecord};
 use volcomp_core::io::provenance::now_utc;
 use volcomp_core::limits::LimitedWriter;

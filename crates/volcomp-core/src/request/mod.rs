@@ -20,6 +20,7 @@
 mod compensate;
 mod machine;
 mod map;
+mod mirror;
 pub mod option;
 mod report;
 mod simulate;
@@ -29,6 +30,7 @@ pub use compensate::{
 };
 pub use machine::{Machine, MachineRequest, MACHINE_OPTIONS, NO_WORK_OFFSET};
 pub use map::{MapRequest, MAP_OPTIONS};
+pub use mirror::{MirrorPlan, MirrorRequest, MirrorRun, MIRROR_OPTIONS};
 pub use option::{
     did_you_mean, render, Input, Kind, Names, OptionError, OptionInfo, Request, Spelling,
     UnknownOption, Value,
@@ -43,6 +45,7 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     MAP_OPTIONS,
     COMPENSATE_OPTIONS,
     SIMULATE_OPTIONS,
+    MIRROR_OPTIONS,
 ];
 
 /// The option named `name` in any request.
@@ -100,6 +103,7 @@ mod tests {
         consistent(|r: &CompensateRequest| (r.options(), r.max_output_bytes));
         consistent(|r: &SimulateRequest| r.clone());
         consistent(|r: &MapRequest| r.clone());
+        consistent(|r: &MirrorRequest| r.clone());
     }
 
     #[test]

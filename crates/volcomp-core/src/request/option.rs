@@ -242,6 +242,16 @@ impl Input {
         }
     }
 
+    /// The input's bytes (the file read whole).
+    pub fn bytes(&self) -> Result<std::borrow::Cow<'_, [u8]>, crate::Error> {
+        match self {
+            Input::File(p) => std::fs::read(p)
+                .map(std::borrow::Cow::Owned)
+                .map_err(|e| crate::Error::io(p, e)),
+            Input::Content { bytes, .. } => Ok(std::borrow::Cow::Borrowed(bytes)),
+        }
+    }
+
     /// A reader over the input: the file opened (`-` is standard input,
     /// the Unix convention), or the content.
     pub fn reader(&self) -> Result<Box<dyn std::io::Read + '_>, crate::Error> {
@@ -395,7 +405,8 @@ impl Spelling for Names {
     }
 }
 
-/// `text` with every `{name}` written by `spelling` (other braces stand).
+/// `text` with every `{name}` of a known option ([`super::find`]) written
+/// by `spelling`; other braces stand.
 pub fn render(text: &str, spelling: &dyn Spelling) -> String {
     let mut out = String::with_capacity(text.len());
     let mut rest = text;
@@ -403,12 +414,7 @@ pub fn render(text: &str, spelling: &dyn Spelling) -> String {
         out.push_str(&rest[..open]);
         let after = &rest[open + 1..];
         match after.find('}') {
-            Some(close)
-                if close > 0
-                    && after[..close]
-                        .bytes()
-                        .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'_') =>
-            {
+            Some(close) if super::find(&after[..close]).is_some() => {
                 out.push_str(&spelling.option(&after[..close]));
                 rest = &after[close + 1..];
             }
@@ -592,9 +598,12 @@ mod tests {
         let t = "raise {max_correction_mm} {or} {} {Not} {x";
         assert_eq!(
             render(t, &Flags),
-            "raise --max-correction-mm --or {} {Not} {x"
+            "raise --max-correction-mm {or} {} {Not} {x"
         );
-        assert_eq!(render(t, &Names), "raise max_correction_mm or {} {Not} {x");
+        assert_eq!(
+            render(t, &Names),
+            "raise max_correction_mm {or} {} {Not} {x"
+        );
     }
 
     #[test]

@@ -49,6 +49,9 @@ def _with_options(fn: _F, job: str) -> _F:
     options = _volcomp._options(job)
     signature = _inspect.signature(fn)
     params = [p for p in signature.parameters.values() if p.kind != p.VAR_KEYWORD]
+    # Options the function takes as its own parameters (mirror's nominal
+    # and measured) stay where they are.
+    options = [o for o in options if o["name"] not in signature.parameters]
     params += [
         _inspect.Parameter(o["name"], _inspect.Parameter.KEYWORD_ONLY, default=o["default"])
         for o in options
@@ -73,6 +76,7 @@ def _with_options(fn: _F, job: str) -> _F:
 compensate = _with_options(compensate, "compensate")
 simulate = _with_options(simulate, "simulate")
 moves = _with_options(moves, "moves")
+mirror = _with_options(mirror, "mirror")
 
 __all__ = [
     "BadInputError",

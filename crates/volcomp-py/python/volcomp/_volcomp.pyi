@@ -284,32 +284,35 @@ def thermal_fit(
     as paths or file objects); with bands_samples, the 95 % Monte Carlo bands."""
 
 def mirror(
-    nominal: Text,
-    measured: Text,
+    nominal: Input,
+    measured: Input,
     *,
-    stock_mm: float,
+    date_utc: Optional[str] = None,
+    stock_mm: Optional[float] = None,
     nominal_format: Optional[Literal["bspline", "grid"]] = None,
     material: Literal["below", "above", "normal-out", "normal-in"] = "below",
     probe_radius_mm: Optional[float] = None,
     max_error_mm: float = 0.1,
     fit: Literal["least-squares", "interpolate"] = "least-squares",
     tolerance_um: Optional[float] = None,
+    refuse_worse: bool = False,
     grid_params: Literal["chord-length", "centripetal", "uniform"] = "chord-length",
     grid_size: int = 41,
-    finishing: Optional[Text] = None,
+    finishing: Optional[Input] = None,
     tool_radius_mm: Optional[float] = None,
     cl_point: Literal["tip", "center"] = "tip",
     contact_tolerance_mm: float = 0.02,
-    segment_length_mm: Optional[float] = 2.0,
+    segment_length_mm: float = 2.0,
+    no_split: bool = False,
     decimals: Optional[int] = None,
     trace: bool = True,
-    setup: Optional[Text] = None,
+    allow_recompensate: bool = False,
+    setup: Optional[Input] = None,
     work_offset_mm: Optional[Sequence[float]] = None,
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    allow_recompensate: bool = False,
-    date_utc: Optional[str] = None,
 ) -> dict[str, Any]:
-    """Mirror compensation of a free-form surface from probe points; with
-    finishing and tool_radius_mm, the compensated finishing program."""
+    """Mirror compensation of a free-form surface from probe points (stock_mm
+    is required); with finishing and tool_radius_mm, the compensated
+    finishing program (the options of `volcomp surface mirror`)."""
