@@ -11,7 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString};
 use volcomp_core::request::{
     self, CompensateRequest, Input, Kind, MachineRequest, MirrorRequest, OptionInfo, Request,
-    SimulateRequest, Spelling, Value,
+    SimulateRequest, Spelling, ThermalFitRequest, ThermalPredictRequest, Value,
 };
 use volcomp_core::Error;
 
@@ -131,6 +131,14 @@ fn value(info: &OptionInfo, obj: &Bound<'_, PyAny>) -> PyResult<Option<Value>> {
             Input::File(p) => Value::Path(p),
             Input::Content { name, bytes } => Value::Content { name, bytes },
         },
+        Kind::Text if obj.cast::<PyString>().is_ok() => Value::Text(obj.extract()?),
+        Kind::Text => return Err(wrong(info, "text", obj)),
+        Kind::Ranges => {
+            let r: [[f64; 2]; 3] = obj
+                .extract()
+                .map_err(|_| wrong(info, "three ranges (lo, hi) for X, Y, Z", obj))?;
+            Value::Ranges(r)
+        }
         Kind::Triple => {
             let v: Vec<f64> = obj
                 .extract()
@@ -200,6 +208,8 @@ fn type_name(info: &OptionInfo) -> &'static str {
         (Kind::Path, _) => "str | os.PathLike[str] | None",
         (Kind::Input, _) => "str | os.PathLike[str] | IO[str] | IO[bytes] | None",
         (Kind::Triple, _) => "Sequence[float] | None",
+        (Kind::Text, _) => "str",
+        (Kind::Ranges, _) => "Sequence[Sequence[float]] | None",
     }
 }
 
@@ -214,6 +224,8 @@ pub fn options<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyList>> 
         "simulate" => SimulateRequest::OPTIONS,
         "moves" => MachineRequest::OPTIONS,
         "mirror" => MirrorRequest::OPTIONS,
+        "thermal_fit" => ThermalFitRequest::OPTIONS,
+        "thermal_predict" => ThermalPredictRequest::OPTIONS,
         _ => return Err(bad_input(format!("no job `{job}`"))),
     };
     let list = PyList::empty(py);

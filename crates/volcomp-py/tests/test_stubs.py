@@ -38,6 +38,10 @@ def kw_defaults(node):
 
 def runtime_params(f):
     sig = inspect.signature(f)
+    if any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values()):
+        # **options: the library's options, checked against the stubs by
+        # test_the_librarys_options_are_in_the_stubs_with_their_defaults.
+        return None
     pos = [p.name for p in sig.parameters.values() if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
     kw = [p.name for p in sig.parameters.values() if p.kind == p.KEYWORD_ONLY]
     return pos, kw
@@ -56,7 +60,8 @@ def test_every_public_name_has_a_stub():
 def test_function_parameters_match():
     funcs, classes = stub_defs()
     for name, node in funcs.items():
-        assert runtime_params(getattr(volcomp, name)) == params(node, False), name
+        rt = runtime_params(getattr(volcomp, name))
+        assert rt is None or rt == params(node, False), name
     for cname, methods in classes.items():
         cls = getattr(volcomp, cname)
         for mname, node in methods.items():
@@ -73,6 +78,8 @@ def test_function_parameters_match():
                 rt = runtime_params(f)
             except (TypeError, ValueError):
                 continue
+            if rt is None:
+                continue
             if skip and rt[0] and rt[0][0] == "self":
                 rt = (rt[0][1:], rt[1])
             assert rt == params(node, True), f"{cname}.{mname}"
@@ -83,10 +90,12 @@ def test_the_librarys_options_are_in_the_stubs_with_their_defaults():
     flags are built from the same table): the stubs list each, with its
     default. A new option of the library fails here until its stub line is
     written (the expected line is in the message)."""
-    funcs, _ = stub_defs()
-    for job in ("compensate", "simulate", "moves", "mirror"):
-        stub = kw_defaults(funcs[job])
-        own = {p.arg for p in funcs[job].args.args}
+    funcs, classes = stub_defs()
+    jobs = {job: funcs[job] for job in ("compensate", "simulate", "moves", "mirror", "thermal_fit")}
+    jobs["thermal_predict"] = classes["ThermalModel"]["predict"]
+    for job, node in jobs.items():
+        stub = kw_defaults(node)
+        own = {p.arg for p in node.args.args}
         for o in volcomp._volcomp._options(job):
             if o["name"] in own:
                 continue

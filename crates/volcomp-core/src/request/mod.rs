@@ -24,6 +24,7 @@ mod mirror;
 pub mod option;
 mod report;
 mod simulate;
+mod thermal;
 
 pub use compensate::{
     CompensateRequest, Compensation, ModelSource, COMPENSATE_OPTIONS, DEFAULT_MAX_OUTPUT_BYTES,
@@ -37,6 +38,10 @@ pub use option::{
 };
 pub use report::{header_inputs, RunNames};
 pub use simulate::{SimulateRequest, SIMULATE_OPTIONS};
+pub use thermal::{
+    unit_symbol, Prediction, ThermalFit, ThermalFitRequest, ThermalPredictRequest,
+    DEFAULT_BAND_SAMPLES, THERMAL_FIT_OPTIONS, THERMAL_PREDICT_OPTIONS,
+};
 
 /// Every option of every request, for a front end that spells a name it
 /// meets in a message.
@@ -46,6 +51,8 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     COMPENSATE_OPTIONS,
     SIMULATE_OPTIONS,
     MIRROR_OPTIONS,
+    THERMAL_FIT_OPTIONS,
+    THERMAL_PREDICT_OPTIONS,
 ];
 
 /// The option named `name` in any request.
@@ -85,6 +92,8 @@ mod tests {
                 Kind::Path | Kind::Input => Value::Path("f".into()),
                 Kind::Triple => Value::Triple([0.0; 3]),
                 Kind::Size => Value::Size(None),
+                Kind::Text => Value::Text("t".into()),
+                Kind::Ranges => Value::Ranges([[0.0, 1.0]; 3]),
             };
             R::default().set(info.name, sample).unwrap();
             struct Known;
@@ -104,6 +113,8 @@ mod tests {
         consistent(|r: &SimulateRequest| r.clone());
         consistent(|r: &MapRequest| r.clone());
         consistent(|r: &MirrorRequest| r.clone());
+        consistent(|r: &ThermalFitRequest| r.clone());
+        consistent(|r: &ThermalPredictRequest| r.clone());
     }
 
     #[test]

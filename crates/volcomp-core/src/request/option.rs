@@ -30,6 +30,11 @@ pub enum Kind {
     Triple,
     /// A number of bytes or no limit (`256M`, `none` on the command line).
     Size,
+    /// Free text (a kinematic chain).
+    Text,
+    /// Three ranges lo … hi in mm, one per axis (`0:600,0:400,0:300` on
+    /// the command line).
+    Ranges,
 }
 
 /// One option of a request.
@@ -162,6 +167,10 @@ impl OptionInfo {
             Kind::Size => parse_size(t).map(Value::Size).ok_or_else(|| {
                 format!("`{text}` is not a size: write a whole number of bytes, optionally with K, M or G (1024-based), or `none`")
             }),
+            Kind::Text => Ok(Value::Text(text.to_string())),
+            Kind::Ranges => parse_ranges(t).map(Value::Ranges).ok_or_else(|| {
+                format!("`{text}`: write three ranges lo:hi separated by commas, e.g. 0:600,0:400,0:300")
+            }),
         }
     }
 
@@ -209,6 +218,8 @@ pub enum Value {
     Triple([f64; 3]),
     /// Bytes, or no limit.
     Size(Option<u64>),
+    /// Three ranges `[lo, hi]`.
+    Ranges([[f64; 2]; 3]),
 }
 
 /// A file a request reads: a path, or content a caller already holds.
@@ -276,6 +287,7 @@ impl Value {
             Value::Content { .. } => "a file's content",
             Value::Triple(_) => "three numbers",
             Value::Size(_) => "a size",
+            Value::Ranges(_) => "three ranges",
         }
     }
 
@@ -339,6 +351,14 @@ impl Value {
         match self {
             Value::Triple(t) => Ok(t),
             v => Err(v.wrong(name, "three numbers (X, Y, Z)")),
+        }
+    }
+
+    /// The three ranges.
+    pub fn ranges(self, name: &'static str) -> Result<[[f64; 2]; 3], OptionError> {
+        match self {
+            Value::Ranges(r) => Ok(r),
+            v => Err(v.wrong(name, "three ranges lo:hi (X, Y, Z)")),
         }
     }
 
@@ -478,6 +498,19 @@ pub fn parse_triple(text: &str) -> Option<[f64; 3]> {
         .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
         .collect::<Option<_>>()?;
     <[f64; 3]>::try_from(v).ok()
+}
+
+/// `lo:hi,lo:hi,lo:hi`: three ranges of finite numbers.
+pub fn parse_ranges(text: &str) -> Option<[[f64; 2]; 3]> {
+    let ranges: Vec<[f64; 2]> = text
+        .split(',')
+        .map(|part| {
+            let (lo, hi) = part.split_once(':')?;
+            let v = |t: &str| t.trim().parse::<f64>().ok().filter(|x| x.is_finite());
+            Some([v(lo)?, v(hi)?])
+        })
+        .collect::<Option<_>>()?;
+    <[[f64; 2]; 3]>::try_from(ranges).ok()
 }
 
 /// A byte count such as `1048576`, `64K`, `256M`, `2G` (powers of 1024);

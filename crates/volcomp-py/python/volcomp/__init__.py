@@ -77,6 +77,7 @@ compensate = _with_options(compensate, "compensate")
 simulate = _with_options(simulate, "simulate")
 moves = _with_options(moves, "moves")
 mirror = _with_options(mirror, "mirror")
+thermal_fit = _with_options(thermal_fit, "thermal_fit")
 
 __all__ = [
     "BadInputError",

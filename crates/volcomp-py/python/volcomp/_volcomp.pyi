@@ -262,26 +262,27 @@ class ThermalModel:
     def to_toml(self) -> str:
         """The model file's text."""
     def predict(
-        self, temperatures: Text, *, cycle: Optional[int] = None, extrapolate: bool = False
+        self, temperatures: Input, *, cycle: Optional[int] = None, extrapolate: bool = False
     ) -> Model:
         """The 21-component model at a row of a temperature CSV."""
 
 def thermal_fit(
-    measurements: Text,
-    temperatures: Text,
-    artifact: Text,
+    measurements: Input,
+    temperatures: Input,
+    artifact: Input,
     *,
-    ranges_mm: Sequence[Sequence[float]],
+    ranges_mm: Optional[Sequence[Sequence[float]]] = None,
     chain: str = "w X' Y' b Z t",
     order: int = 2,
     probe_length_mm: float = 0.0,
     lags: int = 0,
-    threshold: float = 1e-3,
+    threshold: float = 0.001,
     table_samples: int = 61,
     bands_samples: Optional[int] = None,
 ) -> tuple[ThermalModel, dict[str, Any]]:
     """Fits a thermal model from artifact cycles and temperatures (CSV files
-    as paths or file objects); with bands_samples, the 95 % Monte Carlo bands."""
+    as paths or file objects; ranges_mm is required); with bands_samples, the
+    95 % Monte Carlo bands (the options of `volcomp thermal fit`)."""
 
 def mirror(
     nominal: Input,
