@@ -69,8 +69,9 @@ pub struct MachineArgs {
     /// Refuse `K0` on G17 arcs: the default now, kept for old scripts.
     #[arg(long, hide = true, conflicts_with = "accept_k0")]
     pub strict_k0: bool,
-    /// Accept a program that ends without M2, M30 or a closing `%`
-    /// (LinuxCNC refuses it; grbl-family and other controllers run it).
+    /// Do not warn about a program that ends without M2, M30 or a closing
+    /// `%` (LinuxCNC runs it to its last line, then reports an error;
+    /// grbl-family and other controllers need no end).
     #[arg(long)]
     pub allow_no_program_end: bool,
 }

@@ -264,7 +264,10 @@ impl<R: BufRead> Walker<R> {
             LineKind::Percent => {
                 self.buf.extend_from_slice(original);
                 if pos.src == MAIN {
-                    let r = self.interp.percent_line(pos.line as u64 + 1);
+                    // gcode lane: the line's text decides `%` alone vs. stray.
+                    let r = self
+                        .interp
+                        .percent_line(pos.line as u64 + 1, &original[..content_len]);
                     r.map_err(|e| self.locate(e))?;
                 }
                 return Ok(Some(kind));
@@ -333,6 +336,11 @@ impl<R: BufRead> Walker<R> {
         let n = lexer::content_len(&self.buf);
         if let Err(e) = lexer::lex_block(&self.buf[..n], &mut self.lexed) {
             let e = e.at_line(pos.line as u64 + 1);
+            return Err(self.locate_rendered(e));
+        }
+        // gcode lane: what LinuxCNC's reader refuses in a line the lexer reads.
+        if let Err(e) = crate::interp::check_line(pos.line as u64 + 1, &self.buf[..n], &self.lexed)
+        {
             return Err(self.locate_rendered(e));
         }
         if let Some(msg) = abort_comment(&self.buf[..n], &self.lexed) {

@@ -65,12 +65,19 @@ fn rs274_error(program: &str) -> Option<Option<String>> {
         String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     // rs274 prints canonical calls (numbered lines), "executing", and on a
     // refusal the message followed by the offending block.
+    // A canonical call is `<number> N<digits or dots> CALL(…)`; o-word
+    // errors start with the line number too (`5: duplicate O-word …`).
+    let canonical = |l: &str| {
+        l.split_once(' ').is_some_and(|(n, rest)| {
+            n.bytes().all(|b| b.is_ascii_digit()) && rest.trim_start().starts_with('N')
+        })
+    };
     let error = text
         .lines()
         .map(str::trim)
         .find(|l| {
             !l.is_empty()
-                && !l.starts_with(|c: char| c.is_ascii_digit())
+                && !canonical(l)
                 && *l != "executing"
                 && !program.lines().any(|p| p.trim() == *l)
         })
@@ -365,9 +372,84 @@ fn negative_spindle_speed_and_control_characters_are_refused() {
 }
 
 #[test]
-fn a_byte_order_mark_is_skipped() {
-    let m = run("\u{feff}G21\nG0 X1\n").unwrap();
+fn a_byte_order_mark_is_refused_as_linuxcnc_refuses_it() {
+    refused(
+        "\u{feff}G21\nG0 X1\n",
+        1,
+        1,
+        "byte-order mark",
+        "Bad character '\\357' used",
+    );
+}
+
+#[test]
+fn what_linuxcncs_reader_refuses_is_refused() {
+    // fgets reads the NUL; the C string ends there, the comment is open.
+    refused(
+        "G21 (a\0b)\nG0 X1\n",
+        1,
+        7,
+        "NUL byte in a comment",
+        "Unclosed comment found",
+    );
+    // An N word is read only at the start of a block (`read_items`).
+    refused(
+        "G21\nG0 N5 X1\n",
+        2,
+        4,
+        "does not start the line",
+        "Bad character 'n' used",
+    );
+    refused(
+        "(c) N5 G21\n",
+        1,
+        5,
+        "does not start the line",
+        "Bad character 'n' used",
+    );
+    accepted_by_both("N5 G21\n/N6 G0 X1\n");
+    // P-1 is LinuxCNC's "no P"; any other negative dwell passes.
+    refused(
+        "G21\nG4 P-1\n",
+        2,
+        4,
+        "G4 P-1",
+        "Dwell time missing with g4",
+    );
+    accepted_by_both("G21\nG4 P-2\n");
+    // Q-1 likewise is "no Q": not refused where no code uses Q.
+    accepted_by_both("G21\nG0 X1 Q-1\n");
+}
+
+#[test]
+fn whole_number_words_are_read_as_linuxcnc_reads_them() {
+    // `read_integer_value`: within 0.0001 of a whole number.
+    accepted_by_both("G21\nT1.00001 M6\nM3.00005 S100\n");
+    refused(
+        "G21\nT1.5 M6\n",
+        2,
+        1,
+        "not a whole number",
+        "Non integer value for integer",
+    );
+    refused(
+        "G21\nG0 X1\nG81 X1 R1 Z0 F10 L2.5\n",
+        3,
+        18,
+        "not a whole number",
+        "Non integer value for integer",
+    );
+    refused("G21\nT-1\n", 2, 1, "negative", "Negative tool id");
+    // `read_g`: ten times the value within 0.001 of a whole number.
+    let m = accepted_by_both("G21\nG1.0001 X1 F100\n");
     assert!(close(m[0].end, [1.0, 0.0, 0.0]));
+    refused(
+        "G21\nG1.002 X1 F100\n",
+        2,
+        1,
+        "not a G code",
+        "G-code out of range",
+    );
 }
 
 #[test]

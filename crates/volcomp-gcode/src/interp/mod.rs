@@ -19,6 +19,7 @@
 //! | `spline.rs` | splines G5, G5.1, G5.2/G5.3, linearised within the spline tolerance |
 //! | `extra.rs` | the extra axes A, B, C, U, V, W, carried through (not compensated) |
 //! | `offsets.rs` | tool length offsets, G10 (work offsets, tool table writes), G52, G92, G28/G30 |
+//! | `lexical.rs` | bytes LinuxCNC's reader sees differently: NUL in a comment, a byte-order mark |
 //! | `tape.rs` | the start and end of a program: `%` lines, the required program end |
 //! | `warnings.rs` | [`Warning`]: what was assumed |
 //!
@@ -28,6 +29,7 @@
 mod comp;
 mod cycle;
 mod extra;
+mod lexical;
 mod modal;
 mod motion;
 mod offsets;
@@ -39,6 +41,7 @@ mod warnings;
 mod words;
 
 pub use extra::{ExtraAxes, EXTRA_LETTERS};
+pub use lexical::check_line;
 pub use motion::K0_HELP;
 pub use motion::MAX_COORDINATE_MM;
 pub use options::{FeedMode, InterpOptions};
@@ -198,6 +201,9 @@ pub struct Interpreter {
     uses_percents: bool,
     /// Whether a non-blank line has been read.
     nonblank_seen: bool,
+    /// The first `%` line that neither opened nor closed the tape (its
+    /// line, LinuxCNC's message): LinuxCNC stops there.
+    stray_percent: Option<(u64, &'static str)>,
     /// Whether the program has said G20 or G21.
     units_given: bool,
     /// Assumptions made so far, in program order.
@@ -287,6 +293,7 @@ impl Interpreter {
             finished: false,
             uses_percents: false,
             nonblank_seen: false,
+            stray_percent: None,
             units_given: false,
             warnings: Vec::new(),
             warned_units: false,
@@ -397,6 +404,7 @@ impl Interpreter {
         if !lexed.tokens.is_empty() {
             self.nonblank_seen = true;
         }
+        self.check_after_stray_percent(line, lexed.words().next().is_some())?;
         self.collect_words(line, lexed)?;
         let before = out.len();
         self.run_block(line, out)?;
@@ -512,6 +520,17 @@ impl Interpreter {
                 w.g_col(40).unwrap_or(0),
                 "G4 dwell without P",
                 "write G4 Pseconds",
+            ));
+        }
+        // -1 is LinuxCNC's own "no P" value (`check_g_codes`,
+        // interp_check.cc, tests `p_number == -1.0`); other negative
+        // dwells pass.
+        if w.has_g(40) && w.get(b'P') == Some(-1.0) {
+            return Err(invalid(
+                line,
+                w.col(b'P').unwrap_or(0),
+                "G4 P-1: LinuxCNC takes P-1 for a missing P and refuses the line (\"Dwell time missing with g4\")",
+                "write the dwell in seconds, zero or more",
             ));
         }
         // What LinuxCNC refuses while cutter compensation is on, checked

@@ -19,7 +19,7 @@
 //! * Every executed line counts against [`MAX_EXECUTED_LINES`], so a
 //!   program that never ends is refused instead of hanging.
 
-use super::expr::{eval, to_integer, Expr, ExprError, Param};
+use super::expr::{eval, round_to_int, to_integer, Expr, ExprError, Param};
 use super::line::{self, OKind, OWord, Setting, Statement};
 use super::norm::Norm;
 use super::params::{Params, Scope};
@@ -89,6 +89,26 @@ struct Frame {
     fanuc: Option<(i64, Pos)>,
 }
 
+/// What a control label was bound to when LinuxCNC first met it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Ctl {
+    If,
+    While,
+    Do,
+    Repeat,
+}
+
+impl Ctl {
+    fn keyword(self) -> &'static str {
+        match self {
+            Ctl::If => "if",
+            Ctl::While => "while",
+            Ctl::Do => "do",
+            Ctl::Repeat => "repeat",
+        }
+    }
+}
+
 /// The control state of a running program.
 #[derive(Debug)]
 pub struct Flow {
@@ -100,6 +120,12 @@ pub struct Flow {
     loops: Vec<Loop>,
     frames: Vec<Frame>,
     subs: HashMap<String, Pos>,
+    /// LinuxCNC's o-word table (`offset_map`, `control_save_offset`,
+    /// interp_o_word.cc): each `if`, `while`, `do` and `repeat` label of a
+    /// scope (the main program, or the subroutine being run) is bound to
+    /// the line where it was first met; the same label on another line is
+    /// "duplicate O-word label", and the closing words must find it.
+    labels: HashMap<(String, String), (Ctl, Pos)>,
     files: Vec<(String, Lines)>,
     dirs: Vec<PathBuf>,
     keep: bool,
@@ -116,6 +142,7 @@ impl Flow {
             loops: Vec::new(),
             frames: Vec::new(),
             subs: HashMap::new(),
+            labels: HashMap::new(),
             files: Vec::new(),
             dirs,
             keep: false,
@@ -231,7 +258,8 @@ fn peek(content: &[u8]) -> Option<(String, &'static str)> {
             i += 1;
         }
         let v: f64 = std::str::from_utf8(&n.text[start..i]).ok()?.parse().ok()?;
-        (v.round() as i64).to_string()
+        // `read_o` reads the number with `read_integer_value`.
+        to_integer(v, 0).ok()?.to_string()
     };
     let rest = &n.text[i.min(n.text.len())..];
     const KW: [&str; 15] = [
@@ -370,11 +398,116 @@ impl<R: BufRead> Walker<R> {
         }
     }
 
+    /// The key of `label` in [`Flow::labels`]: LinuxCNC prefixes a
+    /// control label with the name of the subroutine being run (`read_o`).
+    fn label_key(&self, label: &str) -> (String, String) {
+        let scope = self.flow.frames.last().map_or("", |f| f.name.as_str());
+        (scope.to_string(), label.to_string())
+    }
+
+    /// Binds an opening label (`if`, `while`, `do`, `repeat`) to `pos` as
+    /// `convert_control_functions` does, refusing it where LinuxCNC finds
+    /// the label already bound to another line.
+    fn bind_label(
+        &mut self,
+        pos: Pos,
+        label: &str,
+        ctl: Ctl,
+        col: usize,
+    ) -> Result<(), GcodeError> {
+        let key = self.label_key(label);
+        match self.flow.labels.get(&key) {
+            // A `while` that closes a `do`, or a `do` met again.
+            Some((found, _)) if ctl == Ctl::Do || (ctl == Ctl::While && *found == Ctl::Do) => {
+                Ok(())
+            }
+            Some((_, at)) if *at != pos => {
+                let at = at.line + 1;
+                Err(self.at_current(
+                    format!(
+                        "the label o{} is already used on line {at}: LinuxCNC binds each control label to one line (\"duplicate O-word label\")",
+                        show_label(label)
+                    ),
+                    "give this block a label of its own",
+                    col,
+                ))
+            }
+            Some(_) => Ok(()),
+            None => {
+                self.flow.labels.insert(key, (ctl, pos));
+                Ok(())
+            }
+        }
+    }
+
+    /// Checks that a closing or inner word (`else`, `endif`, `break`, …)
+    /// finds its label bound to one of `opening`, as LinuxCNC does.
+    fn check_label(
+        &self,
+        label: &str,
+        keyword: &str,
+        opening: &[Ctl],
+        col: usize,
+    ) -> Result<(), GcodeError> {
+        match self.flow.labels.get(&self.label_key(label)) {
+            None => Err(self.at_current(
+                format!(
+                    "`o{} {keyword}` has no open block with its label: LinuxCNC refuses it (\"undefined O-word label\")",
+                    show_label(label)
+                ),
+                "use the label of the block it belongs to",
+                col,
+            )),
+            Some((found, at)) if !opening.contains(found) => Err(self.at_current(
+                format!(
+                    "`o{} {keyword}` belongs to the `{}` of line {}: LinuxCNC refuses it (\"no matching label\")",
+                    show_label(label),
+                    found.keyword(),
+                    at.line + 1
+                ),
+                format!(
+                    "close the block with its own word, or give the {} block a label of its own",
+                    opening.iter().map(|c| c.keyword()).collect::<Vec<_>>().join("/")
+                ),
+                col,
+            )),
+            Some(_) => Ok(()),
+        }
+    }
+
     /// Runs one o-word statement at `pos`.
     pub(crate) fn control(&mut self, pos: Pos, o: OWord) -> Result<(), GcodeError> {
         let label = o.label.clone();
         let col = o.col;
         let keyword = o.kind.keyword();
+        match &o.kind {
+            OKind::Do => self.bind_label(pos, &label, Ctl::Do, col)?,
+            OKind::While(_) => self.bind_label(pos, &label, Ctl::While, col)?,
+            OKind::Repeat(_) => self.bind_label(pos, &label, Ctl::Repeat, col)?,
+            OKind::If(_) => self.bind_label(pos, &label, Ctl::If, col)?,
+            OKind::Elseif(_) | OKind::Else | OKind::Endif => {
+                self.check_label(&label, keyword, &[Ctl::If], col)?
+            }
+            OKind::Break | OKind::Continue => {
+                self.check_label(&label, keyword, &[Ctl::While, Ctl::Do], col)?
+            }
+            OKind::Endwhile => self.check_label(&label, keyword, &[Ctl::While], col)?,
+            OKind::Endrepeat => self.check_label(&label, keyword, &[Ctl::Repeat], col)?,
+            OKind::Sub => {
+                if let Some(at) = self.flow.subs.get(&label).filter(|at| **at != pos) {
+                    let at = at.line + 1;
+                    return Err(self.at_current(
+                        format!(
+                            "subroutine o{} is already defined on line {at}: LinuxCNC refuses a second definition (\"redefining sub\")",
+                            show_label(&label)
+                        ),
+                        "give the subroutine another name, or remove one definition",
+                        col,
+                    ));
+                }
+            }
+            _ => {}
+        }
         match o.kind {
             OKind::Sub => {
                 // Met in sequence: a definition. Record it, skip its body.
@@ -476,8 +609,9 @@ impl<R: BufRead> Walker<R> {
                 self.flow.pos = start;
             }
             OKind::Repeat(n) => {
-                let v = self.eval_at(&n)?;
-                let count = to_integer(v.round(), col).map_err(|e| self.expr_error(pos, e))?;
+                // LinuxCNC counts `round_to_int(test_value)` passes
+                // (interp_o_word.cc, O_repeat): half to even, 2.5 → 2.
+                let count = round_to_int(self.eval_at(&n)?);
                 if count > 0 {
                     self.flow.loops_mut().push(Loop {
                         label,
