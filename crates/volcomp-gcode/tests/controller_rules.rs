@@ -256,6 +256,7 @@ fn polar_words_move_as_in_linuxcnc() {
     // About the origin of the current coordinate system (here G55 = 10, 20).
     let mut setup = Setup::default();
     setup.work_offsets_mm[1] = Vec3::new(10.0, 20.0, 0.0);
+    setup.work_offsets_given[1] = true;
     let m = run_with("G55 G0 @2 ^90\n", setup).0.unwrap();
     assert!(close(m[0].end, [10.0, 22.0, 0.0]));
     // In inch, the radius is in inch.

@@ -320,7 +320,7 @@ fn refusals_that_linuxcnc_shares_are_refused_by_rs274_too() {
             "Two m codes used from same modal group",
         ),
         ("M72\n", "M72 without a state", "Cannot restore context"),
-        ("G999\n", "unknown G code", "G-code out of range"),
+        ("G999\n", "not a G code", "G-code out of range"),
     ];
     for (prog, ours, theirs) in cases {
         let e = run(prog).expect_err(prog);

@@ -166,12 +166,28 @@ pub struct Interpreter {
     plane_before_block: Plane,
     work: usize,
     work_offsets: [Vec3; 9],
+    /// Which work offsets are known (given by the set-up, or set by the
+    /// program with G10 L2/L20 on X, Y and Z).
+    work_given: [bool; 9],
     g92: Vec3,
+    /// The G92 parameters #5211…: G92.2 clears [`Interpreter::g92`] but
+    /// keeps them, and G92.3 restores from them.
     g92_saved: Vec3,
+    /// #5210: whether a G52/G92 offset is applied.
+    g92_applied: bool,
     tlo: Vec3,
     /// X and Y offsets of tools written by G10 L1/L10/L11 (the set-up's
     /// tool table has lengths only, Z); G43 applies them.
     tool_xy_mm: std::collections::BTreeMap<u32, [f64; 2]>,
+    /// Front angle, back angle and orientation of tools written by G10 L1
+    /// I, J, Q (0 for every other tool: the set-up's are mills'); G41/G42
+    /// with D take the orientation.
+    tool_lathe: std::collections::BTreeMap<u32, [f64; 3]>,
+    /// G96 (constant surface speed) in effect rather than G97.
+    css_mode: bool,
+    /// Mist (M7) and flood (M8) coolant on; M9 turns both off.
+    mist: bool,
+    flood: bool,
     /// Rotation about Z of each coordinate system (degrees, G10 L2/L20 R).
     rotation_deg: [f64; 9],
     loaded_tool: u32,
@@ -257,8 +273,12 @@ impl Interpreter {
     pub fn new(setup: Setup, options: InterpOptions) -> Self {
         let work_offsets = setup.work_offsets_mm;
         let position = setup.start_mm;
-        let (work, g92, rotation_deg) =
-            (setup.work_system.min(8), setup.g92_mm, setup.rotations_deg);
+        let (work, g92, rotation_deg, work_given) = (
+            setup.work_system.min(8),
+            setup.g92_mm,
+            setup.rotations_deg,
+            setup.work_offsets_given,
+        );
         Self {
             setup,
             options,
@@ -273,10 +293,16 @@ impl Interpreter {
             plane_before_block: Plane::Xy,
             work,
             work_offsets,
+            work_given,
             g92,
-            g92_saved: Vec3::ZERO,
+            g92_saved: g92,
+            g92_applied: g92 != Vec3::ZERO,
             tlo: Vec3::ZERO,
             tool_xy_mm: std::collections::BTreeMap::new(),
+            tool_lathe: std::collections::BTreeMap::new(),
+            css_mode: false,
+            mist: false,
+            flood: false,
             rotation_deg,
             loaded_tool: 0,
             next_tool: 0,
@@ -498,18 +524,42 @@ impl Interpreter {
             self.loaded_tool = self.next_tool;
         }
         if w.has_m(610) {
+            let col = w.m_col(610).unwrap_or(0);
             let q = w
                 .get(b'Q')
-                .ok_or_else(|| invalid(line, 0, "M61 needs a Q word", "write M61 Qn"))?;
-            self.loaded_tool = q.max(0.0) as u32;
+                .ok_or_else(|| invalid(line, col, "M61 needs a Q word", "write M61 Qn"))?;
+            // `convert_m`: `round_to_int(q)` (half to even), refused below 0.
+            let tool = crate::ngc::expr::round_to_int(q);
+            if tool < 0 {
+                return Err(invalid(
+                    line,
+                    w.col(b'Q').unwrap_or(col),
+                    "M61 with a negative tool number; LinuxCNC refuses it (\"Need non-negative Q-word to specify tool number with M61\")",
+                    "write M61 Q<tool number>, Q0 for no tool",
+                ));
+            }
+            self.loaded_tool = tool as u32;
         }
-        // 7: spindle direction (only tracked for the canned cycles).
+        // 7: spindle direction (for the canned cycles and #<_spindle_on>).
         if w.has_m(30) {
             self.spindle_dir = 1;
         } else if w.has_m(40) {
             self.spindle_dir = -1;
         } else if w.has_m(50) {
             self.spindle_dir = 0;
+        }
+        if let Some(css) = w.switch(960, 970) {
+            self.css_mode = css;
+        }
+        // 8: coolant (for #<_mist>, #<_flood>).
+        if w.has_m(70) {
+            self.mist = true;
+        }
+        if w.has_m(80) {
+            self.flood = true;
+        }
+        if w.has_m(90) {
+            (self.mist, self.flood) = (false, false);
         }
         // M70/M71/M72: save, invalidate, restore the modal state.
         self.modal_save_restore(line, w)?;
@@ -570,6 +620,15 @@ impl Interpreter {
             .enumerate()
         {
             if w.has_g(code) {
+                if !self.work_given[i] {
+                    let name = crate::setup::WORK_SYSTEMS[i];
+                    return Err(invalid(
+                        line,
+                        w.g_col(code).unwrap_or(0),
+                        format!("{name} is selected, but the set-up does not give its offset: volcomp does not take it for 0"),
+                        format!("give it under [work_offsets] in the set-up file ({name} = [X, Y, Z], machine coordinates), or name LinuxCNC's var file (var_file = \"linuxcnc.var\"), or set it in the program with G10 L2 P{} X… Y… Z…", i + 1),
+                    ));
+                }
                 self.work = i;
             }
         }
@@ -641,8 +700,11 @@ impl Interpreter {
                 "give X/Y words instead",
             ));
         }
+        // An arc-centre word alone in G2/G3 (`I-7.5 J0`) is an arc too,
+        // back to where it starts (`enhance_block`, interp_internal.cc).
+        let ijk_arc = || matches!(self.motion_to_be(w), Some(MotionMode::Cw | MotionMode::Ccw));
         if axis_user.is_none()
-            && (w.has_axis() || w.has_polar() || self.motion_word_col(w).is_some())
+            && (w.has_axis() || w.has_polar() || self.motion_word_col(w).is_some() || ijk_arc())
         {
             self.motion(line, w, new_cycle, out)?;
         }

@@ -173,6 +173,10 @@ impl Lookup for Scope<'_> {
                 format!("#{n} holds a result of the machine at run time (probing, digital inputs, tool changer fault): volcomp cannot know it"),
                 "give the value in the program, or compensate the program after it has been run",
             )),
+            Err(Unanswerable::NotInSetup) => {
+                let (message, help) = self.interp.not_in_setup(n);
+                Err(ExprError::new(col, message, help))
+            }
             Err(Unanswerable::NotPredefined) => Ok(self.params.numbered[n]),
         }
     }
@@ -198,7 +202,7 @@ impl Lookup for Scope<'_> {
                         "give the value in the program instead",
                     ))
                 }
-                Err(Unanswerable::NotPredefined) => {}
+                Err(Unanswerable::NotPredefined | Unanswerable::NotInSetup) => {}
             }
         } else if let Some(v) = self.params.frames.last().and_then(|f| f.locals.get(name)) {
             return Ok(*v);
