@@ -583,3 +583,97 @@ fn spindle_synchronised_moves_are_refused_where_linuxcnc_refuses_them() {
     let m = accepted_by_both("G21 G0 X1 Y2 Z3\nS100 M3\nG33.1 Z-5 K1\n");
     assert!(close(m[1].end, [1.0, 2.0, -5.0]) && close(m[2].end, [1.0, 2.0, 3.0]));
 }
+
+#[test]
+fn reals_become_integers_as_linuxcnc_rounds_them() {
+    // Repeat counts: `round_to_int`, half to even (2.5 → 2, 0.5 → 0, 3.5 → 4).
+    for (count, passes) in [("5/2", 2), ("0.5", 0), ("3.5", 4), ("2.4999", 2)] {
+        let p = format!("G21 G91\no1 repeat [{count}]\nG0 X1\no1 endrepeat\n");
+        assert_eq!(accepted_by_both(&p).len(), passes, "repeat [{count}]");
+    }
+    // Arc turns: `round_to_int`, within 0.001.
+    let m = accepted_by_both("G21 G0 X1\nG2 X1 I-1 P1.0005 F100\n");
+    assert_eq!(m.len(), 2);
+    refused(
+        "G21 G0 X1\nG2 X1 I-1 P1.01 F100\n",
+        2,
+        11,
+        "not a whole number of turns",
+        "P value not an integer with M19 G2 or G3",
+    );
+    // G10 L2 P: `(int)(p + 0.0001)` after a check that lets P1.7 through:
+    // LinuxCNC sets G54 (P1).
+    let m = accepted_by_both("G21\nG10 L2 P1.7 X5 Y0 Z0\nG0 X0\n");
+    assert!(close(m[0].end, [5.0, 0.0, 0.0]), "{:?}", m[0].end);
+    refused(
+        "G21\nG10 L2 P1.0003 X5 Y0 Z0\n",
+        2,
+        8,
+        "not a whole number",
+        "P value not an integer with G10",
+    );
+}
+
+#[test]
+fn a_work_offset_the_setup_does_not_give_is_refused_not_taken_as_zero() {
+    let e = run("G21\nG55 G0 X1\n").unwrap_err();
+    assert_eq!((e.line, e.column), (2, 1), "{e}");
+    assert!(
+        e.message.contains("G55") && e.help.contains("[work_offsets]"),
+        "{e}"
+    );
+    let e = run("G21\nG0 X#5241\n").unwrap_err();
+    assert!(e.message.contains("#5241 belongs to the G55 offset"), "{e}");
+    let e = run("G21\nG0 X#5390\n").unwrap_err();
+    assert!(e.message.contains("G59.3"), "{e}");
+    // G54 (the program frame is the machine's when nothing is said), a
+    // set-up table entry, a G10 L2 with X, Y and Z in the program: known.
+    run("G21\nG54 G0 X#5221\n").unwrap();
+    let setup = Setup::from_toml("units = \"mm\"\n[work_offsets]\nG56 = [1, 2, 3]\n").unwrap();
+    let (m, _) = run_with("G21\nG56 G0 X#5261 Y0 Z0\n", setup);
+    assert!(close(m.unwrap()[0].end, [2.0, 2.0, 3.0]));
+    let m = run("G21\nG10 L2 P2 X1 Y2 Z3\nG55 G0 X0 Y0 Z0\n").unwrap();
+    assert!(close(m[0].end, [1.0, 2.0, 3.0]));
+    let e = run("G21\nG10 L2 P2 X1\n").unwrap_err();
+    assert!(e.message.contains("sets only some axes of G55"), "{e}");
+    // A var file gives every system (a missing line is 0, as in LinuxCNC).
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("m.var"), "5241 7\n5242 8\n5243 9\n").unwrap();
+    let toml = dir.path().join("s.toml");
+    std::fs::write(&toml, "units = \"mm\"\nvar_file = \"m.var\"\n").unwrap();
+    let setup = Setup::from_toml_in(
+        &std::fs::read_to_string(&toml).unwrap(),
+        toml.to_str().unwrap(),
+    )
+    .unwrap();
+    let (m, _) = run_with("G21\nG55 G0 X0 Y0 Z0\nG59.3 G0 X1 Y0 Z0\n", setup);
+    let m = m.unwrap();
+    assert!(close(m[0].end, [7.0, 8.0, 9.0]) && close(m[1].end, [1.0, 0.0, 0.0]));
+}
+
+#[test]
+fn tool_parameters_are_the_spindle_tools_table_entry() {
+    let mut setup = Setup {
+        machine_units: volcomp_gcode::Units::Mm,
+        ..Setup::default()
+    };
+    setup.tool_lengths_mm.insert(3, 40.0);
+    setup.tool_diameters_mm.insert(3, 6.0);
+    setup.tool_lengths_mm.insert(5, 50.0);
+    // #5400 the tool, #5403 its table length (not the G43 offset, which is
+    // off), #5410 its diameter; M61 does not refresh them (LinuxCNC's
+    // `set_tool_parameters` runs before the tool reaches the table).
+    let (m, _) = run_with(
+        "G21\nG0 X#5400 Y#5403 Z#5410\nT3 M6\nG0 X#5400 Y#5403 Z#5410\nM61 Q5\nG0 X#5400 Y#5403\nG10 L1 P3 R4\nT3 M6\nG0 Z#5410\n",
+        setup,
+    );
+    let m = m.unwrap();
+    assert!(close(m[0].end, [0.0, 0.0, 0.0]));
+    assert!(close(m[1].end, [3.0, 40.0, 6.0]));
+    assert!(close(m[2].end, [3.0, 40.0, 6.0]));
+    // G10 L1 R is the radius: the diameter becomes 8.
+    assert!(close(m[3].end, [3.0, 40.0, 8.0]));
+    // A tool whose length the set-up does not give is not read as 0.
+    let e = run("G21\nT7 M6\nG0 Z#5403\n").unwrap_err();
+    assert!(e.message.contains("length of tool 7"), "{e}");
+}

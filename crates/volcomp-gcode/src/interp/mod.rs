@@ -191,6 +191,10 @@ pub struct Interpreter {
     /// Rotation about Z of each coordinate system (degrees, G10 L2/L20 R).
     rotation_deg: [f64; 9],
     loaded_tool: u32,
+    /// The tool whose table entry #5400–#5413 show: set at M6 (and G10
+    /// L1/L10/L11 of the loaded tool), not at M61, as LinuxCNC's
+    /// `set_tool_parameters` runs before M61's tool reaches the table.
+    param_tool: u32,
     next_tool: u32,
     position: Vec3,
     retract_to_r: bool,
@@ -305,6 +309,7 @@ impl Interpreter {
             flood: false,
             rotation_deg,
             loaded_tool: 0,
+            param_tool: 0,
             next_tool: 0,
             position,
             retract_to_r: true,
@@ -467,12 +472,17 @@ impl Interpreter {
     ) -> Result<(), GcodeError> {
         self.plane_before_block = self.plane;
         // 1-3: feed mode, feed rate.
+        // `convert_feed_mode` (interp_convert.cc): G94 and G95 set the feed
+        // rate to 0 (even in the mode already in effect), so a feed move
+        // needs an F word after them.
         if w.has_g(930) {
             self.feed_mode = FeedMode::InverseTime;
         } else if w.has_g(940) {
             self.feed_mode = FeedMode::PerMinute;
+            self.feed = 0.0;
         } else if w.has_g(950) {
             self.feed_mode = FeedMode::PerRevolution;
+            self.feed = 0.0;
         }
         if let Some(f) = w.get(b'F') {
             if f < 0.0 {
@@ -522,6 +532,7 @@ impl Interpreter {
         }
         if w.has_m(60) {
             self.loaded_tool = self.next_tool;
+            self.param_tool = self.loaded_tool;
         }
         if w.has_m(610) {
             let col = w.m_col(610).unwrap_or(0);

@@ -381,6 +381,11 @@ impl Interpreter {
         }
         self.setup.tool_lengths_mm.insert(tool, off[2]);
         self.tool_xy_mm.insert(tool, [off[0], off[1]]);
+        // Writing the loaded tool's entry refreshes #5400–#5413
+        // (`convert_setup_tool` copies it to the spindle's slot).
+        if tool == self.loaded_tool {
+            self.param_tool = tool;
+        }
         // R is the radius: the table's diameter becomes 2R (G41/G42 D use
         // it); I, J, Q the lathe tool's angles and orientation.
         if let Some(r) = w.get(b'R') {

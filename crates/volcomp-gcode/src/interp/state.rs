@@ -98,26 +98,26 @@ impl Interpreter {
             // rs274ngc_pre.cc, at M6, M61 and G10 L1/L10/L11): its number
             // (0: none), offsets, diameter, angles and orientation, in the
             // table's (the machine's) units — not the G43 offset in effect.
-            5400 => f64::from(self.loaded_tool),
-            5401..=5413 if self.loaded_tool == 0 => 0.0,
+            5400 => f64::from(self.param_tool),
+            5401..=5413 if self.param_tool == 0 => 0.0,
             5401 | 5402 => {
-                let xy = self.tool_xy_mm.get(&self.loaded_tool).copied();
+                let xy = self.tool_xy_mm.get(&self.param_tool).copied();
                 self.machine_vec(
                     Vec3::new(xy.map_or(0.0, |v| v[0]), xy.map_or(0.0, |v| v[1]), 0.0),
                     n - 5401,
                 )
             }
-            5403 => match self.setup.tool_lengths_mm.get(&self.loaded_tool) {
+            5403 => match self.setup.tool_lengths_mm.get(&self.param_tool) {
                 Some(l) => self.machine_vec(Vec3::new(0.0, 0.0, *l), 2),
                 None => return Err(Unanswerable::NotInSetup),
             },
             5404..=5409 => 0.0,
-            5410 => match self.setup.tool_diameters_mm.get(&self.loaded_tool) {
+            5410 => match self.setup.tool_diameters_mm.get(&self.param_tool) {
                 Some(d) => self.machine_vec(Vec3::new(*d, 0.0, 0.0), 0),
                 None => return Err(Unanswerable::NotInSetup),
             },
             5411..=5413 => {
-                let lathe = self.tool_lathe.get(&self.loaded_tool).copied();
+                let lathe = self.tool_lathe.get(&self.param_tool).copied();
                 lathe.map_or(0.0, |v| v[n - 5411])
             }
             5420..=5422 => self.program_position()[n - 5420],
@@ -140,7 +140,7 @@ impl Interpreter {
                 format!("give it under [work_offsets] in the set-up file ({name} = [X, Y, Z]), or name LinuxCNC's var file (var_file = \"linuxcnc.var\")"),
             );
         }
-        let t = self.loaded_tool;
+        let t = self.param_tool;
         let (what, table) = if n == 5410 {
             ("diameter", "tool_diameters")
         } else {
@@ -224,7 +224,8 @@ impl Interpreter {
             "_flood" => truth(self.flood),
             "_feed" => self.feed,
             "_rpm" => self.spindle_rpm,
-            "_current_tool" => f64::from(self.loaded_tool),
+            // `lookup_named_param`: #5400.
+            "_current_tool" => f64::from(self.param_tool),
             "_selected_tool" => f64::from(self.next_tool),
             "_x" => p[0],
             "_y" => p[1],

@@ -40,8 +40,11 @@ struct Frame {
 
 impl Default for Params {
     fn default() -> Self {
+        let mut numbered = vec![0.0; MAX_PARAMETERS + 1];
+        // The (DEBUG, …) flag, 1 at start (`Interp::init`, rs274ngc_pre.cc).
+        numbered[5599] = 1.0;
         Self {
-            numbered: vec![0.0; MAX_PARAMETERS + 1],
+            numbered,
             globals: HashMap::new(),
             frames: vec![Frame::default()],
             value: 0.0,
