@@ -305,6 +305,8 @@ impl<R: BufRead> Walker<R> {
                                 &words,
                                 &settings,
                                 &scope,
+                                // gcode lane: computed values in the program's decimals.
+                                self.interp.computed_decimals(),
                                 &mut out,
                             )
                         };

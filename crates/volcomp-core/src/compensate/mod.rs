@@ -21,6 +21,7 @@ mod cycle;
 mod extra;
 mod frame;
 mod front;
+mod line_limit;
 mod lines;
 mod options;
 mod points;
@@ -84,8 +85,10 @@ pub fn compensate_program<R: BufRead>(
         estimate_mm: 0.0,
         blocks_in: size::Blocks::default(),
     };
-    let mut out = size::Counted::new(out);
-    let out = &mut out;
+    let mut counted = size::Counted::new(out);
+    // gcode lane: every written line within LinuxCNC's 252 characters.
+    let mut limited = line_limit::LineLimit::new(&mut counted);
+    let out = &mut limited;
     let sep = if program_style.spaced { " " } else { "" };
     let survey = &program_style.survey;
     while let Some(ev) = walker.next_line()? {
@@ -507,7 +510,8 @@ pub fn compensate_program<R: BufRead>(
         out.write_all(&st.buf)?;
     }
     st.summary.blocks_in = st.blocks_in.finish();
-    (st.summary.bytes_out, st.summary.blocks_out) = out.finish();
+    out.end()?;
+    (st.summary.bytes_out, st.summary.blocks_out) = counted.finish();
     st.summary.max_estimated_contour_um =
         matches!(options.segmentation, Segmentation::Adaptive { .. })
             .then_some(st.estimate_mm * 1e3);

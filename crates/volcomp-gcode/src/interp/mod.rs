@@ -410,6 +410,14 @@ impl Interpreter {
         self.feed_mode
     }
 
+    /// Decimals of computed values in rendered lines in the units in
+    /// effect ([`InterpOptions::computed_decimals`]).
+    pub fn computed_decimals(&self) -> Option<u8> {
+        self.options
+            .computed_decimals
+            .map(|[mm, inch]| if self.units == Units::Mm { mm } else { inch })
+    }
+
     /// Whether the program has ended (M2, M30 or the closing `%`); later
     /// lines are not executed, as on a controller.
     pub fn finished(&self) -> bool {

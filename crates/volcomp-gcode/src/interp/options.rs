@@ -24,6 +24,11 @@ pub struct InterpOptions {
     /// Largest distance (mm) between a G5/G5.1/G5.2 spline and the chords
     /// the interpreter linearises it into.
     pub spline_tolerance_mm: f64,
+    /// Decimals of a computed value written into a rendered line (`F[1/3]`
+    /// evaluated), in mm and in inch programs: `compensate` writes them
+    /// like the program's numbers. `None`: the shortest number that reads
+    /// back as the same double (up to 17 digits).
+    pub computed_decimals: Option<[u8; 2]>,
     /// Most lines one run executes, counting every pass of a loop and every
     /// line of a called subroutine; a program past it is refused as a loop
     /// that never ends (default [`crate::ngc::flow::MAX_EXECUTED_LINES`]).
@@ -37,6 +42,7 @@ impl Default for InterpOptions {
             absolute_arc_centers: false,
             require_program_end: false,
             spline_tolerance_mm: 1e-4,
+            computed_decimals: None,
             max_executed_lines: crate::ngc::flow::MAX_EXECUTED_LINES,
         }
     }

@@ -357,15 +357,31 @@ pub fn format_value(v: f64, out: &mut Vec<u8>) {
     }
 }
 
+/// Formats `v` with at most `decimals` decimals (rounded, trailing zeros
+/// cut, no `-0`): a computed value written like the program's numbers
+/// (gcode lane: `InterpOptions::computed_decimals`).
+pub fn format_value_decimals(v: f64, decimals: u8, out: &mut Vec<u8>) {
+    let s = format!("{v:.*}", usize::from(decimals));
+    let t = if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        &s
+    };
+    let t = if t == "-0" { "0" } else { t };
+    out.extend_from_slice(t.as_bytes());
+}
+
 /// Evaluates the words of a block statement and writes the literal line:
 /// the original bytes with every expression value replaced by its number
-/// and every parameter setting removed. Returns the values of the settings
-/// (to apply after the line, as LinuxCNC does).
+/// (with at most `decimals` decimals when given, else the shortest number
+/// that reads back the same) and every parameter setting removed. Returns
+/// the values of the settings (to apply after the line, as LinuxCNC does).
 pub fn render(
     content: &[u8],
     words: &[ExprWord],
     settings: &[Setting],
     lk: &dyn Lookup,
+    decimals: Option<u8>,
     out: &mut Vec<u8>,
 ) -> Result<Vec<f64>, ExprError> {
     let mut edits: Vec<(Range<usize>, Option<f64>)> =
@@ -385,8 +401,10 @@ pub fn render(
     let mut at = 0;
     for (span, value) in edits {
         out.extend_from_slice(&content[at..span.start]);
-        if let Some(v) = value {
-            format_value(v, out);
+        match (value, decimals) {
+            (Some(v), Some(d)) => format_value_decimals(v, d, out),
+            (Some(v), None) => format_value(v, out),
+            (None, _) => {}
         }
         at = span.end;
     }
