@@ -96,7 +96,7 @@ pub struct Walker<R> {
     /// The line the last event came from.
     pub(crate) current: Pos,
     /// Where lines after the program end are copied from (main program).
-    after_end_at: Option<usize>,
+    pub(crate) after_end_at: Option<usize>,
 }
 
 impl<R: BufRead> Walker<R> {

@@ -117,6 +117,25 @@ impl Interpreter {
         }
     }
 
+    /// Ends the program where LinuxCNC runs nothing more up to the end of
+    /// the file (`what` says why, at `line`, `column`), which it then
+    /// reports: a warning says both.
+    pub(crate) fn end_of_file_reached(&mut self, line: u64, column: usize, what: &str) {
+        self.finished = true;
+        let reported = if self.uses_percents {
+            "File ended with no percent sign"
+        } else {
+            "File ended with no percent sign or program end"
+        };
+        self.warnings.push(Warning {
+            line,
+            column,
+            message: format!(
+                "{what}, then reports \"{reported}\"; volcomp copies the rest of the file as it is"
+            ),
+        });
+    }
+
     /// Notes a non-blank line that is not executed as a block (an `O`
     /// program number), so that a later `%` is not taken as the first line.
     pub fn note_nonblank_line(&mut self) {

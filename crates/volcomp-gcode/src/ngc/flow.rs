@@ -120,6 +120,10 @@ pub struct Flow {
     loops: Vec<Loop>,
     frames: Vec<Frame>,
     subs: HashMap<String, Pos>,
+    /// Subroutines of the main program found further on by a call before
+    /// their definition was met: LinuxCNC refuses the definition when it
+    /// then reaches it in sequence.
+    subs_ahead: std::collections::HashSet<String>,
     /// LinuxCNC's o-word table (`offset_map`, `control_save_offset`,
     /// interp_o_word.cc): each `if`, `while`, `do` and `repeat` label of a
     /// scope (the main program, or the subroutine being run) is bound to
@@ -142,6 +146,7 @@ impl Flow {
             loops: Vec::new(),
             frames: Vec::new(),
             subs: HashMap::new(),
+            subs_ahead: std::collections::HashSet::new(),
             labels: HashMap::new(),
             files: Vec::new(),
             dirs,
@@ -494,6 +499,18 @@ impl<R: BufRead> Walker<R> {
             OKind::Endwhile => self.check_label(&label, keyword, &[Ctl::While], col)?,
             OKind::Endrepeat => self.check_label(&label, keyword, &[Ctl::Repeat], col)?,
             OKind::Sub => {
+                if self.flow.subs.get(&label) == Some(&pos) && self.flow.subs_ahead.contains(&label)
+                {
+                    return Err(self.at_current(
+                        format!(
+                            "the definition of subroutine o{} is reached in sequence after a call found it further on: LinuxCNC refuses it here (\"sub: o|{}| found in illegal location\")",
+                            show_label(&label),
+                            label
+                        ),
+                        "end the main program (M2 or M30) before the subroutine definitions, or define the subroutine before its first call",
+                        col,
+                    ));
+                }
                 if let Some(at) = self.flow.subs.get(&label).filter(|at| **at != pos) {
                     let at = at.line + 1;
                     return Err(self.at_current(
@@ -512,8 +529,26 @@ impl<R: BufRead> Walker<R> {
             OKind::Sub => {
                 // Met in sequence: a definition. Record it, skip its body.
                 self.flow.subs.insert(label.clone(), pos);
-                let (end, _) = self.require_skip(pos, &label, &["endsub"], col)?;
-                self.flow.pos = end.next();
+                match self.skip_to(pos, &label, &["endsub"])? {
+                    Some((end, _)) => self.flow.pos = end.next(),
+                    None if pos.src == MAIN && self.flow.frames.is_empty() => {
+                        // LinuxCNC skips to the end of the file looking for
+                        // the endsub, runs none of it, and then reports the
+                        // end of the file: the rest is copied as it is,
+                        // this line included.
+                        let what = format!(
+                            "subroutine o{} has no `o{} endsub`: LinuxCNC skips from here to the end of the file looking for it, runs none of it",
+                            show_label(&label),
+                            show_label(&label)
+                        );
+                        self.interp
+                            .end_of_file_reached(pos.line as u64 + 1, col + 1, &what);
+                        self.after_end_at = Some(pos.line);
+                    }
+                    None => {
+                        self.require_skip(pos, &label, &["endsub"], col)?;
+                    }
+                }
             }
             OKind::Endsub(v) | OKind::Return(v) => {
                 let Some(frame) = self.flow.frames.last() else {
@@ -738,6 +773,9 @@ impl<R: BufRead> Walker<R> {
         }
         if let Some((p, _)) = self.skip_to(pos, label, &["sub"])? {
             self.flow.subs.insert(label.to_string(), p);
+            if p.src == MAIN {
+                self.flow.subs_ahead.insert(label.to_string());
+            }
             return Ok(p);
         }
         let name = format!("{label}.ngc");
