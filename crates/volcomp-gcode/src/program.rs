@@ -202,6 +202,22 @@ impl<R: BufRead> Walker<R> {
             if self.interp.finished() {
                 return self.next_after_end();
             }
+            // gcode lane: lines LinuxCNC generates in place of a return
+            // (an M73 restore), run as a rendered line of the return.
+            if let Some(text) = self.flow.next_injected() {
+                let line = self.current.line as u64 + 1;
+                self.buf.clear();
+                self.buf.extend_from_slice(text.as_bytes());
+                self.rendered = true;
+                let n = lexer::content_len(&self.buf);
+                if let Err(e) = lexer::lex_block(&self.buf[..n], &mut self.lexed) {
+                    return Err(self.locate_rendered(e.at_line(line)));
+                }
+                if let Err(e) = self.interp.execute(line, &self.lexed, &mut self.motions) {
+                    return Err(self.locate_rendered(e));
+                }
+                return Ok(Some(self.event(self.current, LineKind::Block, false)));
+            }
             let pos = self.flow.pos;
             if !self.fetch(pos)? {
                 self.end_of_source(pos)?;

@@ -235,7 +235,7 @@ pub struct Interpreter {
     extra: [f64; 6],
     extra_target: [f64; 6],
     /// The modal state M70 saved (M72 restores it).
-    saved_modes: Option<modal::SavedModes>,
+    contexts: Vec<modal::Context>,
     /// G92 offsets of the extra axes, and the ones G92.3 restores.
     extra_g92: [f64; 6],
     extra_g92_saved: [f64; 6],
@@ -331,7 +331,7 @@ impl Interpreter {
             warned_reference: [false; 2],
             extra: [0.0; 6],
             extra_target: [0.0; 6],
-            saved_modes: None,
+            contexts: Vec::new(),
             extra_g92: [0.0; 6],
             extra_g92_saved: [0.0; 6],
             uses_extra_axes: false,

@@ -131,6 +131,9 @@ pub struct Flow {
     /// "duplicate O-word label", and the closing words must find it.
     labels: HashMap<(String, String), (Ctl, Pos)>,
     files: Vec<(String, Lines)>,
+    /// Lines LinuxCNC generates and runs in place of the current one (the
+    /// restore of an M73 at a return), run before the next line.
+    injected: std::collections::VecDeque<String>,
     dirs: Vec<PathBuf>,
     keep: bool,
     executed: u64,
@@ -149,6 +152,7 @@ impl Flow {
             subs_ahead: std::collections::HashSet::new(),
             labels: HashMap::new(),
             files: Vec::new(),
+            injected: std::collections::VecDeque::new(),
             dirs,
             keep: false,
             executed: 0,
@@ -164,6 +168,15 @@ impl Flow {
     /// Whether the main program's lines are kept.
     pub fn keeps_lines(&self) -> bool {
         self.keep
+    }
+
+    /// The next line LinuxCNC generates and runs in place of the current
+    /// one (the restore of an M73 at a return), with its line ending and a
+    /// comment that says where it comes from.
+    pub fn next_injected(&mut self) -> Option<String> {
+        self.injected
+            .pop_front()
+            .map(|t| format!("{t} (volcomp: the state M73 saved, restored at the return)\n"))
     }
 
     /// Counts one executed line (`line`: 1-based, for the error).
@@ -573,6 +586,11 @@ impl<R: BufRead> Walker<R> {
                 self.flow.frames.pop();
                 self.flow.params.pop_call(value);
                 self.flow.pos = ret;
+                // An M73 of the call restores the state it saved: the
+                // lines LinuxCNC generates run in place of the return.
+                let line = self.current.line as u64 + 1;
+                let restore = self.interp.leave_call(line).map_err(|e| self.locate(e))?;
+                self.flow.injected.extend(restore);
             }
             OKind::Call(args) => {
                 let mut values = Vec::with_capacity(args.len());
@@ -590,6 +608,7 @@ impl<R: BufRead> Walker<R> {
                 }
                 let target = self.find_sub(pos, &label, col)?;
                 self.flow.params.push_call(&values);
+                self.interp.enter_call();
                 self.flow.frames.push(Frame {
                     name: label,
                     ret: pos.next(),
@@ -908,6 +927,7 @@ impl<R: BufRead> Walker<R> {
                     ));
                 }
                 let target = self.find_program_number(program)?;
+                self.interp.enter_call();
                 self.flow.frames.push(Frame {
                     name: program.to_string(),
                     ret: pos.next(),
@@ -933,6 +953,9 @@ impl<R: BufRead> Walker<R> {
                         let ret = frame.ret;
                         self.flow.frames.pop();
                         self.flow.pos = ret;
+                        let line = self.current.line as u64 + 1;
+                        let restore = self.interp.leave_call(line).map_err(|e| self.locate(e))?;
+                        self.flow.injected.extend(restore);
                     }
                     None => {
                         return Err(self.at_current(
