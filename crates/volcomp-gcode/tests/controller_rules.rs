@@ -677,3 +677,23 @@ fn tool_parameters_are_the_spindle_tools_table_entry() {
     let e = run("G21\nT7 M6\nG0 Z#5403\n").unwrap_err();
     assert!(e.message.contains("length of tool 7"), "{e}");
 }
+
+#[test]
+fn o_word_labels_given_as_expressions_and_named_programs_run() {
+    // `read_o` reads a number label with `read_integer_value`: any value.
+    let m = accepted_by_both(
+        "G21\n#2 = 10\nO[#2 * 10] call\nG0 X2\nM30\nO100 sub\nG0 X1\nO100 endsub\n",
+    );
+    assert_eq!(m.len(), 2);
+    assert!(close(m[0].end, [1.0, 0.0, 0.0]) && close(m[1].end, [2.0, 0.0, 0.0]));
+    // A bare `O<name>` starts a Fanuc-style program: execution runs on.
+    let m = accepted_by_both("G21\nO<MyProgram> (the body)\nG0 X3\n");
+    assert!(close(m[0].end, [3.0, 0.0, 0.0]));
+    refused(
+        "G21\n#2 = 1.5\nO#2 call\n",
+        3,
+        2,
+        "not a whole number",
+        "Non integer value for integer",
+    );
+}

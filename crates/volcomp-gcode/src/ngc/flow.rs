@@ -494,7 +494,14 @@ impl<R: BufRead> Walker<R> {
     }
 
     /// Runs one o-word statement at `pos`.
-    pub(crate) fn control(&mut self, pos: Pos, o: OWord) -> Result<(), GcodeError> {
+    pub(crate) fn control(&mut self, pos: Pos, mut o: OWord) -> Result<(), GcodeError> {
+        if let Some((e, col)) = o.label_expr.take() {
+            // `read_o`: `read_integer_value` of the label's value.
+            let v = self.eval_at(&e)?;
+            o.label = to_integer(v, col)
+                .map_err(|err| self.expr_error(pos, err))?
+                .to_string();
+        }
         let label = o.label.clone();
         let col = o.col;
         let keyword = o.kind.keyword();
@@ -700,7 +707,8 @@ impl<R: BufRead> Walker<R> {
                 let (end, _) = self.require_skip(pos, &label, &["endif"], col)?;
                 self.flow.pos = end.next();
             }
-            OKind::Endif => {}
+            // A Fanuc-style program start: execution runs on.
+            OKind::Endif | OKind::Program => {}
             OKind::Break => {
                 let i = self.find_loop(&label, None, "break", col)?;
                 let l = self.flow.loops_mut()[i].clone();

@@ -66,6 +66,9 @@ pub enum OKind {
     Break,
     /// `continue`
     Continue,
+    /// A bare `O<name>` or `O<n>` line: the start of a Fanuc-style program,
+    /// which runs on (gcode lane).
+    Program,
 }
 
 impl OKind {
@@ -87,6 +90,7 @@ impl OKind {
             OKind::Endif => "endif",
             OKind::Break => "break",
             OKind::Continue => "continue",
+            OKind::Program => "",
         }
     }
 }
@@ -96,6 +100,10 @@ impl OKind {
 pub struct OWord {
     /// The label: a number (as its decimal integer) or a `<name>` (lower case).
     pub label: String,
+    /// A number label given as an expression (`o[#2 * 10]`, `o#1`), which
+    /// LinuxCNC evaluates when it reads the line (gcode lane): the flow
+    /// evaluates it and sets `label`.
+    pub label_expr: Option<(Expr, usize)>,
     /// The statement.
     pub kind: OKind,
     /// Original column of the `o`.
@@ -249,19 +257,20 @@ pub fn parse(n: &Norm) -> Result<Statement, ExprError> {
 fn parse_oword(n: &Norm, mut p: Parser) -> Result<OWord, ExprError> {
     let col = p.col();
     p.pos += 1;
+    let mut label_expr = None;
     let label = if n.byte(p.pos) == b'<' {
         p.name()?
     } else {
         let lcol = p.col();
-        let v = p.value()?;
-        let Expr::Num(v) = v else {
-            return Err(ExprError::new(
-                lcol,
-                "an o-word label must be a number or a <name>",
-                "write e.g. o100 or o<name>",
-            ));
-        };
-        to_integer(v, lcol)?.to_string()
+        match p.value()? {
+            Expr::Num(v) => to_integer(v, lcol)?.to_string(),
+            // `read_o` reads the number with `read_integer_value`, which
+            // takes any value: evaluated when the line runs.
+            e => {
+                label_expr = Some((e, lcol));
+                String::new()
+            }
+        }
     };
     let rest = &n.text[p.pos.min(n.text.len())..];
     let keywords: [&str; 15] = [
@@ -282,6 +291,19 @@ fn parse_oword(n: &Norm, mut p: Parser) -> Result<OWord, ExprError> {
         "return",
     ];
     let Some(kw) = keywords.iter().find(|k| rest.starts_with(k.as_bytes())) else {
+        // A bare o-word (only comments after it) starts a Fanuc-style
+        // program (`read_o`: O_).
+        let at = p.pos;
+        skip_comments(&mut p, n);
+        if p.pos >= n.text.len() {
+            return Ok(OWord {
+                label,
+                label_expr,
+                kind: OKind::Program,
+                col,
+            });
+        }
+        p.pos = at;
         return Err(ExprError::new(
             p.col(),
             "unknown o-word statement",
@@ -338,7 +360,12 @@ fn parse_oword(n: &Norm, mut p: Parser) -> Result<OWord, ExprError> {
             "an o-word line holds only its statement (and comments)",
         ));
     }
-    Ok(OWord { label, kind, col })
+    Ok(OWord {
+        label,
+        label_expr,
+        kind,
+        col,
+    })
 }
 
 /// Formats a value so that the lexer reads back the same number: the
