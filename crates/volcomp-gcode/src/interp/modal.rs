@@ -1,14 +1,15 @@
-//! M70 (save modal state), M71 (invalidate it), M72 (restore it) and M73
-//! (save it, restored when the subroutine returns), as LinuxCNC 2.9's
-//! `Interp::save_settings` / `restore_settings` (src/emc/rs274ngc/
-//! interp_convert.cc) and `leave_context` (interp_o_word.cc) do them: the
-//! state is kept per call level (the main program, each subroutine call),
-//! M73 in a subroutine marks it to be restored when that call returns
-//! (`endsub`, `return`, M99), and an M71 in between cancels that. M72 must
-//! stand on its line alone (LinuxCNC restores by running generated blocks
-//! in place of the current one, so other words on the line would not run as
-//! written). The restore sets units first (G20/G21), then plane, distance
-//! modes, feed mode, coordinate system, retract mode, the feed rate
+//! The path-control mode (G61, G61.1, G64 P… Q…), and M70 (save modal
+//! state), M71 (invalidate it), M72 (restore it) and M73 (save it, restored
+//! when the subroutine returns), as LinuxCNC 2.9's `Interp::save_settings` /
+//! `restore_settings` (src/emc/rs274ngc/interp_convert.cc) and
+//! `leave_context` (interp_o_word.cc) do them: the state is kept per call
+//! level (the main program, each subroutine call), M73 in a subroutine
+//! marks it to be restored when that call returns (`endsub`, `return`,
+//! M99), and an M71 in between cancels that. M72 must stand on its line
+//! alone (LinuxCNC restores by running generated blocks in place of the
+//! current one, so other words on the line would not run as written). The
+//! restore sets units first (G20/G21), then plane, distance modes, feed
+//! mode, coordinate system, retract mode, path-control mode, the feed rate
 //! (rounded to 0.1, `F%.1f`), the spindle speed (`S%.0f`), the spindle
 //! direction (M3/M4/M5) and the coolant (M7/M8/M9). Where the restored
 //! state includes something volcomp does not replay (a different tool
@@ -19,6 +20,68 @@ use super::words::WordTable;
 use super::{invalid, unsupported, Interpreter};
 use crate::error::GcodeError;
 use crate::geom::{Plane, Units, Vec3};
+
+/// The path-control mode, as LinuxCNC 2.9 reads it
+/// (`Interp::convert_control_mode`, src/emc/rs274ngc/interp_convert.cc) and
+/// hands it to the trajectory planner (`SET_MOTION_CONTROL_MODE`,
+/// src/emc/task/emccanon.cc): the terminal condition of every feed move
+/// queued after it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PathMode {
+    /// G61, "exact path" (CANON_EXACT_PATH, the planner's
+    /// TC_TERM_COND_EXACT): the planner joins two moves without stopping
+    /// only where it takes them as tangent, and never blends a corner.
+    ExactPath,
+    /// G61.1, "exact stop" (CANON_EXACT_STOP, TC_TERM_COND_STOP): every
+    /// move ends at rest.
+    ExactStop,
+    /// G64, continuous (CANON_CONTINUOUS, TC_TERM_COND_PARABOLIC): corners
+    /// blended. `tolerance_mm` is P (mm, converted from the program's units
+    /// when G64 was read), 0 without P: LinuxCNC's "no tolerance", the
+    /// planner blends as far as speed needs (up to a quarter of a
+    /// segment's length). `naive_cam_mm` is Q, or P where Q is not given,
+    /// else 0: canon then merges consecutive straight feeds whose points
+    /// lie within it of one line (`linkable`, emccanon.cc). A negative P or
+    /// Q counts as not given, as LinuxCNC reads them (the block reader
+    /// starts both at −1, `init_block`, interp_internal.cc).
+    Blend {
+        /// G64 P (mm), 0 without P.
+        tolerance_mm: f64,
+        /// G64 Q (mm), else P, else 0.
+        naive_cam_mm: f64,
+    },
+}
+
+impl Default for PathMode {
+    /// LinuxCNC's state at start: G64 without P (canon's `motionMode`
+    /// CANON_CONTINUOUS with tolerance 0; tp.c's `tpInit` term condition
+    /// parabolic).
+    fn default() -> Self {
+        PathMode::Blend {
+            tolerance_mm: 0.0,
+            naive_cam_mm: 0.0,
+        }
+    }
+}
+
+impl PathMode {
+    /// The G code that sets this mode: `G61`, `G61.1`, `G64`, or
+    /// `G64 P… Q…` with the tolerances in mm.
+    pub fn code(&self) -> String {
+        match *self {
+            PathMode::ExactPath => "G61".into(),
+            PathMode::ExactStop => "G61.1".into(),
+            PathMode::Blend {
+                tolerance_mm,
+                naive_cam_mm,
+            } if tolerance_mm == 0.0 && naive_cam_mm == 0.0 => "G64".into(),
+            PathMode::Blend {
+                tolerance_mm,
+                naive_cam_mm,
+            } => format!("G64 P{tolerance_mm} Q{naive_cam_mm} (mm)"),
+        }
+    }
+}
 
 /// The state M70 and M73 save.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,6 +100,7 @@ pub(super) struct SavedModes {
     flood: bool,
     tlo: Vec3,
     g92: Vec3,
+    path_mode: PathMode,
 }
 
 /// The saved state of one call level (LinuxCNC's `sub_context[level]`).
@@ -48,6 +112,25 @@ pub(super) struct Context {
 }
 
 impl Interpreter {
+    /// G61, G61.1 and G64 of the block (`convert_control_mode`): P and Q
+    /// are in program units; a negative or missing P is no tolerance, a
+    /// missing Q is P.
+    pub(super) fn control_mode(&mut self, w: &WordTable) {
+        if w.has_g(610) {
+            self.path_mode = PathMode::ExactPath;
+        } else if w.has_g(611) {
+            self.path_mode = PathMode::ExactStop;
+        } else if w.has_g(640) {
+            let k = self.units.mm_per_unit();
+            let given = |v: Option<f64>| v.filter(|v| *v >= 0.0).map(|v| v * k);
+            let (p, q) = (given(w.get(b'P')), given(w.get(b'Q')));
+            self.path_mode = PathMode::Blend {
+                tolerance_mm: p.unwrap_or(0.0),
+                naive_cam_mm: q.or(p).unwrap_or(0.0),
+            };
+        }
+    }
+
     fn save_modes(&self) -> SavedModes {
         SavedModes {
             units: self.units,
@@ -64,6 +147,7 @@ impl Interpreter {
             flood: self.flood,
             tlo: self.tlo,
             g92: self.g92,
+            path_mode: self.path_mode,
         }
     }
 
@@ -150,6 +234,21 @@ impl Interpreter {
                 words.push(' ');
                 words.push_str(saved);
             }
+        }
+        if s.path_mode != self.path_mode {
+            let k = s.units.mm_per_unit();
+            words.push_str(&match s.path_mode {
+                PathMode::ExactPath => " G61".to_string(),
+                PathMode::ExactStop => " G61.1".to_string(),
+                PathMode::Blend {
+                    tolerance_mm,
+                    naive_cam_mm,
+                } if tolerance_mm == 0.0 && naive_cam_mm == 0.0 => " G64".to_string(),
+                PathMode::Blend {
+                    tolerance_mm,
+                    naive_cam_mm,
+                } => format!(" G64 P{:.6} Q{:.6}", tolerance_mm / k, naive_cam_mm / k),
+            });
         }
         if !words.is_empty() {
             lines.push(words.trim_start().to_string());
@@ -245,6 +344,7 @@ impl Interpreter {
         self.feed_mode = s.feed_mode;
         self.work = s.work;
         self.retract_to_r = s.retract_to_r;
+        self.path_mode = s.path_mode;
         // Written back as `F%.1f` and `S%.0f` (`gen_settings`), then read.
         if s.feed != self.feed {
             self.feed = format!("{:.1}", s.feed).parse().unwrap_or(s.feed);
