@@ -697,3 +697,120 @@ fn o_word_labels_given_as_expressions_and_named_programs_run() {
         "Non integer value for integer",
     );
 }
+
+/// rs274's verdict on `program` as it is (no M2 added) and its motion count.
+fn rs274_as_is(program: &str) -> Option<(Option<String>, usize)> {
+    let rs274 = ["/usr/bin/rs274", "/usr/local/bin/rs274"]
+        .into_iter()
+        .find(|p| Path::new(p).exists())?;
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("t.ngc");
+    std::fs::write(&file, program).unwrap();
+    let out = Command::new(rs274)
+        .arg("-g")
+        .arg(&file)
+        .arg(dir.path().join("out.txt"))
+        .env("HOME", dir.path())
+        .current_dir(dir.path())
+        .stdin(std::process::Stdio::null())
+        .output()
+        .unwrap();
+    let canon = std::fs::read_to_string(dir.path().join("out.txt")).unwrap_or_default();
+    let motions = canon
+        .lines()
+        .filter(|l| l.contains("STRAIGHT_") || l.contains("ARC_FEED"))
+        .count();
+    let text = String::from_utf8_lossy(&out.stderr).into_owned();
+    let msg: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && *l != "executing")
+        .collect();
+    Some(((!out.status.success()).then(|| msg.join(" | ")), motions))
+}
+
+fn run_requiring_end(program: &str) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
+    let mut w = Walker::new(
+        Cursor::new(program.as_bytes().to_vec()),
+        Some("t.ngc".into()),
+        Setup::default(),
+        InterpOptions {
+            require_program_end: true,
+            ..InterpOptions::default()
+        },
+    );
+    let mut motions = Vec::new();
+    loop {
+        match w.next_line() {
+            Ok(Some(ev)) => motions.extend_from_slice(ev.motions),
+            Ok(None) => return (Ok(motions), w.warnings().to_vec()),
+            Err(e) => return (Err(e), w.warnings().to_vec()),
+        }
+    }
+}
+
+#[test]
+fn a_program_linuxcnc_runs_to_its_last_line_runs_with_a_warning() {
+    // No M2 (grbl posts), a percent tape without its closing %, a stray %
+    // as the last line: LinuxCNC makes every move, then complains.
+    for (program, moves, linuxcnc) in [
+        (
+            "G21\nG0 X1\nG1 X2 F100\n",
+            2,
+            "File ended with no percent sign or program end",
+        ),
+        ("%\nG21\nG0 X1\n", 1, "File ended with no percent sign"),
+        ("G21\nG0 X1\n%\n\n(end)\n", 1, "Bad character '%' used"),
+    ] {
+        let (m, warnings) = run_requiring_end(program);
+        let m = m.unwrap_or_else(|e| panic!("{program:?}: {e}"));
+        assert_eq!(m.len(), moves, "{program:?}");
+        let w = warnings.last().expect("a warning");
+        assert!(w.message.contains(linuxcnc), "{program:?}: {}", w.message);
+        if let Some((verdict, n)) = rs274_as_is(program) {
+            let msg = verdict.expect("rs274 complains");
+            assert!(msg.contains(linuxcnc), "{program:?}: rs274 says {msg}");
+            assert_eq!(n, moves, "{program:?}: rs274's moves");
+        }
+    }
+    // Without LinuxCNC's rule (grbl and kin; a library reading a fragment):
+    // no warning.
+    assert!(run("G21\nG0 X1\n").is_ok());
+    assert!(run_with("G21\nG0 X1\n", Setup::default()).1.is_empty());
+}
+
+#[test]
+fn what_linuxcnc_refuses_before_it_moves_at_the_tape_stays_refused() {
+    for (program, line, ours, linuxcnc) in [
+        (
+            "% hello\nG21\nG0 X1\nM2\n",
+            1,
+            "holds more than `%`",
+            "Bad character '%' used",
+        ),
+        (
+            "G21\nG0 X1\n%\nG0 X2\nM2\n",
+            4,
+            "line 3 is a `%` line",
+            "Bad character '%' used",
+        ),
+        (
+            "(c)\n%\nG21 G0 X1\n%\n",
+            3,
+            "line 2 is a `%` line",
+            "Bad character '%' used",
+        ),
+    ] {
+        let (r, _) = run_requiring_end(program);
+        let e = r.expect_err(program);
+        assert_eq!(e.line, line, "{program:?}: {e}");
+        assert!(
+            e.message.contains(ours) && e.message.contains(linuxcnc),
+            "{e}"
+        );
+        if let Some((verdict, _)) = rs274_as_is(program) {
+            let msg = verdict.expect("rs274 refuses");
+            assert!(msg.contains(linuxcnc), "{program:?}: rs274 says {msg}");
+        }
+    }
+}
