@@ -409,6 +409,13 @@ fn what_linuxcncs_reader_refuses_is_refused() {
         "Bad character 'n' used",
     );
     accepted_by_both("N5 G21\n/N6 G0 X1\n");
+    refused(
+        "G21\nN-1 G0 X1\n",
+        2,
+        1,
+        "negative line number",
+        "Bad format unsigned integer",
+    );
     // P-1 is LinuxCNC's "no P"; any other negative dwell passes.
     refused(
         "G21\nG4 P-1\n",

@@ -297,6 +297,15 @@ impl Interpreter {
                     w.m.push((code, col));
                 }
                 b'N' if n_at == Some(Some(col)) => {
+                    // `read_n_number` reads digits only (`read_integer_unsigned`).
+                    if *value < 0.0 {
+                        return Err(invalid(
+                            line,
+                            col,
+                            "a negative line number: LinuxCNC reads N as digits and refuses it (\"Bad format unsigned integer\")",
+                            "write the line number without a sign",
+                        ));
+                    }
                     w.values[slot_of(b'N')] = Some((*value, col));
                 }
                 b'N' => {
