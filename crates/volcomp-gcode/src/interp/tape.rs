@@ -21,9 +21,9 @@
 use super::{invalid, Interpreter, Warning};
 use crate::error::GcodeError;
 
-/// The help of the refusal of a program without an end (the command line
-/// adds its option to it).
-pub const PROGRAM_END_HELP: &str = "add M2 (or M30) at the end of the program";
+/// What to do about a program without an end, with the option that stops
+/// the warning (front ends say `{allow_no_program_end}` their own way).
+pub const PROGRAM_END_HELP: &str = "add M2 (or M30) at the end of the program, or accept a program without one ({allow_no_program_end}) if the controller runs such programs";
 
 /// UTF-8 byte-order mark: LinuxCNC reads its first byte as a character of
 /// the line ("Bad character '\357' used").
@@ -182,7 +182,7 @@ impl Interpreter {
         } else {
             (
                 "File ended with no percent sign or program end",
-                PROGRAM_END_HELP,
+                "add M2 (or M30) at the end of the program",
             )
         };
         self.warnings.push(Warning {
