@@ -13,11 +13,19 @@ use std::process::Command;
 use volcomp_gcode::{GcodeError, InterpOptions, Motion, Setup, Vec3, Walker, Warning};
 
 fn run_with(program: &str, setup: Setup) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
+    run_with_options(program, setup, InterpOptions::default())
+}
+
+fn run_with_options(
+    program: &str,
+    setup: Setup,
+    options: InterpOptions,
+) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
     let mut w = Walker::new(
         Cursor::new(program.as_bytes().to_vec()),
         Some("t.ngc".into()),
         setup,
-        InterpOptions::default(),
+        options,
     );
     let mut motions = Vec::new();
     loop {
@@ -737,23 +745,11 @@ fn rs274_as_is(program: &str) -> Option<(Option<String>, usize)> {
 }
 
 fn run_requiring_end(program: &str) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
-    let mut w = Walker::new(
-        Cursor::new(program.as_bytes().to_vec()),
-        Some("t.ngc".into()),
-        Setup::default(),
-        InterpOptions {
-            require_program_end: true,
-            ..InterpOptions::default()
-        },
-    );
-    let mut motions = Vec::new();
-    loop {
-        match w.next_line() {
-            Ok(Some(ev)) => motions.extend_from_slice(ev.motions),
-            Ok(None) => return (Ok(motions), w.warnings().to_vec()),
-            Err(e) => return (Err(e), w.warnings().to_vec()),
-        }
-    }
+    let options = InterpOptions {
+        require_program_end: true,
+        ..InterpOptions::default()
+    };
+    run_with_options(program, Setup::default(), options)
 }
 
 #[test]
