@@ -479,3 +479,33 @@ fn assumptions_are_warned_about_on_stderr_with_file_and_line() {
     // Said once each.
     assert_eq!(msg.matches("warning:").count(), 2, "{msg}");
 }
+
+#[test]
+fn completions_and_the_man_page_come_from_the_same_flags() {
+    let d = common::tempdir("completions");
+    for shell in ["bash", "zsh", "fish", "elvish", "powershell"] {
+        let o = common::volcomp(&["completions", shell], &d);
+        assert!(o.status.success(), "{shell}: {}", common::stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout);
+        // A flag the library's option table gives compensate.
+        assert!(text.contains("max-correction"), "{shell}");
+    }
+    let o = common::volcomp(&["man"], &d);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let page = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        page.starts_with(".ie") || page.contains(".TH volcomp"),
+        "{page}"
+    );
+    assert!(page.contains("compensate"));
+    // A mistyped flag gets the closest one, swapped letters too.
+    let o = common::volcomp(&["compensate", "p.ngc", "--mpa", "m.csv", "-o", "x"], &d);
+    assert!(
+        common::stderr(&o).contains("a similar argument exists: '--map'"),
+        "{}",
+        common::stderr(&o)
+    );
+    // -q is --quiet.
+    let o = common::volcomp(&["-q", "completions", "bash"], &d);
+    assert!(o.status.success());
+}
