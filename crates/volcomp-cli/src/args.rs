@@ -142,4 +142,7 @@ pub struct DemoArgs {
     /// Where to write the example map and programs.
     #[arg(long, value_name = "DIR", default_value = "volcomp-demo")]
     pub out_dir: PathBuf,
+    /// Also write the table as Markdown (BENCHMARKS.md's demo table).
+    #[arg(long, value_name = "FILE.md")]
+    pub markdown: Option<PathBuf>,
 }
