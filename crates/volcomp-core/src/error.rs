@@ -588,7 +588,7 @@ pub mod help {
     /// A point whose residual is above the largest accepted.
     pub const RESIDUAL_LIMIT: &str = "with ILC raise the iteration limit ({max_iterations}) or the gain ({gain}); check that the map is smooth and in µm; the largest accepted residual is {max_residual_um}";
     /// A simulated line that does not pair with the reference.
-    pub const REFERENCE_PAIRING: &str = "give as the reference ({reference}) the original program this one was compensated from by volcomp (its `(volcomp Ln)` comments pair the two; a program written with {trace} cannot be paired once lines were split or take-ups inserted)";
+    pub const REFERENCE_PAIRING: &str = "give as the reference ({reference}) the original program this one was compensated from by volcomp (its `(volcomp Ln)` comments pair the two; a program written without trace comments ({trace}) cannot be paired once lines were split or take-ups inserted)";
     /// The reference moves on after the simulated program ends.
     pub const REFERENCE_LEFT: &str = "give as the reference ({reference}) the original program this one was compensated from, and simulate the whole compensated program";
 }
