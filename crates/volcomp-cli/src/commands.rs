@@ -3,7 +3,6 @@
 
 use crate::args::{Cli, Command, MachineArgs, MovesArgs, MovesFormat};
 use crate::output::CliError;
-use std::fs::File;
 use std::io::{self, BufRead, BufReader, BufWriter, Write};
 use std::path::Path;
 use volcomp_core::error::CompensationError;
@@ -112,9 +111,11 @@ impl Machine {
     /// A walker over a program file ("-" is standard input).
     pub fn walk(&self, path: &Path) -> Result<Walker<Box<dyn BufRead>>, CliError> {
         let reader: Box<dyn BufRead> = if path.as_os_str() == "-" {
+            volcomp_core::io::inputs::record_stdin("the program (standard input)");
             Box::new(BufReader::with_capacity(1 << 16, io::stdin()))
         } else {
-            let f = File::open(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+            let f = volcomp_core::io::inputs::open(path, "the program")
+                .map_err(|e| CliError::Io(path.to_path_buf(), e))?;
             Box::new(BufReader::with_capacity(1 << 16, f))
         };
         Ok(self.walker(reader, &path.display().to_string()))

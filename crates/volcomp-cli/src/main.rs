@@ -1,6 +1,8 @@
 //! `volcomp`: the command-line front end. It parses arguments, calls the
 //! library crates and prints; the work happens in `volcomp-gcode` and
 //! `volcomp-core`.
+// Files are read through `volcomp_geom::inputs` only (clippy.toml).
+#![cfg_attr(not(test), warn(clippy::disallowed_methods))]
 
 mod args;
 mod commands;

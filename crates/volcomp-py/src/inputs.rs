@@ -41,7 +41,8 @@ pub fn source(obj: &Bound<'_, PyAny>, what: &str, name: Option<&str>) -> PyResul
     if is_path_like(obj) {
         let path = path_of(obj)?;
         let shown = path.display().to_string();
-        let bytes = std::fs::read(&path).map_err(|e| io_error(&shown, &e))?;
+        let bytes =
+            volcomp_core::io::inputs::read(&path, what).map_err(|e| io_error(&shown, &e))?;
         return Ok(Source {
             bytes,
             name: name.map(str::to_string).unwrap_or(shown),

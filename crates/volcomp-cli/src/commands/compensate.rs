@@ -42,7 +42,8 @@ pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
 /// program says which controller table it was made for.
 pub fn note_controller(header: &mut ProgramHeader, a: &MapArgs) -> Result<(), CliError> {
     if let Some(file) = &a.controller {
-        let bytes = std::fs::read(file).map_err(|e| CliError::Io(file.clone(), e))?;
+        let bytes = volcomp_core::io::inputs::read(file, "the controller file")
+            .map_err(|e| CliError::Io(file.clone(), e))?;
         let name = file
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -167,9 +168,11 @@ pub fn options(a: &CompensateArgs) -> Result<CompensateOptions, CliError> {
 /// A reader over a program; `-` is standard input.
 fn open_program(program: &Path) -> Result<Box<dyn Read>, CliError> {
     if program.as_os_str() == "-" {
+        volcomp_core::io::inputs::record_stdin("the program (standard input)");
         return Ok(Box::new(std::io::stdin().lock()));
     }
-    let f = std::fs::File::open(program).map_err(|e| CliError::Io(program.to_path_buf(), e))?;
+    let f = volcomp_core::io::inputs::open(program, "the program")
+        .map_err(|e| CliError::Io(program.to_path_buf(), e))?;
     Ok(Box::new(f))
 }
 
@@ -277,7 +280,8 @@ fn count_lines(program: &Path) -> Option<u64> {
     if program.as_os_str() == "-" {
         return None;
     }
-    let mut f = std::io::BufReader::new(std::fs::File::open(program).ok()?);
+    let mut f =
+        std::io::BufReader::new(volcomp_core::io::inputs::open(program, "the program").ok()?);
     let mut n = 0u64;
     loop {
         let buf = f.fill_buf().ok()?;

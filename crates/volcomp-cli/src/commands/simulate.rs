@@ -228,9 +228,11 @@ fn report_html(
 /// A reader over a program file ("-" is standard input).
 pub fn open(path: &std::path::Path) -> Result<Box<dyn std::io::Read>, CliError> {
     if path.as_os_str() == "-" {
+        volcomp_core::io::inputs::record_stdin("the program (standard input)");
         return Ok(Box::new(std::io::stdin()));
     }
-    let f = std::fs::File::open(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+    let f = volcomp_core::io::inputs::open(path, "a program")
+        .map_err(|e| CliError::Io(path.to_path_buf(), e))?;
     Ok(Box::new(f))
 }
 

@@ -29,7 +29,8 @@ pub fn run(a: SurfaceArgs) -> Result<(), CliError> {
 }
 
 fn read_text(path: &Path) -> Result<String, CliError> {
-    std::fs::read_to_string(path).map_err(|e| CliError::Io(path.to_path_buf(), e))
+    volcomp_core::io::inputs::read_to_string(path, "an input")
+        .map_err(|e| CliError::Io(path.to_path_buf(), e))
 }
 
 fn extension(path: &Path) -> String {
@@ -212,7 +213,7 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
                 let model = SurfaceModel::new(&nominal, field, tool, frame, a.contact_tolerance)
                     .map_err(flag_help)?;
                 let mut head = Vec::with_capacity(1 << 16);
-                std::fs::File::open(program)
+                volcomp_core::io::inputs::open(program, "the program")
                     .and_then(|f| f.take(1 << 16).read_to_end(&mut head))
                     .map_err(|e| CliError::Io(program.clone(), e))?;
                 if !a.allow_recompensate {
@@ -220,8 +221,8 @@ fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {
                 }
                 let style = survey_style(&head);
                 let bar = Bar::reading(&format!("mirroring {}", program.display()), program);
-                let f =
-                    std::fs::File::open(program).map_err(|e| CliError::Io(program.clone(), e))?;
+                let f = volcomp_core::io::inputs::open(program, "the program")
+                    .map_err(|e| CliError::Io(program.clone(), e))?;
                 let reader: Box<dyn std::io::BufRead> = Box::new(Counted::new(
                     std::io::BufReader::with_capacity(1 << 16, f),
                     bar.clone(),
@@ -308,7 +309,8 @@ fn mirror_header(
 ) -> Result<ProgramHeader, CliError> {
     let mut files = Vec::new();
     for (label, p) in [("surf", &a.nominal), ("probes", &a.measured)] {
-        let bytes = std::fs::read(p).map_err(|e| CliError::Io(p.clone(), e))?;
+        let bytes = volcomp_core::io::inputs::read(p, "an input")
+            .map_err(|e| CliError::Io(p.clone(), e))?;
         files.push((label.to_string(), file_name(p), sha256_hex(&bytes)));
     }
     Ok(ProgramHeader {

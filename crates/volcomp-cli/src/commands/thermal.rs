@@ -135,7 +135,8 @@ pub fn run(a: ThermalArgs) -> Result<(), CliError> {
 }
 
 fn read(path: &Path) -> Result<String, CliError> {
-    std::fs::read_to_string(path).map_err(|e| CliError::Io(path.to_path_buf(), e))
+    volcomp_core::io::inputs::read_to_string(path, "an input")
+        .map_err(|e| CliError::Io(path.to_path_buf(), e))
 }
 
 fn parse_ranges(text: &str) -> Result<[[f64; 2]; 3], CliError> {

@@ -24,3 +24,15 @@ pub mod provenance;
 pub mod table;
 
 pub use load::{load_model, LoadError, LoadOptions, LoadedModel, ModelKind};
+pub use volcomp_geom::inputs;
+
+/// A name a user gave (a file name), as printed in messages: control
+/// characters escaped (`\x1b`), so that it cannot drive the terminal.
+pub fn shown_name(name: &str) -> String {
+    volcomp_gcode::error::escape_name(name).into_owned()
+}
+
+/// A path as printed in messages ([`shown_name`]).
+pub fn shown_path(path: &std::path::Path) -> String {
+    shown_name(&path.display().to_string())
+}

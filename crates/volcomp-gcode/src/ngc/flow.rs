@@ -622,13 +622,18 @@ impl<R: BufRead> Walker<R> {
                     col,
                 ));
             }
-            let text = std::fs::read(&path).map_err(|e| {
-                self.at_current(
-                    format!("cannot read {}: {e}", path.display()),
-                    "check the file",
-                    col,
-                )
-            })?;
+            // Recorded as read, so that no output of the command replaces it
+            // (volcomp_geom::inputs); bounded like the size check above, for
+            // a name that is a FIFO or a device.
+            let role = format!("the subroutine file of `o{} call`", show_label(label));
+            let text = volcomp_geom::inputs::read_at_most(&path, &role, MAX_SUB_FILE_BYTES)
+                .map_err(|e| {
+                    self.at_current(
+                        format!("cannot read {}: {e}", path.display()),
+                        "check the file",
+                        col,
+                    )
+                })?;
             self.flow
                 .files
                 .push((path.display().to_string(), Lines::of(text)));

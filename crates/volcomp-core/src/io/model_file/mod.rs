@@ -380,10 +380,11 @@ pub fn parse_model(
 
 /// Reads a model file and the tables it names (relative to its directory).
 pub fn read_model(path: &Path) -> Result<KinematicModel, ModelFileError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ModelFileError::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })?;
+    let text =
+        crate::io::inputs::read_to_string(path, "the model").map_err(|e| ModelFileError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
     model_from_text(path, &text)
 }
 
@@ -391,9 +392,13 @@ pub fn read_model(path: &Path) -> Result<KinematicModel, ModelFileError> {
 /// names relative to its directory.
 pub fn model_from_text(path: &Path, text: &str) -> Result<KinematicModel, ModelFileError> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let role = format!(
+        "a table named in {}",
+        crate::io::shown_name(&crate::compensate::file_name(path))
+    );
     let mut read = |name: &str| -> Result<(String, String), std::io::Error> {
         let p: PathBuf = dir.join(name);
-        std::fs::read_to_string(&p).map(|t| (p.display().to_string(), t))
+        crate::io::inputs::read_to_string(&p, &role).map(|t| (p.display().to_string(), t))
     };
     Ok(parse_model(text, &path.display().to_string(), &mut read)?)
 }
