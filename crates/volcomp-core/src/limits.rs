@@ -22,6 +22,30 @@ pub const MAX_POINTS_PER_BLOCK: u64 = 1_000_000;
 /// The caller may raise or remove the cap (`None`).
 pub const DEFAULT_MAX_OUTPUT_BYTES: u64 = 256 * 1024 * 1024;
 
+/// Longest line of a table file (CSV): 1 MiB. A table's line is a row of
+/// numbers (a thermal file with a thousand sensors takes some 20 kB); a
+/// longer line is not a table, and is refused before it is split into
+/// fields.
+pub const MAX_TABLE_LINE_BYTES: usize = 1 << 20;
+
+/// Most data rows of one table file: 5 million (a map of a million points
+/// per axis, forward and reverse, with room). Beyond it the table is
+/// refused at the row that passes it; a finer table than this is finer
+/// than any measurement (a point per 0.2 µm along a metre).
+pub const MAX_TABLE_ROWS: usize = 5_000_000;
+
+/// Largest position a table may give, in mm: the coordinate limit of
+/// programs ([`volcomp_gcode::interp::MAX_COORDINATE_MM`], 100 m).
+/// No program point reaches beyond it, so a table position beyond it is in
+/// another unit (µm) and is refused at its row.
+pub const MAX_POSITION_MM: f64 = volcomp_gcode::interp::MAX_COORDINATE_MM;
+
+/// Largest error a map may give, in µm: 10 mm. The errors of machine tools
+/// are micrometres to a few tenths of a millimetre; a value beyond this is
+/// in another unit (nm) or in the wrong column, and is refused at its row
+/// rather than at the first program line that meets it.
+pub const MAX_ERROR_UM: f64 = 10_000.0;
+
 /// Checks that `points` (which may be a float estimate, possibly infinite or
 /// NaN) stays within [`MAX_POINTS_PER_BLOCK`]; the error says how many.
 ///

@@ -215,7 +215,7 @@ impl<R: BufRead> Walker<R> {
             if !self.flow.keeps_lines() && pos.src == MAIN {
                 self.main.forget_before(pos.line);
             }
-            if let Err(e) = self.flow.count_line(pos.line as u64 + 1) {
+            if let Err(e) = self.flow.count_line(pos) {
                 return Err(self.locate(e));
             }
             if let Some(ev_kind) = self.prepare(pos)? {

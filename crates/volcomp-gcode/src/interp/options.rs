@@ -21,9 +21,11 @@ pub struct InterpOptions {
     /// Largest distance (mm) between a G5/G5.1/G5.2 spline and the chords
     /// the interpreter linearises it into.
     pub spline_tolerance_mm: f64,
-    /// Most lines one run executes, counting every pass of a loop and every
-    /// line of a called subroutine; a program past it is refused as a loop
-    /// that never ends (default [`crate::ngc::flow::MAX_EXECUTED_LINES`]).
+    /// Most lines one run executes again — every pass of a loop after the
+    /// first, every line of a called subroutine; a program past it is
+    /// refused as a loop that never ends (default
+    /// [`crate::ngc::flow::MAX_EXECUTED_LINES`]). Lines of the main program
+    /// run once are not counted, so a long program without loops always runs.
     pub max_executed_lines: u64,
 }
 

@@ -31,12 +31,12 @@ fn err(file: &str, row: usize, column: usize, message: String, help: &str) -> Ma
 /// Reads a thermal CSV whose header must name `required` (any order);
 /// returns the table and the required columns' indices. With `others`
 /// false, any other column is refused.
-fn parse_csv(
-    text: &str,
+fn parse_csv<'a>(
+    text: &'a str,
     file: &str,
     required: &[&str],
     others: bool,
-) -> Result<(CsvTable, Vec<usize>), MapFileError> {
+) -> Result<(CsvTable<'a>, Vec<usize>), MapFileError> {
     let layout = required.join(",");
     let t = CsvTable::parse(
         text,
