@@ -63,13 +63,28 @@ pub struct RunArgs {
     #[arg(long, value_parser = parse_axis)]
     pub axis: Option<volcomp_geom::Axis>,
     /// σ_t: largest relative standard deviation (σ/P̄) across feed rates of a geometric line.
-    #[arg(long, value_name = "SIGMA", default_value_t = 0.05)]
+    #[arg(
+        long,
+        value_name = "SIGMA",
+        default_value_t = 0.05,
+        allow_negative_numbers = true
+    )]
     pub sigma_t: f64,
     /// P_t: smallest normalised mean power P̄ of a modelled line (0.01 = 1 % of the power).
-    #[arg(long, value_name = "P", default_value_t = 0.01)]
+    #[arg(
+        long,
+        value_name = "P",
+        default_value_t = 0.01,
+        allow_negative_numbers = true
+    )]
     pub p_t: f64,
     /// Fraction of the samples in each raised-cosine end of the taper window (0 … 0.5).
-    #[arg(long, value_name = "FRACTION", default_value_t = 0.1)]
+    #[arg(
+        long,
+        value_name = "FRACTION",
+        default_value_t = 0.1,
+        allow_negative_numbers = true
+    )]
     pub taper: f64,
     /// How spectra are normalised before P̄ and σ are taken.
     #[arg(long, value_enum, default_value_t = NormaliseArg::Common)]
@@ -79,7 +94,7 @@ pub struct RunArgs {
     #[arg(long, value_enum, default_value_t = CutoffArg::CrossValidation)]
     pub cutoff: CutoffArg,
     /// Use this number of harmonics m instead of the one the rule chooses.
-    #[arg(long, value_name = "M")]
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub harmonics: Option<usize>,
     /// The files' displacement has the opposite sign of the deviation (e.g.
     /// workpiece relative to tool): negate it.
@@ -113,7 +128,12 @@ pub struct TableArgs {
     /// A model written by `volcomp straightness fit`.
     pub model: PathBuf,
     /// Distance between table rows (mm); keep it well under the cut-off wavelength.
-    #[arg(long, value_name = "MM", default_value_t = 1.0)]
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
     pub step: f64,
     /// Write the table here; standard output without it.
     #[arg(short, long, value_name = "CSV")]

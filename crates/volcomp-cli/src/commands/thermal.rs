@@ -17,7 +17,7 @@ use volcomp_core::identify::thermal::files::{
 use volcomp_core::identify::thermal::identify::DEFAULT_RELATIVE_THRESHOLD;
 use volcomp_core::identify::thermal::report;
 use volcomp_core::identify::thermal::uncertainty::{
-    axis_line_bands_with_progress, LineBands, LINE_INTERVALS,
+    axis_line_bands_with_progress, check_band_samples, LineBands, LINE_INTERVALS,
 };
 use volcomp_core::identify::thermal::ThermalError;
 
@@ -58,19 +58,19 @@ pub struct FitArgs {
     #[arg(long, default_value = "w X' Y' b Z t")]
     pub chain: String,
     /// Maximum Legendre order of the components.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, allow_negative_numbers = true)]
     pub order: usize,
     /// Tool length offset of the probe (mm).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub probe_length_mm: f64,
     /// Lagged cycles of every sensor in the regression (ARX-style inputs).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     pub lags: usize,
     /// Relative singular-value threshold for rank deficiency.
-    #[arg(long, default_value_t = DEFAULT_RELATIVE_THRESHOLD)]
+    #[arg(long, default_value_t = DEFAULT_RELATIVE_THRESHOLD, allow_negative_numbers = true)]
     pub threshold: f64,
     /// Points per component table in predicted models.
-    #[arg(long, default_value_t = 61)]
+    #[arg(long, default_value_t = 61, allow_negative_numbers = true)]
     pub table_samples: usize,
     /// Also write the 95 % Monte Carlo confidence bands of the last cycle's
     /// identified TCP error along lines through the middle of the volume in
@@ -78,7 +78,12 @@ pub struct FitArgs {
     #[arg(long, value_name = "FILE")]
     pub bands: Option<PathBuf>,
     /// Monte Carlo draws for --bands.
-    #[arg(long, default_value_t = 400, requires = "bands")]
+    #[arg(
+        long,
+        default_value_t = 400,
+        requires = "bands",
+        allow_negative_numbers = true
+    )]
     pub samples: usize,
     /// Output thermal model (TOML).
     #[arg(short, long)]
@@ -94,7 +99,7 @@ pub struct PredictArgs {
     #[arg(long, value_name = "CSV")]
     pub temperatures: PathBuf,
     /// Cycle number of the moment (default: the last row).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub cycle: Option<usize>,
     /// Output 21-component model (TOML); the tables go beside it as <stem>.csv.
     #[arg(short, long)]
@@ -111,7 +116,7 @@ pub struct PlotArgs {
     #[arg(long)]
     pub model: PathBuf,
     /// How many parameters to draw (the largest drifts relative to their uncertainty first).
-    #[arg(long, default_value_t = 6)]
+    #[arg(long, default_value_t = 6, allow_negative_numbers = true)]
     pub top: usize,
     /// Output picture (.svg or .png), or a self-contained HTML report (.html).
     #[arg(short, long)]
@@ -160,6 +165,28 @@ fn parse_ranges(text: &str) -> Result<[[f64; 2]; 3], CliError> {
     Ok(r)
 }
 
+/// A thermal option error said with the command line's flags (the library
+/// names options by their names: `table_samples` is `--table-samples`).
+fn flagged(e: ThermalError) -> CliError {
+    let text = e.to_string();
+    for (name, flag) in [
+        ("table_samples", "--table-samples"),
+        ("samples", "--samples"),
+        ("order", "--order"),
+        ("lags", "--lags"),
+        ("threshold", "--threshold"),
+        ("ranges_mm", "--ranges-mm"),
+        ("probe_length_mm", "--probe-length-mm"),
+    ] {
+        if let Some(rest) = text.strip_prefix(name) {
+            if rest.starts_with(' ') {
+                return CliError::reworded(format!("{flag}{rest}"), e);
+            }
+        }
+    }
+    e.into()
+}
+
 fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
     plan.input("--measurements", &a.measurements)
@@ -169,18 +196,6 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         .output_opt("--bands", a.bands.as_ref());
     check(&plan)?;
     let ranges_mm = parse_ranges(&a.ranges_mm)?;
-    let art_name = a.artifact.display().to_string();
-    let array = parse_artifact(&read(&a.artifact)?, &art_name)?;
-    let m_name = a.measurements.display().to_string();
-    let cycles = parse_measurements(&read(&a.measurements)?, &m_name, &array)?;
-    let t_name = a.temperatures.display().to_string();
-    let temps = parse_temperatures(&read(&a.temperatures)?, &t_name)?;
-    if !(a.threshold > 0.0 && a.threshold < 1.0) {
-        return Err(CliError::Message(format!(
-            "--threshold {}: give a relative threshold between 0 and 1 (default {DEFAULT_RELATIVE_THRESHOLD})",
-            a.threshold
-        )));
-    }
     let options = FitOptions {
         chain: a.chain.clone(),
         ranges_mm,
@@ -190,6 +205,17 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         relative_threshold: a.threshold,
         table_samples: a.table_samples,
     };
+    // Every option is checked before any file is read.
+    options.check().map_err(flagged)?;
+    if a.bands.is_some() {
+        check_band_samples(a.samples).map_err(flagged)?;
+    }
+    let art_name = a.artifact.display().to_string();
+    let array = parse_artifact(&read(&a.artifact)?, &art_name)?;
+    let m_name = a.measurements.display().to_string();
+    let cycles = parse_measurements(&read(&a.measurements)?, &m_name, &array)?;
+    let t_name = a.temperatures.display().to_string();
+    let temps = parse_temperatures(&read(&a.temperatures)?, &t_name)?;
     let (file, idents) =
         files::fit(&array, &cycles, &temps, &t_name, &options).map_err(|e| match e {
             ThermalError::OutsideRange(r) => CliError::Message(r.describe("--ranges-mm")),
@@ -209,7 +235,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
             .last()
             .ok_or_else(|| CliError::Message("no cycles to draw bands for".into()))?;
         let model = files::poly_model(&a.chain, ranges_mm, a.order, a.probe_length_mm)?;
-        let samples = a.samples.max(10);
+        let samples = a.samples;
         // 123 points × `samples` draws: a bar from 100 000 model evaluations.
         let points = 3 * (u64::from(LINE_INTERVALS) + 1);
         let mut bar = Bar::items(

@@ -281,8 +281,8 @@ impl<'a> CsvTable<'a> {
         }
         let bytes = self.text.as_bytes();
         let mut start = 0;
-        let mut line = 1;
-        for end in memchr::memchr_iter(b'\n', bytes).chain(std::iter::once(bytes.len())) {
+        let ends = memchr::memchr_iter(b'\n', bytes).chain(std::iter::once(bytes.len()));
+        for (line, end) in (1..).zip(ends) {
             if end - start > MAX_TABLE_LINE_BYTES {
                 return Err(MapFileError::new(
                     &self.file,
@@ -298,7 +298,6 @@ impl<'a> CsvTable<'a> {
                 .with_source(&self.text[start..start + 200.min(end - start)], 0));
             }
             start = end + 1;
-            line += 1;
         }
         Ok(())
     }
