@@ -46,6 +46,10 @@ pub const MAX_POSITION_MM: f64 = volcomp_gcode::interp::MAX_COORDINATE_MM;
 /// rather than at the first program line that meets it.
 pub const MAX_ERROR_UM: f64 = 10_000.0;
 
+/// Largest angular error a map may give, in µrad: 0.01 rad (0.57°).
+/// Angular errors of machine tools are tens of microradians.
+pub const MAX_ANGLE_URAD: f64 = 10_000.0;
+
 /// Checks that `points` (which may be a float estimate, possibly infinite or
 /// NaN) stays within [`MAX_POINTS_PER_BLOCK`]; the error says how many.
 ///

@@ -105,9 +105,9 @@ struct RawSquareness {
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawLine {
-    point_mm: Option<Spanned<[f64; 3]>>,
+    point_mm: Option<Spanned<Vec<f64>>>,
     tool_length_mm: Option<Spanned<f64>>,
-    tool_offset_mm: Option<Spanned<[f64; 3]>>,
+    tool_offset_mm: Option<Spanned<Vec<f64>>>,
 }
 
 #[derive(serde::Deserialize)]
@@ -119,9 +119,9 @@ struct RawModel {
     chain: Option<Spanned<String>>,
     tables: Option<Spanned<RawTables>>,
     angles: Option<Spanned<String>>,
-    measuring_point_mm: Option<Spanned<[f64; 3]>>,
+    measuring_point_mm: Option<Spanned<Vec<f64>>>,
     measuring_tool_length_mm: Option<Spanned<f64>>,
-    measuring_tool_offset_mm: Option<Spanned<[f64; 3]>>,
+    measuring_tool_offset_mm: Option<Spanned<Vec<f64>>>,
     squareness_urad: Option<Spanned<RawSquareness>>,
     measuring: Option<BTreeMap<Spanned<String>, Spanned<RawLine>>>,
 }
@@ -245,9 +245,16 @@ pub fn parse_header(text: &str, file: &str) -> Result<ModelHeader, MapFileError>
         yz_urad: get(&sq.yz, "yz")?,
         zx_urad: get(&sq.zx, "zx")?,
     };
-    let finite3 = |v: &Spanned<[f64; 3]>, what: &str| -> Result<Vec3, MapFileError> {
-        if v.get_ref().iter().all(|x| x.is_finite()) {
-            Ok(Vec3::from_array(*v.get_ref()))
+    let finite3 = |v: &Spanned<Vec<f64>>, what: &str| -> Result<Vec3, MapFileError> {
+        let values = v.get_ref();
+        if values.len() != 3 {
+            Err(at(
+                v.span().start,
+                format!("{what} has {} values", values.len()),
+                "write three numbers in mm: [x, y, z]",
+            ))
+        } else if values.iter().all(|x| x.is_finite()) {
+            Ok(Vec3::new(values[0], values[1], values[2]))
         } else {
             Err(at(
                 v.span().start,
@@ -257,7 +264,7 @@ pub fn parse_header(text: &str, file: &str) -> Result<ModelHeader, MapFileError>
         }
     };
     let tool = |length: &Option<Spanned<f64>>,
-                offset: &Option<Spanned<[f64; 3]>>,
+                offset: &Option<Spanned<Vec<f64>>>,
                 what: &str|
      -> Result<Option<Vec3>, MapFileError> {
         match (length, offset) {
@@ -706,6 +713,16 @@ mod tests {
             CSV,
         );
         assert_eq!(e.row, 4, "{e}");
+        // Four values where a point has three: refused at the array.
+        let e = err(
+            &TOML.replace(
+                "measuring_point_mm = [0, 50, 60]",
+                "measuring_point_mm = [0, 50, 60, 70]",
+            ),
+            CSV,
+        );
+        assert_eq!((e.row, e.column), (4, 22), "{e}");
+        assert!(e.message.contains("has 4 values"), "{e}");
         let e = err(
             &TOML.replace(
                 "tables = \"t.csv\"\n",
