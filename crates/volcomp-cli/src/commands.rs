@@ -126,7 +126,7 @@ impl Machine {
 /// point, …) to stderr as `file:line:column: warning: …`.
 pub fn print_warnings(file: &str, warnings: &[volcomp_gcode::Warning]) {
     for w in warnings {
-        eprintln!("{file}:{w}");
+        eprintln!("{}", crate::output::clean(&format!("{file}:{w}")));
     }
 }
 

@@ -63,14 +63,15 @@ fn main() -> ExitCode {
             if e.is_broken_pipe() {
                 return ExitCode::from(output::EXIT_OK);
             }
-            eprintln!("error: {e}");
+            // File names and values a user gave are printed escaped.
+            eprintln!("error: {}", output::clean(&e.to_string()));
             if e.passed_size_limit() {
                 eprintln!("  help: raise the limit with --max-output-size SIZE (e.g. 1G), or remove it with --max-output-size none");
             }
             // Partial commits already list what was written.
             if !matches!(e, output::CliError::Output(_)) {
                 if let Some(note) = output::outputs_note() {
-                    eprintln!("{note}");
+                    eprintln!("{}", output::clean(&note));
                 }
             }
             ExitCode::from(e.exit_code())

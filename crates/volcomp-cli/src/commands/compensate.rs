@@ -242,7 +242,7 @@ pub fn compensate_into(
         .file_name(file.as_str())
         .allow_recompensate(allow_recompensate)
         .on_point(on_point)
-        .on_warning(|w| eprintln!("{file}:{w}"))
+        .on_warning(|w| eprintln!("{}", crate::output::clean(&format!("{file}:{w}"))))
         .run(reader, out)
         .map_err(|e| machine.explain(e));
     bar.finish();

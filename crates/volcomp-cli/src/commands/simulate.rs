@@ -58,7 +58,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     let mut warnings: Vec<(u64, String)> = Vec::new();
     let report = simulation
         .on_warning(|w| {
-            eprintln!("{name}:{w}");
+            eprintln!("{}", crate::output::clean(&format!("{name}:{w}")));
             warnings.push((w.line, w.message.clone()));
         })
         .on_segment(|s| {

@@ -255,7 +255,10 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         write_bands(path, &lines, samples)?;
     }
     for w in volcomp_core::identify::thermal::checks::noise_warnings(&cycles, &idents) {
-        eprintln!("volcomp: warning: {m_name}: {w}");
+        eprintln!(
+            "{}",
+            crate::output::clean(&format!("volcomp: warning: {m_name}: {w}"))
+        );
     }
     let first = &idents[0];
     let (lo, hi) = file.sigma0_range_um();
