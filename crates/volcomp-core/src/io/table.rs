@@ -475,6 +475,12 @@ impl<'a> CsvTable<'a> {
     /// (`_mm`, `_um`, `_urad`, `_h`, `_c`, …).
     pub fn number(&self, record: &Record, col: usize) -> Result<f64, MapFileError> {
         let raw = self.text(record, col);
+        if let Ok(v) = raw.parse::<f64>() {
+            if v.is_finite() {
+                return Ok(v);
+            }
+        }
+        // The error's words only when there is an error.
         let text = shown(raw);
         let unit = self.header.get(col).and_then(|h| unit_of(h));
         let in_unit = unit.map_or(String::new(), |u| format!(" in {u}"));

@@ -366,7 +366,27 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
         for (a, com) in assigned.iter().enumerate() {
             if let Some(com) = com {
                 let p = dir.join(com);
-                let t = read_named(&p, path)?;
+                // inputs lane: a table that cannot be read is reported at
+                // the .CMA line that names it.
+                let t = read_named(&p, path).map_err(|e| match e {
+                    ControllerReadError::Io { path: p, source } => {
+                        let row = text
+                            .lines()
+                            .position(|l| l.split_whitespace().any(|w| w == com))
+                            .map_or(1, |i| i + 1);
+                        ControllerReadError::from(located(
+                            &file,
+                            &text,
+                            row,
+                            format!(
+                                "cannot read the table {}: {source}",
+                                crate::io::shown_path(&p)
+                            ),
+                            "the tables of a .CMA are read from its folder",
+                        ))
+                    }
+                    other => other,
+                })?;
                 axes[a] = Some(heidenhain::parse_com(&t, &p.display().to_string(), a)?);
             }
         }
