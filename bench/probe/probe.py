@@ -342,49 +342,68 @@ def map_cases(rng):
 def option_cases(rng):
     cases = []
     comp = COMP
-    def opt(name, extra, where, expect="refuse"):
-        cases.append(Case("options", name, comp + extra, expect=expect, where=where))
-    for g in ["0", "-1", "2", "nan", "inf", "x", "1e-400"]:
-        opt(f"ilc gain {g}", ["--method", "ilc", "--gain", g], ["gain"])
-    for n in ["0", "-1", "1e9", "x", "100000000000"]:
-        opt(f"ilc max-iterations {n}", ["--method", "ilc", "--max-iterations", n], ["max-iterations"])
-    opt("ilc gain 1e-9 huge iterations", ["--method", "ilc", "--gain", "1e-9", "--max-iterations", "1000000000"], ["max-iterations"])
-    opt("gain with direct", ["--method", "direct", "--gain", "0.3"], ["gain"])
-    opt("pitch with controller compensating positioning", ["--method", "pitch", "--controller-compensates", "positioning"], ["pitch"])
-    for s in ["0", "-3", "1e12", "x", "4294967296"]:
-        opt(f"segments {s}", ["--segments", s], ["segments"])
-    for s in ["0", "-1", "nan", "1e-12", "x"]:
-        opt(f"segment-length {s}", ["--segment-length", s], ["segment-length"])
-    for s in ["0", "-1", "nan", "1e-15"]:
-        opt(f"chord-tolerance {s}", ["--chord-tolerance", s], ["chord-tolerance"])
-    for s in ["0", "-1", "nan", "1e-12"]:
-        opt(f"contour-tolerance {s}", ["--contour-tolerance-um", s], ["contour-tolerance-um"])
-    for s in ["0", "-1", "1e-12"]:
-        opt(f"min-segment-length {s}", ["--min-segment-length", s], ["min-segment-length"])
-    for s in ["0", "10", "-1", "255", "x"]:
-        opt(f"decimals {s}", ["--decimals", s], ["decimals"])
-    for s in ["0", "-1", "nan"]:
-        opt(f"max-correction {s}", ["--max-correction", s], ["max-correction"])
-    for s in ["0", "-1", "nan"]:
-        opt(f"max-residual {s}", ["--max-residual-um", s], ["max-residual-um"])
-    for s in ["-1", "x", "1Q"]:
-        opt(f"max-output-size {s}", ["--max-output-size", s], ["max-output-size"])
-    for s in ["1,2", "a,b,c", "nan,0,0", "1e9,0,0", ""]:
-        cases.append(Case("options", f"work-offset {s!r}", ["compensate", "part.ngc", "--map", "map.csv",
-                                                             "--work-offset", s, "-o", "out.ngc"], where=["work-offset"]))
-    opt("negative work offset is a value", ["--work-offset", "-10,150,100"], [], expect="refuse")
+    bad_any = ["nan", "inf", "-inf", "x", "", "1e400", "0x1"]
+    # Every numeric option of compensate with values that cannot be, each
+    # refused naming the option.
+    numeric = {
+        "--gain": (["--method", "ilc"], ["0", "-1", "2", "1.0000001", "-0"]),
+        "--max-iterations": (["--method", "ilc"], ["0", "-1", "1e9", "1000000000", "4294967296", "1.5"]),
+        "--segments": ([], ["0", "-3", "1e12", "1000000000", "4294967296", "1.5"]),
+        "--segment-length": ([], ["0", "-1", "1e-12", "1e-7"]),
+        "--chord-tolerance": ([], ["0", "-1", "1e-15", "1e-12", "100"]),
+        "--contour-tolerance-um": ([], ["0", "-1", "1e-12", "1e-9"]),
+        "--min-segment-length": ([], ["0", "-1", "1e-12", "1e-9"]),
+        "--decimals": ([], ["0", "10", "-1", "255", "1.5"]),
+        "--max-correction": ([], ["0", "-1"]),
+        "--max-residual-um": ([], ["0", "-1"]),
+        "--take-up-tolerance-um": ([], ["0", "-1"]),
+        "--max-output-size": ([], ["-1", "1Q", "0x10", "1.5.2"]),
+    }
+    for flag, (pre, values) in numeric.items():
+        for v in values + bad_any:
+            if flag == "--max-output-size" and v in ("inf",):
+                continue
+            cases.append(Case("options", f"compensate {flag} {v!r}", comp + pre + [flag, v], where=[flag]))
+    # Options that mean nothing with the method chosen.
+    cases.append(Case("options", "gain with direct", comp + ["--method", "direct", "--gain", "0.3"], where=["--gain"]))
+    cases.append(Case("options", "max-iterations with exact", comp + ["--max-iterations", "5"], where=["--max-iterations"]))
+    cases.append(Case("options", "pitch with the controller compensating positioning",
+                      comp + ["--method", "pitch", "--controller-compensates", "positioning"], where=["pitch"]))
+    # Valid values stay valid.
+    for extra in (["--method", "ilc", "--gain", "0.5", "--max-iterations", "50"], ["--segments", "20"],
+                  ["--segment-length", "-0"][:0] + ["--segment-length", "0.5"], ["--decimals", "4"],
+                  ["--work-offset", "-10,150,100", "--clamp"], ["--chord-tolerance", "0.001"]):
+        cases.append(Case("options", f"valid {' '.join(extra)}", comp + extra, expect="ok"))
+    for s_ in ["1,2", "a,b,c", "nan,0,0", "1e9,0,0", "", "1,2,3,4", "inf,0,0"]:
+        cases.append(Case("options", f"work-offset {s_!r}", ["compensate", "part.ngc", "--map", "map.csv",
+                                                              "--work-offset", s_, "-o", "out.ngc"], where=["work-offset"]))
+    sim = ["simulate", "part.ngc", "--map", "map.csv", "--setup", "machine.toml"]
+    for v in ["0", "-1", "1e-15"] + bad_any:
+        cases.append(Case("options", f"simulate --chord-tolerance {v!r}", sim + ["--chord-tolerance", v], where=["--chord-tolerance"]))
     th = ["thermal", "fit", "--measurements", "m.csv", "--temperatures", "t.csv", "--artifact", "a.csv",
           "--ranges-mm", "0:600,0:400,0:300", "-o", "th.toml"]
-    for flag, v in [("--table-samples", "0"), ("--table-samples", "1"), ("--table-samples", "1000000000"),
-                    ("--order", "1000"), ("--lags", "100000"), ("--threshold", "0"), ("--threshold", "2"),
-                    ("--threshold", "-1")]:
-        cases.append(Case("options", f"thermal fit {flag} {v}", th + [flag, v], where=[flag]))
-    for v in ["1e9", "0", "5", "-1", "1000000000"]:
+    for flag, values in [("--table-samples", ["0", "1", "1000000000", "-1"]), ("--order", ["1000", "-1", "11"]),
+                         ("--lags", ["100000", "-1"]), ("--threshold", ["0", "2", "-1", "1", "nan"]),
+                         ("--probe-length-mm", ["nan", "inf"])]:
+        for v in values:
+            cases.append(Case("options", f"thermal fit {flag} {v}", th + [flag, v], where=[flag]))
+    for v in ["1e9", "0", "5", "-1", "1000000000", "10001"]:
         cases.append(Case("options", f"thermal fit --samples {v}", th + ["--bands", "b.csv", "--samples", v], where=["--samples"]))
+    for v in ["1:2", "0:600,0:400", "0:600,0:400,300:0", "a:b,0:1,0:1", "0:nan,0:1,0:1"]:
+        cases.append(Case("options", f"thermal fit --ranges-mm {v}", th[:-4] + ["--ranges-mm", v, "-o", "th.toml"], where=["--ranges-mm"]))
     for v in ["-1", "x", "1e3"]:
         cases.append(Case("options", f"thermal predict --cycle {v}",
                           ["thermal", "predict", "--model", "th.toml", "--temperatures", "t.csv", "--cycle", v, "-o", "p.toml"],
                           where=["--cycle"]))
+    st = ["straightness", "fit", "runs/x-4800.csv", "runs/x-7200.csv", "runs/x-9600.csv", "-o", "s.toml"]
+    for flag, values in [("--sigma-t", ["0", "-1", "nan"]), ("--p-t", ["0", "1", "2", "-1"]),
+                         ("--taper", ["-0.1", "0.6", "nan"]), ("--harmonics", ["0", "-1", "100000"])]:
+        for v in values:
+            cases.append(Case("options", f"straightness fit {flag} {v}", st + [flag, v], where=[flag]))
+    for flag, values in [("--step", ["0", "-1", "nan", "1e-9"])]:
+        for v in values:
+            cases.append(Case("options", f"map export {flag} {v}",
+                              ["map", "export", "map.csv", "--to", "heidenhain", "-o", "hh", flag, v], where=[flag]))
     return cases
 
 
@@ -510,13 +529,16 @@ def bounded_cases(rng):
 
 def misread_cases(rng):
     cases = []
-    for n, eol, expect in [(251, "\r\n", "ok"), (252, "\r\n", "refuse"), (252, "\n", "ok"), (253, "\n", "refuse")]:
+    # LinuxCNC reads 253 bytes of a line with its ending (rs274 checked):
+    # 252 characters before LF, 251 before CR LF.
+    for n, eol in [(n, e) for n in range(246, 257) for e in ("\n", "\r\n")]:
+        expect = "ok" if n + len(eol) <= 253 else "refuse"
         line = "G1 X1 F100 (" + "a" * (n - 13) + ")"
         prog = "G21" + eol + "G0 X0 Y0 Z0" + eol + line + eol + "M2" + eol
         cases.append(Case("misreads", f"{n}-char line {eol!r}", ["moves", "long.ngc", "--work-offset", "250,200,150"],
                           expect=expect, where=["long.ngc:3:", "Command too long"], files={"long.ngc": prog}))
     # µm positions under position_mm, tables of every length.
-    for scale in [1000, 25.4, 10]:
+    for scale in [1000, 1000.0001]:
         def f(d, scale=scale):
             p = os.path.join(d, "map.csv")
             with open(p) as fh:

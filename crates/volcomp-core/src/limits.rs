@@ -50,6 +50,28 @@ pub const MAX_ERROR_UM: f64 = 10_000.0;
 /// Angular errors of machine tools are tens of microradians.
 pub const MAX_ANGLE_URAD: f64 = 10_000.0;
 
+/// Most ILC iterations per point: 1000. ILC with the default gain 0.5
+/// halves the residual each step (a micrometre to a femtometre in 30
+/// steps); a point that has not converged in 1000 steps will not, and the
+/// work is points × iterations.
+pub const MAX_ILC_ITERATIONS: u64 = 1000;
+
+/// Most segments a feed move is split into by a fixed count: 10 000 (the
+/// papers split into 10 to 30).
+pub const MAX_SEGMENTS_PER_MOVE: u64 = 10_000;
+
+/// Shortest segment a fixed or adaptive splitting may ask for: 1 µm
+/// (0.001 mm), about the size of the corrections themselves; shorter
+/// segments only multiply the work and the output.
+pub const MIN_SEGMENT_LENGTH_MM: f64 = 1e-3;
+
+/// Smallest chord tolerance for linearising arcs and splines: 1 nm
+/// (1e-6 mm), a thousandth of the default.
+pub const MIN_CHORD_TOLERANCE_MM: f64 = 1e-6;
+
+/// Smallest contour tolerance of adaptive splitting: 1 nm (0.001 µm).
+pub const MIN_CONTOUR_TOLERANCE_UM: f64 = 1e-3;
+
 /// Checks that `points` (which may be a float estimate, possibly infinite or
 /// NaN) stays within [`MAX_POINTS_PER_BLOCK`]; the error says how many.
 ///

@@ -114,7 +114,7 @@ mod tests {
         let at = |s, k| value_offset(TEXT, s, k).map(|o| row_col(TEXT, o));
         assert_eq!(at(Scope::Top, "offset_um"), Some((2, 13)));
         assert_eq!(at(Scope::Table("x"), "start_mm"), Some((4, 12)));
-        assert_eq!(at(Scope::Entry("params", 1), "intercept"), Some((8, 18)));
+        assert_eq!(at(Scope::Entry("params", 1), "intercept"), Some((8, 17)));
         assert_eq!(at(Scope::Entry("params", 0), "intercept"), Some((6, 13)));
         assert_eq!(at(Scope::Top, "start_mm"), None);
     }
@@ -129,12 +129,11 @@ mod tests {
             "not finite",
             "write a number",
         );
-        assert_eq!((e.row, e.column), (8, 18));
+        assert_eq!((e.row, e.column), (8, 17));
         let s = e.to_string();
-        assert!(s.starts_with("t.toml:8:18: not finite"), "{s}");
-        assert!(
-            s.contains("8 |   intercept  =  nan\n  |                  ^"),
-            "{s}"
-        );
+        assert!(s.starts_with("t.toml:8:17: not finite"), "{s}");
+        // The caret under the value's first character (16 characters in).
+        let caret = format!("8 |   intercept  =  nan\n  | {}^", " ".repeat(16));
+        assert!(s.contains(&caret), "{s}");
     }
 }

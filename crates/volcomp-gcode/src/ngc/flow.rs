@@ -46,7 +46,7 @@ pub const MAX_EXECUTED_LINES: u64 = 10_000_000;
 
 /// The help of a run stopped by [`MAX_EXECUTED_LINES`]: the words a front
 /// end rewords with its option.
-pub const REPEATED_LINES_HELP: &str = "check the loop's condition; volcomp stops a run after this many lines of loops and calls (the repeated-lines limit of the interpreter options, if the program really loops this much)";
+pub const REPEATED_LINES_HELP: &str = "check the loop's condition; volcomp stops a run after this many lines of loops and calls: raise {max_repeated_lines} if the program really loops this much";
 
 /// Most nested subroutine calls (LinuxCNC's `INTERP_SUB_ROUTINE_LEVELS`
 /// is 10 levels including the main program).

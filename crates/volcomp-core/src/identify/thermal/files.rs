@@ -427,53 +427,64 @@ impl FitOptions {
     /// order (≤ [`MAX_ORDER`]), the lags (≤ [`MAX_LAGS`]), the points per
     /// table ([`TABLE_SAMPLES`]), the threshold (0 … 1), the ranges
     /// (finite, increasing) and the probe length (finite). The message
-    /// names the option.
+    /// starts with the option's name.
     pub fn check(&self) -> Result<(), ThermalError> {
-        self.bounds().map_err(|(_, message, help)| {
-            ThermalError::Invalid(format!("{message}\n  help: {help}"))
-        })?;
+        self.problem()
+            .map_err(|(name, problem)| ThermalError::Invalid(format!("{name} {problem}")))
+    }
+
+    /// The first option that cannot be used: its name and what is wrong
+    /// (words that follow the name: `must be …`).
+    pub fn problem(&self) -> Result<(), (&'static str, String)> {
+        self.size_problem()?;
         if !(self.relative_threshold > 0.0 && self.relative_threshold < 1.0) {
-            return Err(ThermalError::Invalid(format!(
-                "threshold {}: give a relative threshold between 0 and 1 (default {})",
-                self.relative_threshold,
-                super::identify::DEFAULT_RELATIVE_THRESHOLD
-            )));
+            return Err((
+                "threshold",
+                format!(
+                    "must be a relative threshold between 0 and 1 (default {}); got {}",
+                    super::identify::DEFAULT_RELATIVE_THRESHOLD,
+                    self.relative_threshold
+                ),
+            ));
         }
         if self.ranges_mm.iter().flatten().any(|v| !v.is_finite())
             || self.ranges_mm.iter().any(|[lo, hi]| lo >= hi)
         {
-            return Err(ThermalError::Invalid(format!(
-                "ranges_mm {:?}: give three increasing ranges of finite numbers (x0 < x1)",
-                self.ranges_mm
-            )));
+            return Err((
+                "ranges_mm",
+                format!(
+                    "must be three increasing ranges of finite numbers (x0 < x1); got {:?}",
+                    self.ranges_mm
+                ),
+            ));
         }
         if !self.probe_length_mm.is_finite() {
-            return Err(ThermalError::Invalid(format!(
-                "probe_length_mm {} is not a finite number",
-                self.probe_length_mm
-            )));
+            return Err((
+                "probe_length_mm",
+                "must be a finite length in mm".to_string(),
+            ));
         }
         Ok(())
     }
 
-    /// The size bounds: `(option, message, help)` of the first one passed.
-    fn bounds(&self) -> Result<(), (&'static str, String, String)> {
+    /// The bounds on the sizes of the work (order, lags, table points).
+    fn size_problem(&self) -> Result<(), (&'static str, String)> {
         if self.order > MAX_ORDER {
             return Err((
                 "order",
                 format!(
-                    "order {} is more than {MAX_ORDER}, the highest Legendre order volcomp fits",
+                    "must be at most {MAX_ORDER}, the highest Legendre order volcomp fits; got {}: measured thermal drifts are smooth, order 2 (the default) to 4 describes them",
                     self.order
                 ),
-                "measured thermal drifts are smooth: order 2 (the default) to 4 describes them"
-                    .into(),
             ));
         }
         if self.lags > MAX_LAGS {
             return Err((
                 "lags",
-                format!("lags {} is more than {MAX_LAGS}", self.lags),
-                "a regression with more lagged cycles than that has more unknowns than a measurement campaign has cycles".into(),
+                format!(
+                    "must be at most {MAX_LAGS}; got {}: a regression with more lagged cycles has more unknowns than a measurement campaign has cycles",
+                    self.lags
+                ),
             ));
         }
         let [lo, hi] = TABLE_SAMPLES;
@@ -481,10 +492,9 @@ impl FitOptions {
             return Err((
                 "table_samples",
                 format!(
-                    "table_samples {} is outside {lo} … {hi} (points per component table of a predicted model)",
+                    "must be {lo} to {hi} (points per component table of a predicted model; the default is 61); got {}",
                     self.table_samples
                 ),
-                format!("give {lo} to {hi} points; the default is 61"),
             ));
         }
         Ok(())
@@ -742,8 +752,20 @@ impl ThermalModelFile {
             relative_threshold: 0.5,
             table_samples: self.table_samples,
         };
-        if let Err((key, message, help)) = sizes.bounds() {
-            return Err(bad(Scope::Top, key, message, &help));
+        if let Err((key, problem)) = sizes.size_problem() {
+            return Err(bad(
+                Scope::Top,
+                key,
+                format!(
+                    "{key} = {} {problem}",
+                    match key {
+                        "order" => self.order,
+                        "lags" => self.lags,
+                        _ => self.table_samples,
+                    }
+                ),
+                "write the file again with `volcomp thermal fit`",
+            ));
         }
         Ok(())
     }

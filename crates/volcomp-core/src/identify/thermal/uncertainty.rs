@@ -50,15 +50,15 @@ pub fn analytic_std_um(
 pub const BAND_SAMPLES: [usize; 2] = [10, 10_000];
 
 /// Checks a number of Monte Carlo draws against [`BAND_SAMPLES`] before any
-/// work; the message names the option (`samples`).
-pub fn check_band_samples(samples: usize) -> Result<(), super::ThermalError> {
+/// work: what is wrong, in words that follow the option's name.
+pub fn band_samples_problem(samples: u64) -> Result<(), String> {
     let [lo, hi] = BAND_SAMPLES;
-    if (lo..=hi).contains(&samples) {
+    if (lo as u64..=hi as u64).contains(&samples) {
         Ok(())
     } else {
-        Err(super::ThermalError::Invalid(format!(
-            "samples {samples} is outside {lo} … {hi} (Monte Carlo draws of the bands)\n  help: {lo} draws give a rough 95 % band, the default 400 a smooth one; more than {hi} add nothing but time"
-        )))
+        Err(format!(
+            "must be {lo} to {hi} Monte Carlo draws; got {samples}: {lo} give a rough 95 % band, the default 400 a smooth one, more than {hi} add nothing but time and memory"
+        ))
     }
 }
 
