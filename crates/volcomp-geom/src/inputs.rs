@@ -248,14 +248,14 @@ pub fn show_bytes(n: u64) -> String {
 pub const TOO_LARGE_HELP: &str = "raise the input size limit if this really is the file";
 
 fn too_large(size: Option<u64>, limit: u64) -> io::Error {
-    let size = match size {
-        Some(s) => format!("{} ({s} bytes)", show_bytes(s)),
-        None => format!("more than {}", show_bytes(limit)),
+    let what = match size {
+        Some(s) => format!("the file holds {} ({s} bytes), more than", show_bytes(s)),
+        None => "the file (a device or a pipe) gives more than".to_string(),
     };
     io::Error::new(
         io::ErrorKind::FileTooLarge,
         format!(
-            "the file holds {size}, more than the {} one input file may have ({TOO_LARGE_HELP})",
+            "{what} the {} one input file may have ({TOO_LARGE_HELP})",
             show_bytes(limit)
         ),
     )
@@ -320,7 +320,11 @@ mod tests {
         }
         let e = read_at_most(Path::new("/dev/zero"), "map", 1000).unwrap_err();
         assert_eq!(e.kind(), io::ErrorKind::FileTooLarge);
-        assert!(e.to_string().contains("more than 1000 bytes"), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("the file (a device or a pipe) gives more than the 1000 bytes"),
+            "{e}"
+        );
         // Devices are not recorded: writing one replaces nothing.
         assert!(FileId::of_path(Path::new("/dev/zero")).is_none());
     }
