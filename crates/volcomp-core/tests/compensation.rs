@@ -3,11 +3,12 @@
 use std::io::Cursor;
 use volcomp_core::compensate::solve::Method;
 use volcomp_core::compensate::{
-    compensate_program, survey_style, CompensateOptions, PointRecord, Segmentation,
+    compensate_program, survey_style, CompensateOptions, CompensateSummary, PointRecord,
+    Segmentation, TakeUpRule,
 };
 use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::simulate::report::{simulate_program, SimReport};
-use volcomp_gcode::{InterpOptions, MotionKind, Setup, Vec3, Walker};
+use volcomp_gcode::{InterpOptions, MotionKind, PathMode, Setup, Vec3, Walker};
 
 /// A map whose tables are given per axis as closures of the position.
 fn map_from(f: impl Fn(usize, f64, bool) -> [f64; 3]) -> AxisTableMap {
@@ -265,18 +266,111 @@ fn a_take_up_along_the_path_is_folded_into_the_move() {
     assert!(report.contour_max_um < 1e-6, "{report:?}");
 }
 
+/// [`compensate`] with the summary, at the default decimals.
+fn compensate_summary(
+    program: &str,
+    map: &AxisTableMap,
+    options: CompensateOptions,
+) -> (String, CompensateSummary) {
+    let style = survey_style(program.as_bytes());
+    let mut out = Vec::new();
+    let summary = compensate_program(
+        &mut walker(program),
+        "test.ngc",
+        map,
+        &style,
+        &options,
+        &mut out,
+        |_| {},
+    )
+    .unwrap();
+    (String::from_utf8(out).unwrap(), summary)
+}
+
 #[test]
-fn a_take_up_across_the_path_stays_a_block() {
-    // Reversing at 45°: folded, the tool would stand still while the X
-    // motor crosses its 4 µm band, 4·sin 45° = 2.8 µm off the new line; a
-    // lead piece would have to end within 0.1 µm / sin 45° of the corner
-    // along X (far shorter than 20 × 4 µm): the take-up stays a block.
+fn the_path_control_mode_decides_a_reversal_across_the_path() {
+    // Reversing at 45° (X back, Y on): folded, the tool stands still while
+    // the X motor crosses its 4 µm band, leaving the new line by
+    // 4 µm · (5 / 5.004) · sin 45° = 2.826 µm; a piece starting at the
+    // corner of any length ℓ leaves 4·ℓx/(4 + ℓx) · sin 45° (µm, ℓx = ℓ/√2
+    // in µm), more than 2 µm for every ℓx above 4.8 µm: no lead piece keeps
+    // within 0.1 µm (nor 2 µm) of the path.
     let map = x_backlash_map(0.0);
-    let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG1 X5 Y5\nM2\n";
-    let (out, _) = compensate(program, &map, CompensateOptions::default());
-    assert!(out.contains("X9.9960 (volcomp L3 take-up)"), "{out}");
-    let report = against_original(&out, program, &map);
-    assert!(report.contour_max_um < 0.1, "{report:?}");
+    let fold_um = 4.0 * (5.0 / 5.004) * std::f64::consts::FRAC_1_SQRT_2;
+    let run = |mode: &str, options: CompensateOptions| {
+        let program = format!("{mode}\nG0 X0 Y0 Z0\nG1 X10 F6000\nG1 X5 Y5\nM2\n");
+        let (out, summary) = compensate_summary(&program, &map, options);
+        let report = against_original(&out, &program, &map);
+        (out, summary, report.contour_max_um)
+    };
+    // Exact path, exact stop, and a blend tolerance no fold meets: a
+    // take-up block (the machine stops at this corner under G61 anyway),
+    // the tool on the path.
+    for mode in ["G61", "G61.1", "G64 P0.001", "G64 P0.002"] {
+        let (out, s, contour) = run(mode, CompensateOptions::default());
+        assert!(out.contains("X9.99600 (volcomp L4 take-up)"), "{mode}: {out}");
+        assert_eq!((s.take_ups, s.take_ups_folded), (1, 0), "{mode}: {out}");
+        assert!(contour < 0.1, "{mode}: {contour}");
+    }
+    // G64 without P (also the state a program starts in) and G64 P0.005:
+    // folded, never a block; the tool leaves the path by the bound.
+    for mode in ["G64", "", "G64 P0.005"] {
+        let (out, s, contour) = run(mode, CompensateOptions::default());
+        assert!(!out.contains("take-up"), "{mode}: {out}");
+        assert_eq!((s.take_ups, s.take_ups_folded), (0, 1), "{mode}: {out}");
+        assert!(
+            (s.max_fold_excursion_um - fold_um).abs() < 0.01,
+            "{mode}: {}",
+            s.max_fold_excursion_um
+        );
+        assert!((contour - fold_um).abs() < 0.06, "{mode}: {contour}");
+    }
+    // The take-up tolerance overrides the mode: 5 µm folds under G61, and
+    // 1 µm stops under G64.
+    let (out, s, contour) = run(
+        "G61",
+        CompensateOptions {
+            take_up_tolerance_mm: Some(5e-3),
+            ..Default::default()
+        },
+    );
+    assert_eq!((s.take_ups, s.take_ups_folded), (0, 1), "{out}");
+    assert!((contour - fold_um).abs() < 0.06, "{contour}");
+    let (out, s, contour) = run(
+        "G64",
+        CompensateOptions {
+            take_up_tolerance_mm: Some(1e-3),
+            ..Default::default()
+        },
+    );
+    assert_eq!((s.take_ups, s.take_ups_folded), (1, 0), "{out}");
+    assert!(contour < 0.1, "{contour}");
+}
+
+#[test]
+fn the_rule_of_each_path_control_mode() {
+    let o = CompensateOptions::default();
+    let blend = |p: f64| PathMode::Blend {
+        tolerance_mm: p,
+        naive_cam_mm: p,
+    };
+    assert_eq!(
+        o.take_up_rule(PathMode::ExactPath),
+        TakeUpRule::Exact { smooth: true }
+    );
+    assert_eq!(
+        o.take_up_rule(PathMode::ExactStop),
+        TakeUpRule::Exact { smooth: false }
+    );
+    assert_eq!(o.take_up_rule(blend(0.005)), TakeUpRule::Within(0.005));
+    assert_eq!(o.take_up_rule(blend(0.0)), TakeUpRule::Always);
+    let o = CompensateOptions {
+        take_up_tolerance_mm: Some(0.002),
+        ..o
+    };
+    for mode in [PathMode::ExactPath, PathMode::ExactStop, blend(0.0)] {
+        assert_eq!(o.take_up_rule(mode), TakeUpRule::Within(0.002));
+    }
 }
 
 #[test]
@@ -335,47 +429,87 @@ fn a_take_up_gets_a_lead_piece_where_the_compensation_moves_the_axis() {
     assert!(out.contains("take-up"), "{out}");
 }
 
+/// The unit tangents at the start and the end of every XY arc block of a
+/// program written in absolute mm, read from its words (the tangent of a
+/// circle is square to its radius, turned by the direction of travel).
+fn arc_tangents(out: &str) -> Vec<(Vec3, Vec3)> {
+    let word = |line: &str, letter: char| {
+        line.split_whitespace()
+            .find(|w| w.starts_with(letter))
+            .map(|w| w[1..].parse::<f64>().unwrap())
+    };
+    let mut p = Vec3::ZERO;
+    let mut tangents = Vec::new();
+    for line in out.lines() {
+        let line = line.split('(').next().unwrap();
+        let (x, y) = (word(line, 'X'), word(line, 'Y'));
+        let next = Vec3::new(x.unwrap_or(p.x), y.unwrap_or(p.y), p.z);
+        let ccw = line.starts_with("G3");
+        if ccw || line.starts_with("G2") {
+            let c = Vec3::new(p.x + word(line, 'I').unwrap(), p.y + word(line, 'J').unwrap(), 0.0);
+            let along = |q: Vec3| {
+                let r = q - c;
+                let t = if ccw {
+                    Vec3::new(-r.y, r.x, 0.0)
+                } else {
+                    Vec3::new(r.y, -r.x, 0.0)
+                };
+                t * (1.0 / t.norm())
+            };
+            tangents.push((along(p), along(next)));
+        }
+        p = next;
+    }
+    tangents
+}
+
 #[test]
-fn an_arc_takes_up_its_reversals_on_ramps_at_its_quarter_points() {
+fn a_one_block_circle_takes_up_by_mode() {
     // X reverses where the circle of radius 25 mm starts (after a move in
-    // +X, the arc leaves (25, 0) in −X) and at (−25, 0). Each reversal gets
-    // a ramp: the first ℓ = √(r·tol) = √(25 mm · 0.1 µm) = 0.05 mm of arc
-    // after the quarter point, written as a chord with X already in its new
-    // direction (so X carries its 4 µm there), and no take-up block. The
-    // first ramp ends at angle 0.05/25 = 2 mrad: (24.99995, 0.05), and with
-    // X reversing (reverse table +4 µm) its command is X 24.99595.
+    // +X the arc leaves (25, 0) in +Y: a corner of 90°, where the planner
+    // stops or blends in every mode) and at (−25, 0), where the path runs
+    // on smoothly.
     let map = x_backlash_map(0.0);
-    let program = "G0 X0 Y0 Z0\nG1 X25 F100\nG3 X25 Y0 I-25 J0\nM2\n";
-    let (out, records) = compensate(program, &map, CompensateOptions::default());
-    assert!(!out.contains("take-up"), "{out}");
-    let arc: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
-    let first = arc[0];
-    assert!(
-        (first.target_mm - Vec3::new(24.99995, 0.05, 0.0)).max_abs() < 1e-6,
-        "{first:?}"
-    );
-    assert!(
-        (first.command_mm.x - 24.99595).abs() <= 0.5e-4 + 1e-9,
-        "{first:?}"
-    );
-    assert!(first.reversed[0] && !first.take_up);
-    // The third line of the output is that ramp, as a chord.
-    let third = out.lines().nth(2).unwrap();
-    assert!(third.starts_with("G1 "), "{out}");
-    // The second ramp starts at (−25, 0) and ends 0.05 mm further on.
-    let second = arc
-        .iter()
-        .find(|r| r.reversed[0] && r.target_mm.x < 0.0)
-        .expect("X reverses at (−25, 0)");
-    assert!(
-        (second.target_mm - Vec3::new(-24.99995, -0.05, 0.0)).max_abs() < 1e-6,
-        "{second:?}"
-    );
-    assert!(!second.take_up);
-    // Simulated: within half the tolerance on the ramps plus the rounding
-    // of the written numbers (0.05 µm per axis).
-    let report = against_original(&out, program, &map);
-    assert!(report.contour_max_um < 0.05 + 0.071 + 0.01, "{report:?}");
+    let run = |mode: &str| {
+        let program = format!("{mode}\nG0 X0 Y0 Z0\nG1 X25 F6000\nG3 X25 Y0 I-25 J0\nM2\n");
+        let (out, summary) = compensate_summary(&program, &map, CompensateOptions::default());
+        let report = against_original(&out, &program, &map);
+        (out, summary, report.contour_max_um)
+    };
+    // G61.1 stops at every block end: a take-up block at each reversal.
+    let (out, s, contour) = run("G61.1");
+    assert_eq!((s.take_ups, s.take_ups_folded), (2, 0), "{out}");
+    assert!(contour < 0.1, "{contour}");
+    // G61: a block at the corner (a stop there anyway); at (−25, 0) pieces
+    // the planner joins without a stop. Its tangency test (tp.c,
+    // tpSetupTangent) at v = 100 mm/s, a = 1000 mm/s², a servo period of
+    // 1 ms, an arc involved: |Δt| < 0.1 · 1000 / (100 / 0.001 + 1000) / 2
+    // = 0.495 mrad on each axis. The tool within the contour tolerance
+    // (0.1 µm) plus the written numbers' step (0.005 µm per axis).
+    let (out, s, contour) = run("G61");
+    assert_eq!((s.take_ups, s.take_ups_folded), (1, 1), "{out}");
+    assert!(contour < 0.1 + 0.01, "{contour}: {out}");
+    let tangents = arc_tangents(&out);
+    assert!(tangents.len() > 4, "{out}");
+    for pair in tangents.windows(2) {
+        let kink = pair[1].0 - pair[0].1;
+        assert!(
+            kink.x.abs() < 0.495e-3 && kink.y.abs() < 0.495e-3,
+            "{kink:?}: {out}"
+        );
+    }
+    // G64: both folded, never a block; the tool off the path by no more
+    // than the reversal value (4 µm), which is the bound reported.
+    let (out, s, contour) = run("G64");
+    assert_eq!((s.take_ups, s.take_ups_folded), (0, 2), "{out}");
+    assert!(s.max_fold_excursion_um <= 4.0 + 1e-9, "{s:?}");
+    assert!(contour <= 4.0 + 0.06, "{contour}");
+    // G64 P0.001: the corner cannot fold within 1 µm (a block); the
+    // quarter point can, within 1 µm.
+    let (out, s, contour) = run("G64 P0.001");
+    assert_eq!((s.take_ups, s.take_ups_folded), (1, 1), "{out}");
+    assert!(s.max_fold_excursion_um <= 1.0, "{s:?}");
+    assert!(contour <= 1.0, "{contour}");
 }
 
 #[test]
@@ -562,3 +696,4 @@ fn with_a_reference_points_at_block_ends_are_judged_against_their_vertex() {
     // pitch error does not show in it, except past the end (8 µm beyond X80).
     assert!((report.contour_max_um - 8.0).abs() < 1e-9);
 }
+

@@ -133,8 +133,10 @@ fn compensation_uses_the_length_of_the_active_tool() {
 fn compensate_accepts_the_example_model_file() {
     let m = read_model(&data("example21.toml")).unwrap();
     // Tool 1 (150 mm) at program Z 100: axis Z 250 of the 0…300 mm travel.
+    // In G61: Y reverses at the vertex, taken up exactly there (under G64
+    // the fold may leave up to the reversal value, by design).
     let program =
-        "G21 G90 G17\nG0 X300 Y200 Z50\nG43 H1 G0 Z100\nG1 X350 Y220 F800\nG1 X400 Y180\nM2\n";
+        "G21 G90 G17 G61\nG0 X300 Y200 Z50\nG43 H1 G0 Z100\nG1 X350 Y220 F800\nG1 X400 Y180\nM2\n";
     let out = compensate(program, &m);
     let before = simulate(program, program, &m);
     let after = simulate(&out, program, &m);

@@ -43,9 +43,11 @@ fn program(steps: &[Step], inch: bool) -> String {
     let mut p = [0.0f64, 0.0, -5.0];
     let mut s = String::new();
     let n = |v: f64| format!("{:.4}", v * k);
+    // In G61 (exact path): every take-up exact, so the bound below holds at
+    // reversals too (under G64 a fold may leave up to the reversal value).
     let _ = writeln!(
         s,
-        "{} G90 G17 G94\nG0 X0 Y0 Z{}\nG1 Z{} F{}",
+        "{} G90 G17 G94 G61\nG0 X0 Y0 Z{}\nG1 Z{} F{}",
         if inch { "G20" } else { "G21" },
         n(5.0),
         n(-5.0),

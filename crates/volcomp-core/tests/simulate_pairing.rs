@@ -291,8 +291,10 @@ fn generated() -> Vec<(&'static str, String)> {
     }
     p += "M30\n";
     out.push(("multi-depth roughing", p));
-    // Repeated contours: a circle three times, then a two-turn helix down.
-    let p = "G21 G90 G17 F500\nG0 X20 Y0 Z1\nG1 Z0\nG2 X20 Y0 I-20 J0\nG2 X20 Y0 I-20 J0\nG3 X20 Y0 I-20 J0\nG2 X20 Y0 Z-4 I-20 J0 P2\nG0 Z10\nM2\n".to_string();
+    // Repeated contours: a circle three times, then a two-turn helix down;
+    // in G61, so the quarter points' take-ups are exact (under G64 they
+    // fold, leaving up to the reversal value by design).
+    let p = "G21 G90 G17 G61 F500\nG0 X20 Y0 Z1\nG1 Z0\nG2 X20 Y0 I-20 J0\nG2 X20 Y0 I-20 J0\nG3 X20 Y0 I-20 J0\nG2 X20 Y0 Z-4 I-20 J0 P2\nG0 Z10\nM2\n".to_string();
     out.push(("repeated circles and helix", p));
     // Steep helices of small radius (thread milling, helical entry): 0.3 mm
     // radius rising 1 mm per quarter turn (the helix climbs twice as fast
@@ -578,7 +580,9 @@ fn without_trace_comments_the_order_of_the_blocks_pairs_or_the_program_is_refuse
 /// original run uncompensated.
 #[test]
 fn a_compensated_loop_of_one_line_is_paired_run_by_run() {
-    let text = "G21 G90 G17 F500\n#1 = 0\nG0 X30 Y10 Z1\nG41.1 D4 G0 X20 Y0\n\
+    // In G61: every take-up exact (under G64 a fold may leave up to the
+    // reversal value).
+    let text = "G21 G90 G17 G61 F500\n#1 = 0\nG0 X30 Y10 Z1\nG41.1 D4 G0 X20 Y0\n\
                 o100 while [#1 GT -4]\nG3 X20 Y0 I-20 J0 Z[#1 - 1]\n#1 = [#1 - 1]\n\
                 o100 endwhile\nG3 X20 Y0 I-20 J0\nG40 G0 X30 Y10\nG0 Z10\nM2\n";
     let map = example_map();

@@ -534,6 +534,15 @@ impl State<'_> {
                 let lags = switch_lags_mm(model, self.q_out, self.s, point.s, point.reversed)
                     .map_err(|source| model_error(file, line, source))?;
                 let bound = fold_deviation_mm(&lags, self.q_out, point.q_mm, *t - t_prev);
+                // On an arc piece the bound above, taken along its chord,
+                // may fall short of what the tool leaves beside the arc; the
+                // whole lag is an upper bound (the tool is never further
+                // from the compensated path than the motor is ahead of it).
+                let bound = if matches!(leads, Leads::Arc { .. }) {
+                    bound.max(lags.iter().fold(Vec3::ZERO, |s, l| s + *l).norm())
+                } else {
+                    bound
+                };
                 // The contour tolerance first (a fold or a lead piece that
                 // keeps the tool on the path); what G64 allows beyond it
                 // (`allowed` below) only where no such piece exists.
