@@ -308,7 +308,10 @@ fn the_path_control_mode_decides_a_reversal_across_the_path() {
     // the tool on the path.
     for mode in ["G61", "G61.1", "G64 P0.001", "G64 P0.002"] {
         let (out, s, contour) = run(mode, CompensateOptions::default());
-        assert!(out.contains("X9.99600 (volcomp L4 take-up)"), "{mode}: {out}");
+        assert!(
+            out.contains("X9.99600 (volcomp L4 take-up)"),
+            "{mode}: {out}"
+        );
         assert_eq!((s.take_ups, s.take_ups_folded), (1, 0), "{mode}: {out}");
         assert!(contour < 0.1, "{mode}: {contour}");
     }
@@ -446,7 +449,11 @@ fn arc_tangents(out: &str) -> Vec<(Vec3, Vec3)> {
         let next = Vec3::new(x.unwrap_or(p.x), y.unwrap_or(p.y), p.z);
         let ccw = line.starts_with("G3");
         if ccw || line.starts_with("G2") {
-            let c = Vec3::new(p.x + word(line, 'I').unwrap(), p.y + word(line, 'J').unwrap(), 0.0);
+            let c = Vec3::new(
+                p.x + word(line, 'I').unwrap(),
+                p.y + word(line, 'J').unwrap(),
+                0.0,
+            );
             let along = |q: Vec3| {
                 let r = q - c;
                 let t = if ccw {
@@ -696,4 +703,3 @@ fn with_a_reference_points_at_block_ends_are_judged_against_their_vertex() {
     // pitch error does not show in it, except past the end (8 µm beyond X80).
     assert!((report.contour_max_um - 8.0).abs() < 1e-9);
 }
-
