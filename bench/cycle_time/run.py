@@ -10,7 +10,8 @@
 2. Every program gets an F3000 and an F6000 variant (every F word is
    rewritten; G0 moves stay rapids) in each path-control mode: a line
    `G61`, `G64 P0.005` or `G64` put before its first line (after a leading
-   `%`). CT_MODES="G61;G64" keeps only the modes named; CT_PROGRAMS="g2;zigzag"
+   `%`). CT_MODES="G61;G64" keeps only the modes named, CT_FEEDS="6000" the
+   feeds named; CT_PROGRAMS="g2;zigzag"
    only the programs whose name contains one of the words; CT_EXTRA=DIR adds
    the programs of DIR (e.g. bench/eval/make_set.py's, one mode each: the
    mode line is added to those too).
@@ -43,6 +44,9 @@ sys.path.insert(0, HERE)
 import lcnc  # noqa: E402
 
 FEEDS_MM_MIN = (3000, 6000)
+# CT_FEEDS="6000" keeps only the feeds named (mm/min, ';'-separated).
+if os.environ.get("CT_FEEDS"):
+    FEEDS_MM_MIN = tuple(int(f) for f in os.environ["CT_FEEDS"].split(";"))
 MODES = ["G61", "G64 P0.005", "G64"]
 if os.environ.get("CT_MODES"):
     MODES = os.environ["CT_MODES"].split(";")
