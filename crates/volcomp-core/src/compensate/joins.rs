@@ -118,6 +118,22 @@ impl PlannerLimits {
         let radius = v_mm_s * v_mm_s / self.blend_normal_acceleration();
         radius / theta.tan()
     }
+
+    /// How far from the corner between the unit tangents `t1` and `t2` a
+    /// blend whose arc keeps within `tolerance_mm` of the corner (G64 P)
+    /// may reach (mm): an arc of radius `R` tangent to both lines at `d`
+    /// from the corner passes `R/sin θ − R` from it (`θ` half the angle
+    /// between the lines, `d = R/tan θ`), so `d = tol · cos θ / (1 − sin θ)`
+    /// (tp.c, `tpCreateLineLineBlend`: the blend's deviation is limited by
+    /// the segment's tolerance). Infinite where the lines are collinear.
+    pub fn blend_distance_within_mm(&self, t1: Vec3, t2: Vec3, tolerance_mm: f64) -> f64 {
+        let phi = t1.dot(t2).clamp(-1.0, 1.0).acos();
+        if phi <= 1e-12 {
+            return f64::INFINITY;
+        }
+        let theta = 0.5 * (std::f64::consts::PI - phi);
+        tolerance_mm * theta.cos() / (1.0 - theta.sin())
+    }
 }
 
 #[cfg(test)]

@@ -231,8 +231,18 @@ impl Run {
                 let corner = planner.kink_ratio(t1, t2, f / 60.0, arc) >= 1.0;
                 let blend = matches!(m.path_mode, volcomp_gcode::PathMode::Blend { .. });
                 let protect = if corner && blend {
+                    // G64 P p: the blend keeps within p of the corner.
+                    let within = match m.path_mode {
+                        volcomp_gcode::PathMode::Blend { tolerance_mm, .. }
+                            if tolerance_mm > 0.0 =>
+                        {
+                            planner.blend_distance_within_mm(t1, t2, tolerance_mm)
+                        }
+                        _ => f64::INFINITY,
+                    };
                     let d = planner
                         .blend_distance_mm(t1, t2, f / 60.0)
+                        .min(within)
                         .min(0.5 * prev_len)
                         .min(0.5 * length_mm(m));
                     2.0 * d
