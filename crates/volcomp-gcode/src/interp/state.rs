@@ -110,6 +110,7 @@ impl Interpreter {
                 Some(MotionMode::Ccw) => 30.0,
                 Some(MotionMode::Cycle(code)) => f64::from(code),
                 Some(MotionMode::Synced(code)) => f64::from(code),
+                Some(MotionMode::Probe(code)) => f64::from(code),
                 #[allow(unreachable_patterns)]
                 _ => return Err(Unanswerable::NotPredefined),
             },
