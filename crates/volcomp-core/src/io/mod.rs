@@ -10,6 +10,7 @@
 //! * [`linuxcnc_comp`]: LinuxCNC's screw-compensation files, read and written.
 //! * [`provenance`]: the header volcomp writes at the top of a compensated program.
 //! * [`numfmt`]: how computed numbers are written.
+//! * [`probe_log`]: what a machine recorded while probing (LinuxCNC `(LOG,…)` files, CSV points).
 //! * [`output`]: safe output (plans checked before work, atomic files).
 
 pub mod controllers;
@@ -20,6 +21,7 @@ pub mod load;
 pub mod model_file;
 pub mod numfmt;
 pub mod output;
+pub mod probe_log;
 pub mod provenance;
 pub mod table;
 
