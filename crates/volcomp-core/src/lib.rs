@@ -77,6 +77,8 @@
 //! * `serde`: `Serialize` for results ([`SimReport`], [`CompensateSummary`], …).
 //! * `examples`: the bundled example machine, maps and programs (`example`).
 #![warn(missing_docs)]
+// Files are read through `volcomp_geom::inputs` only (clippy.toml).
+#![cfg_attr(not(test), warn(clippy::disallowed_methods))]
 
 pub mod compensate;
 pub mod error;
@@ -90,6 +92,7 @@ pub mod model;
 pub mod prelude;
 pub mod progress;
 pub mod report;
+pub mod request;
 pub mod rng;
 pub mod simulate;
 pub mod surface;

@@ -11,6 +11,8 @@
 //! [`GcodeError`]: a located [`Diagnostic`] (file, line, column, the line
 //! with a caret, what to do) and its [`ErrorClass`].
 #![warn(missing_docs)]
+// Files are read through `volcomp_geom::inputs` only (clippy.toml).
+#![cfg_attr(not(test), warn(clippy::disallowed_methods))]
 
 pub mod arc;
 pub mod edit;
@@ -28,8 +30,8 @@ pub use arc::Arc;
 pub use error::{Diagnostic, ErrorClass, GcodeError};
 pub use geom::{Axis, Plane, Units, Vec3};
 pub use interp::{
-    ExtraAxes, FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource, Warning,
-    EXTRA_LETTERS,
+    ExtraAxes, FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource, PathMode,
+    Warning, EXTRA_LETTERS,
 };
 pub use program::{LineEvent, Walker};
 pub use setup::{AxisLetters, Setup};

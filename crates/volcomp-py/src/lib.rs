@@ -6,6 +6,8 @@
 //! the results into numpy arrays and plain Python values. Conventions
 //! (units, frames, the deviation sign `e = actual − commanded`) are those of
 //! `docs/design.md`.
+// Files are read through `volcomp_geom::inputs` only (clippy.toml).
+#![cfg_attr(not(test), warn(clippy::disallowed_methods))]
 
 use pyo3::prelude::*;
 
@@ -15,6 +17,7 @@ mod inputs;
 mod mirror;
 mod model;
 mod program;
+mod request;
 mod thermal;
 
 /// The compiled part of the `volcomp` package.
@@ -35,5 +38,6 @@ fn _volcomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<thermal::ThermalModel>()?;
     m.add_function(wrap_pyfunction!(thermal::thermal_fit, m)?)?;
     m.add_function(wrap_pyfunction!(mirror::mirror, m)?)?;
+    m.add_function(wrap_pyfunction!(request::options, m)?)?;
     Ok(())
 }

@@ -10,21 +10,36 @@
 //! start, the compensated middle and the compensated end, so the actual path
 //! lands on the nominal arc at three points of every piece.
 
-use super::frame::Frame;
 use super::lines::ArcWords;
-use super::{command_error, model_error, solve, CompensateOptions, State};
+use super::walk::Place;
+use super::{command_error, model_error, solve, State};
 use crate::error::{CompensationError, ModelError};
 use crate::model::{Components, Direction, Directions, ErrorModel};
 use crate::simulate::next_state;
 use crate::simulate::nominal::arc_distance_mm;
 use std::f64::consts::{FRAC_PI_2, TAU};
-use volcomp_gcode::number::NumberStyle;
 use volcomp_gcode::{Arc, Vec3};
 
 /// Pieces (and table crossings) generated at most for one arc: past
 /// [`crate::limits::MAX_POINTS_PER_BLOCK`] the generation stops and the
 /// caller refuses the block, so the work stays bounded.
 const LIMIT: u64 = crate::limits::MAX_POINTS_PER_BLOCK;
+
+/// Table points of one piece at which its departure is sampled at most
+/// (inputs lane: bounded work on dense maps). A piece that crosses more is
+/// sampled at this many of them, evenly by index: on a table that dense
+/// (points closer than the shortest piece) the map is smooth at the scale
+/// of a piece, and every level of bisection samples again.
+const KNOTS_PER_PIECE: usize = 32;
+
+/// The sorted knots of `knots` within `[lo, hi]` (inputs lane: a window
+/// by binary search, so an arc looks only at the table points it can
+/// cross, not at every point of a dense table).
+fn window(knots: &[f64], lo: f64, hi: f64) -> &[f64] {
+    let first = knots.partition_point(|k| *k < lo);
+    let last = knots.partition_point(|k| *k <= hi);
+    &knots[first..last.max(first)]
+}
 
 /// Centre `(u, v)` of the circle through three points of a plane, or `None`
 /// when they are collinear to within 1e-12 of the squared chord.
@@ -223,12 +238,14 @@ fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> (Vec<f64>, Vec<f64>) {
         at_angle(f64::from(k) * FRAC_PI_2, &mut cuts);
     }
     let quarters = std::mem::take(&mut cuts);
-    let both = |axis: usize| -> Vec<f64> {
-        let mut k: Vec<f64> = model.knots_mm(axis, Direction::Forward).to_vec();
-        k.extend_from_slice(model.knots_mm(axis, Direction::Reverse));
+    let both = |axis: usize, lo: f64, hi: f64| -> Vec<f64> {
+        let mut k: Vec<f64> = window(model.knots_mm(axis, Direction::Forward), lo, hi).to_vec();
+        k.extend_from_slice(window(model.knots_mm(axis, Direction::Reverse), lo, hi));
+        k.sort_by(f64::total_cmp);
+        k.dedup();
         k
     };
-    for knot in both(u) {
+    for knot in both(u, arc.center[u] - r, arc.center[u] + r) {
         let c = (knot - arc.center[u]) / r;
         if c.abs() < 1.0 {
             let alpha = c.acos();
@@ -236,7 +253,7 @@ fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> (Vec<f64>, Vec<f64>) {
             at_angle(-alpha, &mut cuts);
         }
     }
-    for knot in both(v) {
+    for knot in both(v, arc.center[v] - r, arc.center[v] + r) {
         let s = (knot - arc.center[v]) / r;
         if s.abs() < 1.0 {
             let beta = s.asin();
@@ -247,7 +264,7 @@ fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> (Vec<f64>, Vec<f64>) {
     let (w0, w1) = (arc.start[w], arc.end[w]);
     if w1 != w0 {
         let (lo, hi) = (w0.min(w1), w0.max(w1));
-        for knot in both(w) {
+        for knot in both(w, lo, hi) {
             if knot > lo && knot < hi && cuts.len() as u64 <= LIMIT {
                 cuts.push((knot - w0) / (w1 - w0));
             }
@@ -273,6 +290,7 @@ pub(super) fn arc_pieces(
     let (mut cuts, mut knots) = arc_cuts(arc, model);
     cuts.sort_by(f64::total_cmp);
     knots.sort_by(f64::total_cmp);
+    knots.dedup();
     let min_step = if length > 0.0 {
         min_length_mm / length
     } else {
@@ -427,6 +445,15 @@ fn bisect_arc(
     let lo = knots.partition_point(|k| *k < a + min_step);
     let hi = knots.partition_point(|k| *k <= b - min_step);
     let inside = &knots[lo..hi.max(lo)];
+    let sampled: Vec<f64>;
+    let inside = if inside.len() > KNOTS_PER_PIECE {
+        sampled = (0..KNOTS_PER_PIECE)
+            .map(|k| inside[k * inside.len() / KNOTS_PER_PIECE])
+            .collect();
+        &sampled
+    } else {
+        inside
+    };
     let (d, cut) = piece_departure_at_mm(arc, a, b, model, s, inside)?;
     if b - a > 2.0 * min_step && depth < 64 && d > tol && (out.len() as u64) <= LIMIT {
         let m = match cut {
@@ -470,7 +497,16 @@ fn bisect_arc(
     Ok(())
 }
 
-impl State {
+/// An arc written as pieces of itself: the end parameters of the pieces
+/// ([`arc_pieces`]), and whether the program gives radii (R) rather than
+/// centres.
+pub(super) struct Piecewise<'a> {
+    pub(super) arc: &'a Arc,
+    pub(super) pieces: &'a [f64],
+    pub(super) radius_style: bool,
+}
+
+impl State<'_> {
     /// The end parameters of the pieces of `arc` ([`arc_pieces`]) from the
     /// current direction state, with the options' contour tolerance and
     /// shortest piece; refused past [`crate::limits::MAX_POINTS_PER_BLOCK`].
@@ -479,11 +515,10 @@ impl State {
         &mut self,
         arc: &Arc,
         model: &dyn ErrorModel,
-        options: &CompensateOptions,
-        file: &str,
         line: u64,
     ) -> Result<Vec<f64>, CompensationError> {
-        let (tolerance_mm, min_length_mm) = super::targets::arc_tolerances(options);
+        let (options, file) = (self.walk.options, self.walk.file);
+        let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm();
         let pieces = arc_pieces(
             arc,
             model,
@@ -522,10 +557,12 @@ impl State {
         Ok(pieces)
     }
 
-    /// How each solved piece of `arc` is written (module documentation):
-    /// `commands` are the solved ends of `pieces` (each with the take-up
-    /// written before it), the first starting at `from`; the direction
-    /// state of each is that of the last [`State::solve_targets`]. A piece
+    /// How each solved piece of an arc is written (module documentation):
+    /// `commands` are the solved ends of the pieces of `p` (each with the
+    /// take-up written before it), the first starting at `from`; the
+    /// direction state of each is that of the last [`State::solve_targets`];
+    /// `at` gives the frame and style the words are checked in and the line
+    /// errors are reported at. A piece
     /// is written as a G1 to its compensated end (no centre) when its
     /// sagitta is within the chord tolerance ([`piece_center`]), or when
     /// the controller would not read the written words as that piece
@@ -537,21 +574,21 @@ impl State {
     /// second it is added to the estimate of the contour error left (for a
     /// chord of two steps, 0.2 µm in mm, on LinuxCNC's smallest radius
     /// 1.27 µm it is at most `c²/(8r)` ≈ 0.004 µm).
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn arc_piece_words(
         &mut self,
-        arc: &Arc,
-        pieces: &[f64],
+        model: &dyn ErrorModel,
+        at: &Place,
+        p: Piecewise,
         commands: &[(Vec3, Option<Vec3>)],
         from: Vec3,
-        model: &dyn ErrorModel,
-        options: &CompensateOptions,
-        frame: &Frame,
-        style: NumberStyle,
-        radius_style: bool,
-        file: &str,
-        line: u64,
     ) -> Result<Vec<ArcWords>, CompensationError> {
+        let (options, file) = (self.walk.options, self.walk.file);
+        let (frame, style, line) = (at.frame, at.style, at.line);
+        let Piecewise {
+            arc,
+            pieces,
+            radius_style,
+        } = p;
         let (mut from, mut l_from) = (from, 0.0);
         let mut words = Vec::with_capacity(commands.len());
         let ramps = std::mem::take(&mut self.ramps_written);

@@ -91,7 +91,7 @@ pub(super) fn targets_with_estimate(
         MotionKind::Rapid => out.push(motion.end),
         MotionKind::Feed => split(motion.start, motion.end, seg, model, s, &mut out, worst_mm)?,
         MotionKind::Arc(arc) if options.arcs_as_arcs => {
-            let (tolerance_mm, min_length_mm) = arc_tolerances(options);
+            let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm();
             let pieces =
                 super::arcs::arc_pieces(&arc, model, s, tolerance_mm, min_length_mm, worst_mm)?;
             for l in pieces {
@@ -124,21 +124,6 @@ pub(super) fn targets_with_estimate(
         }
     }
     Ok(out)
-}
-
-/// Contour tolerance and shortest piece (mm) of arcs written as arcs: those
-/// of adaptive segmentation, or its defaults under another segmentation.
-pub(super) fn arc_tolerances(options: &CompensateOptions) -> (f64, f64) {
-    match options.segmentation {
-        Segmentation::Adaptive {
-            tolerance_mm,
-            min_length_mm,
-        } => (tolerance_mm, min_length_mm),
-        _ => (
-            super::DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
-            super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
-        ),
-    }
 }
 
 fn split(
@@ -216,9 +201,15 @@ fn knot_cuts(
             continue;
         }
         let knots = model.knots_mm(axis, s[axis]);
-        let first = knots.partition_point(|k| *k <= lo);
-        for k in knots[first..].iter().take_while(|k| **k < hi) {
+        // Knots closer than the shortest segment along this axis to the
+        // last one taken are skipped by binary search (inputs lane: bounded
+        // work on tables denser than the shortest segment); the filter
+        // below would drop them anyway.
+        let step = min_length_mm / length * (hi - lo);
+        let mut i = knots.partition_point(|k| *k <= lo);
+        while let Some(&k) = knots.get(i).filter(|k| **k < hi) {
             cuts.push((k - a[axis]) / (b[axis] - a[axis]));
+            i = knots.partition_point(|v| *v < k + step).max(i + 1);
         }
     }
     cuts.sort_by(f64::total_cmp);
@@ -348,6 +339,7 @@ mod tests {
             source: MotionSource::Program,
             extra: Default::default(),
             feed_mode: volcomp_gcode::interp::FeedMode::PerMinute,
+            path_mode: Default::default(),
         }
     }
 

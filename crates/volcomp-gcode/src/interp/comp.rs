@@ -332,7 +332,9 @@ impl Interpreter {
                     }
                 }
             };
-            (diameter_mm / 2.0 / self.units.mm_per_unit(), 0)
+            // The orientation from the tool table (G10 L1 Q; 0 for a mill).
+            let orientation = self.tool_lathe.get(&tool).map_or(0, |v| v[2] as i32);
+            (diameter_mm / 2.0 / self.units.mm_per_unit(), orientation)
         };
         if self.plane != Plane::Zx && orientation != 0 && orientation != 9 {
             return Err(comp_error(
@@ -564,6 +566,9 @@ impl Interpreter {
 
     /// `dequeue_canons`: gives out every queued move.
     fn dequeue(&mut self, out: &mut Vec<Motion>) -> Result<(), GcodeError> {
+        // LinuxCNC refuses a path-control mode change while compensation is
+        // on: the mode now is the one of every queued move.
+        let path_mode = self.path_mode;
         let c = self.comp.as_mut().expect("cutter compensation is on");
         c.endpoint = None;
         let plane = c.plane;
@@ -602,6 +607,7 @@ impl Interpreter {
                 column: q.column + 1,
                 feed: q.feed,
                 feed_mode: q.feed_mode,
+                path_mode,
                 extra: ExtraAxes {
                     start: c.emitted_extra,
                     end: q.extra_end,
@@ -921,7 +927,12 @@ impl Interpreter {
         let plane = c.plane;
         let (side, radius, first) = (c.side, c.radius_mm, c.first_move);
         let program_start = if first { self.position } else { c.program };
-        let turns = w.get(b'P').map_or(1, |p| p.round() as i32);
+        let turns = match w.get(b'P') {
+            None => 1,
+            Some(p) => super::motion::arc_turns(p)
+                .map_err(|why| invalid(line, w.col(b'P').unwrap_or(0), why, "fix the P word"))?
+                as i32,
+        };
         let turn = if clockwise { -turns } else { turns };
         // The programmed arc, from the programmed point (the tool's at the
         // entry move), with volcomp's checks, which are LinuxCNC's
