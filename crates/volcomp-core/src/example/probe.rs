@@ -378,7 +378,7 @@ pub fn log_text(artifact: &str, touches: &[Touch], frame: &Frame) -> String {
     let w = frame.work_offset_mm;
     let mut s = format!("volcomp-probe {LOG_VERSION} artifact={artifact}\n");
     s.push_str(&format!(
-        "frame g5x={},{},{} r=0.000000 g92on=0.000000 g92=0.000000,0.000000,0.000000 tlo=0.000000,0.000000,{} metric=1.000000\n",
+        "frame g5x={},{},{} r=0.000000 g92on=0.000000 g92=0.000000,0.000000,0.000000 tlo=0.000000,0.000000,{} metric=1.000000 mm=1.000000\n",
         f6(w.x),
         f6(w.y),
         f6(w.z),
@@ -529,6 +529,7 @@ pub fn example_files() -> Vec<(String, String)> {
     let frame = Frame {
         work_offset_mm: Vec3::ZERO,
         tool_length_mm: PROBE_LENGTH_MM,
+        mm_per_machine_unit: 1.0,
     };
     let mut files = vec![
         ("setup.toml".to_string(), SETUP.to_string()),

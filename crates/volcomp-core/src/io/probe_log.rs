@@ -21,14 +21,17 @@
 //!
 //! ```text
 //! volcomp-probe 1 artifact=plate
-//! frame g5x=250.000000,200.000000,150.000000 r=0.000000 g92on=0.000000 g92=0.000000,0.000000,0.000000 tlo=0.000000,0.000000,75.000000 metric=1.000000
+//! frame g5x=250.000000,200.000000,150.000000 r=0.000000 g92on=0.000000 g92=0.000000,0.000000,0.000000 tlo=0.000000,0.000000,75.000000 metric=1.000000 mm=1.000000
 //! touch n=3 p=p1 f=s2 d=-Z st=ffr at=10.000000,20.000000,-5.000000 q=10.000000,20.000000,-3.512345 ok=1.000000
 //! ```
 //!
 //! `frame` gives the offsets in effect (G5x of the program's coordinate
 //! system, its XY rotation, whether G92 is on and its offsets, the tool
-//! offset, `#<_metric>`); a touch's position in machine (axis) coordinates
-//! is `q + g5x + g92 (if on) + tlo`, docs/design.md, "Frames". `d` is the
+//! offset — all in the machine's units —, `#<_metric>` (the program's
+//! units: mm) and `#<_metric_machine>` (the machine's: 1 mm, 0 inch,
+//! `interp_namedparams.cc`); a touch's position in machine (axis)
+//! coordinates is `q + g5x + g92 (if on) + tlo`, the offsets converted to
+//! mm, docs/design.md, "Frames". `d` is the
 //! direction the probe moved, `st` the direction state of X, Y, Z at the
 //! touch (`f` forward, `r` reverse), `at` the commanded end of the probe
 //! move (program coordinates), `ok` #5070.
@@ -214,7 +217,7 @@ struct Frame {
 /// ```
 /// use volcomp_core::io::probe_log::read_linuxcnc_log;
 /// let log = "volcomp-probe 1 artifact=ref\n\
-///   frame g5x=100.000000,0.000000,0.000000 r=0.000000 g92on=0.000000 g92=5.000000,0.000000,0.000000 tlo=0.000000,0.000000,50.000000 metric=1.000000\n\
+///   frame g5x=100.000000,0.000000,0.000000 r=0.000000 g92on=0.000000 g92=5.000000,0.000000,0.000000 tlo=0.000000,0.000000,50.000000 metric=1.000000 mm=1.000000\n\
 ///   touch n=1 p=r f=s1 d=-Z st=ffr at=1.000000,2.000000,-3.000000 q=1.000000,2.000000,-1.250000 ok=1.000000\n";
 /// let t = read_linuxcnc_log(log, "probe.log").unwrap();
 /// // Machine Z = −1.25 + 0 (G54) + 50 (tool); G92 is off.
@@ -349,14 +352,16 @@ pub fn read_linuxcnc_log(text: &str, file: &str) -> Result<Vec<Touch>, MapFileEr
                         "probe in a coordinate system without rotation",
                     ));
                 }
+                // Offsets are in the machine's units.
+                let unit = if number("mm")? == 0.0 { 25.4 } else { 1.0 };
                 let g92 = if number("g92on")? != 0.0 {
-                    triple("g92")?
+                    triple("g92")? * unit
                 } else {
                     Vec3::ZERO
                 };
-                let tool = triple("tlo")?;
+                let tool = triple("tlo")? * unit;
                 frame = Some(Frame {
-                    offset_mm: triple("g5x")? + g92 + tool,
+                    offset_mm: triple("g5x")? * unit + g92 + tool,
                     tool_mm: tool,
                 });
             }
@@ -590,7 +595,7 @@ mod tests {
     use super::*;
 
     const LOG: &str = "volcomp-probe 1 artifact=plate\n\
-frame g5x=250.000000,200.000000,150.000000 r=0.000000 g92on=1.000000 g92=1.000000,0.000000,0.000000 tlo=0.000000,0.000000,75.000000 metric=1.000000\n\
+frame g5x=250.000000,200.000000,150.000000 r=0.000000 g92on=1.000000 g92=1.000000,0.000000,0.000000 tlo=0.000000,0.000000,75.000000 metric=1.000000 mm=1.000000\n\
 touch n=1 p=p1 f=s2 d=-Z st=ffr at=10.000000,20.000000,-5.000000 q=10.000000,20.000000,-3.512345 ok=1.000000\n\
 touch n=2 p=p1 f=s2 d=+X st=frr at=0.000000,20.000000,-5.000000 q=-2.500000,20.000000,-5.000000 ok=0.000000\n";
 

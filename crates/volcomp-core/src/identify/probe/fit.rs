@@ -77,7 +77,18 @@ pub struct Calibration {
     pub residuals_um: Vec<f64>,
     /// Names of what the touches could not separate.
     pub unseen: Vec<String>,
+    /// Redundancy of the fit (touches − seen parameters).
+    pub dof: usize,
+    /// `G` with the covariance of the calibration's parameters `G Gᵀ`
+    /// (µm²), one row per parameter in the order [`CAL_PARAMS`]: centre
+    /// (3), tip radius, pre-travel in [`AxisDir::ALL`] order (6), reversal
+    /// of X, Y, Z (3).
+    pub cov_factor_um: Vec<Vec<f64>>,
 }
+
+/// Parameters of a probe calibration, in the order of
+/// [`Calibration::cov_factor_um`].
+pub const CAL_PARAMS: usize = 13;
 
 impl Calibration {
     /// Pre-travel (µm) for a direction; 0 where unknown.
@@ -156,6 +167,14 @@ pub struct FaceTouch {
     pub normal: Vec3,
     /// The probe's tool length (mm).
     pub tool_length_mm: f64,
+    /// The direction the probe moved.
+    pub direction: AxisDir,
+    /// The axes' direction states at the touch, when known.
+    pub states: Option<[Direction; 3]>,
+    /// `|d·n|`: 1 for a head-on touch.
+    pub cos: f64,
+    /// Index of the calibration that corrected it (in [`Fitted::calibrations`]).
+    pub calibration: usize,
 }
 
 /// Everything the touches give.
@@ -246,8 +265,16 @@ fn gauss_newton(
 }
 
 /// The reference sphere's fit for one probe.
-fn calibrate(touches: &[&Touch], radius_mm: f64) -> Result<Calibration, ProbeError> {
-    let pts: Vec<(Vec3, AxisDir)> = touches.iter().map(|t| (t.q_mm, t.direction)).collect();
+fn calibrate(
+    touches: &[&Touch],
+    offsets_mm: &[Vec3],
+    radius_mm: f64,
+) -> Result<Calibration, ProbeError> {
+    let pts: Vec<(Vec3, AxisDir)> = touches
+        .iter()
+        .zip(offsets_mm)
+        .map(|(t, o)| (t.q_mm + *o, t.direction))
+        .collect();
     let qs: Vec<Vec3> = pts.iter().map(|p| p.0).collect();
     let (c0, rho0) = algebraic_sphere(&qs).unwrap_or((start_centre(&pts, radius_mm), radius_mm));
     let r0 = rho0 - radius_mm;
@@ -266,7 +293,7 @@ fn calibrate(touches: &[&Touch], radius_mm: f64) -> Result<Calibration, ProbeErr
                     b[a] = sign(s[a]) * x[10 + a] / 2.0 * 1e-3;
                 }
             }
-            let a = t.q_mm + b - c;
+            let a = pts[i].0 + b - c;
             let dist = a.norm();
             let nv = a * (1.0 / dist);
             let cos = t.direction.vector().dot(nv).abs();
@@ -323,7 +350,12 @@ fn calibrate(touches: &[&Touch], radius_mm: f64) -> Result<Calibration, ProbeErr
             unseen.push(format!("reversal of {}", ['X', 'Y', 'Z'][a]));
         }
     }
+    let cov_factor_um = (0..n)
+        .map(|i| (0..sol.rank).map(|k| sol.f[(i, k)] * sigma).collect())
+        .collect();
     Ok(Calibration {
+        dof,
+        cov_factor_um,
         tool_length_mm: touches[0].tool_length_mm,
         tip_radius_mm: Estimate {
             value: r0 + x[3] * 1e-3,
@@ -353,13 +385,19 @@ type Group<'a> = ((usize, String, String), Vec<&'a Touch>);
 /// The centre (and radius) of one sphere from its touches.
 fn sphere(
     touches: &[&Touch],
+    offsets_mm: &[Vec3],
     nominal_radius_mm: f64,
     certified_radius_mm: Option<f64>,
     cal: Option<&Calibration>,
 ) -> Result<SphereSolution, ProbeError> {
-    let corr =
-        |t: &Touch| -> Vec3 { t.q_mm + cal.map_or(Vec3::ZERO, |c| c.reversal_offset_mm(t.states)) };
-    let pts: Vec<(Vec3, AxisDir)> = touches.iter().map(|t| (corr(t), t.direction)).collect();
+    let corr = |t: &Touch, o: Vec3| -> Vec3 {
+        t.q_mm + o + cal.map_or(Vec3::ZERO, |c| c.reversal_offset_mm(t.states))
+    };
+    let pts: Vec<(Vec3, AxisDir)> = touches
+        .iter()
+        .zip(offsets_mm)
+        .map(|(t, o)| (corr(t, *o), t.direction))
+        .collect();
     let qs: Vec<Vec3> = pts.iter().map(|p| p.0).collect();
     let tip0 = cal.map_or(0.0, |c| c.tip_radius_mm.value);
     let (c0, _) = algebraic_sphere(&qs)
@@ -420,7 +458,27 @@ fn sphere(
 /// centres and probe-corrected face contacts. Touches are checked against
 /// the artifacts (artifact, placement and feature must exist; a face is
 /// touched against its normal).
-pub fn fit_touches(artifacts: &[Artifact], touches: &[Touch]) -> Result<Fitted, ProbeError> {
+///
+/// `field` (µm, at an axis position for a tool length), when given, is the
+/// machine's geometric deviation as far as it is known: its variation over
+/// each sphere (not its value at the centre, which is what the spheres
+/// measure) is taken out of the touches first — on the reference sphere
+/// the machine's local scale would otherwise pass for pre-travel (a 25 mm
+/// sphere on an axis 50 µm/m long reads 1.3 µm small).
+pub fn fit_touches(
+    artifacts: &[Artifact],
+    touches: &[Touch],
+    field: Option<&dyn Fn(Vec3, f64) -> Vec3>,
+) -> Result<Fitted, ProbeError> {
+    // The within-sphere variation of `field` at each touch (mm), about `c`.
+    let shape = |ts: &[&Touch], c: Vec3| -> Vec<Vec3> {
+        ts.iter()
+            .map(|t| match field {
+                Some(f) => (f(t.q_mm, t.tool_length_mm) - f(c, t.tool_length_mm)) * 1e-3,
+                None => Vec3::ZERO,
+            })
+            .collect()
+    };
     let mut out = Fitted::default();
     let mut skipped = 0usize;
     // Check and group.
@@ -521,13 +579,18 @@ pub fn fit_touches(artifacts: &[Artifact], touches: &[Touch]) -> Result<Fitted, 
             if g.len() < 5 {
                 return Err(located(g[0], format!("the reference sphere has {} touches with this probe; its calibration needs the plan's set (17)", g.len()), "probe the reference sphere with the program `volcomp probe plan` writes for it"));
             }
-            let cal = calibrate(&g, diameter_mm / 2.0).map_err(|e| {
+            let fail = |e: ProbeError| {
                 located(
                     g[0],
                     format!("reference sphere: {e}"),
                     "check that these are the touches of the reference sphere",
                 )
-            })?;
+            };
+            let mut cal =
+                calibrate(&g, &vec![Vec3::ZERO; g.len()], diameter_mm / 2.0).map_err(fail)?;
+            if field.is_some() {
+                cal = calibrate(&g, &shape(&g, cal.centre_mm), diameter_mm / 2.0).map_err(fail)?;
+            }
             out.calibrations.push(cal);
         }
     }
@@ -575,13 +638,23 @@ pub fn fit_touches(artifacts: &[Artifact], touches: &[Touch]) -> Result<Fitted, 
                     unit_cov,
                     residuals_um,
                     dof,
-                } = sphere(ts, radius_mm, certified, cal).map_err(|e| {
-                    located(
-                        ts[0],
-                        format!("sphere {feature} of {placement}: {e}"),
-                        "check the touches of this sphere",
-                    )
-                })?;
+                } = {
+                    let fail = |e: ProbeError| {
+                        located(
+                            ts[0],
+                            format!("sphere {feature} of {placement}: {e}"),
+                            "check the touches of this sphere",
+                        )
+                    };
+                    let first = sphere(ts, &vec![Vec3::ZERO; ts.len()], radius_mm, certified, cal)
+                        .map_err(fail)?;
+                    if field.is_some() {
+                        sphere(ts, &shape(ts, first.centre_mm), radius_mm, certified, cal)
+                            .map_err(fail)?
+                    } else {
+                        first
+                    }
+                };
                 spheres.push(SphereFit {
                     artifact: art.name.clone(),
                     placement: placement.clone(),
@@ -600,6 +673,11 @@ pub fn fit_touches(artifacts: &[Artifact], touches: &[Touch]) -> Result<Fitted, 
                     return Err(located(ts[0], format!("{} touches of {} need the probe's calibration (no reference sphere was probed with tool length {tool} mm)", art.kind.word(), art.name), "probe the reference sphere with the same probe first and give its log too"));
                 };
                 let pl = art.placement(placement).expect("checked above");
+                let calibration = out
+                    .calibrations
+                    .iter()
+                    .position(|c| (c.tool_length_mm - tool).abs() < SAME_TOOL_MM)
+                    .unwrap_or(0);
                 for t in ts {
                     let normal = match f {
                         Feature::Face { facing, .. } => pl.direction(Vec3::new(facing, 0.0, 0.0)),
@@ -615,6 +693,10 @@ pub fn fit_touches(artifacts: &[Artifact], touches: &[Touch]) -> Result<Fitted, 
                         q_mm: t.q_mm,
                         normal,
                         tool_length_mm: tool,
+                        direction: t.direction,
+                        states: t.states,
+                        cos,
+                        calibration,
                     });
                 }
             }
@@ -631,7 +713,7 @@ pub fn fit_touches(artifacts: &[Artifact], touches: &[Touch]) -> Result<Fitted, 
     }
     for c in &out.calibrations {
         if c.sigma_um.is_finite() {
-            let d = c.residuals_um.len().saturating_sub(13).max(1);
+            let d = c.dof.max(1);
             rss += c.sigma_um * c.sigma_um * d as f64;
             dof += d;
         }
@@ -641,6 +723,28 @@ pub fn fit_touches(artifacts: &[Artifact], touches: &[Touch]) -> Result<Fitted, 
     } else {
         f64::NAN
     };
+    // The probing noise is the probe's: a calibration's own residuals have
+    // a few degrees of freedom only (17 touches, 12 unknowns), so its
+    // uncertainties are scaled to the pooled noise.
+    if out.sigma_um.is_finite() && out.sigma_um > 0.0 {
+        for c in &mut out.calibrations {
+            if !(c.sigma_um.is_finite() && c.sigma_um > 0.0) {
+                continue;
+            }
+            let k = out.sigma_um / c.sigma_um;
+            let scale = |e: &mut Option<Estimate>| {
+                if let Some(e) = e {
+                    e.sigma *= k;
+                }
+            };
+            c.pretravel_um.iter_mut().for_each(scale);
+            c.reversal_um.iter_mut().for_each(scale);
+            c.tip_radius_mm.sigma *= k;
+            for row in &mut c.cov_factor_um {
+                row.iter_mut().for_each(|v| *v *= k);
+            }
+        }
+    }
     out.spheres = spheres;
     out.faces = faces;
     Ok(out)

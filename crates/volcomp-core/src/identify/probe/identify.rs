@@ -43,11 +43,12 @@
 //! says that the common scale is the artifact's, not measured.
 
 use super::artifact::{Artifact, Feature, Kind};
-use super::fit::{Estimate, FaceTouch, Fitted, SphereFit};
+use super::fit::{fit_touches, Estimate, FaceTouch, Fitted, SphereFit, CAL_PARAMS};
 use super::geometry::{rigid_fit, rotate, turn, Rotation};
 use super::ProbeError;
 use crate::identify::thermal::identify::{solve_whitened, Identification};
 use crate::identify::thermal::poly::{Param, PolyModel};
+use crate::io::probe_log::Touch;
 use crate::linalg;
 use nalgebra::DMatrix;
 use volcomp_gcode::Vec3;
@@ -224,6 +225,9 @@ struct Layout {
     pose: Vec<usize>,
     /// First column of artifact `a`'s geometry.
     geom: Vec<usize>,
+    /// First column of calibration `c`'s unknowns (its covariance factor's
+    /// rank of them), for the face touches it corrected.
+    cal: Vec<Option<usize>>,
     total: usize,
 }
 
@@ -445,6 +449,22 @@ impl<'a> Problem<'a> {
             geom.push(col);
             col += geometry_columns(a);
         }
+        // The probe calibration's own uncertainty enters the face touches it
+        // corrected (a gauge's length reads the sum of two effective radii
+        // and a reversal): its parameters as unknowns `z` with `δ = G z`, `z ~
+        // N(0, I)` (rows below).
+        let mut cal = vec![None; fitted.calibrations.len()];
+        for f in &fitted.faces {
+            if let Some(slot) = cal.get_mut(f.calibration) {
+                if slot.is_none() {
+                    *slot = Some(col);
+                    col += fitted.calibrations[f.calibration]
+                        .cov_factor_um
+                        .first()
+                        .map_or(0, Vec::len);
+                }
+            }
+        }
         let length_reference = artifacts.iter().enumerate().any(|(ai, a)| {
             poses.iter().any(|p| p.artifact == ai)
                 && match &a.kind {
@@ -487,6 +507,7 @@ impl<'a> Problem<'a> {
             layout: Layout {
                 pose,
                 geom,
+                cal,
                 total: col,
             },
             touch_sigma_um,
@@ -633,6 +654,29 @@ impl<'a> Problem<'a> {
                     if matches!(art.kind, Kind::Square { .. }) {
                         row_n[gc + 2] = dn.dot(x_art) * 1e-3;
                     }
+                    if let (Some(c0), Some(cal)) = (
+                        self.layout.cal.get(f.calibration).copied().flatten(),
+                        self.fitted.calibrations.get(f.calibration),
+                    ) {
+                        // ∂(row)/∂(tip radius, pre-travel, reversal), µm per µm.
+                        let mut coef = [0.0; CAL_PARAMS];
+                        coef[3] = -nm_vec.dot(f.normal);
+                        coef[4 + f.direction.index()] = f.cos;
+                        if let Some(st) = f.states {
+                            for a in 0..3 {
+                                let sgn = match st[a] {
+                                    crate::model::Direction::Forward => -1.0,
+                                    crate::model::Direction::Reverse => 1.0,
+                                };
+                                coef[10 + a] = nm_vec[a] * sgn / 2.0;
+                            }
+                        }
+                        let g_rows = &cal.cov_factor_um;
+                        let rank = g_rows.first().map_or(0, Vec::len);
+                        for k in 0..rank {
+                            row_n[c0 + k] = (0..CAL_PARAMS).map(|i| coef[i] * g_rows[i][k]).sum();
+                        }
+                    }
                     at.push((jm.len(), 1));
                     jm.push(row_m);
                     jn.push(row_n);
@@ -672,10 +716,13 @@ impl<'a> Problem<'a> {
                 Kind::Spheres { centres_mm, .. }
                     if !self.length_reference && centres_mm.len() > 1 =>
                 {
+                    // About the current centroid, so that a shift or turn
+                    // of the artifact's frame leaves the row unchanged.
+                    let mean = g.balls.iter().copied().sum::<Vec3>() * (1.0 / g.balls.len() as f64);
                     let mut row = vec![0.0; nn];
                     let mut norm = 0.0;
                     for (j, b) in g.balls.iter().enumerate() {
-                        let d = *b - g.centroid;
+                        let d = *b - mean;
                         for q in 0..3 {
                             row[gc + 3 * j + q] = d[q];
                         }
@@ -688,7 +735,7 @@ impl<'a> Problem<'a> {
                         .balls
                         .iter()
                         .zip(centres_mm)
-                        .map(|(b, b0)| (*b - g.centroid).dot(*b - *b0))
+                        .map(|(b, b0)| (*b - mean).dot(*b - *b0))
                         .sum::<f64>();
                     jm.push(vec![0.0; nm]);
                     jn.push(row);
@@ -724,6 +771,20 @@ impl<'a> Problem<'a> {
                     y.push((v - g.angle_urad) * w);
                 }
                 _ => {}
+            }
+        }
+        for (c, first) in self.layout.cal.iter().enumerate() {
+            let Some(c0) = first else { continue };
+            let rank = self.fitted.calibrations[c]
+                .cov_factor_um
+                .first()
+                .map_or(0, Vec::len);
+            for k in 0..rank {
+                let mut row = vec![0.0; nn];
+                row[c0 + k] = s_t;
+                jm.push(vec![0.0; nm]);
+                jn.push(row);
+                y.push(0.0);
             }
         }
         let m = y.len();
@@ -887,15 +948,24 @@ pub fn identify(
             }
         })
         .collect();
+    // A parameter wholly in the null space is not seen at all; the null
+    // vectors' other entries are combinations seen only together.
+    let mut share = vec![0.0; names.len()];
+    for v in &ident.null_space {
+        for (j, w) in v {
+            share[*j] += w * w;
+        }
+    }
     let combinations = ident
         .null_space
         .iter()
-        .filter(|v| v.len() > 1)
-        .map(|v| {
-            v.iter()
+        .filter_map(|v| {
+            let kept: Vec<String> = v
+                .iter()
+                .filter(|(j, _)| share[*j] < 0.98)
                 .map(|(j, w)| format!("{:+.2} {}", w, names[*j]))
-                .collect::<Vec<_>>()
-                .join(" ")
+                .collect();
+            (kept.len() > 1).then(|| kept.join(" "))
         })
         .collect();
     // Residuals per observation (unwhitened: sphere rows back through the
@@ -1086,4 +1156,28 @@ pub fn leave_one_out(
         });
     }
     Ok(out)
+}
+
+/// Fits the touches and identifies the machine, then fits again taking the
+/// identified machine's variation over each sphere out of its touches (see
+/// [`fit_touches`]) and identifies again, three times: on the reference
+/// sphere the machine's local scale passes for pre-travel, and each pass
+/// leaves about the sphere's size over the volume's (a tenth) of the
+/// previous pass' error.
+pub fn fit_and_identify(
+    artifacts: &[Artifact],
+    touches: &[Touch],
+    o: &IdentifyOptions,
+) -> Result<(Fitted, Identified), ProbeError> {
+    let mut fitted = fit_touches(artifacts, touches, None)?;
+    let mut id = identify(artifacts, &fitted, o)?;
+    for _ in 0..3 {
+        let theta = id.theta();
+        let model = id.model.clone();
+        let field =
+            |q: Vec3, tool: f64| model.deviation_um(&theta, q, Vec3::new(0.0, 0.0, tool), false);
+        fitted = fit_touches(artifacts, touches, Some(&field))?;
+        id = identify(artifacts, &fitted, o)?;
+    }
+    Ok((fitted, id))
 }

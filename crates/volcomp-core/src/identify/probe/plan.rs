@@ -75,6 +75,9 @@ pub struct PlanOptions {
     pub spheres: SpherePattern,
     /// How often each touch is made.
     pub repeats: usize,
+    /// How often each touch of the reference sphere is made (its
+    /// calibration serves every other touch).
+    pub reference_repeats: usize,
     /// Touches along each edge of a square.
     pub edge_points: usize,
     /// Distance of the first and last edge touch from the edge's ends.
@@ -110,6 +113,7 @@ impl Default for PlanOptions {
             take_up_mm: 1.0,
             spheres: SpherePattern::Five,
             repeats: 1,
+            reference_repeats: 3,
             edge_points: 7,
             edge_margin_mm: 10.0,
             no_contact: NoContact::Stop,
@@ -170,11 +174,13 @@ impl PlanOptions {
                 "give less than approach + overtravel",
             );
         }
-        if !(1..=10).contains(&self.repeats) {
-            return Err(ProbeError::Invalid(format!(
-                "repeats = {}: give 1 … 10",
-                self.repeats
-            )));
+        for (what, r) in [
+            ("repeats", self.repeats),
+            ("reference repeats", self.reference_repeats),
+        ] {
+            if !(1..=10).contains(&r) {
+                return Err(ProbeError::Invalid(format!("{what} = {r}: give 1 … 10")));
+            }
         }
         if !(3..=200).contains(&self.edge_points) {
             return Err(ProbeError::Invalid(format!(
@@ -564,7 +570,12 @@ pub fn plan(art: &Artifact, only: Option<&str>, o: &PlanOptions) -> Result<Plan,
         // move) to the travel plane above the first start.
         let mut pos: Option<Vec3> = None;
         for (label, spec) in list {
-            for _ in 0..o.repeats {
+            let repeats = if art.is_reference() {
+                o.reference_repeats
+            } else {
+                o.repeats
+            };
+            for _ in 0..repeats {
                 let d = spec.direction;
                 let dv = d.vector();
                 let start = spec.nominal - dv * o.approach_mm;
@@ -774,7 +785,15 @@ mod tests {
 
     #[test]
     fn the_reference_sphere_gets_seventeen_touches_from_both_sides() {
+        // Each touch three times by default, one after the other.
         let p = plan(&reference(), None, &PlanOptions::default()).unwrap();
+        assert_eq!(p.touches.len(), 3 * 17);
+        assert_eq!(p.touches[0].nominal_mm, p.touches[2].nominal_mm);
+        let once = PlanOptions {
+            reference_repeats: 1,
+            ..PlanOptions::default()
+        };
+        let p = plan(&reference(), None, &once).unwrap();
         assert_eq!(p.touches.len(), 17);
         let rho = 12.5 + 1.0;
         // Touch 1: the pole, moving −Z, nominal contact on top.

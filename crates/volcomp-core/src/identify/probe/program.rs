@@ -41,6 +41,10 @@ pub struct Frame {
     pub work_offset_mm: Vec3,
     /// The probe's tool length offset (mm), 0 without a probe tool.
     pub tool_length_mm: f64,
+    /// Millimetres per machine unit: LinuxCNC keeps offsets and tool
+    /// lengths (#5221…, #5401…) in the machine's units (`[TRAJ]
+    /// LINEAR_UNITS`), 1 for a metric machine, 25.4 for an inch one.
+    pub mm_per_machine_unit: f64,
 }
 
 impl Frame {
@@ -57,6 +61,7 @@ impl Frame {
         Ok(Self {
             work_offset_mm: setup.setup.work_offsets_mm[o.work_system],
             tool_length_mm,
+            mm_per_machine_unit: setup.setup.machine_units.mm_per_unit(),
         })
     }
 
@@ -126,9 +131,10 @@ pub fn write_program(plan: &Plan, o: &PlanOptions, frame: &Frame, title: &str) -
         }
         None => g.push_str("G49\n"),
     }
-    // Refuse to run with offsets other than those the program was made for.
+    // Refuse to run with offsets other than those the program was made for
+    // (compared in the machine's units, in which LinuxCNC keeps them).
     let base = 5221 + 20 * k;
-    let w = frame.work_offset_mm;
+    let w = frame.work_offset_mm * (1.0 / frame.mm_per_machine_unit);
     let _ = writeln!(
         g,
         "o100 if [ABS[#{} - {}] GT 0.0005 OR ABS[#{} - {}] GT 0.0005 OR ABS[#{} - {}] GT 0.0005]",
@@ -145,10 +151,21 @@ pub fn write_program(plan: &Plan, o: &PlanOptions, frame: &Frame, title: &str) -
     );
     g.push_str("o100 endif\n");
     g.push_str("o101 if [#5210 NE 0]\n  (ABORT,G92 offsets are in effect: cancel them with G92.1 and run again)\no101 endif\n");
+    // #5400–#5403 are the spindle tool's table entry (`set_tool_parameters`,
+    // rs274ngc_pre.cc), which the log records as the tool offset: the probe
+    // must be the tool in the spindle, not only the G43 offset in effect.
+    if let Some(t) = o.probe_tool {
+        let _ = writeln!(g, "o103 if [#5400 NE {t}]");
+        let _ = writeln!(
+            g,
+            "  (ABORT,the probe tool {t} is not in the spindle: load it with T{t} M6 and run again)"
+        );
+        g.push_str("o103 endif\n");
+    }
     let _ = writeln!(
         g,
         "o102 if [ABS[#5403 - {}] GT 0.0005]",
-        numfmt::mm(frame.tool_length_mm)
+        numfmt::mm(frame.tool_length_mm / frame.mm_per_machine_unit)
     );
     g.push_str("  (ABORT,the tool length offset is not the probe's: load the probe and its offset as the set-up says)\no102 endif\n");
     let _ = writeln!(g, "(LOGOPEN,{})", o.log_file);
@@ -159,7 +176,7 @@ pub fn write_program(plan: &Plan, o: &PlanOptions, frame: &Frame, title: &str) -
     );
     let _ = writeln!(
         g,
-        "(LOG,frame g5x=%.6f#{},#{},#{} r=#{} g92on=#5210 g92=#5211,#5212,#5213 tlo=#5401,#5402,#5403 metric=#<_metric>)",
+        "(LOG,frame g5x=%.6f#{},#{},#{} r=#{} g92on=#5210 g92=#5211,#5212,#5213 tlo=#5401,#5402,#5403 metric=#<_metric> mm=#<_metric_machine>)",
         base,
         base + 1,
         base + 2,
@@ -217,6 +234,7 @@ pub fn check_program(
     plan: &Plan,
     setup: &MachineSetup,
     frame: &Frame,
+    probe_tool: Option<u32>,
 ) -> Result<(), ProbeError> {
     let mut ms = setup.clone();
     ms.interp = InterpOptions {
@@ -226,7 +244,14 @@ pub fn check_program(
     };
     // The program selects its own offsets; the tool length it applies is
     // the set-up's (G43 H reads the tool table).
-    let mut walker = ms.walker(text.as_bytes(), "probe.ngc");
+    // The operator has loaded the probe (T M6) before the run: the check
+    // starts with it in the spindle, written on the first line so that
+    // line numbers stay the program's.
+    let checked = match probe_tool {
+        Some(t) => format!("T{t} M6 {text}"),
+        None => text.to_string(),
+    };
+    let mut walker = ms.walker(checked.as_bytes(), "probe.ngc");
     let mut motions = Vec::new();
     loop {
         match walker.next_line() {

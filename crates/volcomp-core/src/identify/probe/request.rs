@@ -3,8 +3,8 @@
 //! Messages name options, never a front end's flags.
 
 use super::artifact::{parse_artifact, Artifact};
-use super::fit::{fit_touches, Estimate, Fitted};
-use super::identify::{identify, leave_one_out, HeldOut, Identified, IdentifyOptions};
+use super::fit::{Estimate, Fitted};
+use super::identify::{fit_and_identify, leave_one_out, HeldOut, Identified, IdentifyOptions};
 use super::plan::{plan, Plan, PlanOptions};
 use super::program::{check_program, write_program, Frame};
 use super::ProbeError;
@@ -65,7 +65,13 @@ impl PlanRequest {
         let plan = plan(&artifact, self.placement.as_deref(), &self.options)?;
         let frame = Frame::of(&self.setup, &self.options)?;
         let program = write_program(&plan, &self.options, &frame, &self.title);
-        check_program(&program, &plan, &self.setup, &frame)?;
+        check_program(
+            &program,
+            &plan,
+            &self.setup,
+            &frame,
+            self.options.probe_tool,
+        )?;
         Ok(PlanOutput {
             artifact,
             plan,
@@ -181,8 +187,7 @@ impl FitRequest {
     /// Reads, fits, identifies, and builds the model.
     pub fn run(&self) -> Result<FitOutput, ProbeError> {
         let (artifacts, touches) = read_inputs(&self.artifacts, &self.logs)?;
-        let fitted = fit_touches(&artifacts, &touches)?;
-        let identified = identify(&artifacts, &fitted, &self.options)?;
+        let (fitted, identified) = fit_and_identify(&artifacts, &touches, &self.options)?;
         let held_out = if self.leave_one_out {
             leave_one_out(&artifacts, &fitted, &self.options)?
         } else {

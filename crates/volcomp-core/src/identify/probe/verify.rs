@@ -4,8 +4,7 @@
 //! parameters are the machine's remaining error (docs/probing.md,
 //! "Verification").
 
-use super::fit::fit_touches;
-use super::identify::{identify, Identified, IdentifyOptions, Status};
+use super::identify::{fit_and_identify, Identified, IdentifyOptions, Status};
 use super::request::{read_inputs, Input};
 use super::result::{grid, rms_modulo_rigid};
 use super::ProbeError;
@@ -73,8 +72,7 @@ impl VerifyRequest<'_> {
                 t.q_mm += e * 1e-3;
             }
         }
-        let fitted = fit_touches(&artifacts, &touches)?;
-        let identified = identify(&artifacts, &fitted, &self.options)?;
+        let (_, identified) = fit_and_identify(&artifacts, &touches, &self.options)?;
         let theta = identified.theta();
         let pts = grid(self.options.ranges_mm, 5);
         let tool = Vec3::new(0.0, 0.0, identified.probe_length_mm);
