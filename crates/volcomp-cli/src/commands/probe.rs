@@ -5,14 +5,15 @@
 //! compensated run leaves, `example` writes a synthetic campaign. Flags are
 //! turned into the library's requests; the library does the work.
 
+use crate::options::Options;
 use crate::output::{check, write_atomically, CliError, OutputPlan, Staged};
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
-use volcomp_core::identify::probe::identify::{IdentifyOptions, ModelChoice};
 use volcomp_core::identify::probe::plan::{NoContact, PlanOptions, SpherePattern};
 use volcomp_core::identify::probe::program::duration;
 use volcomp_core::identify::probe::request::{FitRequest, Input, PlanRequest};
 use volcomp_core::identify::probe::verify::{Applied, VerifyRequest};
+use volcomp_core::request::{ProbeFitRequest, ProbeIdentifyRequest};
 use volcomp_core::MachineSetup;
 
 /// Calibrate with a touch probe: probing programs, fit, verification.
@@ -127,16 +128,6 @@ pub struct PlanArgs {
     pub output: PathBuf,
 }
 
-#[derive(ValueEnum, Clone, Copy, Debug)]
-pub enum Model {
-    /// Full when spheres were measured in two placements or more, else reduced.
-    Auto,
-    /// The 21-component model.
-    Full,
-    /// Positioning, straightness and squareness; angles zero and unknown.
-    Reduced,
-}
-
 #[derive(Args, Debug)]
 pub struct IdentifyArgs {
     /// An artifact description (TOML); one per artifact the logs touched.
@@ -145,30 +136,14 @@ pub struct IdentifyArgs {
     /// A probing log written by the program, or a CSV of points.
     #[arg(long = "log", value_name = "FILE", required = true)]
     pub logs: Vec<PathBuf>,
-    /// The machine's travel, mm: "X0:X1,Y0:Y1,Z0:Z1".
-    #[arg(long, value_name = "RANGES", allow_hyphen_values = true)]
-    pub ranges_mm: String,
-    /// Kinematic chain, workpiece to tool (docs/kinematic.md).
-    #[arg(long, default_value = "w X' Y' b Z t")]
-    pub chain: String,
-    /// Largest Legendre order of the components.
-    #[arg(long, default_value_t = 2)]
-    pub order: usize,
-    /// Which model.
-    #[arg(long, value_enum, default_value = "auto")]
-    pub model: Model,
-    /// Relative singular-value threshold for what the measurements cannot see.
-    #[arg(long, default_value_t = 1e-3)]
-    pub threshold: f64,
 }
 
 #[derive(Args, Debug)]
 pub struct FitArgs {
     #[command(flatten)]
     pub id: IdentifyArgs,
-    /// Also predict every placement from a model fitted without it.
-    #[arg(long)]
-    pub leave_one_out: bool,
+    #[command(flatten)]
+    pub job: Options<ProbeFitRequest>,
     /// Also write the HTML report.
     #[arg(long, value_name = "HTML")]
     pub report: Option<PathBuf>,
@@ -189,6 +164,8 @@ pub enum AppliedArg {
 pub struct VerifyArgs {
     #[command(flatten)]
     pub id: IdentifyArgs,
+    #[command(flatten)]
+    pub job: Options<ProbeIdentifyRequest>,
     /// The model to check.
     #[arg(long, value_name = "MODEL")]
     pub map: PathBuf,
@@ -314,41 +291,6 @@ fn plan_cmd(a: PlanArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-fn parse_ranges(text: &str) -> Result<[[f64; 2]; 3], CliError> {
-    let bad = || {
-        CliError::Message(format!(
-            "--ranges-mm `{text}`: write three ranges lo:hi separated by commas, e.g. 0:600,0:400,0:300"
-        ))
-    };
-    let parts: Vec<&str> = text.split(',').collect();
-    if parts.len() != 3 {
-        return Err(bad());
-    }
-    let mut r = [[0.0; 2]; 3];
-    for (a, p) in parts.iter().enumerate() {
-        let (lo, hi) = p.split_once(':').ok_or_else(bad)?;
-        r[a] = [
-            lo.trim().parse().map_err(|_| bad())?,
-            hi.trim().parse().map_err(|_| bad())?,
-        ];
-    }
-    Ok(r)
-}
-
-fn identify_options(a: &IdentifyArgs) -> Result<IdentifyOptions, CliError> {
-    Ok(IdentifyOptions {
-        chain: a.chain.clone(),
-        ranges_mm: parse_ranges(&a.ranges_mm)?,
-        order: a.order,
-        model: match a.model {
-            Model::Auto => ModelChoice::Auto,
-            Model::Full => ModelChoice::Full,
-            Model::Reduced => ModelChoice::Reduced,
-        },
-        relative_threshold: a.threshold,
-    })
-}
-
 fn inputs(paths: &[PathBuf], role: &str) -> Result<Vec<Input>, CliError> {
     paths.iter().map(|p| input(p, role)).collect()
 }
@@ -373,13 +315,14 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         .output("-o (its tables beside it)", &csv_path)
         .output_opt("--report", a.report.as_ref());
     check(&plan)?;
-    let options = identify_options(&a.id)?;
+    let options = a.job.identify.options()?;
     let ranges = options.ranges_mm;
+    let (order, chain) = (options.order, options.chain.clone());
     let request = FitRequest {
         artifacts: inputs(&a.id.artifacts, "ARTIFACT")?,
         logs: inputs(&a.id.logs, "LOG")?,
         options,
-        leave_one_out: a.leave_one_out,
+        leave_one_out: a.job.leave_one_out,
     };
     let out = request.run()?;
     let (toml, csv) = out.model_files(
@@ -412,14 +355,16 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
                 ("date".into(), volcomp_core::io::provenance::now_utc()),
                 (
                     "model".into(),
-                    format!(
-                        "{} (order {}, chain {})",
-                        a.output.display(),
-                        a.id.order,
-                        a.id.chain
-                    ),
+                    format!("{} (order {}, chain {})", a.output.display(), order, chain),
                 ),
-                ("travel (mm)".into(), a.id.ranges_mm.clone()),
+                (
+                    "travel (mm)".into(),
+                    ranges
+                        .iter()
+                        .map(|r| format!("{}:{}", r[0], r[1]))
+                        .collect::<Vec<_>>()
+                        .join(","),
+                ),
             ],
             inputs: Vec::new(),
             sections: volcomp_core::report::probe::sections(&out, ranges),
@@ -460,7 +405,7 @@ fn verify_cmd(a: VerifyArgs) -> Result<(), CliError> {
     plan.input("--map", &a.map);
     check(&plan)?;
     let loaded = volcomp_core::io::load_model(&a.map, &volcomp_core::io::LoadOptions::default())?;
-    let options = identify_options(&a.id)?;
+    let options = a.job.options()?;
     let request = VerifyRequest {
         artifacts: inputs(&a.id.artifacts, "ARTIFACT")?,
         logs: inputs(&a.id.logs, "LOG")?,
