@@ -7,23 +7,14 @@
 //! is set: there they fail (as the rs274 agreement tests decide).
 
 mod common;
+mod rs274;
 
 use common::{stderr, tempdir, volcomp};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-fn find_rs274() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("VOLCOMP_RS274") {
-        return Some(PathBuf::from(p)).filter(|p| p.is_file());
-    }
-    let path = std::env::var_os("PATH")?;
-    std::env::split_paths(&path)
-        .map(|d| d.join("rs274"))
-        .find(|p| p.is_file())
-}
-
 fn rs274_or_skip() -> Option<PathBuf> {
-    match find_rs274() {
+    match rs274::find_rs274() {
         Some(p) => Some(p),
         None if std::env::var_os("CI").is_some() => {
             panic!("rs274 (Debian package linuxcnc-uspace) is not installed, and CI is set: CI must install it")
@@ -41,7 +32,7 @@ const SETUP: &str = "units = \"inch\"\n[work_offsets]\nG54 = [1, 2, -3]\n[tools]
 
 /// Runs rs274 on `program`: `(STRAIGHT_PROBE ends (program units), other
 /// output lines)`, or the complaint if it refused the program.
-fn rs274(exe: &Path, program: &Path, dir: &Path) -> Result<Vec<[f64; 3]>, String> {
+fn run_plan(exe: &Path, program: &Path, dir: &Path) -> Result<Vec<[f64; 3]>, String> {
     let tbl = dir.join("tool.tbl");
     std::fs::write(&tbl, "T9 P9 Z3.5\n").unwrap();
     let var = dir.join("p.var");
@@ -148,12 +139,12 @@ fn every_generated_program_is_accepted_by_rs274() {
             // run otherwise): T9 M6 on the first line keeps line numbers.
             let loaded = work.join("loaded.ngc");
             std::fs::write(&loaded, format!("T9 M6 {program}")).unwrap();
-            let probes = rs274(exe, &loaded, &work)
+            let probes = run_plan(exe, &loaded, &work)
                 .unwrap_or_else(|e| panic!("{artifact}: rs274 refused: {e}"));
             assert_eq!(probes.len(), 2 * touches, "{artifact}");
             if k == 0 {
                 // Without the probe in the spindle LinuxCNC stops at once.
-                let e = rs274(exe, &d.join(&out), &work).unwrap_err();
+                let e = run_plan(exe, &d.join(&out), &work).unwrap_err();
                 assert!(e.contains("not in the spindle"), "{e}");
             }
             // The fast and the slow move of a touch end at the same target.
