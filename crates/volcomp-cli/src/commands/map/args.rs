@@ -309,6 +309,10 @@ pub struct ExportArgs {
     pub tool: ToolArgs,
     #[command(flatten)]
     pub comp: CompArgs,
+    /// linuxcnc: write each joint's BACKLASH (the mean reversal value) and
+    /// no comp files.
+    #[arg(long)]
+    pub backlash_only: bool,
     /// siemens-eec: the machine axis names of X, Y, Z.
     #[arg(long, value_name = "X,Y,Z", default_value = "X1,Y1,Z1")]
     pub axis_names: String,

@@ -106,12 +106,21 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
             }
         }
         ExportFormat::Linuxcnc => {
-            let (ty, units) = a.comp.get()?;
+            use controllers::linuxcnc::LinuxcncExport;
+            let (what, units) = if a.backlash_only {
+                let units = a.comp.units.ok_or_else(|| {
+                    CliError::Message("LinuxCNC's BACKLASH is in machine units: pass --units mm or --units inch as [TRAJ] LINEAR_UNITS says".into())
+                })?;
+                (LinuxcncExport::BacklashOnly, units.into())
+            } else {
+                let (ty, units) = a.comp.get()?;
+                (LinuxcncExport::CompFiles(ty), units)
+            };
             let t = stepped(
                 positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
                 step,
             );
-            controllers::linuxcnc::export(&t.map(Some), ty, units)?
+            controllers::linuxcnc::export(&t.map(Some), what, units)?
         }
         ExportFormat::Fanuc => {
             let Some(step) = step else {

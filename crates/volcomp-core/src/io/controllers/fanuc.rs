@@ -376,6 +376,8 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
             axes: applied,
             squareness_urad: None,
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         },
         rounding,
         notes,
@@ -573,6 +575,8 @@ pub fn parse(text: &str, file: &str, o: &FanucOptions) -> Result<ControllerCorre
         axes,
         squareness_urad: None,
         cross: Vec::new(),
+        backlash: [None; 3],
+        notes: Vec::new(),
     })
 }
 

@@ -80,6 +80,8 @@ pub fn export(p: &[Option<Positioning>; 3]) -> Result<Export, LimitError> {
             axes: applied,
             squareness_urad: None,
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         },
         rounding,
         notes,
@@ -135,6 +137,8 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
         axes,
         squareness_urad: None,
         cross: Vec::new(),
+        backlash: [None; 3],
+        notes: Vec::new(),
     })
 }
 

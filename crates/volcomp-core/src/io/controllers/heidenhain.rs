@@ -155,6 +155,8 @@ pub fn export(p: &[Option<Positioning>; 3]) -> Result<Export, LimitError> {
             axes: applied,
             squareness_urad: None,
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         },
         rounding,
         notes: vec![

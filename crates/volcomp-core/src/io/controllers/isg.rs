@@ -97,7 +97,7 @@ pub fn ssfk_export(p: &[Option<Positioning>; 3], max_points: usize) -> Result<Ex
     }
     Ok(Export {
         files,
-        applied: ControllerCorrection { format: Format::IsgSsfk, axes: applied, squareness_urad: None, cross: Vec::new() },
+        applied: ControllerCorrection { format: Format::IsgSsfk, axes: applied, backlash: [None; 3], squareness_urad: None, cross: Vec::new(), notes: Vec::new() },
         rounding,
         notes: vec![
             "activate with lr_param.ssfk 1 (P-AXIS-00175) in each axis' parameter list and name the achskw_*.lis in the start-up description".into(),
@@ -479,6 +479,8 @@ pub fn csv_export(model: &crate::model::kinematic::KinematicModel) -> Export {
             axes: applied,
             squareness_urad: Some([s.xy_urad, s.yz_urad, s.zx_urad]),
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         },
         rounding,
         notes,

@@ -135,6 +135,8 @@ pub fn export(p: &[Option<Positioning>; 3], o: &EecOptions) -> Result<Export, Li
             axes: applied,
             squareness_urad: None,
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         },
         rounding,
         notes,
@@ -342,6 +344,8 @@ pub fn parse(
         axes,
         squareness_urad: None,
         cross: Vec::new(),
+        backlash: [None; 3],
+        notes: Vec::new(),
     })
 }
 
@@ -456,7 +460,7 @@ pub enum CecSign {
 
 /// One cross-compensation table read back: input axis, output axis and the
 /// table (µm in volcomp's sign over the input axis' position).
-pub type CecTable = (usize, usize, Positioning);
+pub type CecTable = super::CrossTable;
 
 /// The file `%_N_NC_CEC_INI` for straightness tables: one table per
 /// `(input axis a, output axis d, E_da)` in `tables` (volcomp's sign, µm,
@@ -537,6 +541,8 @@ pub fn cec_export(
             axes: [None, None, None],
             squareness_urad: None,
             cross,
+            backlash: [None; 3],
+            notes: Vec::new(),
         },
         rounding,
         notes,

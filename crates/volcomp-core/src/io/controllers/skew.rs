@@ -64,6 +64,8 @@ fn applied(format: Format, f: [f64; 3]) -> ControllerCorrection {
         axes: [None, None, None],
         squareness_urad: Some(squareness_urad(f)),
         cross: Vec::new(),
+        backlash: [None; 3],
+        notes: Vec::new(),
     }
 }
 
@@ -200,6 +202,8 @@ pub fn rrf(squareness: [f64; 3]) -> Result<Export, LimitError> {
                 -z / RRF_SAMPLE_MM * 1e6,
             ]),
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         },
         rounding,
         notes: vec![
@@ -304,6 +308,8 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
             axes: [None, None, None],
             squareness_urad: Some(sq),
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         });
     }
     let Some(format) = format else {
