@@ -342,10 +342,19 @@ pub struct ExportArgs {
     /// whose table is zero at the reference; 3627 holds the other's value.
     #[arg(long, value_enum, default_value_t = FanucReturnArg::Positive)]
     pub fanuc_reference_return: FanucReturnArg,
+    /// siemens-eec: the direction of the reference point approach (MD34010
+    /// $MA_REFP_CAM_DIR_IS_MINUS 0 = positive): MD32450's backlash acts on
+    /// travel the other way.
+    #[arg(long, value_enum, default_value_t = FanucReturnArg::Positive)]
+    pub reference_direction: FanucReturnArg,
     /// siemens-cec: the sign of the values (the manual does not settle it):
     /// error = +e (default, as the leadscrew tables) or correction = −e.
     #[arg(long, value_enum, default_value_t = CecSignArg::Error)]
     pub cec_sign: CecSignArg,
+    /// grblhal: the machine's $23 (homing direction invert mask): the side
+    /// grblHAL adds the backlash to.
+    #[arg(long, value_name = "MASK", default_value_t = 0)]
+    pub homing_dir_mask: u32,
     /// klipper: the profile's name (SKEW_PROFILE LOAD=NAME).
     #[arg(long, value_name = "NAME", default_value = "volcomp")]
     pub profile: String,

@@ -88,7 +88,7 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
     let e: Export = match a.to {
         ExportFormat::Grblhal => {
             let t = positioning_tables(&map, a.at.as_deref(), &a.tool, form)?;
-            controllers::grbl::export(&t.map(Some))?
+            controllers::grbl::export(&t.map(Some), a.homing_dir_mask)?
         }
         ExportFormat::Klipper | ExportFormat::Marlin | ExportFormat::Rrf => {
             let Map::Kinematic(m) = &map else {
@@ -193,6 +193,10 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
                 step_mm: step,
                 resolution_um: a.resolution_um,
                 max_points: a.max_points.unwrap_or(5000),
+                reference: match a.reference_direction {
+                    FanucReturnArg::Positive => controllers::ReferenceDirection::Positive,
+                    FanucReturnArg::Negative => controllers::ReferenceDirection::Negative,
+                },
             };
             let sign = match a.cec_sign {
                 CecSignArg::Error => siemens::CecSign::Error,
@@ -227,6 +231,10 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
                 step_mm: step,
                 resolution_um: a.resolution_um,
                 max_points: a.max_points.unwrap_or(5000),
+                reference: match a.reference_direction {
+                    FanucReturnArg::Positive => controllers::ReferenceDirection::Positive,
+                    FanucReturnArg::Negative => controllers::ReferenceDirection::Negative,
+                },
             };
             siemens::export(&t.map(Some), &o)?
         }

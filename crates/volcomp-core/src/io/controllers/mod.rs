@@ -112,6 +112,58 @@ pub fn mean_reversal_um(p: &Positioning) -> f64 {
         / n
 }
 
+/// The direction in which an axis takes its reference (Siemens reference
+/// point approach, MD34010 `$MA_REFP_CAM_DIR_IS_MINUS`; Fanuc reference
+/// position return, 1006#5): the travel whose backlash is taken up when
+/// the position is set, so a controller's backlash compensation acts on
+/// the other one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ReferenceDirection {
+    /// In + (the default of both parameters).
+    #[default]
+    Positive,
+    /// In −.
+    Negative,
+}
+
+impl ReferenceDirection {
+    /// The travel a backlash compensation acts on after this reference.
+    pub fn backlash_side(self) -> BacklashSide {
+        match self {
+            ReferenceDirection::Positive => BacklashSide::Reverse,
+            ReferenceDirection::Negative => BacklashSide::Forward,
+        }
+    }
+}
+
+/// One table for both directions beside a backlash compensation of the
+/// mean reversal value `B̄` acting on `side`: the table that leaves both
+/// directions off by at most half the reversal's variation,
+/// `t = (E_forward + E_reverse)/2 − (β↑ + β↓)/2` with `β` the backlash's
+/// part of the correction per direction (0 for [`BacklashSide::Split`],
+/// `B̄/2` when it acts on reverse travel, `−B̄/2` forward), and `B̄`
+/// ([`mean_reversal_um`]). Then `c↑ = t + β↑ = E↑ + (B − B̄)/2` and
+/// `c↓ = E↓ − (B − B̄)/2`.
+pub fn table_beside_backlash(p: &Positioning, side: BacklashSide) -> (Positioning, f64) {
+    let b = mean_reversal_um(p);
+    let bl = Backlash { value_um: b, side };
+    let shift = 0.5 * (bl.correction_um(true) + bl.correction_um(false));
+    let t: Vec<f64> = p
+        .forward_um
+        .iter()
+        .zip(&p.reverse_um)
+        .map(|(f, r)| 0.5 * (f + r) - shift)
+        .collect();
+    (
+        Positioning {
+            positions_mm: p.positions_mm.clone(),
+            forward_um: t.clone(),
+            reverse_um: t,
+        },
+        b,
+    )
+}
+
 /// How much rounding to a controller's resolution changed the values.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Rounding {
