@@ -31,7 +31,14 @@ pub fn load_map(a: &MapArgs) -> Result<Box<dyn ErrorModel>, CliError> {
     // model (TOML, told apart by their `model` key): docs/kinematic.md.
     let map = super::map::load(&a.map, a.clamp)?.into_model();
     let controller = match (&a.controller, a.controller_compensates) {
-        (Some(file), _) => controllers::read_applies(file)?,
+        (Some(file), _) => {
+            let c = controllers::read_applies(file)?;
+            // What reading the controller's files assumed or found ignored.
+            for n in c.notes() {
+                crate::note!("volcomp: note: {}: {n}", file.display());
+            }
+            c
+        }
         (None, Some(ControllerCompensates::Positioning)) => ControllerApplies::MapPositioning,
         (None, None) => return Ok(map),
     };

@@ -386,7 +386,7 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
 }
 
 /// What the controller named by `path` compensates: an ISG volumetric
-/// compensation list (`*.lis` with `file_format`) is a whole model
+/// compensation list (`*.lis` with `file[j]`) is a whole model
 /// ([`isg::read_volcomp_lis`]); anything else a table ([`read`]).
 pub fn read_applies(
     path: &std::path::Path,
@@ -395,10 +395,19 @@ pub fn read_applies(
     let is_lis = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("lis"));
-    if is_lis && read_text(path)?.contains("file_format") {
-        return Ok(ControllerApplies::Model(Box::new(
-            crate::model::controller::Volumetric::plain(isg::read_volcomp_lis(path)?),
-        )));
+    if is_lis {
+        let text = read_text(path)?;
+        let volumetric = !text.contains("kw.ssfk.")
+            && text.lines().any(|l| {
+                l.trim_start()
+                    .get(..5)
+                    .is_some_and(|k| k.eq_ignore_ascii_case("file["))
+            });
+        if volumetric {
+            return Ok(ControllerApplies::Model(Box::new(isg::read_volcomp_lis(
+                path,
+            )?)));
+        }
     }
     Ok(ControllerApplies::Tables(Box::new(read(path)?)))
 }
