@@ -194,6 +194,10 @@ pub struct ConvertArgs {
     pub direction: String,
     #[command(flatten)]
     pub comp: CompArgs,
+    /// For --to linuxcnc: the largest deviation (µm) of the written tables
+    /// from the map, between and at their points (a finer --step when it is exceeded).
+    #[arg(long, value_name = "UM", default_value_t = volcomp_core::io::controllers::table_error::DEFAULT_MAX_TABLE_ERROR_UM)]
+    pub max_table_error_um: f64,
     /// Kinematic chain for --to model from axis tables (default w X' Y' b Z t).
     #[arg(long, value_name = "CHAIN")]
     pub chain: Option<String>,
@@ -309,6 +313,11 @@ pub struct ExportArgs {
     pub tool: ToolArgs,
     #[command(flatten)]
     pub comp: CompArgs,
+    /// The largest deviation (µm) of the written table, as the controller
+    /// applies it, from the map between and at its points: a larger one is
+    /// refused with a finer step to choose.
+    #[arg(long, value_name = "UM", default_value_t = volcomp_core::io::controllers::table_error::DEFAULT_MAX_TABLE_ERROR_UM)]
+    pub max_table_error_um: f64,
     /// linuxcnc: write each joint's BACKLASH (the mean reversal value) and
     /// no comp files.
     #[arg(long)]

@@ -239,6 +239,52 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
             siemens::export(&t.map(Some), &o)?
         }
     };
+    // How far the table, as the controller applies it, lies from the map:
+    // checked before anything is written.
+    use controllers::table_error::{self, um};
+    if !(a.max_table_error_um.is_finite() && a.max_table_error_um > 0.0) {
+        return Err(CliError::Message(format!(
+            "--max-table-error-um must be positive; got {}",
+            a.max_table_error_um
+        )));
+    }
+    let err = match a.to {
+        ExportFormat::Klipper | ExportFormat::Marlin | ExportFormat::Rrf => {
+            use volcomp_core::model::ErrorModel;
+            match &map {
+                Map::Kinematic(m) => {
+                    let s = &m.kinematics.squareness;
+                    table_error::squareness_error(
+                        [s.xy_urad, s.yz_urad, s.zx_urad],
+                        &e.applied,
+                        m.range_mm(),
+                    )
+                }
+                Map::Tables(_) => table_error::TableError::default(),
+            }
+        }
+        ExportFormat::SiemensCec => {
+            table_error::cross_error(&straightness_tables(&map), &e.applied)
+        }
+        _ => table_error::table_error(
+            &positioning_tables(&map, a.at.as_deref(), &a.tool, form)?.map(Some),
+            &e.applied,
+            e.holds,
+            e.zero_at,
+        ),
+    };
+    let rounding_um = match a.to {
+        // µrad over the map's arms: the error itself says it in µm.
+        ExportFormat::Klipper | ExportFormat::Marlin | ExportFormat::Rrf => 0.0,
+        _ => e.rounding.max_um,
+    };
+    table_error::check(
+        e.applied.format.name(),
+        &err,
+        rounding_um,
+        step,
+        a.max_table_error_um,
+    )?;
     std::fs::create_dir_all(&a.output).map_err(|err| CliError::Io(a.output.clone(), err))?;
     for f in &e.files {
         write_text(&a.output.join(&f.name), &[&a.map], &f.text)?;
@@ -253,11 +299,26 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
         _ => "µm",
     };
     crate::note!(
-        "volcomp: wrote {} file(s) to {}; rounded to the controller's resolution {} {unit}: largest change {:.4} {unit}",
+        "volcomp: wrote {} file(s) to {}; rounded to the controller's resolution {} {unit}: largest change {} {unit}",
         e.files.len(),
         a.output.display(),
-        e.rounding.resolution_um,
-        e.rounding.max_um
+        um(e.rounding.resolution_um),
+        um(e.rounding.max_um)
     );
+    let (ax, x, forward) = err.at.unwrap_or((0, 0.0, true));
+    crate::note!(
+        "volcomp: the table as the controller applies it lies at most {} µm from the map (resampling and rounding; {} at {} mm, {}; exact: checked at every point of the map's and the controller's tables, where the largest difference of two linearly interpolated tables lies); --max-table-error-um allows {}",
+        um(err.max_um),
+        ["X", "Y", "Z"][ax],
+        volcomp_core::io::numfmt::fixed(x, 4),
+        if forward { "forward" } else { "reverse" },
+        um(a.max_table_error_um)
+    );
+    if err.left_um > err.max_um {
+        crate::note!(
+            "volcomp: the controller leaves up to {} µm of the map uncorrected (what the format cannot hold); compensate it with --controller",
+            um(err.left_um)
+        );
+    }
     Ok(())
 }

@@ -195,6 +195,7 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
     let mut applied = ControllerCorrection::empty(Format::Fanuc);
     let mut notes = Vec::new();
     let side = o.reference_return.backlash_side();
+    let mut holds = [super::table_error::Holds::Nothing; 3];
     for (a, table) in p.iter().enumerate() {
         let Some(table) = table else { continue };
         let ax = axis_letter(a);
@@ -228,6 +229,11 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
         let k_hi = k_hi.max(0);
         let count = (k_hi - k_lo + 1) as usize;
         let tables = if both { 2 } else { 1 };
+        holds[a] = if both {
+            super::table_error::Holds::BothDirections
+        } else {
+            super::table_error::Holds::OneTable
+        };
         if next + tables * count - 1 > o.max_number {
             let what = if both {
                 format!("{count} compensation points per direction (the − direction's table after the + one) from number {next}")
@@ -423,6 +429,8 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
         }],
         applied,
         rounding,
+        holds,
+        zero_at: Some((0.0, o.reference_return == FanucReturn::Positive)),
         notes,
     })
 }

@@ -97,6 +97,8 @@ pub fn export(p: &[Option<Positioning>; 3], homing_dir_mask: u32) -> Result<Expo
         }],
         applied,
         rounding,
+        holds: [super::table_error::Holds::BacklashOnly; 3],
+        zero_at: None,
         notes,
     })
 }

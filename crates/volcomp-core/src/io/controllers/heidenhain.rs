@@ -159,6 +159,8 @@ pub fn export(p: &[Option<Positioning>; 3]) -> Result<Export, LimitError> {
             notes: Vec::new(),
         },
         rounding,
+        holds: [super::table_error::Holds::BothDirections; 3],
+        zero_at: None,
         notes: vec![
             "copy the .COM tables and VOLCOMP.CMA to the TNC (PLC partition), activate nonlinear axis error compensation for X, Y, Z and line 0 of VOLCOMP.CMA".into(),
         ],

@@ -102,6 +102,8 @@ pub fn ssfk_export(p: &[Option<Positioning>; 3], max_points: usize) -> Result<Ex
         files,
         applied: ControllerCorrection { format: Format::IsgSsfk, axes: applied, backlash: [None; 3], squareness_urad: None, cross: Vec::new(), notes: Vec::new() },
         rounding,
+        holds: [super::table_error::Holds::BothDirections; 3],
+        zero_at: None,
         notes: vec![
             "activate with lr_param.ssfk 1 (P-AXIS-00175) in each axis' parameter list and name the achskw_*.lis in the start-up description".into(),
         ],
@@ -655,6 +657,8 @@ pub fn csv_export(model: &crate::model::kinematic::KinematicModel) -> Export {
             notes: Vec::new(),
         },
         rounding,
+        holds: [super::table_error::Holds::OneTable; 3],
+        zero_at: None,
         notes,
     }
 }

@@ -80,8 +80,13 @@ pub fn export(
     };
     let mut ini = ini_head(units);
     let mut notes = Vec::new();
+    let mut holds = [super::table_error::Holds::Nothing; 3];
     for (a, table) in p.iter().enumerate() {
         let Some(table) = table else { continue };
+        holds[a] = match what {
+            LinuxcncExport::CompFiles(_) => super::table_error::Holds::BothDirections,
+            LinuxcncExport::BacklashOnly => super::table_error::Holds::BacklashOnly,
+        };
         match what {
             LinuxcncExport::CompFiles(ty) => {
                 let name = format!("{}.comp", axis_letter(a).to_ascii_lowercase());
@@ -155,6 +160,8 @@ pub fn export(
         files,
         applied,
         rounding,
+        holds,
+        zero_at: None,
         notes,
     })
 }

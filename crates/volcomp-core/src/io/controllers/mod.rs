@@ -25,6 +25,7 @@ pub mod isg;
 pub mod linuxcnc;
 pub mod siemens;
 pub mod skew;
+pub mod table_error;
 
 use crate::error::MapFileError;
 pub use crate::model::controller::{
@@ -229,6 +230,12 @@ pub struct Export {
     /// Lines to show the user: settings to make on the controller, what
     /// the format leaves out.
     pub notes: Vec<String>,
+    /// What each axis holds (for the table error, [`table_error`]).
+    pub holds: [table_error::Holds; 3],
+    /// The position and direction at which the tables are zero by the
+    /// controller's definition (Fanuc: the reference position, in the
+    /// return direction), if any.
+    pub zero_at: Option<(f64, bool)>,
 }
 
 /// A located error in a controller file.

@@ -161,6 +161,8 @@ pub fn export(p: &[Option<Positioning>; 3], o: &EecOptions) -> Result<Export, Li
         }],
         applied,
         rounding,
+        holds: [super::table_error::Holds::OneTable; 3],
+        zero_at: None,
         notes,
     })
 }
@@ -661,6 +663,8 @@ pub fn cec_export(
             notes: Vec::new(),
         },
         rounding,
+        holds: [super::table_error::Holds::Nothing; 3],
+        zero_at: None,
         notes,
     })
 }
