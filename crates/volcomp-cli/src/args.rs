@@ -39,6 +39,19 @@ pub enum Command {
     /// Straightness models from measured profiles: fit (geometric error vs vibration), plot, table, predict.
     Straightness(crate::commands::straightness::StraightnessArgs),
     Thermal(crate::commands::thermal::ThermalArgs),
+    /// Print a shell completion script to standard output, e.g.
+    /// `volcomp completions bash > ~/.local/share/bash-completion/completions/volcomp`.
+    Completions(CompletionsArgs),
+    /// Print volcomp's man page (roff) to standard output, e.g.
+    /// `volcomp man > volcomp.1 && man ./volcomp.1`.
+    Man,
+}
+
+#[derive(Args, Debug)]
+pub struct CompletionsArgs {
+    /// The shell.
+    #[arg(value_enum)]
+    pub shell: clap_complete::Shell,
 }
 
 /// The one value parser of every option that names an axis: `X`, `Y` or
@@ -129,4 +142,7 @@ pub struct DemoArgs {
     /// Where to write the example map and programs.
     #[arg(long, value_name = "DIR", default_value = "volcomp-demo")]
     pub out_dir: PathBuf,
+    /// Also write the table as Markdown (BENCHMARKS.md's demo table).
+    #[arg(long, value_name = "FILE.md")]
+    pub markdown: Option<PathBuf>,
 }

@@ -30,6 +30,18 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Surface(a) => surface::run(a),
         Command::Straightness(a) => straightness::run(a),
         Command::Thermal(a) => thermal::run(a),
+        Command::Completions(a) => {
+            let mut cmd = <Cli as clap::CommandFactory>::command();
+            clap_complete::generate(a.shell, &mut cmd, "volcomp", &mut io::stdout());
+            Ok(())
+        }
+        Command::Man => {
+            let mut page = Vec::new();
+            clap_mangen::Man::new(<Cli as clap::CommandFactory>::command())
+                .render(&mut page)
+                .map_err(CliError::Stdout)?;
+            io::stdout().write_all(&page).map_err(CliError::Stdout)
+        }
     }
 }
 

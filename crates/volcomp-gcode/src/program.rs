@@ -96,7 +96,7 @@ pub struct Walker<R> {
     /// The line the last event came from.
     pub(crate) current: Pos,
     /// Where lines after the program end are copied from (main program).
-    after_end_at: Option<usize>,
+    pub(crate) after_end_at: Option<usize>,
 }
 
 impl<R: BufRead> Walker<R> {
@@ -202,6 +202,22 @@ impl<R: BufRead> Walker<R> {
             if self.interp.finished() {
                 return self.next_after_end();
             }
+            // gcode lane: lines LinuxCNC generates in place of a return
+            // (an M73 restore), run as a rendered line of the return.
+            if let Some(text) = self.flow.next_injected() {
+                let line = self.current.line as u64 + 1;
+                self.buf.clear();
+                self.buf.extend_from_slice(text.as_bytes());
+                self.rendered = true;
+                let n = lexer::content_len(&self.buf);
+                if let Err(e) = lexer::lex_block(&self.buf[..n], &mut self.lexed) {
+                    return Err(self.locate_rendered(e.at_line(line)));
+                }
+                if let Err(e) = self.interp.execute(line, &self.lexed, &mut self.motions) {
+                    return Err(self.locate_rendered(e));
+                }
+                return Ok(Some(self.event(self.current, LineKind::Block, false)));
+            }
             let pos = self.flow.pos;
             if !self.fetch(pos)? {
                 self.end_of_source(pos)?;
@@ -264,7 +280,10 @@ impl<R: BufRead> Walker<R> {
             LineKind::Percent => {
                 self.buf.extend_from_slice(original);
                 if pos.src == MAIN {
-                    let r = self.interp.percent_line(pos.line as u64 + 1);
+                    // gcode lane: the line's text decides `%` alone vs. stray.
+                    let r = self
+                        .interp
+                        .percent_line(pos.line as u64 + 1, &original[..content_len]);
                     r.map_err(|e| self.locate(e))?;
                 }
                 return Ok(Some(kind));
@@ -302,6 +321,8 @@ impl<R: BufRead> Walker<R> {
                                 &words,
                                 &settings,
                                 &scope,
+                                // gcode lane: computed values in the program's decimals.
+                                self.interp.computed_decimals(),
                                 &mut out,
                             )
                         };
@@ -333,6 +354,11 @@ impl<R: BufRead> Walker<R> {
         let n = lexer::content_len(&self.buf);
         if let Err(e) = lexer::lex_block(&self.buf[..n], &mut self.lexed) {
             let e = e.at_line(pos.line as u64 + 1);
+            return Err(self.locate_rendered(e));
+        }
+        // gcode lane: what LinuxCNC's reader refuses in a line the lexer reads.
+        if let Err(e) = crate::interp::check_line(pos.line as u64 + 1, &self.buf[..n], &self.lexed)
+        {
             return Err(self.locate_rendered(e));
         }
         if let Some(msg) = abort_comment(&self.buf[..n], &self.lexed) {

@@ -29,7 +29,7 @@ pub struct ThermalArgs {
 #[derive(Subcommand, Debug)]
 pub enum ThermalCommand {
     /// Identify the model per measurement cycle from ball-array data and regress it on temperatures.
-    Fit(FitArgs),
+    Fit(Box<FitArgs>),
     /// Write the 21-component model (TOML + CSV) predicted for one row of a temperature file.
     Predict(PredictArgs),
     /// Plot parameter evolution, regression fit and residuals (.svg or .png).
@@ -86,7 +86,7 @@ pub struct ExampleArgs {
 
 pub fn run(a: ThermalArgs) -> Result<(), CliError> {
     match a.command {
-        ThermalCommand::Fit(a) => fit_cmd(a),
+        ThermalCommand::Fit(a) => fit_cmd(*a),
         ThermalCommand::Predict(a) => predict_cmd(a),
         ThermalCommand::Plot(a) => plot_cmd(a),
         ThermalCommand::Example(a) => example_cmd(a),

@@ -20,6 +20,7 @@
 
 pub mod charts;
 pub mod compensation;
+pub mod demo;
 pub mod iso230_2;
 pub mod map;
 pub mod mirror;

@@ -42,7 +42,7 @@ pub const MACHINE_OPTIONS: &[OptionInfo] = &[
     OptionInfo::new(
         "allow_no_program_end",
         Kind::Switch,
-        "Accept a program that ends without M2, M30 or a closing `%` (LinuxCNC refuses it; grbl-family and other controllers run it).",
+        "Do not warn about a program that ends without M2, M30 or a closing `%` (LinuxCNC runs it to its last line, then reports an error; grbl-family and other controllers need no end).",
     ),
 ];
 
@@ -59,7 +59,7 @@ pub struct MachineRequest {
     pub accept_k0: bool,
     /// Refuse `K0` on G17 arcs (the default; kept for old scripts).
     pub strict_k0: bool,
-    /// Accept a program without M2, M30 or a closing `%`.
+    /// Do not warn about a program without M2, M30 or a closing `%`.
     pub allow_no_program_end: bool,
 }
 

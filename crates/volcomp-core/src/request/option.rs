@@ -176,7 +176,11 @@ impl OptionInfo {
 
     /// `text` as one of the choices, or what to write instead.
     pub fn choice(&self, text: &str) -> Result<&'static str, String> {
-        if let Some((c, _)) = self.choices.iter().find(|(c, _)| *c == text) {
+        if let Some((c, _)) = self
+            .choices
+            .iter()
+            .find(|(c, _)| c.eq_ignore_ascii_case(text))
+        {
             return Ok(c);
         }
         let names: Vec<&str> = self.choices.iter().map(|(c, _)| *c).collect();

@@ -78,6 +78,7 @@ simulate = _with_options(simulate, "simulate")
 moves = _with_options(moves, "moves")
 mirror = _with_options(mirror, "mirror")
 thermal_fit = _with_options(thermal_fit, "thermal_fit")
+straightness_fit = _with_options(straightness_fit, "straightness_fit")
 
 __all__ = [
     "BadInputError",

@@ -228,16 +228,16 @@ def iso230_2_csv(runs: Text, *, name: Optional[str] = None) -> dict[str, Any]:
     """ISO 230-2 figures from a test CSV (a path or a file object)."""
 
 def straightness_fit(
-    runs: Sequence[Union[Text, dict[str, Any]]],
+    runs: Sequence[Union[Input, dict[str, Any]]],
     *,
     axis: Optional[Literal["X", "Y"]] = None,
-    negate: bool = False,
     sigma_t: float = 0.05,
     p_t: float = 0.01,
     taper_fraction: float = 0.1,
     normalisation: Literal["common", "per-run"] = "common",
-    harmonics: Optional[int] = None,
     cutoff: Literal["cross-validation", "thresholds"] = "cross-validation",
+    harmonics: Optional[int] = None,
+    negate: bool = False,
 ) -> tuple[Model, dict[str, dict[str, Any]]]:
     """A straightness model from runs at several feed rates (CSV files as
     paths or file objects, or dicts of positions_mm, displacement_um,
