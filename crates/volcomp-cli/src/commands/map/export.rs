@@ -78,7 +78,15 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
         ExportFormat::Rrf => &["m556.g"],
         ExportFormat::Grblhal => &["backlash.txt"],
     };
-    for n in names {
+    // The sign check on the machine, for the formats whose sign no vendor
+    // text settles (controllers::signcheck).
+    let checks: &[&str] = match a.to {
+        ExportFormat::SiemensCec => &["sign_check.txt", "SIGNCHECK.MPF"],
+        ExportFormat::Fanuc | ExportFormat::IsgCsv => &["sign_check.txt", "signcheck.nc"],
+        ExportFormat::Heidenhain => &["sign_check.txt", "SIGNCHECK.H"],
+        _ => &[],
+    };
+    for n in names.iter().chain(checks) {
         plan.output(format!("-o (its {n})"), a.output.join(n));
     }
     check(&plan)?;
@@ -285,8 +293,18 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
         step,
         a.max_table_error_um,
     )?;
+    let checks = if checks.is_empty() {
+        Vec::new()
+    } else {
+        let probes = controllers::signcheck::probes(
+            &e,
+            &positioning_tables(&map, a.at.as_deref(), &a.tool, form)?.map(Some),
+            &straightness_tables(&map),
+        );
+        controllers::signcheck::files(&e, &probes)
+    };
     std::fs::create_dir_all(&a.output).map_err(|err| CliError::Io(a.output.clone(), err))?;
-    for f in &e.files {
+    for f in e.files.iter().chain(&checks) {
         write_text(&a.output.join(&f.name), &[&a.map], &f.text)?;
     }
     let stdout = std::io::stdout();
@@ -299,9 +317,17 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
         _ => "µm",
     };
     crate::note!(
-        "volcomp: wrote {} file(s) to {}; rounded to the controller's resolution {} {unit}: largest change {} {unit}",
-        e.files.len(),
+        "volcomp: wrote {} file(s) to {}{}; rounded to the controller's resolution {} {unit}: largest change {} {unit}",
+        e.files.len() + checks.len(),
         a.output.display(),
+        if checks.is_empty() {
+            String::new()
+        } else {
+            format!(
+                " (with {}: check the table's sign on the machine once, as it says)",
+                checks[0].name
+            )
+        },
         um(e.rounding.resolution_um),
         um(e.rounding.max_um)
     );

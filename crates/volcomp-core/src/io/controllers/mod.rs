@@ -24,6 +24,7 @@ mod ini;
 pub mod isg;
 pub mod linuxcnc;
 pub mod siemens;
+pub mod signcheck;
 pub mod skew;
 pub mod table_error;
 

@@ -23,7 +23,9 @@
 //! * *Assumed* (the function manual does not say on which travel MD32450
 //!   acts): the axis' backlash is taken up by the reference point approach
 //!   (MD34010 `$MA_REFP_CAM_DIR_IS_MINUS`, 0: in +), so the compensation
-//!   acts on travel the other way. `map export` writes a sign check
+//!   acts on travel the other way (`--reference-direction` for an approach
+//!   in −). The table's own sign is the documented one; the CEC tables',
+//!   which no text settles, get a check on the machine
 //!   ([`super::signcheck`]).
 
 use super::{
