@@ -198,8 +198,8 @@ pub fn solve_consistent(
     s_prev: Directions,
     quantize: &dyn Fn(Vec3) -> Vec3,
 ) -> Result<PointSolution, ModelError> {
-    let mut first_error: Option<ModelError> = None;
-    let mut solve = |s: Directions, hold: [bool; 3]| -> Option<Candidate> {
+    let first_error: std::cell::RefCell<Option<ModelError>> = Default::default();
+    let solve = |s: Directions, hold: [bool; 3]| -> Option<Candidate> {
         match solve_fixed(model, method, t_mm, s, hold, q_prev) {
             Ok(sol) => {
                 let mut q = quantize(sol.q_mm);
@@ -214,7 +214,7 @@ pub fn solve_consistent(
                 let residual_um = match actual_mm(model, q, s, Components::All) {
                     Ok(actual) => (t_mm - actual).norm() * 1e3,
                     Err(e) => {
-                        first_error.get_or_insert(e);
+                        first_error.borrow_mut().get_or_insert(e);
                         return None;
                     }
                 };
@@ -227,7 +227,7 @@ pub fn solve_consistent(
                 })
             }
             Err(e) => {
-                first_error.get_or_insert(e);
+                first_error.borrow_mut().get_or_insert(e);
                 None
             }
         }
@@ -266,6 +266,13 @@ pub fn solve_consistent(
             .collect();
         chosen = pick(found);
     }
+    // A command outside the model's range is an error, not a reason to
+    // hold an axis (a held axis would stand far from its target).
+    if chosen.is_none() {
+        if let Some(e) = first_error.borrow_mut().take() {
+            return Err(e);
+        }
+    }
     // No consistent state: hold one axis, then two, then all three.
     for held in 1..=3 {
         if chosen.is_some() {
@@ -290,7 +297,9 @@ pub fn solve_consistent(
     let Some(c) = chosen else {
         // Holding every axis is always consistent: only a model error (a
         // command outside the model's range in every state) gets here.
-        return Err(first_error.unwrap_or_else(|| unreachable!("holding every axis is consistent")));
+        return Err(first_error
+            .into_inner()
+            .unwrap_or_else(|| unreachable!("holding every axis is consistent")));
     };
     let reversed = [0, 1, 2].map(|a| c.s[a] != s_prev[a]);
     Ok(PointSolution {
@@ -330,6 +339,60 @@ mod tests {
         fn range_mm(&self) -> [[f64; 2]; 3] {
             [[-1e3, 1e3]; 3]
         }
+    }
+
+    /// A constant error on a map measured over 0 … 100 mm on every axis.
+    struct Edge;
+
+    impl ErrorModel for Edge {
+        fn deviation_um(&self, q: Vec3, _: Directions, _: Components) -> Result<Vec3, ModelError> {
+            for (a, v) in [q.x, q.y, q.z].into_iter().enumerate() {
+                if !(0.0..=100.0).contains(&v) {
+                    return Err(ModelError::OutOfRange {
+                        axis: ['X', 'Y', 'Z'][a],
+                        position_mm: v,
+                        min_mm: 0.0,
+                        max_mm: 100.0,
+                    });
+                }
+            }
+            Ok(Vec3::new(5.0, 0.0, 0.0))
+        }
+        fn range_mm(&self) -> [[f64; 2]; 3] {
+            [[0.0, 100.0]; 3]
+        }
+    }
+
+    #[test]
+    fn a_command_off_the_map_is_an_error_not_a_held_axis() {
+        // X errs +5 µm: the command for the target X0 is X−0.005, off the
+        // map in every direction state. Holding X at 50 would be
+        // "consistent" 50 mm from the target; the range error is the answer.
+        let e = solve_consistent(
+            &Edge,
+            Method::Exact,
+            Vec3::new(0.0, 50.0, 50.0),
+            Vec3::new(50.0, 50.0, 50.0),
+            ALL_FORWARD,
+            &|q| q,
+        )
+        .unwrap_err();
+        let ModelError::OutOfRange {
+            axis, position_mm, ..
+        } = e;
+        assert_eq!(axis, 'X');
+        assert!((position_mm + 0.005).abs() < 1e-12, "{position_mm}");
+        // Inside the map the same target is met exactly.
+        let p = solve_consistent(
+            &Edge,
+            Method::Exact,
+            Vec3::new(10.0, 50.0, 50.0),
+            Vec3::new(50.0, 50.0, 50.0),
+            ALL_FORWARD,
+            &|q| q,
+        )
+        .unwrap();
+        assert!((p.q_mm.x - 9.995).abs() < 1e-12 && p.held == [false; 3]);
     }
 
     #[test]

@@ -29,9 +29,11 @@ pub struct InterpOptions {
     /// like the program's numbers. `None`: the shortest number that reads
     /// back as the same double (up to 17 digits).
     pub computed_decimals: Option<[u8; 2]>,
-    /// Most lines one run executes, counting every pass of a loop and every
-    /// line of a called subroutine; a program past it is refused as a loop
-    /// that never ends (default [`crate::ngc::flow::MAX_EXECUTED_LINES`]).
+    /// Most lines one run executes again — every pass of a loop after the
+    /// first, every line of a called subroutine; a program past it is
+    /// refused as a loop that never ends (default
+    /// [`crate::ngc::flow::MAX_EXECUTED_LINES`]). Lines of the main program
+    /// run once are not counted, so a long program without loops always runs.
     pub max_executed_lines: u64,
 }
 

@@ -553,7 +553,7 @@ pub fn read_volcomp_lis(
     let dir = path.parent().unwrap_or(std::path::Path::new("."));
     parse_volcomp_lis(&text, &file, |n| {
         let p = dir.join(n);
-        Ok((p.display().to_string(), super::read_text(&p)?))
+        Ok((p.display().to_string(), super::read_named(&p, path)?))
     })
 }
 

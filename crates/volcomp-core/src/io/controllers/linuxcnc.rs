@@ -310,14 +310,21 @@ fn joint(
         },
     };
     let (path, body) = read_file(&file.value).map_err(|e| match e {
-        ControllerReadError::Io { .. } => {
+        ControllerReadError::Io { path, source } => {
             let help = if file.value.contains(['#', ';']) {
                 "LinuxCNC takes everything after `=` as the file name, a `#` or `;` comment included (its INI reader has no comments after a value): put the comment on a line of its own"
             } else {
                 "LinuxCNC opens COMP_FILE relative to the INI's folder and does not start without it"
             };
-            ini.error_at(file.line, format!("cannot read COMP_FILE {}", file.value), help)
-                .into()
+            ini.error_at(
+                file.line,
+                format!(
+                    "cannot read the comp file {}: {source}",
+                    crate::io::shown_path(&path)
+                ),
+                help,
+            )
+            .into()
         }
         other => other,
     })?;
