@@ -233,6 +233,18 @@ pub fn probes(
     out
 }
 
+/// One probe's five lines: the run-up, A, the stop to zero the indicator,
+/// B, the stop to read it; `to` writes a move to a position.
+fn stops(pr: &Probe, to: impl Fn(f64) -> String, zero: &str, read: &str) -> [String; 5] {
+    [
+        to(pr.start_mm(APPROACH_MM)),
+        to(pr.a_mm),
+        zero.to_string(),
+        to(pr.b_mm),
+        read.to_string(),
+    ]
+}
+
 /// The controller dialect of a check program.
 fn program(format: Format, probes: &[Probe]) -> Option<ExportFile> {
     let l = |a: usize| axis_letter(a);
@@ -246,16 +258,12 @@ fn program(format: Format, probes: &[Probe]) -> Option<ExportFile> {
             lines.push("G90 G71 G94".into());
             for pr in probes {
                 lines.push(format!("; {}", pr.what));
-                lines.push(format!(
-                    "G1 SUPA {}{} F{}",
-                    l(pr.axis),
-                    p(pr.start_mm(APPROACH_MM)),
-                    FEED
+                lines.extend(stops(
+                    pr,
+                    |v| format!("G1 SUPA {}{} F{FEED}", l(pr.axis), p(v)),
+                    "M0 ; A: zero the indicator",
+                    "M0 ; B: read the indicator",
                 ));
-                lines.push(format!("G1 SUPA {}{} F{}", l(pr.axis), p(pr.a_mm), FEED));
-                lines.push("M0 ; A: zero the indicator".into());
-                lines.push(format!("G1 SUPA {}{} F{}", l(pr.axis), p(pr.b_mm), FEED));
-                lines.push("M0 ; B: read the indicator".into());
             }
             lines.push("M30".into());
         }
@@ -265,11 +273,12 @@ fn program(format: Format, probes: &[Probe]) -> Option<ExportFile> {
             lines.push("O9001 (VOLCOMP SIGN CHECK, SEE SIGN_CHECK.TXT)".into());
             for pr in probes {
                 lines.push("G90 G94".into());
-                lines.push(format!("G53 {}{}", l(pr.axis), p(pr.start_mm(APPROACH_MM))));
-                lines.push(format!("G53 {}{}", l(pr.axis), p(pr.a_mm)));
-                lines.push("M00 (A: ZERO THE INDICATOR)".into());
-                lines.push(format!("G53 {}{}", l(pr.axis), p(pr.b_mm)));
-                lines.push("M00 (B: READ THE INDICATOR)".into());
+                lines.extend(stops(
+                    pr,
+                    |v| format!("G53 {}{}", l(pr.axis), p(v)),
+                    "M00 (A: ZERO THE INDICATOR)",
+                    "M00 (B: READ THE INDICATOR)",
+                ));
             }
             lines.push("M30".into());
             lines.push("%".into());
@@ -281,16 +290,12 @@ fn program(format: Format, probes: &[Probe]) -> Option<ExportFile> {
             for pr in probes {
                 let s = |v: f64| format!("{}{}", if v < 0.0 { "" } else { "+" }, p(v));
                 body.push(format!("; {}", pr.what));
-                body.push(format!(
-                    "L {}{} R0 F{} M91",
-                    l(pr.axis),
-                    s(pr.start_mm(APPROACH_MM)),
-                    FEED
+                body.extend(stops(
+                    pr,
+                    |v| format!("L {}{} R0 F{FEED} M91", l(pr.axis), s(v)),
+                    "M0 ; A: zero the indicator",
+                    "M0 ; B: read the indicator",
                 ));
-                body.push(format!("L {}{} R0 F{} M91", l(pr.axis), s(pr.a_mm), FEED));
-                body.push("M0 ; A: zero the indicator".into());
-                body.push(format!("L {}{} R0 F{} M91", l(pr.axis), s(pr.b_mm), FEED));
-                body.push("M0 ; B: read the indicator".into());
             }
             lines.push("0 BEGIN PGM SIGNCHECK MM".into());
             for (k, b) in body.iter().enumerate() {
