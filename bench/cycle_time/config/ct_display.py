@@ -173,9 +173,13 @@ def run(program, run_timeout_s):
     end = list(x.s.position[:3])
     if moving_s <= 0.0:
         raise RunError("the program made no motion")
+    # CT_PINS: HAL pins to report as they stand at the end (blank-separated;
+    # bench/lcnc_backlash.py reads the joints' backlash-corr).
+    pins = {p: pin_value(p) for p in os.environ.get("CT_PINS", "").split()}
     x.c.abort()
     x.command_done("abort")
     return {
+        "pins": pins,
         "program": program,
         "moving_s": round(moving_s, 6),
         "feed_s": round(feed_s, 6),
