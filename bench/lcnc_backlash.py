@@ -59,7 +59,11 @@ def machine(folder):
 
 def main():
     lcnc.check_installed()
-    work = tempfile.mkdtemp(prefix="volcomp-lcnc-backlash-")
+    # VOLCOMP_LCNC_WORK: a folder to keep the machine in (the test
+    # crates/volcomp-cli/tests/linuxcnc_backlash.rs reads its machine.ini
+    # with volcomp's reader); otherwise a temporary one, removed.
+    keep = os.environ.get("VOLCOMP_LCNC_WORK")
+    work = keep or tempfile.mkdtemp(prefix="volcomp-lcnc-backlash-")
     config = os.path.join(work, "config")
     machine(config)
     lcnc.CONFIG = config
@@ -75,7 +79,8 @@ def main():
             worst = max(worst, abs(got - want))
             print(f"{name}: joint {joint} backlash-corr {got:+.9f} mm (expected {want:+.3f})")
     print(f"largest difference {worst * 1e6:.3f} nm")
-    shutil.rmtree(work, ignore_errors=True)
+    if not keep:
+        shutil.rmtree(work, ignore_errors=True)
     return 0 if worst <= 1e-6 else 1
 
 
