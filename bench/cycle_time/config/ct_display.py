@@ -142,6 +142,30 @@ def run(program, run_timeout_s):
     if any(abs(a - b) > 1e-9 for a, b in zip(x.s.g5x_offset[:3], G54_MM)):
         raise RunError(f"G54 not set: {x.s.g5x_offset[:3]}")
 
+    # CT_MDI: a file of MDI lines to run one at a time instead of the
+    # program, reading the CT_PINS after each once motion has stopped
+    # (crates/volcomp-cli/tests/linuxcnc_backlash.rs samples the joints'
+    # compensation at its stops this way).
+    mdi_file = os.environ.get("CT_MDI")
+    if mdi_file:
+        names = os.environ.get("CT_PINS", "").split()
+        stops = []
+        with open(mdi_file) as f:
+            for line in (l.strip() for l in f):
+                if not line:
+                    continue
+                x.c.mdi(line)
+                x.command_done(f"MDI {line}")
+                x.wait_for(
+                    f"MDI {line}",
+                    lambda s: s.interp_state == linuxcnc.INTERP_IDLE
+                    and s.queue == 0
+                    and s.inpos,
+                    30,
+                )
+                stops.append({"mdi": line, "pins": {p: pin_value(p) for p in names}})
+        return {"program": program, "stops": stops, "messages": x.messages}
+
     x.c.mode(linuxcnc.MODE_AUTO)
     x.command_done("auto mode")
     x.c.program_open(program)

@@ -82,3 +82,147 @@ fn backlash_beside_a_comp_file_is_modelled_as_the_motion_controller_applies_it()
     assert_eq!(seen, 4, "{out}");
     let _ = std::fs::remove_dir_all(&work);
 }
+
+/// Runs MDI `lines` on the cycle-time machine whose folder is `config`
+/// (under the LinuxCNC lock) and returns, per line, the `pins` after it.
+fn mdi_stops(work: &Path, config: &Path, lines: &[String], pins: &[String]) -> serde_json::Value {
+    let bench = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/cycle_time");
+    std::fs::write(work.join("stops.mdi"), lines.join("\n") + "\n").unwrap();
+    std::fs::write(work.join("none.ngc"), "M2\n").unwrap();
+    let py = format!(
+        "import json, sys\nsys.path.insert(0, {bench:?})\nimport lcnc\nlcnc.CONFIG = {config:?}\nr = lcnc.run_program({prog:?}, {runs:?}, 300.0)\nprint(json.dumps(r['stops']))\n",
+        bench = bench.display().to_string(),
+        config = config.display().to_string(),
+        prog = work.join("none.ngc").display().to_string(),
+        runs = work.join("runs").display().to_string(),
+    );
+    let o = Command::new("flock")
+        .arg("/tmp/volcomp-linuxcnc.lock")
+        .args(["/usr/bin/python3", "-c", &py])
+        .env("CT_MDI", work.join("stops.mdi"))
+        .env("CT_PINS", pins.join(" "))
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+#[test]
+fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
+    if !installed() {
+        if std::env::var_os("CI").is_some() {
+            panic!("LinuxCNC (Debian package linuxcnc-uspace) is not installed, and CI is set: CI must install it");
+        }
+        eprintln!("!! SKIPPED linuxcnc_backlash: LinuxCNC is not installed. Exported comp files were NOT checked on LinuxCNC's motion controller.");
+        return;
+    }
+    let work = tempdir("lcnc-comp");
+    // A map over 0 … 300 mm every 25 mm: pitch error with a wave, a
+    // reversal that grows along the axis, one table per direction.
+    let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for (a, axis) in ["X", "Y", "Z"].iter().enumerate() {
+        for k in 0..=12 {
+            let p = 25.0 * k as f64;
+            let f = 0.02 * p + (2.0 + a as f64) * (p / 40.0).sin();
+            let r = f + 3.0 + 0.01 * p;
+            let put = |v: f64| match a {
+                0 => format!("{v:.4},0,0"),
+                1 => format!("0,{v:.4},0"),
+                _ => format!("0,0,{v:.4}"),
+            };
+            s.push_str(&format!(
+                "{axis},forward,{p},{}\n{axis},reverse,{p},{}\n",
+                put(f),
+                put(r)
+            ));
+        }
+    }
+    std::fs::write(work.join("m.csv"), s).unwrap();
+    let o = common::volcomp(
+        &[
+            "map", "export", "m.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm", "--step",
+            "5", "-o", "lc",
+        ],
+        &work,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The cycle-time machine with the three comp files.
+    let config = work.join("config");
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/cycle_time/config");
+    std::fs::create_dir_all(&config).unwrap();
+    for e in std::fs::read_dir(&src).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), config.join(e.file_name())).unwrap();
+    }
+    let ini = config.join("machine.ini");
+    let mut text = std::fs::read_to_string(&ini).unwrap();
+    for (j, f) in ["x.comp", "y.comp", "z.comp"].iter().enumerate() {
+        std::fs::copy(work.join("lc").join(f), config.join(f)).unwrap();
+        let head = format!("[JOINT_{j}]\nTYPE = LINEAR\n");
+        assert_eq!(text.matches(&head).count(), 1);
+        text = text.replace(
+            &head,
+            &format!("{head}COMP_FILE = {f}\nCOMP_FILE_TYPE = 1\n"),
+        );
+    }
+    std::fs::write(&ini, text).unwrap();
+    // 21 stops per axis up and 21 down, between the table's points.
+    let stops: Vec<f64> = (0..21).map(|k| 7.3 + 13.7 * k as f64).collect();
+    let mut lines = Vec::new();
+    let mut expect = Vec::new(); // (axis, position, forward)
+    for (a, l) in ["X", "Y", "Z"].iter().enumerate() {
+        lines.push(format!("G53 G0 {l}0"));
+        expect.push(None);
+        for &p in &stops {
+            lines.push(format!("G53 G0 {l}{p:.4}"));
+            expect.push(Some((a, p, true)));
+        }
+        for &p in stops.iter().rev() {
+            lines.push(format!("G53 G0 {l}{p:.4}"));
+            expect.push(Some((a, p, false)));
+        }
+        // Down past the last stop first, so the first reverse stop is
+        // reached moving down.
+        let at = lines.len() - 21;
+        lines.insert(at, format!("G53 G0 {l}295"));
+        expect.insert(at, None);
+    }
+    let pins: Vec<String> = (0..3)
+        .flat_map(|j| {
+            [
+                format!("joint.{j}.backlash-corr"),
+                format!("joint.{j}.pos-cmd"),
+            ]
+        })
+        .collect();
+    let got = mdi_stops(&work, &config, &lines, &pins);
+    let c = volcomp_core::io::controllers::read(&ini).unwrap();
+    let mut worst: f64 = 0.0;
+    for (stop, want) in got.as_array().unwrap().iter().zip(&expect) {
+        let Some((a, p, forward)) = *want else {
+            continue;
+        };
+        let pos = stop["pins"][format!("joint.{a}.pos-cmd")].as_f64().unwrap();
+        let corr = stop["pins"][format!("joint.{a}.backlash-corr")]
+            .as_f64()
+            .unwrap();
+        // The planner ends within a fraction of a nm of the target; the
+        // correction is taken where the joint stands.
+        assert!((pos - p).abs() < 1e-6, "{stop}");
+        let modelled_um = c.correction_um(a, pos, forward);
+        worst = worst.max((modelled_um + corr * 1e3).abs());
+        assert!(
+            (modelled_um + corr * 1e3).abs() < 1e-3,
+            "{stop}: volcomp models c = {modelled_um} µm, LinuxCNC applied {} µm",
+            corr * 1e3
+        );
+    }
+    assert_eq!(got.as_array().unwrap().len(), lines.len());
+    eprintln!("largest difference {:.6} nm over 126 stops", worst * 1e3);
+    let _ = std::fs::remove_dir_all(&work);
+}
