@@ -83,6 +83,117 @@ fn backlash_beside_a_comp_file_is_modelled_as_the_motion_controller_applies_it()
     let _ = std::fs::remove_dir_all(&work);
 }
 
+/// The cycle-time machine (`bench/cycle_time/config/`) in `work/config`,
+/// with `keys` added to `[JOINT_n]`, the files `files` (from `work`) beside
+/// it, and for a gantry (`XYYZ`) four joints, the fourth a copy of the
+/// third with its HAL loop.
+fn machine(
+    work: &Path,
+    keys: &[(usize, String)],
+    files: &[&str],
+    gantry: bool,
+) -> std::path::PathBuf {
+    let config = work.join("config");
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/cycle_time/config");
+    std::fs::create_dir_all(&config).unwrap();
+    for e in std::fs::read_dir(&src).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), config.join(e.file_name())).unwrap();
+    }
+    for f in files {
+        std::fs::copy(work.join(f), config.join(Path::new(f).file_name().unwrap())).unwrap();
+    }
+    let ini = config.join("machine.ini");
+    let mut text = std::fs::read_to_string(&ini).unwrap();
+    if gantry {
+        let kins = "KINEMATICS = trivkins coordinates=XYZ\nJOINTS = 3\n";
+        assert_eq!(text.matches(kins).count(), 1);
+        text = text.replace(
+            kins,
+            "KINEMATICS = trivkins coordinates=XYYZ kinstype=BOTH\nJOINTS = 4\n",
+        );
+        let j2 = text.find("[JOINT_2]").unwrap();
+        let end = text[j2 + 1..]
+            .find("\n[")
+            .map_or(text.len(), |i| j2 + 1 + i + 1);
+        let copy = text[j2..end].replace("[JOINT_2]", "[JOINT_3]");
+        text.push_str(&format!("\n{copy}"));
+        let hal = config.join("machine.hal");
+        let mut h = std::fs::read_to_string(&hal).unwrap();
+        h.push_str("net Apos joint.3.motor-pos-cmd => joint.3.motor-pos-fb\n");
+        std::fs::write(&hal, h).unwrap();
+    }
+    for (j, k) in keys {
+        let head = format!("[JOINT_{j}]\nTYPE = LINEAR\n");
+        assert_eq!(text.matches(&head).count(), 1, "{head}");
+        text = text.replace(&head, &format!("{head}{k}"));
+    }
+    std::fs::write(&ini, text).unwrap();
+    ini
+}
+
+/// A stop: axis, position (mm), moving forward; `None` for a move between.
+type Stop = Option<(usize, f64, bool)>;
+
+/// MDI lines for 21 stops per axis (`letters`) going up and 21 going
+/// down between the table's points, and what each stop is: `(axis index
+/// in `letters`, position, forward)`, `None` for the moves between.
+fn stop_lines(letters: &[&str]) -> (Vec<String>, Vec<Stop>) {
+    let stops: Vec<f64> = (0..21).map(|k| 7.3 + 13.7 * k as f64).collect();
+    let mut lines = Vec::new();
+    let mut expect = Vec::new();
+    for (a, l) in letters.iter().enumerate() {
+        lines.push(format!("G53 G0 {l}0"));
+        expect.push(None);
+        for &p in &stops {
+            lines.push(format!("G53 G0 {l}{p:.4}"));
+            expect.push(Some((a, p, true)));
+        }
+        // Past the last stop first, so the first stop down is reached
+        // moving down.
+        lines.push(format!("G53 G0 {l}295"));
+        expect.push(None);
+        for &p in stops.iter().rev() {
+            lines.push(format!("G53 G0 {l}{p:.4}"));
+            expect.push(Some((a, p, false)));
+        }
+    }
+    (lines, expect)
+}
+
+/// A map over 0 … 300 mm every 25 mm: pitch error with a wave, a reversal
+/// that grows along the axis, one table per direction; exported as type-1
+/// comp files every 5 mm (`work/lc/`).
+fn comp_map(work: &Path) {
+    let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for (a, axis) in ["X", "Y", "Z"].iter().enumerate() {
+        for k in 0..=12 {
+            let p = 25.0 * k as f64;
+            let f = 0.02 * p + (2.0 + a as f64) * (p / 40.0).sin();
+            let r = f + 3.0 + 0.01 * p;
+            let put = |v: f64| match a {
+                0 => format!("{v:.4},0,0"),
+                1 => format!("0,{v:.4},0"),
+                _ => format!("0,0,{v:.4}"),
+            };
+            s.push_str(&format!(
+                "{axis},forward,{p},{}\n{axis},reverse,{p},{}\n",
+                put(f),
+                put(r)
+            ));
+        }
+    }
+    std::fs::write(work.join("m.csv"), s).unwrap();
+    let o = common::volcomp(
+        &[
+            "map", "export", "m.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm", "--step",
+            "5", "-o", "lc",
+        ],
+        work,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
 /// Runs MDI `lines` on the cycle-time machine whose folder is `config`
 /// (under the LinuxCNC lock) and returns, per line, the `pins` after it.
 fn mdi_stops(work: &Path, config: &Path, lines: &[String], pins: &[String]) -> serde_json::Value {
@@ -122,76 +233,21 @@ fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
         return;
     }
     let work = tempdir("lcnc-comp");
-    // A map over 0 … 300 mm every 25 mm: pitch error with a wave, a
-    // reversal that grows along the axis, one table per direction.
-    let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for (a, axis) in ["X", "Y", "Z"].iter().enumerate() {
-        for k in 0..=12 {
-            let p = 25.0 * k as f64;
-            let f = 0.02 * p + (2.0 + a as f64) * (p / 40.0).sin();
-            let r = f + 3.0 + 0.01 * p;
-            let put = |v: f64| match a {
-                0 => format!("{v:.4},0,0"),
-                1 => format!("0,{v:.4},0"),
-                _ => format!("0,0,{v:.4}"),
-            };
-            s.push_str(&format!(
-                "{axis},forward,{p},{}\n{axis},reverse,{p},{}\n",
-                put(f),
-                put(r)
-            ));
-        }
-    }
-    std::fs::write(work.join("m.csv"), s).unwrap();
-    let o = common::volcomp(
-        &[
-            "map", "export", "m.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm", "--step",
-            "5", "-o", "lc",
-        ],
-        &work,
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    comp_map(&work);
     // The cycle-time machine with the three comp files.
-    let config = work.join("config");
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/cycle_time/config");
-    std::fs::create_dir_all(&config).unwrap();
-    for e in std::fs::read_dir(&src).unwrap() {
-        let e = e.unwrap();
-        std::fs::copy(e.path(), config.join(e.file_name())).unwrap();
-    }
-    let ini = config.join("machine.ini");
-    let mut text = std::fs::read_to_string(&ini).unwrap();
-    for (j, f) in ["x.comp", "y.comp", "z.comp"].iter().enumerate() {
-        std::fs::copy(work.join("lc").join(f), config.join(f)).unwrap();
-        let head = format!("[JOINT_{j}]\nTYPE = LINEAR\n");
-        assert_eq!(text.matches(&head).count(), 1);
-        text = text.replace(
-            &head,
-            &format!("{head}COMP_FILE = {f}\nCOMP_FILE_TYPE = 1\n"),
-        );
-    }
-    std::fs::write(&ini, text).unwrap();
-    // 21 stops per axis up and 21 down, between the table's points.
-    let stops: Vec<f64> = (0..21).map(|k| 7.3 + 13.7 * k as f64).collect();
-    let mut lines = Vec::new();
-    let mut expect = Vec::new(); // (axis, position, forward)
-    for (a, l) in ["X", "Y", "Z"].iter().enumerate() {
-        lines.push(format!("G53 G0 {l}0"));
-        expect.push(None);
-        for &p in &stops {
-            lines.push(format!("G53 G0 {l}{p:.4}"));
-            expect.push(Some((a, p, true)));
-        }
-        for &p in stops.iter().rev() {
-            lines.push(format!("G53 G0 {l}{p:.4}"));
-            expect.push(Some((a, p, false)));
-        }
-        // Down past the last stop first, so the first reverse stop is
-        // reached moving down.
-        let at = lines.len() - 21;
-        lines.insert(at, format!("G53 G0 {l}295"));
-        expect.insert(at, None);
-    }
+    let keys: Vec<(usize, String)> = ["x.comp", "y.comp", "z.comp"]
+        .iter()
+        .enumerate()
+        .map(|(j, f)| (j, format!("COMP_FILE = {f}\nCOMP_FILE_TYPE = 1\n")))
+        .collect();
+    let ini = machine(
+        &work,
+        &keys,
+        &["lc/x.comp", "lc/y.comp", "lc/z.comp"],
+        false,
+    );
+    let config = ini.parent().unwrap().to_path_buf();
+    let (lines, expect) = stop_lines(&["X", "Y", "Z"]);
     let pins: Vec<String> = (0..3)
         .flat_map(|j| {
             [
@@ -224,5 +280,91 @@ fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
     }
     assert_eq!(got.as_array().unwrap().len(), lines.len());
     eprintln!("largest difference {:.6} nm over 126 stops", worst * 1e3);
+    let _ = std::fs::remove_dir_all(&work);
+}
+
+#[test]
+fn backlash_alone_and_a_gantry_are_applied_as_modelled_at_every_stop() {
+    if !installed() {
+        if std::env::var_os("CI").is_some() {
+            panic!("LinuxCNC (Debian package linuxcnc-uspace) is not installed, and CI is set: CI must install it");
+        }
+        eprintln!("!! SKIPPED linuxcnc_backlash: LinuxCNC is not installed. BACKLASH and a gantry were NOT checked on LinuxCNC's motion controller.");
+        return;
+    }
+    let work = tempdir("lcnc-gantry");
+    comp_map(&work);
+    // X: the BACKLASH map export --backlash-only writes; Y: a gantry, both
+    // motors (joints 1 and 2, coordinates=XYYZ) with y.comp; Z: joint 3.
+    let o = common::volcomp(
+        &[
+            "map",
+            "export",
+            "m.csv",
+            "--to",
+            "linuxcnc",
+            "--backlash-only",
+            "--units",
+            "mm",
+            "-o",
+            "lb",
+        ],
+        &work,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ini = std::fs::read_to_string(work.join("lb/comp.ini")).unwrap();
+    let x = &ini[ini.find("[JOINT_0]").unwrap()..];
+    let b = x[x.find("BACKLASH = ").unwrap()..]
+        .lines()
+        .next()
+        .unwrap()
+        .to_string();
+    let comp = |f: &str| format!("COMP_FILE = {f}\nCOMP_FILE_TYPE = 1\n");
+    let keys = [
+        (0, format!("{b}\n")),
+        (1, comp("y.comp")),
+        (2, comp("y.comp")),
+        (3, comp("z.comp")),
+    ];
+    let ini = machine(&work, &keys, &["lc/y.comp", "lc/z.comp"], true);
+    let config = ini.parent().unwrap().to_path_buf();
+    let (lines, expect) = stop_lines(&["X", "Y", "Z"]);
+    let pins: Vec<String> = (0..4)
+        .flat_map(|j| {
+            [
+                format!("joint.{j}.backlash-corr"),
+                format!("joint.{j}.pos-cmd"),
+            ]
+        })
+        .collect();
+    let got = mdi_stops(&work, &config, &lines, &pins);
+    let c = volcomp_core::io::controllers::read(&ini).unwrap();
+    assert!(c.backlash[0].is_some() && c.axes[0].is_none(), "{c:?}");
+    let joints: [&[usize]; 3] = [&[0], &[1, 2], &[3]];
+    let mut worst: f64 = 0.0;
+    for (stop, want) in got.as_array().unwrap().iter().zip(&expect) {
+        let Some((a, p, forward)) = *want else {
+            continue;
+        };
+        for &j in joints[a] {
+            let pos = stop["pins"][format!("joint.{j}.pos-cmd")].as_f64().unwrap();
+            let corr = stop["pins"][format!("joint.{j}.backlash-corr")]
+                .as_f64()
+                .unwrap();
+            assert!((pos - p).abs() < 1e-6, "{stop}");
+            let modelled_um = c.correction_um(a, pos, forward);
+            worst = worst.max((modelled_um + corr * 1e3).abs());
+            assert!(
+                (modelled_um + corr * 1e3).abs() < 1e-3,
+                "joint {j}: {stop}: volcomp models c = {modelled_um} µm, LinuxCNC applied {} µm",
+                corr * 1e3
+            );
+        }
+    }
+    assert_eq!(got.as_array().unwrap().len(), lines.len());
+    eprintln!(
+        "largest difference {:.6} nm over 126 stops (168 joint readings)",
+        worst * 1e3
+    );
     let _ = std::fs::remove_dir_all(&work);
 }
