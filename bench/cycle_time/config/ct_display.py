@@ -151,16 +151,22 @@ def run(program, run_timeout_s):
         names = os.environ.get("CT_PINS", "").split()
         stops = []
         with open(mdi_file) as f:
-            for line in (l.strip() for l in f):
-                if not line:
+            for raw in (l.strip() for l in f):
+                if not raw:
                     continue
+                # "LINE<TAB>J:V J:V": wait until joint J's pos-cmd is V
+                # (status seen just after an MDI may still be the one
+                # before its move starts).
+                line, _, ends = raw.partition("\t")
+                targets = [(int(j), float(v)) for j, v in (e.split(":") for e in ends.split())]
                 x.c.mdi(line)
                 x.command_done(f"MDI {line}")
                 x.wait_for(
                     f"MDI {line}",
                     lambda s: s.interp_state == linuxcnc.INTERP_IDLE
                     and s.queue == 0
-                    and s.inpos,
+                    and s.inpos
+                    and all(abs(pin_value(f"joint.{j}.pos-cmd") - v) < 1e-6 for j, v in targets),
                     30,
                 )
                 stops.append({"mdi": line, "pins": {p: pin_value(p) for p in names}})
