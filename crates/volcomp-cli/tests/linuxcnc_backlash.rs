@@ -1,4 +1,10 @@
-//! `BACKLASH` beside a `COMP_FILE` on LinuxCNC 2.9's real motion controller:
+//! volcomp's model of LinuxCNC checked on LinuxCNC 2.9's real motion
+//! controller (the headless simulation of `bench/cycle_time/config/`):
+//! exported comp files at 21 stops per axis each way, a `BACKLASH`-only
+//! joint and a gantry (`coordinates=XYYZ`), a hybrid program beside
+//! `BACKLASH`, and, first,
+//!
+//! `BACKLASH` beside a `COMP_FILE`:
 //! `bench/lcnc_backlash.py` runs the headless simulation of
 //! `bench/cycle_time/config/` with joint 0 carrying `BACKLASH = 0.004` and a
 //! type-1 comp file (trims +0.001 / −0.003 mm) and joint 1 `BACKLASH = 0.004`
