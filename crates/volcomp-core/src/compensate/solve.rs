@@ -148,48 +148,13 @@ pub struct PointSolution {
     pub held: [bool; 3],
 }
 
-/// One candidate of [`solve_consistent`]: a direction state and the axes
-/// held, solved.
-struct Candidate {
-    sol: Solved,
-    q: Vec3,
-    s: Directions,
-    hold: [bool; 3],
-    residual_um: f64,
-}
-
-/// Whether the command `q` from `q_prev` moves every free axis in the
-/// direction its table was chosen for: a moving axis in `s[a]`, an axis
-/// that stands still in its previous state (the controller keeps the last
-/// direction while an axis stands, as LinuxCNC's `compute_screw_comp`
-/// does).
-fn consistent(q: Vec3, q_prev: Vec3, s: Directions, s_prev: Directions, hold: [bool; 3]) -> bool {
-    (0..3).all(|a| {
-        hold[a]
-            || match Direction::of_delta(q[a] - q_prev[a]) {
-                Some(d) => d == s[a],
-                None => s[a] == s_prev[a],
-            }
-    })
-}
-
-/// Residual (µm) two candidates may differ by and still count as equally
-/// good: 1 nm, the solver's own tolerance.
-const SAME_RESIDUAL_UM: f64 = TOLERANCE_MM * 1e3;
-
 /// Solves a point so that each axis' table direction is the direction of the
 /// command actually sent from `q_prev` (after `quantize`, which maps a command
 /// onto what the written program will really command).
 ///
-/// The search is exhaustive over the 2³ direction states: the previous state
-/// first (kept when it is consistent), then every other one; among the
-/// consistent ones the one with the smallest residual wins, and of those
-/// within 1 nm of it the one that reverses the fewest axes. Only when no
-/// state is consistent is an axis held at its previous command (one axis,
-/// then two, then three, each with every state of the free axes): that
-/// happens where the compensated model's reverse error lies below its
-/// forward one by more than the wanted motion (a negative reversal value),
-/// so that no command can reverse by that little.
+/// The state of an axis is kept while that is consistent; only an axis whose
+/// command would contradict its state is flipped; an axis for which neither
+/// direction is consistent is held at its previous command and reported.
 pub fn solve_consistent(
     model: &dyn ErrorModel,
     method: Method,
@@ -198,117 +163,53 @@ pub fn solve_consistent(
     s_prev: Directions,
     quantize: &dyn Fn(Vec3) -> Vec3,
 ) -> Result<PointSolution, ModelError> {
-    let first_error: std::cell::RefCell<Option<ModelError>> = Default::default();
-    let solve = |s: Directions, hold: [bool; 3]| -> Option<Candidate> {
-        match solve_fixed(model, method, t_mm, s, hold, q_prev) {
-            Ok(sol) => {
-                let mut q = quantize(sol.q_mm);
-                for a in 0..3 {
-                    if hold[a] {
-                        q[a] = q_prev[a];
+    let mut s = s_prev;
+    let mut hold = [false; 3];
+    let mut flipped = [false; 3];
+    let mut last = None;
+    for _round in 0..4 {
+        let sol = solve_fixed(model, method, t_mm, s, hold, q_prev)?;
+        let q = quantize(sol.q_mm);
+        let mut consistent = true;
+        for a in 0..3 {
+            if hold[a] {
+                continue;
+            }
+            let d = Direction::of_delta(q[a] - q_prev[a]);
+            if let Some(d) = d {
+                if d != s[a] {
+                    consistent = false;
+                    if flipped[a] {
+                        // Both directions contradict themselves: hold the axis.
+                        hold[a] = true;
+                        s[a] = s_prev[a];
+                    } else {
+                        flipped[a] = true;
+                        s[a] = d;
                     }
                 }
-                if !consistent(q, q_prev, s, s_prev, hold) {
-                    return None;
-                }
-                let residual_um = match actual_mm(model, q, s, Components::All) {
-                    Ok(actual) => (t_mm - actual).norm() * 1e3,
-                    Err(e) => {
-                        first_error.borrow_mut().get_or_insert(e);
-                        return None;
-                    }
-                };
-                Some(Candidate {
-                    sol,
-                    q,
-                    s,
-                    hold,
-                    residual_um,
-                })
-            }
-            Err(e) => {
-                first_error.borrow_mut().get_or_insert(e);
-                None
             }
         }
-    };
-    let flips = |s: &Directions| (0..3).filter(|&a| s[a] != s_prev[a]).count();
-    // Every state, the previous one first, then by the number of flips.
-    let mut states: Vec<Directions> = (0..8u8)
-        .map(|bits| {
-            [0, 1, 2].map(|a| {
-                if bits & (1 << a) != 0 {
-                    s_prev[a].flipped()
-                } else {
-                    s_prev[a]
-                }
-            })
-        })
-        .collect();
-    states.sort_by_key(flips);
-    let pick = |found: Vec<Candidate>| -> Option<Candidate> {
-        let best = found
-            .iter()
-            .map(|c| c.residual_um)
-            .fold(f64::INFINITY, f64::min);
-        found
-            .into_iter()
-            .filter(|c| c.residual_um <= best + SAME_RESIDUAL_UM)
-            .min_by_key(|c| (c.hold.iter().filter(|h| **h).count(), flips(&c.s)))
-    };
-    // The previous state is kept while it is consistent; otherwise every
-    // other state is tried.
-    let mut chosen = solve(s_prev, [false; 3]);
-    if chosen.is_none() {
-        let found: Vec<Candidate> = states[1..]
-            .iter()
-            .filter_map(|s| solve(*s, [false; 3]))
-            .collect();
-        chosen = pick(found);
-    }
-    // A command outside the model's range is an error, not a reason to
-    // hold an axis (a held axis would stand far from its target).
-    if chosen.is_none() {
-        if let Some(e) = first_error.borrow_mut().take() {
-            return Err(e);
-        }
-    }
-    // No consistent state: hold one axis, then two, then all three.
-    for held in 1..=3 {
-        if chosen.is_some() {
+        last = Some((sol, q));
+        if consistent {
             break;
         }
-        let mut found = Vec::new();
-        for mask in (1..8u8).filter(|m| m.count_ones() == held) {
-            let hold = [0, 1, 2].map(|a| mask & (1 << a) != 0);
-            let mut seen: Vec<Directions> = Vec::new();
-            for s in &states {
-                // A held axis keeps its previous state.
-                let s = [0, 1, 2].map(|a| if hold[a] { s_prev[a] } else { s[a] });
-                if seen.contains(&s) {
-                    continue;
-                }
-                seen.push(s);
-                found.extend(solve(s, hold));
-            }
-        }
-        chosen = pick(found);
     }
-    let Some(c) = chosen else {
-        // Holding every axis is always consistent: only a model error (a
-        // command outside the model's range in every state) gets here.
-        return Err(first_error
-            .into_inner()
-            .unwrap_or_else(|| unreachable!("holding every axis is consistent")));
-    };
-    let reversed = [0, 1, 2].map(|a| c.s[a] != s_prev[a]);
+    let (sol, mut q) = last.unwrap_or_else(|| unreachable!("the loop runs at least once"));
+    for a in 0..3 {
+        if hold[a] {
+            q[a] = q_prev[a];
+        }
+    }
+    let reversed = [0, 1, 2].map(|a| s[a] != s_prev[a]);
+    let residual_um = (t_mm - actual_mm(model, q, s, Components::All)?).norm() * 1e3;
     Ok(PointSolution {
-        q_mm: c.q,
-        s: c.s,
-        iterations: c.sol.iterations,
-        residual_um: c.residual_um,
+        q_mm: q,
+        s,
+        iterations: sol.iterations,
+        residual_um,
         reversed,
-        held: c.hold,
+        held: hold,
     })
 }
 
@@ -339,60 +240,6 @@ mod tests {
         fn range_mm(&self) -> [[f64; 2]; 3] {
             [[-1e3, 1e3]; 3]
         }
-    }
-
-    /// A constant error on a map measured over 0 … 100 mm on every axis.
-    struct Edge;
-
-    impl ErrorModel for Edge {
-        fn deviation_um(&self, q: Vec3, _: Directions, _: Components) -> Result<Vec3, ModelError> {
-            for (a, v) in [q.x, q.y, q.z].into_iter().enumerate() {
-                if !(0.0..=100.0).contains(&v) {
-                    return Err(ModelError::OutOfRange {
-                        axis: ['X', 'Y', 'Z'][a],
-                        position_mm: v,
-                        min_mm: 0.0,
-                        max_mm: 100.0,
-                    });
-                }
-            }
-            Ok(Vec3::new(5.0, 0.0, 0.0))
-        }
-        fn range_mm(&self) -> [[f64; 2]; 3] {
-            [[0.0, 100.0]; 3]
-        }
-    }
-
-    #[test]
-    fn a_command_off_the_map_is_an_error_not_a_held_axis() {
-        // X errs +5 µm: the command for the target X0 is X−0.005, off the
-        // map in every direction state. Holding X at 50 would be
-        // "consistent" 50 mm from the target; the range error is the answer.
-        let e = solve_consistent(
-            &Edge,
-            Method::Exact,
-            Vec3::new(0.0, 50.0, 50.0),
-            Vec3::new(50.0, 50.0, 50.0),
-            ALL_FORWARD,
-            &|q| q,
-        )
-        .unwrap_err();
-        let ModelError::OutOfRange {
-            axis, position_mm, ..
-        } = e;
-        assert_eq!(axis, 'X');
-        assert!((position_mm + 0.005).abs() < 1e-12, "{position_mm}");
-        // Inside the map the same target is met exactly.
-        let p = solve_consistent(
-            &Edge,
-            Method::Exact,
-            Vec3::new(10.0, 50.0, 50.0),
-            Vec3::new(50.0, 50.0, 50.0),
-            ALL_FORWARD,
-            &|q| q,
-        )
-        .unwrap();
-        assert!((p.q_mm.x - 9.995).abs() < 1e-12 && p.held == [false; 3]);
     }
 
     #[test]
@@ -499,73 +346,5 @@ mod tests {
         let p = solve_consistent(&m, Method::Exact, t, q_prev, ALL_FORWARD, &id).unwrap();
         assert!(!p.held[0] && p.s[0] == Direction::Reverse);
         assert!((p.q_mm.x - 9.994).abs() < 1e-9);
-    }
-
-    /// X's error depends on Y's direction (−3 µm while Y runs in reverse);
-    /// X has a reversal value of 1 µm, Y of 2 µm.
-    struct Coupled;
-
-    impl ErrorModel for Coupled {
-        fn deviation_um(
-            &self,
-            _q: Vec3,
-            s: Directions,
-            _c: Components,
-        ) -> Result<Vec3, ModelError> {
-            let rev = |a: usize| s[a] == Direction::Reverse;
-            let ex = if rev(0) { 1.0 } else { 0.0 } + if rev(1) { -3.0 } else { 0.0 };
-            let ey = if rev(1) { 2.0 } else { 0.0 };
-            Ok(Vec3::new(ex, ey, 0.0))
-        }
-        fn range_mm(&self) -> [[f64; 2]; 3] {
-            [[-1e3, 1e3]; 3]
-        }
-    }
-
-    #[test]
-    fn a_consistent_state_is_found_where_flipping_every_axis_fails() {
-        // From q = 0 moving forward (errors 0), targets 1 µm lower in X and Y.
-        // (F, F): both move −1 µm, against their state. (R, R): X moves
-        // −1 − (1 − 3) = +1 µm, against R: flipping both fails, and holding
-        // X would leave it 1 µm off. (F, R) is consistent: X moves
-        // −1 + 3 = +2 µm forward, Y −1 − 2 = −3 µm in reverse; exact.
-        let id = |q: Vec3| q;
-        let t = Vec3::new(-0.001, -0.001, 0.0);
-        let p = solve_consistent(&Coupled, Method::Exact, t, Vec3::ZERO, ALL_FORWARD, &id).unwrap();
-        assert_eq!(
-            p.s,
-            [Direction::Forward, Direction::Reverse, Direction::Forward]
-        );
-        assert_eq!(p.held, [false; 3]);
-        assert!(p.residual_um < 1e-6, "{p:?}");
-        assert!(
-            (p.q_mm.x - 0.002).abs() < 1e-12 && (p.q_mm.y - -0.003).abs() < 1e-12,
-            "{p:?}"
-        );
-        assert_eq!(p.reversed, [false, true, false]);
-    }
-
-    #[test]
-    fn a_standing_axis_keeps_its_state() {
-        // Y does not move: a state that flips it is not consistent, even
-        // though the command is the same.
-        let m = Toy {
-            offset_um: Vec3::ZERO,
-            backlash_x_um: 4.0,
-            slope_um_per_mm: 0.0,
-        };
-        let id = |q: Vec3| q;
-        let s_prev = [Direction::Forward, Direction::Reverse, Direction::Forward];
-        let p = solve_consistent(
-            &m,
-            Method::Exact,
-            Vec3::new(1.0, 0.0, 0.0),
-            Vec3::ZERO,
-            s_prev,
-            &id,
-        )
-        .unwrap();
-        assert_eq!(p.s, s_prev);
-        assert_eq!(p.reversed, [false; 3]);
     }
 }
