@@ -55,6 +55,8 @@ pub enum Command {
     /// Straightness models from measured profiles: fit (geometric error vs vibration), plot, table, predict.
     Straightness(crate::commands::straightness::StraightnessArgs),
     Thermal(crate::commands::thermal::ThermalArgs),
+    /// Calibrate with a touch probe: probing programs, fit of the 21-component model, verification.
+    Probe(crate::commands::probe::ProbeArgs),
     /// Print a shell completion script to standard output, e.g.
     /// `volcomp completions bash > ~/.local/share/bash-completion/completions/volcomp`.
     Completions(CompletionsArgs),

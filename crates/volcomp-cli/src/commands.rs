@@ -14,6 +14,7 @@ mod compensate;
 pub use compensate::command_line;
 mod demo;
 pub mod map;
+pub mod probe;
 mod simulate;
 pub mod straightness;
 pub mod surface;
@@ -29,6 +30,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Surface(a) => surface::run(a),
         Command::Straightness(a) => straightness::run(a),
         Command::Thermal(a) => thermal::run(a),
+        Command::Probe(a) => probe::run(a),
         Command::Completions(a) => {
             let mut cmd = <Cli as clap::CommandFactory>::command();
             clap_complete::generate(a.shell, &mut cmd, "volcomp", &mut io::stdout());

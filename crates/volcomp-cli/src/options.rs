@@ -100,8 +100,8 @@ fn arg(info: &'static OptionInfo) -> Arg {
     // A value that starts with `-` is the option's value, refused for its
     // range with the option named (`--cycle -1`), never an unknown flag.
     match info.kind {
-        Kind::Number | Kind::Count | Kind::Size => arg.allow_negative_numbers(true),
-        Kind::Triple => arg.allow_hyphen_values(true),
+        // `-inf` too, which clap's negative-number test does not take.
+        Kind::Number | Kind::Count | Kind::Size | Kind::Triple => arg.allow_hyphen_values(true),
         _ => arg,
     }
 }

@@ -73,8 +73,13 @@ fn options_asking_for_unbounded_work_are_refused() {
         ),
         (
             &["--chord-tolerance", "1e-15"],
-            "--chord-tolerance must be a length of at least 0.000001 mm",
+            "--chord-tolerance must be a length of 0.000001 mm (1 nm) to 1 mm",
         ),
+        (
+            &["--chord-tolerance", "100"],
+            "--chord-tolerance must be a length of 0.000001 mm (1 nm) to 1 mm",
+        ),
+        (&["--chord-tolerance", "-inf"], "--chord-tolerance"),
         (
             &["--min-segment-length", "1e-9"],
             "--min-segment-length must be a length of at least 0.001 mm",
@@ -333,4 +338,43 @@ fn negative_option_values_reach_the_range_check() {
     );
     let msg = stderr(&o);
     assert!(!msg.contains("unexpected argument"), "{msg}");
+}
+
+/// A controller table resampled at a step that would give more points than a
+/// table may have is refused before it is built: the fixture's tables span
+/// 0 … 600 mm, so a step of 1e-9 mm would be 6·10¹¹ + 1 points and one of
+/// 2⁻¹¹ mm (exact in binary) 600·2048 + 1 = 1 228 801, past the million a
+/// table may have (LinuxCNC's own limit, 256 a joint, is checked after);
+/// 3 mm gives 201 and is written.
+#[test]
+fn resampled_tables_are_bounded_before_they_are_built() {
+    let d = fixture("export_step");
+    for (step, said, points) in [
+        ("1e-9", "0.000000001", "600000000001"),
+        ("0.00048828125", "0.00048828125", "1228801"),
+    ] {
+        let o = volcomp(
+            &[
+                "map", "export", "map.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm",
+                "--step", step, "-o", "comp",
+            ],
+            &d,
+        );
+        let msg = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{step}: {msg}");
+        assert!(
+            msg.contains(&format!("--step {said} mm gives {points} table points"))
+                && msg.contains("more than the 1000000"),
+            "{step}: {msg}"
+        );
+        assert!(!d.join("comp").join("x.comp").exists());
+    }
+    let o = volcomp(
+        &[
+            "map", "export", "map.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm",
+            "--step", "3", "-o", "comp",
+        ],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
 }

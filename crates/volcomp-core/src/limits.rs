@@ -69,6 +69,17 @@ pub const MIN_SEGMENT_LENGTH_MM: f64 = 1e-3;
 /// (1e-6 mm), a thousandth of the default.
 pub const MIN_CHORD_TOLERANCE_MM: f64 = 1e-6;
 
+/// Largest chord tolerance: 1 mm. Chords farther from the arc than this
+/// change the part itself (a 10 mm circle within 1 mm is a hexagon), far
+/// beyond any machine error being compensated.
+pub const MAX_CHORD_TOLERANCE_MM: f64 = 1.0;
+
+/// Most points a resampled controller table may have (`map export
+/// --step`): a million, far beyond any controller's table (LinuxCNC reads
+/// comp files of any length, but others hold hundreds), checked before the
+/// table is built.
+pub const MAX_RESAMPLED_POINTS: u64 = 1_000_000;
+
 /// Smallest contour tolerance of adaptive splitting: 1 nm (0.001 µm).
 pub const MIN_CONTOUR_TOLERANCE_UM: f64 = 1e-3;
 

@@ -11,6 +11,7 @@
 //! * [`linuxcnc_comp`]: LinuxCNC's screw-compensation files, read and written.
 //! * [`provenance`]: the header volcomp writes at the top of a compensated program.
 //! * [`numfmt`]: how computed numbers are written.
+//! * [`probe_log`]: what a machine recorded while probing (LinuxCNC `(LOG,…)` files, CSV points).
 //! * [`output`]: safe output (plans checked before work, atomic files).
 
 pub mod controllers;
@@ -22,6 +23,7 @@ pub mod located;
 pub mod model_file;
 pub mod numfmt;
 pub mod output;
+pub mod probe_log;
 pub mod provenance;
 pub mod table;
 

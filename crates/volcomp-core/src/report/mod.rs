@@ -24,6 +24,7 @@ pub mod demo;
 pub mod iso230_2;
 pub mod map;
 pub mod mirror;
+pub mod probe;
 pub mod svg;
 pub mod text;
 pub mod trace;

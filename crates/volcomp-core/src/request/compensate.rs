@@ -12,8 +12,8 @@ use crate::compensate::{
 use crate::io::provenance::{sha256_hex, ProgramHeader};
 use crate::io::LoadedModel;
 use crate::limits::{
-    MAX_ILC_ITERATIONS, MAX_SEGMENTS_PER_MOVE, MIN_CHORD_TOLERANCE_MM, MIN_CONTOUR_TOLERANCE_UM,
-    MIN_SEGMENT_LENGTH_MM,
+    MAX_CHORD_TOLERANCE_MM, MAX_ILC_ITERATIONS, MAX_SEGMENTS_PER_MOVE, MIN_CHORD_TOLERANCE_MM,
+    MIN_CONTOUR_TOLERANCE_UM, MIN_SEGMENT_LENGTH_MM,
 };
 use crate::model::ErrorModel;
 use crate::Error;
@@ -462,12 +462,12 @@ impl CompensateRequest {
         let method = self.method()?;
         let segmentation = self.segmentation()?;
         if !(self.chord_tolerance_mm.is_finite()
-            && self.chord_tolerance_mm >= MIN_CHORD_TOLERANCE_MM)
+            && (MIN_CHORD_TOLERANCE_MM..=MAX_CHORD_TOLERANCE_MM).contains(&self.chord_tolerance_mm))
         {
             return Err(OptionError::new(
                 "chord_tolerance_mm",
                 format!(
-                    "must be a length of at least {MIN_CHORD_TOLERANCE_MM} mm (1 nm); got {}",
+                    "must be a length of {MIN_CHORD_TOLERANCE_MM} mm (1 nm) to {MAX_CHORD_TOLERANCE_MM} mm; got {}",
                     self.chord_tolerance_mm
                 ),
             ));

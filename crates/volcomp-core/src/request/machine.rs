@@ -148,10 +148,14 @@ impl MachineRequest {
             }
         };
         if let Some(w) = self.work_offset_mm {
-            if !w.iter().all(|v| v.is_finite()) {
+            let max = crate::limits::MAX_POSITION_MM;
+            if !w.iter().all(|v| v.is_finite() && v.abs() <= max) {
                 return Err(OptionError::new(
                     "work_offset_mm",
-                    format!("must be three finite numbers in mm (X, Y, Z); got {w:?}"),
+                    format!(
+                        "must be three numbers in mm (X, Y, Z) within ±{max} mm; got {}, {}, {}",
+                        w[0], w[1], w[2]
+                    ),
                 )
                 .into());
             }

@@ -73,12 +73,13 @@ impl SimulateRequest {
     pub fn chord_tolerance_mm(&self) -> Result<f64, OptionError> {
         let t = self.chord_tolerance_mm;
         let min = crate::limits::MIN_CHORD_TOLERANCE_MM;
-        if t.is_finite() && t >= min {
+        let max = crate::limits::MAX_CHORD_TOLERANCE_MM;
+        if t.is_finite() && (min..=max).contains(&t) {
             Ok(t)
         } else {
             Err(OptionError::new(
                 "chord_tolerance_mm",
-                format!("must be a length of at least {min} mm (1 nm); got {t}"),
+                format!("must be a length of {min} mm (1 nm) to {max} mm; got {t}"),
             ))
         }
     }

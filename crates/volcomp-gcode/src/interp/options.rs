@@ -35,6 +35,13 @@ pub struct InterpOptions {
     /// [`crate::ngc::flow::MAX_EXECUTED_LINES`]). Lines of the main program
     /// run once are not counted, so a long program without loops always runs.
     pub max_executed_lines: u64,
+    /// Read the probing moves G38.2–G38.5 (off by default: after a probe
+    /// move the machine is where the probe touched, which only the machine
+    /// knows). When on, a probing move is read as a feed move to its end
+    /// point — the path it takes when the probe never touches — so that a
+    /// generated probing program (docs/probing.md) can be checked whole; the
+    /// probed position (#5061–#5070) stays unknown to the interpreter.
+    pub accept_probing: bool,
 }
 
 impl Default for InterpOptions {
@@ -46,6 +53,7 @@ impl Default for InterpOptions {
             spline_tolerance_mm: 1e-4,
             computed_decimals: None,
             max_executed_lines: crate::ngc::flow::MAX_EXECUTED_LINES,
+            accept_probing: false,
         }
     }
 }
@@ -74,4 +82,7 @@ pub(super) enum MotionMode {
     Spline(u16),
     /// Spindle-synchronised motion: G33 (330) or G33.1 rigid tapping (331).
     Synced(u16),
+    /// Straight probe (read only with `InterpOptions::accept_probing`):
+    /// G38.2 (382), G38.3 (383), G38.4 (384), G38.5 (385).
+    Probe(u16),
 }
