@@ -41,10 +41,8 @@ fn rows(dir: &Path) -> Vec<Row> {
 fn the_estimate_agrees_with_linuxcnc_within_three_percent() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/planner");
     let setup = MachineSetup::from_setup_file(&dir.join("setup.toml")).unwrap();
-    let limits = Limits {
-        traj_max_velocity_mm_s: 166.7,
-        ..Limits::default()
-    };
+    let limits = Limits::from_setup(setup.setup.limits.as_ref());
+    assert_eq!(limits.traj_max_velocity_mm_s, 166.7);
     let mut failures = Vec::new();
     let rows = rows(&dir);
     println!("| program | LinuxCNC s | estimate s | Δ | cutting LinuxCNC s | estimate s | Δ |");

@@ -32,4 +32,4 @@ pub use interp::{
     EXTRA_LETTERS,
 };
 pub use program::{LineEvent, Walker};
-pub use setup::{AxisLetters, Setup};
+pub use setup::{AxisLetters, MotionLimits, Setup};

@@ -13,6 +13,7 @@
 //! | `lookahead` | queuing a segment and the backward pass over the queue |
 //! | `integrate` | the time integral: the queue run period by period |
 //! | `program` | a G-code program's moves and path modes (G61, G61.1, G64 P Q) |
+//! | `compare` | a program's time beside its original's, as summaries say it |
 //!
 //! Pure functions of the moves and the [`Limits`]: [`estimate`] for a
 //! slice of moves, [`Planner`] to feed them one at a time (memory bounded
@@ -30,12 +31,14 @@
 
 mod blend;
 mod canon;
+mod compare;
 mod geometry;
 mod integrate;
 mod lookahead;
 pub mod program;
 mod segment;
 
+pub use compare::{compare_programs, TimeComparison};
 pub use program::{estimate_program, path_mode_of_line, ProgramEstimate};
 
 use std::collections::VecDeque;
@@ -109,6 +112,81 @@ impl Default for Limits {
 }
 
 impl Limits {
+    /// The limits a set-up's `[limits]` table gives, LinuxCNC's defaults
+    /// (and [`Limits::default`]'s axis limits) for what it leaves out.
+    pub fn from_setup(given: Option<&volcomp_gcode::MotionLimits>) -> Limits {
+        let mut l = Limits::default();
+        let Some(g) = given else {
+            return l;
+        };
+        if let Some(v) = g.max_velocity_mm_s {
+            l.max_velocity_mm_s = v;
+        }
+        if let Some(a) = g.max_acceleration_mm_s2 {
+            l.max_acceleration_mm_s2 = a;
+        }
+        if let Some(v) = g.traj_max_velocity_mm_s {
+            l.traj_max_velocity_mm_s = v;
+        }
+        if let Some(p) = g.servo_period_s {
+            l.servo_period_s = p;
+        }
+        if let Some(f) = g.max_feed_override {
+            l.max_feed_override = f;
+        }
+        let b = &mut l.blend;
+        if let Some(e) = g.arc_blend_enable {
+            b.enable = e;
+        }
+        if let Some(d) = g.arc_blend_optimization_depth {
+            b.optimization_depth = d as usize;
+        }
+        if let Some(c) = g.arc_blend_gap_cycles {
+            b.gap_cycles = c;
+        }
+        if let Some(f) = g.arc_blend_ramp_freq_hz {
+            b.ramp_frequency_hz = f;
+        }
+        if let Some(k) = g.arc_blend_kink_ratio {
+            b.kink_ratio = k;
+        }
+        l
+    }
+
+    /// The axis limits in words, for a summary: `X Y Z 166.7 mm/s,
+    /// 1000 mm/s²` (per axis where they differ), the path cap, the servo
+    /// period.
+    pub fn describe(&self) -> String {
+        let per = |v: &[f64; 3], unit: &str| {
+            if v[0] == v[1] && v[1] == v[2] {
+                format!("{} {unit}", fmt_num(v[0]))
+            } else {
+                format!(
+                    "X {} Y {} Z {} {unit}",
+                    fmt_num(v[0]),
+                    fmt_num(v[1]),
+                    fmt_num(v[2])
+                )
+            }
+        };
+        let mut s = format!(
+            "{} and {} per axis",
+            per(&self.max_velocity_mm_s, "mm/s"),
+            per(&self.max_acceleration_mm_s2, "mm/s²")
+        );
+        if self.traj_max_velocity_mm_s.is_finite() {
+            s.push_str(&format!(
+                ", path at most {} mm/s",
+                fmt_num(self.traj_max_velocity_mm_s)
+            ));
+        }
+        s.push_str(&format!(
+            ", servo period {} ms",
+            fmt_num(self.servo_period_s * 1e3)
+        ));
+        s
+    }
+
     /// Refuses a value the planner cannot run with, naming the setting.
     pub fn check(&self) -> Result<(), String> {
         let positive = |v: f64| v.is_finite() && v > 0.0;
@@ -157,6 +235,13 @@ impl Limits {
         }
         Ok(())
     }
+}
+
+/// A number without trailing zeros (at most 4 decimals).
+fn fmt_num(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    s.to_string()
 }
 
 /// The program's path-control mode (G61, G61.1, G64).
