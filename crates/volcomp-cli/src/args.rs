@@ -28,6 +28,8 @@ pub enum Command {
     Compensate(CompensateArgs),
     /// Simulate a program on a machine with an error map and report its errors.
     Simulate(SimulateArgs),
+    /// Estimate a program's machining time on a model of LinuxCNC 2.9's trajectory planner.
+    Time(TimeArgs),
     /// Run the bundled example: the papers' circles and spiral on an example map.
     Demo(DemoArgs),
     /// Evaluate, convert, plot and import error maps (21-component model, LinuxCNC comp files, ISO 230-2).
@@ -290,6 +292,21 @@ pub struct SimulateArgs {
         allow_negative_numbers = true
     )]
     pub chord_tolerance: f64,
+}
+
+#[derive(Args, Debug)]
+pub struct TimeArgs {
+    /// The program ("-" for standard input).
+    pub program: PathBuf,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    /// The program PROGRAM was made from (e.g. the original of a
+    /// compensated program): both times and the change are printed.
+    #[arg(long, value_name = "ORIGINAL")]
+    pub reference: Option<PathBuf>,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Args, Debug)]

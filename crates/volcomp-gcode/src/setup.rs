@@ -447,19 +447,20 @@ fn motion_limits(at: &At<'_>, raw: &RawLimits, k: f64) -> Result<MotionLimits, S
         }
     };
     let per_axis = |name: &str, v: &Sp<PerAxis>| -> Result<[f64; 3], SetupError> {
-        let vals =
-            match v.get_ref() {
-                PerAxis::All(x) => [*x; 3],
-                PerAxis::Each(xs) if xs.len() == 3 => [xs[0], xs[1], xs[2]],
-                PerAxis::Each(xs) => return Err(at.error(
+        let vals = match v.get_ref() {
+            PerAxis::All(x) => [*x; 3],
+            PerAxis::Each(xs) if xs.len() == 3 => [xs[0], xs[1], xs[2]],
+            PerAxis::Each(xs) => {
+                return Err(at.error(
                     v.span().start,
                     format!(
                         "limits.{name} has {} value(s); give one for all axes or three (X, Y, Z)",
                         xs.len()
                     ),
                     "write e.g. [166.7, 166.7, 100.0]",
-                )),
-            };
+                ))
+            }
+        };
         if let Some(bad) = vals.iter().find(|x| !(x.is_finite() && **x > 0.0)) {
             return Err(at.error(
                 v.span().start,

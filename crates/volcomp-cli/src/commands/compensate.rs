@@ -16,11 +16,13 @@ use volcomp_core::io::controllers;
 use volcomp_core::io::provenance::{iso8601_utc, ProgramHeader};
 use volcomp_core::model::controller::{ControllerApplies, ControllerResidual};
 use volcomp_core::model::ErrorModel;
+use volcomp_core::plan::{compare_programs, TimeComparison};
 use volcomp_core::progress::Counted;
 use volcomp_core::report::compensation::{
     compensation_sections, header_facts, lines_to_quote, quote_lines, trace_program,
     LargestCorrections,
 };
+use volcomp_core::report::machining_time::machining_time_section;
 use volcomp_core::report::{Document, InputFile};
 
 /// Loads the error map named by `--map`; with `--controller` or
@@ -350,6 +352,7 @@ fn report_html(
     summary: &CompensateSummary,
     corrections: &LargestCorrections,
     written: &[u8],
+    times: Option<&TimeComparison>,
 ) -> Result<String, CliError> {
     let name = program_name(&a.program);
     let before = trace_program(
@@ -398,7 +401,36 @@ fn report_html(
         inputs,
         sections: compensation_sections("", &before, &after, summary, corrections, &quoted),
     };
+    let mut doc = doc;
+    if let Some(t) = times {
+        doc.sections.push(machining_time_section(t));
+    }
     Ok(doc.to_html())
+}
+
+/// The machining time of the original (when it can be read again) and of
+/// the compensated program (`written`, or the output file).
+fn machining_times(
+    a: &CompensateArgs,
+    output: &Path,
+    machine: &Machine,
+    written: Option<&[u8]>,
+) -> Result<TimeComparison, CliError> {
+    let name = program_name(&a.program);
+    let original = if a.program.as_os_str() == "-" {
+        None
+    } else {
+        Some((open_program(&a.program)?, name.as_str()))
+    };
+    let out_name = shown(output);
+    let compensated: Box<dyn Read> = match written {
+        Some(w) => Box::new(w),
+        None => Box::new(
+            std::fs::File::open(output).map_err(|e| CliError::Io(output.to_path_buf(), e))?,
+        ),
+    };
+    compare_programs((compensated, out_name.as_str()), original, machine)
+        .map_err(|e| machine.explain(e))
 }
 
 pub fn run(a: CompensateArgs) -> Result<(), CliError> {
@@ -448,7 +480,10 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     let mut summary = None;
     let mut report_too_big = false;
     // The compensated program, kept for the HTML report's simulation.
-    let mut written: Option<Vec<u8>> = a.report_html.as_ref().map(|_| Vec::new());
+    // (and for the machining time when the output goes to standard output)
+    let to_stdout = output.as_os_str() == "-";
+    let mut written: Option<Vec<u8>> =
+        (a.report_html.is_some() || (to_stdout && !crate::progress::quiet())).then(Vec::new);
     let mut corrections = LargestCorrections::default();
     staged.write(&output, |out| {
         let mut tee = Tee {
@@ -523,7 +558,9 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     }
     let summary =
         summary.ok_or_else(|| CliError::Internal("compensation produced no summary".into()))?;
-    if let (Some(path), Some(written)) = (&a.report_html, written) {
+    let mut times = None;
+    if let (Some(path), Some(written)) = (&a.report_html, &written) {
+        times = Some(machining_times(&a, &output, &machine, Some(written))?);
         let html = report_html(
             &a,
             &output,
@@ -532,7 +569,8 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
             &header,
             &summary,
             &corrections,
-            &written,
+            written,
+            times.as_ref(),
         )?;
         staged.write(path, |w| {
             w.write_all(html.as_bytes())
@@ -578,6 +616,20 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
             None => "not estimated (fixed segmentation)".into(),
         }
     );
+    if !crate::progress::quiet() {
+        let times = match times {
+            Some(t) => t,
+            None => machining_times(
+                &a,
+                &output,
+                &machine,
+                written.as_deref().filter(|_| to_stdout),
+            )?,
+        };
+        for line in times.summary_lines() {
+            eprintln!("volcomp: {line}");
+        }
+    }
     if summary.held_count > 0 {
         let first: Vec<String> = summary
             .held

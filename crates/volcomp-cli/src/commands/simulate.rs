@@ -7,10 +7,12 @@ use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, Chart, Series};
 use crate::progress::Bar;
 use std::io::Write;
+use volcomp_core::plan::{compare_programs, TimeComparison};
 use volcomp_core::progress::Counted;
 use volcomp_core::report::compensation::{
     lines_to_quote, quote_lines, setup_facts, simulation_sections, trace_program, Traced,
 };
+use volcomp_core::report::machining_time::machining_time_section;
 use volcomp_core::report::trace::PathTrace;
 use volcomp_core::report::{Document, InputFile};
 use volcomp_core::{SimReport, Simulation};
@@ -92,6 +94,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         .run(Counted::new(open(&a.program)?, bar.clone()));
     bar.finish();
     let report = report.map_err(|e| machine.explain(e))?;
+    let times = machining_times(&a, &machine)?;
     if let (Some(path), Some(bytes)) = (&a.errors_csv, rows) {
         let mut inputs = vec![a.program.as_path()];
         if let Some(r) = &a.reference {
@@ -132,7 +135,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
             trace,
             warnings,
         };
-        let html = report_html(&a, &machine, model.as_ref(), after)?;
+        let html = report_html(&a, &machine, model.as_ref(), after, times.as_ref())?;
         let mut inputs = vec![a.program.as_path()];
         if let Some(r) = &a.reference {
             inputs.push(r.as_path());
@@ -145,12 +148,43 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
     if a.json {
-        let text = serde_json::to_string(&report)?;
+        /// The simulation's figures and the machining time in one object.
+        #[derive(serde::Serialize)]
+        struct Json<'a> {
+            #[serde(flatten)]
+            report: &'a SimReport,
+            machining_time: Option<&'a TimeComparison>,
+        }
+        let text = serde_json::to_string(&Json {
+            report: &report,
+            machining_time: times.as_ref(),
+        })?;
         writeln!(out, "{text}").map_err(CliError::Stdout)?;
     } else {
-        print_table(&mut out, &report, a.reference.is_some()).map_err(CliError::Stdout)?;
+        print_table(&mut out, &report, a.reference.is_some(), times.as_ref())
+            .map_err(CliError::Stdout)?;
     }
     Ok(())
+}
+
+/// The program's machining time (and its reference's), read again from
+/// the files; `None` for a program on standard input, which is read once.
+fn machining_times(
+    a: &SimulateArgs,
+    machine: &Machine,
+) -> Result<Option<TimeComparison>, CliError> {
+    if a.program.as_os_str() == "-" {
+        return Ok(None);
+    }
+    let name = a.program.display().to_string();
+    let ref_name = a.reference.as_ref().map(|r| r.display().to_string());
+    let original = match (&a.reference, &ref_name) {
+        (Some(r), Some(n)) => Some((open(r)?, n.as_str())),
+        _ => None,
+    };
+    compare_programs((open(&a.program)?, name.as_str()), original, machine)
+        .map(Some)
+        .map_err(|e| machine.explain(e))
 }
 
 /// The HTML report of a simulation; with a reference, the reference on
@@ -160,6 +194,7 @@ fn report_html(
     machine: &Machine,
     model: &dyn volcomp_core::ErrorModel,
     after: Traced,
+    times: Option<&TimeComparison>,
 ) -> Result<String, CliError> {
     let before = match &a.reference {
         Some(r) => Some(
@@ -222,6 +257,10 @@ fn report_html(
         inputs,
         sections: simulation_sections("", before.as_ref(), &after, &quoted),
     };
+    let mut doc = doc;
+    if let Some(t) = times {
+        doc.sections.push(machining_time_section(t));
+    }
     Ok(doc.to_html())
 }
 
@@ -234,7 +273,12 @@ pub fn open(path: &std::path::Path) -> Result<Box<dyn std::io::Read>, CliError> 
     Ok(Box::new(f))
 }
 
-fn print_table(out: &mut dyn Write, r: &SimReport, with_reference: bool) -> std::io::Result<()> {
+fn print_table(
+    out: &mut dyn Write,
+    r: &SimReport,
+    with_reference: bool,
+    times: Option<&TimeComparison>,
+) -> std::io::Result<()> {
     writeln!(out, "blocks              {}", r.blocks)?;
     writeln!(out, "feed length         {:.3} mm", r.feed_length_mm)?;
     writeln!(
@@ -253,6 +297,9 @@ fn print_table(out: &mut dyn Write, r: &SimReport, with_reference: bool) -> std:
         "this program"
     };
     writeln!(out, "nominal path        {nominal}")?;
+    for (label, text) in times.map(TimeComparison::rows).unwrap_or_default() {
+        writeln!(out, "{label:<20}{text}")?;
+    }
     writeln!(out, "point error:   {}", r.point_definition)?;
     writeln!(out, "contour error: {}", r.contour_definition)
 }

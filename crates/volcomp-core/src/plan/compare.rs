@@ -53,35 +53,48 @@ impl TimeComparison {
         format!("{} ({src})", self.limits.describe())
     }
 
-    /// The summary in lines of text (without a trailing newline).
-    pub fn summary_lines(&self) -> Vec<String> {
+    /// The summary as `(label, text)` rows: the times, dwells when there
+    /// are any, the planner and its limits.
+    pub fn rows(&self) -> Vec<(&'static str, String)> {
         let p = &self.program;
-        let mut lines = Vec::new();
-        match &self.original {
-            Some(o) => {
-                lines.push(format!(
-                    "machining time {:.3} s -> {:.3} s ({}), cutting {:.3} s -> {:.3} s ({})",
+        let mut rows = Vec::new();
+        rows.push((
+            "machining time",
+            match &self.original {
+                Some(o) => format!(
+                    "{:.3} s -> {:.3} s ({}), cutting {:.3} s -> {:.3} s ({})",
                     o.motion.total_s,
                     p.motion.total_s,
                     pct(self.change()),
                     o.motion.cutting_s,
                     p.motion.cutting_s,
                     pct(self.cutting_change())
-                ));
-            }
-            None => lines.push(format!(
-                "machining time {:.3} s (cutting {:.3} s, rapids {:.3} s)",
-                p.motion.total_s, p.motion.cutting_s, p.motion.rapid_s
-            )),
-        }
-        if p.dwell_s > 0.0 {
-            lines.push(format!("plus dwells (G4) {:.3} s", p.dwell_s));
-        }
-        lines.push(format!(
-            "on a model of LinuxCNC 2.9's trajectory planner: {}",
-            self.limits_note()
+                ),
+                None => format!(
+                    "{:.3} s (cutting {:.3} s, rapids {:.3} s)",
+                    p.motion.total_s, p.motion.cutting_s, p.motion.rapid_s
+                ),
+            },
         ));
-        lines
+        if p.dwell_s > 0.0 {
+            rows.push(("dwells", format!("{:.3} s more (G4)", p.dwell_s)));
+        }
+        rows.push((
+            "planner",
+            format!(
+                "a model of LinuxCNC 2.9's trajectory planner: {}",
+                self.limits_note()
+            ),
+        ));
+        rows
+    }
+
+    /// The summary in lines of text, `label text`.
+    pub fn summary_lines(&self) -> Vec<String> {
+        self.rows()
+            .into_iter()
+            .map(|(label, text)| format!("{label} {text}"))
+            .collect()
     }
 }
 
@@ -126,7 +139,10 @@ mod tests {
         assert!((t.original.unwrap().motion.cutting_s - 1.2).abs() < 0.003);
         assert!((t.cutting_change().unwrap() - 0.75).abs() < 0.01);
         let lines = t.summary_lines();
-        assert!(lines[0].contains("(+75."), "{lines:?}");
+        assert!(
+            lines[0].starts_with("machining time 1.200 s -> 2.100 s (+75.0 %)"),
+            "{lines:?}"
+        );
         assert!(lines[1].contains("no [limits]"), "{lines:?}");
     }
 }

@@ -448,10 +448,12 @@ impl Planner {
         self.wait();
         let p = self.exec.periods;
         let dt = self.limits.servo_period_s;
+        // Whole periods: rounded to the nanosecond, so that 1 ms × n prints as it is.
+        let secs = |n: u64| (n as f64 * dt * 1e9).round() / 1e9;
         Estimate {
-            total_s: p.moving as f64 * dt,
-            cutting_s: p.cutting as f64 * dt,
-            rapid_s: p.rapid as f64 * dt,
+            total_s: secs(p.moving),
+            cutting_s: secs(p.cutting),
+            rapid_s: secs(p.rapid),
             periods: p.moving,
             counts: self.counts,
         }
