@@ -109,6 +109,10 @@ pub struct CompensateResult {
     pub warnings: Py<PyList>,
     /// Per-point records (dict of arrays) when asked for with `points=True`, else None.
     pub point_records: Option<Py<PyDict>>,
+    /// Machining time of the original and the compensated program on the
+    /// planner model (docs/planner.md): the keys of `volcomp time --json`
+    /// (`program`, `original`, `limits`, `limits_from_setup`).
+    pub machining_time: Py<PyDict>,
 }
 
 #[pymethods]
@@ -136,6 +140,7 @@ impl CompensateResult {
         d.set_item("held", self.held.clone())?;
         d.set_item("held_count", self.held_count)?;
         d.set_item("warnings", self.warnings.clone_ref(py))?;
+        d.set_item("machining_time", self.machining_time.clone_ref(py))?;
         Ok(d)
     }
 
@@ -441,6 +446,7 @@ pub fn compensate(
             .map_err(Box::new)
     });
     let summary = result.map_err(|e| explain(*e, &m))?;
+    let machining_time = times_dict(py, &out, Some(&src.bytes), &m)?;
     let point_records = if points {
         Some(point_dict(py, &records)?.unbind())
     } else {
@@ -459,7 +465,31 @@ pub fn compensate(
         held_count: summary.held_count,
         warnings: warnings_list(py, &src.name, &warnings)?.unbind(),
         point_records,
+        machining_time,
     })
+}
+
+/// The machining time of `program` (and `original`) on the planner model,
+/// as the dict of `volcomp time --json`.
+fn times_dict(
+    py: Python<'_>,
+    program: &[u8],
+    original: Option<&[u8]>,
+    m: &Machine,
+) -> PyResult<Py<PyDict>> {
+    let t = py
+        .detach(|| {
+            volcomp_core::plan::compare_programs(
+                (program, "<program>"),
+                original.map(|o| (Box::new(o) as Box<dyn std::io::Read>, "<original>")),
+                &m.setup,
+            )
+            .map_err(Box::new)
+        })
+        .map_err(|e| explain(*e, m))?;
+    let json = serde_json::to_string(&t).map_err(|e| bad_input(e.to_string()))?;
+    let d = py.import("json")?.call_method1("loads", (json,))?;
+    Ok(d.cast_into::<PyDict>()?.unbind())
 }
 
 /// The per-point report as columns (the CLI's `--report` CSV).
@@ -545,6 +575,9 @@ pub struct SimulationResult {
     /// where the command ends a nominal feed move, else NaN), `point_um`
     /// (NaN where none), `contour_max_um`; else None.
     pub segments: Option<Py<PyDict>>,
+    /// Machining time of the program (and of `reference`) on the planner
+    /// model: the keys of `volcomp time --json`.
+    pub machining_time: Py<PyDict>,
 }
 
 #[pymethods]
@@ -563,6 +596,7 @@ impl SimulationResult {
         d.set_item("nominal", &self.nominal)?;
         d.set_item("point_definition", &self.point_definition)?;
         d.set_item("contour_definition", &self.contour_definition)?;
+        d.set_item("machining_time", self.machining_time.clone_ref(py))?;
         Ok(d)
     }
 
@@ -628,6 +662,12 @@ pub fn simulate(
         sim.run(src.bytes.as_slice()).map_err(Box::new)
     });
     let report = result.map_err(|e| explain(*e, &m))?;
+    let machining_time = times_dict(
+        py,
+        &src.bytes,
+        reference.as_ref().map(|r| r.bytes.as_slice()),
+        &m,
+    )?;
     let segments = if segments {
         let d = PyDict::new(py);
         let v3 = |f: &dyn Fn(&SegmentError) -> Vec3| -> Vec<f64> {
@@ -681,6 +721,7 @@ pub fn simulate(
         contour_definition: report.contour_definition.to_string(),
         warnings: warnings_list(py, &src.name, &warnings)?.unbind(),
         segments,
+        machining_time,
     })
 }
 

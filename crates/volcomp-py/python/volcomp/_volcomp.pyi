@@ -120,6 +120,10 @@ class CompensateResult:
     point_records: Optional[dict[str, Any]]
     """With points=True: line, target_mm (N, 3), command_mm (N, 3),
     iterations, residual_um, reversed, held, take_up, rapid."""
+    machining_time: dict[str, Any]
+    """The original's ("original") and the compensated program's
+    ("program") time on the planner model, the limits used: the keys of
+    `volcomp time --json` (docs/planner.md)."""
     @property
     def text(self) -> str:
         """The compensated program as text."""
@@ -144,6 +148,9 @@ class SimulationResult:
     segments: Optional[dict[str, Any]]
     """With segments=True: line, nominal_line, command_mm, actual_mm,
     target_mm (N, 3; NaN where none), point_um, contour_max_um."""
+    machining_time: dict[str, Any]
+    """The program's (and the reference's) time on the planner model: the
+    keys of `volcomp time --json` (docs/planner.md)."""
     def as_dict(self) -> dict[str, Any]:
         """The metrics as a dict (the CLI's simulate --json keys)."""
 
