@@ -12,7 +12,7 @@ const SETUP: &str =
 /// Parses the first `machining time A s` figure of `text`.
 fn first_seconds(text: &str) -> f64 {
     let rest = text
-        .split("machining time ")
+        .split("machining time: ")
         .nth(1)
         .expect("a machining time");
     rest.split(' ').next().unwrap().parse().unwrap()
@@ -84,7 +84,7 @@ fn compensate_and_simulate_state_both_times_and_the_change() {
     let err = stderr(&o);
     let line = err
         .lines()
-        .find(|l| l.starts_with("volcomp: machining time "))
+        .find(|l| l.starts_with("volcomp: machining time: "))
         .unwrap_or_else(|| panic!("{err}"));
     assert!(line.contains(" -> ") && line.contains(" %)"), "{line}");
     let o = volcomp(

@@ -80,20 +80,17 @@ impl TimeComparison {
             rows.push(("dwells", format!("{:.3} s more (G4)", p.dwell_s)));
         }
         rows.push((
-            "planner",
-            format!(
-                "a model of LinuxCNC 2.9's trajectory planner: {}",
-                self.limits_note()
-            ),
+            "planner model",
+            format!("LinuxCNC 2.9's trajectory planner, {}", self.limits_note()),
         ));
         rows
     }
 
-    /// The summary in lines of text, `label text`.
+    /// The summary in lines of text, `label: text`.
     pub fn summary_lines(&self) -> Vec<String> {
         self.rows()
             .into_iter()
-            .map(|(label, text)| format!("{label} {text}"))
+            .map(|(label, text)| format!("{label}: {text}"))
             .collect()
     }
 }
@@ -140,7 +137,7 @@ mod tests {
         assert!((t.cutting_change().unwrap() - 0.75).abs() < 0.01);
         let lines = t.summary_lines();
         assert!(
-            lines[0].starts_with("machining time 1.200 s -> 2.100 s (+75.0 %)"),
+            lines[0].starts_with("machining time: 1.200 s -> 2.100 s (+75.0 %)"),
             "{lines:?}"
         );
         assert!(lines[1].contains("no [limits]"), "{lines:?}");
