@@ -341,6 +341,10 @@ pub enum Error {
     /// An output could not be written.
     #[error("{0}")]
     Output(#[from] crate::io::output::OutputError),
+    /// An option's value was refused (named as the library names it; a
+    /// front end spells it its own way with [`crate::request::OptionError::render`]).
+    #[error("{0}")]
+    Option(#[from] crate::request::OptionError),
     /// Reading or writing `path` failed.
     #[error("{}: {source}", path.display())]
     Io {
@@ -351,7 +355,7 @@ pub enum Error {
     },
     /// The program was compensated by volcomp already: compensating it again
     /// would apply every correction twice.
-    #[error("{file}:{line}: this program was compensated by volcomp already ({evidence} is here); compensating it again would apply every correction twice: compensate the original program, or allow recompensation if that is really meant")]
+    #[error("{file}:{line}: this program was compensated by volcomp already ({evidence} is here); compensating it again would apply every correction twice: compensate the original program, or allow recompensation ({{allow_recompensate}}) if that is really meant")]
     AlreadyCompensated {
         /// Program name.
         file: String,
@@ -519,7 +523,8 @@ impl Error {
             | Error::Mirror(_)
             | Error::BSpline(_)
             | Error::Topology(_)
-            | Error::OutputPlan(_) => ErrorKind::BadInput,
+            | Error::OutputPlan(_)
+            | Error::Option(_) => ErrorKind::BadInput,
         }
     }
 }
@@ -547,22 +552,21 @@ impl CompensationError {
 }
 
 /// Help texts of located compensation and simulation errors
-/// ([`CompensationError::AtLine`]) that name an option. They speak of the
-/// options of [`crate::compensate::CompensateOptions`] and of the builders;
-/// a front end that spells options its own way (a command line's flags)
-/// recognises these texts and says them in its words.
+/// ([`CompensationError::AtLine`]) that name an option. They name options
+/// as `{name}` (the requests' option names, `crate::request`); a front end
+/// writes each its own way (`--no-split`, `no_split=True`).
 pub mod help {
     /// Splitting a block under inverse-time feed (G93).
     pub const SPLIT_UNDER_INVERSE_TIME: &str =
-        "turn segmentation off for straight moves, or post the program in G94 (units per minute)";
+        "turn segmentation off ({no_split}) for straight moves, or post the program in G94 (units per minute)";
     /// A block would give more points than the limit.
-    pub const TOO_MANY_POINTS: &str = "split the move in the program, or choose a coarser segmentation (a longer segment length, fewer segments, a larger chord tolerance or a longer minimum segment length)";
+    pub const TOO_MANY_POINTS: &str = "split the move in the program, or choose a coarser segmentation: a longer {segment_length_mm}, fewer {segments}, a larger {chord_tolerance_mm} or a longer {min_segment_length_mm}";
     /// A correction above the largest accepted.
-    pub const CORRECTION_LIMIT: &str = "check that the map is in µm (not mm) and belongs to this machine; raise the largest accepted correction only if the machine really is this far off";
+    pub const CORRECTION_LIMIT: &str = "check that the map is in µm (not mm) and belongs to this machine; raise the largest accepted correction ({max_correction_mm}) only if the machine really is this far off";
     /// A point whose residual is above the largest accepted.
-    pub const RESIDUAL_LIMIT: &str = "with ILC raise the iteration limit or the gain; check that the map is smooth and in µm; the largest accepted residual is an option";
+    pub const RESIDUAL_LIMIT: &str = "with ILC raise the iteration limit ({max_iterations}) or the gain ({gain}); check that the map is smooth and in µm; the largest accepted residual is {max_residual_um}";
     /// A simulated line that does not pair with the reference.
-    pub const REFERENCE_PAIRING: &str = "give as the reference the original program this one was compensated from by volcomp (its `(volcomp Ln)` comments pair the two; a program written without trace comments cannot be paired once lines were split or take-ups inserted)";
+    pub const REFERENCE_PAIRING: &str = "give as the reference ({reference}) the original program this one was compensated from by volcomp (its `(volcomp Ln)` comments pair the two; a program written with {trace} cannot be paired once lines were split or take-ups inserted)";
     /// The reference moves on after the simulated program ends.
-    pub const REFERENCE_LEFT: &str = "give as the reference the original program this one was compensated from, and simulate the whole compensated program";
+    pub const REFERENCE_LEFT: &str = "give as the reference ({reference}) the original program this one was compensated from, and simulate the whole compensated program";
 }

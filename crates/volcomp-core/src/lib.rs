@@ -91,6 +91,7 @@ pub mod plan;
 pub mod prelude;
 pub mod progress;
 pub mod report;
+pub mod request;
 pub mod rng;
 pub mod simulate;
 pub mod surface;

@@ -142,8 +142,8 @@ pub fn iso230_2<'py>(
 }
 
 /// ISO 230-2 figures from a test CSV (`target_mm,cycle,direction,
-/// deviation_um` or `actual_mm`, docs/kinematic.md): its text (str) or a
-/// file (pathlib.Path). Returns what `iso230_2` returns.
+/// deviation_um` or `actual_mm`, docs/kinematic.md): a path (str or pathlib.Path)
+/// or a file object. Returns what `iso230_2` returns.
 #[pyfunction]
 #[pyo3(signature = (runs, *, name = None))]
 pub fn iso230_2_csv<'py>(

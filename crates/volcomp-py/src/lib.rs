@@ -15,6 +15,7 @@ mod inputs;
 mod mirror;
 mod model;
 mod program;
+mod request;
 mod thermal;
 
 /// The compiled part of the `volcomp` package.
@@ -29,11 +30,13 @@ fn _volcomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(program::compensate, m)?)?;
     m.add_function(wrap_pyfunction!(program::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(program::moves, m)?)?;
+    m.add_function(wrap_pyfunction!(program::machining_time, m)?)?;
     m.add_function(wrap_pyfunction!(identify::iso230_2, m)?)?;
     m.add_function(wrap_pyfunction!(identify::iso230_2_csv, m)?)?;
     m.add_function(wrap_pyfunction!(identify::straightness_fit, m)?)?;
     m.add_class::<thermal::ThermalModel>()?;
     m.add_function(wrap_pyfunction!(thermal::thermal_fit, m)?)?;
     m.add_function(wrap_pyfunction!(mirror::mirror, m)?)?;
+    m.add_function(wrap_pyfunction!(request::options, m)?)?;
     Ok(())
 }

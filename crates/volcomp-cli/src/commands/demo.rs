@@ -1,19 +1,21 @@
 //! `volcomp demo`: the main job on the bundled example.
 
-use super::compensate::{command_line, compensate_file, date_utc, header_for};
+use super::compensate::{command_line, compensate_file};
 use super::Machine;
 use crate::args::DemoArgs;
 use crate::output::{write_atomically, CliError};
 use std::path::Path;
 use volcomp_core::compensate::solve::Method;
-use volcomp_core::compensate::{CompensateOptions, DirectionPolicy, Segmentation};
+use volcomp_core::compensate::{header_for_map, CompensateOptions, DirectionPolicy, Segmentation};
 use volcomp_core::example::{demo_programs, example_map, DEMO_WORK_OFFSET_MM};
+use volcomp_core::io::provenance::now_utc;
 use volcomp_core::model::ErrorModel;
 use volcomp_core::report::compensation::{
     compensation_sections, lines_to_quote, quote_lines, setup_facts, trace_program,
     LargestCorrections,
 };
 use volcomp_core::report::{Block, Document, InputFile, Section, Table};
+use volcomp_core::request::Compensation;
 use volcomp_core::simulate::DEFAULT_CHORD_TOLERANCE_MM;
 use volcomp_core::MachineSetup;
 use volcomp_core::{SimReport, Simulation};
@@ -96,12 +98,28 @@ pub fn measure(
     original: Option<&Path>,
 ) -> Result<SimReport, CliError> {
     let mut simulation = Simulation::new(model)
-        .setup(machine.0.clone())
+        .setup(machine.setup.clone())
         .file_name(program.display().to_string());
     if let Some(o) = original {
         simulation = simulation.reference_named(o.display().to_string(), super::simulate::open(o)?);
     }
     Ok(simulation.run(super::simulate::open(program)?)?)
+}
+
+/// The compensation of the demo's programs with `options`.
+fn job(
+    machine: &Machine,
+    map: &Path,
+    options: CompensateOptions,
+) -> Result<Compensation, CliError> {
+    let header = header_for_map(map, None, &machine.setup.setup, &options, now_utc())?;
+    Ok(Compensation {
+        machine: machine.clone(),
+        options,
+        header,
+        allow_recompensate: false,
+        max_output_bytes: None,
+    })
 }
 
 fn rate(before: f64, after: f64) -> f64 {
@@ -120,7 +138,11 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
         w.write_all(map.to_csv().as_bytes())
             .map_err(|e| CliError::Io(map_path.clone(), e))
     })?;
-    let machine = Machine(MachineSetup::default().with_work_offset(DEMO_WORK_OFFSET_MM));
+    let machine = Machine {
+        setup: MachineSetup::default().with_work_offset(DEMO_WORK_OFFSET_MM),
+        setup_file: None,
+        work_offset_given: false,
+    };
     let variants = variants();
     println!("volcomp demo — example map {} (X 0…600, Y 0…400, Z 0…300 mm; backlash 3/4/2 µm), work offset G54 = {:.0},{:.0},{:.0} mm", map_path.display(), DEMO_WORK_OFFSET_MM.x, DEMO_WORK_OFFSET_MM.y, DEMO_WORK_OFFSET_MM.z);
     println!("RMS errors in µm; point = at the end of every feed block of the program, contour = distance of the actual path (every 0.05 mm) from the block it was written for; in brackets: improvement over 'before'.\n");
@@ -152,7 +174,7 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
         let name = original.display().to_string();
         let traced_before = trace_program(
             &map,
-            &machine.0,
+            &machine.setup,
             DEFAULT_CHORD_TOLERANCE_MM,
             "before",
             &name,
@@ -164,12 +186,9 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
         let mut cells = Vec::new();
         for v in &variants {
             let out = a.out_dir.join(format!("{}.{}.ngc", p.name, v.suffix));
-            let header = header_for(&map_path, None, &machine, &v.options)?;
+            let job = job(&machine, &map_path, v.options)?;
             let mut corrections = LargestCorrections::default();
-            let summary =
-                compensate_file(&original, &out, &machine, &map, &v.options, &header, |pt| {
-                    corrections.push(pt)
-                })?;
+            let summary = compensate_file(&original, &out, &job, &map, |pt| corrections.push(pt))?;
             if v.suffix != "exact" {
                 cells.push(measure(&machine, &map, &out, Some(&original))?);
                 continue;
@@ -177,7 +196,7 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
             // The same simulation as `measure`, keeping the pictures.
             let after = trace_program(
                 &map,
-                &machine.0,
+                &machine.setup,
                 DEFAULT_CHORD_TOLERANCE_MM,
                 &format!("after ({})", v.label),
                 &out.display().to_string(),
@@ -272,10 +291,10 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
     let mut facts = vec![
         ("command".to_string(), command_line()),
         ("volcomp".to_string(), env!("CARGO_PKG_VERSION").to_string()),
-        ("date (UTC)".to_string(), date_utc()),
+        ("date (UTC)".to_string(), now_utc()),
         ("map".to_string(), map_path.display().to_string()),
     ];
-    facts.extend(setup_facts(&machine.0.setup, None));
+    facts.extend(setup_facts(&machine.setup.setup, None));
     let doc = Document {
         title: "volcomp demo report".into(),
         facts,

@@ -94,6 +94,21 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
     digest.iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// Now as ISO 8601 UTC, or `SOURCE_DATE_EPOCH` when set (the
+/// reproducible-builds convention), so a run can be repeated byte for byte.
+pub fn now_utc() -> String {
+    let secs = std::env::var("SOURCE_DATE_EPOCH")
+        .ok()
+        .and_then(|s| s.trim().parse::<i64>().ok())
+        .unwrap_or_else(|| {
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_secs() as i64)
+                .unwrap_or(0)
+        });
+    iso8601_utc(secs)
+}
+
 /// Seconds since 1970-01-01T00:00:00Z as ISO 8601 (`2024-02-29T12:00:00Z`),
 /// by the days-to-civil algorithm of H. Hinnant, "chrono-Compatible
 /// Low-Level Date Algorithms" (proleptic Gregorian calendar).

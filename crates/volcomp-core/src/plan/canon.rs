@@ -30,7 +30,7 @@ impl CanonState {
         CanonState {
             end_point: None,
             feed_mm_s: 0.0,
-            mode: PathMode::LINUXCNC_DEFAULT,
+            mode: PathMode::default(),
             chain: Vec::new(),
         }
     }
@@ -45,10 +45,7 @@ impl CanonState {
 
     fn naivecam_mm(&self) -> f64 {
         match self.mode {
-            PathMode::Blend {
-                naivecam_tolerance_mm,
-                ..
-            } => naivecam_tolerance_mm,
+            PathMode::Blend { naive_cam_mm, .. } => naive_cam_mm,
             _ => 0.0,
         }
     }

@@ -12,7 +12,7 @@
 //! | `blend` | the joint between two segments: tangent, blend arc, parabolic blend, stop |
 //! | `lookahead` | queuing a segment and the backward pass over the queue |
 //! | `integrate` | the time integral: the queue run period by period |
-//! | `program` | a G-code program's moves and path modes (G61, G61.1, G64 P Q) |
+//! | `program` | a G-code program's moves, waits and dwells |
 //! | `compare` | a program's time beside its original's, as summaries say it |
 //!
 //! Pure functions of the moves and the [`Limits`]: [`estimate`] for a
@@ -39,7 +39,10 @@ pub mod program;
 mod segment;
 
 pub use compare::{compare_programs, TimeComparison};
-pub use program::{estimate_program, path_mode_of_line, ProgramEstimate};
+pub use program::{estimate_program, ProgramEstimate};
+/// The path-control mode (G61, G61.1, G64 P Q), as the interpreter gives
+/// it with every motion.
+pub use volcomp_gcode::PathMode;
 
 use std::collections::VecDeque;
 use volcomp_gcode::{Plane, Vec3};
@@ -242,55 +245,6 @@ fn fmt_num(v: f64) -> String {
     let s = format!("{v:.4}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
     s.to_string()
-}
-
-/// The program's path-control mode (G61, G61.1, G64).
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize))]
-pub enum PathMode {
-    /// G61.1: every move ends at rest.
-    ExactStop,
-    /// G61: moves end at rest except where they join tangentially.
-    ExactPath,
-    /// G64 P Q: corners blended within `tolerance_mm` (0: as far as speed
-    /// needs, LinuxCNC's default), feed moves within
-    /// `naivecam_tolerance_mm` of a line merged into it.
-    Blend {
-        /// G64 P: how far a blend may leave the corner, mm (0: no limit).
-        tolerance_mm: f64,
-        /// G64 Q: how far merged feed moves may lie off their line, mm
-        /// (0: none merged).
-        naivecam_tolerance_mm: f64,
-    },
-}
-
-impl PathMode {
-    /// LinuxCNC's mode at start-up: G64 without P.
-    pub const LINUXCNC_DEFAULT: PathMode = PathMode::Blend {
-        tolerance_mm: 0.0,
-        naivecam_tolerance_mm: 0.0,
-    };
-
-    /// As written in a program: `G61`, `G61.1`, `G64`, `G64 P0.005`.
-    pub fn gcode(&self) -> String {
-        match *self {
-            PathMode::ExactStop => "G61.1".into(),
-            PathMode::ExactPath => "G61".into(),
-            PathMode::Blend {
-                tolerance_mm,
-                naivecam_tolerance_mm,
-            } => {
-                let mut s = "G64".to_string();
-                if tolerance_mm > 0.0 {
-                    s.push_str(&format!(" P{tolerance_mm}"));
-                }
-                if naivecam_tolerance_mm != tolerance_mm {
-                    s.push_str(&format!(" Q{naivecam_tolerance_mm}"));
-                }
-                s
-            }
-        }
-    }
 }
 
 /// What a move is.

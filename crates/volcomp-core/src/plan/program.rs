@@ -1,8 +1,8 @@
 //! A G-code program's moves, path modes and waits, read with volcomp's
 //! interpreter and fed to the [`Planner`].
 //!
-//! What the program's words say beyond its motions:
-//! * **the path mode** (G61, G61.1, G64 P Q; [`path_mode_of_line`]);
+//! The path mode (G61, G61.1, G64 P Q) comes with every motion from the
+//! interpreter. What the program's words say beyond its motions:
 //! * **where the machine waits for motion to end**: LinuxCNC's task runs a
 //!   spindle command (an S word, M3, M4, M5, M19), coolant (M7, M8, M9), a
 //!   tool change (M6), a dwell (G4), an offset change (G10, G43, G49,
@@ -38,42 +38,9 @@ pub struct ProgramEstimate {
     pub moves_by_mode: [u64; 3],
 }
 
-/// `code` (×10: G61.1 = 611) of a G or M word.
+/// `code` (×10: G4 = 40, G92.1 = 921) of a G or M word.
 fn code10(value: f64) -> i64 {
     (value * 10.0).round() as i64
-}
-
-/// The path mode after a line: a G61, G61.1 or G64 word on it sets it
-/// (G64's P and Q in program units, `mm_per_unit` mm each; Q defaults to
-/// P, `Interp::convert_control_mode`); else it stays `current`.
-///
-/// The one place the estimate reads the path mode from the words, until
-/// the interpreter gives it with each motion.
-pub fn path_mode_of_line(lexed: &Lexed, mm_per_unit: f64, current: PathMode) -> PathMode {
-    let mut mode = current;
-    let mut g64 = false;
-    for w in lexed.words() {
-        if w.letter == b'G' {
-            match code10(w.value) {
-                610 => mode = PathMode::ExactPath,
-                611 => mode = PathMode::ExactStop,
-                640 => g64 = true,
-                _ => {}
-            }
-        }
-    }
-    if g64 {
-        let get = |letter: u8| lexed.words().find(|w| w.letter == letter).map(|w| w.value);
-        let p = get(b'P').filter(|p| *p >= 0.0);
-        let q = get(b'Q').filter(|q| *q >= 0.0);
-        let tolerance_mm = p.unwrap_or(0.0) * mm_per_unit;
-        let naivecam_tolerance_mm = q.or(p).unwrap_or(0.0) * mm_per_unit;
-        mode = PathMode::Blend {
-            tolerance_mm,
-            naivecam_tolerance_mm,
-        };
-    }
-    mode
 }
 
 /// What makes the machine wait for motion to end on a line: (before the
@@ -124,7 +91,6 @@ pub fn estimate_program(
     let mut walker = setup.walker(reader, file);
     let mut planner = Planner::new(*limits);
     let mut out = ProgramEstimate::default();
-    let mut mode = PathMode::LINUXCNC_DEFAULT;
     let mut spindle_rpm = 0.0;
     while let Some(ev) = walker.next_line().map_err(Error::Gcode)? {
         if ev.after_end {
@@ -140,7 +106,6 @@ pub fn estimate_program(
             out.waits += 1;
         }
         out.dwell_s += dwell_s;
-        mode = path_mode_of_line(ev.lexed, units, mode);
         for m in ev.motions {
             let length = match m.kind {
                 MotionKind::Arc(a) => a.length(),
@@ -162,6 +127,7 @@ pub fn estimate_program(
                 },
             };
             out.moves += 1;
+            let mode = m.path_mode;
             out.moves_by_mode[match mode {
                 PathMode::ExactStop => 0,
                 PathMode::ExactPath => 1,
@@ -193,35 +159,6 @@ mod tests {
         let mut l = Lexed::default();
         volcomp_gcode::lexer::lex_block(s.as_bytes(), &mut l).unwrap();
         l
-    }
-
-    #[test]
-    fn the_path_mode_follows_g61_g61_1_and_g64_p_q() {
-        let d = PathMode::LINUXCNC_DEFAULT;
-        assert_eq!(path_mode_of_line(&lex("G61"), 1.0, d), PathMode::ExactPath);
-        assert_eq!(
-            path_mode_of_line(&lex("G61.1 G1 X1"), 1.0, d),
-            PathMode::ExactStop
-        );
-        assert_eq!(
-            path_mode_of_line(&lex("G64 P0.005"), 1.0, PathMode::ExactStop),
-            PathMode::Blend {
-                tolerance_mm: 0.005,
-                naivecam_tolerance_mm: 0.005
-            }
-        );
-        assert_eq!(
-            path_mode_of_line(&lex("G64 P0.001 Q0.0005"), 25.4, d),
-            PathMode::Blend {
-                tolerance_mm: 0.0254,
-                naivecam_tolerance_mm: 0.0127
-            }
-        );
-        assert_eq!(path_mode_of_line(&lex("G64"), 1.0, PathMode::ExactPath), d);
-        assert_eq!(
-            path_mode_of_line(&lex("G1 X1 P3"), 1.0, PathMode::ExactPath),
-            PathMode::ExactPath
-        );
     }
 
     #[test]

@@ -65,12 +65,7 @@ fn g64_halves_the_acceleration_of_a_segment_ending_in_a_blend() {
     // LinuxCNC plans every G64 segment to end in a parabolic blend and
     // halves its acceleration, even the program's last: 1.2 s, not 1.1 s.
     let e = estimate(
-        &[Move::feed(
-            Vec3::ZERO,
-            x(100.0),
-            100.0,
-            PathMode::LINUXCNC_DEFAULT,
-        )],
+        &[Move::feed(Vec3::ZERO, x(100.0), 100.0, PathMode::default())],
         &Limits::default(),
     );
     assert_close(
@@ -147,7 +142,7 @@ fn collinear_moves_run_through_at_speed() {
                 x(10.0 * i as f64),
                 x(10.0 * (i + 1) as f64),
                 100.0,
-                PathMode::LINUXCNC_DEFAULT,
+                PathMode::default(),
             )
         })
         .collect();

@@ -25,6 +25,7 @@ pub mod machining_time;
 pub mod map;
 pub mod mirror;
 pub mod svg;
+pub mod text;
 pub mod trace;
 
 use crate::error::Error;

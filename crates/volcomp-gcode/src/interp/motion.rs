@@ -12,7 +12,7 @@ use crate::geom::{Axis, Plane, Units, Vec3};
 /// Help of the refusal of `K0` on an XY arc; a front end may say how its
 /// user accepts K0 instead.
 pub const K0_HELP: &str =
-    "remove the K0 words (a zero K says nothing about an XY arc), or accept K0 on XY arcs in the options";
+    "remove the K0 words (a zero K says nothing about an XY arc), or accept K0 on XY arcs ({accept_k0})";
 
 /// Largest absolute machine coordinate volcomp accepts (mm): 100 m, beyond
 /// the travel of the largest machine tools (gantry mills reach some tens of
@@ -448,6 +448,7 @@ impl Interpreter {
             column: column + 1,
             feed,
             feed_mode: self.feed_mode,
+            path_mode: self.path_mode,
             extra: super::ExtraAxes {
                 start: self.extra,
                 end: self.extra_target,
@@ -608,7 +609,7 @@ impl Interpreter {
                     let a1 = (start[u] - c_abs[u]).hypot(start[v] - c_abs[v]);
                     let a2 = (end[u] - c_abs[u]).hypot(end[v] - c_abs[v]);
                     if (a1 - a2).abs() <= tol_mm.max(1e-3 * a1.max(a2)) {
-                        help = format!("the centre fits if {}/{} are absolute coordinates (radius {:.4} at both ends): the program was posted for absolute arc centres; add G90.1 at its start or read it with absolute arc centres (the option `InterpOptions::absolute_arc_centers`)", lu as char, lv as char, a1 / self.units.mm_per_unit());
+                        help = format!("the centre fits if {}/{} are absolute coordinates (radius {:.4} at both ends): the program was posted for absolute arc centres; add G90.1 at its start or read it with absolute arc centres ({{absolute_arc_centers}})", lu as char, lv as char, a1 / self.units.mm_per_unit());
                     }
                 }
                 return Err(invalid(line, col, format!("radius to end of arc differs from radius to start: r1={:.4} r2={:.4} (mm), abs_err={:.4} rel_err={:.4}%", r1, r2, abs_err, rel_err * 100.0), help));

@@ -49,7 +49,7 @@ impl Interpreter {
                         line,
                         col,
                         format!("G43 uses tool {h}, which the setup has no length for"),
-                        format!("add `{h} = LENGTH` under [tools] in the set-up file (the tool lengths of the set-up, `Setup::tool_lengths_mm`)"),
+                        format!("add `{h} = LENGTH` under [tools] in the set-up file"),
                     )
                 })?
             };

@@ -13,7 +13,7 @@ use super::{invalid, Interpreter};
 
 /// The help of the refusal of a program without an end (the command line
 /// adds its option to it).
-pub const PROGRAM_END_HELP: &str = "add M2 (or M30) at the end of the program";
+pub const PROGRAM_END_HELP: &str = "add M2 (or M30) at the end of the program, or accept a program without one ({allow_no_program_end}) if the controller runs such programs";
 use crate::error::GcodeError;
 
 impl Interpreter {

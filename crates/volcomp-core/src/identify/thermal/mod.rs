@@ -54,7 +54,7 @@ pub enum ThermalError {
         last: usize,
     },
     /// A measured sphere centre lies outside the axis ranges of the model.
-    #[error("{}", .0.describe("the axis ranges"))]
+    #[error("{}", .0.describe("the axis ranges ({ranges_mm})"))]
     OutsideRange(OutsideRange),
 }
 
