@@ -22,6 +22,22 @@ pub struct Cli {
     /// on a terminal, for large inputs).
     #[arg(short, long, global = true)]
     pub quiet: bool,
+    /// Largest file read whole (maps, models and their tables, set-ups,
+    /// measurement files, controller files), in bytes (suffixes K, M, G:
+    /// powers of 1024), or `none`; a larger file is refused before it is
+    /// read (docs/errors.md, "Limits"). Programs are streamed: no limit.
+    #[arg(long, global = true, value_name = "SIZE", default_value = "256M", value_parser = parse_input_size)]
+    pub max_input_size: InputSize,
+}
+
+/// `--max-input-size`: bytes, or no limit.
+#[derive(Debug, Clone, Copy)]
+pub struct InputSize(pub Option<u64>);
+
+fn parse_input_size(text: &str) -> Result<InputSize, String> {
+    volcomp_core::request::option::parse_size(text)
+        .map(InputSize)
+        .ok_or_else(|| format!("must be a number of bytes with an optional K, M or G (powers of 1024), or none; got `{text}`"))
 }
 
 #[derive(Subcommand, Debug)]
@@ -43,6 +59,19 @@ pub enum Command {
     /// Straightness models from measured profiles: fit (geometric error vs vibration), plot, table, predict.
     Straightness(crate::commands::straightness::StraightnessArgs),
     Thermal(crate::commands::thermal::ThermalArgs),
+    /// Print a shell completion script to standard output, e.g.
+    /// `volcomp completions bash > ~/.local/share/bash-completion/completions/volcomp`.
+    Completions(CompletionsArgs),
+    /// Print volcomp's man page (roff) to standard output, e.g.
+    /// `volcomp man > volcomp.1 && man ./volcomp.1`.
+    Man,
+}
+
+#[derive(Args, Debug)]
+pub struct CompletionsArgs {
+    /// The shell.
+    #[arg(value_enum)]
+    pub shell: clap_complete::Shell,
 }
 
 /// The one value parser of every option that names an axis: `X`, `Y` or
@@ -144,4 +173,7 @@ pub struct DemoArgs {
     /// Where to write the example map and programs.
     #[arg(long, value_name = "DIR", default_value = "volcomp-demo")]
     pub out_dir: PathBuf,
+    /// Also write the table as Markdown (BENCHMARKS.md's demo table).
+    #[arg(long, value_name = "FILE.md")]
+    pub markdown: Option<PathBuf>,
 }

@@ -47,8 +47,10 @@ pub fn fmt_mm(v: f64) -> String {
 }
 
 /// When `x_mm` lies far outside `[lo, hi]` (more than five spans away) but
-/// inside it after a unit factor, the unit that factor suggests for the
-/// map's positions.
+/// inside it after a unit factor, the unit that factor suggests. Where
+/// several factors bring it inside, the one that brings it nearest the
+/// middle of the range is the likelier mistake. A factor of 25.4 is as
+/// likely the set-up's (offsets in mm under `units = "inch"`) as the map's.
 fn other_unit(x_mm: f64, lo: f64, hi: f64) -> Option<&'static str> {
     let span = (hi - lo).abs();
     let distance = (lo - x_mm).max(x_mm - hi);
@@ -57,16 +59,36 @@ fn other_unit(x_mm: f64, lo: f64, hi: f64) -> Option<&'static str> {
     }
     let margin = 0.05 * span;
     let inside = |v: f64| v >= lo - margin && v <= hi + margin;
-    if inside(x_mm * 1e3) {
-        Some("µm (the map's numbers are 1000 times the program's)")
-    } else if inside(x_mm * 1e-3) {
-        Some("metres (the map's numbers are 1/1000 of the program's)")
-    } else if inside(x_mm / 25.4) {
-        Some("inches (the map's numbers are 1/25.4 of the program's)")
-    } else if inside(x_mm * 25.4) {
-        Some("mm while the program is in inches")
-    } else {
-        None
+    let middle = 0.5 * (lo + hi);
+    [
+        (1e3, "µm (the map's numbers are 1000 times the program's)"),
+        (1e-3, "metres (the map's numbers are 1/1000 of the program's)"),
+        (1.0 / 25.4, "inches (the map's numbers are 1/25.4 of the program's), or the set-up's offsets are in mm under `units = \"inch\"`"),
+        (25.4, "mm while the program is in inches"),
+    ]
+    .into_iter()
+    .filter(|(factor, _)| inside(x_mm * factor))
+    .min_by(|(a, _), (b, _)| {
+        let d = |f: f64| (x_mm * f - middle).abs();
+        d(*a).total_cmp(&d(*b))
+    })
+    .map(|(_, unit)| unit)
+}
+
+#[cfg(test)]
+mod unit_hint_tests {
+    use super::other_unit;
+
+    #[test]
+    fn a_factor_of_25_4_is_not_taken_for_metres() {
+        // 300 mm read as inches (a set-up in mm under units = "inch"):
+        // 7620 mm; 7.62 would be inside 0 … 600 too, but 300 is nearer its
+        // middle.
+        let hint = other_unit(300.0 * 25.4, 0.0, 600.0).unwrap();
+        assert!(hint.starts_with("inches"), "{hint}");
+        assert!(hint.contains("units = \"inch\""), "{hint}");
+        assert!(other_unit(250.0, 0.0, 0.5).unwrap().starts_with("metres"));
+        assert_eq!(other_unit(250.0, 0.0, 200.0), None);
     }
 }
 
@@ -566,7 +588,7 @@ pub mod help {
     /// A point whose residual is above the largest accepted.
     pub const RESIDUAL_LIMIT: &str = "with ILC raise the iteration limit ({max_iterations}) or the gain ({gain}); check that the map is smooth and in µm; the largest accepted residual is {max_residual_um}";
     /// A simulated line that does not pair with the reference.
-    pub const REFERENCE_PAIRING: &str = "give as the reference ({reference}) the original program this one was compensated from by volcomp (its `(volcomp Ln)` comments pair the two; a program written with {trace} cannot be paired once lines were split or take-ups inserted)";
+    pub const REFERENCE_PAIRING: &str = "give as the reference ({reference}) the original program this one was compensated from by volcomp (its `(volcomp Ln)` comments pair the two; a program written without trace comments ({trace}) cannot be paired once lines were split or take-ups inserted)";
     /// The reference moves on after the simulated program ends.
     pub const REFERENCE_LEFT: &str = "give as the reference ({reference}) the original program this one was compensated from, and simulate the whole compensated program";
 }

@@ -96,7 +96,7 @@ pub struct Walker<R> {
     /// The line the last event came from.
     pub(crate) current: Pos,
     /// Where lines after the program end are copied from (main program).
-    after_end_at: Option<usize>,
+    pub(crate) after_end_at: Option<usize>,
 }
 
 impl<R: BufRead> Walker<R> {
@@ -202,6 +202,22 @@ impl<R: BufRead> Walker<R> {
             if self.interp.finished() {
                 return self.next_after_end();
             }
+            // gcode lane: lines LinuxCNC generates in place of a return
+            // (an M73 restore), run as a rendered line of the return.
+            if let Some(text) = self.flow.next_injected() {
+                let line = self.current.line as u64 + 1;
+                self.buf.clear();
+                self.buf.extend_from_slice(text.as_bytes());
+                self.rendered = true;
+                let n = lexer::content_len(&self.buf);
+                if let Err(e) = lexer::lex_block(&self.buf[..n], &mut self.lexed) {
+                    return Err(self.locate_rendered(e.at_line(line)));
+                }
+                if let Err(e) = self.interp.execute(line, &self.lexed, &mut self.motions) {
+                    return Err(self.locate_rendered(e));
+                }
+                return Ok(Some(self.event(self.current, LineKind::Block, false)));
+            }
             let pos = self.flow.pos;
             if !self.fetch(pos)? {
                 self.end_of_source(pos)?;
@@ -215,7 +231,7 @@ impl<R: BufRead> Walker<R> {
             if !self.flow.keeps_lines() && pos.src == MAIN {
                 self.main.forget_before(pos.line);
             }
-            if let Err(e) = self.flow.count_line(pos.line as u64 + 1) {
+            if let Err(e) = self.flow.count_line(pos) {
                 return Err(self.locate(e));
             }
             if let Some(ev_kind) = self.prepare(pos)? {
@@ -250,12 +266,24 @@ impl<R: BufRead> Walker<R> {
         let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
         let content_len = lexer::content_len(original);
         if too_long(original) {
+            // The ending counts: LinuxCNC's fgets holds 253 bytes of a line
+            // and its ending, so a CR LF line may have one character less
+            // (checked against rs274: 252 characters and CR LF are refused).
+            let crlf = original[content_len..].starts_with(b"\r");
+            let (ending, most, help) = if crlf {
+                (" and ends in CR LF", MAX_LINE_BYTES - 1, "split the line, or shorten its comment; saved with LF endings it may have one character more")
+            } else {
+                ("", MAX_LINE_BYTES, "split the line, or shorten its comment")
+            };
             let e = GcodeError::new(
                 ErrorClass::Invalid,
                 pos.line as u64 + 1,
-                MAX_LINE_BYTES + 1,
-                format!("the line is {} characters long; LinuxCNC reads at most {MAX_LINE_BYTES} (\"Command too long\")", content_len),
-                "split the line, or shorten its comment",
+                most + 1,
+                format!(
+                    "the line is {content_len} characters long{ending}; LinuxCNC reads {most} characters at most before {} (\"Command too long\")",
+                    if crlf { "CR LF" } else { "LF" }
+                ),
+                help,
             );
             return Err(self.locate(e));
         }
@@ -264,7 +292,10 @@ impl<R: BufRead> Walker<R> {
             LineKind::Percent => {
                 self.buf.extend_from_slice(original);
                 if pos.src == MAIN {
-                    let r = self.interp.percent_line(pos.line as u64 + 1);
+                    // gcode lane: the line's text decides `%` alone vs. stray.
+                    let r = self
+                        .interp
+                        .percent_line(pos.line as u64 + 1, &original[..content_len]);
                     r.map_err(|e| self.locate(e))?;
                 }
                 return Ok(Some(kind));
@@ -302,6 +333,8 @@ impl<R: BufRead> Walker<R> {
                                 &words,
                                 &settings,
                                 &scope,
+                                // gcode lane: computed values in the program's decimals.
+                                self.interp.computed_decimals(),
                                 &mut out,
                             )
                         };
@@ -333,6 +366,11 @@ impl<R: BufRead> Walker<R> {
         let n = lexer::content_len(&self.buf);
         if let Err(e) = lexer::lex_block(&self.buf[..n], &mut self.lexed) {
             let e = e.at_line(pos.line as u64 + 1);
+            return Err(self.locate_rendered(e));
+        }
+        // gcode lane: what LinuxCNC's reader refuses in a line the lexer reads.
+        if let Err(e) = crate::interp::check_line(pos.line as u64 + 1, &self.buf[..n], &self.lexed)
+        {
             return Err(self.locate_rendered(e));
         }
         if let Some(msg) = abort_comment(&self.buf[..n], &self.lexed) {

@@ -11,7 +11,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString};
 use volcomp_core::request::{
     self, CompensateRequest, Input, Kind, MachineRequest, MirrorRequest, OptionInfo, Request,
-    SimulateRequest, Spelling, ThermalFitRequest, ThermalPredictRequest, Value,
+    SimulateRequest, Spelling, StraightnessFitRequest, ThermalFitRequest, ThermalPredictRequest,
+    Value,
 };
 use volcomp_core::Error;
 
@@ -227,6 +228,7 @@ pub fn options<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyList>> 
         "mirror" => MirrorRequest::OPTIONS,
         "thermal_fit" => ThermalFitRequest::OPTIONS,
         "thermal_predict" => ThermalPredictRequest::OPTIONS,
+        "straightness_fit" => StraightnessFitRequest::OPTIONS,
         _ => return Err(bad_input(format!("no job `{job}`"))),
     };
     let list = PyList::empty(py);

@@ -72,7 +72,8 @@ impl MachineSetup {
 
     /// The set-up read from a set-up TOML file (docs/setup.md).
     pub fn from_setup_file(path: &Path) -> Result<Self, Error> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::io::inputs::read_to_string(path, "the set-up")
+            .map_err(|e| Error::io(path, e))?;
         Self::from_setup_toml(&text, &path.display().to_string())
     }
 
@@ -142,7 +143,7 @@ pub fn header_for_map(
 ) -> Result<ProgramHeader, Error> {
     let mut maps = Vec::new();
     for p in std::iter::once(map.to_path_buf()).chain(crate::io::output::referenced_files(map)) {
-        let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+        let bytes = crate::io::inputs::read(&p, "the map").map_err(|e| Error::io(&p, e))?;
         maps.push((file_name(&p), sha256_hex(&bytes)));
     }
     Ok(ProgramHeader::for_compensation(
@@ -261,6 +262,17 @@ impl<'a> Compensator<'a> {
             HEAD_BYTES as usize,
             std::io::Cursor::new(head).chain(program),
         );
+        // gcode lane: computed values (`F[1/3]`) are written with the
+        // decimals of the compensated words, not 17 digits.
+        let decimals = |default: u8| {
+            self.options
+                .decimals
+                .unwrap_or(default.max(style.survey.max_decimals()))
+        };
+        self.setup.interp.computed_decimals = Some([
+            decimals(super::DEFAULT_DECIMALS_MM),
+            decimals(super::DEFAULT_DECIMALS_INCH),
+        ]);
         let mut walker = self.setup.walker(reader, &self.file);
         let mut no_op = |_: &PointRecord| {};
         let on_point: &mut dyn FnMut(&PointRecord) = match self.on_point.as_mut() {

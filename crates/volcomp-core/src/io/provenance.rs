@@ -407,7 +407,11 @@ impl<W: Write> Write for HeaderWriter<W> {
             } else {
                 "\n"
             };
-            if !self.seen_percent && !self.seen_number && t.starts_with('%') {
+            if !self.seen_percent && !self.seen_number && t.is_empty() {
+                // gcode lane: blank lines before the opening `%` stay
+                // before it (LinuxCNC looks for `%` at the first non-blank
+                // line; a header there would make the `%` a stray one).
+            } else if !self.seen_percent && !self.seen_number && t.starts_with('%') {
                 self.seen_percent = true;
             } else if !self.seen_number && is_program_number(t) {
                 self.seen_number = true;

@@ -42,12 +42,19 @@ pub const MACHINE_OPTIONS: &[OptionInfo] = &[
     OptionInfo::new(
         "allow_no_program_end",
         Kind::Switch,
-        "Accept a program that ends without M2, M30 or a closing `%` (LinuxCNC refuses it; grbl-family and other controllers run it).",
+        "Do not warn about a program that ends without M2, M30 or a closing `%` (LinuxCNC runs it to its last line, then reports an error; grbl-family and other controllers need no end).",
     ),
+    OptionInfo::new(
+        "max_repeated_lines",
+        Kind::Count,
+        "Most lines a run executes again (every pass of a loop after the first, every line of a called subroutine) before it is refused as a loop that never ends; a program without loops runs whatever its length.",
+    )
+    .value("N")
+    .default("10000000"),
 ];
 
 /// How a program is set up on the machine, as plain values.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct MachineRequest {
     /// The set-up TOML file (docs/setup.md).
     pub setup: Option<Input>,
@@ -59,8 +66,24 @@ pub struct MachineRequest {
     pub accept_k0: bool,
     /// Refuse `K0` on G17 arcs (the default; kept for old scripts).
     pub strict_k0: bool,
-    /// Accept a program without M2, M30 or a closing `%`.
+    /// Do not warn about a program without M2, M30 or a closing `%`.
     pub allow_no_program_end: bool,
+    /// Most lines executed again (loops, calls) in one run.
+    pub max_repeated_lines: u64,
+}
+
+impl Default for MachineRequest {
+    fn default() -> Self {
+        Self {
+            setup: None,
+            work_offset_mm: None,
+            absolute_arc_centers: false,
+            accept_k0: false,
+            strict_k0: false,
+            allow_no_program_end: false,
+            max_repeated_lines: volcomp_gcode::ngc::flow::MAX_EXECUTED_LINES,
+        }
+    }
 }
 
 /// A machine set-up ready for a job, with where it came from (for the
@@ -101,6 +124,7 @@ impl MachineRequest {
             "allow_no_program_end" => {
                 self.allow_no_program_end = value.bool("allow_no_program_end")?
             }
+            "max_repeated_lines" => self.max_repeated_lines = value.count("max_repeated_lines")?,
             _ => return Ok(false),
         }
         Ok(true)
@@ -137,6 +161,7 @@ impl MachineRequest {
             accept_k0_on_xy_arcs: self.accept_k0,
             absolute_arc_centers: self.absolute_arc_centers,
             require_program_end: !self.allow_no_program_end,
+            max_executed_lines: self.max_repeated_lines,
             ..InterpOptions::default()
         });
         Ok(Machine {

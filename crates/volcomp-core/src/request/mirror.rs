@@ -325,11 +325,10 @@ fn positive(name: &'static str, v: f64, what: &str) -> Result<f64, OptionError> 
     }
 }
 
-/// `value` if it is one of the choices of option `name`.
-fn choice<'a>(name: &'static str, value: &'a str) -> Result<&'a str, OptionError> {
+/// The choice of option `name` that `value` names.
+fn choice(name: &'static str, value: &str) -> Result<&'static str, OptionError> {
     let info = <MirrorRequest as super::Request>::info(name).expect("a mirror option");
-    info.choice(value).map_err(|p| OptionError::new(name, p))?;
-    Ok(value)
+    info.choice(value).map_err(|p| OptionError::new(name, p))
 }
 
 impl MirrorRequest {

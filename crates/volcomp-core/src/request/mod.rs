@@ -24,6 +24,7 @@ mod mirror;
 pub mod option;
 mod report;
 mod simulate;
+mod straightness;
 mod thermal;
 mod time;
 
@@ -39,6 +40,7 @@ pub use option::{
 };
 pub use report::{header_inputs, RunNames};
 pub use simulate::{SimulateRequest, SIMULATE_OPTIONS};
+pub use straightness::{fit_summary, StraightnessFitRequest, STRAIGHTNESS_OPTIONS};
 pub use thermal::{
     unit_symbol, Prediction, ThermalFit, ThermalFitRequest, ThermalPredictRequest,
     DEFAULT_BAND_SAMPLES, THERMAL_FIT_OPTIONS, THERMAL_PREDICT_OPTIONS,
@@ -55,6 +57,7 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     MIRROR_OPTIONS,
     THERMAL_FIT_OPTIONS,
     THERMAL_PREDICT_OPTIONS,
+    STRAIGHTNESS_OPTIONS,
     TIME_OPTIONS,
 ];
 
@@ -118,6 +121,7 @@ mod tests {
         consistent(|r: &MirrorRequest| r.clone());
         consistent(|r: &ThermalFitRequest| r.clone());
         consistent(|r: &ThermalPredictRequest| r.clone());
+        consistent(|r: &StraightnessFitRequest| r.clone());
         consistent(|r: &TimeRequest| r.clone());
     }
 

@@ -67,7 +67,7 @@ impl TimeRequest {
 }
 
 fn open(path: &Path) -> Result<std::fs::File, Error> {
-    std::fs::File::open(path).map_err(|e| Error::io(path, e))
+    crate::io::inputs::open(path, "the program").map_err(|e| Error::io(path, e))
 }
 
 impl Compensation {

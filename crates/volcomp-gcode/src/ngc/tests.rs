@@ -100,7 +100,7 @@ fn loops_calls_and_branches_run_as_written() {
              o3 sub\nG0 X[#1 * 100]\no3 return [7]\no3 endsub\n\
              o3 call [4]\nG0 X#<_value>\n\
              o4 if [0]\nG0 X-1\no4 elseif [1]\nG0 X-2\no4 else\nG0 X-3\no4 endif\n\
-             #2=0\no5 do\n#2=[#2+1]\no6 if [#2 EQ 2]\no5 continue\no6 endif\no6 if [#2 EQ 4]\no5 break\no6 endif\nG0 X[50+#2]\no5 while [1]\nM2\n";
+             #2=0\no5 do\n#2=[#2+1]\no6 if [#2 EQ 2]\no5 continue\no6 endif\no7 if [#2 EQ 4]\no5 break\no7 endif\nG0 X[50+#2]\no5 while [1]\nM2\n";
     let v = xs(p).unwrap();
     assert_eq!(
         v,
@@ -156,7 +156,39 @@ fn bad_programs_are_refused_where_they_go_wrong() {
             "p.ngc",
             "o1 (opened on line 2) is not closed",
         ),
-        ("G21\no1 endwhile\nM2\n", "p.ngc:2:1", "not inside a loop"),
+        (
+            "G21\no1 endwhile\nM2\n",
+            "p.ngc:2:1",
+            "undefined O-word label",
+        ),
+        // LinuxCNC binds a control label to one line (rs274: "duplicate
+        // O-word label"), in sequence as well as nested.
+        (
+            "G21\no1 if [1]\no1 endif\no1 if [1]\no1 endif\nM2\n",
+            "p.ngc:4:1",
+            "duplicate O-word label",
+        ),
+        (
+            "G21\no1 if [1]\no1 if [1]\no1 endif\no1 endif\nM2\n",
+            "p.ngc:3:1",
+            "already used on line 2",
+        ),
+        // rs274: "undefined O-word label", "no matching label".
+        (
+            "G21\no1 if [1]\no2 endif\nM2\n",
+            "p.ngc:3:1",
+            "undefined O-word label",
+        ),
+        (
+            "G21\no1 if [1]\no1 endwhile\nM2\n",
+            "p.ngc:3:1",
+            "belongs to the `if` of line 2",
+        ),
+        (
+            "G21\no1 sub\no1 endsub\no1 sub\no1 endsub\nM2\n",
+            "p.ngc:4:1",
+            "redefining sub",
+        ),
         (
             "G21\no9 call\nM2\n",
             "p.ngc:2:1",
@@ -173,6 +205,46 @@ fn bad_programs_are_refused_where_they_go_wrong() {
         let e = xs(p).unwrap_err();
         assert!(e.contains(at) && e.contains(what), "{p:?}: {e}");
     }
+}
+
+/// Only lines executed again count against the limit: a long program
+/// without control flow runs whatever its length; a loop's passes after the
+/// first and a subroutine's lines count (2 lines × 5 passes here: the first
+/// pass is the main program's own lines).
+#[test]
+fn only_repeated_lines_count_against_the_limit() {
+    let run = |text: String, max: u64| -> Result<(), String> {
+        let options = InterpOptions {
+            max_executed_lines: max,
+            ..InterpOptions::default()
+        };
+        let mut w = Walker::new(
+            Cursor::new(text.into_bytes()),
+            Some("p.ngc".into()),
+            Setup::default(),
+            options,
+        );
+        loop {
+            match w.next_line() {
+                Ok(Some(_)) => {}
+                Ok(None) => return Ok(()),
+                Err(e) => return Err(e.to_string()),
+            }
+        }
+    };
+    let long: String = (0..50).map(|k| format!("G1 X{k} F100\n")).collect();
+    run(format!("G21\n{long}M2\n"), 10).unwrap();
+    // The first pass runs the main program's lines for the first time
+    // (free); passes 2 to 5 run `while`, the two body lines and `endwhile`
+    // again (4 × 4 = 16); the last test of the condition is one more: 17.
+    let looped = "G21\n#1 = 0\no1 while [#1 LT 5]\nG1 X#1 F100\n#1 = [#1 + 1]\no1 endwhile\nM2\n";
+    let counted = (1..40u64)
+        .find(|&m| run(looped.to_string(), m).is_ok())
+        .unwrap();
+    assert_eq!(counted, 17, "{counted}");
+    assert!(run(looped.to_string(), counted - 1)
+        .unwrap_err()
+        .contains(&format!("executed {} lines of loops", counted - 1)));
 }
 
 #[test]
@@ -194,7 +266,10 @@ fn a_loop_that_never_ends_is_stopped() {
             Err(e) => break e.to_string(),
         }
     };
-    assert!(e.contains("executed 10000 lines without ending"), "{e}");
+    assert!(
+        e.contains("executed 10000 lines of loops and subroutine calls without ending"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -258,7 +333,8 @@ fn a_setting_declares_its_name_for_the_rest_of_the_line() {
 
 #[test]
 fn parameter_numbers_stop_at_5601_and_the_tool_changer_ones_are_refused() {
-    assert_eq!(x_of("#5599"), 0.0);
+    // The (DEBUG, …) flag starts at 1 (`Interp::init`).
+    assert_eq!(x_of("#5599"), 1.0);
     assert_eq!(x_of("[EXISTS[#5601] + EXISTS[#5602] * 2]"), 1.0);
     let e = xs("G21\nG0 X#5602\nM2\n").unwrap_err();
     assert!(e.contains("p.ngc:2:5") && e.contains("out of range"), "{e}");

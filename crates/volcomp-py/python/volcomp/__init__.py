@@ -80,6 +80,7 @@ moves = _with_options(moves, "moves")
 machining_time = _with_options(machining_time, "machining_time")
 mirror = _with_options(mirror, "mirror")
 thermal_fit = _with_options(thermal_fit, "thermal_fit")
+straightness_fit = _with_options(straightness_fit, "straightness_fit")
 
 __all__ = [
     "BadInputError",

@@ -173,6 +173,7 @@ def compensate(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
+    max_repeated_lines: int = 10000000,
     method: Literal["exact", "ilc", "direct", "pitch"] = "exact",
     segment_length_mm: Optional[float] = None,
     segments: Optional[int] = None,
@@ -208,6 +209,7 @@ def simulate(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
+    max_repeated_lines: int = 10000000,
     reference: Optional[Input] = None,
     chord_tolerance_mm: float = 1e-05,
 ) -> SimulationResult:
@@ -223,6 +225,7 @@ def moves(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
+    max_repeated_lines: int = 10000000,
 ) -> dict[str, npt.NDArray[Any]]:
     """One row per motion as a dict of columns (the `volcomp moves` CSV)."""
 
@@ -250,16 +253,16 @@ def iso230_2_csv(runs: Text, *, name: Optional[str] = None) -> dict[str, Any]:
     """ISO 230-2 figures from a test CSV (a path or a file object)."""
 
 def straightness_fit(
-    runs: Sequence[Union[Text, dict[str, Any]]],
+    runs: Sequence[Union[Input, dict[str, Any]]],
     *,
     axis: Optional[Literal["X", "Y"]] = None,
-    negate: bool = False,
     sigma_t: float = 0.05,
     p_t: float = 0.01,
     taper_fraction: float = 0.1,
     normalisation: Literal["common", "per-run"] = "common",
-    harmonics: Optional[int] = None,
     cutoff: Literal["cross-validation", "thresholds"] = "cross-validation",
+    harmonics: Optional[int] = None,
+    negate: bool = False,
 ) -> tuple[Model, dict[str, dict[str, Any]]]:
     """A straightness model from runs at several feed rates (CSV files as
     paths or file objects, or dicts of positions_mm, displacement_um,
@@ -335,6 +338,7 @@ def mirror(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
+    max_repeated_lines: int = 10000000,
 ) -> dict[str, Any]:
     """Mirror compensation of a free-form surface from probe points (stock_mm
     is required); with finishing and tool_radius_mm, the compensated
