@@ -238,6 +238,7 @@ def machining_time(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
+    max_repeated_lines: int = 10000000,
     reference: Optional[Input] = None,
 ) -> dict[str, Any]:
     """The program's (and the reference's) time on a model of LinuxCNC
