@@ -185,16 +185,18 @@ fn loops_that_never_end_stop_at_the_repeated_lines_limit() {
             assert!(!d.join("out.ngc").exists());
         }
     }
-    // A loop of 300 passes of 3 lines needs about 900 repeated lines: 100
-    // refuse it, 1000 let it run.
+    // A loop of 300 passes runs 4 lines a pass (the while test, the G1, the
+    // assignment, the endwhile); the first pass is the main program's lines
+    // run once, so 299 passes × 4 + the last while test = 1197 lines run
+    // again: 1196 refuse it, 1197 let it run.
     std::fs::write(
         d.join("loop.ngc"),
         "G21 G90\nG0 X0 Y0 Z0\n#1=0\no1 while [#1 LT 300]\nG1 X[#1/10] F100\n#1=[#1+1]\no1 endwhile\nM2\n",
     )
     .unwrap();
-    let o = volcomp(&["moves", "loop.ngc", "--max-repeated-lines", "100"], &d);
+    let o = volcomp(&["moves", "loop.ngc", "--max-repeated-lines", "1196"], &d);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
-    let o = volcomp(&["moves", "loop.ngc", "--max-repeated-lines", "1000"], &d);
+    let o = volcomp(&["moves", "loop.ngc", "--max-repeated-lines", "1197"], &d);
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
@@ -226,11 +228,17 @@ fn inputs_read_whole_are_bounded() {
         refused(&d, &o, "(a device or a pipe) gives more than the 16 MiB");
         assert!(stderr(&o).contains("--max-input-size"), "{}", stderr(&o));
     }
-    let o = compensate(&d, &["--max-input-size", "1K"]);
+    // The fixture's map is a few hundred bytes: 256 is less.
+    let o = compensate(&d, &["--max-input-size", "256"]);
     refused(&d, &o, "map.csv: the file holds");
-    assert!(stderr(&o).contains("more than the 1 KiB"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("more than the 256 bytes"),
+        "{}",
+        stderr(&o)
+    );
     let o = compensate(&d, &["--max-input-size", "none"]);
     assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::remove_file(d.join("out.ngc")).unwrap();
     // A table whose line is longer than a table's line may be.
     let mut line = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
     line.push_str(&"1,".repeat(600_000));

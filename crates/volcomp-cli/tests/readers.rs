@@ -199,8 +199,9 @@ fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
         "{msg}"
     );
     assert!(fit(&d, "ex/measurements_train.csv").status.success());
-    // The check run at the example's temperatures predicts; at 1000 °C it
-    // is refused unless --extrapolate.
+    // The check run at the example's temperatures predicts; at 60 °C, far
+    // outside the fit's range, it is refused unless --extrapolate; 1000 °C
+    // is no machine-tool temperature and is refused even then.
     let predict = |temps: &str, extra: &[&str]| {
         let mut args = vec![
             "thermal",
@@ -221,13 +222,25 @@ fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
     let last = lines.len() - 1;
     let mut f: Vec<String> = lines[last].split(',').map(str::to_string).collect();
     f[2] = "1000".into();
+    let mut burnt = lines.clone();
+    burnt[last] = f.join(",");
+    std::fs::write(d.join("burnt.csv"), burnt.join("\n") + "\n").unwrap();
+    let o = predict("burnt.csv", &["--extrapolate"]);
+    let msg = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{msg}");
+    assert!(
+        msg.contains("burnt.csv:")
+            && msg.contains("1000 °C is not a temperature of a machine tool"),
+        "{msg}"
+    );
+    f[2] = "60".into();
     lines[last] = f.join(",");
     std::fs::write(d.join("hot.csv"), lines.join("\n") + "\n").unwrap();
     let o = predict("hot.csv", &[]);
     let msg = stderr(&o);
     assert!(!o.status.success());
     assert!(
-        msg.contains("bed_c") && msg.contains("1000 °C") && msg.contains("--extrapolate"),
+        msg.contains("bed_c") && msg.contains("60 °C") && msg.contains("--extrapolate"),
         "{msg}"
     );
     let o = predict("hot.csv", &["--extrapolate"]);

@@ -249,6 +249,9 @@ pub const TOO_LARGE_HELP: &str = "raise the input size limit if this really is t
 
 fn too_large(size: Option<u64>, limit: u64) -> io::Error {
     let what = match size {
+        Some(s) if show_bytes(s) == format!("{s} bytes") => {
+            format!("the file holds {s} bytes, more than")
+        }
         Some(s) => format!("the file holds {} ({s} bytes), more than", show_bytes(s)),
         None => "the file (a device or a pipe) gives more than".to_string(),
     };
