@@ -220,7 +220,10 @@ fn a_cycle_written_as_moves_runs_in_exact_path_as_the_cycle_does() {
     // added.
     let inch = "G20 G90 G17 G64 P0.001\nG0 X0 Y0 Z0.5\nG81 X1 Y1 Z-0.2 R0.1 F4\nG80\nM2\n";
     let out = compensate(inch).unwrap();
-    assert!(out.contains("\nG61\n") && out.contains("\nG64 P0.001\n"), "{out}");
+    assert!(
+        out.contains("\nG61\n") && out.contains("\nG64 P0.001\n"),
+        "{out}"
+    );
     assert_eq!(modes(&out), modes(inch), "{out}");
     let exact = "G21 G90 G17 G61\nG0 X0 Y0 Z10\nG81 X10 Y10 Z-5 R2 F100\nG80\nM2\n";
     let out = compensate(exact).unwrap();
