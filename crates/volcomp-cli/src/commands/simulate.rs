@@ -150,10 +150,29 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         write(path, html.as_bytes())?;
     }
     let report = &kept.traced.report;
+    let time = a
+        .job
+        .machining_time(&machine, &a.program)
+        .map_err(|e| machine.refused(e))?;
     let text = if a.json {
-        serde_json::to_string(report)? + "\n"
+        /// The simulation's figures and the machining time in one object.
+        #[derive(serde::Serialize)]
+        struct Json<'a> {
+            #[serde(flatten)]
+            report: &'a volcomp_core::SimReport,
+            machining_time: Option<&'a volcomp_core::plan::TimeComparison>,
+        }
+        let json = Json {
+            report,
+            machining_time: time.as_ref(),
+        };
+        serde_json::to_string(&json)? + "\n"
     } else {
-        simulation_text(report, a.job.reference.is_some())
+        let mut text = simulation_text(report, a.job.reference.is_some());
+        for (label, line) in time.iter().flat_map(|t| t.rows()) {
+            text.push_str(&format!("{label:<20}{line}\n"));
+        }
+        text
     };
     std::io::stdout()
         .lock()
