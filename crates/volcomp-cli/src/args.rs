@@ -4,7 +4,9 @@
 use crate::options::Options;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
-use volcomp_core::request::{CompensateRequest, MachineRequest, MapRequest, SimulateRequest};
+use volcomp_core::request::{
+    CompensateRequest, MachineRequest, MapRequest, SimulateRequest, TimeRequest,
+};
 use volcomp_geom::Axis;
 
 pub mod surface;
@@ -46,6 +48,8 @@ pub enum Command {
     Compensate(CompensateArgs),
     /// Simulate a program on a machine with an error map and report its errors.
     Simulate(SimulateArgs),
+    /// Estimate a program's machining time on a model of LinuxCNC 2.9's trajectory planner.
+    Time(TimeArgs),
     /// Run the bundled example: the papers' circles and spiral on an example map.
     Demo(DemoArgs),
     /// Evaluate, convert, plot and import error maps (21-component model, LinuxCNC comp files, ISO 230-2).
@@ -153,6 +157,17 @@ pub struct SimulateArgs {
     /// on its own as "before", PROGRAM as "after").
     #[arg(long, value_name = "FILE.html")]
     pub report_html: Option<PathBuf>,
+}
+
+#[derive(Args, Debug)]
+pub struct TimeArgs {
+    /// The program ("-" for standard input).
+    pub program: PathBuf,
+    #[command(flatten)]
+    pub job: Options<TimeRequest>,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Args, Debug)]

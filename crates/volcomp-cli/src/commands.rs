@@ -19,12 +19,14 @@ mod simulate;
 pub mod straightness;
 pub mod surface;
 pub mod thermal;
+mod time;
 
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Moves(a) => moves(a),
         Command::Compensate(a) => compensate::run(a),
         Command::Simulate(a) => simulate::run(a),
+        Command::Time(a) => time::run(a),
         Command::Demo(a) => demo::run(a),
         Command::Map(a) => map::run(a),
         Command::Surface(a) => surface::run(a),

@@ -89,6 +89,7 @@ pub mod io;
 pub mod limits;
 pub(crate) mod linalg;
 pub mod model;
+pub mod plan;
 pub mod prelude;
 pub mod progress;
 pub mod report;

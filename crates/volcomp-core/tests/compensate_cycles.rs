@@ -177,3 +177,55 @@ fn shifted_by_minus_e_except_strokes(out: &str) {
     let dz = written[n - 2].z - written[n - 3].z;
     assert!((dz + 7.0).abs() < 1e-9, "{out}");
 }
+
+/// The path mode of every motion of `program` (zero-length ones dropped,
+/// as [`ends`] drops them).
+fn modes(program: &str) -> Vec<volcomp_gcode::PathMode> {
+    let mut w = walker(program);
+    let (mut out, mut last) = (Vec::new(), None);
+    while let Some(ev) = w.next_line().unwrap() {
+        for m in ev.motions {
+            if last != Some(m.end) {
+                out.push(m.path_mode);
+            }
+            last = Some(m.end);
+        }
+    }
+    out
+}
+
+#[test]
+fn a_cycle_written_as_moves_runs_in_exact_path_as_the_cycle_does() {
+    // LinuxCNC runs a cycle's moves in G61 and then restores the program's
+    // mode (interp_cycles.cc): the written moves say G61 before them and
+    // the program's G64 P0.01 after them, so every move of the output runs
+    // in the mode its original move runs in.
+    let program = "G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z10\nG98 G81 X10 Y10 Z-5 R2 F100\nX20\nG80\nG1 X0 F100\nM2\n";
+    let out = compensate(program).unwrap();
+    assert_eq!(out.matches("\nG61\n").count(), 2, "{out}");
+    assert_eq!(out.matches("\nG64 P0.01\n").count(), 2, "{out}");
+    shifted_by_minus_e(program, &out);
+    assert_eq!(modes(&out), modes(program), "{out}");
+    // So the planner model gives both the same time, to the servo period.
+    let setup = volcomp_core::compensate::MachineSetup::default();
+    let limits = volcomp_core::plan::Limits::default();
+    let time = |p: &str| {
+        volcomp_core::plan::estimate_program(p.as_bytes(), "t.ngc", &setup, &limits)
+            .unwrap()
+            .motion
+            .total_s
+    };
+    assert!((time(&out) - time(program)).abs() <= 0.0015, "{out}");
+    // In inch, the tolerance is written in inches; under G61 nothing is
+    // added.
+    let inch = "G20 G90 G17 G64 P0.001\nG0 X0 Y0 Z0.5\nG81 X1 Y1 Z-0.2 R0.1 F4\nG80\nM2\n";
+    let out = compensate(inch).unwrap();
+    assert!(
+        out.contains("\nG61\n") && out.contains("\nG64 P0.001\n"),
+        "{out}"
+    );
+    assert_eq!(modes(&out), modes(inch), "{out}");
+    let exact = "G21 G90 G17 G61\nG0 X0 Y0 Z10\nG81 X10 Y10 Z-5 R2 F100\nG80\nM2\n";
+    let out = compensate(exact).unwrap();
+    assert_eq!(out.matches("G61").count(), 1, "{out}");
+}

@@ -34,4 +34,4 @@ pub use interp::{
     Warning, EXTRA_LETTERS,
 };
 pub use program::{LineEvent, Walker};
-pub use setup::{AxisLetters, Setup};
+pub use setup::{AxisLetters, MotionLimits, Setup};

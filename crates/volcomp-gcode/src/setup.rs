@@ -13,6 +13,9 @@
 //! [reference]                  # G28 / G30 positions (machine coordinates)
 //! G28 = [0, 0, 0]
 //! G30 = [0, 0, 0]
+//! [limits]                     # motion limits, for time estimates (LinuxCNC's INI)
+//! max_velocity = [166.7, 166.7, 166.7]       # X Y Z, units/s
+//! max_acceleration = [1000, 1000, 1000]      # X Y Z, units/s²
 //! ```
 //!
 //! Lengths are converted to millimetres on load; a file without `units`
@@ -79,6 +82,37 @@ pub struct Setup {
     /// the stand-alone interpreter's machine (`GET_EXTERNAL_AXIS_MASK` is
     /// 0x3f in saicanon.cc).
     pub axes: AxisLetters,
+    /// The machine's motion limits (`[limits]`), for machining-time
+    /// estimates; `None` when the set-up gives none.
+    pub limits: Option<MotionLimits>,
+}
+
+/// The `[limits]` table of a set-up: what LinuxCNC's INI file says about
+/// motion, for estimating machining time on its trajectory planner. Each
+/// value is optional (the estimate states the default it uses); lengths are
+/// in mm here (the file gives them in its `units`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MotionLimits {
+    /// `[AXIS_X|Y|Z] MAX_VELOCITY`, mm/s.
+    pub max_velocity_mm_s: Option<[f64; 3]>,
+    /// `[AXIS_X|Y|Z] MAX_ACCELERATION`, mm/s².
+    pub max_acceleration_mm_s2: Option<[f64; 3]>,
+    /// `[TRAJ] MAX_LINEAR_VELOCITY`, mm/s.
+    pub traj_max_velocity_mm_s: Option<f64>,
+    /// `[EMCMOT] SERVO_PERIOD`, s.
+    pub servo_period_s: Option<f64>,
+    /// `[DISPLAY] MAX_FEED_OVERRIDE`.
+    pub max_feed_override: Option<f64>,
+    /// `[TRAJ] ARC_BLEND_ENABLE`.
+    pub arc_blend_enable: Option<bool>,
+    /// `[TRAJ] ARC_BLEND_OPTIMIZATION_DEPTH`.
+    pub arc_blend_optimization_depth: Option<u32>,
+    /// `[TRAJ] ARC_BLEND_GAP_CYCLES`.
+    pub arc_blend_gap_cycles: Option<f64>,
+    /// `[TRAJ] ARC_BLEND_RAMP_FREQ`, Hz.
+    pub arc_blend_ramp_freq_hz: Option<f64>,
+    /// `[TRAJ] ARC_BLEND_KINK_RATIO`.
+    pub arc_blend_kink_ratio: Option<f64>,
 }
 
 /// A set of the nine axis letters X Y Z A B C U V W.
@@ -160,6 +194,7 @@ impl Default for Setup {
             rotations_deg: [0.0; 9],
             parameters: BTreeMap::new(),
             axes: AxisLetters::XYZABC,
+            limits: None,
         }
     }
 }
@@ -190,6 +225,30 @@ struct RawSetup {
     tool_diameters: BTreeMap<Sp<String>, Sp<f64>>,
     #[serde(default)]
     reference: BTreeMap<Sp<String>, Sp<Vec<f64>>>,
+    limits: Option<RawLimits>,
+}
+
+/// `[limits]` as written: one value or `[X, Y, Z]` per axis limit.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLimits {
+    max_velocity: Option<Sp<PerAxis>>,
+    max_acceleration: Option<Sp<PerAxis>>,
+    traj_max_velocity: Option<Sp<f64>>,
+    servo_period: Option<Sp<f64>>,
+    max_feed_override: Option<Sp<f64>>,
+    arc_blend_enable: Option<bool>,
+    arc_blend_optimization_depth: Option<Sp<i64>>,
+    arc_blend_gap_cycles: Option<Sp<f64>>,
+    arc_blend_ramp_freq: Option<Sp<f64>>,
+    arc_blend_kink_ratio: Option<Sp<f64>>,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum PerAxis {
+    All(f64),
+    Each(Vec<f64>),
 }
 
 /// Builds located errors for one set-up file.
@@ -265,7 +324,7 @@ impl Setup {
             at.error(
                 offset,
                 e.message().to_string(),
-                "the set-up file has the keys units, start, axes, subroutine_path, var_file, [work_offsets], [tools], [tool_diameters] and [reference]",
+                "the set-up file has the keys units, start, axes, subroutine_path, var_file, [work_offsets], [tools], [tool_diameters], [reference] and [limits]",
             )
         })?;
         let units = raw.units.ok_or_else(|| {
@@ -374,8 +433,110 @@ impl Setup {
                 }
             }
         }
+        if let Some(l) = &raw.limits {
+            setup.limits = Some(motion_limits(&at, l, k)?);
+        }
         Ok(setup)
     }
+}
+
+/// The `[limits]` table, each value checked (positive, finite) and located
+/// when refused; lengths converted to mm.
+fn motion_limits(at: &At<'_>, raw: &RawLimits, k: f64) -> Result<MotionLimits, SetupError> {
+    let positive = |name: &str, v: &Sp<f64>| -> Result<f64, SetupError> {
+        let x = *v.get_ref();
+        if x.is_finite() && x > 0.0 {
+            Ok(x)
+        } else {
+            Err(at.error(
+                v.span().start,
+                format!("limits.{name} must be a positive number; got {x}"),
+                "write the value from the machine's LinuxCNC INI file",
+            ))
+        }
+    };
+    let per_axis = |name: &str, v: &Sp<PerAxis>| -> Result<[f64; 3], SetupError> {
+        let vals = match v.get_ref() {
+            PerAxis::All(x) => [*x; 3],
+            PerAxis::Each(xs) if xs.len() == 3 => [xs[0], xs[1], xs[2]],
+            PerAxis::Each(xs) => {
+                return Err(at.error(
+                    v.span().start,
+                    format!(
+                        "limits.{name} has {} value(s); give one for all axes or three (X, Y, Z)",
+                        xs.len()
+                    ),
+                    "write e.g. [166.7, 166.7, 100.0]",
+                ))
+            }
+        };
+        if let Some(bad) = vals.iter().find(|x| !(x.is_finite() && **x > 0.0)) {
+            return Err(at.error(
+                v.span().start,
+                format!("limits.{name} must be positive numbers; got {bad}"),
+                "write the axes' values from the machine's LinuxCNC INI file",
+            ));
+        }
+        Ok(vals.map(|x| x * k))
+    };
+    let mut out = MotionLimits {
+        arc_blend_enable: raw.arc_blend_enable,
+        ..MotionLimits::default()
+    };
+    if let Some(v) = &raw.max_velocity {
+        out.max_velocity_mm_s = Some(per_axis("max_velocity", v)?);
+    }
+    if let Some(v) = &raw.max_acceleration {
+        out.max_acceleration_mm_s2 = Some(per_axis("max_acceleration", v)?);
+    }
+    if let Some(v) = &raw.traj_max_velocity {
+        out.traj_max_velocity_mm_s = Some(positive("traj_max_velocity", v)? * k);
+    }
+    if let Some(v) = &raw.servo_period {
+        let p = positive("servo_period", v)?;
+        if p > 0.1 {
+            return Err(at.error(
+                v.span().start,
+                format!(
+                    "limits.servo_period is in seconds (LinuxCNC's SERVO_PERIOD is in ns); got {p}"
+                ),
+                "write e.g. 0.001 for SERVO_PERIOD = 1000000",
+            ));
+        }
+        out.servo_period_s = Some(p);
+    }
+    if let Some(v) = &raw.max_feed_override {
+        out.max_feed_override = Some(positive("max_feed_override", v)?);
+    }
+    if let Some(v) = &raw.arc_blend_optimization_depth {
+        let d = *v.get_ref();
+        if !(0..=10_000).contains(&d) {
+            return Err(at.error(
+                v.span().start,
+                format!("limits.arc_blend_optimization_depth must be 0 … 10000; got {d}"),
+                "LinuxCNC's default is 50",
+            ));
+        }
+        out.arc_blend_optimization_depth = Some(d as u32);
+    }
+    if let Some(v) = &raw.arc_blend_gap_cycles {
+        let g = *v.get_ref();
+        if !(g.is_finite() && g >= 0.0) {
+            return Err(at.error(
+                v.span().start,
+                format!("limits.arc_blend_gap_cycles must be zero or positive; got {g}"),
+                "LinuxCNC's default is 4",
+            ));
+        }
+        out.arc_blend_gap_cycles = Some(g);
+    }
+    if let Some(v) = &raw.arc_blend_ramp_freq {
+        out.arc_blend_ramp_freq_hz = Some(positive("arc_blend_ramp_freq", v)?);
+    }
+    if let Some(v) = &raw.arc_blend_kink_ratio {
+        out.arc_blend_kink_ratio = Some(positive("arc_blend_kink_ratio", v)?);
+    }
+    Ok(out)
 }
 
 /// A table of one number per tool (`[tools]` lengths, `[tool_diameters]`),
@@ -512,6 +673,41 @@ mod tests {
             "{e}"
         );
         assert!(e.to_string().contains("(line 3)"), "{e}");
+    }
+
+    #[test]
+    fn limits_are_read_in_the_set_up_units_and_checked() {
+        let s = Setup::from_toml(
+            "units = \"inch\"\n[limits]\nmax_velocity = 2\nmax_acceleration = [10, 10, 5]\ntraj_max_velocity = 3\nservo_period = 0.0005\narc_blend_enable = false\n",
+        )
+        .unwrap();
+        let l = s.limits.unwrap();
+        assert_eq!(l.max_velocity_mm_s, Some([50.8; 3]));
+        assert_eq!(l.max_acceleration_mm_s2, Some([254.0, 254.0, 127.0]));
+        assert_eq!(l.traj_max_velocity_mm_s, Some(76.19999999999999));
+        assert_eq!(l.servo_period_s, Some(0.0005));
+        assert_eq!(l.arc_blend_enable, Some(false));
+        assert_eq!(Setup::from_toml("units = \"mm\"\n").unwrap().limits, None);
+        let e = Setup::from_toml_in(
+            "units = \"mm\"\n[limits]\nmax_velocity = [1, 2]\n",
+            "s.toml",
+        )
+        .unwrap_err();
+        assert_eq!((e.line, e.column), (3, 16), "{e}");
+        assert!(e.to_string().contains("has 2 value(s)"), "{e}");
+        let e = Setup::from_toml_in(
+            "units = \"mm\"\n[limits]\nservo_period = 1000000\n",
+            "s.toml",
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("in seconds"), "{e}");
+        let e = Setup::from_toml_in(
+            "units = \"mm\"\n[limits]\nmax_acceleration = -5\n",
+            "s.toml",
+        )
+        .unwrap_err();
+        assert_eq!(e.line, 3, "{e}");
+        assert!(Setup::from_toml("units = \"mm\"\n[limits]\nmax_jerk = 5\n").is_err());
     }
 
     #[test]

@@ -106,3 +106,26 @@ fn a_mode_on_the_motion_line_applies_to_its_motion_and_m72_restores_it() {
     close(m[2], blend(0.01, 0.01));
     close(m[3], PathMode::ExactPath);
 }
+
+/// A canned cycle runs in exact path whatever the program's mode, restored
+/// after it (`convert_cycle_xy`, src/emc/rs274ngc/interp_cycles.cc). For
+/// this program `rs274` prints `CONTINUOUS, 0.010000` before the first
+/// traverse, `EXACT_PATH` before each hole's moves and `CONTINUOUS,
+/// 0.010000` after them; under G61.1 the rapid up to R from below it stays
+/// `EXACT_STOP`, the hole runs in `EXACT_PATH`, then `EXACT_STOP` again.
+#[test]
+fn a_canned_cycle_runs_in_exact_path_and_the_mode_comes_back() {
+    let m = modes(
+        "G21 G90 G64 P0.01\nG0 X0 Y0 Z1\nG81 X5 Y0 Z-2 R0.5 F100\nX10\nG80\nG1 X0 F100\n\
+         G61.1\nG0 Z-1\nG81 X5 Z-2 R0.5\nG80\nG1 X0\nM2\n",
+    );
+    let (p, ep, es) = (blend(0.01, 0.01), PathMode::ExactPath, PathMode::ExactStop);
+    // As rs274 lists them: G0; the first hole (over, down to R, feed,
+    // retract), the second (over at R, feed, retract); G1; G0 Z-1; the rapid
+    // up to R; the third hole (over, feed, retract); G1.
+    let want = [p, ep, ep, ep, ep, ep, ep, ep, p, es, es, ep, ep, ep, es];
+    assert_eq!(m.len(), want.len(), "{m:?}");
+    for (a, b) in m.iter().zip(want) {
+        close(*a, b);
+    }
+}

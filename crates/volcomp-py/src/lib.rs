@@ -32,6 +32,7 @@ fn _volcomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(program::compensate, m)?)?;
     m.add_function(wrap_pyfunction!(program::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(program::moves, m)?)?;
+    m.add_function(wrap_pyfunction!(program::machining_time, m)?)?;
     m.add_function(wrap_pyfunction!(identify::iso230_2, m)?)?;
     m.add_function(wrap_pyfunction!(identify::iso230_2_csv, m)?)?;
     m.add_function(wrap_pyfunction!(identify::straightness_fit, m)?)?;

@@ -14,8 +14,9 @@ use pyo3::types::{PyBytes, PyDict, PyList};
 use volcomp_core::compensate::PointRecord;
 use volcomp_core::io::provenance::now_utc;
 use volcomp_core::limits::LimitedWriter;
+use volcomp_core::plan::{compare_programs, TimeComparison};
 use volcomp_core::request::{
-    CompensateRequest, Input, Machine, MachineRequest, ModelSource, SimulateRequest,
+    CompensateRequest, Input, Machine, MachineRequest, ModelSource, SimulateRequest, TimeRequest,
 };
 use volcomp_core::simulate::report::SegmentError;
 use volcomp_core::Error;
@@ -98,6 +99,10 @@ pub struct CompensateResult {
     pub warnings: Py<PyList>,
     /// Per-point records (dict of arrays) when asked for with `points=True`, else None.
     pub point_records: Option<Py<PyDict>>,
+    /// Machining time of the original and the compensated program on the
+    /// planner model (docs/planner.md): the keys of `volcomp time --json`
+    /// (`program`, `original`, `limits`, `limits_from_setup`).
+    pub machining_time: Py<PyDict>,
 }
 
 #[pymethods]
@@ -126,6 +131,7 @@ impl CompensateResult {
         d.set_item("held", self.held.clone())?;
         d.set_item("held_count", self.held_count)?;
         d.set_item("warnings", self.warnings.clone_ref(py))?;
+        d.set_item("machining_time", self.machining_time.clone_ref(py))?;
         Ok(d)
     }
 
@@ -185,6 +191,19 @@ pub fn compensate(
             .map_err(Box::new)
     });
     let summary = result.map_err(|e| explain(*e, &job.machine))?;
+    let time = py.detach(|| {
+        let original = Some((
+            Box::new(bytes.as_slice()) as Box<dyn std::io::Read>,
+            file.as_str(),
+        ));
+        compare_programs(
+            (out.as_slice(), "<compensated>"),
+            original,
+            &job.machine.setup,
+        )
+        .map_err(Box::new)
+    });
+    let machining_time = time_dict(py, &time.map_err(|e| explain(*e, &job.machine))?)?;
     let point_records = if point_records {
         Some(point_dict(py, &records)?.unbind())
     } else {
@@ -204,7 +223,46 @@ pub fn compensate(
         held_count: summary.held_count,
         warnings: warnings_list(py, &file, &warnings)?.unbind(),
         point_records,
+        machining_time,
     })
+}
+
+/// A machining time as the dict of `volcomp time --json`.
+fn time_dict(py: Python<'_>, t: &TimeComparison) -> PyResult<Py<PyDict>> {
+    let json = serde_json::to_string(t).map_err(|e| bad_input(e.to_string()))?;
+    let d = py.import("json")?.call_method1("loads", (json,))?;
+    Ok(d.cast_into::<PyDict>()?.unbind())
+}
+
+/// The machining time of a program on a model of LinuxCNC 2.9's
+/// trajectory planner (docs/planner.md), with the machine's limits from
+/// the set-up's `[limits]`: a dict with `program` (its estimate: `motion`
+/// with `total_s`, `cutting_s`, `rapid_s`, …; `dwell_s`), `original` (the
+/// same for `reference`, or None), `limits` and `limits_from_setup`, the
+/// keys of `volcomp time --json`.
+///
+/// `program`: a path or a file object, as in `compensate`; `name` names
+/// it in messages. The options (the machine, `reference`) are those of the
+/// CLI's `time`: see `help(volcomp.machining_time)`.
+#[pyfunction]
+#[pyo3(signature = (program, *, name = None, **options))]
+pub fn machining_time(
+    py: Python<'_>,
+    program: &Bound<'_, PyAny>,
+    name: Option<&str>,
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Py<PyDict>> {
+    let request: TimeRequest = from_kwargs(options)?;
+    let machine = request.machine.machine().map_err(library_error)?;
+    let (bytes, file) = program_bytes(program, name)?;
+    let t = py
+        .detach(|| {
+            request
+                .run(&machine, bytes.as_slice(), &file)
+                .map_err(Box::new)
+        })
+        .map_err(|e| explain(*e, &machine))?;
+    time_dict(py, &t)
 }
 
 /// The per-point report as columns (the CLI's `--report` CSV).
@@ -290,6 +348,9 @@ pub struct SimulationResult {
     /// where the command ends a nominal feed move, else NaN), `point_um`
     /// (NaN where none), `contour_max_um`; else None.
     pub segments: Option<Py<PyDict>>,
+    /// Machining time of the program (and of `reference`) on the planner
+    /// model: the keys of `volcomp time --json`.
+    pub machining_time: Py<PyDict>,
 }
 
 #[pymethods]
@@ -308,6 +369,7 @@ impl SimulationResult {
         d.set_item("nominal", &self.nominal)?;
         d.set_item("point_definition", &self.point_definition)?;
         d.set_item("contour_definition", &self.contour_definition)?;
+        d.set_item("machining_time", self.machining_time.clone_ref(py))?;
         Ok(d)
     }
 
@@ -358,6 +420,15 @@ pub fn simulate(
         sim.run(bytes.as_slice()).map_err(Box::new)
     });
     let report = result.map_err(|e| explain(*e, &machine))?;
+    let time = py.detach(|| {
+        TimeRequest {
+            machine: request.machine.clone(),
+            reference: request.reference.clone(),
+        }
+        .run(&machine, bytes.as_slice(), &file)
+        .map_err(Box::new)
+    });
+    let machining_time = time_dict(py, &time.map_err(|e| explain(*e, &machine))?)?;
     let segments = if segments {
         let d = PyDict::new(py);
         let v3 = |f: &dyn Fn(&SegmentError) -> Vec3| -> Vec<f64> {
@@ -411,6 +482,7 @@ pub fn simulate(
         contour_definition: report.contour_definition.to_string(),
         warnings: warnings_list(py, &file, &warnings)?.unbind(),
         segments,
+        machining_time,
     })
 }
 

@@ -224,6 +224,7 @@ pub fn options<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyList>> 
         "compensate" => CompensateRequest::OPTIONS,
         "simulate" => SimulateRequest::OPTIONS,
         "moves" => MachineRequest::OPTIONS,
+        "machining_time" => volcomp_core::request::TimeRequest::OPTIONS,
         "mirror" => MirrorRequest::OPTIONS,
         "thermal_fit" => ThermalFitRequest::OPTIONS,
         "thermal_predict" => ThermalPredictRequest::OPTIONS,

@@ -235,6 +235,31 @@ def test_simulate_matches_the_cli(cli, data):
             assert got[k] == (pytest.approx(v, rel=1e-12) if isinstance(v, float) else v), k
 
 
+def test_machining_time_by_hand_and_against_the_cli(cli, data, tmp_path):
+    # G61: from rest to rest at 50 mm/s; the path accelerates at
+    # 500 · L / 60 (X, the axis moving furthest, at its 500 mm/s²):
+    # L/50 + 50/a (the planner counts whole 1 ms periods).
+    setup = tmp_path / "s.toml"
+    setup.write_text('units = "mm"\n[limits]\nmax_velocity = 200\nmax_acceleration = 500\n')
+    program = io.StringIO("G21 G90 G61\nG1 X60 Y10 Z10 F3000\nM2\n")
+    t = volcomp.machining_time(program, setup=setup)
+    assert t["limits_from_setup"] is True
+    assert t["original"] is None
+    length = math.sqrt(60**2 + 10**2 + 10**2)
+    a = 500 * length / 60
+    assert t["program"]["motion"]["total_s"] == pytest.approx(length / 50 + 50 / a, abs=2e-3)
+    # simulate and compensate carry it too, as the CLI gives it.
+    model = volcomp.Model.load(data / "map.csv")
+    c = volcomp.compensate(data / "part.ngc", model, setup=data / "machine.toml", date_utc=EPOCH_ISO)
+    (data / "py.ngc").write_bytes(c.data)
+    out = json.loads(run(cli, "time", "py.ngc", "--reference", "part.ngc", "--setup", "machine.toml", "--json", cwd=data))
+    assert c.machining_time == out
+    assert c.summary()["machining_time"]["original"]["motion"]["total_s"] > 0
+    s = volcomp.simulate(data / "py.ngc", model, setup=data / "machine.toml", reference=data / "part.ngc")
+    assert s.machining_time == out
+    assert volcomp.machining_time(data / "py.ngc", setup=data / "machine.toml", reference=data / "part.ngc") == out
+
+
 def test_simulate_segments_against_the_errors_csv(cli, data):
     run(cli, "simulate", "part.ngc", "--map", "map.csv", "--setup", "machine.toml", "--errors-csv", "e.csv", cwd=data)
     rows = list(csv.DictReader(io.StringIO((data / "e.csv").read_text())))

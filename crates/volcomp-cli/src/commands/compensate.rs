@@ -180,7 +180,11 @@ fn write_program(
     let mut percent_shown = 0u64;
     let mut points_csv = a.report.as_ref().map(|_| POINT_CSV_HEADER.to_string());
     let mut corrections = LargestCorrections::default();
-    let mut written = a.report_html.as_ref().map(|_| Vec::new());
+    // Kept for the HTML report, and for the machining time when the
+    // program goes to standard output.
+    let to_stdout = output.as_os_str() == "-";
+    let mut written =
+        (a.report_html.is_some() || (to_stdout && !crate::progress::quiet())).then(Vec::new);
     let mut summary = None;
     let max = job.max_output_bytes;
     staged.write(output, |out| {
@@ -233,7 +237,11 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     a.job.check_map(&a.map)?;
     let machine = super::machine(&a.job.machine)?;
     machine.warn_without_work_offset();
-    let model = a.map.load()?;
+    let (model, notes) = a.map.load_noting()?;
+    // What reading the controller's files assumed or found ignored.
+    for n in notes {
+        crate::note!("volcomp: note: {n}");
+    }
     let mut job = a
         .job
         .prepare(machine, ModelSource::File(map_path), now_utc(), &Flags)?;
@@ -267,6 +275,22 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     }
     for line in summary_lines(&kept.summary, &shown(&output)) {
         crate::note!("volcomp: {line}");
+    }
+    if !crate::progress::quiet() {
+        let compensated: Box<dyn Read> = match &kept.written {
+            Some(w) => Box::new(w.as_slice()),
+            // Read back once every output is in place.
+            None => Box::new(
+                volcomp_geom::inputs::open(&output, "the compensated program")
+                    .map_err(|e| CliError::Io(output.clone(), e))?,
+            ),
+        };
+        let time = job
+            .machining_time(&a.program, compensated, &shown(&output))
+            .map_err(|e| job.machine.refused(e))?;
+        for line in time.summary_lines() {
+            eprintln!("volcomp: {line}");
+        }
     }
     if let Some(w) = held_warning(&kept.summary) {
         eprintln!("volcomp: warning: {w}");

@@ -115,7 +115,11 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     plan(&a)?;
     let machine = a.job.prepare(super::machine(&a.job.machine)?)?;
     machine.warn_without_work_offset();
-    let model = a.map.load()?;
+    let (model, notes) = a.map.load_noting()?;
+    // What reading the controller's files assumed or found ignored.
+    for n in notes {
+        crate::note!("volcomp: note: {n}");
+    }
     let kept = simulate(&a, &machine, model.as_ref())?;
     let mut inputs = vec![a.program.as_path()];
     inputs.extend(a.job.reference.as_ref().and_then(|r| r.path()));
@@ -146,10 +150,29 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         write(path, html.as_bytes())?;
     }
     let report = &kept.traced.report;
+    let time = a
+        .job
+        .machining_time(&machine, &a.program)
+        .map_err(|e| machine.refused(e))?;
     let text = if a.json {
-        serde_json::to_string(report)? + "\n"
+        /// The simulation's figures and the machining time in one object.
+        #[derive(serde::Serialize)]
+        struct Json<'a> {
+            #[serde(flatten)]
+            report: &'a volcomp_core::SimReport,
+            machining_time: Option<&'a volcomp_core::plan::TimeComparison>,
+        }
+        let json = Json {
+            report,
+            machining_time: time.as_ref(),
+        };
+        serde_json::to_string(&json)? + "\n"
     } else {
-        simulation_text(report, a.job.reference.is_some())
+        let mut text = simulation_text(report, a.job.reference.is_some());
+        for (label, line) in time.iter().flat_map(|t| t.rows()) {
+            text.push_str(&format!("{label:<20}{line}\n"));
+        }
+        text
     };
     std::io::stdout()
         .lock()

@@ -12,7 +12,7 @@ use crate::simulate::next_state;
 use volcomp_gcode::edit::{apply_edits, Edit};
 use volcomp_gcode::lexer::Word;
 use volcomp_gcode::number::{format_number, NumberStyle};
-use volcomp_gcode::{FeedMode, MotionKind};
+use volcomp_gcode::{FeedMode, MotionKind, PathMode};
 
 impl State<'_> {
     /// Writes a canned-cycle block as explicit moves: the block itself keeps
@@ -70,6 +70,18 @@ impl State<'_> {
         }
         self.summary.lines_out += 1;
         self.mode = Some(OutMode::Other);
+        // LinuxCNC runs a cycle's moves in exact path (G61) whatever the
+        // program's mode, and restores the mode after them
+        // (`convert_cycle_xy`, interp_cycles.cc): written as moves they say
+        // so, or a G64 program would blend the rapid into the hole. (Under
+        // G61.1 LinuxCNC keeps exact stop for the rapid up to R from below
+        // it; here that rapid is written under G61 too: it ends at a corner
+        // either way.)
+        let program_mode = interp.path_mode();
+        let say_mode = program_mode != PathMode::ExactPath;
+        if say_mode {
+            self.write_word_line("G61", ending);
+        }
         let frame = line.frame;
         let at = line.place();
         let sep = self.walk.sep;
@@ -148,6 +160,10 @@ impl State<'_> {
                 }
             }
         }
+        if say_mode {
+            let text = mode_code(program_mode, interp.units().mm_per_unit(), sep);
+            self.write_word_line(&text, ending);
+        }
         Ok(())
     }
 
@@ -216,6 +232,40 @@ impl State<'_> {
     }
 }
 
+/// The G code that sets `mode`, its tolerances in program units
+/// (`mm_per_unit` mm each): `G61`, `G61.1`, `G64`, `G64 P0.01`,
+/// `G64 P0.01 Q0.005` (Q written only where it is not P, LinuxCNC's
+/// default for it), words apart by `sep` as the program writes them.
+fn mode_code(mode: PathMode, mm_per_unit: f64, sep: &str) -> String {
+    let style = NumberStyle {
+        decimals: 6,
+        leading_zero: true,
+        trim_trailing_zeros: true,
+        trailing_dot: false,
+    };
+    match mode {
+        PathMode::ExactPath => "G61".into(),
+        PathMode::ExactStop => "G61.1".into(),
+        PathMode::Blend {
+            tolerance_mm,
+            naive_cam_mm,
+        } => {
+            let mut text = String::from("G64");
+            if tolerance_mm > 0.0 {
+                text.push_str(sep);
+                text.push('P');
+                format_number(tolerance_mm / mm_per_unit, style, &mut text);
+            }
+            if naive_cam_mm != tolerance_mm {
+                text.push_str(sep);
+                text.push('Q');
+                format_number(naive_cam_mm / mm_per_unit, style, &mut text);
+            }
+            text
+        }
+    }
+}
+
 /// Why a canned cycle cannot be written back as explicit moves.
 fn refusal(code: u16) -> Option<(&'static str, &'static str)> {
     match code {
@@ -228,5 +278,26 @@ fn refusal(code: u16) -> Option<(&'static str, &'static str)> {
             "run the G88 holes in a separate program that is not compensated, or use G86 or G85",
         )),
         _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_mode_is_written_in_program_units() {
+        let blend = |p: f64, q: f64| PathMode::Blend {
+            tolerance_mm: p,
+            naive_cam_mm: q,
+        };
+        assert_eq!(mode_code(blend(0.0, 0.0), 1.0, " "), "G64");
+        assert_eq!(mode_code(blend(0.01, 0.01), 1.0, " "), "G64 P0.01");
+        assert_eq!(
+            mode_code(blend(0.0254, 0.0127), 25.4, ""),
+            "G64P0.001Q0.0005"
+        );
+        assert_eq!(mode_code(PathMode::ExactStop, 1.0, " "), "G61.1");
+        assert_eq!(mode_code(PathMode::ExactPath, 25.4, " "), "G61");
     }
 }

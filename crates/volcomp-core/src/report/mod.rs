@@ -22,6 +22,7 @@ pub mod charts;
 pub mod compensation;
 pub mod demo;
 pub mod iso230_2;
+pub mod machining_time;
 pub mod map;
 pub mod mirror;
 pub mod probe;

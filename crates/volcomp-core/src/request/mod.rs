@@ -27,6 +27,7 @@ mod report;
 mod simulate;
 mod straightness;
 mod thermal;
+mod time;
 
 pub use compensate::{
     CompensateRequest, Compensation, ModelSource, COMPENSATE_OPTIONS, DEFAULT_MAX_OUTPUT_BYTES,
@@ -46,6 +47,7 @@ pub use thermal::{
     unit_symbol, Prediction, ThermalFit, ThermalFitRequest, ThermalPredictRequest,
     DEFAULT_BAND_SAMPLES, THERMAL_FIT_OPTIONS, THERMAL_PREDICT_OPTIONS,
 };
+pub use time::{TimeRequest, TIME_OPTIONS};
 
 /// Every option of every request, for a front end that spells a name it
 /// meets in a message.
@@ -60,6 +62,7 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     STRAIGHTNESS_OPTIONS,
     PROBE_IDENTIFY_OPTIONS,
     PROBE_FIT_OPTIONS,
+    TIME_OPTIONS,
 ];
 
 /// The option named `name` in any request.
@@ -124,6 +127,7 @@ mod tests {
         consistent(|r: &ThermalPredictRequest| r.clone());
         consistent(|r: &StraightnessFitRequest| r.clone());
         consistent(|r: &ProbeFitRequest| r.clone());
+        consistent(|r: &TimeRequest| r.clone());
     }
 
     #[test]

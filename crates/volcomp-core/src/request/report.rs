@@ -102,7 +102,11 @@ impl Compensation {
             ("compensated program".to_string(), names.output.to_string()),
         ];
         facts.extend(header_facts(header));
-        let sections = compensation_sections("", &before, &after, summary, corrections, &quoted);
+        let mut sections =
+            compensation_sections("", &before, &after, summary, corrections, &quoted);
+        // The machining time on the planner model (docs/planner.md).
+        let time = self.machining_time(program, written, names.output)?;
+        sections.push(crate::report::machining_time::machining_time_section(&time));
         Ok(Document {
             title: format!("volcomp compensation report: {name}"),
             facts,
@@ -177,11 +181,16 @@ impl SimulateRequest {
             ("chord tolerance".to_string(), format!("{chord} mm")),
         ];
         facts.extend(setup_facts(&machine.setup.setup, None));
+        let mut sections = simulation_sections("", before.as_ref(), after, &quoted);
+        // The machining time on the planner model (docs/planner.md).
+        if let Some(time) = self.machining_time(machine, program)? {
+            sections.push(crate::report::machining_time::machining_time_section(&time));
+        }
         Ok(Document {
             title: format!("volcomp simulation report: {}", program.display()),
             facts,
             inputs,
-            sections: simulation_sections("", before.as_ref(), after, &quoted),
+            sections,
         }
         .to_html())
     }

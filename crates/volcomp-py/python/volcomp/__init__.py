@@ -32,6 +32,7 @@ from ._volcomp import (
     compensate,
     iso230_2,
     iso230_2_csv,
+    machining_time,
     mirror,
     moves,
     simulate,
@@ -76,6 +77,7 @@ def _with_options(fn: _F, job: str) -> _F:
 compensate = _with_options(compensate, "compensate")
 simulate = _with_options(simulate, "simulate")
 moves = _with_options(moves, "moves")
+machining_time = _with_options(machining_time, "machining_time")
 mirror = _with_options(mirror, "mirror")
 thermal_fit = _with_options(thermal_fit, "thermal_fit")
 straightness_fit = _with_options(straightness_fit, "straightness_fit")
@@ -94,6 +96,7 @@ __all__ = [
     "compensate",
     "iso230_2",
     "iso230_2_csv",
+    "machining_time",
     "mirror",
     "moves",
     "simulate",

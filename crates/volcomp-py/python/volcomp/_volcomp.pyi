@@ -128,6 +128,10 @@ class CompensateResult:
     point_records: Optional[dict[str, Any]]
     """With point_records=True: line, target_mm (N, 3), command_mm (N, 3),
     iterations, residual_um, reversed, held, take_up, rapid."""
+    machining_time: dict[str, Any]
+    """The original's ("original") and the compensated program's
+    ("program") time on the planner model, the limits used: the keys of
+    `volcomp time --json` (docs/planner.md)."""
     @property
     def text(self) -> str:
         """The compensated program as text."""
@@ -152,6 +156,9 @@ class SimulationResult:
     segments: Optional[dict[str, Any]]
     """With segments=True: line, nominal_line, command_mm, actual_mm,
     target_mm (N, 3; NaN where none), point_um, contour_max_um."""
+    machining_time: dict[str, Any]
+    """The program's (and the reference's) time on the planner model: the
+    keys of `volcomp time --json` (docs/planner.md)."""
     def as_dict(self) -> dict[str, Any]:
         """The metrics as a dict (the CLI's simulate --json keys)."""
 
@@ -167,7 +174,7 @@ def compensate(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    max_repeated_lines: int = 10000000,
+    max_repeated_lines: int = 5000000,
     method: Literal["exact", "ilc", "direct", "pitch"] = "exact",
     segment_length_mm: Optional[float] = None,
     segments: Optional[int] = None,
@@ -203,7 +210,7 @@ def simulate(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    max_repeated_lines: int = 10000000,
+    max_repeated_lines: int = 5000000,
     reference: Optional[Input] = None,
     chord_tolerance_mm: float = 1e-05,
 ) -> SimulationResult:
@@ -219,9 +226,25 @@ def moves(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    max_repeated_lines: int = 10000000,
+    max_repeated_lines: int = 5000000,
 ) -> dict[str, npt.NDArray[Any]]:
     """One row per motion as a dict of columns (the `volcomp moves` CSV)."""
+
+def machining_time(
+    program: Input,
+    *,
+    name: Optional[str] = None,
+    setup: Optional[Input] = None,
+    work_offset_mm: Optional[Sequence[float]] = None,
+    absolute_arc_centers: bool = False,
+    accept_k0: bool = False,
+    allow_no_program_end: bool = False,
+    max_repeated_lines: int = 10000000,
+    reference: Optional[Input] = None,
+) -> dict[str, Any]:
+    """The program's (and the reference's) time on a model of LinuxCNC
+    2.9's trajectory planner: the dict of `volcomp time --json`
+    (docs/planner.md)."""
 
 def iso230_2(
     target_mm: ArrayLike, up_um: ArrayLike, down_um: ArrayLike
@@ -317,7 +340,7 @@ def mirror(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    max_repeated_lines: int = 10000000,
+    max_repeated_lines: int = 5000000,
 ) -> dict[str, Any]:
     """Mirror compensation of a free-form surface from probe points (stock_mm
     is required); with finishing and tool_radius_mm, the compensated

@@ -7,7 +7,7 @@
 //! LinuxCNC does, and each end point is then carried to the axis frame in mm.
 
 use super::words::WordTable;
-use super::{invalid, Interpreter, Motion, MotionKind, MotionSource};
+use super::{invalid, Interpreter, Motion, MotionKind, MotionSource, PathMode};
 use crate::error::GcodeError;
 use crate::geom::{Plane, Units, Vec3};
 
@@ -386,6 +386,12 @@ impl Interpreter {
             current_cc = old_cc;
         }
         let clear = if self.retract_to_r { r } else { old_cc };
+        // The rest of the cycle runs in exact path (G61) whatever the
+        // program's mode, which is restored after it (`convert_cycle_xy`
+        // and its YZ/ZX twins in interp_cycles.cc: SET_MOTION_CONTROL_MODE
+        // (CANON_EXACT_PATH) unless already so, then the saved mode and
+        // tolerances). An error ends the run, so it needs no restoring.
+        let saved_mode = std::mem::replace(&mut self.path_mode, PathMode::ExactPath);
         let peck_clear = match self.units {
             Units::Inch => 0.010,
             Units::Mm => 0.254,
@@ -425,6 +431,7 @@ impl Interpreter {
             }
             self.cycle_body(&cx, out, code, aa, bb, r, clear, cc, q, peck_clear, ijk)?;
         }
+        self.path_mode = saved_mode;
         // LinuxCNC leaves the current point at (aa, bb, clear) even after
         // G88, where the operator retracts by hand.
         self.position = cx.point(aa, bb, clear);

@@ -1,0 +1,154 @@
+//! `volcomp time`, and the machining time in `compensate` and `simulate`:
+//! the planner model's estimate against closed forms of a trapezoidal
+//! velocity profile (`L/v + v/a`, LinuxCNC's G64 halving the acceleration
+//! of a segment that ends in a blend; docs/planner.md).
+
+mod common;
+use common::{stderr, tempdir, volcomp, write_map};
+
+const SETUP: &str =
+    "units = \"mm\"\n[limits]\nmax_velocity = 200\nmax_acceleration = [500, 500, 400]\n";
+
+/// Parses the first `machining time A s` figure of `text`.
+fn first_seconds(text: &str) -> f64 {
+    let rest = text
+        .split("machining time: ")
+        .nth(1)
+        .expect("a machining time");
+    rest.split(' ').next().unwrap().parse().unwrap()
+}
+
+#[test]
+fn time_of_a_single_move_is_the_trapezoid() {
+    let d = tempdir("single");
+    std::fs::write(d.join("s.toml"), SETUP).unwrap();
+    // G61: 60 mm at 50 mm/s with 500 mm/s²: 60/50 + 50/500 = 1.3 s.
+    std::fs::write(d.join("p.ngc"), "G21 G90 G61\nG1 X60 F3000\nM2\n").unwrap();
+    let o = volcomp(&["time", "p.ngc", "--setup", "s.toml"], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!((first_seconds(&out) - 1.3).abs() <= 0.002, "{out}");
+    assert!(
+        out.contains("200 mm/s and X 500 Y 500 Z 400 mm/s² per axis"),
+        "{out}"
+    );
+    assert!(out.contains("from the set-up's [limits]"), "{out}");
+    // The same move under G64 (the default) ends in a blend: LinuxCNC
+    // halves its acceleration, 60/50 + 50/250 = 1.4 s.
+    std::fs::write(d.join("q.ngc"), "G21 G90\nG1 X60 F3000\nM2\n").unwrap();
+    let o = volcomp(
+        &[
+            "time",
+            "q.ngc",
+            "--setup",
+            "s.toml",
+            "--reference",
+            "p.ngc",
+            "--json",
+        ],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let t = v["program"]["motion"]["total_s"].as_f64().unwrap();
+    let r = v["original"]["motion"]["total_s"].as_f64().unwrap();
+    assert!((t - 1.4).abs() <= 0.002 && (r - 1.3).abs() <= 0.002, "{v}");
+    assert_eq!(v["limits_from_setup"], true);
+}
+
+#[test]
+fn compensate_and_simulate_state_both_times_and_the_change() {
+    let d = tempdir("both");
+    let map = write_map(&d);
+    std::fs::write(d.join("s.toml"), SETUP).unwrap();
+    std::fs::write(
+        d.join("p.ngc"),
+        "G21 G90\nG0 X0 Y0 Z0\nG1 X60 F3000\nG1 Y40\nM2\n",
+    )
+    .unwrap();
+    let m = map.to_str().unwrap();
+    let o = volcomp(
+        &[
+            "compensate",
+            "p.ngc",
+            "--map",
+            m,
+            "--setup",
+            "s.toml",
+            "-o",
+            "c.ngc",
+        ],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("volcomp: machining time: "))
+        .unwrap_or_else(|| panic!("{err}"));
+    assert!(line.contains(" -> ") && line.contains(" %)"), "{line}");
+    let o = volcomp(
+        &[
+            "simulate",
+            "c.ngc",
+            "--map",
+            m,
+            "--setup",
+            "s.toml",
+            "--reference",
+            "p.ngc",
+            "--json",
+        ],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["point_rms_um"].is_number(), "{v}");
+    let t = &v["machining_time"];
+    assert!(
+        t["program"]["motion"]["total_s"].as_f64().unwrap() > 0.0,
+        "{v}"
+    );
+    assert!(
+        t["original"]["motion"]["total_s"].as_f64().unwrap() > 0.0,
+        "{v}"
+    );
+    // --quiet: no summary, no time.
+    let o = volcomp(
+        &[
+            "compensate",
+            "p.ngc",
+            "--map",
+            m,
+            "--setup",
+            "s.toml",
+            "-o",
+            "c2.ngc",
+            "--quiet",
+        ],
+        &d,
+    );
+    assert!(
+        o.status.success() && !stderr(&o).contains("machining time"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn bad_limits_are_located_in_the_set_up() {
+    let d = tempdir("bad");
+    std::fs::write(
+        d.join("s.toml"),
+        "units = \"mm\"\n[limits]\nmax_acceleration = [500, 0, 400]\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("p.ngc"), "G21 G90\nG1 X60 F3000\nM2\n").unwrap();
+    let o = volcomp(&["time", "p.ngc", "--setup", "s.toml"], &d);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("s.toml:3:20: limits.max_acceleration must be positive numbers; got 0"),
+        "{e}"
+    );
+}

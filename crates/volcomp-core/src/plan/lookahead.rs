@@ -1,0 +1,140 @@
+//! The planner's queue and its look-ahead, as LinuxCNC 2.9 runs them when
+//! a segment is queued (src/emc/tp/tp.c: `tpAddLine`, `tpAddCircle`,
+//! `handleModeChange`, `tpHandleBlendArc`, `tpRunOptimization`,
+//! `tpComputeOptimalVelocity`; [LinuxCNC tp]).
+//!
+//! Queuing a segment settles the joint with the one before it (a stop
+//! between a rapid and a feed move; else [`super::blend`]), fixes the
+//! length of that one (it may have been shortened by a blend arc), then
+//! walks the queue backwards from the new end, at most
+//! `ARC_BLEND_OPTIMIZATION_DEPTH` segments: each segment's end speed is
+//! the largest from which the rest can still stop in time,
+//! `v_end(i) = min(√(v_end(i+1)² + 2 a(i+1) L(i+1)), v_max(i), v_max(i+1),
+//! kink(i))`. The newest segment's length is not final (the next one may
+//! blend into it): the one before it assumes it may stop half-way. The
+//! walk stops at the second joint that is not run through at speed, and
+//! (LinuxCNC's lazy optimisation) once more than four segments were found
+//! at their speed limit.
+
+use super::blend::{self, Tangency};
+use super::segment::{Canon, Seg, Term};
+use super::Limits;
+use std::collections::VecDeque;
+
+/// Segments per servo period at least (`TP_MIN_SEGMENT_CYCLES`).
+const MIN_SEGMENT_CYCLES: f64 = 1.02;
+/// Peaks after which the look-ahead stops (`TP_OPTIMIZATION_CUTOFF`).
+const OPTIMIZATION_CUTOFF: usize = 4;
+
+/// Queues `tc` after the queue's last segment.
+pub(crate) fn add(q: &mut VecDeque<Seg>, mut tc: Seg, limits: &Limits, stats: &mut super::Counts) {
+    let n = q.len();
+    let mut consumed = false;
+    if let Some(prev) = q.back_mut() {
+        // `handleModeChange`: no blend between a rapid and a feed move.
+        if (prev.canon == Canon::Traverse) != (tc.canon == Canon::Traverse) {
+            blend::set_term(prev, &mut tc, Term::Stop);
+        }
+        if limits.blend.enable {
+            match blend::setup_tangent(prev, &mut tc, limits) {
+                Tangency::Fail => {}
+                Tangency::Tangent => stats.tangent_joints += 1,
+                Tangency::Corner => match blend::try_blend_arc(prev, &mut tc, limits) {
+                    Some(b) => {
+                        stats.blend_arcs += 1;
+                        tc.shape = b.tc_shape;
+                        tc.target = b.tc_target;
+                        tc.blend_prev = false;
+                        if b.consume {
+                            q.pop_back();
+                            consumed = true;
+                        } else {
+                            let prev = q.back_mut().expect("the previous segment");
+                            prev.shape = b.prev_shape;
+                            prev.target = b.prev_target;
+                            blend::set_term(prev, &mut tc, Term::Tangent);
+                        }
+                        q.push_back(b.arc);
+                    }
+                    None => match blend::choose_best(prev, &mut tc, None, limits) {
+                        blend::Chosen::Parabolic => stats.parabolic_blends += 1,
+                        blend::Chosen::Tangent => stats.tangent_joints += 1,
+                        _ => {}
+                    },
+                },
+            }
+        }
+        if !consumed {
+            q[n - 1].finalize();
+        }
+    }
+    q.push_back(tc);
+    optimize(q, limits);
+}
+
+/// Speed a segment that may still be cut to half reaches at most from
+/// rest, within its limits (`tpCalculateOptimizationInitialVel`).
+fn initial_vel(tc: &Seg, limits: &Limits) -> f64 {
+    let triangle = (tc.tangential_max_accel() * tc.target).sqrt();
+    triangle.min(blend::max_target_vel(tc, limits))
+}
+
+/// One step of the backward pass (`tpComputeOptimalVelocity`).
+fn optimal_velocity(tc: &mut Seg, prev: &mut Seg, limits: &Limits) {
+    let acc_this = tc.tangential_max_accel();
+    let mut vs_back = (tc.finalvel * tc.finalvel + 2.0 * acc_this * tc.target).sqrt();
+    let mut vf_limit_prev = prev.maxvel;
+    if prev.kink_vel >= 0.0 && prev.term == Term::Tangent {
+        vf_limit_prev = vf_limit_prev.min(prev.kink_vel);
+    }
+    let vf_limit = tc.maxvel.min(vf_limit_prev);
+    if vs_back >= vf_limit {
+        vs_back = vf_limit;
+        prev.at_max = true;
+    }
+    prev.finalvel = vs_back;
+    tc.maxvel = tc
+        .maxvel
+        .min(tc.target / (limits.servo_period_s * MIN_SEGMENT_CYCLES));
+}
+
+/// The backward pass over the queue's end (`tpRunOptimization`).
+pub(crate) fn optimize(q: &mut VecDeque<Seg>, limits: &Limits) {
+    let s = q.make_contiguous();
+    let len = s.len();
+    let mut hit_peaks = 0;
+    let mut hit_non_tangent = false;
+    for x in 1..limits.blend.optimization_depth + 2 {
+        if x + 1 > len {
+            return;
+        }
+        let ind = len - x;
+        let (head, tail) = s.split_at_mut(ind);
+        let (prev, tc) = (&mut head[ind - 1], &mut tail[0]);
+        if prev.term != Term::Tangent {
+            if hit_non_tangent {
+                return;
+            }
+            hit_non_tangent = true;
+            continue;
+        }
+        if prev.progress / prev.target >= 0.25 || prev.splitting || prev.blending_next {
+            return;
+        }
+        if !tc.finalized {
+            prev.finalvel = prev.maxvel.min(initial_vel(tc, limits));
+            if prev.kink_vel >= 0.0 && prev.term == Term::Tangent {
+                prev.finalvel = prev.finalvel.min(prev.kink_vel);
+            }
+            tc.finalvel = 0.0;
+        } else {
+            optimal_velocity(tc, prev, limits);
+        }
+        if tc.at_max {
+            hit_peaks += 1;
+        }
+        if hit_peaks > OPTIMIZATION_CUTOFF {
+            return;
+        }
+    }
+}

@@ -1,0 +1,173 @@
+//! A G-code program's moves, path modes and waits, read with volcomp's
+//! interpreter and fed to the [`Planner`].
+//!
+//! The path mode (G61, G61.1, G64 P Q) comes with every motion from the
+//! interpreter. What the program's words say beyond its motions:
+//! * **where the machine waits for motion to end**: LinuxCNC's task runs a
+//!   spindle command (an S word, M3, M4, M5, M19), coolant (M7, M8, M9), a
+//!   tool change (M6), a dwell (G4), an offset change (G10, G43, G49,
+//!   G52, G54–G59.3, G92), a stop (M0, M1, M60) or an input wait (M66) only
+//!   with the queue empty (src/emc/task/emctaskmain.cc,
+//!   `emcTaskCheckPreconditions`: "waiting for motion"), so the moves
+//!   before it end at rest;
+//! * **dwell time** (G4 P), counted apart from the motion.
+//!
+//! Feed rates: G94 F (mm/min) as given; G93 (inverse time) the move's
+//! length times F per minute; G95 (per revolution) F times the last S.
+
+use super::{Estimate, Limits, Move, MoveKind, PathMode, Planner};
+use crate::compensate::MachineSetup;
+use crate::error::Error;
+use std::io::Read;
+use volcomp_gcode::interp::{FeedMode, MotionKind};
+use volcomp_gcode::lexer::Lexed;
+
+/// The estimate of a whole program.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct ProgramEstimate {
+    /// The motion (LinuxCNC's planner, period by period).
+    pub motion: Estimate,
+    /// Dwell time (G4 P), s, not in `motion`.
+    pub dwell_s: f64,
+    /// Places where the machine waits for the motion to end.
+    pub waits: u64,
+    /// Moves of the program.
+    pub moves: u64,
+    /// Moves in G61.1, G61 and G64 (any P) respectively.
+    pub moves_by_mode: [u64; 3],
+}
+
+/// `code` (×10: G4 = 40, G92.1 = 921) of a G or M word.
+fn code10(value: f64) -> i64 {
+    (value * 10.0).round() as i64
+}
+
+/// What makes the machine wait for motion to end on a line: (before the
+/// line's motions, after them), and the dwell in seconds.
+fn waits_of_line(lexed: &Lexed) -> (bool, bool, f64) {
+    let (mut before, mut after, mut dwell_s) = (false, false, 0.0);
+    let mut dwell = false;
+    for w in lexed.words() {
+        match (w.letter, code10(w.value)) {
+            (b'S', _) => before = true,
+            (b'M', 30 | 40 | 50 | 60 | 70 | 80 | 90 | 190 | 660) => before = true,
+            (b'M', 0 | 10 | 600) => after = true,
+            (b'G', 40) => dwell = true,
+            (b'G', 100 | 430 | 431 | 432 | 490 | 520 | 920 | 921 | 922 | 923) => before = true,
+            (b'G', 540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593) => before = true,
+            _ => {}
+        }
+    }
+    if dwell {
+        before = true;
+        dwell_s = lexed
+            .words()
+            .find(|w| w.letter == b'P')
+            .map_or(0.0, |w| w.value.max(0.0));
+    }
+    (before, after, dwell_s)
+}
+
+/// The program's time on LinuxCNC's planner with `limits`, read with the
+/// machine's set-up (the moves from its start position); `file` names
+/// the program in errors.
+pub fn estimate_program(
+    program: impl Read,
+    file: &str,
+    setup: &MachineSetup,
+    limits: &Limits,
+) -> Result<ProgramEstimate, Error> {
+    limits.check().map_err(|m| {
+        Error::Setup(volcomp_gcode::GcodeError::new(
+            volcomp_gcode::ErrorClass::Invalid,
+            0,
+            0,
+            m,
+            "fix the [limits] table of the set-up file",
+        ))
+    })?;
+    let reader = std::io::BufReader::new(program);
+    let mut walker = setup.walker(reader, file);
+    let mut planner = Planner::new(*limits);
+    let mut out = ProgramEstimate::default();
+    let mut spindle_rpm = 0.0;
+    while let Some(ev) = walker.next_line().map_err(Error::Gcode)? {
+        if ev.after_end {
+            continue;
+        }
+        let units = ev.interp.units().mm_per_unit();
+        let (before, after, dwell_s) = waits_of_line(ev.lexed);
+        if let Some(s) = ev.lexed.words().find(|w| w.letter == b'S') {
+            spindle_rpm = s.value;
+        }
+        if before {
+            planner.wait();
+            out.waits += 1;
+        }
+        out.dwell_s += dwell_s;
+        for m in ev.motions {
+            let length = match m.kind {
+                MotionKind::Arc(a) => a.length(),
+                _ => (m.end - m.start).norm(),
+            };
+            let feed_mm_s = match m.feed_mode {
+                FeedMode::PerMinute => m.feed / 60.0,
+                // `feed` is the inverse-time value converted as a length.
+                FeedMode::InverseTime => length * (m.feed / units) / 60.0,
+                FeedMode::PerRevolution => m.feed * spindle_rpm / 60.0,
+            };
+            let kind = match m.kind {
+                MotionKind::Rapid => MoveKind::Rapid,
+                MotionKind::Feed => MoveKind::Feed,
+                MotionKind::Arc(a) => MoveKind::Arc {
+                    center: a.center,
+                    plane: a.plane,
+                    sweep_rad: a.sweep_rad,
+                },
+            };
+            out.moves += 1;
+            let mode = m.path_mode;
+            out.moves_by_mode[match mode {
+                PathMode::ExactStop => 0,
+                PathMode::ExactPath => 1,
+                PathMode::Blend { .. } => 2,
+            }] += 1;
+            planner.push(&Move {
+                kind,
+                start: m.start,
+                end: m.end,
+                feed_mm_s,
+                mode,
+                line: m.line,
+            });
+        }
+        if after {
+            planner.wait();
+            out.waits += 1;
+        }
+    }
+    out.motion = planner.finish();
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lex(s: &str) -> Lexed {
+        let mut l = Lexed::default();
+        volcomp_gcode::lexer::lex_block(s.as_bytes(), &mut l).unwrap();
+        l
+    }
+
+    #[test]
+    fn spindle_coolant_tools_dwells_and_offsets_wait_for_motion() {
+        assert_eq!(waits_of_line(&lex("M3 S1000")), (true, false, 0.0));
+        assert_eq!(waits_of_line(&lex("G4 P1.5")), (true, false, 1.5));
+        assert_eq!(waits_of_line(&lex("G1 X1 M0")), (false, true, 0.0));
+        assert_eq!(waits_of_line(&lex("G55")), (true, false, 0.0));
+        assert_eq!(waits_of_line(&lex("G1 X1 F100")), (false, false, 0.0));
+        assert_eq!(waits_of_line(&lex("M62 P1")), (false, false, 0.0));
+    }
+}

@@ -1,0 +1,170 @@
+//! The planner model against closed forms: a move from rest to rest on a
+//! trapezoidal profile takes `L/v + v/a` (a triangle `2√(L/a)` when `v`
+//! is not reached); the discrete model must land within two servo
+//! periods.
+
+use super::*;
+use std::f64::consts::TAU;
+
+const PERIOD_S: f64 = 0.001;
+
+fn trapezoid_s(length: f64, v: f64, a: f64) -> f64 {
+    if length >= v * v / a {
+        length / v + v / a
+    } else {
+        2.0 * (length / a).sqrt()
+    }
+}
+
+fn assert_close(got: f64, want: f64, what: &str) {
+    assert!(
+        (got - want).abs() <= 2.0 * PERIOD_S,
+        "{what}: {got:.4} s, closed form {want:.4} s"
+    );
+}
+
+fn x(v: f64) -> Vec3 {
+    Vec3::new(v, 0.0, 0.0)
+}
+
+#[test]
+fn a_feed_move_under_g61_is_a_trapezoid() {
+    let lim = Limits::default();
+    let e = estimate(
+        &[Move::feed(Vec3::ZERO, x(100.0), 100.0, PathMode::ExactPath)],
+        &lim,
+    );
+    assert_close(
+        e.total_s,
+        trapezoid_s(100.0, 100.0, 1000.0),
+        "G61 G1 X100 F6000",
+    );
+    assert_eq!(e.total_s, e.cutting_s);
+    let e = estimate(
+        &[Move::feed(Vec3::ZERO, x(100.0), 50.0, PathMode::ExactStop)],
+        &lim,
+    );
+    assert_close(
+        e.total_s,
+        trapezoid_s(100.0, 50.0, 1000.0),
+        "G61.1 G1 X100 F3000",
+    );
+}
+
+#[test]
+fn a_short_move_is_a_triangle() {
+    let e = estimate(
+        &[Move::feed(Vec3::ZERO, x(5.0), 100.0, PathMode::ExactPath)],
+        &Limits::default(),
+    );
+    assert_close(e.total_s, 2.0 * (5.0f64 / 1000.0).sqrt(), "G61 G1 X5 F6000");
+}
+
+#[test]
+fn g64_halves_the_acceleration_of_a_segment_ending_in_a_blend() {
+    // LinuxCNC plans every G64 segment to end in a parabolic blend and
+    // halves its acceleration, even the program's last: 1.2 s, not 1.1 s.
+    let e = estimate(
+        &[Move::feed(Vec3::ZERO, x(100.0), 100.0, PathMode::default())],
+        &Limits::default(),
+    );
+    assert_close(
+        e.total_s,
+        trapezoid_s(100.0, 100.0, 500.0),
+        "G64 G1 X100 F6000",
+    );
+}
+
+#[test]
+fn a_diagonal_and_a_rapid_run_at_the_axes_limits() {
+    let lim = Limits::default();
+    let d = Vec3::new(100.0, 100.0, 0.0);
+    let e = estimate(
+        &[Move::feed(Vec3::ZERO, d, 100.0, PathMode::ExactPath)],
+        &lim,
+    );
+    let l = d.norm();
+    assert_close(
+        e.total_s,
+        trapezoid_s(l, 100.0, 1000.0 * 2f64.sqrt()),
+        "45° diagonal",
+    );
+    let e = estimate(
+        &[Move::rapid(Vec3::ZERO, x(100.0), PathMode::ExactPath)],
+        &lim,
+    );
+    assert_close(e.total_s, trapezoid_s(100.0, 166.7, 1000.0), "G0 X100");
+    assert_eq!(e.cutting_s, 0.0);
+    assert_eq!(e.rapid_s, e.total_s);
+}
+
+#[test]
+fn a_circle_runs_at_its_normal_acceleration_limit() {
+    // A full circle of r = 10 mm asked for at 200 mm/s: the normal
+    // acceleration caps it at v = √((√3/2)·1000·10) = 93.06 mm/s, and the
+    // tangent keeps half of the acceleration, 500 mm/s².
+    let s = x(10.0);
+    let m = Move {
+        kind: MoveKind::Arc {
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: -TAU,
+        },
+        start: s,
+        end: s,
+        feed_mm_s: 200.0,
+        mode: PathMode::ExactPath,
+        line: 1,
+    };
+    let v = (1000.0 * 3f64.sqrt() / 2.0 * 10.0).sqrt();
+    let e = estimate(&[m], &Limits::default());
+    assert_close(
+        e.total_s,
+        trapezoid_s(TAU * 10.0, v, 500.0),
+        "circle at the cap",
+    );
+}
+
+#[test]
+fn collinear_moves_run_through_at_speed() {
+    // Ten 10 mm pieces of one line at 100 mm/s under G64: tangent joints
+    // (no kink, so no acceleration given up). The last piece ends the
+    // program in a parabolic blend: it accelerates at a/2 = 500 mm/s².
+    // The look-ahead lets the ninth end at the speed from which the last,
+    // whose length is not final, stops in half of it: √(500·10) = 70.71.
+    // By hand: up to 100 in 0.1 s (5 mm); down to 70.71 at 1000 mm/s²
+    // in 0.0293 s (2.5 mm); 82.5 mm at 100 in 0.825 s; the last piece a
+    // triangle from 70.71 up to √7500 = 86.60 and down to rest at
+    // 500 mm/s²: 0.0318 + 0.1732 s. In all 1.1593 s.
+    let moves: Vec<Move> = (0..10)
+        .map(|i| {
+            Move::feed(
+                x(10.0 * i as f64),
+                x(10.0 * (i + 1) as f64),
+                100.0,
+                PathMode::default(),
+            )
+        })
+        .collect();
+    let e = estimate(&moves, &Limits::default());
+    let v9 = (500.0f64 * 10.0).sqrt();
+    let peak = 7500f64.sqrt();
+    let want = 0.1 + 82.5 / 100.0 + (100.0 - v9) / 1000.0 + (peak - v9) / 500.0 + peak / 500.0;
+    assert_close(e.total_s, want, "ten collinear pieces");
+    assert_eq!(e.counts.tangent_joints, 9);
+}
+
+#[test]
+fn exact_stop_stops_at_every_joint() {
+    // Two 50 mm moves under G61.1: two trapezoids.
+    let moves = [
+        Move::feed(Vec3::ZERO, x(50.0), 100.0, PathMode::ExactStop),
+        Move::feed(x(50.0), x(100.0), 100.0, PathMode::ExactStop),
+    ];
+    let e = estimate(&moves, &Limits::default());
+    assert_close(
+        e.total_s,
+        2.0 * trapezoid_s(50.0, 100.0, 1000.0),
+        "two stops",
+    );
+}

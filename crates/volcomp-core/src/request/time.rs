@@ -1,0 +1,144 @@
+//! Machining time on the planner model (`crate::plan`, docs/planner.md):
+//! the `time` job as plain values, and the time the compensate and
+//! simulate jobs give beside their own figures.
+
+use super::compensate::Compensation;
+use super::machine::{Machine, MachineRequest, MACHINE_OPTIONS};
+use super::option::{Input, Kind, OptionError, OptionInfo, Value};
+use super::simulate::SimulateRequest;
+use crate::plan::{compare_programs, TimeComparison};
+use crate::Error;
+use std::io::Read;
+use std::path::Path;
+
+/// The options of [`TimeRequest`] beside the machine's.
+pub const TIME_OPTIONS: &[OptionInfo] = &[OptionInfo::new(
+    "reference",
+    Kind::Input,
+    "The program this one was made from (the original of a compensated program): both times and the change are given.",
+)
+.value("ORIGINAL")];
+
+/// A machining-time estimate, as plain values.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TimeRequest {
+    /// The machine (its set-up's `[limits]` give the planner's limits).
+    pub machine: MachineRequest,
+    /// The program the estimated one was made from.
+    pub reference: Option<Input>,
+}
+
+impl super::Request for TimeRequest {
+    const OPTIONS: &'static [&'static [OptionInfo]] = &[MACHINE_OPTIONS, TIME_OPTIONS];
+
+    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
+        if self.machine.try_set(name, v.clone())? {
+            return Ok(());
+        }
+        match name {
+            "reference" => self.reference = Some(v.input("reference")?),
+            _ => {
+                return Err(OptionError::new(
+                    "reference",
+                    format!("has no option `{name}`"),
+                ))
+            }
+        }
+        Ok(())
+    }
+}
+
+impl TimeRequest {
+    /// The time of `program` (named `name`) on `machine` (from
+    /// [`MachineRequest::machine`]), and of the reference when given.
+    pub fn run(
+        &self,
+        machine: &Machine,
+        program: impl Read,
+        name: &str,
+    ) -> Result<TimeComparison, Error> {
+        let ref_name = self.reference.as_ref().map(Input::name);
+        let original = match (&self.reference, &ref_name) {
+            (Some(r), Some(n)) => Some((r.reader()?, n.as_str())),
+            _ => None,
+        };
+        compare_programs((program, name), original, &machine.setup)
+    }
+}
+
+fn open(path: &Path) -> Result<std::fs::File, Error> {
+    crate::io::inputs::open(path, "the program").map_err(|e| Error::io(path, e))
+}
+
+impl Compensation {
+    /// The machining time of the compensated program (`compensated`,
+    /// named `name`) beside the original's, the program file `program`
+    /// (not read again when it is standard input, `-`).
+    pub fn machining_time(
+        &self,
+        program: &Path,
+        compensated: impl Read,
+        name: &str,
+    ) -> Result<TimeComparison, Error> {
+        let shown = program.display().to_string();
+        let original = if program.as_os_str() == "-" {
+            None
+        } else {
+            Some((Box::new(open(program)?) as Box<dyn Read>, shown.as_str()))
+        };
+        compare_programs((compensated, name), original, &self.machine.setup)
+    }
+}
+
+impl SimulateRequest {
+    /// The machining time of the simulated program file `program` (and of
+    /// the reference when given); `None` for standard input (`-`), which
+    /// is read once.
+    pub fn machining_time(
+        &self,
+        machine: &Machine,
+        program: &Path,
+    ) -> Result<Option<TimeComparison>, Error> {
+        if program.as_os_str() == "-" {
+            return Ok(None);
+        }
+        let t = TimeRequest {
+            machine: self.machine.clone(),
+            reference: self.reference.clone(),
+        };
+        let name = program.display().to_string();
+        t.run(machine, open(program)?, &name).map(Some)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::request::Request;
+
+    #[test]
+    fn the_reference_is_estimated_beside_the_program() {
+        let mut r = TimeRequest::default();
+        r.set(
+            "reference",
+            Value::Content {
+                name: "o.ngc".into(),
+                bytes: b"G21 G90 G61\nG1 X100 F6000\nM2\n".to_vec(),
+            },
+        )
+        .unwrap();
+        let machine = r.machine.machine().unwrap();
+        let t = r
+            .run(
+                &machine,
+                "G21 G90 G61\nG1 X100 F3000\nM2\n".as_bytes(),
+                "p.ngc",
+            )
+            .unwrap();
+        // G61 trapezoids at 1000 mm/s²: 100/50 + 50/1000 = 2.05 s against
+        // 100/100 + 100/1000 = 1.1 s.
+        assert!((t.program.motion.total_s - 2.05).abs() <= 0.002, "{t:?}");
+        assert!((t.original.unwrap().motion.total_s - 1.1).abs() <= 0.002);
+        assert!(r.set("bogus", Value::Bool(true)).is_err());
+    }
+}
