@@ -232,7 +232,11 @@ impl<R: BufRead> Walker<R> {
             } else {
                 self.flow.file_name(pos.src)
             },
-            bytes: &self.buf,
+            bytes: if self.rendered {
+                &self.buf
+            } else {
+                bytes_of(&self.main, &self.flow, pos).unwrap_or(&[])
+            },
             rendered: self.rendered,
             kind,
             lexed: &self.lexed,
@@ -245,7 +249,6 @@ impl<R: BufRead> Walker<R> {
     /// Evaluates, lexes and executes line `pos`; `None` when it yields no
     /// event (control statements, parameter settings alone).
     fn prepare(&mut self, pos: Pos) -> Result<Option<LineKind>, GcodeError> {
-        self.buf.clear();
         self.rendered = false;
         let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
         let content_len = lexer::content_len(original);
@@ -262,7 +265,6 @@ impl<R: BufRead> Walker<R> {
         let kind = lexer::classify(&original[..content_len]);
         match kind {
             LineKind::Percent => {
-                self.buf.extend_from_slice(original);
                 if pos.src == MAIN {
                     let r = self.interp.percent_line(pos.line as u64 + 1);
                     r.map_err(|e| self.locate(e))?;
@@ -270,14 +272,28 @@ impl<R: BufRead> Walker<R> {
                 return Ok(Some(kind));
             }
             LineKind::ProgramNumber => {
-                self.buf.extend_from_slice(original);
                 self.interp.note_nonblank_line();
                 self.flow.keep_lines();
                 return Ok(Some(kind));
             }
             LineKind::Block => {}
         }
-        if line::needs_ngc(&original[..content_len]) {
+        // A literal line is lexed where it was read: one pass, no copy. The
+        // lexer stops at the first `#`, `[` or o-word and notes them in
+        // comments; only then is the line looked at as a whole.
+        let content = &original[..content_len];
+        let ngc = match lexer::lex_block(content, &mut self.lexed) {
+            Ok(()) => self.lexed.ngc_in_comment,
+            Err(e) => {
+                if !line::needs_ngc(content) {
+                    let e = e.at_line(pos.line as u64 + 1);
+                    return Err(self.locate(e));
+                }
+                true
+            }
+        };
+        if ngc {
+            self.buf.clear();
             let norm = Norm::of(&original[..content_len]);
             let stmt = line::parse(&norm).map_err(|e| self.expr_error(pos, e))?;
             match stmt {
@@ -321,28 +337,37 @@ impl<R: BufRead> Walker<R> {
                         {
                             return Ok(None);
                         }
-                    } else {
-                        let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
-                        self.buf.extend_from_slice(original);
                     }
                 }
             }
-        } else {
-            self.buf.extend_from_slice(original);
+            let lexed = if self.rendered {
+                let n = lexer::content_len(&self.buf);
+                lexer::lex_block(&self.buf[..n], &mut self.lexed)
+            } else {
+                let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
+                lexer::lex_block(&original[..content_len], &mut self.lexed)
+            };
+            if let Err(e) = lexed {
+                let e = e.at_line(pos.line as u64 + 1);
+                return Err(self.locate_rendered(e));
+            }
         }
-        let n = lexer::content_len(&self.buf);
-        if let Err(e) = lexer::lex_block(&self.buf[..n], &mut self.lexed) {
-            let e = e.at_line(pos.line as u64 + 1);
-            return Err(self.locate_rendered(e));
-        }
-        if let Some(msg) = abort_comment(&self.buf[..n], &self.lexed) {
-            return Err(self.locate_rendered(GcodeError::new(
+        if self.lexed.has_comment {
+            let content = if self.rendered {
+                &self.buf[..lexer::content_len(&self.buf)]
+            } else {
+                let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
+                &original[..content_len]
+            };
+            if let Some(msg) = abort_comment(content, &self.lexed) {
+                return Err(self.locate_rendered(GcodeError::new(
                 ErrorClass::Invalid,
                 pos.line as u64 + 1,
                 1,
                 format!("the program aborts here: {msg}"),
                 "an (abort, …) comment stops the program in LinuxCNC; remove it if the program should run",
             )));
+            }
         }
         if let Some(m) = self.fanuc_call()? {
             self.flow.keep_lines();
@@ -389,11 +414,9 @@ impl<R: BufRead> Walker<R> {
         }
         self.after_end_at = Some(at + 1);
         self.main.forget_before(at);
-        self.buf.clear();
         self.rendered = false;
         let bytes = self.main.get(at).unwrap_or(&[]);
-        self.buf.extend_from_slice(bytes);
-        let kind = lexer::classify(&self.buf[..lexer::content_len(&self.buf)]);
+        let kind = lexer::classify(&bytes[..lexer::content_len(bytes)]);
         self.current = pos;
         Ok(Some(self.event(pos, kind, true)))
     }
