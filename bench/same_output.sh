@@ -31,6 +31,7 @@ cases() {
     n=$(basename "$p")
     case $n in *BOTTLE.NC) extra="--absolute-arc-centers" ;; esac
     printf '%s\t%s\n' "$n.moves" "moves $p --setup $work/setup.toml $extra"
+    printf '%s\t%s\n' "$n.moves-json" "moves $p --setup $work/setup.toml $extra --format json --extra-axes"
     printf '%s\t%s\n' "$n.simulate" "simulate $p ${ripple[*]} $extra --json"
     printf '%s\t%s\n' "$n.comp" "compensate $p ${ripple[*]} $extra -o OUT"
     printf '%s\t%s\n' "$n.comp-fixed" "compensate $p ${ripple[*]} $extra --segment-length 1 --arcs-as-lines -o OUT"

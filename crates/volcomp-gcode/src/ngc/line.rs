@@ -345,15 +345,42 @@ fn parse_oword(n: &Norm, mut p: Parser) -> Result<OWord, ExprError> {
 /// shortest representation that round-trips, never with an exponent.
 pub fn format_value(v: f64, out: &mut Vec<u8>) {
     let v = if v == 0.0 { 0.0 } else { v };
-    let s = format!("{v}");
-    if s.len() <= 40 {
-        out.extend_from_slice(s.as_bytes());
+    let mut text = ShortText::default();
+    if std::fmt::Write::write_fmt(&mut text, format_args!("{v}")).is_ok() {
+        out.extend_from_slice(&text.bytes[..text.len]);
     } else {
         // Only for magnitudes below 1e-20 or above 1e39, far outside any
         // machine: 15 decimals keep every position to 1e-15 mm.
         let t = format!("{v:.15}");
         let t = t.trim_end_matches('0').trim_end_matches('.');
         out.extend_from_slice(t.as_bytes());
+    }
+}
+
+/// Up to 40 bytes of text on the stack; writing more fails.
+struct ShortText {
+    bytes: [u8; 40],
+    len: usize,
+}
+
+impl Default for ShortText {
+    fn default() -> Self {
+        Self {
+            bytes: [0; 40],
+            len: 0,
+        }
+    }
+}
+
+impl std::fmt::Write for ShortText {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        let end = self.len + s.len();
+        if end > self.bytes.len() {
+            return Err(std::fmt::Error);
+        }
+        self.bytes[self.len..end].copy_from_slice(s.as_bytes());
+        self.len = end;
+        Ok(())
     }
 }
 
