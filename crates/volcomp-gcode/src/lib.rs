@@ -28,8 +28,8 @@ pub use arc::Arc;
 pub use error::{Diagnostic, ErrorClass, GcodeError};
 pub use geom::{Axis, Plane, Units, Vec3};
 pub use interp::{
-    ExtraAxes, FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource, Warning,
-    EXTRA_LETTERS,
+    ExtraAxes, FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource, PathMode,
+    Warning, EXTRA_LETTERS,
 };
 pub use program::{LineEvent, Walker};
 pub use setup::{AxisLetters, Setup};

@@ -10,15 +10,14 @@
 //! start, the compensated middle and the compensated end, so the actual path
 //! lands on the nominal arc at three points of every piece.
 
-use super::frame::Frame;
 use super::lines::ArcWords;
-use super::{command_error, model_error, solve, CompensateOptions, State};
+use super::walk::Place;
+use super::{command_error, model_error, solve, State};
 use crate::error::{CompensationError, ModelError};
 use crate::model::{Components, Direction, Directions, ErrorModel};
 use crate::simulate::next_state;
 use crate::simulate::nominal::arc_distance_mm;
 use std::f64::consts::{FRAC_PI_2, TAU};
-use volcomp_gcode::number::NumberStyle;
 use volcomp_gcode::{Arc, Vec3};
 
 /// Pieces (and table crossings) generated at most for one arc: past
@@ -470,7 +469,16 @@ fn bisect_arc(
     Ok(())
 }
 
-impl State {
+/// An arc written as pieces of itself: the end parameters of the pieces
+/// ([`arc_pieces`]), and whether the program gives radii (R) rather than
+/// centres.
+pub(super) struct Piecewise<'a> {
+    pub(super) arc: &'a Arc,
+    pub(super) pieces: &'a [f64],
+    pub(super) radius_style: bool,
+}
+
+impl State<'_> {
     /// The end parameters of the pieces of `arc` ([`arc_pieces`]) from the
     /// current direction state, with the options' contour tolerance and
     /// shortest piece; refused past [`crate::limits::MAX_POINTS_PER_BLOCK`].
@@ -479,11 +487,10 @@ impl State {
         &mut self,
         arc: &Arc,
         model: &dyn ErrorModel,
-        options: &CompensateOptions,
-        file: &str,
         line: u64,
     ) -> Result<Vec<f64>, CompensationError> {
-        let (tolerance_mm, min_length_mm) = super::targets::arc_tolerances(options);
+        let (options, file) = (self.walk.options, self.walk.file);
+        let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm();
         let pieces = arc_pieces(
             arc,
             model,
@@ -522,10 +529,12 @@ impl State {
         Ok(pieces)
     }
 
-    /// How each solved piece of `arc` is written (module documentation):
-    /// `commands` are the solved ends of `pieces` (each with the take-up
-    /// written before it), the first starting at `from`; the direction
-    /// state of each is that of the last [`State::solve_targets`]. A piece
+    /// How each solved piece of an arc is written (module documentation):
+    /// `commands` are the solved ends of the pieces of `p` (each with the
+    /// take-up written before it), the first starting at `from`; the
+    /// direction state of each is that of the last [`State::solve_targets`];
+    /// `at` gives the frame and style the words are checked in and the line
+    /// errors are reported at. A piece
     /// is written as a G1 to its compensated end (no centre) when its
     /// sagitta is within the chord tolerance ([`piece_center`]), or when
     /// the controller would not read the written words as that piece
@@ -537,21 +546,21 @@ impl State {
     /// second it is added to the estimate of the contour error left (for a
     /// chord of two steps, 0.2 µm in mm, on LinuxCNC's smallest radius
     /// 1.27 µm it is at most `c²/(8r)` ≈ 0.004 µm).
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn arc_piece_words(
         &mut self,
-        arc: &Arc,
-        pieces: &[f64],
+        model: &dyn ErrorModel,
+        at: &Place,
+        p: Piecewise,
         commands: &[(Vec3, Option<Vec3>)],
         from: Vec3,
-        model: &dyn ErrorModel,
-        options: &CompensateOptions,
-        frame: &Frame,
-        style: NumberStyle,
-        radius_style: bool,
-        file: &str,
-        line: u64,
     ) -> Result<Vec<ArcWords>, CompensationError> {
+        let (options, file) = (self.walk.options, self.walk.file);
+        let (frame, style, line) = (at.frame, at.style, at.line);
+        let Piecewise {
+            arc,
+            pieces,
+            radius_style,
+        } = p;
         let (mut from, mut l_from) = (from, 0.0);
         let mut words = Vec::with_capacity(commands.len());
         let ramps = std::mem::take(&mut self.ramps_written);

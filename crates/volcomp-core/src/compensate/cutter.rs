@@ -38,15 +38,16 @@
 //! the line of the block that released them: that block's motions are
 //! what `volcomp simulate --reference` pairs them with.
 
-use super::frame::Frame;
-use super::lines::{blank_before, line_ending, stop_m_word, OutMode};
+use super::arcs::Piecewise;
+use super::lines::{blank_before, stop_m_word, OutMode};
+use super::points::{Leads, Targets};
 use super::targets::{check_target_count, targets_of};
-use super::{model_error, CompensateOptions, PointRecord, State};
+use super::walk::{Line, Place};
+use super::{model_error, CompensateOptions, State};
 use crate::error::CompensationError;
-use crate::model::ErrorModel;
 use volcomp_gcode::edit::{apply_edits, Edit};
 use volcomp_gcode::lexer::Word;
-use volcomp_gcode::number::{format_number, StyleSurvey};
+use volcomp_gcode::number::format_number;
 use volcomp_gcode::{FeedMode, Motion, MotionKind, MotionSource};
 
 /// G codes removed from a block under compensation (×10): cutter
@@ -74,53 +75,43 @@ fn rate_mm_per_min(m: &Motion, units: volcomp_gcode::Units) -> f64 {
     ((length_mm / k) * inverse_per_min).max(0.1) * k
 }
 
-impl State {
+impl State<'_> {
     /// Writes a block run while cutter compensation is on (or that turned
     /// it on or off) and its moves (see the module documentation).
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn write_cutter(
-        &mut self,
-        line: u64,
-        bytes: &[u8],
-        words: Vec<&Word>,
-        motions: &[Motion],
-        interp: &volcomp_gcode::Interpreter,
-        model: &dyn ErrorModel,
-        options: &CompensateOptions,
-        survey: &StyleSurvey,
-        sep: &str,
-        file: &str,
-        on_point: &mut dyn FnMut(&PointRecord),
-    ) -> Result<(), CompensationError> {
+    pub(super) fn write_cutter(&mut self, line: &Line) -> Result<(), CompensationError> {
+        let (ev, file, number) = (line.ev, self.walk.file, line.number());
+        let motions = ev.motions;
         if motions.iter().any(|m| m.extra.moves()) {
             return Err(CompensationError::AtLine {
                 file: file.into(),
-                line,
+                line: number,
                 message: "a cutter-compensated move that also moves A, B, C, U, V or W is not written back".into(),
                 help: "move the extra axes outside the compensated (G41/G42) part".into(),
             });
         }
-        let (frame, style) = Frame::of(interp, options, survey);
+        let (frame, style) = (line.frame, line.style);
         // Moves released by this block are written before it, so in the
         // modes (G90/G91, G20/G21) in effect before it.
-        let (frame0, style0) = self.frame_before.unwrap_or((frame, style));
-        let ending = line_ending(bytes);
+        let (frame0, style0) = line.before_or((frame, style));
+        let ending = line.ending;
         let (earlier, own): (Vec<&Motion>, Vec<&Motion>) =
-            motions.iter().partition(|m| m.line != line);
-        let units = interp.units();
+            motions.iter().partition(|m| m.line != number);
         let g93_before = self.g93_before;
-        self.write_cutter_moves(
-            &earlier, line, &frame0, style0, sep, model, options, file, ending, units, g93_before,
-            on_point,
-        )?;
+        let before = Place {
+            frame: &frame0,
+            style: style0,
+            ..line.place()
+        };
+        self.write_cutter_moves(line, &earlier, &before, g93_before)?;
+        let words: Vec<&Word> = line.words().collect();
         let arc = motions
             .iter()
-            .any(|m| m.line == line && matches!(m.kind, MotionKind::Arc(_)));
+            .any(|m| m.line == number && matches!(m.kind, MotionKind::Arc(_)));
         let comp_code = words
             .iter()
             .any(|w| w.letter == b'G' && [41.0, 41.1, 42.0, 42.1].contains(&w.value));
         let stop = stop_m_word(words.iter().copied());
-        let content = &bytes[..volcomp_gcode::lexer::content_len(bytes)];
+        let content = line.content();
         let mut edits = Vec::new();
         for w in &words {
             let remove = match w.letter {
@@ -137,7 +128,8 @@ impl State {
             }
         }
         let mut out = Vec::new();
-        apply_edits(bytes, &mut edits, &mut out).map_err(|e| super::edit_error(file, line, e))?;
+        apply_edits(ev.bytes, &mut edits, &mut out)
+            .map_err(|e| super::edit_error(file, number, e))?;
         if !out.iter().all(|b| b.is_ascii_whitespace()) {
             self.buf.extend_from_slice(&out);
             if !self.buf.ends_with(b"\n") {
@@ -145,11 +137,8 @@ impl State {
             }
             self.summary.lines_out += 1;
         }
-        let g93_after = interp.feed_mode() == FeedMode::InverseTime;
-        self.write_cutter_moves(
-            &own, line, &frame, style, sep, model, options, file, ending, units, g93_after,
-            on_point,
-        )?;
+        let g93_after = ev.interp.feed_mode() == FeedMode::InverseTime;
+        self.write_cutter_moves(line, &own, &line.place(), g93_after)?;
         if let Some(w) = stop {
             self.buf.extend_from_slice(&content[w.span.clone()]);
             self.buf.extend_from_slice(ending);
@@ -158,24 +147,21 @@ impl State {
         Ok(())
     }
 
-    #[allow(clippy::too_many_arguments)]
-    /// Writes `motions`, tagged with `tag_line`, the block that released
-    /// them (the line `volcomp simulate --reference` pairs them with).
+    /// Writes `motions` at `at` (tagged with its line: the block that
+    /// released them, the line `volcomp simulate --reference` pairs them
+    /// with); `program_in_g93` says whether the program is in inverse time
+    /// where they are written (G93 is then restored after them).
     fn write_cutter_moves(
         &mut self,
+        block: &Line,
         motions: &[&Motion],
-        tag_line: u64,
-        frame: &Frame,
-        style: volcomp_gcode::number::NumberStyle,
-        sep: &str,
-        model: &dyn ErrorModel,
-        options: &CompensateOptions,
-        file: &str,
-        ending: &[u8],
-        units: volcomp_gcode::Units,
+        at: &Place,
         program_in_g93: bool,
-        on_point: &mut dyn FnMut(&PointRecord),
     ) -> Result<(), CompensationError> {
+        let (options, file, sep) = (self.walk.options, self.walk.file, self.walk.sep);
+        let (frame, style) = (at.frame, at.style);
+        let model = block.model();
+        let units = block.ev.interp.units();
         // A move computed under inverse time (G93) runs, in LinuxCNC, at the
         // rate its programmed length gives (units/min): written as G94 with
         // that F, and G93 restored after the moves for the program's later
@@ -197,7 +183,7 @@ impl State {
                     &mut text,
                 );
                 self.buf.extend_from_slice(text.as_bytes());
-                self.buf.extend_from_slice(ending);
+                self.buf.extend_from_slice(at.ending);
                 self.summary.lines_out += 1;
             }
             // A tool-centre arc (an offset arc of a program arc, or a corner
@@ -222,7 +208,7 @@ impl State {
             check_target_count(m, options, file, line)?;
             let (mut targets, pieces) = match arc {
                 Some(a) => {
-                    let pieces = self.pieces_of_arc(&a, model, options, file, line)?;
+                    let pieces = self.pieces_of_arc(&a, model, line)?;
                     let targets = pieces
                         .iter()
                         .map(|l| if *l >= 1.0 { a.end } else { a.point_at(*l) })
@@ -240,73 +226,46 @@ impl State {
             let from = self.q_out;
             let commands = self.solve_targets(
                 model,
-                options,
-                frame,
-                frame,
-                &mut targets,
-                super::points::Leads::Nowhere,
-                m.start,
-                !rapid,
-                file,
+                (frame, frame),
+                Targets {
+                    points: &mut targets,
+                    leads: Leads::Nowhere,
+                    start: m.start,
+                    feed_like: !rapid,
+                },
                 line,
-                on_point,
             )?;
             let words = match arc {
                 Some(a) => self.arc_piece_words(
-                    &a, &pieces, &commands, from, model, options, frame, style, false, file, line,
+                    model,
+                    &Place { line, ..*at },
+                    Piecewise {
+                        arc: &a,
+                        pieces: &pieces,
+                        radius_style: false,
+                    },
+                    &commands,
+                    from,
                 )?,
                 None => Vec::new(),
             };
             let mut pos = from;
             for (i, (q, take_up)) in commands.into_iter().enumerate() {
                 if let Some(tu) = take_up {
-                    self.write_inserted(
-                        frame,
-                        style,
-                        sep,
-                        pos,
-                        tu,
-                        OutMode::Feed,
-                        tag_line,
-                        options.trace_comments,
-                        ending,
-                        "take-up",
-                    );
+                    self.write_inserted(at, pos, tu, OutMode::Feed, "take-up");
                     pos = tu;
                 }
                 if let Some(w) = words.get(i) {
-                    self.write_inserted_arc(
-                        frame,
-                        style,
-                        sep,
-                        pos,
-                        q,
-                        w,
-                        tag_line,
-                        options.trace_comments,
-                        ending,
-                        "cutter comp",
-                    );
+                    self.write_inserted_arc(at, pos, q, w, "cutter comp");
                 } else {
-                    self.write_inserted(
-                        frame,
-                        style,
-                        sep,
-                        pos,
-                        q,
-                        mode,
-                        tag_line,
-                        options.trace_comments,
-                        ending,
-                        "cutter comp",
-                    );
+                    self.write_inserted(at, pos, q, mode, "cutter comp");
                 }
                 pos = q;
             }
         }
         if forced_g94 && program_in_g93 {
             self.buf.extend_from_slice(b"G93");
-            self.buf.extend_from_slice(ending);
+            self.buf.extend_from_slice(at.ending);
             self.summary.lines_out += 1;
         }
         Ok(())

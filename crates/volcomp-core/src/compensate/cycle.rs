@@ -4,43 +4,34 @@
 //! written unaltered (see `write_tap_stroke`). G87 and G88 are refused:
 //! see `refusal`.
 
-use super::frame::Frame;
-use super::lines::{blank_before, line_ending, OutMode};
-use super::{CompensateOptions, PointRecord, State};
+use super::lines::{blank_before, OutMode};
+use super::walk::{Line, Place};
+use super::State;
 use crate::error::CompensationError;
-use crate::model::ErrorModel;
 use crate::simulate::next_state;
 use volcomp_gcode::edit::{apply_edits, Edit};
 use volcomp_gcode::lexer::Word;
-use volcomp_gcode::number::{format_number, NumberStyle, StyleSurvey};
+use volcomp_gcode::number::{format_number, NumberStyle};
 use volcomp_gcode::{FeedMode, MotionKind};
 
-impl State {
+impl State<'_> {
     /// Writes a canned-cycle block as explicit moves: the block itself keeps
     /// its other words with the cycle code turned into G80 and its cycle
     /// words (X Y Z R P Q L) removed; each move of the expanded cycle
     /// follows, compensated like any other, with the dwell of G82/G86/G89 as
     /// G4 and G86's spindle stop (M5) and restart (M3/M4) where LinuxCNC
     /// makes them.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn write_cycle(
-        &mut self,
-        line: u64,
-        bytes: &[u8],
-        words: Vec<&Word>,
-        motions: &[volcomp_gcode::Motion],
-        interp: &volcomp_gcode::Interpreter,
-        model: &dyn ErrorModel,
-        options: &CompensateOptions,
-        survey: &StyleSurvey,
-        sep: &str,
-        file: &str,
-        on_point: &mut dyn FnMut(&PointRecord),
-    ) -> Result<(), CompensationError> {
+    pub(super) fn write_cycle(&mut self, line: &Line) -> Result<(), CompensationError> {
+        let (interp, file, number) = (line.ev.interp, self.walk.file, line.number());
+        let (bytes, words, motions) = (
+            line.ev.bytes,
+            line.words().collect::<Vec<&Word>>(),
+            line.ev.motions,
+        );
         if interp.feed_mode() == FeedMode::InverseTime {
             return Err(CompensationError::AtLine {
                 file: file.into(),
-                line,
+                line: number,
                 message: "a canned cycle under inverse-time feed (G93) cannot be expanded with the same timing".into(),
                 help: "post the program in G94 (units per minute)".into(),
             });
@@ -49,13 +40,13 @@ impl State {
         if let Some((message, help)) = refusal(code) {
             return Err(CompensationError::AtLine {
                 file: file.into(),
-                line,
+                line: number,
                 message: message.into(),
                 help: help.into(),
             });
         }
-        let content = &bytes[..volcomp_gcode::lexer::content_len(bytes)];
-        let ending = line_ending(bytes);
+        let content = line.content();
+        let ending = line.ending;
         let mut edits = Vec::new();
         for w in &words {
             match w.letter {
@@ -73,13 +64,15 @@ impl State {
             }
         }
         apply_edits(bytes, &mut edits, &mut self.buf)
-            .map_err(|e| super::edit_error(file, line, e))?;
+            .map_err(|e| super::edit_error(file, number, e))?;
         if !self.buf.ends_with(b"\n") {
             self.buf.extend_from_slice(ending);
         }
         self.summary.lines_out += 1;
         self.mode = Some(OutMode::Other);
-        let (frame, style) = Frame::of(interp, options, survey);
+        let frame = line.frame;
+        let at = line.place();
+        let sep = self.walk.sep;
         let dwell = interp.canned_cycle().and_then(|(_, d)| d);
         let restart = if interp.spindle_direction() < 0 {
             "M4"
@@ -95,15 +88,12 @@ impl State {
             let feed_like = matches!(m.kind, MotionKind::Feed);
             if matches!(code, 74 | 84) && feed_like {
                 let left_hand = code == 74;
-                self.write_tap_stroke(
-                    m, &frame, style, sep, line, options, ending, feeds, dwell, left_hand,
-                );
+                self.write_tap_stroke(m, &at, feeds, dwell, left_hand);
                 feeds += 1;
                 continue;
             }
             let from = self.q_out;
-            let commands =
-                self.solve_motion(model, options, &frame, m, feed_like, file, line, on_point)?;
+            let commands = self.solve_motion(line.model(), &frame, m, feed_like, number)?;
             let mode = if feed_like {
                 OutMode::Feed
             } else {
@@ -112,18 +102,7 @@ impl State {
             let mut pos = from;
             for (q, take_up) in commands {
                 if let Some(tu) = take_up {
-                    self.write_inserted(
-                        &frame,
-                        style,
-                        sep,
-                        pos,
-                        tu,
-                        OutMode::Feed,
-                        line,
-                        options.trace_comments,
-                        ending,
-                        "take-up",
-                    );
+                    self.write_inserted(&at, pos, tu, OutMode::Feed, "take-up");
                     pos = tu;
                 }
                 if q == pos {
@@ -131,18 +110,7 @@ impl State {
                     // the same as the controller would, but write nothing.
                     continue;
                 }
-                self.write_inserted(
-                    &frame,
-                    style,
-                    sep,
-                    pos,
-                    q,
-                    mode,
-                    line,
-                    options.trace_comments,
-                    ending,
-                    "cycle",
-                );
+                self.write_inserted(&at, pos, q, mode, "cycle");
                 pos = q;
             }
             if restart_due && !feed_like {
@@ -193,20 +161,15 @@ impl State {
     /// spindle stopped and reversed (M5 M4) and the dwell, at the top the
     /// spindle stopped and restarted clockwise (M5 M3) and the overrides
     /// enabled again (M48).
-    #[allow(clippy::too_many_arguments)]
     fn write_tap_stroke(
         &mut self,
         m: &volcomp_gcode::Motion,
-        frame: &Frame,
-        style: NumberStyle,
-        sep: &str,
-        line: u64,
-        options: &CompensateOptions,
-        ending: &[u8],
+        at: &Place,
         feeds: usize,
         dwell: Option<f64>,
         left_hand: bool,
     ) {
+        let (ending, sep) = (at.ending, self.walk.sep);
         let (reverse, forward) = if left_hand {
             ("M3", "M4")
         } else {
@@ -219,18 +182,7 @@ impl State {
         let from = self.q_out;
         let q = from + (m.end - m.start);
         if q != from {
-            self.write_inserted(
-                frame,
-                style,
-                sep,
-                from,
-                q,
-                OutMode::Feed,
-                line,
-                options.trace_comments,
-                ending,
-                "tap",
-            );
+            self.write_inserted(at, from, q, OutMode::Feed, "tap");
         }
         self.s = next_state(self.s, q - from);
         self.s_nominal = self.s;

@@ -2,6 +2,7 @@
 //! the small lexical helpers they need.
 
 use super::frame::Frame;
+use super::walk::{Line, Place};
 use super::State;
 use volcomp_gcode::edit::Edit;
 use volcomp_gcode::lexer::Word;
@@ -138,21 +139,35 @@ impl ArcWords {
     }
 }
 
-impl State {
-    #[allow(clippy::too_many_arguments)]
+/// The first command of a line, written into the original line: from
+/// where and to which command, the motion it was, the motion mode it
+/// needs, the stop word that moves to a line after the last segment, and
+/// for a polar end point the nominal end and start.
+pub(super) struct FirstCommand<'a> {
+    pub(super) from: Vec3,
+    pub(super) q: Vec3,
+    pub(super) kind: &'a MotionKind,
+    pub(super) needed: OutMode,
+    pub(super) stop_word: Option<&'a Word>,
+    pub(super) polar_nominal: Vec3,
+    pub(super) polar_start: Vec3,
+}
+
+impl State<'_> {
+    /// Writes the move from `from` to `q` as an inserted line at `at` (the
+    /// motion word where the output's modal motion differs, the words of
+    /// the coordinates that change, the extra-axis words waiting in
+    /// `extra_text`); `note` follows the line number in the trace comment.
+    /// Nothing where nothing would be written.
     pub(super) fn write_inserted(
         &mut self,
-        frame: &Frame,
-        style: NumberStyle,
-        sep: &str,
+        at: &Place,
         from: Vec3,
         q: Vec3,
         mode: OutMode,
-        line: u64,
-        trace: bool,
-        ending: &[u8],
         note: &str,
     ) {
+        let (frame, style, sep) = (at.frame, at.style, self.walk.sep);
         self.text.clear();
         if self.mode != Some(mode) {
             self.text
@@ -179,15 +194,16 @@ impl State {
         if self.text.is_empty() {
             return;
         }
-        self.push_inserted(sep, line, trace, ending, note);
+        self.push_inserted(at, note);
     }
 
     /// Ends the inserted line in `self.text` (its trace comment, `(volcomp
     /// Ln note)`, when asked for) and appends it to the buffer on a line of
     /// its own.
-    fn push_inserted(&mut self, sep: &str, line: u64, trace: bool, ending: &[u8], note: &str) {
-        if trace {
-            self.text.push_str(sep);
+    fn push_inserted(&mut self, at: &Place, note: &str) {
+        let line = at.line;
+        if self.walk.options.trace_comments {
+            self.text.push_str(self.walk.sep);
             if note.is_empty() {
                 self.text.push_str(&format!("(volcomp L{line})"));
             } else {
@@ -198,8 +214,11 @@ impl State {
             self.buf.extend_from_slice(b"\n");
         }
         self.buf.extend_from_slice(self.text.as_bytes());
-        self.buf
-            .extend_from_slice(if ending.is_empty() { b"\n" } else { ending });
+        self.buf.extend_from_slice(if at.ending.is_empty() {
+            b"\n"
+        } else {
+            at.ending
+        });
         self.summary.lines_out += 1;
     }
 
@@ -207,35 +226,19 @@ impl State {
     /// line (`G2`/`G3` always written, both axes of the plane, the helix
     /// axis where it moves, the centre words), or as a G1 chord; `note`
     /// follows the line number in the trace comment.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn write_inserted_arc(
         &mut self,
-        frame: &Frame,
-        style: NumberStyle,
-        sep: &str,
+        at: &Place,
         from: Vec3,
         q: Vec3,
         arc: &ArcWords,
-        line: u64,
-        trace: bool,
-        ending: &[u8],
         note: &str,
     ) {
         if arc.center.is_none() {
-            self.write_inserted(
-                frame,
-                style,
-                sep,
-                from,
-                q,
-                OutMode::Feed,
-                line,
-                trace,
-                ending,
-                note,
-            );
+            self.write_inserted(at, from, q, OutMode::Feed, note);
             return;
         }
+        let (frame, style, sep) = (at.frame, at.style, self.walk.sep);
         let mode = arc.mode();
         let (u, v, _) = arc.plane.axes();
         self.text.clear();
@@ -250,25 +253,29 @@ impl State {
         }
         let centre = arc.text(frame, style, sep, from);
         self.text.push_str(&centre);
-        self.push_inserted(sep, line, trace, ending, note);
+        self.push_inserted(at, note);
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// The edits that write the first command `c` into the original line
+    /// `line`, in the frame and style of `at`.
     pub(super) fn original_line_edits(
         &mut self,
-        words: Vec<&Word>,
-        content: &[u8],
-        frame: &Frame,
-        style: NumberStyle,
-        sep: &str,
-        from: Vec3,
-        q: Vec3,
-        kind: &MotionKind,
-        needed: OutMode,
-        stop_word: Option<&Word>,
-        polar_nominal: Vec3,
-        polar_start: Vec3,
+        line: &Line,
+        at: &Place,
+        c: FirstCommand,
     ) -> Vec<Edit> {
+        let (frame, style, sep) = (at.frame, at.style, self.walk.sep);
+        let FirstCommand {
+            from,
+            q,
+            kind,
+            needed,
+            stop_word,
+            polar_nominal,
+            polar_start,
+        } = c;
+        let content = line.content();
+        let words: Vec<&Word> = line.words().collect();
         let mut edits = Vec::new();
         let is_arc = matches!(kind, MotionKind::Arc(_));
         let mut has_motion_word = false;

@@ -29,6 +29,7 @@ pub mod solve;
 mod spline;
 mod style;
 mod targets;
+mod walk;
 
 pub use front::{
     file_name, header_for_map, refuse_if_compensated, Compensator, MachineSetup, HEAD_BYTES,
@@ -43,7 +44,7 @@ pub(crate) use targets::mark_axes_set;
 pub use targets::{target_count_bound, targets_of};
 
 use crate::error::{CompensationError, ModelError};
-use crate::model::{Directions, ErrorModel, WithTool, ALL_FORWARD};
+use crate::model::{Directions, ErrorModel, ALL_FORWARD};
 use crate::simulate::next_state;
 use frame::Frame;
 use lines::{arc_line_edits, explicit_mode, has_feed, line_ending, stop_m_word, ArcWords, OutMode};
@@ -53,6 +54,7 @@ use volcomp_gcode::edit::apply_edits;
 use volcomp_gcode::lexer::LineKind;
 use volcomp_gcode::number::NumberStyle;
 use volcomp_gcode::{FeedMode, MotionKind, MotionSource, Vec3, Walker};
+use walk::{Line, Place, Walk};
 
 /// Streams `walker`'s program to `out` with every program motion compensated.
 pub fn compensate_program<R: BufRead>(
@@ -64,193 +66,195 @@ pub fn compensate_program<R: BufRead>(
     out: &mut dyn Write,
     mut on_point: impl FnMut(&PointRecord),
 ) -> Result<CompensateSummary, CompensationError> {
-    let mut st = State {
-        q_out: walker.interpreter().position(),
-        s: ALL_FORWARD,
-        s_nominal: ALL_FORWARD,
-        mode: None,
-        feed_known: false,
-        frame_before: None,
-        g93_before: false,
-        g93_last: false,
-        known: [false; 3],
-        summary: CompensateSummary::default(),
-        buf: Vec::with_capacity(1024),
-        text: String::with_capacity(128),
-        extra_text: String::new(),
-        states: Vec::new(),
-        ramps: Vec::new(),
-        ramps_written: Vec::new(),
-        estimate_mm: 0.0,
-        blocks_in: size::Blocks::default(),
+    let walk = Walk {
+        model,
+        options,
+        survey: &program_style.survey,
+        sep: if program_style.spaced { " " } else { "" },
+        file,
     };
+    let mut st = State::new(walk, walker.interpreter().position(), &mut on_point);
     let mut out = size::Counted::new(out);
-    let out = &mut out;
-    let sep = if program_style.spaced { " " } else { "" };
-    let survey = &program_style.survey;
     while let Some(ev) = walker.next_line()? {
-        let g93_now = ev.interp.feed_mode() == FeedMode::InverseTime;
-        st.g93_before = std::mem::replace(&mut st.g93_last, g93_now);
-        // Models with Abbe terms see the tool that is active on this line.
-        let tool_model = WithTool {
-            model,
-            tool_length_offset_mm: ev.interp.tool_length_offset_mm(),
-        };
-        let model: &dyn ErrorModel = &tool_model;
-        st.summary.lines_in += 1;
-        st.summary.bytes_in += ev.bytes.len() as u64;
-        st.blocks_in.scan(ev.bytes);
-        st.buf.clear();
-        let program_motion = ev.motions.iter().any(|m| m.source == MotionSource::Program);
-        let cycle = ev.motions.iter().any(|m| m.source == MotionSource::Cycle);
-        let spline = ev.motions.iter().any(|m| m.source == MotionSource::Spline);
-        if !ev.motions.is_empty() {
-            mark_axes_set(ev.lexed, &mut st.known);
+        let line = st.begin_line(&ev);
+        let after = st.write_line(&line, &mut out)?;
+        out.write_all(&st.buf)?;
+        st.frame_before = Some(after);
+    }
+    st.summary.blocks_in = st.blocks_in.finish();
+    (st.summary.bytes_out, st.summary.blocks_out) = out.finish();
+    st.summary.max_estimated_contour_um =
+        matches!(options.segmentation, Segmentation::Adaptive { .. })
+            .then_some(st.estimate_mm * 1e3);
+    Ok(st.summary)
+}
+
+impl<'w> State<'w> {
+    fn new(walk: Walk<'w>, q_start: Vec3, on_point: &'w mut dyn FnMut(&PointRecord)) -> Self {
+        State {
+            walk,
+            on_point,
+            q_out: q_start,
+            s: ALL_FORWARD,
+            s_nominal: ALL_FORWARD,
+            mode: None,
+            feed_known: false,
+            frame_before: None,
+            g93_before: false,
+            g93_last: false,
+            known: [false; 3],
+            summary: CompensateSummary::default(),
+            buf: Vec::with_capacity(1024),
+            text: String::with_capacity(128),
+            extra_text: String::new(),
+            states: Vec::new(),
+            ramps: Vec::new(),
+            ramps_written: Vec::new(),
+            estimate_mm: 0.0,
+            blocks_in: size::Blocks::default(),
         }
-        if ev
-            .motions
-            .iter()
-            .any(|m| m.source == MotionSource::Reference)
+    }
+
+    /// Writes one line (into the buffer, or straight to `out` where it
+    /// stays as it is) by the writer its kind calls for; returns the frame
+    /// and number style in effect after it.
+    fn write_line(
+        &mut self,
+        line: &Line,
+        out: &mut size::Counted,
+    ) -> Result<(Frame, NumberStyle), CompensationError> {
+        let ev = line.ev;
+        let own = (line.frame, line.style);
+        let has = |source| ev.motions.iter().any(|m| m.source == source);
+        let program_motion = has(MotionSource::Program);
+        let runs = line.all_known && !ev.after_end;
+        if has(MotionSource::Cycle) && runs {
+            self.write_cycle(line)?;
+            return Ok(own);
+        }
+        if (ev.interp.cutter_comp_on() || has(MotionSource::CutterComp))
+            && !ev.after_end
+            && ev.kind == LineKind::Block
         {
-            st.known = [true; 3];
-        }
-        let all_known = st.known.iter().all(|k| *k);
-        if cycle && all_known && !ev.after_end {
-            st.write_cycle(
-                ev.number,
-                ev.bytes,
-                ev.lexed.words().collect(),
-                ev.motions,
-                ev.interp,
-                model,
-                options,
-                survey,
-                sep,
-                file,
-                &mut on_point,
-            )?;
-            out.write_all(&st.buf)?;
-            st.frame_before = Some(Frame::of(ev.interp, options, survey));
-            continue;
-        }
-        let cutter = ev.interp.cutter_comp_on()
-            || ev
-                .motions
-                .iter()
-                .any(|m| m.source == MotionSource::CutterComp);
-        if cutter && !ev.after_end && ev.kind == LineKind::Block {
             // Cutter compensation becomes the compensated tool-centre path
             // under G40: G0/G1 segments and G2/G3 arc pieces
             // (compensate/cutter.rs).
-            st.write_cutter(
-                ev.number,
-                ev.bytes,
-                ev.lexed.words().collect(),
-                ev.motions,
-                ev.interp,
-                model,
-                options,
-                survey,
-                sep,
-                file,
-                &mut on_point,
-            )?;
-            st.mode = Some(OutMode::Other);
-            st.known = [true; 3];
-            st.feed_known |=
-                ev.interp.feed_mode() != FeedMode::InverseTime && has_feed(ev.lexed.words());
-            out.write_all(&st.buf)?;
-            st.frame_before = Some(Frame::of(ev.interp, options, survey));
-            continue;
+            self.write_cutter(line)?;
+            self.mode = Some(OutMode::Other);
+            self.known = [true; 3];
+            self.note_feed(line);
+            return Ok(own);
         }
-        if (spline || ev.interp.in_nurbs_block()) && all_known && !ev.after_end {
+        let spline = has(MotionSource::Spline);
+        if (spline || ev.interp.in_nurbs_block()) && runs {
             // Splines become compensated G1 segments (compensate/spline.rs);
             // a G5.2 control-point line loses its spline words.
-            let words: Vec<_> = ev.lexed.words().collect();
             if spline {
-                st.write_spline(
-                    ev.number,
-                    ev.bytes,
-                    words,
-                    ev.motions,
-                    ev.interp,
-                    model,
-                    options,
-                    survey,
-                    sep,
-                    file,
-                    &mut on_point,
-                )?;
+                self.write_spline(line)?;
             } else {
-                st.write_spline_block(ev.number, ev.bytes, &words, None, file)?;
+                let words: Vec<_> = line.words().collect();
+                self.write_spline_block(line, &words, None)?;
             }
-            st.feed_known |=
-                ev.interp.feed_mode() != FeedMode::InverseTime && has_feed(ev.lexed.words());
-            out.write_all(&st.buf)?;
-            st.frame_before = Some(Frame::of(ev.interp, options, survey));
-            continue;
+            self.note_feed(line);
+            return Ok(own);
         }
-        if ev.after_end || ev.kind != LineKind::Block || !program_motion || !all_known {
-            let added = g53_words_to_add(&ev, all_known, options, survey);
-            let mut offset_edits = if all_known && !ev.after_end {
-                offset_setting_edits(&ev, st.q_out, options, survey)
+        if ev.after_end || ev.kind != LineKind::Block || !program_motion || !line.all_known {
+            self.pass_through(line, out)?;
+            return Ok(own);
+        }
+        self.write_motion_line(line)
+    }
+
+    /// The feed state after a line that is not a compensated motion line:
+    /// a positive F outside inverse time sets it.
+    fn note_feed(&mut self, line: &Line) {
+        self.feed_known |=
+            line.ev.interp.feed_mode() != FeedMode::InverseTime && has_feed(line.words());
+    }
+
+    /// A line without a compensated motion: written as it is (to `out`),
+    /// or with the words a G92/G10 L20 or a G53 move needs where the
+    /// machine is not at the nominal point; its motions followed.
+    fn pass_through(
+        &mut self,
+        line: &Line,
+        out: &mut size::Counted,
+    ) -> Result<(), CompensationError> {
+        let ev = line.ev;
+        let (options, survey) = (self.walk.options, self.walk.survey);
+        let added = g53_words_to_add(ev, line.all_known, options, survey);
+        let mut offset_edits = if line.all_known && !ev.after_end {
+            offset_setting_edits(ev, self.q_out, options, survey)
+        } else {
+            Vec::new()
+        };
+        if !offset_edits.is_empty() {
+            // The machine is not at the nominal point (the last command
+            // carried its correction): a G92 or G10 L20 written as it
+            // was would take the correction into the offset it sets.
+            self.buf.clear();
+            apply_edits(ev.bytes, &mut offset_edits, &mut self.buf)
+                .map_err(|e| edit_error(self.walk.file, ev.number, e))?;
+            out.write_all(&self.buf)?;
+            self.buf.clear();
+        } else if added.is_empty() {
+            out.write_all(ev.bytes)?;
+        } else {
+            // The machine is not where the interpreter's G53 move starts
+            // (the tool-centre point a cutter-compensated move left it
+            // at, while LinuxCNC's G53 keeps the programmed point of the
+            // axes the line does not name): those axes are written.
+            let ending = line_ending(ev.bytes);
+            out.write_all(&ev.bytes[..ev.bytes.len() - ending.len()])?;
+            out.write_all(added.as_bytes())?;
+            out.write_all(ending)?;
+        }
+        self.summary.lines_out += 1;
+        for m in ev.motions {
+            // G53 and G28/G30 moves are sent as written: they are set-up
+            // moves in machine coordinates, not part geometry. So are
+            // spindle-synchronised moves (G33, G33.1), whose pitch ties
+            // the feed axis to the spindle: written as they are, in G91
+            // they move by their increment from where the last command
+            // left the machine.
+            let end = if m.source == MotionSource::SpindleSynced && !ev.interp.absolute() {
+                self.q_out + (m.end - m.start)
             } else {
-                Vec::new()
+                m.end
             };
-            if !offset_edits.is_empty() {
-                // The machine is not at the nominal point (the last command
-                // carried its correction): a G92 or G10 L20 written as it
-                // was would take the correction into the offset it sets.
-                st.buf.clear();
-                apply_edits(ev.bytes, &mut offset_edits, &mut st.buf)
-                    .map_err(|e| edit_error(file, ev.number, e))?;
-                out.write_all(&st.buf)?;
-            } else if added.is_empty() {
-                out.write_all(ev.bytes)?;
-            } else {
-                // The machine is not where the interpreter's G53 move starts
-                // (the tool-centre point a cutter-compensated move left it
-                // at, while LinuxCNC's G53 keeps the programmed point of the
-                // axes the line does not name): those axes are written.
-                let ending = line_ending(ev.bytes);
-                out.write_all(&ev.bytes[..ev.bytes.len() - ending.len()])?;
-                out.write_all(added.as_bytes())?;
-                out.write_all(ending)?;
-            }
-            st.summary.lines_out += 1;
-            for m in ev.motions {
-                // G53 and G28/G30 moves are sent as written: they are set-up
-                // moves in machine coordinates, not part geometry. So are
-                // spindle-synchronised moves (G33, G33.1), whose pitch ties
-                // the feed axis to the spindle: written as they are, in G91
-                // they move by their increment from where the last command
-                // left the machine.
-                let end = if m.source == MotionSource::SpindleSynced && !ev.interp.absolute() {
-                    st.q_out + (m.end - m.start)
-                } else {
-                    m.end
-                };
-                st.s = next_state(st.s, end - st.q_out);
-                st.s_nominal = st.s;
-                st.q_out = end;
-            }
-            if let Some(mode) = explicit_mode(ev.lexed.words()) {
-                st.mode = Some(mode);
-            }
-            st.feed_known |=
-                ev.interp.feed_mode() != FeedMode::InverseTime && has_feed(ev.lexed.words());
-            st.frame_before = Some(Frame::of(ev.interp, options, survey));
-            continue;
+            self.s = next_state(self.s, end - self.q_out);
+            self.s_nominal = self.s;
+            self.q_out = end;
         }
+        if let Some(mode) = explicit_mode(line.words()) {
+            self.mode = Some(mode);
+        }
+        self.note_feed(line);
+        Ok(())
+    }
+
+    /// A line with one program motion: its targets solved, the line
+    /// rewritten with the first command and the other commands (with their
+    /// take-ups) inserted after it. Returns the line's frame and style
+    /// (with at least the line's own decimals).
+    fn write_motion_line(
+        &mut self,
+        line: &Line,
+    ) -> Result<(Frame, NumberStyle), CompensationError> {
+        let ev = line.ev;
+        let (file, sep) = (self.walk.file, self.walk.sep);
         let motion = ev.motions[0];
         let interp = ev.interp;
-        let (frame, style) = Frame::of(interp, options, survey);
+        let model = line.model();
         // The line's words are quantised and written with at least their own
         // decimals, so an unchanged word is written back as it was.
-        let (frame, style) = frame.with_line_decimals(ev.lexed.words(), ev.bytes, style);
-        let (frame0, style0) = st.frame_before.unwrap_or((frame, style));
-        let feed_known_before = st.feed_known;
-        let feed_known_in_line = st.feed_known || has_feed(ev.lexed.words());
+        let (frame, style) = line
+            .frame
+            .with_line_decimals(line.words(), ev.bytes, line.style);
+        let (frame0, style0) = line.before_or((frame, style));
+        let feed_known_before = self.feed_known;
+        let feed_known_in_line = self.feed_known || has_feed(line.words());
+        let options = self.walk.options;
         // Arcs are written as arcs unless the line needs what that path
         // does not write: a rotated frame, polar words, extra axes, or
         // centres read as absolute by option (the program does not say so,
@@ -261,7 +265,7 @@ pub fn compensate_program<R: BufRead>(
                     && frame.rotation_deg == 0.0
                     && !(interp.arc_absolute() && interp.arc_absolute_by_option())
                     && !motion.extra.moves()
-                    && !ev.lexed.words().any(|w| matches!(w.letter, b'@' | b'^')) =>
+                    && !line.words().any(|w| matches!(w.letter, b'@' | b'^')) =>
             {
                 Some(arc)
             }
@@ -271,10 +275,9 @@ pub fn compensate_program<R: BufRead>(
             arcs_as_arcs: arc_nominal.is_some(),
             ..*options
         };
-        let options = &line_options;
-        check_target_count(&motion, options, file, ev.number)?;
+        check_target_count(&motion, &line_options, file, ev.number)?;
         let mut pieces: Vec<f64> = match arc_nominal {
-            Some(arc) => st.pieces_of_arc(&arc, model, options, file, ev.number)?,
+            Some(arc) => self.pieces_of_arc(&arc, model, ev.number)?,
             None => Vec::new(),
         };
         let mut targets = match arc_nominal {
@@ -282,10 +285,14 @@ pub fn compensate_program<R: BufRead>(
                 .iter()
                 .map(|l| if *l >= 1.0 { arc.end } else { arc.point_at(*l) })
                 .collect(),
-            None => {
-                targets::targets_with_estimate(&motion, options, model, st.s, &mut st.estimate_mm)
-                    .map_err(|source| model_error(file, ev.number, source))?
-            }
+            None => targets::targets_with_estimate(
+                &motion,
+                &line_options,
+                model,
+                self.s,
+                &mut self.estimate_mm,
+            )
+            .map_err(|source| model_error(file, ev.number, source))?,
         };
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
         if targets.len() > 1 && interp.feed_mode() == FeedMode::InverseTime {
@@ -298,11 +305,11 @@ pub fn compensate_program<R: BufRead>(
                 help: crate::error::help::SPLIT_UNDER_INVERSE_TIME.into(),
             });
         }
-        let line_ending: &[u8] = line_ending(ev.bytes);
+        let line_ending = line.ending;
         let content_len = volcomp_gcode::lexer::content_len(ev.bytes);
-        let content = &ev.bytes[..content_len];
+        let content = line.content();
         // Solve every target first (the original line carries the first).
-        let q_line_start = st.q_out;
+        let q_line_start = self.q_out;
         // A take-up may get a lead piece of a line or an arc piece
         // (compensate/points.rs) where the segmentation adapts to the path
         // anyway; not on moves that carry extra axes, or under inverse time.
@@ -318,34 +325,36 @@ pub fn compensate_program<R: BufRead>(
             },
             (None, true) => points::Leads::Lines,
         };
-        let commands = st.solve_targets(
+        let commands = self.solve_targets(
             model,
-            options,
-            &frame,
-            &frame0,
-            &mut targets,
-            leads,
-            motion.start,
-            feed_like,
-            file,
+            (&frame, &frame0),
+            points::Targets {
+                points: &mut targets,
+                leads,
+                start: motion.start,
+                feed_like,
+            },
             ev.number,
-            &mut on_point,
         )?;
+        let place = Place {
+            frame: &frame,
+            style,
+            line: ev.number,
+            ending: line_ending,
+        };
         // Arc pieces: the centre of each, through its compensated start,
         // middle and end (compensate/arcs.rs).
         let arc_words: Vec<ArcWords> = match arc_nominal {
-            Some(arc) => st.arc_piece_words(
-                &arc,
-                &pieces,
+            Some(arc) => self.arc_piece_words(
+                model,
+                &place,
+                arcs::Piecewise {
+                    arc: &arc,
+                    pieces: &pieces,
+                    radius_style: line.words().any(|w| w.letter == b'R'),
+                },
                 &commands,
                 q_line_start,
-                model,
-                options,
-                &frame,
-                style,
-                ev.lexed.words().any(|w| w.letter == b'R'),
-                file,
-                ev.number,
             )?,
             None => Vec::new(),
         };
@@ -360,7 +369,7 @@ pub fn compensate_program<R: BufRead>(
         // Write: the commands were solved from the position before the line.
         let mut pos = q_line_start;
         let stop_word = if commands.len() > 1 {
-            stop_m_word(ev.lexed.words())
+            stop_m_word(line.words())
         } else {
             None
         };
@@ -371,6 +380,13 @@ pub fn compensate_program<R: BufRead>(
         };
         let first_arc = arc_words.first().filter(|w| w.center.is_some());
         let needed_first = first_arc.map_or(needed, |w| w.mode());
+        // The last inserted line ends as the original did (without an
+        // ending where it had none and no stop word follows).
+        let last_ending: &[u8] = if content_len == ev.bytes.len() && stop_word.is_none() {
+            b""
+        } else {
+            line_ending
+        };
         for (i, (q, take_up)) in commands.iter().enumerate() {
             if let Some(tu) = take_up {
                 // The first take-up runs before the line's own words: in the
@@ -389,129 +405,82 @@ pub fn compensate_program<R: BufRead>(
                 // word missing with inverse time g1 move"): the take-up
                 // carries the block's, so it takes no longer than the block.
                 if interp.feed_mode() == FeedMode::InverseTime {
-                    if let Some(w) = ev.lexed.words().find(|w| w.letter == b'F') {
-                        st.extra_text = format!(
+                    if let Some(w) = line.words().find(|w| w.letter == b'F') {
+                        self.extra_text = format!(
                             "{sep}{}",
                             String::from_utf8_lossy(&ev.bytes[w.span.clone()])
                         );
                     }
                 }
-                st.write_inserted(
-                    tu_frame,
-                    tu_style,
-                    sep,
-                    pos,
-                    *tu,
-                    tu_mode,
-                    ev.number,
-                    options.trace_comments,
-                    line_ending,
-                    "take-up",
-                );
+                let at = Place {
+                    frame: tu_frame,
+                    style: tu_style,
+                    ..place
+                };
+                self.write_inserted(&at, pos, *tu, tu_mode, "take-up");
                 pos = *tu;
             }
+            let ending = if i + 1 == commands.len() {
+                last_ending
+            } else {
+                line_ending
+            };
             if i == 0 {
-                let edits = st.original_line_edits(
-                    ev.lexed.words().collect(),
-                    content,
-                    &frame,
-                    style,
-                    sep,
-                    pos,
-                    *q,
-                    if first_arc.is_some() {
-                        &MotionKind::Feed
-                    } else {
-                        &motion.kind
+                let mut edits = self.original_line_edits(
+                    line,
+                    &place,
+                    lines::FirstCommand {
+                        from: pos,
+                        q: *q,
+                        kind: if first_arc.is_some() {
+                            &MotionKind::Feed
+                        } else {
+                            &motion.kind
+                        },
+                        needed: needed_first,
+                        stop_word,
+                        polar_nominal: targets[0],
+                        polar_start: motion.start,
                     },
-                    needed_first,
-                    stop_word,
-                    targets[0],
-                    motion.start,
                 );
-                let mut edits = edits;
                 if let Some(w) = first_arc {
                     edits.extend(arc_line_edits(
-                        ev.lexed.words(),
+                        line.words(),
                         content,
                         w.text(&frame, style, sep, pos),
                     ));
                 }
                 if let Some(plan) = extra_plan.as_mut() {
-                    let words: Vec<_> = ev.lexed.words().collect();
+                    let words: Vec<_> = line.words().collect();
                     for (span, text) in plan.first_edits(&words, content, style) {
                         edits.push(volcomp_gcode::edit::Edit::replace(span, text));
                     }
                 }
-                apply_edits(ev.bytes, &mut edits, &mut st.buf)
+                apply_edits(ev.bytes, &mut edits, &mut self.buf)
                     .map_err(|e| edit_error(file, ev.number, e))?;
                 if content_len == ev.bytes.len() && commands.len() > 1 {
-                    st.buf.extend_from_slice(b"\n");
+                    self.buf.extend_from_slice(b"\n");
                 }
-                st.mode = Some(needed_first);
-                st.summary.lines_out += 1;
+                self.mode = Some(needed_first);
+                self.summary.lines_out += 1;
             } else if let Some(w) = arc_words.get(i) {
-                let ending: &[u8] = if i + 1 == commands.len()
-                    && content_len == ev.bytes.len()
-                    && stop_word.is_none()
-                {
-                    b""
-                } else {
-                    line_ending
-                };
-                st.write_inserted_arc(
-                    &frame,
-                    style,
-                    sep,
-                    pos,
-                    *q,
-                    w,
-                    ev.number,
-                    options.trace_comments,
-                    ending,
-                    "",
-                );
+                self.write_inserted_arc(&place.with_ending(ending), pos, *q, w, "");
             } else {
                 if let Some(plan) = extra_plan.as_mut() {
-                    st.extra_text = plan.words_for(i, style, sep);
+                    self.extra_text = plan.words_for(i, style, sep);
                 }
-                st.write_inserted(
-                    &frame,
-                    style,
-                    sep,
-                    pos,
-                    *q,
-                    needed,
-                    ev.number,
-                    options.trace_comments,
-                    if i + 1 == commands.len()
-                        && content_len == ev.bytes.len()
-                        && stop_word.is_none()
-                    {
-                        b""
-                    } else {
-                        line_ending
-                    },
-                    "",
-                );
+                self.write_inserted(&place.with_ending(ending), pos, *q, needed, "");
             }
             pos = *q;
         }
         if let Some(w) = stop_word {
-            st.buf.extend_from_slice(&content[w.span.clone()]);
-            st.buf.extend_from_slice(line_ending);
-            st.summary.lines_out += 1;
+            self.buf.extend_from_slice(&content[w.span.clone()]);
+            self.buf.extend_from_slice(line_ending);
+            self.summary.lines_out += 1;
         }
-        st.feed_known = feed_known_in_line;
-        st.frame_before = Some((frame, style));
-        out.write_all(&st.buf)?;
+        self.feed_known = feed_known_in_line;
+        Ok((frame, style))
     }
-    st.summary.blocks_in = st.blocks_in.finish();
-    (st.summary.bytes_out, st.summary.blocks_out) = out.finish();
-    st.summary.max_estimated_contour_um =
-        matches!(options.segmentation, Segmentation::Adaptive { .. })
-            .then_some(st.estimate_mm * 1e3);
-    Ok(st.summary)
 }
 
 /// An edit of a line that did not apply (overlapping spans): a bug of
@@ -553,7 +522,13 @@ fn command_error(
     }
 }
 
-struct State {
+/// The walk's own state: what has been sent so far and what is being
+/// written (module documentation of `walk.rs`).
+struct State<'w> {
+    /// The walk's inputs.
+    walk: Walk<'w>,
+    /// Called with every solved point.
+    on_point: &'w mut dyn FnMut(&PointRecord),
     /// Axes whose position the program has set; until all three are known,
     /// motions are written unchanged (the start position is not the program's).
     known: [bool; 3],

@@ -117,6 +117,22 @@ impl CompensateOptions {
             _ => DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
         }
     }
+
+    /// Contour tolerance and shortest piece (mm) of arcs written as arcs:
+    /// those of adaptive segmentation, or its defaults under another
+    /// segmentation.
+    pub(crate) fn arc_tolerances_mm(&self) -> (f64, f64) {
+        match self.segmentation {
+            Segmentation::Adaptive {
+                tolerance_mm,
+                min_length_mm,
+            } => (tolerance_mm, min_length_mm),
+            _ => (
+                DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
+                DEFAULT_MIN_SEGMENT_LENGTH_MM,
+            ),
+        }
+    }
 }
 
 /// Default contour tolerance of adaptive segmentation (µm): 0.1 µm, the

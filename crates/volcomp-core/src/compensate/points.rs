@@ -213,58 +213,67 @@ pub(super) enum Leads<'a> {
     },
 }
 
-impl State {
+/// The targets of one motion, in order (the last is the motion's end),
+/// and what [`State::solve_targets`] needs to know of the motion: where a
+/// lead piece may go, where the motion starts, whether it is a feed move
+/// (a rapid gets no take-up).
+pub(super) struct Targets<'a> {
+    pub(super) points: &'a mut Vec<Vec3>,
+    pub(super) leads: Leads<'a>,
+    pub(super) start: Vec3,
+    pub(super) feed_like: bool,
+}
+
+impl State<'_> {
     /// Solves one whole motion of a block written as segments (a canned
     /// cycle's, a spline's): its targets as the segmentation gives them,
     /// without lead pieces ([`State::solve_targets`]).
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn solve_motion(
         &mut self,
         model: &dyn ErrorModel,
-        options: &CompensateOptions,
         frame: &Frame,
         m: &volcomp_gcode::Motion,
         feed_like: bool,
-        file: &str,
         line: u64,
-        on_point: &mut dyn FnMut(&PointRecord),
     ) -> Result<Vec<(Vec3, Option<Vec3>)>, CompensationError> {
+        let (options, file) = (self.walk.options, self.walk.file);
         super::targets::check_target_count(m, options, file, line)?;
         let mut targets =
             super::targets::targets_with_estimate(m, options, model, self.s, &mut self.estimate_mm)
                 .map_err(|source| model_error(file, line, source))?;
         self.solve_targets(
             model,
-            options,
-            frame,
-            frame,
-            &mut targets,
-            Leads::Nowhere,
-            m.start,
-            feed_like,
-            file,
+            (frame, frame),
+            Targets {
+                points: &mut targets,
+                leads: Leads::Nowhere,
+                start: m.start,
+                feed_like,
+            },
             line,
-            on_point,
         )
     }
 
     /// Solves the targets of one motion in order; returns each command and
-    /// the take-up move written before it, if any.
-    #[allow(clippy::too_many_arguments)]
+    /// the take-up move written before it, if any. `frames` are the frame
+    /// of the motion and the one a take-up before its first command is
+    /// written in (the previous line's, where that take-up runs before the
+    /// line's own words).
     pub(super) fn solve_targets(
         &mut self,
         model: &dyn ErrorModel,
-        options: &CompensateOptions,
-        frame: &Frame,
-        first_take_up_frame: &Frame,
-        targets: &mut Vec<Vec3>,
-        mut leads: Leads<'_>,
-        start: Vec3,
-        feed_like: bool,
-        file: &str,
+        frames: (&Frame, &Frame),
+        motion: Targets<'_>,
         line: u64,
-        on_point: &mut dyn FnMut(&PointRecord),
     ) -> Result<Vec<(Vec3, Option<Vec3>)>, CompensationError> {
+        let (options, file) = (self.walk.options, self.walk.file);
+        let (frame, first_take_up_frame) = frames;
+        let Targets {
+            points: targets,
+            mut leads,
+            start,
+            feed_like,
+        } = motion;
         let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
         self.states.clear();
         let mut ramps = std::mem::take(&mut self.ramps);
@@ -436,7 +445,7 @@ impl State {
                 }
             }
             self.summary.take_ups += u64::from(take_up.is_some());
-            on_point(&PointRecord {
+            (self.on_point)(&PointRecord {
                 line,
                 target_mm: *t,
                 command_mm: point.q_mm,

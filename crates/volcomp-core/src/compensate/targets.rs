@@ -91,7 +91,7 @@ pub(super) fn targets_with_estimate(
         MotionKind::Rapid => out.push(motion.end),
         MotionKind::Feed => split(motion.start, motion.end, seg, model, s, &mut out, worst_mm)?,
         MotionKind::Arc(arc) if options.arcs_as_arcs => {
-            let (tolerance_mm, min_length_mm) = arc_tolerances(options);
+            let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm();
             let pieces =
                 super::arcs::arc_pieces(&arc, model, s, tolerance_mm, min_length_mm, worst_mm)?;
             for l in pieces {
@@ -124,21 +124,6 @@ pub(super) fn targets_with_estimate(
         }
     }
     Ok(out)
-}
-
-/// Contour tolerance and shortest piece (mm) of arcs written as arcs: those
-/// of adaptive segmentation, or its defaults under another segmentation.
-pub(super) fn arc_tolerances(options: &CompensateOptions) -> (f64, f64) {
-    match options.segmentation {
-        Segmentation::Adaptive {
-            tolerance_mm,
-            min_length_mm,
-        } => (tolerance_mm, min_length_mm),
-        _ => (
-            super::DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
-            super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
-        ),
-    }
 }
 
 fn split(
@@ -348,6 +333,7 @@ mod tests {
             source: MotionSource::Program,
             extra: Default::default(),
             feed_mode: volcomp_gcode::interp::FeedMode::PerMinute,
+            path_mode: Default::default(),
         }
     }
 

@@ -413,6 +413,7 @@ mod tests {
             column: 1,
             feed: 100.0,
             feed_mode: volcomp_gcode::FeedMode::PerMinute,
+            path_mode: Default::default(),
             extra: Default::default(),
         };
         let motions = [
@@ -452,6 +453,7 @@ mod tests {
             column: 1,
             feed: 100.0,
             feed_mode: volcomp_gcode::FeedMode::PerMinute,
+            path_mode: Default::default(),
             extra: Default::default(),
         };
         let corner = Arc {

@@ -564,6 +564,9 @@ impl Interpreter {
 
     /// `dequeue_canons`: gives out every queued move.
     fn dequeue(&mut self, out: &mut Vec<Motion>) -> Result<(), GcodeError> {
+        // LinuxCNC refuses a path-control mode change while compensation is
+        // on: the mode now is the one of every queued move.
+        let path_mode = self.path_mode;
         let c = self.comp.as_mut().expect("cutter compensation is on");
         c.endpoint = None;
         let plane = c.plane;
@@ -602,6 +605,7 @@ impl Interpreter {
                 column: q.column + 1,
                 feed: q.feed,
                 feed_mode: q.feed_mode,
+                path_mode,
                 extra: ExtraAxes {
                     start: c.emitted_extra,
                     end: q.extra_end,

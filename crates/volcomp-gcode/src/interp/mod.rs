@@ -39,6 +39,7 @@ mod warnings;
 mod words;
 
 pub use extra::{ExtraAxes, EXTRA_LETTERS};
+pub use modal::PathMode;
 pub use motion::K0_HELP;
 pub use motion::MAX_COORDINATE_MM;
 pub use options::{FeedMode, InterpOptions};
@@ -139,6 +140,8 @@ pub struct Motion {
     pub feed: f64,
     /// The feed mode (G93, G94, G95) the motion was computed in.
     pub feed_mode: FeedMode,
+    /// The path-control mode (G61, G61.1, G64) in effect for the motion.
+    pub path_mode: PathMode,
     /// The extra axes A, B, C, U, V, W at its start and end (not
     /// compensated; moved linearly over the motion).
     pub extra: ExtraAxes,
@@ -210,6 +213,8 @@ pub struct Interpreter {
     extra_target: [f64; 6],
     /// The modal state M70 saved (M72 restores it).
     saved_modes: Option<modal::SavedModes>,
+    /// G61, G61.1 or G64 P… Q… in effect.
+    path_mode: PathMode,
     /// G92 offsets of the extra axes, and the ones G92.3 restores.
     extra_g92: [f64; 6],
     extra_g92_saved: [f64; 6],
@@ -294,6 +299,7 @@ impl Interpreter {
             extra: [0.0; 6],
             extra_target: [0.0; 6],
             saved_modes: None,
+            path_mode: PathMode::default(),
             extra_g92: [0.0; 6],
             extra_g92_saved: [0.0; 6],
             uses_extra_axes: false,
@@ -370,6 +376,11 @@ impl Interpreter {
     /// Feed mode in effect.
     pub fn feed_mode(&self) -> FeedMode {
         self.feed_mode
+    }
+
+    /// Path-control mode (G61, G61.1, G64) in effect.
+    pub fn path_mode(&self) -> PathMode {
+        self.path_mode
     }
 
     /// Whether the program has ended (M2, M30 or the closing `%`); later
@@ -554,6 +565,8 @@ impl Interpreter {
                 self.work = i;
             }
         }
+        // 16: path-control mode (G61, G61.1, G64 P Q).
+        self.control_mode(w);
         // 17: distance modes; 18: retract mode.
         if let Some(on) = w.switch(900, 910) {
             self.absolute = on;

@@ -1,3 +1,4 @@
+//! The path-control mode (G61, G61.1, G64 P… Q…) and
 //! M70 (save modal state), M71 (invalidate it) and M72 (restore it), as
 //! LinuxCNC 2.9's `Interp::save_settings` / `restore_settings`
 //! (src/emc/rs274ngc/interp_convert.cc) do them at the top level of a
@@ -16,6 +17,68 @@ use super::{invalid, unsupported, Interpreter};
 use crate::error::GcodeError;
 use crate::geom::{Plane, Units, Vec3};
 
+/// The path-control mode, as LinuxCNC 2.9 reads it
+/// (`Interp::convert_control_mode`, src/emc/rs274ngc/interp_convert.cc) and
+/// hands it to the trajectory planner (`SET_MOTION_CONTROL_MODE`,
+/// src/emc/task/emccanon.cc): the terminal condition of every feed move
+/// queued after it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PathMode {
+    /// G61, "exact path" (CANON_EXACT_PATH, the planner's
+    /// TC_TERM_COND_EXACT): the planner joins two moves without stopping
+    /// only where it takes them as tangent, and never blends a corner.
+    ExactPath,
+    /// G61.1, "exact stop" (CANON_EXACT_STOP, TC_TERM_COND_STOP): every
+    /// move ends at rest.
+    ExactStop,
+    /// G64, continuous (CANON_CONTINUOUS, TC_TERM_COND_PARABOLIC): corners
+    /// blended. `tolerance_mm` is P (mm, converted from the program's units
+    /// when G64 was read), 0 without P: LinuxCNC's "no tolerance", the
+    /// planner blends as far as speed needs (up to a quarter of a
+    /// segment's length). `naive_cam_mm` is Q, or P where Q is not given,
+    /// else 0: canon then merges consecutive straight feeds whose points
+    /// lie within it of one line (`linkable`, emccanon.cc). A negative P or
+    /// Q counts as not given, as LinuxCNC reads them (the block reader
+    /// starts both at −1, `init_block`, interp_internal.cc).
+    Blend {
+        /// G64 P (mm), 0 without P.
+        tolerance_mm: f64,
+        /// G64 Q (mm), else P, else 0.
+        naive_cam_mm: f64,
+    },
+}
+
+impl Default for PathMode {
+    /// LinuxCNC's state at start: G64 without P (canon's `motionMode`
+    /// CANON_CONTINUOUS with tolerance 0; tp.c's `tpInit` term condition
+    /// parabolic).
+    fn default() -> Self {
+        PathMode::Blend {
+            tolerance_mm: 0.0,
+            naive_cam_mm: 0.0,
+        }
+    }
+}
+
+impl PathMode {
+    /// The G code that sets this mode: `G61`, `G61.1`, `G64`, or
+    /// `G64 P… Q…` with the tolerances in mm.
+    pub fn code(&self) -> String {
+        match *self {
+            PathMode::ExactPath => "G61".into(),
+            PathMode::ExactStop => "G61.1".into(),
+            PathMode::Blend {
+                tolerance_mm,
+                naive_cam_mm,
+            } if tolerance_mm == 0.0 && naive_cam_mm == 0.0 => "G64".into(),
+            PathMode::Blend {
+                tolerance_mm,
+                naive_cam_mm,
+            } => format!("G64 P{tolerance_mm} Q{naive_cam_mm} (mm)"),
+        }
+    }
+}
+
 /// The state M70 saves.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct SavedModes {
@@ -30,9 +93,29 @@ pub(super) struct SavedModes {
     spindle_rpm: f64,
     tlo: Vec3,
     g92: Vec3,
+    path_mode: PathMode,
 }
 
 impl Interpreter {
+    /// G61, G61.1 and G64 of the block (`convert_control_mode`): P and Q
+    /// are in program units; a negative or missing P is no tolerance, a
+    /// missing Q is P.
+    pub(super) fn control_mode(&mut self, w: &WordTable) {
+        if w.has_g(610) {
+            self.path_mode = PathMode::ExactPath;
+        } else if w.has_g(611) {
+            self.path_mode = PathMode::ExactStop;
+        } else if w.has_g(640) {
+            let k = self.units.mm_per_unit();
+            let given = |v: Option<f64>| v.filter(|v| *v >= 0.0).map(|v| v * k);
+            let (p, q) = (given(w.get(b'P')), given(w.get(b'Q')));
+            self.path_mode = PathMode::Blend {
+                tolerance_mm: p.unwrap_or(0.0),
+                naive_cam_mm: q.or(p).unwrap_or(0.0),
+            };
+        }
+    }
+
     /// M70, M71, M72 of the block (M72 restores before the block's G codes).
     pub(super) fn modal_save_restore(
         &mut self,
@@ -53,6 +136,7 @@ impl Interpreter {
                 spindle_rpm: self.spindle_rpm,
                 tlo: self.tlo,
                 g92: self.g92,
+                path_mode: self.path_mode,
             });
         } else if w.has_m(710) {
             if self.saved_modes.take().is_none() {
@@ -104,6 +188,7 @@ impl Interpreter {
             self.feed_mode = s.feed_mode;
             self.work = s.work;
             self.retract_to_r = s.retract_to_r;
+            self.path_mode = s.path_mode;
             if s.feed != self.feed {
                 self.feed = (s.feed * 10.0).round() / 10.0;
             }

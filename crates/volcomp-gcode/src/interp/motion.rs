@@ -448,6 +448,7 @@ impl Interpreter {
             column: column + 1,
             feed,
             feed_mode: self.feed_mode,
+            path_mode: self.path_mode,
             extra: super::ExtraAxes {
                 start: self.extra,
                 end: self.extra_target,
