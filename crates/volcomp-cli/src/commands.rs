@@ -1,18 +1,18 @@
 //! One function per subcommand: validate flags into library options, run,
 //! print.
 
-use crate::args::{Cli, Command, MachineArgs, MovesArgs, MovesFormat};
+use crate::args::{Cli, Command, MovesArgs, MovesFormat};
+use crate::options::flags;
 use crate::output::CliError;
 use std::fs::File;
 use std::io::{self, BufRead, BufReader, Write};
 use std::path::Path;
-use volcomp_core::error::CompensationError;
-use volcomp_core::MachineSetup;
+use volcomp_core::request::{Machine, MachineRequest};
 use volcomp_gcode::number::{format_number_bytes, NumberStyle};
-use volcomp_gcode::{InterpOptions, Motion, MotionKind, Vec3, Walker};
+use volcomp_gcode::{Motion, MotionKind, Vec3, Walker};
 
 mod compensate;
-pub use compensate::{command_line, date_utc};
+pub use compensate::command_line;
 mod demo;
 pub mod map;
 mod simulate;
@@ -30,94 +30,71 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Surface(a) => surface::run(a),
         Command::Straightness(a) => straightness::run(a),
         Command::Thermal(a) => thermal::run(a),
-    }
-}
-
-/// The validated machine set-up of a program (the library's
-/// [`MachineSetup`]), with the CLI's rendering of its errors.
-pub struct Machine(pub MachineSetup);
-
-impl std::ops::Deref for Machine {
-    type Target = MachineSetup;
-    fn deref(&self) -> &MachineSetup {
-        &self.0
-    }
-}
-
-/// The first words of every message about a missing work offset.
-pub const NO_WORK_OFFSET: &str = "no work offset was given (G54 = 0)";
-
-/// Parses `X,Y,Z` (three finite numbers).
-pub fn parse_triple(text: &str, flag: &str) -> Result<Vec3, CliError> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    let nums: Option<Vec<f64>> = parts.iter().map(|p| p.parse::<f64>().ok()).collect();
-    match nums {
-        Some(v) if v.len() == 3 && v.iter().all(|x| x.is_finite()) => {
-            Ok(Vec3::new(v[0], v[1], v[2]))
+        Command::Completions(a) => {
+            let mut cmd = <Cli as clap::CommandFactory>::command();
+            clap_complete::generate(a.shell, &mut cmd, "volcomp", &mut io::stdout());
+            Ok(())
         }
-        _ => Err(CliError::Message(format!(
-            "{flag} expects three numbers in mm separated by commas, like 100,50,-200; got `{text}`"
-        ))),
+        Command::Man => {
+            let mut page = Vec::new();
+            clap_mangen::Man::new(<Cli as clap::CommandFactory>::command())
+                .render(&mut page)
+                .map_err(CliError::Stdout)?;
+            io::stdout().write_all(&page).map_err(CliError::Stdout)
+        }
     }
 }
 
-impl Machine {
-    pub fn from_args(a: &MachineArgs) -> Result<Machine, CliError> {
-        let mut machine = match &a.setup {
-            Some(path) => MachineSetup::from_setup_file(path).map_err(|e| match e {
-                volcomp_core::Error::Io { path, source } => CliError::Io(path, source),
-                e => CliError::from(e),
-            })?,
-            None => MachineSetup::unset(),
-        };
-        if let Some(w) = &a.work_offset {
-            machine = machine.with_work_offset(parse_triple(w, "--work-offset")?);
-        }
-        Ok(Machine(machine.with_interp_options(InterpOptions {
-            accept_k0_on_xy_arcs: a.accept_k0 && !a.strict_k0,
-            absolute_arc_centers: a.absolute_arc_centers,
-            require_program_end: !a.allow_no_program_end,
-            ..InterpOptions::default()
-        })))
-    }
+/// The machine of a request, as the library builds it.
+pub fn machine(request: &MachineRequest) -> Result<Machine, CliError> {
+    Ok(request.machine()?)
+}
 
+/// The CLI's side of a machine: its warning, its errors with flags, its
+/// programs read from files or standard input.
+pub trait MachineExt {
     /// Warns on standard error when no work offset was given.
-    pub fn warn_without_work_offset(&self) {
-        if self.no_work_offset {
-            eprintln!("volcomp: warning: {NO_WORK_OFFSET}: program coordinates are taken as machine coordinates; give the offsets with --setup FILE or --work-offset X,Y,Z");
-        }
-    }
-
+    fn warn_without_work_offset(&self);
     /// Renders a compensation or simulation error with the CLI's flags: an
     /// out-of-range position first names a missing work offset, then the
     /// flags that fix it.
-    pub fn explain(&self, e: volcomp_core::Error) -> CliError {
-        match &e {
-            volcomp_core::Error::Compensation(CompensationError::Model { .. })
-                if self.no_work_offset =>
-            {
-                CliError::reworded(format!(
-                    "{NO_WORK_OFFSET}: {e}\n  help: give the program's work offsets with --setup FILE or --work-offset X,Y,Z first; --clamp holds the error at the table ends"
-                ), e)
-            }
-            volcomp_core::Error::Compensation(CompensationError::Model { .. }) => {
-                CliError::reworded(format!(
-                    "{e}\n  help: check --setup / --work-offset; --clamp holds the error at the table ends"
-                ), e)
-            }
-            _ => CliError::from(e),
+    fn refused(&self, e: volcomp_core::Error) -> CliError;
+    /// A walker over a program file ("-" is standard input).
+    fn walk(&self, path: &Path) -> Result<Walker<Box<dyn BufRead>>, CliError>;
+}
+
+impl MachineExt for Machine {
+    fn warn_without_work_offset(&self) {
+        if let Some(w) = self.work_offset_warning() {
+            eprintln!("volcomp: warning: {}", flags(&w));
         }
     }
 
-    /// A walker over a program file ("-" is standard input).
-    pub fn walk(&self, path: &Path) -> Result<Walker<Box<dyn BufRead>>, CliError> {
+    fn refused(&self, e: volcomp_core::Error) -> CliError {
+        match Machine::explain(self, &e) {
+            Some(text) => CliError::reworded(flags(&text), e),
+            None => CliError::from(e),
+        }
+    }
+
+    fn walk(&self, path: &Path) -> Result<Walker<Box<dyn BufRead>>, CliError> {
         let reader: Box<dyn BufRead> = if path.as_os_str() == "-" {
             Box::new(BufReader::with_capacity(1 << 16, io::stdin()))
         } else {
             let f = File::open(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
             Box::new(BufReader::with_capacity(1 << 16, f))
         };
-        Ok(self.walker(reader, &path.display().to_string()))
+        Ok(self.setup.walker(reader, &path.display().to_string()))
+    }
+}
+
+/// Parses `X,Y,Z` (three finite numbers) given to `flag`.
+pub fn parse_triple(text: &str, flag: &str) -> Result<Vec3, CliError> {
+    match volcomp_core::request::option::parse_triple(text) {
+        Some([x, y, z]) => Ok(Vec3::new(x, y, z)),
+        None => Err(CliError::Message(format!(
+            "{flag} expects three numbers in mm separated by commas, like 100,50,-200; got `{text}`"
+        ))),
     }
 }
 
@@ -166,7 +143,7 @@ impl MoveRow {
 /// writes, with a bounded queue of batches between them, so memory stays
 /// constant and both cores work.
 fn moves(a: MovesArgs) -> Result<(), CliError> {
-    let machine = Machine::from_args(&a.machine)?;
+    let machine = machine(&a.machine)?;
     let mut walker = machine.walk(&a.program)?;
     let json = a.format == MovesFormat::Json;
     let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<MoveRow>>(4);

@@ -5,6 +5,7 @@
 mod args;
 mod commands;
 mod flags;
+mod options;
 mod output;
 mod plot;
 mod progress;
@@ -52,7 +53,15 @@ fn main() -> ExitCode {
     if let Err(e) = volcomp_core::io::output::install_cleanup() {
         eprintln!("volcomp: warning: cannot watch for signals ({e}); an interrupted run may leave a .volcomp-*.tmp file");
     }
-    let cli = args::Cli::parse();
+    let argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let cli = match args::Cli::try_parse_from(&argv) {
+        Ok(cli) => cli,
+        Err(e) => {
+            let words: Vec<String> = argv.iter().map(|a| a.to_string_lossy().into()).collect();
+            let cmd = <args::Cli as clap::CommandFactory>::command();
+            options::suggest_flag(e, &cmd, &words).exit()
+        }
+    };
     progress::set_quiet(cli.quiet);
     match commands::run(cli) {
         Ok(()) => ExitCode::from(output::EXIT_OK),

@@ -235,6 +235,14 @@ impl Staged {
         Self::default()
     }
 
+    /// Writes `bytes` as one output.
+    pub fn write_bytes(&mut self, target: &Path, bytes: &[u8]) -> Result<(), CliError> {
+        self.write(target, |w| {
+            w.write_all(bytes)
+                .map_err(|e| CliError::Io(target.to_path_buf(), e))
+        })
+    }
+
     /// Writes one output (`-` is standard output) into its temporary.
     pub fn write(
         &mut self,

@@ -427,7 +427,7 @@ pub fn write_charts_or_report(
         facts: vec![
             ("command".into(), crate::commands::command_line()),
             ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
-            ("date (UTC)".into(), crate::commands::date_utc()),
+            ("date (UTC)".into(), volcomp_core::io::provenance::now_utc()),
         ],
         inputs: files,
         sections: sections(&groups),

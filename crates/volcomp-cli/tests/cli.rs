@@ -310,26 +310,45 @@ fn moves_json_is_valid_and_lists_every_motion() {
 #[test]
 fn demo_runs_and_meets_the_issue_targets() {
     let dir = tempdir("demo");
-    let o = volcomp(&["demo", "--out-dir", "d"], &dir);
+    let o = volcomp(
+        &["demo", "--out-dir", "d", "--markdown", "d/table.md"],
+        &dir,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
-    // Every contour row's exact column improves by at least 95 %.
+    // Every contour row's exact column (the fourth method) reduces the
+    // error by at least 95 %: its change is −95 % or less.
     let mut rows = 0;
-    for line in text
-        .lines()
-        .filter(|l| l.trim_start().starts_with("contour"))
-    {
-        let last = line.rsplit('(').next().unwrap();
-        let pct: f64 = last
-            .trim_end_matches("%)")
-            .trim_start_matches('+')
-            .parse()
-            .unwrap();
-        assert!(pct >= 95.0, "{line}");
+    for line in text.lines().filter(|l| l.starts_with("  contour")) {
+        let changes: Vec<f64> = line
+            .split_whitespace()
+            .filter_map(|t| t.strip_suffix('%'))
+            .map(|t| t.parse().unwrap())
+            .collect();
+        assert_eq!(changes.len(), 5, "{line}");
+        assert!(changes[3] <= -95.0, "{line}");
         rows += 1;
     }
     assert_eq!(rows, 6, "{text}");
+    // A terminal of 100 columns shows the table whole.
+    let table_rows = text.lines().filter(|l| {
+        ["  point", "  contour"].iter().any(|p| l.starts_with(p))
+            || l.trim_start().starts_with("before")
+    });
+    assert!(
+        table_rows.clone().count() == 13 && table_rows.clone().all(|l| l.chars().count() <= 100),
+        "{text}"
+    );
     assert!(dir.join("d/circle_d20_20seg.exact.ngc").exists());
+    // BENCHMARKS.md shows the demo's table as the demo writes it.
+    let table = std::fs::read_to_string(dir.join("d/table.md")).unwrap();
+    let benchmarks =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../BENCHMARKS.md"))
+            .unwrap();
+    assert!(
+        benchmarks.contains(&table),
+        "BENCHMARKS.md's demo table is stale: paste `volcomp demo --markdown table.md`'s table:\n{table}"
+    );
 }
 
 #[test]
@@ -370,31 +389,21 @@ fn every_demo_figure_is_what_simulate_reports() {
         text.contains("volcomp simulate d/<program>.<method>.ngc --reference d/<program>.ngc --map d/example_map.csv --work-offset 250,200,150"),
         "{text}"
     );
-    let cells = |prefix: &str| -> Vec<String> {
-        let line = text
-            .lines()
-            .find(|l| l.trim_start().starts_with(prefix))
-            .unwrap_or_else(|| panic!("{prefix}: {text}"));
-        let after = &line[line.find(" point").map_or(0, |i| i + 6)..];
-        let after = after.trim_start().trim_start_matches("contour");
-        after
-            .split_whitespace()
-            .filter(|t| !t.starts_with('('))
-            .map(str::to_string)
-            .collect()
-    };
-    let point = cells("circle D20, 20 segments point");
+    // The title line, then a point and a contour row: before, then each
+    // method's value and change.
     let lines: Vec<&str> = text.lines().collect();
     let at = lines
         .iter()
-        .position(|l| l.starts_with("circle D20, 20 segments point"))
-        .unwrap();
-    let contour: Vec<String> = lines[at + 1]
-        .split_whitespace()
-        .skip(1)
-        .filter(|t| !t.starts_with('('))
-        .map(str::to_string)
-        .collect();
+        .position(|l| *l == "circle D20, 20 segments")
+        .unwrap_or_else(|| panic!("{text}"));
+    let cells = |line: &str| -> Vec<String> {
+        line.split_whitespace()
+            .skip(1)
+            .filter(|t| !t.ends_with('%'))
+            .map(str::to_string)
+            .collect()
+    };
+    let (point, contour) = (cells(lines[at + 1]), cells(lines[at + 2]));
     assert_eq!(point.len(), 6, "{point:?}");
     assert_eq!(contour.len(), 6, "{contour:?}");
     let programs = [
@@ -478,4 +487,34 @@ fn assumptions_are_warned_about_on_stderr_with_file_and_line() {
     assert!(msg.contains("p.ngc:3:1: warning: G28"), "{msg}");
     // Said once each.
     assert_eq!(msg.matches("warning:").count(), 2, "{msg}");
+}
+
+#[test]
+fn completions_and_the_man_page_come_from_the_same_flags() {
+    let d = common::tempdir("completions");
+    for shell in ["bash", "zsh", "fish", "elvish", "powershell"] {
+        let o = common::volcomp(&["completions", shell], &d);
+        assert!(o.status.success(), "{shell}: {}", common::stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout);
+        // A flag the library's option table gives compensate.
+        assert!(text.contains("max-correction"), "{shell}");
+    }
+    let o = common::volcomp(&["man"], &d);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let page = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        page.starts_with(".ie") || page.contains(".TH volcomp"),
+        "{page}"
+    );
+    assert!(page.contains("compensate"));
+    // A mistyped flag gets the closest one, swapped letters too.
+    let o = common::volcomp(&["compensate", "p.ngc", "--mpa", "m.csv", "-o", "x"], &d);
+    assert!(
+        common::stderr(&o).contains("a similar argument exists: '--map'"),
+        "{}",
+        common::stderr(&o)
+    );
+    // -q is --quiet.
+    let o = common::volcomp(&["-q", "completions", "bash"], &d);
+    assert!(o.status.success());
 }

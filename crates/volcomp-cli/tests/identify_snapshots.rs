@@ -116,7 +116,8 @@ fn thermal_fit_and_predict_output() {
         &d,
     ));
     insta::assert_snapshot!("thermal_fit", fit);
-    let predict = stdout(&volcomp(
+    // What was written is said on standard error (quiet under --quiet).
+    let predict = volcomp(
         &[
             "thermal",
             "predict",
@@ -130,7 +131,8 @@ fn thermal_fit_and_predict_output() {
             "ex/predicted.toml",
         ],
         &d,
-    ));
+    );
+    let predict = stderr(&predict);
     insta::assert_snapshot!("thermal_predict", predict);
     // Outside the axis ranges: the library speaks of the axis ranges, the
     // CLI of its flag.

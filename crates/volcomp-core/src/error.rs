@@ -47,8 +47,10 @@ pub fn fmt_mm(v: f64) -> String {
 }
 
 /// When `x_mm` lies far outside `[lo, hi]` (more than five spans away) but
-/// inside it after a unit factor, the unit that factor suggests for the
-/// map's positions.
+/// inside it after a unit factor, the unit that factor suggests. Where
+/// several factors bring it inside, the one that brings it nearest the
+/// middle of the range is the likelier mistake. A factor of 25.4 is as
+/// likely the set-up's (offsets in mm under `units = "inch"`) as the map's.
 fn other_unit(x_mm: f64, lo: f64, hi: f64) -> Option<&'static str> {
     let span = (hi - lo).abs();
     let distance = (lo - x_mm).max(x_mm - hi);
@@ -57,16 +59,36 @@ fn other_unit(x_mm: f64, lo: f64, hi: f64) -> Option<&'static str> {
     }
     let margin = 0.05 * span;
     let inside = |v: f64| v >= lo - margin && v <= hi + margin;
-    if inside(x_mm * 1e3) {
-        Some("µm (the map's numbers are 1000 times the program's)")
-    } else if inside(x_mm * 1e-3) {
-        Some("metres (the map's numbers are 1/1000 of the program's)")
-    } else if inside(x_mm / 25.4) {
-        Some("inches (the map's numbers are 1/25.4 of the program's)")
-    } else if inside(x_mm * 25.4) {
-        Some("mm while the program is in inches")
-    } else {
-        None
+    let middle = 0.5 * (lo + hi);
+    [
+        (1e3, "µm (the map's numbers are 1000 times the program's)"),
+        (1e-3, "metres (the map's numbers are 1/1000 of the program's)"),
+        (1.0 / 25.4, "inches (the map's numbers are 1/25.4 of the program's), or the set-up's offsets are in mm under `units = \"inch\"`"),
+        (25.4, "mm while the program is in inches"),
+    ]
+    .into_iter()
+    .filter(|(factor, _)| inside(x_mm * factor))
+    .min_by(|(a, _), (b, _)| {
+        let d = |f: f64| (x_mm * f - middle).abs();
+        d(*a).total_cmp(&d(*b))
+    })
+    .map(|(_, unit)| unit)
+}
+
+#[cfg(test)]
+mod unit_hint_tests {
+    use super::other_unit;
+
+    #[test]
+    fn a_factor_of_25_4_is_not_taken_for_metres() {
+        // 300 mm read as inches (a set-up in mm under units = "inch"):
+        // 7620 mm; 7.62 would be inside 0 … 600 too, but 300 is nearer its
+        // middle.
+        let hint = other_unit(300.0 * 25.4, 0.0, 600.0).unwrap();
+        assert!(hint.starts_with("inches"), "{hint}");
+        assert!(hint.contains("units = \"inch\""), "{hint}");
+        assert!(other_unit(250.0, 0.0, 0.5).unwrap().starts_with("metres"));
+        assert_eq!(other_unit(250.0, 0.0, 200.0), None);
     }
 }
 
@@ -341,6 +363,10 @@ pub enum Error {
     /// An output could not be written.
     #[error("{0}")]
     Output(#[from] crate::io::output::OutputError),
+    /// An option's value was refused (named as the library names it; a
+    /// front end spells it its own way with [`crate::request::OptionError::render`]).
+    #[error("{0}")]
+    Option(#[from] crate::request::OptionError),
     /// Reading or writing `path` failed.
     #[error("{}: {source}", path.display())]
     Io {
@@ -351,7 +377,7 @@ pub enum Error {
     },
     /// The program was compensated by volcomp already: compensating it again
     /// would apply every correction twice.
-    #[error("{file}:{line}: this program was compensated by volcomp already ({evidence} is here); compensating it again would apply every correction twice: compensate the original program, or allow recompensation if that is really meant")]
+    #[error("{file}:{line}: this program was compensated by volcomp already ({evidence} is here); compensating it again would apply every correction twice: compensate the original program, or allow recompensation ({{allow_recompensate}}) if that is really meant")]
     AlreadyCompensated {
         /// Program name.
         file: String,
@@ -519,7 +545,8 @@ impl Error {
             | Error::Mirror(_)
             | Error::BSpline(_)
             | Error::Topology(_)
-            | Error::OutputPlan(_) => ErrorKind::BadInput,
+            | Error::OutputPlan(_)
+            | Error::Option(_) => ErrorKind::BadInput,
         }
     }
 }
@@ -547,22 +574,21 @@ impl CompensationError {
 }
 
 /// Help texts of located compensation and simulation errors
-/// ([`CompensationError::AtLine`]) that name an option. They speak of the
-/// options of [`crate::compensate::CompensateOptions`] and of the builders;
-/// a front end that spells options its own way (a command line's flags)
-/// recognises these texts and says them in its words.
+/// ([`CompensationError::AtLine`]) that name an option. They name options
+/// as `{name}` (the requests' option names, `crate::request`); a front end
+/// writes each its own way (`--no-split`, `no_split=True`).
 pub mod help {
     /// Splitting a block under inverse-time feed (G93).
     pub const SPLIT_UNDER_INVERSE_TIME: &str =
-        "turn segmentation off for straight moves, or post the program in G94 (units per minute)";
+        "turn segmentation off ({no_split}) for straight moves, or post the program in G94 (units per minute)";
     /// A block would give more points than the limit.
-    pub const TOO_MANY_POINTS: &str = "split the move in the program, or choose a coarser segmentation (a longer segment length, fewer segments, a larger chord tolerance or a longer minimum segment length)";
+    pub const TOO_MANY_POINTS: &str = "split the move in the program, or choose a coarser segmentation: a longer {segment_length_mm}, fewer {segments}, a larger {chord_tolerance_mm} or a longer {min_segment_length_mm}";
     /// A correction above the largest accepted.
-    pub const CORRECTION_LIMIT: &str = "check that the map is in µm (not mm) and belongs to this machine; raise the largest accepted correction only if the machine really is this far off";
+    pub const CORRECTION_LIMIT: &str = "check that the map is in µm (not mm) and belongs to this machine; raise the largest accepted correction ({max_correction_mm}) only if the machine really is this far off";
     /// A point whose residual is above the largest accepted.
-    pub const RESIDUAL_LIMIT: &str = "with ILC raise the iteration limit or the gain; check that the map is smooth and in µm; the largest accepted residual is an option";
+    pub const RESIDUAL_LIMIT: &str = "with ILC raise the iteration limit ({max_iterations}) or the gain ({gain}); check that the map is smooth and in µm; the largest accepted residual is {max_residual_um}";
     /// A simulated line that does not pair with the reference.
-    pub const REFERENCE_PAIRING: &str = "give as the reference the original program this one was compensated from by volcomp (its `(volcomp Ln)` comments pair the two; a program written without trace comments cannot be paired once lines were split or take-ups inserted)";
+    pub const REFERENCE_PAIRING: &str = "give as the reference ({reference}) the original program this one was compensated from by volcomp (its `(volcomp Ln)` comments pair the two; a program written without trace comments ({trace}) cannot be paired once lines were split or take-ups inserted)";
     /// The reference moves on after the simulated program ends.
-    pub const REFERENCE_LEFT: &str = "give as the reference the original program this one was compensated from, and simulate the whole compensated program";
+    pub const REFERENCE_LEFT: &str = "give as the reference ({reference}) the original program this one was compensated from, and simulate the whole compensated program";
 }

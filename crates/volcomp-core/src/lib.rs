@@ -90,6 +90,7 @@ pub mod model;
 pub mod prelude;
 pub mod progress;
 pub mod report;
+pub mod request;
 pub mod rng;
 pub mod simulate;
 pub mod surface;

@@ -96,7 +96,7 @@ pub struct Walker<R> {
     /// The line the last event came from.
     pub(crate) current: Pos,
     /// Where lines after the program end are copied from (main program).
-    after_end_at: Option<usize>,
+    pub(crate) after_end_at: Option<usize>,
 }
 
 impl<R: BufRead> Walker<R> {
@@ -202,6 +202,22 @@ impl<R: BufRead> Walker<R> {
             if self.interp.finished() {
                 return self.next_after_end();
             }
+            // gcode lane: lines LinuxCNC generates in place of a return
+            // (an M73 restore), run as a rendered line of the return.
+            if let Some(text) = self.flow.next_injected() {
+                let line = self.current.line as u64 + 1;
+                self.buf.clear();
+                self.buf.extend_from_slice(text.as_bytes());
+                self.rendered = true;
+                let n = lexer::content_len(&self.buf);
+                if let Err(e) = lexer::lex_block(&self.buf[..n], &mut self.lexed) {
+                    return Err(self.locate_rendered(e.at_line(line)));
+                }
+                if let Err(e) = self.interp.execute(line, &self.lexed, &mut self.motions) {
+                    return Err(self.locate_rendered(e));
+                }
+                return Ok(Some(self.event(self.current, LineKind::Block, false)));
+            }
             let pos = self.flow.pos;
             if !self.fetch(pos)? {
                 self.end_of_source(pos)?;
@@ -266,7 +282,10 @@ impl<R: BufRead> Walker<R> {
         match kind {
             LineKind::Percent => {
                 if pos.src == MAIN {
-                    let r = self.interp.percent_line(pos.line as u64 + 1);
+                    // gcode lane: the line's text decides `%` alone vs. stray.
+                    let r = self
+                        .interp
+                        .percent_line(pos.line as u64 + 1, &original[..content_len]);
                     r.map_err(|e| self.locate(e))?;
                 }
                 return Ok(Some(kind));
@@ -318,6 +337,8 @@ impl<R: BufRead> Walker<R> {
                                 &words,
                                 &settings,
                                 &scope,
+                                // gcode lane: computed values in the program's decimals.
+                                self.interp.computed_decimals(),
                                 &mut out,
                             )
                         };
@@ -352,13 +373,17 @@ impl<R: BufRead> Walker<R> {
                 return Err(self.locate_rendered(e));
             }
         }
+        let content = if self.rendered {
+            &self.buf[..lexer::content_len(&self.buf)]
+        } else {
+            let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
+            &original[..content_len]
+        };
+        // gcode lane: what LinuxCNC's reader refuses in a line the lexer reads.
+        if let Err(e) = crate::interp::check_line(pos.line as u64 + 1, content, &self.lexed) {
+            return Err(self.locate_rendered(e));
+        }
         if self.lexed.has_comment {
-            let content = if self.rendered {
-                &self.buf[..lexer::content_len(&self.buf)]
-            } else {
-                let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
-                &original[..content_len]
-            };
             if let Some(msg) = abort_comment(content, &self.lexed) {
                 return Err(self.locate_rendered(GcodeError::new(
                 ErrorClass::Invalid,

@@ -32,6 +32,11 @@ pub const WORK_SYSTEMS: [&str; 9] = [
 pub struct Setup {
     /// Work offsets G54 … G59.3 in machine coordinates.
     pub work_offsets_mm: [Vec3; 9],
+    /// Which of them the set-up gives (its `[work_offsets]` table, a var
+    /// file, `--work-offset`): a program that selects or reads one it does
+    /// not give is refused rather than run with 0 (G54 defaults to 0, the
+    /// program frame being the machine's when nothing is said).
+    pub work_offsets_given: [bool; 9],
     /// Tool lengths by tool number.
     pub tool_lengths_mm: BTreeMap<u32, f64>,
     /// Tool diameters by tool number (LinuxCNC's tool table `D`), for
@@ -140,6 +145,7 @@ impl Default for Setup {
     fn default() -> Self {
         Self {
             work_offsets_mm: [Vec3::ZERO; 9],
+            work_offsets_given: [true, false, false, false, false, false, false, false, false],
             tool_lengths_mm: BTreeMap::new(),
             tool_diameters_mm: BTreeMap::new(),
             g28_mm: Vec3::ZERO,
@@ -319,6 +325,7 @@ impl Setup {
                     )
                 })?;
             setup.work_offsets_mm[i] = at.vec(name.get_ref(), a, k)?;
+            setup.work_offsets_given[i] = true;
         }
         setup.tool_lengths_mm = tool_table(&at, &raw.tools, "length", k)?;
         setup.tool_diameters_mm = tool_table(&at, &raw.tool_diameters, "diameter", k)?;

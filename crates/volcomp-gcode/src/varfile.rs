@@ -110,7 +110,10 @@ pub fn apply(
     }
     setup.g92_mm = vec(5211);
     if let Some(cs) = params.get(&5220) {
-        if cs.fract() != 0.0 || !(1.0..=9.0).contains(cs) {
+        // LinuxCNC takes `(int)(#5220 + 0.0001)` (`Interp::init`,
+        // rs274ngc_pre.cc).
+        let index = (cs + 0.0001).trunc();
+        if !(1.0..=9.0).contains(&index) {
             return Err(error(
                 file,
                 0,
@@ -119,12 +122,15 @@ pub fn apply(
                 "fix #5220",
             ));
         }
-        setup.work_system = *cs as usize - 1;
+        setup.work_system = index as usize - 1;
     }
+    // LinuxCNC's var file gives every coordinate system (a missing one is
+    // 0, as `restore_parameters` reads it).
     for k in 0..9 {
         let base = 5221 + 20 * k;
         setup.work_offsets_mm[k] = vec(base);
         setup.rotations_deg[k] = get(base + 9);
+        setup.work_offsets_given[k] = true;
     }
     for (&n, &v) in params {
         if !(5161..=5428).contains(&n) {

@@ -13,11 +13,19 @@ use std::process::Command;
 use volcomp_gcode::{GcodeError, InterpOptions, Motion, Setup, Vec3, Walker, Warning};
 
 fn run_with(program: &str, setup: Setup) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
+    run_with_options(program, setup, InterpOptions::default())
+}
+
+fn run_with_options(
+    program: &str,
+    setup: Setup,
+    options: InterpOptions,
+) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
     let mut w = Walker::new(
         Cursor::new(program.as_bytes().to_vec()),
         Some("t.ngc".into()),
         setup,
-        InterpOptions::default(),
+        options,
     );
     let mut motions = Vec::new();
     loop {
@@ -65,12 +73,19 @@ fn rs274_error(program: &str) -> Option<Option<String>> {
         String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     // rs274 prints canonical calls (numbered lines), "executing", and on a
     // refusal the message followed by the offending block.
+    // A canonical call is `<number> N<digits or dots> CALL(…)`; o-word
+    // errors start with the line number too (`5: duplicate O-word …`).
+    let canonical = |l: &str| {
+        l.split_once(' ').is_some_and(|(n, rest)| {
+            n.bytes().all(|b| b.is_ascii_digit()) && rest.trim_start().starts_with('N')
+        })
+    };
     let error = text
         .lines()
         .map(str::trim)
         .find(|l| {
             !l.is_empty()
-                && !l.starts_with(|c: char| c.is_ascii_digit())
+                && !canonical(l)
                 && *l != "executing"
                 && !program.lines().any(|p| p.trim() == *l)
         })
@@ -249,6 +264,7 @@ fn polar_words_move_as_in_linuxcnc() {
     // About the origin of the current coordinate system (here G55 = 10, 20).
     let mut setup = Setup::default();
     setup.work_offsets_mm[1] = Vec3::new(10.0, 20.0, 0.0);
+    setup.work_offsets_given[1] = true;
     let m = run_with("G55 G0 @2 ^90\n", setup).0.unwrap();
     assert!(close(m[0].end, [10.0, 22.0, 0.0]));
     // In inch, the radius is in inch.
@@ -365,9 +381,91 @@ fn negative_spindle_speed_and_control_characters_are_refused() {
 }
 
 #[test]
-fn a_byte_order_mark_is_skipped() {
-    let m = run("\u{feff}G21\nG0 X1\n").unwrap();
+fn a_byte_order_mark_is_refused_as_linuxcnc_refuses_it() {
+    refused(
+        "\u{feff}G21\nG0 X1\n",
+        1,
+        1,
+        "byte-order mark",
+        "Bad character '\\357' used",
+    );
+}
+
+#[test]
+fn what_linuxcncs_reader_refuses_is_refused() {
+    // fgets reads the NUL; the C string ends there, the comment is open.
+    refused(
+        "G21 (a\0b)\nG0 X1\n",
+        1,
+        7,
+        "NUL byte in a comment",
+        "Unclosed comment found",
+    );
+    // An N word is read only at the start of a block (`read_items`).
+    refused(
+        "G21\nG0 N5 X1\n",
+        2,
+        4,
+        "does not start the line",
+        "Bad character 'n' used",
+    );
+    refused(
+        "(c) N5 G21\n",
+        1,
+        5,
+        "does not start the line",
+        "Bad character 'n' used",
+    );
+    accepted_by_both("N5 G21\n/N6 G0 X1\n");
+    refused(
+        "G21\nN-1 G0 X1\n",
+        2,
+        1,
+        "negative line number",
+        "Bad format unsigned integer",
+    );
+    // P-1 is LinuxCNC's "no P"; any other negative dwell passes.
+    refused(
+        "G21\nG4 P-1\n",
+        2,
+        4,
+        "G4 P-1",
+        "Dwell time missing with g4",
+    );
+    accepted_by_both("G21\nG4 P-2\n");
+    // Q-1 likewise is "no Q": not refused where no code uses Q.
+    accepted_by_both("G21\nG0 X1 Q-1\n");
+}
+
+#[test]
+fn whole_number_words_are_read_as_linuxcnc_reads_them() {
+    // `read_integer_value`: within 0.0001 of a whole number.
+    accepted_by_both("G21\nT1.00001 M6\nM3.00005 S100\n");
+    refused(
+        "G21\nT1.5 M6\n",
+        2,
+        1,
+        "not a whole number",
+        "Non integer value for integer",
+    );
+    refused(
+        "G21\nG0 X1\nG81 X1 R1 Z0 F10 L2.5\n",
+        3,
+        18,
+        "not a whole number",
+        "Non integer value for integer",
+    );
+    refused("G21\nT-1\n", 2, 1, "negative", "Negative tool id");
+    // `read_g`: ten times the value within 0.001 of a whole number.
+    let m = accepted_by_both("G21\nG1.0001 X1 F100\n");
     assert!(close(m[0].end, [1.0, 0.0, 0.0]));
+    refused(
+        "G21\nG1.002 X1 F100\n",
+        2,
+        1,
+        "not a G code",
+        "G-code out of range",
+    );
 }
 
 #[test]
@@ -499,4 +597,223 @@ fn spindle_synchronised_moves_are_refused_where_linuxcnc_refuses_them() {
     // A G33.1 is in and back out: the tool ends where it started.
     let m = accepted_by_both("G21 G0 X1 Y2 Z3\nS100 M3\nG33.1 Z-5 K1\n");
     assert!(close(m[1].end, [1.0, 2.0, -5.0]) && close(m[2].end, [1.0, 2.0, 3.0]));
+}
+
+#[test]
+fn reals_become_integers_as_linuxcnc_rounds_them() {
+    // Repeat counts: `round_to_int`, half to even (2.5 → 2, 0.5 → 0, 3.5 → 4).
+    for (count, passes) in [("5/2", 2), ("0.5", 0), ("3.5", 4), ("2.4999", 2)] {
+        let p = format!("G21 G91\no1 repeat [{count}]\nG0 X1\no1 endrepeat\n");
+        assert_eq!(accepted_by_both(&p).len(), passes, "repeat [{count}]");
+    }
+    // Arc turns: `round_to_int`, within 0.001.
+    let m = accepted_by_both("G21 G0 X1\nG2 X1 I-1 P1.0005 F100\n");
+    assert_eq!(m.len(), 2);
+    refused(
+        "G21 G0 X1\nG2 X1 I-1 P1.01 F100\n",
+        2,
+        11,
+        "not a whole number of turns",
+        "P value not an integer with M19 G2 or G3",
+    );
+    // G10 L2 P: `(int)(p + 0.0001)` after a check that lets P1.7 through:
+    // LinuxCNC sets G54 (P1).
+    let m = accepted_by_both("G21\nG10 L2 P1.7 X5 Y0 Z0\nG0 X0\n");
+    assert!(close(m[0].end, [5.0, 0.0, 0.0]), "{:?}", m[0].end);
+    refused(
+        "G21\nG10 L2 P1.0003 X5 Y0 Z0\n",
+        2,
+        8,
+        "not a whole number",
+        "P value not an integer with G10",
+    );
+}
+
+#[test]
+fn a_work_offset_the_setup_does_not_give_is_refused_not_taken_as_zero() {
+    let e = run("G21\nG55 G0 X1\n").unwrap_err();
+    assert_eq!((e.line, e.column), (2, 1), "{e}");
+    assert!(
+        e.message.contains("G55") && e.help.contains("[work_offsets]"),
+        "{e}"
+    );
+    let e = run("G21\nG0 X#5241\n").unwrap_err();
+    assert!(e.message.contains("#5241 belongs to the G55 offset"), "{e}");
+    let e = run("G21\nG0 X#5390\n").unwrap_err();
+    assert!(e.message.contains("G59.3"), "{e}");
+    // G54 (the program frame is the machine's when nothing is said), a
+    // set-up table entry, a G10 L2 with X, Y and Z in the program: known.
+    run("G21\nG54 G0 X#5221\n").unwrap();
+    let setup = Setup::from_toml("units = \"mm\"\n[work_offsets]\nG56 = [1, 2, 3]\n").unwrap();
+    let (m, _) = run_with("G21\nG56 G0 X#5261 Y0 Z0\n", setup);
+    assert!(close(m.unwrap()[0].end, [2.0, 2.0, 3.0]));
+    let m = run("G21\nG10 L2 P2 X1 Y2 Z3\nG55 G0 X0 Y0 Z0\n").unwrap();
+    assert!(close(m[0].end, [1.0, 2.0, 3.0]));
+    let e = run("G21\nG10 L2 P2 X1\n").unwrap_err();
+    assert!(e.message.contains("sets only some axes of G55"), "{e}");
+    // A var file gives every system (a missing line is 0, as in LinuxCNC).
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("m.var"), "5241 7\n5242 8\n5243 9\n").unwrap();
+    let toml = dir.path().join("s.toml");
+    std::fs::write(&toml, "units = \"mm\"\nvar_file = \"m.var\"\n").unwrap();
+    let setup = Setup::from_toml_in(
+        &std::fs::read_to_string(&toml).unwrap(),
+        toml.to_str().unwrap(),
+    )
+    .unwrap();
+    let (m, _) = run_with("G21\nG55 G0 X0 Y0 Z0\nG59.3 G0 X1 Y0 Z0\n", setup);
+    let m = m.unwrap();
+    assert!(close(m[0].end, [7.0, 8.0, 9.0]) && close(m[1].end, [1.0, 0.0, 0.0]));
+}
+
+#[test]
+fn tool_parameters_are_the_spindle_tools_table_entry() {
+    let mut setup = Setup {
+        machine_units: volcomp_gcode::Units::Mm,
+        ..Setup::default()
+    };
+    setup.tool_lengths_mm.insert(3, 40.0);
+    setup.tool_diameters_mm.insert(3, 6.0);
+    setup.tool_lengths_mm.insert(5, 50.0);
+    // #5400 the tool, #5403 its table length (not the G43 offset, which is
+    // off), #5410 its diameter; M61 does not refresh them (LinuxCNC's
+    // `set_tool_parameters` runs before the tool reaches the table).
+    let (m, _) = run_with(
+        "G21\nG0 X#5400 Y#5403 Z#5410\nT3 M6\nG0 X#5400 Y#5403 Z#5410\nM61 Q5\nG0 X#5400 Y#5403\nG10 L1 P3 R4\nT3 M6\nG0 Z#5410\n",
+        setup,
+    );
+    let m = m.unwrap();
+    assert!(close(m[0].end, [0.0, 0.0, 0.0]));
+    assert!(close(m[1].end, [3.0, 40.0, 6.0]));
+    assert!(close(m[2].end, [3.0, 40.0, 6.0]));
+    // G10 L1 R is the radius: the diameter becomes 8.
+    assert!(close(m[3].end, [3.0, 40.0, 8.0]));
+    // A tool whose length the set-up does not give is not read as 0.
+    let e = run("G21\nT7 M6\nG0 Z#5403\n").unwrap_err();
+    assert!(e.message.contains("length of tool 7"), "{e}");
+}
+
+#[test]
+fn o_word_labels_given_as_expressions_and_named_programs_run() {
+    // `read_o` reads a number label with `read_integer_value`: any value.
+    let m = accepted_by_both(
+        "G21\n#2 = 10\nO[#2 * 10] call\nG0 X2\nM30\nO100 sub\nG0 X1\nO100 endsub\n",
+    );
+    assert_eq!(m.len(), 2);
+    assert!(close(m[0].end, [1.0, 0.0, 0.0]) && close(m[1].end, [2.0, 0.0, 0.0]));
+    // A bare `O<name>` starts a Fanuc-style program: execution runs on.
+    let m = accepted_by_both("G21\nO<MyProgram> (the body)\nG0 X3\n");
+    assert!(close(m[0].end, [3.0, 0.0, 0.0]));
+    refused(
+        "G21\n#2 = 1.5\nO#2 call\n",
+        3,
+        2,
+        "not a whole number",
+        "Non integer value for integer",
+    );
+}
+
+/// rs274's verdict on `program` as it is (no M2 added) and its motion count.
+fn rs274_as_is(program: &str) -> Option<(Option<String>, usize)> {
+    let rs274 = ["/usr/bin/rs274", "/usr/local/bin/rs274"]
+        .into_iter()
+        .find(|p| Path::new(p).exists())?;
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("t.ngc");
+    std::fs::write(&file, program).unwrap();
+    let out = Command::new(rs274)
+        .arg("-g")
+        .arg(&file)
+        .arg(dir.path().join("out.txt"))
+        .env("HOME", dir.path())
+        .current_dir(dir.path())
+        .stdin(std::process::Stdio::null())
+        .output()
+        .unwrap();
+    let canon = std::fs::read_to_string(dir.path().join("out.txt")).unwrap_or_default();
+    let motions = canon
+        .lines()
+        .filter(|l| l.contains("STRAIGHT_") || l.contains("ARC_FEED"))
+        .count();
+    let text = String::from_utf8_lossy(&out.stderr).into_owned();
+    let msg: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && *l != "executing")
+        .collect();
+    Some(((!out.status.success()).then(|| msg.join(" | ")), motions))
+}
+
+fn run_requiring_end(program: &str) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
+    let options = InterpOptions {
+        require_program_end: true,
+        ..InterpOptions::default()
+    };
+    run_with_options(program, Setup::default(), options)
+}
+
+#[test]
+fn a_program_linuxcnc_runs_to_its_last_line_runs_with_a_warning() {
+    // No M2 (grbl posts), a percent tape without its closing %, a stray %
+    // as the last line: LinuxCNC makes every move, then complains.
+    for (program, moves, linuxcnc) in [
+        (
+            "G21\nG0 X1\nG1 X2 F100\n",
+            2,
+            "File ended with no percent sign or program end",
+        ),
+        ("%\nG21\nG0 X1\n", 1, "File ended with no percent sign"),
+        ("G21\nG0 X1\n%\n\n(end)\n", 1, "Bad character '%' used"),
+    ] {
+        let (m, warnings) = run_requiring_end(program);
+        let m = m.unwrap_or_else(|e| panic!("{program:?}: {e}"));
+        assert_eq!(m.len(), moves, "{program:?}");
+        let w = warnings.last().expect("a warning");
+        assert!(w.message.contains(linuxcnc), "{program:?}: {}", w.message);
+        if let Some((verdict, n)) = rs274_as_is(program) {
+            let msg = verdict.expect("rs274 complains");
+            assert!(msg.contains(linuxcnc), "{program:?}: rs274 says {msg}");
+            assert_eq!(n, moves, "{program:?}: rs274's moves");
+        }
+    }
+    // Without LinuxCNC's rule (grbl and kin; a library reading a fragment):
+    // no warning.
+    assert!(run("G21\nG0 X1\n").is_ok());
+    assert!(run_with("G21\nG0 X1\n", Setup::default()).1.is_empty());
+}
+
+#[test]
+fn what_linuxcnc_refuses_before_it_moves_at_the_tape_stays_refused() {
+    for (program, line, ours, linuxcnc) in [
+        (
+            "% hello\nG21\nG0 X1\nM2\n",
+            1,
+            "holds more than `%`",
+            "Bad character '%' used",
+        ),
+        (
+            "G21\nG0 X1\n%\nG0 X2\nM2\n",
+            4,
+            "line 3 is a `%` line",
+            "Bad character '%' used",
+        ),
+        (
+            "(c)\n%\nG21 G0 X1\n%\n",
+            3,
+            "line 2 is a `%` line",
+            "Bad character '%' used",
+        ),
+    ] {
+        let (r, _) = run_requiring_end(program);
+        let e = r.expect_err(program);
+        assert_eq!(e.line, line, "{program:?}: {e}");
+        assert!(
+            e.message.contains(ours) && e.message.contains(linuxcnc),
+            "{e}"
+        );
+        if let Some((verdict, _)) = rs274_as_is(program) {
+            let msg = verdict.expect("rs274 refuses");
+            assert!(msg.contains(linuxcnc), "{program:?}: rs274 says {msg}");
+        }
+    }
 }

@@ -134,6 +134,7 @@ fn refusals_have_linuxcncs_messages() {
     for block in ["G40 G55 G1 X20 Y-5", "G40 G43 H1 G1 X20 Y-5"] {
         let mut s = Setup::default();
         s.tool_lengths_mm.insert(1, 10.0);
+        s.work_offsets_given[1] = true;
         let program = format!("G21 F100\nG0 X0 Y-5\nG41.1 D2 G1 X0 Y0\nX10\n{block}\nM2\n");
         let r = run_with(&program, s);
         assert!(r.is_ok(), "{block}: {r:?}");

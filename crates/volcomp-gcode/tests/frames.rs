@@ -132,6 +132,7 @@ fn g10_l11_is_relative_to_g59_3_and_ignores_g92() {
     // G10 L11 P5 Z-3: length = (30 − (−100)) − (−3) = 133.
     let mut s = tools(&[(5, 1.0)]);
     s.work_offsets_mm[8] = volcomp_gcode::Vec3::new(0.0, 0.0, -100.0);
+    s.work_offsets_given[8] = true;
     let p = "G21\nG0 Z30\nG92 Z0\nG10 L11 P5 Z-3\nG92.1\nG43 H5\nG0 Z0\nM2\n";
     let m = run_with(p, s).unwrap();
     close(end(&m[1]), [0.0, 0.0, 133.0]);

@@ -320,7 +320,7 @@ fn refusals_that_linuxcnc_shares_are_refused_by_rs274_too() {
             "Two m codes used from same modal group",
         ),
         ("M72\n", "M72 without a state", "Cannot restore context"),
-        ("G999\n", "unknown G code", "G-code out of range"),
+        ("G999\n", "not a G code", "G-code out of range"),
     ];
     for (prog, ours, theirs) in cases {
         let e = run(prog).expect_err(prog);
@@ -342,8 +342,10 @@ fn m70_m72_restore_and_what_stays_refused() {
     let m = run("G21 G90 F100\nG0 X1\nM70\nG91 F50\nM72\nG1 X10\nM2\n").unwrap();
     assert_eq!(m.last().unwrap().end.x, 10.0);
     assert_eq!(m.last().unwrap().feed, 100.0);
+    // M73 at the top level stores the state (M72 restores it), as LinuxCNC.
+    let m = run("G21 G90 F100\nM73\nG91\nM72\nG0 X3\nM2\n").unwrap();
+    assert_eq!(m.last().unwrap().end.x, 3.0);
     for (prog, want) in [
-        ("M73\n", "M73"),
         ("M70\nG91\nM72 G0 X1\n", "own"),
         ("M70\nG43 H0\nG92 X1\nM72\n", "G92"),
     ] {

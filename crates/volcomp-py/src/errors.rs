@@ -104,7 +104,11 @@ pub fn io_error(path: &str, e: &std::io::Error) -> PyErr {
 
 /// The library's error as the exception of its kind, located.
 pub fn to_py(e: Error) -> PyErr {
-    let message = e.to_string();
+    // Options named `{name}` said as Python keywords.
+    let message = match &e {
+        Error::Option(o) => o.render(&crate::request::Keywords),
+        e => crate::request::keywords(&e.to_string()),
+    };
     let at = e
         .location()
         .map(|l| Located {

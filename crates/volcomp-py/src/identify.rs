@@ -4,6 +4,7 @@
 use crate::errors::{bad_input, IntoPy};
 use crate::inputs::{f64_rows, f64_vec, source};
 use crate::model::Model;
+use crate::request::{from_kwargs, library_error};
 use numpy::prelude::*;
 use numpy::PyArray1;
 use pyo3::prelude::*;
@@ -12,6 +13,7 @@ use volcomp_core::identify::iso230_2 as iso;
 use volcomp_core::identify::iso230_2::Iso230_2Report;
 use volcomp_core::identify::straightness;
 use volcomp_core::io::LoadedModel;
+use volcomp_core::request::StraightnessFitRequest;
 
 /// The report as `{"targets": {column: array}, "axis": {figure: float},
 /// "notes": [str]}`.
@@ -142,8 +144,8 @@ pub fn iso230_2<'py>(
 }
 
 /// ISO 230-2 figures from a test CSV (`target_mm,cycle,direction,
-/// deviation_um` or `actual_mm`, docs/kinematic.md): its text (str) or a
-/// file (pathlib.Path). Returns what `iso230_2` returns.
+/// deviation_um` or `actual_mm`, docs/kinematic.md): a path (str or pathlib.Path)
+/// or a file object. Returns what `iso230_2` returns.
 #[pyfunction]
 #[pyo3(signature = (runs, *, name = None))]
 pub fn iso230_2_csv<'py>(
@@ -158,14 +160,10 @@ pub fn iso230_2_csv<'py>(
     report_dict(py, &report)
 }
 
-/// One run of `straightness_fit`: a CSV (text or pathlib.Path) or a dict of
-/// arrays.
-fn straightness_run(
-    obj: &Bound<'_, PyAny>,
-    k: usize,
-    negate: bool,
-) -> PyResult<straightness::run::Run> {
-    let mut run = if let Ok(d) = obj.cast::<PyDict>() {
+/// One run of `straightness_fit`: a CSV (a path or a file object) or a
+/// dict of arrays.
+fn straightness_run(obj: &Bound<'_, PyAny>, k: usize) -> PyResult<straightness::run::Run> {
+    let run = if let Ok(d) = obj.cast::<PyDict>() {
         let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
             d.get_item(key)?.ok_or_else(|| {
                 bad_input(format!(
@@ -203,9 +201,6 @@ fn straightness_run(
             .map_err(|_| bad_input(format!("{}: not UTF-8 text", src.name)))?;
         straightness::run::Run::from_csv(&text, &src.name).py_err()?
     };
-    if negate {
-        run.negate();
-    }
     Ok(run)
 }
 
@@ -221,15 +216,12 @@ fn straightness_axis(text: &str) -> PyResult<straightness::Axis> {
 /// the geometric error told from vibration by comparing them
 /// (docs/straightness.md, [Straightness study]).
 ///
-/// `runs`: a list of runs, each a CSV (text, or a pathlib.Path; the layout
+/// `runs`: a list of runs, each a CSV (a path or a file object; the layout
 /// of docs/straightness.md) or a dict `{"positions_mm": (n,),
 /// "displacement_um": (n,), "feed_mm_per_min": float, "axis": "X"|"Y",
 /// "name": str}` (positions evenly spaced; the Z deviation actual −
-/// commanded in µm). `axis` names the axis of runs that do not say;
-/// `negate` flips the sign of every run. Options as `volcomp straightness
-/// fit`: `sigma_t`, `p_t`, `taper_fraction`, `normalisation` ("common" or
-/// "per-run"), `harmonics` (force m), `cutoff` ("cross-validation" or
-/// "thresholds").
+/// commanded in µm). The options are those of the CLI's `straightness
+/// fit` (help(volcomp.straightness_fit) lists them).
 ///
 /// Returns `(model, report)`: the model (a `Model` of kind
 /// "straightness": `model.deviation_um(q)[:, 2]` is its prediction e_z) and
@@ -237,54 +229,21 @@ fn straightness_axis(text: &str) -> PyResult<straightness::Axis> {
 /// `residual_rms_um`, `positions_mm`, `mean_profile_um`,
 /// `model_profile_um`, `feeds_mm_per_min`, `mean_power`, `sigma`, ...).
 #[pyfunction]
-#[pyo3(signature = (runs, *, axis = None, negate = false, sigma_t = 0.05, p_t = 0.01, taper_fraction = 0.1, normalisation = "common", harmonics = None, cutoff = "cross-validation"))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (runs, **options))]
 pub fn straightness_fit<'py>(
     py: Python<'py>,
     runs: Vec<Bound<'py, PyAny>>,
-    axis: Option<&str>,
-    negate: bool,
-    sigma_t: f64,
-    p_t: f64,
-    taper_fraction: f64,
-    normalisation: &str,
-    harmonics: Option<usize>,
-    cutoff: &str,
+    options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Model, Bound<'py, PyDict>)> {
-    use straightness::identify::{CutoffRule, FitOptions, Normalisation};
-    let options = FitOptions {
-        sigma_t,
-        p_t,
-        taper_fraction,
-        normalisation: match normalisation {
-            "common" => Normalisation::Common,
-            "per-run" => Normalisation::PerRun,
-            n => {
-                return Err(bad_input(format!(
-                    "normalisation must be \"common\" or \"per-run\"; got {n:?}"
-                )))
-            }
-        },
-        harmonics,
-        cutoff: match cutoff {
-            "cross-validation" => CutoffRule::CrossValidation,
-            "thresholds" => CutoffRule::Thresholds,
-            c => {
-                return Err(bad_input(format!(
-                    "cutoff must be \"cross-validation\" or \"thresholds\"; got {c:?}"
-                )))
-            }
-        },
-    };
-    let axis = axis.map(straightness_axis).transpose()?;
+    let request: StraightnessFitRequest = from_kwargs(options)?;
     let runs = runs
         .iter()
         .enumerate()
-        .map(|(k, r)| straightness_run(r, k, negate))
+        .map(|(k, r)| straightness_run(r, k))
         .collect::<PyResult<Vec<_>>>()?;
     let fit = py
-        .detach(|| straightness::identify::fit(&runs, axis, &options))
-        .py_err()?;
+        .detach(|| request.fit(runs).map_err(Box::new))
+        .map_err(|e| library_error(*e))?;
     let report = PyDict::new(py);
     for a in &fit.axes {
         let d = PyDict::new(py);

@@ -4,13 +4,12 @@
 //! One rule for every input that may be a file: a `str` (or `bytes`) is the
 //! content itself, an `os.PathLike` (`pathlib.Path`) names a file.
 
-use crate::errors::{bad_input, io_error, IntoPy};
+use crate::errors::{bad_input, io_error};
 use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyString};
 use std::path::PathBuf;
-use volcomp_core::MachineSetup;
-use volcomp_gcode::{InterpOptions, Vec3};
+use volcomp_core::request::{Input, Machine};
 
 /// A text input: its bytes, the name messages give it, and its path when it
 /// came from a file.
@@ -35,40 +34,45 @@ pub fn path_of(obj: &Bound<'_, PyAny>) -> PyResult<PathBuf> {
     Err(bad_input("a path must be text (str), not bytes"))
 }
 
-/// Reads a `str` / `bytes` content or an `os.PathLike` file; `what` names
-/// the argument in messages, `name` is the content's name when given as text.
+/// Reads an input file: a path (`str` or `os.PathLike`) or a file
+/// object's content (the one rule of the package: text only through a file
+/// object, `io.StringIO(text)`); `what` names the argument in messages,
+/// `name` overrides the name messages give the input.
 pub fn source(obj: &Bound<'_, PyAny>, what: &str, name: Option<&str>) -> PyResult<Source> {
-    if is_path_like(obj) {
-        let path = path_of(obj)?;
-        let shown = path.display().to_string();
-        let bytes = std::fs::read(&path).map_err(|e| io_error(&shown, &e))?;
-        return Ok(Source {
-            bytes,
-            name: name.map(str::to_string).unwrap_or(shown),
-            path: Some(path),
-        });
-    }
-    let name = name
-        .map(str::to_string)
-        .unwrap_or_else(|| format!("<{what}>"));
+    let (bytes, shown, path) = match crate::request::input(obj, what)? {
+        Input::File(path) => {
+            let shown = path.display().to_string();
+            let bytes = std::fs::read(&path).map_err(|e| io_error(&shown, &e))?;
+            (bytes, shown, Some(path))
+        }
+        Input::Content { name, bytes } => (bytes, name, None),
+    };
+    Ok(Source {
+        bytes,
+        name: name.map(str::to_string).unwrap_or(shown),
+        path,
+    })
+}
+
+/// A text argument (a `str` is the text itself, `bytes` its UTF-8 bytes),
+/// or a path (`os.PathLike`) or file object as [`source`] reads them.
+pub fn text_or_file(obj: &Bound<'_, PyAny>, what: &str, name: Option<&str>) -> PyResult<Source> {
+    let named = |default: String| name.map(str::to_string).unwrap_or(default);
     if let Ok(s) = obj.cast::<PyString>() {
         return Ok(Source {
             bytes: s.to_str()?.as_bytes().to_vec(),
-            name,
+            name: named(format!("<{what}>")),
             path: None,
         });
     }
     if let Ok(b) = obj.cast::<PyBytes>() {
         return Ok(Source {
             bytes: b.as_bytes().to_vec(),
-            name,
+            name: named(format!("<{what}>")),
             path: None,
         });
     }
-    Err(bad_input(format!(
-        "{what} must be its text (str or bytes) or a path (pathlib.Path); got {}",
-        obj.get_type().name()?
-    )))
+    source(obj, what, name)
 }
 
 /// `obj` as a C-contiguous float64 array of shape (N, `cols`); a 1-D array
@@ -123,83 +127,12 @@ pub fn f64_vec(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<f64>> {
     Ok(arr.as_array().to_vec())
 }
 
-/// Three finite numbers in mm.
-pub fn triple_mm(v: &[f64], what: &str) -> PyResult<Vec3> {
-    if v.len() != 3 || !v.iter().all(|x| x.is_finite()) {
-        return Err(bad_input(format!(
-            "{what} must be three finite numbers in mm (X, Y, Z); got {v:?}"
-        )));
-    }
-    Ok(Vec3::new(v[0], v[1], v[2]))
-}
-
-/// The machine a program runs on, as the CLI's `--setup`, `--work-offset`,
-/// `--absolute-arc-centers`, `--strict-k0` and `--allow-no-program-end`
-/// build it; the set-up file's name (for the compensated program's header).
-pub struct Machine {
-    pub setup: MachineSetup,
-    pub setup_file: Option<PathBuf>,
-    pub work_offset_given: bool,
-}
-
-/// Options shared by every function that reads a program.
-pub struct MachineArgs<'a, 'py> {
-    pub setup: Option<&'a Bound<'py, PyAny>>,
-    pub work_offset_mm: Option<Vec<f64>>,
-    pub absolute_arc_centers: bool,
-    pub accept_k0: bool,
-    pub allow_no_program_end: bool,
-    pub chord_tolerance_mm: f64,
-}
-
-pub fn machine(a: MachineArgs<'_, '_>) -> PyResult<Machine> {
-    if !(a.chord_tolerance_mm.is_finite() && a.chord_tolerance_mm > 0.0) {
-        return Err(bad_input(format!(
-            "chord_tolerance_mm must be a positive length in mm; got {}",
-            a.chord_tolerance_mm
-        )));
-    }
-    let (mut setup, setup_file) = match a.setup {
-        None => (MachineSetup::unset(), None),
-        Some(obj) if is_path_like(obj) => {
-            let path = path_of(obj)?;
-            (MachineSetup::from_setup_file(&path).py_err()?, Some(path))
-        }
-        Some(obj) => {
-            let text = source(obj, "setup", None)?;
-            let text = String::from_utf8(text.bytes)
-                .map_err(|_| bad_input("setup: the set-up text is not UTF-8"))?;
-            (
-                MachineSetup::from_setup_toml(&text, "<setup>").py_err()?,
-                None,
-            )
-        }
-    };
-    let work_offset_given = a.work_offset_mm.is_some();
-    if let Some(w) = &a.work_offset_mm {
-        setup = setup.with_work_offset(triple_mm(w, "work_offset_mm")?);
-    }
-    let setup = setup
-        .with_interp_options(InterpOptions {
-            accept_k0_on_xy_arcs: a.accept_k0,
-            absolute_arc_centers: a.absolute_arc_centers,
-            require_program_end: !a.allow_no_program_end,
-            ..InterpOptions::default()
-        })
-        .with_spline_tolerance(a.chord_tolerance_mm);
-    Ok(Machine {
-        setup,
-        setup_file,
-        work_offset_given,
-    })
-}
-
 /// Warns (`VolcompWarning`) that no work offset was given, as the CLI does.
 pub fn warn_without_work_offset(py: Python<'_>, m: &Machine) -> PyResult<()> {
-    if m.setup.no_work_offset {
-        warn(py, "no work offset was given (G54 = 0): program coordinates are taken as machine coordinates; give the offsets with setup= or work_offset_mm=")?;
+    match m.work_offset_warning() {
+        Some(w) => warn(py, &crate::request::keywords(&w)),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// Issues a `VolcompWarning`.

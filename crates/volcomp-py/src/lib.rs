@@ -15,6 +15,7 @@ mod inputs;
 mod mirror;
 mod model;
 mod program;
+mod request;
 mod thermal;
 
 /// The compiled part of the `volcomp` package.
@@ -35,5 +36,6 @@ fn _volcomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<thermal::ThermalModel>()?;
     m.add_function(wrap_pyfunction!(thermal::thermal_fit, m)?)?;
     m.add_function(wrap_pyfunction!(mirror::mirror, m)?)?;
+    m.add_function(wrap_pyfunction!(request::options, m)?)?;
     Ok(())
 }

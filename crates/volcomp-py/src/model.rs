@@ -3,7 +3,7 @@
 //! evaluation and its components as arrays.
 
 use crate::errors::{bad_input, bad_input_at, IntoPy, Located};
-use crate::inputs::{f64_rows, f64_vec, is_path_like, path_of, source};
+use crate::inputs::{f64_rows, f64_vec, is_path_like, path_of, text_or_file};
 use numpy::ndarray::Array2;
 use numpy::prelude::*;
 use numpy::{PyArray1, PyArray2};
@@ -232,7 +232,7 @@ impl Model {
     #[staticmethod]
     #[pyo3(signature = (text, *, name = "<map>", clamp = false))]
     fn from_csv(text: &Bound<'_, PyAny>, name: &str, clamp: bool) -> PyResult<Model> {
-        let src = source(text, "map", Some(name))?;
+        let src = text_or_file(text, "map", Some(name))?;
         let text = String::from_utf8(src.bytes).map_err(|e| {
             bad_input_at(
                 format!(
@@ -672,10 +672,14 @@ impl Model {
 
     fn __repr__(&self) -> String {
         let r = self.model().range_mm();
+        // As Python writes the values: a str in quotes, or None.
+        let path = match &self.path {
+            Some(p) => format!("{:?}", p.display().to_string()),
+            None => "None".into(),
+        };
         format!(
-            "Model(kind={:?}, path={:?}, range_mm=X {}…{}, Y {}…{}, Z {}…{})",
+            "Model(kind={:?}, path={path}, range_mm=X {}…{}, Y {}…{}, Z {}…{})",
             self.loaded.kind().name(),
-            self.path.as_ref().map(|p| p.display().to_string()),
             r[0][0],
             r[0][1],
             r[1][0],

@@ -1,42 +1,31 @@
 //! Programs: `compensate`, `simulate` and `moves`, with the options of the
-//! CLI's commands of the same names (docs/compensation.md, docs/design.md).
+//! library's requests (`volcomp_core::request`; the same as the CLI's
+//! commands of the same names, docs/compensation.md, docs/design.md).
 
-use crate::errors::{bad_input, to_py, IntoPy};
-use crate::inputs::{machine, source, warn, warn_without_work_offset, Machine, MachineArgs};
+use crate::errors::{bad_input, to_py};
+use crate::inputs::{warn, warn_without_work_offset};
 use crate::model::Model;
+use crate::request::{from_kwargs, input, keywords, library_error, Keywords};
 use numpy::ndarray::Array2;
 use numpy::prelude::*;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
-use volcomp_core::compensate::solve::Method;
-use volcomp_core::compensate::{
-    file_name, header_for_map, CompensateOptions, Compensator, DirectionPolicy, PointRecord,
-    Segmentation,
-};
-use volcomp_core::error::CompensationError;
-use volcomp_core::io::provenance::{iso8601_utc, sha256_hex, ProgramHeader};
-use volcomp_core::io::LoadedModel;
+use volcomp_core::compensate::PointRecord;
+use volcomp_core::io::provenance::now_utc;
 use volcomp_core::limits::LimitedWriter;
+use volcomp_core::request::{
+    CompensateRequest, Input, Machine, MachineRequest, ModelSource, SimulateRequest,
+};
 use volcomp_core::simulate::report::SegmentError;
-use volcomp_core::{Error, Simulation};
+use volcomp_core::Error;
 use volcomp_gcode::{MotionKind, Vec3, Warning};
 
-/// Default largest output of `compensate` (bytes): the CLI's default of
-/// `--max-output-size`, 256 MiB.
-const DEFAULT_MAX_OUTPUT_BYTES: u64 = 256 << 20;
-
-/// The library's error, with the note the CLI adds when a point falls
-/// outside the model and no work offset was given (docs/errors.md).
+/// The library's error; a point outside the model gets the help that
+/// names the set-up and the work offset (docs/errors.md).
 fn explain(e: Error, m: &Machine) -> PyErr {
-    let note = m.setup.no_work_offset
-        && matches!(&e, Error::Compensation(CompensationError::Model { .. }));
-    let text = note.then(|| {
-        format!(
-            "no work offset was given (G54 = 0): {e}\n  help: give the program's work offsets with setup= or work_offset_mm= first; Model.load(..., clamp=True) holds the error at the table ends"
-        )
-    });
-    let err = to_py(e);
+    let text = m.explain(&e).map(|t| keywords(&t));
+    let err = library_error(e);
     if let Some(text) = text {
         Python::attach(|py| {
             let v = err.value(py);
@@ -67,19 +56,15 @@ fn rows3(py: Python<'_>, v: Vec<f64>) -> PyResult<Bound<'_, PyArray2<f64>>> {
         .into_pyarray(py))
 }
 
-/// Now as ISO 8601 UTC, or `SOURCE_DATE_EPOCH` when set (the
-/// reproducible-builds convention, as the CLI does).
-fn date_now_utc() -> String {
-    let secs = std::env::var("SOURCE_DATE_EPOCH")
-        .ok()
-        .and_then(|s| s.trim().parse::<i64>().ok())
-        .unwrap_or_else(|| {
-            std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map(|d| d.as_secs() as i64)
-                .unwrap_or(0)
-        });
-    iso8601_utc(secs)
+/// A program: its bytes and the name messages give it (`name` overrides).
+fn program_bytes(obj: &Bound<'_, PyAny>, name: Option<&str>) -> PyResult<(Vec<u8>, String)> {
+    let inp = input(obj, "program")?;
+    let shown = name.map(str::to_string).unwrap_or_else(|| inp.name());
+    let bytes = match inp {
+        Input::File(p) => std::fs::read(&p).map_err(|e| to_py(Error::io(p, e)))?,
+        Input::Content { bytes, .. } => bytes,
+    };
+    Ok((bytes, shown))
 }
 
 /// What `compensate` did: the compensated program and its summary.
@@ -147,301 +132,55 @@ impl CompensateResult {
     }
 }
 
-/// The compensation options from the arguments, validated as the CLI
-/// validates its flags.
-#[allow(clippy::too_many_arguments)]
-fn options(
-    method: &str,
-    gain: f64,
-    max_iterations: u32,
-    segment_length_mm: Option<f64>,
-    segments: Option<u32>,
-    no_split: bool,
-    contour_tolerance_um: Option<f64>,
-    min_segment_length_mm: f64,
-    max_residual_um: f64,
-    chord_tolerance_mm: f64,
-    decimals: Option<u8>,
-    max_correction_mm: f64,
-    nominal_directions: bool,
-    take_up: bool,
-    separate_take_ups: bool,
-    take_up_tolerance_um: Option<f64>,
-    trace: bool,
-    arcs_as_lines: bool,
-) -> PyResult<CompensateOptions> {
-    if let Some(t) = take_up_tolerance_um {
-        if !(t.is_finite() && t > 0.0) {
-            return Err(bad_input(format!(
-                "take_up_tolerance_um must be a positive number of µm; got {t}"
-            )));
-        }
-    }
-    if separate_take_ups && !take_up {
-        return Err(bad_input(
-            "separate_take_ups=True needs take_up=True (there are no take-ups to write)",
-        ));
-    }
-    let method = match method {
-        "exact" => Method::Exact,
-        "direct" => Method::Direct,
-        "pitch" => Method::Pitch,
-        "ilc" => {
-            if !(gain > 0.0 && gain <= 1.0) {
-                return Err(bad_input(format!(
-                    "gain must satisfy 0 < γ ≤ 1; got {gain}"
-                )));
-            }
-            if max_iterations == 0 {
-                return Err(bad_input(
-                    "max_iterations must be at least 1 (ILC needs one step to move any point)",
-                ));
-            }
-            Method::Ilc {
-                gain,
-                max_iterations,
-            }
-        }
-        m => {
-            return Err(bad_input(format!(
-                "method must be \"exact\", \"ilc\", \"direct\" or \"pitch\"; got {m:?}"
-            )))
-        }
-    };
-    let given = [
-        no_split,
-        segments.is_some(),
-        segment_length_mm.is_some(),
-        contour_tolerance_um.is_some(),
-    ];
-    if given.iter().filter(|g| **g).count() > 1 {
-        return Err(bad_input(
-            "give at most one of no_split, segments, segment_length_mm and contour_tolerance_um",
-        ));
-    }
-    let positive = |v: f64| v.is_finite() && v > 0.0;
-    let segmentation = if no_split {
-        Segmentation::Off
-    } else if let Some(n) = segments {
-        if n == 0 {
-            return Err(bad_input("segments must be at least 1"));
-        }
-        Segmentation::Count(n)
-    } else if let Some(l) = segment_length_mm {
-        if !positive(l) {
-            return Err(bad_input(format!(
-                "segment_length_mm must be a positive length in mm; got {l}"
-            )));
-        }
-        Segmentation::MaxLength(l)
-    } else {
-        let t =
-            contour_tolerance_um.unwrap_or(volcomp_core::compensate::DEFAULT_CONTOUR_TOLERANCE_UM);
-        if !(positive(t) && positive(min_segment_length_mm)) {
-            return Err(bad_input(
-                "contour_tolerance_um and min_segment_length_mm must be positive",
-            ));
-        }
-        Segmentation::Adaptive {
-            tolerance_mm: t * 1e-3,
-            min_length_mm: min_segment_length_mm,
-        }
-    };
-    if !positive(max_correction_mm) {
-        return Err(bad_input(format!(
-            "max_correction_mm must be a positive length in mm; got {max_correction_mm}"
-        )));
-    }
-    if !positive(max_residual_um) {
-        return Err(bad_input(format!(
-            "max_residual_um must be a positive number of µm; got {max_residual_um}"
-        )));
-    }
-    if decimals.is_some_and(|d| !(1..=9).contains(&d)) {
-        return Err(bad_input("decimals must be 1 … 9"));
-    }
-    Ok(CompensateOptions {
-        method,
-        segmentation,
-        chord_tolerance_mm,
-        arcs_as_arcs: !arcs_as_lines,
-        decimals,
-        max_correction_mm,
-        directions: if nominal_directions {
-            DirectionPolicy::Nominal
-        } else {
-            DirectionPolicy::Commanded
-        },
-        take_up,
-        fold_take_ups: !separate_take_ups,
-        take_up_tolerance_mm: take_up_tolerance_um.map(|t| t * 1e-3),
-        trace_comments: trace,
-        // Direct and pitch do not aim at the full model's target: their
-        // residual is the method's own error, checked for finiteness only.
-        max_residual_um: matches!(method, Method::Exact | Method::Ilc { .. })
-            .then_some(max_residual_um),
-    })
-}
-
-/// The provenance header: the model's file (and the tables it names) with
-/// their SHA-256, or, for a model built in memory, that of its file text
-/// (the axis tables' CSV, the straightness model's TOML, the 21-component
-/// model's TOML and table CSV).
-fn header(
-    model: &Model,
-    m: &Machine,
-    opts: &CompensateOptions,
-    date_utc: String,
-) -> PyResult<ProgramHeader> {
-    let mut h = match (&model.path, &model.loaded) {
-        (Some(p), _) => {
-            header_for_map(p, m.setup_file.as_deref(), &m.setup.setup, opts, date_utc).py_err()?
-        }
-        (None, LoadedModel::AxisTables(t)) => ProgramHeader::for_compensation(
-            vec![("arrays".into(), sha256_hex(t.to_csv().as_bytes()))],
-            m.setup_file.as_deref().map(file_name),
-            m.setup.setup.clone(),
-            opts,
-            date_utc,
-        ),
-        (None, LoadedModel::Straightness(t)) => ProgramHeader::for_compensation(
-            vec![("arrays".into(), sha256_hex(t.to_toml().as_bytes()))],
-            m.setup_file.as_deref().map(file_name),
-            m.setup.setup.clone(),
-            opts,
-            date_utc,
-        ),
-        (None, LoadedModel::Kinematic(k)) => {
-            let csv = volcomp_core::io::model_file::components_to_csv(&k.axes);
-            let toml = volcomp_core::io::model_file::model_to_toml(k, "arrays.csv", None);
-            ProgramHeader::for_compensation(
-                vec![(
-                    "arrays".into(),
-                    sha256_hex(format!("{toml}{csv}").as_bytes()),
-                )],
-                m.setup_file.as_deref().map(file_name),
-                m.setup.setup.clone(),
-                opts,
-                date_utc,
-            )
-        }
-    };
-    if m.work_offset_given {
-        h.work_offset_note = Some("G54 from work_offset_mm".into());
-    }
-    Ok(h)
-}
-
 /// Compensates a part program for `model`'s errors (docs/compensation.md)
 /// and returns the program and what was done.
 ///
-/// `program`: its text (str or bytes) or a file (pathlib.Path). The machine:
-/// `setup` (a set-up TOML file as pathlib.Path, or its text), or
-/// `work_offset_mm` (G54 in machine coordinates), `absolute_arc_centers`,
-/// `accept_k0`, `allow_no_program_end`. The method: `"exact"` (default),
-/// `"ilc"` (with `gain`, `max_iterations`), `"direct"`, `"pitch"`.
-/// Splitting: adaptive within `contour_tolerance_um` (default 0.1 µm, with
-/// `min_segment_length_mm`), or `segment_length_mm`, `segments`,
-/// `no_split`; arcs are written as arcs unless `arcs_as_lines`.
-/// Limits: `max_residual_um`, `max_correction_mm`, `max_output_bytes`
-/// (None: no limit). Output: `decimals`, `trace` (the `(volcomp Ln)`
-/// comments), `take_up` (backlash take-up moves; `separate_take_ups`
-/// writes each as a block of its own instead of folding into the move
-/// those it can; `take_up_tolerance_um` lets a fold leave more than the
-/// contour tolerance), `nominal_directions`.
-/// `points=True` adds the per-point records. `date_utc` dates the header
-/// (default: now, or SOURCE_DATE_EPOCH).
+/// `program`: a path (str or pathlib.Path) or a file object
+/// (`io.StringIO(text)`); `name` names it in messages.
+/// `point_records=True` adds the per-point records; `date_utc` dates the
+/// header (default: now, or SOURCE_DATE_EPOCH). The options (the machine,
+/// the method, the splitting, the limits, the output) are those of the
+/// CLI's `compensate`: see `help(volcomp.compensate)`.
 #[pyfunction]
-#[pyo3(signature = (program, model, *, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, method = "exact", gain = 0.5, max_iterations = 20, segment_length_mm = None, segments = None, no_split = false, contour_tolerance_um = None, min_segment_length_mm = 0.01, max_residual_um = 1.0, chord_tolerance_mm = 1e-4, decimals = None, max_correction_mm = 0.1, nominal_directions = false, take_up = true, separate_take_ups = false, take_up_tolerance_um = None, trace = true, arcs_as_lines = false, allow_recompensate = false, max_output_bytes = Some(DEFAULT_MAX_OUTPUT_BYTES), points = false, name = None, date_utc = None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (program, model, *, point_records = false, name = None, date_utc = None, **options))]
 pub fn compensate(
     py: Python<'_>,
     program: &Bound<'_, PyAny>,
     model: &Bound<'_, Model>,
-    setup: Option<&Bound<'_, PyAny>>,
-    work_offset_mm: Option<Vec<f64>>,
-    absolute_arc_centers: bool,
-    accept_k0: bool,
-    allow_no_program_end: bool,
-    method: &str,
-    gain: f64,
-    max_iterations: u32,
-    segment_length_mm: Option<f64>,
-    segments: Option<u32>,
-    no_split: bool,
-    contour_tolerance_um: Option<f64>,
-    min_segment_length_mm: f64,
-    max_residual_um: f64,
-    chord_tolerance_mm: f64,
-    decimals: Option<u8>,
-    max_correction_mm: f64,
-    nominal_directions: bool,
-    take_up: bool,
-    separate_take_ups: bool,
-    take_up_tolerance_um: Option<f64>,
-    trace: bool,
-    arcs_as_lines: bool,
-    allow_recompensate: bool,
-    max_output_bytes: Option<u64>,
-    points: bool,
+    point_records: bool,
     name: Option<&str>,
     date_utc: Option<String>,
+    options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<CompensateResult> {
-    let m = machine(MachineArgs {
-        setup,
-        work_offset_mm,
-        absolute_arc_centers,
-        accept_k0,
-        allow_no_program_end,
-        chord_tolerance_mm,
-    })?;
-    warn_without_work_offset(py, &m)?;
-    let opts = options(
-        method,
-        gain,
-        max_iterations,
-        segment_length_mm,
-        segments,
-        no_split,
-        contour_tolerance_um,
-        min_segment_length_mm,
-        max_residual_um,
-        chord_tolerance_mm,
-        decimals,
-        max_correction_mm,
-        nominal_directions,
-        take_up,
-        separate_take_ups,
-        take_up_tolerance_um,
-        trace,
-        arcs_as_lines,
-    )?;
+    let request: CompensateRequest = from_kwargs(options)?;
+    let machine = request.machine.machine().map_err(library_error)?;
+    warn_without_work_offset(py, &machine)?;
     let model = model.get();
-    let src = source(program, "program", name)?;
-    let head = header(model, &m, &opts, date_utc.unwrap_or_else(date_now_utc))?;
+    let source = match &model.path {
+        Some(p) => ModelSource::File(p),
+        None => ModelSource::Built(&model.loaded),
+    };
+    let job = request
+        .prepare(machine, source, date_utc.unwrap_or_else(now_utc), &Keywords)
+        .map_err(library_error)?;
+    let (bytes, file) = program_bytes(program, name)?;
     let mut out = Vec::new();
     let mut records: Vec<PointRecord> = Vec::new();
     let mut warnings: Vec<Warning> = Vec::new();
-    let file = src.name.clone();
     let result = py.detach(|| {
-        let mut limited = LimitedWriter::new(&mut out, max_output_bytes);
-        Compensator::new(model.model())
-            .setup(m.setup.clone())
-            .options(opts)
-            .header(head)
-            .file_name(file.as_str())
-            .allow_recompensate(allow_recompensate)
+        let mut limited = LimitedWriter::new(&mut out, job.max_output_bytes);
+        job.compensator(model.model(), &file)
             .on_point(|p| {
-                if points {
+                if point_records {
                     records.push(*p);
                 }
             })
             .on_warning(|w| warnings.push(w.clone()))
-            .run(src.bytes.as_slice(), &mut limited)
+            .run(bytes.as_slice(), &mut limited)
             .map_err(Box::new)
     });
-    let summary = result.map_err(|e| explain(*e, &m))?;
-    let point_records = if points {
+    let summary = result.map_err(|e| explain(*e, &job.machine))?;
+    let point_records = if point_records {
         Some(point_dict(py, &records)?.unbind())
     } else {
         None
@@ -457,7 +196,7 @@ pub fn compensate(
         take_ups_folded: summary.take_ups_folded,
         held: summary.held,
         held_count: summary.held_count,
-        warnings: warnings_list(py, &src.name, &warnings)?.unbind(),
+        warnings: warnings_list(py, &file, &warnings)?.unbind(),
         point_records,
     })
 }
@@ -578,56 +317,41 @@ impl SimulationResult {
 /// against its nominal path: `reference` (the original of a program
 /// compensated by volcomp) when given, else the program itself.
 ///
-/// `program`, `reference`, `setup`: text or pathlib.Path. Machine options
-/// as in `compensate`. `segments=True` adds the per-command arrays.
+/// `program`: a path or a file object, as in `compensate`; `name` names
+/// it in messages. `segments=True` adds the per-command arrays. The
+/// options (the machine, `reference`, `chord_tolerance_mm`) are those of
+/// the CLI's `simulate`: see `help(volcomp.simulate)`.
 #[pyfunction]
-#[pyo3(signature = (program, model, *, reference = None, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, chord_tolerance_mm = 1e-5, segments = false, name = None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (program, model, *, segments = false, name = None, **options))]
 pub fn simulate(
     py: Python<'_>,
     program: &Bound<'_, PyAny>,
     model: &Bound<'_, Model>,
-    reference: Option<&Bound<'_, PyAny>>,
-    setup: Option<&Bound<'_, PyAny>>,
-    work_offset_mm: Option<Vec<f64>>,
-    absolute_arc_centers: bool,
-    accept_k0: bool,
-    allow_no_program_end: bool,
-    chord_tolerance_mm: f64,
     segments: bool,
     name: Option<&str>,
+    options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<SimulationResult> {
-    let m = machine(MachineArgs {
-        setup,
-        work_offset_mm,
-        absolute_arc_centers,
-        accept_k0,
-        allow_no_program_end,
-        chord_tolerance_mm,
-    })?;
-    warn_without_work_offset(py, &m)?;
-    let src = source(program, "program", name)?;
-    let reference = reference
-        .map(|r| source(r, "reference", None))
-        .transpose()?;
+    let request: SimulateRequest = from_kwargs(options)?;
+    let machine = request.machine.machine().map_err(library_error)?;
+    let machine = request
+        .prepare(machine)
+        .map_err(|e| library_error(e.into()))?;
+    warn_without_work_offset(py, &machine)?;
+    let (bytes, file) = program_bytes(program, name)?;
     let model = model.get();
     let mut rows: Vec<SegmentError> = Vec::new();
     let mut warnings: Vec<Warning> = Vec::new();
     let result = py.detach(|| {
-        let mut sim = Simulation::new(model.model())
-            .setup(m.setup.clone())
-            .file_name(src.name.as_str())
-            .chord_tolerance_mm(chord_tolerance_mm)
+        let mut sim = request
+            .simulation(model.model(), &machine, &file)
+            .map_err(Box::new)?
             .on_warning(|w| warnings.push(w.clone()));
         if segments {
             sim = sim.on_segment(|s| rows.push(*s));
         }
-        if let Some(r) = &reference {
-            sim = sim.reference_named(r.name.clone(), r.bytes.as_slice());
-        }
-        sim.run(src.bytes.as_slice()).map_err(Box::new)
+        sim.run(bytes.as_slice()).map_err(Box::new)
     });
-    let report = result.map_err(|e| explain(*e, &m))?;
+    let report = result.map_err(|e| explain(*e, &machine))?;
     let segments = if segments {
         let d = PyDict::new(py);
         let v3 = |f: &dyn Fn(&SegmentError) -> Vec3| -> Vec<f64> {
@@ -679,7 +403,7 @@ pub fn simulate(
         nominal: report.nominal.to_string(),
         point_definition: report.point_definition.to_string(),
         contour_definition: report.contour_definition.to_string(),
-        warnings: warnings_list(py, &src.name, &warnings)?.unbind(),
+        warnings: warnings_list(py, &file, &warnings)?.unbind(),
         segments,
     })
 }
@@ -693,28 +417,17 @@ pub fn simulate(
 /// `extra_axes=True` `a_deg`, `b_deg`, `c_deg`, `u_mm`, `v_mm`, `w_mm`.
 /// Interpreter warnings are issued as `VolcompWarning`.
 #[pyfunction]
-#[pyo3(signature = (program, *, setup = None, work_offset_mm = None, absolute_arc_centers = false, accept_k0 = false, allow_no_program_end = false, extra_axes = false, name = None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (program, *, extra_axes = false, name = None, **options))]
 pub fn moves<'py>(
     py: Python<'py>,
     program: &Bound<'py, PyAny>,
-    setup: Option<&Bound<'py, PyAny>>,
-    work_offset_mm: Option<Vec<f64>>,
-    absolute_arc_centers: bool,
-    accept_k0: bool,
-    allow_no_program_end: bool,
     extra_axes: bool,
     name: Option<&str>,
+    options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let m = machine(MachineArgs {
-        setup,
-        work_offset_mm,
-        absolute_arc_centers,
-        accept_k0,
-        allow_no_program_end,
-        chord_tolerance_mm: volcomp_gcode::InterpOptions::default().spline_tolerance_mm,
-    })?;
-    let src = source(program, "program", name)?;
+    let request: MachineRequest = from_kwargs(options)?;
+    let m = request.machine().map_err(library_error)?;
+    let (bytes, file) = program_bytes(program, name)?;
     #[derive(Default)]
     struct Columns {
         line: Vec<u64>,
@@ -728,7 +441,7 @@ pub fn moves<'py>(
     let mut c = Columns::default();
     let mut warnings = Vec::new();
     let result = py.detach(|| -> Result<(), volcomp_gcode::GcodeError> {
-        let mut walker = m.setup.walker(src.bytes.as_slice(), &src.name);
+        let mut walker = m.setup.walker(bytes.as_slice(), &file);
         let r = (|| {
             while let Some(ev) = walker.next_line()? {
                 for mo in ev.motions {
@@ -757,7 +470,7 @@ pub fn moves<'py>(
         r
     });
     for w in &warnings {
-        warn(py, &format!("{}:{w}", src.name))?;
+        warn(py, &format!("{file}:{w}"))?;
     }
     result.map_err(|e| to_py(Error::Gcode(e)))?;
     let d = PyDict::new(py);

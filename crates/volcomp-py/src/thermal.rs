@@ -3,27 +3,19 @@
 //! (docs/thermal.md, [Thermal study]).
 
 use crate::errors::{bad_input, IntoPy};
-use crate::inputs::source;
+use crate::inputs::warn;
 use crate::model::Model;
+use crate::request::{from_kwargs, input, keywords, library_error};
 use numpy::ndarray::Array2;
 use numpy::prelude::*;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use volcomp_core::identify::thermal::files::{
-    self, parse_artifact, parse_measurements, parse_temperatures, ThermalModelFile,
-};
-use volcomp_core::identify::thermal::identify::DEFAULT_RELATIVE_THRESHOLD;
-use volcomp_core::identify::thermal::uncertainty::axis_line_bands;
+use volcomp_core::identify::thermal::files::ThermalModelFile;
 use volcomp_core::io::LoadedModel;
+use volcomp_core::progress::Silent;
+use volcomp_core::request::{ThermalFitRequest, ThermalPredictRequest};
 use volcomp_gcode::Vec3;
-
-fn text_of(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<(String, String)> {
-    let src = source(obj, what, None)?;
-    let text = String::from_utf8(src.bytes)
-        .map_err(|_| bad_input(format!("{}: not UTF-8 text", src.name)))?;
-    Ok((text, src.name))
-}
 
 /// A thermal model: the regression of the 21-component model's Legendre
 /// coefficients on temperatures (the `volcomp thermal fit` file).
@@ -78,27 +70,24 @@ impl ThermalModel {
     }
 
     /// The 21-component model at one moment: the row of `temperatures` (a
-    /// CSV as text or pathlib.Path, docs/thermal.md) of cycle `cycle`, or
+    /// CSV: a path or a file object, docs/thermal.md) of cycle `cycle`, or
     /// the last row. Temperatures outside the training range are refused
-    /// unless `extrapolate=True`.
-    #[pyo3(signature = (temperatures, *, cycle = None, extrapolate = false))]
+    /// unless `extrapolate=True` (then with a `VolcompWarning`).
+    #[pyo3(signature = (temperatures, **options))]
     fn predict(
         &self,
+        py: Python<'_>,
         temperatures: &Bound<'_, PyAny>,
-        cycle: Option<usize>,
-        extrapolate: bool,
+        options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Model> {
-        let (text, name) = text_of(temperatures, "temperatures")?;
-        let temps = parse_temperatures(&text, &name).py_err()?;
-        let row = temps.row_of(cycle, &name).py_err()?;
-        let theta = if extrapolate {
-            self.file.predict_extrapolating(&temps, &name, row)
-        } else {
-            self.file.predict(&temps, &name, row)
+        let mut request: ThermalPredictRequest = from_kwargs(options)?;
+        request.temperatures = Some(input(temperatures, "temperatures")?);
+        let p = request.predict(&self.file).map_err(library_error)?;
+        if let Some(w) = &p.warning {
+            warn(py, &keywords(w))?;
         }
-        .py_err()?;
         let poly = self.file.poly_model().py_err()?;
-        let km = poly.to_kinematic_model(&theta, self.file.table_samples.max(2));
+        let km = poly.to_kinematic_model(&p.theta, self.file.table_samples.max(2));
         Ok(Model {
             loaded: LoadedModel::Kinematic(Box::new(km)),
             path: None,
@@ -108,57 +97,35 @@ impl ThermalModel {
 
 /// Fits a thermal model (docs/thermal.md): identifies the Legendre
 /// 21-component model of every artifact cycle of `measurements`, then
-/// regresses its parameters on `temperatures`. Inputs are CSV (text or
-/// pathlib.Path): the measurements, the temperatures and the artifact
-/// (ball array). `ranges_mm`: the axis ranges ((x0, x1), (y0, y1), (z0,
-/// z1)). Options as `volcomp thermal fit`. With `bands_samples` (e.g.
-/// 400), the 95 % Monte Carlo bands of the last cycle's identified error
-/// along lines through the middle of the volume are computed too.
+/// regresses its parameters on `temperatures`. Inputs are CSV files (paths
+/// or file objects): the measurements, the temperatures and the artifact
+/// (ball array). The options are those of the CLI's `thermal fit`
+/// (help(volcomp.thermal_fit) lists them; `ranges_mm`, the axis ranges
+/// ((x0, x1), (y0, y1), (z0, z1)), is required). With `bands_samples`
+/// (e.g. 400), the 95 % Monte Carlo bands of the last cycle's identified
+/// error along lines through the middle of the volume are computed too.
 ///
 /// Returns `(model, report)`: a `ThermalModel` and a dict with `rank`,
 /// `parameters`, `sigma0_um` (min, max), `unidentifiable`, `warnings` and,
 /// on request, `bands`: per axis "X", "Y", "Z" a dict of `points_mm` (K,
 /// 3), `estimate_um`, `std_um`, `lo_um`, `hi_um` (K, 3).
 #[pyfunction]
-#[pyo3(signature = (measurements, temperatures, artifact, *, ranges_mm, chain = "w X' Y' b Z t", order = 2, probe_length_mm = 0.0, lags = 0, threshold = DEFAULT_RELATIVE_THRESHOLD, table_samples = 61, bands_samples = None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (measurements, temperatures, artifact, **options))]
 pub fn thermal_fit<'py>(
     py: Python<'py>,
     measurements: &Bound<'py, PyAny>,
     temperatures: &Bound<'py, PyAny>,
     artifact: &Bound<'py, PyAny>,
-    ranges_mm: [[f64; 2]; 3],
-    chain: &str,
-    order: usize,
-    probe_length_mm: f64,
-    lags: usize,
-    threshold: f64,
-    table_samples: usize,
-    bands_samples: Option<usize>,
+    options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(ThermalModel, Bound<'py, PyDict>)> {
-    if !(threshold > 0.0 && threshold < 1.0) {
-        return Err(bad_input(format!(
-            "threshold {threshold}: give a relative threshold between 0 and 1 (default {DEFAULT_RELATIVE_THRESHOLD})"
-        )));
-    }
-    let (a_text, a_name) = text_of(artifact, "artifact")?;
-    let array = parse_artifact(&a_text, &a_name).py_err()?;
-    let (m_text, m_name) = text_of(measurements, "measurements")?;
-    let cycles = parse_measurements(&m_text, &m_name, &array).py_err()?;
-    let (t_text, t_name) = text_of(temperatures, "temperatures")?;
-    let temps = parse_temperatures(&t_text, &t_name).py_err()?;
-    let options = files::FitOptions {
-        chain: chain.to_string(),
-        ranges_mm,
-        order,
-        probe_length_mm,
-        lags,
-        relative_threshold: threshold,
-        table_samples,
-    };
-    let (file, idents) = py
-        .detach(|| files::fit(&array, &cycles, &temps, &t_name, &options))
-        .py_err()?;
+    let mut request: ThermalFitRequest = from_kwargs(options)?;
+    request.measurements = Some(input(measurements, "measurements")?);
+    request.temperatures = Some(input(temperatures, "temperatures")?);
+    request.artifact = Some(input(artifact, "artifact")?);
+    let fit = py
+        .detach(|| request.fit().map_err(Box::new))
+        .map_err(|e| library_error(*e))?;
+    let (file, idents) = (&fit.file, &fit.idents);
     let report = PyDict::new(py);
     if let Some(first) = idents.first() {
         report.set_item("rank", first.rank)?;
@@ -167,17 +134,11 @@ pub fn thermal_fit<'py>(
     }
     report.set_item("sigma0_um", file.sigma0_range_um())?;
     report.set_item("unidentifiable", file.unidentifiable.clone())?;
-    report.set_item(
-        "warnings",
-        volcomp_core::identify::thermal::checks::noise_warnings(&cycles, &idents),
-    )?;
-    if let Some(samples) = bands_samples {
-        let last = idents
-            .last()
-            .ok_or_else(|| bad_input("no cycles to draw bands for"))?;
-        let poly = files::poly_model(chain, ranges_mm, order, probe_length_mm).py_err()?;
-        let lines =
-            py.detach(|| axis_line_bands(&poly, last, ranges_mm, probe_length_mm, samples.max(10)));
+    report.set_item("warnings", fit.warnings.clone())?;
+    if request.bands_samples.is_some() {
+        let (lines, _) = py
+            .detach(|| request.bands(&fit, &mut Silent).map_err(Box::new))
+            .map_err(|e| library_error(*e))?;
         let bands = PyDict::new(py);
         for l in &lines {
             let d = PyDict::new(py);
@@ -201,5 +162,5 @@ pub fn thermal_fit<'py>(
         }
         report.set_item("bands", bands)?;
     }
-    Ok((ThermalModel { file }, report))
+    Ok((ThermalModel { file: fit.file }, report))
 }

@@ -2,6 +2,7 @@
 `volcomp` command on the same inputs (examples/data of the repository)."""
 
 import csv
+import inspect
 import io
 import json
 import math
@@ -148,7 +149,7 @@ def test_compensate_by_hand():
     # q_y moves it −4/200·q_y = −0.19998 µm along Z: q_z = 10.0002.
     m = volcomp.Model.from_csv(HAND_CSV)
     r = volcomp.compensate(
-        "G21 G90\nG0 X0 Y10 Z10\nG1 X50 F100\nM2\n", m, work_offset_mm=[0, 0, 0], no_split=True
+        io.StringIO("G21 G90\nG0 X0 Y10 Z10\nG1 X50 F100\nM2\n"), m, work_offset_mm=[0, 0, 0], no_split=True
     )
     def words(prefix):
         line = [l for l in r.text.splitlines() if l.startswith(prefix)][0]
@@ -165,7 +166,7 @@ def test_compensate_by_hand():
 def test_refused_program_carries_its_line():
     m = volcomp.Model.from_csv(HAND_CSV)
     with pytest.raises(volcomp.RefusedProgramError) as info:
-        volcomp.compensate("G21 G90\nG0 X1 Y1 Z1\nG1 X2 Y1 Q F100\nM2\n", m, work_offset_mm=[0, 0, 0], name="p.ngc")
+        volcomp.compensate(io.StringIO("G21 G90\nG0 X1 Y1 Z1\nG1 X2 Y1 Q F100\nM2\n"), m, work_offset_mm=[0, 0, 0], name="p.ngc")
     assert info.value.file == "p.ngc"
     assert info.value.line == 3
 
@@ -175,7 +176,7 @@ def test_out_of_range_program_names_the_missing_work_offset():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", volcomp.VolcompWarning)
         with pytest.raises(volcomp.RefusedProgramError, match="no work offset was given") as info:
-            volcomp.compensate("G21 G90\nG0 X-10 Y1 Z1\nG1 X2 F100\nM2\n", m)
+            volcomp.compensate(io.StringIO("G21 G90\nG0 X-10 Y1 Z1\nG1 X2 F100\nM2\n"), m)
     assert info.value.line == 2
 
 
@@ -185,8 +186,10 @@ def test_compensate_matches_the_cli(cli, data):
     model = volcomp.Model.load(data / "map.csv")
     r = volcomp.compensate(data / "part.ngc", model, setup=data / "machine.toml", date_utc=EPOCH_ISO)
     assert r.text == expected
-    # The same program given as text gives the same output.
-    r2 = volcomp.compensate((data / "part.ngc").read_text(), model, setup=data / "machine.toml", date_utc=EPOCH_ISO)
+    # The same program given as a path in a str, or as content in a file
+    # object, gives the same output.
+    assert volcomp.compensate(str(data / "part.ngc"), model, setup=data / "machine.toml", date_utc=EPOCH_ISO).text == expected
+    r2 = volcomp.compensate(io.StringIO((data / "part.ngc").read_text()), model, setup=data / "machine.toml", date_utc=EPOCH_ISO)
     assert r2.text == expected
 
 
@@ -200,7 +203,7 @@ def test_compensate_options_match_the_cli(cli, data):
     model = volcomp.Model.load(data / "map.csv")
     r = volcomp.compensate(
         data / "part.ngc", model, work_offset_mm=(250, 200, 150), method="ilc", gain=0.5,
-        max_iterations=20, segments=20, decimals=5, trace=False, points=True, date_utc=EPOCH_ISO,
+        max_iterations=20, segments=20, decimals=5, trace=False, point_records=True, date_utc=EPOCH_ISO,
     )
     # The header names where G54 came from in each front end's words.
     strip = lambda t: [l for l in t.splitlines() if "G54 from" not in l]
@@ -272,7 +275,7 @@ def test_moves_match_the_cli(cli, data):
 
 def test_moves_warn_without_units():
     with pytest.warns(volcomp.VolcompWarning):
-        volcomp.moves("G0 X1 Y2 Z3\nM2\n")
+        volcomp.moves(io.StringIO("G0 X1 Y2 Z3\nM2\n"))
 
 
 def test_kinematic_model_matches_map_eval(cli, data):
@@ -428,10 +431,11 @@ def test_mirror_matches_the_cli(cli, data, monkeypatch):
             assert g == v, k
         else:
             assert got[k] == v, k
-    # The nominal given as text needs its format.
+    # The nominal given as content (a file object) needs its format.
+    face = lambda: io.StringIO((data / "face.toml").read_text())
     with pytest.raises(volcomp.BadInputError, match="nominal_format"):
-        volcomp.mirror((data / "face.toml").read_text(), data / "probes.csv", stock_mm=0.2)
-    r2 = volcomp.mirror((data / "face.toml").read_text(), data / "probes.csv", stock_mm=0.2, nominal_format="bspline")
+        volcomp.mirror(face(), data / "probes.csv", stock_mm=0.2)
+    r2 = volcomp.mirror(face(), data / "probes.csv", stock_mm=0.2, nominal_format="bspline")
     assert r2["summary"]["before"] == expected["before"]
 
 
@@ -491,3 +495,66 @@ def test_kinematic_model_from_arrays_matches_the_file(cli, data):
             )
     with pytest.raises(volcomp.BadInputError, match="chain|Chain|topology"):
         volcomp.Model.from_components(*axes, chain="nonsense")
+
+
+# The same bad value through the CLI and Python: the library's one check,
+# its one message, each front end naming the options its own way (flags on
+# the command line, keywords in Python).
+BAD_OPTIONS = [
+    (["--method", "ilc", "--gain", "2"], dict(method="ilc", gain=2), {"--gain": "gain"}),
+    (["--segments", "0"], dict(segments=0), {"--segments": "segments"}),
+    (["--take-up-tolerance-um", "-2"], dict(take_up_tolerance_um=-2.0), {"--take-up-tolerance-um": "take_up_tolerance_um"}),
+    (
+        ["--no-take-up", "--separate-take-ups"],
+        dict(take_up=False, separate_take_ups=True),
+        {"--separate-take-ups": "separate_take_ups=True", "--no-take-up": "take_up=False"},
+    ),
+    (
+        ["--segments", "3", "--no-split"],
+        dict(segments=3, no_split=True),
+        {"--no-split": "no_split=True", "--segments": "segments"},
+    ),
+    (["--decimals", "12"], dict(decimals=12), {"--decimals": "decimals"}),
+]
+
+
+@pytest.mark.parametrize("args,kwargs,spelling", BAD_OPTIONS)
+def test_a_bad_option_gets_the_same_message_in_both_front_ends(cli, data, args, kwargs, spelling):
+    p = subprocess.run(
+        [cli, "compensate", "part.ngc", "--map", "map.csv", "--setup", "machine.toml", "-o", "x.ngc", *args],
+        cwd=data, capture_output=True, text=True,
+    )
+    assert p.returncode == 2, p.stderr
+    cli_message = p.stderr.splitlines()[0].removeprefix("error: ")
+    model = volcomp.Model.load(data / "map.csv")
+    with pytest.raises(volcomp.BadInputError) as info:
+        volcomp.compensate(data / "part.ngc", model, setup=data / "machine.toml", **kwargs)
+    py_message = str(info.value)
+    for flag, keyword in spelling.items():
+        cli_message = cli_message.replace(flag, keyword)
+    assert cli_message == py_message
+    assert not (data / "x.ngc").exists()
+
+
+def test_an_unknown_keyword_says_the_option_meant():
+    with pytest.raises(TypeError, match=r"there is no option `mehtod` \(did you mean `method`\?\)"):
+        volcomp.compensate(io.StringIO("M2\n"), volcomp.Model.from_csv(HAND_CSV), mehtod="ilc")
+
+
+def test_the_options_are_the_librarys_with_their_help():
+    sig = inspect.signature(volcomp.compensate)
+    assert sig.parameters["gain"].default == 0.5
+    assert sig.parameters["take_up"].default is True
+    assert sig.parameters["max_output_bytes"].default == 256 << 20
+    assert "ILC gain" in volcomp.compensate.__doc__
+    # Help names the other options as Python spells them.
+    assert "within chord_tolerance_mm" in volcomp.compensate.__doc__
+    assert "--" not in volcomp.compensate.__doc__
+
+
+def test_a_str_is_a_path_and_text_comes_in_a_file_object(data):
+    model = volcomp.Model.load(data / "map.csv")
+    with pytest.raises(volcomp.VolcompIOError):
+        volcomp.compensate("G0 X1\nM2\n", model, work_offset_mm=[0, 0, 0])
+    with pytest.raises(TypeError, match="file object"):
+        volcomp.compensate(b"G0 X1\nM2\n", model, work_offset_mm=[0, 0, 0])

@@ -4,18 +4,16 @@
 //! Z-correction table or predict the deviation at points. The model file is
 //! also a `--map` for `compensate` and `simulate`.
 
-use crate::args::parse_axis;
+use crate::options::{flags, Options};
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts_or_report, Chart, Series};
-use clap::{Args, Subcommand, ValueEnum};
+use clap::{Args, Subcommand};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use volcomp_core::identify::straightness::files;
-use volcomp_core::identify::straightness::identify::{
-    fit, AxisFit, CutoffRule, Fit, FitOptions, Normalisation,
-};
-use volcomp_core::identify::straightness::option_error::FitOption;
-use volcomp_core::identify::straightness::{Axis, StraightnessError, StraightnessModel};
+use volcomp_core::identify::straightness::identify::{AxisFit, Fit, FitOptions};
+use volcomp_core::identify::straightness::StraightnessModel;
+use volcomp_core::request::{fit_summary, StraightnessFitRequest};
 
 #[derive(Args, Debug)]
 pub struct StraightnessArgs {
@@ -35,22 +33,6 @@ pub enum StraightnessCommand {
     Predict(PredictArgs),
 }
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum NormaliseArg {
-    /// One common scale for all feed rates: their mean total power (default).
-    Common,
-    /// Each feed rate's spectrum as fractions of its own total power.
-    PerRun,
-}
-
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum CutoffArg {
-    /// m that best predicts each left-out feed rate from the others (default).
-    CrossValidation,
-    /// The paper's rule: shortest wavelength with σ < σ_t and P̄ > P_t.
-    Thresholds,
-}
-
 /// The runs and the identification options (shared by `fit` and `plot`).
 #[derive(Args, Debug, Clone)]
 pub struct RunArgs {
@@ -59,32 +41,8 @@ pub struct RunArgs {
     /// `# axis = X|Y`. Repeats at one feed rate are averaged.
     #[arg(required = true, value_name = "RUN")]
     pub runs: Vec<PathBuf>,
-    /// The axis of runs whose file has no `# axis =` line: X or Y.
-    #[arg(long, value_parser = parse_axis)]
-    pub axis: Option<volcomp_geom::Axis>,
-    /// σ_t: largest relative standard deviation (σ/P̄) across feed rates of a geometric line.
-    #[arg(long, value_name = "SIGMA", default_value_t = 0.05)]
-    pub sigma_t: f64,
-    /// P_t: smallest normalised mean power P̄ of a modelled line (0.01 = 1 % of the power).
-    #[arg(long, value_name = "P", default_value_t = 0.01)]
-    pub p_t: f64,
-    /// Fraction of the samples in each raised-cosine end of the taper window (0 … 0.5).
-    #[arg(long, value_name = "FRACTION", default_value_t = 0.1)]
-    pub taper: f64,
-    /// How spectra are normalised before P̄ and σ are taken.
-    #[arg(long, value_enum, default_value_t = NormaliseArg::Common)]
-    pub normalise: NormaliseArg,
-    /// How the number of harmonics m is chosen (σ_t and P_t apply to `thresholds`;
-    /// they still mark the lines reported as rejected).
-    #[arg(long, value_enum, default_value_t = CutoffArg::CrossValidation)]
-    pub cutoff: CutoffArg,
-    /// Use this number of harmonics m instead of the one the rule chooses.
-    #[arg(long, value_name = "M")]
-    pub harmonics: Option<usize>,
-    /// The files' displacement has the opposite sign of the deviation (e.g.
-    /// workpiece relative to tool): negate it.
-    #[arg(long)]
-    pub negate: bool,
+    #[command(flatten)]
+    pub job: Options<StraightnessFitRequest>,
 }
 
 #[derive(Args, Debug)]
@@ -143,137 +101,18 @@ pub fn run(a: StraightnessArgs) -> Result<(), CliError> {
     }
 }
 
-fn options(a: &RunArgs) -> FitOptions {
-    FitOptions {
-        sigma_t: a.sigma_t,
-        p_t: a.p_t,
-        taper_fraction: a.taper,
-        normalisation: match a.normalise {
-            NormaliseArg::Common => Normalisation::Common,
-            NormaliseArg::PerRun => Normalisation::PerRun,
-        },
-        harmonics: a.harmonics,
-        cutoff: match a.cutoff {
-            CutoffArg::CrossValidation => CutoffRule::CrossValidation,
-            CutoffArg::Thresholds => CutoffRule::Thresholds,
-        },
-    }
-}
-
 /// Reads the runs and identifies the model.
-fn identify(a: &RunArgs) -> Result<Fit, CliError> {
+fn identify(a: &RunArgs) -> Result<(Fit, FitOptions), CliError> {
+    let o = a.job.options()?;
     let mut runs = Vec::with_capacity(a.runs.len());
     for path in &a.runs {
-        runs.push(files::load_run(path, a.negate).map_err(CliError::from)?);
+        runs.push(files::load_run(path, false).map_err(CliError::from)?);
     }
-    let axis = match a.axis {
-        None => None,
-        Some(volcomp_geom::Axis::X) => Some(Axis::X),
-        Some(volcomp_geom::Axis::Y) => Some(Axis::Y),
-        Some(volcomp_geom::Axis::Z) => {
-            return Err(CliError::Message(
-                "--axis Z: straightness runs are profiles along X or Y (the Z deviation is what they measure); write --axis X or --axis Y".into(),
-            ))
-        }
-    };
-    fit(&runs, axis, &options(a)).map_err(|e| match e {
-        StraightnessError::Option(o) => {
-            CliError::Message(format!("{}\n  help: {}", o.message(flag), o.help(flag)))
-        }
-        e => e.into(),
-    })
-}
-
-/// The flag of an identification option, for messages.
-fn flag(o: FitOption) -> String {
-    match o {
-        FitOption::SigmaT => "--sigma-t",
-        FitOption::PT => "--p-t",
-        FitOption::Taper => "--taper",
-        FitOption::Harmonics => "--harmonics",
-        FitOption::Axis => "--axis",
-    }
-    .into()
+    Ok((a.job.fit(runs)?, o))
 }
 
 fn summary(f: &Fit, o: &FitOptions) -> String {
-    let mut s = String::new();
-    for a in &f.axes {
-        let feeds: Vec<String> = a
-            .feeds
-            .iter()
-            .map(|g| format!("{} ({}×)", g.feed_mm_per_min, g.files.len()))
-            .collect();
-        let slope = match a.axis {
-            Axis::X => format!("β_zx = {:.3} µrad", f.model.beta_zx_urad),
-            Axis::Y => format!("α_yz = {:.3} µrad", f.model.alpha_yz_urad),
-        };
-        let n = a.positions_mm.len();
-        s.push_str(&format!(
-            "volcomp: straightness along {}: {} runs at {} mm/min; {n} samples every {:.4} mm from x_st = {:.4} mm, l = {:.4} mm\n",
-            a.axis.letter(),
-            a.runs,
-            feeds.join(", "),
-            a.spacing_mm,
-            a.positions_mm[0],
-            a.length_mm
-        ));
-        let how = if o.harmonics.is_some() {
-            "given by --harmonics".to_string()
-        } else if o.cutoff == CutoffRule::CrossValidation {
-            "best prediction of each left-out feed rate from the others".to_string()
-        } else {
-            format!(
-                "shortest wavelength with σ < {} and P̄ > {} ({} normalisation)",
-                o.sigma_t,
-                o.p_t,
-                o.normalisation.name()
-            )
-        };
-        s.push_str(&format!(
-            "  cut-off λ_c = {:.4} mm, m = {} harmonics ({how}); {slope}; measured − model RMS {:.4} µm\n",
-            a.cutoff_wavelength_mm, a.harmonics, a.residual_rms_um
-        ));
-        let rejected: Vec<String> = a
-            .feeds
-            .iter()
-            .filter_map(|g| {
-                g.strongest_rejected.map(|l| {
-                    format!(
-                        "{} mm/min: λ {:.4} mm = {:.1} Hz ({:.2} % of the power)",
-                        g.feed_mm_per_min,
-                        l.wavelength_mm,
-                        l.frequency_hz,
-                        100.0 * l.power
-                    )
-                })
-            })
-            .collect();
-        if !rejected.is_empty() {
-            s.push_str(&format!(
-                "  strongest rejected line per feed rate (vibration if its frequency stays put): {}\n",
-                rejected.join("; ")
-            ));
-        }
-        if !a.unstable_in_band.is_empty() {
-            let lines: Vec<String> = a
-                .unstable_in_band
-                .iter()
-                .map(|&k| format!("λ {:.3} mm (σ {:.3})", a.wavelength_mm(k), a.sigma[k]))
-                .collect();
-            s.push_str(&format!(
-                "volcomp: warning: strong lines longer than the cut-off vary with feed rate and are modelled anyway (slow vibration? thermal drift?): {}\n",
-                lines.join(", ")
-            ));
-        }
-        if let Some(m) = f.model.axis(a.axis) {
-            let [lo, hi] = m.recommended_range_mm;
-            s.push_str(&format!(
-                "  compensate inside {lo:.3} … {hi:.3} mm: within one cut-off wavelength of the measured ends the series is poor\n"
-            ));
-        }
-    }
-    s
+    flags(&fit_summary(f, o))
 }
 
 /// Refuses a plot path that `write_charts_or_report` could not write,
@@ -299,8 +138,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
     if let Some(p) = &a.plot {
         check_plot_path(p)?;
     }
-    let o = options(&a.runs);
-    let f = identify(&a.runs)?;
+    let (f, o) = identify(&a.runs)?;
     let text = f.model.to_toml();
     let inputs: Vec<&Path> = a.runs.runs.iter().map(PathBuf::as_path).collect();
     if let Some(path) = &a.plot {
@@ -337,8 +175,7 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
     plan.output("-o", &a.output);
     check(&plan)?;
     check_plot_path(&a.output)?;
-    let o = options(&a.runs);
-    let f = identify(&a.runs)?;
+    let (f, o) = identify(&a.runs)?;
     for input in &a.runs.runs {
         if same_path(input, &a.output) {
             return Err(CliError::Message(format!(
@@ -532,10 +369,10 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
     let mut model = load_model(&a.model)?;
     // The points take values beginning with `-` (negative X), so clap hands
     // a flag written after them over as a point: take it back here.
-    let (flags, points): (Vec<&String>, Vec<&String>) =
+    let (given, points): (Vec<&String>, Vec<&String>) =
         a.points.iter().partition(|p| p.starts_with("--"));
     let mut clamp = a.clamp;
-    for f in flags {
+    for f in given {
         match f.as_str() {
             "--clamp" => clamp = true,
             other => {
@@ -566,10 +403,10 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
             }
         };
         let row = files::prediction_row(&model, x, y).map_err(|e| {
-            CliError::Message(format!(
-                "{}: {e}\n  help: --clamp holds the error at the table ends",
+            CliError::Message(flags(&format!(
+                "{}: {e}\n  help: {{clamp}} holds the error at the table ends",
                 a.model.display()
-            ))
+            )))
         })?;
         out.push_str(&row);
     }

@@ -5,21 +5,19 @@
 //! moment that `compensate --map` reads; `plot` draws parameter evolution,
 //! model fit and residuals; `example` writes synthetic inputs.
 
+use crate::options::Options;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
 use crate::plot::{write_charts, write_charts_or_report, Chart, Series};
 use crate::progress::Bar;
 use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
 use volcomp_core::example::thermal as example;
-use volcomp_core::identify::thermal::files::{
-    self, parse_artifact, parse_measurements, parse_temperatures, FitOptions, ThermalModelFile,
-};
-use volcomp_core::identify::thermal::identify::DEFAULT_RELATIVE_THRESHOLD;
+use volcomp_core::identify::thermal::files::ThermalModelFile;
 use volcomp_core::identify::thermal::report;
-use volcomp_core::identify::thermal::uncertainty::{
-    axis_line_bands_with_progress, LineBands, LINE_INTERVALS,
+use volcomp_core::identify::thermal::uncertainty::{LineBands, LINE_INTERVALS};
+use volcomp_core::request::{
+    unit_symbol, Input, ThermalFitRequest, ThermalPredictRequest, DEFAULT_BAND_SAMPLES,
 };
-use volcomp_core::identify::thermal::ThermalError;
 
 /// Thermally varying error: ball-array identification, temperature regression, prediction, plots.
 #[derive(Args, Debug)]
@@ -31,7 +29,7 @@ pub struct ThermalArgs {
 #[derive(Subcommand, Debug)]
 pub enum ThermalCommand {
     /// Identify the model per measurement cycle from ball-array data and regress it on temperatures.
-    Fit(FitArgs),
+    Fit(Box<FitArgs>),
     /// Write the 21-component model (TOML + CSV) predicted for one row of a temperature file.
     Predict(PredictArgs),
     /// Plot parameter evolution, regression fit and residuals (.svg or .png).
@@ -42,44 +40,13 @@ pub enum ThermalCommand {
 
 #[derive(Args, Debug)]
 pub struct FitArgs {
-    /// Measured sphere centres: cycle,time_h,placement,sphere,x_mm,y_mm,z_mm.
-    #[arg(long, value_name = "CSV")]
-    pub measurements: PathBuf,
-    /// Temperatures per cycle: cycle,time_h,<sensor>_C,…
-    #[arg(long, value_name = "CSV")]
-    pub temperatures: PathBuf,
-    /// Artifact: sphere,distance_mm (calibrated distance from sphere 1).
-    #[arg(long, value_name = "CSV")]
-    pub artifact: PathBuf,
-    /// Axis ranges the polynomials live on, mm: "X0:X1,Y0:Y1,Z0:Z1".
-    #[arg(long, value_name = "RANGES", allow_hyphen_values = true)]
-    pub ranges_mm: String,
-    /// Kinematic chain, workpiece to tool (docs/kinematic.md).
-    #[arg(long, default_value = "w X' Y' b Z t")]
-    pub chain: String,
-    /// Maximum Legendre order of the components.
-    #[arg(long, default_value_t = 2)]
-    pub order: usize,
-    /// Tool length offset of the probe (mm).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub probe_length_mm: f64,
-    /// Lagged cycles of every sensor in the regression (ARX-style inputs).
-    #[arg(long, default_value_t = 0)]
-    pub lags: usize,
-    /// Relative singular-value threshold for rank deficiency.
-    #[arg(long, default_value_t = DEFAULT_RELATIVE_THRESHOLD)]
-    pub threshold: f64,
-    /// Points per component table in predicted models.
-    #[arg(long, default_value_t = 61)]
-    pub table_samples: usize,
+    #[command(flatten)]
+    pub job: Options<ThermalFitRequest>,
     /// Also write the 95 % Monte Carlo confidence bands of the last cycle's
     /// identified TCP error along lines through the middle of the volume in
     /// X, Y and Z: a CSV, or a plot (.svg/.png).
     #[arg(long, value_name = "FILE")]
     pub bands: Option<PathBuf>,
-    /// Monte Carlo draws for --bands.
-    #[arg(long, default_value_t = 400, requires = "bands")]
-    pub samples: usize,
     /// Output thermal model (TOML).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -90,19 +57,11 @@ pub struct PredictArgs {
     /// Thermal model from `thermal fit`.
     #[arg(long)]
     pub model: PathBuf,
-    /// Temperatures (same sensor columns as for the fit).
-    #[arg(long, value_name = "CSV")]
-    pub temperatures: PathBuf,
-    /// Cycle number of the moment (default: the last row).
-    #[arg(long)]
-    pub cycle: Option<usize>,
+    #[command(flatten)]
+    pub job: Options<ThermalPredictRequest>,
     /// Output 21-component model (TOML); the tables go beside it as <stem>.csv.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Predict even at temperatures outside the training range (with a
-    /// warning) instead of refusing.
-    #[arg(long)]
-    pub extrapolate: bool,
 }
 
 #[derive(Args, Debug)]
@@ -127,140 +86,61 @@ pub struct ExampleArgs {
 
 pub fn run(a: ThermalArgs) -> Result<(), CliError> {
     match a.command {
-        ThermalCommand::Fit(a) => fit_cmd(a),
+        ThermalCommand::Fit(a) => fit_cmd(*a),
         ThermalCommand::Predict(a) => predict_cmd(a),
         ThermalCommand::Plot(a) => plot_cmd(a),
         ThermalCommand::Example(a) => example_cmd(a),
     }
 }
 
-fn read(path: &Path) -> Result<String, CliError> {
-    std::fs::read_to_string(path).map_err(|e| CliError::Io(path.to_path_buf(), e))
-}
-
-fn parse_ranges(text: &str) -> Result<[[f64; 2]; 3], CliError> {
-    let bad = || {
-        CliError::Message(format!(
-            "--ranges-mm `{text}`: write three ranges lo:hi separated by commas, e.g. 0:600,0:400,0:300"
-        ))
-    };
-    let parts: Vec<&str> = text.split(',').collect();
-    if parts.len() != 3 {
-        return Err(bad());
-    }
-    let mut r = [[0.0; 2]; 3];
-    for (a, p) in parts.iter().enumerate() {
-        let (lo, hi) = p.split_once(':').ok_or_else(bad)?;
-        r[a] = [
-            lo.trim().parse().map_err(|_| bad())?,
-            hi.trim().parse().map_err(|_| bad())?,
-        ];
-    }
-    Ok(r)
+fn input(i: &Option<Input>) -> Option<&Path> {
+    i.as_ref().and_then(|i| i.path())
 }
 
 fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
-    plan.input("--measurements", &a.measurements)
-        .input("--temperatures", &a.temperatures)
-        .input("--artifact", &a.artifact)
+    plan.input_opt("--measurements", input(&a.job.measurements))
+        .input_opt("--temperatures", input(&a.job.temperatures))
+        .input_opt("--artifact", input(&a.job.artifact))
         .output("-o", &a.output)
         .output_opt("--bands", a.bands.as_ref());
     check(&plan)?;
-    let ranges_mm = parse_ranges(&a.ranges_mm)?;
-    let art_name = a.artifact.display().to_string();
-    let array = parse_artifact(&read(&a.artifact)?, &art_name)?;
-    let m_name = a.measurements.display().to_string();
-    let cycles = parse_measurements(&read(&a.measurements)?, &m_name, &array)?;
-    let t_name = a.temperatures.display().to_string();
-    let temps = parse_temperatures(&read(&a.temperatures)?, &t_name)?;
-    if !(a.threshold > 0.0 && a.threshold < 1.0) {
-        return Err(CliError::Message(format!(
-            "--threshold {}: give a relative threshold between 0 and 1 (default {DEFAULT_RELATIVE_THRESHOLD})",
-            a.threshold
-        )));
+    if a.job.bands_samples.is_some() && a.bands.is_none() {
+        return Err(CliError::Message(
+            "--samples is the number of draws of --bands: give --bands FILE too".into(),
+        ));
     }
-    let options = FitOptions {
-        chain: a.chain.clone(),
-        ranges_mm,
-        order: a.order,
-        probe_length_mm: a.probe_length_mm,
-        lags: a.lags,
-        relative_threshold: a.threshold,
-        table_samples: a.table_samples,
-    };
-    let (file, idents) =
-        files::fit(&array, &cycles, &temps, &t_name, &options).map_err(|e| match e {
-            ThermalError::OutsideRange(r) => CliError::Message(r.describe("--ranges-mm")),
-            e => e.into(),
-        })?;
-    let text = file.to_toml();
-    write_atomically(
-        &a.output,
-        &[&a.measurements, &a.temperatures, &a.artifact],
-        |w| {
-            w.write_all(text.as_bytes())
-                .map_err(|e| CliError::Io(a.output.clone(), e))
-        },
-    )?;
+    let fit = a.job.fit()?;
+    let inputs: Vec<&Path> = [&a.job.measurements, &a.job.temperatures, &a.job.artifact]
+        .into_iter()
+        .filter_map(input)
+        .collect();
+    let text = fit.file.to_toml();
+    write_atomically(&a.output, &inputs, |w| {
+        w.write_all(text.as_bytes())
+            .map_err(|e| CliError::Io(a.output.clone(), e))
+    })?;
     if let Some(path) = &a.bands {
-        let last = idents
-            .last()
-            .ok_or_else(|| CliError::Message("no cycles to draw bands for".into()))?;
-        let model = files::poly_model(&a.chain, ranges_mm, a.order, a.probe_length_mm)?;
-        let samples = a.samples.max(10);
-        // 123 points × `samples` draws: a bar from 100 000 model evaluations.
+        // 123 points × the draws: a bar from 100 000 model evaluations.
         let points = 3 * (u64::from(LINE_INTERVALS) + 1);
+        let draws = a.job.bands_samples.unwrap_or(DEFAULT_BAND_SAMPLES);
         let mut bar = Bar::items(
             "Monte Carlo bands (points)",
             points,
-            points * samples as u64 >= 100_000,
+            points * draws >= 100_000,
         );
-        let lines = axis_line_bands_with_progress(
-            &model,
-            last,
-            ranges_mm,
-            a.probe_length_mm,
-            samples,
-            &mut bar,
-        );
+        let bands = a.job.bands(&fit, &mut bar);
         bar.finish();
+        let (lines, samples) = bands?;
         write_bands(path, &lines, samples)?;
     }
-    for w in volcomp_core::identify::thermal::checks::noise_warnings(&cycles, &idents) {
-        eprintln!("volcomp: warning: {m_name}: {w}");
+    for w in &fit.warnings {
+        eprintln!("volcomp: warning: {w}");
     }
-    let first = &idents[0];
-    let (lo, hi) = file.sigma0_range_um();
-    println!(
-        "{} cycles, {} placements, {} observations per cycle; rank {} of {} parameters",
-        cycles.len(),
-        cycles[0].placements.len(),
-        first.observations,
-        first.rank,
-        first.theta.len()
-    );
-    println!("probing noise estimated from the residuals: {lo:.3} … {hi:.3} µm");
-    if file.unidentifiable.is_empty() {
-        println!("every parameter is identifiable");
-    } else {
-        println!(
-            "not identifiable from these placements (no values, zero in predicted models): {}",
-            file.unidentifiable.join(", ")
-        );
+    for line in fit.summary_lines() {
+        println!("{line}");
     }
-    let worst = file.largest_residual();
-    if let Some(p) = worst {
-        println!(
-            "regression on {} sensor(s), {} lag(s): largest residual RMS {:.3} {} ({})",
-            file.sensors.len(),
-            file.lags,
-            p.residual_rms,
-            p.unit,
-            p.name
-        );
-    }
-    println!("wrote {}", a.output.display());
+    crate::note!("volcomp: wrote {}", a.output.display());
     Ok(())
 }
 
@@ -269,38 +149,6 @@ fn load_model(path: &Path) -> Result<ThermalModelFile, CliError> {
 }
 
 fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
-    {
-        let stem = a
-            .output
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("model");
-        let mut plan = OutputPlan::new();
-        plan.input("--model", &a.model)
-            .input("--temperatures", &a.temperatures)
-            .output("-o", &a.output)
-            .output(
-                "-o (its tables beside it)",
-                a.output.with_file_name(format!("{stem}.csv")),
-            );
-        check(&plan)?;
-    }
-    let model = load_model(&a.model)?;
-    let t_name = a.temperatures.display().to_string();
-    let temps = parse_temperatures(&read(&a.temperatures)?, &t_name)?;
-    let row = temps.row_of(a.cycle, &t_name)?;
-    let theta = if a.extrapolate {
-        if let Err(e) = volcomp_core::identify::thermal::checks::check_training_range(
-            &model, &temps, &t_name, row,
-        ) {
-            eprintln!("volcomp: warning: {e} (--extrapolate)");
-        }
-        model.predict_extrapolating(&temps, &t_name, row)?
-    } else {
-        model.predict(&temps, &t_name, row).map_err(|e| {
-            CliError::Message(format!("{e}\n  help: pass --extrapolate to predict anyway"))
-        })?
-    };
     let stem = a
         .output
         .file_stem()
@@ -309,29 +157,33 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
         .to_string();
     let csv_name = format!("{stem}.csv");
     let csv_path = a.output.with_file_name(&csv_name);
-    let (toml, csv) = model.model_files(
-        &theta,
-        &csv_name,
-        &format!(
-            "volcomp thermal prediction for cycle {} (t = {} h) of {}",
-            temps.cycles[row], temps.time_h[row], t_name
-        ),
-    )?;
-    let inputs = [a.model.as_path(), a.temperatures.as_path()];
-    write_atomically(&csv_path, &inputs, |w| {
-        w.write_all(csv.as_bytes())
-            .map_err(|e| CliError::Io(csv_path.clone(), e))
-    })?;
-    write_atomically(&a.output, &inputs, |w| {
-        w.write_all(toml.as_bytes())
-            .map_err(|e| CliError::Io(a.output.clone(), e))
-    })?;
-    println!(
-        "wrote {} and {} (cycle {}, t = {} h); use it with `volcomp compensate --map {}`",
+    let mut plan = OutputPlan::new();
+    plan.input("--model", &a.model)
+        .input_opt("--temperatures", input(&a.job.temperatures))
+        .output("-o", &a.output)
+        .output("-o (its tables beside it)", &csv_path);
+    check(&plan)?;
+    let model = load_model(&a.model)?;
+    let prediction = a.job.predict(&model)?;
+    if let Some(w) = &prediction.warning {
+        eprintln!("volcomp: warning: {}", crate::options::flags(w));
+    }
+    let (toml, csv) = prediction.model_files(&model, &csv_name)?;
+    let mut inputs = vec![a.model.as_path()];
+    inputs.extend(input(&a.job.temperatures));
+    for (path, text) in [(&csv_path, &csv), (&a.output, &toml)] {
+        write_atomically(path, &inputs, |w| {
+            w.write_all(text.as_bytes())
+                .map_err(|e| CliError::Io(path.clone(), e))
+        })?;
+    }
+    let (t, row) = (&prediction.temperatures, prediction.row);
+    crate::note!(
+        "volcomp: wrote {} and {} (cycle {}, t = {} h); use it with `volcomp compensate --map {}`",
         a.output.display(),
         csv_path.display(),
-        temps.cycles[row],
-        temps.time_h[row],
+        t.cycles[row],
+        t.time_h[row],
         a.output.display()
     );
     Ok(())
@@ -354,12 +206,7 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
         }
     }
     let mut charts = Vec::new();
-    // The files spell units in ASCII ("um", "urad"); the charts in symbols.
-    let symbol = |u: &str| match u {
-        "um" => "µm".to_string(),
-        "urad" => "µrad".to_string(),
-        u => u.to_string(),
-    };
+    let symbol = |u: &str| unit_symbol(u).to_string();
     for unit_file in &units {
         let unit = symbol(unit_file);
         let mut evolution = Chart {
@@ -446,7 +293,7 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
         "volcomp thermal model report",
         &[("model", a.model.as_path())],
     )?;
-    println!("wrote {}", a.output.display());
+    crate::note!("volcomp: wrote {}", a.output.display());
     Ok(())
 }
 
@@ -462,13 +309,13 @@ fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
     }
     let d = a.output.display();
     let r = example::RANGES_MM;
-    println!("wrote the example into {d}; try:");
-    println!(
+    crate::note!("volcomp: wrote the example into {d}; try:");
+    crate::note!(
         "  volcomp thermal fit --measurements {d}/measurements_train.csv --temperatures {d}/temperatures_train.csv \\\n      --artifact {d}/artifact.csv --ranges-mm {}:{},{}:{},{}:{} -o {d}/thermal.toml",
         r[0][0], r[0][1], r[1][0], r[1][1], r[2][0], r[2][1]
     );
-    println!("  volcomp thermal predict --model {d}/thermal.toml --temperatures {d}/temperatures_check.csv -o {d}/predicted.toml");
-    println!("  volcomp thermal plot --model {d}/thermal.toml -o {d}/thermal.svg");
+    crate::note!("  volcomp thermal predict --model {d}/thermal.toml --temperatures {d}/temperatures_check.csv -o {d}/predicted.toml");
+    crate::note!("  volcomp thermal plot --model {d}/thermal.toml -o {d}/thermal.svg");
     Ok(())
 }
 

@@ -261,6 +261,17 @@ impl<'a> Compensator<'a> {
             HEAD_BYTES as usize,
             std::io::Cursor::new(head).chain(program),
         );
+        // gcode lane: computed values (`F[1/3]`) are written with the
+        // decimals of the compensated words, not 17 digits.
+        let decimals = |default: u8| {
+            self.options
+                .decimals
+                .unwrap_or(default.max(style.survey.max_decimals()))
+        };
+        self.setup.interp.computed_decimals = Some([
+            decimals(super::DEFAULT_DECIMALS_MM),
+            decimals(super::DEFAULT_DECIMALS_INCH),
+        ]);
         let mut walker = self.setup.walker(reader, &self.file);
         let mut no_op = |_: &PointRecord| {};
         let on_point: &mut dyn FnMut(&PointRecord) = match self.on_point.as_mut() {

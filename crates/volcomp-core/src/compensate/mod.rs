@@ -21,6 +21,7 @@ mod cycle;
 mod extra;
 mod frame;
 mod front;
+mod line_limit;
 mod lines;
 mod options;
 mod points;
@@ -74,7 +75,11 @@ pub fn compensate_program<R: BufRead>(
         file,
     };
     let mut st = State::new(walk, walker.interpreter().position(), &mut on_point);
-    let mut out = size::Counted::new(out);
+    // gcode lane: every written line within LinuxCNC's 252 characters
+    // (compensate/line_limit.rs); the count is of what reaches `out`.
+    let mut counted = size::Counted::new(out);
+    let mut limited = line_limit::LineLimit::new(&mut counted);
+    let mut out = size::Counted::new(&mut limited);
     while let Some(ev) = walker.next_line()? {
         let line = st.begin_line(&ev);
         let after = st.write_line(&line, &mut out)?;
@@ -82,7 +87,8 @@ pub fn compensate_program<R: BufRead>(
         st.frame_before = Some(after);
     }
     st.summary.blocks_in = st.blocks_in.finish();
-    (st.summary.bytes_out, st.summary.blocks_out) = out.finish();
+    limited.end()?;
+    (st.summary.bytes_out, st.summary.blocks_out) = counted.finish();
     st.summary.max_estimated_contour_um =
         matches!(options.segmentation, Segmentation::Adaptive { .. })
             .then_some(st.estimate_mm * 1e3);

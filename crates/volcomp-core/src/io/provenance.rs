@@ -94,6 +94,21 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
     digest.iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// Now as ISO 8601 UTC, or `SOURCE_DATE_EPOCH` when set (the
+/// reproducible-builds convention), so a run can be repeated byte for byte.
+pub fn now_utc() -> String {
+    let secs = std::env::var("SOURCE_DATE_EPOCH")
+        .ok()
+        .and_then(|s| s.trim().parse::<i64>().ok())
+        .unwrap_or_else(|| {
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_secs() as i64)
+                .unwrap_or(0)
+        });
+    iso8601_utc(secs)
+}
+
 /// Seconds since 1970-01-01T00:00:00Z as ISO 8601 (`2024-02-29T12:00:00Z`),
 /// by the days-to-civil algorithm of H. Hinnant, "chrono-Compatible
 /// Low-Level Date Algorithms" (proleptic Gregorian calendar).
@@ -392,7 +407,11 @@ impl<W: Write> Write for HeaderWriter<W> {
             } else {
                 "\n"
             };
-            if !self.seen_percent && !self.seen_number && t.starts_with('%') {
+            if !self.seen_percent && !self.seen_number && t.is_empty() {
+                // gcode lane: blank lines before the opening `%` stay
+                // before it (LinuxCNC looks for `%` at the first non-blank
+                // line; a header there would make the `%` a stray one).
+            } else if !self.seen_percent && !self.seen_number && t.starts_with('%') {
                 self.seen_percent = true;
             } else if !self.seen_number && is_program_number(t) {
                 self.seen_number = true;

@@ -7,6 +7,7 @@
 //! "Simulation and metrics" ([`crate::simulate::report`]).
 
 use super::svg::{self, Chart, Mark, PlanPanel, PlanPiece, Series, PALETTE};
+use super::text::count;
 use super::trace::{LengthHistogram, PathTrace};
 use super::{Block, Section, Table};
 use crate::compensate::{CompensateSummary, PointRecord};
@@ -457,6 +458,136 @@ fn axes_text(f: [bool; 3]) -> String {
         .filter(|(_, b)| *b)
         .map(|(c, _)| *c)
         .collect()
+}
+
+/// The columns of the per-point report (CSV), one row a compensated point
+/// ([`point_csv_row`]).
+pub const POINT_CSV_HEADER: &str = "line,target_x_mm,target_y_mm,target_z_mm,command_x_mm,command_y_mm,command_z_mm,iterations,residual_um,reversed,held,take_up\n";
+
+/// One compensated point as a row of the per-point report (mm and µm with
+/// six decimals; the reversed and held axes as letters).
+pub fn point_csv_row(p: &PointRecord, out: &mut String) {
+    use std::fmt::Write as _;
+    let _ = writeln!(
+        out,
+        "{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{:.6},{},{},{}",
+        p.line,
+        p.target_mm.x,
+        p.target_mm.y,
+        p.target_mm.z,
+        p.command_mm.x,
+        p.command_mm.y,
+        p.command_mm.z,
+        p.iterations,
+        p.residual_um,
+        axes_text(p.reversed),
+        axes_text(p.held),
+        p.take_up
+    );
+}
+
+/// The columns of the per-segment errors (CSV), one row a measured command
+/// ([`segment_csv_row`]).
+pub const SEGMENT_CSV_HEADER: &str =
+    "line,nominal_line,x_mm,y_mm,z_mm,point_error_um,contour_max_um\n";
+
+/// One measured command as a row of the per-segment errors (the point
+/// error is empty where the command ends no nominal feed move).
+pub fn segment_csv_row(s: &crate::simulate::SegmentError, out: &mut String) {
+    use std::fmt::Write as _;
+    let point = s.point_um.map(|p| format!("{p:.4}")).unwrap_or_default();
+    let _ = writeln!(
+        out,
+        "{},{},{:.6},{:.6},{:.6},{},{:.4}",
+        s.line,
+        s.nominal_line,
+        s.command_mm.x,
+        s.command_mm.y,
+        s.command_mm.z,
+        point,
+        s.contour_max_um
+    );
+}
+
+/// A simulation's metrics as a table for a person; `with_reference`: the
+/// nominal path is the reference program's.
+pub fn simulation_text(r: &SimReport, with_reference: bool) -> String {
+    let nominal = if with_reference {
+        "the reference program (each line paired with the original block it was written for)"
+    } else {
+        "this program"
+    };
+    format!(
+        "blocks              {}\n\
+         feed length         {:.3} mm\n\
+         point error         RMS {:8.3} µm   max {:8.3} µm   ({} points)\n\
+         contour error       RMS {:8.3} µm   max {:8.3} µm   ({} samples ≤ 0.05 mm apart)\n\
+         nominal path        {nominal}\n\
+         point error:   {}\n\
+         contour error: {}\n",
+        r.blocks,
+        r.feed_length_mm,
+        r.point_rms_um,
+        r.point_max_um,
+        r.points,
+        r.contour_rms_um,
+        r.contour_max_um,
+        r.samples,
+        r.point_definition,
+        r.contour_definition
+    )
+}
+
+/// What a compensation did, in two lines for a person (`output` names
+/// where the program went).
+pub fn summary_lines(s: &CompensateSummary, output: &str) -> [String; 2] {
+    let ratio = if s.blocks_in > 0 {
+        format!(" (x{:.2})", s.blocks_out as f64 / s.blocks_in as f64)
+    } else {
+        String::new()
+    };
+    let contour = match s.max_estimated_contour_um {
+        Some(um) => format!(
+            "{} estimated (plus the rounding of the written numbers)",
+            super::text::um(um)
+        ),
+        None => "not estimated (fixed segmentation)".into(),
+    };
+    [
+        format!(
+            "wrote {output} ({} from {}; {} compensated, largest correction {}, largest residual {}, {}, {} folded into their moves)",
+            count(s.lines_out, "line", "lines"),
+            s.lines_in,
+            count(s.points, "point", "points"),
+            super::text::um(s.max_correction_um),
+            super::text::um(s.max_residual_um),
+            count(s.take_ups, "take-up move", "take-up moves"),
+            count(s.take_ups_folded, "take-up", "take-ups"),
+        ),
+        format!(
+            "size {} -> {} bytes, {} -> {} blocks{ratio}; largest contour deviation the segmentation leaves: {contour}",
+            s.bytes_in, s.bytes_out, s.blocks_in, s.blocks_out
+        ),
+    ]
+}
+
+/// The warning of a compensation that held axes (`None` when none was
+/// held): how many, and the first ten lines.
+pub fn held_warning(s: &CompensateSummary) -> Option<String> {
+    if s.held_count == 0 {
+        return None;
+    }
+    let first: Vec<String> = s
+        .held
+        .iter()
+        .take(10)
+        .map(|(l, a)| format!("line {l} ({a})"))
+        .collect();
+    Some(format!(
+        "{} kept an axis still because the map's reversal value is negative there (forward error above reverse), so no command can reverse by less than it: {}",
+        count(s.held_count, "point", "points"),
+        first.join(", ")
+    ))
 }
 
 /// The program lines a corrections section quotes.

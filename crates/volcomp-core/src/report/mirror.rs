@@ -6,6 +6,7 @@
 use super::svg::{self, PlanPanel, PlanPiece};
 use super::{Block, Section, Table};
 use crate::surface::mirror::report::fit_text;
+use crate::surface::mirror::report::RunInputs;
 use crate::surface::mirror::{DeviationStats, MirrorResult};
 
 fn row(name: &str, s: &DeviationStats) -> Vec<String> {
@@ -21,6 +22,40 @@ fn row(name: &str, s: &DeviationStats) -> Vec<String> {
         z(s.profile_um),
         z(s.range_um),
     ]
+}
+
+/// The HTML report of a mirror run: what was given, every input file
+/// (`files`, with their SHA-256), the statistics and the probe points;
+/// `command` is the command (or call) as given.
+pub fn document(
+    run: &RunInputs,
+    r: &MirrorResult,
+    files: &[&std::path::Path],
+    command: &str,
+) -> Result<String, crate::Error> {
+    let mut inputs = Vec::new();
+    for p in files {
+        inputs.push(super::InputFile::read("input", p)?);
+    }
+    let doc = super::Document {
+        title: format!("volcomp mirror compensation report: {}", run.measured),
+        facts: vec![
+            ("command".into(), command.to_string()),
+            ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
+            ("date (UTC)".into(), crate::io::provenance::now_utc()),
+            ("nominal surface".into(), run.nominal.clone()),
+            ("probe points".into(), run.measured.clone()),
+            ("stock D".into(), format!("{} mm", run.stock_mm)),
+            (
+                "probe ball radius".into(),
+                run.probe_radius_mm
+                    .map_or("points are surface points".into(), |r| format!("{r} mm")),
+            ),
+        ],
+        inputs,
+        sections: sections(r),
+    };
+    Ok(doc.to_html())
 }
 
 /// The sections: statistics with the fit, then the probe points.

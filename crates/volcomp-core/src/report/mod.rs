@@ -20,10 +20,12 @@
 
 pub mod charts;
 pub mod compensation;
+pub mod demo;
 pub mod iso230_2;
 pub mod map;
 pub mod mirror;
 pub mod svg;
+pub mod text;
 pub mod trace;
 
 use crate::error::Error;

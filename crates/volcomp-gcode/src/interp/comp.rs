@@ -332,7 +332,9 @@ impl Interpreter {
                     }
                 }
             };
-            (diameter_mm / 2.0 / self.units.mm_per_unit(), 0)
+            // The orientation from the tool table (G10 L1 Q; 0 for a mill).
+            let orientation = self.tool_lathe.get(&tool).map_or(0, |v| v[2] as i32);
+            (diameter_mm / 2.0 / self.units.mm_per_unit(), orientation)
         };
         if self.plane != Plane::Zx && orientation != 0 && orientation != 9 {
             return Err(comp_error(
@@ -925,7 +927,12 @@ impl Interpreter {
         let plane = c.plane;
         let (side, radius, first) = (c.side, c.radius_mm, c.first_move);
         let program_start = if first { self.position } else { c.program };
-        let turns = w.get(b'P').map_or(1, |p| p.round() as i32);
+        let turns = match w.get(b'P') {
+            None => 1,
+            Some(p) => super::motion::arc_turns(p)
+                .map_err(|why| invalid(line, w.col(b'P').unwrap_or(0), why, "fix the P word"))?
+                as i32,
+        };
         let turn = if clockwise { -turns } else { turns };
         // The programmed arc, from the programmed point (the tool's at the
         // entry move), with volcomp's checks, which are LinuxCNC's

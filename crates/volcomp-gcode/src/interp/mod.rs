@@ -19,6 +19,7 @@
 //! | `spline.rs` | splines G5, G5.1, G5.2/G5.3, linearised within the spline tolerance |
 //! | `extra.rs` | the extra axes A, B, C, U, V, W, carried through (not compensated) |
 //! | `offsets.rs` | tool length offsets, G10 (work offsets, tool table writes), G52, G92, G28/G30 |
+//! | `lexical.rs` | bytes LinuxCNC's reader sees differently: NUL in a comment, a byte-order mark |
 //! | `tape.rs` | the start and end of a program: `%` lines, the required program end |
 //! | `warnings.rs` | [`Warning`]: what was assumed |
 //!
@@ -28,6 +29,7 @@
 mod comp;
 mod cycle;
 mod extra;
+mod lexical;
 mod modal;
 mod motion;
 mod offsets;
@@ -39,6 +41,7 @@ mod warnings;
 mod words;
 
 pub use extra::{ExtraAxes, EXTRA_LETTERS};
+pub use lexical::check_line;
 pub use modal::PathMode;
 pub use motion::K0_HELP;
 pub use motion::MAX_COORDINATE_MM;
@@ -166,15 +169,35 @@ pub struct Interpreter {
     plane_before_block: Plane,
     work: usize,
     work_offsets: [Vec3; 9],
+    /// Which work offsets are known (given by the set-up, or set by the
+    /// program with G10 L2/L20 on X, Y and Z).
+    work_given: [bool; 9],
     g92: Vec3,
+    /// The G92 parameters #5211…: G92.2 clears [`Interpreter::g92`] but
+    /// keeps them, and G92.3 restores from them.
     g92_saved: Vec3,
+    /// #5210: whether a G52/G92 offset is applied.
+    g92_applied: bool,
     tlo: Vec3,
     /// X and Y offsets of tools written by G10 L1/L10/L11 (the set-up's
     /// tool table has lengths only, Z); G43 applies them.
     tool_xy_mm: std::collections::BTreeMap<u32, [f64; 2]>,
+    /// Front angle, back angle and orientation of tools written by G10 L1
+    /// I, J, Q (0 for every other tool: the set-up's are mills'); G41/G42
+    /// with D take the orientation.
+    tool_lathe: std::collections::BTreeMap<u32, [f64; 3]>,
+    /// G96 (constant surface speed) in effect rather than G97.
+    css_mode: bool,
+    /// Mist (M7) and flood (M8) coolant on; M9 turns both off.
+    mist: bool,
+    flood: bool,
     /// Rotation about Z of each coordinate system (degrees, G10 L2/L20 R).
     rotation_deg: [f64; 9],
     loaded_tool: u32,
+    /// The tool whose table entry #5400–#5413 show: set at M6 (and G10
+    /// L1/L10/L11 of the loaded tool), not at M61, as LinuxCNC's
+    /// `set_tool_parameters` runs before M61's tool reaches the table.
+    param_tool: u32,
     next_tool: u32,
     position: Vec3,
     retract_to_r: bool,
@@ -201,6 +224,9 @@ pub struct Interpreter {
     uses_percents: bool,
     /// Whether a non-blank line has been read.
     nonblank_seen: bool,
+    /// The first `%` line that neither opened nor closed the tape (its
+    /// line, LinuxCNC's message): LinuxCNC stops there.
+    stray_percent: Option<(u64, &'static str)>,
     /// Whether the program has said G20 or G21.
     units_given: bool,
     /// Assumptions made so far, in program order.
@@ -212,7 +238,7 @@ pub struct Interpreter {
     extra: [f64; 6],
     extra_target: [f64; 6],
     /// The modal state M70 saved (M72 restores it).
-    saved_modes: Option<modal::SavedModes>,
+    contexts: Vec<modal::Context>,
     /// G61, G61.1 or G64 P… Q… in effect.
     path_mode: PathMode,
     /// G92 offsets of the extra axes, and the ones G92.3 restores.
@@ -256,8 +282,12 @@ impl Interpreter {
     pub fn new(setup: Setup, options: InterpOptions) -> Self {
         let work_offsets = setup.work_offsets_mm;
         let position = setup.start_mm;
-        let (work, g92, rotation_deg) =
-            (setup.work_system.min(8), setup.g92_mm, setup.rotations_deg);
+        let (work, g92, rotation_deg, work_given) = (
+            setup.work_system.min(8),
+            setup.g92_mm,
+            setup.rotations_deg,
+            setup.work_offsets_given,
+        );
         Self {
             setup,
             options,
@@ -272,12 +302,19 @@ impl Interpreter {
             plane_before_block: Plane::Xy,
             work,
             work_offsets,
+            work_given,
             g92,
-            g92_saved: Vec3::ZERO,
+            g92_saved: g92,
+            g92_applied: g92 != Vec3::ZERO,
             tlo: Vec3::ZERO,
             tool_xy_mm: std::collections::BTreeMap::new(),
+            tool_lathe: std::collections::BTreeMap::new(),
+            css_mode: false,
+            mist: false,
+            flood: false,
             rotation_deg,
             loaded_tool: 0,
+            param_tool: 0,
             next_tool: 0,
             position,
             retract_to_r: true,
@@ -292,13 +329,14 @@ impl Interpreter {
             finished: false,
             uses_percents: false,
             nonblank_seen: false,
+            stray_percent: None,
             units_given: false,
             warnings: Vec::new(),
             warned_units: false,
             warned_reference: [false; 2],
             extra: [0.0; 6],
             extra_target: [0.0; 6],
-            saved_modes: None,
+            contexts: Vec::new(),
             path_mode: PathMode::default(),
             extra_g92: [0.0; 6],
             extra_g92_saved: [0.0; 6],
@@ -378,6 +416,14 @@ impl Interpreter {
         self.feed_mode
     }
 
+    /// Decimals of computed values in rendered lines in the units in
+    /// effect ([`InterpOptions::computed_decimals`]).
+    pub fn computed_decimals(&self) -> Option<u8> {
+        self.options
+            .computed_decimals
+            .map(|[mm, inch]| if self.units == Units::Mm { mm } else { inch })
+    }
+
     /// Path-control mode (G61, G61.1, G64) in effect.
     pub fn path_mode(&self) -> PathMode {
         self.path_mode
@@ -408,6 +454,7 @@ impl Interpreter {
         if !lexed.tokens.is_empty() {
             self.nonblank_seen = true;
         }
+        self.check_after_stray_percent(line, lexed.words().next().is_some())?;
         self.collect_words(line, lexed)?;
         let before = out.len();
         self.run_block(line, out)?;
@@ -444,12 +491,17 @@ impl Interpreter {
     ) -> Result<(), GcodeError> {
         self.plane_before_block = self.plane;
         // 1-3: feed mode, feed rate.
+        // `convert_feed_mode` (interp_convert.cc): G94 and G95 set the feed
+        // rate to 0 (even in the mode already in effect), so a feed move
+        // needs an F word after them.
         if w.has_g(930) {
             self.feed_mode = FeedMode::InverseTime;
         } else if w.has_g(940) {
             self.feed_mode = FeedMode::PerMinute;
+            self.feed = 0.0;
         } else if w.has_g(950) {
             self.feed_mode = FeedMode::PerRevolution;
+            self.feed = 0.0;
         }
         if let Some(f) = w.get(b'F') {
             if f < 0.0 {
@@ -499,20 +551,45 @@ impl Interpreter {
         }
         if w.has_m(60) {
             self.loaded_tool = self.next_tool;
+            self.param_tool = self.loaded_tool;
         }
         if w.has_m(610) {
+            let col = w.m_col(610).unwrap_or(0);
             let q = w
                 .get(b'Q')
-                .ok_or_else(|| invalid(line, 0, "M61 needs a Q word", "write M61 Qn"))?;
-            self.loaded_tool = q.max(0.0) as u32;
+                .ok_or_else(|| invalid(line, col, "M61 needs a Q word", "write M61 Qn"))?;
+            // `convert_m`: `round_to_int(q)` (half to even), refused below 0.
+            let tool = crate::ngc::expr::round_to_int(q);
+            if tool < 0 {
+                return Err(invalid(
+                    line,
+                    w.col(b'Q').unwrap_or(col),
+                    "M61 with a negative tool number; LinuxCNC refuses it (\"Need non-negative Q-word to specify tool number with M61\")",
+                    "write M61 Q<tool number>, Q0 for no tool",
+                ));
+            }
+            self.loaded_tool = tool as u32;
         }
-        // 7: spindle direction (only tracked for the canned cycles).
+        // 7: spindle direction (for the canned cycles and #<_spindle_on>).
         if w.has_m(30) {
             self.spindle_dir = 1;
         } else if w.has_m(40) {
             self.spindle_dir = -1;
         } else if w.has_m(50) {
             self.spindle_dir = 0;
+        }
+        if let Some(css) = w.switch(960, 970) {
+            self.css_mode = css;
+        }
+        // 8: coolant (for #<_mist>, #<_flood>).
+        if w.has_m(70) {
+            self.mist = true;
+        }
+        if w.has_m(80) {
+            self.flood = true;
+        }
+        if w.has_m(90) {
+            (self.mist, self.flood) = (false, false);
         }
         // M70/M71/M72: save, invalidate, restore the modal state.
         self.modal_save_restore(line, w)?;
@@ -523,6 +600,17 @@ impl Interpreter {
                 w.g_col(40).unwrap_or(0),
                 "G4 dwell without P",
                 "write G4 Pseconds",
+            ));
+        }
+        // -1 is LinuxCNC's own "no P" value (`check_g_codes`,
+        // interp_check.cc, tests `p_number == -1.0`); other negative
+        // dwells pass.
+        if w.has_g(40) && w.get(b'P') == Some(-1.0) {
+            return Err(invalid(
+                line,
+                w.col(b'P').unwrap_or(0),
+                "G4 P-1: LinuxCNC takes P-1 for a missing P and refuses the line (\"Dwell time missing with g4\")",
+                "write the dwell in seconds, zero or more",
             ));
         }
         // What LinuxCNC refuses while cutter compensation is on, checked
@@ -562,6 +650,15 @@ impl Interpreter {
             .enumerate()
         {
             if w.has_g(code) {
+                if !self.work_given[i] {
+                    let name = crate::setup::WORK_SYSTEMS[i];
+                    return Err(invalid(
+                        line,
+                        w.g_col(code).unwrap_or(0),
+                        format!("{name} is selected, but the set-up does not give its offset: volcomp does not take it for 0"),
+                        format!("give it under [work_offsets] in the set-up file ({name} = [X, Y, Z], machine coordinates), or name LinuxCNC's var file (var_file = \"linuxcnc.var\"), or set it in the program with G10 L2 P{} X… Y… Z…", i + 1),
+                    ));
+                }
                 self.work = i;
             }
         }
@@ -635,8 +732,11 @@ impl Interpreter {
                 "give X/Y words instead",
             ));
         }
+        // An arc-centre word alone in G2/G3 (`I-7.5 J0`) is an arc too,
+        // back to where it starts (`enhance_block`, interp_internal.cc).
+        let ijk_arc = || matches!(self.motion_to_be(w), Some(MotionMode::Cw | MotionMode::Ccw));
         if axis_user.is_none()
-            && (w.has_axis() || w.has_polar() || self.motion_word_col(w).is_some())
+            && (w.has_axis() || w.has_polar() || self.motion_word_col(w).is_some() || ijk_arc())
         {
             self.motion(line, w, new_cycle, out)?;
         }

@@ -12,7 +12,7 @@ use crate::geom::{Axis, Plane, Units, Vec3};
 /// Help of the refusal of `K0` on an XY arc; a front end may say how its
 /// user accepts K0 instead.
 pub const K0_HELP: &str =
-    "remove the K0 words (a zero K says nothing about an XY arc), or accept K0 on XY arcs in the options";
+    "remove the K0 words (a zero K says nothing about an XY arc), or accept K0 on XY arcs ({accept_k0})";
 
 /// Largest absolute machine coordinate volcomp accepts (mm): 100 m, beyond
 /// the travel of the largest machine tools (gantry mills reach some tens of
@@ -41,6 +41,27 @@ pub(super) fn check_reach(line: u64, col: usize, what: &str, p: Vec3) -> Result<
         }
     }
     Ok(())
+}
+
+/// The turns of an arc's P word as LinuxCNC reads it
+/// (`check_other_codes`, interp_check.cc; `convert_arc2`,
+/// interp_convert.cc): `round_to_int(p)` (half to even), refused when `p`
+/// lies more than 0.001 from it or is below 1; volcomp bounds it to
+/// 10,000 turns.
+pub(super) fn arc_turns(p: f64) -> Result<u32, String> {
+    let turns = crate::ngc::expr::round_to_int(p);
+    if (turns as f64 - p).abs() > 0.001 {
+        return Err(format!("P{p} on an arc is not a whole number of turns; LinuxCNC refuses it (\"P value not an integer with M19 G2 or G3\")"));
+    }
+    if turns < 1 {
+        return Err(format!("P{p} on an arc: at least one turn; LinuxCNC refuses it (\"P value should be 1 or greater with G2 or G3\")"));
+    }
+    if turns > 10_000 {
+        return Err(format!(
+            "P{p} on an arc: volcomp makes at most 10,000 turns"
+        ));
+    }
+    Ok(turns as u32)
 }
 
 impl Interpreter {
@@ -247,9 +268,12 @@ impl Interpreter {
             // LinuxCNC moves even without axis words when a motion code is on
             // the line: G0/G1 make a zero-length move, G2/G3 with centre words
             // a full circle; a cycle code alone does nothing.
+            // In G2/G3 a line of centre words alone is an arc as well
+            // (`enhance_block`, interp_internal.cc).
+            let ijk = [b'I', b'J', b'K'].iter().any(|l| w.get(*l).is_some());
             match self.motion_mode {
                 Some(MotionMode::Rapid | MotionMode::Feed) if motion_word => {}
-                Some(MotionMode::Cw | MotionMode::Ccw) if motion_word => {
+                Some(MotionMode::Cw | MotionMode::Ccw) if motion_word || ijk => {
                     if [b'I', b'J', b'K', b'R'].iter().all(|l| w.get(*l).is_none()) {
                         return Err(invalid(
                             line,
@@ -479,15 +503,8 @@ impl Interpreter {
         };
         let turns = match w.get(b'P') {
             None => 1,
-            Some(p) if (1.0..=10_000.0).contains(&p) && p.fract() == 0.0 => p as u32,
-            Some(_) => {
-                return Err(invalid(
-                    line,
-                    w.col(b'P').unwrap_or(col),
-                    "P on an arc must be a whole number of turns from 1 to 10000",
-                    "fix the P word",
-                ))
-            }
+            Some(p) => arc_turns(p)
+                .map_err(|why| invalid(line, w.col(b'P').unwrap_or(col), why, "fix the P word"))?,
         };
         if let Some(k) = w.get(lw) {
             let k0_xy = k == 0.0 && plane == Plane::Xy;
@@ -609,7 +626,7 @@ impl Interpreter {
                     let a1 = (start[u] - c_abs[u]).hypot(start[v] - c_abs[v]);
                     let a2 = (end[u] - c_abs[u]).hypot(end[v] - c_abs[v]);
                     if (a1 - a2).abs() <= tol_mm.max(1e-3 * a1.max(a2)) {
-                        help = format!("the centre fits if {}/{} are absolute coordinates (radius {:.4} at both ends): the program was posted for absolute arc centres; add G90.1 at its start or read it with absolute arc centres (the option `InterpOptions::absolute_arc_centers`)", lu as char, lv as char, a1 / self.units.mm_per_unit());
+                        help = format!("the centre fits if {}/{} are absolute coordinates (radius {:.4} at both ends): the program was posted for absolute arc centres; add G90.1 at its start or read it with absolute arc centres ({{absolute_arc_centers}})", lu as char, lv as char, a1 / self.units.mm_per_unit());
                     }
                 }
                 return Err(invalid(line, col, format!("radius to end of arc differs from radius to start: r1={:.4} r2={:.4} (mm), abs_err={:.4} rel_err={:.4}%", r1, r2, abs_err, rel_err * 100.0), help));

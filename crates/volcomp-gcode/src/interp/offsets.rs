@@ -49,7 +49,7 @@ impl Interpreter {
                         line,
                         col,
                         format!("G43 uses tool {h}, which the setup has no length for"),
-                        format!("add `{h} = LENGTH` under [tools] in the set-up file (the tool lengths of the set-up, `Setup::tool_lengths_mm`)"),
+                        format!("add `{h} = LENGTH` under [tools] in the set-up file"),
                     )
                 })?
             };
@@ -84,6 +84,7 @@ impl Interpreter {
                 }
             }
             self.g92_saved = self.g92;
+            self.g92_applied = true;
         } else if w.has_g(920) {
             let off = self.work_offsets[self.work] + self.tlo;
             if !w.has_axis() {
@@ -105,13 +106,17 @@ impl Interpreter {
                 }
             }
             self.g92_saved = self.g92;
+            self.g92_applied = true;
         } else if w.has_g(921) {
             self.g92 = Vec3::ZERO;
             self.g92_saved = Vec3::ZERO;
+            self.g92_applied = false;
         } else if w.has_g(922) {
             self.g92 = Vec3::ZERO;
+            self.g92_applied = false;
         } else if w.has_g(923) {
             self.g92 = self.g92_saved;
+            self.g92_applied = true;
         }
         Ok(())
     }
@@ -151,15 +156,51 @@ impl Interpreter {
                 "write P1 for G54 … P9 for G59.3, P0 for the active system",
             )
         })?;
-        if !(0.0..=9.0).contains(&p) || p.fract() != 0.0 {
+        let pcol = w.col(b'P').unwrap_or(col);
+        // `check_g_codes` (interp_check.cc) tests `(int)(p ± 0.5)`: P must
+        // not lie more than 0.0001 above it, and it must be 0 … 9; then
+        // `convert_setup` (interp_convert.cc) takes `(int)(p + 0.0001)`, so
+        // a P a little below a whole number selects the system below.
+        let check = if p >= 0.0 {
+            (p + 0.5).trunc()
+        } else {
+            (p - 0.5).trunc()
+        };
+        if (p + 0.0001) - check > 0.0002 {
             return Err(invalid(
                 line,
-                w.col(b'P').unwrap_or(col),
-                "P must be 0 … 9 with G10",
+                pcol,
+                format!("G10 L{l} P{p}: P is not a whole number; LinuxCNC refuses it (\"P value not an integer with G10\")"),
                 "P1 is G54, P9 is G59.3, P0 the active system",
             ));
         }
-        let idx = if p == 0.0 { self.work } else { p as usize - 1 };
+        if !(0.0..=9.0).contains(&check) {
+            return Err(invalid(
+                line,
+                pcol,
+                format!("G10 L{l} P{p}: P must be 0 … 9; LinuxCNC refuses it (\"P value out of range (0-9) with G10 L{l}\")"),
+                "P1 is G54, P9 is G59.3, P0 the active system",
+            ));
+        }
+        let p_int = (p + 0.0001).trunc();
+        let idx = if p_int <= 0.0 {
+            self.work
+        } else {
+            p_int as usize - 1
+        };
+        // The system is known from here on when the program gives all of
+        // X, Y and Z (L2), or sets it relative to the known position (L20).
+        if [b'X', b'Y', b'Z'].iter().all(|le| w.get(*le).is_some()) {
+            self.work_given[idx] = true;
+        } else if !self.work_given[idx] {
+            let name = crate::setup::WORK_SYSTEMS[idx];
+            return Err(invalid(
+                line,
+                col,
+                format!("G10 L{l} sets only some axes of {name}, whose other axes the set-up does not give"),
+                format!("give X, Y and Z on this line, or {name} under [work_offsets] in the set-up file"),
+            ));
+        }
         if l == 20.0 && self.rotation_deg[idx] != 0.0 {
             self.g10_l20_rotated(w, idx);
             return Ok(());
@@ -224,15 +265,25 @@ impl Interpreter {
             )
         })?;
         let pcol = w.col(b'P').unwrap_or(col);
-        if p.fract() != 0.0 || p < 1.0 {
+        // `check_g_codes` refuses `(int)(p ± 0.5)` below 1 ("P value out
+        // of range with G10 L1"); `convert_setup_tool` takes the tool
+        // `(int)(p + 0.5)` (`is_near_int`, whose verdict it ignores), so
+        // P1.7 writes tool 2, as in LinuxCNC.
+        let (tool, _) = crate::ngc::expr::near_int(p);
+        let check = if p >= 0.0 {
+            (p + 0.5).trunc()
+        } else {
+            (p - 0.5).trunc()
+        };
+        if check < 1.0 || tool < 1 {
             return Err(invalid(
                 line,
                 pcol,
-                format!("G10 L{l} P{p}: P must be a tool number (a whole number, 1 or more)"),
+                format!("G10 L{l} P{p}: P must be a tool number, 1 or more; LinuxCNC refuses it (\"P value out of range with G10 L{l}\")"),
                 "fix the P word",
             ));
         }
-        let tool = p as u32;
+        let tool = tool as u32;
         if !self.setup.tool_lengths_mm.contains_key(&tool) {
             return Err(invalid(
                 line,
@@ -252,16 +303,26 @@ impl Interpreter {
                 "give X, Y, Z (or R, Q, I, J)",
             ));
         }
-        if let Some(q) = w.get(b'Q') {
-            if q.fract() != 0.0 || q > 9.0 {
-                return Err(invalid(
-                    line,
-                    w.col(b'Q').unwrap_or(col),
-                    "Q in G10 is the tool orientation, a whole number up to 9",
-                    "fix the Q word",
-                ));
+        // Q (orientation): `is_near_int`, at most 9; -1 is LinuxCNC's "no Q".
+        let orientation = match w.get(b'Q').filter(|q| *q != -1.0) {
+            Some(q) => {
+                let (o, near) = crate::ngc::expr::near_int(q);
+                if !near || o > 9 {
+                    return Err(invalid(
+                        line,
+                        w.col(b'Q').unwrap_or(col),
+                        if near {
+                            "Q in G10 is the tool orientation, at most 9; LinuxCNC refuses it (\"Invalid tool orientation\")"
+                        } else {
+                            "Q in G10 is the tool orientation, a whole number; LinuxCNC refuses it (\"Q number in G10 is not an integer\")"
+                        },
+                        "fix the Q word",
+                    ));
+                }
+                Some(o as f64)
             }
-        }
+            None => None,
+        };
         let xy = self.tool_xy_mm.get(&tool).copied().unwrap_or([0.0; 2]);
         let mut off = [xy[0], xy[1], self.setup.tool_lengths_mm[&tool]];
         // The current point in the destination system, without the tool
@@ -320,6 +381,30 @@ impl Interpreter {
         }
         self.setup.tool_lengths_mm.insert(tool, off[2]);
         self.tool_xy_mm.insert(tool, [off[0], off[1]]);
+        // Writing the loaded tool's entry refreshes #5400–#5413
+        // (`convert_setup_tool` copies it to the spindle's slot).
+        if tool == self.loaded_tool {
+            self.param_tool = tool;
+        }
+        // R is the radius: the table's diameter becomes 2R (G41/G42 D use
+        // it); I, J, Q the lathe tool's angles and orientation.
+        if let Some(r) = w.get(b'R') {
+            self.setup
+                .tool_diameters_mm
+                .insert(tool, 2.0 * self.to_mm(r));
+        }
+        if w.get(b'I').is_some() || w.get(b'J').is_some() || orientation.is_some() {
+            let lathe = self.tool_lathe.entry(tool).or_insert([0.0; 3]);
+            if let Some(i) = w.get(b'I') {
+                lathe[0] = i;
+            }
+            if let Some(j) = w.get(b'J') {
+                lathe[1] = j;
+            }
+            if let Some(o) = orientation {
+                lathe[2] = o;
+            }
+        }
         Ok(())
     }
 

@@ -11,16 +11,24 @@ pub struct InterpOptions {
     /// Interpret arc centres as absolute from the start, as if G90.1 began
     /// the program.
     pub absolute_arc_centers: bool,
-    /// Refuse a program that ends without M2 or M30 (or, if its first
-    /// non-blank line is `%`, without a closing `%` line), as LinuxCNC does
-    /// (`Interp::read`, rs274ngc_pre.cc: "File ended with no percent sign or
-    /// program end"). Other controllers run such programs, and a library
-    /// caller may read a fragment, so the default does not require it; the
-    /// `volcomp` command line does, unless told otherwise.
+    /// Hold the program to LinuxCNC's rule that it ends with M2 or M30 (or,
+    /// if its first non-blank line is `%`, with a closing `%` line): a
+    /// program that reaches the end of its file without one is read to its
+    /// last line, as LinuxCNC runs it, with a warning that says what
+    /// LinuxCNC then reports ("File ended with no percent sign or program
+    /// end", `Interp::read_text`, interp_read.cc). Other controllers need
+    /// no end, and a library caller may read a fragment, so the default
+    /// does not warn; the `volcomp` command line does, unless told
+    /// otherwise.
     pub require_program_end: bool,
     /// Largest distance (mm) between a G5/G5.1/G5.2 spline and the chords
     /// the interpreter linearises it into.
     pub spline_tolerance_mm: f64,
+    /// Decimals of a computed value written into a rendered line (`F[1/3]`
+    /// evaluated), in mm and in inch programs: `compensate` writes them
+    /// like the program's numbers. `None`: the shortest number that reads
+    /// back as the same double (up to 17 digits).
+    pub computed_decimals: Option<[u8; 2]>,
     /// Most lines one run executes, counting every pass of a loop and every
     /// line of a called subroutine; a program past it is refused as a loop
     /// that never ends (default [`crate::ngc::flow::MAX_EXECUTED_LINES`]).
@@ -34,6 +42,7 @@ impl Default for InterpOptions {
             absolute_arc_centers: false,
             require_program_end: false,
             spline_tolerance_mm: 1e-4,
+            computed_decimals: None,
             max_executed_lines: crate::ngc::flow::MAX_EXECUTED_LINES,
         }
     }

@@ -5,7 +5,7 @@
 use super::options::MotionMode;
 use super::{invalid, unsupported, Interpreter};
 use crate::error::GcodeError;
-use crate::lexer::{Lexed, Word};
+use crate::lexer::{Lexed, Token, Word};
 use crate::setup::AxisLetters;
 
 /// The words of one block by letter, plus its G and M codes.
@@ -149,8 +149,7 @@ fn m_group(code: u16) -> Result<u8, &'static str> {
         48..=53 => 9,
         62..=65 | 67 | 68 => 5,
         66 => return Err("M66 waits for an input of the machine and stores its state in #5399; what it reads is known only when the machine runs; remove the M66 (and what depends on #5399) to compensate the program"),
-        72 => 7,
-        73 => return Err("M73 saves the modal state and restores it when the subroutine returns; volcomp does not restore it at the return; state the modes explicitly instead (M70 and M72 are interpreted)"),
+        72 | 73 => 7,
         98 => 10,
         100..=199 => return Err("M100–M199 run the machine's own user programs (files in its PROGRAM_PREFIX), which volcomp cannot see; LinuxCNC refuses them when the file is missing (\"Unknown m code used\"); remove it, or run that part uncompensated"),
         _ => return Err("unknown M code (\"Unknown m code used\" in LinuxCNC, or above M199: \"M-code greater than 199\"); a remapped M code runs the machine's own subroutine, which volcomp cannot see"),
@@ -160,12 +159,62 @@ fn m_group(code: u16) -> Result<u8, &'static str> {
 /// The canned cycles volcomp expands (G-code × 10).
 pub(super) const CYCLE_CODES: [u16; 11] = [730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890];
 
-fn code_of(value: f64) -> Option<u16> {
-    let c = (value * 10.0).round();
-    if (value * 10.0 - c).abs() > 1e-6 || !(0.0..=9999.0).contains(&c) {
-        return None;
+/// A G code ×10 as LinuxCNC's `read_g` (interp_read.cc) makes it: ten
+/// times the value, taken to the whole number below unless that is more
+/// than 0.001 away ("G-code out of range"), then the one above when within
+/// 0.001; negative ("Negative G-code used") or above G99.9 is refused.
+fn g_code_of(value: f64) -> Result<u16, &'static str> {
+    let v = 10.0 * value;
+    let f = v.floor();
+    let c = if v - f > 0.999 {
+        v.ceil()
+    } else if v - f > 0.001 {
+        return Err("G-code out of range");
+    } else {
+        f
+    };
+    if c < 0.0 {
+        return Err("Negative G-code used");
     }
-    Some(c as u16)
+    if c > 999.0 || c.is_nan() {
+        return Err("G-code out of range");
+    }
+    Ok(c as u16)
+}
+
+/// A word LinuxCNC reads with `read_integer_value` (M, T, H, L: within
+/// 0.0001 of a whole number, interp_read.cc), with its own refusal of a
+/// negative value (`read_m`, `read_t`, `read_h`, `read_l`).
+fn integer_word(letter: u8, value: f64) -> Result<f64, String> {
+    let f = value.floor();
+    let i = if value - f > 0.9999 {
+        value.ceil()
+    } else if value - f > 0.0001 {
+        return Err(format!(
+            "{}{value} is not a whole number: LinuxCNC reads {} words as whole numbers (\"Non integer value for integer\")",
+            letter as char, letter as char
+        ));
+    } else {
+        f
+    };
+    let negative = match letter {
+        // The messages of rs274ngc_return.hh.
+        b'M' => (i < 0.0).then_some("Negative m code used"),
+        b'T' => (i < 0.0).then_some("Negative tool id (tool not found)"),
+        // H-1 is LinuxCNC's own "no H" value, accepted by `read_h`.
+        b'H' => (i < -1.0).then_some("Negative h word used"),
+        _ => (i < 0.0).then_some("Negative l word used"),
+    };
+    if let Some(why) = negative {
+        return Err(format!(
+            "{}{value} is negative; LinuxCNC refuses it (\"{why}\")",
+            letter as char
+        ));
+    }
+    if i > f64::from(i32::MAX) {
+        return Err(format!("{}{value} is out of range", letter as char));
+    }
+    Ok(i)
 }
 
 fn code_name(letter: char, code: u16) -> String {
@@ -187,6 +236,13 @@ impl Interpreter {
         w.g_set = CodeSet::default();
         w.m_set = CodeSet::default();
         let mut prev_number_end = None;
+        // LinuxCNC reads an N word only as the block's first item (after a
+        // block delete `/`, `read_items`); elsewhere `n` has no reader.
+        let n_at = lexed.tokens.iter().find_map(|t| match t {
+            Token::BlockDelete(_) => None,
+            Token::Word(w) if w.letter == b'N' => Some(Some(w.span.start)),
+            _ => Some(None),
+        });
         for word in lexed.words() {
             if word.letter == b'E' && prev_number_end == Some(word.span.start) {
                 w.exponent_col = Some(word.span.start);
@@ -199,13 +255,19 @@ impl Interpreter {
                 ..
             } = word;
             let col = span.start;
+            let value = &match letter {
+                b'M' | b'T' | b'H' | b'L' => integer_word(*letter, *value).map_err(|why| {
+                    invalid(line, col, why, "write a whole number, e.g. T2 or L3")
+                })?,
+                _ => *value,
+            };
             match letter {
                 b'G' => {
-                    let code = code_of(*value).ok_or_else(|| {
+                    let code = g_code_of(*value).map_err(|why| {
                         invalid(
                             line,
                             col,
-                            format!("G{value} is not a G code"),
+                            format!("G{value} is not a G code; LinuxCNC refuses it (\"{why}\")"),
                             "G codes have at most one decimal, e.g. G59.1",
                         )
                     })?;
@@ -239,14 +301,8 @@ impl Interpreter {
                     w.g_set.insert(code);
                 }
                 b'M' => {
-                    let code = code_of(*value).filter(|c| c % 10 == 0).ok_or_else(|| {
-                        invalid(
-                            line,
-                            col,
-                            format!("M{value} is not an M code"),
-                            "M codes are whole numbers",
-                        )
-                    })?;
+                    // A whole number (above): M199 and below are looked up.
+                    let code = (*value * 10.0).min(9990.0) as u16;
                     let group = m_group(code).map_err(|why| {
                         unsupported(
                             line,
@@ -278,8 +334,25 @@ impl Interpreter {
                     w.m.push((code, col));
                     w.m_set.insert(code);
                 }
-                b'N' if w.values[slot_of(b'N')].is_none() => {
+                b'N' if n_at == Some(Some(col)) => {
+                    // `read_n_number` reads digits only (`read_integer_unsigned`).
+                    if *value < 0.0 {
+                        return Err(invalid(
+                            line,
+                            col,
+                            "a negative line number: LinuxCNC reads N as digits and refuses it (\"Bad format unsigned integer\")",
+                            "write the line number without a sign",
+                        ));
+                    }
                     w.values[slot_of(b'N')] = Some((*value, col));
+                }
+                b'N' => {
+                    return Err(invalid(
+                        line,
+                        col,
+                        "an N word that does not start the line: LinuxCNC reads the line number only as the first word of a block, and refuses it elsewhere (\"Bad character 'n' used\")",
+                        "move the N word to the start of the line, or remove it",
+                    ));
                 }
                 l if AxisLetters::ALL.contains(l) && !axes.contains(*l) => {
                     // Interp::init drops the reader of every axis the
@@ -416,6 +489,11 @@ impl Interpreter {
         };
         for letter in *b"DEHIJKLPQR" {
             let Some(col) = w.col(letter) else { continue };
+            // `check_other_codes` tests Q by `q_number != -1.0`, -1 being
+            // its own "no Q" value: LinuxCNC lets Q-1 pass anywhere.
+            if letter == b'Q' && w.get(b'Q') == Some(-1.0) {
+                continue;
+            }
             if let Err(why) = used(letter) {
                 if letter == b'E' && w.exponent_col == Some(col) {
                     return Err(invalid(

@@ -488,7 +488,24 @@ impl<'a> Parser<'a> {
     }
 }
 
-/// LinuxCNC's `read_integer_value` rule: within 0.0001 of a whole number.
+// Integers as LinuxCNC 2.9 makes them from reals (src/emc/rs274ngc/). Each
+// place that turns a real into an integer uses one of these three rules:
+//
+// * `read_integer_value` (interp_read.cc): M, T, H and L words,
+//   parameter numbers (`#n`, `#n=`), o-word numbers, the P of M98: the value
+//   must lie within 0.0001 of a whole number ([`to_integer`]);
+// * `round_to_int` (interp_internal.hh, `nearbyint` under the default
+//   rounding mode, half to even): repeat counts, the turns P of G2/G3, the
+//   Q of M61 ([`round_to_int`]);
+// * `is_near_int` (interp_convert.cc, `(int)(v + 0.5)`, a C cast that cuts
+//   toward zero): the D of G41/G42, the P (tool) and Q (orientation) of
+//   G10 L1/L10/L11 ([`near_int`]).
+//
+// G codes are read ×10 within 0.001 (`read_g`), the P of G10 L2/L20 with
+// `(int)(p + 0.0001)` (`convert_setup`): see the interpreter.
+
+/// LinuxCNC's `read_integer_value` rule: within 0.0001 of a whole number,
+/// else "Non integer value for integer".
 pub fn to_integer(v: f64, col: usize) -> Result<i64, ExprError> {
     let f = v.floor();
     let i = if v - f > 0.9999 {
@@ -496,20 +513,37 @@ pub fn to_integer(v: f64, col: usize) -> Result<i64, ExprError> {
     } else if v - f > 0.0001 {
         return Err(ExprError::new(
             col,
-            format!("{v} is not a whole number, and a whole number is needed here"),
+            format!("{v} is not a whole number, and a whole number is needed here (LinuxCNC: \"Non integer value for integer\")"),
             "round the value, e.g. with ROUND[ ]",
         ));
     } else {
         f
     };
-    if !i.is_finite() || i.abs() > 1e15 {
+    if !i.is_finite() || i.abs() > f64::from(i32::MAX) {
         return Err(ExprError::new(
             col,
-            format!("{v} is out of range"),
+            format!("{v} is out of range for a whole number"),
             "fix the value",
         ));
     }
     Ok(i as i64)
+}
+
+/// LinuxCNC's `round_to_int`: `nearbyint`, which rounds half to even
+/// (2.5 → 2, 3.5 → 4, 0.5 → 0), saturated to the range of a C `int`
+/// (a NaN gives 0).
+pub fn round_to_int(v: f64) -> i64 {
+    v.round_ties_even()
+        .clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i64
+}
+
+/// LinuxCNC's `is_near_int`: the integer `(int)(v + 0.5)` (the C cast cuts
+/// toward zero, so −1.7 gives −1) and whether `v` lies within 0.0001 of it.
+pub fn near_int(v: f64) -> (i64, bool) {
+    let i = (v + 0.5)
+        .trunc()
+        .clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i64;
+    (i, (i as f64 - v).abs() < 0.0001)
 }
 
 /// The parameter number `index` evaluates to, checked against LinuxCNC's range.

@@ -19,7 +19,7 @@
 //! * Every executed line counts against [`MAX_EXECUTED_LINES`], so a
 //!   program that never ends is refused instead of hanging.
 
-use super::expr::{eval, to_integer, Expr, ExprError, Param};
+use super::expr::{eval, round_to_int, to_integer, Expr, ExprError, Param};
 use super::line::{self, OKind, OWord, Setting, Statement};
 use super::norm::Norm;
 use super::params::{Params, Scope};
@@ -89,6 +89,26 @@ struct Frame {
     fanuc: Option<(i64, Pos)>,
 }
 
+/// What a control label was bound to when LinuxCNC first met it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Ctl {
+    If,
+    While,
+    Do,
+    Repeat,
+}
+
+impl Ctl {
+    fn keyword(self) -> &'static str {
+        match self {
+            Ctl::If => "if",
+            Ctl::While => "while",
+            Ctl::Do => "do",
+            Ctl::Repeat => "repeat",
+        }
+    }
+}
+
 /// The control state of a running program.
 #[derive(Debug)]
 pub struct Flow {
@@ -100,7 +120,20 @@ pub struct Flow {
     loops: Vec<Loop>,
     frames: Vec<Frame>,
     subs: HashMap<String, Pos>,
+    /// Subroutines of the main program found further on by a call before
+    /// their definition was met: LinuxCNC refuses the definition when it
+    /// then reaches it in sequence.
+    subs_ahead: std::collections::HashSet<String>,
+    /// LinuxCNC's o-word table (`offset_map`, `control_save_offset`,
+    /// interp_o_word.cc): each `if`, `while`, `do` and `repeat` label of a
+    /// scope (the main program, or the subroutine being run) is bound to
+    /// the line where it was first met; the same label on another line is
+    /// "duplicate O-word label", and the closing words must find it.
+    labels: HashMap<(String, String), (Ctl, Pos)>,
     files: Vec<(String, Lines)>,
+    /// Lines LinuxCNC generates and runs in place of the current one (the
+    /// restore of an M73 at a return), run before the next line.
+    injected: std::collections::VecDeque<String>,
     dirs: Vec<PathBuf>,
     keep: bool,
     executed: u64,
@@ -116,7 +149,10 @@ impl Flow {
             loops: Vec::new(),
             frames: Vec::new(),
             subs: HashMap::new(),
+            subs_ahead: std::collections::HashSet::new(),
+            labels: HashMap::new(),
             files: Vec::new(),
+            injected: std::collections::VecDeque::new(),
             dirs,
             keep: false,
             executed: 0,
@@ -132,6 +168,15 @@ impl Flow {
     /// Whether the main program's lines are kept.
     pub fn keeps_lines(&self) -> bool {
         self.keep
+    }
+
+    /// The next line LinuxCNC generates and runs in place of the current
+    /// one (the restore of an M73 at a return), with its line ending and a
+    /// comment that says where it comes from.
+    pub fn next_injected(&mut self) -> Option<String> {
+        self.injected
+            .pop_front()
+            .map(|t| format!("{t} (volcomp: the state M73 saved, restored at the return)\n"))
     }
 
     /// Counts one executed line (`line`: 1-based, for the error).
@@ -231,7 +276,8 @@ fn peek(content: &[u8]) -> Option<(String, &'static str)> {
             i += 1;
         }
         let v: f64 = std::str::from_utf8(&n.text[start..i]).ok()?.parse().ok()?;
-        (v.round() as i64).to_string()
+        // `read_o` reads the number with `read_integer_value`.
+        to_integer(v, 0).ok()?.to_string()
     };
     let rest = &n.text[i.min(n.text.len())..];
     const KW: [&str; 15] = [
@@ -370,17 +416,159 @@ impl<R: BufRead> Walker<R> {
         }
     }
 
+    /// The key of `label` in [`Flow::labels`]: LinuxCNC prefixes a
+    /// control label with the name of the subroutine being run (`read_o`).
+    fn label_key(&self, label: &str) -> (String, String) {
+        let scope = self.flow.frames.last().map_or("", |f| f.name.as_str());
+        (scope.to_string(), label.to_string())
+    }
+
+    /// Binds an opening label (`if`, `while`, `do`, `repeat`) to `pos` as
+    /// `convert_control_functions` does, refusing it where LinuxCNC finds
+    /// the label already bound to another line.
+    fn bind_label(
+        &mut self,
+        pos: Pos,
+        label: &str,
+        ctl: Ctl,
+        col: usize,
+    ) -> Result<(), GcodeError> {
+        let key = self.label_key(label);
+        match self.flow.labels.get(&key) {
+            // A `while` that closes a `do`, or a `do` met again.
+            Some((found, _)) if ctl == Ctl::Do || (ctl == Ctl::While && *found == Ctl::Do) => {
+                Ok(())
+            }
+            Some((_, at)) if *at != pos => {
+                let at = at.line + 1;
+                Err(self.at_current(
+                    format!(
+                        "the label o{} is already used on line {at}: LinuxCNC binds each control label to one line (\"duplicate O-word label\")",
+                        show_label(label)
+                    ),
+                    "give this block a label of its own",
+                    col,
+                ))
+            }
+            Some(_) => Ok(()),
+            None => {
+                self.flow.labels.insert(key, (ctl, pos));
+                Ok(())
+            }
+        }
+    }
+
+    /// Checks that a closing or inner word (`else`, `endif`, `break`, …)
+    /// finds its label bound to one of `opening`, as LinuxCNC does.
+    fn check_label(
+        &self,
+        label: &str,
+        keyword: &str,
+        opening: &[Ctl],
+        col: usize,
+    ) -> Result<(), GcodeError> {
+        match self.flow.labels.get(&self.label_key(label)) {
+            None => Err(self.at_current(
+                format!(
+                    "`o{} {keyword}` has no open block with its label: LinuxCNC refuses it (\"undefined O-word label\")",
+                    show_label(label)
+                ),
+                "use the label of the block it belongs to",
+                col,
+            )),
+            Some((found, at)) if !opening.contains(found) => Err(self.at_current(
+                format!(
+                    "`o{} {keyword}` belongs to the `{}` of line {}: LinuxCNC refuses it (\"no matching label\")",
+                    show_label(label),
+                    found.keyword(),
+                    at.line + 1
+                ),
+                format!(
+                    "close the block with its own word, or give the {} block a label of its own",
+                    opening.iter().map(|c| c.keyword()).collect::<Vec<_>>().join("/")
+                ),
+                col,
+            )),
+            Some(_) => Ok(()),
+        }
+    }
+
     /// Runs one o-word statement at `pos`.
-    pub(crate) fn control(&mut self, pos: Pos, o: OWord) -> Result<(), GcodeError> {
+    pub(crate) fn control(&mut self, pos: Pos, mut o: OWord) -> Result<(), GcodeError> {
+        if let Some((e, col)) = o.label_expr.take() {
+            // `read_o`: `read_integer_value` of the label's value.
+            let v = self.eval_at(&e)?;
+            o.label = to_integer(v, col)
+                .map_err(|err| self.expr_error(pos, err))?
+                .to_string();
+        }
         let label = o.label.clone();
         let col = o.col;
         let keyword = o.kind.keyword();
+        match &o.kind {
+            OKind::Do => self.bind_label(pos, &label, Ctl::Do, col)?,
+            OKind::While(_) => self.bind_label(pos, &label, Ctl::While, col)?,
+            OKind::Repeat(_) => self.bind_label(pos, &label, Ctl::Repeat, col)?,
+            OKind::If(_) => self.bind_label(pos, &label, Ctl::If, col)?,
+            OKind::Elseif(_) | OKind::Else | OKind::Endif => {
+                self.check_label(&label, keyword, &[Ctl::If], col)?
+            }
+            OKind::Break | OKind::Continue => {
+                self.check_label(&label, keyword, &[Ctl::While, Ctl::Do], col)?
+            }
+            OKind::Endwhile => self.check_label(&label, keyword, &[Ctl::While], col)?,
+            OKind::Endrepeat => self.check_label(&label, keyword, &[Ctl::Repeat], col)?,
+            OKind::Sub => {
+                if self.flow.subs.get(&label) == Some(&pos) && self.flow.subs_ahead.contains(&label)
+                {
+                    return Err(self.at_current(
+                        format!(
+                            "the definition of subroutine o{} is reached in sequence after a call found it further on: LinuxCNC refuses it here (\"sub: o|{}| found in illegal location\")",
+                            show_label(&label),
+                            label
+                        ),
+                        "end the main program (M2 or M30) before the subroutine definitions, or define the subroutine before its first call",
+                        col,
+                    ));
+                }
+                if let Some(at) = self.flow.subs.get(&label).filter(|at| **at != pos) {
+                    let at = at.line + 1;
+                    return Err(self.at_current(
+                        format!(
+                            "subroutine o{} is already defined on line {at}: LinuxCNC refuses a second definition (\"redefining sub\")",
+                            show_label(&label)
+                        ),
+                        "give the subroutine another name, or remove one definition",
+                        col,
+                    ));
+                }
+            }
+            _ => {}
+        }
         match o.kind {
             OKind::Sub => {
                 // Met in sequence: a definition. Record it, skip its body.
                 self.flow.subs.insert(label.clone(), pos);
-                let (end, _) = self.require_skip(pos, &label, &["endsub"], col)?;
-                self.flow.pos = end.next();
+                match self.skip_to(pos, &label, &["endsub"])? {
+                    Some((end, _)) => self.flow.pos = end.next(),
+                    None if pos.src == MAIN && self.flow.frames.is_empty() => {
+                        // LinuxCNC skips to the end of the file looking for
+                        // the endsub, runs none of it, and then reports the
+                        // end of the file: the rest is copied as it is,
+                        // this line included.
+                        let what = format!(
+                            "subroutine o{} has no `o{} endsub`: LinuxCNC skips from here to the end of the file looking for it, runs none of it",
+                            show_label(&label),
+                            show_label(&label)
+                        );
+                        self.interp
+                            .end_of_file_reached(pos.line as u64 + 1, col + 1, &what);
+                        self.after_end_at = Some(pos.line);
+                    }
+                    None => {
+                        self.require_skip(pos, &label, &["endsub"], col)?;
+                    }
+                }
             }
             OKind::Endsub(v) | OKind::Return(v) => {
                 let Some(frame) = self.flow.frames.last() else {
@@ -405,6 +593,11 @@ impl<R: BufRead> Walker<R> {
                 self.flow.frames.pop();
                 self.flow.params.pop_call(value);
                 self.flow.pos = ret;
+                // An M73 of the call restores the state it saved: the
+                // lines LinuxCNC generates run in place of the return.
+                let line = self.current.line as u64 + 1;
+                let restore = self.interp.leave_call(line).map_err(|e| self.locate(e))?;
+                self.flow.injected.extend(restore);
             }
             OKind::Call(args) => {
                 let mut values = Vec::with_capacity(args.len());
@@ -422,6 +615,7 @@ impl<R: BufRead> Walker<R> {
                 }
                 let target = self.find_sub(pos, &label, col)?;
                 self.flow.params.push_call(&values);
+                self.interp.enter_call();
                 self.flow.frames.push(Frame {
                     name: label,
                     ret: pos.next(),
@@ -476,8 +670,9 @@ impl<R: BufRead> Walker<R> {
                 self.flow.pos = start;
             }
             OKind::Repeat(n) => {
-                let v = self.eval_at(&n)?;
-                let count = to_integer(v.round(), col).map_err(|e| self.expr_error(pos, e))?;
+                // LinuxCNC counts `round_to_int(test_value)` passes
+                // (interp_o_word.cc, O_repeat): half to even, 2.5 → 2.
+                let count = round_to_int(self.eval_at(&n)?);
                 if count > 0 {
                     self.flow.loops_mut().push(Loop {
                         label,
@@ -512,7 +707,8 @@ impl<R: BufRead> Walker<R> {
                 let (end, _) = self.require_skip(pos, &label, &["endif"], col)?;
                 self.flow.pos = end.next();
             }
-            OKind::Endif => {}
+            // A Fanuc-style program start: execution runs on.
+            OKind::Endif | OKind::Program => {}
             OKind::Break => {
                 let i = self.find_loop(&label, None, "break", col)?;
                 let l = self.flow.loops_mut()[i].clone();
@@ -604,6 +800,9 @@ impl<R: BufRead> Walker<R> {
         }
         if let Some((p, _)) = self.skip_to(pos, label, &["sub"])? {
             self.flow.subs.insert(label.to_string(), p);
+            if p.src == MAIN {
+                self.flow.subs_ahead.insert(label.to_string());
+            }
             return Ok(p);
         }
         let name = format!("{label}.ngc");
@@ -736,6 +935,7 @@ impl<R: BufRead> Walker<R> {
                     ));
                 }
                 let target = self.find_program_number(program)?;
+                self.interp.enter_call();
                 self.flow.frames.push(Frame {
                     name: program.to_string(),
                     ret: pos.next(),
@@ -761,6 +961,9 @@ impl<R: BufRead> Walker<R> {
                         let ret = frame.ret;
                         self.flow.frames.pop();
                         self.flow.pos = ret;
+                        let line = self.current.line as u64 + 1;
+                        let restore = self.interp.leave_call(line).map_err(|e| self.locate(e))?;
+                        self.flow.injected.extend(restore);
                     }
                     None => {
                         return Err(self.at_current(

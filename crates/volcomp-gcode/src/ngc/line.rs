@@ -66,6 +66,9 @@ pub enum OKind {
     Break,
     /// `continue`
     Continue,
+    /// A bare `O<name>` or `O<n>` line: the start of a Fanuc-style program,
+    /// which runs on (gcode lane).
+    Program,
 }
 
 impl OKind {
@@ -87,6 +90,7 @@ impl OKind {
             OKind::Endif => "endif",
             OKind::Break => "break",
             OKind::Continue => "continue",
+            OKind::Program => "",
         }
     }
 }
@@ -96,6 +100,10 @@ impl OKind {
 pub struct OWord {
     /// The label: a number (as its decimal integer) or a `<name>` (lower case).
     pub label: String,
+    /// A number label given as an expression (`o[#2 * 10]`, `o#1`), which
+    /// LinuxCNC evaluates when it reads the line (gcode lane): the flow
+    /// evaluates it and sets `label`.
+    pub label_expr: Option<(Expr, usize)>,
     /// The statement.
     pub kind: OKind,
     /// Original column of the `o`.
@@ -249,19 +257,20 @@ pub fn parse(n: &Norm) -> Result<Statement, ExprError> {
 fn parse_oword(n: &Norm, mut p: Parser) -> Result<OWord, ExprError> {
     let col = p.col();
     p.pos += 1;
+    let mut label_expr = None;
     let label = if n.byte(p.pos) == b'<' {
         p.name()?
     } else {
         let lcol = p.col();
-        let v = p.value()?;
-        let Expr::Num(v) = v else {
-            return Err(ExprError::new(
-                lcol,
-                "an o-word label must be a number or a <name>",
-                "write e.g. o100 or o<name>",
-            ));
-        };
-        to_integer(v, lcol)?.to_string()
+        match p.value()? {
+            Expr::Num(v) => to_integer(v, lcol)?.to_string(),
+            // `read_o` reads the number with `read_integer_value`, which
+            // takes any value: evaluated when the line runs.
+            e => {
+                label_expr = Some((e, lcol));
+                String::new()
+            }
+        }
     };
     let rest = &n.text[p.pos.min(n.text.len())..];
     let keywords: [&str; 15] = [
@@ -282,6 +291,19 @@ fn parse_oword(n: &Norm, mut p: Parser) -> Result<OWord, ExprError> {
         "return",
     ];
     let Some(kw) = keywords.iter().find(|k| rest.starts_with(k.as_bytes())) else {
+        // A bare o-word (only comments after it) starts a Fanuc-style
+        // program (`read_o`: O_).
+        let at = p.pos;
+        skip_comments(&mut p, n);
+        if p.pos >= n.text.len() {
+            return Ok(OWord {
+                label,
+                label_expr,
+                kind: OKind::Program,
+                col,
+            });
+        }
+        p.pos = at;
         return Err(ExprError::new(
             p.col(),
             "unknown o-word statement",
@@ -338,7 +360,12 @@ fn parse_oword(n: &Norm, mut p: Parser) -> Result<OWord, ExprError> {
             "an o-word line holds only its statement (and comments)",
         ));
     }
-    Ok(OWord { label, kind, col })
+    Ok(OWord {
+        label,
+        label_expr,
+        kind,
+        col,
+    })
 }
 
 /// Formats a value so that the lexer reads back the same number: the
@@ -384,15 +411,44 @@ impl std::fmt::Write for ShortText {
     }
 }
 
+/// Formats `v` with at most `decimals` decimals (rounded, trailing zeros
+/// cut, no `-0`): a computed value written like the program's numbers
+/// (`InterpOptions::computed_decimals`). Written on the stack (no
+/// allocation) unless the text is longer than 40 bytes.
+pub fn format_value_decimals(v: f64, decimals: u8, out: &mut Vec<u8>) {
+    let mut text = ShortText::default();
+    let long;
+    let s: &[u8] =
+        if std::fmt::Write::write_fmt(&mut text, format_args!("{v:.*}", usize::from(decimals)))
+            .is_ok()
+        {
+            &text.bytes[..text.len]
+        } else {
+            long = format!("{v:.*}", usize::from(decimals));
+            long.as_bytes()
+        };
+    let t = if s.contains(&b'.') {
+        let end = s.iter().rposition(|&b| b != b'0').map_or(0, |i| i + 1);
+        let t = &s[..end];
+        t.strip_suffix(b".").unwrap_or(t)
+    } else {
+        s
+    };
+    let t: &[u8] = if t == b"-0" { b"0" } else { t };
+    out.extend_from_slice(t);
+}
+
 /// Evaluates the words of a block statement and writes the literal line:
 /// the original bytes with every expression value replaced by its number
-/// and every parameter setting removed. Returns the values of the settings
-/// (to apply after the line, as LinuxCNC does).
+/// (with at most `decimals` decimals when given, else the shortest number
+/// that reads back the same) and every parameter setting removed. Returns
+/// the values of the settings (to apply after the line, as LinuxCNC does).
 pub fn render(
     content: &[u8],
     words: &[ExprWord],
     settings: &[Setting],
     lk: &dyn Lookup,
+    decimals: Option<u8>,
     out: &mut Vec<u8>,
 ) -> Result<Vec<f64>, ExprError> {
     let mut edits: Vec<(Range<usize>, Option<f64>)> =
@@ -412,8 +468,10 @@ pub fn render(
     let mut at = 0;
     for (span, value) in edits {
         out.extend_from_slice(&content[at..span.start]);
-        if let Some(v) = value {
-            format_value(v, out);
+        match (value, decimals) {
+            (Some(v), Some(d)) => format_value_decimals(v, d, out),
+            (Some(v), None) => format_value(v, out),
+            (None, _) => {}
         }
         at = span.end;
     }

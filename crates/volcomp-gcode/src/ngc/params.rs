@@ -40,8 +40,11 @@ struct Frame {
 
 impl Default for Params {
     fn default() -> Self {
+        let mut numbered = vec![0.0; MAX_PARAMETERS + 1];
+        // The (DEBUG, …) flag, 1 at start (`Interp::init`, rs274ngc_pre.cc).
+        numbered[5599] = 1.0;
         Self {
-            numbered: vec![0.0; MAX_PARAMETERS + 1],
+            numbered,
             globals: HashMap::new(),
             frames: vec![Frame::default()],
             value: 0.0,
@@ -173,6 +176,10 @@ impl Lookup for Scope<'_> {
                 format!("#{n} holds a result of the machine at run time (probing, digital inputs, tool changer fault): volcomp cannot know it"),
                 "give the value in the program, or compensate the program after it has been run",
             )),
+            Err(Unanswerable::NotInSetup) => {
+                let (message, help) = self.interp.not_in_setup(n);
+                Err(ExprError::new(col, message, help))
+            }
             Err(Unanswerable::NotPredefined) => Ok(self.params.numbered[n]),
         }
     }
@@ -198,7 +205,7 @@ impl Lookup for Scope<'_> {
                         "give the value in the program instead",
                     ))
                 }
-                Err(Unanswerable::NotPredefined) => {}
+                Err(Unanswerable::NotPredefined | Unanswerable::NotInSetup) => {}
             }
         } else if let Some(v) = self.params.frames.last().and_then(|f| f.locals.get(name)) {
             return Ok(*v);

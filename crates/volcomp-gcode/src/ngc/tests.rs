@@ -100,7 +100,7 @@ fn loops_calls_and_branches_run_as_written() {
              o3 sub\nG0 X[#1 * 100]\no3 return [7]\no3 endsub\n\
              o3 call [4]\nG0 X#<_value>\n\
              o4 if [0]\nG0 X-1\no4 elseif [1]\nG0 X-2\no4 else\nG0 X-3\no4 endif\n\
-             #2=0\no5 do\n#2=[#2+1]\no6 if [#2 EQ 2]\no5 continue\no6 endif\no6 if [#2 EQ 4]\no5 break\no6 endif\nG0 X[50+#2]\no5 while [1]\nM2\n";
+             #2=0\no5 do\n#2=[#2+1]\no6 if [#2 EQ 2]\no5 continue\no6 endif\no7 if [#2 EQ 4]\no5 break\no7 endif\nG0 X[50+#2]\no5 while [1]\nM2\n";
     let v = xs(p).unwrap();
     assert_eq!(
         v,
@@ -156,7 +156,39 @@ fn bad_programs_are_refused_where_they_go_wrong() {
             "p.ngc",
             "o1 (opened on line 2) is not closed",
         ),
-        ("G21\no1 endwhile\nM2\n", "p.ngc:2:1", "not inside a loop"),
+        (
+            "G21\no1 endwhile\nM2\n",
+            "p.ngc:2:1",
+            "undefined O-word label",
+        ),
+        // LinuxCNC binds a control label to one line (rs274: "duplicate
+        // O-word label"), in sequence as well as nested.
+        (
+            "G21\no1 if [1]\no1 endif\no1 if [1]\no1 endif\nM2\n",
+            "p.ngc:4:1",
+            "duplicate O-word label",
+        ),
+        (
+            "G21\no1 if [1]\no1 if [1]\no1 endif\no1 endif\nM2\n",
+            "p.ngc:3:1",
+            "already used on line 2",
+        ),
+        // rs274: "undefined O-word label", "no matching label".
+        (
+            "G21\no1 if [1]\no2 endif\nM2\n",
+            "p.ngc:3:1",
+            "undefined O-word label",
+        ),
+        (
+            "G21\no1 if [1]\no1 endwhile\nM2\n",
+            "p.ngc:3:1",
+            "belongs to the `if` of line 2",
+        ),
+        (
+            "G21\no1 sub\no1 endsub\no1 sub\no1 endsub\nM2\n",
+            "p.ngc:4:1",
+            "redefining sub",
+        ),
         (
             "G21\no9 call\nM2\n",
             "p.ngc:2:1",
@@ -258,7 +290,8 @@ fn a_setting_declares_its_name_for_the_rest_of_the_line() {
 
 #[test]
 fn parameter_numbers_stop_at_5601_and_the_tool_changer_ones_are_refused() {
-    assert_eq!(x_of("#5599"), 0.0);
+    // The (DEBUG, …) flag starts at 1 (`Interp::init`).
+    assert_eq!(x_of("#5599"), 1.0);
     assert_eq!(x_of("[EXISTS[#5601] + EXISTS[#5602] * 2]"), 1.0);
     let e = xs("G21\nG0 X#5602\nM2\n").unwrap_err();
     assert!(e.contains("p.ngc:2:5") && e.contains("out of range"), "{e}");

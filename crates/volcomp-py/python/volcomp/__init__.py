@@ -7,9 +7,16 @@ free-form surfaces, over the Rust library that the ``volcomp`` command uses.
 Conventions: positions in mm in the machine's axis frame, errors in µm,
 angles in µrad, the deviation ``e = actual − commanded`` (docs/design.md).
 
-A ``str`` (or ``bytes``) argument that may be a file is its content; a
-``pathlib.Path`` names a file. Walk-through: docs/python.md.
+An input file is a path (``str`` or ``pathlib.Path``), or a file object
+(``io.StringIO(text)``, ``open(...)``) for content already in memory.
+Walk-through: docs/python.md.
 """
+
+import functools as _functools
+import inspect as _inspect
+from typing import Callable, TypeVar
+
+from . import _volcomp
 
 from ._volcomp import (
     BadInputError,
@@ -31,6 +38,47 @@ from ._volcomp import (
     straightness_fit,
     thermal_fit,
 )
+
+_F = TypeVar("_F", bound=Callable[..., object])
+
+
+def _with_options(fn: _F, job: str) -> _F:
+    """``fn`` with the library's options of ``job`` as keyword parameters:
+    its signature and docstring list them, from the library's one table
+    (the CLI's flags are built from the same table)."""
+    options = _volcomp._options(job)
+    signature = _inspect.signature(fn)
+    params = [p for p in signature.parameters.values() if p.kind != p.VAR_KEYWORD]
+    # Options the function takes as its own parameters (mirror's nominal
+    # and measured) stay where they are.
+    options = [o for o in options if o["name"] not in signature.parameters]
+    params += [
+        _inspect.Parameter(o["name"], _inspect.Parameter.KEYWORD_ONLY, default=o["default"])
+        for o in options
+    ]
+
+    @_functools.wraps(fn)
+    def call(*args, **kwargs):
+        return fn(*args, **kwargs)
+
+    lines = [(fn.__doc__ or "").rstrip(), "", "Options:"]
+    for o in options:
+        choices = f" (one of {', '.join(o['choices'])})" if o["choices"] else ""
+        lines.append(f"    {o['name']}: {o['type']} = {o['default']!r}{choices}")
+        # A switch's help says what turning it from its default does.
+        turn = {True: "False: ", False: "True: "}.get(o["default"], "") if o["type"] == "bool" else ""
+        lines.append(f"        {turn}{o['help']}")
+    call.__doc__ = "\n".join(lines)
+    call.__signature__ = signature.replace(parameters=params)  # type: ignore[attr-defined]
+    return call  # type: ignore[return-value]
+
+
+compensate = _with_options(compensate, "compensate")
+simulate = _with_options(simulate, "simulate")
+moves = _with_options(moves, "moves")
+mirror = _with_options(mirror, "mirror")
+thermal_fit = _with_options(thermal_fit, "thermal_fit")
+straightness_fit = _with_options(straightness_fit, "straightness_fit")
 
 __all__ = [
     "BadInputError",

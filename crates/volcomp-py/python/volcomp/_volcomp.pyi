@@ -2,15 +2,17 @@
 function for units and conventions; walk-through in docs/python.md)."""
 
 import os
-from typing import Any, Literal, Optional, Sequence, Union
+from typing import IO, Any, Literal, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
 
-Text = Union[str, bytes, os.PathLike[str]]
-"""A content (str or bytes) or a file (pathlib.Path)."""
+Input = Union[str, os.PathLike[str], IO[str], IO[bytes]]
+"""A file: its path (str or pathlib.Path), or a file object for content in
+memory (io.StringIO(text))."""
+Text = Input
 ArrayLike = npt.ArrayLike
 F64 = npt.NDArray[np.float64]
 
@@ -47,8 +49,13 @@ class Model:
         """Loads an axis-table CSV, a 21-component model or a straightness
         model (TOML); clamp=True holds positions outside a table at its end."""
     @staticmethod
-    def from_csv(text: Text, *, name: str = "<map>", clamp: bool = False) -> Model:
-        """An axis-table map from its CSV text (or a pathlib.Path)."""
+    def from_csv(
+        text: Union[str, bytes, os.PathLike[str], IO[str], IO[bytes]],
+        *,
+        name: str = "<map>",
+        clamp: bool = False,
+    ) -> Model:
+        """An axis-table map from its CSV text (or a path or file object)."""
     @staticmethod
     def from_axis_tables(
         x: Any, y: Any, z: Any, *, clamp: bool = False
@@ -118,7 +125,7 @@ class CompensateResult:
     warnings: list[dict[str, Any]]
     """Dicts with file, line, column, message."""
     point_records: Optional[dict[str, Any]]
-    """With points=True: line, target_mm (N, 3), command_mm (N, 3),
+    """With point_records=True: line, target_mm (N, 3), command_mm (N, 3),
     iterations, residual_um, reversed, held, take_up, rapid."""
     @property
     def text(self) -> str:
@@ -148,24 +155,29 @@ class SimulationResult:
         """The metrics as a dict (the CLI's simulate --json keys)."""
 
 def compensate(
-    program: Text,
+    program: Input,
     model: Model,
     *,
-    setup: Optional[Text] = None,
+    point_records: bool = False,
+    name: Optional[str] = None,
+    date_utc: Optional[str] = None,
+    setup: Optional[Input] = None,
     work_offset_mm: Optional[Sequence[float]] = None,
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
     method: Literal["exact", "ilc", "direct", "pitch"] = "exact",
-    gain: float = 0.5,
-    max_iterations: int = 20,
     segment_length_mm: Optional[float] = None,
     segments: Optional[int] = None,
     no_split: bool = False,
     contour_tolerance_um: Optional[float] = None,
     min_segment_length_mm: float = 0.01,
+    gain: float = 0.5,
+    max_iterations: int = 20,
     max_residual_um: float = 1.0,
-    chord_tolerance_mm: float = 1e-4,
+    max_output_bytes: Optional[int] = 268435456,
+    chord_tolerance_mm: float = 0.0001,
+    arcs_as_lines: bool = False,
     decimals: Optional[int] = None,
     max_correction_mm: float = 0.1,
     nominal_directions: bool = False,
@@ -173,42 +185,37 @@ def compensate(
     separate_take_ups: bool = False,
     take_up_tolerance_um: Optional[float] = None,
     trace: bool = True,
-    arcs_as_lines: bool = False,
     allow_recompensate: bool = False,
-    max_output_bytes: Optional[int] = 268435456,
-    points: bool = False,
-    name: Optional[str] = None,
-    date_utc: Optional[str] = None,
 ) -> CompensateResult:
     """Compensates a program for the model's errors (the options of
-    `volcomp compensate`)."""
+    `volcomp compensate`, from the library's one table: help(volcomp.compensate))."""
 
 def simulate(
-    program: Text,
+    program: Input,
     model: Model,
     *,
-    reference: Optional[Text] = None,
-    setup: Optional[Text] = None,
+    segments: bool = False,
+    name: Optional[str] = None,
+    setup: Optional[Input] = None,
     work_offset_mm: Optional[Sequence[float]] = None,
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    chord_tolerance_mm: float = 1e-5,
-    segments: bool = False,
-    name: Optional[str] = None,
+    reference: Optional[Input] = None,
+    chord_tolerance_mm: float = 1e-05,
 ) -> SimulationResult:
     """Simulates a program and measures it against its nominal path."""
 
 def moves(
-    program: Text,
+    program: Input,
     *,
-    setup: Optional[Text] = None,
+    extra_axes: bool = False,
+    name: Optional[str] = None,
+    setup: Optional[Input] = None,
     work_offset_mm: Optional[Sequence[float]] = None,
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    extra_axes: bool = False,
-    name: Optional[str] = None,
 ) -> dict[str, npt.NDArray[Any]]:
     """One row per motion as a dict of columns (the `volcomp moves` CSV)."""
 
@@ -218,22 +225,22 @@ def iso230_2(
     """ISO 230-2 figures from deviations (µm) of shape (m targets, n runs)."""
 
 def iso230_2_csv(runs: Text, *, name: Optional[str] = None) -> dict[str, Any]:
-    """ISO 230-2 figures from a test CSV (text or pathlib.Path)."""
+    """ISO 230-2 figures from a test CSV (a path or a file object)."""
 
 def straightness_fit(
-    runs: Sequence[Union[Text, dict[str, Any]]],
+    runs: Sequence[Union[Input, dict[str, Any]]],
     *,
     axis: Optional[Literal["X", "Y"]] = None,
-    negate: bool = False,
     sigma_t: float = 0.05,
     p_t: float = 0.01,
     taper_fraction: float = 0.1,
     normalisation: Literal["common", "per-run"] = "common",
-    harmonics: Optional[int] = None,
     cutoff: Literal["cross-validation", "thresholds"] = "cross-validation",
+    harmonics: Optional[int] = None,
+    negate: bool = False,
 ) -> tuple[Model, dict[str, dict[str, Any]]]:
-    """A straightness model from runs at several feed rates (CSV text,
-    pathlib.Path, or dicts of positions_mm, displacement_um,
+    """A straightness model from runs at several feed rates (CSV files as
+    paths or file objects, or dicts of positions_mm, displacement_um,
     feed_mm_per_min, axis); returns (model, report per axis)."""
 
 class ThermalModel:
@@ -255,54 +262,58 @@ class ThermalModel:
     def to_toml(self) -> str:
         """The model file's text."""
     def predict(
-        self, temperatures: Text, *, cycle: Optional[int] = None, extrapolate: bool = False
+        self, temperatures: Input, *, cycle: Optional[int] = None, extrapolate: bool = False
     ) -> Model:
         """The 21-component model at a row of a temperature CSV."""
 
 def thermal_fit(
-    measurements: Text,
-    temperatures: Text,
-    artifact: Text,
+    measurements: Input,
+    temperatures: Input,
+    artifact: Input,
     *,
-    ranges_mm: Sequence[Sequence[float]],
+    ranges_mm: Optional[Sequence[Sequence[float]]] = None,
     chain: str = "w X' Y' b Z t",
     order: int = 2,
     probe_length_mm: float = 0.0,
     lags: int = 0,
-    threshold: float = 1e-3,
+    threshold: float = 0.001,
     table_samples: int = 61,
     bands_samples: Optional[int] = None,
 ) -> tuple[ThermalModel, dict[str, Any]]:
-    """Fits a thermal model from artifact cycles and temperatures (CSV text
-    or pathlib.Path); with bands_samples, the 95 % Monte Carlo bands."""
+    """Fits a thermal model from artifact cycles and temperatures (CSV files
+    as paths or file objects; ranges_mm is required); with bands_samples, the
+    95 % Monte Carlo bands (the options of `volcomp thermal fit`)."""
 
 def mirror(
-    nominal: Text,
-    measured: Text,
+    nominal: Input,
+    measured: Input,
     *,
-    stock_mm: float,
+    date_utc: Optional[str] = None,
+    stock_mm: Optional[float] = None,
     nominal_format: Optional[Literal["bspline", "grid"]] = None,
     material: Literal["below", "above", "normal-out", "normal-in"] = "below",
     probe_radius_mm: Optional[float] = None,
     max_error_mm: float = 0.1,
     fit: Literal["least-squares", "interpolate"] = "least-squares",
     tolerance_um: Optional[float] = None,
+    refuse_worse: bool = False,
     grid_params: Literal["chord-length", "centripetal", "uniform"] = "chord-length",
     grid_size: int = 41,
-    finishing: Optional[Text] = None,
+    finishing: Optional[Input] = None,
     tool_radius_mm: Optional[float] = None,
     cl_point: Literal["tip", "center"] = "tip",
     contact_tolerance_mm: float = 0.02,
-    segment_length_mm: Optional[float] = 2.0,
+    segment_length_mm: float = 2.0,
+    no_split: bool = False,
     decimals: Optional[int] = None,
     trace: bool = True,
-    setup: Optional[Text] = None,
+    allow_recompensate: bool = False,
+    setup: Optional[Input] = None,
     work_offset_mm: Optional[Sequence[float]] = None,
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    allow_recompensate: bool = False,
-    date_utc: Optional[str] = None,
 ) -> dict[str, Any]:
-    """Mirror compensation of a free-form surface from probe points; with
-    finishing and tool_radius_mm, the compensated finishing program."""
+    """Mirror compensation of a free-form surface from probe points (stock_mm
+    is required); with finishing and tool_radius_mm, the compensated
+    finishing program (the options of `volcomp surface mirror`)."""

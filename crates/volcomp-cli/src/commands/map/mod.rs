@@ -364,7 +364,7 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
             facts: vec![
                 ("command".into(), super::compensate::command_line()),
                 ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
-                ("date (UTC)".into(), super::compensate::date_utc()),
+                ("date (UTC)".into(), volcomp_core::io::provenance::now_utc()),
             ],
             inputs,
             sections: volcomp_core::report::map::sections(&charts),
@@ -540,7 +540,7 @@ fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
             facts: vec![
                 ("command".into(), super::compensate::command_line()),
                 ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
-                ("date (UTC)".into(), super::compensate::date_utc()),
+                ("date (UTC)".into(), volcomp_core::io::provenance::now_utc()),
                 ("axis".into(), axis),
                 (
                     "evaluation".into(),

@@ -54,7 +54,7 @@ pub enum ThermalError {
         last: usize,
     },
     /// A measured sphere centre lies outside the axis ranges of the model.
-    #[error("{}", .0.describe("the axis ranges"))]
+    #[error("{}", .0.describe("the axis ranges ({ranges_mm})"))]
     OutsideRange(OutsideRange),
 }
 
@@ -104,7 +104,7 @@ mod tests {
         assert_eq!(
             ThermalError::OutsideRange(e.clone()).to_string(),
             "cycle 0, placement 1 (in label order), sphere 2: X = 160.5 mm lies outside the axis \
-             range 0…60 mm; widen the axis ranges to the machine's travel"
+             range 0…60 mm; widen the axis ranges ({ranges_mm}) to the machine's travel"
         );
         assert!(e
             .describe("<ranges>")

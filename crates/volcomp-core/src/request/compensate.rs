@@ -1,0 +1,563 @@
+//! A compensation of a part program, as plain values: the options of
+//! [`CompensateOptions`] with their checks, the machine, the limits, and
+//! the provenance header of the program it writes.
+
+use super::machine::{Machine, MachineRequest, MACHINE_OPTIONS};
+use super::option::{Kind, OptionError, OptionInfo, Spelling, Value};
+use crate::compensate::solve::Method;
+use crate::compensate::{
+    file_name, header_for_map, CompensateOptions, Compensator, DirectionPolicy, Segmentation,
+    DEFAULT_CONTOUR_TOLERANCE_UM, DEFAULT_MAX_RESIDUAL_UM, DEFAULT_MIN_SEGMENT_LENGTH_MM,
+};
+use crate::io::provenance::{sha256_hex, ProgramHeader};
+use crate::io::LoadedModel;
+use crate::model::ErrorModel;
+use crate::Error;
+use std::path::Path;
+
+/// Default largest output of a compensation (bytes): 256 MiB.
+pub const DEFAULT_MAX_OUTPUT_BYTES: u64 = 256 << 20;
+
+/// The options of [`CompensateRequest`] beside the machine's.
+pub const COMPENSATE_OPTIONS: &[OptionInfo] = &[
+    OptionInfo::new("method", Kind::Choice, "Compensation method.")
+        .default("exact")
+        .value("METHOD")
+        .choices(&[
+            ("exact", "Solve q + e(q, s) = t to a tolerance (default)"),
+            ("ilc", "Iterative learning control, q ← q + γ·(t − actual(q))"),
+            ("direct", "One step, q = t − e(t, s)"),
+            ("pitch", "Exact, but only with the positioning errors E_XX, E_YY, E_ZZ"),
+        ]),
+    OptionInfo::new(
+        "segment_length_mm",
+        Kind::Number,
+        "Split feed moves into segments of at most this length (mm) instead of adaptively.",
+    )
+    .flag("segment-length")
+    .value("MM"),
+    OptionInfo::new(
+        "segments",
+        Kind::Count,
+        "Split every feed move into this many segments (as the papers do).",
+    )
+    .value("N"),
+    OptionInfo::new(
+        "no_split",
+        Kind::Switch,
+        "Do not split feed moves (only arcs are linearised).",
+    ),
+    OptionInfo::new(
+        "contour_tolerance_um",
+        Kind::Number,
+        "Contour tolerance (µm, default 0.1): feed moves are split adaptively, at the map's table points and where the map bends the path by more than this (the default segmentation).",
+    )
+    .value("UM"),
+    OptionInfo::new(
+        "min_segment_length_mm",
+        Kind::Number,
+        "Shortest segment of adaptive splitting (mm).",
+    )
+    .flag("min-segment-length")
+    .value("MM")
+    .default("0.01"),
+    OptionInfo::new("gain", Kind::Number, "ILC gain γ, 0 < γ ≤ 1.")
+        .value("GAIN")
+        .default("0.5"),
+    OptionInfo::new(
+        "max_iterations",
+        Kind::Count,
+        "ILC iteration limit (at least 1).",
+    )
+    .value("N")
+    .default("20"),
+    OptionInfo::new(
+        "max_residual_um",
+        Kind::Number,
+        "Largest model residual accepted at a point (µm) with the exact and ILC solvers; a point that is not reached is an error at its line.",
+    )
+    .value("UM")
+    .default("1"),
+    OptionInfo::new(
+        "max_output_bytes",
+        Kind::Size,
+        "Largest output accepted, in bytes (suffixes K, M, G: powers of 1024), or `none`; a bigger output is refused and nothing is written.",
+    )
+    .flag("max-output-size")
+    .value("BYTES")
+    .default("256M"),
+    OptionInfo::new(
+        "chord_tolerance_mm",
+        Kind::Number,
+        "Chord tolerance for linearising arcs and splines (mm).",
+    )
+    .flag("chord-tolerance")
+    .value("MM")
+    .default("0.0001"),
+    OptionInfo::new(
+        "arcs_as_lines",
+        Kind::Switch,
+        "Write arcs as G1 lines within {chord_tolerance_mm} instead of as compensated arcs (pieces of the original arc).",
+    ),
+    OptionInfo::new(
+        "decimals",
+        Kind::Count,
+        "Decimal places of written coordinates (default 5 in mm, 6 in inch).",
+    )
+    .value("DECIMALS"),
+    OptionInfo::new(
+        "max_correction_mm",
+        Kind::Number,
+        "Largest correction accepted (mm); larger ones mean a wrong map unit.",
+    )
+    .flag("max-correction")
+    .value("MM")
+    .default("0.1"),
+    OptionInfo::new(
+        "nominal_directions",
+        Kind::Switch,
+        "Choose error tables by the nominal move direction, as the papers do, instead of the direction of the compensated command (for comparison).",
+    ),
+    OptionInfo::new(
+        "take_up",
+        Kind::Switch,
+        "Do not insert backlash take-up moves at reversals.",
+    )
+    .default("true"),
+    OptionInfo::new(
+        "separate_take_ups",
+        Kind::Switch,
+        "Write every take-up as a block of its own, even where the move that reverses can take it up within the contour tolerance (the default folds those, so the controller does not stop for them).",
+    ),
+    OptionInfo::new(
+        "take_up_tolerance_um",
+        Kind::Number,
+        "The contour error a take-up folded into its move may leave (µm; default: the contour tolerance). Larger folds more take-ups, so the controller stops less, at the price of up to that error at reversals (docs/compensation.md, \"Take-ups folded into the move\").",
+    )
+    .value("UM"),
+    OptionInfo::new(
+        "trace",
+        Kind::Switch,
+        "Do not tag inserted lines with `(volcomp Ln)` comments.",
+    )
+    .default("true"),
+    OptionInfo::new(
+        "allow_recompensate",
+        Kind::Switch,
+        "Compensate a program that volcomp compensated already (its header or trace comments say so); the corrections are then applied twice.",
+    ),
+];
+
+/// A compensation, as plain values (each field is the option of the same
+/// name in [`COMPENSATE_OPTIONS`] or [`MACHINE_OPTIONS`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompensateRequest {
+    /// The machine.
+    pub machine: MachineRequest,
+    /// `exact`, `ilc`, `direct` or `pitch`.
+    pub method: String,
+    /// ILC gain.
+    pub gain: f64,
+    /// ILC iteration limit.
+    pub max_iterations: u64,
+    /// Fixed segment length (mm).
+    pub segment_length_mm: Option<f64>,
+    /// Fixed number of segments per move.
+    pub segments: Option<u64>,
+    /// No splitting.
+    pub no_split: bool,
+    /// Adaptive splitting's contour tolerance (µm).
+    pub contour_tolerance_um: Option<f64>,
+    /// Adaptive splitting's shortest segment (mm); `None`: the default.
+    pub min_segment_length_mm: Option<f64>,
+    /// Largest residual accepted (µm).
+    pub max_residual_um: f64,
+    /// Largest output (bytes); `None`: no limit.
+    pub max_output_bytes: Option<u64>,
+    /// Chord tolerance (mm).
+    pub chord_tolerance_mm: f64,
+    /// Arcs as G1 lines.
+    pub arcs_as_lines: bool,
+    /// Written decimals.
+    pub decimals: Option<u64>,
+    /// Largest correction accepted (mm).
+    pub max_correction_mm: f64,
+    /// Tables chosen by the nominal direction.
+    pub nominal_directions: bool,
+    /// Take-up moves at reversals.
+    pub take_up: bool,
+    /// Every take-up a block of its own.
+    pub separate_take_ups: bool,
+    /// What a folded take-up may leave (µm).
+    pub take_up_tolerance_um: Option<f64>,
+    /// `(volcomp Ln)` comments.
+    pub trace: bool,
+    /// Compensate a compensated program again.
+    pub allow_recompensate: bool,
+}
+
+impl Default for CompensateRequest {
+    fn default() -> Self {
+        Self {
+            machine: MachineRequest::default(),
+            method: "exact".into(),
+            gain: 0.5,
+            max_iterations: 20,
+            segment_length_mm: None,
+            segments: None,
+            no_split: false,
+            contour_tolerance_um: None,
+            min_segment_length_mm: None,
+            max_residual_um: DEFAULT_MAX_RESIDUAL_UM,
+            max_output_bytes: Some(DEFAULT_MAX_OUTPUT_BYTES),
+            chord_tolerance_mm: 1e-4,
+            arcs_as_lines: false,
+            decimals: None,
+            max_correction_mm: 0.1,
+            nominal_directions: false,
+            take_up: true,
+            separate_take_ups: false,
+            take_up_tolerance_um: None,
+            trace: true,
+            allow_recompensate: false,
+        }
+    }
+}
+
+impl super::Request for CompensateRequest {
+    const OPTIONS: &'static [&'static [OptionInfo]] = &[MACHINE_OPTIONS, COMPENSATE_OPTIONS];
+
+    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
+        if self.machine.try_set(name, v.clone())? {
+            return Ok(());
+        }
+        match name {
+            "method" => self.method = v.text("method")?,
+            "gain" => self.gain = v.number("gain")?,
+            "max_iterations" => self.max_iterations = v.count("max_iterations")?,
+            "segment_length_mm" => self.segment_length_mm = Some(v.number("segment_length_mm")?),
+            "segments" => self.segments = Some(v.count("segments")?),
+            "no_split" => self.no_split = v.bool("no_split")?,
+            "contour_tolerance_um" => {
+                self.contour_tolerance_um = Some(v.number("contour_tolerance_um")?)
+            }
+            "min_segment_length_mm" => {
+                self.min_segment_length_mm = Some(v.number("min_segment_length_mm")?)
+            }
+            "max_residual_um" => self.max_residual_um = v.number("max_residual_um")?,
+            "max_output_bytes" => self.max_output_bytes = v.size("max_output_bytes")?,
+            "chord_tolerance_mm" => self.chord_tolerance_mm = v.number("chord_tolerance_mm")?,
+            "arcs_as_lines" => self.arcs_as_lines = v.bool("arcs_as_lines")?,
+            "decimals" => self.decimals = Some(v.count("decimals")?),
+            "max_correction_mm" => self.max_correction_mm = v.number("max_correction_mm")?,
+            "nominal_directions" => self.nominal_directions = v.bool("nominal_directions")?,
+            "take_up" => self.take_up = v.bool("take_up")?,
+            "separate_take_ups" => self.separate_take_ups = v.bool("separate_take_ups")?,
+            "take_up_tolerance_um" => {
+                self.take_up_tolerance_um = Some(v.number("take_up_tolerance_um")?)
+            }
+            "trace" => self.trace = v.bool("trace")?,
+            "allow_recompensate" => self.allow_recompensate = v.bool("allow_recompensate")?,
+            _ => {
+                return Err(OptionError::new(
+                    "method",
+                    format!("has no option `{name}`"),
+                ))
+            }
+        }
+        Ok(())
+    }
+}
+
+fn positive(v: f64) -> bool {
+    v.is_finite() && v > 0.0
+}
+
+impl CompensateRequest {
+    /// The solver, checked.
+    fn method(&self) -> Result<Method, OptionError> {
+        let info = <Self as super::Request>::info("method").expect("method is an option");
+        match info
+            .choice(&self.method)
+            .map_err(|p| OptionError::new("method", p))?
+        {
+            "direct" => Ok(Method::Direct),
+            "pitch" => Ok(Method::Pitch),
+            "ilc" => {
+                if !(self.gain > 0.0 && self.gain <= 1.0) {
+                    return Err(OptionError::new(
+                        "gain",
+                        format!("must satisfy 0 < γ ≤ 1; got {}", self.gain),
+                    ));
+                }
+                let max_iterations = u32::try_from(self.max_iterations)
+                    .ok()
+                    .filter(|n| *n > 0)
+                    .ok_or_else(|| {
+                        OptionError::new(
+                            "max_iterations",
+                            "must be at least 1 (ILC needs one step to move any point)",
+                        )
+                    })?;
+                Ok(Method::Ilc {
+                    gain: self.gain,
+                    max_iterations,
+                })
+            }
+            _ => Ok(Method::Exact),
+        }
+    }
+
+    /// The splitting of feed moves, checked: at most one way is chosen.
+    fn segmentation(&self) -> Result<Segmentation, OptionError> {
+        let chosen: Vec<&'static str> = [
+            (self.no_split, "no_split"),
+            (self.segments.is_some(), "segments"),
+            (self.segment_length_mm.is_some(), "segment_length_mm"),
+            (self.contour_tolerance_um.is_some(), "contour_tolerance_um"),
+        ]
+        .into_iter()
+        .filter_map(|(given, name)| given.then_some(name))
+        .collect();
+        if let [first, second, ..] = chosen[..] {
+            return Err(OptionError::new(
+                first,
+                format!(
+                    "cannot be given with {{{second}}}: choose one way of splitting feed moves"
+                ),
+            ));
+        }
+        let fixed = self.no_split || self.segments.is_some() || self.segment_length_mm.is_some();
+        if let (true, Some(_)) = (fixed, self.min_segment_length_mm) {
+            return Err(OptionError::new(
+                "min_segment_length_mm",
+                format!(
+                    "is for adaptive splitting; it cannot be given with {{{}}}",
+                    chosen[0]
+                ),
+            ));
+        }
+        if self.no_split {
+            return Ok(Segmentation::Off);
+        }
+        if let Some(n) = self.segments {
+            return u32::try_from(n)
+                .ok()
+                .filter(|n| *n > 0)
+                .map(Segmentation::Count)
+                .ok_or_else(|| OptionError::new("segments", "must be at least 1"));
+        }
+        if let Some(l) = self.segment_length_mm {
+            if !positive(l) {
+                return Err(OptionError::new(
+                    "segment_length_mm",
+                    format!("must be a positive length in mm; got {l}"),
+                ));
+            }
+            return Ok(Segmentation::MaxLength(l));
+        }
+        let t = self
+            .contour_tolerance_um
+            .unwrap_or(DEFAULT_CONTOUR_TOLERANCE_UM);
+        let min = self
+            .min_segment_length_mm
+            .unwrap_or(DEFAULT_MIN_SEGMENT_LENGTH_MM);
+        if !(positive(t) && positive(min)) {
+            return Err(OptionError::new(
+                "contour_tolerance_um",
+                "and {min_segment_length_mm} must be positive",
+            ));
+        }
+        Ok(Segmentation::Adaptive {
+            tolerance_mm: t * 1e-3,
+            min_length_mm: min,
+        })
+    }
+
+    /// The take-up options, checked.
+    fn take_ups(&self) -> Result<(), OptionError> {
+        if self.separate_take_ups && !self.take_up {
+            return Err(OptionError::new(
+                "separate_take_ups",
+                "cannot be given with {take_up}: there are no take-ups to write",
+            ));
+        }
+        if let Some(t) = self.take_up_tolerance_um {
+            if !self.take_up || self.separate_take_ups {
+                let other = if self.take_up {
+                    "separate_take_ups"
+                } else {
+                    "take_up"
+                };
+                return Err(OptionError::new(
+                    "take_up_tolerance_um",
+                    format!("cannot be given with {{{other}}}: no take-up is folded"),
+                ));
+            }
+            if !positive(t) {
+                return Err(OptionError::new(
+                    "take_up_tolerance_um",
+                    format!("must be a positive number of µm; got {t}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The library's compensation options, every value checked.
+    pub fn options(&self) -> Result<CompensateOptions, OptionError> {
+        let method = self.method()?;
+        let segmentation = self.segmentation()?;
+        if !positive(self.chord_tolerance_mm) {
+            return Err(OptionError::new(
+                "chord_tolerance_mm",
+                format!(
+                    "must be a positive length in mm; got {}",
+                    self.chord_tolerance_mm
+                ),
+            ));
+        }
+        if !positive(self.max_correction_mm) {
+            return Err(OptionError::new(
+                "max_correction_mm",
+                format!(
+                    "must be a positive length in mm; got {}",
+                    self.max_correction_mm
+                ),
+            ));
+        }
+        if !positive(self.max_residual_um) {
+            return Err(OptionError::new(
+                "max_residual_um",
+                format!(
+                    "must be a positive number of µm; got {}",
+                    self.max_residual_um
+                ),
+            ));
+        }
+        self.take_ups()?;
+        let decimals = match self.decimals {
+            None => None,
+            Some(d @ 1..=9) => Some(d as u8),
+            Some(_) => return Err(OptionError::new("decimals", "must be 1 … 9")),
+        };
+        Ok(CompensateOptions {
+            method,
+            segmentation,
+            chord_tolerance_mm: self.chord_tolerance_mm,
+            arcs_as_arcs: !self.arcs_as_lines,
+            decimals,
+            max_correction_mm: self.max_correction_mm,
+            directions: if self.nominal_directions {
+                DirectionPolicy::Nominal
+            } else {
+                DirectionPolicy::Commanded
+            },
+            take_up: self.take_up,
+            fold_take_ups: !self.separate_take_ups,
+            take_up_tolerance_mm: self.take_up_tolerance_um.map(|t| t * 1e-3),
+            trace_comments: self.trace,
+            // Direct and pitch do not aim at the full model's target: their
+            // residual is the method's own error, checked for finiteness only.
+            max_residual_um: matches!(method, Method::Exact | Method::Ilc { .. })
+                .then_some(self.max_residual_um),
+        })
+    }
+
+    /// The compensation ready to run on `machine` (from
+    /// [`MachineRequest::machine`]) with the model from `model`, its header
+    /// dated `date_utc` ([`crate::io::provenance::now_utc`]); `spelling`
+    /// names the work-offset option in the header as the front end does.
+    pub fn prepare(
+        &self,
+        machine: Machine,
+        model: ModelSource<'_>,
+        date_utc: String,
+        spelling: &dyn Spelling,
+    ) -> Result<Compensation, Error> {
+        let options = self.options()?;
+        let mut machine = machine;
+        machine.setup = machine.setup.with_spline_tolerance(self.chord_tolerance_mm);
+        let mut header = model.header(&machine, &options, date_utc)?;
+        if machine.work_offset_given {
+            header.work_offset_note =
+                Some(format!("G54 from {}", spelling.option("work_offset_mm")));
+        }
+        Ok(Compensation {
+            machine,
+            options,
+            header,
+            allow_recompensate: self.allow_recompensate,
+            max_output_bytes: self.max_output_bytes,
+        })
+    }
+}
+
+/// Where the model of a compensation came from, for the header: a file
+/// (hashed with the tables it names) or a model built in memory (hashed as
+/// its file text would be).
+#[derive(Clone, Copy)]
+pub enum ModelSource<'a> {
+    /// A map file.
+    File(&'a Path),
+    /// A model built in memory (from arrays).
+    Built(&'a LoadedModel),
+}
+
+impl ModelSource<'_> {
+    fn header(
+        self,
+        machine: &Machine,
+        options: &CompensateOptions,
+        date_utc: String,
+    ) -> Result<ProgramHeader, Error> {
+        let setup_file = machine.setup_file.as_deref();
+        let text = match self {
+            ModelSource::File(p) => {
+                return header_for_map(p, setup_file, &machine.setup.setup, options, date_utc)
+            }
+            ModelSource::Built(LoadedModel::AxisTables(t)) => t.to_csv(),
+            ModelSource::Built(LoadedModel::Straightness(t)) => t.to_toml(),
+            ModelSource::Built(LoadedModel::Kinematic(k)) => {
+                let csv = crate::io::model_file::components_to_csv(&k.axes);
+                let toml = crate::io::model_file::model_to_toml(k, "arrays.csv", None);
+                format!("{toml}{csv}")
+            }
+        };
+        Ok(ProgramHeader::for_compensation(
+            vec![("arrays".into(), sha256_hex(text.as_bytes()))],
+            setup_file.map(file_name),
+            machine.setup.setup.clone(),
+            options,
+            date_utc,
+        ))
+    }
+}
+
+/// A compensation ready to run: options checked, machine set up, header made.
+#[derive(Debug, Clone)]
+pub struct Compensation {
+    /// The machine.
+    pub machine: Machine,
+    /// The checked options.
+    pub options: CompensateOptions,
+    /// The header written at the program's top.
+    pub header: ProgramHeader,
+    /// Compensate a compensated program again.
+    pub allow_recompensate: bool,
+    /// Largest output (bytes).
+    pub max_output_bytes: Option<u64>,
+}
+
+impl Compensation {
+    /// The compensator of a program named `file` for `model` (callbacks and
+    /// the run are the caller's).
+    pub fn compensator<'a>(&self, model: &'a dyn ErrorModel, file: &str) -> Compensator<'a> {
+        Compensator::new(model)
+            .setup(self.machine.setup.clone())
+            .options(self.options)
+            .header(self.header.clone())
+            .file_name(file)
+            .allow_recompensate(self.allow_recompensate)
+    }
+}

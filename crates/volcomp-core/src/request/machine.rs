@@ -1,0 +1,180 @@
+//! The machine a program runs on, as every job that reads a program takes
+//! it: the set-up file, the work offset, and how the interpreter reads what
+//! controllers disagree on.
+
+use super::option::{Input, Kind, OptionError, OptionInfo, Value};
+use crate::compensate::MachineSetup;
+use crate::Error;
+use std::path::PathBuf;
+use volcomp_gcode::{InterpOptions, Vec3};
+
+/// The options of [`MachineRequest`].
+pub const MACHINE_OPTIONS: &[OptionInfo] = &[
+    OptionInfo::new(
+        "setup",
+        Kind::Input,
+        "TOML setup file: work offsets, tool lengths, reference points.",
+    )
+    .value("FILE"),
+    OptionInfo::new(
+        "work_offset_mm",
+        Kind::Triple,
+        "G54 work offset in mm (machine coordinates), overriding the setup's.",
+    )
+    .flag("work-offset")
+    .value("X,Y,Z"),
+    OptionInfo::new(
+        "absolute_arc_centers",
+        Kind::Switch,
+        "Read I/J/K as absolute arc centres (as if the program began with G90.1).",
+    ),
+    OptionInfo::new(
+        "accept_k0",
+        Kind::Switch,
+        "Accept `K0` on G17 arcs (FreeCAD writes it; LinuxCNC refuses it, and so does volcomp by default).",
+    ),
+    OptionInfo::new(
+        "strict_k0",
+        Kind::Switch,
+        "Refuse `K0` on G17 arcs: the default now, kept for old scripts.",
+    )
+    .hidden(),
+    OptionInfo::new(
+        "allow_no_program_end",
+        Kind::Switch,
+        "Do not warn about a program that ends without M2, M30 or a closing `%` (LinuxCNC runs it to its last line, then reports an error; grbl-family and other controllers need no end).",
+    ),
+];
+
+/// How a program is set up on the machine, as plain values.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MachineRequest {
+    /// The set-up TOML file (docs/setup.md).
+    pub setup: Option<Input>,
+    /// G54 in machine coordinates (mm), overriding the set-up's.
+    pub work_offset_mm: Option<[f64; 3]>,
+    /// Arc centres are absolute from the start (G90.1).
+    pub absolute_arc_centers: bool,
+    /// Accept `K0` on G17 arcs.
+    pub accept_k0: bool,
+    /// Refuse `K0` on G17 arcs (the default; kept for old scripts).
+    pub strict_k0: bool,
+    /// Do not warn about a program without M2, M30 or a closing `%`.
+    pub allow_no_program_end: bool,
+}
+
+/// A machine set-up ready for a job, with where it came from (for the
+/// compensated program's header).
+#[derive(Debug, Clone)]
+pub struct Machine {
+    /// The set-up and the interpreter's options.
+    pub setup: MachineSetup,
+    /// The set-up file, when one was given as a file.
+    pub setup_file: Option<PathBuf>,
+    /// The work offset came from the work-offset option.
+    pub work_offset_given: bool,
+}
+
+impl super::Request for MachineRequest {
+    const OPTIONS: &'static [&'static [OptionInfo]] = &[MACHINE_OPTIONS];
+
+    fn set(&mut self, name: &str, value: Value) -> Result<(), OptionError> {
+        match self.try_set(name, value)? {
+            true => Ok(()),
+            false => Err(OptionError::new("setup", format!("has no option `{name}`"))),
+        }
+    }
+}
+
+impl MachineRequest {
+    /// Sets the option `name` (one of [`MACHINE_OPTIONS`]); `Ok(false)` when
+    /// `name` is not a machine option.
+    pub fn try_set(&mut self, name: &str, value: Value) -> Result<bool, OptionError> {
+        match name {
+            "setup" => self.setup = Some(value.input("setup")?),
+            "work_offset_mm" => self.work_offset_mm = Some(value.triple("work_offset_mm")?),
+            "absolute_arc_centers" => {
+                self.absolute_arc_centers = value.bool("absolute_arc_centers")?
+            }
+            "accept_k0" => self.accept_k0 = value.bool("accept_k0")?,
+            "strict_k0" => self.strict_k0 = value.bool("strict_k0")?,
+            "allow_no_program_end" => {
+                self.allow_no_program_end = value.bool("allow_no_program_end")?
+            }
+            _ => return Ok(false),
+        }
+        Ok(true)
+    }
+
+    /// The machine: the set-up file read, the work offset applied, the
+    /// interpreter's options set (a program must end with M2, M30 or `%`
+    /// unless allowed otherwise, as LinuxCNC requires).
+    pub fn machine(&self) -> Result<Machine, Error> {
+        if self.accept_k0 && self.strict_k0 {
+            return Err(OptionError::new("strict_k0", "cannot be given with {accept_k0}").into());
+        }
+        let mut setup = match &self.setup {
+            None => MachineSetup::unset(),
+            Some(Input::File(path)) => MachineSetup::from_setup_file(path)?,
+            Some(Input::Content { name, bytes }) => {
+                let text = std::str::from_utf8(bytes).map_err(|_| {
+                    OptionError::new("setup", format!("{name}: the set-up is not UTF-8 text"))
+                })?;
+                MachineSetup::from_setup_toml(text, name)?
+            }
+        };
+        if let Some(w) = self.work_offset_mm {
+            if !w.iter().all(|v| v.is_finite()) {
+                return Err(OptionError::new(
+                    "work_offset_mm",
+                    format!("must be three finite numbers in mm (X, Y, Z); got {w:?}"),
+                )
+                .into());
+            }
+            setup = setup.with_work_offset(Vec3::new(w[0], w[1], w[2]));
+        }
+        let setup = setup.with_interp_options(InterpOptions {
+            accept_k0_on_xy_arcs: self.accept_k0,
+            absolute_arc_centers: self.absolute_arc_centers,
+            require_program_end: !self.allow_no_program_end,
+            ..InterpOptions::default()
+        });
+        Ok(Machine {
+            setup,
+            setup_file: self
+                .setup
+                .as_ref()
+                .and_then(|s| s.path())
+                .map(PathBuf::from),
+            work_offset_given: self.work_offset_mm.is_some(),
+        })
+    }
+}
+
+/// The first words of every message about a missing work offset.
+pub const NO_WORK_OFFSET: &str = "no work offset was given (G54 = 0)";
+
+impl Machine {
+    /// The warning a front end shows when no work offset was given (`None`
+    /// when one was); options as `{name}`.
+    pub fn work_offset_warning(&self) -> Option<String> {
+        self.setup.no_work_offset.then(|| {
+            format!("{NO_WORK_OFFSET}: program coordinates are taken as machine coordinates; give the offsets with {{setup}} or {{work_offset_mm}}")
+        })
+    }
+
+    /// `e` with the help that fixes a point outside the map: first a missing
+    /// work offset, then the set-up and clamping (options as `{name}`);
+    /// `None` when `e` is not about a point outside the map.
+    pub fn explain(&self, e: &Error) -> Option<String> {
+        use crate::error::CompensationError;
+        if !matches!(e, Error::Compensation(CompensationError::Model { .. })) {
+            return None;
+        }
+        Some(if self.setup.no_work_offset {
+            format!("{NO_WORK_OFFSET}: {e}\n  help: give the program's work offsets with {{setup}} or {{work_offset_mm}} first; {{clamp}} holds the error at the table ends")
+        } else {
+            format!("{e}\n  help: check {{setup}} / {{work_offset_mm}}; {{clamp}} holds the error at the table ends")
+        })
+    }
+}

@@ -1,0 +1,603 @@
+//! Mirror compensation of a free-form surface (docs/mirror.md), as plain
+//! values: the nominal surface and the probe points, the method's options,
+//! and the finishing program with its tool.
+
+use super::machine::{Machine, MachineRequest, MACHINE_OPTIONS};
+use super::option::{Input, Kind, OptionError, OptionInfo, Spelling, Value};
+use crate::compensate::{file_name, refuse_if_compensated, survey_style, HEAD_BYTES};
+use crate::io::provenance::{sha256_hex, HeaderWriter, ProgramHeader};
+use crate::surface::bspline::Parameterization;
+use crate::surface::mirror::report::{header_method, header_options, RunInputs};
+use crate::surface::mirror::{
+    compensate_finishing, mirror, program_frame_offset, read_nominal, read_probe_points, BallTool,
+    ClPoint, DeviationField, FinishingOptions, FinishingSummary, FitMethod, MaterialSide,
+    MirrorError, MirrorOptions, MirrorResult, NominalFormat, NominalSurface, SurfaceModel,
+};
+use crate::Error;
+use std::io::{BufRead, Read, Write};
+
+/// The options of [`MirrorRequest`] beside the machine's.
+pub const MIRROR_OPTIONS: &[OptionInfo] = &[
+    OptionInfo::new(
+        "nominal",
+        Kind::Input,
+        "Nominal finishing surface: a B-spline surface (.toml) or a grid of points (.csv), in the program frame.",
+    )
+    .value("SURF")
+    .required(),
+    OptionInfo::new(
+        "measured",
+        Kind::Input,
+        "Probe points of the semi-finished part (CSV: x_mm,y_mm,z_mm; optional id, i, j).",
+    )
+    .value("POINTS")
+    .required(),
+    OptionInfo::new(
+        "stock_mm",
+        Kind::Number,
+        "Stock D the semi-finishing pass leaves on the nominal surface (mm).",
+    )
+    .flag("stock")
+    .value("D")
+    .required(),
+    OptionInfo::new(
+        "nominal_format",
+        Kind::Choice,
+        "The nominal's format when its file name does not say it (a file object in Python).",
+    )
+    .value("FORMAT")
+    .choices(&[
+        ("bspline", "A B-spline surface (TOML)"),
+        ("grid", "A grid of points (CSV)"),
+    ]),
+    OptionInfo::new(
+        "material",
+        Kind::Choice,
+        "Which side of the surface the material is on.",
+    )
+    .value("MATERIAL")
+    .default("below")
+    .choices(&[
+        ("below", "Below the surface (−Z): the tool comes from above"),
+        ("above", "Above the surface (+Z)"),
+        ("normal-out", "The surface's own normal (Su × Sv) points out of the material"),
+        ("normal-in", "The surface's own normal (Su × Sv) points into the material"),
+    ]),
+    OptionInfo::new(
+        "probe_radius_mm",
+        Kind::Number,
+        "Probe ball radius (mm) when the points are ball centres; leave out when the probing software already compensated it.",
+    )
+    .flag("probe-radius")
+    .value("MM"),
+    OptionInfo::new(
+        "max_error_mm",
+        Kind::Number,
+        "Largest accepted distance of a probe point from where it should be (nominal + stock), in mm; farther points are refused as mismatched.",
+    )
+    .flag("max-error")
+    .value("MM")
+    .default("0.1"),
+    OptionInfo::new("fit", Kind::Choice, "How the compensation points are fitted.")
+        .value("FIT")
+        .default("least-squares")
+        .choices(&[
+            (
+                "least-squares",
+                "Bicubic least squares, the control net chosen by leave-one-out cross-validation (any probe pattern)",
+            ),
+            (
+                "interpolate",
+                "Bicubic interpolation through every point (probe grid with i,j columns)",
+            ),
+        ]),
+    OptionInfo::new(
+        "tolerance_um",
+        Kind::Number,
+        "Only consider control nets whose residual at every compensation point is within this (µm). Every residual includes the probe noise: give at least 3× its σ. Without it the net is chosen by leave-one-out cross-validation alone.",
+    )
+    .flag("tolerance")
+    .value("UM"),
+    OptionInfo::new(
+        "refuse_worse",
+        Kind::Switch,
+        "Refuse (write nothing) when the leave-one-out prediction of the finishing error after compensation is worse (larger std) than not compensating; without it a warning is given.",
+    ),
+    OptionInfo::new(
+        "grid_params",
+        Kind::Choice,
+        "Parameters used to interpolate a grid nominal (CSV).",
+    )
+    .value("PARAMS")
+    .default("chord-length")
+    .choices(&[
+        ("chord-length", "Chord length, averaged over the grid rows"),
+        ("centripetal", "Centripetal (square root of the chord length), averaged"),
+        ("uniform", "Equally spaced"),
+    ]),
+    OptionInfo::new(
+        "grid_size",
+        Kind::Count,
+        "Nodes per direction of the compensated grid when the nominal is a B-spline (a grid nominal keeps its own nodes).",
+    )
+    .value("N")
+    .default("41"),
+    OptionInfo::new(
+        "finishing",
+        Kind::Input,
+        "Ball-end finishing program to compensate.",
+    )
+    .value("PROGRAM"),
+    OptionInfo::new(
+        "tool_radius_mm",
+        Kind::Number,
+        "Ball radius of the finishing tool (mm; half its diameter).",
+    )
+    .flag("tool-radius")
+    .value("MM"),
+    OptionInfo::new(
+        "cl_point",
+        Kind::Choice,
+        "Which point of the tool the program's coordinates give.",
+    )
+    .value("CL")
+    .default("tip")
+    .choices(&[
+        ("tip", "The tool tip (the ball centre is one radius above it, +Z)"),
+        ("center", "The ball centre"),
+    ]),
+    OptionInfo::new(
+        "contact_tolerance_mm",
+        Kind::Number,
+        "A CL point is on the surface when its ball is this close to it (mm).",
+    )
+    .flag("contact-tolerance")
+    .value("MM")
+    .default("0.02"),
+    OptionInfo::new(
+        "segment_length_mm",
+        Kind::Number,
+        "Split feed moves into pieces of at most this length (mm).",
+    )
+    .flag("segment-length")
+    .value("MM")
+    .default("2"),
+    OptionInfo::new(
+        "no_split",
+        Kind::Switch,
+        "Do not split feed moves (arcs are still linearised).",
+    ),
+    OptionInfo::new(
+        "decimals",
+        Kind::Count,
+        "Decimal places of written coordinates (default 5 in mm, 6 in inch).",
+    )
+    .value("DECIMALS"),
+    OptionInfo::new(
+        "trace",
+        Kind::Switch,
+        "Do not tag inserted lines with `(volcomp Ln)` comments.",
+    )
+    .default("true"),
+    OptionInfo::new(
+        "allow_recompensate",
+        Kind::Switch,
+        "Compensate a finishing program that volcomp compensated already.",
+    ),
+];
+
+/// A mirror compensation, as plain values (each field is the option of the
+/// same name).
+#[derive(Debug, Clone, PartialEq)]
+#[allow(missing_docs)]
+pub struct MirrorRequest {
+    pub machine: MachineRequest,
+    pub nominal: Option<Input>,
+    pub measured: Option<Input>,
+    pub stock_mm: Option<f64>,
+    pub nominal_format: Option<String>,
+    pub material: String,
+    pub probe_radius_mm: Option<f64>,
+    pub max_error_mm: f64,
+    pub fit: String,
+    pub tolerance_um: Option<f64>,
+    pub refuse_worse: bool,
+    pub grid_params: String,
+    pub grid_size: u64,
+    pub finishing: Option<Input>,
+    pub tool_radius_mm: Option<f64>,
+    pub cl_point: String,
+    pub contact_tolerance_mm: f64,
+    pub segment_length_mm: f64,
+    pub no_split: bool,
+    pub decimals: Option<u64>,
+    pub trace: bool,
+    pub allow_recompensate: bool,
+}
+
+impl Default for MirrorRequest {
+    fn default() -> Self {
+        Self {
+            machine: MachineRequest::default(),
+            nominal: None,
+            measured: None,
+            stock_mm: None,
+            nominal_format: None,
+            material: "below".into(),
+            probe_radius_mm: None,
+            max_error_mm: 0.1,
+            fit: "least-squares".into(),
+            tolerance_um: None,
+            refuse_worse: false,
+            grid_params: "chord-length".into(),
+            grid_size: 41,
+            finishing: None,
+            tool_radius_mm: None,
+            cl_point: "tip".into(),
+            contact_tolerance_mm: 0.02,
+            segment_length_mm: 2.0,
+            no_split: false,
+            decimals: None,
+            trace: true,
+            allow_recompensate: false,
+        }
+    }
+}
+
+impl super::Request for MirrorRequest {
+    const OPTIONS: &'static [&'static [OptionInfo]] = &[MIRROR_OPTIONS, MACHINE_OPTIONS];
+
+    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
+        if self.machine.try_set(name, v.clone())? {
+            return Ok(());
+        }
+        match name {
+            "nominal" => self.nominal = Some(v.input("nominal")?),
+            "measured" => self.measured = Some(v.input("measured")?),
+            "stock_mm" => self.stock_mm = Some(v.number("stock_mm")?),
+            "nominal_format" => self.nominal_format = Some(v.text("nominal_format")?),
+            "material" => self.material = v.text("material")?,
+            "probe_radius_mm" => self.probe_radius_mm = Some(v.number("probe_radius_mm")?),
+            "max_error_mm" => self.max_error_mm = v.number("max_error_mm")?,
+            "fit" => self.fit = v.text("fit")?,
+            "tolerance_um" => self.tolerance_um = Some(v.number("tolerance_um")?),
+            "refuse_worse" => self.refuse_worse = v.bool("refuse_worse")?,
+            "grid_params" => self.grid_params = v.text("grid_params")?,
+            "grid_size" => self.grid_size = v.count("grid_size")?,
+            "finishing" => self.finishing = Some(v.input("finishing")?),
+            "tool_radius_mm" => self.tool_radius_mm = Some(v.number("tool_radius_mm")?),
+            "cl_point" => self.cl_point = v.text("cl_point")?,
+            "contact_tolerance_mm" => {
+                self.contact_tolerance_mm = v.number("contact_tolerance_mm")?
+            }
+            "segment_length_mm" => self.segment_length_mm = v.number("segment_length_mm")?,
+            "no_split" => self.no_split = v.bool("no_split")?,
+            "decimals" => self.decimals = Some(v.count("decimals")?),
+            "trace" => self.trace = v.bool("trace")?,
+            "allow_recompensate" => self.allow_recompensate = v.bool("allow_recompensate")?,
+            _ => {
+                return Err(OptionError::new(
+                    "nominal",
+                    format!("has no option `{name}`"),
+                ))
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The checked options of a mirror compensation.
+#[derive(Debug, Clone)]
+pub struct MirrorPlan {
+    /// The method's options.
+    pub options: MirrorOptions,
+    /// The material side.
+    pub side: MaterialSide,
+    /// The parameters of a grid nominal.
+    pub params: Parameterization,
+    /// Nodes per direction of the compensated grid.
+    pub grid_size: usize,
+    /// The finishing tool, when a finishing program is given.
+    pub tool: Option<BallTool>,
+    /// How the finishing program is written.
+    pub finishing: FinishingOptions,
+}
+
+/// The nominal surface, the probe points' result and the inputs as the
+/// reports name them.
+pub struct MirrorRun {
+    /// The nominal surface.
+    pub nominal: NominalSurface,
+    /// The method's result.
+    pub result: MirrorResult,
+    /// The run as reports name it.
+    pub inputs: RunInputs,
+    /// The warning a front end gives when the leave-one-out prediction
+    /// says compensating is worse than not (and the run was not refused).
+    pub worse: Option<String>,
+}
+
+fn positive(name: &'static str, v: f64, what: &str) -> Result<f64, OptionError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(OptionError::new(name, format!("must be {what}; got {v}")))
+    }
+}
+
+/// The choice of option `name` that `value` names.
+fn choice(name: &'static str, value: &str) -> Result<&'static str, OptionError> {
+    let info = <MirrorRequest as super::Request>::info(name).expect("a mirror option");
+    info.choice(value).map_err(|p| OptionError::new(name, p))
+}
+
+impl MirrorRequest {
+    fn input<'a>(
+        &self,
+        v: &'a Option<Input>,
+        name: &'static str,
+    ) -> Result<&'a Input, OptionError> {
+        v.as_ref()
+            .ok_or_else(|| OptionError::new(name, "is required"))
+    }
+
+    /// Every option checked.
+    pub fn plan(&self) -> Result<MirrorPlan, OptionError> {
+        let stock = self
+            .stock_mm
+            .ok_or_else(|| OptionError::new("stock_mm", "is required"))?;
+        let stock_mm = positive("stock_mm", stock, "a positive length in mm")?;
+        let max_error_mm = positive("max_error_mm", self.max_error_mm, "a positive length in mm")?;
+        let tolerance_um = self
+            .tolerance_um
+            .map(|t| positive("tolerance_um", t, "a positive number of µm"))
+            .transpose()?;
+        let contact = self.contact_tolerance_mm;
+        positive("contact_tolerance_mm", contact, "a positive length in mm")?;
+        if let Some(r) = self.probe_radius_mm {
+            if !(r.is_finite() && r >= 0.0) {
+                return Err(OptionError::new(
+                    "probe_radius_mm",
+                    format!("must be a length ≥ 0 in mm; got {r}"),
+                ));
+            }
+        }
+        let segment_length_mm = match self.no_split {
+            true => None,
+            false => Some(positive(
+                "segment_length_mm",
+                self.segment_length_mm,
+                "a positive length in mm",
+            )?),
+        };
+        if !(2..=1001).contains(&self.grid_size) {
+            return Err(OptionError::new(
+                "grid_size",
+                format!("must be 2 … 1001; got {}", self.grid_size),
+            ));
+        }
+        let decimals = match self.decimals {
+            None => None,
+            Some(d @ 1..=9) => Some(d as u8),
+            Some(_) => return Err(OptionError::new("decimals", "must be 1 … 9")),
+        };
+        let side = match choice("material", &self.material)? {
+            "above" => MaterialSide::Above,
+            "normal-out" => MaterialSide::NormalOut,
+            "normal-in" => MaterialSide::NormalIn,
+            _ => MaterialSide::Below,
+        };
+        let params = match choice("grid_params", &self.grid_params)? {
+            "centripetal" => Parameterization::Centripetal,
+            "uniform" => Parameterization::Uniform,
+            _ => Parameterization::ChordLength,
+        };
+        let fit = match choice("fit", &self.fit)? {
+            "interpolate" => FitMethod::Interpolate,
+            _ => FitMethod::LeastSquares { tolerance_um },
+        };
+        let cl = match choice("cl_point", &self.cl_point)? {
+            "center" => ClPoint::Centre,
+            _ => ClPoint::Tip,
+        };
+        let tool = match (&self.finishing, self.tool_radius_mm) {
+            (Some(_), Some(r)) => Some(BallTool {
+                radius_mm: positive("tool_radius_mm", r, "the ball's radius in mm")?,
+                cl,
+            }),
+            (Some(_), None) => {
+                return Err(OptionError::new(
+                    "finishing",
+                    "needs {tool_radius_mm}: the ball's radius in mm",
+                ))
+            }
+            _ => None,
+        };
+        Ok(MirrorPlan {
+            options: MirrorOptions {
+                stock_mm,
+                probe_radius_mm: self.probe_radius_mm,
+                max_error_mm,
+                fit,
+            },
+            side,
+            params,
+            grid_size: self.grid_size as usize,
+            tool,
+            finishing: FinishingOptions {
+                segment_length_mm,
+                decimals,
+                trace_comments: self.trace,
+                ..FinishingOptions::default()
+            },
+        })
+    }
+
+    /// The nominal surface's format: as given, or by its file's extension.
+    fn nominal_format(&self, nominal: &Input) -> Result<NominalFormat, Error> {
+        match (self.nominal_format.as_deref(), nominal) {
+            (Some(f), _) => Ok(match choice("nominal_format", f)? {
+                "grid" => NominalFormat::GridCsv,
+                _ => NominalFormat::BSplineToml,
+            }),
+            (None, Input::File(p)) => Ok(NominalFormat::of_path(p)?),
+            (None, Input::Content { name, .. }) => Err(OptionError::new(
+                "nominal_format",
+                format!("is needed for {name} (not a file whose extension says it): bspline (TOML) or grid (CSV)"),
+            )
+            .into()),
+        }
+    }
+
+    /// Reads the inputs and runs the method; refuses (with
+    /// [`MirrorRequest::refuse_worse`]) a compensation the leave-one-out
+    /// prediction says is worse than none.
+    pub fn run(&self, plan: &MirrorPlan) -> Result<MirrorRun, Error> {
+        let nominal_in = self.input(&self.nominal, "nominal")?;
+        let measured_in = self.input(&self.measured, "measured")?;
+        let format = self.nominal_format(nominal_in)?;
+        let text = |i: &Input| -> Result<String, Error> {
+            String::from_utf8(i.bytes()?.into_owned()).map_err(|_| {
+                OptionError::new("nominal", format!("{}: not UTF-8 text", i.name())).into()
+            })
+        };
+        let (nominal_name, measured_name) = (nominal_in.name(), measured_in.name());
+        let nominal = read_nominal(
+            &text(nominal_in)?,
+            &nominal_name,
+            format,
+            plan.side,
+            &plan.params,
+        )?;
+        let probes = read_probe_points(&text(measured_in)?, &measured_name)?;
+        let result = mirror(&nominal, &probes, &plan.options, &measured_name)?;
+        let worse = result.compensation_predicted_worse().then(|| {
+            let p = result.mirror_predicted.as_ref().map_or(f64::NAN, |p| p.std_um);
+            format!(
+                "{measured_name}: the leave-one-out prediction of the finishing error after compensation (std {p:.3} µm) is worse than not compensating (std {:.3} µm): the fit ({} × {} control net) does not predict the error between the probe points",
+                result.before.std_um, result.fit.net.0, result.fit.net.1
+            )
+        });
+        if let (true, Some(w)) = (self.refuse_worse, &worse) {
+            return Err(MirrorError::Method {
+                message: w.clone(),
+                help: "probe more densely or check the probe points (an outlier?); nothing was written".into(),
+            }
+            .into());
+        }
+        let inputs = RunInputs {
+            nominal: nominal_name,
+            measured: measured_name,
+            stock_mm: plan.options.stock_mm,
+            probe_radius_mm: plan.options.probe_radius_mm,
+        };
+        Ok(MirrorRun {
+            nominal,
+            result,
+            inputs,
+            worse: worse.map(|w| {
+                format!("{w}; check the probe points, or refuse such a run ({{refuse_worse}})")
+            }),
+        })
+    }
+
+    /// The header of a finishing program compensated with this run (or,
+    /// `baseline`, with the tool-radius baseline), dated `date_utc`;
+    /// `spelling` names the work-offset option as the front end does.
+    pub fn finishing_header(
+        &self,
+        plan: &MirrorPlan,
+        tool: &BallTool,
+        machine: &Machine,
+        baseline: bool,
+        date_utc: String,
+        spelling: &dyn Spelling,
+    ) -> Result<ProgramHeader, Error> {
+        let mut files = Vec::new();
+        for (label, input, default) in [
+            ("surf", &self.nominal, "nominal"),
+            ("probes", &self.measured, "probes"),
+        ] {
+            let Some(input) = input else { continue };
+            let name = input
+                .path()
+                .map(file_name)
+                .unwrap_or_else(|| default.into());
+            files.push((label.to_string(), name, sha256_hex(&input.bytes()?)));
+        }
+        Ok(ProgramHeader {
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            files,
+            setup_file: machine.setup_file.as_deref().map(file_name),
+            work_offset_note: machine
+                .work_offset_given
+                .then(|| format!("G54 from {}", spelling.option("work_offset_mm"))),
+            setup: machine.setup.setup.clone(),
+            method: header_method(baseline).into(),
+            options: header_options(
+                plan.options.stock_mm,
+                tool,
+                &plan.options.fit,
+                plan.finishing.segment_length_mm,
+                self.contact_tolerance_mm,
+            ),
+            date_utc,
+        })
+    }
+
+    /// The finishing program's frame: its first cutting position's work
+    /// offset, read from `program` (a first pass over it).
+    pub fn finishing_frame(
+        &self,
+        machine: &Machine,
+        program: impl BufRead,
+        file: &str,
+    ) -> Result<volcomp_gcode::Vec3, Error> {
+        Ok(program_frame_offset(
+            &mut machine.setup.walker(program, file),
+            file,
+        )?)
+    }
+
+    /// Writes the finishing program read from `program` (named `file`)
+    /// compensated for `field` (the run's deviation field, or the
+    /// baseline's constant one) to `out` with `header` on top; refuses a
+    /// program volcomp compensated already unless allowed.
+    #[allow(clippy::too_many_arguments)]
+    pub fn compensate_finishing(
+        &self,
+        plan: &MirrorPlan,
+        run: &MirrorRun,
+        field: &DeviationField,
+        machine: &Machine,
+        frame: volcomp_gcode::Vec3,
+        (mut program, file): (impl Read, &str),
+        header: &ProgramHeader,
+        out: &mut dyn Write,
+    ) -> Result<FinishingSummary, Error> {
+        let tool = plan
+            .tool
+            .ok_or_else(|| OptionError::new("tool_radius_mm", "is required"))?;
+        let model = SurfaceModel::new(&run.nominal, field, tool, frame, self.contact_tolerance_mm)?;
+        let mut head = Vec::with_capacity(HEAD_BYTES as usize);
+        (&mut program)
+            .take(HEAD_BYTES)
+            .read_to_end(&mut head)
+            .map_err(|e| Error::io(file, e))?;
+        if !self.allow_recompensate {
+            refuse_if_compensated(&head, file)?;
+        }
+        let style = survey_style(&head);
+        let reader = std::io::BufReader::with_capacity(
+            HEAD_BYTES as usize,
+            std::io::Cursor::new(head).chain(program),
+        );
+        let mut walker = machine.setup.walker(reader, file);
+        let mut w = HeaderWriter::new(out, header.lines());
+        let summary =
+            compensate_finishing(&mut walker, file, &style, &model, &plan.finishing, &mut w)?;
+        w.finish()
+            .map_err(|e| MirrorError::Program(crate::error::CompensationError::Io(e)))?;
+        Ok(summary)
+    }
+}

@@ -1,0 +1,174 @@
+//! Requests: each job a front end asks of the library, as plain values,
+//! checked once here with the library's own messages.
+//!
+//! A request holds one job's options ([`CompensateRequest`],
+//! [`SimulateRequest`], with [`MachineRequest`] and [`MapRequest`] inside
+//! or beside them). Each option is described once, in the request's table
+//! of [`OptionInfo`] (name, kind, default, help); a front end builds its own
+//! arguments from that table (the CLI its flags, the Python package its
+//! keyword arguments, signature and docstring), reads values into a
+//! [`Value`] and hands them to [`Request::set`]. The request then checks
+//! the values together and gives the library's option types, the machine,
+//! the provenance header. Messages name options by their names in braces
+//! (`{chord_tolerance_mm}`); a front end writes them its own way
+//! ([`Spelling`]).
+//!
+//! A new option: a row in the request's table, a field and a `set` arm in
+//! the request, its check beside the others; both front ends then take it
+//! with its help (docs/architecture.md, "Where a new option goes").
+
+mod compensate;
+mod machine;
+mod map;
+mod mirror;
+pub mod option;
+mod report;
+mod simulate;
+mod straightness;
+mod thermal;
+
+pub use compensate::{
+    CompensateRequest, Compensation, ModelSource, COMPENSATE_OPTIONS, DEFAULT_MAX_OUTPUT_BYTES,
+};
+pub use machine::{Machine, MachineRequest, MACHINE_OPTIONS, NO_WORK_OFFSET};
+pub use map::{MapRequest, MAP_OPTIONS};
+pub use mirror::{MirrorPlan, MirrorRequest, MirrorRun, MIRROR_OPTIONS};
+pub use option::{
+    did_you_mean, render, Input, Kind, Names, OptionError, OptionInfo, Request, Spelling,
+    UnknownOption, Value,
+};
+pub use report::{header_inputs, RunNames};
+pub use simulate::{SimulateRequest, SIMULATE_OPTIONS};
+pub use straightness::{fit_summary, StraightnessFitRequest, STRAIGHTNESS_OPTIONS};
+pub use thermal::{
+    unit_symbol, Prediction, ThermalFit, ThermalFitRequest, ThermalPredictRequest,
+    DEFAULT_BAND_SAMPLES, THERMAL_FIT_OPTIONS, THERMAL_PREDICT_OPTIONS,
+};
+
+/// Every option of every request, for a front end that spells a name it
+/// meets in a message.
+pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
+    MACHINE_OPTIONS,
+    MAP_OPTIONS,
+    COMPENSATE_OPTIONS,
+    SIMULATE_OPTIONS,
+    MIRROR_OPTIONS,
+    THERMAL_FIT_OPTIONS,
+    THERMAL_PREDICT_OPTIONS,
+    STRAIGHTNESS_OPTIONS,
+];
+
+/// The option named `name` in any request.
+pub fn find(name: &str) -> Option<&'static OptionInfo> {
+    ALL_OPTIONS
+        .iter()
+        .flat_map(|g| g.iter())
+        .find(|o| o.name == name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every option's shown default is the request's default, every name
+    /// is accepted by `set`, and every help names only known options.
+    fn consistent<R: Request, T: PartialEq + std::fmt::Debug>(same: fn(&R) -> T) {
+        for info in R::OPTIONS.iter().flat_map(|g| g.iter()) {
+            if let Some(d) = info.default {
+                let mut r = R::default();
+                let v = info
+                    .parse(d)
+                    .unwrap_or_else(|e| panic!("{}: {e}", info.name));
+                r.set(info.name, v).unwrap();
+                assert_eq!(
+                    same(&r),
+                    same(&R::default()),
+                    "{}: shown default {d}",
+                    info.name
+                );
+            }
+            let sample = match info.kind {
+                Kind::Switch => Value::Bool(true),
+                Kind::Number => Value::Number(1.0),
+                Kind::Count => Value::Count(1),
+                Kind::Choice => Value::Text(info.choices[0].0.into()),
+                Kind::Path | Kind::Input => Value::Path("f".into()),
+                Kind::Triple => Value::Triple([0.0; 3]),
+                Kind::Size => Value::Size(None),
+                Kind::Text => Value::Text("t".into()),
+                Kind::Ranges => Value::Ranges([[0.0, 1.0]; 3]),
+            };
+            R::default().set(info.name, sample).unwrap();
+            struct Known;
+            impl Spelling for Known {
+                fn option(&self, name: &str) -> String {
+                    assert!(find(name).is_some() || name == "clamp", "unknown {name}");
+                    name.into()
+                }
+            }
+            render(info.help, &Known);
+        }
+    }
+
+    #[test]
+    fn tables_and_requests_agree() {
+        consistent(|r: &CompensateRequest| (r.options(), r.max_output_bytes));
+        consistent(|r: &SimulateRequest| r.clone());
+        consistent(|r: &MapRequest| r.clone());
+        consistent(|r: &MirrorRequest| r.clone());
+        consistent(|r: &ThermalFitRequest| r.clone());
+        consistent(|r: &ThermalPredictRequest| r.clone());
+        consistent(|r: &StraightnessFitRequest| r.clone());
+    }
+
+    #[test]
+    fn the_same_bad_value_gets_the_same_message_whatever_the_spelling() {
+        let mut r = CompensateRequest::default();
+        r.set_named("method", Value::Text("ilc".into())).unwrap();
+        r.set_named("gain", Value::Number(2.0)).unwrap();
+        let e = r.options().unwrap_err();
+        assert_eq!(e.to_string(), "gain must satisfy 0 < γ ≤ 1; got 2");
+        let e = CompensateRequest::default()
+            .set_named("mehtod", Value::Text("ilc".into()))
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "there is no option `mehtod` (did you mean `method`?)"
+        );
+    }
+
+    #[test]
+    fn one_way_of_splitting() {
+        let r = CompensateRequest {
+            segments: Some(3),
+            no_split: true,
+            ..Default::default()
+        };
+        assert_eq!(
+            r.options().unwrap_err().to_string(),
+            "no_split cannot be given with segments: choose one way of splitting feed moves"
+        );
+        let r = CompensateRequest {
+            segments: Some(3),
+            min_segment_length_mm: Some(0.1),
+            ..Default::default()
+        };
+        assert!(r.options().is_err());
+        let r = CompensateRequest {
+            segments: Some(3),
+            ..Default::default()
+        };
+        assert_eq!(
+            r.options().unwrap().segmentation,
+            crate::Segmentation::Count(3)
+        );
+    }
+
+    #[test]
+    fn the_default_request_is_the_default_options() {
+        assert_eq!(
+            CompensateRequest::default().options().unwrap(),
+            crate::CompensateOptions::default()
+        );
+    }
+}

@@ -1,0 +1,111 @@
+//! A simulation of a part program on a machine with an error model, as
+//! plain values: the machine, the chord tolerance and the reference
+//! program.
+
+use super::machine::{Machine, MachineRequest, MACHINE_OPTIONS};
+use super::option::{Input, Kind, OptionError, OptionInfo, Value};
+use crate::model::ErrorModel;
+use crate::simulate::DEFAULT_CHORD_TOLERANCE_MM;
+use crate::Simulation;
+
+/// The options of [`SimulateRequest`] beside the machine's.
+pub const SIMULATE_OPTIONS: &[OptionInfo] = &[
+    OptionInfo::new(
+        "reference",
+        Kind::Input,
+        "The original program whose nominal path the program is judged against (the program written by `volcomp compensate` from it: its `(volcomp Ln)` comments pair them).",
+    )
+    .value("ORIGINAL"),
+    OptionInfo::new(
+        "chord_tolerance_mm",
+        Kind::Number,
+        "Chord tolerance for linearising arcs and splines (mm).",
+    )
+    .flag("chord-tolerance")
+    .value("MM")
+    .default("0.00001"),
+];
+
+/// A simulation, as plain values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimulateRequest {
+    /// The machine.
+    pub machine: MachineRequest,
+    /// The original of a compensated program.
+    pub reference: Option<Input>,
+    /// Chord tolerance (mm).
+    pub chord_tolerance_mm: f64,
+}
+
+impl Default for SimulateRequest {
+    fn default() -> Self {
+        Self {
+            machine: MachineRequest::default(),
+            reference: None,
+            chord_tolerance_mm: DEFAULT_CHORD_TOLERANCE_MM,
+        }
+    }
+}
+
+impl super::Request for SimulateRequest {
+    const OPTIONS: &'static [&'static [OptionInfo]] = &[MACHINE_OPTIONS, SIMULATE_OPTIONS];
+
+    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
+        if self.machine.try_set(name, v.clone())? {
+            return Ok(());
+        }
+        match name {
+            "reference" => self.reference = Some(v.input("reference")?),
+            "chord_tolerance_mm" => self.chord_tolerance_mm = v.number("chord_tolerance_mm")?,
+            _ => {
+                return Err(OptionError::new(
+                    "reference",
+                    format!("has no option `{name}`"),
+                ))
+            }
+        }
+        Ok(())
+    }
+}
+
+impl SimulateRequest {
+    /// The chord tolerance, checked.
+    pub fn chord_tolerance_mm(&self) -> Result<f64, OptionError> {
+        let t = self.chord_tolerance_mm;
+        if t.is_finite() && t > 0.0 {
+            Ok(t)
+        } else {
+            Err(OptionError::new(
+                "chord_tolerance_mm",
+                format!("must be a positive length in mm; got {t}"),
+            ))
+        }
+    }
+
+    /// `machine` with splines linearised within the chord tolerance.
+    pub fn prepare(&self, machine: Machine) -> Result<Machine, OptionError> {
+        let t = self.chord_tolerance_mm()?;
+        let mut machine = machine;
+        machine.setup = machine.setup.with_spline_tolerance(t);
+        Ok(machine)
+    }
+
+    /// The simulation of a program named `file` for `model` on `machine`
+    /// (from [`SimulateRequest::prepare`]), against the reference when one
+    /// was given (read here).
+    pub fn simulation<'a>(
+        &'a self,
+        model: &'a dyn ErrorModel,
+        machine: &Machine,
+        file: &str,
+    ) -> Result<Simulation<'a>, crate::Error> {
+        let mut sim = Simulation::new(model)
+            .setup(machine.setup.clone())
+            .file_name(file)
+            .chord_tolerance_mm(self.chord_tolerance_mm()?);
+        if let Some(r) = &self.reference {
+            sim = sim.reference_named(r.name(), r.reader()?);
+        }
+        Ok(sim)
+    }
+}
