@@ -147,8 +147,11 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
     let mut walker = machine.walk(&a.program)?;
     let json = a.format == MovesFormat::Json;
     let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<MoveRow>>(4);
+    // Written batches come back to be filled again: no allocation (and no
+    // fresh pages) per batch.
+    let (tx_empty, rx_empty) = std::sync::mpsc::sync_channel::<Vec<MoveRow>>(8);
     let extra = a.extra_axes;
-    let writer = std::thread::spawn(move || write_moves(rx, json, extra));
+    let writer = std::thread::spawn(move || write_moves(rx, tx_empty, json, extra));
     let mut batch = Vec::with_capacity(MOVES_BATCH);
     let mut read = || -> Result<(), CliError> {
         loop {
@@ -163,7 +166,10 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
             };
             batch.extend(ev.motions.iter().map(MoveRow::of));
             if batch.len() >= MOVES_BATCH {
-                let full = std::mem::replace(&mut batch, Vec::with_capacity(MOVES_BATCH));
+                let empty = rx_empty
+                    .try_recv()
+                    .unwrap_or_else(|_| Vec::with_capacity(MOVES_BATCH));
+                let full = std::mem::replace(&mut batch, empty);
                 if tx.send(full).is_err() {
                     // The writer stopped (e.g. a closed pipe): its error is reported below.
                     return Ok(());
@@ -183,11 +189,12 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
     write_result
 }
 
-/// Bytes of output gathered before they are written.
-const MOVES_OUTPUT_BYTES: usize = 1 << 20;
+/// Bytes of output gathered before they are written (cache-sized).
+const MOVES_OUTPUT_BYTES: usize = 1 << 18;
 
 fn write_moves(
     rx: std::sync::mpsc::Receiver<Vec<MoveRow>>,
+    empty: std::sync::mpsc::SyncSender<Vec<MoveRow>>,
     json: bool,
     extra_columns: bool,
 ) -> Result<(), CliError> {
@@ -206,7 +213,7 @@ fn write_moves(
         text.push(b'\n');
     }
     let num = |v: f64, text: &mut Vec<u8>| format_number_bytes(v, style, text);
-    for batch in rx {
+    for mut batch in rx {
         for m in &batch {
             if json {
                 text.extend_from_slice(if first { b"\n" } else { b",\n" });
@@ -259,6 +266,8 @@ fn write_moves(
                 text.clear();
             }
         }
+        batch.clear();
+        let _ = empty.try_send(batch);
     }
     if json {
         text.extend_from_slice(b"\n]\n");

@@ -156,6 +156,8 @@ pub struct Lexed {
     /// A comment holds a `#` or `[`: the expression layer reads the line
     /// as a whole (its comments are not literal text to it).
     pub(crate) ngc_in_comment: bool,
+    /// The word letters of the line, bit `letter & 31`.
+    letters: u32,
 }
 
 impl Lexed {
@@ -165,6 +167,11 @@ impl Lexed {
             Token::Word(w) => Some(w),
             _ => None,
         })
+    }
+
+    /// Whether the line has a word with `letter` (upper case).
+    pub(crate) fn has_letter(&self, letter: u8) -> bool {
+        self.letters & (1 << (letter & 31)) != 0
     }
 
     /// Whether the block starts with the block-delete character.
@@ -233,6 +240,7 @@ pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
     out.tokens.clear();
     out.has_comment = false;
     out.ngc_in_comment = false;
+    out.letters = 0;
     let n = content.len();
     let mut i = bom_len(content);
     while i < n && is_blank(content[i]) {
@@ -260,6 +268,7 @@ pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
                     column: start,
                 });
             }
+            out.letters |= 1 << (letter & 31);
             out.tokens.push(Token::Word(Word {
                 letter,
                 value,

@@ -191,6 +191,9 @@ impl<R: BufRead> Walker<R> {
                 });
             }
         }
+        if p.src == MAIN {
+            return Ok(self.main.holds(p.line));
+        }
         Ok(self.line_bytes(p).is_some())
     }
 
@@ -219,6 +222,10 @@ impl<R: BufRead> Walker<R> {
                 return Ok(Some(self.event(self.current, LineKind::Block, false)));
             }
             let pos = self.flow.pos;
+            if !self.flow.keeps_lines() && pos.src == MAIN {
+                // Nothing jumps back: the line before is done with.
+                self.main.forget_before(pos.line);
+            }
             if !self.fetch(pos)? {
                 self.end_of_source(pos)?;
                 if self.interp.finished() {
@@ -228,9 +235,6 @@ impl<R: BufRead> Walker<R> {
             }
             self.current = pos;
             self.flow.pos.line += 1;
-            if !self.flow.keeps_lines() && pos.src == MAIN {
-                self.main.forget_before(pos.line);
-            }
             if let Err(e) = self.flow.count_line(pos.line as u64 + 1) {
                 return Err(self.locate(e));
             }
@@ -394,10 +398,13 @@ impl<R: BufRead> Walker<R> {
             )));
             }
         }
-        if let Some(m) = self.fanuc_call()? {
-            self.flow.keep_lines();
-            self.fanuc(pos, m)?;
-            return Ok(None);
+        // M98/M99 (a line without M words calls nothing).
+        if self.lexed.has_letter(b'M') {
+            if let Some(m) = self.fanuc_call()? {
+                self.flow.keep_lines();
+                self.fanuc(pos, m)?;
+                return Ok(None);
+            }
         }
         let line_no = pos.line as u64 + 1;
         if let Err(e) = self.interp.execute(line_no, &self.lexed, &mut self.motions) {

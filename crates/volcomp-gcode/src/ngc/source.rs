@@ -68,6 +68,12 @@ impl Lines {
         Some(&self.bytes[s..e])
     }
 
+    /// Whether line `i` is held.
+    #[inline]
+    pub fn holds(&self, i: usize) -> bool {
+        i >= self.base && i < self.base + self.starts.len()
+    }
+
     /// Number of lines held.
     pub fn held(&self) -> usize {
         self.starts.len()
