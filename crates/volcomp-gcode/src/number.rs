@@ -128,28 +128,21 @@ impl StyleSurvey {
 /// ```
 #[inline]
 pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
-    match NumberText::of(value, style) {
-        Some(text) => {
-            let mut buf = [0u8; NumberText::MAX_LEN];
-            let bytes = &mut buf[..text.len()];
-            text.write(bytes);
-            // Digits, point and sign: ASCII, valid UTF-8.
-            out.push_str(std::str::from_utf8(bytes).unwrap_or_default());
-        }
+    let mut buf = NumberBuf::new();
+    match buf.format(value, style) {
+        // Digits, point and sign: ASCII, valid UTF-8.
+        Some(text) => out.push_str(std::str::from_utf8(text).unwrap_or_default()),
         None => format_number_slow(value, style, out),
     }
 }
 
-/// [`format_number`] into bytes (a line being written): the digits are
-/// written in place at the end of `out`, with no intermediate buffer.
+/// [`format_number`] into bytes (a line being written), without the
+/// intermediate `String`.
 #[inline]
 pub fn format_number_bytes(value: f64, style: NumberStyle, out: &mut Vec<u8>) {
-    match NumberText::of(value, style) {
-        Some(text) => {
-            let start = out.len();
-            out.extend_from_slice(&PLACEHOLDER[..text.len()]);
-            text.write(&mut out[start..]);
-        }
+    let mut buf = NumberBuf::new();
+    match buf.format(value, style) {
+        Some(text) => out.extend_from_slice(text),
         None => {
             let mut text = String::new();
             format_number_slow(value, style, &mut text);
@@ -158,20 +151,10 @@ pub fn format_number_bytes(value: f64, style: NumberStyle, out: &mut Vec<u8>) {
     }
 }
 
-/// Bytes a number's text takes before its digits are written over them.
-const PLACEHOLDER: &[u8; NumberText::MAX_LEN] = &[b'0'; NumberText::MAX_LEN];
-
-/// What a number's text is made of, decided before a byte is written, so
-/// that its length is known and its digits go straight where they belong
-/// (two digits a step, from the last one backwards; no allocation).
-struct NumberText {
-    negative: bool,
-    /// The integer part, if written (`.5` has none).
-    int_part: Option<u64>,
-    int_digits: usize,
-    point: bool,
-    frac_part: u64,
-    frac_digits: usize,
+/// A number written from its last digit backwards into a stack buffer: no
+/// allocation, two digits a step.
+struct NumberBuf {
+    bytes: [u8; 48],
 }
 
 /// `"00" "01" … "99"`.
@@ -182,17 +165,44 @@ const DIGIT_PAIRS: &[u8; 200] = b"\
 6061626364656667686970717273747576777879\
 8081828384858687888990919293949596979899";
 
-impl NumberText {
-    /// Most decimals written this way; more go the slow way.
+impl NumberBuf {
+    /// Most decimals written through the buffer; more go the slow way.
     const MAX_DECIMALS: u8 = 18;
-    /// Longest text: sign, 16 integer digits (|value| ≤ 9e15 scaled), point,
-    /// 18 decimals.
-    const MAX_LEN: usize = 36;
 
-    /// The parts of `value` in `style`, or `None` for what the slow path
+    fn new() -> Self {
+        Self { bytes: [0; 48] }
+    }
+
+    /// Writes `v`'s digits, at least `width` of them (zero-padded), so that
+    /// they end before `end`; returns where they start.
+    #[inline]
+    fn digits_before(&mut self, mut v: u64, width: usize, end: usize) -> usize {
+        let mut at = end;
+        while v >= 100 {
+            let pair = (v % 100) as usize * 2;
+            v /= 100;
+            at -= 2;
+            self.bytes[at..at + 2].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+        }
+        if v >= 10 {
+            let pair = v as usize * 2;
+            at -= 2;
+            self.bytes[at..at + 2].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+        } else {
+            at -= 1;
+            self.bytes[at] = b'0' + v as u8;
+        }
+        while end - at < width {
+            at -= 1;
+            self.bytes[at] = b'0';
+        }
+        at
+    }
+
+    /// The text of `value` in `style`, or `None` for what the slow path
     /// writes (non-finite or huge values, more than 18 decimals).
     #[inline]
-    fn of(value: f64, style: NumberStyle) -> Option<Self> {
+    fn format(&mut self, value: f64, style: NumberStyle) -> Option<&[u8]> {
         if style.decimals > Self::MAX_DECIMALS {
             return None;
         }
@@ -214,73 +224,25 @@ impl NumberText {
                 frac_digits -= 1;
             }
         }
-        let point = frac_digits > 0
-            || style.trailing_dot
-            || (!style.trim_trailing_zeros && style.decimals > 0);
-        let int_shown = int_part != 0 || style.leading_zero || frac_digits == 0;
-        Some(Self {
-            negative: scaled < 0,
-            int_part: int_shown.then_some(int_part),
-            int_digits: if int_shown { digit_count(int_part) } else { 0 },
-            point,
-            frac_part,
-            frac_digits,
-        })
-    }
-
-    fn len(&self) -> usize {
-        usize::from(self.negative) + self.int_digits + usize::from(self.point) + self.frac_digits
-    }
-
-    /// Writes the text into `dst`, which is [`Self::len`] bytes long.
-    #[inline]
-    fn write(&self, dst: &mut [u8]) {
-        let mut at = dst.len();
-        if self.frac_digits > 0 {
-            at = digits_before(dst, self.frac_part, self.frac_digits, at);
-        }
-        if self.point {
+        let end = self.bytes.len();
+        let mut at = end;
+        if frac_digits > 0 {
+            at = self.digits_before(frac_part, frac_digits, at);
             at -= 1;
-            dst[at] = b'.';
+            self.bytes[at] = b'.';
+        } else if style.trailing_dot || (!style.trim_trailing_zeros && style.decimals > 0) {
+            at -= 1;
+            self.bytes[at] = b'.';
         }
-        if let Some(int) = self.int_part {
-            at = digits_before(dst, int, self.int_digits, at);
+        if int_part != 0 || style.leading_zero || frac_digits == 0 {
+            at = self.digits_before(int_part, 1, at);
         }
-        if self.negative {
-            dst[at - 1] = b'-';
+        if scaled < 0 {
+            at -= 1;
+            self.bytes[at] = b'-';
         }
+        Some(&self.bytes[at..end])
     }
-}
-
-/// Number of decimal digits of `v` (1 for 0).
-#[inline]
-fn digit_count(v: u64) -> usize {
-    let mut n = 1;
-    let mut p = 10;
-    while n < 20 && v >= p {
-        n += 1;
-        p = p.saturating_mul(10);
-    }
-    n
-}
-
-/// Writes `v`'s last `width` digits (zero-padded) so that they end before
-/// `end` in `dst`; returns where they start.
-#[inline]
-fn digits_before(dst: &mut [u8], mut v: u64, width: usize, end: usize) -> usize {
-    let start = end - width;
-    let mut at = end;
-    while at >= start + 2 {
-        let pair = (v % 100) as usize * 2;
-        v /= 100;
-        at -= 2;
-        dst[at..at + 2].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
-    }
-    if at > start {
-        at -= 1;
-        dst[at] = b'0' + (v % 10) as u8;
-    }
-    start
 }
 
 /// `10^k` for `k` ≤ 18.
@@ -336,7 +298,7 @@ fn format_number_slow(value: f64, style: NumberStyle, out: &mut String) {
 /// `v.round()` (half away from zero) without the libm call that `round`
 /// compiles to on baseline x86-64: exact for |v| < 2^52, where `v − trunc(v)`
 /// is computed without rounding. Larger or non-finite values use `round`.
-pub(crate) fn round_half_away(v: f64) -> f64 {
+fn round_half_away(v: f64) -> f64 {
     if v.is_nan() || v.abs() >= 4.0e15 {
         return v.round();
     }
