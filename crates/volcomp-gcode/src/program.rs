@@ -18,8 +18,10 @@ use crate::ngc::norm::Norm;
 use crate::ngc::params::Scope;
 use crate::ngc::source::Lines;
 use crate::setup::Setup;
+use std::collections::HashMap;
 use std::io::BufRead;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// Longest line LinuxCNC reads, line ending included (`LINELEN` − 2 =
 /// 253 bytes with its `\n`; `Interp::read`, rs274ngc_pre.cc).
@@ -97,7 +99,14 @@ pub struct Walker<R> {
     pub(crate) current: Pos,
     /// Where lines after the program end are copied from (main program).
     pub(crate) after_end_at: Option<usize>,
+    /// Statements of lines that control flow may run again (loop bodies,
+    /// subroutines), parsed once: a line's statement depends on its text
+    /// alone. At most [`MAX_CACHED_STATEMENTS`].
+    statements: HashMap<(usize, usize), Arc<Statement>>,
 }
+
+/// Statements kept parsed (a bound on the memory the cache takes).
+const MAX_CACHED_STATEMENTS: usize = 4096;
 
 impl<R: BufRead> Walker<R> {
     /// Starts reading `reader`; `file` names it in error messages.
@@ -121,6 +130,7 @@ impl<R: BufRead> Walker<R> {
             interp: Interpreter::new(setup, options),
             current: Pos { src: MAIN, line: 0 },
             after_end_at: None,
+            statements: HashMap::new(),
         }
     }
 
@@ -317,12 +327,23 @@ impl<R: BufRead> Walker<R> {
         };
         if ngc {
             self.buf.clear();
-            let norm = Norm::of(&original[..content_len]);
-            let stmt = line::parse(&norm).map_err(|e| self.expr_error(pos, e))?;
-            match stmt {
+            let stmt = match self.statements.get(&(pos.src, pos.line)) {
+                Some(stmt) => Arc::clone(stmt),
+                None => {
+                    let norm = Norm::of(&original[..content_len]);
+                    let stmt = line::parse(&norm).map_err(|e| self.expr_error(pos, e))?;
+                    let stmt = Arc::new(stmt);
+                    if self.flow.keeps_lines() && self.statements.len() < MAX_CACHED_STATEMENTS {
+                        self.statements
+                            .insert((pos.src, pos.line), Arc::clone(&stmt));
+                    }
+                    stmt
+                }
+            };
+            match &*stmt {
                 Statement::OWord(o) => {
                     self.flow.keep_lines();
-                    self.control(pos, o)?;
+                    self.control(pos, o.clone())?;
                     return Ok(None);
                 }
                 Statement::Block { words, settings } => {
@@ -338,8 +359,8 @@ impl<R: BufRead> Walker<R> {
                             let original = self.line_bytes(pos).unwrap_or(&[]);
                             line::render(
                                 &original[..content_len],
-                                &words,
-                                &settings,
+                                words,
+                                settings,
                                 &scope,
                                 // gcode lane: computed values in the program's decimals.
                                 self.interp.computed_decimals(),
@@ -353,7 +374,7 @@ impl<R: BufRead> Walker<R> {
                         self.rendered = true;
                         // Settings take effect after the line is read.
                         self.flow
-                            .apply_settings(&settings, &values, &self.interp)
+                            .apply_settings(settings, &values, &self.interp)
                             .map_err(|e| self.expr_error(pos, e))?;
                         if words.is_empty()
                             && self.buf[..lexer::content_len(&self.buf)]
