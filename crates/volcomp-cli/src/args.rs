@@ -20,6 +20,22 @@ pub struct Cli {
     /// on a terminal, for large inputs).
     #[arg(short, long, global = true)]
     pub quiet: bool,
+    /// Largest file read whole (maps, models and their tables, set-ups,
+    /// measurement files, controller files), in bytes (suffixes K, M, G:
+    /// powers of 1024), or `none`; a larger file is refused before it is
+    /// read (docs/errors.md, "Limits"). Programs are streamed: no limit.
+    #[arg(long, global = true, value_name = "SIZE", default_value = "256M", value_parser = parse_input_size)]
+    pub max_input_size: InputSize,
+}
+
+/// `--max-input-size`: bytes, or no limit.
+#[derive(Debug, Clone, Copy)]
+pub struct InputSize(pub Option<u64>);
+
+fn parse_input_size(text: &str) -> Result<InputSize, String> {
+    volcomp_core::request::option::parse_size(text)
+        .map(InputSize)
+        .ok_or_else(|| format!("must be a number of bytes with an optional K, M or G (powers of 1024), or none; got `{text}`"))
 }
 
 #[derive(Subcommand, Debug)]
@@ -39,6 +55,8 @@ pub enum Command {
     /// Straightness models from measured profiles: fit (geometric error vs vibration), plot, table, predict.
     Straightness(crate::commands::straightness::StraightnessArgs),
     Thermal(crate::commands::thermal::ThermalArgs),
+    /// Calibrate with a touch probe: probing programs, fit of the 21-component model, verification.
+    Probe(crate::commands::probe::ProbeArgs),
     /// Print a shell completion script to standard output, e.g.
     /// `volcomp completions bash > ~/.local/share/bash-completion/completions/volcomp`.
     Completions(CompletionsArgs),

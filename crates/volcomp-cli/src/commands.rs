@@ -4,7 +4,6 @@
 use crate::args::{Cli, Command, MovesArgs, MovesFormat};
 use crate::options::flags;
 use crate::output::CliError;
-use std::fs::File;
 use std::io::{self, BufRead, BufReader, Write};
 use std::path::Path;
 use volcomp_core::request::{Machine, MachineRequest};
@@ -15,6 +14,7 @@ mod compensate;
 pub use compensate::command_line;
 mod demo;
 pub mod map;
+pub mod probe;
 mod simulate;
 pub mod straightness;
 pub mod surface;
@@ -30,6 +30,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Surface(a) => surface::run(a),
         Command::Straightness(a) => straightness::run(a),
         Command::Thermal(a) => thermal::run(a),
+        Command::Probe(a) => probe::run(a),
         Command::Completions(a) => {
             let mut cmd = <Cli as clap::CommandFactory>::command();
             clap_complete::generate(a.shell, &mut cmd, "volcomp", &mut io::stdout());
@@ -79,9 +80,11 @@ impl MachineExt for Machine {
 
     fn walk(&self, path: &Path) -> Result<Walker<Box<dyn BufRead>>, CliError> {
         let reader: Box<dyn BufRead> = if path.as_os_str() == "-" {
+            volcomp_core::io::inputs::record_stdin("the program (standard input)");
             Box::new(BufReader::with_capacity(1 << 16, io::stdin()))
         } else {
-            let f = File::open(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+            let f = volcomp_core::io::inputs::open(path, "the program")
+                .map_err(|e| CliError::Io(path.to_path_buf(), e))?;
             Box::new(BufReader::with_capacity(1 << 16, f))
         };
         Ok(self.setup.walker(reader, &path.display().to_string()))
@@ -102,7 +105,7 @@ pub fn parse_triple(text: &str, flag: &str) -> Result<Vec3, CliError> {
 /// point, …) to stderr as `file:line:column: warning: …`.
 pub fn print_warnings(file: &str, warnings: &[volcomp_gcode::Warning]) {
     for w in warnings {
-        eprintln!("{file}:{w}");
+        eprintln!("{}", crate::output::clean(&format!("{file}:{w}")));
     }
 }
 

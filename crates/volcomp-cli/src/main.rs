@@ -1,6 +1,8 @@
 //! `volcomp`: the command-line front end. It parses arguments, calls the
 //! library crates and prints; the work happens in `volcomp-gcode` and
 //! `volcomp-core`.
+// Files are read through `volcomp_geom::inputs` only (clippy.toml).
+#![cfg_attr(not(test), warn(clippy::disallowed_methods))]
 
 mod args;
 mod commands;
@@ -63,6 +65,7 @@ fn main() -> ExitCode {
         }
     };
     progress::set_quiet(cli.quiet);
+    volcomp_core::io::inputs::set_max_file_bytes(cli.max_input_size.0.unwrap_or(u64::MAX));
     match commands::run(cli) {
         Ok(()) => ExitCode::from(output::EXIT_OK),
         Err(e) => {
@@ -70,14 +73,19 @@ fn main() -> ExitCode {
             if e.is_broken_pipe() {
                 return ExitCode::from(output::EXIT_OK);
             }
-            eprintln!("error: {e}");
-            if e.passed_size_limit() {
+            // File names and values a user gave are printed escaped.
+            eprintln!("error: {}", output::clean(&e.to_string()));
+            if e.to_string()
+                .contains(volcomp_core::io::inputs::TOO_LARGE_HELP)
+            {
+                eprintln!("  help: raise the limit with --max-input-size SIZE (e.g. 1G), or remove it with --max-input-size none");
+            } else if e.passed_size_limit() {
                 eprintln!("  help: raise the limit with --max-output-size SIZE (e.g. 1G), or remove it with --max-output-size none");
             }
             // Partial commits already list what was written.
             if !matches!(e, output::CliError::Output(_)) {
                 if let Some(note) = output::outputs_note() {
-                    eprintln!("{note}");
+                    eprintln!("{}", output::clean(&note));
                 }
             }
             ExitCode::from(e.exit_code())

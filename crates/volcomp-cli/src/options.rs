@@ -97,9 +97,11 @@ fn arg(info: &'static OptionInfo) -> Arg {
     if let Some(d) = info.default {
         arg = arg.default_value(d);
     }
+    // A value that starts with `-` is the option's value, refused for its
+    // range with the option named (`--cycle -1`), never an unknown flag.
     match info.kind {
-        Kind::Number => arg.allow_negative_numbers(true),
-        Kind::Triple => arg.allow_hyphen_values(true),
+        // `-inf` too, which clap's negative-number test does not take.
+        Kind::Number | Kind::Count | Kind::Size | Kind::Triple => arg.allow_hyphen_values(true),
         _ => arg,
     }
 }

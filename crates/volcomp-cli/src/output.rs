@@ -14,6 +14,13 @@ pub use volcomp_core::io::output::OutputPlan;
 use volcomp_core::io::output::{commit_all, OutputError, OutputFile};
 use volcomp_core::ErrorKind;
 
+/// A message as printed on a terminal: control characters other than the
+/// line feed escaped (`\x1b`), so that no byte of a file name or value a
+/// user gave drives the terminal.
+pub fn clean(message: &str) -> std::borrow::Cow<'_, str> {
+    volcomp_gcode::error::escape_controls(message)
+}
+
 /// Everything that can stop a command, with a message meant for a person.
 #[derive(Debug)]
 pub enum CliError {

@@ -27,7 +27,7 @@ pub fn quiet() -> bool {
 macro_rules! note {
     ($($arg:tt)*) => {
         if !$crate::progress::quiet() {
-            eprintln!($($arg)*);
+            eprintln!("{}", $crate::output::clean(&format!($($arg)*)));
         }
     };
 }

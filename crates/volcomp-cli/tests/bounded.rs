@@ -58,24 +58,215 @@ fn a_far_coordinate_is_refused_at_its_line_before_any_work() {
 
 #[test]
 fn options_asking_for_unbounded_work_are_refused() {
-    // 50 mm of feed in 4e9 segments, arcs linearised within 1e-15 mm, or
-    // adaptive pieces (lines and arcs as arcs) down to 1e-9 mm.
+    // Each option's bound is checked before any work, naming the option
+    // (docs/errors.md, "Limits"): 4e9 segments, 1 nm segments, arcs
+    // linearised within 1e-15 mm, adaptive pieces down to 1e-9 mm.
     let d = fixture("segments");
-    let o = compensate(&d, &["--segments", "4000000000"]);
-    refused_program(&d, &o, "more than the 1000000");
-    let d = fixture("segment_length");
-    let o = compensate(&d, &["--segment-length", "1e-9"]);
-    refused_program(&d, &o, "more than the 1000000");
-    let d = fixture("chord");
+    for (args, said) in [
+        (
+            &["--segments", "4000000000"][..],
+            "--segments must be 1 … 10000",
+        ),
+        (
+            &["--segment-length", "1e-9"],
+            "--segment-length must be a length of at least 0.001 mm",
+        ),
+        (
+            &["--chord-tolerance", "1e-15"],
+            "--chord-tolerance must be a length of 0.000001 mm (1 nm) to 1 mm",
+        ),
+        (
+            &["--chord-tolerance", "100"],
+            "--chord-tolerance must be a length of 0.000001 mm (1 nm) to 1 mm",
+        ),
+        (&["--chord-tolerance", "-inf"], "--chord-tolerance"),
+        (
+            &["--min-segment-length", "1e-9"],
+            "--min-segment-length must be a length of at least 0.001 mm",
+        ),
+        (
+            &["--contour-tolerance-um", "1e-9"],
+            "--contour-tolerance-um must be at least 0.001 µm",
+        ),
+        (
+            &[
+                "--method",
+                "ilc",
+                "--gain",
+                "1e-9",
+                "--max-iterations",
+                "1000000000",
+            ],
+            "--max-iterations must be 1 … 1000",
+        ),
+    ] {
+        let o = compensate(&d, args);
+        refused(&d, &o, said);
+    }
+    // Within the options' bounds, a block can still ask for too much: a
+    // 1.5 m move (held at the map's ends) in 1 µm segments is 1.5 million
+    // points, refused at its line before any is generated.
+    let d = fixture("block");
     std::fs::write(
         d.join("part.ngc"),
-        "G21 G90 G17\nG0 X10 Y10 Z5\nG1 Z-1 F300\nG2 X30 Y10 I10 J0\nM2\n",
+        "G21 G90 G17\nG0 X0 Y10 Z5\nG1 X1500 F300\nM2\n",
     )
     .unwrap();
-    let o = compensate(&d, &["--arcs-as-lines", "--chord-tolerance", "1e-15"]);
+    let o = compensate(&d, &["--clamp", "--segment-length", "0.001"]);
     refused_program(&d, &o, "more than the 1000000");
-    let o = compensate(&d, &["--min-segment-length", "1e-9"]);
-    refused_program(&d, &o, "more than the 1000000");
+    assert!(stderr(&o).contains("part.ngc:3"), "{}", stderr(&o));
+}
+
+/// Options that would be ignored, or would correct nothing, are refused.
+#[test]
+fn options_that_mean_nothing_together_are_refused() {
+    let d = fixture("meaningless");
+    let o = compensate(&d, &["--method", "direct", "--gain", "0.3"]);
+    refused(&d, &o, "--gain is an option of --method ilc");
+    let o = compensate(&d, &["--max-iterations", "5"]);
+    refused(&d, &o, "--max-iterations is an option of --method ilc");
+    let o = compensate(
+        &d,
+        &[
+            "--method",
+            "pitch",
+            "--controller-compensates",
+            "positioning",
+        ],
+    );
+    refused(
+        &d,
+        &o,
+        "--method pitch corrects only the positioning errors",
+    );
+    // The defaults said again are no conflict.
+    let o = compensate(&d, &["--method", "direct", "--gain", "0.5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// A loop that never ends is refused within seconds at the line that loops,
+/// by `moves` and `compensate` alike; lines run once do not count.
+#[test]
+fn loops_that_never_end_stop_at_the_repeated_lines_limit() {
+    let d = fixture("loops");
+    for (name, body) in [
+        ("empty", "o1 while [1]\no1 endwhile\n"),
+        ("counter", "#1=0\no1 while [1]\n#1=[#1+1]\no1 endwhile\n"),
+        ("motion", "o1 while [1]\nG1 X1 F100\nG1 X0\no1 endwhile\n"),
+        ("recursion", "o<r> sub\no<r> call\no<r> endsub\no<r> call\n"),
+    ] {
+        std::fs::write(
+            d.join("loop.ngc"),
+            format!("G21 G90\nG0 X0 Y0 Z0\n{body}M2\n"),
+        )
+        .unwrap();
+        for cmd in [
+            &["moves", "loop.ngc", "--max-repeated-lines", "100000"][..],
+            &[
+                "compensate",
+                "loop.ngc",
+                "--map",
+                "map.csv",
+                "--setup",
+                "machine.toml",
+                "--max-repeated-lines",
+                "100000",
+                "-o",
+                "out.ngc",
+            ],
+        ] {
+            let o = volcomp(cmd, &d);
+            let msg = stderr(&o);
+            assert_eq!(o.status.code(), Some(3), "{name} {cmd:?}: {msg}");
+            assert!(msg.contains("loop.ngc:"), "{name}: {msg}");
+            assert!(
+                msg.contains("executed 100000 lines of loops and subroutine calls")
+                    || msg.contains("nested"),
+                "{name}: {msg}"
+            );
+            if msg.contains("executed") {
+                assert!(msg.contains("--max-repeated-lines"), "{name}: {msg}");
+            }
+            assert!(!d.join("out.ngc").exists());
+        }
+    }
+    // A loop of 300 passes runs 4 lines a pass (the while test, the G1, the
+    // assignment, the endwhile); the first pass is the main program's lines
+    // run once, so 299 passes × 4 + the last while test = 1197 lines run
+    // again: 1196 refuse it, 1197 let it run.
+    std::fs::write(
+        d.join("loop.ngc"),
+        "G21 G90\nG0 X0 Y0 Z0\n#1=0\no1 while [#1 LT 300]\nG1 X[#1/10] F100\n#1=[#1+1]\no1 endwhile\nM2\n",
+    )
+    .unwrap();
+    let o = volcomp(&["moves", "loop.ngc", "--max-repeated-lines", "1196"], &d);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let o = volcomp(&["moves", "loop.ngc", "--max-repeated-lines", "1197"], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// A file read whole is bounded before it is read: a device is read up to
+/// the limit and refused, a regular file by its size; the limit is an
+/// option.
+#[test]
+fn inputs_read_whole_are_bounded() {
+    let d = fixture("input_size");
+    for dev in ["/dev/zero", "/dev/urandom"] {
+        if !Path::new(dev).exists() {
+            continue;
+        }
+        let o = volcomp(
+            &[
+                "compensate",
+                "part.ngc",
+                "--map",
+                dev,
+                "--setup",
+                "machine.toml",
+                "--max-input-size",
+                "16M",
+                "-o",
+                "out.ngc",
+            ],
+            &d,
+        );
+        refused(&d, &o, "(a device or a pipe) gives more than the 16 MiB");
+        assert!(stderr(&o).contains("--max-input-size"), "{}", stderr(&o));
+    }
+    // The fixture's map is a few hundred bytes: 256 is less.
+    let o = compensate(&d, &["--max-input-size", "256"]);
+    refused(&d, &o, "map.csv: the file holds");
+    assert!(
+        stderr(&o).contains("more than the 256 bytes"),
+        "{}",
+        stderr(&o)
+    );
+    let o = compensate(&d, &["--max-input-size", "none"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::remove_file(d.join("out.ngc")).unwrap();
+    // A table whose line is longer than a table's line may be.
+    let mut line = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    line.push_str(&"1,".repeat(600_000));
+    line.push('\n');
+    std::fs::write(d.join("line.csv"), line).unwrap();
+    let o = volcomp(
+        &[
+            "compensate",
+            "part.ngc",
+            "--map",
+            "line.csv",
+            "--setup",
+            "machine.toml",
+            "-o",
+            "out.ngc",
+        ],
+        &d,
+    );
+    refused(
+        &d,
+        &o,
+        "line.csv:2:1: line 2 is 1200000 bytes long, more than the 1048576",
+    );
 }
 
 #[test]
@@ -115,7 +306,7 @@ fn an_unconverged_point_is_an_error_not_a_success() {
     assert!(o.status.success(), "{}", stderr(&o));
     let d = fixture("ilc0");
     let o = compensate(&d, &["--method", "ilc", "--max-iterations", "0"]);
-    refused(&d, &o, "--max-iterations must be at least 1");
+    refused(&d, &o, "--max-iterations must be 1 … 1000");
 }
 
 #[test]
@@ -127,7 +318,7 @@ fn negative_option_values_reach_the_range_check() {
     refused(
         &d,
         &o,
-        "--segment-length must be a positive length in mm; got -2",
+        "--segment-length must be a length of at least 0.001 mm",
     );
     let o = compensate(&d, &["--max-correction", "-0.1"]);
     refused(&d, &o, "--max-correction must be a positive length");
@@ -147,4 +338,43 @@ fn negative_option_values_reach_the_range_check() {
     );
     let msg = stderr(&o);
     assert!(!msg.contains("unexpected argument"), "{msg}");
+}
+
+/// A controller table resampled at a step that would give more points than a
+/// table may have is refused before it is built: the fixture's tables span
+/// 0 … 600 mm, so a step of 1e-9 mm would be 6·10¹¹ + 1 points and one of
+/// 2⁻¹¹ mm (exact in binary) 600·2048 + 1 = 1 228 801, past the million a
+/// table may have (LinuxCNC's own limit, 256 a joint, is checked after);
+/// 3 mm gives 201 and is written.
+#[test]
+fn resampled_tables_are_bounded_before_they_are_built() {
+    let d = fixture("export_step");
+    for (step, said, points) in [
+        ("1e-9", "0.000000001", "600000000001"),
+        ("0.00048828125", "0.00048828125", "1228801"),
+    ] {
+        let o = volcomp(
+            &[
+                "map", "export", "map.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm",
+                "--step", step, "-o", "comp",
+            ],
+            &d,
+        );
+        let msg = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{step}: {msg}");
+        assert!(
+            msg.contains(&format!("--step {said} mm gives {points} table points"))
+                && msg.contains("more than the 1000000"),
+            "{step}: {msg}"
+        );
+        assert!(!d.join("comp").join("x.comp").exists());
+    }
+    let o = volcomp(
+        &[
+            "map", "export", "map.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm",
+            "--step", "3", "-o", "comp",
+        ],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
 }

@@ -36,7 +36,6 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
         ("G41 D1\n", 1, 5, "diameter the set-up does not give"),
         ("G1 X#<nope> F10\n", 1, 5, "#<nope> is not defined"),
         ("G0 X0 Y0 Z0\nG1 X[1/0] F10\n", 2, 7, "division by zero"),
-        ("o100 sub\n", 1, 1, "o100 endsub"),
         ("G0 X0\nG68 X0 Y0 R30\n", 2, 1, "rotation"),
         ("G51 X0 Y0 P2\n", 1, 1, "scaling"),
         ("G16\n", 1, 1, "polar"),

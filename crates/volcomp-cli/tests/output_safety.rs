@@ -590,3 +590,187 @@ fn every_other_output_flag_against_every_input() {
         "placeholder map.csv\n"
     );
 }
+
+/// Files no option names but an input does — the set-up's `var_file`, a
+/// subroutine file found on the subroutine path while the program runs, the
+/// tables of a model TOML, the comp files of a LinuxCNC INI, the `.COM`
+/// tables of a `.CMA` — are inputs too: no output flag may replace one, and
+/// nothing at all is written when one would be.
+#[test]
+fn files_named_inside_inputs_are_never_replaced() {
+    let d = fixture("indirect_inputs");
+    // A set-up with a var file (G54 at 200, 150, 100 as #5221…) and a
+    // subroutine directory; a program that calls a subroutine file.
+    std::fs::write(
+        d.join("var.toml"),
+        "units = \"mm\"\nsubroutine_path = [\"subs\"]\nvar_file = \"sim.var\"\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("sim.var"), "5220 1\n5221 200\n5222 150\n5223 100\n").unwrap();
+    std::fs::create_dir_all(d.join("subs")).unwrap();
+    std::fs::write(
+        d.join("subs/pocket.ngc"),
+        "o<pocket> sub\nG1 X60 Y40\nG1 X10\no<pocket> endsub\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("calls.ngc"),
+        "G21 G90 G17\nG0 X10 Y10 Z5\nG1 Z-1 F300\no<pocket> call\nG0 Z5\nM2\n",
+    )
+    .unwrap();
+    let run = |args: &[&str], out: &str| {
+        let before = snapshot(&d);
+        let sub_before = std::fs::read(d.join("subs/pocket.ngc")).unwrap();
+        let o = volcomp(args, &d);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?} must be refused: {e}");
+        assert!(
+            e.contains("refusing to write") && e.contains(out) && e.contains("nothing was written"),
+            "{args:?}: {e}"
+        );
+        assert_eq!(snapshot(&d), before, "{args:?} changed a file");
+        assert_eq!(
+            std::fs::read(d.join("subs/pocket.ngc")).unwrap(),
+            sub_before,
+            "{args:?} changed the subroutine file"
+        );
+        assert!(temporaries(&d).is_empty(), "{args:?} left a temporary");
+        e
+    };
+    let comp = [
+        "compensate",
+        "calls.ngc",
+        "--map",
+        "map.csv",
+        "--setup",
+        "var.toml",
+    ];
+    // The run works as it is: the var file gives G54 and the subroutine is found.
+    let ok = volcomp(&[&comp[..], &["-o", "ok.ngc"]].concat(), &d);
+    assert!(ok.status.success(), "{}", stderr(&ok));
+    for (flag, out) in [
+        ("-o", "sim.var"),
+        ("-o", "subs/pocket.ngc"),
+        ("-o", "subs/../subs/pocket.ngc"),
+        ("--report", "sim.var"),
+        ("--report", "subs/pocket.ngc"),
+        ("--report-html", "subs/pocket.ngc"),
+    ] {
+        let mut args = comp.to_vec();
+        if flag != "-o" {
+            args.extend(["-o", "out.ngc"]);
+        }
+        args.extend([flag, out]);
+        let e = run(&args, out);
+        let role = if out.ends_with("sim.var") {
+            "the var file named in var.toml"
+        } else {
+            "the subroutine file of `o<pocket> call`"
+        };
+        assert!(e.contains(role), "{args:?}: {e}");
+    }
+    // simulate --errors-csv over the subroutine file.
+    run(
+        &[
+            "simulate",
+            "calls.ngc",
+            "--map",
+            "map.csv",
+            "--setup",
+            "var.toml",
+            "--errors-csv",
+            "subs/pocket.ngc",
+        ],
+        "subs/pocket.ngc",
+    );
+    // A 21-component model's table, through `simulate --errors-csv`.
+    let o = volcomp(&["map", "example", "-o", "."], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = run(
+        &[
+            "simulate",
+            "part.ngc",
+            "--map",
+            "example21.toml",
+            "--setup",
+            "machine.toml",
+            "--errors-csv",
+            "example21.csv",
+        ],
+        "example21.csv",
+    );
+    assert!(e.contains("example21.toml"), "{e}");
+    // The comp files of a LinuxCNC INI and the .COM tables of a .CMA, named
+    // by --controller.
+    for (to, dir, controller, named) in [
+        ("linuxcnc", "lc", "lc/comp.ini", "lc/y.comp"),
+        ("heidenhain", "hh", "hh/VOLCOMP.CMA", "hh/Z.COM"),
+    ] {
+        let mut args = vec!["map", "export", "map.csv", "--to", to, "-o", dir];
+        if to == "linuxcnc" {
+            args.extend(["--type", "1", "--units", "mm"]);
+        }
+        let o = volcomp(&args, &d);
+        assert!(o.status.success(), "{to}: {}", stderr(&o));
+        for flag in ["-o", "--report"] {
+            let mut args = vec![
+                "compensate",
+                "part.ngc",
+                "--map",
+                "map.csv",
+                "--setup",
+                "machine.toml",
+                "--controller",
+                controller,
+            ];
+            if flag != "-o" {
+                args.extend(["-o", "out.ngc"]);
+            }
+            args.extend([flag, named]);
+            let e = run(&args, named);
+            assert!(e.contains("a file named in"), "{args:?}: {e}");
+        }
+    }
+}
+
+/// Standard input and output are the files they are redirected from and
+/// to: `- < part.ngc` with `-o part.ngc`, or `-o - >> part.ngc`, would
+/// replace (or append to) the program being read.
+#[test]
+fn redirected_standard_streams_are_compared_as_files() {
+    let d = fixture("redirected_streams");
+    let program = std::fs::read(d.join("part.ngc")).unwrap();
+    let base = ["compensate", "--map", "map.csv", "--setup", "machine.toml"];
+    let o = Command::new(env!("CARGO_BIN_EXE_volcomp"))
+        .args(base)
+        .args(["-", "-o", "part.ngc"])
+        .current_dir(&d)
+        .stdin(std::fs::File::open(d.join("part.ngc")).unwrap())
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("refusing to write") && e.contains("part.ngc"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(d.join("part.ngc")).unwrap(), program);
+    let append = std::fs::OpenOptions::new()
+        .append(true)
+        .open(d.join("part.ngc"))
+        .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_volcomp"))
+        .args(base)
+        .args(["part.ngc", "-o", "-"])
+        .current_dir(&d)
+        .stdout(append)
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("standard output") || e.contains("refusing"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(d.join("part.ngc")).unwrap(), program);
+}

@@ -199,8 +199,9 @@ fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
         "{msg}"
     );
     assert!(fit(&d, "ex/measurements_train.csv").status.success());
-    // The check run at the example's temperatures predicts; at 1000 °C it
-    // is refused unless --extrapolate.
+    // The check run at the example's temperatures predicts; at 60 °C, far
+    // outside the fit's range, it is refused unless --extrapolate; 1000 °C
+    // is no machine-tool temperature and is refused even then.
     let predict = |temps: &str, extra: &[&str]| {
         let mut args = vec![
             "thermal",
@@ -221,13 +222,25 @@ fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
     let last = lines.len() - 1;
     let mut f: Vec<String> = lines[last].split(',').map(str::to_string).collect();
     f[2] = "1000".into();
+    let mut burnt = lines.clone();
+    burnt[last] = f.join(",");
+    std::fs::write(d.join("burnt.csv"), burnt.join("\n") + "\n").unwrap();
+    let o = predict("burnt.csv", &["--extrapolate"]);
+    let msg = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{msg}");
+    assert!(
+        msg.contains("burnt.csv:")
+            && msg.contains("1000 °C is not a temperature of a machine tool"),
+        "{msg}"
+    );
+    f[2] = "60".into();
     lines[last] = f.join(",");
     std::fs::write(d.join("hot.csv"), lines.join("\n") + "\n").unwrap();
     let o = predict("hot.csv", &[]);
     let msg = stderr(&o);
     assert!(!o.status.success());
     assert!(
-        msg.contains("bed_c") && msg.contains("1000 °C") && msg.contains("--extrapolate"),
+        msg.contains("bed_c") && msg.contains("60 °C") && msg.contains("--extrapolate"),
         "{msg}"
     );
     let o = predict("hot.csv", &["--extrapolate"]);
@@ -281,4 +294,250 @@ fn a_target_on_the_map_edge_is_reported_with_its_command() {
     assert!(msg.contains("the target X 0 Y 50 Z 50 mm"), "{msg}");
     assert!(msg.contains("axis X = -0.005 mm"), "{msg}");
     assert!(!msg.contains("no work offset"), "{msg}");
+}
+
+/// The rule that tells millimetres from micrometres: a map position beyond
+/// the coordinate limit (±100 000 mm) is refused at its row and column, so a
+/// table in µm of an axis longer than 100 mm never reaches a program. Errors
+/// beyond 10 mm are refused at their cell too.
+#[test]
+fn map_values_that_cannot_be_are_refused_where_they_are_written() {
+    let d = tempdir("map_values");
+    std::fs::write(
+        d.join("p.ngc"),
+        "G21 G90\nG0 X250 Y250 Z250\nG1 X300 F100\nM2\n",
+    )
+    .unwrap();
+    // The same flat map with X in µm: 0 … 500 000.
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    csv.push_str("X,both,0,0,0,0\nX,both,500000,1,0,0\n");
+    for a in ["Y", "Z"] {
+        csv.push_str(&format!("{a},both,0,0,0,0\n{a},both,500,1,0,0\n"));
+    }
+    std::fs::write(d.join("map.csv"), &csv).unwrap();
+    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
+    assert!(
+        msg.contains(
+            "map.csv:3:3: column 3 `position_mm`: position 500000 mm lies beyond ±100000 mm"
+        ),
+        "{msg}"
+    );
+    assert!(msg.contains("divide them by 1000"), "{msg}");
+    // An error in nm where µm belong.
+    let nm = csv
+        .replace("X,both,500000,1,0,0", "X,both,500,0,0,0")
+        .replace("Y,both,500,1,0,0", "Y,both,500,0,25000,0");
+    std::fs::write(d.join("map.csv"), nm).unwrap();
+    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
+    assert!(
+        msg.contains("map.csv:5:5: column 5 `ey_um`: an error of 25000 µm is more than 10000 µm"),
+        "{msg}"
+    );
+}
+
+/// Files named inside a controller file that cannot be read are reported at
+/// the line that names them.
+#[test]
+fn missing_files_named_inside_controller_files_are_located() {
+    let d = tempdir("controller_names");
+    flat_map(&d, 0.0, 500.0);
+    std::fs::write(d.join("p.ngc"), "G21 G90\nG0 X250 Y250 Z250\nM2\n").unwrap();
+    std::fs::write(
+        d.join("m.ini"),
+        "[TRAJ]\nLINEAR_UNITS = mm\n\n[JOINT_0]\nCOMP_FILE = none.comp\nCOMP_FILE_TYPE = 1\n",
+    )
+    .unwrap();
+    let msg = stderr(&compensate(
+        &d,
+        &["--work-offset", "0,0,0", "--controller", "m.ini"],
+    ));
+    assert!(
+        msg.contains("m.ini:5:1: cannot read the comp file") && msg.contains("none.comp"),
+        "{msg}"
+    );
+    std::fs::write(
+        d.join("V.CMA"),
+        "BEGIN V.CMA\nNR ACTIVE X Y Z\n0 * X.COM Y.COM Z.COM\n[END]\n",
+    )
+    .unwrap();
+    let msg = stderr(&compensate(
+        &d,
+        &["--work-offset", "0,0,0", "--controller", "V.CMA"],
+    ));
+    assert!(
+        msg.contains("V.CMA:3:1: cannot read the table") && msg.contains("X.COM"),
+        "{msg}"
+    );
+}
+
+/// A temperature no sensor of a machine tool reads, and a thermal model
+/// whose intercept is not a number, are refused where they are written.
+#[test]
+fn thermal_values_that_cannot_be_are_located() {
+    let d = tempdir("thermal_values");
+    thermal_example(&d);
+    let path = d.join("ex/temperatures_train.csv");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let row = lines
+        .iter()
+        .position(|l| l.starts_with(|c: char| c.is_ascii_digit()))
+        .unwrap()
+        + 2;
+    let mut fields: Vec<String> = lines[row - 1].split(',').map(str::to_string).collect();
+    fields[2] = "2085".into();
+    let mut bad = lines.clone();
+    let joined = fields.join(",");
+    bad[row - 1] = &joined;
+    std::fs::write(&path, bad.join("\n") + "\n").unwrap();
+    let msg = stderr(&fit(&d, "ex/measurements_train.csv"));
+    assert!(
+        msg.contains(&format!("temperatures_train.csv:{row}:3:"))
+            && msg.contains("2085 °C is not a temperature of a machine tool"),
+        "{msg}"
+    );
+    // A fitted model with `intercept = nan`.
+    std::fs::write(&path, text).unwrap();
+    let o = fit(&d, "ex/measurements_train.csv");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let model = std::fs::read_to_string(d.join("thermal.toml")).unwrap();
+    let at = model.find("intercept = ").unwrap();
+    let end = at + model[at..].find('\n').unwrap();
+    let row = model[..at].matches('\n').count() + 1;
+    std::fs::write(
+        d.join("thermal.toml"),
+        format!("{}intercept = nan{}", &model[..at], &model[end..]),
+    )
+    .unwrap();
+    let o = volcomp(
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--temperatures",
+            "ex/temperatures_check.csv",
+            "-o",
+            "pred.toml",
+        ],
+        &d,
+    );
+    let msg = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{msg}");
+    assert!(
+        msg.contains(&format!("thermal.toml:{row}:13:")) && msg.contains("intercept = NaN"),
+        "{msg}"
+    );
+    assert!(!d.join("pred.toml").exists());
+}
+
+/// Thermal options are checked before any file is read (these files do not
+/// exist), naming the option; none is raised silently; a negative count is
+/// a bad value, not an unknown flag.
+#[test]
+fn thermal_options_are_bounded_before_any_file_is_read() {
+    let d = tempdir("thermal_options");
+    let base = [
+        "thermal",
+        "fit",
+        "--measurements",
+        "none.csv",
+        "--temperatures",
+        "none.csv",
+        "--artifact",
+        "none.csv",
+        "--ranges-mm",
+        "0:600,0:400,0:300",
+        "-o",
+        "th.toml",
+    ];
+    for (extra, said) in [
+        (
+            &["--table-samples", "0"][..],
+            "--table-samples must be 2 to 10000",
+        ),
+        (&["--order", "1000"], "--order must be at most 10"),
+        (&["--lags", "100000"], "--lags must be at most 100"),
+        (
+            &["--bands", "b.csv", "--samples", "1000000000"],
+            "--samples must be 10 to 10000",
+        ),
+        (
+            &["--bands", "b.csv", "--samples", "5"],
+            "--samples must be 10 to 10000",
+        ),
+        (&["--bands", "b.csv", "--samples", "-1"], "--samples"),
+    ] {
+        let o = volcomp(&[&base[..], extra].concat(), &d);
+        let msg = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {msg}");
+        assert!(msg.contains(said), "{extra:?}: {msg}");
+        assert!(!msg.contains("unexpected argument"), "{extra:?}: {msg}");
+        assert!(
+            !msg.contains("none.csv"),
+            "{extra:?}: read a file first: {msg}"
+        );
+    }
+    let o = volcomp(
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "none.toml",
+            "--temperatures",
+            "none.csv",
+            "--cycle",
+            "-1",
+            "-o",
+            "p.toml",
+        ],
+        &d,
+    );
+    let msg = stderr(&o);
+    assert!(
+        msg.contains("--cycle") && !msg.contains("unexpected argument"),
+        "{msg}"
+    );
+}
+
+/// File names are printed with their control characters escaped.
+#[test]
+fn names_with_terminal_escapes_are_printed_escaped() {
+    let d = tempdir("escapes");
+    flat_map(&d, 0.0, 500.0);
+    std::fs::write(d.join("p.ngc"), "G21 G90\nG0 X250 Y250 Z250\nM2\n").unwrap();
+    let o = volcomp(
+        &[
+            "compensate",
+            "p.ngc",
+            "--map",
+            "no\x1b[2Jmap.csv",
+            "--work-offset",
+            "0,0,0",
+            "-o",
+            "o\x1b]0;t\x07.ngc",
+        ],
+        &d,
+    );
+    let msg = stderr(&o);
+    assert!(!msg.contains('\x1b') && !msg.contains('\x07'), "{msg:?}");
+    assert!(msg.contains("no\\x1b[2Jmap.csv"), "{msg}");
+    std::fs::copy(d.join("map.csv"), d.join("m\x1b[31m.csv")).unwrap();
+    let o = volcomp(
+        &[
+            "compensate",
+            "p.ngc",
+            "--map",
+            "m\x1b[31m.csv",
+            "--work-offset",
+            "0,0,0",
+            "-o",
+            "o\x1b]0;t\x07.ngc",
+        ],
+        &d,
+    );
+    let msg = stderr(&o);
+    assert!(o.status.success(), "{msg}");
+    assert!(!msg.contains('\x1b') && !msg.contains('\x07'), "{msg:?}");
+    assert!(msg.contains("wrote o\\x1b]0;t\\x07.ngc"), "{msg}");
 }

@@ -212,7 +212,7 @@ fn bad_runs_are_refused_with_file_row_and_column() {
     .unwrap();
     let o = volcomp(&["straightness", "table", "m.toml"], &dir);
     assert!(
-        text(&o.stderr).starts_with("error: m.toml: "),
+        text(&o.stderr).starts_with("error: m.toml:1:1: missing field `offset_um`"),
         "{}",
         text(&o.stderr)
     );

@@ -342,6 +342,9 @@ pub enum Error {
     /// Straightness identification failed.
     #[error("{0}")]
     Straightness(#[from] crate::identify::straightness::StraightnessError),
+    /// Probing (plan, fit, identification) failed.
+    #[error("{0}")]
+    Probe(#[from] crate::identify::probe::ProbeError),
     /// The mirror (surface) method refused its input.
     #[error("{0}")]
     Mirror(#[from] crate::surface::mirror::MirrorError),
@@ -490,6 +493,9 @@ impl Error {
                 Some(ErrorLocation::file(file.clone()))
             }
             Error::Straightness(e) => straightness(e),
+            Error::Probe(crate::identify::probe::ProbeError::File(f)) => {
+                Some(ErrorLocation::of_map_file(f))
+            }
             Error::Mirror(MirrorError::File(f)) => Some(ErrorLocation::of_map_file(f)),
             Error::Mirror(MirrorError::InFile { file, .. })
             | Error::Mirror(MirrorError::NominalFormat { file }) => {
@@ -542,6 +548,7 @@ impl Error {
             | Error::Load(_)
             | Error::Thermal(_)
             | Error::Straightness(_)
+            | Error::Probe(_)
             | Error::Mirror(_)
             | Error::BSpline(_)
             | Error::Topology(_)

@@ -77,6 +77,8 @@
 //! * `serde`: `Serialize` for results ([`SimReport`], [`CompensateSummary`], …).
 //! * `examples`: the bundled example machine, maps and programs (`example`).
 #![warn(missing_docs)]
+// Files are read through `volcomp_geom::inputs` only (clippy.toml).
+#![cfg_attr(not(test), warn(clippy::disallowed_methods))]
 
 pub mod compensate;
 pub mod error;

@@ -22,6 +22,67 @@ pub const MAX_POINTS_PER_BLOCK: u64 = 1_000_000;
 /// The caller may raise or remove the cap (`None`).
 pub const DEFAULT_MAX_OUTPUT_BYTES: u64 = 256 * 1024 * 1024;
 
+/// Longest line of a table file (CSV): 1 MiB. A table's line is a row of
+/// numbers (a thermal file with a thousand sensors takes some 20 kB); a
+/// longer line is not a table, and is refused before it is split into
+/// fields.
+pub const MAX_TABLE_LINE_BYTES: usize = 1 << 20;
+
+/// Most data rows of one table file: 5 million (a map of a million points
+/// per axis, forward and reverse, with room). Beyond it the table is
+/// refused at the row that passes it; a finer table than this is finer
+/// than any measurement (a point per 0.2 µm along a metre).
+pub const MAX_TABLE_ROWS: usize = 5_000_000;
+
+/// Largest position a table may give, in mm: the coordinate limit of
+/// programs ([`volcomp_gcode::interp::MAX_COORDINATE_MM`], 100 m).
+/// No program point reaches beyond it, so a table position beyond it is in
+/// another unit (µm) and is refused at its row.
+pub const MAX_POSITION_MM: f64 = volcomp_gcode::interp::MAX_COORDINATE_MM;
+
+/// Largest error a map may give, in µm: 10 mm. The errors of machine tools
+/// are micrometres to a few tenths of a millimetre; a value beyond this is
+/// in another unit (nm) or in the wrong column, and is refused at its row
+/// rather than at the first program line that meets it.
+pub const MAX_ERROR_UM: f64 = 10_000.0;
+
+/// Largest angular error a map may give, in µrad: 0.01 rad (0.57°).
+/// Angular errors of machine tools are tens of microradians.
+pub const MAX_ANGLE_URAD: f64 = 10_000.0;
+
+/// Most ILC iterations per point: 1000. ILC with the default gain 0.5
+/// halves the residual each step (a micrometre to a femtometre in 30
+/// steps); a point that has not converged in 1000 steps will not, and the
+/// work is points × iterations.
+pub const MAX_ILC_ITERATIONS: u64 = 1000;
+
+/// Most segments a feed move is split into by a fixed count: 10 000 (the
+/// papers split into 10 to 30).
+pub const MAX_SEGMENTS_PER_MOVE: u64 = 10_000;
+
+/// Shortest segment a fixed or adaptive splitting may ask for: 1 µm
+/// (0.001 mm), about the size of the corrections themselves; shorter
+/// segments only multiply the work and the output.
+pub const MIN_SEGMENT_LENGTH_MM: f64 = 1e-3;
+
+/// Smallest chord tolerance for linearising arcs and splines: 1 nm
+/// (1e-6 mm), a thousandth of the default.
+pub const MIN_CHORD_TOLERANCE_MM: f64 = 1e-6;
+
+/// Largest chord tolerance: 1 mm. Chords farther from the arc than this
+/// change the part itself (a 10 mm circle within 1 mm is a hexagon), far
+/// beyond any machine error being compensated.
+pub const MAX_CHORD_TOLERANCE_MM: f64 = 1.0;
+
+/// Most points a resampled controller table may have (`map export
+/// --step`): a million, far beyond any controller's table (LinuxCNC reads
+/// comp files of any length, but others hold hundreds), checked before the
+/// table is built.
+pub const MAX_RESAMPLED_POINTS: u64 = 1_000_000;
+
+/// Smallest contour tolerance of adaptive splitting: 1 nm (0.001 µm).
+pub const MIN_CONTOUR_TOLERANCE_UM: f64 = 1e-3;
+
 /// Checks that `points` (which may be a float estimate, possibly infinite or
 /// NaN) stays within [`MAX_POINTS_PER_BLOCK`]; the error says how many.
 ///

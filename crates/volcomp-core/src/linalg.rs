@@ -283,3 +283,136 @@ mod thermal_tests {
 }
 
 // ---- end of identify/thermal ----------------------------------------------
+
+// ---- probing (identify/probe) ----------------------------------------------
+
+/// The rotation `R` (as images of the unit vectors) that best turns the
+/// centred points `a` onto the centred points `b` (`b ≈ R a`), by the SVD of
+/// their covariance (Kabsch 1976; Arun, Huang & Blostein, IEEE PAMI 9(5),
+/// 1987), with the reflection case corrected; and the RMS of what is left.
+pub(crate) fn kabsch(
+    a: &[volcomp_gcode::Vec3],
+    b: &[volcomp_gcode::Vec3],
+) -> ([volcomp_gcode::Vec3; 3], f64) {
+    use nalgebra::{Matrix3, Vector3};
+    use volcomp_gcode::Vec3;
+    let mut h = Matrix3::<f64>::zeros();
+    for (p, q) in a.iter().zip(b) {
+        h += Vector3::new(p.x, p.y, p.z) * Vector3::new(q.x, q.y, q.z).transpose();
+    }
+    let svd = h.svd(true, true);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return (
+            [
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0),
+                Vec3::new(0.0, 0.0, 1.0),
+            ],
+            f64::NAN,
+        );
+    };
+    let v = vt.transpose();
+    let d = (v * u.transpose()).determinant().signum();
+    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
+    let cols = [0, 1, 2].map(|k| Vec3::new(r[(0, k)], r[(1, k)], r[(2, k)]));
+    let n = a.len().max(1) as f64;
+    let rss: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| (cols[0] * p.x + cols[1] * p.y + cols[2] * p.z - *q).norm_squared())
+        .sum();
+    (cols, (rss / n).sqrt())
+}
+
+/// What [`pinv_solve`] finds.
+pub(crate) struct PinvSolution {
+    /// The minimum-norm least-squares solution on the seen subspace.
+    pub x: Vec<f64>,
+    /// The numerical rank.
+    pub rank: usize,
+    /// `F` (`n × rank`) with `(AᵀA)⁺ = F Fᵀ`.
+    pub f: DMatrix<f64>,
+    /// Per column, the squared share of its unit vector in the null space
+    /// (0: fully seen, 1: not seen at all).
+    pub null_share: Vec<f64>,
+}
+
+/// The pseudo-inverse solve of the probe fits: `x` minimising `‖A x − b‖`
+/// on the subspace of singular values above `relative · s_max` (by the SVD,
+/// Golub & Van Loan §5.5.4), the rank, the covariance factor and each
+/// column's share in the null space. `None` if the SVD fails.
+pub(crate) fn pinv_solve(a: &DMatrix<f64>, b: &[f64], relative: f64) -> Option<PinvSolution> {
+    let svd = svd_full_v(a)?;
+    let n = a.ncols();
+    let smax = svd.s.first().copied().unwrap_or(0.0);
+    let rank = svd
+        .s
+        .iter()
+        .filter(|&&s| s > relative * smax && s > 0.0)
+        .count();
+    let mut x = vec![0.0; n];
+    let mut f = DMatrix::<f64>::zeros(n, rank);
+    for k in 0..rank {
+        let utb: f64 = (0..a.nrows()).map(|i| svd.u[(i, k)] * b[i]).sum::<f64>() / svd.s[k];
+        for j in 0..n {
+            x[j] += svd.v[(j, k)] * utb;
+            f[(j, k)] = svd.v[(j, k)] / svd.s[k];
+        }
+    }
+    let null_share = (0..n)
+        .map(|j| (rank..n).map(|k| svd.v[(j, k)] * svd.v[(j, k)]).sum())
+        .collect();
+    Some(PinvSolution {
+        x,
+        rank,
+        f,
+        null_share,
+    })
+}
+
+#[cfg(test)]
+mod probe_tests {
+    use super::*;
+    use volcomp_gcode::Vec3;
+
+    #[test]
+    fn kabsch_finds_a_quarter_turn() {
+        // 90° about Z: (1,0,0) → (0,1,0), (0,1,0) → (−1,0,0).
+        let a = [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(-1.0, -1.0, 0.0),
+        ];
+        let b = [
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+        ];
+        let (r, rms) = kabsch(&a, &b);
+        assert!((r[0] - Vec3::new(0.0, 1.0, 0.0)).norm() < 1e-12, "{r:?}");
+        assert!((r[1] - Vec3::new(-1.0, 0.0, 0.0)).norm() < 1e-12);
+        assert!((r[2] - Vec3::new(0.0, 0.0, 1.0)).norm() < 1e-12);
+        assert!(rms < 1e-12);
+    }
+
+    #[test]
+    fn pinv_solves_on_the_seen_subspace() {
+        // Columns 1 and 2 equal: only their sum is seen; min-norm splits it.
+        // [1 1 0; 1 1 1] x = [2; 5]: x3 = 3, x1 + x2 = 2 → (1, 1, 3).
+        let a = DMatrix::from_row_slice(2, 3, &[1.0, 1.0, 0.0, 1.0, 1.0, 1.0]);
+        let sol = pinv_solve(&a, &[2.0, 5.0], 1e-9).unwrap();
+        let (x, rank, f) = (&sol.x, sol.rank, &sol.f);
+        assert_eq!(rank, 2);
+        // x1 and x2 are half in the null space (1, −1, 0)/√2; x3 not at all.
+        assert!((sol.null_share[0] - 0.5).abs() < 1e-12 && sol.null_share[2] < 1e-20);
+        for (got, want) in x.iter().zip([1.0, 1.0, 3.0]) {
+            assert!((got - want).abs() < 1e-12, "{x:?}");
+        }
+        // (AᵀA)⁺ by hand: AᵀA = [2 2 1; 2 2 1; 1 1 1]; its pseudo-inverse has
+        // entry (3,3) = 2 (the x3 variance with unit noise).
+        let c = f * f.transpose();
+        assert!((c[(2, 2)] - 2.0).abs() < 1e-9, "{c}");
+    }
+}
+
+// ---- end of probing -------------------------------------------------------

@@ -112,7 +112,7 @@ impl Diagnostic {
     /// Draws the diagnostic: `file:line:column: message`, the excerpt with
     /// a caret (when there is one) and `help: …` (when there is help).
     pub fn render(&self, f: &mut impl fmt::Write) -> fmt::Result {
-        let file = self.file.as_deref().unwrap_or("<input>");
+        let file = escape_name(self.file.as_deref().unwrap_or("<input>"));
         let line = self.line;
         write!(f, "{file}:{line}:{}: {}", self.column, self.message)?;
         if !self.source_line.is_empty() {
@@ -251,6 +251,56 @@ pub fn render_located(
 
 /// Bytes of a line shown on each side of an error's column at most.
 pub const EXCERPT_BYTES: usize = 60;
+
+/// `text` with its control characters but the line feed written as `\t`,
+/// `\r` or `\xNN` (the escape of `ESC` is `\x1b`): messages that carry
+/// file names and values a user gave are printed through it, so that none
+/// of their bytes drives the terminal. Text without control characters is
+/// borrowed as it is.
+///
+/// ```
+/// use volcomp_gcode::error::escape_controls;
+/// assert_eq!(escape_controls("a\x1b[2Jb.csv"), "a\\x1b[2Jb.csv");
+/// assert_eq!(escape_controls("line 1\nline 2"), "line 1\nline 2");
+/// ```
+pub fn escape_controls(text: &str) -> std::borrow::Cow<'_, str> {
+    escape(text, true)
+}
+
+/// A name (a file name, a column name) as printed: every control
+/// character written as `\t`, `\r`, `\n` or `\xNN`.
+///
+/// ```
+/// use volcomp_gcode::error::escape_name;
+/// assert_eq!(escape_name("a\nb.ngc"), "a\\nb.ngc");
+/// ```
+pub fn escape_name(text: &str) -> std::borrow::Cow<'_, str> {
+    escape(text, false)
+}
+
+fn escape(text: &str, keep_newline: bool) -> std::borrow::Cow<'_, str> {
+    let kept = |c: char| keep_newline && c == '\n';
+    if !text.chars().any(|c| c.is_control() && !kept(c)) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        match c {
+            c if kept(c) => out.push(c),
+            '\n' => out.push_str("\\n"),
+            '\t' => out.push_str("\\t"),
+            '\r' => out.push_str("\\r"),
+            c if c.is_control() => {
+                let mut buf = [0u8; 4];
+                for b in c.encode_utf8(&mut buf).bytes() {
+                    out.push_str(&format!("\\x{b:02x}"));
+                }
+            }
+            c => out.push(c),
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
 
 /// A printable excerpt of `line` around byte `column` (0-based), and how many
 /// characters of it precede that byte (where the caret goes).

@@ -11,6 +11,8 @@
 //! [`GcodeError`]: a located [`Diagnostic`] (file, line, column, the line
 //! with a caret, what to do) and its [`ErrorClass`].
 #![warn(missing_docs)]
+// Files are read through `volcomp_geom::inputs` only (clippy.toml).
+#![cfg_attr(not(test), warn(clippy::disallowed_methods))]
 
 pub mod arc;
 pub mod edit;

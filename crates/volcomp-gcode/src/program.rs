@@ -245,7 +245,7 @@ impl<R: BufRead> Walker<R> {
             }
             self.current = pos;
             self.flow.pos.line += 1;
-            if let Err(e) = self.flow.count_line(pos.line as u64 + 1) {
+            if let Err(e) = self.flow.count_line(pos) {
                 return Err(self.locate(e));
             }
             if let Some(ev_kind) = self.prepare(pos)? {
@@ -283,12 +283,24 @@ impl<R: BufRead> Walker<R> {
         let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
         let content_len = lexer::content_len(original);
         if too_long(original) {
+            // The ending counts: LinuxCNC's fgets holds 253 bytes of a line
+            // and its ending, so a CR LF line may have one character less
+            // (checked against rs274: 252 characters and CR LF are refused).
+            let crlf = original[content_len..].starts_with(b"\r");
+            let (ending, most, help) = if crlf {
+                (" and ends in CR LF", MAX_LINE_BYTES - 1, "split the line, or shorten its comment; saved with LF endings it may have one character more")
+            } else {
+                ("", MAX_LINE_BYTES, "split the line, or shorten its comment")
+            };
             let e = GcodeError::new(
                 ErrorClass::Invalid,
                 pos.line as u64 + 1,
-                MAX_LINE_BYTES + 1,
-                format!("the line is {} characters long; LinuxCNC reads at most {MAX_LINE_BYTES} (\"Command too long\")", content_len),
-                "split the line, or shorten its comment",
+                most + 1,
+                format!(
+                    "the line is {content_len} characters long{ending}; LinuxCNC reads {most} characters at most before {} (\"Command too long\")",
+                    if crlf { "CR LF" } else { "LF" }
+                ),
+                help,
             );
             return Err(self.locate(e));
         }

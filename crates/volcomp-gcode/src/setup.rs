@@ -342,7 +342,9 @@ impl Setup {
                 Some(b) if path.is_relative() => b.join(path),
                 _ => path,
             };
-            let text = std::fs::read_to_string(&path).map_err(|e| {
+            // Recorded as read (volcomp_geom::inputs): no output may replace it.
+            let role = format!("the var file named in {}", crate::error::escape_name(file));
+            let text = volcomp_geom::inputs::read_to_string(&path, &role).map_err(|e| {
                 at.error(
                     var.span().start,
                     format!("cannot read the var file {}: {e}", path.display()),

@@ -509,7 +509,11 @@ fn an_error_on_a_huge_line_shows_a_bounded_excerpt() {
     assert!(shown.len() < 1000, "{} bytes shown", shown.len());
     // LinuxCNC refuses the line for its length before reading a word of it.
     assert_eq!(e.line, 2, "{shown}");
-    assert!(e.message.contains("LinuxCNC reads at most 252"), "{shown}");
+    assert!(
+        e.message
+            .contains("LinuxCNC reads 252 characters at most before LF"),
+        "{shown}"
+    );
     assert!(
         e.source_line.starts_with('…') && e.source_line.ends_with('…'),
         "{shown}"
@@ -527,6 +531,27 @@ fn a_line_longer_than_linuxcnc_reads_is_refused_at_its_length() {
     if let Some(verdict) = rs274_error(&body(252)) {
         assert_eq!(verdict, None, "rs274 reads 252 characters");
         let refusal = rs274_error(&body(253)).unwrap();
+        assert!(refusal.unwrap().contains("too long"));
+    }
+}
+
+/// The line ending counts: LinuxCNC reads 253 bytes of a line with its
+/// ending, so a line ending in CR LF holds one character less — 251 are
+/// read, 252 are "Command too long" in rs274 — and the message says so.
+#[test]
+fn a_crlf_line_holds_one_character_less() {
+    let body = |n: usize| format!("G21\r\n({})\r\n", "c".repeat(n - 2));
+    run(&format!("{}M2\r\n", body(251))).expect("251 characters and CR LF are read");
+    let e = run(&format!("{}M2\r\n", body(252))).unwrap_err();
+    assert_eq!((e.line, e.column), (2, 252), "{e}");
+    assert!(
+        e.message.contains("252 characters long and ends in CR LF")
+            && e.message.contains("251 characters at most before CR LF"),
+        "{e}"
+    );
+    if let Some(verdict) = rs274_error(&body(251)) {
+        assert_eq!(verdict, None, "rs274 reads 251 characters and CR LF");
+        let refusal = rs274_error(&body(252)).unwrap();
         assert!(refusal.unwrap().contains("too long"));
     }
 }

@@ -6,7 +6,7 @@
 //!
 //! | layer | crate | what it holds |
 //! | --- | --- | --- |
-//! | vocabulary | `volcomp-geom` (this crate) | [`Vec3`] points and vectors in mm, the typed machine [`Axis`] |
+//! | vocabulary | `volcomp-geom` (this crate) | [`Vec3`] points and vectors in mm, the typed machine [`Axis`], the one door every file is read through ([`inputs`]) |
 //! | programs | `volcomp-gcode` | lossless G-code reading and writing, the modal RS274/NGC interpreter |
 //! | models | `volcomp-core` | error models, identification, compensation, simulation, file formats |
 //! | front end | `volcomp-cli` | the `volcomp` command |
@@ -24,8 +24,11 @@
 //! assert_eq!("y".parse::<Axis>(), Ok(Axis::Y));
 //! ```
 #![warn(missing_docs)]
+// Files are read through `volcomp_geom::inputs` only (clippy.toml).
+#![cfg_attr(not(test), warn(clippy::disallowed_methods))]
 
 mod axis;
+pub mod inputs;
 mod vec3;
 
 pub use axis::{Axis, ParseAxisError};

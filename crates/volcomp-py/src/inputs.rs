@@ -42,7 +42,8 @@ pub fn source(obj: &Bound<'_, PyAny>, what: &str, name: Option<&str>) -> PyResul
     let (bytes, shown, path) = match crate::request::input(obj, what)? {
         Input::File(path) => {
             let shown = path.display().to_string();
-            let bytes = std::fs::read(&path).map_err(|e| io_error(&shown, &e))?;
+            let bytes =
+                volcomp_core::io::inputs::read(&path, what).map_err(|e| io_error(&shown, &e))?;
             (bytes, shown, Some(path))
         }
         Input::Content { name, bytes } => (bytes, name, None),

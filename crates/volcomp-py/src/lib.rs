@@ -6,6 +6,8 @@
 //! the results into numpy arrays and plain Python values. Conventions
 //! (units, frames, the deviation sign `e = actual − commanded`) are those of
 //! `docs/design.md`.
+// Files are read through `volcomp_geom::inputs` only (clippy.toml).
+#![cfg_attr(not(test), warn(clippy::disallowed_methods))]
 
 use pyo3::prelude::*;
 

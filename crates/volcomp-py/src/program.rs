@@ -61,7 +61,9 @@ fn program_bytes(obj: &Bound<'_, PyAny>, name: Option<&str>) -> PyResult<(Vec<u8
     let inp = input(obj, "program")?;
     let shown = name.map(str::to_string).unwrap_or_else(|| inp.name());
     let bytes = match inp {
-        Input::File(p) => std::fs::read(&p).map_err(|e| to_py(Error::io(p, e)))?,
+        Input::File(p) => {
+            volcomp_core::io::inputs::read(&p, "the program").map_err(|e| to_py(Error::io(p, e)))?
+        }
         Input::Content { bytes, .. } => bytes,
     };
     Ok((bytes, shown))

@@ -39,8 +39,8 @@ impl ThermalModel {
             )
         };
         let name = path.display().to_string();
-        let text =
-            std::fs::read_to_string(&path).map_err(|e| crate::errors::io_error(&name, &e))?;
+        let text = volcomp_core::io::inputs::read_to_string(&path, "the thermal model")
+            .map_err(|e| crate::errors::io_error(&name, &e))?;
         Ok(ThermalModel {
             file: ThermalModelFile::from_toml(&text, &name).py_err()?,
         })

@@ -20,9 +20,11 @@ use volcomp_core::request::{Compensation, ModelSource, RunNames};
 /// A reader over a program; `-` is standard input.
 fn open_program(program: &Path) -> Result<Box<dyn Read>, CliError> {
     if program.as_os_str() == "-" {
+        volcomp_core::io::inputs::record_stdin("the program (standard input)");
         return Ok(Box::new(std::io::stdin().lock()));
     }
-    let f = std::fs::File::open(program).map_err(|e| CliError::Io(program.to_path_buf(), e))?;
+    let f = volcomp_core::io::inputs::open(program, "the program")
+        .map_err(|e| CliError::Io(program.to_path_buf(), e))?;
     Ok(Box::new(f))
 }
 
@@ -83,7 +85,8 @@ fn count_lines(program: &Path) -> Option<u64> {
     if program.as_os_str() == "-" {
         return None;
     }
-    let mut f = std::io::BufReader::new(std::fs::File::open(program).ok()?);
+    let mut f =
+        std::io::BufReader::new(volcomp_core::io::inputs::open(program, "the program").ok()?);
     let mut n = 0u64;
     loop {
         let buf = f.fill_buf().ok()?;
@@ -227,6 +230,7 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     let output = a.output.clone().unwrap_or_else(|| PathBuf::from("-"));
     let map_path = a.map.path()?;
     plan(&a, map_path, &output)?;
+    a.job.check_map(&a.map)?;
     let machine = super::machine(&a.job.machine)?;
     machine.warn_without_work_offset();
     let model = a.map.load()?;

@@ -59,7 +59,7 @@ fn simulate(a: &SimulateArgs, machine: &Machine, model: &dyn ErrorModel) -> Resu
     let mut warnings: Vec<(u64, String)> = Vec::new();
     let report = simulation
         .on_warning(|w| {
-            eprintln!("{name}:{w}");
+            eprintln!("{}", crate::output::clean(&format!("{name}:{w}")));
             warnings.push((w.line, w.message.clone()));
         })
         .on_segment(|s| {
@@ -160,8 +160,10 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
 /// A reader over a program file ("-" is standard input).
 pub fn open(path: &std::path::Path) -> Result<Box<dyn std::io::Read>, CliError> {
     if path.as_os_str() == "-" {
+        volcomp_core::io::inputs::record_stdin("the program (standard input)");
         return Ok(Box::new(std::io::stdin()));
     }
-    let f = std::fs::File::open(path).map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+    let f = volcomp_core::io::inputs::open(path, "a program")
+        .map_err(|e| CliError::Io(path.to_path_buf(), e))?;
     Ok(Box::new(f))
 }

@@ -71,7 +71,12 @@ pub struct TableArgs {
     /// A model written by `volcomp straightness fit`.
     pub model: PathBuf,
     /// Distance between table rows (mm); keep it well under the cut-off wavelength.
-    #[arg(long, value_name = "MM", default_value_t = 1.0)]
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
     pub step: f64,
     /// Write the table here; standard output without it.
     #[arg(short, long, value_name = "CSV")]

@@ -82,7 +82,10 @@ fn finishing(
         return Err(CliError::Internal("no finishing program".into()));
     };
     let file = program.display().to_string();
-    let open = || std::fs::File::open(program).map_err(|e| CliError::Io(program.clone(), e));
+    let open = || {
+        volcomp_core::io::inputs::open(program, "the finishing program")
+            .map_err(|e| CliError::Io(program.clone(), e))
+    };
     let frame = a
         .job
         .finishing_frame(machine, std::io::BufReader::new(open()?), &file)?;

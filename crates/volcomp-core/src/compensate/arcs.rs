@@ -25,6 +25,22 @@ use volcomp_gcode::{Arc, Vec3};
 /// caller refuses the block, so the work stays bounded.
 const LIMIT: u64 = crate::limits::MAX_POINTS_PER_BLOCK;
 
+/// Table points of one piece at which its departure is sampled at most
+/// (inputs lane: bounded work on dense maps). A piece that crosses more is
+/// sampled at this many of them, evenly by index: on a table that dense
+/// (points closer than the shortest piece) the map is smooth at the scale
+/// of a piece, and every level of bisection samples again.
+const KNOTS_PER_PIECE: usize = 32;
+
+/// The sorted knots of `knots` within `[lo, hi]` (inputs lane: a window
+/// by binary search, so an arc looks only at the table points it can
+/// cross, not at every point of a dense table).
+fn window(knots: &[f64], lo: f64, hi: f64) -> &[f64] {
+    let first = knots.partition_point(|k| *k < lo);
+    let last = knots.partition_point(|k| *k <= hi);
+    &knots[first..last.max(first)]
+}
+
 /// Centre `(u, v)` of the circle through three points of a plane, or `None`
 /// when they are collinear to within 1e-12 of the squared chord.
 pub(super) fn circle_through(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<[f64; 2]> {
@@ -222,12 +238,14 @@ fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> (Vec<f64>, Vec<f64>) {
         at_angle(f64::from(k) * FRAC_PI_2, &mut cuts);
     }
     let quarters = std::mem::take(&mut cuts);
-    let both = |axis: usize| -> Vec<f64> {
-        let mut k: Vec<f64> = model.knots_mm(axis, Direction::Forward).to_vec();
-        k.extend_from_slice(model.knots_mm(axis, Direction::Reverse));
+    let both = |axis: usize, lo: f64, hi: f64| -> Vec<f64> {
+        let mut k: Vec<f64> = window(model.knots_mm(axis, Direction::Forward), lo, hi).to_vec();
+        k.extend_from_slice(window(model.knots_mm(axis, Direction::Reverse), lo, hi));
+        k.sort_by(f64::total_cmp);
+        k.dedup();
         k
     };
-    for knot in both(u) {
+    for knot in both(u, arc.center[u] - r, arc.center[u] + r) {
         let c = (knot - arc.center[u]) / r;
         if c.abs() < 1.0 {
             let alpha = c.acos();
@@ -235,7 +253,7 @@ fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> (Vec<f64>, Vec<f64>) {
             at_angle(-alpha, &mut cuts);
         }
     }
-    for knot in both(v) {
+    for knot in both(v, arc.center[v] - r, arc.center[v] + r) {
         let s = (knot - arc.center[v]) / r;
         if s.abs() < 1.0 {
             let beta = s.asin();
@@ -246,7 +264,7 @@ fn arc_cuts(arc: &Arc, model: &dyn ErrorModel) -> (Vec<f64>, Vec<f64>) {
     let (w0, w1) = (arc.start[w], arc.end[w]);
     if w1 != w0 {
         let (lo, hi) = (w0.min(w1), w0.max(w1));
-        for knot in both(w) {
+        for knot in both(w, lo, hi) {
             if knot > lo && knot < hi && cuts.len() as u64 <= LIMIT {
                 cuts.push((knot - w0) / (w1 - w0));
             }
@@ -272,6 +290,7 @@ pub(super) fn arc_pieces(
     let (mut cuts, mut knots) = arc_cuts(arc, model);
     cuts.sort_by(f64::total_cmp);
     knots.sort_by(f64::total_cmp);
+    knots.dedup();
     let min_step = if length > 0.0 {
         min_length_mm / length
     } else {
@@ -426,6 +445,15 @@ fn bisect_arc(
     let lo = knots.partition_point(|k| *k < a + min_step);
     let hi = knots.partition_point(|k| *k <= b - min_step);
     let inside = &knots[lo..hi.max(lo)];
+    let sampled: Vec<f64>;
+    let inside = if inside.len() > KNOTS_PER_PIECE {
+        sampled = (0..KNOTS_PER_PIECE)
+            .map(|k| inside[k * inside.len() / KNOTS_PER_PIECE])
+            .collect();
+        &sampled
+    } else {
+        inside
+    };
     let (d, cut) = piece_departure_at_mm(arc, a, b, model, s, inside)?;
     if b - a > 2.0 * min_step && depth < 64 && d > tol && (out.len() as u64) <= LIMIT {
         let m = match cut {

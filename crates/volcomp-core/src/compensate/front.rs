@@ -72,7 +72,8 @@ impl MachineSetup {
 
     /// The set-up read from a set-up TOML file (docs/setup.md).
     pub fn from_setup_file(path: &Path) -> Result<Self, Error> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::io::inputs::read_to_string(path, "the set-up")
+            .map_err(|e| Error::io(path, e))?;
         Self::from_setup_toml(&text, &path.display().to_string())
     }
 
@@ -142,7 +143,7 @@ pub fn header_for_map(
 ) -> Result<ProgramHeader, Error> {
     let mut maps = Vec::new();
     for p in std::iter::once(map.to_path_buf()).chain(crate::io::output::referenced_files(map)) {
-        let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+        let bytes = crate::io::inputs::read(&p, "the map").map_err(|e| Error::io(&p, e))?;
         maps.push((file_name(&p), sha256_hex(&bytes)));
     }
     Ok(ProgramHeader::for_compensation(

@@ -201,9 +201,15 @@ fn knot_cuts(
             continue;
         }
         let knots = model.knots_mm(axis, s[axis]);
-        let first = knots.partition_point(|k| *k <= lo);
-        for k in knots[first..].iter().take_while(|k| **k < hi) {
+        // Knots closer than the shortest segment along this axis to the
+        // last one taken are skipped by binary search (inputs lane: bounded
+        // work on tables denser than the shortest segment); the filter
+        // below would drop them anyway.
+        let step = min_length_mm / length * (hi - lo);
+        let mut i = knots.partition_point(|k| *k <= lo);
+        while let Some(&k) = knots.get(i).filter(|k| **k < hi) {
             cuts.push((k - a[axis]) / (b[axis] - a[axis]));
+            i = knots.partition_point(|v| *v < k + step).max(i + 1);
         }
     }
     cuts.sort_by(f64::total_cmp);

@@ -11,6 +11,7 @@
 
 pub mod build;
 pub mod kinematic;
+pub mod probe;
 pub mod thermal;
 
 use crate::model::axis_table::{AxisTableMap, AxisTables, Table};

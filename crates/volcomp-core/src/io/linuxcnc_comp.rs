@@ -272,10 +272,13 @@ pub fn read(
     ty: CompFileType,
     units: MachineUnits,
 ) -> Result<Positioning, CompReadError> {
-    let bytes = std::fs::read(path).map_err(|source| CompReadError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes =
+        crate::io::inputs::read(path, "a LinuxCNC compensation file").map_err(|source| {
+            CompReadError::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
     let file = path.display().to_string();
     let text = crate::io::table::utf8(&bytes, &file)?;
     Ok(parse(text, &file, ty, units)?)

@@ -166,7 +166,7 @@ pub fn load_model(path: &Path, options: &LoadOptions) -> Result<LoadedModel, Loa
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     // A file that cannot be read is reported as such, whatever its name.
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
+    let bytes = crate::io::inputs::read(path, "the map").map_err(|source| LoadError::Io {
         path: path.to_path_buf(),
         source,
     })?;

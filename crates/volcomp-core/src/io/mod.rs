@@ -6,10 +6,12 @@
 //! * [`exchange`]: ISO 230-1 parameter files (ISG CSV, Etalon exchange format) read into the 21-component model.
 //! * [`grid`]: the 3-D grid CSV of a model.
 //! * [`table`]: the one located CSV reader every table file goes through.
+//! * [`located`]: where a value of a TOML file is, for errors at it.
 //! * [`model_file`]: model files (TOML + CSV tables of the 21-component model).
 //! * [`linuxcnc_comp`]: LinuxCNC's screw-compensation files, read and written.
 //! * [`provenance`]: the header volcomp writes at the top of a compensated program.
 //! * [`numfmt`]: how computed numbers are written.
+//! * [`probe_log`]: what a machine recorded while probing (LinuxCNC `(LOG,…)` files, CSV points).
 //! * [`output`]: safe output (plans checked before work, atomic files).
 
 pub mod controllers;
@@ -17,10 +19,24 @@ pub mod exchange;
 pub mod grid;
 pub mod linuxcnc_comp;
 pub mod load;
+pub mod located;
 pub mod model_file;
 pub mod numfmt;
 pub mod output;
+pub mod probe_log;
 pub mod provenance;
 pub mod table;
 
 pub use load::{load_model, LoadError, LoadOptions, LoadedModel, ModelKind};
+pub use volcomp_geom::inputs;
+
+/// A name a user gave (a file name), as printed in messages: control
+/// characters escaped (`\x1b`), so that it cannot drive the terminal.
+pub fn shown_name(name: &str) -> String {
+    volcomp_gcode::error::escape_name(name).into_owned()
+}
+
+/// A path as printed in messages ([`shown_name`]).
+pub fn shown_path(path: &std::path::Path) -> String {
+    shown_name(&path.display().to_string())
+}

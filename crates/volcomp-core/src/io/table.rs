@@ -13,6 +13,7 @@
 //! number and the header name) and shows the line, bounded and escaped.
 
 use crate::error::MapFileError;
+pub use crate::limits::{MAX_TABLE_LINE_BYTES, MAX_TABLE_ROWS};
 
 /// What to do with header names the format does not know.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,18 +36,24 @@ pub struct Header<'a> {
     pub layout: &'a str,
 }
 
-/// One data record: its 1-based line and trimmed fields.
-#[derive(Debug, Clone, PartialEq)]
+/// One data record: its 1-based line; its trimmed fields are read through
+/// the table ([`CsvTable::text`], [`CsvTable::fields`]), which holds the
+/// fields of every record in one buffer (a table of millions of rows takes
+/// a few bytes per field beyond its text).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Record {
     /// 1-based line where the record starts.
     pub line: usize,
-    /// Trimmed fields, one per header column.
-    pub fields: Vec<String>,
+    /// Index of its first field in the table's field list.
+    first: u32,
+    /// Byte offset of its line in the text.
+    offset: u32,
 }
 
-/// A table read from CSV text.
+/// A table read from CSV text (borrowed: the source lines of errors are
+/// taken from it).
 #[derive(Debug, Clone)]
-pub struct CsvTable {
+pub struct CsvTable<'a> {
     /// File name, for errors.
     pub file: String,
     /// 1-based line of the header.
@@ -61,8 +68,12 @@ pub struct CsvTable {
     /// reported by [`CsvTable::records`] (after the caller's header checks,
     /// so that a missing column is named before a row that lacks it).
     width_error: Option<MapFileError>,
-    /// Source lines (for excerpts), indexed by line − 1.
-    lines: Vec<String>,
+    /// The text (after a byte-order mark).
+    text: &'a str,
+    /// The trimmed fields of every record, one after the other.
+    fields: String,
+    /// End of each field in `fields`.
+    ends: Vec<u32>,
 }
 
 /// The hint for a file that uses `;` between fields (a spreadsheet saved
@@ -138,7 +149,7 @@ fn field_offset(line: &str, k: usize) -> usize {
     line.len()
 }
 
-impl CsvTable {
+impl<'a> CsvTable<'a> {
     /// Reads CSV text. `file` names it in errors.
     ///
     /// ```
@@ -148,16 +159,16 @@ impl CsvTable {
     /// let x = t.require("x_mm").unwrap();
     /// let r = &t.records().unwrap()[0];
     /// assert_eq!(t.number(r, x).unwrap(), 1.5);
-    /// assert_eq!(r.fields[0], "a, b");
+    /// assert_eq!(t.text(r, 0), "a, b");
     /// let e = t.require("y_mm");
     /// assert!(e.is_err());
     /// ```
-    pub fn parse(text: &str, file: &str, header: &Header<'_>) -> Result<CsvTable, MapFileError> {
+    pub fn parse(
+        text: &'a str,
+        file: &str,
+        header: &Header<'_>,
+    ) -> Result<CsvTable<'a>, MapFileError> {
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        let lines: Vec<String> = text
-            .split('\n')
-            .map(|l| l.strip_suffix('\r').unwrap_or(l).to_string())
-            .collect();
         let comments = comment_lines(text);
         let mut table = CsvTable {
             file: file.to_string(),
@@ -166,8 +177,11 @@ impl CsvTable {
             comments,
             records: Vec::new(),
             width_error: None,
-            lines,
+            text,
+            fields: String::new(),
+            ends: Vec::new(),
         };
+        table.check_size()?;
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(false)
             .flexible(true)
@@ -187,13 +201,12 @@ impl CsvTable {
             if !more {
                 break;
             }
-            let line = record.position().map_or(1, |p| p.line() as usize);
+            let (line, offset) = record
+                .position()
+                .map_or((1, 0), |p| (p.line() as usize, p.byte() as usize));
             if record.iter().all(str::is_empty)
                 || record.get(0).is_some_and(|f| f.starts_with('#'))
-                || table
-                    .lines
-                    .get(line - 1)
-                    .is_some_and(|l| l.trim_start().starts_with('#'))
+                || text[offset.min(text.len())..].trim_start().starts_with('#')
             {
                 continue;
             }
@@ -201,10 +214,9 @@ impl CsvTable {
                 table.set_header(line, &record, header)?;
                 continue;
             }
-            let fields: Vec<String> = record.iter().map(str::to_string).collect();
             let width = table.header.len();
-            if fields.len() != width {
-                let help = if fields.len() > width {
+            if record.len() != width {
+                let help = if record.len() > width {
                     "give one value per header column; if the numbers use decimal commas (1,5), write them with '.' (1.5)"
                 } else {
                     "give one value per header column, separated by commas"
@@ -212,14 +224,31 @@ impl CsvTable {
                 if table.width_error.is_none() {
                     table.width_error = Some(table.error_at(
                         line,
-                        fields.len().min(width),
-                        format!("{} fields where the header has {width}", fields.len()),
+                        record.len().min(width),
+                        format!("{} fields where the header has {width}", record.len()),
                         help,
                     ));
                 }
                 continue;
             }
-            table.records.push(Record { line, fields });
+            if table.records.len() >= MAX_TABLE_ROWS {
+                return Err(table.error_at(
+                    line,
+                    0,
+                    format!("the table has more than {MAX_TABLE_ROWS} rows, the most a table may have"),
+                    "resample it more coarsely (a million points per axis is finer than a micrometre along a metre) or split it",
+                ));
+            }
+            table.records.push(Record {
+                line,
+                first: table.ends.len() as u32,
+                // check_size keeps offsets within u32.
+                offset: offset as u32,
+            });
+            for f in record.iter() {
+                table.fields.push_str(f);
+                table.ends.push(table.fields.len() as u32);
+            }
         }
         if table.header_line == 0 {
             return Err(MapFileError::new(
@@ -231,6 +260,46 @@ impl CsvTable {
             ));
         }
         Ok(table)
+    }
+
+    /// Refuses a text larger than the table reader holds (2 GiB: offsets
+    /// and field indices are 32 bits) and, at its line, a line longer than
+    /// [`MAX_TABLE_LINE_BYTES`] (a table's line is a few numbers; a huge one
+    /// is not a table, and would be held whole while it is split).
+    fn check_size(&self) -> Result<(), MapFileError> {
+        if self.text.len() >= i32::MAX as usize {
+            return Err(MapFileError::new(
+                &self.file,
+                1,
+                1,
+                format!(
+                    "the table is {} bytes long, more than the 2 GiB a table may have",
+                    self.text.len()
+                ),
+                "split it, or resample it more coarsely",
+            ));
+        }
+        let bytes = self.text.as_bytes();
+        let mut start = 0;
+        let ends = memchr::memchr_iter(b'\n', bytes).chain(std::iter::once(bytes.len()));
+        for (line, end) in (1..).zip(ends) {
+            if end - start > MAX_TABLE_LINE_BYTES {
+                return Err(MapFileError::new(
+                    &self.file,
+                    line,
+                    1,
+                    format!(
+                        "line {line} is {} bytes long, more than the {} a line of a table may have",
+                        end - start,
+                        MAX_TABLE_LINE_BYTES
+                    ),
+                    "this is not a table of values (one row per line): check the file",
+                )
+                .with_source(&self.text[start..start + 200.min(end - start)], 0));
+            }
+            start = end + 1;
+        }
+        Ok(())
     }
 
     fn set_header(
@@ -252,8 +321,9 @@ impl CsvTable {
                 SEMICOLON_HINT,
             ));
         }
+        let mut seen: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
         for (c, name) in names.iter().enumerate() {
-            if let Some(first) = names[..c].iter().position(|n| n == name) {
+            if let Some(&first) = seen.get(name.as_str()) {
                 return Err(self.error_at(
                     line,
                     c,
@@ -264,6 +334,7 @@ impl CsvTable {
                     "name each column once",
                 ));
             }
+            seen.insert(name.as_str(), c);
             if spec.unknown == UnknownColumns::Refuse && !spec.known.contains(&name.as_str()) {
                 let help = if name.contains(';') {
                     SEMICOLON_HINT.to_string()
@@ -336,10 +407,21 @@ impl CsvTable {
         format!("its columns by name; found {}", self.header.join(","))
     }
 
+    /// The text of 1-based `line` (without its line ending; empty past the
+    /// end).
     fn source(&self, line: usize) -> &str {
-        self.lines
-            .get(line.wrapping_sub(1))
-            .map_or("", String::as_str)
+        let start = match self.records.binary_search_by_key(&line, |r| r.line) {
+            Ok(i) => self.records[i].offset as usize,
+            Err(_) if line <= 1 => 0,
+            Err(_) => match memchr::memchr_iter(b'\n', self.text.as_bytes()).nth(line - 2) {
+                Some(i) => i + 1,
+                None => return "",
+            },
+        };
+        let rest = &self.text[start.min(self.text.len())..];
+        let end = memchr::memchr(b'\n', rest.as_bytes()).unwrap_or(rest.len());
+        let l = &rest[..end];
+        l.strip_suffix('\r').unwrap_or(l)
     }
 
     /// An error at `line` and 0-based column `col` (reported 1-based, with
@@ -374,14 +456,31 @@ impl CsvTable {
     }
 
     /// The text of a record's field.
-    pub fn text<'r>(&self, record: &'r Record, col: usize) -> &'r str {
-        record.fields.get(col).map_or("", String::as_str)
+    pub fn text(&self, record: &Record, col: usize) -> &str {
+        if col >= self.header.len() {
+            return "";
+        }
+        let i = record.first as usize + col;
+        let start = if i == 0 { 0 } else { self.ends[i - 1] as usize };
+        &self.fields[start..self.ends[i] as usize]
+    }
+
+    /// The trimmed fields of a record, one per header column.
+    pub fn fields<'t>(&'t self, record: &Record) -> impl Iterator<Item = &'t str> + 't {
+        let record = *record;
+        (0..self.header.len()).map(move |c| self.text(&record, c))
     }
 
     /// A finite number; the error names the unit the column's name gives
     /// (`_mm`, `_um`, `_urad`, `_h`, `_c`, …).
     pub fn number(&self, record: &Record, col: usize) -> Result<f64, MapFileError> {
         let raw = self.text(record, col);
+        if let Ok(v) = raw.parse::<f64>() {
+            if v.is_finite() {
+                return Ok(v);
+            }
+        }
+        // The error's words only when there is an error.
         let text = shown(raw);
         let unit = self.header.get(col).and_then(|h| unit_of(h));
         let in_unit = unit.map_or(String::new(), |u| format!(" in {u}"));

@@ -10,6 +10,7 @@
 
 use crate::error::{MapFileError, ModelError};
 use crate::io::table::{shown, CsvTable, Header, Record, UnknownColumns};
+use crate::limits::{MAX_ERROR_UM, MAX_POSITION_MM};
 use crate::model::{Components, Direction, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
 
@@ -142,6 +143,43 @@ pub(crate) fn direction_field(
     }
 }
 
+/// Reads a position (mm): a finite number within ±[`MAX_POSITION_MM`].
+///
+/// The rule that tells millimetres from micrometres: no program point can
+/// lie beyond the coordinate limit, so a table position beyond it can only
+/// be in another unit — a table in µm of any axis longer than 100 mm is
+/// refused here, at its row, instead of being read as a table 1000 times
+/// too long whose every program point falls near its start.
+pub(crate) fn position_field(t: &CsvTable, r: &Record, col: usize) -> Result<f64, MapFileError> {
+    let v = t.number(r, col)?;
+    if v.abs() > MAX_POSITION_MM {
+        return Err(t.error(
+            r,
+            col,
+            format!(
+                "position {} mm lies beyond ±{MAX_POSITION_MM} mm, the coordinate limit",
+                crate::error::fmt_mm(v)
+            ),
+            "positions are millimetres from the machine datum: a table in µm has 1000 times the numbers (divide them by 1000)",
+        ));
+    }
+    Ok(v)
+}
+
+/// Reads an error (µm): a finite number within ±[`MAX_ERROR_UM`].
+pub(crate) fn error_field(t: &CsvTable, r: &Record, col: usize) -> Result<f64, MapFileError> {
+    let v = t.number(r, col)?;
+    if v.abs() > MAX_ERROR_UM {
+        return Err(t.error(
+            r,
+            col,
+            format!("an error of {v} µm is more than {MAX_ERROR_UM} µm (10 mm)"),
+            "errors are micrometres: a value in nm is 1000 times too large, a value in mm would be far smaller; check the unit and the column",
+        ));
+    }
+    Ok(v)
+}
+
 /// The axis-table map of a machine.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisTableMap {
@@ -253,11 +291,12 @@ impl AxisTableMap {
         for r in t.records()? {
             let axis = axis_field(&t, r, cols[0])?;
             let dir = direction_field(&t, r, cols[1])?.index();
-            let mut num = [0.0; 4];
-            for (k, slot) in num.iter_mut().enumerate() {
-                *slot = t.number(r, cols[2 + k])?;
+            let position = position_field(&t, r, cols[2])?;
+            let mut e = [0.0; 3];
+            for (k, slot) in e.iter_mut().enumerate() {
+                *slot = error_field(&t, r, cols[3 + k])?;
             }
-            rows[axis][dir].push((num[0], Vec3::new(num[1], num[2], num[3]), r.line));
+            rows[axis][dir].push((position, Vec3::new(e[0], e[1], e[2]), r.line));
         }
         let last_row = t.last_line();
         let mut axes = Vec::with_capacity(3);

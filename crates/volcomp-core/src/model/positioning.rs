@@ -40,6 +40,14 @@ pub fn grid_axis(lo_mm: f64, hi_mm: f64, step_mm: f64) -> Vec<f64> {
 }
 
 impl Positioning {
+    /// Points the table has when resampled every `step_mm` (both ends
+    /// kept); `None` for a step that is not a positive finite length.
+    pub fn resampled_points(&self, step_mm: f64) -> Option<u64> {
+        let p = &self.positions_mm;
+        let span = p.last()? - p.first()?;
+        (step_mm.is_finite() && step_mm > 0.0).then(|| (span / step_mm).ceil() as u64 + 1)
+    }
+
     /// The table resampled every `step_mm` over its range (linear
     /// interpolation, both ends kept): a spacing a controller with a fixed
     /// number of entries can hold. The table needs at least two points and

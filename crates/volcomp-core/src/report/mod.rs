@@ -24,6 +24,7 @@ pub mod demo;
 pub mod iso230_2;
 pub mod map;
 pub mod mirror;
+pub mod probe;
 pub mod svg;
 pub mod text;
 pub mod trace;
@@ -51,7 +52,9 @@ impl InputFile {
     /// Reads `path` once to size and hash it.
     pub fn read(role: impl Into<String>, path: &Path) -> Result<Self, Error> {
         use sha2::Digest as _;
-        let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let role = role.into();
+        let mut f = crate::io::inputs::open(path, &format!("the {role}"))
+            .map_err(|e| Error::io(path, e))?;
         let mut hasher = sha2::Sha256::new();
         let mut buf = vec![0u8; 1 << 16];
         let mut bytes = 0u64;
@@ -64,7 +67,7 @@ impl InputFile {
             hasher.update(&buf[..n]);
         }
         Ok(Self {
-            role: role.into(),
+            role,
             name: path.display().to_string(),
             bytes: Some(bytes),
             sha256: hasher

@@ -11,12 +11,22 @@ use crate::compensate::{
 };
 use crate::io::provenance::{sha256_hex, ProgramHeader};
 use crate::io::LoadedModel;
+use crate::limits::{
+    MAX_CHORD_TOLERANCE_MM, MAX_ILC_ITERATIONS, MAX_SEGMENTS_PER_MOVE, MIN_CHORD_TOLERANCE_MM,
+    MIN_CONTOUR_TOLERANCE_UM, MIN_SEGMENT_LENGTH_MM,
+};
 use crate::model::ErrorModel;
 use crate::Error;
 use std::path::Path;
 
 /// Default largest output of a compensation (bytes): 256 MiB.
 pub const DEFAULT_MAX_OUTPUT_BYTES: u64 = 256 << 20;
+
+/// The ILC gain when none is given.
+pub const DEFAULT_ILC_GAIN: f64 = 0.5;
+
+/// The ILC iteration limit when none is given.
+pub const DEFAULT_ILC_ITERATIONS: u64 = 20;
 
 /// The options of [`CompensateRequest`] beside the machine's.
 pub const COMPENSATE_OPTIONS: &[OptionInfo] = &[
@@ -156,9 +166,9 @@ pub struct CompensateRequest {
     pub machine: MachineRequest,
     /// `exact`, `ilc`, `direct` or `pitch`.
     pub method: String,
-    /// ILC gain.
+    /// ILC gain; an option of ILC only.
     pub gain: f64,
-    /// ILC iteration limit.
+    /// ILC iteration limit; an option of ILC only.
     pub max_iterations: u64,
     /// Fixed segment length (mm).
     pub segment_length_mm: Option<f64>,
@@ -201,8 +211,8 @@ impl Default for CompensateRequest {
         Self {
             machine: MachineRequest::default(),
             method: "exact".into(),
-            gain: 0.5,
-            max_iterations: 20,
+            gain: DEFAULT_ILC_GAIN,
+            max_iterations: DEFAULT_ILC_ITERATIONS,
             segment_length_mm: None,
             segments: None,
             no_split: false,
@@ -277,31 +287,50 @@ impl CompensateRequest {
     /// The solver, checked.
     fn method(&self) -> Result<Method, OptionError> {
         let info = <Self as super::Request>::info("method").expect("method is an option");
-        match info
+        let method = info
             .choice(&self.method)
-            .map_err(|p| OptionError::new("method", p))?
-        {
+            .map_err(|p| OptionError::new("method", p))?;
+        if method != "ilc" {
+            // The gain and the iteration limit are ILC's: another value than
+            // the default with another method would be silently ignored.
+            for (given, name) in [
+                (self.gain.to_bits() != DEFAULT_ILC_GAIN.to_bits(), "gain"),
+                (
+                    self.max_iterations != DEFAULT_ILC_ITERATIONS,
+                    "max_iterations",
+                ),
+            ] {
+                if given {
+                    return Err(OptionError::new(
+                        name,
+                        format!("is an option of {{method}} ilc: it means nothing with method {method}; leave it out, or choose ilc"),
+                    ));
+                }
+            }
+        }
+        match method {
             "direct" => Ok(Method::Direct),
             "pitch" => Ok(Method::Pitch),
             "ilc" => {
-                if !(self.gain > 0.0 && self.gain <= 1.0) {
+                let gain = self.gain;
+                if !(gain > 0.0 && gain <= 1.0) {
                     return Err(OptionError::new(
                         "gain",
-                        format!("must satisfy 0 < γ ≤ 1; got {}", self.gain),
+                        format!("must satisfy 0 < γ ≤ 1; got {gain}"),
                     ));
                 }
-                let max_iterations = u32::try_from(self.max_iterations)
-                    .ok()
-                    .filter(|n| *n > 0)
-                    .ok_or_else(|| {
-                        OptionError::new(
-                            "max_iterations",
-                            "must be at least 1 (ILC needs one step to move any point)",
-                        )
-                    })?;
+                let n = self.max_iterations;
+                if n == 0 || n > MAX_ILC_ITERATIONS {
+                    return Err(OptionError::new(
+                        "max_iterations",
+                        format!(
+                            "must be 1 … {MAX_ILC_ITERATIONS} (ILC needs one step to move a point; past {MAX_ILC_ITERATIONS} steps a point that has not converged will not: raise {{gain}} instead); got {n}"
+                        ),
+                    ));
+                }
                 Ok(Method::Ilc {
-                    gain: self.gain,
-                    max_iterations,
+                    gain,
+                    max_iterations: n as u32,
                 })
             }
             _ => Ok(Method::Exact),
@@ -341,17 +370,19 @@ impl CompensateRequest {
             return Ok(Segmentation::Off);
         }
         if let Some(n) = self.segments {
-            return u32::try_from(n)
-                .ok()
-                .filter(|n| *n > 0)
-                .map(Segmentation::Count)
-                .ok_or_else(|| OptionError::new("segments", "must be at least 1"));
+            if n == 0 || n > MAX_SEGMENTS_PER_MOVE {
+                return Err(OptionError::new(
+                    "segments",
+                    format!("must be 1 … {MAX_SEGMENTS_PER_MOVE} segments per move; got {n}"),
+                ));
+            }
+            return Ok(Segmentation::Count(n as u32));
         }
         if let Some(l) = self.segment_length_mm {
-            if !positive(l) {
+            if !(l.is_finite() && l >= MIN_SEGMENT_LENGTH_MM) {
                 return Err(OptionError::new(
                     "segment_length_mm",
-                    format!("must be a positive length in mm; got {l}"),
+                    format!("must be a length of at least {MIN_SEGMENT_LENGTH_MM} mm (1 µm: shorter segments only multiply the work); got {l}"),
                 ));
             }
             return Ok(Segmentation::MaxLength(l));
@@ -362,10 +393,18 @@ impl CompensateRequest {
         let min = self
             .min_segment_length_mm
             .unwrap_or(DEFAULT_MIN_SEGMENT_LENGTH_MM);
-        if !(positive(t) && positive(min)) {
+        if !(t.is_finite() && t >= MIN_CONTOUR_TOLERANCE_UM) {
             return Err(OptionError::new(
                 "contour_tolerance_um",
-                "and {min_segment_length_mm} must be positive",
+                format!("must be at least {MIN_CONTOUR_TOLERANCE_UM} µm (1 nm); got {t}"),
+            ));
+        }
+        if !(min.is_finite() && min >= MIN_SEGMENT_LENGTH_MM) {
+            return Err(OptionError::new(
+                "min_segment_length_mm",
+                format!(
+                    "must be a length of at least {MIN_SEGMENT_LENGTH_MM} mm (1 µm); got {min}"
+                ),
             ));
         }
         Ok(Segmentation::Adaptive {
@@ -404,15 +443,31 @@ impl CompensateRequest {
         Ok(())
     }
 
+    /// Refuses a method that can correct nothing with the map's controller
+    /// setting: `pitch` corrects only the positioning errors, and with
+    /// `controller_compensates = positioning` the controller corrects those
+    /// already, so the program would come back unchanged with a success.
+    pub fn check_map(&self, map: &super::MapRequest) -> Result<(), OptionError> {
+        if self.method == "pitch" && map.controller_compensates.is_some() {
+            return Err(OptionError::new(
+                "method",
+                "pitch corrects only the positioning errors, which the controller compensates already ({controller_compensates}): it would correct nothing; use method exact to correct the rest of the map",
+            ));
+        }
+        Ok(())
+    }
+
     /// The library's compensation options, every value checked.
     pub fn options(&self) -> Result<CompensateOptions, OptionError> {
         let method = self.method()?;
         let segmentation = self.segmentation()?;
-        if !positive(self.chord_tolerance_mm) {
+        if !(self.chord_tolerance_mm.is_finite()
+            && (MIN_CHORD_TOLERANCE_MM..=MAX_CHORD_TOLERANCE_MM).contains(&self.chord_tolerance_mm))
+        {
             return Err(OptionError::new(
                 "chord_tolerance_mm",
                 format!(
-                    "must be a positive length in mm; got {}",
+                    "must be a length of {MIN_CHORD_TOLERANCE_MM} mm (1 nm) to {MAX_CHORD_TOLERANCE_MM} mm; got {}",
                     self.chord_tolerance_mm
                 ),
             ));

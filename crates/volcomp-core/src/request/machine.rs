@@ -44,10 +44,17 @@ pub const MACHINE_OPTIONS: &[OptionInfo] = &[
         Kind::Switch,
         "Do not warn about a program that ends without M2, M30 or a closing `%` (LinuxCNC runs it to its last line, then reports an error; grbl-family and other controllers need no end).",
     ),
+    OptionInfo::new(
+        "max_repeated_lines",
+        Kind::Count,
+        "Most lines a run executes again (every pass of a loop after the first, every line of a called subroutine) before it is refused as a loop that never ends; a program without loops runs whatever its length.",
+    )
+    .value("N")
+    .default("10000000"),
 ];
 
 /// How a program is set up on the machine, as plain values.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct MachineRequest {
     /// The set-up TOML file (docs/setup.md).
     pub setup: Option<Input>,
@@ -61,6 +68,22 @@ pub struct MachineRequest {
     pub strict_k0: bool,
     /// Do not warn about a program without M2, M30 or a closing `%`.
     pub allow_no_program_end: bool,
+    /// Most lines executed again (loops, calls) in one run.
+    pub max_repeated_lines: u64,
+}
+
+impl Default for MachineRequest {
+    fn default() -> Self {
+        Self {
+            setup: None,
+            work_offset_mm: None,
+            absolute_arc_centers: false,
+            accept_k0: false,
+            strict_k0: false,
+            allow_no_program_end: false,
+            max_repeated_lines: volcomp_gcode::ngc::flow::MAX_EXECUTED_LINES,
+        }
+    }
 }
 
 /// A machine set-up ready for a job, with where it came from (for the
@@ -101,6 +124,7 @@ impl MachineRequest {
             "allow_no_program_end" => {
                 self.allow_no_program_end = value.bool("allow_no_program_end")?
             }
+            "max_repeated_lines" => self.max_repeated_lines = value.count("max_repeated_lines")?,
             _ => return Ok(false),
         }
         Ok(true)
@@ -124,10 +148,14 @@ impl MachineRequest {
             }
         };
         if let Some(w) = self.work_offset_mm {
-            if !w.iter().all(|v| v.is_finite()) {
+            let max = crate::limits::MAX_POSITION_MM;
+            if !w.iter().all(|v| v.is_finite() && v.abs() <= max) {
                 return Err(OptionError::new(
                     "work_offset_mm",
-                    format!("must be three finite numbers in mm (X, Y, Z); got {w:?}"),
+                    format!(
+                        "must be three numbers in mm (X, Y, Z) within ±{max} mm; got {}, {}, {}",
+                        w[0], w[1], w[2]
+                    ),
                 )
                 .into());
             }
@@ -137,6 +165,7 @@ impl MachineRequest {
             accept_k0_on_xy_arcs: self.accept_k0,
             absolute_arc_centers: self.absolute_arc_centers,
             require_program_end: !self.allow_no_program_end,
+            max_executed_lines: self.max_repeated_lines,
             ..InterpOptions::default()
         });
         Ok(Machine {

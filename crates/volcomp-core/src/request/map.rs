@@ -123,7 +123,8 @@ impl MapRequest {
     /// table (name and SHA-256), or what it compensates from this map.
     pub fn note(&self, header: &mut ProgramHeader) -> Result<(), Error> {
         if let Some(file) = &self.controller {
-            let bytes = std::fs::read(file).map_err(|e| Error::io(file, e))?;
+            let bytes = crate::io::inputs::read(file, "the controller file")
+                .map_err(|e| Error::io(file, e))?;
             header.files.push((
                 "ctrl".into(),
                 crate::compensate::file_name(file),

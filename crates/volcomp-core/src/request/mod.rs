@@ -22,6 +22,7 @@ mod machine;
 mod map;
 mod mirror;
 pub mod option;
+mod probe;
 mod report;
 mod simulate;
 mod straightness;
@@ -37,6 +38,7 @@ pub use option::{
     did_you_mean, render, Input, Kind, Names, OptionError, OptionInfo, Request, Spelling,
     UnknownOption, Value,
 };
+pub use probe::{ProbeFitRequest, ProbeIdentifyRequest, PROBE_FIT_OPTIONS, PROBE_IDENTIFY_OPTIONS};
 pub use report::{header_inputs, RunNames};
 pub use simulate::{SimulateRequest, SIMULATE_OPTIONS};
 pub use straightness::{fit_summary, StraightnessFitRequest, STRAIGHTNESS_OPTIONS};
@@ -56,6 +58,8 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     THERMAL_FIT_OPTIONS,
     THERMAL_PREDICT_OPTIONS,
     STRAIGHTNESS_OPTIONS,
+    PROBE_IDENTIFY_OPTIONS,
+    PROBE_FIT_OPTIONS,
 ];
 
 /// The option named `name` in any request.
@@ -119,6 +123,7 @@ mod tests {
         consistent(|r: &ThermalFitRequest| r.clone());
         consistent(|r: &ThermalPredictRequest| r.clone());
         consistent(|r: &StraightnessFitRequest| r.clone());
+        consistent(|r: &ProbeFitRequest| r.clone());
     }
 
     #[test]

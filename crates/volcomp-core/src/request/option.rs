@@ -260,7 +260,7 @@ impl Input {
     /// The input's bytes (the file read whole).
     pub fn bytes(&self) -> Result<std::borrow::Cow<'_, [u8]>, crate::Error> {
         match self {
-            Input::File(p) => std::fs::read(p)
+            Input::File(p) => crate::io::inputs::read(p, "an input")
                 .map(std::borrow::Cow::Owned)
                 .map_err(|e| crate::Error::io(p, e)),
             Input::Content { bytes, .. } => Ok(std::borrow::Cow::Borrowed(bytes)),
@@ -271,8 +271,11 @@ impl Input {
     /// the Unix convention), or the content.
     pub fn reader(&self) -> Result<Box<dyn std::io::Read + '_>, crate::Error> {
         match self {
-            Input::File(p) if p.as_os_str() == "-" => Ok(Box::new(std::io::stdin())),
-            Input::File(p) => std::fs::File::open(p)
+            Input::File(p) if p.as_os_str() == "-" => {
+                crate::io::inputs::record_stdin("standard input");
+                Ok(Box::new(std::io::stdin()))
+            }
+            Input::File(p) => crate::io::inputs::open(p, "an input")
                 .map(|f| Box::new(f) as Box<dyn std::io::Read>)
                 .map_err(|e| crate::Error::io(p, e)),
             Input::Content { bytes, .. } => Ok(Box::new(bytes.as_slice())),

@@ -32,7 +32,7 @@ pub fn header_inputs(header: &ProgramHeader) -> Vec<InputFile> {
 }
 
 fn open(path: &Path) -> Result<std::fs::File, Error> {
-    std::fs::File::open(path).map_err(|e| Error::io(path, e))
+    crate::io::inputs::open(path, "an input").map_err(|e| Error::io(path, e))
 }
 
 /// What a report says of the run besides its figures: the command as the

@@ -72,12 +72,14 @@ impl SimulateRequest {
     /// The chord tolerance, checked.
     pub fn chord_tolerance_mm(&self) -> Result<f64, OptionError> {
         let t = self.chord_tolerance_mm;
-        if t.is_finite() && t > 0.0 {
+        let min = crate::limits::MIN_CHORD_TOLERANCE_MM;
+        let max = crate::limits::MAX_CHORD_TOLERANCE_MM;
+        if t.is_finite() && (min..=max).contains(&t) {
             Ok(t)
         } else {
             Err(OptionError::new(
                 "chord_tolerance_mm",
-                format!("must be a positive length in mm; got {t}"),
+                format!("must be a length of {min} mm (1 nm) to {max} mm; got {t}"),
             ))
         }
     }

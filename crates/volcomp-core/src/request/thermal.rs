@@ -8,7 +8,9 @@ use crate::identify::thermal::files::{
     ThermalModelFile,
 };
 use crate::identify::thermal::identify::{Identification, DEFAULT_RELATIVE_THRESHOLD};
-use crate::identify::thermal::uncertainty::{axis_line_bands_with_progress, LineBands};
+use crate::identify::thermal::uncertainty::{
+    axis_line_bands_with_progress, band_samples_problem, LineBands,
+};
 use crate::identify::thermal::ThermalError;
 use crate::Error;
 
@@ -198,7 +200,7 @@ impl ThermalFitRequest {
                 "must be a finite length in mm",
             ));
         }
-        Ok(FitOptions {
+        let options = FitOptions {
             chain: self.chain.clone(),
             ranges_mm,
             order: count("order", self.order)?,
@@ -206,7 +208,16 @@ impl ThermalFitRequest {
             lags: count("lags", self.lags)?,
             relative_threshold: self.threshold,
             table_samples: count("table_samples", self.table_samples)?,
-        })
+        };
+        // The bounds on the work (docs/errors.md, "Limits"), before any
+        // file is read.
+        options
+            .problem()
+            .map_err(|(name, problem)| OptionError::new(name, problem))?;
+        if let Some(n) = self.bands_samples {
+            band_samples_problem(n).map_err(|p| OptionError::new("bands_samples", p))?;
+        }
+        Ok(options)
     }
 
     /// Reads the inputs and fits the model.
@@ -233,7 +244,7 @@ impl ThermalFitRequest {
 
     /// The 95 % Monte Carlo bands of the last cycle's identified TCP error
     /// along lines through the middle of the volume (docs/thermal.md),
-    /// with `samples` draws (at least 10; default [`DEFAULT_BAND_SAMPLES`]).
+    /// with `samples` draws (10 to 10 000; default [`DEFAULT_BAND_SAMPLES`]).
     pub fn bands(
         &self,
         fit: &ThermalFit,
@@ -247,8 +258,7 @@ impl ThermalFitRequest {
         let samples = count(
             "bands_samples",
             self.bands_samples.unwrap_or(DEFAULT_BAND_SAMPLES),
-        )?
-        .max(10);
+        )?;
         let model = files::poly_model(&o.chain, o.ranges_mm, o.order, o.probe_length_mm)?;
         let lines = axis_line_bands_with_progress(
             &model,

@@ -693,6 +693,10 @@ impl Interpreter {
             (30, MotionMode::Ccw),
             (330, MotionMode::Synced(330)),
             (331, MotionMode::Synced(331)),
+            (382, MotionMode::Probe(382)),
+            (383, MotionMode::Probe(383)),
+            (384, MotionMode::Probe(384)),
+            (385, MotionMode::Probe(385)),
             // G5 and G5.1 leave the motion mode as it was, and G5.3 is
             // non-modal (`Interp::convert_motion`, interp_convert.cc).
             (52, MotionMode::Spline(52)),

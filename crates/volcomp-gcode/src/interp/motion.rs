@@ -89,6 +89,7 @@ impl Interpreter {
             MotionMode::Spline(_) => "Cannot make arc with zero feed rate",
             // The spindle sets the feed (K per revolution).
             MotionMode::Synced(_) => return Ok(()),
+            MotionMode::Probe(_) => "Cannot probe with zero feed rate",
         };
         if self.feed_mode == FeedMode::InverseTime {
             if w.get(b'F').is_none() && !matches!(mode, MotionMode::Cycle(_)) {
@@ -378,8 +379,63 @@ impl Interpreter {
             MotionMode::Cycle(code) => self.cycle(line, col, code, w, new_cycle, out)?,
             MotionMode::Spline(code) => self.spline(line, col, w, code, out)?,
             MotionMode::Synced(code) => self.synced(line, col, w, code, feed, out)?,
+            MotionMode::Probe(code) => self.probe(line, col, w, code, feed, out)?,
         }
         Ok(())
+    }
+
+    /// A probing move G38.2–G38.5 (read only with
+    /// `InterpOptions::accept_probing`), with the checks of LinuxCNC's
+    /// `Interp::convert_probe` (interp_convert.cc): no cutter radius
+    /// compensation, no feed per revolution, and for G38.2/G38.4 an end point
+    /// that differs from the start. It is read as a feed move to its end
+    /// point: the path when the probe never touches (G38.2/G38.4 then stop
+    /// the program with an error; G38.3/G38.5 go on from there).
+    fn probe(
+        &mut self,
+        line: u64,
+        col: usize,
+        w: &WordTable,
+        code: u16,
+        feed: f64,
+        out: &mut Vec<Motion>,
+    ) -> Result<(), GcodeError> {
+        let name = format!("G38.{}", code % 10);
+        if self.comp_active() {
+            return Err(invalid(
+                line,
+                col,
+                format!("{name} with cutter radius compensation on; LinuxCNC refuses it (\"Cannot probe with cutter radius comp on\")"),
+                "turn compensation off with G40 before probing",
+            ));
+        }
+        if self.feed_mode == FeedMode::PerRevolution {
+            return Err(invalid(
+                line,
+                col,
+                format!("{name} in feed per revolution (G95); LinuxCNC refuses it (\"Cannot probe with feed per rev mode\")"),
+                "probe in G94 (units per minute)",
+            ));
+        }
+        let t = self.target(w);
+        if matches!(code, 382 | 384) && t == self.position {
+            return Err(invalid(
+                line,
+                col,
+                format!("{name} to where the probe already is; LinuxCNC refuses it (\"Start point too close to probe point\")"),
+                "give an end point beyond the surface to be probed",
+            ));
+        }
+        self.arc_not_allowed = false;
+        self.push(
+            out,
+            MotionKind::Feed,
+            MotionSource::Program,
+            t,
+            line,
+            col,
+            feed,
+        )
     }
 
     /// G33 (a straight move at K per spindle revolution) and G33.1 (rigid

@@ -29,10 +29,19 @@ pub struct InterpOptions {
     /// like the program's numbers. `None`: the shortest number that reads
     /// back as the same double (up to 17 digits).
     pub computed_decimals: Option<[u8; 2]>,
-    /// Most lines one run executes, counting every pass of a loop and every
-    /// line of a called subroutine; a program past it is refused as a loop
-    /// that never ends (default [`crate::ngc::flow::MAX_EXECUTED_LINES`]).
+    /// Most lines one run executes again — every pass of a loop after the
+    /// first, every line of a called subroutine; a program past it is
+    /// refused as a loop that never ends (default
+    /// [`crate::ngc::flow::MAX_EXECUTED_LINES`]). Lines of the main program
+    /// run once are not counted, so a long program without loops always runs.
     pub max_executed_lines: u64,
+    /// Read the probing moves G38.2–G38.5 (off by default: after a probe
+    /// move the machine is where the probe touched, which only the machine
+    /// knows). When on, a probing move is read as a feed move to its end
+    /// point — the path it takes when the probe never touches — so that a
+    /// generated probing program (docs/probing.md) can be checked whole; the
+    /// probed position (#5061–#5070) stays unknown to the interpreter.
+    pub accept_probing: bool,
 }
 
 impl Default for InterpOptions {
@@ -44,6 +53,7 @@ impl Default for InterpOptions {
             spline_tolerance_mm: 1e-4,
             computed_decimals: None,
             max_executed_lines: crate::ngc::flow::MAX_EXECUTED_LINES,
+            accept_probing: false,
         }
     }
 }
@@ -72,4 +82,7 @@ pub(super) enum MotionMode {
     Spline(u16),
     /// Spindle-synchronised motion: G33 (330) or G33.1 rigid tapping (331).
     Synced(u16),
+    /// Straight probe (read only with `InterpOptions::accept_probing`):
+    /// G38.2 (382), G38.3 (383), G38.4 (384), G38.5 (385).
+    Probe(u16),
 }

@@ -185,6 +185,7 @@ impl Interpreter {
                 Some(MotionMode::Synced(code)) => f64::from(code),
                 // G5.2 (52) is modal; G5 and G5.1 do not change the mode.
                 Some(MotionMode::Spline(code)) => f64::from(code),
+                Some(MotionMode::Probe(code)) => f64::from(code),
             },
             "_plane" => match self.plane {
                 Plane::Xy => 170.0,

@@ -130,7 +130,10 @@ fn g_group(code: u16) -> Result<u8, &'static str> {
         510 | 511 => return Err("scaling (G51) is not a pure translation between program and axis frame; post the program without scaling"),
         160 => return Err("polar coordinates (G16) are not interpreted; post the program in Cartesian coordinates"),
         760 => return Err("G76 threading is a lathe cycle, not expanded by volcomp (G73, G74 and G81–G89 are); post the cycle as explicit moves"),
-        380..=385 => return Err("probing ends where the probe touches, which is known only when the machine runs; volcomp cannot know the path after it (LinuxCNC's later moves may use the probed position, #5061–#5069)"),
+        // Probing (G38.2–G38.5) is read only when the caller asks for it
+        // (`InterpOptions::accept_probing`, checked in `collect_words`).
+        382..=385 => 1,
+        380 | 381 => return Err(PROBING_REFUSED),
         330 | 331 => 1,
         700..=722 => return Err("lathe roughing and finishing cycles (G70–G72) are for lathes; volcomp compensates the X, Y, Z of milling machines"),
         430..=439 => return Err("this tool length offset (G43.2) is not interpreted; give the summed length to G43 H in the set-up's tool table"),
@@ -155,6 +158,13 @@ fn m_group(code: u16) -> Result<u8, &'static str> {
         _ => return Err("unknown M code (\"Unknown m code used\" in LinuxCNC, or above M199: \"M-code greater than 199\"); a remapped M code runs the machine's own subroutine, which volcomp cannot see"),
     })
 }
+
+/// The probing moves G38.2–G38.5 (G-code × 10), read only with
+/// `InterpOptions::accept_probing`.
+pub(super) const PROBE_CODES: [u16; 4] = [382, 383, 384, 385];
+
+/// Why probing is refused unless the caller asks for it.
+const PROBING_REFUSED: &str = "probing ends where the probe touches, which is known only when the machine runs; volcomp cannot know the path after it (LinuxCNC's later moves may use the probed position, #5061–#5069)";
 
 /// The canned cycles volcomp expands (G-code × 10).
 pub(super) const CYCLE_CODES: [u16; 11] = [730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890];
@@ -228,6 +238,7 @@ fn code_name(letter: char, code: u16) -> String {
 impl Interpreter {
     pub(super) fn collect_words(&mut self, line: u64, lexed: &Lexed) -> Result<(), GcodeError> {
         let axes = self.setup.axes;
+        let probing = self.options.accept_probing;
         let w = self.words.get_or_insert_with(Box::default);
         w.values = [None; 28];
         w.exponent_col = None;
@@ -271,6 +282,17 @@ impl Interpreter {
                             "G codes have at most one decimal, e.g. G59.1",
                         )
                     })?;
+                    if PROBE_CODES.contains(&code) && !probing {
+                        return Err(unsupported(
+                            line,
+                            col,
+                            format!(
+                                "{} is not supported: {PROBING_REFUSED}",
+                                code_name('G', code)
+                            ),
+                            "remove or replace this code; volcomp never guesses what a code means",
+                        ));
+                    }
                     let group = g_group(code).map_err(|why| {
                         unsupported(
                             line,
@@ -421,6 +443,7 @@ impl Interpreter {
         ]
         .into_iter()
         .chain(CYCLE_CODES.map(|c| (c, MotionMode::Cycle(c))))
+        .chain(PROBE_CODES.map(|c| (c, MotionMode::Probe(c))))
         {
             if w.has_g(code) {
                 return Some(mode);

@@ -16,8 +16,10 @@
 //! * `M98 P<n> L<k>` runs the lines after the line `O<n>` until `M99`, `k`
 //!   times; M99 in the main program (LinuxCNC restarts the program for
 //!   ever) is refused.
-//! * Every executed line counts against [`MAX_EXECUTED_LINES`], so a
-//!   program that never ends is refused instead of hanging.
+//! * Every line executed again — a pass of a loop after the first, a line
+//!   of a called subroutine — counts against [`MAX_EXECUTED_LINES`], so a
+//!   program that never ends is refused within seconds instead of hanging;
+//!   a program without control flow runs whatever its length.
 
 use super::expr::{eval, round_to_int, to_integer, Expr, ExprError, Param};
 use super::line::{self, OKind, OWord, Setting, Statement};
@@ -35,10 +37,16 @@ use std::path::PathBuf;
 /// The source index of the main program.
 pub const MAIN: usize = 0;
 
-/// Most lines one run executes by default (counting every pass of a loop):
-/// 100 million, some 20 times the million-move loop of the benchmarks
-/// ([`crate::InterpOptions::max_executed_lines`]).
-pub const MAX_EXECUTED_LINES: u64 = 100_000_000;
+/// Most lines one run executes again by default (every line of a loop's
+/// pass after it first ran, every line of a called subroutine): 10 million,
+/// twice the million-move loop of the benchmarks and about three seconds of
+/// an empty `while [1]` ([`crate::InterpOptions::max_executed_lines`]).
+/// Lines of the main program run for the first time are not counted.
+pub const MAX_EXECUTED_LINES: u64 = 10_000_000;
+
+/// The help of a run stopped by [`MAX_EXECUTED_LINES`]: the words a front
+/// end rewords with its option.
+pub const REPEATED_LINES_HELP: &str = "check the loop's condition; volcomp stops a run after this many lines of loops and calls: raise {max_repeated_lines} if the program really loops this much";
 
 /// Most nested subroutine calls (LinuxCNC's `INTERP_SUB_ROUTINE_LEVELS`
 /// is 10 levels including the main program).
@@ -136,8 +144,11 @@ pub struct Flow {
     injected: std::collections::VecDeque<String>,
     dirs: Vec<PathBuf>,
     keep: bool,
+    /// Lines executed again (loop passes, subroutine bodies).
     executed: u64,
     max_executed: u64,
+    /// The main program's first line not yet executed.
+    first_unrun: usize,
 }
 
 impl Flow {
@@ -157,6 +168,7 @@ impl Flow {
             keep: false,
             executed: 0,
             max_executed,
+            first_unrun: 0,
         }
     }
 
@@ -179,19 +191,25 @@ impl Flow {
             .map(|t| format!("{t} (volcomp: the state M73 saved, restored at the return)\n"))
     }
 
-    /// Counts one executed line (`line`: 1-based, for the error).
-    pub fn count_line(&mut self, line: u64) -> Result<(), GcodeError> {
+    /// Counts the line at `pos` about to run: a line of the main program
+    /// run for the first time is free, any other (a loop's next pass, a
+    /// subroutine's body) counts against the limit.
+    pub fn count_line(&mut self, pos: Pos) -> Result<(), GcodeError> {
+        if pos.src == MAIN && pos.line >= self.first_unrun {
+            self.first_unrun = pos.line + 1;
+            return Ok(());
+        }
         self.executed += 1;
         if self.executed > self.max_executed {
             return Err(GcodeError::new(
                 ErrorClass::Invalid,
-                line,
+                pos.line as u64 + 1,
                 1,
                 format!(
-                    "the program has executed {} lines without ending: a loop that never ends?",
+                    "the program has executed {} lines of loops and subroutine calls without ending: a loop that never ends?",
                     self.max_executed
                 ),
-                "check the loop's condition; volcomp stops a run at this many executed lines",
+                REPEATED_LINES_HELP,
             ));
         }
         Ok(())
@@ -821,13 +839,18 @@ impl<R: BufRead> Walker<R> {
                     col,
                 ));
             }
-            let text = std::fs::read(&path).map_err(|e| {
-                self.at_current(
-                    format!("cannot read {}: {e}", path.display()),
-                    "check the file",
-                    col,
-                )
-            })?;
+            // Recorded as read, so that no output of the command replaces it
+            // (volcomp_geom::inputs); bounded like the size check above, for
+            // a name that is a FIFO or a device.
+            let role = format!("the subroutine file of `o{} call`", show_label(label));
+            let text = volcomp_geom::inputs::read_at_most(&path, &role, MAX_SUB_FILE_BYTES)
+                .map_err(|e| {
+                    self.at_current(
+                        format!("cannot read {}: {e}", path.display()),
+                        "check the file",
+                        col,
+                    )
+                })?;
             self.flow
                 .files
                 .push((path.display().to_string(), Lines::of(text)));

@@ -207,6 +207,46 @@ fn bad_programs_are_refused_where_they_go_wrong() {
     }
 }
 
+/// Only lines executed again count against the limit: a long program
+/// without control flow runs whatever its length; a loop's passes after the
+/// first and a subroutine's lines count (2 lines × 5 passes here: the first
+/// pass is the main program's own lines).
+#[test]
+fn only_repeated_lines_count_against_the_limit() {
+    let run = |text: String, max: u64| -> Result<(), String> {
+        let options = InterpOptions {
+            max_executed_lines: max,
+            ..InterpOptions::default()
+        };
+        let mut w = Walker::new(
+            Cursor::new(text.into_bytes()),
+            Some("p.ngc".into()),
+            Setup::default(),
+            options,
+        );
+        loop {
+            match w.next_line() {
+                Ok(Some(_)) => {}
+                Ok(None) => return Ok(()),
+                Err(e) => return Err(e.to_string()),
+            }
+        }
+    };
+    let long: String = (0..50).map(|k| format!("G1 X{k} F100\n")).collect();
+    run(format!("G21\n{long}M2\n"), 10).unwrap();
+    // The first pass runs the main program's lines for the first time
+    // (free); passes 2 to 5 run `while`, the two body lines and `endwhile`
+    // again (4 × 4 = 16); the last test of the condition is one more: 17.
+    let looped = "G21\n#1 = 0\no1 while [#1 LT 5]\nG1 X#1 F100\n#1 = [#1 + 1]\no1 endwhile\nM2\n";
+    let counted = (1..40u64)
+        .find(|&m| run(looped.to_string(), m).is_ok())
+        .unwrap();
+    assert_eq!(counted, 17, "{counted}");
+    assert!(run(looped.to_string(), counted - 1)
+        .unwrap_err()
+        .contains(&format!("executed {} lines of loops", counted - 1)));
+}
+
 #[test]
 fn a_loop_that_never_ends_is_stopped() {
     let options = InterpOptions {
@@ -226,7 +266,10 @@ fn a_loop_that_never_ends_is_stopped() {
             Err(e) => break e.to_string(),
         }
     };
-    assert!(e.contains("executed 10000 lines without ending"), "{e}");
+    assert!(
+        e.contains("executed 10000 lines of loops and subroutine calls without ending"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -146,7 +146,7 @@ impl From<UnitsArg> for MachineUnits {
 pub struct CompArgs {
     /// COMP_FILE_TYPE: 0 (nominal, actual forward, actual reverse) or
     /// 1 (nominal, trim forward, trim reverse; trim = nominal − actual).
-    #[arg(long = "type", value_name = "0|1")]
+    #[arg(long = "type", value_name = "0|1", allow_negative_numbers = true)]
     pub comp_type: Option<u8>,
     /// The machine's [TRAJ] LINEAR_UNITS, the unit of every number in the file.
     #[arg(long, value_enum)]
@@ -187,7 +187,7 @@ pub struct ConvertArgs {
     pub tool: ToolArgs,
     /// Grid spacing (mm, default 25); for --to linuxcnc, resample the
     /// positioning tables at this spacing (LinuxCNC holds 256 points per joint).
-    #[arg(long, value_name = "MM")]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     pub step: Option<f64>,
     /// Direction state of the grid (forward, reverse or one letter per axis).
     #[arg(long, default_value = "forward", allow_hyphen_values = true)]
@@ -299,7 +299,7 @@ pub struct ExportArgs {
     pub output: PathBuf,
     /// Spacing of the table's points (mm): required by equidistant tables
     /// (siemens-eec); resamples the others (linear interpolation).
-    #[arg(long, value_name = "MM")]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     pub step: Option<f64>,
     /// Where the positioning error of a 21-component model is taken (axis
     /// position, mm; default: its measuring lines).
@@ -313,22 +313,37 @@ pub struct ExportArgs {
     #[arg(long, value_name = "X,Y,Z", default_value = "X1,Y1,Z1")]
     pub axis_names: String,
     /// siemens-eec: the NC's resolution of a compensation value (µm), 1/MD10200 mm.
-    #[arg(long, value_name = "UM", default_value_t = 1.0)]
+    #[arg(
+        long,
+        value_name = "UM",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
     pub resolution_um: f64,
     /// The controller's largest number of points per table: siemens-eec
     /// MD38000 $MA_MM_ENC_COMP_MAX_POINTS (default 5000), isg-ssfk
     /// P-COMP-00059 (default 1500).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub max_points: Option<usize>,
     /// fanuc: the detection unit (µm; 1 for IS-B).
-    #[arg(long, value_name = "UM", default_value_t = 1.0)]
+    #[arg(
+        long,
+        value_name = "UM",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
     pub detection_unit_um: f64,
     /// fanuc: the sign of the values (not in the public documentation):
     /// correction = −e (default) or error = +e.
     #[arg(long, value_enum, default_value_t = FanucSignArg::Correction)]
     pub fanuc_sign: FanucSignArg,
     /// fanuc: the tape's data number of compensation point 0.
-    #[arg(long, value_name = "N", default_value_t = 10000)]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 10000,
+        allow_negative_numbers = true
+    )]
     pub fanuc_data_offset: u32,
     /// fanuc: one table per direction (3605#0, 3626, 3627): auto = where
     /// forward and reverse differ by more than the detection unit.

@@ -55,11 +55,24 @@ fn straightness_tables(map: &Map) -> Vec<(usize, usize, Positioning)> {
 }
 
 /// The tables resampled every `step` mm when a step is given.
-fn stepped(tables: [Positioning; 3], step: Option<f64>) -> [Positioning; 3] {
-    match step {
-        Some(s) => tables.map(|p| p.resample(s)),
-        None => tables,
+fn stepped(tables: [Positioning; 3], step: Option<f64>) -> Result<[Positioning; 3], CliError> {
+    let Some(s) = step else {
+        return Ok(tables);
+    };
+    // Checked before any table is built: a step of a nanometre over a
+    // metre would be a billion points.
+    let max = volcomp_core::limits::MAX_RESAMPLED_POINTS;
+    for t in &tables {
+        let n = t.resampled_points(s).unwrap_or(u64::MAX);
+        if n > max {
+            return Err(CliError::Message(format!(
+                "--step {s} mm gives {n} table points over {:.3} … {:.3} mm, more than the {max} a table may have: choose a larger step",
+                t.positions_mm.first().copied().unwrap_or(0.0),
+                t.positions_mm.last().copied().unwrap_or(0.0),
+            )));
+        }
     }
+    Ok(tables.map(|p| p.resample(s)))
 }
 
 pub fn export(a: ExportArgs) -> Result<(), CliError> {
@@ -110,7 +123,7 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
             let t = stepped(
                 positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
                 step,
-            );
+            )?;
             controllers::linuxcnc::export(&t.map(Some), ty, units)?
         }
         ExportFormat::Fanuc => {
@@ -149,7 +162,7 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
             let t = stepped(
                 positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
                 step,
-            );
+            )?;
             controllers::isg::ssfk_export(
                 &t.map(Some),
                 a.max_points.unwrap_or(controllers::isg::SSFK_MAX_POINTS),
@@ -169,7 +182,7 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
             let t = stepped(
                 positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
                 step,
-            );
+            )?;
             controllers::heidenhain::export(&t.map(Some))?
         }
         ExportFormat::SiemensCec => {

@@ -441,7 +441,8 @@ fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
 fn build_model(a: BuildArgs) -> Result<(), CliError> {
     use volcomp_core::identify::build;
     let read = |p: &Path| -> Result<String, CliError> {
-        let bytes = std::fs::read(p).map_err(|e| CliError::Io(p.to_path_buf(), e))?;
+        let bytes = volcomp_core::io::inputs::read(p, "an input")
+            .map_err(|e| CliError::Io(p.to_path_buf(), e))?;
         Ok(volcomp_core::io::table::utf8(&bytes, &p.display().to_string())?.to_string())
     };
     let plan_text = read(&a.plan)?;
@@ -485,7 +486,8 @@ fn import_params(a: ImportParamsArgs) -> Result<(), CliError> {
     plan.input("FILE", &a.file);
     model_outputs(&mut plan, "-o", &a.output);
     check(&plan)?;
-    let bytes = std::fs::read(&a.file).map_err(|e| CliError::Io(a.file.clone(), e))?;
+    let bytes = volcomp_core::io::inputs::read(&a.file, "FILE")
+        .map_err(|e| CliError::Io(a.file.clone(), e))?;
     let name = a.file.display().to_string();
     let text = volcomp_core::io::table::utf8(&bytes, &name)?;
     let params = match a.from {
@@ -529,7 +531,8 @@ fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
         .output_opt("-o", a.output.as_ref())
         .output_opt("--report-html", a.report_html.as_ref());
     check(&plan)?;
-    let text = std::fs::read_to_string(&a.runs).map_err(|e| CliError::Io(a.runs.clone(), e))?;
+    let text = volcomp_core::io::inputs::read_to_string(&a.runs, "RUNS")
+        .map_err(|e| CliError::Io(a.runs.clone(), e))?;
     let r = iso230_2::from_csv(&text, &a.runs.display().to_string())?;
     if let Some(path) = &a.report_html {
         let axis = a.axis.map_or("not given (--axis)".to_string(), |x| {

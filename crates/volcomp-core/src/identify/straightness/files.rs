@@ -10,7 +10,8 @@ use crate::io::numfmt;
 use std::path::Path;
 
 fn read(path: &Path) -> Result<String, Error> {
-    std::fs::read_to_string(path).map_err(|source| Error::io(path, source))
+    crate::io::inputs::read_to_string(path, "a straightness file")
+        .map_err(|source| Error::io(path, source))
 }
 
 /// Reads a straightness model file ([`StraightnessModel::from_toml`]).

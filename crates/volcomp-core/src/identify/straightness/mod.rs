@@ -118,6 +118,11 @@ pub enum StraightnessError {
     },
 }
 
+/// Most harmonics a model file may give per axis: 10 000. Evaluating the
+/// series costs one term per harmonic at every point of a program; a fit
+/// resolves at most half the samples of its profiles, far fewer than this.
+pub const MAX_HARMONICS: usize = 10_000;
+
 /// `e(x) = Σ_{k=1..m} a_k·cos(2πk(x − x_st)/l) + b_k·sin(2πk(x − x_st)/l)` (µm).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FourierSeries {
@@ -333,25 +338,35 @@ impl StraightnessModel {
 
     /// Reads a model file; `file` names it in errors.
     pub fn from_toml(text: &str, file: &str) -> Result<StraightnessModel, StraightnessError> {
-        let err = |message: String, help: &str| StraightnessError::ModelFile {
-            file: file.to_string(),
-            message,
-            help: help.to_string(),
+        use crate::io::located::{at_offset, key_error, Scope};
+        // Every error is located at the value that is wrong.
+        let err = |scope: Scope<'_>, key: &str, message: String, help: &str| {
+            StraightnessError::File(key_error(file, text, scope, key, message, help))
         };
         let raw: FileModel = toml::from_str(text).map_err(|e| {
-            err(
-                e.to_string().trim_end().to_string(),
+            StraightnessError::File(at_offset(
+                file,
+                text,
+                e.span().map(|s| s.start),
+                e.message().trim_end().to_string(),
                 "a straightness model is written by `volcomp straightness fit`; see docs/straightness.md for its keys",
-            )
+            ))
         })?;
         if raw.kind != KIND {
             return Err(err(
-                format!("kind is `{}`, not `{KIND}`", raw.kind),
+                Scope::Top,
+                "kind",
+                format!(
+                    "kind is `{}`, not `{KIND}`",
+                    crate::io::table::shown(&raw.kind)
+                ),
                 "this file is not a straightness model",
             ));
         }
         if raw.format_version != FORMAT_VERSION {
             return Err(err(
+                Scope::Top,
+                "format_version",
                 format!(
                     "format_version {} is not supported (this volcomp reads {FORMAT_VERSION})",
                     raw.format_version
@@ -366,59 +381,95 @@ impl StraightnessModel {
         ] {
             if !v.is_finite() {
                 return Err(err(
-                    format!("{name} is not finite"),
+                    Scope::Top,
+                    name,
+                    format!("{name} = {v} is not a finite number"),
                     "write a finite number",
                 ));
             }
         }
-        let axis = |name: &str,
-                    a: Option<FileAxis>|
-         -> Result<Option<AxisModel>, StraightnessError> {
-            let Some(a) = a else { return Ok(None) };
-            let bad = |what: String| {
-                err(
-                    format!("[{name}] {what}"),
-                    "fit the model again, or correct the value",
-                )
+        let axis =
+            |name: &str, a: Option<FileAxis>| -> Result<Option<AxisModel>, StraightnessError> {
+                let Some(a) = a else { return Ok(None) };
+                let bad = |key: &str, what: String| {
+                    err(
+                        Scope::Table(name),
+                        key,
+                        format!("[{name}] {what}"),
+                        "fit the model again, or correct the value",
+                    )
+                };
+                if !a.start_mm.is_finite() {
+                    return Err(bad("start_mm", "start_mm must be a finite number".into()));
+                }
+                if !(a.length_mm.is_finite() && a.length_mm > 0.0) {
+                    return Err(bad(
+                        "length_mm",
+                        "length_mm must be a positive finite length".into(),
+                    ));
+                }
+                if a.harmonics > MAX_HARMONICS {
+                    return Err(bad(
+                        "harmonics",
+                        format!("harmonics = {} is more than {MAX_HARMONICS}", a.harmonics),
+                    ));
+                }
+                if a.cos_um.len() != a.harmonics || a.sin_um.len() != a.harmonics {
+                    let key = if a.cos_um.len() != a.harmonics {
+                        "cos_um"
+                    } else {
+                        "sin_um"
+                    };
+                    return Err(bad(
+                        key,
+                        format!(
+                            "harmonics = {} but cos_um has {} and sin_um {} values",
+                            a.harmonics,
+                            a.cos_um.len(),
+                            a.sin_um.len()
+                        ),
+                    ));
+                }
+                for key in ["cos_um", "sin_um"] {
+                    let values = if key == "cos_um" {
+                        &a.cos_um
+                    } else {
+                        &a.sin_um
+                    };
+                    if values.iter().any(|v| !v.is_finite()) {
+                        return Err(bad(key, format!("{key} holds a value that is not finite")));
+                    }
+                }
+                let ordered = |r: [f64; 2]| r[0].is_finite() && r[1].is_finite() && r[0] <= r[1];
+                for (key, r) in [
+                    ("range_mm", a.range_mm),
+                    ("recommended_range_mm", a.recommended_range_mm),
+                ] {
+                    if !ordered(r) {
+                        return Err(bad(
+                            key,
+                            format!("{key} must be [low, high] with low ≤ high"),
+                        ));
+                    }
+                }
+                Ok(Some(AxisModel {
+                    series: FourierSeries {
+                        start_mm: a.start_mm,
+                        length_mm: a.length_mm,
+                        cos_um: a.cos_um,
+                        sin_um: a.sin_um,
+                    },
+                    range_mm: a.range_mm,
+                    recommended_range_mm: a.recommended_range_mm,
+                    identification: a.identification,
+                }))
             };
-            if !(a.length_mm.is_finite() && a.length_mm > 0.0 && a.start_mm.is_finite()) {
-                return Err(bad(
-                    "start_mm and length_mm must be finite, length_mm positive".into(),
-                ));
-            }
-            if a.cos_um.len() != a.harmonics || a.sin_um.len() != a.harmonics {
-                return Err(bad(format!(
-                    "harmonics = {} but cos_um has {} and sin_um {} values",
-                    a.harmonics,
-                    a.cos_um.len(),
-                    a.sin_um.len()
-                )));
-            }
-            if a.cos_um.iter().chain(&a.sin_um).any(|v| !v.is_finite()) {
-                return Err(bad("a coefficient is not finite".into()));
-            }
-            let ordered = |r: [f64; 2]| r[0].is_finite() && r[1].is_finite() && r[0] <= r[1];
-            if !ordered(a.range_mm) || !ordered(a.recommended_range_mm) {
-                return Err(bad(
-                    "range_mm and recommended_range_mm must be [low, high] with low ≤ high".into(),
-                ));
-            }
-            Ok(Some(AxisModel {
-                series: FourierSeries {
-                    start_mm: a.start_mm,
-                    length_mm: a.length_mm,
-                    cos_um: a.cos_um,
-                    sin_um: a.sin_um,
-                },
-                range_mm: a.range_mm,
-                recommended_range_mm: a.recommended_range_mm,
-                identification: a.identification,
-            }))
-        };
         let x = axis("x", raw.x)?;
         let y = axis("y", raw.y)?;
         if x.is_none() && y.is_none() {
             return Err(err(
+                Scope::Top,
+                "kind",
                 "the model has neither an [x] nor a [y] table".into(),
                 "fit the model from runs along X and/or Y",
             ));
@@ -652,17 +703,30 @@ mod tests {
     #[test]
     fn bad_model_files_are_named() {
         let text = model().to_toml();
+        // Each error is located at the line of the value that is wrong
+        // (the line that starts with `at`).
         let cases = [
-            (text.replace("kind = \"straightness\"", "kind = \"21-component\""), "kind"),
-            (text.replace("format_version = 1", "format_version = 7"), "format_version"),
-            (text.replace("harmonics = 3", "harmonics = 4"), "harmonics = 4"),
-            (text.replace("offset_um", "offset_mm"), "offset_mm"),
-            ("kind = \"straightness\"\nformat_version = 1\noffset_um = 0.0\nbeta_zx_urad = 0.0\nalpha_yz_urad = 0.0\n".to_string(), "neither"),
+            (text.replace("kind = \"straightness\"", "kind = \"21-component\""), "kind", "kind ="),
+            (text.replace("format_version = 1", "format_version = 7"), "format_version", "format_version ="),
+            (text.replace("harmonics = 3", "harmonics = 4"), "harmonics = 4", "cos_um ="),
+            (text.replace("offset_um", "offset_mm"), "offset_mm", "offset_mm ="),
+            (text.replace("offset_um = ", "offset_um = nan #"), "offset_um = NaN", "offset_um ="),
+            (text.replacen("length_mm = ", "length_mm = -", 1), "length_mm", "length_mm ="),
+            ("kind = \"straightness\"\nformat_version = 1\noffset_um = 0.0\nbeta_zx_urad = 0.0\nalpha_yz_urad = 0.0\n".to_string(), "neither", "kind ="),
         ];
-        for (t, needle) in cases {
+        for (t, needle, at) in cases {
             let e = StraightnessModel::from_toml(&t, "m.toml").unwrap_err();
             let s = e.to_string();
-            assert!(s.starts_with("m.toml: "), "{s}");
+            let StraightnessError::File(f) = &e else {
+                panic!("not located: {s}")
+            };
+            let row = t
+                .lines()
+                .position(|l| l.trim_start().starts_with(at))
+                .unwrap()
+                + 1;
+            assert_eq!(f.row, row, "{s}");
+            assert!(s.starts_with(&format!("m.toml:{row}:")), "{s}");
             assert!(s.contains(needle), "{needle}: {s}");
         }
         assert!(!StraightnessModel::is_model_toml("axis,direction\n"));

@@ -31,12 +31,12 @@ fn err(file: &str, row: usize, column: usize, message: String, help: &str) -> Ma
 /// Reads a thermal CSV whose header must name `required` (any order);
 /// returns the table and the required columns' indices. With `others`
 /// false, any other column is refused.
-fn parse_csv(
-    text: &str,
+fn parse_csv<'a>(
+    text: &'a str,
     file: &str,
     required: &[&str],
     others: bool,
-) -> Result<(CsvTable, Vec<usize>), MapFileError> {
+) -> Result<(CsvTable<'a>, Vec<usize>), MapFileError> {
     let layout = required.join(",");
     let t = CsvTable::parse(
         text,
@@ -249,7 +249,14 @@ impl Temperatures {
     }
 }
 
-/// Reads a temperature file (rows in time order).
+/// The temperatures a sensor of a machine tool can read, °C: from a cold
+/// hall in winter to a spindle motor's winding at its limit (insulation
+/// class H: 180 °C), with room. A value outside is a sensor fault, a wrong
+/// unit or a wrong column, and is refused at its row and column.
+pub const TEMPERATURE_RANGE_C: [f64; 2] = [-50.0, 200.0];
+
+/// Reads a temperature file (rows in time order; every value within
+/// [`TEMPERATURE_RANGE_C`]).
 pub fn parse_temperatures(text: &str, file: &str) -> Result<Temperatures, MapFileError> {
     let (csv, c) = parse_csv(text, file, &["cycle", "time_h"], true)?;
     let sensor_cols: Vec<usize> = (0..csv.header.len()).filter(|k| !c.contains(k)).collect();
@@ -284,7 +291,19 @@ pub fn parse_temperatures(text: &str, file: &str) -> Result<Temperatures, MapFil
         }
         let mut v = Vec::new();
         for &k in &sensor_cols {
-            v.push(csv.number(r, k)?);
+            let value = csv.number(r, k)?;
+            if !(TEMPERATURE_RANGE_C[0]..=TEMPERATURE_RANGE_C[1]).contains(&value) {
+                return Err(csv.error(
+                    r,
+                    k,
+                    format!(
+                        "{value} °C is not a temperature of a machine tool ({} … {} °C)",
+                        TEMPERATURE_RANGE_C[0], TEMPERATURE_RANGE_C[1]
+                    ),
+                    "check the sensor (a fault reads far off), the unit (kelvin are 273 more than °C) and the column",
+                ));
+            }
+            v.push(value);
         }
         t.cycles.push(cycle);
         t.time_h.push(time);
@@ -392,6 +411,96 @@ pub struct FitOptions {
     pub table_samples: usize,
 }
 
+/// Most Legendre order of a thermal model's components (the work and the
+/// observations it needs grow with it; measured drifts are smooth: the
+/// published study uses order 2).
+pub const MAX_ORDER: usize = 10;
+
+/// Most lagged cycles of a regression.
+pub const MAX_LAGS: usize = 100;
+
+/// Points per component table of a predicted model: 2 to 10 000.
+pub const TABLE_SAMPLES: [usize; 2] = [2, 10_000];
+
+impl FitOptions {
+    /// Checks the options before any file is read or any work done: the
+    /// order (≤ [`MAX_ORDER`]), the lags (≤ [`MAX_LAGS`]), the points per
+    /// table ([`TABLE_SAMPLES`]), the threshold (0 … 1), the ranges
+    /// (finite, increasing) and the probe length (finite). The message
+    /// starts with the option's name.
+    pub fn check(&self) -> Result<(), ThermalError> {
+        self.problem()
+            .map_err(|(name, problem)| ThermalError::Invalid(format!("{name} {problem}")))
+    }
+
+    /// The first option that cannot be used: its name and what is wrong
+    /// (words that follow the name: `must be …`).
+    pub fn problem(&self) -> Result<(), (&'static str, String)> {
+        self.size_problem()?;
+        if !(self.relative_threshold > 0.0 && self.relative_threshold < 1.0) {
+            return Err((
+                "threshold",
+                format!(
+                    "must be a relative threshold between 0 and 1 (default {}); got {}",
+                    super::identify::DEFAULT_RELATIVE_THRESHOLD,
+                    self.relative_threshold
+                ),
+            ));
+        }
+        if self.ranges_mm.iter().flatten().any(|v| !v.is_finite())
+            || self.ranges_mm.iter().any(|[lo, hi]| lo >= hi)
+        {
+            return Err((
+                "ranges_mm",
+                format!(
+                    "must be three increasing ranges of finite numbers (x0 < x1); got {:?}",
+                    self.ranges_mm
+                ),
+            ));
+        }
+        if !self.probe_length_mm.is_finite() {
+            return Err((
+                "probe_length_mm",
+                "must be a finite length in mm".to_string(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The bounds on the sizes of the work (order, lags, table points).
+    fn size_problem(&self) -> Result<(), (&'static str, String)> {
+        if self.order > MAX_ORDER {
+            return Err((
+                "order",
+                format!(
+                    "must be at most {MAX_ORDER}, the highest Legendre order volcomp fits; got {}: measured thermal drifts are smooth, order 2 (the default) to 4 describes them",
+                    self.order
+                ),
+            ));
+        }
+        if self.lags > MAX_LAGS {
+            return Err((
+                "lags",
+                format!(
+                    "must be at most {MAX_LAGS}; got {}: a regression with more lagged cycles has more unknowns than a measurement campaign has cycles",
+                    self.lags
+                ),
+            ));
+        }
+        let [lo, hi] = TABLE_SAMPLES;
+        if !(lo..=hi).contains(&self.table_samples) {
+            return Err((
+                "table_samples",
+                format!(
+                    "must be {lo} to {hi} (points per component table of a predicted model; the default is 61); got {}",
+                    self.table_samples
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// The polynomial model of a chain, ranges, order and probe length.
 pub fn poly_model(
     chain: &str,
@@ -436,6 +545,7 @@ pub fn fit(
     temps_file: &str,
     o: &FitOptions,
 ) -> Result<(ThermalModelFile, Vec<Identification>), ThermalError> {
+    o.check()?;
     let model = poly_model(&o.chain, o.ranges_mm, o.order, o.probe_length_mm)?;
     let probe = Vec3::new(0.0, 0.0, o.probe_length_mm);
     let mut idents = Vec::new();
@@ -553,7 +663,111 @@ impl ThermalModelFile {
                 &format!("a thermal model file has model = \"{THERMAL_KIND}\""),
             )));
         }
+        m.check_values(text, file)?;
         Ok(m)
+    }
+
+    /// Refuses a value the model cannot be used with, at its row and
+    /// column: a number that is not finite where every prediction uses it
+    /// (the ranges, the probe length, a parameter's intercept or slopes,
+    /// the training temperatures and times: `nan` would be written into
+    /// every table), and a size beyond the bounds of [`FitOptions::check`].
+    /// The uncertainties may be `nan` (a parameter unidentified in a cycle).
+    fn check_values(&self, text: &str, file: &str) -> Result<(), ThermalError> {
+        use crate::io::located::{key_error, Scope};
+        let bad = |scope: Scope<'_>, key: &str, what: String, help: &str| {
+            ThermalError::File(key_error(file, text, scope, key, what, help))
+        };
+        let finite = "write a finite number (the file as `volcomp thermal fit` wrote it has one)";
+        if self.ranges_mm.iter().flatten().any(|v| !v.is_finite())
+            || self.ranges_mm.iter().any(|[lo, hi]| lo >= hi)
+        {
+            return Err(bad(
+                Scope::Top,
+                "ranges_mm",
+                format!(
+                    "ranges_mm {:?} are not three increasing ranges of finite numbers",
+                    self.ranges_mm
+                ),
+                "give [[x0, x1], [y0, y1], [z0, z1]] in mm, each with x0 < x1",
+            ));
+        }
+        if !self.probe_length_mm.is_finite() {
+            return Err(bad(
+                Scope::Top,
+                "probe_length_mm",
+                format!(
+                    "probe_length_mm = {} is not a finite number",
+                    self.probe_length_mm
+                ),
+                finite,
+            ));
+        }
+        if self.time_h.iter().any(|v| !v.is_finite()) {
+            return Err(bad(
+                Scope::Top,
+                "time_h",
+                "time_h holds a value that is not a finite number".into(),
+                finite,
+            ));
+        }
+        if self.temperatures_c.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(bad(
+                Scope::Top,
+                "temperatures_c",
+                "temperatures_c holds a value that is not a finite number".into(),
+                finite,
+            ));
+        }
+        for (k, p) in self.params.iter().enumerate() {
+            if !p.intercept.is_finite() {
+                return Err(bad(
+                    Scope::Entry("params", k),
+                    "intercept",
+                    format!(
+                        "parameter {}: intercept = {} is not a finite number",
+                        p.name, p.intercept
+                    ),
+                    finite,
+                ));
+            }
+            if p.per_kelvin.iter().any(|v| !v.is_finite()) {
+                return Err(bad(
+                    Scope::Entry("params", k),
+                    "per_kelvin",
+                    format!(
+                        "parameter {}: per_kelvin holds a value that is not a finite number",
+                        p.name
+                    ),
+                    finite,
+                ));
+            }
+        }
+        let sizes = FitOptions {
+            chain: self.chain.clone(),
+            ranges_mm: self.ranges_mm,
+            order: self.order,
+            probe_length_mm: self.probe_length_mm,
+            lags: self.lags,
+            relative_threshold: 0.5,
+            table_samples: self.table_samples,
+        };
+        if let Err((key, problem)) = sizes.size_problem() {
+            return Err(bad(
+                Scope::Top,
+                key,
+                format!(
+                    "{key} = {} {problem}",
+                    match key {
+                        "order" => self.order,
+                        "lags" => self.lags,
+                        _ => self.table_samples,
+                    }
+                ),
+                "write the file again with `volcomp thermal fit`",
+            ));
+        }
+        Ok(())
     }
 
     /// Writes the TOML text.

@@ -141,6 +141,47 @@ pub fn identify(
         a.rows_mut(start, len).copy_from(&block);
         start += len;
     }
+    let solved = solve_whitened(model, &a, relative_threshold, 0)?;
+    let residuals_um = rows
+        .iter()
+        .zip(&y)
+        .map(|(r, yi)| {
+            yi - r
+                .iter()
+                .zip(&solved.theta_all)
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+        })
+        .collect();
+    Ok(Identification {
+        residuals_um,
+        ..solved.ident
+    })
+}
+
+/// A whitened least-squares solve and its full minimum-norm vector.
+pub(crate) struct Solved {
+    /// The identification (its `residuals_um` empty: the caller has the
+    /// unwhitened rows).
+    pub ident: Identification,
+    /// The minimum-norm solution, unidentifiable parameters included
+    /// (for the caller's residuals).
+    pub theta_all: Vec<f64>,
+}
+
+/// The solve of [`identify`] on a whitened system `a = [J | y]` (`m × (n +
+/// 1)`, `n` the model's parameters): column scaling, SVD, rank, minimum-norm
+/// solution on the identifiable subspace, σ0 from the whitened residuals
+/// with `eliminated` further degrees of freedom used up by parameters the
+/// caller has already projected out of `a` (nuisance parameters), null
+/// space and covariance factor.
+pub(crate) fn solve_whitened(
+    model: &PolyModel,
+    a: &DMatrix<f64>,
+    relative_threshold: f64,
+    eliminated: usize,
+) -> Result<Solved, ThermalError> {
+    let (m, n) = (a.nrows(), model.len());
     // Column scaling by physics, not by column norm (a norm would blow up
     // columns that are zero up to rounding): µm parameters as they are,
     // µrad parameters times the largest axis span (µm per µrad at that arm).
@@ -184,14 +225,9 @@ pub fn identify(
         let fit: f64 = (0..n).map(|j| js[(i, j)] * sol[j]).sum();
         rss += (a[(i, n)] - fit).powi(2);
     }
-    let dof = m.saturating_sub(rank);
+    let dof = m.saturating_sub(rank + eliminated);
     let sigma0_um = (dof > 0).then(|| (rss / dof as f64).sqrt());
     let theta_scaled: Vec<f64> = (0..n).map(|j| sol[j] / scale[j]).collect();
-    let residuals_um = rows
-        .iter()
-        .zip(&y)
-        .map(|(r, yi)| yi - r.iter().zip(&theta_scaled).map(|(a, b)| a * b).sum::<f64>())
-        .collect();
     // Null space and identifiability.
     let null_share: Vec<f64> = (0..n)
         .map(|j| (rank..n).map(|k| v[(j, k)] * v[(j, k)]).sum())
@@ -221,15 +257,18 @@ pub fn identify(
             sigma[j] = sigma0_um.map(|_| var.sqrt());
         }
     }
-    Ok(Identification {
-        theta,
-        sigma,
-        rank,
-        singular_values,
-        null_space,
-        sigma0_um,
-        residuals_um,
-        observations: m,
-        cov_factor,
+    Ok(Solved {
+        theta_all: theta_scaled,
+        ident: Identification {
+            theta,
+            sigma,
+            rank,
+            singular_values,
+            null_space,
+            sigma0_um,
+            residuals_um: Vec::new(),
+            observations: m,
+            cov_factor,
+        },
     })
 }

@@ -14,7 +14,8 @@ use std::path::Path;
 /// Errors: [`Error::Io`] when the file cannot be read, [`Error::Thermal`]
 /// (located) when its content is not a thermal model.
 pub fn load_model(path: &Path) -> Result<ThermalModelFile, Error> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::io(path, source))?;
+    let text = crate::io::inputs::read_to_string(path, "the thermal model")
+        .map_err(|source| Error::io(path, source))?;
     Ok(ThermalModelFile::from_toml(
         &text,
         &path.display().to_string(),

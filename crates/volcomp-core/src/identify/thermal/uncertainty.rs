@@ -45,6 +45,23 @@ pub fn analytic_std_um(
     var.map(f64::sqrt)
 }
 
+/// Monte Carlo draws of a band: 10 (fewer give no 95 % interval) to
+/// 10 000 (25 times the default 400; the work and memory grow with it).
+pub const BAND_SAMPLES: [usize; 2] = [10, 10_000];
+
+/// Checks a number of Monte Carlo draws against [`BAND_SAMPLES`] before any
+/// work: what is wrong, in words that follow the option's name.
+pub fn band_samples_problem(samples: u64) -> Result<(), String> {
+    let [lo, hi] = BAND_SAMPLES;
+    if (lo as u64..=hi as u64).contains(&samples) {
+        Ok(())
+    } else {
+        Err(format!(
+            "must be {lo} to {hi} Monte Carlo draws; got {samples}: {lo} give a rough 95 % band, the default 400 a smooth one, more than {hi} add nothing but time and memory"
+        ))
+    }
+}
+
 /// Monte Carlo bands along `trajectory_mm` with `samples` draws (seeded).
 pub fn monte_carlo(
     model: &PolyModel,

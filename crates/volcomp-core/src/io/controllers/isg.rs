@@ -347,7 +347,7 @@ pub fn read_volcomp_lis(
     };
     let dir = path.parent().unwrap_or(std::path::Path::new("."));
     let p = dir.join(&csv);
-    let body = super::read_text(&p).map_err(|e| match e {
+    let body = super::read_named(&p, path).map_err(|e| match e {
         super::ControllerReadError::Io { .. } => located(
             &file,
             &text,

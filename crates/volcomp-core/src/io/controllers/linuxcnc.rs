@@ -179,7 +179,21 @@ pub fn parse_ini(
                 .into())
             }
         };
-        let (path, body) = read_file(name)?;
+        // inputs lane: a comp file that cannot be read is reported at the
+        // INI line that names it.
+        let (path, body) = read_file(name).map_err(|e| match e {
+            super::ControllerReadError::Io { path, source } => {
+                super::ControllerReadError::from(err(
+                    *row,
+                    format!(
+                        "cannot read the comp file {}: {source}",
+                        crate::io::shown_path(&path)
+                    ),
+                    "COMP_FILE is read relative to the INI file's folder",
+                ))
+            }
+            other => other,
+        })?;
         axes[j] = Some(linuxcnc_comp::parse(&body, &path, ty, units)?);
     }
     if axes.iter().all(Option::is_none) {

@@ -303,7 +303,25 @@ pub enum ControllerReadError {
 }
 
 pub(crate) fn read_text(path: &std::path::Path) -> Result<String, ControllerReadError> {
-    let bytes = std::fs::read(path).map_err(|source| ControllerReadError::Io {
+    read_text_as(path, "the controller file")
+}
+
+/// [`read_text`] of a file named inside `parent` (a `.COM` table of a
+/// `.CMA`, a comp file of an INI), recorded as such (inputs lane: every
+/// file read is recorded by `volcomp_geom::inputs` for the output plan).
+pub(crate) fn read_named(
+    path: &std::path::Path,
+    parent: &std::path::Path,
+) -> Result<String, ControllerReadError> {
+    let role = format!(
+        "a file named in {}",
+        crate::io::shown_name(&crate::compensate::file_name(parent))
+    );
+    read_text_as(path, &role)
+}
+
+fn read_text_as(path: &std::path::Path, role: &str) -> Result<String, ControllerReadError> {
+    let bytes = crate::io::inputs::read(path, role).map_err(|source| ControllerReadError::Io {
         path: path.to_path_buf(),
         source,
     })?;
@@ -348,7 +366,27 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
         for (a, com) in assigned.iter().enumerate() {
             if let Some(com) = com {
                 let p = dir.join(com);
-                let t = read_text(&p)?;
+                // inputs lane: a table that cannot be read is reported at
+                // the .CMA line that names it.
+                let t = read_named(&p, path).map_err(|e| match e {
+                    ControllerReadError::Io { path: p, source } => {
+                        let row = text
+                            .lines()
+                            .position(|l| l.split_whitespace().any(|w| w == com))
+                            .map_or(1, |i| i + 1);
+                        ControllerReadError::from(located(
+                            &file,
+                            &text,
+                            row,
+                            format!(
+                                "cannot read the table {}: {source}",
+                                crate::io::shown_path(&p)
+                            ),
+                            "the tables of a .CMA are read from its folder",
+                        ))
+                    }
+                    other => other,
+                })?;
                 axes[a] = Some(heidenhain::parse_com(&t, &p.display().to_string(), a)?);
             }
         }
@@ -363,7 +401,7 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
         let dir = path.parent().unwrap_or(std::path::Path::new("."));
         return linuxcnc::parse_ini(&text, &file, |n| {
             let p = dir.join(n);
-            Ok((p.display().to_string(), read_text(&p)?))
+            Ok((p.display().to_string(), read_named(&p, path)?))
         });
     }
     if text.contains("kw.ssfk.") {

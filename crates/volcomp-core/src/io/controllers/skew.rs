@@ -315,12 +315,47 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
             "expected a Klipper section with xy_skew, xz_skew, yz_skew, a Marlin M852 or a RepRapFirmware M556 line",
         ));
     };
+    // inputs lane: Klipper reads a stored profile with `getfloat` and no
+    // default for each of the three factors (klippy/extras/skew_correction.py,
+    // `_load_storage`), so it refuses a profile that lacks one; so does
+    // volcomp, rather than take the missing factor as 0. (Marlin's M852
+    // leaves a factor it is not given as it was; that case stays 0.)
+    if format == Format::Klipper {
+        if let Some(k) = f.iter().position(Option::is_none) {
+            let name = ["xy_skew", "xz_skew", "yz_skew"][k];
+            let row = text
+                .lines()
+                .position(|l| l.trim_start().starts_with("[skew_correction"))
+                .map_or(1, |i| i + 1);
+            return Err(located(
+                file,
+                text,
+                row,
+                format!("the profile gives no {name}"),
+                "Klipper refuses a stored profile without all three factors (xy_skew, xz_skew, yz_skew); write 0 for a square pair of axes",
+            ));
+        }
+    }
     Ok(applied(format, f.map(|v| v.unwrap_or(0.0))))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// inputs lane: a Klipper profile without one of its three factors is
+    /// refused at its section, as Klipper refuses it.
+    #[test]
+    fn a_klipper_profile_without_a_factor_is_refused() {
+        let text = "# saved\n[skew_correction mine]\nxy_skew = 0.000012\nxz_skew = 0.000006\n";
+        let e = parse(text, "skew.cfg").unwrap_err().to_string();
+        assert!(
+            e.starts_with("skew.cfg:2:1: the profile gives no yz_skew"),
+            "{e}"
+        );
+        let full = format!("{text}yz_skew = 0\n");
+        assert_eq!(parse(&full, "skew.cfg").unwrap().format, Format::Klipper);
+    }
 
     #[test]
     fn klipper_by_hand() {

@@ -105,9 +105,9 @@ struct RawSquareness {
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawLine {
-    point_mm: Option<Spanned<[f64; 3]>>,
+    point_mm: Option<Spanned<Vec<f64>>>,
     tool_length_mm: Option<Spanned<f64>>,
-    tool_offset_mm: Option<Spanned<[f64; 3]>>,
+    tool_offset_mm: Option<Spanned<Vec<f64>>>,
 }
 
 #[derive(serde::Deserialize)]
@@ -119,9 +119,9 @@ struct RawModel {
     chain: Option<Spanned<String>>,
     tables: Option<Spanned<RawTables>>,
     angles: Option<Spanned<String>>,
-    measuring_point_mm: Option<Spanned<[f64; 3]>>,
+    measuring_point_mm: Option<Spanned<Vec<f64>>>,
     measuring_tool_length_mm: Option<Spanned<f64>>,
-    measuring_tool_offset_mm: Option<Spanned<[f64; 3]>>,
+    measuring_tool_offset_mm: Option<Spanned<Vec<f64>>>,
     squareness_urad: Option<Spanned<RawSquareness>>,
     measuring: Option<BTreeMap<Spanned<String>, Spanned<RawLine>>>,
 }
@@ -245,9 +245,16 @@ pub fn parse_header(text: &str, file: &str) -> Result<ModelHeader, MapFileError>
         yz_urad: get(&sq.yz, "yz")?,
         zx_urad: get(&sq.zx, "zx")?,
     };
-    let finite3 = |v: &Spanned<[f64; 3]>, what: &str| -> Result<Vec3, MapFileError> {
-        if v.get_ref().iter().all(|x| x.is_finite()) {
-            Ok(Vec3::from_array(*v.get_ref()))
+    let finite3 = |v: &Spanned<Vec<f64>>, what: &str| -> Result<Vec3, MapFileError> {
+        let values = v.get_ref();
+        if values.len() != 3 {
+            Err(at(
+                v.span().start,
+                format!("{what} has {} values", values.len()),
+                "write three numbers in mm: [x, y, z]",
+            ))
+        } else if values.iter().all(|x| x.is_finite()) {
+            Ok(Vec3::new(values[0], values[1], values[2]))
         } else {
             Err(at(
                 v.span().start,
@@ -257,7 +264,7 @@ pub fn parse_header(text: &str, file: &str) -> Result<ModelHeader, MapFileError>
         }
     };
     let tool = |length: &Option<Spanned<f64>>,
-                offset: &Option<Spanned<[f64; 3]>>,
+                offset: &Option<Spanned<Vec<f64>>>,
                 what: &str|
      -> Result<Option<Vec3>, MapFileError> {
         match (length, offset) {
@@ -380,10 +387,11 @@ pub fn parse_model(
 
 /// Reads a model file and the tables it names (relative to its directory).
 pub fn read_model(path: &Path) -> Result<KinematicModel, ModelFileError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ModelFileError::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })?;
+    let text =
+        crate::io::inputs::read_to_string(path, "the model").map_err(|e| ModelFileError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
     model_from_text(path, &text)
 }
 
@@ -391,9 +399,13 @@ pub fn read_model(path: &Path) -> Result<KinematicModel, ModelFileError> {
 /// names relative to its directory.
 pub fn model_from_text(path: &Path, text: &str) -> Result<KinematicModel, ModelFileError> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let role = format!(
+        "a table named in {}",
+        crate::io::shown_name(&crate::compensate::file_name(path))
+    );
     let mut read = |name: &str| -> Result<(String, String), std::io::Error> {
         let p: PathBuf = dir.join(name);
-        std::fs::read_to_string(&p).map(|t| (p.display().to_string(), t))
+        crate::io::inputs::read_to_string(&p, &role).map(|t| (p.display().to_string(), t))
     };
     Ok(parse_model(text, &path.display().to_string(), &mut read)?)
 }
@@ -701,6 +713,16 @@ mod tests {
             CSV,
         );
         assert_eq!(e.row, 4, "{e}");
+        // Four values where a point has three: refused at the array.
+        let e = err(
+            &TOML.replace(
+                "measuring_point_mm = [0, 50, 60]",
+                "measuring_point_mm = [0, 50, 60, 70]",
+            ),
+            CSV,
+        );
+        assert_eq!((e.row, e.column), (4, 22), "{e}");
+        assert!(e.message.contains("has 4 values"), "{e}");
         let e = err(
             &TOML.replace(
                 "tables = \"t.csv\"\n",

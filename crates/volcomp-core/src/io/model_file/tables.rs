@@ -29,7 +29,8 @@ struct Row {
     position_mm: f64,
     linear_um: Vec3,
     angular_urad: Vec3,
-    file: String,
+    /// Shared by every row of its file.
+    file: std::rc::Rc<str>,
     row: usize,
     position_column: usize,
 }
@@ -146,6 +147,7 @@ impl TableRows {
             e.help = "the 21-component table needs axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad; write 0 for a component that was not measured".into();
             return Err(e);
         }
+        let shared: std::rc::Rc<str> = std::rc::Rc::from(file);
         for r in t.records()? {
             let axis = crate::model::axis_table::axis_field(&t, r, cols[0])?;
             let dir = match crate::model::axis_table::direction_field(&t, r, cols[1])? {
@@ -153,9 +155,27 @@ impl TableRows {
                 crate::model::axis_table::RowDirection::Reverse => Dir::Reverse,
                 crate::model::axis_table::RowDirection::Both => Dir::Both,
             };
+            // The rules of every map (docs/errors.md): positions within the
+            // coordinate limit, errors within 10 mm, angles within 0.01 rad.
             let mut num = [0.0; 7];
-            for (k, slot) in num.iter_mut().enumerate() {
-                *slot = t.number(r, cols[2 + k])? * scale[2 + k];
+            num[0] = crate::model::axis_table::position_field(&t, r, cols[2])?;
+            for k in 1..4 {
+                num[k] = crate::model::axis_table::error_field(&t, r, cols[2 + k])?;
+            }
+            for k in 4..7 {
+                let v = t.number(r, cols[2 + k])? * scale[2 + k];
+                if v.abs() > crate::limits::MAX_ANGLE_URAD {
+                    return Err(t.error(
+                        r,
+                        cols[2 + k],
+                        format!(
+                            "an angle of {v} µrad is more than {} µrad (0.01 rad, 0.57°)",
+                            crate::limits::MAX_ANGLE_URAD
+                        ),
+                        "angular errors of machine tools are microradians: check the unit (µrad or arc seconds, as the column's name says) and the column",
+                    ));
+                }
+                num[k] = v;
             }
             self.rows.push(Row {
                 axis,
@@ -163,7 +183,7 @@ impl TableRows {
                 position_mm: num[0],
                 linear_um: Vec3::new(num[1], num[2], num[3]),
                 angular_urad: Vec3::new(num[4], num[5], num[6]),
-                file: file.to_string(),
+                file: shared.clone(),
                 row: r.line,
                 position_column: cols[2] + 1,
             });

@@ -20,6 +20,7 @@ use super::signals;
 use std::fs::{File, OpenOptions, Permissions};
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
+use volcomp_geom::inputs;
 
 /// A failure on one output, naming it.
 #[derive(Debug)]
@@ -71,7 +72,7 @@ fn list(paths: &[PathBuf]) -> String {
     }
     paths
         .iter()
-        .map(|p| p.display().to_string())
+        .map(|p| crate::io::shown_path(p))
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -82,8 +83,12 @@ impl std::fmt::Display for OutputError {
             OutputError::Io { path, source } if path.as_os_str() == "-" => {
                 write!(f, "cannot write to standard output: {source}")
             }
-            OutputError::Io { path, source } => write!(f, "{}: {source}", path.display()),
-            OutputError::Refused { path, why } => write!(f, "{}: {why}", path.display()),
+            OutputError::Io { path, source } => {
+                write!(f, "{}: {source}", crate::io::shown_path(path))
+            }
+            OutputError::Refused { path, why } => {
+                write!(f, "{}: {why}", crate::io::shown_path(path))
+            }
             OutputError::Partial {
                 written,
                 not_written,
@@ -157,11 +162,13 @@ impl OutputFile {
             source,
         };
         if path.as_os_str() == "-" {
-            return Ok(OutputFile {
+            let out = OutputFile {
                 shown,
                 sink: Sink::Stdout(tempfile::tempfile().ok()),
                 committed: false,
-            });
+            };
+            out.check_not_read()?;
+            return Ok(out);
         }
         let existing = match std::fs::metadata(path) {
             Ok(m) => Some(m),
@@ -198,7 +205,7 @@ impl OutputFile {
             path: dir.clone(),
             source,
         })?;
-        Ok(OutputFile {
+        let out = OutputFile {
             shown,
             sink: Sink::Replace {
                 file,
@@ -207,7 +214,11 @@ impl OutputFile {
                 permissions,
             },
             committed: false,
-        })
+        };
+        // Files read so far (named inside other inputs) are refused before
+        // any work; those read during it, at commit.
+        out.check_not_read()?;
+        Ok(out)
     }
 
     /// The output as the user named it.
@@ -263,8 +274,32 @@ impl OutputFile {
         r.map_err(|e| self.io_err(e))
     }
 
+    /// Refuses to put this output in place over a file the command read
+    /// (`volcomp_geom::inputs`): the plan was checked before the work, but
+    /// files are read during it too (a subroutine file found on the
+    /// subroutine path, a table named in another file).
+    pub fn check_not_read(&self) -> Result<(), OutputError> {
+        let replaced = match &self.sink {
+            Sink::Replace { target, .. } => inputs::FileId::of_path(target),
+            Sink::Stdout(_) => inputs::stdout_id(),
+            Sink::Through(_) => None,
+        };
+        match replaced.and_then(inputs::find) {
+            Some(read) => Err(OutputError::Refused {
+                path: self.shown.clone(),
+                why: format!(
+                    "refusing to write it: it is {} ({}), which this command read; nothing was written: choose another output path",
+                    read.role,
+                    crate::io::shown_path(&read.path)
+                ),
+            }),
+            None => Ok(()),
+        }
+    }
+
     /// Completes this one output.
     pub fn commit(mut self) -> Result<(), OutputError> {
+        self.check_not_read()?;
         self.finish()?;
         self.put_in_place()
     }
@@ -303,6 +338,9 @@ impl Drop for OutputFile {
 /// renamed into place one after the other. If a rename fails after others
 /// succeeded, the error lists which outputs were written and which not.
 pub fn commit_all(mut files: Vec<OutputFile>) -> Result<(), OutputError> {
+    for f in &files {
+        f.check_not_read()?;
+    }
     for f in files.iter_mut() {
         f.finish()?;
     }

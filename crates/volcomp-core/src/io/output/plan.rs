@@ -9,9 +9,23 @@
 //!
 //! Special files (devices, FIFOs, sockets) are not compared: writing two
 //! outputs to `/dev/null` is legitimate, and nothing is replaced there.
+//! Standard input and output (`-`) are compared by what they are
+//! redirected from and to: `- < part.ngc` and `-o part.ngc`, or `-o - >>
+//! part.ngc` with `part.ngc` as an input, are the same file.
+//!
+//! Files are also read that no option names: the tables a model TOML
+//! names, the set-up's `var_file`, subroutine files found while the
+//! program runs, the files named inside a controller's INI or `.CMA`.
+//! Every file is read through `volcomp_geom::inputs`, which records it;
+//! [`OutputPlan::check`] compares the outputs with every file recorded so
+//! far, and the output files compare their destination with every file
+//! recorded by then just before anything is put in place
+//! (`super::file::commit_all`), so a file read half-way through the work
+//! is protected too.
 
 use std::fmt;
 use std::path::{Component, Path, PathBuf};
+use volcomp_geom::inputs::{self, FileId, ReadFile};
 
 /// One named file of a command: the flag that named it and its path.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -39,6 +53,14 @@ pub enum PlanError {
         /// The input it would replace.
         input: Role,
     },
+    /// An output would replace a file read by the command that no option
+    /// names (a table named in a model, a var file, a subroutine file…).
+    OverwritesRead {
+        /// The output.
+        output: Role,
+        /// The file read, and as what.
+        read: Box<ReadFile>,
+    },
     /// Two outputs name the same file: one would replace the other.
     SameOutput {
         /// The first output.
@@ -54,13 +76,21 @@ impl fmt::Display for PlanError {
             PlanError::OverwritesInput { output, input } => {
                 write!(
                     f,
-                    "refusing to write {} to {}: it is the same file as the input {} ({}); choose another output path",
+                    "refusing to write {} to {}: it is the same file as the input {} ({}); nothing was written: choose another output path",
                     output.flag,
-                    output.path.display(),
+                    shown_path(&output.path),
                     input.flag,
-                    input.path.display()
+                    shown_path(&input.path)
                 )
             }
+            PlanError::OverwritesRead { output, read } => write!(
+                f,
+                "refusing to write {} to {}: it is {} ({}), which this command read; nothing was written: choose another output path",
+                output.flag,
+                shown_path(&output.path),
+                read.role,
+                shown_path(&read.path)
+            ),
             PlanError::SameOutput { first, second } if first.path == Path::new("-") => write!(
                 f,
                 "{} and {} both write to standard output (-): send one of them to a file",
@@ -70,9 +100,9 @@ impl fmt::Display for PlanError {
                 f,
                 "{} ({}) and {} ({}) name the same file, so one would replace the other: choose different paths",
                 first.flag,
-                first.path.display(),
+                shown_path(&first.path),
                 second.flag,
-                second.path.display()
+                shown_path(&second.path)
             ),
         }
     }
@@ -98,17 +128,39 @@ fn identity(path: &Path) -> Identity {
         return Identity::Stream;
     }
     match std::fs::metadata(path) {
-        Ok(m) => {
-            use std::os::unix::fs::MetadataExt as _;
-            if m.is_file() || m.is_dir() {
-                Identity::Inode(m.dev(), m.ino())
-            } else {
-                Identity::Special
-            }
-        }
+        Ok(m) => match FileId::of(&m) {
+            Some(id) => Identity::Inode(id.dev, id.ino),
+            None => Identity::Special,
+        },
         Err(_) => Identity::Absent(canonical_absent(path)),
     }
 }
+
+/// What an input reads: `-` is what standard input is redirected from.
+fn input_identity(path: &Path) -> Identity {
+    match (path.as_os_str() == "-", inputs::stdin_id()) {
+        (true, Some(id)) => Identity::Inode(id.dev, id.ino),
+        _ => identity(path),
+    }
+}
+
+/// The file an output would replace, if it exists and is a regular file:
+/// `-` is what standard output is redirected to.
+fn replaced_file(path: &Path, id: &Identity) -> Option<FileId> {
+    match id {
+        Identity::Stream => inputs::stdout_id(),
+        Identity::Inode(dev, ino) => Some(FileId {
+            dev: *dev,
+            ino: *ino,
+        }),
+        Identity::Absent(_) | Identity::Special => {
+            let _ = path;
+            None
+        }
+    }
+}
+
+use crate::io::shown_path;
 
 /// The canonical form of a path that need not exist: a dangling symbolic
 /// link is followed to where it points, the longest existing ancestor is
@@ -200,8 +252,9 @@ impl OutputPlan {
     pub fn map_input(&mut self, flag: &str, path: impl AsRef<Path>) -> &mut Self {
         let path = path.as_ref();
         self.input(flag, path);
+        let name = crate::io::shown_name(&crate::compensate::file_name(path));
         for t in referenced_files(path) {
-            self.input(format!("{flag} (its table {})", t.display()), t);
+            self.input(format!("{flag} (a table named in {name})"), t);
         }
         self
     }
@@ -228,22 +281,40 @@ impl OutputPlan {
         &self.outputs
     }
 
-    /// Refuses the plan if an output names an input or another output.
+    /// Refuses the plan if an output names an input, a file read so far
+    /// (`volcomp_geom::inputs`) or another output.
     pub fn check(&self) -> Result<(), PlanError> {
-        let inputs: Vec<Identity> = self.inputs.iter().map(|r| identity(&r.path)).collect();
+        let inputs: Vec<Identity> = self
+            .inputs
+            .iter()
+            .map(|r| input_identity(&r.path))
+            .collect();
         let outputs: Vec<Identity> = self.outputs.iter().map(|r| identity(&r.path)).collect();
+        let read = inputs::read_so_far();
         for (i, (out, oid)) in self.outputs.iter().zip(&outputs).enumerate() {
             if *oid == Identity::Special {
                 continue;
             }
+            let replaced = replaced_file(&out.path, oid);
             for (inp, iid) in self.inputs.iter().zip(&inputs) {
-                // Standard input and standard output are different streams.
-                if *oid != Identity::Stream && oid == iid {
+                // Standard input and standard output are different streams
+                // unless both are redirected to one file.
+                let same = match (replaced, iid) {
+                    (Some(f), Identity::Inode(dev, ino)) => f.dev == *dev && f.ino == *ino,
+                    _ => *oid != Identity::Stream && oid == iid,
+                };
+                if same {
                     return Err(PlanError::OverwritesInput {
                         output: out.clone(),
                         input: inp.clone(),
                     });
                 }
+            }
+            if let Some(r) = replaced.and_then(|f| read.iter().find(|r| r.id == f)) {
+                return Err(PlanError::OverwritesRead {
+                    output: out.clone(),
+                    read: Box::new(r.clone()),
+                });
             }
             for (other, id2) in self.outputs[..i].iter().zip(&outputs) {
                 if oid == id2 {
@@ -268,9 +339,9 @@ pub fn referenced_files(path: &Path) -> Vec<PathBuf> {
     if !is_toml {
         return Vec::new();
     }
-    // Bounded read: a model description is small; a huge file is refused
-    // later by the model reader with its own message.
-    let Ok(text) = std::fs::read_to_string(path) else {
+    // Bounded read; a file that cannot be read is refused later by the
+    // model reader with its own message.
+    let Ok(text) = inputs::read_to_string(path, "the map") else {
         return Vec::new();
     };
     let Ok(value) = text.parse::<toml::Table>() else {

@@ -12,11 +12,11 @@ use volcomp_gcode::{Units, Vec3};
 
 /// A probe-point or grid table, read by [`crate::io::table`]; columns
 /// other than those looked up are ignored.
-struct Csv {
-    table: CsvTable,
+struct Csv<'a> {
+    table: CsvTable<'a>,
 }
 
-fn read_csv(text: &str, file: &str) -> Result<Csv, MirrorError> {
+fn read_csv<'a>(text: &'a str, file: &str) -> Result<Csv<'a>, MirrorError> {
     let table = CsvTable::parse(
         text,
         file,
@@ -29,7 +29,7 @@ fn read_csv(text: &str, file: &str) -> Result<Csv, MirrorError> {
     Ok(Csv { table })
 }
 
-impl Csv {
+impl Csv<'_> {
     fn column(&self, names: &[&str]) -> Option<usize> {
         self.table.column_of(names)
     }
@@ -160,7 +160,7 @@ pub fn read_probe_points(text: &str, file: &str) -> Result<Vec<ProbePoint>, Mirr
     for row in csv.table.records()? {
         out.push(ProbePoint {
             row: row.line,
-            id: id.map(|c| row.fields[c].to_string()),
+            id: id.map(|c| csv.table.text(row, c).to_string()),
             grid: match grid {
                 Some((i, j)) => Some((csv.integer(row, i)?, csv.integer(row, j)?)),
                 None => None,

@@ -1,0 +1,454 @@
+//! `volcomp probe`: calibrating a machine with a touch probe and the
+//! artifacts a shop has (docs/probing.md). `plan` writes the LinuxCNC
+//! probing program of an artifact, `fit` identifies the machine from the
+//! logs and writes the 21-component model, `verify` identifies what a
+//! compensated run leaves, `example` writes a synthetic campaign. Flags are
+//! turned into the library's requests; the library does the work.
+
+use crate::options::Options;
+use crate::output::{check, write_atomically, CliError, OutputPlan, Staged};
+use clap::{Args, Subcommand, ValueEnum};
+use std::path::{Path, PathBuf};
+use volcomp_core::identify::probe::plan::{NoContact, PlanOptions, SpherePattern};
+use volcomp_core::identify::probe::program::duration;
+use volcomp_core::identify::probe::request::{FitRequest, Input, PlanRequest};
+use volcomp_core::identify::probe::verify::{Applied, VerifyRequest};
+use volcomp_core::request::{ProbeFitRequest, ProbeIdentifyRequest};
+use volcomp_core::MachineSetup;
+
+/// Calibrate with a touch probe: probing programs, fit, verification.
+#[derive(Args, Debug)]
+pub struct ProbeArgs {
+    #[command(subcommand)]
+    pub command: ProbeCommand,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum ProbeCommand {
+    /// Write the LinuxCNC program that probes an artifact in its placements.
+    Plan(PlanArgs),
+    /// Identify the machine from probing logs and write its model (TOML + CSV).
+    Fit(FitArgs),
+    /// Identify what a run after compensation leaves.
+    Verify(VerifyArgs),
+    /// Write a synthetic probing campaign (artifacts, set-up, logs).
+    Example(ExampleArgs),
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum Touches {
+    /// Pole and equator.
+    #[value(name = "5")]
+    Five,
+    /// Pole, equator and four 45° shoulders.
+    #[value(name = "9")]
+    Nine,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum OnNoContact {
+    /// G38.2: the controller stops with an error.
+    Stop,
+    /// G38.3: the program goes on; the touch is logged as missed.
+    Skip,
+}
+
+#[derive(Args, Debug)]
+pub struct PlanArgs {
+    /// The artifact description (TOML, docs/probing.md).
+    pub artifact: PathBuf,
+    /// The machine's set-up: work offsets and tool table (docs/gcode.md).
+    #[arg(long, value_name = "TOML")]
+    pub setup: Option<PathBuf>,
+    /// Diameter of the probe's tip (mm).
+    #[arg(long, value_name = "MM")]
+    pub tip_diameter_mm: f64,
+    /// The probe's tool number (G43 H, its length from the set-up's [tools]).
+    #[arg(long, value_name = "N")]
+    pub probe_tool: Option<u32>,
+    /// Coordinate system the program runs in: G54 … G59.3.
+    #[arg(long, default_value = "G54")]
+    pub work_system: String,
+    /// Only this placement (default: all, with a pause between them).
+    #[arg(long)]
+    pub placement: Option<String>,
+    /// Feed of the searching touch (mm/min).
+    #[arg(long, default_value_t = 300.0)]
+    pub fast_feed_mm_min: f64,
+    /// Feed of the recorded touch (mm/min): its trigger lag is this feed × the servo period.
+    #[arg(long, default_value_t = 20.0)]
+    pub slow_feed_mm_min: f64,
+    /// Start of a touch before the nominal surface (mm).
+    #[arg(long, default_value_t = 2.0)]
+    pub approach_mm: f64,
+    /// How far past the nominal surface a probe move may go (mm).
+    #[arg(long, default_value_t = 2.0)]
+    pub overtravel_mm: f64,
+    /// Back-off between the fast and the slow touch (mm).
+    #[arg(long, default_value_t = 0.5)]
+    pub backoff_mm: f64,
+    /// Height of the travel plane above the artifact (mm).
+    #[arg(long, default_value_t = 5.0)]
+    pub clearance_mm: f64,
+    /// The move that sets an axis' direction before a touch (mm).
+    #[arg(long, default_value_t = 1.0)]
+    pub take_up_mm: f64,
+    /// Touches per sphere (the reference sphere has its own set).
+    #[arg(long, value_enum, default_value = "5")]
+    pub sphere_touches: Touches,
+    /// How often each touch is made.
+    #[arg(long, default_value_t = 1)]
+    pub repeats: usize,
+    /// How often each touch of the reference sphere is made.
+    #[arg(long, default_value_t = 3)]
+    pub reference_repeats: usize,
+    /// Touches along each edge of a square.
+    #[arg(long, default_value_t = 7)]
+    pub edge_points: usize,
+    /// Distance of the first and last edge touch from an edge's ends (mm).
+    #[arg(long, default_value_t = 10.0)]
+    pub edge_margin_mm: f64,
+    /// What a probe move that touches nothing does.
+    #[arg(long, value_enum, default_value = "stop")]
+    pub no_contact: OnNoContact,
+    /// The log file the program writes (LOGOPEN), as LinuxCNC opens it.
+    #[arg(long, default_value = "probe.log")]
+    pub log_file: String,
+    /// Machine Z for moves between placements (default: 25 mm above the artifact).
+    #[arg(long, allow_hyphen_values = true)]
+    pub safe_z_mm: Option<f64>,
+    /// Rapid speed for the time estimate (mm/min).
+    #[arg(long, default_value_t = 3000.0)]
+    pub rapid_mm_min: f64,
+    /// Acceleration for the time estimate (mm/s²).
+    #[arg(long, default_value_t = 500.0)]
+    pub accel_mm_s2: f64,
+    /// Output program.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct IdentifyArgs {
+    /// An artifact description (TOML); one per artifact the logs touched.
+    #[arg(long = "artifact", value_name = "TOML", required = true)]
+    pub artifacts: Vec<PathBuf>,
+    /// A probing log written by the program, or a CSV of points.
+    #[arg(long = "log", value_name = "FILE", required = true)]
+    pub logs: Vec<PathBuf>,
+}
+
+#[derive(Args, Debug)]
+pub struct FitArgs {
+    #[command(flatten)]
+    pub id: IdentifyArgs,
+    #[command(flatten)]
+    pub job: Options<ProbeFitRequest>,
+    /// Also write the HTML report.
+    #[arg(long, value_name = "HTML")]
+    pub report: Option<PathBuf>,
+    /// Output model (TOML); its tables go beside it as <stem>.csv.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum AppliedArg {
+    /// The machine ran compensated (controller tables or a compensated program).
+    Machine,
+    /// The run was uncompensated: apply the model to the touches here.
+    Software,
+}
+
+#[derive(Args, Debug)]
+pub struct VerifyArgs {
+    #[command(flatten)]
+    pub id: IdentifyArgs,
+    #[command(flatten)]
+    pub job: Options<ProbeIdentifyRequest>,
+    /// The model to check.
+    #[arg(long, value_name = "MODEL")]
+    pub map: PathBuf,
+    /// How the run was compensated.
+    #[arg(long, value_enum, default_value = "machine")]
+    pub applied: AppliedArg,
+}
+
+#[derive(Args, Debug)]
+pub struct ExampleArgs {
+    /// Directory to write into (created if missing).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+pub fn run(a: ProbeArgs) -> Result<(), CliError> {
+    match a.command {
+        ProbeCommand::Plan(a) => plan_cmd(a),
+        ProbeCommand::Fit(a) => fit_cmd(a),
+        ProbeCommand::Verify(a) => verify_cmd(a),
+        ProbeCommand::Example(a) => example_cmd(a),
+    }
+}
+
+/// Reads an input whole, recorded as `role` for the output plan (bounded).
+fn input(path: &Path, role: &str) -> Result<Input, CliError> {
+    let text = volcomp_core::io::inputs::read_to_string(path, role)
+        .map_err(|e| CliError::Io(path.to_path_buf(), e))?;
+    Ok(Input::new(path.display().to_string(), text))
+}
+
+fn work_system(text: &str) -> Result<usize, CliError> {
+    const NAMES: [&str; 9] = [
+        "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
+    ];
+    NAMES
+        .iter()
+        .position(|n| n.eq_ignore_ascii_case(text.trim()))
+        .ok_or_else(|| {
+            CliError::Message(format!(
+                "--work-system `{text}`: write G54 … G59, G59.1, G59.2 or G59.3"
+            ))
+        })
+}
+
+fn plan_cmd(a: PlanArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    plan.input("artifact", &a.artifact)
+        .input_opt("--setup", a.setup.as_ref())
+        .output("-o", &a.output);
+    check(&plan)?;
+    let setup = match &a.setup {
+        Some(p) => MachineSetup::from_setup_file(p)?,
+        None => {
+            eprintln!("volcomp: warning: no --setup: the program runs in G54 = 0 (machine coordinates) without a tool length offset unless --probe-tool is given with a set-up");
+            MachineSetup::unset()
+        }
+    };
+    let options = PlanOptions {
+        tip_diameter_mm: a.tip_diameter_mm,
+        fast_feed_mm_min: a.fast_feed_mm_min,
+        slow_feed_mm_min: a.slow_feed_mm_min,
+        approach_mm: a.approach_mm,
+        overtravel_mm: a.overtravel_mm,
+        backoff_mm: a.backoff_mm,
+        clearance_mm: a.clearance_mm,
+        take_up_mm: a.take_up_mm,
+        spheres: match a.sphere_touches {
+            Touches::Five => SpherePattern::Five,
+            Touches::Nine => SpherePattern::Nine,
+        },
+        repeats: a.repeats,
+        reference_repeats: a.reference_repeats,
+        edge_points: a.edge_points,
+        edge_margin_mm: a.edge_margin_mm,
+        no_contact: match a.no_contact {
+            OnNoContact::Stop => NoContact::Stop,
+            OnNoContact::Skip => NoContact::Skip,
+        },
+        log_file: a.log_file.clone(),
+        work_system: work_system(&a.work_system)?,
+        probe_tool: a.probe_tool,
+        safe_z_mm: a.safe_z_mm,
+        rapid_mm_min: a.rapid_mm_min,
+        accel_mm_s2: a.accel_mm_s2,
+    };
+    let request = PlanRequest {
+        artifact: input(&a.artifact, "ARTIFACT")?,
+        setup,
+        placement: a.placement.clone(),
+        options,
+        title: format!(
+            "volcomp {} probe plan {}",
+            env!("CARGO_PKG_VERSION"),
+            a.artifact.display()
+        ),
+    };
+    let out = request.run()?;
+    write_atomically(&a.output, &[&a.artifact], |w| {
+        w.write_all(out.program.as_bytes())
+            .map_err(|e| CliError::Io(a.output.clone(), e))
+    })?;
+    for (name, t) in &out.plan.placement_time_s {
+        let n = out
+            .plan
+            .touches
+            .iter()
+            .filter(|x| &x.placement == name)
+            .count();
+        println!("placement {name}: {n} touches, about {}", duration(*t));
+    }
+    println!(
+        "wrote {}: {} touches, about {} on the machine (probing at F{} / F{}, rapids {} mm/min, {} mm/s²; operator pauses not counted); the log goes to {}",
+        a.output.display(),
+        out.plan.touches.len(),
+        duration(out.plan.time_s),
+        a.fast_feed_mm_min,
+        a.slow_feed_mm_min,
+        a.rapid_mm_min,
+        a.accel_mm_s2,
+        a.log_file
+    );
+    Ok(())
+}
+
+fn inputs(paths: &[PathBuf], role: &str) -> Result<Vec<Input>, CliError> {
+    paths.iter().map(|p| input(p, role)).collect()
+}
+
+fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
+    let stem = a
+        .output
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("model")
+        .to_string();
+    let csv_name = format!("{stem}.csv");
+    let csv_path = a.output.with_file_name(&csv_name);
+    let mut plan = OutputPlan::new();
+    for p in &a.id.artifacts {
+        plan.input("--artifact", p);
+    }
+    for p in &a.id.logs {
+        plan.input("--log", p);
+    }
+    plan.output("-o", &a.output)
+        .output("-o (its tables beside it)", &csv_path)
+        .output_opt("--report", a.report.as_ref());
+    check(&plan)?;
+    let options = a.job.identify.options()?;
+    let ranges = options.ranges_mm;
+    let (order, chain) = (options.order, options.chain.clone());
+    let request = FitRequest {
+        artifacts: inputs(&a.id.artifacts, "ARTIFACT")?,
+        logs: inputs(&a.id.logs, "LOG")?,
+        options,
+        leave_one_out: a.job.leave_one_out,
+    };
+    let out = request.run()?;
+    let (toml, csv) = out.model_files(
+        &csv_name,
+        &format!(
+            "volcomp probe fit of {}",
+            a.id.logs
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        ranges,
+    );
+    let mut staged = Staged::new();
+    staged.write(&csv_path, |w| {
+        w.write_all(csv.as_bytes())
+            .map_err(|e| CliError::Io(csv_path.clone(), e))
+    })?;
+    staged.write(&a.output, |w| {
+        w.write_all(toml.as_bytes())
+            .map_err(|e| CliError::Io(a.output.clone(), e))
+    })?;
+    if let Some(path) = &a.report {
+        let mut doc = volcomp_core::report::Document {
+            title: "volcomp probing calibration".into(),
+            facts: vec![
+                ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
+                ("command".into(), super::command_line()),
+                ("date".into(), volcomp_core::io::provenance::now_utc()),
+                (
+                    "model".into(),
+                    format!("{} (order {}, chain {})", a.output.display(), order, chain),
+                ),
+                (
+                    "travel (mm)".into(),
+                    ranges
+                        .iter()
+                        .map(|r| format!("{}:{}", r[0], r[1]))
+                        .collect::<Vec<_>>()
+                        .join(","),
+                ),
+            ],
+            inputs: Vec::new(),
+            sections: volcomp_core::report::probe::sections(&out, ranges),
+        };
+        for (role, list) in [("artifact", &a.id.artifacts), ("log", &a.id.logs)] {
+            for p in list {
+                doc.inputs
+                    .push(volcomp_core::report::InputFile::read(role, p)?);
+            }
+        }
+        let html = doc.to_html();
+        staged.write(path, |w| {
+            w.write_all(html.as_bytes())
+                .map_err(|e| CliError::Io(path.clone(), e))
+        })?;
+    }
+    staged.commit()?;
+    for w in &out.fitted.warnings {
+        eprintln!("volcomp: warning: {w}");
+    }
+    for line in out.summary(ranges) {
+        println!("{line}");
+    }
+    println!(
+        "wrote {} and {}; use it with `volcomp compensate --map {}`",
+        a.output.display(),
+        csv_path.display(),
+        a.output.display()
+    );
+    Ok(())
+}
+
+fn verify_cmd(a: VerifyArgs) -> Result<(), CliError> {
+    let mut plan = OutputPlan::new();
+    for p in a.id.artifacts.iter().chain(&a.id.logs) {
+        plan.input("input", p);
+    }
+    plan.input("--map", &a.map);
+    check(&plan)?;
+    let loaded = volcomp_core::io::load_model(&a.map, &volcomp_core::io::LoadOptions::default())?;
+    let options = a.job.options()?;
+    let request = VerifyRequest {
+        artifacts: inputs(&a.id.artifacts, "ARTIFACT")?,
+        logs: inputs(&a.id.logs, "LOG")?,
+        model: loaded.model(),
+        applied: match a.applied {
+            AppliedArg::Machine => Applied::Machine,
+            AppliedArg::Software => Applied::Software,
+        },
+        options,
+    };
+    let out = request.run()?;
+    println!(
+        "what is left: RMS {:.2} µm over the volume (modulo a rigid motion); {} parameter(s) beyond three standard uncertainties{}",
+        out.left_rms_um,
+        out.significant.len(),
+        if out.significant.is_empty() { String::new() } else { format!(": {}", out.significant.join(", ")) }
+    );
+    for p in &out.identified.params {
+        if let volcomp_core::identify::probe::identify::Status::Identified(e) = p.status {
+            println!(
+                "  {:<8} {:>9.3} ± {:.3} {}",
+                p.name,
+                e.value,
+                e.sigma,
+                if p.unit == "um" { "µm" } else { "µrad" }
+            );
+        }
+    }
+    Ok(())
+}
+
+fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
+    std::fs::create_dir_all(&a.output).map_err(|e| CliError::Io(a.output.clone(), e))?;
+    for (name, text) in volcomp_core::example::probe::example_files() {
+        let path = a.output.join(&name);
+        write_atomically(&path, &[], |w| {
+            w.write_all(text.as_bytes())
+                .map_err(|e| CliError::Io(path.clone(), e))
+        })?;
+    }
+    let d = a.output.display();
+    println!("wrote the probing example into {d} (a synthetic machine, 0.4 µm probe noise); try:");
+    println!("  volcomp probe plan {d}/plate.toml --setup {d}/setup.toml --probe-tool 9 --tip-diameter-mm 2 -o plate.ngc");
+    println!("  volcomp probe fit --artifact {d}/reference.toml --artifact {d}/plate.toml --artifact {d}/gauge.toml \\\n      --log {d}/reference.log --log {d}/plate.log --log {d}/gauge.log --ranges-mm 0:600,0:400,0:300 -o model.toml");
+    Ok(())
+}
