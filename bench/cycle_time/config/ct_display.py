@@ -142,6 +142,36 @@ def run(program, run_timeout_s):
     if any(abs(a - b) > 1e-9 for a, b in zip(x.s.g5x_offset[:3], G54_MM)):
         raise RunError(f"G54 not set: {x.s.g5x_offset[:3]}")
 
+    # CT_MDI: a file of MDI lines to run one at a time instead of the
+    # program, reading the CT_PINS after each once motion has stopped
+    # (crates/volcomp-cli/tests/linuxcnc_backlash.rs samples the joints'
+    # compensation at its stops this way).
+    mdi_file = os.environ.get("CT_MDI")
+    if mdi_file:
+        names = os.environ.get("CT_PINS", "").split()
+        stops = []
+        with open(mdi_file) as f:
+            for raw in (l.strip() for l in f):
+                if not raw:
+                    continue
+                # "LINE<TAB>J:V J:V": wait until joint J's pos-cmd is V
+                # (status seen just after an MDI may still be the one
+                # before its move starts).
+                line, _, ends = raw.partition("\t")
+                targets = [(int(j), float(v)) for j, v in (e.split(":") for e in ends.split())]
+                x.c.mdi(line)
+                x.command_done(f"MDI {line}")
+                x.wait_for(
+                    f"MDI {line}",
+                    lambda s: s.interp_state == linuxcnc.INTERP_IDLE
+                    and s.queue == 0
+                    and s.inpos
+                    and all(abs(pin_value(f"joint.{j}.pos-cmd") - v) < 1e-6 for j, v in targets),
+                    30,
+                )
+                stops.append({"mdi": line, "pins": {p: pin_value(p) for p in names}})
+        return {"program": program, "stops": stops, "messages": x.messages}
+
     x.c.mode(linuxcnc.MODE_AUTO)
     x.command_done("auto mode")
     x.c.program_open(program)
@@ -173,9 +203,13 @@ def run(program, run_timeout_s):
     end = list(x.s.position[:3])
     if moving_s <= 0.0:
         raise RunError("the program made no motion")
+    # CT_PINS: HAL pins to report as they stand at the end (blank-separated;
+    # bench/lcnc_backlash.py reads the joints' backlash-corr).
+    pins = {p: pin_value(p) for p in os.environ.get("CT_PINS", "").split()}
     x.c.abort()
     x.command_done("abort")
     return {
+        "pins": pins,
         "program": program,
         "moving_s": round(moving_s, 6),
         "feed_s": round(feed_s, 6),

@@ -474,9 +474,13 @@ fn fanuc_bidirectional_tables_hold_the_reversal() {
     assert!(auto.contains("N3626 A1 P25 A2 P67 A3 P97\n"), "{auto}");
     let off = export("off", "off");
     assert!(!off.contains("N3605") && !off.contains("N3626"), "{off}");
+    // One table with the mean reversal in 1851 (side: away from the
+    // reference return), shifted by half of it.
+    assert!(off.contains("N1851 A1 P9 A2 P9 A3 P9\n"), "{off}");
     // The machine as the controller leaves it: with one table per
-    // direction only the rounding and the straightness are left; with the
-    // mean, half the reversal too.
+    // direction only the rounding and the straightness are left; with one
+    // table and 1851, half the reversal's variation along the axis (±1 µm)
+    // too: no longer half the reversal (4 µm), as with the mean alone.
     let sim = |c: &str| {
         json(&volcomp(
             &[
@@ -496,5 +500,61 @@ fn fanuc_bidirectional_tables_hold_the_reversal() {
             .unwrap()
     };
     let (b, u) = (sim("auto/pitch.tap"), sim("off/pitch.tap"));
-    assert!(b < 2.5 && u > 4.0, "bidirectional {b} µm, mean {u} µm");
+    assert!(b < 2.5 && u < 2.5, "bidirectional {b} µm, one table {u} µm");
+}
+
+#[test]
+fn a_sign_check_comes_with_the_tables_whose_sign_no_vendor_settles() {
+    let dir = tempdir("signcheck");
+    // X: forward error 0 → 10 µm over 0 … 100 mm (1 µm per 10 mm), reverse
+    // 4 µm above; Y and Z without error.
+    let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for k in 0..=10 {
+        let p = 10 * k;
+        s.push_str(&format!(
+            "X,forward,{p},{k},0,0\nX,reverse,{p},{},0,0\n",
+            k + 4
+        ));
+        s.push_str(&format!("Y,both,{p},0,0,0\nZ,both,{p},0,0,0\n"));
+    }
+    std::fs::write(dir.join("m.csv"), s).unwrap();
+    let o = volcomp(
+        &[
+            "map",
+            "export",
+            "m.csv",
+            "--to",
+            "fanuc",
+            "--step",
+            "10",
+            "--fanuc-bidirectional",
+            "on",
+            "-o",
+            "f",
+        ],
+        &dir,
+    );
+    ok(&o);
+    assert!(text(&o).contains("with sign_check.txt"), "{}", text(&o));
+    // By hand: the + table changes most between its inner points 10 and
+    // 90 mm (kept 5 mm from the ends for the approach): the error grows by
+    // 9 − 1 = 8 µm, the 1 µm table removes all of it; a table of the wrong
+    // sign would read 8 + 8 = 16 µm. The − table the same way down.
+    let t = std::fs::read_to_string(dir.join("f/sign_check.txt")).unwrap();
+    assert!(t.contains("from A = 10 mm to B = 90 mm (+ travel)"), "{t}");
+    assert!(t.contains("compensation off: 8 um"), "{t}");
+    assert!(t.contains("compensation on:  0 um"), "{t}");
+    assert!(t.contains("near 16 um"), "{t}");
+    assert!(t.contains("from A = 90 mm to B = 10 mm (- travel)"), "{t}");
+    let nc = std::fs::read_to_string(dir.join("f/signcheck.nc")).unwrap();
+    assert!(nc.contains("G53 X5\nG53 X10\nM00"), "{nc}");
+    assert!(nc.contains("G53 X95\nG53 X90\nM00"), "{nc}");
+    // LinuxCNC's sign is documented: no check.
+    ok(&volcomp(
+        &[
+            "map", "export", "m.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm", "-o", "l",
+        ],
+        &dir,
+    ));
+    assert!(!dir.join("l/sign_check.txt").exists());
 }

@@ -344,7 +344,7 @@ fn missing_files_named_inside_controller_files_are_located() {
     std::fs::write(d.join("p.ngc"), "G21 G90\nG0 X250 Y250 Z250\nM2\n").unwrap();
     std::fs::write(
         d.join("m.ini"),
-        "[TRAJ]\nLINEAR_UNITS = mm\n\n[JOINT_0]\nCOMP_FILE = none.comp\nCOMP_FILE_TYPE = 1\n",
+        "[TRAJ]\nLINEAR_UNITS = mm\n\n[JOINT_0]\nCOMP_FILE = none.comp\nCOMP_FILE_TYPE = 1\n[KINS]\nKINEMATICS = trivkins\nJOINTS = 3\n",
     )
     .unwrap();
     let msg = stderr(&compensate(

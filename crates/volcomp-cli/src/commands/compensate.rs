@@ -233,7 +233,11 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     a.job.check_map(&a.map)?;
     let machine = super::machine(&a.job.machine)?;
     machine.warn_without_work_offset();
-    let model = a.map.load()?;
+    let (model, notes) = a.map.load_noting()?;
+    // What reading the controller's files assumed or found ignored.
+    for n in notes {
+        crate::note!("volcomp: note: {n}");
+    }
     let mut job = a
         .job
         .prepare(machine, ModelSource::File(map_path), now_utc(), &Flags)?;

@@ -115,7 +115,11 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     plan(&a)?;
     let machine = a.job.prepare(super::machine(&a.job.machine)?)?;
     machine.warn_without_work_offset();
-    let model = a.map.load()?;
+    let (model, notes) = a.map.load_noting()?;
+    // What reading the controller's files assumed or found ignored.
+    for n in notes {
+        crate::note!("volcomp: note: {n}");
+    }
     let kept = simulate(&a, &machine, model.as_ref())?;
     let mut inputs = vec![a.program.as_path()];
     inputs.extend(a.job.reference.as_ref().and_then(|r| r.path()));

@@ -205,7 +205,8 @@ impl ErrorModel for AxisTableMap {
             let x = if self.clamp {
                 q_mm[a].clamp(lo, hi)
             } else {
-                q_mm[a]
+                // Within the rounding of a computed position: at the end.
+                crate::model::within_range(q_mm[a], lo, hi).unwrap_or(q_mm[a])
             };
             let v = table.eval(x).ok_or(ModelError::OutOfRange {
                 axis: AXES[a],

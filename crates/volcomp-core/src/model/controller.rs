@@ -6,7 +6,8 @@
 //! A controller with an active pitch (leadscrew) table commands
 //! `q − c(q, s)` when the program says `q`, where `c` is the error its
 //! table holds at `q` in the direction of travel, interpolated and rounded
-//! as the controller does ([`ControllerCorrection`]). The tool then lands at
+//! as the controller does, plus its backlash compensation
+//! ([`ControllerCorrection`]). The tool then lands at
 //! `q − c + e(q − c, s)`. volcomp evaluates the residual to first order,
 //!
 //! ```text
@@ -19,11 +20,253 @@
 //! Compensating the full map `e` on such a machine removes the pitch error
 //! twice: the tool then lands off by `−c`, the controller's correction with
 //! the opposite sign.
+//!
+//! The types a controller file is read into live here, in the model layer,
+//! so that the readers and writers of `io::controllers` depend on the
+//! model and never the other way round.
 
 use super::{Components, Direction, Directions, ErrorModel};
 use crate::error::ModelError;
-use crate::io::controllers::ControllerCorrection;
+pub use crate::model::positioning::Positioning;
 use volcomp_gcode::Vec3;
+
+/// The vendor formats of `volcomp map export` and `--controller`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// LinuxCNC `COMP_FILE` (types 0 and 1) and `BACKLASH`.
+    Linuxcnc,
+    /// Siemens Sinumerik leadscrew/encoder error compensation `%_N_AX_EEC_INI`.
+    SiemensEec,
+    /// Siemens Sinumerik sag/cross-axis compensation `%_N_NC_CEC_INI` (straightness).
+    SiemensCec,
+    /// Heidenhain TNC compensation value tables `.COM` and their assignment `.CMA`.
+    Heidenhain,
+    /// Beckhoff/ISG leadscrew error compensation lists (`kw.ssfk.*`).
+    IsgSsfk,
+    /// Beckhoff/ISG volumetric compensation ISG CSV.
+    IsgCsv,
+    /// Fanuc pitch error compensation (parameters 3620–3624, 3605#0/3626/3627 if bidirectional, and data) and backlash (1851, 1852).
+    Fanuc,
+    /// Klipper `[skew_correction]` profile.
+    Klipper,
+    /// Marlin `M852`.
+    Marlin,
+    /// RepRapFirmware `M556`.
+    Rrf,
+    /// grblHAL backlash settings `$160`–`$162`.
+    Grblhal,
+}
+
+impl Format {
+    /// The name used on the command line and in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Linuxcnc => "linuxcnc",
+            Format::SiemensEec => "siemens-eec",
+            Format::SiemensCec => "siemens-cec",
+            Format::Heidenhain => "heidenhain",
+            Format::IsgSsfk => "isg-ssfk",
+            Format::IsgCsv => "isg-csv",
+            Format::Fanuc => "fanuc",
+            Format::Klipper => "klipper",
+            Format::Marlin => "marlin",
+            Format::Rrf => "rrf",
+            Format::Grblhal => "grblhal",
+        }
+    }
+}
+
+/// On which travel a controller's backlash (reversal) compensation acts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BacklashSide {
+    /// Half of it each way: `−B/2` moving forward, `+B/2` in reverse
+    /// (LinuxCNC `BACKLASH` without a comp file: `control.c`,
+    /// `compute_screw_comp`).
+    Split,
+    /// All of it on reverse travel, none forward: the controller took its
+    /// reference moving forward (Siemens and Fanuc after a reference
+    /// approach in +, grblHAL homing towards − (`$23` bit set)).
+    Reverse,
+    /// All of it on forward travel, none in reverse: the reference was
+    /// taken moving in reverse (grblHAL's default homing towards + with
+    /// its pull-off in −; Siemens and Fanuc referencing in −).
+    Forward,
+}
+
+/// A controller's backlash compensation of one axis: the reversal value
+/// `B` it corrects, in volcomp's sign (`B = E_reverse − E_forward`, µm:
+/// positive for an axis that lags, the usual case; docs/design.md,
+/// "Direction state and backlash"), and the travel it acts on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Backlash {
+    /// `B` (µm).
+    pub value_um: f64,
+    /// Where it acts.
+    pub side: BacklashSide,
+}
+
+impl Backlash {
+    /// The part of `c(q, s)` it makes (µm), moving `forward` or in reverse.
+    ///
+    /// ```
+    /// use volcomp_core::model::controller::{Backlash, BacklashSide};
+    /// let b = Backlash { value_um: 4.0, side: BacklashSide::Split };
+    /// assert_eq!((b.correction_um(true), b.correction_um(false)), (-2.0, 2.0));
+    /// let b = Backlash { value_um: 4.0, side: BacklashSide::Forward };
+    /// assert_eq!((b.correction_um(true), b.correction_um(false)), (-4.0, 0.0));
+    /// ```
+    pub fn correction_um(&self, forward: bool) -> f64 {
+        let b = self.value_um;
+        match (self.side, forward) {
+            (BacklashSide::Split, true) => -0.5 * b,
+            (BacklashSide::Split, false) => 0.5 * b,
+            (BacklashSide::Reverse, true) | (BacklashSide::Forward, false) => 0.0,
+            (BacklashSide::Reverse, false) => b,
+            (BacklashSide::Forward, true) => -b,
+        }
+    }
+}
+
+/// A cross-axis table `(input axis, output axis, table)`: the error (µm)
+/// along the output axis as a function of the input axis' position
+/// (Siemens CEC), linearly interpolated, ends held.
+pub type CrossTable = (usize, usize, Positioning);
+
+/// The positioning correction a controller applies, in volcomp's sign: the
+/// error `c_a(q, s)` (µm) the controller's table and backlash compensation
+/// say axis `a` has at the commanded position `q`, which it removes by
+/// commanding `q − c`.
+///
+/// Tables are interpolated linearly between their points and hold their
+/// end values outside (LinuxCNC `compute_screw_comp`, Siemens K3 "the first
+/// and last compensation values remain active over the entire traversing
+/// range", Fanuc and Heidenhain: the compensation accumulated at the last
+/// point). An axis without a table is `None`. A controller without
+/// direction-dependent tables has `forward_um == reverse_um`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ControllerCorrection {
+    /// The format the correction was read from or written to.
+    pub format: Format,
+    /// Per axis X, Y, Z.
+    pub axes: [Option<Positioning>; 3],
+    /// The backlash compensation per axis, added to the table (`None`:
+    /// none, or the controller ignores it).
+    pub backlash: [Option<Backlash>; 3],
+    /// The squareness the controller corrects, `[S_xy, S_yz, S_zx]` (µrad,
+    /// docs/design.md, "The 21-component model"), if any.
+    pub squareness_urad: Option<[f64; 3]>,
+    /// Cross-axis tables (Siemens CEC).
+    pub cross: Vec<CrossTable>,
+    /// What reading the file assumed or found ignored by the controller
+    /// (a setting the controller overrides, a default taken for a setting
+    /// the file does not give), for the front end to show.
+    pub notes: Vec<String>,
+}
+
+impl ControllerCorrection {
+    /// A correction of format `format` with nothing in it.
+    pub fn empty(format: Format) -> Self {
+        ControllerCorrection {
+            format,
+            axes: [None, None, None],
+            backlash: [None, None, None],
+            squareness_urad: None,
+            cross: Vec::new(),
+            notes: Vec::new(),
+        }
+    }
+
+    /// `c_a(q, s)` in µm: the table of axis `axis` (0, 1, 2) at `q_mm` in
+    /// direction `forward` (or reverse), linearly interpolated, ends held,
+    /// plus the axis' backlash compensation; 0 for an axis without either.
+    pub fn correction_um(&self, axis: usize, q_mm: f64, forward: bool) -> f64 {
+        let table = match &self.axes[axis] {
+            None => 0.0,
+            Some(p) => {
+                let v = if forward {
+                    &p.forward_um
+                } else {
+                    &p.reverse_um
+                };
+                interpolate_held(&p.positions_mm, v, q_mm)
+            }
+        };
+        table + self.backlash[axis].map_or(0.0, |b| b.correction_um(forward))
+    }
+
+    /// Whether the controller corrects anything at all.
+    pub fn is_empty(&self) -> bool {
+        self.axes.iter().all(Option::is_none)
+            && self.backlash.iter().all(Option::is_none)
+            && self.squareness_urad.is_none()
+            && self.cross.is_empty()
+    }
+}
+
+/// Linear interpolation in a table with strictly increasing `x`, holding
+/// the end values outside it (as the controllers of `io::controllers` do).
+///
+/// ```
+/// use volcomp_core::model::controller::interpolate_held;
+/// let x = [0.0, 10.0, 20.0];
+/// let v = [0.0, 4.0, 2.0];
+/// assert_eq!(interpolate_held(&x, &v, 5.0), 2.0);
+/// assert_eq!(interpolate_held(&x, &v, -3.0), 0.0);
+/// assert_eq!(interpolate_held(&x, &v, 25.0), 2.0);
+/// ```
+pub fn interpolate_held(x: &[f64], v: &[f64], at: f64) -> f64 {
+    let n = x.len();
+    if n == 0 {
+        return 0.0;
+    }
+    if at <= x[0] {
+        return v[0];
+    }
+    if at >= x[n - 1] {
+        return v[n - 1];
+    }
+    let i = x.partition_point(|&p| p <= at) - 1;
+    let t = (at - x[i]) / (x[i + 1] - x[i]);
+    v[i] + (v[i + 1] - v[i]) * t
+}
+
+/// A volumetric compensation as a controller applies it: the 21-component
+/// model's whole deviation, with the output axes the configuration negates
+/// or sets to zero (ISG `negate` P-VOLC-00009, `set_to_zero`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Volumetric {
+    /// The model the controller evaluates.
+    pub model: crate::model::kinematic::KinematicModel,
+    /// Output axes (X, Y, Z) whose compensation value the controller negates.
+    pub negate: [bool; 3],
+    /// Output axes whose compensation value the controller sets to zero.
+    pub zero: [bool; 3],
+    /// What reading the configuration assumed (see [`ControllerCorrection::notes`]).
+    pub notes: Vec<String>,
+}
+
+impl Volumetric {
+    /// The model applied as is.
+    pub fn plain(model: crate::model::kinematic::KinematicModel) -> Self {
+        Volumetric {
+            model,
+            negate: [false; 3],
+            zero: [false; 3],
+            notes: Vec::new(),
+        }
+    }
+
+    fn apply(&self, mut c: Vec3) -> Vec3 {
+        for a in 0..3 {
+            if self.zero[a] {
+                c[a] = 0.0;
+            } else if self.negate[a] {
+                c[a] = -c[a];
+            }
+        }
+        c
+    }
+}
 
 /// What the controller compensates.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,8 +275,9 @@ pub enum ControllerApplies {
     Tables(Box<ControllerCorrection>),
     /// A full volumetric compensation from a 21-component model (the ISG
     /// volumetric compensation's parameter files): the controller removes
-    /// that model's whole deviation.
-    Model(Box<crate::model::kinematic::KinematicModel>),
+    /// that model's whole deviation (negated or zeroed on the axes its
+    /// configuration says).
+    Model(Box<Volumetric>),
     /// The map's own positioning errors `E_XX`, `E_YY`, `E_ZZ`, exactly (an
     /// ideal pitch compensation: what a controller would apply from a table
     /// made from the same measurement at infinite resolution).
@@ -47,6 +291,17 @@ pub struct ControllerResidual<M> {
     pub map: M,
     /// What the controller compensates.
     pub controller: ControllerApplies,
+}
+
+impl ControllerApplies {
+    /// What reading the controller's files assumed or found ignored.
+    pub fn notes(&self) -> &[String] {
+        match self {
+            ControllerApplies::Tables(t) => &t.notes,
+            ControllerApplies::Model(v) => &v.notes,
+            ControllerApplies::MapPositioning => &[],
+        }
+    }
 }
 
 impl<M: ErrorModel> ControllerResidual<M> {
@@ -68,10 +323,10 @@ impl<M: ErrorModel> ControllerResidual<M> {
                     .deviation_with_tool_um(q_mm, s, Components::PositioningOnly, t),
                 None => self.map.deviation_um(q_mm, s, Components::PositioningOnly),
             },
-            ControllerApplies::Model(m) => match tool {
-                Some(t) => m.deviation_with_tool_um(q_mm, s, components, t),
-                None => m.deviation_um(q_mm, s, components),
-            },
+            ControllerApplies::Model(v) => Ok(v.apply(match tool {
+                Some(t) => v.model.deviation_with_tool_um(q_mm, s, components, t)?,
+                None => v.model.deviation_um(q_mm, s, components)?,
+            })),
             ControllerApplies::Tables(t) => {
                 let mut c = Vec3::ZERO;
                 for a in 0..3 {
@@ -84,11 +339,7 @@ impl<M: ErrorModel> ControllerResidual<M> {
                         } else {
                             &table.reverse_um
                         };
-                        c[*o] += crate::io::controllers::interpolate_held(
-                            &table.positions_mm,
-                            v,
-                            q_mm[*i],
-                        );
+                        c[*o] += interpolate_held(&table.positions_mm, v, q_mm[*i]);
                     }
                 }
                 if let (Some([xy, yz, zx]), Components::All) = (t.squareness_urad, components) {
@@ -138,7 +389,6 @@ impl<M: ErrorModel> ErrorModel for ControllerResidual<M> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::controllers::{Format, Positioning};
     use crate::model::axis_table::AxisTableMap;
     use crate::model::{Direction::Forward as F, Direction::Reverse as R};
 
@@ -165,6 +415,8 @@ mod tests {
             map: map(),
             controller: ControllerApplies::Tables(Box::new(ControllerCorrection {
                 format: Format::SiemensEec,
+                backlash: [None; 3],
+                notes: Vec::new(),
                 axes: [Some(table), None, None],
                 squareness_urad: None,
                 cross: Vec::new(),
@@ -203,6 +455,8 @@ mod tests {
             map: map(),
             controller: ControllerApplies::Tables(Box::new(ControllerCorrection {
                 format: Format::SiemensCec,
+                backlash: [None; 3],
+                notes: Vec::new(),
                 axes: [None, None, None],
                 squareness_urad: None,
                 cross: vec![(
@@ -228,6 +482,8 @@ mod tests {
             map: map(),
             controller: ControllerApplies::Tables(Box::new(ControllerCorrection {
                 format: Format::Klipper,
+                backlash: [None; 3],
+                notes: Vec::new(),
                 axes: [None, None, None],
                 squareness_urad: Some([10.0, -20.0, 30.0]),
                 cross: Vec::new(),

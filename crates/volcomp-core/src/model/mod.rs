@@ -58,6 +58,38 @@ pub type Directions = [Direction; 3];
 /// All axes forward: the state before any motion (docs/design.md, "Direction state and backlash").
 pub const ALL_FORWARD: Directions = [Direction::Forward; 3];
 
+/// Relative tolerance of a model's range check: a position computed from
+/// others (a work offset or tool length added and taken off again, a
+/// conversion) can land a few units in the last place beyond a table's end
+/// where the input was exactly at it (`(181.5362 + 128.1) − 128.1` is
+/// `181.53620000000004`). A position within `RANGE_TOLERANCE · max(1 mm,
+/// |lo|, |hi|)` of the range (10⁻⁷ mm on a 1 m axis) is taken at the end;
+/// anything farther out is out of range, never clamped silently.
+pub const RANGE_TOLERANCE: f64 = 1e-10;
+
+/// `x_mm` if it lies in `[lo_mm, hi_mm]`, the nearer end if it lies within
+/// the rounding of a computed position of it ([`RANGE_TOLERANCE`]), else
+/// `None`.
+///
+/// ```
+/// use volcomp_core::model::within_range;
+/// assert_eq!(within_range((181.5362 + 128.1) - 128.1, 0.0, 181.5362), Some(181.5362));
+/// assert_eq!(within_range(181.5363, 0.0, 181.5362), None);
+/// ```
+pub fn within_range(x_mm: f64, lo_mm: f64, hi_mm: f64) -> Option<f64> {
+    if (lo_mm..=hi_mm).contains(&x_mm) {
+        return Some(x_mm);
+    }
+    let tol = RANGE_TOLERANCE * lo_mm.abs().max(hi_mm.abs()).max(1.0);
+    if x_mm < lo_mm && lo_mm - x_mm <= tol {
+        Some(lo_mm)
+    } else if x_mm > hi_mm && x_mm - hi_mm <= tol {
+        Some(hi_mm)
+    } else {
+        None
+    }
+}
+
 /// Which error components a model evaluation includes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Components {

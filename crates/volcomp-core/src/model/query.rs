@@ -22,7 +22,8 @@ impl AxisTableMap {
             let x = if self.clamp {
                 q_mm[a].clamp(lo, hi)
             } else {
-                q_mm[a]
+                // Within the rounding of a computed position: at the end.
+                crate::model::within_range(q_mm[a], lo, hi).unwrap_or(q_mm[a])
             };
             *o = table.eval(x).ok_or(ModelError::OutOfRange {
                 axis: ['X', 'Y', 'Z'][a],

@@ -584,7 +584,7 @@ pub fn held_warning(s: &CompensateSummary) -> Option<String> {
         .map(|(l, a)| format!("line {l} ({a})"))
         .collect();
     Some(format!(
-        "{} kept an axis still because the map's reversal value is negative there (forward error above reverse), so no command can reverse by less than it: {}",
+        "{} kept an axis still because no command moves it the way its table was chosen for: the reversal value of the error compensated (the map's, or with a controller what it leaves of the map) is negative there (forward error above reverse), so no command can reverse by less than it: {}",
         count(s.held_count, "point", "points"),
         first.join(", ")
     ))
@@ -651,7 +651,7 @@ pub fn corrections_section(
         ));
     } else {
         blocks.push(Block::Text(format!(
-            "{} point(s) kept an axis still because the map's reversal value is negative there (forward error above reverse), so no command can reverse by less than it{}:",
+            "{} point(s) kept an axis still because no command moves it the way its table was chosen for: the reversal value of the error compensated (the map's, or with a controller what it leaves of the map) is negative there (forward error above reverse), so no command can reverse by less than it{}:",
             summary.held_count,
             if summary.held_count as usize > summary.held.len() {
                 format!("; the first {} are listed", summary.held.len())

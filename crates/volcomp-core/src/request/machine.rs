@@ -50,7 +50,7 @@ pub const MACHINE_OPTIONS: &[OptionInfo] = &[
         "Most lines a run executes again (every pass of a loop after the first, every line of a called subroutine) before it is refused as a loop that never ends; a program without loops runs whatever its length.",
     )
     .value("N")
-    .default("10000000"),
+    .default("5000000"),
 ];
 
 /// How a program is set up on the machine, as plain values.

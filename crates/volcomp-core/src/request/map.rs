@@ -91,11 +91,20 @@ impl MapRequest {
     /// compensates part of it, the residual it leaves
     /// ([`ControllerResidual`]).
     pub fn load(&self) -> Result<Box<dyn ErrorModel>, Error> {
+        Ok(self.load_noting()?.0)
+    }
+
+    /// [`MapRequest::load`], with what reading the controller's files
+    /// assumed or found the controller ignoring (for the front end to show).
+    pub fn load_noting(&self) -> Result<(Box<dyn ErrorModel>, Vec<String>), Error> {
         let controller = self.controller_applies()?;
         let map = load_model(self.path()?, &LoadOptions { clamp: self.clamp })?.into_model();
         Ok(match controller {
-            Some(controller) => Box::new(ControllerResidual { map, controller }),
-            None => map,
+            Some(controller) => {
+                let notes = controller.notes().to_vec();
+                (Box::new(ControllerResidual { map, controller }), notes)
+            }
+            None => (map, Vec::new()),
         })
     }
 

@@ -38,11 +38,13 @@ use std::path::PathBuf;
 pub const MAIN: usize = 0;
 
 /// Most lines one run executes again by default (every line of a loop's
-/// pass after it first ran, every line of a called subroutine): 10 million,
-/// twice the million-move loop of the benchmarks and about three seconds of
-/// an empty `while [1]` ([`crate::InterpOptions::max_executed_lines`]).
-/// Lines of the main program run for the first time are not counted.
-pub const MAX_EXECUTED_LINES: u64 = 10_000_000;
+/// pass after it first ran, every line of a called subroutine): 5 million,
+/// more than the 3 million of the benchmarks' million-move loop, and small
+/// enough that `compensate` of an endless loop of moves (every move solved
+/// and written) stops within about 6 s on a 2-core machine
+/// ([`crate::InterpOptions::max_executed_lines`]). Lines of the main
+/// program run for the first time are not counted.
+pub const MAX_EXECUTED_LINES: u64 = 5_000_000;
 
 /// The help of a run stopped by [`MAX_EXECUTED_LINES`]: the words a front
 /// end rewords with its option.

@@ -166,7 +166,7 @@ def compensate(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    max_repeated_lines: int = 10000000,
+    max_repeated_lines: int = 5000000,
     method: Literal["exact", "ilc", "direct", "pitch"] = "exact",
     segment_length_mm: Optional[float] = None,
     segments: Optional[int] = None,
@@ -202,7 +202,7 @@ def simulate(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    max_repeated_lines: int = 10000000,
+    max_repeated_lines: int = 5000000,
     reference: Optional[Input] = None,
     chord_tolerance_mm: float = 1e-05,
 ) -> SimulationResult:
@@ -218,7 +218,7 @@ def moves(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    max_repeated_lines: int = 10000000,
+    max_repeated_lines: int = 5000000,
 ) -> dict[str, npt.NDArray[Any]]:
     """One row per motion as a dict of columns (the `volcomp moves` CSV)."""
 
@@ -316,7 +316,7 @@ def mirror(
     absolute_arc_centers: bool = False,
     accept_k0: bool = False,
     allow_no_program_end: bool = False,
-    max_repeated_lines: int = 10000000,
+    max_repeated_lines: int = 5000000,
 ) -> dict[str, Any]:
     """Mirror compensation of a free-form surface from probe points (stock_mm
     is required); with finishing and tool_radius_mm, the compensated

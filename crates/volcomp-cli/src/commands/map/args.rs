@@ -194,6 +194,10 @@ pub struct ConvertArgs {
     pub direction: String,
     #[command(flatten)]
     pub comp: CompArgs,
+    /// For --to linuxcnc: the largest deviation (µm) of the written tables
+    /// from the map, between and at their points (a finer --step when it is exceeded).
+    #[arg(long, value_name = "UM", default_value_t = volcomp_core::io::controllers::table_error::DEFAULT_MAX_TABLE_ERROR_UM)]
+    pub max_table_error_um: f64,
     /// Kinematic chain for --to model from axis tables (default w X' Y' b Z t).
     #[arg(long, value_name = "CHAIN")]
     pub chain: Option<String>,
@@ -309,6 +313,15 @@ pub struct ExportArgs {
     pub tool: ToolArgs,
     #[command(flatten)]
     pub comp: CompArgs,
+    /// The largest deviation (µm) of the written table, as the controller
+    /// applies it, from the map between and at its points: a larger one is
+    /// refused with a finer step to choose.
+    #[arg(long, value_name = "UM", default_value_t = volcomp_core::io::controllers::table_error::DEFAULT_MAX_TABLE_ERROR_UM)]
+    pub max_table_error_um: f64,
+    /// linuxcnc: write each joint's BACKLASH (the mean reversal value) and
+    /// no comp files.
+    #[arg(long)]
+    pub backlash_only: bool,
     /// siemens-eec: the machine axis names of X, Y, Z.
     #[arg(long, value_name = "X,Y,Z", default_value = "X1,Y1,Z1")]
     pub axis_names: String,
@@ -353,10 +366,19 @@ pub struct ExportArgs {
     /// whose table is zero at the reference; 3627 holds the other's value.
     #[arg(long, value_enum, default_value_t = FanucReturnArg::Positive)]
     pub fanuc_reference_return: FanucReturnArg,
+    /// siemens-eec: the direction of the reference point approach (MD34010
+    /// $MA_REFP_CAM_DIR_IS_MINUS 0 = positive): MD32450's backlash acts on
+    /// travel the other way.
+    #[arg(long, value_enum, default_value_t = FanucReturnArg::Positive)]
+    pub reference_direction: FanucReturnArg,
     /// siemens-cec: the sign of the values (the manual does not settle it):
     /// error = +e (default, as the leadscrew tables) or correction = −e.
     #[arg(long, value_enum, default_value_t = CecSignArg::Error)]
     pub cec_sign: CecSignArg,
+    /// grblhal: the machine's $23 (homing direction invert mask): the side
+    /// grblHAL adds the backlash to.
+    #[arg(long, value_name = "MASK", default_value_t = 0)]
+    pub homing_dir_mask: u32,
     /// klipper: the profile's name (SKEW_PROFILE LOAD=NAME).
     #[arg(long, value_name = "NAME", default_value = "volcomp")]
     pub profile: String,

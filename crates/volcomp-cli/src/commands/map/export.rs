@@ -91,7 +91,15 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
         ExportFormat::Rrf => &["m556.g"],
         ExportFormat::Grblhal => &["backlash.txt"],
     };
-    for n in names {
+    // The sign check on the machine, for the formats whose sign no vendor
+    // text settles (controllers::signcheck).
+    let checks: &[&str] = match a.to {
+        ExportFormat::SiemensCec => &["sign_check.txt", "SIGNCHECK.MPF"],
+        ExportFormat::Fanuc | ExportFormat::IsgCsv => &["sign_check.txt", "signcheck.nc"],
+        ExportFormat::Heidenhain => &["sign_check.txt", "SIGNCHECK.H"],
+        _ => &[],
+    };
+    for n in names.iter().chain(checks) {
         plan.output(format!("-o (its {n})"), a.output.join(n));
     }
     check(&plan)?;
@@ -101,7 +109,7 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
     let e: Export = match a.to {
         ExportFormat::Grblhal => {
             let t = positioning_tables(&map, a.at.as_deref(), &a.tool, form)?;
-            controllers::grbl::export(&t.map(Some))?
+            controllers::grbl::export(&t.map(Some), a.homing_dir_mask)?
         }
         ExportFormat::Klipper | ExportFormat::Marlin | ExportFormat::Rrf => {
             let Map::Kinematic(m) = &map else {
@@ -119,12 +127,21 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
             }
         }
         ExportFormat::Linuxcnc => {
-            let (ty, units) = a.comp.get()?;
+            use controllers::linuxcnc::LinuxcncExport;
+            let (what, units) = if a.backlash_only {
+                let units = a.comp.units.ok_or_else(|| {
+                    CliError::Message("LinuxCNC's BACKLASH is in machine units: pass --units mm or --units inch as [TRAJ] LINEAR_UNITS says".into())
+                })?;
+                (LinuxcncExport::BacklashOnly, units.into())
+            } else {
+                let (ty, units) = a.comp.get()?;
+                (LinuxcncExport::CompFiles(ty), units)
+            };
             let t = stepped(
                 positioning_tables(&map, a.at.as_deref(), &a.tool, form)?,
                 step,
             )?;
-            controllers::linuxcnc::export(&t.map(Some), ty, units)?
+            controllers::linuxcnc::export(&t.map(Some), what, units)?
         }
         ExportFormat::Fanuc => {
             let Some(step) = step else {
@@ -197,6 +214,10 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
                 step_mm: step,
                 resolution_um: a.resolution_um,
                 max_points: a.max_points.unwrap_or(5000),
+                reference: match a.reference_direction {
+                    FanucReturnArg::Positive => controllers::ReferenceDirection::Positive,
+                    FanucReturnArg::Negative => controllers::ReferenceDirection::Negative,
+                },
             };
             let sign = match a.cec_sign {
                 CecSignArg::Error => siemens::CecSign::Error,
@@ -231,12 +252,72 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
                 step_mm: step,
                 resolution_um: a.resolution_um,
                 max_points: a.max_points.unwrap_or(5000),
+                reference: match a.reference_direction {
+                    FanucReturnArg::Positive => controllers::ReferenceDirection::Positive,
+                    FanucReturnArg::Negative => controllers::ReferenceDirection::Negative,
+                },
             };
             siemens::export(&t.map(Some), &o)?
         }
     };
+    // How far the table, as the controller applies it, lies from the map:
+    // checked before anything is written.
+    use controllers::table_error::{self, um};
+    if !(a.max_table_error_um.is_finite() && a.max_table_error_um > 0.0) {
+        return Err(CliError::Message(format!(
+            "--max-table-error-um must be positive; got {}",
+            a.max_table_error_um
+        )));
+    }
+    let err = match a.to {
+        ExportFormat::Klipper | ExportFormat::Marlin | ExportFormat::Rrf => {
+            use volcomp_core::model::ErrorModel;
+            match &map {
+                Map::Kinematic(m) => {
+                    let s = &m.kinematics.squareness;
+                    table_error::squareness_error(
+                        [s.xy_urad, s.yz_urad, s.zx_urad],
+                        &e.applied,
+                        m.range_mm(),
+                    )
+                }
+                Map::Tables(_) => table_error::TableError::default(),
+            }
+        }
+        ExportFormat::SiemensCec => {
+            table_error::cross_error(&straightness_tables(&map), &e.applied)
+        }
+        _ => table_error::table_error(
+            &positioning_tables(&map, a.at.as_deref(), &a.tool, form)?.map(Some),
+            &e.applied,
+            e.holds,
+            e.zero_at,
+        ),
+    };
+    let rounding_um = match a.to {
+        // µrad over the map's arms: the error itself says it in µm.
+        ExportFormat::Klipper | ExportFormat::Marlin | ExportFormat::Rrf => 0.0,
+        _ => e.rounding.max_um,
+    };
+    table_error::check(
+        e.applied.format.name(),
+        &err,
+        rounding_um,
+        step,
+        a.max_table_error_um,
+    )?;
+    let checks = if checks.is_empty() {
+        Vec::new()
+    } else {
+        let probes = controllers::signcheck::probes(
+            &e,
+            &positioning_tables(&map, a.at.as_deref(), &a.tool, form)?.map(Some),
+            &straightness_tables(&map),
+        );
+        controllers::signcheck::files(&e, &probes)
+    };
     std::fs::create_dir_all(&a.output).map_err(|err| CliError::Io(a.output.clone(), err))?;
-    for f in &e.files {
+    for f in e.files.iter().chain(&checks) {
         write_text(&a.output.join(&f.name), &[&a.map], &f.text)?;
     }
     let stdout = std::io::stdout();
@@ -249,11 +330,34 @@ pub fn export(a: ExportArgs) -> Result<(), CliError> {
         _ => "µm",
     };
     crate::note!(
-        "volcomp: wrote {} file(s) to {}; rounded to the controller's resolution {} {unit}: largest change {:.4} {unit}",
-        e.files.len(),
+        "volcomp: wrote {} file(s) to {}{}; rounded to the controller's resolution {} {unit}: largest change {} {unit}",
+        e.files.len() + checks.len(),
         a.output.display(),
-        e.rounding.resolution_um,
-        e.rounding.max_um
+        if checks.is_empty() {
+            String::new()
+        } else {
+            format!(
+                " (with {}: check the table's sign on the machine once, as it says)",
+                checks[0].name
+            )
+        },
+        um(e.rounding.resolution_um),
+        um(e.rounding.max_um)
     );
+    let (ax, x, forward) = err.at.unwrap_or((0, 0.0, true));
+    crate::note!(
+        "volcomp: the table as the controller applies it lies at most {} µm from the map (resampling and rounding; {} at {} mm, {}; exact: checked at every point of the map's and the controller's tables, where the largest difference of two linearly interpolated tables lies); --max-table-error-um allows {}",
+        um(err.max_um),
+        ["X", "Y", "Z"][ax],
+        volcomp_core::io::numfmt::fixed(x, 4),
+        if forward { "forward" } else { "reverse" },
+        um(a.max_table_error_um)
+    );
+    if err.left_um > err.max_um {
+        crate::note!(
+            "volcomp: the controller leaves up to {} µm of the map uncorrected (what the format cannot hold); compensate it with --controller",
+            um(err.left_um)
+        );
+    }
     Ok(())
 }

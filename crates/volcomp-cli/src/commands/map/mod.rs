@@ -265,14 +265,16 @@ fn positioning_tables(
 }
 
 fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliError> {
+    use volcomp_core::io::controllers::{table_error, ControllerCorrection, Format};
     let (ty, units) = a.comp.get()?;
-    let tables = positioning_tables(map, a.at.as_deref(), &a.tool, form)?;
-    let tables = match positive_step(a.step)? {
-        Some(step) => tables.map(|p| p.resample(step)),
-        None => tables,
+    let original = positioning_tables(map, a.at.as_deref(), &a.tool, form)?;
+    let step = positive_step(a.step)?;
+    let tables = match step {
+        Some(step) => original.clone().map(|p| p.resample(step)),
+        None => original.clone(),
     };
-    std::fs::create_dir_all(&a.output).map_err(|e| CliError::Io(a.output.clone(), e))?;
-    let mut names = Vec::new();
+    let mut texts = Vec::new();
+    let mut applied = ControllerCorrection::empty(Format::Linuxcnc);
     for (k, p) in tables.iter().enumerate() {
         let text = linuxcnc_comp::write(p, ty, units).map_err(|m| {
             CliError::Message(format!(
@@ -280,12 +282,37 @@ fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliErr
                 AXES[k]
             ))
         })?;
+        applied.axes[k] = Some(linuxcnc_comp::parse(&text, "comp", ty, units)?);
+        texts.push(text);
+    }
+    // How far the written tables lie from the map, checked before writing.
+    if !(a.max_table_error_um.is_finite() && a.max_table_error_um > 0.0) {
+        return Err(CliError::Message(format!(
+            "--max-table-error-um must be positive; got {}",
+            a.max_table_error_um
+        )));
+    }
+    let err = table_error::table_error(
+        &original.map(Some),
+        &applied,
+        [table_error::Holds::BothDirections; 3],
+        None,
+    );
+    table_error::check("linuxcnc", &err, 0.0, step, a.max_table_error_um)?;
+    std::fs::create_dir_all(&a.output).map_err(|e| CliError::Io(a.output.clone(), e))?;
+    let mut names = Vec::new();
+    for (k, text) in texts.iter().enumerate() {
         let path = a
             .output
             .join(format!("{}.comp", AXES[k].to_ascii_lowercase()));
-        write_text(&path, &[&a.map], &text)?;
+        write_text(&path, &[&a.map], text)?;
         names.push(path);
     }
+    crate::note!(
+        "volcomp: the comp files lie at most {} µm from the map's positioning errors (checked at every point of both tables); --max-table-error-um allows {}",
+        table_error::um(err.max_um),
+        table_error::um(a.max_table_error_um)
+    );
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
     writeln!(out, "# LinuxCNC INI lines (joints 0, 1, 2 = X, Y, Z with trivkins); remove BACKLASH, the comp files hold the reversal").map_err(CliError::Stdout)?;

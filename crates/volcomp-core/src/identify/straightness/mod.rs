@@ -260,8 +260,8 @@ impl StraightnessModel {
         let [lo, hi] = m.range_mm;
         let p = if self.clamp {
             position_mm.clamp(lo, hi)
-        } else if (lo..=hi).contains(&position_mm) {
-            position_mm
+        } else if let Some(p) = crate::model::within_range(position_mm, lo, hi) {
+            p
         } else {
             return Err(ModelError::OutOfRange {
                 axis: axis.letter(),

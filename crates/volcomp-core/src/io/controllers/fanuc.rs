@@ -36,17 +36,26 @@
 //! absolute compensation at the reference position for the direction
 //! opposite to the reference position return. The reader gives each
 //! direction its table ([`ControllerCorrection`]'s `forward_um`,
-//! `reverse_um`). Otherwise the table is unidirectional (3605#0 = 0): the
-//! mean of the forward and reverse errors, the reversal reported for the
-//! backlash compensation (parameter 1851). Assumed where the report is
+//! `reverse_um`). Otherwise the table is unidirectional (3605#0 = 0) and
+//! the reversal goes to the backlash compensation, written on the tape:
+//! parameter 1851 (and 1852, the backlash for rapid traverse used when
+//! 1800#4 RBK = 1, the same value, so that every move gets one
+//! correction) = the mean reversal value `B̄` in detection units; the
+//! table then holds the mean of both directions shifted by half of it
+//! ([`super::table_beside_backlash`]). *Assumed*: the backlash
+//! compensation acts on travel opposite to the reference position return
+//! (the return takes the backlash up); with a bidirectional table 1851 is
+//! written 0 (the tables hold the reversal), and read back only as 0.
+//! Assumed where the report is
 //! silent: the − table follows the + table's points; 3627 in detection
 //! units (not magnified) with the values' sign; 3605 written as the whole
 //! byte (`P00000001`, its other bits 0); the reference position return
 //! direction (1006#5) a switch ([`FanucReturn`], + by default).
 
 use super::{
-    axis_letter, bidirectional_mean, equidistant, located, ControllerCorrection, Export,
-    ExportFile, Format, LimitError, Positioning, ReadError, Rounding,
+    axis_letter, bidirectional_mean, equidistant, located, table_beside_backlash, Backlash,
+    BacklashSide, ControllerCorrection, Export, ExportFile, Format, LimitError, Positioning,
+    ReadError, Rounding,
 };
 use crate::io::numfmt::fixed;
 
@@ -127,6 +136,20 @@ pub enum FanucReturn {
     Negative,
 }
 
+impl FanucReturn {
+    /// The travel the backlash compensation (1851) acts on: the one away
+    /// from the reference position return.
+    pub fn backlash_side(self) -> BacklashSide {
+        match self {
+            FanucReturn::Positive => BacklashSide::Reverse,
+            FanucReturn::Negative => BacklashSide::Forward,
+        }
+    }
+}
+
+/// The range of parameters 1851 and 1852 (detection units).
+pub const BACKLASH_RANGE: (i64, i64) = (-9999, 9999);
+
 /// The range of parameter 3627 (detection units).
 pub const REFERENCE_RANGE: (i64, i64) = (-32768, 32767);
 
@@ -166,11 +189,13 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
         max_um: 0.0,
     };
     let mut next = 0usize;
-    // 3605, 3620 … 3624, 3626, 3627.
-    let mut params: [Vec<String>; 8] = Default::default();
+    // 1851, 1852, 3605, 3620 … 3624, 3626, 3627.
+    let mut params: [Vec<String>; 10] = Default::default();
     let mut data = String::new();
-    let mut applied: [Option<Positioning>; 3] = [None, None, None];
+    let mut applied = ControllerCorrection::empty(Format::Fanuc);
     let mut notes = Vec::new();
+    let side = o.reference_return.backlash_side();
+    let mut holds = [super::table_error::Holds::Nothing; 3];
     for (a, table) in p.iter().enumerate() {
         let Some(table) = table else { continue };
         let ax = axis_letter(a);
@@ -204,6 +229,11 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
         let k_hi = k_hi.max(0);
         let count = (k_hi - k_lo + 1) as usize;
         let tables = if both { 2 } else { 1 };
+        holds[a] = if both {
+            super::table_error::Holds::BothDirections
+        } else {
+            super::table_error::Holds::OneTable
+        };
         if next + tables * count - 1 > o.max_number {
             let what = if both {
                 format!("{count} compensation points per direction (the − direction's table after the + one) from number {next}")
@@ -222,7 +252,23 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
                 ),
             ));
         }
-        let source = if both { table } else { &mean };
+        let _ = mean;
+        let (beside, b_mean) = table_beside_backlash(table, side);
+        let b_units = if both {
+            0
+        } else {
+            (b_mean / unit).round() as i64
+        };
+        if !(BACKLASH_RANGE.0..=BACKLASH_RANGE.1).contains(&b_units) {
+            return Err(limit(
+                format!("a mean reversal value of {b_units} detection units exceeds parameter 1851's range"),
+                "check the direction columns of the map".into(),
+            ));
+        }
+        rounding.max_um = rounding
+            .max_um
+            .max((b_units as f64 * unit - if both { 0.0 } else { b_mean }).abs());
+        let source = if both { table } else { &beside };
         let sampled = equidistant(source, k_lo as f64 * o.step_mm, o.step_mm, count);
         let r_index = (-k_lo) as usize;
         // The error of the reference-return direction at the reference
@@ -297,18 +343,20 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
                 .max((applied_rev[i] - (sampled.reverse_um[i] - e_ref)).abs());
         }
         let axis_no = a + 1;
-        params[1].push(format!("A{axis_no} P{}", next + r_index));
-        params[2].push(format!("A{axis_no} P{next}"));
-        params[3].push(format!("A{axis_no} P{}", next + count - 1));
-        params[4].push(format!("A{axis_no} P{magnification}"));
-        params[5].push(format!("A{axis_no} P{}", interval as i64));
+        params[0].push(format!("A{axis_no} P{b_units}"));
+        params[1].push(format!("A{axis_no} P{b_units}"));
+        params[3].push(format!("A{axis_no} P{}", next + r_index));
+        params[4].push(format!("A{axis_no} P{next}"));
+        params[5].push(format!("A{axis_no} P{}", next + count - 1));
+        params[6].push(format!("A{axis_no} P{magnification}"));
+        params[7].push(format!("A{axis_no} P{}", interval as i64));
         for (i, v) in values_fwd.iter().enumerate() {
             data.push_str(&format!("N{} P{v}\n", o.data_offset as usize + next + i));
         }
         if both {
-            params[0].push(format!("A{axis_no} P00000001"));
-            params[6].push(format!("A{axis_no} P{}", next + count));
-            params[7].push(format!("A{axis_no} P{p3627}"));
+            params[2].push(format!("A{axis_no} P00000001"));
+            params[8].push(format!("A{axis_no} P{}", next + count));
+            params[9].push(format!("A{axis_no} P{p3627}"));
             for (i, v) in values_rev.iter().enumerate() {
                 data.push_str(&format!(
                     "N{} P{v}\n",
@@ -325,7 +373,7 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
         ));
         if both {
             notes.push(format!(
-                "{ax}: bidirectional (3605#0 = 1): the - direction's table at points {} … {} (3626), {p3627} at the reference position (3627, reference position return in the {} direction, 1006#5 = {}); set the backlash compensation (parameter 1851) to 0, the tables hold the reversal (up to {} um)",
+                "{ax}: bidirectional (3605#0 = 1): the - direction's table at points {} … {} (3626), {p3627} at the reference position (3627, reference position return in the {} direction, 1006#5 = {}); the backlash compensation 1851 (and 1852) is written 0, the tables hold the reversal (up to {} um)",
                 next + count,
                 next + 2 * count - 1,
                 match o.reference_return {
@@ -338,13 +386,21 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
                 },
                 fixed(reversal, 3)
             ));
-        } else if reversal > 0.0 {
-            notes.push(format!("{ax}: one table for both directions (the mean); the reversal value, up to {} um, is for the backlash compensation (parameter 1851)", fixed(reversal, 3)));
+        } else {
+            notes.push(format!("{ax}: one table for both directions; the backlash compensation 1851 (and 1852 for rapid traverse) = {b_units} detection units is on the tape: the mean reversal value ({} um; the mean, not the largest, so that the reversal left over averages zero along the axis; it varies up to {} um), assumed to act on travel away from the reference position return; the table is the mean of both directions {} half of it", fixed(b_mean, 3), fixed(reversal, 3), match side { BacklashSide::Forward => "plus", _ => "minus" }));
+            if b_units != 0 {
+                applied.backlash[a] = Some(Backlash {
+                    value_um: b_units as f64 * unit,
+                    side,
+                });
+            }
         }
-        applied[a] = Some(Positioning {
+        // What the control applies: relative to the reference position,
+        // where the reference return direction's error stays.
+        applied.axes[a] = Some(Positioning {
             positions_mm: sampled.positions_mm.clone(),
-            forward_um: applied_fwd.iter().map(|v| v + e_ref).collect(),
-            reverse_um: applied_rev.iter().map(|v| v + e_ref).collect(),
+            forward_um: applied_fwd,
+            reverse_um: applied_rev,
         });
         next += tables * count;
     }
@@ -356,7 +412,7 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
         },
         fixed(unit, 4)
     );
-    for (k, no) in [3605, 3620, 3621, 3622, 3623, 3624, 3626, 3627]
+    for (k, no) in [1851, 1852, 3605, 3620, 3621, 3622, 3623, 3624, 3626, 3627]
         .iter()
         .enumerate()
     {
@@ -371,24 +427,25 @@ pub fn export(p: &[Option<Positioning>; 3], o: &FanucOptions) -> Result<Export, 
             name: "pitch.tap".into(),
             text,
         }],
-        applied: ControllerCorrection {
-            format: Format::Fanuc,
-            axes: applied,
-            squareness_urad: None,
-            cross: Vec::new(),
-        },
+        applied,
         rounding,
+        holds,
+        zero_at: Some((0.0, o.reference_return == FanucReturn::Positive)),
         notes,
     })
 }
 
 /// Reads a tape written by [`export`] (the same assumptions: reference at
-/// machine 0, data numbers from `o.data_offset`, the sign `o.sign`). The
-/// absolute compensation is relative to the reference position: the
-/// applied table is zero there.
+/// machine 0, data numbers from `o.data_offset`, the sign `o.sign`, the
+/// reference position return `o.reference_return`). The absolute
+/// compensation is relative to the reference position: the applied table
+/// is zero there. Every axis with a table must give its backlash
+/// compensation 1851 (it changes what the control applies); 1852, where
+/// given, must equal it, and a bidirectional axis must have it 0.
 pub fn parse(text: &str, file: &str, o: &FanucOptions) -> Result<ControllerCorrection, ReadError> {
     let err = |row: usize, m: String, h: &str| located(file, text, row, m, h);
     let mut params: std::collections::HashMap<(u32, usize), i64> = Default::default();
+    let mut rows: std::collections::HashMap<u32, usize> = Default::default();
     let mut data: std::collections::HashMap<usize, i64> = Default::default();
     for (i, raw) in text.lines().enumerate() {
         let row = i + 1;
@@ -425,7 +482,8 @@ pub fn parse(text: &str, file: &str, o: &FanucOptions) -> Result<ControllerCorre
                     )
                 })
         };
-        if (3620..=3624).contains(&n) || [3605, 3626, 3627].contains(&n) {
+        if (3620..=3624).contains(&n) || [1851, 1852, 3605, 3626, 3627].contains(&n) {
+            rows.insert(n, row);
             for pair in words[1..].chunks(2) {
                 let [aw, pw] = pair else {
                     return Err(err(
@@ -478,13 +536,25 @@ pub fn parse(text: &str, file: &str, o: &FanucOptions) -> Result<ControllerCorre
             return Err(err(
                 row,
                 format!("N{n} is not a pitch error compensation parameter or datum"),
-                "expected N3605, N3620 … N3624, N3626, N3627 or the data numbers",
+                "expected N1851, N1852, N3605, N3620 … N3624, N3626, N3627 or the data numbers",
             ));
         }
     }
     let mut axes: [Option<Positioning>; 3] = [None, None, None];
+    let mut out = ControllerCorrection::empty(Format::Fanuc);
     for (a, slot) in axes.iter_mut().enumerate() {
         let get = |p: u32| params.get(&(p, a)).copied();
+        let row_of = |p: u32| rows.get(&p).copied().unwrap_or(1);
+        let b1851 = get(1851);
+        if let (Some(b), Some(r)) = (b1851, get(1852)) {
+            if b != r {
+                return Err(err(
+                    row_of(1852),
+                    format!("axis {}: 1852 (backlash for rapid traverse) = {r} differs from 1851 = {b}", axis_letter(a)),
+                    "volcomp models one backlash per axis: set 1852 equal to 1851 (or 1800#4 RBK = 0 and leave 1852 out)",
+                ));
+            }
+        }
         let (Some(r), Some(lo), Some(hi), Some(m), Some(iv)) =
             (get(3620), get(3621), get(3622), get(3623), get(3624))
         else {
@@ -520,7 +590,28 @@ pub fn parse(text: &str, file: &str, o: &FanucOptions) -> Result<ControllerCorre
                 .map(|&c| o.sign.factor() * (base + c * m.max(1)) as f64 * o.detection_unit_um)
                 .collect()
         };
-        let (forward_um, reverse_um) = if get(3605) == Some(1) {
+        let Some(b1851) = b1851 else {
+            return Err(err(
+                row_of(3620),
+                format!("axis {}: the tape does not give its backlash compensation (parameter 1851)", axis_letter(a)),
+                &format!("the control may correct the reversal too: add N1851 A{} P… with the machine's value in detection units (0 if none), so that volcomp does not correct it a second time", a + 1),
+            ));
+        };
+        let bidirectional = get(3605) == Some(1);
+        if bidirectional && b1851 != 0 {
+            return Err(err(
+                row_of(1851),
+                format!("axis {}: 1851 = {b1851} beside a bidirectional pitch error compensation", axis_letter(a)),
+                "the bidirectional tables hold the reversal, and no public document says how 1851 adds to them: set 1851 (and 1852) to 0",
+            ));
+        }
+        if b1851 != 0 {
+            out.backlash[a] = Some(Backlash {
+                value_um: b1851 as f64 * o.detection_unit_um,
+                side: o.reference_return.backlash_side(),
+            });
+        }
+        let (forward_um, reverse_um) = if bidirectional {
             let Some(neg) = get(3626) else {
                 return Err(err(
                     1,
@@ -568,12 +659,8 @@ pub fn parse(text: &str, file: &str, o: &FanucOptions) -> Result<ControllerCorre
             "the tape needs N3620 … N3624 for at least one axis",
         ));
     }
-    Ok(ControllerCorrection {
-        format: Format::Fanuc,
-        axes,
-        squareness_urad: None,
-        cross: Vec::new(),
-    })
+    out.axes = axes;
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -695,6 +782,8 @@ mod tests {
         let t = &e.files[0].text;
         let expected = "%\n\
             ( volcomp: pitch error compensation, correction = -e sign, detection unit 1 um )\n\
+            N1851 A1 P0\n\
+            N1852 A1 P0\n\
             N3605 A1 P00000001\n\
             N3620 A1 P1\n\
             N3621 A1 P0\n\
@@ -712,7 +801,9 @@ mod tests {
         assert_eq!(applied.reverse_um, vec![1.0, 5.0, 10.0]);
         assert!((e.rounding.max_um - 0.4).abs() < 1e-9, "{:?}", e.rounding);
         assert!(
-            e.notes.iter().any(|n| n.contains("1851) to 0")),
+            e.notes
+                .iter()
+                .any(|n| n.contains("1851 (and 1852) is written 0")),
             "{:?}",
             e.notes
         );
@@ -732,11 +823,19 @@ mod tests {
             !ut.contains("N3605") && !ut.contains("N3626") && !ut.contains("N3627"),
             "{ut}"
         );
+        // Off: the reversal 4, 5, 5.2 µm → B̄ = 4.7333 → 1851 = 5 units,
+        // acting on travel in − (reference return in +).
+        assert!(ut.contains("N1851 A1 P5\nN1852 A1 P5\n"), "{ut}");
         assert!(
-            u.notes.iter().any(|n| n.contains("(parameter 1851)")),
+            u.notes
+                .iter()
+                .any(|n| n.contains("1851 (and 1852 for rapid traverse) = 5")),
             "{:?}",
             u.notes
         );
+        let back = parse(ut, "pitch.tap", &off).unwrap();
+        assert_eq!(back.backlash, u.applied.backlash);
+        assert_eq!(back.backlash[0].unwrap().side, BacklashSide::Reverse);
         // Auto: a reversal within the detection unit stays unidirectional.
         let close = Positioning {
             reverse_um: vec![-2.5, 0.5, 4.9],
@@ -808,7 +907,7 @@ mod tests {
         // Read: the − table's points 3626 … 3626 + 3622 − 3621 must exist.
         let tape = |p3626: &str| {
             format!(
-                "N3605 A1 P00000001\nN3620 A1 P1\nN3621 A1 P0\nN3622 A1 P2\nN3623 A1 P1\nN3624 A1 P10000\n{p3626}N3627 A1 P4\n"
+                "N1851 A1 P0\nN3605 A1 P00000001\nN3620 A1 P1\nN3621 A1 P0\nN3622 A1 P2\nN3623 A1 P1\nN3624 A1 P10000\n{p3626}N3627 A1 P4\n"
             )
         };
         let o = FanucOptions::default();
@@ -823,7 +922,7 @@ mod tests {
         assert_eq!(bits.row, 1);
         // Beyond the table on the + side too.
         let over = parse(
-            "N3620 A1 P1000\nN3621 A1 P1000\nN3622 A1 P1030\nN3623 A1 P1\nN3624 A1 P1000\n",
+            "N1851 A1 P0\nN3620 A1 P1000\nN3621 A1 P1000\nN3622 A1 P1030\nN3623 A1 P1\nN3624 A1 P1000\n",
             "t",
             &o,
         )
@@ -888,8 +987,8 @@ mod tests {
                 // The applied correction of the export is the tape read back.
                 let ap = e.applied.axes[a].as_ref().unwrap();
                 for i in 0..ap.positions_mm.len() {
-                    assert!((ap.forward_um[i] - e_ref - b.forward_um[i]).abs() < 1e-9);
-                    assert!((ap.reverse_um[i] - e_ref - b.reverse_um[i]).abs() < 1e-9);
+                    assert!((ap.forward_um[i] - b.forward_um[i]).abs() < 1e-9);
+                    assert!((ap.reverse_um[i] - b.reverse_um[i]).abs() < 1e-9);
                 }
             }
             assert!(e.rounding.max_um <= 0.5 + 1e-9, "{:?}", e.rounding);

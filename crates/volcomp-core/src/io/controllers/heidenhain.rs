@@ -155,8 +155,12 @@ pub fn export(p: &[Option<Positioning>; 3]) -> Result<Export, LimitError> {
             axes: applied,
             squareness_urad: None,
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         },
         rounding,
+        holds: [super::table_error::Holds::BothDirections; 3],
+        zero_at: None,
         notes: vec![
             "copy the .COM tables and VOLCOMP.CMA to the TNC (PLC partition), activate nonlinear axis error compensation for X, Y, Z and line 0 of VOLCOMP.CMA".into(),
         ],

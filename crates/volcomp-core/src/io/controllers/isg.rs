@@ -14,7 +14,8 @@
 //!   `e` (the documentation's example: setpoint 19866.7 µm, actual
 //!   19856.5 µm going positive → −102, 19874.7 µm going negative → 80);
 //! * linear interpolation; outside the table the end value is used;
-//! * at most `kw_nr_max` entries, 1500 by default (P-COMP-00059).
+//! * `kw_nr_max` entries (P-COMP-00020), which must be smaller than
+//!   P-COMP-00059 `kw.ssfk.max_points` (1500 by default): at most 1499.
 
 use super::{
     axis_letter, located, ControllerCorrection, Export, ExportFile, Format, LimitError,
@@ -23,7 +24,8 @@ use super::{
 use crate::io::numfmt::fixed;
 use volcomp_gcode::Vec3;
 
-/// Default largest number of entries of an SSFK table (P-COMP-00059).
+/// Default P-COMP-00059 `kw.ssfk.max_points`: a table holds fewer entries
+/// (P-COMP-00020: `kw_nr_max < P-COMP-00059`).
 pub const SSFK_MAX_POINTS: usize = 1500;
 
 /// The leadscrew compensation lists `achskw_x.lis` … for the axes with a
@@ -39,18 +41,19 @@ pub fn ssfk_export(p: &[Option<Positioning>; 3], max_points: usize) -> Result<Ex
         let Some(table) = table else { continue };
         let ax = axis_letter(a);
         let n = table.positions_mm.len();
-        if n > max_points {
+        // P-COMP-00020: 0 ≤ kw_nr_max < P-COMP-00059 (kw.ssfk.max_points).
+        if n >= max_points {
             return Err(LimitError {
                 format: "isg-ssfk",
                 axis: ax,
                 message: format!(
-                    "{n} interpolation points; kw_nr_max allows {max_points} (P-COMP-00059)"
+                    "{n} interpolation points; kw_nr_max must be smaller than P-COMP-00059 kw.ssfk.max_points = {max_points}"
                 ),
                 help: format!(
                     "resample with a step of at least {} mm, or raise P-COMP-00059",
                     fixed(
                         (table.positions_mm[n - 1] - table.positions_mm[0])
-                            / (max_points - 1) as f64,
+                            / (max_points.max(3) - 2) as f64,
                         3
                     )
                 ),
@@ -97,8 +100,10 @@ pub fn ssfk_export(p: &[Option<Positioning>; 3], max_points: usize) -> Result<Ex
     }
     Ok(Export {
         files,
-        applied: ControllerCorrection { format: Format::IsgSsfk, axes: applied, squareness_urad: None, cross: Vec::new() },
+        applied: ControllerCorrection { format: Format::IsgSsfk, axes: applied, backlash: [None; 3], squareness_urad: None, cross: Vec::new(), notes: Vec::new() },
         rounding,
+        holds: [super::table_error::Holds::BothDirections; 3],
+        zero_at: None,
         notes: vec![
             "activate with lr_param.ssfk 1 (P-AXIS-00175) in each axis' parameter list and name the achskw_*.lis in the start-up description".into(),
         ],
@@ -303,7 +308,15 @@ mod tests {
         assert!(e.files[0].text.contains("kw.ssfk.table[1].pos        13\n"));
         assert!((e.rounding.max_um - 0.04).abs() < 1e-9);
         let err = ssfk_export(&[Some(x), None, None], 1).unwrap_err();
-        assert!(err.message.contains("kw_nr_max allows 1"), "{err}");
+        assert!(err.message.contains("smaller than P-COMP-00059"), "{err}");
+        // Two points need max_points 3: kw_nr_max 2 < 3.
+        let two = Positioning {
+            positions_mm: vec![0.0, 10.0],
+            forward_um: vec![0.0, 0.0],
+            reverse_um: vec![0.0, 0.0],
+        };
+        assert!(ssfk_export(&[Some(two.clone()), None, None], 2).is_err());
+        assert!(ssfk_export(&[Some(two), None, None], 3).is_ok());
         // An equidistant, unilateral list: −200 mm every 0.5 mm.
         let t = "kw.ssfk.interval 5000\nkw.ssfk.kw_startpos -2000000\nkw.ssfk.kw_nr_max 3\nkw.ssfk.unit 1\nkw.ssfk.bilateral 0\nkw.ssfk.table[0].pos 0\nkw.ssfk.table[1].pos 24\nkw.ssfk.table[2].pos -102\n";
         let p = ssfk_parse(t, "a.lis").unwrap();
@@ -315,72 +328,233 @@ mod tests {
     }
 }
 
-/// Reads an ISG volumetric compensation configuration list (`*.lis`): its
-/// `file[0]` (relative to the list's folder) in `file_format[0]` `ISG_CSV`
-/// or `ETALON`, into a 21-component model on the seed chain, measured at
-/// the origin (the list's kinematic configuration is not read:
-/// docs/controllers.md).
-pub fn read_volcomp_lis(
-    path: &std::path::Path,
-) -> Result<crate::model::kinematic::KinematicModel, super::ControllerReadError> {
-    let text = super::read_text(path)?;
-    let file = path.display().to_string();
-    let mut name = None;
-    let mut format = None;
+/// Keys of a volumetric compensation list that do not change the
+/// correction volcomp models (axis numbers, start-up behaviour, filters,
+/// memory bounds), compared in lower case.
+const LIS_NEUTRAL: [&str; 12] = [
+    "x",
+    "y",
+    "z",
+    "a",
+    "b",
+    "c",
+    "enable_splicing",
+    "filter_steps",
+    "manual_activation",
+    "associate_to_channel",
+    "max_records",
+    "vol_comp[0].max_records",
+];
+
+/// Reads an ISG volumetric compensation configuration list (`*.lis`) as
+/// the controller reads it ([ISG VolComp], P-VOLC-00009 … P-VOLC-00013):
+/// every parameter file `file[j]` (0 ≤ j < 10, relative to the list's
+/// folder; `read_file` reads one) in its `file_format[j]`, `ISG_CSV` (the
+/// default) or `ETALON_EXCHANGE`, merged into one 21-component model on the
+/// seed chain measured at the origin; `negate` and `set_to_zero` (the
+/// output axes whose compensation value the controller negates or zeroes).
+/// A parameter given in two files is refused (no document says which one
+/// the controller takes), as are settings volcomp does not model: a
+/// `chain` other than `XYZ`, `workpiece_axes` other than 0, an
+/// `alternative_model`, an `Interpolation` other than `GRID`, and keys it
+/// does not know.
+pub fn parse_volcomp_lis(
+    text: &str,
+    file: &str,
+    mut read_file: impl FnMut(&str) -> Result<(String, String), super::ControllerReadError>,
+) -> Result<crate::model::controller::Volumetric, super::ControllerReadError> {
+    use crate::io::exchange::{self, Parameters};
+    let err = |row: usize, m: String, h: &str| located(file, text, row, m, h);
+    let mut files: [Option<(String, usize)>; 10] = Default::default();
+    let mut formats: [Option<(String, usize)>; 10] = Default::default();
+    let mut negate = [false; 3];
+    let mut zero = [false; 3];
+    let mut notes = Vec::new();
+    let axes_of = |v: &str,
+                   row: usize,
+                   notes: &mut Vec<String>|
+     -> Result<[bool; 3], crate::error::MapFileError> {
+        let mut out = [false; 3];
+        for c in v.chars() {
+            match "XYZ".find(c.to_ascii_uppercase()) {
+                Some(a) => out[a] = true,
+                None if "ABC".contains(c.to_ascii_uppercase()) => notes.push(format!(
+                    "{file}:{row}: `{c}` is a rotary axis, which the map does not model"
+                )),
+                None => {
+                    return Err(err(
+                        row,
+                        format!("`{c}` is not an axis name"),
+                        "write the axes as a set of letters, e.g. XY",
+                    ))
+                }
+            }
+        }
+        Ok(out)
+    };
     for (i, raw) in text.lines().enumerate() {
-        let mut f = raw.split_whitespace();
-        match (f.next(), f.next()) {
-            (Some("file[0]"), Some(v)) => name = Some((v.to_string(), i + 1)),
-            (Some("file_format[0]"), Some(v)) => format = Some((v.to_string(), i + 1)),
-            _ => {}
+        let row = i + 1;
+        let line = raw.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let mut f = line.split_whitespace();
+        let key = f.next().unwrap_or("");
+        let value = f.next().unwrap_or("");
+        let lower = key.to_ascii_lowercase();
+        let index = |prefix: &str| -> Option<usize> {
+            lower
+                .strip_prefix(prefix)
+                .and_then(|r| r.strip_suffix(']'))
+                .and_then(|n| n.parse().ok())
+        };
+        if let Some(j) = index("file[") {
+            if j >= 10 {
+                return Err(err(
+                    row,
+                    format!("{key}: no such parameter file"),
+                    "the volumetric compensation reads file[0] … file[9]",
+                )
+                .into());
+            }
+            files[j] = Some((value.to_string(), row));
+        } else if let Some(j) = index("file_format[") {
+            if j >= 10 {
+                return Err(err(
+                    row,
+                    format!("{key}: no such parameter file"),
+                    "the volumetric compensation reads file_format[0] … file_format[9]",
+                )
+                .into());
+            }
+            formats[j] = Some((value.to_string(), row));
+        } else {
+            match lower.as_str() {
+                "negate" => negate = axes_of(value, row, &mut notes)?,
+                "set_to_zero" => zero = axes_of(value, row, &mut notes)?,
+                "chain" if value.eq_ignore_ascii_case("XYZ") => {}
+                "workpiece_axes" if value == "0" => {}
+                "alternative_model" if ["0", "false"].contains(&value.to_ascii_lowercase().as_str()) => {}
+                "interpolation" if value.eq_ignore_ascii_case("GRID") => {}
+                "chain" | "workpiece_axes" | "alternative_model" | "interpolation" => {
+                    return Err(err(row, format!("{key} {value}: volcomp does not model this configuration"), "volcomp models the volumetric compensation as map export --to isg-csv configures it (chain XYZ, workpiece_axes 0, no alternative_model, Interpolation GRID); for another configuration compensate with the whole map instead of --controller").into())
+                }
+                k if LIS_NEUTRAL.contains(&k) => {}
+                _ => {
+                    return Err(err(row, format!("`{key}` is not a setting volcomp knows"), "volcomp reads file[j], file_format[j], negate, set_to_zero and the settings that do not change the correction (axis numbers, filter_steps, manual_activation …); if this one does not change the compensation values, leave it out of the copy given to --controller").into())
+                }
+            }
         }
     }
-    let Some((csv, row)) = name else {
-        return Err(located(
-            &file,
-            &text,
+    for (a, (n, z)) in negate.iter().zip(&zero).enumerate() {
+        if *n && *z {
+            notes.push(format!(
+                "{} is both negated and set to zero: its compensation is zero",
+                super::axis_letter(a)
+            ));
+        }
+    }
+    if files.iter().all(Option::is_none) {
+        return Err(err(
             1,
-            "no file[0]",
-            "the list names its parameter file: file[0] volcomp.csv",
+            "no file[j]".into(),
+            "the list names its parameter files: file[0] volcomp.csv",
         )
         .into());
-    };
-    let dir = path.parent().unwrap_or(std::path::Path::new("."));
-    let p = dir.join(&csv);
-    let body = super::read_named(&p, path).map_err(|e| match e {
-        super::ControllerReadError::Io { .. } => located(
-            &file,
-            &text,
-            row,
-            format!("cannot read {}", p.display()),
-            "file[0] is read relative to the list's folder",
-        )
-        .into(),
-        other => other,
-    })?;
-    let pname = p.display().to_string();
-    let params = match format.as_ref().map(|(f, _)| f.as_str()) {
-        Some("ISG_CSV") | None => crate::io::exchange::parse_isg_csv(&body, &pname)?,
-        Some("ETALON") => crate::io::exchange::parse_etalon(&body, &pname)?,
-        Some(f) => {
-            let row = format.as_ref().map_or(1, |x| x.1);
-            return Err(located(
-                &file,
-                &text,
-                row,
-                format!("file_format[0] {f}"),
-                "volcomp reads ISG_CSV and ETALON parameter files",
+    }
+    for (j, f) in formats.iter().enumerate() {
+        if let (Some((_, row)), None) = (f, &files[j]) {
+            return Err(err(
+                *row,
+                format!("file_format[{j}] without file[{j}]"),
+                "give the file the format is for",
             )
             .into());
         }
-    };
-    Ok(crate::io::exchange::to_model(
-        &params,
-        &pname,
-        &body,
+    }
+    // Every file's parameters, with their rows moved past the files before
+    // them, so that an error found in the merged parameters names its file.
+    let mut merged = Parameters::default();
+    let mut texts: Vec<(String, String, usize)> = Vec::new(); // (name, text, first row)
+    let mut combined = String::new();
+    let mut seen: std::collections::HashMap<String, (String, usize)> = Default::default();
+    for (j, f) in files.iter().enumerate() {
+        let Some((name, row)) = f else { continue };
+        let format = formats[j].as_ref().map_or("ISG_CSV", |(f, _)| f.as_str());
+        let (shown, body) = read_file(name).map_err(|e| match e {
+            super::ControllerReadError::Io { .. } => super::ControllerReadError::from(err(
+                *row,
+                format!("cannot read file[{j}] {name}"),
+                "file[j] is read relative to the list's folder",
+            )),
+            other => other,
+        })?;
+        let params = match format {
+            "ISG_CSV" => exchange::parse_isg_csv(&body, &shown)?,
+            "ETALON_EXCHANGE" => exchange::parse_etalon(&body, &shown)?,
+            other => {
+                let frow = formats[j].as_ref().map_or(*row, |x| x.1);
+                let help = if other.eq_ignore_ascii_case("ETALON") {
+                    "the controller's name of the Etalon format is ETALON_EXCHANGE (P-VOLC-00013)"
+                } else {
+                    "the controller reads ISG_CSV and ETALON_EXCHANGE (P-VOLC-00013)"
+                };
+                return Err(err(frow, format!("file_format[{j}] {other}"), help).into());
+            }
+        };
+        let offset = combined.lines().count();
+        for (n, v, r) in params.constants {
+            if let Some((other, orow)) = seen.insert(n.clone(), (shown.clone(), r)) {
+                return Err(located(&shown, &body, r, format!("{n} is also given in {other}:{orow}"), "give every parameter in one file only: no document says which one the controller takes").into());
+            }
+            merged.constants.push((n, v, r + offset));
+        }
+        for (n, pts, r) in params.tables {
+            if let Some((other, orow)) = seen.insert(n.clone(), (shown.clone(), r)) {
+                return Err(located(&shown, &body, r, format!("{n} is also given in {other}:{orow}"), "give every parameter in one file only: no document says which one the controller takes").into());
+            }
+            merged.tables.push((n, pts, r + offset));
+        }
+        texts.push((shown, body.clone(), offset));
+        combined.push_str(&body);
+        if !body.ends_with('\n') {
+            combined.push('\n');
+        }
+    }
+    let imported = exchange::to_model(
+        &merged,
+        &texts[0].0,
+        &combined,
         crate::model::topology::Topology::SEED,
-    )?
-    .model)
+    )
+    .map_err(|mut e| {
+        // The file the merged row falls in.
+        if let Some((name, _, first)) = texts.iter().rev().find(|(_, _, first)| e.row > *first) {
+            e.file = name.clone();
+            e.row -= first;
+        }
+        e
+    })?;
+    Ok(crate::model::controller::Volumetric {
+        model: imported.model,
+        negate,
+        zero,
+        notes,
+    })
+}
+
+/// Reads the ISG volumetric compensation list `path` ([`parse_volcomp_lis`],
+/// its files relative to the list's folder).
+pub fn read_volcomp_lis(
+    path: &std::path::Path,
+) -> Result<crate::model::controller::Volumetric, super::ControllerReadError> {
+    let text = super::read_text(path)?;
+    let file = path.display().to_string();
+    let dir = path.parent().unwrap_or(std::path::Path::new("."));
+    parse_volcomp_lis(&text, &file, |n| {
+        let p = dir.join(n);
+        Ok((p.display().to_string(), super::read_named(&p, path)?))
+    })
 }
 
 /// Decimals of a written length (mm): 10⁻⁷ mm = 0.0001 µm.
@@ -479,8 +653,12 @@ pub fn csv_export(model: &crate::model::kinematic::KinematicModel) -> Export {
             axes: applied,
             squareness_urad: Some([s.xy_urad, s.yz_urad, s.zx_urad]),
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         },
         rounding,
+        holds: [super::table_error::Holds::OneTable; 3],
+        zero_at: None,
         notes,
     }
 }
@@ -537,5 +715,97 @@ mod csv_tests {
                 assert!((*x - *y).norm() < 1e-4, "{x:?} {y:?}");
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod lis_tests {
+    use super::*;
+    use crate::model::controller::{ControllerApplies, ControllerResidual};
+    use crate::model::{Components, ErrorModel, ALL_FORWARD};
+    use std::collections::HashMap;
+
+    fn parse(
+        lis: &str,
+        files: &[(&str, &str)],
+    ) -> Result<crate::model::controller::Volumetric, super::super::ControllerReadError> {
+        let files: HashMap<String, String> = files
+            .iter()
+            .map(|(n, t)| (n.to_string(), t.to_string()))
+            .collect();
+        parse_volcomp_lis(lis, "v.lis", |n| match files.get(n) {
+            Some(t) => Ok((n.to_string(), t.clone())),
+            None => Err(super::super::ControllerReadError::Io {
+                path: n.into(),
+                source: std::io::Error::from(std::io::ErrorKind::NotFound),
+            }),
+        })
+    }
+
+    // EXX 0 → 5 µm over X 0 … 100 (ISG CSV); EYY, EZZ zero.
+    const POS: &str = "X EXX\n0 0\n100 0.005\n#\nY EYY\n0 0\n100 0\n#\nZ EZZ\n0 0\n100 0\n";
+    // The squareness C0Y = −12 µrad (S_xy = 12) in an Etalon exchange file.
+    const SQ: &str = "[C0Y]\nVALUE = -0.000012\n";
+
+    #[test]
+    fn every_file_and_negate_are_applied() {
+        let v = parse(
+            "X 1\nY 2\nZ 3\nInterpolation GRID\nnegate X\nset_to_zero Z\nfile[0] pos.csv\nfile_format[0] ISG_CSV\nfile[1] sq.exc\nfile_format[1] ETALON_EXCHANGE\n",
+            &[("pos.csv", POS), ("sq.exc", SQ)],
+        )
+        .unwrap();
+        assert_eq!(
+            (v.negate, v.zero),
+            ([true, false, false], [false, false, true])
+        );
+        assert_eq!(v.model.kinematics.squareness.xy_urad, 12.0);
+        // The controller's correction at (50, 100, 0): E_XX = 2.5 µm and the
+        // squareness 12 µrad · 100 mm = 1.2 µm in X, negated: −3.7 µm.
+        let zero = crate::model::axis_table::AxisTableMap::from_csv(
+            "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,0,0,0\nX,both,100,0,0,0\nY,both,0,0,0,0\nY,both,100,0,0,0\nZ,both,0,0,0,0\nZ,both,100,0,0,0\n",
+            "m.csv",
+        )
+        .unwrap();
+        let r = ControllerResidual {
+            map: zero,
+            controller: ControllerApplies::Model(Box::new(v)),
+        };
+        let c = r
+            .deviation_um(
+                volcomp_gcode::Vec3::new(50.0, 100.0, 0.0),
+                ALL_FORWARD,
+                Components::All,
+            )
+            .unwrap();
+        assert!((c.x - 3.7).abs() < 1e-9, "{c:?}");
+    }
+
+    #[test]
+    fn what_the_controller_would_not_read_is_refused() {
+        let e = |lis: &str, files: &[(&str, &str)]| match parse(lis, files).unwrap_err() {
+            super::super::ControllerReadError::Format(e) => e,
+            other => panic!("{other}"),
+        };
+        // ISG's name of the Etalon format.
+        let x = e("file[0] sq.exc\nfile_format[0] ETALON\n", &[("sq.exc", SQ)]);
+        assert_eq!(x.row, 2);
+        assert!(x.help.contains("ETALON_EXCHANGE"), "{x}");
+        // A parameter in two files.
+        let x = e("file[0] a.exc\nfile_format[0] ETALON_EXCHANGE\nfile[1] b.exc\nfile_format[1] ETALON_EXCHANGE\n", &[("a.exc", SQ), ("b.exc", SQ)]);
+        assert_eq!((x.file.as_str(), x.row), ("b.exc", 1));
+        // A chain volcomp does not model, and an unknown key.
+        assert_eq!(
+            e("chain XYZCA\nfile[0] pos.csv\n", &[("pos.csv", POS)]).row,
+            1
+        );
+        assert!(e("P0X 10\nfile[0] pos.csv\n", &[("pos.csv", POS)])
+            .message
+            .contains("P0X"));
+        // An error inside the second file names that file.
+        let x = e(
+            "file[0] pos.csv\nfile[1] bad.csv\n",
+            &[("pos.csv", POS), ("bad.csv", "A0Y\n0.001\n")],
+        );
+        assert_eq!(x.file, "bad.csv", "{x}");
     }
 }

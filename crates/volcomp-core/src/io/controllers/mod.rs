@@ -20,130 +20,18 @@
 pub mod fanuc;
 pub mod grbl;
 pub mod heidenhain;
+mod ini;
 pub mod isg;
 pub mod linuxcnc;
 pub mod siemens;
+pub mod signcheck;
 pub mod skew;
+pub mod table_error;
 
 use crate::error::MapFileError;
-pub use crate::model::positioning::Positioning;
-
-/// The vendor formats of `volcomp map export`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Format {
-    /// LinuxCNC `COMP_FILE` (types 0 and 1), [`linuxcnc`].
-    Linuxcnc,
-    /// Siemens Sinumerik leadscrew/encoder error compensation `%_N_AX_EEC_INI`, [`siemens`].
-    SiemensEec,
-    /// Siemens Sinumerik sag/cross-axis compensation `%_N_NC_CEC_INI` (straightness), [`siemens::cec_export`].
-    SiemensCec,
-    /// Heidenhain TNC compensation value tables `.COM` and their assignment `.CMA`, [`heidenhain`].
-    Heidenhain,
-    /// Beckhoff/ISG leadscrew error compensation lists (`kw.ssfk.*`), [`isg`].
-    IsgSsfk,
-    /// Beckhoff/ISG volumetric compensation ISG CSV, [`isg::csv_export`].
-    IsgCsv,
-    /// Fanuc pitch error compensation (parameters 3620–3624, 3605#0/3626/3627 if bidirectional, and data), [`fanuc`].
-    Fanuc,
-    /// Klipper `[skew_correction]` profile, [`skew`].
-    Klipper,
-    /// Marlin `M852`, [`skew`].
-    Marlin,
-    /// RepRapFirmware `M556`, [`skew::rrf`].
-    Rrf,
-    /// grblHAL backlash settings `$160`–`$162`, [`grbl`].
-    Grblhal,
-}
-
-impl Format {
-    /// The name used on the command line and in messages.
-    pub fn name(self) -> &'static str {
-        match self {
-            Format::Linuxcnc => "linuxcnc",
-            Format::SiemensEec => "siemens-eec",
-            Format::SiemensCec => "siemens-cec",
-            Format::Heidenhain => "heidenhain",
-            Format::IsgSsfk => "isg-ssfk",
-            Format::IsgCsv => "isg-csv",
-            Format::Fanuc => "fanuc",
-            Format::Klipper => "klipper",
-            Format::Marlin => "marlin",
-            Format::Rrf => "rrf",
-            Format::Grblhal => "grblhal",
-        }
-    }
-}
-
-/// The positioning correction a controller applies, in volcomp's sign: the
-/// error `c_a(q, s)` (µm) the controller's table says axis `a` has at the
-/// commanded position `q`, which it removes by commanding `q − c`.
-///
-/// Tables are interpolated linearly between their points and hold their
-/// end values outside (LinuxCNC `compute_screw_comp`, Siemens K3 "the first
-/// and last compensation values remain active over the entire traversing
-/// range", Fanuc and Heidenhain: the compensation accumulated at the last
-/// point). An axis without a table is `None`. A controller without
-/// direction-dependent tables has `forward_um == reverse_um`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ControllerCorrection {
-    /// The format the correction was read from or written to.
-    pub format: Format,
-    /// Per axis X, Y, Z.
-    pub axes: [Option<Positioning>; 3],
-    /// The squareness the controller corrects, `[S_xy, S_yz, S_zx]` (µrad,
-    /// docs/design.md, "The 21-component model"), if any.
-    pub squareness_urad: Option<[f64; 3]>,
-    /// Cross-axis tables `(input axis, output axis, table)`: the error
-    /// (µm) along the output axis as a function of the input axis'
-    /// position (Siemens CEC), linearly interpolated, ends held.
-    pub cross: Vec<siemens::CecTable>,
-}
-
-impl ControllerCorrection {
-    /// `c_a(q, s)` in µm: the table of axis `axis` (0, 1, 2) at `q_mm` in
-    /// direction `forward` (or reverse), linearly interpolated, ends held;
-    /// 0 for an axis without a table.
-    pub fn correction_um(&self, axis: usize, q_mm: f64, forward: bool) -> f64 {
-        match &self.axes[axis] {
-            None => 0.0,
-            Some(p) => {
-                let v = if forward {
-                    &p.forward_um
-                } else {
-                    &p.reverse_um
-                };
-                interpolate_held(&p.positions_mm, v, q_mm)
-            }
-        }
-    }
-}
-
-/// Linear interpolation in a table with strictly increasing `x`, holding
-/// the end values outside it (as the controllers of this module do).
-///
-/// ```
-/// use volcomp_core::io::controllers::interpolate_held;
-/// let x = [0.0, 10.0, 20.0];
-/// let v = [0.0, 4.0, 2.0];
-/// assert_eq!(interpolate_held(&x, &v, 5.0), 2.0);
-/// assert_eq!(interpolate_held(&x, &v, -3.0), 0.0);
-/// assert_eq!(interpolate_held(&x, &v, 25.0), 2.0);
-/// ```
-pub fn interpolate_held(x: &[f64], v: &[f64], at: f64) -> f64 {
-    let n = x.len();
-    if n == 0 {
-        return 0.0;
-    }
-    if at <= x[0] {
-        return v[0];
-    }
-    if at >= x[n - 1] {
-        return v[n - 1];
-    }
-    let i = x.partition_point(|&p| p <= at) - 1;
-    let t = (at - x[i]) / (x[i + 1] - x[i]);
-    v[i] + (v[i + 1] - v[i]) * t
-}
+pub use crate::model::controller::{
+    interpolate_held, Backlash, BacklashSide, ControllerCorrection, CrossTable, Format, Positioning,
+};
 
 /// The table `p` sampled at `n` points `start_mm + k·step_mm` (k = 0 … n−1),
 /// interpolated linearly and held at its ends beyond its range: the layout
@@ -201,6 +89,80 @@ pub fn bidirectional_mean(p: &Positioning) -> (Positioning, f64) {
             reverse_um: mean,
         },
         reversal,
+    )
+}
+
+/// The mean reversal value `B̄` of a table (µm): the mean over its points
+/// of `B = E_reverse − E_forward` (ISO 230-2's mean reversal value), the
+/// one number a controller's backlash setting holds. The mean rather than
+/// the largest: the reversal left over, `B − B̄`, then averages zero along
+/// the axis (and has the smallest mean square), where the largest would
+/// over-correct every point but one by up to the reversal's whole spread.
+///
+/// ```
+/// use volcomp_core::io::controllers::{mean_reversal_um, Positioning};
+/// let p = Positioning { positions_mm: vec![0.0, 50.0, 100.0], forward_um: vec![0.0, 1.0, 2.0], reverse_um: vec![3.0, 5.0, 7.2] };
+/// assert!((mean_reversal_um(&p) - 12.2 / 3.0).abs() < 1e-12);
+/// ```
+pub fn mean_reversal_um(p: &Positioning) -> f64 {
+    let n = p.forward_um.len().max(1) as f64;
+    p.reverse_um
+        .iter()
+        .zip(&p.forward_um)
+        .map(|(r, f)| r - f)
+        .sum::<f64>()
+        / n
+}
+
+/// The direction in which an axis takes its reference (Siemens reference
+/// point approach, MD34010 `$MA_REFP_CAM_DIR_IS_MINUS`; Fanuc reference
+/// position return, 1006#5): the travel whose backlash is taken up when
+/// the position is set, so a controller's backlash compensation acts on
+/// the other one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ReferenceDirection {
+    /// In + (the default of both parameters).
+    #[default]
+    Positive,
+    /// In −.
+    Negative,
+}
+
+impl ReferenceDirection {
+    /// The travel a backlash compensation acts on after this reference.
+    pub fn backlash_side(self) -> BacklashSide {
+        match self {
+            ReferenceDirection::Positive => BacklashSide::Reverse,
+            ReferenceDirection::Negative => BacklashSide::Forward,
+        }
+    }
+}
+
+/// One table for both directions beside a backlash compensation of the
+/// mean reversal value `B̄` acting on `side`: the table that leaves both
+/// directions off by at most half the reversal's variation,
+/// `t = (E_forward + E_reverse)/2 − (β↑ + β↓)/2` with `β` the backlash's
+/// part of the correction per direction (0 for [`BacklashSide::Split`],
+/// `B̄/2` when it acts on reverse travel, `−B̄/2` forward), and `B̄`
+/// ([`mean_reversal_um`]). Then `c↑ = t + β↑ = E↑ + (B − B̄)/2` and
+/// `c↓ = E↓ − (B − B̄)/2`.
+pub fn table_beside_backlash(p: &Positioning, side: BacklashSide) -> (Positioning, f64) {
+    let b = mean_reversal_um(p);
+    let bl = Backlash { value_um: b, side };
+    let shift = 0.5 * (bl.correction_um(true) + bl.correction_um(false));
+    let t: Vec<f64> = p
+        .forward_um
+        .iter()
+        .zip(&p.reverse_um)
+        .map(|(f, r)| 0.5 * (f + r) - shift)
+        .collect();
+    (
+        Positioning {
+            positions_mm: p.positions_mm.clone(),
+            forward_um: t.clone(),
+            reverse_um: t,
+        },
+        b,
     )
 }
 
@@ -269,6 +231,12 @@ pub struct Export {
     /// Lines to show the user: settings to make on the controller, what
     /// the format leaves out.
     pub notes: Vec<String>,
+    /// What each axis holds (for the table error, [`table_error`]).
+    pub holds: [table_error::Holds; 3],
+    /// The position and direction at which the tables are zero by the
+    /// controller's definition (Fanuc: the reference position, in the
+    /// return direction), if any.
+    pub zero_at: Option<(f64, bool)>,
 }
 
 /// A located error in a controller file.
@@ -357,6 +325,8 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             axes,
             squareness_urad: None,
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         });
     }
     if name.ends_with(".CMA") {
@@ -395,9 +365,11 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             axes,
             squareness_urad: None,
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         });
     }
-    if name.ends_with(".INI") && text.contains("COMP_FILE") {
+    if name.ends_with(".INI") || name.ends_with(".INI.EXPANDED") {
         let dir = path.parent().unwrap_or(std::path::Path::new("."));
         return linuxcnc::parse_ini(&text, &file, |n| {
             let p = dir.join(n);
@@ -422,6 +394,8 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             axes,
             squareness_urad: None,
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         });
     }
     if text.lines().any(|l| l.trim_start().starts_with("$16")) {
@@ -436,6 +410,8 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             axes: [None, None, None],
             squareness_urad: None,
             cross: siemens::cec_parse(&text, &file, siemens::CecSign::Error)?,
+            backlash: [None; 3],
+            notes: Vec::new(),
         });
     }
     if text.contains("$AA_ENC_COMP") {
@@ -456,7 +432,7 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
 }
 
 /// What the controller named by `path` compensates: an ISG volumetric
-/// compensation list (`*.lis` with `file_format`) is a whole model
+/// compensation list (`*.lis` with `file[j]`) is a whole model
 /// ([`isg::read_volcomp_lis`]); anything else a table ([`read`]).
 pub fn read_applies(
     path: &std::path::Path,
@@ -465,10 +441,19 @@ pub fn read_applies(
     let is_lis = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("lis"));
-    if is_lis && read_text(path)?.contains("file_format") {
-        return Ok(ControllerApplies::Model(Box::new(isg::read_volcomp_lis(
-            path,
-        )?)));
+    if is_lis {
+        let text = read_text(path)?;
+        let volumetric = !text.contains("kw.ssfk.")
+            && text.lines().any(|l| {
+                l.trim_start()
+                    .get(..5)
+                    .is_some_and(|k| k.eq_ignore_ascii_case("file["))
+            });
+        if volumetric {
+            return Ok(ControllerApplies::Model(Box::new(isg::read_volcomp_lis(
+                path,
+            )?)));
+        }
     }
     Ok(ControllerApplies::Tables(Box::new(read(path)?)))
 }

@@ -14,13 +14,24 @@
 //!   measured error `actual − commanded`, volcomp's `e` itself;
 //! * linear interpolation between points, the first and last values held
 //!   outside the table;
-//! * not direction dependent: volcomp writes the mean of the forward and
-//!   reverse errors and reports the reversal value, which belongs in the
-//!   backlash compensation (`MD32450 $MA_BACKLASH`).
+//! * not direction dependent: the reversal belongs to the backlash
+//!   compensation `MD32450 $MA_BACKLASH[e]` ("positive if the encoder is
+//!   leading the machine part (normal situation)", active after the
+//!   reference point approach). volcomp writes it into the same file, the
+//!   mean reversal value `B̄` ([`super::mean_reversal_um`]), and the table
+//!   [`super::table_beside_backlash`] holds beside it.
+//! * *Assumed* (the function manual does not say on which travel MD32450
+//!   acts): the axis' backlash is taken up by the reference point approach
+//!   (MD34010 `$MA_REFP_CAM_DIR_IS_MINUS`, 0: in +), so the compensation
+//!   acts on travel the other way (`--reference-direction` for an approach
+//!   in −). The table's own sign is the documented one; the CEC tables',
+//!   which no text settles, get a check on the machine
+//!   ([`super::signcheck`]).
 
 use super::{
-    axis_letter, bidirectional_mean, equidistant, located, points_covering, ControllerCorrection,
-    Export, ExportFile, Format, LimitError, Positioning, ReadError, Rounding,
+    axis_letter, bidirectional_mean, equidistant, located, points_covering, table_beside_backlash,
+    Backlash, ControllerCorrection, Export, ExportFile, Format, LimitError, Positioning, ReadError,
+    ReferenceDirection, Rounding,
 };
 use crate::io::numfmt::fixed;
 
@@ -36,6 +47,9 @@ pub struct EecOptions {
     pub resolution_um: f64,
     /// `MD38000 $MA_MM_ENC_COMP_MAX_POINTS` of the machine.
     pub max_points: usize,
+    /// The direction of the reference point approach (MD34010): the
+    /// backlash compensation acts on travel the other way.
+    pub reference: ReferenceDirection,
 }
 
 impl Default for EecOptions {
@@ -45,6 +59,7 @@ impl Default for EecOptions {
             step_mm: 10.0,
             resolution_um: 1.0,
             max_points: 5000,
+            reference: ReferenceDirection::Positive,
         }
     }
 }
@@ -59,8 +74,9 @@ pub fn export(p: &[Option<Positioning>; 3], o: &EecOptions) -> Result<Export, Li
     let mut text = String::from(
         "%_N_AX_EEC_INI\nCHANDATA(1)\n; volcomp: leadscrew error compensation, values in mm = measured error (actual - commanded)\n",
     );
-    let mut applied: [Option<Positioning>; 3] = [None, None, None];
+    let mut applied = ControllerCorrection::empty(Format::SiemensEec);
     let mut notes = Vec::new();
+    let side = o.reference.backlash_side();
     for (a, table) in p.iter().enumerate() {
         let Some(table) = table else { continue };
         let name = &o.axis_names[a];
@@ -81,8 +97,9 @@ pub fn export(p: &[Option<Positioning>; 3], o: &EecOptions) -> Result<Export, Li
                 ),
             });
         }
-        let (mean, reversal) = bidirectional_mean(table);
-        let sampled = equidistant(&mean, lo, o.step_mm, n);
+        let (one, b_mean) = table_beside_backlash(table, side);
+        let b_written = rounding.round(b_mean);
+        let sampled = equidistant(&one, lo, o.step_mm, n);
         let values: Vec<f64> = sampled
             .forward_um
             .iter()
@@ -109,20 +126,34 @@ pub fn export(p: &[Option<Positioning>; 3], o: &EecOptions) -> Result<Export, Li
             fixed(lo, 6),
             fixed(sampled.positions_mm[n - 1], 6)
         ));
+        text.push_str(&format!(
+            "; MD32450: the mean reversal value of {} (machine data: active after NewConfig and a reference point approach)\n$MA_BACKLASH[0,{name}]={}\n",
+            axis_letter(a),
+            fixed(b_written * 1e-3, 7)
+        ));
         notes.push(format!(
             "{name}: {n} points: set MD38000 $MA_MM_ENC_COMP_MAX_POINTS[0] >= {n} and MD32700 $MA_ENC_COMP_ENABLE[0] = 1"
         ));
-        if reversal > 0.0 {
-            notes.push(format!(
-                "{name}: the table holds the mean of both directions; the reversal value (up to {} um) is for MD32450 $MA_BACKLASH",
-                fixed(reversal, 3)
-            ));
-        }
-        applied[a] = Some(Positioning {
+        notes.push(format!(
+            "{name}: MD32450 $MA_BACKLASH[0] = {} mm is in the file: the mean reversal value ({} um; the mean, not the largest, so that the reversal left over averages zero along the axis), assumed to act on travel in {} (reference point approach in {}, MD34010 = {}); the table beside it is the mean of both directions {} half of it",
+            fixed(b_written * 1e-3, 7),
+            fixed(b_mean, 3),
+            match side { super::BacklashSide::Forward => "+", _ => "-" },
+            match o.reference { ReferenceDirection::Positive => "+", ReferenceDirection::Negative => "-" },
+            match o.reference { ReferenceDirection::Positive => 0, ReferenceDirection::Negative => 1 },
+            match side { super::BacklashSide::Forward => "plus", _ => "minus" },
+        ));
+        applied.axes[a] = Some(Positioning {
             positions_mm: sampled.positions_mm.clone(),
             forward_um: values.clone(),
             reverse_um: values,
         });
+        if b_written != 0.0 {
+            applied.backlash[a] = Some(Backlash {
+                value_um: b_written,
+                side,
+            });
+        }
     }
     text.push_str("M17\n");
     Ok(Export {
@@ -130,13 +161,10 @@ pub fn export(p: &[Option<Positioning>; 3], o: &EecOptions) -> Result<Export, Li
             name: "%_N_AX_EEC_INI".into(),
             text,
         }],
-        applied: ControllerCorrection {
-            format: Format::SiemensEec,
-            axes: applied,
-            squareness_urad: None,
-            cross: Vec::new(),
-        },
+        applied,
         rounding,
+        holds: [super::table_error::Holds::OneTable; 3],
+        zero_at: None,
         notes,
     })
 }
@@ -149,6 +177,10 @@ struct Partial {
     min: Option<f64>,
     max: Option<f64>,
     row: usize,
+    /// MD32450 (µm).
+    backlash_um: Option<f64>,
+    /// MD34010 (reference point approach in −).
+    refp_minus: Option<bool>,
 }
 
 /// Reads a `%_N_AX_EEC_INI` file: the tables of measuring system 0 of the
@@ -156,6 +188,13 @@ struct Partial {
 /// starts with X, Y or Z, such as `X1`), in volcomp's sign (µm). Comments
 /// (`;`), `CHANDATA`, `M17` and blank lines are skipped; other machine
 /// axes and measuring system 1 are refused by name.
+///
+/// The backlash compensation is read from the same file: `MD32450
+/// $MA_BACKLASH[0,AX]` must be given for every axis with a table (the
+/// table alone does not say whether the NC also corrects the reversal; 0
+/// if it does not), acting on travel away from the reference point
+/// approach (`MD34010 $MA_REFP_CAM_DIR_IS_MINUS[AX]`, its default 0: in +,
+/// when the file does not give it).
 pub fn parse(
     text: &str,
     file: &str,
@@ -285,21 +324,58 @@ pub fn parse(
                     _ => {}
                 }
             }
+            ("$MA_BACKLASH", [e, ax]) => {
+                system(e)?;
+                tables[axis_of(ax)?].backlash_um = Some(value * 1e3);
+            }
+            ("$MA_REFP_CAM_DIR_IS_MINUS", [ax]) => {
+                tables[axis_of(ax)?].refp_minus = Some(value != 0.0);
+            }
+            ("$MA_BACKLASH_FACTOR", [_, ax]) if value != 1.0 => {
+                let _ = axis_of(ax)?;
+                return Err(err(
+                    row,
+                    format!("MD32452 $MA_BACKLASH_FACTOR = {value}"),
+                    "volcomp models MD32450 at the factor 1 of every parameter set: set MD32452 to 1.0, or multiply $MA_BACKLASH by the factor of the parameter set the program runs with",
+                ));
+            }
+            ("$MA_BACKLASH_FACTOR", [_, ax]) => {
+                let _ = axis_of(ax)?;
+            }
             _ => {
                 return Err(err(
                     row,
                     format!("`{lhs}` is not an EEC system variable"),
-                    "expected $AA_ENC_COMP[e,N,AX], _STEP[e,AX], _MIN, _MAX or _IS_MODULO",
+                    "expected $AA_ENC_COMP[e,N,AX], _STEP[e,AX], _MIN, _MAX, _IS_MODULO, or the machine data $MA_BACKLASH[e,AX], $MA_REFP_CAM_DIR_IS_MINUS[AX]",
                 ))
             }
         }
+        if var.starts_with("$AA_ENC_COMP") {
+            let a = axis_of(args.last().copied().unwrap_or(""))?;
+            tables[a].row = tables[a].row.max(row);
+        }
     }
+    let mut out = ControllerCorrection::empty(Format::SiemensEec);
     let mut axes: [Option<Positioning>; 3] = [None, None, None];
     for (a, t) in tables.iter().enumerate() {
+        let name = &listed[a];
+        if let Some(b) = t.backlash_um.filter(|b| *b != 0.0) {
+            let reference = match t.refp_minus {
+                Some(true) => ReferenceDirection::Negative,
+                Some(false) => ReferenceDirection::Positive,
+                None => {
+                    out.notes.push(format!("{name}: no MD34010 $MA_REFP_CAM_DIR_IS_MINUS: its default 0 is taken (reference point approach in +), so MD32450 acts on travel in -"));
+                    ReferenceDirection::Positive
+                }
+            };
+            out.backlash[a] = Some(Backlash {
+                value_um: b,
+                side: reference.backlash_side(),
+            });
+        }
         if t.values.is_empty() {
             continue;
         }
-        let name = &listed[a];
         let (Some(step), Some(min), Some(max)) = (t.step, t.min, t.max) else {
             return Err(err(
                 t.row,
@@ -324,25 +400,28 @@ pub fn parse(
                 "give every point 0 … N",
             ));
         };
+        if t.backlash_um.is_none() {
+            return Err(err(
+                t.row,
+                format!("{name} has a table but the file does not give its backlash compensation MD32450"),
+                &format!("the NC may correct the reversal too: add the machine's value, $MA_BACKLASH[0,{name}]=… in mm (0 if MD32450 is 0), so that volcomp does not correct it a second time"),
+            ));
+        }
         axes[a] = Some(Positioning {
             positions_mm: (0..n).map(|k| min + step * k as f64).collect(),
             forward_um: values.clone(),
             reverse_um: values,
         });
     }
-    if axes.iter().all(Option::is_none) {
+    if axes.iter().all(Option::is_none) && out.backlash.iter().all(Option::is_none) {
         return Err(err(
             1,
-            "no $AA_ENC_COMP values for the axes".into(),
+            "no $AA_ENC_COMP values or $MA_BACKLASH for the axes".into(),
             &format!("expected tables of {}", listed.join(", ")),
         ));
     }
-    Ok(ControllerCorrection {
-        format: Format::SiemensEec,
-        axes,
-        squareness_urad: None,
-        cross: Vec::new(),
-    })
+    out.axes = axes;
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -356,9 +435,11 @@ mod tests {
     #[test]
     fn hand_computed_export() {
         // X: forward 0, 2.4, 6.0 µm and reverse 1.0, 3.6, 7.0 µm at 0, 15, 30 mm.
-        // Mean: 0.5, 3.0, 6.5 µm. Every 10 mm from 0: 0, 10, 20, 30 mm →
-        // 0.5, 0.5 + (3.0 − 0.5)·10/15 = 2.1667, 3.0 + 3.5·5/15 = 4.1667, 6.5 µm;
-        // at 1 µm resolution: 1 (0.5 rounds away from zero), 2, 4, 7 → 0.001, 0.002, 0.004, 0.007 mm.
+        // Reversal 1.0, 1.2, 1.0 → B̄ = 3.2/3 = 1.0667 µm, written 1 µm
+        // (MD32450 = 0.001 mm), acting on travel in − (reference in +), so
+        // the table is the mean 0.5, 3.0, 6.5 minus B̄/2: −0.0333, 2.4667,
+        // 5.9667. Every 10 mm from 0: −0.0333, −0.0333 + 2.5·10/15 = 1.6333,
+        // 2.4667 + 3.5·5/15 = 3.6333, 5.9667 µm → 0, 2, 4, 6 µm.
         let x = Positioning {
             positions_mm: vec![0.0, 15.0, 30.0],
             forward_um: vec![0.0, 2.4, 6.0],
@@ -370,36 +451,79 @@ mod tests {
         assert_eq!(e.files[0].name, "%_N_AX_EEC_INI");
         assert!(t.starts_with("%_N_AX_EEC_INI\nCHANDATA(1)\n"), "{t}");
         for line in [
-            "$AA_ENC_COMP[0,0,X1]=0.001\n",
+            "$AA_ENC_COMP[0,0,X1]=0\n",
             "$AA_ENC_COMP[0,1,X1]=0.002\n",
             "$AA_ENC_COMP[0,2,X1]=0.004\n",
-            "$AA_ENC_COMP[0,3,X1]=0.007\n",
+            "$AA_ENC_COMP[0,3,X1]=0.006\n",
             "$AA_ENC_COMP_STEP[0,X1]=10\n",
             "$AA_ENC_COMP_MIN[0,X1]=0\n",
             "$AA_ENC_COMP_MAX[0,X1]=30\n",
             "$AA_ENC_COMP_IS_MODULO[0,X1]=0\n",
+            "$MA_BACKLASH[0,X1]=0.001\n",
         ] {
             assert!(t.contains(line), "{line} missing in\n{t}");
         }
         assert!(t.ends_with("M17\n"));
         assert!(!t.contains("Y1"));
-        // Largest rounding: |4.1667 − 4| = 0.1667 µm (0.5 → 1 is 0.5).
-        assert!((e.rounding.max_um - 0.5).abs() < 1e-9, "{:?}", e.rounding);
-        // The reversal value (1.2 at 15 mm is the largest: 1.0, 1.2, 1.0) is reported.
+        // Largest rounding: |2 − 1.6333| = 0.3667 µm.
+        assert!(
+            (e.rounding.max_um - 0.366667).abs() < 1e-5,
+            "{:?}",
+            e.rounding
+        );
         assert!(
             e.notes
                 .iter()
-                .any(|n| n.contains("MD32450") && n.contains("1.2")),
+                .any(|n| n.contains("MD32450") && n.contains("1.067")),
             "{:?}",
             e.notes
         );
         assert!(e.notes.iter().any(|n| n.contains(">= 4")));
         let back = parse(t, "eec.ini", Some(&names())).unwrap();
-        assert_eq!(back, e.applied);
-        assert_eq!(
-            back.axes[0].as_ref().unwrap().forward_um,
-            vec![1.0, 2.0, 4.0, 7.0]
+        assert_eq!(back.axes, e.applied.axes);
+        assert_eq!(back.backlash, e.applied.backlash);
+        // Forward 0 + 2·… : at 15 mm forward the NC applies 3 µm (table),
+        // in reverse 3 + 1 = 4 µm; the map says 2.4 and 3.6.
+        assert!((back.correction_um(0, 15.0, true) - 3.0).abs() < 1e-9);
+        assert!((back.correction_um(0, 15.0, false) - 4.0).abs() < 1e-9);
+        // A machine referenced in −: MD32450 acts on forward travel, and
+        // the table is the mean plus B̄/2.
+        let neg = EecOptions {
+            reference: ReferenceDirection::Negative,
+            ..EecOptions::default()
+        };
+        let x = Positioning {
+            positions_mm: vec![0.0, 10.0],
+            forward_um: vec![0.0, 0.0],
+            reverse_um: vec![4.0, 4.0],
+        };
+        let e = export(&[Some(x), None, None], &neg).unwrap();
+        assert!(
+            e.files[0].text.contains("$AA_ENC_COMP[0,0,X1]=0.004\n"),
+            "{}",
+            e.files[0].text
         );
+        assert_eq!(e.applied.correction_um(0, 5.0, true), 0.0);
+        assert_eq!(e.applied.correction_um(0, 5.0, false), 4.0);
+        let with_md = format!("{}$MA_REFP_CAM_DIR_IS_MINUS[X1]=1\n", e.files[0].text);
+        let back = parse(&with_md, "eec.ini", Some(&names())).unwrap();
+        assert_eq!(back.backlash, e.applied.backlash);
+        assert!(back.notes.is_empty(), "{:?}", back.notes);
+    }
+
+    #[test]
+    fn a_table_without_its_backlash_is_refused() {
+        let t = "$AA_ENC_COMP[0,0,X1]=0.003\n$AA_ENC_COMP[0,1,X1]=0.01\n$AA_ENC_COMP_STEP[0,X1]=1.0\n$AA_ENC_COMP_MIN[0,X1]=0\n$AA_ENC_COMP_MAX[0,X1]=1\n";
+        let e = parse(t, "eec.ini", Some(&names())).unwrap_err();
+        assert_eq!(e.row, 5, "{e}");
+        assert!(e.help.contains("$MA_BACKLASH[0,X1]"), "{e}");
+        let e = parse(
+            &format!("{t}$MA_BACKLASH[0,X1]=0.002\n$MA_BACKLASH_FACTOR[1,X1]=1.5\n"),
+            "eec.ini",
+            Some(&names()),
+        )
+        .unwrap_err();
+        assert_eq!(e.row, 7, "{e}");
     }
 
     #[test]
@@ -407,7 +531,7 @@ mod tests {
         // [Siemens K3] "Example" (X1, −200 … 600 mm every 1 mm): the first
         // three values +3, +10, +12 µm; here with only points 0 … 2 and _MAX
         // to match.
-        let t = "%_N_AX_EEC_INI\nCHANDATA(1)\n$AA_ENC_COMP[0,0,X1]=0.003 ; +3um\n$AA_ENC_COMP[0,1,X1]=0.01\n$AA_ENC_COMP[0,2,X1]=0.012\n$AA_ENC_COMP_STEP[0,X1]=1.0\n$AA_ENC_COMP_MIN[0,X1]=-200.0\n$AA_ENC_COMP_MAX[0,X1]=-198.0\n$AA_ENC_COMP_IS_MODULO[0,X1]=0\nM17\n";
+        let t = "%_N_AX_EEC_INI\nCHANDATA(1)\n$AA_ENC_COMP[0,0,X1]=0.003 ; +3um\n$AA_ENC_COMP[0,1,X1]=0.01\n$AA_ENC_COMP[0,2,X1]=0.012\n$AA_ENC_COMP_STEP[0,X1]=1.0\n$AA_ENC_COMP_MIN[0,X1]=-200.0\n$AA_ENC_COMP_MAX[0,X1]=-198.0\n$AA_ENC_COMP_IS_MODULO[0,X1]=0\n$MA_BACKLASH[0,X1]=0\nM17\n";
         let c = parse(t, "eec.ini", Some(&names())).unwrap();
         let x = c.axes[0].as_ref().unwrap();
         assert_eq!(x.positions_mm, vec![-200.0, -199.0, -198.0]);
@@ -456,7 +580,7 @@ pub enum CecSign {
 
 /// One cross-compensation table read back: input axis, output axis and the
 /// table (µm in volcomp's sign over the input axis' position).
-pub type CecTable = (usize, usize, Positioning);
+pub type CecTable = super::CrossTable;
 
 /// The file `%_N_NC_CEC_INI` for straightness tables: one table per
 /// `(input axis a, output axis d, E_da)` in `tables` (volcomp's sign, µm,
@@ -537,8 +661,12 @@ pub fn cec_export(
             axes: [None, None, None],
             squareness_urad: None,
             cross,
+            backlash: [None; 3],
+            notes: Vec::new(),
         },
         rounding,
+        holds: [super::table_error::Holds::Nothing; 3],
+        zero_at: None,
         notes,
     })
 }

@@ -64,6 +64,8 @@ fn applied(format: Format, f: [f64; 3]) -> ControllerCorrection {
         axes: [None, None, None],
         squareness_urad: Some(squareness_urad(f)),
         cross: Vec::new(),
+        backlash: [None; 3],
+        notes: Vec::new(),
     }
 }
 
@@ -99,6 +101,8 @@ pub fn klipper(squareness: [f64; 3], profile: &str) -> Result<Export, LimitError
         }],
         applied: applied(Format::Klipper, f),
         rounding,
+        holds: [super::table_error::Holds::Nothing; 3],
+        zero_at: None,
         notes: vec![
             "printer.cfg: [skew_correction] and this profile section (or [include skew_correction.cfg])".into(),
             format!("load it after homing: SKEW_PROFILE LOAD={profile}"),
@@ -141,6 +145,8 @@ pub fn marlin(squareness: [f64; 3]) -> Result<Export, LimitError> {
         }],
         applied: applied(Format::Marlin, f),
         rounding,
+        holds: [super::table_error::Holds::Nothing; 3],
+        zero_at: None,
         notes: vec![
             "Marlin needs SKEW_CORRECTION and SKEW_CORRECTION_GCODE; J and K (XZ, YZ) need SKEW_CORRECTION_FOR_Z".into(),
             "M500 stores the factors in EEPROM".into(),
@@ -200,8 +206,12 @@ pub fn rrf(squareness: [f64; 3]) -> Result<Export, LimitError> {
                 -z / RRF_SAMPLE_MM * 1e6,
             ]),
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         },
         rounding,
+        holds: [super::table_error::Holds::Nothing; 3],
+        zero_at: None,
         notes: vec![
             "put the M556 line in config.g (the XY term corrects X, RepRapFirmware's default)"
                 .into(),
@@ -304,6 +314,8 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
             axes: [None, None, None],
             squareness_urad: Some(sq),
             cross: Vec::new(),
+            backlash: [None; 3],
+            notes: Vec::new(),
         });
     }
     let Some(format) = format else {

@@ -288,15 +288,12 @@ impl KinematicModel {
     fn lookup(&self, a: usize, table: &ComponentTable, x: f64) -> Result<f64, ModelError> {
         let [lo, hi] = table.range();
         let xc = if self.clamp { x.clamp(lo, hi) } else { x };
-        if !(lo..=hi).contains(&xc) {
-            return Err(ModelError::OutOfRange {
-                axis: AXES[a],
-                position_mm: x,
-                min_mm: lo,
-                max_mm: hi,
-            });
-        }
-        Ok(xc)
+        crate::model::within_range(xc, lo, hi).ok_or(ModelError::OutOfRange {
+            axis: AXES[a],
+            position_mm: x,
+            min_mm: lo,
+            max_mm: hi,
+        })
     }
 
     /// Component values at `q` with direction state `s`.

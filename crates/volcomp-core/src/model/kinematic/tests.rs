@@ -502,3 +502,31 @@ fn axis_contributions_add_up_to_first_order() {
     }
     assert!((total - sum).max_abs() < 1e-12);
 }
+
+#[test]
+fn a_computed_position_at_the_range_end_is_in_range() {
+    // Z measured up to 181.5362 mm; a Z computed as a length added and taken
+    // off again, (181.5362 + 128.1) − 128.1, lands 4·10⁻¹⁴ mm beyond it:
+    // still the end, for the axis tables and the model made of them. A
+    // real 0.1 µm beyond is refused.
+    let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+               X,both,0,0,0,0\nX,both,100,1,0,0\nY,both,0,0,0,0\nY,both,100,0,0,0\n\
+               Z,both,0,0,0,0\nZ,both,181.5362,0,0,3\n";
+    let map = AxisTableMap::from_csv(csv, "m.csv").unwrap();
+    let model = KinematicModel::from_axis_tables(&map, crate::model::topology::Topology::SEED);
+    let z = (181.5362 + 128.1) - 128.1;
+    assert!(z > 181.5362);
+    let models: [&dyn ErrorModel; 2] = [&map, &model];
+    for m in models {
+        let at = |z: f64| {
+            m.deviation_um(
+                Vec3::new(50.0, 50.0, z),
+                ALL_FORWARD,
+                crate::model::Components::All,
+            )
+        };
+        assert_eq!(at(z).unwrap(), at(181.5362).unwrap());
+        let e = at(181.5363).unwrap_err();
+        assert!(matches!(e, ModelError::OutOfRange { axis: 'Z', .. }), "{e}");
+    }
+}
