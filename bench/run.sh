@@ -1,31 +1,72 @@
 #!/usr/bin/env bash
-# Reproduces the figures in BENCHMARKS.md: volcomp against LinuxCNC's rs274
-# on the same 1,000,000-line program, side by side in one hyperfine run.
-# Needs: hyperfine, rs274 (Debian: linuxcnc-uspace), a release build.
+# Reproduces the speed figures in BENCHMARKS.md: volcomp against LinuxCNC's
+# rs274 on the same programs, side by side in one alternating run
+# (bench/alternate.py: every round runs each command once, the order
+# rotating, so a change of load falls on all alike; medians, CPU time and
+# peak memory per command).
+#
+# Programs: a real CAM program (bench/gen_cam.py: CAMotics' tiger.nc
+# repeated to 1,011,376 lines), the generated raster (bench/gen_program.py,
+# 1,000,020 lines) and the while-loop (bench/gen_loop.py, 1,000,000 moves).
+#
+# Needs: rs274 (Debian: linuxcnc-uspace), GNU time, python3, a release build.
+# Environment: ROUNDS (default 5); VOLCOMP (a volcomp binary instead of
+# this checkout's release build); BASE (a second volcomp binary, e.g. the
+# previous release, timed in the same rounds); MEM_10M=1 also measures peak
+# memory on the 10-million-line programs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo build --release -q
+if [ -z "${VOLCOMP:-}" ]; then
+  cargo build --release -q
+  VOLCOMP=./target/release/volcomp
+fi
+vc=$(realpath "$VOLCOMP")
 work=${BENCH_DIR:-$(mktemp -d)}
 mkdir -p "$work"
-python3 bench/gen_program.py 1000000 > "$work/big.ngc"
-for i in $(seq 1 99); do echo "T$i P$i Z0 D0"; done > "$work/tools.tbl"
-./target/release/volcomp demo --out-dir "$work/demo" > /dev/null
-vc=./target/release/volcomp
-hyperfine --warmup 1 --runs ${RUNS:-5} --export-markdown "$work/moves.md" \
-  -n "rs274 -g" "rs274 -g -t $work/tools.tbl $work/big.ngc $work/rs274.out < /dev/null" \
-  -n "volcomp moves" "$vc moves $work/big.ngc > $work/moves.csv" \
-  -n "volcomp compensate (1 mm)" "$vc compensate $work/big.ngc --map $work/demo/example_map.csv --work-offset 250,200,150 --segment-length 1 -o $work/big.comp.ngc"
-cat "$work/moves.md"
-for cmd in "moves $work/big.ngc" "compensate $work/big.ngc --map $work/demo/example_map.csv --work-offset 250,200,150 --segment-length 1 -o $work/big.comp.ngc"; do
-  /usr/bin/time -f "max RSS %M KiB: volcomp ${cmd%% *}" $vc $cmd > /dev/null 2> "$work/time.txt" || true
-  tail -1 "$work/time.txt"
-done
-# Control flow: a 16-line program whose while-loop executes 1,000,000 feed
-# moves (bench/gen_loop.py), read by both interpreters.
+rounds=${ROUNDS:-5}
+python3 bench/gen_cam.py 1000000 > "$work/cam.nc"
+python3 bench/gen_program.py 1000000 > "$work/raster.ngc"
 python3 bench/gen_loop.py 1000000 > "$work/loop.ngc"
-hyperfine --warmup 1 --runs ${RUNS:-5} --export-markdown "$work/loop.md" \
-  -n "rs274 -g (loop)" "rs274 -g -t $work/tools.tbl $work/loop.ngc $work/rs274-loop.out < /dev/null" \
-  -n "volcomp moves (loop)" "$vc moves $work/loop.ngc > $work/loop.csv"
-cat "$work/loop.md"
-/usr/bin/time -f "max RSS %M KiB: volcomp moves (loop)" $vc moves "$work/loop.ngc" > /dev/null 2> "$work/time.txt" || true
-tail -1 "$work/time.txt"
+for i in $(seq 1 99); do echo "T$i P$i Z0 D0"; done > "$work/tools.tbl"
+"$vc" demo --out-dir "$work/demo" > /dev/null
+map="--map $work/demo/example_map.csv --work-offset 250,200,150"
+
+# NAME=COMMAND arguments for one program: rs274 first (the reference), then
+# each volcomp binary's moves and compensate (defaults, and 1 mm segments).
+commands() {
+  local p=$1 n
+  n=$(basename "$p")
+  echo "rs274 -g=rs274 -g -t $work/tools.tbl $p $work/rs274.out < /dev/null > /dev/null"
+  for b in ${BASE:+base=$(realpath "$BASE")} "new=$vc"; do
+    local tag=${b%%=*} bin=${b#*=}
+    echo "moves ($tag)=$bin moves $p > $work/$n.$tag.csv"
+    echo "compensate ($tag)=$bin --quiet compensate $p $map -o $work/$n.$tag.comp.ngc"
+    echo "compensate 1 mm ($tag)=$bin --quiet compensate $p $map --segment-length 1 -o $work/$n.$tag.1mm.ngc"
+  done
+}
+
+for p in "$work/cam.nc" "$work/raster.ngc"; do
+  echo "## $(basename "$p"): $(wc -l < "$p") lines (load: $(cut -d' ' -f1-3 /proc/loadavg))"
+  mapfile -t cmds < <(commands "$p")
+  python3 bench/alternate.py --rounds "$rounds" "${cmds[@]}"
+done
+
+echo "## loop.ngc: a while-loop of 1,000,000 moves (load: $(cut -d' ' -f1-3 /proc/loadavg))"
+loop=("rs274 -g=rs274 -g -t $work/tools.tbl $work/loop.ngc $work/rs274.out < /dev/null > /dev/null")
+[ -n "${BASE:-}" ] && loop+=("moves (base)=$(realpath "$BASE") moves $work/loop.ngc > $work/loop.base.csv")
+loop+=("moves (new)=$vc moves $work/loop.ngc > $work/loop.new.csv")
+python3 bench/alternate.py --rounds "$rounds" "${loop[@]}"
+
+if [ "${MEM_10M:-}" = 1 ]; then
+  echo "## peak memory at 10 M lines"
+  python3 bench/gen_cam.py 10000000 > "$work/cam10.nc"
+  python3 bench/gen_program.py 10000000 > "$work/raster10.ngc"
+  for p in "$work/cam10.nc" "$work/raster10.ngc"; do
+    for cmd in "moves $p" "compensate $p $map --max-output-size none -o $work/out10.ngc"; do
+      # shellcheck disable=SC2086
+      /usr/bin/time -f "%M KiB peak, %e s: volcomp ${cmd%% *} $(basename "$p") ($(wc -l < "$p") lines)" \
+        "$vc" --quiet $cmd > /dev/null
+    done
+  done
+  rm -f "$work/cam10.nc" "$work/raster10.ngc" "$work/out10.ngc"
+fi

@@ -4,10 +4,10 @@
 use crate::args::{Cli, Command, MovesArgs, MovesFormat};
 use crate::options::flags;
 use crate::output::CliError;
-use std::io::{self, BufRead, BufReader, BufWriter, Write};
+use std::io::{self, BufRead, BufReader, Write};
 use std::path::Path;
 use volcomp_core::request::{Machine, MachineRequest};
-use volcomp_gcode::number::{format_number, NumberStyle};
+use volcomp_gcode::number::{format_number_bytes, NumberStyle};
 use volcomp_gcode::{Motion, MotionKind, Vec3, Walker};
 
 mod compensate;
@@ -114,6 +114,36 @@ pub fn print_warnings(file: &str, warnings: &[volcomp_gcode::Warning]) {
 /// Motions handed from the reading thread to the writing thread at a time.
 const MOVES_BATCH: usize = 4096;
 
+/// What `volcomp moves` prints of a motion: the reading thread hands
+/// these (a third of a [`Motion`]) to the writing thread.
+#[derive(Clone, Copy)]
+struct MoveRow {
+    line: u64,
+    column: usize,
+    kind: &'static str,
+    source: &'static str,
+    end: Vec3,
+    center: Option<Vec3>,
+    extra_end: [f64; 6],
+}
+
+impl MoveRow {
+    fn of(m: &Motion) -> Self {
+        Self {
+            line: m.line,
+            column: m.column,
+            kind: m.kind.name(),
+            source: m.source.name(),
+            end: m.end,
+            center: match m.kind {
+                MotionKind::Arc(arc) => Some(arc.center),
+                _ => None,
+            },
+            extra_end: m.extra.end,
+        }
+    }
+}
+
 /// `volcomp moves`: one thread reads and interprets, the other formats and
 /// writes, with a bounded queue of batches between them, so memory stays
 /// constant and both cores work.
@@ -121,9 +151,12 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
     let machine = machine(&a.machine)?;
     let mut walker = machine.walk(&a.program)?;
     let json = a.format == MovesFormat::Json;
-    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Motion>>(4);
+    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<MoveRow>>(4);
+    // Written batches come back to be filled again: no allocation (and no
+    // fresh pages) per batch.
+    let (tx_empty, rx_empty) = std::sync::mpsc::sync_channel::<Vec<MoveRow>>(8);
     let extra = a.extra_axes;
-    let writer = std::thread::spawn(move || write_moves(rx, json, extra));
+    let writer = std::thread::spawn(move || write_moves(rx, tx_empty, json, extra));
     let mut batch = Vec::with_capacity(MOVES_BATCH);
     let mut read = || -> Result<(), CliError> {
         loop {
@@ -136,9 +169,12 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
                     return Err(e.into());
                 }
             };
-            batch.extend_from_slice(ev.motions);
+            batch.extend(ev.motions.iter().map(MoveRow::of));
             if batch.len() >= MOVES_BATCH {
-                let full = std::mem::replace(&mut batch, Vec::with_capacity(MOVES_BATCH));
+                let empty = rx_empty
+                    .try_recv()
+                    .unwrap_or_else(|_| Vec::with_capacity(MOVES_BATCH));
+                let full = std::mem::replace(&mut batch, empty);
                 if tx.send(full).is_err() {
                     // The writer stopped (e.g. a closed pipe): its error is reported below.
                     return Ok(());
@@ -158,107 +194,111 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
     write_result
 }
 
+/// Bytes of output gathered before they are written (cache-sized).
+const MOVES_OUTPUT_BYTES: usize = 1 << 18;
+
 fn write_moves(
-    rx: std::sync::mpsc::Receiver<Vec<Motion>>,
+    rx: std::sync::mpsc::Receiver<Vec<MoveRow>>,
+    empty: std::sync::mpsc::SyncSender<Vec<MoveRow>>,
     json: bool,
     extra_columns: bool,
 ) -> Result<(), CliError> {
     let stdout = io::stdout();
-    let mut out = BufWriter::with_capacity(1 << 20, stdout.lock());
+    let mut out = stdout.lock();
     let style = NumberStyle::fixed(6);
-    let mut row = String::with_capacity(160);
+    let mut text: Vec<u8> = Vec::with_capacity(MOVES_OUTPUT_BYTES + 4096);
     let mut first = true;
     if json {
-        out.write_all(b"[").map_err(CliError::Stdout)?;
+        text.extend_from_slice(b"[");
     } else {
-        out.write_all(b"line,column,kind,source,x_mm,y_mm,z_mm,cx_mm,cy_mm,cz_mm")
-            .map_err(CliError::Stdout)?;
+        text.extend_from_slice(b"line,column,kind,source,x_mm,y_mm,z_mm,cx_mm,cy_mm,cz_mm");
         if extra_columns {
-            out.write_all(b",a_deg,b_deg,c_deg,u_mm,v_mm,w_mm")
-                .map_err(CliError::Stdout)?;
+            text.extend_from_slice(b",a_deg,b_deg,c_deg,u_mm,v_mm,w_mm");
         }
-        out.write_all(b"\n").map_err(CliError::Stdout)?;
+        text.push(b'\n');
     }
-    for batch in rx {
+    let num = |v: f64, text: &mut Vec<u8>| format_number_bytes(v, style, text);
+    for mut batch in rx {
         for m in &batch {
-            row.clear();
-            let center = match m.kind {
-                MotionKind::Arc(arc) => Some(arc.center),
-                _ => None,
-            };
-            let source = m.source.name();
-            let num = |v: f64, row: &mut String| format_number(v, style, row);
             if json {
-                row.push_str(if first { "\n" } else { ",\n" });
-                row.push_str(&format!(
-                    "{{\"line\":{},\"column\":{},\"kind\":\"{}\",\"source\":\"{}\",\"end_mm\":[",
-                    m.line,
-                    m.column,
-                    m.kind.name(),
-                    source
-                ));
-                push_triple(m.end, &mut row, num);
-                row.push(']');
-                if let Some(c) = center {
-                    row.push_str(",\"center_mm\":[");
-                    push_triple(c, &mut row, num);
-                    row.push(']');
+                text.extend_from_slice(if first { b"\n" } else { b",\n" });
+                text.extend_from_slice(b"{\"line\":");
+                push_uint(m.line, &mut text);
+                text.extend_from_slice(b",\"column\":");
+                push_uint(m.column as u64, &mut text);
+                text.extend_from_slice(b",\"kind\":\"");
+                text.extend_from_slice(m.kind.as_bytes());
+                text.extend_from_slice(b"\",\"source\":\"");
+                text.extend_from_slice(m.source.as_bytes());
+                text.extend_from_slice(b"\",\"end_mm\":[");
+                push_triple(m.end, &mut text, num);
+                text.push(b']');
+                if let Some(c) = m.center {
+                    text.extend_from_slice(b",\"center_mm\":[");
+                    push_triple(c, &mut text, num);
+                    text.push(b']');
                 }
-                if extra_columns || m.extra.end != [0.0; 6] {
-                    row.push_str(",\"extra\":[");
-                    push_extra(&m.extra.end, &mut row, num);
-                    row.push(']');
+                if extra_columns || m.extra_end != [0.0; 6] {
+                    text.extend_from_slice(b",\"extra\":[");
+                    push_extra(&m.extra_end, &mut text, num);
+                    text.push(b']');
                 }
-                row.push('}');
+                text.push(b'}');
             } else {
-                push_uint(m.line, &mut row);
-                row.push(',');
-                push_uint(m.column as u64, &mut row);
-                row.push(',');
-                row.push_str(m.kind.name());
-                row.push(',');
-                row.push_str(source);
-                row.push(',');
-                push_triple(m.end, &mut row, num);
-                row.push(',');
-                match center {
-                    Some(c) => push_triple(c, &mut row, num),
-                    None => row.push_str(",,"),
+                push_uint(m.line, &mut text);
+                text.push(b',');
+                push_uint(m.column as u64, &mut text);
+                text.push(b',');
+                text.extend_from_slice(m.kind.as_bytes());
+                text.push(b',');
+                text.extend_from_slice(m.source.as_bytes());
+                text.push(b',');
+                push_triple(m.end, &mut text, num);
+                text.push(b',');
+                match m.center {
+                    Some(c) => push_triple(c, &mut text, num),
+                    None => text.extend_from_slice(b",,"),
                 }
                 if extra_columns {
-                    row.push(',');
-                    push_extra(&m.extra.end, &mut row, num);
+                    text.push(b',');
+                    push_extra(&m.extra_end, &mut text, num);
                 }
-                row.push('\n');
+                text.push(b'\n');
             }
             first = false;
-            out.write_all(row.as_bytes()).map_err(CliError::Stdout)?;
+            if text.len() >= MOVES_OUTPUT_BYTES {
+                out.write_all(&text).map_err(CliError::Stdout)?;
+                text.clear();
+            }
         }
+        batch.clear();
+        let _ = empty.try_send(batch);
     }
     if json {
-        out.write_all(b"\n]\n").map_err(CliError::Stdout)?;
+        text.extend_from_slice(b"\n]\n");
     }
+    out.write_all(&text).map_err(CliError::Stdout)?;
     out.flush().map_err(CliError::Stdout)
 }
 
 /// A, B, C (degrees), U, V, W (mm), comma-separated.
-fn push_extra(v: &[f64; 6], row: &mut String, num: impl Fn(f64, &mut String)) {
+fn push_extra(v: &[f64; 6], text: &mut Vec<u8>, num: impl Fn(f64, &mut Vec<u8>)) {
     for (i, x) in v.iter().enumerate() {
         if i > 0 {
-            row.push(',');
+            text.push(b',');
         }
-        num(*x, row);
+        num(*x, text);
     }
 }
 
-fn push_uint(v: u64, row: &mut String) {
-    row.push_str(itoa::Buffer::new().format(v));
+fn push_uint(v: u64, text: &mut Vec<u8>) {
+    text.extend_from_slice(itoa::Buffer::new().format(v).as_bytes());
 }
 
-fn push_triple(v: Vec3, row: &mut String, num: impl Fn(f64, &mut String)) {
-    num(v.x, row);
-    row.push(',');
-    num(v.y, row);
-    row.push(',');
-    num(v.z, row);
+fn push_triple(v: Vec3, text: &mut Vec<u8>, num: impl Fn(f64, &mut Vec<u8>)) {
+    num(v.x, text);
+    text.push(b',');
+    num(v.y, text);
+    text.push(b',');
+    num(v.z, text);
 }

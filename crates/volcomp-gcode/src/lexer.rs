@@ -151,6 +151,13 @@ pub enum LineKind {
 pub struct Lexed {
     /// Tokens in source order.
     pub tokens: Vec<Token>,
+    /// A `( … )` comment is among the tokens.
+    pub(crate) has_comment: bool,
+    /// A comment holds a `#` or `[`: the expression layer reads the line
+    /// as a whole (its comments are not literal text to it).
+    pub(crate) ngc_in_comment: bool,
+    /// The word letters of the line, bit `letter & 31`.
+    letters: u32,
 }
 
 impl Lexed {
@@ -160,6 +167,11 @@ impl Lexed {
             Token::Word(w) => Some(w),
             _ => None,
         })
+    }
+
+    /// Whether the line has a word with `letter` (upper case).
+    pub(crate) fn has_letter(&self, letter: u8) -> bool {
+        self.letters & (1 << (letter & 31)) != 0
     }
 
     /// Whether the block starts with the block-delete character.
@@ -226,6 +238,9 @@ pub fn classify(content: &[u8]) -> LineKind {
 /// allocation. The caller should first check [`classify`].
 pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
     out.tokens.clear();
+    out.has_comment = false;
+    out.ngc_in_comment = false;
+    out.letters = 0;
     let n = content.len();
     let mut i = bom_len(content);
     while i < n && is_blank(content[i]) {
@@ -237,33 +252,57 @@ pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
     }
     while i < n {
         let b = content[i];
+        // Words first: most of a line is words.
+        if b.is_ascii_alphabetic() || b == b'@' || b == b'^' {
+            let letter = b.to_ascii_uppercase();
+            let start = i;
+            i += 1;
+            let (value, value_span) = match lex_plain_number(content, i) {
+                Some(plain) => plain,
+                None => lex_number(content, i, letter)?,
+            };
+            i = value_span.end.max(i);
+            if letter == b'O' {
+                return Err(LexError {
+                    kind: LexErrorKind::OWord,
+                    column: start,
+                });
+            }
+            out.letters |= 1 << (letter & 31);
+            out.tokens.push(Token::Word(Word {
+                letter,
+                value,
+                span: start..value_span.end,
+                value_span,
+            }));
+            continue;
+        }
         match b {
             _ if is_blank(b) => i += 1,
             b'(' => {
                 let start = i;
-                i += 1;
-                loop {
-                    if i >= n {
-                        return Err(LexError {
-                            kind: LexErrorKind::UnclosedComment,
-                            column: start,
-                        });
-                    }
-                    match content[i] {
-                        b')' => break,
-                        b'(' => {
-                            return Err(LexError {
-                                kind: LexErrorKind::NestedComment,
-                                column: i,
-                            })
-                        }
-                        _ => i += 1,
-                    }
+                let rest = &content[i + 1..];
+                let close = memchr::memchr(b')', rest);
+                let inside = &rest[..close.unwrap_or(rest.len())];
+                if let Some(k) = memchr::memchr(b'(', inside) {
+                    return Err(LexError {
+                        kind: LexErrorKind::NestedComment,
+                        column: i + 1 + k,
+                    });
                 }
-                i += 1;
+                let Some(close) = close else {
+                    return Err(LexError {
+                        kind: LexErrorKind::UnclosedComment,
+                        column: start,
+                    });
+                };
+                out.ngc_in_comment |= memchr::memchr2(b'#', b'[', inside).is_some();
+                i += close + 2;
+                out.has_comment = true;
                 out.tokens.push(Token::Comment(start..i));
             }
             b';' => {
+                out.ngc_in_comment |= memchr::memchr2(b'#', b'[', &content[i..n]).is_some();
                 out.tokens.push(Token::LineComment(i..n));
                 i = n;
             }
@@ -279,24 +318,6 @@ pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
                     column: i,
                 })
             }
-            _ if b.is_ascii_alphabetic() || b == b'@' || b == b'^' => {
-                let letter = b.to_ascii_uppercase();
-                let start = i;
-                i += 1;
-                let (value, value_span) = lex_number(content, &mut i, letter)?;
-                if letter == b'O' {
-                    return Err(LexError {
-                        kind: LexErrorKind::OWord,
-                        column: start,
-                    });
-                }
-                out.tokens.push(Token::Word(Word {
-                    letter,
-                    value,
-                    span: start..value_span.end,
-                    value_span,
-                }));
-            }
             _ => {
                 return Err(LexError {
                     kind: LexErrorKind::UnexpectedByte(b),
@@ -309,11 +330,13 @@ pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
 }
 
 /// Reads a number after a word letter, skipping blanks inside it.
-fn lex_number(content: &[u8], i: &mut usize, letter: u8) -> Result<(f64, Range<usize>), LexError> {
-    if let Some((value, span)) = lex_plain_number(content, *i) {
-        *i = span.end;
-        return Ok((value, span));
-    }
+/// The general path of the lexer's numbers (blanks inside, more than 15
+/// significant digits); `i` is just after the letter. The number ends at
+/// the returned span's end, or, when it is empty, at `i`.
+#[cold]
+fn lex_number(content: &[u8], i: usize, letter: u8) -> Result<(f64, Range<usize>), LexError> {
+    let mut i = i;
+    let i = &mut i;
     let n = content.len();
     let mut buf = [0u8; 48];
     let mut len = 0;
@@ -388,6 +411,7 @@ fn lex_number(content: &[u8], i: &mut usize, letter: u8) -> Result<(f64, Range<u
 /// The common case in one pass: a number written without blanks inside
 /// (`X-12.5`, `Z.25`, `F1200`) and at most 15 significant digits. Returns
 /// `None` for anything else, which [`lex_number`]'s general path handles.
+#[inline]
 fn lex_plain_number(content: &[u8], start: usize) -> Option<(f64, Range<usize>)> {
     let n = content.len();
     let mut j = start;
@@ -402,25 +426,37 @@ fn lex_plain_number(content: &[u8], start: usize) -> Option<(f64, Range<usize>)>
         }
         _ => false,
     };
-    let (mut mantissa, mut digits, mut frac_digits) = (0u64, 0u32, 0u32);
-    let (mut seen_dot, mut any_digit) = (false, false);
-    while j < n {
-        match content[j] {
-            c @ b'0'..=b'9' => {
-                any_digit = true;
-                if mantissa != 0 || c != b'0' || seen_dot {
-                    mantissa = mantissa.wrapping_mul(10) + u64::from(c - b'0');
-                    digits += 1;
-                    frac_digits += u32::from(seen_dot);
-                }
-            }
-            b'.' if !seen_dot => seen_dot = true,
-            _ => break,
-        }
+    // Leading zeros add nothing to the mantissa, so every digit goes in;
+    // the count of significant digits is needed only past 15 digits.
+    let mut mantissa = 0u64;
+    let int_start = j;
+    while let Some(d) = content.get(j).and_then(|c| digit(*c)) {
+        mantissa = mantissa.wrapping_mul(10).wrapping_add(d);
         j += 1;
     }
-    if !any_digit || digits > 15 {
+    let int_digits = j - int_start;
+    let seen_dot = content.get(j) == Some(&b'.');
+    let mut frac_digits = 0;
+    if seen_dot {
+        j += 1;
+        let frac_start = j;
+        while let Some(d) = content.get(j).and_then(|c| digit(*c)) {
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(d);
+            j += 1;
+        }
+        frac_digits = j - frac_start;
+    }
+    if int_digits + frac_digits == 0 {
         return None;
+    }
+    if int_digits + frac_digits > 15 {
+        // Significant digits: the integer part from its first non-zero
+        // digit, and every digit after the point.
+        let int = &content[int_start..int_start + int_digits];
+        let leading_zeros = int.iter().take_while(|c| **c == b'0').count();
+        if int_digits - leading_zeros + frac_digits > 15 {
+            return None;
+        }
     }
     // Blanks followed by more of the number (`X 1 0 . 5`) need the general path.
     let mut k = j;
@@ -430,8 +466,15 @@ fn lex_plain_number(content: &[u8], start: usize) -> Option<(f64, Range<usize>)>
     if k > j && k < n && (content[k].is_ascii_digit() || (content[k] == b'.' && !seen_dot)) {
         return None;
     }
-    let value = mantissa as f64 / crate::number::pow10(frac_digits);
+    let value = mantissa as f64 / crate::number::pow10(frac_digits as u32);
     Some((if negative { -value } else { value }, start..j))
+}
+
+/// The value of an ASCII digit.
+#[inline(always)]
+fn digit(c: u8) -> Option<u64> {
+    let d = c.wrapping_sub(b'0');
+    (d < 10).then_some(u64::from(d))
 }
 
 /// Parses `[+-]digits[.digits]`, also `10.` and `.5`, to the nearest `f64`.
@@ -580,6 +623,51 @@ mod tests {
         }
         assert_eq!(parse_decimal(b"."), None);
         assert_eq!(parse_decimal(b"-"), None);
+    }
+
+    #[test]
+    fn numbers_read_as_the_standard_parser_reads_them() {
+        // Both paths of the lexer: plain numbers up to 15 significant
+        // digits, and longer ones, leading zeros on either side.
+        for t in [
+            "0",
+            "007.5",
+            "-0.0001",
+            "+3",
+            "10.",
+            "123456789012345",
+            "1234567890123456",
+            "0000000000000000000001.25",
+            "0.000000000000001",
+            "0.0000000000000001",
+            "99999.9999999999",
+            "-99999.99999999999",
+            "12345678901234567890123",
+            "0.1",
+            "-.53",
+        ] {
+            let expected: f64 = t.trim_start_matches('+').parse().unwrap();
+            let w = words(&format!("X{t} Y1"));
+            assert_eq!(w[0], ('X', expected, t.to_string()), "{t}");
+            assert_eq!(w[1].1, 1.0, "{t}");
+        }
+    }
+
+    #[test]
+    fn comment_errors_name_the_first_offending_parenthesis() {
+        let mut out = Lexed::default();
+        let e = lex_block(b"G1 (a (b) c)", &mut out).unwrap_err();
+        assert_eq!((e.kind, e.column), (LexErrorKind::NestedComment, 6));
+        let e = lex_block(b"G1 (a) (b", &mut out).unwrap_err();
+        assert_eq!((e.kind, e.column), (LexErrorKind::UnclosedComment, 7));
+        let e = lex_block(b"G1 (a (b", &mut out).unwrap_err();
+        assert_eq!((e.kind, e.column), (LexErrorKind::NestedComment, 6));
+        lex_block(b"G1 (#1 [x]) X1", &mut out).unwrap();
+        assert!(out.has_comment && out.ngc_in_comment);
+        lex_block(b"G1 (note) X1 ; #2", &mut out).unwrap();
+        assert!(out.has_comment && out.ngc_in_comment);
+        lex_block(b"G1 (note) X1 ; end", &mut out).unwrap();
+        assert!(out.has_comment && !out.ngc_in_comment);
     }
 
     #[test]

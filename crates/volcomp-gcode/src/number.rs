@@ -126,11 +126,141 @@ impl StyleSurvey {
 /// format_number(-0.25, NumberStyle::fixed(4), &mut s);
 /// assert_eq!(s, "-0.2500");
 /// ```
+#[inline]
 pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
+    let mut buf = NumberBuf::new();
+    match buf.format(value, style) {
+        // Digits, point and sign: ASCII, valid UTF-8.
+        Some(text) => out.push_str(std::str::from_utf8(text).unwrap_or_default()),
+        None => format_number_slow(value, style, out),
+    }
+}
+
+/// [`format_number`] into bytes (a line being written), without the
+/// intermediate `String`.
+#[inline]
+pub fn format_number_bytes(value: f64, style: NumberStyle, out: &mut Vec<u8>) {
+    let mut buf = NumberBuf::new();
+    match buf.format(value, style) {
+        Some(text) => out.extend_from_slice(text),
+        None => {
+            let mut text = String::new();
+            format_number_slow(value, style, &mut text);
+            out.extend_from_slice(text.as_bytes());
+        }
+    }
+}
+
+/// A number written from its last digit backwards into a stack buffer: no
+/// allocation, two digits a step.
+struct NumberBuf {
+    bytes: [u8; 48],
+}
+
+/// `"00" "01" … "99"`.
+const DIGIT_PAIRS: &[u8; 200] = b"\
+0001020304050607080910111213141516171819\
+2021222324252627282930313233343536373839\
+4041424344454647484950515253545556575859\
+6061626364656667686970717273747576777879\
+8081828384858687888990919293949596979899";
+
+impl NumberBuf {
+    /// Most decimals written through the buffer; more go the slow way.
+    const MAX_DECIMALS: u8 = 18;
+
+    fn new() -> Self {
+        Self { bytes: [0; 48] }
+    }
+
+    /// Writes `v`'s digits, at least `width` of them (zero-padded), so that
+    /// they end before `end`; returns where they start.
+    #[inline]
+    fn digits_before(&mut self, mut v: u64, width: usize, end: usize) -> usize {
+        let mut at = end;
+        while v >= 100 {
+            let pair = (v % 100) as usize * 2;
+            v /= 100;
+            at -= 2;
+            self.bytes[at..at + 2].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+        }
+        if v >= 10 {
+            let pair = v as usize * 2;
+            at -= 2;
+            self.bytes[at..at + 2].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+        } else {
+            at -= 1;
+            self.bytes[at] = b'0' + v as u8;
+        }
+        while end - at < width {
+            at -= 1;
+            self.bytes[at] = b'0';
+        }
+        at
+    }
+
+    /// The text of `value` in `style`, or `None` for what the slow path
+    /// writes (non-finite or huge values, more than 18 decimals).
+    #[inline]
+    fn format(&mut self, value: f64, style: NumberStyle) -> Option<&[u8]> {
+        if style.decimals > Self::MAX_DECIMALS {
+            return None;
+        }
+        let scaled = round_half_away(value * pow10(u32::from(style.decimals)));
+        // Positions in millimetres or inches never come near 2^53; the
+        // guard keeps absurd values readable instead of wrapping.
+        if !scaled.is_finite() || scaled.abs() > 9.0e15 {
+            return None;
+        }
+        let scaled = scaled as i64;
+        let magnitude = scaled.unsigned_abs();
+        let divisor = POW10_U64[usize::from(style.decimals)];
+        let int_part = magnitude / divisor;
+        let mut frac_part = magnitude % divisor;
+        let mut frac_digits = usize::from(style.decimals);
+        if style.trim_trailing_zeros {
+            while frac_digits > 0 && frac_part.is_multiple_of(10) {
+                frac_part /= 10;
+                frac_digits -= 1;
+            }
+        }
+        let end = self.bytes.len();
+        let mut at = end;
+        if frac_digits > 0 {
+            at = self.digits_before(frac_part, frac_digits, at);
+            at -= 1;
+            self.bytes[at] = b'.';
+        } else if style.trailing_dot || (!style.trim_trailing_zeros && style.decimals > 0) {
+            at -= 1;
+            self.bytes[at] = b'.';
+        }
+        if int_part != 0 || style.leading_zero || frac_digits == 0 {
+            at = self.digits_before(int_part, 1, at);
+        }
+        if scaled < 0 {
+            at -= 1;
+            self.bytes[at] = b'-';
+        }
+        Some(&self.bytes[at..end])
+    }
+}
+
+/// `10^k` for `k` ≤ 18.
+const POW10_U64: [u64; 19] = {
+    let mut p = [1u64; 19];
+    let mut k = 1;
+    while k < 19 {
+        p[k] = p[k - 1] * 10;
+        k += 1;
+    }
+    p
+};
+
+/// [`format_number`] for what [`NumberBuf`] does not write.
+#[cold]
+fn format_number_slow(value: f64, style: NumberStyle, out: &mut String) {
     let scale = pow10(u32::from(style.decimals));
     let scaled = round_half_away(value * scale);
-    // Positions in millimetres or inches never come near 2^53; the guard keeps
-    // absurd values readable instead of wrapping.
     if !scaled.is_finite() || scaled.abs() > 9.0e15 {
         out.push_str(&format!(
             "{value:.prec$}",
@@ -141,26 +271,6 @@ pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
     let scaled = scaled as i64;
     let negative = scaled < 0;
     let magnitude = scaled.unsigned_abs();
-    if style.leading_zero && !style.trim_trailing_zeros && style.decimals > 0 {
-        // Fixed decimals, the usual style: one conversion, then the point.
-        let mut buf = itoa::Buffer::new();
-        let digits = buf.format(magnitude).as_bytes();
-        let d = usize::from(style.decimals);
-        if negative {
-            out.push('-');
-        }
-        if digits.len() > d {
-            let (int, frac) = digits.split_at(digits.len() - d);
-            out.extend(int.iter().map(|&b| char::from(b)));
-            out.push('.');
-            out.extend(frac.iter().map(|&b| char::from(b)));
-        } else {
-            out.push_str("0.");
-            out.extend(std::iter::repeat_n('0', d - digits.len()));
-            out.extend(digits.iter().map(|&b| char::from(b)));
-        }
-        return;
-    }
     let divisor = 10u64.pow(u32::from(style.decimals));
     let int_part = magnitude / divisor;
     let mut frac_part = magnitude % divisor;
@@ -207,10 +317,19 @@ fn round_half_away(v: f64) -> f64 {
 fn push_digits(v: u64, width: usize, out: &mut String) {
     let mut buf = itoa::Buffer::new();
     let digits = buf.format(v);
-    for _ in digits.len()..width {
-        out.push('0');
-    }
+    push_zeros(width.saturating_sub(digits.len()), out);
     out.push_str(digits);
+}
+
+/// Appends `n` zeros.
+fn push_zeros(n: usize, out: &mut String) {
+    const ZEROS: &str = "00000000000000000000000000000000";
+    let mut n = n;
+    while n > 0 {
+        let k = n.min(ZEROS.len());
+        out.push_str(&ZEROS[..k]);
+        n -= k;
+    }
 }
 
 /// `10^k` for the decimal counts used here, exact as `f64`.
@@ -318,6 +437,61 @@ mod tests {
         survey.record(b"0.100000");
         assert_ne!(fmt(v, survey.style(5)), "0.096205");
         assert_eq!(fmt(v, survey.style(decimals_of(b"0.096205"))), "0.096205");
+    }
+
+    #[test]
+    fn the_stack_writer_writes_what_the_reference_writer_writes() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            10.0,
+            0.25,
+            -0.25,
+            12.34567,
+            1e-12,
+            -1e-12,
+            123456.0,
+            99.999999999,
+            0.000049,
+            -0.00005,
+            9e14,
+            -9e14,
+            8.9e15,
+            1e17,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            250.0001,
+            -1.833,
+        ];
+        let mut x = 0.123_456_789_f64;
+        for _ in 0..2000 {
+            x = (x * 7919.0 + 0.377).fract();
+            values.push((x - 0.5) * 2000.0);
+            values.push((x - 0.5) * 0.002);
+        }
+        for decimals in (0..=9).chain([12, 18, 19]) {
+            for bits in 0..8 {
+                let style = NumberStyle {
+                    decimals,
+                    leading_zero: bits & 1 != 0,
+                    trim_trailing_zeros: bits & 2 != 0,
+                    trailing_dot: bits & 4 != 0,
+                };
+                for &v in &values {
+                    let mut reference = String::new();
+                    format_number_slow(v, style, &mut reference);
+                    assert_eq!(fmt(v, style), reference, "{v} {style:?}");
+                    let mut bytes = Vec::new();
+                    format_number_bytes(v, style, &mut bytes);
+                    assert_eq!(bytes, reference.as_bytes(), "{v} {style:?}");
+                }
+            }
+        }
     }
 
     #[test]

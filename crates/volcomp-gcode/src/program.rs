@@ -18,8 +18,10 @@ use crate::ngc::norm::Norm;
 use crate::ngc::params::Scope;
 use crate::ngc::source::Lines;
 use crate::setup::Setup;
+use std::collections::HashMap;
 use std::io::BufRead;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// Longest line LinuxCNC reads, line ending included (`LINELEN` − 2 =
 /// 253 bytes with its `\n`; `Interp::read`, rs274ngc_pre.cc).
@@ -97,7 +99,14 @@ pub struct Walker<R> {
     pub(crate) current: Pos,
     /// Where lines after the program end are copied from (main program).
     pub(crate) after_end_at: Option<usize>,
+    /// Statements of lines that control flow may run again (loop bodies,
+    /// subroutines), parsed once: a line's statement depends on its text
+    /// alone. At most [`MAX_CACHED_STATEMENTS`].
+    statements: HashMap<(usize, usize), Arc<Statement>>,
 }
+
+/// Statements kept parsed (a bound on the memory the cache takes).
+const MAX_CACHED_STATEMENTS: usize = 4096;
 
 impl<R: BufRead> Walker<R> {
     /// Starts reading `reader`; `file` names it in error messages.
@@ -121,6 +130,7 @@ impl<R: BufRead> Walker<R> {
             interp: Interpreter::new(setup, options),
             current: Pos { src: MAIN, line: 0 },
             after_end_at: None,
+            statements: HashMap::new(),
         }
     }
 
@@ -191,6 +201,9 @@ impl<R: BufRead> Walker<R> {
                 });
             }
         }
+        if p.src == MAIN {
+            return Ok(self.main.holds(p.line));
+        }
         Ok(self.line_bytes(p).is_some())
     }
 
@@ -219,6 +232,10 @@ impl<R: BufRead> Walker<R> {
                 return Ok(Some(self.event(self.current, LineKind::Block, false)));
             }
             let pos = self.flow.pos;
+            if !self.flow.keeps_lines() && pos.src == MAIN {
+                // Nothing jumps back: the line before is done with.
+                self.main.forget_before(pos.line);
+            }
             if !self.fetch(pos)? {
                 self.end_of_source(pos)?;
                 if self.interp.finished() {
@@ -228,9 +245,6 @@ impl<R: BufRead> Walker<R> {
             }
             self.current = pos;
             self.flow.pos.line += 1;
-            if !self.flow.keeps_lines() && pos.src == MAIN {
-                self.main.forget_before(pos.line);
-            }
             if let Err(e) = self.flow.count_line(pos) {
                 return Err(self.locate(e));
             }
@@ -248,7 +262,11 @@ impl<R: BufRead> Walker<R> {
             } else {
                 self.flow.file_name(pos.src)
             },
-            bytes: &self.buf,
+            bytes: if self.rendered {
+                &self.buf
+            } else {
+                bytes_of(&self.main, &self.flow, pos).unwrap_or(&[])
+            },
             rendered: self.rendered,
             kind,
             lexed: &self.lexed,
@@ -261,7 +279,6 @@ impl<R: BufRead> Walker<R> {
     /// Evaluates, lexes and executes line `pos`; `None` when it yields no
     /// event (control statements, parameter settings alone).
     fn prepare(&mut self, pos: Pos) -> Result<Option<LineKind>, GcodeError> {
-        self.buf.clear();
         self.rendered = false;
         let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
         let content_len = lexer::content_len(original);
@@ -290,7 +307,6 @@ impl<R: BufRead> Walker<R> {
         let kind = lexer::classify(&original[..content_len]);
         match kind {
             LineKind::Percent => {
-                self.buf.extend_from_slice(original);
                 if pos.src == MAIN {
                     // gcode lane: the line's text decides `%` alone vs. stray.
                     let r = self
@@ -301,20 +317,45 @@ impl<R: BufRead> Walker<R> {
                 return Ok(Some(kind));
             }
             LineKind::ProgramNumber => {
-                self.buf.extend_from_slice(original);
                 self.interp.note_nonblank_line();
                 self.flow.keep_lines();
                 return Ok(Some(kind));
             }
             LineKind::Block => {}
         }
-        if line::needs_ngc(&original[..content_len]) {
-            let norm = Norm::of(&original[..content_len]);
-            let stmt = line::parse(&norm).map_err(|e| self.expr_error(pos, e))?;
-            match stmt {
+        // A literal line is lexed where it was read: one pass, no copy. The
+        // lexer stops at the first `#`, `[` or o-word and notes them in
+        // comments; only then is the line looked at as a whole.
+        let content = &original[..content_len];
+        let ngc = match lexer::lex_block(content, &mut self.lexed) {
+            Ok(()) => self.lexed.ngc_in_comment,
+            Err(e) => {
+                if !line::needs_ngc(content) {
+                    let e = e.at_line(pos.line as u64 + 1);
+                    return Err(self.locate(e));
+                }
+                true
+            }
+        };
+        if ngc {
+            self.buf.clear();
+            let stmt = match self.statements.get(&(pos.src, pos.line)) {
+                Some(stmt) => Arc::clone(stmt),
+                None => {
+                    let norm = Norm::of(&original[..content_len]);
+                    let stmt = line::parse(&norm).map_err(|e| self.expr_error(pos, e))?;
+                    let stmt = Arc::new(stmt);
+                    if self.flow.keeps_lines() && self.statements.len() < MAX_CACHED_STATEMENTS {
+                        self.statements
+                            .insert((pos.src, pos.line), Arc::clone(&stmt));
+                    }
+                    stmt
+                }
+            };
+            match &*stmt {
                 Statement::OWord(o) => {
                     self.flow.keep_lines();
-                    self.control(pos, o)?;
+                    self.control(pos, o.clone())?;
                     return Ok(None);
                 }
                 Statement::Block { words, settings } => {
@@ -330,8 +371,8 @@ impl<R: BufRead> Walker<R> {
                             let original = self.line_bytes(pos).unwrap_or(&[]);
                             line::render(
                                 &original[..content_len],
-                                &words,
-                                &settings,
+                                words,
+                                settings,
                                 &scope,
                                 // gcode lane: computed values in the program's decimals.
                                 self.interp.computed_decimals(),
@@ -345,7 +386,7 @@ impl<R: BufRead> Walker<R> {
                         self.rendered = true;
                         // Settings take effect after the line is read.
                         self.flow
-                            .apply_settings(&settings, &values, &self.interp)
+                            .apply_settings(settings, &values, &self.interp)
                             .map_err(|e| self.expr_error(pos, e))?;
                         if words.is_empty()
                             && self.buf[..lexer::content_len(&self.buf)]
@@ -354,38 +395,49 @@ impl<R: BufRead> Walker<R> {
                         {
                             return Ok(None);
                         }
-                    } else {
-                        let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
-                        self.buf.extend_from_slice(original);
                     }
                 }
             }
+            let lexed = if self.rendered {
+                let n = lexer::content_len(&self.buf);
+                lexer::lex_block(&self.buf[..n], &mut self.lexed)
+            } else {
+                let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
+                lexer::lex_block(&original[..content_len], &mut self.lexed)
+            };
+            if let Err(e) = lexed {
+                let e = e.at_line(pos.line as u64 + 1);
+                return Err(self.locate_rendered(e));
+            }
+        }
+        let content = if self.rendered {
+            &self.buf[..lexer::content_len(&self.buf)]
         } else {
-            self.buf.extend_from_slice(original);
-        }
-        let n = lexer::content_len(&self.buf);
-        if let Err(e) = lexer::lex_block(&self.buf[..n], &mut self.lexed) {
-            let e = e.at_line(pos.line as u64 + 1);
-            return Err(self.locate_rendered(e));
-        }
+            let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
+            &original[..content_len]
+        };
         // gcode lane: what LinuxCNC's reader refuses in a line the lexer reads.
-        if let Err(e) = crate::interp::check_line(pos.line as u64 + 1, &self.buf[..n], &self.lexed)
-        {
+        if let Err(e) = crate::interp::check_line(pos.line as u64 + 1, content, &self.lexed) {
             return Err(self.locate_rendered(e));
         }
-        if let Some(msg) = abort_comment(&self.buf[..n], &self.lexed) {
-            return Err(self.locate_rendered(GcodeError::new(
+        if self.lexed.has_comment {
+            if let Some(msg) = abort_comment(content, &self.lexed) {
+                return Err(self.locate_rendered(GcodeError::new(
                 ErrorClass::Invalid,
                 pos.line as u64 + 1,
                 1,
                 format!("the program aborts here: {msg}"),
                 "an (abort, …) comment stops the program in LinuxCNC; remove it if the program should run",
             )));
+            }
         }
-        if let Some(m) = self.fanuc_call()? {
-            self.flow.keep_lines();
-            self.fanuc(pos, m)?;
-            return Ok(None);
+        // M98/M99 (a line without M words calls nothing).
+        if self.lexed.has_letter(b'M') {
+            if let Some(m) = self.fanuc_call()? {
+                self.flow.keep_lines();
+                self.fanuc(pos, m)?;
+                return Ok(None);
+            }
         }
         let line_no = pos.line as u64 + 1;
         if let Err(e) = self.interp.execute(line_no, &self.lexed, &mut self.motions) {
@@ -427,11 +479,9 @@ impl<R: BufRead> Walker<R> {
         }
         self.after_end_at = Some(at + 1);
         self.main.forget_before(at);
-        self.buf.clear();
         self.rendered = false;
         let bytes = self.main.get(at).unwrap_or(&[]);
-        self.buf.extend_from_slice(bytes);
-        let kind = lexer::classify(&self.buf[..lexer::content_len(&self.buf)]);
+        let kind = lexer::classify(&bytes[..lexer::content_len(bytes)]);
         self.current = pos;
         Ok(Some(self.event(pos, kind, true)))
     }

@@ -13,6 +13,7 @@
 //! | `mod.rs` | the motions it yields, the modal state, the order of execution within a block |
 //! | `options.rs` | [`InterpOptions`], feed and motion modes |
 //! | `words.rs` | decoding a block: words by letter, G/M codes, modal groups, unused words |
+//! | `fast.rs` | the common block (a plain G0/G1 with X, Y, Z, F, N) in one step, mirrored against the general path by a test |
 //! | `motion.rs` | straight moves, arcs, polar end points, feed-rate and reach checks |
 //! | `comp.rs` | cutter radius compensation G40, G41, G42, G41.1, G42.1: the tool-centre path, as LinuxCNC computes it |
 //! | `cycle/` | canned cycles G73, G81–G89 |
@@ -29,6 +30,7 @@
 mod comp;
 mod cycle;
 mod extra;
+mod fast;
 mod lexical;
 mod modal;
 mod motion;
@@ -261,6 +263,9 @@ pub struct Interpreter {
     /// the tool is on the offset path while the program continues from the
     /// programmed point.
     motion_start: Option<Vec3>,
+    /// Plain straight moves take the one-step path (`fast.rs`); its tests
+    /// turn it off to compare.
+    fast_blocks: bool,
 }
 
 fn invalid(line: u64, col: usize, msg: impl Into<String>, help: impl Into<String>) -> GcodeError {
@@ -347,6 +352,7 @@ impl Interpreter {
             comp: None,
             arc_not_allowed: false,
             motion_start: None,
+            fast_blocks: true,
         }
     }
 
@@ -455,9 +461,11 @@ impl Interpreter {
             self.nonblank_seen = true;
         }
         self.check_after_stray_percent(line, lexed.words().next().is_some())?;
-        self.collect_words(line, lexed)?;
         let before = out.len();
-        self.run_block(line, out)?;
+        if !self.fast_block(line, lexed, out)? {
+            self.collect_words(line, lexed)?;
+            self.run_block(line, out)?;
+        }
         if out.len() > before && !self.units_given && !self.warned_units {
             self.warned_units = true;
             self.warnings.push(Warning {

@@ -18,6 +18,30 @@ pub(super) struct WordTable {
     pub(super) exponent_col: Option<usize>,
     pub(super) g: Vec<(u16, usize)>,
     pub(super) m: Vec<(u16, usize)>,
+    /// The codes of `g` and `m` as sets: the interpreter asks "has the
+    /// block G…?" some hundred times a block, one bit test each.
+    g_set: CodeSet,
+    m_set: CodeSet,
+}
+
+/// A set of G or M codes (× 10, as in [`WordTable::g`]) below 1024, which
+/// holds every code the interpreter accepts.
+#[derive(Debug, Clone, Copy, Default)]
+struct CodeSet([u64; 16]);
+
+impl CodeSet {
+    const LIMIT: u16 = 1024;
+
+    fn insert(&mut self, code: u16) {
+        if code < Self::LIMIT {
+            self.0[usize::from(code / 64)] |= 1 << (code % 64);
+        }
+    }
+
+    /// `Some(member)` for codes below the limit, `None` above it.
+    fn contains(&self, code: u16) -> Option<bool> {
+        (code < Self::LIMIT).then(|| self.0[usize::from(code / 64)] & (1 << (code % 64)) != 0)
+    }
 }
 
 /// Slot of a word letter in [`WordTable::values`].
@@ -50,9 +74,14 @@ impl WordTable {
             || self.extra_col().is_some()
     }
     pub(super) fn has_g(&self, code: u16) -> bool {
-        self.g.iter().any(|(c, _)| *c == code)
+        self.g_set
+            .contains(code)
+            .unwrap_or_else(|| self.g.iter().any(|(c, _)| *c == code))
     }
     pub(super) fn g_col(&self, code: u16) -> Option<usize> {
+        if self.g_set.contains(code) == Some(false) {
+            return None;
+        }
         self.g.iter().find(|(c, _)| *c == code).map(|(_, col)| *col)
     }
     /// `Some(true)` when the block has `on`, `Some(false)` when it has `off`
@@ -67,9 +96,14 @@ impl WordTable {
         }
     }
     pub(super) fn has_m(&self, code: u16) -> bool {
-        self.m.iter().any(|(c, _)| *c == code)
+        self.m_set
+            .contains(code)
+            .unwrap_or_else(|| self.m.iter().any(|(c, _)| *c == code))
     }
     pub(super) fn m_col(&self, code: u16) -> Option<usize> {
+        if self.m_set.contains(code) == Some(false) {
+            return None;
+        }
         self.m.iter().find(|(c, _)| *c == code).map(|(_, col)| *col)
     }
 }
@@ -210,6 +244,8 @@ impl Interpreter {
         w.exponent_col = None;
         w.g.clear();
         w.m.clear();
+        w.g_set = CodeSet::default();
+        w.m_set = CodeSet::default();
         let mut prev_number_end = None;
         // LinuxCNC reads an N word only as the block's first item (after a
         // block delete `/`, `read_items`); elsewhere `n` has no reader.
@@ -284,6 +320,7 @@ impl Interpreter {
                         ));
                     }
                     w.g.push((code, col));
+                    w.g_set.insert(code);
                 }
                 b'M' => {
                     // A whole number (above): M199 and below are looked up.
@@ -317,6 +354,7 @@ impl Interpreter {
                         ));
                     }
                     w.m.push((code, col));
+                    w.m_set.insert(code);
                 }
                 b'N' if n_at == Some(Some(col)) => {
                     // `read_n_number` reads digits only (`read_integer_unsigned`).

@@ -372,9 +372,9 @@ fn parse_oword(n: &Norm, mut p: Parser) -> Result<OWord, ExprError> {
 /// shortest representation that round-trips, never with an exponent.
 pub fn format_value(v: f64, out: &mut Vec<u8>) {
     let v = if v == 0.0 { 0.0 } else { v };
-    let s = format!("{v}");
-    if s.len() <= 40 {
-        out.extend_from_slice(s.as_bytes());
+    let mut text = ShortText::default();
+    if std::fmt::Write::write_fmt(&mut text, format_args!("{v}")).is_ok() {
+        out.extend_from_slice(&text.bytes[..text.len]);
     } else {
         // Only for magnitudes below 1e-20 or above 1e39, far outside any
         // machine: 15 decimals keep every position to 1e-15 mm.
@@ -384,18 +384,58 @@ pub fn format_value(v: f64, out: &mut Vec<u8>) {
     }
 }
 
+/// Up to 40 bytes of text on the stack; writing more fails.
+struct ShortText {
+    bytes: [u8; 40],
+    len: usize,
+}
+
+impl Default for ShortText {
+    fn default() -> Self {
+        Self {
+            bytes: [0; 40],
+            len: 0,
+        }
+    }
+}
+
+impl std::fmt::Write for ShortText {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        let end = self.len + s.len();
+        if end > self.bytes.len() {
+            return Err(std::fmt::Error);
+        }
+        self.bytes[self.len..end].copy_from_slice(s.as_bytes());
+        self.len = end;
+        Ok(())
+    }
+}
+
 /// Formats `v` with at most `decimals` decimals (rounded, trailing zeros
 /// cut, no `-0`): a computed value written like the program's numbers
-/// (gcode lane: `InterpOptions::computed_decimals`).
+/// (`InterpOptions::computed_decimals`). Written on the stack (no
+/// allocation) unless the text is longer than 40 bytes.
 pub fn format_value_decimals(v: f64, decimals: u8, out: &mut Vec<u8>) {
-    let s = format!("{v:.*}", usize::from(decimals));
-    let t = if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.')
+    let mut text = ShortText::default();
+    let long;
+    let s: &[u8] =
+        if std::fmt::Write::write_fmt(&mut text, format_args!("{v:.*}", usize::from(decimals)))
+            .is_ok()
+        {
+            &text.bytes[..text.len]
+        } else {
+            long = format!("{v:.*}", usize::from(decimals));
+            long.as_bytes()
+        };
+    let t = if s.contains(&b'.') {
+        let end = s.iter().rposition(|&b| b != b'0').map_or(0, |i| i + 1);
+        let t = &s[..end];
+        t.strip_suffix(b".").unwrap_or(t)
     } else {
-        &s
+        s
     };
-    let t = if t == "-0" { "0" } else { t };
-    out.extend_from_slice(t.as_bytes());
+    let t: &[u8] = if t == b"-0" { b"0" } else { t };
+    out.extend_from_slice(t);
 }
 
 /// Evaluates the words of a block statement and writes the literal line:

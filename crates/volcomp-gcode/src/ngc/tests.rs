@@ -343,3 +343,20 @@ fn parameter_numbers_stop_at_5601_and_the_tool_changer_ones_are_refused() {
     let e = xs("G21\nG0 X#5601\nM2\n").unwrap_err();
     assert!(e.contains("tool changer"), "{e}");
 }
+
+#[test]
+fn rendered_values_are_the_shortest_round_trip_without_exponent() {
+    let text = |v: f64| {
+        let mut out = Vec::new();
+        super::line::format_value(v, &mut out);
+        String::from_utf8(out).unwrap()
+    };
+    assert_eq!(text(0.1 + 0.2), "0.30000000000000004");
+    assert_eq!(text(-0.0), "0");
+    assert_eq!(text(-12.5), "-12.5");
+    assert_eq!(text(1e-7), "0.0000001");
+    // Past 40 characters: 15 decimals, trailing zeros dropped.
+    assert_eq!(text(1e-25), format!("0.{}1", "0".repeat(24)));
+    assert_eq!(text(1e-45), "0");
+    assert_eq!(text(1e40), "10000000000000000303786028427003666890752");
+}
