@@ -46,7 +46,10 @@ fn write_map(dir: &Path) {
     std::fs::write(dir.join("m.csv"), s).unwrap();
 }
 
-const PART: &str = "G21 G90 G17\nG0 X0 Y0 Z10\nG1 Z0 F500\nG1 X200 Y0\nG1 X200 Y150\nG2 X100 Y250 I-100 J0\nG1 X0 Y250\nG1 X0 Y0\nG0 Z10\nM2\n";
+// Exact path (G61): these tests measure what the compensation leaves, so
+// every reversal is taken up exactly rather than folded as G64 allows
+// (docs/compensation.md, "Reversals by path-control mode").
+const PART: &str = "G21 G90 G17 G61\nG0 X0 Y0 Z10\nG1 Z0 F500\nG1 X200 Y0\nG1 X200 Y150\nG2 X100 Y250 I-100 J0\nG1 X0 Y250\nG1 X0 Y0\nG0 Z10\nM2\n";
 
 fn simulate(dir: &Path, program: &str, controller: bool) -> serde_json::Value {
     let mut args = vec![

@@ -276,7 +276,18 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     for line in summary_lines(&kept.summary, &shown(&output)) {
         crate::note!("volcomp: {line}");
     }
-    if !crate::progress::quiet() {
+    // Only a regular file can be read back: a pipe, a FIFO or /dev/stdout
+    // would be read from its reading end (and wait for ever), /dev/null
+    // reads empty.
+    let readable =
+        kept.written.is_some() || std::fs::metadata(&output).is_ok_and(|m| m.file_type().is_file());
+    if !crate::progress::quiet() && !readable {
+        eprintln!(
+            "volcomp: machining time not estimated: {} is not a regular file (run `volcomp time` on a copy of the program)",
+            shown(&output)
+        );
+    }
+    if !crate::progress::quiet() && readable {
         let compensated: Box<dyn Read> = match &kept.written {
             Some(w) => Box::new(w.as_slice()),
             // Read back once every output is in place.
