@@ -96,11 +96,17 @@ fn without_a_start_the_first_feed_move_is_refused_at_its_axis_word() {
 #[test]
 fn a_rapid_before_the_program_sets_every_axis_is_no_refusal() {
     // The usual lead-in: Z to a safe height, then X Y; the rapids are
-    // positioning moves, and everything after them is compensated.
-    let (out, summary) = run("G21 G90\nG0 Z5\nG0 X0 Y0\nG1 X10 F100\nM2\n", false, false).unwrap();
+    // positioning moves, and everything after them is compensated. A feed
+    // move that goes nowhere (`G1 F100`) has nothing to compensate.
+    let (out, summary) = run(
+        "G21 G90\nG1 F100\nG0 Z5\nG0 X0 Y0\nG1 X10\nM2\n",
+        false,
+        false,
+    )
+    .unwrap();
     assert_eq!(
         out,
-        "G21 G90\nG0 Z5\nG0 X-0.01000 Y0 Z4.99500\nG1 X9.99000 F100\nM2\n"
+        "G21 G90\nG1 F100\nG0 Z5\nG0 X-0.01000 Y0 Z4.99500\nG1 X9.99000\nM2\n"
     );
     assert_eq!(summary.points, 2);
     assert_eq!(summary.uncompensated_moves, 0);

@@ -189,15 +189,18 @@ impl<'w> State<'w> {
     }
 
     /// A line whose moves run while an axis has never been set: its feed
-    /// moves (not rapids, G53, G28/G30) cannot be compensated, the map
+    /// moves (not rapids, G53, G28/G30, nor a feed move of length zero)
+    /// cannot be compensated, the map
     /// having no position on that axis. The program is refused at the first
     /// such move (its line and the column of its first axis word), or, with
     /// [`CompensateOptions::allow_uncompensated_axes`], the move is written
     /// as it is and counted.
     fn note_uncompensated(&mut self, line: &Line) -> Result<(), CompensationError> {
+        // A feed move that goes nowhere (`G1 F10`) has nothing to compensate.
         let cuts = line.ev.motions.iter().any(|m| {
             m.kind != MotionKind::Rapid
                 && !matches!(m.source, MotionSource::Machine | MotionSource::Reference)
+                && (matches!(m.kind, MotionKind::Arc(_)) || m.end != m.start)
         });
         if !cuts {
             return Ok(());
