@@ -321,6 +321,29 @@ fn a_program_that_never_sets_z_is_compensated_from_the_start_or_refused_or_count
         "{}",
         stderr(&o)
     );
+    // Simulated on the map from the same start: the original ends every
+    // feed move |(10, 0, 5)| = √125 = 11.180 µm off, the compensated one on
+    // the point.
+    let point_max = |program: &str, reference: Option<&str>| {
+        let mut args = vec![
+            "simulate",
+            program,
+            "--map",
+            "map.csv",
+            "--setup",
+            "start.toml",
+            "--json",
+        ];
+        if let Some(r) = reference {
+            args.extend(["--reference", r]);
+        }
+        let o = volcomp(&args, &d);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["point_max_um"].as_f64().unwrap()
+    };
+    assert!((point_max("p.ngc", None) - 125f64.sqrt()).abs() < 1e-6);
+    assert!(point_max("a.ngc", Some("p.ngc")) < 1e-6);
 
     // Without a start: refused (exit 3, a refused program) at line 3,
     // column 4, nothing written.
