@@ -76,7 +76,16 @@ impl MachineExt for Machine {
     fn refused(&self, e: volcomp_core::Error) -> CliError {
         match Machine::explain(self, &e) {
             Some(text) => CliError::reworded(flags(&text), e),
-            None => CliError::from(e),
+            None => {
+                // Options the library names as `{name}`, said as flags.
+                let text = e.to_string();
+                let said = flags(&text);
+                if said == text {
+                    CliError::from(e)
+                } else {
+                    CliError::reworded(said, e)
+                }
+            }
         }
     }
 

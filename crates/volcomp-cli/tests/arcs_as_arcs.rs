@@ -215,25 +215,14 @@ const CUTTER_FIXTURES: &[&str] = &[
     "linuxcnc_ccomp_mill_zchanges.ngc",
 ];
 
-/// Those that move before they set every axis (LinuxCNC's tests never set
-/// Z, the units test neither): their first moves are written unchanged
-/// (docs/compensation.md: where the machine starts is not the program's to
-/// say), so the first compensated move starts off the path by the map's
-/// error there, up to 3 µm with the ripple map.
-const MOVE_BEFORE_EVERY_AXIS_IS_SET: &[&str] = &[
-    "cutter_comp_units_switch.ngc",
-    "linuxcnc_ccomp_crazy_paths.ngc",
-    "linuxcnc_ccomp_mill_line_arc_entry.ngc",
-];
-
 /// Cutter-compensated programs keep their tool-centre arcs (offset arcs and
 /// corner arcs) as arcs: with the ripple map every output is accepted by
 /// rs274 (which reads as many arcs as it has G2/G3 lines), is far smaller
 /// than the linearised one (`--arcs-as-lines`), and follows the original's
 /// tool-centre path (`simulate --reference`) as closely as the linearised
-/// one does: contour max within 0.5 µm (the bound of the test above),
-/// except at the uncompensated start of the programs that move before they
-/// set every axis, and there no farther than the linearised output.
+/// one does: contour max within 0.5 µm (the bound of the test above).
+/// LinuxCNC's tests never set Z (the units test neither): the set-up's
+/// `start` gives it, so they are compensated from their first move.
 #[test]
 fn cutter_compensated_arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
     let dir = common::tempdir("cutter_arcs");
@@ -296,18 +285,14 @@ fn cutter_compensated_arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
             rms <= rms_lines + 0.01,
             "{name}: contour rms {rms} µm as arcs, {rms_lines} µm as lines"
         );
-        if MOVE_BEFORE_EVERY_AXIS_IS_SET.contains(name) {
-            assert!(
-                max <= max_lines + 0.01 && rms <= 0.2,
-                "{name}: contour max {max} µm (as lines {max_lines}), rms {rms} µm"
-            );
-        } else {
-            // 0.5 µm plus what the take-up pieces on the ripple map's
-            // reversals leave on one fixture (0.537 µm on
-            // linuxcnc_ccomp_mill_g90g91g92.ngc; to be brought back within
-            // the contour tolerance).
-            assert!(max <= 0.55, "{name}: contour max {max} µm");
-        }
+        // 0.5 µm plus what the take-up pieces on the ripple map's
+        // reversals leave on one fixture (0.537 µm on
+        // linuxcnc_ccomp_mill_g90g91g92.ngc; to be brought back within
+        // the contour tolerance).
+        assert!(
+            max <= 0.55,
+            "{name}: contour max {max} µm (as lines {max_lines})"
+        );
         if let Some(tools) = &tools {
             let run =
                 rs274::run_rs274(tools, &d.join(&arcs), &d.join(format!("rs-{name}"))).unwrap();

@@ -125,11 +125,11 @@ fn linuxcnc_filter_protocol() {
     // A bad program: non-zero exit, the message names the file and line,
     // nothing on standard output.
     let bad = d.join("bad.ngc");
-    std::fs::write(&bad, "G21 G90\nG1 X10 F100\nG7.5 X3\nM2\n").unwrap();
+    std::fs::write(&bad, "G21 G90\nG0 X0 Y0 Z5\nG1 X10 F100\nG7.5 X3\nM2\n").unwrap();
     let (code, filtered, _, text) = run_as_axis(&d, &filter, &bad);
     assert_ne!(code, 0);
     let message = text.join("\n");
-    assert!(message.contains("bad.ngc:3"), "{message}");
+    assert!(message.contains("bad.ngc:4"), "{message}");
     assert!(filtered.is_empty(), "{filtered}");
 }
 
@@ -261,4 +261,146 @@ fn which(name: &str) -> Result<PathBuf, ()> {
         .map(|p| p.join(name))
         .find(|p| p.is_file())
         .ok_or(())
+}
+
+/// A 2-D program (no Z word anywhere) on a map whose error is the constant
+/// (10, 0, 5) µm: each command is by hand the target − (0.010, 0, 0.005) mm.
+#[test]
+fn a_program_that_never_sets_z_is_compensated_from_the_start_or_refused_or_counted() {
+    let d = common::tempdir("axis-never-set");
+    std::fs::write(
+        d.join("map.csv"),
+        "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+         X,both,-10,10,0,0\nX,both,100,10,0,0\nY,both,-10,0,0,0\nY,both,100,0,0,0\n\
+         Z,both,-10,0,0,5\nZ,both,100,0,0,5\n",
+    )
+    .unwrap();
+    let program = "G21 G90\nG0 X0 Y0\nG1 X10 Y10 F100\nG1 X20 Y0\nM2\n";
+    std::fs::write(d.join("p.ngc"), program).unwrap();
+    std::fs::write(
+        d.join("start.toml"),
+        "units = \"mm\"\nstart = [0, 0, 20]\n[work_offsets]\nG54 = [0, 0, 0]\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("nostart.toml"),
+        "units = \"mm\"\n[work_offsets]\nG54 = [0, 0, 0]\n",
+    )
+    .unwrap();
+    let run = |setup: &str, out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "compensate",
+            "p.ngc",
+            "--map",
+            "map.csv",
+            "--setup",
+            setup,
+            "-o",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        volcomp(&args, &d)
+    };
+
+    // With the set-up's start (Z = 20): compensated, the Z word written.
+    let o = run("start.toml", "a.ngc", &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let a = std::fs::read_to_string(d.join("a.ngc")).unwrap();
+    assert!(
+        a.starts_with(volcomp_core::io::provenance::FIRST_LINE),
+        "{a}"
+    );
+    assert!(
+        a.ends_with(
+            "G21 G90\nG0 X-0.01000 Y0 Z19.99500\nG1 X9.99000 Y10 F100\nG1 X19.99000 Y0\nM2\n"
+        ),
+        "{a}"
+    );
+    assert!(
+        stderr(&o).contains("3 points compensated"),
+        "{}",
+        stderr(&o)
+    );
+    // Simulated on the map from the same start: the original ends every
+    // feed move |(10, 0, 5)| = √125 = 11.180 µm off, the compensated one on
+    // the point.
+    let point_max = |program: &str, reference: Option<&str>| {
+        let mut args = vec![
+            "simulate",
+            program,
+            "--map",
+            "map.csv",
+            "--setup",
+            "start.toml",
+            "--json",
+        ];
+        if let Some(r) = reference {
+            args.extend(["--reference", r]);
+        }
+        let o = volcomp(&args, &d);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["point_max_um"].as_f64().unwrap()
+    };
+    assert!((point_max("p.ngc", None) - 125f64.sqrt()).abs() < 1e-6);
+    assert!(point_max("a.ngc", Some("p.ngc")) < 1e-6);
+
+    // Without a start: refused (exit 3, a refused program) at line 3,
+    // column 4, nothing written.
+    let o = run("nostart.toml", "b.ngc", &[]);
+    let msg = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{msg}");
+    assert!(
+        msg.contains("p.ngc:3:4: this move cannot be compensated: the program has not set Z"),
+        "{msg}"
+    );
+    assert!(msg.contains("in the set-up file (--setup)"), "{msg}");
+    assert!(msg.contains("--allow-uncompensated-axes"), "{msg}");
+    assert!(!d.join("b.ngc").exists());
+
+    // Allowed: written as it is, the header and the summary say so.
+    let o = run("nostart.toml", "c.ngc", &["--allow-uncompensated-axes"]);
+    let msg = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{msg}");
+    assert!(
+        msg.contains("0 points compensated, 2 feed moves NOT compensated"),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("volcomp: warning: 2 feed moves NOT compensated, the first on line 3: the program never set Z before them and the set-up gives no start; they are written as they are"),
+        "{msg}"
+    );
+    let c = std::fs::read_to_string(d.join("c.ngc")).unwrap();
+    assert!(
+        c.starts_with(volcomp_core::io::provenance::FIRST_LINE_PARTIAL),
+        "{c}"
+    );
+    assert!(!c.contains(volcomp_core::io::provenance::FIRST_LINE), "{c}");
+    assert!(
+        c.contains("(WARNING 2 feed moves NOT compensated, the first on line 3: the program never"),
+        "{c}"
+    );
+    assert!(c.ends_with(program), "{c}");
+    assert_eq!(
+        volcomp_core::io::provenance::strip_header(&c),
+        program,
+        "{c}"
+    );
+    // Such a program is marked: compensating it again is refused.
+    std::fs::write(d.join("c2.ngc"), &c).unwrap();
+    let o = volcomp(
+        &[
+            "compensate",
+            "c2.ngc",
+            "--map",
+            "map.csv",
+            "--setup",
+            "start.toml",
+            "-o",
+            "d.ngc",
+        ],
+        &d,
+    );
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&d);
 }

@@ -57,6 +57,10 @@ pub struct Setup {
     pub g30_given: bool,
     /// Machine position when the program starts.
     pub start_mm: Vec3,
+    /// Whether the set-up gives the start position (its `start`): where it
+    /// does not, `start_mm` is machine zero, a placeholder, and an axis the
+    /// program never sets has no known position.
+    pub start_given: bool,
     /// The machine's length units: the units the set-up file is written
     /// in, as LinuxCNC's `[TRAJ]LINEAR_UNITS`. LinuxCNC keeps the offset,
     /// reference-point and tool parameters (#5161–#5409) in them.
@@ -187,6 +191,7 @@ impl Default for Setup {
             g28_given: false,
             g30_given: false,
             start_mm: Vec3::ZERO,
+            start_given: false,
             subroutine_path: Vec::new(),
             machine_units: crate::geom::Units::Mm,
             g92_mm: Vec3::ZERO,
@@ -341,6 +346,7 @@ impl Setup {
         };
         if let Some(s) = &raw.start {
             setup.start_mm = at.vec("start", s, k)?;
+            setup.start_given = true;
         }
         if let Some(a) = &raw.axes {
             // The value's text starts after its opening quote.
@@ -617,6 +623,7 @@ mod tests {
         assert_eq!(s.tool_lengths_mm[&2], 40.5);
         assert_eq!(s.g30_mm.z, -5.0);
         assert_eq!(s.start_mm, Vec3::new(1.0, 2.0, 3.0));
+        assert!(s.start_given);
     }
 
     #[test]

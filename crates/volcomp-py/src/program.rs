@@ -95,6 +95,12 @@ pub struct CompensateResult {
     pub held: Vec<(u64, char)>,
     /// Total number of holds.
     pub held_count: u64,
+    /// Feed moves written without compensation because an axis was never
+    /// set (with `allow_uncompensated_axes=True`; else the program is
+    /// refused).
+    pub uncompensated_moves: u64,
+    /// What was not compensated and what to do, or None.
+    pub uncompensated: Option<String>,
     /// What the interpreter assumed: dicts with `file`, `line`, `column`, `message`.
     pub warnings: Py<PyList>,
     /// Per-point records (dict of arrays) when asked for with `points=True`, else None.
@@ -130,6 +136,8 @@ impl CompensateResult {
         d.set_item("max_fold_excursion_um", self.max_fold_excursion_um)?;
         d.set_item("held", self.held.clone())?;
         d.set_item("held_count", self.held_count)?;
+        d.set_item("uncompensated_moves", self.uncompensated_moves)?;
+        d.set_item("uncompensated", self.uncompensated.clone())?;
         d.set_item("warnings", self.warnings.clone_ref(py))?;
         d.set_item("machining_time", self.machining_time.clone_ref(py))?;
         Ok(d)
@@ -219,6 +227,9 @@ pub fn compensate(
         take_ups: summary.take_ups,
         take_ups_folded: summary.take_ups_folded,
         max_fold_excursion_um: summary.max_fold_excursion_um,
+        uncompensated_moves: summary.uncompensated_moves,
+        uncompensated: volcomp_core::report::compensation::uncompensated_warning(&summary)
+            .map(|w| crate::request::keywords(&w)),
         held: summary.held,
         held_count: summary.held_count,
         warnings: warnings_list(py, &file, &warnings)?.unbind(),

@@ -13,7 +13,8 @@ use volcomp_core::limits::LimitedWriter;
 use volcomp_core::model::ErrorModel;
 use volcomp_core::progress::Counted;
 use volcomp_core::report::compensation::{
-    held_warning, point_csv_row, summary_lines, LargestCorrections, POINT_CSV_HEADER,
+    held_warning, point_csv_row, summary_lines, uncompensated_warning, LargestCorrections,
+    POINT_CSV_HEADER,
 };
 use volcomp_core::request::{Compensation, ModelSource, RunNames};
 
@@ -305,6 +306,9 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     }
     if let Some(w) = held_warning(&kept.summary) {
         eprintln!("volcomp: warning: {w}");
+    }
+    if let Some(w) = uncompensated_warning(&kept.summary) {
+        eprintln!("volcomp: warning: {}", crate::options::flags(&w));
     }
     Ok(())
 }

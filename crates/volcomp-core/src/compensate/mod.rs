@@ -39,9 +39,9 @@ pub use front::{
 };
 pub use joins::PlannerLimits;
 pub use options::{
-    CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord, Segmentation, TakeUpRule,
-    DEFAULT_CONTOUR_TOLERANCE_UM, DEFAULT_DECIMALS_INCH, DEFAULT_DECIMALS_MM,
-    DEFAULT_MAX_RESIDUAL_UM, DEFAULT_MIN_SEGMENT_LENGTH_MM,
+    unset_axes_text, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord,
+    Segmentation, TakeUpRule, DEFAULT_CONTOUR_TOLERANCE_UM, DEFAULT_DECIMALS_INCH,
+    DEFAULT_DECIMALS_MM, DEFAULT_MAX_RESIDUAL_UM, DEFAULT_MIN_SEGMENT_LENGTH_MM,
 };
 pub use scurve::{least_cost_s, least_speed_mm_s};
 pub use style::{survey_style, ProgramStyle};
@@ -79,6 +79,9 @@ pub fn compensate_program<R: BufRead>(
         file,
     };
     let mut st = State::new(walk, walker.interpreter().position(), &mut on_point);
+    // The set-up's `start` gives every axis a known position before the
+    // program sets any; without it an axis is unknown until set.
+    st.known = [walker.interpreter().start_given(); 3];
     // gcode lane: every written line within LinuxCNC's 252 characters
     // (compensate/line_limit.rs); the count is of what reaches `out`.
     let mut counted = size::Counted::new(out);
@@ -170,6 +173,9 @@ impl<'w> State<'w> {
             self.note_feed(line);
             return Ok(own);
         }
+        if !line.all_known && !ev.after_end && ev.kind == LineKind::Block {
+            self.note_uncompensated(line)?;
+        }
         if ev.after_end || ev.kind != LineKind::Block || !program_motion || !line.all_known {
             self.pass_through(line, out)?;
             if ev.motions.is_empty() {
@@ -180,6 +186,59 @@ impl<'w> State<'w> {
         }
         self.last_tangent = before;
         self.write_motion_line(line)
+    }
+
+    /// A line whose moves run while an axis has never been set: its feed
+    /// moves (not rapids, G53, G28/G30, nor a feed move of length zero)
+    /// cannot be compensated, the map
+    /// having no position on that axis. The program is refused at the first
+    /// such move (its line and the column of its first axis word), or, with
+    /// [`CompensateOptions::allow_uncompensated_axes`], the move is written
+    /// as it is and counted.
+    fn note_uncompensated(&mut self, line: &Line) -> Result<(), CompensationError> {
+        // A feed move that goes nowhere (`G1 F10`) has nothing to compensate.
+        let cuts = line.ev.motions.iter().any(|m| {
+            m.kind != MotionKind::Rapid
+                && !matches!(m.source, MotionSource::Machine | MotionSource::Reference)
+                && (matches!(m.kind, MotionKind::Arc(_)) || m.end != m.start)
+        });
+        if !cuts {
+            return Ok(());
+        }
+        let unset = self.known.map(|k| !k);
+        let content = line.content();
+        let at = line
+            .words()
+            .find(|w| matches!(w.letter, b'X' | b'Y' | b'Z' | b'@' | b'^'))
+            .or_else(|| line.words().next())
+            .map_or(0, |w| w.span.start.min(content.len()));
+        let column = String::from_utf8_lossy(&content[..at]).chars().count() + 1;
+        if !self.walk.options.allow_uncompensated_axes {
+            let axes = options::unset_axes_text(unset);
+            let one = unset.iter().filter(|u| **u).count() == 1;
+            return Err(volcomp_gcode::GcodeError::new(
+                volcomp_gcode::ErrorClass::Unsupported,
+                line.number(),
+                column,
+                format!(
+                    "this move cannot be compensated: the program has not set {axes} before it and the set-up gives no start, so the machine's {axes} {} unknown",
+                    if one { "position is" } else { "positions are" }
+                ),
+                format!(
+                    "give the machine's position when the program starts as `start = [X, Y, Z]` in the set-up file ({{setup}}), or add a move of {axes} to the program before this line; {{allow_uncompensated_axes}} writes such moves without compensation"
+                ),
+            )
+            .with_source_line(content)
+            .with_file(self.walk.file)
+            .into());
+        }
+        let s = &mut self.summary;
+        s.uncompensated_moves += 1;
+        if s.first_uncompensated.is_none() {
+            s.first_uncompensated = Some((line.number(), column));
+            s.unset_axes = unset;
+        }
+        Ok(())
     }
 
     /// The feed state after a line that is not a compensated motion line:

@@ -84,6 +84,11 @@ pub struct CompensateOptions {
     /// residual is the reversal value the take-up cannot cover,
     /// docs/compensation.md).
     pub max_residual_um: Option<f64>,
+    /// Write a feed move made while an axis has never been set (by the
+    /// program, or by the set-up's `start`) as it is, counted in
+    /// [`CompensateSummary::uncompensated_moves`], instead of refusing the
+    /// program at it.
+    pub allow_uncompensated_axes: bool,
 }
 
 impl Default for CompensateOptions {
@@ -105,6 +110,7 @@ impl Default for CompensateOptions {
             planner: PlannerLimits::default(),
             trace_comments: true,
             max_residual_um: Some(DEFAULT_MAX_RESIDUAL_UM),
+            allow_uncompensated_axes: false,
         }
     }
 }
@@ -285,9 +291,30 @@ pub struct CompensateSummary {
     pub held: Vec<(u64, char)>,
     /// Total number of holds.
     pub held_count: u64,
+    /// Feed moves (G1, arcs, cycles, splines) written without compensation
+    /// because an axis had never been set when they ran (only with
+    /// [`CompensateOptions::allow_uncompensated_axes`]; otherwise the
+    /// program is refused at the first).
+    pub uncompensated_moves: u64,
+    /// The first of them: line and 1-based column.
+    pub first_uncompensated: Option<(u64, usize)>,
+    /// The axes never set at the first of them.
+    pub unset_axes: [bool; 3],
 }
 
 impl CompensateSummary {
+    /// What was not compensated, in one line (no parentheses: it is also a
+    /// comment of the header); `None` when every feed move was compensated.
+    pub fn uncompensated_text(&self) -> Option<String> {
+        let (line, _) = self.first_uncompensated?;
+        let axes = unset_axes_text(self.unset_axes);
+        Some(format!(
+            "{} NOT compensated, the first on line {line}: the program never set {axes} before {} and the set-up gives no start",
+            count_text(self.uncompensated_moves, "feed move", "feed moves"),
+            if self.uncompensated_moves == 1 { "it" } else { "them" },
+        ))
+    }
+
     /// What the compensation did at reversals, in one line (no
     /// parentheses: it is also a comment of the header): how many take-ups
     /// were folded into their moves and the largest excursion from the path
@@ -305,5 +332,24 @@ impl CompensateSummary {
                 "blocks"
             }
         )
+    }
+}
+
+/// `n` with the noun in the singular or plural.
+fn count_text(n: u64, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+/// The axes flagged, as `Z` or `Y and Z` or `X, Y and Z`.
+pub fn unset_axes_text(axes: [bool; 3]) -> String {
+    let names: Vec<&str> = ["X", "Y", "Z"]
+        .into_iter()
+        .zip(axes)
+        .filter_map(|(n, b)| b.then_some(n))
+        .collect();
+    match names.as_slice() {
+        [] => String::new(),
+        [one] => (*one).to_string(),
+        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
     }
 }

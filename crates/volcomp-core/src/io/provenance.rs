@@ -33,6 +33,12 @@ use volcomp_gcode::{Setup, Walker};
 
 /// The header's first line; its presence marks a compensated program.
 pub const FIRST_LINE: &str = "(volcomp compensated program - do not compensate again)";
+/// The header's first line instead of [`FIRST_LINE`] when feed moves were
+/// written without compensation (an axis never set): the program is never
+/// called compensated then; it still marks the program, whose other moves
+/// are compensated.
+pub const FIRST_LINE_PARTIAL: &str =
+    "(volcomp program NOT fully compensated - do not compensate again)";
 /// The header's last line: the program body starts after it.
 pub const LAST_LINE: &str = "(volcomp header end)";
 /// The longest header line, parentheses included: 80 columns, the width
@@ -175,6 +181,28 @@ fn wrapped(label: &str, text: &str) -> Vec<String> {
     lines
 }
 
+/// `text` as comment lines of at most [`MAX_LINE`] characters, each
+/// starting with `label`, broken between words.
+fn wrapped_at_words(label: &str, text: &str) -> Vec<String> {
+    let room = MAX_LINE - label.len() - 3;
+    let mut lines = Vec::new();
+    let mut line = String::new();
+    for word in comment_text(text).split_whitespace() {
+        if !line.is_empty() && line.len() + 1 + word.len() > room {
+            lines.push(format!("({label} {line})"));
+            line.clear();
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    if !line.is_empty() {
+        lines.push(format!("({label} {line})"));
+    }
+    lines
+}
+
 fn num(v: f64) -> String {
     // Display never uses an exponent; trim float noise to 6 decimals.
     let s = format!("{:.6}", v);
@@ -300,7 +328,7 @@ pub fn find_compensation(head: &[u8]) -> Option<Compensated> {
     for (k, line) in head.split(|&b| b == b'\n').enumerate() {
         let line = String::from_utf8_lossy(line);
         let t = line.trim();
-        if t.starts_with("(volcomp compensated program") {
+        if t.starts_with("(volcomp compensated program") || t == FIRST_LINE_PARTIAL {
             return Some(Compensated::Header(k as u64 + 1));
         }
         if trace.is_none() && t.contains("(volcomp L") {
@@ -317,7 +345,7 @@ pub fn strip_header(text: &str) -> String {
     let mut done = false;
     for line in text.split_inclusive('\n') {
         let t = line.trim();
-        if !done && !inside && t == FIRST_LINE {
+        if !done && !inside && (t == FIRST_LINE || t == FIRST_LINE_PARTIAL) {
             inside = true;
             continue;
         }
@@ -467,6 +495,15 @@ pub fn compensate_program_with_header<R: BufRead>(
         end,
         format!("({})", comment_text(&summary.reversals_text())),
     );
+    if let Some(text) = summary.uncompensated_text() {
+        // Said first and last: the header never calls such a program
+        // compensated.
+        lines[0] = FIRST_LINE_PARTIAL.to_string();
+        let end = lines.len().saturating_sub(1);
+        for (k, l) in wrapped_at_words("WARNING", &text).into_iter().enumerate() {
+            lines.insert(end + k, l);
+        }
+    }
     let mut w = HeaderWriter::new(out, lines);
     body.seek(io::SeekFrom::Start(0))
         .map_err(CompensationError::from)?;

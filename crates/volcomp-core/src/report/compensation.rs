@@ -457,6 +457,10 @@ pub fn summary_table(s: &CompensateSummary) -> Table {
                 format!("{:.3}", s.max_fold_excursion_um),
             ],
             vec!["points with an axis held".into(), s.held_count.to_string()],
+            vec![
+                "feed moves NOT compensated (an axis never set)".into(),
+                s.uncompensated_moves.to_string(),
+            ],
         ],
         numeric: vec![false, true],
     }
@@ -564,9 +568,17 @@ pub fn summary_lines(s: &CompensateSummary, output: &str) -> [String; 2] {
         ),
         None => "not estimated (fixed segmentation)".into(),
     };
+    let not_compensated = if s.uncompensated_moves > 0 {
+        format!(
+            ", {} NOT compensated",
+            count(s.uncompensated_moves, "feed move", "feed moves")
+        )
+    } else {
+        String::new()
+    };
     [
         format!(
-            "wrote {output} ({} from {}; {} compensated, largest correction {}, largest residual {}; {})",
+            "wrote {output} ({} from {}; {} compensated{not_compensated}, largest correction {}, largest residual {}; {})",
             count(s.lines_out, "line", "lines"),
             s.lines_in,
             count(s.points, "point", "points"),
@@ -579,6 +591,17 @@ pub fn summary_lines(s: &CompensateSummary, output: &str) -> [String; 2] {
             s.bytes_in, s.bytes_out, s.blocks_in, s.blocks_out
         ),
     ]
+}
+
+/// The warning of a compensation that wrote feed moves without
+/// compensation because an axis was never set (`None` when there were
+/// none): how many, why, and what to do (options as `{name}`).
+pub fn uncompensated_warning(s: &CompensateSummary) -> Option<String> {
+    let text = s.uncompensated_text()?;
+    let axes = crate::compensate::unset_axes_text(s.unset_axes);
+    Some(format!(
+        "{text}; they are written as they are, with the machine's error; give the machine's position when the program starts as `start = [X, Y, Z]` in the set-up file ({{setup}}), or a move of {axes} in the program, to compensate them"
+    ))
 }
 
 /// The warning of a compensation that held axes (`None` when none was

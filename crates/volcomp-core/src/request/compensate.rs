@@ -156,6 +156,11 @@ pub const COMPENSATE_OPTIONS: &[OptionInfo] = &[
         Kind::Switch,
         "Compensate a program that volcomp compensated already (its header or trace comments say so); the corrections are then applied twice.",
     ),
+    OptionInfo::new(
+        "allow_uncompensated_axes",
+        Kind::Switch,
+        "Write feed moves made while an axis has never been set (a 2-D program without Z words, and no `start` in the set-up) without compensation, with a warning and a header that count them, instead of refusing the program.",
+    ),
 ];
 
 /// A compensation, as plain values (each field is the option of the same
@@ -204,6 +209,8 @@ pub struct CompensateRequest {
     pub trace: bool,
     /// Compensate a compensated program again.
     pub allow_recompensate: bool,
+    /// Write feed moves on an axis never set without compensation.
+    pub allow_uncompensated_axes: bool,
 }
 
 impl Default for CompensateRequest {
@@ -230,6 +237,7 @@ impl Default for CompensateRequest {
             take_up_tolerance_um: None,
             trace: true,
             allow_recompensate: false,
+            allow_uncompensated_axes: false,
         }
     }
 }
@@ -268,6 +276,9 @@ impl super::Request for CompensateRequest {
             }
             "trace" => self.trace = v.bool("trace")?,
             "allow_recompensate" => self.allow_recompensate = v.bool("allow_recompensate")?,
+            "allow_uncompensated_axes" => {
+                self.allow_uncompensated_axes = v.bool("allow_uncompensated_axes")?
+            }
             _ => {
                 return Err(OptionError::new(
                     "method",
@@ -517,6 +528,7 @@ impl CompensateRequest {
             // residual is the method's own error, checked for finiteness only.
             max_residual_um: matches!(method, Method::Exact | Method::Ilc { .. })
                 .then_some(self.max_residual_um),
+            allow_uncompensated_axes: self.allow_uncompensated_axes,
         })
     }
 

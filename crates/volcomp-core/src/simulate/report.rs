@@ -271,7 +271,9 @@ pub fn simulate_program<R: BufRead, S: BufRead>(
         walker,
         peeked: None,
     });
-    let mut known = [false; 3];
+    // The set-up's `start` gives every axis a known position (as in
+    // compensation).
+    let mut known = [program.interpreter().start_given(); 3];
     let mut sim = Simulator::new(model, program.interpreter().position());
     let mut block: Option<NominalBlock> = None;
     let mut pending: Option<Pending> = None;

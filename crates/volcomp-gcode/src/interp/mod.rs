@@ -361,6 +361,13 @@ impl Interpreter {
         self.position
     }
 
+    /// Whether the set-up gave the machine's start position: where it did
+    /// not, the position of an axis the program has not set yet is unknown
+    /// (the interpreter starts it at machine zero, a placeholder).
+    pub fn start_given(&self) -> bool {
+        self.setup.start_given
+    }
+
     /// `q − p`: what is added to a program position (in mm) to get the axis
     /// position, i.e. work offset + G92 + tool length offset.
     pub fn frame_offset_mm(&self) -> Vec3 {

@@ -123,6 +123,10 @@ class CompensateResult:
     max_fold_excursion_um: float
     held: list[tuple[int, str]]
     held_count: int
+    uncompensated_moves: int
+    uncompensated: Optional[str]
+    """Feed moves written without compensation (an axis never set, with
+    allow_uncompensated_axes=True): how many, why, what to do; else None."""
     warnings: list[dict[str, Any]]
     """Dicts with file, line, column, message."""
     point_records: Optional[dict[str, Any]]
@@ -195,6 +199,7 @@ def compensate(
     take_up_tolerance_um: Optional[float] = None,
     trace: bool = True,
     allow_recompensate: bool = False,
+    allow_uncompensated_axes: bool = False,
 ) -> CompensateResult:
     """Compensates a program for the model's errors (the options of
     `volcomp compensate`, from the library's one table: help(volcomp.compensate))."""

@@ -298,6 +298,8 @@ pub fn compensate_finishing<R: BufRead>(
         trace_comments: options.trace_comments,
         // The direct step is exact for a displacement field (no iteration).
         max_residual_um: None,
+        // A feed move on an axis never set is refused, as in compensation.
+        allow_uncompensated_axes: false,
     };
     let mut s = FinishingSummary {
         min_offset_um: f64::INFINITY,
