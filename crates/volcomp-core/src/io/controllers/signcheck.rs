@@ -134,6 +134,17 @@ pub fn probes(
         ps.into_iter()
             .max_by(|x, y| x.table_um.abs().total_cmp(&y.table_um.abs()))
     };
+    // The largest probe of one axis table over `axes`: its `forward` side,
+    // described as `what(axis)`, flipped by `switch`.
+    let largest_along = |axes: &mut dyn Iterator<Item = usize>,
+                         forward: bool,
+                         what: &dyn Fn(usize) -> String,
+                         switch: &'static str| {
+        largest(
+            axes.filter_map(|a| axis_probe(a, map[a].as_ref()?, applied, forward, what(a), switch))
+                .collect(),
+        )
+    };
     match applied.format {
         Format::SiemensCec => {
             let ps = applied
@@ -180,53 +191,33 @@ pub fn probes(
                     "the other sign: the values are negated in the .COM tables",
                 ),
             };
-            let ps = (0..3)
-                .filter_map(|a| {
-                    axis_probe(
-                        a,
-                        map[a].as_ref()?,
-                        applied,
-                        true,
-                        format!("{} of {}", fw, axis_letter(a)),
-                        switch,
-                    )
-                })
-                .collect();
-            out.extend(largest(ps));
+            out.extend(largest_along(
+                &mut (0..3),
+                true,
+                &|a| format!("{fw} of {}", axis_letter(a)),
+                switch,
+            ));
             let two_way = |a: usize| {
                 applied.axes[a]
                     .as_ref()
                     .is_some_and(|t| t.forward_um != t.reverse_um)
             };
-            let ps = (0..3)
-                .filter(|&a| applied.format == Format::Heidenhain || two_way(a))
-                .filter_map(|a| {
-                    axis_probe(
-                        a,
-                        map[a].as_ref()?,
-                        applied,
-                        false,
-                        format!("{} of {}", rv, axis_letter(a)),
-                        switch,
-                    )
-                })
-                .collect();
-            out.extend(largest(ps));
+            let mut reversing =
+                (0..3).filter(|&a| applied.format == Format::Heidenhain || two_way(a));
+            out.extend(largest_along(
+                &mut reversing,
+                false,
+                &|a| format!("{rv} of {}", axis_letter(a)),
+                switch,
+            ));
         }
         Format::IsgCsv => {
-            let ps = (0..3)
-                .filter_map(|a| {
-                    axis_probe(
-                        a,
-                        map[a].as_ref()?,
-                        applied,
-                        true,
-                        format!("the volumetric compensation along {}", axis_letter(a)),
-                        "negate (P-VOLC-00009) of the axis in the configuration list",
-                    )
-                })
-                .collect();
-            out.extend(largest(ps));
+            out.extend(largest_along(
+                &mut (0..3),
+                true,
+                &|a| format!("the volumetric compensation along {}", axis_letter(a)),
+                "negate (P-VOLC-00009) of the axis in the configuration list",
+            ));
         }
         _ => {}
     }
