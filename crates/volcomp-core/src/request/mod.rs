@@ -39,7 +39,10 @@ pub use option::{
     did_you_mean, render, Input, Kind, Names, OptionError, OptionInfo, Request, Spelling,
     UnknownOption, Value,
 };
-pub use probe::{ProbeFitRequest, ProbeIdentifyRequest, PROBE_FIT_OPTIONS, PROBE_IDENTIFY_OPTIONS};
+pub use probe::{
+    ProbeFitRequest, ProbeIdentifyRequest, ProbePlanRequest, PROBE_FIT_OPTIONS,
+    PROBE_IDENTIFY_OPTIONS, PROBE_PLAN_OPTIONS,
+};
 pub use report::{header_inputs, RunNames};
 pub use simulate::{SimulateRequest, SIMULATE_OPTIONS};
 pub use straightness::{fit_summary, StraightnessFitRequest, STRAIGHTNESS_OPTIONS};
@@ -62,6 +65,7 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     STRAIGHTNESS_OPTIONS,
     PROBE_IDENTIFY_OPTIONS,
     PROBE_FIT_OPTIONS,
+    PROBE_PLAN_OPTIONS,
     TIME_OPTIONS,
 ];
 
@@ -127,6 +131,7 @@ mod tests {
         consistent(|r: &ThermalPredictRequest| r.clone());
         consistent(|r: &StraightnessFitRequest| r.clone());
         consistent(|r: &ProbeFitRequest| r.clone());
+        consistent(|r: &ProbePlanRequest| r.clone());
         consistent(|r: &TimeRequest| r.clone());
     }
 
