@@ -370,6 +370,13 @@ pub enum Error {
     /// front end spells it its own way with `OptionError::render`).
     #[error("{0}")]
     Option(#[from] OptionError),
+    /// A controller's table would exceed what the controller holds.
+    #[error("{0}")]
+    Limit(#[from] crate::io::controllers::LimitError),
+    /// A request cannot be carried out as asked: the message says what to
+    /// give instead (options named as `{name}`).
+    #[error("{0}")]
+    Request(String),
     /// Reading or writing `path` failed.
     #[error("{}: {source}", path.display())]
     Io {
@@ -574,7 +581,9 @@ impl Error {
             | Error::BSpline(_)
             | Error::Topology(_)
             | Error::OutputPlan(_)
-            | Error::Option(_) => ErrorKind::BadInput,
+            | Error::Option(_)
+            | Error::Limit(_)
+            | Error::Request(_) => ErrorKind::BadInput,
         }
     }
 }

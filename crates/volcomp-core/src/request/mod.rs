@@ -18,6 +18,7 @@
 //! with its help (docs/architecture.md, "Where a new option goes").
 
 mod compensate;
+mod export;
 mod machine;
 mod map;
 mod mirror;
@@ -31,6 +32,10 @@ mod time;
 
 pub use compensate::{
     CompensateRequest, Compensation, ModelSource, COMPENSATE_OPTIONS, DEFAULT_MAX_OUTPUT_BYTES,
+};
+pub use export::{
+    positioning_tables, straightness_tables, Exported, MapExportRequest, MapToolRequest, MapView,
+    EXPORT_OPTIONS, MAP_TOOL_OPTIONS,
 };
 pub use machine::{Machine, MachineRequest, MACHINE_OPTIONS, NO_WORK_OFFSET};
 pub use map::{MapRequest, MAP_OPTIONS};
@@ -67,6 +72,8 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     PROBE_FIT_OPTIONS,
     PROBE_PLAN_OPTIONS,
     TIME_OPTIONS,
+    EXPORT_OPTIONS,
+    MAP_TOOL_OPTIONS,
 ];
 
 /// The option named `name` in any request.
@@ -132,6 +139,7 @@ mod tests {
         consistent(|r: &StraightnessFitRequest| r.clone());
         consistent(|r: &ProbeFitRequest| r.clone());
         consistent(|r: &ProbePlanRequest| r.clone());
+        consistent(|r: &MapExportRequest| r.clone());
         consistent(|r: &TimeRequest| r.clone());
     }
 

@@ -29,6 +29,7 @@ use volcomp_core::model::kinematic::{Form, KinematicModel};
 use volcomp_core::model::topology::Topology;
 use volcomp_core::model::{parse_directions, Directions, ErrorModel};
 use volcomp_core::report::map::ComponentChart;
+use volcomp_core::request::{self, MapView};
 use volcomp_gcode::Vec3;
 use volcomp_geom::Axis;
 
@@ -47,11 +48,15 @@ enum Map {
 }
 
 impl Map {
-    fn model(&self) -> &dyn ErrorModel {
+    fn view(&self) -> MapView<'_> {
         match self {
-            Map::Tables(m) => m.as_ref(),
-            Map::Kinematic(m) => m.as_ref(),
+            Map::Tables(m) => MapView::Tables(m),
+            Map::Kinematic(m) => MapView::Kinematic(m),
         }
+    }
+
+    fn model(&self) -> &dyn ErrorModel {
+        self.view().model()
     }
 }
 
@@ -72,7 +77,7 @@ pub fn run(cmd: MapCommand) -> Result<(), CliError> {
     match cmd.command {
         MapSub::Eval(a) => eval::eval(a),
         MapSub::Convert(a) => convert(a),
-        MapSub::Export(a) => export::export(a),
+        MapSub::Export(a) => export::export(*a),
         MapSub::Plot(a) => plot(a),
         MapSub::ImportLinuxcnc(a) => import_linuxcnc(a),
         MapSub::Import(a) => import_params(a),
@@ -235,33 +240,14 @@ fn positioning_tables(
     tool: &ToolArgs,
     form: Form,
 ) -> Result<[Positioning; 3], CliError> {
-    Ok(match map {
-        Map::Tables(t) => Axis::ALL.map(|k| t.positioning(k)),
-        Map::Kinematic(m) => {
+    let (at, tool) = match map {
+        Map::Tables(_) => (None, None),
+        Map::Kinematic(_) => {
             let tool = tool.offset()?;
-            if at.is_none() && tool.is_none() {
-                // The positioning errors as measured, at the measuring line.
-                Axis::ALL.map(|k| m.positioning_table(k))
-            } else {
-                let (shared_p, shared_t) = m.shared_measuring();
-                let reference =
-                    match (at, shared_p) {
-                        (Some(t), _) => parse_triple(t, "--at")?,
-                        (None, Some(p)) => p,
-                        (None, None) => return Err(CliError::Message(
-                            "pass --at X,Y,Z: the model's axes were measured along different lines"
-                                .into(),
-                        )),
-                    };
-                let tool = match (tool, shared_t) {
-                    (Some(t), _) | (None, Some(t)) => t,
-                    (None, None) => return Err(CliError::Message("pass --tool-length MM".into())),
-                };
-                let t = m.to_axis_tables(reference, tool, form)?;
-                Axis::ALL.map(|k| t.positioning(k))
-            }
+            (at.map(|t| parse_triple(t, "--at")).transpose()?, tool)
         }
-    })
+    };
+    Ok(request::positioning_tables(map.view(), at, tool, form)?)
 }
 
 fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliError> {
