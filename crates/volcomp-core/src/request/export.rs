@@ -80,7 +80,7 @@ pub const MAP_TOOL_OPTIONS: &[OptionInfo] = &[
     OptionInfo::new(
         "form",
         Kind::Choice,
-        "Evaluation of the 21-component model (with {at} or a tool).",
+        "Evaluation of the 21-component model.",
     )
     .value("FORM")
     .default("htm")
@@ -88,6 +88,24 @@ pub const MAP_TOOL_OPTIONS: &[OptionInfo] = &[
         ("htm", "Exact products of homogeneous transformation matrices"),
         ("first-order", "The small-angle (first-order) form"),
     ]),
+];
+
+/// The LinuxCNC side of a comp file ([`CompRequest`]).
+pub const COMP_OPTIONS: &[OptionInfo] = &[
+    OptionInfo::new(
+        "comp_type",
+        Kind::Count,
+        "COMP_FILE_TYPE: 0 (nominal, actual forward, actual reverse) or 1 (nominal, trim forward, trim reverse; trim = nominal − actual).",
+    )
+    .flag("type")
+    .value("0|1"),
+    OptionInfo::new(
+        "units",
+        Kind::Choice,
+        "The machine's [TRAJ] LINEAR_UNITS, the unit of every number in the file.",
+    )
+    .value("UNITS")
+    .choices(&[("mm", ""), ("inch", "")]),
 ];
 
 /// The options of [`MapExportRequest`].
@@ -109,20 +127,6 @@ pub const EXPORT_OPTIONS: &[OptionInfo] = &[
         "Where the positioning error of a 21-component model is taken (axis position, mm; default: its measuring lines).",
     )
     .value("X,Y,Z"),
-    OptionInfo::new(
-        "comp_type",
-        Kind::Count,
-        "COMP_FILE_TYPE: 0 (nominal, actual forward, actual reverse) or 1 (nominal, trim forward, trim reverse; trim = nominal − actual).",
-    )
-    .flag("type")
-    .value("0|1"),
-    OptionInfo::new(
-        "units",
-        Kind::Choice,
-        "The machine's [TRAJ] LINEAR_UNITS, the unit of every number in the file.",
-    )
-    .value("UNITS")
-    .choices(&[("mm", ""), ("inch", "")]),
     OptionInfo::new(
         "max_table_error_um",
         Kind::Number,
@@ -245,6 +249,73 @@ const RETURN: &[(&str, &str)] = &[
         "Reference position return in the − direction (1006#5 = 1)",
     ),
 ];
+
+/// The LinuxCNC side of a comp file, as plain values.
+#[derive(Debug, Clone, PartialEq, Default)]
+#[allow(missing_docs)]
+pub struct CompRequest {
+    pub comp_type: Option<u64>,
+    pub units: Option<String>,
+}
+
+impl super::Request for CompRequest {
+    const OPTIONS: &'static [&'static [OptionInfo]] = &[COMP_OPTIONS];
+
+    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
+        match name {
+            "comp_type" => self.comp_type = Some(v.count("comp_type")?),
+            "units" => self.units = Some(v.text("units")?),
+            _ => {
+                return Err(OptionError::new(
+                    "comp_type",
+                    format!("has no option `{name}`"),
+                ))
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The units a comp file's numbers are in.
+fn comp_choice(value: &str) -> Result<&'static str, OptionError> {
+    let info = <CompRequest as super::Request>::info("units").expect("an option");
+    info.choice(value).map_err(|p| OptionError::new("units", p))
+}
+
+impl CompRequest {
+    /// The machine's units, if given.
+    pub fn units(&self) -> Result<Option<MachineUnits>, OptionError> {
+        self.units
+            .as_deref()
+            .map(|u| {
+                Ok(match comp_choice(u)? {
+                    "inch" => MachineUnits::Inch,
+                    _ => MachineUnits::Mm,
+                })
+            })
+            .transpose()
+    }
+
+    /// The comp file's type and units, both required.
+    pub fn get(&self) -> Result<(CompFileType, MachineUnits), Error> {
+        let ty = match self.comp_type {
+            Some(n) => u8::try_from(n)
+                .ok()
+                .and_then(CompFileType::from_number)
+                .ok_or_else(|| {
+                    OptionError::new(
+                        "comp_type",
+                        format!("must be 0 or 1 (COMP_FILE_TYPE); got {n}"),
+                    )
+                })?,
+            None => return Err(Error::Request("LinuxCNC comp files need {comp_type} 0 or {comp_type} 1: type 0 holds actual positions, type 1 the trims nominal − actual; check COMP_FILE_TYPE in the machine's INI file".into())),
+        };
+        let units = self.units()?.ok_or_else(|| {
+            Error::Request("LinuxCNC comp files are in machine units: pass {units} mm or {units} inch as [TRAJ] LINEAR_UNITS says".into())
+        })?;
+        Ok((ty, units))
+    }
+}
 
 /// Where a 21-component model is evaluated as tables, as plain values.
 #[derive(Debug, Clone, PartialEq)]
@@ -404,8 +475,7 @@ pub struct MapExportRequest {
     pub step_mm: Option<f64>,
     pub at: Option<[f64; 3]>,
     pub tool: MapToolRequest,
-    pub comp_type: Option<u64>,
-    pub units: Option<String>,
+    pub comp: CompRequest,
     pub max_table_error_um: f64,
     pub backlash_only: bool,
     pub axis_names: String,
@@ -429,8 +499,7 @@ impl Default for MapExportRequest {
             step_mm: None,
             at: None,
             tool: MapToolRequest::default(),
-            comp_type: None,
-            units: None,
+            comp: CompRequest::default(),
             max_table_error_um: table_error::DEFAULT_MAX_TABLE_ERROR_UM,
             backlash_only: false,
             axis_names: "X1,Y1,Z1".into(),
@@ -450,15 +519,14 @@ impl Default for MapExportRequest {
 }
 
 impl super::Request for MapExportRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[EXPORT_OPTIONS, MAP_TOOL_OPTIONS];
+    const OPTIONS: &'static [&'static [OptionInfo]] =
+        &[EXPORT_OPTIONS, COMP_OPTIONS, MAP_TOOL_OPTIONS];
 
     fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
         match name {
             "to" => self.to = Some(v.text("to")?),
             "step_mm" => self.step_mm = Some(v.number("step_mm")?),
             "at" => self.at = Some(v.triple("at")?),
-            "comp_type" => self.comp_type = Some(v.count("comp_type")?),
-            "units" => self.units = Some(v.text("units")?),
             "max_table_error_um" => self.max_table_error_um = v.number("max_table_error_um")?,
             "backlash_only" => self.backlash_only = v.bool("backlash_only")?,
             "axis_names" => self.axis_names = v.text("axis_names")?,
@@ -475,6 +543,7 @@ impl super::Request for MapExportRequest {
             "cec_sign" => self.cec_sign = v.text("cec_sign")?,
             "homing_dir_mask" => self.homing_dir_mask = v.count("homing_dir_mask")?,
             "profile" => self.profile = v.text("profile")?,
+            "comp_type" | "units" => self.comp.set(name, v)?,
             _ => self.tool.set(name, v)?,
         }
         Ok(())
@@ -726,12 +795,12 @@ impl MapExportRequest {
             "linuxcnc" => {
                 use controllers::linuxcnc::LinuxcncExport;
                 let (what, units) = if self.backlash_only {
-                    let units = self.units()?.ok_or_else(|| {
+                    let units = self.comp.units()?.ok_or_else(|| {
                         Error::Request("LinuxCNC's BACKLASH is in machine units: pass {units} mm or {units} inch as [TRAJ] LINEAR_UNITS says".into())
                     })?;
                     (LinuxcncExport::BacklashOnly, units)
                 } else {
-                    let (ty, units) = self.comp()?;
+                    let (ty, units) = self.comp.get()?;
                     (LinuxcncExport::CompFiles(ty), units)
                 };
                 let t = self.stepped(map, step)?;
@@ -834,39 +903,6 @@ impl MapExportRequest {
             )
         })
     }
-
-    /// The machine's units, if given.
-    fn units(&self) -> Result<Option<MachineUnits>, OptionError> {
-        self.units
-            .as_deref()
-            .map(|u| {
-                Ok(match choice("units", u)? {
-                    "inch" => MachineUnits::Inch,
-                    _ => MachineUnits::Mm,
-                })
-            })
-            .transpose()
-    }
-
-    /// The comp file's type and units, both required.
-    fn comp(&self) -> Result<(CompFileType, MachineUnits), Error> {
-        let ty = match self.comp_type {
-            Some(n) => u8::try_from(n)
-                .ok()
-                .and_then(CompFileType::from_number)
-                .ok_or_else(|| {
-                    OptionError::new(
-                        "comp_type",
-                        format!("must be 0 or 1 (COMP_FILE_TYPE); got {n}"),
-                    )
-                })?,
-            None => return Err(Error::Request("LinuxCNC comp files need {comp_type} 0 or {comp_type} 1: type 0 holds actual positions, type 1 the trims nominal − actual; check COMP_FILE_TYPE in the machine's INI file".into())),
-        };
-        let units = self.units()?.ok_or_else(|| {
-            Error::Request("LinuxCNC comp files are in machine units: pass {units} mm or {units} inch as [TRAJ] LINEAR_UNITS says".into())
-        })?;
-        Ok((ty, units))
-    }
 }
 
 /// The sign check's files of format `to` (none where a vendor's text
@@ -912,15 +948,15 @@ mod tests {
             r.axis_names().unwrap_err().to_string(),
             "axis_names takes three machine axis names, e.g. X1,Y1,Z1; got `X1,Y1`"
         );
-        r.comp_type = Some(2);
+        r.comp.comp_type = Some(2);
         assert_eq!(
-            r.comp().unwrap_err().to_string(),
+            r.comp.get().unwrap_err().to_string(),
             "comp_type must be 0 or 1 (COMP_FILE_TYPE); got 2"
         );
-        r.comp_type = Some(1);
-        r.units = Some("Inch".into());
+        r.comp.comp_type = Some(1);
+        r.comp.units = Some("Inch".into());
         assert_eq!(
-            r.comp().unwrap(),
+            r.comp.get().unwrap(),
             (CompFileType::from_number(1).unwrap(), MachineUnits::Inch)
         );
         r.set_named("tool_length_mm", Value::Number(100.0)).unwrap();

@@ -34,8 +34,8 @@ pub use compensate::{
     CompensateRequest, Compensation, ModelSource, COMPENSATE_OPTIONS, DEFAULT_MAX_OUTPUT_BYTES,
 };
 pub use export::{
-    positioning_tables, straightness_tables, Exported, MapExportRequest, MapToolRequest, MapView,
-    EXPORT_OPTIONS, MAP_TOOL_OPTIONS,
+    positioning_tables, straightness_tables, CompRequest, Exported, MapExportRequest,
+    MapToolRequest, MapView, COMP_OPTIONS, EXPORT_OPTIONS, MAP_TOOL_OPTIONS,
 };
 pub use machine::{Machine, MachineRequest, MACHINE_OPTIONS, NO_WORK_OFFSET};
 pub use map::{MapRequest, MAP_OPTIONS};
@@ -73,6 +73,7 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     PROBE_PLAN_OPTIONS,
     TIME_OPTIONS,
     EXPORT_OPTIONS,
+    COMP_OPTIONS,
     MAP_TOOL_OPTIONS,
 ];
 
@@ -140,6 +141,8 @@ mod tests {
         consistent(|r: &ProbeFitRequest| r.clone());
         consistent(|r: &ProbePlanRequest| r.clone());
         consistent(|r: &MapExportRequest| r.clone());
+        consistent(|r: &CompRequest| r.clone());
+        consistent(|r: &MapToolRequest| r.clone());
         consistent(|r: &TimeRequest| r.clone());
     }
 

@@ -1,15 +1,10 @@
 //! The arguments of `volcomp map` and their turning into library values.
 
 use crate::args::parse_axis;
-use crate::commands::parse_triple;
 use crate::options::Options;
-use crate::output::CliError;
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::PathBuf;
-use volcomp_core::io::linuxcnc_comp::{CompFileType, MachineUnits};
-use volcomp_core::model::kinematic::Form;
-use volcomp_core::request::MapExportRequest;
-use volcomp_gcode::Vec3;
+use volcomp_core::request::{CompRequest, MapExportRequest, MapToolRequest};
 use volcomp_geom::Axis;
 
 /// Evaluate, convert, plot and import error maps.
@@ -46,53 +41,6 @@ pub enum MapSub {
     Example(ExampleArgs),
 }
 
-/// The tool whose tip the map is evaluated at.
-#[derive(Args, Debug, Clone)]
-pub struct ToolArgs {
-    /// Tool length (mm) as G43 applies it: the tip lies this far below the
-    /// spindle's gauge point. Default 0 (the gauge point).
-    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
-    pub tool_length: Option<f64>,
-    /// Tool length offset vector (mm) as G43.1 applies it, for angle heads.
-    #[arg(
-        long,
-        value_name = "X,Y,Z",
-        allow_hyphen_values = true,
-        conflicts_with = "tool_length"
-    )]
-    pub tool_offset: Option<String>,
-}
-
-impl ToolArgs {
-    pub(super) fn offset(&self) -> Result<Option<Vec3>, CliError> {
-        match (&self.tool_length, &self.tool_offset) {
-            (Some(l), _) if !l.is_finite() => Err(CliError::Message(format!(
-                "--tool-length must be a length in mm; got {l}"
-            ))),
-            (Some(l), _) => Ok(Some(Vec3::new(0.0, 0.0, *l))),
-            (None, Some(t)) => parse_triple(t, "--tool-offset").map(Some),
-            (None, None) => Ok(None),
-        }
-    }
-}
-
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum FormArg {
-    /// Exact products of homogeneous transformation matrices.
-    Htm,
-    /// The small-angle (first-order) form.
-    FirstOrder,
-}
-
-impl From<FormArg> for Form {
-    fn from(f: FormArg) -> Form {
-        match f {
-            FormArg::Htm => Form::Htm,
-            FormArg::FirstOrder => Form::FirstOrder,
-        }
-    }
-}
-
 #[derive(Args, Debug)]
 pub struct EvalArgs {
     /// Error map: axis-table CSV (docs/design.md) or 21-component model TOML.
@@ -101,13 +49,10 @@ pub struct EvalArgs {
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub at: String,
     #[command(flatten)]
-    pub tool: ToolArgs,
+    pub tool: Options<MapToolRequest>,
     /// Direction state: forward, reverse, or one letter per axis (f/r or +/-), e.g. frf.
     #[arg(long, default_value = "forward", allow_hyphen_values = true)]
     pub direction: String,
-    /// Evaluation of the 21-component model.
-    #[arg(long, value_enum, default_value_t = FormArg::Htm)]
-    pub form: FormArg,
     /// Hold the error at a table end outside its range.
     #[arg(long)]
     pub clamp: bool,
@@ -128,48 +73,6 @@ pub enum ConvertTarget {
     Model,
 }
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum UnitsArg {
-    Mm,
-    Inch,
-}
-
-impl From<UnitsArg> for MachineUnits {
-    fn from(u: UnitsArg) -> MachineUnits {
-        match u {
-            UnitsArg::Mm => MachineUnits::Mm,
-            UnitsArg::Inch => MachineUnits::Inch,
-        }
-    }
-}
-
-/// The LinuxCNC side of a comp file.
-#[derive(Args, Debug, Clone)]
-pub struct CompArgs {
-    /// COMP_FILE_TYPE: 0 (nominal, actual forward, actual reverse) or
-    /// 1 (nominal, trim forward, trim reverse; trim = nominal − actual).
-    #[arg(long = "type", value_name = "0|1", allow_negative_numbers = true)]
-    pub comp_type: Option<u8>,
-    /// The machine's [TRAJ] LINEAR_UNITS, the unit of every number in the file.
-    #[arg(long, value_enum)]
-    pub units: Option<UnitsArg>,
-}
-
-impl CompArgs {
-    pub(super) fn get(&self) -> Result<(CompFileType, MachineUnits), CliError> {
-        let ty = match self.comp_type {
-            Some(n) => CompFileType::from_number(n).ok_or_else(|| {
-                CliError::Message(format!("--type must be 0 or 1 (COMP_FILE_TYPE); got {n}"))
-            })?,
-            None => return Err(CliError::Message("LinuxCNC comp files need --type 0 or --type 1: type 0 holds actual positions, type 1 the trims nominal − actual; check COMP_FILE_TYPE in the machine's INI file".into())),
-        };
-        let units = self.units.ok_or_else(|| {
-            CliError::Message("LinuxCNC comp files are in machine units: pass --units mm or --units inch as [TRAJ] LINEAR_UNITS says".into())
-        })?;
-        Ok((ty, units.into()))
-    }
-}
-
 #[derive(Args, Debug)]
 pub struct ConvertArgs {
     /// Error map: axis-table CSV or 21-component model TOML.
@@ -186,7 +89,7 @@ pub struct ConvertArgs {
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub at: Option<String>,
     #[command(flatten)]
-    pub tool: ToolArgs,
+    pub tool: Options<MapToolRequest>,
     /// Grid spacing (mm, default 25); for --to linuxcnc, resample the
     /// positioning tables at this spacing (LinuxCNC holds 256 points per joint).
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
@@ -195,7 +98,7 @@ pub struct ConvertArgs {
     #[arg(long, default_value = "forward", allow_hyphen_values = true)]
     pub direction: String,
     #[command(flatten)]
-    pub comp: CompArgs,
+    pub comp: Options<CompRequest>,
     /// For --to linuxcnc: the largest deviation (µm) of the written tables
     /// from the map, between and at their points (a finer --step when it is exceeded).
     #[arg(long, value_name = "UM", default_value_t = volcomp_core::io::controllers::table_error::DEFAULT_MAX_TABLE_ERROR_UM)]
@@ -203,9 +106,6 @@ pub struct ConvertArgs {
     /// Kinematic chain for --to model from axis tables (default w X' Y' b Z t).
     #[arg(long, value_name = "CHAIN")]
     pub chain: Option<String>,
-    /// Evaluation of the 21-component model.
-    #[arg(long, value_enum, default_value_t = FormArg::Htm)]
-    pub form: FormArg,
 }
 
 #[derive(Args, Debug)]
@@ -229,7 +129,7 @@ pub struct ImportArgs {
     #[arg(long, value_name = "FILE")]
     pub z: PathBuf,
     #[command(flatten)]
-    pub comp: CompArgs,
+    pub comp: Options<CompRequest>,
     /// Output: an axis-table .csv or a 21-component model .toml (CSV beside it).
     #[arg(short, long, value_name = "OUT")]
     pub output: PathBuf,
@@ -253,7 +153,7 @@ pub struct IsoArgs {
     #[arg(long, value_parser = parse_axis)]
     pub axis: Option<Axis>,
     #[command(flatten)]
-    pub comp: CompArgs,
+    pub comp: Options<CompRequest>,
     /// Write a self-contained HTML report: the standard's bidirectional
     /// plot (x̄ ± 2s per direction) and the figures B, R, E, M, A.
     #[arg(long, value_name = "FILE.html")]

@@ -72,7 +72,7 @@ pub(super) fn eval(a: EvalArgs) -> Result<(), CliError> {
         }
         Map::Kinematic(m) => {
             let mut m = (**m).clone();
-            m.form = a.form.into();
+            m.form = a.tool.form()?;
             let r = m.query(q, s, tool)?;
             let v = r.values;
             let k = &m.kinematics;

@@ -29,7 +29,7 @@ use volcomp_core::model::kinematic::{Form, KinematicModel};
 use volcomp_core::model::topology::Topology;
 use volcomp_core::model::{parse_directions, Directions, ErrorModel};
 use volcomp_core::report::map::ComponentChart;
-use volcomp_core::request::{self, MapView};
+use volcomp_core::request::{self, MapToolRequest, MapView};
 use volcomp_gcode::Vec3;
 use volcomp_geom::Axis;
 
@@ -175,7 +175,7 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
     }
     check(&plan)?;
     let map = load_map(&a.map, false)?;
-    let form: Form = a.form.into();
+    let form = a.tool.form()?;
     match a.to {
         ConvertTarget::AxisTable => {
             let Map::Kinematic(m) = &map else {
@@ -237,7 +237,7 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
 fn positioning_tables(
     map: &Map,
     at: Option<&str>,
-    tool: &ToolArgs,
+    tool: &MapToolRequest,
     form: Form,
 ) -> Result<[Positioning; 3], CliError> {
     let (at, tool) = match map {
