@@ -227,35 +227,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
             .map_err(|e| CliError::Io(a.output.clone(), e))
     })?;
     if let Some(path) = &a.report {
-        let mut doc = volcomp_core::report::Document {
-            title: "volcomp probing calibration".into(),
-            facts: vec![
-                ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
-                ("command".into(), super::command_line()),
-                ("date".into(), volcomp_core::io::provenance::now_utc()),
-                (
-                    "model".into(),
-                    format!("{} (order {}, chain {})", a.output.display(), order, chain),
-                ),
-                (
-                    "travel (mm)".into(),
-                    ranges
-                        .iter()
-                        .map(|r| format!("{}:{}", r[0], r[1]))
-                        .collect::<Vec<_>>()
-                        .join(","),
-                ),
-            ],
-            inputs: Vec::new(),
-            sections: volcomp_core::report::probe::sections(&out, ranges),
-        };
-        for (role, list) in [("artifact", &a.id.artifacts), ("log", &a.id.logs)] {
-            for p in list {
-                doc.inputs
-                    .push(volcomp_core::report::InputFile::read(role, p)?);
-            }
-        }
-        let html = doc.to_html();
+        let html = fit_report(&a, &out, ranges, (order, &chain))?;
         staged.write(path, |w| {
             w.write_all(html.as_bytes())
                 .map_err(|e| CliError::Io(path.clone(), e))
@@ -275,6 +247,44 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         a.output.display()
     );
     Ok(())
+}
+
+/// The fit's HTML report: the run's facts, the inputs, the library's sections.
+fn fit_report(
+    a: &FitArgs,
+    out: &volcomp_core::identify::probe::request::FitOutput,
+    ranges: [[f64; 2]; 3],
+    (order, chain): (usize, &str),
+) -> Result<String, CliError> {
+    let mut doc = volcomp_core::report::Document {
+        title: "volcomp probing calibration".into(),
+        facts: vec![
+            ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
+            ("command".into(), super::command_line()),
+            ("date".into(), volcomp_core::io::provenance::now_utc()),
+            (
+                "model".into(),
+                format!("{} (order {}, chain {})", a.output.display(), order, chain),
+            ),
+            (
+                "travel (mm)".into(),
+                ranges
+                    .iter()
+                    .map(|r| format!("{}:{}", r[0], r[1]))
+                    .collect::<Vec<_>>()
+                    .join(","),
+            ),
+        ],
+        inputs: Vec::new(),
+        sections: volcomp_core::report::probe::sections(out, ranges),
+    };
+    for (role, list) in [("artifact", &a.id.artifacts), ("log", &a.id.logs)] {
+        for p in list {
+            doc.inputs
+                .push(volcomp_core::report::InputFile::read(role, p)?);
+        }
+    }
+    Ok(doc.to_html())
 }
 
 fn verify_cmd(a: VerifyArgs) -> Result<(), CliError> {
