@@ -204,6 +204,62 @@ pub fn kinematic_point_lines(
     lines
 }
 
+/// The charts of a map's components, titled for the report and the plot
+/// (`volcomp map plot`): per axis, its tables (axis tables) or its
+/// positioning and straightness and its angular errors (21-component
+/// model, with the chain and the squareness in the titles).
+pub mod component_charts {
+    use super::ComponentChart;
+    use crate::model::axis_table::AxisTableMap;
+    use crate::model::kinematic::KinematicModel;
+    use volcomp_geom::Axis;
+
+    const AXES: [char; 3] = ['X', 'Y', 'Z'];
+
+    /// One chart per axis: the errors its table causes.
+    pub fn tables(name: &str, m: &AxisTableMap) -> Vec<ComponentChart> {
+        AXES.iter()
+            .enumerate()
+            .map(|(k, axis)| ComponentChart {
+                title: format!("{name}: errors caused by {axis} (axis tables)"),
+                x_label: format!("{axis} position (mm)"),
+                y_label: "error (µm)".into(),
+                series: m.component_series(Axis::ALL[k]),
+            })
+            .collect()
+    }
+
+    /// Two charts per axis: µm and µrad never share one.
+    pub fn kinematic(name: &str, m: &KinematicModel) -> Vec<ComponentChart> {
+        let k = &m.kinematics;
+        let mut charts = Vec::new();
+        for (ax, axis) in AXES.iter().enumerate() {
+            let (linear, angular) = m.component_series(Axis::ALL[ax]);
+            let extra = match ax {
+                0 => format!(" (chain {})", k.topology),
+                1 => format!(" (squareness S_xy {} µrad)", k.squareness.xy_urad),
+                _ => format!(
+                    " (squareness S_yz {}, S_zx {} µrad)",
+                    k.squareness.yz_urad, k.squareness.zx_urad
+                ),
+            };
+            charts.push(ComponentChart {
+                title: format!("{name}: positioning and straightness of {axis}{extra}"),
+                x_label: format!("{axis} position (mm)"),
+                y_label: "error (µm)".into(),
+                series: linear,
+            });
+            charts.push(ComponentChart {
+                title: format!("{name}: angular errors of {axis}"),
+                x_label: format!("{axis} position (mm)"),
+                y_label: "rotation (µrad)".into(),
+                series: angular,
+            });
+        }
+        charts
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -28,7 +28,7 @@ use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::model::kinematic::{Form, KinematicModel};
 use volcomp_core::model::topology::Topology;
 use volcomp_core::model::{parse_directions, Directions, ErrorModel};
-use volcomp_core::report::map::ComponentChart;
+use volcomp_core::report::map::component_charts;
 use volcomp_core::request::{self, MapToolRequest, MapView};
 use volcomp_gcode::Vec3;
 use volcomp_geom::Axis;
@@ -324,45 +324,10 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| a.map.display().to_string());
-    let mut charts: Vec<ComponentChart> = Vec::new();
-    match &map {
-        Map::Tables(m) => {
-            for (k, axis) in AXES.iter().enumerate() {
-                charts.push(ComponentChart {
-                    title: format!("{name}: errors caused by {axis} (axis tables)"),
-                    x_label: format!("{axis} position (mm)"),
-                    y_label: "error (µm)".into(),
-                    series: m.component_series(Axis::ALL[k]),
-                });
-            }
-        }
-        Map::Kinematic(m) => {
-            let k = &m.kinematics;
-            for (ax, axis) in AXES.iter().enumerate() {
-                let (linear, angular) = m.component_series(Axis::ALL[ax]);
-                let extra = match ax {
-                    0 => format!(" (chain {})", k.topology),
-                    1 => format!(" (squareness S_xy {} µrad)", k.squareness.xy_urad),
-                    _ => format!(
-                        " (squareness S_yz {}, S_zx {} µrad)",
-                        k.squareness.yz_urad, k.squareness.zx_urad
-                    ),
-                };
-                charts.push(ComponentChart {
-                    title: format!("{name}: positioning and straightness of {}{extra}", axis),
-                    x_label: format!("{} position (mm)", axis),
-                    y_label: "error (µm)".into(),
-                    series: linear,
-                });
-                charts.push(ComponentChart {
-                    title: format!("{name}: angular errors of {}", axis),
-                    x_label: format!("{} position (mm)", axis),
-                    y_label: "rotation (µrad)".into(),
-                    series: angular,
-                });
-            }
-        }
-    }
+    let charts = match &map {
+        Map::Tables(m) => component_charts::tables(&name, m),
+        Map::Kinematic(m) => component_charts::kinematic(&name, m),
+    };
     let is_html = a
         .output
         .extension()
