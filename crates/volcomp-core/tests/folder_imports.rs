@@ -48,9 +48,8 @@ const KNOWN_UPWARD: &[(&str, &str)] = &[
     // `next_state` and `arc_distance_mm` (direction state, arc length) are
     // the simulation's; both walks need them.
     ("compensate", "simulate"),
-    // `MachineSetup` (work offsets, tools) is defined by the compensator
-    // and read by the probing program, the model files and provenance.
-    ("identify", "compensate"),
+    // Provenance writes compensated programs (with their header), and the
+    // model files and controllers take `compensate::file_name`.
     ("io", "compensate"),
     // Loading a straightness model from a `--map` file.
     ("io", "identify"),

@@ -9,6 +9,7 @@ pub mod controller;
 pub mod kinematic;
 pub mod positioning;
 pub mod query;
+pub mod setup;
 pub mod topology;
 
 use crate::error::ModelError;

@@ -23,9 +23,9 @@
 
 use super::plan::{NoContact, Plan, PlanOptions, Step};
 use super::ProbeError;
-use crate::compensate::MachineSetup;
 use crate::io::numfmt;
 use crate::io::probe_log::{states_label, LOG_VERSION};
+use crate::model::setup::MachineSetup;
 use std::fmt::Write as _;
 use volcomp_gcode::{InterpOptions, MotionKind, Vec3};
 

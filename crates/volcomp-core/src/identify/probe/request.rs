@@ -8,9 +8,9 @@ use super::identify::{fit_and_identify, leave_one_out, HeldOut, Identified, Iden
 use super::plan::{plan, Plan, PlanOptions};
 use super::program::{check_program, write_program, Frame};
 use super::ProbeError;
-use crate::compensate::MachineSetup;
 use crate::io::probe_log::{read_touches, Touch};
 use crate::model::kinematic::KinematicModel;
+use crate::model::setup::MachineSetup;
 
 /// A named text input (a file's name and its contents).
 #[derive(Debug, Clone, PartialEq)]
