@@ -198,9 +198,12 @@ pub(super) enum Expand {
     PeckCount,
     /// An axis could not be solved consistently at the bottom.
     Held,
-    /// The written run of cycles would retract to another level than the
-    /// original (µm off): after a hole written as moves in G99, a G98
-    /// hole's initial level is where the written run restarted.
+    /// Written as a cycle, the hole's moves in the air would not be the
+    /// original's (µm off; infinite: other moves): after a hole written as
+    /// moves in G99, a G98 hole's initial level is where the written run
+    /// restarted; a first hole whose compensated R falls below the level
+    /// the machine stands at traverses there instead of at the retract
+    /// level.
     Retract(f64),
 }
 
@@ -217,10 +220,13 @@ impl Expand {
                 "cycle expanded: the compensated numbers would make another number of pecks".into()
             }
             Expand::Held => "cycle expanded: an axis has no consistent direction at the bottom".into(),
-            Expand::Retract(um) => format!(
-                "cycle expanded: written as a cycle it would retract {:.3} mm off its level",
+            Expand::Retract(um) if um.is_finite() => format!(
+                "cycle expanded: written as a cycle it would retract or traverse {:.3} mm off the original's level",
                 um * 1e-3
             ),
+            Expand::Retract(_) => {
+                "cycle expanded: written as a cycle its rapids would not be the original's".into()
+            }
         }
     }
 }
@@ -241,15 +247,14 @@ pub(super) struct KeptHole {
 }
 
 /// One way of writing a hole: its words, the machine's moves, the
-/// commands read back at the bottom and at R, the state the machine
-/// reaches R with and the error left there (mm, + above the plane).
+/// commands read back at the bottom and at R, and the error left at R
+/// (mm, + above the plane) in the state the machine reaches it with.
 struct Candidate {
     words: String,
     moves: Vec<CycleMove>,
     moves_mm: Vec<(bool, Vec3)>,
     bottom: Vec3,
     r: Vec3,
-    s_r: Directions,
     r_error_mm: f64,
 }
 
@@ -281,6 +286,22 @@ fn program_point(ax: [usize; 3], p: [f64; 3]) -> Vec3 {
 /// The axis point (mm) of program point `p` in an unrotated frame.
 fn axis_point(frame: &Frame, p: Vec3) -> Vec3 {
     p * frame.mm_per_unit + frame.offset_mm
+}
+
+/// The program-unit value LinuxCNC holds for a coordinate kept here in mm
+/// in the axis frame: the round trip `(v·k + offset − offset)/k` can land
+/// a bit off the number written, and the cycle compares it exactly with R
+/// (`current_cc > r`), so it is snapped to ten decimals when that close.
+fn snap(v: f64) -> f64 {
+    if v.abs() >= 1e5 {
+        return v;
+    }
+    let s = (v * 1e10).round() / 1e10;
+    if (s - v).abs() < 1e-9 {
+        s
+    } else {
+        v
+    }
 }
 
 /// `v` as written with the frame's decimals, and the value the
@@ -369,6 +390,7 @@ impl State<'_> {
         block: &CycleBlock,
         k: usize,
         nominal: &[CycleMove],
+        nominal_start: [f64; 3],
         tolerance_mm: f64,
     ) -> Result<Hole, CompensationError> {
         let model = line.model();
@@ -401,27 +423,47 @@ impl State<'_> {
         let s_b = sol.s;
         // The machine's numbers (program units) before the block.
         let cur = frame.program(self.q_out);
+        let cur = Vec3::new(snap(cur.x), snap(cur.y), snap(cur.z));
         let initial = match self.cycles.initial_mm {
-            Some(z) if z.is_finite() => (z - frame.offset_mm[n]) / frame.mm_per_unit,
+            Some(z) if z.is_finite() => snap((z - frame.offset_mm[n]) / frame.mm_per_unit),
             _ => cur[n],
         };
         let pb = frame.program(q_b);
-        // R: the normal axis at the hole's command, in the state the
-        // machine arrives there with (down from above, or what the
-        // approach at R leaves). Where no state is consistent (in G99 the
-        // machine stands at the R it retracted to, moving up: any R below
-        // it is reached moving down) the R that leaves the tool at or
-        // above the nominal plane is taken.
+        // R: the normal axis at the hole's command, solved for the machine
+        // arriving there moving down and moving up, and the level the
+        // machine stands at (in G99 the R it retracted to: staying there
+        // keeps the cycle's moves those of the original). Each is followed
+        // through the block; of those whose moves are the original's (the
+        // same moves, each within a correction of its nominal end), the
+        // one that leaves R exactly in the state the machine really
+        // arrives with, else the one that leaves the tool nearest above
+        // the plane.
         let feeds = nominal.iter().filter(|m| m.feed).count();
-        let mut candidates: Vec<Candidate> = Vec::with_capacity(2);
-        let mut s_r = s_b;
-        for _round in 0..2 {
+        let nominal_mm: Vec<(bool, Vec3)> = nominal
+            .iter()
+            .map(|m| (m.feed, axis_point(frame, program_point(ax, m.end))))
+            .collect();
+        let nominal_start_mm = axis_point(frame, program_point(ax, nominal_start));
+        let mut tries = Vec::with_capacity(3);
+        for state in [Direction::Reverse, Direction::Forward] {
+            let mut s_try = s_b;
+            s_try[n] = state;
             let mut q_r = q_b;
             q_r[n] = t_r[n];
             for _ in 0..8 {
-                let e = model.deviation_um(q_r, s_r, comps).map_err(model_err)?;
+                let e = model.deviation_um(q_r, s_try, comps).map_err(model_err)?;
                 q_r[n] = t_r[n] - e[n] * 1e-3;
             }
+            tries.push(q_r);
+        }
+        let mut stay = q_b;
+        stay[n] = self.q_out[n];
+        if (stay[n] - t_r[n]).abs() <= options.max_correction_mm {
+            tries.push(stay);
+        }
+        let mut candidates: Vec<Candidate> = Vec::with_capacity(3);
+        let mut path_off: Option<f64> = None;
+        for q_r in tries {
             let pr = frame.program(q_r);
             // Q as scaled, or a step either side where the scaled one
             // would make another number of pecks (a stroke that is a whole
@@ -451,12 +493,19 @@ impl State<'_> {
                 }
             }
             let Some((words, levels, hole, moves)) = found else {
-                return Ok(Hole::Expand(Expand::PeckCount));
+                continue;
             };
             let moves_mm: Vec<(bool, Vec3)> = moves
                 .iter()
                 .map(|m| (m.feed, axis_point(frame, program_point(ax, m.end))))
                 .collect();
+            match path_deviation_mm((&nominal_mm, nominal_start_mm), (&moves_mm, self.q_out)) {
+                Some(off) if off <= options.max_correction_mm => {}
+                off => {
+                    path_off = Some(off.unwrap_or(f64::INFINITY));
+                    continue;
+                }
+            }
             // The state the machine arrives at R with: before the first
             // feed.
             let first_feed = moves_mm.iter().position(|(f, _)| *f).unwrap_or(0);
@@ -467,35 +516,36 @@ impl State<'_> {
             }
             let r_read = axis_point(frame, program_point(ax, [hole[0], hole[1], levels.r]));
             let e = model.deviation_um(r_read, s, comps).map_err(model_err)?;
-            let consistent = s[n] == s_r[n];
             candidates.push(Candidate {
                 words,
                 moves,
                 moves_mm,
                 bottom: axis_point(frame, program_point(ax, [hole[0], hole[1], levels.bottom])),
                 r: r_read,
-                s_r: s,
                 r_error_mm: r_read[n] + e[n] * 1e-3 - t_r[n],
             });
-            if consistent {
-                break;
-            }
-            s_r[n] = s[n];
         }
-        let chosen = if candidates.len() == 1 {
-            0
-        } else {
-            // Neither round was consistent: the R at or above the plane,
-            // else the higher.
-            let above = |c: &Candidate| c.r_error_mm >= -1e-9;
-            match candidates.iter().position(above) {
-                Some(i) => i,
-                None => candidates
-                    .iter()
-                    .enumerate()
-                    .max_by(|a, b| a.1.r_error_mm.total_cmp(&b.1.r_error_mm))
-                    .map_or(0, |(i, _)| i),
-            }
+        // Exact first (within the written rounding), then above the plane
+        // and nearest.
+        let rank = |c: &Candidate| {
+            let exact = c.r_error_mm.abs() <= 1e-5;
+            let below = c.r_error_mm < -1e-6;
+            (!exact, below, c.r_error_mm.abs())
+        };
+        let Some(chosen) = candidates
+            .iter()
+            .enumerate()
+            .min_by(|a, b| {
+                rank(a.1)
+                    .partial_cmp(&rank(b.1))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            })
+            .map(|(i, _)| i)
+        else {
+            return Ok(Hole::Expand(match path_off {
+                Some(off) => Expand::Retract(off * 1e3),
+                None => Expand::PeckCount,
+            }));
         };
         let Candidate {
             words,
@@ -503,18 +553,8 @@ impl State<'_> {
             moves_mm,
             bottom: b_read,
             r: r_read,
-            s_r,
             r_error_mm,
         } = candidates.swap_remove(chosen);
-        // The level the written hole retracts to against the original's:
-        // the map moves it by a correction at most.
-        if let (Some((_, q_last)), Some(m_last)) = (moves_mm.last(), nominal.last()) {
-            let t_last = axis_point(frame, program_point(ax, m_last.end));
-            let off = (q_last[n] - t_last[n]).abs();
-            if off > options.max_correction_mm {
-                return Ok(Hole::Expand(Expand::Retract(off * 1e3)));
-            }
-        }
         // Feed ends: the written block's against the nominal hole's.
         let feed_ends = |ms: &[CycleMove]| -> Vec<f64> {
             ms.iter().filter(|m| m.feed).map(|m| m.end[2]).collect()
@@ -567,7 +607,6 @@ impl State<'_> {
         };
         // The commands the controller reads back: the bottom (every axis)
         // and R (its own axis; the plane's are the bottom's).
-        let _ = s_r;
         let points = [
             (t_b, b_read, residual(t_b, b_read, s_b)?),
             (t_r, r_read, r_error_mm.abs() * 1e3),
@@ -584,9 +623,15 @@ impl State<'_> {
     /// nothing for a hole after the first) already in the buffer or not,
     /// then follows the machine through its moves and records its points.
     pub(super) fn follow_kept(&mut self, line: &Line, hole: &KeptHole) {
-        for (target, command, residual) in hole.points {
+        for (i, (target, command, residual)) in hole.points.into_iter().enumerate() {
+            // The bottom is a solved point; R is where a rapid ends (its
+            // error, at most a reversal above the plane where the machine
+            // stands at the R it retracted to, is no solver residual).
+            let at_r = i == 1;
             self.summary.points += 1;
-            self.summary.max_residual_um = self.summary.max_residual_um.max(residual);
+            if !at_r {
+                self.summary.max_residual_um = self.summary.max_residual_um.max(residual);
+            }
             self.summary.max_correction_um = self
                 .summary
                 .max_correction_um
@@ -600,7 +645,7 @@ impl State<'_> {
                 reversed: [false; 3],
                 held: [false; 3],
                 take_up: false,
-                rapid: false,
+                rapid: at_r,
             });
         }
         if self.cycles.initial_mm.is_none() {
@@ -696,4 +741,37 @@ fn hole_words(
         peck_clear: block.peck_clear,
     };
     (text, levels, [a, b])
+}
+
+/// How far the machine's moves `machine` (from `machine_start`) are from
+/// the original's `nominal` (from `nominal_start`), both in mm, moves that
+/// go nowhere left out: the largest distance of corresponding ends on any
+/// axis, `None` where the two are not the same moves (count or kind).
+fn path_deviation_mm(
+    (nominal, nominal_start): (&[(bool, Vec3)], Vec3),
+    (machine, machine_start): (&[(bool, Vec3)], Vec3),
+) -> Option<f64> {
+    let moving = |moves: &[(bool, Vec3)], start: Vec3| {
+        let mut at = start;
+        let mut out = Vec::with_capacity(moves.len());
+        for &(feed, p) in moves {
+            if (p - at).max_abs() > 1e-9 {
+                out.push((feed, p));
+            }
+            at = p;
+        }
+        out
+    };
+    let (a, b) = (
+        moving(nominal, nominal_start),
+        moving(machine, machine_start),
+    );
+    if a.len() != b.len() || a.iter().zip(&b).any(|(x, y)| x.0 != y.0) {
+        return None;
+    }
+    Some(
+        a.iter()
+            .zip(&b)
+            .fold(0.0, |m, (x, y)| m.max((x.1 - y.1).max_abs())),
+    )
 }
