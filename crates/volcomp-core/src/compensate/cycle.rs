@@ -43,7 +43,7 @@ impl State<'_> {
         };
         let Some(holes) = holes else {
             self.write_cycle_line_as_g80(line)?;
-            self.write_cycle_moves(line, line.ev.motions, "cycle")?;
+            self.write_cycle_moves(line, line.ev.motions, "cycle", (true, true))?;
             self.summary.cycle_holes_expanded +=
                 interp.last_cycle().map_or(1, |b| b.holes.len() as u64);
             self.note_feed(line);
@@ -51,6 +51,9 @@ impl State<'_> {
         };
         let tolerance_mm = self.cycle_tolerance_mm().unwrap_or(0.0);
         let mut line_written = false;
+        // Holes written as moves since the last kept one: under the G61
+        // written before the first of them.
+        let mut in_exact = false;
         for (k, range) in holes.ranges.iter().enumerate() {
             let nominal = &holes.nominal[range.clone()];
             // Where the original stood before the hole.
@@ -63,6 +66,10 @@ impl State<'_> {
             };
             match self.plan_hole(line, &holes.block, k, nominal, start, tolerance_mm)? {
                 Hole::Keep(kept) => {
+                    if in_exact {
+                        self.exact_path(line, false);
+                        in_exact = false;
+                    }
                     if line_written {
                         self.write_kept_inserted(line, code, &kept.words);
                     } else {
@@ -83,10 +90,15 @@ impl State<'_> {
                     }
                     self.cycles.end();
                     let note = self.expand_note(&why);
-                    self.write_cycle_moves(line, &line.ev.motions[range.clone()], &note)?;
+                    let motions = &line.ev.motions[range.clone()];
+                    self.write_cycle_moves(line, motions, &note, (!in_exact, false))?;
+                    in_exact = true;
                     self.summary.cycle_holes_expanded += 1;
                 }
             }
+        }
+        if in_exact {
+            self.exact_path(line, false);
         }
         self.note_feed(line);
         Ok(())
@@ -210,12 +222,16 @@ impl State<'_> {
     /// explicit moves, compensated like any other, with the dwell of
     /// G82/G86/G89 as G4 and G86's spindle stop (M5) and restart (M3/M4)
     /// where LinuxCNC makes them; `note` follows the line number in the
-    /// trace comment of the first move.
+    /// trace comment of the first move. `open` and `close`: whether the
+    /// G61 LinuxCNC runs a cycle's moves in is written before them and
+    /// the program's mode after them (consecutive holes written as moves
+    /// share one).
     fn write_cycle_moves(
         &mut self,
         line: &Line,
         motions: &[volcomp_gcode::Motion],
         note: &str,
+        (open, close): (bool, bool),
     ) -> Result<(), CompensationError> {
         let (interp, number) = (line.ev.interp, line.number());
         let code = interp.canned_cycle().map(|(c, _)| c).unwrap_or(0);
@@ -228,10 +244,8 @@ impl State<'_> {
         // G61.1 LinuxCNC keeps exact stop for the rapid up to R from below
         // it; here that rapid is written under G61 too: it ends at a corner
         // either way.)
-        let program_mode = interp.path_mode();
-        let say_mode = program_mode != PathMode::ExactPath;
-        if say_mode {
-            self.write_word_line("G61", ending);
+        if open {
+            self.exact_path(line, true);
         }
         let frame = line.frame;
         let at = line.place();
@@ -312,11 +326,26 @@ impl State<'_> {
                 }
             }
         }
-        if say_mode {
-            let text = mode_code(program_mode, interp.units().mm_per_unit(), sep);
-            self.write_word_line(&text, ending);
+        if close {
+            self.exact_path(line, false);
         }
         Ok(())
+    }
+
+    /// The G61 written before a cycle's moves (`on`), or the program's own
+    /// mode written after them, where the program is not in G61 itself.
+    fn exact_path(&mut self, line: &Line, on: bool) {
+        let interp = line.ev.interp;
+        let program_mode = interp.path_mode();
+        if program_mode == PathMode::ExactPath {
+            return;
+        }
+        let text = if on {
+            "G61".to_string()
+        } else {
+            mode_code(program_mode, interp.units().mm_per_unit(), self.walk.sep)
+        };
+        self.write_word_line(&text, line.ending);
     }
 
     /// One feed stroke of G84 or G74 (even `feeds`: down, odd: up; G74 turns

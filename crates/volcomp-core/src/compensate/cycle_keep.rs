@@ -499,7 +499,11 @@ impl State<'_> {
                 .iter()
                 .map(|m| (m.feed, axis_point(frame, program_point(ax, m.end))))
                 .collect();
-            match path_deviation_mm((&nominal_mm, nominal_start_mm), (&moves_mm, self.q_out)) {
+            match path_deviation_mm(
+                (&nominal_mm, nominal_start_mm),
+                (&moves_mm, self.q_out),
+                options.max_correction_mm,
+            ) {
                 Some(off) if off <= options.max_correction_mm => {}
                 off => {
                     path_off = Some(off.unwrap_or(f64::INFINITY));
@@ -744,21 +748,26 @@ fn hole_words(
 }
 
 /// How far the machine's moves `machine` (from `machine_start`) are from
-/// the original's `nominal` (from `nominal_start`), both in mm, moves that
-/// go nowhere left out: the largest distance of corresponding ends on any
+/// the original's `nominal` (from `nominal_start`), both in mm, rapids
+/// shorter than `shortest_mm` left out: the largest distance of corresponding ends on any
 /// axis, `None` where the two are not the same moves (count or kind).
 fn path_deviation_mm(
     (nominal, nominal_start): (&[(bool, Vec3)], Vec3),
     (machine, machine_start): (&[(bool, Vec3)], Vec3),
+    shortest_mm: f64,
 ) -> Option<f64> {
+    // Moves of a correction or less are left out on both sides: the map
+    // makes (or unmakes) moves of that size where the original stands
+    // still (a compensated R a micrometre above the level the machine
+    // stands at).
     let moving = |moves: &[(bool, Vec3)], start: Vec3| {
         let mut at = start;
         let mut out = Vec::with_capacity(moves.len());
         for &(feed, p) in moves {
-            if (p - at).max_abs() > 1e-9 {
+            if feed || (p - at).max_abs() > shortest_mm {
                 out.push((feed, p));
+                at = p;
             }
-            at = p;
         }
         out
     };
