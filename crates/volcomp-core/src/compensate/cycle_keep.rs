@@ -499,9 +499,26 @@ impl State<'_> {
                 .iter()
                 .map(|m| (m.feed, axis_point(frame, program_point(ax, m.end))))
                 .collect();
+            // LinuxCNC's rapid up to R at the current point, where the
+            // written run's initial level is below R and the original's is
+            // not (the written run restarted after a hole written as moves
+            // in G99): a move up before the traverse, away from the part.
+            let (machine_from, machine_moves) = match (moves.first(), nominal.first()) {
+                (Some(m), Some(o)) if m.hole.is_none() && o.hole.is_some() => {
+                    let up = moves_mm[0].1;
+                    let only_up =
+                        (0..3).all(|a| a == n || up[a] == self.q_out[a]) && up[n] >= self.q_out[n];
+                    if only_up {
+                        (up, &moves_mm[1..])
+                    } else {
+                        (self.q_out, &moves_mm[..])
+                    }
+                }
+                _ => (self.q_out, &moves_mm[..]),
+            };
             match path_deviation_mm(
                 (&nominal_mm, nominal_start_mm),
-                (&moves_mm, self.q_out),
+                (machine_moves, machine_from),
                 options.max_correction_mm,
             ) {
                 Some(off) if off <= options.max_correction_mm => {}
