@@ -801,3 +801,149 @@ fn path_deviation_mm(
             .fold(0.0, |m, (x, y)| m.max((x.1 - y.1).max_abs())),
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn levels(initial: f64, current: f64, r: f64, bottom: f64, q: f64) -> Levels {
+        Levels {
+            initial,
+            current,
+            r,
+            bottom,
+            q,
+            peck_clear: 0.254,
+        }
+    }
+
+    fn ends(moves: &[CycleMove]) -> Vec<(bool, f64)> {
+        moves.iter().map(|m| (m.feed, m.end[2])).collect()
+    }
+
+    #[test]
+    fn g83_pecks_retract_to_r_and_come_back_a_peck_clearance_above() {
+        // interp_cycles.cc convert_cycle_g83: R2 Z-8 Q3 from 10 (G98):
+        // pecks at -1, -4, -7 (-10 is not above -8), each followed by a
+        // rapid to R and one to 0.254 above the peck; then the bottom and
+        // the initial level.
+        let m = block_moves(
+            830,
+            levels(10.0, 10.0, 2.0, -8.0, 3.0),
+            [0.0, 0.0],
+            &[[10.0, 20.0]],
+            false,
+        )
+        .unwrap();
+        let f = |z| (true, z);
+        let r = |z| (false, z);
+        assert_eq!(
+            ends(&m),
+            vec![
+                r(10.0),
+                r(2.0),
+                f(-1.0),
+                r(2.0),
+                r(-1.0 + 0.254),
+                f(-4.0),
+                r(2.0),
+                r(-4.0 + 0.254),
+                f(-7.0),
+                r(2.0),
+                r(-7.0 + 0.254),
+                f(-8.0),
+                r(10.0),
+            ]
+        );
+        assert!(m
+            .iter()
+            .all(|m| m.hole == Some(0) && m.end[..2] == [10.0, 20.0]));
+    }
+
+    #[test]
+    fn a_stroke_of_whole_pecks_ends_with_the_bottom_not_another_peck() {
+        // G73 R1 Z-9 Q2.5: -1.5, -4, -6.5; -9 is not above -9.
+        let m = block_moves(
+            730,
+            levels(10.0, 1.0, 1.0, -9.0, 2.5),
+            [0.0, 0.0],
+            &[[0.0, 0.0]],
+            true,
+        )
+        .unwrap();
+        let feeds: Vec<f64> = m.iter().filter(|m| m.feed).map(|m| m.end[2]).collect();
+        assert_eq!(feeds, vec![-1.5, -4.0, -6.5, -9.0]);
+        // G99 from R: the first move goes to R at the hole (no rapid above).
+        assert_eq!(ends(&m)[0], (false, 1.0));
+    }
+
+    #[test]
+    fn below_r_the_cycle_first_rises_to_r_and_g98_retracts_there() {
+        // convert_cycle_xy: old_cc < r → rapid up to R at the current
+        // point, old_cc = r; G98's clear level is then R.
+        let m = block_moves(
+            810,
+            levels(0.5, 0.5, 2.0, -3.0, 0.0),
+            [5.0, 6.0],
+            &[[7.0, 8.0], [9.0, 8.0]],
+            false,
+        )
+        .unwrap();
+        assert_eq!(
+            m[0],
+            CycleMove {
+                feed: false,
+                end: [5.0, 6.0, 2.0],
+                hole: None
+            }
+        );
+        assert_eq!(
+            m[1..].iter().map(|m| (m.feed, m.end)).collect::<Vec<_>>(),
+            vec![
+                (false, [7.0, 8.0, 2.0]),
+                (true, [7.0, 8.0, -3.0]),
+                (false, [7.0, 8.0, 2.0]),
+                (false, [9.0, 8.0, 2.0]),
+                (true, [9.0, 8.0, -3.0]),
+                (false, [9.0, 8.0, 2.0]),
+            ]
+        );
+        assert!(block_moves(
+            840,
+            levels(0.5, 0.5, 2.0, -3.0, 0.0),
+            [0.0; 2],
+            &[[0.0; 2]],
+            false
+        )
+        .is_none());
+    }
+
+    #[test]
+    fn the_written_moves_are_compared_with_the_original_without_tiny_rapids() {
+        let v = |x: f64, z: f64| Vec3::new(x, 0.0, z);
+        let nominal = [
+            (false, v(10.0, 2.0)),
+            (true, v(10.0, -5.0)),
+            (false, v(10.0, 2.0)),
+        ];
+        // The map adds a 2 µm rapid (R a little below where the machine
+        // stands) and moves every end by up to 3 µm.
+        let machine = [
+            (false, v(0.0, 2.003)),
+            (false, v(10.002, 2.001)),
+            (true, v(10.002, -4.997)),
+            (false, v(10.002, 2.001)),
+        ];
+        let off =
+            path_deviation_mm((&nominal, v(0.0, 2.0)), (&machine, v(0.0, 2.001)), 0.1).unwrap();
+        assert!((off - 0.003).abs() < 1e-12, "{off}");
+        // A feed instead of a rapid, or a move missing: not the same moves.
+        let mut wrong = machine;
+        wrong[3].0 = true;
+        assert!(path_deviation_mm((&nominal, v(0.0, 2.0)), (&wrong, v(0.0, 2.001)), 0.1).is_none());
+        assert!(
+            path_deviation_mm((&nominal, v(0.0, 2.0)), (&machine[..3], v(0.0, 2.001)), 0.1)
+                .is_none()
+        );
+    }
+}
