@@ -56,15 +56,7 @@ impl State<'_> {
         let mut in_exact = false;
         for (k, range) in holes.ranges.iter().enumerate() {
             let nominal = &holes.nominal[range.clone()];
-            // Where the original stood before the hole.
-            let start = match range.start.checked_sub(1) {
-                Some(i) => holes.nominal[i].end,
-                None => {
-                    let b = &holes.block;
-                    [b.start[0], b.start[1], b.current]
-                }
-            };
-            match self.plan_hole(line, &holes.block, k, nominal, start, tolerance_mm)? {
+            match self.plan_hole(line, &holes.block, k, nominal, tolerance_mm)? {
                 Hole::Keep(kept) => {
                     if in_exact {
                         self.exact_path(line, false);

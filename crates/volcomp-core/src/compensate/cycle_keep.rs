@@ -192,7 +192,8 @@ pub(super) fn block_moves(
 pub(super) enum Expand {
     /// The map moves the tool across the stroke by this much (µm).
     Drift(f64),
-    /// A peck ends this far (µm) from its nominal depth.
+    /// A feed move (a peck, G85/G89's feed out) ends this far (µm) from
+    /// its nominal end.
     Peck(f64),
     /// The written numbers make a different number of pecks.
     PeckCount,
@@ -214,7 +215,7 @@ impl Expand {
                 "cycle expanded: the map moves the tool {um:.3} um across the stroke, above the {tolerance_um:.3} um tolerance"
             ),
             Expand::Peck(um) => format!(
-                "cycle expanded: a peck would end {um:.3} um off its depth, above the {tolerance_um:.3} um tolerance"
+                "cycle expanded: a feed move would end {um:.3} um off its end, above the {tolerance_um:.3} um tolerance"
             ),
             Expand::PeckCount => {
                 "cycle expanded: the compensated numbers would make another number of pecks".into()
@@ -390,7 +391,6 @@ impl State<'_> {
         block: &CycleBlock,
         k: usize,
         nominal: &[CycleMove],
-        nominal_start: [f64; 3],
         tolerance_mm: f64,
     ) -> Result<Hole, CompensationError> {
         let model = line.model();
@@ -443,7 +443,6 @@ impl State<'_> {
             .iter()
             .map(|m| (m.feed, axis_point(frame, program_point(ax, m.end))))
             .collect();
-        let nominal_start_mm = axis_point(frame, program_point(ax, nominal_start));
         let mut tries = Vec::with_capacity(3);
         for state in [Direction::Reverse, Direction::Forward] {
             let mut s_try = s_b;
@@ -499,28 +498,7 @@ impl State<'_> {
                 .iter()
                 .map(|m| (m.feed, axis_point(frame, program_point(ax, m.end))))
                 .collect();
-            // LinuxCNC's rapid up to R at the current point, where the
-            // written run's initial level is below R and the original's is
-            // not (the written run restarted after a hole written as moves
-            // in G99): a move up before the traverse, away from the part.
-            let (machine_from, machine_moves) = match (moves.first(), nominal.first()) {
-                (Some(m), Some(o)) if m.hole.is_none() && o.hole.is_some() => {
-                    let up = moves_mm[0].1;
-                    let only_up =
-                        (0..3).all(|a| a == n || up[a] == self.q_out[a]) && up[n] >= self.q_out[n];
-                    if only_up {
-                        (up, &moves_mm[1..])
-                    } else {
-                        (self.q_out, &moves_mm[..])
-                    }
-                }
-                _ => (self.q_out, &moves_mm[..]),
-            };
-            match path_deviation_mm(
-                (&nominal_mm, nominal_start_mm),
-                (machine_moves, machine_from),
-                options.max_correction_mm,
-            ) {
+            match path_deviation_mm(&nominal_mm, &moves_mm) {
                 Some(off) if off <= options.max_correction_mm => {}
                 off => {
                     path_off = Some(off.unwrap_or(f64::INFINITY));
@@ -608,12 +586,15 @@ impl State<'_> {
                 let db = x[ax[1]] + e[ax[1]] * 1e-3 - t_b[ax[1]];
                 drift_mm = drift_mm.max(da.hypot(db));
             }
+            // The feed end: the whole distance to its nominal point (a
+            // peck's level, and the drift where the stroke ends away from
+            // the bottom).
             let e = model.deviation_um(*p, s, comps).map_err(model_err)?;
-            let nominal_level = axis_point(
+            let nominal_end = axis_point(
                 frame,
                 program_point(ax, [a_nom, b_nom, nominal_feeds[feed_index]]),
-            )[n];
-            level_mm = level_mm.max((p[n] + e[n] * 1e-3 - nominal_level).abs());
+            );
+            level_mm = level_mm.max((*p + e * 1e-3 - nominal_end).norm());
             feed_index += 1;
         }
         if drift_mm > tolerance_mm {
@@ -764,40 +745,20 @@ fn hole_words(
     (text, levels, [a, b])
 }
 
-/// How far the machine's moves `machine` (from `machine_start`) are from
-/// the original's `nominal` (from `nominal_start`), both in mm, rapids
-/// shorter than `shortest_mm` left out: the largest distance of corresponding ends on any
-/// axis, `None` where the two are not the same moves (count or kind).
-fn path_deviation_mm(
-    (nominal, nominal_start): (&[(bool, Vec3)], Vec3),
-    (machine, machine_start): (&[(bool, Vec3)], Vec3),
-    shortest_mm: f64,
-) -> Option<f64> {
-    // Moves of a correction or less are left out on both sides: the map
-    // makes (or unmakes) moves of that size where the original stands
-    // still (a compensated R a micrometre above the level the machine
-    // stands at).
-    let moving = |moves: &[(bool, Vec3)], start: Vec3| {
-        let mut at = start;
-        let mut out = Vec::with_capacity(moves.len());
-        for &(feed, p) in moves {
-            if feed || (p - at).max_abs() > shortest_mm {
-                out.push((feed, p));
-                at = p;
-            }
-        }
-        out
-    };
-    let (a, b) = (
-        moving(nominal, nominal_start),
-        moving(machine, machine_start),
-    );
-    if a.len() != b.len() || a.iter().zip(&b).any(|(x, y)| x.0 != y.0) {
+/// How far the machine's moves `machine` are from the original's
+/// `nominal` (mm): the largest distance of corresponding ends on any axis,
+/// `None` where the two are not the same moves (count or kind) — a move
+/// the written block makes that the original does not (LinuxCNC's rise to
+/// R where the written run restarted below it) would also leave the
+/// pairing of `simulate --reference` without its original.
+fn path_deviation_mm(nominal: &[(bool, Vec3)], machine: &[(bool, Vec3)]) -> Option<f64> {
+    if nominal.len() != machine.len() || nominal.iter().zip(machine).any(|(x, y)| x.0 != y.0) {
         return None;
     }
     Some(
-        a.iter()
-            .zip(&b)
+        nominal
+            .iter()
+            .zip(machine)
             .fold(0.0, |m, (x, y)| m.max((x.1 - y.1).max_abs())),
     )
 }
@@ -919,31 +880,28 @@ mod tests {
     }
 
     #[test]
-    fn the_written_moves_are_compared_with_the_original_without_tiny_rapids() {
+    fn the_written_moves_are_compared_with_the_original_move_by_move() {
         let v = |x: f64, z: f64| Vec3::new(x, 0.0, z);
         let nominal = [
             (false, v(10.0, 2.0)),
             (true, v(10.0, -5.0)),
             (false, v(10.0, 2.0)),
         ];
-        // The map adds a 2 µm rapid (R a little below where the machine
-        // stands) and moves every end by up to 3 µm.
+        // The map moves every end by up to 3 µm.
         let machine = [
-            (false, v(0.0, 2.003)),
             (false, v(10.002, 2.001)),
             (true, v(10.002, -4.997)),
             (false, v(10.002, 2.001)),
         ];
-        let off =
-            path_deviation_mm((&nominal, v(0.0, 2.0)), (&machine, v(0.0, 2.001)), 0.1).unwrap();
+        let off = path_deviation_mm(&nominal, &machine).unwrap();
         assert!((off - 0.003).abs() < 1e-12, "{off}");
-        // A feed instead of a rapid, or a move missing: not the same moves.
+        // A feed instead of a rapid, a move more or one missing: not the
+        // same moves.
         let mut wrong = machine;
-        wrong[3].0 = true;
-        assert!(path_deviation_mm((&nominal, v(0.0, 2.0)), (&wrong, v(0.0, 2.001)), 0.1).is_none());
-        assert!(
-            path_deviation_mm((&nominal, v(0.0, 2.0)), (&machine[..3], v(0.0, 2.001)), 0.1)
-                .is_none()
-        );
+        wrong[2].0 = true;
+        assert!(path_deviation_mm(&nominal, &wrong).is_none());
+        assert!(path_deviation_mm(&nominal, &machine[..2]).is_none());
+        let rise = [(false, v(0.0, 2.003)), machine[0], machine[1], machine[2]];
+        assert!(path_deviation_mm(&nominal, &rise).is_none());
     }
 }
