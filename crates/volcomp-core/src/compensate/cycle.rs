@@ -14,6 +14,14 @@ use volcomp_gcode::edit::{apply_edits, Edit};
 use volcomp_gcode::number::{format_number, NumberStyle};
 use volcomp_gcode::{FeedMode, MotionKind, PathMode};
 
+/// How a dwell's seconds are written (`P0.5`, `P1.25`).
+const SECONDS: NumberStyle = NumberStyle {
+    decimals: 3,
+    leading_zero: true,
+    trim_trailing_zeros: true,
+    trailing_dot: false,
+};
+
 impl State<'_> {
     /// Writes a canned-cycle block: each hole as a compensated cycle block
     /// where the map allows (compensate/cycle_keep.rs), as its moves
@@ -103,16 +111,7 @@ impl State<'_> {
         if let (82 | 86 | 89, Some((_, Some(p)))) = (code, line.ev.interp.canned_cycle()) {
             text.push_str(self.walk.sep);
             text.push('P');
-            format_number(
-                p,
-                NumberStyle {
-                    decimals: 3,
-                    leading_zero: true,
-                    trim_trailing_zeros: true,
-                    trailing_dot: false,
-                },
-                &mut text,
-            );
+            format_number(p, SECONDS, &mut text);
         }
         text
     }
@@ -141,11 +140,21 @@ impl State<'_> {
         text.push_str(words);
         text.push_str(&self.dwell_word(line, code));
         edits.push(Edit::insert(content.len(), text));
+        self.write_edited_line(line, edits)
+    }
+
+    /// The cycle line with `edits` applied, as one line of the output. A
+    /// line that was only the hole's words (`X20`) would start with the
+    /// separator of the words written after them: it is not written.
+    fn write_edited_line(
+        &mut self,
+        line: &Line,
+        mut edits: Vec<Edit>,
+    ) -> Result<(), CompensationError> {
+        let content = line.content();
         let start = self.buf.len();
         apply_edits(line.ev.bytes, &mut edits, &mut self.buf)
             .map_err(|e| super::edit_error(self.walk.file, line.number(), e))?;
-        // A line that was only the hole's words (`X20`) starts with the
-        // separator of the words appended: not written.
         let blanks = self.buf[start..]
             .iter()
             .take_while(|b| **b == b' ' || **b == b'\t')
@@ -192,20 +201,7 @@ impl State<'_> {
             edits.push(Edit::insert(content.len(), format!("{}G80", self.walk.sep)));
         }
         self.cycles.end();
-        let start = self.buf.len();
-        apply_edits(line.ev.bytes, &mut edits, &mut self.buf)
-            .map_err(|e| super::edit_error(self.walk.file, line.number(), e))?;
-        let blanks = self.buf[start..]
-            .iter()
-            .take_while(|b| **b == b' ' || **b == b'\t')
-            .count();
-        if blanks > 0 && !content.starts_with(b" ") && !content.starts_with(b"\t") {
-            self.buf.drain(start..start + blanks);
-        }
-        if !self.buf.ends_with(b"\n") {
-            self.buf.extend_from_slice(line.ending);
-        }
-        self.summary.lines_out += 1;
+        self.write_edited_line(line, edits)?;
         self.mode = Some(OutMode::Other);
         Ok(())
     }
@@ -299,16 +295,7 @@ impl State<'_> {
                         let mut text = String::from("G4");
                         text.push_str(sep);
                         text.push('P');
-                        format_number(
-                            p,
-                            NumberStyle {
-                                decimals: 3,
-                                leading_zero: true,
-                                trim_trailing_zeros: true,
-                                trailing_dot: false,
-                            },
-                            &mut text,
-                        );
+                        format_number(p, SECONDS, &mut text);
                         self.write_word_line(&text, ending);
                     }
                     if code == 86 {
@@ -380,16 +367,7 @@ impl State<'_> {
             self.write_word_line("M5", ending);
             self.write_word_line(reverse, ending);
             let mut text = format!("G4{sep}P");
-            format_number(
-                dwell.unwrap_or(0.0),
-                NumberStyle {
-                    decimals: 3,
-                    leading_zero: true,
-                    trim_trailing_zeros: true,
-                    trailing_dot: false,
-                },
-                &mut text,
-            );
+            format_number(dwell.unwrap_or(0.0), SECONDS, &mut text);
             self.write_word_line(&text, ending);
         } else {
             self.write_word_line("M5", ending);

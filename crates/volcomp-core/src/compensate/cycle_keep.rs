@@ -38,7 +38,7 @@ use crate::compensate::{PointRecord, Segmentation};
 use crate::error::CompensationError;
 use crate::model::{Components, Direction, Directions};
 use crate::simulate::next_state;
-use volcomp_gcode::interp::CycleBlock;
+use volcomp_gcode::interp::{snap_program_value as snap, CycleBlock};
 use volcomp_gcode::number::format_number;
 use volcomp_gcode::number::NumberStyle;
 use volcomp_gcode::{MotionKind, Vec3};
@@ -289,22 +289,6 @@ fn axis_point(frame: &Frame, p: Vec3) -> Vec3 {
     p * frame.mm_per_unit + frame.offset_mm
 }
 
-/// The program-unit value LinuxCNC holds for a coordinate kept here in mm
-/// in the axis frame: the round trip `(v·k + offset − offset)/k` can land
-/// a bit off the number written, and the cycle compares it exactly with R
-/// (`current_cc > r`), so it is snapped to ten decimals when that close.
-fn snap(v: f64) -> f64 {
-    if v.abs() >= 1e5 {
-        return v;
-    }
-    let s = (v * 1e10).round() / 1e10;
-    if (s - v).abs() < 1e-9 {
-        s
-    } else {
-        v
-    }
-}
-
 /// `v` as written with the frame's decimals, and the value the
 /// controller reads back from that text.
 fn written(frame: &Frame, style: volcomp_gcode::number::NumberStyle, v: f64) -> (String, f64) {
@@ -422,6 +406,7 @@ impl State<'_> {
         let q_b = sol.q_mm;
         let s_b = sol.s;
         // The machine's numbers (program units) before the block.
+        // As LinuxCNC holds them (it compares them exactly with R).
         let cur = frame.program(self.q_out);
         let cur = Vec3::new(snap(cur.x), snap(cur.y), snap(cur.z));
         let initial = match self.cycles.initial_mm {

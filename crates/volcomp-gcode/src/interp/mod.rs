@@ -42,7 +42,7 @@ mod tape;
 mod warnings;
 mod words;
 
-pub use cycle::CycleBlock;
+pub use cycle::{snap as snap_program_value, CycleBlock};
 pub use extra::{ExtraAxes, EXTRA_LETTERS};
 pub use lexical::check_line;
 pub use modal::PathMode;

@@ -33,7 +33,7 @@ const CENTRE_LETTER: [u8; 3] = [b'I', b'J', b'K'];
 /// one bit off the number the program wrote (0.08 in → 0.07999999999999999),
 /// and the cycle compares it exactly with R (LinuxCNC: `old_cc < r`), so the
 /// value is snapped to ten decimals when it is that close to them.
-fn snap(v: f64) -> f64 {
+pub fn snap(v: f64) -> f64 {
     if v.abs() >= 1e5 {
         return v;
     }
