@@ -203,6 +203,62 @@ type Series<'py> = (
     Bound<'py, PyArray1<f64>>,
 );
 
+/// One triple `(positions_mm, linear_um, angular_urad)` of a 21-component
+/// model's axis, checked as an axis table is; `what` names it in errors.
+fn component_table(
+    o: &Bound<'_, PyAny>,
+    what: String,
+) -> PyResult<volcomp_core::model::kinematic::ComponentTable> {
+    let t = o.cast::<PyTuple>().map_err(|_| {
+        bad_input(format!(
+            "{what} must be a triple (positions_mm, linear_um, angular_urad)"
+        ))
+    })?;
+    if t.len() != 3 {
+        return Err(bad_input(format!(
+            "{what} must be a triple (positions_mm, linear_um, angular_urad)"
+        )));
+    }
+    let p = f64_vec(&t.get_item(0)?, &format!("{what} positions_mm"))?;
+    let l = f64_rows(&t.get_item(1)?, &format!("{what} linear_um"), 3)?;
+    let a = f64_rows(&t.get_item(2)?, &format!("{what} angular_urad"), 3)?;
+    // The checks of an axis table (lengths, finite, increasing).
+    let lin = table(p.clone(), l.as_slice()?, &what)?;
+    let ang = table(p, a.as_slice()?, &what)?;
+    volcomp_core::model::kinematic::ComponentTable::new(
+        lin.positions_mm,
+        lin.errors_um,
+        ang.errors_um,
+    )
+    .ok_or_else(|| bad_input(format!("{what}: the table is not valid")))
+}
+
+/// An axis of a 21-component model: one triple for both directions, or a
+/// dict of `"forward"` and `"reverse"` triples.
+fn axis_components(
+    obj: &Bound<'_, PyAny>,
+    name: char,
+) -> PyResult<volcomp_core::model::kinematic::AxisComponents> {
+    use volcomp_core::model::kinematic::AxisComponents;
+    if let Ok(d) = obj.cast::<PyDict>() {
+        let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
+            d.get_item(key)?.ok_or_else(|| {
+                bad_input(format!(
+                    "axis {name}: the dict needs both \"forward\" and \"reverse\""
+                ))
+            })
+        };
+        return Ok(AxisComponents {
+            forward: component_table(&get("forward")?, format!("axis {name} forward"))?,
+            reverse: component_table(&get("reverse")?, format!("axis {name} reverse"))?,
+        });
+    }
+    Ok(AxisComponents::both(component_table(
+        obj,
+        format!("axis {name}"),
+    )?))
+}
+
 #[pymethods]
 impl Model {
     /// Loads any model file: an axis-table map (`.csv`), a 21-component
@@ -304,7 +360,7 @@ impl Model {
         clamp: bool,
     ) -> PyResult<Model> {
         use volcomp_core::model::kinematic::{
-            AngleConvention, AxisComponents, KinematicModel, Kinematics, MeasuringLine,
+            AngleConvention, KinematicModel, Kinematics, MeasuringLine,
         };
         let topology: volcomp_core::model::topology::Topology = chain.parse().py_err()?;
         let angles = match angles {
@@ -340,49 +396,14 @@ impl Model {
         k.squareness.yz_urad = sq_yz;
         k.squareness.zx_urad = sq_zx;
         k.angles = angles;
-        let axis = |obj: &Bound<'_, PyAny>, name: char| -> PyResult<AxisComponents> {
-            let triple = |o: &Bound<'_, PyAny>,
-                          what: String|
-             -> PyResult<volcomp_core::model::kinematic::ComponentTable> {
-                let t = o.cast::<PyTuple>().map_err(|_| {
-                    bad_input(format!(
-                        "{what} must be a triple (positions_mm, linear_um, angular_urad)"
-                    ))
-                })?;
-                if t.len() != 3 {
-                    return Err(bad_input(format!(
-                        "{what} must be a triple (positions_mm, linear_um, angular_urad)"
-                    )));
-                }
-                let p = f64_vec(&t.get_item(0)?, &format!("{what} positions_mm"))?;
-                let l = f64_rows(&t.get_item(1)?, &format!("{what} linear_um"), 3)?;
-                let a = f64_rows(&t.get_item(2)?, &format!("{what} angular_urad"), 3)?;
-                // The checks of an axis table (lengths, finite, increasing).
-                let lin = table(p.clone(), l.as_slice()?, &what)?;
-                let ang = table(p, a.as_slice()?, &what)?;
-                volcomp_core::model::kinematic::ComponentTable::new(
-                    lin.positions_mm,
-                    lin.errors_um,
-                    ang.errors_um,
-                )
-                .ok_or_else(|| bad_input(format!("{what}: the table is not valid")))
-            };
-            if let Ok(d) = obj.cast::<PyDict>() {
-                let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
-                    d.get_item(key)?.ok_or_else(|| {
-                        bad_input(format!(
-                            "axis {name}: the dict needs both \"forward\" and \"reverse\""
-                        ))
-                    })
-                };
-                return Ok(AxisComponents {
-                    forward: triple(&get("forward")?, format!("axis {name} forward"))?,
-                    reverse: triple(&get("reverse")?, format!("axis {name} reverse"))?,
-                });
-            }
-            Ok(AxisComponents::both(triple(obj, format!("axis {name}"))?))
-        };
-        let mut km = KinematicModel::new([axis(x, 'X')?, axis(y, 'Y')?, axis(z, 'Z')?], k);
+        let mut km = KinematicModel::new(
+            [
+                axis_components(x, 'X')?,
+                axis_components(y, 'Y')?,
+                axis_components(z, 'Z')?,
+            ],
+            k,
+        );
         km.clamp = clamp;
         Ok(Model {
             loaded: LoadedModel::Kinematic(Box::new(km)),

@@ -441,41 +441,7 @@ pub fn simulate(
     });
     let machining_time = time_dict(py, &time.map_err(|e| explain(*e, &machine))?)?;
     let segments = if segments {
-        let d = PyDict::new(py);
-        let v3 = |f: &dyn Fn(&SegmentError) -> Vec3| -> Vec<f64> {
-            rows.iter()
-                .flat_map(|s| {
-                    let v = f(s);
-                    [v.x, v.y, v.z]
-                })
-                .collect()
-        };
-        let nan = Vec3::new(f64::NAN, f64::NAN, f64::NAN);
-        d.set_item(
-            "line",
-            PyArray1::from_vec(py, rows.iter().map(|s| s.line).collect()),
-        )?;
-        d.set_item(
-            "nominal_line",
-            PyArray1::from_vec(py, rows.iter().map(|s| s.nominal_line).collect()),
-        )?;
-        d.set_item("command_mm", rows3(py, v3(&|s| s.command_mm))?)?;
-        d.set_item("actual_mm", rows3(py, v3(&|s| s.actual_mm))?)?;
-        d.set_item("target_mm", rows3(py, v3(&|s| s.target_mm.unwrap_or(nan)))?)?;
-        d.set_item(
-            "point_um",
-            PyArray1::from_vec(
-                py,
-                rows.iter()
-                    .map(|s| s.point_um.unwrap_or(f64::NAN))
-                    .collect(),
-            ),
-        )?;
-        d.set_item(
-            "contour_max_um",
-            PyArray1::from_vec(py, rows.iter().map(|s| s.contour_max_um).collect()),
-        )?;
-        Some(d.unbind())
+        Some(segment_arrays(py, &rows)?.unbind())
     } else {
         None
     };
@@ -495,6 +461,45 @@ pub fn simulate(
         segments,
         machining_time,
     })
+}
+
+/// The per-segment columns of a simulation (`segments=True`).
+fn segment_arrays<'py>(py: Python<'py>, rows: &[SegmentError]) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let v3 = |f: &dyn Fn(&SegmentError) -> Vec3| -> Vec<f64> {
+        rows.iter()
+            .flat_map(|s| {
+                let v = f(s);
+                [v.x, v.y, v.z]
+            })
+            .collect()
+    };
+    let nan = Vec3::new(f64::NAN, f64::NAN, f64::NAN);
+    d.set_item(
+        "line",
+        PyArray1::from_vec(py, rows.iter().map(|s| s.line).collect()),
+    )?;
+    d.set_item(
+        "nominal_line",
+        PyArray1::from_vec(py, rows.iter().map(|s| s.nominal_line).collect()),
+    )?;
+    d.set_item("command_mm", rows3(py, v3(&|s| s.command_mm))?)?;
+    d.set_item("actual_mm", rows3(py, v3(&|s| s.actual_mm))?)?;
+    d.set_item("target_mm", rows3(py, v3(&|s| s.target_mm.unwrap_or(nan)))?)?;
+    d.set_item(
+        "point_um",
+        PyArray1::from_vec(
+            py,
+            rows.iter()
+                .map(|s| s.point_um.unwrap_or(f64::NAN))
+                .collect(),
+        ),
+    )?;
+    d.set_item(
+        "contour_max_um",
+        PyArray1::from_vec(py, rows.iter().map(|s| s.contour_max_um).collect()),
+    )?;
+    Ok(d)
 }
 
 /// What the interpreter understood: one row per motion, in machine
