@@ -8,10 +8,11 @@ use crate::request::{from_kwargs, input, keywords, library_error, Keywords};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use volcomp_core::io::provenance::now_utc;
-use volcomp_core::request::{Input, MirrorRequest, Value};
+use volcomp_core::request::{Input, MirrorPlan, MirrorRequest, MirrorRun, Value};
 use volcomp_core::surface::mirror::report::{
     compensated_surface_text, summary_json, FinishingJson, SurfaceFiles,
 };
+use volcomp_core::surface::mirror::BallTool;
 use volcomp_core::surface::mirror::CompensatedSurface;
 
 /// Mirror compensation (docs/mirror.md): the deviation field of the
@@ -69,38 +70,13 @@ pub fn mirror<'py>(
         bspline_net: text.bspline_net,
         bspline_error_um: text.bspline_error_um,
     };
-    let (mut program, mut finishing_json) = (None, None);
-    if let (Some(f), Some(tool)) = (&request.finishing, &plan.tool) {
-        let machine = request.machine.machine().map_err(library_error)?;
-        let file = f.name();
-        let bytes = f.bytes().map_err(library_error)?;
-        let frame = request
-            .finishing_frame(&machine, bytes.as_ref(), &file)
-            .map_err(library_error)?;
-        let date = date_utc.unwrap_or_else(now_utc);
-        let header = request
-            .finishing_header(&plan, tool, &machine, false, date, &Keywords)
-            .map_err(library_error)?;
-        let mut out = Vec::new();
-        let summary = py
-            .detach(|| {
-                request
-                    .compensate_finishing(
-                        &plan,
-                        &run,
-                        &run.result.field,
-                        &machine,
-                        frame,
-                        (bytes.as_ref(), &file),
-                        &header,
-                        &mut out,
-                    )
-                    .map_err(Box::new)
-            })
-            .map_err(|e| library_error(*e))?;
-        finishing_json = Some(FinishingJson::new("<program>", &summary));
-        program = Some(String::from_utf8_lossy(&out).into_owned());
-    }
+    let (program, finishing_json) = match (&request.finishing, &plan.tool) {
+        (Some(f), Some(tool)) => {
+            let (program, json) = finishing(py, &request, &plan, &run, (f, tool), date_utc)?;
+            (Some(program), Some(json))
+        }
+        _ => (None, None),
+    };
     let summary = summary_json(
         &run.inputs,
         &run.result,
@@ -120,4 +96,46 @@ pub fn mirror<'py>(
     d.set_item("surface_bspline_toml", text.bspline_toml)?;
     d.set_item("predicted_worse", run.result.compensation_predicted_worse())?;
     Ok(d)
+}
+
+/// The compensated finishing program's text and its summary.
+fn finishing(
+    py: Python<'_>,
+    request: &MirrorRequest,
+    plan: &MirrorPlan,
+    run: &MirrorRun,
+    (f, tool): (&Input, &BallTool),
+    date_utc: Option<String>,
+) -> PyResult<(String, FinishingJson)> {
+    let machine = request.machine.machine().map_err(library_error)?;
+    let file = f.name();
+    let bytes = f.bytes().map_err(library_error)?;
+    let frame = request
+        .finishing_frame(&machine, bytes.as_ref(), &file)
+        .map_err(library_error)?;
+    let date = date_utc.unwrap_or_else(now_utc);
+    let header = request
+        .finishing_header(plan, tool, &machine, false, date, &Keywords)
+        .map_err(library_error)?;
+    let mut out = Vec::new();
+    let summary = py
+        .detach(|| {
+            request
+                .compensate_finishing(
+                    plan,
+                    run,
+                    &run.result.field,
+                    &machine,
+                    frame,
+                    (bytes.as_ref(), &file),
+                    &header,
+                    &mut out,
+                )
+                .map_err(Box::new)
+        })
+        .map_err(|e| library_error(*e))?;
+    Ok((
+        String::from_utf8_lossy(&out).into_owned(),
+        FinishingJson::new("<program>", &summary),
+    ))
 }
