@@ -128,20 +128,31 @@ fn table(positions_mm: Vec<f64>, errors_um: &[f64], what: &str) -> PyResult<Tabl
     })
 }
 
+/// `o` as a tuple of `n` items: `not_tuple` when it is no tuple,
+/// `wrong_length` when it has another length.
+fn items<'py>(
+    o: &Bound<'py, PyAny>,
+    n: usize,
+    not_tuple: &str,
+    wrong_length: &str,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let t = o.cast::<PyTuple>().map_err(|_| bad_input(not_tuple))?;
+    if t.len() != n {
+        return Err(bad_input(wrong_length));
+    }
+    Ok(t.clone())
+}
+
 /// One axis from `(positions_mm, errors_um)` (both directions) or a dict
 /// `{"forward": (p, e), "reverse": (p, e)}`.
 fn axis_tables(obj: &Bound<'_, PyAny>, axis: char) -> PyResult<AxisTables> {
     let pair = |o: &Bound<'_, PyAny>, what: String| -> PyResult<Table> {
-        let t = o.cast::<PyTuple>().map_err(|_| {
-            bad_input(format!(
-                "{what} must be a pair (positions_mm, errors_um); positions of shape (n,), errors of shape (n, 3)"
-            ))
-        })?;
-        if t.len() != 2 {
-            return Err(bad_input(format!(
-                "{what} must be a pair (positions_mm, errors_um)"
-            )));
-        }
+        let t = items(
+            o,
+            2,
+            &format!("{what} must be a pair (positions_mm, errors_um); positions of shape (n,), errors of shape (n, 3)"),
+            &format!("{what} must be a pair (positions_mm, errors_um)"),
+        )?;
         let p = f64_vec(&t.get_item(0)?, &format!("{what} positions_mm"))?;
         let e = f64_rows(&t.get_item(1)?, &format!("{what} errors_um"), 3)?;
         table(p, e.as_slice()?, &what)
@@ -209,16 +220,8 @@ fn component_table(
     o: &Bound<'_, PyAny>,
     what: String,
 ) -> PyResult<volcomp_core::model::kinematic::ComponentTable> {
-    let t = o.cast::<PyTuple>().map_err(|_| {
-        bad_input(format!(
-            "{what} must be a triple (positions_mm, linear_um, angular_urad)"
-        ))
-    })?;
-    if t.len() != 3 {
-        return Err(bad_input(format!(
-            "{what} must be a triple (positions_mm, linear_um, angular_urad)"
-        )));
-    }
+    let wanted = format!("{what} must be a triple (positions_mm, linear_um, angular_urad)");
+    let t = items(o, 3, &wanted, &wanted)?;
     let p = f64_vec(&t.get_item(0)?, &format!("{what} positions_mm"))?;
     let l = f64_rows(&t.get_item(1)?, &format!("{what} linear_um"), 3)?;
     let a = f64_rows(&t.get_item(2)?, &format!("{what} angular_urad"), 3)?;
