@@ -158,14 +158,44 @@ fn root_names(lib: &str) -> BTreeMap<String, String> {
     names
 }
 
+/// The files of test modules declared in a file of their own
+/// (`#[cfg(test)] mod tests;`), with every file under them.
+fn test_files(all: &[PathBuf]) -> Vec<PathBuf> {
+    let mut tests = Vec::new();
+    for path in all {
+        let text = std::fs::read_to_string(path).expect("a source file");
+        let mut lines = text.lines().peekable();
+        while let Some(l) = lines.next() {
+            let Some(name) = lines
+                .peek()
+                .filter(|_| l == "#[cfg(test)]")
+                .and_then(|n| n.strip_prefix("mod "))
+                .and_then(|n| n.strip_suffix(';'))
+            else {
+                continue;
+            };
+            // `a/mod.rs` declares `a/name.rs`; `a/b.rs` declares `a/b/name.rs`.
+            let dir = match path.file_name().and_then(|f| f.to_str()) {
+                Some("mod.rs" | "lib.rs") => path.parent().expect("a folder").to_path_buf(),
+                _ => path.with_extension(""),
+            };
+            for candidate in [dir.join(format!("{name}.rs")), dir.join(name)] {
+                tests.extend(all.iter().filter(|p| p.starts_with(&candidate)).cloned());
+            }
+        }
+    }
+    tests
+}
+
 /// Every edge between top-level folders, with the files that make it.
 fn edges(src: &Path) -> BTreeMap<(String, String), BTreeSet<String>> {
     let lib = std::fs::read_to_string(src.join("lib.rs")).expect("lib.rs");
     let roots = root_names(&lib);
     let mut all = Vec::new();
     files(src, &mut all);
+    let tests = test_files(&all);
     let mut edges: BTreeMap<(String, String), BTreeSet<String>> = BTreeMap::new();
-    for path in all {
+    for path in all.iter().filter(|p| !tests.contains(*p)) {
         let rel = path.strip_prefix(src).expect("under src");
         let first = rel.components().next().expect("a component");
         let from = first.as_os_str().to_string_lossy();
@@ -173,7 +203,7 @@ fn edges(src: &Path) -> BTreeMap<(String, String), BTreeSet<String>> {
         if from == "lib" || from == "prelude" {
             continue;
         }
-        let text = std::fs::read_to_string(&path).expect("a source file");
+        let text = std::fs::read_to_string(path).expect("a source file");
         for segment in crate_paths(&code(&text)) {
             let to = roots.get(&segment).cloned().unwrap_or(segment);
             if to != from && ORDER.contains(&to.as_str()) {
