@@ -201,7 +201,11 @@ pub fn figures(trace: &Trace) -> Option<Figures> {
             }
         }
     };
-    let about_common: Vec<Vec<f64>> = trace.runs.iter().map(|run| about(run, r, &common)).collect();
+    let about_common: Vec<Vec<f64>> = trace
+        .runs
+        .iter()
+        .map(|run| about(run, r, &common))
+        .collect();
     let radial: Vec<f64> = about_common.iter().flatten().copied().collect();
     let g_um = spread(&radial);
     let h_um = match (trace.run(Sense::Ccw), trace.run(Sense::Cw)) {

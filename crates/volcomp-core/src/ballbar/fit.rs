@@ -208,13 +208,21 @@ impl Model<'_> {
                             0.0
                         }
                     } else {
-                        let w = if e > 0 { (1.0 + x.cos) / 2.0 } else { (1.0 - x.cos) / 2.0 };
+                        let w = if e > 0 {
+                            (1.0 + x.cos) / 2.0
+                        } else {
+                            (1.0 - x.cos) / 2.0
+                        };
                         -x.dir / 2.0 * w * x.along
                     }
                 }
                 Param::Lateral(a) => {
                     let x = &st[a];
-                    let left = if inside(a) { 1.0 - x.travel_um / band(a) } else { 0.0 };
+                    let left = if inside(a) {
+                        1.0 - x.travel_um / band(a)
+                    } else {
+                        0.0
+                    };
                     x.dir * (left - 0.5) * x.across
                 }
                 Param::Spike(a, e) => {
@@ -261,9 +269,21 @@ fn describe(p: Param, trace: &Trace) -> (String, String, &'static str) {
     let end = |e: i8| if e > 0 { '+' } else { '-' };
     let pl = trace.plane.name();
     match p {
-        Param::CentreU => (format!("centre_{u}"), format!("centre offset along {u}"), "µm"),
-        Param::CentreV => (format!("centre_{v}"), format!("centre offset along {v}"), "µm"),
-        Param::Radius => ("radius".into(), "radius (ballbar length and mean scale)".into(), "µm"),
+        Param::CentreU => (
+            format!("centre_{u}"),
+            format!("centre offset along {u}"),
+            "µm",
+        ),
+        Param::CentreV => (
+            format!("centre_{v}"),
+            format!("centre offset along {v}"),
+            "µm",
+        ),
+        Param::Radius => (
+            "radius".into(),
+            "radius (ballbar length and mean scale)".into(),
+            "µm",
+        ),
         Param::Scale => (
             format!("scale_mismatch_{pl}"),
             format!("scale mismatch {u} − {v}"),
@@ -296,7 +316,11 @@ fn describe(p: Param, trace: &Trace) -> (String, String, &'static str) {
         ),
         Param::Cyclic(a, s) => (
             format!("cyclic_{}_{}", name(a), if s { "sin" } else { "cos" }),
-            format!("cyclic error of {} ({} term)", name(a), if s { "sine" } else { "cosine" }),
+            format!(
+                "cyclic error of {} ({} term)",
+                name(a),
+                if s { "sine" } else { "cosine" }
+            ),
             "µm",
         ),
     }
@@ -358,7 +382,9 @@ pub fn fit(trace: &Trace, options: &FitOptions) -> Result<TraceFit, BallbarError
         )));
     }
     let figures = figures(trace).ok_or_else(|| {
-        BallbarError::new("the trace's least-squares circle is undetermined: its samples lie on a line")
+        BallbarError::new(
+            "the trace's least-squares circle is undetermined: its samples lie on a line",
+        )
     })?;
     let mut p = vec![0.0; np];
     let mut j = Matrix::zeros(n, np);
@@ -381,7 +407,9 @@ pub fn fit(trace: &Trace, options: &FitOptions) -> Result<TraceFit, BallbarError
                 "the causes cannot be told apart on this trace (too few samples, or a partial arc)",
             )
         })?;
-        let change = (0..np).map(|k| (x[(k, 0)] - p[k]).abs()).fold(0.0, f64::max);
+        let change = (0..np)
+            .map(|k| (x[(k, 0)] - p[k]).abs())
+            .fold(0.0, f64::max);
         p = (0..np).map(|k| x[(k, 0)]).collect();
         if change < 1e-6 {
             break;
@@ -422,7 +450,11 @@ pub fn fit(trace: &Trace, options: &FitOptions) -> Result<TraceFit, BallbarError
                 value: p[k],
                 std: (sigma2 * inv[(k, k)]).sqrt(),
                 rms_um: (contrib[k] / n as f64).sqrt(),
-                share_pct: if total > 0.0 { 100.0 * contrib[k] / total } else { 0.0 },
+                share_pct: if total > 0.0 {
+                    100.0 * contrib[k] / total
+                } else {
+                    0.0
+                },
             }
         })
         .collect();

@@ -70,9 +70,15 @@ impl TestCircle {
         if !self.start_deg.is_finite() {
             return bad("start_deg", "must be a finite angle", self.start_deg);
         }
-        if !(self.overshoot_deg.is_finite() && self.overshoot_deg > 0.0 && self.overshoot_deg <= 360.0)
+        if !(self.overshoot_deg.is_finite()
+            && self.overshoot_deg > 0.0
+            && self.overshoot_deg <= 360.0)
         {
-            return bad("overshoot_deg", "must satisfy 0 < overshoot ≤ 360°", self.overshoot_deg);
+            return bad(
+                "overshoot_deg",
+                "must satisfy 0 < overshoot ≤ 360°",
+                self.overshoot_deg,
+            );
         }
         let n = 360.0 / self.step_deg;
         if !(self.step_deg.is_finite() && self.step_deg > 0.0 && self.step_deg <= 10.0)
@@ -85,9 +91,14 @@ impl TestCircle {
             );
         }
         if !self.centre_mm.to_array().iter().all(|c| c.is_finite()) {
-            return Err(BallbarError::new("{centre_mm} must be three finite numbers"));
+            return Err(BallbarError::new(
+                "{centre_mm} must be three finite numbers",
+            ));
         }
-        if self.senses.is_empty() || (self.senses.len() == 2 && self.senses[0] == self.senses[1]) || self.senses.len() > 2 {
+        if self.senses.is_empty()
+            || (self.senses.len() == 2 && self.senses[0] == self.senses[1])
+            || self.senses.len() > 2
+        {
             return Err(BallbarError::new(
                 "{direction} must be ccw, cw or both (one run per sense)",
             ));
@@ -127,7 +138,7 @@ impl TestCircle {
             out.last_mut().expect("feed-in").1 = Some((r, 0));
             for i in 1..=n * k {
                 let a = self.start_deg + s * delta * i as f64;
-                let sample = (i % k == 0 && i < n * k).then_some((r, i / k));
+                let sample = (i.is_multiple_of(k) && i < n * k).then_some((r, i / k));
                 out.push((a, sample));
             }
             let end = self.start_deg + s * 360.0;
@@ -163,7 +174,10 @@ pub fn predict_commanded(
             deviation_um: vec![0.0; n],
         })
         .collect();
-    let point = |a: f64| test.plane.point(test.centre_mm, test.radius_mm, a.to_radians());
+    let point = |a: f64| {
+        test.plane
+            .point(test.centre_mm, test.radius_mm, a.to_radians())
+    };
     let mut sim = Simulator::new(model, command(point(path[0].0))?);
     for &(a, sample) in &path[1..] {
         let actual = sim.move_to(command(point(a))?, f64::INFINITY, |_, _| {})?;

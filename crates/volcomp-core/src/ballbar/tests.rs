@@ -103,7 +103,7 @@ fn independent(m: &Machine, t: &TestCircle) -> Vec<Vec<f64>> {
                 }
             }
             q_prev = Some(q);
-            if i >= ov && i < ov + n * per && (i - ov) % per == 0 {
+            if i >= ov && i < ov + n * per && (i - ov).is_multiple_of(per) {
                 let mut e = [0.0; 3];
                 for k in 0..3 {
                     let f = m.table(k, q[k], false);
