@@ -18,8 +18,8 @@
 pub mod figures;
 pub mod fit;
 pub mod predict;
-// pub mod program;
-// pub mod quick_map;
+pub mod program;
+pub mod quick_map;
 // pub mod trace_file;
 
 pub use figures::{figures, Figures};

@@ -194,3 +194,139 @@ pub fn predict_commanded(
         runs,
     })
 }
+
+/// Spacing of the samples read along a program's moves (mm).
+const PROGRAM_SAMPLE_MM: f64 = 0.01;
+
+/// Chord tolerance of a program's arcs (mm): the controller's own chords
+/// are far shorter than a ballbar sees.
+const PROGRAM_CHORD_MM: f64 = CHORD_SAGITTA_MM;
+
+/// The trace of `test` when the machine runs `program` instead of the
+/// test's own (the test's program compensated for a model, say): the
+/// program's moves are followed through the same dead-band simulation,
+/// the ballbar read every 0.01 mm of the path, and each run's data arc
+/// cut out by the angle travelled (the program must run the test's path:
+/// its runs, feed-in, whole circle and feed-out, in order) and read at the
+/// test's sample angles (linear interpolation along the path).
+pub fn predict_program(
+    model: &dyn ErrorModel,
+    test: &TestCircle,
+    program: impl std::io::Read,
+    file: &str,
+    setup: &crate::compensate::MachineSetup,
+) -> Result<Trace, Error> {
+    use volcomp_gcode::MotionKind;
+    test.check()?;
+    let mut walker = setup.walker(std::io::BufReader::new(program), file);
+    let mut sim = Simulator::new(model, walker.interpreter().position());
+    let (u, v) = test.plane.axes();
+    let c = test.centre_mm;
+    // (unwrapped angle travelled, degrees; deviation, µm)
+    let mut samples: Vec<(f64, f64)> = Vec::new();
+    let mut last_angle: Option<f64> = None;
+    let mut unwrapped = 0.0;
+    let model_err = |line: u64, source| crate::error::CompensationError::Model {
+        target_mm: None,
+        file: file.to_string(),
+        line,
+        source,
+    };
+    while let Some(ev) = walker.next_line()? {
+        for m in ev.motions {
+            let chords = match m.kind {
+                MotionKind::Rapid => {
+                    sim.move_untracked(m.end);
+                    continue;
+                }
+                MotionKind::Arc(arc) => arc.chord_count(PROGRAM_CHORD_MM),
+                MotionKind::Feed => 1,
+            };
+            for k in 1..=chords {
+                let b = match m.kind {
+                    MotionKind::Arc(arc) if k < chords => arc.point_at(k as f64 / chords as f64),
+                    _ => m.end,
+                };
+                sim.move_to(b, PROGRAM_SAMPLE_MM, |actual, _| {
+                    let a = (actual[v] - c[v]).atan2(actual[u] - c[u]).to_degrees();
+                    unwrapped += match last_angle {
+                        None => a,
+                        Some(l) => (a - l + 180.0).rem_euclid(360.0) - 180.0,
+                    };
+                    last_angle = Some(a);
+                    samples.push((unwrapped, ((actual - c).norm() - test.radius_mm) * 1e3));
+                })
+                .map_err(|e| Error::from(model_err(m.line, e)))?;
+            }
+        }
+    }
+    let refused = |why: &str| {
+        Error::from(BallbarError::new(format!(
+            "{file}: the program does not run the test's path ({why}): write it with the test's own values"
+        )))
+    };
+    let Some(&(first, _)) = samples.first() else {
+        return Err(refused("no feed move"));
+    };
+    // The first sample lies at the first run's feed-in start.
+    let s0 = test.senses[0].sign();
+    let want = test.start_deg - s0 * test.overshoot_deg;
+    let shift = want - first + ((first - want + 180.0).rem_euclid(360.0) - 180.0);
+    let n = test.samples();
+    let span = 2.0 * test.overshoot_deg + 360.0;
+    let mut runs = Vec::new();
+    let mut from = 0;
+    let mut psi0 = want;
+    for sense in &test.senses {
+        let s = sense.sign();
+        let progress = |i: usize| s * (samples[i].0 + shift - psi0);
+        // The run's end: near its whole span (the actual angle differs
+        // from the commanded by the error, ~e/R), then while it still goes on.
+        let near = span - (test.overshoot_deg / 2.0).min(1.0);
+        let mut end = (from..samples.len())
+            .find(|&i| progress(i) >= near)
+            .ok_or_else(|| refused("a run ends before its feed-out arc does"))?;
+        while end + 1 < samples.len() && progress(end + 1) > progress(end) {
+            end += 1;
+        }
+        let mut run = Run {
+            sense: *sense,
+            angle_deg: Vec::with_capacity(n),
+            deviation_um: Vec::with_capacity(n),
+        };
+        for j in 0..n {
+            let t = test.overshoot_deg + test.step_deg * j as f64;
+            // The first sample at or past `t` (progress grows along a run).
+            let (mut lo, mut hi) = (from, end);
+            while lo < hi {
+                let mid = (lo + hi) / 2;
+                if progress(mid) < t {
+                    lo = mid + 1;
+                } else {
+                    hi = mid;
+                }
+            }
+            let k = lo.clamp(from + 1, end);
+            let (p0, p1) = (progress(k - 1), progress(k));
+            let w = if p1 > p0 {
+                ((t - p0) / (p1 - p0)).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            run.angle_deg
+                .push((test.start_deg + s * (t - test.overshoot_deg)).rem_euclid(360.0));
+            run.deviation_um
+                .push(samples[k - 1].1 + w * (samples[k].1 - samples[k - 1].1));
+        }
+        runs.push(run);
+        psi0 += s * span;
+        from = end;
+    }
+    Ok(Trace {
+        plane: test.plane,
+        radius_mm: test.radius_mm,
+        centre_mm: c.to_array(),
+        feed_mm_per_min: test.feed_mm_per_min,
+        runs,
+    })
+}

@@ -283,3 +283,105 @@ fn fit_recovers_each_cause_within_three_standard_uncertainties() {
     }
     eprintln!("largest |z| {worst:.2}");
 }
+
+/// Writes the program of a test, for a look by hand.
+#[test]
+fn the_program_of_a_test() {
+    let t = TestCircle {
+        plane: Plane::ZX,
+        ..test_circle(Plane::ZX)
+    };
+    let p = program::program(&t).unwrap();
+    std::fs::write(std::env::temp_dir().join("ballbar-zx.ngc"), &p).unwrap();
+    eprintln!("{p}");
+}
+
+/// The test's own program, run through the program path, gives the same
+/// trace as the direct prediction.
+#[test]
+fn the_test_program_predicts_the_same_trace() {
+    let m = machine_a();
+    let map = m.map(0.0, 300.0, 0.05);
+    let t = TestCircle {
+        step_deg: 1.0,
+        ..test_circle(Plane::XY)
+    };
+    let direct = predict(&map, &t).unwrap();
+    let text = program::program(&t).unwrap();
+    let setup = crate::compensate::MachineSetup::default();
+    let via = predict::predict_program(&map, &t, text.as_bytes(), "t.ngc", &setup).unwrap();
+    for (a, b) in direct.runs.iter().zip(&via.runs) {
+        for i in 0..a.angle_deg.len() {
+            assert!((a.angle_deg[i] - b.angle_deg[i]).abs() < 1e-9);
+            assert!(
+                (a.deviation_um[i] - b.deviation_um[i]).abs() < 0.05,
+                "{:?} {}°: {} vs {}",
+                a.sense,
+                a.angle_deg[i],
+                a.deviation_um[i],
+                b.deviation_um[i]
+            );
+        }
+    }
+}
+
+/// The quick model from three planes, given to `compensate` (take-ups as
+/// blocks of their own), takes at least 70 % of the circular deviation
+/// away on the machine's tests (the figures: docs/ballbar.md).
+#[test]
+fn the_quick_map_reduces_the_circular_deviation() {
+    for (mi, m) in [machine_a(), machine_b()].iter().enumerate() {
+        let map = m.map(0.0, 300.0, 0.05);
+        let mut fits = Vec::new();
+        let mut rng = Rng::new(42 + mi as u64);
+        for plane in Plane::ALL {
+            let t = TestCircle {
+                step_deg: 0.2,
+                ..test_circle(plane)
+            };
+            let mut trace = predict(&map, &t).unwrap();
+            for run in &mut trace.runs {
+                for d in &mut run.deviation_um {
+                    *d += 0.2 * rng.normal();
+                }
+            }
+            let options = FitOptions {
+                pitch_mm: m.pitch.map(Some),
+                ..FitOptions::default()
+            };
+            fits.push((plane, t.radius_mm, fit(&trace, &options).unwrap()));
+        }
+        let refs: Vec<(Plane, f64, &TraceFit)> = fits.iter().map(|(p, r, f)| (*p, *r, f)).collect();
+        let quick = quick_map::quick_model(&refs, m.pitch.map(Some)).unwrap();
+        let qmap = quick.map([[0.0, 300.0]; 3]).unwrap();
+        for plane in Plane::ALL {
+            let t = TestCircle {
+                step_deg: 0.2,
+                ..test_circle(plane)
+            };
+            let before = figures(&predict(&map, &t).unwrap()).unwrap();
+            let text = program::program(&t).unwrap();
+            let mut out = Vec::new();
+            let opts = crate::CompensateOptions {
+                fold_take_ups: false,
+                ..Default::default()
+            };
+            crate::Compensator::new(&qmap)
+                .options(opts)
+                .run(text.as_bytes(), &mut out)
+                .unwrap();
+            let setup = crate::compensate::MachineSetup::default();
+            let after_trace =
+                predict::predict_program(&map, &t, out.as_slice(), "c.ngc", &setup).unwrap();
+            let after = figures(&after_trace).unwrap();
+            eprintln!(
+                "machine {mi} {plane:?}: G {:.3} → {:.3} µm, H {:.3} → {:.3}",
+                before.g_um,
+                after.g_um,
+                before.h_um.unwrap(),
+                after.h_um.unwrap()
+            );
+            assert!(after.g_um <= 0.3 * before.g_um, "{before:?} {after:?}");
+        }
+    }
+}
