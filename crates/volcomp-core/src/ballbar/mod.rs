@@ -20,7 +20,8 @@ pub mod fit;
 pub mod predict;
 pub mod program;
 pub mod quick_map;
-// pub mod trace_file;
+pub mod report;
+pub mod request;
 
 pub use figures::{figures, Figures};
 pub use fit::{fit, Cause, FitOptions, TraceFit};

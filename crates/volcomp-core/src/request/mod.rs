@@ -49,6 +49,11 @@ pub use thermal::{
 };
 pub use time::{TimeRequest, TIME_OPTIONS};
 
+pub use crate::ballbar::request::{
+    BallbarFitRequest, BallbarMapRequest, BallbarPredictRequest, BALLBAR_FIT_OPTIONS,
+    BALLBAR_MAP_OPTIONS, BALLBAR_PREDICT_OPTIONS,
+};
+
 /// Every option of every request, for a front end that spells a name it
 /// meets in a message.
 pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
@@ -63,6 +68,9 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     PROBE_IDENTIFY_OPTIONS,
     PROBE_FIT_OPTIONS,
     TIME_OPTIONS,
+    BALLBAR_PREDICT_OPTIONS,
+    BALLBAR_FIT_OPTIONS,
+    BALLBAR_MAP_OPTIONS,
 ];
 
 /// The option named `name` in any request.
@@ -128,6 +136,9 @@ mod tests {
         consistent(|r: &StraightnessFitRequest| r.clone());
         consistent(|r: &ProbeFitRequest| r.clone());
         consistent(|r: &TimeRequest| r.clone());
+        consistent(|r: &BallbarPredictRequest| r.clone());
+        consistent(|r: &BallbarFitRequest| r.clone());
+        consistent(|r: &BallbarMapRequest| r.clone());
     }
 
     #[test]
