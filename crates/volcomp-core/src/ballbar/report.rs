@@ -64,12 +64,31 @@ pub fn fit_lines(fit: &TraceFit) -> Vec<String> {
 
 const SIZE: f64 = 560.0;
 
-/// The polar plot of `traces` (name, trace; the first in full colour, the
-/// others dashed), deviations magnified about the nominal circle.
-pub fn polar_svg(traces: &[(&str, &Trace)]) -> String {
-    let all = traces
+/// Each run's radial deviations about the least-squares circle of all the
+/// trace's runs (the centre offset and the radius removed, as the figures
+/// see the trace); the raw deviations if the circle is undetermined.
+fn centred(t: &Trace) -> Vec<Vec<f64>> {
+    let pts: Vec<[f64; 2]> = t
+        .runs
         .iter()
-        .flat_map(|(_, t)| t.runs.iter().flat_map(|r| r.deviation_um.iter().copied()));
+        .flat_map(|r| super::figures::points(r, t.radius_mm))
+        .collect();
+    match super::figures::least_squares_circle(&pts, t.radius_mm) {
+        Some(c) => t
+            .runs
+            .iter()
+            .map(|r| super::figures::about(r, t.radius_mm, &c))
+            .collect(),
+        None => t.runs.iter().map(|r| r.deviation_um.clone()).collect(),
+    }
+}
+
+/// The polar plot of `traces` (name, trace; the first in full colour, the
+/// others dashed): the deviations about each trace's least-squares circle,
+/// magnified about the nominal circle.
+pub fn polar_svg(traces: &[(&str, &Trace)]) -> String {
+    let devs: Vec<Vec<Vec<f64>>> = traces.iter().map(|(_, t)| centred(t)).collect();
+    let all = devs.iter().flatten().flatten().copied();
     let peak = all.fold(0.0_f64, |m, d| m.max(d.abs())).max(0.1);
     let (ticks, step) = nice_ticks(-peak, peak, 4);
     let span = ticks.iter().fold(peak, |m, t| m.max(t.abs()));
@@ -114,7 +133,7 @@ pub fn polar_svg(traces: &[(&str, &Trace)]) -> String {
     }
     let mut legend = Vec::new();
     for (i, (name, t)) in traces.iter().enumerate() {
-        for run in &t.runs {
+        for (run, dev) in t.runs.iter().zip(&devs[i]) {
             let colour = match run.sense {
                 Sense::Ccw => PALETTE[0],
                 Sense::Cw => PALETTE[1],
@@ -125,7 +144,7 @@ pub fn polar_svg(traces: &[(&str, &Trace)]) -> String {
                 " stroke-dasharray=\"5 4\""
             };
             let mut d = String::new();
-            for (j, (a, dev)) in run.angle_deg.iter().zip(&run.deviation_um).enumerate() {
+            for (j, (a, dev)) in run.angle_deg.iter().zip(dev).enumerate() {
                 let r = (r0 + k * dev).max(0.0);
                 let th = a.to_radians();
                 let _ = write!(
@@ -234,7 +253,7 @@ pub fn sections(traces: &[(&str, &Trace, &Figures)], fit: Option<&TraceFit>) -> 
         Block::Table(figures_table(&rows)),
         Block::Figure {
             svg: polar_svg(&pairs),
-            caption: "Radial deviation around the circle, magnified: the black circle is the nominal radius, the dashed rings the scale; blue counter-clockwise, orange clockwise; a dashed trace is the one before.".into(),
+            caption: "Radial deviation around the circle about each trace's least-squares circle (centre offset and radius removed), magnified: the grey circle is 0, the dashed rings the scale; blue counter-clockwise, orange clockwise; a dashed trace is the one before.".into(),
         },
     ];
     let mut out = vec![];

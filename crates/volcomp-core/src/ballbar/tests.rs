@@ -2,70 +2,9 @@
 //! simulation, synthetic machines with known causes.
 
 use super::*;
-use crate::model::axis_table::AxisTableMap;
+use crate::example::ballbar::Machine;
 use crate::rng::Rng;
 use std::f64::consts::PI;
-
-/// A synthetic machine, each cause known. Scale `s` (µm/m), backlash `b`
-/// and lateral play `l` (µm) per axis, squareness S_xy, S_yz, S_zx (µrad),
-/// cyclic amplitude (sine, cosine; µm) and pitch (mm) per axis.
-#[derive(Clone, Copy)]
-pub(crate) struct Machine {
-    pub s: [f64; 3],
-    pub b: [f64; 3],
-    pub l: [f64; 3],
-    pub sq: [f64; 3],
-    pub cyc: [[f64; 2]; 3],
-    pub pitch: [f64; 3],
-}
-
-impl Machine {
-    /// Axis `a`'s error vector (µm) at position `x` (mm) in direction
-    /// `reverse` (µm): scale, ±b/2 along, ±l/2 across (on the next axis),
-    /// cyclic along, squareness on Y and Z.
-    pub fn table(&self, a: usize, x: f64, reverse: bool) -> [f64; 3] {
-        let sign = if reverse { 0.5 } else { -0.5 };
-        let mut e = [0.0; 3];
-        let w = 2.0 * PI * x / self.pitch[a];
-        e[a] = self.s[a] * x / 1000.0
-            + sign * self.b[a]
-            + self.cyc[a][0] * w.sin()
-            + self.cyc[a][1] * w.cos();
-        e[(a + 1) % 3] += sign * self.l[a];
-        // Squareness (docs/design.md): e_x += S_xy·y + S_zx·z, e_y += S_yz·z.
-        match a {
-            1 => e[0] += self.sq[0] * x / 1000.0,
-            2 => {
-                e[0] += self.sq[2] * x / 1000.0;
-                e[1] += self.sq[1] * x / 1000.0;
-            }
-            _ => {}
-        }
-        e
-    }
-
-    /// The machine as an axis-table map over `[lo, hi]` per axis, every `h` mm.
-    pub fn map(&self, lo: f64, hi: f64, h: f64) -> AxisTableMap {
-        let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-        let n = ((hi - lo) / h).round() as usize;
-        for a in 0..3 {
-            for (dir, rev) in [("forward", false), ("reverse", true)] {
-                for i in 0..=n {
-                    let x = lo + (hi - lo) * i as f64 / n as f64;
-                    let e = self.table(a, x, rev);
-                    csv += &format!(
-                        "{},{dir},{x},{},{},{}\n",
-                        ["X", "Y", "Z"][a],
-                        e[0],
-                        e[1],
-                        e[2]
-                    );
-                }
-            }
-        }
-        AxisTableMap::from_csv(&csv, "synthetic.csv").unwrap()
-    }
-}
 
 /// An independent dead-band simulation, written from the physical picture:
 /// each axis' carriage sits at a fraction `β ∈ [0, 1]` across its band
