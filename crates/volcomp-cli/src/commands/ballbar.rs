@@ -8,7 +8,7 @@ use crate::output::{check, CliError, OutputPlan, Staged};
 use clap::{Args, Subcommand};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use volcomp_core::ballbar::{report, Figures, Trace};
+use volcomp_core::ballbar::{report, Figures, Trace, TraceFit};
 use volcomp_core::io::ballbar_trace;
 use volcomp_core::request::{BallbarFitRequest, BallbarMapRequest, BallbarPredictRequest};
 
@@ -29,6 +29,20 @@ pub enum BallbarCommand {
     Map(MapArgs),
 }
 
+/// What predict and fit show beside their text.
+#[derive(Args, Debug)]
+pub struct Shown {
+    /// Write an HTML report (figures, polar plot; fit: the causes).
+    #[arg(long, value_name = "FILE.html")]
+    pub report_html: Option<PathBuf>,
+    /// A trace file drawn dashed beside this one in the report (before compensation, say).
+    #[arg(long, value_name = "TRACE.csv")]
+    pub before: Option<PathBuf>,
+    /// Print the result as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
 #[derive(Args, Debug)]
 pub struct PredictArgs {
     /// The error map (axis-table CSV or TOML model).
@@ -41,15 +55,8 @@ pub struct PredictArgs {
     /// Write the LinuxCNC program that runs the test.
     #[arg(long, value_name = "FILE.ngc")]
     pub write_program: Option<PathBuf>,
-    /// Write an HTML report (polar plot, figures).
-    #[arg(long, value_name = "FILE.html")]
-    pub report_html: Option<PathBuf>,
-    /// A trace file drawn dashed beside the prediction (before compensation, say).
-    #[arg(long, value_name = "TRACE.csv")]
-    pub before: Option<PathBuf>,
-    /// Print the figures as one JSON object.
-    #[arg(long)]
-    pub json: bool,
+    #[command(flatten)]
+    pub shown: Shown,
 }
 
 #[derive(Args, Debug)]
@@ -61,15 +68,8 @@ pub struct FitArgs {
     /// Write what no cause explains as a trace file.
     #[arg(long, value_name = "TRACE.csv")]
     pub residual: Option<PathBuf>,
-    /// Write an HTML report (polar plot, figures, causes).
-    #[arg(long, value_name = "FILE.html")]
-    pub report_html: Option<PathBuf>,
-    /// A trace file drawn dashed beside this one (before compensation, say).
-    #[arg(long, value_name = "TRACE.csv")]
-    pub before: Option<PathBuf>,
-    /// Print the figures and causes as one JSON object.
-    #[arg(long)]
-    pub json: bool,
+    #[command(flatten)]
+    pub shown: Shown,
 }
 
 #[derive(Args, Debug)]
@@ -97,20 +97,6 @@ fn read(path: &Path, role: &str) -> Result<String, CliError> {
         .map_err(|e| CliError::Io(path.to_path_buf(), e))
 }
 
-/// The "before" trace and its figures, for the report's overlay.
-fn before(path: &Option<PathBuf>) -> Result<Option<(Trace, Figures)>, CliError> {
-    let Some(p) = path else { return Ok(None) };
-    let trace =
-        BallbarFitRequest::default().trace(&read(p, "--before")?, &p.display().to_string())?;
-    let f = volcomp_core::ballbar::figures(&trace).ok_or_else(|| {
-        CliError::Message(format!(
-            "{}: the trace's circle is undetermined",
-            p.display()
-        ))
-    })?;
-    Ok(Some((trace, f)))
-}
-
 fn print(lines: &[String]) -> Result<(), CliError> {
     let text = lines.join("\n") + "\n";
     std::io::stdout()
@@ -119,18 +105,38 @@ fn print(lines: &[String]) -> Result<(), CliError> {
         .map_err(CliError::Stdout)
 }
 
+/// The HTML report of `trace` (named `name`) with the `--before` trace dashed beside it.
+fn html(
+    title: &str,
+    name: &str,
+    trace: &Trace,
+    f: &Figures,
+    before: &Option<PathBuf>,
+    fit: Option<&TraceFit>,
+) -> Result<String, CliError> {
+    let before = match before {
+        Some(p) => Some(
+            BallbarFitRequest::default()
+                .figured(&read(p, "--before")?, &p.display().to_string())?,
+        ),
+        None => None,
+    };
+    let mut traces = vec![(name, trace, f)];
+    traces.extend(before.as_ref().map(|(t, f)| ("before", t, f)));
+    let facts = vec![("trace".into(), name.to_string())];
+    Ok(report::document(title, facts, report::sections(&traces, fit)).to_html())
+}
+
 fn predict(a: PredictArgs) -> Result<(), CliError> {
-    let program = a.job.program.as_ref().and_then(|p| p.path());
     let mut plan = OutputPlan::new();
     plan.map_input("MAP", &a.map)
-        .input_opt("--program", program)
-        .input_opt("--before", a.before.as_ref());
-    plan.output_opt("-o", a.output.as_ref())
-        .output_opt("--write-program", a.write_program.as_ref())
-        .output_opt("--report-html", a.report_html.as_ref());
+        .input_opt("--program", a.job.program.as_ref().and_then(|p| p.path()));
+    plan.input_opt("--before", a.shown.before.as_ref())
+        .output_opt("-o", a.output.as_ref());
+    plan.output_opt("--write-program", a.write_program.as_ref())
+        .output_opt("--report-html", a.shown.report_html.as_ref());
     check(&plan)?;
     let p = a.job.run(&a.map)?;
-    let before = before(&a.before)?;
     let mut staged = Staged::new();
     if let Some(o) = &a.output {
         staged.write_bytes(o, ballbar_trace::write(&p.trace).as_bytes())?;
@@ -138,54 +144,54 @@ fn predict(a: PredictArgs) -> Result<(), CliError> {
     if let Some(o) = &a.write_program {
         staged.write_bytes(o, p.program.as_bytes())?;
     }
-    if let Some(o) = &a.report_html {
-        let mut traces = vec![("predicted", &p.trace, &p.figures)];
-        traces.extend(before.as_ref().map(|(t, f)| ("before", t, f)));
-        let doc = report::document(
+    if let Some(o) = &a.shown.report_html {
+        let text = html(
             "volcomp ballbar predict",
-            vec![("map".into(), a.map.display().to_string())],
-            report::sections(&traces, None),
-        );
-        staged.write_bytes(o, doc.to_html().as_bytes())?;
+            "predicted",
+            &p.trace,
+            &p.figures,
+            &a.shown.before,
+            None,
+        )?;
+        staged.write_bytes(o, text.as_bytes())?;
     }
     staged.commit()?;
-    if a.json {
-        return print(&[serde_json::to_string(&p.figures)?]);
+    match a.shown.json {
+        true => print(&[serde_json::to_string(&p.figures)?]),
+        false => print(&report::figures_lines(&p.figures)),
     }
-    print(&report::figures_lines(&p.figures))
 }
 
 fn fit(a: FitArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
     plan.input("TRACE", &a.trace)
-        .input_opt("--before", a.before.as_ref());
+        .input_opt("--before", a.shown.before.as_ref());
     plan.output_opt("--residual", a.residual.as_ref())
-        .output_opt("--report-html", a.report_html.as_ref());
+        .output_opt("--report-html", a.shown.report_html.as_ref());
     check(&plan)?;
-    let name = a.trace.display().to_string();
-    let text = read(&a.trace, "TRACE")?;
+    let (name, text) = (a.trace.display().to_string(), read(&a.trace, "TRACE")?);
     let f = a.job.run(&text, &name)?;
-    let before = before(&a.before)?;
     let mut staged = Staged::new();
     if let Some(o) = &a.residual {
         staged.write_bytes(o, ballbar_trace::write(&f.residual).as_bytes())?;
     }
-    if let Some(o) = &a.report_html {
+    if let Some(o) = &a.shown.report_html {
         let trace = a.job.trace(&text, &name)?;
-        let mut traces = vec![(name.as_str(), &trace, &f.figures)];
-        traces.extend(before.as_ref().map(|(t, fi)| ("before", t, fi)));
-        let doc = report::document(
+        let text = html(
             "volcomp ballbar fit",
-            vec![("trace".into(), name.clone())],
-            report::sections(&traces, Some(&f)),
-        );
-        staged.write_bytes(o, doc.to_html().as_bytes())?;
+            &name,
+            &trace,
+            &f.figures,
+            &a.shown.before,
+            Some(&f),
+        )?;
+        staged.write_bytes(o, text.as_bytes())?;
     }
     staged.commit()?;
-    if a.json {
-        return print(&[serde_json::to_string(&f)?]);
+    match a.shown.json {
+        true => print(&[serde_json::to_string(&f)?]),
+        false => print(&report::fit_lines(&f)),
     }
-    print(&report::fit_lines(&f))
 }
 
 fn map(a: MapArgs) -> Result<(), CliError> {
@@ -195,27 +201,14 @@ fn map(a: MapArgs) -> Result<(), CliError> {
     }
     plan.output("-o", &a.output);
     check(&plan)?;
-    let mut traces = Vec::new();
-    for t in &a.traces {
-        traces.push((read(t, "TRACE")?, t.display().to_string()));
-    }
+    let traces: Vec<(String, String)> = a
+        .traces
+        .iter()
+        .map(|t| Ok((read(t, "TRACE")?, t.display().to_string())))
+        .collect::<Result<_, CliError>>()?;
     let q = a.job.run(&traces)?;
     let mut staged = Staged::new();
     staged.write_bytes(&a.output, q.csv.as_bytes())?;
     staged.commit()?;
-    let m = &q.model;
-    print(&[
-        format!(
-            "scale (um/m)        X {:.3}  Y {:.3}  Z {:.3}",
-            m.scale_um_per_m[0], m.scale_um_per_m[1], m.scale_um_per_m[2]
-        ),
-        format!(
-            "squareness (urad)   XY {:.3}  YZ {:.3}  ZX {:.3}",
-            m.squareness_urad[0], m.squareness_urad[1], m.squareness_urad[2]
-        ),
-        format!(
-            "backlash (um)       X {:.3}  Y {:.3}  Z {:.3}",
-            m.backlash_um[0], m.backlash_um[1], m.backlash_um[2]
-        ),
-    ])
+    print(&report::quick_lines(&q.model))
 }

@@ -34,6 +34,30 @@ pub fn figures_lines(f: &Figures) -> Vec<String> {
     ]
 }
 
+/// The quick model as lines of text.
+pub fn quick_lines(m: &super::quick_map::QuickModel) -> Vec<String> {
+    let three = |v: [f64; 3], names: [&str; 3]| {
+        (0..3)
+            .map(|i| format!("{} {}", names[i], um(v[i])))
+            .collect::<Vec<_>>()
+            .join("  ")
+    };
+    vec![
+        format!(
+            "scale (um/m)        {}",
+            three(m.scale_um_per_m, ["X", "Y", "Z"])
+        ),
+        format!(
+            "squareness (urad)   {}",
+            three(m.squareness_urad, ["XY", "YZ", "ZX"])
+        ),
+        format!(
+            "backlash (um)       {}",
+            three(m.backlash_um, ["X", "Y", "Z"])
+        ),
+    ]
+}
+
 /// The causes as lines of text, the largest share first.
 pub fn fit_lines(fit: &TraceFit) -> Vec<String> {
     let mut out = figures_lines(&fit.figures);

@@ -348,6 +348,18 @@ impl BallbarFitRequest {
         })
     }
 
+    /// The trace in the file text `text` and its figures (a trace drawn
+    /// beside another in a report).
+    pub fn figured(&self, text: &str, name: &str) -> Result<(Trace, Figures), Error> {
+        let trace = self.trace(text, name)?;
+        let f = figures(&trace).ok_or_else(|| {
+            BallbarError::new(format!(
+                "{name}: the trace's least-squares circle is undetermined"
+            ))
+        })?;
+        Ok((trace, f))
+    }
+
     /// Fits the trace file `text` (named `name`).
     pub fn run(&self, text: &str, name: &str) -> Result<TraceFit, Error> {
         let options = self.options()?;

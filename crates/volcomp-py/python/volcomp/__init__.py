@@ -29,6 +29,8 @@ from ._volcomp import (
     VolcompIOError,
     VolcompWarning,
     __version__,
+    ballbar_fit,
+    ballbar_predict,
     compensate,
     iso230_2,
     iso230_2_csv,
@@ -81,6 +83,8 @@ machining_time = _with_options(machining_time, "machining_time")
 mirror = _with_options(mirror, "mirror")
 thermal_fit = _with_options(thermal_fit, "thermal_fit")
 straightness_fit = _with_options(straightness_fit, "straightness_fit")
+ballbar_predict = _with_options(ballbar_predict, "ballbar_predict")
+ballbar_fit = _with_options(ballbar_fit, "ballbar_fit")
 
 __all__ = [
     "BadInputError",
@@ -93,6 +97,8 @@ __all__ = [
     "VolcompIOError",
     "VolcompWarning",
     "__version__",
+    "ballbar_fit",
+    "ballbar_predict",
     "compensate",
     "iso230_2",
     "iso230_2_csv",
