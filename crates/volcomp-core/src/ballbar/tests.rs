@@ -324,3 +324,47 @@ fn the_quick_map_reduces_the_circular_deviation() {
         }
     }
 }
+
+/// The reported uncertainties are the spread of the estimates: over many
+/// noise draws on the same machine, `(value − truth)/std` has a standard
+/// deviation near 1 for every cause.
+#[test]
+fn the_standard_uncertainties_are_the_scatter_of_the_estimates() {
+    let m = machine_b();
+    let map = m.map(0.0, 300.0, 0.05);
+    let t = TestCircle {
+        step_deg: 0.25,
+        ..test_circle(Plane::XY)
+    };
+    let clean = predict(&map, &t).unwrap();
+    let truth = truth(&m, Plane::XY, t.centre_mm.to_array(), t.radius_mm);
+    let mut z: Vec<Vec<f64>> = vec![Vec::new(); truth.len()];
+    let options = FitOptions {
+        pitch_mm: m.pitch.map(Some),
+        ..FitOptions::default()
+    };
+    for seed in 0..40u64 {
+        let mut rng = Rng::new(1000 + seed);
+        let mut trace = clean.clone();
+        for run in &mut trace.runs {
+            for d in &mut run.deviation_um {
+                *d += 0.2 * rng.normal();
+            }
+        }
+        let f = fit(&trace, &options).unwrap();
+        for (k, (id, want)) in truth.iter().enumerate() {
+            let c = f.cause(id).unwrap();
+            z[k].push((c.value - want) / c.std);
+        }
+    }
+    for ((id, _), zs) in truth.iter().zip(&z) {
+        let n = zs.len() as f64;
+        let mean = zs.iter().sum::<f64>() / n;
+        let sd = (zs.iter().map(|v| v * v).sum::<f64>() / n).sqrt();
+        eprintln!("{id}: mean z {mean:.2}, rms z {sd:.2}");
+        // 40 draws: the RMS of 40 standard normals lies in [0.75, 1.25]
+        // with probability > 99.5 %; a bias shows as a mean off 0.
+        assert!((0.7..=1.3).contains(&sd), "{id}: rms z {sd}");
+        assert!(mean.abs() < 0.6, "{id}: mean z {mean}");
+    }
+}
