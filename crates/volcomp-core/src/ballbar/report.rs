@@ -212,7 +212,7 @@ pub fn causes_svg(fit: &TraceFit) -> String {
     );
     for (i, c) in causes.iter().enumerate() {
         let y = 10.0 + row * i as f64;
-        let w = (width - left - 110.0) * c.rms_um / peak;
+        let w = (width - left - 150.0) * c.rms_um / peak;
         let _ = write!(
             s,
             "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text><rect x=\"{left}\" y=\"{y:.1}\" width=\"{w:.1}\" height=\"{:.1}\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{:.1}\">{} µm ({:.1} %)</text>",
