@@ -368,3 +368,40 @@ fn the_standard_uncertainties_are_the_scatter_of_the_estimates() {
         assert!(mean.abs() < 0.6, "{id}: mean z {mean}");
     }
 }
+
+/// One run only, another radius and sample step: every cause the fit
+/// gives (no servo mismatch) is still within three standard uncertainties.
+#[test]
+fn fit_recovers_the_causes_from_one_run_and_other_test_sizes() {
+    for (sense, radius, step) in [(Sense::Ccw, 150.0, 0.5), (Sense::Cw, 50.0, 0.2)] {
+        let m = machine_a();
+        let map = m.map(-100.0, 400.0, 0.05);
+        let t = TestCircle {
+            radius_mm: radius,
+            step_deg: step,
+            senses: vec![sense],
+            ..test_circle(Plane::XY)
+        };
+        let mut trace = predict(&map, &t).unwrap();
+        let mut rng = Rng::new(7);
+        for d in &mut trace.runs[0].deviation_um {
+            *d += 0.15 * rng.normal();
+        }
+        let options = FitOptions {
+            pitch_mm: m.pitch.map(Some),
+            ..FitOptions::default()
+        };
+        let f = fit(&trace, &options).unwrap();
+        assert!(f.cause("servo_mismatch_XY").is_none());
+        for (id, want) in truth(&m, Plane::XY, t.centre_mm.to_array(), radius) {
+            let Some(c) = f.cause(&id) else { continue };
+            let z = (c.value - want) / c.std;
+            assert!(
+                z.abs() <= 3.0,
+                "{sense:?} R{radius}: {id} = {} ± {} against {want}",
+                c.value,
+                c.std
+            );
+        }
+    }
+}
