@@ -405,3 +405,21 @@ fn fit_recovers_the_causes_from_one_run_and_other_test_sizes() {
         }
     }
 }
+
+/// A program that does not run the test's path is refused, not cut into
+/// runs that are not there.
+#[test]
+fn a_program_that_is_not_the_test_is_refused() {
+    let map = machine_a().map(0.0, 300.0, 0.5);
+    let t = test_circle(Plane::XY);
+    let setup = crate::compensate::MachineSetup::default();
+    for text in [
+        "G21 G90\nG0 X50 Y140 Z130\nG1 X250 F1000\nM2\n",
+        "G21 G90\nM2\n",
+        // Only the first run of the two the test has.
+        "G21 G90 G17\nG0 Z130\nG0 X50 Y140\nF1000\nG3 X250 Y140 I100 J0\nG3 X250 Y140 I-100 J0\nG3 X50 Y140 I-100 J0\nM2\n",
+    ] {
+        let e = predict::predict_program(&map, &t, text.as_bytes(), "p.ngc", &setup).unwrap_err();
+        assert!(e.to_string().contains("does not run the test's path"), "{e}");
+    }
+}
