@@ -8,9 +8,10 @@ use crate::output::{check, CliError, OutputPlan, Staged};
 use clap::{Args, Subcommand};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use volcomp_core::ballbar::{report, Figures, Trace, TraceFit};
+use volcomp_core::ballbar::report;
+use volcomp_core::ballbar::request::report_html;
 use volcomp_core::io::ballbar_trace;
-use volcomp_core::request::{BallbarFitRequest, BallbarMapRequest, BallbarPredictRequest};
+use volcomp_core::request::{BallbarFitRequest, BallbarMapRequest, BallbarPredictRequest, Input};
 
 /// The circular test (ISO 230-4): predict a trace from a map, fit a trace's causes, a quick map from three planes.
 #[derive(Args, Debug)]
@@ -105,28 +106,6 @@ fn print(lines: &[String]) -> Result<(), CliError> {
         .map_err(CliError::Stdout)
 }
 
-/// The HTML report of `trace` (named `name`) with the `--before` trace dashed beside it.
-fn html(
-    title: &str,
-    name: &str,
-    trace: &Trace,
-    f: &Figures,
-    before: &Option<PathBuf>,
-    fit: Option<&TraceFit>,
-) -> Result<String, CliError> {
-    let before = match before {
-        Some(p) => Some(
-            BallbarFitRequest::default()
-                .figured(&read(p, "--before")?, &p.display().to_string())?,
-        ),
-        None => None,
-    };
-    let mut traces = vec![(name, trace, f)];
-    traces.extend(before.as_ref().map(|(t, f)| ("before", t, f)));
-    let facts = vec![("trace".into(), name.to_string())];
-    Ok(report::document(title, facts, report::sections(&traces, fit)).to_html())
-}
-
 fn predict(a: PredictArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
     plan.map_input("MAP", &a.map)
@@ -145,12 +124,12 @@ fn predict(a: PredictArgs) -> Result<(), CliError> {
         staged.write_bytes(o, p.program.as_bytes())?;
     }
     if let Some(o) = &a.shown.report_html {
-        let text = html(
+        let text = report_html(
             "volcomp ballbar predict",
             "predicted",
             &p.trace,
             &p.figures,
-            &a.shown.before,
+            a.shown.before.clone().map(Input::File).as_ref(),
             None,
         )?;
         staged.write_bytes(o, text.as_bytes())?;
@@ -177,12 +156,12 @@ fn fit(a: FitArgs) -> Result<(), CliError> {
     }
     if let Some(o) = &a.shown.report_html {
         let trace = a.job.trace(&text, &name)?;
-        let text = html(
+        let text = report_html(
             "volcomp ballbar fit",
             &name,
             &trace,
             &f.figures,
-            &a.shown.before,
+            a.shown.before.clone().map(Input::File).as_ref(),
             Some(&f),
         )?;
         staged.write_bytes(o, text.as_bytes())?;

@@ -480,3 +480,27 @@ impl BallbarMapRequest {
         Ok(QuickMap { model, fits, csv })
     }
 }
+
+/// The HTML report of `trace` (named `name`, with its figures and, for a
+/// fit, its causes), the trace file `before` drawn dashed beside it.
+pub fn report_html(
+    title: &str,
+    name: &str,
+    trace: &Trace,
+    figures: &Figures,
+    before: Option<&Input>,
+    fit: Option<&TraceFit>,
+) -> Result<String, Error> {
+    let before = match before {
+        Some(b) => {
+            let bytes = b.bytes()?;
+            let text = crate::io::table::utf8(&bytes, &b.name())?;
+            Some(BallbarFitRequest::default().figured(text, &b.name())?)
+        }
+        None => None,
+    };
+    let mut traces = vec![(name, trace, figures)];
+    traces.extend(before.as_ref().map(|(t, f)| ("before", t, f)));
+    let facts = vec![("trace".into(), name.to_string())];
+    Ok(super::report::document(title, facts, super::report::sections(&traces, fit)).to_html())
+}
