@@ -32,6 +32,7 @@ from ._volcomp import (
     ballbar_fit,
     ballbar_predict,
     compensate,
+    export,
     iso230_2,
     iso230_2_csv,
     machining_time,
@@ -83,6 +84,7 @@ machining_time = _with_options(machining_time, "machining_time")
 mirror = _with_options(mirror, "mirror")
 thermal_fit = _with_options(thermal_fit, "thermal_fit")
 straightness_fit = _with_options(straightness_fit, "straightness_fit")
+export = _with_options(export, "export")
 ballbar_predict = _with_options(ballbar_predict, "ballbar_predict")
 ballbar_fit = _with_options(ballbar_fit, "ballbar_fit")
 
@@ -100,6 +102,7 @@ __all__ = [
     "ballbar_fit",
     "ballbar_predict",
     "compensate",
+    "export",
     "iso230_2",
     "iso230_2_csv",
     "machining_time",
