@@ -32,6 +32,7 @@ const ORDER: &[&str] = &[
     "plan",
     "surface",
     "report",
+    "ballbar",
     "request",
 ];
 
@@ -55,6 +56,16 @@ const KNOWN_UPWARD: &[(&str, &str)] = &[
     ("io", "identify"),
     // The axis tables read and write their CSV through `io::table`.
     ("model", "io"),
+    // The ballbar's jobs implement `request::Request` in `ballbar/request.rs`
+    // (their place is `request/`); the error enum wraps `BallbarError`; the
+    // trace file (`io/ballbar_trace.rs`) is made of the ballbar's types and
+    // reads triples with `request::option::parse_triple`; the example
+    // campaign predicts with the ballbar.
+    ("ballbar", "request"),
+    ("error", "ballbar"),
+    ("example", "ballbar"),
+    ("io", "ballbar"),
+    ("io", "request"),
 ];
 
 /// Every `.rs` file under `dir`.
