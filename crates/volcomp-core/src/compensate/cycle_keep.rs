@@ -26,9 +26,12 @@
 //!   retract), a clearance changed by the map there: reported, not a
 //!   contour error.
 //!
-//! The first two are compared with the contour tolerance; a hole that
-//! exceeds it is expanded, and the trace comment of its first move says
-//! by how much.
+//! The first two are compared with the contour tolerance for the boring
+//! cycles (G85, G86, G89: the feed finishes the wall) and with the drill
+//! tolerance, at least the contour tolerance, for the drilling cycles (G73,
+//! G81, G82, G83: a twist drill's own run-out and wander are tens of µm, and
+//! the bottom is compensated exactly either way); a hole that exceeds it is
+//! expanded, and the trace comment of its first move says by how much.
 
 use super::frame::Frame;
 use super::walk::Line;
@@ -310,6 +313,21 @@ impl State<'_> {
             Segmentation::Adaptive { tolerance_mm, .. } => Some(tolerance_mm),
             _ => None,
         }
+    }
+
+    /// The tolerance a kept hole of cycle `g` (G number) must meet (mm): the
+    /// contour tolerance for the boring cycles, whose feed cuts the wall
+    /// (G85, G86, G89), and at least
+    /// [`CompensateOptions::drill_tolerance_mm`](super::CompensateOptions::drill_tolerance_mm)
+    /// for the drilling cycles (G73, G81, G82, G83), whose drill cuts a wall
+    /// of its own; `None` where no cycle is kept.
+    pub(super) fn hole_tolerance_mm(&self, g: u16) -> Option<f64> {
+        let contour = self.cycle_tolerance_mm()?;
+        Some(if matches!(g, 73 | 81 | 82 | 83) {
+            contour.max(self.walk.options.drill_tolerance_mm)
+        } else {
+            contour
+        })
     }
 
     /// The holes of a cycle line; `None` where the line cannot be kept
@@ -661,8 +679,8 @@ impl State<'_> {
     }
 
     /// The trace text of an expanded hole.
-    pub(super) fn expand_note(&self, why: &Expand) -> String {
-        let tolerance_um = self.cycle_tolerance_mm().unwrap_or(0.0) * 1e3;
+    pub(super) fn expand_note(&self, why: &Expand, g: u16) -> String {
+        let tolerance_um = self.hole_tolerance_mm(g).unwrap_or(0.0) * 1e3;
         why.text(tolerance_um)
     }
 }
