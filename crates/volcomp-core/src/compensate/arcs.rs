@@ -576,7 +576,9 @@ impl State<'_> {
         // runs at the feed where a fold into one short piece makes a
         // corner the planner blends.
         let tolerance = |band_mm: f64| match rule {
-            super::TakeUpRule::Exact { smooth: true } => Some(contour),
+            super::TakeUpRule::Exact { smooth: true } => {
+                Some(super::points::RUN_THROUGH_TOLERANCE_MM.max(contour))
+            }
             super::TakeUpRule::Within(t) => Some(t.min(band_mm)),
             super::TakeUpRule::Always => Some(band_mm),
             super::TakeUpRule::Exact { smooth: false } => None,

@@ -232,18 +232,27 @@ fn fold_deviation_along_mm(
     worst
 }
 
-/// How far a ramp ([`RampPlan`]) may leave the tool from the path under
-/// G64 without P (mm): the accuracy the product states for the path away
-/// from reversals, 0.5 µm (docs/compensation.md, "Reversals by
-/// path-control mode"), less a fifth for what the local model leaves out.
-/// A ramp runs for millimetres, so what it leaves is not at the reversal.
-const RAMP_TOLERANCE_BLEND_MM: f64 = 0.4e-3;
+/// How far a take-up the machine runs through without a stop (a ramp,
+/// [`RampPlan`], or an S-curve at a quarter point, compensate/scurve.rs)
+/// may leave the tool from the path under G61 and G64 without P (mm), where
+/// the contour tolerance is smaller: the accuracy the product states for
+/// the whole path, 0.5 µm (docs/compensation.md, "Reversals by path-control
+/// mode"), less a fifth for what the local model leaves out. A stop on a
+/// smooth contour costs about `v/a` and leaves a dwell mark; a shop that
+/// wants the contour tolerance there asks for it with the take-up
+/// tolerance (the G64 P rule, which keeps every take-up within it).
+pub(super) const RUN_THROUGH_TOLERANCE_MM: f64 = 0.4e-3;
+
+/// The share of the planner's tangency tolerance a take-up may turn the
+/// path by at a join (a fold or the ends of a ramp): the rest is for the
+/// compensation's own turn there, which adds to it.
+const RAMP_SHARE: f64 = 0.6;
 
 /// A take-up spread over the path after the reversal (a ramp): the
 /// reversing axes run their new way from the reversal on, and the command
 /// catches up the take-up `delta` linearly over the length `L` of path
 /// that keeps the turn of the tangent at both ends of the ramp below a
-/// share of the planner's tangency tolerance (`|Δ_i| / L ≤ 0.6·tol_i`,
+/// share of the planner's tangency tolerance (`|Δ_i| / L ≤ RAMP_SHARE·tol_i`,
 /// [`super::PlannerLimits::tangent_tolerance`]). Over `L` the reversing
 /// carriage crosses its band while the tool stands still along it, as
 /// under a fold into a move of that length ([`fold_deviation_mm`]); the
@@ -277,7 +286,7 @@ fn plan_ramp(
     (kink_tolerance, tolerance_mm, shortest_mm): ([f64; 3], f64, f64),
 ) -> Result<Option<RampPlan>, ModelError> {
     let need = (0..3).fold(0.0f64, |m, i| {
-        m.max(delta[i].abs() / (0.6 * kink_tolerance[i]).max(1e-300))
+        m.max(delta[i].abs() / (RAMP_SHARE * kink_tolerance[i]).max(1e-300))
     });
     if !(need > 0.0 && need.is_finite()) {
         return Ok(None);
@@ -777,12 +786,14 @@ impl State<'_> {
                 let delta = take_up.map_or(Vec3::ZERO, |tu| tu - self.q_out);
                 let piece_mm = (*t - t_prev).norm();
                 let fold_is_tangent =
-                    (0..3).all(|i| delta[i].abs() <= 0.6 * kink_tolerance[i] * piece_mm);
+                    (0..3).all(|i| delta[i].abs() <= RAMP_SHARE * kink_tolerance[i] * piece_mm);
                 let ramp_tolerance = match rule {
-                    TakeUpRule::Exact { smooth: true } if smooth => Some(tolerance),
+                    TakeUpRule::Exact { smooth: true } if smooth => {
+                        Some(RUN_THROUGH_TOLERANCE_MM.max(tolerance))
+                    }
                     TakeUpRule::Exact { .. } => None,
                     TakeUpRule::Within(t) => Some(t),
-                    TakeUpRule::Always => Some(RAMP_TOLERANCE_BLEND_MM.max(tolerance)),
+                    TakeUpRule::Always => Some(RUN_THROUGH_TOLERANCE_MM.max(tolerance)),
                 };
                 let mut planned = None;
                 if let (Some(ramp_tol), true) = (
