@@ -115,40 +115,15 @@ fn switch_lags_mm(
 /// it is the tool arriving later). Zero where every reversing axis'
 /// command crosses exactly its band.
 fn fold_deviation_mm(lags: &[Vec3; 3], q_prev: Vec3, q: Vec3, nominal_delta: Vec3) -> f64 {
-    let dq = q - q_prev;
-    // The ratio r_a of each reversing axis, `None` where its lag is gone
-    // at once.
-    let ratio = |a: usize| -> Option<f64> {
-        let own = lags[a][a];
-        (own != 0.0 && own * dq[a] >= 0.0).then(|| dq[a].abs() / own.abs())
-    };
-    let offset = |lambda: f64| -> Vec3 {
-        let mut off = Vec3::ZERO;
-        for (a, lag) in lags.iter().enumerate() {
-            if *lag == Vec3::ZERO {
-                continue;
-            }
-            let left = ratio(a).map_or(0.0, |r| (1.0 - r * lambda).max(0.0));
-            off += *lag * (left - 1.0 + lambda);
-        }
-        off
-    };
+    // Along a straight move the direction is the same everywhere; where
+    // the move has no length every offset counts.
     let length = nominal_delta.norm();
-    let across = |off: Vec3| -> f64 {
-        if length > 0.0 {
-            let u = nominal_delta * (1.0 / length);
-            (off - u * off.dot(u)).norm()
-        } else {
-            off.norm()
-        }
+    let u = if length > 0.0 {
+        nominal_delta * (1.0 / length)
+    } else {
+        Vec3::ZERO
     };
-    let mut worst = across(offset(0.0)).max(across(offset(1.0)));
-    for a in 0..3 {
-        if let Some(r) = ratio(a).filter(|r| *r > 1.0) {
-            worst = worst.max(across(offset(1.0 / r)));
-        }
-    }
-    worst
+    fold_deviation_along_mm(lags, q_prev, q, &|_| u)
 }
 
 /// A lead piece for a take-up that the whole move cannot fold (see
