@@ -60,12 +60,10 @@ impl TypedValueParser for LibraryValue {
 
     fn possible_values(&self) -> Option<Box<dyn Iterator<Item = PossibleValue> + '_>> {
         (self.0.kind == Kind::Choice).then(|| {
-            Box::new(
-                self.0
-                    .choices
-                    .iter()
-                    .map(|(value, help)| PossibleValue::new(*value).help(*help)),
-            ) as Box<dyn Iterator<Item = PossibleValue>>
+            Box::new(self.0.choices.iter().map(|(value, help)| match *help {
+                "" => PossibleValue::new(*value),
+                help => PossibleValue::new(*value).help(help),
+            })) as Box<dyn Iterator<Item = PossibleValue>>
         })
     }
 }

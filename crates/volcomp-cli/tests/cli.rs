@@ -2,10 +2,9 @@
 //! nothing half-written, the input never overwritten.
 
 use std::path::{Path, PathBuf};
-use std::process::Output;
 
 mod common;
-use common::{tempdir, volcomp};
+use common::{stderr, tempdir, volcomp};
 
 /// A map over −100…300 mm with `ex_um` on X given by `f(position)`.
 fn write_map(dir: &Path, f: impl Fn(f64) -> f64) -> PathBuf {
@@ -20,10 +19,6 @@ fn write_map(dir: &Path, f: impl Fn(f64) -> f64) -> PathBuf {
     let path = dir.join("map.csv");
     std::fs::write(&path, csv).unwrap();
     path
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 const PROGRAM: &str = "G21 G90\nG0 X0 Y0 Z0\nG1 X10 F100\nG1 Y10\nM2\n";

@@ -3,18 +3,8 @@
 //! back"), and the flat program it becomes is measured against the
 //! original, line by line, through the `(volcomp Ln)` pairing.
 
-use std::process::Output;
-
 mod common;
-use common::{tempdir, volcomp};
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
+use common::{tempdir, text, volcomp};
 
 /// `contour error … max <v> µm` of `simulate`'s table.
 fn contour_max_um(out: &str) -> f64 {

@@ -2,27 +2,9 @@
 //! applies a pitch table volcomp exported, compensated for the rest only.
 
 use std::path::Path;
-use std::process::Output;
 
 mod common;
-use common::{tempdir, volcomp};
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn ok(o: &Output) {
-    assert_eq!(o.status.code(), Some(0), "{}", text(o));
-}
-
-fn json(o: &Output) -> serde_json::Value {
-    ok(o);
-    serde_json::from_slice(&o.stdout).unwrap()
-}
+use common::{json, ok, tempdir, text, volcomp};
 
 /// Axis tables of a machine with large pitch errors (a slope of 20 µm/m
 /// and a 200 mm ball-screw wave of ±3 µm on X, similar on Y and Z) and

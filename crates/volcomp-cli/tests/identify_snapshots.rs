@@ -9,15 +9,11 @@ use std::path::Path;
 use std::process::Output;
 
 mod common;
-use common::{tempdir, volcomp};
+use common::{stderr, tempdir, volcomp};
 
 fn stdout(o: &Output) -> String {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// A run along X over 0 … 200 mm at `feed`: a 10 mm lead (0.4 µm), a bow,

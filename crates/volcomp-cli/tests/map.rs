@@ -2,22 +2,9 @@
 //! as a user meets them.
 
 use std::path::Path;
-use std::process::Output;
 
 mod common;
-use common::{tempdir, volcomp};
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn ok(o: &Output) {
-    assert_eq!(o.status.code(), Some(0), "{}{}", stdout(o), stderr(o));
-}
+use common::{json, ok, stderr, stdout, tempdir, volcomp};
 
 /// A model whose only error is EAZ = 20 µrad (the spindle tilts about X).
 fn write_eaz_model(dir: &Path) {
@@ -35,11 +22,6 @@ fn write_eaz_model(dir: &Path) {
         ));
     }
     std::fs::write(dir.join("m.csv"), csv).unwrap();
-}
-
-fn json(o: &Output) -> serde_json::Value {
-    ok(o);
-    serde_json::from_str(&stdout(o)).unwrap()
 }
 
 #[test]

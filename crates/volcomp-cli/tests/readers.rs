@@ -5,11 +5,7 @@ use std::path::Path;
 use std::process::Output;
 
 mod common;
-use common::{tempdir, volcomp};
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{stderr, tempdir, volcomp};
 
 /// A flat map over `lo…hi` mm on every axis.
 fn flat_map(dir: &Path, lo: f64, hi: f64) {

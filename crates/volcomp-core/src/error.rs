@@ -367,9 +367,16 @@ pub enum Error {
     #[error("{0}")]
     Output(#[from] crate::io::output::OutputError),
     /// An option's value was refused (named as the library names it; a
-    /// front end spells it its own way with [`crate::request::OptionError::render`]).
+    /// front end spells it its own way with `OptionError::render`).
     #[error("{0}")]
-    Option(#[from] crate::request::OptionError),
+    Option(#[from] OptionError),
+    /// A controller's table would exceed what the controller holds.
+    #[error("{0}")]
+    Limit(#[from] crate::io::controllers::LimitError),
+    /// A request cannot be carried out as asked: the message says what to
+    /// give instead (options named as `{name}`).
+    #[error("{0}")]
+    Request(String),
     /// Reading or writing `path` failed.
     #[error("{}: {source}", path.display())]
     Io {
@@ -394,6 +401,27 @@ pub enum Error {
 impl From<crate::io::LoadError> for Error {
     fn from(e: crate::io::LoadError) -> Self {
         Error::Load(Box::new(e))
+    }
+}
+
+/// An option's value was refused. The text names options as `{name}`;
+/// `OptionError::render` (with the requests, `crate::request`) writes them
+/// in a front end's terms, `Display` by their names.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OptionError {
+    /// The option at fault.
+    pub option: &'static str,
+    /// What is wrong and what to do, after the option's name (`must be …`).
+    pub problem: String,
+}
+
+impl OptionError {
+    /// `option` refused: `problem` (after its name).
+    pub fn new(option: &'static str, problem: impl Into<String>) -> Self {
+        Self {
+            option,
+            problem: problem.into(),
+        }
     }
 }
 
@@ -553,7 +581,9 @@ impl Error {
             | Error::BSpline(_)
             | Error::Topology(_)
             | Error::OutputPlan(_)
-            | Error::Option(_) => ErrorKind::BadInput,
+            | Error::Option(_)
+            | Error::Limit(_)
+            | Error::Request(_) => ErrorKind::BadInput,
         }
     }
 }

@@ -27,6 +27,7 @@ fn _volcomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     errors::register(py, m)?;
     m.add_class::<model::Model>()?;
+    m.add_function(wrap_pyfunction!(model::export, m)?)?;
     m.add_class::<program::CompensateResult>()?;
     m.add_class::<program::SimulationResult>()?;
     m.add_function(wrap_pyfunction!(program::compensate, m)?)?;

@@ -689,3 +689,43 @@ impl Model {
         )
     }
 }
+
+/// A model's controller tables (`volcomp map export`, docs/controllers.md):
+/// the files by name, the controller's notes, and how far the table lies
+/// from the map as the controller applies it.
+#[pyfunction]
+#[pyo3(signature = (model, **options))]
+pub fn export<'py>(
+    py: Python<'py>,
+    model: &Model,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use volcomp_core::request::{MapExportRequest, MapView};
+    let request: MapExportRequest = crate::request::from_kwargs(options)?;
+    let view = match &model.loaded {
+        LoadedModel::AxisTables(m) => MapView::Tables(m),
+        LoadedModel::Kinematic(m) => MapView::Kinematic(m),
+        other => {
+            return Err(bad_input(format!(
+                "export takes axis tables or a 21-component model, not a {} model",
+                other.kind().name()
+            )))
+        }
+    };
+    let name = model
+        .path
+        .as_ref()
+        .map_or_else(|| "<model>".to_string(), |p| p.display().to_string());
+    let out = request
+        .run(view, &name)
+        .map_err(crate::request::library_error)?;
+    let files = PyDict::new(py);
+    for f in out.files() {
+        files.set_item(&f.name, &f.text)?;
+    }
+    let d = PyDict::new(py);
+    d.set_item("files", files)?;
+    d.set_item("notes", out.export.notes.clone())?;
+    d.set_item("table_error_um", out.error.max_um)?;
+    Ok(d)
+}

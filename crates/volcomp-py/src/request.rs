@@ -229,6 +229,7 @@ pub fn options<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyList>> 
         "thermal_fit" => ThermalFitRequest::OPTIONS,
         "thermal_predict" => ThermalPredictRequest::OPTIONS,
         "straightness_fit" => StraightnessFitRequest::OPTIONS,
+        "export" => volcomp_core::request::MapExportRequest::OPTIONS,
         _ => return Err(bad_input(format!("no job `{job}`"))),
     };
     let list = PyList::empty(py);

@@ -561,6 +561,70 @@ def test_a_bad_option_gets_the_same_message_in_both_front_ends(cli, data, args, 
     assert not (data / "x.ngc").exists()
 
 
+# Another job, the straightness fit: options whose ranges the fit checks,
+# with the help line that names the option again.
+FIT_RUNS = ["runs/x-4800.csv", "runs/x-7200.csv", "runs/x-9600.csv"]
+BAD_FIT_OPTIONS = [
+    (["--taper", "0.7"], dict(taper_fraction=0.7), {"--taper": "taper_fraction"}),
+    (["--harmonics", "0"], dict(harmonics=0), {"--harmonics": "harmonics"}),
+    (["--sigma-t", "-1"], dict(sigma_t=-1.0), {"--sigma-t": "sigma_t"}),
+]
+
+
+@pytest.mark.parametrize("args,kwargs,spelling", BAD_FIT_OPTIONS)
+def test_a_bad_fit_option_gets_the_same_message_in_both_front_ends(cli, data, args, kwargs, spelling):
+    p = subprocess.run(
+        [cli, "straightness", "fit", *FIT_RUNS, *args, "-o", "s.toml"],
+        cwd=data, capture_output=True, text=True,
+    )
+    assert p.returncode == 2, p.stderr
+    cli_message = p.stderr.removeprefix("error: ").rstrip("\n")
+    with pytest.raises(volcomp.BadInputError) as info:
+        volcomp.straightness_fit([data / r for r in FIT_RUNS], **kwargs)
+    py_message = str(info.value)
+    for flag, keyword in spelling.items():
+        cli_message = cli_message.replace(flag, keyword)
+    assert cli_message == py_message
+    assert not (data / "s.toml").exists()
+
+
+# A third job, the controller export: the vendor's settings, checked once.
+BAD_EXPORT_OPTIONS = [
+    (["--to", "siemens-eec", "--step", "10", "--axis-names", "X1,Y1"],
+     dict(to="siemens-eec", step_mm=10, axis_names="X1,Y1"), {"--axis-names": "axis_names"}),
+    (["--to", "fanuc"], dict(to="fanuc"), {"--step": "step_mm"}),
+    (["--to", "linuxcnc", "--type", "2", "--units", "mm"],
+     dict(to="linuxcnc", comp_type=2, units="mm"), {"--type": "comp_type"}),
+    (["--to", "fanuc", "--step", "10", "--detection-unit-um", "0"],
+     dict(to="fanuc", step_mm=10, detection_unit_um=0), {"--detection-unit-um": "detection_unit_um"}),
+]
+
+
+@pytest.mark.parametrize("args,kwargs,spelling", BAD_EXPORT_OPTIONS)
+def test_a_bad_export_option_gets_the_same_message_in_both_front_ends(cli, data, args, kwargs, spelling):
+    p = subprocess.run(
+        [cli, "map", "export", "map.csv", *args, "-o", "out"], cwd=data, capture_output=True, text=True,
+    )
+    assert p.returncode == 2, p.stderr
+    cli_message = p.stderr.removeprefix("error: ").rstrip("\n")
+    with pytest.raises(volcomp.BadInputError) as info:
+        volcomp.export(volcomp.Model.load(data / "map.csv"), **kwargs)
+    py_message = str(info.value)
+    for flag, keyword in spelling.items():
+        cli_message = cli_message.replace(flag, keyword)
+    assert cli_message == py_message
+    assert not (data / "out").exists()
+
+
+def test_export_gives_the_clis_files(cli, data):
+    run(cli, "map", "export", "map.csv", "--to", "heidenhain", "--step", "5", "-o", "tnc", cwd=data)
+    out = volcomp.export(volcomp.Model.load(data / "map.csv"), to="heidenhain", step_mm=5)
+    assert sorted(out["files"]) == sorted(p.name for p in (data / "tnc").iterdir())
+    for name, text in out["files"].items():
+        assert (data / "tnc" / name).read_text() == text, name
+    assert 0 < out["table_error_um"] <= 1.0
+
+
 def test_an_unknown_keyword_says_the_option_meant():
     with pytest.raises(TypeError, match=r"there is no option `mehtod` \(did you mean `method`\?\)"):
         volcomp.compensate(io.StringIO("M2\n"), volcomp.Model.from_csv(HAND_CSV), mehtod="ilc")

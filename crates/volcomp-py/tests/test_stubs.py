@@ -91,7 +91,7 @@ def test_the_librarys_options_are_in_the_stubs_with_their_defaults():
     default. A new option of the library fails here until its stub line is
     written (the expected line is in the message)."""
     funcs, classes = stub_defs()
-    jobs = {job: funcs[job] for job in ("compensate", "simulate", "moves", "mirror", "thermal_fit", "straightness_fit")}
+    jobs = {job: funcs[job] for job in ("compensate", "simulate", "moves", "mirror", "thermal_fit", "straightness_fit", "export")}
     jobs["thermal_predict"] = classes["ThermalModel"]["predict"]
     for job, node in jobs.items():
         stub = kw_defaults(node)

@@ -277,15 +277,33 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     for line in summary_lines(&kept.summary, &shown(&output)) {
         crate::note!("volcomp: {line}");
     }
+    machining_time(&a, &job, &kept, &output)?;
+    if let Some(w) = held_warning(&kept.summary) {
+        eprintln!("volcomp: warning: {w}");
+    }
+    if let Some(w) = uncompensated_warning(&kept.summary) {
+        eprintln!("volcomp: warning: {}", crate::options::flags(&w));
+    }
+    Ok(())
+}
+
+/// The machining time of the compensated program beside the original's,
+/// on standard error (unless quiet).
+fn machining_time(
+    a: &CompensateArgs,
+    job: &Compensation,
+    kept: &Kept,
+    output: &Path,
+) -> Result<(), CliError> {
     // Only a regular file can be read back: a pipe, a FIFO or /dev/stdout
     // would be read from its reading end (and wait for ever), /dev/null
     // reads empty.
     let readable =
-        kept.written.is_some() || std::fs::metadata(&output).is_ok_and(|m| m.file_type().is_file());
+        kept.written.is_some() || std::fs::metadata(output).is_ok_and(|m| m.file_type().is_file());
     if !crate::progress::quiet() && !readable {
         eprintln!(
             "volcomp: machining time not estimated: {} is not a regular file (run `volcomp time` on a copy of the program)",
-            shown(&output)
+            shown(output)
         );
     }
     if !crate::progress::quiet() && readable {
@@ -293,22 +311,16 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
             Some(w) => Box::new(w.as_slice()),
             // Read back once every output is in place.
             None => Box::new(
-                volcomp_geom::inputs::open(&output, "the compensated program")
-                    .map_err(|e| CliError::Io(output.clone(), e))?,
+                volcomp_geom::inputs::open(output, "the compensated program")
+                    .map_err(|e| CliError::Io(output.to_path_buf(), e))?,
             ),
         };
         let time = job
-            .machining_time(&a.program, compensated, &shown(&output))
+            .machining_time(&a.program, compensated, &shown(output))
             .map_err(|e| job.machine.refused(e))?;
         for line in time.summary_lines() {
             eprintln!("volcomp: {line}");
         }
-    }
-    if let Some(w) = held_warning(&kept.summary) {
-        eprintln!("volcomp: warning: {w}");
-    }
-    if let Some(w) = uncompensated_warning(&kept.summary) {
-        eprintln!("volcomp: warning: {}", crate::options::flags(&w));
     }
     Ok(())
 }

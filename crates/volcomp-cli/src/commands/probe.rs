@@ -9,11 +9,10 @@ use crate::options::Options;
 use crate::output::{check, write_atomically, CliError, OutputPlan, Staged};
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
-use volcomp_core::identify::probe::plan::{NoContact, PlanOptions, SpherePattern};
 use volcomp_core::identify::probe::program::duration;
 use volcomp_core::identify::probe::request::{FitRequest, Input, PlanRequest};
 use volcomp_core::identify::probe::verify::{Applied, VerifyRequest};
-use volcomp_core::request::{ProbeFitRequest, ProbeIdentifyRequest};
+use volcomp_core::request::{ProbeFitRequest, ProbeIdentifyRequest, ProbePlanRequest};
 use volcomp_core::MachineSetup;
 
 /// Calibrate with a touch probe: probing programs, fit, verification.
@@ -35,24 +34,6 @@ pub enum ProbeCommand {
     Example(ExampleArgs),
 }
 
-#[derive(ValueEnum, Clone, Copy, Debug)]
-pub enum Touches {
-    /// Pole and equator.
-    #[value(name = "5")]
-    Five,
-    /// Pole, equator and four 45° shoulders.
-    #[value(name = "9")]
-    Nine,
-}
-
-#[derive(ValueEnum, Clone, Copy, Debug)]
-pub enum OnNoContact {
-    /// G38.2: the controller stops with an error.
-    Stop,
-    /// G38.3: the program goes on; the touch is logged as missed.
-    Skip,
-}
-
 #[derive(Args, Debug)]
 pub struct PlanArgs {
     /// The artifact description (TOML, docs/probing.md).
@@ -60,69 +41,8 @@ pub struct PlanArgs {
     /// The machine's set-up: work offsets and tool table (docs/gcode.md).
     #[arg(long, value_name = "TOML")]
     pub setup: Option<PathBuf>,
-    /// Diameter of the probe's tip (mm).
-    #[arg(long, value_name = "MM")]
-    pub tip_diameter_mm: f64,
-    /// The probe's tool number (G43 H, its length from the set-up's [tools]).
-    #[arg(long, value_name = "N")]
-    pub probe_tool: Option<u32>,
-    /// Coordinate system the program runs in: G54 … G59.3.
-    #[arg(long, default_value = "G54")]
-    pub work_system: String,
-    /// Only this placement (default: all, with a pause between them).
-    #[arg(long)]
-    pub placement: Option<String>,
-    /// Feed of the searching touch (mm/min).
-    #[arg(long, default_value_t = 300.0)]
-    pub fast_feed_mm_min: f64,
-    /// Feed of the recorded touch (mm/min): its trigger lag is this feed × the servo period.
-    #[arg(long, default_value_t = 20.0)]
-    pub slow_feed_mm_min: f64,
-    /// Start of a touch before the nominal surface (mm).
-    #[arg(long, default_value_t = 2.0)]
-    pub approach_mm: f64,
-    /// How far past the nominal surface a probe move may go (mm).
-    #[arg(long, default_value_t = 2.0)]
-    pub overtravel_mm: f64,
-    /// Back-off between the fast and the slow touch (mm).
-    #[arg(long, default_value_t = 0.5)]
-    pub backoff_mm: f64,
-    /// Height of the travel plane above the artifact (mm).
-    #[arg(long, default_value_t = 5.0)]
-    pub clearance_mm: f64,
-    /// The move that sets an axis' direction before a touch (mm).
-    #[arg(long, default_value_t = 1.0)]
-    pub take_up_mm: f64,
-    /// Touches per sphere (the reference sphere has its own set).
-    #[arg(long, value_enum, default_value = "5")]
-    pub sphere_touches: Touches,
-    /// How often each touch is made.
-    #[arg(long, default_value_t = 1)]
-    pub repeats: usize,
-    /// How often each touch of the reference sphere is made.
-    #[arg(long, default_value_t = 3)]
-    pub reference_repeats: usize,
-    /// Touches along each edge of a square.
-    #[arg(long, default_value_t = 7)]
-    pub edge_points: usize,
-    /// Distance of the first and last edge touch from an edge's ends (mm).
-    #[arg(long, default_value_t = 10.0)]
-    pub edge_margin_mm: f64,
-    /// What a probe move that touches nothing does.
-    #[arg(long, value_enum, default_value = "stop")]
-    pub no_contact: OnNoContact,
-    /// The log file the program writes (LOGOPEN), as LinuxCNC opens it.
-    #[arg(long, default_value = "probe.log")]
-    pub log_file: String,
-    /// Machine Z for moves between placements (default: 25 mm above the artifact).
-    #[arg(long, allow_hyphen_values = true)]
-    pub safe_z_mm: Option<f64>,
-    /// Rapid speed for the time estimate (mm/min).
-    #[arg(long, default_value_t = 3000.0)]
-    pub rapid_mm_min: f64,
-    /// Acceleration for the time estimate (mm/s²).
-    #[arg(long, default_value_t = 500.0)]
-    pub accel_mm_s2: f64,
+    #[command(flatten)]
+    pub job: Options<ProbePlanRequest>,
     /// Output program.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -197,20 +117,6 @@ fn input(path: &Path, role: &str) -> Result<Input, CliError> {
     Ok(Input::new(path.display().to_string(), text))
 }
 
-fn work_system(text: &str) -> Result<usize, CliError> {
-    const NAMES: [&str; 9] = [
-        "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
-    ];
-    NAMES
-        .iter()
-        .position(|n| n.eq_ignore_ascii_case(text.trim()))
-        .ok_or_else(|| {
-            CliError::Message(format!(
-                "--work-system `{text}`: write G54 … G59, G59.1, G59.2 or G59.3"
-            ))
-        })
-}
-
 fn plan_cmd(a: PlanArgs) -> Result<(), CliError> {
     let mut plan = OutputPlan::new();
     plan.input("artifact", &a.artifact)
@@ -224,38 +130,12 @@ fn plan_cmd(a: PlanArgs) -> Result<(), CliError> {
             MachineSetup::unset()
         }
     };
-    let options = PlanOptions {
-        tip_diameter_mm: a.tip_diameter_mm,
-        fast_feed_mm_min: a.fast_feed_mm_min,
-        slow_feed_mm_min: a.slow_feed_mm_min,
-        approach_mm: a.approach_mm,
-        overtravel_mm: a.overtravel_mm,
-        backoff_mm: a.backoff_mm,
-        clearance_mm: a.clearance_mm,
-        take_up_mm: a.take_up_mm,
-        spheres: match a.sphere_touches {
-            Touches::Five => SpherePattern::Five,
-            Touches::Nine => SpherePattern::Nine,
-        },
-        repeats: a.repeats,
-        reference_repeats: a.reference_repeats,
-        edge_points: a.edge_points,
-        edge_margin_mm: a.edge_margin_mm,
-        no_contact: match a.no_contact {
-            OnNoContact::Stop => NoContact::Stop,
-            OnNoContact::Skip => NoContact::Skip,
-        },
-        log_file: a.log_file.clone(),
-        work_system: work_system(&a.work_system)?,
-        probe_tool: a.probe_tool,
-        safe_z_mm: a.safe_z_mm,
-        rapid_mm_min: a.rapid_mm_min,
-        accel_mm_s2: a.accel_mm_s2,
-    };
+    let options = a.job.options()?;
+    let (fast, slow) = (options.fast_feed_mm_min, options.slow_feed_mm_min);
     let request = PlanRequest {
         artifact: input(&a.artifact, "ARTIFACT")?,
         setup,
-        placement: a.placement.clone(),
+        placement: a.job.placement.clone(),
         options,
         title: format!(
             "volcomp {} probe plan {}",
@@ -282,11 +162,11 @@ fn plan_cmd(a: PlanArgs) -> Result<(), CliError> {
         a.output.display(),
         out.plan.touches.len(),
         duration(out.plan.time_s),
-        a.fast_feed_mm_min,
-        a.slow_feed_mm_min,
-        a.rapid_mm_min,
-        a.accel_mm_s2,
-        a.log_file
+        fast,
+        slow,
+        a.job.rapid_mm_min,
+        a.job.accel_mm_s2,
+        a.job.log_file
     );
     Ok(())
 }
@@ -347,35 +227,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
             .map_err(|e| CliError::Io(a.output.clone(), e))
     })?;
     if let Some(path) = &a.report {
-        let mut doc = volcomp_core::report::Document {
-            title: "volcomp probing calibration".into(),
-            facts: vec![
-                ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
-                ("command".into(), super::command_line()),
-                ("date".into(), volcomp_core::io::provenance::now_utc()),
-                (
-                    "model".into(),
-                    format!("{} (order {}, chain {})", a.output.display(), order, chain),
-                ),
-                (
-                    "travel (mm)".into(),
-                    ranges
-                        .iter()
-                        .map(|r| format!("{}:{}", r[0], r[1]))
-                        .collect::<Vec<_>>()
-                        .join(","),
-                ),
-            ],
-            inputs: Vec::new(),
-            sections: volcomp_core::report::probe::sections(&out, ranges),
-        };
-        for (role, list) in [("artifact", &a.id.artifacts), ("log", &a.id.logs)] {
-            for p in list {
-                doc.inputs
-                    .push(volcomp_core::report::InputFile::read(role, p)?);
-            }
-        }
-        let html = doc.to_html();
+        let html = fit_report(&a, &out, ranges, (order, &chain))?;
         staged.write(path, |w| {
             w.write_all(html.as_bytes())
                 .map_err(|e| CliError::Io(path.clone(), e))
@@ -395,6 +247,44 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         a.output.display()
     );
     Ok(())
+}
+
+/// The fit's HTML report: the run's facts, the inputs, the library's sections.
+fn fit_report(
+    a: &FitArgs,
+    out: &volcomp_core::identify::probe::request::FitOutput,
+    ranges: [[f64; 2]; 3],
+    (order, chain): (usize, &str),
+) -> Result<String, CliError> {
+    let mut doc = volcomp_core::report::Document {
+        title: "volcomp probing calibration".into(),
+        facts: vec![
+            ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
+            ("command".into(), super::command_line()),
+            ("date".into(), volcomp_core::io::provenance::now_utc()),
+            (
+                "model".into(),
+                format!("{} (order {}, chain {})", a.output.display(), order, chain),
+            ),
+            (
+                "travel (mm)".into(),
+                ranges
+                    .iter()
+                    .map(|r| format!("{}:{}", r[0], r[1]))
+                    .collect::<Vec<_>>()
+                    .join(","),
+            ),
+        ],
+        inputs: Vec::new(),
+        sections: volcomp_core::report::probe::sections(out, ranges),
+    };
+    for (role, list) in [("artifact", &a.id.artifacts), ("log", &a.id.logs)] {
+        for p in list {
+            doc.inputs
+                .push(volcomp_core::report::InputFile::read(role, p)?);
+        }
+    }
+    Ok(doc.to_html())
 }
 
 fn verify_cmd(a: VerifyArgs) -> Result<(), CliError> {

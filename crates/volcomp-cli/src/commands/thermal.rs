@@ -194,7 +194,6 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
     plan.input("--model", &a.model).output("-o", &a.output);
     check(&plan)?;
     let m = load_model(&a.model)?;
-    let t = &m.time_h;
     let order = m.by_drift(a.top);
     // One chart per unit: linear parameters in µm and angular ones in µrad
     // never share an axis. Each parameter's markers (identified) and line
@@ -206,60 +205,84 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
         }
     }
     let mut charts = Vec::new();
-    let symbol = |u: &str| unit_symbol(u).to_string();
     for unit_file in &units {
-        let unit = symbol(unit_file);
-        let mut evolution = Chart {
-            title: format!(
-                "Parameters in {unit} over time: identified (markers) and regression (lines)"
-            ),
-            x_label: "time (h)".into(),
-            y_label: format!("value − first cycle ({unit})"),
-            ..Chart::default()
-        };
-        let mut residuals = Chart {
-            title: format!("Regression residuals of the parameters in {unit}"),
-            x_label: "time (h)".into(),
-            y_label: format!("identified − regression ({unit})"),
-            ..Chart::default()
-        };
-        for (colour, p) in order.iter().filter(|p| p.unit == *unit_file).enumerate() {
-            let base = p.identified[0];
-            let label = format!("{} ({unit})", p.name);
-            evolution.series.push(
-                Series::markers(
-                    format!("{label} identified"),
-                    t.iter()
-                        .zip(&p.identified)
-                        .map(|(x, v)| (*x, v - base))
-                        .collect(),
-                )
-                .colour(colour),
-            );
-            let f = m.fitted(p);
-            evolution.series.push(
-                Series::line(
-                    format!("{label} regression"),
-                    f.iter().map(|(x, v)| (*x, v - base)).collect(),
-                )
-                .colour(colour),
-            );
-            residuals.series.push(
-                Series::line(
-                    label,
-                    f.iter()
-                        .map(|(x, v)| {
-                            let c = t.iter().position(|y| y == x).unwrap_or(0);
-                            (*x, p.identified[c] - v)
-                        })
-                        .collect(),
-                )
-                .colour(colour),
-            );
-        }
-        charts.push(evolution);
-        charts.push(residuals);
+        charts.extend(parameter_charts(&m, &order, unit_file));
     }
+    charts.extend(run_charts(&m));
+    write_charts_or_report(
+        &charts,
+        &a.output,
+        "volcomp thermal model report",
+        &[("model", a.model.as_path())],
+    )?;
+    crate::note!("volcomp: wrote {}", a.output.display());
+    Ok(())
+}
+
+/// The evolution and the regression residuals of the parameters in one
+/// unit (µm and µrad never share an axis); each parameter's markers
+/// (identified) and line (regression) share one colour.
+fn parameter_charts(
+    m: &ThermalModelFile,
+    order: &[&volcomp_core::identify::thermal::files::ParamFit],
+    unit_file: &str,
+) -> [Chart; 2] {
+    let t = &m.time_h;
+    let unit = unit_symbol(unit_file).to_string();
+    let mut evolution = Chart {
+        title: format!(
+            "Parameters in {unit} over time: identified (markers) and regression (lines)"
+        ),
+        x_label: "time (h)".into(),
+        y_label: format!("value − first cycle ({unit})"),
+        ..Chart::default()
+    };
+    let mut residuals = Chart {
+        title: format!("Regression residuals of the parameters in {unit}"),
+        x_label: "time (h)".into(),
+        y_label: format!("identified − regression ({unit})"),
+        ..Chart::default()
+    };
+    for (colour, p) in order.iter().filter(|p| p.unit == *unit_file).enumerate() {
+        let base = p.identified[0];
+        let label = format!("{} ({unit})", p.name);
+        evolution.series.push(
+            Series::markers(
+                format!("{label} identified"),
+                t.iter()
+                    .zip(&p.identified)
+                    .map(|(x, v)| (*x, v - base))
+                    .collect(),
+            )
+            .colour(colour),
+        );
+        let f = m.fitted(p);
+        evolution.series.push(
+            Series::line(
+                format!("{label} regression"),
+                f.iter().map(|(x, v)| (*x, v - base)).collect(),
+            )
+            .colour(colour),
+        );
+        residuals.series.push(
+            Series::line(
+                label,
+                f.iter()
+                    .map(|(x, v)| {
+                        let c = t.iter().position(|y| y == x).unwrap_or(0);
+                        (*x, p.identified[c] - v)
+                    })
+                    .collect(),
+            )
+            .colour(colour),
+        );
+    }
+    [evolution, residuals]
+}
+
+/// The temperatures and the probing noise per cycle.
+fn run_charts(m: &ThermalModelFile) -> [Chart; 2] {
+    let t = &m.time_h;
     let mut temps = Chart {
         title: "Temperatures".into(),
         x_label: "time (h)".into(),
@@ -285,16 +308,7 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
         )],
         ..Chart::default()
     };
-    charts.push(temps);
-    charts.push(noise);
-    write_charts_or_report(
-        &charts,
-        &a.output,
-        "volcomp thermal model report",
-        &[("model", a.model.as_path())],
-    )?;
-    crate::note!("volcomp: wrote {}", a.output.display());
-    Ok(())
+    [temps, noise]
 }
 
 fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {

@@ -30,8 +30,30 @@ pub fn tempdir(name: &str) -> PathBuf {
 
 // A small part on a pitch-error map, shared by the output-safety and header tests.
 
-pub fn stderr(o: &std::process::Output) -> String {
+/// What a run wrote on standard error.
+pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// What a run wrote on standard output.
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Standard output then standard error (for messages of a failed check).
+pub fn text(o: &Output) -> String {
+    format!("{}{}", stdout(o), stderr(o))
+}
+
+/// Asserts the run succeeded (exit 0), showing what it said if not.
+pub fn ok(o: &Output) {
+    assert_eq!(o.status.code(), Some(0), "{}", text(o));
+}
+
+/// The run's standard output as JSON (the run must succeed).
+pub fn json(o: &Output) -> serde_json::Value {
+    ok(o);
+    serde_json::from_slice(&o.stdout).unwrap()
 }
 
 /// A small axis-table map over 0…600 mm with a pitch error of 2 µm per 100 mm

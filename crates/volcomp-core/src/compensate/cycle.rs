@@ -4,30 +4,30 @@
 //! written unaltered (see `write_tap_stroke`). G87 and G88 are refused:
 //! see `refusal`.
 
+use super::cycle_keep::Hole;
 use super::lines::{blank_before, OutMode};
 use super::walk::{Line, Place};
 use super::State;
 use crate::error::CompensationError;
 use crate::simulate::next_state;
 use volcomp_gcode::edit::{apply_edits, Edit};
-use volcomp_gcode::lexer::Word;
 use volcomp_gcode::number::{format_number, NumberStyle};
 use volcomp_gcode::{FeedMode, MotionKind, PathMode};
 
+/// How a dwell's seconds are written (`P0.5`, `P1.25`).
+const SECONDS: NumberStyle = NumberStyle {
+    decimals: 3,
+    leading_zero: true,
+    trim_trailing_zeros: true,
+    trailing_dot: false,
+};
+
 impl State<'_> {
-    /// Writes a canned-cycle block as explicit moves: the block itself keeps
-    /// its other words with the cycle code turned into G80 and its cycle
-    /// words (X Y Z R P Q L) removed; each move of the expanded cycle
-    /// follows, compensated like any other, with the dwell of G82/G86/G89 as
-    /// G4 and G86's spindle stop (M5) and restart (M3/M4) where LinuxCNC
-    /// makes them.
+    /// Writes a canned-cycle block: each hole as a compensated cycle block
+    /// where the map allows (compensate/cycle_keep.rs), as its moves
+    /// elsewhere ([`State::write_cycle_moves`]), one hole after the other.
     pub(super) fn write_cycle(&mut self, line: &Line) -> Result<(), CompensationError> {
         let (interp, file, number) = (line.ev.interp, self.walk.file, line.number());
-        let (bytes, words, motions) = (
-            line.ev.bytes,
-            line.words().collect::<Vec<&Word>>(),
-            line.ev.motions,
-        );
         if interp.feed_mode() == FeedMode::InverseTime {
             return Err(CompensationError::AtLine {
                 file: file.into(),
@@ -45,31 +45,186 @@ impl State<'_> {
                 help: help.into(),
             });
         }
-        let content = line.content();
-        let ending = line.ending;
-        let mut edits = Vec::new();
-        for w in &words {
-            match w.letter {
-                b'G' if [73.0, 74.0, 81.0, 82.0, 83.0, 84.0, 85.0, 86.0, 89.0]
-                    .contains(&w.value) =>
-                {
-                    edits.push(Edit::replace(w.value_span.clone(), "80"));
+        let holes = match (code, self.cycle_tolerance_mm()) {
+            (74 | 84, _) | (_, None) => None,
+            (_, Some(_)) => self.cycle_holes(line),
+        };
+        let Some(holes) = holes else {
+            self.write_cycle_line_as_g80(line)?;
+            self.write_cycle_moves(line, line.ev.motions, "cycle", (true, true))?;
+            self.summary.cycle_holes_expanded +=
+                interp.last_cycle().map_or(1, |b| b.holes.len() as u64);
+            self.note_feed(line);
+            return Ok(());
+        };
+        let tolerance_mm = self.cycle_tolerance_mm().unwrap_or(0.0);
+        let mut line_written = false;
+        // Holes written as moves since the last kept one: under the G61
+        // written before the first of them.
+        let mut in_exact = false;
+        for (k, range) in holes.ranges.iter().enumerate() {
+            let nominal = &holes.nominal[range.clone()];
+            match self.plan_hole(line, &holes.block, k, nominal, tolerance_mm)? {
+                Hole::Keep(kept) => {
+                    if in_exact {
+                        self.exact_path(line, false);
+                        in_exact = false;
+                    }
+                    if line_written {
+                        self.write_kept_inserted(line, code, &kept.words);
+                    } else {
+                        self.write_kept_line(line, code, &kept.words)?;
+                        line_written = true;
+                    }
+                    self.follow_kept(line, &kept);
+                    self.mode = Some(OutMode::Other);
                 }
-                b'X' | b'Y' | b'Z' | b'R' | b'P' | b'Q' | b'L' | b'@' | b'^' => {
-                    edits.push(Edit::delete(
-                        blank_before(content, w.span.start)..w.span.end,
-                    ));
+                Hole::Expand(why) => {
+                    if line_written {
+                        if self.cycles.active() {
+                            self.write_word_line("G80", line.ending);
+                        }
+                    } else {
+                        self.write_cycle_line_as_g80(line)?;
+                        line_written = true;
+                    }
+                    self.cycles.end();
+                    let note = self.expand_note(&why);
+                    let motions = &line.ev.motions[range.clone()];
+                    self.write_cycle_moves(line, motions, &note, (!in_exact, false))?;
+                    in_exact = true;
+                    self.summary.cycle_holes_expanded += 1;
                 }
-                _ => {}
             }
         }
-        apply_edits(bytes, &mut edits, &mut self.buf)
-            .map_err(|e| super::edit_error(file, number, e))?;
+        if in_exact {
+            self.exact_path(line, false);
+        }
+        self.note_feed(line);
+        Ok(())
+    }
+
+    /// The dwell word of a kept G82, G86 or G89 hole (`P` seconds, as
+    /// LinuxCNC requires it on a block that starts a cycle).
+    fn dwell_word(&self, line: &Line, code: u16) -> String {
+        let mut text = String::new();
+        if let (82 | 86 | 89, Some((_, Some(p)))) = (code, line.ev.interp.canned_cycle()) {
+            text.push_str(self.walk.sep);
+            text.push('P');
+            format_number(p, SECONDS, &mut text);
+        }
+        text
+    }
+
+    /// The cycle line itself written for its first hole kept as a cycle:
+    /// its words but the cycle's (X Y Z R P Q L, polar words) kept as they
+    /// are, the cycle code written if the line had none (the written
+    /// program may have left the cycle for a hole written as moves), and
+    /// the hole's compensated words appended.
+    fn write_kept_line(
+        &mut self,
+        line: &Line,
+        code: u16,
+        words: &str,
+    ) -> Result<(), CompensationError> {
+        let content = line.content();
+        let mut edits = cycle_word_deletions(line, content);
+        let has_code = line
+            .words()
+            .any(|w| w.letter == b'G' && is_cycle_code(w.value));
+        let mut text = String::new();
+        if !has_code {
+            text.push_str(self.walk.sep);
+            text.push_str(&format!("G{code}"));
+        }
+        text.push_str(words);
+        text.push_str(&self.dwell_word(line, code));
+        edits.push(Edit::insert(content.len(), text));
+        self.write_edited_line(line, edits)
+    }
+
+    /// The cycle line with `edits` applied, as one line of the output. A
+    /// line that was only the hole's words (`X20`) would start with the
+    /// separator of the words written after them: it is not written.
+    fn write_edited_line(
+        &mut self,
+        line: &Line,
+        mut edits: Vec<Edit>,
+    ) -> Result<(), CompensationError> {
+        let content = line.content();
+        let start = self.buf.len();
+        apply_edits(line.ev.bytes, &mut edits, &mut self.buf)
+            .map_err(|e| super::edit_error(self.walk.file, line.number(), e))?;
+        let blanks = self.buf[start..]
+            .iter()
+            .take_while(|b| **b == b' ' || **b == b'\t')
+            .count();
+        if blanks > 0 && !content.starts_with(b" ") && !content.starts_with(b"\t") {
+            self.buf.drain(start..start + blanks);
+        }
         if !self.buf.ends_with(b"\n") {
-            self.buf.extend_from_slice(ending);
+            self.buf.extend_from_slice(line.ending);
         }
         self.summary.lines_out += 1;
+        Ok(())
+    }
+
+    /// A hole after the first of a cycle line (an L repeat) kept as a
+    /// cycle: a block of its own, traced to the line.
+    fn write_kept_inserted(&mut self, line: &Line, code: u16, words: &str) {
+        let mut text = format!("G{code}{words}{}", self.dwell_word(line, code));
+        if self.walk.options.trace_comments {
+            text.push_str(self.walk.sep);
+            text.push_str(&format!("(volcomp L{} cycle)", line.number()));
+        }
+        if !self.buf.is_empty() && !self.buf.ends_with(b"\n") {
+            self.buf.extend_from_slice(b"\n");
+        }
+        self.write_word_line(&text, line.ending);
+    }
+
+    /// The cycle line written for its moves: its other words with the
+    /// cycle code turned into G80 (or G80 added where the written program
+    /// is in a cycle the line does not name) and the cycle words (X Y Z R
+    /// P Q L, polar words) removed.
+    fn write_cycle_line_as_g80(&mut self, line: &Line) -> Result<(), CompensationError> {
+        let content = line.content();
+        let mut edits = cycle_word_deletions(line, content);
+        let mut has_code = false;
+        for w in line.words() {
+            if w.letter == b'G' && is_cycle_code(w.value) {
+                edits.push(Edit::replace(w.value_span.clone(), "80"));
+                has_code = true;
+            }
+        }
+        if !has_code && self.cycles.active() {
+            edits.push(Edit::insert(content.len(), format!("{}G80", self.walk.sep)));
+        }
+        self.cycles.end();
+        self.write_edited_line(line, edits)?;
         self.mode = Some(OutMode::Other);
+        Ok(())
+    }
+
+    /// Writes `motions` of a cycle line (all of them, or one hole's) as
+    /// explicit moves, compensated like any other, with the dwell of
+    /// G82/G86/G89 as G4 and G86's spindle stop (M5) and restart (M3/M4)
+    /// where LinuxCNC makes them; `note` follows the line number in the
+    /// trace comment of the first move. `open` and `close`: whether the
+    /// G61 LinuxCNC runs a cycle's moves in is written before them and
+    /// the program's mode after them (consecutive holes written as moves
+    /// share one).
+    fn write_cycle_moves(
+        &mut self,
+        line: &Line,
+        motions: &[volcomp_gcode::Motion],
+        note: &str,
+        (open, close): (bool, bool),
+    ) -> Result<(), CompensationError> {
+        let (interp, number) = (line.ev.interp, line.number());
+        let code = interp.canned_cycle().map(|(c, _)| c).unwrap_or(0);
+        let ending = line.ending;
+        let mut note = note;
         // LinuxCNC runs a cycle's moves in exact path (G61) whatever the
         // program's mode, and restores the mode after them
         // (`convert_cycle_xy`, interp_cycles.cc): written as moves they say
@@ -77,10 +232,8 @@ impl State<'_> {
         // G61.1 LinuxCNC keeps exact stop for the rapid up to R from below
         // it; here that rapid is written under G61 too: it ends at a corner
         // either way.)
-        let program_mode = interp.path_mode();
-        let say_mode = program_mode != PathMode::ExactPath;
-        if say_mode {
-            self.write_word_line("G61", ending);
+        if open {
+            self.exact_path(line, true);
         }
         let frame = line.frame;
         let at = line.place();
@@ -122,7 +275,8 @@ impl State<'_> {
                     // the same as the controller would, but write nothing.
                     continue;
                 }
-                self.write_inserted(&at, pos, q, mode, "cycle");
+                self.write_inserted(&at, pos, q, mode, note);
+                note = "cycle";
                 pos = q;
             }
             if restart_due && !feed_like {
@@ -141,16 +295,7 @@ impl State<'_> {
                         let mut text = String::from("G4");
                         text.push_str(sep);
                         text.push('P');
-                        format_number(
-                            p,
-                            NumberStyle {
-                                decimals: 3,
-                                leading_zero: true,
-                                trim_trailing_zeros: true,
-                                trailing_dot: false,
-                            },
-                            &mut text,
-                        );
+                        format_number(p, SECONDS, &mut text);
                         self.write_word_line(&text, ending);
                     }
                     if code == 86 {
@@ -160,11 +305,26 @@ impl State<'_> {
                 }
             }
         }
-        if say_mode {
-            let text = mode_code(program_mode, interp.units().mm_per_unit(), sep);
-            self.write_word_line(&text, ending);
+        if close {
+            self.exact_path(line, false);
         }
         Ok(())
+    }
+
+    /// The G61 written before a cycle's moves (`on`), or the program's own
+    /// mode written after them, where the program is not in G61 itself.
+    fn exact_path(&mut self, line: &Line, on: bool) {
+        let interp = line.ev.interp;
+        let program_mode = interp.path_mode();
+        if program_mode == PathMode::ExactPath {
+            return;
+        }
+        let text = if on {
+            "G61".to_string()
+        } else {
+            mode_code(program_mode, interp.units().mm_per_unit(), self.walk.sep)
+        };
+        self.write_word_line(&text, line.ending);
     }
 
     /// One feed stroke of G84 or G74 (even `feeds`: down, odd: up; G74 turns
@@ -207,16 +367,7 @@ impl State<'_> {
             self.write_word_line("M5", ending);
             self.write_word_line(reverse, ending);
             let mut text = format!("G4{sep}P");
-            format_number(
-                dwell.unwrap_or(0.0),
-                NumberStyle {
-                    decimals: 3,
-                    leading_zero: true,
-                    trim_trailing_zeros: true,
-                    trailing_dot: false,
-                },
-                &mut text,
-            );
+            format_number(dwell.unwrap_or(0.0), SECONDS, &mut text);
             self.write_word_line(&text, ending);
         } else {
             self.write_word_line("M5", ending);
@@ -279,6 +430,28 @@ fn refusal(code: u16) -> Option<(&'static str, &'static str)> {
         )),
         _ => None,
     }
+}
+
+/// Whether G-code `value` is a canned cycle's (G73, G74, G81–G89).
+fn is_cycle_code(value: f64) -> bool {
+    [
+        73.0, 74.0, 81.0, 82.0, 83.0, 84.0, 85.0, 86.0, 87.0, 88.0, 89.0,
+    ]
+    .contains(&value)
+}
+
+/// Edits that delete a cycle line's cycle words: X Y Z R P Q L and the
+/// polar words, each with the blank before it.
+fn cycle_word_deletions(line: &Line, content: &[u8]) -> Vec<Edit> {
+    line.words()
+        .filter(|w| {
+            matches!(
+                w.letter,
+                b'X' | b'Y' | b'Z' | b'R' | b'P' | b'Q' | b'L' | b'@' | b'^'
+            )
+        })
+        .map(|w| Edit::delete(blank_before(content, w.span.start)..w.span.end))
+        .collect()
 }
 
 #[cfg(test)]

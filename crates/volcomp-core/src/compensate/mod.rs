@@ -18,6 +18,7 @@
 mod arcs;
 mod cutter;
 mod cycle;
+mod cycle_keep;
 mod extra;
 mod frame;
 mod front;
@@ -126,6 +127,8 @@ impl<'w> State<'w> {
             transitions_written: Vec::new(),
             estimate_mm: 0.0,
             blocks_in: size::Blocks::default(),
+            // cycles lane: the run of canned cycles in the written program.
+            cycles: cycle_keep::Series::default(),
         }
     }
 
@@ -147,6 +150,8 @@ impl<'w> State<'w> {
             self.write_cycle(line)?;
             return Ok(own);
         }
+        // cycles lane: a line that leaves the canned cycle ends the run.
+        self.cycles.follow(ev.interp);
         if (ev.interp.cutter_comp_on() || has(MotionSource::CutterComp))
             && !ev.after_end
             && ev.kind == LineKind::Block
@@ -648,6 +653,9 @@ struct State<'w> {
     estimate_mm: f64,
     /// Block counting of the input and the output ([`size::Blocks`]).
     blocks_in: size::Blocks,
+    /// The run of canned cycles in the written program
+    /// (compensate/cycle_keep.rs).
+    cycles: cycle_keep::Series,
 }
 
 /// Edits of a line that sets an offset from the current point (G92, or

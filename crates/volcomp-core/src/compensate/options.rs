@@ -300,6 +300,15 @@ pub struct CompensateSummary {
     pub first_uncompensated: Option<(u64, usize)>,
     /// The axes never set at the first of them.
     pub unset_axes: [bool; 3],
+    /// Canned-cycle holes written as compensated cycle blocks
+    /// (docs/compensation.md, "Canned cycles").
+    pub cycle_holes_kept: u64,
+    /// Canned-cycle holes written as their moves (the map varies too much
+    /// over the hole, or the segmentation is fixed).
+    pub cycle_holes_expanded: u64,
+    /// The largest error a hole kept as a cycle leaves on its cut (µm):
+    /// across the stroke or at a feed end.
+    pub max_cycle_error_um: f64,
 }
 
 impl CompensateSummary {

@@ -153,8 +153,16 @@ pub struct PointSolution {
 /// onto what the written program will really command).
 ///
 /// The state of an axis is kept while that is consistent; only an axis whose
-/// command would contradict its state is flipped; an axis for which neither
-/// direction is consistent is held at its previous command and reported.
+/// command would contradict its state is flipped. Flipping one axis changes
+/// the errors the others see (a transverse table depends on the direction of
+/// the axis it belongs to), so flipping every inconsistent axis at once can
+/// overshoot: when that walk ends with an axis it would hold, or without a
+/// consistent state, every direction state is tried (fewest reversals first,
+/// then the smallest residual) and the first consistent one is taken. Only
+/// when no state is consistent is an axis held at its previous command and
+/// reported: that happens where the compensated model's reverse error lies
+/// below its forward one by more than the wanted motion (a negative reversal
+/// value), so that no command can reverse by that little.
 pub fn solve_consistent(
     model: &dyn ErrorModel,
     method: Method,
@@ -195,10 +203,21 @@ pub fn solve_consistent(
             break;
         }
     }
-    let (sol, mut q) = last.unwrap_or_else(|| unreachable!("the loop runs at least once"));
+    let (mut sol, mut q) = last.unwrap_or_else(|| unreachable!("the loop runs at least once"));
     for a in 0..3 {
         if hold[a] {
             q[a] = q_prev[a];
+        }
+    }
+    let walked_to_consistent = consistent_state(q, q_prev, s, s_prev, hold);
+    if hold.contains(&true) || !walked_to_consistent {
+        if let Some((found_sol, found_q, found_s)) =
+            search_states(model, method, t_mm, q_prev, s_prev, quantize)?
+        {
+            sol = found_sol;
+            q = found_q;
+            s = found_s;
+            hold = [false; 3];
         }
     }
     let reversed = [0, 1, 2].map(|a| s[a] != s_prev[a]);
@@ -211,6 +230,68 @@ pub fn solve_consistent(
         reversed,
         held: hold,
     })
+}
+
+/// Whether the command `q` from `q_prev` moves every free axis in the
+/// direction its table was chosen for: a moving axis in `s[a]`, an axis that
+/// stands still in its previous state (a controller keeps an axis' last
+/// direction while it stands, as LinuxCNC's `compute_screw_comp` in
+/// src/emc/motion/control.c does).
+fn consistent_state(
+    q: Vec3,
+    q_prev: Vec3,
+    s: Directions,
+    s_prev: Directions,
+    hold: [bool; 3],
+) -> bool {
+    (0..3).all(|a| {
+        hold[a]
+            || match Direction::of_delta(q[a] - q_prev[a]) {
+                Some(d) => d == s[a],
+                None => s[a] == s_prev[a],
+            }
+    })
+}
+
+/// The consistent direction state with the fewest reversals from `s_prev`
+/// (the smallest residual among equals), with no axis held; `None` when no
+/// state of the 2³ is consistent.
+fn search_states(
+    model: &dyn ErrorModel,
+    method: Method,
+    t_mm: Vec3,
+    q_prev: Vec3,
+    s_prev: Directions,
+    quantize: &dyn Fn(Vec3) -> Vec3,
+) -> Result<Option<(Solved, Vec3, Directions)>, ModelError> {
+    let mut best: Option<(usize, f64, Solved, Vec3, Directions)> = None;
+    for bits in 0..8u8 {
+        let s = [0, 1, 2].map(|a| {
+            if bits & (1 << a) != 0 {
+                s_prev[a].flipped()
+            } else {
+                s_prev[a]
+            }
+        });
+        let flips = bits.count_ones() as usize;
+        if best.as_ref().is_some_and(|b| b.0 < flips) {
+            continue;
+        }
+        let sol = solve_fixed(model, method, t_mm, s, [false; 3], q_prev)?;
+        let q = quantize(sol.q_mm);
+        if !consistent_state(q, q_prev, s, s_prev, [false; 3]) {
+            continue;
+        }
+        let residual_um = (t_mm - actual_mm(model, q, s, Components::All)?).norm() * 1e3;
+        let better = match &best {
+            None => true,
+            Some(b) => flips < b.0 || (flips == b.0 && residual_um < b.1),
+        };
+        if better {
+            best = Some((flips, residual_um, sol, q, s));
+        }
+    }
+    Ok(best.map(|(_, _, sol, q, s)| (sol, q, s)))
 }
 
 #[cfg(test)]
@@ -346,5 +427,62 @@ mod tests {
         let p = solve_consistent(&m, Method::Exact, t, q_prev, ALL_FORWARD, &id).unwrap();
         assert!(!p.held[0] && p.s[0] == Direction::Reverse);
         assert!((p.q_mm.x - 9.994).abs() < 1e-9);
+    }
+
+    /// Y's error depends on X's direction (a transverse table of X), with no
+    /// negative reversal value anywhere: X's reverse error lies 4 µm above
+    /// its forward one, and Y is 2·δ lower while X runs in reverse.
+    struct Transverse {
+        delta_um: f64,
+    }
+
+    impl ErrorModel for Transverse {
+        fn deviation_um(
+            &self,
+            _q: Vec3,
+            s: Directions,
+            _c: Components,
+        ) -> Result<Vec3, ModelError> {
+            let x_reverse = s[0] == Direction::Reverse;
+            Ok(Vec3::new(
+                if x_reverse { 4.0 } else { 0.0 },
+                if x_reverse { -2.0 * self.delta_um } else { 0.0 },
+                0.0,
+            ))
+        }
+        fn range_mm(&self) -> [[f64; 2]; 3] {
+            [[-1e3, 1e3]; 3]
+        }
+    }
+
+    #[test]
+    fn a_consistent_state_is_found_when_flipping_every_inconsistent_axis_overshoots() {
+        // Hand calculation. From q = (10, 10), both axes last in reverse, the
+        // target is (10.010, 10 − δ), δ = 0.3 µm.
+        // Keeping (R, R): e = (4, −0.6) µm → q = (10.006, 10.0003): both axes
+        //   would move forward, both inconsistent.
+        // Flipping both, (F, F): e = 0 → q = (10.010, 9.9997): Y now moves in
+        //   reverse, against its state: a walk that flips every inconsistent
+        //   axis at once holds Y here (0.3 µm left).
+        // (F, R): e = 0 → q = (10.010, 9.9997): X forward, Y reverse, both as
+        //   chosen: consistent, with one reversal and nothing left.
+        let m = Transverse { delta_um: 0.3 };
+        let q_prev = Vec3::new(10.0, 10.0, 0.0);
+        let s_prev = [Direction::Reverse, Direction::Reverse, Direction::Forward];
+        let t = Vec3::new(10.010, 10.0 - 0.3e-3, 0.0);
+        let id = |q: Vec3| q;
+        let p = solve_consistent(&m, Method::Exact, t, q_prev, s_prev, &id).unwrap();
+        assert_eq!(p.held, [false; 3]);
+        assert_eq!(
+            p.s,
+            [Direction::Forward, Direction::Reverse, Direction::Forward]
+        );
+        assert_eq!(p.reversed, [true, false, false]);
+        assert!(
+            (p.q_mm - Vec3::new(10.010, 9.9997, 0.0)).norm() < 1e-9,
+            "{:?}",
+            p.q_mm
+        );
+        assert!(p.residual_um < 1e-3, "{}", p.residual_um);
     }
 }

@@ -458,6 +458,14 @@ pub fn summary_table(s: &CompensateSummary) -> Table {
             ],
             vec!["points with an axis held".into(), s.held_count.to_string()],
             vec![
+                "canned-cycle holes kept as cycles / written as moves".into(),
+                format!("{} / {}", s.cycle_holes_kept, s.cycle_holes_expanded),
+            ],
+            vec![
+                "largest error a kept cycle leaves (µm)".into(),
+                format!("{:.3}", s.max_cycle_error_um),
+            ],
+            vec![
                 "feed moves NOT compensated (an axis never set)".into(),
                 s.uncompensated_moves.to_string(),
             ],
@@ -568,6 +576,17 @@ pub fn summary_lines(s: &CompensateSummary, output: &str) -> [String; 2] {
         ),
         None => "not estimated (fixed segmentation)".into(),
     };
+    // cycles lane: what became of the canned-cycle holes.
+    let cycles = if s.cycle_holes_kept + s.cycle_holes_expanded > 0 {
+        format!(
+            "; canned-cycle holes: {} kept as cycles (largest error they leave {}), {} written as moves",
+            s.cycle_holes_kept,
+            super::text::um(s.max_cycle_error_um),
+            s.cycle_holes_expanded
+        )
+    } else {
+        String::new()
+    };
     let not_compensated = if s.uncompensated_moves > 0 {
         format!(
             ", {} NOT compensated",
@@ -587,7 +606,7 @@ pub fn summary_lines(s: &CompensateSummary, output: &str) -> [String; 2] {
             s.reversals_text(),
         ),
         format!(
-            "size {} -> {} bytes, {} -> {} blocks{ratio}; largest contour deviation the segmentation leaves: {contour}",
+            "size {} -> {} bytes, {} -> {} blocks{ratio}; largest contour deviation the segmentation leaves: {contour}{cycles}",
             s.bytes_in, s.bytes_out, s.blocks_in, s.blocks_out
         ),
     ]

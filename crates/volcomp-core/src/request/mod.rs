@@ -18,6 +18,7 @@
 //! with its help (docs/architecture.md, "Where a new option goes").
 
 mod compensate;
+mod export;
 mod machine;
 mod map;
 mod mirror;
@@ -32,6 +33,10 @@ mod time;
 pub use compensate::{
     CompensateRequest, Compensation, ModelSource, COMPENSATE_OPTIONS, DEFAULT_MAX_OUTPUT_BYTES,
 };
+pub use export::{
+    positioning_tables, straightness_tables, CompRequest, Exported, MapExportRequest,
+    MapToolRequest, MapView, COMP_OPTIONS, EXPORT_OPTIONS, MAP_TOOL_OPTIONS,
+};
 pub use machine::{Machine, MachineRequest, MACHINE_OPTIONS, NO_WORK_OFFSET};
 pub use map::{MapRequest, MAP_OPTIONS};
 pub use mirror::{MirrorPlan, MirrorRequest, MirrorRun, MIRROR_OPTIONS};
@@ -39,7 +44,10 @@ pub use option::{
     did_you_mean, render, Input, Kind, Names, OptionError, OptionInfo, Request, Spelling,
     UnknownOption, Value,
 };
-pub use probe::{ProbeFitRequest, ProbeIdentifyRequest, PROBE_FIT_OPTIONS, PROBE_IDENTIFY_OPTIONS};
+pub use probe::{
+    ProbeFitRequest, ProbeIdentifyRequest, ProbePlanRequest, PROBE_FIT_OPTIONS,
+    PROBE_IDENTIFY_OPTIONS, PROBE_PLAN_OPTIONS,
+};
 pub use report::{header_inputs, RunNames};
 pub use simulate::{SimulateRequest, SIMULATE_OPTIONS};
 pub use straightness::{fit_summary, StraightnessFitRequest, STRAIGHTNESS_OPTIONS};
@@ -62,7 +70,11 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     STRAIGHTNESS_OPTIONS,
     PROBE_IDENTIFY_OPTIONS,
     PROBE_FIT_OPTIONS,
+    PROBE_PLAN_OPTIONS,
     TIME_OPTIONS,
+    EXPORT_OPTIONS,
+    COMP_OPTIONS,
+    MAP_TOOL_OPTIONS,
 ];
 
 /// The option named `name` in any request.
@@ -127,6 +139,10 @@ mod tests {
         consistent(|r: &ThermalPredictRequest| r.clone());
         consistent(|r: &StraightnessFitRequest| r.clone());
         consistent(|r: &ProbeFitRequest| r.clone());
+        consistent(|r: &ProbePlanRequest| r.clone());
+        consistent(|r: &MapExportRequest| r.clone());
+        consistent(|r: &CompRequest| r.clone());
+        consistent(|r: &MapToolRequest| r.clone());
         consistent(|r: &TimeRequest| r.clone());
     }
 

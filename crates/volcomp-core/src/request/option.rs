@@ -379,26 +379,11 @@ impl Value {
     }
 }
 
-/// An option's value was refused. The text names options as `{name}`;
-/// [`OptionError::render`] writes them in a front end's terms, `Display`
-/// by their names.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct OptionError {
-    /// The option at fault.
-    pub option: &'static str,
-    /// What is wrong and what to do, after the option's name (`must be …`).
-    pub problem: String,
-}
+pub use crate::error::OptionError;
 
+// The error's data is defined with the crate's errors (below the requests,
+// which the error enum must not import); how it is written is here.
 impl OptionError {
-    /// `option` refused: `problem` (after its name).
-    pub fn new(option: &'static str, problem: impl Into<String>) -> Self {
-        Self {
-            option,
-            problem: problem.into(),
-        }
-    }
-
     /// The message with options spelt by `spelling`.
     pub fn render(&self, spelling: &dyn Spelling) -> String {
         format!(

@@ -1,9 +1,329 @@
-//! The identification of a machine from probing logs (docs/probing.md,
-//! "The fit"), as plain values: the options `volcomp probe fit` and
-//! `volcomp probe verify` share, and the fit's own.
+//! Probing (docs/probing.md) as plain values: the probing program's plan
+//! ("The probing program"), the options `volcomp probe fit` and `volcomp
+//! probe verify` share ("The fit"), and the fit's own.
 
 use super::option::{Kind, OptionError, OptionInfo, Value};
 use crate::identify::probe::identify::{IdentifyOptions, ModelChoice};
+use crate::identify::probe::plan::{NoContact, PlanOptions, SpherePattern};
+
+/// The options of a probing program ([`ProbePlanRequest`]); their ranges
+/// are checked by [`PlanOptions::validate`].
+pub const PROBE_PLAN_OPTIONS: &[OptionInfo] = &[
+    OptionInfo::new(
+        "tip_diameter_mm",
+        Kind::Number,
+        "Diameter of the probe's tip (mm).",
+    )
+    .value("MM")
+    .required(),
+    OptionInfo::new(
+        "probe_tool",
+        Kind::Count,
+        "The probe's tool number (G43 H, its length from the set-up's [tools]).",
+    )
+    .value("N"),
+    OptionInfo::new(
+        "work_system",
+        Kind::Text,
+        "Coordinate system the program runs in: G54 … G59.3.",
+    )
+    .value("WORK_SYSTEM")
+    .default("G54"),
+    OptionInfo::new(
+        "placement",
+        Kind::Text,
+        "Only this placement (default: all, with a pause between them).",
+    )
+    .value("PLACEMENT"),
+    OptionInfo::new(
+        "fast_feed_mm_min",
+        Kind::Number,
+        "Feed of the searching touch (mm/min).",
+    )
+    .value("FAST_FEED_MM_MIN")
+    .default("300"),
+    OptionInfo::new(
+        "slow_feed_mm_min",
+        Kind::Number,
+        "Feed of the recorded touch (mm/min): its trigger lag is this feed × the servo period.",
+    )
+    .value("SLOW_FEED_MM_MIN")
+    .default("20"),
+    OptionInfo::new(
+        "approach_mm",
+        Kind::Number,
+        "Start of a touch before the nominal surface (mm).",
+    )
+    .value("APPROACH_MM")
+    .default("2"),
+    OptionInfo::new(
+        "overtravel_mm",
+        Kind::Number,
+        "How far past the nominal surface a probe move may go (mm).",
+    )
+    .value("OVERTRAVEL_MM")
+    .default("2"),
+    OptionInfo::new(
+        "backoff_mm",
+        Kind::Number,
+        "Back-off between the fast and the slow touch (mm).",
+    )
+    .value("BACKOFF_MM")
+    .default("0.5"),
+    OptionInfo::new(
+        "clearance_mm",
+        Kind::Number,
+        "Height of the travel plane above the artifact (mm).",
+    )
+    .value("CLEARANCE_MM")
+    .default("5"),
+    OptionInfo::new(
+        "take_up_mm",
+        Kind::Number,
+        "The move that sets an axis' direction before a touch (mm).",
+    )
+    .value("TAKE_UP_MM")
+    .default("1"),
+    OptionInfo::new(
+        "sphere_touches",
+        Kind::Choice,
+        "Touches per sphere (the reference sphere has its own set).",
+    )
+    .value("SPHERE_TOUCHES")
+    .default("5")
+    .choices(&[
+        ("5", "Pole and equator"),
+        ("9", "Pole, equator and four 45° shoulders"),
+    ]),
+    OptionInfo::new("repeats", Kind::Count, "How often each touch is made.")
+        .value("REPEATS")
+        .default("1"),
+    OptionInfo::new(
+        "reference_repeats",
+        Kind::Count,
+        "How often each touch of the reference sphere is made.",
+    )
+    .value("REFERENCE_REPEATS")
+    .default("3"),
+    OptionInfo::new(
+        "edge_points",
+        Kind::Count,
+        "Touches along each edge of a square.",
+    )
+    .value("EDGE_POINTS")
+    .default("7"),
+    OptionInfo::new(
+        "edge_margin_mm",
+        Kind::Number,
+        "Distance of the first and last edge touch from an edge's ends (mm).",
+    )
+    .value("EDGE_MARGIN_MM")
+    .default("10"),
+    OptionInfo::new(
+        "no_contact",
+        Kind::Choice,
+        "What a probe move that touches nothing does.",
+    )
+    .value("NO_CONTACT")
+    .default("stop")
+    .choices(&[
+        ("stop", "G38.2: the controller stops with an error"),
+        (
+            "skip",
+            "G38.3: the program goes on; the touch is logged as missed",
+        ),
+    ]),
+    OptionInfo::new(
+        "log_file",
+        Kind::Text,
+        "The log file the program writes (LOGOPEN), as LinuxCNC opens it.",
+    )
+    .value("LOG_FILE")
+    .default("probe.log"),
+    OptionInfo::new(
+        "safe_z_mm",
+        Kind::Number,
+        "Machine Z for moves between placements (default: 25 mm above the artifact).",
+    )
+    .value("SAFE_Z_MM"),
+    OptionInfo::new(
+        "rapid_mm_min",
+        Kind::Number,
+        "Rapid speed for the time estimate (mm/min).",
+    )
+    .value("RAPID_MM_MIN")
+    .default("3000"),
+    OptionInfo::new(
+        "accel_mm_s2",
+        Kind::Number,
+        "Acceleration for the time estimate (mm/s²).",
+    )
+    .value("ACCEL_MM_S2")
+    .default("500"),
+];
+
+/// A probing program's plan, as plain values (the artifact and the set-up
+/// are files the front end reads).
+#[derive(Debug, Clone, PartialEq)]
+#[allow(missing_docs)]
+pub struct ProbePlanRequest {
+    pub tip_diameter_mm: Option<f64>,
+    pub probe_tool: Option<u64>,
+    pub work_system: String,
+    pub placement: Option<String>,
+    pub fast_feed_mm_min: f64,
+    pub slow_feed_mm_min: f64,
+    pub approach_mm: f64,
+    pub overtravel_mm: f64,
+    pub backoff_mm: f64,
+    pub clearance_mm: f64,
+    pub take_up_mm: f64,
+    pub sphere_touches: String,
+    pub repeats: u64,
+    pub reference_repeats: u64,
+    pub edge_points: u64,
+    pub edge_margin_mm: f64,
+    pub no_contact: String,
+    pub log_file: String,
+    pub safe_z_mm: Option<f64>,
+    pub rapid_mm_min: f64,
+    pub accel_mm_s2: f64,
+}
+
+impl Default for ProbePlanRequest {
+    fn default() -> Self {
+        let o = PlanOptions::default();
+        Self {
+            tip_diameter_mm: None,
+            probe_tool: None,
+            work_system: "G54".into(),
+            placement: None,
+            fast_feed_mm_min: o.fast_feed_mm_min,
+            slow_feed_mm_min: o.slow_feed_mm_min,
+            approach_mm: o.approach_mm,
+            overtravel_mm: o.overtravel_mm,
+            backoff_mm: o.backoff_mm,
+            clearance_mm: o.clearance_mm,
+            take_up_mm: o.take_up_mm,
+            sphere_touches: "5".into(),
+            repeats: o.repeats as u64,
+            reference_repeats: o.reference_repeats as u64,
+            edge_points: o.edge_points as u64,
+            edge_margin_mm: o.edge_margin_mm,
+            no_contact: "stop".into(),
+            log_file: o.log_file,
+            safe_z_mm: None,
+            rapid_mm_min: o.rapid_mm_min,
+            accel_mm_s2: o.accel_mm_s2,
+        }
+    }
+}
+
+impl super::Request for ProbePlanRequest {
+    const OPTIONS: &'static [&'static [OptionInfo]] = &[PROBE_PLAN_OPTIONS];
+
+    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
+        match name {
+            "tip_diameter_mm" => self.tip_diameter_mm = Some(v.number("tip_diameter_mm")?),
+            "probe_tool" => self.probe_tool = Some(v.count("probe_tool")?),
+            "work_system" => self.work_system = v.text("work_system")?,
+            "placement" => self.placement = Some(v.text("placement")?),
+            "fast_feed_mm_min" => self.fast_feed_mm_min = v.number("fast_feed_mm_min")?,
+            "slow_feed_mm_min" => self.slow_feed_mm_min = v.number("slow_feed_mm_min")?,
+            "approach_mm" => self.approach_mm = v.number("approach_mm")?,
+            "overtravel_mm" => self.overtravel_mm = v.number("overtravel_mm")?,
+            "backoff_mm" => self.backoff_mm = v.number("backoff_mm")?,
+            "clearance_mm" => self.clearance_mm = v.number("clearance_mm")?,
+            "take_up_mm" => self.take_up_mm = v.number("take_up_mm")?,
+            "sphere_touches" => self.sphere_touches = v.text("sphere_touches")?,
+            "repeats" => self.repeats = v.count("repeats")?,
+            "reference_repeats" => self.reference_repeats = v.count("reference_repeats")?,
+            "edge_points" => self.edge_points = v.count("edge_points")?,
+            "edge_margin_mm" => self.edge_margin_mm = v.number("edge_margin_mm")?,
+            "no_contact" => self.no_contact = v.text("no_contact")?,
+            "log_file" => self.log_file = v.text("log_file")?,
+            "safe_z_mm" => self.safe_z_mm = Some(v.number("safe_z_mm")?),
+            "rapid_mm_min" => self.rapid_mm_min = v.number("rapid_mm_min")?,
+            "accel_mm_s2" => self.accel_mm_s2 = v.number("accel_mm_s2")?,
+            _ => {
+                return Err(OptionError::new(
+                    "tip_diameter_mm",
+                    format!("has no option `{name}`"),
+                ))
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The coordinate systems a probing program may run in, G54 first.
+const WORK_SYSTEMS: [&str; 9] = [
+    "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
+];
+
+impl ProbePlanRequest {
+    /// The plan's options (their ranges are checked with the artifact, by
+    /// the plan).
+    pub fn options(&self) -> Result<PlanOptions, OptionError> {
+        let tip_diameter_mm = self
+            .tip_diameter_mm
+            .ok_or_else(|| OptionError::new("tip_diameter_mm", "is required"))?;
+        let work_system = WORK_SYSTEMS
+            .iter()
+            .position(|n| n.eq_ignore_ascii_case(self.work_system.trim()))
+            .ok_or_else(|| {
+                OptionError::new(
+                    "work_system",
+                    format!(
+                        "`{}`: write G54 … G59, G59.1, G59.2 or G59.3",
+                        self.work_system
+                    ),
+                )
+            })?;
+        let choice = |name: &'static str, value: &str| {
+            let info = <Self as super::Request>::info(name).expect("an option");
+            info.choice(value).map_err(|p| OptionError::new(name, p))
+        };
+        let whole = |name: &'static str, n: u64| {
+            usize::try_from(n).map_err(|_| OptionError::new(name, format!("is too large: {n}")))
+        };
+        let probe_tool = self
+            .probe_tool
+            .map(|t| {
+                u32::try_from(t)
+                    .map_err(|_| OptionError::new("probe_tool", format!("is too large: {t}")))
+            })
+            .transpose()?;
+        Ok(PlanOptions {
+            tip_diameter_mm,
+            fast_feed_mm_min: self.fast_feed_mm_min,
+            slow_feed_mm_min: self.slow_feed_mm_min,
+            approach_mm: self.approach_mm,
+            overtravel_mm: self.overtravel_mm,
+            backoff_mm: self.backoff_mm,
+            clearance_mm: self.clearance_mm,
+            take_up_mm: self.take_up_mm,
+            spheres: match choice("sphere_touches", &self.sphere_touches)? {
+                "9" => SpherePattern::Nine,
+                _ => SpherePattern::Five,
+            },
+            repeats: whole("repeats", self.repeats)?,
+            reference_repeats: whole("reference_repeats", self.reference_repeats)?,
+            edge_points: whole("edge_points", self.edge_points)?,
+            edge_margin_mm: self.edge_margin_mm,
+            no_contact: match choice("no_contact", &self.no_contact)? {
+                "skip" => NoContact::Skip,
+                _ => NoContact::Stop,
+            },
+            log_file: self.log_file.clone(),
+            work_system,
+            probe_tool,
+            safe_z_mm: self.safe_z_mm,
+            rapid_mm_min: self.rapid_mm_min,
+            accel_mm_s2: self.accel_mm_s2,
+        })
+    }
+}
 
 /// The options of every probing identification ([`ProbeIdentifyRequest`]).
 pub const PROBE_IDENTIFY_OPTIONS: &[OptionInfo] = &[
@@ -163,6 +483,29 @@ impl super::Request for ProbeFitRequest {
 mod tests {
     use super::super::Request;
     use super::*;
+
+    #[test]
+    fn the_default_plan_is_the_plan_defaults_with_the_tip_given() {
+        let mut r = ProbePlanRequest::default();
+        assert_eq!(
+            r.options().unwrap_err().to_string(),
+            "tip_diameter_mm is required"
+        );
+        r.set_named("tip_diameter_mm", Value::Number(2.0)).unwrap();
+        assert_eq!(r.options().unwrap(), PlanOptions::default());
+        r.set_named("work_system", Value::Text("g59.3".into()))
+            .unwrap();
+        r.set_named("sphere_touches", Value::Text("9".into()))
+            .unwrap();
+        let o = r.options().unwrap();
+        assert_eq!((o.work_system, o.spheres), (8, SpherePattern::Nine));
+        r.set_named("work_system", Value::Text("G60".into()))
+            .unwrap();
+        assert_eq!(
+            r.options().unwrap_err().to_string(),
+            "work_system `G60`: write G54 … G59, G59.1, G59.2 or G59.3"
+        );
+    }
 
     #[test]
     fn the_default_options_are_the_identification_defaults_with_the_travel_given() {

@@ -42,6 +42,7 @@ mod tape;
 mod warnings;
 mod words;
 
+pub use cycle::{snap as snap_program_value, CycleBlock};
 pub use extra::{ExtraAxes, EXTRA_LETTERS};
 pub use lexical::check_line;
 pub use modal::PathMode;
@@ -212,6 +213,9 @@ pub struct Interpreter {
     cycle_start_z: Option<f64>,
     /// Sticky peck depth Q of G73/G83.
     cycle_q: Option<f64>,
+    /// The last canned-cycle block as LinuxCNC computed it
+    /// ([`Interpreter::last_cycle`]).
+    last_cycle: Option<Box<cycle::CycleBlock>>,
     /// Sticky I, J, K of G87.
     cycle_ijk: [f64; 3],
     /// Spindle direction from M3 (1), M4 (-1), M5 (0), for the cycles that
@@ -327,6 +331,7 @@ impl Interpreter {
             cycle_z: None,
             cycle_start_z: None,
             cycle_q: None,
+            last_cycle: None,
             cycle_ijk: [0.0; 3],
             spindle_dir: 0,
             diameter_mode: false,

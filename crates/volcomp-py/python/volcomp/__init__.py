@@ -30,6 +30,7 @@ from ._volcomp import (
     VolcompWarning,
     __version__,
     compensate,
+    export,
     iso230_2,
     iso230_2_csv,
     machining_time,
@@ -81,6 +82,7 @@ machining_time = _with_options(machining_time, "machining_time")
 mirror = _with_options(mirror, "mirror")
 thermal_fit = _with_options(thermal_fit, "thermal_fit")
 straightness_fit = _with_options(straightness_fit, "straightness_fit")
+export = _with_options(export, "export")
 
 __all__ = [
     "BadInputError",
@@ -94,6 +96,7 @@ __all__ = [
     "VolcompWarning",
     "__version__",
     "compensate",
+    "export",
     "iso230_2",
     "iso230_2_csv",
     "machining_time",

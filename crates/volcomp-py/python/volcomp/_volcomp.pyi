@@ -256,6 +256,40 @@ def iso230_2(
 ) -> dict[str, Any]:
     """ISO 230-2 figures from deviations (µm) of shape (m targets, n runs)."""
 
+def export(
+    model: Model,
+    *,
+    to: Optional[
+        Literal[
+            "linuxcnc", "siemens-eec", "siemens-cec", "heidenhain", "isg-ssfk", "isg-csv",
+            "fanuc", "klipper", "marlin", "rrf", "grblhal",
+        ]
+    ] = None,
+    step_mm: Optional[float] = None,
+    at: Optional[Sequence[float]] = None,
+    max_table_error_um: float = 1.0,
+    backlash_only: bool = False,
+    axis_names: str = "X1,Y1,Z1",
+    resolution_um: float = 1.0,
+    max_points: Optional[int] = None,
+    detection_unit_um: float = 1.0,
+    fanuc_sign: Literal["correction", "error"] = "correction",
+    fanuc_data_offset: int = 10000,
+    fanuc_bidirectional: Literal["auto", "on", "off"] = "auto",
+    fanuc_reference_return: Literal["positive", "negative"] = "positive",
+    reference_direction: Literal["positive", "negative"] = "positive",
+    cec_sign: Literal["error", "correction"] = "error",
+    homing_dir_mask: int = 0,
+    profile: str = "volcomp",
+    comp_type: Optional[int] = None,
+    units: Optional[Literal["mm", "inch"]] = None,
+    tool_length_mm: Optional[float] = None,
+    tool_offset_mm: Optional[Sequence[float]] = None,
+    form: Literal["htm", "first-order"] = "htm",
+) -> dict[str, Any]:
+    """A model's controller tables (``volcomp map export``): ``files`` (name
+    → text), the controller's ``notes``, ``table_error_um``."""
+
 def iso230_2_csv(runs: Text, *, name: Optional[str] = None) -> dict[str, Any]:
     """ISO 230-2 figures from a test CSV (a path or a file object)."""
 

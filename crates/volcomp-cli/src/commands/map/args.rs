@@ -1,13 +1,10 @@
 //! The arguments of `volcomp map` and their turning into library values.
 
 use crate::args::parse_axis;
-use crate::commands::parse_triple;
-use crate::output::CliError;
+use crate::options::Options;
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::PathBuf;
-use volcomp_core::io::linuxcnc_comp::{CompFileType, MachineUnits};
-use volcomp_core::model::kinematic::Form;
-use volcomp_gcode::Vec3;
+use volcomp_core::request::{CompRequest, MapExportRequest, MapToolRequest};
 use volcomp_geom::Axis;
 
 /// Evaluate, convert, plot and import error maps.
@@ -27,7 +24,7 @@ pub enum MapSub {
     Convert(ConvertArgs),
     /// Export the map as a controller's own compensation tables (Siemens,
     /// Heidenhain, LinuxCNC, Klipper, Marlin: docs/controllers.md).
-    Export(ExportArgs),
+    Export(Box<ExportArgs>),
     /// Plot every component over its axis (.svg or .png).
     Plot(PlotArgs),
     /// Read LinuxCNC comp files (COMP_FILE_TYPE 0 or 1) into a map.
@@ -44,53 +41,6 @@ pub enum MapSub {
     Example(ExampleArgs),
 }
 
-/// The tool whose tip the map is evaluated at.
-#[derive(Args, Debug, Clone)]
-pub struct ToolArgs {
-    /// Tool length (mm) as G43 applies it: the tip lies this far below the
-    /// spindle's gauge point. Default 0 (the gauge point).
-    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
-    pub tool_length: Option<f64>,
-    /// Tool length offset vector (mm) as G43.1 applies it, for angle heads.
-    #[arg(
-        long,
-        value_name = "X,Y,Z",
-        allow_hyphen_values = true,
-        conflicts_with = "tool_length"
-    )]
-    pub tool_offset: Option<String>,
-}
-
-impl ToolArgs {
-    pub(super) fn offset(&self) -> Result<Option<Vec3>, CliError> {
-        match (&self.tool_length, &self.tool_offset) {
-            (Some(l), _) if !l.is_finite() => Err(CliError::Message(format!(
-                "--tool-length must be a length in mm; got {l}"
-            ))),
-            (Some(l), _) => Ok(Some(Vec3::new(0.0, 0.0, *l))),
-            (None, Some(t)) => parse_triple(t, "--tool-offset").map(Some),
-            (None, None) => Ok(None),
-        }
-    }
-}
-
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum FormArg {
-    /// Exact products of homogeneous transformation matrices.
-    Htm,
-    /// The small-angle (first-order) form.
-    FirstOrder,
-}
-
-impl From<FormArg> for Form {
-    fn from(f: FormArg) -> Form {
-        match f {
-            FormArg::Htm => Form::Htm,
-            FormArg::FirstOrder => Form::FirstOrder,
-        }
-    }
-}
-
 #[derive(Args, Debug)]
 pub struct EvalArgs {
     /// Error map: axis-table CSV (docs/design.md) or 21-component model TOML.
@@ -99,13 +49,10 @@ pub struct EvalArgs {
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub at: String,
     #[command(flatten)]
-    pub tool: ToolArgs,
+    pub tool: Options<MapToolRequest>,
     /// Direction state: forward, reverse, or one letter per axis (f/r or +/-), e.g. frf.
     #[arg(long, default_value = "forward", allow_hyphen_values = true)]
     pub direction: String,
-    /// Evaluation of the 21-component model.
-    #[arg(long, value_enum, default_value_t = FormArg::Htm)]
-    pub form: FormArg,
     /// Hold the error at a table end outside its range.
     #[arg(long)]
     pub clamp: bool,
@@ -126,48 +73,6 @@ pub enum ConvertTarget {
     Model,
 }
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum UnitsArg {
-    Mm,
-    Inch,
-}
-
-impl From<UnitsArg> for MachineUnits {
-    fn from(u: UnitsArg) -> MachineUnits {
-        match u {
-            UnitsArg::Mm => MachineUnits::Mm,
-            UnitsArg::Inch => MachineUnits::Inch,
-        }
-    }
-}
-
-/// The LinuxCNC side of a comp file.
-#[derive(Args, Debug, Clone)]
-pub struct CompArgs {
-    /// COMP_FILE_TYPE: 0 (nominal, actual forward, actual reverse) or
-    /// 1 (nominal, trim forward, trim reverse; trim = nominal − actual).
-    #[arg(long = "type", value_name = "0|1", allow_negative_numbers = true)]
-    pub comp_type: Option<u8>,
-    /// The machine's [TRAJ] LINEAR_UNITS, the unit of every number in the file.
-    #[arg(long, value_enum)]
-    pub units: Option<UnitsArg>,
-}
-
-impl CompArgs {
-    pub(super) fn get(&self) -> Result<(CompFileType, MachineUnits), CliError> {
-        let ty = match self.comp_type {
-            Some(n) => CompFileType::from_number(n).ok_or_else(|| {
-                CliError::Message(format!("--type must be 0 or 1 (COMP_FILE_TYPE); got {n}"))
-            })?,
-            None => return Err(CliError::Message("LinuxCNC comp files need --type 0 or --type 1: type 0 holds actual positions, type 1 the trims nominal − actual; check COMP_FILE_TYPE in the machine's INI file".into())),
-        };
-        let units = self.units.ok_or_else(|| {
-            CliError::Message("LinuxCNC comp files are in machine units: pass --units mm or --units inch as [TRAJ] LINEAR_UNITS says".into())
-        })?;
-        Ok((ty, units.into()))
-    }
-}
-
 #[derive(Args, Debug)]
 pub struct ConvertArgs {
     /// Error map: axis-table CSV or 21-component model TOML.
@@ -184,7 +89,7 @@ pub struct ConvertArgs {
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub at: Option<String>,
     #[command(flatten)]
-    pub tool: ToolArgs,
+    pub tool: Options<MapToolRequest>,
     /// Grid spacing (mm, default 25); for --to linuxcnc, resample the
     /// positioning tables at this spacing (LinuxCNC holds 256 points per joint).
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
@@ -193,7 +98,7 @@ pub struct ConvertArgs {
     #[arg(long, default_value = "forward", allow_hyphen_values = true)]
     pub direction: String,
     #[command(flatten)]
-    pub comp: CompArgs,
+    pub comp: Options<CompRequest>,
     /// For --to linuxcnc: the largest deviation (µm) of the written tables
     /// from the map, between and at their points (a finer --step when it is exceeded).
     #[arg(long, value_name = "UM", default_value_t = volcomp_core::io::controllers::table_error::DEFAULT_MAX_TABLE_ERROR_UM)]
@@ -201,9 +106,6 @@ pub struct ConvertArgs {
     /// Kinematic chain for --to model from axis tables (default w X' Y' b Z t).
     #[arg(long, value_name = "CHAIN")]
     pub chain: Option<String>,
-    /// Evaluation of the 21-component model.
-    #[arg(long, value_enum, default_value_t = FormArg::Htm)]
-    pub form: FormArg,
 }
 
 #[derive(Args, Debug)]
@@ -227,7 +129,7 @@ pub struct ImportArgs {
     #[arg(long, value_name = "FILE")]
     pub z: PathBuf,
     #[command(flatten)]
-    pub comp: CompArgs,
+    pub comp: Options<CompRequest>,
     /// Output: an axis-table .csv or a 21-component model .toml (CSV beside it).
     #[arg(short, long, value_name = "OUT")]
     pub output: PathBuf,
@@ -251,7 +153,7 @@ pub struct IsoArgs {
     #[arg(long, value_parser = parse_axis)]
     pub axis: Option<Axis>,
     #[command(flatten)]
-    pub comp: CompArgs,
+    pub comp: Options<CompRequest>,
     /// Write a self-contained HTML report: the standard's bidirectional
     /// plot (x̄ ± 2s per direction) and the figures B, R, E, M, A.
     #[arg(long, value_name = "FILE.html")]
@@ -265,126 +167,15 @@ pub struct ExampleArgs {
     pub output: PathBuf,
 }
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ExportFormat {
-    /// LinuxCNC comp files x.comp, y.comp, z.comp (with --type, --units).
-    Linuxcnc,
-    /// Siemens Sinumerik leadscrew error compensation %_N_AX_EEC_INI.
-    SiemensEec,
-    /// Siemens Sinumerik sag/cross-axis compensation %_N_NC_CEC_INI (the straightness).
-    SiemensCec,
-    /// Heidenhain TNC compensation value tables X.COM, Y.COM, Z.COM and VOLCOMP.CMA.
-    Heidenhain,
-    /// Beckhoff/ISG leadscrew error compensation lists achskw_x.lis … (kw.ssfk, 0.1 µm).
-    IsgSsfk,
-    /// Beckhoff/ISG volumetric compensation: volcomp.csv (ISG CSV, ISO 230-1 names) and volcomp.lis.
-    IsgCsv,
-    /// Fanuc pitch error compensation: parameters 3620–3624 (3605#0, 3626, 3627 per direction) and the data, as a tape pitch.tap.
-    Fanuc,
-    /// Klipper [skew_correction] profile from the model's squareness.
-    Klipper,
-    /// Marlin M852 I J K from the model's squareness.
-    Marlin,
-    /// RepRapFirmware M556 S X Y Z from the model's squareness.
-    Rrf,
-    /// grblHAL backlash settings $160–$162 (the mean reversal value).
-    Grblhal,
-}
-
 #[derive(Args, Debug)]
 pub struct ExportArgs {
     /// Error map: axis-table CSV or 21-component model TOML.
     pub map: PathBuf,
-    /// The controller's format.
-    #[arg(long, value_enum)]
-    pub to: ExportFormat,
+    #[command(flatten)]
+    pub job: Options<MapExportRequest>,
     /// Directory to write the controller's files to.
     #[arg(short, long, value_name = "DIR")]
     pub output: PathBuf,
-    /// Spacing of the table's points (mm): required by equidistant tables
-    /// (siemens-eec); resamples the others (linear interpolation).
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
-    pub step: Option<f64>,
-    /// Where the positioning error of a 21-component model is taken (axis
-    /// position, mm; default: its measuring lines).
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
-    pub at: Option<String>,
-    #[command(flatten)]
-    pub tool: ToolArgs,
-    #[command(flatten)]
-    pub comp: CompArgs,
-    /// The largest deviation (µm) of the written table, as the controller
-    /// applies it, from the map between and at its points: a larger one is
-    /// refused with a finer step to choose.
-    #[arg(long, value_name = "UM", default_value_t = volcomp_core::io::controllers::table_error::DEFAULT_MAX_TABLE_ERROR_UM)]
-    pub max_table_error_um: f64,
-    /// linuxcnc: write each joint's BACKLASH (the mean reversal value) and
-    /// no comp files.
-    #[arg(long)]
-    pub backlash_only: bool,
-    /// siemens-eec: the machine axis names of X, Y, Z.
-    #[arg(long, value_name = "X,Y,Z", default_value = "X1,Y1,Z1")]
-    pub axis_names: String,
-    /// siemens-eec: the NC's resolution of a compensation value (µm), 1/MD10200 mm.
-    #[arg(
-        long,
-        value_name = "UM",
-        default_value_t = 1.0,
-        allow_negative_numbers = true
-    )]
-    pub resolution_um: f64,
-    /// The controller's largest number of points per table: siemens-eec
-    /// MD38000 $MA_MM_ENC_COMP_MAX_POINTS (default 5000), isg-ssfk
-    /// P-COMP-00059 (default 1500).
-    #[arg(long, value_name = "N", allow_negative_numbers = true)]
-    pub max_points: Option<usize>,
-    /// fanuc: the detection unit (µm; 1 for IS-B).
-    #[arg(
-        long,
-        value_name = "UM",
-        default_value_t = 1.0,
-        allow_negative_numbers = true
-    )]
-    pub detection_unit_um: f64,
-    /// fanuc: the sign of the values (not in the public documentation):
-    /// correction = −e (default) or error = +e.
-    #[arg(long, value_enum, default_value_t = FanucSignArg::Correction)]
-    pub fanuc_sign: FanucSignArg,
-    /// fanuc: the tape's data number of compensation point 0.
-    #[arg(
-        long,
-        value_name = "N",
-        default_value_t = 10000,
-        allow_negative_numbers = true
-    )]
-    pub fanuc_data_offset: u32,
-    /// fanuc: one table per direction (3605#0, 3626, 3627): auto = where
-    /// forward and reverse differ by more than the detection unit.
-    #[arg(long, value_enum, default_value_t = FanucBidirectionalArg::Auto)]
-    pub fanuc_bidirectional: FanucBidirectionalArg,
-    /// fanuc: the direction of the reference position return (1006#5),
-    /// whose table is zero at the reference; 3627 holds the other's value.
-    #[arg(long, value_enum, default_value_t = FanucReturnArg::Positive)]
-    pub fanuc_reference_return: FanucReturnArg,
-    /// siemens-eec: the direction of the reference point approach (MD34010
-    /// $MA_REFP_CAM_DIR_IS_MINUS 0 = positive): MD32450's backlash acts on
-    /// travel the other way.
-    #[arg(long, value_enum, default_value_t = FanucReturnArg::Positive)]
-    pub reference_direction: FanucReturnArg,
-    /// siemens-cec: the sign of the values (the manual does not settle it):
-    /// error = +e (default, as the leadscrew tables) or correction = −e.
-    #[arg(long, value_enum, default_value_t = CecSignArg::Error)]
-    pub cec_sign: CecSignArg,
-    /// grblhal: the machine's $23 (homing direction invert mask): the side
-    /// grblHAL adds the backlash to.
-    #[arg(long, value_name = "MASK", default_value_t = 0)]
-    pub homing_dir_mask: u32,
-    /// klipper: the profile's name (SKEW_PROFILE LOAD=NAME).
-    #[arg(long, value_name = "NAME", default_value = "volcomp")]
-    pub profile: String,
-    /// Evaluation of the 21-component model (with --at or a tool).
-    #[arg(long, value_enum, default_value_t = FormArg::Htm)]
-    pub form: FormArg,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -410,32 +201,6 @@ pub struct ImportParamsArgs {
     pub chain: Option<String>,
 }
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum FanucBidirectionalArg {
-    /// Bidirectional where the reversal exceeds the detection unit.
-    Auto,
-    /// Always bidirectional.
-    On,
-    /// One table, the mean of both directions.
-    Off,
-}
-
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum FanucReturnArg {
-    /// Reference position return in the + direction (1006#5 = 0).
-    Positive,
-    /// Reference position return in the − direction (1006#5 = 1).
-    Negative,
-}
-
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum FanucSignArg {
-    /// The values are the correction the control outputs, −e.
-    Correction,
-    /// The values are the error, +e.
-    Error,
-}
-
 #[derive(Args, Debug)]
 pub struct BuildArgs {
     /// The plan (TOML): which run file measures which component, where, the reference point.
@@ -443,12 +208,4 @@ pub struct BuildArgs {
     /// Output: a 21-component model .toml (its tables .csv beside it).
     #[arg(short, long, value_name = "OUT")]
     pub output: PathBuf,
-}
-
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum CecSignArg {
-    /// The values are the measured error, +e.
-    Error,
-    /// The values are the correction, −e.
-    Correction,
 }

@@ -28,7 +28,8 @@ use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::model::kinematic::{Form, KinematicModel};
 use volcomp_core::model::topology::Topology;
 use volcomp_core::model::{parse_directions, Directions, ErrorModel};
-use volcomp_core::report::map::ComponentChart;
+use volcomp_core::report::map::component_charts;
+use volcomp_core::request::{self, MapToolRequest, MapView};
 use volcomp_gcode::Vec3;
 use volcomp_geom::Axis;
 
@@ -47,11 +48,15 @@ enum Map {
 }
 
 impl Map {
-    fn model(&self) -> &dyn ErrorModel {
+    fn view(&self) -> MapView<'_> {
         match self {
-            Map::Tables(m) => m.as_ref(),
-            Map::Kinematic(m) => m.as_ref(),
+            Map::Tables(m) => MapView::Tables(m),
+            Map::Kinematic(m) => MapView::Kinematic(m),
         }
+    }
+
+    fn model(&self) -> &dyn ErrorModel {
+        self.view().model()
     }
 }
 
@@ -72,7 +77,7 @@ pub fn run(cmd: MapCommand) -> Result<(), CliError> {
     match cmd.command {
         MapSub::Eval(a) => eval::eval(a),
         MapSub::Convert(a) => convert(a),
-        MapSub::Export(a) => export::export(a),
+        MapSub::Export(a) => export::export(*a),
         MapSub::Plot(a) => plot(a),
         MapSub::ImportLinuxcnc(a) => import_linuxcnc(a),
         MapSub::Import(a) => import_params(a),
@@ -170,7 +175,7 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
     }
     check(&plan)?;
     let map = load_map(&a.map, false)?;
-    let form: Form = a.form.into();
+    let form = a.tool.form()?;
     match a.to {
         ConvertTarget::AxisTable => {
             let Map::Kinematic(m) = &map else {
@@ -232,36 +237,17 @@ fn convert(a: ConvertArgs) -> Result<(), CliError> {
 fn positioning_tables(
     map: &Map,
     at: Option<&str>,
-    tool: &ToolArgs,
+    tool: &MapToolRequest,
     form: Form,
 ) -> Result<[Positioning; 3], CliError> {
-    Ok(match map {
-        Map::Tables(t) => Axis::ALL.map(|k| t.positioning(k)),
-        Map::Kinematic(m) => {
+    let (at, tool) = match map {
+        Map::Tables(_) => (None, None),
+        Map::Kinematic(_) => {
             let tool = tool.offset()?;
-            if at.is_none() && tool.is_none() {
-                // The positioning errors as measured, at the measuring line.
-                Axis::ALL.map(|k| m.positioning_table(k))
-            } else {
-                let (shared_p, shared_t) = m.shared_measuring();
-                let reference =
-                    match (at, shared_p) {
-                        (Some(t), _) => parse_triple(t, "--at")?,
-                        (None, Some(p)) => p,
-                        (None, None) => return Err(CliError::Message(
-                            "pass --at X,Y,Z: the model's axes were measured along different lines"
-                                .into(),
-                        )),
-                    };
-                let tool = match (tool, shared_t) {
-                    (Some(t), _) | (None, Some(t)) => t,
-                    (None, None) => return Err(CliError::Message("pass --tool-length MM".into())),
-                };
-                let t = m.to_axis_tables(reference, tool, form)?;
-                Axis::ALL.map(|k| t.positioning(k))
-            }
+            (at.map(|t| parse_triple(t, "--at")).transpose()?, tool)
         }
-    })
+    };
+    Ok(request::positioning_tables(map.view(), at, tool, form)?)
 }
 
 fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliError> {
@@ -338,45 +324,10 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| a.map.display().to_string());
-    let mut charts: Vec<ComponentChart> = Vec::new();
-    match &map {
-        Map::Tables(m) => {
-            for (k, axis) in AXES.iter().enumerate() {
-                charts.push(ComponentChart {
-                    title: format!("{name}: errors caused by {axis} (axis tables)"),
-                    x_label: format!("{axis} position (mm)"),
-                    y_label: "error (µm)".into(),
-                    series: m.component_series(Axis::ALL[k]),
-                });
-            }
-        }
-        Map::Kinematic(m) => {
-            let k = &m.kinematics;
-            for (ax, axis) in AXES.iter().enumerate() {
-                let (linear, angular) = m.component_series(Axis::ALL[ax]);
-                let extra = match ax {
-                    0 => format!(" (chain {})", k.topology),
-                    1 => format!(" (squareness S_xy {} µrad)", k.squareness.xy_urad),
-                    _ => format!(
-                        " (squareness S_yz {}, S_zx {} µrad)",
-                        k.squareness.yz_urad, k.squareness.zx_urad
-                    ),
-                };
-                charts.push(ComponentChart {
-                    title: format!("{name}: positioning and straightness of {}{extra}", axis),
-                    x_label: format!("{} position (mm)", axis),
-                    y_label: "error (µm)".into(),
-                    series: linear,
-                });
-                charts.push(ComponentChart {
-                    title: format!("{name}: angular errors of {}", axis),
-                    x_label: format!("{} position (mm)", axis),
-                    y_label: "rotation (µrad)".into(),
-                    series: angular,
-                });
-            }
-        }
-    }
+    let charts = match &map {
+        Map::Tables(m) => component_charts::tables(&name, m),
+        Map::Kinematic(m) => component_charts::kinematic(&name, m),
+    };
     let is_html = a
         .output
         .extension()

@@ -45,7 +45,7 @@ const THRESHOLD: f64 = 1e-6;
 /// Largest null-space share of a parameter still counted as seen.
 const SEEN: f64 = 1e-6;
 /// Tool lengths closer than this (mm) are the same probe.
-const SAME_TOOL_MM: f64 = 1e-3;
+pub(super) const SAME_TOOL_MM: f64 = 1e-3;
 
 /// A value and its standard uncertainty.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -146,6 +146,11 @@ pub struct SphereFit {
     pub tool_length_mm: f64,
     /// Whether the probe calibration corrected its touches.
     pub calibrated: bool,
+    /// How the centre moves with the calibration's parameters (µm per µm,
+    /// in [`CAL_PARAMS`] order; zero without a calibration): the centre
+    /// fitted with a calibration off by `δ` is off by `S δ`, and every
+    /// sphere probed with one probe shares that error.
+    pub cal_sensitivity: [[f64; CAL_PARAMS]; 3],
 }
 
 /// A touch on a face or an edge, corrected for the probe.
@@ -375,8 +380,64 @@ struct SphereSolution {
     centre_mm: Vec3,
     radius_mm: f64,
     unit_cov: [[f64; 3]; 3],
+    cal_sensitivity: [[f64; CAL_PARAMS]; 3],
     residuals_um: Vec<f64>,
     dof: usize,
+}
+
+/// `∂c/∂p` of a sphere centre fitted by least squares to touches corrected
+/// with calibration `cal` (µm per µm; the implicit-function theorem on the
+/// normal equations: `∂x/∂p = −J⁺ ∂r/∂p`, `J` the fit's Jacobian at the
+/// solution). A touch's residual `|q − c| − ρ − r_eff` moves by −1 per µm
+/// of tip radius, by `cos` per µm of pre-travel in its direction, and by
+/// `n_a·sign(s_a)/2` per µm of axis `a`'s reversal (the offset the
+/// calibration adds to `q`); the reference sphere's own centre does not
+/// enter. With a free radius the tip radius only trades with the radius.
+///
+/// `states` are the touches' direction states, `reversal_seen` which axes'
+/// reversals the calibration applied, `n` the fit's unknowns (3, or 4 with
+/// a free radius).
+fn calibration_sensitivity(
+    pts: &[(Vec3, AxisDir)],
+    states: &[Option<[Direction; 3]>],
+    reversal_seen: [bool; 3],
+    centre_mm: Vec3,
+    n: usize,
+) -> Result<[[f64; CAL_PARAMS]; 3], ProbeError> {
+    let mut j = DMatrix::zeros(pts.len(), n);
+    let mut d = DMatrix::zeros(pts.len(), CAL_PARAMS);
+    for (i, ((q, dir), st)) in pts.iter().zip(states).enumerate() {
+        let a = *q - centre_mm;
+        let nv = a * (1.0 / a.norm());
+        for k in 0..3 {
+            j[(i, k)] = -nv[k];
+        }
+        if n == 4 {
+            j[(i, 3)] = -1.0;
+        }
+        d[(i, 3)] = -1.0;
+        d[(i, 4 + dir.index())] = dir.vector().dot(nv).abs();
+        if let Some(st) = st {
+            for ax in 0..3 {
+                if reversal_seen[ax] {
+                    d[(i, 10 + ax)] = nv[ax] * sign(st[ax]) / 2.0;
+                }
+            }
+        }
+    }
+    let mut out = [[0.0; CAL_PARAMS]; 3];
+    for p in 3..CAL_PARAMS {
+        let b: Vec<f64> = (0..pts.len()).map(|i| -d[(i, p)]).collect();
+        if b.iter().all(|v| *v == 0.0) {
+            continue;
+        }
+        let s = linalg::pinv_solve(&j, &b, THRESHOLD)
+            .ok_or_else(|| ProbeError::Invalid("a sphere fit's SVD did not converge".into()))?;
+        for (c, row) in out.iter_mut().enumerate() {
+            row[p] = s.x[c];
+        }
+    }
+    Ok(out)
 }
 
 /// Touches of one feature in one placement: (artifact index, placement, feature).
@@ -445,10 +506,20 @@ fn sphere(
         }
     }
     let radius = r_start + if free_radius { x[3] * 1e-3 } else { 0.0 };
+    let centre_mm = c0 + Vec3::new(x[0], x[1], x[2]) * 1e-3;
+    let cal_sensitivity = match cal {
+        Some(cl) => {
+            let states: Vec<_> = touches.iter().map(|t| t.states).collect();
+            let seen = [0, 1, 2].map(|a| cl.reversal_um[a].is_some());
+            calibration_sensitivity(&pts, &states, seen, centre_mm, n)?
+        }
+        None => [[0.0; CAL_PARAMS]; 3],
+    };
     Ok(SphereSolution {
-        centre_mm: c0 + Vec3::new(x[0], x[1], x[2]) * 1e-3,
+        centre_mm,
         radius_mm: radius,
         unit_cov,
+        cal_sensitivity,
         dof: pts.len().saturating_sub(sol.rank),
         residuals_um: res,
     })
@@ -636,6 +707,7 @@ pub fn fit_touches(
                     centre_mm,
                     radius_mm: radius,
                     unit_cov,
+                    cal_sensitivity,
                     residuals_um,
                     dof,
                 } = {
@@ -666,6 +738,7 @@ pub fn fit_touches(
                     dof,
                     tool_length_mm: tool,
                     calibrated: cal.is_some(),
+                    cal_sensitivity,
                 });
             }
             Feature::Face { .. } | Feature::Edge { .. } => {
@@ -748,4 +821,58 @@ pub fn fit_touches(
     out.spheres = spheres;
     out.faces = faces;
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Six head-on touches of a unit sphere at the origin, one per direction
+    /// of motion (the touch moving +X lands on the −X side).
+    fn six() -> Vec<(Vec3, AxisDir)> {
+        AxisDir::ALL
+            .iter()
+            .map(|d| (d.vector() * -1.0, *d))
+            .collect()
+    }
+
+    #[test]
+    fn a_centre_moves_by_half_the_pre_travel_difference_of_opposite_touches() {
+        // Hand calculation, free radius: one µm more pre-travel on +X raises
+        // the residual of the touch on the −X side by 1 (cos = 1). Normal
+        // equations: x: (dx − dR + 1) − (−dx − dR) = 0 → dx = −½; the four
+        // other touches only fix dR = 1/6. Y and Z do not move; the tip
+        // radius trades with the radius alone.
+        let s = calibration_sensitivity(&six(), &[None; 6], [false; 3], Vec3::ZERO, 4).unwrap();
+        let plus_x = 4 + AxisDir::new(0, true).index();
+        let minus_x = 4 + AxisDir::new(0, false).index();
+        assert!((s[0][plus_x] + 0.5).abs() < 1e-12, "{}", s[0][plus_x]);
+        assert!((s[0][minus_x] - 0.5).abs() < 1e-12, "{}", s[0][minus_x]);
+        assert!(s[1][plus_x].abs() < 1e-12 && s[2][plus_x].abs() < 1e-12);
+        assert!((0..3).all(|c| s[c][3].abs() < 1e-12));
+    }
+
+    #[test]
+    fn with_a_known_radius_the_tip_radius_moves_a_one_sided_centre() {
+        // Touches on the four sides and on top (moving −Z), none from
+        // below, radius known. A tip radius one µm larger lowers every
+        // residual by 1 µm; ∂c/∂r_tip solves −n_i·dc = 1 in least squares:
+        // opposite sides pull ±1 on X and Y and cancel, the top (n = +Z)
+        // alone gives dz = −1 µm per µm.
+        let pts: Vec<_> = six().into_iter().filter(|(_, d)| d.index() != 4).collect();
+        let s = calibration_sensitivity(&pts, &[None; 5], [false; 3], Vec3::ZERO, 3).unwrap();
+        assert!((s[2][3] + 1.0).abs() < 1e-12, "{}", s[2][3]);
+        assert!(s[0][3].abs() < 1e-12 && s[1][3].abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_reversal_moves_the_centre_by_half_of_it_when_every_touch_shares_the_state() {
+        // Every touch made with X in reverse: the calibration adds +b/2 to
+        // every X, so the whole sphere, centre included, moves by +½.
+        let st = Some([Direction::Reverse, Direction::Forward, Direction::Forward]);
+        let s =
+            calibration_sensitivity(&six(), &[st; 6], [true, false, false], Vec3::ZERO, 4).unwrap();
+        assert!((s[0][10] - 0.5).abs() < 1e-12, "{}", s[0][10]);
+        assert!(s[0][11].abs() < 1e-12);
+    }
 }

@@ -25,6 +25,11 @@
 //! a certificate gives them (rows `δ = certified − current ± u`,
 //! [ISO 15530-3]).
 //!
+//! The probe calibration's error `δ = G z` (`z ~ N(0, I)`, `G G^T` its
+//! covariance) is a nuisance too: it enters a face row through the
+//! effective radius and reversal it corrected, and a sphere's three rows
+//! through the centre's sensitivity `S` to it (fit.rs).
+//!
 //! **Solution.** Rows whitened (a sphere's three by the Cholesky factor of
 //! its centre's covariance, a face touch by one touch's noise, certificate
 //! rows by their uncertainty in that unit), the placements' and artifacts'
@@ -43,7 +48,7 @@
 //! says that the common scale is the artifact's, not measured.
 
 use super::artifact::{Artifact, Feature, Kind};
-use super::fit::{fit_touches, Estimate, FaceTouch, Fitted, SphereFit, CAL_PARAMS};
+use super::fit::{fit_touches, Estimate, FaceTouch, Fitted, SphereFit, CAL_PARAMS, SAME_TOOL_MM};
 use super::geometry::{rigid_fit, rotate, turn, Rotation};
 use super::ProbeError;
 use crate::identify::thermal::identify::{solve_whitened, Identification};
@@ -454,11 +459,20 @@ impl<'a> Problem<'a> {
         // and a reversal): its parameters as unknowns `z` with `δ = G z`, `z ~
         // N(0, I)` (rows below).
         let mut cal = vec![None; fitted.calibrations.len()];
-        for f in &fitted.faces {
-            if let Some(slot) = cal.get_mut(f.calibration) {
+        let sphere_cals = fitted
+            .spheres
+            .iter()
+            .filter_map(|s| sphere_calibration(fitted, s));
+        for c in fitted
+            .faces
+            .iter()
+            .map(|f| f.calibration)
+            .chain(sphere_cals)
+        {
+            if let Some(slot) = cal.get_mut(c) {
                 if slot.is_none() {
                     *slot = Some(col);
-                    col += fitted.calibrations[f.calibration]
+                    col += fitted.calibrations[c]
                         .cov_factor_um
                         .first()
                         .map_or(0, Vec::len);
@@ -598,6 +612,24 @@ impl<'a> Problem<'a> {
                             }
                         }
                         block_y[(c, 0)] = r[c];
+                    }
+                    // The probe calibration's error moves every centre it
+                    // corrected by `S δ` with `δ = G z` (the face rows' `z`).
+                    if let Some((c0, cal)) = sphere_calibration(self.fitted, s).and_then(|ci| {
+                        Some((
+                            self.layout.cal.get(ci).copied().flatten()?,
+                            self.fitted.calibrations.get(ci)?,
+                        ))
+                    }) {
+                        let g_rows = &cal.cov_factor_um;
+                        let rank = g_rows.first().map_or(0, Vec::len);
+                        for c in 0..3 {
+                            for k in 0..rank {
+                                block_n[(c, c0 + k)] = -(0..CAL_PARAMS)
+                                    .map(|i| s.cal_sensitivity[c][i] * g_rows[i][k])
+                                    .sum::<f64>();
+                            }
+                        }
                     }
                     // Whitening by the centre's covariance (in touch-noise units).
                     let cov = DMatrix::from_fn(3, 3, |a, bb| {
@@ -900,6 +932,18 @@ struct Solve {
 }
 
 /// `s3` → 2.
+/// The calibration that corrected a sphere's touches (the one of its tool
+/// length), if any.
+fn sphere_calibration(fitted: &Fitted, s: &SphereFit) -> Option<usize> {
+    if !s.calibrated {
+        return None;
+    }
+    fitted
+        .calibrations
+        .iter()
+        .position(|c| (c.tool_length_mm - s.tool_length_mm).abs() < SAME_TOOL_MM)
+}
+
 fn sphere_index(label: &str) -> Option<usize> {
     label
         .strip_prefix('s')?

@@ -33,7 +33,7 @@ const CENTRE_LETTER: [u8; 3] = [b'I', b'J', b'K'];
 /// one bit off the number the program wrote (0.08 in → 0.07999999999999999),
 /// and the cycle compares it exactly with R (LinuxCNC: `old_cc < r`), so the
 /// value is snapped to ten decimals when it is that close to them.
-fn snap(v: f64) -> f64 {
+pub fn snap(v: f64) -> f64 {
     if v.abs() >= 1e5 {
         return v;
     }
@@ -51,6 +51,41 @@ fn plane_name(plane: Plane) -> &'static str {
         Plane::Yz => "YZ",
         Plane::Zx => "XZ",
     }
+}
+
+/// One canned-cycle block as LinuxCNC 2.9's `convert_cycle_xy` (and its
+/// YZ/ZX twins) computed it, in program units and the program frame: what
+/// a writer needs to write the block back as a cycle with other numbers
+/// and to know the moves the controller then makes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CycleBlock {
+    /// The cycle, G-code × 10 (730, 810 … 890).
+    pub code: u16,
+    /// The plane's (first, second, normal) axes as indices into (X, Y, Z).
+    pub axes: [usize; 3],
+    /// G90 (true) or G91.
+    pub absolute: bool,
+    /// G99: retract to R (true), G98: to the initial level.
+    pub retract_to_r: bool,
+    /// The initial level of the run of cycle blocks (`cycle_il`), before
+    /// it is raised to R.
+    pub initial: f64,
+    /// The normal-axis coordinate when the block began (`current_cc`).
+    pub current: f64,
+    /// The in-plane point when the block began.
+    pub start: [f64; 2],
+    /// The R plane.
+    pub r: f64,
+    /// The hole bottom.
+    pub bottom: f64,
+    /// The level the tool retracts to after each hole (R under G99).
+    pub clear: f64,
+    /// Peck depth (G73, G83; 0 otherwise).
+    pub q: f64,
+    /// The peck clearance: 0.254 mm or 0.010 in.
+    pub peck_clear: f64,
+    /// The in-plane point of each repeat (L).
+    pub holes: Vec<[f64; 2]>,
 }
 
 /// One canned-cycle block being expanded: plane mapping, units, frame.
@@ -83,6 +118,12 @@ impl Interpreter {
     /// what G86 restarts after its retract.
     pub fn spindle_direction(&self) -> i8 {
         self.spindle_dir
+    }
+
+    /// The last canned-cycle block interpreted, as LinuxCNC computed it;
+    /// `None` before the first.
+    pub fn last_cycle(&self) -> Option<&CycleBlock> {
+        self.last_cycle.as_deref()
     }
 
     fn cycle_move(
@@ -379,6 +420,21 @@ impl Interpreter {
             col,
             feed: self.to_mm(self.feed),
         };
+        let mut record = CycleBlock {
+            code,
+            axes: ax,
+            absolute: self.absolute,
+            retract_to_r: self.retract_to_r,
+            initial: old_cc,
+            current: current_cc,
+            start: [cur_a, cur_b],
+            r,
+            bottom: cc,
+            clear: 0.0,
+            q,
+            peck_clear: 0.0,
+            holes: Vec::with_capacity(repeats.min(1024) as usize),
+        };
         // First motion (maybe): below the R plane, rapid straight up to it.
         if old_cc < r {
             self.cycle_move(&cx, out, false, cur_a, cur_b, r)?;
@@ -420,6 +476,7 @@ impl Interpreter {
                 aa = radius * theta.cos();
                 bb = radius * theta.sin();
             }
+            record.holes.push([aa, bb]);
             if rep == 0 && current_cc > r {
                 self.cycle_move(&cx, out, false, aa, bb, current_cc)?;
                 self.cycle_move(&cx, out, false, aa, bb, r)?;
@@ -432,6 +489,9 @@ impl Interpreter {
             self.cycle_body(&cx, out, code, aa, bb, r, clear, cc, q, peck_clear, ijk)?;
         }
         self.path_mode = saved_mode;
+        record.clear = clear;
+        record.peck_clear = peck_clear;
+        self.last_cycle = Some(Box::new(record));
         // LinuxCNC leaves the current point at (aa, bb, clear) even after
         // G88, where the operator retracts by hand.
         self.position = cx.point(aa, bb, clear);
