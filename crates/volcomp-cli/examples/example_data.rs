@@ -63,6 +63,8 @@ pub fn files() -> Vec<(String, String)> {
     ));
     out.push(("probes.csv".into(), probes(&nominal)));
     out.push(("finish.ngc".into(), finishing_program(&nominal)));
+    // Ballbar traces of a known machine in three planes (docs/ballbar.md).
+    out.extend(volcomp_core::example::ballbar::files());
     out
 }
 

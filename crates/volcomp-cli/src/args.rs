@@ -61,6 +61,8 @@ pub enum Command {
     Thermal(crate::commands::thermal::ThermalArgs),
     /// Calibrate with a touch probe: probing programs, fit of the 21-component model, verification.
     Probe(crate::commands::probe::ProbeArgs),
+    /// The circular test (ISO 230-4): predict a ballbar trace from a map, fit a trace's causes, a quick map from three planes.
+    Ballbar(crate::commands::ballbar::BallbarArgs),
     /// Print a shell completion script to standard output, e.g.
     /// `volcomp completions bash > ~/.local/share/bash-completion/completions/volcomp`.
     Completions(CompletionsArgs),

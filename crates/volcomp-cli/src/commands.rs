@@ -10,6 +10,7 @@ use volcomp_core::request::{Machine, MachineRequest};
 use volcomp_gcode::number::{format_number_bytes, NumberStyle};
 use volcomp_gcode::{Motion, MotionKind, Vec3, Walker};
 
+pub mod ballbar;
 mod compensate;
 pub use compensate::command_line;
 mod demo;
@@ -33,6 +34,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Straightness(a) => straightness::run(a),
         Command::Thermal(a) => thermal::run(a),
         Command::Probe(a) => probe::run(a),
+        Command::Ballbar(a) => ballbar::run(a),
         Command::Completions(a) => {
             let mut cmd = <Cli as clap::CommandFactory>::command();
             clap_complete::generate(a.shell, &mut cmd, "volcomp", &mut io::stdout());

@@ -327,6 +327,9 @@ pub enum Error {
     /// A located error in a table, model or set-up file.
     #[error("{0}")]
     MapFile(#[from] MapFileError),
+    /// A ballbar test or trace that cannot be evaluated.
+    #[error("{0}")]
+    Ballbar(#[from] crate::ballbar::BallbarError),
     /// A model file could not be read.
     #[error("{0}")]
     ModelFile(#[from] crate::io::model_file::ModelFileError),
@@ -582,6 +585,7 @@ impl Error {
             | Error::Topology(_)
             | Error::OutputPlan(_)
             | Error::Option(_)
+            | Error::Ballbar(_)
             | Error::Limit(_)
             | Error::Request(_) => ErrorKind::BadInput,
         }

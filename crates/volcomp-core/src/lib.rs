@@ -80,6 +80,7 @@
 // Files are read through `volcomp_geom::inputs` only (clippy.toml).
 #![cfg_attr(not(test), warn(clippy::disallowed_methods))]
 
+pub mod ballbar;
 pub mod compensate;
 pub mod error;
 #[cfg(any(test, feature = "examples"))]

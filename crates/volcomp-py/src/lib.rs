@@ -11,6 +11,7 @@
 
 use pyo3::prelude::*;
 
+mod ballbar;
 mod errors;
 mod identify;
 mod inputs;
@@ -40,6 +41,8 @@ fn _volcomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<thermal::ThermalModel>()?;
     m.add_function(wrap_pyfunction!(thermal::thermal_fit, m)?)?;
     m.add_function(wrap_pyfunction!(mirror::mirror, m)?)?;
+    m.add_function(wrap_pyfunction!(ballbar::ballbar_predict, m)?)?;
+    m.add_function(wrap_pyfunction!(ballbar::ballbar_fit, m)?)?;
     m.add_function(wrap_pyfunction!(request::options, m)?)?;
     Ok(())
 }

@@ -230,6 +230,8 @@ pub fn options<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyList>> 
         "thermal_predict" => ThermalPredictRequest::OPTIONS,
         "straightness_fit" => StraightnessFitRequest::OPTIONS,
         "export" => volcomp_core::request::MapExportRequest::OPTIONS,
+        "ballbar_predict" => volcomp_core::request::BallbarPredictRequest::OPTIONS,
+        "ballbar_fit" => volcomp_core::request::BallbarFitRequest::OPTIONS,
         _ => return Err(bad_input(format!("no job `{job}`"))),
     };
     let list = PyList::empty(py);

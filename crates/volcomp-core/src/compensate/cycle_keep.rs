@@ -197,7 +197,8 @@ pub(super) enum Expand {
     Peck(f64),
     /// The written numbers make a different number of pecks.
     PeckCount,
-    /// An axis could not be solved consistently at the bottom.
+    /// An axis could not be solved consistently at the bottom, or the
+    /// correction there is above the limit (the moves report it).
     Held,
     /// Written as a cycle, the hole's moves in the air would not be the
     /// original's (µm off; infinite: other moves): after a hole written as
@@ -220,7 +221,9 @@ impl Expand {
             Expand::PeckCount => {
                 "cycle expanded: the compensated numbers would make another number of pecks".into()
             }
-            Expand::Held => "cycle expanded: an axis has no consistent direction at the bottom".into(),
+            Expand::Held => {
+                "cycle expanded: the bottom has no consistent direction or too large a correction".into()
+            }
             Expand::Retract(um) if um.is_finite() => format!(
                 "cycle expanded: written as a cycle it would retract or traverse {:.3} mm off the original's level",
                 um * 1e-3
@@ -315,6 +318,11 @@ impl State<'_> {
     /// makes).
     pub(super) fn cycle_holes(&self, line: &Line) -> Option<Holes> {
         self.cycle_tolerance_mm()?;
+        // Directions taken from the nominal path (an option for studies):
+        // the holes are written as moves, solved that way.
+        if self.walk.options.directions != super::DirectionPolicy::Commanded {
+            return None;
+        }
         let ev = line.ev;
         let frame = &line.frame;
         let block = ev.interp.last_cycle()?;
@@ -405,6 +413,11 @@ impl State<'_> {
         }
         let q_b = sol.q_mm;
         let s_b = sol.s;
+        // A correction above the limit: written as moves, where the
+        // limit is reported at the line.
+        if (q_b - t_b).norm() > options.max_correction_mm {
+            return Ok(Hole::Expand(Expand::Held));
+        }
         // The machine's numbers (program units) before the block.
         // As LinuxCNC holds them (it compares them exactly with R).
         let cur = frame.program(self.q_out);

@@ -9,6 +9,7 @@
 //! a squareness-like linear straightness term, and backlash: the reverse
 //! positioning table lies a few µm above the forward one (docs/design.md, "Direction state and backlash").
 
+pub mod ballbar;
 pub mod build;
 pub mod kinematic;
 pub mod probe;

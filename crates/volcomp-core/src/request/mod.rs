@@ -57,6 +57,11 @@ pub use thermal::{
 };
 pub use time::{TimeRequest, TIME_OPTIONS};
 
+pub use crate::ballbar::request::{
+    BallbarFitRequest, BallbarMapRequest, BallbarPredictRequest, BALLBAR_FIT_OPTIONS,
+    BALLBAR_MAP_OPTIONS, BALLBAR_PREDICT_OPTIONS,
+};
+
 /// Every option of every request, for a front end that spells a name it
 /// meets in a message.
 pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
@@ -75,6 +80,9 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     EXPORT_OPTIONS,
     COMP_OPTIONS,
     MAP_TOOL_OPTIONS,
+    BALLBAR_PREDICT_OPTIONS,
+    BALLBAR_FIT_OPTIONS,
+    BALLBAR_MAP_OPTIONS,
 ];
 
 /// The option named `name` in any request.
@@ -144,6 +152,9 @@ mod tests {
         consistent(|r: &CompRequest| r.clone());
         consistent(|r: &MapToolRequest| r.clone());
         consistent(|r: &TimeRequest| r.clone());
+        consistent(|r: &BallbarPredictRequest| r.clone());
+        consistent(|r: &BallbarFitRequest| r.clone());
+        consistent(|r: &BallbarMapRequest| r.clone());
     }
 
     #[test]

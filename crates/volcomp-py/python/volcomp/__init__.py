@@ -29,6 +29,8 @@ from ._volcomp import (
     VolcompIOError,
     VolcompWarning,
     __version__,
+    ballbar_fit,
+    ballbar_predict,
     compensate,
     export,
     iso230_2,
@@ -83,6 +85,8 @@ mirror = _with_options(mirror, "mirror")
 thermal_fit = _with_options(thermal_fit, "thermal_fit")
 straightness_fit = _with_options(straightness_fit, "straightness_fit")
 export = _with_options(export, "export")
+ballbar_predict = _with_options(ballbar_predict, "ballbar_predict")
+ballbar_fit = _with_options(ballbar_fit, "ballbar_fit")
 
 __all__ = [
     "BadInputError",
@@ -95,6 +99,8 @@ __all__ = [
     "VolcompIOError",
     "VolcompWarning",
     "__version__",
+    "ballbar_fit",
+    "ballbar_predict",
     "compensate",
     "export",
     "iso230_2",

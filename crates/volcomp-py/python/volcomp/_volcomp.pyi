@@ -350,6 +350,37 @@ def thermal_fit(
     as paths or file objects; ranges_mm is required); with bands_samples, the
     95 % Monte Carlo bands (the options of `volcomp thermal fit`)."""
 
+def ballbar_predict(
+    map: Input,
+    *,
+    centre_mm: Optional[Sequence[float]] = None,
+    plane: Literal["XY", "YZ", "ZX"] = "XY",
+    radius_mm: float = 100.0,
+    feed_mm_per_min: float = 1000.0,
+    direction: Literal["both", "ccw", "cw"] = "both",
+    start_deg: float = 0.0,
+    overshoot_deg: float = 180.0,
+    step_deg: float = 0.1,
+    program: Optional[Input] = None,
+    clamp: bool = False,
+) -> dict[str, Any]:
+    """The ballbar trace of the machine of `map` (a path; centre_mm is
+    required), its ISO 230-4 figures and the test's LinuxCNC program
+    (the options of `volcomp ballbar predict`)."""
+
+def ballbar_fit(
+    trace: Input,
+    *,
+    pitch_mm: Optional[Sequence[float]] = None,
+    spike_width_deg: float = 2.0,
+    trace_plane: Optional[Literal["XY", "YZ", "ZX"]] = None,
+    trace_radius_mm: Optional[float] = None,
+    trace_centre_mm: Optional[Sequence[float]] = None,
+    trace_feed_mm_per_min: Optional[float] = None,
+) -> dict[str, Any]:
+    """The ISO 230-4 figures of a trace file and the causes fitted to it
+    (the options of `volcomp ballbar fit`)."""
+
 def mirror(
     nominal: Input,
     measured: Input,
