@@ -32,7 +32,9 @@ for i in $(seq 1 99); do echo "T$i P$i Z0 D0"; done > "$work/tools.tbl"
 map="--map $work/demo/example_map.csv --work-offset 250,200,150"
 
 # NAME=COMMAND arguments for one program: rs274 first (the reference), then
-# each volcomp binary's moves and compensate (defaults, and 1 mm segments).
+# each volcomp binary's moves and compensate: the defaults as a user runs
+# them (the summary on standard error with the machining-time estimate of
+# both programs), with --quiet (no estimate), and with 1 mm segments.
 commands() {
   local p=$1 n
   n=$(basename "$p")
@@ -40,7 +42,8 @@ commands() {
   for b in ${BASE:+base=$(realpath "$BASE")} "new=$vc"; do
     local tag=${b%%=*} bin=${b#*=}
     echo "moves ($tag)=$bin moves $p > $work/$n.$tag.csv"
-    echo "compensate ($tag)=$bin --quiet compensate $p $map -o $work/$n.$tag.comp.ngc"
+    echo "compensate ($tag)=$bin compensate $p $map -o $work/$n.$tag.comp.ngc 2> /dev/null"
+    echo "compensate --quiet ($tag)=$bin --quiet compensate $p $map -o $work/$n.$tag.comp.ngc"
     echo "compensate 1 mm ($tag)=$bin --quiet compensate $p $map --segment-length 1 -o $work/$n.$tag.1mm.ngc"
   done
 }

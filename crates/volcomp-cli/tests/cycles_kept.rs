@@ -309,7 +309,10 @@ fn check_holes(
 #[test]
 fn holes_kept_as_cycles_land_on_the_map_at_bottom_r_and_pecks() {
     let Some(run) = set_up("kept") else { return };
-    let (text, moves) = compensate_and_run(&run, "holes", PROGRAM, &[]);
+    // The drilling holes held to the contour tolerance (0.1 µm), as the
+    // boring cycles are: the deep hole's 1 µm drift then expands it.
+    let (text, moves) =
+        compensate_and_run(&run, "holes", PROGRAM, &["--drill-tolerance-um", "0.1"]);
     let moves = with_states(&moves);
     let holes = holes();
     let firsts = check_holes(&moves, &holes, [0, 1, 2], &text);
@@ -417,4 +420,52 @@ M2
     check_holes(&moves, &yz, [1, 2, 0], &text);
     assert!(!text.contains("cycle expanded"), "{text}");
     assert_eq!(text.matches("(volcomp L9 cycle)").count(), 1, "{text}");
+}
+
+#[test]
+fn a_drilled_hole_is_kept_within_the_drill_tolerance_a_bored_one_within_the_contour_tolerance() {
+    let Some(run) = set_up("drill") else { return };
+    // The deep hole of PROGRAM (the map bends its stroke by the closed form
+    // 0.1 µm/mm · 10 mm = 1 µm) drilled with G81 and bored with G85, each
+    // alone, with the defaults: 1 µm is inside the drill tolerance (5 µm)
+    // and outside the contour tolerance (0.1 µm).
+    let program = |g: &str| {
+        format!("G21 G90 G17 G54 F200\nG0 X0 Y0 Z10\nG99 {g} X50 Y10 Z-20 R2\nG80\nG0 Z10\nM2\n")
+    };
+    let (drilled, moves) = compensate_and_run(&run, "drilled", &program("G81"), &[]);
+    assert!(!drilled.contains("cycle expanded"), "{drilled}");
+    assert_eq!(
+        drilled
+            .lines()
+            .filter(|l| !l.starts_with('(') && l.contains("G81"))
+            .count(),
+        1,
+        "{drilled}"
+    );
+    // Its bottom still lands on the nominal point (the stroke's drift is
+    // above it, in the hole).
+    let moves = with_states(&moves);
+    let bottom = moves
+        .iter()
+        .filter(|(m, _)| m.kind == Kind::Feed)
+        .min_by(|a, b| a.0.end[2].total_cmp(&b.0.end[2]))
+        .unwrap();
+    let p = actual(bottom.0.end, bottom.1);
+    for (a, t) in [50.0, 10.0, -20.0].iter().enumerate() {
+        assert!(
+            near(p[a], *t, TOL_UM.max(bottom.0.tol[a] * 1e3 + 0.01)),
+            "axis {a}: {} vs {t}\n{drilled}",
+            p[a]
+        );
+    }
+    let (bored, _) = compensate_and_run(&run, "bored", &program("G85"), &[]);
+    let expanded: Vec<&str> = bored
+        .lines()
+        .filter(|l| l.contains("cycle expanded"))
+        .collect();
+    assert_eq!(expanded.len(), 1, "{bored}");
+    assert!(
+        expanded[0].contains("above the 0.100 um tolerance"),
+        "{bored}"
+    );
 }

@@ -141,8 +141,18 @@ pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
 #[inline]
 pub fn format_number_bytes(value: f64, style: NumberStyle, out: &mut Vec<u8>) {
     let mut buf = NumberBuf::new();
-    match buf.format(value, style) {
-        Some(text) => out.extend_from_slice(text),
+    match buf.format_at(value, style) {
+        // A fixed-size copy (a few register moves, no `memcpy` call for a
+        // length known only at run time), then the tail cut off.
+        Some(at) if NumberBuf::END - at <= NumberBuf::COPY => {
+            let len = out.len();
+            let chunk: &[u8; NumberBuf::COPY] = buf.bytes[at..at + NumberBuf::COPY]
+                .try_into()
+                .expect("the buffer holds a copy's length after the text's end");
+            out.extend_from_slice(chunk);
+            out.truncate(len + NumberBuf::END - at);
+        }
+        Some(at) => out.extend_from_slice(&buf.bytes[at..NumberBuf::END]),
         None => {
             let mut text = String::new();
             format_number_slow(value, style, &mut text);
@@ -154,7 +164,10 @@ pub fn format_number_bytes(value: f64, style: NumberStyle, out: &mut Vec<u8>) {
 /// A number written from its last digit backwards into a stack buffer: no
 /// allocation, two digits a step.
 struct NumberBuf {
-    bytes: [u8; 48],
+    /// The text ends at [`NumberBuf::END`]; the bytes after it let a
+    /// fixed-size copy of [`NumberBuf::COPY`] bytes start anywhere the
+    /// text of up to that length can.
+    bytes: [u8; NumberBuf::END + NumberBuf::COPY],
 }
 
 /// `"00" "01" … "99"`.
@@ -169,8 +182,15 @@ impl NumberBuf {
     /// Most decimals written through the buffer; more go the slow way.
     const MAX_DECIMALS: u8 = 18;
 
+    /// Where the text ends.
+    const END: usize = 48;
+    /// Bytes a fixed-size copy takes (numbers are rarely longer).
+    const COPY: usize = 32;
+
     fn new() -> Self {
-        Self { bytes: [0; 48] }
+        Self {
+            bytes: [0; Self::END + Self::COPY],
+        }
     }
 
     /// Writes `v`'s digits, at least `width` of them (zero-padded), so that
@@ -203,6 +223,14 @@ impl NumberBuf {
     /// writes (non-finite or huge values, more than 18 decimals).
     #[inline]
     fn format(&mut self, value: f64, style: NumberStyle) -> Option<&[u8]> {
+        let at = self.format_at(value, style)?;
+        Some(&self.bytes[at..Self::END])
+    }
+
+    /// [`NumberBuf::format`], giving where the text starts (it ends at
+    /// [`NumberBuf::END`]).
+    #[inline]
+    fn format_at(&mut self, value: f64, style: NumberStyle) -> Option<usize> {
         if style.decimals > Self::MAX_DECIMALS {
             return None;
         }
@@ -224,7 +252,7 @@ impl NumberBuf {
                 frac_digits -= 1;
             }
         }
-        let end = self.bytes.len();
+        let end = Self::END;
         let mut at = end;
         if frac_digits > 0 {
             at = self.digits_before(frac_part, frac_digits, at);
@@ -241,7 +269,7 @@ impl NumberBuf {
             at -= 1;
             self.bytes[at] = b'-';
         }
-        Some(&self.bytes[at..end])
+        Some(at)
     }
 }
 
@@ -486,9 +514,10 @@ mod tests {
                     let mut reference = String::new();
                     format_number_slow(v, style, &mut reference);
                     assert_eq!(fmt(v, style), reference, "{v} {style:?}");
-                    let mut bytes = Vec::new();
+                    // Appended after what the line already holds.
+                    let mut bytes = b"X".to_vec();
                     format_number_bytes(v, style, &mut bytes);
-                    assert_eq!(bytes, reference.as_bytes(), "{v} {style:?}");
+                    assert_eq!(bytes[1..], *reference.as_bytes(), "{v} {style:?}");
                 }
             }
         }

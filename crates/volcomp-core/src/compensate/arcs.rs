@@ -571,10 +571,17 @@ impl State<'_> {
         }
         let rule = options.take_up_rule(run.mode);
         let contour = options.fold_tolerance_mm();
+        // G64 without P lets the tool leave the path by the reversal
+        // value at a reversal (the fold's bound): an S-curve within it
+        // runs at the feed where a fold into one short piece makes a
+        // corner the planner blends.
         let tolerance = |band_mm: f64| match rule {
-            super::TakeUpRule::Exact { smooth: true } => Some(contour),
-            super::TakeUpRule::Within(t) if t < band_mm => Some(t),
-            _ => None,
+            super::TakeUpRule::Exact { smooth: true } => {
+                Some(super::points::RUN_THROUGH_TOLERANCE_MM.max(contour))
+            }
+            super::TakeUpRule::Within(t) => Some(t.min(band_mm)),
+            super::TakeUpRule::Always => Some(band_mm),
+            super::TakeUpRule::Exact { smooth: false } => None,
         };
         let (pieces, transitions) = plan_transitions(
             arc,

@@ -57,7 +57,7 @@ impl State<'_> {
             self.note_feed(line);
             return Ok(());
         };
-        let tolerance_mm = self.cycle_tolerance_mm().unwrap_or(0.0);
+        let tolerance_mm = self.hole_tolerance_mm(code).unwrap_or(0.0);
         let mut line_written = false;
         // Holes written as moves since the last kept one: under the G61
         // written before the first of them.
@@ -89,7 +89,7 @@ impl State<'_> {
                         line_written = true;
                     }
                     self.cycles.end();
-                    let note = self.expand_note(&why);
+                    let note = self.expand_note(&why, code);
                     let motions = &line.ev.motions[range.clone()];
                     self.write_cycle_moves(line, motions, &note, (!in_exact, false))?;
                     in_exact = true;

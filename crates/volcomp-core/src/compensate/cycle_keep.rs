@@ -26,9 +26,12 @@
 //!   retract), a clearance changed by the map there: reported, not a
 //!   contour error.
 //!
-//! The first two are compared with the contour tolerance; a hole that
-//! exceeds it is expanded, and the trace comment of its first move says
-//! by how much.
+//! The first two are compared with the contour tolerance for the boring
+//! cycles (G85, G86, G89: the feed finishes the wall) and with the drill
+//! tolerance, at least the contour tolerance, for the drilling cycles (G73,
+//! G81, G82, G83: a twist drill's own run-out and wander are tens of µm, and
+//! the bottom is compensated exactly either way); a hole that exceeds it is
+//! expanded, and the trace comment of its first move says by how much.
 
 use super::frame::Frame;
 use super::walk::Line;
@@ -197,7 +200,8 @@ pub(super) enum Expand {
     Peck(f64),
     /// The written numbers make a different number of pecks.
     PeckCount,
-    /// An axis could not be solved consistently at the bottom.
+    /// An axis could not be solved consistently at the bottom, or the
+    /// correction there is above the limit (the moves report it).
     Held,
     /// Written as a cycle, the hole's moves in the air would not be the
     /// original's (µm off; infinite: other moves): after a hole written as
@@ -220,7 +224,9 @@ impl Expand {
             Expand::PeckCount => {
                 "cycle expanded: the compensated numbers would make another number of pecks".into()
             }
-            Expand::Held => "cycle expanded: an axis has no consistent direction at the bottom".into(),
+            Expand::Held => {
+                "cycle expanded: the bottom has no consistent direction or too large a correction".into()
+            }
             Expand::Retract(um) if um.is_finite() => format!(
                 "cycle expanded: written as a cycle it would retract or traverse {:.3} mm off the original's level",
                 um * 1e-3
@@ -309,12 +315,32 @@ impl State<'_> {
         }
     }
 
+    /// The tolerance a kept hole of cycle `g` (G number) must meet (mm): the
+    /// contour tolerance for the boring cycles, whose feed cuts the wall
+    /// (G85, G86, G89), and at least
+    /// [`CompensateOptions::drill_tolerance_mm`](super::CompensateOptions::drill_tolerance_mm)
+    /// for the drilling cycles (G73, G81, G82, G83), whose drill cuts a wall
+    /// of its own; `None` where no cycle is kept.
+    pub(super) fn hole_tolerance_mm(&self, g: u16) -> Option<f64> {
+        let contour = self.cycle_tolerance_mm()?;
+        Some(if matches!(g, 73 | 81 | 82 | 83) {
+            contour.max(self.walk.options.drill_tolerance_mm)
+        } else {
+            contour
+        })
+    }
+
     /// The holes of a cycle line; `None` where the line cannot be kept
     /// at all (a fixed segmentation, a rotated frame, G7, extra axes,
     /// G74/G84, or the interpreter's moves not the ones [`block_moves`]
     /// makes).
     pub(super) fn cycle_holes(&self, line: &Line) -> Option<Holes> {
         self.cycle_tolerance_mm()?;
+        // Directions taken from the nominal path (an option for studies):
+        // the holes are written as moves, solved that way.
+        if self.walk.options.directions != super::DirectionPolicy::Commanded {
+            return None;
+        }
         let ev = line.ev;
         let frame = &line.frame;
         let block = ev.interp.last_cycle()?;
@@ -405,6 +431,11 @@ impl State<'_> {
         }
         let q_b = sol.q_mm;
         let s_b = sol.s;
+        // A correction above the limit: written as moves, where the
+        // limit is reported at the line.
+        if (q_b - t_b).norm() > options.max_correction_mm {
+            return Ok(Hole::Expand(Expand::Held));
+        }
         // The machine's numbers (program units) before the block.
         // As LinuxCNC holds them (it compares them exactly with R).
         let cur = frame.program(self.q_out);
@@ -648,8 +679,8 @@ impl State<'_> {
     }
 
     /// The trace text of an expanded hole.
-    pub(super) fn expand_note(&self, why: &Expand) -> String {
-        let tolerance_um = self.cycle_tolerance_mm().unwrap_or(0.0) * 1e3;
+    pub(super) fn expand_note(&self, why: &Expand, g: u16) -> String {
+        let tolerance_um = self.hole_tolerance_mm(g).unwrap_or(0.0) * 1e3;
         why.text(tolerance_um)
     }
 }

@@ -71,6 +71,12 @@ pub struct CompensateOptions {
     /// for fewer stops: at a corner where the reversing axis moves on both
     /// sides, the tool leaves the path by up to the reversal value.
     pub take_up_tolerance_mm: Option<f64>,
+    /// The error a drilling cycle (G73, G81, G82, G83) kept as a cycle may
+    /// leave along its stroke (mm): the map's drift across the stroke and
+    /// the peck levels inside the hole; the hole's position at the bottom
+    /// and its depth are compensated exactly either way. Never below the
+    /// contour tolerance; the boring cycles keep the contour tolerance.
+    pub drill_tolerance_mm: f64,
     /// The machine's limits that decide how its planner joins the pieces
     /// written ([`PlannerLimits`]).
     pub planner: PlannerLimits,
@@ -107,6 +113,7 @@ impl Default for CompensateOptions {
             take_up: true,
             fold_take_ups: true,
             take_up_tolerance_mm: None,
+            drill_tolerance_mm: DEFAULT_DRILL_TOLERANCE_UM * 1e-3,
             planner: PlannerLimits::default(),
             trace_comments: true,
             max_residual_um: Some(DEFAULT_MAX_RESIDUAL_UM),
@@ -197,6 +204,14 @@ impl CompensateOptions {
 /// so the rounding does not add to it (docs/compensation.md, "Adaptive
 /// segmentation").
 pub const DEFAULT_CONTOUR_TOLERANCE_UM: f64 = 0.1;
+
+/// Default drill tolerance (µm; [`CompensateOptions::drill_tolerance_mm`]):
+/// 5 µm. A twist drill's hole is straight and placed to tens of µm (its own
+/// run-out and wander), so a few µm of the map's drift along the stroke do
+/// not show in the hole, while writing the hole as its moves makes a peck
+/// cycle ten times longer and stops the machine at every peck; the bottom
+/// stays compensated exactly.
+pub const DEFAULT_DRILL_TOLERANCE_UM: f64 = 5.0;
 
 /// Decimals written in mm by default: 5, a step of 0.01 µm. The written
 /// step must sit well below the contour tolerance (0.1 µm), or the

@@ -115,40 +115,15 @@ fn switch_lags_mm(
 /// it is the tool arriving later). Zero where every reversing axis'
 /// command crosses exactly its band.
 fn fold_deviation_mm(lags: &[Vec3; 3], q_prev: Vec3, q: Vec3, nominal_delta: Vec3) -> f64 {
-    let dq = q - q_prev;
-    // The ratio r_a of each reversing axis, `None` where its lag is gone
-    // at once.
-    let ratio = |a: usize| -> Option<f64> {
-        let own = lags[a][a];
-        (own != 0.0 && own * dq[a] >= 0.0).then(|| dq[a].abs() / own.abs())
-    };
-    let offset = |lambda: f64| -> Vec3 {
-        let mut off = Vec3::ZERO;
-        for (a, lag) in lags.iter().enumerate() {
-            if *lag == Vec3::ZERO {
-                continue;
-            }
-            let left = ratio(a).map_or(0.0, |r| (1.0 - r * lambda).max(0.0));
-            off += *lag * (left - 1.0 + lambda);
-        }
-        off
-    };
+    // Along a straight move the direction is the same everywhere; where
+    // the move has no length every offset counts.
     let length = nominal_delta.norm();
-    let across = |off: Vec3| -> f64 {
-        if length > 0.0 {
-            let u = nominal_delta * (1.0 / length);
-            (off - u * off.dot(u)).norm()
-        } else {
-            off.norm()
-        }
+    let u = if length > 0.0 {
+        nominal_delta * (1.0 / length)
+    } else {
+        Vec3::ZERO
     };
-    let mut worst = across(offset(0.0)).max(across(offset(1.0)));
-    for a in 0..3 {
-        if let Some(r) = ratio(a).filter(|r| *r > 1.0) {
-            worst = worst.max(across(offset(1.0 / r)));
-        }
-    }
-    worst
+    fold_deviation_along_mm(lags, q_prev, q, &|_| u)
 }
 
 /// A lead piece for a take-up that the whole move cannot fold (see
@@ -191,6 +166,204 @@ fn lead_target(
         piece *= 0.5;
     }
     Ok(None)
+}
+
+/// [`fold_deviation_mm`] for a fold whose path turns: the offsets of the
+/// fold (piecewise linear in the fraction `λ` of the move) are sampled at
+/// 33 fractions and at the breakpoints `1/r_a`, and only their part across
+/// the path's own tangent there, `tangent(λ)`, is counted.
+fn fold_deviation_along_mm(
+    lags: &[Vec3; 3],
+    q_prev: Vec3,
+    q: Vec3,
+    tangent: &dyn Fn(f64) -> Vec3,
+) -> f64 {
+    let dq = q - q_prev;
+    let ratio = |a: usize| -> Option<f64> {
+        let own = lags[a][a];
+        (own != 0.0 && own * dq[a] >= 0.0).then(|| dq[a].abs() / own.abs())
+    };
+    let offset = |lambda: f64| -> Vec3 {
+        let mut off = Vec3::ZERO;
+        for (a, lag) in lags.iter().enumerate() {
+            if *lag != Vec3::ZERO {
+                let left = ratio(a).map_or(0.0, |r| (1.0 - r * lambda).max(0.0));
+                off += *lag * (left - 1.0 + lambda);
+            }
+        }
+        off
+    };
+    let across = |lambda: f64| -> f64 {
+        let off = offset(lambda);
+        let u = tangent(lambda);
+        (off - u * off.dot(u)).norm()
+    };
+    let mut worst = (0..=32).fold(0.0f64, |m, k| m.max(across(f64::from(k) / 32.0)));
+    for a in 0..3 {
+        if let Some(r) = ratio(a).filter(|r| *r > 1.0) {
+            worst = worst.max(across(1.0 / r));
+        }
+    }
+    worst
+}
+
+/// How far a take-up the machine runs through without a stop (a ramp,
+/// [`RampPlan`], or an S-curve at a quarter point, compensate/scurve.rs)
+/// may leave the tool from the path under G61 and G64 without P (mm), where
+/// the contour tolerance is smaller: the accuracy the product states for
+/// the whole path, 0.5 µm (docs/compensation.md, "Reversals by path-control
+/// mode"), less a fifth for what the local model leaves out. A stop on a
+/// smooth contour costs about `v/a` and leaves a dwell mark; a shop that
+/// wants the contour tolerance there asks for it with the take-up
+/// tolerance (the G64 P rule, which keeps every take-up within it).
+pub(super) const RUN_THROUGH_TOLERANCE_MM: f64 = 0.4e-3;
+
+/// The share of the planner's tangency tolerance a take-up may turn the
+/// path by at a join (a fold or the ends of a ramp): the rest is for the
+/// compensation's own turn there, which adds to it.
+const RAMP_SHARE: f64 = 0.6;
+
+/// A take-up spread over the path after the reversal (a ramp): the
+/// reversing axes run their new way from the reversal on, and the command
+/// catches up the take-up `delta` linearly over the length `L` of path
+/// that keeps the turn of the tangent at both ends of the ramp below a
+/// share of the planner's tangency tolerance (`|Δ_i| / L ≤ RAMP_SHARE·tol_i`,
+/// [`super::PlannerLimits::tangent_tolerance`]). Over `L` the reversing
+/// carriage crosses its band while the tool stands still along it, as
+/// under a fold into a move of that length ([`fold_deviation_mm`]); the
+/// planner runs the ramp's pieces without a corner, where a take-up folded
+/// into one short piece turns the path by `|Δ|/ℓ` and makes the planner
+/// blend or stop (docs/compensation.md, "Take-ups spread along the path").
+pub(super) struct RampPlan {
+    /// The share of `delta` still to catch up at each target of the ramp,
+    /// from the reversal's target on (the last 0: the ramp's end).
+    pub(super) fracs: Vec<f64>,
+    /// The target to insert (its index, the point, and on an arc its
+    /// parameter) where the ramp ends inside a move.
+    pub(super) insert: Option<(usize, Vec3, Option<f64>)>,
+    /// The tool's largest distance from the path on the ramp (mm).
+    pub(super) bound_mm: f64,
+}
+
+/// The ramp of a take-up `delta` at target `index` (see [`RampPlan`]), or
+/// `None` where the motion's rest is too short for it, an S-curve or a
+/// reversal of any axis lies inside it, or it leaves the tool further
+/// than `tolerance_mm` from the path.
+#[allow(clippy::too_many_arguments)]
+fn plan_ramp(
+    model: &dyn ErrorModel,
+    options: &CompensateOptions,
+    quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
+    (targets, leads, transitions): (&[Vec3], &Leads<'_>, &[super::arcs::Transition]),
+    (index, t_prev, q_prev): (usize, Vec3, Vec3),
+    point: &crate::compensate::solve::PointSolution,
+    (delta, lags): (Vec3, &[Vec3; 3]),
+    (kink_tolerance, tolerance_mm, shortest_mm): ([f64; 3], f64, f64),
+) -> Result<Option<RampPlan>, ModelError> {
+    let need = (0..3).fold(0.0f64, |m, i| {
+        m.max(delta[i].abs() / (RAMP_SHARE * kink_tolerance[i]).max(1e-300))
+    });
+    if !(need > 0.0 && need.is_finite()) {
+        return Ok(None);
+    }
+    // Distance along the path from `t_prev` to each target from `index`.
+    let (arc, l_prev) = match leads {
+        Leads::Arc { arc, pieces } => (
+            Some(**arc),
+            if index == 0 { 0.0 } else { pieces[index - 1] },
+        ),
+        Leads::Lines => (None, 0.0),
+        Leads::Nowhere => return Ok(None),
+    };
+    let along = |k: usize| -> f64 {
+        match (arc, leads) {
+            (Some(a), Leads::Arc { pieces, .. }) => a.length() * (pieces[k] - l_prev),
+            _ => (targets[k] - t_prev).norm(),
+        }
+    };
+    let Some(k) = (index..targets.len()).find(|k| along(*k) >= need * (1.0 - 1e-9)) else {
+        return Ok(None);
+    };
+    if transitions
+        .iter()
+        .any(|tr| tr.index > index && tr.index <= k)
+    {
+        return Ok(None);
+    }
+    // The ramp ends at target `k`, or at a point inserted in its piece.
+    let s_before = if k == index { 0.0 } else { along(k - 1) };
+    let s_k = along(k);
+    let mut window: Vec<(Vec3, f64)> = (index..k).map(|j| (targets[j], along(j))).collect();
+    let mut insert = None;
+    let end_s = if s_k - need <= 0.5 * need || s_k - need < shortest_mm {
+        s_k
+    } else {
+        let s_new = need.max(s_before + shortest_mm);
+        if s_k - s_new < shortest_mm {
+            s_k
+        } else {
+            let (p, param) = match (arc, leads) {
+                (Some(a), Leads::Arc { .. }) => {
+                    let l = l_prev + s_new / a.length();
+                    (a.point_at(l), Some(l))
+                }
+                _ => {
+                    let from = if k == index { t_prev } else { targets[k - 1] };
+                    let f = (s_new - s_before) / (s_k - s_before);
+                    (from + (targets[k] - from) * f, None)
+                }
+            };
+            insert = Some((k, p, param));
+            window.push((p, s_new));
+            s_new
+        }
+    };
+    if insert.is_none() {
+        window.push((targets[k], s_k));
+    }
+    let fracs: Vec<f64> = window
+        .iter()
+        .map(|(_, s)| (1.0 - s / end_s).max(0.0))
+        .collect();
+    // The commands the ramp writes, estimated in the new state: no axis may
+    // turn against its direction on it.
+    let mut prev = q_prev;
+    for ((t, _), f) in window.iter().zip(&fracs) {
+        let sol = solve_fixed(model, options.method, *t, point.s, [false; 3], prev)?;
+        let q = quantize(sol.q_mm - delta * *f, prev);
+        for a in 0..3 {
+            if (q[a] - prev[a]) * point.s[a].sign() < -1e-9 {
+                return Ok(None);
+            }
+        }
+        prev = q;
+    }
+    let end_t = window.last().map_or(t_prev, |w| w.0);
+    let bound = match arc {
+        Some(a) => {
+            let l_end = l_prev + end_s / a.length();
+            let h = 1e-6;
+            fold_deviation_along_mm(lags, q_prev, prev, &|lambda| {
+                let l = l_prev + (l_end - l_prev) * lambda;
+                let d = a.point_at((l + h).min(1.0)) - a.point_at((l - h).max(0.0));
+                let n = d.norm();
+                if n > 0.0 {
+                    d * (1.0 / n)
+                } else {
+                    d
+                }
+            })
+        }
+        None => fold_deviation_mm(lags, q_prev, prev, end_t - t_prev),
+    };
+    if bound > tolerance_mm {
+        return Ok(None);
+    }
+    Ok(Some(RampPlan {
+        fracs,
+        insert,
+        bound_mm: bound,
+    }))
 }
 
 /// How a motion runs on the machine, for the take-up decisions
@@ -427,6 +600,12 @@ impl State<'_> {
         // The index of the last lead piece inserted: neither it nor the
         // target after it gets another (the work stays bounded).
         let mut last_lead: Option<usize> = None;
+        // A take-up being spread along the path ([`RampPlan`]): the take-up
+        // and the share of it still to catch up at each next target; and
+        // the index a ramp's end was last inserted before (one insertion
+        // per reversal).
+        let mut ramp: Option<(Vec3, std::collections::VecDeque<f64>)> = None;
+        let mut ramp_inserted: Option<usize> = None;
         let mut index = 0;
         while index < targets.len() {
             let t = &targets[index];
@@ -571,7 +750,74 @@ impl State<'_> {
                         s
                     }
                 });
-                if bound <= tolerance {
+                // A fold into this piece alone turns the path by the
+                // take-up over its length at both ends: where the planner
+                // would not take that as tangent, the take-up is spread
+                // along the path ([`plan_ramp`]) if the rule allows it.
+                let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+                let kink_tolerance = options
+                    .planner
+                    .tangent_tolerance(v_mm_s.max(1e-9), run.arc || index == 0);
+                let delta = take_up.map_or(Vec3::ZERO, |tu| tu - self.q_out);
+                let piece_mm = (*t - t_prev).norm();
+                let fold_is_tangent =
+                    (0..3).all(|i| delta[i].abs() <= RAMP_SHARE * kink_tolerance[i] * piece_mm);
+                let ramp_tolerance = match rule {
+                    TakeUpRule::Exact { smooth: true } if smooth => {
+                        Some(RUN_THROUGH_TOLERANCE_MM.max(tolerance))
+                    }
+                    TakeUpRule::Exact { .. } => None,
+                    TakeUpRule::Within(t) => Some(t),
+                    TakeUpRule::Always => Some(RUN_THROUGH_TOLERANCE_MM.max(tolerance)),
+                };
+                let mut planned = None;
+                if let (Some(ramp_tol), true) = (
+                    ramp_tolerance,
+                    !(bound <= tolerance && fold_is_tangent)
+                        && feed_like
+                        && v_mm_s > 0.0
+                        && ramp.is_none(),
+                ) {
+                    let min_segment = match options.segmentation {
+                        super::Segmentation::Adaptive { min_length_mm, .. } => min_length_mm,
+                        _ => super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
+                    };
+                    let shortest_piece =
+                        (2.0 * options.planner.shortest_at_feed_mm(v_mm_s * 60.0)).max(min_segment);
+                    planned = plan_ramp(
+                        model,
+                        options,
+                        &|q, from| frame.quantize(q, from),
+                        (targets.as_slice(), &leads, transitions.as_slice()),
+                        (index, t_prev, self.q_out),
+                        &point,
+                        (delta, &lags),
+                        (kink_tolerance, ramp_tol, shortest_piece),
+                    )
+                    .map_err(|source| model_error(file, line, source))?
+                    .filter(|p| p.insert.is_none() || ramp_inserted != Some(index));
+                }
+                if let Some(plan) = planned {
+                    if let Some((k, p, param)) = plan.insert {
+                        // The ramp ends inside a piece: its end becomes a
+                        // target, and this one is solved again.
+                        targets.insert(k, p);
+                        if let (Leads::Arc { pieces, .. }, Some(l)) = (&mut leads, param) {
+                            pieces.insert(k, l);
+                        }
+                        for tr in transitions.iter_mut().filter(|tr| tr.index >= k) {
+                            tr.index += 1;
+                        }
+                        ramp_inserted = Some(index);
+                        // Solved in the state the reversal turned to.
+                        forced = Some(point.s);
+                        continue;
+                    }
+                    take_up = None;
+                    self.note_fold(plan.bound_mm);
+                    last_lead = Some(index + plan.fracs.len());
+                    ramp = Some((delta, plan.fracs.into_iter().collect()));
+                } else if bound <= tolerance {
                     take_up = None;
                     self.note_fold(bound);
                 } else if let Some(shortest) = shortest.filter(|_| {
@@ -677,6 +923,14 @@ impl State<'_> {
                     // the bound (at most the reversal value; within P).
                     take_up = None;
                     self.note_fold(bound);
+                }
+            }
+            if let Some((delta, fracs)) = ramp.as_mut() {
+                if let Some(f) = fracs.pop_front() {
+                    point.q_mm = frame.quantize(point.q_mm - *delta * f, self.q_out);
+                }
+                if fracs.is_empty() {
+                    ramp = None;
                 }
             }
             if let Some(tu) = take_up {

@@ -306,7 +306,11 @@ pub(super) fn best_window(
             });
             let len = arcs[0].length() + arcs[1].length();
             let cost = (v - speed).powi(2) / (a_t * v) + len * (1.0 / speed - 1.0 / v);
-            if best.is_none_or(|b| cost < b.cost_s) {
+            // Of windows that cost the same (within 0.1 ms: at the feed,
+            // typically), the one that keeps the tool closest.
+            if best.is_none_or(|b| {
+                cost < b.cost_s - 1e-4 || (cost <= b.cost_s + 1e-4 && dev < b.deviation_mm)
+            }) {
                 best = Some(Window {
                     before_mm: w1,
                     after_mm: w2,

@@ -147,29 +147,30 @@ fn split(
             let e = |p: Vec3| -> Result<Vec3, ModelError> {
                 Ok(model.deviation_um(p, s, crate::model::Components::All)? * 1e-3)
             };
-            let knots = |p: Vec3, q: Vec3| knot_cuts(model, p, q, s, min_length_mm);
-            // A piecewise linear map is affine between table points: a move
-            // that crosses none needs no split and no evaluation.
-            let linear = model.piecewise_linear();
-            if linear && knots(a, b).is_empty() {
-                out.push(b);
-                return Ok(());
-            }
-            let (ea, eb) = (e(a)?, e(b)?);
-            return refine(
-                a,
-                b,
-                ea,
-                eb,
-                tolerance_mm,
-                min_length_mm,
-                &e,
-                &knots,
-                linear,
-                0,
-                out,
-                worst_mm,
-            );
+            let knots = |p: Vec3, q: Vec3, cuts: &mut Vec<f64>| {
+                knot_cuts(model, p, q, s, min_length_mm, cuts)
+            };
+            // One buffer for the cuts of every piece (a piece's cuts are
+            // used up before its halves are refined): no allocation per line.
+            return CUTS.with_borrow_mut(|cuts| {
+                // A piecewise linear map is affine between table points: a
+                // move that crosses none needs no split and no evaluation.
+                let linear = model.piecewise_linear();
+                knots(a, b, cuts);
+                if linear && cuts.is_empty() {
+                    out.push(b);
+                    return Ok(());
+                }
+                let (ea, eb) = (e(a)?, e(b)?);
+                let piece = Piece {
+                    tol: tolerance_mm,
+                    min_len: min_length_mm,
+                    e: &e,
+                    knots: &knots,
+                    linear,
+                };
+                piece.refine(a, b, ea, eb, 0, true, cuts, out, worst_mm)
+            });
         }
     };
     for k in 1..n {
@@ -179,22 +180,31 @@ fn split(
     Ok(())
 }
 
+thread_local! {
+    /// The cuts of the piece being refined ([`knot_cuts`]), kept between
+    /// lines.
+    static CUTS: std::cell::RefCell<Vec<f64>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 /// Parameters `λ ∈ (0, 1)` (increasing) where the line `a`–`b` crosses a
 /// knot of the model's tables ([`ErrorModel::knots_mm`]) for the direction
 /// state `s` of the move, leaving out cuts closer than `min_length_mm` to
 /// the previous cut or to `b`: at most `|b − a| / min_length_mm` of them.
+/// Written over `cuts`.
 fn knot_cuts(
     model: &dyn ErrorModel,
     a: Vec3,
     b: Vec3,
     s: Directions,
     min_length_mm: f64,
-) -> Vec<f64> {
+    cuts: &mut Vec<f64>,
+) {
+    cuts.clear();
     let length = (b - a).norm();
-    let mut cuts = Vec::new();
     if length <= 2.0 * min_length_mm || !length.is_finite() {
-        return cuts;
+        return;
     }
+    let mut axes = 0;
     for axis in 0..3 {
         let (lo, hi) = (a[axis].min(b[axis]), a[axis].max(b[axis]));
         if hi <= lo {
@@ -207,100 +217,100 @@ fn knot_cuts(
         // below would drop them anyway.
         let step = min_length_mm / length * (hi - lo);
         let mut i = knots.partition_point(|k| *k <= lo);
+        let before = cuts.len();
         while let Some(&k) = knots.get(i).filter(|k| **k < hi) {
             cuts.push((k - a[axis]) / (b[axis] - a[axis]));
             i = knots.partition_point(|v| *v < k + step).max(i + 1);
         }
+        axes += usize::from(cuts.len() > before);
     }
-    cuts.sort_by(f64::total_cmp);
+    // One axis' cuts are already in order (increasing or, for a move in
+    // reverse, decreasing); several are merged.
+    if axes > 1 {
+        cuts.sort_by(f64::total_cmp);
+    } else if cuts.first() > cuts.last() {
+        cuts.reverse();
+    }
     let min_step = min_length_mm / length;
-    let mut kept: Vec<f64> = Vec::with_capacity(cuts.len());
     let mut last = 0.0;
-    for c in cuts {
-        if c - last >= min_step && 1.0 - c >= min_step {
-            kept.push(c);
+    cuts.retain(|&c| {
+        let keep = c - last >= min_step && 1.0 - c >= min_step;
+        if keep {
             last = c;
         }
-    }
-    kept
+        keep
+    });
 }
 
-/// Adaptive splitting of `a`–`b` (errors `ea`, `eb` at the ends, mm).
-///
-/// The departure of the map from its chord is taken at the quarter points
-/// and at every table point the piece crosses (`knots`: where a piecewise
-/// linear map bends, so the largest departure of such a map lies at one of
-/// them). A piece within the tolerance is kept whole, even across table
-/// points; otherwise it is cut at the table point that departs most or,
-/// with none, halved — never into pieces shorter than `min_len`.
-#[allow(clippy::too_many_arguments)]
-fn refine(
-    a: Vec3,
-    b: Vec3,
-    ea: Vec3,
-    eb: Vec3,
+/// What the adaptive splitting of one move needs at every piece.
+struct Piece<'a> {
+    /// Tolerance on the departure of the map from its chord, mm.
     tol: f64,
+    /// Shortest piece, mm.
     min_len: f64,
-    e: &dyn Fn(Vec3) -> Result<Vec3, ModelError>,
-    knots: &dyn Fn(Vec3, Vec3) -> Vec<f64>,
+    /// The map's error at a point, mm.
+    e: &'a dyn Fn(Vec3) -> Result<Vec3, ModelError>,
+    /// [`knot_cuts`] of a piece.
+    knots: &'a dyn Fn(Vec3, Vec3, &mut Vec<f64>),
+    /// The map is piecewise linear ([`ErrorModel::piecewise_linear`]).
     linear: bool,
-    depth: u32,
-    out: &mut Vec<Vec3>,
-    worst_mm: &mut f64,
-) -> Result<(), ModelError> {
-    let mut worst: f64 = 0.0;
-    if !linear {
-        for t in [0.25, 0.5, 0.75] {
-            worst = worst.max((e(a.lerp(b, t))? - ea.lerp(eb, t)).norm());
+}
+
+impl Piece<'_> {
+    /// Adaptive splitting of `a`–`b` (errors `ea`, `eb` at the ends, mm).
+    ///
+    /// The departure of the map from its chord is taken at the quarter points
+    /// and at every table point the piece crosses (`knots`: where a piecewise
+    /// linear map bends, so the largest departure of such a map lies at one of
+    /// them). A piece within the tolerance is kept whole, even across table
+    /// points; otherwise it is cut at the table point that departs most or,
+    /// with none, halved — never into pieces shorter than `min_len`.
+    /// `cuts` holds the piece's knot cuts already when `have_cuts`.
+    #[allow(clippy::too_many_arguments)]
+    fn refine(
+        &self,
+        a: Vec3,
+        b: Vec3,
+        ea: Vec3,
+        eb: Vec3,
+        depth: u32,
+        have_cuts: bool,
+        cuts: &mut Vec<f64>,
+        out: &mut Vec<Vec3>,
+        worst_mm: &mut f64,
+    ) -> Result<(), ModelError> {
+        let e = self.e;
+        let mut worst: f64 = 0.0;
+        if !self.linear {
+            for t in [0.25, 0.5, 0.75] {
+                worst = worst.max((e(a.lerp(b, t))? - ea.lerp(eb, t)).norm());
+            }
         }
-    }
-    let mut cut: Option<(f64, f64, Vec3)> = None;
-    for t in knots(a, b) {
-        let ep = e(a.lerp(b, t))?;
-        let d = (ep - ea.lerp(eb, t)).norm();
-        worst = worst.max(d);
-        if cut.is_none_or(|(_, dc, _)| d > dc) {
-            cut = Some((t, d, ep));
+        if !have_cuts {
+            (self.knots)(a, b, cuts);
         }
+        let mut cut: Option<(f64, f64, Vec3)> = None;
+        for &t in cuts.iter() {
+            let ep = e(a.lerp(b, t))?;
+            let d = (ep - ea.lerp(eb, t)).norm();
+            worst = worst.max(d);
+            if cut.is_none_or(|(_, dc, _)| d > dc) {
+                cut = Some((t, d, ep));
+            }
+        }
+        if worst > self.tol && (b - a).norm() > 2.0 * self.min_len && depth < 64 {
+            let (t, em) = match cut {
+                Some((t, d, ep)) if d > self.tol => (t, ep),
+                _ => (0.5, e(a.lerp(b, 0.5))?),
+            };
+            let m = a.lerp(b, t);
+            self.refine(a, m, ea, em, depth + 1, false, cuts, out, worst_mm)?;
+            return self.refine(m, b, em, eb, depth + 1, false, cuts, out, worst_mm);
+        }
+        *worst_mm = worst_mm.max(worst);
+        out.push(b);
+        Ok(())
     }
-    if worst > tol && (b - a).norm() > 2.0 * min_len && depth < 64 {
-        let (t, em) = match cut {
-            Some((t, d, ep)) if d > tol => (t, ep),
-            _ => (0.5, e(a.lerp(b, 0.5))?),
-        };
-        let m = a.lerp(b, t);
-        refine(
-            a,
-            m,
-            ea,
-            em,
-            tol,
-            min_len,
-            e,
-            knots,
-            linear,
-            depth + 1,
-            out,
-            worst_mm,
-        )?;
-        return refine(
-            m,
-            b,
-            em,
-            eb,
-            tol,
-            min_len,
-            e,
-            knots,
-            linear,
-            depth + 1,
-            out,
-            worst_mm,
-        );
-    }
-    *worst_mm = worst_mm.max(worst);
-    out.push(b);
-    Ok(())
 }
 
 /// Marks the axes whose position a moving line states: its X, Y and Z words,

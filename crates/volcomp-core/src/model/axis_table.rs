@@ -56,8 +56,10 @@ impl Table {
 fn interval(p: &[f64], x: f64) -> usize {
     let last = p.len() - 2;
     let span = p[last + 1] - p[0];
-    let guess = ((x - p[0]) / span * (last + 1) as f64) as usize;
-    let mut i = guess.min(last);
+    // Through `i64`: the float-to-unsigned conversion costs several times
+    // more; out-of-range and NaN guesses land on the ends all the same.
+    let guess = ((x - p[0]) / span * (last + 1) as f64) as i64;
+    let mut i = guess.clamp(0, last as i64) as usize;
     for _ in 0..3 {
         if x < p[i] && i > 0 {
             i -= 1;
@@ -202,13 +204,16 @@ impl ErrorModel for AxisTableMap {
         for a in 0..3 {
             let table = self.axes[a].table(s[a]);
             let [lo, hi] = table.range();
-            let x = if self.clamp {
-                q_mm[a].clamp(lo, hi)
+            let x = q_mm[a];
+            let x = if (lo..=hi).contains(&x) {
+                x
+            } else if self.clamp {
+                x.clamp(lo, hi)
             } else {
                 // Within the rounding of a computed position: at the end.
-                crate::model::within_range(q_mm[a], lo, hi).unwrap_or(q_mm[a])
+                crate::model::within_range(x, lo, hi).unwrap_or(x)
             };
-            let v = table.eval(x).ok_or(ModelError::OutOfRange {
+            let v = table.eval(x).ok_or_else(|| ModelError::OutOfRange {
                 axis: AXES[a],
                 position_mm: q_mm[a],
                 min_mm: lo,

@@ -252,6 +252,139 @@ pub(crate) fn run_period(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
     true
 }
 
+/// Runs, in one step, the periods in which the front segment cruises:
+/// its speed a fixed point of the trapezoid (the requested speed reached,
+/// the end far enough that `v'` stays above it), no blend, no split, no
+/// ramp. Each such period of [`run_period`] only adds the same step to the
+/// progress and counts itself; this adds the step the same way, period by
+/// period, so the progress is bit for bit what stepping gives, and stops
+/// a safe margin before the first period in which the segment would start
+/// to slow down or end. `false` (no period run) when the segment is not
+/// cruising, or cruises for fewer than two periods.
+pub(crate) fn run_cruise(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -> bool {
+    let period = limits.servo_period_s;
+    let cruising = |tc: &Seg| {
+        let ramping = tc.ramp && tc.term == Term::Tangent;
+        let settled = tc.active && tc.cycle_time == period;
+        settled && !(tc.splitting || tc.remove || tc.blending_next || ramping)
+    };
+    if !q.front().is_some_and(cruising) {
+        return false;
+    }
+    // Every period starts by clearing the blending flags of the two front
+    // segments (of an active segment: changing nothing before
+    // `run_period` would); the speeds below are those it then computes.
+    for s in q.iter_mut().take(2) {
+        s.is_blending = false;
+    }
+    let Some(periods) = cruise_periods(&q[0], q.get(1), limits) else {
+        return false;
+    };
+    let canon = q[0].canon;
+    let tc = q.front_mut().expect("a segment");
+    let v = tc.currentvel;
+    // `advance` with `v_next == v`, as many times (the clamp to the
+    // target never acts: the cruise stops short of it).
+    let step = (v + v) * 0.5 * period;
+    tc.progress = add_repeated(tc.progress, step, periods);
+    tc.vel_at_blend_start = v;
+    tc.on_final_decel = false;
+    ex.shown = Some(canon);
+    ex.periods.moving += periods;
+    match canon {
+        Canon::Feed | Canon::Arc => ex.periods.cutting += periods,
+        Canon::Traverse => ex.periods.rapid += periods,
+    }
+    true
+}
+
+/// `x` after `n` floating-point additions of `step` (`x += step`, `n`
+/// times), bit for bit, without making them one by one. While the sum
+/// stays within one binade `[2^e, 2^(e+1))` every addition rounds to the
+/// same grid (multiples of `ulp(x)`), so each adds the same increment
+/// `fl(x + step) − x` (exact, by Sterbenz's lemma) unless `step` falls
+/// exactly half-way between two grid points (then round-half-even
+/// alternates: those additions are made one by one). The increments up to
+/// the binade's end are added at once (`x + m·inc`: a multiple of the grid
+/// within the binade, so exact), the crossing one by one. Non-negative
+/// `x` and `step` only (the progress along a segment).
+fn add_repeated(mut x: f64, step: f64, mut n: u64) -> f64 {
+    debug_assert!(x >= 0.0 && step >= 0.0);
+    while n > 0 {
+        let next = x + step;
+        n -= 1;
+        let ulp = grid(x);
+        let inc = next - x;
+        x = next;
+        if n == 0 || inc <= 0.0 || ulp == 0.0 || grid(next) != ulp {
+            continue;
+        }
+        // A tie: `step` half-way between grid points (`step / ulp` is
+        // exact, a scaling by a power of two).
+        let r = step / ulp;
+        if r - r.floor() == 0.5 {
+            continue;
+        }
+        // Additions whose exact sum stays below the binade's end (with a
+        // margin of one for the rounded quotient): `x + step < end` for
+        // each while `x + m·inc < end − inc`, as `step < inc + ulp`.
+        let end = 2.0 * binade_start(next);
+        let room = ((end - next) / inc).floor() - 2.0;
+        if room >= 1.0 {
+            let m = (room as u64).min(n);
+            x = next + m as f64 * inc;
+            n -= m;
+        }
+    }
+    x
+}
+
+/// The spacing of the floating-point numbers at positive normal `x` (0
+/// for zero and subnormal numbers: those are added one by one).
+fn grid(x: f64) -> f64 {
+    if x < f64::MIN_POSITIVE || !x.is_finite() {
+        return 0.0;
+    }
+    binade_start(x) * f64::EPSILON
+}
+
+/// The power of two at or below positive normal `x`.
+fn binade_start(x: f64) -> f64 {
+    f64::from_bits(x.to_bits() & 0xfff0_0000_0000_0000)
+}
+
+/// The number of periods `tc` cruises at its present speed before the
+/// trapezoid would change it or the end would come within two periods
+/// (with a margin of two steps); `None` when it is not cruising or for
+/// fewer than two periods.
+fn cruise_periods(tc: &Seg, next: Option<&Seg>, limits: &Limits) -> Option<u64> {
+    let dt = tc.cycle_time;
+    let v = tc.currentvel;
+    let target_vel = real_target_vel(tc, limits);
+    let a = tc.tangential_max_accel();
+    // With `v' ≥ target_vel` the trapezoid asks for `target_vel`: a fixed
+    // point when the acceleration that follows leaves `v` as it is.
+    let acc = saturate((target_vel - v) / dt.max(TIME_EPSILON), a);
+    if !(v > VEL_EPSILON && a > 0.0) || v + acc * dt != v {
+        return None;
+    }
+    // `v' ≥ target_vel` ⇔ `dx ≥ dx_min` (the square of `tpCalculateTrapezoidalAccel`'s root).
+    let vf = real_final_vel(tc, next, limits);
+    let half = a * dt * 0.5;
+    let dx_min = ((target_vel + half).powi(2) - half * half - vf * vf + a * v * dt) / (2.0 * a);
+    let step = (v + v) * 0.5 * dt;
+    // `tpCheckEndCondition` splits only within one period of the end at
+    // a speed of at most `v`: keep two.
+    let dx_end = 2.0 * v * dt + step + POS_EPSILON;
+    let margin = 2.0 * step + 1e-9 * tc.target.abs().max(1.0);
+    let room = tc.target - tc.progress - dx_min.max(dx_end) - margin;
+    if !(room > 0.0 && step > 0.0) {
+        return None;
+    }
+    let k = (room / step).floor();
+    (k >= 2.0).then_some(k as u64)
+}
+
 /// `tpHandleRegularCycle`.
 fn regular_period(tc: &mut Seg, rest: &mut [Seg], limits: &Limits, shown: &mut Option<Canon>) {
     if tc.remove {
@@ -318,4 +451,57 @@ fn split_period(tc: &mut Seg, rest: &mut [Seg], limits: &Limits, shown: &mut Opt
             next.canon
         },
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::add_repeated;
+
+    fn one_by_one(mut x: f64, step: f64, n: u64) -> f64 {
+        for _ in 0..n {
+            x += step;
+        }
+        x
+    }
+
+    #[test]
+    fn repeated_additions_are_bit_for_bit_those_made_one_by_one() {
+        // A small linear congruential generator: progress and speeds of
+        // every magnitude a segment meets, steps that tie with the grid.
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut unit = || {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut cases = vec![
+            (0.0, 0.005, 20_000),
+            (0.0, 0.1, 1_000),
+            (0.0, 0.5 * f64::EPSILON, 10),
+            (1.0, 0.5 * f64::EPSILON, 1_000),
+            (1.0, 1.5 * f64::EPSILON, 1_000),
+            (3.0, 0.75, 100),
+            (0.0, 1e-300, 100),
+        ];
+        for _ in 0..2_000 {
+            let x = if unit() < 0.2 {
+                0.0
+            } else {
+                10f64.powf(unit() * 6.0 - 3.0)
+            };
+            let step = 10f64.powf(unit() * 6.0 - 5.0);
+            let n = (unit() * 30_000.0) as u64;
+            cases.push((x, step, n));
+        }
+        for (x, step, n) in cases {
+            let want = one_by_one(x, step, n);
+            let got = add_repeated(x, step, n);
+            assert_eq!(
+                got.to_bits(),
+                want.to_bits(),
+                "{x:e} + {n} × {step:e}: {got:e}, one by one {want:e}"
+            );
+        }
+    }
 }

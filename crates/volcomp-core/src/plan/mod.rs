@@ -378,7 +378,9 @@ impl Planner {
         self.queue_fresh();
         let keep = self.limits.blend.optimization_depth + 6;
         while self.queue.len() > keep {
-            integrate::run_period(&mut self.queue, &mut self.exec, &self.limits);
+            if !integrate::run_cruise(&mut self.queue, &mut self.exec, &self.limits) {
+                integrate::run_period(&mut self.queue, &mut self.exec, &self.limits);
+            }
         }
     }
 
@@ -394,7 +396,9 @@ impl Planner {
     pub fn wait(&mut self) {
         self.canon.finish(&self.limits, &mut self.fresh);
         self.queue_fresh();
-        while integrate::run_period(&mut self.queue, &mut self.exec, &self.limits) {}
+        while integrate::run_cruise(&mut self.queue, &mut self.exec, &self.limits)
+            || integrate::run_period(&mut self.queue, &mut self.exec, &self.limits)
+        {}
     }
 
     /// Runs what is left and gives the time.

@@ -168,3 +168,89 @@ fn exact_stop_stops_at_every_joint() {
         "two stops",
     );
 }
+
+/// The planner as it was before cruising segments ran in one step: every
+/// servo period by [`integrate::run_period`].
+fn estimate_period_by_period(moves: &[Move], limits: &Limits) -> Estimate {
+    let mut p = Planner::new(*limits);
+    let keep = limits.blend.optimization_depth + 6;
+    let run = |p: &mut Planner| integrate::run_period(&mut p.queue, &mut p.exec, &p.limits);
+    for m in moves {
+        p.canon.push(m, &p.limits, &mut p.fresh);
+        p.queue_fresh();
+        while p.queue.len() > keep {
+            run(&mut p);
+        }
+    }
+    p.canon.finish(&p.limits, &mut p.fresh);
+    p.queue_fresh();
+    while run(&mut p) {}
+    p.finish()
+}
+
+#[test]
+fn cruising_in_one_step_counts_the_periods_stepping_counts() {
+    // Random programs: lines from 1 µm to 100 mm, rapids, arcs in the
+    // XY plane, feeds from 3 to 200 mm/s, every path mode; the
+    // planner that runs a cruise in one step must give every period of
+    // the one that steps through them, and the same joints.
+    let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+    let mut unit = move || {
+        seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut cruised = 0;
+    for program in 0..24 {
+        let mut at = Vec3::ZERO;
+        let mut moves = Vec::new();
+        let modes = [
+            PathMode::ExactPath,
+            PathMode::ExactStop,
+            PathMode::default(),
+            PathMode::Blend {
+                tolerance_mm: 0.01,
+                naive_cam_mm: 0.01,
+            },
+        ];
+        let mode = modes[program % 4];
+        for _ in 0..100 {
+            let len = 10f64.powf(unit() * 5.0 - 3.0);
+            let dir = Vec3::new(unit() - 0.5, unit() - 0.5, (unit() - 0.5) * 0.2);
+            let end = at + dir * (len / dir.norm());
+            let feed = 10f64.powf(unit() * 1.8 + 0.5);
+            let pick = unit();
+            let m = if pick < 0.1 {
+                Move::rapid(at, end, mode)
+            } else if pick < 0.3 {
+                let r = 0.5 + unit() * 40.0;
+                let center = at + Vec3::new(r, 0.0, 0.0);
+                let sweep_rad = (unit() - 0.5) * 8.0;
+                let (s, c) = sweep_rad.sin_cos();
+                let arc_end = center + Vec3::new(-r * c, -r * s, 0.0);
+                Move {
+                    kind: MoveKind::Arc {
+                        center,
+                        plane: Plane::Xy,
+                        sweep_rad,
+                    },
+                    start: at,
+                    end: arc_end,
+                    feed_mm_s: feed,
+                    mode,
+                    line: 0,
+                }
+            } else {
+                Move::feed(at, end, feed, mode)
+            };
+            at = m.end;
+            moves.push(m);
+        }
+        let fast = estimate(&moves, &Limits::default());
+        let slow = estimate_period_by_period(&moves, &Limits::default());
+        assert_eq!(fast, slow, "program {program}");
+        cruised += fast.periods;
+    }
+    assert!(cruised > 100_000, "{cruised} periods");
+}

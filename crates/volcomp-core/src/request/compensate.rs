@@ -146,6 +146,13 @@ pub const COMPENSATE_OPTIONS: &[OptionInfo] = &[
     )
     .value("UM"),
     OptionInfo::new(
+        "drill_tolerance_um",
+        Kind::Number,
+        "The error a drilling cycle (G73, G81, G82, G83) written as a cycle may leave along its stroke (µm): the map's drift across the stroke and the peck levels inside the hole. The hole's position at the bottom and its depth are compensated exactly either way; a hole past it is written as its moves. Never below the contour tolerance; boring cycles (G85, G86, G89) keep the contour tolerance (docs/compensation.md, \"Canned cycles\").",
+    )
+    .value("UM")
+    .default("5"),
+    OptionInfo::new(
         "trace",
         Kind::Switch,
         "Do not tag inserted lines with `(volcomp Ln)` comments.",
@@ -205,6 +212,8 @@ pub struct CompensateRequest {
     pub separate_take_ups: bool,
     /// What a folded take-up may leave (µm).
     pub take_up_tolerance_um: Option<f64>,
+    /// See [`CompensateOptions::drill_tolerance_mm`] (µm).
+    pub drill_tolerance_um: f64,
     /// `(volcomp Ln)` comments.
     pub trace: bool,
     /// Compensate a compensated program again.
@@ -235,6 +244,7 @@ impl Default for CompensateRequest {
             take_up: true,
             separate_take_ups: false,
             take_up_tolerance_um: None,
+            drill_tolerance_um: crate::compensate::DEFAULT_DRILL_TOLERANCE_UM,
             trace: true,
             allow_recompensate: false,
             allow_uncompensated_axes: false,
@@ -271,6 +281,7 @@ impl super::Request for CompensateRequest {
             "nominal_directions" => self.nominal_directions = v.bool("nominal_directions")?,
             "take_up" => self.take_up = v.bool("take_up")?,
             "separate_take_ups" => self.separate_take_ups = v.bool("separate_take_ups")?,
+            "drill_tolerance_um" => self.drill_tolerance_um = v.number("drill_tolerance_um")?,
             "take_up_tolerance_um" => {
                 self.take_up_tolerance_um = Some(v.number("take_up_tolerance_um")?)
             }
@@ -432,6 +443,15 @@ impl CompensateRequest {
                 "cannot be given with {take_up}: there are no take-ups to write",
             ));
         }
+        if !positive(self.drill_tolerance_um) {
+            return Err(OptionError::new(
+                "drill_tolerance_um",
+                format!(
+                    "must be a positive number of µm; got {}",
+                    self.drill_tolerance_um
+                ),
+            ));
+        }
         if let Some(t) = self.take_up_tolerance_um {
             if !self.take_up || self.separate_take_ups {
                 let other = if self.take_up {
@@ -522,6 +542,7 @@ impl CompensateRequest {
             take_up: self.take_up,
             fold_take_ups: !self.separate_take_ups,
             take_up_tolerance_mm: self.take_up_tolerance_um.map(|t| t * 1e-3),
+            drill_tolerance_mm: self.drill_tolerance_um * 1e-3,
             planner: Default::default(),
             trace_comments: self.trace,
             // Direct and pitch do not aim at the full model's target: their
