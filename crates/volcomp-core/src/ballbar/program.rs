@@ -61,11 +61,7 @@ pub fn program(test: &TestCircle) -> Result<String, BallbarError> {
         mm(test.start_deg),
         mm(test.overshoot_deg)
     );
-    let _ = writeln!(
-        s,
-        "G21 G90 G94 G40 G49 G54 {} G64 P0.001",
-        test.plane.gcode()
-    );
+    let _ = writeln!(s, "G21 G90 G94 G40 G49 G54 {} G61", test.plane.gcode());
     let (u, v) = test.plane.axes();
     let w = 3 - u - v;
     let nw = b"XYZ"[w] as char;

@@ -301,12 +301,9 @@ fn the_quick_map_reduces_the_circular_deviation() {
             let before = figures(&predict(&map, &t).unwrap()).unwrap();
             let text = program::program(&t).unwrap();
             let mut out = Vec::new();
-            let opts = crate::CompensateOptions {
-                fold_take_ups: false,
-                ..Default::default()
-            };
+            // The defaults: the test program states G61, so every take-up
+            // keeps the path within the contour tolerance or is a block.
             crate::Compensator::new(&qmap)
-                .options(opts)
                 .run(text.as_bytes(), &mut out)
                 .unwrap();
             let setup = crate::compensate::MachineSetup::default();
