@@ -500,3 +500,42 @@ fn bad_model_files_name_file_row_and_column() {
         stderr(&o)
     );
 }
+
+#[test]
+fn an_export_that_leaves_more_than_the_table_error_names_the_flag_to_change() {
+    let dir = tempdir("table_error");
+    // E_XX = 3 µm · sin(2π x / 16 mm), a point every 2 mm: a table every
+    // 10 mm cannot follow a 16 mm wave (the sine's own values at 10 mm
+    // spacing, interpolated, miss it by more than 1 µm between them).
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for a in ["X", "Y", "Z"] {
+        for k in 0..=300 {
+            let p = 2.0 * k as f64;
+            let e = if a == "X" {
+                3.0 * (2.0 * std::f64::consts::PI * p / 16.0).sin()
+            } else {
+                0.0
+            };
+            csv.push_str(&format!("{a},both,{p},{e},0,0\n"));
+        }
+    }
+    std::fs::write(dir.join("wave.csv"), csv).unwrap();
+    let args = |extra: &[&'static str]| {
+        let mut v = vec![
+            "map", "export", "wave.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm",
+            "--step", "10", "-o", "comp",
+        ];
+        v.extend_from_slice(extra);
+        v
+    };
+    let o = volcomp(&args(&[]), &dir);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("axis X") && e.contains("finer step"), "{e}");
+    assert!(e.contains("(--max-table-error-um)"), "{e}");
+    assert!(!e.contains("max_table_error_um"), "{e}");
+    assert!(!dir.join("comp").exists(), "nothing written on refusal");
+    // Allowing the whole wave (3 µm amplitude, 6 µm peak to peak) writes it.
+    ok(&volcomp(&args(&["--max-table-error-um", "7"]), &dir));
+    assert!(dir.join("comp/x.comp").exists());
+}

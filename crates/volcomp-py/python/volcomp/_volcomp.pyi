@@ -197,6 +197,7 @@ def compensate(
     take_up: bool = True,
     separate_take_ups: bool = False,
     take_up_tolerance_um: Optional[float] = None,
+    drill_tolerance_um: float = 5.0,
     trace: bool = True,
     allow_recompensate: bool = False,
     allow_uncompensated_axes: bool = False,

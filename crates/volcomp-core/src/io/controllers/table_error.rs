@@ -237,7 +237,7 @@ pub fn check(
     }
     let (a, x, forward) = err.at.unwrap_or((0, 0.0, true));
     let message = format!(
-        "the table as the controller applies it lies up to {} um from the map ({} at {} mm, {}); the largest allowed (max_table_error_um) is {} um",
+        "the table as the controller applies it lies up to {} um from the map ({} at {} mm, {}); the largest allowed ({{max_table_error_um}}) is {} um",
         um(err.max_um),
         axis_letter(a),
         fixed(x, 4),
@@ -246,7 +246,7 @@ pub fn check(
     );
     let help = if rounding_um >= max_um {
         format!(
-            "the controller's resolution alone rounds by up to {} um: allow more (max_table_error_um) or give the controller a finer resolution",
+            "the controller's resolution alone rounds by up to {} um: allow more ({{max_table_error_um}}) or give the controller a finer resolution",
             um(rounding_um)
         )
     } else {
@@ -256,11 +256,11 @@ pub fn check(
             Some(s) => {
                 let suggested = s * (budget / interpolation).sqrt() * 0.9;
                 format!(
-                    "choose a finer step: about {} mm (the error between points shrinks with the square of the step), or allow more (max_table_error_um)",
+                    "choose a finer step: about {} mm (the error between points shrinks with the square of the step), or allow more ({{max_table_error_um}})",
                     fixed(suggested, 3)
                 )
             }
-            None => "give a step (the map's own points are too far apart for the controller) or allow more (max_table_error_um)".into(),
+            None => "give a step (the map's own points are too far apart for the controller) or allow more ({max_table_error_um})".into(),
         }
     };
     Err(LimitError {
