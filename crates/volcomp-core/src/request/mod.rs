@@ -21,6 +21,7 @@ mod compensate;
 mod export;
 mod machine;
 mod map;
+mod map_jobs;
 mod mirror;
 pub mod option;
 mod probe;
@@ -39,6 +40,11 @@ pub use export::{
 };
 pub use machine::{Machine, MachineRequest, MACHINE_OPTIONS, NO_WORK_OFFSET};
 pub use map::{MapRequest, MAP_OPTIONS};
+pub use map_jobs::{
+    import_linuxcnc, import_params, iso230_2_lines, map_charts, map_file_name, map_plot_report,
+    model_outputs, read_text, run_facts, ConvertTo, Iso230_2Job, JobFile, JobOutput, MapBuild,
+    MapConvert, ParamsFormat,
+};
 pub use mirror::{MirrorPlan, MirrorRequest, MirrorRun, MIRROR_OPTIONS};
 pub use option::{
     did_you_mean, render, Input, Kind, Names, OptionError, OptionInfo, Request, Spelling,
