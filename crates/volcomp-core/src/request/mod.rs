@@ -17,6 +17,7 @@
 //! the request, its check beside the others; both front ends then take it
 //! with its help (docs/architecture.md, "Where a new option goes").
 
+pub mod charts;
 mod compensate;
 mod export;
 mod machine;

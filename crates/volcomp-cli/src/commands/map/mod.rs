@@ -16,7 +16,7 @@ use crate::commands::compensate::command_line;
 use crate::commands::parse_triple;
 use crate::options::flags;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
-use crate::plot::{write_charts, Chart, Series};
+use crate::plot::{charts, write_charts};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use volcomp_core::example::kinematic as kinematic_example;
@@ -203,20 +203,7 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
         count
     } else {
         let charts = map_charts(map.view(), &map_file_name(&a.map));
-        let drawn: Vec<Chart> = charts
-            .iter()
-            .map(|c| Chart {
-                title: c.title.clone(),
-                x_label: c.x_label.clone(),
-                y_label: c.y_label.clone(),
-                series: c
-                    .series
-                    .iter()
-                    .map(|s| Series::line(s.name.clone(), s.points.clone()))
-                    .collect(),
-                ..Chart::default()
-            })
-            .collect();
+        let drawn = charts::component_line_charts(&charts);
         write_charts(&drawn, &a.output)?;
         charts.len()
     };
