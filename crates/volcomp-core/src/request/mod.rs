@@ -19,6 +19,7 @@
 
 pub mod charts;
 mod compensate;
+pub mod demo;
 mod export;
 mod machine;
 mod map;
