@@ -26,7 +26,7 @@ mod map;
 mod map_jobs;
 mod mirror;
 pub mod option;
-mod probe;
+pub mod probe;
 mod report;
 mod simulate;
 mod straightness;
