@@ -18,6 +18,7 @@
 //! with its help (docs/architecture.md, "Where a new option goes").
 
 pub mod charts;
+pub mod ballbar;
 mod compensate;
 pub mod demo;
 mod export;
@@ -65,7 +66,7 @@ pub use thermal::{
 };
 pub use time::{TimeRequest, TIME_OPTIONS};
 
-pub use crate::ballbar::request::{
+pub use ballbar::{
     BallbarFitRequest, BallbarMapRequest, BallbarPredictRequest, BALLBAR_FIT_OPTIONS,
     BALLBAR_MAP_OPTIONS, BALLBAR_PREDICT_OPTIONS,
 };

@@ -93,7 +93,7 @@ pub fn read(text: &str, file: &str) -> Result<TraceFile, MapFileError> {
             }
             "centre_mm" | "center_mm" => {
                 setup.centre_mm =
-                    Some(crate::request::option::parse_triple(value).ok_or_else(|| {
+                    Some(crate::io::table::parse_triple(value).ok_or_else(|| {
                         setup_error(
                         file,
                         *line,
