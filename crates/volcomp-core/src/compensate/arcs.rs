@@ -14,9 +14,9 @@ use super::lines::ArcWords;
 use super::walk::Place;
 use super::{command_error, model_error, solve, State};
 use crate::error::{CompensationError, ModelError};
+use crate::geometry::arc_distance_mm;
+use crate::model::next_state;
 use crate::model::{Components, Direction, Directions, ErrorModel};
-use crate::simulate::next_state;
-use crate::simulate::nominal::arc_distance_mm;
 use std::f64::consts::{FRAC_PI_2, TAU};
 use volcomp_gcode::{Arc, Vec3};
 

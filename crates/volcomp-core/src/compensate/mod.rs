@@ -22,6 +22,7 @@ mod cycle_keep;
 mod extra;
 mod frame;
 mod front;
+pub mod header;
 mod joins;
 mod line_limit;
 mod lines;
@@ -51,8 +52,8 @@ pub(crate) use targets::mark_axes_set;
 pub use targets::{target_count_bound, targets_of};
 
 use crate::error::{CompensationError, ModelError};
+use crate::model::next_state;
 use crate::model::{Directions, ErrorModel, ALL_FORWARD};
-use crate::simulate::next_state;
 use frame::Frame;
 use lines::{arc_line_edits, explicit_mode, has_feed, line_ending, stop_m_word, ArcWords, OutMode};
 use std::io::{BufRead, Write};
