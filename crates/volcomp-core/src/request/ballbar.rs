@@ -502,5 +502,10 @@ pub fn report_html(
     let mut traces = vec![(name, trace, figures)];
     traces.extend(before.as_ref().map(|(t, f)| ("before", t, f)));
     let facts = vec![("trace".into(), name.to_string())];
-    Ok(crate::ballbar::report::document(title, facts, crate::ballbar::report::sections(&traces, fit)).to_html())
+    Ok(crate::ballbar::report::document(
+        title,
+        facts,
+        crate::ballbar::report::sections(&traces, fit),
+    )
+    .to_html())
 }

@@ -17,8 +17,8 @@
 //! the request, its check beside the others; both front ends then take it
 //! with its help (docs/architecture.md, "Where a new option goes").
 
-pub mod charts;
 pub mod ballbar;
+pub mod charts;
 mod compensate;
 pub mod demo;
 mod export;
