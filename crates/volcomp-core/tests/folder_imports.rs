@@ -50,8 +50,6 @@ const KNOWN_UPWARD: &[(&str, &str)] = &[
     ("error", "surface"),
     // Loading a straightness model from a `--map` file.
     ("io", "identify"),
-    // The error enum wraps `BallbarError`.
-    ("error", "ballbar"),
 ];
 
 /// Every `.rs` file under `dir`.
