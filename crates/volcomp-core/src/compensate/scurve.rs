@@ -439,7 +439,8 @@ mod tests {
         // x²/(2r) at the first point where the command is b below the
         // peak.
         let (r, b, w2) = (10.0, 0.004, 0.3);
-        let (arcs, dev) = window_deviation(r, b, 0.0, w2).unwrap();
+        let arcs = window_biarc(r, b, 0.0, w2).unwrap();
+        let dev = window_deviation(r, b, &arcs).unwrap();
         assert_eq!(arcs[0].start, [0.0, 0.0]);
         assert_eq!(arcs[0].tangent, [1.0, 0.0]);
         let te = arcs[1].end_tangent();
@@ -455,13 +456,13 @@ mod tests {
             };
             for _ in 0..60 {
                 let m = 0.5 * (lo + hi);
-                if a.point(m)[0] < x {
+                if a.sampler()(m)[0] < x {
                     lo = m;
                 } else {
                     hi = m;
                 }
             }
-            a.point(lo)[1]
+            a.sampler()(lo)[1]
         };
         let (mut lo, mut hi) = (0.0, w2);
         for _ in 0..60 {
