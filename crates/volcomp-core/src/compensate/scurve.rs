@@ -450,19 +450,20 @@ mod tests {
         let y_at = |x: f64| -> f64 {
             let (mut lo, mut hi) = (0.0, 1.0);
             let a = if x <= arcs[0].end[0] {
-                arcs[0]
+                &arcs[0]
             } else {
-                arcs[1]
+                &arcs[1]
             };
+            let point = a.sampler();
             for _ in 0..60 {
                 let m = 0.5 * (lo + hi);
-                if a.sampler()(m)[0] < x {
+                if point(m)[0] < x {
                     lo = m;
                 } else {
                     hi = m;
                 }
             }
-            a.sampler()(lo)[1]
+            point(lo)[1]
         };
         let (mut lo, mut hi) = (0.0, w2);
         for _ in 0..60 {
