@@ -486,16 +486,7 @@ fn arc_tangents(out: &str) -> Vec<(Vec3, Vec3)> {
                 p.y + word(line, 'J').unwrap(),
                 0.0,
             );
-            let along = |q: Vec3| {
-                let r = q - c;
-                let t = if ccw {
-                    Vec3::new(-r.y, r.x, 0.0)
-                } else {
-                    Vec3::new(r.y, -r.x, 0.0)
-                };
-                t * (1.0 / t.norm())
-            };
-            tangents.push((along(p), along(next)));
+            tangents.push(arc_end_tangents(p, next, c, ccw));
         }
         p = next;
     }
@@ -566,6 +557,30 @@ fn a_one_block_circle_takes_up_by_mode() {
     assert!(contour <= 1.0, "{contour}");
 }
 
+/// The unit tangents at the start and end of the XY arc from `p` to `next`
+/// about `c` (counter-clockwise if `ccw`, less than a turn). LinuxCNC runs
+/// an arc whose ends lie at different radii as a spiral, the radius linear
+/// in the angle (posemath's pmCircleInit): the tangent has a radial part
+/// `(r₁ − r₀)/|Θ|` beside the circular `r`.
+fn arc_end_tangents(p: Vec3, next: Vec3, c: Vec3, ccw: bool) -> (Vec3, Vec3) {
+    let (r0, r1) = ((p - c).norm(), (next - c).norm());
+    let angle = |q: Vec3| (q.y - c.y).atan2(q.x - c.x);
+    let mut sweep = angle(next) - angle(p);
+    let tau = std::f64::consts::TAU;
+    if ccw && sweep <= 0.0 {
+        sweep += tau;
+    } else if !ccw && sweep >= 0.0 {
+        sweep -= tau;
+    }
+    let along = |q: Vec3| {
+        let e_r = (q - c) * (1.0 / (q - c).norm());
+        let e_phi = Vec3::new(-e_r.y, e_r.x, 0.0) * sweep.signum();
+        let t = e_phi * (q - c).norm() + e_r * ((r1 - r0) / sweep.abs());
+        t * (1.0 / t.norm())
+    };
+    (along(p), along(next))
+}
+
 /// The unit tangents (start, end) of every feed move of a written XY
 /// program, in order, from its words (G1 lines, G2/G3 arcs with I and J;
 /// modal motion; Z ignored).
@@ -600,26 +615,7 @@ fn feed_tangents(out: &str) -> Vec<(Vec3, Vec3)> {
                     p.y + word(line, 'J').unwrap(),
                     0.0,
                 );
-                // LinuxCNC runs an arc whose ends lie at different radii
-                // as a spiral, the radius linear in the angle (posemath's
-                // pmCircleInit): the tangent has a radial part
-                // (r₁ − r₀)/|Θ| beside the circular r.
-                let (r0, r1) = ((p - c).norm(), (next - c).norm());
-                let angle = |q: Vec3| (q.y - c.y).atan2(q.x - c.x);
-                let mut sweep = angle(next) - angle(p);
-                let tau = std::f64::consts::TAU;
-                if modal == 3 && sweep <= 0.0 {
-                    sweep += tau;
-                } else if modal == 2 && sweep >= 0.0 {
-                    sweep -= tau;
-                }
-                let along = |q: Vec3| {
-                    let e_r = (q - c) * (1.0 / (q - c).norm());
-                    let e_phi = Vec3::new(-e_r.y, e_r.x, 0.0) * sweep.signum();
-                    let t = e_phi * (q - c).norm() + e_r * ((r1 - r0) / sweep.abs());
-                    t * (1.0 / t.norm())
-                };
-                tangents.push((along(p), along(next)));
+                tangents.push(arc_end_tangents(p, next, c, modal == 3));
             }
             _ => {}
         }
