@@ -431,6 +431,7 @@ pub fn write_charts_or_report(
         ],
         inputs: files,
         sections: sections(&groups),
+        ..Default::default()
     };
     let input_paths: Vec<&Path> = inputs.iter().map(|(_, p)| *p).collect();
     let html = doc.to_html();

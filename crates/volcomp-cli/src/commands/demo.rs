@@ -12,7 +12,7 @@ use volcomp_core::io::provenance::now_utc;
 use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::model::ErrorModel;
 use volcomp_core::report::compensation::{
-    compensation_sections, lines_to_quote, quote_lines, setup_facts, trace_program,
+    compensation_sections, definitions, lines_to_quote, quote_lines, setup_facts, trace_program,
     LargestCorrections,
 };
 use volcomp_core::report::demo::{self as demo_table, Column, Row};
@@ -234,6 +234,8 @@ fn write_report(
         facts,
         inputs,
         sections: all,
+        front: vec![definitions()],
+        ..Default::default()
     };
     let report_path = a.out_dir.join("report.html");
     write_atomically(&report_path, &[], |w| {

@@ -277,6 +277,7 @@ fn fit_report(
         ],
         inputs: Vec::new(),
         sections: volcomp_core::report::probe::sections(out, ranges),
+        ..Default::default()
     };
     for (role, list) in [("artifact", &a.id.artifacts), ("log", &a.id.logs)] {
         for p in list {

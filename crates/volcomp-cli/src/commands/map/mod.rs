@@ -346,6 +346,7 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
             ],
             inputs,
             sections: volcomp_core::report::map::sections(&charts),
+            ..Default::default()
         };
         write_text(&a.output, &[&a.map], &doc.to_html())?;
     } else {
@@ -534,6 +535,7 @@ fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
                 text.as_bytes(),
             )],
             sections: volcomp_core::report::iso230_2::sections(&r),
+            ..Default::default()
         };
         write_text(path, &[&a.runs], &doc.to_html())?;
         crate::note!("volcomp: wrote {}", path.display());
