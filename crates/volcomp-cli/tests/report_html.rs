@@ -435,6 +435,24 @@ fn the_demo_report_renders_and_prints_in_chromium() {
         pages >= sections && pages <= 2 * sections,
         "{pages} pages for {sections} sections"
     );
+    // Every printed page says its number and the report's title in its
+    // margin (@page margin boxes); the contents are printed on the first.
+    let texts = common::pdf::page_texts(&bytes);
+    assert_eq!(texts.len(), pages);
+    for (k, t) in texts.iter().enumerate() {
+        assert!(
+            t.contains(&format!("page {} of {pages}", k + 1)),
+            "page {}: {t}",
+            k + 1
+        );
+        assert!(t.contains("volcomp demo report"), "page {}: {t}", k + 1);
+    }
+    assert!(texts[0].contains("Contents"), "{}", texts[0]);
+    assert!(
+        texts[0].contains("Point and contour error") || texts[0].contains("contour error"),
+        "{}",
+        texts[0]
+    );
 }
 
 #[test]

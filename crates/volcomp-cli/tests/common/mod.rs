@@ -2,6 +2,8 @@
 //! fresh directory per test.
 #![allow(dead_code)]
 
+pub mod pdf;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
