@@ -26,7 +26,7 @@ fn on_terminal(dir: &Path, args: &str) -> Option<String> {
         ),
         Err(e) => {
             common::missing(
-                &format!("util-linux `script` ({e})"),
+                &format!("`script` (Debian package bsdutils: {e})"),
                 "the progress bar on a terminal",
             );
             None
