@@ -520,24 +520,13 @@ fn completions_and_the_man_page_come_from_the_same_flags() {
 #[test]
 fn a_set_up_in_mm_under_units_inch_is_named_as_the_cause_not_the_map() {
     let dir = common::fixture("inch-setup");
+    // The fixture's set-up, its G54 written in mm but said to be inches.
     std::fs::write(
-        dir.join("inch.toml"),
+        dir.join("machine.toml"),
         "units = \"inch\"\n[work_offsets]\nG54 = [590, 150, 100]\n",
     )
     .unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "inch.toml",
-            "-o",
-            "o.ngc",
-        ],
-        &dir,
-    );
+    let o = common::compensate_to(&dir, "o.ngc");
     let e = stderr(&o);
     assert!(!o.status.success(), "{e}");
     // 590 in × 25.4 + X10 (the program is in mm) = 14 996 mm at the

@@ -188,24 +188,15 @@ fn a_title_block_file_heads_the_report_and_a_bad_one_is_refused_at_its_line() {
         "customer = \"Acme Moulds & Dies\"\npart = \"cavity insert 4\"\ndrawing = \"D-1234\"\ntolerance = \"±0.01 mm\"\noperator = \"J. Smith\"\nmachine = \"VMC 2\"\n",
     )
     .unwrap();
-    let args = |title: &str, out: &str| {
-        vec![
-            "compensate".to_string(),
-            "part.ngc".into(),
-            "--map".into(),
-            "map.csv".into(),
-            "--setup".into(),
-            "machine.toml".into(),
-            "-o".into(),
-            out.into(),
-            "--report-html".into(),
-            format!("{out}.html"),
-            "--report-title".into(),
-            title.into(),
-        ]
+    let run = |title: &str, out: &str| {
+        let html = format!("{out}.html");
+        common::compensate_with(
+            &dir,
+            out,
+            &["--report-html", &html, "--report-title", title],
+        )
     };
-    let run = |a: Vec<String>| volcomp(&a.iter().map(String::as_str).collect::<Vec<_>>(), &dir);
-    let o = run(args("title.toml", "c.ngc"));
+    let o = run("title.toml", "c.ngc");
     assert!(o.status.success(), "{}", stderr(&o));
     let html = std::fs::read_to_string(dir.join("c.ngc.html")).unwrap();
     // In the report's order, escaped, above what was done.
@@ -226,7 +217,7 @@ fn a_title_block_file_heads_the_report_and_a_bad_one_is_refused_at_its_line() {
         "customer = \"A\"\n  custmer = \"B\"\n",
     )
     .unwrap();
-    let o = run(args("bad.toml", "d.ngc"));
+    let o = run("bad.toml", "d.ngc");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("bad.toml:2:3: `custmer` is not a title-block key"),
