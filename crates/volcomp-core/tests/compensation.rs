@@ -8,30 +8,13 @@ use volcomp_core::compensate::{
 };
 use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::simulate::report::{simulate_program, SimReport};
-use volcomp_gcode::{InterpOptions, MotionKind, PathMode, Setup, Vec3, Walker};
+use volcomp_gcode::{MotionKind, PathMode, Vec3, Walker};
 
-/// A map whose tables are given per axis as closures of the position.
-fn map_from(f: impl Fn(usize, f64, bool) -> [f64; 3]) -> AxisTableMap {
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for (a, name) in ["X", "Y", "Z"].iter().enumerate() {
-        for (dir, rev) in [("forward", false), ("reverse", true)] {
-            for k in 0..=100 {
-                let p = -100.0 + 4.0 * k as f64;
-                let e = f(a, p, rev);
-                csv.push_str(&format!("{name},{dir},{p},{},{},{}\n", e[0], e[1], e[2]));
-            }
-        }
-    }
-    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
-}
+mod common;
+use common::map_from;
 
 fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
-    Walker::new(
-        Cursor::new(program.as_bytes().to_vec()),
-        Some("test.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    )
+    common::walker(program, "test.ngc")
 }
 
 fn compensate(
