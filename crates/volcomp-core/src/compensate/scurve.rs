@@ -115,17 +115,21 @@ impl BiarcArc {
         s
     }
 
-    /// The point at the fraction `f` of the arc.
-    fn point(&self, f: f64) -> P2 {
-        match self.center() {
+    /// The point at a fraction of the arc, as a function of the fraction
+    /// (speed lane: the centre, start angle and sweep found once for all
+    /// the points sampled, not per point).
+    fn sampler(&self) -> impl Fn(f64) -> P2 + '_ {
+        let arc = self.center().map(|c| {
+            let a0 = (self.start[1] - c[1]).atan2(self.start[0] - c[0]);
+            (c, a0, self.sweep(), self.radius.abs())
+        });
+        move |f| match arc {
             None => [
                 self.start[0] + (self.end[0] - self.start[0]) * f,
                 self.start[1] + (self.end[1] - self.start[1]) * f,
             ],
-            Some(c) => {
-                let a0 = (self.start[1] - c[1]).atan2(self.start[0] - c[0]);
-                let a = a0 + self.sweep() * f;
-                let r = self.radius.abs();
+            Some((c, a0, sweep, r)) => {
+                let a = a0 + sweep * f;
                 [c[0] + r * a.cos(), c[1] + r * a.sin()]
             }
         }
@@ -206,10 +210,8 @@ pub(super) struct Window {
 }
 
 /// The biarc of the window `w1`, `w2` on an arc of radius `r` for a band
-/// `b` (mm), and the tool's largest distance from the path under the dead
-/// band; `None` where no biarc fits or the band is not crossed inside the
-/// window.
-pub(super) fn window_deviation(r: f64, b: f64, w1: f64, w2: f64) -> Option<([BiarcArc; 2], f64)> {
+/// `b` (mm); `None` where none fits.
+fn window_biarc(r: f64, b: f64, w1: f64, w2: f64) -> Option<[BiarcArc; 2]> {
     if w1 >= r || w2 >= r {
         return None;
     }
@@ -221,19 +223,30 @@ pub(super) fn window_deviation(r: f64, b: f64, w1: f64, w2: f64) -> Option<([Bia
     };
     let p1 = [-w1, y_n(-w1)];
     let p2 = [w2, y_n(w2) - b];
-    let arcs = biarc(p1, unit(-w1), p2, unit(w2))?;
-    // Sample the command along both arcs, in order.
-    let n = 200;
-    let mut pts: Vec<P2> = Vec::with_capacity(2 * n + 1);
-    pts.push(p1);
-    for a in &arcs {
-        for k in 1..=n {
-            pts.push(a.point(k as f64 / n as f64));
+    biarc(p1, unit(-w1), p2, unit(w2))
+}
+
+/// The tool's largest distance from the path under the dead band on the
+/// window's biarc `arcs` ([`window_biarc`]) on an arc of radius `r` for a
+/// band `b`; `None` where the band is not crossed inside the window.
+fn window_deviation(r: f64, b: f64, arcs: &[BiarcArc; 2]) -> Option<f64> {
+    let y_n = |x: f64| (r * r - x * x).sqrt() - r;
+    let p1 = arcs[0].start;
+    // Sample the command along both arcs, in order; x must advance along
+    // the path (speed lane: on the stack, stopping at the first point
+    // that does not).
+    const N: usize = 200;
+    let mut pts = [[0.0; 2]; 2 * N + 1];
+    pts[0] = p1;
+    for (i, a) in arcs.iter().enumerate() {
+        let point = a.sampler();
+        for k in 1..=N {
+            let j = i * N + k;
+            pts[j] = point(k as f64 / N as f64);
+            if pts[j][0] <= pts[j - 1][0] {
+                return None;
+            }
         }
-    }
-    // x must advance along the path.
-    if pts.windows(2).any(|p| p[1][0] <= p[0][0]) {
-        return None;
     }
     let peak = pts.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p[1]));
     let mut worst: f64 = 0.0;
@@ -259,7 +272,7 @@ pub(super) fn window_deviation(r: f64, b: f64, w1: f64, w2: f64) -> Option<([Bia
     if state != 2 {
         return None;
     }
-    Some((arcs, worst))
+    Some(worst)
 }
 
 /// The window that takes up a band `b` (mm) at a quarter point of an arc
@@ -287,12 +300,9 @@ pub(super) fn best_window(
     let mut best: Option<Window> = None;
     for &w1 in &lengths {
         for &w2 in &lengths {
-            let Some((arcs, dev)) = window_deviation(r, b, w1, w2) else {
+            let Some(arcs) = window_biarc(r, b, w1, w2) else {
                 continue;
             };
-            if dev > tol {
-                continue;
-            }
             // Each arc runs at no more than √(a_n ρ), nor than its length
             // per servo period.
             let speed = arcs.iter().fold(v, |m, a| {
@@ -306,6 +316,18 @@ pub(super) fn best_window(
             });
             let len = arcs[0].length() + arcs[1].length();
             let cost = (v - speed).powi(2) / (a_t * v) + len * (1.0 / speed - 1.0 / v);
+            // Speed lane: a window that costs more than the best so far
+            // (beyond the margin below) cannot replace it whatever its
+            // deviation, so the deviation (400 points) is not sampled.
+            if best.is_some_and(|b| cost > b.cost_s + 1e-4) {
+                continue;
+            }
+            let Some(dev) = window_deviation(r, b, &arcs) else {
+                continue;
+            };
+            if dev > tol {
+                continue;
+            }
             // Of windows that cost the same (within 0.1 ms: at the feed,
             // typically), the one that keeps the tool closest.
             if best.is_none_or(|b| {
