@@ -65,6 +65,10 @@ pub fn files() -> Vec<(String, String)> {
     out.push(("finish.ngc".into(), finishing_program(&nominal)));
     // Ballbar traces of a known machine in three planes (docs/ballbar.md).
     out.extend(volcomp_core::example::ballbar::files());
+    // A probing campaign on a synthetic machine (docs/probing.md).
+    for (name, text) in volcomp_core::example::probe::example_files() {
+        out.push((format!("probing/{name}"), text));
+    }
     out
 }
 

@@ -17,6 +17,7 @@ use volcomp_core::identify::probe::artifact::{parse_artifact, Artifact};
 use volcomp_core::identify::probe::identify::{
     fit_and_identify, Identified, IdentifyOptions, Status,
 };
+use volcomp_core::identify::probe::monte_carlo;
 use volcomp_core::identify::probe::plan::plan;
 use volcomp_core::identify::probe::program::Frame;
 use volcomp_core::identify::probe::result::{kinematic_model, reversal, rms_modulo_rigid};
@@ -107,15 +108,15 @@ fn projected_truth(m: &SyntheticMachine, id: &Identified) -> Vec<f64> {
 
 /// How many reported standard uncertainties an identified parameter may lie
 /// from the truth. The target is 3 for every parameter; measured: the worst
-/// of 25 parameters is 3.5 σ on the example machine and 3.7 σ on machine 2
-/// (0.5 µm noise), under 3 on the seven other campaigns. Over repeated noise
-/// draws of one machine the z RMS per parameter is 0.9–1.35: the reported
-/// uncertainties are up to a third optimistic for some parameters. Over the
-/// nine calibrated-length campaigns the z RMS is 1.14 (223 values; 14 above
-/// 2, 3 above 3). The cause is not found yet: propagating the probe
-/// calibration's covariance into the sphere centres changed no z value at
-/// two decimals (the shift it gives is common to a placement's spheres and
-/// absorbed by the placement), so this bound is 4 until it is.
+/// of 25 parameters is 3.4 σ on the example machine (EYY.P1) and 3.7 σ on
+/// machine 2 at 0.5 µm noise (EAY.P1), under 3 on the eight other campaigns.
+/// A Monte Carlo of the whole chain on the example machine (40 draws of noise
+/// and artifact, `diagnostic_monte_carlo`) finds the reported σ honest to a
+/// few per cent (spread / σ 0.84–1.20 per parameter, RMS z 1.05) — and a
+/// parameter beyond 3 σ somewhere in 5 of the 40 campaigns, as 25 correlated
+/// parameters give by chance. Bounding every campaign by 3 would need σ
+/// inflated beyond the truth; the RMS of z over the campaigns is bounded
+/// instead (`other_machines_noise_and_artifacts`), and single values by 4.
 const Z_BOUND: f64 = 4.0;
 
 fn all_texts() -> Vec<String> {
@@ -139,6 +140,8 @@ struct Outcome {
     reversal_z: f64,
     reversal: [Option<volcomp_core::identify::probe::fit::Estimate>; 3],
     id: Identified,
+    /// (identified − truth) / σ of every identified parameter not skipped.
+    zs: Vec<f64>,
 }
 
 fn evaluate(c: &Campaign, o: &IdentifyOptions, skip: &[&str]) -> Outcome {
@@ -148,13 +151,17 @@ fn evaluate(c: &Campaign, o: &IdentifyOptions, skip: &[&str]) -> Outcome {
     let mut worst = (0.0f64, String::new());
     let mut identified = 0;
     let mut not_seen = Vec::new();
+    let mut zs = Vec::new();
     for p in &id.params {
         match (p.status, names.iter().position(|n| *n == p.name)) {
             (Status::Identified(e), Some(i)) => {
                 identified += 1;
                 let z = ((e.value - truth[i]) / e.sigma).abs();
-                if !skip.contains(&p.name.as_str()) && z > worst.0 {
-                    worst = (z, p.name.clone());
+                if !skip.contains(&p.name.as_str()) {
+                    zs.push(z);
+                    if z > worst.0 {
+                        worst = (z, p.name.clone());
+                    }
                 }
             }
             (Status::NotSeen, _) => not_seen.push(p.name.clone()),
@@ -201,6 +208,7 @@ fn evaluate(c: &Campaign, o: &IdentifyOptions, skip: &[&str]) -> Outcome {
         reversal_z,
         reversal: rev,
         id,
+        zs,
     }
 }
 
@@ -274,6 +282,26 @@ fn the_example_campaign_identifies_the_machine_within_its_uncertainty() {
     assert!((s0 - 0.4).abs() < 0.1, "σ0 = {s0}");
     assert!(r.id.notes.iter().any(|n| n.contains("one probe length")));
     assert!(!r.id.scale_from_artifact);
+    // A second method for the uncertainties: the whole chain repeated with
+    // the touches perturbed by the probing noise agrees with the least
+    // squares' covariance — a standard deviation from 10 repeats lies
+    // within 0.35…2 of the true one but for a chance of 1e-3 (χ² with 9
+    // degrees of freedom), 2 % over 25 parameters — and the reported σ
+    // becomes the larger of the two.
+    let mut id = r.id.clone();
+    monte_carlo::apply(&c.artifacts, &c.touches, &options(), &mut id, 10, 7).unwrap();
+    let mc = id.monte_carlo.as_ref().unwrap();
+    for (p, (ls, m)) in id.params.iter().zip(mc.least_squares.iter().zip(&mc.sigma)) {
+        match (p.status, ls, m) {
+            (Status::Identified(e), Some(ls), Some(m)) => {
+                println!("{:8} least squares {ls:.3}  Monte Carlo {m:.3}", p.name);
+                assert!((0.35..2.0).contains(&(m / ls)), "{}: {ls} vs {m}", p.name);
+                assert_eq!(e.sigma, ls.max(*m));
+            }
+            (Status::NotSeen, None, None) => {}
+            other => panic!("{}: {other:?}", p.name),
+        }
+    }
 }
 
 #[test]
@@ -281,10 +309,12 @@ fn other_machines_noise_and_artifacts() {
     // Several machines (seeds), noise 0.3 and 0.5 µm, the uncalibrated plate
     // with a gauge block, and a certified plate alone.
     let sets = [all_texts(), vec![REFERENCE.to_string(), certified_plate()]];
+    let mut zs = Vec::new();
     for (seed, noise) in [(1u64, 0.3), (2, 0.5), (3, 0.4), (4, 0.5)] {
         for (k, texts) in sets.iter().enumerate() {
             let c = campaign(seed, noise, texts);
             let r = evaluate(&c, &options(), &[]);
+            zs.extend(r.zs.iter().copied());
             println!(
                 "seed {seed} noise {noise} set {k}: worst {:.2} σ ({}), {:.2} → {:.2} µm ({:.0} %), reversal {:.2} σ, σ0 {:?}",
                 r.worst_z.0,
@@ -320,6 +350,16 @@ fn other_machines_noise_and_artifacts() {
             );
         }
     }
+    // The uncertainties as a whole: honest ones give an RMS of |error|/σ
+    // near 1 over the 200 values (sampling spread about 0.05, more with the
+    // parameters' correlation); a covariance a third too small gives 1.33.
+    let rms = (zs.iter().map(|z| z * z).sum::<f64>() / zs.len() as f64).sqrt();
+    let above = zs.iter().filter(|z| **z > 3.0).count();
+    println!("{} values: RMS z {rms:.3}, {above} above 3", zs.len());
+    assert!(
+        rms < 1.25,
+        "RMS of |error|/σ {rms:.3}: the uncertainties are optimistic"
+    );
 }
 
 #[test]
@@ -422,85 +462,118 @@ fn diagnostic_seed1() {
     println!("ref alone: {:?}", f1.calibrations[0].reversal_um);
 }
 
-#[test]
-#[ignore]
-fn diagnostic_z_scores_over_noise() {
-    let mut z: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
-    for draw in 0..24u64 {
-        let c = campaign2(2026, 1000 + draw, 0.4, &all_texts());
-        let (_, id) = fit_and_identify(&c.artifacts, &c.touches, &options()).unwrap();
-        let truth = projected_truth(&c.machine, &id);
-        let names: Vec<String> = id.model.params.iter().map(|p| p.name()).collect();
-        for p in &id.params {
-            if let (Status::Identified(e), Some(i)) =
-                (p.status, names.iter().position(|n| *n == p.name))
-            {
-                z.entry(p.name.clone())
-                    .or_default()
-                    .push((e.value - truth[i]) / e.sigma);
-            }
-        }
+/// Per parameter over repeated noise draws of one machine: mean z, RMS z,
+/// and the spread of the estimates over the mean reported σ.
+/// Per parameter: z values, errors, σ.
+type ZTable = std::collections::BTreeMap<String, (Vec<f64>, Vec<f64>, Vec<f64>)>;
+
+fn z_table(z: &ZTable) -> f64 {
+    let mut all = Vec::new();
+    for (name, (zs, est, sig)) in z {
+        let n = zs.len() as f64;
+        let mean = zs.iter().sum::<f64>() / n;
+        let rms = (zs.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
+        let em = est.iter().sum::<f64>() / n;
+        let sd = (est.iter().map(|x| (x - em) * (x - em)).sum::<f64>() / (n - 1.0)).sqrt();
+        let sm = sig.iter().sum::<f64>() / n;
+        println!(
+            "{name:8} mean z {mean:6.2}  rms z {rms:5.2}  sd/σ {:5.2}  σ {sm:.4}",
+            sd / sm
+        );
+        all.extend(zs.iter().copied());
     }
-    for (name, v) in &z {
-        let n = v.len() as f64;
-        let mean = v.iter().sum::<f64>() / n;
-        let rms = (v.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
-        println!("{name:8} mean z {mean:6.2}  rms z {rms:5.2}");
-    }
+    (all.iter().map(|x| x * x).sum::<f64>() / all.len() as f64).sqrt()
 }
 
 #[test]
 #[ignore]
-fn diagnostic_z_scores_with_ideal_centres() {
-    use volcomp_core::identify::probe::identify::identify;
-    let mut z: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
-    for draw in 0..24u64 {
-        let c = campaign2(2026, 2000 + draw, 0.4, &all_texts());
-        let (mut fitted, _) = fit_and_identify(&c.artifacts, &c.touches, &options()).unwrap();
-        let mut rng = Rng::new(draw + 77);
-        let sig = fitted.sigma_um;
-        for s in &mut fitted.spheres {
-            let real = c
-                .reals
-                .iter()
-                .find(|r| r.described.name == s.artifact)
-                .unwrap();
-            let k = real
-                .described
-                .placements
-                .iter()
-                .position(|p| p.name == s.placement)
-                .unwrap();
-            let idx: usize = s.feature[1..].parse::<usize>().unwrap() - 1;
-            let truth = real.placements[k].to_machine(real.balls_mm[idx]);
-            let e = c.machine.geometric_um(truth, PROBE_LENGTH_MM);
-            // Noise with the fit's covariance: L z, L Lᵀ = σ² (JᵀJ)⁻¹.
-            let cov = nalgebra::Matrix3::from_fn(|a, b| s.unit_cov[a][b] * sig * sig);
-            let l = nalgebra::Cholesky::new(cov).unwrap().unpack();
-            let n = l * nalgebra::Vector3::new(rng.normal(), rng.normal(), rng.normal());
-            s.centre_mm = truth - e * 1e-3 + Vec3::new(n[0], n[1], n[2]) * 1e-3;
+fn diagnostic_monte_carlo() {
+    let draws: u64 = std::env::var("MC_DRAWS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(24);
+    let seed: u64 = std::env::var("MC_SEED")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(2026);
+    let noise: f64 = std::env::var("MC_NOISE")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0.4);
+    let mut z: ZTable = Default::default();
+    let ideal = std::env::var("MC_IDEAL").is_ok();
+    let (mut s0, mut st) = (0.0, 0.0);
+    let texts = match std::env::var("MC_SET").as_deref() {
+        Ok("certified") => vec![REFERENCE.to_string(), certified_plate()],
+        _ => all_texts(),
+    };
+    for draw in 0..draws {
+        let c = campaign2(seed, 1000 + draw, noise, &texts);
+        let (mut fitted, mut id) = fit_and_identify(&c.artifacts, &c.touches, &options()).unwrap();
+        if ideal {
+            ideal_centres(&c, &mut fitted, draw);
+            id = volcomp_core::identify::probe::identify::identify(
+                &c.artifacts,
+                &fitted,
+                &options(),
+            )
+            .unwrap();
         }
-        let id = identify(&c.artifacts, &fitted, &options()).unwrap();
+        s0 += id.ident.sigma0_um.unwrap() / draws as f64;
+        st += fitted.sigma_um / draws as f64;
         let truth = projected_truth(&c.machine, &id);
         let names: Vec<String> = id.model.params.iter().map(|p| p.name()).collect();
+        let mut worst = (0.0f64, String::new());
         for p in &id.params {
             if let (Status::Identified(e), Some(i)) =
                 (p.status, names.iter().position(|n| *n == p.name))
             {
-                z.entry(p.name.clone())
-                    .or_default()
-                    .push((e.value - truth[i]) / e.sigma);
+                let zz = ((e.value - truth[i]) / e.sigma).abs();
+                if zz > worst.0 {
+                    worst = (zz, p.name.clone());
+                }
+                let v = z.entry(p.name.clone()).or_default();
+                v.0.push((e.value - truth[i]) / e.sigma);
+                v.1.push(e.value - truth[i]);
+                v.2.push(e.sigma);
             }
         }
+        println!(
+            "draw {draw}: worst {:.2} σ ({}), σ0 {:.3}",
+            worst.0,
+            worst.1,
+            id.ident.sigma0_um.unwrap()
+        );
     }
-    let mut all = Vec::new();
-    for (name, v) in &z {
-        let n = v.len() as f64;
-        let mean = v.iter().sum::<f64>() / n;
-        let rms = (v.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
-        println!("{name:8} mean z {mean:6.2}  rms z {rms:5.2}");
-        all.extend(v.iter().copied());
+    println!(
+        "all: rms z {:.3}; mean σ0 {s0:.3}, touch σ {st:.3}",
+        z_table(&z)
+    );
+}
+
+/// Every sphere centre replaced by the truth plus noise of the fit's own
+/// covariance (the identification alone under test).
+fn ideal_centres(c: &Campaign, fitted: &mut volcomp_core::identify::probe::fit::Fitted, draw: u64) {
+    let mut rng = Rng::new(draw + 77);
+    let sig = fitted.sigma_um;
+    for s in &mut fitted.spheres {
+        let real = c
+            .reals
+            .iter()
+            .find(|r| r.described.name == s.artifact)
+            .unwrap();
+        let k = real
+            .described
+            .placements
+            .iter()
+            .position(|p| p.name == s.placement)
+            .unwrap();
+        let idx: usize = s.feature[1..].parse::<usize>().unwrap() - 1;
+        let truth = real.placements[k].to_machine(real.balls_mm[idx]);
+        let e = c.machine.geometric_um(truth, PROBE_LENGTH_MM);
+        let cov = nalgebra::Matrix3::from_fn(|a, b| s.unit_cov[a][b] * sig * sig);
+        let l = nalgebra::Cholesky::new(cov).unwrap().unpack();
+        let n = l * nalgebra::Vector3::new(rng.normal(), rng.normal(), rng.normal());
+        s.centre_mm = truth - e * 1e-3 + Vec3::new(n[0], n[1], n[2]) * 1e-3;
     }
-    let rms = (all.iter().map(|x| x * x).sum::<f64>() / all.len() as f64).sqrt();
-    println!("all: rms z {rms:.3}");
 }

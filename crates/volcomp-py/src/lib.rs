@@ -17,6 +17,7 @@ mod identify;
 mod inputs;
 mod mirror;
 mod model;
+mod probe;
 mod program;
 mod request;
 mod thermal;
@@ -43,6 +44,7 @@ fn _volcomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mirror::mirror, m)?)?;
     m.add_function(wrap_pyfunction!(ballbar::ballbar_predict, m)?)?;
     m.add_function(wrap_pyfunction!(ballbar::ballbar_fit, m)?)?;
+    m.add_function(wrap_pyfunction!(probe::probe_fit, m)?)?;
     m.add_function(wrap_pyfunction!(request::options, m)?)?;
     Ok(())
 }

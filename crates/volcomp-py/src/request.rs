@@ -232,6 +232,7 @@ pub fn options<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyList>> 
         "export" => volcomp_core::request::MapExportRequest::OPTIONS,
         "ballbar_predict" => volcomp_core::request::BallbarPredictRequest::OPTIONS,
         "ballbar_fit" => volcomp_core::request::BallbarFitRequest::OPTIONS,
+        "probe_fit" => volcomp_core::request::ProbeFitRequest::OPTIONS,
         _ => return Err(bad_input(format!("no job `{job}`"))),
     };
     let list = PyList::empty(py);

@@ -185,6 +185,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         logs: inputs(&a.id.logs, "LOG")?,
         options,
         leave_one_out: a.job.leave_one_out,
+        monte_carlo: a.job.monte_carlo as usize,
     };
     let out = request.run()?;
     let (toml, csv) = out.model_files(

@@ -372,11 +372,20 @@ pub const PROBE_IDENTIFY_OPTIONS: &[OptionInfo] = &[
 ];
 
 /// The fit's own options ([`ProbeFitRequest`]).
-pub const PROBE_FIT_OPTIONS: &[OptionInfo] = &[OptionInfo::new(
-    "leave_one_out",
-    Kind::Switch,
-    "Also predict every placement from a model fitted without it.",
-)];
+pub const PROBE_FIT_OPTIONS: &[OptionInfo] = &[
+    OptionInfo::new(
+        "leave_one_out",
+        Kind::Switch,
+        "Also predict every placement from a model fitted without it.",
+    ),
+    OptionInfo::new(
+        "monte_carlo",
+        Kind::Count,
+        "Repeat the whole fit N times with the touches perturbed by the probing noise (Monte Carlo, JCGM 101) and report each parameter's larger standard uncertainty of least squares and Monte Carlo; 0: least squares only.",
+    )
+    .value("N")
+    .default("0"),
+];
 
 /// A probing identification, as plain values.
 #[derive(Debug, Clone, PartialEq)]
@@ -465,6 +474,7 @@ impl ProbeIdentifyRequest {
 pub struct ProbeFitRequest {
     pub identify: ProbeIdentifyRequest,
     pub leave_one_out: bool,
+    pub monte_carlo: u64,
 }
 
 impl super::Request for ProbeFitRequest {
@@ -473,6 +483,25 @@ impl super::Request for ProbeFitRequest {
     fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
         match name {
             "leave_one_out" => self.leave_one_out = v.bool("leave_one_out")?,
+            "monte_carlo" => {
+                let n = v.count("monte_carlo")?;
+                if n != 0 && n < crate::identify::probe::monte_carlo::MIN_DRAWS as u64 {
+                    return Err(OptionError::new(
+                        "monte_carlo",
+                        format!(
+                            "{n} repeats are too few for a standard deviation; give {} or more, or 0 for none",
+                            crate::identify::probe::monte_carlo::MIN_DRAWS
+                        ),
+                    ));
+                }
+                if n > 10_000 {
+                    return Err(OptionError::new(
+                        "monte_carlo",
+                        format!("{n} repeats: give 10000 or fewer (each is a whole fit)"),
+                    ));
+                }
+                self.monte_carlo = n;
+            }
             _ => self.identify.set(name, v)?,
         }
         Ok(())
@@ -631,6 +660,13 @@ mod tests {
         );
         r.set_named("model", Value::Text("Reduced".into())).unwrap();
         assert_eq!(r.identify.options().unwrap().model, ModelChoice::Reduced);
+        assert!(r
+            .set_named("monte_carlo", Value::Count(5))
+            .unwrap_err()
+            .to_string()
+            .contains("give 10 or more, or 0 for none"));
+        r.set_named("monte_carlo", Value::Count(20)).unwrap();
+        assert_eq!(r.monte_carlo, 20);
         r.set_named("threshold", Value::Number(2.0)).unwrap();
         assert!(r
             .identify

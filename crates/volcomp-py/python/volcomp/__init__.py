@@ -2,7 +2,7 @@
 
 Error models (axis tables, the 21-component kinematic model, straightness),
 the compensation and simulation of G-code programs, and identification
-(ISO 230-2, straightness, thermal) and mirror compensation of
+(ISO 230-2, straightness, thermal, a touch probe's artifacts) and mirror compensation of
 free-form surfaces, over the Rust library that the ``volcomp`` command uses.
 Conventions: positions in mm in the machine's axis frame, errors in µm,
 angles in µrad, the deviation ``e = actual − commanded`` (docs/design.md).
@@ -38,6 +38,7 @@ from ._volcomp import (
     machining_time,
     mirror,
     moves,
+    probe_fit,
     simulate,
     straightness_fit,
     thermal_fit,
@@ -87,6 +88,7 @@ straightness_fit = _with_options(straightness_fit, "straightness_fit")
 export = _with_options(export, "export")
 ballbar_predict = _with_options(ballbar_predict, "ballbar_predict")
 ballbar_fit = _with_options(ballbar_fit, "ballbar_fit")
+probe_fit = _with_options(probe_fit, "probe_fit")
 
 __all__ = [
     "BadInputError",
@@ -108,6 +110,7 @@ __all__ = [
     "machining_time",
     "mirror",
     "moves",
+    "probe_fit",
     "simulate",
     "straightness_fit",
     "thermal_fit",

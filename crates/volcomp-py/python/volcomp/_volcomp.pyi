@@ -382,6 +382,24 @@ def ballbar_fit(
     """The ISO 230-4 figures of a trace file and the causes fitted to it
     (the options of `volcomp ballbar fit`)."""
 
+def probe_fit(
+    artifacts: Sequence[Input],
+    logs: Sequence[Input],
+    *,
+    ranges_mm: Optional[Sequence[Sequence[float]]] = None,
+    chain: str = "w X' Y' b Z t",
+    order: int = 2,
+    model: Literal["auto", "full", "reduced"] = "auto",
+    threshold: float = 0.001,
+    leave_one_out: bool = False,
+    monte_carlo: int = 0,
+) -> tuple[Model, dict[str, Any]]:
+    """The machine identified from probing logs (artifact descriptions and
+    LinuxCNC logs or CSV points as paths or file objects; ranges_mm is
+    required): the model with the axes' reversal, and a dict of params,
+    reversal_um, sigma0_um, notes, warnings, held_out, summary (the options
+    of `volcomp probe fit`)."""
+
 def mirror(
     nominal: Input,
     measured: Input,

@@ -84,6 +84,11 @@ pub struct Calibration {
     /// (3), tip radius, pre-travel in [`AxisDir::ALL`] order (6), reversal
     /// of X, Y, Z (3).
     pub cov_factor_um: Vec<Vec<f64>>,
+    /// Standard uncertainty of the reference sphere's certified radius
+    /// (µm, half the diameter's). The touches see the sum of the sphere's
+    /// and the tip's radius, so the tip radius inherits it whole: it is the
+    /// last column of [`Self::cov_factor_um`] and part of the tip radius' σ.
+    pub u_reference_radius_um: f64,
 }
 
 /// Parameters of a probe calibration, in the order of
@@ -361,6 +366,7 @@ fn calibrate(
     Ok(Calibration {
         dof,
         cov_factor_um,
+        u_reference_radius_um: 0.0,
         tool_length_mm: touches[0].tool_length_mm,
         tip_radius_mm: Estimate {
             value: r0 + x[3] * 1e-3,
@@ -633,7 +639,11 @@ pub fn fit_touches(
         .filter(|((ai, _, _), _)| artifacts[*ai].is_reference())
     {
         let art = &artifacts[*ai];
-        let Kind::ReferenceSphere { diameter_mm, .. } = art.kind else {
+        let Kind::ReferenceSphere {
+            diameter_mm,
+            u_diameter_um,
+        } = art.kind
+        else {
             continue;
         };
         let mut by_tool: Vec<Vec<&Touch>> = Vec::new();
@@ -662,6 +672,7 @@ pub fn fit_touches(
             if field.is_some() {
                 cal = calibrate(&g, &shape(&g, cal.centre_mm), diameter_mm / 2.0).map_err(fail)?;
             }
+            cal.u_reference_radius_um = u_diameter_um / 2.0;
             out.calibrations.push(cal);
         }
     }
@@ -816,6 +827,15 @@ pub fn fit_touches(
             for row in &mut c.cov_factor_um {
                 row.iter_mut().for_each(|v| *v *= k);
             }
+        }
+    }
+    for c in &mut out.calibrations {
+        let u = c.u_reference_radius_um;
+        if u > 0.0 {
+            for (i, row) in c.cov_factor_um.iter_mut().enumerate() {
+                row.push(if i == 3 { -u } else { 0.0 });
+            }
+            c.tip_radius_mm.sigma = c.tip_radius_mm.sigma.hypot(u);
         }
     }
     out.spheres = spheres;

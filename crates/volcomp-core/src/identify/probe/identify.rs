@@ -183,6 +183,10 @@ pub struct Identified {
     pub touch_sigma_um: f64,
     /// What the user should know.
     pub notes: Vec<String>,
+    /// The Monte Carlo of the whole chain, when asked for
+    /// ([`super::monte_carlo`]): the σ of [`Self::params`] are then the
+    /// larger of the two.
+    pub monte_carlo: Option<super::monte_carlo::MonteCarlo>,
 }
 
 impl Identified {
@@ -1142,6 +1146,7 @@ pub fn identify(
         touch_sigma_um: p.touch_sigma_um,
         ident,
         notes,
+        monte_carlo: None,
     })
 }
 

@@ -22,6 +22,7 @@ pub mod artifact;
 pub mod fit;
 pub mod geometry;
 pub mod identify;
+pub mod monte_carlo;
 pub mod plan;
 pub mod program;
 pub mod request;

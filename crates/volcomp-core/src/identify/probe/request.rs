@@ -91,6 +91,9 @@ pub struct FitRequest {
     pub options: IdentifyOptions,
     /// Also predict every placement from a model fitted without it.
     pub leave_one_out: bool,
+    /// Repeats of the Monte Carlo of the whole chain (0: least squares
+    /// only; [`super::monte_carlo`]).
+    pub monte_carlo: usize,
 }
 
 /// What a fit found.
@@ -150,6 +153,9 @@ impl FitOutput {
     }
 }
 
+/// The Monte Carlo's seed: the same logs give the same uncertainties.
+const MONTE_CARLO_SEED: u64 = 0x5EED;
+
 /// Reads artifacts and logs (every error located).
 pub fn read_inputs(
     artifacts: &[Input],
@@ -187,7 +193,17 @@ impl FitRequest {
     /// Reads, fits, identifies, and builds the model.
     pub fn run(&self) -> Result<FitOutput, ProbeError> {
         let (artifacts, touches) = read_inputs(&self.artifacts, &self.logs)?;
-        let (fitted, identified) = fit_and_identify(&artifacts, &touches, &self.options)?;
+        let (fitted, mut identified) = fit_and_identify(&artifacts, &touches, &self.options)?;
+        if self.monte_carlo > 0 {
+            super::monte_carlo::apply(
+                &artifacts,
+                &touches,
+                &self.options,
+                &mut identified,
+                self.monte_carlo,
+                MONTE_CARLO_SEED,
+            )?;
+        }
         let held_out = if self.leave_one_out {
             leave_one_out(&artifacts, &fitted, &self.options)?
         } else {

@@ -181,14 +181,33 @@ pub fn summary(
         id.ident.sigma0_um.map_or("–".into(), |s| numfmt::fixed(s, 3)),
         numfmt::fixed(id.touch_sigma_um, 3)
     ));
-    for p in &id.params {
+    if let Some(mc) = &id.monte_carlo {
+        out.push(format!(
+            "standard uncertainties: the larger of least squares and a Monte Carlo of the whole fit ({} repeats, probing noise {} µm along each move)",
+            mc.draws,
+            numfmt::fixed(mc.noise_um, 3)
+        ));
+    }
+    for (i, p) in id.params.iter().enumerate() {
         let unit = if p.unit == "um" { "µm" } else { "µrad" };
+        let both = id.monte_carlo.as_ref().and_then(|mc| {
+            let (ls, m) = (
+                mc.least_squares.get(i)?.as_ref()?,
+                mc.sigma.get(i)?.as_ref()?,
+            );
+            Some(format!(
+                "  (least squares {}, Monte Carlo {})",
+                numfmt::fixed(*ls, 3),
+                numfmt::fixed(*m, 3)
+            ))
+        });
         match p.status {
             Status::Identified(e) => out.push(format!(
-                "  {:<8} {:>10} ± {:<7} {unit}",
+                "  {:<8} {:>10} ± {:<7} {unit}{}",
                 p.name,
                 numfmt::fixed(e.value, 3),
-                numfmt::fixed(e.sigma, 3)
+                numfmt::fixed(e.sigma, 3),
+                both.unwrap_or_default()
             )),
             Status::NotSeen => out.push(format!(
                 "  {:<8} not seen by these measurements (zero, unknown)",
