@@ -9,6 +9,7 @@ use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 use std::path::Path;
 use std::sync::Once;
+pub use volcomp_core::request::charts::{self, Chart, Series};
 
 static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
@@ -21,79 +22,9 @@ fn register() {
     });
 }
 
-/// One line (or point set) of a chart.
-#[derive(Debug, Clone)]
-pub struct Series {
-    /// Legend text.
-    pub label: String,
-    /// Points `(x, y)`.
-    pub points: Vec<(f64, f64)>,
-    /// Draw markers instead of a line.
-    pub markers: bool,
-    /// Palette index; by default the series' position. Markers and the
-    /// line fitted to them share one colour this way.
-    pub colour: Option<usize>,
-}
-
-impl Series {
-    /// A line series.
-    pub fn line(label: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
-        Self {
-            label: label.into(),
-            points,
-            markers: false,
-            colour: None,
-        }
-    }
-
-    /// A marker series.
-    pub fn markers(label: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
-        Self {
-            label: label.into(),
-            points,
-            markers: true,
-            colour: None,
-        }
-    }
-
-    /// The same series drawn in palette colour `index`.
-    pub fn colour(mut self, index: usize) -> Self {
-        self.colour = Some(index);
-        self
-    }
-}
-
-/// A chart: title, axis labels, series and optional vertical marker lines.
-#[derive(Debug, Clone, Default)]
-pub struct Chart {
-    pub title: String,
-    pub x_label: String,
-    pub y_label: String,
-    pub series: Vec<Series>,
-    /// Vertical lines `(x, label)`, e.g. a chosen cut-off.
-    pub vlines: Vec<(f64, String)>,
-    /// Logarithmic y axis (values must be positive).
-    pub log_y: bool,
-    /// Logarithmic x axis (values must be positive).
-    pub log_x: bool,
-}
-
-/// Okabe and Ito's colours ([Okabe & Ito 2008]), as in the HTML reports:
-/// blue, vermillion, bluish green, reddish purple, orange, sky blue, yellow,
-/// black.
-const PALETTE: [RGBColor; 8] = [
-    RGBColor(0, 114, 178),
-    RGBColor(213, 94, 0),
-    RGBColor(0, 158, 115),
-    RGBColor(204, 121, 167),
-    RGBColor(230, 159, 0),
-    RGBColor(86, 180, 233),
-    RGBColor(240, 228, 66),
-    RGBColor(0, 0, 0),
-];
-
 fn series_colour(i: usize, s: &Series) -> RGBColor {
-    PALETTE[s.colour.unwrap_or(i) % PALETTE.len()]
+    let (r, g, b) = charts::series_colour(i, s);
+    RGBColor(r, g, b)
 }
 
 fn bounds(chart: &Chart) -> ((f64, f64), (f64, f64)) {
@@ -347,36 +278,6 @@ pub fn chart_bytes(charts: &[Chart], path: &Path) -> Result<Vec<u8>, CliError> {
     }
 }
 
-/// A chart as the library's report draws it: the same series, colours,
-/// marks, axes (logarithmic too) and reference lines.
-pub fn to_report_chart(c: &Chart) -> volcomp_core::report::svg::Chart {
-    use volcomp_core::report::svg::{self as rs, Mark};
-    let series = c
-        .series
-        .iter()
-        .enumerate()
-        .map(|(i, s)| {
-            let colour = series_colour(i, s);
-            rs::Series::xy(
-                s.label.clone(),
-                &format!("#{:02X}{:02X}{:02X}", colour.0, colour.1, colour.2),
-                if s.markers { Mark::Markers } else { Mark::Line },
-                &s.points,
-            )
-        })
-        .collect();
-    rs::Chart {
-        x_label: c.x_label.clone(),
-        y_label: c.y_label.clone(),
-        plot_height: 230.0,
-        series,
-        vrules: c.vlines.clone(),
-        log_x: c.log_x,
-        log_y: c.log_y,
-        ..rs::Chart::default()
-    }
-}
-
 /// Draws `charts` into `path`: `.svg` or `.png` as [`write_charts`], or
 /// `.html` as a self-contained report titled `title` naming `inputs`
 /// (role, file) with their SHA-256; charts whose titles share the text
@@ -393,47 +294,12 @@ pub fn write_charts_or_report(
     if !is_html {
         return write_charts(charts, path);
     }
-    use volcomp_core::report::charts::{sections, Titled};
-    let mut groups: Vec<(String, Vec<Titled>)> = Vec::new();
-    for c in charts {
-        let key = c.title.split_once(": ").map(|(k, _)| k.to_string());
-        let titled = Titled {
-            title: c.title.clone(),
-            chart: to_report_chart(c),
-        };
-        match (groups.last_mut(), &key) {
-            (Some((heading, list)), Some(k)) if heading == k => list.push(titled),
-            (Some((heading, list)), None) if heading.is_empty() && list.len() < 2 => {
-                list.push(titled)
-            }
-            _ => groups.push((key.unwrap_or_default(), vec![titled])),
-        }
-    }
-    for (heading, list) in &mut groups {
-        if heading.is_empty() {
-            *heading = list
-                .iter()
-                .map(|t| t.title.as_str())
-                .collect::<Vec<_>>()
-                .join("; ");
-        }
-    }
     let mut files = Vec::new();
     for (role, p) in inputs {
         files.push(volcomp_core::report::InputFile::read(*role, p)?);
     }
-    let doc = volcomp_core::report::Document {
-        title: title.to_string(),
-        facts: vec![
-            ("command".into(), crate::commands::command_line()),
-            ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
-            ("date (UTC)".into(), volcomp_core::io::provenance::now_utc()),
-        ],
-        inputs: files,
-        sections: sections(&groups),
-    };
+    let html = charts::charts_report(charts, title, files, &crate::commands::command_line());
     let input_paths: Vec<&Path> = inputs.iter().map(|(_, p)| *p).collect();
-    let html = doc.to_html();
     write_atomically(path, &input_paths, |out| {
         out.write_all(html.as_bytes())
             .map_err(|e| CliError::Io(path.to_path_buf(), e))

@@ -26,13 +26,13 @@ const ORDER: &[&str] = &[
     "model",
     "io",
     "identify",
-    "example",
     "compensate",
     "simulate",
     "plan",
     "surface",
     "report",
     "ballbar",
+    "example",
     "request",
 ];
 
@@ -56,16 +56,8 @@ const KNOWN_UPWARD: &[(&str, &str)] = &[
     ("io", "identify"),
     // The axis tables read and write their CSV through `io::table`.
     ("model", "io"),
-    // The ballbar's jobs implement `request::Request` in `ballbar/request.rs`
-    // (their place is `request/`); the error enum wraps `BallbarError`; the
-    // trace file (`io/ballbar_trace.rs`) is made of the ballbar's types and
-    // reads triples with `request::option::parse_triple`; the example
-    // campaign predicts with the ballbar.
-    ("ballbar", "request"),
+    // The error enum wraps `BallbarError`.
     ("error", "ballbar"),
-    ("example", "ballbar"),
-    ("io", "ballbar"),
-    ("io", "request"),
 ];
 
 /// Every `.rs` file under `dir`.

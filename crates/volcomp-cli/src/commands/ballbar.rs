@@ -9,8 +9,8 @@ use clap::{Args, Subcommand};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use volcomp_core::ballbar::report;
-use volcomp_core::ballbar::request::report_html;
-use volcomp_core::io::ballbar_trace;
+use volcomp_core::ballbar::trace as ballbar_trace;
+use volcomp_core::request::ballbar::report_html;
 use volcomp_core::request::{BallbarFitRequest, BallbarMapRequest, BallbarPredictRequest, Input};
 
 /// The circular test (ISO 230-4): predict a trace from a map, fit a trace's causes, a quick map from three planes.

@@ -9,10 +9,9 @@ use crate::options::Options;
 use crate::output::{check, write_atomically, CliError, OutputPlan, Staged};
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
-use volcomp_core::identify::probe::program::duration;
 use volcomp_core::identify::probe::request::{FitRequest, Input, PlanRequest};
 use volcomp_core::identify::probe::verify::{Applied, VerifyRequest};
-use volcomp_core::request::{ProbeFitRequest, ProbeIdentifyRequest, ProbePlanRequest};
+use volcomp_core::request::{probe, ProbeFitRequest, ProbeIdentifyRequest, ProbePlanRequest};
 use volcomp_core::MachineSetup;
 
 /// Calibrate with a touch probe: probing programs, fit, verification.
@@ -148,26 +147,9 @@ fn plan_cmd(a: PlanArgs) -> Result<(), CliError> {
         w.write_all(out.program.as_bytes())
             .map_err(|e| CliError::Io(a.output.clone(), e))
     })?;
-    for (name, t) in &out.plan.placement_time_s {
-        let n = out
-            .plan
-            .touches
-            .iter()
-            .filter(|x| &x.placement == name)
-            .count();
-        println!("placement {name}: {n} touches, about {}", duration(*t));
+    for line in probe::plan_lines(&out, &a.job, (fast, slow), &a.output) {
+        println!("{line}");
     }
-    println!(
-        "wrote {}: {} touches, about {} on the machine (probing at F{} / F{}, rapids {} mm/min, {} mm/s²; operator pauses not counted); the log goes to {}",
-        a.output.display(),
-        out.plan.touches.len(),
-        duration(out.plan.time_s),
-        fast,
-        slow,
-        a.job.rapid_mm_min,
-        a.job.accel_mm_s2,
-        a.job.log_file
-    );
     Ok(())
 }
 
@@ -249,42 +231,23 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// The fit's HTML report: the run's facts, the inputs, the library's sections.
+/// The fit's HTML report, with its inputs.
 fn fit_report(
     a: &FitArgs,
     out: &volcomp_core::identify::probe::request::FitOutput,
     ranges: [[f64; 2]; 3],
-    (order, chain): (usize, &str),
+    chain: (usize, &str),
 ) -> Result<String, CliError> {
-    let mut doc = volcomp_core::report::Document {
-        title: "volcomp probing calibration".into(),
-        facts: vec![
-            ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
-            ("command".into(), super::command_line()),
-            ("date".into(), volcomp_core::io::provenance::now_utc()),
-            (
-                "model".into(),
-                format!("{} (order {}, chain {})", a.output.display(), order, chain),
-            ),
-            (
-                "travel (mm)".into(),
-                ranges
-                    .iter()
-                    .map(|r| format!("{}:{}", r[0], r[1]))
-                    .collect::<Vec<_>>()
-                    .join(","),
-            ),
-        ],
-        inputs: Vec::new(),
-        sections: volcomp_core::report::probe::sections(out, ranges),
-    };
+    let mut inputs = Vec::new();
     for (role, list) in [("artifact", &a.id.artifacts), ("log", &a.id.logs)] {
         for p in list {
-            doc.inputs
-                .push(volcomp_core::report::InputFile::read(role, p)?);
+            inputs.push(volcomp_core::report::InputFile::read(role, p)?);
         }
     }
-    Ok(doc.to_html())
+    let command = super::command_line();
+    Ok(probe::fit_report_html(
+        out, ranges, chain, &a.output, &command, inputs,
+    ))
 }
 
 fn verify_cmd(a: VerifyArgs) -> Result<(), CliError> {
@@ -307,22 +270,8 @@ fn verify_cmd(a: VerifyArgs) -> Result<(), CliError> {
         options,
     };
     let out = request.run()?;
-    println!(
-        "what is left: RMS {:.2} µm over the volume (modulo a rigid motion); {} parameter(s) beyond three standard uncertainties{}",
-        out.left_rms_um,
-        out.significant.len(),
-        if out.significant.is_empty() { String::new() } else { format!(": {}", out.significant.join(", ")) }
-    );
-    for p in &out.identified.params {
-        if let volcomp_core::identify::probe::identify::Status::Identified(e) = p.status {
-            println!(
-                "  {:<8} {:>9.3} ± {:.3} {}",
-                p.name,
-                e.value,
-                e.sigma,
-                if p.unit == "um" { "µm" } else { "µrad" }
-            );
-        }
+    for line in probe::verify_lines(&out) {
+        println!("{line}");
     }
     Ok(())
 }
@@ -336,9 +285,8 @@ fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
                 .map_err(|e| CliError::Io(path.clone(), e))
         })?;
     }
-    let d = a.output.display();
-    println!("wrote the probing example into {d} (a synthetic machine, 0.4 µm probe noise); try:");
-    println!("  volcomp probe plan {d}/plate.toml --setup {d}/setup.toml --probe-tool 9 --tip-diameter-mm 2 -o plate.ngc");
-    println!("  volcomp probe fit --artifact {d}/reference.toml --artifact {d}/plate.toml --artifact {d}/gauge.toml \\\n      --log {d}/reference.log --log {d}/plate.log --log {d}/gauge.log --ranges-mm 0:600,0:400,0:300 -o model.toml");
+    for line in probe::example_lines(&a.output) {
+        println!("{line}");
+    }
     Ok(())
 }

@@ -4,7 +4,7 @@ use super::compensate::command_line;
 use super::{Machine, MachineExt};
 use crate::args::SimulateArgs;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
-use crate::plot::{write_charts, Chart, Series};
+use crate::plot::{charts, write_charts};
 use crate::progress::Bar;
 use std::io::Write;
 use std::path::Path;
@@ -93,24 +93,6 @@ fn simulate(a: &SimulateArgs, machine: &Machine, model: &dyn ErrorModel) -> Resu
     })
 }
 
-/// The chart of the errors along the path.
-fn chart(program: &Path, along: &[(f64, Option<f64>, f64)]) -> Chart {
-    let points = along.iter().filter_map(|(s, p, _)| p.map(|p| (*s, p)));
-    Chart {
-        title: format!("{}: error along the path", program.display()),
-        x_label: "commanded path length (mm)".into(),
-        y_label: "error (µm)".into(),
-        series: vec![
-            Series::markers("point error", points.collect()),
-            Series::line(
-                "largest contour error per segment",
-                along.iter().map(|(s, _, c)| (*s, *c)).collect(),
-            ),
-        ],
-        ..Chart::default()
-    }
-}
-
 pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     plan(&a)?;
     let machine = a.job.prepare(super::machine(&a.job.machine)?)?;
@@ -133,7 +115,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
         write(path, csv.as_bytes())?;
     }
     if let Some(path) = &a.plot {
-        write_charts(&[chart(&a.program, &kept.along)], path)?;
+        write_charts(&[charts::simulate_chart(&a.program, &kept.along)], path)?;
     }
     if let Some(path) = &a.report_html {
         let html = a

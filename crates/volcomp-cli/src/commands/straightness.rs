@@ -6,12 +6,12 @@
 
 use crate::options::{flags, Options};
 use crate::output::{check, write_atomically, CliError, OutputPlan};
-use crate::plot::{write_charts_or_report, Chart, Series};
+use crate::plot::{charts, write_charts_or_report};
 use clap::{Args, Subcommand};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use volcomp_core::identify::straightness::files;
-use volcomp_core::identify::straightness::identify::{AxisFit, Fit, FitOptions};
+use volcomp_core::identify::straightness::identify::{Fit, FitOptions};
 use volcomp_core::identify::straightness::StraightnessModel;
 use volcomp_core::request::{fit_summary, StraightnessFitRequest};
 
@@ -148,7 +148,12 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
     let inputs: Vec<&Path> = a.runs.runs.iter().map(PathBuf::as_path).collect();
     if let Some(path) = &a.plot {
         let roles: Vec<(&str, &Path)> = inputs.iter().map(|p| ("profile", *p)).collect();
-        write_charts_or_report(&charts(&f, &o), path, "volcomp straightness report", &roles)?;
+        write_charts_or_report(
+            &charts::straightness_charts(&f, &o),
+            path,
+            "volcomp straightness report",
+            &roles,
+        )?;
     }
     match &a.output {
         Some(path) => {
@@ -196,7 +201,7 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
         .map(|p| ("profile", p.as_path()))
         .collect();
     write_charts_or_report(
-        &charts(&f, &o),
+        &charts::straightness_charts(&f, &o),
         &a.output,
         "volcomp straightness report",
         &roles,
@@ -210,137 +215,6 @@ fn same_path(a: &Path, b: &Path) -> bool {
     match (a.canonicalize(), b.canonicalize()) {
         (Ok(x), Ok(y)) => x == y,
         _ => false,
-    }
-}
-
-/// Four charts per axis: the spectra per feed rate, P̄(λ) with P_t, σ(λ)
-/// with σ_t (all over the wavelength λ in mm on a logarithmic axis, with the
-/// cut-off marked), and the measured
-/// mean profiles against the model.
-fn charts(f: &Fit, o: &FitOptions) -> Vec<Chart> {
-    let mut out = Vec::new();
-    for a in &f.axes {
-        let letter = a.axis.letter();
-        let half = a.mean_power.len() - 1;
-        let lg = |k: usize| a.wavelength_mm(k);
-        let cutoff = vec![(
-            a.cutoff_wavelength_mm,
-            format!(
-                "cut-off λ_c = {:.3} mm (m = {})",
-                a.cutoff_wavelength_mm, a.harmonics
-            ),
-        )];
-        let x_label = "wavelength λ (mm, logarithmic)".to_string();
-        let (x_lo, x_hi) = (lg(half), lg(1));
-        out.push(Chart {
-            title: format!(
-                "{letter}: power spectra of the averaged runs per feed rate (normalised)"
-            ),
-            x_label: x_label.clone(),
-            y_label: "normalised power (1)".into(),
-            series: a
-                .feeds
-                .iter()
-                .map(|g| {
-                    Series::line(
-                        format!("{} mm/min ({} runs)", g.feed_mm_per_min, g.files.len()),
-                        (1..=half).map(|k| (lg(k), g.power[k])).collect(),
-                    )
-                })
-                .collect(),
-            vlines: cutoff.clone(),
-            log_y: true,
-            log_x: true,
-        });
-        out.push(Chart {
-            title: format!("{letter}: mean normalised power P(λ) across feed rates"),
-            x_label: x_label.clone(),
-            y_label: "mean normalised power (1)".into(),
-            series: vec![
-                Series::line(
-                    "mean power P(λ)",
-                    (1..=half).map(|k| (lg(k), a.mean_power[k])).collect(),
-                ),
-                Series::line(
-                    format!("P_t = {}", o.p_t),
-                    vec![(x_lo, o.p_t), (x_hi, o.p_t)],
-                ),
-                Series::markers(
-                    "σ < σ_t and mean P > P_t",
-                    a.passing
-                        .iter()
-                        .map(|&k| (lg(k), a.mean_power[k]))
-                        .collect(),
-                ),
-            ],
-            vlines: cutoff.clone(),
-            log_y: true,
-            log_x: true,
-        });
-        out.push(Chart {
-            title: format!("{letter}: relative standard deviation σ(λ) across feed rates"),
-            x_label,
-            y_label: "σ / mean power (1)".into(),
-            series: vec![
-                Series::line("σ(λ)", (1..=half).map(|k| (lg(k), a.sigma[k])).collect()),
-                Series::line(
-                    format!("σ_t = {}", o.sigma_t),
-                    vec![(x_lo, o.sigma_t), (x_hi, o.sigma_t)],
-                ),
-            ],
-            vlines: cutoff,
-            log_y: true,
-            log_x: true,
-        });
-        out.push(profile_chart(a));
-    }
-    out
-}
-
-fn profile_chart(a: &AxisFit) -> Chart {
-    let pts = |v: &[f64]| -> Vec<(f64, f64)> {
-        a.positions_mm
-            .iter()
-            .copied()
-            .zip(v.iter().copied())
-            .collect()
-    };
-    let mut series: Vec<Series> = a
-        .feeds
-        .iter()
-        .map(|g| {
-            Series::line(
-                format!("measured, mean at {} mm/min", g.feed_mm_per_min),
-                pts(&g.mean_profile_um),
-            )
-        })
-        .collect();
-    series.push(Series::line(
-        format!("model (m = {})", a.harmonics),
-        pts(&a.model_profile_um),
-    ));
-    let residual: Vec<f64> = a
-        .mean_profile_um
-        .iter()
-        .zip(&a.model_profile_um)
-        .map(|(m, p)| m - p)
-        .collect();
-    series.push(Series::line(
-        "mean of all feed rates − model",
-        pts(&residual),
-    ));
-    Chart {
-        title: format!(
-            "{}: measured vs modelled straightness e_z({})",
-            a.axis.letter(),
-            a.axis.letter().to_ascii_lowercase()
-        ),
-        x_label: format!("{} position (mm)", a.axis.letter()),
-        y_label: "Z deviation (µm)".into(),
-        series,
-        vlines: Vec::new(),
-        log_y: false,
-        log_x: false,
     }
 }
 

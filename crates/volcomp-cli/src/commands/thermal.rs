@@ -7,7 +7,7 @@
 
 use crate::options::Options;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
-use crate::plot::{write_charts, write_charts_or_report, Chart, Series};
+use crate::plot::{charts, write_charts, write_charts_or_report};
 use crate::progress::Bar;
 use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
@@ -16,7 +16,7 @@ use volcomp_core::identify::thermal::files::ThermalModelFile;
 use volcomp_core::identify::thermal::report;
 use volcomp_core::identify::thermal::uncertainty::{LineBands, LINE_INTERVALS};
 use volcomp_core::request::{
-    unit_symbol, Input, ThermalFitRequest, ThermalPredictRequest, DEFAULT_BAND_SAMPLES,
+    Input, ThermalFitRequest, ThermalPredictRequest, DEFAULT_BAND_SAMPLES,
 };
 
 /// Thermally varying error: ball-array identification, temperature regression, prediction, plots.
@@ -194,21 +194,7 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
     plan.input("--model", &a.model).output("-o", &a.output);
     check(&plan)?;
     let m = load_model(&a.model)?;
-    let order = m.by_drift(a.top);
-    // One chart per unit: linear parameters in µm and angular ones in µrad
-    // never share an axis. Each parameter's markers (identified) and line
-    // (regression) share one colour.
-    let mut units: Vec<&str> = Vec::new();
-    for p in &order {
-        if !units.contains(&p.unit.as_str()) {
-            units.push(p.unit.as_str());
-        }
-    }
-    let mut charts = Vec::new();
-    for unit_file in &units {
-        charts.extend(parameter_charts(&m, &order, unit_file));
-    }
-    charts.extend(run_charts(&m));
+    let charts = charts::thermal_charts(&m, a.top);
     write_charts_or_report(
         &charts,
         &a.output,
@@ -217,98 +203,6 @@ fn plot_cmd(a: PlotArgs) -> Result<(), CliError> {
     )?;
     crate::note!("volcomp: wrote {}", a.output.display());
     Ok(())
-}
-
-/// The evolution and the regression residuals of the parameters in one
-/// unit (µm and µrad never share an axis); each parameter's markers
-/// (identified) and line (regression) share one colour.
-fn parameter_charts(
-    m: &ThermalModelFile,
-    order: &[&volcomp_core::identify::thermal::files::ParamFit],
-    unit_file: &str,
-) -> [Chart; 2] {
-    let t = &m.time_h;
-    let unit = unit_symbol(unit_file).to_string();
-    let mut evolution = Chart {
-        title: format!(
-            "Parameters in {unit} over time: identified (markers) and regression (lines)"
-        ),
-        x_label: "time (h)".into(),
-        y_label: format!("value − first cycle ({unit})"),
-        ..Chart::default()
-    };
-    let mut residuals = Chart {
-        title: format!("Regression residuals of the parameters in {unit}"),
-        x_label: "time (h)".into(),
-        y_label: format!("identified − regression ({unit})"),
-        ..Chart::default()
-    };
-    for (colour, p) in order.iter().filter(|p| p.unit == *unit_file).enumerate() {
-        let base = p.identified[0];
-        let label = format!("{} ({unit})", p.name);
-        evolution.series.push(
-            Series::markers(
-                format!("{label} identified"),
-                t.iter()
-                    .zip(&p.identified)
-                    .map(|(x, v)| (*x, v - base))
-                    .collect(),
-            )
-            .colour(colour),
-        );
-        let f = m.fitted(p);
-        evolution.series.push(
-            Series::line(
-                format!("{label} regression"),
-                f.iter().map(|(x, v)| (*x, v - base)).collect(),
-            )
-            .colour(colour),
-        );
-        residuals.series.push(
-            Series::line(
-                label,
-                f.iter()
-                    .map(|(x, v)| {
-                        let c = t.iter().position(|y| y == x).unwrap_or(0);
-                        (*x, p.identified[c] - v)
-                    })
-                    .collect(),
-            )
-            .colour(colour),
-        );
-    }
-    [evolution, residuals]
-}
-
-/// The temperatures and the probing noise per cycle.
-fn run_charts(m: &ThermalModelFile) -> [Chart; 2] {
-    let t = &m.time_h;
-    let mut temps = Chart {
-        title: "Temperatures".into(),
-        x_label: "time (h)".into(),
-        y_label: "temperature (°C)".into(),
-        ..Chart::default()
-    };
-    for (s, name) in m.sensors.iter().enumerate() {
-        temps.series.push(Series::line(
-            name.clone(),
-            t.iter()
-                .zip(&m.temperatures_c)
-                .map(|(x, v)| (*x, v[s]))
-                .collect(),
-        ));
-    }
-    let noise = Chart {
-        title: "Probing noise estimated from the artifact residuals per cycle".into(),
-        x_label: "time (h)".into(),
-        y_label: "σ0 (µm)".into(),
-        series: vec![Series::markers(
-            "σ0",
-            t.iter().zip(&m.sigma0_um).map(|(x, v)| (*x, *v)).collect(),
-        )],
-        ..Chart::default()
-    };
-    [temps, noise]
 }
 
 fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
@@ -338,7 +232,7 @@ fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
 /// or as a plot with one chart per axis line.
 fn write_bands(path: &Path, lines: &[LineBands], samples: usize) -> Result<(), CliError> {
     match path.extension().and_then(|e| e.to_str()) {
-        Some("svg") | Some("png") => write_charts(&band_charts(lines, samples), path),
+        Some("svg") | Some("png") => write_charts(&charts::band_charts(lines, samples), path),
         _ => {
             let csv = report::bands_csv(lines);
             write_atomically(path, &[], |w| {
@@ -347,30 +241,4 @@ fn write_bands(path: &Path, lines: &[LineBands], samples: usize) -> Result<(), C
             })
         }
     }
-}
-
-/// One chart per axis line: the component along the line's own axis (what a
-/// part dimension sees), its estimate and 2.5 / 97.5 % quantiles.
-fn band_charts(lines: &[LineBands], samples: usize) -> Vec<Chart> {
-    lines
-        .iter()
-        .map(|l| {
-            let a = l.axis;
-            let name = ['X', 'Y', 'Z'][a];
-            let mut series = [Vec::new(), Vec::new(), Vec::new()];
-            for (p, b) in l.points_mm.iter().zip(&l.bands) {
-                series[0].push((p[a], b.estimate_um[a]));
-                series[1].push((p[a], b.lo_um[a]));
-                series[2].push((p[a], b.hi_um[a]));
-            }
-            let [est, lo95, hi95] = series;
-            Chart {
-                title: format!("identified e_{} along {name} through the middle, 95 % Monte Carlo band ({samples} draws)", name.to_ascii_lowercase()),
-                x_label: format!("{name} (mm)"),
-                y_label: "deviation (µm)".into(),
-                series: vec![Series::line("estimate", est), Series::line("2.5 %", lo95), Series::line("97.5 %", hi95)],
-                ..Chart::default()
-            }
-        })
-        .collect()
 }

@@ -21,7 +21,7 @@ pub mod predict;
 pub mod program;
 pub mod quick_map;
 pub mod report;
-pub mod request;
+pub mod trace;
 
 pub use figures::{figures, Figures};
 pub use fit::{fit, Cause, FitOptions, TraceFit};

@@ -108,7 +108,7 @@ pub fn files() -> Vec<(String, String)> {
         }
         (
             format!("ballbar/{}.csv", plane.name().to_ascii_lowercase()),
-            crate::io::ballbar_trace::write(&trace),
+            crate::ballbar::trace::write(&trace),
         )
     }));
     out

@@ -14,7 +14,6 @@
 //! * [`probe_log`]: what a machine recorded while probing (LinuxCNC `(LOG,…)` files, CSV points).
 //! * [`output`]: safe output (plans checked before work, atomic files).
 
-pub mod ballbar_trace;
 pub mod controllers;
 pub mod exchange;
 pub mod grid;

@@ -572,6 +572,15 @@ pub fn unit_of(name: &str) -> Option<&'static str> {
     })
 }
 
+/// `X,Y,Z`: three finite numbers.
+pub fn parse_triple(text: &str) -> Option<[f64; 3]> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+        .collect::<Option<_>>()?;
+    <[f64; 3]>::try_from(v).ok()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -17,13 +17,17 @@
 //! the request, its check beside the others; both front ends then take it
 //! with its help (docs/architecture.md, "Where a new option goes").
 
+pub mod ballbar;
+pub mod charts;
 mod compensate;
+pub mod demo;
 mod export;
 mod machine;
 mod map;
+mod map_jobs;
 mod mirror;
 pub mod option;
-mod probe;
+pub mod probe;
 mod report;
 mod simulate;
 mod straightness;
@@ -39,6 +43,11 @@ pub use export::{
 };
 pub use machine::{Machine, MachineRequest, MACHINE_OPTIONS, NO_WORK_OFFSET};
 pub use map::{MapRequest, MAP_OPTIONS};
+pub use map_jobs::{
+    import_linuxcnc, import_params, iso230_2_lines, map_charts, map_file_name, map_plot_report,
+    model_outputs, read_text, run_facts, ConvertTo, Iso230_2Job, JobFile, JobOutput, MapBuild,
+    MapConvert, ParamsFormat,
+};
 pub use mirror::{MirrorPlan, MirrorRequest, MirrorRun, MIRROR_OPTIONS};
 pub use option::{
     did_you_mean, render, Input, Kind, Names, OptionError, OptionInfo, Request, Spelling,
@@ -57,7 +66,7 @@ pub use thermal::{
 };
 pub use time::{TimeRequest, TIME_OPTIONS};
 
-pub use crate::ballbar::request::{
+pub use ballbar::{
     BallbarFitRequest, BallbarMapRequest, BallbarPredictRequest, BALLBAR_FIT_OPTIONS,
     BALLBAR_MAP_OPTIONS, BALLBAR_PREDICT_OPTIONS,
 };

@@ -483,14 +483,7 @@ fn edit_distance(a: &str, b: &str) -> usize {
     d[a.len()][b.len()]
 }
 
-/// `X,Y,Z`: three finite numbers.
-pub fn parse_triple(text: &str) -> Option<[f64; 3]> {
-    let v: Vec<f64> = text
-        .split(',')
-        .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
-        .collect::<Option<_>>()?;
-    <[f64; 3]>::try_from(v).ok()
-}
+pub use crate::io::table::parse_triple;
 
 /// `lo:hi,lo:hi,lo:hi`: three ranges of finite numbers.
 pub fn parse_ranges(text: &str) -> Option<[[f64; 2]; 3]> {

@@ -479,6 +479,111 @@ impl super::Request for ProbeFitRequest {
     }
 }
 
+/// What `probe plan` says once its program is written to `output`: each
+/// placement's touches and time, then the whole plan's (probing at
+/// `feeds_mm_min`, fast and slow).
+pub fn plan_lines(
+    out: &crate::identify::probe::request::PlanOutput,
+    job: &ProbePlanRequest,
+    feeds_mm_min: (f64, f64),
+    output: &std::path::Path,
+) -> Vec<String> {
+    use crate::identify::probe::program::duration;
+    let mut lines: Vec<String> = out
+        .plan
+        .placement_time_s
+        .iter()
+        .map(|(name, t)| {
+            let n = out
+                .plan
+                .touches
+                .iter()
+                .filter(|x| &x.placement == name)
+                .count();
+            format!("placement {name}: {n} touches, about {}", duration(*t))
+        })
+        .collect();
+    lines.push(format!(
+        "wrote {}: {} touches, about {} on the machine (probing at F{} / F{}, rapids {} mm/min, {} mm/s²; operator pauses not counted); the log goes to {}",
+        output.display(),
+        out.plan.touches.len(),
+        duration(out.plan.time_s),
+        feeds_mm_min.0,
+        feeds_mm_min.1,
+        job.rapid_mm_min,
+        job.accel_mm_s2,
+        job.log_file
+    ));
+    lines
+}
+
+/// The probing fit's HTML report: the run's facts (the model written as
+/// `model`, of `order` and `chain`), its `inputs`, the library's sections.
+pub fn fit_report_html(
+    out: &crate::identify::probe::request::FitOutput,
+    ranges: [[f64; 2]; 3],
+    (order, chain): (usize, &str),
+    model: &std::path::Path,
+    command: &str,
+    inputs: Vec<crate::report::InputFile>,
+) -> String {
+    let travel = ranges
+        .iter()
+        .map(|r| format!("{}:{}", r[0], r[1]))
+        .collect::<Vec<_>>()
+        .join(",");
+    crate::report::Document {
+        title: "volcomp probing calibration".into(),
+        facts: vec![
+            ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
+            ("command".into(), command.to_string()),
+            ("date".into(), crate::io::provenance::now_utc()),
+            (
+                "model".into(),
+                format!("{} (order {}, chain {})", model.display(), order, chain),
+            ),
+            ("travel (mm)".into(), travel),
+        ],
+        inputs,
+        sections: crate::report::probe::sections(out, ranges),
+    }
+    .to_html()
+}
+
+/// What `probe verify` says: what is left over the volume and each
+/// identified parameter with its standard uncertainty.
+pub fn verify_lines(out: &crate::identify::probe::verify::VerifyOutput) -> Vec<String> {
+    use crate::identify::probe::identify::Status;
+    let mut lines = vec![format!(
+        "what is left: RMS {:.2} µm over the volume (modulo a rigid motion); {} parameter(s) beyond three standard uncertainties{}",
+        out.left_rms_um,
+        out.significant.len(),
+        if out.significant.is_empty() { String::new() } else { format!(": {}", out.significant.join(", ")) }
+    )];
+    for p in &out.identified.params {
+        if let Status::Identified(e) = p.status {
+            lines.push(format!(
+                "  {:<8} {:>9.3} ± {:.3} {}",
+                p.name,
+                e.value,
+                e.sigma,
+                if p.unit == "um" { "µm" } else { "µrad" }
+            ));
+        }
+    }
+    lines
+}
+
+/// What `probe example` says once the campaign is written into `dir`.
+pub fn example_lines(dir: &std::path::Path) -> Vec<String> {
+    let d = dir.display();
+    vec![
+        format!("wrote the probing example into {d} (a synthetic machine, 0.4 µm probe noise); try:"),
+        format!("  volcomp probe plan {d}/plate.toml --setup {d}/setup.toml --probe-tool 9 --tip-diameter-mm 2 -o plate.ngc"),
+        format!("  volcomp probe fit --artifact {d}/reference.toml --artifact {d}/plate.toml --artifact {d}/gauge.toml \\\n      --log {d}/reference.log --log {d}/plate.log --log {d}/gauge.log --ranges-mm 0:600,0:400,0:300 -o model.toml"),
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::Request;

@@ -9,29 +9,26 @@
 mod args;
 mod eval;
 mod export;
-mod iso;
 
 pub use args::*;
 
+use crate::commands::compensate::command_line;
 use crate::commands::parse_triple;
+use crate::options::flags;
 use crate::output::{check, write_atomically, CliError, OutputPlan};
-use crate::plot::{write_charts, Chart, Series};
+use crate::plot::{charts, write_charts};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use volcomp_core::example::kinematic as kinematic_example;
-use volcomp_core::identify::iso230_2;
-use volcomp_core::io::grid::{self, GridError};
-use volcomp_core::io::linuxcnc_comp::{self, Positioning};
-use volcomp_core::io::model_file;
 use volcomp_core::io::{load_model, LoadOptions, LoadedModel};
 use volcomp_core::model::axis_table::AxisTableMap;
-use volcomp_core::model::kinematic::{Form, KinematicModel};
+use volcomp_core::model::kinematic::KinematicModel;
 use volcomp_core::model::topology::Topology;
 use volcomp_core::model::{parse_directions, Directions, ErrorModel};
-use volcomp_core::report::map::component_charts;
-use volcomp_core::request::{self, MapToolRequest, MapView};
-use volcomp_gcode::Vec3;
-use volcomp_geom::Axis;
+use volcomp_core::request::{
+    self, map_charts, map_file_name, map_plot_report, model_outputs, read_text, ConvertTo,
+    Iso230_2Job, JobOutput, MapBuild, MapConvert, MapView,
+};
 
 const AXES: [char; 3] = ['X', 'Y', 'Z'];
 
@@ -107,15 +104,6 @@ fn chain(text: Option<&str>) -> Result<Topology, CliError> {
     }
 }
 
-fn positive_step(step: Option<f64>) -> Result<Option<f64>, CliError> {
-    match step {
-        Some(s) if !(s.is_finite() && s > 0.0) => Err(CliError::Message(format!(
-            "--step must be a positive length in mm; got {s}"
-        ))),
-        other => Ok(other),
-    }
-}
-
 /// Writes `text` to `path` atomically, refusing to overwrite `inputs`.
 fn write_text(path: &Path, inputs: &[&Path], text: &str) -> Result<(), CliError> {
     write_atomically(path, inputs, |w| {
@@ -124,194 +112,80 @@ fn write_text(path: &Path, inputs: &[&Path], text: &str) -> Result<(), CliError>
     })
 }
 
-/// The files a model written as `out` (.toml) consists of: it and its
-/// tables beside it (same stem, .csv).
-fn model_outputs(plan: &mut OutputPlan, flag: &str, out: &Path) {
-    plan.output(flag, out);
-    let is_toml = out
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    if is_toml {
-        plan.output(
-            format!("{flag} (its tables beside it)"),
-            out.with_extension("csv"),
-        );
+/// Declares the files of a job as the outputs of `flag`.
+fn plan_outputs(plan: &mut OutputPlan, flag: &str, files: Vec<(String, PathBuf)>) {
+    for (what, path) in files {
+        match what.as_str() {
+            "" => plan.output(flag, path),
+            what => plan.output(format!("{flag} {what}"), path),
+        };
     }
 }
 
-/// Writes `model` as `out` (TOML) and its tables beside it (same stem, .csv).
-fn write_model(
-    model: &KinematicModel,
-    out: &Path,
-    inputs: &[&Path],
-    description: Option<&str>,
-) -> Result<(), CliError> {
-    let files = model_file::model_files(model, out, description)?;
-    write_text(&files.csv_path, inputs, &files.csv)?;
-    write_text(out, inputs, &files.toml)?;
-    crate::note!(
-        "volcomp: wrote {} and {}",
-        out.display(),
-        files.csv_path.display()
-    );
+/// Says and writes what a job gives: its standard output and warnings,
+/// its folders and files (never over `inputs`), then its notes.
+fn deliver(job: JobOutput, inputs: &[&Path]) -> Result<(), CliError> {
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    for line in &job.stdout {
+        writeln!(out, "{line}").map_err(CliError::Stdout)?;
+    }
+    drop(out);
+    for w in &job.warnings {
+        eprintln!("{w}");
+    }
+    for d in &job.dirs {
+        std::fs::create_dir_all(d).map_err(|e| CliError::Io(d.clone(), e))?;
+    }
+    for f in &job.files {
+        write_text(&f.path, inputs, &f.text)?;
+    }
+    for n in &job.notes {
+        crate::note!("{}", flags(n));
+    }
     Ok(())
 }
 
 fn convert(a: ConvertArgs) -> Result<(), CliError> {
+    let at = a.at.as_deref().map(|t| parse_triple(t, "--at")).transpose();
+    let job = MapConvert {
+        to: match a.to {
+            ConvertTarget::AxisTable => ConvertTo::AxisTable,
+            ConvertTarget::Grid => ConvertTo::Grid,
+            ConvertTarget::Linuxcnc => ConvertTo::Linuxcnc,
+            ConvertTarget::Model => ConvertTo::Model,
+        },
+        output: &a.output,
+        at: None,
+        tool: &a.tool,
+        step_mm: a.step,
+        directions: volcomp_core::model::ALL_FORWARD,
+        comp: &a.comp,
+        max_table_error_um: a.max_table_error_um,
+        chain: Topology::SEED,
+    };
     let mut plan = OutputPlan::new();
     plan.map_input("MAP", &a.map);
-    match a.to {
-        ConvertTarget::Linuxcnc => {
-            for axis in AXES {
-                let name = format!("{}.comp", axis.to_ascii_lowercase());
-                plan.output(format!("-o (its {name})"), a.output.join(&name));
-            }
-        }
-        ConvertTarget::Model => model_outputs(&mut plan, "-o", &a.output),
-        _ => {
-            plan.output("-o", &a.output);
-        }
-    }
+    plan_outputs(&mut plan, "-o", job.outputs());
     check(&plan)?;
     let map = load_map(&a.map, false)?;
-    let form = a.tool.form()?;
-    match a.to {
-        ConvertTarget::AxisTable => {
-            let Map::Kinematic(m) = &map else {
-                return Err(CliError::Message(format!(
-                    "{} already is an axis-table map",
-                    a.map.display()
-                )));
-            };
-            let mut m = (**m).clone();
-            m.form = form;
-            let Some(tool) = a.tool.offset()? else {
-                return Err(CliError::Message("axis tables hold the deviation for one tool: pass --tool-length MM (or --tool-offset X,Y,Z), e.g. the length of the tool the program uses".into()));
-            };
-            let reference = match (&a.at, m.shared_measuring().0) {
-                (Some(t), _) => parse_triple(t, "--at")?,
-                (None, Some(p)) => p,
-                (None, None) => return Err(CliError::Message("the model's axes were measured along different lines: pass --at X,Y,Z, the position whose three lines the axis tables should reproduce (e.g. the middle of the part)".into())),
-            };
-            let tables = m.to_axis_tables(reference, tool, form)?;
-            let worst = m.largest_difference_um(tool, &tables)?;
-            write_text(&a.output, &[&a.map], &tables.to_csv())?;
-            crate::note!(
-                "volcomp: wrote {} for tool length offset ({}, {}, {}) mm, exact on the lines through ({}, {}, {}) mm; elsewhere it differs from the model by up to {worst:.3} µm (the Abbe cross terms an axis-table map cannot hold)",
-                a.output.display(), tool.x, tool.y, tool.z, reference.x, reference.y, reference.z
-            );
-            Ok(())
-        }
-        ConvertTarget::Grid => {
-            let step = positive_step(a.step)?.unwrap_or(25.0);
-            let s = directions(&a.direction)?;
-            let tool = a.tool.offset()?.unwrap_or(Vec3::ZERO);
-            let name = a.map.display().to_string();
-            let (text, count) =
-                grid::grid_csv(map.model(), &name, tool, s, step).map_err(|e| match e {
-                    GridError::TooManyPoints { step_mm, points } => CliError::Message(format!(
-                        "a {step_mm} mm grid over this range has {points} points; choose a larger --step"
-                    )),
-                    other => other.into(),
-                })?;
-            write_text(&a.output, &[&a.map], &text)?;
-            crate::note!("volcomp: wrote {} ({count} points)", a.output.display());
-            Ok(())
-        }
-        ConvertTarget::Linuxcnc => convert_linuxcnc(&a, &map, form),
-        ConvertTarget::Model => {
-            let model = match map {
-                Map::Tables(t) => {
-                    KinematicModel::from_axis_tables(t.as_ref(), chain(a.chain.as_deref())?)
-                }
-                Map::Kinematic(m) => *m,
-            };
-            write_model(&model, &a.output, &[&a.map], None)
-        }
-    }
-}
-
-/// The positioning tables `E_aa` of a map: the axis tables' own, or a
-/// 21-component model's as measured (or at `--at` for the tool).
-fn positioning_tables(
-    map: &Map,
-    at: Option<&str>,
-    tool: &MapToolRequest,
-    form: Form,
-) -> Result<[Positioning; 3], CliError> {
-    let (at, tool) = match map {
-        Map::Tables(_) => (None, None),
-        Map::Kinematic(_) => {
-            let tool = tool.offset()?;
-            (at.map(|t| parse_triple(t, "--at")).transpose()?, tool)
-        }
+    let job = MapConvert {
+        at: match (job.to, &map) {
+            (ConvertTo::AxisTable | ConvertTo::Linuxcnc, Map::Kinematic(_)) => at?,
+            _ => None,
+        },
+        directions: match job.to {
+            ConvertTo::Grid => directions(&a.direction)?,
+            _ => job.directions,
+        },
+        chain: match (job.to, &map) {
+            (ConvertTo::Model, Map::Tables(_)) => chain(a.chain.as_deref())?,
+            _ => Topology::SEED,
+        },
+        ..job
     };
-    Ok(request::positioning_tables(map.view(), at, tool, form)?)
-}
-
-fn convert_linuxcnc(a: &ConvertArgs, map: &Map, form: Form) -> Result<(), CliError> {
-    use volcomp_core::io::controllers::{table_error, ControllerCorrection, Format};
-    let (ty, units) = a.comp.get()?;
-    let original = positioning_tables(map, a.at.as_deref(), &a.tool, form)?;
-    let step = positive_step(a.step)?;
-    let tables = match step {
-        Some(step) => original.clone().map(|p| p.resample(step)),
-        None => original.clone(),
-    };
-    let mut texts = Vec::new();
-    let mut applied = ControllerCorrection::empty(Format::Linuxcnc);
-    for (k, p) in tables.iter().enumerate() {
-        let text = linuxcnc_comp::write(p, ty, units).map_err(|m| {
-            CliError::Message(format!(
-                "axis {}: {m}; pass --step MM to resample the table (linear interpolation) at a spacing LinuxCNC can hold",
-                AXES[k]
-            ))
-        })?;
-        applied.axes[k] = Some(linuxcnc_comp::parse(&text, "comp", ty, units)?);
-        texts.push(text);
-    }
-    // How far the written tables lie from the map, checked before writing.
-    if !(a.max_table_error_um.is_finite() && a.max_table_error_um > 0.0) {
-        return Err(CliError::Message(format!(
-            "--max-table-error-um must be positive; got {}",
-            a.max_table_error_um
-        )));
-    }
-    let err = table_error::table_error(
-        &original.map(Some),
-        &applied,
-        [table_error::Holds::BothDirections; 3],
-        None,
-    );
-    table_error::check("linuxcnc", &err, 0.0, step, a.max_table_error_um)?;
-    std::fs::create_dir_all(&a.output).map_err(|e| CliError::Io(a.output.clone(), e))?;
-    let mut names = Vec::new();
-    for (k, text) in texts.iter().enumerate() {
-        let path = a
-            .output
-            .join(format!("{}.comp", AXES[k].to_ascii_lowercase()));
-        write_text(&path, &[&a.map], text)?;
-        names.push(path);
-    }
-    crate::note!(
-        "volcomp: the comp files lie at most {} µm from the map's positioning errors (checked at every point of both tables); --max-table-error-um allows {}",
-        table_error::um(err.max_um),
-        table_error::um(a.max_table_error_um)
-    );
-    let stdout = std::io::stdout();
-    let mut out = stdout.lock();
-    writeln!(out, "# LinuxCNC INI lines (joints 0, 1, 2 = X, Y, Z with trivkins); remove BACKLASH, the comp files hold the reversal").map_err(CliError::Stdout)?;
-    for (k, p) in names.iter().enumerate() {
-        writeln!(
-            out,
-            "[JOINT_{k}]\nCOMP_FILE = {}\nCOMP_FILE_TYPE = {}",
-            p.display(),
-            ty.number()
-        )
-        .map_err(CliError::Stdout)?;
-    }
-    Ok(())
+    let out = job.run(map.view(), &a.map.display().to_string())?;
+    deliver(out, &[&a.map])
 }
 
 fn plot(a: PlotArgs) -> Result<(), CliError> {
@@ -319,57 +193,21 @@ fn plot(a: PlotArgs) -> Result<(), CliError> {
     plan.map_input("MAP", &a.map).output("-o", &a.output);
     check(&plan)?;
     let map = load_map(&a.map, false)?;
-    let name = a
-        .map
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| a.map.display().to_string());
-    let charts = match &map {
-        Map::Tables(m) => component_charts::tables(&name, m),
-        Map::Kinematic(m) => component_charts::kinematic(&name, m),
-    };
     let is_html = a
         .output
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("html"));
-    if is_html {
-        let mut inputs = vec![volcomp_core::report::InputFile::read("map", &a.map)?];
-        if let Map::Tables(_) = &map {
-            inputs[0].role = "map (axis tables)".into();
-        }
-        let doc = volcomp_core::report::Document {
-            title: format!("volcomp error map report: {name}"),
-            facts: vec![
-                ("command".into(), super::compensate::command_line()),
-                ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
-                ("date (UTC)".into(), volcomp_core::io::provenance::now_utc()),
-            ],
-            inputs,
-            sections: volcomp_core::report::map::sections(&charts),
-        };
-        write_text(&a.output, &[&a.map], &doc.to_html())?;
+    let count = if is_html {
+        let (html, count) = map_plot_report(map.view(), &a.map, &command_line())?;
+        write_text(&a.output, &[&a.map], &html)?;
+        count
     } else {
-        let drawn: Vec<Chart> = charts
-            .iter()
-            .map(|c| Chart {
-                title: c.title.clone(),
-                x_label: c.x_label.clone(),
-                y_label: c.y_label.clone(),
-                series: c
-                    .series
-                    .iter()
-                    .map(|s| Series::line(s.name.clone(), s.points.clone()))
-                    .collect(),
-                ..Chart::default()
-            })
-            .collect();
+        let charts = map_charts(map.view(), &map_file_name(&a.map));
+        let drawn = charts::component_line_charts(&charts);
         write_charts(&drawn, &a.output)?;
-    }
-    crate::note!(
-        "volcomp: wrote {} ({} charts)",
-        a.output.display(),
         charts.len()
-    );
+    };
+    crate::note!("volcomp: wrote {} ({count} charts)", a.output.display());
     Ok(())
 }
 
@@ -378,129 +216,52 @@ fn import_linuxcnc(a: ImportArgs) -> Result<(), CliError> {
     plan.input("--x", &a.x)
         .input("--y", &a.y)
         .input("--z", &a.z);
-    model_outputs(&mut plan, "-o", &a.output);
+    plan_outputs(&mut plan, "-o", model_outputs(&a.output));
     check(&plan)?;
-    let (ty, units) = a.comp.get()?;
-    let p = [
-        linuxcnc_comp::read(&a.x, ty, units)?,
-        linuxcnc_comp::read(&a.y, ty, units)?,
-        linuxcnc_comp::read(&a.z, ty, units)?,
-    ];
-    let tables = AxisTableMap::from_positioning(&p);
     let inputs: [&Path; 3] = [&a.x, &a.y, &a.z];
-    let ext = a
+    let is_toml = a
         .output
         .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("csv") => {
-            let text = linuxcnc_comp::imported_tables_csv(&tables, ty, units);
-            write_text(&a.output, &inputs, &text)?;
-            crate::note!("volcomp: wrote {}", a.output.display());
-            Ok(())
-        }
-        Some("toml") => {
-            let model = KinematicModel::from_axis_tables(&tables, chain(a.chain.as_deref())?);
-            write_model(
-                &model,
-                &a.output,
-                &inputs,
-                Some("imported from LinuxCNC comp files: positioning errors only"),
-            )
-        }
-        _ => Err(CliError::Message(format!(
-            "{}: write an axis-table .csv or a 21-component .toml",
-            a.output.display()
-        ))),
-    }
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    let chain = match is_toml {
+        true => chain(a.chain.as_deref())?,
+        false => Topology::SEED,
+    };
+    deliver(
+        request::import_linuxcnc(inputs, &a.comp, &a.output, chain)?,
+        &inputs,
+    )
 }
 
 fn build_model(a: BuildArgs) -> Result<(), CliError> {
-    use volcomp_core::identify::build;
-    let read = |p: &Path| -> Result<String, CliError> {
-        let bytes = volcomp_core::io::inputs::read(p, "an input")
-            .map_err(|e| CliError::Io(p.to_path_buf(), e))?;
-        Ok(volcomp_core::io::table::utf8(&bytes, &p.display().to_string())?.to_string())
-    };
-    let plan_text = read(&a.plan)?;
-    let plan_name = a.plan.display().to_string();
-    let (plan, runs) = build::parse_plan(&plan_text, &plan_name)?;
-    let dir = a.plan.parent().unwrap_or(Path::new("")).to_path_buf();
-    let paths: Vec<std::path::PathBuf> = runs.iter().map(|(_, f)| dir.join(f)).collect();
-    let mut out_plan = OutputPlan::new();
-    out_plan.input("PLAN", &a.plan);
-    for (p, (c, _)) in paths.iter().zip(&runs) {
-        out_plan.input(format!("the run of {c}"), p);
+    let text = read_text(&a.plan, "an input")?;
+    let job = MapBuild::new(&text, &a.plan)?;
+    let mut plan = OutputPlan::new();
+    plan.input("PLAN", &a.plan);
+    for (c, p) in job.runs() {
+        plan.input(format!("the run of {c}"), p);
     }
-    model_outputs(&mut out_plan, "-o", &a.output);
-    check(&out_plan)?;
-    let mut read_runs = Vec::new();
-    for (p, (c, _)) in paths.iter().zip(&runs) {
-        read_runs.push(build::read_run(c, &read(p)?, &p.display().to_string())?);
-    }
-    let (model, summary) = build::build(&plan, &read_runs, &plan_name)?;
-    let stdout = std::io::stdout();
-    let mut out = stdout.lock();
-    for l in summary.lines() {
-        writeln!(out, "{l}").map_err(CliError::Stdout)?;
-    }
-    if let Some(d) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(d).map_err(|e| CliError::Io(d.to_path_buf(), e))?;
-    }
+    plan_outputs(&mut plan, "-o", model_outputs(&a.output));
+    check(&plan)?;
+    let out = job.run(&a.output)?;
     let mut inputs: Vec<&Path> = vec![&a.plan];
-    inputs.extend(paths.iter().map(|p| p.as_path()));
-    write_model(
-        &model,
-        &a.output,
-        &inputs,
-        Some(&format!("built from the runs of {plan_name}")),
-    )
+    inputs.extend(job.runs().iter().map(|(_, p)| p.as_path()));
+    deliver(out, &inputs)
 }
 
 fn import_params(a: ImportParamsArgs) -> Result<(), CliError> {
-    use volcomp_core::io::exchange;
     let mut plan = OutputPlan::new();
     plan.input("FILE", &a.file);
-    model_outputs(&mut plan, "-o", &a.output);
+    plan_outputs(&mut plan, "-o", model_outputs(&a.output));
     check(&plan)?;
-    let bytes = volcomp_core::io::inputs::read(&a.file, "FILE")
-        .map_err(|e| CliError::Io(a.file.clone(), e))?;
-    let name = a.file.display().to_string();
-    let text = volcomp_core::io::table::utf8(&bytes, &name)?;
-    let params = match a.from {
-        ParamsFormat::IsgCsv => exchange::parse_isg_csv(text, &name)?,
-        ParamsFormat::Etalon => exchange::parse_etalon(text, &name)?,
+    let text = read_text(&a.file, "FILE")?;
+    let from = match a.from {
+        ParamsFormat::IsgCsv => request::ParamsFormat::IsgCsv,
+        ParamsFormat::Etalon => request::ParamsFormat::Etalon,
     };
-    let imported = exchange::to_model(&params, &name, text, chain(a.chain.as_deref())?)?;
-    if let Some(dir) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| CliError::Io(dir.to_path_buf(), e))?;
-    }
-    if !imported.assumed_zero.is_empty() {
-        eprintln!(
-            "volcomp: not in the file, taken as zero: {}",
-            imported.assumed_zero.join(", ")
-        );
-    }
-    if !imported.not_used.is_empty() {
-        eprintln!(
-            "volcomp: not used (rotary axes or zero): {}",
-            imported.not_used.join(", ")
-        );
-    }
-    write_model(
-        &imported.model,
-        &a.output,
-        &[&a.file],
-        Some(&format!(
-            "imported from {} ({})",
-            name,
-            match a.from {
-                ParamsFormat::IsgCsv => "ISG CSV",
-                ParamsFormat::Etalon => "Etalon exchange format",
-            }
-        )),
-    )
+    let chain = chain(a.chain.as_deref())?;
+    let job = request::import_params(&text, &a.file, from, &a.output, chain)?;
+    deliver(job, &[&a.file])
 }
 
 fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
@@ -511,67 +272,20 @@ fn iso230_2(a: IsoArgs) -> Result<(), CliError> {
     check(&plan)?;
     let text = volcomp_core::io::inputs::read_to_string(&a.runs, "RUNS")
         .map_err(|e| CliError::Io(a.runs.clone(), e))?;
-    let r = iso230_2::from_csv(&text, &a.runs.display().to_string())?;
-    if let Some(path) = &a.report_html {
-        let axis = a.axis.map_or("not given (--axis)".to_string(), |x| {
-            AXES[x.index()].to_string()
-        });
-        let doc = volcomp_core::report::Document {
-            title: format!("volcomp positioning test report: {}", a.runs.display()),
-            facts: vec![
-                ("command".into(), super::compensate::command_line()),
-                ("volcomp".into(), env!("CARGO_PKG_VERSION").into()),
-                ("date (UTC)".into(), volcomp_core::io::provenance::now_utc()),
-                ("axis".into(), axis),
-                (
-                    "evaluation".into(),
-                    "ISO 230-2:2014, clause 3 (bidirectional)".into(),
-                ),
-            ],
-            inputs: vec![volcomp_core::report::InputFile::from_bytes(
-                "runs",
-                a.runs.display().to_string(),
-                text.as_bytes(),
-            )],
-            sections: volcomp_core::report::iso230_2::sections(&r),
-        };
-        write_text(path, &[&a.runs], &doc.to_html())?;
-        crate::note!("volcomp: wrote {}", path.display());
-    }
+    let command = command_line();
+    let job = Iso230_2Job {
+        runs: &a.runs,
+        axis: a.axis,
+        output: a.output.as_deref(),
+        comp: &a.comp,
+        report_html: a.report_html.as_deref(),
+        command: &command,
+    };
+    let (r, mut out) = job.run(&text)?;
     if a.json {
-        let stdout = std::io::stdout();
-        let mut out = stdout.lock();
-        writeln!(out, "{}", serde_json::to_string(&r)?).map_err(CliError::Stdout)?;
-    } else {
-        iso::print_iso230_2(&a.runs, &r)?;
+        out.stdout = vec![serde_json::to_string(&r)?];
     }
-    if let (Some(path), Some(axis)) = (&a.output, a.axis) {
-        let k = axis.index();
-        let p = r.positioning();
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        let text = match ext.as_deref() {
-            Some("comp") => {
-                let (ty, units) = a.comp.get()?;
-                linuxcnc_comp::write(&p, ty, units)?
-            }
-            Some("csv") => model_file::positioning_rows_csv(
-                &p,
-                Axis::ALL[k],
-                &format!(
-                    "ISO 230-2 mean unidirectional deviations of {} from {}: positioning only",
-                    AXES[k],
-                    a.runs.display()
-                ),
-            ),
-            _ => return Err(CliError::Message(format!("{}: write the positioning table as .csv (21-component table rows) or .comp (LinuxCNC)", path.display()))),
-        };
-        write_text(path, &[&a.runs], &text)?;
-        crate::note!("volcomp: wrote {}", path.display());
-    }
-    Ok(())
+    deliver(out, &[&a.runs])
 }
 
 fn example(a: ExampleArgs) -> Result<(), CliError> {

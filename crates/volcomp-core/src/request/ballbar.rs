@@ -3,11 +3,11 @@
 //! test's program), `fit` (a trace file → figures and causes), `map`
 //! (traces in three planes → the quick model).
 
-use super::fit::{fit, FitOptions, TraceFit};
-use super::predict::{predict, predict_program, TestCircle};
-use super::quick_map::{quick_model, QuickModel};
-use super::{figures, BallbarError, Figures, Plane, Sense, Trace};
-use crate::io::ballbar_trace;
+use crate::ballbar::fit::{fit, FitOptions, TraceFit};
+use crate::ballbar::predict::{predict, predict_program, TestCircle};
+use crate::ballbar::quick_map::{quick_model, QuickModel};
+use crate::ballbar::trace as ballbar_trace;
+use crate::ballbar::{figures, BallbarError, Figures, Plane, Sense, Trace};
 use crate::request::option::{Input, Kind, OptionError, OptionInfo, Value};
 use crate::Error;
 use std::path::Path;
@@ -199,7 +199,7 @@ impl BallbarPredictRequest {
 
     /// The test's program (LinuxCNC dialect).
     pub fn test_program(&self) -> Result<String, Error> {
-        Ok(super::program::program(&self.test()?)?)
+        Ok(crate::ballbar::program::program(&self.test()?)?)
     }
 
     /// Predicts the test on the machine of the error map `map`.
@@ -222,7 +222,7 @@ impl BallbarPredictRequest {
         Ok(Prediction {
             trace,
             figures,
-            program: super::program::program(&test)?,
+            program: crate::ballbar::program::program(&test)?,
         })
     }
 }
@@ -502,5 +502,10 @@ pub fn report_html(
     let mut traces = vec![(name, trace, figures)];
     traces.extend(before.as_ref().map(|(t, f)| ("before", t, f)));
     let facts = vec![("trace".into(), name.to_string())];
-    Ok(super::report::document(title, facts, super::report::sections(&traces, fit)).to_html())
+    Ok(crate::ballbar::report::document(
+        title,
+        facts,
+        crate::ballbar::report::sections(&traces, fit),
+    )
+    .to_html())
 }

@@ -92,16 +92,15 @@ pub fn read(text: &str, file: &str) -> Result<TraceFile, MapFileError> {
                 setup.feed_mm_per_min = Some(number("write the programmed feed in mm/min")?)
             }
             "centre_mm" | "center_mm" => {
-                setup.centre_mm =
-                    Some(crate::request::option::parse_triple(value).ok_or_else(|| {
-                        setup_error(
+                setup.centre_mm = Some(crate::io::table::parse_triple(value).ok_or_else(|| {
+                    setup_error(
                         file,
                         *line,
                         c,
                         format!("`{value}` is not three numbers"),
                         "write the pivot's machine coordinates in mm: centre_mm = 150, 140, 130",
                     )
-                    })?)
+                })?)
             }
             _ => {}
         }
