@@ -5,7 +5,7 @@ use crate::options::Options;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 use volcomp_core::request::{
-    CompensateRequest, MachineRequest, MapRequest, SimulateRequest, TimeRequest,
+    CompensateRequest, MachineRequest, MapRequest, ReportRequest, SimulateRequest, TimeRequest,
 };
 use volcomp_geom::Axis;
 
@@ -129,6 +129,8 @@ pub struct CompensateArgs {
     /// SHA-256, set-up, method; errors before and after; pictures).
     #[arg(long, value_name = "FILE.html")]
     pub report_html: Option<PathBuf>,
+    #[command(flatten)]
+    pub title: Options<ReportRequest>,
     /// Output program ("-" for standard output); required unless --filter.
     #[arg(short, long, value_name = "OUT", required_unless_present = "filter")]
     pub output: Option<PathBuf>,
@@ -159,6 +161,8 @@ pub struct SimulateArgs {
     /// on its own as "before", PROGRAM as "after").
     #[arg(long, value_name = "FILE.html")]
     pub report_html: Option<PathBuf>,
+    #[command(flatten)]
+    pub title: Options<ReportRequest>,
 }
 
 #[derive(Args, Debug)]

@@ -232,49 +232,9 @@ fn write_moves(
     for mut batch in rx {
         for m in &batch {
             if json {
-                text.extend_from_slice(if first { b"\n" } else { b",\n" });
-                text.extend_from_slice(b"{\"line\":");
-                push_uint(m.line, &mut text);
-                text.extend_from_slice(b",\"column\":");
-                push_uint(m.column as u64, &mut text);
-                text.extend_from_slice(b",\"kind\":\"");
-                text.extend_from_slice(m.kind.as_bytes());
-                text.extend_from_slice(b"\",\"source\":\"");
-                text.extend_from_slice(m.source.as_bytes());
-                text.extend_from_slice(b"\",\"end_mm\":[");
-                push_triple(m.end, &mut text, num);
-                text.push(b']');
-                if let Some(c) = m.center {
-                    text.extend_from_slice(b",\"center_mm\":[");
-                    push_triple(c, &mut text, num);
-                    text.push(b']');
-                }
-                if extra_columns || m.extra_end != [0.0; 6] {
-                    text.extend_from_slice(b",\"extra\":[");
-                    push_extra(&m.extra_end, &mut text, num);
-                    text.push(b']');
-                }
-                text.push(b'}');
+                push_json_row(m, extra_columns, first, &mut text, num);
             } else {
-                push_uint(m.line, &mut text);
-                text.push(b',');
-                push_uint(m.column as u64, &mut text);
-                text.push(b',');
-                text.extend_from_slice(m.kind.as_bytes());
-                text.push(b',');
-                text.extend_from_slice(m.source.as_bytes());
-                text.push(b',');
-                push_triple(m.end, &mut text, num);
-                text.push(b',');
-                match m.center {
-                    Some(c) => push_triple(c, &mut text, num),
-                    None => text.extend_from_slice(b",,"),
-                }
-                if extra_columns {
-                    text.push(b',');
-                    push_extra(&m.extra_end, &mut text, num);
-                }
-                text.push(b'\n');
+                push_csv_row(m, extra_columns, &mut text, num);
             }
             first = false;
             if text.len() >= MOVES_OUTPUT_BYTES {
@@ -290,6 +250,67 @@ fn write_moves(
     }
     out.write_all(&text).map_err(CliError::Stdout)?;
     out.flush().map_err(CliError::Stdout)
+}
+
+/// One move as a JSON object (after a comma unless it is the `first`).
+fn push_json_row(
+    m: &MoveRow,
+    extra_columns: bool,
+    first: bool,
+    text: &mut Vec<u8>,
+    num: impl Fn(f64, &mut Vec<u8>) + Copy,
+) {
+    text.extend_from_slice(if first { b"\n" } else { b",\n" });
+    text.extend_from_slice(b"{\"line\":");
+    push_uint(m.line, text);
+    text.extend_from_slice(b",\"column\":");
+    push_uint(m.column as u64, text);
+    text.extend_from_slice(b",\"kind\":\"");
+    text.extend_from_slice(m.kind.as_bytes());
+    text.extend_from_slice(b"\",\"source\":\"");
+    text.extend_from_slice(m.source.as_bytes());
+    text.extend_from_slice(b"\",\"end_mm\":[");
+    push_triple(m.end, text, num);
+    text.push(b']');
+    if let Some(c) = m.center {
+        text.extend_from_slice(b",\"center_mm\":[");
+        push_triple(c, text, num);
+        text.push(b']');
+    }
+    if extra_columns || m.extra_end != [0.0; 6] {
+        text.extend_from_slice(b",\"extra\":[");
+        push_extra(&m.extra_end, text, num);
+        text.push(b']');
+    }
+    text.push(b'}');
+}
+
+/// One move as a CSV row.
+fn push_csv_row(
+    m: &MoveRow,
+    extra_columns: bool,
+    text: &mut Vec<u8>,
+    num: impl Fn(f64, &mut Vec<u8>) + Copy,
+) {
+    push_uint(m.line, text);
+    text.push(b',');
+    push_uint(m.column as u64, text);
+    text.push(b',');
+    text.extend_from_slice(m.kind.as_bytes());
+    text.push(b',');
+    text.extend_from_slice(m.source.as_bytes());
+    text.push(b',');
+    push_triple(m.end, text, num);
+    text.push(b',');
+    match m.center {
+        Some(c) => push_triple(c, text, num),
+        None => text.extend_from_slice(b",,"),
+    }
+    if extra_columns {
+        text.push(b',');
+        push_extra(&m.extra_end, text, num);
+    }
+    text.push(b'\n');
 }
 
 /// A, B, C (degrees), U, V, W (mm), comma-separated.

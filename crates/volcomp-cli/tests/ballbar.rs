@@ -54,11 +54,7 @@ fn canon(exe: &Path, program: &Path, dir: &Path) -> Vec<(String, Vec<f64>)> {
 #[test]
 fn the_test_program_is_the_nominal_circle_for_rs274() {
     let Some(exe) = rs274::find_rs274() else {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI must install rs274 (linuxcnc-uspace)"
-        );
-        eprintln!("skipped: rs274 is not installed");
+        common::missing(common::RS274, "the ballbar test program on rs274");
         return;
     };
     let d = tempdir("ballbar-rs274");

@@ -512,3 +512,39 @@ fn completions_and_the_man_page_come_from_the_same_flags() {
     let o = common::volcomp(&["-q", "completions", "bash"], &d);
     assert!(o.status.success());
 }
+
+/// A set-up written in mm under `units = "inch"` puts the part 25.4 times
+/// as far out: the message names the set-up as the likely cause, not the
+/// map's unit. G54 X = 590 read as inches is 14 986 mm, which 1/1000 would
+/// also bring inside the 0…600 mm map ("metres", the hint this replaced).
+#[test]
+fn a_set_up_in_mm_under_units_inch_is_named_as_the_cause_not_the_map() {
+    let dir = common::fixture("inch-setup");
+    // The fixture's set-up, its G54 written in mm but said to be inches.
+    std::fs::write(
+        dir.join("machine.toml"),
+        "units = \"inch\"\n[work_offsets]\nG54 = [590, 150, 100]\n",
+    )
+    .unwrap();
+    let o = common::compensate_to(&dir, "o.ngc");
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{e}");
+    // 590 in × 25.4 + X10 (the program is in mm) = 14 996 mm at the
+    // first move; 14 996 / 25.4 = 590.3937 mm.
+    assert!(
+        e.contains("axis X = 14996 mm is outside the map's range 0 … 600 mm"),
+        "{e}"
+    );
+    assert!(
+        e.contains(
+            "help: the set-up says units = \"inch\", and X / 25.4 = 590.3937 mm is inside the map"
+        ),
+        "{e}"
+    );
+    assert!(e.contains("write units = \"mm\" in --setup"), "{e}");
+    assert!(
+        !e.contains("metres") && !e.contains("map may be in another unit"),
+        "{e}"
+    );
+    assert!(!dir.join("o.ngc").exists());
+}

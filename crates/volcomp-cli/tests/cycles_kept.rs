@@ -163,11 +163,7 @@ struct Run {
 
 fn set_up(name: &str) -> Option<Run> {
     let Some(rs274) = find_rs274() else {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "rs274 (linuxcnc-uspace) is not installed"
-        );
-        eprintln!("SKIPPED: rs274 not found (install linuxcnc-uspace)");
+        common::missing(common::RS274, "the kept cycles against rs274");
         return None;
     };
     let dir = common::tempdir(name);

@@ -45,10 +45,10 @@ fn installed() -> bool {
 #[test]
 fn backlash_beside_a_comp_file_is_modelled_as_the_motion_controller_applies_it() {
     if !installed() {
-        if std::env::var_os("CI").is_some() {
-            panic!("LinuxCNC (Debian package linuxcnc-uspace: linuxcnc, halcmd, python3-linuxcnc) is not installed, and CI is set: CI must install it");
-        }
-        eprintln!("!! SKIPPED linuxcnc_backlash: LinuxCNC is not installed (apt install linuxcnc-uspace). BACKLASH beside COMP_FILE was NOT checked on LinuxCNC's motion controller.");
+        common::missing(
+            common::LINUXCNC,
+            "BACKLASH beside COMP_FILE on the motion controller",
+        );
         return;
     }
     let work = tempdir("lcnc-backlash");
@@ -258,10 +258,10 @@ fn mdi_stops(
 #[test]
 fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
     if !installed() {
-        if std::env::var_os("CI").is_some() {
-            panic!("LinuxCNC (Debian package linuxcnc-uspace) is not installed, and CI is set: CI must install it");
-        }
-        eprintln!("!! SKIPPED linuxcnc_backlash: LinuxCNC is not installed. Exported comp files were NOT checked on LinuxCNC's motion controller.");
+        common::missing(
+            common::LINUXCNC,
+            "exported comp files on the motion controller",
+        );
         return;
     }
     let work = tempdir("lcnc-comp");
@@ -318,10 +318,10 @@ fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
 #[test]
 fn backlash_alone_and_a_gantry_are_applied_as_modelled_at_every_stop() {
     if !installed() {
-        if std::env::var_os("CI").is_some() {
-            panic!("LinuxCNC (Debian package linuxcnc-uspace) is not installed, and CI is set: CI must install it");
-        }
-        eprintln!("!! SKIPPED linuxcnc_backlash: LinuxCNC is not installed. BACKLASH and a gantry were NOT checked on LinuxCNC's motion controller.");
+        common::missing(
+            common::LINUXCNC,
+            "BACKLASH and a gantry on the motion controller",
+        );
         return;
     }
     let work = tempdir("lcnc-gantry");
@@ -418,10 +418,10 @@ fn map_error_um(a: usize, q: f64, forward: bool) -> f64 {
 #[test]
 fn a_hybrid_program_leaves_nothing_at_every_stop_beside_backlash() {
     if !installed() {
-        if std::env::var_os("CI").is_some() {
-            panic!("LinuxCNC (Debian package linuxcnc-uspace) is not installed, and CI is set: CI must install it");
-        }
-        eprintln!("!! SKIPPED linuxcnc_backlash: LinuxCNC is not installed. A hybrid program was NOT checked on LinuxCNC's motion controller.");
+        common::missing(
+            common::LINUXCNC,
+            "a hybrid program on the motion controller",
+        );
         return;
     }
     let work = tempdir("lcnc-hybrid");

@@ -25,10 +25,10 @@ fn on_terminal(dir: &Path, args: &str) -> Option<String> {
             String::from_utf8_lossy(&o.stderr)
         ),
         Err(e) => {
-            if std::env::var("CI").is_ok_and(|v| v == "true") {
-                panic!("util-linux `script` is needed for the terminal test: {e}");
-            }
-            eprintln!("SKIPPED: no `script` (util-linux) to make a terminal: {e}");
+            common::missing(
+                &format!("`script` (Debian package bsdutils: {e})"),
+                "the progress bar on a terminal",
+            );
             None
         }
     }

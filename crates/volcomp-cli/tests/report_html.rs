@@ -99,8 +99,25 @@ fn a_compensation_report_holds_the_runs_figures_and_inputs() {
     ] {
         assert!(html.contains(&format!("<section id=\"{id}\">")), "{id}");
     }
-    assert_eq!(html.matches("<svg").count(), 4);
-    assert_eq!(html.matches("</svg>").count(), 4);
+    // Plan view, contour and point error along the path, histogram; and,
+    // as "after" is far below "before", its own plan view and curves on
+    // their own scales.
+    assert_eq!(html.matches("<svg").count(), 6);
+    assert_eq!(html.matches("</svg>").count(), 6);
+    // The sections are numbered in their headings and in the contents,
+    // which print too; every printed page carries its number.
+    assert!(html.contains("<section id=\"results\">\n<h2><span class=\"no\">1</span>"));
+    assert!(html.contains("<section id=\"corrections\">\n<h2><span class=\"no\">5</span>"));
+    assert!(html.contains("<nav class=\"contents\"><b>Contents</b><ol><li><a href=\"#results\">"));
+    assert!(html.contains("counter(page) \" of \" counter(pages)"));
+    // The metrics are defined once, on the first page.
+    assert_eq!(html.matches("<td>contour error</td>").count(), 1);
+    assert!(
+        html.find("<td>contour error</td>").unwrap()
+            < html.find("<section id=\"results\">").unwrap()
+    );
+    // No page for a warning the interpreter did not give.
+    assert!(!html.contains("<section id=\"warnings\">"));
     // The inputs are named with their SHA-256, as sha256sum computes it.
     for f in ["part.ngc", "map.csv", "machine.toml"] {
         if let Some(sum) = sha256sum(&dir.join(f)) {
@@ -137,6 +154,22 @@ fn a_compensation_report_holds_the_runs_figures_and_inputs() {
         "{html}"
     );
     // The same inputs and date give the same report, byte for byte.
+    // The zoomed views' scale ends at what is left: the compensated
+    // program's largest contour error, as `volcomp simulate` prints it.
+    let zoom = html
+        .split("alone on its own colour scale (0 to ")
+        .nth(1)
+        .and_then(|t| t.split(" µm)").next())
+        .unwrap_or_else(|| panic!("no zoomed plan view"))
+        .replace('−', "-");
+    let zoom: f64 = zoom.parse().unwrap();
+    let left = after["contour_max_um"].as_f64().unwrap();
+    let shared = before["contour_max_um"].as_f64().unwrap();
+    assert!(left < 0.2 * shared, "{left} {shared}");
+    assert!(
+        (zoom - left).abs() <= 1e-3 * left + 1e-6,
+        "{zoom} vs {left}"
+    );
     let o = run("again.html");
     assert!(o.status.success(), "{}", stderr(&o));
     let again = std::fs::read_to_string(dir.join("again.html")).unwrap();
@@ -144,6 +177,72 @@ fn a_compensation_report_holds_the_runs_figures_and_inputs() {
         html.replace("report.html", "again.html"),
         again,
         "the report is not reproducible"
+    );
+}
+
+#[test]
+fn a_title_block_file_heads_the_report_and_a_bad_one_is_refused_at_its_line() {
+    let dir = fixture("report-title");
+    std::fs::write(
+        dir.join("title.toml"),
+        "customer = \"Acme Moulds & Dies\"\npart = \"cavity insert 4\"\ndrawing = \"D-1234\"\ntolerance = \"±0.01 mm\"\noperator = \"J. Smith\"\nmachine = \"VMC 2\"\n",
+    )
+    .unwrap();
+    let run = |title: &str, out: &str| {
+        let html = format!("{out}.html");
+        common::compensate_with(
+            &dir,
+            out,
+            &["--report-html", &html, "--report-title", title],
+        )
+    };
+    let o = run("title.toml", "c.ngc");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(dir.join("c.ngc.html")).unwrap();
+    // In the report's order, escaped, above what was done.
+    let block = html
+        .split("<table class=\"titleblock\"><tbody>")
+        .nth(1)
+        .and_then(|t| t.split("</tbody>").next())
+        .expect("a title block");
+    assert_eq!(
+        block,
+        "<tr><th>customer</th><td>Acme Moulds &amp; Dies</td></tr><tr><th>part</th><td>cavity insert 4</td></tr><tr><th>drawing</th><td>D-1234</td></tr><tr><th>machine</th><td>VMC 2</td></tr><tr><th>tolerance</th><td>±0.01 mm</td></tr><tr><th>operator</th><td>J. Smith</td></tr>"
+    );
+    assert!(html.find("titleblock").unwrap() < html.find("What was done").unwrap());
+    // A misspelt key: refused at its line and column before any work,
+    // nothing written.
+    std::fs::write(
+        dir.join("bad.toml"),
+        "customer = \"A\"\n  custmer = \"B\"\n",
+    )
+    .unwrap();
+    let o = run("bad.toml", "d.ngc");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("bad.toml:2:3: `custmer` is not a title-block key"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.join("d.ngc").exists() && !dir.join("d.ngc.html").exists());
+    // A title block without a report is refused, not ignored; the
+    // message names the flags.
+    let o = volcomp(
+        &[
+            "simulate",
+            "part.ngc",
+            "--map",
+            "map.csv",
+            "--report-title",
+            "title.toml",
+        ],
+        &dir,
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--report-title is the title block of the HTML report"),
+        "{}",
+        stderr(&o)
     );
 }
 
@@ -283,10 +382,10 @@ fn the_demo_report_renders_and_prints_in_chromium() {
         );
     }
     let Some(chromium) = chromium() else {
-        if std::env::var("CI").is_ok_and(|v| v == "true") {
-            panic!("chromium is not installed, and CI=true: .ci/run installs it");
-        }
-        eprintln!("SKIPPED: chromium is not installed; the demo report was not rendered (apt-get install --no-install-recommends chromium)");
+        common::missing(
+            "chromium (Debian package chromium)",
+            "the demo report rendered and printed",
+        );
         return;
     };
     let profile = dir.join("profile");
@@ -326,6 +425,24 @@ fn the_demo_report_renders_and_prints_in_chromium() {
     assert!(
         pages >= sections && pages <= 2 * sections,
         "{pages} pages for {sections} sections"
+    );
+    // Every printed page says its number and the report's title in its
+    // margin (@page margin boxes); the contents are printed on the first.
+    let texts = common::pdf::page_texts(&bytes);
+    assert_eq!(texts.len(), pages);
+    for (k, t) in texts.iter().enumerate() {
+        assert!(
+            t.contains(&format!("page {} of {pages}", k + 1)),
+            "page {}: {t}",
+            k + 1
+        );
+        assert!(t.contains("volcomp demo report"), "page {}: {t}", k + 1);
+    }
+    assert!(texts[0].contains("Contents"), "{}", texts[0]);
+    assert!(
+        texts[0].contains("Point and contour error") || texts[0].contains("contour error"),
+        "{}",
+        texts[0]
     );
 }
 

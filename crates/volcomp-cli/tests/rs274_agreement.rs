@@ -58,6 +58,7 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
+mod common;
 mod rs274;
 
 use rs274::compare::*;
@@ -325,12 +326,10 @@ fn corpus_files(dir: &Path) -> Vec<(String, PathBuf)> {
 #[test]
 fn volcomp_moves_agree_with_rs274() {
     let Some(rs274) = find_rs274() else {
-        if std::env::var_os("CI").is_some() {
-            panic!("rs274 (LinuxCNC's stand-alone interpreter, Debian package linuxcnc-uspace) is not installed, and CI is set: CI must install it");
-        }
-        let banner = "!".repeat(78);
-        eprintln!("{banner}\n!! SKIPPED rs274_agreement: rs274 is not installed (apt install linuxcnc-uspace,\n!! or set VOLCOMP_RS274). volcomp moves was NOT checked against LinuxCNC.\n{banner}");
-        println!("SKIPPED: rs274 not installed");
+        common::missing(
+            common::RS274,
+            "volcomp moves against LinuxCNC (or set VOLCOMP_RS274)",
+        );
         return;
     };
 
@@ -474,13 +473,7 @@ fn wide_map() -> String {
 #[test]
 fn compensated_corpus_programs_are_accepted_by_rs274() {
     let Some(rs274) = find_rs274() else {
-        if std::env::var_os("CI").is_some() {
-            panic!("rs274 (Debian package linuxcnc-uspace) is not installed, and CI is set: CI must install it");
-        }
-        eprintln!(
-            "!! SKIPPED compensated_corpus_programs_are_accepted_by_rs274: rs274 is not installed"
-        );
-        println!("SKIPPED: rs274 not installed");
+        common::missing(common::RS274, "the compensated corpus on rs274");
         return;
     };
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));

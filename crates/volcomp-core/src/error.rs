@@ -329,7 +329,7 @@ pub enum Error {
     MapFile(#[from] MapFileError),
     /// A ballbar test or trace that cannot be evaluated.
     #[error("{0}")]
-    Ballbar(#[from] crate::ballbar::BallbarError),
+    Ballbar(#[from] BallbarError),
     /// A model file could not be read.
     #[error("{0}")]
     ModelFile(#[from] crate::io::model_file::ModelFileError),
@@ -404,6 +404,17 @@ pub enum Error {
 impl From<crate::io::LoadError> for Error {
     fn from(e: crate::io::LoadError) -> Self {
         Error::Load(Box::new(e))
+    }
+}
+
+/// What is wrong with a ballbar test or trace.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct BallbarError(pub String);
+
+impl BallbarError {
+    pub(crate) fn new(text: impl Into<String>) -> Self {
+        Self(text.into())
     }
 }
 

@@ -85,6 +85,7 @@ pub mod compensate;
 pub mod error;
 #[cfg(any(test, feature = "examples"))]
 pub mod example;
+pub mod geometry;
 pub mod identify;
 pub mod io;
 pub mod limits;
@@ -98,6 +99,7 @@ pub mod request;
 pub mod rng;
 pub mod simulate;
 pub mod surface;
+pub mod text;
 
 pub use compensate::{
     CompensateOptions, CompensateSummary, Compensator, MachineSetup, Segmentation,

@@ -4,9 +4,9 @@
 //! 2.9's interp_cycles.cc by hand.
 
 use std::io::Cursor;
-use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, Segmentation};
+use volcomp_core::compensate::{CompensateOptions, Segmentation};
 use volcomp_core::model::axis_table::AxisTableMap;
-use volcomp_gcode::{InterpOptions, Setup, Vec3, Walker};
+use volcomp_gcode::{Vec3, Walker};
 
 /// A map that shifts every point by (5, -3, 2) µm.
 fn constant_map() -> AxisTableMap {
@@ -23,34 +23,18 @@ fn constant_map() -> AxisTableMap {
     AxisTableMap::from_csv(&csv, "test.csv").unwrap()
 }
 
+mod common;
+
 fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
-    Walker::new(
-        Cursor::new(program.as_bytes().to_vec()),
-        Some("test.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    )
+    common::walker(program, "test.ngc")
 }
 
 fn compensate(program: &str) -> Result<String, String> {
-    let map = constant_map();
-    let style = survey_style(program.as_bytes());
-    let mut out = Vec::new();
     let options = CompensateOptions {
         segmentation: Segmentation::Off,
         ..Default::default()
     };
-    compensate_program(
-        &mut walker(program),
-        "test.ngc",
-        &map,
-        &style,
-        &options,
-        &mut out,
-        |_| {},
-    )
-    .map_err(|e| e.to_string())?;
-    Ok(String::from_utf8(out).unwrap())
+    common::compensate_text(program, "test.ngc", &constant_map(), &options)
 }
 
 /// End points of the motions of a program (axis frame), zero-length ones

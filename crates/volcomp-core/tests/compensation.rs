@@ -8,30 +8,13 @@ use volcomp_core::compensate::{
 };
 use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::simulate::report::{simulate_program, SimReport};
-use volcomp_gcode::{InterpOptions, MotionKind, PathMode, Setup, Vec3, Walker};
+use volcomp_gcode::{MotionKind, PathMode, Vec3, Walker};
 
-/// A map whose tables are given per axis as closures of the position.
-fn map_from(f: impl Fn(usize, f64, bool) -> [f64; 3]) -> AxisTableMap {
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for (a, name) in ["X", "Y", "Z"].iter().enumerate() {
-        for (dir, rev) in [("forward", false), ("reverse", true)] {
-            for k in 0..=100 {
-                let p = -100.0 + 4.0 * k as f64;
-                let e = f(a, p, rev);
-                csv.push_str(&format!("{name},{dir},{p},{},{},{}\n", e[0], e[1], e[2]));
-            }
-        }
-    }
-    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
-}
+mod common;
+use common::map_from;
 
 fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
-    Walker::new(
-        Cursor::new(program.as_bytes().to_vec()),
-        Some("test.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    )
+    common::walker(program, "test.ngc")
 }
 
 fn compensate(
@@ -486,16 +469,7 @@ fn arc_tangents(out: &str) -> Vec<(Vec3, Vec3)> {
                 p.y + word(line, 'J').unwrap(),
                 0.0,
             );
-            let along = |q: Vec3| {
-                let r = q - c;
-                let t = if ccw {
-                    Vec3::new(-r.y, r.x, 0.0)
-                } else {
-                    Vec3::new(r.y, -r.x, 0.0)
-                };
-                t * (1.0 / t.norm())
-            };
-            tangents.push((along(p), along(next)));
+            tangents.push(arc_end_tangents(p, next, c, ccw));
         }
         p = next;
     }
@@ -564,6 +538,104 @@ fn a_one_block_circle_takes_up_by_mode() {
     assert_eq!((s.take_ups, s.take_ups_folded), (1, 1), "{out}");
     assert!(s.max_fold_excursion_um <= 1.0, "{s:?}");
     assert!(contour <= 1.0, "{contour}");
+}
+
+/// The unit tangents at the start and end of the XY arc from `p` to `next`
+/// about `c` (counter-clockwise if `ccw`, less than a turn). LinuxCNC runs
+/// an arc whose ends lie at different radii as a spiral, the radius linear
+/// in the angle (posemath's pmCircleInit): the tangent has a radial part
+/// `(r₁ − r₀)/|Θ|` beside the circular `r`.
+fn arc_end_tangents(p: Vec3, next: Vec3, c: Vec3, ccw: bool) -> (Vec3, Vec3) {
+    let (r0, r1) = ((p - c).norm(), (next - c).norm());
+    let angle = |q: Vec3| (q.y - c.y).atan2(q.x - c.x);
+    let mut sweep = angle(next) - angle(p);
+    let tau = std::f64::consts::TAU;
+    if ccw && sweep <= 0.0 {
+        sweep += tau;
+    } else if !ccw && sweep >= 0.0 {
+        sweep -= tau;
+    }
+    let along = |q: Vec3| {
+        let e_r = (q - c) * (1.0 / (q - c).norm());
+        let e_phi = Vec3::new(-e_r.y, e_r.x, 0.0) * sweep.signum();
+        let t = e_phi * (q - c).norm() + e_r * ((r1 - r0) / sweep.abs());
+        t * (1.0 / t.norm())
+    };
+    (along(p), along(next))
+}
+
+/// The unit tangents (start, end) of every feed move of a written XY
+/// program, in order, from its words (G1 lines, G2/G3 arcs with I and J;
+/// modal motion; Z ignored).
+fn feed_tangents(out: &str) -> Vec<(Vec3, Vec3)> {
+    let word = |line: &str, letter: char| {
+        line.split_whitespace()
+            .find(|w| w.starts_with(letter))
+            .map(|w| w[1..].parse::<f64>().unwrap())
+    };
+    let (mut p, mut modal) = (Vec3::ZERO, 0);
+    let mut tangents = Vec::new();
+    for line in out.lines() {
+        let line = line.split('(').next().unwrap();
+        for (code, m) in [("G0", 0), ("G1", 1), ("G2", 2), ("G3", 3)] {
+            if line.split_whitespace().any(|w| w == code) {
+                modal = m;
+            }
+        }
+        let (x, y) = (word(line, 'X'), word(line, 'Y'));
+        if x.is_none() && y.is_none() {
+            continue;
+        }
+        let next = Vec3::new(x.unwrap_or(p.x), y.unwrap_or(p.y), 0.0);
+        match modal {
+            1 => {
+                let d = next - p;
+                tangents.push((d * (1.0 / d.norm()), d * (1.0 / d.norm())));
+            }
+            2 | 3 => {
+                let c = Vec3::new(
+                    p.x + word(line, 'I').unwrap(),
+                    p.y + word(line, 'J').unwrap(),
+                    0.0,
+                );
+                tangents.push(arc_end_tangents(p, next, c, modal == 3));
+            }
+            _ => {}
+        }
+        p = next;
+    }
+    tangents
+}
+
+#[test]
+fn a_reversal_at_a_tangent_join_keeps_the_join_tangent() {
+    // A spiral of half circles entered along its first tangent: X reverses
+    // where the line meets the first G2 at (3, 0) (X moved + before it) and
+    // exactly where one G2 ends and the next begins ((−3, 0), (5, 0),
+    // (−5, 0)); the original runs through every join tangentially. Under
+    // G64 the take-up at such a join is an S-curve on the next block,
+    // starting along the shared tangent: every written join stays within
+    // LinuxCNC's tangency tolerance (tp.c, tpSetupTangent, at the installed
+    // commit f1270d6ed7: 0.1 · A / (v/T + A), halved with an arc, = 0.495
+    // mrad at 100 mm/s, 1000 mm/s², 1 ms), computed from the written
+    // words, so the planner neither stops nor blends there; the tool stays
+    // within the reversal value (4 µm) of the path.
+    let map = x_backlash_map(0.0);
+    let program = "G64\nG0 X0 Y5 Z0\nG0 X3\nG1 Y0 F6000\nG2 X-3 Y0 I-3 J0\nG2 X5 Y0 I4 J0\n\
+                   G2 X-5 Y0 I-5 J0\nG2 X7 Y0 I6 J0\nM2\n";
+    let (out, s) = compensate_summary(program, &map, CompensateOptions::default());
+    assert_eq!((s.take_ups, s.take_ups_folded), (0, 4), "{s:?}\n{out}");
+    let tangents = feed_tangents(&out);
+    assert!(tangents.len() > 8, "{out}");
+    for pair in tangents.windows(2) {
+        let kink = pair[1].0 - pair[0].1;
+        assert!(
+            kink.x.abs() < 0.495e-3 && kink.y.abs() < 0.495e-3,
+            "{kink:?}: {out}"
+        );
+    }
+    let report = against_original(&out, program, &map);
+    assert!(report.contour_max_um <= 4.0 + 0.06, "{report:?}");
 }
 
 #[test]

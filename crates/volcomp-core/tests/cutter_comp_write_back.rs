@@ -7,44 +7,17 @@
 //! interpreter's test `cutter_comp.rs`).
 
 use std::io::Cursor;
-use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, Segmentation};
-use volcomp_core::model::axis_table::AxisTableMap;
+use volcomp_core::compensate::{CompensateOptions, Segmentation};
 use volcomp_gcode::{InterpOptions, Setup, Walker};
 
-fn zero_map() -> AxisTableMap {
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for axis in ["X", "Y", "Z"] {
-        csv.push_str(&format!(
-            "{axis},both,-10000,0,0,0\n{axis},both,10000,0,0,0\n"
-        ));
-    }
-    AxisTableMap::from_csv(&csv, "zero.csv").unwrap()
-}
+mod common;
 
 fn compensate(program: &str) -> String {
-    let bytes = program.as_bytes().to_vec();
-    let mut walker = Walker::new(
-        Cursor::new(bytes.clone()),
-        Some("t.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    );
     let options = CompensateOptions {
         segmentation: Segmentation::Off,
         ..CompensateOptions::default()
     };
-    let mut out = Vec::new();
-    compensate_program(
-        &mut walker,
-        "t.ngc",
-        &zero_map(),
-        &survey_style(&bytes),
-        &options,
-        &mut out,
-        |_| {},
-    )
-    .unwrap();
-    String::from_utf8(out).unwrap()
+    common::compensate_text(program, "t.ngc", &common::zero_map(), &options).unwrap()
 }
 
 /// The (x, y) of every written move line, in order (a line with X or Y).

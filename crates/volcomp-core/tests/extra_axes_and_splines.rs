@@ -5,51 +5,27 @@
 //! segments ending exactly on its end point, with its block's other words
 //! kept and its spline words gone.
 
-use std::io::Cursor;
-use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, Segmentation};
+use volcomp_core::compensate::{CompensateOptions, Segmentation};
 use volcomp_core::model::axis_table::AxisTableMap;
-use volcomp_gcode::{InterpOptions, Setup, Walker};
 
-fn zero_map() -> AxisTableMap {
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for axis in ["X", "Y", "Z"] {
-        csv.push_str(&format!(
-            "{axis},both,-10000,0,0,0\n{axis},both,10000,0,0,0\n"
-        ));
-    }
-    AxisTableMap::from_csv(&csv, "zero.csv").unwrap()
-}
+mod common;
 
 fn compensate(program: &str, segment_mm: f64) -> String {
-    compensate_with(program, &zero_map(), Segmentation::MaxLength(segment_mm))
+    compensate_with(
+        program,
+        &common::zero_map(),
+        Segmentation::MaxLength(segment_mm),
+    )
 }
 
 fn compensate_with(program: &str, map: &AxisTableMap, segmentation: Segmentation) -> String {
-    let bytes = program.as_bytes().to_vec();
-    let mut walker = Walker::new(
-        Cursor::new(bytes.clone()),
-        Some("t.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    );
     // The words expected below are written with 4 decimals (0.1 µm).
     let options = CompensateOptions {
         segmentation,
         decimals: Some(4),
         ..CompensateOptions::default()
     };
-    let mut out = Vec::new();
-    compensate_program(
-        &mut walker,
-        "t.ngc",
-        map,
-        &survey_style(&bytes),
-        &options,
-        &mut out,
-        |_| {},
-    )
-    .unwrap();
-    String::from_utf8(out).unwrap()
+    common::compensate_text(program, "t.ngc", map, &options).unwrap()
 }
 
 #[test]

@@ -21,8 +21,10 @@ const ORDER: &[&str] = &[
     "limits",
     "rng",
     "linalg",
+    "geometry",
     "progress",
     "error",
+    "text",
     "model",
     "io",
     "identify",
@@ -46,18 +48,8 @@ const KNOWN_UPWARD: &[(&str, &str)] = &[
     ("error", "io"),
     ("error", "model"),
     ("error", "surface"),
-    // `next_state` and `arc_distance_mm` (direction state, arc length) are
-    // the simulation's; both walks need them.
-    ("compensate", "simulate"),
-    // Provenance writes compensated programs (with their header), and the
-    // model files and controllers take `compensate::file_name`.
-    ("io", "compensate"),
     // Loading a straightness model from a `--map` file.
     ("io", "identify"),
-    // The axis tables read and write their CSV through `io::table`.
-    ("model", "io"),
-    // The error enum wraps `BallbarError`.
-    ("error", "ballbar"),
 ];
 
 /// Every `.rs` file under `dir`.

@@ -3,7 +3,8 @@
 //! computed from expressions are written like the program's numbers, not
 //! with 17 digits. Checked against LinuxCNC's `rs274` when it is installed.
 
-use std::path::Path;
+mod common;
+
 use std::process::Command;
 use volcomp_core::compensate::Compensator;
 use volcomp_core::model::axis_table::AxisTableMap;
@@ -34,9 +35,7 @@ fn compensate(program: &str) -> String {
 /// rs274's error on `program`, `None` when it accepts it; skipped (`Some(None)`
 /// never) when rs274 is not installed.
 fn rs274_refusal(program: &str) -> Option<Option<String>> {
-    let rs274 = ["/usr/bin/rs274", "/usr/local/bin/rs274"]
-        .into_iter()
-        .find(|p| Path::new(p).exists())?;
+    let rs274 = common::rs274("the line lengths on rs274")?;
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("t.ngc");
     std::fs::write(&file, program).unwrap();

@@ -34,15 +34,8 @@ fn corpus_file(name: &str) -> Vec<u8> {
     std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-fn zero_map() -> AxisTableMap {
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for axis in ["X", "Y", "Z"] {
-        csv.push_str(&format!(
-            "{axis},both,-10000,0,0,0\n{axis},both,10000,0,0,0\n"
-        ));
-    }
-    AxisTableMap::from_csv(&csv, "zero.csv").unwrap()
-}
+mod common;
+use common::zero_map;
 
 fn setup() -> Setup {
     let mut s = Setup::default();

@@ -156,7 +156,8 @@ fn plan(a: &CompensateArgs, map: &Path, output: &Path) -> Result<(), CliError> {
         )
         .output(if a.filter { "--filter output" } else { "-o" }, output)
         .output_opt("--report", a.report.as_ref())
-        .output_opt("--report-html", a.report_html.as_ref());
+        .output_opt("--report-html", a.report_html.as_ref())
+        .input_opt("--report-title", a.title.report_title.as_ref());
     check(&plan)?;
     if a.report_html.is_some() && a.program.as_os_str() == "-" {
         return Err(CliError::Message(
@@ -235,6 +236,7 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     let output = a.output.clone().unwrap_or_else(|| PathBuf::from("-"));
     let map_path = a.map.path()?;
     plan(&a, map_path, &output)?;
+    let title_block = a.title.title_block(a.report_html.is_some())?;
     a.job.check_map(&a.map)?;
     let machine = super::machine(&a.job.machine)?;
     machine.warn_without_work_offset();
@@ -257,6 +259,7 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
             command: &command_line(),
             program: &program_name(&a.program),
             output: &shown(&output),
+            title_block: &title_block,
         };
         let html = job
             .report_html(

@@ -39,7 +39,8 @@ fn plan(a: &SimulateArgs) -> Result<(), CliError> {
         )
         .output_opt("--errors-csv", a.errors_csv.as_ref())
         .output_opt("--plot", a.plot.as_ref())
-        .output_opt("--report-html", a.report_html.as_ref());
+        .output_opt("--report-html", a.report_html.as_ref())
+        .input_opt("--report-title", a.title.report_title.as_ref());
     check(&plan)
 }
 
@@ -95,6 +96,7 @@ fn simulate(a: &SimulateArgs, machine: &Machine, model: &dyn ErrorModel) -> Resu
 
 pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     plan(&a)?;
+    let title_block = a.title.title_block(a.report_html.is_some())?;
     let machine = a.job.prepare(super::machine(&a.job.machine)?)?;
     machine.warn_without_work_offset();
     let (model, notes) = a.map.load_noting()?;
@@ -127,6 +129,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
                 a.map.path()?,
                 &kept.traced,
                 &command_line(),
+                &title_block,
             )
             .map_err(|e| machine.refused(e))?;
         write(path, html.as_bytes())?;

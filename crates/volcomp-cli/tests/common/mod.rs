@@ -2,9 +2,30 @@
 //! fresh directory per test.
 #![allow(dead_code)]
 
+pub mod pdf;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+/// rs274, LinuxCNC's stand-alone interpreter (the reference of the G-code
+/// tests).
+pub const RS274: &str =
+    "rs274 (LinuxCNC's stand-alone interpreter, Debian package linuxcnc-uspace)";
+/// LinuxCNC's headless simulator (the motion-controller tests).
+pub const LINUXCNC: &str =
+    "LinuxCNC (Debian package linuxcnc-uspace: linuxcnc, halcmd, python3-linuxcnc)";
+
+/// A tool a test needs is not installed. Under CI (the `CI` variable set,
+/// as `.ci/run` and hosted CI set it) the test fails: CI installs every
+/// tool the tests use (README, "Testing"). Elsewhere it says loudly what
+/// was not checked, and the caller returns.
+pub fn missing(tool: &str, not_checked: &str) {
+    if std::env::var_os("CI").is_some() {
+        panic!("{tool} is not installed, and CI is set: CI must install it (.ci/run does)");
+    }
+    eprintln!("!! SKIPPED: {tool} is not installed: {not_checked} was NOT checked");
+}
 
 /// Runs `volcomp ARGS…` in `dir`.
 pub fn volcomp(args: &[&str], dir: &Path) -> Output {

@@ -170,16 +170,7 @@ impl Trace {
     }
 }
 
-/// What is wrong with a ballbar test or trace.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{0}")]
-pub struct BallbarError(pub String);
-
-impl BallbarError {
-    pub(crate) fn new(text: impl Into<String>) -> Self {
-        Self(text.into())
-    }
-}
+pub use crate::error::BallbarError;
 
 #[cfg(test)]
 mod tests;

@@ -334,5 +334,6 @@ pub fn document(title: &str, facts: Vec<(String, String)>, sections: Vec<Section
         facts,
         inputs: vec![],
         sections,
+        ..Default::default()
     }
 }

@@ -14,9 +14,9 @@ use super::lines::ArcWords;
 use super::walk::Place;
 use super::{command_error, model_error, solve, State};
 use crate::error::{CompensationError, ModelError};
+use crate::geometry::arc_distance_mm;
+use crate::model::next_state;
 use crate::model::{Components, Direction, Directions, ErrorModel};
-use crate::simulate::next_state;
-use crate::simulate::nominal::arc_distance_mm;
 use std::f64::consts::{FRAC_PI_2, TAU};
 use volcomp_gcode::{Arc, Vec3};
 
@@ -375,6 +375,7 @@ pub(super) fn plan_transitions(
     v_mm_s: f64,
     planner: &super::PlannerLimits,
     min_length_mm: f64,
+    smooth_start: bool,
 ) -> Result<(Vec<f64>, Vec<Transition>), ModelError> {
     let length = arc.length();
     let r = 0.5 * (arc.start_radius() + arc.end_radius());
@@ -387,20 +388,16 @@ pub(super) fn plan_transitions(
     // 10 µm along the arc: the axis moves by 5·10⁻⁵ µm/mm of radius there,
     // far above the rounding of the point's angle.
     let step = 0.01 / length.max(1e-9);
-    let mut s = s_before;
-    let mut from = 0.0;
-    for &to in pieces {
-        s = next_state(s, arc.point_at(to) - arc.point_at(from));
-        from = to;
-        if to >= 1.0 {
-            break;
-        }
+    // The window of the quarter point at `to` where the direction state
+    // is `s`: the reversing axis, its new direction and the window, if the
+    // rule asks for an S-curve there and one fits.
+    let window_at = |to: f64, s: Directions, after_only: bool| -> Result<_, ModelError> {
         let Some(a) = extreme_axis(arc, to) else {
-            continue;
+            return Ok(None);
         };
         let (p0, p1) = (arc.point_at(to), arc.point_at(to + step));
         let Some(new) = Direction::of_delta(p1[a] - p0[a]) else {
-            continue;
+            return Ok(None);
         };
         let mut s_old = s;
         s_old[a] = new.flipped();
@@ -410,22 +407,64 @@ pub(super) fn plan_transitions(
         let e_new = model.deviation_um(p0, s_new, Components::All)?;
         let band_mm = (e_old[a] - e_new[a]) * new.sign() * 1e-3;
         if band_mm <= 0.0 {
-            continue;
+            return Ok(None);
         }
         let Some(tol) = tolerance_mm(band_mm) else {
-            continue;
+            return Ok(None);
         };
         // What the local model leaves out (the map's change over the
         // window, the rounding of the written words) takes a little of the
         // tolerance.
-        let Some(w) = super::scurve::best_window(r, band_mm, 0.85 * tol, v_mm_s, planner) else {
-            continue;
-        };
-        let (lo, hi) = (to - w.before_mm / length, to + w.after_mm / length);
-        found.push((lo, hi, a, new, w.deviation_mm));
+        Ok(
+            super::scurve::best_window(r, band_mm, 0.85 * tol, v_mm_s, planner, after_only)
+                .map(|w| (a, new, w)),
+        )
+    };
+    // A reversal at the start, where the block before ends and the
+    // original runs on without a corner: the S-curve on this block alone,
+    // from the join along the tangent both share (the block before is
+    // written already).
+    if smooth_start {
+        if let Some(a) = extreme_axis(arc, 0.0) {
+            let moves = Direction::of_delta(arc.point_at(step)[a] - arc.start[a]);
+            if moves.is_some_and(|d| s_before[a] == d.flipped()) {
+                if let Some((a, new, w)) = window_at(0.0, s_before, true)? {
+                    found.push((0.0, w.after_mm / length, a, new, w.deviation_mm));
+                }
+            }
+        }
+    }
+    let mut s = s_before;
+    let mut from = 0.0;
+    for &to in pieces {
+        s = next_state(s, arc.point_at(to) - arc.point_at(from));
+        from = to;
+        if to >= 1.0 {
+            break;
+        }
+        if let Some((a, new, w)) = window_at(to, s, false)? {
+            let (lo, hi) = (to - w.before_mm / length, to + w.after_mm / length);
+            found.push((lo, hi, a, new, w.deviation_mm));
+        }
     }
     let mut transitions = Vec::new();
     for (lo, hi, a, new, dev) in found {
+        if lo <= 0.0 {
+            // The window from the start: its end is the first cut.
+            let after = out.iter().find(|c| **c > hi).copied().unwrap_or(1.0);
+            if after - hi < min_step {
+                continue;
+            }
+            out.retain(|c| *c > hi);
+            out.insert(0, hi);
+            transitions.push(Transition {
+                index: 0,
+                axis: a,
+                direction: new,
+                deviation_mm: dev,
+            });
+            continue;
+        }
         let before = out.iter().rev().find(|c| **c < lo).copied().unwrap_or(0.0);
         let after = out.iter().find(|c| **c > hi).copied().unwrap_or(1.0);
         if lo - before < min_step || after - hi < min_step {
@@ -592,6 +631,7 @@ impl State<'_> {
             run.feed_mm_min.unwrap_or(0.0) / 60.0,
             &options.planner,
             min_length_mm,
+            !run.corner_before,
         )
         .map_err(|source| model_error(file, line, source))?;
         self.transitions = transitions;
@@ -666,7 +706,7 @@ impl State<'_> {
         let transitions = std::mem::take(&mut self.transitions_written);
         for t in transitions {
             let i = t.index;
-            if i == 0 || i + 1 >= words.len() {
+            if i + 1 >= words.len() {
                 continue;
             }
             let start_of = |k: usize| -> Vec3 {
@@ -696,9 +736,22 @@ impl State<'_> {
                     }
                 }
             };
-            let (s_prev, e_prev) = (start_of(i - 1), commands[i - 1].0);
             let (s_next, e_next) = (start_of(i + 1), commands[i + 1].0);
-            let t1 = tangent(&words[i - 1], s_prev, e_prev, true);
+            let t1 = if i == 0 {
+                // The block before ends along the arc's own start tangent
+                // (the join is tangent in the original; the compensation
+                // turns it by the map's slope, micro-radians).
+                let (du, dv) = (arc.start[u] - arc.center[u], arc.start[v] - arc.center[v]);
+                let n = du.hypot(dv);
+                if arc.clockwise() {
+                    [dv / n, -du / n]
+                } else {
+                    [-dv / n, du / n]
+                }
+            } else {
+                let (s_prev, e_prev) = (start_of(i - 1), commands[i - 1].0);
+                tangent(&words[i - 1], s_prev, e_prev, true)
+            };
             let t2 = tangent(&words[i + 1], s_next, e_next, false);
             let (a, b) = (start_of(i), commands[i].0);
             let Some([arc1, arc2]) = super::scurve::biarc(p2(a), t1, p2(b), t2) else {

@@ -9,7 +9,7 @@ use super::lines::{blank_before, OutMode};
 use super::walk::{Line, Place};
 use super::State;
 use crate::error::CompensationError;
-use crate::simulate::next_state;
+use crate::model::next_state;
 use volcomp_gcode::edit::{apply_edits, Edit};
 use volcomp_gcode::number::{format_number, NumberStyle};
 use volcomp_gcode::{FeedMode, MotionKind, PathMode};

@@ -25,9 +25,10 @@
 //! # }
 //! ```
 
+use super::header::compensate_program_with_header;
 use super::{compensate_program, survey_style, CompensateOptions, CompensateSummary, PointRecord};
 use crate::error::{CompensatedEvidence, Error};
-use crate::io::provenance::{compensate_program_with_header, find_compensation, Compensated};
+use crate::io::provenance::{find_compensation, Compensated};
 use crate::io::provenance::{sha256_hex, ProgramHeader};
 use crate::model::ErrorModel;
 use std::io::{BufReader, Read, Write};
@@ -79,12 +80,7 @@ pub fn header_for_map(
     ))
 }
 
-/// A path's last component, for messages and headers.
-pub fn file_name(p: &Path) -> String {
-    p.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| p.display().to_string())
-}
+pub use crate::io::file_name;
 
 /// A caller's function called on each item as it is produced.
 type Callback<'a, T> = Box<dyn FnMut(&T) + 'a>;

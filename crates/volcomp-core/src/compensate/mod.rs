@@ -22,6 +22,7 @@ mod cycle_keep;
 mod extra;
 mod frame;
 mod front;
+pub mod header;
 mod joins;
 mod line_limit;
 mod lines;
@@ -51,8 +52,8 @@ pub(crate) use targets::mark_axes_set;
 pub use targets::{target_count_bound, targets_of};
 
 use crate::error::{CompensationError, ModelError};
+use crate::model::next_state;
 use crate::model::{Directions, ErrorModel, ALL_FORWARD};
-use crate::simulate::next_state;
 use frame::Frame;
 use lines::{arc_line_edits, explicit_mode, has_feed, line_ending, stop_m_word, ArcWords, OutMode};
 use std::io::{BufRead, Write};
@@ -465,6 +466,20 @@ impl<'w> State<'w> {
         } else {
             OutMode::Rapid
         };
+        // A first piece written as two arcs (an S-curve from the join with
+        // the block before, compensate/arcs.rs): the line carries the first
+        // to the joint, the second is inserted after it.
+        let first_split = arc_words.first().and_then(|w| {
+            w.second.map(|s| {
+                let second = ArcWords {
+                    center: s.center,
+                    clockwise: s.clockwise,
+                    second: None,
+                    ..*w
+                };
+                (s.joint, second)
+            })
+        });
         let first_arc = arc_words.first().filter(|w| w.center.is_some());
         let needed_first = first_arc.map_or(needed, |w| w.mode());
         // The last inserted line ends as the original did (without an
@@ -518,7 +533,7 @@ impl<'w> State<'w> {
                     &place,
                     lines::FirstCommand {
                         from: pos,
-                        q: *q,
+                        q: first_split.map_or(*q, |(joint, _)| joint),
                         kind: if first_arc.is_some() {
                             &MotionKind::Feed
                         } else {
@@ -550,6 +565,9 @@ impl<'w> State<'w> {
                 }
                 self.mode = Some(needed_first);
                 self.summary.lines_out += 1;
+                if let Some((joint, second)) = first_split {
+                    self.write_inserted_arc(&place.with_ending(ending), joint, *q, &second, "");
+                }
             } else if let Some(w) = arc_words.get(i) {
                 self.write_inserted_arc(&place.with_ending(ending), pos, *q, w, "");
             } else {

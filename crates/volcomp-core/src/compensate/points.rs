@@ -8,8 +8,8 @@ use super::{
 };
 use crate::compensate::solve::{solve_consistent, solve_fixed, Method};
 use crate::error::{CompensationError, ModelError};
+use crate::model::next_state;
 use crate::model::{Directions, ErrorModel};
-use crate::simulate::next_state;
 use volcomp_gcode::Vec3;
 
 /// The command that takes up the reversing axes' backlash at `q_prev`

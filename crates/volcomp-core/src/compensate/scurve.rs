@@ -278,27 +278,37 @@ fn window_deviation(r: f64, b: f64, arcs: &[BiarcArc; 2]) -> Option<f64> {
 /// The window that takes up a band `b` (mm) at a quarter point of an arc
 /// of radius `r` fed at `v` (mm/s) with the tool within `tol` (mm) of the
 /// path, at the least time on `planner`'s machine; `None` where no window
-/// up to a quarter of the radius keeps it within `tol`.
+/// up to a quarter of the radius keeps it within `tol`. With `after_only`
+/// the window starts at the point itself (`before_mm` = 0): the quarter
+/// point is the start of the block, the join with a block already written
+/// that the original runs through tangentially, so the S-curve lies on
+/// this block alone, starting along the tangent both blocks share there.
 pub(super) fn best_window(
     r: f64,
     b: f64,
     tol: f64,
     v: f64,
     planner: &PlannerLimits,
+    after_only: bool,
 ) -> Option<Window> {
     let a_min = planner
         .max_acceleration_mm_s2
         .iter()
         .fold(f64::INFINITY, |m, x| m.min(*x));
     let a_n = a_min * 0.75f64.sqrt();
+    // The planner runs the arc itself at no more than `√(a_n r)`
+    // (`pmCircleActualMaxVel`): the S-curve costs only what it slows below
+    // that.
+    let v = v.min((a_n * r).sqrt());
     // The path acceleration on the arc (`pmCircleActualMaxVel`).
     let a_t = a_min * (1.0 - ((v * v / r) / a_min).min(1.0).powi(2)).sqrt();
     let lengths: Vec<f64> = (0..40)
         .map(|k| 0.005 * 1.25f64.powi(k))
         .filter(|w| *w <= 0.25 * r)
         .collect();
+    let befores: &[f64] = if after_only { &[0.0] } else { &lengths };
     let mut best: Option<Window> = None;
-    for &w1 in &lengths {
+    for &w1 in befores {
         for &w2 in &lengths {
             let Some(arcs) = window_biarc(r, b, w1, w2) else {
                 continue;
@@ -394,9 +404,81 @@ mod tests {
         let (r, b, tol) = (25.0, 0.004, 1e-4);
         let vs = least_speed_mm_s(r, b, tol, 1000.0);
         assert!((vs - 2.0 * (2.5f64 / 0.0044).sqrt()).abs() < 1e-9);
-        let w = best_window(r, b, tol, 100.0, &p).unwrap();
+        let w = best_window(r, b, tol, 100.0, &p, false).unwrap();
         assert!(w.deviation_mm <= tol, "{w:?}");
         assert!(w.speed_mm_s <= vs * 1.0001, "{} vs {vs}", w.speed_mm_s);
         assert!(w.speed_mm_s >= 0.6 * vs, "{} vs {vs}", w.speed_mm_s);
+    }
+
+    #[test]
+    fn on_an_arc_the_planner_runs_below_the_feed_the_window_costs_what_it_slows_below_that() {
+        // R4 at F6000: LinuxCNC runs the arc itself at √(0.866·1000·4) =
+        // 58.86 mm/s (pmCircleActualMaxVel), so the window must not be
+        // judged against 100 mm/s (every window then "costs" the same and
+        // the tightest, a near corner, was taken). Both windows keep the
+        // tool within the tolerance and run near the arc's own speed.
+        let p = PlannerLimits::default();
+        let (r, b) = (4.0, 0.004);
+        let v_arc = (0.75f64.sqrt() * 1000.0 * r).sqrt();
+        assert!((v_arc - 58.856).abs() < 1e-3);
+        for after_only in [false, true] {
+            let w = best_window(r, b, 0.85 * b, 100.0, &p, after_only).unwrap();
+            assert!(w.deviation_mm <= 0.85 * b, "{w:?}");
+            assert!(w.speed_mm_s >= 0.85 * v_arc, "{after_only}: {w:?}");
+            assert!(w.cost_s < 0.01, "{after_only}: {w:?}");
+            assert_eq!(w.before_mm == 0.0, after_only, "{w:?}");
+        }
+    }
+
+    #[test]
+    fn a_window_from_the_join_starts_along_the_shared_tangent() {
+        // After the join only: the biarc leaves the point itself along the
+        // arc's tangent (no corner with the block before), ends on the arc
+        // b lower along its tangent, and the tool, frozen at the peak while
+        // the command falls by b, is off by at least the arc's own drop
+        // x²/(2r) at the first point where the command is b below the
+        // peak.
+        let (r, b, w2) = (10.0, 0.004, 0.3);
+        let arcs = window_biarc(r, b, 0.0, w2).unwrap();
+        let dev = window_deviation(r, b, &arcs).unwrap();
+        assert_eq!(arcs[0].start, [0.0, 0.0]);
+        assert_eq!(arcs[0].tangent, [1.0, 0.0]);
+        let te = arcs[1].end_tangent();
+        let slope = -w2 / (r * r - w2 * w2).sqrt();
+        assert!((te[1] / te[0] - slope).abs() < 1e-9, "{te:?}");
+        // Where the command is b below the peak (0): bisect along the arcs.
+        let y_at = |x: f64| -> f64 {
+            let (mut lo, mut hi) = (0.0, 1.0);
+            let a = if x <= arcs[0].end[0] {
+                &arcs[0]
+            } else {
+                &arcs[1]
+            };
+            let point = a.sampler();
+            for _ in 0..60 {
+                let m = 0.5 * (lo + hi);
+                if point(m)[0] < x {
+                    lo = m;
+                } else {
+                    hi = m;
+                }
+            }
+            point(lo)[1]
+        };
+        let (mut lo, mut hi) = (0.0, w2);
+        for _ in 0..60 {
+            let m = 0.5 * (lo + hi);
+            if y_at(m) > -b {
+                lo = m;
+            } else {
+                hi = m;
+            }
+        }
+        // The simulation samples 200 points per arc: it sees the freeze
+        // end within one sample step before that point.
+        let x = lo - arcs[1].length().max(arcs[0].length()) / 200.0;
+        let hand = r - (r * r - x * x).sqrt();
+        assert!(dev >= hand, "{dev} vs {hand}");
+        assert!(dev <= 2.0 * lo * lo / r, "{dev} vs {lo}");
     }
 }

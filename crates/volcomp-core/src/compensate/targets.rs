@@ -4,8 +4,8 @@
 
 use super::{CompensateOptions, Segmentation};
 use crate::error::{CompensationError, ModelError};
+use crate::model::next_state;
 use crate::model::{Directions, ErrorModel};
-use crate::simulate::next_state;
 use volcomp_gcode::{MotionKind, Vec3};
 
 /// An upper bound of the number of targets [`targets_of`] makes of

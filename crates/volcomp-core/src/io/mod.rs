@@ -21,14 +21,20 @@ pub mod linuxcnc_comp;
 pub mod load;
 pub mod located;
 pub mod model_file;
-pub mod numfmt;
 pub mod output;
 pub mod probe_log;
 pub mod provenance;
-pub mod table;
 
+pub use crate::text::{numfmt, table};
 pub use load::{load_model, LoadError, LoadOptions, LoadedModel, ModelKind};
 pub use volcomp_geom::inputs;
+
+/// A path's last component, for messages and headers.
+pub fn file_name(p: &std::path::Path) -> String {
+    p.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| p.display().to_string())
+}
 
 /// A name a user gave (a file name), as printed in messages: control
 /// characters escaped (`\x1b`), so that it cannot drive the terminal.

@@ -5,13 +5,13 @@
 //! each table linearly interpolated between its points (the seed model of the [Seed papers],
 //! docs/references.md).
 //!
-//! The CSV is read by [`crate::io::table`], which names the row and column
+//! The CSV is read by [`crate::text::table`], which names the row and column
 //! of every bad value.
 
 use crate::error::{MapFileError, ModelError};
-use crate::io::table::{shown, CsvTable, Header, Record, UnknownColumns};
 use crate::limits::{MAX_ERROR_UM, MAX_POSITION_MM};
 use crate::model::{Components, Direction, Directions, ErrorModel};
+use crate::text::table::{shown, CsvTable, Header, Record, UnknownColumns};
 use volcomp_gcode::Vec3;
 
 /// One table: strictly increasing positions and the error vector at each.
@@ -374,10 +374,10 @@ impl AxisTableMap {
                     s.push_str(&format!(
                         "{},{name},{},{},{},{}\n",
                         AXES[a],
-                        crate::io::numfmt::mm(*p),
-                        crate::io::numfmt::um(e.x),
-                        crate::io::numfmt::um(e.y),
-                        crate::io::numfmt::um(e.z)
+                        crate::text::numfmt::mm(*p),
+                        crate::text::numfmt::um(e.x),
+                        crate::text::numfmt::um(e.y),
+                        crate::text::numfmt::um(e.z)
                     ));
                 }
             }

@@ -59,6 +59,17 @@ pub type Directions = [Direction; 3];
 /// All axes forward: the state before any motion (docs/design.md, "Direction state and backlash").
 pub const ALL_FORWARD: Directions = [Direction::Forward; 3];
 
+/// The direction state after a move by `dq` (axes that do not move keep theirs).
+pub fn next_state(s: Directions, dq: volcomp_gcode::Vec3) -> Directions {
+    let mut out = s;
+    for a in 0..3 {
+        if let Some(d) = Direction::of_delta(dq[a]) {
+            out[a] = d;
+        }
+    }
+    out
+}
+
 /// Relative tolerance of a model's range check: a position computed from
 /// others (a work offset or tool length added and taken off again, a
 /// conversion) can land a few units in the last place beyond a table's end

@@ -290,8 +290,66 @@ pub fn common_bins(histograms: &[&LengthHistogram]) -> (Vec<f64>, Vec<Vec<f64>>)
     (edges, heights)
 }
 
+/// The largest contour error of "after" when it gets a zoomed view of its
+/// own: there is a "before" on the same scale and "after" stays below a
+/// fifth of it (on the shared scale it would be drawn within the bottom
+/// fifth, the colour bar's darkest colours).
+fn zoomed(before: Option<&Measured>, after: &Measured, shared_max_um: f64) -> Option<f64> {
+    let after_max = after.trace.max_um();
+    (before.is_some() && after_max > 0.0 && after_max < 0.2 * shared_max_um).then_some(after_max)
+}
+
+fn contour_series(m: &Measured, colour: &str) -> Series {
+    Series {
+        name: format!("{}: largest contour error per command", m.label),
+        colour: colour.to_string(),
+        mark: Mark::Envelope,
+        points: m
+            .trace
+            .bins
+            .iter()
+            .map(|b| {
+                (
+                    (b.s0_mm + b.s1_mm) / 2.0,
+                    b.contour_min_um,
+                    b.contour_max_um,
+                )
+            })
+            .collect(),
+    }
+}
+
+fn point_series(m: &Measured, colour: &str) -> Series {
+    Series {
+        name: format!("{}: point error", m.label),
+        colour: colour.to_string(),
+        mark: Mark::Markers,
+        points: m
+            .trace
+            .bins
+            .iter()
+            .filter_map(|b| b.point_max_um.map(|p| ((b.s0_mm + b.s1_mm) / 2.0, p, 0.0)))
+            .collect(),
+    }
+}
+
+fn along_chart(y_label: &str, plot_height: f64, series: Vec<Series>) -> String {
+    svg::chart(&Chart {
+        x_label: "commanded feed path length (mm)".into(),
+        y_label: y_label.into(),
+        plot_height,
+        series,
+        rules: vec![],
+        y_from_zero: true,
+        ..Chart::default()
+    })
+}
+
 /// The picture sections: plan view, error along the path, histogram. With
 /// `before`, "before" and "after" share every scale and axis.
+/// When "after" stays within the bottom fifth of the shared scale, it gets
+/// a view of its own too: a plan view on its own colour scale and its
+/// errors along the path on their own axis.
 pub fn picture_sections(before: Option<&Measured>, after: &Measured) -> Vec<Section> {
     let runs: Vec<(&Measured, &str)> = before
         .map(|b| (b, BEFORE))
@@ -316,77 +374,55 @@ pub fn picture_sections(before: Option<&Measured>, after: &Measured) -> Vec<Sect
     } else {
         ""
     };
+    let mut plan_blocks = vec![Block::Figure {
+        svg: plan,
+        caption: format!("Feed moves in the machine's axis frame, seen from above (X, Y in mm), each coloured by the largest contour error along it (µm){both}. Rapids are not drawn. Long paths are merged in pairs of neighbouring moves, each coloured by the larger error, so no peak is lost."),
+    }];
+    let zoom = zoomed(before, after, vmax);
+    if let Some(after_max) = zoom {
+        plan_blocks.push(Block::Figure {
+            svg: svg::plan_view(
+                &[plan_panel(after)],
+                (0.0, after_max),
+                2.0,
+                "contour error (µm)",
+                "X (mm)",
+                "Y (mm)",
+            ),
+            caption: format!("'{}' alone on its own colour scale (0 to {} µm), so that what is left after compensation can be seen: on the shared scale above it is near the bottom colour.", after.label, svg::tick_label(after_max, after_max / 1000.0)),
+        });
+    }
     let plan_section = Section {
         id: "plan".into(),
         title: "The path in plan view, coloured by contour error".into(),
-        blocks: vec![Block::Figure {
-            svg: plan,
-            caption: format!("Feed moves in the machine's axis frame, seen from above (X, Y in mm), each coloured by the largest contour error along it (µm){both}. Rapids are not drawn. Long paths are merged in pairs of neighbouring moves, each coloured by the larger error, so no peak is lost."),
-        }],
+        blocks: plan_blocks,
     };
-    let contour_series: Vec<Series> = runs
-        .iter()
-        .map(|(m, colour)| Series {
-            name: format!("{}: largest contour error per command", m.label),
-            colour: colour.to_string(),
-            mark: Mark::Envelope,
-            points: m
-                .trace
-                .bins
-                .iter()
-                .map(|b| {
-                    (
-                        (b.s0_mm + b.s1_mm) / 2.0,
-                        b.contour_min_um,
-                        b.contour_max_um,
-                    )
-                })
-                .collect(),
-        })
-        .collect();
-    let point_series: Vec<Series> = runs
-        .iter()
-        .map(|(m, colour)| Series {
-            name: format!("{}: point error", m.label),
-            colour: colour.to_string(),
-            mark: Mark::Markers,
-            points: m
-                .trace
-                .bins
-                .iter()
-                .filter_map(|b| b.point_max_um.map(|p| ((b.s0_mm + b.s1_mm) / 2.0, p, 0.0)))
-                .collect(),
-        })
-        .collect();
+    let contours: Vec<Series> = runs.iter().map(|(m, c)| contour_series(m, c)).collect();
+    let points: Vec<Series> = runs.iter().map(|(m, c)| point_series(m, c)).collect();
+    let mut along_blocks = vec![
+        Block::Figure {
+            svg: along_chart("contour error (µm)", 230.0, contours),
+            caption: "The largest contour error of each feed command over the commanded feed path length. Long paths are decimated into bins drawn from their smallest to their largest value, so every peak stays visible.".into(),
+        },
+        Block::Figure {
+            svg: along_chart("point error (µm)", 200.0, points),
+            caption: "The point error at the end of every feed move of the program (the largest per bin on long paths).".into(),
+        },
+    ];
+    if zoom.is_some() {
+        along_blocks.push(Block::Figure {
+            svg: along_chart(
+                "error (µm)",
+                200.0,
+                vec![contour_series(after, AFTER), point_series(after, PALETTE[2])],
+            ),
+            caption: format!("'{}' alone on its own scale: the largest contour error per command and the point errors, which the shared scale above flattens towards zero.", after.label),
+        });
+    }
     let along = Section {
         id: "along".into(),
         title: "Error along the path".into(),
-        blocks: vec![
-            Block::Figure {
-                svg: svg::chart(&Chart {
-                    x_label: "commanded feed path length (mm)".into(),
-                    y_label: "contour error (µm)".into(),
-                    plot_height: 230.0,
-                    series: contour_series,
-                    rules: vec![],
-                    y_from_zero: true,
-                    ..Chart::default()
-                }),
-                caption: "The largest contour error of each feed command over the commanded feed path length. Long paths are decimated into bins drawn from their smallest to their largest value, so every peak stays visible.".into(),
-            },
-            Block::Figure {
-                svg: svg::chart(&Chart {
-                    x_label: "commanded feed path length (mm)".into(),
-                    y_label: "point error (µm)".into(),
-                    plot_height: 200.0,
-                    series: point_series,
-                    rules: vec![],
-                    y_from_zero: true,
-                    ..Chart::default()
-                }),
-                caption: "The point error at the end of every feed move of the program (the largest per bin on long paths).".into(),
-            },
-        ],
+        blocks: along_blocks,
     };
     let hists: Vec<&LengthHistogram> = runs.iter().map(|(m, _)| &m.trace.histogram).collect();
     let (edges, heights) = common_bins(&hists);
@@ -414,7 +450,14 @@ pub fn picture_sections(before: Option<&Measured>, after: &Measured) -> Vec<Sect
     vec![plan_section, along, histogram]
 }
 
-/// The definitions of the metrics, as the tables use them.
+/// Where the results sections send the reader for the metrics' meaning:
+/// the definitions are given once per document, on its first page
+/// ([`definitions`] in [`super::Document::front`]).
+pub const DEFINED_ONCE: &str =
+    "Point and contour error are defined on the first page (docs/design.md, \"Simulation and metrics\").";
+
+/// The definitions of the metrics, as the tables use them: given once per
+/// document, on its first page ([`super::Document::front`]).
 pub fn definitions() -> Block {
     Block::Table(Table {
         headers: vec!["metric".into(), "definition (docs/design.md)".into()],
@@ -942,7 +985,7 @@ pub fn compensation_sections(
             Block::Text(format!("'{}' is the original program on the machine with the map's errors; '{}' is the compensated program on the same machine, judged against the original's moves.", b.label, a.label)),
             Block::Table(results_table(Some(&b), &a)),
             Block::Table(summary_table(summary)),
-            definitions(),
+            Block::Text(DEFINED_ONCE.into()),
         ],
     }];
     sections.extend(picture_sections(Some(&b), &a));
@@ -965,17 +1008,27 @@ pub fn simulation_sections(
 ) -> Vec<Section> {
     let b = before.map(Traced::measured);
     let a = after.measured();
+    let mut results = vec![
+        Block::Table(results_table(b.as_ref(), &a)),
+        Block::Text(DEFINED_ONCE.into()),
+    ];
+    // No page for a warning that was not given: one line here instead.
+    if after.warnings.is_empty() {
+        results.extend(warnings_blocks(&after.warnings, quoted));
+    }
     let mut sections = vec![Section {
         id: "results".into(),
         title: "Errors of the simulated program".into(),
-        blocks: vec![Block::Table(results_table(b.as_ref(), &a)), definitions()],
+        blocks: results,
     }];
     sections.extend(picture_sections(b.as_ref(), &a));
-    sections.push(Section {
-        id: "warnings".into(),
-        title: "Warnings".into(),
-        blocks: warnings_blocks(&after.warnings, quoted),
-    });
+    if !after.warnings.is_empty() {
+        sections.push(Section {
+            id: "warnings".into(),
+            title: "Warnings".into(),
+            blocks: warnings_blocks(&after.warnings, quoted),
+        });
+    }
     prefixed(prefix, sections)
 }
 

@@ -54,6 +54,7 @@ pub fn document(
         ],
         inputs,
         sections: sections(r),
+        ..Default::default()
     };
     Ok(doc.to_html())
 }

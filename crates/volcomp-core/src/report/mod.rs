@@ -28,6 +28,7 @@ pub mod mirror;
 pub mod probe;
 pub mod svg;
 pub mod text;
+pub mod title;
 pub mod trace;
 
 use crate::error::Error;
@@ -142,17 +143,30 @@ pub struct Document {
     pub inputs: Vec<InputFile>,
     /// The sections after the first.
     pub sections: Vec<Section>,
+    /// The title block (customer, part, drawing, …), printed above
+    /// everything else on the first page; empty: none.
+    pub title_block: title::TitleBlock,
+    /// What the first page says once for the whole document after the
+    /// inputs (e.g. the definitions of the metrics every section uses).
+    pub front: Vec<Block>,
 }
 
-/// The style sheet: A4 pages, one section per page, tables and figures
-/// kept whole; on a narrow (phone) screen drawings keep a readable width
-/// and scroll sideways rather than shrink their text.
+/// The style sheet: A4 pages with the page number in the bottom margin
+/// (`@page` margin boxes and the `page`/`pages` counters, CSS Paged Media
+/// 3 §5, printed by Chromium since version 131), one section per page,
+/// headings kept with what follows them, tables and figures kept whole; on
+/// a narrow (phone) screen drawings keep a readable width and scroll
+/// sideways rather than shrink their text. The running title at the bottom
+/// left is added per document ([`Document::to_html`]).
 const CSS: &str = r#"
-@page { size: A4; margin: 15mm 14mm; }
+@page { size: A4; margin: 15mm 14mm 17mm 14mm;
+  @bottom-right { content: "page " counter(page) " of " counter(pages); font: 8.5pt "DejaVu Sans", Helvetica, Arial, sans-serif; color: #444; }
+}
 * { box-sizing: border-box; }
 body { font-family: "DejaVu Sans", Helvetica, Arial, sans-serif; font-size: 11pt; color: #111; margin: 0 auto; max-width: 190mm; padding: 8px; line-height: 1.35; }
 h1 { font-size: 17pt; margin: 0 0 4px 0; }
-h2 { font-size: 14pt; border-bottom: 2px solid #0072B2; padding-bottom: 2px; margin: 0 0 8px 0; }
+h2 { font-size: 14pt; border-bottom: 2px solid #0072B2; padding-bottom: 2px; margin: 0 0 8px 0; break-after: avoid; page-break-after: avoid; }
+h2 .no { color: #0072B2; margin-right: 0.4em; }
 section { margin-bottom: 28px; }
 section + section { break-before: page; page-break-before: always; }
 table { border-collapse: collapse; margin: 6px 0 10px 0; font-size: 9.5pt; break-inside: avoid; }
@@ -160,16 +174,36 @@ th, td { border: 1px solid #bbb; padding: 2px 6px; text-align: left; vertical-al
 th { background: #eef3f8; }
 td.n { text-align: right; font-variant-numeric: tabular-nums; }
 td.h { font-family: "DejaVu Sans Mono", monospace; font-size: 8pt; word-break: break-all; }
+table.titleblock { border: 2px solid #111; margin: 8px 0 14px 0; min-width: 60%; }
+table.titleblock th { width: 9em; background: #f4f4f4; font-weight: normal; color: #333; }
+table.titleblock td { font-weight: bold; }
 figure { margin: 6px 0 14px 0; break-inside: avoid; }
 figure svg { display: block; width: 100%; height: auto; }
 figcaption { font-size: 9.5pt; color: #333; margin-top: 2px; }
-pre { font-family: "DejaVu Sans Mono", monospace; font-size: 8.5pt; background: #f6f6f6; padding: 4px 6px; white-space: pre-wrap; word-break: break-all; break-inside: avoid; }
-nav ol { margin: 4px 0; padding-left: 22px; }
+p { orphans: 3; widows: 3; }
+pre { font-family: "DejaVu Sans Mono", monospace; font-size: 8.5pt; background: #f6f6f6; padding: 4px 6px; white-space: pre-wrap; word-break: break-all; }
+nav.contents ol { margin: 4px 0; padding-left: 26px; }
 .table-wrap { overflow-x: auto; }
 figure { overflow-x: auto; }
 @media (max-width: 600px) { body { font-size: 10pt; } figure svg { min-width: 560px; } }
-@media print { nav { display: none; } .table-wrap, figure { overflow: visible; } figure svg { min-width: 0; } }
+@media print { .table-wrap, figure { overflow: visible; } figure svg { min-width: 0; } nav.contents a { color: inherit; text-decoration: none; } }
 "#;
+
+/// `text` as a CSS string literal that is safe inside `<style>`.
+fn css_string(text: &str) -> String {
+    let mut out = String::from("\"");
+    for c in text.chars() {
+        match c {
+            '"' | '\\' | '<' | '>' | '&' => {
+                let _ = write!(out, "\\{:x} ", c as u32);
+            }
+            c if c.is_control() => out.push(' '),
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}
 
 fn anchor(id: &str) -> String {
     id.chars()
@@ -202,22 +236,66 @@ fn table_html(out: &mut String, t: &Table) {
     out.push_str("</tbody></table></div>\n");
 }
 
+fn block_html(out: &mut String, b: &Block) {
+    match b {
+        Block::Text(t) => {
+            let _ = writeln!(out, "<p>{}</p>", escape(t));
+        }
+        Block::Table(t) => table_html(out, t),
+        Block::Figure { svg, caption } => {
+            let _ = writeln!(
+                out,
+                "<figure>{svg}<figcaption>{}</figcaption></figure>",
+                escape(caption)
+            );
+        }
+        Block::Lines(lines) => {
+            out.push_str("<pre>");
+            for (n, text) in lines {
+                let _ = writeln!(out, "{n:>7}  {}", escape(text));
+            }
+            out.push_str("</pre>\n");
+        }
+    }
+}
+
+fn inputs_html(out: &mut String, inputs: &[InputFile]) {
+    if inputs.is_empty() {
+        return;
+    }
+    out.push_str("<div class=\"table-wrap\"><table><thead><tr><th>input</th><th>file</th><th>bytes</th><th>SHA-256</th></tr></thead><tbody>");
+    for f in inputs {
+        let _ = write!(
+            out,
+            "<tr><td>{}</td><td>{}</td><td class=\"n\">{}</td><td class=\"h\">{}</td></tr>",
+            escape(&f.role),
+            escape(&f.name),
+            f.bytes.map_or("–".to_string(), |b| b.to_string()),
+            escape(&f.sha256)
+        );
+    }
+    out.push_str("</tbody></table></div>\n");
+}
+
 impl Document {
-    /// The report as one HTML document (UTF-8), with no script and no
-    /// external resource.
-    pub fn to_html(&self) -> String {
-        let mut out = String::with_capacity(1 << 16);
-        let _ = write!(
+    /// The first page: the title, the title block, what was done with
+    /// what, the inputs, what is said once for the whole document, and the
+    /// contents (numbered as the sections' headings are, shown on screen
+    /// and in print).
+    fn first_page_html(&self, out: &mut String) {
+        let _ = writeln!(
             out,
-            "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<meta name=\"generator\" content=\"volcomp {}\">\n<title>{}</title>\n<style>{CSS}</style>\n</head>\n<body>\n",
-            env!("CARGO_PKG_VERSION"),
+            "<section id=\"run\">\n<h1>{}</h1>",
             escape(&self.title)
         );
-        let _ = write!(
-            out,
-            "<section id=\"run\">\n<h1>{}</h1>\n<h2>What was done, with what</h2>\n",
-            escape(&self.title)
-        );
+        if !self.title_block.rows.is_empty() {
+            out.push_str("<table class=\"titleblock\"><tbody>");
+            for (k, v) in &self.title_block.rows {
+                let _ = write!(out, "<tr><th>{}</th><td>{}</td></tr>", escape(k), escape(v));
+            }
+            out.push_str("</tbody></table>\n");
+        }
+        out.push_str("<h2>What was done, with what</h2>\n");
         let facts = Table {
             headers: vec![],
             rows: self
@@ -227,23 +305,13 @@ impl Document {
                 .collect(),
             numeric: vec![],
         };
-        table_html(&mut out, &facts);
-        if !self.inputs.is_empty() {
-            out.push_str("<div class=\"table-wrap\"><table><thead><tr><th>input</th><th>file</th><th>bytes</th><th>SHA-256</th></tr></thead><tbody>");
-            for f in &self.inputs {
-                let _ = write!(
-                    out,
-                    "<tr><td>{}</td><td>{}</td><td class=\"n\">{}</td><td class=\"h\">{}</td></tr>",
-                    escape(&f.role),
-                    escape(&f.name),
-                    f.bytes.map_or("–".to_string(), |b| b.to_string()),
-                    escape(&f.sha256)
-                );
-            }
-            out.push_str("</tbody></table></div>\n");
+        table_html(out, &facts);
+        inputs_html(out, &self.inputs);
+        for b in &self.front {
+            block_html(out, b);
         }
         if !self.sections.is_empty() {
-            out.push_str("<nav><b>Contents</b><ol>");
+            out.push_str("<nav class=\"contents\"><b>Contents</b><ol>");
             for s in &self.sections {
                 let _ = write!(
                     out,
@@ -255,34 +323,31 @@ impl Document {
             out.push_str("</ol></nav>\n");
         }
         out.push_str("</section>\n");
-        for s in &self.sections {
+    }
+
+    /// The report as one HTML document (UTF-8), with no script and no
+    /// external resource. Printed, every page carries the document's title
+    /// at the bottom left and "page N of M" at the bottom right.
+    pub fn to_html(&self) -> String {
+        let mut out = String::with_capacity(1 << 16);
+        let _ = write!(
+            out,
+            "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<meta name=\"generator\" content=\"volcomp {}\">\n<title>{}</title>\n<style>{CSS}@page {{ @bottom-left {{ content: {}; font: 8.5pt \"DejaVu Sans\", Helvetica, Arial, sans-serif; color: #444; }} }}\n</style>\n</head>\n<body>\n",
+            env!("CARGO_PKG_VERSION"),
+            escape(&self.title),
+            css_string(&self.title)
+        );
+        self.first_page_html(&mut out);
+        for (k, s) in self.sections.iter().enumerate() {
             let _ = write!(
                 out,
-                "<section id=\"{}\">\n<h2>{}</h2>\n",
+                "<section id=\"{}\">\n<h2><span class=\"no\">{}</span>{}</h2>\n",
                 anchor(&s.id),
+                k + 1,
                 escape(&s.title)
             );
             for b in &s.blocks {
-                match b {
-                    Block::Text(t) => {
-                        let _ = writeln!(out, "<p>{}</p>", escape(t));
-                    }
-                    Block::Table(t) => table_html(&mut out, t),
-                    Block::Figure { svg, caption } => {
-                        let _ = writeln!(
-                            out,
-                            "<figure>{svg}<figcaption>{}</figcaption></figure>",
-                            escape(caption)
-                        );
-                    }
-                    Block::Lines(lines) => {
-                        out.push_str("<pre>");
-                        for (n, text) in lines {
-                            let _ = writeln!(out, "{n:>7}  {}", escape(text));
-                        }
-                        out.push_str("</pre>\n");
-                    }
-                }
+                block_html(&mut out, b);
             }
             out.push_str("</section>\n");
         }
@@ -327,12 +392,33 @@ mod tests {
                     Block::Lines(vec![(12, "G1 X<1>".into())]),
                 ],
             }],
+            title_block: title::TitleBlock {
+                rows: vec![("customer".into(), "A & B".into())],
+            },
+            front: vec![Block::Text("said once".into())],
         };
         let html = d.to_html();
         assert!(html.starts_with("<!DOCTYPE html>"));
         assert!(html.contains("<title>t &lt;1&gt;</title>"));
         assert!(html.contains("section + section { break-before: page;"));
-        assert!(html.contains("<section id=\"a-b\">"));
+        assert!(html.contains("<section id=\"a-b\">\n<h2><span class=\"no\">1</span>A</h2>"));
+        // The contents are numbered as the headings are, and printed.
+        assert!(html.contains(
+            "<nav class=\"contents\"><b>Contents</b><ol><li><a href=\"#a-b\">A</a></li></ol></nav>"
+        ));
+        assert!(!html.contains("nav { display: none"));
+        // The title block comes first, then the facts; what is said once
+        // comes after the inputs.
+        let tb = html
+            .find("<tr><th>customer</th><td>A &amp; B</td></tr>")
+            .unwrap();
+        assert!(tb < html.find("What was done").unwrap());
+        assert!(html.find("<p>said once</p>").unwrap() > html.find("SHA-256").unwrap());
+        // Page numbers and the running title in the page margins, the
+        // title escaped as a CSS string inside <style>.
+        assert!(html
+            .contains("@bottom-right { content: \"page \" counter(page) \" of \" counter(pages);"));
+        assert!(html.contains("@bottom-left { content: \"t \\3c 1\\3e \";"));
         assert!(html.contains("     12  G1 X&lt;1&gt;"));
         // SHA-256 of the empty string (FIPS 180-2 test vectors).
         assert!(html.contains("e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855"));

@@ -67,6 +67,28 @@ pub fn nice_ticks(lo: f64, hi: f64, target: usize) -> (Vec<f64>, f64) {
     (ticks, step)
 }
 
+/// Ticks at 1, 2 or 5 × 10ⁿ that lie within `[lo, hi]`, at least three of
+/// them (a plan view's axis is the drawing's extent, not widened to the
+/// ticks, so [`nice_ticks`] alone can leave a single tick inside it): the
+/// step is made finer until three fit.
+pub fn ticks_within(lo: f64, hi: f64, target: usize) -> (Vec<f64>, f64) {
+    let (lo, hi) = if lo <= hi { (lo, hi) } else { (hi, lo) };
+    let slack = (hi - lo).abs() * 1e-9;
+    let mut last = (vec![], 1.0);
+    for t in target.max(2)..target.max(2) + 12 {
+        let (ticks, step) = nice_ticks(lo, hi, t);
+        let inside: Vec<f64> = ticks
+            .into_iter()
+            .filter(|v| *v >= lo - slack && *v <= hi + slack)
+            .collect();
+        if inside.len() >= 3 {
+            return (inside, step);
+        }
+        last = (inside, step);
+    }
+    last
+}
+
 /// A tick label with as many decimals as the step needs and a true minus.
 pub fn tick_label(value: f64, step: f64) -> String {
     let decimals = (-step.log10().floor()).max(0.0) as usize;
@@ -666,8 +688,8 @@ pub fn plan_view(
     let per_px = ((x1 - x0) / panel_w).max((y1 - y0) / panel_h).max(1e-9) * 1.04;
     let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
     let (dx, dy) = (per_px * panel_w / 2.0, per_px * panel_h / 2.0);
-    let xt = nice_ticks(cx - dx, cx + dx, (panel_w / 70.0).max(2.0) as usize);
-    let yt = nice_ticks(cy - dy, cy + dy, (panel_h / 50.0).max(2.0) as usize);
+    let xt = ticks_within(cx - dx, cx + dx, (panel_w / 70.0).max(2.0) as usize);
+    let yt = ticks_within(cy - dy, cy + dy, (panel_h / 50.0).max(2.0) as usize);
     let top = TOP + 22.0;
     let height = top + panel_h + AXIS_BELOW + 4.0;
     let mut svg = open_svg(
@@ -883,6 +905,23 @@ mod tests {
         // A single value still has extent.
         let (t, _) = nice_ticks(5.0, 5.0, 4);
         assert!(t[0] < 5.0 && *t.last().unwrap() > 5.0);
+    }
+
+    #[test]
+    fn an_axis_over_a_drawings_extent_gets_at_least_three_ticks_inside_it() {
+        // 9.3 … 10.9 mm: 1-2-5 steps for two intervals give 1 mm, and a
+        // single tick (10) inside; three need 0.5 mm steps.
+        assert_eq!(nice_ticks(9.3, 10.9, 2).0, vec![9.0, 10.0, 11.0]);
+        let (t, step) = ticks_within(9.3, 10.9, 2);
+        assert_eq!(step, 0.5);
+        assert_eq!(t, vec![9.5, 10.0, 10.5]);
+        // Every tick is inside, and the ends count.
+        let (t, _) = ticks_within(-40.0, 40.0, 3);
+        assert!(
+            t.len() >= 3 && t.iter().all(|v| (-40.0..=40.0).contains(v)),
+            "{t:?}"
+        );
+        assert_eq!(t.first(), Some(&-40.0));
     }
 
     #[test]

@@ -160,6 +160,7 @@ pub fn charts_report(
         facts: super::run_facts(command),
         inputs,
         sections: sections(&groups),
+        ..Default::default()
     }
     .to_html()
 }

@@ -130,6 +130,9 @@ pub fn report_html(
         facts,
         inputs,
         sections: all,
+        // The metrics every program's sections use, defined once.
+        front: vec![crate::report::compensation::definitions()],
+        ..Default::default()
     }
     .to_html()
 }

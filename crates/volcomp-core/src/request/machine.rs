@@ -200,10 +200,57 @@ impl Machine {
         if !matches!(e, Error::Compensation(CompensationError::Model { .. })) {
             return None;
         }
+        if let Some(help) = self.inch_setup_in_mm(e) {
+            // The set-up, not the map: the map's unit is not in question.
+            let text = e.to_string();
+            let text = match (
+                text.find("; the map may be in another unit: "),
+                text.find("; check the work offset"),
+            ) {
+                (Some(a), Some(b)) if a < b => format!("{}{}", &text[..a], &text[b..]),
+                _ => text,
+            };
+            return Some(format!("{text}\n  help: {help}"));
+        }
         Some(if self.setup.no_work_offset {
             format!("{NO_WORK_OFFSET}: {e}\n  help: give the program's work offsets with {{setup}} or {{work_offset_mm}} first; {{clamp}} holds the error at the table ends")
         } else {
             format!("{e}\n  help: check {{setup}} / {{work_offset_mm}}; {{clamp}} holds the error at the table ends")
         })
+    }
+
+    /// When the set-up file says `units = "inch"` and a point outside the
+    /// map comes inside it at 1/25.4 of its value, the likely cause: the
+    /// set-up's numbers (offsets, tool lengths, start) were written in mm
+    /// and read as inches, which puts the part 25.4 times as far from the
+    /// machine's zero. The map is not the suspect then: its range is where
+    /// the part would be with the numbers read as mm.
+    fn inch_setup_in_mm(&self, e: &Error) -> Option<String> {
+        use crate::error::{CompensationError, ModelError};
+        let Error::Compensation(CompensationError::Model {
+            source:
+                ModelError::OutOfRange {
+                    axis,
+                    position_mm,
+                    min_mm,
+                    max_mm,
+                },
+            ..
+        }) = e
+        else {
+            return None;
+        };
+        if self.setup.setup.machine_units != volcomp_gcode::geom::Units::Inch {
+            return None;
+        }
+        let margin = 0.05 * (max_mm - min_mm).abs();
+        let read_as_mm = position_mm / 25.4;
+        if read_as_mm < min_mm - margin || read_as_mm > max_mm + margin {
+            return None;
+        }
+        Some(format!(
+            "the set-up says units = \"inch\", and {axis} / 25.4 = {} mm is inside the map: the set-up's offsets, tool lengths and start are likely in mm; write units = \"mm\" in {{setup}}, or give those numbers in inches",
+            crate::error::fmt_mm(read_as_mm)
+        ))
     }
 }

@@ -485,6 +485,7 @@ impl Iso230_2Job<'_> {
                     text.as_bytes(),
                 )],
                 sections: crate::report::iso230_2::sections(&r),
+                ..Default::default()
             };
             job.file(path, doc.to_html());
             job.notes.push(format!("volcomp: wrote {}", path.display()));
@@ -545,6 +546,7 @@ pub fn map_plot_report(
         facts: run_facts(command),
         inputs,
         sections: crate::report::map::sections(&charts),
+        ..Default::default()
     };
     Ok((doc.to_html(), charts.len()))
 }

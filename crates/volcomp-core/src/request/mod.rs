@@ -20,6 +20,7 @@
 pub mod ballbar;
 pub mod charts;
 mod compensate;
+#[cfg(any(test, feature = "examples"))]
 pub mod demo;
 mod export;
 mod machine;
@@ -57,7 +58,7 @@ pub use probe::{
     ProbeFitRequest, ProbeIdentifyRequest, ProbePlanRequest, PROBE_FIT_OPTIONS,
     PROBE_IDENTIFY_OPTIONS, PROBE_PLAN_OPTIONS,
 };
-pub use report::{header_inputs, RunNames};
+pub use report::{header_inputs, ReportRequest, RunNames, REPORT_OPTIONS};
 pub use simulate::{SimulateRequest, SIMULATE_OPTIONS};
 pub use straightness::{fit_summary, StraightnessFitRequest, STRAIGHTNESS_OPTIONS};
 pub use thermal::{
@@ -92,6 +93,7 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     BALLBAR_PREDICT_OPTIONS,
     BALLBAR_FIT_OPTIONS,
     BALLBAR_MAP_OPTIONS,
+    REPORT_OPTIONS,
 ];
 
 /// The option named `name` in any request.
@@ -150,6 +152,7 @@ mod tests {
     fn tables_and_requests_agree() {
         consistent(|r: &CompensateRequest| (r.options(), r.max_output_bytes));
         consistent(|r: &SimulateRequest| r.clone());
+        consistent(|r: &ReportRequest| r.clone());
         consistent(|r: &MapRequest| r.clone());
         consistent(|r: &MirrorRequest| r.clone());
         consistent(|r: &ThermalFitRequest| r.clone());

@@ -546,6 +546,7 @@ pub fn fit_report_html(
         ],
         inputs,
         sections: crate::report::probe::sections(out, ranges),
+        ..Default::default()
     }
     .to_html()
 }

@@ -4,17 +4,67 @@
 
 use super::compensate::Compensation;
 use super::machine::Machine;
+use super::option::{Kind, OptionError, OptionInfo, Value};
 use super::simulate::SimulateRequest;
 use crate::compensate::CompensateSummary;
 use crate::io::provenance::{now_utc, ProgramHeader};
 use crate::model::ErrorModel;
 use crate::report::compensation::{
-    header_facts, lines_to_quote, quote_lines, setup_facts, simulation_sections, trace_program,
-    LargestCorrections, Traced,
+    definitions, header_facts, lines_to_quote, quote_lines, setup_facts, simulation_sections,
+    trace_program, LargestCorrections, Traced,
 };
+use crate::report::title::TitleBlock;
 use crate::report::{compensation::compensation_sections, Document, InputFile};
 use crate::Error;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The options of [`ReportRequest`]: what an HTML report says besides the
+/// run (the compensation's and the simulation's).
+pub const REPORT_OPTIONS: &[OptionInfo] = &[OptionInfo::new(
+    "report_title",
+    Kind::Path,
+    "Title block of the HTML report: a TOML file with customer, order, part, drawing, revision, material, machine, tolerance, operator, notes (each optional; docs/report.md, \"Title block\").",
+)
+.value("FILE.toml")];
+
+/// What an HTML report says besides the run, as plain values.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ReportRequest {
+    /// The title-block file.
+    pub report_title: Option<PathBuf>,
+}
+
+impl super::Request for ReportRequest {
+    const OPTIONS: &'static [&'static [OptionInfo]] = &[REPORT_OPTIONS];
+
+    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
+        match name {
+            "report_title" => self.report_title = Some(v.path("report_title")?),
+            _ => {
+                return Err(OptionError::new(
+                    "report_title",
+                    format!("has no option `{name}`"),
+                ))
+            }
+        }
+        Ok(())
+    }
+}
+
+impl ReportRequest {
+    /// The title block, read and checked before any work (an empty one
+    /// when none was given). `html`: whether an HTML report is written; a
+    /// title block without one is refused rather than ignored.
+    pub fn title_block(&self, html: bool) -> Result<TitleBlock, Error> {
+        match &self.report_title {
+            None => Ok(TitleBlock::default()),
+            Some(_) if !html => Err(Error::Request(
+                "{report_title} is the title block of the HTML report, and no HTML report is written: ask for the report too, or leave {report_title} out".into(),
+            )),
+            Some(path) => TitleBlock::read(path),
+        }
+    }
+}
 
 /// The files of a program header (the map and the tables it names) as
 /// report inputs.
@@ -46,6 +96,8 @@ pub struct RunNames<'a> {
     pub program: &'a str,
     /// Where the compensated program went (`standard output`, a file).
     pub output: &'a str,
+    /// The title block (from [`ReportRequest::title_block`]).
+    pub title_block: &'a TitleBlock,
 }
 
 impl Compensation {
@@ -112,6 +164,8 @@ impl Compensation {
             facts,
             inputs,
             sections,
+            title_block: names.title_block.clone(),
+            front: vec![definitions()],
         }
         .to_html())
     }
@@ -121,7 +175,9 @@ impl SimulateRequest {
     /// The HTML report of a simulation of `program` (a file, or `-` for
     /// standard input, which is not read again) already simulated as
     /// `after`; with a reference, the reference on its own is simulated
-    /// too, as "before". `map` is the map file, listed with its SHA-256.
+    /// too, as "before". `map` is the map file, listed with its SHA-256;
+    /// `command` and `title_block` head the first page.
+    #[allow(clippy::too_many_arguments)]
     pub fn report_html(
         &self,
         model: &dyn ErrorModel,
@@ -130,6 +186,7 @@ impl SimulateRequest {
         map: &Path,
         after: &Traced,
         command: &str,
+        title_block: &TitleBlock,
     ) -> Result<String, Error> {
         let chord = self.chord_tolerance_mm()?;
         let before = match &self.reference {
@@ -191,6 +248,8 @@ impl SimulateRequest {
             facts,
             inputs,
             sections,
+            title_block: title_block.clone(),
+            front: vec![definitions()],
         }
         .to_html())
     }

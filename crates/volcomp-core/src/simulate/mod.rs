@@ -37,9 +37,7 @@ pub use front::{Simulation, DEFAULT_CHORD_TOLERANCE_MM};
 pub use report::{SegmentError, SimReport};
 
 use crate::error::ModelError;
-use crate::model::{
-    actual_mm, Components, Direction, Directions, ErrorModel, WithTool, ALL_FORWARD,
-};
+use crate::model::{actual_mm, Components, Directions, ErrorModel, WithTool, ALL_FORWARD};
 use volcomp_gcode::Vec3;
 
 /// Largest distance between dense samples of the actual path (docs/design.md, "Simulation and metrics").
@@ -191,16 +189,7 @@ impl Band {
     }
 }
 
-/// The direction state after a move by `dq` (axes that do not move keep theirs).
-pub fn next_state(s: Directions, dq: Vec3) -> Directions {
-    let mut out = s;
-    for a in 0..3 {
-        if let Some(d) = Direction::of_delta(dq[a]) {
-            out[a] = d;
-        }
-    }
-    out
-}
+pub use crate::model::next_state;
 
 /// Distance from `p` to the segment `a`–`b`.
 pub fn point_segment_distance(p: Vec3, a: Vec3, b: Vec3) -> f64 {
@@ -248,6 +237,7 @@ impl ErrorStats {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::Direction;
 
     struct Backlash {
         b_um: f64,

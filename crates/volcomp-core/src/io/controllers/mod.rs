@@ -283,7 +283,7 @@ pub(crate) fn read_named(
 ) -> Result<String, ControllerReadError> {
     let role = format!(
         "a file named in {}",
-        crate::io::shown_name(&crate::compensate::file_name(parent))
+        crate::io::shown_name(&crate::io::file_name(parent))
     );
     read_text_as(path, &role)
 }

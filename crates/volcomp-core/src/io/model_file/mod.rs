@@ -401,7 +401,7 @@ pub fn model_from_text(path: &Path, text: &str) -> Result<KinematicModel, ModelF
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let role = format!(
         "a table named in {}",
-        crate::io::shown_name(&crate::compensate::file_name(path))
+        crate::io::shown_name(&crate::io::file_name(path))
     );
     let mut read = |name: &str| -> Result<(String, String), std::io::Error> {
         let p: PathBuf = dir.join(name);

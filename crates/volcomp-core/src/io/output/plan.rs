@@ -252,7 +252,7 @@ impl OutputPlan {
     pub fn map_input(&mut self, flag: &str, path: impl AsRef<Path>) -> &mut Self {
         let path = path.as_ref();
         self.input(flag, path);
-        let name = crate::io::shown_name(&crate::compensate::file_name(path));
+        let name = crate::io::shown_name(&crate::io::file_name(path));
         for t in referenced_files(path) {
             self.input(format!("{flag} (a table named in {name})"), t);
         }

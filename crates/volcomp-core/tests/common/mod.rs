@@ -1,0 +1,88 @@
+//! What the library's tests share: maps made by hand, a walker over a
+//! program held in memory, a compensation of such a program, and LinuxCNC's
+//! `rs274` where it is installed (and a failure under CI where it is not).
+#![allow(dead_code)]
+
+use std::io::Cursor;
+use std::path::PathBuf;
+use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions};
+use volcomp_core::model::axis_table::AxisTableMap;
+use volcomp_gcode::{InterpOptions, Setup, Walker};
+
+/// A map of zeros over ±10 m on every axis: compensation changes nothing,
+/// so every expected number is the program's own.
+pub fn zero_map() -> AxisTableMap {
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for axis in ["X", "Y", "Z"] {
+        csv.push_str(&format!(
+            "{axis},both,-10000,0,0,0\n{axis},both,10000,0,0,0\n"
+        ));
+    }
+    AxisTableMap::from_csv(&csv, "zero.csv").unwrap()
+}
+
+/// A map over −100…300 mm in 4 mm rows whose errors (µm) on axis `a`
+/// (0 = X) at position `p` in direction `reverse` are `f(a, p, reverse)`.
+pub fn map_from(f: impl Fn(usize, f64, bool) -> [f64; 3]) -> AxisTableMap {
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for (a, name) in ["X", "Y", "Z"].iter().enumerate() {
+        for (dir, rev) in [("forward", false), ("reverse", true)] {
+            for k in 0..=100 {
+                let p = -100.0 + 4.0 * k as f64;
+                let e = f(a, p, rev);
+                csv.push_str(&format!("{name},{dir},{p},{},{},{}\n", e[0], e[1], e[2]));
+            }
+        }
+    }
+    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+}
+
+/// A walker over `program` named `name`, with the default set-up and
+/// interpreter options.
+pub fn walker(program: &str, name: &str) -> Walker<Cursor<Vec<u8>>> {
+    Walker::new(
+        Cursor::new(program.as_bytes().to_vec()),
+        Some(name.into()),
+        Setup::default(),
+        InterpOptions::default(),
+    )
+}
+
+/// `program` (named `name`) compensated for `map` with `options` on the
+/// default set-up: the written program, or the error's text.
+pub fn compensate_text(
+    program: &str,
+    name: &str,
+    map: &AxisTableMap,
+    options: &CompensateOptions,
+) -> Result<String, String> {
+    let mut out = Vec::new();
+    compensate_program(
+        &mut walker(program, name),
+        name,
+        map,
+        &survey_style(program.as_bytes()),
+        options,
+        &mut out,
+        |_| {},
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(String::from_utf8(out).unwrap())
+}
+
+/// LinuxCNC's stand-alone interpreter, where it is installed. Where it is
+/// not, a test under CI (the `CI` variable set) fails, since CI installs it
+/// (`.ci/run`); elsewhere the caller skips its rs274 part, said loudly.
+pub fn rs274(not_checked: &str) -> Option<PathBuf> {
+    let found = ["/usr/bin/rs274", "/usr/local/bin/rs274"]
+        .into_iter()
+        .map(PathBuf::from)
+        .find(|p| p.exists());
+    if found.is_none() {
+        if std::env::var_os("CI").is_some() {
+            panic!("rs274 (LinuxCNC's stand-alone interpreter, Debian package linuxcnc-uspace) is not installed, and CI is set: CI must install it (.ci/run does)");
+        }
+        eprintln!("!! SKIPPED: rs274 is not installed: {not_checked} was NOT checked");
+    }
+    found
+}
