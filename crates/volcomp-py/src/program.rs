@@ -201,7 +201,7 @@ pub fn compensate(
     let summary = result.map_err(|e| explain(*e, &job.machine))?;
     let time = py.detach(|| {
         let original = Some((
-            Box::new(bytes.as_slice()) as Box<dyn std::io::Read>,
+            Box::new(bytes.as_slice()) as Box<dyn std::io::Read + Send>,
             file.as_str(),
         ));
         compare_programs(

@@ -123,7 +123,9 @@ fn fold_deviation_mm(lags: &[Vec3; 3], q_prev: Vec3, q: Vec3, nominal_delta: Vec
     } else {
         Vec3::ZERO
     };
-    fold_deviation_along_mm(lags, q_prev, q, &|_| u)
+    // Speed lane: with one direction the part across it is convex between
+    // the breakpoints, so the ends and the breakpoints give the largest.
+    fold_deviation_sampled_mm(lags, q_prev, q, &|_| u, 1)
 }
 
 /// A lead piece for a take-up that the whole move cannot fold (see
@@ -178,6 +180,17 @@ fn fold_deviation_along_mm(
     q: Vec3,
     tangent: &dyn Fn(f64) -> Vec3,
 ) -> f64 {
+    fold_deviation_sampled_mm(lags, q_prev, q, tangent, 32)
+}
+
+/// [`fold_deviation_along_mm`] sampled at `steps + 1` fractions.
+fn fold_deviation_sampled_mm(
+    lags: &[Vec3; 3],
+    q_prev: Vec3,
+    q: Vec3,
+    tangent: &dyn Fn(f64) -> Vec3,
+    steps: u32,
+) -> f64 {
     let dq = q - q_prev;
     let ratio = |a: usize| -> Option<f64> {
         let own = lags[a][a];
@@ -198,7 +211,9 @@ fn fold_deviation_along_mm(
         let u = tangent(lambda);
         (off - u * off.dot(u)).norm()
     };
-    let mut worst = (0..=32).fold(0.0f64, |m, k| m.max(across(f64::from(k) / 32.0)));
+    let mut worst = (0..=steps).fold(0.0f64, |m, k| {
+        m.max(across(f64::from(k) / f64::from(steps)))
+    });
     for a in 0..3 {
         if let Some(r) = ratio(a).filter(|r| *r > 1.0) {
             worst = worst.max(across(1.0 / r));

@@ -86,10 +86,12 @@ pub fn solve_fixed(
         }
         r.norm()
     };
-    let (q, iterations) = match method {
+    // The residual at the final command when the method's model is the
+    // full one (then it is the residual this reports: not evaluated again).
+    let (q, iterations, full) = match method {
         Method::Direct => {
             let e = model.deviation_um(fix(t_mm), s, comps)? * 1e-3;
-            (fix(t_mm - e), 1)
+            (fix(t_mm - e), 1, None)
         }
         Method::Ilc {
             gain,
@@ -108,7 +110,7 @@ pub fn solve_fixed(
                 q = next;
                 r = r_next;
             }
-            (q, it)
+            (q, it, Some(r))
         }
         Method::Exact | Method::Pitch => {
             let mut q = fix(t_mm);
@@ -119,10 +121,13 @@ pub fn solve_fixed(
                 r = residual(q)?;
                 it += 1;
             }
-            (q, it)
+            (q, it, (comps == Components::All).then_some(r))
         }
     };
-    let full = t_mm - actual_mm(model, q, s, Components::All)?;
+    let full = match full {
+        Some(r) => r,
+        None => t_mm - actual_mm(model, q, s, Components::All)?,
+    };
     Ok(Solved {
         q_mm: q,
         iterations,

@@ -227,18 +227,23 @@ pub(crate) fn run_period(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
         ex.shown = None;
         return false;
     }
-    let s = q.make_contiguous();
-    if !s[0].active {
-        activate(&mut s[0], limits, &mut ex.shown);
+    // The three front segments, without making the ring contiguous (a
+    // copy of the queue whenever it wraps).
+    let mut front = q.iter_mut();
+    let tc = front.next().expect("a segment");
+    if !tc.active {
+        activate(tc, limits, &mut ex.shown);
     }
-    for seg in s.iter_mut().take(2) {
-        seg.is_blending = false;
+    let mut next = front.next();
+    let after = front.next();
+    tc.is_blending = false;
+    if let Some(n) = next.as_deref_mut() {
+        n.is_blending = false;
     }
-    let (tc, rest) = s.split_first_mut().expect("a segment");
     if tc.splitting {
-        split_period(tc, rest, limits, &mut ex.shown);
+        split_period(tc, next, after.as_deref(), limits, &mut ex.shown);
     } else {
-        regular_period(tc, rest, limits, &mut ex.shown);
+        regular_period(tc, next, limits, &mut ex.shown);
     }
     if q[0].remove {
         q.pop_front();
@@ -386,14 +391,19 @@ fn cruise_periods(tc: &Seg, next: Option<&Seg>, limits: &Limits) -> Option<u64> 
 }
 
 /// `tpHandleRegularCycle`.
-fn regular_period(tc: &mut Seg, rest: &mut [Seg], limits: &Limits, shown: &mut Option<Canon>) {
+fn regular_period(
+    tc: &mut Seg,
+    next: Option<&mut Seg>,
+    limits: &Limits,
+    shown: &mut Option<Canon>,
+) {
     if tc.remove {
         return;
     }
     tc.cycle_time = limits.servo_period_s;
-    update(tc, rest.first(), limits);
+    update(tc, next.as_deref(), limits);
     if tc.term == Term::Parabolic {
-        tc.blend_vel = match rest.first() {
+        tc.blend_vel = match next.as_deref() {
             Some(n) => {
                 blend::parabolic_velocity(
                     tc,
@@ -412,7 +422,7 @@ fn regular_period(tc: &mut Seg, rest: &mut [Seg], limits: &Limits, shown: &mut O
         tc.blending_next |= starts;
         tc.blending_next
     };
-    match rest.first_mut() {
+    match next {
         Some(next) if blending => {
             // `tpDoParabolicBlending`: the next segment starts while this
             // one slows down.
@@ -430,20 +440,26 @@ fn regular_period(tc: &mut Seg, rest: &mut [Seg], limits: &Limits, shown: &mut O
 
 /// `tpHandleSplitCycle`: the segment ends within this period; the next
 /// one runs for the rest of it.
-fn split_period(tc: &mut Seg, rest: &mut [Seg], limits: &Limits, shown: &mut Option<Canon>) {
+fn split_period(
+    tc: &mut Seg,
+    next: Option<&mut Seg>,
+    after: Option<&Seg>,
+    limits: &Limits,
+    shown: &mut Option<Canon>,
+) {
     if tc.remove {
         return;
     }
     tc.progress = tc.target;
     tc.remove = true;
-    let Some((next, after)) = rest.split_first_mut() else {
+    let Some(next) = next else {
         return;
     };
     if tc.term == Term::Tangent {
         next.cycle_time = limits.servo_period_s - tc.cycle_time;
         next.currentvel = tc.term_vel;
     }
-    update(next, after.first(), limits);
+    update(next, after, limits);
     *shown = Some(
         if tc.cycle_time > next.cycle_time && tc.term == Term::Tangent {
             tc.canon

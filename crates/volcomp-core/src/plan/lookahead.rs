@@ -100,41 +100,45 @@ fn optimal_velocity(tc: &mut Seg, prev: &mut Seg, limits: &Limits) {
 
 /// The backward pass over the queue's end (`tpRunOptimization`).
 pub(crate) fn optimize(q: &mut VecDeque<Seg>, limits: &Limits) {
-    let s = q.make_contiguous();
-    let len = s.len();
+    let len = q.len();
     let mut hit_peaks = 0;
     let mut hit_non_tangent = false;
+    // Pairs from the back, without making the ring contiguous (a copy of
+    // the queue whenever it wraps).
+    let mut back = q.iter_mut().rev();
+    let Some(mut tc) = back.next() else {
+        return;
+    };
     for x in 1..limits.blend.optimization_depth + 2 {
         if x + 1 > len {
             return;
         }
-        let ind = len - x;
-        let (head, tail) = s.split_at_mut(ind);
-        let (prev, tc) = (&mut head[ind - 1], &mut tail[0]);
+        let prev = back.next().expect("a segment before");
         if prev.term != Term::Tangent {
             if hit_non_tangent {
                 return;
             }
             hit_non_tangent = true;
-            continue;
-        }
-        if prev.progress / prev.target >= 0.25 || prev.splitting || prev.blending_next {
-            return;
-        }
-        if !tc.finalized {
-            prev.finalvel = prev.maxvel.min(initial_vel(tc, limits));
-            if prev.kink_vel >= 0.0 && prev.term == Term::Tangent {
-                prev.finalvel = prev.finalvel.min(prev.kink_vel);
-            }
-            tc.finalvel = 0.0;
         } else {
-            optimal_velocity(tc, prev, limits);
+            if prev.progress / prev.target >= 0.25 || prev.splitting || prev.blending_next {
+                return;
+            }
+            if !tc.finalized {
+                prev.finalvel = prev.maxvel.min(initial_vel(tc, limits));
+                if prev.kink_vel >= 0.0 && prev.term == Term::Tangent {
+                    prev.finalvel = prev.finalvel.min(prev.kink_vel);
+                }
+                tc.finalvel = 0.0;
+            } else {
+                optimal_velocity(tc, prev, limits);
+            }
+            if tc.at_max {
+                hit_peaks += 1;
+            }
+            if hit_peaks > OPTIMIZATION_CUTOFF {
+                return;
+            }
         }
-        if tc.at_max {
-            hit_peaks += 1;
-        }
-        if hit_peaks > OPTIMIZATION_CUTOFF {
-            return;
-        }
+        tc = prev;
     }
 }

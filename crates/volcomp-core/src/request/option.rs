@@ -269,14 +269,14 @@ impl Input {
 
     /// A reader over the input: the file opened (`-` is standard input,
     /// the Unix convention), or the content.
-    pub fn reader(&self) -> Result<Box<dyn std::io::Read + '_>, crate::Error> {
+    pub fn reader(&self) -> Result<Box<dyn std::io::Read + Send + '_>, crate::Error> {
         match self {
             Input::File(p) if p.as_os_str() == "-" => {
                 crate::io::inputs::record_stdin("standard input");
                 Ok(Box::new(std::io::stdin()))
             }
             Input::File(p) => crate::io::inputs::open(p, "an input")
-                .map(|f| Box::new(f) as Box<dyn std::io::Read>)
+                .map(|f| Box::new(f) as Box<dyn std::io::Read + Send>)
                 .map_err(|e| crate::Error::io(p, e)),
             Input::Content { bytes, .. } => Ok(Box::new(bytes.as_slice())),
         }

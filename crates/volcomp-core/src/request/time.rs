@@ -84,7 +84,10 @@ impl Compensation {
         let original = if program.as_os_str() == "-" {
             None
         } else {
-            Some((Box::new(open(program)?) as Box<dyn Read>, shown.as_str()))
+            Some((
+                Box::new(open(program)?) as Box<dyn Read + Send>,
+                shown.as_str(),
+            ))
         };
         compare_programs((compensated, name), original, &self.machine.setup)
     }
