@@ -5,11 +5,14 @@
 //! content itself, an `os.PathLike` (`pathlib.Path`) names a file.
 
 use crate::errors::{bad_input, io_error};
-use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyString};
 use std::path::PathBuf;
+use volcomp_core::report::columns::{Field, Fields};
 use volcomp_core::request::{Input, Machine};
+use volcomp_gcode::Vec3;
 
 /// A text input: its bytes, the name messages give it, and its path when it
 /// came from a file.
@@ -32,6 +35,16 @@ pub fn path_of(obj: &Bound<'_, PyAny>) -> PyResult<PathBuf> {
         return Ok(PathBuf::from(s.to_str()?));
     }
     Err(bad_input("a path must be text (str), not bytes"))
+}
+
+/// A file name: a `str` or an `os.PathLike`.
+pub fn file_path(obj: &Bound<'_, PyAny>) -> PyResult<PathBuf> {
+    if is_path_like(obj) {
+        return path_of(obj);
+    }
+    obj.extract::<String>()
+        .map(PathBuf::from)
+        .map_err(|_| bad_input("path must be a file name (str or pathlib.Path)"))
 }
 
 /// Reads an input file: a path (`str` or `os.PathLike`) or a file
@@ -142,4 +155,35 @@ pub fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
     let c = std::ffi::CString::new(message.replace('\0', " "))
         .unwrap_or_else(|_| c"volcomp warning".to_owned());
     PyErr::warn(py, &cat, &c, 1)
+}
+
+/// The library's named fields as a dict: columns as numpy arrays (rows of
+/// three as (N, 3)), free texts as lists, figures as numbers, groups as
+/// dicts.
+pub fn fields<'py>(py: Python<'py>, f: &Fields) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for (name, v) in &f.0 {
+        let v: Bound<'py, PyAny> = match v {
+            Field::Numbers(v) => PyArray1::from_slice(py, v).into_any(),
+            Field::Counts(v) => PyArray1::from_slice(py, v).into_any(),
+            Field::Small(v) => PyArray1::from_slice(py, v).into_any(),
+            Field::Flags(v) => PyArray1::from_slice(py, v).into_any(),
+            Field::Rows3(v) => vec3_rows(py, v).into_any(),
+            Field::Words(v) => py.import("numpy")?.call_method1("array", (v,))?,
+            Field::Texts(v) => v.into_pyobject(py)?.into_any(),
+            Field::Number(x) => x.into_pyobject(py)?.into_any(),
+            Field::Count(n) => n.into_pyobject(py)?.into_any(),
+            Field::Group(g) => fields(py, g)?.into_any(),
+        };
+        d.set_item(name, v)?;
+    }
+    Ok(d)
+}
+
+/// Vectors as an array of shape (N, 3).
+pub fn vec3_rows<'py>(py: Python<'py>, v: &[Vec3]) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = v.iter().flat_map(|e| [e.x, e.y, e.z]).collect();
+    Array2::from_shape_vec((v.len(), 3), flat)
+        .unwrap_or_else(|_| Array2::zeros((0, 3)))
+        .into_pyarray(py)
 }
