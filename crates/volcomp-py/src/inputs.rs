@@ -96,26 +96,20 @@ pub fn f64_rows<'py>(
     what: &str,
     cols: usize,
 ) -> PyResult<PyReadonlyArray2<'py, f64>> {
-    let py = obj.py();
-    let np = py.import("numpy")?;
-    let kwargs = PyDict::new(py);
-    kwargs.set_item("dtype", "float64")?;
-    let arr = np
-        .call_method("ascontiguousarray", (obj,), Some(&kwargs))
-        .map_err(|e| bad_input(format!("{what}: not an array of numbers ({e})")))?;
+    let arr = float64(obj, what)?;
     let ndim: usize = arr.getattr("ndim")?.extract()?;
-    let arr = match ndim {
-        1 => arr.call_method1("reshape", ((1usize, cols),)),
-        2 => Ok(arr),
-        _ => Err(bad_input(format!(
-            "{what} must be an array of shape (N, {cols}); got {ndim} dimensions"
-        ))),
-    }
-    .map_err(|_| {
+    let wanted = || {
         bad_input(format!(
             "{what} must be an array of shape (N, {cols}) or ({cols},)"
         ))
-    })?;
+    };
+    let arr = match ndim {
+        1 => arr
+            .call_method1("reshape", ((1usize, cols),))
+            .map_err(|_| wanted())?,
+        2 => arr,
+        _ => return Err(wanted()),
+    };
     let arr: PyReadonlyArray2<'py, f64> = arr.extract()?;
     if arr.shape()[1] != cols {
         return Err(bad_input(format!(
@@ -128,17 +122,20 @@ pub fn f64_rows<'py>(
 
 /// `obj` as a 1-D float64 vector.
 pub fn f64_vec(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<f64>> {
-    let py = obj.py();
-    let np = py.import("numpy")?;
-    let kwargs = PyDict::new(py);
-    kwargs.set_item("dtype", "float64")?;
-    let arr = np
-        .call_method("ascontiguousarray", (obj,), Some(&kwargs))
-        .map_err(|e| bad_input(format!("{what}: not an array of numbers ({e})")))?;
-    let arr: numpy::PyReadonlyArray1<f64> = arr
+    let arr: numpy::PyReadonlyArray1<f64> = float64(obj, what)?
         .extract()
         .map_err(|_| bad_input(format!("{what} must be a 1-D array of numbers")))?;
     Ok(arr.as_array().to_vec())
+}
+
+/// `obj` as a C-contiguous float64 array.
+fn float64<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<Bound<'py, PyAny>> {
+    let kwargs = PyDict::new(obj.py());
+    kwargs.set_item("dtype", "float64")?;
+    obj.py()
+        .import("numpy")?
+        .call_method("ascontiguousarray", (obj,), Some(&kwargs))
+        .map_err(|e| bad_input(format!("{what}: not an array of numbers ({e})")))
 }
 
 /// Warns (`VolcompWarning`) that no work offset was given, as the CLI does.
@@ -186,4 +183,11 @@ pub fn vec3_rows<'py>(py: Python<'py>, v: &[Vec3]) -> Bound<'py, PyArray2<f64>> 
     Array2::from_shape_vec((v.len(), 3), flat)
         .unwrap_or_else(|_| Array2::zeros((0, 3)))
         .into_pyarray(py)
+}
+
+/// A value of the library as Python's `json.loads` of its JSON (the CLI's
+/// `--json` objects).
+pub fn from_json<'py>(py: Python<'py>, v: &impl serde::Serialize) -> PyResult<Bound<'py, PyAny>> {
+    let json = serde_json::to_string(v).map_err(|e| bad_input(e.to_string()))?;
+    py.import("json")?.call_method1("loads", (json,))
 }

@@ -3,7 +3,7 @@
 //! evaluation and its components as arrays.
 
 use crate::errors::{bad_input, bad_input_at, IntoPy, Located};
-use crate::inputs::{f64_rows, f64_vec, text_or_file, vec3_rows};
+use crate::inputs::{f64_rows, f64_vec, fields, text_or_file};
 use numpy::ndarray::Array2;
 use numpy::prelude::*;
 use numpy::{PyArray1, PyArray2};
@@ -15,8 +15,8 @@ use volcomp_core::model::arrays;
 use volcomp_core::model::axis_table::AxisTables;
 use volcomp_core::model::kinematic::{AxisComponents, KinematicModel};
 use volcomp_core::model::{Components, ErrorModel};
+use volcomp_core::report::columns;
 use volcomp_core::AxisTableMap;
-use volcomp_gcode::Vec3;
 
 /// An error model of a 3-axis machine: `e(q, s) = actual − commanded` in µm
 /// at axis positions `q` (mm, machine axis frame) with motion directions
@@ -111,21 +111,6 @@ fn axis_components(obj: &Bound<'_, PyAny>, axis: char) -> PyResult<AxisComponent
     })?;
     Ok(AxisComponents { forward, reverse })
 }
-
-fn direction_dict<'py>(
-    py: Python<'py>,
-    positions_mm: &[f64],
-    columns: &[(&str, &[Vec3])],
-) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("position_mm", PyArray1::from_slice(py, positions_mm))?;
-    for (name, v) in columns {
-        d.set_item(*name, vec3_rows(py, v))?;
-    }
-    Ok(d)
-}
-
-const AXES: [char; 3] = ['X', 'Y', 'Z'];
 
 /// `(position_mm, forward, reverse)` of one component.
 type Series<'py> = (
@@ -305,34 +290,24 @@ impl Model {
         let outside = arrays::Outside::parse(outside).map_err(bad_input)?;
         let q = f64_rows(positions_mm, "positions_mm", 3)?;
         let n = q.shape()[0];
-        let dirs = match directions {
-            Some(d) => {
-                let d = f64_rows(d, "directions", 3)?;
-                let v = d.as_slice()?.to_vec();
-                if d.shape()[0] != 1 && d.shape()[0] != n {
-                    return Err(bad_input(format!(
-                        "directions must have shape (3,) or ({n}, 3); got {:?}",
-                        d.shape()
-                    )));
+        // One row for every point, or a row each.
+        let rows = |obj: Option<&Bound<'py, PyAny>>, what: &str, default: f64| match obj {
+            None => Ok(vec![default; 3]),
+            Some(obj) => {
+                let a = f64_rows(obj, what, 3)?;
+                let shape = a.shape();
+                if shape[0] != 1 && shape[0] != n {
+                    let e = format!("{what} must have shape (3,) or ({n}, 3); got {shape:?}");
+                    return Err(bad_input(e));
                 }
-                arrays::check_directions(&v).map_err(bad_input)?;
-                v
+                Ok(a.as_slice()?.to_vec())
             }
-            None => vec![1.0; 3],
         };
-        let tool = match tool_offset_mm {
-            Some(t) => {
-                let t = f64_rows(t, "tool_offset_mm", 3)?;
-                if t.shape()[0] != 1 && t.shape()[0] != n {
-                    return Err(bad_input(format!(
-                        "tool_offset_mm must have shape (3,) or ({n}, 3); got {:?}",
-                        t.shape()
-                    )));
-                }
-                t.as_slice()?.to_vec()
-            }
-            None => vec![0.0; 3],
-        };
+        let dirs = rows(directions, "directions", 1.0)?;
+        if directions.is_some() {
+            arrays::check_directions(&dirs).map_err(bad_input)?;
+        }
+        let tool = rows(tool_offset_mm, "tool_offset_mm", 0.0)?;
         let components = if positioning_only {
             Components::PositioningOnly
         } else {
@@ -364,69 +339,7 @@ impl Model {
     /// (`e_z(x) + β_zx·x`, likewise Y) at 201 points over its measured range
     /// (`{"X": {"position_mm", "ez_um"}, ...}`).
     fn components<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let out = PyDict::new(py);
-        match &self.loaded {
-            LoadedModel::AxisTables(m) => {
-                for (a, t) in m.axes.iter().enumerate() {
-                    let axis = PyDict::new(py);
-                    for (name, tab) in [("forward", &t.forward), ("reverse", &t.reverse)] {
-                        axis.set_item(
-                            name,
-                            direction_dict(
-                                py,
-                                &tab.positions_mm,
-                                &[("linear_um", &tab.errors_um)],
-                            )?,
-                        )?;
-                    }
-                    out.set_item(AXES[a].to_string(), axis)?;
-                }
-            }
-            LoadedModel::Kinematic(m) => {
-                for (a, t) in m.axes.iter().enumerate() {
-                    let axis = PyDict::new(py);
-                    for (name, tab) in [("forward", &t.forward), ("reverse", &t.reverse)] {
-                        axis.set_item(
-                            name,
-                            direction_dict(
-                                py,
-                                tab.positions_mm(),
-                                &[
-                                    ("linear_um", &tab.linear_um.errors_um),
-                                    ("angular_urad", &tab.angular_urad.errors_um),
-                                ],
-                            )?,
-                        )?;
-                    }
-                    out.set_item(AXES[a].to_string(), axis)?;
-                }
-                let sq = PyDict::new(py);
-                let s = &m.kinematics.squareness;
-                sq.set_item("xy", s.xy_urad)?;
-                sq.set_item("yz", s.yz_urad)?;
-                sq.set_item("zx", s.zx_urad)?;
-                out.set_item("squareness_urad", sq)?;
-            }
-            LoadedModel::Straightness(m) => {
-                for axis in [
-                    volcomp_core::identify::straightness::Axis::X,
-                    volcomp_core::identify::straightness::Axis::Y,
-                ] {
-                    // Sampled every 1/200 of the measured range: the
-                    // series is smooth (its shortest wavelength is the
-                    // cut-off, many samples long).
-                    let Some(r) = m.sampled_axis_part(axis, 201) else {
-                        continue;
-                    };
-                    let (p, e) = r.py_err()?;
-                    let d = PyDict::new(py);
-                    d.set_item("position_mm", PyArray1::from_vec(py, p))?;
-                    d.set_item("ez_um", PyArray1::from_vec(py, e))?;
-                    out.set_item(axis.letter().to_string(), d)?;
-                }
-            }
-        }
-        Ok(out)
+        fields(py, &columns::components(&self.loaded).py_err()?)
     }
 
     /// One named ISO 230-1 component (`"EXX"`, `"EZX"`, `"EBY"`, …) as

@@ -8,15 +8,12 @@ use crate::model::Model;
 use crate::request::{from_kwargs, input, keywords, library_error, Keywords};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
-use volcomp_core::compensate::PointRecord;
 use volcomp_core::io::provenance::now_utc;
-use volcomp_core::limits::LimitedWriter;
-use volcomp_core::plan::{compare_programs, TimeComparison};
+use volcomp_core::plan::TimeComparison;
 use volcomp_core::report::columns;
 use volcomp_core::request::{
     CompensateRequest, Input, Machine, MachineRequest, ModelSource, SimulateRequest, TimeRequest,
 };
-use volcomp_core::simulate::report::SegmentError;
 use volcomp_core::Error;
 use volcomp_gcode::Warning;
 
@@ -173,42 +170,19 @@ pub fn compensate(
         .prepare(machine, source, date_utc.unwrap_or_else(now_utc), &Keywords)
         .map_err(library_error)?;
     let (bytes, file) = program_bytes(program, name)?;
-    let mut out = Vec::new();
-    let mut records: Vec<PointRecord> = Vec::new();
-    let mut warnings: Vec<Warning> = Vec::new();
-    let result = py.detach(|| {
-        let mut limited = LimitedWriter::new(&mut out, job.max_output_bytes);
-        job.compensator(model.model(), &file)
-            .on_point(|p| {
-                if point_records {
-                    records.push(*p);
-                }
-            })
-            .on_warning(|w| warnings.push(w.clone()))
-            .run(bytes.as_slice(), &mut limited)
-            .map_err(Box::new)
-    });
-    let summary = result.map_err(|e| explain(*e, &job.machine))?;
-    let time = py.detach(|| {
-        let original = Some((
-            Box::new(bytes.as_slice()) as Box<dyn std::io::Read + Send>,
-            file.as_str(),
-        ));
-        compare_programs(
-            (out.as_slice(), "<compensated>"),
-            original,
-            &job.machine.setup,
-        )
-        .map_err(Box::new)
-    });
-    let machining_time = time_dict(py, &time.map_err(|e| explain(*e, &job.machine))?)?;
-    let point_records = if point_records {
-        Some(fields(py, &columns::points(&records))?.unbind())
-    } else {
-        None
+    let run = py
+        .detach(|| {
+            job.run_in_memory(model.model(), (&bytes, &file), point_records)
+                .map_err(Box::new)
+        })
+        .map_err(|e| explain(*e, &job.machine))?;
+    let (summary, records) = (run.summary, run.points);
+    let point_records = match point_records {
+        true => Some(fields(py, &columns::points(&records))?.unbind()),
+        false => None,
     };
     Ok(CompensateResult {
-        data: PyBytes::new(py, &out).unbind(),
+        data: PyBytes::new(py, &run.program).unbind(),
         lines_in: summary.lines_in,
         lines_out: summary.lines_out,
         points: summary.points,
@@ -222,17 +196,17 @@ pub fn compensate(
             .map(|w| crate::request::keywords(&w)),
         held: summary.held,
         held_count: summary.held_count,
-        warnings: warnings_list(py, &file, &warnings)?.unbind(),
+        warnings: warnings_list(py, &file, &run.warnings)?.unbind(),
         point_records,
-        machining_time,
+        machining_time: time_dict(py, &run.time)?,
     })
 }
 
 /// A machining time as the dict of `volcomp time --json`.
 fn time_dict(py: Python<'_>, t: &TimeComparison) -> PyResult<Py<PyDict>> {
-    let json = serde_json::to_string(t).map_err(|e| bad_input(e.to_string()))?;
-    let d = py.import("json")?.call_method1("loads", (json,))?;
-    Ok(d.cast_into::<PyDict>()?.unbind())
+    Ok(crate::inputs::from_json(py, t)?
+        .cast_into::<PyDict>()?
+        .unbind())
 }
 
 /// The machining time of a program on a model of LinuxCNC 2.9's
@@ -350,33 +324,18 @@ pub fn simulate(
         .map_err(|e| library_error(e.into()))?;
     warn_without_work_offset(py, &machine)?;
     let (bytes, file) = program_bytes(program, name)?;
-    let model = model.get();
-    let mut rows: Vec<SegmentError> = Vec::new();
-    let mut warnings: Vec<Warning> = Vec::new();
-    let result = py.detach(|| {
-        let mut sim = request
-            .simulation(model.model(), &machine, &file)
-            .map_err(Box::new)?
-            .on_warning(|w| warnings.push(w.clone()));
-        if segments {
-            sim = sim.on_segment(|s| rows.push(*s));
-        }
-        sim.run(bytes.as_slice()).map_err(Box::new)
-    });
-    let report = result.map_err(|e| explain(*e, &machine))?;
-    let time = py.detach(|| {
-        TimeRequest {
-            machine: request.machine.clone(),
-            reference: request.reference.clone(),
-        }
-        .run(&machine, bytes.as_slice(), &file)
-        .map_err(Box::new)
-    });
-    let machining_time = time_dict(py, &time.map_err(|e| explain(*e, &machine))?)?;
-    let segments = if segments {
-        Some(fields(py, &columns::segments(&rows))?.unbind())
-    } else {
-        None
+    let model = model.get().model();
+    let run = py
+        .detach(|| {
+            request
+                .run_in_memory(model, &machine, (&bytes, &file), segments)
+                .map_err(Box::new)
+        })
+        .map_err(|e| explain(*e, &machine))?;
+    let report = run.report;
+    let segments = match segments {
+        true => Some(fields(py, &columns::segments(&run.segments))?.unbind()),
+        false => None,
     };
     Ok(SimulationResult {
         point_rms_um: report.point_rms_um,
@@ -390,9 +349,9 @@ pub fn simulate(
         nominal: report.nominal.to_string(),
         point_definition: report.point_definition.to_string(),
         contour_definition: report.contour_definition.to_string(),
-        warnings: warnings_list(py, &file, &warnings)?.unbind(),
+        warnings: warnings_list(py, &file, &run.warnings)?.unbind(),
         segments,
-        machining_time,
+        machining_time: time_dict(py, &run.time)?,
     })
 }
 

@@ -77,8 +77,7 @@ impl ThermalModel {
         if let Some(w) = &p.warning {
             warn(py, &keywords(w))?;
         }
-        let poly = self.file.poly_model().py_err()?;
-        let km = poly.to_kinematic_model(&p.theta, self.file.table_samples.max(2));
+        let km = p.model(&self.file).map_err(library_error)?;
         Ok(Model {
             loaded: LoadedModel::Kinematic(Box::new(km)),
             path: None,

@@ -7,7 +7,10 @@
 use crate::compensate::PointRecord;
 use crate::identify::iso230_2::{Iso230_2Report, TargetStats};
 use crate::identify::straightness::identify::AxisFit;
+use crate::identify::straightness::Axis;
 use crate::identify::thermal::uncertainty::LineBands;
+use crate::io::LoadedModel;
+use crate::model::axis_table::Table;
 use crate::model::setup::MachineSetup;
 use crate::simulate::report::SegmentError;
 use volcomp_gcode::{GcodeError, MotionKind, Vec3, Warning};
@@ -247,4 +250,64 @@ pub fn bands(lines: &[LineBands]) -> Fields {
         out = out.with(&['X', 'Y', 'Z'][l.axis].to_string(), Group(f));
     }
     out
+}
+
+/// A model's components per axis and direction: `position_mm` and
+/// `linear_um` (N×3: the errors along X, Y, Z the axis causes), the
+/// 21-component model's `angular_urad` (N×3) and `squareness_urad` (`xy`,
+/// `yz`, `zx`); the straightness model's part of `e_z` that depends on
+/// each measured axis (`position_mm`, `ez_um`) at 201 points over its
+/// measured range.
+pub fn components(model: &LoadedModel) -> Result<Fields, crate::error::ModelError> {
+    use Field::*;
+    let mut out = Fields::default();
+    let direction = |t: &Table, angular: Option<&Table>| {
+        let f = Fields::default()
+            .with("position_mm", Numbers(t.positions_mm.clone()))
+            .with("linear_um", Rows3(t.errors_um.clone()));
+        Group(match angular {
+            Some(a) => f.with("angular_urad", Rows3(a.errors_um.clone())),
+            None => f,
+        })
+    };
+    let both = |f: Field, r: Field| Group(Fields::default().with("forward", f).with("reverse", r));
+    match model {
+        LoadedModel::AxisTables(m) => {
+            for (t, a) in m.axes.iter().zip(["X", "Y", "Z"]) {
+                out = out.with(
+                    a,
+                    both(direction(&t.forward, None), direction(&t.reverse, None)),
+                );
+            }
+        }
+        LoadedModel::Kinematic(m) => {
+            for (t, a) in m.axes.iter().zip(["X", "Y", "Z"]) {
+                let (f, r) = (&t.forward, &t.reverse);
+                let f = direction(&f.linear_um, Some(&f.angular_urad));
+                out = out.with(a, both(f, direction(&r.linear_um, Some(&r.angular_urad))));
+            }
+            let s = &m.kinematics.squareness;
+            let sq = Fields::default()
+                .with("xy", Number(s.xy_urad))
+                .with("yz", Number(s.yz_urad))
+                .with("zx", Number(s.zx_urad));
+            out = out.with("squareness_urad", Group(sq));
+        }
+        LoadedModel::Straightness(m) => {
+            for axis in [Axis::X, Axis::Y] {
+                // Sampled every 1/200 of the measured range: the series is
+                // smooth (its shortest wavelength is the cut-off, many
+                // samples long).
+                let Some(r) = m.sampled_axis_part(axis, 201) else {
+                    continue;
+                };
+                let (p, e) = r?;
+                let f = Fields::default()
+                    .with("position_mm", Numbers(p))
+                    .with("ez_um", Numbers(e));
+                out = out.with(&axis.letter().to_string(), Group(f));
+            }
+        }
+    }
+    Ok(out)
 }
