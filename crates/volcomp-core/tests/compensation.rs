@@ -907,9 +907,13 @@ fn the_pieces_of_a_g61_block_run_blended_and_its_end_stays_exact() {
     let program = "G20 G61\nG0 X0 Y0 Z0\nG1 Y2.4 F200\nM2\n";
     let (out, _) = compensate_summary(program, &map, CompensateOptions::default());
     assert!(out.contains("F200 G64 P0.0000039 Q0\n"), "{out}");
-    // A line with its own P or Q word, or under G64, is written as before.
+    // An arc's P (its turns) goes with the pieces: the words are written.
+    let program = "G61\nG0 X0 Y60 Z0\nG2 X0 Y60 I0 J-20 P2 F6000\nM2\n";
+    let (out, summary) = compensate_summary(program, &map, CompensateOptions::default());
+    assert_eq!(summary.pieces_blended_blocks, 1, "{out}");
+    // A line with its own path-control word, or under G64, is written as
+    // before.
     for program in [
-        "G61\nG0 X0 Y60 Z0\nG2 X0 Y60 I0 J-20 P1 F6000\nM2\n",
         "G64\nG0 X0 Y0 Z0\nG1 Y60 F6000\nM2\n",
         "G0 X0 Y0 Z0\nG1 Y60 F6000 G61\nM2\n",
     ] {

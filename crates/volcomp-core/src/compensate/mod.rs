@@ -491,19 +491,21 @@ impl<'w> State<'w> {
         // words go on a line of their own before it, read in the units in
         // effect there.
         let lines_of_block = commands.len() + usize::from(first_split.is_some());
-        let piece_modes =
-            if lines_of_block > 1 && commands.iter().skip(1).all(|(_, tu)| tu.is_none()) {
-                let p_mm = piece_blend_tolerance_mm(options);
-                let mm_per_unit = if first_arc.is_some() {
-                    frame0.mm_per_unit
-                } else {
-                    frame.mm_per_unit
-                };
-                lines::piece_mode_words(motion.path_mode, line.words(), p_mm / mm_per_unit, sep)
-                    .map(|(words, restore)| (words, restore, p_mm))
+        let piece_modes = if lines_of_block > 1
+            && commands.iter().skip(1).all(|(_, tu)| tu.is_none())
+        {
+            let p_mm = piece_blend_tolerance_mm(options);
+            let mm_per_unit = if first_arc.is_some() {
+                frame0.mm_per_unit
             } else {
-                None
+                frame.mm_per_unit
             };
+            let arc = matches!(motion.kind, MotionKind::Arc(_));
+            lines::piece_mode_words(motion.path_mode, line.words(), p_mm / mm_per_unit, arc, sep)
+                .map(|(words, restore)| (words, restore, p_mm))
+        } else {
+            None
+        };
         if let Some((_, _, p_mm)) = piece_modes {
             self.summary.pieces_blended_blocks += 1;
             self.summary.piece_blend_tolerance_um =
