@@ -68,7 +68,8 @@ def check_installed():
 # machine on", "home all: command not completed"): the run is started again,
 # at most START_RETRIES more times. A program's own error is never retried.
 START_FAILURES = ("waiting for machine on", "waiting for estop reset",
-                  "waiting for task status", "home all", "waiting for all joints homed")
+                  "waiting for task status", "home all", "waiting for all joints homed",
+                  "Must be in MDI mode")
 START_RETRIES = 2
 
 
