@@ -23,7 +23,7 @@
 use std::path::Path;
 use std::process::Command;
 
-mod common;
+use crate::common;
 use common::tempdir;
 
 fn installed() -> bool {

@@ -48,7 +48,7 @@
 //!   the units (the offset keeps its number, so later positions are off), so
 //!   the fixtures never switch units while G43 is active.
 //!
-//! Run with `cargo test -p volcomp-cli --test rs274_agreement -- --nocapture`
+//! Run with `cargo test -p volcomp-cli --test cli_tests rs274_agreement:: -- --nocapture`
 //! to see the summary. Without rs274 the test is skipped loudly, except when
 //! the environment variable `CI` is set: there it fails. `VOLCOMP_RS274` may
 //! name the rs274 binary.
@@ -58,8 +58,8 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
-mod common;
-mod rs274;
+use crate::common;
+use crate::rs274;
 
 use rs274::compare::*;
 use rs274::*;
