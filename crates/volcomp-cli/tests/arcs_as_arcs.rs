@@ -14,8 +14,8 @@
 use std::path::Path;
 use std::process::{Command, Stdio};
 
-mod common;
-mod rs274;
+use crate::common;
+use crate::rs274;
 
 /// The ripple map of tests/rs274_corpus.rs over ±2 m (3 µm positioning, 1 µm
 /// straightness waves of 40, 30 and 25 mm period, tabulated every 5 mm).

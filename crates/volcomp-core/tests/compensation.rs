@@ -10,7 +10,7 @@ use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::simulate::report::{simulate_program, SimReport};
 use volcomp_gcode::{MotionKind, PathMode, Vec3, Walker};
 
-mod common;
+use crate::common;
 use common::map_from;
 
 fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
