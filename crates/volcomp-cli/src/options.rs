@@ -54,6 +54,14 @@ impl TypedValueParser for LibraryValue {
         value: &OsStr,
     ) -> Result<Value, clap::Error> {
         let info = self.0;
+        // A word outside a choice's list: the library's message, as the
+        // Python package gives it ("--method must be one of …").
+        if let (Kind::Choice, Some(text)) = (info.kind, value.to_str()) {
+            return info.parse(text).map_err(|p| {
+                let e = volcomp_core::request::OptionError::new(info.name, p);
+                clap::Error::raw(ErrorKind::ValueValidation, e.render(&Flags) + "\n")
+            });
+        }
         let parse = move |text: &str| info.parse(text).map_err(|p| flags(&p));
         parse.parse_ref(cmd, arg, value)
     }

@@ -540,6 +540,9 @@ BAD_OPTIONS = [
         {"--no-split": "no_split=True", "--segments": "segments"},
     ),
     (["--decimals", "12"], dict(decimals=12), {"--decimals": "decimals"}),
+    # An unknown word for a choice, and a count out of range.
+    (["--method", "exct"], dict(method="exct"), {"--method": "method"}),
+    (["--segments", "100000"], dict(segments=100000), {"--segments": "segments"}),
 ]
 
 
@@ -593,6 +596,7 @@ BAD_EXPORT_OPTIONS = [
     (["--to", "siemens-eec", "--step", "10", "--axis-names", "X1,Y1"],
      dict(to="siemens-eec", step_mm=10, axis_names="X1,Y1"), {"--axis-names": "axis_names"}),
     (["--to", "fanuc"], dict(to="fanuc"), {"--step": "step_mm"}),
+    (["--to", "fanuk"], dict(to="fanuk"), {"--to": "to"}),
     (["--to", "linuxcnc", "--type", "2", "--units", "mm"],
      dict(to="linuxcnc", comp_type=2, units="mm"), {"--type": "comp_type"}),
     (["--to", "fanuc", "--step", "10", "--detection-unit-um", "0"],

@@ -14,12 +14,12 @@
 //! with its row and column and the list of known kinds.
 
 use crate::error::MapFileError;
-use crate::identify::straightness::{self, StraightnessError, StraightnessModel};
-use crate::io::model_file::{self, ModelFileError};
+use crate::io::model_file;
 use crate::model::axis_table::{AxisTableMap, Table};
 use crate::model::kinematic::{ComponentTable, KinematicModel};
+use crate::model::straightness::{self, StraightnessModel};
 use crate::model::ErrorModel;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use toml::Spanned;
 
 /// What kind of model a file holds.
@@ -145,41 +145,7 @@ impl LoadedModel {
     }
 }
 
-/// A model file could not be loaded.
-#[derive(Debug, thiserror::Error)]
-pub enum LoadError {
-    /// The file could not be read.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// What the system said.
-        source: std::io::Error,
-    },
-    /// The file is malformed at a row and column (including an unknown or
-    /// missing kind).
-    #[error(transparent)]
-    File(#[from] MapFileError),
-    /// A 21-component model file (or a table it names) is malformed.
-    #[error(transparent)]
-    Kinematic(#[from] ModelFileError),
-    /// A straightness model file is malformed.
-    #[error(transparent)]
-    Straightness(#[from] StraightnessError),
-    /// A CSV file given as axis tables holds the component table of a
-    /// 21-component model.
-    #[error("{source}\n  note: this looks like the component table of a 21-component model; pass its TOML description (model = \"{}\") as the map", model_file::MODEL_KIND)]
-    ComponentTable {
-        /// Why it is not an axis-table map.
-        source: MapFileError,
-    },
-    /// The name ends neither in `.csv` nor `.toml` and the content names no kind.
-    #[error("{}: choose the map format by extension: .csv for axis tables, .toml for a 21-component model (docs/design.md)", path.display())]
-    UnknownFormat {
-        /// The file.
-        path: PathBuf,
-    },
-}
+pub use crate::error::domain::LoadError;
 
 /// Loads the model in `path`.
 ///
@@ -335,6 +301,8 @@ fn sniff(text: &str) -> Option<Discriminator> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::model_file::ModelFileError;
+    use std::path::PathBuf;
 
     const TABLES: &str = "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
         X,both,0,0,0,0\nX,both,10,2,0,0\nY,both,0,0,0,0\nY,both,10,0,0,0\n\

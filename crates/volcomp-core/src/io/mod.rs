@@ -19,13 +19,13 @@ pub mod exchange;
 pub mod grid;
 pub mod linuxcnc_comp;
 pub mod load;
-pub mod located;
+
 pub mod model_file;
 pub mod output;
 pub mod probe_log;
 pub mod provenance;
 
-pub use crate::text::{numfmt, table};
+pub use crate::text::{located, numfmt, table};
 pub use load::{load_model, LoadError, LoadOptions, LoadedModel, ModelKind};
 pub use volcomp_geom::inputs;
 

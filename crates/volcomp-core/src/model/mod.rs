@@ -11,6 +11,7 @@ pub mod kinematic;
 pub mod positioning;
 pub mod query;
 pub mod setup;
+pub mod straightness;
 pub mod topology;
 
 use crate::error::ModelError;

@@ -41,19 +41,7 @@ pub struct Topology {
     workpiece_side: usize,
 }
 
-/// Why a chain string was refused.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("chain `{text}`, character {column}: {message}\n  help: {help}")]
-pub struct TopologyError {
-    /// The chain as written.
-    pub text: String,
-    /// 1-based character position of the problem.
-    pub column: usize,
-    /// What is wrong.
-    pub message: String,
-    /// What to do.
-    pub help: String,
-}
+pub use crate::error::domain::TopologyError;
 
 const AXES: [char; 3] = ['X', 'Y', 'Z'];
 

@@ -3,5 +3,6 @@
 //! ([`table`]) and how computed numbers are written ([`numfmt`]). `io`
 //! re-exports both.
 
+pub mod located;
 pub mod numfmt;
 pub mod table;

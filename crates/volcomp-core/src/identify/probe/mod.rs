@@ -29,17 +29,4 @@ pub mod request;
 pub mod result;
 pub mod verify;
 
-/// Something in the probing workflow cannot be done.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ProbeError {
-    /// The inputs do not allow the computation; the message says why and what to do.
-    #[error("{0}")]
-    Invalid(String),
-    /// A malformed input file (located).
-    #[error(transparent)]
-    File(#[from] crate::error::MapFileError),
-    /// A generated program that volcomp's own interpreter refuses (a bug
-    /// of the planner; the program is not written).
-    #[error("the generated probing program does not pass volcomp's interpreter: {0}")]
-    Program(String),
-}
+pub use crate::error::domain::ProbeError;

@@ -4,22 +4,8 @@
 //! [`super::identify::FitOptions`] fields.
 
 use super::identify::FitOptions;
-use super::Axis;
 
-/// An option of a straightness identification, for naming in messages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FitOption {
-    /// [`FitOptions::sigma_t`].
-    SigmaT,
-    /// [`FitOptions::p_t`].
-    PT,
-    /// [`FitOptions::taper_fraction`].
-    Taper,
-    /// [`FitOptions::harmonics`].
-    Harmonics,
-    /// The default axis of runs whose file does not say theirs.
-    Axis,
-}
+pub use crate::error::straightness::{FitOption, OptionError};
 
 impl FitOption {
     /// The option as a library user knows it.
@@ -32,50 +18,6 @@ impl FitOption {
             FitOption::Axis => "the default axis",
         }
     }
-}
-
-/// An option that cannot be used with these runs.
-#[derive(Debug, Clone, PartialEq)]
-pub enum OptionError {
-    /// σ_t is not a positive number.
-    SigmaT(f64),
-    /// P_t is not in (0, 1).
-    PT(f64),
-    /// The taper fraction is not in 0 … 0.5.
-    Taper(f64),
-    /// Zero harmonics were asked for.
-    ZeroHarmonics,
-    /// A run's file names another axis than the default axis given.
-    AxisConflict {
-        /// The run's file.
-        file: String,
-        /// The axis the file names.
-        file_axis: Axis,
-        /// The default axis given.
-        given: Axis,
-    },
-    /// A run names no axis and no default axis was given.
-    NoAxis {
-        /// The run's file.
-        file: String,
-    },
-    /// More harmonics were asked for than the samples resolve.
-    TooManyHarmonics {
-        /// The axis.
-        axis: Axis,
-        /// Harmonics asked for.
-        harmonics: usize,
-        /// Harmonics the samples resolve.
-        resolvable: usize,
-        /// Samples per profile.
-        samples: usize,
-    },
-    /// No line passes the thresholds and no number of harmonics was given;
-    /// `message` says what the spectra show.
-    NoSteadyLine {
-        /// What was found, naming the axis, feed rates and thresholds.
-        message: String,
-    },
 }
 
 impl OptionError {
@@ -185,6 +127,7 @@ pub(crate) fn check_options(o: &FitOptions) -> Result<(), OptionError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::identify::straightness::Axis;
 
     /// A front end's own names for the options.
     fn flag(o: FitOption) -> String {

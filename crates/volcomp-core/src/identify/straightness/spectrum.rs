@@ -169,20 +169,7 @@ pub fn fourier_coefficients(samples: &[f64], m: usize) -> (Vec<f64>, Vec<f64>) {
         .unzip()
 }
 
-/// Evaluates `Σ_{k=1..m} a_k·cos(kθ) + b_k·sin(kθ)` with the angle-addition
-/// recurrence (one `sin_cos` per call; the rounding error grows like `k·ε`).
-pub fn fourier_sum(a: &[f64], b: &[f64], theta: f64) -> f64 {
-    let (s1, c1) = theta.sin_cos();
-    let (mut s, mut c) = (s1, c1);
-    let mut sum = 0.0;
-    for (ak, bk) in a.iter().zip(b) {
-        sum += ak * c + bk * s;
-        let next_c = c * c1 - s * s1;
-        s = s * c1 + c * s1;
-        c = next_c;
-    }
-    sum
-}
+pub use crate::model::straightness::fourier_sum;
 
 #[cfg(test)]
 mod tests {

@@ -20,60 +20,7 @@ pub mod regression;
 pub mod report;
 pub mod uncertainty;
 
-/// Something in the thermal workflow cannot be done.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ThermalError {
-    /// The inputs do not allow the computation; the message says why and what to do.
-    #[error("{0}")]
-    Invalid(String),
-    /// A malformed input file (located).
-    #[error(transparent)]
-    File(#[from] crate::error::MapFileError),
-    /// The kinematic chain does not parse.
-    #[error(transparent)]
-    Chain(#[from] crate::model::topology::TopologyError),
-    /// One measurement cycle could not be identified.
-    #[error("cycle {cycle}: {source}")]
-    Cycle {
-        /// Cycle number as in the file.
-        cycle: usize,
-        /// Why.
-        #[source]
-        source: Box<ThermalError>,
-    },
-    /// A temperature file has no row for the cycle asked for.
-    #[error("{file}: no row for cycle {cycle}; cycles there are {first}…{last}")]
-    NoSuchCycle {
-        /// The temperature file.
-        file: String,
-        /// The cycle asked for.
-        cycle: usize,
-        /// The file's first cycle.
-        first: usize,
-        /// The file's last cycle.
-        last: usize,
-    },
-    /// A measured sphere centre lies outside the axis ranges of the model.
-    #[error("{}", .0.describe("the axis ranges ({ranges_mm})"))]
-    OutsideRange(OutsideRange),
-}
-
-/// A measured sphere centre outside the axis ranges the polynomials live on.
-#[derive(Debug, Clone, PartialEq)]
-pub struct OutsideRange {
-    /// Cycle number as in the file.
-    pub cycle: usize,
-    /// Placement, 1-based in label order.
-    pub placement: usize,
-    /// Sphere, 1-based.
-    pub sphere: usize,
-    /// The axis letter.
-    pub axis: char,
-    /// The coordinate (mm).
-    pub value_mm: f64,
-    /// The axis range (mm).
-    pub range_mm: [f64; 2],
-}
+pub use crate::error::domain::{OutsideRange, ThermalError};
 
 impl OutsideRange {
     /// The message, naming the axis-ranges option as `ranges`.

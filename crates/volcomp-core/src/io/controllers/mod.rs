@@ -195,19 +195,7 @@ pub fn round_to(v: f64, resolution: f64) -> f64 {
     (v / resolution).round() * resolution
 }
 
-/// A table a controller cannot hold, with what to do.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{format}: axis {axis}: {message}; {help}")]
-pub struct LimitError {
-    /// The format's name.
-    pub format: &'static str,
-    /// The axis (X, Y, Z).
-    pub axis: char,
-    /// What exceeds the limit.
-    pub message: String,
-    /// What to do (e.g. a larger step).
-    pub help: String,
-}
+pub use crate::error::domain::LimitError;
 
 /// One file of an export.
 #[derive(Debug, Clone, PartialEq)]

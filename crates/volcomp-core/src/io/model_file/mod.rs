@@ -45,7 +45,7 @@ use volcomp_gcode::Vec3;
 use volcomp_geom::Axis;
 
 /// The `model` value that identifies a 21-component model file.
-pub const MODEL_KIND: &str = "kinematic-21";
+pub use crate::error::domain::MODEL_KIND;
 
 /// The `format_version` of model files this library reads (optional in the file).
 pub const FORMAT_VERSION: i64 = 1;
@@ -55,27 +55,7 @@ pub const URAD_PER_ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0) * 1e6;
 
 const AXES: [char; 3] = ['X', 'Y', 'Z'];
 
-/// A model file could not be read.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ModelFileError {
-    /// The file itself could not be read.
-    #[error("{path}: {message}")]
-    Io {
-        /// File name.
-        path: String,
-        /// What the system said.
-        message: String,
-    },
-    /// The content is malformed (located).
-    #[error(transparent)]
-    Format(#[from] MapFileError),
-    /// A model is to be written under a name that does not end in `.toml`.
-    #[error("{path}: a 21-component model is written as a .toml file (its tables go to a .csv beside it)")]
-    NotToml {
-        /// The name given.
-        path: String,
-    },
-}
+pub use crate::error::domain::ModelFileError;
 
 fn map_err(file: &str, row: usize, column: usize, message: String, help: &str) -> MapFileError {
     MapFileError::new(file, row, column, message, help)

@@ -22,33 +22,7 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use volcomp_geom::inputs;
 
-/// A failure on one output, naming it.
-#[derive(Debug)]
-pub enum OutputError {
-    /// An I/O error on `path` (`-` for standard output).
-    Io {
-        /// The output as named by the user.
-        path: PathBuf,
-        /// What failed.
-        source: io::Error,
-    },
-    /// An output cannot be written there (a directory, a broken link chain).
-    Refused {
-        /// The output as named by the user.
-        path: PathBuf,
-        /// Why.
-        why: String,
-    },
-    /// Some outputs were put in place before another failed.
-    Partial {
-        /// Outputs complete and in place.
-        written: Vec<PathBuf>,
-        /// Outputs left as they were (old content or absent).
-        not_written: Vec<PathBuf>,
-        /// The failure.
-        cause: Box<OutputError>,
-    },
-}
+pub use crate::error::domain::OutputError;
 
 impl OutputError {
     /// The underlying I/O error, if any.

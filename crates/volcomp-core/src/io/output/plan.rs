@@ -25,49 +25,15 @@
 
 use std::fmt;
 use std::path::{Component, Path, PathBuf};
-use volcomp_geom::inputs::{self, FileId, ReadFile};
+use volcomp_geom::inputs::{self, FileId};
 
-/// One named file of a command: the flag that named it and its path.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Role {
-    /// How the user named it: `-o`, `--map`, `PROGRAM`, `OUT_DIR/x.comp`…
-    pub flag: String,
-    /// The path as given (`-` is standard input or output).
-    pub path: PathBuf,
-}
+pub use crate::error::domain::{PlanError, Role};
 
 /// The inputs and outputs of one command.
 #[derive(Debug, Clone, Default)]
 pub struct OutputPlan {
     inputs: Vec<Role>,
     outputs: Vec<Role>,
-}
-
-/// Why a plan was refused: two roles name the same file.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum PlanError {
-    /// An output would replace an input.
-    OverwritesInput {
-        /// The output.
-        output: Role,
-        /// The input it would replace.
-        input: Role,
-    },
-    /// An output would replace a file read by the command that no option
-    /// names (a table named in a model, a var file, a subroutine file…).
-    OverwritesRead {
-        /// The output.
-        output: Role,
-        /// The file read, and as what.
-        read: Box<ReadFile>,
-    },
-    /// Two outputs name the same file: one would replace the other.
-    SameOutput {
-        /// The first output.
-        first: Role,
-        /// The second output.
-        second: Role,
-    },
 }
 
 impl fmt::Display for PlanError {

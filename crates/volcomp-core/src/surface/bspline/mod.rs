@@ -50,19 +50,7 @@ const MAX_ORDER: usize = MAX_DEGREE + 1;
 /// Highest derivative order the evaluators return.
 pub const MAX_DERIVATIVE: usize = 2;
 
-/// Why a surface could not be built, fitted or evaluated.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum BSplineError {
-    /// The definition is inconsistent (knots, counts, degrees, values).
-    #[error("invalid B-spline surface: {0}")]
-    Invalid(String),
-    /// Not enough data for the requested degree or net.
-    #[error("too few points: {0}")]
-    TooFewPoints(String),
-    /// The linear system has no unique solution.
-    #[error("the fitting system is singular: {0}")]
-    Singular(String),
-}
+pub use crate::error::domain::BSplineError;
 
 /// A tensor-product, non-rational B-spline surface with control points in `R^N`.
 #[derive(Debug, Clone, PartialEq)]

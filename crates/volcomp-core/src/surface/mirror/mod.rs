@@ -83,46 +83,10 @@ pub use method::{
 pub use nominal::{Foot, MaterialSide, NominalSurface};
 pub use stats::{deviation_stats, DeviationStats};
 
-use crate::error::{CompensationError, MapFileError};
+use crate::error::CompensationError;
 use volcomp_gcode::{GcodeError, Vec3};
 
-/// Why the mirror method refused its input. Every message says what is wrong,
-/// where, and what to do.
-#[derive(Debug, thiserror::Error)]
-pub enum MirrorError {
-    /// A located error in an input file (file, row, column, what to do).
-    #[error(transparent)]
-    File(#[from] MapFileError),
-    /// A file as a whole.
-    #[error("{file}: {message}\n  help: {help}")]
-    InFile {
-        /// File name.
-        file: String,
-        /// What is wrong.
-        message: String,
-        /// What to do.
-        help: String,
-    },
-    /// The method's parameters or the data as a whole.
-    #[error("{message}\n  help: {help}")]
-    Method {
-        /// What is wrong.
-        message: String,
-        /// What to do.
-        help: String,
-    },
-    /// A nominal surface file whose name does not say its format.
-    #[error(
-        "{file}: the nominal surface must be a B-spline surface (.toml) or a grid of points (.csv)"
-    )]
-    NominalFormat {
-        /// File name.
-        file: String,
-    },
-    /// Reading or writing the finishing program failed.
-    #[error(transparent)]
-    Program(#[from] CompensationError),
-}
+pub use crate::error::domain::MirrorError;
 
 impl From<GcodeError> for MirrorError {
     fn from(e: GcodeError) -> Self {

@@ -1,5 +1,8 @@
 //! Errors of the core library. Each says what is wrong, where, and what to do.
 
+pub mod domain;
+pub mod straightness;
+
 use volcomp_gcode::GcodeError;
 
 /// An error model could not be evaluated.
@@ -332,7 +335,7 @@ pub enum Error {
     Ballbar(#[from] BallbarError),
     /// A model file could not be read.
     #[error("{0}")]
-    ModelFile(#[from] crate::io::model_file::ModelFileError),
+    ModelFile(#[from] crate::error::domain::ModelFileError),
     /// Compensation or simulation of a program failed.
     #[error("{0}")]
     Compensation(#[from] CompensationError),
@@ -341,41 +344,41 @@ pub enum Error {
     Gcode(#[from] GcodeError),
     /// The thermal workflow failed.
     #[error("{0}")]
-    Thermal(#[from] crate::identify::thermal::ThermalError),
+    Thermal(#[from] crate::error::domain::ThermalError),
     /// Straightness identification failed.
     #[error("{0}")]
-    Straightness(#[from] crate::identify::straightness::StraightnessError),
+    Straightness(#[from] crate::error::straightness::StraightnessError),
     /// Probing (plan, fit, identification) failed.
     #[error("{0}")]
-    Probe(#[from] crate::identify::probe::ProbeError),
+    Probe(#[from] crate::error::domain::ProbeError),
     /// The mirror (surface) method refused its input.
     #[error("{0}")]
-    Mirror(#[from] crate::surface::mirror::MirrorError),
+    Mirror(#[from] crate::error::domain::MirrorError),
     /// A B-spline surface could not be built or evaluated.
     #[error("{0}")]
-    BSpline(#[from] crate::surface::bspline::BSplineError),
-    /// A model file could not be loaded ([`crate::io::load_model`]).
+    BSpline(#[from] crate::error::domain::BSplineError),
+    /// A model file could not be loaded (`io::load_model`).
     #[error("{0}")]
-    Load(#[source] Box<crate::io::LoadError>),
+    Load(#[source] Box<crate::error::domain::LoadError>),
     /// A machine set-up file was refused (bad input, not a refused program).
     #[error("{0}")]
     Setup(#[source] GcodeError),
     /// A kinematic topology was refused.
     #[error("{0}")]
-    Topology(#[from] crate::model::topology::TopologyError),
+    Topology(#[from] crate::error::domain::TopologyError),
     /// Outputs name an input or each other.
     #[error("{0}")]
-    OutputPlan(#[from] crate::io::output::PlanError),
+    OutputPlan(#[from] crate::error::domain::PlanError),
     /// An output could not be written.
     #[error("{0}")]
-    Output(#[from] crate::io::output::OutputError),
+    Output(#[from] crate::error::domain::OutputError),
     /// An option's value was refused (named as the library names it; a
     /// front end spells it its own way with `OptionError::render`).
     #[error("{0}")]
     Option(#[from] OptionError),
     /// A controller's table would exceed what the controller holds.
     #[error("{0}")]
-    Limit(#[from] crate::io::controllers::LimitError),
+    Limit(#[from] crate::error::domain::LimitError),
     /// A request cannot be carried out as asked: the message says what to
     /// give instead (options named as `{name}`).
     #[error("{0}")]
@@ -401,8 +404,8 @@ pub enum Error {
     },
 }
 
-impl From<crate::io::LoadError> for Error {
-    fn from(e: crate::io::LoadError) -> Self {
+impl From<crate::error::domain::LoadError> for Error {
+    fn from(e: crate::error::domain::LoadError) -> Self {
         Error::Load(Box::new(e))
     }
 }
@@ -509,11 +512,11 @@ impl Error {
     /// assert_eq!((at.file.as_deref(), at.line, at.column), (Some("m.csv"), Some(3), Some(2)));
     /// ```
     pub fn location(&self) -> Option<ErrorLocation> {
-        use crate::identify::straightness::StraightnessError;
-        use crate::identify::thermal::ThermalError;
-        use crate::io::model_file::ModelFileError;
-        use crate::io::LoadError;
-        use crate::surface::mirror::MirrorError;
+        use crate::error::domain::LoadError;
+        use crate::error::domain::MirrorError;
+        use crate::error::domain::ModelFileError;
+        use crate::error::domain::ThermalError;
+        use crate::error::straightness::StraightnessError;
         let model_file = |e: &ModelFileError| match e {
             ModelFileError::Format(f) => ErrorLocation::of_map_file(f),
             ModelFileError::Io { path, .. } | ModelFileError::NotToml { path } => {
@@ -535,7 +538,7 @@ impl Error {
                 Some(ErrorLocation::file(file.clone()))
             }
             Error::Straightness(e) => straightness(e),
-            Error::Probe(crate::identify::probe::ProbeError::File(f)) => {
+            Error::Probe(crate::error::domain::ProbeError::File(f)) => {
                 Some(ErrorLocation::of_map_file(f))
             }
             Error::Mirror(MirrorError::File(f)) => Some(ErrorLocation::of_map_file(f)),
@@ -574,8 +577,8 @@ impl Error {
     /// assert_eq!(Error::io("a.csv", std::io::Error::other("gone")).kind(), ErrorKind::Io);
     /// ```
     pub fn kind(&self) -> ErrorKind {
-        use crate::io::model_file::ModelFileError;
-        use crate::surface::mirror::MirrorError;
+        use crate::error::domain::MirrorError;
+        use crate::error::domain::ModelFileError;
         match self {
             Error::Model(_) | Error::AlreadyCompensated { .. } => ErrorKind::RefusedProgram,
             Error::Compensation(e) => e.kind(),
@@ -583,7 +586,9 @@ impl Error {
             Error::Mirror(MirrorError::Program(e)) => e.kind(),
             Error::ModelFile(ModelFileError::Io { .. }) => ErrorKind::Io,
             Error::Io { .. } | Error::Output(_) => ErrorKind::Io,
-            Error::Load(e) if matches!(**e, crate::io::LoadError::Io { .. }) => ErrorKind::Io,
+            Error::Load(e) if matches!(**e, crate::error::domain::LoadError::Io { .. }) => {
+                ErrorKind::Io
+            }
             Error::MapFile(_)
             | Error::ModelFile(_)
             | Error::Setup(_)
