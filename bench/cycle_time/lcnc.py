@@ -12,6 +12,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+import sys
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -62,7 +63,30 @@ def check_installed():
         )
 
 
+# Failures of the machine's start-up (before the program is opened) that a
+# loaded machine shows now and then ("timed out after 10 s waiting for
+# machine on", "home all: command not completed"): the run is started again,
+# at most START_RETRIES more times. A program's own error is never retried.
+START_FAILURES = ("waiting for machine on", "waiting for estop reset",
+                  "waiting for task status", "home all", "waiting for all joints homed",
+                  "Must be in MDI mode")
+START_RETRIES = 2
+
+
 def run_program(program, work_dir, timeout_s=None):
+    """`run_once`, started again where the machine failed to start up
+    (START_FAILURES; at most START_RETRIES more times)."""
+    for attempt in range(START_RETRIES + 1):
+        try:
+            return run_once(program, work_dir, timeout_s)
+        except LinuxCncError as err:
+            text = str(err).split("\n", 1)[0]
+            if attempt == START_RETRIES or not any(f in text for f in START_FAILURES):
+                raise
+            print(f"lcnc: start-up failed ({text[-80:]}); starting again", file=sys.stderr)
+
+
+def run_once(program, work_dir, timeout_s=None):
     """Runs `program` once on a fresh copy of config/ under `work_dir`.
 
     Returns the display's result: moving_s (simulated time from the first

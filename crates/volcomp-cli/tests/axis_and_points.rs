@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::{tempdir, volcomp};
 
 fn ok(args: &[&str], dir: &Path) -> String {

@@ -5,8 +5,8 @@
 //! Without `rs274` the rs274 check prints a skip message, except when `CI`
 //! is set: there it fails.
 
-mod common;
-mod rs274;
+use crate::common;
+use crate::rs274;
 
 use common::{stderr, tempdir, volcomp};
 use std::path::Path;

@@ -3,7 +3,7 @@
 //! the solver does not reach is an error at its line, never a written
 //! program with exit 0.
 
-mod common;
+use crate::common;
 
 use common::{compensate_with, fixture, stderr, volcomp};
 use std::path::Path;

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-mod common;
+use crate::common;
 use common::{stderr, tempdir, volcomp};
 
 /// A map over −100…300 mm with `ex_um` on X given by `f(position)`.

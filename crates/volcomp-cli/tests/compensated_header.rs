@@ -2,7 +2,7 @@
 //! compensation), standard input and output, and the LinuxCNC filter
 //! protocol as AXIS runs it.
 
-mod common;
+use crate::common;
 
 use common::{compensate_to, fixture, large_program, stderr, volcomp, PROGRAM};
 use std::io::{BufRead, BufReader, Write};

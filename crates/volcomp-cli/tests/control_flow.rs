@@ -3,7 +3,7 @@
 //! back"), and the flat program it becomes is measured against the
 //! original, line by line, through the `(volcomp Ln)` pairing.
 
-mod common;
+use crate::common;
 use common::{tempdir, text, volcomp};
 
 /// `contour error … max <v> µm` of `simulate`'s table.

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::{json, ok, tempdir, text, volcomp};
 
 /// Axis tables of a machine with large pitch errors (a slope of 20 µm/m

@@ -21,8 +21,8 @@
 
 use std::path::PathBuf;
 
-mod common;
-mod rs274;
+use crate::common;
+use crate::rs274;
 
 use rs274::{find_rs274, run_rs274, Kind, RefMotion, Tools};
 

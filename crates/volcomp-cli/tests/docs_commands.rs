@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-mod common;
+use crate::common;
 
 /// The generator of `examples/data/` (also `cargo run --example example_data`).
 #[allow(dead_code)]

@@ -3,7 +3,7 @@
 //! checked against a hand calculation, so a snapshot accepted by mistake
 //! would still fail.
 
-mod common;
+use crate::common;
 use common::{stderr, tempdir, volcomp};
 
 /// Every X position is 3 µm off in +Y; Y and Z have no error.

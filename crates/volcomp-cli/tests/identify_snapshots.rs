@@ -8,7 +8,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 use std::process::Output;
 
-mod common;
+use crate::common;
 use common::{stderr, tempdir, volcomp};
 
 fn stdout(o: &Output) -> String {

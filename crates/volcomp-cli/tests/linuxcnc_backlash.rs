@@ -23,10 +23,20 @@
 use std::path::Path;
 use std::process::Command;
 
-mod common;
+use crate::common;
 use common::tempdir;
 
-fn installed() -> bool {
+/// Whether LinuxCNC's simulator can run here; if not, says (or under CI
+/// fails) that `not_checked` was not checked.
+fn installed(not_checked: &str) -> bool {
+    let found = simulator();
+    if !found {
+        common::missing(common::LINUXCNC, not_checked);
+    }
+    found
+}
+
+fn simulator() -> bool {
     let on_path = |tool: &str| {
         Command::new("sh")
             .args(["-c", &format!("command -v {tool}")])
@@ -44,11 +54,7 @@ fn installed() -> bool {
 
 #[test]
 fn backlash_beside_a_comp_file_is_modelled_as_the_motion_controller_applies_it() {
-    if !installed() {
-        common::missing(
-            common::LINUXCNC,
-            "BACKLASH beside COMP_FILE on the motion controller",
-        );
+    if !installed("BACKLASH beside COMP_FILE on the motion controller") {
         return;
     }
     let work = tempdir("lcnc-backlash");
@@ -257,11 +263,7 @@ fn mdi_stops(
 
 #[test]
 fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
-    if !installed() {
-        common::missing(
-            common::LINUXCNC,
-            "exported comp files on the motion controller",
-        );
+    if !installed("exported comp files on the motion controller") {
         return;
     }
     let work = tempdir("lcnc-comp");
@@ -280,36 +282,10 @@ fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
     );
     let config = ini.parent().unwrap().to_path_buf();
     let (lines, expect) = stop_lines(&["X", "Y", "Z"]);
-    let pins: Vec<String> = (0..3)
-        .flat_map(|j| {
-            [
-                format!("joint.{j}.backlash-corr"),
-                format!("joint.{j}.pos-cmd"),
-            ]
-        })
-        .collect();
+    let pins = pins(3);
     let got = mdi_stops(&work, &config, &lines, &pins, false);
     let c = volcomp_core::io::controllers::read(&ini).unwrap();
-    let mut worst: f64 = 0.0;
-    for (stop, want) in got.as_array().unwrap().iter().zip(&expect) {
-        let Some((a, p, forward)) = *want else {
-            continue;
-        };
-        let pos = stop["pins"][format!("joint.{a}.pos-cmd")].as_f64().unwrap();
-        let corr = stop["pins"][format!("joint.{a}.backlash-corr")]
-            .as_f64()
-            .unwrap();
-        // The planner ends within a fraction of a nm of the target; the
-        // correction is taken where the joint stands.
-        assert!((pos - p).abs() < 1e-6, "{stop}");
-        let modelled_um = c.correction_um(a, pos, forward);
-        worst = worst.max((modelled_um + corr * 1e3).abs());
-        assert!(
-            (modelled_um + corr * 1e3).abs() < 1e-3,
-            "{stop}: volcomp models c = {modelled_um} µm, LinuxCNC applied {} µm",
-            corr * 1e3
-        );
-    }
+    let worst = applied_as_modelled(&got, &expect, &c, &[&[0], &[1], &[2]]);
     assert_eq!(got.as_array().unwrap().len(), lines.len());
     eprintln!("largest difference {:.6} nm over 126 stops", worst * 1e3);
     let _ = std::fs::remove_dir_all(&work);
@@ -317,17 +293,52 @@ fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
 
 #[test]
 fn backlash_alone_and_a_gantry_are_applied_as_modelled_at_every_stop() {
-    if !installed() {
-        common::missing(
-            common::LINUXCNC,
-            "BACKLASH and a gantry on the motion controller",
-        );
+    if !installed("BACKLASH and a gantry on the motion controller") {
         return;
     }
     let work = tempdir("lcnc-gantry");
     comp_map(&work);
     // X: the BACKLASH map export --backlash-only writes; Y: a gantry, both
     // motors (joints 1 and 2, coordinates=XYYZ) with y.comp; Z: joint 3.
+    let comp = |f: &str| format!("COMP_FILE = {f}\nCOMP_FILE_TYPE = 1\n");
+    let keys = [
+        backlash_keys(&work).swap_remove(0),
+        (1, comp("y.comp")),
+        (2, comp("y.comp")),
+        (3, comp("z.comp")),
+    ];
+    let ini = machine(&work, &keys, &["lc/y.comp", "lc/z.comp"], true);
+    let config = ini.parent().unwrap().to_path_buf();
+    let (lines, expect) = stop_lines(&["X", "Y", "Z"]);
+    let pins = pins(4);
+    let got = mdi_stops(&work, &config, &lines, &pins, true);
+    let c = volcomp_core::io::controllers::read(&ini).unwrap();
+    assert!(c.backlash[0].is_some() && c.axes[0].is_none(), "{c:?}");
+    let worst = applied_as_modelled(&got, &expect, &c, &[&[0], &[1, 2], &[3]]);
+    assert_eq!(got.as_array().unwrap().len(), lines.len());
+    eprintln!(
+        "largest difference {:.6} nm over 126 stops (168 joint readings)",
+        worst * 1e3
+    );
+    let _ = std::fs::remove_dir_all(&work);
+}
+
+/// The pins read at every stop: each joint's backlash correction and
+/// commanded position.
+fn pins(joints: usize) -> Vec<String> {
+    (0..joints)
+        .flat_map(|j| {
+            [
+                format!("joint.{j}.backlash-corr"),
+                format!("joint.{j}.pos-cmd"),
+            ]
+        })
+        .collect()
+}
+
+/// `map export --backlash-only` of `comp_map` (in `work/lb`): the
+/// `BACKLASH = …` key of each joint 0…2, as `machine` takes keys.
+fn backlash_keys(work: &Path) -> Vec<(usize, String)> {
     let o = common::volcomp(
         &[
             "map",
@@ -341,40 +352,30 @@ fn backlash_alone_and_a_gantry_are_applied_as_modelled_at_every_stop() {
             "-o",
             "lb",
         ],
-        &work,
+        work,
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let ini = std::fs::read_to_string(work.join("lb/comp.ini")).unwrap();
-    let x = &ini[ini.find("[JOINT_0]").unwrap()..];
-    let b = x[x.find("BACKLASH = ").unwrap()..]
-        .lines()
-        .next()
-        .unwrap()
-        .to_string();
-    let comp = |f: &str| format!("COMP_FILE = {f}\nCOMP_FILE_TYPE = 1\n");
-    let keys = [
-        (0, format!("{b}\n")),
-        (1, comp("y.comp")),
-        (2, comp("y.comp")),
-        (3, comp("z.comp")),
-    ];
-    let ini = machine(&work, &keys, &["lc/y.comp", "lc/z.comp"], true);
-    let config = ini.parent().unwrap().to_path_buf();
-    let (lines, expect) = stop_lines(&["X", "Y", "Z"]);
-    let pins: Vec<String> = (0..4)
-        .flat_map(|j| {
-            [
-                format!("joint.{j}.backlash-corr"),
-                format!("joint.{j}.pos-cmd"),
-            ]
+    let lb = std::fs::read_to_string(work.join("lb/comp.ini")).unwrap();
+    (0..3)
+        .map(|j| {
+            let s = &lb[lb.find(&format!("[JOINT_{j}]")).unwrap()..];
+            let b = s[s.find("BACKLASH = ").unwrap()..].lines().next().unwrap();
+            (j, format!("{b}\n"))
         })
-        .collect();
-    let got = mdi_stops(&work, &config, &lines, &pins, true);
-    let c = volcomp_core::io::controllers::read(&ini).unwrap();
-    assert!(c.backlash[0].is_some() && c.axes[0].is_none(), "{c:?}");
-    let joints: [&[usize]; 3] = [&[0], &[1, 2], &[3]];
+        .collect()
+}
+
+/// Checks that at every stop of `expect` the correction LinuxCNC applied on
+/// each joint of the moving axis (`joints[axis]`) is what volcomp models for
+/// the machine `c`; returns the largest difference (µm).
+fn applied_as_modelled(
+    got: &serde_json::Value,
+    expect: &[Stop],
+    c: &volcomp_core::model::controller::ControllerCorrection,
+    joints: &[&[usize]],
+) -> f64 {
     let mut worst: f64 = 0.0;
-    for (stop, want) in got.as_array().unwrap().iter().zip(&expect) {
+    for (stop, want) in got.as_array().unwrap().iter().zip(expect) {
         let Some((a, p, forward)) = *want else {
             continue;
         };
@@ -383,6 +384,8 @@ fn backlash_alone_and_a_gantry_are_applied_as_modelled_at_every_stop() {
             let corr = stop["pins"][format!("joint.{j}.backlash-corr")]
                 .as_f64()
                 .unwrap();
+            // The planner ends within a fraction of a nm of the target; the
+            // correction is taken where the joint stands.
             assert!((pos - p).abs() < 1e-6, "{stop}");
             let modelled_um = c.correction_um(a, pos, forward);
             worst = worst.max((modelled_um + corr * 1e3).abs());
@@ -393,12 +396,7 @@ fn backlash_alone_and_a_gantry_are_applied_as_modelled_at_every_stop() {
             );
         }
     }
-    assert_eq!(got.as_array().unwrap().len(), lines.len());
-    eprintln!(
-        "largest difference {:.6} nm over 126 stops (168 joint readings)",
-        worst * 1e3
-    );
-    let _ = std::fs::remove_dir_all(&work);
+    worst
 }
 
 /// The error of `comp_map` along axis `a` at `q` (µm), moving `forward`:
@@ -417,11 +415,7 @@ fn map_error_um(a: usize, q: f64, forward: bool) -> f64 {
 
 #[test]
 fn a_hybrid_program_leaves_nothing_at_every_stop_beside_backlash() {
-    if !installed() {
-        common::missing(
-            common::LINUXCNC,
-            "a hybrid program on the motion controller",
-        );
+    if !installed("a hybrid program on the motion controller") {
         return;
     }
     let work = tempdir("lcnc-hybrid");
@@ -429,30 +423,7 @@ fn a_hybrid_program_leaves_nothing_at_every_stop_beside_backlash() {
     // The machine applies the BACKLASH of map export --backlash-only on
     // every joint; volcomp compensates the rest (the pitch error and the
     // reversal's variation along each axis) with --controller.
-    let o = common::volcomp(
-        &[
-            "map",
-            "export",
-            "m.csv",
-            "--to",
-            "linuxcnc",
-            "--backlash-only",
-            "--units",
-            "mm",
-            "-o",
-            "lb",
-        ],
-        &work,
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let lb = std::fs::read_to_string(work.join("lb/comp.ini")).unwrap();
-    let keys: Vec<(usize, String)> = (0..3)
-        .map(|j| {
-            let s = &lb[lb.find(&format!("[JOINT_{j}]")).unwrap()..];
-            let b = s[s.find("BACKLASH = ").unwrap()..].lines().next().unwrap();
-            (j, format!("{b}\n"))
-        })
-        .collect();
+    let keys = backlash_keys(&work);
     let ini = machine(&work, &keys, &[], false);
     let config = ini.parent().unwrap().to_path_buf();
     // The program: 21 stops per axis up and 21 down, in G54 = 0.
@@ -496,14 +467,7 @@ fn a_hybrid_program_leaves_nothing_at_every_stop_beside_backlash() {
     assert_eq!(hybrid.len(), program.len() - 1, "{hybrid:?}");
     let mut lines = vec!["G10 L2 P1 X0 Y0 Z0".to_string()];
     lines.extend(hybrid);
-    let pins: Vec<String> = (0..3)
-        .flat_map(|j| {
-            [
-                format!("joint.{j}.backlash-corr"),
-                format!("joint.{j}.pos-cmd"),
-            ]
-        })
-        .collect();
+    let pins = pins(3);
     let got = mdi_stops(&work, &config, &lines, &pins, false);
     let got = got.as_array().unwrap();
     assert_eq!(got.len(), lines.len());

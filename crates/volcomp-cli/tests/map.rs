@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::{json, ok, stderr, stdout, tempdir, volcomp};
 
 /// A model whose only error is EAZ = 20 µrad (the spindle tilts about X).

@@ -3,7 +3,7 @@
 //! The numbers are also checked against a hand calculation, so a snapshot
 //! accepted by mistake would still fail.
 
-mod common;
+use crate::common;
 use common::{tempdir, volcomp};
 
 /// Axis tables over 0…100 mm, linear from zero: X gives (2, 1, 0) µm at

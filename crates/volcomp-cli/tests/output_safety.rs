@@ -3,7 +3,7 @@
 //! half-written (kills, full disks), and a closed or full standard output
 //! is an error. The header and the LinuxCNC filter: `compensated_header.rs`.
 
-mod common;
+use crate::common;
 
 use common::{compensate_to, fixture, large_program, stderr, tempdir, volcomp, PROGRAM};
 use std::path::Path;

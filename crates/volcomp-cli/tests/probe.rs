@@ -6,8 +6,8 @@
 //! Without `rs274` the rs274 checks print a skip message, except when `CI`
 //! is set: there they fail (as the rs274 agreement tests decide).
 
-mod common;
-mod rs274;
+use crate::common;
+use crate::rs274;
 
 use common::{stderr, tempdir, volcomp};
 use std::path::{Path, PathBuf};

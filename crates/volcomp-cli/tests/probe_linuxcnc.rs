@@ -17,7 +17,7 @@
 //! `/tmp/volcomp-linuxcnc.lock` for its whole run. Without LinuxCNC it
 //! prints a skip message, except when `CI` is set: there it fails.
 
-mod common;
+use crate::common;
 
 use common::{stderr, tempdir, volcomp};
 use std::path::{Path, PathBuf};

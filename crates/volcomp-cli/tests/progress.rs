@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::process::{Command, Stdio};
 
-mod common;
+use crate::common;
 use common::{fixture, large_program};
 
 /// Runs `volcomp ARGS` in `dir` with standard error on a pseudo-terminal;

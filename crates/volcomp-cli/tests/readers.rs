@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::process::Output;
 
-mod common;
+use crate::common;
 use common::{stderr, tempdir, volcomp};
 
 /// A flat map over `lo…hi` mm on every axis.

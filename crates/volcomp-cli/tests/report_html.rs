@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-mod common;
+use crate::common;
 use common::{fixture, stderr, tempdir, volcomp};
 
 /// What the report must never hold: a script, or anything fetched from

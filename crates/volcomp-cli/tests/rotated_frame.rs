@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::{tempdir, volcomp};
 
 /// A map with a pitch error on X of 2 µm per mm (e_x = 0.002·x mm) and a

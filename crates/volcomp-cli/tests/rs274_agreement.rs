@@ -48,7 +48,7 @@
 //!   the units (the offset keeps its number, so later positions are off), so
 //!   the fixtures never switch units while G43 is active.
 //!
-//! Run with `cargo test -p volcomp-cli --test rs274_agreement -- --nocapture`
+//! Run with `cargo test -p volcomp-cli --test cli_tests rs274_agreement:: -- --nocapture`
 //! to see the summary. Without rs274 the test is skipped loudly, except when
 //! the environment variable `CI` is set: there it fails. `VOLCOMP_RS274` may
 //! name the rs274 binary.
@@ -58,8 +58,8 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
-mod common;
-mod rs274;
+use crate::common;
+use crate::rs274;
 
 use rs274::compare::*;
 use rs274::*;
@@ -337,27 +337,8 @@ fn volcomp_moves_agree_with_rs274() {
     let corpus_dir = manifest.join("../../tests/corpus");
     let fixture_dir = manifest.join("tests/fixtures/rs274");
 
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos())
-        .unwrap_or(0);
-    let dir = std::env::temp_dir().join(format!(
-        "volcomp-rs274-agreement-{}-{nanos}",
-        std::process::id()
-    ));
-    std::fs::create_dir_all(&dir).unwrap();
-    let setup = dir.join("setup.toml");
-    std::fs::write(&setup, setup_toml()).unwrap();
-    let tool_table = dir.join("tools.tbl");
-    std::fs::write(&tool_table, rs274_tool_table()).unwrap();
-    let tools = Tools {
-        rs274,
-        volcomp: PathBuf::from(env!("CARGO_BIN_EXE_volcomp")),
-        dir: dir.clone(),
-        setup,
-        tool_table,
-        var_text: rs274_var_file(),
-    };
+    let tools = tools(rs274, "agreement");
+    let dir = tools.dir.clone();
 
     let mut jobs = Vec::new();
     let corpus = corpus_files(&corpus_dir);
@@ -470,6 +451,32 @@ fn wide_map() -> String {
     csv
 }
 
+/// The set-up both interpreters run under, in a fresh directory
+/// `volcomp-rs274-NAME-…` of its own.
+fn tools(rs274: PathBuf, name: &str) -> Tools {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos())
+        .unwrap_or(0);
+    let dir = std::env::temp_dir().join(format!(
+        "volcomp-rs274-{name}-{}-{nanos}",
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    let setup = dir.join("setup.toml");
+    std::fs::write(&setup, setup_toml()).unwrap();
+    let tool_table = dir.join("tools.tbl");
+    std::fs::write(&tool_table, rs274_tool_table()).unwrap();
+    Tools {
+        rs274,
+        volcomp: PathBuf::from(env!("CARGO_BIN_EXE_volcomp")),
+        dir,
+        setup,
+        tool_table,
+        var_text: rs274_var_file(),
+    }
+}
+
 #[test]
 fn compensated_corpus_programs_are_accepted_by_rs274() {
     let Some(rs274) = find_rs274() else {
@@ -478,29 +485,10 @@ fn compensated_corpus_programs_are_accepted_by_rs274() {
     };
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
     let corpus_dir = manifest.join("../../tests/corpus");
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos())
-        .unwrap_or(0);
-    let dir = std::env::temp_dir().join(format!(
-        "volcomp-rs274-compensated-{}-{nanos}",
-        std::process::id()
-    ));
-    std::fs::create_dir_all(&dir).unwrap();
-    let setup = dir.join("setup.toml");
-    std::fs::write(&setup, setup_toml()).unwrap();
-    let tool_table = dir.join("tools.tbl");
-    std::fs::write(&tool_table, rs274_tool_table()).unwrap();
+    let tools = tools(rs274, "compensated");
+    let dir = tools.dir.clone();
     let map = dir.join("map.csv");
     std::fs::write(&map, wide_map()).unwrap();
-    let tools = Tools {
-        rs274,
-        volcomp: PathBuf::from(env!("CARGO_BIN_EXE_volcomp")),
-        dir: dir.clone(),
-        setup,
-        tool_table,
-        var_text: rs274_var_file(),
-    };
     let mut files = corpus_files(&corpus_dir);
     files.push((
         K0_FIXTURE.to_string(),

@@ -6,7 +6,7 @@
 //!
 //! ```text
 //! VOLCOMP_EVAL_CORPUS=/path/to/programs \
-//!   cargo test -p volcomp-cli --test rs274_corpus -- --ignored --nocapture
+//!   cargo test -p volcomp-cli --test cli_tests rs274_corpus:: -- --ignored --nocapture
 //! ```
 //!
 //! Every file ending in `.ngc`, `.nc`, `.gcode`, `.tap` or `.cnc` below the
@@ -46,7 +46,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-mod rs274;
+use crate::rs274;
 
 use rs274::compare::compare;
 use rs274::*;

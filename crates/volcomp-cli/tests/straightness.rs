@@ -4,7 +4,7 @@
 use std::f64::consts::PI;
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::{tempdir, volcomp};
 
 fn text(b: &[u8]) -> String {

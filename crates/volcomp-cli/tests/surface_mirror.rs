@@ -9,7 +9,7 @@ use volcomp_core::surface::mirror::{
 };
 use volcomp_gcode::Vec3;
 
-mod common;
+use crate::common;
 use common::{tempdir, volcomp};
 
 fn text(o: &Output) -> (String, String) {

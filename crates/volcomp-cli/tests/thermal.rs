@@ -3,7 +3,7 @@
 
 use std::process::Output;
 
-mod common;
+use crate::common;
 use common::{tempdir, volcomp};
 
 fn ok(o: &Output) -> String {

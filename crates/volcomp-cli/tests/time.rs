@@ -3,7 +3,7 @@
 //! velocity profile (`L/v + v/a`, LinuxCNC's G64 halving the acceleration
 //! of a segment that ends in a blend; docs/planner.md).
 
-mod common;
+use crate::common;
 use common::{stderr, tempdir, volcomp, write_map};
 
 const SETUP: &str =

@@ -23,7 +23,7 @@ fn constant_map() -> AxisTableMap {
     AxisTableMap::from_csv(&csv, "test.csv").unwrap()
 }
 
-mod common;
+use crate::common;
 
 fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
     common::walker(program, "test.ngc")

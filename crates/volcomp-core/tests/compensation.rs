@@ -10,7 +10,7 @@ use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::simulate::report::{simulate_program, SimReport};
 use volcomp_gcode::{MotionKind, PathMode, Vec3, Walker};
 
-mod common;
+use crate::common;
 use common::map_from;
 
 fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
@@ -903,13 +903,35 @@ fn the_pieces_of_a_g61_block_run_blended_and_its_end_stays_exact() {
         let text = summary.path_mode_text().unwrap();
         assert!(text.contains("2 G61/G61.1 blocks"), "{text}");
     }
+    // A take-up between the pieces (G61.1 at the circle's quarter point,
+    // 4 µm of X backlash) stays a stop under the program's mode: the
+    // pieces before it end under G61.1, those after it run blended again.
+    let program = "G61.1\nG0 X0 Y0 Z0\nG1 X25 F6000\nG3 X25 Y0 I-25 J0\nM2\n";
+    let (out, _) = compensate_summary(program, &x_backlash_map(0.0), CompensateOptions::default());
+    let modes = modes_of(&out);
+    let arc_at = modes.iter().position(|(t, _)| t.starts_with("G3")).unwrap();
+    let arc = &modes[arc_at..];
+    let inner = arc
+        .iter()
+        .position(|(t, _)| t.contains("take-up"))
+        .expect("a take-up");
+    for (k, (text, mode)) in arc.iter().enumerate() {
+        let exact = k + 1 == arc.len() || k == inner || k + 1 == inner;
+        let expected = if exact { PathMode::ExactStop } else { blended };
+        assert_eq!(*mode, expected, "{k}: {text}\n{out}");
+    }
+    assert!(inner > 1 && arc.len() > inner + 2, "{out}");
     // In inch P is in inches, rounded down: 0.1 µm = 0.0000039 in.
     let program = "G20 G61\nG0 X0 Y0 Z0\nG1 Y2.4 F200\nM2\n";
     let (out, _) = compensate_summary(program, &map, CompensateOptions::default());
     assert!(out.contains("F200 G64 P0.0000039 Q0\n"), "{out}");
-    // A line with its own P or Q word, or under G64, is written as before.
+    // An arc's P (its turns) goes with the pieces: the words are written.
+    let program = "G61\nG0 X0 Y60 Z0\nG2 X0 Y60 I0 J-20 P2 F6000\nM2\n";
+    let (out, summary) = compensate_summary(program, &map, CompensateOptions::default());
+    assert_eq!(summary.pieces_blended_blocks, 1, "{out}");
+    // A line with its own path-control word, or under G64, is written as
+    // before.
     for program in [
-        "G61\nG0 X0 Y60 Z0\nG2 X0 Y60 I0 J-20 P1 F6000\nM2\n",
         "G64\nG0 X0 Y0 Z0\nG1 Y60 F6000\nM2\n",
         "G0 X0 Y0 Z0\nG1 Y60 F6000 G61\nM2\n",
     ] {

@@ -10,7 +10,7 @@ use std::io::Cursor;
 use volcomp_core::compensate::{CompensateOptions, Segmentation};
 use volcomp_gcode::{InterpOptions, Setup, Walker};
 
-mod common;
+use crate::common;
 
 fn compensate(program: &str) -> String {
     let options = CompensateOptions {

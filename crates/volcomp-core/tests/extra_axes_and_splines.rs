@@ -8,7 +8,7 @@
 use volcomp_core::compensate::{CompensateOptions, Segmentation};
 use volcomp_core::model::axis_table::AxisTableMap;
 
-mod common;
+use crate::common;
 
 fn compensate(program: &str, segment_mm: f64) -> String {
     compensate_with(

@@ -3,7 +3,7 @@
 //! computed from expressions are written like the program's numbers, not
 //! with 17 digits. Checked against LinuxCNC's `rs274` when it is installed.
 
-mod common;
+use crate::common;
 
 use std::process::Command;
 use volcomp_core::compensate::Compensator;

@@ -34,7 +34,7 @@ fn corpus_file(name: &str) -> Vec<u8> {
     std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-mod common;
+use crate::common;
 use common::zero_map;
 
 fn setup() -> Setup {

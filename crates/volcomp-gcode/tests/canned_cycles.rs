@@ -3,59 +3,17 @@
 //! (src/emc/rs274ngc/interp_cycles.cc), and the errors LinuxCNC raises for
 //! canned cycles, checked against rs274 when it is installed.
 
-use std::io::Cursor;
-use std::path::Path;
-use std::process::Command;
-use volcomp_gcode::{GcodeError, InterpOptions, Motion, MotionKind, Setup, Walker};
+use crate::common;
+use volcomp_gcode::{GcodeError, Motion, MotionKind};
 
 fn run(program: &str) -> Result<Vec<Motion>, GcodeError> {
-    let mut w = Walker::new(
-        Cursor::new(program.as_bytes().to_vec()),
-        Some("t.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    );
-    let mut motions = Vec::new();
-    loop {
-        match w.next_line() {
-            Ok(Some(ev)) => motions.extend_from_slice(ev.motions),
-            Ok(None) => return Ok(motions),
-            Err(e) => return Err(e),
-        }
-    }
+    common::motions(program)
 }
 
 /// rs274's first message line for `program` (None when not installed).
 fn rs274_message(program: &str) -> Option<String> {
-    let rs274 = ["/usr/bin/rs274", "/usr/local/bin/rs274"]
-        .into_iter()
-        .find(|p| Path::new(p).exists())?;
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("t.ngc");
-    std::fs::write(&file, format!("{program}M2\n")).unwrap();
-    static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _turn = RS274.lock().unwrap_or_else(|e| e.into_inner());
-    let out = Command::new(rs274)
-        .arg("-g")
-        .arg(&file)
-        .current_dir(dir.path())
-        .stdin(std::process::Stdio::null())
-        .output()
-        .unwrap();
-    let text =
-        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
-    Some(
-        text.lines()
-            .map(str::trim)
-            .find(|l| {
-                !l.is_empty()
-                    && !l.starts_with(|c: char| c.is_ascii_digit())
-                    && *l != "executing"
-                    && !program.lines().any(|p| p.trim() == *l)
-            })
-            .unwrap_or("")
-            .to_string(),
-    )
+    let run = common::rs274(format!("{program}M2\n").as_bytes())?;
+    Some(run.message(program).unwrap_or_default())
 }
 
 /// (feed?, x, y, z) of each motion of the last `n`.

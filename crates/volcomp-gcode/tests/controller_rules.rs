@@ -7,9 +7,8 @@
 //! are LinuxCNC's (src/emc/rs274ngc/interp_check.cc, interp_find.cc,
 //! interp_convert.cc), not ours.
 
+use crate::common;
 use std::io::Cursor;
-use std::path::Path;
-use std::process::Command;
 use volcomp_gcode::{GcodeError, InterpOptions, Motion, Setup, Vec3, Walker, Warning};
 
 fn run_with(program: &str, setup: Setup) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
@@ -21,20 +20,7 @@ fn run_with_options(
     setup: Setup,
     options: InterpOptions,
 ) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
-    let mut w = Walker::new(
-        Cursor::new(program.as_bytes().to_vec()),
-        Some("t.ngc".into()),
-        setup,
-        options,
-    );
-    let mut motions = Vec::new();
-    loop {
-        match w.next_line() {
-            Ok(Some(ev)) => motions.extend_from_slice(ev.motions),
-            Ok(None) => return (Ok(motions), w.warnings().to_vec()),
-            Err(e) => return (Err(e), w.warnings().to_vec()),
-        }
-    }
+    common::motions_and_warnings(program, setup, options)
 }
 
 fn run(program: &str) -> Result<Vec<Motion>, GcodeError> {
@@ -43,34 +29,7 @@ fn run(program: &str) -> Result<Vec<Motion>, GcodeError> {
 
 /// rs274's verdict on a program: `Some(message)` when it refuses it.
 fn rs274_error(program: &str) -> Option<Option<String>> {
-    let rs274 = ["/usr/bin/rs274", "/usr/local/bin/rs274"]
-        .into_iter()
-        .find(|p| Path::new(p).exists())?;
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("t.ngc");
-    std::fs::write(&file, format!("{program}M2\n")).unwrap();
-    // rs274 shares memory between its runs: concurrent runs die with a bus
-    // error, so the tests take turns, and a run killed by a signal is retried.
-    static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _turn = RS274.lock().unwrap_or_else(|e| e.into_inner());
-    let mut attempts = 0;
-    let out = loop {
-        let out = Command::new(rs274)
-            .arg("-g")
-            .arg(&file)
-            .current_dir(dir.path())
-            .stdin(std::process::Stdio::null())
-            .output()
-            .unwrap();
-        attempts += 1;
-        let crashed = out.status.code().is_none_or(|c| c > 128);
-        if !crashed || attempts == 3 {
-            assert!(!crashed, "rs274 crashed 3 times on {program:?}");
-            break out;
-        }
-    };
-    let text =
-        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    let text = common::rs274(format!("{program}M2\n").as_bytes())?.text();
     // rs274 prints canonical calls (numbered lines), "executing", and on a
     // refusal the message followed by the offending block.
     // A canonical call is `<number> N<digits or dots> CALL(…)`; o-word
@@ -740,22 +699,8 @@ fn o_word_labels_given_as_expressions_and_named_programs_run() {
 
 /// rs274's verdict on `program` as it is (no M2 added) and its motion count.
 fn rs274_as_is(program: &str) -> Option<(Option<String>, usize)> {
-    let rs274 = ["/usr/bin/rs274", "/usr/local/bin/rs274"]
-        .into_iter()
-        .find(|p| Path::new(p).exists())?;
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("t.ngc");
-    std::fs::write(&file, program).unwrap();
-    let out = Command::new(rs274)
-        .arg("-g")
-        .arg(&file)
-        .arg(dir.path().join("out.txt"))
-        .env("HOME", dir.path())
-        .current_dir(dir.path())
-        .stdin(std::process::Stdio::null())
-        .output()
-        .unwrap();
-    let canon = std::fs::read_to_string(dir.path().join("out.txt")).unwrap_or_default();
+    let run = common::rs274(program.as_bytes())?;
+    let (out, canon) = (&run.output, &run.canon);
     let motions = canon
         .lines()
         .filter(|l| l.contains("STRAIGHT_") || l.contains("ARC_FEED"))

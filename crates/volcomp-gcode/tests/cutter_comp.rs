@@ -4,21 +4,11 @@
 //! programs. The agreement fixtures `cutter_comp_g41_1_g18.ngc` and
 //! `linuxcnc_ccomp_*.ngc` check whole paths against `rs274`.
 
-use std::io::Cursor;
-use volcomp_gcode::{GcodeError, InterpOptions, Motion, MotionKind, MotionSource, Setup, Walker};
+use crate::common;
+use volcomp_gcode::{GcodeError, InterpOptions, Motion, MotionKind, MotionSource, Setup};
 
 fn run_with(program: &str, setup: Setup) -> Result<Vec<(u64, Motion)>, GcodeError> {
-    let mut w = Walker::new(
-        Cursor::new(program.as_bytes().to_vec()),
-        Some("t.ngc".into()),
-        setup,
-        InterpOptions::default(),
-    );
-    let mut motions = Vec::new();
-    while let Some(ev) = w.next_line()? {
-        motions.extend(ev.motions.iter().map(|m| (ev.number, *m)));
-    }
-    Ok(motions)
+    common::numbered_motions(program, setup, InterpOptions::default())
 }
 
 fn run(program: &str) -> Result<Vec<(u64, Motion)>, GcodeError> {

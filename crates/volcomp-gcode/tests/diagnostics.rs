@@ -10,9 +10,8 @@
 //! [`rs274_refuses_the_same_programs_on_the_same_line`] checks that again
 //! against it; without it that test says so and checks nothing.
 
+use crate::common;
 use std::io::Cursor;
-use std::path::Path;
-use std::process::Command;
 use volcomp_gcode::{GcodeError, InterpOptions, Setup, Walker};
 
 /// A bad program, the line volcomp and rs274 refuse, and the words rs274's
@@ -126,33 +125,7 @@ fn the_excerpt_of_a_long_line_is_cut_before_the_caret() {
 /// What rs274 prints when it refuses `program`: its message and the block
 /// it names. `None` when rs274 is not installed.
 fn rs274_refusal(program: &[u8]) -> Option<(String, String)> {
-    let rs274 = ["/usr/bin/rs274", "/usr/local/bin/rs274"]
-        .into_iter()
-        .find(|p| Path::new(p).exists())?;
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("t.ngc");
-    std::fs::write(&file, [program, b"M2\n"].concat()).unwrap();
-    // rs274 shares memory between its runs: concurrent runs die with a bus
-    // error, so runs take turns (one test here) and a crashed run is retried.
-    let mut attempts = 0;
-    let out = loop {
-        let out = Command::new(rs274)
-            .arg("-g")
-            .arg(&file)
-            .current_dir(dir.path())
-            .env("HOME", dir.path())
-            .stdin(std::process::Stdio::null())
-            .output()
-            .unwrap();
-        attempts += 1;
-        let crashed = out.status.code().is_none_or(|c| c > 128);
-        if !crashed || attempts == 3 {
-            assert!(!crashed, "rs274 crashed 3 times");
-            break out;
-        }
-    };
-    let text =
-        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    let text = common::rs274(&[program, b"M2\n"].concat())?.text();
     // Canonical calls are numbered; "executing" is chatter; a refusal is the
     // message, then the refused block.
     let mut rest = text.lines().map(str::trim).filter(|l| {

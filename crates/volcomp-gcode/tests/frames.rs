@@ -5,21 +5,11 @@
 //! constructs are checked against `rs274` by the agreement fixtures
 //! `g52_local_offsets.ngc` and `g10_tool_table.ngc`.
 
-use std::io::Cursor;
-use volcomp_gcode::{GcodeError, InterpOptions, Motion, Setup, Walker};
+use crate::common;
+use volcomp_gcode::{GcodeError, Motion, Setup};
 
 fn run_with(program: &str, setup: Setup) -> Result<Vec<Motion>, GcodeError> {
-    let mut w = Walker::new(
-        Cursor::new(program.as_bytes().to_vec()),
-        Some("t.ngc".into()),
-        setup,
-        InterpOptions::default(),
-    );
-    let mut motions = Vec::new();
-    while let Some(ev) = w.next_line()? {
-        motions.extend_from_slice(ev.motions);
-    }
-    Ok(motions)
+    common::motions_with(program, setup)
 }
 
 fn run(program: &str) -> Result<Vec<Motion>, GcodeError> {

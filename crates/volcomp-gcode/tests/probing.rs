@@ -5,26 +5,17 @@
 //! probing programs are also run through `rs274` by the `probe` tests of
 //! volcomp-cli.
 
-use std::io::Cursor;
-use volcomp_gcode::{ErrorClass, GcodeError, InterpOptions, Motion, MotionKind, Setup, Walker};
+use crate::common;
+use volcomp_gcode::{ErrorClass, GcodeError, InterpOptions, Motion, MotionKind, Setup};
 
 fn run(program: &str, accept_probing: bool) -> Result<Vec<Motion>, GcodeError> {
     let mut setup = Setup::default();
     setup.work_offsets_mm[0] = volcomp_gcode::Vec3::new(100.0, 50.0, -20.0);
-    let mut w = Walker::new(
-        Cursor::new(program.as_bytes().to_vec()),
-        Some("p.ngc".into()),
-        setup,
-        InterpOptions {
-            accept_probing,
-            ..InterpOptions::default()
-        },
-    );
-    let mut motions = Vec::new();
-    while let Some(ev) = w.next_line()? {
-        motions.extend_from_slice(ev.motions);
-    }
-    Ok(motions)
+    let options = InterpOptions {
+        accept_probing,
+        ..InterpOptions::default()
+    };
+    common::motions_and_warnings(program, setup, options).0
 }
 
 #[test]

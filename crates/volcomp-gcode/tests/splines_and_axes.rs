@@ -4,8 +4,8 @@
 //! end points are also checked against `rs274` by the agreement fixtures
 //! `splines_g5.ngc`, `nurbs_g52.ngc` and `extra_axes.ngc`.
 
-use std::io::Cursor;
-use volcomp_gcode::{GcodeError, InterpOptions, Motion, MotionKind, MotionSource, Setup, Walker};
+use crate::common;
+use volcomp_gcode::{GcodeError, Motion, MotionKind, MotionSource, Setup};
 
 fn run(program: &str) -> Result<Vec<Motion>, GcodeError> {
     run_with(program, Setup::default())
@@ -21,17 +21,7 @@ fn run_nine(program: &str) -> Result<Vec<Motion>, GcodeError> {
 }
 
 fn run_with(program: &str, setup: Setup) -> Result<Vec<Motion>, GcodeError> {
-    let mut w = Walker::new(
-        Cursor::new(program.as_bytes().to_vec()),
-        Some("t.ngc".into()),
-        setup,
-        InterpOptions::default(),
-    );
-    let mut motions = Vec::new();
-    while let Some(ev) = w.next_line()? {
-        motions.extend_from_slice(ev.motions);
-    }
-    Ok(motions)
+    common::motions_with(program, setup)
 }
 
 fn spline_chords(motions: &[Motion], line: u64) -> Vec<Motion> {
@@ -206,40 +196,7 @@ fn g28_without_words_sends_the_extra_axes_home() {
 /// rs274's refusal message for `program`, `None` when it accepts it or is
 /// not installed (then only volcomp's side is checked).
 fn rs274_refusal(program: &str) -> Option<String> {
-    let rs274 = ["/usr/bin/rs274", "/usr/local/bin/rs274"]
-        .into_iter()
-        .find(|p| std::path::Path::new(p).exists())?;
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("t.ngc");
-    std::fs::write(&file, format!("{program}M2\n")).unwrap();
-    static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _turn = RS274.lock().unwrap_or_else(|e| e.into_inner());
-    for _ in 0..3 {
-        let out = std::process::Command::new(rs274)
-            .arg("-g")
-            .arg(&file)
-            .current_dir(dir.path())
-            .env("HOME", dir.path())
-            .stdin(std::process::Stdio::null())
-            .output()
-            .unwrap();
-        if out.status.code().is_none_or(|c| c > 128) {
-            continue;
-        }
-        let text = String::from_utf8_lossy(&out.stdout).into_owned()
-            + &String::from_utf8_lossy(&out.stderr);
-        return text
-            .lines()
-            .map(str::trim)
-            .find(|l| {
-                !l.is_empty()
-                    && !l.starts_with(|c: char| c.is_ascii_digit())
-                    && *l != "executing"
-                    && !program.lines().any(|p| p.trim() == *l)
-            })
-            .map(str::to_string);
-    }
-    panic!("rs274 crashed 3 times on {program:?}");
+    common::rs274(format!("{program}M2\n").as_bytes())?.message(program)
 }
 
 #[test]

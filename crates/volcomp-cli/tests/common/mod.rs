@@ -36,14 +36,14 @@ pub fn volcomp(args: &[&str], dir: &Path) -> Output {
         .expect("run volcomp")
 }
 
-/// A fresh, empty directory for one test (named after the test binary, the
-/// test and the process, so parallel test binaries never share one).
+/// A fresh, empty directory for one test, named after the calling test file,
+/// `name` and the process: the files' tests run side by side in one binary
+/// (tests/cli_tests.rs), and two files may use the same `name`.
+#[track_caller]
 pub fn tempdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "volcomp-{}-{name}-{}",
-        env!("CARGO_CRATE_NAME"),
-        std::process::id()
-    ));
+    let file = Path::new(std::panic::Location::caller().file());
+    let stem = file.file_stem().unwrap_or_default().to_string_lossy();
+    let d = std::env::temp_dir().join(format!("volcomp-{stem}-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
@@ -105,6 +105,8 @@ pub const PROGRAM: &str =
 
 pub const SETUP: &str = "units = \"mm\"\n[work_offsets]\nG54 = [200, 150, 100]\n";
 
+/// A directory with the map, program and set-up above (see [`tempdir`]).
+#[track_caller]
 pub fn fixture(name: &str) -> PathBuf {
     let d = tempdir(name);
     write_map(&d);

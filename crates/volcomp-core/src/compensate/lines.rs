@@ -518,11 +518,13 @@ pub(super) fn stop_m_word<'a>(mut words: impl Iterator<Item = &'a Word>) -> Opti
 /// `None` where the block is not in G61/G61.1, or its line already has a
 /// P or Q word or a path-control word (one block may not carry two; a
 /// line is left as the program wrote it), or `p` rounds to 0 in the
-/// program's units. `p_units` is `p` in the program's units.
+/// program's units. `p_units` is `p` in the program's units; `arc`: the
+/// block is an arc, whose P (its turn count) the written pieces drop.
 pub(super) fn piece_mode_words<'a>(
     mode: volcomp_gcode::PathMode,
     mut words: impl Iterator<Item = &'a Word>,
     p_units: f64,
+    arc: bool,
     sep: &str,
 ) -> Option<(String, &'static str)> {
     let restore = match mode {
@@ -531,7 +533,8 @@ pub(super) fn piece_mode_words<'a>(
         volcomp_gcode::PathMode::Blend { .. } => return None,
     };
     if words.any(|w| {
-        matches!(w.letter, b'P' | b'Q')
+        (w.letter == b'P' && !arc)
+            || w.letter == b'Q'
             || (w.letter == b'G'
                 && [61.0, 61.1, 64.0]
                     .iter()

@@ -485,26 +485,44 @@ impl<'w> State<'w> {
         let needed_first = first_arc.map_or(needed, |w| w.mode());
         // Under G61/G61.1 a block written as several lines runs its pieces
         // under `G64 P p Q0` and restores the program's mode on its last
-        // (lines.rs, `piece_mode_words`); not where a take-up stands
-        // between its pieces (a stop the program's mode must keep). A
-        // first piece that is an arc cannot carry P (its turn count): the
-        // words go on a line of their own before it, read in the units in
-        // effect there.
-        let lines_of_block = commands.len() + usize::from(first_split.is_some());
-        let piece_modes =
-            if lines_of_block > 1 && commands.iter().skip(1).all(|(_, tu)| tu.is_none()) {
-                let p_mm = piece_blend_tolerance_mm(options);
-                let mm_per_unit = if first_arc.is_some() {
-                    frame0.mm_per_unit
-                } else {
-                    frame.mm_per_unit
-                };
-                lines::piece_mode_words(motion.path_mode, line.words(), p_mm / mm_per_unit, sep)
-                    .map(|(words, restore)| (words, restore, p_mm))
-            } else {
-                None
-            };
-        if let Some((_, _, p_mm)) = piece_modes {
+        // (lines.rs, `piece_mode_words`). A take-up between its pieces
+        // stays a stop under the program's mode: the pieces before it end
+        // under that mode, those after it run under `G64 P p Q0` again.
+        // A piece that is an arc cannot carry P (its turn count): the words
+        // go on a line of their own before it, read in the units in effect
+        // there.
+        let n_pieces = commands.len();
+        let lines_of_block = n_pieces + usize::from(first_split.is_some());
+        let p_mm = piece_blend_tolerance_mm(options);
+        let piece_words = |mm_per_unit: f64| {
+            let arc = matches!(motion.kind, MotionKind::Arc(_));
+            lines::piece_mode_words(motion.path_mode, line.words(), p_mm / mm_per_unit, arc, sep)
+        };
+        let piece_modes = if lines_of_block > 1 {
+            piece_words(frame.mm_per_unit)
+                .zip(piece_words(frame0.mm_per_unit))
+                .map(|((own, restore), (before, _))| (own, before, restore))
+        } else {
+            None
+        };
+        // Where each run of pieces between take-ups begins and ends (runs
+        // of one line are left alone).
+        let mut run_starts = vec![false; n_pieces];
+        let mut run_ends = vec![false; n_pieces];
+        if piece_modes.is_some() {
+            let mut k = 0;
+            while k < n_pieces {
+                let end = (k + 1..n_pieces)
+                    .find(|j| commands[*j].1.is_some())
+                    .unwrap_or(n_pieces);
+                if end - k + usize::from(k == 0 && first_split.is_some()) > 1 {
+                    run_starts[k] = true;
+                    run_ends[end - 1] = true;
+                }
+                k = end;
+            }
+        }
+        if run_starts.iter().any(|s| *s) {
             self.summary.pieces_blended_blocks += 1;
             self.summary.piece_blend_tolerance_um =
                 self.summary.piece_blend_tolerance_um.max(p_mm * 1e3);
@@ -554,9 +572,25 @@ impl<'w> State<'w> {
             } else {
                 line_ending
             };
-            let last_piece = i + 1 == commands.len();
+            let restore_here = piece_modes
+                .as_ref()
+                .filter(|_| run_ends[i])
+                .map(|(_, _, restore)| *restore);
+            let start_here = piece_modes.as_ref().filter(|_| run_starts[i]);
+            if let (Some((own, _, _)), true) = (start_here, i > 0) {
+                // A run that begins after a take-up: an arc piece gets the
+                // words on a line of their own, a line piece on its line.
+                if arc_words.get(i).is_some_and(|w| w.center.is_some()) {
+                    self.text.clear();
+                    self.text.push_str(own);
+                    self.push_inserted(&place.with_ending(line_ending), "path mode");
+                    self.summary.path_mode_lines += 1;
+                } else {
+                    self.line_words = own.clone();
+                }
+            }
             if i == 0 {
-                if let (Some((words, _, _)), true) = (&piece_modes, first_arc.is_some()) {
+                if let (Some((_, words, _)), true) = (start_here, first_arc.is_some()) {
                     self.text.clear();
                     self.text.push_str(words);
                     let at = Place {
@@ -597,7 +631,7 @@ impl<'w> State<'w> {
                         edits.push(volcomp_gcode::edit::Edit::replace(span, text));
                     }
                 }
-                if let (Some((words, _, _)), None) = (&piece_modes, first_arc) {
+                if let (Some((words, _, _)), None) = (start_here, first_arc) {
                     // After the line's last word (and after every other
                     // edit there).
                     let end = line.words().map(|w| w.span.end).max();
@@ -615,34 +649,39 @@ impl<'w> State<'w> {
                 self.mode = Some(needed_first);
                 self.summary.lines_out += 1;
                 if let Some((joint, second)) = first_split {
-                    if let (Some((_, restore, _)), true) = (&piece_modes, last_piece) {
-                        self.line_words = (*restore).to_string();
+                    if let Some(restore) = restore_here {
+                        self.line_words = restore.to_string();
                     }
                     self.write_inserted_arc(&place.with_ending(ending), joint, *q, &second, "");
                 }
             } else if let Some(w) = arc_words.get(i) {
-                if let (Some((_, restore, _)), true) = (&piece_modes, last_piece) {
-                    self.line_words = (*restore).to_string();
+                if let Some(restore) = restore_here {
+                    self.line_words = restore.to_string();
                 }
                 self.write_inserted_arc(&place.with_ending(ending), pos, *q, w, "");
             } else {
                 if let Some(plan) = extra_plan.as_mut() {
                     self.extra_text = plan.words_for(i, style, sep);
                 }
-                if let (Some((_, restore, _)), true) = (&piece_modes, last_piece) {
-                    self.line_words = (*restore).to_string();
+                if let Some(restore) = restore_here {
+                    self.line_words = restore.to_string();
                 }
                 self.write_inserted(&place.with_ending(ending), pos, *q, needed, "");
             }
+            if !self.line_words.is_empty() {
+                // The piece rounded to nothing and was not written: the
+                // mode is restored on a line of its own; words that would
+                // have begun a run are dropped (the run stays under the
+                // program's mode).
+                self.line_words.clear();
+                if let Some(restore) = restore_here {
+                    self.text.clear();
+                    self.text.push_str(restore);
+                    self.push_inserted(&place.with_ending(ending), "path mode");
+                    self.summary.path_mode_lines += 1;
+                }
+            }
             pos = *q;
-        }
-        if !self.line_words.is_empty() {
-            // The last piece rounded to nothing and was not written: the
-            // mode is restored on a line of its own.
-            self.text.clear();
-            self.text.push_str(&std::mem::take(&mut self.line_words));
-            self.push_inserted(&place.with_ending(line_ending), "path mode");
-            self.summary.path_mode_lines += 1;
         }
         if let Some(w) = stop_word {
             self.buf.extend_from_slice(&content[w.span.clone()]);

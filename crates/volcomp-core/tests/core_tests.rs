@@ -1,0 +1,23 @@
+//! The library's integration tests, one binary: every `tests/<name>.rs` is a
+//! module here (a new file must be added below), so the crate links once and
+//! the tests of every file run side by side. One file alone:
+//! `cargo test -p volcomp-core --test core_tests <name>::`.
+
+mod common;
+
+mod axis_never_set;
+mod compensate_cycles;
+mod compensation;
+mod cutter_comp_write_back;
+mod extra_axes_and_splines;
+mod folder_imports;
+mod kinematic;
+mod line_length;
+mod mirror_study;
+mod planner_linuxcnc;
+mod probe;
+mod random_programs;
+mod simulate_pairing;
+mod straightness;
+mod thermal;
+mod zero_map_round_trip;
