@@ -354,6 +354,14 @@ pub fn write_atomically(
     staged.commit()
 }
 
+/// Writes `bytes` to `target` as [`write_atomically`] does.
+pub fn write_file(target: &Path, inputs: &[&Path], bytes: &[u8]) -> Result<(), CliError> {
+    write_atomically(target, inputs, |w| {
+        w.write_all(bytes)
+            .map_err(|e| CliError::Io(target.to_path_buf(), e))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,7 +4,7 @@
 //! bundled (`assets/fonts`) and registered through `ab_glyph`, so plots look
 //! the same on every machine and need no system library.
 
-use crate::output::{write_atomically, CliError};
+use crate::output::{write_file, CliError};
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 use std::path::Path;
@@ -225,10 +225,7 @@ fn render<DB: DrawingBackend>(
 /// Draws `charts` stacked vertically into `path` (`.svg` or `.png`), atomically.
 pub fn write_charts(charts: &[Chart], path: &Path) -> Result<(), CliError> {
     let bytes = chart_bytes(charts, path)?;
-    write_atomically(path, &[], |out| {
-        out.write_all(&bytes)
-            .map_err(|e| CliError::Io(path.to_path_buf(), e))
-    })
+    write_file(path, &[], &bytes)
 }
 
 /// The bytes of `charts` drawn as the file `path` names (`.svg` or `.png`).
@@ -300,10 +297,7 @@ pub fn write_charts_or_report(
     }
     let html = charts::charts_report(charts, title, files, &crate::commands::command_line());
     let input_paths: Vec<&Path> = inputs.iter().map(|(_, p)| *p).collect();
-    write_atomically(path, &input_paths, |out| {
-        out.write_all(html.as_bytes())
-            .map_err(|e| CliError::Io(path.to_path_buf(), e))
-    })
+    write_file(path, &input_paths, html.as_bytes())
 }
 
 #[cfg(test)]

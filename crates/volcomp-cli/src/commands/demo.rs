@@ -3,7 +3,7 @@
 use super::compensate::{command_line, compensate_file};
 use super::Machine;
 use crate::args::DemoArgs;
-use crate::output::{write_atomically, CliError};
+use crate::output::{write_file, CliError};
 use std::path::Path;
 use volcomp_core::example::{demo_programs, example_map, DEMO_WORK_OFFSET_MM};
 use volcomp_core::model::axis_table::AxisTableMap;
@@ -46,10 +46,7 @@ fn one_program(
     inputs: &mut Vec<InputFile>,
 ) -> Result<(Row, Vec<Section>), CliError> {
     let original = a.out_dir.join(format!("{}.ngc", p.name));
-    write_atomically(&original, &[], |w| {
-        w.write_all(p.text.as_bytes())
-            .map_err(|e| CliError::Io(original.clone(), e))
-    })?;
+    write_file(&original, &[], p.text.as_bytes())?;
     inputs.push(InputFile::read("program", &original)?);
     let name = original.display().to_string();
     let open = super::simulate::open;
@@ -114,10 +111,7 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
     std::fs::create_dir_all(&a.out_dir).map_err(|e| CliError::Io(a.out_dir.clone(), e))?;
     let map = example_map();
     let map_path = a.out_dir.join("example_map.csv");
-    write_atomically(&map_path, &[], |w| {
-        w.write_all(map.to_csv().as_bytes())
-            .map_err(|e| CliError::Io(map_path.clone(), e))
-    })?;
+    write_file(&map_path, &[], map.to_csv().as_bytes())?;
     let machine = Machine {
         setup: MachineSetup::default().with_work_offset(DEMO_WORK_OFFSET_MM),
         setup_file: None,
@@ -142,10 +136,7 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
     println!("{}", demo::FOOTNOTES);
     if let Some(path) = &a.markdown {
         let md = demo_table::markdown(&columns, &rows);
-        write_atomically(path, &[], |w| {
-            w.write_all(md.as_bytes())
-                .map_err(|e| CliError::Io(path.clone(), e))
-        })?;
+        write_file(path, &[], md.as_bytes())?;
     }
     let overview = demo_table::overview(&columns, &rows);
     let html = demo::report_html(
@@ -156,10 +147,7 @@ pub fn run(a: DemoArgs) -> Result<(), CliError> {
         inputs,
     );
     let report_path = a.out_dir.join("report.html");
-    write_atomically(&report_path, &[], |w| {
-        w.write_all(html.as_bytes())
-            .map_err(|e| CliError::Io(report_path.clone(), e))
-    })?;
+    write_file(&report_path, &[], html.as_bytes())?;
     println!("{}", demo::outro(&a.out_dir, &map_path, &report_path));
     Ok(())
 }

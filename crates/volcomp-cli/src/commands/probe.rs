@@ -6,7 +6,7 @@
 //! turned into the library's requests; the library does the work.
 
 use crate::options::Options;
-use crate::output::{check, write_atomically, CliError, OutputPlan, Staged};
+use crate::output::{check, write_file, CliError, OutputPlan, Staged};
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 use volcomp_core::identify::probe::request::{FitRequest, Input, PlanRequest};
@@ -143,10 +143,7 @@ fn plan_cmd(a: PlanArgs) -> Result<(), CliError> {
         ),
     };
     let out = request.run()?;
-    write_atomically(&a.output, &[&a.artifact], |w| {
-        w.write_all(out.program.as_bytes())
-            .map_err(|e| CliError::Io(a.output.clone(), e))
-    })?;
+    write_file(&a.output, &[&a.artifact], out.program.as_bytes())?;
     for line in probe::plan_lines(&out, &a.job, (fast, slow), &a.output) {
         println!("{line}");
     }
@@ -201,20 +198,11 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         ranges,
     );
     let mut staged = Staged::new();
-    staged.write(&csv_path, |w| {
-        w.write_all(csv.as_bytes())
-            .map_err(|e| CliError::Io(csv_path.clone(), e))
-    })?;
-    staged.write(&a.output, |w| {
-        w.write_all(toml.as_bytes())
-            .map_err(|e| CliError::Io(a.output.clone(), e))
-    })?;
+    staged.write_bytes(&csv_path, csv.as_bytes())?;
+    staged.write_bytes(&a.output, toml.as_bytes())?;
     if let Some(path) = &a.report {
         let html = fit_report(&a, &out, ranges, (order, &chain))?;
-        staged.write(path, |w| {
-            w.write_all(html.as_bytes())
-                .map_err(|e| CliError::Io(path.clone(), e))
-        })?;
+        staged.write_bytes(path, html.as_bytes())?;
     }
     staged.commit()?;
     for w in &out.fitted.warnings {
@@ -281,10 +269,7 @@ fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
     std::fs::create_dir_all(&a.output).map_err(|e| CliError::Io(a.output.clone(), e))?;
     for (name, text) in volcomp_core::example::probe::example_files() {
         let path = a.output.join(&name);
-        write_atomically(&path, &[], |w| {
-            w.write_all(text.as_bytes())
-                .map_err(|e| CliError::Io(path.clone(), e))
-        })?;
+        write_file(&path, &[], text.as_bytes())?;
     }
     for line in probe::example_lines(&a.output) {
         println!("{line}");

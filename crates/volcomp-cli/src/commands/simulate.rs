@@ -3,7 +3,7 @@
 use super::compensate::command_line;
 use super::{Machine, MachineExt};
 use crate::args::SimulateArgs;
-use crate::output::{check, write_atomically, CliError, OutputPlan};
+use crate::output::{check, write_file, CliError, OutputPlan};
 use crate::plot::{charts, write_charts};
 use crate::progress::Bar;
 use std::io::Write;
@@ -107,12 +107,7 @@ pub fn run(a: SimulateArgs) -> Result<(), CliError> {
     let kept = simulate(&a, &machine, model.as_ref())?;
     let mut inputs = vec![a.program.as_path()];
     inputs.extend(a.job.reference.as_ref().and_then(|r| r.path()));
-    let write = |path: &Path, bytes: &[u8]| {
-        write_atomically(path, &inputs, |w| {
-            w.write_all(bytes)
-                .map_err(|e| CliError::Io(path.to_path_buf(), e))
-        })
-    };
+    let write = |path: &Path, bytes: &[u8]| write_file(path, &inputs, bytes);
     if let (Some(path), Some(csv)) = (&a.errors_csv, &kept.errors_csv) {
         write(path, csv.as_bytes())?;
     }

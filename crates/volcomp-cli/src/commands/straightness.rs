@@ -5,7 +5,7 @@
 //! also a `--map` for `compensate` and `simulate`.
 
 use crate::options::{flags, Options};
-use crate::output::{check, write_atomically, CliError, OutputPlan};
+use crate::output::{check, write_file, CliError, OutputPlan};
 use crate::plot::{charts, write_charts_or_report};
 use clap::{Args, Subcommand};
 use std::io::Write;
@@ -157,10 +157,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
     }
     match &a.output {
         Some(path) => {
-            write_atomically(path, &inputs, |w| {
-                w.write_all(text.as_bytes())
-                    .map_err(|e| CliError::Io(path.clone(), e))
-            })?;
+            write_file(path, &inputs, text.as_bytes())?;
             eprint!("{}", summary(&f, &o));
             crate::note!("volcomp: wrote {}", path.display());
         }
@@ -231,10 +228,7 @@ fn table_cmd(a: TableArgs) -> Result<(), CliError> {
     let csv = model.correction_table_csv(a.step)?;
     match &a.output {
         Some(path) => {
-            write_atomically(path, &[&a.model], |w| {
-                w.write_all(csv.as_bytes())
-                    .map_err(|e| CliError::Io(path.clone(), e))
-            })?;
+            write_file(path, &[&a.model], csv.as_bytes())?;
             crate::note!("volcomp: wrote {}", path.display());
         }
         None => std::io::stdout()

@@ -6,7 +6,7 @@ use super::compensate::command_line;
 use super::Machine;
 use crate::args::surface::{MirrorArgs, SurfaceArgs, SurfaceCommand};
 use crate::options::{flags, Flags};
-use crate::output::{check, write_atomically, CliError, OutputPlan};
+use crate::output::{check, write_atomically, write_file, CliError, OutputPlan};
 use crate::progress::Bar;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -139,10 +139,7 @@ fn write_surface(
         (&grid_path, &text.grid_csv),
         (&toml_path, &text.bspline_toml),
     ] {
-        write_atomically(path, &inputs(a), |w| {
-            w.write_all(content.as_bytes())
-                .map_err(|e| CliError::Io(path.clone(), e))
-        })?;
+        write_file(path, &inputs(a), content.as_bytes())?;
     }
     Ok(SurfaceFiles {
         grid: grid_path.display().to_string(),
@@ -171,10 +168,7 @@ fn write_report(path: &Path, a: &MirrorArgs, run: &MirrorRun) -> Result<(), CliE
         }
         _ => report_csv(&run.inputs, &run.result),
     };
-    write_atomically(path, &inputs(a), |w| {
-        w.write_all(text.as_bytes())
-            .map_err(|e| CliError::Io(path.to_path_buf(), e))
-    })
+    write_file(path, &inputs(a), text.as_bytes())
 }
 
 fn run_mirror(a: MirrorArgs) -> Result<(), CliError> {

@@ -6,7 +6,7 @@
 //! model fit and residuals; `example` writes synthetic inputs.
 
 use crate::options::Options;
-use crate::output::{check, write_atomically, CliError, OutputPlan};
+use crate::output::{check, write_file, CliError, OutputPlan};
 use crate::plot::{charts, write_charts, write_charts_or_report};
 use crate::progress::Bar;
 use clap::{Args, Subcommand};
@@ -116,10 +116,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
         .filter_map(input)
         .collect();
     let text = fit.file.to_toml();
-    write_atomically(&a.output, &inputs, |w| {
-        w.write_all(text.as_bytes())
-            .map_err(|e| CliError::Io(a.output.clone(), e))
-    })?;
+    write_file(&a.output, &inputs, text.as_bytes())?;
     if let Some(path) = &a.bands {
         // 123 points × the draws: a bar from 100 000 model evaluations.
         let points = 3 * (u64::from(LINE_INTERVALS) + 1);
@@ -172,10 +169,7 @@ fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
     let mut inputs = vec![a.model.as_path()];
     inputs.extend(input(&a.job.temperatures));
     for (path, text) in [(&csv_path, &csv), (&a.output, &toml)] {
-        write_atomically(path, &inputs, |w| {
-            w.write_all(text.as_bytes())
-                .map_err(|e| CliError::Io(path.clone(), e))
-        })?;
+        write_file(path, &inputs, text.as_bytes())?;
     }
     let (t, row) = (&prediction.temperatures, prediction.row);
     crate::note!(
@@ -210,10 +204,7 @@ fn example_cmd(a: ExampleArgs) -> Result<(), CliError> {
     let files = example::example_files();
     for (name, text) in &files {
         let path = a.output.join(name);
-        write_atomically(&path, &[], |w| {
-            w.write_all(text.as_bytes())
-                .map_err(|e| CliError::Io(path.clone(), e))
-        })?;
+        write_file(&path, &[], text.as_bytes())?;
     }
     let d = a.output.display();
     let r = example::RANGES_MM;
@@ -235,10 +226,7 @@ fn write_bands(path: &Path, lines: &[LineBands], samples: usize) -> Result<(), C
         Some("svg") | Some("png") => write_charts(&charts::band_charts(lines, samples), path),
         _ => {
             let csv = report::bands_csv(lines);
-            write_atomically(path, &[], |w| {
-                w.write_all(csv.as_bytes())
-                    .map_err(|e| CliError::Io(path.to_path_buf(), e))
-            })
+            write_file(path, &[], csv.as_bytes())
         }
     }
 }

@@ -15,7 +15,7 @@ pub use args::*;
 use crate::commands::compensate::command_line;
 use crate::commands::parse_triple;
 use crate::options::flags;
-use crate::output::{check, write_atomically, CliError, OutputPlan};
+use crate::output::{check, write_file, CliError, OutputPlan};
 use crate::plot::{charts, write_charts};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -106,10 +106,7 @@ fn chain(text: Option<&str>) -> Result<Topology, CliError> {
 
 /// Writes `text` to `path` atomically, refusing to overwrite `inputs`.
 fn write_text(path: &Path, inputs: &[&Path], text: &str) -> Result<(), CliError> {
-    write_atomically(path, inputs, |w| {
-        w.write_all(text.as_bytes())
-            .map_err(|e| CliError::Io(path.to_path_buf(), e))
-    })
+    write_file(path, inputs, text.as_bytes())
 }
 
 /// Declares the files of a job as the outputs of `flag`.
