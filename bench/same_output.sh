@@ -2,9 +2,9 @@
 # Checks that a speed change keeps every output byte for byte: runs two
 # volcomp binaries on the real programs of tests/corpus and the benchmark
 # programs (moves, simulate, compensate three ways, with a map with and one
-# without backlash) and compares the hashes of everything they write
-# (standard output, standard error, the compensated files but for their
-# `(date …)` header line, exit codes).
+# without backlash, the machining-time estimate) and compares the hashes of
+# everything they write (standard output, standard error, the compensated
+# files but for their `(date …)` header line, exit codes).
 #
 # usage: bench/same_output.sh BEFORE_BINARY [AFTER_BINARY]
 #   AFTER_BINARY defaults to ./target/release/volcomp. Prints the commands
@@ -36,6 +36,7 @@ cases() {
     printf '%s\t%s\n' "$n.comp" "compensate $p ${ripple[*]} $extra -o OUT"
     printf '%s\t%s\n' "$n.comp-fixed" "compensate $p ${ripple[*]} $extra --segment-length 1 --arcs-as-lines -o OUT"
     printf '%s\t%s\n' "$n.comp-example" "compensate $p --map $work/demo/example_map.csv --setup $work/setup.toml --work-offset 250,200,150 $extra -o OUT"
+    printf '%s\t%s\n' "$n.time" "time $p --setup $work/setup.toml $extra"
   done
   for p in "$work/raster.ngc" "$work/cam.nc" "$work/loop.ngc"; do
     local n
@@ -44,6 +45,7 @@ cases() {
     printf '%s\t%s\n' "$n.comp" "compensate $p --map $work/demo/example_map.csv --work-offset 250,200,150 -o OUT"
     printf '%s\t%s\n' "$n.comp-1mm" "compensate $p --map $work/demo/example_map.csv --work-offset 250,200,150 --segment-length 1 -o OUT"
     printf '%s\t%s\n' "$n.comp-ripple" "compensate $p ${ripple[*]} -o OUT"
+    printf '%s\t%s\n' "$n.time" "time $p"
   done
 }
 

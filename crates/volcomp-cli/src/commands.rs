@@ -7,8 +7,8 @@ use crate::output::CliError;
 use std::io::{self, BufRead, BufReader, Write};
 use std::path::Path;
 use volcomp_core::request::{Machine, MachineRequest};
-use volcomp_gcode::number::{format_number_bytes, NumberStyle};
-use volcomp_gcode::{Motion, MotionKind, Vec3, Walker};
+use volcomp_gcode::number::{format_number_bytes, format_uint_bytes, NumberStyle};
+use volcomp_gcode::{Motion, MotionKind, MotionSource, Vec3, Walker};
 
 pub mod ballbar;
 mod compensate;
@@ -126,32 +126,66 @@ pub fn print_warnings(file: &str, warnings: &[volcomp_gcode::Warning]) {
 const MOVES_BATCH: usize = 4096;
 
 /// What `volcomp moves` prints of a motion: the reading thread hands
-/// these (a third of a [`Motion`]) to the writing thread.
+/// these to the writing thread (speed lane: about half a [`Motion`]; the
+/// extra axes, zero in most programs, go in the batch's own list only
+/// where they are printed).
 #[derive(Clone, Copy)]
 struct MoveRow {
+    end: Vec3,
+    /// The arc's centre (when `arc`).
+    center: Vec3,
     line: u64,
     column: usize,
     kind: &'static str,
-    source: &'static str,
-    end: Vec3,
-    center: Option<Vec3>,
-    extra_end: [f64; 6],
+    source: MotionSource,
+    arc: bool,
+    /// Whether the next entry of [`MoveBatch::extra`] is this row's.
+    extra: bool,
 }
 
-impl MoveRow {
-    fn of(m: &Motion) -> Self {
+/// Rows handed over at a time, and the extra-axis ends of those that print them.
+#[derive(Default)]
+struct MoveBatch {
+    rows: Vec<MoveRow>,
+    extra: Vec<[f64; 6]>,
+}
+
+impl MoveBatch {
+    fn with_capacity(n: usize) -> Self {
         Self {
+            rows: Vec::with_capacity(n),
+            extra: Vec::new(),
+        }
+    }
+
+    fn push(&mut self, m: &Motion, extra_columns: bool) {
+        let (arc, center) = match m.kind {
+            MotionKind::Arc(arc) => (true, arc.center),
+            _ => (false, Vec3::ZERO),
+        };
+        let extra = extra_columns || m.extra.end != [0.0; 6];
+        if extra {
+            self.extra.push(m.extra.end);
+        }
+        self.rows.push(MoveRow {
+            end: m.end,
+            center,
             line: m.line,
             column: m.column,
             kind: m.kind.name(),
-            source: m.source.name(),
-            end: m.end,
-            center: match m.kind {
-                MotionKind::Arc(arc) => Some(arc.center),
-                _ => None,
-            },
-            extra_end: m.extra.end,
-        }
+            source: m.source,
+            arc,
+            extra,
+        });
+    }
+
+    fn len(&self) -> usize {
+        self.rows.len()
+    }
+
+    fn clear(&mut self) {
+        self.rows.clear();
+        self.extra.clear();
     }
 }
 
@@ -162,13 +196,13 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
     let machine = machine(&a.machine)?;
     let mut walker = machine.walk(&a.program)?;
     let json = a.format == MovesFormat::Json;
-    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<MoveRow>>(4);
+    let (tx, rx) = std::sync::mpsc::sync_channel::<MoveBatch>(4);
     // Written batches come back to be filled again: no allocation (and no
     // fresh pages) per batch.
-    let (tx_empty, rx_empty) = std::sync::mpsc::sync_channel::<Vec<MoveRow>>(8);
+    let (tx_empty, rx_empty) = std::sync::mpsc::sync_channel::<MoveBatch>(8);
     let extra = a.extra_axes;
     let writer = std::thread::spawn(move || write_moves(rx, tx_empty, json, extra));
-    let mut batch = Vec::with_capacity(MOVES_BATCH);
+    let mut batch = MoveBatch::with_capacity(MOVES_BATCH);
     let mut read = || -> Result<(), CliError> {
         loop {
             let ev = match walker.next_line() {
@@ -180,11 +214,13 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
                     return Err(e.into());
                 }
             };
-            batch.extend(ev.motions.iter().map(MoveRow::of));
+            for m in ev.motions {
+                batch.push(m, extra);
+            }
             if batch.len() >= MOVES_BATCH {
                 let empty = rx_empty
                     .try_recv()
-                    .unwrap_or_else(|_| Vec::with_capacity(MOVES_BATCH));
+                    .unwrap_or_else(|_| MoveBatch::with_capacity(MOVES_BATCH));
                 let full = std::mem::replace(&mut batch, empty);
                 if tx.send(full).is_err() {
                     // The writer stopped (e.g. a closed pipe): its error is reported below.
@@ -209,8 +245,8 @@ fn moves(a: MovesArgs) -> Result<(), CliError> {
 const MOVES_OUTPUT_BYTES: usize = 1 << 18;
 
 fn write_moves(
-    rx: std::sync::mpsc::Receiver<Vec<MoveRow>>,
-    empty: std::sync::mpsc::SyncSender<Vec<MoveRow>>,
+    rx: std::sync::mpsc::Receiver<MoveBatch>,
+    empty: std::sync::mpsc::SyncSender<MoveBatch>,
     json: bool,
     extra_columns: bool,
 ) -> Result<(), CliError> {
@@ -230,11 +266,13 @@ fn write_moves(
     }
     let num = |v: f64, text: &mut Vec<u8>| format_number_bytes(v, style, text);
     for mut batch in rx {
-        for m in &batch {
+        let mut extras = batch.extra.iter();
+        for m in &batch.rows {
+            let extra = if m.extra { extras.next() } else { None };
             if json {
-                push_json_row(m, extra_columns, first, &mut text, num);
+                push_json_row(m, extra, first, &mut text, num);
             } else {
-                push_csv_row(m, extra_columns, &mut text, num);
+                push_csv_row(m, extra.filter(|_| extra_columns), &mut text, num);
             }
             first = false;
             if text.len() >= MOVES_OUTPUT_BYTES {
@@ -255,7 +293,7 @@ fn write_moves(
 /// One move as a JSON object (after a comma unless it is the `first`).
 fn push_json_row(
     m: &MoveRow,
-    extra_columns: bool,
+    extra: Option<&[f64; 6]>,
     first: bool,
     text: &mut Vec<u8>,
     num: impl Fn(f64, &mut Vec<u8>) + Copy,
@@ -268,18 +306,18 @@ fn push_json_row(
     text.extend_from_slice(b",\"kind\":\"");
     text.extend_from_slice(m.kind.as_bytes());
     text.extend_from_slice(b"\",\"source\":\"");
-    text.extend_from_slice(m.source.as_bytes());
+    text.extend_from_slice(m.source.name().as_bytes());
     text.extend_from_slice(b"\",\"end_mm\":[");
     push_triple(m.end, text, num);
     text.push(b']');
-    if let Some(c) = m.center {
+    if m.arc {
         text.extend_from_slice(b",\"center_mm\":[");
-        push_triple(c, text, num);
+        push_triple(m.center, text, num);
         text.push(b']');
     }
-    if extra_columns || m.extra_end != [0.0; 6] {
+    if let Some(e) = extra {
         text.extend_from_slice(b",\"extra\":[");
-        push_extra(&m.extra_end, text, num);
+        push_extra(e, text, num);
         text.push(b']');
     }
     text.push(b'}');
@@ -288,7 +326,7 @@ fn push_json_row(
 /// One move as a CSV row.
 fn push_csv_row(
     m: &MoveRow,
-    extra_columns: bool,
+    extra: Option<&[f64; 6]>,
     text: &mut Vec<u8>,
     num: impl Fn(f64, &mut Vec<u8>) + Copy,
 ) {
@@ -298,17 +336,18 @@ fn push_csv_row(
     text.push(b',');
     text.extend_from_slice(m.kind.as_bytes());
     text.push(b',');
-    text.extend_from_slice(m.source.as_bytes());
+    text.extend_from_slice(m.source.name().as_bytes());
     text.push(b',');
     push_triple(m.end, text, num);
     text.push(b',');
-    match m.center {
-        Some(c) => push_triple(c, text, num),
-        None => text.extend_from_slice(b",,"),
+    if m.arc {
+        push_triple(m.center, text, num);
+    } else {
+        text.extend_from_slice(b",,");
     }
-    if extra_columns {
+    if let Some(e) = extra {
         text.push(b',');
-        push_extra(&m.extra_end, text, num);
+        push_extra(e, text, num);
     }
     text.push(b'\n');
 }
@@ -324,7 +363,8 @@ fn push_extra(v: &[f64; 6], text: &mut Vec<u8>, num: impl Fn(f64, &mut Vec<u8>))
 }
 
 fn push_uint(v: u64, text: &mut Vec<u8>) {
-    text.extend_from_slice(itoa::Buffer::new().format(v).as_bytes());
+    // speed lane: a fixed-size copy, no `memcpy` call per number.
+    format_uint_bytes(v, text);
 }
 
 fn push_triple(v: Vec3, text: &mut Vec<u8>, num: impl Fn(f64, &mut Vec<u8>)) {

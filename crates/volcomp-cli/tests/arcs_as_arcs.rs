@@ -314,3 +314,80 @@ fn cutter_compensated_arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
         }
     }
 }
+
+/// Under G61 the pieces a block is written as run under `G64 P Q0` and the
+/// block's last piece under G61 again, as LinuxCNC's own interpreter reads
+/// the written program: in rs274's canonical calls every feed move after
+/// `SET_MOTION_CONTROL_MODE(CANON_CONTINUOUS, 0.0001)` and
+/// `SET_NAIVECAM_TOLERANCE(0)` is followed, within its block, by one under
+/// `CANON_EXACT_PATH`, and the moves under CANON_EXACT_PATH are exactly the
+/// program's own blocks and the take-ups (so the machine is exact where the
+/// program asked, and only there).
+#[test]
+fn g61_pieces_run_blended_and_each_block_ends_exact_as_rs274_reads_them() {
+    let Some(rs) = rs274::find_rs274() else {
+        common::missing(common::RS274, "the rs274 part");
+        return;
+    };
+    let dir = common::tempdir("arcs_g61_pieces");
+    let d = dir.as_path();
+    std::fs::write(d.join("ripple.csv"), ripple_map()).unwrap();
+    let program = "G21 G17 G90 G61\nG0 X0 Y0 Z0\nG1 X60 F6000\nG2 X60 Y-60 I0 J-30\nG1 X0\nG3 X0 Y0 R30\nM2\n";
+    std::fs::write(d.join("g61.ngc"), program).unwrap();
+    volcomp(
+        &[
+            "compensate",
+            "g61.ngc",
+            "-o",
+            "g61.comp.ngc",
+            "--map",
+            "ripple.csv",
+            "--work-offset",
+            "250,200,150",
+        ],
+        d,
+    );
+    let written = std::fs::read_to_string(d.join("g61.comp.ngc")).unwrap();
+    assert!(written.contains("(path mode:"), "{written}");
+    let home = d.join("home");
+    std::fs::create_dir_all(&home).unwrap();
+    let run = Command::new(rs)
+        .arg("-g")
+        .arg(d.join("g61.comp.ngc"))
+        .env("HOME", &home)
+        .current_dir(&home)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&run.stdout).into_owned() + &String::from_utf8_lossy(&run.stderr);
+    assert!(
+        run.status.success() && !text.to_lowercase().contains("error"),
+        "rs274 refuses the compensated program:\n{text}\n{written}"
+    );
+    // The mode of every feed move, in order.
+    let mut mode = "";
+    let mut naive_zero = false;
+    let mut feeds = Vec::new();
+    for line in text.lines() {
+        if line.contains("SET_MOTION_CONTROL_MODE(CANON_CONTINUOUS, 0.000100)") {
+            mode = "blend";
+        } else if line.contains("SET_MOTION_CONTROL_MODE(CANON_EXACT_PATH") {
+            mode = "exact";
+        } else if line.contains("SET_MOTION_CONTROL_MODE") {
+            mode = "other";
+        } else if line.contains("SET_NAIVECAM_TOLERANCE(") {
+            naive_zero = line.contains("SET_NAIVECAM_TOLERANCE(0.0000)");
+        } else if line.contains("STRAIGHT_FEED") || line.contains("ARC_FEED") {
+            assert!(mode != "blend" || naive_zero, "{text}");
+            feeds.push(mode);
+        }
+    }
+    let take_ups = written.matches(" take-up)").count();
+    let exact = feeds.iter().filter(|m| **m == "exact").count();
+    // Four feed blocks of the program, each split (the ripple map).
+    assert_eq!(exact, 4 + take_ups, "{feeds:?}\n{written}");
+    assert!(feeds.len() > exact + 4, "{feeds:?}");
+    assert!(!feeds.contains(&"other"), "{feeds:?}");
+    assert_eq!(feeds.last(), Some(&"exact"), "{feeds:?}");
+}

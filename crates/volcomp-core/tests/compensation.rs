@@ -834,3 +834,88 @@ fn a_blend_within_p_reaches_no_further_than_its_tolerance_allows() {
     assert!((d - 0.005 / (2f64.sqrt() - 1.0)).abs() < 1e-12, "{d}");
     assert_eq!(p.blend_distance_within_mm(x, x, 0.005), f64::INFINITY);
 }
+
+/// Each feed motion of `out` as (the output line, its path-control mode).
+fn modes_of(out: &str) -> Vec<(String, PathMode)> {
+    let lines: Vec<&str> = out.lines().collect();
+    let mut w = walker(out);
+    let mut modes = Vec::new();
+    while let Some(ev) = w.next_line().unwrap() {
+        for m in ev.motions.iter().filter(|m| m.kind != MotionKind::Rapid) {
+            modes.push((lines[ev.number as usize - 1].to_string(), m.path_mode));
+        }
+    }
+    modes
+}
+
+#[test]
+fn the_pieces_of_a_g61_block_run_blended_and_its_end_stays_exact() {
+    // A G1 split where the map's X error bends along Y, and a one-block
+    // circle. LinuxCNC queues each segment with the path mode in effect
+    // when it is read and decides a join by the earlier segment's mode
+    // (tp.c tpSetupTangent, tpChooseBestBlend; emccanon.cc
+    // SET_MOTION_CONTROL_MODE): the pieces of a block but its last run
+    // under G64 P Q0, the last under the program's own mode, so the block
+    // ends where G61 asks for it exactly. P is the contour tolerance,
+    // 0.1 µm (0.0001 mm); Q0 turns naive-CAM merging off.
+    let map = map_from(|a, p, _| match a {
+        1 => [2e-4 * p * p, 0.0, 0.0],
+        _ => [0.0; 3],
+    });
+    let blended = PathMode::Blend {
+        tolerance_mm: 1e-4,
+        naive_cam_mm: 0.0,
+    };
+    for (word, own) in [("G61", PathMode::ExactPath), ("G61.1", PathMode::ExactStop)] {
+        let program = format!("{word}\nG0 X0 Y0 Z0\nG1 Y60 F6000\nG2 X0 Y60 I0 J-20\nM2\n");
+        let (out, summary) = compensate_summary(&program, &map, CompensateOptions::default());
+        let modes = modes_of(&out);
+        let line = |k: usize| -> Vec<PathMode> {
+            let tag = format!("L{k}");
+            modes
+                .iter()
+                .filter(|(text, _)| {
+                    text.contains(&format!("(volcomp {tag})"))
+                        || (!text.contains("(volcomp") && k == 3 && text.starts_with("G1 "))
+                        || (!text.contains("(volcomp") && k == 4 && text.starts_with("G2 "))
+                })
+                .map(|(_, m)| *m)
+                .collect()
+        };
+        for k in [3, 4] {
+            let m = line(k);
+            assert!(m.len() >= 2, "L{k}: {m:?}\n{out}");
+            let (last, pieces) = m.split_last().unwrap();
+            assert_eq!(*last, own, "L{k}\n{out}");
+            assert!(pieces.iter().all(|p| *p == blended), "L{k}: {m:?}\n{out}");
+        }
+        // The G1 carries the words; the arc cannot (its P is a turn
+        // count, rs274 refuses a P below 1 on G2): a line of its own.
+        assert!(out.contains("F6000 G64 P0.0001 Q0\n"), "{out}");
+        assert!(
+            out.contains("\nG64 P0.0001 Q0 (volcomp L4 path mode)\n"),
+            "{out}"
+        );
+        assert_eq!(
+            (summary.pieces_blended_blocks, summary.path_mode_lines),
+            (2, 1)
+        );
+        let text = summary.path_mode_text().unwrap();
+        assert!(text.contains("2 G61/G61.1 blocks"), "{text}");
+    }
+    // In inch P is in inches, rounded down: 0.1 µm = 0.0000039 in.
+    let program = "G20 G61\nG0 X0 Y0 Z0\nG1 Y2.4 F200\nM2\n";
+    let (out, _) = compensate_summary(program, &map, CompensateOptions::default());
+    assert!(out.contains("F200 G64 P0.0000039 Q0\n"), "{out}");
+    // A line with its own P or Q word, or under G64, is written as before.
+    for program in [
+        "G61\nG0 X0 Y60 Z0\nG2 X0 Y60 I0 J-20 P1 F6000\nM2\n",
+        "G64\nG0 X0 Y0 Z0\nG1 Y60 F6000\nM2\n",
+        "G0 X0 Y0 Z0\nG1 Y60 F6000 G61\nM2\n",
+    ] {
+        let (out, summary) = compensate_summary(program, &map, CompensateOptions::default());
+        assert!(!out.contains("G64 P"), "{out}");
+        assert_eq!(summary.pieces_blended_blocks, 0, "{out}");
+        assert!(summary.path_mode_text().is_none());
+    }
+}

@@ -89,3 +89,32 @@ fn the_estimate_agrees_with_linuxcnc_within_three_percent() {
         failures.join("\n")
     );
 }
+
+#[test]
+fn pieces_blended_within_a_tenth_of_a_micrometre_run_at_full_feed() {
+    // planner_programs/kinks_g64p.ngc: 160 mm in 8 pieces whose joins turn
+    // by 1.2 to 3.2 mrad (above the 0.99 mrad LinuxCNC takes as tangent
+    // at F6000), under G64 P0.0001 Q0. A blend within 0.1 µm of a corner
+    // turning by φ has the radius 8 P / φ² (blendmath.c,
+    // blendComputeParameters: d = P cos θ / (1 − sin θ), R = d tan θ), at
+    // least 78 mm here, above the 11.5 mm that 100 mm/s needs at
+    // 1000 · √0.75 mm/s²: one trapezoid, 160 / 100 + 100 / 1000 = 1.700 s.
+    // Under G61 the same pieces stop at every join.
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/planner");
+    let setup = MachineSetup::from_setup_file(&dir.join("setup.toml")).unwrap();
+    let limits = Limits::from_setup(setup.setup.limits.as_ref());
+    let rows = rows(&dir);
+    let time = |name: &str| {
+        let r = rows.iter().find(|r| r.program == name).expect(name);
+        let f = std::fs::File::open(dir.join("programs").join(format!("{name}.ngc"))).unwrap();
+        let e = estimate_program(f, name, &setup, &limits).unwrap();
+        (r.cutting_s, e.motion.cutting_s)
+    };
+    let (linuxcnc, model) = time("kinks_g64p");
+    assert!((linuxcnc - 1.700).abs() <= 0.002, "LinuxCNC {linuxcnc} s");
+    assert!((model - 1.700).abs() <= 0.002, "model {model} s");
+    // Seven stops: each costs about v / a = 0.1 s more than the blend.
+    let (linuxcnc, model) = time("kinks_g61");
+    assert!(linuxcnc > 1.700 + 7.0 * 0.09, "LinuxCNC {linuxcnc} s");
+    assert!(model > 1.700 + 7.0 * 0.09, "model {model} s");
+}

@@ -18,7 +18,6 @@ use crate::ngc::norm::Norm;
 use crate::ngc::params::Scope;
 use crate::ngc::source::Lines;
 use crate::setup::Setup;
-use std::collections::HashMap;
 use std::io::BufRead;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -102,7 +101,7 @@ pub struct Walker<R> {
     /// Statements of lines that control flow may run again (loop bodies,
     /// subroutines), parsed once: a line's statement depends on its text
     /// alone. At most [`MAX_CACHED_STATEMENTS`].
-    statements: HashMap<(usize, usize), Arc<Statement>>,
+    statements: crate::ngc::Map<(usize, usize), Arc<Statement>>,
 }
 
 /// Statements kept parsed (a bound on the memory the cache takes).
@@ -130,7 +129,7 @@ impl<R: BufRead> Walker<R> {
             interp: Interpreter::new(setup, options),
             current: Pos { src: MAIN, line: 0 },
             after_end_at: None,
-            statements: HashMap::new(),
+            statements: crate::ngc::Map::default(),
         }
     }
 
@@ -355,7 +354,7 @@ impl<R: BufRead> Walker<R> {
             match &*stmt {
                 Statement::OWord(o) => {
                     self.flow.keep_lines();
-                    self.control(pos, o.clone())?;
+                    self.control(pos, o)?;
                     return Ok(None);
                 }
                 Statement::Block { words, settings } => {

@@ -1,15 +1,12 @@
 //! The circular test (docs/ballbar.md): `ballbar_predict` and
 //! `ballbar_fit`, their results as the CLI's `--json` objects (dicts).
 
+use crate::errors::bad_input;
+use crate::inputs::from_json;
 use crate::request::{from_kwargs, input, library_error};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use volcomp_core::request::{BallbarFitRequest, BallbarPredictRequest, Input};
-
-fn to_python<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
-    py.import("json")?
-        .call_method1("loads", (value.to_string(),))
-}
 
 /// The trace a ballbar records on the machine of `map` (a path), its
 /// ISO 230-4 figures and the test's LinuxCNC program: a dict with
@@ -24,19 +21,17 @@ pub fn ballbar_predict<'py>(
     let r: BallbarPredictRequest = from_kwargs(options)?;
     let path = match input(map, "map")? {
         Input::File(p) => p,
-        Input::Content { .. } => {
-            return Err(crate::errors::bad_input(
-                "map must be a path (str or pathlib.Path)",
-            ))
-        }
+        Input::Content { .. } => return Err(bad_input("map must be a path (str or pathlib.Path)")),
     };
     let p = r.run(&path).map_err(library_error)?;
+    // Through `serde_json::Value`: its objects' keys sorted, as before.
+    let value = |v: serde_json::Result<serde_json::Value>| v.map_err(|e| bad_input(e.to_string()));
     let value = serde_json::json!({
-        "figures": serde_json::to_value(&p.figures).map_err(|e| crate::errors::bad_input(e.to_string()))?,
-        "trace": serde_json::to_value(&p.trace).map_err(|e| crate::errors::bad_input(e.to_string()))?,
+        "figures": value(serde_json::to_value(&p.figures))?,
+        "trace": value(serde_json::to_value(&p.trace))?,
         "program": p.program,
     });
-    to_python(py, &value)
+    from_json(py, &value)
 }
 
 /// The ISO 230-4 figures of a trace file (a path or a file object) and the
@@ -56,6 +51,6 @@ pub fn ballbar_fit<'py>(
     let bytes = t.bytes().map_err(library_error)?;
     let text = volcomp_core::io::table::utf8(&bytes, &name).map_err(|e| library_error(e.into()))?;
     let f = r.run(text, &name).map_err(library_error)?;
-    let value = serde_json::to_value(&f).map_err(|e| crate::errors::bad_input(e.to_string()))?;
-    to_python(py, &value)
+    let value = serde_json::to_value(&f).map_err(|e| bad_input(e.to_string()))?;
+    from_json(py, &value)
 }

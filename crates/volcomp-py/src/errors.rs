@@ -60,46 +60,39 @@ pub struct Located {
     pub column: Option<usize>,
 }
 
-fn with_location(py: Python<'_>, err: PyErr, message: &str, at: &Located) -> PyErr {
-    let value = err.value(py);
-    // Setting attributes on a fresh exception instance cannot fail in
-    // practice; if it did, the exception still carries its message.
-    let _ = value.setattr("file", at.file.clone());
-    let _ = value.setattr("line", at.line);
-    let _ = value.setattr("column", at.column);
-    let _ = value.setattr("message", message);
+/// `err` with its location and message as attributes.
+fn located(err: PyErr, message: &str, at: Located) -> PyErr {
+    Python::attach(|py| {
+        let value = err.value(py);
+        // Setting attributes on a fresh exception instance cannot fail in
+        // practice; if it did, the exception still carries its message.
+        let _ = value.setattr("file", at.file);
+        let _ = value.setattr("line", at.line);
+        let _ = value.setattr("column", at.column);
+        let _ = value.setattr("message", message);
+    });
     err
 }
 
 /// A `BadInputError` about an argument (no file position).
 pub fn bad_input(message: impl Into<String>) -> PyErr {
-    Python::attach(|py| {
-        let message = message.into();
-        let err = BadInputError::new_err(message.clone());
-        with_location(py, err, &message, &Located::default())
-    })
+    bad_input_at(message, Located::default())
 }
 
 /// A `BadInputError` at a file position.
 pub fn bad_input_at(message: impl Into<String>, at: Located) -> PyErr {
-    Python::attach(|py| {
-        let message = message.into();
-        let err = BadInputError::new_err(message.clone());
-        with_location(py, err, &message, &at)
-    })
+    let message = message.into();
+    located(BadInputError::new_err(message.clone()), &message, at)
 }
 
 /// A `VolcompIOError` on a file.
 pub fn io_error(path: &str, e: &std::io::Error) -> PyErr {
-    Python::attach(|py| {
-        let message = format!("{path}: {e}");
-        let err = VolcompIOError::new_err(message.clone());
-        let at = Located {
-            file: Some(path.to_string()),
-            ..Located::default()
-        };
-        with_location(py, err, &message, &at)
-    })
+    let message = format!("{path}: {e}");
+    let at = Located {
+        file: Some(path.to_string()),
+        ..Located::default()
+    };
+    located(VolcompIOError::new_err(message.clone()), &message, at)
 }
 
 /// The library's error as the exception of its kind, located.
@@ -123,7 +116,7 @@ pub fn to_py(e: Error) -> PyErr {
         ErrorKind::Io => VolcompIOError::new_err(message.clone()),
         _ => VolcompError::new_err(message.clone()),
     };
-    Python::attach(|py| with_location(py, err, &message, &at))
+    located(err, &message, at)
 }
 
 /// `Result<T, E: Into<Error>>` → `PyResult<T>`.

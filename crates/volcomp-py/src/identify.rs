@@ -2,74 +2,17 @@
 //! straightness models from profiles at several feed rates.
 
 use crate::errors::{bad_input, IntoPy};
-use crate::inputs::{f64_rows, f64_vec, source};
+use crate::inputs::{f64_rows, f64_vec, fields, source};
 use crate::model::Model;
 use crate::request::{from_kwargs, library_error};
 use numpy::prelude::*;
-use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use volcomp_core::identify::iso230_2 as iso;
-use volcomp_core::identify::iso230_2::Iso230_2Report;
 use volcomp_core::identify::straightness;
 use volcomp_core::io::LoadedModel;
+use volcomp_core::report::columns;
 use volcomp_core::request::StraightnessFitRequest;
-
-/// The report as `{"targets": {column: array}, "axis": {figure: float},
-/// "notes": [str]}`.
-fn report_dict<'py>(py: Python<'py>, r: &Iso230_2Report) -> PyResult<Bound<'py, PyDict>> {
-    let t = PyDict::new(py);
-    let col =
-        |f: &dyn Fn(&iso::TargetStats) -> f64| -> Vec<f64> { r.targets.iter().map(f).collect() };
-    t.set_item("target_mm", PyArray1::from_vec(py, col(&|s| s.target_mm)))?;
-    t.set_item(
-        "n_up",
-        PyArray1::from_vec(py, r.targets.iter().map(|s| s.n_up as u64).collect()),
-    )?;
-    t.set_item(
-        "n_down",
-        PyArray1::from_vec(py, r.targets.iter().map(|s| s.n_down as u64).collect()),
-    )?;
-    for (name, f) in [
-        (
-            "mean_up_um",
-            (|s: &iso::TargetStats| s.mean_up_um) as fn(&_) -> f64,
-        ),
-        ("mean_down_um", |s| s.mean_down_um),
-        ("s_up_um", |s| s.s_up_um),
-        ("s_down_um", |s| s.s_down_um),
-        ("reversal_um", |s| s.reversal_um),
-        ("mean_um", |s| s.mean_um),
-        ("repeatability_up_um", |s| s.repeatability_up_um),
-        ("repeatability_down_um", |s| s.repeatability_down_um),
-        ("repeatability_um", |s| s.repeatability_um),
-    ] {
-        t.set_item(name, PyArray1::from_vec(py, col(&f)))?;
-    }
-    let a = &r.axis;
-    let ax = PyDict::new(py);
-    for (name, v) in [
-        ("reversal_b_um", a.reversal_b_um),
-        ("mean_reversal_um", a.mean_reversal_um),
-        ("repeatability_up_um", a.repeatability_up_um),
-        ("repeatability_down_um", a.repeatability_down_um),
-        ("repeatability_um", a.repeatability_um),
-        ("systematic_up_um", a.systematic_up_um),
-        ("systematic_down_um", a.systematic_down_um),
-        ("systematic_um", a.systematic_um),
-        ("mean_range_um", a.mean_range_um),
-        ("accuracy_up_um", a.accuracy_up_um),
-        ("accuracy_down_um", a.accuracy_down_um),
-        ("accuracy_um", a.accuracy_um),
-    ] {
-        ax.set_item(name, v)?;
-    }
-    let d = PyDict::new(py);
-    d.set_item("targets", t)?;
-    d.set_item("axis", ax)?;
-    d.set_item("notes", r.notes.clone())?;
-    Ok(d)
-}
 
 /// ISO 230-2:2014 figures of a bidirectional positioning test (clause 3).
 ///
@@ -106,24 +49,7 @@ pub fn iso230_2<'py>(
                 a.shape()[0]
             )));
         }
-        let v = a.as_array();
-        let mut out = Vec::with_capacity(m);
-        for (i, row) in v.rows().into_iter().enumerate() {
-            let mut r = Vec::with_capacity(cols);
-            for (j, x) in row.iter().enumerate() {
-                if x.is_nan() {
-                    continue;
-                }
-                if !x.is_finite() {
-                    return Err(bad_input(format!(
-                        "{what}[{i}, {j}] is {x}; give finite deviations in µm (NaN for a missing approach)"
-                    )));
-                }
-                r.push(*x);
-            }
-            out.push(r);
-        }
-        Ok(out)
+        iso::approaches(a.as_slice()?, (m, cols), what).map_err(bad_input)
     };
     if let Some(i) = targets.iter().position(|t| !t.is_finite()) {
         return Err(bad_input(format!(
@@ -140,7 +66,7 @@ pub fn iso230_2<'py>(
         .map(|((t, u), d)| (t, u, d))
         .collect();
     let report = iso::evaluate(&data).map_err(|e| bad_input(e.to_string()))?;
-    report_dict(py, &report)
+    fields(py, &columns::iso230_2(&report))
 }
 
 /// ISO 230-2 figures from a test CSV (`target_mm,cycle,direction,
@@ -157,7 +83,7 @@ pub fn iso230_2_csv<'py>(
     let text = String::from_utf8(src.bytes)
         .map_err(|_| bad_input(format!("{}: not UTF-8 text", src.name)))?;
     let report = iso::from_csv(&text, &src.name).py_err()?;
-    report_dict(py, &report)
+    fields(py, &columns::iso230_2(&report))
 }
 
 /// One run of `straightness_fit`: a CSV (a path or a file object) or a
@@ -244,42 +170,7 @@ pub fn straightness_fit<'py>(
     let fit = py
         .detach(|| request.fit(runs).map_err(Box::new))
         .map_err(|e| library_error(*e))?;
-    let report = PyDict::new(py);
-    for a in &fit.axes {
-        let d = PyDict::new(py);
-        d.set_item("harmonics", a.harmonics)?;
-        d.set_item("cutoff_wavelength_mm", a.cutoff_wavelength_mm)?;
-        d.set_item("residual_rms_um", a.residual_rms_um)?;
-        d.set_item("runs", a.runs)?;
-        d.set_item("spacing_mm", a.spacing_mm)?;
-        d.set_item("length_mm", a.length_mm)?;
-        d.set_item("line_intercept_um", a.line.0)?;
-        d.set_item("line_slope_um_per_mm", a.line.1)?;
-        d.set_item("positions_mm", PyArray1::from_slice(py, &a.positions_mm))?;
-        d.set_item(
-            "mean_profile_um",
-            PyArray1::from_slice(py, &a.mean_profile_um),
-        )?;
-        d.set_item(
-            "model_profile_um",
-            PyArray1::from_slice(py, &a.model_profile_um),
-        )?;
-        d.set_item(
-            "feeds_mm_per_min",
-            PyArray1::from_vec(py, a.feeds.iter().map(|f| f.feed_mm_per_min).collect()),
-        )?;
-        d.set_item("mean_power", PyArray1::from_slice(py, &a.mean_power))?;
-        d.set_item("sigma", PyArray1::from_slice(py, &a.sigma))?;
-        d.set_item(
-            "passing",
-            PyArray1::from_vec(py, a.passing.iter().map(|k| *k as u64).collect()),
-        )?;
-        d.set_item(
-            "unstable_in_band",
-            PyArray1::from_vec(py, a.unstable_in_band.iter().map(|k| *k as u64).collect()),
-        )?;
-        report.set_item(a.axis.letter().to_string(), d)?;
-    }
+    let report = fields(py, &columns::straightness(&fit.axes))?;
     let model = Model {
         loaded: LoadedModel::Straightness(Box::new(fit.model)),
         path: None,

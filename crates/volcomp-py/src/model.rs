@@ -3,7 +3,7 @@
 //! evaluation and its components as arrays.
 
 use crate::errors::{bad_input, bad_input_at, IntoPy, Located};
-use crate::inputs::{f64_rows, f64_vec, is_path_like, path_of, text_or_file};
+use crate::inputs::{f64_rows, f64_vec, fields, text_or_file};
 use numpy::ndarray::Array2;
 use numpy::prelude::*;
 use numpy::{PyArray1, PyArray2};
@@ -11,10 +11,12 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::path::PathBuf;
 use volcomp_core::io::{load_model, LoadOptions, LoadedModel};
-use volcomp_core::model::axis_table::{AxisTables, Table};
-use volcomp_core::model::{Components, Direction, Directions, ErrorModel};
+use volcomp_core::model::arrays;
+use volcomp_core::model::axis_table::AxisTables;
+use volcomp_core::model::kinematic::{AxisComponents, KinematicModel};
+use volcomp_core::model::{Components, ErrorModel};
+use volcomp_core::report::columns;
 use volcomp_core::AxisTableMap;
-use volcomp_gcode::Vec3;
 
 /// An error model of a 3-axis machine: `e(q, s) = actual − commanded` in µm
 /// at axis positions `q` (mm, machine axis frame) with motion directions
@@ -32,180 +34,83 @@ impl Model {
     }
 }
 
-/// What a point that lies outside the model's range gives.
-#[derive(Clone, Copy, PartialEq)]
-enum Outside {
-    Raise,
-    Nan,
+/// `o` as a tuple of `n` items (`wanted` when it is not).
+fn items<'py>(o: &Bound<'py, PyAny>, n: usize, wanted: &str) -> PyResult<Bound<'py, PyTuple>> {
+    match o.cast::<PyTuple>() {
+        Ok(t) if t.len() == n => Ok(t.clone()),
+        _ => Err(bad_input(wanted)),
+    }
 }
 
-/// Evaluates `e` at every row of `q_mm` (N×3, mm) with the directions of
-/// `dirs` (N×3 or 1×3, ±1) and tool offsets `tool_mm` (N×3 or 1×3, mm) into
-/// `out_um` (N×3, µm). `Err((row, error))` at the first point outside the
-/// model's range unless `outside` is `Nan`.
-fn evaluate_rows(
-    model: &dyn ErrorModel,
-    q_mm: &[f64],
-    dirs: &[f64],
-    tool_mm: &[f64],
-    components: Components,
-    outside: Outside,
-    out_um: &mut [f64],
-) -> Result<(), (usize, volcomp_core::error::ModelError)> {
-    let n = q_mm.len() / 3;
-    let dir = |v: f64| {
-        if v < 0.0 {
-            Direction::Reverse
-        } else {
-            Direction::Forward
-        }
+/// One axis' `(forward, reverse)`: `obj` for both directions, or a dict
+/// of `"forward"` and `"reverse"` (`missing` says so when one is absent;
+/// `strict` refuses other keys); `one` reads each, named in errors.
+fn both_ways<T: Clone>(
+    obj: &Bound<'_, PyAny>,
+    axis: char,
+    (missing, strict): (&str, bool),
+    one: impl Fn(&Bound<'_, PyAny>, String) -> PyResult<T>,
+) -> PyResult<(T, T)> {
+    let Ok(d) = obj.cast::<PyDict>() else {
+        let t = one(obj, format!("axis {axis}"))?;
+        return Ok((t.clone(), t));
     };
-    let per_row_dirs = dirs.len() > 3;
-    let per_row_tool = tool_mm.len() > 3;
-    let uses_tool = model.uses_tool_offset();
-    for i in 0..n {
-        let q = Vec3::new(q_mm[3 * i], q_mm[3 * i + 1], q_mm[3 * i + 2]);
-        let d = if per_row_dirs { 3 * i } else { 0 };
-        let s: Directions = [dir(dirs[d]), dir(dirs[d + 1]), dir(dirs[d + 2])];
-        let e = if uses_tool {
-            let t = if per_row_tool { 3 * i } else { 0 };
-            let tool = Vec3::new(tool_mm[t], tool_mm[t + 1], tool_mm[t + 2]);
-            model.deviation_with_tool_um(q, s, components, tool)
-        } else {
-            model.deviation_um(q, s, components)
-        };
-        match e {
-            Ok(e) => out_um[3 * i..3 * i + 3].copy_from_slice(&[e.x, e.y, e.z]),
-            Err(_) if outside == Outside::Nan => out_um[3 * i..3 * i + 3].fill(f64::NAN),
-            Err(err) => return Err((i, err)),
-        }
-    }
-    Ok(())
-}
-
-/// Builds one axis' table from positions (mm) and errors (µm, n×3).
-fn table(positions_mm: Vec<f64>, errors_um: &[f64], what: &str) -> PyResult<Table> {
-    let n = positions_mm.len();
-    if errors_um.len() != 3 * n {
+    let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
+        d.get_item(k)?.ok_or_else(|| {
+            bad_input(format!(
+                "axis {axis}: the dict needs both \"forward\" and \"reverse\"{missing}"
+            ))
+        })
+    };
+    let keys = d.keys().iter().map(|k| k.to_string()).collect::<Vec<_>>();
+    if let Some(k) = keys
+        .iter()
+        .find(|k| strict && *k != "forward" && *k != "reverse")
+    {
         return Err(bad_input(format!(
-            "{what}: {n} positions but {} error values; give errors of shape ({n}, 3) in µm (along X, Y, Z)",
-            errors_um.len()
+            "axis {axis}: unknown key {k:?}; use \"forward\" and \"reverse\""
         )));
     }
-    if n < 2 {
-        return Err(bad_input(format!(
-            "{what}: {n} point(s); give at least two points per table"
-        )));
-    }
-    if let Some(i) = positions_mm.iter().position(|p| !p.is_finite()) {
-        return Err(bad_input(format!(
-            "{what}: position {i} is {}; give finite positions in mm",
-            positions_mm[i]
-        )));
-    }
-    if let Some(i) = errors_um.iter().position(|e| !e.is_finite()) {
-        return Err(bad_input(format!(
-            "{what}: error value at row {}, column {} is {}; give finite errors in µm",
-            i / 3,
-            i % 3,
-            errors_um[i]
-        )));
-    }
-    if let Some(i) = positions_mm.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(bad_input(format!(
-            "{what}: position {} ({} mm) does not increase after {} mm; list positions in strictly increasing order",
-            i + 1,
-            positions_mm[i + 1],
-            positions_mm[i]
-        )));
-    }
-    Ok(Table {
-        positions_mm,
-        errors_um: errors_um
-            .chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect(),
-    })
-}
-
-/// `o` as a tuple of `n` items: `not_tuple` when it is no tuple,
-/// `wrong_length` when it has another length.
-fn items<'py>(
-    o: &Bound<'py, PyAny>,
-    n: usize,
-    not_tuple: &str,
-    wrong_length: &str,
-) -> PyResult<Bound<'py, PyTuple>> {
-    let t = o.cast::<PyTuple>().map_err(|_| bad_input(not_tuple))?;
-    if t.len() != n {
-        return Err(bad_input(wrong_length));
-    }
-    Ok(t.clone())
+    let forward = one(&get("forward")?, format!("axis {axis} forward"))?;
+    Ok((
+        forward,
+        one(&get("reverse")?, format!("axis {axis} reverse"))?,
+    ))
 }
 
 /// One axis from `(positions_mm, errors_um)` (both directions) or a dict
 /// `{"forward": (p, e), "reverse": (p, e)}`.
 fn axis_tables(obj: &Bound<'_, PyAny>, axis: char) -> PyResult<AxisTables> {
-    let pair = |o: &Bound<'_, PyAny>, what: String| -> PyResult<Table> {
-        let t = items(
-            o,
-            2,
-            &format!("{what} must be a pair (positions_mm, errors_um); positions of shape (n,), errors of shape (n, 3)"),
-            &format!("{what} must be a pair (positions_mm, errors_um)"),
-        )?;
+    let missing =
+        " tables (a single direction is not enough: the other direction's error would be a guess)";
+    let (forward, reverse) = both_ways(obj, axis, (missing, true), |o, what| {
+        let pair = format!("{what} must be a pair (positions_mm, errors_um)");
+        let wanted = match o.cast::<PyTuple>() {
+            Ok(_) => pair,
+            Err(_) => format!("{pair}; positions of shape (n,), errors of shape (n, 3)"),
+        };
+        let t = items(o, 2, &wanted)?;
         let p = f64_vec(&t.get_item(0)?, &format!("{what} positions_mm"))?;
         let e = f64_rows(&t.get_item(1)?, &format!("{what} errors_um"), 3)?;
-        table(p, e.as_slice()?, &what)
-    };
-    if let Ok(d) = obj.cast::<PyDict>() {
-        let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
-            d.get_item(k)?.ok_or_else(|| {
-                bad_input(format!("axis {axis}: the dict needs both \"forward\" and \"reverse\" tables (a single direction is not enough: the other direction's error would be a guess)"))
-            })
-        };
-        if let Some(k) = d
-            .keys()
-            .iter()
-            .map(|k| k.to_string())
-            .find(|k| k != "forward" && k != "reverse")
-        {
-            return Err(bad_input(format!(
-                "axis {axis}: unknown key {k:?}; use \"forward\" and \"reverse\""
-            )));
-        }
-        return Ok(AxisTables {
-            forward: pair(&get("forward")?, format!("axis {axis} forward"))?,
-            reverse: pair(&get("reverse")?, format!("axis {axis} reverse"))?,
-        });
-    }
-    let t = pair(obj, format!("axis {axis}"))?;
-    Ok(AxisTables {
-        forward: t.clone(),
-        reverse: t,
-    })
+        arrays::table(p, e.as_slice()?, &what).map_err(bad_input)
+    })?;
+    Ok(AxisTables { forward, reverse })
 }
 
-fn vec3_rows<'py>(py: Python<'py>, v: &[Vec3]) -> Bound<'py, PyArray2<f64>> {
-    let flat: Vec<f64> = v.iter().flat_map(|e| [e.x, e.y, e.z]).collect();
-    Array2::from_shape_vec((v.len(), 3), flat)
-        .unwrap_or_else(|_| Array2::zeros((0, 3)))
-        .into_pyarray(py)
+/// An axis of a 21-component model: one triple `(positions_mm,
+/// linear_um, angular_urad)` for both directions, or a dict of
+/// `"forward"` and `"reverse"` triples, checked as axis tables are.
+fn axis_components(obj: &Bound<'_, PyAny>, axis: char) -> PyResult<AxisComponents> {
+    let (forward, reverse) = both_ways(obj, axis, ("", false), |o, what| {
+        let wanted = format!("{what} must be a triple (positions_mm, linear_um, angular_urad)");
+        let t = items(o, 3, &wanted)?;
+        let p = f64_vec(&t.get_item(0)?, &format!("{what} positions_mm"))?;
+        let l = f64_rows(&t.get_item(1)?, &format!("{what} linear_um"), 3)?;
+        let a = f64_rows(&t.get_item(2)?, &format!("{what} angular_urad"), 3)?;
+        arrays::component_table(p, l.as_slice()?, a.as_slice()?, &what).map_err(bad_input)
+    })?;
+    Ok(AxisComponents { forward, reverse })
 }
-
-fn direction_dict<'py>(
-    py: Python<'py>,
-    positions_mm: &[f64],
-    columns: &[(&str, &[Vec3])],
-) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("position_mm", PyArray1::from_slice(py, positions_mm))?;
-    for (name, v) in columns {
-        d.set_item(*name, vec3_rows(py, v))?;
-    }
-    Ok(d)
-}
-
-const AXES: [char; 3] = ['X', 'Y', 'Z'];
 
 /// `(position_mm, forward, reverse)` of one component.
 type Series<'py> = (
@@ -213,54 +118,6 @@ type Series<'py> = (
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<f64>>,
 );
-
-/// One triple `(positions_mm, linear_um, angular_urad)` of a 21-component
-/// model's axis, checked as an axis table is; `what` names it in errors.
-fn component_table(
-    o: &Bound<'_, PyAny>,
-    what: String,
-) -> PyResult<volcomp_core::model::kinematic::ComponentTable> {
-    let wanted = format!("{what} must be a triple (positions_mm, linear_um, angular_urad)");
-    let t = items(o, 3, &wanted, &wanted)?;
-    let p = f64_vec(&t.get_item(0)?, &format!("{what} positions_mm"))?;
-    let l = f64_rows(&t.get_item(1)?, &format!("{what} linear_um"), 3)?;
-    let a = f64_rows(&t.get_item(2)?, &format!("{what} angular_urad"), 3)?;
-    // The checks of an axis table (lengths, finite, increasing).
-    let lin = table(p.clone(), l.as_slice()?, &what)?;
-    let ang = table(p, a.as_slice()?, &what)?;
-    volcomp_core::model::kinematic::ComponentTable::new(
-        lin.positions_mm,
-        lin.errors_um,
-        ang.errors_um,
-    )
-    .ok_or_else(|| bad_input(format!("{what}: the table is not valid")))
-}
-
-/// An axis of a 21-component model: one triple for both directions, or a
-/// dict of `"forward"` and `"reverse"` triples.
-fn axis_components(
-    obj: &Bound<'_, PyAny>,
-    name: char,
-) -> PyResult<volcomp_core::model::kinematic::AxisComponents> {
-    use volcomp_core::model::kinematic::AxisComponents;
-    if let Ok(d) = obj.cast::<PyDict>() {
-        let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
-            d.get_item(key)?.ok_or_else(|| {
-                bad_input(format!(
-                    "axis {name}: the dict needs both \"forward\" and \"reverse\""
-                ))
-            })
-        };
-        return Ok(AxisComponents {
-            forward: component_table(&get("forward")?, format!("axis {name} forward"))?,
-            reverse: component_table(&get("reverse")?, format!("axis {name} reverse"))?,
-        });
-    }
-    Ok(AxisComponents::both(component_table(
-        obj,
-        format!("axis {name}"),
-    )?))
-}
 
 #[pymethods]
 impl Model {
@@ -271,14 +128,7 @@ impl Model {
     #[staticmethod]
     #[pyo3(signature = (path, *, clamp = false))]
     fn load(path: &Bound<'_, PyAny>, clamp: bool) -> PyResult<Model> {
-        let path = if is_path_like(path) {
-            path_of(path)?
-        } else {
-            PathBuf::from(
-                path.extract::<String>()
-                    .map_err(|_| bad_input("path must be a file name (str or pathlib.Path)"))?,
-            )
-        };
+        let path = crate::inputs::file_path(path)?;
         let loaded = load_model(&path, &LoadOptions { clamp }).py_err()?;
         Ok(Model {
             loaded,
@@ -362,43 +212,16 @@ impl Model {
         angles: &str,
         clamp: bool,
     ) -> PyResult<Model> {
-        use volcomp_core::model::kinematic::{
-            AngleConvention, KinematicModel, Kinematics, MeasuringLine,
-        };
         let topology: volcomp_core::model::topology::Topology = chain.parse().py_err()?;
-        let angles = match angles {
-            "relative" => AngleConvention::Relative,
-            "moving-part" => AngleConvention::MovingPart,
-            a => {
-                return Err(bad_input(format!(
-                    "angles must be \"relative\" or \"moving-part\"; got {a:?}"
-                )))
-            }
-        };
-        let (sq_xy, sq_yz, sq_zx) = squareness_urad;
-        let (px, py_, pz) = measuring_point_mm;
-        for (v, what) in [
-            (sq_xy, "squareness_urad"),
-            (sq_yz, "squareness_urad"),
-            (sq_zx, "squareness_urad"),
-            (px, "measuring_point_mm"),
-            (py_, "measuring_point_mm"),
-            (pz, "measuring_point_mm"),
-            (measuring_tool_length_mm, "measuring_tool_length_mm"),
-        ] {
-            if !v.is_finite() {
-                return Err(bad_input(format!("{what} must be finite; got {v}")));
-            }
-        }
-        let mut k = Kinematics::new(topology);
-        k.measuring = [MeasuringLine {
-            point_mm: Vec3::new(px, py_, pz),
-            tool_offset_mm: Vec3::new(0.0, 0.0, measuring_tool_length_mm),
-        }; 3];
-        k.squareness.xy_urad = sq_xy;
-        k.squareness.yz_urad = sq_yz;
-        k.squareness.zx_urad = sq_zx;
-        k.angles = angles;
+        let (sq, p) = (squareness_urad, measuring_point_mm);
+        let k = arrays::kinematics(
+            topology,
+            [sq.0, sq.1, sq.2],
+            [p.0, p.1, p.2],
+            measuring_tool_length_mm,
+            angles,
+        )
+        .map_err(bad_input)?;
         let mut km = KinematicModel::new(
             [
                 axis_components(x, 'X')?,
@@ -464,62 +287,38 @@ impl Model {
         positioning_only: bool,
         outside: &str,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let outside = match outside {
-            "raise" => Outside::Raise,
-            "nan" => Outside::Nan,
-            o => {
-                return Err(bad_input(format!(
-                    "outside must be \"raise\" or \"nan\"; got {o:?}"
-                )))
-            }
-        };
+        let outside = arrays::Outside::parse(outside).map_err(bad_input)?;
         let q = f64_rows(positions_mm, "positions_mm", 3)?;
         let n = q.shape()[0];
-        let dirs = match directions {
-            Some(d) => {
-                let d = f64_rows(d, "directions", 3)?;
-                let v = d.as_slice()?.to_vec();
-                if d.shape()[0] != 1 && d.shape()[0] != n {
-                    return Err(bad_input(format!(
-                        "directions must have shape (3,) or ({n}, 3); got {:?}",
-                        d.shape()
-                    )));
+        // One row for every point, or a row each.
+        let rows = |obj: Option<&Bound<'py, PyAny>>, what: &str, default: f64| match obj {
+            None => Ok(vec![default; 3]),
+            Some(obj) => {
+                let a = f64_rows(obj, what, 3)?;
+                let shape = a.shape();
+                if shape[0] != 1 && shape[0] != n {
+                    let e = format!("{what} must have shape (3,) or ({n}, 3); got {shape:?}");
+                    return Err(bad_input(e));
                 }
-                if let Some(i) = v.iter().position(|x| *x != 1.0 && *x != -1.0) {
-                    return Err(bad_input(format!(
-                        "directions: row {}, column {} is {}; give +1 (forward) or -1 (reverse)",
-                        i / 3,
-                        i % 3,
-                        v[i]
-                    )));
-                }
-                v
+                Ok(a.as_slice()?.to_vec())
             }
-            None => vec![1.0; 3],
         };
-        let tool = match tool_offset_mm {
-            Some(t) => {
-                let t = f64_rows(t, "tool_offset_mm", 3)?;
-                if t.shape()[0] != 1 && t.shape()[0] != n {
-                    return Err(bad_input(format!(
-                        "tool_offset_mm must have shape (3,) or ({n}, 3); got {:?}",
-                        t.shape()
-                    )));
-                }
-                t.as_slice()?.to_vec()
-            }
-            None => vec![0.0; 3],
-        };
+        let dirs = rows(directions, "directions", 1.0)?;
+        if directions.is_some() {
+            arrays::check_directions(&dirs).map_err(bad_input)?;
+        }
+        let tool = rows(tool_offset_mm, "tool_offset_mm", 0.0)?;
         let components = if positioning_only {
             Components::PositioningOnly
         } else {
             Components::All
         };
-        let q_slice = q.as_slice()?;
         let model = self.model();
         let mut out = vec![0.0; 3 * n];
-        let result = py
-            .detach(|| evaluate_rows(model, q_slice, &dirs, &tool, components, outside, &mut out));
+        let (q, dirs, tool) = (q.as_slice()?, dirs.as_slice(), tool.as_slice());
+        let result = py.detach(|| {
+            arrays::deviations_um(model, (q, dirs, tool), components, outside, &mut out)
+        });
         if let Err((row, e)) = result {
             return Err(bad_input(format!("positions_mm row {row}: {e}")));
         }
@@ -540,142 +339,14 @@ impl Model {
     /// (`e_z(x) + β_zx·x`, likewise Y) at 201 points over its measured range
     /// (`{"X": {"position_mm", "ez_um"}, ...}`).
     fn components<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let out = PyDict::new(py);
-        match &self.loaded {
-            LoadedModel::AxisTables(m) => {
-                for (a, t) in m.axes.iter().enumerate() {
-                    let axis = PyDict::new(py);
-                    for (name, tab) in [("forward", &t.forward), ("reverse", &t.reverse)] {
-                        axis.set_item(
-                            name,
-                            direction_dict(
-                                py,
-                                &tab.positions_mm,
-                                &[("linear_um", &tab.errors_um)],
-                            )?,
-                        )?;
-                    }
-                    out.set_item(AXES[a].to_string(), axis)?;
-                }
-            }
-            LoadedModel::Kinematic(m) => {
-                for (a, t) in m.axes.iter().enumerate() {
-                    let axis = PyDict::new(py);
-                    for (name, tab) in [("forward", &t.forward), ("reverse", &t.reverse)] {
-                        axis.set_item(
-                            name,
-                            direction_dict(
-                                py,
-                                tab.positions_mm(),
-                                &[
-                                    ("linear_um", &tab.linear_um.errors_um),
-                                    ("angular_urad", &tab.angular_urad.errors_um),
-                                ],
-                            )?,
-                        )?;
-                    }
-                    out.set_item(AXES[a].to_string(), axis)?;
-                }
-                let sq = PyDict::new(py);
-                let s = &m.kinematics.squareness;
-                sq.set_item("xy", s.xy_urad)?;
-                sq.set_item("yz", s.yz_urad)?;
-                sq.set_item("zx", s.zx_urad)?;
-                out.set_item("squareness_urad", sq)?;
-            }
-            LoadedModel::Straightness(m) => {
-                for axis in [
-                    volcomp_core::identify::straightness::Axis::X,
-                    volcomp_core::identify::straightness::Axis::Y,
-                ] {
-                    let Some(am) = m.axis(axis) else { continue };
-                    // Sampled every 1/200 of the measured range: the
-                    // series is smooth (its shortest wavelength is the
-                    // cut-off, many samples long).
-                    let [lo, hi] = am.range_mm;
-                    let n = 201usize;
-                    let p: Vec<f64> = (0..n)
-                        .map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64)
-                        .collect();
-                    let e = p
-                        .iter()
-                        .map(|&x| m.axis_part_um(axis, x))
-                        .collect::<Result<Vec<f64>, _>>()
-                        .py_err()?;
-                    let d = PyDict::new(py);
-                    d.set_item("position_mm", PyArray1::from_vec(py, p))?;
-                    d.set_item("ez_um", PyArray1::from_vec(py, e))?;
-                    out.set_item(axis.letter().to_string(), d)?;
-                }
-            }
-        }
-        Ok(out)
+        fields(py, &columns::components(&self.loaded).py_err()?)
     }
 
     /// One named ISO 230-1 component (`"EXX"`, `"EZX"`, `"EBY"`, …) as
     /// `(position_mm, forward, reverse)` arrays (µm for linear errors, µrad
     /// for angular ones); axis tables have the linear ones only.
     fn component<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Series<'py>> {
-        let up = name.to_ascii_uppercase();
-        let b = up.as_bytes();
-        let parsed = (b.len() == 3 && b[0] == b'E')
-            .then(|| {
-                let axis = AXES.iter().position(|c| *c as u8 == b[2])?;
-                let (dir, angular) = match b[1] {
-                    b'X' => (0, false),
-                    b'Y' => (1, false),
-                    b'Z' => (2, false),
-                    b'A' => (0, true),
-                    b'B' => (1, true),
-                    b'C' => (2, true),
-                    _ => return None,
-                };
-                Some((axis, dir, angular))
-            })
-            .flatten();
-        let Some((axis, dir, angular)) = parsed else {
-            return Err(bad_input(format!(
-                "unknown component {name:?}; use ISO 230-1 names: EXX, EYX, EZX, EAX, EBX, ECX (and the same for Y and Z)"
-            )));
-        };
-        let col = |t: &Table| -> Vec<f64> { t.errors_um.iter().map(|e| e[dir]).collect() };
-        let (p, f, r) = match (&self.loaded, angular) {
-            (LoadedModel::AxisTables(m), false) => {
-                let t = &m.axes[axis];
-                if t.forward.positions_mm != t.reverse.positions_mm {
-                    return Err(bad_input(format!("{up}: the forward and reverse tables of axis {} have different positions; read them from components()", AXES[axis])));
-                }
-                (
-                    t.forward.positions_mm.clone(),
-                    col(&t.forward),
-                    col(&t.reverse),
-                )
-            }
-            (LoadedModel::Kinematic(m), _) => {
-                let t = &m.axes[axis];
-                if t.forward.positions_mm() != t.reverse.positions_mm() {
-                    return Err(bad_input(format!("{up}: the forward and reverse tables of axis {} have different positions; read them from components()", AXES[axis])));
-                }
-                let pick = |c: &volcomp_core::model::kinematic::ComponentTable| {
-                    if angular {
-                        col(&c.angular_urad)
-                    } else {
-                        col(&c.linear_um)
-                    }
-                };
-                (
-                    t.forward.positions_mm().to_vec(),
-                    pick(&t.forward),
-                    pick(&t.reverse),
-                )
-            }
-            _ => {
-                return Err(bad_input(format!(
-                    "{up}: a {} model has no such component table; use components()",
-                    self.loaded.kind().name()
-                )))
-            }
-        };
+        let [p, f, r] = self.loaded.component_columns(name).map_err(bad_input)?;
         Ok((
             PyArray1::from_vec(py, p),
             PyArray1::from_vec(py, f),

@@ -3,24 +3,19 @@
 //! commands of the same names, docs/compensation.md, docs/design.md).
 
 use crate::errors::{bad_input, to_py};
-use crate::inputs::{warn, warn_without_work_offset};
+use crate::inputs::{fields, warn, warn_without_work_offset};
 use crate::model::Model;
 use crate::request::{from_kwargs, input, keywords, library_error, Keywords};
-use numpy::ndarray::Array2;
-use numpy::prelude::*;
-use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
-use volcomp_core::compensate::PointRecord;
 use volcomp_core::io::provenance::now_utc;
-use volcomp_core::limits::LimitedWriter;
-use volcomp_core::plan::{compare_programs, TimeComparison};
+use volcomp_core::plan::TimeComparison;
+use volcomp_core::report::columns;
 use volcomp_core::request::{
     CompensateRequest, Input, Machine, MachineRequest, ModelSource, SimulateRequest, TimeRequest,
 };
-use volcomp_core::simulate::report::SegmentError;
 use volcomp_core::Error;
-use volcomp_gcode::{MotionKind, Vec3, Warning};
+use volcomp_gcode::Warning;
 
 /// The library's error; a point outside the model gets the help that
 /// names the set-up and the work offset (docs/errors.md).
@@ -50,13 +45,6 @@ fn warnings_list<'py>(py: Python<'py>, file: &str, ws: &[Warning]) -> PyResult<B
     Ok(list)
 }
 
-fn rows3(py: Python<'_>, v: Vec<f64>) -> PyResult<Bound<'_, PyArray2<f64>>> {
-    let n = v.len() / 3;
-    Ok(Array2::from_shape_vec((n, 3), v)
-        .map_err(|e| bad_input(e.to_string()))?
-        .into_pyarray(py))
-}
-
 /// A program: its bytes and the name messages give it (`name` overrides).
 fn program_bytes(obj: &Bound<'_, PyAny>, name: Option<&str>) -> PyResult<(Vec<u8>, String)> {
     let inp = input(obj, "program")?;
@@ -68,6 +56,15 @@ fn program_bytes(obj: &Bound<'_, PyAny>, name: Option<&str>) -> PyResult<(Vec<u8
         Input::Content { bytes, .. } => bytes,
     };
     Ok((bytes, shown))
+}
+
+/// The attributes `names` (separated by spaces) of `obj` as a dict.
+fn attributes<'py, T>(obj: &Bound<'py, T>, names: &str) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(obj.py());
+    for name in names.split_whitespace() {
+        d.set_item(name, obj.as_any().getattr(name)?)?;
+    }
+    Ok(d)
 }
 
 /// What `compensate` did: the compensated program and its summary.
@@ -124,23 +121,13 @@ impl CompensateResult {
     }
 
     /// The summary as a dict (without the program).
-    fn summary<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        d.set_item("lines_in", self.lines_in)?;
-        d.set_item("lines_out", self.lines_out)?;
-        d.set_item("points", self.points)?;
-        d.set_item("max_residual_um", self.max_residual_um)?;
-        d.set_item("max_correction_um", self.max_correction_um)?;
-        d.set_item("take_ups", self.take_ups)?;
-        d.set_item("take_ups_folded", self.take_ups_folded)?;
-        d.set_item("max_fold_excursion_um", self.max_fold_excursion_um)?;
-        d.set_item("held", self.held.clone())?;
-        d.set_item("held_count", self.held_count)?;
-        d.set_item("uncompensated_moves", self.uncompensated_moves)?;
-        d.set_item("uncompensated", self.uncompensated.clone())?;
-        d.set_item("warnings", self.warnings.clone_ref(py))?;
-        d.set_item("machining_time", self.machining_time.clone_ref(py))?;
-        Ok(d)
+    fn summary<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyDict>> {
+        attributes(
+            slf,
+            "lines_in lines_out points max_residual_um max_correction_um take_ups \
+             take_ups_folded max_fold_excursion_um held held_count \
+             uncompensated_moves uncompensated warnings machining_time",
+        )
     }
 
     fn __repr__(&self) -> String {
@@ -183,42 +170,19 @@ pub fn compensate(
         .prepare(machine, source, date_utc.unwrap_or_else(now_utc), &Keywords)
         .map_err(library_error)?;
     let (bytes, file) = program_bytes(program, name)?;
-    let mut out = Vec::new();
-    let mut records: Vec<PointRecord> = Vec::new();
-    let mut warnings: Vec<Warning> = Vec::new();
-    let result = py.detach(|| {
-        let mut limited = LimitedWriter::new(&mut out, job.max_output_bytes);
-        job.compensator(model.model(), &file)
-            .on_point(|p| {
-                if point_records {
-                    records.push(*p);
-                }
-            })
-            .on_warning(|w| warnings.push(w.clone()))
-            .run(bytes.as_slice(), &mut limited)
-            .map_err(Box::new)
-    });
-    let summary = result.map_err(|e| explain(*e, &job.machine))?;
-    let time = py.detach(|| {
-        let original = Some((
-            Box::new(bytes.as_slice()) as Box<dyn std::io::Read + Send>,
-            file.as_str(),
-        ));
-        compare_programs(
-            (out.as_slice(), "<compensated>"),
-            original,
-            &job.machine.setup,
-        )
-        .map_err(Box::new)
-    });
-    let machining_time = time_dict(py, &time.map_err(|e| explain(*e, &job.machine))?)?;
-    let point_records = if point_records {
-        Some(point_dict(py, &records)?.unbind())
-    } else {
-        None
+    let run = py
+        .detach(|| {
+            job.run_in_memory(model.model(), (&bytes, &file), point_records)
+                .map_err(Box::new)
+        })
+        .map_err(|e| explain(*e, &job.machine))?;
+    let (summary, records) = (run.summary, run.points);
+    let point_records = match point_records {
+        true => Some(fields(py, &columns::points(&records))?.unbind()),
+        false => None,
     };
     Ok(CompensateResult {
-        data: PyBytes::new(py, &out).unbind(),
+        data: PyBytes::new(py, &run.program).unbind(),
         lines_in: summary.lines_in,
         lines_out: summary.lines_out,
         points: summary.points,
@@ -232,17 +196,17 @@ pub fn compensate(
             .map(|w| crate::request::keywords(&w)),
         held: summary.held,
         held_count: summary.held_count,
-        warnings: warnings_list(py, &file, &warnings)?.unbind(),
+        warnings: warnings_list(py, &file, &run.warnings)?.unbind(),
         point_records,
-        machining_time,
+        machining_time: time_dict(py, &run.time)?,
     })
 }
 
 /// A machining time as the dict of `volcomp time --json`.
 fn time_dict(py: Python<'_>, t: &TimeComparison) -> PyResult<Py<PyDict>> {
-    let json = serde_json::to_string(t).map_err(|e| bad_input(e.to_string()))?;
-    let d = py.import("json")?.call_method1("loads", (json,))?;
-    Ok(d.cast_into::<PyDict>()?.unbind())
+    Ok(crate::inputs::from_json(py, t)?
+        .cast_into::<PyDict>()?
+        .unbind())
 }
 
 /// The machining time of a program on a model of LinuxCNC 2.9's
@@ -274,55 +238,6 @@ pub fn machining_time(
         })
         .map_err(|e| explain(*e, &machine))?;
     time_dict(py, &t)
-}
-
-/// The per-point report as columns (the CLI's `--report` CSV).
-fn point_dict<'py>(py: Python<'py>, r: &[PointRecord]) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    let v3 = |f: &dyn Fn(&PointRecord) -> Vec3| -> Vec<f64> {
-        r.iter()
-            .flat_map(|p| {
-                let v = f(p);
-                [v.x, v.y, v.z]
-            })
-            .collect()
-    };
-    let axes = |f: [bool; 3]| -> String {
-        ['X', 'Y', 'Z']
-            .iter()
-            .zip(f)
-            .filter(|(_, b)| *b)
-            .map(|(c, _)| *c)
-            .collect()
-    };
-    d.set_item(
-        "line",
-        PyArray1::from_vec(py, r.iter().map(|p| p.line).collect()),
-    )?;
-    d.set_item("target_mm", rows3(py, v3(&|p| p.target_mm))?)?;
-    d.set_item("command_mm", rows3(py, v3(&|p| p.command_mm))?)?;
-    d.set_item(
-        "iterations",
-        PyArray1::from_vec(py, r.iter().map(|p| p.iterations).collect()),
-    )?;
-    d.set_item(
-        "residual_um",
-        PyArray1::from_vec(py, r.iter().map(|p| p.residual_um).collect()),
-    )?;
-    d.set_item(
-        "reversed",
-        r.iter().map(|p| axes(p.reversed)).collect::<Vec<_>>(),
-    )?;
-    d.set_item("held", r.iter().map(|p| axes(p.held)).collect::<Vec<_>>())?;
-    d.set_item(
-        "take_up",
-        PyArray1::from_vec(py, r.iter().map(|p| p.take_up).collect()),
-    )?;
-    d.set_item(
-        "rapid",
-        PyArray1::from_vec(py, r.iter().map(|p| p.rapid).collect()),
-    )?;
-    Ok(d)
 }
 
 /// The metrics of a simulated program (docs/design.md, "Simulation and
@@ -367,21 +282,13 @@ pub struct SimulationResult {
 #[pymethods]
 impl SimulationResult {
     /// The metrics as a dict (the CLI's `simulate --json` keys).
-    fn as_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        d.set_item("point_rms_um", self.point_rms_um)?;
-        d.set_item("point_max_um", self.point_max_um)?;
-        d.set_item("contour_rms_um", self.contour_rms_um)?;
-        d.set_item("contour_max_um", self.contour_max_um)?;
-        d.set_item("blocks", self.blocks)?;
-        d.set_item("points", self.points)?;
-        d.set_item("samples", self.samples)?;
-        d.set_item("feed_length_mm", self.feed_length_mm)?;
-        d.set_item("nominal", &self.nominal)?;
-        d.set_item("point_definition", &self.point_definition)?;
-        d.set_item("contour_definition", &self.contour_definition)?;
-        d.set_item("machining_time", self.machining_time.clone_ref(py))?;
-        Ok(d)
+    fn as_dict<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyDict>> {
+        attributes(
+            slf,
+            "point_rms_um point_max_um contour_rms_um contour_max_um blocks points \
+             samples feed_length_mm nominal point_definition contour_definition \
+             machining_time",
+        )
     }
 
     fn __repr__(&self) -> String {
@@ -417,33 +324,18 @@ pub fn simulate(
         .map_err(|e| library_error(e.into()))?;
     warn_without_work_offset(py, &machine)?;
     let (bytes, file) = program_bytes(program, name)?;
-    let model = model.get();
-    let mut rows: Vec<SegmentError> = Vec::new();
-    let mut warnings: Vec<Warning> = Vec::new();
-    let result = py.detach(|| {
-        let mut sim = request
-            .simulation(model.model(), &machine, &file)
-            .map_err(Box::new)?
-            .on_warning(|w| warnings.push(w.clone()));
-        if segments {
-            sim = sim.on_segment(|s| rows.push(*s));
-        }
-        sim.run(bytes.as_slice()).map_err(Box::new)
-    });
-    let report = result.map_err(|e| explain(*e, &machine))?;
-    let time = py.detach(|| {
-        TimeRequest {
-            machine: request.machine.clone(),
-            reference: request.reference.clone(),
-        }
-        .run(&machine, bytes.as_slice(), &file)
-        .map_err(Box::new)
-    });
-    let machining_time = time_dict(py, &time.map_err(|e| explain(*e, &machine))?)?;
-    let segments = if segments {
-        Some(segment_arrays(py, &rows)?.unbind())
-    } else {
-        None
+    let model = model.get().model();
+    let run = py
+        .detach(|| {
+            request
+                .run_in_memory(model, &machine, (&bytes, &file), segments)
+                .map_err(Box::new)
+        })
+        .map_err(|e| explain(*e, &machine))?;
+    let report = run.report;
+    let segments = match segments {
+        true => Some(fields(py, &columns::segments(&run.segments))?.unbind()),
+        false => None,
     };
     Ok(SimulationResult {
         point_rms_um: report.point_rms_um,
@@ -457,49 +349,10 @@ pub fn simulate(
         nominal: report.nominal.to_string(),
         point_definition: report.point_definition.to_string(),
         contour_definition: report.contour_definition.to_string(),
-        warnings: warnings_list(py, &file, &warnings)?.unbind(),
+        warnings: warnings_list(py, &file, &run.warnings)?.unbind(),
         segments,
-        machining_time,
+        machining_time: time_dict(py, &run.time)?,
     })
-}
-
-/// The per-segment columns of a simulation (`segments=True`).
-fn segment_arrays<'py>(py: Python<'py>, rows: &[SegmentError]) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    let v3 = |f: &dyn Fn(&SegmentError) -> Vec3| -> Vec<f64> {
-        rows.iter()
-            .flat_map(|s| {
-                let v = f(s);
-                [v.x, v.y, v.z]
-            })
-            .collect()
-    };
-    let nan = Vec3::new(f64::NAN, f64::NAN, f64::NAN);
-    d.set_item(
-        "line",
-        PyArray1::from_vec(py, rows.iter().map(|s| s.line).collect()),
-    )?;
-    d.set_item(
-        "nominal_line",
-        PyArray1::from_vec(py, rows.iter().map(|s| s.nominal_line).collect()),
-    )?;
-    d.set_item("command_mm", rows3(py, v3(&|s| s.command_mm))?)?;
-    d.set_item("actual_mm", rows3(py, v3(&|s| s.actual_mm))?)?;
-    d.set_item("target_mm", rows3(py, v3(&|s| s.target_mm.unwrap_or(nan)))?)?;
-    d.set_item(
-        "point_um",
-        PyArray1::from_vec(
-            py,
-            rows.iter()
-                .map(|s| s.point_um.unwrap_or(f64::NAN))
-                .collect(),
-        ),
-    )?;
-    d.set_item(
-        "contour_max_um",
-        PyArray1::from_vec(py, rows.iter().map(|s| s.contour_max_um).collect()),
-    )?;
-    Ok(d)
 }
 
 /// What the interpreter understood: one row per motion, in machine
@@ -522,72 +375,9 @@ pub fn moves<'py>(
     let request: MachineRequest = from_kwargs(options)?;
     let m = request.machine().map_err(library_error)?;
     let (bytes, file) = program_bytes(program, name)?;
-    #[derive(Default)]
-    struct Columns {
-        line: Vec<u64>,
-        column: Vec<u64>,
-        kind: Vec<&'static str>,
-        source: Vec<&'static str>,
-        end: [Vec<f64>; 3],
-        center: [Vec<f64>; 3],
-        extra: [Vec<f64>; 6],
-    }
-    let mut c = Columns::default();
-    let mut warnings = Vec::new();
-    let result = py.detach(|| -> Result<(), volcomp_gcode::GcodeError> {
-        let mut walker = m.setup.walker(bytes.as_slice(), &file);
-        let r = (|| {
-            while let Some(ev) = walker.next_line()? {
-                for mo in ev.motions {
-                    c.line.push(mo.line);
-                    c.column.push(mo.column as u64);
-                    c.kind.push(mo.kind.name());
-                    c.source.push(mo.source.name());
-                    let centre = match mo.kind {
-                        MotionKind::Arc(arc) => arc.center,
-                        _ => Vec3::new(f64::NAN, f64::NAN, f64::NAN),
-                    };
-                    for k in 0..3 {
-                        c.end[k].push(mo.end[k]);
-                        c.center[k].push(centre[k]);
-                    }
-                    if extra_axes {
-                        for k in 0..6 {
-                            c.extra[k].push(mo.extra.end[k]);
-                        }
-                    }
-                }
-            }
-            Ok(())
-        })();
-        warnings = walker.warnings().to_vec();
-        r
-    });
+    let (result, warnings) = py.detach(|| columns::motions(&m.setup, &bytes, &file, extra_axes));
     for w in &warnings {
         warn(py, &format!("{file}:{w}"))?;
     }
-    result.map_err(|e| to_py(Error::Gcode(e)))?;
-    let d = PyDict::new(py);
-    d.set_item("line", PyArray1::from_vec(py, c.line))?;
-    d.set_item("column", PyArray1::from_vec(py, c.column))?;
-    let np = py.import("numpy")?;
-    d.set_item("kind", np.call_method1("array", (c.kind,))?)?;
-    d.set_item("source", np.call_method1("array", (c.source,))?)?;
-    let [x, y, z] = c.end;
-    d.set_item("x_mm", PyArray1::from_vec(py, x))?;
-    d.set_item("y_mm", PyArray1::from_vec(py, y))?;
-    d.set_item("z_mm", PyArray1::from_vec(py, z))?;
-    let [cx, cy, cz] = c.center;
-    d.set_item("cx_mm", PyArray1::from_vec(py, cx))?;
-    d.set_item("cy_mm", PyArray1::from_vec(py, cy))?;
-    d.set_item("cz_mm", PyArray1::from_vec(py, cz))?;
-    if extra_axes {
-        for (name, v) in ["a_deg", "b_deg", "c_deg", "u_mm", "v_mm", "w_mm"]
-            .iter()
-            .zip(c.extra)
-        {
-            d.set_item(*name, PyArray1::from_vec(py, v))?;
-        }
-    }
-    Ok(d)
+    fields(py, &result.map_err(|e| to_py(Error::Gcode(e)))?)
 }

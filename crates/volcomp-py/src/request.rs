@@ -4,7 +4,7 @@
 //! and help come from that table too (`volcomp/__init__.py` gives the
 //! functions their signature and docstring from [`options`]).
 
-use crate::errors::{bad_input, to_py};
+use crate::errors::bad_input;
 use crate::inputs::{is_path_like, path_of};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
@@ -14,7 +14,6 @@ use volcomp_core::request::{
     SimulateRequest, Spelling, StraightnessFitRequest, ThermalFitRequest, ThermalPredictRequest,
     Value,
 };
-use volcomp_core::Error;
 
 /// Option names as Python writes them: the keyword, a switch with the
 /// value that turns it from its default (`take_up=False`).
@@ -42,9 +41,7 @@ pub fn keywords(text: &str) -> String {
 
 /// The library's error as the exception of its kind, options said as
 /// keywords.
-pub fn library_error(e: Error) -> PyErr {
-    to_py(e)
-}
+pub use crate::errors::to_py as library_error;
 
 /// An input file: a path (str or os.PathLike) is read by the library, a
 /// file object's content is taken as it is (named by its `name`, or

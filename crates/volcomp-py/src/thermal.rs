@@ -2,20 +2,18 @@
 //! temperatures, and the 21-component model it predicts for a moment
 //! (docs/thermal.md, [Thermal study]).
 
-use crate::errors::{bad_input, IntoPy};
-use crate::inputs::warn;
+use crate::errors::IntoPy;
+use crate::inputs::{fields, warn};
 use crate::model::Model;
 use crate::request::{from_kwargs, input, keywords, library_error};
-use numpy::ndarray::Array2;
-use numpy::prelude::*;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use volcomp_core::identify::thermal::files::ThermalModelFile;
 use volcomp_core::io::LoadedModel;
 use volcomp_core::progress::Silent;
+use volcomp_core::report::columns;
 use volcomp_core::request::{ThermalFitRequest, ThermalPredictRequest};
-use volcomp_gcode::Vec3;
 
 /// A thermal model: the regression of the 21-component model's Legendre
 /// coefficients on temperatures (the `volcomp thermal fit` file).
@@ -30,14 +28,7 @@ impl ThermalModel {
     /// name (str or pathlib.Path).
     #[staticmethod]
     fn load(path: &Bound<'_, PyAny>) -> PyResult<ThermalModel> {
-        let path = if crate::inputs::is_path_like(path) {
-            crate::inputs::path_of(path)?
-        } else {
-            std::path::PathBuf::from(
-                path.extract::<String>()
-                    .map_err(|_| bad_input("path must be a file name (str or pathlib.Path)"))?,
-            )
-        };
+        let path = crate::inputs::file_path(path)?;
         let name = path.display().to_string();
         let text = volcomp_core::io::inputs::read_to_string(&path, "the thermal model")
             .map_err(|e| crate::errors::io_error(&name, &e))?;
@@ -86,8 +77,7 @@ impl ThermalModel {
         if let Some(w) = &p.warning {
             warn(py, &keywords(w))?;
         }
-        let poly = self.file.poly_model().py_err()?;
-        let km = poly.to_kinematic_model(&p.theta, self.file.table_samples.max(2));
+        let km = p.model(&self.file).map_err(library_error)?;
         Ok(Model {
             loaded: LoadedModel::Kinematic(Box::new(km)),
             path: None,
@@ -139,28 +129,7 @@ pub fn thermal_fit<'py>(
         let (lines, _) = py
             .detach(|| request.bands(&fit, &mut Silent).map_err(Box::new))
             .map_err(|e| library_error(*e))?;
-        let bands = PyDict::new(py);
-        for l in &lines {
-            let d = PyDict::new(py);
-            let rows = |f: &dyn Fn(usize) -> Vec3| {
-                let v: Vec<f64> = (0..l.points_mm.len())
-                    .flat_map(|k| {
-                        let p = f(k);
-                        [p.x, p.y, p.z]
-                    })
-                    .collect();
-                Array2::from_shape_vec((l.points_mm.len(), 3), v)
-                    .unwrap_or_else(|_| Array2::zeros((0, 3)))
-                    .into_pyarray(py)
-            };
-            d.set_item("points_mm", rows(&|k| l.points_mm[k]))?;
-            d.set_item("estimate_um", rows(&|k| l.bands[k].estimate_um))?;
-            d.set_item("std_um", rows(&|k| l.bands[k].std_um))?;
-            d.set_item("lo_um", rows(&|k| l.bands[k].lo_um))?;
-            d.set_item("hi_um", rows(&|k| l.bands[k].hi_um))?;
-            bands.set_item(['X', 'Y', 'Z'][l.axis].to_string(), d)?;
-        }
-        report.set_item("bands", bands)?;
+        report.set_item("bands", fields(py, &columns::bands(&lines))?)?;
     }
     Ok((ThermalModel { file: fit.file }, report))
 }

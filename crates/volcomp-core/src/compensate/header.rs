@@ -134,6 +134,15 @@ pub fn compensate_program_with_header<R: BufRead>(
         end,
         format!("({})", comment_text(&summary.reversals_text())),
     );
+    if let Some(text) = summary.path_mode_text() {
+        let end = lines.len().saturating_sub(1);
+        for (k, l) in wrapped_at_words("path mode:", &text)
+            .into_iter()
+            .enumerate()
+        {
+            lines.insert(end + k, l);
+        }
+    }
     if let Some(text) = summary.uncompensated_text() {
         // Said first and last: the header never calls such a program
         // compensated.

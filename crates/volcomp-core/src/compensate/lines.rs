@@ -213,8 +213,14 @@ impl State<'_> {
     /// Ends the inserted line in `self.text` (its trace comment, `(volcomp
     /// Ln note)`, when asked for) and appends it to the buffer on a line of
     /// its own.
-    fn push_inserted(&mut self, at: &Place, note: &str) {
+    pub(super) fn push_inserted(&mut self, at: &Place, note: &str) {
         let line = at.line;
+        // Path-control words waiting for this line (the mode restored on a
+        // block's last piece, `piece_mode_words`).
+        if !self.line_words.is_empty() {
+            self.text.push_str(self.walk.sep);
+            self.text.push_str(&std::mem::take(&mut self.line_words));
+        }
         if self.walk.options.trace_comments {
             self.text.push_str(self.walk.sep);
             if note.is_empty() {
@@ -258,7 +264,10 @@ impl State<'_> {
                 second: None,
                 ..*arc
             };
+            // Words for the piece's line go on its second arc's.
+            let words = std::mem::take(&mut self.line_words);
             self.write_inserted_arc(at, from, second.joint, &first, note);
+            self.line_words = words;
             self.write_inserted_arc(at, second.joint, q, &next, note);
             return;
         }
@@ -488,9 +497,86 @@ pub(super) fn stop_m_word<'a>(mut words: impl Iterator<Item = &'a Word>) -> Opti
     words.find(|w| w.letter == b'M' && [0.0, 1.0, 2.0, 30.0, 60.0].contains(&w.value))
 }
 
+/// The mode words that let the planner run through the joins between the
+/// pieces of one block under G61 or G61.1 (docs/compensation.md, "Pieces
+/// of a block under G61"): `G64 P p Q0` for the block's first piece and
+/// the program's own word (`G61`, `G61.1`) for its last.
+///
+/// LinuxCNC 2.9 takes a segment's end condition from the mode in effect
+/// when the segment was queued (tp.c `tpSetupTangent`, `tpChooseBestBlend`
+/// look at the earlier segment's `term_cond`): under G61
+/// (TC_TERM_COND_EXACT) it stops at every join that is not tangent within
+/// its tolerance, under G61.1 (TC_TERM_COND_STOP) at every join, while the
+/// program asked to be exact only at its own block ends. Under `G64 P p`
+/// a join is blended by an arc that stays within `p` of the corner
+/// (blendmath.c `blendComputeParameters`); the corner is a solved target,
+/// so with `p` at most the contour tolerance the tool stays within it.
+/// `Q0` keeps the canonical layer from merging the pieces into one line or
+/// turning an arc piece into two lines (emccanon.cc `linkable`, `ARC_FEED`:
+/// both need a naive-CAM tolerance above 0; without Q, G64 takes P for it).
+///
+/// `None` where the block is not in G61/G61.1, or its line already has a
+/// P or Q word or a path-control word (one block may not carry two; a
+/// line is left as the program wrote it), or `p` rounds to 0 in the
+/// program's units. `p_units` is `p` in the program's units.
+pub(super) fn piece_mode_words<'a>(
+    mode: volcomp_gcode::PathMode,
+    mut words: impl Iterator<Item = &'a Word>,
+    p_units: f64,
+    sep: &str,
+) -> Option<(String, &'static str)> {
+    let restore = match mode {
+        volcomp_gcode::PathMode::ExactPath => "G61",
+        volcomp_gcode::PathMode::ExactStop => "G61.1",
+        volcomp_gcode::PathMode::Blend { .. } => return None,
+    };
+    if words.any(|w| {
+        matches!(w.letter, b'P' | b'Q')
+            || (w.letter == b'G'
+                && [61.0, 61.1, 64.0]
+                    .iter()
+                    .any(|g| (w.value - g).abs() < 1e-9))
+    }) {
+        return None;
+    }
+    let p = tolerance_text(p_units)?;
+    Some((format!("G64{sep}P{p}{sep}Q0"), restore))
+}
+
+/// `v` (> 0) rounded down to two significant digits, as a decimal without
+/// exponent and without trailing zeros (`1e-4` → `0.0001`, `3.937e-6` →
+/// `0.0000039`): a tolerance that is never larger than asked. `None` for
+/// what is not a positive finite number, or below 1e-12.
+fn tolerance_text(v: f64) -> Option<String> {
+    if !(v.is_finite() && v >= 1e-12) {
+        return None;
+    }
+    let decimals = (1.0 - v.log10().floor()).max(0.0) as usize;
+    let scale = 10f64.powi(decimals as i32);
+    let kept = ((v * scale) * (1.0 + 1e-12)).floor() / scale;
+    let text = format!("{kept:.decimals$}");
+    let text = if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        text
+    };
+    Some(text)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_tolerance_is_written_rounded_down_to_two_digits() {
+        // 0.1 µm in mm, in inch (0.1 / 25 400 = 3.937e-6 in), 0.5 mm, 2.
+        assert_eq!(tolerance_text(1e-4).as_deref(), Some("0.0001"));
+        assert_eq!(tolerance_text(1e-4 / 25.4).as_deref(), Some("0.0000039"));
+        assert_eq!(tolerance_text(0.5).as_deref(), Some("0.5"));
+        assert_eq!(tolerance_text(2.0).as_deref(), Some("2"));
+        assert_eq!(tolerance_text(0.0), None);
+        assert_eq!(tolerance_text(f64::NAN), None);
+    }
     use volcomp_gcode::Plane;
 
     fn frame(mm_per_unit: f64) -> Frame {

@@ -124,6 +124,7 @@ impl<'w> State<'w> {
             buf: Vec::with_capacity(1024),
             text: String::with_capacity(128),
             extra_text: String::new(),
+            line_words: String::new(),
             states: Vec::new(),
             transitions: Vec::new(),
             transitions_written: Vec::new(),
@@ -482,6 +483,32 @@ impl<'w> State<'w> {
         });
         let first_arc = arc_words.first().filter(|w| w.center.is_some());
         let needed_first = first_arc.map_or(needed, |w| w.mode());
+        // Under G61/G61.1 a block written as several lines runs its pieces
+        // under `G64 P p Q0` and restores the program's mode on its last
+        // (lines.rs, `piece_mode_words`); not where a take-up stands
+        // between its pieces (a stop the program's mode must keep). A
+        // first piece that is an arc cannot carry P (its turn count): the
+        // words go on a line of their own before it, read in the units in
+        // effect there.
+        let lines_of_block = commands.len() + usize::from(first_split.is_some());
+        let piece_modes =
+            if lines_of_block > 1 && commands.iter().skip(1).all(|(_, tu)| tu.is_none()) {
+                let p_mm = piece_blend_tolerance_mm(options);
+                let mm_per_unit = if first_arc.is_some() {
+                    frame0.mm_per_unit
+                } else {
+                    frame.mm_per_unit
+                };
+                lines::piece_mode_words(motion.path_mode, line.words(), p_mm / mm_per_unit, sep)
+                    .map(|(words, restore)| (words, restore, p_mm))
+            } else {
+                None
+            };
+        if let Some((_, _, p_mm)) = piece_modes {
+            self.summary.pieces_blended_blocks += 1;
+            self.summary.piece_blend_tolerance_um =
+                self.summary.piece_blend_tolerance_um.max(p_mm * 1e3);
+        }
         // The last inserted line ends as the original did (without an
         // ending where it had none and no stop word follows).
         let last_ending: &[u8] = if content_len == ev.bytes.len() && stop_word.is_none() {
@@ -527,7 +554,19 @@ impl<'w> State<'w> {
             } else {
                 line_ending
             };
+            let last_piece = i + 1 == commands.len();
             if i == 0 {
+                if let (Some((words, _, _)), true) = (&piece_modes, first_arc.is_some()) {
+                    self.text.clear();
+                    self.text.push_str(words);
+                    let at = Place {
+                        frame: &frame0,
+                        style: style0,
+                        ..place
+                    };
+                    self.push_inserted(&at, "path mode");
+                    self.summary.path_mode_lines += 1;
+                }
                 let mut edits = self.original_line_edits(
                     line,
                     &place,
@@ -558,6 +597,16 @@ impl<'w> State<'w> {
                         edits.push(volcomp_gcode::edit::Edit::replace(span, text));
                     }
                 }
+                if let (Some((words, _, _)), None) = (&piece_modes, first_arc) {
+                    // After the line's last word (and after every other
+                    // edit there).
+                    let end = line.words().map(|w| w.span.end).max();
+                    let space = if sep.is_empty() { "" } else { " " };
+                    edits.push(volcomp_gcode::edit::Edit::insert(
+                        end.unwrap_or(content.len()),
+                        format!("{space}{words}"),
+                    ));
+                }
                 apply_edits(ev.bytes, &mut edits, &mut self.buf)
                     .map_err(|e| edit_error(file, ev.number, e))?;
                 if content_len == ev.bytes.len() && commands.len() > 1 {
@@ -566,17 +615,34 @@ impl<'w> State<'w> {
                 self.mode = Some(needed_first);
                 self.summary.lines_out += 1;
                 if let Some((joint, second)) = first_split {
+                    if let (Some((_, restore, _)), true) = (&piece_modes, last_piece) {
+                        self.line_words = (*restore).to_string();
+                    }
                     self.write_inserted_arc(&place.with_ending(ending), joint, *q, &second, "");
                 }
             } else if let Some(w) = arc_words.get(i) {
+                if let (Some((_, restore, _)), true) = (&piece_modes, last_piece) {
+                    self.line_words = (*restore).to_string();
+                }
                 self.write_inserted_arc(&place.with_ending(ending), pos, *q, w, "");
             } else {
                 if let Some(plan) = extra_plan.as_mut() {
                     self.extra_text = plan.words_for(i, style, sep);
                 }
+                if let (Some((_, restore, _)), true) = (&piece_modes, last_piece) {
+                    self.line_words = (*restore).to_string();
+                }
                 self.write_inserted(&place.with_ending(ending), pos, *q, needed, "");
             }
             pos = *q;
+        }
+        if !self.line_words.is_empty() {
+            // The last piece rounded to nothing and was not written: the
+            // mode is restored on a line of its own.
+            self.text.clear();
+            self.text.push_str(&std::mem::take(&mut self.line_words));
+            self.push_inserted(&place.with_ending(line_ending), "path mode");
+            self.summary.path_mode_lines += 1;
         }
         if let Some(w) = stop_word {
             self.buf.extend_from_slice(&content[w.span.clone()]);
@@ -587,6 +653,16 @@ impl<'w> State<'w> {
         self.last_tangent =
             feed_like.then(|| (points::tangents(&motion).1, points::length_mm(&motion)));
         Ok((frame, style))
+    }
+}
+
+/// The tolerance (mm) within which the planner may blend the joins between
+/// a G61 block's pieces (lines.rs, `piece_mode_words`): the contour
+/// tolerance of the adaptive segmentation, else its default.
+fn piece_blend_tolerance_mm(options: &CompensateOptions) -> f64 {
+    match options.segmentation {
+        Segmentation::Adaptive { tolerance_mm, .. } => tolerance_mm,
+        _ => DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
     }
 }
 
@@ -660,6 +736,9 @@ struct State<'w> {
     text: String,
     /// Extra-axis words (A … W) for the next inserted command.
     extra_text: String,
+    /// Path-control words for the next inserted line (the program's mode
+    /// restored on a block's last piece, lines.rs `piece_mode_words`).
+    line_words: String,
     /// Direction state of each command of the last [`State::solve_targets`].
     states: Vec<Directions>,
     /// S-curve take-ups of the arc the next [`State::solve_targets`] solves

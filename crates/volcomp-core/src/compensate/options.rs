@@ -324,6 +324,15 @@ pub struct CompensateSummary {
     /// The largest error a hole kept as a cycle leaves on its cut (µm):
     /// across the stroke or at a feed end.
     pub max_cycle_error_um: f64,
+    /// Blocks under G61/G61.1 written as several pieces that run under
+    /// `G64 P p Q0`, the program's mode restored on their last piece
+    /// (docs/compensation.md, "Pieces of a block under G61").
+    pub pieces_blended_blocks: u64,
+    /// Lines written for the path-control words alone (where the block's
+    /// first piece is an arc, which cannot carry P).
+    pub path_mode_lines: u64,
+    /// The largest `p` (µm) of those `G64 P p` words.
+    pub piece_blend_tolerance_um: f64,
 }
 
 impl CompensateSummary {
@@ -356,6 +365,28 @@ impl CompensateSummary {
                 "blocks"
             }
         )
+    }
+
+    /// What the path-control words inside G61/G61.1 blocks do, in one
+    /// line (no parentheses; the header labels it "path mode:"); `None`
+    /// where none were written.
+    pub fn path_mode_text(&self) -> Option<String> {
+        (self.pieces_blended_blocks > 0).then(|| {
+            format!(
+                "the pieces of {} G61/G61.1 {} run under G64 P Q0 (joins blended within P = {:.3} um, Q0: no naive-CAM merging) and each block's last piece restores the program's mode, so the machine stops only where the original does{}",
+                self.pieces_blended_blocks,
+                if self.pieces_blended_blocks == 1 { "block" } else { "blocks" },
+                self.piece_blend_tolerance_um,
+                if self.path_mode_lines > 0 {
+                    format!(
+                        "; {} only these words",
+                        count_text(self.path_mode_lines, "line carries", "lines carry")
+                    )
+                } else {
+                    String::new()
+                }
+            )
+        })
     }
 }
 

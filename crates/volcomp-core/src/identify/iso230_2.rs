@@ -151,6 +151,29 @@ pub enum TooFewApproaches {
     },
 }
 
+/// The approaches of each target from a matrix of deviations (µm, `rows`
+/// targets by `cols` runs, flattened by rows; NaN: no approach in that
+/// run); `what` names the matrix in errors.
+pub fn approaches(
+    values: &[f64],
+    (rows, cols): (usize, usize),
+    what: &str,
+) -> Result<Vec<Vec<f64>>, String> {
+    (0..rows).map(|i| {
+        let row = &values[i * cols..(i + 1) * cols];
+        let present = row.iter().enumerate().filter(|(_, x)| !x.is_nan());
+        present
+            .map(|(j, x)| match x.is_finite() {
+                true => Ok(*x),
+                false => Err(format!(
+                    "{what}[{i}, {j}] is {x}; give finite deviations in µm (NaN for a missing approach)"
+                )),
+            })
+            .collect()
+    })
+    .collect()
+}
+
 /// Evaluates deviations grouped per target: `(P_i, x_ij↑, x_ij↓)` in mm and µm.
 /// Each target needs at least two approaches per direction; at least two targets.
 pub fn evaluate(data: &[(f64, Vec<f64>, Vec<f64>)]) -> Result<Iso230_2Report, TooFewApproaches> {

@@ -16,8 +16,8 @@
 use crate::error::MapFileError;
 use crate::identify::straightness::{self, StraightnessError, StraightnessModel};
 use crate::io::model_file::{self, ModelFileError};
-use crate::model::axis_table::AxisTableMap;
-use crate::model::kinematic::KinematicModel;
+use crate::model::axis_table::{AxisTableMap, Table};
+use crate::model::kinematic::{ComponentTable, KinematicModel};
 use crate::model::ErrorModel;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
@@ -102,6 +102,46 @@ impl LoadedModel {
             LoadedModel::Kinematic(_) => ModelKind::Kinematic21,
             LoadedModel::Straightness(_) => ModelKind::Straightness,
         }
+    }
+
+    /// One named ISO 230-1 component (`"EXX"`, `"EBY"`, …, as
+    /// [`crate::model::arrays::component_name`] reads it) as position (mm),
+    /// forward and reverse values (µm, or µrad for angular ones); axis
+    /// tables have the linear ones only.
+    pub fn component_columns(&self, name: &str) -> Result<[Vec<f64>; 3], String> {
+        let (axis, dir, angular) = crate::model::arrays::component_name(name)?;
+        let up = name.to_ascii_uppercase();
+        let col = |t: &Table| -> Vec<f64> { t.errors_um.iter().map(|e| e[dir]).collect() };
+        let pick = |c: &ComponentTable| {
+            col(if angular {
+                &c.angular_urad
+            } else {
+                &c.linear_um
+            })
+        };
+        let (f, r) = match (self, angular) {
+            (LoadedModel::AxisTables(m), false) => (&m.axes[axis].forward, &m.axes[axis].reverse),
+            (LoadedModel::Kinematic(m), _) => {
+                let t = &m.axes[axis];
+                (&t.forward.linear_um, &t.reverse.linear_um)
+            }
+            _ => {
+                return Err(format!(
+                    "{up}: a {} model has no such component table; use components()",
+                    self.kind().name()
+                ))
+            }
+        };
+        if f.positions_mm != r.positions_mm {
+            return Err(format!("{up}: the forward and reverse tables of axis {} have different positions; read them from components()", ['X', 'Y', 'Z'][axis]));
+        }
+        Ok(match self {
+            LoadedModel::Kinematic(m) => {
+                let t = &m.axes[axis];
+                [f.positions_mm.clone(), pick(&t.forward), pick(&t.reverse)]
+            }
+            _ => [f.positions_mm.clone(), col(f), col(r)],
+        })
     }
 }
 

@@ -4,6 +4,7 @@
 //! Compensation and simulation only talk to [`ErrorModel`], so richer models
 //! (21-component kinematic, thermal, grids) plug in without touching them.
 
+pub mod arrays;
 pub mod axis_table;
 pub mod controller;
 pub mod kinematic;

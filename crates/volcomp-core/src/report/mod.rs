@@ -19,6 +19,7 @@
 //!   largest corrections, held axes and warnings).
 
 pub mod charts;
+pub mod columns;
 pub mod compensation;
 pub mod demo;
 pub mod iso230_2;

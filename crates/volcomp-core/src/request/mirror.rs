@@ -7,11 +7,15 @@ use super::option::{Input, Kind, OptionError, OptionInfo, Spelling, Value};
 use crate::compensate::{file_name, refuse_if_compensated, survey_style, HEAD_BYTES};
 use crate::io::provenance::{sha256_hex, HeaderWriter, ProgramHeader};
 use crate::surface::bspline::Parameterization;
-use crate::surface::mirror::report::{header_method, header_options, RunInputs};
+use crate::surface::mirror::report::{
+    compensated_surface_text, header_method, header_options, CompensatedSurfaceText, FinishingJson,
+    RunInputs, SurfaceFiles,
+};
 use crate::surface::mirror::{
     compensate_finishing, mirror, program_frame_offset, read_nominal, read_probe_points, BallTool,
-    ClPoint, DeviationField, FinishingOptions, FinishingSummary, FitMethod, MaterialSide,
-    MirrorError, MirrorOptions, MirrorResult, NominalFormat, NominalSurface, SurfaceModel,
+    ClPoint, CompensatedSurface, DeviationField, FinishingOptions, FinishingSummary, FitMethod,
+    MaterialSide, MirrorError, MirrorOptions, MirrorResult, NominalFormat, NominalSurface,
+    SurfaceModel,
 };
 use crate::Error;
 use std::io::{BufRead, Read, Write};
@@ -301,6 +305,19 @@ pub struct MirrorPlan {
     pub tool: Option<BallTool>,
     /// How the finishing program is written.
     pub finishing: FinishingOptions,
+}
+
+/// A run's outputs held in memory (for a front end that returns them
+/// rather than writing files): the compensated surface's files, and the
+/// compensated finishing program with its summary when one was given.
+pub struct MirrorOutputs {
+    /// The compensated surface's grid CSV and B-spline TOML text.
+    pub text: CompensatedSurfaceText,
+    /// How the summary names those files (`<surface_grid_csv>`, …).
+    pub surface: SurfaceFiles,
+    /// The compensated finishing program and its summary (named
+    /// `<program>`).
+    pub finishing: Option<(Vec<u8>, FinishingJson)>,
 }
 
 /// The nominal surface, the probe points' result and the inputs as the
@@ -599,5 +616,51 @@ impl MirrorRequest {
         w.finish()
             .map_err(|e| MirrorError::Program(crate::error::CompensationError::Io(e)))?;
         Ok(summary)
+    }
+
+    /// The run's outputs in memory ([`MirrorOutputs`]): the finishing
+    /// program (when given, with the tool) compensated and dated
+    /// `date_utc`, `spelling` naming options as the front end does.
+    pub fn outputs(
+        &self,
+        plan: &MirrorPlan,
+        run: &MirrorRun,
+        date_utc: impl FnOnce() -> String,
+        spelling: &dyn Spelling,
+    ) -> Result<MirrorOutputs, Error> {
+        let comp = CompensatedSurface {
+            nominal: &run.nominal,
+            field: &run.result.field,
+        };
+        let text = compensated_surface_text(&run.inputs, &comp, plan.grid_size)?;
+        let surface = SurfaceFiles {
+            grid: "<surface_grid_csv>".into(),
+            grid_nodes: text.grid_nodes,
+            bspline: "<surface_bspline_toml>".into(),
+            bspline_net: text.bspline_net,
+            bspline_error_um: text.bspline_error_um,
+        };
+        let finishing = match (&self.finishing, &plan.tool) {
+            (Some(f), Some(tool)) => {
+                let machine = self.machine.machine()?;
+                let (file, bytes) = (f.name(), f.bytes()?);
+                let frame = self.finishing_frame(&machine, bytes.as_ref(), &file)?;
+                let header =
+                    self.finishing_header(plan, tool, &machine, false, date_utc(), spelling)?;
+                let mut out = Vec::new();
+                let field = &run.result.field;
+                let program = (bytes.as_ref(), file.as_str());
+                let summary = self.compensate_finishing(
+                    plan, run, field, &machine, frame, program, &header, &mut out,
+                )?;
+                Some((out, FinishingJson::new("<program>", &summary)))
+            }
+            _ => None,
+        };
+        Ok(MirrorOutputs {
+            text,
+            surface,
+            finishing,
+        })
     }
 }

@@ -65,7 +65,7 @@ pub use thermal::{
     unit_symbol, Prediction, ThermalFit, ThermalFitRequest, ThermalPredictRequest,
     DEFAULT_BAND_SAMPLES, THERMAL_FIT_OPTIONS, THERMAL_PREDICT_OPTIONS,
 };
-pub use time::{TimeRequest, TIME_OPTIONS};
+pub use time::{Compensated, Simulated, TimeRequest, TIME_OPTIONS};
 
 pub use ballbar::{
     BallbarFitRequest, BallbarMapRequest, BallbarPredictRequest, BALLBAR_FIT_OPTIONS,

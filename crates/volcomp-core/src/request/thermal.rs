@@ -12,6 +12,7 @@ use crate::identify::thermal::uncertainty::{
     axis_line_bands_with_progress, band_samples_problem, LineBands,
 };
 use crate::identify::thermal::ThermalError;
+use crate::model::kinematic::KinematicModel;
 use crate::Error;
 
 /// Monte Carlo draws of the confidence bands when none are given.
@@ -408,6 +409,13 @@ impl ThermalPredictRequest {
 }
 
 impl Prediction {
+    /// The 21-component model of the moment, its tables sampled as the
+    /// thermal model file says.
+    pub fn model(&self, model: &ThermalModelFile) -> Result<KinematicModel, Error> {
+        let samples = model.table_samples.max(2);
+        Ok(model.poly_model()?.to_kinematic_model(&self.theta, samples))
+    }
+
     /// The 21-component model files of the moment: its TOML (naming the
     /// tables `tables`) and the tables' CSV.
     pub fn model_files(

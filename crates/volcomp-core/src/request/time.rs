@@ -6,10 +6,16 @@ use super::compensate::Compensation;
 use super::machine::{Machine, MachineRequest, MACHINE_OPTIONS};
 use super::option::{Input, Kind, OptionError, OptionInfo, Value};
 use super::simulate::SimulateRequest;
+use crate::compensate::{CompensateSummary, PointRecord};
+use crate::limits::LimitedWriter;
+use crate::model::ErrorModel;
 use crate::plan::{compare_programs, TimeComparison};
+use crate::simulate::report::SegmentError;
+use crate::simulate::SimReport;
 use crate::Error;
 use std::io::Read;
 use std::path::Path;
+use volcomp_gcode::Warning;
 
 /// The options of [`TimeRequest`] beside the machine's.
 pub const TIME_OPTIONS: &[OptionInfo] = &[OptionInfo::new(
@@ -105,12 +111,107 @@ impl SimulateRequest {
         if program.as_os_str() == "-" {
             return Ok(None);
         }
-        let t = TimeRequest {
+        let name = program.display().to_string();
+        let t = self.time_request();
+        t.run(machine, open(program)?, &name).map(Some)
+    }
+
+    /// The machining time of the simulated program and its reference.
+    pub fn time_request(&self) -> TimeRequest {
+        TimeRequest {
             machine: self.machine.clone(),
             reference: self.reference.clone(),
-        };
-        let name = program.display().to_string();
-        t.run(machine, open(program)?, &name).map(Some)
+        }
+    }
+
+    /// Simulates `program` (named `file`, held in memory) as
+    /// [`SimulateRequest::simulation`] does, keeping the warnings, the
+    /// measured commands when asked for, and the machining time.
+    pub fn run_in_memory(
+        &self,
+        model: &dyn ErrorModel,
+        machine: &Machine,
+        (program, file): (&[u8], &str),
+        keep_segments: bool,
+    ) -> Result<Simulated, Error> {
+        let (mut segments, mut warnings) = (Vec::new(), Vec::new());
+        let mut sim = self
+            .simulation(model, machine, file)?
+            .on_warning(|w| warnings.push(w.clone()));
+        if keep_segments {
+            sim = sim.on_segment(|s| segments.push(*s));
+        }
+        let report = sim.run(program)?;
+        let time = self.time_request().run(machine, program, file)?;
+        Ok(Simulated {
+            report,
+            segments,
+            warnings,
+            time,
+        })
+    }
+}
+
+/// A simulation run in memory ([`SimulateRequest::run_in_memory`]).
+pub struct Simulated {
+    /// The metrics.
+    pub report: SimReport,
+    /// The measured feed commands (when asked for).
+    pub segments: Vec<SegmentError>,
+    /// What the interpreter assumed.
+    pub warnings: Vec<Warning>,
+    /// The machining time of the program (and of the reference).
+    pub time: TimeComparison,
+}
+
+/// A compensation run in memory ([`Compensation::run_in_memory`]).
+pub struct Compensated {
+    /// The compensated program.
+    pub program: Vec<u8>,
+    /// What was done.
+    pub summary: CompensateSummary,
+    /// The per-point records (when asked for).
+    pub points: Vec<PointRecord>,
+    /// What the interpreter assumed.
+    pub warnings: Vec<Warning>,
+    /// The machining time of the compensated program beside the original's.
+    pub time: TimeComparison,
+}
+
+impl Compensation {
+    /// Compensates `program` (named `file`, held in memory) within the
+    /// output limit, keeping the warnings, the per-point records when asked
+    /// for, and the machining time of both programs.
+    pub fn run_in_memory(
+        &self,
+        model: &dyn ErrorModel,
+        (program, file): (&[u8], &str),
+        keep_points: bool,
+    ) -> Result<Compensated, Error> {
+        let (mut out, mut points, mut warnings) = (Vec::new(), Vec::new(), Vec::new());
+        let mut limited = LimitedWriter::new(&mut out, self.max_output_bytes);
+        let summary = self
+            .compensator(model, file)
+            .on_point(|p| {
+                if keep_points {
+                    points.push(*p);
+                }
+            })
+            .on_warning(|w| warnings.push(w.clone()))
+            .run(program, &mut limited)?;
+        let original = Some((Box::new(program) as Box<dyn Read + Send>, file));
+        let time = compare_programs(
+            (out.as_slice(), "<compensated>"),
+            original,
+            &self.machine.setup,
+        )?;
+        Ok(Compensated {
+            program: out,
+            summary,
+            points,
+            warnings,
+            time,
+        })
     }
 }
 

@@ -139,7 +139,10 @@ pub struct Flow {
     /// scope (the main program, or the subroutine being run) is bound to
     /// the line where it was first met; the same label on another line is
     /// "duplicate O-word label", and the closing words must find it.
-    labels: HashMap<(String, String), (Ctl, Pos)>,
+    labels: super::Map<String, super::Map<String, (Ctl, Pos)>>,
+    /// The labels of the main program's scope (most programs have no
+    /// other): [`Flow::labels`] without the lookup of the scope.
+    main_labels: super::Map<String, (Ctl, Pos)>,
     files: Vec<(String, Lines)>,
     /// Lines LinuxCNC generates and runs in place of the current one (the
     /// restore of an M73 at a return), run before the next line.
@@ -163,7 +166,8 @@ impl Flow {
             frames: Vec::new(),
             subs: HashMap::new(),
             subs_ahead: std::collections::HashSet::new(),
-            labels: HashMap::new(),
+            labels: super::Map::default(),
+            main_labels: super::Map::default(),
             files: Vec::new(),
             injected: std::collections::VecDeque::new(),
             dirs,
@@ -436,11 +440,14 @@ impl<R: BufRead> Walker<R> {
         }
     }
 
-    /// The key of `label` in [`Flow::labels`]: LinuxCNC prefixes a
-    /// control label with the name of the subroutine being run (`read_o`).
-    fn label_key(&self, label: &str) -> (String, String) {
-        let scope = self.flow.frames.last().map_or("", |f| f.name.as_str());
-        (scope.to_string(), label.to_string())
+    /// What `label` is bound to in the current scope: LinuxCNC prefixes a
+    /// control label with the name of the subroutine being run (`read_o`;
+    /// none, or an empty name: the main program's scope).
+    fn label_binding(&self, label: &str) -> Option<&(Ctl, Pos)> {
+        match self.flow.frames.last().filter(|f| !f.name.is_empty()) {
+            None => self.flow.main_labels.get(label),
+            Some(f) => self.flow.labels.get(&f.name).and_then(|m| m.get(label)),
+        }
     }
 
     /// Binds an opening label (`if`, `while`, `do`, `repeat`) to `pos` as
@@ -453,8 +460,7 @@ impl<R: BufRead> Walker<R> {
         ctl: Ctl,
         col: usize,
     ) -> Result<(), GcodeError> {
-        let key = self.label_key(label);
-        match self.flow.labels.get(&key) {
+        match self.label_binding(label) {
             // A `while` that closes a `do`, or a `do` met again.
             Some((found, _)) if ctl == Ctl::Do || (ctl == Ctl::While && *found == Ctl::Do) => {
                 Ok(())
@@ -472,7 +478,11 @@ impl<R: BufRead> Walker<R> {
             }
             Some(_) => Ok(()),
             None => {
-                self.flow.labels.insert(key, (ctl, pos));
+                let labels = match self.flow.frames.last().filter(|f| !f.name.is_empty()) {
+                    None => &mut self.flow.main_labels,
+                    Some(f) => self.flow.labels.entry(f.name.clone()).or_default(),
+                };
+                labels.insert(label.to_string(), (ctl, pos));
                 Ok(())
             }
         }
@@ -487,7 +497,7 @@ impl<R: BufRead> Walker<R> {
         opening: &[Ctl],
         col: usize,
     ) -> Result<(), GcodeError> {
-        match self.flow.labels.get(&self.label_key(label)) {
+        match self.label_binding(label) {
             None => Err(self.at_current(
                 format!(
                     "`o{} {keyword}` has no open block with its label: LinuxCNC refuses it (\"undefined O-word label\")",
@@ -514,49 +524,54 @@ impl<R: BufRead> Walker<R> {
     }
 
     /// Runs one o-word statement at `pos`.
-    pub(crate) fn control(&mut self, pos: Pos, mut o: OWord) -> Result<(), GcodeError> {
-        if let Some((e, col)) = o.label_expr.take() {
-            // `read_o`: `read_integer_value` of the label's value.
-            let v = self.eval_at(&e)?;
-            o.label = to_integer(v, col)
-                .map_err(|err| self.expr_error(pos, err))?
-                .to_string();
-        }
-        let label = o.label.clone();
+    pub(crate) fn control(&mut self, pos: Pos, o: &OWord) -> Result<(), GcodeError> {
+        // speed lane: the statement is borrowed (no copy of its
+        // expressions per pass of a loop).
+        let evaluated;
+        let label: &str = match &o.label_expr {
+            Some((e, col)) => {
+                // `read_o`: `read_integer_value` of the label's value.
+                let v = self.eval_at(e)?;
+                evaluated = to_integer(v, *col)
+                    .map_err(|err| self.expr_error(pos, err))?
+                    .to_string();
+                &evaluated
+            }
+            None => &o.label,
+        };
         let col = o.col;
         let keyword = o.kind.keyword();
         match &o.kind {
-            OKind::Do => self.bind_label(pos, &label, Ctl::Do, col)?,
-            OKind::While(_) => self.bind_label(pos, &label, Ctl::While, col)?,
-            OKind::Repeat(_) => self.bind_label(pos, &label, Ctl::Repeat, col)?,
-            OKind::If(_) => self.bind_label(pos, &label, Ctl::If, col)?,
+            OKind::Do => self.bind_label(pos, label, Ctl::Do, col)?,
+            OKind::While(_) => self.bind_label(pos, label, Ctl::While, col)?,
+            OKind::Repeat(_) => self.bind_label(pos, label, Ctl::Repeat, col)?,
+            OKind::If(_) => self.bind_label(pos, label, Ctl::If, col)?,
             OKind::Elseif(_) | OKind::Else | OKind::Endif => {
-                self.check_label(&label, keyword, &[Ctl::If], col)?
+                self.check_label(label, keyword, &[Ctl::If], col)?
             }
             OKind::Break | OKind::Continue => {
-                self.check_label(&label, keyword, &[Ctl::While, Ctl::Do], col)?
+                self.check_label(label, keyword, &[Ctl::While, Ctl::Do], col)?
             }
-            OKind::Endwhile => self.check_label(&label, keyword, &[Ctl::While], col)?,
-            OKind::Endrepeat => self.check_label(&label, keyword, &[Ctl::Repeat], col)?,
+            OKind::Endwhile => self.check_label(label, keyword, &[Ctl::While], col)?,
+            OKind::Endrepeat => self.check_label(label, keyword, &[Ctl::Repeat], col)?,
             OKind::Sub => {
-                if self.flow.subs.get(&label) == Some(&pos) && self.flow.subs_ahead.contains(&label)
-                {
+                if self.flow.subs.get(label) == Some(&pos) && self.flow.subs_ahead.contains(label) {
                     return Err(self.at_current(
                         format!(
                             "the definition of subroutine o{} is reached in sequence after a call found it further on: LinuxCNC refuses it here (\"sub: o|{}| found in illegal location\")",
-                            show_label(&label),
+                            show_label(label),
                             label
                         ),
                         "end the main program (M2 or M30) before the subroutine definitions, or define the subroutine before its first call",
                         col,
                     ));
                 }
-                if let Some(at) = self.flow.subs.get(&label).filter(|at| **at != pos) {
+                if let Some(at) = self.flow.subs.get(label).filter(|at| **at != pos) {
                     let at = at.line + 1;
                     return Err(self.at_current(
                         format!(
                             "subroutine o{} is already defined on line {at}: LinuxCNC refuses a second definition (\"redefining sub\")",
-                            show_label(&label)
+                            show_label(label)
                         ),
                         "give the subroutine another name, or remove one definition",
                         col,
@@ -565,11 +580,11 @@ impl<R: BufRead> Walker<R> {
             }
             _ => {}
         }
-        match o.kind {
+        match &o.kind {
             OKind::Sub => {
                 // Met in sequence: a definition. Record it, skip its body.
-                self.flow.subs.insert(label.clone(), pos);
-                match self.skip_to(pos, &label, &["endsub"])? {
+                self.flow.subs.insert(label.to_string(), pos);
+                match self.skip_to(pos, label, &["endsub"])? {
                     Some((end, _)) => self.flow.pos = end.next(),
                     None if pos.src == MAIN && self.flow.frames.is_empty() => {
                         // LinuxCNC skips to the end of the file looking for
@@ -578,22 +593,22 @@ impl<R: BufRead> Walker<R> {
                         // this line included.
                         let what = format!(
                             "subroutine o{} has no `o{} endsub`: LinuxCNC skips from here to the end of the file looking for it, runs none of it",
-                            show_label(&label),
-                            show_label(&label)
+                            show_label(label),
+                            show_label(label)
                         );
                         self.interp
                             .end_of_file_reached(pos.line as u64 + 1, col + 1, &what);
                         self.after_end_at = Some(pos.line);
                     }
                     None => {
-                        self.require_skip(pos, &label, &["endsub"], col)?;
+                        self.require_skip(pos, label, &["endsub"], col)?;
                     }
                 }
             }
             OKind::Endsub(v) | OKind::Return(v) => {
                 let Some(frame) = self.flow.frames.last() else {
                     return Err(self.at_current(
-                        format!("`o{} {}` outside a subroutine", show_label(&label), keyword),
+                        format!("`o{} {}` outside a subroutine", show_label(label), keyword),
                         "end a subroutine only inside its definition (o… sub … o… endsub)",
                         col,
                     ));
@@ -605,7 +620,7 @@ impl<R: BufRead> Walker<R> {
                         col,
                     ));
                 }
-                let value = match &v {
+                let value = match v {
                     Some(e) => Some(self.eval_at(e)?),
                     None => None,
                 };
@@ -621,7 +636,7 @@ impl<R: BufRead> Walker<R> {
             }
             OKind::Call(args) => {
                 let mut values = Vec::with_capacity(args.len());
-                for a in &args {
+                for a in args {
                     values.push(self.eval_at(a)?);
                 }
                 if self.flow.frames.len() >= MAX_CALL_DEPTH {
@@ -633,11 +648,11 @@ impl<R: BufRead> Walker<R> {
                         col,
                     ));
                 }
-                let target = self.find_sub(pos, &label, col)?;
+                let target = self.find_sub(pos, label, col)?;
                 self.flow.params.push_call(&values);
                 self.interp.enter_call();
                 self.flow.frames.push(Frame {
-                    name: label,
+                    name: label.to_string(),
                     ret: pos.next(),
                     loops: Vec::new(),
                     fanuc: None,
@@ -646,28 +661,34 @@ impl<R: BufRead> Walker<R> {
             }
             OKind::Do => {
                 self.flow.loops_mut().push(Loop {
-                    label,
+                    label: label.to_string(),
                     kind: LoopKind::Do,
                     start: pos,
                     remaining: 0,
                 });
             }
             OKind::While(c) => {
-                let top = self.flow.loops_mut().last().cloned();
+                // The innermost loop: whether it has this label, its kind, its line.
+                let top = self
+                    .flow
+                    .loops_mut()
+                    .last()
+                    .map(|l| (l.label == label, l.kind, l.start));
                 match top {
-                    Some(l) if l.label == label && l.kind == LoopKind::Do => {
-                        if self.eval_at(&c)? != 0.0 {
-                            self.flow.pos = l.start.next();
+                    Some((true, LoopKind::Do, start)) => {
+                        if self.eval_at(c)? != 0.0 {
+                            self.flow.pos = start.next();
                         } else {
                             self.flow.loops_mut().pop();
                         }
                     }
                     _ => {
-                        let reentry = matches!(&top, Some(l) if l.label == label && l.kind == LoopKind::While && l.start == pos);
-                        if self.eval_at(&c)? != 0.0 {
+                        let reentry =
+                            matches!(top, Some((true, LoopKind::While, start)) if start == pos);
+                        if self.eval_at(c)? != 0.0 {
                             if !reentry {
                                 self.flow.loops_mut().push(Loop {
-                                    label,
+                                    label: label.to_string(),
                                     kind: LoopKind::While,
                                     start: pos,
                                     remaining: 0,
@@ -677,14 +698,14 @@ impl<R: BufRead> Walker<R> {
                             if reentry {
                                 self.flow.loops_mut().pop();
                             }
-                            let (end, _) = self.require_skip(pos, &label, &["endwhile"], col)?;
+                            let (end, _) = self.require_skip(pos, label, &["endwhile"], col)?;
                             self.flow.pos = end.next();
                         }
                     }
                 }
             }
             OKind::Endwhile => {
-                let i = self.find_loop(&label, Some(LoopKind::While), "endwhile", col)?;
+                let i = self.find_loop(label, Some(LoopKind::While), "endwhile", col)?;
                 let start = self.flow.loops_mut()[i].start;
                 self.flow.loops_mut().truncate(i + 1);
                 self.flow.pos = start;
@@ -692,21 +713,21 @@ impl<R: BufRead> Walker<R> {
             OKind::Repeat(n) => {
                 // LinuxCNC counts `round_to_int(test_value)` passes
                 // (interp_o_word.cc, O_repeat): half to even, 2.5 → 2.
-                let count = round_to_int(self.eval_at(&n)?);
+                let count = round_to_int(self.eval_at(n)?);
                 if count > 0 {
                     self.flow.loops_mut().push(Loop {
-                        label,
+                        label: label.to_string(),
                         kind: LoopKind::Repeat,
                         start: pos,
                         remaining: count - 1,
                     });
                 } else {
-                    let (end, _) = self.require_skip(pos, &label, &["endrepeat"], col)?;
+                    let (end, _) = self.require_skip(pos, label, &["endrepeat"], col)?;
                     self.flow.pos = end.next();
                 }
             }
             OKind::Endrepeat => {
-                let i = self.find_loop(&label, Some(LoopKind::Repeat), "endrepeat", col)?;
+                let i = self.find_loop(label, Some(LoopKind::Repeat), "endrepeat", col)?;
                 let loops = self.flow.loops_mut();
                 loops.truncate(i + 1);
                 if loops[i].remaining > 0 {
@@ -718,41 +739,41 @@ impl<R: BufRead> Walker<R> {
                 }
             }
             OKind::If(c) => {
-                if self.eval_at(&c)? == 0.0 {
-                    self.if_false(pos, &label, col)?;
+                if self.eval_at(c)? == 0.0 {
+                    self.if_false(pos, label, col)?;
                 }
             }
             OKind::Elseif(_) | OKind::Else => {
                 // Met in sequence: the branch before it ran.
-                let (end, _) = self.require_skip(pos, &label, &["endif"], col)?;
+                let (end, _) = self.require_skip(pos, label, &["endif"], col)?;
                 self.flow.pos = end.next();
             }
             // A Fanuc-style program start: execution runs on.
             OKind::Endif | OKind::Program => {}
             OKind::Break => {
-                let i = self.find_loop(&label, None, "break", col)?;
+                let i = self.find_loop(label, None, "break", col)?;
                 let l = self.flow.loops_mut()[i].clone();
                 let kw = match l.kind {
                     LoopKind::While => "endwhile",
                     LoopKind::Repeat => "endrepeat",
                     LoopKind::Do => "while",
                 };
-                let (end, _) = self.require_skip(pos, &label, &[kw], col)?;
+                let (end, _) = self.require_skip(pos, label, &[kw], col)?;
                 self.flow.loops_mut().truncate(i);
                 self.flow.pos = end.next();
             }
             OKind::Continue => {
-                let i = self.find_loop(&label, None, "continue", col)?;
+                let i = self.find_loop(label, None, "continue", col)?;
                 let l = self.flow.loops_mut()[i].clone();
                 self.flow.loops_mut().truncate(i + 1);
                 match l.kind {
                     LoopKind::While => self.flow.pos = l.start,
                     LoopKind::Repeat => {
-                        let (end, _) = self.require_skip(pos, &label, &["endrepeat"], col)?;
+                        let (end, _) = self.require_skip(pos, label, &["endrepeat"], col)?;
                         self.flow.pos = end;
                     }
                     LoopKind::Do => {
-                        let (end, _) = self.require_skip(pos, &label, &["while"], col)?;
+                        let (end, _) = self.require_skip(pos, label, &["while"], col)?;
                         self.flow.pos = end;
                     }
                 }

@@ -372,6 +372,9 @@ fn parse_oword(n: &Norm, mut p: Parser) -> Result<OWord, ExprError> {
 /// shortest representation that round-trips, never with an exponent.
 pub fn format_value(v: f64, out: &mut Vec<u8>) {
     let v = if v == 0.0 { 0.0 } else { v };
+    if shortest_positional(v, out) {
+        return;
+    }
     let mut text = ShortText::default();
     if std::fmt::Write::write_fmt(&mut text, format_args!("{v}")).is_ok() {
         out.extend_from_slice(&text.bytes[..text.len]);
@@ -384,16 +387,138 @@ pub fn format_value(v: f64, out: &mut Vec<u8>) {
     }
 }
 
+/// Most characters [`format_value`] writes positionally (what its stack
+/// buffer holds); longer values take the 15-decimal path.
+const SHORT_TEXT_BYTES: usize = 40;
+
+/// `v` as `{v}` writes it (the shortest digits that read back the same,
+/// laid out without an exponent) when that fits [`SHORT_TEXT_BYTES`]:
+/// the digits from `ryu` (the same shortest, closest digits as the
+/// standard library's Grisu/Dragon, several times faster), placed here.
+/// `false`, having written nothing, for non-finite or longer values and
+/// where the two could differ: when two shortest candidates are equally
+/// close, `ryu` takes the even one and `{}` the larger.
+fn shortest_positional(v: f64, out: &mut Vec<u8>) -> bool {
+    if !v.is_finite() || may_tie(v) {
+        return false;
+    }
+    let mut buf = ryu::Buffer::new();
+    let text = buf.format_finite(v).as_bytes();
+    let (negative, text) = match text.split_first() {
+        Some((b'-', rest)) => (true, rest),
+        _ => (false, text),
+    };
+    // `d.ddde±x`, `ddd.ddd` or `0.000ddd`: at most 17 significant digits
+    // and 5 leading zeros.
+    let mut digits = [0u8; 32];
+    let mut n = 0;
+    let mut point = None;
+    let mut exponent: i32 = 0;
+    for (i, &b) in text.iter().enumerate() {
+        match b {
+            b'0'..=b'9' if n < digits.len() => {
+                digits[n] = b;
+                n += 1;
+            }
+            b'.' => point = Some(n),
+            b'e' => {
+                let Some(e) = std::str::from_utf8(&text[i + 1..])
+                    .ok()
+                    .and_then(|t| t.parse().ok())
+                else {
+                    return false;
+                };
+                exponent = e;
+                break;
+            }
+            _ => return false,
+        }
+    }
+    // The decimal point stands `at` digits after the first digit.
+    let mut at = point.unwrap_or(n) as i32 + exponent;
+    let mut first = 0;
+    while first < n && digits[first] == b'0' {
+        first += 1;
+        at -= 1;
+    }
+    let mut last = n;
+    while last > first && digits[last - 1] == b'0' {
+        last -= 1;
+    }
+    if first == last {
+        out.push(b'0');
+        return true;
+    }
+    let d = &digits[first..last];
+    let count = d.len() as i32;
+    let len = i32::from(negative)
+        + if at <= 0 {
+            2 - at + count
+        } else if at >= count {
+            at
+        } else {
+            count + 1
+        };
+    if len > SHORT_TEXT_BYTES as i32 {
+        return false;
+    }
+    if negative {
+        out.push(b'-');
+    }
+    if at <= 0 {
+        out.extend_from_slice(b"0.");
+        out.resize(out.len() + (-at) as usize, b'0');
+        out.extend_from_slice(d);
+    } else if at >= count {
+        out.extend_from_slice(d);
+        out.resize(out.len() + (at - count) as usize, b'0');
+    } else {
+        out.extend_from_slice(&d[..at as usize]);
+        out.push(b'.');
+        out.extend_from_slice(&d[at as usize..]);
+    }
+    true
+}
+
+/// Whether two shortest decimal candidates of `v` can be equally close:
+/// only when `v`'s exact decimal expansion ends in a 5 one digit after
+/// the shortest (at most 17 significant digits), so when that expansion
+/// has at most 18 significant digits. `v = m·2^e` (m odd): for `e < 0` it
+/// has the significant digits of `m·5^−e`; integers below 2^53 need all
+/// their digits (no shorter candidate), larger ones are left to `{}`.
+fn may_tie(v: f64) -> bool {
+    let bits = v.to_bits();
+    let biased = ((bits >> 52) & 0x7ff) as i32;
+    let fraction = bits & ((1u64 << 52) - 1);
+    let (mut m, mut e) = if biased == 0 {
+        (fraction, -1074)
+    } else {
+        (fraction | (1u64 << 52), biased - 1075)
+    };
+    if m == 0 {
+        return true;
+    }
+    let zeros = m.trailing_zeros();
+    m >>= zeros;
+    e += zeros as i32;
+    if e >= 0 {
+        return v.abs() >= 9_007_199_254_740_992.0;
+    }
+    let k = e.unsigned_abs();
+    // 5^27 > 10^18: more than 18 digits whatever `m`.
+    k <= 26 && u128::from(m) * 5u128.pow(k) < 10u128.pow(18)
+}
+
 /// Up to 40 bytes of text on the stack; writing more fails.
 struct ShortText {
-    bytes: [u8; 40],
+    bytes: [u8; SHORT_TEXT_BYTES],
     len: usize,
 }
 
 impl Default for ShortText {
     fn default() -> Self {
         Self {
-            bytes: [0; 40],
+            bytes: [0; SHORT_TEXT_BYTES],
             len: 0,
         }
     }
@@ -513,10 +638,11 @@ impl Lookup for Declared<'_> {
     }
 
     fn named(&self, name: &str, col: usize) -> Result<f64, ExprError> {
-        if !self.inner.exists(name) && self.declared(name) {
-            return Ok(0.0);
+        // One lookup: a name that reads is one that exists.
+        match self.inner.named(name, col) {
+            Err(_) if self.declared(name) => Ok(0.0),
+            r => r,
         }
-        self.inner.named(name, col)
     }
 
     fn exists(&self, name: &str) -> bool {

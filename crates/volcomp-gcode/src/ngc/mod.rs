@@ -23,5 +23,11 @@ pub mod norm;
 pub mod params;
 pub mod source;
 
+/// A hash map with a fast seeded hasher (foldhash): parameter names,
+/// control labels and cached statements are looked up on every executed
+/// line of a loop, where std's SipHash cost a tenth of the time; the
+/// random seed keeps crafted names from colliding by design.
+pub(crate) type Map<K, V> = std::collections::HashMap<K, V, foldhash::fast::RandomState>;
+
 #[cfg(test)]
 mod tests;

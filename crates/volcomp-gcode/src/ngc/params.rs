@@ -15,15 +15,15 @@
 //! subroutine return; `#<_call_level>` the depth of calls.
 
 use super::expr::{ExprError, Lookup, MAX_PARAMETERS};
+use super::Map;
 use crate::interp::Unanswerable;
 use crate::Interpreter;
-use std::collections::HashMap;
 
 /// The parameters of a running program.
 #[derive(Debug, Clone)]
 pub struct Params {
     numbered: Vec<f64>,
-    globals: HashMap<String, f64>,
+    globals: Map<String, f64>,
     /// One frame per call level: the caller's #1–#30 and the locals.
     frames: Vec<Frame>,
     /// `#<_value>`.
@@ -35,7 +35,7 @@ pub struct Params {
 #[derive(Debug, Clone, Default)]
 struct Frame {
     saved: [f64; 30],
-    locals: HashMap<String, f64>,
+    locals: Map<String, f64>,
 }
 
 impl Default for Params {
@@ -45,7 +45,7 @@ impl Default for Params {
         numbered[5599] = 1.0;
         Self {
             numbered,
-            globals: HashMap::new(),
+            globals: Map::default(),
             frames: vec![Frame::default()],
             value: 0.0,
             value_returned: false,
@@ -110,7 +110,7 @@ impl Params {
         }
         self.frames.push(Frame {
             saved,
-            locals: HashMap::new(),
+            locals: Map::default(),
         });
     }
 

@@ -360,3 +360,62 @@ fn rendered_values_are_the_shortest_round_trip_without_exponent() {
     assert_eq!(text(1e-45), "0");
     assert_eq!(text(1e40), "10000000000000000303786028427003666890752");
 }
+
+/// The fast writer of computed values against the standard library's
+/// `{}` (the reference: the same text, shortest round-trip digits, no
+/// exponent) on random bit patterns and on values a program computes.
+#[test]
+fn rendered_values_match_the_standard_formatter() {
+    let text = |v: f64| {
+        let mut out = Vec::new();
+        super::line::format_value(v, &mut out);
+        String::from_utf8(out).unwrap()
+    };
+    let reference = |v: f64| {
+        let v = if v == 0.0 { 0.0 } else { v };
+        let s = format!("{v}");
+        (s.len() <= 40).then_some(s)
+    };
+    let mut x = 0x2545_f491_4f6c_dd1du64;
+    let mut next = move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x
+    };
+    let mut checked = 0;
+    for i in 0..300_000u64 {
+        let r = next();
+        let v = match i % 5 {
+            0 => f64::from_bits(r),
+            1 => (r % 2_000_000) as f64 * 0.001 - 1000.0,
+            2 => ((r % 100_000) as f64 * 0.01).sin() * 50.0,
+            // Few binary fraction digits: where two shortest candidates
+            // can be equally close (`0x430567a485f3fa62`: `…540.3`).
+            3 => (r >> (11 + r % 8)) as f64 / 8.0,
+            _ => (r >> 11) as f64 / (1u64 << 53) as f64 * 10f64.powi((r % 40) as i32 - 20),
+        };
+        if let Some(s) = reference(v) {
+            assert_eq!(text(v), s, "{v:e} ({:#x})", v.to_bits());
+            checked += 1;
+        }
+    }
+    assert!(checked > 200_000, "{checked}");
+    for v in [
+        1e-5,
+        1e-6,
+        1e15,
+        1e16,
+        1e17,
+        123456.0,
+        0.5,
+        -0.001,
+        5e-324,
+        f64::MAX,
+        f64::from_bits(0x4305_67a4_85f3_fa62),
+    ] {
+        if let Some(s) = reference(v) {
+            assert_eq!(text(v), s, "{v:e}");
+        }
+    }
+}

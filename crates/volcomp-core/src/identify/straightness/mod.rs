@@ -234,6 +234,9 @@ pub const KIND: &str = "straightness";
 /// The format version written.
 pub const FORMAT_VERSION: u32 = 1;
 
+/// Positions (mm) and the values there.
+pub type Samples = (Vec<f64>, Vec<f64>);
+
 impl StraightnessModel {
     /// The model of one axis.
     pub fn axis(&self, axis: Axis) -> Option<&AxisModel> {
@@ -248,6 +251,18 @@ impl StraightnessModel {
             Axis::X => self.beta_zx_urad,
             Axis::Y => self.alpha_yz_urad,
         }
+    }
+
+    /// [`Self::axis_part_um`] at `n` evenly spaced positions over the
+    /// axis' measured range, as (positions, values); `None` for an axis
+    /// not in the model.
+    pub fn sampled_axis_part(&self, axis: Axis, n: usize) -> Option<Result<Samples, ModelError>> {
+        let [lo, hi] = self.axis(axis)?.range_mm;
+        let p: Vec<f64> = (0..n)
+            .map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64)
+            .collect();
+        let e: Result<Vec<f64>, _> = p.iter().map(|&x| self.axis_part_um(axis, x)).collect();
+        Some(e.map(|e| (p, e)))
     }
 
     /// The part of `e_z` that depends on one axis: `e_z(x) + β_zx·x` for X,
