@@ -15,14 +15,17 @@ use volcomp_core::example::probe::{
 };
 use volcomp_core::identify::probe::artifact::{parse_artifact, Artifact};
 use volcomp_core::identify::probe::identify::{
-    fit_and_identify, Identified, IdentifyOptions, Status,
+    fit_and_identify, leave_one_out, Identified, IdentifyOptions, Status,
 };
 use volcomp_core::identify::probe::monte_carlo;
 use volcomp_core::identify::probe::plan::plan;
 use volcomp_core::identify::probe::program::Frame;
+use volcomp_core::identify::probe::request::FitOutput;
 use volcomp_core::identify::probe::result::{kinematic_model, reversal, rms_modulo_rigid};
+use volcomp_core::io::numfmt::fixed;
 use volcomp_core::io::probe_log::{read_linuxcnc_log, Touch};
 use volcomp_core::model::{Components, Direction, ErrorModel};
+use volcomp_core::report::{Block, Table};
 use volcomp_core::rng::Rng;
 use volcomp_gcode::Vec3;
 
@@ -140,6 +143,7 @@ struct Outcome {
     reversal_z: f64,
     reversal: [Option<volcomp_core::identify::probe::fit::Estimate>; 3],
     id: Identified,
+    fitted: volcomp_core::identify::probe::fit::Fitted,
     /// (identified − truth) / σ of every identified parameter not skipped.
     zs: Vec<f64>,
 }
@@ -208,6 +212,7 @@ fn evaluate(c: &Campaign, o: &IdentifyOptions, skip: &[&str]) -> Outcome {
         reversal_z,
         reversal: rev,
         id,
+        fitted,
         zs,
     }
 }
@@ -302,6 +307,54 @@ fn the_example_campaign_identifies_the_machine_within_its_uncertainty() {
             other => panic!("{}: {other:?}", p.name),
         }
     }
+    // The report shows both beside the σ it took, and the
+    // leave-one-placement-out predictions.
+    let held_out = leave_one_out(&c.artifacts, &r.fitted, &options()).unwrap();
+    assert_eq!(held_out.len(), 8);
+    let reversal_um = reversal(&r.fitted);
+    let out = FitOutput {
+        artifacts: c.artifacts.clone(),
+        touches: c.touches.clone(),
+        model: kinematic_model(&id, &reversal_um),
+        fitted: r.fitted.clone(),
+        identified: id.clone(),
+        reversal_um,
+        held_out: held_out.clone(),
+    };
+    let sections = volcomp_core::report::probe::sections(&out, RANGES_MM);
+    let table = |id: &str| -> Table {
+        sections
+            .iter()
+            .find(|s| s.id == id)
+            .and_then(|s| {
+                s.blocks.iter().find_map(|b| match b {
+                    Block::Table(t) => Some(t.clone()),
+                    _ => None,
+                })
+            })
+            .unwrap_or_else(|| panic!("no table in {id}"))
+    };
+    let t = table("probe-parameters");
+    assert_eq!(t.headers[3], "least squares");
+    assert_eq!(t.headers[4], "Monte Carlo (10 repeats)");
+    for (p, row) in id.params.iter().zip(&t.rows) {
+        let i = id.params.iter().position(|q| q.name == p.name).unwrap();
+        assert_eq!(row[0], p.name);
+        if let Status::Identified(e) = p.status {
+            let (ls, m) = (mc.least_squares[i].unwrap(), mc.sigma[i].unwrap());
+            assert_eq!(row[2], fixed(e.sigma, 3));
+            assert_eq!(row[3], fixed(ls, 3));
+            assert_eq!(row[4], fixed(m, 3));
+        } else {
+            assert_eq!(&row[3..5], ["–", "–"]);
+        }
+    }
+    let t = table("probe-held-out");
+    for (h, row) in held_out.iter().zip(&t.rows) {
+        assert_eq!(row[1], h.placement);
+        assert_eq!(row[3], fixed(h.after_um, 3));
+        assert!(h.after_um < h.before_um, "{}: {h:?}", h.placement);
+    }
 }
 
 #[test]
@@ -382,41 +435,59 @@ fn without_a_calibrated_length_the_common_scale_is_the_artifacts() {
     );
 }
 
+/// Touches without noise (0.001 µm) on machine 1 with the reference
+/// sphere, the uncalibrated plate and the gauge: the probe calibration and
+/// every identified parameter come out as the truth put them. A certificate
+/// (the gauge's, 0.1 µm) then weighs 0.01 of a touch; before the
+/// identifiable subspace was decided with certificates weighing at least one
+/// touch, the common scale (seen through the gauge alone) fell below the
+/// relative threshold in every other pass, the field taken out of the
+/// reference sphere lost 46 µm/m of scale, and the calibration came out
+/// 2.0 µm small in tip radius and 1.0–1.4 µm in pre-travel.
 #[test]
-#[ignore]
-fn diagnostic_noiseless() {
-    for texts in [all_texts(), vec![REFERENCE.to_string(), plate_toml()]] {
-        let c = campaign(1, 0.001, &texts);
-        let (fitted, id) = fit_and_identify(&c.artifacts, &c.touches, &options()).unwrap();
-        println!("cal {:?}", fitted.calibrations[0].reversal_um);
-        println!(
-            "truth rev {:?} pre {:?} tip {}",
-            c.machine.reversal_um, c.machine.pretravel_um, c.machine.tip_radius_mm
-        );
-        println!(
-            "cal pre {:?} tip {:?}",
-            fitted.calibrations[0].pretravel_um, fitted.calibrations[0].tip_radius_mm
-        );
-        let truth = projected_truth(&c.machine, &id);
-        let names: Vec<String> = id.model.params.iter().map(|p| p.name()).collect();
-        for p in &id.params {
-            if let (Status::Identified(e), Some(i)) =
-                (p.status, names.iter().position(|n| *n == p.name))
-            {
-                println!(
-                    "{:8} {:10.4} truth {:10.4} diff {:8.4} σ {:.4}",
-                    p.name,
-                    e.value,
-                    truth[i],
-                    e.value - truth[i],
-                    e.sigma
-                );
-            }
+fn noiseless_touches_calibrate_the_probe_and_the_machine_exactly() {
+    let c = campaign(1, 0.001, &all_texts());
+    let (fitted, id) = fit_and_identify(&c.artifacts, &c.touches, &options()).unwrap();
+    let cal = &fitted.calibrations[0];
+    let m = &c.machine;
+    let tip_um = (cal.tip_radius_mm.value - m.tip_radius_mm) * 1e3;
+    println!("tip radius off by {tip_um:.4} µm");
+    assert!(tip_um.abs() < 0.01, "tip radius off by {tip_um} µm");
+    for (k, (e, truth)) in cal.pretravel_um.iter().zip(m.pretravel_um).enumerate() {
+        if let Some(e) = e {
+            assert!(
+                (e.value - truth).abs() < 0.01,
+                "pre-travel {k}: {} vs {truth}",
+                e.value
+            );
         }
-        println!("combinations {:?}", id.combinations);
-        println!("null {:?}", id.ident.null_space);
-        println!("sv {:?}", id.ident.singular_values);
     }
+    for (e, truth) in cal.reversal_um.iter().zip(m.reversal_um) {
+        let e = e.unwrap();
+        assert!(
+            (e.value - truth).abs() < 0.01,
+            "reversal {} vs {truth}",
+            e.value
+        );
+    }
+    let truth = projected_truth(m, &id);
+    let names: Vec<String> = id.model.params.iter().map(|p| p.name()).collect();
+    let mut identified = 0;
+    for p in &id.params {
+        if let (Status::Identified(e), Some(i)) =
+            (p.status, names.iter().position(|n| *n == p.name))
+        {
+            identified += 1;
+            assert!(
+                (e.value - truth[i]).abs() < 0.05,
+                "{}: {} vs {}",
+                p.name,
+                e.value,
+                truth[i]
+            );
+        }
+    }
+    assert_eq!(identified, 25);
 }
 
 #[test]
@@ -444,22 +515,6 @@ fn diagnostic_calibration_z_scores() {
         sd(&zs[2]),
         sd(&zp)
     );
-}
-
-#[test]
-#[ignore]
-fn diagnostic_seed1() {
-    use volcomp_core::identify::probe::fit::fit_touches;
-    let c = campaign(1, 0.3, &all_texts());
-    let f = fit_touches(&c.artifacts, &c.touches, None).unwrap();
-    println!(
-        "no field: {:?}\n truth {:?}",
-        f.calibrations[0].reversal_um, c.machine.reversal_um
-    );
-    println!("resid {:?}", f.calibrations[0].residuals_um);
-    let c1 = campaign(1, 0.3, &[REFERENCE.to_string()]);
-    let f1 = fit_touches(&c1.artifacts, &c1.touches, None).unwrap();
-    println!("ref alone: {:?}", f1.calibrations[0].reversal_um);
 }
 
 /// Per parameter over repeated noise draws of one machine: mean z, RMS z,
@@ -576,4 +631,78 @@ fn ideal_centres(c: &Campaign, fitted: &mut volcomp_core::identify::probe::fit::
         let n = l * nalgebra::Vector3::new(rng.normal(), rng.normal(), rng.normal());
         s.centre_mm = truth - e * 1e-3 + Vec3::new(n[0], n[1], n[2]) * 1e-3;
     }
+}
+
+/// Machines of the held-out class drawn with seeds no other test uses
+/// (reference sphere, uncalibrated plate with 1–3 µm errors, gauge; noise
+/// 0.3–0.5 µm per machine; `HO_DRAWS` campaigns of artifact and noise per
+/// machine, `HO_SEEDS` a comma list): per machine the compensated share at
+/// held-out points, the largest |error|/σ and the share of parameters
+/// beyond 3 σ; over all campaigns the factor σ would need to be inflated by
+/// to put every parameter of every campaign within 3 σ (docs/probing.md,
+/// "Uncertainty budget").
+#[test]
+#[ignore]
+fn measure_held_out_like_machines() {
+    let seeds: Vec<u64> = std::env::var("HO_SEEDS")
+        .ok()
+        .map(|v| v.split(',').filter_map(|s| s.trim().parse().ok()).collect())
+        .unwrap_or_else(|| vec![31, 47, 58, 64, 73, 89]);
+    let draws: u64 = std::env::var("HO_DRAWS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(10);
+    let mut worst_all = Vec::new();
+    let mut z_all = Vec::new();
+    for seed in seeds {
+        let noise = 0.3 + 0.2 * Rng::new(seed * 7919).uniform();
+        let (mut removal, mut worst, mut zs) = (Vec::new(), Vec::new(), Vec::new());
+        for d in 0..draws {
+            let c = campaign2(seed, 1000 * seed + d, noise, &all_texts());
+            let r = evaluate(&c, &options(), &[]);
+            let mut ns = r.not_seen.clone();
+            ns.sort();
+            assert_eq!(ns, invisible(), "seed {seed} draw {d}");
+            assert_eq!(r.identified, 25);
+            removal.push(100.0 * (1.0 - r.after_um / r.before_um));
+            worst.push(r.worst_z.0);
+            zs.extend(r.zs.iter().copied());
+        }
+        let n = draws as f64;
+        let beyond = zs.iter().filter(|z| **z > 3.0).count();
+        let rms = (zs.iter().map(|z| z * z).sum::<f64>() / zs.len() as f64).sqrt();
+        let min = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
+        println!(
+            "seed {seed} noise {noise:.2} µm: removed {:.0}…{:.0} % (mean {:.0}); max |z| {:.2} (median over campaigns {:.2}); campaigns with a parameter beyond 3 σ {}/{draws}; parameters beyond 3 σ {beyond}/{} ({:.1} %); RMS z {rms:.3}",
+            min(&removal),
+            max(&removal),
+            removal.iter().sum::<f64>() / n,
+            max(&worst),
+            {
+                let mut w = worst.clone();
+                w.sort_by(f64::total_cmp);
+                w[w.len() / 2]
+            },
+            worst.iter().filter(|w| **w > 3.0).count(),
+            zs.len(),
+            100.0 * beyond as f64 / zs.len() as f64
+        );
+        assert!(min(&removal) >= 80.0, "seed {seed}: {removal:?}");
+        worst_all.extend(worst);
+        z_all.extend(zs);
+    }
+    worst_all.sort_by(f64::total_cmp);
+    let k = |q: f64| worst_all[((worst_all.len() - 1) as f64 * q).round() as usize] / 3.0;
+    let rms = (z_all.iter().map(|z| z * z).sum::<f64>() / z_all.len() as f64).sqrt();
+    println!(
+        "{} campaigns, {} values: RMS z {rms:.3}; campaigns with a parameter beyond 3 σ {:.1} %; σ inflated by {:.2} puts every parameter of every campaign within 3 σ ({:.2} for 95 % of the campaigns, {:.2} for 90 %); RMS z then {:.3}",
+        worst_all.len(),
+        z_all.len(),
+        100.0 * worst_all.iter().filter(|w| **w > 3.0).count() as f64 / worst_all.len() as f64,
+        k(1.0),
+        k(0.95),
+        k(0.90),
+        rms / k(1.0).max(1.0)
+    );
 }

@@ -45,6 +45,7 @@ fn _volcomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ballbar::ballbar_predict, m)?)?;
     m.add_function(wrap_pyfunction!(ballbar::ballbar_fit, m)?)?;
     m.add_function(wrap_pyfunction!(probe::probe_fit, m)?)?;
+    m.add_function(wrap_pyfunction!(probe::probe_plan, m)?)?;
     m.add_function(wrap_pyfunction!(request::options, m)?)?;
     Ok(())
 }

@@ -1,5 +1,6 @@
-//! Calibration with a touch probe (docs/probing.md): `probe_fit`, the
-//! machine identified from probing logs, as a `Model` and a dict.
+//! Calibration with a touch probe (docs/probing.md): `probe_plan`, the
+//! probing program of an artifact and its time on the machine; `probe_fit`,
+//! the machine identified from probing logs, as a `Model` and a dict.
 
 use crate::errors::bad_input;
 use crate::model::Model;
@@ -8,9 +9,10 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use volcomp_core::identify::probe::fit::Estimate;
 use volcomp_core::identify::probe::identify::Status;
-use volcomp_core::identify::probe::request::{FitRequest, Input as Text};
+use volcomp_core::identify::probe::request::{FitRequest, Input as Text, PlanRequest};
 use volcomp_core::io::LoadedModel;
-use volcomp_core::request::ProbeFitRequest;
+use volcomp_core::model::setup::MachineSetup;
+use volcomp_core::request::{ProbeFitRequest, ProbePlanRequest};
 
 /// Every input (paths or file objects) read whole as text.
 fn texts(list: &[Bound<'_, PyAny>], what: &str) -> PyResult<Vec<Text>> {
@@ -24,6 +26,61 @@ fn texts(list: &[Bound<'_, PyAny>], what: &str) -> PyResult<Vec<Text>> {
             Ok(Text::new(name, text))
         })
         .collect()
+}
+
+/// The probing program of `artifact` (a path or file object), as
+/// `volcomp probe plan` writes it, checked by volcomp's interpreter:
+/// `setup` (optional) is the set-up file with the work offset and the
+/// probe's tool length. Returns `(program, plan)`: the program text and a
+/// dict of `touches`, `time_s` (on the machine: probing moves at the chosen
+/// feeds, rapids, operator pauses not counted) and `placements` (each
+/// `name`, `touches`, `time_s`).
+#[pyfunction]
+#[pyo3(signature = (artifact, setup = None, **options))]
+pub fn probe_plan<'py>(
+    py: Python<'py>,
+    artifact: Bound<'py, PyAny>,
+    setup: Option<Bound<'py, PyAny>>,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<(String, Bound<'py, PyDict>)> {
+    let r: ProbePlanRequest = from_kwargs(options)?;
+    let o = r.options().map_err(|e| bad_input(e.render(&Keywords)))?;
+    let artifact = texts(&[artifact], "artifact")?.remove(0);
+    let setup = match setup {
+        Some(s) => {
+            let s = texts(&[s], "setup")?.remove(0);
+            MachineSetup::from_setup_toml(&s.text, &s.name).map_err(library_error)?
+        }
+        None => MachineSetup::unset(),
+    };
+    let request = PlanRequest {
+        title: format!(
+            "volcomp {} probe plan {}",
+            env!("CARGO_PKG_VERSION"),
+            artifact.name
+        ),
+        artifact,
+        setup,
+        placement: r.placement.clone(),
+        options: o,
+    };
+    let out = py
+        .detach(|| request.run())
+        .map_err(|e| library_error(e.into()))?;
+    let placements = PyList::empty(py);
+    for (name, t) in &out.plan.placement_time_s {
+        let d = PyDict::new(py);
+        d.set_item("name", name)?;
+        let n = out.plan.touches.iter().filter(|x| &x.placement == name);
+        d.set_item("touches", n.count())?;
+        d.set_item("time_s", t)?;
+        placements.append(d)?;
+    }
+    let plan = PyDict::new(py);
+    plan.set_item("touches", out.plan.touches.len())?;
+    plan.set_item("time_s", out.plan.time_s)?;
+    plan.set_item("placements", placements)?;
+    Ok((out.program, plan))
 }
 
 fn estimate<'py>(py: Python<'py>, e: &Estimate) -> PyResult<Bound<'py, PyDict>> {

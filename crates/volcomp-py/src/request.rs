@@ -230,6 +230,7 @@ pub fn options<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyList>> 
         "ballbar_predict" => volcomp_core::request::BallbarPredictRequest::OPTIONS,
         "ballbar_fit" => volcomp_core::request::BallbarFitRequest::OPTIONS,
         "probe_fit" => volcomp_core::request::ProbeFitRequest::OPTIONS,
+        "probe_plan" => volcomp_core::request::ProbePlanRequest::OPTIONS,
         _ => return Err(bad_input(format!("no job `{job}`"))),
     };
     let list = PyList::empty(py);

@@ -53,3 +53,30 @@ def test_bad_input_is_named():
     bad.name = "bad.toml"
     with pytest.raises(volcomp.BadInputError, match="bad.toml"):
         volcomp.probe_fit([bad], [DATA / "plate.log"], ranges_mm=RANGES)
+
+
+def test_a_plan_is_the_clis_program_and_states_its_time(tmp_path):
+    art, setup = DATA / "plate.toml", DATA / "setup.toml"
+    program, plan = volcomp.probe_plan(str(art), str(setup), tip_diameter_mm=2, probe_tool=9)
+    # The example's log of this plate has one line per touch; each touch is
+    # a fast and a slow probe move.
+    logged = sum(line.startswith("touch ") for line in (DATA / "plate.log").read_text().splitlines())
+    assert plan["touches"] == logged == sum(p["touches"] for p in plan["placements"])
+    assert program.count("G38.2") == 2 * plan["touches"]
+    assert [p["name"] for p in plan["placements"]][0] == "low"
+    assert abs(sum(p["time_s"] for p in plan["placements"]) - plan["time_s"]) < 1e-9
+    assert 600 < plan["time_s"] < 1800
+    exe = os.environ.get("VOLCOMP_BIN")
+    if exe:
+        out = tmp_path / "plate.ngc"
+        args = [exe, "probe", "plan", str(art), "--setup", str(setup), "--probe-tool", "9", "--tip-diameter-mm", "2", "-o", str(out)]
+        said = subprocess.run(args, check=True, capture_output=True, text=True).stdout
+        assert out.read_text() == program
+        assert f"{plan['touches']} touches" in said
+
+
+def test_a_plan_names_its_bad_option():
+    with pytest.raises(volcomp.BadInputError, match="tip_diameter_mm"):
+        volcomp.probe_plan(DATA / "plate.toml")
+    with pytest.raises(volcomp.BadInputError, match="work_system"):
+        volcomp.probe_plan(DATA / "plate.toml", tip_diameter_mm=2, work_system="G60")

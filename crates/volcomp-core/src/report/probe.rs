@@ -32,7 +32,31 @@ pub fn sections(out: &FitOutput, ranges_mm: [[f64; 2]; 3]) -> Vec<Section> {
         rows: Vec::new(),
         numeric: vec![false, true, true, false, false],
     };
-    for p in &id.params {
+    // With a Monte Carlo, the two uncertainties it took the larger of.
+    let mc = id.monte_carlo.as_ref();
+    if let Some(mc) = mc {
+        t.headers.splice(
+            3..3,
+            [
+                "least squares".to_string(),
+                format!("Monte Carlo ({} repeats)", mc.draws),
+            ],
+        );
+        t.numeric.splice(3..3, [true, true]);
+    }
+    let both = |i: Option<usize>| -> Vec<String> {
+        let Some(mc) = mc else { return Vec::new() };
+        let cell = |v: Option<&Option<f64>>| {
+            v.copied()
+                .flatten()
+                .map_or("–".into(), |v| numfmt::fixed(v, 3))
+        };
+        vec![
+            cell(i.and_then(|i| mc.least_squares.get(i))),
+            cell(i.and_then(|i| mc.sigma.get(i))),
+        ]
+    };
+    for (i, p) in id.params.iter().enumerate() {
         let unit = if p.unit == "um" { "µm" } else { "µrad" };
         let (v, u, st) = match p.status {
             Status::Identified(e) => (
@@ -47,27 +71,25 @@ pub fn sections(out: &FitOutput, ranges_mm: [[f64; 2]; 3]) -> Vec<Section> {
                 "not in the reduced model: zero, unknown",
             ),
         };
-        t.rows
-            .push(row(&[p.name.clone(), v, u, unit.into(), st.into()]));
+        let mut cells = vec![p.name.clone(), v, u];
+        cells.extend(both(Some(i)));
+        cells.extend([unit.into(), st.into()]);
+        t.rows.push(cells);
     }
     for (a, b) in out.reversal_um.iter().enumerate() {
         let name = format!("reversal {}", ['X', 'Y', 'Z'][a]);
-        t.rows.push(match b {
-            Some(e) => row(&[
-                name,
+        let (v, u, st) = match b {
+            Some(e) => (
                 numfmt::fixed(e.value, 3),
                 numfmt::fixed(e.sigma, 3),
-                "µm".into(),
-                "identified (reference sphere)".into(),
-            ]),
-            None => row(&[
-                name,
-                "0".into(),
-                "–".into(),
-                "µm".into(),
-                "not measured: zero, unknown".into(),
-            ]),
-        });
+                "identified (reference sphere)",
+            ),
+            None => ("0".into(), "–".into(), "not measured: zero, unknown"),
+        };
+        let mut cells = vec![name, v, u];
+        cells.extend(both(None));
+        cells.extend(["µm".into(), st.into()]);
+        t.rows.push(cells);
     }
     let (rms, max) = crate::identify::probe::result::compensated_uncertainty_um(id, ranges_mm);
     let mut blocks = vec![
@@ -83,6 +105,13 @@ pub fn sections(out: &FitOutput, ranges_mm: [[f64; 2]; 3]) -> Vec<Section> {
         )),
         Block::Table(t),
     ];
+    if let Some(mc) = mc {
+        blocks.push(Block::Text(format!(
+            "Standard uncertainty: the larger of the least squares' and the Monte Carlo's, {} repeats of the whole fit (probe calibration, sphere centres, identification) with every touch moved by a draw of {} µm along its move (JCGM 101:2008).",
+            mc.draws,
+            numfmt::fixed(mc.noise_um, 3)
+        )));
+    }
     for n in &id.notes {
         blocks.push(Block::Text(format!("Note: {n}")));
     }

@@ -39,6 +39,7 @@ from ._volcomp import (
     mirror,
     moves,
     probe_fit,
+    probe_plan,
     simulate,
     straightness_fit,
     thermal_fit,
@@ -89,6 +90,7 @@ export = _with_options(export, "export")
 ballbar_predict = _with_options(ballbar_predict, "ballbar_predict")
 ballbar_fit = _with_options(ballbar_fit, "ballbar_fit")
 probe_fit = _with_options(probe_fit, "probe_fit")
+probe_plan = _with_options(probe_plan, "probe_plan")
 
 __all__ = [
     "BadInputError",
@@ -111,6 +113,7 @@ __all__ = [
     "mirror",
     "moves",
     "probe_fit",
+    "probe_plan",
     "simulate",
     "straightness_fit",
     "thermal_fit",

@@ -382,6 +382,38 @@ def ballbar_fit(
     """The ISO 230-4 figures of a trace file and the causes fitted to it
     (the options of `volcomp ballbar fit`)."""
 
+def probe_plan(
+    artifact: Input,
+    setup: Optional[Input] = None,
+    *,
+    tip_diameter_mm: Optional[float] = None,
+    probe_tool: Optional[int] = None,
+    work_system: str = "G54",
+    placement: Optional[str] = None,
+    fast_feed_mm_min: float = 300.0,
+    slow_feed_mm_min: float = 20.0,
+    approach_mm: float = 2.0,
+    overtravel_mm: float = 2.0,
+    backoff_mm: float = 0.5,
+    clearance_mm: float = 5.0,
+    take_up_mm: float = 1.0,
+    sphere_touches: Literal["5", "9"] = "5",
+    repeats: int = 1,
+    reference_repeats: int = 3,
+    edge_points: int = 7,
+    edge_margin_mm: float = 10.0,
+    no_contact: Literal["stop", "skip"] = "stop",
+    log_file: str = "probe.log",
+    safe_z_mm: Optional[float] = None,
+    rapid_mm_min: float = 3000.0,
+    accel_mm_s2: float = 500.0,
+) -> tuple[str, dict[str, Any]]:
+    """The probing program of an artifact (a path or file object; setup: the
+    set-up file with the work offset and the probe's tool length), checked
+    by volcomp's interpreter, and a dict of touches, time_s (on the machine)
+    and placements (the options of `volcomp probe plan`; tip_diameter_mm
+    is required)."""
+
 def probe_fit(
     artifacts: Sequence[Input],
     logs: Sequence[Input],

@@ -51,7 +51,7 @@ use super::artifact::{Artifact, Feature, Kind};
 use super::fit::{fit_touches, Estimate, FaceTouch, Fitted, SphereFit, CAL_PARAMS, SAME_TOOL_MM};
 use super::geometry::{rigid_fit, rotate, turn, Rotation};
 use super::ProbeError;
-use crate::identify::thermal::identify::{solve_whitened, Identification};
+use crate::identify::thermal::identify::{solve_whitened_with_design, Identification};
 use crate::identify::thermal::poly::{Param, PolyModel};
 use crate::io::probe_log::Touch;
 use crate::linalg;
@@ -564,13 +564,36 @@ impl<'a> Problem<'a> {
         }
     }
 
-    /// The rows (whitened): `(J_machine, J_nuisance, y)` and, per
-    /// observation, its first row and row count.
+    /// The rows (whitened): `(J_machine, J_nuisance, y)`, per observation
+    /// its first row and row count, and whether a certificate row weighs
+    /// less than one touch. A certificate of uncertainty `u` weighs `σ/u`
+    /// touches of noise `σ`; with `design`, at least one (see
+    /// [`Self::solve`]).
     #[allow(clippy::type_complexity)]
     fn rows(
         &self,
         skip: Option<usize>,
-    ) -> Result<(DMatrix<f64>, DMatrix<f64>, Vec<f64>, Vec<(usize, usize)>), ProbeError> {
+        design: bool,
+    ) -> Result<
+        (
+            DMatrix<f64>,
+            DMatrix<f64>,
+            Vec<f64>,
+            Vec<(usize, usize)>,
+            bool,
+        ),
+        ProbeError,
+    > {
+        let mut weak = false;
+        let mut certificate_weight = |u: f64| {
+            let w = self.touch_sigma_um / u.max(1e-3);
+            weak |= w < 1.0;
+            if design {
+                w.max(1.0)
+            } else {
+                w
+            }
+        };
         let nm = self.model.len();
         let nn = self.layout.total;
         let mut jm: Vec<Vec<f64>> = Vec::new();
@@ -738,7 +761,7 @@ impl<'a> Problem<'a> {
                     certified_u_um: Some(u),
                     ..
                 } => {
-                    let w = s_t / u.max(1e-3);
+                    let w = certificate_weight(*u);
                     for (j, c) in centres_mm.iter().enumerate() {
                         for q in 0..3 {
                             let mut row = vec![0.0; nn];
@@ -783,7 +806,7 @@ impl<'a> Problem<'a> {
                     faces_mm,
                     ..
                 } => {
-                    let w = s_t / u.max(1e-3);
+                    let w = certificate_weight(*u);
                     for f in 1..faces_mm.len() {
                         // Face positions along x: x_f = facing_f·h_f.
                         let mut row = vec![0.0; nn];
@@ -799,7 +822,7 @@ impl<'a> Problem<'a> {
                     certified: Some((v, u)),
                     ..
                 } => {
-                    let w = s_t / u.max(1e-3);
+                    let w = certificate_weight(*u);
                     let mut row = vec![0.0; nn];
                     row[gc + 2] = w;
                     jm.push(vec![0.0; nm]);
@@ -826,35 +849,40 @@ impl<'a> Problem<'a> {
         let m = y.len();
         let jm = DMatrix::from_fn(m, nm, |i, j| jm[i][j]);
         let jn = DMatrix::from_fn(m, nn, |i, j| jn[i][j]);
-        Ok((jm, jn, y, at))
+        Ok((jm, jn, y, at, weak))
     }
 
     /// One linear solve: the identification, the nuisance update and the
     /// unwhitened residual of every row.
+    ///
+    /// What is identifiable is decided on the rows with every certificate
+    /// weighing at least one touch: the relative singular-value threshold
+    /// would otherwise depend on the probe's noise. A direction seen only
+    /// through a certificate (the common scale through a gauge block's
+    /// length) has a singular value proportional to `σ/u`; with touches ten
+    /// times more repeatable than a certificate's uncertainty and less it
+    /// falls below the threshold, and then appears and disappears between
+    /// passes as the calibration's residual noise changes. The values and
+    /// their uncertainty keep the true weights.
     fn solve(&self, skip: Option<usize>) -> Result<Solve, ProbeError> {
-        let (jm, jn, y, at) = self.rows(skip)?;
+        let (jm, jn, y, at, weak) = self.rows(skip, false)?;
         let m = y.len();
-        let nm = jm.ncols();
-        // Orthonormal basis of the nuisance columns.
-        let svd = linalg::svd_full_v(&jn).ok_or_else(|| {
-            ProbeError::Invalid("the SVD of the placements' columns did not converge".into())
-        })?;
-        let smax = svd.s.first().copied().unwrap_or(0.0);
-        let rn = svd
-            .s
-            .iter()
-            .filter(|&&s| s > 1e-10 * smax && s > 0.0)
-            .count();
-        let u = svd.u.columns(0, rn).into_owned();
-        let proj = |v: &DMatrix<f64>| -> DMatrix<f64> { v - &u * (u.transpose() * v) };
-        let jmp = proj(&jm);
+        let (jmp, rn, u) = project_out(&jm, &jn)?;
         let yv = DMatrix::from_column_slice(m, 1, &y);
-        let yp = proj(&yv);
+        let yp = &yv - &u * (u.transpose() * &yv);
+        let nm = jm.ncols();
         let mut a = DMatrix::zeros(m, nm + 1);
         a.columns_mut(0, nm).copy_from(&jmp);
         a.columns_mut(nm, 1).copy_from(&yp);
-        let solved = solve_whitened(&self.model, &a, self.threshold, rn)
-            .map_err(|e| ProbeError::Invalid(e.to_string()))?;
+        let design = if weak {
+            let (jmd, jnd, ..) = self.rows(skip, true)?;
+            Some(project_out(&jmd, &jnd)?.0)
+        } else {
+            None
+        };
+        let solved =
+            solve_whitened_with_design(&self.model, &a, design.as_ref(), self.threshold, rn)
+                .map_err(|e| ProbeError::Invalid(e.to_string()))?;
         let theta: Vec<f64> = solved
             .ident
             .theta
@@ -921,6 +949,25 @@ impl<'a> Problem<'a> {
         }
         self.solve(skip)
     }
+}
+
+/// `J_m` with the nuisance columns `J_n` projected out (`(I − U Uᵀ) J_m`,
+/// `U` an orthonormal basis of their span), the nuisance rank and `U`.
+fn project_out(
+    jm: &DMatrix<f64>,
+    jn: &DMatrix<f64>,
+) -> Result<(DMatrix<f64>, usize, DMatrix<f64>), ProbeError> {
+    let svd = linalg::svd_full_v(jn).ok_or_else(|| {
+        ProbeError::Invalid("the SVD of the placements' columns did not converge".into())
+    })?;
+    let smax = svd.s.first().copied().unwrap_or(0.0);
+    let rn = svd
+        .s
+        .iter()
+        .filter(|&&s| s > 1e-10 * smax && s > 0.0)
+        .count();
+    let u = svd.u.columns(0, rn).into_owned();
+    Ok((jm - &u * (u.transpose() * jm), rn, u))
 }
 
 /// One linear solve's results.

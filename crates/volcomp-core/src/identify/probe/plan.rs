@@ -478,6 +478,53 @@ pub fn move_time_s(len_mm: f64, speed_mm_min: f64, accel_mm_s2: f64) -> f64 {
     }
 }
 
+/// Where the program starts is not known: its first move is counted as
+/// this long (mm) at the rapid speed.
+pub const UNKNOWN_START_MM: f64 = 40.0;
+
+/// Time (s) the machine takes for `steps` (of a plan with `touches`) from
+/// `from` (`None`: unknown, see [`UNKNOWN_START_MM`]): every rapid along
+/// its straight line at the rapid speed; a touch as the program makes it —
+/// the search at the fast feed over the approach to the surface, the
+/// back-off at the fast feed, the recorded touch over the back-off at the
+/// slow feed, a rapid back to the start; every move from rest to rest at
+/// the acceleration given; pauses not counted. Also where the steps end.
+fn steps_time_s(
+    steps: &[Step],
+    touches: &[PlannedTouch],
+    from: Option<Vec3>,
+    o: &PlanOptions,
+) -> (f64, Option<Vec3>) {
+    let rapid = |len: f64| move_time_s(len, o.rapid_mm_min, o.accel_mm_s2);
+    let mut pos = from;
+    let mut t = 0.0;
+    for s in steps {
+        match s {
+            Step::Pause(_) => {}
+            Step::SafeZ(z) => {
+                if let Some(p) = pos.as_mut() {
+                    t += rapid((p.z - z).abs());
+                    p.z = *z;
+                }
+            }
+            Step::Rapid(to) => {
+                t += rapid(pos.map_or(UNKNOWN_START_MM, |p| (*to - p).norm()));
+                pos = Some(*to);
+            }
+            Step::Touch(n) => {
+                let touch = &touches[n - 1];
+                let approach = (touch.nominal_mm - touch.start_mm).norm();
+                t += move_time_s(approach, o.fast_feed_mm_min, o.accel_mm_s2)
+                    + move_time_s(o.backoff_mm, o.fast_feed_mm_min, o.accel_mm_s2)
+                    + move_time_s(o.backoff_mm, o.slow_feed_mm_min, o.accel_mm_s2)
+                    + rapid(approach);
+                pos = Some(touch.start_mm);
+            }
+        }
+    }
+    (t, pos)
+}
+
 /// Plans the probing of `art` in its placements (all, or the one named).
 pub fn plan(art: &Artifact, only: Option<&str>, o: &PlanOptions) -> Result<Plan, ProbeError> {
     o.validate()?;
@@ -552,13 +599,11 @@ pub fn plan(art: &Artifact, only: Option<&str>, o: &PlanOptions) -> Result<Plan,
     }
     let mut steps = Vec::new();
     let mut touches = Vec::new();
-    let mut placement_time_s = Vec::new();
-    let mut time_s = 0.0;
-    let rapid = |len: f64| move_time_s(len, o.rapid_mm_min, o.accel_mm_s2);
+    let mut placement_steps = Vec::new();
     for (k, (pname, up, list, level)) in per.iter().enumerate() {
         let n = up.vector();
         let onto_plane = |x: Vec3| x + n * (level - n.dot(x));
-        let mut t_place = 0.0;
+        placement_steps.push((pname.clone(), steps.len()));
         steps.push(Step::SafeZ(safe_z));
         if k > 0 {
             steps.push(Step::Pause(format!(
@@ -608,30 +653,19 @@ pub fn plan(art: &Artifact, only: Option<&str>, o: &PlanOptions) -> Result<Plan,
                 match pos {
                     None => {
                         // First move from the safe Z: across at safe Z, then down.
+                        // (For a horizontal pole: over at safe Z to the
+                        // plane's position, then down in the plane.)
                         let mut at_safe = pre;
                         at_safe.z = safe_z;
-                        if up.axis == 2 {
-                            steps.push(Step::Rapid(at_safe));
-                            steps.push(Step::Rapid(pre));
-                            t_place += rapid(safe_z - pre.z);
-                        } else {
-                            // Horizontal pole: over at safe Z to the plane's
-                            // position, then down in the plane.
-                            steps.push(Step::Rapid(at_safe));
-                            steps.push(Step::Rapid(pre));
-                            t_place += rapid((safe_z - pre.z).abs());
-                        }
-                        t_place += rapid(40.0);
+                        steps.push(Step::Rapid(at_safe));
+                        steps.push(Step::Rapid(pre));
                     }
                     Some(p0) => {
-                        let lift = onto_plane(p0);
-                        steps.push(Step::Rapid(lift));
+                        steps.push(Step::Rapid(onto_plane(p0)));
                         steps.push(Step::Rapid(pre));
-                        t_place += rapid((lift - p0).norm()) + rapid((pre - lift).norm());
                     }
                 }
                 steps.push(Step::Rapid(above));
-                t_place += rapid((above - pre).norm());
                 // Plunge along −n to the start; for a reversal touch of the
                 // clearance axis, past it and back.
                 let plunge_dir = up.opposite();
@@ -639,10 +673,8 @@ pub fn plan(art: &Artifact, only: Option<&str>, o: &PlanOptions) -> Result<Plan,
                     let past = start - n * o.take_up_mm;
                     steps.push(Step::Rapid(past));
                     steps.push(Step::Rapid(start));
-                    t_place += rapid((past - above).norm()) + rapid(o.take_up_mm);
                 } else {
                     steps.push(Step::Rapid(start));
-                    t_place += rapid((start - above).norm());
                 }
                 states[d.axis] = d.state();
                 let number = touches.len() + 1;
@@ -659,25 +691,26 @@ pub fn plan(art: &Artifact, only: Option<&str>, o: &PlanOptions) -> Result<Plan,
                     normal: spec.normal,
                 });
                 steps.push(Step::Touch(number));
-                // Fast to the surface (met after `approach`: the move runs
-                // through the nominal contact), back off, slow to it again,
-                // back to the start.
-                t_place += move_time_s(o.approach_mm, o.fast_feed_mm_min, o.accel_mm_s2)
-                    + move_time_s(o.backoff_mm, o.fast_feed_mm_min, o.accel_mm_s2)
-                    + move_time_s(o.backoff_mm, o.slow_feed_mm_min, o.accel_mm_s2)
-                    + rapid(o.approach_mm);
                 pos = Some(start);
             }
         }
         if let Some(p0) = pos {
-            let lift = onto_plane(p0);
-            steps.push(Step::Rapid(lift));
-            t_place += rapid((lift - p0).norm()) + rapid((safe_z - lift.z).abs());
+            steps.push(Step::Rapid(onto_plane(p0)));
         }
-        time_s += t_place;
-        placement_time_s.push((pname.clone(), t_place));
     }
     steps.push(Step::SafeZ(safe_z));
+    // Time per placement: from its first step (the rise from the previous
+    // placement and the move across) to the next placement's first; the
+    // last one's up to the final rise.
+    let mut placement_time_s = Vec::new();
+    let mut from: Option<Vec3> = None;
+    for (k, (name, first)) in placement_steps.iter().enumerate() {
+        let last = placement_steps.get(k + 1).map_or(steps.len(), |p| p.1);
+        let (t, end) = steps_time_s(&steps[*first..last], &touches, from, o);
+        placement_time_s.push((name.clone(), t));
+        from = end;
+    }
+    let time_s = placement_time_s.iter().map(|p| p.1).sum();
     let plan = Plan {
         artifact: art.name.clone(),
         steps,
@@ -773,6 +806,67 @@ mod tests {
             "ref.toml",
         )
         .unwrap()
+    }
+
+    #[test]
+    fn a_map_of_a_600_400_300_volume_takes_under_half_an_hour() {
+        use crate::example::probe::{plan_options, plate_toml, GAUGE, REFERENCE};
+        // By hand, from the plan's moves and the example's feeds (fast 300,
+        // slow 20, rapid 3000 mm/min; 500 mm/s²; approach 2 mm, back-off
+        // 0.5 mm). A move of L mm at v mm/s from rest to rest takes
+        // L/v + v/a when L ≥ v²/a, else 2√(L/a). One touch: the search, 2 mm
+        // at 5 mm/s: 0.4 + 0.01 s; the back-off, 0.5 mm at 5 mm/s: 0.1 +
+        // 0.01 s; the recorded touch, 0.5 mm at 1/3 mm/s: 1.5 + 1/1500 s;
+        // the rapid back, 2 mm < 50²/500 = 5 mm: 2√(2/500) s.
+        let touch_s = 0.41 + 0.11 + 1.5 + 1.0 / 1500.0 + 2.0 * (2.0f64 / 500.0).sqrt();
+        assert!((touch_s - 2.147158).abs() < 1e-6);
+        let rapid_s = |l: f64| {
+            let (v, a) = (50.0, 500.0);
+            if l <= 0.0 {
+                0.0
+            } else if l >= v * v / a {
+                l / v + v / a
+            } else {
+                2.0 * (l / a).sqrt()
+            }
+        };
+        let o = plan_options();
+        let mut total = 0.0;
+        for text in [REFERENCE.to_string(), plate_toml(), GAUGE.to_string()] {
+            let art = parse_artifact(&text, "a.toml").unwrap();
+            let p = plan(&art, None, &o).unwrap();
+            let mut t = p.touches.len() as f64 * touch_s;
+            // Rapids: straight lines between the positions the steps name;
+            // the first from wherever the machine stands, 40 mm assumed.
+            let mut at: Option<Vec3> = None;
+            for s in &p.steps {
+                match s {
+                    Step::Rapid(q) => {
+                        t += rapid_s(at.map_or(40.0, |a| (*q - a).norm()));
+                        at = Some(*q);
+                    }
+                    Step::SafeZ(z) => {
+                        if let Some(a) = at.as_mut() {
+                            t += rapid_s((a.z - z).abs());
+                            a.z = *z;
+                        }
+                    }
+                    Step::Touch(n) => at = Some(p.touches[n - 1].start_mm),
+                    Step::Pause(_) => {}
+                }
+            }
+            assert!(
+                (t - p.time_s).abs() < 1e-9 * t,
+                "{}: {t} vs {}",
+                art.name,
+                p.time_s
+            );
+            let per: f64 = p.placement_time_s.iter().map(|x| x.1).sum();
+            assert!((per - p.time_s).abs() < 1e-9 * t);
+            println!("{}: {} touches, {t:.1} s", art.name, p.touches.len());
+            total += t;
+        }
+        assert!(total < 30.0 * 60.0, "{total} s");
     }
 
     #[test]

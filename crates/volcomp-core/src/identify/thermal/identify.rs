@@ -181,6 +181,23 @@ pub(crate) fn solve_whitened(
     relative_threshold: f64,
     eliminated: usize,
 ) -> Result<Solved, ThermalError> {
+    solve_whitened_with_design(model, a, None, relative_threshold, eliminated)
+}
+
+/// [`solve_whitened`], with the rank and the null space decided on
+/// `design` (the same `J` with other row weights, `m' × n`) when given: what
+/// the measurements can see is a property of where they were taken, not of
+/// how precise each kind of row is relative to another. The solution,
+/// σ0 and the covariance are those of `a` restricted to the subspace
+/// `design` sees (`θ = V_k β`, `β` the least squares of `J V_k β ≈ y`), the
+/// singular values reported are `design`'s.
+pub(crate) fn solve_whitened_with_design(
+    model: &PolyModel,
+    a: &DMatrix<f64>,
+    design: Option<&DMatrix<f64>>,
+    relative_threshold: f64,
+    eliminated: usize,
+) -> Result<Solved, ThermalError> {
     let (m, n) = (a.nrows(), model.len());
     // Column scaling by physics, not by column norm (a norm would blow up
     // columns that are zero up to rounding): µm parameters as they are,
@@ -202,21 +219,46 @@ pub(crate) fn solve_whitened(
         })
         .collect();
     let js = DMatrix::<f64>::from_fn(m, n, |i, j| a[(i, j)] / scale[j]);
-    let svd = linalg::svd_full_v(&js)
-        .ok_or_else(|| ThermalError::Invalid("the SVD did not converge".into()))?;
-    let (u, s, v) = (&svd.u, &svd.s, &svd.v);
+    let no_svd = || ThermalError::Invalid("the SVD did not converge".into());
+    let svd = match design {
+        None => linalg::svd_full_v(&js),
+        Some(d) => linalg::svd_full_v(&DMatrix::<f64>::from_fn(d.nrows(), n, |i, j| {
+            d[(i, j)] / scale[j]
+        })),
+    }
+    .ok_or_else(no_svd)?;
+    let (s, v) = (&svd.s, &svd.v);
     let singular_values: Vec<f64> = s.clone();
     let smax = singular_values.first().copied().unwrap_or(0.0);
     let rank = singular_values
         .iter()
         .filter(|&&x| x > relative_threshold * smax && x > 0.0)
         .count();
-    // Min-norm solution on the identifiable subspace (scaled).
+    // Min-norm solution on the identifiable subspace (scaled): directions
+    // `D` (columns), their singular values `σ` and left vectors `U`, so that
+    // `θ = D σ⁻¹ Uᵀ y` and `(JᵀJ)⁺ = D σ⁻² Dᵀ` there.
+    let (u, dirs, sv) = match design {
+        None => (
+            svd.u.columns(0, rank).into_owned(),
+            v.columns(0, rank).into_owned(),
+            s[..rank].to_vec(),
+        ),
+        Some(_) => {
+            let vk = v.columns(0, rank).into_owned();
+            let inner = linalg::svd_full_v(&(&js * &vk)).ok_or_else(no_svd)?;
+            if inner.s.len() < rank || inner.s.iter().any(|&x| x.is_nan() || x <= 0.0) {
+                return Err(ThermalError::Invalid(
+                    "the rows do not see what their design sees".into(),
+                ));
+            }
+            (inner.u, vk * inner.v, inner.s)
+        }
+    };
     let mut sol = vec![0.0; n];
     for k in 0..rank {
-        let uty: f64 = (0..m).map(|i| u[(i, k)] * a[(i, n)]).sum::<f64>() / s[k];
+        let uty: f64 = (0..m).map(|i| u[(i, k)] * a[(i, n)]).sum::<f64>() / sv[k];
         for (j, x) in sol.iter_mut().enumerate() {
-            *x += v[(j, k)] * uty;
+            *x += dirs[(j, k)] * uty;
         }
     }
     // Residuals (whitened for σ0, unwhitened for reporting).
@@ -244,7 +286,7 @@ pub(crate) fn solve_whitened(
     let cov_factor: Vec<Vec<f64>> = (0..n)
         .map(|j| {
             (0..rank)
-                .map(|k| sig0 * v[(j, k)] / (s[k] * scale[j]))
+                .map(|k| sig0 * dirs[(j, k)] / (sv[k] * scale[j]))
                 .collect()
         })
         .collect();
