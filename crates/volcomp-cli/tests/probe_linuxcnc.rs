@@ -80,6 +80,8 @@ fn run_linuxcnc(program: &Path, work: &Path) -> Result<String, String> {
     hal.push_str(&format!("setp sphere-inside.in1 {:.12}\n", rho * rho));
     std::fs::write(cfg.join("sphere.hal"), hal).unwrap();
     let result = work.join("result.jsonl");
+    // probe_display.py appends its line: a run starts from no result.
+    let _ = std::fs::remove_file(&result);
     let mut cmd = Command::new("linuxcnc");
     cmd.arg(cfg.join("machine.ini"))
         .arg(program)
@@ -208,7 +210,17 @@ fn the_reference_sphere_is_found_within_a_tenth_of_a_micrometre_on_linuxcnc() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let said = String::from_utf8_lossy(&o.stdout).to_string();
-    let result = run_linuxcnc(&d.join("ref.ngc"), &d).unwrap_or_else(|e| panic!("{e}"));
+    // A simulated machine that fails to come up (machine on, homing or the
+    // run timing out while the host is loaded) is started once more, as
+    // bench/cycle_time does; its error is kept in the test's output. The
+    // checks on what it measured below are not retried.
+    let result = run_linuxcnc(&d.join("ref.ngc"), &d)
+        .or_else(|e| {
+            eprintln!("LinuxCNC run failed, starting it once more: {e}");
+            let _ = std::fs::remove_file(&log);
+            run_linuxcnc(&d.join("ref.ngc"), &d)
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
     drop(lock);
     let text = std::fs::read_to_string(&log).expect("LinuxCNC wrote the log");
     let touches = read_linuxcnc_log(&text, "probe.log").unwrap();
