@@ -142,16 +142,7 @@ pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
 pub fn format_number_bytes(value: f64, style: NumberStyle, out: &mut Vec<u8>) {
     let mut buf = NumberBuf::new();
     match buf.format_at(value, style) {
-        // A fixed-size copy (a few register moves, no `memcpy` call for a
-        // length known only at run time), then the tail cut off.
-        Some(at) if NumberBuf::END - at <= NumberBuf::COPY => {
-            let len = out.len();
-            let chunk: &[u8; NumberBuf::COPY] = buf.bytes[at..at + NumberBuf::COPY]
-                .try_into()
-                .expect("the buffer holds a copy's length after the text's end");
-            out.extend_from_slice(chunk);
-            out.truncate(len + NumberBuf::END - at);
-        }
+        Some(at) if NumberBuf::END - at <= NumberBuf::COPY => buf.push_tail(at, out),
         Some(at) => out.extend_from_slice(&buf.bytes[at..NumberBuf::END]),
         None => {
             let mut text = String::new();
@@ -168,13 +159,8 @@ pub fn format_number_bytes(value: f64, style: NumberStyle, out: &mut Vec<u8>) {
 pub fn format_uint_bytes(value: u64, out: &mut Vec<u8>) {
     let mut buf = NumberBuf::new();
     let at = buf.digits_before(value, 1, NumberBuf::END);
-    let len = out.len();
     // At most 20 digits: always within one copy.
-    let chunk: &[u8; NumberBuf::COPY] = buf.bytes[at..at + NumberBuf::COPY]
-        .try_into()
-        .expect("the buffer holds a copy's length after the text's end");
-    out.extend_from_slice(chunk);
-    out.truncate(len + NumberBuf::END - at);
+    buf.push_tail(at, out);
 }
 
 /// A number written from its last digit backwards into a stack buffer: no
@@ -207,6 +193,19 @@ impl NumberBuf {
         Self {
             bytes: [0; Self::END + Self::COPY],
         }
+    }
+
+    /// Appends the text from `at` to the end: a fixed-size copy (a few
+    /// register moves, no `memcpy` call for a length known only at run
+    /// time), then the tail cut off. The text must fit in one copy.
+    #[inline]
+    fn push_tail(&self, at: usize, out: &mut Vec<u8>) {
+        let len = out.len();
+        let chunk: &[u8; Self::COPY] = self.bytes[at..at + Self::COPY]
+            .try_into()
+            .expect("the buffer holds a copy's length after the text's end");
+        out.extend_from_slice(chunk);
+        out.truncate(len + Self::END - at);
     }
 
     /// Writes `v`'s digits, at least `width` of them (zero-padded), so that
