@@ -19,7 +19,7 @@ pub struct Cli {
     pub command: Command,
     /// No progress bar, summary line or report of what was written on
     /// standard error; warnings and errors still show (bars are drawn only
-    /// on a terminal, for large inputs).
+    /// on a terminal, for large inputs or work over a second).
     #[arg(short, long, global = true)]
     pub quiet: bool,
     /// Largest file read whole (maps, models and their tables, set-ups,
