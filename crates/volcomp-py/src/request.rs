@@ -53,7 +53,7 @@ pub fn input(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Input> {
     if let Ok(s) = obj.cast::<PyString>() {
         let s = s.to_str()?;
         if s.contains('\n') && !std::path::Path::new(s).exists() {
-            return Err(bad_input(format!("{what}: a str names a file, and no file is named by this text of {} lines; give text in a file object: io.StringIO(text)", s.lines().count())));
+            return Err(crate::errors::VolcompIOError::new_err(format!("{what}: a str names a file, and no file is named by this text of {} lines; give text in a file object: io.StringIO(text)", s.lines().count())));
         }
         return Ok(Input::File(s.into()));
     }

@@ -318,15 +318,7 @@ mod legend_tests {
         }
         // The legend's text starts right of the plot area (70 % of 900 px).
         let at = s.find(">\np regression\n<").unwrap();
-        let x: f64 = s[..at]
-            .rsplit("x=\"")
-            .next()
-            .unwrap()
-            .split('"')
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap();
+        let x = crate::report::svg::attribute_before(&s, at, "x");
         assert!(x > 630.0, "{x}");
     }
 
