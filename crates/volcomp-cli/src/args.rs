@@ -178,8 +178,9 @@ pub struct TimeArgs {
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
-    /// Where to write the example map and programs.
-    #[arg(long, value_name = "DIR", default_value = "volcomp-demo")]
+    /// Where to write the example map and programs (`-o` as in every
+    /// command that writes).
+    #[arg(short, long, value_name = "DIR", default_value = "volcomp-demo")]
     pub out_dir: PathBuf,
     /// Also write the table as Markdown (BENCHMARKS.md's demo table).
     #[arg(long, value_name = "FILE.md")]
