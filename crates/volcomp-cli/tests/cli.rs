@@ -305,7 +305,8 @@ fn moves_json_is_valid_and_lists_every_motion() {
 fn demo_runs_and_meets_the_issue_targets() {
     let dir = tempdir("demo");
     let o = volcomp(
-        &["demo", "--out-dir", "d", "--markdown", "d/table.md"],
+        // `-o` as every command that writes takes it.
+        &["demo", "-o", "d", "--markdown", "d/table.md"],
         &dir,
     );
     assert!(o.status.success(), "{}", stderr(&o));
