@@ -291,6 +291,34 @@ struct TouchSpec {
     states: [Option<Direction>; 3],
 }
 
+/// The touch from `direction` at `nominal` (surface normal `normal`); with
+/// `reversal: Some(axis)`, two such touches, `axis` arriving forward, then
+/// in reverse.
+fn push_touches(
+    out: &mut Vec<TouchSpec>,
+    direction: AxisDir,
+    nominal: Vec3,
+    normal: Vec3,
+    reversal: Option<usize>,
+) {
+    let states: Vec<[Option<Direction>; 3]> = match reversal {
+        None => vec![[None; 3]],
+        Some(axis) => [Direction::Forward, Direction::Reverse]
+            .map(|st| {
+                let mut states = [None; 3];
+                states[axis] = Some(st);
+                states
+            })
+            .to_vec(),
+    };
+    out.extend(states.into_iter().map(|states| TouchSpec {
+        direction,
+        nominal,
+        normal,
+        states,
+    }));
+}
+
 /// The touches of one sphere (`c` machine centre, `rho` = R + tip radius,
 /// `pole`, reference or not).
 fn sphere_touches(
@@ -326,25 +354,8 @@ fn sphere_touches(
     if reference || pattern == SpherePattern::Nine {
         for e in &lateral {
             let m = (n + e.vector()) * h;
-            if reference {
-                for st in [Direction::Forward, Direction::Reverse] {
-                    let mut states = [None; 3];
-                    states[e.axis] = Some(st);
-                    out.push(TouchSpec {
-                        direction: pole.opposite(),
-                        nominal: c + m * rho,
-                        normal: m,
-                        states,
-                    });
-                }
-            } else {
-                out.push(TouchSpec {
-                    direction: pole.opposite(),
-                    nominal: c + m * rho,
-                    normal: m,
-                    states: [None; 3],
-                });
-            }
+            let reversal = reference.then_some(e.axis);
+            push_touches(&mut out, pole.opposite(), c + m * rho, m, reversal);
         }
     }
     if reference {
@@ -352,16 +363,7 @@ fn sphere_touches(
         // the pole axis arriving from both sides.
         for e in lateral.iter().filter(|e| e.positive).take(2) {
             let m = (n + e.vector()) * h;
-            for st in [Direction::Forward, Direction::Reverse] {
-                let mut states = [None; 3];
-                states[pole.axis] = Some(st);
-                out.push(TouchSpec {
-                    direction: e.opposite(),
-                    nominal: c + m * rho,
-                    normal: m,
-                    states,
-                });
-            }
+            push_touches(&mut out, e.opposite(), c + m * rho, m, Some(pole.axis));
         }
     }
     out
