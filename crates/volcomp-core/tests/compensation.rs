@@ -44,6 +44,14 @@ fn compensate(
     (String::from_utf8(out).unwrap(), records)
 }
 
+/// The default options without splitting: one written move per block.
+fn unsplit() -> CompensateOptions {
+    CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    }
+}
+
 /// End points of the feed/rapid motions of a program (axis frame).
 fn ends(program: &str) -> Vec<(MotionKind, Vec3)> {
     let mut w = walker(program);
@@ -72,10 +80,7 @@ const SQUARE: &str = "G21 G90 G17\nG0 X0 Y0 Z0\nG1 X40 F500\nG1 Y30\nG1 X0\nG1 Y
 #[test]
 fn a_constant_offset_is_subtracted_from_every_point() {
     let map = map_from(|a, _, _| if a == 0 { [5.0, -3.0, 2.0] } else { [0.0; 3] });
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let opts = unsplit();
     let (out, _) = compensate(SQUARE, &map, opts);
     let nominal = ends(SQUARE);
     let compensated = ends(&out);
@@ -101,10 +106,7 @@ fn a_constant_offset_is_subtracted_from_every_point() {
 #[test]
 fn offsets_set_from_the_current_point_keep_the_nominal_offset() {
     let map = map_from(|a, _, _| if a == 0 { [5.0, 0.0, 0.0] } else { [0.0; 3] });
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let opts = unsplit();
     for set in ["G92", "G10 L20 P1"] {
         let program = format!("G21 G90\nG0 X10 Y0 Z0\n{set} X0\nG1 X5 F100\nM2\n");
         let (out, _) = compensate(&program, &map, opts);
@@ -127,10 +129,7 @@ fn hand_interpolated_pitch_error_is_solved_exactly() {
             [0.0; 3]
         }
     });
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let opts = unsplit();
     let (out, records) = compensate(SQUARE, &map, opts);
     assert!(out.contains("G1 X39.9960 F500"), "{out}");
     let r = records
@@ -142,8 +141,7 @@ fn hand_interpolated_pitch_error_is_solved_exactly() {
     // the difference shows in the report's residual: e(39.996) − e(40) = −0.0004 µm…
     let opts = CompensateOptions {
         method: Method::Direct,
-        segmentation: Segmentation::Off,
-        ..Default::default()
+        ..unsplit()
     };
     let (_, records) = compensate(SQUARE, &map, opts);
     let r = records
@@ -164,10 +162,7 @@ fn pure_squareness_shifts_x_in_proportion_to_y() {
             [0.0; 3]
         }
     });
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let opts = unsplit();
     let (out, _) = compensate(SQUARE, &map, opts);
     for ((_, t), (_, q)) in ends(SQUARE).iter().zip(&ends(&out)) {
         let expected = Vec3::new(t.x - 0.00005 * t.y, t.y, t.z);
@@ -194,9 +189,8 @@ fn backlash_reversal_gets_a_take_up_move() {
     });
     let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG1 X5\nM2\n";
     let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
         fold_take_ups: false,
-        ..Default::default()
+        ..unsplit()
     };
     let (out, records) = compensate(program, &map, opts);
     let lines: Vec<&str> = out.lines().collect();
@@ -212,9 +206,8 @@ fn backlash_reversal_gets_a_take_up_move() {
     // return command; on a pure X line that lag lies along the path, so the
     // contour error stays zero here too (take-ups matter across the path).
     let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
         take_up: false,
-        ..Default::default()
+        ..unsplit()
     };
     let (out, _) = compensate(program, &map, opts);
     let report = against_original(&out, program, &map);
@@ -718,10 +711,7 @@ fn splitting_follows_a_curved_error_and_beats_end_point_compensation() {
 fn zero_map_without_splitting_writes_the_program_back_unchanged() {
     let map = map_from(|_, _, _| [0.0; 3]);
     let program = "%\nO0001 (TEST)\r\nN10 g0 x1 y2 z3 (start)\r\nN20 G1X 1 0 . 5F100 ; feed\r\n\r\nN30 Y.25\r\nN40 G91 X-1.5\r\nN50 G90 M30\r\n%\r\n";
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let opts = unsplit();
     let (out, _) = compensate(program, &map, opts);
     assert_eq!(out, program);
 }
@@ -737,10 +727,7 @@ fn incremental_mode_never_accumulates_rounding() {
         program.push_str("G1 X0.1 F100\n");
     }
     program.push_str("G90\nM2\n");
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let opts = unsplit();
     let (out, _) = compensate(&program, &map, opts);
     let last = ends(&out)
         .iter()
@@ -755,10 +742,7 @@ fn incremental_mode_never_accumulates_rounding() {
 fn canned_cycles_are_written_as_compensated_moves() {
     let map = map_from(|a, _, _| if a == 0 { [5.0, -3.0, 2.0] } else { [0.0; 3] });
     let program = "G90 G0 X0 Y0 Z10\nG98 G81 X10 Y10 Z-5 R2 F100\nX20\nG82 X30 Y10 Z-4 R1 P0.5\nG80\nG0 Z20\nM2\n";
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let opts = unsplit();
     let (out, _) = compensate(program, &map, opts);
     // The cycle blocks keep their other words, the cycle becomes G80.
     assert!(out.contains("G98 G80 F100\n"), "{out}");
