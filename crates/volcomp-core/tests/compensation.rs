@@ -44,6 +44,12 @@ fn compensate(
     (String::from_utf8(out).unwrap(), records)
 }
 
+/// The map whose only table is axis `axis`'s: `e_um(position_mm)`, both
+/// directions.
+fn one_table(axis: usize, e_um: impl Fn(f64) -> [f64; 3]) -> AxisTableMap {
+    map_from(move |a, p, _| if a == axis { e_um(p) } else { [0.0; 3] })
+}
+
 /// The default options without splitting: one written move per block.
 fn unsplit() -> CompensateOptions {
     CompensateOptions {
@@ -122,13 +128,7 @@ fn offsets_set_from_the_current_point_keep_the_nominal_offset() {
 fn hand_interpolated_pitch_error_is_solved_exactly() {
     // E_XX grows 0.1 µm per mm: at the target X = 40, q + 0.0001·q = 40, so
     // q = 40 / 1.0001 = 39.996000399… → written 39.9960.
-    let map = map_from(|a, p, _| {
-        if a == 0 {
-            [0.1 * p, 0.0, 0.0]
-        } else {
-            [0.0; 3]
-        }
-    });
+    let map = one_table(0, |p| [0.1 * p, 0.0, 0.0]);
     let opts = unsplit();
     let (out, records) = compensate(SQUARE, &map, opts);
     assert!(out.contains("G1 X39.9960 F500"), "{out}");
@@ -155,13 +155,7 @@ fn hand_interpolated_pitch_error_is_solved_exactly() {
 fn pure_squareness_shifts_x_in_proportion_to_y() {
     // Squareness S_xy = 50 µrad (docs/design.md, "The 21-component model"): e_x += S·y, i.e. the Y table's
     // ex_um = 50e-6 · y[mm] · 1000 µm/mm = 0.05·y µm. So q_x = t_x − 0.00005·t_y.
-    let map = map_from(|a, p, _| {
-        if a == 1 {
-            [0.05 * p, 0.0, 0.0]
-        } else {
-            [0.0; 3]
-        }
-    });
+    let map = one_table(1, |p| [0.05 * p, 0.0, 0.0]);
     let opts = unsplit();
     let (out, _) = compensate(SQUARE, &map, opts);
     for ((_, t), (_, q)) in ends(SQUARE).iter().zip(&ends(&out)) {
@@ -673,13 +667,9 @@ fn splitting_follows_a_curved_error_and_beats_end_point_compensation() {
     // A bow of Y straightness along X: e_y = 80·u·(1−u) µm over X −100…300
     // (u = (x+100)/400). A 200 mm line only corrected at its ends keeps the
     // bow's sagitta in between; split every mm it follows within rounding.
-    let map = map_from(|a, p, _| {
+    let map = one_table(0, |p| {
         let u = (p + 100.0) / 400.0;
-        if a == 0 {
-            [0.0, 8.0 * u * (1.0 - u) * 10.0, 0.0]
-        } else {
-            [0.0; 3]
-        }
+        [0.0, 8.0 * u * (1.0 - u) * 10.0, 0.0]
     });
     let program = "G0 X-20 Y0 Z0\nG1 X180 F500\nM2\n";
     let measure = |seg: Segmentation| {
@@ -778,13 +768,7 @@ fn with_a_reference_points_at_block_ends_are_judged_against_their_vertex() {
     // distance to the path is 0, but it is 4 µm from the block end it was
     // sent to; at X80 it is 8 µm off. Judged against itself as reference the
     // point errors must be those along-path errors, 4 and 8 µm.
-    let map = map_from(|a, p, _| {
-        if a == 0 {
-            [0.1 * p, 0.0, 0.0]
-        } else {
-            [0.0; 3]
-        }
-    });
+    let map = one_table(0, |p| [0.1 * p, 0.0, 0.0]);
     let program = "G0 X0 Y0 Z0\nG1 X40 F100\nG1 X80\nM2\n";
     let mut errors = Vec::new();
     let report = simulate_program(
