@@ -9,7 +9,7 @@
 
 use crate::common;
 use std::io::Cursor;
-use volcomp_gcode::{GcodeError, InterpOptions, Motion, Setup, Vec3, Walker, Warning};
+use volcomp_gcode::{GcodeError, InterpOptions, Motion, Setup, Vec3, Warning};
 
 fn run_with(program: &str, setup: Setup) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
     run_with_options(program, setup, InterpOptions::default())
@@ -427,24 +427,6 @@ fn whole_number_words_are_read_as_linuxcnc_reads_them() {
     );
 }
 
-/// The first error of the program `reader` holds (as `t.ngc`), read line
-/// by line; a program read to its end without one fails with `accepted`.
-fn first_error(reader: impl std::io::BufRead, accepted: &str) -> GcodeError {
-    let mut w = Walker::new(
-        reader,
-        Some("t.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    );
-    loop {
-        match w.next_line() {
-            Ok(Some(_)) => {}
-            Ok(None) => panic!("{accepted}"),
-            Err(e) => break e,
-        }
-    }
-}
-
 #[test]
 fn bytes_that_are_not_gcode_give_a_located_escaped_error() {
     let e = run("G21\nG1 X\u{e9}2\n").unwrap_err();
@@ -452,7 +434,7 @@ fn bytes_that_are_not_gcode_give_a_located_escaped_error() {
     assert!(e.message.contains("not ASCII"), "{e}");
     let mut bytes = b"G21\nG0 X1 ".to_vec();
     bytes.extend_from_slice(b"\xe9\x1b[31m\x07\n");
-    let e = first_error(Cursor::new(bytes), "accepted");
+    let e = common::first_error(Cursor::new(bytes), "t.ngc", "accepted");
     assert_eq!((e.line, e.column), (2, 7));
     let shown = e.to_string();
     assert!(shown.contains("G0 X1 \\xe9\\x1b[31m\\x07"), "{shown}");
@@ -536,7 +518,7 @@ fn a_line_of_gigabytes_is_refused_without_holding_it() {
         }
     }
     let reader = std::io::BufReader::new(std::io::Read::chain(&b"G21\n"[..], Endless(64 << 20)));
-    let e = first_error(reader, "the endless line was read");
+    let e = common::first_error(reader, "t.ngc", "the endless line was read");
     assert_eq!(e.line, 2, "{e}");
     assert!(e.message.contains("longer than 1048576 bytes"), "{e}");
 }
