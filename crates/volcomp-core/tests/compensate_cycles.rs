@@ -37,32 +37,11 @@ fn compensate(program: &str) -> Result<String, String> {
     common::compensate_text(program, "test.ngc", &constant_map(), &options)
 }
 
-/// End points of the motions of a program (axis frame), zero-length ones
-/// dropped.
-fn ends(program: &str) -> Vec<Vec3> {
-    let mut w = walker(program);
-    let mut out: Vec<Vec3> = Vec::new();
-    while let Some(ev) = w.next_line().unwrap() {
-        for m in ev.motions {
-            if out.last() != Some(&m.end) {
-                out.push(m.end);
-            }
-        }
-    }
-    out
-}
+use common::motion_ends as ends;
 
+/// `out` is `program` moved by −e of [`constant_map`].
 fn shifted_by_minus_e(program: &str, out: &str) {
-    let shift = Vec3::new(-0.005, 0.003, -0.002);
-    let nominal = ends(program);
-    let written = ends(out);
-    assert_eq!(nominal.len(), written.len(), "{out}");
-    for (t, q) in nominal.iter().zip(&written).skip(1) {
-        assert!(
-            (*q - (*t + shift)).max_abs() < 1e-9,
-            "{q:?} vs {t:?}\n{out}"
-        );
-    }
+    common::assert_shifted(program, out, Vec3::new(-0.005, 0.003, -0.002));
 }
 
 #[test]

@@ -44,6 +44,20 @@ fn compensate(
     (String::from_utf8(out).unwrap(), records)
 }
 
+/// The map whose only table is axis `axis`'s: `e_um(position_mm)`, both
+/// directions.
+fn one_table(axis: usize, e_um: impl Fn(f64) -> [f64; 3]) -> AxisTableMap {
+    map_from(move |a, p, _| if a == axis { e_um(p) } else { [0.0; 3] })
+}
+
+/// The default options without splitting: one written move per block.
+fn unsplit() -> CompensateOptions {
+    CompensateOptions {
+        segmentation: Segmentation::Off,
+        ..Default::default()
+    }
+}
+
 /// End points of the feed/rapid motions of a program (axis frame).
 fn ends(program: &str) -> Vec<(MotionKind, Vec3)> {
     let mut w = walker(program);
@@ -71,11 +85,8 @@ const SQUARE: &str = "G21 G90 G17\nG0 X0 Y0 Z0\nG1 X40 F500\nG1 Y30\nG1 X0\nG1 Y
 
 #[test]
 fn a_constant_offset_is_subtracted_from_every_point() {
-    let map = map_from(|a, _, _| if a == 0 { [5.0, -3.0, 2.0] } else { [0.0; 3] });
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let map = one_table(0, |_| [5.0, -3.0, 2.0]);
+    let opts = unsplit();
     let (out, _) = compensate(SQUARE, &map, opts);
     let nominal = ends(SQUARE);
     let compensated = ends(&out);
@@ -101,10 +112,7 @@ fn a_constant_offset_is_subtracted_from_every_point() {
 #[test]
 fn offsets_set_from_the_current_point_keep_the_nominal_offset() {
     let map = map_from(|a, _, _| if a == 0 { [5.0, 0.0, 0.0] } else { [0.0; 3] });
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let opts = unsplit();
     for set in ["G92", "G10 L20 P1"] {
         let program = format!("G21 G90\nG0 X10 Y0 Z0\n{set} X0\nG1 X5 F100\nM2\n");
         let (out, _) = compensate(&program, &map, opts);
@@ -120,17 +128,8 @@ fn offsets_set_from_the_current_point_keep_the_nominal_offset() {
 fn hand_interpolated_pitch_error_is_solved_exactly() {
     // E_XX grows 0.1 µm per mm: at the target X = 40, q + 0.0001·q = 40, so
     // q = 40 / 1.0001 = 39.996000399… → written 39.9960.
-    let map = map_from(|a, p, _| {
-        if a == 0 {
-            [0.1 * p, 0.0, 0.0]
-        } else {
-            [0.0; 3]
-        }
-    });
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let map = one_table(0, |p| [0.1 * p, 0.0, 0.0]);
+    let opts = unsplit();
     let (out, records) = compensate(SQUARE, &map, opts);
     assert!(out.contains("G1 X39.9960 F500"), "{out}");
     let r = records
@@ -142,8 +141,7 @@ fn hand_interpolated_pitch_error_is_solved_exactly() {
     // the difference shows in the report's residual: e(39.996) − e(40) = −0.0004 µm…
     let opts = CompensateOptions {
         method: Method::Direct,
-        segmentation: Segmentation::Off,
-        ..Default::default()
+        ..unsplit()
     };
     let (_, records) = compensate(SQUARE, &map, opts);
     let r = records
@@ -157,17 +155,8 @@ fn hand_interpolated_pitch_error_is_solved_exactly() {
 fn pure_squareness_shifts_x_in_proportion_to_y() {
     // Squareness S_xy = 50 µrad (docs/design.md, "The 21-component model"): e_x += S·y, i.e. the Y table's
     // ex_um = 50e-6 · y[mm] · 1000 µm/mm = 0.05·y µm. So q_x = t_x − 0.00005·t_y.
-    let map = map_from(|a, p, _| {
-        if a == 1 {
-            [0.05 * p, 0.0, 0.0]
-        } else {
-            [0.0; 3]
-        }
-    });
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let map = one_table(1, |p| [0.05 * p, 0.0, 0.0]);
+    let opts = unsplit();
     let (out, _) = compensate(SQUARE, &map, opts);
     for ((_, t), (_, q)) in ends(SQUARE).iter().zip(&ends(&out)) {
         let expected = Vec3::new(t.x - 0.00005 * t.y, t.y, t.z);
@@ -194,9 +183,8 @@ fn backlash_reversal_gets_a_take_up_move() {
     });
     let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG1 X5\nM2\n";
     let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
         fold_take_ups: false,
-        ..Default::default()
+        ..unsplit()
     };
     let (out, records) = compensate(program, &map, opts);
     let lines: Vec<&str> = out.lines().collect();
@@ -212,9 +200,8 @@ fn backlash_reversal_gets_a_take_up_move() {
     // return command; on a pure X line that lag lies along the path, so the
     // contour error stays zero here too (take-ups matter across the path).
     let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
         take_up: false,
-        ..Default::default()
+        ..unsplit()
     };
     let (out, _) = compensate(program, &map, opts);
     let report = against_original(&out, program, &map);
@@ -680,13 +667,9 @@ fn splitting_follows_a_curved_error_and_beats_end_point_compensation() {
     // A bow of Y straightness along X: e_y = 80·u·(1−u) µm over X −100…300
     // (u = (x+100)/400). A 200 mm line only corrected at its ends keeps the
     // bow's sagitta in between; split every mm it follows within rounding.
-    let map = map_from(|a, p, _| {
+    let map = one_table(0, |p| {
         let u = (p + 100.0) / 400.0;
-        if a == 0 {
-            [0.0, 8.0 * u * (1.0 - u) * 10.0, 0.0]
-        } else {
-            [0.0; 3]
-        }
+        [0.0, 8.0 * u * (1.0 - u) * 10.0, 0.0]
     });
     let program = "G0 X-20 Y0 Z0\nG1 X180 F500\nM2\n";
     let measure = |seg: Segmentation| {
@@ -718,10 +701,7 @@ fn splitting_follows_a_curved_error_and_beats_end_point_compensation() {
 fn zero_map_without_splitting_writes_the_program_back_unchanged() {
     let map = map_from(|_, _, _| [0.0; 3]);
     let program = "%\nO0001 (TEST)\r\nN10 g0 x1 y2 z3 (start)\r\nN20 G1X 1 0 . 5F100 ; feed\r\n\r\nN30 Y.25\r\nN40 G91 X-1.5\r\nN50 G90 M30\r\n%\r\n";
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let opts = unsplit();
     let (out, _) = compensate(program, &map, opts);
     assert_eq!(out, program);
 }
@@ -737,10 +717,7 @@ fn incremental_mode_never_accumulates_rounding() {
         program.push_str("G1 X0.1 F100\n");
     }
     program.push_str("G90\nM2\n");
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let opts = unsplit();
     let (out, _) = compensate(&program, &map, opts);
     let last = ends(&out)
         .iter()
@@ -753,38 +730,18 @@ fn incremental_mode_never_accumulates_rounding() {
 
 #[test]
 fn canned_cycles_are_written_as_compensated_moves() {
-    let map = map_from(|a, _, _| if a == 0 { [5.0, -3.0, 2.0] } else { [0.0; 3] });
+    let map = one_table(0, |_| [5.0, -3.0, 2.0]);
     let program = "G90 G0 X0 Y0 Z10\nG98 G81 X10 Y10 Z-5 R2 F100\nX20\nG82 X30 Y10 Z-4 R1 P0.5\nG80\nG0 Z20\nM2\n";
-    let opts = CompensateOptions {
-        segmentation: Segmentation::Off,
-        ..Default::default()
-    };
+    let opts = unsplit();
     let (out, _) = compensate(program, &map, opts);
     // The cycle blocks keep their other words, the cycle becomes G80.
     assert!(out.contains("G98 G80 F100\n"), "{out}");
     assert!(out.contains("G4 P0.5"), "{out}");
     // The expanded moves are the original cycle's moves shifted by −e,
     // without the zero-length ones.
-    let shift = Vec3::new(-0.005, 0.003, -0.002);
-    let nominal: Vec<Vec3> = {
-        let mut v = Vec::new();
-        let mut prev = Vec3::new(f64::NAN, 0.0, 0.0);
-        for (_, p) in ends(program) {
-            if p != prev {
-                v.push(p);
-            }
-            prev = p;
-        }
-        v
-    };
-    let written: Vec<Vec3> = ends(&out).into_iter().map(|(_, p)| p).collect();
-    assert_eq!(nominal.len(), written.len(), "{out}");
-    for (t, q) in nominal.iter().zip(&written).skip(1) {
-        assert!(
-            (*q - (*t + shift)).max_abs() < 1e-9,
-            "{q:?} vs {t:?}\n{out}"
-        );
-    }
+    common::assert_shifted(program, &out, Vec3::new(-0.005, 0.003, -0.002));
+    let written = ends(&out);
+    assert!(written.windows(2).all(|w| w[0].1 != w[1].1), "{out}");
 }
 
 #[test]
@@ -794,13 +751,7 @@ fn with_a_reference_points_at_block_ends_are_judged_against_their_vertex() {
     // distance to the path is 0, but it is 4 µm from the block end it was
     // sent to; at X80 it is 8 µm off. Judged against itself as reference the
     // point errors must be those along-path errors, 4 and 8 µm.
-    let map = map_from(|a, p, _| {
-        if a == 0 {
-            [0.1 * p, 0.0, 0.0]
-        } else {
-            [0.0; 3]
-        }
-    });
+    let map = one_table(0, |p| [0.1 * p, 0.0, 0.0]);
     let program = "G0 X0 Y0 Z0\nG1 X40 F100\nG1 X80\nM2\n";
     let mut errors = Vec::new();
     let report = simulate_program(

@@ -151,18 +151,23 @@ fn inch_program_with_six_decimals_keeps_them() {
     assert_eq!(compensate_text_with(program, &map, &options), program);
 }
 
-#[test]
-fn a_rewritten_word_never_has_fewer_decimals_than_the_original() {
-    // --decimals 3 asks for fewer digits than the program's 6: a word that
-    // must change is still written with its own 6 (a shift of 2 µm in X).
+/// A map whose error is `ex_um` in X everywhere (−1000 … 1000 mm).
+fn x_shift_map(ex_um: f64) -> AxisTableMap {
     let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
     for axis in ["X", "Y", "Z"] {
-        let ex = if axis == "X" { -2.0 } else { 0.0 };
+        let ex = if axis == "X" { ex_um } else { 0.0 };
         csv.push_str(&format!(
             "{axis},both,-1000,{ex},0,0\n{axis},both,1000,{ex},0,0\n"
         ));
     }
-    let map = AxisTableMap::from_csv(&csv, "shift.csv").unwrap();
+    AxisTableMap::from_csv(&csv, "shift.csv").unwrap()
+}
+
+#[test]
+fn a_rewritten_word_never_has_fewer_decimals_than_the_original() {
+    // --decimals 3 asks for fewer digits than the program's 6: a word that
+    // must change is still written with its own 6 (a shift of 2 µm in X).
+    let map = x_shift_map(-2.0);
     let program = "G21 G90 G1 F100 Z0\nX10.123456 Y5.000001\n";
     let text = compensate_text_with(
         program,
@@ -188,14 +193,7 @@ fn polar_moves_are_kept_or_written_back_on_the_compensated_point() {
     }
     // e_x = −2 µm everywhere: the command is the target + 0.002 mm in X, and
     // the polar words give way to that command's X and Y.
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for axis in ["X", "Y", "Z"] {
-        let ex = if axis == "X" { -2.0 } else { 0.0 };
-        csv.push_str(&format!(
-            "{axis},both,-1000,{ex},0,0\n{axis},both,1000,{ex},0,0\n"
-        ));
-    }
-    let map = AxisTableMap::from_csv(&csv, "shift.csv").unwrap();
+    let map = x_shift_map(-2.0);
     // Target (10, 0, 0): X10.0020 Y0.0000.
     assert_eq!(
         compensate_text("G21 G90 G0 Z0\nG1 F100 @10 ^0\n", &map),

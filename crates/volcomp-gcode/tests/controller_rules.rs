@@ -9,7 +9,7 @@
 
 use crate::common;
 use std::io::Cursor;
-use volcomp_gcode::{GcodeError, InterpOptions, Motion, Setup, Vec3, Walker, Warning};
+use volcomp_gcode::{GcodeError, InterpOptions, Motion, Setup, Vec3, Warning};
 
 fn run_with(program: &str, setup: Setup) -> (Result<Vec<Motion>, GcodeError>, Vec<Warning>) {
     run_with_options(program, setup, InterpOptions::default())
@@ -434,19 +434,7 @@ fn bytes_that_are_not_gcode_give_a_located_escaped_error() {
     assert!(e.message.contains("not ASCII"), "{e}");
     let mut bytes = b"G21\nG0 X1 ".to_vec();
     bytes.extend_from_slice(b"\xe9\x1b[31m\x07\n");
-    let mut w = Walker::new(
-        Cursor::new(bytes),
-        Some("t.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    );
-    let e = loop {
-        match w.next_line() {
-            Ok(Some(_)) => {}
-            Ok(None) => panic!("accepted"),
-            Err(e) => break e,
-        }
-    };
+    let e = common::first_error(Cursor::new(bytes), "t.ngc", "accepted");
     assert_eq!((e.line, e.column), (2, 7));
     let shown = e.to_string();
     assert!(shown.contains("G0 X1 \\xe9\\x1b[31m\\x07"), "{shown}");
@@ -482,16 +470,24 @@ fn an_error_on_a_huge_line_shows_a_bounded_excerpt() {
 #[test]
 fn a_line_longer_than_linuxcnc_reads_is_refused_at_its_length() {
     // 252 characters are read; 253 are "Command too long" in rs274.
-    let body = |n: usize| format!("G21\n({})\n", "c".repeat(n - 2));
-    run(&format!("{}M2\n", body(252))).expect("a 252-character line is read");
-    let e = run(&format!("{}M2\n", body(253))).unwrap_err();
+    let e = longest_line_read("\n", 252);
     assert_eq!(e.line, 2, "{e}");
     assert!(e.message.contains("Command too long"), "{e}");
-    if let Some(verdict) = rs274_error(&body(252)) {
-        assert_eq!(verdict, None, "rs274 reads 252 characters");
-        let refusal = rs274_error(&body(253)).unwrap();
+}
+
+/// A program whose second line is a comment of `longest` characters, lines
+/// ending in `eol`, is read; one character more is refused (and so in
+/// rs274, where it is installed): the refusal.
+fn longest_line_read(eol: &str, longest: usize) -> GcodeError {
+    let body = |n: usize| format!("G21{eol}({}){eol}", "c".repeat(n - 2));
+    run(&format!("{}M2{eol}", body(longest))).expect("the longest line is read");
+    let e = run(&format!("{}M2{eol}", body(longest + 1))).unwrap_err();
+    if let Some(verdict) = rs274_error(&body(longest)) {
+        assert_eq!(verdict, None, "rs274 reads {longest} characters");
+        let refusal = rs274_error(&body(longest + 1)).unwrap();
         assert!(refusal.unwrap().contains("too long"));
     }
+    e
 }
 
 /// The line ending counts: LinuxCNC reads 253 bytes of a line with its
@@ -499,20 +495,13 @@ fn a_line_longer_than_linuxcnc_reads_is_refused_at_its_length() {
 /// read, 252 are "Command too long" in rs274 — and the message says so.
 #[test]
 fn a_crlf_line_holds_one_character_less() {
-    let body = |n: usize| format!("G21\r\n({})\r\n", "c".repeat(n - 2));
-    run(&format!("{}M2\r\n", body(251))).expect("251 characters and CR LF are read");
-    let e = run(&format!("{}M2\r\n", body(252))).unwrap_err();
+    let e = longest_line_read("\r\n", 251);
     assert_eq!((e.line, e.column), (2, 252), "{e}");
     assert!(
         e.message.contains("252 characters long and ends in CR LF")
             && e.message.contains("251 characters at most before CR LF"),
         "{e}"
     );
-    if let Some(verdict) = rs274_error(&body(251)) {
-        assert_eq!(verdict, None, "rs274 reads 251 characters and CR LF");
-        let refusal = rs274_error(&body(252)).unwrap();
-        assert!(refusal.unwrap().contains("too long"));
-    }
 }
 
 #[test]
@@ -529,19 +518,7 @@ fn a_line_of_gigabytes_is_refused_without_holding_it() {
         }
     }
     let reader = std::io::BufReader::new(std::io::Read::chain(&b"G21\n"[..], Endless(64 << 20)));
-    let mut w = Walker::new(
-        reader,
-        Some("t.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    );
-    let e = loop {
-        match w.next_line() {
-            Ok(Some(_)) => {}
-            Ok(None) => panic!("the endless line was read"),
-            Err(e) => break e,
-        }
-    };
+    let e = common::first_error(reader, "t.ngc", "the endless line was read");
     assert_eq!(e.line, 2, "{e}");
     assert!(e.message.contains("longer than 1048576 bytes"), "{e}");
 }

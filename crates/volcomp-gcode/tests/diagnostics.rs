@@ -12,7 +12,7 @@
 
 use crate::common;
 use std::io::Cursor;
-use volcomp_gcode::{GcodeError, InterpOptions, Setup, Walker};
+use volcomp_gcode::GcodeError;
 
 /// A bad program, the line volcomp and rs274 refuse, and the words rs274's
 /// message contains (`None` where its message is of another kind).
@@ -80,19 +80,8 @@ fn cases() -> Vec<Case> {
 }
 
 fn error_of(program: &[u8]) -> GcodeError {
-    let mut w = Walker::new(
-        Cursor::new(program.to_vec()),
-        Some("part.ngc".into()),
-        Setup::default(),
-        InterpOptions::default(),
-    );
-    loop {
-        match w.next_line() {
-            Ok(Some(_)) => {}
-            Ok(None) => panic!("volcomp accepted {:?}", String::from_utf8_lossy(program)),
-            Err(e) => return e,
-        }
-    }
+    let accepted = format!("volcomp accepted {:?}", String::from_utf8_lossy(program));
+    common::first_error(Cursor::new(program.to_vec()), "part.ngc", &accepted)
 }
 
 #[test]

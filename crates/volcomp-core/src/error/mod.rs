@@ -440,6 +440,12 @@ impl OptionError {
             problem: problem.into(),
         }
     }
+
+    /// A request has no option `name` (a misspelt keyword); `option` is one
+    /// of the request's own, named beside the message.
+    pub fn unknown(option: &'static str, name: &str) -> Self {
+        Self::new(option, format!("has no option `{name}`"))
+    }
 }
 
 /// Where an error is: the file, and the 1-based line (row) and column when

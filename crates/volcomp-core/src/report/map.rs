@@ -97,13 +97,7 @@ pub fn table_point_lines(
 ) -> Vec<String> {
     let mut lines = vec![
         format!("map          {map_name} (axis tables; the tool does not enter)"),
-        format!(
-            "at           X {:.4}  Y {:.4}  Z {:.4} mm, directions {}",
-            q.x,
-            q.y,
-            q.z,
-            direction_letters(s)
-        ),
+        at_line(q, s),
         format!(
             "deviation    {} µm   |e| {:.4} µm",
             fmt3(deviation_um, 4),
@@ -118,6 +112,17 @@ pub fn table_point_lines(
         lines.push(format!("  {name} table  {} µm", fmt3(*v, 4)));
     }
     lines
+}
+
+/// The `at` line of a point report: where, and in which directions.
+fn at_line(q: Vec3, s: Directions) -> String {
+    format!(
+        "at           X {:.4}  Y {:.4}  Z {:.4} mm, directions {}",
+        q.x,
+        q.y,
+        q.z,
+        direction_letters(s)
+    )
 }
 
 /// What a 21-component model gives at one point `q` (directions `s`, tool
@@ -145,13 +150,7 @@ pub fn kinematic_point_lines(
     };
     let mut lines = vec![
         format!("map          {map_name} (21-component, chain {}, {form})", k.topology),
-        format!(
-            "at           X {:.4}  Y {:.4}  Z {:.4} mm, directions {}",
-            q.x,
-            q.y,
-            q.z,
-            direction_letters(s)
-        ),
+        at_line(q, s),
         format!("tool offset  {:.4}, {:.4}, {:.4} mm (G43 length offset; the tip is below the gauge point by it)", tool.x, tool.y, tool.z),
         format!("deviation    {} µm   |e| {:.4} µm", fmt3(e, 4), e.norm()),
         format!("  HTM        {} µm", fmt3(htm, 6)),

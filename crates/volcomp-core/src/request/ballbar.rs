@@ -142,7 +142,7 @@ impl crate::request::Request for BallbarPredictRequest {
             "step_deg" => self.step_deg = v.number("step_deg")?,
             "program" => self.program = Some(v.input("program")?),
             "clamp" => self.clamp = v.bool("clamp")?,
-            _ => return Err(OptionError::new("plane", format!("has no option `{name}`"))),
+            _ => return Err(OptionError::unknown("plane", name)),
         }
         Ok(())
     }
@@ -394,10 +394,7 @@ impl crate::request::Request for BallbarFitRequest {
         if self.try_set(name, v)? {
             Ok(())
         } else {
-            Err(OptionError::new(
-                "pitch_mm",
-                format!("has no option `{name}`"),
-            ))
+            Err(OptionError::unknown("pitch_mm", name))
         }
     }
 }
@@ -420,12 +417,7 @@ impl crate::request::Request for BallbarMapRequest {
         }
         match name {
             "range_mm" => self.range_mm = Some(v.ranges("range_mm")?),
-            _ => {
-                return Err(OptionError::new(
-                    "range_mm",
-                    format!("has no option `{name}`"),
-                ))
-            }
+            _ => return Err(OptionError::unknown("range_mm", name)),
         }
         Ok(())
     }

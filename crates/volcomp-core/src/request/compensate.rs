@@ -4,6 +4,7 @@
 
 use super::machine::{Machine, MachineRequest, MACHINE_OPTIONS};
 use super::option::{Kind, OptionError, OptionInfo, Spelling, Value};
+use super::positive;
 use crate::compensate::solve::Method;
 use crate::compensate::{
     file_name, header_for_map, CompensateOptions, Compensator, DirectionPolicy, Segmentation,
@@ -290,19 +291,10 @@ impl super::Request for CompensateRequest {
             "allow_uncompensated_axes" => {
                 self.allow_uncompensated_axes = v.bool("allow_uncompensated_axes")?
             }
-            _ => {
-                return Err(OptionError::new(
-                    "method",
-                    format!("has no option `{name}`"),
-                ))
-            }
+            _ => return Err(OptionError::unknown("method", name)),
         }
         Ok(())
     }
-}
-
-fn positive(v: f64) -> bool {
-    v.is_finite() && v > 0.0
 }
 
 impl CompensateRequest {
@@ -443,15 +435,11 @@ impl CompensateRequest {
                 "cannot be given with {take_up}: there are no take-ups to write",
             ));
         }
-        if !positive(self.drill_tolerance_um) {
-            return Err(OptionError::new(
-                "drill_tolerance_um",
-                format!(
-                    "must be a positive number of µm; got {}",
-                    self.drill_tolerance_um
-                ),
-            ));
-        }
+        positive(
+            "drill_tolerance_um",
+            self.drill_tolerance_um,
+            "a positive number of µm",
+        )?;
         if let Some(t) = self.take_up_tolerance_um {
             if !self.take_up || self.separate_take_ups {
                 let other = if self.take_up {
@@ -464,12 +452,7 @@ impl CompensateRequest {
                     format!("cannot be given with {{{other}}}: no take-up is folded"),
                 ));
             }
-            if !positive(t) {
-                return Err(OptionError::new(
-                    "take_up_tolerance_um",
-                    format!("must be a positive number of µm; got {t}"),
-                ));
-            }
+            positive("take_up_tolerance_um", t, "a positive number of µm")?;
         }
         Ok(())
     }
@@ -503,24 +486,16 @@ impl CompensateRequest {
                 ),
             ));
         }
-        if !positive(self.max_correction_mm) {
-            return Err(OptionError::new(
-                "max_correction_mm",
-                format!(
-                    "must be a positive length in mm; got {}",
-                    self.max_correction_mm
-                ),
-            ));
-        }
-        if !positive(self.max_residual_um) {
-            return Err(OptionError::new(
-                "max_residual_um",
-                format!(
-                    "must be a positive number of µm; got {}",
-                    self.max_residual_um
-                ),
-            ));
-        }
+        positive(
+            "max_correction_mm",
+            self.max_correction_mm,
+            "a positive length in mm",
+        )?;
+        positive(
+            "max_residual_um",
+            self.max_residual_um,
+            "a positive number of µm",
+        )?;
         self.take_ups()?;
         let decimals = match self.decimals {
             None => None,

@@ -265,12 +265,7 @@ impl super::Request for CompRequest {
         match name {
             "comp_type" => self.comp_type = Some(v.count("comp_type")?),
             "units" => self.units = Some(v.text("units")?),
-            _ => {
-                return Err(OptionError::new(
-                    "comp_type",
-                    format!("has no option `{name}`"),
-                ))
-            }
+            _ => return Err(OptionError::unknown("comp_type", name)),
         }
         Ok(())
     }
@@ -344,12 +339,7 @@ impl super::Request for MapToolRequest {
             "tool_length_mm" => self.tool_length_mm = Some(v.number("tool_length_mm")?),
             "tool_offset_mm" => self.tool_offset_mm = Some(v.triple("tool_offset_mm")?),
             "form" => self.form = v.text("form")?,
-            _ => {
-                return Err(OptionError::new(
-                    "tool_length_mm",
-                    format!("has no option `{name}`"),
-                ))
-            }
+            _ => return Err(OptionError::unknown("tool_length_mm", name)),
         }
         Ok(())
     }
@@ -629,11 +619,7 @@ fn direction(
 
 /// A positive option's value, or what to give.
 fn positive(name: &'static str, v: f64) -> Result<f64, OptionError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(OptionError::new(name, format!("must be positive; got {v}")))
-    }
+    super::positive(name, v, "positive")
 }
 
 impl MapExportRequest {

@@ -104,7 +104,7 @@ impl super::Request for MachineRequest {
     fn set(&mut self, name: &str, value: Value) -> Result<(), OptionError> {
         match self.try_set(name, value)? {
             true => Ok(()),
-            false => Err(OptionError::new("setup", format!("has no option `{name}`"))),
+            false => Err(OptionError::unknown("setup", name)),
         }
     }
 }

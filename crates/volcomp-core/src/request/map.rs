@@ -66,7 +66,7 @@ impl super::Request for MapRequest {
             "controller_compensates" => {
                 self.controller_compensates = Some(value.text("controller_compensates")?)
             }
-            _ => return Err(OptionError::new("map", format!("has no option `{name}`"))),
+            _ => return Err(OptionError::unknown("map", name)),
         }
         Ok(())
     }

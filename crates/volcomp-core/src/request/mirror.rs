@@ -4,6 +4,7 @@
 
 use super::machine::{Machine, MachineRequest, MACHINE_OPTIONS};
 use super::option::{Input, Kind, OptionError, OptionInfo, Spelling, Value};
+use super::positive;
 use crate::compensate::{file_name, refuse_if_compensated, survey_style, HEAD_BYTES};
 use crate::io::provenance::{sha256_hex, HeaderWriter, ProgramHeader};
 use crate::surface::bspline::Parameterization;
@@ -279,12 +280,7 @@ impl super::Request for MirrorRequest {
             "decimals" => self.decimals = Some(v.count("decimals")?),
             "trace" => self.trace = v.bool("trace")?,
             "allow_recompensate" => self.allow_recompensate = v.bool("allow_recompensate")?,
-            _ => {
-                return Err(OptionError::new(
-                    "nominal",
-                    format!("has no option `{name}`"),
-                ))
-            }
+            _ => return Err(OptionError::unknown("nominal", name)),
         }
         Ok(())
     }
@@ -332,14 +328,6 @@ pub struct MirrorRun {
     /// The warning a front end gives when the leave-one-out prediction
     /// says compensating is worse than not (and the run was not refused).
     pub worse: Option<String>,
-}
-
-fn positive(name: &'static str, v: f64, what: &str) -> Result<f64, OptionError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(OptionError::new(name, format!("must be {what}; got {v}")))
-    }
 }
 
 /// The choice of option `name` that `value` names.

@@ -98,6 +98,16 @@ pub const ALL_OPTIONS: &[&[OptionInfo]] = &[
     REPORT_OPTIONS,
 ];
 
+/// Option `name`'s value `v` when it is finite and above zero, else the
+/// error `must be {what}; got {v}` (`what`: "a positive length in mm", …).
+pub(crate) fn positive(name: &'static str, v: f64, what: &str) -> Result<f64, OptionError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(OptionError::new(name, format!("must be {what}; got {v}")))
+    }
+}
+
 /// The option named `name` in any request.
 pub fn find(name: &str) -> Option<&'static OptionInfo> {
     ALL_OPTIONS

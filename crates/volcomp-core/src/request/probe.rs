@@ -245,12 +245,7 @@ impl super::Request for ProbePlanRequest {
             "safe_z_mm" => self.safe_z_mm = Some(v.number("safe_z_mm")?),
             "rapid_mm_min" => self.rapid_mm_min = v.number("rapid_mm_min")?,
             "accel_mm_s2" => self.accel_mm_s2 = v.number("accel_mm_s2")?,
-            _ => {
-                return Err(OptionError::new(
-                    "tip_diameter_mm",
-                    format!("has no option `{name}`"),
-                ))
-            }
+            _ => return Err(OptionError::unknown("tip_diameter_mm", name)),
         }
         Ok(())
     }
@@ -420,12 +415,7 @@ impl super::Request for ProbeIdentifyRequest {
             "order" => self.order = v.count("order")?,
             "model" => self.model = v.text("model")?,
             "threshold" => self.threshold = v.number("threshold")?,
-            _ => {
-                return Err(OptionError::new(
-                    "ranges_mm",
-                    format!("has no option `{name}`"),
-                ))
-            }
+            _ => return Err(OptionError::unknown("ranges_mm", name)),
         }
         Ok(())
     }

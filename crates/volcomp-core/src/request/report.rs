@@ -40,12 +40,7 @@ impl super::Request for ReportRequest {
     fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
         match name {
             "report_title" => self.report_title = Some(v.path("report_title")?),
-            _ => {
-                return Err(OptionError::new(
-                    "report_title",
-                    format!("has no option `{name}`"),
-                ))
-            }
+            _ => return Err(OptionError::unknown("report_title", name)),
         }
         Ok(())
     }

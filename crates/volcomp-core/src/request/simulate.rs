@@ -57,12 +57,7 @@ impl super::Request for SimulateRequest {
         match name {
             "reference" => self.reference = Some(v.input("reference")?),
             "chord_tolerance_mm" => self.chord_tolerance_mm = v.number("chord_tolerance_mm")?,
-            _ => {
-                return Err(OptionError::new(
-                    "reference",
-                    format!("has no option `{name}`"),
-                ))
-            }
+            _ => return Err(OptionError::unknown("reference", name)),
         }
         Ok(())
     }

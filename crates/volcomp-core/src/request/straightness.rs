@@ -129,7 +129,7 @@ impl super::Request for StraightnessFitRequest {
             "cutoff" => self.cutoff = v.text("cutoff")?,
             "harmonics" => self.harmonics = Some(v.count("harmonics")?),
             "negate" => self.negate = v.bool("negate")?,
-            _ => return Err(OptionError::new("axis", format!("has no option `{name}`"))),
+            _ => return Err(OptionError::unknown("axis", name)),
         }
         Ok(())
     }

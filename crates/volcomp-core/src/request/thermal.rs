@@ -146,7 +146,7 @@ impl super::Request for ThermalFitRequest {
             "threshold" => self.threshold = v.number("threshold")?,
             "table_samples" => self.table_samples = v.count("table_samples")?,
             "bands_samples" => self.bands_samples = Some(v.count("bands_samples")?),
-            _ => return Err(OptionError::new("chain", format!("has no option `{name}`"))),
+            _ => return Err(OptionError::unknown("chain", name)),
         }
         Ok(())
     }
@@ -359,7 +359,7 @@ impl super::Request for ThermalPredictRequest {
             "temperatures" => self.temperatures = Some(v.input("temperatures")?),
             "cycle" => self.cycle = Some(v.count("cycle")?),
             "extrapolate" => self.extrapolate = v.bool("extrapolate")?,
-            _ => return Err(OptionError::new("cycle", format!("has no option `{name}`"))),
+            _ => return Err(OptionError::unknown("cycle", name)),
         }
         Ok(())
     }

@@ -43,12 +43,7 @@ impl super::Request for TimeRequest {
         }
         match name {
             "reference" => self.reference = Some(v.input("reference")?),
-            _ => {
-                return Err(OptionError::new(
-                    "reference",
-                    format!("has no option `{name}`"),
-                ))
-            }
+            _ => return Err(OptionError::unknown("reference", name)),
         }
         Ok(())
     }

@@ -48,6 +48,35 @@ pub fn walker(program: &str, name: &str) -> Walker<Cursor<Vec<u8>>> {
     )
 }
 
+/// End points of the motions of `program` (axis frame), zero-length ones
+/// dropped.
+pub fn motion_ends(program: &str) -> Vec<volcomp_gcode::Vec3> {
+    let mut w = walker(program, "test.ngc");
+    let mut out = Vec::new();
+    while let Some(ev) = w.next_line().unwrap() {
+        for m in ev.motions {
+            if out.last() != Some(&m.end) {
+                out.push(m.end);
+            }
+        }
+    }
+    out
+}
+
+/// The motions of the written program `out` end where `program`'s do,
+/// moved by `shift_mm` (to 1 nm; the start point is not compared).
+pub fn assert_shifted(program: &str, out: &str, shift_mm: volcomp_gcode::Vec3) {
+    let nominal = motion_ends(program);
+    let written = motion_ends(out);
+    assert_eq!(nominal.len(), written.len(), "{out}");
+    for (t, q) in nominal.iter().zip(&written).skip(1) {
+        assert!(
+            (*q - (*t + shift_mm)).max_abs() < 1e-9,
+            "{q:?} vs {t:?}\n{out}"
+        );
+    }
+}
+
 /// `program` (named `name`) compensated for `map` with `options` on the
 /// default set-up: the written program, or the error's text.
 pub fn compensate_text(

@@ -93,6 +93,24 @@ impl Rs274 {
     }
 }
 
+/// The first error of the program `reader` holds (named `name`), read line
+/// by line; a program read to its end without one fails with `accepted`.
+pub fn first_error(reader: impl std::io::BufRead, name: &str, accepted: &str) -> GcodeError {
+    let mut w = Walker::new(
+        reader,
+        Some(name.into()),
+        Setup::default(),
+        InterpOptions::default(),
+    );
+    loop {
+        match w.next_line() {
+            Ok(Some(_)) => {}
+            Ok(None) => panic!("{accepted}"),
+            Err(e) => break e,
+        }
+    }
+}
+
 /// Runs `rs274 -g t.ngc out.txt` on `program` in a directory of its own.
 /// rs274 2.9 keeps its tool data in `$HOME/.tool.mmap`, and concurrent runs
 /// sharing that file die with a bus error (SIGBUS): every run gets its own

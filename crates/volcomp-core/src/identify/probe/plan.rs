@@ -291,6 +291,47 @@ struct TouchSpec {
     states: [Option<Direction>; 3],
 }
 
+impl TouchSpec {
+    /// The touch from `direction` at `nominal` (surface normal `normal`),
+    /// no axis state asked for.
+    fn plain(direction: AxisDir, nominal: Vec3, normal: Vec3) -> Self {
+        TouchSpec {
+            direction,
+            nominal,
+            normal,
+            states: [None; 3],
+        }
+    }
+}
+
+/// The touch from `direction` at `nominal` (surface normal `normal`); with
+/// `reversal: Some(axis)`, two such touches, `axis` arriving forward, then
+/// in reverse.
+fn push_touches(
+    out: &mut Vec<TouchSpec>,
+    direction: AxisDir,
+    nominal: Vec3,
+    normal: Vec3,
+    reversal: Option<usize>,
+) {
+    let states: Vec<[Option<Direction>; 3]> = match reversal {
+        None => vec![[None; 3]],
+        Some(axis) => [Direction::Forward, Direction::Reverse]
+            .map(|st| {
+                let mut states = [None; 3];
+                states[axis] = Some(st);
+                states
+            })
+            .to_vec(),
+    };
+    out.extend(states.into_iter().map(|states| TouchSpec {
+        direction,
+        nominal,
+        normal,
+        states,
+    }));
+}
+
 /// The touches of one sphere (`c` machine centre, `rho` = R + tip radius,
 /// `pole`, reference or not).
 fn sphere_touches(
@@ -308,43 +349,20 @@ fn sphere_touches(
         // the probe to move up under the sphere.
         .filter(|e| e.axis != 2 || e.positive)
         .collect();
-    let mut out = vec![TouchSpec {
-        direction: pole.opposite(),
-        nominal: c + n * rho,
-        normal: n,
-        states: [None; 3],
-    }];
+    let mut out = vec![TouchSpec::plain(pole.opposite(), c + n * rho, n)];
     for e in &lateral {
-        out.push(TouchSpec {
-            direction: e.opposite(),
-            nominal: c + e.vector() * rho,
-            normal: e.vector(),
-            states: [None; 3],
-        });
+        out.push(TouchSpec::plain(
+            e.opposite(),
+            c + e.vector() * rho,
+            e.vector(),
+        ));
     }
     let h = std::f64::consts::FRAC_1_SQRT_2;
     if reference || pattern == SpherePattern::Nine {
         for e in &lateral {
             let m = (n + e.vector()) * h;
-            if reference {
-                for st in [Direction::Forward, Direction::Reverse] {
-                    let mut states = [None; 3];
-                    states[e.axis] = Some(st);
-                    out.push(TouchSpec {
-                        direction: pole.opposite(),
-                        nominal: c + m * rho,
-                        normal: m,
-                        states,
-                    });
-                }
-            } else {
-                out.push(TouchSpec {
-                    direction: pole.opposite(),
-                    nominal: c + m * rho,
-                    normal: m,
-                    states: [None; 3],
-                });
-            }
+            let reversal = reference.then_some(e.axis);
+            push_touches(&mut out, pole.opposite(), c + m * rho, m, reversal);
         }
     }
     if reference {
@@ -352,16 +370,7 @@ fn sphere_touches(
         // the pole axis arriving from both sides.
         for e in lateral.iter().filter(|e| e.positive).take(2) {
             let m = (n + e.vector()) * h;
-            for st in [Direction::Forward, Direction::Reverse] {
-                let mut states = [None; 3];
-                states[pole.axis] = Some(st);
-                out.push(TouchSpec {
-                    direction: e.opposite(),
-                    nominal: c + m * rho,
-                    normal: m,
-                    states,
-                });
-            }
+            push_touches(&mut out, e.opposite(), c + m * rho, m, Some(pole.axis));
         }
     }
     out
@@ -417,15 +426,7 @@ fn placement_touches(
                     _ => [0.0, 0.0],
                 };
                 let point = p.to_machine(Vec3::new(x_mm, at[0], at[1]));
-                list.push((
-                    f.label(),
-                    TouchSpec {
-                        direction: d,
-                        nominal: point + normal * r,
-                        normal,
-                        states: [None; 3],
-                    },
-                ));
+                list.push((f.label(), TouchSpec::plain(d, point + normal * r, normal)));
             }
             Feature::Edge { index, length_mm } => {
                 let inner = matches!(&art.kind, Kind::Square { inner: true, .. });
@@ -448,15 +449,7 @@ fn placement_touches(
                 for j in 0..k {
                     let u = a + (b - a) * j as f64 / (k - 1) as f64;
                     let point = p.to_machine(along * u);
-                    list.push((
-                        f.label(),
-                        TouchSpec {
-                            direction: d,
-                            nominal: point + normal * r,
-                            normal,
-                            states: [None; 3],
-                        },
-                    ));
+                    list.push((f.label(), TouchSpec::plain(d, point + normal * r, normal)));
                 }
             }
         }

@@ -151,12 +151,8 @@ pub fn export(p: &[Option<Positioning>; 3]) -> Result<Export, LimitError> {
     Ok(Export {
         files: files_text,
         applied: ControllerCorrection {
-            format: Format::Heidenhain,
             axes: applied,
-            squareness_urad: None,
-            cross: Vec::new(),
-            backlash: [None; 3],
-            notes: Vec::new(),
+            ..ControllerCorrection::empty(Format::Heidenhain)
         },
         rounding,
         holds: [super::table_error::Holds::BothDirections; 3],

@@ -100,7 +100,7 @@ pub fn ssfk_export(p: &[Option<Positioning>; 3], max_points: usize) -> Result<Ex
     }
     Ok(Export {
         files,
-        applied: ControllerCorrection { format: Format::IsgSsfk, axes: applied, backlash: [None; 3], squareness_urad: None, cross: Vec::new(), notes: Vec::new() },
+        applied: ControllerCorrection { axes: applied, ..ControllerCorrection::empty(Format::IsgSsfk) },
         rounding,
         holds: [super::table_error::Holds::BothDirections; 3],
         zero_at: None,
@@ -649,12 +649,9 @@ pub fn csv_export(model: &crate::model::kinematic::KinematicModel) -> Export {
             },
         ],
         applied: ControllerCorrection {
-            format: Format::IsgCsv,
             axes: applied,
             squareness_urad: Some([s.xy_urad, s.yz_urad, s.zx_urad]),
-            cross: Vec::new(),
-            backlash: [None; 3],
-            notes: Vec::new(),
+            ..ControllerCorrection::empty(Format::IsgCsv)
         },
         rounding,
         holds: [super::table_error::Holds::OneTable; 3],

@@ -309,12 +309,8 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
         let mut axes = [None, None, None];
         axes[axis] = Some(heidenhain::parse_com(&text, &file, axis)?);
         return Ok(ControllerCorrection {
-            format: Format::Heidenhain,
             axes,
-            squareness_urad: None,
-            cross: Vec::new(),
-            backlash: [None; 3],
-            notes: Vec::new(),
+            ..ControllerCorrection::empty(Format::Heidenhain)
         });
     }
     if name.ends_with(".CMA") {
@@ -349,12 +345,8 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
             }
         }
         return Ok(ControllerCorrection {
-            format: Format::Heidenhain,
             axes,
-            squareness_urad: None,
-            cross: Vec::new(),
-            backlash: [None; 3],
-            notes: Vec::new(),
+            ..ControllerCorrection::empty(Format::Heidenhain)
         });
     }
     if name.ends_with(".INI") || name.ends_with(".INI.EXPANDED") {
@@ -378,12 +370,8 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
         let mut axes = [None, None, None];
         axes[axis] = Some(p);
         return Ok(ControllerCorrection {
-            format: Format::IsgSsfk,
             axes,
-            squareness_urad: None,
-            cross: Vec::new(),
-            backlash: [None; 3],
-            notes: Vec::new(),
+            ..ControllerCorrection::empty(Format::IsgSsfk)
         });
     }
     if text.lines().any(|l| l.trim_start().starts_with("$16")) {
@@ -394,12 +382,8 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
     }
     if text.contains("$AN_CEC") {
         return Ok(ControllerCorrection {
-            format: Format::SiemensCec,
-            axes: [None, None, None],
-            squareness_urad: None,
             cross: siemens::cec_parse(&text, &file, siemens::CecSign::Error)?,
-            backlash: [None; 3],
-            notes: Vec::new(),
+            ..ControllerCorrection::empty(Format::SiemensCec)
         });
     }
     if text.contains("$AA_ENC_COMP") {

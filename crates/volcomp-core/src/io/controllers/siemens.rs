@@ -657,12 +657,8 @@ pub fn cec_export(
             text,
         }],
         applied: ControllerCorrection {
-            format: Format::SiemensCec,
-            axes: [None, None, None],
-            squareness_urad: None,
             cross,
-            backlash: [None; 3],
-            notes: Vec::new(),
+            ..ControllerCorrection::empty(Format::SiemensCec)
         },
         rounding,
         holds: [super::table_error::Holds::Nothing; 3],

@@ -60,12 +60,50 @@ fn rounded(squareness: [f64; 3], rounding: &mut Rounding) -> [f64; 3] {
 /// The correction the firmware applies with `factors`.
 fn applied(format: Format, f: [f64; 3]) -> ControllerCorrection {
     ControllerCorrection {
-        format,
-        axes: [None, None, None],
         squareness_urad: Some(squareness_urad(f)),
-        cross: Vec::new(),
-        backlash: [None; 3],
-        notes: Vec::new(),
+        ..ControllerCorrection::empty(format)
+    }
+}
+
+/// Nothing rounded yet, at the 0.001 µrad every firmware file is written
+/// to (reported in µrad, in [`Rounding::max_um`]'s field).
+fn unrounded() -> Rounding {
+    Rounding {
+        resolution_um: 1e-3,
+        max_um: 0.0,
+    }
+}
+
+/// The first line of a firmware file: the squareness (µrad) it corrects,
+/// after the firmware's comment sign, `as` what.
+fn header(comment: char, squareness: [f64; 3], what: &str) -> String {
+    format!(
+        "{comment} volcomp: squareness S_xy {} urad, S_yz {} urad, S_zx {} urad as {what}\n",
+        fixed(squareness[0], 4),
+        fixed(squareness[1], 4),
+        fixed(squareness[2], 4),
+    )
+}
+
+/// The export of one firmware file `name` with `text`: the firmware holds
+/// no table.
+fn one_file(
+    name: &str,
+    text: String,
+    applied: ControllerCorrection,
+    rounding: Rounding,
+    notes: Vec<String>,
+) -> Export {
+    Export {
+        files: vec![ExportFile {
+            name: name.into(),
+            text,
+        }],
+        applied,
+        rounding,
+        holds: [super::table_error::Holds::Nothing; 3],
+        zero_at: None,
+        notes,
     }
 }
 
@@ -80,44 +118,32 @@ pub fn klipper(squareness: [f64; 3], profile: &str) -> Result<Export, LimitError
             help: "name the profile with letters, digits and _ (it is loaded with SKEW_PROFILE LOAD=NAME)".into(),
         });
     }
-    let mut rounding = Rounding {
-        resolution_um: 1e-3,
-        max_um: 0.0,
-    };
+    let mut rounding = unrounded();
     let f = rounded(squareness, &mut rounding);
     let text = format!(
-        "# volcomp: squareness S_xy {} urad, S_yz {} urad, S_zx {} urad as Klipper skew factors\n[skew_correction {profile}]\nxy_skew = {}\nxz_skew = {}\nyz_skew = {}\n",
-        fixed(squareness[0], 4),
-        fixed(squareness[1], 4),
-        fixed(squareness[2], 4),
+        "{}[skew_correction {profile}]\nxy_skew = {}\nxz_skew = {}\nyz_skew = {}\n",
+        header('#', squareness, "Klipper skew factors"),
         fixed(f[0], DECIMALS),
         fixed(f[1], DECIMALS),
         fixed(f[2], DECIMALS)
     );
-    Ok(Export {
-        files: vec![ExportFile {
-            name: "skew_correction.cfg".into(),
-            text,
-        }],
-        applied: applied(Format::Klipper, f),
+    Ok(one_file(
+        "skew_correction.cfg",
+        text,
+        applied(Format::Klipper, f),
         rounding,
-        holds: [super::table_error::Holds::Nothing; 3],
-        zero_at: None,
-        notes: vec![
+        vec![
             "printer.cfg: [skew_correction] and this profile section (or [include skew_correction.cfg])".into(),
             format!("load it after homing: SKEW_PROFILE LOAD={profile}"),
         ],
-    })
+    ))
 }
 
 /// Marlin's `M852 I J K` line (with `G21`: Marlin reads the factors as
 /// linear units) for the squareness (µrad). Marlin refuses factors outside
 /// `SKEW_FACTOR_MIN … SKEW_FACTOR_MAX` = −1 … 1.
 pub fn marlin(squareness: [f64; 3]) -> Result<Export, LimitError> {
-    let mut rounding = Rounding {
-        resolution_um: 1e-3,
-        max_um: 0.0,
-    };
+    let mut rounding = unrounded();
     let f = rounded(squareness, &mut rounding);
     for (k, v) in f.iter().enumerate() {
         if !(-1.0..=1.0).contains(v) {
@@ -130,28 +156,22 @@ pub fn marlin(squareness: [f64; 3]) -> Result<Export, LimitError> {
         }
     }
     let text = format!(
-        "; volcomp: squareness S_xy {} urad, S_yz {} urad, S_zx {} urad as Marlin skew factors\nG21\nM852 I{} J{} K{}\nM500\n",
-        fixed(squareness[0], 4),
-        fixed(squareness[1], 4),
-        fixed(squareness[2], 4),
+        "{}G21\nM852 I{} J{} K{}\nM500\n",
+        header(';', squareness, "Marlin skew factors"),
         fixed(f[0], DECIMALS),
         fixed(f[1], DECIMALS),
         fixed(f[2], DECIMALS)
     );
-    Ok(Export {
-        files: vec![ExportFile {
-            name: "skew.gcode".into(),
-            text,
-        }],
-        applied: applied(Format::Marlin, f),
+    Ok(one_file(
+        "skew.gcode",
+        text,
+        applied(Format::Marlin, f),
         rounding,
-        holds: [super::table_error::Holds::Nothing; 3],
-        zero_at: None,
-        notes: vec![
+        vec![
             "Marlin needs SKEW_CORRECTION and SKEW_CORRECTION_GCODE; J and K (XZ, YZ) need SKEW_CORRECTION_FOR_Z".into(),
             "M500 stores the factors in EEPROM".into(),
         ],
-    })
+    ))
 }
 
 /// The sample length of the `M556` line volcomp writes (mm): RepRapFirmware
@@ -169,10 +189,7 @@ pub const RRF_SAMPLE_MM: f64 = 100.0;
 /// `S_xy·S_yz·z` is 10⁻¹⁰ of z for 10 µrad). volcomp writes `S100` and the
 /// deviations over those 100 mm.
 pub fn rrf(squareness: [f64; 3]) -> Result<Export, LimitError> {
-    let mut rounding = Rounding {
-        resolution_um: 1e-3,
-        max_um: 0.0,
-    };
+    let mut rounding = unrounded();
     let [xy, yz, zx] = squareness;
     // Deviations over S in mm, written with 7 decimals: 10⁻⁷ / 100 = 0.001 µrad.
     let mut dev = |s_urad: f64| -> f64 {
@@ -183,40 +200,31 @@ pub fn rrf(squareness: [f64; 3]) -> Result<Export, LimitError> {
     };
     let (x, y, z) = (dev(xy), dev(yz), dev(zx));
     let text = format!(
-        "; volcomp: squareness S_xy {} urad, S_yz {} urad, S_zx {} urad as RepRapFirmware axis compensation\nM556 S{} X{} Y{} Z{}\n",
-        fixed(xy, 4),
-        fixed(yz, 4),
-        fixed(zx, 4),
+        "{}M556 S{} X{} Y{} Z{}\n",
+        header(';', squareness, "RepRapFirmware axis compensation"),
         fixed(RRF_SAMPLE_MM, 0),
         fixed(x, 7),
         fixed(y, 7),
         fixed(z, 7)
     );
-    Ok(Export {
-        files: vec![ExportFile {
-            name: "m556.g".into(),
-            text,
-        }],
-        applied: ControllerCorrection {
-            format: Format::Rrf,
-            axes: [None, None, None],
-            squareness_urad: Some([
-                -x / RRF_SAMPLE_MM * 1e6,
-                -y / RRF_SAMPLE_MM * 1e6,
-                -z / RRF_SAMPLE_MM * 1e6,
-            ]),
-            cross: Vec::new(),
-            backlash: [None; 3],
-            notes: Vec::new(),
-        },
+    let applied = ControllerCorrection {
+        squareness_urad: Some([
+            -x / RRF_SAMPLE_MM * 1e6,
+            -y / RRF_SAMPLE_MM * 1e6,
+            -z / RRF_SAMPLE_MM * 1e6,
+        ]),
+        ..ControllerCorrection::empty(Format::Rrf)
+    };
+    Ok(one_file(
+        "m556.g",
+        text,
+        applied,
         rounding,
-        holds: [super::table_error::Holds::Nothing; 3],
-        zero_at: None,
-        notes: vec![
+        vec![
             "put the M556 line in config.g (the XY term corrects X, RepRapFirmware's default)"
                 .into(),
         ],
-    })
+    ))
 }
 
 /// Reads a Klipper profile section (`[skew_correction NAME]` with
@@ -310,12 +318,8 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
     }
     if let Some(sq) = rrf_squareness {
         return Ok(ControllerCorrection {
-            format: Format::Rrf,
-            axes: [None, None, None],
             squareness_urad: Some(sq),
-            cross: Vec::new(),
-            backlash: [None; 3],
-            notes: Vec::new(),
+            ..ControllerCorrection::empty(Format::Rrf)
         });
     }
     let Some(format) = format else {

@@ -230,32 +230,27 @@ fn least_squares_reproduces_what_the_space_contains_and_smooths_noise() {
 
 #[test]
 fn least_squares_refuses_too_few_points() {
-    let uv = vec![(0.1, 0.1), (0.5, 0.5), (0.9, 0.2)];
-    let vals = vec![[1.0], [2.0], [3.0]];
-    let e = fit_least_squares(
-        &uv,
-        &vals,
-        3,
-        3,
-        uniform_knots(0.0, 1.0, 1, 3),
-        uniform_knots(0.0, 1.0, 1, 3),
-        0.0,
-    )
-    .unwrap_err();
+    // Cubic in u and v, one interior knot each, no penalty.
+    let fit = |uv: &[(f64, f64)], vals: &[[f64; 1]]| {
+        fit_least_squares(
+            uv,
+            vals,
+            3,
+            3,
+            uniform_knots(0.0, 1.0, 1, 3),
+            uniform_knots(0.0, 1.0, 1, 3),
+            0.0,
+        )
+        .unwrap_err()
+    };
+    let e = fit(
+        &[(0.1, 0.1), (0.5, 0.5), (0.9, 0.2)],
+        &[[1.0], [2.0], [3.0]],
+    );
     assert!(matches!(e, BSplineError::TooFewPoints(_)), "{e}");
     // Enough points, but all on one line: singular without penalty.
     let uv: Vec<(f64, f64)> = (0..30).map(|k| (k as f64 / 29.0, 0.5)).collect();
-    let vals = vec![[1.0]; 30];
-    let e = fit_least_squares(
-        &uv,
-        &vals,
-        3,
-        3,
-        uniform_knots(0.0, 1.0, 1, 3),
-        uniform_knots(0.0, 1.0, 1, 3),
-        0.0,
-    )
-    .unwrap_err();
+    let e = fit(&uv, &[[1.0]; 30]);
     assert!(matches!(e, BSplineError::Singular(_)), "{e}");
 }
 
