@@ -39,18 +39,9 @@ fn standard_input_and_output() {
     assert!(o.status.success(), "{}", stderr(&o));
     let from_stdin = String::from_utf8(o.stdout).unwrap();
     // The same as compensating the file (the header's date aside).
-    let o = volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            "-",
-        ],
+    let o = common::run(
         &d,
+        "compensate part.ngc --map map.csv --setup machine.toml -o -",
     );
     let from_file = String::from_utf8(o.stdout).unwrap();
     let body = |s: &str| volcomp_core::io::provenance::strip_header(s);
@@ -179,18 +170,9 @@ fn header_content_and_refusal_of_double_compensation() {
         .unwrap();
     assert_eq!(lines[end + 1], "G21 G90 G17", "{out}");
     // The same again is refused, naming the line, and writes nothing.
-    let o = volcomp(
-        &[
-            "compensate",
-            "out.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            "again.ngc",
-        ],
+    let o = common::run(
         &d,
+        "compensate out.ngc --map map.csv --setup machine.toml -o again.ngc",
     );
     let e2 = stderr(&o);
     // Compensating twice refuses the program (exit 3, docs/errors.md).
@@ -200,19 +182,9 @@ fn header_content_and_refusal_of_double_compensation() {
         "{e2}"
     );
     assert!(!d.join("again.ngc").exists());
-    let o = volcomp(
-        &[
-            "compensate",
-            "out.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "--allow-recompensate",
-            "-o",
-            "again.ngc",
-        ],
+    let o = common::run(
         &d,
+        "compensate out.ngc --map map.csv --setup machine.toml --allow-recompensate -o again.ngc",
     );
     assert!(o.status.success(), "{}", stderr(&o));
 }
@@ -388,18 +360,9 @@ fn a_program_that_never_sets_z_is_compensated_from_the_start_or_refused_or_count
     );
     // Such a program is marked: compensating it again is refused.
     std::fs::write(d.join("c2.ngc"), &c).unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "c2.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "start.toml",
-            "-o",
-            "d.ngc",
-        ],
+    let o = common::run(
         &d,
+        "compensate c2.ngc --map map.csv --setup start.toml -o d.ngc",
     );
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&d);

@@ -196,12 +196,9 @@ fn comp_map(work: &Path) {
         }
     }
     std::fs::write(work.join("m.csv"), s).unwrap();
-    let o = common::volcomp(
-        &[
-            "map", "export", "m.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm", "--step",
-            "5", "-o", "lc",
-        ],
+    let o = common::run(
         work,
+        "map export m.csv --to linuxcnc --type 1 --units mm --step 5 -o lc",
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
@@ -339,20 +336,9 @@ fn pins(joints: usize) -> Vec<String> {
 /// `map export --backlash-only` of `comp_map` (in `work/lb`): the
 /// `BACKLASH = …` key of each joint 0…2, as `machine` takes keys.
 fn backlash_keys(work: &Path) -> Vec<(usize, String)> {
-    let o = common::volcomp(
-        &[
-            "map",
-            "export",
-            "m.csv",
-            "--to",
-            "linuxcnc",
-            "--backlash-only",
-            "--units",
-            "mm",
-            "-o",
-            "lb",
-        ],
+    let o = common::run(
         work,
+        "map export m.csv --to linuxcnc --backlash-only --units mm -o lb",
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let lb = std::fs::read_to_string(work.join("lb/comp.ini")).unwrap();

@@ -36,6 +36,13 @@ pub fn volcomp(args: &[&str], dir: &Path) -> Output {
         .expect("run volcomp")
 }
 
+/// Runs `volcomp` in `dir` with the words of `line` as its arguments, as a
+/// user types them (split at white space: an argument holding a space
+/// goes through [`volcomp`]).
+pub fn run(dir: &Path, line: &str) -> Output {
+    volcomp(&line.split_whitespace().collect::<Vec<_>>(), dir)
+}
+
 /// A fresh, empty directory for one test, named after the calling test file,
 /// `name` and the process: the files' tests run side by side in one binary
 /// (tests/cli_tests.rs), and two files may use the same `name`.
