@@ -12,18 +12,7 @@ use std::process::{Command, Stdio};
 #[test]
 fn standard_input_and_output() {
     let d = fixture("stdio");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_volcomp"))
-        .args([
-            "compensate",
-            "-",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            "-",
-        ])
-        .current_dir(&d)
+    let mut child = common::command(&d, "compensate - --map map.csv --setup machine.toml -o -")
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -128,21 +117,13 @@ fn linuxcnc_filter_protocol() {
 fn header_content_and_refusal_of_double_compensation() {
     let d = fixture("header");
     std::fs::write(d.join("part.ngc"), format!("%\nO0042 (PART)\n{PROGRAM}%\n")).unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_volcomp"))
-        .args([
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            "out.ngc",
-        ])
-        .current_dir(&d)
-        .env("SOURCE_DATE_EPOCH", "951782400")
-        .output()
-        .unwrap();
+    let o = common::command(
+        &d,
+        "compensate part.ngc --map map.csv --setup machine.toml -o out.ngc",
+    )
+    .env("SOURCE_DATE_EPOCH", "951782400")
+    .output()
+    .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let out = std::fs::read_to_string(d.join("out.ngc")).unwrap();
     let lines: Vec<&str> = out.lines().collect();

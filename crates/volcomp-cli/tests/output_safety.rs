@@ -320,25 +320,15 @@ fn kills_mid_write(name: &str, named: bool, signals: &[&str]) {
     large_program(&d, 400_000);
     for signal in signals {
         std::fs::write(d.join("out.ngc"), "old program").unwrap();
-        let mut child = Command::new(env!("CARGO_BIN_EXE_volcomp"))
-            .args([
-                "compensate",
-                "large.ngc",
-                "--map",
-                "map.csv",
-                "--setup",
-                "machine.toml",
-                "--segments",
-                "4",
-                "-o",
-                "out.ngc",
-            ])
-            .current_dir(&d)
-            .env_remove("VOLCOMP_NAMED_TEMPORARIES")
-            .envs(named.then_some(("VOLCOMP_NAMED_TEMPORARIES", "1")))
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
+        let mut child = common::command(
+            &d,
+            "compensate large.ngc --map map.csv --setup machine.toml --segments 4 -o out.ngc",
+        )
+        .env_remove("VOLCOMP_NAMED_TEMPORARIES")
+        .envs(named.then_some(("VOLCOMP_NAMED_TEMPORARIES", "1")))
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
         // Mid-write: the process has started and is compensating.
         std::thread::sleep(std::time::Duration::from_millis(700));
         if named {

@@ -48,13 +48,7 @@ fn run_plan(exe: &Path, program: &Path, dir: &Path) -> Result<Vec<[f64; 3]>, Str
         .stdin(Stdio::null())
         .output()
         .expect("run rs274");
-    let chatter: Vec<String> = String::from_utf8_lossy(&out.stderr)
-        .lines()
-        .chain(String::from_utf8_lossy(&out.stdout).lines())
-        .map(str::trim)
-        .filter(|l| !l.is_empty() && *l != "executing")
-        .map(str::to_string)
-        .collect();
+    let chatter = rs274::chatter(&out);
     let text = std::fs::read_to_string(&out_path).unwrap_or_default();
     if !out.status.success() || !chatter.is_empty() || text.contains("ABORT") {
         return Err(format!(

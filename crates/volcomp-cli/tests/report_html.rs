@@ -64,23 +64,14 @@ fn simulate_json(dir: &Path, args: &[&str]) -> serde_json::Value {
 fn a_compensation_report_holds_the_runs_figures_and_inputs() {
     let dir = fixture("report-compensate");
     let run = |out: &str| {
-        Command::new(env!("CARGO_BIN_EXE_volcomp"))
-            .args([
-                "compensate",
-                "part.ngc",
-                "--map",
-                "map.csv",
-                "--setup",
-                "machine.toml",
-                "-o",
-                "part.comp.ngc",
-                "--report-html",
-                out,
-            ])
-            .current_dir(&dir)
-            .env("SOURCE_DATE_EPOCH", "86400")
-            .output()
-            .unwrap()
+        common::command(
+            &dir,
+            "compensate part.ngc --map map.csv --setup machine.toml -o part.comp.ngc --report-html",
+        )
+        .arg(out)
+        .env("SOURCE_DATE_EPOCH", "86400")
+        .output()
+        .unwrap()
     };
     let o = run("report.html");
     assert!(o.status.success(), "{}", stderr(&o));

@@ -56,13 +56,7 @@ fn shifted_by_minus_e(program: &str, out: &str) {
     let shift = Vec3::new(-0.005, 0.003, -0.002);
     let nominal = ends(program);
     let written = ends(out);
-    assert_eq!(nominal.len(), written.len(), "{out}");
-    for (t, q) in nominal.iter().zip(&written).skip(1) {
-        assert!(
-            (*q - (*t + shift)).max_abs() < 1e-9,
-            "{q:?} vs {t:?}\n{out}"
-        );
-    }
+    common::assert_shifted(&nominal, &written, shift, out);
 }
 
 #[test]

@@ -778,13 +778,7 @@ fn canned_cycles_are_written_as_compensated_moves() {
         v
     };
     let written: Vec<Vec3> = ends(&out).into_iter().map(|(_, p)| p).collect();
-    assert_eq!(nominal.len(), written.len(), "{out}");
-    for (t, q) in nominal.iter().zip(&written).skip(1) {
-        assert!(
-            (*q - (*t + shift)).max_abs() < 1e-9,
-            "{q:?} vs {t:?}\n{out}"
-        );
-    }
+    common::assert_shifted(&nominal, &written, shift, &out);
 }
 
 #[test]

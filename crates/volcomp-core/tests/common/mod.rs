@@ -7,7 +7,7 @@ use std::io::Cursor;
 use std::path::PathBuf;
 use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions};
 use volcomp_core::model::axis_table::AxisTableMap;
-use volcomp_gcode::{InterpOptions, Setup, Walker};
+use volcomp_gcode::{InterpOptions, Setup, Vec3, Walker};
 
 /// A map of zeros over ±10 m on every axis: compensation changes nothing,
 /// so every expected number is the program's own.
@@ -85,4 +85,17 @@ pub fn rs274(not_checked: &str) -> Option<PathBuf> {
         eprintln!("!! SKIPPED: rs274 is not installed: {not_checked} was NOT checked");
     }
     found
+}
+
+/// Asserts that every written block end after the first is its nominal end
+/// moved by `shift` (mm), within 1e-9 mm; `out` is the program shown on a
+/// failure.
+pub fn assert_shifted(nominal: &[Vec3], written: &[Vec3], shift: Vec3, out: &str) {
+    assert_eq!(nominal.len(), written.len(), "{out}");
+    for (t, q) in nominal.iter().zip(written).skip(1) {
+        assert!(
+            (*q - (*t + shift)).max_abs() < 1e-9,
+            "{q:?} vs {t:?}\n{out}"
+        );
+    }
 }
