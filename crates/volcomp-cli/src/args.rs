@@ -19,7 +19,7 @@ pub struct Cli {
     pub command: Command,
     /// No progress bar, summary line or report of what was written on
     /// standard error; warnings and errors still show (bars are drawn only
-    /// on a terminal, for large inputs).
+    /// on a terminal, for large inputs or work over a second).
     #[arg(short, long, global = true)]
     pub quiet: bool,
     /// Largest file read whole (maps, models and their tables, set-ups,
@@ -178,8 +178,9 @@ pub struct TimeArgs {
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
-    /// Where to write the example map and programs.
-    #[arg(long, value_name = "DIR", default_value = "volcomp-demo")]
+    /// Where to write the example map and programs (`-o` as in every
+    /// command that writes).
+    #[arg(short, long, value_name = "DIR", default_value = "volcomp-demo")]
     pub out_dir: PathBuf,
     /// Also write the table as Markdown (BENCHMARKS.md's demo table).
     #[arg(long, value_name = "FILE.md")]

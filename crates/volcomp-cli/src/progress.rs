@@ -32,9 +32,12 @@ macro_rules! note {
     };
 }
 
-/// Smallest input (bytes) whose reading gets a bar: 1 MiB, about 40 000
-/// lines of G-code, a second or more of work.
+/// Smallest input (bytes) whose reading gets a bar from the start: 1 MiB,
+/// about 40 000 lines of G-code, a second or more of work.
 pub const MIN_BYTES: u64 = 1 << 20;
+
+/// Seconds of work after which a bar is drawn for any input.
+const LATE_S: f64 = 1.0;
 
 /// A bar, or nothing when it must not be drawn. Clones share the bar.
 #[derive(Clone)]
@@ -47,14 +50,20 @@ pub struct Bar {
 
 impl Bar {
     fn new(task: &str, total: u64, large: bool, bytes: bool) -> Self {
-        let shown = large && !QUIET.load(Ordering::Relaxed) && std::io::stderr().is_terminal();
+        // Work too small for a bar at the start gets one once it has
+        // taken longer than `LATE_S` (a slow model or fine sampling).
+        let shown = !QUIET.load(Ordering::Relaxed) && std::io::stderr().is_terminal();
         let bar = shown.then(|| {
             let template = if bytes {
                 "{msg} [{bar:30}] {bytes}/{total_bytes} ({eta} left)"
             } else {
                 "{msg} [{bar:30}] {pos}/{len} ({eta} left)"
             };
-            let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+            let target = match large {
+                true => ProgressDrawTarget::stderr(),
+                false => ProgressDrawTarget::hidden(),
+            };
+            let b = ProgressBar::with_draw_target(Some(total), target);
             b.set_style(
                 ProgressStyle::with_template(template)
                     .unwrap_or_else(|_| ProgressStyle::default_bar())
@@ -91,7 +100,7 @@ impl Bar {
 
     /// Clears the bar and, when one was drawn, prints one summary line.
     pub fn finish(&self) {
-        if let Some(b) = &self.bar {
+        if let Some(b) = self.bar.as_ref().filter(|b| !b.is_hidden()) {
             let done = b.position();
             b.finish_and_clear();
             let what = if self.bytes {
@@ -116,6 +125,9 @@ impl volcomp_core::progress::Progress for Bar {
     }
     fn advance_to(&mut self, done: u64) {
         if let Some(b) = &self.bar {
+            if b.is_hidden() && self.started.elapsed().as_secs_f64() > LATE_S {
+                b.set_draw_target(ProgressDrawTarget::stderr());
+            }
             b.set_position(done);
         }
     }

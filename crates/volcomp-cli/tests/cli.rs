@@ -259,7 +259,8 @@ fn moves_json_is_valid_and_lists_every_motion() {
 #[test]
 fn demo_runs_and_meets_the_issue_targets() {
     let dir = tempdir("demo");
-    let o = common::run(&dir, "demo --out-dir d --markdown d/table.md");
+    // `-o` as every command that writes takes it.
+    let o = common::run(&dir, "demo -o d --markdown d/table.md");
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
     // Every contour row's exact column (the fourth method) reduces the

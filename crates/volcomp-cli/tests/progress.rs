@@ -79,6 +79,29 @@ fn a_bar_and_a_summary_line_on_a_terminal() {
 }
 
 #[test]
+fn work_under_a_mebibyte_gets_its_bar_once_it_has_taken_a_second() {
+    // 20 000 lines, about 0.4 MiB: no bar from the start. Split every
+    // 0.05 mm (20 times the work of the 1 MiB case per line), the run
+    // takes seconds in a debug build, and a bar appears once it has taken
+    // more than one; a run that ends within a second shows none. Which
+    // case this is depends on the machine: each is checked as it comes.
+    let dir = fixture("progress-late");
+    let p = large_program(&dir, 20_000);
+    assert!(std::fs::metadata(p).unwrap().len() < 1 << 20);
+    let started = std::time::Instant::now();
+    let Some(shown) = on_terminal(&dir, &format!("{COMPENSATE} --segment-length 0.05")) else {
+        return;
+    };
+    let took_s = started.elapsed().as_secs_f64();
+    let bar = shown.contains("volcomp: compensating large.ngc: ");
+    if took_s > 2.5 {
+        assert!(bar, "{took_s:.1} s without a bar: {shown}");
+    } else if took_s < 1.0 {
+        assert!(!bar, "{took_s:.1} s with a bar: {shown}");
+    }
+}
+
+#[test]
 fn never_a_bar_in_a_pipe_or_a_file() {
     let dir = large("progress-pipe");
     let args: Vec<&str> = COMPENSATE.split(' ').collect();

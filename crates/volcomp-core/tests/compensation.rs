@@ -843,6 +843,54 @@ fn modes_of(out: &str) -> Vec<(String, PathMode)> {
 }
 
 #[test]
+fn the_arc_pieces_of_a_g64_p_block_run_without_naive_cam_and_the_program_s_q_returns() {
+    // LinuxCNC's canonical layer writes an arc whose chord deviation is
+    // below the naive-CAM tolerance (G64 Q, else P) as two lines
+    // (emccanon.cc ARC_FEED): a circle's micrometre-deviation pieces would
+    // run as corners. Read back: every piece of the circle under
+    // G64 P0.005 Q0, the G1 after it under the program's P and Q again.
+    let map = map_from(|a, p, _| match a {
+        1 => [2e-4 * p * p, 0.0, 0.0],
+        _ => [0.0; 3],
+    });
+    for (words, q_mm) in [("G64 P0.005", 0.005), ("G64 P0.005 Q0.002", 0.002)] {
+        let program = format!("{words}\nG0 X0 Y60 Z0\nG2 X0 Y60 I0 J-20 F6000\nG1 Y0\nM2\n");
+        let (out, summary) = compensate_summary(&program, &map, CompensateOptions::default());
+        let modes = modes_of(&out);
+        let arcs: Vec<&PathMode> = modes
+            .iter()
+            .filter(|(t, _)| t.starts_with("G2"))
+            .map(|(_, m)| m)
+            .collect();
+        assert!(arcs.len() >= 4, "{out}");
+        let off = PathMode::Blend {
+            tolerance_mm: 0.005,
+            naive_cam_mm: 0.0,
+        };
+        assert!(arcs.iter().all(|m| **m == off), "{modes:?}\n{out}");
+        let program_mode = PathMode::Blend {
+            tolerance_mm: 0.005,
+            naive_cam_mm: q_mm,
+        };
+        let after = modes.iter().find(|(t, _)| t.starts_with("G1 ")).unwrap();
+        assert_eq!(after.1, program_mode, "{out}");
+        assert!(
+            out.contains("\nG64 P0.005 Q0 (volcomp L3 path mode)\n"),
+            "{out}"
+        );
+        assert_eq!(summary.naive_cam_off_blocks, 1, "{out}");
+        assert!(summary.path_mode_text().unwrap().contains("1 G64 P block"));
+    }
+    // Without naive-CAM (Q0, or G64 without P) nothing is written.
+    for words in ["G64 P0.005 Q0", "G64"] {
+        let program = format!("{words}\nG0 X0 Y60 Z0\nG2 X0 Y60 I0 J-20 F6000\nM2\n");
+        let (out, summary) = compensate_summary(&program, &map, CompensateOptions::default());
+        assert!(!out.contains("path mode"), "{out}");
+        assert_eq!(summary.naive_cam_off_blocks, 0, "{out}");
+    }
+}
+
+#[test]
 fn the_pieces_of_a_g61_block_run_blended_and_its_end_stays_exact() {
     // A G1 split where the map's X error bends along Y, and a one-block
     // circle. LinuxCNC queues each segment with the path mode in effect

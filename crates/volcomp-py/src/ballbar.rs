@@ -47,10 +47,8 @@ pub fn ballbar_fit<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let r: BallbarFitRequest = from_kwargs(options)?;
     let t = input(trace, "trace")?;
-    let name = t.name();
-    let bytes = t.bytes().map_err(library_error)?;
-    let text = volcomp_core::io::table::utf8(&bytes, &name).map_err(|e| library_error(e.into()))?;
-    let f = r.run(text, &name).map_err(library_error)?;
+    let text = t.text().map_err(library_error)?;
+    let f = r.run(&text, &t.name()).map_err(library_error)?;
     let value = serde_json::to_value(&f).map_err(|e| bad_input(e.to_string()))?;
     from_json(py, &value)
 }

@@ -51,7 +51,11 @@ pub fn input(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Input> {
         return Ok(Input::File(path_of(obj)?));
     }
     if let Ok(s) = obj.cast::<PyString>() {
-        return Ok(Input::File(s.to_str()?.into()));
+        let s = s.to_str()?;
+        if s.contains('\n') && !std::path::Path::new(s).exists() {
+            return Err(crate::errors::VolcompIOError::new_err(format!("{what}: a str names a file, and no file is named by this text of {} lines; give text in a file object: io.StringIO(text)", s.lines().count())));
+        }
+        return Ok(Input::File(s.into()));
     }
     if obj.hasattr("read")? {
         let content = obj.call_method0("read")?;

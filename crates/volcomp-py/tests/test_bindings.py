@@ -142,6 +142,17 @@ def test_load_error_names_the_file(tmp_path):
     assert info.value.file.endswith("missing.csv")
 
 
+def test_program_text_given_as_a_path_says_how_to_pass_text(tmp_path):
+    # A str is always a path; G-code text in one is not read as a program
+    # but refused with the way to pass text.
+    m = volcomp.Model.from_csv(HAND_CSV)
+    for fn in (volcomp.compensate, volcomp.simulate):
+        with pytest.raises(volcomp.VolcompIOError, match=r"program: a str names a file.*text of 2 lines.*io\.StringIO\(text\)"):
+            fn("G0 X1\nM2\n", m, work_offset_mm=[0, 0, 0])
+    with pytest.raises(volcomp.VolcompIOError, match=r"io\.StringIO"):
+        volcomp.moves("G0 X1\nM2\n", work_offset_mm=[0, 0, 0])
+
+
 def test_compensate_by_hand():
     # Target (50, 10, 10). X slope 10 µm / 100 mm: q_x + 1e-4·q_x = 50 →
     # q_x = 49.99500 (4 decimals: 49.995). X at q_x also moves the tool

@@ -5,10 +5,11 @@ use crate::args::CompensateArgs;
 use crate::options::Flags;
 use crate::output::{check, CliError, OutputPlan, Staged};
 use crate::progress::Bar;
-use std::io::{BufRead, Read, Write};
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use volcomp_core::compensate::{CompensateSummary, PointRecord};
 use volcomp_core::io::provenance::now_utc;
+use volcomp_core::io::stream::{LinePercent, Tee};
 use volcomp_core::limits::LimitedWriter;
 use volcomp_core::model::ErrorModel;
 use volcomp_core::progress::Counted;
@@ -80,46 +81,6 @@ pub fn compensate_file(
     summary.ok_or_else(|| CliError::Internal("compensation produced no summary".into()))
 }
 
-/// Lines of a program file, for progress in percent (`None` for standard
-/// input, whose length is unknown).
-fn count_lines(program: &Path) -> Option<u64> {
-    if program.as_os_str() == "-" {
-        return None;
-    }
-    let mut f =
-        std::io::BufReader::new(volcomp_core::io::inputs::open(program, "the program").ok()?);
-    let mut n = 0u64;
-    loop {
-        let buf = f.fill_buf().ok()?;
-        if buf.is_empty() {
-            break;
-        }
-        n += buf.iter().filter(|&&b| b == b'\n').count() as u64;
-        let len = buf.len();
-        f.consume(len);
-    }
-    Some(n.max(1))
-}
-
-/// A writer that also keeps a copy of what passes through it.
-struct Tee<'a, 'b> {
-    inner: &'a mut dyn Write,
-    copy: Option<&'b mut Vec<u8>>,
-}
-
-impl Write for Tee<'_, '_> {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        let n = self.inner.write(buf)?;
-        if let Some(c) = self.copy.as_mut() {
-            c.extend_from_slice(&buf[..n]);
-        }
-        Ok(n)
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        self.inner.flush()
-    }
-}
-
 /// Where the report names a program.
 fn shown(path: &Path) -> String {
     if path.as_os_str() == "-" {
@@ -178,8 +139,7 @@ fn write_program(
     model: &dyn ErrorModel,
     staged: &mut Staged,
 ) -> Result<Kept, CliError> {
-    let total_lines = a.filter.then(|| count_lines(&a.program)).flatten();
-    let mut percent_shown = 0u64;
+    let mut percent = a.filter.then(|| LinePercent::of(&a.program));
     let mut points_csv = a.report.as_ref().map(|_| POINT_CSV_HEADER.to_string());
     let mut corrections = LargestCorrections::default();
     // Kept for the HTML report, and for the machining time when the
@@ -197,11 +157,8 @@ fn write_program(
         let mut out = LimitedWriter::new(&mut tee, max);
         let on_point = |p: &PointRecord| {
             corrections.push(p);
-            if let Some(pct) = total_lines.map(|t| (p.line.saturating_mul(100) / t).min(99)) {
-                if pct > percent_shown {
-                    percent_shown = pct;
-                    eprintln!("FILTER_PROGRESS={pct}");
-                }
+            if let Some(pct) = percent.as_mut().and_then(|l| l.at(p.line)) {
+                eprintln!("FILTER_PROGRESS={pct}");
             }
             // Past the size limit the report is refused below.
             if let Some(r) = points_csv

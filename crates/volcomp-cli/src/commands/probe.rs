@@ -136,11 +136,7 @@ fn plan_cmd(a: PlanArgs) -> Result<(), CliError> {
         setup,
         placement: a.job.placement.clone(),
         options,
-        title: format!(
-            "volcomp {} probe plan {}",
-            env!("CARGO_PKG_VERSION"),
-            a.artifact.display()
-        ),
+        title: probe::plan_title(&a.artifact.display().to_string()),
     };
     let out = request.run()?;
     write_file(&a.output, &[&a.artifact], out.program.as_bytes())?;

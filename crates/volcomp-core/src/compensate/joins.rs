@@ -24,7 +24,8 @@
 //!   next to a corner shorter than twice the `d` the feed needs slows the
 //!   corner down.
 
-use volcomp_gcode::Vec3;
+use volcomp_gcode::lexer::Word;
+use volcomp_gcode::{PathMode, Vec3};
 
 /// `ARC_BLEND_KINK_RATIO`'s default ([TRAJ] in the INI, initraj.cc).
 const KINK_RATIO: f64 = 0.1;
@@ -136,9 +137,101 @@ impl PlannerLimits {
     }
 }
 
+/// The path-control words that keep the arc pieces of one block arcs
+/// under `G64 P p Q q` (Q is P where the program gives none): before the
+/// pieces `G64 P p Q0`, after them the program's `G64 P p Q q` again, in the
+/// program's units (`mm_per_unit`: before the block's line, and on it).
+///
+/// LinuxCNC 2.9's canonical layer writes an arc whose chord deviation is
+/// below the naive-CAM tolerance q as two lines through its middle
+/// (emccanon.cc `ARC_FEED`) and merges consecutive lines that lie within q
+/// of one line (`linkable`): the short arc pieces of a compensated arc,
+/// whose deviation is micrometres, would reach the planner as corners. The
+/// original arc, longer, is one arc; its pieces stay arcs under Q0, and
+/// what follows the block runs under the program's own Q again.
+///
+/// `None` where the mode is not G64 with both P and a naive-CAM tolerance,
+/// where the block's line carries P, Q or a path-control word of its own (a
+/// line is left as the program wrote it), or where p or q rounds to nothing
+/// in the program's units.
+pub(super) fn naive_cam_words<'a>(
+    mode: PathMode,
+    mut words: impl Iterator<Item = &'a Word>,
+    mm_per_unit: (f64, f64),
+    sep: &str,
+) -> Option<(String, String)> {
+    let PathMode::Blend {
+        tolerance_mm,
+        naive_cam_mm,
+    } = mode
+    else {
+        return None;
+    };
+    if !(tolerance_mm > 0.0 && naive_cam_mm > 0.0) {
+        return None;
+    }
+    if words.any(|w| {
+        matches!(w.letter, b'P' | b'Q')
+            || (w.letter == b'G'
+                && [61.0, 61.1, 64.0]
+                    .iter()
+                    .any(|g| (w.value - g).abs() < 1e-9))
+    }) {
+        return None;
+    }
+    let text = |mm: f64, per: f64| -> Option<String> {
+        let t = format!("{:.8}", mm / per);
+        let t = t.trim_end_matches('0').trim_end_matches('.');
+        (t != "0" && !t.is_empty()).then(|| t.to_string())
+    };
+    let before = format!("G64{sep}P{}{sep}Q0", text(tolerance_mm, mm_per_unit.0)?);
+    let after = format!(
+        "G64{sep}P{}{sep}Q{}",
+        text(tolerance_mm, mm_per_unit.1)?,
+        text(naive_cam_mm, mm_per_unit.1)?
+    );
+    Some((before, after))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The words read back as LinuxCNC reads them: P and Q in the units in
+    /// effect, Q0 turning naive-CAM off for the pieces only.
+    #[test]
+    fn arc_pieces_under_g64_p_run_without_naive_cam_and_the_program_s_q_comes_back() {
+        let mode = PathMode::Blend {
+            tolerance_mm: 0.005,
+            naive_cam_mm: 0.005,
+        };
+        let none: [Word; 0] = [];
+        let (before, after) = naive_cam_words(mode, none.iter(), (1.0, 1.0), " ").unwrap();
+        assert_eq!(before, "G64 P0.005 Q0");
+        assert_eq!(after, "G64 P0.005 Q0.005");
+        // Inch: P0.0002 in = 0.00508 mm, Q0.001 in; written back in inch.
+        let mode = PathMode::Blend {
+            tolerance_mm: 0.0002 * 25.4,
+            naive_cam_mm: 0.001 * 25.4,
+        };
+        let (before, after) = naive_cam_words(mode, none.iter(), (25.4, 25.4), "").unwrap();
+        assert_eq!(before, "G64P0.0002Q0");
+        assert_eq!(after, "G64P0.0002Q0.001");
+        // No naive-CAM (Q0, or G64 without P), or another mode: nothing.
+        for mode in [
+            PathMode::Blend {
+                tolerance_mm: 0.005,
+                naive_cam_mm: 0.0,
+            },
+            PathMode::Blend {
+                tolerance_mm: 0.0,
+                naive_cam_mm: 0.0,
+            },
+            PathMode::ExactPath,
+        ] {
+            assert_eq!(naive_cam_words(mode, none.iter(), (1.0, 1.0), " "), None);
+        }
+    }
 
     #[test]
     fn the_tangency_tolerance_is_the_kink_ratio_of_the_instant_acceleration() {

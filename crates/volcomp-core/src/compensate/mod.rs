@@ -522,6 +522,34 @@ impl<'w> State<'w> {
                 k = end;
             }
         }
+        // Under G64 P p Q q an arc written as several arc pieces runs them
+        // under `G64 P p Q0` (on a line before the block) and the program's
+        // words come back on a line after it (joins.rs, `naive_cam_words`).
+        let naive_cam = if lines_of_block > 1
+            && piece_modes.is_none()
+            && arc_words.iter().any(|w| w.center.is_some())
+        {
+            joins::naive_cam_words(
+                motion.path_mode,
+                line.words(),
+                (frame0.mm_per_unit, frame.mm_per_unit),
+                sep,
+            )
+        } else {
+            None
+        };
+        if let Some((before, _)) = &naive_cam {
+            self.text.clear();
+            self.text.push_str(before);
+            let at = Place {
+                frame: &frame0,
+                style: style0,
+                ..place
+            };
+            self.push_inserted(&at, "path mode");
+            self.summary.path_mode_lines += 1;
+            self.summary.naive_cam_off_blocks += 1;
+        }
         if run_starts.iter().any(|s| *s) {
             self.summary.pieces_blended_blocks += 1;
             self.summary.piece_blend_tolerance_um =
@@ -682,6 +710,12 @@ impl<'w> State<'w> {
                 }
             }
             pos = *q;
+        }
+        if let Some((_, after)) = &naive_cam {
+            self.text.clear();
+            self.text.push_str(after);
+            self.push_inserted(&place.with_ending(line_ending), "path mode");
+            self.summary.path_mode_lines += 1;
         }
         if let Some(w) = stop_word {
             self.buf.extend_from_slice(&content[w.span.clone()]);

@@ -333,6 +333,10 @@ pub struct CompensateSummary {
     pub path_mode_lines: u64,
     /// The largest `p` (µm) of those `G64 P p` words.
     pub piece_blend_tolerance_um: f64,
+    /// Arcs under `G64 P p Q q` written as arc pieces that run under
+    /// `G64 P p Q0`, the program's words written again after them
+    /// (docs/compensation.md, "Arc pieces under G64 P").
+    pub naive_cam_off_blocks: u64,
 }
 
 impl CompensateSummary {
@@ -371,7 +375,7 @@ impl CompensateSummary {
     /// line (no parentheses; the header labels it "path mode:"); `None`
     /// where none were written.
     pub fn path_mode_text(&self) -> Option<String> {
-        (self.pieces_blended_blocks > 0).then(|| {
+        let g61 = (self.pieces_blended_blocks > 0).then(|| {
             format!(
                 "the pieces of {} G61/G61.1 {} run under G64 P Q0 (joins blended within P = {:.3} um, Q0: no naive-CAM merging) and each block's last piece restores the program's mode, so the machine stops only where the original does{}",
                 self.pieces_blended_blocks,
@@ -386,7 +390,18 @@ impl CompensateSummary {
                     String::new()
                 }
             )
-        })
+        });
+        let g64 = (self.naive_cam_off_blocks > 0).then(|| {
+            format!(
+                "the arc pieces of {} G64 P {} run under G64 P Q0 (no naive-CAM: LinuxCNC would write a short arc piece as two lines) and the program's G64 P Q is written again after each",
+                self.naive_cam_off_blocks,
+                if self.naive_cam_off_blocks == 1 { "block" } else { "blocks" },
+            )
+        });
+        match (g61, g64) {
+            (Some(a), Some(b)) => Some(format!("{a}; {b}")),
+            (a, b) => a.or(b),
+        }
     }
 }
 

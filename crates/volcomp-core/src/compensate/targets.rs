@@ -162,7 +162,13 @@ fn split(
                     return Ok(());
                 }
                 let (ea, eb) = (e(a)?, e(b)?);
+                let length = (b - a).norm();
                 let piece = Piece {
+                    along: if length > 0.0 {
+                        (b - a) * (1.0 / length)
+                    } else {
+                        Vec3::ZERO
+                    },
                     tol: tolerance_mm,
                     min_len: min_length_mm,
                     e: &e,
@@ -244,6 +250,9 @@ fn knot_cuts(
 
 /// What the adaptive splitting of one move needs at every piece.
 struct Piece<'a> {
+    /// The unit direction of the move: a departure along it moves the tool
+    /// along the path, not off it, so only the rest counts.
+    along: Vec3,
     /// Tolerance on the departure of the map from its chord, mm.
     tol: f64,
     /// Shortest piece, mm.
@@ -262,7 +271,10 @@ impl Piece<'_> {
     /// The departure of the map from its chord is taken at the quarter points
     /// and at every table point the piece crosses (`knots`: where a piecewise
     /// linear map bends, so the largest departure of such a map lies at one of
-    /// them). A piece within the tolerance is kept whole, even across table
+    /// them), across the move only: a departure along the move leaves the
+    /// tool on the straight path (the contour error is the distance to the
+    /// path), so a positioning error of the axis the move runs along is no
+    /// reason to split it. A piece within the tolerance is kept whole, even across table
     /// points; otherwise it is cut at the table point that departs most or,
     /// with none, halved — never into pieces shorter than `min_len`.
     /// `cuts` holds the piece's knot cuts already when `have_cuts`.
@@ -280,10 +292,11 @@ impl Piece<'_> {
         worst_mm: &mut f64,
     ) -> Result<(), ModelError> {
         let e = self.e;
+        let across = |d: Vec3| (d - self.along * d.dot(self.along)).norm();
         let mut worst: f64 = 0.0;
         if !self.linear {
             for t in [0.25, 0.5, 0.75] {
-                worst = worst.max((e(a.lerp(b, t))? - ea.lerp(eb, t)).norm());
+                worst = worst.max(across(e(a.lerp(b, t))? - ea.lerp(eb, t)));
             }
         }
         if !have_cuts {
@@ -292,7 +305,7 @@ impl Piece<'_> {
         let mut cut: Option<(f64, f64, Vec3)> = None;
         for &t in cuts.iter() {
             let ep = e(a.lerp(b, t))?;
-            let d = (ep - ea.lerp(eb, t)).norm();
+            let d = across(ep - ea.lerp(eb, t));
             worst = worst.max(d);
             if cut.is_none_or(|(_, dc, _)| d > dc) {
                 cut = Some((t, d, ep));
@@ -387,7 +400,7 @@ mod tests {
     #[test]
     fn a_table_is_cut_at_its_points_only() {
         let m = map(
-            "X,both,0,0,0,0\nX,both,5,20,0,0\nX,both,10,0,0,0\nX,both,15,20,3,0\nX,both,20,0,0,0\n",
+            "X,both,0,0,0,0\nX,both,5,0,20,0\nX,both,10,0,0,0\nX,both,15,0,20,3\nX,both,20,0,0,0\n",
         );
         let (a, b) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(14.0, 0.0, 0.0));
         let t = targets_of(&feed(a, b), &adaptive(0.1), &m, ALL_FORWARD).unwrap();
@@ -437,13 +450,29 @@ mod tests {
     /// whole at 0.1 µm), a 2 mm move 0.2 µm (cut there, and only there).
     #[test]
     fn a_table_point_is_cut_only_where_its_kink_matters() {
-        let m = map("X,both,0,0,0,0\nX,both,5,1,0,0\nX,both,10,0,0,0\n");
+        let m = map("X,both,0,0,0,0\nX,both,5,0,1,0\nX,both,10,0,0,0\n");
         let (a, b) = (Vec3::new(4.6, 0.0, 0.0), Vec3::new(5.4, 0.0, 0.0));
         let t = targets_of(&feed(a, b), &adaptive(0.1), &m, ALL_FORWARD).unwrap();
         assert_eq!(t, vec![b]);
         let (a, b) = (Vec3::new(4.0, 0.0, 0.0), Vec3::new(6.0, 0.0, 0.0));
         let t = targets_of(&feed(a, b), &adaptive(0.1), &m, ALL_FORWARD).unwrap();
         assert_eq!(t, vec![Vec3::new(5.0, 0.0, 0.0), b]);
+    }
+
+    /// A positioning error of the axis a move runs along moves the tool
+    /// along the path, not off it: a bump of 20 µm in E_XX at X = 5 mm
+    /// leaves a move along X whole. A move at 45° in XY across the same
+    /// bump departs across itself by 20·sin 45° = 14.1 µm at X = 5 mm:
+    /// cut there.
+    #[test]
+    fn a_departure_along_the_move_is_no_reason_to_split_it() {
+        let m = map("X,both,0,0,0,0\nX,both,5,20,0,0\nX,both,10,0,0,0\n");
+        let (a, b) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(9.0, 0.0, 0.0));
+        let t = targets_of(&feed(a, b), &adaptive(0.1), &m, ALL_FORWARD).unwrap();
+        assert_eq!(t, vec![b]);
+        let (a, b) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(9.0, 8.0, 0.0));
+        let t = targets_of(&feed(a, b), &adaptive(0.1), &m, ALL_FORWARD).unwrap();
+        assert_eq!(t, vec![Vec3::new(5.0, 4.0, 0.0), b]);
     }
 
     /// Knots closer than the shortest segment to a cut or to the end are

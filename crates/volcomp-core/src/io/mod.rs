@@ -24,6 +24,7 @@ pub mod model_file;
 pub mod output;
 pub mod probe_log;
 pub mod provenance;
+pub mod stream;
 
 pub use crate::text::{located, numfmt, table};
 pub use load::{load_model, LoadError, LoadOptions, LoadedModel, ModelKind};

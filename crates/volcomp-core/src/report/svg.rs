@@ -887,6 +887,14 @@ pub fn histogram(
     chart(&c)
 }
 
+/// The number in the last `name="…"` attribute before byte `at` of `svg`
+/// (for tests that find where a text was drawn).
+#[cfg(test)]
+pub(crate) fn attribute_before(svg: &str, at: usize, name: &str) -> f64 {
+    let after = svg[..at].rsplit(&format!("{name}=\"")).next().unwrap();
+    after.split('"').next().unwrap().parse().unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -978,15 +986,7 @@ mod tests {
         // The plot area ends at TOP + 200; the legend text sits below the
         // axis labels.
         let at = svg.find(">before</text>").unwrap();
-        let y: f64 = svg[..at]
-            .rsplit("y=\"")
-            .next()
-            .unwrap()
-            .split('"')
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap();
+        let y = attribute_before(&svg, at, "y");
         assert!(y > TOP + 200.0 + 40.0, "{y}");
     }
 }

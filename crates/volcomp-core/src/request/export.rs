@@ -579,8 +579,8 @@ impl Exported {
         let unit = self.unit;
         let e = &self.export;
         let mut lines = vec![format!(
-            "volcomp: wrote {} file(s) to {dir}{}; rounded to the controller's resolution {} {unit}: largest change {} {unit}",
-            e.files.len() + self.checks.len(),
+            "volcomp: wrote {} to {dir}{}; rounded to the controller's resolution {} {unit}: largest change {} {unit}",
+            crate::report::text::count((e.files.len() + self.checks.len()) as u64, "file", "files"),
             match self.checks.first() {
                 None => String::new(),
                 Some(c) => format!(

@@ -28,6 +28,8 @@ mod map;
 mod map_jobs;
 mod mirror;
 pub mod option;
+#[cfg(feature = "plots")]
+pub mod plot;
 pub mod probe;
 mod report;
 mod simulate;

@@ -267,6 +267,14 @@ impl Input {
         }
     }
 
+    /// The input read whole as UTF-8 text (a byte-order mark dropped); a
+    /// byte that is not UTF-8 is refused at its line and column.
+    pub fn text(&self) -> Result<String, crate::Error> {
+        let bytes = self.bytes()?;
+        let text = crate::io::table::utf8(&bytes, &self.name())?;
+        Ok(text.to_string())
+    }
+
     /// A reader over the input: the file opened (`-` is standard input,
     /// the Unix convention), or the content.
     pub fn reader(&self) -> Result<Box<dyn std::io::Read + Send + '_>, crate::Error> {

@@ -508,6 +508,15 @@ impl super::Request for ProbeFitRequest {
     }
 }
 
+/// The first comment of a probing program made from the artifact file
+/// `artifact` (what made it).
+pub fn plan_title(artifact: &str) -> String {
+    format!(
+        "volcomp {} probe plan {artifact}",
+        env!("CARGO_PKG_VERSION")
+    )
+}
+
 /// What `probe plan` says once its program is written to `output`: each
 /// placement's touches and time, then the whole plan's (probing at
 /// `feeds_mm_min`, fast and slow).
@@ -674,5 +683,164 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("between 0 and 1"));
+    }
+}
+
+/// A probing plan in figures (Python's `probe_plan` dict): its touches and
+/// time on the machine, then each placement's.
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanFigures {
+    /// Touches of the whole plan.
+    pub touches: usize,
+    /// Time on the machine (s): probing moves and rapids, no operator pause.
+    pub time_s: f64,
+    /// Each placement: `name`, `touches`, `time_s`.
+    pub placements: Vec<PlacementFigures>,
+}
+
+/// One placement of a [`PlanFigures`].
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlacementFigures {
+    /// Its name.
+    pub name: String,
+    /// Its touches.
+    pub touches: usize,
+    /// Its time on the machine (s).
+    pub time_s: f64,
+}
+
+impl PlanFigures {
+    /// The figures of `plan`.
+    pub fn of(plan: &crate::identify::probe::plan::Plan) -> Self {
+        let placements = plan
+            .placement_time_s
+            .iter()
+            .map(|(name, t)| PlacementFigures {
+                name: name.clone(),
+                touches: plan.touches.iter().filter(|x| &x.placement == name).count(),
+                time_s: *t,
+            })
+            .collect();
+        PlanFigures {
+            touches: plan.touches.len(),
+            time_s: plan.time_s,
+            placements,
+        }
+    }
+}
+
+/// A value and its standard uncertainty.
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ValueStd {
+    /// The value.
+    pub value: f64,
+    /// Its standard uncertainty (same unit).
+    pub std: f64,
+}
+
+/// One parameter of a [`FitFigures`].
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamFigures {
+    /// Its name (`EXX.P1`, `S_xy`, …).
+    pub name: String,
+    /// `um` or `urad`.
+    pub unit: &'static str,
+    /// `identified`, `not seen` or `not in model`.
+    pub status: &'static str,
+    /// Its value, when identified.
+    pub value: Option<f64>,
+    /// Its standard uncertainty, when identified.
+    pub std: Option<f64>,
+}
+
+/// One placement left out of the fit and predicted (µm RMS before and after).
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldOutFigures {
+    /// Artifact name.
+    pub artifact: String,
+    /// Placement name.
+    pub placement: String,
+    /// RMS deviation of its sphere centres, uncorrected (µm).
+    pub before_um: f64,
+    /// The same corrected by the model fitted without it (µm).
+    pub after_um: f64,
+}
+
+/// A probing fit in figures (Python's `probe_fit` report dict).
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitFigures {
+    /// Every parameter of the model.
+    pub params: Vec<ParamFigures>,
+    /// Each axis' reversal (µm), where the touches saw it.
+    pub reversal_um: Vec<Option<ValueStd>>,
+    /// The fit's a-posteriori standard deviation of a touch (µm), where
+    /// the fit has more touches than parameters.
+    pub sigma0_um: Option<f64>,
+    /// What the identification noted.
+    pub notes: Vec<String>,
+    /// What the fit warned about.
+    pub warnings: Vec<String>,
+    /// Placements left out one at a time (with leave-one-out only).
+    pub held_out: Vec<HeldOutFigures>,
+    /// The lines `probe fit` prints.
+    pub summary: Vec<String>,
+}
+
+impl FitFigures {
+    /// The figures of `out`, fitted over the axis ranges `ranges_mm`.
+    pub fn of(out: &crate::identify::probe::request::FitOutput, ranges_mm: [[f64; 2]; 3]) -> Self {
+        use crate::identify::probe::identify::Status;
+        let std = |e: &crate::identify::probe::fit::Estimate| ValueStd {
+            value: e.value,
+            std: e.sigma,
+        };
+        let params = out
+            .identified
+            .params
+            .iter()
+            .map(|p| {
+                let (status, e) = match p.status {
+                    Status::Identified(e) => ("identified", Some(std(&e))),
+                    Status::NotSeen => ("not seen", None),
+                    Status::NotInModel => ("not in model", None),
+                };
+                ParamFigures {
+                    name: p.name.clone(),
+                    unit: p.unit,
+                    status,
+                    value: e.map(|e| e.value),
+                    std: e.map(|e| e.std),
+                }
+            })
+            .collect();
+        let held_out = out
+            .held_out
+            .iter()
+            .map(|h| HeldOutFigures {
+                artifact: h.artifact.clone(),
+                placement: h.placement.clone(),
+                before_um: h.before_um,
+                after_um: h.after_um,
+            })
+            .collect();
+        FitFigures {
+            params,
+            reversal_um: out
+                .reversal_um
+                .iter()
+                .map(|e| e.as_ref().map(std))
+                .collect(),
+            sigma0_um: out.identified.ident.sigma0_um,
+            notes: out.identified.notes.clone(),
+            warnings: out.fitted.warnings.clone(),
+            held_out,
+            summary: out.summary(ranges_mm),
+        }
     }
 }

@@ -84,7 +84,16 @@ pub fn export(p: &[Option<Positioning>; 3], homing_dir_mask: u32) -> Result<Expo
             BACKLASH_SETTING + a,
             fixed(written_um * 1e-3, 3)
         ));
-        notes.push(format!("{ax}: backlash {} um, the mean reversal value (not the largest: the reversal left over then averages zero along the axis); it varies by up to {} um along the axis, which one setting cannot hold", fixed(written_um, 3), fixed(spread, 3)));
+        // Shown at 3 decimals: below 0.0005 µm it is the same everywhere.
+        let varies = if spread < 5e-4 {
+            "the same all along the axis, so one setting holds it".to_string()
+        } else {
+            format!(
+                "it varies by up to {} um along the axis, which one setting cannot hold",
+                fixed(spread, 3)
+            )
+        };
+        notes.push(format!("{ax}: backlash {} um, the mean reversal value (not the largest: the reversal left over then averages zero along the axis); {varies}", fixed(written_um, 3)));
         applied.backlash[a] = Some(Backlash {
             value_um: written_um,
             side: side(homing_dir_mask, a),
@@ -229,6 +238,21 @@ mod tests {
             back.notes.iter().any(|n| n.contains("$23")),
             "{:?}",
             back.notes
+        );
+        // The same reversal everywhere: no "varies by up to 0".
+        let same = Positioning {
+            positions_mm: vec![0.0, 100.0],
+            forward_um: vec![0.0, 1.0],
+            reverse_um: vec![3.0, 4.0],
+        };
+        let notes = export(&[Some(same), None, None], 0).unwrap().notes;
+        let x = notes
+            .iter()
+            .find(|n| n.starts_with("X: backlash 3 um"))
+            .unwrap();
+        assert!(
+            x.ends_with("the same all along the axis, so one setting holds it"),
+            "{x}"
         );
         // Forward above reverse: refused.
         let y = Positioning {

@@ -11,11 +11,15 @@
 //! 3. [`install_cleanup`]: named temporaries are removed on SIGINT, SIGTERM
 //!    and SIGHUP (on Linux temporaries are unnamed, so even SIGKILL leaves
 //!    nothing).
+//! 4. [`Staged`]: several outputs written and put in place together;
+//!    [`Ledger`]: what a run declared and wrote, for its error message.
 
 mod file;
 mod plan;
 mod signals;
+mod staged;
 
 pub use file::{commit_all, OutputError, OutputFile};
 pub use plan::{canonical_absent, referenced_files, OutputPlan, PlanError, Role};
 pub use signals::install_cleanup;
+pub use staged::{Ledger, StageError, Staged};
