@@ -519,22 +519,10 @@ fn a_mirror_report_has_the_statistics_and_the_probe_points() {
         std::fs::copy(data.join(f), dir.join(f)).unwrap();
     }
     let run = |extra: &[&str], out: &str| {
-        let mut args = vec![
-            "surface",
-            "mirror",
-            "--nominal",
-            "face.toml",
-            "--measured",
-            "probes.csv",
-            "--stock",
-            "0.2",
-            "--finishing",
-            "finish.ngc",
-            "--tool-radius",
-            "3",
-            "-o",
-            out,
-        ];
+        let mut args: Vec<&str> = "surface mirror --nominal face.toml --measured probes.csv --stock 0.2 --finishing finish.ngc --tool-radius 3 -o"
+            .split_whitespace()
+            .collect();
+        args.push(out);
         args.extend_from_slice(extra);
         let o = volcomp(&args, &dir);
         assert!(o.status.success(), "{}", stderr(&o));
