@@ -4,7 +4,9 @@
 # programs (moves, simulate, compensate three ways, with a map with and one
 # without backlash, the machining-time estimate) and compares the hashes of
 # everything they write (standard output, standard error, the compensated
-# files but for their `(date …)` header line, exit codes).
+# programs but for their `(date …)` header line, exit codes). Every command runs
+# with --quiet but those whose arguments start with `LOUD ` (compensate as a
+# user runs it: the summary and the machining times on standard error).
 #
 # usage: bench/same_output.sh BEFORE_BINARY [AFTER_BINARY]
 #   AFTER_BINARY defaults to ./target/release/volcomp. Prints the commands
@@ -37,6 +39,7 @@ cases() {
     printf '%s\t%s\n' "$n.comp-fixed" "compensate $p ${ripple[*]} $extra --segment-length 1 --arcs-as-lines -o OUT"
     printf '%s\t%s\n' "$n.comp-example" "compensate $p --map $work/demo/example_map.csv --setup $work/setup.toml --work-offset 250,200,150 $extra -o OUT"
     printf '%s\t%s\n' "$n.time" "time $p --setup $work/setup.toml $extra"
+    printf '%s\t%s\n' "$n.comp-loud" "LOUD compensate $p ${ripple[*]} $extra -o OUT"
   done
   for p in "$work/raster.ngc" "$work/cam.nc" "$work/loop.ngc"; do
     local n
@@ -46,6 +49,8 @@ cases() {
     printf '%s\t%s\n' "$n.comp-1mm" "compensate $p --map $work/demo/example_map.csv --work-offset 250,200,150 --segment-length 1 -o OUT"
     printf '%s\t%s\n' "$n.comp-ripple" "compensate $p ${ripple[*]} -o OUT"
     printf '%s\t%s\n' "$n.time" "time $p"
+    printf '%s\t%s\n' "$n.comp-loud" "LOUD compensate $p --map $work/demo/example_map.csv --work-offset 250,200,150 -o OUT"
+    printf '%s\t%s\n' "$n.comp-loud-stdout" "LOUD compensate $p --map $work/demo/example_map.csv --work-offset 250,200,150 -o -"
   done
 }
 
@@ -54,11 +59,13 @@ manifest() { # BINARY -> hashes on stdout
   while IFS=$'\t' read -r name args; do
     out="$work/out.ngc"
     rm -f "$out"
+    local quiet=--quiet
+    [[ $args == "LOUD "* ]] && quiet="" && args=${args#LOUD }
     # shellcheck disable=SC2086
-    "$bin" --quiet ${args//OUT/$out} > "$work/stdout" 2> "$work/stderr"
+    "$bin" $quiet ${args//OUT/$out} > "$work/stdout" 2> "$work/stderr"
     local rc=$?
     printf '%s rc=%s out=%s err=%s file=%s\n' "$name" "$rc" \
-      "$(sha256sum < "$work/stdout" | cut -c1-16)" \
+      "$(grep -v '^(date ' "$work/stdout" | sha256sum | cut -c1-16)" \
       "$(sed "s#$bin#BIN#g" "$work/stderr" | sha256sum | cut -c1-16)" \
       "$( [ -e "$out" ] && grep -v '^(date ' "$out" | sha256sum | cut -c1-16 || echo none)"
   done < <(cases)

@@ -69,7 +69,8 @@ def check_installed():
 # at most START_RETRIES more times. A program's own error is never retried.
 START_FAILURES = ("waiting for machine on", "waiting for estop reset",
                   "waiting for task status", "home all", "waiting for all joints homed",
-                  "Must be in MDI mode")
+                  "Must be in MDI mode", "joint mode: command not completed",
+                  "manual mode: command not completed")
 START_RETRIES = 2
 
 

@@ -12,6 +12,7 @@ use volcomp_core::io::provenance::now_utc;
 use volcomp_core::io::stream::{LinePercent, Tee};
 use volcomp_core::limits::LimitedWriter;
 use volcomp_core::model::ErrorModel;
+use volcomp_core::plan::TimeComparison;
 use volcomp_core::progress::Counted;
 use volcomp_core::report::compensation::{
     held_warning, point_csv_row, summary_lines, uncompensated_warning, LargestCorrections,
@@ -138,21 +139,20 @@ fn write_program(
     job: &Compensation,
     model: &dyn ErrorModel,
     staged: &mut Staged,
+    stream: Option<&mut dyn Write>,
 ) -> Result<Kept, CliError> {
     let mut percent = a.filter.then(|| LinePercent::of(&a.program));
     let mut points_csv = a.report.as_ref().map(|_| POINT_CSV_HEADER.to_string());
     let mut corrections = LargestCorrections::default();
-    // Kept for the HTML report, and for the machining time when the
-    // program goes to standard output.
-    let to_stdout = output.as_os_str() == "-";
-    let mut written =
-        (a.report_html.is_some() || (to_stdout && !crate::progress::quiet())).then(Vec::new);
+    // Kept for the HTML report.
+    let mut written = a.report_html.is_some().then(Vec::new);
     let mut summary = None;
     let max = job.max_output_bytes;
     staged.write(output, |out| {
         let mut tee = Tee {
             inner: out,
             copy: written.as_mut(),
+            stream,
         };
         let mut out = LimitedWriter::new(&mut tee, max);
         let on_point = |p: &PointRecord| {
@@ -207,7 +207,18 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         .prepare(machine, ModelSource::File(map_path), now_utc(), &Flags)?;
     a.map.note(&mut job.header)?;
     let mut staged = Staged::new();
-    let kept = write_program(&a, &output, &job, model.as_ref(), &mut staged)?;
+    // Speed lane: the machining time is estimated while the program is
+    // written, when it will be (not quiet, the output readable back).
+    let readable = readable_output(&a, &output);
+    let (kept, time) = if !crate::progress::quiet() && readable {
+        let (kept, time) = job.machining_time_while(&a.program, &shown(&output), |sink| {
+            write_program(&a, &output, &job, model.as_ref(), &mut staged, Some(sink))
+        })?;
+        (kept, Some(time))
+    } else {
+        let kept = write_program(&a, &output, &job, model.as_ref(), &mut staged, None)?;
+        (kept, None)
+    };
     if let (Some(path), Some(csv)) = (&a.report, &kept.points_csv) {
         staged.write_bytes(path, csv.as_bytes())?;
     }
@@ -237,7 +248,7 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     for line in summary_lines(&kept.summary, &shown(&output)) {
         crate::note!("volcomp: {line}");
     }
-    machining_time(&a, &job, &kept, &output)?;
+    machining_time(&job, time, readable, &output)?;
     if let Some(w) = held_warning(&kept.summary) {
         eprintln!("volcomp: warning: {w}");
     }
@@ -247,37 +258,37 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+/// Whether the compensated program's machining time is estimated (while
+/// it is written): where it could also be read back, so that `volcomp
+/// time` on the output gives the same figure (standard output, or a
+/// regular file; not a pipe, a FIFO or /dev/stdout, read from its
+/// reading end, nor /dev/null, which reads empty; a new output is made a
+/// regular file).
+fn readable_output(a: &CompensateArgs, output: &Path) -> bool {
+    let streamed = a.report_html.is_some() || output.as_os_str() == "-";
+    streamed
+        || match std::fs::metadata(output) {
+            Ok(m) => m.file_type().is_file(),
+            Err(e) => e.kind() == std::io::ErrorKind::NotFound,
+        }
+}
+
 /// The machining time of the compensated program beside the original's,
 /// on standard error (unless quiet).
 fn machining_time(
-    a: &CompensateArgs,
     job: &Compensation,
-    kept: &Kept,
+    time: Option<Result<TimeComparison, volcomp_core::Error>>,
+    readable: bool,
     output: &Path,
 ) -> Result<(), CliError> {
-    // Only a regular file can be read back: a pipe, a FIFO or /dev/stdout
-    // would be read from its reading end (and wait for ever), /dev/null
-    // reads empty.
-    let readable =
-        kept.written.is_some() || std::fs::metadata(output).is_ok_and(|m| m.file_type().is_file());
     if !crate::progress::quiet() && !readable {
         eprintln!(
             "volcomp: machining time not estimated: {} is not a regular file (run `volcomp time` on a copy of the program)",
             shown(output)
         );
     }
-    if !crate::progress::quiet() && readable {
-        let compensated: Box<dyn Read> = match &kept.written {
-            Some(w) => Box::new(w.as_slice()),
-            // Read back once every output is in place.
-            None => Box::new(
-                volcomp_geom::inputs::open(output, "the compensated program")
-                    .map_err(|e| CliError::Io(output.to_path_buf(), e))?,
-            ),
-        };
-        let time = job
-            .machining_time(&a.program, compensated, &shown(output))
-            .map_err(|e| job.machine.refused(e))?;
+    if let Some(time) = time {
+        let time = time.map_err(|e| job.machine.refused(e))?;
         for line in time.summary_lines() {
             eprintln!("volcomp: {line}");
         }

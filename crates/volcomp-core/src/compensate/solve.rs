@@ -215,7 +215,15 @@ pub fn solve_consistent(
         }
     }
     let walked_to_consistent = consistent_state(q, q_prev, s, s_prev, hold);
-    if hold.contains(&true) || !walked_to_consistent {
+    // A walk that flipped several axes may have flipped one only because
+    // another was still in its old state (the other's transverse table
+    // changes what it needs): the state with the fewest reversals is the
+    // one a dead band holds. An axis whose command reverses by less than
+    // its own band never leaves the flank it was pushing, so its carriage
+    // runs on the old direction's table (docs/compensation.md, "Directions
+    // done right").
+    let flips = flipped.iter().filter(|f| **f).count();
+    if hold.contains(&true) || !walked_to_consistent || flips > 1 {
         if let Some((found_sol, found_q, found_s)) =
             search_states(model, method, t_mm, q_prev, s_prev, quantize)?
         {
@@ -489,5 +497,58 @@ mod tests {
             p.q_mm
         );
         assert!(p.residual_um < 1e-3, "{}", p.residual_um);
+    }
+
+    /// X's reverse error 3 µm above its forward one, and Y 0.3 µm higher
+    /// while X runs in reverse (a transverse table of X); Y's reverse error
+    /// 4 µm above its forward one.
+    struct TwoBands;
+
+    impl ErrorModel for TwoBands {
+        fn deviation_um(
+            &self,
+            _q: Vec3,
+            s: Directions,
+            _c: Components,
+        ) -> Result<Vec3, ModelError> {
+            let x_reverse = s[0] == Direction::Reverse;
+            let y_reverse = s[1] == Direction::Reverse;
+            Ok(Vec3::new(
+                if x_reverse { 3.0 } else { 0.0 },
+                if x_reverse { 0.3 } else { 0.0 } + if y_reverse { 4.0 } else { 0.0 },
+                0.0,
+            ))
+        }
+        fn range_mm(&self) -> [[f64; 2]; 3] {
+            [[-1e3, 1e3]; 3]
+        }
+    }
+
+    #[test]
+    fn an_axis_that_would_reverse_by_less_than_its_band_keeps_its_direction() {
+        // Hand calculation. From q = (10, 10) with X in reverse and Y forward,
+        // the target is (11, 10.0001).
+        // Keeping (R, F): e = (3, 0.3) µm → q = (10.997, 9.9998): X moves
+        //   forward and Y back, both against their states; the walk flips
+        //   both.
+        // (F, R): e = (0, 4) → q = (11, 9.9961): consistent by sign, but
+        //   Y's command reverses by 3.9 µm, less than its 4 µm band, so its
+        //   carriage never leaves the flank it was pushing forward.
+        // (F, F): e = 0 → q = (11, 10.0001): Y moves on forward by 0.1 µm,
+        //   consistent with one reversal: the state the dead band holds.
+        // (R, R): e = (3, 4.3) → q = (10.997, 9.9958): X forward, inconsistent.
+        let m = TwoBands;
+        let q_prev = Vec3::new(10.0, 10.0, 0.0);
+        let s_prev = [Direction::Reverse, Direction::Forward, Direction::Forward];
+        let t = Vec3::new(11.0, 10.0001, 0.0);
+        let id = |q: Vec3| q;
+        let p = solve_consistent(&m, Method::Exact, t, q_prev, s_prev, &id).unwrap();
+        assert_eq!(p.s, [Direction::Forward; 3]);
+        assert_eq!(p.reversed, [true, false, false]);
+        assert!(
+            (p.q_mm - Vec3::new(11.0, 10.0001, 0.0)).norm() < 1e-9,
+            "{:?}",
+            p.q_mm
+        );
     }
 }

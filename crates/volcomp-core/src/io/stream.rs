@@ -5,19 +5,25 @@ use std::io::{BufRead, Write};
 use std::path::Path;
 
 /// A writer that also keeps a copy of what passes through it (when `copy`
-/// is given).
-pub struct Tee<'a, 'b> {
+/// is given) and hands it on to a second writer (when `stream` is given:
+/// a machining-time estimate made while the program is written).
+pub struct Tee<'a, 'b, 'c> {
     /// Where the bytes go.
     pub inner: &'a mut dyn Write,
     /// The copy, if one is kept.
     pub copy: Option<&'b mut Vec<u8>>,
+    /// The second writer, if any.
+    pub stream: Option<&'c mut dyn Write>,
 }
 
-impl Write for Tee<'_, '_> {
+impl Write for Tee<'_, '_, '_> {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
         let n = self.inner.write(buf)?;
         if let Some(c) = self.copy.as_mut() {
             c.extend_from_slice(&buf[..n]);
+        }
+        if let Some(s) = self.stream.as_mut() {
+            s.write_all(&buf[..n])?;
         }
         Ok(n)
     }

@@ -5,7 +5,9 @@
 use super::{estimate_program, Limits, ProgramEstimate};
 use crate::compensate::MachineSetup;
 use crate::error::Error;
-use std::io::Read;
+use std::io::{Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 
 /// The estimated time of a program and, when given, of its original.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -104,22 +106,161 @@ pub fn compare_programs(
     original: Option<(Box<dyn Read + Send + '_>, &str)>,
     setup: &MachineSetup,
 ) -> Result<TimeComparison, Error> {
-    let given = setup.setup.limits.as_ref();
-    let limits = Limits::from_setup(given);
+    let limits = Limits::from_setup(setup.setup.limits.as_ref());
     let (program, original) = std::thread::scope(|scope| {
         let original = original
             .map(|(r, name)| scope.spawn(move || estimate_program(r, name, setup, &limits)));
         let program = estimate_program(program.0, program.1, setup, &limits);
-        let original = original.map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)));
-        (program, original)
+        (program, original.map(joined))
     });
+    comparison(setup, program, original)
+}
+
+/// Estimates the program `write` writes (named `name`) while it is being
+/// written, and, when given, its `original`, each on a thread of its own
+/// beside the writing: on a machine with two cores the estimates take
+/// little more wait than the writing alone. The written bytes reach the
+/// estimate in chunks of fixed size through a bounded channel, so the
+/// memory held stays bounded whatever the program's length. When `write`
+/// fails the estimates are stopped and its error returned.
+pub fn compare_while_writing<T, E>(
+    name: &str,
+    original: Option<(Box<dyn Read + Send + '_>, &str)>,
+    setup: &MachineSetup,
+    write: impl FnOnce(&mut dyn Write) -> Result<T, E>,
+) -> Result<(T, Result<TimeComparison, Error>), E> {
+    let limits = Limits::from_setup(setup.setup.limits.as_ref());
+    let stop = AtomicBool::new(false);
+    let (tx, rx) = sync_channel(CHUNKS_IN_FLIGHT);
+    let (written, program, original) = std::thread::scope(|scope| {
+        let stop = &stop;
+        let original = original.map(|(r, name)| {
+            let r = Stoppable { inner: r, stop };
+            scope.spawn(move || estimate_program(r, name, setup, &limits))
+        });
+        let program = scope.spawn(move || {
+            let r = ChunkReader {
+                rx,
+                chunk: Vec::new(),
+                at: 0,
+            };
+            estimate_program(r, name, setup, &limits)
+        });
+        let mut sink = ChunkWriter {
+            tx: Some(tx),
+            buf: Vec::with_capacity(CHUNK_BYTES),
+        };
+        let written = write(&mut sink);
+        if written.is_ok() {
+            sink.send();
+        } else {
+            stop.store(true, Ordering::Relaxed);
+        }
+        // The end of the program: the estimate reads to here.
+        drop(sink);
+        (written, joined(program), original.map(joined))
+    });
+    Ok((written?, comparison(setup, program, original)))
+}
+
+/// The result of an estimate's thread (its panic goes on in this one).
+fn joined<T>(h: std::thread::ScopedJoinHandle<'_, T>) -> T {
+    h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))
+}
+
+fn comparison(
+    setup: &MachineSetup,
+    program: Result<ProgramEstimate, Error>,
+    original: Option<Result<ProgramEstimate, Error>>,
+) -> Result<TimeComparison, Error> {
+    let given = setup.setup.limits.as_ref();
     let original = original.transpose()?;
     Ok(TimeComparison {
-        limits,
+        limits: Limits::from_setup(given),
         limits_from_setup: given.is_some(),
         program: program?,
         original,
     })
+}
+
+/// The size of the chunks a program being written is estimated in, and
+/// how many may wait for the estimate at once.
+const CHUNK_BYTES: usize = 64 * 1024;
+const CHUNKS_IN_FLIGHT: usize = 4;
+
+/// Collects written bytes into chunks and sends each when full. Once the
+/// estimate no longer reads (it ended on an error), the bytes are
+/// dropped: the writing goes on, the estimate's error is what is reported.
+struct ChunkWriter {
+    tx: Option<SyncSender<Vec<u8>>>,
+    buf: Vec<u8>,
+}
+
+impl ChunkWriter {
+    fn send(&mut self) {
+        if self.buf.is_empty() {
+            return;
+        }
+        let full = std::mem::replace(&mut self.buf, Vec::with_capacity(CHUNK_BYTES));
+        if self.tx.as_ref().is_some_and(|tx| tx.send(full).is_err()) {
+            self.tx = None;
+        }
+    }
+}
+
+impl Write for ChunkWriter {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        if self.tx.is_some() {
+            self.buf.extend_from_slice(bytes);
+            if self.buf.len() >= CHUNK_BYTES {
+                self.send();
+            }
+        }
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Reads the chunks a [`ChunkWriter`] sends, to the end of the program
+/// (the writer dropped).
+struct ChunkReader {
+    rx: Receiver<Vec<u8>>,
+    chunk: Vec<u8>,
+    at: usize,
+}
+
+impl Read for ChunkReader {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        while self.at == self.chunk.len() {
+            match self.rx.recv() {
+                Ok(c) => (self.chunk, self.at) = (c, 0),
+                Err(_) => return Ok(0),
+            }
+        }
+        let n = out.len().min(self.chunk.len() - self.at);
+        out[..n].copy_from_slice(&self.chunk[self.at..self.at + n]);
+        self.at += n;
+        Ok(n)
+    }
+}
+
+/// A reader that fails once `stop` is set (the writing it runs beside
+/// failed: its estimate is not wanted).
+struct Stoppable<'a, R> {
+    inner: R,
+    stop: &'a AtomicBool,
+}
+
+impl<R: Read> Read for Stoppable<'_, R> {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        if self.stop.load(Ordering::Relaxed) {
+            return Err(std::io::Error::other("the estimate was stopped"));
+        }
+        self.inner.read(out)
+    }
 }
 
 #[cfg(test)]
@@ -147,5 +288,67 @@ mod tests {
             "{lines:?}"
         );
         assert!(lines[1].contains("no [limits]"), "{lines:?}");
+    }
+
+    /// A program of many lines (over several chunks), written in pieces
+    /// of uneven sizes.
+    fn zigzag(lines: usize) -> String {
+        let mut p = String::from("G21 G90 G64\nG0 X0 Y0 Z0\n");
+        for i in 0..lines {
+            let y = (i / 2) as f64 * 0.5;
+            let x = if i % 4 < 2 { 0.0 } else { 80.0 };
+            p += &format!("G1 X{x:.3} Y{y:.3} F{}\n", 1500 + 500 * (i % 3));
+        }
+        p + "M2\n"
+    }
+
+    #[test]
+    fn a_program_estimated_while_written_times_as_when_read_whole() {
+        let setup = MachineSetup::default();
+        let program = zigzag(20_000);
+        let original = zigzag(2_000);
+        assert!(program.len() > 4 * CHUNK_BYTES);
+        let whole = compare_programs(
+            (program.as_bytes(), "p.ngc"),
+            Some((Box::new(original.as_bytes()), "o.ngc")),
+            &setup,
+        )
+        .unwrap();
+        let (n, streamed) = compare_while_writing(
+            "p.ngc",
+            Some((Box::new(original.as_bytes()), "o.ngc")),
+            &setup,
+            |w| {
+                let mut rest = program.as_bytes();
+                let mut k = 0;
+                while !rest.is_empty() {
+                    k += 1;
+                    let n = (k * 7919 % 3001).min(rest.len());
+                    w.write_all(&rest[..n])?;
+                    rest = &rest[n..];
+                }
+                Ok::<_, std::io::Error>(k)
+            },
+        )
+        .unwrap();
+        assert!(n > 100);
+        assert_eq!(streamed.unwrap(), whole);
+        assert!(whole.program.motion.total_s > 10.0 * whole.original.unwrap().motion.total_s);
+    }
+
+    #[test]
+    fn a_failed_writing_is_reported_and_its_estimates_stopped() {
+        let setup = MachineSetup::default();
+        let original = zigzag(200_000);
+        let got = compare_while_writing(
+            "p.ngc",
+            Some((Box::new(original.as_bytes()), "o.ngc")),
+            &setup,
+            |w| {
+                w.write_all(zigzag(10).as_bytes()).unwrap();
+                Err::<(), _>("disk full")
+            },
+        );
+        assert_eq!(got.unwrap_err(), "disk full");
     }
 }

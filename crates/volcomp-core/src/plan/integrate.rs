@@ -324,25 +324,30 @@ fn add_repeated(mut x: f64, step: f64, mut n: u64) -> f64 {
         if n == 0 || inc <= 0.0 || ulp == 0.0 || grid(next) != ulp {
             continue;
         }
-        // A tie: `step` half-way between grid points (`step / ulp` is
-        // exact, a scaling by a power of two).
-        let r = step / ulp;
-        if r - r.floor() == 0.5 {
+        // A tie: `step` half-way between grid points, `2·step / ulp` an
+        // odd whole number (exact: a scaling by a power of two; from 2^53
+        // on every float is even). Tested through integers: `floor` is a
+        // library call on the baseline x86-64 target.
+        let twice = 2.0 * step / ulp;
+        if twice < TWO_POW_53 && twice as u64 as f64 == twice && twice as u64 % 2 == 1 {
             continue;
         }
         // Additions whose exact sum stays below the binade's end (with a
         // margin of one for the rounded quotient): `x + step < end` for
-        // each while `x + m·inc < end − inc`, as `step < inc + ulp`.
+        // each while `x + m·inc < end − inc`, as `step < inc + ulp`. The
+        // quotient is not negative: its conversion is its floor.
         let end = 2.0 * binade_start(next);
-        let room = ((end - next) / inc).floor() - 2.0;
-        if room >= 1.0 {
-            let m = (room as u64).min(n);
+        let room = (((end - next) / inc) as u64).saturating_sub(2);
+        if room >= 1 {
+            let m = room.min(n);
             x = next + m as f64 * inc;
             n -= m;
         }
     }
     x
 }
+
+const TWO_POW_53: f64 = 9_007_199_254_740_992.0;
 
 /// The spacing of the floating-point numbers at positive normal `x` (0
 /// for zero and subnormal numbers: those are added one by one).
@@ -359,9 +364,20 @@ fn binade_start(x: f64) -> f64 {
 }
 
 /// The number of periods `tc` cruises at its present speed before the
-/// trapezoid would change it or the end would come within two periods
-/// (with a margin of two steps); `None` when it is not cruising or for
-/// fewer than two periods.
+/// trapezoid would change it or the segment would end within a period;
+/// `None` when it is not cruising or for fewer than two periods.
+///
+/// Every cruise period must leave the stepped one nothing to decide:
+/// before it, `v' ≥ w`, where `w` is the requested speed and the present
+/// speed plus a margin that keeps `on_final_decel` false (`v'` more than
+/// `VEL_EPSILON` above `v`), i.e. `dx ≥ dx_min`, the square of
+/// `tpCalculateTrapezoidalAccel`'s root solved for `dx`; after it, at
+/// least `v·Δt` left, so that `tpCheckEndCondition` finds no end within
+/// the next period (its end time `dx/v̄` with `v̄ ≤ v`, or the smaller root
+/// of `A/2·t² − v·t + dx = 0`, both at least `dx/v`). The progress after
+/// `k` periods is bounded from `x + k·step` by the rounding of `k`
+/// additions (half a grid step of the target each) plus a relative
+/// margin for the few operations of each test.
 fn cruise_periods(tc: &Seg, next: Option<&Seg>, limits: &Limits) -> Option<u64> {
     let dt = tc.cycle_time;
     let v = tc.currentvel;
@@ -373,20 +389,26 @@ fn cruise_periods(tc: &Seg, next: Option<&Seg>, limits: &Limits) -> Option<u64> 
     if !(v > VEL_EPSILON && a > 0.0) || v + acc * dt != v {
         return None;
     }
-    // `v' ≥ target_vel` ⇔ `dx ≥ dx_min` (the square of `tpCalculateTrapezoidalAccel`'s root).
     let vf = real_final_vel(tc, next, limits);
     let half = a * dt * 0.5;
-    let dx_min = ((target_vel + half).powi(2) - half * half - vf * vf + a * v * dt) / (2.0 * a);
+    let w = target_vel.max(v) + 4.0 * VEL_EPSILON;
+    let dx_min = ((w + half).powi(2) - half * half - vf * vf + a * v * dt) / (2.0 * a);
     let step = (v + v) * 0.5 * dt;
-    // `tpCheckEndCondition` splits only within one period of the end at
-    // a speed of at most `v`: keep two.
-    let dx_end = 2.0 * v * dt + step + POS_EPSILON;
-    let margin = 2.0 * step + 1e-9 * tc.target.abs().max(1.0);
-    let room = tc.target - tc.progress - dx_min.max(dx_end) - margin;
-    if !(room > 0.0 && step > 0.0) {
+    let dx_end = v * dt * (1.0 + 1e-9);
+    let left = tc.target - tc.progress;
+    if !(left > 0.0 && step > 0.0) {
         return None;
     }
-    let k = (room / step).floor();
+    // Rounding of the additions (at most `left/step + 2` of them), of
+    // the subtraction `target − progress` and of the tests themselves.
+    let additions = left / step + 2.0;
+    let tol = (additions + 4.0) * grid(tc.target.abs())
+        + 1e-12 * (dx_min.abs() + (w + half).powi(2) / a + tc.target.abs() + left)
+        + POS_EPSILON;
+    // After the last of `k` periods `dx_end` is left; before it, `dx_min`.
+    let by_end = ((left - dx_end - tol) / step).floor();
+    let by_trapezoid = ((left - dx_min - tol) / step).floor() + 1.0;
+    let k = by_end.min(by_trapezoid);
     (k >= 2.0).then_some(k as u64)
 }
 

@@ -38,7 +38,7 @@ mod lookahead;
 pub mod program;
 mod segment;
 
-pub use compare::{compare_programs, TimeComparison};
+pub use compare::{compare_programs, compare_while_writing, TimeComparison};
 pub use program::{estimate_program, ProgramEstimate};
 /// The path-control mode (G61, G61.1, G64 P Q), as the interpreter gives
 /// it with every motion.
