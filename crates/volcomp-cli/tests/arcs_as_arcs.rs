@@ -17,23 +17,9 @@ use std::process::{Command, Stdio};
 use crate::common;
 use crate::rs274;
 
-/// The ripple map of tests/rs274_corpus.rs over ±2 m (3 µm positioning, 1 µm
-/// straightness waves of 40, 30 and 25 mm period, tabulated every 5 mm).
+/// The ripple map of tests/rs274_corpus.rs over ±2 m.
 fn ripple_map() -> String {
-    let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for (a, axis, period) in [(0, "X", 40.0), (1, "Y", 30.0), (2, "Z", 25.0)] {
-        for k in -400..=400 {
-            let p = f64::from(k) * 5.0;
-            let w = (2.0 * std::f64::consts::PI * p / period).sin();
-            let mut e = [w, w, w];
-            e[a] = 3.0 * w;
-            s.push_str(&format!(
-                "{axis},both,{p},{:.6},{:.6},{:.6}\n",
-                e[0], e[1], e[2]
-            ));
-        }
-    }
-    s
+    rs274::ripple_map(2000.0)
 }
 
 const PROGRAMS: &[(&str, &str)] = &[

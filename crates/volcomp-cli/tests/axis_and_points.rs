@@ -66,10 +66,7 @@ fn axis_letters_are_accepted_in_either_case_and_means_are_written_cleanly() {
     ] {
         assert!(upper.lines().any(|l| l == row), "no row {row} in\n{upper}");
     }
-    let o = volcomp(
-        &["map", "iso230-2", "runs.csv", "--axis", "W", "-o", "w.csv"],
-        &dir,
-    );
+    let o = common::run(&dir, "map iso230-2 runs.csv --axis W -o w.csv");
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("`W` is not an axis: write X, Y or Z"), "{err}");
@@ -120,12 +117,9 @@ fn straightness_predict_takes_the_flag_after_negative_points() {
         "{after}"
     );
     // Without --clamp, x = −5 mm lies outside the measured 0 … 200 mm.
-    let o = volcomp(&["straightness", "predict", "model.toml", "-5,20"], &dir);
+    let o = common::run(&dir, "straightness predict model.toml -5,20");
     assert!(!o.status.success());
-    let o = volcomp(
-        &["straightness", "predict", "model.toml", "120,35", "--clam"],
-        &dir,
-    );
+    let o = common::run(&dir, "straightness predict model.toml 120,35 --clam");
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--clam"));
 }

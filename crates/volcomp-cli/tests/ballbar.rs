@@ -152,7 +152,7 @@ fn a_bad_trace_is_named_by_file_line_and_column() {
         "# plane = XY\n# radius_mm = 100\ndirection,angle_deg,deviation_um\nccw,0,1\nccw,1,one\n",
     )
     .unwrap();
-    let o = volcomp(&["ballbar", "fit", "t.csv"], &d);
+    let o = common::run(&d, "ballbar fit t.csv");
     assert!(!o.status.success());
     let e = stderr(&o);
     assert!(e.contains("t.csv:5:3"), "{e}");
@@ -161,21 +161,10 @@ fn a_bad_trace_is_named_by_file_line_and_column() {
         "direction,angle_deg,deviation_um\nccw,0,1\n",
     )
     .unwrap();
-    let o = volcomp(&["ballbar", "fit", "u.csv"], &d);
+    let o = common::run(&d, "ballbar fit u.csv");
     let e = stderr(&o);
     assert!(!o.status.success() && e.contains("--trace-plane"), "{e}");
-    let o = volcomp(
-        &[
-            "ballbar",
-            "predict",
-            "u.csv",
-            "--centre-mm",
-            "1,2,3",
-            "--step-deg",
-            "7",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "ballbar predict u.csv --centre-mm 1,2,3 --step-deg 7");
     let e = stderr(&o);
     assert!(!o.status.success() && e.contains("--step-deg"), "{e}");
 }

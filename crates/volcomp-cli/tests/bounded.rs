@@ -199,9 +199,9 @@ fn loops_that_never_end_stop_at_the_repeated_lines_limit() {
         "G21 G90\nG0 X0 Y0 Z0\n#1=0\no1 while [#1 LT 300]\nG1 X[#1/10] F100\n#1=[#1+1]\no1 endwhile\nM2\n",
     )
     .unwrap();
-    let o = volcomp(&["moves", "loop.ngc", "--max-repeated-lines", "1196"], &d);
+    let o = common::run(&d, "moves loop.ngc --max-repeated-lines 1196");
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
-    let o = volcomp(&["moves", "loop.ngc", "--max-repeated-lines", "1197"], &d);
+    let o = common::run(&d, "moves loop.ngc --max-repeated-lines 1197");
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
@@ -249,18 +249,9 @@ fn inputs_read_whole_are_bounded() {
     line.push_str(&"1,".repeat(600_000));
     line.push('\n');
     std::fs::write(d.join("line.csv"), line).unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "line.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            "out.ngc",
-        ],
+    let o = common::run(
         &d,
+        "compensate part.ngc --map line.csv --setup machine.toml -o out.ngc",
     );
     refused(
         &d,
@@ -277,18 +268,9 @@ fn the_output_size_is_capped_and_nothing_is_written_past_it() {
     // Without the cap the same run succeeds (so the cap was the reason).
     let o = compensate(&d, &["--max-output-size", "none"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "-o",
-            "x.ngc",
-            "--max-output-size",
-            "12Q",
-        ],
+    let o = common::run(
         &d,
+        "compensate part.ngc --map map.csv -o x.ngc --max-output-size 12Q",
     );
     assert!(stderr(&o).contains("is not a size"), "{}", stderr(&o));
 }
@@ -323,18 +305,9 @@ fn negative_option_values_reach_the_range_check() {
     let o = compensate(&d, &["--max-correction", "-0.1"]);
     refused(&d, &o, "--max-correction must be a positive length");
     // A negative work offset is a value, not a flag.
-    let o = volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--work-offset",
-            "-10,150,100",
-            "-o",
-            "out.ngc",
-        ],
+    let o = common::run(
         &d,
+        "compensate part.ngc --map map.csv --work-offset -10,150,100 -o out.ngc",
     );
     let msg = stderr(&o);
     assert!(!msg.contains("unexpected argument"), "{msg}");
@@ -369,12 +342,9 @@ fn resampled_tables_are_bounded_before_they_are_built() {
         );
         assert!(!d.join("comp").join("x.comp").exists());
     }
-    let o = volcomp(
-        &[
-            "map", "export", "map.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm",
-            "--step", "3", "-o", "comp",
-        ],
+    let o = common::run(
         &d,
+        "map export map.csv --to linuxcnc --type 1 --units mm --step 3 -o comp",
     );
     assert!(o.status.success(), "{}", stderr(&o));
 }

@@ -79,10 +79,7 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
     ];
     for (program, line, col, words) in cases {
         std::fs::write(dir.join("p.ngc"), program).unwrap();
-        let o = volcomp(
-            &["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"],
-            &dir,
-        );
+        let o = common::run(&dir, "compensate p.ngc --map map.csv -o out.ngc");
         let msg = stderr(&o);
         // A refused program (exit 3, docs/errors.md).
         assert_eq!(o.status.code(), Some(3), "{program}: {msg}");
@@ -115,10 +112,7 @@ fn a_map_in_millimetres_is_refused() {
     // µm has values 1000 times too large: 150 at X = 10 here.
     write_map(&dir, |p| 15.0 * p);
     std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
-    let o = volcomp(
-        &["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"],
-        &dir,
-    );
+    let o = common::run(&dir, "compensate p.ngc --map map.csv -o out.ngc");
     let msg = stderr(&o);
     // A correction above its limit refuses the program (exit 3, docs/errors.md).
     assert_eq!(o.status.code(), Some(3), "{msg}");
@@ -131,18 +125,7 @@ fn out_of_range_names_axis_position_range_and_line() {
     let dir = tempdir("range");
     write_map(&dir, |_| 1.0);
     std::fs::write(dir.join("p.ngc"), "G0 X0 Y0 Z0\nG1 X350 F100\nM2\n").unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "p.ngc",
-            "--map",
-            "map.csv",
-            "-o",
-            "out.ngc",
-            "--no-split",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "compensate p.ngc --map map.csv -o out.ngc --no-split");
     let msg = stderr(&o);
     assert!(
         msg.contains("p.ngc:2:")
@@ -162,18 +145,9 @@ fn out_of_range_names_axis_position_range_and_line() {
     );
     assert!(!dir.join("out.ngc").exists());
     // With --clamp the error is held at the table end.
-    let o = volcomp(
-        &[
-            "compensate",
-            "p.ngc",
-            "--map",
-            "map.csv",
-            "-o",
-            "out.ngc",
-            "--no-split",
-            "--clamp",
-        ],
+    let o = common::run(
         &dir,
+        "compensate p.ngc --map map.csv -o out.ngc --no-split --clamp",
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let out = std::fs::read_to_string(dir.join("out.ngc")).unwrap();
@@ -185,10 +159,7 @@ fn the_input_is_never_overwritten() {
     let dir = tempdir("overwrite");
     write_map(&dir, |_| 1.0);
     std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
-    let o = volcomp(
-        &["compensate", "p.ngc", "--map", "map.csv", "-o", "./p.ngc"],
-        &dir,
-    );
+    let o = common::run(&dir, "compensate p.ngc --map map.csv -o ./p.ngc");
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("refusing to write"), "{}", stderr(&o));
     assert_eq!(std::fs::read_to_string(dir.join("p.ngc")).unwrap(), PROGRAM);
@@ -219,10 +190,7 @@ fn bad_map_files_name_row_and_column() {
     ];
     for (csv, located) in cases {
         std::fs::write(dir.join("map.csv"), csv).unwrap();
-        let o = volcomp(
-            &["compensate", "p.ngc", "--map", "map.csv", "-o", "out.ngc"],
-            &dir,
-        );
+        let o = common::run(&dir, "compensate p.ngc --map map.csv -o out.ngc");
         assert_eq!(o.status.code(), Some(2));
         assert!(stderr(&o).contains(located), "{located}: {}", stderr(&o));
         assert!(!dir.join("out.ngc").exists());
@@ -255,10 +223,7 @@ fn simulate_json_reports_the_metrics_and_compensation_improves_them() {
         (before["point_max_um"].as_f64().unwrap() - 2.0).abs() < 1e-9,
         "{before}"
     );
-    let o = volcomp(
-        &["compensate", "p.ngc", "--map", "map.csv", "-o", "c.ngc"],
-        &dir,
-    );
+    let o = common::run(&dir, "compensate p.ngc --map map.csv -o c.ngc");
     assert!(o.status.success(), "{}", stderr(&o));
     let after = sim(&[
         "simulate",
@@ -280,17 +245,7 @@ fn moves_json_is_valid_and_lists_every_motion() {
         "G21 G90\nG0 X1 Y2 Z3\nG2 X5 Y2 I2 J0 F100\nM2\n",
     )
     .unwrap();
-    let o = volcomp(
-        &[
-            "moves",
-            "p.ngc",
-            "--format",
-            "json",
-            "--work-offset",
-            "100,0,-50",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "moves p.ngc --format json --work-offset 100,0,-50");
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let rows = v.as_array().unwrap();
@@ -304,11 +259,8 @@ fn moves_json_is_valid_and_lists_every_motion() {
 #[test]
 fn demo_runs_and_meets_the_issue_targets() {
     let dir = tempdir("demo");
-    let o = volcomp(
-        // `-o` as every command that writes takes it.
-        &["demo", "-o", "d", "--markdown", "d/table.md"],
-        &dir,
-    );
+    // `-o` as every command that writes takes it.
+    let o = common::run(&dir, "demo -o d --markdown d/table.md");
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
     // Every contour row's exact column (the fourth method) reduces the
@@ -364,10 +316,7 @@ fn simulate_draws_svg_and_png_plots() {
         );
         assert!(bytes.len() > 2000, "{name} is nearly empty");
     }
-    let o = volcomp(
-        &["simulate", "p.ngc", "--map", "map.csv", "--plot", "e.pdf"],
-        &dir,
-    );
+    let o = common::run(&dir, "simulate p.ngc --map map.csv --plot e.pdf");
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains(".svg or .png"), "{}", stderr(&o));
 }
@@ -377,7 +326,7 @@ fn every_demo_figure_is_what_simulate_reports() {
     // The demo prints the commands that reproduce its cells; run them for
     // the first program and compare with the printed figures (3 decimals).
     let dir = tempdir("demo_reproduced");
-    let o = volcomp(&["demo", "--out-dir", "d"], &dir);
+    let o = common::run(&dir, "demo --out-dir d");
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(
@@ -460,18 +409,9 @@ fn assumptions_are_warned_about_on_stderr_with_file_and_line() {
         "G90\nG0 X0 Y0 Z0\nG28\nG1 X10 F100\nM2\n",
     )
     .unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "p.ngc",
-            "--map",
-            "map.csv",
-            "--work-offset",
-            "0,0,0",
-            "-o",
-            "out.ngc",
-        ],
+    let o = common::run(
         &dir,
+        "compensate p.ngc --map map.csv --work-offset 0,0,0 -o out.ngc",
     );
     let msg = stderr(&o);
     assert_eq!(o.status.code(), Some(0), "{msg}");
@@ -488,13 +428,13 @@ fn assumptions_are_warned_about_on_stderr_with_file_and_line() {
 fn completions_and_the_man_page_come_from_the_same_flags() {
     let d = common::tempdir("completions");
     for shell in ["bash", "zsh", "fish", "elvish", "powershell"] {
-        let o = common::volcomp(&["completions", shell], &d);
+        let o = volcomp(&["completions", shell], &d);
         assert!(o.status.success(), "{shell}: {}", common::stderr(&o));
         let text = String::from_utf8_lossy(&o.stdout);
         // A flag the library's option table gives compensate.
         assert!(text.contains("max-correction"), "{shell}");
     }
-    let o = common::volcomp(&["man"], &d);
+    let o = common::run(&d, "man");
     assert!(o.status.success(), "{}", common::stderr(&o));
     let page = String::from_utf8_lossy(&o.stdout);
     assert!(
@@ -503,14 +443,14 @@ fn completions_and_the_man_page_come_from_the_same_flags() {
     );
     assert!(page.contains("compensate"));
     // A mistyped flag gets the closest one, swapped letters too.
-    let o = common::volcomp(&["compensate", "p.ngc", "--mpa", "m.csv", "-o", "x"], &d);
+    let o = common::run(&d, "compensate p.ngc --mpa m.csv -o x");
     assert!(
         common::stderr(&o).contains("a similar argument exists: '--map'"),
         "{}",
         common::stderr(&o)
     );
     // -q is --quiet.
-    let o = common::volcomp(&["-q", "completions", "bash"], &d);
+    let o = common::run(&d, "-q completions bash");
     assert!(o.status.success());
 }
 

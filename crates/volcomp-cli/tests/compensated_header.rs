@@ -12,18 +12,7 @@ use std::process::{Command, Stdio};
 #[test]
 fn standard_input_and_output() {
     let d = fixture("stdio");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_volcomp"))
-        .args([
-            "compensate",
-            "-",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            "-",
-        ])
-        .current_dir(&d)
+    let mut child = common::command(&d, "compensate - --map map.csv --setup machine.toml -o -")
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -39,18 +28,9 @@ fn standard_input_and_output() {
     assert!(o.status.success(), "{}", stderr(&o));
     let from_stdin = String::from_utf8(o.stdout).unwrap();
     // The same as compensating the file (the header's date aside).
-    let o = volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            "-",
-        ],
+    let o = common::run(
         &d,
+        "compensate part.ngc --map map.csv --setup machine.toml -o -",
     );
     let from_file = String::from_utf8(o.stdout).unwrap();
     let body = |s: &str| volcomp_core::io::provenance::strip_header(s);
@@ -137,21 +117,13 @@ fn linuxcnc_filter_protocol() {
 fn header_content_and_refusal_of_double_compensation() {
     let d = fixture("header");
     std::fs::write(d.join("part.ngc"), format!("%\nO0042 (PART)\n{PROGRAM}%\n")).unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_volcomp"))
-        .args([
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            "out.ngc",
-        ])
-        .current_dir(&d)
-        .env("SOURCE_DATE_EPOCH", "951782400")
-        .output()
-        .unwrap();
+    let o = common::command(
+        &d,
+        "compensate part.ngc --map map.csv --setup machine.toml -o out.ngc",
+    )
+    .env("SOURCE_DATE_EPOCH", "951782400")
+    .output()
+    .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let out = std::fs::read_to_string(d.join("out.ngc")).unwrap();
     let lines: Vec<&str> = out.lines().collect();
@@ -179,18 +151,9 @@ fn header_content_and_refusal_of_double_compensation() {
         .unwrap();
     assert_eq!(lines[end + 1], "G21 G90 G17", "{out}");
     // The same again is refused, naming the line, and writes nothing.
-    let o = volcomp(
-        &[
-            "compensate",
-            "out.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            "again.ngc",
-        ],
+    let o = common::run(
         &d,
+        "compensate out.ngc --map map.csv --setup machine.toml -o again.ngc",
     );
     let e2 = stderr(&o);
     // Compensating twice refuses the program (exit 3, docs/errors.md).
@@ -200,19 +163,9 @@ fn header_content_and_refusal_of_double_compensation() {
         "{e2}"
     );
     assert!(!d.join("again.ngc").exists());
-    let o = volcomp(
-        &[
-            "compensate",
-            "out.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "--allow-recompensate",
-            "-o",
-            "again.ngc",
-        ],
+    let o = common::run(
         &d,
+        "compensate out.ngc --map map.csv --setup machine.toml --allow-recompensate -o again.ngc",
     );
     assert!(o.status.success(), "{}", stderr(&o));
 }
@@ -388,18 +341,9 @@ fn a_program_that_never_sets_z_is_compensated_from_the_start_or_refused_or_count
     );
     // Such a program is marked: compensating it again is refused.
     std::fs::write(d.join("c2.ngc"), &c).unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "c2.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "start.toml",
-            "-o",
-            "d.ngc",
-        ],
+    let o = common::run(
         &d,
+        "compensate c2.ngc --map map.csv --setup start.toml -o d.ngc",
     );
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&d);

@@ -58,19 +58,9 @@ fn only_the_residual_is_compensated_on_a_machine_with_a_pitch_table() {
     write_map(&dir);
     std::fs::write(dir.join("part.ngc"), PART).unwrap();
     // The controller's table: Siemens EEC every 10 mm at its 1 µm resolution.
-    ok(&volcomp(
-        &[
-            "map",
-            "export",
-            "m.csv",
-            "--to",
-            "siemens-eec",
-            "--step",
-            "10",
-            "-o",
-            "eec",
-        ],
+    ok(&common::run(
         &dir,
+        "map export m.csv --to siemens-eec --step 10 -o eec",
     ));
     let comp = |out: &str, controller: bool| {
         let mut a = vec![
@@ -150,34 +140,13 @@ fn compensating_twice_worsens_the_positioning_axis() {
     }
     part.push_str("M2\n");
     std::fs::write(dir.join("part.ngc"), part).unwrap();
-    ok(&volcomp(
-        &[
-            "map",
-            "export",
-            "m.csv",
-            "--to",
-            "siemens-eec",
-            "--step",
-            "10",
-            "-o",
-            "eec",
-        ],
+    ok(&common::run(
         &dir,
+        "map export m.csv --to siemens-eec --step 10 -o eec",
     ));
-    ok(&volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "m.csv",
-            "--work-offset",
-            "100,100,50",
-            "--decimals",
-            "6",
-            "-o",
-            "twice.ngc",
-        ],
+    ok(&common::run(
         &dir,
+        "compensate part.ngc --map m.csv --work-offset 100,100,50 --decimals 6 -o twice.ngc",
     ));
     let before = simulate(&dir, "part.ngc", true);
     let twice = simulate(&dir, "twice.ngc", true);
@@ -198,40 +167,10 @@ fn controller_compensates_positioning_is_the_ideal_table() {
     let dir = tempdir("ideal");
     write_map(&dir);
     std::fs::write(dir.join("part.ngc"), PART).unwrap();
-    ok(&volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "m.csv",
-            "--work-offset",
-            "100,100,50",
-            "--decimals",
-            "6",
-            "--controller-compensates",
-            "positioning",
-            "-o",
-            "rest.ngc",
-        ],
-        &dir,
-    ));
+    ok(&common::run(&dir, "compensate part.ngc --map m.csv --work-offset 100,100,50 --decimals 6 --controller-compensates positioning -o rest.ngc"));
     let t = std::fs::read_to_string(dir.join("rest.ngc")).unwrap();
     assert!(t.contains("the controller compensates the positioning errors"));
-    let o = volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "m.csv",
-            "--controller",
-            "nothing.txt",
-            "--controller-compensates",
-            "positioning",
-            "-o",
-            "x.ngc",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "compensate part.ngc --map m.csv --controller nothing.txt --controller-compensates positioning -o x.ngc");
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
 }
 
@@ -240,20 +179,7 @@ fn exports_refuse_what_the_controller_cannot_hold() {
     let dir = tempdir("limits");
     write_map(&dir);
     // 600 mm every 0.1 mm is 6001 points: more than MD38000 = 5000.
-    let o = volcomp(
-        &[
-            "map",
-            "export",
-            "m.csv",
-            "--to",
-            "siemens-eec",
-            "--step",
-            "0.1",
-            "-o",
-            "eec",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "map export m.csv --to siemens-eec --step 0.1 -o eec");
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(
         text(&o).contains("6001 interpolation points"),
@@ -261,57 +187,33 @@ fn exports_refuse_what_the_controller_cannot_hold() {
         text(&o)
     );
     // Siemens needs a step; axis tables have no squareness for Klipper.
-    let o = volcomp(
-        &["map", "export", "m.csv", "--to", "siemens-eec", "-o", "eec"],
-        &dir,
-    );
+    let o = common::run(&dir, "map export m.csv --to siemens-eec -o eec");
     assert!(text(&o).contains("--step"), "{}", text(&o));
-    let o = volcomp(
-        &["map", "export", "m.csv", "--to", "klipper", "-o", "k"],
-        &dir,
-    );
+    let o = common::run(&dir, "map export m.csv --to klipper -o k");
     assert!(text(&o).contains("no squareness"), "{}", text(&o));
     // Fanuc: a step is required; the tape is read back as a controller.
-    let o = volcomp(
-        &["map", "export", "m.csv", "--to", "fanuc", "-o", "f"],
-        &dir,
-    );
+    let o = common::run(&dir, "map export m.csv --to fanuc -o f");
     assert!(text(&o).contains("parameter 3624"), "{}", text(&o));
-    ok(&volcomp(
-        &[
-            "map", "export", "m.csv", "--to", "fanuc", "--step", "25", "-o", "f",
-        ],
+    ok(&common::run(
         &dir,
+        "map export m.csv --to fanuc --step 25 -o f",
     ));
     // LinuxCNC via map export: the tables as comp files, within 256 points.
-    ok(&volcomp(
-        &[
-            "map", "export", "m.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm", "-o",
-            "lc",
-        ],
+    ok(&common::run(
         &dir,
+        "map export m.csv --to linuxcnc --type 1 --units mm -o lc",
     ));
     let x = std::fs::read_to_string(dir.join("lc/x.comp")).unwrap();
     assert_eq!(x.lines().count(), 25);
     // Heidenhain: the tables and their assignment, read back as a controller.
-    ok(&volcomp(
-        &["map", "export", "m.csv", "--to", "heidenhain", "-o", "tnc"],
+    ok(&common::run(
         &dir,
+        "map export m.csv --to heidenhain -o tnc",
     ));
     std::fs::write(dir.join("part.ngc"), PART).unwrap();
-    ok(&volcomp(
-        &[
-            "map",
-            "export",
-            "m.csv",
-            "--to",
-            "siemens-cec",
-            "--step",
-            "25",
-            "-o",
-            "cec",
-        ],
+    ok(&common::run(
         &dir,
+        "map export m.csv --to siemens-cec --step 25 -o cec",
     ));
     for c in [
         "tnc/VOLCOMP.CMA",
@@ -340,18 +242,7 @@ fn an_etalon_file_becomes_a_model() {
     // C0B (rotary axis B) is reported as not used.
     let etalon = "[C0Y]\nVALUE = -0.000012\n[C0B]\nVALUE = 0.0000223\n[EXX]\nGridpoints = {\n 0 0\n 100 0.005\n}\n[EYY]\nGridpoints = {\n 0 0\n 200 -0.004\n}\n[EZZ]\nGridpoints = {\n 0 0\n 100 0\n}\n";
     std::fs::write(dir.join("machine.etalon"), etalon).unwrap();
-    let o = volcomp(
-        &[
-            "map",
-            "import",
-            "machine.etalon",
-            "--from",
-            "etalon",
-            "-o",
-            "m.toml",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "map import machine.etalon --from etalon -o m.toml");
     ok(&o);
     assert!(
         text(&o).contains("not used (rotary axes or zero): C0B"),
@@ -360,10 +251,7 @@ fn an_etalon_file_becomes_a_model() {
     );
     assert!(text(&o).contains("EYX"), "{}", text(&o));
     // At (50, 100, 0): e_x = 2.5 + 12·100·10⁻³ = 3.7 µm, e_y = −2 µm.
-    let v = json(&volcomp(
-        &["map", "eval", "m.toml", "--at", "50,100,0", "--json"],
-        &dir,
-    ));
+    let v = json(&common::run(&dir, "map eval m.toml --at 50,100,0 --json"));
     let e = &v["deviation_um"];
     assert!((e[0].as_f64().unwrap() - 3.7).abs() < 1e-9, "{v}");
     assert!((e[1].as_f64().unwrap() - -2.0).abs() < 1e-9, "{v}");
@@ -378,10 +266,7 @@ fn an_isg_volumetric_compensation_leaves_nothing() {
     let dir = tempdir("isg-volcomp");
     write_map(&dir);
     std::fs::write(dir.join("part.ngc"), PART).unwrap();
-    ok(&volcomp(
-        &["map", "export", "m.csv", "--to", "isg-csv", "-o", "isg"],
-        &dir,
-    ));
+    ok(&common::run(&dir, "map export m.csv --to isg-csv -o isg"));
     let before = simulate(&dir, "part.ngc", false);
     let args = [
         "simulate",
@@ -503,21 +388,9 @@ fn a_sign_check_comes_with_the_tables_whose_sign_no_vendor_settles() {
         s.push_str(&format!("Y,both,{p},0,0,0\nZ,both,{p},0,0,0\n"));
     }
     std::fs::write(dir.join("m.csv"), s).unwrap();
-    let o = volcomp(
-        &[
-            "map",
-            "export",
-            "m.csv",
-            "--to",
-            "fanuc",
-            "--step",
-            "10",
-            "--fanuc-bidirectional",
-            "on",
-            "-o",
-            "f",
-        ],
+    let o = common::run(
         &dir,
+        "map export m.csv --to fanuc --step 10 --fanuc-bidirectional on -o f",
     );
     ok(&o);
     assert!(text(&o).contains("with sign_check.txt"), "{}", text(&o));
@@ -535,11 +408,9 @@ fn a_sign_check_comes_with_the_tables_whose_sign_no_vendor_settles() {
     assert!(nc.contains("G53 X5\nG53 X10\nM00"), "{nc}");
     assert!(nc.contains("G53 X95\nG53 X90\nM00"), "{nc}");
     // LinuxCNC's sign is documented: no check.
-    ok(&volcomp(
-        &[
-            "map", "export", "m.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm", "-o", "l",
-        ],
+    ok(&common::run(
         &dir,
+        "map export m.csv --to linuxcnc --type 1 --units mm -o l",
     ));
     assert!(!dir.join("l/sign_check.txt").exists());
 }

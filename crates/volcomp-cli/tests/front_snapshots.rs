@@ -4,7 +4,7 @@
 //! would still fail.
 
 use crate::common;
-use common::{stderr, tempdir, volcomp};
+use common::{stderr, tempdir};
 
 /// Every X position is 3 µm off in +Y; Y and Z have no error.
 const MAP: &str = "axis,direction,position_mm,ex_um,ey_um,ez_um
@@ -25,17 +25,7 @@ fn simulate_table() {
         "G21 G90\nG0 X10 Y10 Z10\nG1 X60 F100\nM2\n",
     )
     .unwrap();
-    let o = volcomp(
-        &[
-            "simulate",
-            "p.ngc",
-            "--map",
-            "m.csv",
-            "--work-offset",
-            "0,0,0",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "simulate p.ngc --map m.csv --work-offset 0,0,0");
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8(o.stdout).unwrap();
     // By hand: the tool runs 3 µm off in Y along the whole feed move, so the
@@ -51,18 +41,9 @@ fn compensate_refusal_with_caret() {
     let dir = tempdir("snap_refusal");
     std::fs::write(dir.join("m.csv"), MAP).unwrap();
     std::fs::write(dir.join("p.ngc"), "G21 G90\nG0 X10 Y10 Z10\nG41 D1\nM2\n").unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "p.ngc",
-            "--map",
-            "m.csv",
-            "--work-offset",
-            "0,0,0",
-            "-o",
-            "out.ngc",
-        ],
+    let o = common::run(
         &dir,
+        "compensate p.ngc --map m.csv --work-offset 0,0,0 -o out.ngc",
     );
     let msg = stderr(&o);
     // A refused program (docs/errors.md, "Exit codes"), located at line 3,

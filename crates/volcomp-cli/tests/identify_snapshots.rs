@@ -56,17 +56,7 @@ fn straightness_fit_summary() {
     assert!(o.status.success(), "{}", stderr(&o));
     insta::assert_snapshot!("straightness_fit_summary", stderr(&o));
 
-    let o = volcomp(
-        &[
-            "straightness",
-            "predict",
-            "model.toml",
-            "52.5,0",
-            "100,0",
-            "150.25,0",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "straightness predict model.toml 52.5,0 100,0 150.25,0");
     insta::assert_snapshot!("straightness_predict", stdout(&o));
 }
 
@@ -93,62 +83,16 @@ fn straightness_option_refusals_name_the_flags() {
 #[test]
 fn thermal_fit_and_predict_output() {
     let d = tempdir("snap-thermal");
-    stdout(&volcomp(&["thermal", "example", "-o", "ex"], &d));
-    let fit = stdout(&volcomp(
-        &[
-            "thermal",
-            "fit",
-            "--measurements",
-            "ex/measurements_train.csv",
-            "--temperatures",
-            "ex/temperatures_train.csv",
-            "--artifact",
-            "ex/artifact.csv",
-            "--ranges-mm",
-            "0:600,0:400,0:300",
-            "-o",
-            "ex/thermal.toml",
-        ],
-        &d,
-    ));
+    stdout(&common::run(&d, "thermal example -o ex"));
+    let fit = stdout(&common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o ex/thermal.toml"));
     insta::assert_snapshot!("thermal_fit", fit);
     // What was written is said on standard error (quiet under --quiet).
-    let predict = volcomp(
-        &[
-            "thermal",
-            "predict",
-            "--model",
-            "ex/thermal.toml",
-            "--temperatures",
-            "ex/temperatures_check.csv",
-            "--cycle",
-            "6",
-            "-o",
-            "ex/predicted.toml",
-        ],
-        &d,
-    );
+    let predict = common::run(&d, "thermal predict --model ex/thermal.toml --temperatures ex/temperatures_check.csv --cycle 6 -o ex/predicted.toml");
     let predict = stderr(&predict);
     insta::assert_snapshot!("thermal_predict", predict);
     // Outside the axis ranges: the library speaks of the axis ranges, the
     // CLI of its flag.
-    let o = volcomp(
-        &[
-            "thermal",
-            "fit",
-            "--measurements",
-            "ex/measurements_train.csv",
-            "--temperatures",
-            "ex/temperatures_train.csv",
-            "--artifact",
-            "ex/artifact.csv",
-            "--ranges-mm",
-            "0:60,0:400,0:300",
-            "-o",
-            "ex/narrow.toml",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:60,0:400,0:300 -o ex/narrow.toml");
     assert_eq!(o.status.code(), Some(2));
     insta::assert_snapshot!("thermal_fit_outside_ranges", stderr(&o));
 }

@@ -51,18 +51,7 @@ fn eval_sees_the_tool_length() {
         );
         assert_eq!(v["components"]["EAZ"].as_f64().unwrap(), 20.0);
     }
-    let o = volcomp(
-        &[
-            "map",
-            "eval",
-            "m.toml",
-            "--at",
-            "10,20,30",
-            "--tool-length",
-            "150",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "map eval m.toml --at 10,20,30 --tool-length 150");
     ok(&o);
     assert!(stdout(&o).contains("EAZ +20.00"), "{}", stdout(&o));
 }
@@ -74,49 +63,22 @@ fn compensate_and_simulate_take_the_model_and_the_active_tool() {
     std::fs::write(dir.join("setup.toml"), "units = \"mm\"\n[tools]\n1 = 150\n").unwrap();
     let program = "G21 G90 G17\nG0 X0 Y0 Z50\nG43 H1 G0 Z20\nG1 X10 F500\nM2\n";
     std::fs::write(dir.join("p.ngc"), program).unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "p.ngc",
-            "--map",
-            "m.toml",
-            "--setup",
-            "setup.toml",
-            "-o",
-            "out.ngc",
-        ],
+    let o = common::run(
         &dir,
+        "compensate p.ngc --map m.toml --setup setup.toml -o out.ngc",
     );
     ok(&o);
     let out = std::fs::read_to_string(dir.join("out.ngc")).unwrap();
     // Tool 1 is 150 mm long: e_y = 3.0 µm, so Y is commanded 3 µm short.
     assert!(out.contains("G43 H1 G0 Z20 Y-0.0030"), "{out}");
-    let v = json(&volcomp(
-        &[
-            "simulate",
-            "out.ngc",
-            "--map",
-            "m.toml",
-            "--setup",
-            "setup.toml",
-            "--reference",
-            "p.ngc",
-            "--json",
-        ],
+    let v = json(&common::run(
         &dir,
+        "simulate out.ngc --map m.toml --setup setup.toml --reference p.ngc --json",
     ));
     assert!(v["contour_max_um"].as_f64().unwrap() < 1e-3, "{v}");
-    let v = json(&volcomp(
-        &[
-            "simulate",
-            "p.ngc",
-            "--map",
-            "m.toml",
-            "--setup",
-            "setup.toml",
-            "--json",
-        ],
+    let v = json(&common::run(
         &dir,
+        "simulate p.ngc --map m.toml --setup setup.toml --json",
     ));
     assert!(
         (v["point_max_um"].as_f64().unwrap() - 3.0).abs() < 1e-3,
@@ -127,7 +89,7 @@ fn compensate_and_simulate_take_the_model_and_the_active_tool() {
 #[test]
 fn example_converts_and_round_trips_through_linuxcnc() {
     let dir = tempdir("convert");
-    ok(&volcomp(&["map", "example", "-o", "."], &dir));
+    ok(&common::run(&dir, "map example -o ."));
     for ty in ["0", "1"] {
         let o = volcomp(
             &[
@@ -211,19 +173,9 @@ fn example_converts_and_round_trips_through_linuxcnc() {
             }
         }
     }
-    let o = volcomp(
-        &[
-            "map",
-            "convert",
-            "example21.toml",
-            "--to",
-            "axis-table",
-            "--tool-length",
-            "120",
-            "-o",
-            "tables.csv",
-        ],
+    let o = common::run(
         &dir,
+        "map convert example21.toml --to axis-table --tool-length 120 -o tables.csv",
     );
     ok(&o);
     assert!(
@@ -232,22 +184,13 @@ fn example_converts_and_round_trips_through_linuxcnc() {
         stderr(&o)
     );
     // At the reference point the axis tables give the model's deviation.
-    let a = json(&volcomp(
-        &[
-            "map",
-            "eval",
-            "example21.toml",
-            "--at",
-            "300,200,150",
-            "--tool-length",
-            "120",
-            "--json",
-        ],
+    let a = json(&common::run(
         &dir,
+        "map eval example21.toml --at 300,200,150 --tool-length 120 --json",
     ));
-    let b = json(&volcomp(
-        &["map", "eval", "tables.csv", "--at", "300,200,150", "--json"],
+    let b = json(&common::run(
         &dir,
+        "map eval tables.csv --at 300,200,150 --json",
     ));
     for k in 0..3 {
         let (x, y) = (
@@ -257,33 +200,12 @@ fn example_converts_and_round_trips_through_linuxcnc() {
         assert!((x - y).abs() < 1e-3, "{a} {b}");
     }
     // Without a tool length the conversion is refused (it depends on it).
-    let o = volcomp(
-        &[
-            "map",
-            "convert",
-            "example21.toml",
-            "--to",
-            "axis-table",
-            "-o",
-            "t2.csv",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "map convert example21.toml --to axis-table -o t2.csv");
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--tool-length"));
-    ok(&volcomp(
-        &[
-            "map",
-            "convert",
-            "example21.toml",
-            "--to",
-            "grid",
-            "--step",
-            "150",
-            "-o",
-            "grid.csv",
-        ],
+    ok(&common::run(
         &dir,
+        "map convert example21.toml --to grid --step 150 -o grid.csv",
     ));
     let grid = std::fs::read_to_string(dir.join("grid.csv")).unwrap();
     // 5 × 4 × 3 points and the header.
@@ -292,22 +214,11 @@ fn example_converts_and_round_trips_through_linuxcnc() {
         61,
         "{grid}"
     );
-    ok(&volcomp(
-        &[
-            "map",
-            "convert",
-            "tables.csv",
-            "--to",
-            "model",
-            "-o",
-            "from_tables.toml",
-        ],
+    ok(&common::run(
         &dir,
+        "map convert tables.csv --to model -o from_tables.toml",
     ));
-    ok(&volcomp(
-        &["map", "plot", "example21.toml", "-o", "plot.svg"],
-        &dir,
-    ));
+    ok(&common::run(&dir, "map plot example21.toml -o plot.svg"));
     let svg = std::fs::read_to_string(dir.join("plot.svg")).unwrap();
     assert!(
         svg.contains("<svg") && svg.contains("EBX"),
@@ -327,61 +238,22 @@ fn dense_axis_tables_go_to_linuxcnc_with_a_resampling_step() {
         }
     }
     std::fs::write(dir.join("dense.csv"), csv).unwrap();
-    let o = volcomp(
-        &[
-            "map",
-            "convert",
-            "dense.csv",
-            "--to",
-            "linuxcnc",
-            "--type",
-            "1",
-            "--units",
-            "mm",
-            "-o",
-            "comp",
-        ],
+    let o = common::run(
         &dir,
+        "map convert dense.csv --to linuxcnc --type 1 --units mm -o comp",
     );
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--step"), "{}", stderr(&o));
-    ok(&volcomp(
-        &[
-            "map",
-            "convert",
-            "dense.csv",
-            "--to",
-            "linuxcnc",
-            "--type",
-            "1",
-            "--units",
-            "mm",
-            "--step",
-            "10",
-            "-o",
-            "comp",
-        ],
+    ok(&common::run(
         &dir,
+        "map convert dense.csv --to linuxcnc --type 1 --units mm --step 10 -o comp",
     ));
     let x = std::fs::read_to_string(dir.join("comp/x.comp")).unwrap();
     // 0 … 600 every 10 mm: 61 lines; at 600 mm E_XX = 6 µm, trim −0.006 mm.
     assert_eq!(x.lines().count(), 61);
     assert_eq!(x.lines().last().unwrap(), "600 -0.006 -0.006");
     // Without --type LinuxCNC's file type is not guessed.
-    let o = volcomp(
-        &[
-            "map",
-            "convert",
-            "dense.csv",
-            "--to",
-            "linuxcnc",
-            "--units",
-            "mm",
-            "-o",
-            "c2",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "map convert dense.csv --to linuxcnc --units mm -o c2");
     assert!(
         stderr(&o).contains("--type 0 or --type 1"),
         "{}",
@@ -399,7 +271,7 @@ fn iso230_2_prints_the_figures_of_the_hand_example() {
         100,1,up,0\n100,2,up,2\n100,3,up,4\n100,1,down,2\n100,2,down,3\n100,3,down,4\n\
         200,1,up,-2\n200,2,up,-1\n200,3,up,0\n200,1,down,1\n200,2,down,1\n200,3,down,1\n";
     std::fs::write(dir.join("runs.csv"), runs).unwrap();
-    let o = volcomp(&["map", "iso230-2", "runs.csv"], &dir);
+    let o = common::run(&dir, "map iso230-2 runs.csv");
     ok(&o);
     let text = stdout(&o);
     for want in [
@@ -414,14 +286,11 @@ fn iso230_2_prints_the_figures_of_the_hand_example() {
     ] {
         assert!(text.contains(want), "{want}: {text}");
     }
-    let v = json(&volcomp(&["map", "iso230-2", "runs.csv", "--json"], &dir));
+    let v = json(&common::run(&dir, "map iso230-2 runs.csv --json"));
     assert_eq!(v["axis"]["accuracy_um"].as_f64().unwrap(), 10.0);
-    ok(&volcomp(
-        &[
-            "map", "iso230-2", "runs.csv", "--axis", "x", "-o", "x.comp", "--type", "1", "--units",
-            "mm",
-        ],
+    ok(&common::run(
         &dir,
+        "map iso230-2 runs.csv --axis x -o x.comp --type 1 --units mm",
     ));
     // x̄↑ at 0 is 2 µm, x̄↓ 5 µm: trims −0.002 and −0.005 mm.
     assert!(std::fs::read_to_string(dir.join("x.comp"))
@@ -474,7 +343,7 @@ fn bad_model_files_name_file_row_and_column() {
     for (name, toml, csv, want) in cases {
         std::fs::write(dir.join("b.toml"), toml.replace("m.csv", "b.csv")).unwrap();
         std::fs::write(dir.join("b.csv"), csv).unwrap();
-        let o = volcomp(&["map", "eval", "b.toml", "--at", "0,0,0"], &dir);
+        let o = common::run(&dir, "map eval b.toml --at 0,0,0");
         let msg = stderr(&o)
             .replace("b.csv", "m.csv")
             .replace("b.toml", "m.toml");
@@ -483,17 +352,14 @@ fn bad_model_files_name_file_row_and_column() {
     }
     // A file whose name and content name no model kind: the formats listed.
     std::fs::write(dir.join("m.json"), "{}\n").unwrap();
-    let o = volcomp(&["map", "eval", "m.json", "--at", "0,0,0"], &dir);
+    let o = common::run(&dir, "map eval m.json --at 0,0,0");
     assert!(
         stderr(&o).contains(".toml for a 21-component model"),
         "{}",
         stderr(&o)
     );
     // The component table given where a map is expected: pointed to its TOML.
-    let o = volcomp(
-        &["compensate", "x.ngc", "--map", "m.csv", "-o", "o.ngc"],
-        &dir,
-    );
+    let o = common::run(&dir, "compensate x.ngc --map m.csv -o o.ngc");
     assert!(
         stderr(&o).contains("model = \"kinematic-21\""),
         "{}",

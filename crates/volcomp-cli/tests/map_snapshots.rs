@@ -4,7 +4,7 @@
 //! accepted by mistake would still fail.
 
 use crate::common;
-use common::{tempdir, volcomp};
+use common::tempdir;
 
 /// Axis tables over 0…100 mm, linear from zero: X gives (2, 1, 0) µm at
 /// 100 mm, Y (0, 4, 0), Z (0, 0, −6); the reverse X table is twice the forward.
@@ -23,7 +23,7 @@ Z,both,100,0,0,-6
 fn eval_of_axis_tables() {
     let dir = tempdir("eval_tables");
     std::fs::write(dir.join("m.csv"), MAP).unwrap();
-    let o = volcomp(&["map", "eval", "m.csv", "--at", "50,25,100"], &dir);
+    let o = common::run(&dir, "map eval m.csv --at 50,25,100");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8(o.stdout).unwrap();
     // By hand: X half way (1, 0.5, 0), Y a quarter (0, 1, 0), Z at its end
@@ -34,18 +34,7 @@ fn eval_of_axis_tables() {
     );
     insta::assert_snapshot!("eval_axis_tables", text);
     // Reverse X: twice the forward table.
-    let o = volcomp(
-        &[
-            "map",
-            "eval",
-            "m.csv",
-            "--at",
-            "50,25,100",
-            "--direction",
-            "rff",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "map eval m.csv --at 50,25,100 --direction rff");
     let text = String::from_utf8(o.stdout).unwrap();
     assert!(
         text.contains("  X table  +2.0000  +1.0000  +0.0000 µm"),
@@ -62,7 +51,7 @@ fn bad_map_csv_points_at_the_field() {
         MAP.replace("X,forward,100,2,1,0", "X,forward,1OO,2,1,0"),
     )
     .unwrap();
-    let o = volcomp(&["map", "eval", "m.csv", "--at", "0,0,0"], &dir);
+    let o = common::run(&dir, "map eval m.csv --at 0,0,0");
     assert_eq!(o.status.code(), Some(2));
     let text = String::from_utf8(o.stderr).unwrap();
     // Row 3 of the file, field 3 (position_mm).
@@ -74,7 +63,7 @@ fn bad_map_csv_points_at_the_field() {
 fn unknown_model_kind_lists_the_known_ones() {
     let dir = tempdir("unknown_kind");
     std::fs::write(dir.join("m.toml"), "# a model\nmodel = \"thermal-9\"\n").unwrap();
-    let o = volcomp(&["map", "eval", "m.toml", "--at", "0,0,0"], &dir);
+    let o = common::run(&dir, "map eval m.toml --at 0,0,0");
     assert_eq!(o.status.code(), Some(2));
     let text = String::from_utf8(o.stderr).unwrap();
     // Row 2, column 9: the opening quote of the value.

@@ -83,20 +83,9 @@ fn compensate_outputs_never_replace_inputs() {
 #[test]
 fn two_outputs_on_one_path_are_refused() {
     let d = fixture("two_outputs");
-    let o = volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--work-offset",
-            "200,150,100",
-            "-o",
-            "x.ngc",
-            "--report",
-            "x.ngc",
-        ],
+    let o = common::run(
         &d,
+        "compensate part.ngc --map map.csv --work-offset 200,150,100 -o x.ngc --report x.ngc",
     );
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{e}");
@@ -132,7 +121,7 @@ fn simulate_outputs_never_replace_inputs() {
 #[test]
 fn map_convert_and_plot_never_replace_inputs() {
     let d = tempdir("map_inputs");
-    let o = volcomp(&["map", "example", "-o", "."], &d);
+    let o = common::run(&d, "map example -o .");
     assert!(o.status.success(), "{}", stderr(&o));
     // The model and the table it names are both inputs.
     let inputs = ["example21.toml", "example21.csv"];
@@ -161,18 +150,7 @@ fn map_convert_and_plot_never_replace_inputs() {
         .replace("example21.csv", "tables.csv");
     std::fs::write(d.join("m.toml"), toml).unwrap();
     let before = snapshot(&d);
-    let o = volcomp(
-        &[
-            "map",
-            "convert",
-            "m.toml",
-            "--to",
-            "model",
-            "-o",
-            "tables.toml",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "map convert m.toml --to model -o tables.toml");
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{e}");
     assert!(
@@ -190,7 +168,7 @@ fn map_convert_and_plot_never_replace_inputs() {
 #[test]
 fn thermal_outputs_never_replace_inputs() {
     let d = tempdir("thermal_inputs");
-    let o = volcomp(&["thermal", "example", "-o", "."], &d);
+    let o = common::run(&d, "thermal example -o .");
     assert!(o.status.success(), "{}", stderr(&o));
     let inputs = [
         "measurements_train.csv",
@@ -313,20 +291,9 @@ fn a_full_disk_leaves_the_old_output_and_no_temporary() {
     std::fs::write(d.join("out.ngc"), "old program").unwrap();
     // The report fails (/dev/full) after the program was staged: neither is
     // put in place, the old program stays.
-    let o = volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            "out.ngc",
-            "--report",
-            "/dev/full",
-        ],
+    let o = common::run(
         &d,
+        "compensate part.ngc --map map.csv --setup machine.toml -o out.ngc --report /dev/full",
     );
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert_eq!(
@@ -353,25 +320,15 @@ fn kills_mid_write(name: &str, named: bool, signals: &[&str]) {
     large_program(&d, 400_000);
     for signal in signals {
         std::fs::write(d.join("out.ngc"), "old program").unwrap();
-        let mut child = Command::new(env!("CARGO_BIN_EXE_volcomp"))
-            .args([
-                "compensate",
-                "large.ngc",
-                "--map",
-                "map.csv",
-                "--setup",
-                "machine.toml",
-                "--segments",
-                "4",
-                "-o",
-                "out.ngc",
-            ])
-            .current_dir(&d)
-            .env_remove("VOLCOMP_NAMED_TEMPORARIES")
-            .envs(named.then_some(("VOLCOMP_NAMED_TEMPORARIES", "1")))
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
+        let mut child = common::command(
+            &d,
+            "compensate large.ngc --map map.csv --setup machine.toml --segments 4 -o out.ngc",
+        )
+        .env_remove("VOLCOMP_NAMED_TEMPORARIES")
+        .envs(named.then_some(("VOLCOMP_NAMED_TEMPORARIES", "1")))
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
         // Mid-write: the process has started and is compensating.
         std::thread::sleep(std::time::Duration::from_millis(700));
         if named {
@@ -429,27 +386,9 @@ fn a_closed_standard_output_is_an_error() {
 #[test]
 fn a_full_disk_on_a_later_output_says_what_was_written() {
     let d = tempdir("later_output");
-    let o = volcomp(&["thermal", "example", "-o", "."], &d);
+    let o = common::run(&d, "thermal example -o .");
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = volcomp(
-        &[
-            "thermal",
-            "fit",
-            "--measurements",
-            "measurements_train.csv",
-            "--temperatures",
-            "temperatures_train.csv",
-            "--artifact",
-            "artifact.csv",
-            "--ranges-mm",
-            "0:600,0:400,0:300",
-            "-o",
-            "t.toml",
-            "--bands",
-            "/dev/full",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "thermal fit --measurements measurements_train.csv --temperatures temperatures_train.csv --artifact artifact.csv --ranges-mm 0:600,0:400,0:300 -o t.toml --bands /dev/full");
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{e}");
     assert!(e.contains("No space left"), "{e}");
@@ -555,18 +494,9 @@ fn every_other_output_flag_against_every_input() {
     // thermal predict writes OUT.toml and OUT.csv beside it: `-o temps.toml`
     // would replace the temperatures.
     let before = snapshot(&d);
-    let o = volcomp(
-        &[
-            "thermal",
-            "predict",
-            "--model",
-            "thermal.toml",
-            "--temperatures",
-            "temps.csv",
-            "-o",
-            "temps.toml",
-        ],
+    let o = common::run(
         &d,
+        "thermal predict --model thermal.toml --temperatures temps.csv -o temps.toml",
     );
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("temps.csv"), "{}", stderr(&o));
@@ -575,12 +505,9 @@ fn every_other_output_flag_against_every_input() {
     // directory: one of them a hard link to the map.
     std::fs::create_dir(d.join("comp")).unwrap();
     std::fs::hard_link(d.join("map.csv"), d.join("comp/y.comp")).unwrap();
-    let o = volcomp(
-        &[
-            "map", "convert", "map.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm", "-o",
-            "comp",
-        ],
+    let o = common::run(
         &d,
+        "map convert map.csv --to linuxcnc --type 1 --units mm -o comp",
     );
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{e}");
@@ -684,7 +611,7 @@ fn files_named_inside_inputs_are_never_replaced() {
         "subs/pocket.ngc",
     );
     // A 21-component model's table, through `simulate --errors-csv`.
-    let o = volcomp(&["map", "example", "-o", "."], &d);
+    let o = common::run(&d, "map example -o .");
     assert!(o.status.success(), "{}", stderr(&o));
     let e = run(
         &[

@@ -48,13 +48,7 @@ fn run_plan(exe: &Path, program: &Path, dir: &Path) -> Result<Vec<[f64; 3]>, Str
         .stdin(Stdio::null())
         .output()
         .expect("run rs274");
-    let chatter: Vec<String> = String::from_utf8_lossy(&out.stderr)
-        .lines()
-        .chain(String::from_utf8_lossy(&out.stdout).lines())
-        .map(str::trim)
-        .filter(|l| !l.is_empty() && *l != "executing")
-        .map(str::to_string)
-        .collect();
+    let chatter = rs274::chatter(&out);
     let text = std::fs::read_to_string(&out_path).unwrap_or_default();
     if !out.status.success() || !chatter.is_empty() || text.contains("ABORT") {
         return Err(format!(
@@ -85,7 +79,7 @@ const ZGAUGE: &str = "artifact = \"gauge\"\nname = \"zstep\"\nfaces_mm = [0, 50,
 #[test]
 fn every_generated_program_is_accepted_by_rs274() {
     let d = tempdir("plans");
-    let o = volcomp(&["probe", "example", "-o", "ex"], &d);
+    let o = common::run(&d, "probe example -o ex");
     assert!(o.status.success(), "{}", stderr(&o));
     std::fs::write(d.join("inch.toml"), SETUP).unwrap();
     std::fs::write(d.join("square.toml"), SQUARE).unwrap();
@@ -160,34 +154,8 @@ fn every_generated_program_is_accepted_by_rs274() {
 #[test]
 fn the_example_campaign_fits_into_a_model_compensate_takes() {
     let d = tempdir("fit");
-    assert!(volcomp(&["probe", "example", "-o", "ex"], &d)
-        .status
-        .success());
-    let o = volcomp(
-        &[
-            "probe",
-            "fit",
-            "--artifact",
-            "ex/reference.toml",
-            "--artifact",
-            "ex/plate.toml",
-            "--artifact",
-            "ex/gauge.toml",
-            "--log",
-            "ex/reference.log",
-            "--log",
-            "ex/plate.log",
-            "--log",
-            "ex/gauge.log",
-            "--ranges-mm",
-            "0:600,0:400,0:300",
-            "--report",
-            "probe.html",
-            "-o",
-            "model.toml",
-        ],
-        &d,
-    );
+    assert!(common::run(&d, "probe example -o ex").status.success());
+    let o = common::run(&d, "probe fit --artifact ex/reference.toml --artifact ex/plate.toml --artifact ex/gauge.toml --log ex/reference.log --log ex/plate.log --log ex/gauge.log --ranges-mm 0:600,0:400,0:300 --report probe.html -o model.toml");
     assert!(o.status.success(), "{}", stderr(&o));
     let said = String::from_utf8_lossy(&o.stdout);
     assert!(said.contains("ECY.P1   not seen"), "{said}");
@@ -196,65 +164,21 @@ fn the_example_campaign_fits_into_a_model_compensate_takes() {
     let html = std::fs::read_to_string(d.join("probe.html")).unwrap();
     assert!(html.contains("Placements and residuals") && html.contains("<svg"));
     // The model is an ordinary 21-component model.
-    let o = volcomp(
-        &[
-            "map",
-            "eval",
-            "model.toml",
-            "--at",
-            "300,200,100",
-            "--tool-length",
-            "100",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "map eval model.toml --at 300,200,100 --tool-length 100");
     assert!(o.status.success(), "{}", stderr(&o));
     std::fs::write(
         d.join("part.ngc"),
         "G21 G90\nG0 X100 Y100 Z150\nG1 X400 Y300 Z100 F500\nM2\n",
     )
     .unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "model.toml",
-            "--work-offset",
-            "0,0,0",
-            "-o",
-            "part.comp.ngc",
-        ],
+    let o = common::run(
         &d,
+        "compensate part.ngc --map model.toml --work-offset 0,0,0 -o part.comp.ngc",
     );
     assert!(o.status.success(), "{}", stderr(&o));
     // Verify, applying the model in software to the same run: what is left
     // is the noise.
-    let o = volcomp(
-        &[
-            "probe",
-            "verify",
-            "--artifact",
-            "ex/reference.toml",
-            "--artifact",
-            "ex/plate.toml",
-            "--artifact",
-            "ex/gauge.toml",
-            "--log",
-            "ex/reference.log",
-            "--log",
-            "ex/plate.log",
-            "--log",
-            "ex/gauge.log",
-            "--ranges-mm",
-            "0:600,0:400,0:300",
-            "--map",
-            "model.toml",
-            "--applied",
-            "software",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "probe verify --artifact ex/reference.toml --artifact ex/plate.toml --artifact ex/gauge.toml --log ex/reference.log --log ex/plate.log --log ex/gauge.log --ranges-mm 0:600,0:400,0:300 --map model.toml --applied software");
     assert!(o.status.success(), "{}", stderr(&o));
     let said = String::from_utf8_lossy(&o.stdout);
     assert!(said.contains("what is left: RMS"), "{said}");
@@ -263,26 +187,13 @@ fn the_example_campaign_fits_into_a_model_compensate_takes() {
 #[test]
 fn a_bad_log_is_located_and_nothing_is_written() {
     let d = tempdir("bad");
-    assert!(volcomp(&["probe", "example", "-o", "ex"], &d)
-        .status
-        .success());
+    assert!(common::run(&d, "probe example -o ex").status.success());
     let log = std::fs::read_to_string(d.join("ex/plate.log")).unwrap();
     let bad = log.replacen("d=-Z", "d=down", 1);
     std::fs::write(d.join("bad.log"), &bad).unwrap();
-    let o = volcomp(
-        &[
-            "probe",
-            "fit",
-            "--artifact",
-            "ex/plate.toml",
-            "--log",
-            "bad.log",
-            "--ranges-mm",
-            "0:600,0:400,0:300",
-            "-o",
-            "m.toml",
-        ],
+    let o = common::run(
         &d,
+        "probe fit --artifact ex/plate.toml --log bad.log --ranges-mm 0:600,0:400,0:300 -o m.toml",
     );
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
@@ -294,20 +205,9 @@ fn a_bad_log_is_located_and_nothing_is_written() {
     // A touch of a placement the artifact does not have.
     let bad = log.replacen("p=low ", "p=nowhere ", 1);
     std::fs::write(d.join("bad.log"), &bad).unwrap();
-    let o = volcomp(
-        &[
-            "probe",
-            "fit",
-            "--artifact",
-            "ex/plate.toml",
-            "--log",
-            "bad.log",
-            "--ranges-mm",
-            "0:600,0:400,0:300",
-            "-o",
-            "m.toml",
-        ],
+    let o = common::run(
         &d,
+        "probe fit --artifact ex/plate.toml --log bad.log --ranges-mm 0:600,0:400,0:300 -o m.toml",
     );
     assert!(
         stderr(&o).contains("bad.log:3:") && stderr(&o).contains("no placement `nowhere`"),

@@ -142,7 +142,7 @@ fn set_up_errors_are_located() {
 }
 
 fn thermal_example(d: &Path) {
-    let o = volcomp(&["thermal", "example", "-o", "ex"], d);
+    let o = common::run(d, "thermal example -o ex");
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
@@ -172,23 +172,7 @@ fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
     thermal_example(&d);
     let t = std::fs::read_to_string(d.join("ex/temperatures_train.csv")).unwrap();
     std::fs::write(d.join("bare.csv"), t.replacen("bed_C", "bed", 1)).unwrap();
-    let o = volcomp(
-        &[
-            "thermal",
-            "fit",
-            "--measurements",
-            "ex/measurements_train.csv",
-            "--temperatures",
-            "bare.csv",
-            "--artifact",
-            "ex/artifact.csv",
-            "--ranges-mm",
-            "0:600,0:400,0:300",
-            "-o",
-            "thermal.toml",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures bare.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o thermal.toml");
     let msg = stderr(&o);
     assert!(
         msg.contains("bare.csv:1:3:") && msg.contains("does not say its unit"),
@@ -405,19 +389,7 @@ fn thermal_values_that_cannot_be_are_located() {
         format!("{}intercept = nan{}", &model[..at], &model[end..]),
     )
     .unwrap();
-    let o = volcomp(
-        &[
-            "thermal",
-            "predict",
-            "--model",
-            "thermal.toml",
-            "--temperatures",
-            "ex/temperatures_check.csv",
-            "-o",
-            "pred.toml",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "thermal predict --model thermal.toml --temperatures ex/temperatures_check.csv -o pred.toml");
     let msg = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{msg}");
     assert!(
@@ -474,20 +446,9 @@ fn thermal_options_are_bounded_before_any_file_is_read() {
             "{extra:?}: read a file first: {msg}"
         );
     }
-    let o = volcomp(
-        &[
-            "thermal",
-            "predict",
-            "--model",
-            "none.toml",
-            "--temperatures",
-            "none.csv",
-            "--cycle",
-            "-1",
-            "-o",
-            "p.toml",
-        ],
+    let o = common::run(
         &d,
+        "thermal predict --model none.toml --temperatures none.csv --cycle -1 -o p.toml",
     );
     let msg = stderr(&o);
     assert!(

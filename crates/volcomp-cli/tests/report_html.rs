@@ -64,23 +64,14 @@ fn simulate_json(dir: &Path, args: &[&str]) -> serde_json::Value {
 fn a_compensation_report_holds_the_runs_figures_and_inputs() {
     let dir = fixture("report-compensate");
     let run = |out: &str| {
-        Command::new(env!("CARGO_BIN_EXE_volcomp"))
-            .args([
-                "compensate",
-                "part.ngc",
-                "--map",
-                "map.csv",
-                "--setup",
-                "machine.toml",
-                "-o",
-                "part.comp.ngc",
-                "--report-html",
-                out,
-            ])
-            .current_dir(&dir)
-            .env("SOURCE_DATE_EPOCH", "86400")
-            .output()
-            .unwrap()
+        common::command(
+            &dir,
+            "compensate part.ngc --map map.csv --setup machine.toml -o part.comp.ngc --report-html",
+        )
+        .arg(out)
+        .env("SOURCE_DATE_EPOCH", "86400")
+        .output()
+        .unwrap()
     };
     let o = run("report.html");
     assert!(o.status.success(), "{}", stderr(&o));
@@ -227,16 +218,9 @@ fn a_title_block_file_heads_the_report_and_a_bad_one_is_refused_at_its_line() {
     assert!(!dir.join("d.ngc").exists() && !dir.join("d.ngc.html").exists());
     // A title block without a report is refused, not ignored; the
     // message names the flags.
-    let o = volcomp(
-        &[
-            "simulate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--report-title",
-            "title.toml",
-        ],
+    let o = common::run(
         &dir,
+        "simulate part.ngc --map map.csv --report-title title.toml",
     );
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(
@@ -249,33 +233,17 @@ fn a_title_block_file_heads_the_report_and_a_bad_one_is_refused_at_its_line() {
 #[test]
 fn a_report_needs_the_program_as_a_file_and_never_overwrites_an_input() {
     let dir = fixture("report-refusals");
-    let o = volcomp(
-        &[
-            "compensate",
-            "-",
-            "--map",
-            "map.csv",
-            "-o",
-            "x.ngc",
-            "--report-html",
-            "r.html",
-        ],
+    let o = common::run(
         &dir,
+        "compensate - --map map.csv -o x.ngc --report-html r.html",
     );
     assert!(!o.status.success());
     assert!(stderr(&o).contains("--report-html"), "{}", stderr(&o));
     assert!(!dir.join("r.html").exists() && !dir.join("x.ngc").exists());
     let before = std::fs::read(dir.join("part.ngc")).unwrap();
-    let o = volcomp(
-        &[
-            "simulate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--report-html",
-            "part.ngc",
-        ],
+    let o = common::run(
         &dir,
+        "simulate part.ngc --map map.csv --report-html part.ngc",
     );
     assert!(!o.status.success());
     assert_eq!(std::fs::read(dir.join("part.ngc")).unwrap(), before);
@@ -284,35 +252,12 @@ fn a_report_needs_the_program_as_a_file_and_never_overwrites_an_input() {
 #[test]
 fn a_simulation_report_with_a_reference_shows_both() {
     let dir = fixture("report-simulate");
-    let o = volcomp(
-        &[
-            "compensate",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "-o",
-            "c.ngc",
-        ],
+    let o = common::run(
         &dir,
+        "compensate part.ngc --map map.csv --setup machine.toml -o c.ngc",
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = volcomp(
-        &[
-            "simulate",
-            "c.ngc",
-            "--reference",
-            "part.ngc",
-            "--map",
-            "map.csv",
-            "--setup",
-            "machine.toml",
-            "--report-html",
-            "sim.html",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "simulate c.ngc --reference part.ngc --map map.csv --setup machine.toml --report-html sim.html");
     assert!(o.status.success(), "{}", stderr(&o));
     let html = std::fs::read_to_string(dir.join("sim.html")).unwrap();
     assert_self_contained(&html);
@@ -362,7 +307,7 @@ fn headless(chromium: &Path, profile: &Path) -> Command {
 #[test]
 fn the_demo_report_renders_and_prints_in_chromium() {
     let dir = tempdir("demo-report");
-    let o = volcomp(&["demo", "--out-dir", "demo"], &dir);
+    let o = common::run(&dir, "demo --out-dir demo");
     assert!(o.status.success(), "{}", stderr(&o));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("demo/report.html"), "{stdout}");
@@ -451,18 +396,9 @@ fn a_positioning_test_report_has_the_bidirectional_plot_and_figures() {
     let dir = tempdir("report-iso");
     let runs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/data/runs.csv");
     std::fs::copy(&runs, dir.join("runs.csv")).unwrap();
-    let o = volcomp(
-        &[
-            "map",
-            "iso230-2",
-            "runs.csv",
-            "--axis",
-            "X",
-            "--report-html",
-            "iso.html",
-            "--json",
-        ],
+    let o = common::run(
         &dir,
+        "map iso230-2 runs.csv --axis X --report-html iso.html --json",
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -488,12 +424,9 @@ fn a_positioning_test_report_has_the_bidirectional_plot_and_figures() {
 #[test]
 fn a_map_report_draws_every_component_over_its_axis() {
     let dir = tempdir("report-map");
-    let o = volcomp(&["map", "example", "-o", "models"], &dir);
+    let o = common::run(&dir, "map example -o models");
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = volcomp(
-        &["map", "plot", "models/example21.toml", "-o", "map.html"],
-        &dir,
-    );
+    let o = common::run(&dir, "map plot models/example21.toml -o map.html");
     assert!(o.status.success(), "{}", stderr(&o));
     let html = std::fs::read_to_string(dir.join("map.html")).unwrap();
     assert_self_contained(&html);
@@ -546,37 +479,11 @@ fn straightness_and_thermal_reports_keep_units_apart_and_wavelengths_in_mm() {
         assert!(html.contains(&format!("<td>{r}</td>")), "{r}");
     }
 
-    let o = volcomp(&["thermal", "example", "-o", "ex"], &dir);
+    let o = common::run(&dir, "thermal example -o ex");
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = volcomp(
-        &[
-            "thermal",
-            "fit",
-            "--measurements",
-            "ex/measurements_train.csv",
-            "--temperatures",
-            "ex/temperatures_train.csv",
-            "--artifact",
-            "ex/artifact.csv",
-            "--ranges-mm",
-            "0:600,0:400,0:300",
-            "-o",
-            "thermal.toml",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o thermal.toml");
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = volcomp(
-        &[
-            "thermal",
-            "plot",
-            "--model",
-            "thermal.toml",
-            "-o",
-            "th.html",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "thermal plot --model thermal.toml -o th.html");
     assert!(o.status.success(), "{}", stderr(&o));
     let html = std::fs::read_to_string(dir.join("th.html")).unwrap();
     assert_self_contained(&html);
@@ -612,22 +519,10 @@ fn a_mirror_report_has_the_statistics_and_the_probe_points() {
         std::fs::copy(data.join(f), dir.join(f)).unwrap();
     }
     let run = |extra: &[&str], out: &str| {
-        let mut args = vec![
-            "surface",
-            "mirror",
-            "--nominal",
-            "face.toml",
-            "--measured",
-            "probes.csv",
-            "--stock",
-            "0.2",
-            "--finishing",
-            "finish.ngc",
-            "--tool-radius",
-            "3",
-            "-o",
-            out,
-        ];
+        let mut args: Vec<&str> = "surface mirror --nominal face.toml --measured probes.csv --stock 0.2 --finishing finish.ngc --tool-radius 3 -o"
+            .split_whitespace()
+            .collect();
+        args.push(out);
         args.extend_from_slice(extra);
         let o = volcomp(&args, &dir);
         assert!(o.status.success(), "{}", stderr(&o));

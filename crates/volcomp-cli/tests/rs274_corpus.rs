@@ -323,20 +323,7 @@ const MAX_CORRECTION_MM: f64 = 5.0e-3 * 1.732_050_808;
 
 /// The ripple map of the module doc, as an axis-table CSV.
 fn ripple_map() -> String {
-    let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for (a, axis, period) in [(0, "X", 40.0), (1, "Y", 30.0), (2, "Z", 25.0)] {
-        for k in -4000..=4000 {
-            let p = f64::from(k) * 5.0;
-            let w = (2.0 * std::f64::consts::PI * p / period).sin();
-            let mut e = [w, w, w];
-            e[a] = 3.0 * w;
-            s.push_str(&format!(
-                "{axis},both,{p},{:.6},{:.6},{:.6}\n",
-                e[0], e[1], e[2]
-            ));
-        }
-    }
-    s
+    rs274::ripple_map(20_000.0)
 }
 
 /// Whether every motion of `original` is matched in order by a motion of

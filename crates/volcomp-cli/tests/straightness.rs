@@ -79,10 +79,7 @@ fn fit_plot_table_predict_and_compensate() {
     assert_eq!(&png[1..4], b"PNG");
 
     // Predictions follow the truth up to a constant: compare differences.
-    let o = volcomp(
-        &["straightness", "predict", "model.toml", "52.5,0", "100,0"],
-        &dir,
-    );
+    let o = common::run(&dir, "straightness predict model.toml 52.5,0 100,0");
     assert!(o.status.success(), "{}", text(&o.stderr));
     let out = text(&o.stdout);
     let rows: Vec<Vec<f64>> = out
@@ -95,22 +92,14 @@ fn fit_plot_table_predict_and_compensate() {
     let truth = geometric_um(52.5) - geometric_um(100.0);
     assert!((predicted - truth).abs() < 0.03, "{predicted} vs {truth}");
     assert_eq!(rows[0][3], -rows[0][2]);
-    let o = volcomp(&["straightness", "predict", "model.toml", "250,0"], &dir);
+    let o = common::run(&dir, "straightness predict model.toml 250,0");
     assert!(!o.status.success());
     assert!(text(&o.stderr).contains("--clamp"), "{}", text(&o.stderr));
 
     // The correction table.
-    let o = volcomp(
-        &[
-            "straightness",
-            "table",
-            "model.toml",
-            "--step",
-            "0.5",
-            "-o",
-            "table.csv",
-        ],
+    let o = common::run(
         &dir,
+        "straightness table model.toml --step 0.5 -o table.csv",
     );
     assert!(o.status.success(), "{}", text(&o.stderr));
     let table = std::fs::read_to_string(dir.join("table.csv")).unwrap();
@@ -210,7 +199,7 @@ fn bad_runs_are_refused_with_file_row_and_column() {
         "kind = \"straightness\"\nformat_version = 1\n",
     )
     .unwrap();
-    let o = volcomp(&["straightness", "table", "m.toml"], &dir);
+    let o = common::run(&dir, "straightness table m.toml");
     assert!(
         text(&o.stderr).starts_with("error: m.toml:1:1: missing field `offset_um`"),
         "{}",

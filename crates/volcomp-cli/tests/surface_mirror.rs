@@ -203,23 +203,7 @@ fn writes_the_program_the_surface_and_the_report() {
 fn a_grid_nominal_and_an_interpolated_fit_work_too() {
     let dir = tempdir("grid");
     write_inputs(&dir);
-    let o = volcomp(
-        &[
-            "surface",
-            "mirror",
-            "--nominal",
-            "nominal-grid.csv",
-            "--measured",
-            "probes.csv",
-            "--stock",
-            "0.3",
-            "--fit",
-            "interpolate",
-            "--report",
-            "r.csv",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "surface mirror --nominal nominal-grid.csv --measured probes.csv --stock 0.3 --fit interpolate --report r.csv");
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(out.contains("interpolation"), "{out}");
@@ -330,21 +314,7 @@ fn bad_input_is_refused_with_its_location_and_nothing_is_written() {
         &["touches the nominal surface"],
     );
     // The finishing program needs -o and --tool-radius.
-    let o = volcomp(
-        &[
-            "surface",
-            "mirror",
-            "--nominal",
-            "nominal.toml",
-            "--measured",
-            "probes.csv",
-            "--stock",
-            "0.3",
-            "--finishing",
-            "finish.ngc",
-        ],
-        &dir,
-    );
+    let o = common::run(&dir, "surface mirror --nominal nominal.toml --measured probes.csv --stock 0.3 --finishing finish.ngc");
     assert!(!o.status.success());
     // The input is never overwritten.
     let mut v = RUN.to_vec();

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::common;
-use common::{tempdir, volcomp};
+use common::tempdir;
 
 fn example_data() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/data")
@@ -22,29 +22,13 @@ fn inputs(name: &str) -> PathBuf {
 }
 
 /// The README's command, with the report as CSV.
-const RUN: &[&str] = &[
-    "surface",
-    "mirror",
-    "--nominal",
-    "face.toml",
-    "--measured",
-    "probes.csv",
-    "--stock",
-    "0.2",
-    "--finishing",
-    "finish.ngc",
-    "-o",
-    "finish.comp.ngc",
-    "--tool-radius",
-    "3",
-    "--report",
-    "report.csv",
-];
+const RUN: &str = "surface mirror --nominal face.toml --measured probes.csv --stock 0.2 \
+    --finishing finish.ngc -o finish.comp.ngc --tool-radius 3 --report report.csv";
 
 #[test]
 fn summary_of_the_documented_run() {
     let dir = inputs("summary");
-    let o = volcomp(RUN, &dir);
+    let o = common::run(&dir, RUN);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(String::from_utf8_lossy(&o.stderr), "");
     insta::assert_snapshot!("mirror_summary", String::from_utf8_lossy(&o.stdout));
@@ -53,7 +37,7 @@ fn summary_of_the_documented_run() {
 #[test]
 fn report_csv_header_and_first_rows() {
     let dir = inputs("report");
-    let o = volcomp(RUN, &dir);
+    let o = common::run(&dir, RUN);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let report = std::fs::read_to_string(dir.join("report.csv")).unwrap();
     // The `#` summary lines, the column header and the first three points.

@@ -4,7 +4,7 @@
 use std::process::Output;
 
 use crate::common;
-use common::{tempdir, volcomp};
+use common::tempdir;
 
 fn ok(o: &Output) -> String {
     assert!(
@@ -19,26 +19,8 @@ fn ok(o: &Output) -> String {
 #[test]
 fn example_fit_predict_compensate_plot() {
     let d = tempdir("flow");
-    ok(&volcomp(&["thermal", "example", "-o", "ex"], &d));
-    let out = ok(&volcomp(
-        &[
-            "thermal",
-            "fit",
-            "--measurements",
-            "ex/measurements_train.csv",
-            "--temperatures",
-            "ex/temperatures_train.csv",
-            "--artifact",
-            "ex/artifact.csv",
-            "--ranges-mm",
-            "0:600,0:400,0:300",
-            "--bands",
-            "bands.csv",
-            "-o",
-            "thermal.toml",
-        ],
-        &d,
-    ));
+    ok(&common::run(&d, "thermal example -o ex"));
+    let out = ok(&common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 --bands bands.csv -o thermal.toml"));
     // The bands: 3 lines × 41 points × 3 components, each a 95 % interval
     // around the estimate with a positive spread.
     let bands = std::fs::read_to_string(d.join("bands.csv")).unwrap();
@@ -56,41 +38,20 @@ fn example_fit_predict_compensate_plot() {
         out.contains("ECY.P1, ECY.P2, EAZ.P1, EAZ.P2, EBZ.P1, EBZ.P2, ECZ.P1, ECZ.P2"),
         "{out}"
     );
-    ok(&volcomp(
-        &[
-            "thermal",
-            "predict",
-            "--model",
-            "thermal.toml",
-            "--temperatures",
-            "ex/temperatures_check.csv",
-            "--cycle",
-            "6",
-            "-o",
-            "predicted.toml",
-        ],
-        &d,
-    ));
+    ok(&common::run(&d, "thermal predict --model thermal.toml --temperatures ex/temperatures_check.csv --cycle 6 -o predicted.toml"));
     assert!(d.join("predicted.csv").exists());
     std::fs::write(
         d.join("p.ngc"),
         "G21 G90 G17\nG0 X10 Y10 Z50\nG1 X500 Y300 Z100 F1000\nM2\n",
     )
     .unwrap();
-    ok(&volcomp(
-        &[
-            "compensate",
-            "--map",
-            "predicted.toml",
-            "-o",
-            "out.ngc",
-            "p.ngc",
-        ],
+    ok(&common::run(
         &d,
+        "compensate --map predicted.toml -o out.ngc p.ngc",
     ));
-    ok(&volcomp(
-        &["thermal", "plot", "--model", "thermal.toml", "-o", "t.svg"],
+    ok(&common::run(
         &d,
+        "thermal plot --model thermal.toml -o t.svg",
     ));
     assert!(std::fs::read_to_string(d.join("t.svg"))
         .unwrap()
@@ -101,25 +62,9 @@ fn example_fit_predict_compensate_plot() {
 #[test]
 fn bad_inputs_are_located() {
     let d = tempdir("bad");
-    ok(&volcomp(&["thermal", "example", "-o", "ex"], &d));
+    ok(&common::run(&d, "thermal example -o ex"));
     std::fs::write(d.join("a.csv"), "sphere,distance_mm\n1,0\n2,50\n3,x\n").unwrap();
-    let o = volcomp(
-        &[
-            "thermal",
-            "fit",
-            "--measurements",
-            "ex/measurements_train.csv",
-            "--temperatures",
-            "ex/temperatures_train.csv",
-            "--artifact",
-            "a.csv",
-            "--ranges-mm",
-            "0:600,0:400,0:300",
-            "-o",
-            "t.toml",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact a.csv --ranges-mm 0:600,0:400,0:300 -o t.toml");
     assert!(!o.status.success());
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(e.contains("a.csv:4:2:") && e.contains("help:"), "{e}");
@@ -129,23 +74,7 @@ fn bad_inputs_are_located() {
         "cycle,time_h,bed_C,column_C,ambient_C\n0,0,20,20,20\n",
     )
     .unwrap();
-    let o = volcomp(
-        &[
-            "thermal",
-            "fit",
-            "--measurements",
-            "ex/measurements_train.csv",
-            "--temperatures",
-            "t.csv",
-            "--artifact",
-            "ex/artifact.csv",
-            "--ranges-mm",
-            "0:600,0:400,0:300",
-            "-o",
-            "t.toml",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures t.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o t.toml");
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(
         !o.status.success() && e.contains("no temperatures for measurement cycle 1"),

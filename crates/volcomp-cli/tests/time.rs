@@ -24,7 +24,7 @@ fn time_of_a_single_move_is_the_trapezoid() {
     std::fs::write(d.join("s.toml"), SETUP).unwrap();
     // G61: 60 mm at 50 mm/s with 500 mm/s²: 60/50 + 50/500 = 1.3 s.
     std::fs::write(d.join("p.ngc"), "G21 G90 G61\nG1 X60 F3000\nM2\n").unwrap();
-    let o = volcomp(&["time", "p.ngc", "--setup", "s.toml"], &d);
+    let o = common::run(&d, "time p.ngc --setup s.toml");
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!((first_seconds(&out) - 1.3).abs() <= 0.002, "{out}");
@@ -36,18 +36,7 @@ fn time_of_a_single_move_is_the_trapezoid() {
     // The same move under G64 (the default) ends in a blend: LinuxCNC
     // halves its acceleration, 60/50 + 50/250 = 1.4 s.
     std::fs::write(d.join("q.ngc"), "G21 G90\nG1 X60 F3000\nM2\n").unwrap();
-    let o = volcomp(
-        &[
-            "time",
-            "q.ngc",
-            "--setup",
-            "s.toml",
-            "--reference",
-            "p.ngc",
-            "--json",
-        ],
-        &d,
-    );
+    let o = common::run(&d, "time q.ngc --setup s.toml --reference p.ngc --json");
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let t = v["program"]["motion"]["total_s"].as_f64().unwrap();
@@ -144,7 +133,7 @@ fn bad_limits_are_located_in_the_set_up() {
     )
     .unwrap();
     std::fs::write(d.join("p.ngc"), "G21 G90\nG1 X60 F3000\nM2\n").unwrap();
-    let o = volcomp(&["time", "p.ngc", "--setup", "s.toml"], &d);
+    let o = common::run(&d, "time p.ngc --setup s.toml");
     assert!(!o.status.success());
     let e = stderr(&o);
     assert!(

@@ -36,6 +36,21 @@ pub fn volcomp(args: &[&str], dir: &Path) -> Output {
         .expect("run volcomp")
 }
 
+/// Runs `volcomp` in `dir` with the words of `line` as its arguments, as a
+/// user types them (split at white space: an argument holding a space
+/// goes through [`volcomp`]).
+pub fn run(dir: &Path, line: &str) -> Output {
+    volcomp(&line.split_whitespace().collect::<Vec<_>>(), dir)
+}
+
+/// `volcomp` with the words of `line` as its arguments, to run in `dir`
+/// (for a test that sets its standard streams or environment).
+pub fn command(dir: &Path, line: &str) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_volcomp"));
+    c.args(line.split_whitespace()).current_dir(dir);
+    c
+}
+
 /// A fresh, empty directory for one test, named after the calling test file,
 /// `name` and the process: the files' tests run side by side in one binary
 /// (tests/cli_tests.rs), and two files may use the same `name`.
@@ -133,16 +148,10 @@ pub fn large_program(dir: &Path, lines: usize) -> PathBuf {
 /// `volcomp compensate part.ngc --map map.csv --setup machine.toml -o OUT
 /// EXTRA…` in a [`fixture`] directory.
 pub fn compensate_with(d: &Path, out: &str, extra: &[&str]) -> Output {
-    let mut args = vec![
-        "compensate",
-        "part.ngc",
-        "--map",
-        "map.csv",
-        "--setup",
-        "machine.toml",
-        "-o",
-        out,
-    ];
+    let mut args: Vec<&str> = "compensate part.ngc --map map.csv --setup machine.toml -o"
+        .split_whitespace()
+        .collect();
+    args.push(out);
     args.extend_from_slice(extra);
     volcomp(&args, d)
 }

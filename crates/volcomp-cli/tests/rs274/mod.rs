@@ -565,6 +565,39 @@ pub struct Tools {
     pub var_text: String,
 }
 
+/// The ripple map of tests/rs274_corpus.rs over ±`half_range_mm`, as an
+/// axis-table CSV: 3 µm positioning and 1 µm straightness waves of 40, 30
+/// and 25 mm period on X, Y and Z, tabulated every 5 mm.
+pub fn ripple_map(half_range_mm: f64) -> String {
+    let n = (half_range_mm / 5.0).round() as i32;
+    let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for (a, axis, period) in [(0, "X", 40.0), (1, "Y", 30.0), (2, "Z", 25.0)] {
+        for k in -n..=n {
+            let p = f64::from(k) * 5.0;
+            let w = (2.0 * std::f64::consts::PI * p / period).sin();
+            let mut e = [w, w, w];
+            e[a] = 3.0 * w;
+            s.push_str(&format!(
+                "{axis},both,{p},{:.6},{:.6},{:.6}\n",
+                e[0], e[1], e[2]
+            ));
+        }
+    }
+    s
+}
+
+/// What an rs274 run printed besides its "executing" (a clean run prints
+/// nothing else: any other line is an error).
+pub fn chatter(out: &std::process::Output) -> Vec<String> {
+    String::from_utf8_lossy(&out.stderr)
+        .lines()
+        .chain(String::from_utf8_lossy(&out.stdout).lines())
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && *l != "executing")
+        .map(str::to_string)
+        .collect()
+}
+
 pub fn find_rs274() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("VOLCOMP_RS274") {
         return Some(PathBuf::from(p)).filter(|p| p.is_file());
@@ -600,13 +633,7 @@ pub fn run_rs274(tools: &Tools, program: &Path, work: &Path) -> Result<Rs274Run,
     let text = std::fs::read_to_string(&out_path).unwrap_or_default();
     let motions = parse_rs274_output(&text)?;
     // A clean run prints only "executing" (stderr); anything else is an error.
-    let chatter: Vec<String> = String::from_utf8_lossy(&out.stderr)
-        .lines()
-        .chain(String::from_utf8_lossy(&out.stdout).lines())
-        .map(str::trim)
-        .filter(|l| !l.is_empty() && *l != "executing")
-        .map(str::to_string)
-        .collect();
+    let chatter = chatter(&out);
     let rejected = if !out.status.success() || !chatter.is_empty() {
         Some(format!("{}: {}", out.status, chatter.join(" | ")))
     } else {
