@@ -7,7 +7,7 @@ use std::io::Cursor;
 use std::path::PathBuf;
 use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions};
 use volcomp_core::model::axis_table::AxisTableMap;
-use volcomp_gcode::{InterpOptions, Setup, Vec3, Walker};
+use volcomp_gcode::{InterpOptions, Setup, Walker};
 
 /// A map of zeros over ±10 m on every axis: compensation changes nothing,
 /// so every expected number is the program's own.
