@@ -210,6 +210,15 @@ impl State<'_> {
         self.push_inserted(at, note);
     }
 
+    /// Writes path-control `words` on a line of their own before a block
+    /// (an arc cannot carry P), tagged `(volcomp Ln path mode)`.
+    pub(super) fn push_path_mode_line(&mut self, words: &str, at: &Place) {
+        self.text.clear();
+        self.text.push_str(words);
+        self.push_inserted(at, "path mode");
+        self.summary.path_mode_lines += 1;
+    }
+
     /// Ends the inserted line in `self.text` (its trace comment, `(volcomp
     /// Ln note)`, when asked for) and appends it to the buffer on a line of
     /// its own.

@@ -539,15 +539,12 @@ impl<'w> State<'w> {
             None
         };
         if let Some((before, _)) = &naive_cam {
-            self.text.clear();
-            self.text.push_str(before);
             let at = Place {
                 frame: &frame0,
                 style: style0,
                 ..place
             };
-            self.push_inserted(&at, "path mode");
-            self.summary.path_mode_lines += 1;
+            self.push_path_mode_line(before, &at);
             self.summary.naive_cam_off_blocks += 1;
         }
         if run_starts.iter().any(|s| *s) {
@@ -619,15 +616,12 @@ impl<'w> State<'w> {
             }
             if i == 0 {
                 if let (Some((_, words, _)), true) = (start_here, first_arc.is_some()) {
-                    self.text.clear();
-                    self.text.push_str(words);
                     let at = Place {
                         frame: &frame0,
                         style: style0,
                         ..place
                     };
-                    self.push_inserted(&at, "path mode");
-                    self.summary.path_mode_lines += 1;
+                    self.push_path_mode_line(words, &at);
                 }
                 let mut edits = self.original_line_edits(
                     line,
