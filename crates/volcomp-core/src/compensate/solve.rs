@@ -310,7 +310,7 @@ fn search_states(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::ALL_FORWARD;
+    use crate::model::{ByDirection, ALL_FORWARD};
 
     /// A test model: constant offset plus optional backlash on X and a linear term.
     struct Toy {
@@ -445,27 +445,15 @@ mod tests {
     /// Y's error depends on X's direction (a transverse table of X), with no
     /// negative reversal value anywhere: X's reverse error lies 4 µm above
     /// its forward one, and Y is 2·δ lower while X runs in reverse.
-    struct Transverse {
-        delta_um: f64,
-    }
-
-    impl ErrorModel for Transverse {
-        fn deviation_um(
-            &self,
-            _q: Vec3,
-            s: Directions,
-            _c: Components,
-        ) -> Result<Vec3, ModelError> {
+    fn transverse(delta_um: f64) -> ByDirection<impl Fn(Directions) -> Vec3 + Send + Sync> {
+        ByDirection(move |s: Directions| {
             let x_reverse = s[0] == Direction::Reverse;
-            Ok(Vec3::new(
+            Vec3::new(
                 if x_reverse { 4.0 } else { 0.0 },
-                if x_reverse { -2.0 * self.delta_um } else { 0.0 },
+                if x_reverse { -2.0 * delta_um } else { 0.0 },
                 0.0,
-            ))
-        }
-        fn range_mm(&self) -> [[f64; 2]; 3] {
-            [[-1e3, 1e3]; 3]
-        }
+            )
+        })
     }
 
     #[test]
@@ -479,7 +467,7 @@ mod tests {
         //   axis at once holds Y here (0.3 µm left).
         // (F, R): e = 0 → q = (10.010, 9.9997): X forward, Y reverse, both as
         //   chosen: consistent, with one reversal and nothing left.
-        let m = Transverse { delta_um: 0.3 };
+        let m = transverse(0.3);
         let q_prev = Vec3::new(10.0, 10.0, 0.0);
         let s_prev = [Direction::Reverse, Direction::Reverse, Direction::Forward];
         let t = Vec3::new(10.010, 10.0 - 0.3e-3, 0.0);
@@ -502,26 +490,16 @@ mod tests {
     /// X's reverse error 3 µm above its forward one, and Y 0.3 µm higher
     /// while X runs in reverse (a transverse table of X); Y's reverse error
     /// 4 µm above its forward one.
-    struct TwoBands;
-
-    impl ErrorModel for TwoBands {
-        fn deviation_um(
-            &self,
-            _q: Vec3,
-            s: Directions,
-            _c: Components,
-        ) -> Result<Vec3, ModelError> {
+    fn two_bands() -> ByDirection<impl Fn(Directions) -> Vec3 + Send + Sync> {
+        ByDirection(|s: Directions| {
             let x_reverse = s[0] == Direction::Reverse;
             let y_reverse = s[1] == Direction::Reverse;
-            Ok(Vec3::new(
+            Vec3::new(
                 if x_reverse { 3.0 } else { 0.0 },
                 if x_reverse { 0.3 } else { 0.0 } + if y_reverse { 4.0 } else { 0.0 },
                 0.0,
-            ))
-        }
-        fn range_mm(&self) -> [[f64; 2]; 3] {
-            [[-1e3, 1e3]; 3]
-        }
+            )
+        })
     }
 
     #[test]
@@ -537,7 +515,7 @@ mod tests {
         // (F, F): e = 0 → q = (11, 10.0001): Y moves on forward by 0.1 µm,
         //   consistent with one reversal: the state the dead band holds.
         // (R, R): e = (3, 4.3) → q = (10.997, 9.9958): X forward, inconsistent.
-        let m = TwoBands;
+        let m = two_bands();
         let q_prev = Vec3::new(10.0, 10.0, 0.0);
         let s_prev = [Direction::Reverse, Direction::Forward, Direction::Forward];
         let t = Vec3::new(11.0, 10.0001, 0.0);

@@ -333,6 +333,22 @@ pub fn direction_letters(s: Directions) -> String {
         .collect()
 }
 
+/// A test model whose error depends on the axes' directions only, over
+/// ±1 m: the dead bands that the solver's and the simulator's tests work
+/// out by hand.
+#[cfg(test)]
+pub(crate) struct ByDirection<F>(pub F);
+
+#[cfg(test)]
+impl<F: Fn(Directions) -> Vec3 + Send + Sync> ErrorModel for ByDirection<F> {
+    fn deviation_um(&self, _q: Vec3, s: Directions, _c: Components) -> Result<Vec3, ModelError> {
+        Ok((self.0)(s))
+    }
+    fn range_mm(&self) -> [[f64; 2]; 3] {
+        [[-1e3, 1e3]; 3]
+    }
+}
+
 #[cfg(test)]
 mod direction_tests {
     use super::*;

@@ -237,35 +237,24 @@ impl ErrorStats {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::Direction;
+    use crate::model::{ByDirection, Direction};
 
-    struct Backlash {
-        b_um: f64,
-    }
-
-    impl ErrorModel for Backlash {
-        fn deviation_um(
-            &self,
-            _q: Vec3,
-            s: Directions,
-            _c: Components,
-        ) -> Result<Vec3, ModelError> {
-            let mut e = Vec3::ZERO;
+    /// Z's reverse error `b_um` above its forward one.
+    fn backlash(b_um: f64) -> ByDirection<impl Fn(Directions) -> Vec3 + Send + Sync> {
+        ByDirection(move |s: Directions| {
             if s[2] == Direction::Reverse {
-                e.z = self.b_um;
+                Vec3::new(0.0, 0.0, b_um)
+            } else {
+                Vec3::ZERO
             }
-            Ok(e)
-        }
-        fn range_mm(&self) -> [[f64; 2]; 3] {
-            [[-1e3, 1e3]; 3]
-        }
+        })
     }
 
     #[test]
     fn a_take_up_move_holds_the_tool_still() {
         // Backlash 5 µm on Z. After moving up to Z=1, a take-up of exactly
         // 5 µm down must leave the tool at Z=1 all along.
-        let m = Backlash { b_um: 5.0 };
+        let m = backlash(5.0);
         let mut sim = Simulator::new(&m, Vec3::ZERO);
         sim.move_to(Vec3::new(0.0, 0.0, 1.0), 0.05, |_, _| {})
             .unwrap();
@@ -284,7 +273,7 @@ mod tests {
 
     #[test]
     fn a_reversal_without_take_up_lags_then_follows() {
-        let m = Backlash { b_um: 5.0 };
+        let m = backlash(5.0);
         let mut sim = Simulator::new(&m, Vec3::ZERO);
         sim.move_to(Vec3::new(0.0, 0.0, 1.0), 0.05, |_, _| {})
             .unwrap();
@@ -309,24 +298,14 @@ mod tests {
 
     /// X with a 4 µm band whose reverse tables also move the tool +1 µm
     /// along Y (its straightness differs by direction).
-    struct XBand;
-
-    impl ErrorModel for XBand {
-        fn deviation_um(
-            &self,
-            _q: Vec3,
-            s: Directions,
-            _c: Components,
-        ) -> Result<Vec3, ModelError> {
-            Ok(if s[0] == Direction::Reverse {
+    fn x_band() -> ByDirection<impl Fn(Directions) -> Vec3 + Send + Sync> {
+        ByDirection(|s: Directions| {
+            if s[0] == Direction::Reverse {
                 Vec3::new(4.0, 1.0, 0.0)
             } else {
                 Vec3::ZERO
-            })
-        }
-        fn range_mm(&self) -> [[f64; 2]; 3] {
-            [[-1e3, 1e3]; 3]
-        }
+            }
+        })
     }
 
     #[test]
@@ -334,7 +313,7 @@ mod tests {
         // X forward to 1 mm, then back by 2 µm: half its band. The switch
         // is the jump (−4, −1) µm; half of it is left, the tool has not
         // moved along X and has moved 0.5 µm along Y.
-        let m = XBand;
+        let m = x_band();
         let mut sim = Simulator::new(&m, Vec3::ZERO);
         sim.move_to(Vec3::new(1.0, 0.0, 0.0), 0.05, |_, _| {})
             .unwrap();
