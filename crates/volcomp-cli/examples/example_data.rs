@@ -196,11 +196,12 @@ fn face_program() -> String {
 }
 
 /// z = 0.003·((x − 40)² − (y − 25)²) over 80 × 50 mm, exact as a bicubic.
-fn saddle(x: f64, y: f64) -> f64 {
+pub fn saddle(x: f64, y: f64) -> f64 {
     0.003 * ((x - 40.0).powi(2) - (y - 25.0).powi(2))
 }
 
-fn mirror_nominal() -> NominalSurface {
+/// The saddle as a bicubic B-spline nominal surface, material below.
+pub fn mirror_nominal() -> NominalSurface {
     let mut pts = Vec::new();
     for i in 0..4 {
         for j in 0..4 {

@@ -24,7 +24,7 @@ use std::path::Path;
 use std::process::Command;
 
 use crate::common;
-use common::tempdir;
+use common::{read, tempdir, write};
 
 /// Whether LinuxCNC's simulator can run here; if not, says (or under CI
 /// fails) that `not_checked` was not checked.
@@ -204,7 +204,7 @@ fn comp_map(work: &Path) {
             ));
         }
     }
-    std::fs::write(work.join("m.csv"), s).unwrap();
+    write(work, "m.csv", s);
     let o = common::run(
         work,
         "map export m.csv --to linuxcnc --type 1 --units mm --step 5 -o lc",
@@ -242,8 +242,8 @@ fn mdi_stops(
             format!("{l}\t{}", ends.join(" "))
         })
         .collect();
-    std::fs::write(work.join("stops.mdi"), with_ends.join("\n") + "\n").unwrap();
-    std::fs::write(work.join("none.ngc"), "M2\n").unwrap();
+    write(work, "stops.mdi", with_ends.join("\n") + "\n");
+    write(work, "none.ngc", "M2\n");
     let py = format!(
         "import json, sys\nsys.path.insert(0, {bench:?})\nimport lcnc\nlcnc.CONFIG = {config:?}\nr = lcnc.run_program({prog:?}, {runs:?}, 300.0)\nprint(json.dumps(r['stops']))\n",
         bench = bench.display().to_string(),
@@ -258,13 +258,7 @@ fn mdi_stops(
         .env("CT_PINS", pins.join(" "))
         .output()
         .unwrap();
-    assert!(
-        o.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    serde_json::from_slice(&o.stdout).unwrap()
+    common::json(&o)
 }
 
 #[test]
@@ -350,7 +344,7 @@ fn backlash_keys(work: &Path) -> Vec<(usize, String)> {
         "map export m.csv --to linuxcnc --backlash-only --units mm -o lb",
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let lb = std::fs::read_to_string(work.join("lb/comp.ini")).unwrap();
+    let lb = read(work, "lb/comp.ini");
     (0..3)
         .map(|j| {
             let s = &lb[lb.find(&format!("[JOINT_{j}]")).unwrap()..];
@@ -431,7 +425,7 @@ fn a_hybrid_program_leaves_nothing_at_every_stop_beside_backlash() {
             .replace("Z0", "Z1")
     }));
     program.push("M2".into());
-    std::fs::write(work.join("p.ngc"), program.join("\n") + "\n").unwrap();
+    write(&work, "p.ngc", program.join("\n") + "\n");
     let ini_arg = ini.display().to_string();
     let o = common::volcomp(
         &[
@@ -451,8 +445,7 @@ fn a_hybrid_program_leaves_nothing_at_every_stop_beside_backlash() {
         &work,
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let hybrid: Vec<String> = std::fs::read_to_string(work.join("h.ngc"))
-        .unwrap()
+    let hybrid: Vec<String> = read(&work, "h.ngc")
         .lines()
         .map(str::trim)
         .filter(|l| !l.is_empty() && !l.starts_with('(') && *l != "M2")

@@ -608,6 +608,24 @@ pub fn find_rs274() -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
+/// `rs274 -g -t TOOL_TABLE -v VAR PROGRAM OUT` in `work`, with `work` as its
+/// HOME: rs274 2.9 keeps its tool data in a memory-mapped file
+/// `$HOME/.tool.mmap`, and concurrent runs sharing it crash (SIGBUS).
+pub fn command(
+    rs274: &Path,
+    work: &Path,
+    tool_table: &Path,
+    var: &Path,
+    program: &Path,
+    out: &Path,
+) -> Command {
+    let mut c = Command::new(rs274);
+    c.current_dir(work).env("HOME", work).arg("-g");
+    c.arg("-t").arg(tool_table).arg("-v").arg(var);
+    c.arg(program).arg(out).stdin(Stdio::null());
+    c
+}
+
 pub fn run_rs274(tools: &Tools, program: &Path, work: &Path) -> Result<Rs274Run, String> {
     std::fs::create_dir_all(work).map_err(|e| format!("{}: {e}", work.display()))?;
     // rs274 rewrites its var file at the end: every run gets a fresh one.
@@ -615,21 +633,16 @@ pub fn run_rs274(tools: &Tools, program: &Path, work: &Path) -> Result<Rs274Run,
     std::fs::write(&var, &tools.var_text).map_err(|e| format!("{}: {e}", var.display()))?;
     let out_path = work.join("canon.txt");
     let _ = std::fs::remove_file(&out_path);
-    // rs274 2.9 keeps its tool data in a memory-mapped file `$HOME/.tool.mmap`;
-    // concurrent runs sharing it crash (SIGBUS). Each run gets its own HOME.
-    let out = Command::new(&tools.rs274)
-        .current_dir(work)
-        .env("HOME", work)
-        .arg("-g")
-        .arg("-t")
-        .arg(&tools.tool_table)
-        .arg("-v")
-        .arg(&var)
-        .arg(program)
-        .arg(&out_path)
-        .stdin(Stdio::null())
-        .output()
-        .map_err(|e| format!("cannot run {}: {e}", tools.rs274.display()))?;
+    let out = command(
+        &tools.rs274,
+        work,
+        &tools.tool_table,
+        &var,
+        program,
+        &out_path,
+    )
+    .output()
+    .map_err(|e| format!("cannot run {}: {e}", tools.rs274.display()))?;
     let text = std::fs::read_to_string(&out_path).unwrap_or_default();
     let motions = parse_rs274_output(&text)?;
     // A clean run prints only "executing" (stderr); anything else is an error.
