@@ -145,11 +145,10 @@ fn out_of_range_names_axis_position_range_and_line() {
     );
     assert!(!dir.join("out.ngc").exists());
     // With --clamp the error is held at the table end.
-    let o = common::run(
+    common::ok(&common::run(
         &dir,
         "compensate p.ngc --map map.csv -o out.ngc --no-split --clamp",
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
+    ));
     let out = read(&dir, "out.ngc");
     assert!(out.contains("X349.9990"), "{out}");
 }
@@ -223,8 +222,10 @@ fn simulate_json_reports_the_metrics_and_compensation_improves_them() {
         (before["point_max_um"].as_f64().unwrap() - 2.0).abs() < 1e-9,
         "{before}"
     );
-    let o = common::run(&dir, "compensate p.ngc --map map.csv -o c.ngc");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&common::run(
+        &dir,
+        "compensate p.ngc --map map.csv -o c.ngc",
+    ));
     let after = sim(&[
         "simulate",
         "c.ngc",
@@ -260,9 +261,7 @@ fn moves_json_is_valid_and_lists_every_motion() {
 fn demo_runs_and_meets_the_issue_targets() {
     let dir = tempdir("demo");
     // `-o` as every command that writes takes it.
-    let o = common::run(&dir, "demo -o d --markdown d/table.md");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = String::from_utf8_lossy(&o.stdout);
+    let text = common::ok(&common::run(&dir, "demo -o d --markdown d/table.md"));
     // Every contour row's exact column (the fourth method) reduces the
     // error by at least 95 %: its change is −95 % or less.
     let mut rows = 0;
@@ -326,9 +325,7 @@ fn every_demo_figure_is_what_simulate_reports() {
     // The demo prints the commands that reproduce its cells; run them for
     // the first program and compare with the printed figures (3 decimals).
     let dir = tempdir("demo_reproduced");
-    let o = common::run(&dir, "demo --out-dir d");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    let text = common::ok(&common::run(&dir, "demo --out-dir d"));
     assert!(
         text.contains("volcomp simulate d/<program>.<method>.ngc --reference d/<program>.ngc --map d/example_map.csv --work-offset 250,200,150"),
         "{text}"
@@ -430,9 +427,7 @@ fn completions_and_the_man_page_come_from_the_same_flags() {
         // A flag the library's option table gives compensate.
         assert!(text.contains("max-correction"), "{shell}");
     }
-    let o = common::run(&d, "man");
-    assert!(o.status.success(), "{}", common::stderr(&o));
-    let page = String::from_utf8_lossy(&o.stdout);
+    let page = common::ok(&common::run(&d, "man"));
     assert!(
         page.starts_with(".ie") || page.contains(".TH volcomp"),
         "{page}"

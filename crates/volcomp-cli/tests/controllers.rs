@@ -145,14 +145,13 @@ fn compensating_twice_worsens_the_positioning_axis() {
     }
     part.push_str("M2\n");
     write(&dir, "part.ngc", part);
-    ok(&common::run(
+    common::run_all(
         &dir,
-        "map export m.csv --to siemens-eec --step 10 -o eec",
-    ));
-    ok(&common::run(
-        &dir,
-        "compensate part.ngc --map m.csv --work-offset 100,100,50 --decimals 6 -o twice.ngc",
-    ));
+        &[
+            "map export m.csv --to siemens-eec --step 10 -o eec",
+            "compensate part.ngc --map m.csv --work-offset 100,100,50 --decimals 6 -o twice.ngc",
+        ],
+    );
     let before = simulate(&dir, "part.ngc", Some(EEC));
     let twice = simulate(&dir, "twice.ngc", Some(EEC));
     let (b, t) = (
@@ -184,8 +183,10 @@ fn exports_refuse_what_the_controller_cannot_hold() {
     let dir = tempdir("limits");
     write_map(&dir);
     // 600 mm every 0.1 mm is 6001 points: more than MD38000 = 5000.
-    let o = common::run(&dir, "map export m.csv --to siemens-eec --step 0.1 -o eec");
-    let e = refused(&o);
+    let e = refused(&common::run(
+        &dir,
+        "map export m.csv --to siemens-eec --step 0.1 -o eec",
+    ));
     assert!(e.contains("6001 interpolation points"), "{e}");
     // Siemens needs a step; axis tables have no squareness for Klipper.
     let o = common::run(&dir, "map export m.csv --to siemens-eec -o eec");

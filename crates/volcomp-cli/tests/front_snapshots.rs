@@ -21,9 +21,10 @@ fn simulate_table() {
     let dir = tempdir("snap_simulate");
     write(&dir, "m.csv", MAP);
     write(&dir, "p.ngc", "G21 G90\nG0 X10 Y10 Z10\nG1 X60 F100\nM2\n");
-    let o = common::run(&dir, "simulate p.ngc --map m.csv --work-offset 0,0,0");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = String::from_utf8(o.stdout).unwrap();
+    let text = common::ok(&common::run(
+        &dir,
+        "simulate p.ngc --map m.csv --work-offset 0,0,0",
+    ));
     // By hand: the tool runs 3 µm off in Y along the whole feed move, so the
     // point error at its end and the contour error everywhere are 3 µm.
     let three = text.matches("3.000 µm").count();

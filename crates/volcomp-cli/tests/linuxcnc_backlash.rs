@@ -20,7 +20,7 @@
 //! whole run. Without LinuxCNC the test is skipped loudly, except when `CI`
 //! is set: there it fails (CI installs `linuxcnc-uspace`).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use crate::common;
@@ -34,6 +34,17 @@ fn installed(not_checked: &str) -> bool {
         common::missing(common::LINUXCNC, not_checked);
     }
     found
+}
+
+/// A fresh folder `name` holding the comp map, or `None` (saying what was
+/// not checked) where LinuxCNC is not installed.
+fn work_with_map(name: &str, not_checked: &str) -> Option<PathBuf> {
+    if !installed(not_checked) {
+        return None;
+    }
+    let work = tempdir(name);
+    comp_map(&work);
+    Some(work)
 }
 
 fn simulator() -> bool {
@@ -102,12 +113,7 @@ fn backlash_beside_a_comp_file_is_modelled_as_the_motion_controller_applies_it()
 /// benchmark's are 166.7 mm/s and 1 m/s²): every check is made at rest, once
 /// the joint stands at the commanded stop, and the 126 stops of a test take
 /// a fraction of the time.
-fn machine(
-    work: &Path,
-    keys: &[(usize, String)],
-    files: &[&str],
-    gantry: bool,
-) -> std::path::PathBuf {
+fn machine(work: &Path, keys: &[(usize, String)], files: &[&str], gantry: bool) -> PathBuf {
     let config = work.join("config");
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/cycle_time/config");
     std::fs::create_dir_all(&config).unwrap();
@@ -263,11 +269,10 @@ fn mdi_stops(
 
 #[test]
 fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
-    if !installed("exported comp files on the motion controller") {
+    let Some(work) = work_with_map("lcnc-comp", "exported comp files on the motion controller")
+    else {
         return;
-    }
-    let work = tempdir("lcnc-comp");
-    comp_map(&work);
+    };
     // The cycle-time machine with the three comp files.
     let keys: Vec<(usize, String)> = ["x.comp", "y.comp", "z.comp"]
         .iter()
@@ -293,11 +298,12 @@ fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
 
 #[test]
 fn backlash_alone_and_a_gantry_are_applied_as_modelled_at_every_stop() {
-    if !installed("BACKLASH and a gantry on the motion controller") {
+    let Some(work) = work_with_map(
+        "lcnc-gantry",
+        "BACKLASH and a gantry on the motion controller",
+    ) else {
         return;
-    }
-    let work = tempdir("lcnc-gantry");
-    comp_map(&work);
+    };
     // X: the BACKLASH map export --backlash-only writes; Y: a gantry, both
     // motors (joints 1 and 2, coordinates=XYYZ) with y.comp; Z: joint 3.
     let comp = |f: &str| format!("COMP_FILE = {f}\nCOMP_FILE_TYPE = 1\n");
@@ -404,11 +410,10 @@ fn map_error_um(a: usize, q: f64, forward: bool) -> f64 {
 
 #[test]
 fn a_hybrid_program_leaves_nothing_at_every_stop_beside_backlash() {
-    if !installed("a hybrid program on the motion controller") {
+    let Some(work) = work_with_map("lcnc-hybrid", "a hybrid program on the motion controller")
+    else {
         return;
-    }
-    let work = tempdir("lcnc-hybrid");
-    comp_map(&work);
+    };
     // The machine applies the BACKLASH of map export --backlash-only on
     // every joint; volcomp compensates the rest (the pitch error and the
     // reversal's variation along each axis) with --controller.

@@ -210,11 +210,13 @@ fn example_converts_and_round_trips_through_linuxcnc() {
         61,
         "{grid}"
     );
-    ok(&common::run(
+    common::run_all(
         &dir,
-        "map convert tables.csv --to model -o from_tables.toml",
-    ));
-    ok(&common::run(&dir, "map plot example21.toml -o plot.svg"));
+        &[
+            "map convert tables.csv --to model -o from_tables.toml",
+            "map plot example21.toml -o plot.svg",
+        ],
+    );
     let svg = read(&dir, "plot.svg");
     assert!(
         svg.contains("<svg") && svg.contains("EBX"),
@@ -386,8 +388,7 @@ fn an_export_that_leaves_more_than_the_table_error_names_the_flag_to_change() {
         v.extend_from_slice(extra);
         v
     };
-    let o = volcomp(&args(&[]), &dir);
-    let e = refused(&o);
+    let e = refused(&volcomp(&args(&[]), &dir));
     assert!(e.contains("axis X") && e.contains("finer step"), "{e}");
     assert!(e.contains("(--max-table-error-um)"), "{e}");
     assert!(!e.contains("max_table_error_um"), "{e}");

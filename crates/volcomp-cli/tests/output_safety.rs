@@ -339,10 +339,8 @@ fn shell(dir: &Path, line: &str) -> Output {
 #[test]
 fn a_full_disk_on_a_later_output_says_what_was_written() {
     let d = tempdir("later_output");
-    let o = common::run(&d, "thermal example -o .");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = common::run(&d, "thermal fit --measurements measurements_train.csv --temperatures temperatures_train.csv --artifact artifact.csv --ranges-mm 0:600,0:400,0:300 -o t.toml --bands /dev/full");
-    let e = refused(&o);
+    common::ok(&common::run(&d, "thermal example -o ."));
+    let e = refused(&common::run(&d, "thermal fit --measurements measurements_train.csv --temperatures temperatures_train.csv --artifact artifact.csv --ranges-mm 0:600,0:400,0:300 -o t.toml --bands /dev/full"));
     assert!(e.contains("No space left"), "{e}");
     assert!(
         e.contains("written before the error: t.toml")
@@ -449,22 +447,20 @@ fn every_other_output_flag_against_every_input() {
     // thermal predict writes OUT.toml and OUT.csv beside it: `-o temps.toml`
     // would replace the temperatures.
     let before = snapshot(&d);
-    let o = common::run(
+    let e = refused(&common::run(
         &d,
         "thermal predict --model thermal.toml --temperatures temps.csv -o temps.toml",
-    );
-    let e = refused(&o);
+    ));
     assert!(e.contains("temps.csv"), "{e}");
     assert_eq!(snapshot(&d), before);
     // map convert --to linuxcnc writes x.comp, y.comp, z.comp into a
     // directory: one of them a hard link to the map.
     std::fs::create_dir(d.join("comp")).unwrap();
     std::fs::hard_link(d.join("map.csv"), d.join("comp/y.comp")).unwrap();
-    let o = common::run(
+    let e = refused(&common::run(
         &d,
         "map convert map.csv --to linuxcnc --type 1 --units mm -o comp",
-    );
-    let e = refused(&o);
+    ));
     assert!(e.contains("y.comp") && e.contains("MAP"), "{e}");
     assert_eq!(read(&d, "map.csv"), "placeholder map.csv\n");
 }

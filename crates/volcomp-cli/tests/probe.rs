@@ -144,32 +144,29 @@ fn every_generated_program_is_accepted_by_rs274() {
 fn the_example_campaign_fits_into_a_model_compensate_takes() {
     let d = tempdir("fit");
     assert!(common::run(&d, "probe example -o ex").status.success());
-    let o = common::run(&d, "probe fit --artifact ex/reference.toml --artifact ex/plate.toml --artifact ex/gauge.toml --log ex/reference.log --log ex/plate.log --log ex/gauge.log --ranges-mm 0:600,0:400,0:300 --report probe.html -o model.toml");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let said = String::from_utf8_lossy(&o.stdout);
+    let said = common::ok(&common::run(&d, "probe fit --artifact ex/reference.toml --artifact ex/plate.toml --artifact ex/gauge.toml --log ex/reference.log --log ex/plate.log --log ex/gauge.log --ranges-mm 0:600,0:400,0:300 --report probe.html -o model.toml"));
     assert!(said.contains("ECY.P1   not seen"), "{said}");
     assert!(said.contains("reversal (backlash, µm): X"), "{said}");
     assert!(d.join("model.csv").is_file());
     let html = read(&d, "probe.html");
     assert!(html.contains("Placements and residuals") && html.contains("<svg"));
     // The model is an ordinary 21-component model.
-    let o = common::run(&d, "map eval model.toml --at 300,200,100 --tool-length 100");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&common::run(
+        &d,
+        "map eval model.toml --at 300,200,100 --tool-length 100",
+    ));
     write(
         &d,
         "part.ngc",
         "G21 G90\nG0 X100 Y100 Z150\nG1 X400 Y300 Z100 F500\nM2\n",
     );
-    let o = common::run(
+    common::ok(&common::run(
         &d,
         "compensate part.ngc --map model.toml --work-offset 0,0,0 -o part.comp.ngc",
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
+    ));
     // Verify, applying the model in software to the same run: what is left
     // is the noise.
-    let o = common::run(&d, "probe verify --artifact ex/reference.toml --artifact ex/plate.toml --artifact ex/gauge.toml --log ex/reference.log --log ex/plate.log --log ex/gauge.log --ranges-mm 0:600,0:400,0:300 --map model.toml --applied software");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let said = String::from_utf8_lossy(&o.stdout);
+    let said = common::ok(&common::run(&d, "probe verify --artifact ex/reference.toml --artifact ex/plate.toml --artifact ex/gauge.toml --log ex/reference.log --log ex/plate.log --log ex/gauge.log --ranges-mm 0:600,0:400,0:300 --map model.toml --applied software"));
     assert!(said.contains("what is left: RMS"), "{said}");
 }
 

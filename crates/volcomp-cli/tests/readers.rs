@@ -1,7 +1,7 @@
 //! Input files read the same way everywhere, and what used to be accepted
 //! silently is refused or warned about: located, with what to do.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Output;
 
 use crate::common;
@@ -14,6 +14,16 @@ fn flat_map(dir: &Path, lo: f64, hi: f64) {
         csv.push_str(&format!("{a},both,{lo},0,0,0\n{a},both,{hi},1,0,0\n"));
     }
     write(dir, "map.csv", csv);
+}
+
+/// A fresh folder `name` with a flat map over 0…500 mm and a program p.ngc
+/// that goes to (250, 250, 250).
+#[track_caller]
+fn flat_dir(name: &str) -> PathBuf {
+    let d = tempdir(name);
+    flat_map(&d, 0.0, 500.0);
+    write(&d, "p.ngc", "G21 G90\nG0 X250 Y250 Z250\nM2\n");
+    d
 }
 
 fn compensate(dir: &Path, extra: &[&str]) -> Output {
@@ -305,9 +315,7 @@ fn map_values_that_cannot_be_are_refused_where_they_are_written() {
 /// the line that names them.
 #[test]
 fn missing_files_named_inside_controller_files_are_located() {
-    let d = tempdir("controller_names");
-    flat_map(&d, 0.0, 500.0);
-    write(&d, "p.ngc", "G21 G90\nG0 X250 Y250 Z250\nM2\n");
+    let d = flat_dir("controller_names");
     for (file, text, said) in [
         (
             "m.ini",
@@ -370,8 +378,7 @@ fn thermal_values_that_cannot_be_are_located() {
         "thermal.toml",
         format!("{}intercept = nan{}", &model[..at], &model[end..]),
     );
-    let o = common::run(&d, "thermal predict --model thermal.toml --temperatures ex/temperatures_check.csv -o pred.toml");
-    let msg = refused(&o);
+    let msg = refused(&common::run(&d, "thermal predict --model thermal.toml --temperatures ex/temperatures_check.csv -o pred.toml"));
     assert!(
         msg.contains(&format!("thermal.toml:{row}:13:")) && msg.contains("intercept = NaN"),
         "{msg}"
@@ -427,9 +434,7 @@ fn thermal_options_are_bounded_before_any_file_is_read() {
 /// File names are printed with their control characters escaped.
 #[test]
 fn names_with_terminal_escapes_are_printed_escaped() {
-    let d = tempdir("escapes");
-    flat_map(&d, 0.0, 500.0);
-    write(&d, "p.ngc", "G21 G90\nG0 X250 Y250 Z250\nM2\n");
+    let d = flat_dir("escapes");
     // Both runs write to a name holding a title-setting escape and a bell.
     let run = |map: &str| {
         volcomp(

@@ -202,11 +202,10 @@ fn a_title_block_file_heads_the_report_and_a_bad_one_is_refused_at_its_line() {
     assert!(!dir.join("d.ngc").exists() && !dir.join("d.ngc.html").exists());
     // A title block without a report is refused, not ignored; the
     // message names the flags.
-    let o = common::run(
+    let e = refused(&common::run(
         &dir,
         "simulate part.ngc --map map.csv --report-title title.toml",
-    );
-    let e = refused(&o);
+    ));
     assert!(
         e.contains("--report-title is the title block of the HTML report"),
         "{e}"
@@ -235,13 +234,11 @@ fn a_report_needs_the_program_as_a_file_and_never_overwrites_an_input() {
 #[test]
 fn a_simulation_report_with_a_reference_shows_both() {
     let dir = fixture("report-simulate");
-    let o = common::run(
+    common::ok(&common::run(
         &dir,
         "compensate part.ngc --map map.csv --setup machine.toml -o c.ngc",
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = common::run(&dir, "simulate c.ngc --reference part.ngc --map map.csv --setup machine.toml --report-html sim.html");
-    assert!(o.status.success(), "{}", stderr(&o));
+    ));
+    common::ok(&common::run(&dir, "simulate c.ngc --reference part.ngc --map map.csv --setup machine.toml --report-html sim.html"));
     let html = read(&dir, "sim.html");
     assert_self_contained(&html);
     let reference = simulate_json(&dir, &["part.ngc"]);
@@ -298,9 +295,7 @@ fn headless(chromium: &Path, profile: &Path, report: &Path, what: &str, out: &Pa
 #[test]
 fn the_demo_report_renders_and_prints_in_chromium() {
     let dir = tempdir("demo-report");
-    let o = common::run(&dir, "demo --out-dir demo");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let stdout = String::from_utf8_lossy(&o.stdout);
+    let stdout = common::ok(&common::run(&dir, "demo --out-dir demo"));
     assert!(stdout.contains("demo/report.html"), "{stdout}");
     let report = dir.join("demo/report.html");
     let html = std::fs::read_to_string(&report).unwrap();
@@ -412,10 +407,11 @@ fn a_positioning_test_report_has_the_bidirectional_plot_and_figures() {
 #[test]
 fn a_map_report_draws_every_component_over_its_axis() {
     let dir = tempdir("report-map");
-    let o = common::run(&dir, "map example -o models");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = common::run(&dir, "map plot models/example21.toml -o map.html");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&common::run(&dir, "map example -o models"));
+    common::ok(&common::run(
+        &dir,
+        "map plot models/example21.toml -o map.html",
+    ));
     let html = read(&dir, "map.html");
     assert_self_contained(&html);
     // Three axes, each a page with its linear (µm) and angular (µrad) chart.
@@ -467,12 +463,12 @@ fn straightness_and_thermal_reports_keep_units_apart_and_wavelengths_in_mm() {
         assert!(html.contains(&format!("<td>{r}</td>")), "{r}");
     }
 
-    let o = common::run(&dir, "thermal example -o ex");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = common::run(&dir, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o thermal.toml");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = common::run(&dir, "thermal plot --model thermal.toml -o th.html");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&common::run(&dir, "thermal example -o ex"));
+    common::ok(&common::run(&dir, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o thermal.toml"));
+    common::ok(&common::run(
+        &dir,
+        "thermal plot --model thermal.toml -o th.html",
+    ));
     let html = read(&dir, "th.html");
     assert_self_contained(&html);
     // No axis mixes µm and µrad; both have their own charts.

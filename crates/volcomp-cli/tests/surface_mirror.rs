@@ -7,7 +7,7 @@ use volcomp_core::surface::mirror::{read_bspline_toml, write_bspline_toml, Nomin
 use volcomp_gcode::Vec3;
 
 use crate::common;
-use crate::example_data::{mirror_nominal, saddle};
+use crate::example_data::{finishing_passes, mirror_nominal, probe_grid, saddle};
 use common::{read, tempdir, volcomp, write};
 
 fn text(o: &Output) -> (String, String) {
@@ -26,22 +26,7 @@ fn error_um(x: f64, y: f64) -> f64 {
 /// centre 0.3 mm (the stock) plus the machine's error `error_um(point)`
 /// along the normal.
 fn probes(n: &NominalSurface, mut error_um: impl FnMut(Vec3) -> f64) -> String {
-    let mut probes = String::from("id,i,j,x_mm,y_mm,z_mm\n");
-    for i in 0..7 {
-        for j in 0..5 {
-            let (u, v) = (
-                (2.0 + 76.0 * i as f64 / 6.0) / 80.0,
-                (2.0 + 46.0 * j as f64 / 4.0) / 50.0,
-            );
-            let p = n.point(u, v);
-            let q = p + n.normal(u, v) * (0.3 + error_um(p) * 1e-3);
-            probes.push_str(&format!(
-                "P{i}{j},{i},{j},{:.6},{:.6},{:.6}\n",
-                q.x, q.y, q.z
-            ));
-        }
-    }
-    probes
+    probe_grid(n, (7, 5), |_, _, p| 0.3 + error_um(p) * 1e-3)
 }
 
 /// Writes nominal.toml, nominal-grid.csv, probes.csv (7 × 5 grid, no noise)
@@ -67,24 +52,8 @@ fn write_inputs(dir: &Path) {
         "probes.csv",
         format!("# probed after semi-finishing\n{probes}"),
     );
-    let mut prog = String::from("%\nO1234 (saddle finishing)\nG21 G90 G17\nG0 Z30.\n");
-    for pass in 0..6 {
-        let v = (5.0 + 8.0 * pass as f64) / 50.0;
-        for k in 0..=40 {
-            let u = k as f64 / 40.0;
-            let c = n.point(u, v) + n.normal(u, v) * 2.0 - Vec3::new(0.0, 0.0, 2.0);
-            if k == 0 {
-                prog.push_str(&format!(
-                    "G0 X{:.4} Y{:.4}\nG1 Z{:.4} F600.\n",
-                    c.x, c.y, c.z
-                ));
-            } else {
-                prog.push_str(&format!("X{:.4} Y{:.4} Z{:.4}\n", c.x, c.y, c.z));
-            }
-        }
-        prog.push_str("G0 Z30.\n");
-    }
-    prog.push_str("M30\n%\n");
+    let passes = finishing_passes(&n, 2.0, (0..6).map(|pass| (5.0 + 8.0 * pass as f64) / 50.0));
+    let prog = format!("%\nO1234 (saddle finishing)\nG21 G90 G17\nG0 Z30.\n{passes}M30\n%\n");
     write(dir, "finish.ngc", prog);
 }
 

@@ -33,14 +33,13 @@ fn example_fit_predict_compensate_plot() {
         "p.ngc",
         "G21 G90 G17\nG0 X10 Y10 Z50\nG1 X500 Y300 Z100 F1000\nM2\n",
     );
-    ok(&common::run(
+    common::run_all(
         &d,
-        "compensate --map predicted.toml -o out.ngc p.ngc",
-    ));
-    ok(&common::run(
-        &d,
-        "thermal plot --model thermal.toml -o t.svg",
-    ));
+        &[
+            "compensate --map predicted.toml -o out.ngc p.ngc",
+            "thermal plot --model thermal.toml -o t.svg",
+        ],
+    );
     assert!(read(&d, "t.svg").contains("<svg"));
     let _ = std::fs::remove_dir_all(&d);
 }

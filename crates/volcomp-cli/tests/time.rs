@@ -24,9 +24,7 @@ fn time_of_a_single_move_is_the_trapezoid() {
     write(&d, "s.toml", SETUP);
     // G61: 60 mm at 50 mm/s with 500 mm/s²: 60/50 + 50/500 = 1.3 s.
     write(&d, "p.ngc", "G21 G90 G61\nG1 X60 F3000\nM2\n");
-    let o = common::run(&d, "time p.ngc --setup s.toml");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    let out = common::ok(&common::run(&d, "time p.ngc --setup s.toml"));
     assert!((first_seconds(&out) - 1.3).abs() <= 0.002, "{out}");
     assert!(
         out.contains("200 mm/s and X 500 Y 500 Z 400 mm/s² per axis"),

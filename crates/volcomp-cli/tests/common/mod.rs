@@ -49,6 +49,16 @@ pub fn args(line: &str) -> Vec<&str> {
     line.split_whitespace().collect()
 }
 
+/// Runs each command line of `lines` in turn in `dir` (as [`run`]); each
+/// must succeed.
+#[track_caller]
+pub fn run_all(dir: &Path, lines: &[&str]) {
+    for line in lines {
+        let o = run(dir, line);
+        assert_eq!(o.status.code(), Some(0), "{line}: {}", text(&o));
+    }
+}
+
 /// `volcomp` with the words of `line` as its arguments, to run in `dir`
 /// (for a test that sets its standard streams or environment).
 pub fn command(dir: &Path, line: &str) -> Command {
