@@ -43,113 +43,77 @@ fn g52_shifts_the_program_origin_without_moving() {
     close(end(&m[2]), [11.0, 22.0, 5.0]);
 }
 
-/// Programs and where their motions end (axis frame, mm), each worked out
-/// by hand from LinuxCNC's rules in its row.
 #[test]
-fn motions_end_where_linuxcncs_offset_rules_put_them() {
-    // (case, program, a tool's number and length, (motion, its end)…)
-    type Case = (
-        &'static str,
-        &'static str,
-        Option<(u32, f64)>,
-        &'static [(usize, [f64; 3])],
-    );
-    let cases: [Case; 10] = [
-        (
-            // A second G52 X-5 sets the offset to -5 (not 10 - 5).
-            "G52 replaces, not accumulates; G92.1 clears it",
-            "G21\nG52 X10\nG52 X-5\nG0 X0\nG92.1\nG0 X0\nM2\n",
-            None,
-            &[(0, [-5.0, 0.0, 0.0]), (1, [0.0, 0.0, 0.0])],
-        ),
-        (
-            // G92.2 zeroes the shared offset, G92.3 restores G52's 3 mm.
-            "G52 is saved by G92.2 and restored by G92.3",
-            "G21\nG52 Y3\nG92.2\nG0 Y0\nG92.3\nG0 Y0\nM2\n",
-            None,
-            &[(0, [0.0, 0.0, 0.0]), (1, [0.0, 3.0, 0.0])],
-        ),
-        (
-            // G20 G52 X1: 25.4 mm; G0 X0 → 25.4; G91 X1 → 50.8.
-            "G52 in inches, G91 after it",
-            "G20\nG52 X1\nG0 X0\nG91 G0 X1\nM2\n",
-            None,
-            &[(0, [25.4, 0.0, 0.0]), (1, [50.8, 0.0, 0.0])],
-        ),
-        (
-            // G52 X7 then, at axis X 7 (program 0), G92 X1: the shared
-            // offset becomes 7 − 1 = 6 (convert_axis_offsets' G92 branch:
-            // current + offset − X).
-            "G52 and G92 share one offset",
-            "G21\nG52 X7\nG0 X0\nG92 X1\nG0 X0\nM2\n",
-            None,
-            &[(0, [7.0, 0.0, 0.0]), (1, [6.0, 0.0, 0.0])],
-        ),
-        (
-            // Tool 1 is 40 mm in the set-up; G10 L1 P1 Z12.5 makes it 12.5. The
-            // active offset changes only at the next G43 (as on LinuxCNC).
-            "G10 L1 sets a length the next G43 uses",
-            "G21\nG43 H1\nG0 Z0\nG10 L1 P1 Z12.5\nG0 Z0\nG43 H1\nG0 Z0\nM2\n",
-            Some((1, 40.0)),
-            &[
-                (0, [0.0, 0.0, 40.0]),
-                (1, [0.0, 0.0, 40.0]),
-                (2, [0.0, 0.0, 12.5]),
-            ],
-        ),
-        (
-            // X1 Y-2 Z30 for tool 2: program (0, 0, 5) is axis (1, −2, 35).
-            "G10 L1 X Y offsets are applied by G43",
-            "G21\nG10 L1 P2 X1 Y-2 Z30\nG43 H2\nG0 X0 Y0 Z5\nM2\n",
-            Some((2, 10.0)),
-            &[(0, [1.0, -2.0, 35.0])],
-        ),
-        (
-            // At axis Z 6 (no offsets), G10 L10 P3 Z1: length = 6 − 1 = 5, so after
-            // G43 H3 the current point is program Z 1 and G0 Z0 goes to axis 5.
-            "G10 L10 makes the current point the given coordinate",
-            "G21\nG0 Z6\nG10 L10 P3 Z1\nG43 H3\nG0 Z0\nM2\n",
-            Some((3, 99.0)),
-            &[(1, [0.0, 0.0, 5.0])],
-        ),
-        (
-            // Tool 4 (20 mm) active, G0 Z10 → axis 30; G92 Z0 there (offset 10);
-            // G10 L10 P4 Z5: here (without work offset and G92) = 30 − 10 = 20,
-            // length = 20 − 5 = 15; G43 H4, G0 Z0 → 0 + 10 + 15 = 25.
-            "G10 L10 ignores the active tool offset, not G92",
-            "G21\nG43 H4\nG0 Z10\nG92 Z0\nG10 L10 P4 Z5\nG43 H4\nG0 Z0\nM2\n",
-            Some((4, 20.0)),
-            &[(0, [0.0, 0.0, 30.0]), (1, [0.0, 0.0, 25.0])],
-        ),
-        (
-            // G10 L2 P1 X10 Y5 R90: q = Rot(90°)·p + (10, 5): program (1, 0) is
-            // axis (10 + 0, 5 + 1) = (10, 6); program (0, 2) is (10 − 2, 5) = (8, 5).
-            "R90 maps program X to axis Y",
-            "G21\nG10 L2 P1 X10 Y5 R90\nG0 X1 Y0\nG0 X0 Y2\nM2\n",
-            None,
-            &[(0, [10.0, 6.0, 0.0]), (1, [8.0, 5.0, 0.0])],
-        ),
-        (
-            // R90 at axis (0, 5) = program (5, 0); G92 X0: G92 offset X 5 (program
-            // frame); G0 X1 → program 1 + 5 = 6 rotated → axis (0, 6).
-            "a rotated G92 is added before the rotation",
-            "G21\nG10 L2 P1 R90\nG0 X5 Y0\nG92 X0\nG0 X1\nM2\n",
-            None,
-            &[(0, [0.0, 5.0, 0.0]), (1, [0.0, 6.0, 0.0])],
-        ),
-    ];
-    for (case, program, tool, ends) in cases {
-        let m = run_with(program, tools(tool.as_slice())).unwrap();
-        for (i, at) in ends {
-            let e = end(&m[*i]);
-            for k in 0..3 {
-                assert!(
-                    (e[k] - at[k]).abs() < 1e-9,
-                    "{case}: motion {i} ends at {e:?}, not {at:?}"
-                );
-            }
-        }
-    }
+fn g52_replaces_not_accumulates_and_is_cleared_by_g92_1() {
+    // A second G52 X-5 sets the offset to -5 (not 10 - 5); G92.1 clears it.
+    let p = "G21\nG52 X10\nG52 X-5\nG0 X0\nG92.1\nG0 X0\nM2\n";
+    let m = run(p).unwrap();
+    close(end(&m[0]), [-5.0, 0.0, 0.0]);
+    close(end(&m[1]), [0.0, 0.0, 0.0]);
+}
+
+#[test]
+fn g52_is_saved_and_restored_by_g92_2_and_g92_3() {
+    // G92.2 zeroes the shared offset, G92.3 restores G52's 3 mm.
+    let m = run("G21\nG52 Y3\nG92.2\nG0 Y0\nG92.3\nG0 Y0\nM2\n").unwrap();
+    close(end(&m[0]), [0.0, 0.0, 0.0]);
+    close(end(&m[1]), [0.0, 3.0, 0.0]);
+}
+
+#[test]
+fn g52_in_inches_and_g91_after_it() {
+    // G20 G52 X1: 25.4 mm; G0 X0 → 25.4; G91 X1 → 50.8.
+    let m = run("G20\nG52 X1\nG0 X0\nG91 G0 X1\nM2\n").unwrap();
+    close(end(&m[0]), [25.4, 0.0, 0.0]);
+    close(end(&m[1]), [50.8, 0.0, 0.0]);
+}
+
+#[test]
+fn g52_with_g92_shares_one_offset() {
+    // G52 X7 then, at axis X 7 (program 0), G92 X1: the shared offset
+    // becomes 7 − 1 = 6 (convert_axis_offsets' G92 branch: current + offset − X).
+    let m = run("G21\nG52 X7\nG0 X0\nG92 X1\nG0 X0\nM2\n").unwrap();
+    close(end(&m[0]), [7.0, 0.0, 0.0]);
+    close(end(&m[1]), [6.0, 0.0, 0.0]);
+}
+
+#[test]
+fn g10_l1_sets_a_length_used_by_the_next_g43() {
+    // Tool 1 is 40 mm in the set-up; G10 L1 P1 Z12.5 makes it 12.5. The
+    // active offset changes only at the next G43 (as on LinuxCNC).
+    let p = "G21\nG43 H1\nG0 Z0\nG10 L1 P1 Z12.5\nG0 Z0\nG43 H1\nG0 Z0\nM2\n";
+    let m = run_with(p, tools(&[(1, 40.0)])).unwrap();
+    close(end(&m[0]), [0.0, 0.0, 40.0]);
+    close(end(&m[1]), [0.0, 0.0, 40.0]);
+    close(end(&m[2]), [0.0, 0.0, 12.5]);
+}
+
+#[test]
+fn g10_l1_x_y_offsets_are_applied_by_g43() {
+    // X1 Y-2 Z30 for tool 2: program (0, 0, 5) is axis (1, −2, 35).
+    let p = "G21\nG10 L1 P2 X1 Y-2 Z30\nG43 H2\nG0 X0 Y0 Z5\nM2\n";
+    let m = run_with(p, tools(&[(2, 10.0)])).unwrap();
+    close(end(&m[0]), [1.0, -2.0, 35.0]);
+}
+
+#[test]
+fn g10_l10_makes_the_current_point_the_given_coordinate() {
+    // At axis Z 6 (no offsets), G10 L10 P3 Z1: length = 6 − 1 = 5, so after
+    // G43 H3 the current point is program Z 1 and G0 Z0 goes to axis 5.
+    let p = "G21\nG0 Z6\nG10 L10 P3 Z1\nG43 H3\nG0 Z0\nM2\n";
+    let m = run_with(p, tools(&[(3, 99.0)])).unwrap();
+    close(end(&m[1]), [0.0, 0.0, 5.0]);
+}
+
+#[test]
+fn g10_l10_ignores_the_active_tool_offset_but_not_g92() {
+    // Tool 4 (20 mm) active, G0 Z10 → axis 30; G92 Z0 there (offset 10);
+    // G10 L10 P4 Z5: here (without work offset and G92) = 30 − 10 = 20,
+    // length = 20 − 5 = 15; G43 H4, G0 Z0 → 0 + 10 + 15 = 25.
+    let p = "G21\nG43 H4\nG0 Z10\nG92 Z0\nG10 L10 P4 Z5\nG43 H4\nG0 Z0\nM2\n";
+    let m = run_with(p, tools(&[(4, 20.0)])).unwrap();
+    close(end(&m[0]), [0.0, 0.0, 30.0]);
+    close(end(&m[1]), [0.0, 0.0, 25.0]);
 }
 
 #[test]
@@ -178,6 +142,15 @@ fn g10_tool_writes_are_refused_where_linuxcnc_refuses_them() {
 }
 
 #[test]
+fn r90_maps_program_x_to_axis_y() {
+    // G10 L2 P1 X10 Y5 R90: q = Rot(90°)·p + (10, 5): program (1, 0) is
+    // axis (10 + 0, 5 + 1) = (10, 6); program (0, 2) is (10 − 2, 5) = (8, 5).
+    let m = run("G21\nG10 L2 P1 X10 Y5 R90\nG0 X1 Y0\nG0 X0 Y2\nM2\n").unwrap();
+    close(end(&m[0]), [10.0, 6.0, 0.0]);
+    close(end(&m[1]), [8.0, 5.0, 0.0]);
+}
+
+#[test]
 fn rotated_g91_and_arc_centres_are_in_the_program_frame() {
     // R90, no offset: from program (0, 0), G91 X1 moves along axis +Y to
     // (0, 1); G3 X-1 Y1 I-1 J0 (program, incremental centre) from program
@@ -192,6 +165,15 @@ fn rotated_g91_and_arc_centres_are_in_the_program_frame() {
         }
         k => panic!("{k:?}"),
     }
+}
+
+#[test]
+fn rotated_g92_is_added_before_the_rotation() {
+    // R90 at axis (0, 5) = program (5, 0); G92 X0: G92 offset X 5 (program
+    // frame); G0 X1 → program 1 + 5 = 6 rotated → axis (0, 6).
+    let m = run("G21\nG10 L2 P1 R90\nG0 X5 Y0\nG92 X0\nG0 X1\nM2\n").unwrap();
+    close(end(&m[0]), [0.0, 5.0, 0.0]);
+    close(end(&m[1]), [0.0, 6.0, 0.0]);
 }
 
 #[test]
