@@ -16,6 +16,7 @@ use std::process::{Command, Stdio};
 
 use crate::common;
 use crate::rs274;
+use common::{read, write};
 
 /// The ripple map of tests/rs274_corpus.rs over ±2 m.
 fn ripple_map() -> String {
@@ -101,7 +102,7 @@ fn contour(json: &str) -> (f64, f64) {
 fn arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
     let dir = common::tempdir("arcs_as_arcs");
     let d = dir.as_path();
-    std::fs::write(d.join("ripple.csv"), ripple_map()).unwrap();
+    write(d, "ripple.csv", ripple_map());
     let rs = rs274::find_rs274();
     if rs.is_none() {
         common::missing(common::RS274, "the rs274 part");
@@ -212,9 +213,9 @@ const CUTTER_FIXTURES: &[&str] = &[
 fn cutter_compensated_arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
     let dir = common::tempdir("cutter_arcs");
     let d = dir.as_path();
-    std::fs::write(d.join("ripple.csv"), ripple_map()).unwrap();
-    std::fs::write(d.join("setup.toml"), rs274::setup_toml()).unwrap();
-    std::fs::write(d.join("tools.tbl"), rs274::rs274_tool_table()).unwrap();
+    write(d, "ripple.csv", ripple_map());
+    write(d, "setup.toml", rs274::setup_toml());
+    write(d, "tools.tbl", rs274::rs274_tool_table());
     let tools = rs274::find_rs274().map(|rs274| rs274::Tools {
         rs274,
         volcomp: env!("CARGO_BIN_EXE_volcomp").into(),
@@ -318,9 +319,9 @@ fn g61_pieces_run_blended_and_each_block_ends_exact_as_rs274_reads_them() {
     };
     let dir = common::tempdir("arcs_g61_pieces");
     let d = dir.as_path();
-    std::fs::write(d.join("ripple.csv"), ripple_map()).unwrap();
+    write(d, "ripple.csv", ripple_map());
     let program = "G21 G17 G90 G61\nG0 X0 Y0 Z0\nG1 X60 F6000\nG2 X60 Y-60 I0 J-30\nG1 X0\nG3 X0 Y0 R30\nM2\n";
-    std::fs::write(d.join("g61.ngc"), program).unwrap();
+    write(d, "g61.ngc", program);
     volcomp(
         &[
             "compensate",
@@ -334,7 +335,7 @@ fn g61_pieces_run_blended_and_each_block_ends_exact_as_rs274_reads_them() {
         ],
         d,
     );
-    let written = std::fs::read_to_string(d.join("g61.comp.ngc")).unwrap();
+    let written = read(d, "g61.comp.ngc");
     assert!(written.contains("(path mode:"), "{written}");
     let home = d.join("home");
     std::fs::create_dir_all(&home).unwrap();
