@@ -237,8 +237,8 @@ fn a_simulation_report_with_a_reference_shows_both() {
     common::run_all(
         &dir,
         &[
-        "compensate part.ngc --map map.csv --setup machine.toml -o c.ngc",
-        "simulate c.ngc --reference part.ngc --map map.csv --setup machine.toml --report-html sim.html",
+            "compensate part.ngc --map map.csv --setup machine.toml -o c.ngc",
+            "simulate c.ngc --reference part.ngc --map map.csv --setup machine.toml --report-html sim.html",
         ],
     );
     let html = read(&dir, "sim.html");
@@ -470,9 +470,9 @@ fn straightness_and_thermal_reports_keep_units_apart_and_wavelengths_in_mm() {
     common::run_all(
         &dir,
         &[
-        "thermal example -o ex",
-        "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o thermal.toml",
-        "thermal plot --model thermal.toml -o th.html",
+            "thermal example -o ex",
+            "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o thermal.toml",
+            "thermal plot --model thermal.toml -o th.html",
         ],
     );
     let html = read(&dir, "th.html");
