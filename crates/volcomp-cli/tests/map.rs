@@ -174,11 +174,7 @@ fn example_converts_and_round_trips_through_linuxcnc() {
         "map convert example21.toml --to axis-table --tool-length 120 -o tables.csv",
     );
     ok(&o);
-    assert!(
-        stderr(&o).contains("differs from the model by up to"),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, "differs from the model by up to");
     // At the reference point the axis tables give the model's deviation.
     let a = json(&common::run(
         &dir,
@@ -241,7 +237,7 @@ fn dense_axis_tables_go_to_linuxcnc_with_a_resampling_step() {
         "map convert dense.csv --to linuxcnc --type 1 --units mm -o comp",
     );
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("--step"), "{}", stderr(&o));
+    common::said(&o, "--step");
     ok(&common::run(
         &dir,
         "map convert dense.csv --to linuxcnc --type 1 --units mm --step 10 -o comp",
@@ -252,11 +248,7 @@ fn dense_axis_tables_go_to_linuxcnc_with_a_resampling_step() {
     assert_eq!(x.lines().last().unwrap(), "600 -0.006 -0.006");
     // Without --type LinuxCNC's file type is not guessed.
     let o = common::run(&dir, "map convert dense.csv --to linuxcnc --units mm -o c2");
-    assert!(
-        stderr(&o).contains("--type 0 or --type 1"),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, "--type 0 or --type 1");
 }
 
 #[test]
@@ -347,18 +339,10 @@ fn bad_model_files_name_file_row_and_column() {
     // A file whose name and content name no model kind: the formats listed.
     write(&dir, "m.json", "{}\n");
     let o = common::run(&dir, "map eval m.json --at 0,0,0");
-    assert!(
-        stderr(&o).contains(".toml for a 21-component model"),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, ".toml for a 21-component model");
     // The component table given where a map is expected: pointed to its TOML.
     let o = common::run(&dir, "compensate x.ngc --map m.csv -o o.ngc");
-    assert!(
-        stderr(&o).contains("model = \"kinematic-21\""),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, "model = \"kinematic-21\"");
 }
 
 #[test]
