@@ -315,6 +315,15 @@ pub(crate) fn run_cruise(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
 /// `x` and `step` only (the progress along a segment).
 fn add_repeated(mut x: f64, step: f64, mut n: u64) -> f64 {
     debug_assert!(x >= 0.0 && step >= 0.0);
+    if n <= FEW_ADDITIONS {
+        // A short cruise (a raster's half-millimetre moves: about twenty
+        // periods): the additions themselves cost less than the binade
+        // bookkeeping below.
+        for _ in 0..n {
+            x += step;
+        }
+        return x;
+    }
     while n > 0 {
         let next = x + step;
         n -= 1;
@@ -348,6 +357,9 @@ fn add_repeated(mut x: f64, step: f64, mut n: u64) -> f64 {
 }
 
 const TWO_POW_53: f64 = 9_007_199_254_740_992.0;
+
+/// Up to this many additions [`add_repeated`] makes one by one.
+const FEW_ADDITIONS: u64 = 64;
 
 /// The spacing of the floating-point numbers at positive normal `x` (0
 /// for zero and subnormal numbers: those are added one by one).
@@ -406,10 +418,202 @@ fn cruise_periods(tc: &Seg, next: Option<&Seg>, limits: &Limits) -> Option<u64> 
         + 1e-12 * (dx_min.abs() + (w + half).powi(2) / a + tc.target.abs() + left)
         + POS_EPSILON;
     // After the last of `k` periods `dx_end` is left; before it, `dx_min`.
-    let by_end = ((left - dx_end - tol) / step).floor();
-    let by_trapezoid = ((left - dx_min - tol) / step).floor() + 1.0;
+    let by_end = floor_or_below_zero((left - dx_end - tol) / step);
+    let by_trapezoid = floor_or_below_zero((left - dx_min - tol) / step) + 1.0;
     let k = by_end.min(by_trapezoid);
     (k >= 2.0).then_some(k as u64)
+}
+
+/// What the front segment's next period gives when it takes no decision:
+/// its new speed and progress and `on_final_decel`.
+struct Step {
+    v: f64,
+    progress: f64,
+    on_final_decel: bool,
+}
+
+/// The per-segment values every period of [`update`] recomputes from
+/// fields the periods do not change (the requested and end speeds, the
+/// acceleration): computed once, with the same operations, so the same
+/// bits.
+struct Hoisted {
+    target: f64,
+    target_vel: f64,
+    final_vel: f64,
+    a: f64,
+    dt: f64,
+    half: f64,
+    /// `tpCalculateRampAccel` instead of the trapezoid.
+    ramping: bool,
+    /// `tpCheckEndCondition` never splits a segment that ends at rest.
+    stops: bool,
+    /// The parabolic blend's speed (`tpComputeBlendVelocity`) when the
+    /// segment ends in one.
+    blend_vel: Option<f64>,
+}
+
+impl Hoisted {
+    fn new(tc: &Seg, next: Option<&Seg>, limits: &Limits) -> Hoisted {
+        let a = tc.tangential_max_accel();
+        let dt = tc.cycle_time;
+        let target_vel = real_target_vel(tc, limits);
+        let final_vel = real_final_vel(tc, next, limits);
+        // `tpCalculateRampAccel` fails below this end speed.
+        let too_slow = final_vel < VEL_EPSILON;
+        let blend_vel = (tc.term == Term::Parabolic).then(|| match next {
+            Some(n) => blend::parabolic_velocity(tc, n, target_vel, real_target_vel(n, limits)).0,
+            None => 0.0,
+        });
+        Hoisted {
+            target: tc.target,
+            target_vel,
+            final_vel,
+            a,
+            dt,
+            half: a * dt * 0.5,
+            ramping: tc.ramp && tc.term == Term::Tangent && !too_slow,
+            stops: matches!(tc.term, Term::Stop | Term::Exact),
+            blend_vel,
+        }
+    }
+
+    /// The period [`update`] runs from speed `v` at `progress`, or `None`
+    /// when it takes a decision: the speed would fall below zero, the
+    /// progress reach the target, the segment end within the next period
+    /// (or may: a sufficient bound, see below), a parabolic blend start.
+    /// The operations are those of `tpCalculateTrapezoidalAccel` /
+    /// `tpCalculateRampAccel` and `tcUpdateDistFromAccel`, in their order.
+    fn step(&self, v: f64, progress: f64) -> Option<Step> {
+        let dx = self.target - progress;
+        let dt = self.dt;
+        let (acc, vel_desired) = if self.ramping {
+            let vel_avg = (v + self.final_vel) / 2.0;
+            let mut t = 1e-16;
+            if vel_avg > VEL_EPSILON {
+                t = (dx / vel_avg).max(1e-16);
+            }
+            (saturate((self.final_vel - v) / t, self.a), self.final_vel)
+        } else {
+            let half = self.half;
+            let disc = self.final_vel * self.final_vel + self.a * (2.0 * dx - v * dt) + half * half;
+            let mut maxnewvel = -half;
+            if disc > half * half {
+                maxnewvel += disc.sqrt();
+            }
+            let newvel = saturate(maxnewvel, self.target_vel);
+            let acc = saturate((newvel - v) / dt.max(TIME_EPSILON), self.a);
+            (acc, maxnewvel)
+        };
+        let v_next = v + acc * dt;
+        if v_next < 0.0 {
+            return None;
+        }
+        let progress = progress + (v_next + v) * 0.5 * dt;
+        if !(0.0..=self.target).contains(&progress) {
+            return None;
+        }
+        let on_final_decel = (vel_desired - v_next).abs() < VEL_EPSILON && acc < 0.0;
+        // `tpCheckEndCondition` after the step: it ends the segment when
+        // no more than `POS_EPSILON` is left; a segment that ends at
+        // speed it splits when the time to its end, `dx/v̄` (`v̄` the mean
+        // of the present and the end speed) or the root of
+        // `A/2·t² + v·t = dx` (`|A|` the acceleration limit), is below a
+        // period. Either time is below a period only if less than
+        // `(max(v, v_f) + |A|·Δt)·Δt` is left (`dx/v̄ < Δt` needs
+        // `dx < v̄·Δt`; the root, `dx < v·Δt + |A|·Δt²/2`), so with more
+        // left than that (a relative margin for the roundings) it does
+        // not split; closer to its end the period is left to
+        // `run_period`.
+        let left = self.target - progress;
+        if left <= POS_EPSILON {
+            return None;
+        }
+        if !self.stops {
+            let reach = (v_next.max(self.final_vel) + self.a * dt) * dt;
+            let far = left >= reach * (1.0 + 1e-9) + POS_EPSILON;
+            if !far {
+                return None;
+            }
+        }
+        if let Some(blend_vel) = self.blend_vel {
+            if on_final_decel && v_next < blend_vel {
+                return None;
+            }
+        }
+        Some(Step {
+            v: v_next,
+            progress,
+            on_final_decel,
+        })
+    }
+}
+
+/// Runs, one after the other in a tight loop, the regular periods of the
+/// front segment that take no decision (see [`Hoisted::step`]): the
+/// speeding up, the slowing down, the ramps and the cruise periods
+/// [`run_cruise`] leaves to stepping, each with the operations of
+/// [`run_period`] on the same values, so bit for bit what it gives. Stops
+/// before the first period that takes a decision (that one is left to
+/// [`run_period`]) and after the first period of a cruise that follows a
+/// change of speed (the cruise is left to [`run_cruise`]). `false` when
+/// no period was run.
+pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -> bool {
+    let period = limits.servo_period_s;
+    let ready = |tc: &Seg| {
+        tc.active && tc.cycle_time == period && !(tc.splitting || tc.remove || tc.blending_next)
+    };
+    if !q.front().is_some_and(ready) {
+        return false;
+    }
+    // What every period does first (see `run_cruise`).
+    for s in q.iter_mut().take(2) {
+        s.is_blending = false;
+    }
+    let h = Hoisted::new(&q[0], q.get(1), limits);
+    let tc = q.front_mut().expect("a segment");
+    let (mut v, mut progress) = (tc.currentvel, tc.progress);
+    let mut on_final_decel = tc.on_final_decel;
+    let mut vel_at_blend_start = tc.vel_at_blend_start;
+    let mut n = 0u64;
+    let mut changing = false;
+    while let Some(s) = h.step(v, progress) {
+        let cruise = s.v == v;
+        vel_at_blend_start = v;
+        (v, progress, on_final_decel) = (s.v, s.progress, s.on_final_decel);
+        n += 1;
+        if cruise && changing {
+            break;
+        }
+        changing |= !cruise;
+    }
+    if n == 0 {
+        return false;
+    }
+    tc.currentvel = v;
+    tc.progress = progress;
+    tc.on_final_decel = on_final_decel;
+    tc.vel_at_blend_start = vel_at_blend_start;
+    if let Some(b) = h.blend_vel {
+        tc.blend_vel = b;
+    }
+    ex.shown = Some(tc.canon);
+    ex.periods.moving += n;
+    match tc.canon {
+        Canon::Feed | Canon::Arc => ex.periods.cutting += n,
+        Canon::Traverse => ex.periods.rapid += n,
+    }
+    true
+}
+
+/// `⌊x⌋` for `x ≥ 0`, and −1 for any other `x` (NaN included): through
+/// integers, as `floor` is a library call on the baseline x86-64 target.
+/// Only a count of at least two periods matters to [`cruise_periods`].
+fn floor_or_below_zero(x: f64) -> f64 {
+    if x >= 0.0 {
+        x as u64 as f64
+    } else {
+        -1.0
+    }
 }
 
 /// `tpHandleRegularCycle`.

@@ -378,8 +378,9 @@ impl Planner {
         self.queue_fresh();
         let keep = self.limits.blend.optimization_depth + 6;
         while self.queue.len() > keep {
-            if !integrate::run_cruise(&mut self.queue, &mut self.exec, &self.limits) {
-                integrate::run_period(&mut self.queue, &mut self.exec, &self.limits);
+            let (q, ex, l) = (&mut self.queue, &mut self.exec, &self.limits);
+            if !(integrate::run_cruise(q, ex, l) || integrate::run_steps(q, ex, l)) {
+                integrate::run_period(q, ex, l);
             }
         }
     }
@@ -396,8 +397,10 @@ impl Planner {
     pub fn wait(&mut self) {
         self.canon.finish(&self.limits, &mut self.fresh);
         self.queue_fresh();
-        while integrate::run_cruise(&mut self.queue, &mut self.exec, &self.limits)
-            || integrate::run_period(&mut self.queue, &mut self.exec, &self.limits)
+        let (q, ex, l) = (&mut self.queue, &mut self.exec, &self.limits);
+        while integrate::run_cruise(q, ex, l)
+            || integrate::run_steps(q, ex, l)
+            || integrate::run_period(q, ex, l)
         {}
     }
 

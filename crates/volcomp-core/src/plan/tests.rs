@@ -169,8 +169,9 @@ fn exact_stop_stops_at_every_joint() {
     );
 }
 
-/// The planner as it was before cruising segments ran in one step: every
-/// servo period by [`integrate::run_period`].
+/// The planner as it was before cruising segments ran in one step and the
+/// periods that take no decision in a tight loop: every servo period by
+/// [`integrate::run_period`].
 fn estimate_period_by_period(moves: &[Move], limits: &Limits) -> Estimate {
     let mut p = Planner::new(*limits);
     let keep = limits.blend.optimization_depth + 6;
@@ -192,8 +193,12 @@ fn estimate_period_by_period(moves: &[Move], limits: &Limits) -> Estimate {
 fn cruising_in_one_step_counts_the_periods_stepping_counts() {
     // Random programs: lines from 1 µm to 100 mm, rapids, arcs in the
     // XY plane, feeds from 3 to 200 mm/s, every path mode; the
-    // planner that runs a cruise in one step must give every period of
-    // the one that steps through them, and the same joints.
+    // planner that runs a cruise in one step and the periods that take
+    // no decision in a tight loop must give every period of the one that
+    // steps through them one by one, and the same joints. A third of the
+    // programs are mostly short moves (10 µm to 1 mm: segments run
+    // through at speed on a ramp); programs 48 on have no blend arcs
+    // (every G64 corner a parabolic blend).
     let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
     let mut unit = move || {
         seed = seed
@@ -202,7 +207,15 @@ fn cruising_in_one_step_counts_the_periods_stepping_counts() {
         (seed >> 11) as f64 / (1u64 << 53) as f64
     };
     let mut cruised = 0;
-    for program in 0..40 {
+    for program in 0..64 {
+        let limits = Limits {
+            blend: BlendSettings {
+                enable: program < 48,
+                ..BlendSettings::default()
+            },
+            ..Limits::default()
+        };
+        let short = program % 3 == 1;
         let mut at = Vec3::ZERO;
         // Half the programs run on in one direction most of the time
         // (a raster's collinear moves: segments that end at speed).
@@ -220,7 +233,11 @@ fn cruising_in_one_step_counts_the_periods_stepping_counts() {
         ];
         let mode = modes[program % 4];
         for _ in 0..100 {
-            let len = 10f64.powf(unit() * 5.0 - 3.0);
+            let len = if short && unit() < 0.9 {
+                10f64.powf(unit() * 2.0 - 2.0)
+            } else {
+                10f64.powf(unit() * 5.0 - 3.0)
+            };
             if !straight || unit() < 0.3 {
                 dir = Vec3::new(unit() - 0.5, unit() - 0.5, (unit() - 0.5) * 0.2);
             }
@@ -253,8 +270,8 @@ fn cruising_in_one_step_counts_the_periods_stepping_counts() {
             at = m.end;
             moves.push(m);
         }
-        let fast = estimate(&moves, &Limits::default());
-        let slow = estimate_period_by_period(&moves, &Limits::default());
+        let fast = estimate(&moves, &limits);
+        let slow = estimate_period_by_period(&moves, &limits);
         assert_eq!(fast, slow, "program {program}");
         cruised += fast.periods;
     }
