@@ -196,11 +196,12 @@ fn face_program() -> String {
 }
 
 /// z = 0.003·((x − 40)² − (y − 25)²) over 80 × 50 mm, exact as a bicubic.
-fn saddle(x: f64, y: f64) -> f64 {
+pub fn saddle(x: f64, y: f64) -> f64 {
     0.003 * ((x - 40.0).powi(2) - (y - 25.0).powi(2))
 }
 
-fn mirror_nominal() -> NominalSurface {
+/// The saddle as a bicubic B-spline nominal surface, material below.
+pub fn mirror_nominal() -> NominalSurface {
     let mut pts = Vec::new();
     for i in 0..4 {
         for j in 0..4 {
@@ -222,20 +223,33 @@ fn semi_finishing_error_um(x: f64, y: f64) -> f64 {
 /// 9 × 7 probe points after semi-finishing with 0.2 mm stock, on the
 /// surface (probe radius already compensated), with ±0.05 µm scatter.
 fn probes(n: &NominalSurface) -> String {
-    let mut s = String::from(
+    let points = probe_grid(n, (9, 7), |i, j, p| {
+        let scatter_um = 0.05 * ((i * 7 + j) as f64 * 1.618).sin();
+        0.2 + (semi_finishing_error_um(p.x, p.y) + scatter_um) * 1e-3
+    });
+    format!(
         "# volcomp example: probed after semi-finishing with 0.2 mm stock (surface points, mm)\n\
-         id,i,j,x_mm,y_mm,z_mm\n",
-    );
-    for i in 0..9 {
-        for j in 0..7 {
+         {points}"
+    )
+}
+
+/// Probe points on an `ni` × `nj` grid over the 80 × 50 mm surface `n`
+/// (2 mm in from its edges), each `height_mm(i, j, point)` off the surface
+/// along its normal: a header line and one row `P{i}{j},i,j,x,y,z` each.
+pub fn probe_grid(
+    n: &NominalSurface,
+    (ni, nj): (usize, usize),
+    mut height_mm: impl FnMut(usize, usize, Vec3) -> f64,
+) -> String {
+    let mut s = String::from("id,i,j,x_mm,y_mm,z_mm\n");
+    for i in 0..ni {
+        for j in 0..nj {
             let (u, v) = (
-                (2.0 + 76.0 * i as f64 / 8.0) / 80.0,
-                (2.0 + 46.0 * j as f64 / 6.0) / 50.0,
+                (2.0 + 76.0 * i as f64 / (ni - 1) as f64) / 80.0,
+                (2.0 + 46.0 * j as f64 / (nj - 1) as f64) / 50.0,
             );
             let p = n.point(u, v);
-            let scatter_um = 0.05 * ((i * 7 + j) as f64 * 1.618).sin();
-            let h_mm = 0.2 + (semi_finishing_error_um(p.x, p.y) + scatter_um) * 1e-3;
-            let q = p + n.normal(u, v) * h_mm;
+            let q = p + n.normal(u, v) * height_mm(i, j, p);
             let _ = writeln!(s, "P{i}{j},{i},{j},{:.6},{:.6},{:.6}", q.x, q.y, q.z);
         }
     }
@@ -245,13 +259,22 @@ fn probes(n: &NominalSurface) -> String {
 /// Ball-end finishing (radius 3 mm, CL point at the tip): eight passes along
 /// x over the saddle.
 fn finishing_program(n: &NominalSurface) -> String {
-    let r = 3.0;
-    let mut s = String::from("%\nO1234 (volcomp example: saddle finishing, ball end R3, CL at the tip)\nG21 G90 G17 G54\nG0 Z30.\n");
-    for pass in 0..8 {
-        let v = (3.0 + 6.2 * pass as f64) / 50.0;
+    let passes = finishing_passes(n, 3.0, (0..8).map(|pass| (3.0 + 6.2 * pass as f64) / 50.0));
+    format!(
+        "%\nO1234 (volcomp example: saddle finishing, ball end R3, CL at the tip)\nG21 G90 G17 G54\nG0 Z30.\n\
+         {passes}M30\n%\n"
+    )
+}
+
+/// Finishing passes along x over the surface `n`, one at each surface
+/// parameter `v` of `vs`, with a ball end of radius `r_mm` (CL point at the
+/// tip): 41 points a pass at F600, each pass ending with a retract to Z30.
+pub fn finishing_passes(n: &NominalSurface, r_mm: f64, vs: impl Iterator<Item = f64>) -> String {
+    let mut s = String::new();
+    for v in vs {
         for k in 0..=40 {
             let u = k as f64 / 40.0;
-            let c = n.point(u, v) + n.normal(u, v) * r - Vec3::new(0.0, 0.0, r);
+            let c = n.point(u, v) + n.normal(u, v) * r_mm - Vec3::new(0.0, 0.0, r_mm);
             if k == 0 {
                 let _ = writeln!(s, "G0 X{:.4} Y{:.4}\nG1 Z{:.4} F600.", c.x, c.y, c.z);
             } else {
@@ -260,6 +283,5 @@ fn finishing_program(n: &NominalSurface) -> String {
         }
         s.push_str("G0 Z30.\n");
     }
-    s.push_str("M30\n%\n");
     s
 }

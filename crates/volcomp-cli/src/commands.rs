@@ -5,7 +5,7 @@ use crate::args::{Cli, Command, MovesArgs, MovesFormat};
 use crate::options::flags;
 use crate::output::CliError;
 use std::io::{self, BufRead, BufReader, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use volcomp_core::request::{Machine, MachineRequest};
 use volcomp_gcode::number::{format_number_bytes, format_uint_bytes, NumberStyle};
 use volcomp_gcode::{Motion, MotionKind, MotionSource, Vec3, Walker};
@@ -102,6 +102,19 @@ impl MachineExt for Machine {
         };
         Ok(self.setup.walker(reader, &path.display().to_string()))
     }
+}
+
+/// The CSV of a model file's tables, written beside the model `output`
+/// (`model.toml` → `model.csv`): its name, as the model file names it, and
+/// its path.
+pub(crate) fn tables_beside(output: &Path) -> (String, PathBuf) {
+    let stem = output
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("model");
+    let csv_name = format!("{stem}.csv");
+    let csv_path = output.with_file_name(&csv_name);
+    (csv_name, csv_path)
 }
 
 /// Parses `X,Y,Z` (three finite numbers) given to `flag`.

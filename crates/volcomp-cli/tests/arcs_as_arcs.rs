@@ -16,6 +16,7 @@ use std::process::{Command, Stdio};
 
 use crate::common;
 use crate::rs274;
+use common::{read, write};
 
 /// The ripple map of tests/rs274_corpus.rs over ±2 m.
 fn ripple_map() -> String {
@@ -40,6 +41,13 @@ const PROGRAMS: &[(&str, &str)] = &[
          G2 X0 Y25 R25\nG2 X25 Y0 R25\nG3 X0 Y25 R-25\nG0 Z5\nM2\n",
     ),
 ];
+
+/// Asserts that the program written with arcs has fewer than one `factor`th
+/// of the blocks of the one written with lines.
+fn fewer_blocks(name: &str, arcs: &str, lines: &str, factor: usize) {
+    let (a, l) = (blocks(arcs), blocks(lines));
+    assert!(a * factor < l, "{name}: {a} blocks as arcs, {l} as lines");
+}
 
 fn blocks(text: &str) -> usize {
     text.lines()
@@ -101,7 +109,7 @@ fn contour(json: &str) -> (f64, f64) {
 fn arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
     let dir = common::tempdir("arcs_as_arcs");
     let d = dir.as_path();
-    std::fs::write(d.join("ripple.csv"), ripple_map()).unwrap();
+    write(d, "ripple.csv", ripple_map());
     let rs = rs274::find_rs274();
     if rs.is_none() {
         common::missing(common::RS274, "the rs274 part");
@@ -117,8 +125,8 @@ fn arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
         let mut args = vec!["compensate", name, "--arcs-as-lines", "-o", &lines];
         args.extend(common);
         volcomp(&args, d);
-        let written = std::fs::read_to_string(d.join(&out)).unwrap();
-        let linear = std::fs::read_to_string(d.join(&lines)).unwrap();
+        let written = read(d, &out);
+        let linear = read(d, &lines);
         // The size it reports is the files' own, counted here.
         let size = format!(
             "size {} -> {} bytes, {} -> {} blocks",
@@ -137,12 +145,7 @@ fn arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
             })
             .count();
         assert!(arcs >= 4, "{name}: {arcs} arc lines\n{written}");
-        assert!(
-            blocks(&written) * 10 < blocks(&linear),
-            "{name}: {} blocks as arcs, {} as lines",
-            blocks(&written),
-            blocks(&linear)
-        );
+        fewer_blocks(name, &written, &linear, 10);
         if name.starts_with("circles_r") {
             assert!(
                 written.contains(" R") && !written.contains(" I"),
@@ -212,9 +215,9 @@ const CUTTER_FIXTURES: &[&str] = &[
 fn cutter_compensated_arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
     let dir = common::tempdir("cutter_arcs");
     let d = dir.as_path();
-    std::fs::write(d.join("ripple.csv"), ripple_map()).unwrap();
-    std::fs::write(d.join("setup.toml"), rs274::setup_toml()).unwrap();
-    std::fs::write(d.join("tools.tbl"), rs274::rs274_tool_table()).unwrap();
+    write(d, "ripple.csv", ripple_map());
+    write(d, "setup.toml", rs274::setup_toml());
+    write(d, "tools.tbl", rs274::rs274_tool_table());
     let tools = rs274::find_rs274().map(|rs274| rs274::Tools {
         rs274,
         volcomp: env!("CARGO_BIN_EXE_volcomp").into(),
@@ -244,8 +247,8 @@ fn cutter_compensated_arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
         args.extend(common);
         args.extend(exact);
         volcomp(&args, d);
-        let written = std::fs::read_to_string(d.join(&arcs)).unwrap();
-        let linear = std::fs::read_to_string(d.join(&lines)).unwrap();
+        let written = read(d, &arcs);
+        let linear = read(d, &lines);
         let arc_lines = written
             .lines()
             .filter(|l| {
@@ -253,12 +256,7 @@ fn cutter_compensated_arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
             })
             .count();
         assert!(arc_lines >= 1, "{name}: no tool-centre arc\n{written}");
-        assert!(
-            blocks(&written) * 3 < blocks(&linear),
-            "{name}: {} blocks as arcs, {} as lines",
-            blocks(&written),
-            blocks(&linear)
-        );
+        fewer_blocks(name, &written, &linear, 3);
         let judge = |out: &str| {
             let mut args = vec!["simulate", out, "--reference", original, "--json"];
             args.extend(common);
@@ -318,9 +316,9 @@ fn g61_pieces_run_blended_and_each_block_ends_exact_as_rs274_reads_them() {
     };
     let dir = common::tempdir("arcs_g61_pieces");
     let d = dir.as_path();
-    std::fs::write(d.join("ripple.csv"), ripple_map()).unwrap();
+    write(d, "ripple.csv", ripple_map());
     let program = "G21 G17 G90 G61\nG0 X0 Y0 Z0\nG1 X60 F6000\nG2 X60 Y-60 I0 J-30\nG1 X0\nG3 X0 Y0 R30\nM2\n";
-    std::fs::write(d.join("g61.ngc"), program).unwrap();
+    write(d, "g61.ngc", program);
     volcomp(
         &[
             "compensate",
@@ -334,7 +332,7 @@ fn g61_pieces_run_blended_and_each_block_ends_exact_as_rs274_reads_them() {
         ],
         d,
     );
-    let written = std::fs::read_to_string(d.join("g61.comp.ngc")).unwrap();
+    let written = read(d, "g61.comp.ngc");
     assert!(written.contains("(path mode:"), "{written}");
     let home = d.join("home");
     std::fs::create_dir_all(&home).unwrap();

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use crate::common;
-use common::{tempdir, volcomp};
+use common::{read, tempdir, volcomp, write};
 
 fn ok(args: &[&str], dir: &Path) -> String {
     let o = volcomp(args, dir);
@@ -28,7 +28,7 @@ const RUNS: &str = "target_mm,cycle,direction,deviation_um\n\
 #[test]
 fn axis_letters_are_accepted_in_either_case_and_means_are_written_cleanly() {
     let dir = tempdir("axis");
-    std::fs::write(dir.join("runs.csv"), RUNS).unwrap();
+    write(&dir, "runs.csv", RUNS);
     ok(
         &[
             "map",
@@ -53,8 +53,8 @@ fn axis_letters_are_accepted_in_either_case_and_means_are_written_cleanly() {
         ],
         &dir,
     );
-    let upper = std::fs::read_to_string(dir.join("upper.csv")).unwrap();
-    let lower = std::fs::read_to_string(dir.join("lower.csv")).unwrap();
+    let upper = read(&dir, "upper.csv");
+    let lower = read(&dir, "lower.csv");
     assert_eq!(upper, lower);
     // Means by hand: x̄↑(0) = (0.1 + 0.2)/2 = 0.15 (0.15000000000000002 in
     // binary), x̄↓(0) = −0.034, x̄↑(100) = −0.15, x̄↓(50) = 0.4.

@@ -8,7 +8,7 @@
 use crate::common;
 use crate::rs274;
 
-use common::{stderr, tempdir, volcomp};
+use common::{stderr, tempdir, volcomp, write};
 use std::path::Path;
 use std::process::{Command, Stdio};
 
@@ -58,7 +58,7 @@ fn the_test_program_is_the_nominal_circle_for_rs274() {
         return;
     };
     let d = tempdir("ballbar-rs274");
-    std::fs::write(d.join("map.csv"), "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,0,0,0\nX,both,500,0,0,0\nY,both,0,0,0,0\nY,both,500,0,0,0\nZ,both,0,0,0,0\nZ,both,500,0,0,0\n").unwrap();
+    write(&d, "map.csv", "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,0,0,0\nX,both,500,0,0,0\nY,both,0,0,0,0\nY,both,500,0,0,0\nZ,both,0,0,0,0\nZ,both,500,0,0,0\n");
     let (c, r) = ([250.0, 200.0, 150.0], 75.0);
     for (plane, (u, v)) in [("XY", (0, 1)), ("YZ", (1, 2)), ("ZX", (2, 0))] {
         for (direction, senses) in [("both", vec![1.0, -1.0]), ("cw", vec![-1.0])] {
@@ -147,20 +147,16 @@ fn the_test_program_is_the_nominal_circle_for_rs274() {
 #[test]
 fn a_bad_trace_is_named_by_file_line_and_column() {
     let d = tempdir("ballbar-bad");
-    std::fs::write(
-        d.join("t.csv"),
+    write(
+        &d,
+        "t.csv",
         "# plane = XY\n# radius_mm = 100\ndirection,angle_deg,deviation_um\nccw,0,1\nccw,1,one\n",
-    )
-    .unwrap();
+    );
     let o = common::run(&d, "ballbar fit t.csv");
     assert!(!o.status.success());
     let e = stderr(&o);
     assert!(e.contains("t.csv:5:3"), "{e}");
-    std::fs::write(
-        d.join("u.csv"),
-        "direction,angle_deg,deviation_um\nccw,0,1\n",
-    )
-    .unwrap();
+    write(&d, "u.csv", "direction,angle_deg,deviation_um\nccw,0,1\n");
     let o = common::run(&d, "ballbar fit u.csv");
     let e = stderr(&o);
     assert!(!o.status.success() && e.contains("--trace-plane"), "{e}");

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::common;
-use common::{stderr, tempdir, volcomp};
+use common::{read, stderr, tempdir, volcomp, write};
 
 /// A map over −100…300 mm with `ex_um` on X given by `f(position)`.
 fn write_map(dir: &Path, f: impl Fn(f64) -> f64) -> PathBuf {
@@ -78,7 +78,7 @@ fn refused_constructs_name_file_line_column_and_write_nothing() {
         ("G0 X0 Y0 Z0\nG3 X1 Y1 P0.5 R1 F10\n", 2, 10, "turns"),
     ];
     for (program, line, col, words) in cases {
-        std::fs::write(dir.join("p.ngc"), program).unwrap();
+        write(&dir, "p.ngc", program);
         let o = common::run(&dir, "compensate p.ngc --map map.csv -o out.ngc");
         let msg = stderr(&o);
         // A refused program (exit 3, docs/errors.md).
@@ -111,7 +111,7 @@ fn a_map_in_millimetres_is_refused() {
     // 0.15 "µm" per mm means 45 µm at 300 mm… a map written in mm instead of
     // µm has values 1000 times too large: 150 at X = 10 here.
     write_map(&dir, |p| 15.0 * p);
-    std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
+    write(&dir, "p.ngc", PROGRAM);
     let o = common::run(&dir, "compensate p.ngc --map map.csv -o out.ngc");
     let msg = stderr(&o);
     // A correction above its limit refuses the program (exit 3, docs/errors.md).
@@ -124,7 +124,7 @@ fn a_map_in_millimetres_is_refused() {
 fn out_of_range_names_axis_position_range_and_line() {
     let dir = tempdir("range");
     write_map(&dir, |_| 1.0);
-    std::fs::write(dir.join("p.ngc"), "G0 X0 Y0 Z0\nG1 X350 F100\nM2\n").unwrap();
+    write(&dir, "p.ngc", "G0 X0 Y0 Z0\nG1 X350 F100\nM2\n");
     let o = common::run(&dir, "compensate p.ngc --map map.csv -o out.ngc --no-split");
     let msg = stderr(&o);
     assert!(
@@ -145,12 +145,11 @@ fn out_of_range_names_axis_position_range_and_line() {
     );
     assert!(!dir.join("out.ngc").exists());
     // With --clamp the error is held at the table end.
-    let o = common::run(
+    common::ok(&common::run(
         &dir,
         "compensate p.ngc --map map.csv -o out.ngc --no-split --clamp",
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let out = std::fs::read_to_string(dir.join("out.ngc")).unwrap();
+    ));
+    let out = read(&dir, "out.ngc");
     assert!(out.contains("X349.9990"), "{out}");
 }
 
@@ -158,17 +157,17 @@ fn out_of_range_names_axis_position_range_and_line() {
 fn the_input_is_never_overwritten() {
     let dir = tempdir("overwrite");
     write_map(&dir, |_| 1.0);
-    std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
+    write(&dir, "p.ngc", PROGRAM);
     let o = common::run(&dir, "compensate p.ngc --map map.csv -o ./p.ngc");
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("refusing to write"), "{}", stderr(&o));
-    assert_eq!(std::fs::read_to_string(dir.join("p.ngc")).unwrap(), PROGRAM);
+    common::said(&o, "refusing to write");
+    assert_eq!(read(&dir, "p.ngc"), PROGRAM);
 }
 
 #[test]
 fn bad_map_files_name_row_and_column() {
     let dir = tempdir("badmap");
-    std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
+    write(&dir, "p.ngc", PROGRAM);
     let cases = [
         (
             "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,0,0,0\nX,both,10,NaN,0,0\n",
@@ -189,7 +188,7 @@ fn bad_map_files_name_row_and_column() {
         ),
     ];
     for (csv, located) in cases {
-        std::fs::write(dir.join("map.csv"), csv).unwrap();
+        write(&dir, "map.csv", csv);
         let o = common::run(&dir, "compensate p.ngc --map map.csv -o out.ngc");
         assert_eq!(o.status.code(), Some(2));
         assert!(stderr(&o).contains(located), "{located}: {}", stderr(&o));
@@ -202,7 +201,7 @@ fn simulate_json_reports_the_metrics_and_compensation_improves_them() {
     let dir = tempdir("simulate");
     // A linear pitch error of 0.2 µm/mm along X.
     write_map(&dir, |p| 0.2 * p);
-    std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
+    write(&dir, "p.ngc", PROGRAM);
     let sim = |args: &[&str]| -> serde_json::Value {
         let o = volcomp(args, &dir);
         assert!(o.status.success(), "{}", stderr(&o));
@@ -223,8 +222,10 @@ fn simulate_json_reports_the_metrics_and_compensation_improves_them() {
         (before["point_max_um"].as_f64().unwrap() - 2.0).abs() < 1e-9,
         "{before}"
     );
-    let o = common::run(&dir, "compensate p.ngc --map map.csv -o c.ngc");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&common::run(
+        &dir,
+        "compensate p.ngc --map map.csv -o c.ngc",
+    ));
     let after = sim(&[
         "simulate",
         "c.ngc",
@@ -240,11 +241,11 @@ fn simulate_json_reports_the_metrics_and_compensation_improves_them() {
 #[test]
 fn moves_json_is_valid_and_lists_every_motion() {
     let dir = tempdir("moves");
-    std::fs::write(
-        dir.join("p.ngc"),
+    write(
+        &dir,
+        "p.ngc",
         "G21 G90\nG0 X1 Y2 Z3\nG2 X5 Y2 I2 J0 F100\nM2\n",
-    )
-    .unwrap();
+    );
     let o = common::run(&dir, "moves p.ngc --format json --work-offset 100,0,-50");
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -260,9 +261,7 @@ fn moves_json_is_valid_and_lists_every_motion() {
 fn demo_runs_and_meets_the_issue_targets() {
     let dir = tempdir("demo");
     // `-o` as every command that writes takes it.
-    let o = common::run(&dir, "demo -o d --markdown d/table.md");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = String::from_utf8_lossy(&o.stdout);
+    let text = common::ok(&common::run(&dir, "demo -o d --markdown d/table.md"));
     // Every contour row's exact column (the fourth method) reduces the
     // error by at least 95 %: its change is −95 % or less.
     let mut rows = 0;
@@ -288,7 +287,7 @@ fn demo_runs_and_meets_the_issue_targets() {
     );
     assert!(dir.join("d/circle_d20_20seg.exact.ngc").exists());
     // BENCHMARKS.md shows the demo's table as the demo writes it.
-    let table = std::fs::read_to_string(dir.join("d/table.md")).unwrap();
+    let table = read(&dir, "d/table.md");
     let benchmarks =
         std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../BENCHMARKS.md"))
             .unwrap();
@@ -302,7 +301,7 @@ fn demo_runs_and_meets_the_issue_targets() {
 fn simulate_draws_svg_and_png_plots() {
     let dir = tempdir("plot");
     write_map(&dir, |p| 0.2 * p);
-    std::fs::write(dir.join("p.ngc"), PROGRAM).unwrap();
+    write(&dir, "p.ngc", PROGRAM);
     for (name, magic) in [("e.svg", &b"<svg"[..]), ("e.png", &b"\x89PNG"[..])] {
         let o = volcomp(
             &["simulate", "p.ngc", "--map", "map.csv", "--plot", name],
@@ -318,7 +317,7 @@ fn simulate_draws_svg_and_png_plots() {
     }
     let o = common::run(&dir, "simulate p.ngc --map map.csv --plot e.pdf");
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains(".svg or .png"), "{}", stderr(&o));
+    common::said(&o, ".svg or .png");
 }
 
 #[test]
@@ -326,9 +325,7 @@ fn every_demo_figure_is_what_simulate_reports() {
     // The demo prints the commands that reproduce its cells; run them for
     // the first program and compare with the printed figures (3 decimals).
     let dir = tempdir("demo_reproduced");
-    let o = common::run(&dir, "demo --out-dir d");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    let text = common::ok(&common::run(&dir, "demo --out-dir d"));
     assert!(
         text.contains("volcomp simulate d/<program>.<method>.ngc --reference d/<program>.ngc --map d/example_map.csv --work-offset 250,200,150"),
         "{text}"
@@ -404,11 +401,7 @@ fn assumptions_are_warned_about_on_stderr_with_file_and_line() {
     let dir = tempdir("warn");
     write_map(&dir, |_| 0.0);
     // No G20/G21 before the first move, and a G28 with no reference point.
-    std::fs::write(
-        dir.join("p.ngc"),
-        "G90\nG0 X0 Y0 Z0\nG28\nG1 X10 F100\nM2\n",
-    )
-    .unwrap();
+    write(&dir, "p.ngc", "G90\nG0 X0 Y0 Z0\nG28\nG1 X10 F100\nM2\n");
     let o = common::run(
         &dir,
         "compensate p.ngc --map map.csv --work-offset 0,0,0 -o out.ngc",
@@ -434,9 +427,7 @@ fn completions_and_the_man_page_come_from_the_same_flags() {
         // A flag the library's option table gives compensate.
         assert!(text.contains("max-correction"), "{shell}");
     }
-    let o = common::run(&d, "man");
-    assert!(o.status.success(), "{}", common::stderr(&o));
-    let page = String::from_utf8_lossy(&o.stdout);
+    let page = common::ok(&common::run(&d, "man"));
     assert!(
         page.starts_with(".ie") || page.contains(".TH volcomp"),
         "{page}"
@@ -462,11 +453,11 @@ fn completions_and_the_man_page_come_from_the_same_flags() {
 fn a_set_up_in_mm_under_units_inch_is_named_as_the_cause_not_the_map() {
     let dir = common::fixture("inch-setup");
     // The fixture's set-up, its G54 written in mm but said to be inches.
-    std::fs::write(
-        dir.join("machine.toml"),
+    write(
+        &dir,
+        "machine.toml",
         "units = \"inch\"\n[work_offsets]\nG54 = [590, 150, 100]\n",
-    )
-    .unwrap();
+    );
     let o = common::compensate_to(&dir, "o.ngc");
     let e = stderr(&o);
     assert!(!o.status.success(), "{e}");

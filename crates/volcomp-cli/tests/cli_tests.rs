@@ -6,6 +6,13 @@
 mod common;
 mod rs274;
 
+/// The generator of `examples/data/` (also `cargo run --example example_data`):
+/// the documented commands run on its files, and the surface tests use its
+/// nominal saddle.
+#[allow(dead_code)]
+#[path = "../examples/example_data.rs"]
+mod example_data;
+
 mod arcs_as_arcs;
 mod axis_and_points;
 mod ballbar;

@@ -4,7 +4,7 @@
 //! original, line by line, through the `(volcomp Ln)` pairing.
 
 use crate::common;
-use common::{tempdir, text, volcomp};
+use common::{read, tempdir, text, volcomp, write};
 
 /// `contour error … max <v> µm` of `simulate`'s table.
 fn contour_max_um(out: &str) -> f64 {
@@ -30,7 +30,7 @@ fn loops_and_calls_are_compensated_as_their_executed_path() {
             csv.push_str(&format!("{axis},both,{p},{},{},{}\n", e[0], e[1], e[2]));
         }
     }
-    std::fs::write(d.join("map.csv"), csv).unwrap();
+    write(&d, "map.csv", csv);
     let program = std::fs::read_to_string(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("tests/fixtures/rs274/ngc_tiled_sub.ngc"),
@@ -39,7 +39,7 @@ fn loops_and_calls_are_compensated_as_their_executed_path() {
     // In G61: under G64 (a program that sets no mode) no split is made
     // inside a corner's blend zone, which LinuxCNC rounds anyway, and the
     // simulator, which does not blend, sees the map's ripple there.
-    std::fs::write(d.join("p.ngc"), format!("G61\n{program}")).unwrap();
+    write(&d, "p.ngc", format!("G61\n{program}"));
     let off = ["--work-offset", "100,100,0"];
     let o = volcomp(
         &[
@@ -55,7 +55,7 @@ fn loops_and_calls_are_compensated_as_their_executed_path() {
         &d,
     );
     assert!(o.status.success(), "{}", text(&o));
-    let out = std::fs::read_to_string(d.join("out.ngc")).unwrap();
+    let out = read(&d, "out.ngc");
     // Flat: no parameter, expression or o-word is left outside comments.
     for line in out.lines() {
         let code = line.split(['(', ';']).next().unwrap();

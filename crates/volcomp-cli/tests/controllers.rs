@@ -1,10 +1,10 @@
 //! `volcomp map export` and `--controller`: a machine whose controller
 //! applies a pitch table volcomp exported, compensated for the rest only.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::common;
-use common::{json, ok, tempdir, text, volcomp};
+use common::{json, ok, read, refused, tempdir, text, volcomp, write};
 
 /// Axis tables of a machine with large pitch errors (a slope of 20 µm/m
 /// and a 200 mm ball-screw wave of ±3 µm on X, similar on Y and Z) and
@@ -25,7 +25,7 @@ fn write_map(dir: &Path) {
             s.push_str(&format!("{axis},both,{p},{ex:.4},{ey:.4},{ez:.4}\n"));
         }
     }
-    std::fs::write(dir.join("m.csv"), s).unwrap();
+    write(dir, "m.csv", s);
 }
 
 // Exact path (G61): these tests measure what the compensation leaves, so
@@ -33,7 +33,21 @@ fn write_map(dir: &Path) {
 // (docs/compensation.md, "Reversals by path-control mode").
 const PART: &str = "G21 G90 G17 G61\nG0 X0 Y0 Z10\nG1 Z0 F500\nG1 X200 Y0\nG1 X200 Y150\nG2 X100 Y250 I-100 J0\nG1 X0 Y250\nG1 X0 Y0\nG0 Z10\nM2\n";
 
-fn simulate(dir: &Path, program: &str, controller: bool) -> serde_json::Value {
+/// The Siemens EEC tables the hybrid tests export.
+const EEC: &str = "eec/%_N_AX_EEC_INI";
+
+/// A fresh folder `name` with the map (m.csv) and [`PART`] (part.ngc).
+#[track_caller]
+fn machine(name: &str) -> PathBuf {
+    let dir = tempdir(name);
+    write_map(&dir);
+    write(&dir, "part.ngc", PART);
+    dir
+}
+
+/// `volcomp simulate PROGRAM` of [`PART`] at the tests' work offset, as JSON;
+/// with `controller`, on a machine whose controller applies that file.
+fn simulate(dir: &Path, program: &str, controller: Option<&str>) -> serde_json::Value {
     let mut args = vec![
         "simulate",
         program,
@@ -46,17 +60,15 @@ fn simulate(dir: &Path, program: &str, controller: bool) -> serde_json::Value {
     if program != "part.ngc" {
         args.extend(["--reference", "part.ngc"]);
     }
-    if controller {
-        args.extend(["--controller", "eec/%_N_AX_EEC_INI"]);
+    if let Some(c) = controller {
+        args.extend(["--controller", c]);
     }
     json(&volcomp(&args, dir))
 }
 
 #[test]
 fn only_the_residual_is_compensated_on_a_machine_with_a_pitch_table() {
-    let dir = tempdir("hybrid");
-    write_map(&dir);
-    std::fs::write(dir.join("part.ngc"), PART).unwrap();
+    let dir = machine("hybrid");
     // The controller's table: Siemens EEC every 10 mm at its 1 µm resolution.
     ok(&common::run(
         &dir,
@@ -84,16 +96,16 @@ fn only_the_residual_is_compensated_on_a_machine_with_a_pitch_table() {
             out,
         ];
         if controller {
-            a.extend(["--controller", "eec/%_N_AX_EEC_INI"]);
+            a.extend(["--controller", EEC]);
         }
         ok(&volcomp(&a, &dir));
     };
     comp("hybrid.ngc", true);
     comp("twice.ngc", false);
     // The machine is the map with the controller's table active.
-    let before = simulate(&dir, "part.ngc", true);
-    let hybrid = simulate(&dir, "hybrid.ngc", true);
-    let twice = simulate(&dir, "twice.ngc", true);
+    let before = simulate(&dir, "part.ngc", Some(EEC));
+    let hybrid = simulate(&dir, "hybrid.ngc", Some(EEC));
+    let twice = simulate(&dir, "twice.ngc", Some(EEC));
     for key in [
         "point_rms_um",
         "point_max_um",
@@ -117,7 +129,7 @@ fn only_the_residual_is_compensated_on_a_machine_with_a_pitch_table() {
         );
     }
     // The header names the controller table it was made for.
-    let h = std::fs::read_to_string(dir.join("hybrid.ngc")).unwrap();
+    let h = read(&dir, "hybrid.ngc");
     assert!(
         h.contains("(ctrl %_N_AX_EEC_INI)") && h.contains("(ctrl sha256 "),
         "{}",
@@ -139,17 +151,16 @@ fn compensating_twice_worsens_the_positioning_axis() {
         part.push_str(&format!("G1 X{} F500\n", 50 * k));
     }
     part.push_str("M2\n");
-    std::fs::write(dir.join("part.ngc"), part).unwrap();
-    ok(&common::run(
+    write(&dir, "part.ngc", part);
+    common::run_all(
         &dir,
-        "map export m.csv --to siemens-eec --step 10 -o eec",
-    ));
-    ok(&common::run(
-        &dir,
-        "compensate part.ngc --map m.csv --work-offset 100,100,50 --decimals 6 -o twice.ngc",
-    ));
-    let before = simulate(&dir, "part.ngc", true);
-    let twice = simulate(&dir, "twice.ngc", true);
+        &[
+            "map export m.csv --to siemens-eec --step 10 -o eec",
+            "compensate part.ngc --map m.csv --work-offset 100,100,50 --decimals 6 -o twice.ngc",
+        ],
+    );
+    let before = simulate(&dir, "part.ngc", Some(EEC));
+    let twice = simulate(&dir, "twice.ngc", Some(EEC));
     let (b, t) = (
         before["point_max_um"].as_f64().unwrap(),
         twice["point_max_um"].as_f64().unwrap(),
@@ -164,14 +175,12 @@ fn compensating_twice_worsens_the_positioning_axis() {
 
 #[test]
 fn controller_compensates_positioning_is_the_ideal_table() {
-    let dir = tempdir("ideal");
-    write_map(&dir);
-    std::fs::write(dir.join("part.ngc"), PART).unwrap();
+    let dir = machine("ideal");
     ok(&common::run(&dir, "compensate part.ngc --map m.csv --work-offset 100,100,50 --decimals 6 --controller-compensates positioning -o rest.ngc"));
-    let t = std::fs::read_to_string(dir.join("rest.ngc")).unwrap();
+    let t = read(&dir, "rest.ngc");
     assert!(t.contains("the controller compensates the positioning errors"));
     let o = common::run(&dir, "compensate part.ngc --map m.csv --controller nothing.txt --controller-compensates positioning -o x.ngc");
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    refused(&o);
 }
 
 #[test]
@@ -179,13 +188,11 @@ fn exports_refuse_what_the_controller_cannot_hold() {
     let dir = tempdir("limits");
     write_map(&dir);
     // 600 mm every 0.1 mm is 6001 points: more than MD38000 = 5000.
-    let o = common::run(&dir, "map export m.csv --to siemens-eec --step 0.1 -o eec");
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(
-        text(&o).contains("6001 interpolation points"),
-        "{}",
-        text(&o)
-    );
+    let e = refused(&common::run(
+        &dir,
+        "map export m.csv --to siemens-eec --step 0.1 -o eec",
+    ));
+    assert!(e.contains("6001 interpolation points"), "{e}");
     // Siemens needs a step; axis tables have no squareness for Klipper.
     let o = common::run(&dir, "map export m.csv --to siemens-eec -o eec");
     assert!(text(&o).contains("--step"), "{}", text(&o));
@@ -203,14 +210,14 @@ fn exports_refuse_what_the_controller_cannot_hold() {
         &dir,
         "map export m.csv --to linuxcnc --type 1 --units mm -o lc",
     ));
-    let x = std::fs::read_to_string(dir.join("lc/x.comp")).unwrap();
+    let x = read(&dir, "lc/x.comp");
     assert_eq!(x.lines().count(), 25);
     // Heidenhain: the tables and their assignment, read back as a controller.
     ok(&common::run(
         &dir,
         "map export m.csv --to heidenhain -o tnc",
     ));
-    std::fs::write(dir.join("part.ngc"), PART).unwrap();
+    write(&dir, "part.ngc", PART);
     ok(&common::run(
         &dir,
         "map export m.csv --to siemens-cec --step 25 -o cec",
@@ -221,17 +228,7 @@ fn exports_refuse_what_the_controller_cannot_hold() {
         "lc/comp.ini",
         "cec/%_N_NC_CEC_INI",
     ] {
-        let args = [
-            "simulate",
-            "part.ngc",
-            "--map",
-            "m.csv",
-            "--work-offset",
-            "100,100,50",
-            "--controller",
-            c,
-        ];
-        ok(&volcomp(&args, &dir));
+        simulate(&dir, "part.ngc", Some(c));
     }
 }
 
@@ -241,7 +238,7 @@ fn an_etalon_file_becomes_a_model() {
     // C0Y = −12 µrad (S_xy = 12), EXX 5 µm at 100 mm, EYY −4 µm at 200 mm;
     // C0B (rotary axis B) is reported as not used.
     let etalon = "[C0Y]\nVALUE = -0.000012\n[C0B]\nVALUE = 0.0000223\n[EXX]\nGridpoints = {\n 0 0\n 100 0.005\n}\n[EYY]\nGridpoints = {\n 0 0\n 200 -0.004\n}\n[EZZ]\nGridpoints = {\n 0 0\n 100 0\n}\n";
-    std::fs::write(dir.join("machine.etalon"), etalon).unwrap();
+    write(&dir, "machine.etalon", etalon);
     let o = common::run(&dir, "map import machine.etalon --from etalon -o m.toml");
     ok(&o);
     assert!(
@@ -263,23 +260,10 @@ fn an_isg_volumetric_compensation_leaves_nothing() {
     // compensation (volcomp.csv + volcomp.lis exported from it): the
     // machine's error is then only the export's rounding (10⁻⁴ µm), and the
     // map has one table for both directions, so no reversal is left either.
-    let dir = tempdir("isg-volcomp");
-    write_map(&dir);
-    std::fs::write(dir.join("part.ngc"), PART).unwrap();
+    let dir = machine("isg-volcomp");
     ok(&common::run(&dir, "map export m.csv --to isg-csv -o isg"));
-    let before = simulate(&dir, "part.ngc", false);
-    let args = [
-        "simulate",
-        "part.ngc",
-        "--map",
-        "m.csv",
-        "--work-offset",
-        "100,100,50",
-        "--json",
-        "--controller",
-        "isg/volcomp.lis",
-    ];
-    let with = json(&volcomp(&args, &dir));
+    let before = simulate(&dir, "part.ngc", None);
+    let with = simulate(&dir, "part.ngc", Some("isg/volcomp.lis"));
     let (b, w) = (
         before["point_max_um"].as_f64().unwrap(),
         with["point_max_um"].as_f64().unwrap(),
@@ -296,7 +280,7 @@ fn fanuc_bidirectional_tables_hold_the_reversal() {
     // The map of write_map with a reversal of 8 µm (+ 2 µm along X) on
     // every axis: the reverse table is the forward one shifted.
     write_map(&dir);
-    let both = std::fs::read_to_string(dir.join("m.csv")).unwrap();
+    let both = read(&dir, "m.csv");
     let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
     for line in both.lines().skip(1) {
         let f: Vec<&str> = line.split(',').collect();
@@ -313,8 +297,8 @@ fn fanuc_bidirectional_tables_hold_the_reversal() {
             f[0], f[2], v[0], v[1], v[2]
         ));
     }
-    std::fs::write(dir.join("m.csv"), s).unwrap();
-    std::fs::write(dir.join("part.ngc"), PART).unwrap();
+    write(&dir, "m.csv", s);
+    write(&dir, "part.ngc", PART);
     let export = |out: &str, mode: &str| {
         let o = volcomp(
             &[
@@ -352,20 +336,7 @@ fn fanuc_bidirectional_tables_hold_the_reversal() {
     // table and 1851, half the reversal's variation along the axis (±1 µm)
     // too: no longer half the reversal (4 µm), as with the mean alone.
     let sim = |c: &str| {
-        json(&volcomp(
-            &[
-                "simulate",
-                "part.ngc",
-                "--map",
-                "m.csv",
-                "--work-offset",
-                "100,100,50",
-                "--json",
-                "--controller",
-                c,
-            ],
-            &dir,
-        ))["point_max_um"]
+        simulate(&dir, "part.ngc", Some(c))["point_max_um"]
             .as_f64()
             .unwrap()
     };
@@ -387,7 +358,7 @@ fn a_sign_check_comes_with_the_tables_whose_sign_no_vendor_settles() {
         ));
         s.push_str(&format!("Y,both,{p},0,0,0\nZ,both,{p},0,0,0\n"));
     }
-    std::fs::write(dir.join("m.csv"), s).unwrap();
+    write(&dir, "m.csv", s);
     let o = common::run(
         &dir,
         "map export m.csv --to fanuc --step 10 --fanuc-bidirectional on -o f",
@@ -398,13 +369,13 @@ fn a_sign_check_comes_with_the_tables_whose_sign_no_vendor_settles() {
     // 90 mm (kept 5 mm from the ends for the approach): the error grows by
     // 9 − 1 = 8 µm, the 1 µm table removes all of it; a table of the wrong
     // sign would read 8 + 8 = 16 µm. The − table the same way down.
-    let t = std::fs::read_to_string(dir.join("f/sign_check.txt")).unwrap();
+    let t = read(&dir, "f/sign_check.txt");
     assert!(t.contains("from A = 10 mm to B = 90 mm (+ travel)"), "{t}");
     assert!(t.contains("compensation off: 8 um"), "{t}");
     assert!(t.contains("compensation on:  0 um"), "{t}");
     assert!(t.contains("near 16 um"), "{t}");
     assert!(t.contains("from A = 90 mm to B = 10 mm (- travel)"), "{t}");
-    let nc = std::fs::read_to_string(dir.join("f/signcheck.nc")).unwrap();
+    let nc = read(&dir, "f/signcheck.nc");
     assert!(nc.contains("G53 X5\nG53 X10\nM00"), "{nc}");
     assert!(nc.contains("G53 X95\nG53 X90\nM00"), "{nc}");
     // LinuxCNC's sign is documented: no check.

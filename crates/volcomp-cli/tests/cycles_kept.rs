@@ -19,10 +19,11 @@
 //!
 //! Without rs274 the test is skipped loudly, except when `CI` is set.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::common;
 use crate::rs274;
+use common::write;
 
 use rs274::{find_rs274, run_rs274, Kind, RefMotion, Tools};
 
@@ -167,13 +168,13 @@ fn set_up(name: &str) -> Option<Run> {
         return None;
     };
     let dir = common::tempdir(name);
-    std::fs::write(dir.join("map.csv"), map_csv()).unwrap();
-    std::fs::write(
-        dir.join("setup.toml"),
+    write(&dir, "map.csv", map_csv());
+    write(
+        &dir,
+        "setup.toml",
         "units = \"mm\"\nstart = [0, 0, 0]\n[work_offsets]\nG54 = [0, 0, 0]\n",
-    )
-    .unwrap();
-    std::fs::write(dir.join("tools.tbl"), "T1 P1 Z0 D0\n").unwrap();
+    );
+    write(&dir, "tools.tbl", "T1 P1 Z0 D0\n");
     let tools = Tools {
         rs274,
         volcomp: PathBuf::from(env!("CARGO_BIN_EXE_volcomp")),
@@ -212,21 +213,15 @@ fn compensate_and_run(
     assert!(o.status.success(), "{}", common::stderr(&o));
     let out_path = run.dir.join(&out_name);
     let text = std::fs::read_to_string(&out_path).unwrap();
-    let ours = run_rs274(
-        &run.tools,
-        &out_path,
-        &run.dir.join(format!("{name}-rs274")),
-    )
-    .unwrap();
-    assert!(ours.rejected.is_none(), "{:?}\n{text}", ours.rejected);
-    let original = run_rs274(
-        &run.tools,
-        &input,
-        &run.dir.join(format!("{name}-rs274-in")),
-    )
-    .unwrap();
-    assert!(original.rejected.is_none(), "{:?}", original.rejected);
-    (text, ours.motions)
+    // rs274 accepts both the written program and its input.
+    let accepted = |program: &Path, work: String| {
+        let r = run_rs274(&run.tools, program, &run.dir.join(work)).unwrap();
+        assert!(r.rejected.is_none(), "{:?}\n{text}", r.rejected);
+        r.motions
+    };
+    let ours = accepted(&out_path, format!("{name}-rs274"));
+    accepted(&input, format!("{name}-rs274-in"));
+    (text, ours)
 }
 
 fn near(a: f64, b: f64, tol_um: f64) -> bool {

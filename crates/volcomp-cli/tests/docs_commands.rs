@@ -29,11 +29,6 @@ use std::time::{Duration, Instant};
 
 use crate::common;
 
-/// The generator of `examples/data/` (also `cargo run --example example_data`).
-#[allow(dead_code)]
-#[path = "../examples/example_data.rs"]
-mod example_data;
-
 /// Longest a documented command may take before it counts as hanging.
 const COMMAND_LIMIT: Duration = Duration::from_secs(600);
 
@@ -262,7 +257,7 @@ fn every_documented_command_runs_as_written() {
 #[test]
 fn the_example_data_is_what_its_generator_writes() {
     let data = workspace_root().join("examples/data");
-    for (name, text) in example_data::files() {
+    for (name, text) in crate::example_data::files() {
         let path = data.join(&name);
         let committed =
             std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

@@ -4,7 +4,7 @@
 //! would still fail.
 
 use crate::common;
-use common::{stderr, tempdir};
+use common::{stderr, tempdir, write};
 
 /// Every X position is 3 µm off in +Y; Y and Z have no error.
 const MAP: &str = "axis,direction,position_mm,ex_um,ey_um,ez_um
@@ -19,15 +19,12 @@ Z,both,100,0,0,0
 #[test]
 fn simulate_table() {
     let dir = tempdir("snap_simulate");
-    std::fs::write(dir.join("m.csv"), MAP).unwrap();
-    std::fs::write(
-        dir.join("p.ngc"),
-        "G21 G90\nG0 X10 Y10 Z10\nG1 X60 F100\nM2\n",
-    )
-    .unwrap();
-    let o = common::run(&dir, "simulate p.ngc --map m.csv --work-offset 0,0,0");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = String::from_utf8(o.stdout).unwrap();
+    write(&dir, "m.csv", MAP);
+    write(&dir, "p.ngc", "G21 G90\nG0 X10 Y10 Z10\nG1 X60 F100\nM2\n");
+    let text = common::ok(&common::run(
+        &dir,
+        "simulate p.ngc --map m.csv --work-offset 0,0,0",
+    ));
     // By hand: the tool runs 3 µm off in Y along the whole feed move, so the
     // point error at its end and the contour error everywhere are 3 µm.
     let three = text.matches("3.000 µm").count();
@@ -39,8 +36,8 @@ fn simulate_table() {
 #[test]
 fn compensate_refusal_with_caret() {
     let dir = tempdir("snap_refusal");
-    std::fs::write(dir.join("m.csv"), MAP).unwrap();
-    std::fs::write(dir.join("p.ngc"), "G21 G90\nG0 X10 Y10 Z10\nG41 D1\nM2\n").unwrap();
+    write(&dir, "m.csv", MAP);
+    write(&dir, "p.ngc", "G21 G90\nG0 X10 Y10 Z10\nG41 D1\nM2\n");
     let o = common::run(
         &dir,
         "compensate p.ngc --map m.csv --work-offset 0,0,0 -o out.ngc",

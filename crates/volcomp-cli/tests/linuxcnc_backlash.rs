@@ -20,11 +20,11 @@
 //! whole run. Without LinuxCNC the test is skipped loudly, except when `CI`
 //! is set: there it fails (CI installs `linuxcnc-uspace`).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use crate::common;
-use common::tempdir;
+use common::{read, tempdir, write};
 
 /// Whether LinuxCNC's simulator can run here; if not, says (or under CI
 /// fails) that `not_checked` was not checked.
@@ -34,6 +34,17 @@ fn installed(not_checked: &str) -> bool {
         common::missing(common::LINUXCNC, not_checked);
     }
     found
+}
+
+/// A fresh folder `name` holding the comp map, or `None` (saying what was
+/// not checked) where LinuxCNC is not installed.
+fn work_with_map(name: &str, not_checked: &str) -> Option<PathBuf> {
+    if !installed(not_checked) {
+        return None;
+    }
+    let work = tempdir(name);
+    comp_map(&work);
+    Some(work)
 }
 
 fn simulator() -> bool {
@@ -102,12 +113,7 @@ fn backlash_beside_a_comp_file_is_modelled_as_the_motion_controller_applies_it()
 /// benchmark's are 166.7 mm/s and 1 m/s²): every check is made at rest, once
 /// the joint stands at the commanded stop, and the 126 stops of a test take
 /// a fraction of the time.
-fn machine(
-    work: &Path,
-    keys: &[(usize, String)],
-    files: &[&str],
-    gantry: bool,
-) -> std::path::PathBuf {
+fn machine(work: &Path, keys: &[(usize, String)], files: &[&str], gantry: bool) -> PathBuf {
     let config = work.join("config");
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/cycle_time/config");
     std::fs::create_dir_all(&config).unwrap();
@@ -204,7 +210,7 @@ fn comp_map(work: &Path) {
             ));
         }
     }
-    std::fs::write(work.join("m.csv"), s).unwrap();
+    write(work, "m.csv", s);
     let o = common::run(
         work,
         "map export m.csv --to linuxcnc --type 1 --units mm --step 5 -o lc",
@@ -242,8 +248,8 @@ fn mdi_stops(
             format!("{l}\t{}", ends.join(" "))
         })
         .collect();
-    std::fs::write(work.join("stops.mdi"), with_ends.join("\n") + "\n").unwrap();
-    std::fs::write(work.join("none.ngc"), "M2\n").unwrap();
+    write(work, "stops.mdi", with_ends.join("\n") + "\n");
+    write(work, "none.ngc", "M2\n");
     let py = format!(
         "import json, sys\nsys.path.insert(0, {bench:?})\nimport lcnc\nlcnc.CONFIG = {config:?}\nr = lcnc.run_program({prog:?}, {runs:?}, 300.0)\nprint(json.dumps(r['stops']))\n",
         bench = bench.display().to_string(),
@@ -258,22 +264,15 @@ fn mdi_stops(
         .env("CT_PINS", pins.join(" "))
         .output()
         .unwrap();
-    assert!(
-        o.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    serde_json::from_slice(&o.stdout).unwrap()
+    common::json(&o)
 }
 
 #[test]
 fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
-    if !installed("exported comp files on the motion controller") {
+    let Some(work) = work_with_map("lcnc-comp", "exported comp files on the motion controller")
+    else {
         return;
-    }
-    let work = tempdir("lcnc-comp");
-    comp_map(&work);
+    };
     // The cycle-time machine with the three comp files.
     let keys: Vec<(usize, String)> = ["x.comp", "y.comp", "z.comp"]
         .iter()
@@ -299,11 +298,12 @@ fn exported_comp_files_are_applied_as_modelled_at_every_stop() {
 
 #[test]
 fn backlash_alone_and_a_gantry_are_applied_as_modelled_at_every_stop() {
-    if !installed("BACKLASH and a gantry on the motion controller") {
+    let Some(work) = work_with_map(
+        "lcnc-gantry",
+        "BACKLASH and a gantry on the motion controller",
+    ) else {
         return;
-    }
-    let work = tempdir("lcnc-gantry");
-    comp_map(&work);
+    };
     // X: the BACKLASH map export --backlash-only writes; Y: a gantry, both
     // motors (joints 1 and 2, coordinates=XYYZ) with y.comp; Z: joint 3.
     let comp = |f: &str| format!("COMP_FILE = {f}\nCOMP_FILE_TYPE = 1\n");
@@ -350,7 +350,7 @@ fn backlash_keys(work: &Path) -> Vec<(usize, String)> {
         "map export m.csv --to linuxcnc --backlash-only --units mm -o lb",
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let lb = std::fs::read_to_string(work.join("lb/comp.ini")).unwrap();
+    let lb = read(work, "lb/comp.ini");
     (0..3)
         .map(|j| {
             let s = &lb[lb.find(&format!("[JOINT_{j}]")).unwrap()..];
@@ -410,11 +410,10 @@ fn map_error_um(a: usize, q: f64, forward: bool) -> f64 {
 
 #[test]
 fn a_hybrid_program_leaves_nothing_at_every_stop_beside_backlash() {
-    if !installed("a hybrid program on the motion controller") {
+    let Some(work) = work_with_map("lcnc-hybrid", "a hybrid program on the motion controller")
+    else {
         return;
-    }
-    let work = tempdir("lcnc-hybrid");
-    comp_map(&work);
+    };
     // The machine applies the BACKLASH of map export --backlash-only on
     // every joint; volcomp compensates the rest (the pitch error and the
     // reversal's variation along each axis) with --controller.
@@ -431,7 +430,7 @@ fn a_hybrid_program_leaves_nothing_at_every_stop_beside_backlash() {
             .replace("Z0", "Z1")
     }));
     program.push("M2".into());
-    std::fs::write(work.join("p.ngc"), program.join("\n") + "\n").unwrap();
+    write(&work, "p.ngc", program.join("\n") + "\n");
     let ini_arg = ini.display().to_string();
     let o = common::volcomp(
         &[
@@ -451,8 +450,7 @@ fn a_hybrid_program_leaves_nothing_at_every_stop_beside_backlash() {
         &work,
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let hybrid: Vec<String> = std::fs::read_to_string(work.join("h.ngc"))
-        .unwrap()
+    let hybrid: Vec<String> = read(&work, "h.ngc")
         .lines()
         .map(str::trim)
         .filter(|l| !l.is_empty() && !l.starts_with('(') && *l != "M2")

@@ -4,15 +4,11 @@
 use std::path::Path;
 
 use crate::common;
-use common::{json, ok, stderr, stdout, tempdir, volcomp};
+use common::{json, ok, read, refused, stderr, stdout, tempdir, volcomp, write};
 
 /// A model whose only error is EAZ = 20 µrad (the spindle tilts about X).
 fn write_eaz_model(dir: &Path) {
-    std::fs::write(
-        dir.join("m.toml"),
-        "model = \"kinematic-21\"\nchain = \"w X' Y' b Z t\"\ntables = \"m.csv\"\n[squareness_urad]\nxy = 0\nyz = 0\nzx = 0\n",
-    )
-    .unwrap();
+    write(dir, "m.toml", "model = \"kinematic-21\"\nchain = \"w X' Y' b Z t\"\ntables = \"m.csv\"\n[squareness_urad]\nxy = 0\nyz = 0\nzx = 0\n");
     let mut csv =
         String::from("axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad\n");
     for a in ["X", "Y", "Z"] {
@@ -21,7 +17,7 @@ fn write_eaz_model(dir: &Path) {
             "{a},both,-500,0,0,0,{ea},0,0\n{a},both,500,0,0,0,{ea},0,0\n"
         ));
     }
-    std::fs::write(dir.join("m.csv"), csv).unwrap();
+    write(dir, "m.csv", csv);
 }
 
 #[test]
@@ -60,15 +56,15 @@ fn eval_sees_the_tool_length() {
 fn compensate_and_simulate_take_the_model_and_the_active_tool() {
     let dir = tempdir("comp");
     write_eaz_model(&dir);
-    std::fs::write(dir.join("setup.toml"), "units = \"mm\"\n[tools]\n1 = 150\n").unwrap();
+    write(&dir, "setup.toml", "units = \"mm\"\n[tools]\n1 = 150\n");
     let program = "G21 G90 G17\nG0 X0 Y0 Z50\nG43 H1 G0 Z20\nG1 X10 F500\nM2\n";
-    std::fs::write(dir.join("p.ngc"), program).unwrap();
+    write(&dir, "p.ngc", program);
     let o = common::run(
         &dir,
         "compensate p.ngc --map m.toml --setup setup.toml -o out.ngc",
     );
     ok(&o);
-    let out = std::fs::read_to_string(dir.join("out.ngc")).unwrap();
+    let out = read(&dir, "out.ngc");
     // Tool 1 is 150 mm long: e_y = 3.0 µm, so Y is commanded 3 µm short.
     assert!(out.contains("G43 H1 G0 Z20 Y-0.0030"), "{out}");
     let v = json(&common::run(
@@ -113,7 +109,7 @@ fn example_converts_and_round_trips_through_linuxcnc() {
             "{}",
             stdout(&o)
         );
-        let x = std::fs::read_to_string(dir.join("comp/x.comp")).unwrap();
+        let x = read(&dir, "comp/x.comp");
         assert!(!x.contains('#') && x.lines().count() == 25, "{x}");
         ok(&volcomp(
             &[
@@ -178,11 +174,7 @@ fn example_converts_and_round_trips_through_linuxcnc() {
         "map convert example21.toml --to axis-table --tool-length 120 -o tables.csv",
     );
     ok(&o);
-    assert!(
-        stderr(&o).contains("differs from the model by up to"),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, "differs from the model by up to");
     // At the reference point the axis tables give the model's deviation.
     let a = json(&common::run(
         &dir,
@@ -207,58 +199,63 @@ fn example_converts_and_round_trips_through_linuxcnc() {
         &dir,
         "map convert example21.toml --to grid --step 150 -o grid.csv",
     ));
-    let grid = std::fs::read_to_string(dir.join("grid.csv")).unwrap();
+    let grid = read(&dir, "grid.csv");
     // 5 × 4 × 3 points and the header.
     assert_eq!(
         grid.lines().filter(|l| !l.starts_with('#')).count(),
         61,
         "{grid}"
     );
-    ok(&common::run(
+    common::run_all(
         &dir,
-        "map convert tables.csv --to model -o from_tables.toml",
-    ));
-    ok(&common::run(&dir, "map plot example21.toml -o plot.svg"));
-    let svg = std::fs::read_to_string(dir.join("plot.svg")).unwrap();
+        &[
+            "map convert tables.csv --to model -o from_tables.toml",
+            "map plot example21.toml -o plot.svg",
+        ],
+    );
+    let svg = read(&dir, "plot.svg");
     assert!(
         svg.contains("<svg") && svg.contains("EBX"),
         "plot has the components"
     );
 }
 
-#[test]
-fn dense_axis_tables_go_to_linuxcnc_with_a_resampling_step() {
-    let dir = tempdir("dense");
-    // 301 points every 2 mm: more than LinuxCNC's 256 per joint.
+/// Axis tables of X, Y and Z with a point every 2 mm over 0…600 mm (301 a
+/// table), one for both directions: `ex_um(axis, position)` along X, no
+/// other error.
+fn dense_tables(ex_um: impl Fn(&str, f64) -> f64) -> String {
     let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
     for a in ["X", "Y", "Z"] {
         for k in 0..=300 {
             let p = 2.0 * k as f64;
-            csv.push_str(&format!("{a},both,{p},{},0,0\n", 0.01 * p));
+            csv.push_str(&format!("{a},both,{p},{},0,0\n", ex_um(a, p)));
         }
     }
-    std::fs::write(dir.join("dense.csv"), csv).unwrap();
+    csv
+}
+
+#[test]
+fn dense_axis_tables_go_to_linuxcnc_with_a_resampling_step() {
+    let dir = tempdir("dense");
+    // 301 points every 2 mm: more than LinuxCNC's 256 per joint.
+    write(&dir, "dense.csv", dense_tables(|_, p| 0.01 * p));
     let o = common::run(
         &dir,
         "map convert dense.csv --to linuxcnc --type 1 --units mm -o comp",
     );
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("--step"), "{}", stderr(&o));
+    common::said(&o, "--step");
     ok(&common::run(
         &dir,
         "map convert dense.csv --to linuxcnc --type 1 --units mm --step 10 -o comp",
     ));
-    let x = std::fs::read_to_string(dir.join("comp/x.comp")).unwrap();
+    let x = read(&dir, "comp/x.comp");
     // 0 … 600 every 10 mm: 61 lines; at 600 mm E_XX = 6 µm, trim −0.006 mm.
     assert_eq!(x.lines().count(), 61);
     assert_eq!(x.lines().last().unwrap(), "600 -0.006 -0.006");
     // Without --type LinuxCNC's file type is not guessed.
     let o = common::run(&dir, "map convert dense.csv --to linuxcnc --units mm -o c2");
-    assert!(
-        stderr(&o).contains("--type 0 or --type 1"),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, "--type 0 or --type 1");
 }
 
 #[test]
@@ -270,7 +267,7 @@ fn iso230_2_prints_the_figures_of_the_hand_example() {
         0,1,up,1\n0,2,up,2\n0,3,up,3\n0,1,down,4\n0,2,down,5\n0,3,down,6\n\
         100,1,up,0\n100,2,up,2\n100,3,up,4\n100,1,down,2\n100,2,down,3\n100,3,down,4\n\
         200,1,up,-2\n200,2,up,-1\n200,3,up,0\n200,1,down,1\n200,2,down,1\n200,3,down,1\n";
-    std::fs::write(dir.join("runs.csv"), runs).unwrap();
+    write(&dir, "runs.csv", runs);
     let o = common::run(&dir, "map iso230-2 runs.csv");
     ok(&o);
     let text = stdout(&o);
@@ -293,46 +290,42 @@ fn iso230_2_prints_the_figures_of_the_hand_example() {
         "map iso230-2 runs.csv --axis x -o x.comp --type 1 --units mm",
     ));
     // x̄↑ at 0 is 2 µm, x̄↓ 5 µm: trims −0.002 and −0.005 mm.
-    assert!(std::fs::read_to_string(dir.join("x.comp"))
-        .unwrap()
-        .starts_with("0 -0.002 -0.005\n"));
+    assert!(read(&dir, "x.comp").starts_with("0 -0.002 -0.005\n"));
 }
 
 #[test]
 fn bad_model_files_name_file_row_and_column() {
     let dir = tempdir("bad");
     write_eaz_model(&dir);
-    let csv = std::fs::read_to_string(dir.join("m.csv")).unwrap();
+    let csv = read(&dir, "m.csv");
     let cases: Vec<(&str, String, String, &str)> = vec![
         (
             "nan",
-            std::fs::read_to_string(dir.join("m.toml")).unwrap(),
+            read(&dir, "m.toml"),
             csv.replace("Y,both,500,0,0,0,0,0,0", "Y,both,500,0,nan,0,0,0,0"),
             "m.csv:5:5:",
         ),
         (
             "order",
-            std::fs::read_to_string(dir.join("m.toml")).unwrap(),
+            read(&dir, "m.toml"),
             csv.replace("Y,both,500", "Y,both,-600"),
             "m.csv:5:3:",
         ),
         (
             "unit",
-            std::fs::read_to_string(dir.join("m.toml")).unwrap(),
+            read(&dir, "m.toml"),
             csv.replace("ea_urad", "ea"),
             "m.csv:1:7:",
         ),
         (
             "missing",
-            std::fs::read_to_string(dir.join("m.toml"))
-                .unwrap()
-                .replace("zx = 0\n", ""),
+            read(&dir, "m.toml").replace("zx = 0\n", ""),
             csv.clone(),
             "m.toml:4:1:",
         ),
         (
             "axis",
-            std::fs::read_to_string(dir.join("m.toml")).unwrap(),
+            read(&dir, "m.toml"),
             csv.lines()
                 .filter(|l| !l.starts_with('Z'))
                 .map(|l| format!("{l}\n"))
@@ -341,8 +334,8 @@ fn bad_model_files_name_file_row_and_column() {
         ),
     ];
     for (name, toml, csv, want) in cases {
-        std::fs::write(dir.join("b.toml"), toml.replace("m.csv", "b.csv")).unwrap();
-        std::fs::write(dir.join("b.csv"), csv).unwrap();
+        write(&dir, "b.toml", toml.replace("m.csv", "b.csv"));
+        write(&dir, "b.csv", csv);
         let o = common::run(&dir, "map eval b.toml --at 0,0,0");
         let msg = stderr(&o)
             .replace("b.csv", "m.csv")
@@ -351,20 +344,12 @@ fn bad_model_files_name_file_row_and_column() {
         assert!(msg.contains(want) && msg.contains("help:"), "{name}: {msg}");
     }
     // A file whose name and content name no model kind: the formats listed.
-    std::fs::write(dir.join("m.json"), "{}\n").unwrap();
+    write(&dir, "m.json", "{}\n");
     let o = common::run(&dir, "map eval m.json --at 0,0,0");
-    assert!(
-        stderr(&o).contains(".toml for a 21-component model"),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, ".toml for a 21-component model");
     // The component table given where a map is expected: pointed to its TOML.
     let o = common::run(&dir, "compensate x.ngc --map m.csv -o o.ngc");
-    assert!(
-        stderr(&o).contains("model = \"kinematic-21\""),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, "model = \"kinematic-21\"");
 }
 
 #[test]
@@ -373,19 +358,11 @@ fn an_export_that_leaves_more_than_the_table_error_names_the_flag_to_change() {
     // E_XX = 3 µm · sin(2π x / 16 mm), a point every 2 mm: a table every
     // 10 mm cannot follow a 16 mm wave (the sine's own values at 10 mm
     // spacing, interpolated, miss it by more than 1 µm between them).
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for a in ["X", "Y", "Z"] {
-        for k in 0..=300 {
-            let p = 2.0 * k as f64;
-            let e = if a == "X" {
-                3.0 * (2.0 * std::f64::consts::PI * p / 16.0).sin()
-            } else {
-                0.0
-            };
-            csv.push_str(&format!("{a},both,{p},{e},0,0\n"));
-        }
-    }
-    std::fs::write(dir.join("wave.csv"), csv).unwrap();
+    let wave = |a: &str, p: f64| match a {
+        "X" => 3.0 * (2.0 * std::f64::consts::PI * p / 16.0).sin(),
+        _ => 0.0,
+    };
+    write(&dir, "wave.csv", dense_tables(wave));
     let args = |extra: &[&'static str]| {
         let mut v = vec![
             "map", "export", "wave.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm",
@@ -394,9 +371,7 @@ fn an_export_that_leaves_more_than_the_table_error_names_the_flag_to_change() {
         v.extend_from_slice(extra);
         v
     };
-    let o = volcomp(&args(&[]), &dir);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    let e = stderr(&o);
+    let e = refused(&volcomp(&args(&[]), &dir));
     assert!(e.contains("axis X") && e.contains("finer step"), "{e}");
     assert!(e.contains("(--max-table-error-um)"), "{e}");
     assert!(!e.contains("max_table_error_um"), "{e}");

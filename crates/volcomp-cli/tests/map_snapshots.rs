@@ -4,7 +4,7 @@
 //! accepted by mistake would still fail.
 
 use crate::common;
-use common::tempdir;
+use common::{tempdir, write};
 
 /// Axis tables over 0…100 mm, linear from zero: X gives (2, 1, 0) µm at
 /// 100 mm, Y (0, 4, 0), Z (0, 0, −6); the reverse X table is twice the forward.
@@ -22,7 +22,7 @@ Z,both,100,0,0,-6
 #[test]
 fn eval_of_axis_tables() {
     let dir = tempdir("eval_tables");
-    std::fs::write(dir.join("m.csv"), MAP).unwrap();
+    write(&dir, "m.csv", MAP);
     let o = common::run(&dir, "map eval m.csv --at 50,25,100");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8(o.stdout).unwrap();
@@ -46,11 +46,11 @@ fn eval_of_axis_tables() {
 #[test]
 fn bad_map_csv_points_at_the_field() {
     let dir = tempdir("bad_csv");
-    std::fs::write(
-        dir.join("m.csv"),
+    write(
+        &dir,
+        "m.csv",
         MAP.replace("X,forward,100,2,1,0", "X,forward,1OO,2,1,0"),
-    )
-    .unwrap();
+    );
     let o = common::run(&dir, "map eval m.csv --at 0,0,0");
     assert_eq!(o.status.code(), Some(2));
     let text = String::from_utf8(o.stderr).unwrap();
@@ -62,7 +62,7 @@ fn bad_map_csv_points_at_the_field() {
 #[test]
 fn unknown_model_kind_lists_the_known_ones() {
     let dir = tempdir("unknown_kind");
-    std::fs::write(dir.join("m.toml"), "# a model\nmodel = \"thermal-9\"\n").unwrap();
+    write(&dir, "m.toml", "# a model\nmodel = \"thermal-9\"\n");
     let o = common::run(&dir, "map eval m.toml --at 0,0,0");
     assert_eq!(o.status.code(), Some(2));
     let text = String::from_utf8(o.stderr).unwrap();

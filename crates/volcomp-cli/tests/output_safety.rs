@@ -5,9 +5,11 @@
 
 use crate::common;
 
-use common::{compensate_to, fixture, large_program, stderr, tempdir, volcomp, PROGRAM};
+use common::{
+    compensate_to, fixture, large_program, read, refused, stderr, tempdir, volcomp, write, PROGRAM,
+};
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::{Command, Output, Stdio};
 
 fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
@@ -33,6 +35,11 @@ fn temporaries(dir: &Path) -> Vec<String> {
         .collect()
 }
 
+/// The arguments `base` followed by `extra`.
+fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
+    [base, extra].concat()
+}
+
 /// Runs `args` (with `{OUT}` replaced by each input in turn) and checks that
 /// it is refused naming the path, and that no file in `dir` changed.
 fn refused_for_every_input(dir: &Path, args: &[&str], inputs: &[&str]) {
@@ -56,28 +63,23 @@ fn refused_for_every_input(dir: &Path, args: &[&str], inputs: &[&str]) {
 #[test]
 fn compensate_outputs_never_replace_inputs() {
     let d = fixture("comp_inputs");
-    let base = [
-        "compensate",
-        "part.ngc",
-        "--map",
-        "map.csv",
-        "--setup",
-        "machine.toml",
-    ];
+    let base = common::args("compensate part.ngc --map map.csv --setup machine.toml");
     let inputs = ["part.ngc", "map.csv", "machine.toml", "./sub/../map.csv"];
     std::fs::create_dir_all(d.join("sub")).unwrap();
-    let mut a = base.to_vec();
-    a.extend(["-o", "{OUT}"]);
-    refused_for_every_input(&d, &a, &inputs);
-    let mut a = base.to_vec();
-    a.extend(["-o", "out.ngc", "--report", "{OUT}"]);
-    refused_for_every_input(&d, &a, &inputs);
+    refused_for_every_input(&d, &with(&base, &["-o", "{OUT}"]), &inputs);
+    refused_for_every_input(
+        &d,
+        &with(&base, &["-o", "out.ngc", "--report", "{OUT}"]),
+        &inputs,
+    );
     // Through a symbolic link and a hard link to the map.
     std::os::unix::fs::symlink("map.csv", d.join("link.csv")).unwrap();
     std::fs::hard_link(d.join("map.csv"), d.join("hard.csv")).unwrap();
-    let mut a = base.to_vec();
-    a.extend(["-o", "{OUT}"]);
-    refused_for_every_input(&d, &a, &["link.csv", "hard.csv"]);
+    refused_for_every_input(
+        &d,
+        &with(&base, &["-o", "{OUT}"]),
+        &["link.csv", "hard.csv"],
+    );
 }
 
 #[test]
@@ -87,8 +89,7 @@ fn two_outputs_on_one_path_are_refused() {
         &d,
         "compensate part.ngc --map map.csv --work-offset 200,150,100 -o x.ngc --report x.ngc",
     );
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{e}");
+    let e = refused(&o);
     assert!(
         e.contains("--report") && e.contains("-o") && e.contains("same file"),
         "{e}"
@@ -99,22 +100,12 @@ fn two_outputs_on_one_path_are_refused() {
 #[test]
 fn simulate_outputs_never_replace_inputs() {
     let d = fixture("sim_inputs");
-    std::fs::write(d.join("ref.ngc"), PROGRAM).unwrap();
-    let base = [
-        "simulate",
-        "part.ngc",
-        "--map",
-        "map.csv",
-        "--setup",
-        "machine.toml",
-        "--reference",
-        "ref.ngc",
-    ];
+    write(&d, "ref.ngc", PROGRAM);
+    let base =
+        common::args("simulate part.ngc --map map.csv --setup machine.toml --reference ref.ngc");
     let inputs = ["part.ngc", "map.csv", "machine.toml", "ref.ngc"];
     for flag in ["--errors-csv", "--plot"] {
-        let mut a = base.to_vec();
-        a.extend([flag, "{OUT}"]);
-        refused_for_every_input(&d, &a, &inputs);
+        refused_for_every_input(&d, &with(&base, &[flag, "{OUT}"]), &inputs);
     }
 }
 
@@ -145,14 +136,11 @@ fn map_convert_and_plot_never_replace_inputs() {
     // --to model writes OUT and OUT's .csv: `-o example21.toml` would
     // replace both inputs, `-o x.toml` where x.csv is the input's table too.
     std::fs::copy(d.join("example21.csv"), d.join("tables.csv")).unwrap();
-    let toml = std::fs::read_to_string(d.join("example21.toml"))
-        .unwrap()
-        .replace("example21.csv", "tables.csv");
-    std::fs::write(d.join("m.toml"), toml).unwrap();
+    let toml = read(&d, "example21.toml").replace("example21.csv", "tables.csv");
+    write(&d, "m.toml", toml);
     let before = snapshot(&d);
     let o = common::run(&d, "map convert m.toml --to model -o tables.toml");
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{e}");
+    let e = refused(&o);
     assert!(
         e.contains("refusing to write") && e.contains("tables.csv"),
         "{e}"
@@ -175,24 +163,13 @@ fn thermal_outputs_never_replace_inputs() {
         "temperatures_train.csv",
         "artifact.csv",
     ];
-    let base = [
-        "thermal",
-        "fit",
-        "--measurements",
-        "measurements_train.csv",
-        "--temperatures",
-        "temperatures_train.csv",
-        "--artifact",
-        "artifact.csv",
-        "--ranges-mm",
-        "0:600,0:400,0:300",
-    ];
-    let mut a = base.to_vec();
-    a.extend(["-o", "{OUT}"]);
-    refused_for_every_input(&d, &a, &inputs);
-    let mut a = base.to_vec();
-    a.extend(["-o", "t.toml", "--bands", "{OUT}"]);
-    refused_for_every_input(&d, &a, &inputs);
+    let base = common::args("thermal fit --measurements measurements_train.csv --temperatures temperatures_train.csv --artifact artifact.csv --ranges-mm 0:600,0:400,0:300");
+    refused_for_every_input(&d, &with(&base, &["-o", "{OUT}"]), &inputs);
+    refused_for_every_input(
+        &d,
+        &with(&base, &["-o", "t.toml", "--bands", "{OUT}"]),
+        &inputs,
+    );
 }
 
 #[test]
@@ -203,7 +180,7 @@ fn straightness_outputs_never_replace_inputs() {
         let x = k as f64 * 2.0;
         s.push_str(&format!("{x},{}\n", (x / 40.0).sin()));
     }
-    std::fs::write(d.join("run.csv"), &s).unwrap();
+    write(&d, "run.csv", &s);
     for args in [
         vec!["straightness", "fit", "run.csv", "-o", "{OUT}"],
         vec!["straightness", "plot", "run.csv", "-o", "{OUT}"],
@@ -231,8 +208,7 @@ fn special_files_are_written_through_never_replaced() {
         .is_char_device());
     if Path::new("/dev/full").exists() {
         let o = compensate_to(&d, "/dev/full");
-        let e = stderr(&o);
-        assert_eq!(o.status.code(), Some(2), "{e}");
+        let e = refused(&o);
         assert!(e.contains("/dev/full") && e.contains("No space"), "{e}");
         assert!(std::fs::metadata("/dev/full")
             .unwrap()
@@ -271,7 +247,7 @@ fn special_files_are_written_through_never_replaced() {
     }
     // A symbolic link to a regular file: the target gets the program, the
     // link stays a link.
-    std::fs::write(d.join("real.ngc"), "old").unwrap();
+    write(&d, "real.ngc", "old");
     std::os::unix::fs::symlink("real.ngc", d.join("link.ngc")).unwrap();
     let o = compensate_to(&d, "link.ngc");
     assert!(o.status.success(), "{}", stderr(&o));
@@ -279,27 +255,22 @@ fn special_files_are_written_through_never_replaced() {
         .unwrap()
         .file_type()
         .is_symlink());
-    assert!(std::fs::read_to_string(d.join("real.ngc"))
-        .unwrap()
-        .contains("M2"));
+    assert!(read(&d, "real.ngc").contains("M2"));
     assert!(temporaries(&d).is_empty());
 }
 
 #[test]
 fn a_full_disk_leaves_the_old_output_and_no_temporary() {
     let d = fixture("full");
-    std::fs::write(d.join("out.ngc"), "old program").unwrap();
+    write(&d, "out.ngc", "old program");
     // The report fails (/dev/full) after the program was staged: neither is
     // put in place, the old program stays.
     let o = common::run(
         &d,
         "compensate part.ngc --map map.csv --setup machine.toml -o out.ngc --report /dev/full",
     );
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert_eq!(
-        std::fs::read_to_string(d.join("out.ngc")).unwrap(),
-        "old program"
-    );
+    refused(&o);
+    assert_eq!(read(&d, "out.ngc"), "old program");
     assert!(temporaries(&d).is_empty(), "{:?}", temporaries(&d));
 }
 
@@ -319,7 +290,7 @@ fn kills_mid_write(name: &str, named: bool, signals: &[&str]) {
     let d = fixture(name);
     large_program(&d, 400_000);
     for signal in signals {
-        std::fs::write(d.join("out.ngc"), "old program").unwrap();
+        write(&d, "out.ngc", "old program");
         let mut child = common::command(
             &d,
             "compensate large.ngc --map map.csv --setup machine.toml --segments 4 -o out.ngc",
@@ -349,11 +320,7 @@ fn kills_mid_write(name: &str, named: bool, signals: &[&str]) {
             "the run ended before SIGKILL could interrupt it; make the program larger"
         );
         assert!(!status.success(), "{signal}: {status:?}");
-        assert_eq!(
-            std::fs::read_to_string(d.join("out.ngc")).unwrap(),
-            "old program",
-            "{signal}"
-        );
+        assert_eq!(read(&d, "out.ngc"), "old program", "{signal}");
         assert!(
             temporaries(&d).is_empty(),
             "{signal}: {:?}",
@@ -362,35 +329,23 @@ fn kills_mid_write(name: &str, named: bool, signals: &[&str]) {
     }
 }
 
-#[test]
-fn a_closed_standard_output_is_an_error() {
-    let d = fixture("closed_stdout");
-    // `volcomp moves part.ngc >&-`
-    let o = Command::new("sh")
+/// Runs `volcomp LINE` through `sh` in `dir`, so that LINE may redirect
+/// volcomp's standard streams.
+fn shell(dir: &Path, line: &str) -> Output {
+    let volcomp = env!("CARGO_BIN_EXE_volcomp");
+    Command::new("sh")
         .arg("-c")
-        .arg(format!(
-            "'{}' moves part.ngc >&-",
-            env!("CARGO_BIN_EXE_volcomp")
-        ))
-        .current_dir(&d)
+        .arg(format!("'{volcomp}' {line}"))
+        .current_dir(dir)
         .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("standard output is closed"),
-        "{}",
-        stderr(&o)
-    );
+        .unwrap()
 }
 
 #[test]
 fn a_full_disk_on_a_later_output_says_what_was_written() {
     let d = tempdir("later_output");
-    let o = common::run(&d, "thermal example -o .");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = common::run(&d, "thermal fit --measurements measurements_train.csv --temperatures temperatures_train.csv --artifact artifact.csv --ranges-mm 0:600,0:400,0:300 -o t.toml --bands /dev/full");
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{e}");
+    common::ok(&common::run(&d, "thermal example -o ."));
+    let e = refused(&common::run(&d, "thermal fit --measurements measurements_train.csv --temperatures temperatures_train.csv --artifact artifact.csv --ranges-mm 0:600,0:400,0:300 -o t.toml --bands /dev/full"));
     assert!(e.contains("No space left"), "{e}");
     assert!(
         e.contains("written before the error: t.toml")
@@ -399,29 +354,32 @@ fn a_full_disk_on_a_later_output_says_what_was_written() {
     );
 }
 
+/// A standard output that is full (`> /dev/full`) or closed (`>&-`) is an
+/// error that says so.
 #[test]
-fn a_full_standard_output_is_an_error() {
-    let d = fixture("full_stdout");
-    for cmd in [
-        "moves part.ngc --setup machine.toml",
-        "compensate part.ngc --map map.csv --setup machine.toml -o -",
-        "simulate part.ngc --map map.csv --setup machine.toml",
+fn a_full_or_closed_standard_output_is_an_error() {
+    let d = fixture("bad_stdout");
+    for (cmd, said) in [
+        (
+            "moves part.ngc --setup machine.toml > /dev/full",
+            &["standard output", "No space"][..],
+        ),
+        (
+            "compensate part.ngc --map map.csv --setup machine.toml -o - > /dev/full",
+            &["standard output", "No space"],
+        ),
+        (
+            "simulate part.ngc --map map.csv --setup machine.toml > /dev/full",
+            &["standard output", "No space"],
+        ),
+        ("moves part.ngc >&-", &["standard output is closed"]),
     ] {
-        let o = Command::new("sh")
-            .arg("-c")
-            .arg(format!(
-                "'{}' {cmd} > /dev/full",
-                env!("CARGO_BIN_EXE_volcomp")
-            ))
-            .current_dir(&d)
-            .output()
-            .unwrap();
+        let o = shell(&d, cmd);
         let e = stderr(&o);
         assert_eq!(o.status.code(), Some(2), "{cmd}: {e}");
-        assert!(
-            e.contains("standard output") && e.contains("No space"),
-            "{cmd}: {e}"
-        );
+        for s in said {
+            assert!(e.contains(s), "{cmd}: no `{s}` in: {e}");
+        }
     }
 }
 
@@ -494,28 +452,22 @@ fn every_other_output_flag_against_every_input() {
     // thermal predict writes OUT.toml and OUT.csv beside it: `-o temps.toml`
     // would replace the temperatures.
     let before = snapshot(&d);
-    let o = common::run(
+    let e = refused(&common::run(
         &d,
         "thermal predict --model thermal.toml --temperatures temps.csv -o temps.toml",
-    );
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("temps.csv"), "{}", stderr(&o));
+    ));
+    assert!(e.contains("temps.csv"), "{e}");
     assert_eq!(snapshot(&d), before);
     // map convert --to linuxcnc writes x.comp, y.comp, z.comp into a
     // directory: one of them a hard link to the map.
     std::fs::create_dir(d.join("comp")).unwrap();
     std::fs::hard_link(d.join("map.csv"), d.join("comp/y.comp")).unwrap();
-    let o = common::run(
+    let e = refused(&common::run(
         &d,
         "map convert map.csv --to linuxcnc --type 1 --units mm -o comp",
-    );
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{e}");
+    ));
     assert!(e.contains("y.comp") && e.contains("MAP"), "{e}");
-    assert_eq!(
-        std::fs::read_to_string(d.join("map.csv")).unwrap(),
-        "placeholder map.csv\n"
-    );
+    assert_eq!(read(&d, "map.csv"), "placeholder map.csv\n");
 }
 
 /// Files no option names but an input does — the set-up's `var_file`, a
@@ -528,23 +480,23 @@ fn files_named_inside_inputs_are_never_replaced() {
     let d = fixture("indirect_inputs");
     // A set-up with a var file (G54 at 200, 150, 100 as #5221…) and a
     // subroutine directory; a program that calls a subroutine file.
-    std::fs::write(
-        d.join("var.toml"),
+    write(
+        &d,
+        "var.toml",
         "units = \"mm\"\nsubroutine_path = [\"subs\"]\nvar_file = \"sim.var\"\n",
-    )
-    .unwrap();
-    std::fs::write(d.join("sim.var"), "5220 1\n5221 200\n5222 150\n5223 100\n").unwrap();
+    );
+    write(&d, "sim.var", "5220 1\n5221 200\n5222 150\n5223 100\n");
     std::fs::create_dir_all(d.join("subs")).unwrap();
-    std::fs::write(
-        d.join("subs/pocket.ngc"),
+    write(
+        &d,
+        "subs/pocket.ngc",
         "o<pocket> sub\nG1 X60 Y40\nG1 X10\no<pocket> endsub\n",
-    )
-    .unwrap();
-    std::fs::write(
-        d.join("calls.ngc"),
+    );
+    write(
+        &d,
+        "calls.ngc",
         "G21 G90 G17\nG0 X10 Y10 Z5\nG1 Z-1 F300\no<pocket> call\nG0 Z5\nM2\n",
-    )
-    .unwrap();
+    );
     let run = |args: &[&str], out: &str| {
         let before = snapshot(&d);
         let sub_before = std::fs::read(d.join("subs/pocket.ngc")).unwrap();
@@ -564,14 +516,7 @@ fn files_named_inside_inputs_are_never_replaced() {
         assert!(temporaries(&d).is_empty(), "{args:?} left a temporary");
         e
     };
-    let comp = [
-        "compensate",
-        "calls.ngc",
-        "--map",
-        "map.csv",
-        "--setup",
-        "var.toml",
-    ];
+    let comp = common::args("compensate calls.ngc --map map.csv --setup var.toml");
     // The run works as it is: the var file gives G54 and the subroutine is found.
     let ok = volcomp(&[&comp[..], &["-o", "ok.ngc"]].concat(), &d);
     assert!(ok.status.success(), "{}", stderr(&ok));
@@ -675,8 +620,7 @@ fn redirected_standard_streams_are_compared_as_files() {
         .stdin(std::fs::File::open(d.join("part.ngc")).unwrap())
         .output()
         .unwrap();
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{e}");
+    let e = refused(&o);
     assert!(
         e.contains("refusing to write") && e.contains("part.ngc"),
         "{e}"
@@ -693,8 +637,7 @@ fn redirected_standard_streams_are_compared_as_files() {
         .stdout(append)
         .output()
         .unwrap();
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{e}");
+    let e = refused(&o);
     assert!(
         e.contains("standard output") || e.contains("refusing"),
         "{e}"

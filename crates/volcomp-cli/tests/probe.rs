@@ -9,9 +9,8 @@
 use crate::common;
 use crate::rs274;
 
-use common::{stderr, tempdir, volcomp};
+use common::{read, stderr, tempdir, volcomp, write};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
 
 fn rs274_or_skip() -> Option<PathBuf> {
     match rs274::find_rs274() {
@@ -35,17 +34,7 @@ fn run_plan(exe: &Path, program: &Path, dir: &Path) -> Result<Vec<[f64; 3]>, Str
     let var = dir.join("p.var");
     std::fs::write(&var, "5220 1\n5221 1\n5222 2\n5223 -3\n").unwrap();
     let out_path = dir.join("canon.txt");
-    let out = Command::new(exe)
-        .current_dir(dir)
-        .env("HOME", dir)
-        .arg("-g")
-        .arg("-t")
-        .arg(&tbl)
-        .arg("-v")
-        .arg(&var)
-        .arg(program)
-        .arg(&out_path)
-        .stdin(Stdio::null())
+    let out = rs274::command(exe, dir, &tbl, &var, program, &out_path)
         .output()
         .expect("run rs274");
     let chatter = rs274::chatter(&out);
@@ -81,9 +70,9 @@ fn every_generated_program_is_accepted_by_rs274() {
     let d = tempdir("plans");
     let o = common::run(&d, "probe example -o ex");
     assert!(o.status.success(), "{}", stderr(&o));
-    std::fs::write(d.join("inch.toml"), SETUP).unwrap();
-    std::fs::write(d.join("square.toml"), SQUARE).unwrap();
-    std::fs::write(d.join("zstep.toml"), ZGAUGE).unwrap();
+    write(&d, "inch.toml", SETUP);
+    write(&d, "square.toml", SQUARE);
+    write(&d, "zstep.toml", ZGAUGE);
     let cases = [
         ("ex/reference.toml", vec![]),
         ("ex/plate.toml", vec!["--sphere-touches", "9"]),
@@ -155,32 +144,29 @@ fn every_generated_program_is_accepted_by_rs274() {
 fn the_example_campaign_fits_into_a_model_compensate_takes() {
     let d = tempdir("fit");
     assert!(common::run(&d, "probe example -o ex").status.success());
-    let o = common::run(&d, "probe fit --artifact ex/reference.toml --artifact ex/plate.toml --artifact ex/gauge.toml --log ex/reference.log --log ex/plate.log --log ex/gauge.log --ranges-mm 0:600,0:400,0:300 --report probe.html -o model.toml");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let said = String::from_utf8_lossy(&o.stdout);
+    let said = common::ok(&common::run(&d, "probe fit --artifact ex/reference.toml --artifact ex/plate.toml --artifact ex/gauge.toml --log ex/reference.log --log ex/plate.log --log ex/gauge.log --ranges-mm 0:600,0:400,0:300 --report probe.html -o model.toml"));
     assert!(said.contains("ECY.P1   not seen"), "{said}");
     assert!(said.contains("reversal (backlash, µm): X"), "{said}");
     assert!(d.join("model.csv").is_file());
-    let html = std::fs::read_to_string(d.join("probe.html")).unwrap();
+    let html = read(&d, "probe.html");
     assert!(html.contains("Placements and residuals") && html.contains("<svg"));
     // The model is an ordinary 21-component model.
-    let o = common::run(&d, "map eval model.toml --at 300,200,100 --tool-length 100");
-    assert!(o.status.success(), "{}", stderr(&o));
-    std::fs::write(
-        d.join("part.ngc"),
+    common::ok(&common::run(
+        &d,
+        "map eval model.toml --at 300,200,100 --tool-length 100",
+    ));
+    write(
+        &d,
+        "part.ngc",
         "G21 G90\nG0 X100 Y100 Z150\nG1 X400 Y300 Z100 F500\nM2\n",
-    )
-    .unwrap();
-    let o = common::run(
+    );
+    common::ok(&common::run(
         &d,
         "compensate part.ngc --map model.toml --work-offset 0,0,0 -o part.comp.ngc",
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
+    ));
     // Verify, applying the model in software to the same run: what is left
     // is the noise.
-    let o = common::run(&d, "probe verify --artifact ex/reference.toml --artifact ex/plate.toml --artifact ex/gauge.toml --log ex/reference.log --log ex/plate.log --log ex/gauge.log --ranges-mm 0:600,0:400,0:300 --map model.toml --applied software");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let said = String::from_utf8_lossy(&o.stdout);
+    let said = common::ok(&common::run(&d, "probe verify --artifact ex/reference.toml --artifact ex/plate.toml --artifact ex/gauge.toml --log ex/reference.log --log ex/plate.log --log ex/gauge.log --ranges-mm 0:600,0:400,0:300 --map model.toml --applied software"));
     assert!(said.contains("what is left: RMS"), "{said}");
 }
 
@@ -188,9 +174,9 @@ fn the_example_campaign_fits_into_a_model_compensate_takes() {
 fn a_bad_log_is_located_and_nothing_is_written() {
     let d = tempdir("bad");
     assert!(common::run(&d, "probe example -o ex").status.success());
-    let log = std::fs::read_to_string(d.join("ex/plate.log")).unwrap();
+    let log = read(&d, "ex/plate.log");
     let bad = log.replacen("d=-Z", "d=down", 1);
-    std::fs::write(d.join("bad.log"), &bad).unwrap();
+    write(&d, "bad.log", &bad);
     let o = common::run(
         &d,
         "probe fit --artifact ex/plate.toml --log bad.log --ranges-mm 0:600,0:400,0:300 -o m.toml",
@@ -204,14 +190,11 @@ fn a_bad_log_is_located_and_nothing_is_written() {
     assert!(!d.join("m.toml").exists() && !d.join("m.csv").exists());
     // A touch of a placement the artifact does not have.
     let bad = log.replacen("p=low ", "p=nowhere ", 1);
-    std::fs::write(d.join("bad.log"), &bad).unwrap();
+    write(&d, "bad.log", &bad);
     let o = common::run(
         &d,
         "probe fit --artifact ex/plate.toml --log bad.log --ranges-mm 0:600,0:400,0:300 -o m.toml",
     );
-    assert!(
-        stderr(&o).contains("bad.log:3:") && stderr(&o).contains("no placement `nowhere`"),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, "bad.log:3:");
+    common::said(&o, "no placement `nowhere`");
 }

@@ -19,7 +19,7 @@
 
 use crate::common;
 
-use common::{stderr, tempdir, volcomp};
+use common::{stderr, tempdir, volcomp, write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
@@ -60,6 +60,11 @@ const DIAMETER_MM: f64 = 25.0;
 const TIP_DIAMETER_MM: f64 = 2.0;
 const G54_MM: [f64; 3] = [50.0, 20.0, -10.0];
 
+/// The last 15 lines of `text`, newest first (for a failure message).
+fn last_lines(text: &str) -> String {
+    text.lines().rev().take(15).collect::<Vec<_>>().join("\n")
+}
+
 /// Runs `program` on a fresh copy of the configuration; returns the
 /// display's result line (JSON) or the run's logs.
 fn run_linuxcnc(program: &Path, work: &Path) -> Result<String, String> {
@@ -78,7 +83,7 @@ fn run_linuxcnc(program: &Path, work: &Path) -> Result<String, String> {
         ));
     }
     hal.push_str(&format!("setp sphere-inside.in1 {:.12}\n", rho * rho));
-    std::fs::write(cfg.join("sphere.hal"), hal).unwrap();
+    write(&cfg, "sphere.hal", hal);
     let result = work.join("result.jsonl");
     // probe_display.py appends its line: a run starts from no result.
     let _ = std::fs::remove_file(&result);
@@ -129,19 +134,9 @@ fn run_linuxcnc(program: &Path, work: &Path) -> Result<String, String> {
         let debug = std::fs::read_to_string(work.join("linuxcnc_debug.txt")).unwrap_or_default();
         return Err(format!(
             "LinuxCNC run failed ({status}): {line}\n{}\n{}\n{}",
-            String::from_utf8_lossy(&out.stdout)
-                .lines()
-                .rev()
-                .take(15)
-                .collect::<Vec<_>>()
-                .join("\n"),
-            String::from_utf8_lossy(&out.stderr)
-                .lines()
-                .rev()
-                .take(15)
-                .collect::<Vec<_>>()
-                .join("\n"),
-            debug.lines().rev().take(15).collect::<Vec<_>>().join("\n")
+            last_lines(&common::stdout(&out)),
+            last_lines(&common::stderr(&out)),
+            last_lines(&debug)
         ));
     }
     Ok(line)
@@ -170,7 +165,7 @@ fn the_reference_sphere_is_found_within_a_tenth_of_a_micrometre_on_linuxcnc() {
     let artifact = format!(
         "artifact = \"reference-sphere\"\nname = \"ref\"\n[certificate]\ndiameter_mm = {DIAMETER_MM}\nu_diameter_um = 0.1\n[[placements]]\nname = \"r\"\norigin_mm = [120, 80, 30]\n"
     );
-    std::fs::write(d.join("ref.toml"), &artifact).unwrap();
+    write(&d, "ref.toml", &artifact);
     std::fs::write(
         d.join("setup.toml"),
         format!(

@@ -1,11 +1,11 @@
 //! Input files read the same way everywhere, and what used to be accepted
 //! silently is refused or warned about: located, with what to do.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Output;
 
 use crate::common;
-use common::{stderr, tempdir, volcomp};
+use common::{read, refused, stderr, tempdir, volcomp, write};
 
 /// A flat map over `lo…hi` mm on every axis.
 fn flat_map(dir: &Path, lo: f64, hi: f64) {
@@ -13,7 +13,17 @@ fn flat_map(dir: &Path, lo: f64, hi: f64) {
     for a in ["X", "Y", "Z"] {
         csv.push_str(&format!("{a},both,{lo},0,0,0\n{a},both,{hi},1,0,0\n"));
     }
-    std::fs::write(dir.join("map.csv"), csv).unwrap();
+    write(dir, "map.csv", csv);
+}
+
+/// A fresh folder `name` with a flat map over 0…500 mm and a program p.ngc
+/// that goes to (250, 250, 250).
+#[track_caller]
+fn flat_dir(name: &str) -> PathBuf {
+    let d = tempdir(name);
+    flat_map(&d, 0.0, 500.0);
+    write(&d, "p.ngc", "G21 G90\nG0 X250 Y250 Z250\nM2\n");
+    d
 }
 
 fn compensate(dir: &Path, extra: &[&str]) -> Output {
@@ -27,11 +37,11 @@ fn a_map_in_metres_is_suspected_and_numbers_stay_short() {
     let d = tempdir("unit");
     // Map positions in metres (0 … 0.5), program in mm.
     flat_map(&d, 0.0, 0.5);
-    std::fs::write(
-        d.join("p.ngc"),
+    write(
+        &d,
+        "p.ngc",
         "G21 G90\nG0 X250 Y250 Z250\nG1 X300 F100\nM2\n",
-    )
-    .unwrap();
+    );
     let o = compensate(&d, &["--work-offset", "0,0,0"]);
     let msg = stderr(&o);
     assert!(!o.status.success());
@@ -43,11 +53,11 @@ fn a_map_in_metres_is_suspected_and_numbers_stay_short() {
     assert!(!msg.contains("no work offset"), "{msg}");
     // A huge position prints in scientific notation, not 300 digits.
     flat_map(&d, 0.0, 500.0);
-    std::fs::write(
-        d.join("p.ngc"),
+    write(
+        &d,
+        "p.ngc",
         format!("G21 G90\nG0 X{} Y1 Z1\nM2\n", "9".repeat(40)),
-    )
-    .unwrap();
+    );
     let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
     assert!(msg.len() < 2000, "{msg}");
     // The message (its first line; the excerpt below shows the source) gives
@@ -60,80 +70,67 @@ fn a_map_in_metres_is_suspected_and_numbers_stay_short() {
 #[test]
 fn bom_quotes_semicolons_and_bad_bytes_in_a_map() {
     let d = tempdir("csv");
-    std::fs::write(
-        d.join("p.ngc"),
-        "G21 G90\nG0 X10 Y10 Z10\nG1 X20 F100\nM2\n",
-    )
-    .unwrap();
+    write(&d, "p.ngc", "G21 G90\nG0 X10 Y10 Z10\nG1 X20 F100\nM2\n");
     let good = "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,0,0,0\nX,both,100,1,0,0\nY,both,0,0,0,0\nY,both,100,0,0,0\nZ,both,0,0,0,0\nZ,both,100,0,0,0\n";
     // A byte-order mark and quoted fields are read.
     let bom = format!(
         "\u{feff}{}",
         good.replace("X,both,100,1", "\"X\",\"both\",\"100\",\"1\"")
     );
-    std::fs::write(d.join("map.csv"), bom).unwrap();
+    write(&d, "map.csv", bom);
     let o = compensate(&d, &["--work-offset", "0,0,0"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    // Semicolons: the hint says what volcomp reads.
-    std::fs::write(d.join("map.csv"), good.replace(',', ";")).unwrap();
-    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
-    assert!(
-        msg.contains("map.csv:1:1:") && msg.contains("';' as separator"),
-        "{msg}"
-    );
-    // A decimal comma: one field too many, with the hint.
-    std::fs::write(
-        d.join("map.csv"),
-        good.replace("X,both,100,1,0,0", "X,both,100,1,5,0,0"),
-    )
-    .unwrap();
-    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
-    assert!(
-        msg.contains("map.csv:3:7:") && msg.contains("decimal commas"),
-        "{msg}"
-    );
-    // A terminal escape in a field is shown escaped.
-    std::fs::write(
-        d.join("map.csv"),
-        good.replace("X,both,100,1", "X,both,100,\u{1b}[2J"),
-    )
-    .unwrap();
-    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
-    assert!(
-        msg.contains("map.csv:3:4:") && !msg.contains('\u{1b}'),
-        "{msg}"
-    );
-    assert!(msg.contains("\\x1b"), "{msg}");
-    // A byte that is not UTF-8 is located.
-    let mut bytes = good.as_bytes().to_vec();
-    let at = good.find("X,both,100").unwrap() + 9;
-    bytes[at] = 0xe9;
-    std::fs::write(d.join("map.csv"), bytes).unwrap();
-    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
-    assert!(
-        msg.contains("map.csv:3:10:") && msg.contains("UTF-8"),
-        "{msg}"
-    );
+    // Each bad map, with what its message must say: the place, and a hint
+    // (what volcomp reads) or the offending byte shown escaped.
+    let mut not_utf8 = good.as_bytes().to_vec();
+    not_utf8[good.find("X,both,100").unwrap() + 9] = 0xe9;
+    for (case, map, said) in [
+        (
+            "semicolons",
+            good.replace(',', ";").into_bytes(),
+            ["map.csv:1:1:", "';' as separator"],
+        ),
+        (
+            "a decimal comma: one field too many",
+            good.replace("X,both,100,1,0,0", "X,both,100,1,5,0,0")
+                .into_bytes(),
+            ["map.csv:3:7:", "decimal commas"],
+        ),
+        (
+            "a terminal escape in a field",
+            good.replace("X,both,100,1", "X,both,100,\u{1b}[2J")
+                .into_bytes(),
+            ["map.csv:3:4:", "\\x1b"],
+        ),
+        (
+            "a byte that is not UTF-8",
+            not_utf8,
+            ["map.csv:3:10:", "UTF-8"],
+        ),
+    ] {
+        write(&d, "map.csv", map);
+        let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
+        for s in said {
+            assert!(msg.contains(s), "{case}: no `{s}` in: {msg}");
+        }
+        assert!(!msg.contains('\u{1b}'), "{case}: {msg}");
+    }
 }
 
 #[test]
 fn set_up_errors_are_located() {
     let d = tempdir("setup");
     flat_map(&d, -1000.0, 1000.0);
-    std::fs::write(d.join("p.ngc"), "G21 G90\nG0 X10 Y10 Z10\nM2\n").unwrap();
-    std::fs::write(
-        d.join("s.toml"),
+    write(&d, "p.ngc", "G21 G90\nG0 X10 Y10 Z10\nM2\n");
+    write(
+        &d,
+        "s.toml",
         "units = \"mm\"\n[work_offsets]\nG54 = [250, 200, 150, 1]\n",
-    )
-    .unwrap();
+    );
     let msg = stderr(&compensate(&d, &["--setup", "s.toml"]));
     assert!(msg.contains("s.toml:3:7: G54 has 4 value(s)"), "{msg}");
     assert!(!d.join("out.ngc").exists());
-    std::fs::write(
-        d.join("s.toml"),
-        "units = \"mm\"\n[tools]\n1 = 75\nT1 = 80\n",
-    )
-    .unwrap();
+    write(&d, "s.toml", "units = \"mm\"\n[tools]\n1 = 75\nT1 = 80\n");
     let msg = stderr(&compensate(&d, &["--setup", "s.toml"]));
     assert!(
         msg.contains("s.toml:4:1:") && msg.contains("tool 1"),
@@ -170,8 +167,8 @@ fn fit(d: &Path, measurements: &str) -> Output {
 fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
     let d = tempdir("thermal");
     thermal_example(&d);
-    let t = std::fs::read_to_string(d.join("ex/temperatures_train.csv")).unwrap();
-    std::fs::write(d.join("bare.csv"), t.replacen("bed_C", "bed", 1)).unwrap();
+    let t = read(&d, "ex/temperatures_train.csv");
+    write(&d, "bare.csv", t.replacen("bed_C", "bed", 1));
     let o = common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures bare.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o thermal.toml");
     let msg = stderr(&o);
     assert!(
@@ -204,10 +201,9 @@ fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
     f[2] = "1000".into();
     let mut burnt = lines.clone();
     burnt[last] = f.join(",");
-    std::fs::write(d.join("burnt.csv"), burnt.join("\n") + "\n").unwrap();
+    write(&d, "burnt.csv", burnt.join("\n") + "\n");
     let o = predict("burnt.csv", &["--extrapolate"]);
-    let msg = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{msg}");
+    let msg = refused(&o);
     assert!(
         msg.contains("burnt.csv:")
             && msg.contains("1000 °C is not a temperature of a machine tool"),
@@ -215,7 +211,7 @@ fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
     );
     f[2] = "60".into();
     lines[last] = f.join(",");
-    std::fs::write(d.join("hot.csv"), lines.join("\n") + "\n").unwrap();
+    write(&d, "hot.csv", lines.join("\n") + "\n");
     let o = predict("hot.csv", &[]);
     let msg = stderr(&o);
     assert!(!o.status.success());
@@ -225,14 +221,14 @@ fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
     );
     let o = predict("hot.csv", &["--extrapolate"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("warning"), "{}", stderr(&o));
+    common::said(&o, "warning");
 }
 
 #[test]
 fn a_sphere_far_off_warns_about_the_noise() {
     let d = tempdir("sigma");
     thermal_example(&d);
-    let m = std::fs::read_to_string(d.join("ex/measurements_train.csv")).unwrap();
+    let m = read(&d, "ex/measurements_train.csv");
     // Move one sphere centre 10 mm along x in the first data row.
     let mut out = String::new();
     let mut done = false;
@@ -246,7 +242,7 @@ fn a_sphere_far_off_warns_about_the_noise() {
         out.push_str(&f.join(","));
         out.push('\n');
     }
-    std::fs::write(d.join("off.csv"), out).unwrap();
+    write(&d, "off.csv", out);
     let o = fit(&d, "off.csv");
     let msg = stderr(&o);
     assert!(
@@ -265,8 +261,8 @@ fn a_target_on_the_map_edge_is_reported_with_its_command() {
     // X error +5 µm everywhere: the command for target X0 is X−0.005, off
     // the map's 0 … 100 mm although the target is on it.
     let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um\nX,both,0,5,0,0\nX,both,100,5,0,0\nY,both,0,0,0,0\nY,both,100,0,0,0\nZ,both,0,0,0,0\nZ,both,100,0,0,0\n";
-    std::fs::write(d.join("map.csv"), csv).unwrap();
-    std::fs::write(d.join("p.ngc"), "G21 G90\nG0 X50 Y50 Z50\nG1 X0 F100\nM2\n").unwrap();
+    write(&d, "map.csv", csv);
+    write(&d, "p.ngc", "G21 G90\nG0 X50 Y50 Z50\nG1 X0 F100\nM2\n");
     let o = compensate(&d, &["--work-offset", "0,0,0", "--no-split"]);
     let msg = stderr(&o);
     assert!(!o.status.success(), "{msg}");
@@ -283,18 +279,18 @@ fn a_target_on_the_map_edge_is_reported_with_its_command() {
 #[test]
 fn map_values_that_cannot_be_are_refused_where_they_are_written() {
     let d = tempdir("map_values");
-    std::fs::write(
-        d.join("p.ngc"),
+    write(
+        &d,
+        "p.ngc",
         "G21 G90\nG0 X250 Y250 Z250\nG1 X300 F100\nM2\n",
-    )
-    .unwrap();
+    );
     // The same flat map with X in µm: 0 … 500 000.
     let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
     csv.push_str("X,both,0,0,0,0\nX,both,500000,1,0,0\n");
     for a in ["Y", "Z"] {
         csv.push_str(&format!("{a},both,0,0,0,0\n{a},both,500,1,0,0\n"));
     }
-    std::fs::write(d.join("map.csv"), &csv).unwrap();
+    write(&d, "map.csv", &csv);
     let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
     assert!(
         msg.contains(
@@ -307,7 +303,7 @@ fn map_values_that_cannot_be_are_refused_where_they_are_written() {
     let nm = csv
         .replace("X,both,500000,1,0,0", "X,both,500,0,0,0")
         .replace("Y,both,500,1,0,0", "Y,both,500,0,25000,0");
-    std::fs::write(d.join("map.csv"), nm).unwrap();
+    write(&d, "map.csv", nm);
     let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
     assert!(
         msg.contains("map.csv:5:5: column 5 `ey_um`: an error of 25000 µm is more than 10000 µm"),
@@ -319,35 +315,28 @@ fn map_values_that_cannot_be_are_refused_where_they_are_written() {
 /// the line that names them.
 #[test]
 fn missing_files_named_inside_controller_files_are_located() {
-    let d = tempdir("controller_names");
-    flat_map(&d, 0.0, 500.0);
-    std::fs::write(d.join("p.ngc"), "G21 G90\nG0 X250 Y250 Z250\nM2\n").unwrap();
-    std::fs::write(
-        d.join("m.ini"),
-        "[TRAJ]\nLINEAR_UNITS = mm\n\n[JOINT_0]\nCOMP_FILE = none.comp\nCOMP_FILE_TYPE = 1\n[KINS]\nKINEMATICS = trivkins\nJOINTS = 3\n",
-    )
-    .unwrap();
-    let msg = stderr(&compensate(
-        &d,
-        &["--work-offset", "0,0,0", "--controller", "m.ini"],
-    ));
-    assert!(
-        msg.contains("m.ini:5:1: cannot read the comp file") && msg.contains("none.comp"),
-        "{msg}"
-    );
-    std::fs::write(
-        d.join("V.CMA"),
-        "BEGIN V.CMA\nNR ACTIVE X Y Z\n0 * X.COM Y.COM Z.COM\n[END]\n",
-    )
-    .unwrap();
-    let msg = stderr(&compensate(
-        &d,
-        &["--work-offset", "0,0,0", "--controller", "V.CMA"],
-    ));
-    assert!(
-        msg.contains("V.CMA:3:1: cannot read the table") && msg.contains("X.COM"),
-        "{msg}"
-    );
+    let d = flat_dir("controller_names");
+    for (file, text, said) in [
+        (
+            "m.ini",
+            "[TRAJ]\nLINEAR_UNITS = mm\n\n[JOINT_0]\nCOMP_FILE = none.comp\nCOMP_FILE_TYPE = 1\n[KINS]\nKINEMATICS = trivkins\nJOINTS = 3\n",
+            ["m.ini:5:1: cannot read the comp file", "none.comp"],
+        ),
+        (
+            "V.CMA",
+            "BEGIN V.CMA\nNR ACTIVE X Y Z\n0 * X.COM Y.COM Z.COM\n[END]\n",
+            ["V.CMA:3:1: cannot read the table", "X.COM"],
+        ),
+    ] {
+        write(&d, file, text);
+        let msg = stderr(&compensate(
+            &d,
+            &["--work-offset", "0,0,0", "--controller", file],
+        ));
+        for s in said {
+            assert!(msg.contains(s), "{file}: no `{s}` in: {msg}");
+        }
+    }
 }
 
 /// A temperature no sensor of a machine tool reads, and a thermal model
@@ -380,18 +369,16 @@ fn thermal_values_that_cannot_be_are_located() {
     std::fs::write(&path, text).unwrap();
     let o = fit(&d, "ex/measurements_train.csv");
     assert!(o.status.success(), "{}", stderr(&o));
-    let model = std::fs::read_to_string(d.join("thermal.toml")).unwrap();
+    let model = read(&d, "thermal.toml");
     let at = model.find("intercept = ").unwrap();
     let end = at + model[at..].find('\n').unwrap();
     let row = model[..at].matches('\n').count() + 1;
-    std::fs::write(
-        d.join("thermal.toml"),
+    write(
+        &d,
+        "thermal.toml",
         format!("{}intercept = nan{}", &model[..at], &model[end..]),
-    )
-    .unwrap();
-    let o = common::run(&d, "thermal predict --model thermal.toml --temperatures ex/temperatures_check.csv -o pred.toml");
-    let msg = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{msg}");
+    );
+    let msg = refused(&common::run(&d, "thermal predict --model thermal.toml --temperatures ex/temperatures_check.csv -o pred.toml"));
     assert!(
         msg.contains(&format!("thermal.toml:{row}:13:")) && msg.contains("intercept = NaN"),
         "{msg}"
@@ -405,20 +392,7 @@ fn thermal_values_that_cannot_be_are_located() {
 #[test]
 fn thermal_options_are_bounded_before_any_file_is_read() {
     let d = tempdir("thermal_options");
-    let base = [
-        "thermal",
-        "fit",
-        "--measurements",
-        "none.csv",
-        "--temperatures",
-        "none.csv",
-        "--artifact",
-        "none.csv",
-        "--ranges-mm",
-        "0:600,0:400,0:300",
-        "-o",
-        "th.toml",
-    ];
+    let base = common::args("thermal fit --measurements none.csv --temperatures none.csv --artifact none.csv --ranges-mm 0:600,0:400,0:300 -o th.toml");
     for (extra, said) in [
         (
             &["--table-samples", "0"][..],
@@ -460,39 +434,29 @@ fn thermal_options_are_bounded_before_any_file_is_read() {
 /// File names are printed with their control characters escaped.
 #[test]
 fn names_with_terminal_escapes_are_printed_escaped() {
-    let d = tempdir("escapes");
-    flat_map(&d, 0.0, 500.0);
-    std::fs::write(d.join("p.ngc"), "G21 G90\nG0 X250 Y250 Z250\nM2\n").unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "p.ngc",
-            "--map",
-            "no\x1b[2Jmap.csv",
-            "--work-offset",
-            "0,0,0",
-            "-o",
-            "o\x1b]0;t\x07.ngc",
-        ],
-        &d,
-    );
+    let d = flat_dir("escapes");
+    // Both runs write to a name holding a title-setting escape and a bell.
+    let run = |map: &str| {
+        volcomp(
+            &[
+                "compensate",
+                "p.ngc",
+                "--map",
+                map,
+                "--work-offset",
+                "0,0,0",
+                "-o",
+                "o\x1b]0;t\x07.ngc",
+            ],
+            &d,
+        )
+    };
+    let o = run("no\x1b[2Jmap.csv");
     let msg = stderr(&o);
     assert!(!msg.contains('\x1b') && !msg.contains('\x07'), "{msg:?}");
     assert!(msg.contains("no\\x1b[2Jmap.csv"), "{msg}");
     std::fs::copy(d.join("map.csv"), d.join("m\x1b[31m.csv")).unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "p.ngc",
-            "--map",
-            "m\x1b[31m.csv",
-            "--work-offset",
-            "0,0,0",
-            "-o",
-            "o\x1b]0;t\x07.ngc",
-        ],
-        &d,
-    );
+    let o = run("m\x1b[31m.csv");
     let msg = stderr(&o);
     assert!(o.status.success(), "{msg}");
     assert!(!msg.contains('\x1b') && !msg.contains('\x07'), "{msg:?}");

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use crate::common;
-use common::{fixture, stderr, tempdir, volcomp};
+use common::{fixture, read, refused, stderr, tempdir, volcomp, write};
 
 /// What the report must never hold: a script, or anything fetched from
 /// outside the file (the SVG namespace is a name, not a fetch).
@@ -46,14 +46,7 @@ fn sha256sum(path: &Path) -> Option<String> {
 }
 
 fn simulate_json(dir: &Path, args: &[&str]) -> serde_json::Value {
-    let mut all = vec![
-        "simulate",
-        "--map",
-        "map.csv",
-        "--setup",
-        "machine.toml",
-        "--json",
-    ];
+    let mut all = common::args("simulate --map map.csv --setup machine.toml --json");
     all.extend_from_slice(args);
     let o = volcomp(&all, dir);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -75,7 +68,7 @@ fn a_compensation_report_holds_the_runs_figures_and_inputs() {
     };
     let o = run("report.html");
     assert!(o.status.success(), "{}", stderr(&o));
-    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    let html = read(&dir, "report.html");
     assert_self_contained(&html);
     // SOURCE_DATE_EPOCH = one day after the epoch.
     assert!(html.contains("1970-01-02T00:00:00Z"));
@@ -163,7 +156,7 @@ fn a_compensation_report_holds_the_runs_figures_and_inputs() {
     );
     let o = run("again.html");
     assert!(o.status.success(), "{}", stderr(&o));
-    let again = std::fs::read_to_string(dir.join("again.html")).unwrap();
+    let again = read(&dir, "again.html");
     assert_eq!(
         html.replace("report.html", "again.html"),
         again,
@@ -174,11 +167,7 @@ fn a_compensation_report_holds_the_runs_figures_and_inputs() {
 #[test]
 fn a_title_block_file_heads_the_report_and_a_bad_one_is_refused_at_its_line() {
     let dir = fixture("report-title");
-    std::fs::write(
-        dir.join("title.toml"),
-        "customer = \"Acme Moulds & Dies\"\npart = \"cavity insert 4\"\ndrawing = \"D-1234\"\ntolerance = \"±0.01 mm\"\noperator = \"J. Smith\"\nmachine = \"VMC 2\"\n",
-    )
-    .unwrap();
+    write(&dir, "title.toml", "customer = \"Acme Moulds & Dies\"\npart = \"cavity insert 4\"\ndrawing = \"D-1234\"\ntolerance = \"±0.01 mm\"\noperator = \"J. Smith\"\nmachine = \"VMC 2\"\n");
     let run = |title: &str, out: &str| {
         let html = format!("{out}.html");
         common::compensate_with(
@@ -189,7 +178,7 @@ fn a_title_block_file_heads_the_report_and_a_bad_one_is_refused_at_its_line() {
     };
     let o = run("title.toml", "c.ngc");
     assert!(o.status.success(), "{}", stderr(&o));
-    let html = std::fs::read_to_string(dir.join("c.ngc.html")).unwrap();
+    let html = read(&dir, "c.ngc.html");
     // In the report's order, escaped, above what was done.
     let block = html
         .split("<table class=\"titleblock\"><tbody>")
@@ -203,30 +192,23 @@ fn a_title_block_file_heads_the_report_and_a_bad_one_is_refused_at_its_line() {
     assert!(html.find("titleblock").unwrap() < html.find("What was done").unwrap());
     // A misspelt key: refused at its line and column before any work,
     // nothing written.
-    std::fs::write(
-        dir.join("bad.toml"),
-        "customer = \"A\"\n  custmer = \"B\"\n",
-    )
-    .unwrap();
+    write(&dir, "bad.toml", "customer = \"A\"\n  custmer = \"B\"\n");
     let o = run("bad.toml", "d.ngc");
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = refused(&o);
     assert!(
-        stderr(&o).contains("bad.toml:2:3: `custmer` is not a title-block key"),
-        "{}",
-        stderr(&o)
+        e.contains("bad.toml:2:3: `custmer` is not a title-block key"),
+        "{e}"
     );
     assert!(!dir.join("d.ngc").exists() && !dir.join("d.ngc.html").exists());
     // A title block without a report is refused, not ignored; the
     // message names the flags.
-    let o = common::run(
+    let e = refused(&common::run(
         &dir,
         "simulate part.ngc --map map.csv --report-title title.toml",
-    );
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    ));
     assert!(
-        stderr(&o).contains("--report-title is the title block of the HTML report"),
-        "{}",
-        stderr(&o)
+        e.contains("--report-title is the title block of the HTML report"),
+        "{e}"
     );
 }
 
@@ -238,7 +220,7 @@ fn a_report_needs_the_program_as_a_file_and_never_overwrites_an_input() {
         "compensate - --map map.csv -o x.ngc --report-html r.html",
     );
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("--report-html"), "{}", stderr(&o));
+    common::said(&o, "--report-html");
     assert!(!dir.join("r.html").exists() && !dir.join("x.ngc").exists());
     let before = std::fs::read(dir.join("part.ngc")).unwrap();
     let o = common::run(
@@ -252,14 +234,14 @@ fn a_report_needs_the_program_as_a_file_and_never_overwrites_an_input() {
 #[test]
 fn a_simulation_report_with_a_reference_shows_both() {
     let dir = fixture("report-simulate");
-    let o = common::run(
+    common::run_all(
         &dir,
-        "compensate part.ngc --map map.csv --setup machine.toml -o c.ngc",
+        &[
+            "compensate part.ngc --map map.csv --setup machine.toml -o c.ngc",
+            "simulate c.ngc --reference part.ngc --map map.csv --setup machine.toml --report-html sim.html",
+        ],
     );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = common::run(&dir, "simulate c.ngc --reference part.ngc --map map.csv --setup machine.toml --report-html sim.html");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let html = std::fs::read_to_string(dir.join("sim.html")).unwrap();
+    let html = read(&dir, "sim.html");
     assert_self_contained(&html);
     let reference = simulate_json(&dir, &["part.ngc"]);
     let c = cells(&html, "contour error, max");
@@ -288,28 +270,34 @@ fn chromium() -> Option<PathBuf> {
 }
 
 /// Chromium without a desktop: no network, no profile left behind.
-fn headless(chromium: &Path, profile: &Path) -> Command {
-    let mut c = Command::new(chromium);
-    c.args([
-        "--headless",
-        "--no-sandbox",
-        "--disable-gpu",
-        "--disable-background-networking",
-        "--disable-component-update",
-        "--disable-sync",
-        "--no-first-run",
-        "--hide-scrollbars",
-    ])
-    .arg(format!("--user-data-dir={}", profile.display()));
-    c
+/// Headless Chromium, with its own profile in `profile`, opens `report` and
+/// writes `out` (`what` is the flag that names it, e.g. `--screenshot`);
+/// the run must succeed and write it.
+fn headless(chromium: &Path, profile: &Path, report: &Path, what: &str, out: &Path, extra: &str) {
+    let o = Command::new(chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+            "--hide-scrollbars",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(format!("{what}={}", out.display()))
+        .arg(extra)
+        .arg(format!("file://{}", report.display()))
+        .output()
+        .unwrap();
+    assert!(o.status.success() && out.exists(), "{}", stderr(&o));
 }
 
 #[test]
 fn the_demo_report_renders_and_prints_in_chromium() {
     let dir = tempdir("demo-report");
-    let o = common::run(&dir, "demo --out-dir demo");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let stdout = String::from_utf8_lossy(&o.stdout);
+    let stdout = common::ok(&common::run(&dir, "demo --out-dir demo"));
     assert!(stdout.contains("demo/report.html"), "{stdout}");
     let report = dir.join("demo/report.html");
     let html = std::fs::read_to_string(&report).unwrap();
@@ -335,13 +323,8 @@ fn the_demo_report_renders_and_prints_in_chromium() {
     };
     let profile = dir.join("profile");
     let png = dir.join("report.png");
-    let o = headless(&chromium, &profile)
-        .arg(format!("--screenshot={}", png.display()))
-        .arg("--window-size=900,1400")
-        .arg(format!("file://{}", report.display()))
-        .output()
-        .unwrap();
-    assert!(o.status.success() && png.exists(), "{}", stderr(&o));
+    let size = "--window-size=900,1400";
+    headless(&chromium, &profile, &report, "--screenshot", &png, size);
     // Non-blank: the first page has text, tables and links in colour.
     let img = image::open(&png).unwrap().to_rgb8();
     assert_eq!((img.width(), img.height()), (900, 1400));
@@ -352,13 +335,15 @@ fn the_demo_report_renders_and_prints_in_chromium() {
     let share = ink as f64 / (900.0 * 1400.0);
     assert!(share > 0.01 && share < 0.6, "ink {share}");
     let pdf = dir.join("report.pdf");
-    let o = headless(&chromium, &profile)
-        .arg(format!("--print-to-pdf={}", pdf.display()))
-        .arg("--no-pdf-header-footer")
-        .arg(format!("file://{}", report.display()))
-        .output()
-        .unwrap();
-    assert!(o.status.success() && pdf.exists(), "{}", stderr(&o));
+    let no_header = "--no-pdf-header-footer";
+    headless(
+        &chromium,
+        &profile,
+        &report,
+        "--print-to-pdf",
+        &pdf,
+        no_header,
+    );
     let bytes = std::fs::read(&pdf).unwrap();
     // Page objects: `/Type /Page` not followed by `s` (that is `/Pages`).
     let text = String::from_utf8_lossy(&bytes).replace("/Type/Page", "/Type /Page");
@@ -402,7 +387,7 @@ fn a_positioning_test_report_has_the_bidirectional_plot_and_figures() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let html = std::fs::read_to_string(dir.join("iso.html")).unwrap();
+    let html = read(&dir, "iso.html");
     assert_self_contained(&html);
     for id in ["run", "iso230-2", "iso230-2-targets"] {
         assert!(html.contains(&format!("<section id=\"{id}\">")), "{id}");
@@ -424,11 +409,14 @@ fn a_positioning_test_report_has_the_bidirectional_plot_and_figures() {
 #[test]
 fn a_map_report_draws_every_component_over_its_axis() {
     let dir = tempdir("report-map");
-    let o = common::run(&dir, "map example -o models");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = common::run(&dir, "map plot models/example21.toml -o map.html");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let html = std::fs::read_to_string(dir.join("map.html")).unwrap();
+    common::run_all(
+        &dir,
+        &[
+            "map example -o models",
+            "map plot models/example21.toml -o map.html",
+        ],
+    );
+    let html = read(&dir, "map.html");
     assert_self_contained(&html);
     // Three axes, each a page with its linear (µm) and angular (µrad) chart.
     assert_eq!(html.matches("<section id=\"map-").count(), 3);
@@ -468,7 +456,7 @@ fn straightness_and_thermal_reports_keep_units_apart_and_wavelengths_in_mm() {
     args.extend(["-o", "st.html"]);
     let o = volcomp(&args, &dir);
     assert!(o.status.success(), "{}", stderr(&o));
-    let html = std::fs::read_to_string(dir.join("st.html")).unwrap();
+    let html = read(&dir, "st.html");
     assert_self_contained(&html);
     assert!(!html.contains("log₁₀"));
     assert!(html.contains(">wavelength λ (mm, logarithmic)</text>"));
@@ -479,13 +467,15 @@ fn straightness_and_thermal_reports_keep_units_apart_and_wavelengths_in_mm() {
         assert!(html.contains(&format!("<td>{r}</td>")), "{r}");
     }
 
-    let o = common::run(&dir, "thermal example -o ex");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = common::run(&dir, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o thermal.toml");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = common::run(&dir, "thermal plot --model thermal.toml -o th.html");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let html = std::fs::read_to_string(dir.join("th.html")).unwrap();
+    common::run_all(
+        &dir,
+        &[
+            "thermal example -o ex",
+            "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o thermal.toml",
+            "thermal plot --model thermal.toml -o th.html",
+        ],
+    );
+    let html = read(&dir, "th.html");
     assert_self_contained(&html);
     // No axis mixes µm and µrad; both have their own charts.
     assert!(!html.contains("µm or µrad"));
@@ -531,7 +521,7 @@ fn a_mirror_report_has_the_statistics_and_the_probe_points() {
     run(&["--report", "mirror.html"], "a.ngc");
     let o = run(&["--json"], "b.ngc");
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let html = std::fs::read_to_string(dir.join("mirror.html")).unwrap();
+    let html = read(&dir, "mirror.html");
     assert_self_contained(&html);
     for id in ["run", "mirror", "mirror-points"] {
         assert!(html.contains(&format!("<section id=\"{id}\">")), "{id}");

@@ -4,10 +4,11 @@
 //! with rs274 on rotated programs: fixture `rotated_g10_r.ngc`) and applying
 //! the map by hand: the machine then lands on the nominal points.
 
+use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::common;
-use common::{tempdir, volcomp};
+use common::{read, tempdir, volcomp, write};
 
 /// A map with a pitch error on X of 2 µm per mm (e_x = 0.002·x mm) and a
 /// Z error growing with Y by 1 µm per mm (e_z = 0.001·y mm), or zero.
@@ -25,7 +26,7 @@ fn write_map(dir: &Path, zero: bool) {
             csv.push_str(&format!("{a},both,{p},{ex},0,{ez}\n"));
         }
     }
-    std::fs::write(dir.join("map.csv"), csv).unwrap();
+    write(dir, "map.csv", csv);
 }
 
 const PROGRAM: &str = "G21 G90 G17\nG10 L2 P1 X20 Y10 R30\nG0 X0 Y0 Z5\nG1 X10 Y0 Z-1 F300\nG1 X10 Y10\nG91 G1 X5\nG90 G2 X25 Y10 I5 J0\nG1 Y20\nG0 Z5\nM2\n";
@@ -50,7 +51,7 @@ fn moves(dir: &Path, file: &str) -> Vec<(u64, [f64; 3])> {
 fn ends_by_original_line(dir: &Path, out: &str) -> Vec<(u64, [f64; 3])> {
     let text = std::fs::read_to_string(dir.join(out)).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    let mut by = std::collections::BTreeMap::new();
+    let mut by = BTreeMap::new();
     for (line, q) in moves(dir, out) {
         let l = lines[(line - 1) as usize];
         if let Some(i) = l.find("(volcomp L") {
@@ -67,7 +68,7 @@ fn ends_by_original_line(dir: &Path, out: &str) -> Vec<(u64, [f64; 3])> {
 }
 
 fn compensate(dir: &Path) {
-    std::fs::write(dir.join("rot.ngc"), PROGRAM).unwrap();
+    write(dir, "rot.ngc", PROGRAM);
     let o = volcomp(
         &[
             "compensate",
@@ -87,13 +88,18 @@ fn compensate(dir: &Path) {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
+/// Writes the map (`zero`: without error) and compensates the program into
+/// out.ngc; returns the program's own end points by line.
+fn compensated(dir: &Path, zero: bool) -> BTreeMap<u64, [f64; 3]> {
+    write_map(dir, zero);
+    compensate(dir);
+    moves(dir, "rot.ngc").into_iter().collect()
+}
+
 #[test]
 fn compensated_rotated_program_lands_on_the_nominal_points() {
     let dir = tempdir("rotated-lin");
-    write_map(&dir, false);
-    compensate(&dir);
-    let nominal: std::collections::BTreeMap<u64, [f64; 3]> =
-        moves(&dir, "rot.ngc").into_iter().collect();
+    let nominal = compensated(&dir, false);
     let ends = ends_by_original_line(&dir, "out.ngc");
     assert!(ends.len() >= 4, "{ends:?}");
     let mut largest_correction = 0.0f64;
@@ -114,7 +120,7 @@ fn compensated_rotated_program_lands_on_the_nominal_points() {
     assert!(largest_correction > 0.02, "{largest_correction}");
     // A correction along axis X changes both program words: the G91 X-only
     // line (program X is at 30° to axis X) is written with a Y increment.
-    let out = std::fs::read_to_string(dir.join("out.ngc")).unwrap();
+    let out = read(&dir, "out.ngc");
     let g91 = out.lines().find(|l| l.starts_with("G91")).unwrap();
     assert!(g91.contains('X') && g91.contains('Y'), "{g91}");
 }
@@ -122,10 +128,7 @@ fn compensated_rotated_program_lands_on_the_nominal_points() {
 #[test]
 fn zero_map_leaves_the_rotated_path_unchanged() {
     let dir = tempdir("rotated-zero");
-    write_map(&dir, true);
-    compensate(&dir);
-    let nominal: std::collections::BTreeMap<u64, [f64; 3]> =
-        moves(&dir, "rot.ngc").into_iter().collect();
+    let nominal = compensated(&dir, true);
     for (line, q) in ends_by_original_line(&dir, "out.ngc") {
         let n = nominal[&line];
         for a in 0..3 {
@@ -133,7 +136,7 @@ fn zero_map_leaves_the_rotated_path_unchanged() {
         }
     }
     // The original lines that are not split stay as written.
-    let out = std::fs::read_to_string(dir.join("out.ngc")).unwrap();
+    let out = read(&dir, "out.ngc");
     for l in ["G10 L2 P1 X20 Y10 R30", "G0 X0 Y0 Z5", "M2"] {
         assert!(out.lines().any(|o| o == l), "{l} missing:\n{out}");
     }

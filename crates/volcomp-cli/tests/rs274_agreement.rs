@@ -75,10 +75,11 @@ enum Job {
         path: PathBuf,
         fixture: bool,
     },
-    /// The K0 fixture: rs274 refuses K0 on G17 arcs.
-    K0 { path: PathBuf },
-    /// BOTTLE.NC: absolute arc centres without G90.1.
-    Bottle { path: PathBuf },
+    /// A program rs274 refuses as written ([`K0`], [`ABSOLUTE_CENTRES`]).
+    Refused {
+        path: PathBuf,
+        case: &'static Refused,
+    },
 }
 
 #[derive(Default)]
@@ -150,80 +151,58 @@ fn run_plain(tools: &Tools, name: &str, path: &Path, fixture: bool, work: &Path)
     o
 }
 
-fn run_k0(tools: &Tools, path: &Path, work: &Path) -> Outcome {
-    let name = K0_FIXTURE;
-    let mut o = Outcome::default();
-    let mut notes = Vec::new();
-    // rs274 on the original: refused at the first K0 arc.
-    match run_rs274(tools, path, &work.join("original")) {
-        Ok(rs) => match &rs.rejected {
-            Some(why) => notes.push(format!("rs274 rejects the original ({why})")),
-            None => notes.push("rs274 accepts the original".into()),
-        },
-        Err(e) => o.failures.push(format!("{name}: {e}")),
-    }
-    // volcomp refuses K0 by default as rs274 does, naming the line and
-    // the way to accept it …
-    match run_volcomp(tools, path, &[]) {
-        Ok(_) => o.failures.push(format!(
-            "{name}: volcomp must refuse K0 on the G17 arc of line {K0_LINE} as LinuxCNC does, but it succeeded"
-        )),
-        Err(e) => {
-            if !e.contains(&format!(":{K0_LINE}:")) || !e.contains("--accept-k0") {
-                o.failures.push(format!(
-                    "{name}: volcomp refuses K0 but does not name line {K0_LINE} and --accept-k0: {e}"
-                ));
-            }
-        }
-    }
-    // … and accepts it with --accept-k0.
-    let accepted = run_volcomp(tools, path, &["--accept-k0"]);
-    if let Err(e) = &accepted {
-        o.failures.push(format!(
-            "{name}: volcomp --accept-k0 must accept K0 on G17 arcs, but {e}"
-        ));
-    }
-    // The same program without the K0 words is valid LinuxCNC G-code: volcomp
-    // on the original must agree with rs274 on that copy, motion by motion.
-    let text = match std::fs::read(path) {
-        Ok(t) => t,
-        Err(e) => {
-            o.failures.push(format!("{name}: {e}"));
-            return o;
-        }
-    };
-    let text = String::from_utf8_lossy(&text);
-    let stripped = text.replace(" K0.000", "");
-    let copy = work.join("helical-without-K0.nc");
-    std::fs::create_dir_all(work).unwrap();
-    std::fs::write(&copy, stripped).unwrap();
-    let label = format!("{name} (rs274 on a copy without K0)");
-    match (run_rs274(tools, &copy, &work.join("stripped")), accepted) {
-        (Ok(rs), Ok(v)) => {
-            if let Some(why) = rs.rejected {
-                o.failures
-                    .push(format!("{label}: rs274 still rejects it: {why}"));
-            } else {
-                o.absorb(compare(&label, &rs.motions, &v));
-                o.compared = 1;
-            }
-        }
-        (Err(e), _) => o.failures.push(format!("{label}: {e}")),
-        (_, Err(_)) => {}
-    }
-    o.summary = format!(
-        "{name}: {}; volcomp refuses line {K0_LINE} too; with --accept-k0, {} motions compared against the copy without K0{}",
-        notes.join("; "),
-        o.motions,
-        o.tail()
-    );
-    o
+/// A program rs274 refuses as written: volcomp refuses it too by default,
+/// at its line and with a way out, accepts it with `flag`, and must then
+/// agree motion by motion with rs274 on a copy that rs274 accepts.
+struct Refused {
+    name: &'static str,
+    /// What volcomp must refuse, and where.
+    what: &'static str,
+    line: u64,
+    /// What the refusal must mention besides the line: (text, what it is).
+    mentions: &'static [(&'static str, &'static str)],
+    flag: &'static str,
+    /// The copy rs274 accepts: its file name, how it is made, what it is.
+    copy: &'static str,
+    fix: fn(&[u8]) -> Vec<u8>,
+    compared: &'static str,
 }
 
-fn run_bottle(tools: &Tools, path: &Path, work: &Path) -> Outcome {
-    let name = BOTTLE;
+/// The K0 fixture: rs274 refuses K0 on G17 arcs (as FreeCAD writes them);
+/// the same program without the K0 words is valid LinuxCNC G-code.
+const K0: Refused = Refused {
+    name: K0_FIXTURE,
+    what: "K0 on the G17 arc as LinuxCNC does",
+    line: K0_LINE,
+    mentions: &[("--accept-k0", "--accept-k0")],
+    flag: "--accept-k0",
+    copy: "helical-without-K0.nc",
+    fix: |text| {
+        String::from_utf8_lossy(text)
+            .replace(" K0.000", "")
+            .into_bytes()
+    },
+    compared: "--accept-k0 vs rs274 on a copy without K0",
+};
+
+/// BOTTLE.NC: absolute arc centres without G90.1; rs274 accepts the program
+/// with G90.1 in front.
+const ABSOLUTE_CENTRES: Refused = Refused {
+    name: BOTTLE,
+    what: "the arc (centres are absolute)",
+    line: BOTTLE_ARC_LINE,
+    mentions: &[("G90.1", "G90.1"), ("absolute", "absolute centres")],
+    flag: "--absolute-arc-centers",
+    copy: "BOTTLE-G90.1.ngc",
+    fix: |text| [&b"G90.1\n"[..], text].concat(),
+    compared: "--absolute-arc-centers vs rs274 with G90.1 prepended",
+};
+
+fn run_refused(tools: &Tools, path: &Path, work: &Path, case: &Refused) -> Outcome {
+    let (name, line) = (case.name, case.line);
     let mut o = Outcome::default();
     let mut notes = Vec::new();
+    // rs274 on the original: refused.
     match run_rs274(tools, path, &work.join("original")) {
         Ok(rs) => match &rs.rejected {
             Some(why) => notes.push(format!("rs274 rejects the original ({why})")),
@@ -231,20 +210,21 @@ fn run_bottle(tools: &Tools, path: &Path, work: &Path) -> Outcome {
         },
         Err(e) => o.failures.push(format!("{name}: {e}")),
     }
+    // volcomp refuses it by default, naming the line and the way out …
     match run_volcomp(tools, path, &[]) {
         Ok(_) => o.failures.push(format!(
-            "{name}: volcomp must refuse the arc of line {BOTTLE_ARC_LINE} (centres are absolute), but it succeeded"
+            "{name}: volcomp must refuse {} of line {line}, but it succeeded",
+            case.what
         )),
         Err(e) => {
             let mut missing = Vec::new();
-            if !e.contains(&format!(":{BOTTLE_ARC_LINE}:")) {
-                missing.push(format!("line {BOTTLE_ARC_LINE}"));
+            if !e.contains(&format!(":{line}:")) {
+                missing.push(format!("line {line}"));
             }
-            if !e.contains("G90.1") {
-                missing.push("G90.1".to_string());
-            }
-            if !e.contains("absolute") {
-                missing.push("absolute centres".to_string());
+            for (text, what) in case.mentions {
+                if !e.contains(text) {
+                    missing.push(what.to_string());
+                }
             }
             if !missing.is_empty() {
                 o.failures.push(format!(
@@ -254,13 +234,15 @@ fn run_bottle(tools: &Tools, path: &Path, work: &Path) -> Outcome {
             }
         }
     }
-    let absolute = run_volcomp(tools, path, &["--absolute-arc-centers"]);
-    if let Err(e) = &absolute {
+    // … and accepts it with the flag.
+    let accepted = run_volcomp(tools, path, &[case.flag]);
+    if let Err(e) = &accepted {
         o.failures.push(format!(
-            "{name}: volcomp --absolute-arc-centers must accept it, but {e}"
+            "{name}: volcomp {} must accept it, but {e}",
+            case.flag
         ));
     }
-    // With G90.1 in front rs274 accepts the program: compare.
+    // Compared with rs274 on the copy rs274 accepts.
     let text = match std::fs::read(path) {
         Ok(t) => t,
         Err(e) => {
@@ -268,13 +250,11 @@ fn run_bottle(tools: &Tools, path: &Path, work: &Path) -> Outcome {
             return o;
         }
     };
-    let mut fixed = b"G90.1\n".to_vec();
-    fixed.extend_from_slice(&text);
     std::fs::create_dir_all(work).unwrap();
-    let copy = work.join("BOTTLE-G90.1.ngc");
-    std::fs::write(&copy, fixed).unwrap();
-    let label = format!("{name} (--absolute-arc-centers vs rs274 with G90.1 prepended)");
-    match (run_rs274(tools, &copy, &work.join("g901")), absolute) {
+    let copy = work.join(case.copy);
+    std::fs::write(&copy, (case.fix)(&text)).unwrap();
+    let label = format!("{name} ({})", case.compared);
+    match (run_rs274(tools, &copy, &work.join("copy")), accepted) {
         (Ok(rs), Ok(v)) => {
             if let Some(why) = rs.rejected {
                 o.failures
@@ -288,9 +268,10 @@ fn run_bottle(tools: &Tools, path: &Path, work: &Path) -> Outcome {
         (_, Err(_)) => {}
     }
     o.summary = format!(
-        "{name}: {}; volcomp refuses line {BOTTLE_ARC_LINE} with a G90.1 hint; {} motions compared (--absolute-arc-centers vs rs274 with G90.1){}",
+        "{name}: {}; volcomp refuses line {line} too; {} motions compared ({}){}",
         notes.join("; "),
         o.motions,
+        case.compared,
         o.tail()
     );
     o
@@ -342,12 +323,16 @@ fn volcomp_moves_agree_with_rs274() {
 
     let mut jobs = Vec::new();
     let corpus = corpus_files(&corpus_dir);
-    jobs.push(Job::K0 {
+    jobs.push(Job::Refused {
         path: manifest.join("tests/fixtures/k0").join(K0_FIXTURE),
+        case: &K0,
     });
     for (name, path) in corpus {
         jobs.push(match name.as_str() {
-            BOTTLE => Job::Bottle { path },
+            BOTTLE => Job::Refused {
+                path,
+                case: &ABSOLUTE_CENTRES,
+            },
             _ => Job::Plain {
                 name: format!("corpus/{name}"),
                 path,
@@ -388,8 +373,7 @@ fn volcomp_moves_agree_with_rs274() {
                         path,
                         fixture,
                     } => run_plain(&tools, name, path, *fixture, &work),
-                    Job::K0 { path } => run_k0(&tools, path, &work),
-                    Job::Bottle { path } => run_bottle(&tools, path, &work),
+                    Job::Refused { path, case } => run_refused(&tools, path, &work, case),
                 };
                 // Keep the work files of failing programs only.
                 if outcome.failures.is_empty() {

@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use crate::common;
-use common::{tempdir, volcomp};
+use common::{read, tempdir, volcomp, write};
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
@@ -63,10 +63,10 @@ fn fit_plot_table_predict_and_compensate() {
     assert_eq!(hz.len(), 3, "{err}");
     assert!(hz.iter().all(|f| (f - 150.0).abs() < 1.0), "{hz:?}");
     assert!(err.contains("wrote model.toml"), "{err}");
-    let model = std::fs::read_to_string(dir.join("model.toml")).unwrap();
+    let model = read(&dir, "model.toml");
     assert!(model.contains("kind = \"straightness\""));
     assert!(model.contains("beta_zx_urad = "));
-    let svg = std::fs::read_to_string(dir.join("fit.svg")).unwrap();
+    let svg = read(&dir, "fit.svg");
     assert!(svg.contains("<svg") && svg.contains("cut-off"));
 
     // The same identification as a PNG through `plot`.
@@ -102,16 +102,16 @@ fn fit_plot_table_predict_and_compensate() {
         "straightness table model.toml --step 0.5 -o table.csv",
     );
     assert!(o.status.success(), "{}", text(&o.stderr));
-    let table = std::fs::read_to_string(dir.join("table.csv")).unwrap();
+    let table = read(&dir, "table.csv");
     assert!(table.contains("base_axis,position_mm,ez_um,z_correction_um"));
     assert_eq!(table.lines().filter(|l| l.starts_with("X,")).count(), 401);
 
     // The model compensates a program: a Z correction follows the lead.
-    std::fs::write(
-        dir.join("p.ngc"),
+    write(
+        &dir,
+        "p.ngc",
         "G21 G90\nG0 X20 Y0 Z5\nG1 Z0 F500\nG1 X180 F7200\nG0 Z5\nM2\n",
-    )
-    .unwrap();
+    );
     let o = volcomp(
         &[
             "compensate",
@@ -131,7 +131,7 @@ fn fit_plot_table_predict_and_compensate() {
         &dir,
     );
     assert!(o.status.success(), "{}", text(&o.stderr));
-    let comp = std::fs::read_to_string(dir.join("p.comp.ngc")).unwrap();
+    let comp = read(&dir, "p.comp.ngc");
     let zs: Vec<f64> = comp
         .lines()
         .filter(|l| l.contains("(volcomp L4)"))
@@ -157,7 +157,7 @@ fn bad_runs_are_refused_with_file_row_and_column() {
     let good = std::fs::read_to_string(dir.join(&runs[0])).unwrap();
     let mut lines: Vec<String> = good.lines().map(str::to_string).collect();
     lines[10] = "1.500,NaN".into();
-    std::fs::write(dir.join("nan.csv"), lines.join("\n")).unwrap();
+    write(&dir, "nan.csv", lines.join("\n"));
     let o = volcomp(
         &["straightness", "fit", "nan.csv", &runs[2], &runs[4]],
         &dir,
@@ -168,7 +168,7 @@ fn bad_runs_are_refused_with_file_row_and_column() {
     // A missing sample.
     let mut lines: Vec<String> = good.lines().map(str::to_string).collect();
     lines.remove(20);
-    std::fs::write(dir.join("gap.csv"), lines.join("\n")).unwrap();
+    write(&dir, "gap.csv", lines.join("\n"));
     let o = volcomp(&["straightness", "fit", "gap.csv", &runs[2]], &dir);
     let e = text(&o.stderr);
     assert!(e.contains("gap.csv:21:1: unequal sampling"), "{e}");
@@ -194,11 +194,11 @@ fn bad_runs_are_refused_with_file_row_and_column() {
     );
     assert!(text(&o.stderr).contains(".svg or .png"));
     // A model that is not one.
-    std::fs::write(
-        dir.join("m.toml"),
+    write(
+        &dir,
+        "m.toml",
         "kind = \"straightness\"\nformat_version = 1\n",
-    )
-    .unwrap();
+    );
     let o = common::run(&dir, "straightness table m.toml");
     assert!(
         text(&o.stderr).starts_with("error: m.toml:1:1: missing field `offset_um`"),

@@ -3,14 +3,12 @@
 
 use std::path::Path;
 use std::process::Output;
-use volcomp_core::surface::bspline::{self, Parameterization};
-use volcomp_core::surface::mirror::{
-    read_bspline_toml, write_bspline_toml, MaterialSide, NominalSurface,
-};
+use volcomp_core::surface::mirror::{read_bspline_toml, write_bspline_toml, NominalSurface};
 use volcomp_gcode::Vec3;
 
 use crate::common;
-use common::{tempdir, volcomp};
+use crate::example_data::{finishing_passes, mirror_nominal, probe_grid, saddle};
+use common::{read, tempdir, volcomp, write};
 
 fn text(o: &Output) -> (String, String) {
     (
@@ -19,37 +17,27 @@ fn text(o: &Output) -> (String, String) {
     )
 }
 
-/// z = 0.003·((x − 40)² − (y − 25)²) over 80 × 50 mm, exact as a bicubic.
-fn saddle(x: f64, y: f64) -> f64 {
-    0.003 * ((x - 40.0).powi(2) - (y - 25.0).powi(2))
-}
-
-fn nominal() -> NominalSurface {
-    let mut pts = Vec::new();
-    for i in 0..4 {
-        for j in 0..4 {
-            let (x, y) = (80.0 * i as f64 / 3.0, 50.0 * j as f64 / 3.0);
-            pts.push([x, y, saddle(x, y)]);
-        }
-    }
-    let s = bspline::interpolate(&pts, 4, 4, 3, 3, &Parameterization::Uniform).unwrap();
-    NominalSurface::new(s, MaterialSide::Below, "t").unwrap()
-}
-
 /// The machine's error (µm, positive = material left).
 fn error_um(x: f64, y: f64) -> f64 {
     3.0 + 0.002 * (x - 40.0).powi(2) + 0.03 * y
 }
 
+/// A probes CSV of a 7 × 5 grid over the nominal surface `n`: each probe
+/// centre 0.3 mm (the stock) plus the machine's error `error_um(point)`
+/// along the normal.
+fn probes(n: &NominalSurface, mut error_um: impl FnMut(Vec3) -> f64) -> String {
+    probe_grid(n, (7, 5), |_, _, p| 0.3 + error_um(p) * 1e-3)
+}
+
 /// Writes nominal.toml, nominal-grid.csv, probes.csv (7 × 5 grid, no noise)
 /// and finish.ngc (tip CL, ball radius 2 mm) to `dir`.
 fn write_inputs(dir: &Path) {
-    let n = nominal();
-    std::fs::write(
-        dir.join("nominal.toml"),
+    let n = mirror_nominal();
+    write(
+        dir,
+        "nominal.toml",
         write_bspline_toml(n.surface(), "test saddle"),
-    )
-    .unwrap();
+    );
     let mut grid = String::from("i,j,x_mm,y_mm,z_mm\n");
     for i in 0..=16 {
         for j in 0..=10 {
@@ -57,42 +45,16 @@ fn write_inputs(dir: &Path) {
             grid.push_str(&format!("{i},{j},{x},{y},{:.9}\n", saddle(x, y)));
         }
     }
-    std::fs::write(dir.join("nominal-grid.csv"), grid).unwrap();
-    let mut probes = String::from("# probed after semi-finishing\nid,i,j,x_mm,y_mm,z_mm\n");
-    for i in 0..7 {
-        for j in 0..5 {
-            let (u, v) = (
-                (2.0 + 76.0 * i as f64 / 6.0) / 80.0,
-                (2.0 + 46.0 * j as f64 / 4.0) / 50.0,
-            );
-            let p = n.point(u, v);
-            let q = p + n.normal(u, v) * (0.3 + error_um(p.x, p.y) * 1e-3);
-            probes.push_str(&format!(
-                "P{i}{j},{i},{j},{:.6},{:.6},{:.6}\n",
-                q.x, q.y, q.z
-            ));
-        }
-    }
-    std::fs::write(dir.join("probes.csv"), probes).unwrap();
-    let mut prog = String::from("%\nO1234 (saddle finishing)\nG21 G90 G17\nG0 Z30.\n");
-    for pass in 0..6 {
-        let v = (5.0 + 8.0 * pass as f64) / 50.0;
-        for k in 0..=40 {
-            let u = k as f64 / 40.0;
-            let c = n.point(u, v) + n.normal(u, v) * 2.0 - Vec3::new(0.0, 0.0, 2.0);
-            if k == 0 {
-                prog.push_str(&format!(
-                    "G0 X{:.4} Y{:.4}\nG1 Z{:.4} F600.\n",
-                    c.x, c.y, c.z
-                ));
-            } else {
-                prog.push_str(&format!("X{:.4} Y{:.4} Z{:.4}\n", c.x, c.y, c.z));
-            }
-        }
-        prog.push_str("G0 Z30.\n");
-    }
-    prog.push_str("M30\n%\n");
-    std::fs::write(dir.join("finish.ngc"), prog).unwrap();
+    write(dir, "nominal-grid.csv", grid);
+    let probes = probes(&n, |p| error_um(p.x, p.y));
+    write(
+        dir,
+        "probes.csv",
+        format!("# probed after semi-finishing\n{probes}"),
+    );
+    let passes = finishing_passes(&n, 2.0, (0..6).map(|pass| (5.0 + 8.0 * pass as f64) / 50.0));
+    let prog = format!("%\nO1234 (saddle finishing)\nG21 G90 G17\nG0 Z30.\n{passes}M30\n%\n");
+    write(dir, "finish.ngc", prog);
 }
 
 const RUN: &[&str] = &[
@@ -132,8 +94,8 @@ fn writes_the_program_the_surface_and_the_report() {
         "{out}"
     );
     // The program: the same lines, only coordinates changed.
-    let before = std::fs::read_to_string(dir.join("finish.ngc")).unwrap();
-    let after = std::fs::read_to_string(dir.join("finish.comp.ngc")).unwrap();
+    let before = read(&dir, "finish.ngc");
+    let after = read(&dir, "finish.comp.ngc");
     assert_ne!(before, after);
     for l in [
         "%",
@@ -153,7 +115,7 @@ fn writes_the_program_the_surface_and_the_report() {
     assert_eq!(original.len(), before.lines().count());
     // The compensated CL points sit below the nominal CL points by the
     // measured error (error field ≥ 3 µm, here at least 2.5 µm lower).
-    let n = nominal();
+    let n = mirror_nominal();
     let first_cut = original
         .iter()
         .zip(before.lines())
@@ -162,13 +124,13 @@ fn writes_the_program_the_surface_and_the_report() {
     let z = |l: &str| -> f64 { l.split('Z').nth(1).unwrap().trim().parse().unwrap() };
     assert!(z(first_cut.1) - z(first_cut.0) > 0.0025, "{first_cut:?}");
     // The surface files: a grid and a B-spline that reads back as a nominal.
-    let grid = std::fs::read_to_string(dir.join("probes.compensated.csv")).unwrap();
+    let grid = read(&dir, "probes.compensated.csv");
     assert!(grid.contains("i,j,x_mm,y_mm,z_mm,offset_um"));
     assert_eq!(
         grid.lines().filter(|l| !l.starts_with('#')).count(),
         1 + 41 * 41
     );
-    let toml = std::fs::read_to_string(dir.join("probes.compensated.toml")).unwrap();
+    let toml = read(&dir, "probes.compensated.toml");
     let s = read_bspline_toml(&toml, "c.toml").unwrap();
     let (u, v) = (0.5, 0.5);
     let p = s.point(u, v);
@@ -180,8 +142,7 @@ fn writes_the_program_the_surface_and_the_report() {
         (q.z - p[2]) * 1e3
     );
     // The report.
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    let report: serde_json::Value = serde_json::from_str(&read(&dir, "report.json")).unwrap();
     assert_eq!(report["points"], 35);
     assert_eq!(report["probe_points"].as_array().unwrap().len(), 35);
     let mean = report["before"]["mean_um"].as_f64().unwrap();
@@ -207,13 +168,13 @@ fn a_grid_nominal_and_an_interpolated_fit_work_too() {
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(out.contains("interpolation"), "{out}");
-    let grid = std::fs::read_to_string(dir.join("probes.compensated.csv")).unwrap();
+    let grid = read(&dir, "probes.compensated.csv");
     // The grid nominal's own nodes.
     assert_eq!(
         grid.lines().filter(|l| !l.starts_with('#')).count(),
         1 + 17 * 11
     );
-    let r = std::fs::read_to_string(dir.join("r.csv")).unwrap();
+    let r = read(&dir, "r.csv");
     assert!(r.lines().any(|l| l.starts_with("row,id,i,j,")));
     assert_eq!(
         r.lines()
@@ -243,7 +204,7 @@ fn refused(dir: &Path, args: &[&str], expect: &[&str]) {
 fn bad_input_is_refused_with_its_location_and_nothing_is_written() {
     let dir = tempdir("bad");
     write_inputs(&dir);
-    let probes = std::fs::read_to_string(dir.join("probes.csv")).unwrap();
+    let probes = read(&dir, "probes.csv");
     let with = |name: &str, content: String| {
         std::fs::write(dir.join(name), content).unwrap();
     };
@@ -331,7 +292,7 @@ fn bad_input_is_refused_with_its_location_and_nothing_is_written() {
 fn warns_or_refuses_when_compensation_is_predicted_worse() {
     let dir = tempdir("worse");
     write_inputs(&dir);
-    let n = nominal();
+    let n = mirror_nominal();
     let mut state: u64 = 12345;
     let mut uniform = || {
         state = state
@@ -339,24 +300,12 @@ fn warns_or_refuses_when_compensation_is_predicted_worse() {
             .wrapping_add(1442695040888963407);
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
-    let mut probes = String::from("id,i,j,x_mm,y_mm,z_mm\n");
-    for i in 0..7 {
-        for j in 0..5 {
-            let (u, v) = (
-                (2.0 + 76.0 * i as f64 / 6.0) / 80.0,
-                (2.0 + 46.0 * j as f64 / 4.0) / 50.0,
-            );
-            // Uniform on ±0.87 µm: σ = 0.5 µm.
-            let noise_um = 0.87 * (2.0 * uniform() - 1.0);
-            let p = n.point(u, v);
-            let q = p + n.normal(u, v) * (0.3 + (3.0 + noise_um) * 1e-3);
-            probes.push_str(&format!(
-                "P{i}{j},{i},{j},{:.6},{:.6},{:.6}\n",
-                q.x, q.y, q.z
-            ));
-        }
-    }
-    std::fs::write(dir.join("noise.csv"), probes).unwrap();
+    // Uniform on ±0.87 µm: σ = 0.5 µm.
+    write(
+        &dir,
+        "noise.csv",
+        probes(&n, |_| 3.0 + 0.87 * (2.0 * uniform() - 1.0)),
+    );
     let mut args = RUN.to_vec();
     args[5] = "noise.csv";
     args.push("--refuse-worse");

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::common;
-use common::tempdir;
+use common::{read, tempdir};
 
 fn example_data() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/data")
@@ -39,7 +39,7 @@ fn report_csv_header_and_first_rows() {
     let dir = inputs("report");
     let o = common::run(&dir, RUN);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let report = std::fs::read_to_string(dir.join("report.csv")).unwrap();
+    let report = read(&dir, "report.csv");
     // The `#` summary lines, the column header and the first three points.
     let head: Vec<&str> = report
         .lines()

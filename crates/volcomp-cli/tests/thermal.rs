@@ -1,20 +1,8 @@
 //! `volcomp thermal …` as a user meets it: example → fit → predict → the
 //! predicted model drives `compensate`; bad input is located.
 
-use std::process::Output;
-
 use crate::common;
-use common::tempdir;
-
-fn ok(o: &Output) -> String {
-    assert!(
-        o.status.success(),
-        "{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
+use common::{ok, read, tempdir, write};
 
 #[test]
 fn example_fit_predict_compensate_plot() {
@@ -23,7 +11,7 @@ fn example_fit_predict_compensate_plot() {
     let out = ok(&common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 --bands bands.csv -o thermal.toml"));
     // The bands: 3 lines × 41 points × 3 components, each a 95 % interval
     // around the estimate with a positive spread.
-    let bands = std::fs::read_to_string(d.join("bands.csv")).unwrap();
+    let bands = read(&d, "bands.csv");
     let rows: Vec<&str> = bands.lines().skip(1).collect();
     assert_eq!(rows.len(), 3 * 41 * 3);
     for r in rows {
@@ -40,22 +28,19 @@ fn example_fit_predict_compensate_plot() {
     );
     ok(&common::run(&d, "thermal predict --model thermal.toml --temperatures ex/temperatures_check.csv --cycle 6 -o predicted.toml"));
     assert!(d.join("predicted.csv").exists());
-    std::fs::write(
-        d.join("p.ngc"),
+    write(
+        &d,
+        "p.ngc",
         "G21 G90 G17\nG0 X10 Y10 Z50\nG1 X500 Y300 Z100 F1000\nM2\n",
-    )
-    .unwrap();
-    ok(&common::run(
+    );
+    common::run_all(
         &d,
-        "compensate --map predicted.toml -o out.ngc p.ngc",
-    ));
-    ok(&common::run(
-        &d,
-        "thermal plot --model thermal.toml -o t.svg",
-    ));
-    assert!(std::fs::read_to_string(d.join("t.svg"))
-        .unwrap()
-        .contains("<svg"));
+        &[
+            "compensate --map predicted.toml -o out.ngc p.ngc",
+            "thermal plot --model thermal.toml -o t.svg",
+        ],
+    );
+    assert!(read(&d, "t.svg").contains("<svg"));
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -63,17 +48,17 @@ fn example_fit_predict_compensate_plot() {
 fn bad_inputs_are_located() {
     let d = tempdir("bad");
     ok(&common::run(&d, "thermal example -o ex"));
-    std::fs::write(d.join("a.csv"), "sphere,distance_mm\n1,0\n2,50\n3,x\n").unwrap();
+    write(&d, "a.csv", "sphere,distance_mm\n1,0\n2,50\n3,x\n");
     let o = common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact a.csv --ranges-mm 0:600,0:400,0:300 -o t.toml");
     assert!(!o.status.success());
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(e.contains("a.csv:4:2:") && e.contains("help:"), "{e}");
     // Missing temperatures for a measured cycle.
-    std::fs::write(
-        d.join("t.csv"),
+    write(
+        &d,
+        "t.csv",
         "cycle,time_h,bed_C,column_C,ambient_C\n0,0,20,20,20\n",
-    )
-    .unwrap();
+    );
     let o = common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures t.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o t.toml");
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(

@@ -4,7 +4,7 @@
 //! of a segment that ends in a blend; docs/planner.md).
 
 use crate::common;
-use common::{stderr, tempdir, volcomp, write_map};
+use common::{stderr, tempdir, write, write_map};
 
 const SETUP: &str =
     "units = \"mm\"\n[limits]\nmax_velocity = 200\nmax_acceleration = [500, 500, 400]\n";
@@ -21,12 +21,10 @@ fn first_seconds(text: &str) -> f64 {
 #[test]
 fn time_of_a_single_move_is_the_trapezoid() {
     let d = tempdir("single");
-    std::fs::write(d.join("s.toml"), SETUP).unwrap();
+    write(&d, "s.toml", SETUP);
     // G61: 60 mm at 50 mm/s with 500 mm/s²: 60/50 + 50/500 = 1.3 s.
-    std::fs::write(d.join("p.ngc"), "G21 G90 G61\nG1 X60 F3000\nM2\n").unwrap();
-    let o = common::run(&d, "time p.ngc --setup s.toml");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    write(&d, "p.ngc", "G21 G90 G61\nG1 X60 F3000\nM2\n");
+    let out = common::ok(&common::run(&d, "time p.ngc --setup s.toml"));
     assert!((first_seconds(&out) - 1.3).abs() <= 0.002, "{out}");
     assert!(
         out.contains("200 mm/s and X 500 Y 500 Z 400 mm/s² per axis"),
@@ -35,7 +33,7 @@ fn time_of_a_single_move_is_the_trapezoid() {
     assert!(out.contains("from the set-up's [limits]"), "{out}");
     // The same move under G64 (the default) ends in a blend: LinuxCNC
     // halves its acceleration, 60/50 + 50/250 = 1.4 s.
-    std::fs::write(d.join("q.ngc"), "G21 G90\nG1 X60 F3000\nM2\n").unwrap();
+    write(&d, "q.ngc", "G21 G90\nG1 X60 F3000\nM2\n");
     let o = common::run(&d, "time q.ngc --setup s.toml --reference p.ngc --json");
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -48,27 +46,14 @@ fn time_of_a_single_move_is_the_trapezoid() {
 #[test]
 fn compensate_and_simulate_state_both_times_and_the_change() {
     let d = tempdir("both");
-    let map = write_map(&d);
-    std::fs::write(d.join("s.toml"), SETUP).unwrap();
-    std::fs::write(
-        d.join("p.ngc"),
-        "G21 G90\nG0 X0 Y0 Z0\nG1 X60 F3000\nG1 Y40\nM2\n",
-    )
-    .unwrap();
-    let m = map.to_str().unwrap();
-    let o = volcomp(
-        &[
-            "compensate",
-            "p.ngc",
-            "--map",
-            m,
-            "--setup",
-            "s.toml",
-            "-o",
-            "c.ngc",
-        ],
+    write_map(&d);
+    write(&d, "s.toml", SETUP);
+    write(
         &d,
+        "p.ngc",
+        "G21 G90\nG0 X0 Y0 Z0\nG1 X60 F3000\nG1 Y40\nM2\n",
     );
+    let o = common::run(&d, "compensate p.ngc --map map.csv --setup s.toml -o c.ngc");
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     let line = err
@@ -76,19 +61,9 @@ fn compensate_and_simulate_state_both_times_and_the_change() {
         .find(|l| l.starts_with("volcomp: machining time: "))
         .unwrap_or_else(|| panic!("{err}"));
     assert!(line.contains(" -> ") && line.contains(" %)"), "{line}");
-    let o = volcomp(
-        &[
-            "simulate",
-            "c.ngc",
-            "--map",
-            m,
-            "--setup",
-            "s.toml",
-            "--reference",
-            "p.ngc",
-            "--json",
-        ],
+    let o = common::run(
         &d,
+        "simulate c.ngc --map map.csv --setup s.toml --reference p.ngc --json",
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -103,19 +78,9 @@ fn compensate_and_simulate_state_both_times_and_the_change() {
         "{v}"
     );
     // --quiet: no summary, no time.
-    let o = volcomp(
-        &[
-            "compensate",
-            "p.ngc",
-            "--map",
-            m,
-            "--setup",
-            "s.toml",
-            "-o",
-            "c2.ngc",
-            "--quiet",
-        ],
+    let o = common::run(
         &d,
+        "compensate p.ngc --map map.csv --setup s.toml -o c2.ngc --quiet",
     );
     assert!(
         o.status.success() && !stderr(&o).contains("machining time"),
@@ -127,12 +92,12 @@ fn compensate_and_simulate_state_both_times_and_the_change() {
 #[test]
 fn bad_limits_are_located_in_the_set_up() {
     let d = tempdir("bad");
-    std::fs::write(
-        d.join("s.toml"),
+    write(
+        &d,
+        "s.toml",
         "units = \"mm\"\n[limits]\nmax_acceleration = [500, 0, 400]\n",
-    )
-    .unwrap();
-    std::fs::write(d.join("p.ngc"), "G21 G90\nG1 X60 F3000\nM2\n").unwrap();
+    );
+    write(&d, "p.ngc", "G21 G90\nG1 X60 F3000\nM2\n");
     let o = common::run(&d, "time p.ngc --setup s.toml");
     assert!(!o.status.success());
     let e = stderr(&o);

@@ -250,6 +250,9 @@ struct Outcome {
     after: DeviationStats,
 }
 
+/// A least-squares fit through the probes (no tolerance given).
+const LEAST_SQUARES: FitMethod = FitMethod::LeastSquares { tolerance_um: None };
+
 fn run(shape: Shape, fit: FitMethod, jitter: f64, seed: u64) -> Outcome {
     let nominal = shape.nominal();
     let mut rng = Rng::splitmix64(seed);
@@ -362,34 +365,19 @@ fn check(o: &Outcome, study_std_reduction: f64) {
 
 #[test]
 fn quadratic_extrusion() {
-    let o = run(
-        Shape::Extrusion,
-        FitMethod::LeastSquares { tolerance_um: None },
-        2.0,
-        1,
-    );
+    let o = run(Shape::Extrusion, LEAST_SQUARES, 2.0, 1);
     check(&o, 0.61);
 }
 
 #[test]
 fn ruled_surface_twisting_from_convex_to_concave() {
-    let o = run(
-        Shape::TwistedRuled,
-        FitMethod::LeastSquares { tolerance_um: None },
-        2.0,
-        2,
-    );
+    let o = run(Shape::TwistedRuled, LEAST_SQUARES, 2.0, 2);
     check(&o, 0.61);
 }
 
 #[test]
 fn doubly_curved_saddle() {
-    let o = run(
-        Shape::Saddle,
-        FitMethod::LeastSquares { tolerance_um: None },
-        2.0,
-        3,
-    );
+    let o = run(Shape::Saddle, LEAST_SQUARES, 2.0, 3);
     check(&o, 0.32);
 }
 

@@ -138,6 +138,20 @@ fn simulate(
     Run { report, segments }
 }
 
+/// What the simulation of `text`, named `name`, says when it refuses it
+/// (G54 at 300, 200, 150; the interpreter's defaults).
+fn refusal(name: &str, text: &str, reference: Option<&str>, map: &AxisTableMap) -> String {
+    let (setup, options) = (
+        setup_at(Vec3::new(300.0, 200.0, 150.0)),
+        InterpOptions::default(),
+    );
+    let mut r = reference.map(|t| walker(t, &setup, options));
+    let mut w = walker(text, &setup, options);
+    simulate_program(&mut w, name, r.as_mut(), map, 1e-4, |_| {})
+        .unwrap_err()
+        .to_string()
+}
+
 fn compensate(
     text: &str,
     map: &AxisTableMap,
@@ -398,21 +412,7 @@ fn a_far_move_is_refused_at_its_line_not_sampled() {
     // 180 m in one block, every coordinate within the ±100 m the
     // interpreter accepts: the simulation's own limit refuses it.
     let text = "G21 G90\nG0 X-90000 Y0 Z0\nG1 X89000 F100\nM2\n";
-    let mut w = walker(
-        text,
-        &setup_at(Vec3::new(300.0, 200.0, 150.0)),
-        InterpOptions::default(),
-    );
-    let err = simulate_program(
-        &mut w,
-        "far.ngc",
-        None::<&mut Walker<Cursor<Vec<u8>>>>,
-        &map,
-        1e-4,
-        |_| {},
-    )
-    .unwrap_err()
-    .to_string();
+    let err = refusal("far.ngc", text, None, &map);
     assert!(
         err.starts_with("far.ngc:3:") && err.contains("refuses moves longer"),
         "{err}"
@@ -422,14 +422,9 @@ fn a_far_move_is_refused_at_its_line_not_sampled() {
 #[test]
 fn a_reference_that_is_not_the_original_is_refused_at_the_line() {
     let map = example_map();
-    let setup = setup_at(Vec3::new(300.0, 200.0, 150.0));
     let text = "G21 G90 F500\nG0 X0 Y0 Z0\nG1 X10\nG1 Y10\nM2\n";
     let other = "G21 G90 F500\nG0 X0 Y0 Z0\nG1 X10\nM2\n";
-    let mut w = walker(text, &setup, InterpOptions::default());
-    let mut r = walker(other, &setup, InterpOptions::default());
-    let err = simulate_program(&mut w, "p.ngc", Some(&mut r), &map, 1e-4, |_| {})
-        .unwrap_err()
-        .to_string();
+    let err = refusal("p.ngc", text, Some(other), &map);
     assert!(
         err.starts_with("p.ngc:4:") && err.contains("reference"),
         "{err}"
@@ -557,36 +552,21 @@ fn without_trace_comments_the_order_of_the_blocks_pairs_or_the_program_is_refuse
         take_up: false,
         ..Default::default()
     };
-    let (traced, _) = compensate(text, &map, &setup, interp, &plain);
-    let (untraced, _) = compensate(
-        text,
-        &map,
-        &setup,
-        interp,
-        &CompensateOptions {
+    let untraced = |options: CompensateOptions| {
+        let options = CompensateOptions {
             trace_comments: false,
-            ..plain
-        },
-    );
+            ..options
+        };
+        compensate(text, &map, &setup, interp, &options).0
+    };
+    let (traced, _) = compensate(text, &map, &setup, interp, &plain);
+    let untraced_plain = untraced(plain);
     let a = simulate(&traced, Some(text), &map, &setup, interp);
-    let b = simulate(&untraced, Some(text), &map, &setup, interp);
+    let b = simulate(&untraced_plain, Some(text), &map, &setup, interp);
     assert_eq!(a.report, b.report);
     // Split lines without tags cannot be paired: refused, not misjudged.
-    let (split, _) = compensate(
-        text,
-        &map,
-        &setup,
-        interp,
-        &CompensateOptions {
-            trace_comments: false,
-            ..Default::default()
-        },
-    );
-    let mut w = walker(&split, &setup, interp);
-    let mut r = walker(text, &setup, interp);
-    let err = simulate_program(&mut w, "c.ngc", Some(&mut r), &map, 1e-4, |_| {})
-        .unwrap_err()
-        .to_string();
+    let split = untraced(CompensateOptions::default());
+    let err = refusal("c.ngc", &split, Some(text), &map);
     assert!(
         err.starts_with("c.ngc:") && err.contains("without trace comments"),
         "{err}"

@@ -35,6 +35,11 @@ struct Truth {
 }
 
 impl Truth {
+    /// The positions of the samples along the axis, mm.
+    fn positions(&self) -> impl Iterator<Item = f64> + Clone + '_ {
+        (0..self.samples).map(|i| self.start_mm + i as f64 * self.spacing_mm)
+    }
+
     fn end_mm(&self) -> f64 {
         self.start_mm + (self.samples - 1) as f64 * self.spacing_mm
     }
@@ -89,9 +94,7 @@ fn vib_wavelength_mm(feed_mm_per_min: f64) -> f64 {
 /// A measured run: geometry + vibration (random phase) + noise.
 fn measure(t: &Truth, feed: f64, vib_um: f64, phase: f64, rng: &mut Rng, name: &str) -> Run {
     let lambda = vib_wavelength_mm(feed);
-    let positions: Vec<f64> = (0..t.samples)
-        .map(|i| t.start_mm + i as f64 * t.spacing_mm)
-        .collect();
+    let positions: Vec<f64> = t.positions().collect();
     let displacement_um = positions
         .iter()
         .map(|&p| {
@@ -214,10 +217,8 @@ fn recovers_geometry_and_rejects_vibration() {
         };
         let am = model.axis(truth.axis).unwrap();
         let [lo, hi] = am.recommended_range_mm;
-        let inner = (0..truth.samples)
-            .map(|i| truth.start_mm + i as f64 * truth.spacing_mm)
-            .filter(|p| (lo..=hi).contains(p));
-        let all = (0..truth.samples).map(|i| truth.start_mm + i as f64 * truth.spacing_mm);
+        let inner = truth.positions().filter(|p| (lo..=hi).contains(p));
+        let all = truth.positions();
         let inner_rms = rms(inner.map(|p| eval(p) - truth.geometric_um(p)));
         let all_rms = rms(all.map(|p| eval(p) - truth.geometric_um(p)));
         println!(
@@ -455,9 +456,7 @@ fn family_member(mc: &Machine, options: &FitOptions, seed: u64) -> (f64, usize, 
         let lambda = feed / 60.0 / mc.vib_hz;
         for r in 0..3 {
             let phase = 2.0 * PI * rng.uniform();
-            let positions: Vec<f64> = (0..truth.samples)
-                .map(|i| truth.start_mm + i as f64 * truth.spacing_mm)
-                .collect();
+            let positions: Vec<f64> = truth.positions().collect();
             let displacement_um = positions
                 .iter()
                 .map(|&p| {
@@ -478,8 +477,8 @@ fn family_member(mc: &Machine, options: &FitOptions, seed: u64) -> (f64, usize, 
     let f = fit(&runs, None, options).expect("fit");
     let am = f.model.x.as_ref().unwrap();
     let [lo, hi] = am.recommended_range_mm;
-    let p: Vec<f64> = (0..truth.samples)
-        .map(|i| truth.start_mm + i as f64 * truth.spacing_mm)
+    let p: Vec<f64> = truth
+        .positions()
         .filter(|p| (lo..=hi).contains(p))
         .collect();
     let t: Vec<f64> = p.iter().map(|&p| truth.geometric_um(p)).collect();
@@ -568,9 +567,7 @@ fn paper_thresholds_remain_available() {
             Axis::X => f.model.ez_um(p, 0.0).unwrap(),
             Axis::Y => f.model.ez_um(X.start_mm, p).unwrap(),
         };
-        let inner = (0..truth.samples)
-            .map(|i| truth.start_mm + i as f64 * truth.spacing_mm)
-            .filter(|p| (lo..=hi).contains(p));
+        let inner = truth.positions().filter(|p| (lo..=hi).contains(p));
         let inner_rms = rms(inner.map(|p| eval(p) - truth.geometric_um(p)));
         println!(
             "paper rule {:?}: m = {}, model − truth RMS {inner_rms:.4} µm inside",

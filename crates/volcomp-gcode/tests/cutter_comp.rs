@@ -77,47 +77,83 @@ fn message(program: &str) -> String {
 
 #[test]
 fn refusals_have_linuxcncs_messages() {
-    // The retreat along X (5 / tan 45° = 5) is longer than the 3 mm side.
-    let e = message("G21 F100\nG0 X0 Y0\nG41.1 D10 G1 X20 Y0\nY3\nX0\nG40 G0 X-20\nM2\n");
-    assert!(
-        e.contains("t.ngc:5:")
-            && e.contains(
-                "Straight feed in concave corner cannot be reached by the tool without gouging"
-            ),
-        "{e}"
-    );
-    // Inside a 4 mm arc with a 5 mm radius tool.
-    let e = message("G21 F100\nG0 X0 Y-10\nG41.1 D10 G1 X0 Y0\nG3 X0 Y8 J4\nG40 G0 X-20\nM2\n");
-    assert!(
-        e.contains("t.ngc:4:") && e.contains("Tool radius not less than arc radius with comp"),
-        "{e}"
-    );
-    // Entry move 4 mm long with a 5 mm radius.
-    let e = message("G21 F100\nG0 X0 Y0\nG41.1 D10 G1 X4 Y0\nG40 G0 X-20\nM2\n");
-    assert!(
-        e.contains("t.ngc:3:")
-            && e.contains(
-                "Length of cutter compensation entry move is not greater than the tool radius"
-            ),
-        "{e}"
-    );
-    // G19, and changes LinuxCNC refuses while compensation is on.
-    let e = message("G21 G19 F100\nG41.1 D2\nM2\n");
-    assert!(
-        e.contains("Cutter radius compensation allowed only in XY, XZ planes"),
-        "{e}"
-    );
-    // A plane change is refused even with the G40 that turns compensation
-    // off in the same block (rs274: the plane is set at step 11, G40 at 13).
-    for block in ["G18", "G18 G40 G1 X20 Y-5"] {
-        let e = message(&format!(
-            "G21 F100\nG0 X0 Y-5\nG41.1 D2 G1 X0 Y0\nX10\n{block}\nM2\n"
-        ));
-        assert!(
-            e.contains("t.ngc:5:")
-                && e.contains("Cannot change planes with cutter radius compensation on"),
-            "{block}: {e}"
-        );
+    // A program that turns compensation on along Y, then runs `block`.
+    let then = |block: &str| format!("G21 F100\nG0 X0 Y-5\nG41.1 D2 G1 X0 Y0\nX10\n{block}\nM2\n");
+    // Each refusal: why, the program, what the message must hold (its line
+    // and LinuxCNC's words).
+    let cases: [(&str, String, &[&str]); 10] = [
+        (
+            "the retreat along X (5 / tan 45° = 5) is longer than the 3 mm side",
+            "G21 F100\nG0 X0 Y0\nG41.1 D10 G1 X20 Y0\nY3\nX0\nG40 G0 X-20\nM2\n".into(),
+            &[
+                "t.ngc:5:",
+                "Straight feed in concave corner cannot be reached by the tool without gouging",
+            ],
+        ),
+        (
+            "inside a 4 mm arc with a 5 mm radius tool",
+            "G21 F100\nG0 X0 Y-10\nG41.1 D10 G1 X0 Y0\nG3 X0 Y8 J4\nG40 G0 X-20\nM2\n".into(),
+            &["t.ngc:4:", "Tool radius not less than arc radius with comp"],
+        ),
+        (
+            "entry move 4 mm long with a 5 mm radius",
+            "G21 F100\nG0 X0 Y0\nG41.1 D10 G1 X4 Y0\nG40 G0 X-20\nM2\n".into(),
+            &[
+                "t.ngc:3:",
+                "Length of cutter compensation entry move is not greater than the tool radius",
+            ],
+        ),
+        (
+            "G19",
+            "G21 G19 F100\nG41.1 D2\nM2\n".into(),
+            &["Cutter radius compensation allowed only in XY, XZ planes"],
+        ),
+        (
+            "a plane change while compensation is on",
+            then("G18"),
+            &[
+                "t.ngc:5:",
+                "Cannot change planes with cutter radius compensation on",
+            ],
+        ),
+        (
+            // rs274: the plane is set at step 11, G40 at 13.
+            "a plane change even with the G40 that turns compensation off in the same block",
+            then("G18 G40 G1 X20 Y-5"),
+            &[
+                "t.ngc:5:",
+                "Cannot change planes with cutter radius compensation on",
+            ],
+        ),
+        (
+            "a change of coordinate system",
+            "G21 F100\nG41.1 D2\nG55\nM2\n".into(),
+            &["Cannot change coordinate systems with cutter radius compensation on"],
+        ),
+        (
+            "compensation turned on twice",
+            "G21 F100\nG41.1 D2\nG41.1 D2\nM2\n".into(),
+            &["Cannot turn cutter radius comp on when on"],
+        ),
+        (
+            "the current position read",
+            "G21 F100\nG0 X0 Y-5\nG41.1 D2 G1 X0 Y0\n#1 = #5420\nG40 G0 X-20\nM2\n".into(),
+            &[
+                "t.ngc:4:",
+                "Cannot read current position with cutter radius compensation on",
+            ],
+        ),
+        (
+            "a tool whose diameter the set-up does not give",
+            "G21 F100\nG41 D7\nM2\n".into(),
+            &["tool 7", "[tool_diameters]"],
+        ),
+    ];
+    for (why, program, said) in cases {
+        let e = message(&program);
+        for s in said {
+            assert!(e.contains(s), "{why}: no `{s}` in: {e}");
+        }
     }
     // What comes after G40 in LinuxCNC's order passes in G40's block, as
     // in rs274 (G55 and G43 H1 with G40: the exit move runs).
@@ -125,30 +161,7 @@ fn refusals_have_linuxcncs_messages() {
         let mut s = Setup::default();
         s.tool_lengths_mm.insert(1, 10.0);
         s.work_offsets_given[1] = true;
-        let program = format!("G21 F100\nG0 X0 Y-5\nG41.1 D2 G1 X0 Y0\nX10\n{block}\nM2\n");
-        let r = run_with(&program, s);
+        let r = run_with(&then(block), s);
         assert!(r.is_ok(), "{block}: {r:?}");
     }
-    let e = message("G21 F100\nG41.1 D2\nG55\nM2\n");
-    assert!(
-        e.contains("Cannot change coordinate systems with cutter radius compensation on"),
-        "{e}"
-    );
-    let e = message("G21 F100\nG41.1 D2\nG41.1 D2\nM2\n");
-    assert!(
-        e.contains("Cannot turn cutter radius comp on when on"),
-        "{e}"
-    );
-    let e = message("G21 F100\nG0 X0 Y-5\nG41.1 D2 G1 X0 Y0\n#1 = #5420\nG40 G0 X-20\nM2\n");
-    assert!(
-        e.contains("t.ngc:4:")
-            && e.contains("Cannot read current position with cutter radius compensation on"),
-        "{e}"
-    );
-    // A tool whose diameter the set-up does not give.
-    let e = message("G21 F100\nG41 D7\nM2\n");
-    assert!(
-        e.contains("tool 7") && e.contains("[tool_diameters]"),
-        "{e}"
-    );
 }

@@ -151,14 +151,7 @@ fn inputs(paths: &[PathBuf], role: &str) -> Result<Vec<Input>, CliError> {
 }
 
 fn fit_cmd(a: FitArgs) -> Result<(), CliError> {
-    let stem = a
-        .output
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("model")
-        .to_string();
-    let csv_name = format!("{stem}.csv");
-    let csv_path = a.output.with_file_name(&csv_name);
+    let (csv_name, csv_path) = super::tables_beside(&a.output);
     let mut plan = OutputPlan::new();
     for p in &a.id.artifacts {
         plan.input("--artifact", p);

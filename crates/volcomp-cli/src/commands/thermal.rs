@@ -146,14 +146,7 @@ fn load_model(path: &Path) -> Result<ThermalModelFile, CliError> {
 }
 
 fn predict_cmd(a: PredictArgs) -> Result<(), CliError> {
-    let stem = a
-        .output
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("model")
-        .to_string();
-    let csv_name = format!("{stem}.csv");
-    let csv_path = a.output.with_file_name(&csv_name);
+    let (csv_name, csv_path) = super::tables_beside(&a.output);
     let mut plan = OutputPlan::new();
     plan.input("--model", &a.model)
         .input_opt("--temperatures", input(&a.job.temperatures))

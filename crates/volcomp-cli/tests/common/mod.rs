@@ -40,7 +40,23 @@ pub fn volcomp(args: &[&str], dir: &Path) -> Output {
 /// user types them (split at white space: an argument holding a space
 /// goes through [`volcomp`]).
 pub fn run(dir: &Path, line: &str) -> Output {
-    volcomp(&line.split_whitespace().collect::<Vec<_>>(), dir)
+    volcomp(&args(line), dir)
+}
+
+/// The words of a command line, as [`run`] splits it (for a test that adds
+/// arguments holding a space, or varies some).
+pub fn args(line: &str) -> Vec<&str> {
+    line.split_whitespace().collect()
+}
+
+/// Runs each command line of `lines` in turn in `dir` (as [`run`]); each
+/// must succeed.
+#[track_caller]
+pub fn run_all(dir: &Path, lines: &[&str]) {
+    for line in lines {
+        let o = run(dir, line);
+        assert_eq!(o.status.code(), Some(0), "{line}: {}", text(&o));
+    }
 }
 
 /// `volcomp` with the words of `line` as its arguments, to run in `dir`
@@ -64,7 +80,21 @@ pub fn tempdir(name: &str) -> PathBuf {
     d
 }
 
-// A small part on a pitch-error map, shared by the output-safety and header tests.
+/// Writes `contents` as the file `name` in `dir` (a test's input).
+#[track_caller]
+pub fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) {
+    let path = dir.join(name);
+    if let Err(e) = std::fs::write(&path, contents) {
+        panic!("cannot write {}: {e}", path.display());
+    }
+}
+
+/// The text of the file `name` in `dir` (what a run wrote).
+#[track_caller]
+pub fn read(dir: &Path, name: &str) -> String {
+    let path = dir.join(name);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
+}
 
 /// What a run wrote on standard error.
 pub fn stderr(o: &Output) -> String {
@@ -81,12 +111,30 @@ pub fn text(o: &Output) -> String {
     format!("{}{}", stdout(o), stderr(o))
 }
 
-/// Asserts the run succeeded (exit 0), showing what it said if not.
-pub fn ok(o: &Output) {
+/// Asserts the run succeeded (exit 0), showing what it said if not, and
+/// returns what it wrote on standard output.
+#[track_caller]
+pub fn ok(o: &Output) -> String {
     assert_eq!(o.status.code(), Some(0), "{}", text(o));
+    stdout(o)
+}
+
+/// Asserts the run was refused (exit 2: bad input or options) and returns
+/// what it said on standard error.
+#[track_caller]
+pub fn refused(o: &Output) -> String {
+    assert_eq!(o.status.code(), Some(2), "{}", text(o));
+    stderr(o)
+}
+
+/// Asserts that the run said `what` on standard error.
+#[track_caller]
+pub fn said(o: &Output, what: &str) {
+    assert!(stderr(o).contains(what), "no `{what}` in: {}", text(o));
 }
 
 /// The run's standard output as JSON (the run must succeed).
+#[track_caller]
 pub fn json(o: &Output) -> serde_json::Value {
     ok(o);
     serde_json::from_slice(&o.stdout).unwrap()
@@ -115,6 +163,7 @@ pub fn write_map(dir: &Path) -> PathBuf {
     path
 }
 
+// A small part on a pitch-error map, shared by the output-safety and header tests.
 pub const PROGRAM: &str =
     "G21 G90 G17\nG0 X10 Y10 Z5\nG1 Z-1 F300\nG1 X60 Y40\nG1 X10\nG0 Z5\nM2\n";
 
@@ -148,9 +197,7 @@ pub fn large_program(dir: &Path, lines: usize) -> PathBuf {
 /// `volcomp compensate part.ngc --map map.csv --setup machine.toml -o OUT
 /// EXTRA…` in a [`fixture`] directory.
 pub fn compensate_with(d: &Path, out: &str, extra: &[&str]) -> Output {
-    let mut args: Vec<&str> = "compensate part.ngc --map map.csv --setup machine.toml -o"
-        .split_whitespace()
-        .collect();
+    let mut args = args("compensate part.ngc --map map.csv --setup machine.toml -o");
     args.push(out);
     args.extend_from_slice(extra);
     volcomp(&args, d)

@@ -109,6 +109,14 @@ pub fn deviation(r: &RefMotion, v: &VolMotion) -> f64 {
     d
 }
 
+/// `motions`, numbered from `first` in `side`'s sequence, one per line.
+fn listed<M>(side: &str, motions: &[M], first: usize, describe: fn(&M) -> String) -> String {
+    let lines = motions.iter().enumerate();
+    lines
+        .map(|(n, m)| format!("\n    {side} #{}: {}", first + n, describe(m)))
+        .collect()
+}
+
 /// The result of comparing one program.
 pub struct Comparison {
     /// Pairs of motions compared.
@@ -127,7 +135,7 @@ pub fn compare(label: &str, reference: &[RefMotion], volcomp: &[VolMotion]) -> C
     let mut failures = Vec::new();
     let (mut i, mut j, mut pairs, mut problems) = (0, 0, 0, 0);
     let mut max_dev_mm = 0.0_f64;
-    let mut report = |failures: &mut Vec<String>, msg: String| {
+    let mut report = |msg: String| {
         problems += 1;
         if problems <= MAX_REPORTS_PER_FILE {
             failures.push(msg);
@@ -157,35 +165,26 @@ pub fn compare(label: &str, reference: &[RefMotion], volcomp: &[VolMotion]) -> C
             continue;
         };
         if let Some(k) = (1..=MAX_EXTRA).find(|&k| aligned(reference, i + k, volcomp, j)) {
-            let extra: Vec<String> = (i..i + k)
-                .map(|n| format!("\n    rs274 #{n}: {}", describe_ref(&reference[n])))
-                .collect();
+            let extra = listed("rs274", &reference[i..i + k], i, describe_ref);
             report(
-                &mut failures,
                 format!(
-                    "{label}: rs274 emits {k} motion(s) that volcomp does not, {}:{}\n    volcomp #{j}: {}",
+                    "{label}: rs274 emits {k} motion(s) that volcomp does not, {}:{extra}\n    volcomp #{j}: {}",
                     between(j),
-                    extra.concat(),
                     describe_vol(&volcomp[j])
                 ),
             );
             i += k;
         } else if let Some(k) = (1..=MAX_EXTRA).find(|&k| aligned(reference, i, volcomp, j + k)) {
-            let extra: Vec<String> = (j..j + k)
-                .map(|n| format!("\n    volcomp #{n}: {}", describe_vol(&volcomp[n])))
-                .collect();
+            let extra = listed("volcomp", &volcomp[j..j + k], j, describe_vol);
             report(
-                &mut failures,
                 format!(
-                    "{label}: volcomp emits {k} motion(s) that rs274 does not, before rs274 motion #{i}:{}\n    rs274 #{i}: {}",
-                    extra.concat(),
+                    "{label}: volcomp emits {k} motion(s) that rs274 does not, before rs274 motion #{i}:{extra}\n    rs274 #{i}: {}",
                     describe_ref(&reference[i])
                 ),
             );
             j += k;
         } else {
             report(
-                &mut failures,
                 format!(
                     "{label}: motion #{i} (volcomp #{j}, volcomp line {}): {why}\n    rs274:   {}\n    volcomp: {}",
                     volcomp[j].line,
@@ -199,25 +198,19 @@ pub fn compare(label: &str, reference: &[RefMotion], volcomp: &[VolMotion]) -> C
         }
     }
     if i < reference.len() {
-        report(
-            &mut failures,
-            format!(
-                "{label}: rs274 has {} more motion(s) at the end, {}; the first is rs274 #{i}: {}",
-                reference.len() - i,
-                between(j),
-                describe_ref(&reference[i])
-            ),
-        );
+        report(format!(
+            "{label}: rs274 has {} more motion(s) at the end, {}; the first is rs274 #{i}: {}",
+            reference.len() - i,
+            between(j),
+            describe_ref(&reference[i])
+        ));
     }
     if j < volcomp.len() {
-        report(
-            &mut failures,
-            format!(
-                "{label}: volcomp has {} more motion(s) at the end; the first is volcomp #{j}: {}",
-                volcomp.len() - j,
-                describe_vol(&volcomp[j])
-            ),
-        );
+        report(format!(
+            "{label}: volcomp has {} more motion(s) at the end; the first is volcomp #{j}: {}",
+            volcomp.len() - j,
+            describe_vol(&volcomp[j])
+        ));
     }
     if problems > MAX_REPORTS_PER_FILE {
         failures.push(format!(

@@ -242,6 +242,27 @@ impl Canon {
         })
     }
 
+    /// A motion to `end` (machine frame, mm) with A, B, C at `abc`, and the
+    /// tolerances of the offsets in effect.
+    pub fn motion(
+        &self,
+        kind: Kind,
+        end: [f64; 3],
+        center: Option<[(usize, f64); 2]>,
+        abc: [f64; 3],
+        call: &str,
+    ) -> RefMotion {
+        RefMotion {
+            kind,
+            end,
+            center,
+            tol: [self.tol(0), self.tol(1), self.tol(2)],
+            abc,
+            abc_tol: self.abc_tol(),
+            call: call.to_string(),
+        }
+    }
+
     /// A, B, C as printed (program frame) plus the offsets in effect.
     pub fn abc(&self, printed: [f64; 3]) -> [f64; 3] {
         [0, 1, 2].map(|i| printed[i] + self.g5x_abc[i] + self.g92_abc[i])
@@ -413,15 +434,9 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                 } else {
                     Kind::Feed
                 };
-                out.push(RefMotion {
-                    kind,
-                    end: canon.machine([n[0], n[1], n[2]]),
-                    center: None,
-                    tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
-                    abc: canon.abc([n[3], n[4], n[5]]),
-                    abc_tol: canon.abc_tol(),
-                    call: call.clone(),
-                });
+                let end = canon.machine([n[0], n[1], n[2]]);
+                let abc = canon.abc([n[3], n[4], n[5]]);
+                out.push(canon.motion(kind, end, None, abc, &call));
             }
             "ARC_FEED" => {
                 // first_end, second_end, first_centre, second_centre,
@@ -448,15 +463,9 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                 } else {
                     Kind::ArcCcw
                 };
-                out.push(RefMotion {
-                    kind,
-                    end,
-                    center: Some([(f, cf), (s, cs)]),
-                    tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
-                    abc: canon.abc([n[6], n[7], n[8]]),
-                    abc_tol: canon.abc_tol(),
-                    call: call.clone(),
-                });
+                let center = Some([(f, cf), (s, cs)]);
+                let abc = canon.abc([n[6], n[7], n[8]]);
+                out.push(canon.motion(kind, end, center, abc, &call));
             }
             "RIGID_TAP" => {
                 // In to the point at the spindle's feed, and back out to
@@ -466,15 +475,7 @@ pub fn parse_rs274_output(text: &str) -> Result<Vec<RefMotion>, String> {
                 let start = out.last().map_or([0.0; 3], |m: &RefMotion| m.end);
                 let abc = out.last().map_or([0.0; 3], |m: &RefMotion| m.abc);
                 for end in [canon.machine([n[0], n[1], n[2]]), start] {
-                    out.push(RefMotion {
-                        kind: Kind::Feed,
-                        end,
-                        center: None,
-                        tol: [canon.tol(0), canon.tol(1), canon.tol(2)],
-                        abc,
-                        abc_tol: canon.abc_tol(),
-                        call: call.clone(),
-                    });
+                    out.push(canon.motion(Kind::Feed, end, None, abc, &call));
                 }
             }
             "STRAIGHT_PROBE" | "NURBS_FEED" | "SPLINE_FEED" => {
@@ -608,6 +609,24 @@ pub fn find_rs274() -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
+/// `rs274 -g -t TOOL_TABLE -v VAR PROGRAM OUT` in `work`, with `work` as its
+/// HOME: rs274 2.9 keeps its tool data in a memory-mapped file
+/// `$HOME/.tool.mmap`, and concurrent runs sharing it crash (SIGBUS).
+pub fn command(
+    rs274: &Path,
+    work: &Path,
+    tool_table: &Path,
+    var: &Path,
+    program: &Path,
+    out: &Path,
+) -> Command {
+    let mut c = Command::new(rs274);
+    c.current_dir(work).env("HOME", work).arg("-g");
+    c.arg("-t").arg(tool_table).arg("-v").arg(var);
+    c.arg(program).arg(out).stdin(Stdio::null());
+    c
+}
+
 pub fn run_rs274(tools: &Tools, program: &Path, work: &Path) -> Result<Rs274Run, String> {
     std::fs::create_dir_all(work).map_err(|e| format!("{}: {e}", work.display()))?;
     // rs274 rewrites its var file at the end: every run gets a fresh one.
@@ -615,21 +634,16 @@ pub fn run_rs274(tools: &Tools, program: &Path, work: &Path) -> Result<Rs274Run,
     std::fs::write(&var, &tools.var_text).map_err(|e| format!("{}: {e}", var.display()))?;
     let out_path = work.join("canon.txt");
     let _ = std::fs::remove_file(&out_path);
-    // rs274 2.9 keeps its tool data in a memory-mapped file `$HOME/.tool.mmap`;
-    // concurrent runs sharing it crash (SIGBUS). Each run gets its own HOME.
-    let out = Command::new(&tools.rs274)
-        .current_dir(work)
-        .env("HOME", work)
-        .arg("-g")
-        .arg("-t")
-        .arg(&tools.tool_table)
-        .arg("-v")
-        .arg(&var)
-        .arg(program)
-        .arg(&out_path)
-        .stdin(Stdio::null())
-        .output()
-        .map_err(|e| format!("cannot run {}: {e}", tools.rs274.display()))?;
+    let out = command(
+        &tools.rs274,
+        work,
+        &tools.tool_table,
+        &var,
+        program,
+        &out_path,
+    )
+    .output()
+    .map_err(|e| format!("cannot run {}: {e}", tools.rs274.display()))?;
     let text = std::fs::read_to_string(&out_path).unwrap_or_default();
     let motions = parse_rs274_output(&text)?;
     // A clean run prints only "executing" (stderr); anything else is an error.

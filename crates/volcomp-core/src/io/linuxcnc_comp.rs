@@ -251,20 +251,7 @@ pub enum CompWriteError {
 }
 
 /// A comp file could not be read.
-#[derive(Debug, thiserror::Error)]
-pub enum CompReadError {
-    /// The file could not be read.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: std::path::PathBuf,
-        /// What the system said.
-        source: std::io::Error,
-    },
-    /// The content is malformed (located).
-    #[error(transparent)]
-    Format(#[from] MapFileError),
-}
+pub type CompReadError = crate::io::FileReadError;
 
 /// Reads the comp file `path` (see [`parse`]).
 pub fn read(
@@ -272,16 +259,8 @@ pub fn read(
     ty: CompFileType,
     units: MachineUnits,
 ) -> Result<Positioning, CompReadError> {
-    let bytes =
-        crate::io::inputs::read(path, "a LinuxCNC compensation file").map_err(|source| {
-            CompReadError::Io {
-                path: path.to_path_buf(),
-                source,
-            }
-        })?;
-    let file = path.display().to_string();
-    let text = crate::io::table::utf8(&bytes, &file)?;
-    Ok(parse(text, &file, ty, units)?)
+    let text = crate::io::read_text(path, "a LinuxCNC compensation file")?;
+    Ok(parse(&text, &path.display().to_string(), ty, units)?)
 }
 
 /// The axis-table CSV of comp files read as `tables` (positioning errors

@@ -43,6 +43,36 @@ pub fn shown_name(name: &str) -> String {
     volcomp_gcode::error::escape_name(name).into_owned()
 }
 
+/// A file of a table format could not be read: the system refused it, or
+/// its content is malformed (located). The controller files' and the comp
+/// files' readers both give it.
+#[derive(Debug, thiserror::Error)]
+pub enum FileReadError {
+    /// The file could not be read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What the system said.
+        source: std::io::Error,
+    },
+    /// The content is malformed (located).
+    #[error(transparent)]
+    Format(#[from] crate::error::MapFileError),
+}
+
+/// The file `path` read whole as UTF-8 text (a byte that is not UTF-8 is
+/// refused at its line and column), recorded as read in its `role` ("the
+/// controller file") for the output plan.
+pub(crate) fn read_text(path: &std::path::Path, role: &str) -> Result<String, FileReadError> {
+    let bytes = inputs::read(path, role).map_err(|source| FileReadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let file = path.display().to_string();
+    Ok(table::utf8(&bytes, &file)?.to_string())
+}
+
 /// A path as printed in messages ([`shown_name`]).
 pub fn shown_path(path: &std::path::Path) -> String {
     shown_name(&path.display().to_string())

@@ -20,54 +20,57 @@ fn um(v: f64) -> String {
 /// The sections: the bidirectional plot with the axis figures, then the
 /// figures per target and the test's shortfalls against the standard.
 pub fn sections(r: &Iso230_2Report) -> Vec<Section> {
+    use crate::identify::iso230_2::TargetStats;
     let t = &r.targets;
-    let line = |f: &dyn Fn(&crate::identify::iso230_2::TargetStats) -> f64| -> Vec<(f64, f64)> {
+    let line = |f: &dyn Fn(&TargetStats) -> f64| -> Vec<(f64, f64)> {
         t.iter().map(|s| (s.target_mm, f(s))).collect()
     };
-    let series = vec![
-        Series::xy(
-            "x̄↑ mean, positive direction",
-            UP,
-            Mark::Line,
-            &line(&|s| s.mean_up_um),
-        ),
-        Series::xy(
-            "x̄↑ ± 2s↑",
-            UP,
-            Mark::Dashed,
-            &line(&|s| s.mean_up_um + 2.0 * s.s_up_um),
-        ),
-        Series::xy(
-            "",
-            UP,
-            Mark::Dashed,
-            &line(&|s| s.mean_up_um - 2.0 * s.s_up_um),
-        ),
-        Series::xy(
-            "x̄↓ mean, negative direction",
-            DOWN,
-            Mark::Line,
-            &line(&|s| s.mean_down_um),
-        ),
-        Series::xy(
-            "x̄↓ ± 2s↓",
-            DOWN,
-            Mark::Dashed,
-            &line(&|s| s.mean_down_um + 2.0 * s.s_down_um),
-        ),
-        Series::xy(
-            "",
-            DOWN,
-            Mark::Dashed,
-            &line(&|s| s.mean_down_um - 2.0 * s.s_down_um),
-        ),
-        Series::xy(
-            "x̄ bidirectional mean",
-            PALETTE[6],
-            Mark::Markers,
-            &line(&|s| s.mean_um),
-        ),
-    ];
+    // One direction: its mean, and the band x̄ ± 2s dashed (labelled once).
+    let direction = |mean_label: &str,
+                     band_label: &str,
+                     colour: &str,
+                     stats: fn(&TargetStats) -> (f64, f64)| {
+        [
+            Series::xy(mean_label, colour, Mark::Line, &line(&|s| stats(s).0)),
+            Series::xy(
+                band_label,
+                colour,
+                Mark::Dashed,
+                &line(&|s| {
+                    let (mean, sd) = stats(s);
+                    mean + 2.0 * sd
+                }),
+            ),
+            Series::xy(
+                "",
+                colour,
+                Mark::Dashed,
+                &line(&|s| {
+                    let (mean, sd) = stats(s);
+                    mean - 2.0 * sd
+                }),
+            ),
+        ]
+    };
+    let mut series = Vec::new();
+    series.extend(direction(
+        "x̄↑ mean, positive direction",
+        "x̄↑ ± 2s↑",
+        UP,
+        |s| (s.mean_up_um, s.s_up_um),
+    ));
+    series.extend(direction(
+        "x̄↓ mean, negative direction",
+        "x̄↓ ± 2s↓",
+        DOWN,
+        |s| (s.mean_down_um, s.s_down_um),
+    ));
+    series.push(Series::xy(
+        "x̄ bidirectional mean",
+        PALETTE[6],
+        Mark::Markers,
+        &line(&|s| s.mean_um),
+    ));
     let plot = svg::chart(&Chart {
         x_label: "target position Pᵢ (mm)".into(),
         y_label: "positional deviation x = P − Pᵢ (µm)".into(),

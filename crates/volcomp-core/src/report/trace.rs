@@ -176,6 +176,32 @@ fn merge_bins(a: PathBin, b: PathBin) -> PathBin {
     }
 }
 
+/// Appends `item` (one command) to `items`, kept at most `limit` long
+/// (module documentation): merged into the last entry while that holds
+/// fewer than `span` commands; past the limit, neighbours merge in pairs
+/// and the span doubles.
+fn push_decimated<T>(
+    items: &mut Vec<T>,
+    span: &mut u64,
+    limit: usize,
+    item: T,
+    commands: impl Fn(&T) -> u64,
+    merge: impl Fn(T, T) -> T + Copy,
+) {
+    match items.pop() {
+        Some(last) if commands(&last) < *span => items.push(merge(last, item)),
+        Some(last) => {
+            items.push(last);
+            items.push(item);
+        }
+        None => items.push(item),
+    }
+    if items.len() > limit {
+        halve(items, merge);
+        *span *= 2;
+    }
+}
+
 /// Merges neighbours in pairs (the last one alone if odd).
 fn halve<T>(items: &mut Vec<T>, merge: impl Fn(T, T) -> T) {
     let old = std::mem::take(items);
@@ -227,18 +253,14 @@ impl PathTrace {
             max_um: s.contour_max_um,
             commands: 1,
         };
-        match self.plan.pop() {
-            Some(last) if last.commands < self.plan_span => self.plan.push(merge_runs(last, run)),
-            Some(last) => {
-                self.plan.push(last);
-                self.plan.push(run);
-            }
-            None => self.plan.push(run),
-        }
-        if self.plan.len() > PLAN_PIECES {
-            halve(&mut self.plan, merge_runs);
-            self.plan_span *= 2;
-        }
+        push_decimated(
+            &mut self.plan,
+            &mut self.plan_span,
+            PLAN_PIECES,
+            run,
+            |r| r.commands,
+            merge_runs,
+        );
         let bin = PathBin {
             s0_mm: s0,
             s1_mm: self.travelled_mm,
@@ -247,18 +269,14 @@ impl PathTrace {
             point_max_um: s.point_um,
             commands: 1,
         };
-        match self.bins.pop() {
-            Some(last) if last.commands < self.bin_span => self.bins.push(merge_bins(last, bin)),
-            Some(last) => {
-                self.bins.push(last);
-                self.bins.push(bin);
-            }
-            None => self.bins.push(bin),
-        }
-        if self.bins.len() > PATH_BINS {
-            halve(&mut self.bins, merge_bins);
-            self.bin_span *= 2;
-        }
+        push_decimated(
+            &mut self.bins,
+            &mut self.bin_span,
+            PATH_BINS,
+            bin,
+            |b| b.commands,
+            merge_bins,
+        );
         self.histogram.add(s.contour_max_um, length);
     }
 

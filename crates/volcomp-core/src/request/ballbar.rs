@@ -8,7 +8,7 @@ use crate::ballbar::predict::{predict, predict_program, TestCircle};
 use crate::ballbar::quick_map::{quick_model, QuickModel};
 use crate::ballbar::trace as ballbar_trace;
 use crate::ballbar::{figures, BallbarError, Figures, Plane, Sense, Trace};
-use crate::request::option::{Input, Kind, OptionError, OptionInfo, Value};
+use crate::request::option::Input;
 use crate::Error;
 use std::path::Path;
 use volcomp_gcode::Vec3;
@@ -19,133 +19,75 @@ const PLANES: &[(&str, &str)] = &[
     ("ZX", "Z and X (G18)"),
 ];
 
-/// The options of [`BallbarPredictRequest`].
-pub const BALLBAR_PREDICT_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new("centre_mm", Kind::Triple, "The ballbar's pivot: the circle's centre in machine coordinates (mm, X,Y,Z).")
+request! {
+    /// A prediction of the circular test, as plain values.
+    pub struct BallbarPredictRequest {}
+    /// The options of [`BallbarPredictRequest`].
+    pub const BALLBAR_PREDICT_OPTIONS;
+    options [BALLBAR_PREDICT_OPTIONS], unknown "plane";
+
+    /// The pivot (mm).
+    centre_mm: Option<[f64; 3]> = None,
+        Triple "The ballbar's pivot: the circle's centre in machine coordinates (mm, X,Y,Z)."
         .value("X,Y,Z")
-        .required(),
-    OptionInfo::new("plane", Kind::Choice, "The test plane.")
+        .required();
+
+    /// `XY`, `YZ` or `ZX`.
+    plane: String = "XY".into(),
+        Choice "The test plane."
         .value("PLANE")
         .default("XY")
-        .choices(PLANES),
-    OptionInfo::new("radius_mm", Kind::Number, "The ballbar's nominal length: the circle's radius (mm).")
+        .choices(PLANES);
+
+    /// The radius (mm).
+    radius_mm: f64 = TestCircle::default().radius_mm,
+        Number "The ballbar's nominal length: the circle's radius (mm)."
         .value("MM")
-        .default("100"),
-    OptionInfo::new("feed_mm_per_min", Kind::Number, "The programmed feed (mm/min).")
+        .default("100");
+
+    /// The feed (mm/min).
+    feed_mm_per_min: f64 = TestCircle::default().feed_mm_per_min,
+        Number "The programmed feed (mm/min)."
         .value("F")
-        .default("1000"),
-    OptionInfo::new("direction", Kind::Choice, "The runs: counter-clockwise then clockwise (`both`), or one of them.")
+        .default("1000");
+
+    /// `both`, `ccw` or `cw`.
+    direction: String = "both".into(),
+        Choice "The runs: counter-clockwise then clockwise (`both`), or one of them."
         .value("DIR")
         .default("both")
         .choices(&[
-            ("both", "Counter-clockwise (G3), then clockwise (G2)"),
-            ("ccw", "Counter-clockwise only (G3)"),
-            ("cw", "Clockwise only (G2)"),
-        ]),
-    OptionInfo::new("start_deg", Kind::Number, "Where the data arc starts: degrees from the plane's first axis toward its second.")
-        .value("DEG")
-        .default("0"),
-    OptionInfo::new("overshoot_deg", Kind::Number, "The feed-in and feed-out arcs before and after the data arc (degrees).")
-        .value("DEG")
-        .default("180"),
-    OptionInfo::new("step_deg", Kind::Number, "The angle between samples (degrees; 360 a whole multiple of it).")
-        .value("DEG")
-        .default("0.1"),
-    OptionInfo::new("program", Kind::Input, "The program the machine runs instead of the test's own (the test's program after `volcomp compensate`): the trace after compensation.")
-        .value("PROGRAM"),
-    OptionInfo::new("clamp", Kind::Switch, "Clamp positions outside the map's range to its end instead of refusing."),
-];
+                ("both", "Counter-clockwise (G3), then clockwise (G2)"),
+                ("ccw", "Counter-clockwise only (G3)"),
+                ("cw", "Clockwise only (G2)"),
+            ]);
 
-/// The options of [`BallbarFitRequest`] (the set-up options fill what a
-/// trace file does not say).
-pub const BALLBAR_FIT_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new("pitch_mm", Kind::Triple, "Lead-screw pitch of X, Y, Z for the cyclic error (mm; 0: none).")
-        .value("X,Y,Z"),
-    OptionInfo::new("spike_width_deg", Kind::Number, "How fast a reversal spike decays: its angle of decay to 1/e (degrees).")
-        .value("DEG")
-        .default("2"),
-    OptionInfo::new("trace_plane", Kind::Choice, "The test plane, when the trace file does not say it (`# plane = XY`).")
-        .value("PLANE")
-        .choices(PLANES),
-    OptionInfo::new("trace_radius_mm", Kind::Number, "The ballbar's nominal length, when the trace file does not say it (`# radius_mm = …`).")
-        .value("MM"),
-    OptionInfo::new("trace_centre_mm", Kind::Triple, "The pivot in machine coordinates, when the trace file does not say it (`# centre_mm = …`; only cyclic errors need it).")
-        .value("X,Y,Z"),
-    OptionInfo::new("trace_feed_mm_per_min", Kind::Number, "The test's feed, when the trace file does not say it (`# feed_mm_per_min = …`; only the servo mismatch needs it).")
-        .value("F"),
-];
-
-/// The options of [`BallbarMapRequest`] beside the fit's.
-pub const BALLBAR_MAP_OPTIONS: &[OptionInfo] = &[OptionInfo::new(
-    "range_mm",
-    Kind::Ranges,
-    "The quick map's range per axis (mm): X0:X1,Y0:Y1,Z0:Z1, the volume programs will be compensated in.",
-)
-.value("RANGES")
-.required()];
-
-/// A prediction of the circular test, as plain values.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BallbarPredictRequest {
-    /// The pivot (mm).
-    pub centre_mm: Option<[f64; 3]>,
-    /// `XY`, `YZ` or `ZX`.
-    pub plane: String,
-    /// The radius (mm).
-    pub radius_mm: f64,
-    /// The feed (mm/min).
-    pub feed_mm_per_min: f64,
-    /// `both`, `ccw` or `cw`.
-    pub direction: String,
     /// The data arc's start (degrees).
-    pub start_deg: f64,
+    start_deg: f64 = TestCircle::default().start_deg,
+        Number "Where the data arc starts: degrees from the plane's first axis toward its second."
+        .value("DEG")
+        .default("0");
+
     /// The feed-in and feed-out arcs (degrees).
-    pub overshoot_deg: f64,
+    overshoot_deg: f64 = TestCircle::default().overshoot_deg,
+        Number "The feed-in and feed-out arcs before and after the data arc (degrees)."
+        .value("DEG")
+        .default("180");
+
     /// The sample step (degrees).
-    pub step_deg: f64,
+    step_deg: f64 = TestCircle::default().step_deg,
+        Number "The angle between samples (degrees; 360 a whole multiple of it)."
+        .value("DEG")
+        .default("0.1");
+
     /// A program run instead of the test's own.
-    pub program: Option<Input>,
+    program: Option<Input> = None,
+        Input "The program the machine runs instead of the test's own (the test's program after `volcomp compensate`): the trace after compensation."
+        .value("PROGRAM");
+
     /// Clamp the map.
-    pub clamp: bool,
-}
-
-impl Default for BallbarPredictRequest {
-    fn default() -> Self {
-        let t = TestCircle::default();
-        Self {
-            centre_mm: None,
-            plane: "XY".into(),
-            radius_mm: t.radius_mm,
-            feed_mm_per_min: t.feed_mm_per_min,
-            direction: "both".into(),
-            start_deg: t.start_deg,
-            overshoot_deg: t.overshoot_deg,
-            step_deg: t.step_deg,
-            program: None,
-            clamp: false,
-        }
-    }
-}
-
-impl crate::request::Request for BallbarPredictRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[BALLBAR_PREDICT_OPTIONS];
-
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        match name {
-            "centre_mm" => self.centre_mm = Some(v.triple("centre_mm")?),
-            "plane" => self.plane = v.text("plane")?,
-            "radius_mm" => self.radius_mm = v.number("radius_mm")?,
-            "feed_mm_per_min" => self.feed_mm_per_min = v.number("feed_mm_per_min")?,
-            "direction" => self.direction = v.text("direction")?,
-            "start_deg" => self.start_deg = v.number("start_deg")?,
-            "overshoot_deg" => self.overshoot_deg = v.number("overshoot_deg")?,
-            "step_deg" => self.step_deg = v.number("step_deg")?,
-            "program" => self.program = Some(v.input("program")?),
-            "clamp" => self.clamp = v.bool("clamp")?,
-            _ => return Err(OptionError::unknown("plane", name)),
-        }
-        Ok(())
-    }
+    clamp: bool = false,
+        Switch "Clamp positions outside the map's range to its end instead of refusing.";
 }
 
 /// A predicted test: the trace, its figures, the test's program.
@@ -227,52 +169,48 @@ impl BallbarPredictRequest {
     }
 }
 
-/// A fit of a trace file, as plain values.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BallbarFitRequest {
-    /// Pitches of X, Y, Z (0: none).
-    pub pitch_mm: Option<[f64; 3]>,
-    /// A spike's decay angle (degrees).
-    pub spike_width_deg: f64,
-    /// The plane, when the file does not say it.
-    pub trace_plane: Option<String>,
-    /// The radius, when the file does not say it.
-    pub trace_radius_mm: Option<f64>,
-    /// The pivot, when the file does not say it.
-    pub trace_centre_mm: Option<[f64; 3]>,
-    /// The feed, when the file does not say it.
-    pub trace_feed_mm_per_min: Option<f64>,
-}
+request! {
+    /// A fit of a trace file, as plain values.
+    pub struct BallbarFitRequest {}
+    /// The options of [`BallbarFitRequest`] (the set-up options fill what a
+    /// trace file does not say).
+    pub const BALLBAR_FIT_OPTIONS;
+    options [BALLBAR_FIT_OPTIONS], unknown "pitch_mm";
 
-impl Default for BallbarFitRequest {
-    fn default() -> Self {
-        Self {
-            pitch_mm: None,
-            spike_width_deg: FitOptions::default().spike_width_deg,
-            trace_plane: None,
-            trace_radius_mm: None,
-            trace_centre_mm: None,
-            trace_feed_mm_per_min: None,
-        }
-    }
+    /// Pitches of X, Y, Z (0: none).
+    pitch_mm: Option<[f64; 3]> = None,
+        Triple "Lead-screw pitch of X, Y, Z for the cyclic error (mm; 0: none)."
+        .value("X,Y,Z");
+
+    /// A spike's decay angle (degrees).
+    spike_width_deg: f64 = FitOptions::default().spike_width_deg,
+        Number "How fast a reversal spike decays: its angle of decay to 1/e (degrees)."
+        .value("DEG")
+        .default("2");
+
+    /// The plane, when the file does not say it.
+    trace_plane: Option<String> = None,
+        Choice "The test plane, when the trace file does not say it (`# plane = XY`)."
+        .value("PLANE")
+        .choices(PLANES);
+
+    /// The radius, when the file does not say it.
+    trace_radius_mm: Option<f64> = None,
+        Number "The ballbar's nominal length, when the trace file does not say it (`# radius_mm = …`)."
+        .value("MM");
+
+    /// The pivot, when the file does not say it.
+    trace_centre_mm: Option<[f64; 3]> = None,
+        Triple "The pivot in machine coordinates, when the trace file does not say it (`# centre_mm = …`; only cyclic errors need it)."
+        .value("X,Y,Z");
+
+    /// The feed, when the file does not say it.
+    trace_feed_mm_per_min: Option<f64> = None,
+        Number "The test's feed, when the trace file does not say it (`# feed_mm_per_min = …`; only the servo mismatch needs it)."
+        .value("F");
 }
 
 impl BallbarFitRequest {
-    fn try_set(&mut self, name: &str, v: Value) -> Result<bool, OptionError> {
-        match name {
-            "pitch_mm" => self.pitch_mm = Some(v.triple("pitch_mm")?),
-            "spike_width_deg" => self.spike_width_deg = v.number("spike_width_deg")?,
-            "trace_plane" => self.trace_plane = Some(v.text("trace_plane")?),
-            "trace_radius_mm" => self.trace_radius_mm = Some(v.number("trace_radius_mm")?),
-            "trace_centre_mm" => self.trace_centre_mm = Some(v.triple("trace_centre_mm")?),
-            "trace_feed_mm_per_min" => {
-                self.trace_feed_mm_per_min = Some(v.number("trace_feed_mm_per_min")?)
-            }
-            _ => return Ok(false),
-        }
-        Ok(true)
-    }
-
     /// The fit's options, checked.
     pub fn options(&self) -> Result<FitOptions, BallbarError> {
         let pitch_mm = match self.pitch_mm {
@@ -387,40 +325,21 @@ impl BallbarFitRequest {
     }
 }
 
-impl crate::request::Request for BallbarFitRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[BALLBAR_FIT_OPTIONS];
-
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        if self.try_set(name, v)? {
-            Ok(())
-        } else {
-            Err(OptionError::unknown("pitch_mm", name))
-        }
+request! {
+    /// The quick model from traces in three planes, as plain values.
+    pub struct BallbarMapRequest {
+        /// How each trace is fitted.
+        pub fit: BallbarFitRequest,
     }
-}
+    /// The options of [`BallbarMapRequest`] beside the fit's.
+    pub const BALLBAR_MAP_OPTIONS;
+    options [BALLBAR_MAP_OPTIONS, BALLBAR_FIT_OPTIONS], unknown "range_mm";
 
-/// The quick model from traces in three planes, as plain values.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct BallbarMapRequest {
-    /// How each trace is fitted.
-    pub fit: BallbarFitRequest,
     /// The map's range per axis (mm).
-    pub range_mm: Option<[[f64; 2]; 3]>,
-}
-
-impl crate::request::Request for BallbarMapRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[BALLBAR_MAP_OPTIONS, BALLBAR_FIT_OPTIONS];
-
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        if self.fit.try_set(name, v.clone())? {
-            return Ok(());
-        }
-        match name {
-            "range_mm" => self.range_mm = Some(v.ranges("range_mm")?),
-            _ => return Err(OptionError::unknown("range_mm", name)),
-        }
-        Ok(())
-    }
+    range_mm: Option<[[f64; 2]; 3]> = None,
+        Ranges "The quick map's range per axis (mm): X0:X1,Y0:Y1,Z0:Z1, the volume programs will be compensated in."
+        .value("RANGES")
+        .required();
 }
 
 /// A quick model: its values, the fit of each trace, the map file's text.

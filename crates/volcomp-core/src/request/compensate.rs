@@ -3,7 +3,7 @@
 //! the provenance header of the program it writes.
 
 use super::machine::{Machine, MachineRequest, MACHINE_OPTIONS};
-use super::option::{Kind, OptionError, OptionInfo, Spelling, Value};
+use super::option::{OptionError, Spelling};
 use super::positive;
 use crate::compensate::solve::Method;
 use crate::compensate::{
@@ -29,272 +29,140 @@ pub const DEFAULT_ILC_GAIN: f64 = 0.5;
 /// The ILC iteration limit when none is given.
 pub const DEFAULT_ILC_ITERATIONS: u64 = 20;
 
-/// The options of [`CompensateRequest`] beside the machine's.
-pub const COMPENSATE_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new("method", Kind::Choice, "Compensation method.")
+request! {
+    /// A compensation, as plain values (each field is the option of the same
+    /// name in [`COMPENSATE_OPTIONS`] or [`MACHINE_OPTIONS`]).
+    pub struct CompensateRequest {
+        /// The machine.
+        pub machine: MachineRequest,
+    }
+    /// The options of [`CompensateRequest`] beside the machine's.
+    pub const COMPENSATE_OPTIONS;
+    options [MACHINE_OPTIONS, COMPENSATE_OPTIONS], unknown "method";
+
+    /// `exact`, `ilc`, `direct` or `pitch`.
+    method: String = "exact".into(),
+        Choice "Compensation method."
         .default("exact")
         .value("METHOD")
         .choices(&[
-            ("exact", "Solve q + e(q, s) = t to a tolerance (default)"),
-            ("ilc", "Iterative learning control, q ← q + γ·(t − actual(q))"),
-            ("direct", "One step, q = t − e(t, s)"),
-            ("pitch", "Exact, but only with the positioning errors E_XX, E_YY, E_ZZ"),
-        ]),
-    OptionInfo::new(
-        "segment_length_mm",
-        Kind::Number,
-        "Split feed moves into segments of at most this length (mm) instead of adaptively.",
-    )
-    .flag("segment-length")
-    .value("MM"),
-    OptionInfo::new(
-        "segments",
-        Kind::Count,
-        "Split every feed move into this many segments (as the papers do).",
-    )
-    .value("N"),
-    OptionInfo::new(
-        "no_split",
-        Kind::Switch,
-        "Do not split feed moves (only arcs are linearised).",
-    ),
-    OptionInfo::new(
-        "contour_tolerance_um",
-        Kind::Number,
-        "Contour tolerance (µm, default 0.1): feed moves are split adaptively, at the map's table points and where the map bends the path by more than this (the default segmentation).",
-    )
-    .value("UM"),
-    OptionInfo::new(
-        "min_segment_length_mm",
-        Kind::Number,
-        "Shortest segment of adaptive splitting (mm).",
-    )
-    .flag("min-segment-length")
-    .value("MM")
-    .default("0.01"),
-    OptionInfo::new("gain", Kind::Number, "ILC gain γ, 0 < γ ≤ 1.")
-        .value("GAIN")
-        .default("0.5"),
-    OptionInfo::new(
-        "max_iterations",
-        Kind::Count,
-        "ILC iteration limit (at least 1).",
-    )
-    .value("N")
-    .default("20"),
-    OptionInfo::new(
-        "max_residual_um",
-        Kind::Number,
-        "Largest model residual accepted at a point (µm) with the exact and ILC solvers; a point that is not reached is an error at its line.",
-    )
-    .value("UM")
-    .default("1"),
-    OptionInfo::new(
-        "max_output_bytes",
-        Kind::Size,
-        "Largest output accepted, in bytes (suffixes K, M, G: powers of 1024), or `none`; a bigger output is refused and nothing is written.",
-    )
-    .flag("max-output-size")
-    .value("BYTES")
-    .default("256M"),
-    OptionInfo::new(
-        "chord_tolerance_mm",
-        Kind::Number,
-        "Chord tolerance for linearising arcs and splines (mm).",
-    )
-    .flag("chord-tolerance")
-    .value("MM")
-    .default("0.0001"),
-    OptionInfo::new(
-        "arcs_as_lines",
-        Kind::Switch,
-        "Write arcs as G1 lines within {chord_tolerance_mm} instead of as compensated arcs (pieces of the original arc).",
-    ),
-    OptionInfo::new(
-        "decimals",
-        Kind::Count,
-        "Decimal places of written coordinates (default 5 in mm, 6 in inch).",
-    )
-    .value("DECIMALS"),
-    OptionInfo::new(
-        "max_correction_mm",
-        Kind::Number,
-        "Largest correction accepted (mm); larger ones mean a wrong map unit.",
-    )
-    .flag("max-correction")
-    .value("MM")
-    .default("0.1"),
-    OptionInfo::new(
-        "nominal_directions",
-        Kind::Switch,
-        "Choose error tables by the nominal move direction, as the papers do, instead of the direction of the compensated command (for comparison).",
-    ),
-    OptionInfo::new(
-        "take_up",
-        Kind::Switch,
-        "Do not insert backlash take-up moves at reversals.",
-    )
-    .default("true"),
-    OptionInfo::new(
-        "separate_take_ups",
-        Kind::Switch,
-        "Write every take-up as a block of its own, even where the move that reverses can take it up within the contour tolerance (the default folds those, so the controller does not stop for them).",
-    ),
-    OptionInfo::new(
-        "take_up_tolerance_um",
-        Kind::Number,
-        "The contour error a take-up folded into its move may leave (µm), for the whole program instead of the program's path-control mode (default: G61/G61.1 take up exactly, G64 P p folds within p, G64 folds every take-up). Larger folds more take-ups, so the controller stops less, at the price of up to that error at reversals (docs/compensation.md, \"Reversals by path-control mode\").",
-    )
-    .value("UM"),
-    OptionInfo::new(
-        "drill_tolerance_um",
-        Kind::Number,
-        "The error a drilling cycle (G73, G81, G82, G83) written as a cycle may leave along its stroke (µm): the map's drift across the stroke and the peck levels inside the hole. The hole's position at the bottom and its depth are compensated exactly either way; a hole past it is written as its moves. Never below the contour tolerance; boring cycles (G85, G86, G89) keep the contour tolerance (docs/compensation.md, \"Canned cycles\").",
-    )
-    .value("UM")
-    .default("5"),
-    OptionInfo::new(
-        "trace",
-        Kind::Switch,
-        "Do not tag inserted lines with `(volcomp Ln)` comments.",
-    )
-    .default("true"),
-    OptionInfo::new(
-        "allow_recompensate",
-        Kind::Switch,
-        "Compensate a program that volcomp compensated already (its header or trace comments say so); the corrections are then applied twice.",
-    ),
-    OptionInfo::new(
-        "allow_uncompensated_axes",
-        Kind::Switch,
-        "Write feed moves made while an axis has never been set (a 2-D program without Z words, and no `start` in the set-up) without compensation, with a warning and a header that count them, instead of refusing the program.",
-    ),
-];
+                ("exact", "Solve q + e(q, s) = t to a tolerance (default)"),
+                ("ilc", "Iterative learning control, q ← q + γ·(t − actual(q))"),
+                ("direct", "One step, q = t − e(t, s)"),
+                ("pitch", "Exact, but only with the positioning errors E_XX, E_YY, E_ZZ"),
+            ]);
 
-/// A compensation, as plain values (each field is the option of the same
-/// name in [`COMPENSATE_OPTIONS`] or [`MACHINE_OPTIONS`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct CompensateRequest {
-    /// The machine.
-    pub machine: MachineRequest,
-    /// `exact`, `ilc`, `direct` or `pitch`.
-    pub method: String,
-    /// ILC gain; an option of ILC only.
-    pub gain: f64,
-    /// ILC iteration limit; an option of ILC only.
-    pub max_iterations: u64,
     /// Fixed segment length (mm).
-    pub segment_length_mm: Option<f64>,
+    segment_length_mm: Option<f64> = None,
+        Number "Split feed moves into segments of at most this length (mm) instead of adaptively."
+        .flag("segment-length")
+        .value("MM");
+
     /// Fixed number of segments per move.
-    pub segments: Option<u64>,
+    segments: Option<u64> = None,
+        Count "Split every feed move into this many segments (as the papers do)."
+        .value("N");
+
     /// No splitting.
-    pub no_split: bool,
+    no_split: bool = false,
+        Switch "Do not split feed moves (only arcs are linearised).";
+
     /// Adaptive splitting's contour tolerance (µm).
-    pub contour_tolerance_um: Option<f64>,
+    contour_tolerance_um: Option<f64> = None,
+        Number "Contour tolerance (µm, default 0.1): feed moves are split adaptively, at the map's table points and where the map bends the path by more than this (the default segmentation)."
+        .value("UM");
+
     /// Adaptive splitting's shortest segment (mm); `None`: the default.
-    pub min_segment_length_mm: Option<f64>,
+    min_segment_length_mm: Option<f64> = None,
+        Number "Shortest segment of adaptive splitting (mm)."
+        .flag("min-segment-length")
+        .value("MM")
+        .default("0.01");
+
+    /// ILC gain; an option of ILC only.
+    gain: f64 = DEFAULT_ILC_GAIN,
+        Number "ILC gain γ, 0 < γ ≤ 1."
+        .value("GAIN")
+        .default("0.5");
+
+    /// ILC iteration limit; an option of ILC only.
+    max_iterations: u64 = DEFAULT_ILC_ITERATIONS,
+        Count "ILC iteration limit (at least 1)."
+        .value("N")
+        .default("20");
+
     /// Largest residual accepted (µm).
-    pub max_residual_um: f64,
+    max_residual_um: f64 = DEFAULT_MAX_RESIDUAL_UM,
+        Number "Largest model residual accepted at a point (µm) with the exact and ILC solvers; a point that is not reached is an error at its line."
+        .value("UM")
+        .default("1");
+
     /// Largest output (bytes); `None`: no limit.
-    pub max_output_bytes: Option<u64>,
+    max_output_bytes: Option<u64> = Some(DEFAULT_MAX_OUTPUT_BYTES),
+        Size "Largest output accepted, in bytes (suffixes K, M, G: powers of 1024), or `none`; a bigger output is refused and nothing is written."
+        .flag("max-output-size")
+        .value("BYTES")
+        .default("256M");
+
     /// Chord tolerance (mm).
-    pub chord_tolerance_mm: f64,
+    chord_tolerance_mm: f64 = 1e-4,
+        Number "Chord tolerance for linearising arcs and splines (mm)."
+        .flag("chord-tolerance")
+        .value("MM")
+        .default("0.0001");
+
     /// Arcs as G1 lines.
-    pub arcs_as_lines: bool,
+    arcs_as_lines: bool = false,
+        Switch "Write arcs as G1 lines within {chord_tolerance_mm} instead of as compensated arcs (pieces of the original arc).";
+
     /// Written decimals.
-    pub decimals: Option<u64>,
+    decimals: Option<u64> = None,
+        Count "Decimal places of written coordinates (default 5 in mm, 6 in inch)."
+        .value("DECIMALS");
+
     /// Largest correction accepted (mm).
-    pub max_correction_mm: f64,
+    max_correction_mm: f64 = 0.1,
+        Number "Largest correction accepted (mm); larger ones mean a wrong map unit."
+        .flag("max-correction")
+        .value("MM")
+        .default("0.1");
+
     /// Tables chosen by the nominal direction.
-    pub nominal_directions: bool,
+    nominal_directions: bool = false,
+        Switch "Choose error tables by the nominal move direction, as the papers do, instead of the direction of the compensated command (for comparison).";
+
     /// Take-up moves at reversals.
-    pub take_up: bool,
+    take_up: bool = true,
+        Switch "Do not insert backlash take-up moves at reversals."
+        .default("true");
+
     /// Every take-up a block of its own.
-    pub separate_take_ups: bool,
+    separate_take_ups: bool = false,
+        Switch "Write every take-up as a block of its own, even where the move that reverses can take it up within the contour tolerance (the default folds those, so the controller does not stop for them).";
+
     /// What a folded take-up may leave (µm).
-    pub take_up_tolerance_um: Option<f64>,
+    take_up_tolerance_um: Option<f64> = None,
+        Number "The contour error a take-up folded into its move may leave (µm), for the whole program instead of the program's path-control mode (default: G61/G61.1 take up exactly, G64 P p folds within p, G64 folds every take-up). Larger folds more take-ups, so the controller stops less, at the price of up to that error at reversals (docs/compensation.md, \"Reversals by path-control mode\")."
+        .value("UM");
+
     /// See [`CompensateOptions::drill_tolerance_mm`] (µm).
-    pub drill_tolerance_um: f64,
+    drill_tolerance_um: f64 = crate::compensate::DEFAULT_DRILL_TOLERANCE_UM,
+        Number "The error a drilling cycle (G73, G81, G82, G83) written as a cycle may leave along its stroke (µm): the map's drift across the stroke and the peck levels inside the hole. The hole's position at the bottom and its depth are compensated exactly either way; a hole past it is written as its moves. Never below the contour tolerance; boring cycles (G85, G86, G89) keep the contour tolerance (docs/compensation.md, \"Canned cycles\")."
+        .value("UM")
+        .default("5");
+
     /// `(volcomp Ln)` comments.
-    pub trace: bool,
+    trace: bool = true,
+        Switch "Do not tag inserted lines with `(volcomp Ln)` comments."
+        .default("true");
+
     /// Compensate a compensated program again.
-    pub allow_recompensate: bool,
+    allow_recompensate: bool = false,
+        Switch "Compensate a program that volcomp compensated already (its header or trace comments say so); the corrections are then applied twice.";
+
     /// Write feed moves on an axis never set without compensation.
-    pub allow_uncompensated_axes: bool,
-}
-
-impl Default for CompensateRequest {
-    fn default() -> Self {
-        Self {
-            machine: MachineRequest::default(),
-            method: "exact".into(),
-            gain: DEFAULT_ILC_GAIN,
-            max_iterations: DEFAULT_ILC_ITERATIONS,
-            segment_length_mm: None,
-            segments: None,
-            no_split: false,
-            contour_tolerance_um: None,
-            min_segment_length_mm: None,
-            max_residual_um: DEFAULT_MAX_RESIDUAL_UM,
-            max_output_bytes: Some(DEFAULT_MAX_OUTPUT_BYTES),
-            chord_tolerance_mm: 1e-4,
-            arcs_as_lines: false,
-            decimals: None,
-            max_correction_mm: 0.1,
-            nominal_directions: false,
-            take_up: true,
-            separate_take_ups: false,
-            take_up_tolerance_um: None,
-            drill_tolerance_um: crate::compensate::DEFAULT_DRILL_TOLERANCE_UM,
-            trace: true,
-            allow_recompensate: false,
-            allow_uncompensated_axes: false,
-        }
-    }
-}
-
-impl super::Request for CompensateRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[MACHINE_OPTIONS, COMPENSATE_OPTIONS];
-
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        if self.machine.try_set(name, v.clone())? {
-            return Ok(());
-        }
-        match name {
-            "method" => self.method = v.text("method")?,
-            "gain" => self.gain = v.number("gain")?,
-            "max_iterations" => self.max_iterations = v.count("max_iterations")?,
-            "segment_length_mm" => self.segment_length_mm = Some(v.number("segment_length_mm")?),
-            "segments" => self.segments = Some(v.count("segments")?),
-            "no_split" => self.no_split = v.bool("no_split")?,
-            "contour_tolerance_um" => {
-                self.contour_tolerance_um = Some(v.number("contour_tolerance_um")?)
-            }
-            "min_segment_length_mm" => {
-                self.min_segment_length_mm = Some(v.number("min_segment_length_mm")?)
-            }
-            "max_residual_um" => self.max_residual_um = v.number("max_residual_um")?,
-            "max_output_bytes" => self.max_output_bytes = v.size("max_output_bytes")?,
-            "chord_tolerance_mm" => self.chord_tolerance_mm = v.number("chord_tolerance_mm")?,
-            "arcs_as_lines" => self.arcs_as_lines = v.bool("arcs_as_lines")?,
-            "decimals" => self.decimals = Some(v.count("decimals")?),
-            "max_correction_mm" => self.max_correction_mm = v.number("max_correction_mm")?,
-            "nominal_directions" => self.nominal_directions = v.bool("nominal_directions")?,
-            "take_up" => self.take_up = v.bool("take_up")?,
-            "separate_take_ups" => self.separate_take_ups = v.bool("separate_take_ups")?,
-            "drill_tolerance_um" => self.drill_tolerance_um = v.number("drill_tolerance_um")?,
-            "take_up_tolerance_um" => {
-                self.take_up_tolerance_um = Some(v.number("take_up_tolerance_um")?)
-            }
-            "trace" => self.trace = v.bool("trace")?,
-            "allow_recompensate" => self.allow_recompensate = v.bool("allow_recompensate")?,
-            "allow_uncompensated_axes" => {
-                self.allow_uncompensated_axes = v.bool("allow_uncompensated_axes")?
-            }
-            _ => return Err(OptionError::unknown("method", name)),
-        }
-        Ok(())
-    }
+    allow_uncompensated_axes: bool = false,
+        Switch "Write feed moves made while an axis has never been set (a 2-D program without Z words, and no `start` in the set-up) without compensation, with a warning and a header that count them, instead of refusing the program.";
 }
 
 impl CompensateRequest {

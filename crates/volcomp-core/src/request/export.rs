@@ -4,7 +4,7 @@
 //! the table written, how far it lies from the map as the controller
 //! applies it (refused above the limit) and the sign-check files.
 
-use super::option::{Kind, OptionError, OptionInfo, Value};
+use super::option::OptionError;
 use crate::io::controllers::table_error::{self, um, TableError};
 use crate::io::controllers::{self, fanuc, siemens, Export, ExportFile, Positioning};
 use crate::io::linuxcnc_comp::{CompFileType, MachineUnits};
@@ -60,185 +60,6 @@ const FORMATS: &[(&str, &str)] = &[
     ),
 ];
 
-/// Where a 21-component model is evaluated as tables (shared by the jobs
-/// that turn a model into tables).
-pub const MAP_TOOL_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new(
-        "tool_length_mm",
-        Kind::Number,
-        "Tool length (mm) as G43 applies it: the tip lies this far below the spindle's gauge point. Default 0 (the gauge point).",
-    )
-    .flag("tool-length")
-    .value("MM"),
-    OptionInfo::new(
-        "tool_offset_mm",
-        Kind::Triple,
-        "Tool length offset vector (mm) as G43.1 applies it, for angle heads.",
-    )
-    .flag("tool-offset")
-    .value("X,Y,Z"),
-    OptionInfo::new(
-        "form",
-        Kind::Choice,
-        "Evaluation of the 21-component model.",
-    )
-    .value("FORM")
-    .default("htm")
-    .choices(&[
-        ("htm", "Exact products of homogeneous transformation matrices"),
-        ("first-order", "The small-angle (first-order) form"),
-    ]),
-];
-
-/// The LinuxCNC side of a comp file ([`CompRequest`]).
-pub const COMP_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new(
-        "comp_type",
-        Kind::Count,
-        "COMP_FILE_TYPE: 0 (nominal, actual forward, actual reverse) or 1 (nominal, trim forward, trim reverse; trim = nominal − actual).",
-    )
-    .flag("type")
-    .value("0|1"),
-    OptionInfo::new(
-        "units",
-        Kind::Choice,
-        "The machine's [TRAJ] LINEAR_UNITS, the unit of every number in the file.",
-    )
-    .value("UNITS")
-    .choices(&[("mm", ""), ("inch", "")]),
-];
-
-/// The options of [`MapExportRequest`].
-pub const EXPORT_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new("to", Kind::Choice, "The controller's format.")
-        .value("TO")
-        .required()
-        .choices(FORMATS),
-    OptionInfo::new(
-        "step_mm",
-        Kind::Number,
-        "Spacing of the table's points (mm): required by equidistant tables (siemens-eec); resamples the others (linear interpolation).",
-    )
-    .flag("step")
-    .value("MM"),
-    OptionInfo::new(
-        "at",
-        Kind::Triple,
-        "Where the positioning error of a 21-component model is taken (axis position, mm; default: its measuring lines).",
-    )
-    .value("X,Y,Z"),
-    OptionInfo::new(
-        "max_table_error_um",
-        Kind::Number,
-        "The largest deviation (µm) of the written table, as the controller applies it, from the map between and at its points: a larger one is refused with a finer step to choose.",
-    )
-    .value("UM")
-    .default("1"),
-    OptionInfo::new(
-        "backlash_only",
-        Kind::Switch,
-        "linuxcnc: write each joint's BACKLASH (the mean reversal value) and no comp files.",
-    ),
-    OptionInfo::new(
-        "axis_names",
-        Kind::Text,
-        "siemens-eec: the machine axis names of X, Y, Z.",
-    )
-    .value("X,Y,Z")
-    .default("X1,Y1,Z1"),
-    OptionInfo::new(
-        "resolution_um",
-        Kind::Number,
-        "siemens-eec: the NC's resolution of a compensation value (µm), 1/MD10200 mm.",
-    )
-    .value("UM")
-    .default("1"),
-    OptionInfo::new(
-        "max_points",
-        Kind::Count,
-        "The controller's largest number of points per table: siemens-eec MD38000 $MA_MM_ENC_COMP_MAX_POINTS (default 5000), isg-ssfk P-COMP-00059 (default 1500).",
-    )
-    .value("N"),
-    OptionInfo::new(
-        "detection_unit_um",
-        Kind::Number,
-        "fanuc: the detection unit (µm; 1 for IS-B).",
-    )
-    .value("UM")
-    .default("1"),
-    OptionInfo::new(
-        "fanuc_sign",
-        Kind::Choice,
-        "fanuc: the sign of the values (not in the public documentation): correction = −e (default) or error = +e.",
-    )
-    .value("FANUC_SIGN")
-    .default("correction")
-    .choices(&[
-        ("correction", "The values are the correction the control outputs, −e"),
-        ("error", "The values are the error, +e"),
-    ]),
-    OptionInfo::new(
-        "fanuc_data_offset",
-        Kind::Count,
-        "fanuc: the tape's data number of compensation point 0.",
-    )
-    .value("N")
-    .default("10000"),
-    OptionInfo::new(
-        "fanuc_bidirectional",
-        Kind::Choice,
-        "fanuc: one table per direction (3605#0, 3626, 3627): auto = where forward and reverse differ by more than the detection unit.",
-    )
-    .value("FANUC_BIDIRECTIONAL")
-    .default("auto")
-    .choices(&[
-        ("auto", "Bidirectional where the reversal exceeds the detection unit"),
-        ("on", "Always bidirectional"),
-        ("off", "One table, the mean of both directions"),
-    ]),
-    OptionInfo::new(
-        "fanuc_reference_return",
-        Kind::Choice,
-        "fanuc: the direction of the reference position return (1006#5), whose table is zero at the reference; 3627 holds the other's value.",
-    )
-    .value("FANUC_REFERENCE_RETURN")
-    .default("positive")
-    .choices(RETURN),
-    OptionInfo::new(
-        "reference_direction",
-        Kind::Choice,
-        "siemens-eec: the direction of the reference point approach (MD34010 $MA_REFP_CAM_DIR_IS_MINUS 0 = positive): MD32450's backlash acts on travel the other way.",
-    )
-    .value("REFERENCE_DIRECTION")
-    .default("positive")
-    .choices(RETURN),
-    OptionInfo::new(
-        "cec_sign",
-        Kind::Choice,
-        "siemens-cec: the sign of the values (the manual does not settle it): error = +e (default, as the leadscrew tables) or correction = −e.",
-    )
-    .value("CEC_SIGN")
-    .default("error")
-    .choices(&[
-        ("error", "The values are the measured error, +e"),
-        ("correction", "The values are the correction, −e"),
-    ]),
-    OptionInfo::new(
-        "homing_dir_mask",
-        Kind::Count,
-        "grblhal: the machine's $23 (homing direction invert mask): the side grblHAL adds the backlash to.",
-    )
-    .value("MASK")
-    .default("0"),
-    OptionInfo::new(
-        "profile",
-        Kind::Text,
-        "klipper: the profile's name (SKEW_PROFILE LOAD=NAME).",
-    )
-    .value("NAME")
-    .default("volcomp"),
-];
-
 const RETURN: &[(&str, &str)] = &[
     (
         "positive",
@@ -250,25 +71,23 @@ const RETURN: &[(&str, &str)] = &[
     ),
 ];
 
-/// The LinuxCNC side of a comp file, as plain values.
-#[derive(Debug, Clone, PartialEq, Default)]
-#[allow(missing_docs)]
-pub struct CompRequest {
-    pub comp_type: Option<u64>,
-    pub units: Option<String>,
-}
+request! {
+    /// The LinuxCNC side of a comp file, as plain values.
+    #[allow(missing_docs)]
+    pub struct CompRequest {}
+    /// The LinuxCNC side of a comp file ([`CompRequest`]).
+    pub const COMP_OPTIONS;
+    options [COMP_OPTIONS], unknown "comp_type";
 
-impl super::Request for CompRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[COMP_OPTIONS];
+    comp_type: Option<u64> = None,
+        Count "COMP_FILE_TYPE: 0 (nominal, actual forward, actual reverse) or 1 (nominal, trim forward, trim reverse; trim = nominal − actual)."
+        .flag("type")
+        .value("0|1");
 
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        match name {
-            "comp_type" => self.comp_type = Some(v.count("comp_type")?),
-            "units" => self.units = Some(v.text("units")?),
-            _ => return Err(OptionError::unknown("comp_type", name)),
-        }
-        Ok(())
-    }
+    units: Option<String> = None,
+        Choice "The machine's [TRAJ] LINEAR_UNITS, the unit of every number in the file."
+        .value("UNITS")
+        .choices(&[("mm", ""), ("inch", "")]);
 }
 
 /// The units a comp file's numbers are in.
@@ -312,37 +131,33 @@ impl CompRequest {
     }
 }
 
-/// Where a 21-component model is evaluated as tables, as plain values.
-#[derive(Debug, Clone, PartialEq)]
-#[allow(missing_docs)]
-pub struct MapToolRequest {
-    pub tool_length_mm: Option<f64>,
-    pub tool_offset_mm: Option<[f64; 3]>,
-    pub form: String,
-}
+request! {
+    /// Where a 21-component model is evaluated as tables, as plain values.
+    #[allow(missing_docs)]
+    pub struct MapToolRequest {}
+    /// Where a 21-component model is evaluated as tables (shared by the jobs
+    /// that turn a model into tables).
+    pub const MAP_TOOL_OPTIONS;
+    options [MAP_TOOL_OPTIONS], unknown "tool_length_mm";
 
-impl Default for MapToolRequest {
-    fn default() -> Self {
-        Self {
-            tool_length_mm: None,
-            tool_offset_mm: None,
-            form: "htm".into(),
-        }
-    }
-}
+    tool_length_mm: Option<f64> = None,
+        Number "Tool length (mm) as G43 applies it: the tip lies this far below the spindle's gauge point. Default 0 (the gauge point)."
+        .flag("tool-length")
+        .value("MM");
 
-impl super::Request for MapToolRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[MAP_TOOL_OPTIONS];
+    tool_offset_mm: Option<[f64; 3]> = None,
+        Triple "Tool length offset vector (mm) as G43.1 applies it, for angle heads."
+        .flag("tool-offset")
+        .value("X,Y,Z");
 
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        match name {
-            "tool_length_mm" => self.tool_length_mm = Some(v.number("tool_length_mm")?),
-            "tool_offset_mm" => self.tool_offset_mm = Some(v.triple("tool_offset_mm")?),
-            "form" => self.form = v.text("form")?,
-            _ => return Err(OptionError::unknown("tool_length_mm", name)),
-        }
-        Ok(())
-    }
+    form: String = "htm".into(),
+        Choice "Evaluation of the 21-component model."
+        .value("FORM")
+        .default("htm")
+        .choices(&[
+                ("htm", "Exact products of homogeneous transformation matrices"),
+                ("first-order", "The small-angle (first-order) form"),
+            ]);
 }
 
 impl MapToolRequest {
@@ -457,87 +272,113 @@ pub fn straightness_tables(map: MapView<'_>) -> Vec<(usize, usize, Positioning)>
     out
 }
 
-/// A map's export to a controller, as plain values.
-#[derive(Debug, Clone, PartialEq)]
-#[allow(missing_docs)]
-pub struct MapExportRequest {
-    pub to: Option<String>,
-    pub step_mm: Option<f64>,
-    pub at: Option<[f64; 3]>,
-    pub tool: MapToolRequest,
-    pub comp: CompRequest,
-    pub max_table_error_um: f64,
-    pub backlash_only: bool,
-    pub axis_names: String,
-    pub resolution_um: f64,
-    pub max_points: Option<u64>,
-    pub detection_unit_um: f64,
-    pub fanuc_sign: String,
-    pub fanuc_data_offset: u64,
-    pub fanuc_bidirectional: String,
-    pub fanuc_reference_return: String,
-    pub reference_direction: String,
-    pub cec_sign: String,
-    pub homing_dir_mask: u64,
-    pub profile: String,
-}
-
-impl Default for MapExportRequest {
-    fn default() -> Self {
-        Self {
-            to: None,
-            step_mm: None,
-            at: None,
-            tool: MapToolRequest::default(),
-            comp: CompRequest::default(),
-            max_table_error_um: table_error::DEFAULT_MAX_TABLE_ERROR_UM,
-            backlash_only: false,
-            axis_names: "X1,Y1,Z1".into(),
-            resolution_um: 1.0,
-            max_points: None,
-            detection_unit_um: 1.0,
-            fanuc_sign: "correction".into(),
-            fanuc_data_offset: 10000,
-            fanuc_bidirectional: "auto".into(),
-            fanuc_reference_return: "positive".into(),
-            reference_direction: "positive".into(),
-            cec_sign: "error".into(),
-            homing_dir_mask: 0,
-            profile: "volcomp".into(),
-        }
+request! {
+    /// A map's export to a controller, as plain values.
+    #[allow(missing_docs)]
+    pub struct MapExportRequest {
+        pub tool: MapToolRequest,
+        pub comp: CompRequest,
     }
-}
+    /// The options of [`MapExportRequest`].
+    pub const EXPORT_OPTIONS;
+    options [EXPORT_OPTIONS, COMP_OPTIONS, MAP_TOOL_OPTIONS], unknown "tool_length_mm";
 
-impl super::Request for MapExportRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] =
-        &[EXPORT_OPTIONS, COMP_OPTIONS, MAP_TOOL_OPTIONS];
+    to: Option<String> = None,
+        Choice "The controller's format."
+        .value("TO")
+        .required()
+        .choices(FORMATS);
 
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        match name {
-            "to" => self.to = Some(v.text("to")?),
-            "step_mm" => self.step_mm = Some(v.number("step_mm")?),
-            "at" => self.at = Some(v.triple("at")?),
-            "max_table_error_um" => self.max_table_error_um = v.number("max_table_error_um")?,
-            "backlash_only" => self.backlash_only = v.bool("backlash_only")?,
-            "axis_names" => self.axis_names = v.text("axis_names")?,
-            "resolution_um" => self.resolution_um = v.number("resolution_um")?,
-            "max_points" => self.max_points = Some(v.count("max_points")?),
-            "detection_unit_um" => self.detection_unit_um = v.number("detection_unit_um")?,
-            "fanuc_sign" => self.fanuc_sign = v.text("fanuc_sign")?,
-            "fanuc_data_offset" => self.fanuc_data_offset = v.count("fanuc_data_offset")?,
-            "fanuc_bidirectional" => self.fanuc_bidirectional = v.text("fanuc_bidirectional")?,
-            "fanuc_reference_return" => {
-                self.fanuc_reference_return = v.text("fanuc_reference_return")?
-            }
-            "reference_direction" => self.reference_direction = v.text("reference_direction")?,
-            "cec_sign" => self.cec_sign = v.text("cec_sign")?,
-            "homing_dir_mask" => self.homing_dir_mask = v.count("homing_dir_mask")?,
-            "profile" => self.profile = v.text("profile")?,
-            "comp_type" | "units" => self.comp.set(name, v)?,
-            _ => self.tool.set(name, v)?,
-        }
-        Ok(())
-    }
+    step_mm: Option<f64> = None,
+        Number "Spacing of the table's points (mm): required by equidistant tables (siemens-eec); resamples the others (linear interpolation)."
+        .flag("step")
+        .value("MM");
+
+    at: Option<[f64; 3]> = None,
+        Triple "Where the positioning error of a 21-component model is taken (axis position, mm; default: its measuring lines)."
+        .value("X,Y,Z");
+
+    max_table_error_um: f64 = table_error::DEFAULT_MAX_TABLE_ERROR_UM,
+        Number "The largest deviation (µm) of the written table, as the controller applies it, from the map between and at its points: a larger one is refused with a finer step to choose."
+        .value("UM")
+        .default("1");
+
+    backlash_only: bool = false,
+        Switch "linuxcnc: write each joint's BACKLASH (the mean reversal value) and no comp files.";
+
+    axis_names: String = "X1,Y1,Z1".into(),
+        Text "siemens-eec: the machine axis names of X, Y, Z."
+        .value("X,Y,Z")
+        .default("X1,Y1,Z1");
+
+    resolution_um: f64 = 1.0,
+        Number "siemens-eec: the NC's resolution of a compensation value (µm), 1/MD10200 mm."
+        .value("UM")
+        .default("1");
+
+    max_points: Option<u64> = None,
+        Count "The controller's largest number of points per table: siemens-eec MD38000 $MA_MM_ENC_COMP_MAX_POINTS (default 5000), isg-ssfk P-COMP-00059 (default 1500)."
+        .value("N");
+
+    detection_unit_um: f64 = 1.0,
+        Number "fanuc: the detection unit (µm; 1 for IS-B)."
+        .value("UM")
+        .default("1");
+
+    fanuc_sign: String = "correction".into(),
+        Choice "fanuc: the sign of the values (not in the public documentation): correction = −e (default) or error = +e."
+        .value("FANUC_SIGN")
+        .default("correction")
+        .choices(&[
+                ("correction", "The values are the correction the control outputs, −e"),
+                ("error", "The values are the error, +e"),
+            ]);
+
+    fanuc_data_offset: u64 = 10000,
+        Count "fanuc: the tape's data number of compensation point 0."
+        .value("N")
+        .default("10000");
+
+    fanuc_bidirectional: String = "auto".into(),
+        Choice "fanuc: one table per direction (3605#0, 3626, 3627): auto = where forward and reverse differ by more than the detection unit."
+        .value("FANUC_BIDIRECTIONAL")
+        .default("auto")
+        .choices(&[
+                ("auto", "Bidirectional where the reversal exceeds the detection unit"),
+                ("on", "Always bidirectional"),
+                ("off", "One table, the mean of both directions"),
+            ]);
+
+    fanuc_reference_return: String = "positive".into(),
+        Choice "fanuc: the direction of the reference position return (1006#5), whose table is zero at the reference; 3627 holds the other's value."
+        .value("FANUC_REFERENCE_RETURN")
+        .default("positive")
+        .choices(RETURN);
+
+    reference_direction: String = "positive".into(),
+        Choice "siemens-eec: the direction of the reference point approach (MD34010 $MA_REFP_CAM_DIR_IS_MINUS 0 = positive): MD32450's backlash acts on travel the other way."
+        .value("REFERENCE_DIRECTION")
+        .default("positive")
+        .choices(RETURN);
+
+    cec_sign: String = "error".into(),
+        Choice "siemens-cec: the sign of the values (the manual does not settle it): error = +e (default, as the leadscrew tables) or correction = −e."
+        .value("CEC_SIGN")
+        .default("error")
+        .choices(&[
+                ("error", "The values are the measured error, +e"),
+                ("correction", "The values are the correction, −e"),
+            ]);
+
+    homing_dir_mask: u64 = 0,
+        Count "grblhal: the machine's $23 (homing direction invert mask): the side grblHAL adds the backlash to."
+        .value("MASK")
+        .default("0");
+
+    profile: String = "volcomp".into(),
+        Text "klipper: the profile's name (SKEW_PROFILE LOAD=NAME)."
+        .value("NAME")
+        .default("volcomp");
 }
 
 /// What an export gives: the controller's files, the sign-check files,
@@ -904,7 +745,7 @@ fn sign_check_files(to: &str) -> &'static [&'static str] {
 
 #[cfg(test)]
 mod tests {
-    use super::super::Request;
+    use super::super::{Request, Value};
     use super::*;
 
     #[test]

@@ -2,88 +2,52 @@
 //! it: the set-up file, the work offset, and how the interpreter reads what
 //! controllers disagree on.
 
-use super::option::{Input, Kind, OptionError, OptionInfo, Value};
+use super::option::{Input, OptionError};
 use crate::compensate::MachineSetup;
 use crate::Error;
 use std::path::PathBuf;
 use volcomp_gcode::{InterpOptions, Vec3};
 
-/// The options of [`MachineRequest`].
-pub const MACHINE_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new(
-        "setup",
-        Kind::Input,
-        "TOML setup file: work offsets, tool lengths, reference points.",
-    )
-    .value("FILE"),
-    OptionInfo::new(
-        "work_offset_mm",
-        Kind::Triple,
-        "G54 work offset in mm (machine coordinates), overriding the setup's.",
-    )
-    .flag("work-offset")
-    .value("X,Y,Z"),
-    OptionInfo::new(
-        "absolute_arc_centers",
-        Kind::Switch,
-        "Read I/J/K as absolute arc centres (as if the program began with G90.1).",
-    ),
-    OptionInfo::new(
-        "accept_k0",
-        Kind::Switch,
-        "Accept `K0` on G17 arcs (FreeCAD writes it; LinuxCNC refuses it, and so does volcomp by default).",
-    ),
-    OptionInfo::new(
-        "strict_k0",
-        Kind::Switch,
-        "Refuse `K0` on G17 arcs: the default now, kept for old scripts.",
-    )
-    .hidden(),
-    OptionInfo::new(
-        "allow_no_program_end",
-        Kind::Switch,
-        "Do not warn about a program that ends without M2, M30 or a closing `%` (LinuxCNC runs it to its last line, then reports an error; grbl-family and other controllers need no end).",
-    ),
-    OptionInfo::new(
-        "max_repeated_lines",
-        Kind::Count,
-        "Most lines a run executes again (every pass of a loop after the first, every line of a called subroutine) before it is refused as a loop that never ends; a program without loops runs whatever its length.",
-    )
-    .value("N")
-    .default("5000000"),
-];
+request! {
+    /// How a program is set up on the machine, as plain values.
+    pub struct MachineRequest {}
+    /// The options of [`MachineRequest`].
+    pub const MACHINE_OPTIONS;
+    options [MACHINE_OPTIONS], unknown "setup";
 
-/// How a program is set up on the machine, as plain values.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MachineRequest {
     /// The set-up TOML file (docs/setup.md).
-    pub setup: Option<Input>,
-    /// G54 in machine coordinates (mm), overriding the set-up's.
-    pub work_offset_mm: Option<[f64; 3]>,
-    /// Arc centres are absolute from the start (G90.1).
-    pub absolute_arc_centers: bool,
-    /// Accept `K0` on G17 arcs.
-    pub accept_k0: bool,
-    /// Refuse `K0` on G17 arcs (the default; kept for old scripts).
-    pub strict_k0: bool,
-    /// Do not warn about a program without M2, M30 or a closing `%`.
-    pub allow_no_program_end: bool,
-    /// Most lines executed again (loops, calls) in one run.
-    pub max_repeated_lines: u64,
-}
+    setup: Option<Input> = None,
+        Input "TOML setup file: work offsets, tool lengths, reference points."
+        .value("FILE");
 
-impl Default for MachineRequest {
-    fn default() -> Self {
-        Self {
-            setup: None,
-            work_offset_mm: None,
-            absolute_arc_centers: false,
-            accept_k0: false,
-            strict_k0: false,
-            allow_no_program_end: false,
-            max_repeated_lines: volcomp_gcode::ngc::flow::MAX_EXECUTED_LINES,
-        }
-    }
+    /// G54 in machine coordinates (mm), overriding the set-up's.
+    work_offset_mm: Option<[f64; 3]> = None,
+        Triple "G54 work offset in mm (machine coordinates), overriding the setup's."
+        .flag("work-offset")
+        .value("X,Y,Z");
+
+    /// Arc centres are absolute from the start (G90.1).
+    absolute_arc_centers: bool = false,
+        Switch "Read I/J/K as absolute arc centres (as if the program began with G90.1).";
+
+    /// Accept `K0` on G17 arcs.
+    accept_k0: bool = false,
+        Switch "Accept `K0` on G17 arcs (FreeCAD writes it; LinuxCNC refuses it, and so does volcomp by default).";
+
+    /// Refuse `K0` on G17 arcs (the default; kept for old scripts).
+    strict_k0: bool = false,
+        Switch "Refuse `K0` on G17 arcs: the default now, kept for old scripts."
+        .hidden();
+
+    /// Do not warn about a program without M2, M30 or a closing `%`.
+    allow_no_program_end: bool = false,
+        Switch "Do not warn about a program that ends without M2, M30 or a closing `%` (LinuxCNC runs it to its last line, then reports an error; grbl-family and other controllers need no end).";
+
+    /// Most lines executed again (loops, calls) in one run.
+    max_repeated_lines: u64 = volcomp_gcode::ngc::flow::MAX_EXECUTED_LINES,
+        Count "Most lines a run executes again (every pass of a loop after the first, every line of a called subroutine) before it is refused as a loop that never ends; a program without loops runs whatever its length."
+        .value("N")
+        .default("5000000");
 }
 
 /// A machine set-up ready for a job, with where it came from (for the
@@ -98,38 +62,7 @@ pub struct Machine {
     pub work_offset_given: bool,
 }
 
-impl super::Request for MachineRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[MACHINE_OPTIONS];
-
-    fn set(&mut self, name: &str, value: Value) -> Result<(), OptionError> {
-        match self.try_set(name, value)? {
-            true => Ok(()),
-            false => Err(OptionError::unknown("setup", name)),
-        }
-    }
-}
-
 impl MachineRequest {
-    /// Sets the option `name` (one of [`MACHINE_OPTIONS`]); `Ok(false)` when
-    /// `name` is not a machine option.
-    pub fn try_set(&mut self, name: &str, value: Value) -> Result<bool, OptionError> {
-        match name {
-            "setup" => self.setup = Some(value.input("setup")?),
-            "work_offset_mm" => self.work_offset_mm = Some(value.triple("work_offset_mm")?),
-            "absolute_arc_centers" => {
-                self.absolute_arc_centers = value.bool("absolute_arc_centers")?
-            }
-            "accept_k0" => self.accept_k0 = value.bool("accept_k0")?,
-            "strict_k0" => self.strict_k0 = value.bool("strict_k0")?,
-            "allow_no_program_end" => {
-                self.allow_no_program_end = value.bool("allow_no_program_end")?
-            }
-            "max_repeated_lines" => self.max_repeated_lines = value.count("max_repeated_lines")?,
-            _ => return Ok(false),
-        }
-        Ok(true)
-    }
-
     /// The machine: the set-up file read, the work offset applied, the
     /// interpreter's options set (a program must end with M2, M30 or `%`
     /// unless allowed otherwise, as LinuxCNC requires).

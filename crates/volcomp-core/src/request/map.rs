@@ -1,7 +1,7 @@
 //! The error map a job compensates or simulates with, named by its file,
 //! and what the controller compensates itself.
 
-use super::option::{Kind, OptionError, OptionInfo, Value};
+use super::option::OptionError;
 use crate::io::controllers::{self, ControllerReadError};
 use crate::io::provenance::{sha256_hex, ProgramHeader};
 use crate::io::{load_model, LoadOptions};
@@ -10,66 +10,36 @@ use crate::model::ErrorModel;
 use crate::Error;
 use std::path::PathBuf;
 
-/// The options of [`MapRequest`].
-pub const MAP_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new(
-        "map",
-        Kind::Path,
-        "Error map: axis-table CSV (docs/design.md, \"The axis-table map\") or a TOML model (the 21-component kinematic model of docs/kinematic.md, evaluated at each line's tool).",
-    )
-    .value("MAP")
-    .required(),
-    OptionInfo::new(
-        "clamp",
-        Kind::Switch,
-        "Clamp positions outside the map's range to its end instead of refusing.",
-    ),
-    OptionInfo::new(
-        "controller",
-        Kind::Path,
-        "A compensation table the controller applies itself (exported or read from it: Siemens EEC, Heidenhain .COM/.CMA, Klipper, Marlin; docs/controllers.md): only the rest of the map is compensated.",
-    )
-    .value("FILE"),
-    OptionInfo::new(
-        "controller_compensates",
-        Kind::Choice,
-        "What the controller compensates from this very map: `positioning` (its pitch tables hold the map's E_XX, E_YY, E_ZZ).",
-    )
-    .value("WHAT")
-    .choices(&[(
-        "positioning",
-        "The positioning errors E_XX, E_YY, E_ZZ (pitch/leadscrew compensation)",
-    )]),
-];
+request! {
+    /// The map file and what the controller compensates itself.
+    pub struct MapRequest {}
+    /// The options of [`MapRequest`].
+    pub const MAP_OPTIONS;
+    options [MAP_OPTIONS], unknown "map";
 
-/// The map file and what the controller compensates itself.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct MapRequest {
     /// The map file: axis tables (CSV) or a model (TOML).
-    pub map: Option<PathBuf>,
+    map: Option<PathBuf> = None,
+        Path "Error map: axis-table CSV (docs/design.md, \"The axis-table map\") or a TOML model (the 21-component kinematic model of docs/kinematic.md, evaluated at each line's tool)."
+        .value("MAP")
+        .required();
+
     /// Hold positions outside the map at its ends.
-    pub clamp: bool,
+    clamp: bool = false,
+        Switch "Clamp positions outside the map's range to its end instead of refusing.";
+
     /// A table the controller applies itself.
-    pub controller: Option<PathBuf>,
+    controller: Option<PathBuf> = None,
+        Path "A compensation table the controller applies itself (exported or read from it: Siemens EEC, Heidenhain .COM/.CMA, Klipper, Marlin; docs/controllers.md): only the rest of the map is compensated."
+        .value("FILE");
+
     /// What the controller compensates from this very map (`positioning`).
-    pub controller_compensates: Option<String>,
-}
-
-impl super::Request for MapRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[MAP_OPTIONS];
-
-    fn set(&mut self, name: &str, value: Value) -> Result<(), OptionError> {
-        match name {
-            "map" => self.map = Some(value.path("map")?),
-            "clamp" => self.clamp = value.bool("clamp")?,
-            "controller" => self.controller = Some(value.path("controller")?),
-            "controller_compensates" => {
-                self.controller_compensates = Some(value.text("controller_compensates")?)
-            }
-            _ => return Err(OptionError::unknown("map", name)),
-        }
-        Ok(())
-    }
+    controller_compensates: Option<String> = None,
+        Choice "What the controller compensates from this very map: `positioning` (its pitch tables hold the map's E_XX, E_YY, E_ZZ)."
+        .value("WHAT")
+        .choices(&[(
+                "positioning",
+                "The positioning errors E_XX, E_YY, E_ZZ (pitch/leadscrew compensation)",
+            )]);
 }
 
 fn controller_error(e: ControllerReadError) -> Error {

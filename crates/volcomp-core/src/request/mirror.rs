@@ -3,7 +3,7 @@
 //! and the finishing program with its tool.
 
 use super::machine::{Machine, MachineRequest, MACHINE_OPTIONS};
-use super::option::{Input, Kind, OptionError, OptionInfo, Spelling, Value};
+use super::option::{Input, OptionError, Spelling};
 use super::positive;
 use crate::compensate::{file_name, refuse_if_compensated, survey_style, HEAD_BYTES};
 use crate::io::provenance::{sha256_hex, HeaderWriter, ProgramHeader};
@@ -21,269 +21,144 @@ use crate::surface::mirror::{
 use crate::Error;
 use std::io::{BufRead, Read, Write};
 
-/// The options of [`MirrorRequest`] beside the machine's.
-pub const MIRROR_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new(
-        "nominal",
-        Kind::Input,
-        "Nominal finishing surface: a B-spline surface (.toml) or a grid of points (.csv), in the program frame.",
-    )
-    .value("SURF")
-    .required(),
-    OptionInfo::new(
-        "measured",
-        Kind::Input,
-        "Probe points of the semi-finished part (CSV: x_mm,y_mm,z_mm; optional id, i, j).",
-    )
-    .value("POINTS")
-    .required(),
-    OptionInfo::new(
-        "stock_mm",
-        Kind::Number,
-        "Stock D the semi-finishing pass leaves on the nominal surface (mm).",
-    )
-    .flag("stock")
-    .value("D")
-    .required(),
-    OptionInfo::new(
-        "nominal_format",
-        Kind::Choice,
-        "The nominal's format when its file name does not say it (a file object in Python).",
-    )
-    .value("FORMAT")
-    .choices(&[
-        ("bspline", "A B-spline surface (TOML)"),
-        ("grid", "A grid of points (CSV)"),
-    ]),
-    OptionInfo::new(
-        "material",
-        Kind::Choice,
-        "Which side of the surface the material is on.",
-    )
-    .value("MATERIAL")
-    .default("below")
-    .choices(&[
-        ("below", "Below the surface (−Z): the tool comes from above"),
-        ("above", "Above the surface (+Z)"),
-        ("normal-out", "The surface's own normal (Su × Sv) points out of the material"),
-        ("normal-in", "The surface's own normal (Su × Sv) points into the material"),
-    ]),
-    OptionInfo::new(
-        "probe_radius_mm",
-        Kind::Number,
-        "Probe ball radius (mm) when the points are ball centres; leave out when the probing software already compensated it.",
-    )
-    .flag("probe-radius")
-    .value("MM"),
-    OptionInfo::new(
-        "max_error_mm",
-        Kind::Number,
-        "Largest accepted distance of a probe point from where it should be (nominal + stock), in mm; farther points are refused as mismatched.",
-    )
-    .flag("max-error")
-    .value("MM")
-    .default("0.1"),
-    OptionInfo::new("fit", Kind::Choice, "How the compensation points are fitted.")
+request! {
+    /// A mirror compensation, as plain values (each field is the option of the
+    /// same name).
+    #[allow(missing_docs)]
+    pub struct MirrorRequest {
+        pub machine: MachineRequest,
+    }
+    /// The options of [`MirrorRequest`] beside the machine's.
+    pub const MIRROR_OPTIONS;
+    options [MIRROR_OPTIONS, MACHINE_OPTIONS], unknown "nominal";
+
+    nominal: Option<Input> = None,
+        Input "Nominal finishing surface: a B-spline surface (.toml) or a grid of points (.csv), in the program frame."
+        .value("SURF")
+        .required();
+
+    measured: Option<Input> = None,
+        Input "Probe points of the semi-finished part (CSV: x_mm,y_mm,z_mm; optional id, i, j)."
+        .value("POINTS")
+        .required();
+
+    stock_mm: Option<f64> = None,
+        Number "Stock D the semi-finishing pass leaves on the nominal surface (mm)."
+        .flag("stock")
+        .value("D")
+        .required();
+
+    nominal_format: Option<String> = None,
+        Choice "The nominal's format when its file name does not say it (a file object in Python)."
+        .value("FORMAT")
+        .choices(&[
+                ("bspline", "A B-spline surface (TOML)"),
+                ("grid", "A grid of points (CSV)"),
+            ]);
+
+    material: String = "below".into(),
+        Choice "Which side of the surface the material is on."
+        .value("MATERIAL")
+        .default("below")
+        .choices(&[
+                ("below", "Below the surface (−Z): the tool comes from above"),
+                ("above", "Above the surface (+Z)"),
+                ("normal-out", "The surface's own normal (Su × Sv) points out of the material"),
+                ("normal-in", "The surface's own normal (Su × Sv) points into the material"),
+            ]);
+
+    probe_radius_mm: Option<f64> = None,
+        Number "Probe ball radius (mm) when the points are ball centres; leave out when the probing software already compensated it."
+        .flag("probe-radius")
+        .value("MM");
+
+    max_error_mm: f64 = 0.1,
+        Number "Largest accepted distance of a probe point from where it should be (nominal + stock), in mm; farther points are refused as mismatched."
+        .flag("max-error")
+        .value("MM")
+        .default("0.1");
+
+    fit: String = "least-squares".into(),
+        Choice "How the compensation points are fitted."
         .value("FIT")
         .default("least-squares")
         .choices(&[
-            (
-                "least-squares",
-                "Bicubic least squares, the control net chosen by leave-one-out cross-validation (any probe pattern)",
-            ),
-            (
-                "interpolate",
-                "Bicubic interpolation through every point (probe grid with i,j columns)",
-            ),
-        ]),
-    OptionInfo::new(
-        "tolerance_um",
-        Kind::Number,
-        "Only consider control nets whose residual at every compensation point is within this (µm). Every residual includes the probe noise: give at least 3× its σ. Without it the net is chosen by leave-one-out cross-validation alone.",
-    )
-    .flag("tolerance")
-    .value("UM"),
-    OptionInfo::new(
-        "refuse_worse",
-        Kind::Switch,
-        "Refuse (write nothing) when the leave-one-out prediction of the finishing error after compensation is worse (larger std) than not compensating; without it a warning is given.",
-    ),
-    OptionInfo::new(
-        "grid_params",
-        Kind::Choice,
-        "Parameters used to interpolate a grid nominal (CSV).",
-    )
-    .value("PARAMS")
-    .default("chord-length")
-    .choices(&[
-        ("chord-length", "Chord length, averaged over the grid rows"),
-        ("centripetal", "Centripetal (square root of the chord length), averaged"),
-        ("uniform", "Equally spaced"),
-    ]),
-    OptionInfo::new(
-        "grid_size",
-        Kind::Count,
-        "Nodes per direction of the compensated grid when the nominal is a B-spline (a grid nominal keeps its own nodes).",
-    )
-    .value("N")
-    .default("41"),
-    OptionInfo::new(
-        "finishing",
-        Kind::Input,
-        "Ball-end finishing program to compensate.",
-    )
-    .value("PROGRAM"),
-    OptionInfo::new(
-        "tool_radius_mm",
-        Kind::Number,
-        "Ball radius of the finishing tool (mm; half its diameter).",
-    )
-    .flag("tool-radius")
-    .value("MM"),
-    OptionInfo::new(
-        "cl_point",
-        Kind::Choice,
-        "Which point of the tool the program's coordinates give.",
-    )
-    .value("CL")
-    .default("tip")
-    .choices(&[
-        ("tip", "The tool tip (the ball centre is one radius above it, +Z)"),
-        ("center", "The ball centre"),
-    ]),
-    OptionInfo::new(
-        "contact_tolerance_mm",
-        Kind::Number,
-        "A CL point is on the surface when its ball is this close to it (mm).",
-    )
-    .flag("contact-tolerance")
-    .value("MM")
-    .default("0.02"),
-    OptionInfo::new(
-        "segment_length_mm",
-        Kind::Number,
-        "Split feed moves into pieces of at most this length (mm).",
-    )
-    .flag("segment-length")
-    .value("MM")
-    .default("2"),
-    OptionInfo::new(
-        "no_split",
-        Kind::Switch,
-        "Do not split feed moves (arcs are still linearised).",
-    ),
-    OptionInfo::new(
-        "decimals",
-        Kind::Count,
-        "Decimal places of written coordinates (default 5 in mm, 6 in inch).",
-    )
-    .value("DECIMALS"),
-    OptionInfo::new(
-        "trace",
-        Kind::Switch,
-        "Do not tag inserted lines with `(volcomp Ln)` comments.",
-    )
-    .default("true"),
-    OptionInfo::new(
-        "allow_recompensate",
-        Kind::Switch,
-        "Compensate a finishing program that volcomp compensated already.",
-    ),
-];
+                (
+                    "least-squares",
+                    "Bicubic least squares, the control net chosen by leave-one-out cross-validation (any probe pattern)",
+                ),
+                (
+                    "interpolate",
+                    "Bicubic interpolation through every point (probe grid with i,j columns)",
+                ),
+            ]);
 
-/// A mirror compensation, as plain values (each field is the option of the
-/// same name).
-#[derive(Debug, Clone, PartialEq)]
-#[allow(missing_docs)]
-pub struct MirrorRequest {
-    pub machine: MachineRequest,
-    pub nominal: Option<Input>,
-    pub measured: Option<Input>,
-    pub stock_mm: Option<f64>,
-    pub nominal_format: Option<String>,
-    pub material: String,
-    pub probe_radius_mm: Option<f64>,
-    pub max_error_mm: f64,
-    pub fit: String,
-    pub tolerance_um: Option<f64>,
-    pub refuse_worse: bool,
-    pub grid_params: String,
-    pub grid_size: u64,
-    pub finishing: Option<Input>,
-    pub tool_radius_mm: Option<f64>,
-    pub cl_point: String,
-    pub contact_tolerance_mm: f64,
-    pub segment_length_mm: f64,
-    pub no_split: bool,
-    pub decimals: Option<u64>,
-    pub trace: bool,
-    pub allow_recompensate: bool,
-}
+    tolerance_um: Option<f64> = None,
+        Number "Only consider control nets whose residual at every compensation point is within this (µm). Every residual includes the probe noise: give at least 3× its σ. Without it the net is chosen by leave-one-out cross-validation alone."
+        .flag("tolerance")
+        .value("UM");
 
-impl Default for MirrorRequest {
-    fn default() -> Self {
-        Self {
-            machine: MachineRequest::default(),
-            nominal: None,
-            measured: None,
-            stock_mm: None,
-            nominal_format: None,
-            material: "below".into(),
-            probe_radius_mm: None,
-            max_error_mm: 0.1,
-            fit: "least-squares".into(),
-            tolerance_um: None,
-            refuse_worse: false,
-            grid_params: "chord-length".into(),
-            grid_size: 41,
-            finishing: None,
-            tool_radius_mm: None,
-            cl_point: "tip".into(),
-            contact_tolerance_mm: 0.02,
-            segment_length_mm: 2.0,
-            no_split: false,
-            decimals: None,
-            trace: true,
-            allow_recompensate: false,
-        }
-    }
-}
+    refuse_worse: bool = false,
+        Switch "Refuse (write nothing) when the leave-one-out prediction of the finishing error after compensation is worse (larger std) than not compensating; without it a warning is given.";
 
-impl super::Request for MirrorRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[MIRROR_OPTIONS, MACHINE_OPTIONS];
+    grid_params: String = "chord-length".into(),
+        Choice "Parameters used to interpolate a grid nominal (CSV)."
+        .value("PARAMS")
+        .default("chord-length")
+        .choices(&[
+                ("chord-length", "Chord length, averaged over the grid rows"),
+                ("centripetal", "Centripetal (square root of the chord length), averaged"),
+                ("uniform", "Equally spaced"),
+            ]);
 
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        if self.machine.try_set(name, v.clone())? {
-            return Ok(());
-        }
-        match name {
-            "nominal" => self.nominal = Some(v.input("nominal")?),
-            "measured" => self.measured = Some(v.input("measured")?),
-            "stock_mm" => self.stock_mm = Some(v.number("stock_mm")?),
-            "nominal_format" => self.nominal_format = Some(v.text("nominal_format")?),
-            "material" => self.material = v.text("material")?,
-            "probe_radius_mm" => self.probe_radius_mm = Some(v.number("probe_radius_mm")?),
-            "max_error_mm" => self.max_error_mm = v.number("max_error_mm")?,
-            "fit" => self.fit = v.text("fit")?,
-            "tolerance_um" => self.tolerance_um = Some(v.number("tolerance_um")?),
-            "refuse_worse" => self.refuse_worse = v.bool("refuse_worse")?,
-            "grid_params" => self.grid_params = v.text("grid_params")?,
-            "grid_size" => self.grid_size = v.count("grid_size")?,
-            "finishing" => self.finishing = Some(v.input("finishing")?),
-            "tool_radius_mm" => self.tool_radius_mm = Some(v.number("tool_radius_mm")?),
-            "cl_point" => self.cl_point = v.text("cl_point")?,
-            "contact_tolerance_mm" => {
-                self.contact_tolerance_mm = v.number("contact_tolerance_mm")?
-            }
-            "segment_length_mm" => self.segment_length_mm = v.number("segment_length_mm")?,
-            "no_split" => self.no_split = v.bool("no_split")?,
-            "decimals" => self.decimals = Some(v.count("decimals")?),
-            "trace" => self.trace = v.bool("trace")?,
-            "allow_recompensate" => self.allow_recompensate = v.bool("allow_recompensate")?,
-            _ => return Err(OptionError::unknown("nominal", name)),
-        }
-        Ok(())
-    }
+    grid_size: u64 = 41,
+        Count "Nodes per direction of the compensated grid when the nominal is a B-spline (a grid nominal keeps its own nodes)."
+        .value("N")
+        .default("41");
+
+    finishing: Option<Input> = None,
+        Input "Ball-end finishing program to compensate."
+        .value("PROGRAM");
+
+    tool_radius_mm: Option<f64> = None,
+        Number "Ball radius of the finishing tool (mm; half its diameter)."
+        .flag("tool-radius")
+        .value("MM");
+
+    cl_point: String = "tip".into(),
+        Choice "Which point of the tool the program's coordinates give."
+        .value("CL")
+        .default("tip")
+        .choices(&[
+                ("tip", "The tool tip (the ball centre is one radius above it, +Z)"),
+                ("center", "The ball centre"),
+            ]);
+
+    contact_tolerance_mm: f64 = 0.02,
+        Number "A CL point is on the surface when its ball is this close to it (mm)."
+        .flag("contact-tolerance")
+        .value("MM")
+        .default("0.02");
+
+    segment_length_mm: f64 = 2.0,
+        Number "Split feed moves into pieces of at most this length (mm)."
+        .flag("segment-length")
+        .value("MM")
+        .default("2");
+
+    no_split: bool = false,
+        Switch "Do not split feed moves (arcs are still linearised).";
+
+    decimals: Option<u64> = None,
+        Count "Decimal places of written coordinates (default 5 in mm, 6 in inch)."
+        .value("DECIMALS");
+
+    trace: bool = true,
+        Switch "Do not tag inserted lines with `(volcomp Ln)` comments."
+        .default("true");
+
+    allow_recompensate: bool = false,
+        Switch "Compensate a finishing program that volcomp compensated already.";
 }
 
 /// The checked options of a mirror compensation.

@@ -13,9 +13,13 @@
 //! (`{chord_tolerance_mm}`); a front end writes them its own way
 //! ([`Spelling`]).
 //!
-//! A new option: a row in the request's table, a field and a `set` arm in
-//! the request, its check beside the others; both front ends then take it
-//! with its help (docs/architecture.md, "Where a new option goes").
+//! A new option: one entry in the request's option list (its field, default,
+//! kind, help and flag, declared together by `request!`), its check beside
+//! the others; both front ends then take it with its help
+//! (docs/architecture.md, "Where a new option goes").
+
+#[macro_use]
+mod declare;
 
 pub mod ballbar;
 pub mod charts;

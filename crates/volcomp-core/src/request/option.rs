@@ -387,6 +387,69 @@ impl Value {
     }
 }
 
+/// A request's field, read from an option's [`Value`] of the option's
+/// [`Kind`] (the field's type says which reader: `f64` a number, `u64` a
+/// whole number, `Option<T>` a given value, a size a number of bytes or no
+/// limit).
+pub trait FromValue: Sized {
+    /// The field's value, or the value's kind refused for option `name`.
+    fn from_value(value: Value, kind: Kind, name: &'static str) -> Result<Self, OptionError>;
+
+    /// The value of an optional field: given (`Some`), except a size, whose
+    /// `none` is no limit.
+    fn from_value_optional(
+        value: Value,
+        kind: Kind,
+        name: &'static str,
+    ) -> Result<Option<Self>, OptionError> {
+        Self::from_value(value, kind, name).map(Some)
+    }
+}
+
+impl<T: FromValue> FromValue for Option<T> {
+    fn from_value(value: Value, kind: Kind, name: &'static str) -> Result<Self, OptionError> {
+        T::from_value_optional(value, kind, name)
+    }
+}
+
+impl FromValue for u64 {
+    fn from_value(value: Value, _: Kind, name: &'static str) -> Result<Self, OptionError> {
+        value.count(name)
+    }
+
+    fn from_value_optional(
+        value: Value,
+        kind: Kind,
+        name: &'static str,
+    ) -> Result<Option<Self>, OptionError> {
+        match kind {
+            Kind::Size => value.size(name),
+            _ => value.count(name).map(Some),
+        }
+    }
+}
+
+/// `FromValue` for a type read by one of [`Value`]'s readers.
+macro_rules! from_value {
+    ($($type:ty => $read:ident),+) => {$(
+        impl FromValue for $type {
+            fn from_value(value: Value, _: Kind, name: &'static str) -> Result<Self, OptionError> {
+                value.$read(name)
+            }
+        }
+    )+};
+}
+
+from_value!(
+    bool => bool,
+    f64 => number,
+    String => text,
+    PathBuf => path,
+    Input => input,
+    [f64; 3] => triple,
+    [[f64; 2]; 3] => ranges
+);
+
 pub use crate::error::OptionError;
 
 // The error's data is defined with the crate's errors (below the requests,

@@ -6,249 +6,128 @@ use super::option::{Kind, OptionError, OptionInfo, Value};
 use crate::identify::probe::identify::{IdentifyOptions, ModelChoice};
 use crate::identify::probe::plan::{NoContact, PlanOptions, SpherePattern};
 
-/// The options of a probing program ([`ProbePlanRequest`]); their ranges
-/// are checked by [`PlanOptions::validate`].
-pub const PROBE_PLAN_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new(
-        "tip_diameter_mm",
-        Kind::Number,
-        "Diameter of the probe's tip (mm).",
-    )
-    .value("MM")
-    .required(),
-    OptionInfo::new(
-        "probe_tool",
-        Kind::Count,
-        "The probe's tool number (G43 H, its length from the set-up's [tools]).",
-    )
-    .value("N"),
-    OptionInfo::new(
-        "work_system",
-        Kind::Text,
-        "Coordinate system the program runs in: G54 … G59.3.",
-    )
-    .value("WORK_SYSTEM")
-    .default("G54"),
-    OptionInfo::new(
-        "placement",
-        Kind::Text,
-        "Only this placement (default: all, with a pause between them).",
-    )
-    .value("PLACEMENT"),
-    OptionInfo::new(
-        "fast_feed_mm_min",
-        Kind::Number,
-        "Feed of the searching touch (mm/min).",
-    )
-    .value("FAST_FEED_MM_MIN")
-    .default("300"),
-    OptionInfo::new(
-        "slow_feed_mm_min",
-        Kind::Number,
-        "Feed of the recorded touch (mm/min): its trigger lag is this feed × the servo period.",
-    )
-    .value("SLOW_FEED_MM_MIN")
-    .default("20"),
-    OptionInfo::new(
-        "approach_mm",
-        Kind::Number,
-        "Start of a touch before the nominal surface (mm).",
-    )
-    .value("APPROACH_MM")
-    .default("2"),
-    OptionInfo::new(
-        "overtravel_mm",
-        Kind::Number,
-        "How far past the nominal surface a probe move may go (mm).",
-    )
-    .value("OVERTRAVEL_MM")
-    .default("2"),
-    OptionInfo::new(
-        "backoff_mm",
-        Kind::Number,
-        "Back-off between the fast and the slow touch (mm).",
-    )
-    .value("BACKOFF_MM")
-    .default("0.5"),
-    OptionInfo::new(
-        "clearance_mm",
-        Kind::Number,
-        "Height of the travel plane above the artifact (mm).",
-    )
-    .value("CLEARANCE_MM")
-    .default("5"),
-    OptionInfo::new(
-        "take_up_mm",
-        Kind::Number,
-        "The move that sets an axis' direction before a touch (mm).",
-    )
-    .value("TAKE_UP_MM")
-    .default("1"),
-    OptionInfo::new(
-        "sphere_touches",
-        Kind::Choice,
-        "Touches per sphere (the reference sphere has its own set).",
-    )
-    .value("SPHERE_TOUCHES")
-    .default("5")
-    .choices(&[
-        ("5", "Pole and equator"),
-        ("9", "Pole, equator and four 45° shoulders"),
-    ]),
-    OptionInfo::new("repeats", Kind::Count, "How often each touch is made.")
+request! {
+    /// A probing program's plan, as plain values (the artifact and the set-up
+    /// are files the front end reads).
+    #[allow(missing_docs)]
+    pub struct ProbePlanRequest {}
+    /// The options of a probing program ([`ProbePlanRequest`]); their ranges
+    /// are checked by [`PlanOptions::validate`].
+    pub const PROBE_PLAN_OPTIONS;
+    options [PROBE_PLAN_OPTIONS], unknown "tip_diameter_mm";
+
+    tip_diameter_mm: Option<f64> = None,
+        Number "Diameter of the probe's tip (mm)."
+        .value("MM")
+        .required();
+
+    probe_tool: Option<u64> = None,
+        Count "The probe's tool number (G43 H, its length from the set-up's [tools])."
+        .value("N");
+
+    work_system: String = "G54".into(),
+        Text "Coordinate system the program runs in: G54 … G59.3."
+        .value("WORK_SYSTEM")
+        .default("G54");
+
+    placement: Option<String> = None,
+        Text "Only this placement (default: all, with a pause between them)."
+        .value("PLACEMENT");
+
+    fast_feed_mm_min: f64 = PlanOptions::default().fast_feed_mm_min,
+        Number "Feed of the searching touch (mm/min)."
+        .value("FAST_FEED_MM_MIN")
+        .default("300");
+
+    slow_feed_mm_min: f64 = PlanOptions::default().slow_feed_mm_min,
+        Number "Feed of the recorded touch (mm/min): its trigger lag is this feed × the servo period."
+        .value("SLOW_FEED_MM_MIN")
+        .default("20");
+
+    approach_mm: f64 = PlanOptions::default().approach_mm,
+        Number "Start of a touch before the nominal surface (mm)."
+        .value("APPROACH_MM")
+        .default("2");
+
+    overtravel_mm: f64 = PlanOptions::default().overtravel_mm,
+        Number "How far past the nominal surface a probe move may go (mm)."
+        .value("OVERTRAVEL_MM")
+        .default("2");
+
+    backoff_mm: f64 = PlanOptions::default().backoff_mm,
+        Number "Back-off between the fast and the slow touch (mm)."
+        .value("BACKOFF_MM")
+        .default("0.5");
+
+    clearance_mm: f64 = PlanOptions::default().clearance_mm,
+        Number "Height of the travel plane above the artifact (mm)."
+        .value("CLEARANCE_MM")
+        .default("5");
+
+    take_up_mm: f64 = PlanOptions::default().take_up_mm,
+        Number "The move that sets an axis' direction before a touch (mm)."
+        .value("TAKE_UP_MM")
+        .default("1");
+
+    sphere_touches: String = "5".into(),
+        Choice "Touches per sphere (the reference sphere has its own set)."
+        .value("SPHERE_TOUCHES")
+        .default("5")
+        .choices(&[
+                ("5", "Pole and equator"),
+                ("9", "Pole, equator and four 45° shoulders"),
+            ]);
+
+    repeats: u64 = PlanOptions::default().repeats as u64,
+        Count "How often each touch is made."
         .value("REPEATS")
-        .default("1"),
-    OptionInfo::new(
-        "reference_repeats",
-        Kind::Count,
-        "How often each touch of the reference sphere is made.",
-    )
-    .value("REFERENCE_REPEATS")
-    .default("3"),
-    OptionInfo::new(
-        "edge_points",
-        Kind::Count,
-        "Touches along each edge of a square.",
-    )
-    .value("EDGE_POINTS")
-    .default("7"),
-    OptionInfo::new(
-        "edge_margin_mm",
-        Kind::Number,
-        "Distance of the first and last edge touch from an edge's ends (mm).",
-    )
-    .value("EDGE_MARGIN_MM")
-    .default("10"),
-    OptionInfo::new(
-        "no_contact",
-        Kind::Choice,
-        "What a probe move that touches nothing does.",
-    )
-    .value("NO_CONTACT")
-    .default("stop")
-    .choices(&[
-        ("stop", "G38.2: the controller stops with an error"),
-        (
-            "skip",
-            "G38.3: the program goes on; the touch is logged as missed",
-        ),
-    ]),
-    OptionInfo::new(
-        "log_file",
-        Kind::Text,
-        "The log file the program writes (LOGOPEN), as LinuxCNC opens it.",
-    )
-    .value("LOG_FILE")
-    .default("probe.log"),
-    OptionInfo::new(
-        "safe_z_mm",
-        Kind::Number,
-        "Machine Z for moves between placements (default: 25 mm above the artifact).",
-    )
-    .value("SAFE_Z_MM"),
-    OptionInfo::new(
-        "rapid_mm_min",
-        Kind::Number,
-        "Rapid speed for the time estimate (mm/min).",
-    )
-    .value("RAPID_MM_MIN")
-    .default("3000"),
-    OptionInfo::new(
-        "accel_mm_s2",
-        Kind::Number,
-        "Acceleration for the time estimate (mm/s²).",
-    )
-    .value("ACCEL_MM_S2")
-    .default("500"),
-];
+        .default("1");
 
-/// A probing program's plan, as plain values (the artifact and the set-up
-/// are files the front end reads).
-#[derive(Debug, Clone, PartialEq)]
-#[allow(missing_docs)]
-pub struct ProbePlanRequest {
-    pub tip_diameter_mm: Option<f64>,
-    pub probe_tool: Option<u64>,
-    pub work_system: String,
-    pub placement: Option<String>,
-    pub fast_feed_mm_min: f64,
-    pub slow_feed_mm_min: f64,
-    pub approach_mm: f64,
-    pub overtravel_mm: f64,
-    pub backoff_mm: f64,
-    pub clearance_mm: f64,
-    pub take_up_mm: f64,
-    pub sphere_touches: String,
-    pub repeats: u64,
-    pub reference_repeats: u64,
-    pub edge_points: u64,
-    pub edge_margin_mm: f64,
-    pub no_contact: String,
-    pub log_file: String,
-    pub safe_z_mm: Option<f64>,
-    pub rapid_mm_min: f64,
-    pub accel_mm_s2: f64,
-}
+    reference_repeats: u64 = PlanOptions::default().reference_repeats as u64,
+        Count "How often each touch of the reference sphere is made."
+        .value("REFERENCE_REPEATS")
+        .default("3");
 
-impl Default for ProbePlanRequest {
-    fn default() -> Self {
-        let o = PlanOptions::default();
-        Self {
-            tip_diameter_mm: None,
-            probe_tool: None,
-            work_system: "G54".into(),
-            placement: None,
-            fast_feed_mm_min: o.fast_feed_mm_min,
-            slow_feed_mm_min: o.slow_feed_mm_min,
-            approach_mm: o.approach_mm,
-            overtravel_mm: o.overtravel_mm,
-            backoff_mm: o.backoff_mm,
-            clearance_mm: o.clearance_mm,
-            take_up_mm: o.take_up_mm,
-            sphere_touches: "5".into(),
-            repeats: o.repeats as u64,
-            reference_repeats: o.reference_repeats as u64,
-            edge_points: o.edge_points as u64,
-            edge_margin_mm: o.edge_margin_mm,
-            no_contact: "stop".into(),
-            log_file: o.log_file,
-            safe_z_mm: None,
-            rapid_mm_min: o.rapid_mm_min,
-            accel_mm_s2: o.accel_mm_s2,
-        }
-    }
-}
+    edge_points: u64 = PlanOptions::default().edge_points as u64,
+        Count "Touches along each edge of a square."
+        .value("EDGE_POINTS")
+        .default("7");
 
-impl super::Request for ProbePlanRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[PROBE_PLAN_OPTIONS];
+    edge_margin_mm: f64 = PlanOptions::default().edge_margin_mm,
+        Number "Distance of the first and last edge touch from an edge's ends (mm)."
+        .value("EDGE_MARGIN_MM")
+        .default("10");
 
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        match name {
-            "tip_diameter_mm" => self.tip_diameter_mm = Some(v.number("tip_diameter_mm")?),
-            "probe_tool" => self.probe_tool = Some(v.count("probe_tool")?),
-            "work_system" => self.work_system = v.text("work_system")?,
-            "placement" => self.placement = Some(v.text("placement")?),
-            "fast_feed_mm_min" => self.fast_feed_mm_min = v.number("fast_feed_mm_min")?,
-            "slow_feed_mm_min" => self.slow_feed_mm_min = v.number("slow_feed_mm_min")?,
-            "approach_mm" => self.approach_mm = v.number("approach_mm")?,
-            "overtravel_mm" => self.overtravel_mm = v.number("overtravel_mm")?,
-            "backoff_mm" => self.backoff_mm = v.number("backoff_mm")?,
-            "clearance_mm" => self.clearance_mm = v.number("clearance_mm")?,
-            "take_up_mm" => self.take_up_mm = v.number("take_up_mm")?,
-            "sphere_touches" => self.sphere_touches = v.text("sphere_touches")?,
-            "repeats" => self.repeats = v.count("repeats")?,
-            "reference_repeats" => self.reference_repeats = v.count("reference_repeats")?,
-            "edge_points" => self.edge_points = v.count("edge_points")?,
-            "edge_margin_mm" => self.edge_margin_mm = v.number("edge_margin_mm")?,
-            "no_contact" => self.no_contact = v.text("no_contact")?,
-            "log_file" => self.log_file = v.text("log_file")?,
-            "safe_z_mm" => self.safe_z_mm = Some(v.number("safe_z_mm")?),
-            "rapid_mm_min" => self.rapid_mm_min = v.number("rapid_mm_min")?,
-            "accel_mm_s2" => self.accel_mm_s2 = v.number("accel_mm_s2")?,
-            _ => return Err(OptionError::unknown("tip_diameter_mm", name)),
-        }
-        Ok(())
-    }
+    no_contact: String = "stop".into(),
+        Choice "What a probe move that touches nothing does."
+        .value("NO_CONTACT")
+        .default("stop")
+        .choices(&[
+                ("stop", "G38.2: the controller stops with an error"),
+                (
+                    "skip",
+                    "G38.3: the program goes on; the touch is logged as missed",
+                ),
+            ]);
+
+    log_file: String = PlanOptions::default().log_file,
+        Text "The log file the program writes (LOGOPEN), as LinuxCNC opens it."
+        .value("LOG_FILE")
+        .default("probe.log");
+
+    safe_z_mm: Option<f64> = None,
+        Number "Machine Z for moves between placements (default: 25 mm above the artifact)."
+        .value("SAFE_Z_MM");
+
+    rapid_mm_min: f64 = PlanOptions::default().rapid_mm_min,
+        Number "Rapid speed for the time estimate (mm/min)."
+        .value("RAPID_MM_MIN")
+        .default("3000");
+
+    accel_mm_s2: f64 = PlanOptions::default().accel_mm_s2,
+        Number "Acceleration for the time estimate (mm/s²)."
+        .value("ACCEL_MM_S2")
+        .default("500");
 }
 
 /// The coordinate systems a probing program may run in, G54 first.
@@ -320,52 +199,6 @@ impl ProbePlanRequest {
     }
 }
 
-/// The options of every probing identification ([`ProbeIdentifyRequest`]).
-pub const PROBE_IDENTIFY_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new(
-        "ranges_mm",
-        Kind::Ranges,
-        "The machine's travel, mm: \"X0:X1,Y0:Y1,Z0:Z1\" (the polynomials live on it).",
-    )
-    .value("RANGES")
-    .required(),
-    OptionInfo::new(
-        "chain",
-        Kind::Text,
-        "Kinematic chain, workpiece to tool (docs/kinematic.md).",
-    )
-    .value("CHAIN")
-    .default("w X' Y' b Z t"),
-    OptionInfo::new(
-        "order",
-        Kind::Count,
-        "Largest Legendre order of the components.",
-    )
-    .value("ORDER")
-    .default("2"),
-    OptionInfo::new("model", Kind::Choice, "Which model to identify.")
-        .value("MODEL")
-        .default("auto")
-        .choices(&[
-            (
-                "auto",
-                "Full when spheres were measured in two placements or more, else reduced (default)",
-            ),
-            ("full", "The 21-component model"),
-            (
-                "reduced",
-                "Positioning, straightness and squareness; angles zero and unknown",
-            ),
-        ]),
-    OptionInfo::new(
-        "threshold",
-        Kind::Number,
-        "Relative singular-value threshold for what the measurements cannot see.",
-    )
-    .value("THRESHOLD")
-    .default("0.001"),
-];
-
 /// The fit's own options ([`ProbeFitRequest`]).
 pub const PROBE_FIT_OPTIONS: &[OptionInfo] = &[
     OptionInfo::new(
@@ -382,43 +215,49 @@ pub const PROBE_FIT_OPTIONS: &[OptionInfo] = &[
     .default("0"),
 ];
 
-/// A probing identification, as plain values.
-#[derive(Debug, Clone, PartialEq)]
-#[allow(missing_docs)]
-pub struct ProbeIdentifyRequest {
-    pub ranges_mm: Option<[[f64; 2]; 3]>,
-    pub chain: String,
-    pub order: u64,
-    pub model: String,
-    pub threshold: f64,
-}
+request! {
+    /// A probing identification, as plain values.
+    #[allow(missing_docs)]
+    pub struct ProbeIdentifyRequest {}
+    /// The options of every probing identification ([`ProbeIdentifyRequest`]).
+    pub const PROBE_IDENTIFY_OPTIONS;
+    options [PROBE_IDENTIFY_OPTIONS], unknown "ranges_mm";
 
-impl Default for ProbeIdentifyRequest {
-    fn default() -> Self {
-        Self {
-            ranges_mm: None,
-            chain: "w X' Y' b Z t".into(),
-            order: 2,
-            model: "auto".into(),
-            threshold: 0.001,
-        }
-    }
-}
+    ranges_mm: Option<[[f64; 2]; 3]> = None,
+        Ranges "The machine's travel, mm: \"X0:X1,Y0:Y1,Z0:Z1\" (the polynomials live on it)."
+        .value("RANGES")
+        .required();
 
-impl super::Request for ProbeIdentifyRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[PROBE_IDENTIFY_OPTIONS];
+    chain: String = "w X' Y' b Z t".into(),
+        Text "Kinematic chain, workpiece to tool (docs/kinematic.md)."
+        .value("CHAIN")
+        .default("w X' Y' b Z t");
 
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        match name {
-            "ranges_mm" => self.ranges_mm = Some(v.ranges("ranges_mm")?),
-            "chain" => self.chain = v.text("chain")?,
-            "order" => self.order = v.count("order")?,
-            "model" => self.model = v.text("model")?,
-            "threshold" => self.threshold = v.number("threshold")?,
-            _ => return Err(OptionError::unknown("ranges_mm", name)),
-        }
-        Ok(())
-    }
+    order: u64 = 2,
+        Count "Largest Legendre order of the components."
+        .value("ORDER")
+        .default("2");
+
+    model: String = "auto".into(),
+        Choice "Which model to identify."
+        .value("MODEL")
+        .default("auto")
+        .choices(&[
+                (
+                    "auto",
+                    "Full when spheres were measured in two placements or more, else reduced (default)",
+                ),
+                ("full", "The 21-component model"),
+                (
+                    "reduced",
+                    "Positioning, straightness and squareness; angles zero and unknown",
+                ),
+            ]);
+
+    threshold: f64 = 0.001,
+        Number "Relative singular-value threshold for what the measurements cannot see."
+        .value("THRESHOLD")
+        .default("0.001");
 }
 
 impl ProbeIdentifyRequest {

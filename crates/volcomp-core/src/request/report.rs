@@ -4,7 +4,6 @@
 
 use super::compensate::Compensation;
 use super::machine::Machine;
-use super::option::{Kind, OptionError, OptionInfo, Value};
 use super::simulate::SimulateRequest;
 use crate::compensate::CompensateSummary;
 use crate::io::provenance::{now_utc, ProgramHeader};
@@ -18,32 +17,18 @@ use crate::report::{compensation::compensation_sections, Document, InputFile};
 use crate::Error;
 use std::path::{Path, PathBuf};
 
-/// The options of [`ReportRequest`]: what an HTML report says besides the
-/// run (the compensation's and the simulation's).
-pub const REPORT_OPTIONS: &[OptionInfo] = &[OptionInfo::new(
-    "report_title",
-    Kind::Path,
-    "Title block of the HTML report: a TOML file with customer, order, part, drawing, revision, material, machine, tolerance, operator, notes (each optional; docs/report.md, \"Title block\").",
-)
-.value("FILE.toml")];
+request! {
+    /// What an HTML report says besides the run, as plain values.
+    pub struct ReportRequest {}
+    /// The options of [`ReportRequest`]: what an HTML report says besides the
+    /// run (the compensation's and the simulation's).
+    pub const REPORT_OPTIONS;
+    options [REPORT_OPTIONS], unknown "report_title";
 
-/// What an HTML report says besides the run, as plain values.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct ReportRequest {
     /// The title-block file.
-    pub report_title: Option<PathBuf>,
-}
-
-impl super::Request for ReportRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[REPORT_OPTIONS];
-
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        match name {
-            "report_title" => self.report_title = Some(v.path("report_title")?),
-            _ => return Err(OptionError::unknown("report_title", name)),
-        }
-        Ok(())
-    }
+    report_title: Option<PathBuf> = None,
+        Path "Title block of the HTML report: a TOML file with customer, order, part, drawing, revision, material, machine, tolerance, operator, notes (each optional; docs/report.md, \"Title block\")."
+        .value("FILE.toml");
 }
 
 impl ReportRequest {

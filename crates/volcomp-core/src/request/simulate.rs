@@ -3,64 +3,32 @@
 //! program.
 
 use super::machine::{Machine, MachineRequest, MACHINE_OPTIONS};
-use super::option::{Input, Kind, OptionError, OptionInfo, Value};
+use super::option::{Input, OptionError};
 use crate::model::ErrorModel;
 use crate::simulate::DEFAULT_CHORD_TOLERANCE_MM;
 use crate::Simulation;
 
-/// The options of [`SimulateRequest`] beside the machine's.
-pub const SIMULATE_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new(
-        "reference",
-        Kind::Input,
-        "The original program whose nominal path the program is judged against (the program written by `volcomp compensate` from it: its `(volcomp Ln)` comments pair them).",
-    )
-    .value("ORIGINAL"),
-    OptionInfo::new(
-        "chord_tolerance_mm",
-        Kind::Number,
-        "Chord tolerance for linearising arcs and splines (mm).",
-    )
-    .flag("chord-tolerance")
-    .value("MM")
-    .default("0.00001"),
-];
+request! {
+    /// A simulation, as plain values.
+    pub struct SimulateRequest {
+        /// The machine.
+        pub machine: MachineRequest,
+    }
+    /// The options of [`SimulateRequest`] beside the machine's.
+    pub const SIMULATE_OPTIONS;
+    options [MACHINE_OPTIONS, SIMULATE_OPTIONS], unknown "reference";
 
-/// A simulation, as plain values.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SimulateRequest {
-    /// The machine.
-    pub machine: MachineRequest,
     /// The original of a compensated program.
-    pub reference: Option<Input>,
+    reference: Option<Input> = None,
+        Input "The original program whose nominal path the program is judged against (the program written by `volcomp compensate` from it: its `(volcomp Ln)` comments pair them)."
+        .value("ORIGINAL");
+
     /// Chord tolerance (mm).
-    pub chord_tolerance_mm: f64,
-}
-
-impl Default for SimulateRequest {
-    fn default() -> Self {
-        Self {
-            machine: MachineRequest::default(),
-            reference: None,
-            chord_tolerance_mm: DEFAULT_CHORD_TOLERANCE_MM,
-        }
-    }
-}
-
-impl super::Request for SimulateRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[MACHINE_OPTIONS, SIMULATE_OPTIONS];
-
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        if self.machine.try_set(name, v.clone())? {
-            return Ok(());
-        }
-        match name {
-            "reference" => self.reference = Some(v.input("reference")?),
-            "chord_tolerance_mm" => self.chord_tolerance_mm = v.number("chord_tolerance_mm")?,
-            _ => return Err(OptionError::unknown("reference", name)),
-        }
-        Ok(())
-    }
+    chord_tolerance_mm: f64 = DEFAULT_CHORD_TOLERANCE_MM,
+        Number "Chord tolerance for linearising arcs and splines (mm)."
+        .flag("chord-tolerance")
+        .value("MM")
+        .default("0.00001");
 }
 
 impl SimulateRequest {

@@ -1,138 +1,79 @@
 //! A straightness identification (docs/straightness.md), as plain values:
 //! the options of the fit from runs at several feed rates.
 
-use super::option::{Kind, OptionError, OptionInfo, Value};
+use super::option::OptionError;
 use crate::identify::straightness::identify::{fit, CutoffRule, Fit, FitOptions, Normalisation};
 use crate::identify::straightness::option_error::FitOption;
 use crate::identify::straightness::run::Run;
 use crate::identify::straightness::{Axis, StraightnessError};
 use crate::Error;
 
-/// The options of [`StraightnessFitRequest`].
-pub const STRAIGHTNESS_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new(
-        "axis",
-        Kind::Choice,
-        "The axis of runs whose file has no `# axis =` line: X or Y.",
-    )
-    .value("AXIS")
-    .choices(&[("X", "Runs along X"), ("Y", "Runs along Y")]),
-    OptionInfo::new(
-        "sigma_t",
-        Kind::Number,
-        "σ_t: largest relative standard deviation (σ/P̄) across feed rates of a geometric line.",
-    )
-    .value("SIGMA")
-    .default("0.05"),
-    OptionInfo::new(
-        "p_t",
-        Kind::Number,
-        "P_t: smallest normalised mean power P̄ of a modelled line (0.01 = 1 % of the power).",
-    )
-    .value("P")
-    .default("0.01"),
-    OptionInfo::new(
-        "taper_fraction",
-        Kind::Number,
-        "Fraction of the samples in each raised-cosine end of the taper window (0 … 0.5).",
-    )
-    .flag("taper")
-    .value("FRACTION")
-    .default("0.1"),
-    OptionInfo::new(
-        "normalisation",
-        Kind::Choice,
-        "How spectra are normalised before P̄ and σ are taken.",
-    )
-    .flag("normalise")
-    .value("NORMALISE")
-    .default("common")
-    .choices(&[
-        (
-            "common",
-            "One common scale for all feed rates: their mean total power (default)",
-        ),
-        (
-            "per-run",
-            "Each feed rate's spectrum as fractions of its own total power",
-        ),
-    ]),
-    OptionInfo::new(
-        "cutoff",
-        Kind::Choice,
-        "How the number of harmonics m is chosen (σ_t and P_t apply to `thresholds`; they still mark the lines reported as rejected).",
-    )
-    .value("CUTOFF")
-    .default("cross-validation")
-    .choices(&[
-        (
-            "cross-validation",
-            "m that best predicts each left-out feed rate from the others (default)",
-        ),
-        (
-            "thresholds",
-            "The paper's rule: shortest wavelength with σ < σ_t and P̄ > P_t",
-        ),
-    ]),
-    OptionInfo::new(
-        "harmonics",
-        Kind::Count,
-        "Use this number of harmonics m instead of the one the rule chooses.",
-    )
-    .value("M"),
-    OptionInfo::new(
-        "negate",
-        Kind::Switch,
-        "The files' displacement has the opposite sign of the deviation (e.g. workpiece relative to tool): negate it.",
-    ),
-];
+request! {
+    /// A straightness fit, as plain values.
+    #[allow(missing_docs)]
+    pub struct StraightnessFitRequest {}
+    /// The options of [`StraightnessFitRequest`].
+    pub const STRAIGHTNESS_OPTIONS;
+    options [STRAIGHTNESS_OPTIONS], unknown "axis";
 
-/// A straightness fit, as plain values.
-#[derive(Debug, Clone, PartialEq)]
-#[allow(missing_docs)]
-pub struct StraightnessFitRequest {
-    pub axis: Option<String>,
-    pub sigma_t: f64,
-    pub p_t: f64,
-    pub taper_fraction: f64,
-    pub normalisation: String,
-    pub cutoff: String,
-    pub harmonics: Option<u64>,
-    pub negate: bool,
-}
+    axis: Option<String> = None,
+        Choice "The axis of runs whose file has no `# axis =` line: X or Y."
+        .value("AXIS")
+        .choices(&[("X", "Runs along X"), ("Y", "Runs along Y")]);
 
-impl Default for StraightnessFitRequest {
-    fn default() -> Self {
-        Self {
-            axis: None,
-            sigma_t: 0.05,
-            p_t: 0.01,
-            taper_fraction: 0.1,
-            normalisation: "common".into(),
-            cutoff: "cross-validation".into(),
-            harmonics: None,
-            negate: false,
-        }
-    }
-}
+    sigma_t: f64 = 0.05,
+        Number "σ_t: largest relative standard deviation (σ/P̄) across feed rates of a geometric line."
+        .value("SIGMA")
+        .default("0.05");
 
-impl super::Request for StraightnessFitRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[STRAIGHTNESS_OPTIONS];
+    p_t: f64 = 0.01,
+        Number "P_t: smallest normalised mean power P̄ of a modelled line (0.01 = 1 % of the power)."
+        .value("P")
+        .default("0.01");
 
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        match name {
-            "axis" => self.axis = Some(v.text("axis")?),
-            "sigma_t" => self.sigma_t = v.number("sigma_t")?,
-            "p_t" => self.p_t = v.number("p_t")?,
-            "taper_fraction" => self.taper_fraction = v.number("taper_fraction")?,
-            "normalisation" => self.normalisation = v.text("normalisation")?,
-            "cutoff" => self.cutoff = v.text("cutoff")?,
-            "harmonics" => self.harmonics = Some(v.count("harmonics")?),
-            "negate" => self.negate = v.bool("negate")?,
-            _ => return Err(OptionError::unknown("axis", name)),
-        }
-        Ok(())
-    }
+    taper_fraction: f64 = 0.1,
+        Number "Fraction of the samples in each raised-cosine end of the taper window (0 … 0.5)."
+        .flag("taper")
+        .value("FRACTION")
+        .default("0.1");
+
+    normalisation: String = "common".into(),
+        Choice "How spectra are normalised before P̄ and σ are taken."
+        .flag("normalise")
+        .value("NORMALISE")
+        .default("common")
+        .choices(&[
+                (
+                    "common",
+                    "One common scale for all feed rates: their mean total power (default)",
+                ),
+                (
+                    "per-run",
+                    "Each feed rate's spectrum as fractions of its own total power",
+                ),
+            ]);
+
+    cutoff: String = "cross-validation".into(),
+        Choice "How the number of harmonics m is chosen (σ_t and P_t apply to `thresholds`; they still mark the lines reported as rejected)."
+        .value("CUTOFF")
+        .default("cross-validation")
+        .choices(&[
+                (
+                    "cross-validation",
+                    "m that best predicts each left-out feed rate from the others (default)",
+                ),
+                (
+                    "thresholds",
+                    "The paper's rule: shortest wavelength with σ < σ_t and P̄ > P_t",
+                ),
+            ]);
+
+    harmonics: Option<u64> = None,
+        Count "Use this number of harmonics m instead of the one the rule chooses."
+        .value("M");
+
+    negate: bool = false,
+        Switch "The files' displacement has the opposite sign of the deviation (e.g. workpiece relative to tool): negate it.";
 }
 
 /// The request's name of an identification option.

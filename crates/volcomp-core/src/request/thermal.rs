@@ -1,7 +1,7 @@
 //! The thermal model (docs/thermal.md), as plain values: its fit from
 //! ball-array cycles and temperatures, and its prediction for a moment.
 
-use super::option::{Input, Kind, OptionError, OptionInfo, Value};
+use super::option::{Input, OptionError};
 use crate::identify::thermal::checks::{check_training_range, noise_warnings};
 use crate::identify::thermal::files::{
     self, parse_artifact, parse_measurements, parse_temperatures, Cycle, FitOptions, Temperatures,
@@ -18,138 +18,68 @@ use crate::Error;
 /// Monte Carlo draws of the confidence bands when none are given.
 pub const DEFAULT_BAND_SAMPLES: u64 = 400;
 
-/// The options of [`ThermalFitRequest`].
-pub const THERMAL_FIT_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new(
-        "measurements",
-        Kind::Input,
-        "Measured sphere centres: cycle,time_h,placement,sphere,x_mm,y_mm,z_mm.",
-    )
-    .value("CSV")
-    .required(),
-    OptionInfo::new(
-        "temperatures",
-        Kind::Input,
-        "Temperatures per cycle: cycle,time_h,<sensor>_C,…",
-    )
-    .value("CSV")
-    .required(),
-    OptionInfo::new(
-        "artifact",
-        Kind::Input,
-        "Artifact: sphere,distance_mm (calibrated distance from sphere 1).",
-    )
-    .value("CSV")
-    .required(),
-    OptionInfo::new(
-        "ranges_mm",
-        Kind::Ranges,
-        "Axis ranges the polynomials live on, mm: \"X0:X1,Y0:Y1,Z0:Z1\".",
-    )
-    .value("RANGES")
-    .required(),
-    OptionInfo::new(
-        "chain",
-        Kind::Text,
-        "Kinematic chain, workpiece to tool (docs/kinematic.md).",
-    )
-    .value("CHAIN")
-    .default("w X' Y' b Z t"),
-    OptionInfo::new("order", Kind::Count, "Maximum Legendre order of the components.")
+request! {
+    /// A thermal fit, as plain values.
+    #[allow(missing_docs)]
+    pub struct ThermalFitRequest {}
+    /// The options of [`ThermalFitRequest`].
+    pub const THERMAL_FIT_OPTIONS;
+    options [THERMAL_FIT_OPTIONS], unknown "chain";
+
+    measurements: Option<Input> = None,
+        Input "Measured sphere centres: cycle,time_h,placement,sphere,x_mm,y_mm,z_mm."
+        .value("CSV")
+        .required();
+
+    temperatures: Option<Input> = None,
+        Input "Temperatures per cycle: cycle,time_h,<sensor>_C,…"
+        .value("CSV")
+        .required();
+
+    artifact: Option<Input> = None,
+        Input "Artifact: sphere,distance_mm (calibrated distance from sphere 1)."
+        .value("CSV")
+        .required();
+
+    ranges_mm: Option<[[f64; 2]; 3]> = None,
+        Ranges "Axis ranges the polynomials live on, mm: \"X0:X1,Y0:Y1,Z0:Z1\"."
+        .value("RANGES")
+        .required();
+
+    chain: String = "w X' Y' b Z t".into(),
+        Text "Kinematic chain, workpiece to tool (docs/kinematic.md)."
+        .value("CHAIN")
+        .default("w X' Y' b Z t");
+
+    order: u64 = 2,
+        Count "Maximum Legendre order of the components."
         .value("ORDER")
-        .default("2"),
-    OptionInfo::new(
-        "probe_length_mm",
-        Kind::Number,
-        "Tool length offset of the probe (mm).",
-    )
-    .value("MM")
-    .default("0"),
-    OptionInfo::new(
-        "lags",
-        Kind::Count,
-        "Lagged cycles of every sensor in the regression (ARX-style inputs).",
-    )
-    .value("LAGS")
-    .default("0"),
-    OptionInfo::new(
-        "threshold",
-        Kind::Number,
-        "Relative singular-value threshold for rank deficiency.",
-    )
-    .value("THRESHOLD")
-    .default("0.001"),
-    OptionInfo::new(
-        "table_samples",
-        Kind::Count,
-        "Points per component table in predicted models.",
-    )
-    .value("N")
-    .default("61"),
-    OptionInfo::new(
-        "bands_samples",
-        Kind::Count,
-        "Monte Carlo draws of the 95 % confidence bands of the last cycle's identified TCP error along lines through the middle of the volume (default 400 where bands are asked for).",
-    )
-    .flag("samples")
-    .value("N"),
-];
+        .default("2");
 
-/// A thermal fit, as plain values.
-#[derive(Debug, Clone, PartialEq)]
-#[allow(missing_docs)]
-pub struct ThermalFitRequest {
-    pub measurements: Option<Input>,
-    pub temperatures: Option<Input>,
-    pub artifact: Option<Input>,
-    pub ranges_mm: Option<[[f64; 2]; 3]>,
-    pub chain: String,
-    pub order: u64,
-    pub probe_length_mm: f64,
-    pub lags: u64,
-    pub threshold: f64,
-    pub table_samples: u64,
-    pub bands_samples: Option<u64>,
-}
+    probe_length_mm: f64 = 0.0,
+        Number "Tool length offset of the probe (mm)."
+        .value("MM")
+        .default("0");
 
-impl Default for ThermalFitRequest {
-    fn default() -> Self {
-        Self {
-            measurements: None,
-            temperatures: None,
-            artifact: None,
-            ranges_mm: None,
-            chain: "w X' Y' b Z t".into(),
-            order: 2,
-            probe_length_mm: 0.0,
-            lags: 0,
-            threshold: DEFAULT_RELATIVE_THRESHOLD,
-            table_samples: 61,
-            bands_samples: None,
-        }
-    }
-}
+    lags: u64 = 0,
+        Count "Lagged cycles of every sensor in the regression (ARX-style inputs)."
+        .value("LAGS")
+        .default("0");
 
-impl super::Request for ThermalFitRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[THERMAL_FIT_OPTIONS];
+    threshold: f64 = DEFAULT_RELATIVE_THRESHOLD,
+        Number "Relative singular-value threshold for rank deficiency."
+        .value("THRESHOLD")
+        .default("0.001");
 
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        match name {
-            "measurements" => self.measurements = Some(v.input("measurements")?),
-            "temperatures" => self.temperatures = Some(v.input("temperatures")?),
-            "artifact" => self.artifact = Some(v.input("artifact")?),
-            "ranges_mm" => self.ranges_mm = Some(v.ranges("ranges_mm")?),
-            "chain" => self.chain = v.text("chain")?,
-            "order" => self.order = v.count("order")?,
-            "probe_length_mm" => self.probe_length_mm = v.number("probe_length_mm")?,
-            "lags" => self.lags = v.count("lags")?,
-            "threshold" => self.threshold = v.number("threshold")?,
-            "table_samples" => self.table_samples = v.count("table_samples")?,
-            "bands_samples" => self.bands_samples = Some(v.count("bands_samples")?),
-            _ => return Err(OptionError::unknown("chain", name)),
-        }
-        Ok(())
-    }
+    table_samples: u64 = 61,
+        Count "Points per component table in predicted models."
+        .value("N")
+        .default("61");
+
+    bands_samples: Option<u64> = None,
+        Count "Monte Carlo draws of the 95 % confidence bands of the last cycle's identified TCP error along lines through the middle of the volume (default 400 where bands are asked for)."
+        .flag("samples")
+        .value("N");
 }
 
 /// An input file's text.
@@ -320,49 +250,25 @@ pub fn unit_symbol(unit: &str) -> &str {
     }
 }
 
-/// The options of [`ThermalPredictRequest`].
-pub const THERMAL_PREDICT_OPTIONS: &[OptionInfo] = &[
-    OptionInfo::new(
-        "temperatures",
-        Kind::Input,
-        "Temperatures (same sensor columns as for the fit).",
-    )
-    .value("CSV")
-    .required(),
-    OptionInfo::new(
-        "cycle",
-        Kind::Count,
-        "Cycle number of the moment (default: the last row).",
-    )
-    .value("CYCLE"),
-    OptionInfo::new(
-        "extrapolate",
-        Kind::Switch,
-        "Predict even at temperatures outside the training range (with a warning) instead of refusing.",
-    ),
-];
+request! {
+    /// A thermal prediction, as plain values.
+    #[allow(missing_docs)]
+    pub struct ThermalPredictRequest {}
+    /// The options of [`ThermalPredictRequest`].
+    pub const THERMAL_PREDICT_OPTIONS;
+    options [THERMAL_PREDICT_OPTIONS], unknown "cycle";
 
-/// A thermal prediction, as plain values.
-#[derive(Debug, Clone, Default, PartialEq)]
-#[allow(missing_docs)]
-pub struct ThermalPredictRequest {
-    pub temperatures: Option<Input>,
-    pub cycle: Option<u64>,
-    pub extrapolate: bool,
-}
+    temperatures: Option<Input> = None,
+        Input "Temperatures (same sensor columns as for the fit)."
+        .value("CSV")
+        .required();
 
-impl super::Request for ThermalPredictRequest {
-    const OPTIONS: &'static [&'static [OptionInfo]] = &[THERMAL_PREDICT_OPTIONS];
+    cycle: Option<u64> = None,
+        Count "Cycle number of the moment (default: the last row)."
+        .value("CYCLE");
 
-    fn set(&mut self, name: &str, v: Value) -> Result<(), OptionError> {
-        match name {
-            "temperatures" => self.temperatures = Some(v.input("temperatures")?),
-            "cycle" => self.cycle = Some(v.count("cycle")?),
-            "extrapolate" => self.extrapolate = v.bool("extrapolate")?,
-            _ => return Err(OptionError::unknown("cycle", name)),
-        }
-        Ok(())
-    }
+    extrapolate: bool = false,
+        Switch "Predict even at temperatures outside the training range (with a warning) instead of refusing.";
 }
 
 /// The model's parameters at one moment.

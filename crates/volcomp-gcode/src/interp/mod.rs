@@ -523,39 +523,21 @@ impl Interpreter {
             self.feed_mode = FeedMode::PerRevolution;
             self.feed = 0.0;
         }
-        if let Some(f) = w.get(b'F') {
-            if f < 0.0 {
-                return Err(invalid(
-                    line,
-                    w.col(b'F').unwrap_or(0),
-                    "negative feed rate",
-                    "F must be positive",
-                ));
-            }
+        let not_negative = |letter: u8, what: &str, help: &str| match w.get(letter) {
+            Some(v) if v < 0.0 => Err(invalid(line, w.col(letter).unwrap_or(0), what, help)),
+            v => Ok(v),
+        };
+        if let Some(f) = not_negative(b'F', "negative feed rate", "F must be positive")? {
             self.feed = f;
         }
-        if let Some(s) = w.get(b'S') {
-            if s < 0.0 {
-                return Err(invalid(
-                    line,
-                    w.col(b'S').unwrap_or(0),
-                    "negative spindle speed",
-                    "S must be zero or positive",
-                ));
-            }
+        if let Some(s) = not_negative(b'S', "negative spindle speed", "S must be zero or positive")?
+        {
             self.spindle_rpm = s;
         }
         // Checks of the whole block before anything changes state: words
         // nothing uses, feed moves without a feed rate (G93 and F are set).
         self.check_word_use(line, w)?;
-        let motion_col = self
-            .motion_word_col(w)
-            .or_else(|| {
-                [b'X', b'Y', b'Z', b'@', b'^']
-                    .into_iter()
-                    .find_map(|l| w.col(l))
-            })
-            .unwrap_or(0);
+        let motion_col = self.motion_col(w);
         self.check_feed(line, w, motion_col)?;
         // 5-6: tool select and change.
         if let Some(t) = w.get(b'T') {

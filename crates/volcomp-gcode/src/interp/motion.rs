@@ -249,14 +249,7 @@ impl Interpreter {
         new_cycle: bool,
         out: &mut Vec<Motion>,
     ) -> Result<(), GcodeError> {
-        let col = self
-            .motion_word_col(w)
-            .or_else(|| {
-                [b'X', b'Y', b'Z', b'@', b'^']
-                    .into_iter()
-                    .find_map(|l| w.col(l))
-            })
-            .unwrap_or(0);
+        let col = self.motion_col(w);
         let motion_word = self.motion_word_col(w).is_some();
         let block_spline = [50u16, 51, 53].into_iter().find(|c| w.has_g(*c));
         if let Some(code) = block_spline.or(match self.motion_mode {

@@ -546,4 +546,16 @@ impl Interpreter {
             .chain(CYCLE_CODES)
             .find_map(|c| w.g_col(c))
     }
+
+    /// The column a block's motion error points at: its motion word, else
+    /// its first axis word, else the line's start.
+    pub(super) fn motion_col(&self, w: &WordTable) -> usize {
+        self.motion_word_col(w)
+            .or_else(|| {
+                [b'X', b'Y', b'Z', b'@', b'^']
+                    .into_iter()
+                    .find_map(|l| w.col(l))
+            })
+            .unwrap_or(0)
+    }
 }

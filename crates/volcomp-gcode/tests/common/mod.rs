@@ -55,6 +55,22 @@ pub fn motions_with(program: &str, setup: Setup) -> Result<Vec<Motion>, GcodeErr
     motions_and_warnings(program, setup, InterpOptions::default()).0
 }
 
+/// Asserts that each program of `cases` is refused under `setup` with a
+/// message that holds the text beside it.
+#[track_caller]
+pub fn refused_with(setup: &Setup, cases: &[(&str, &str)]) {
+    for (program, said) in cases {
+        let e = motions_with(program, setup.clone()).expect_err(program);
+        assert!(e.to_string().contains(said), "{program}: {e}");
+    }
+}
+
+/// [`refused_with`] under the default set-up.
+#[track_caller]
+pub fn refused(cases: &[(&str, &str)]) {
+    refused_with(&Setup::default(), cases)
+}
+
 /// Every motion of `program` under the default set-up and options.
 pub fn motions(program: &str) -> Result<Vec<Motion>, GcodeError> {
     motions_with(program, Setup::default())

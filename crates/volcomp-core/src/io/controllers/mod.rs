@@ -243,23 +243,10 @@ pub(crate) fn located(
 }
 
 /// A controller file could not be read.
-#[derive(Debug, thiserror::Error)]
-pub enum ControllerReadError {
-    /// The file could not be read.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: std::path::PathBuf,
-        /// What the system said.
-        source: std::io::Error,
-    },
-    /// The content is malformed (located).
-    #[error(transparent)]
-    Format(#[from] MapFileError),
-}
+pub type ControllerReadError = crate::io::FileReadError;
 
 pub(crate) fn read_text(path: &std::path::Path) -> Result<String, ControllerReadError> {
-    read_text_as(path, "the controller file")
+    crate::io::read_text(path, "the controller file")
 }
 
 /// [`read_text`] of a file named inside `parent` (a `.COM` table of a
@@ -273,16 +260,7 @@ pub(crate) fn read_named(
         "a file named in {}",
         crate::io::shown_name(&crate::io::file_name(parent))
     );
-    read_text_as(path, &role)
-}
-
-fn read_text_as(path: &std::path::Path, role: &str) -> Result<String, ControllerReadError> {
-    let bytes = crate::io::inputs::read(path, role).map_err(|source| ControllerReadError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let file = path.display().to_string();
-    Ok(crate::io::table::utf8(&bytes, &file)?.to_string())
+    crate::io::read_text(path, &role)
 }
 
 /// Reads a controller file, telling the format by its name and content:
