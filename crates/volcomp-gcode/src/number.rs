@@ -356,6 +356,13 @@ fn round_half_away(v: f64) -> f64 {
     }
 }
 
+/// `v.round()` bit for bit (the sign of a zero result included) without
+/// the libm call: [`round_half_away`] with `v`'s sign, which a rounded
+/// value always keeps.
+pub fn round_bits(v: f64) -> f64 {
+    round_half_away(v).copysign(v)
+}
+
 /// Appends the decimal digits of `v`, zero-padded to at least `width`.
 fn push_digits(v: u64, width: usize, out: &mut String) {
     let mut buf = itoa::Buffer::new();
@@ -452,6 +459,47 @@ mod tests {
         ] {
             assert_eq!(round_half_away(v), v.round(), "{v}");
         }
+    }
+
+    /// `round_bits` is `round` to the bit, zeros' signs and NaN included,
+    /// on ties, near-ties, large and random values.
+    #[test]
+    fn round_bits_is_round() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.3,
+            -0.3,
+            0.5,
+            -0.5,
+            0.49999999999999994,
+            -0.49999999999999994,
+            2.5,
+            -2.5,
+            4.0e15,
+            -4.0e15,
+            4.5e15,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let scale = [1e-3, 1.0, 1e3, 1e6, 1e9, 1e14][(x % 6) as usize];
+            values.push(((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * scale);
+            values.push(f64::from_bits(x));
+            values.push((x % 20_000) as f64 * 0.5 - 5_000.0);
+        }
+        for v in values.into_iter().filter(|v| !v.is_nan()) {
+            assert_eq!(round_bits(v).to_bits(), v.round().to_bits(), "{v:e}");
+        }
+        assert!(round_bits(f64::NAN).is_nan());
     }
 
     #[test]

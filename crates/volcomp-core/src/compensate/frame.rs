@@ -90,8 +90,8 @@ impl Frame {
     }
 
     pub(super) fn round(&self, v: f64) -> f64 {
-        let k = 10f64.powi(i32::from(self.decimals));
-        (v * k).round() / k
+        let k = pow10(self.decimals);
+        volcomp_gcode::number::round_bits(v * k) / k
     }
 
     /// Program-frame value (program units) of axis-frame `q`.
@@ -156,7 +156,7 @@ impl Frame {
             };
             // An axis whose written value would not change stays exactly put.
             if (out[a] - from[a]).abs()
-                < 0.5 * 10f64.powi(-i32::from(self.decimals)) * self.mm_per_unit * 1e-3
+                < 0.5 * (1.0 / pow10(self.decimals)) * self.mm_per_unit * 1e-3
             {
                 out[a] = from[a];
             }
@@ -176,7 +176,7 @@ impl Frame {
             let v = self.word_value(q, from, a) / k * self.mm_per_unit;
             let new = if self.absolute { v } else { p_from[a] + v };
             if (new - p_from[a]).abs()
-                >= 0.5 * 10f64.powi(-i32::from(self.decimals)) * self.mm_per_unit * 1e-3
+                >= 0.5 * (1.0 / pow10(self.decimals)) * self.mm_per_unit * 1e-3
             {
                 p[a] = new;
                 moved = true;
@@ -200,6 +200,21 @@ fn rotate(x: f64, y: f64, theta_deg: f64) -> (f64, f64) {
     (x * cos - y * sin, x * sin + y * cos)
 }
 
+/// `10^d` (speed lane: a table instead of a `powi` call per written word):
+/// every power up to 10²² is exact in `f64`, as `powi`'s products of exact
+/// values are, and `1.0 / pow10(d)` is `powi(−d)`'s one division: the same
+/// bits.
+fn pow10(d: u8) -> f64 {
+    const POW10: [f64; 23] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    ];
+    POW10
+        .get(usize::from(d))
+        .copied()
+        .unwrap_or_else(|| 10f64.powi(i32::from(d)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -216,6 +231,21 @@ mod tests {
             x_word_scale: 1.0,
             arc_absolute: false,
             arc_absolute_by_option: false,
+        }
+    }
+
+    /// The table gives `powi`'s bits (the rounding of every written word
+    /// depends on them), up to and past its end.
+    #[test]
+    fn pow10_is_powi() {
+        for d in 0..=30u8 {
+            let e = i32::from(d);
+            assert_eq!(pow10(d).to_bits(), 10f64.powi(e).to_bits(), "10^{d}");
+            assert_eq!(
+                (1.0 / pow10(d)).to_bits(),
+                10f64.powi(-e).to_bits(),
+                "10^-{d}"
+            );
         }
     }
 

@@ -507,8 +507,10 @@ impl<'w> State<'w> {
         };
         // Where each run of pieces between take-ups begins and ends (runs
         // of one line are left alone).
-        let mut run_starts = vec![false; n_pieces];
-        let mut run_ends = vec![false; n_pieces];
+        // (Read only where `piece_modes` is set: allocated only then.)
+        let runs = if piece_modes.is_some() { n_pieces } else { 0 };
+        let mut run_starts = vec![false; runs];
+        let mut run_ends = vec![false; runs];
         if piece_modes.is_some() {
             let mut k = 0;
             while k < n_pieces {

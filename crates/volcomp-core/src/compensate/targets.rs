@@ -237,11 +237,17 @@ fn knot_cuts(
         // work on tables denser than the shortest segment); the filter
         // below would drop them anyway.
         let step = min_length_mm / length * (hi - lo);
-        let mut i = knots.partition_point(|k| *k <= lo);
+        let mut i = crate::model::axis_table::count_at_or_below(knots, lo);
         let before = cuts.len();
         while let Some(&k) = knots.get(i).filter(|k| **k < hi) {
             cuts.push((k - a[axis]) / (b[axis] - a[axis]));
-            i = knots.partition_point(|v| *v < k + step).max(i + 1);
+            // Usually the next knot is already far enough: no search.
+            let next = k + step;
+            i = if knots.get(i + 1).is_none_or(|v| *v >= next) {
+                i + 1
+            } else {
+                knots.partition_point(|v| *v < next).max(i + 1)
+            };
         }
         axes += usize::from(cuts.len() > before);
     }
