@@ -42,6 +42,13 @@ const PROGRAMS: &[(&str, &str)] = &[
     ),
 ];
 
+/// Asserts that the program written with arcs has fewer than one `factor`th
+/// of the blocks of the one written with lines.
+fn fewer_blocks(name: &str, arcs: &str, lines: &str, factor: usize) {
+    let (a, l) = (blocks(arcs), blocks(lines));
+    assert!(a * factor < l, "{name}: {a} blocks as arcs, {l} as lines");
+}
+
 fn blocks(text: &str) -> usize {
     text.lines()
         .filter(|l| {
@@ -118,8 +125,8 @@ fn arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
         let mut args = vec!["compensate", name, "--arcs-as-lines", "-o", &lines];
         args.extend(common);
         volcomp(&args, d);
-        let written = std::fs::read_to_string(d.join(&out)).unwrap();
-        let linear = std::fs::read_to_string(d.join(&lines)).unwrap();
+        let written = read(d, &out);
+        let linear = read(d, &lines);
         // The size it reports is the files' own, counted here.
         let size = format!(
             "size {} -> {} bytes, {} -> {} blocks",
@@ -138,12 +145,7 @@ fn arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
             })
             .count();
         assert!(arcs >= 4, "{name}: {arcs} arc lines\n{written}");
-        assert!(
-            blocks(&written) * 10 < blocks(&linear),
-            "{name}: {} blocks as arcs, {} as lines",
-            blocks(&written),
-            blocks(&linear)
-        );
+        fewer_blocks(name, &written, &linear, 10);
         if name.starts_with("circles_r") {
             assert!(
                 written.contains(" R") && !written.contains(" I"),
@@ -245,8 +247,8 @@ fn cutter_compensated_arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
         args.extend(common);
         args.extend(exact);
         volcomp(&args, d);
-        let written = std::fs::read_to_string(d.join(&arcs)).unwrap();
-        let linear = std::fs::read_to_string(d.join(&lines)).unwrap();
+        let written = read(d, &arcs);
+        let linear = read(d, &lines);
         let arc_lines = written
             .lines()
             .filter(|l| {
@@ -254,12 +256,7 @@ fn cutter_compensated_arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
             })
             .count();
         assert!(arc_lines >= 1, "{name}: no tool-centre arc\n{written}");
-        assert!(
-            blocks(&written) * 3 < blocks(&linear),
-            "{name}: {} blocks as arcs, {} as lines",
-            blocks(&written),
-            blocks(&linear)
-        );
+        fewer_blocks(name, &written, &linear, 3);
         let judge = |out: &str| {
             let mut args = vec!["simulate", out, "--reference", original, "--json"];
             args.extend(common);

@@ -160,7 +160,7 @@ fn the_input_is_never_overwritten() {
     write(&dir, "p.ngc", PROGRAM);
     let o = common::run(&dir, "compensate p.ngc --map map.csv -o ./p.ngc");
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("refusing to write"), "{}", stderr(&o));
+    common::said(&o, "refusing to write");
     assert_eq!(read(&dir, "p.ngc"), PROGRAM);
 }
 
@@ -317,7 +317,7 @@ fn simulate_draws_svg_and_png_plots() {
     }
     let o = common::run(&dir, "simulate p.ngc --map map.csv --plot e.pdf");
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains(".svg or .png"), "{}", stderr(&o));
+    common::said(&o, ".svg or .png");
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! `volcomp map export` and `--controller`: a machine whose controller
 //! applies a pitch table volcomp exported, compensated for the rest only.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::common;
 use common::{json, ok, read, refused, tempdir, text, volcomp, write};
@@ -33,11 +33,20 @@ fn write_map(dir: &Path) {
 // (docs/compensation.md, "Reversals by path-control mode").
 const PART: &str = "G21 G90 G17 G61\nG0 X0 Y0 Z10\nG1 Z0 F500\nG1 X200 Y0\nG1 X200 Y150\nG2 X100 Y250 I-100 J0\nG1 X0 Y250\nG1 X0 Y0\nG0 Z10\nM2\n";
 
-/// `volcomp simulate PROGRAM` of [`PART`] at the tests' work offset, as JSON;
-/// with `controller`, on a machine whose controller applies that file.
 /// The Siemens EEC tables the hybrid tests export.
 const EEC: &str = "eec/%_N_AX_EEC_INI";
 
+/// A fresh folder `name` with the map (m.csv) and [`PART`] (part.ngc).
+#[track_caller]
+fn machine(name: &str) -> PathBuf {
+    let dir = tempdir(name);
+    write_map(&dir);
+    write(&dir, "part.ngc", PART);
+    dir
+}
+
+/// `volcomp simulate PROGRAM` of [`PART`] at the tests' work offset, as JSON;
+/// with `controller`, on a machine whose controller applies that file.
 fn simulate(dir: &Path, program: &str, controller: Option<&str>) -> serde_json::Value {
     let mut args = vec![
         "simulate",
@@ -59,9 +68,7 @@ fn simulate(dir: &Path, program: &str, controller: Option<&str>) -> serde_json::
 
 #[test]
 fn only_the_residual_is_compensated_on_a_machine_with_a_pitch_table() {
-    let dir = tempdir("hybrid");
-    write_map(&dir);
-    write(&dir, "part.ngc", PART);
+    let dir = machine("hybrid");
     // The controller's table: Siemens EEC every 10 mm at its 1 µm resolution.
     ok(&common::run(
         &dir,
@@ -168,9 +175,7 @@ fn compensating_twice_worsens_the_positioning_axis() {
 
 #[test]
 fn controller_compensates_positioning_is_the_ideal_table() {
-    let dir = tempdir("ideal");
-    write_map(&dir);
-    write(&dir, "part.ngc", PART);
+    let dir = machine("ideal");
     ok(&common::run(&dir, "compensate part.ngc --map m.csv --work-offset 100,100,50 --decimals 6 --controller-compensates positioning -o rest.ngc"));
     let t = read(&dir, "rest.ngc");
     assert!(t.contains("the controller compensates the positioning errors"));
@@ -255,9 +260,7 @@ fn an_isg_volumetric_compensation_leaves_nothing() {
     // compensation (volcomp.csv + volcomp.lis exported from it): the
     // machine's error is then only the export's rounding (10⁻⁴ µm), and the
     // map has one table for both directions, so no reversal is left either.
-    let dir = tempdir("isg-volcomp");
-    write_map(&dir);
-    write(&dir, "part.ngc", PART);
+    let dir = machine("isg-volcomp");
     ok(&common::run(&dir, "map export m.csv --to isg-csv -o isg"));
     let before = simulate(&dir, "part.ngc", None);
     let with = simulate(&dir, "part.ngc", Some("isg/volcomp.lis"));

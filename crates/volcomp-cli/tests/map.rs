@@ -174,11 +174,7 @@ fn example_converts_and_round_trips_through_linuxcnc() {
         "map convert example21.toml --to axis-table --tool-length 120 -o tables.csv",
     );
     ok(&o);
-    assert!(
-        stderr(&o).contains("differs from the model by up to"),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, "differs from the model by up to");
     // At the reference point the axis tables give the model's deviation.
     let a = json(&common::run(
         &dir,
@@ -224,24 +220,31 @@ fn example_converts_and_round_trips_through_linuxcnc() {
     );
 }
 
-#[test]
-fn dense_axis_tables_go_to_linuxcnc_with_a_resampling_step() {
-    let dir = tempdir("dense");
-    // 301 points every 2 mm: more than LinuxCNC's 256 per joint.
+/// Axis tables of X, Y and Z with a point every 2 mm over 0…600 mm (301 a
+/// table), one for both directions: `ex_um(axis, position)` along X, no
+/// other error.
+fn dense_tables(ex_um: impl Fn(&str, f64) -> f64) -> String {
     let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
     for a in ["X", "Y", "Z"] {
         for k in 0..=300 {
             let p = 2.0 * k as f64;
-            csv.push_str(&format!("{a},both,{p},{},0,0\n", 0.01 * p));
+            csv.push_str(&format!("{a},both,{p},{},0,0\n", ex_um(a, p)));
         }
     }
-    write(&dir, "dense.csv", csv);
+    csv
+}
+
+#[test]
+fn dense_axis_tables_go_to_linuxcnc_with_a_resampling_step() {
+    let dir = tempdir("dense");
+    // 301 points every 2 mm: more than LinuxCNC's 256 per joint.
+    write(&dir, "dense.csv", dense_tables(|_, p| 0.01 * p));
     let o = common::run(
         &dir,
         "map convert dense.csv --to linuxcnc --type 1 --units mm -o comp",
     );
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("--step"), "{}", stderr(&o));
+    common::said(&o, "--step");
     ok(&common::run(
         &dir,
         "map convert dense.csv --to linuxcnc --type 1 --units mm --step 10 -o comp",
@@ -252,11 +255,7 @@ fn dense_axis_tables_go_to_linuxcnc_with_a_resampling_step() {
     assert_eq!(x.lines().last().unwrap(), "600 -0.006 -0.006");
     // Without --type LinuxCNC's file type is not guessed.
     let o = common::run(&dir, "map convert dense.csv --to linuxcnc --units mm -o c2");
-    assert!(
-        stderr(&o).contains("--type 0 or --type 1"),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, "--type 0 or --type 1");
 }
 
 #[test]
@@ -347,18 +346,10 @@ fn bad_model_files_name_file_row_and_column() {
     // A file whose name and content name no model kind: the formats listed.
     write(&dir, "m.json", "{}\n");
     let o = common::run(&dir, "map eval m.json --at 0,0,0");
-    assert!(
-        stderr(&o).contains(".toml for a 21-component model"),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, ".toml for a 21-component model");
     // The component table given where a map is expected: pointed to its TOML.
     let o = common::run(&dir, "compensate x.ngc --map m.csv -o o.ngc");
-    assert!(
-        stderr(&o).contains("model = \"kinematic-21\""),
-        "{}",
-        stderr(&o)
-    );
+    common::said(&o, "model = \"kinematic-21\"");
 }
 
 #[test]
@@ -367,19 +358,11 @@ fn an_export_that_leaves_more_than_the_table_error_names_the_flag_to_change() {
     // E_XX = 3 µm · sin(2π x / 16 mm), a point every 2 mm: a table every
     // 10 mm cannot follow a 16 mm wave (the sine's own values at 10 mm
     // spacing, interpolated, miss it by more than 1 µm between them).
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for a in ["X", "Y", "Z"] {
-        for k in 0..=300 {
-            let p = 2.0 * k as f64;
-            let e = if a == "X" {
-                3.0 * (2.0 * std::f64::consts::PI * p / 16.0).sin()
-            } else {
-                0.0
-            };
-            csv.push_str(&format!("{a},both,{p},{e},0,0\n"));
-        }
-    }
-    write(&dir, "wave.csv", csv);
+    let wave = |a: &str, p: f64| match a {
+        "X" => 3.0 * (2.0 * std::f64::consts::PI * p / 16.0).sin(),
+        _ => 0.0,
+    };
+    write(&dir, "wave.csv", dense_tables(wave));
     let args = |extra: &[&'static str]| {
         let mut v = vec![
             "map", "export", "wave.csv", "--to", "linuxcnc", "--type", "1", "--units", "mm",

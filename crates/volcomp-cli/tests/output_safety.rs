@@ -35,6 +35,11 @@ fn temporaries(dir: &Path) -> Vec<String> {
         .collect()
 }
 
+/// The arguments `base` followed by `extra`.
+fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
+    [base, extra].concat()
+}
+
 /// Runs `args` (with `{OUT}` replaced by each input in turn) and checks that
 /// it is refused naming the path, and that no file in `dir` changed.
 fn refused_for_every_input(dir: &Path, args: &[&str], inputs: &[&str]) {
@@ -61,18 +66,20 @@ fn compensate_outputs_never_replace_inputs() {
     let base = common::args("compensate part.ngc --map map.csv --setup machine.toml");
     let inputs = ["part.ngc", "map.csv", "machine.toml", "./sub/../map.csv"];
     std::fs::create_dir_all(d.join("sub")).unwrap();
-    let mut a = base.to_vec();
-    a.extend(["-o", "{OUT}"]);
-    refused_for_every_input(&d, &a, &inputs);
-    let mut a = base.to_vec();
-    a.extend(["-o", "out.ngc", "--report", "{OUT}"]);
-    refused_for_every_input(&d, &a, &inputs);
+    refused_for_every_input(&d, &with(&base, &["-o", "{OUT}"]), &inputs);
+    refused_for_every_input(
+        &d,
+        &with(&base, &["-o", "out.ngc", "--report", "{OUT}"]),
+        &inputs,
+    );
     // Through a symbolic link and a hard link to the map.
     std::os::unix::fs::symlink("map.csv", d.join("link.csv")).unwrap();
     std::fs::hard_link(d.join("map.csv"), d.join("hard.csv")).unwrap();
-    let mut a = base.to_vec();
-    a.extend(["-o", "{OUT}"]);
-    refused_for_every_input(&d, &a, &["link.csv", "hard.csv"]);
+    refused_for_every_input(
+        &d,
+        &with(&base, &["-o", "{OUT}"]),
+        &["link.csv", "hard.csv"],
+    );
 }
 
 #[test]
@@ -98,9 +105,7 @@ fn simulate_outputs_never_replace_inputs() {
         common::args("simulate part.ngc --map map.csv --setup machine.toml --reference ref.ngc");
     let inputs = ["part.ngc", "map.csv", "machine.toml", "ref.ngc"];
     for flag in ["--errors-csv", "--plot"] {
-        let mut a = base.to_vec();
-        a.extend([flag, "{OUT}"]);
-        refused_for_every_input(&d, &a, &inputs);
+        refused_for_every_input(&d, &with(&base, &[flag, "{OUT}"]), &inputs);
     }
 }
 
@@ -159,12 +164,12 @@ fn thermal_outputs_never_replace_inputs() {
         "artifact.csv",
     ];
     let base = common::args("thermal fit --measurements measurements_train.csv --temperatures temperatures_train.csv --artifact artifact.csv --ranges-mm 0:600,0:400,0:300");
-    let mut a = base.to_vec();
-    a.extend(["-o", "{OUT}"]);
-    refused_for_every_input(&d, &a, &inputs);
-    let mut a = base.to_vec();
-    a.extend(["-o", "t.toml", "--bands", "{OUT}"]);
-    refused_for_every_input(&d, &a, &inputs);
+    refused_for_every_input(&d, &with(&base, &["-o", "{OUT}"]), &inputs);
+    refused_for_every_input(
+        &d,
+        &with(&base, &["-o", "t.toml", "--bands", "{OUT}"]),
+        &inputs,
+    );
 }
 
 #[test]

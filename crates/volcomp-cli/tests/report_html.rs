@@ -220,7 +220,7 @@ fn a_report_needs_the_program_as_a_file_and_never_overwrites_an_input() {
         "compensate - --map map.csv -o x.ngc --report-html r.html",
     );
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("--report-html"), "{}", stderr(&o));
+    common::said(&o, "--report-html");
     assert!(!dir.join("r.html").exists() && !dir.join("x.ngc").exists());
     let before = std::fs::read(dir.join("part.ngc")).unwrap();
     let o = common::run(
@@ -234,11 +234,13 @@ fn a_report_needs_the_program_as_a_file_and_never_overwrites_an_input() {
 #[test]
 fn a_simulation_report_with_a_reference_shows_both() {
     let dir = fixture("report-simulate");
-    common::ok(&common::run(
+    common::run_all(
         &dir,
-        "compensate part.ngc --map map.csv --setup machine.toml -o c.ngc",
-    ));
-    common::ok(&common::run(&dir, "simulate c.ngc --reference part.ngc --map map.csv --setup machine.toml --report-html sim.html"));
+        &[
+            "compensate part.ngc --map map.csv --setup machine.toml -o c.ngc",
+            "simulate c.ngc --reference part.ngc --map map.csv --setup machine.toml --report-html sim.html",
+        ],
+    );
     let html = read(&dir, "sim.html");
     assert_self_contained(&html);
     let reference = simulate_json(&dir, &["part.ngc"]);
@@ -407,11 +409,13 @@ fn a_positioning_test_report_has_the_bidirectional_plot_and_figures() {
 #[test]
 fn a_map_report_draws_every_component_over_its_axis() {
     let dir = tempdir("report-map");
-    common::ok(&common::run(&dir, "map example -o models"));
-    common::ok(&common::run(
+    common::run_all(
         &dir,
-        "map plot models/example21.toml -o map.html",
-    ));
+        &[
+            "map example -o models",
+            "map plot models/example21.toml -o map.html",
+        ],
+    );
     let html = read(&dir, "map.html");
     assert_self_contained(&html);
     // Three axes, each a page with its linear (µm) and angular (µrad) chart.
@@ -463,12 +467,14 @@ fn straightness_and_thermal_reports_keep_units_apart_and_wavelengths_in_mm() {
         assert!(html.contains(&format!("<td>{r}</td>")), "{r}");
     }
 
-    common::ok(&common::run(&dir, "thermal example -o ex"));
-    common::ok(&common::run(&dir, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o thermal.toml"));
-    common::ok(&common::run(
+    common::run_all(
         &dir,
-        "thermal plot --model thermal.toml -o th.html",
-    ));
+        &[
+            "thermal example -o ex",
+            "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o thermal.toml",
+            "thermal plot --model thermal.toml -o th.html",
+        ],
+    );
     let html = read(&dir, "th.html");
     assert_self_contained(&html);
     // No axis mixes µm and µrad; both have their own charts.

@@ -54,10 +54,12 @@ fn peck_cycles_are_written_as_their_compensated_moves() {
     shifted_by_minus_e(program, &out);
 }
 
-/// The lines of `out`, and the indices of those that are `line`.
-fn lines_and_where<'a>(out: &'a str, line: &str) -> (Vec<&'a str>, Vec<usize>) {
+/// The lines of `out`, and the indices of those that are `line`: there must
+/// be `count` of them.
+fn lines_and_where<'a>(out: &'a str, line: &str, count: usize) -> (Vec<&'a str>, Vec<usize>) {
     let lines: Vec<&str> = out.lines().collect();
-    let at = (0..lines.len()).filter(|&i| lines[i] == line).collect();
+    let at: Vec<usize> = (0..lines.len()).filter(|&i| lines[i] == line).collect();
+    assert_eq!(at.len(), count, "`{line}`: {out}");
     (lines, at)
 }
 
@@ -67,8 +69,7 @@ fn g86_stops_the_spindle_at_the_bottom_and_restarts_it_after_the_retract() {
         "G21 G90 G17 S1000 M4\nG0 X0 Y0 Z10\nG98 G86 X10 Y10 Z-5 R2 P0.25 F100 L2\nG80\nM2\n";
     let out = compensate(program).unwrap();
     // Each repeat: … feed to the bottom, G4 P0.25, M5, rapid out, M4.
-    let (lines, dwells) = lines_and_where(&out, "G4 P0.25");
-    assert_eq!(dwells.len(), 2, "{out}");
+    let (lines, dwells) = lines_and_where(&out, "G4 P0.25", 2);
     for i in dwells {
         assert!(lines[i - 1].starts_with("G1"), "{out}");
         assert_eq!(lines[i + 1], "M5", "{out}");
@@ -105,8 +106,7 @@ fn g84_strokes_are_the_nominal_strokes_moved_with_the_hole() {
     let program =
         "G21 G90 G17 S500 M3\nG0 X0 Y0 Z10\nG99 G84 X10 Y10 Z-5 R2 P0.5 F100 L2\nG80\nM2\n";
     let out = compensate(program).unwrap();
-    let (lines, tops) = lines_and_where(&out, "M49");
-    assert_eq!(tops.len(), 2, "{out}");
+    let (lines, tops) = lines_and_where(&out, "M49", 2);
     for i in tops {
         assert_eq!(&lines[i + 2..i + 5], &["M5", "M4", "G4 P0.5"], "{out}");
         assert_eq!(&lines[i + 6..i + 9], &["M5", "M3", "M48"], "{out}");

@@ -127,6 +127,12 @@ pub fn refused(o: &Output) -> String {
     stderr(o)
 }
 
+/// Asserts that the run said `what` on standard error.
+#[track_caller]
+pub fn said(o: &Output, what: &str) {
+    assert!(stderr(o).contains(what), "no `{what}` in: {}", text(o));
+}
+
 /// The run's standard output as JSON (the run must succeed).
 #[track_caller]
 pub fn json(o: &Output) -> serde_json::Value {
