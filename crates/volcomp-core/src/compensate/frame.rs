@@ -200,7 +200,7 @@ fn rotate(x: f64, y: f64, theta_deg: f64) -> (f64, f64) {
     (x * cos - y * sin, x * sin + y * cos)
 }
 
-/// `10^d` (speed lane: a table instead of a `powi` call per written word):
+/// `10^d` from a table (a `powi` call per written word cost time):
 /// every power up to 10²² is exact in `f64`, as `powi`'s products of exact
 /// values are, and `1.0 / pow10(d)` is `powi(−d)`'s one division: the same
 /// bits.
