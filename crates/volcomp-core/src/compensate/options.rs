@@ -178,6 +178,36 @@ impl CompensateOptions {
         }
     }
 
+    /// The error (mm) an axis held instead of a reversal smaller than its
+    /// band may leave at a point under `rule` (docs/compensation.md, "Small
+    /// reversals held"), or `None` where no axis is held so:
+    ///
+    /// * G64 without P: what the tool may leave away from reversals
+    ///   ([`HOLD_AWAY_UM`]) less the contour tolerance the pieces between
+    ///   the points leave on top of it;
+    /// * G64 P p (or the take-up tolerance): the same, and never more than
+    ///   p less the contour tolerance;
+    /// * G61/G61.1: none (exactness first: every reversal taken up).
+    ///
+    /// `None` too where take-ups are off or the tables follow the nominal
+    /// direction (no reversal of the command is looked at).
+    pub fn hold_tolerance_mm(&self, rule: TakeUpRule) -> Option<f64> {
+        if !self.take_up || self.directions != DirectionPolicy::Commanded {
+            return None;
+        }
+        let contour = match self.segmentation {
+            Segmentation::Adaptive { tolerance_mm, .. } => tolerance_mm,
+            _ => DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
+        };
+        let away = HOLD_AWAY_UM * 1e-3;
+        let bound = match rule {
+            TakeUpRule::Exact { .. } => return None,
+            TakeUpRule::Always => away - contour,
+            TakeUpRule::Within(p) => away.min(p) - contour,
+        };
+        (bound > 0.0).then_some(bound)
+    }
+
     /// Contour tolerance and shortest piece (mm) of arcs written as arcs:
     /// those of adaptive segmentation, or its defaults under another
     /// segmentation.
@@ -204,6 +234,14 @@ impl CompensateOptions {
 /// so the rounding does not add to it (docs/compensation.md, "Adaptive
 /// segmentation").
 pub const DEFAULT_CONTOUR_TOLERANCE_UM: f64 = 0.1;
+
+/// What a held axis may leave off the path under G64, contour error
+/// included (µm): half a micrometre, the error G64 without P allows away
+/// from the reversals the program itself makes (the controller's own
+/// backlash compensation leaves more at each of them). The map's
+/// straightness moves an axis that the program keeps still by tenths of a
+/// micrometre; held within this, it makes no reversal at all.
+pub const HOLD_AWAY_UM: f64 = 0.5;
 
 /// Default drill tolerance (µm; [`CompensateOptions::drill_tolerance_mm`]):
 /// 5 µm. A twist drill's hole is straight and placed to tens of µm (its own
@@ -302,6 +340,11 @@ pub struct CompensateSummary {
     /// (µm): the bound of docs/compensation.md, "Take-ups folded into the
     /// move", at most the reversal value.
     pub max_fold_excursion_um: f64,
+    /// Points where an axis was held instead of a reversal smaller than
+    /// its band ([`CompensateOptions::hold_tolerance_mm`]).
+    pub small_reversals_held: u64,
+    /// The largest error such a held point leaves (µm).
+    pub max_hold_error_um: f64,
     /// Lines where an axis was held, with the axis letter (first 100).
     pub held: Vec<(u64, char)>,
     /// Total number of holds.
@@ -358,8 +401,21 @@ impl CompensateSummary {
     /// that leaves (µm), how many were written as take-up blocks (the
     /// machine stops for each).
     pub fn reversals_text(&self) -> String {
+        let held = if self.small_reversals_held > 0 {
+            format!(
+                "; {} held instead, up to {:.3} um off",
+                count_text(
+                    self.small_reversals_held,
+                    "reversal smaller than its band",
+                    "reversals smaller than their band"
+                ),
+                self.max_hold_error_um
+            )
+        } else {
+            String::new()
+        };
         format!(
-            "reversals: {} folded, up to {:.3} um off the path; {} take-up {}",
+            "reversals: {} folded, up to {:.3} um off the path; {} take-up {}{held}",
             self.take_ups_folded,
             self.max_fold_excursion_um,
             self.take_ups,

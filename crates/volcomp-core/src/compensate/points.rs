@@ -6,7 +6,7 @@ use super::frame::Frame;
 use super::{
     command_error, model_error, CompensateOptions, DirectionPolicy, PointRecord, State, TakeUpRule,
 };
-use crate::compensate::solve::{solve_consistent, solve_fixed, Method};
+use crate::compensate::solve::{hold_small_reversals, solve_consistent, solve_fixed, Method};
 use crate::error::{CompensationError, ModelError};
 use crate::model::next_state;
 use crate::model::{Directions, ErrorModel};
@@ -628,6 +628,7 @@ impl State<'_> {
             // On a lead piece the reversing axis runs its new way from the
             // start, across an S-curve it ends so: the solver starts from
             // that state.
+            let was_forced = forced.is_some();
             let mut s_from = forced.take().unwrap_or(self.s);
             let transition = transitions.iter().find(|tr| tr.index == index).copied();
             if let Some(tr) = transition {
@@ -661,6 +662,32 @@ impl State<'_> {
                 }
             }
             .map_err(|source| command_error(model, file, line, *t, source))?;
+            // A reversal smaller than the axis' band: the axis held instead
+            // (compensate/solve.rs), where the mode allows what it leaves
+            // and nothing else decided this point's state.
+            let hold_bound = options
+                .hold_tolerance_mm(rule)
+                .filter(|_| feed_like && !was_forced && transition.is_none());
+            let point = match hold_bound {
+                Some(bound) => hold_small_reversals(
+                    model,
+                    options.method,
+                    *t,
+                    self.q_out,
+                    self.s,
+                    &quantize,
+                    &point,
+                    bound,
+                )
+                .map_err(|source| model_error(file, line, source))?
+                .map_or(point, |held| {
+                    self.summary.small_reversals_held += 1;
+                    self.summary.max_hold_error_um =
+                        self.summary.max_hold_error_um.max(held.residual_um);
+                    held
+                }),
+                None => point,
+            };
             // Across an S-curve only its own axis reverses: another axis
             // that would (its straightness changing with the S-curve's axis'
             // direction, by tenths of a micrometre) is held for the piece,

@@ -245,6 +245,87 @@ pub fn solve_consistent(
     })
 }
 
+/// The point with its reversing axes held where a reversal would only
+/// follow a command change smaller than the axis' own reversal value, or
+/// `None` where it would not (docs/compensation.md, "Small reversals
+/// held").
+///
+/// An axis whose command turns back by less than its dead band never
+/// leaves the flank it was pushing: its carriage stays where it is
+/// whatever the command does. Reversing it anyway costs the whole band
+/// (the take-up) for a target change of a fraction of it, and the planner
+/// sees the take-up as a kink or a lead piece. Holding the axis at its
+/// command in its old direction leaves the tool off the target by the
+/// change alone: the held point is taken where that error stays within
+/// `bound_mm` and within the band of every held axis (beyond it a
+/// reversal would move the carriage). Since the next point starts from
+/// the held command, the hold lasts until the target has moved back by
+/// more than that in total; a target that turns forward again runs on
+/// without any reversal.
+///
+/// Every reversing axis is held together first, then each alone; the
+/// axes left free are solved again with the held ones in their old
+/// state (a transverse table changes what they need) and must stay
+/// consistent ([`consistent_state`]).
+#[allow(clippy::too_many_arguments)]
+pub fn hold_small_reversals(
+    model: &dyn ErrorModel,
+    method: Method,
+    t_mm: Vec3,
+    q_prev: Vec3,
+    s_prev: Directions,
+    quantize: &dyn Fn(Vec3) -> Vec3,
+    point: &PointSolution,
+    bound_mm: f64,
+) -> Result<Option<PointSolution>, ModelError> {
+    let reversing: Vec<usize> = (0..3)
+        .filter(|a| point.reversed[*a] && !point.held[*a])
+        .collect();
+    if reversing.is_empty() || bound_mm <= 0.0 {
+        return Ok(None);
+    }
+    let at_prev = model.deviation_um(q_prev, s_prev, Components::All)?;
+    let mut band_um = [0.0; 3];
+    for &a in &reversing {
+        let mut s = s_prev;
+        s[a] = s[a].flipped();
+        band_um[a] = (model.deviation_um(q_prev, s, Components::All)?[a] - at_prev[a]).abs();
+    }
+    let mut sets = vec![reversing.clone()];
+    if reversing.len() > 1 {
+        sets.extend(reversing.iter().map(|a| vec![*a]));
+    }
+    for set in sets {
+        let mut s = point.s;
+        let mut hold = [false; 3];
+        for &a in &set {
+            s[a] = s_prev[a];
+            hold[a] = true;
+        }
+        let sol = solve_fixed(model, method, t_mm, s, hold, q_prev)?;
+        let mut q = quantize(sol.q_mm);
+        for &a in &set {
+            q[a] = q_prev[a];
+        }
+        if !consistent_state(q, q_prev, s, s_prev, hold) {
+            continue;
+        }
+        let r_mm = t_mm - actual_mm(model, q, s, Components::All)?;
+        if r_mm.norm() > bound_mm || set.iter().any(|a| r_mm[*a].abs() * 1e3 >= band_um[*a]) {
+            continue;
+        }
+        return Ok(Some(PointSolution {
+            q_mm: q,
+            s,
+            iterations: sol.iterations,
+            residual_um: r_mm.norm() * 1e3,
+            reversed: [0, 1, 2].map(|a| s[a] != s_prev[a]),
+            held: [false; 3],
+        }));
+    }
+    Ok(None)
+}
+
 /// Whether the command `q` from `q_prev` moves every free axis in the
 /// direction its table was chosen for: a moving axis in `s[a]`, an axis that
 /// stands still in its previous state (a controller keeps an axis' last
@@ -528,5 +609,90 @@ mod tests {
             "{:?}",
             p.q_mm
         );
+    }
+
+    /// Z's reverse error 2 µm above its forward one (its band), nothing else.
+    fn z_band(band_um: f64) -> ByDirection<impl Fn(Directions) -> Vec3 + Send + Sync> {
+        ByDirection(move |s: Directions| {
+            Vec3::new(
+                0.0,
+                0.0,
+                if s[2] == Direction::Reverse {
+                    band_um
+                } else {
+                    0.0
+                },
+            )
+        })
+    }
+
+    /// Solves `t` from `(q_prev, s_prev)` as the program's points are: the
+    /// consistent point, then the hold within `bound_mm`.
+    fn solve_with_hold(
+        m: &dyn ErrorModel,
+        t: Vec3,
+        q_prev: Vec3,
+        s_prev: Directions,
+        bound_mm: f64,
+    ) -> (PointSolution, bool) {
+        let id = |q: Vec3| q;
+        let p = solve_consistent(m, Method::Exact, t, q_prev, s_prev, &id).unwrap();
+        match hold_small_reversals(m, Method::Exact, t, q_prev, s_prev, &id, &p, bound_mm).unwrap()
+        {
+            Some(h) => (h, true),
+            None => (p, false),
+        }
+    }
+
+    #[test]
+    fn a_reversal_smaller_than_the_band_is_held_until_the_change_passes_the_bound() {
+        // Hand calculation. Z last moved forward at 5 mm (its error 0 there);
+        // X runs on while the target's Z sinks by 0.3 µm, then 0.6 µm, then
+        // comes back to 5.0001. Z's band is 2 µm; the bound 0.4 µm.
+        // Point 1 without the hold: Z must turn back, its command
+        //   5 − 0.0003 − 0.002 = 4.9977 (a take-up of the whole band for
+        //   0.3 µm). Held: Z stays at 5 forward, the tool 0.3 µm above the
+        //   target (< 0.4 and < 2): held.
+        // Point 2: held, it would be 0.6 µm off (> 0.4): Z reverses from 5,
+        //   command 5 − 0.0006 − 0.002 = 4.9974.
+        // Point 2 from the hold of point 1 instead, with a target back at
+        //   5.0001: Z moves on forward to 5.0001, no reversal at all.
+        let m = z_band(2.0);
+        let q0 = Vec3::new(10.0, 10.0, 5.0);
+        let s0 = ALL_FORWARD;
+        let bound = 0.4e-3;
+        let t1 = Vec3::new(10.1, 10.0, 5.0 - 0.3e-3);
+        let (unheld, _) = solve_with_hold(&m, t1, q0, s0, 0.0);
+        assert!(unheld.reversed[2] && (unheld.q_mm.z - 4.9977).abs() < 1e-9);
+        let (p1, held) = solve_with_hold(&m, t1, q0, s0, bound);
+        assert!(held);
+        assert_eq!(p1.reversed, [false; 3]);
+        assert_eq!(p1.s, ALL_FORWARD);
+        assert!(
+            (p1.q_mm - Vec3::new(10.1, 10.0, 5.0)).norm() < 1e-12,
+            "{:?}",
+            p1.q_mm
+        );
+        assert!((p1.residual_um - 0.3).abs() < 1e-6, "{}", p1.residual_um);
+        let t2 = Vec3::new(10.2, 10.0, 5.0 - 0.6e-3);
+        let (p2, held) = solve_with_hold(&m, t2, p1.q_mm, p1.s, bound);
+        assert!(!held && p2.reversed[2] && p2.s[2] == Direction::Reverse);
+        assert!((p2.q_mm.z - 4.9974).abs() < 1e-9, "{:?}", p2.q_mm);
+        let t2 = Vec3::new(10.2, 10.0, 5.0001);
+        let (p2, held) = solve_with_hold(&m, t2, p1.q_mm, p1.s, bound);
+        assert!(!held && p2.reversed == [false; 3]);
+        assert!((p2.q_mm.z - 5.0001).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_change_as_large_as_the_band_is_taken_as_a_reversal() {
+        // Z's band 0.2 µm: turning back by 0.3 µm moves the carriage, so it
+        // is no hold even within the bound: the command is
+        // 5 − 0.0003 − 0.0002 = 4.9995, in reverse.
+        let m = z_band(0.2);
+        let t = Vec3::new(10.1, 10.0, 5.0 - 0.3e-3);
+        let (p, held) = solve_with_hold(&m, t, Vec3::new(10.0, 10.0, 5.0), ALL_FORWARD, 0.4e-3);
+        assert!(!held && p.reversed[2]);
+        assert!((p.q_mm.z - 4.9995).abs() < 1e-9, "{:?}", p.q_mm);
     }
 }
