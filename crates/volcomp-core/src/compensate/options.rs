@@ -180,13 +180,18 @@ impl CompensateOptions {
 
     /// The error (mm) an axis held instead of a reversal smaller than its
     /// band may leave at a point under `rule` (docs/compensation.md, "Small
-    /// reversals held"), or `None` where no axis is held so:
+    /// reversals held"), or `None` where no axis is held so. The held
+    /// axis' own error stays below its band in every case (beyond it the
+    /// carriage would move: the reversal is real):
     ///
-    /// * G64 without P: what the tool may leave away from reversals
-    ///   ([`HOLD_AWAY_UM`]) less the contour tolerance the pieces between
-    ///   the points leave on top of it;
-    /// * G64 P p (or the take-up tolerance): the same, and never more than
-    ///   p less the contour tolerance;
+    /// * G64 without P: no other bound (infinite). The program let the
+    ///   planner leave the path as speed needs, and the tool may leave it
+    ///   at a reversal by that axis' reversal value (what the controller's
+    ///   own backlash compensation does); a held axis leaves less than its
+    ///   band.
+    /// * G64 P p (or the take-up tolerance p): p less the contour
+    ///   tolerance the pieces between the points may add, so every
+    ///   excursion stays within p.
     /// * G61/G61.1: none (exactness first: every reversal taken up).
     ///
     /// `None` too where take-ups are off or the tables follow the nominal
@@ -199,11 +204,10 @@ impl CompensateOptions {
             Segmentation::Adaptive { tolerance_mm, .. } => tolerance_mm,
             _ => DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
         };
-        let away = HOLD_AWAY_UM * 1e-3;
         let bound = match rule {
             TakeUpRule::Exact { .. } => return None,
-            TakeUpRule::Always => away - contour,
-            TakeUpRule::Within(p) => away.min(p) - contour,
+            TakeUpRule::Always => f64::INFINITY,
+            TakeUpRule::Within(p) => p - contour,
         };
         (bound > 0.0).then_some(bound)
     }
@@ -234,14 +238,6 @@ impl CompensateOptions {
 /// so the rounding does not add to it (docs/compensation.md, "Adaptive
 /// segmentation").
 pub const DEFAULT_CONTOUR_TOLERANCE_UM: f64 = 0.1;
-
-/// What a held axis may leave off the path under G64, contour error
-/// included (µm): half a micrometre, the error G64 without P allows away
-/// from the reversals the program itself makes (the controller's own
-/// backlash compensation leaves more at each of them). The map's
-/// straightness moves an axis that the program keeps still by tenths of a
-/// micrometre; held within this, it makes no reversal at all.
-pub const HOLD_AWAY_UM: f64 = 0.5;
 
 /// Default drill tolerance (µm; [`CompensateOptions::drill_tolerance_mm`]):
 /// 5 µm. A twist drill's hole is straight and placed to tens of µm (its own
@@ -477,5 +473,30 @@ pub fn unset_axes_text(axes: [bool; 3]) -> String {
         [] => String::new(),
         [one] => (*one).to_string(),
         [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn what_a_held_axis_may_leave_in_each_path_control_mode() {
+        // G64 without P: no bound but the band; G64 P0.005: 5 µm less the
+        // default contour tolerance (0.1 µm) = 4.9 µm; G61/G61.1: no hold;
+        // nominal directions or take-ups off: no hold either.
+        let o = CompensateOptions::default();
+        assert_eq!(o.hold_tolerance_mm(TakeUpRule::Always), Some(f64::INFINITY));
+        let p = o.hold_tolerance_mm(TakeUpRule::Within(0.005)).unwrap();
+        assert!((p - 0.0049).abs() < 1e-15, "{p}");
+        assert_eq!(o.hold_tolerance_mm(TakeUpRule::Within(0.0001)), None);
+        for smooth in [true, false] {
+            assert_eq!(o.hold_tolerance_mm(TakeUpRule::Exact { smooth }), None);
+        }
+        let off = CompensateOptions {
+            take_up: false,
+            ..CompensateOptions::default()
+        };
+        assert_eq!(off.hold_tolerance_mm(TakeUpRule::Always), None);
     }
 }

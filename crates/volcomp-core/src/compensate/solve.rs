@@ -311,7 +311,17 @@ pub fn hold_small_reversals(
             continue;
         }
         let r_mm = t_mm - actual_mm(model, q, s, Components::All)?;
-        if r_mm.norm() > bound_mm || set.iter().any(|a| r_mm[*a].abs() * 1e3 >= band_um[*a]) {
+        let mut free_mm = r_mm;
+        for &a in &set {
+            free_mm[a] = 0.0;
+        }
+        // The free axes reached about as closely as without the hold (the
+        // written resolution aside): a solve that did not converge is
+        // never hidden behind one.
+        if r_mm.norm() > bound_mm
+            || set.iter().any(|a| r_mm[*a].abs() * 1e3 >= band_um[*a])
+            || free_mm.norm() * 1e3 > 2.0 * point.residual_um + 0.05
+        {
             continue;
         }
         return Ok(Some(PointSolution {
@@ -682,6 +692,25 @@ mod tests {
         let (p2, held) = solve_with_hold(&m, t2, p1.q_mm, p1.s, bound);
         assert!(!held && p2.reversed == [false; 3]);
         assert!((p2.q_mm.z - 5.0001).abs() < 1e-12);
+    }
+
+    #[test]
+    fn without_a_bound_a_reversal_is_held_while_the_change_stays_within_the_band() {
+        // G64 without P: no bound but the band (2 µm). Hand calculation:
+        // a target 1.5 µm lower is held (Z stays at 5 forward, the tool
+        // 1.5 µm above it: less than the band, so the carriage never left
+        // its flank); 2.5 µm lower it reverses, to
+        // 5 − 0.0025 − 0.002 = 4.9955.
+        let m = z_band(2.0);
+        let q0 = Vec3::new(10.0, 10.0, 5.0);
+        let t = Vec3::new(10.1, 10.0, 5.0 - 1.5e-3);
+        let (p, held) = solve_with_hold(&m, t, q0, ALL_FORWARD, f64::INFINITY);
+        assert!(held && p.s == ALL_FORWARD && (p.q_mm.z - 5.0).abs() < 1e-12);
+        assert!((p.residual_um - 1.5).abs() < 1e-6, "{}", p.residual_um);
+        let t = Vec3::new(10.1, 10.0, 5.0 - 2.5e-3);
+        let (p, held) = solve_with_hold(&m, t, q0, ALL_FORWARD, f64::INFINITY);
+        assert!(!held && p.reversed[2]);
+        assert!((p.q_mm.z - 4.9955).abs() < 1e-9, "{:?}", p.q_mm);
     }
 
     #[test]
