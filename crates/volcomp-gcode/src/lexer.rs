@@ -669,6 +669,48 @@ mod tests {
     }
 
     #[test]
+    fn digit_runs_of_every_length_read_as_the_standard_parser_reads_them() {
+        // Runs of 0 to 17 digits before and after the point (the plain path
+        // up to 15 significant digits, the general one past them), every
+        // digit in every place, followed by the bytes just below and above
+        // '0'..='9', which end a run.
+        let digits = b"9081726354";
+        for int_len in 0..=17usize {
+            for frac_len in 0..=17usize {
+                if int_len + frac_len == 0 {
+                    continue;
+                }
+                for shift in 0..digits.len() {
+                    let run = |len: usize| -> String {
+                        (0..len)
+                            .map(|k| char::from(digits[(k + shift) % digits.len()]))
+                            .collect()
+                    };
+                    let t = format!("{}.{}", run(int_len), run(frac_len));
+                    let expected: f64 = t.parse().unwrap();
+                    for after in ["", "/", ":", " Y1", "X1"] {
+                        let mut out = Lexed::default();
+                        let line = format!("X{t}{after}");
+                        match lex_block(line.as_bytes(), &mut out) {
+                            Ok(()) => {
+                                let Token::Word(w) = &out.tokens[0] else {
+                                    panic!("{line}: no word")
+                                };
+                                assert_eq!(w.value.to_bits(), expected.to_bits(), "{line}");
+                                assert_eq!(w.value_span, 1..1 + t.len(), "{line}");
+                            }
+                            Err(e) => assert!(
+                                matches!(e.kind, LexErrorKind::UnexpectedByte(b'/' | b':')),
+                                "{line}: {e:?}"
+                            ),
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
     fn comment_errors_name_the_first_offending_parenthesis() {
         let mut out = Lexed::default();
         let e = lex_block(b"G1 (a (b) c)", &mut out).unwrap_err();
