@@ -86,12 +86,13 @@ fn machine_b() -> Machine {
     }
 }
 
-fn test_circle(plane: Plane) -> TestCircle {
+/// The tests' circle in `plane`, sampled every `step_deg`.
+fn test_circle(plane: Plane, step_deg: f64) -> TestCircle {
     TestCircle {
         plane,
         centre_mm: volcomp_gcode::Vec3::new(150.0, 140.0, 130.0),
         radius_mm: 100.0,
-        step_deg: 0.1,
+        step_deg,
         ..TestCircle::default()
     }
 }
@@ -101,10 +102,7 @@ fn predict_agrees_with_an_independent_dead_band_simulation() {
     for m in [machine_a(), machine_b()] {
         let map = m.map(0.0, 300.0, 0.05);
         for plane in Plane::ALL {
-            let t = TestCircle {
-                step_deg: 0.5,
-                ..test_circle(plane)
-            };
+            let t = test_circle(plane, 0.5);
             let trace = predict(&map, &t).unwrap();
             let want = independent(&m, &t);
             for (run, w) in trace.runs.iter().zip(&want) {
@@ -186,7 +184,7 @@ fn fit_recovers_each_cause_within_three_standard_uncertainties() {
     for (mi, m) in [machine_a(), machine_b()].iter().enumerate() {
         let map = m.map(0.0, 300.0, 0.05);
         for (pi, plane) in Plane::ALL.into_iter().enumerate() {
-            let t = test_circle(plane);
+            let t = test_circle(plane, 0.1);
             let clean = predict(&map, &t).unwrap();
             for seed in 0..3u64 {
                 let mut rng = Rng::new(100 * seed + 10 * mi as u64 + pi as u64);
@@ -226,10 +224,7 @@ fn fit_recovers_each_cause_within_three_standard_uncertainties() {
 /// Writes the program of a test, for a look by hand.
 #[test]
 fn the_program_of_a_test() {
-    let t = TestCircle {
-        plane: Plane::ZX,
-        ..test_circle(Plane::ZX)
-    };
+    let t = test_circle(Plane::ZX, 0.1);
     let p = program::program(&t).unwrap();
     std::fs::write(std::env::temp_dir().join("ballbar-zx.ngc"), &p).unwrap();
     eprintln!("{p}");
@@ -241,10 +236,7 @@ fn the_program_of_a_test() {
 fn the_test_program_predicts_the_same_trace() {
     let m = machine_a();
     let map = m.map(0.0, 300.0, 0.05);
-    let t = TestCircle {
-        step_deg: 1.0,
-        ..test_circle(Plane::XY)
-    };
+    let t = test_circle(Plane::XY, 1.0);
     let direct = predict(&map, &t).unwrap();
     let text = program::program(&t).unwrap();
     let setup = crate::compensate::MachineSetup::default();
@@ -274,10 +266,7 @@ fn the_quick_map_reduces_the_circular_deviation() {
         let mut fits = Vec::new();
         let mut rng = Rng::new(42 + mi as u64);
         for plane in Plane::ALL {
-            let t = TestCircle {
-                step_deg: 0.2,
-                ..test_circle(plane)
-            };
+            let t = test_circle(plane, 0.2);
             let mut trace = predict(&map, &t).unwrap();
             for run in &mut trace.runs {
                 for d in &mut run.deviation_um {
@@ -294,10 +283,7 @@ fn the_quick_map_reduces_the_circular_deviation() {
         let quick = quick_map::quick_model(&refs, m.pitch.map(Some)).unwrap();
         let qmap = quick.map([[0.0, 300.0]; 3]).unwrap();
         for plane in Plane::ALL {
-            let t = TestCircle {
-                step_deg: 0.2,
-                ..test_circle(plane)
-            };
+            let t = test_circle(plane, 0.2);
             let before = figures(&predict(&map, &t).unwrap()).unwrap();
             let text = program::program(&t).unwrap();
             let mut out = Vec::new();
@@ -329,10 +315,7 @@ fn the_quick_map_reduces_the_circular_deviation() {
 fn the_standard_uncertainties_are_the_scatter_of_the_estimates() {
     let m = machine_b();
     let map = m.map(0.0, 300.0, 0.05);
-    let t = TestCircle {
-        step_deg: 0.25,
-        ..test_circle(Plane::XY)
-    };
+    let t = test_circle(Plane::XY, 0.25);
     let clean = predict(&map, &t).unwrap();
     let truth = truth(&m, Plane::XY, t.centre_mm.to_array(), t.radius_mm);
     let mut z: Vec<Vec<f64>> = vec![Vec::new(); truth.len()];
@@ -375,9 +358,8 @@ fn fit_recovers_the_causes_from_one_run_and_other_test_sizes() {
         let map = m.map(-100.0, 400.0, 0.05);
         let t = TestCircle {
             radius_mm: radius,
-            step_deg: step,
             senses: vec![sense],
-            ..test_circle(Plane::XY)
+            ..test_circle(Plane::XY, step)
         };
         let mut trace = predict(&map, &t).unwrap();
         let mut rng = Rng::new(7);
@@ -408,7 +390,7 @@ fn fit_recovers_the_causes_from_one_run_and_other_test_sizes() {
 #[test]
 fn a_program_that_is_not_the_test_is_refused() {
     let map = machine_a().map(0.0, 300.0, 0.5);
-    let t = test_circle(Plane::XY);
+    let t = test_circle(Plane::XY, 0.1);
     let setup = crate::compensate::MachineSetup::default();
     for text in [
         "G21 G90\nG0 X50 Y140 Z130\nG1 X250 F1000\nM2\n",
