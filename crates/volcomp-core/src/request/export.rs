@@ -300,9 +300,9 @@ request! {
 
     fanuc_sign: String = "correction".into(),
         Choice.value("FANUC_SIGN").default("correction").choices(&[
-        ("correction", "The values are the correction the control outputs, −e"),
-        ("error", "The values are the error, +e"),
-    ]),
+            ("correction", "The values are the correction the control outputs, −e"),
+            ("error", "The values are the error, +e"),
+        ]),
         "fanuc: the sign of the values (not in the public documentation): correction = −e (default) or error = +e.";
 
     fanuc_data_offset: u64 = 10000, Count.value("N").default("10000"),
@@ -310,10 +310,10 @@ request! {
 
     fanuc_bidirectional: String = "auto".into(),
         Choice.value("FANUC_BIDIRECTIONAL").default("auto").choices(&[
-        ("auto", "Bidirectional where the reversal exceeds the detection unit"),
-        ("on", "Always bidirectional"),
-        ("off", "One table, the mean of both directions"),
-    ]),
+            ("auto", "Bidirectional where the reversal exceeds the detection unit"),
+            ("on", "Always bidirectional"),
+            ("off", "One table, the mean of both directions"),
+        ]),
         "fanuc: one table per direction (3605#0, 3626, 3627): auto = where forward and reverse differ by more than the detection unit.";
 
     fanuc_reference_return: String = "positive".into(),

@@ -81,10 +81,10 @@ request! {
 
     grid_params: String = "chord-length".into(),
         Choice.value("PARAMS").default("chord-length").choices(&[
-        ("chord-length", "Chord length, averaged over the grid rows"),
-        ("centripetal", "Centripetal (square root of the chord length), averaged"),
-        ("uniform", "Equally spaced"),
-    ]),
+            ("chord-length", "Chord length, averaged over the grid rows"),
+            ("centripetal", "Centripetal (square root of the chord length), averaged"),
+            ("uniform", "Equally spaced"),
+        ]),
         "Parameters used to interpolate a grid nominal (CSV).";
 
     grid_size: u64 = 41, Count.value("N").default("41"),

@@ -30,28 +30,28 @@ request! {
 
     normalisation: String = "common".into(),
         Choice.flag("normalise").value("NORMALISE").default("common").choices(&[
-        (
-            "common",
-            "One common scale for all feed rates: their mean total power (default)",
-        ),
-        (
-            "per-run",
-            "Each feed rate's spectrum as fractions of its own total power",
-        ),
-    ]),
+            (
+                "common",
+                "One common scale for all feed rates: their mean total power (default)",
+            ),
+            (
+                "per-run",
+                "Each feed rate's spectrum as fractions of its own total power",
+            ),
+        ]),
         "How spectra are normalised before P̄ and σ are taken.";
 
     cutoff: String = "cross-validation".into(),
         Choice.value("CUTOFF").default("cross-validation").choices(&[
-        (
-            "cross-validation",
-            "m that best predicts each left-out feed rate from the others (default)",
-        ),
-        (
-            "thresholds",
-            "The paper's rule: shortest wavelength with σ < σ_t and P̄ > P_t",
-        ),
-    ]),
+            (
+                "cross-validation",
+                "m that best predicts each left-out feed rate from the others (default)",
+            ),
+            (
+                "thresholds",
+                "The paper's rule: shortest wavelength with σ < σ_t and P̄ > P_t",
+            ),
+        ]),
         "How the number of harmonics m is chosen (σ_t and P_t apply to `thresholds`; they still mark the lines reported as rejected).";
 
     harmonics: Option<u64> = None, Count.value("M"),
