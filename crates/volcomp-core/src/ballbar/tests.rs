@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::example::ballbar::Machine;
+use crate::model::axis_table::AxisTableMap;
 use crate::rng::Rng;
 use std::f64::consts::PI;
 
@@ -83,6 +84,32 @@ fn machine_b() -> Machine {
         sq: [-35.0, 8.0, -12.0],
         cyc: [[0.0, 0.0], [0.5, 0.5], [0.0, -0.3]],
         pitch: [20.0, 10.0, 8.0],
+    }
+}
+
+/// Gaussian noise of `sigma_um` on every sample of `trace`, run by run.
+fn add_noise(trace: &mut Trace, sigma_um: f64, rng: &mut Rng) {
+    for run in &mut trace.runs {
+        for d in &mut run.deviation_um {
+            *d += sigma_um * rng.normal();
+        }
+    }
+}
+
+/// `m`'s map over the tests' volume, its circle in XY sampled every
+/// `step_deg`, and the trace predicted for it.
+fn xy_trace(m: &Machine, step_deg: f64) -> (AxisTableMap, TestCircle, Trace) {
+    let map = m.map(0.0, 300.0, 0.05);
+    let t = test_circle(Plane::XY, step_deg);
+    let trace = predict(&map, &t).unwrap();
+    (map, t, trace)
+}
+
+/// The fit's options with the pitches of `m`'s cyclic errors given.
+fn pitched(m: &Machine) -> FitOptions {
+    FitOptions {
+        pitch_mm: m.pitch.map(Some),
+        ..FitOptions::default()
     }
 }
 
@@ -190,15 +217,8 @@ fn fit_recovers_each_cause_within_three_standard_uncertainties() {
                 let mut rng = Rng::new(100 * seed + 10 * mi as u64 + pi as u64);
                 let noise = 0.1 + 0.1 * seed as f64;
                 let mut trace = clean.clone();
-                for run in &mut trace.runs {
-                    for d in &mut run.deviation_um {
-                        *d += noise * rng.normal();
-                    }
-                }
-                let options = FitOptions {
-                    pitch_mm: m.pitch.map(Some),
-                    ..FitOptions::default()
-                };
+                add_noise(&mut trace, noise, &mut rng);
+                let options = pitched(m);
                 let f = fit(&trace, &options).unwrap();
                 for (id, want) in truth(m, plane, t.centre_mm.to_array(), t.radius_mm) {
                     let c = f.cause(&id).unwrap_or_else(|| panic!("{id}"));
@@ -234,10 +254,7 @@ fn the_program_of_a_test() {
 /// trace as the direct prediction.
 #[test]
 fn the_test_program_predicts_the_same_trace() {
-    let m = machine_a();
-    let map = m.map(0.0, 300.0, 0.05);
-    let t = test_circle(Plane::XY, 1.0);
-    let direct = predict(&map, &t).unwrap();
+    let (map, t, direct) = xy_trace(&machine_a(), 1.0);
     let text = program::program(&t).unwrap();
     let setup = crate::compensate::MachineSetup::default();
     let via = predict::predict_program(&map, &t, text.as_bytes(), "t.ngc", &setup).unwrap();
@@ -268,15 +285,8 @@ fn the_quick_map_reduces_the_circular_deviation() {
         for plane in Plane::ALL {
             let t = test_circle(plane, 0.2);
             let mut trace = predict(&map, &t).unwrap();
-            for run in &mut trace.runs {
-                for d in &mut run.deviation_um {
-                    *d += 0.2 * rng.normal();
-                }
-            }
-            let options = FitOptions {
-                pitch_mm: m.pitch.map(Some),
-                ..FitOptions::default()
-            };
+            add_noise(&mut trace, 0.2, &mut rng);
+            let options = pitched(m);
             fits.push((plane, t.radius_mm, fit(&trace, &options).unwrap()));
         }
         let refs: Vec<(Plane, f64, &TraceFit)> = fits.iter().map(|(p, r, f)| (*p, *r, f)).collect();
@@ -314,23 +324,14 @@ fn the_quick_map_reduces_the_circular_deviation() {
 #[test]
 fn the_standard_uncertainties_are_the_scatter_of_the_estimates() {
     let m = machine_b();
-    let map = m.map(0.0, 300.0, 0.05);
-    let t = test_circle(Plane::XY, 0.25);
-    let clean = predict(&map, &t).unwrap();
+    let (_, t, clean) = xy_trace(&m, 0.25);
     let truth = truth(&m, Plane::XY, t.centre_mm.to_array(), t.radius_mm);
     let mut z: Vec<Vec<f64>> = vec![Vec::new(); truth.len()];
-    let options = FitOptions {
-        pitch_mm: m.pitch.map(Some),
-        ..FitOptions::default()
-    };
+    let options = pitched(&m);
     for seed in 0..40u64 {
         let mut rng = Rng::new(1000 + seed);
         let mut trace = clean.clone();
-        for run in &mut trace.runs {
-            for d in &mut run.deviation_um {
-                *d += 0.2 * rng.normal();
-            }
-        }
+        add_noise(&mut trace, 0.2, &mut rng);
         let f = fit(&trace, &options).unwrap();
         for (k, (id, want)) in truth.iter().enumerate() {
             let c = f.cause(id).unwrap();
@@ -363,13 +364,8 @@ fn fit_recovers_the_causes_from_one_run_and_other_test_sizes() {
         };
         let mut trace = predict(&map, &t).unwrap();
         let mut rng = Rng::new(7);
-        for d in &mut trace.runs[0].deviation_um {
-            *d += 0.15 * rng.normal();
-        }
-        let options = FitOptions {
-            pitch_mm: m.pitch.map(Some),
-            ..FitOptions::default()
-        };
+        add_noise(&mut trace, 0.15, &mut rng);
+        let options = pitched(&m);
         let f = fit(&trace, &options).unwrap();
         assert!(f.cause("servo_mismatch_XY").is_none());
         for (id, want) in truth(&m, Plane::XY, t.centre_mm.to_array(), radius) {
