@@ -184,14 +184,16 @@ impl CompensateOptions {
     /// axis' own error stays below its band in every case (beyond it the
     /// carriage would move: the reversal is real):
     ///
-    /// * G64 without P: no other bound (infinite). The program let the
-    ///   planner leave the path as speed needs, and the tool may leave it
-    ///   at a reversal by that axis' reversal value (what the controller's
-    ///   own backlash compensation does); a held axis leaves less than its
-    ///   band.
     /// * G64 P p (or the take-up tolerance p): p less the contour
     ///   tolerance the pieces between the points may add, so every
-    ///   excursion stays within p.
+    ///   excursion stays within p (the program bounds the path by p, and
+    ///   nothing more).
+    /// * G64 without P: none. Away from the program's own reversals the
+    ///   tool keeps within half a micrometre there; a hold within that
+    ///   (0.4 µm) moved take-ups into short pieces and cost time, a hold
+    ///   within the band cost the chord circles up to 6 points of their
+    ///   RMS reduction for no time (docs/compensation.md, "Small reversals
+    ///   held").
     /// * G61/G61.1: none (exactness first: every reversal taken up).
     ///
     /// `None` too where take-ups are off or the tables follow the nominal
@@ -205,8 +207,7 @@ impl CompensateOptions {
             _ => DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3,
         };
         let bound = match rule {
-            TakeUpRule::Exact { .. } => return None,
-            TakeUpRule::Always => f64::INFINITY,
+            TakeUpRule::Exact { .. } | TakeUpRule::Always => return None,
             TakeUpRule::Within(p) => p - contour,
         };
         (bound > 0.0).then_some(bound)
@@ -482,11 +483,11 @@ mod tests {
 
     #[test]
     fn what_a_held_axis_may_leave_in_each_path_control_mode() {
-        // G64 without P: no bound but the band; G64 P0.005: 5 µm less the
-        // default contour tolerance (0.1 µm) = 4.9 µm; G61/G61.1: no hold;
-        // nominal directions or take-ups off: no hold either.
+        // G64 P0.005: 5 µm less the default contour tolerance (0.1 µm) =
+        // 4.9 µm; G64 without P, G61/G61.1: no hold; take-ups off: no hold
+        // either.
         let o = CompensateOptions::default();
-        assert_eq!(o.hold_tolerance_mm(TakeUpRule::Always), Some(f64::INFINITY));
+        assert_eq!(o.hold_tolerance_mm(TakeUpRule::Always), None);
         let p = o.hold_tolerance_mm(TakeUpRule::Within(0.005)).unwrap();
         assert!((p - 0.0049).abs() < 1e-15, "{p}");
         assert_eq!(o.hold_tolerance_mm(TakeUpRule::Within(0.0001)), None);
@@ -497,6 +498,6 @@ mod tests {
             take_up: false,
             ..CompensateOptions::default()
         };
-        assert_eq!(off.hold_tolerance_mm(TakeUpRule::Always), None);
+        assert_eq!(off.hold_tolerance_mm(TakeUpRule::Within(0.005)), None);
     }
 }

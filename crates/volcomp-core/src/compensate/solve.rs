@@ -695,8 +695,9 @@ mod tests {
     }
 
     #[test]
-    fn without_a_bound_a_reversal_is_held_while_the_change_stays_within_the_band() {
-        // G64 without P: no bound but the band (2 µm). Hand calculation:
+    fn a_bound_above_the_band_holds_while_the_change_stays_within_the_band() {
+        // G64 P0.005: a bound of 4.9 µm, above the band (2 µm). Hand
+        // calculation:
         // a target 1.5 µm lower is held (Z stays at 5 forward, the tool
         // 1.5 µm above it: less than the band, so the carriage never left
         // its flank); 2.5 µm lower it reverses, to
@@ -704,11 +705,11 @@ mod tests {
         let m = z_band(2.0);
         let q0 = Vec3::new(10.0, 10.0, 5.0);
         let t = Vec3::new(10.1, 10.0, 5.0 - 1.5e-3);
-        let (p, held) = solve_with_hold(&m, t, q0, ALL_FORWARD, f64::INFINITY);
+        let (p, held) = solve_with_hold(&m, t, q0, ALL_FORWARD, 4.9e-3);
         assert!(held && p.s == ALL_FORWARD && (p.q_mm.z - 5.0).abs() < 1e-12);
         assert!((p.residual_um - 1.5).abs() < 1e-6, "{}", p.residual_um);
         let t = Vec3::new(10.1, 10.0, 5.0 - 2.5e-3);
-        let (p, held) = solve_with_hold(&m, t, q0, ALL_FORWARD, f64::INFINITY);
+        let (p, held) = solve_with_hold(&m, t, q0, ALL_FORWARD, 4.9e-3);
         assert!(!held && p.reversed[2]);
         assert!((p.q_mm.z - 4.9955).abs() < 1e-9, "{:?}", p.q_mm);
     }
