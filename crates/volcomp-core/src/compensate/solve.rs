@@ -267,13 +267,11 @@ pub fn solve_consistent(
 /// axes left free are solved again with the held ones in their old
 /// state (a transverse table changes what they need) and must stay
 /// consistent ([`consistent_state`]).
-#[allow(clippy::too_many_arguments)]
 pub fn hold_small_reversals(
     model: &dyn ErrorModel,
     method: Method,
     t_mm: Vec3,
-    q_prev: Vec3,
-    s_prev: Directions,
+    (q_prev, s_prev): (Vec3, Directions),
     quantize: &dyn Fn(Vec3) -> Vec3,
     point: &PointSolution,
     bound_mm: f64,
@@ -647,7 +645,8 @@ mod tests {
     ) -> (PointSolution, bool) {
         let id = |q: Vec3| q;
         let p = solve_consistent(m, Method::Exact, t, q_prev, s_prev, &id).unwrap();
-        match hold_small_reversals(m, Method::Exact, t, q_prev, s_prev, &id, &p, bound_mm).unwrap()
+        match hold_small_reversals(m, Method::Exact, t, (q_prev, s_prev), &id, &p, bound_mm)
+            .unwrap()
         {
             Some(h) => (h, true),
             None => (p, false),
