@@ -415,9 +415,13 @@ impl<R: BufRead> Walker<R> {
             let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
             &original[..content_len]
         };
-        // gcode lane: what LinuxCNC's reader refuses in a line the lexer reads.
-        if let Err(e) = crate::interp::check_line(pos.line as u64 + 1, content, &self.lexed) {
-            return Err(self.locate_rendered(e));
+        // gcode lane: what LinuxCNC's reader refuses in a line the lexer
+        // reads (only a `( )` comment or a byte-order mark can hold it, so
+        // most lines skip the check).
+        if self.lexed.has_comment || content.starts_with(lexer::UTF8_BOM) {
+            if let Err(e) = crate::interp::check_line(pos.line as u64 + 1, content, &self.lexed) {
+                return Err(self.locate_rendered(e));
+            }
         }
         if self.lexed.has_comment {
             if let Some(msg) = abort_comment(content, &self.lexed) {

@@ -27,6 +27,13 @@ pub const MAX_COORDINATE_MM: f64 = 100_000.0;
 /// Refuses a point (axis frame, mm) with a coordinate beyond
 /// [`MAX_COORDINATE_MM`] or not finite.
 pub(super) fn check_reach(line: u64, col: usize, what: &str, p: Vec3) -> Result<(), GcodeError> {
+    // speed lane: one test for the common point (a NaN fails `<=`).
+    if p.x.abs() <= MAX_COORDINATE_MM
+        && p.y.abs() <= MAX_COORDINATE_MM
+        && p.z.abs() <= MAX_COORDINATE_MM
+    {
+        return Ok(());
+    }
     for a in Axis::ALL {
         let (v, letter) = (p[a], a.letter());
         if v.is_nan() || v.abs() > MAX_COORDINATE_MM {

@@ -191,7 +191,11 @@ impl Flow {
     /// The next line LinuxCNC generates and runs in place of the current
     /// one (the restore of an M73 at a return), with its line ending and a
     /// comment that says where it comes from.
+    #[inline]
     pub fn next_injected(&mut self) -> Option<String> {
+        if self.injected.is_empty() {
+            return None;
+        }
         self.injected
             .pop_front()
             .map(|t| format!("{t} (volcomp: the state M73 saved, restored at the return)\n"))
