@@ -87,7 +87,7 @@ fn the_test_program_is_the_nominal_circle_for_rs274() {
                 ],
                 &d,
             );
-            assert!(o.status.success(), "{}", stderr(&o));
+            common::ok(&o);
             let calls = canon(&exe, &p, &d);
             let w = 3 - u - v;
             // The rapid to the feed-in arc's start (30° − 90° in the first run's sense).

@@ -141,7 +141,7 @@ fn options_that_mean_nothing_together_are_refused() {
     );
     // The defaults said again are no conflict.
     let o = compensate(&d, &["--method", "direct", "--gain", "0.5"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
 }
 
 /// A loop that never ends is refused within seconds at the line that loops,
@@ -229,7 +229,7 @@ fn inputs_read_whole_are_bounded() {
     refused(&d, &o, "map.csv: the file holds");
     common::said(&o, "more than the 256 bytes");
     let o = compensate(&d, &["--max-input-size", "none"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     std::fs::remove_file(d.join("out.ngc")).unwrap();
     // A table whose line is longer than a table's line may be.
     let mut line = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
@@ -254,7 +254,7 @@ fn the_output_size_is_capped_and_nothing_is_written_past_it() {
     refused(&d, &o, "--max-output-size");
     // Without the cap the same run succeeds (so the cap was the reason).
     let o = compensate(&d, &["--max-output-size", "none"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let o = common::run(
         &d,
         "compensate part.ngc --map map.csv -o x.ngc --max-output-size 12Q",
@@ -272,7 +272,7 @@ fn an_unconverged_point_is_an_error_not_a_success() {
     common::said(&o, "part.ngc:");
     // Twenty steps converge (0.5^20 of the error).
     let o = compensate(&d, &["--method", "ilc", "--max-iterations", "20"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let d = fixture("ilc0");
     let o = compensate(&d, &["--method", "ilc", "--max-iterations", "0"]);
     refused(&d, &o, "--max-iterations must be 1 … 1000");

@@ -202,11 +202,7 @@ fn simulate_json_reports_the_metrics_and_compensation_improves_them() {
     // A linear pitch error of 0.2 µm/mm along X.
     write_map(&dir, |p| 0.2 * p);
     write(&dir, "p.ngc", PROGRAM);
-    let sim = |args: &[&str]| -> serde_json::Value {
-        let o = volcomp(args, &dir);
-        assert!(o.status.success(), "{}", stderr(&o));
-        serde_json::from_slice(&o.stdout).unwrap()
-    };
+    let sim = |args: &[&str]| -> serde_json::Value { common::json(&volcomp(args, &dir)) };
     let before = sim(&["simulate", "p.ngc", "--map", "map.csv", "--json"]);
     for key in [
         "point_rms_um",
@@ -246,9 +242,10 @@ fn moves_json_is_valid_and_lists_every_motion() {
         "p.ngc",
         "G21 G90\nG0 X1 Y2 Z3\nG2 X5 Y2 I2 J0 F100\nM2\n",
     );
-    let o = common::run(&dir, "moves p.ngc --format json --work-offset 100,0,-50");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let v = common::json(&common::run(
+        &dir,
+        "moves p.ngc --format json --work-offset 100,0,-50",
+    ));
     let rows = v.as_array().unwrap();
     assert_eq!(rows.len(), 2);
     assert_eq!(rows[1]["kind"], "arc_cw");
@@ -307,7 +304,7 @@ fn simulate_draws_svg_and_png_plots() {
             &["simulate", "p.ngc", "--map", "map.csv", "--plot", name],
             &dir,
         );
-        assert!(o.status.success(), "{}", stderr(&o));
+        common::ok(&o);
         let bytes = std::fs::read(dir.join(name)).unwrap();
         assert!(
             bytes.windows(magic.len()).take(200).any(|w| w == magic),

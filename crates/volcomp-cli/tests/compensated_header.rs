@@ -25,7 +25,7 @@ fn standard_input_and_output() {
         .write_all(PROGRAM.as_bytes())
         .unwrap();
     let o = child.wait_with_output().unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let from_stdin = String::from_utf8(o.stdout).unwrap();
     // The same as compensating the file (the header's date aside).
     let o = common::run(
@@ -124,7 +124,7 @@ fn header_content_and_refusal_of_double_compensation() {
     .env("SOURCE_DATE_EPOCH", "951782400")
     .output()
     .unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let out = read(&d, "out.ngc");
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines[0], "%");
@@ -193,7 +193,7 @@ fn rs274_reads_a_compensated_program_with_its_header() {
     let d = fixture("rs274_header");
     write(&d, "part.ngc", format!("%\n{PROGRAM}%\n"));
     let o = compensate_to(&d, "out.ngc");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let o = Command::new(rs274)
         .arg("-g")
         .arg(d.join("out.ngc"))
@@ -285,9 +285,7 @@ fn a_program_that_never_sets_z_is_compensated_from_the_start_or_refused_or_count
         if let Some(r) = reference {
             args.extend(["--reference", r]);
         }
-        let o = volcomp(&args, &d);
-        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let v = common::json(&volcomp(&args, &d));
         v["point_max_um"].as_f64().unwrap()
     };
     assert!((point_max("p.ngc", None) - 125f64.sqrt()).abs() < 1e-6);

@@ -210,7 +210,7 @@ fn compensate_and_run(
     ];
     args.extend_from_slice(extra);
     let o = common::volcomp(&args, &run.dir);
-    assert!(o.status.success(), "{}", common::stderr(&o));
+    common::ok(&o);
     let out_path = run.dir.join(&out_name);
     let text = std::fs::read_to_string(&out_path).unwrap();
     // rs274 accepts both the written program and its input.

@@ -53,7 +53,7 @@ fn straightness_fit_summary() {
     args.extend(runs.iter().map(String::as_str));
     args.extend(["-o", "model.toml"]);
     let o = volcomp(&args, &d);
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     insta::assert_snapshot!("straightness_fit_summary", stderr(&o));
 
     let o = common::run(&d, "straightness predict model.toml 52.5,0 100,0 150.25,0");

@@ -113,7 +113,7 @@ fn simulate_outputs_never_replace_inputs() {
 fn map_convert_and_plot_never_replace_inputs() {
     let d = tempdir("map_inputs");
     let o = common::run(&d, "map example -o .");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     // The model and the table it names are both inputs.
     let inputs = ["example21.toml", "example21.csv"];
     for to in ["axis-table", "grid"] {
@@ -157,7 +157,7 @@ fn map_convert_and_plot_never_replace_inputs() {
 fn thermal_outputs_never_replace_inputs() {
     let d = tempdir("thermal_inputs");
     let o = common::run(&d, "thermal example -o .");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let inputs = [
         "measurements_train.csv",
         "temperatures_train.csv",
@@ -201,7 +201,7 @@ fn special_files_are_written_through_never_replaced() {
     use std::os::unix::fs::FileTypeExt as _;
     let d = fixture("special");
     let o = compensate_to(&d, "/dev/null");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     assert!(std::fs::metadata("/dev/null")
         .unwrap()
         .file_type()
@@ -218,7 +218,7 @@ fn special_files_are_written_through_never_replaced() {
     // /dev/stdout (a symbolic link to the process's descriptor 1, here a
     // pipe): the program arrives on standard output, the link stays.
     let o = compensate_to(&d, "/dev/stdout");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(
         text.contains("(volcomp header end)") && text.contains("M2"),
@@ -237,7 +237,7 @@ fn special_files_are_written_through_never_replaced() {
             std::thread::spawn(move || std::fs::read(fifo).unwrap())
         };
         let o = compensate_to(&d, "pipe.ngc");
-        assert!(o.status.success(), "{}", stderr(&o));
+        common::ok(&o);
         let got = String::from_utf8(reader.join().unwrap()).unwrap();
         assert!(
             got.contains("(volcomp header end)") && got.contains("M2"),
@@ -250,7 +250,7 @@ fn special_files_are_written_through_never_replaced() {
     write(&d, "real.ngc", "old");
     std::os::unix::fs::symlink("real.ngc", d.join("link.ngc")).unwrap();
     let o = compensate_to(&d, "link.ngc");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     assert!(std::fs::symlink_metadata(d.join("link.ngc"))
         .unwrap()
         .file_type()
@@ -519,7 +519,7 @@ fn files_named_inside_inputs_are_never_replaced() {
     let comp = common::args("compensate calls.ngc --map map.csv --setup var.toml");
     // The run works as it is: the var file gives G54 and the subroutine is found.
     let ok = volcomp(&[&comp[..], &["-o", "ok.ngc"]].concat(), &d);
-    assert!(ok.status.success(), "{}", stderr(&ok));
+    common::ok(&ok);
     for (flag, out) in [
         ("-o", "sim.var"),
         ("-o", "subs/pocket.ngc"),
@@ -557,7 +557,7 @@ fn files_named_inside_inputs_are_never_replaced() {
     );
     // A 21-component model's table, through `simulate --errors-csv`.
     let o = common::run(&d, "map example -o .");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let e = run(
         &[
             "simulate",

@@ -69,7 +69,7 @@ const ZGAUGE: &str = "artifact = \"gauge\"\nname = \"zstep\"\nfaces_mm = [0, 50,
 fn every_generated_program_is_accepted_by_rs274() {
     let d = tempdir("plans");
     let o = common::run(&d, "probe example -o ex");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     write(&d, "inch.toml", SETUP);
     write(&d, "square.toml", SQUARE);
     write(&d, "zstep.toml", ZGAUGE);

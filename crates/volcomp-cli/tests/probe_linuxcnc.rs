@@ -19,7 +19,7 @@
 
 use crate::common;
 
-use common::{stderr, tempdir, volcomp, write};
+use common::{tempdir, volcomp, write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
@@ -203,7 +203,7 @@ fn the_reference_sphere_is_found_within_a_tenth_of_a_micrometre_on_linuxcnc() {
         ],
         &d,
     );
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let said = String::from_utf8_lossy(&o.stdout).to_string();
     // A simulated machine that fails to come up (machine on, homing or the
     // run timing out while the host is loaded) is started once more, as

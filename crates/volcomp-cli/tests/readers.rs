@@ -79,7 +79,7 @@ fn bom_quotes_semicolons_and_bad_bytes_in_a_map() {
     );
     write(&d, "map.csv", bom);
     let o = compensate(&d, &["--work-offset", "0,0,0"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     // Each bad map, with what its message must say: the place, and a hint
     // (what volcomp reads) or the offending byte shown escaped.
     let mut not_utf8 = good.as_bytes().to_vec();
@@ -140,7 +140,7 @@ fn set_up_errors_are_located() {
 
 fn thermal_example(d: &Path) {
     let o = common::run(d, "thermal example -o ex");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
 }
 
 fn fit(d: &Path, measurements: &str) -> Output {
@@ -194,7 +194,7 @@ fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
         volcomp(&args, &d)
     };
     let o = predict("ex/temperatures_check.csv", &[]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let mut lines: Vec<String> = t.lines().map(str::to_string).collect();
     let last = lines.len() - 1;
     let mut f: Vec<String> = lines[last].split(',').map(str::to_string).collect();
@@ -220,7 +220,7 @@ fn thermal_sensors_need_a_unit_and_predictions_stay_in_range() {
         "{msg}"
     );
     let o = predict("hot.csv", &["--extrapolate"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     common::said(&o, "warning");
 }
 
@@ -368,7 +368,7 @@ fn thermal_values_that_cannot_be_are_located() {
     // A fitted model with `intercept = nan`.
     std::fs::write(&path, text).unwrap();
     let o = fit(&d, "ex/measurements_train.csv");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let model = read(&d, "thermal.toml");
     let at = model.find("intercept = ").unwrap();
     let end = at + model[at..].find('\n').unwrap();

@@ -8,6 +8,14 @@ use std::process::Command;
 use crate::common;
 use common::{fixture, read, refused, stderr, tempdir, volcomp, write};
 
+/// The HTML report `name` written in `dir`, checked self-contained.
+#[track_caller]
+fn report(dir: &Path, name: &str) -> String {
+    let html = read(dir, name);
+    assert_self_contained(&html);
+    html
+}
+
 /// What the report must never hold: a script, or anything fetched from
 /// outside the file (the SVG namespace is a name, not a fetch).
 fn assert_self_contained(html: &str) {
@@ -48,9 +56,7 @@ fn sha256sum(path: &Path) -> Option<String> {
 fn simulate_json(dir: &Path, args: &[&str]) -> serde_json::Value {
     let mut all = common::args("simulate --map map.csv --setup machine.toml --json");
     all.extend_from_slice(args);
-    let o = volcomp(&all, dir);
-    assert!(o.status.success(), "{}", stderr(&o));
-    serde_json::from_slice(&o.stdout).unwrap()
+    common::json(&volcomp(&all, dir))
 }
 
 #[test]
@@ -67,9 +73,8 @@ fn a_compensation_report_holds_the_runs_figures_and_inputs() {
         .unwrap()
     };
     let o = run("report.html");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let html = read(&dir, "report.html");
-    assert_self_contained(&html);
+    common::ok(&o);
+    let html = report(&dir, "report.html");
     // SOURCE_DATE_EPOCH = one day after the epoch.
     assert!(html.contains("1970-01-02T00:00:00Z"));
     // Every section, each a page of the print.
@@ -155,7 +160,7 @@ fn a_compensation_report_holds_the_runs_figures_and_inputs() {
         "{zoom} vs {left}"
     );
     let o = run("again.html");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let again = read(&dir, "again.html");
     assert_eq!(
         html.replace("report.html", "again.html"),
@@ -177,7 +182,7 @@ fn a_title_block_file_heads_the_report_and_a_bad_one_is_refused_at_its_line() {
         )
     };
     let o = run("title.toml", "c.ngc");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let html = read(&dir, "c.ngc.html");
     // In the report's order, escaped, above what was done.
     let block = html
@@ -241,8 +246,7 @@ fn a_simulation_report_with_a_reference_shows_both() {
             "simulate c.ngc --reference part.ngc --map map.csv --setup machine.toml --report-html sim.html",
         ],
     );
-    let html = read(&dir, "sim.html");
-    assert_self_contained(&html);
+    let html = report(&dir, "sim.html");
     let reference = simulate_json(&dir, &["part.ngc"]);
     let c = cells(&html, "contour error, max");
     assert_eq!(
@@ -381,14 +385,11 @@ fn a_positioning_test_report_has_the_bidirectional_plot_and_figures() {
     let dir = tempdir("report-iso");
     let runs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/data/runs.csv");
     std::fs::copy(&runs, dir.join("runs.csv")).unwrap();
-    let o = common::run(
+    let json = common::json(&common::run(
         &dir,
         "map iso230-2 runs.csv --axis X --report-html iso.html --json",
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let html = read(&dir, "iso.html");
-    assert_self_contained(&html);
+    ));
+    let html = report(&dir, "iso.html");
     for id in ["run", "iso230-2", "iso230-2-targets"] {
         assert!(html.contains(&format!("<section id=\"{id}\">")), "{id}");
     }
@@ -416,8 +417,7 @@ fn a_map_report_draws_every_component_over_its_axis() {
             "map plot models/example21.toml -o map.html",
         ],
     );
-    let html = read(&dir, "map.html");
-    assert_self_contained(&html);
+    let html = report(&dir, "map.html");
     // Three axes, each a page with its linear (µm) and angular (µrad) chart.
     assert_eq!(html.matches("<section id=\"map-").count(), 3);
     assert_eq!(html.matches("<svg").count(), 6);
@@ -455,9 +455,8 @@ fn straightness_and_thermal_reports_keep_units_apart_and_wavelengths_in_mm() {
     args.extend(runs.iter().map(String::as_str));
     args.extend(["-o", "st.html"]);
     let o = volcomp(&args, &dir);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let html = read(&dir, "st.html");
-    assert_self_contained(&html);
+    common::ok(&o);
+    let html = report(&dir, "st.html");
     assert!(!html.contains("log₁₀"));
     assert!(html.contains(">wavelength λ (mm, logarithmic)</text>"));
     // Decade ticks in mm: 1 mm and 10 mm are labelled as such.
@@ -475,8 +474,7 @@ fn straightness_and_thermal_reports_keep_units_apart_and_wavelengths_in_mm() {
             "thermal plot --model thermal.toml -o th.html",
         ],
     );
-    let html = read(&dir, "th.html");
-    assert_self_contained(&html);
+    let html = report(&dir, "th.html");
     // No axis mixes µm and µrad; both have their own charts.
     assert!(!html.contains("µm or µrad"));
     let axis_labels: Vec<&str> = html
@@ -515,14 +513,13 @@ fn a_mirror_report_has_the_statistics_and_the_probe_points() {
         args.push(out);
         args.extend_from_slice(extra);
         let o = volcomp(&args, &dir);
-        assert!(o.status.success(), "{}", stderr(&o));
+        common::ok(&o);
         o
     };
     run(&["--report", "mirror.html"], "a.ngc");
     let o = run(&["--json"], "b.ngc");
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let html = read(&dir, "mirror.html");
-    assert_self_contained(&html);
+    let html = report(&dir, "mirror.html");
     for id in ["run", "mirror", "mirror-points"] {
         assert!(html.contains(&format!("<section id=\"{id}\">")), "{id}");
     }

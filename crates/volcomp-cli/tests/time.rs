@@ -34,9 +34,10 @@ fn time_of_a_single_move_is_the_trapezoid() {
     // The same move under G64 (the default) ends in a blend: LinuxCNC
     // halves its acceleration, 60/50 + 50/250 = 1.4 s.
     write(&d, "q.ngc", "G21 G90\nG1 X60 F3000\nM2\n");
-    let o = common::run(&d, "time q.ngc --setup s.toml --reference p.ngc --json");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let v = common::json(&common::run(
+        &d,
+        "time q.ngc --setup s.toml --reference p.ngc --json",
+    ));
     let t = v["program"]["motion"]["total_s"].as_f64().unwrap();
     let r = v["original"]["motion"]["total_s"].as_f64().unwrap();
     assert!((t - 1.4).abs() <= 0.002 && (r - 1.3).abs() <= 0.002, "{v}");
@@ -54,19 +55,17 @@ fn compensate_and_simulate_state_both_times_and_the_change() {
         "G21 G90\nG0 X0 Y0 Z0\nG1 X60 F3000\nG1 Y40\nM2\n",
     );
     let o = common::run(&d, "compensate p.ngc --map map.csv --setup s.toml -o c.ngc");
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::ok(&o);
     let err = stderr(&o);
     let line = err
         .lines()
         .find(|l| l.starts_with("volcomp: machining time: "))
         .unwrap_or_else(|| panic!("{err}"));
     assert!(line.contains(" -> ") && line.contains(" %)"), "{line}");
-    let o = common::run(
+    let v = common::json(&common::run(
         &d,
         "simulate c.ngc --map map.csv --setup s.toml --reference p.ngc --json",
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    ));
     assert!(v["point_rms_um"].is_number(), "{v}");
     let t = &v["machining_time"];
     assert!(

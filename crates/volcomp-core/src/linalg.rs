@@ -52,6 +52,15 @@ impl Cholesky {
 mod bspline_solver_tests {
     use super::*;
 
+    /// `x` is `want` (rows) to 1e-15.
+    fn assert_matrix(x: &Matrix, want: [[f64; 2]; 2]) {
+        for (r, row) in want.iter().enumerate() {
+            for (c, w) in row.iter().enumerate() {
+                assert!((x[(r, c)] - w).abs() < 1e-15, "{x}");
+            }
+        }
+    }
+
     #[test]
     fn lu_solves_a_system_that_needs_pivoting() {
         // [0 1; 2 1] x = [3; 5]: the first pivot is zero without row
@@ -60,12 +69,7 @@ mod bspline_solver_tests {
         let b = Matrix::from_row_slice(2, 2, &[3.0, 1.0, 5.0, 4.0]);
         let x = lu_solve(&a, &b).unwrap();
         // Second column: x2 = 1, 2·x1 + 1 = 4 → x1 = 1.5.
-        let want = [[1.0, 1.5], [3.0, 1.0]];
-        for (r, row) in want.iter().enumerate() {
-            for (c, w) in row.iter().enumerate() {
-                assert!((x[(r, c)] - w).abs() < 1e-15, "{x}");
-            }
-        }
+        assert_matrix(&x, [[1.0, 1.5], [3.0, 1.0]]);
     }
 
     #[test]
@@ -84,13 +88,7 @@ mod bspline_solver_tests {
         let c = Cholesky::new(a).unwrap();
         let x = c.solve(&Matrix::from_row_slice(2, 1, &[2.0, 1.0]));
         assert!((x[0] - 0.5).abs() < 1e-15 && x[1].abs() < 1e-15, "{x}");
-        let inv = c.inverse();
-        let want = [[0.375, -0.25], [-0.25, 0.5]];
-        for (r, row) in want.iter().enumerate() {
-            for (col, w) in row.iter().enumerate() {
-                assert!((inv[(r, col)] - w).abs() < 1e-15, "{inv}");
-            }
-        }
+        assert_matrix(&c.inverse(), [[0.375, -0.25], [-0.25, 0.5]]);
     }
 
     #[test]

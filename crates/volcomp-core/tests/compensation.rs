@@ -28,20 +28,32 @@ fn compensate(
         decimals: options.decimals.or(Some(4)),
         ..options
     };
+    let mut records = Vec::new();
+    let (out, _) = compensate_with(program, map, &options, |r| records.push(*r));
+    (out, records)
+}
+
+/// `program` compensated on `map`, each point record given to `record`:
+/// the program written and the summary.
+fn compensate_with(
+    program: &str,
+    map: &AxisTableMap,
+    options: &CompensateOptions,
+    record: impl FnMut(&PointRecord),
+) -> (String, CompensateSummary) {
     let style = survey_style(program.as_bytes());
     let mut out = Vec::new();
-    let mut records = Vec::new();
-    compensate_program(
+    let summary = compensate_program(
         &mut walker(program),
         "test.ngc",
         map,
         &style,
-        &options,
+        options,
         &mut out,
-        |r| records.push(*r),
+        record,
     )
     .unwrap();
-    (String::from_utf8(out).unwrap(), records)
+    (String::from_utf8(out).unwrap(), summary)
 }
 
 /// The map whose only table is axis `axis`'s: `e_um(position_mm)`, both
@@ -220,15 +232,23 @@ fn x_backlash_map(ex_per_y_um_per_mm: f64) -> AxisTableMap {
     })
 }
 
+/// `program` compensated with the defaults on [`x_backlash_map`] of
+/// `ex_per_y_um_per_mm`, the take-up folded into the moves (no block of its
+/// own): the map, the program written and its point records.
+fn folded(ex_per_y_um_per_mm: f64, program: &str) -> (AxisTableMap, String, Vec<PointRecord>) {
+    let map = x_backlash_map(ex_per_y_um_per_mm);
+    let (out, records) = compensate(program, &map, CompensateOptions::default());
+    assert!(!out.contains("take-up"), "{out}");
+    (map, out, records)
+}
+
 #[test]
 fn a_take_up_along_the_path_is_folded_into_the_move() {
     // Back along the same line: the 4 µm the X axis takes up lag along the
     // path, so the move itself takes them up (no block of its own) and the
     // tool never leaves the line; the command is the same 5 − 0.004.
-    let map = x_backlash_map(0.0);
     let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG1 X5\nM2\n";
-    let (out, records) = compensate(program, &map, CompensateOptions::default());
-    assert!(!out.contains("take-up"), "{out}");
+    let (map, out, records) = folded(0.0, program);
     assert!(out.contains("G1 X4.9960"), "{out}");
     let reversal = records.iter().find(|r| r.reversed[0]).expect("X reverses");
     assert!(!reversal.take_up);
@@ -242,19 +262,7 @@ fn compensate_summary(
     map: &AxisTableMap,
     options: CompensateOptions,
 ) -> (String, CompensateSummary) {
-    let style = survey_style(program.as_bytes());
-    let mut out = Vec::new();
-    let summary = compensate_program(
-        &mut walker(program),
-        "test.ngc",
-        map,
-        &style,
-        &options,
-        &mut out,
-        |_| {},
-    )
-    .unwrap();
-    (String::from_utf8(out).unwrap(), summary)
+    compensate_with(program, map, &options, |_| {})
 }
 
 #[test]
@@ -313,26 +321,24 @@ fn the_path_control_mode_decides_a_reversal_across_the_path() {
             "{mode}: {contour}"
         );
     }
-    // The take-up tolerance overrides the mode: 5 µm folds under G61, and
-    // 1 µm stops under G64.
-    let (out, s, contour) = run(
-        "G61",
-        CompensateOptions {
-            take_up_tolerance_mm: Some(5e-3),
+    // The take-up tolerance overrides the mode: 5 µm folds under G61 (the
+    // tool off by the fold), and 1 µm stops under G64 (a take-up block, the
+    // tool on the path).
+    for (mode, tolerance_mm, blocks, contour_um, within_um) in [
+        ("G61", 5e-3, (0, 1), fold_um, 0.06),
+        ("G64", 1e-3, (1, 0), 0.0, 0.1),
+    ] {
+        let options = CompensateOptions {
+            take_up_tolerance_mm: Some(tolerance_mm),
             ..Default::default()
-        },
-    );
-    assert_eq!((s.take_ups, s.take_ups_folded), (0, 1), "{out}");
-    assert!((contour - fold_um).abs() < 0.06, "{contour}");
-    let (out, s, contour) = run(
-        "G64",
-        CompensateOptions {
-            take_up_tolerance_mm: Some(1e-3),
-            ..Default::default()
-        },
-    );
-    assert_eq!((s.take_ups, s.take_ups_folded), (1, 0), "{out}");
-    assert!(contour < 0.1, "{contour}");
+        };
+        let (out, s, contour) = run(mode, options);
+        assert_eq!((s.take_ups, s.take_ups_folded), blocks, "{mode}: {out}");
+        assert!(
+            (contour - contour_um).abs() < within_um,
+            "{mode}: {contour}"
+        );
+    }
 }
 
 #[test]
@@ -396,10 +402,8 @@ fn a_take_up_is_spread_along_the_path_where_the_compensation_moves_the_axis() {
     // ℓ = 0.004 / (0.6 · 0.01875) = 0.3556 mm. Over it the X command
     // travels 4 + 0.1ℓ µm while the tool stands still: off the line by
     // 4 · 0.1ℓ / (4 + 0.1ℓ) = 0.036 µm, plus the written step of 0.1 µm.
-    let map = x_backlash_map(0.1);
     let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG1 Y20\nM2\n";
-    let (out, records) = compensate(program, &map, CompensateOptions::default());
-    assert!(!out.contains("take-up"), "{out}");
+    let (map, out, records) = folded(0.1, program);
     let line3: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
     assert!(line3.len() >= 2, "{out}");
     let ramp = line3[0];
@@ -480,13 +484,7 @@ fn a_one_block_circle_takes_up_by_mode() {
     let check_tangent = |out: &str| {
         let tangents = arc_tangents(out);
         assert!(tangents.len() > 4, "{out}");
-        for pair in tangents.windows(2) {
-            let kink = pair[1].0 - pair[0].1;
-            assert!(
-                kink.x.abs() < 0.495e-3 && kink.y.abs() < 0.495e-3,
-                "{kink:?}: {out}"
-            );
-        }
+        assert_joins_tangent(&tangents, out);
     };
     // G61.1 stops at every block end: a take-up block at each reversal.
     let (out, s, contour) = run("G61.1");
@@ -549,6 +547,20 @@ fn arc_end_tangents(p: Vec3, next: Vec3, c: Vec3, ccw: bool) -> (Vec3, Vec3) {
         t * (1.0 / t.norm())
     };
     (along(p), along(next))
+}
+
+/// Asserts that every block of `tangents` (start and end unit tangents of
+/// consecutive blocks of `out`) starts in the direction the one before
+/// ends, within 0.495·10⁻³ in X and in Y.
+#[track_caller]
+fn assert_joins_tangent(tangents: &[(Vec3, Vec3)], out: &str) {
+    for pair in tangents.windows(2) {
+        let kink = pair[1].0 - pair[0].1;
+        assert!(
+            kink.x.abs() < 0.495e-3 && kink.y.abs() < 0.495e-3,
+            "{kink:?}: {out}"
+        );
+    }
 }
 
 /// The unit tangents (start, end) of every feed move of a written XY
@@ -614,13 +626,7 @@ fn a_reversal_at_a_tangent_join_keeps_the_join_tangent() {
     assert_eq!((s.take_ups, s.take_ups_folded), (0, 4), "{s:?}\n{out}");
     let tangents = feed_tangents(&out);
     assert!(tangents.len() > 8, "{out}");
-    for pair in tangents.windows(2) {
-        let kink = pair[1].0 - pair[0].1;
-        assert!(
-            kink.x.abs() < 0.495e-3 && kink.y.abs() < 0.495e-3,
-            "{kink:?}: {out}"
-        );
-    }
+    assert_joins_tangent(&tangents, &out);
     let report = against_original(&out, program, &map);
     assert!(report.contour_max_um <= 4.0 + 0.06, "{report:?}");
 }

@@ -363,28 +363,25 @@ fn check(o: &Outcome, study_std_reduction: f64) {
     );
 }
 
-#[test]
-fn quadratic_extrusion() {
-    let o = run(Shape::Extrusion, LEAST_SQUARES, 2.0, 1);
-    check(&o, 0.61);
+/// One test per study case (`name: shape, fit, jitter, seed, the std
+/// reduction the study found`), each a test of its own so that the slow
+/// cases run in parallel.
+macro_rules! study {
+    ($($name:ident: $shape:expr, $fit:expr, $jitter:expr, $seed:expr, $reduction:expr;)*) => {
+        $(
+            #[test]
+            fn $name() {
+                check(&run($shape, $fit, $jitter, $seed), $reduction);
+            }
+        )*
+    };
 }
 
-#[test]
-fn ruled_surface_twisting_from_convex_to_concave() {
-    let o = run(Shape::TwistedRuled, LEAST_SQUARES, 2.0, 2);
-    check(&o, 0.61);
-}
-
-#[test]
-fn doubly_curved_saddle() {
-    let o = run(Shape::Saddle, LEAST_SQUARES, 2.0, 3);
-    check(&o, 0.32);
-}
-
-#[test]
-fn saddle_with_an_interpolated_probe_grid() {
-    let o = run(Shape::Saddle, FitMethod::Interpolate, 0.0, 4);
-    check(&o, 0.32);
+study! {
+    quadratic_extrusion: Shape::Extrusion, LEAST_SQUARES, 2.0, 1, 0.61;
+    ruled_surface_twisting_from_convex_to_concave: Shape::TwistedRuled, LEAST_SQUARES, 2.0, 2, 0.61;
+    doubly_curved_saddle: Shape::Saddle, LEAST_SQUARES, 2.0, 3, 0.32;
+    saddle_with_an_interpolated_probe_grid: Shape::Saddle, FitMethod::Interpolate, 0.0, 4, 0.32;
 }
 
 /// Realistic probe noise (σ = 0.2, 0.3, 0.5 µm) with one corner probe off

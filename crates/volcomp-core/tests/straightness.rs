@@ -91,16 +91,25 @@ fn vib_wavelength_mm(feed_mm_per_min: f64) -> f64 {
     feed_mm_per_min / 60.0 / VIB_HZ
 }
 
-/// A measured run: geometry + vibration (random phase) + noise.
-fn measure(t: &Truth, feed: f64, vib_um: f64, phase: f64, rng: &mut Rng, name: &str) -> Run {
-    let lambda = vib_wavelength_mm(feed);
+/// A measured run: geometry + a vibration of `[frequency (Hz), amplitude
+/// (µm)]` at `phase` + noise of σ `noise_um`.
+fn measure(
+    t: &Truth,
+    feed: f64,
+    [vib_hz, vib_um]: [f64; 2],
+    noise_um: f64,
+    phase: f64,
+    rng: &mut Rng,
+    name: &str,
+) -> Run {
+    let lambda = feed / 60.0 / vib_hz;
     let positions: Vec<f64> = t.positions().collect();
     let displacement_um = positions
         .iter()
         .map(|&p| {
             t.geometric_um(p)
                 + vib_um * (2.0 * PI * p / lambda + phase).sin()
-                + NOISE_UM * rng.normal()
+                + noise_um * rng.normal()
         })
         .collect();
     Run {
@@ -119,7 +128,15 @@ fn runs(truths: &[Truth], repeats: usize, rng: &mut Rng) -> Vec<Run> {
             for r in 0..repeats {
                 let phase = 2.0 * PI * rng.uniform();
                 let name = format!("{:?}-{feed}-{r}.csv", t.axis);
-                out.push(measure(t, feed, VIB_UM, phase, rng, &name));
+                out.push(measure(
+                    t,
+                    feed,
+                    [VIB_HZ, VIB_UM],
+                    NOISE_UM,
+                    phase,
+                    rng,
+                    &name,
+                ));
             }
         }
     }
@@ -341,7 +358,8 @@ fn common_normalisation_survives_feed_dependent_vibration() {
             runs.push(measure(
                 &X,
                 feed,
-                amp,
+                [VIB_HZ, amp],
+                NOISE_UM,
                 phase,
                 &mut rng,
                 &format!("{feed}-{r}"),
@@ -453,25 +471,19 @@ fn family_member(mc: &Machine, options: &FitOptions, seed: u64) -> (f64, usize, 
     let mut rng = Rng::splitmix64(seed);
     let mut runs = Vec::new();
     for feed in FEEDS {
-        let lambda = feed / 60.0 / mc.vib_hz;
         for r in 0..3 {
             let phase = 2.0 * PI * rng.uniform();
-            let positions: Vec<f64> = truth.positions().collect();
-            let displacement_um = positions
-                .iter()
-                .map(|&p| {
-                    truth.geometric_um(p)
-                        + VIB_UM * (2.0 * PI * p / lambda + phase).sin()
-                        + mc.noise_um * rng.normal()
-                })
-                .collect();
-            runs.push(Run {
-                file: format!("{feed}-{r}.csv"),
-                axis: Some(Axis::X),
-                feed_mm_per_min: feed,
-                positions_mm: positions,
-                displacement_um,
-            });
+            let name = format!("{feed}-{r}.csv");
+            let vibration = [mc.vib_hz, VIB_UM];
+            runs.push(measure(
+                &truth,
+                feed,
+                vibration,
+                mc.noise_um,
+                phase,
+                &mut rng,
+                &name,
+            ));
         }
     }
     let f = fit(&runs, None, options).expect("fit");

@@ -612,6 +612,11 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 mod tests {
     use super::*;
 
+    /// The error of reading the set-up `s.toml` holding `text`.
+    fn refused(text: &str) -> SetupError {
+        Setup::from_toml_in(text, "s.toml").unwrap_err()
+    }
+
     #[test]
     fn parses_a_full_setup() {
         let s = Setup::from_toml(
@@ -632,7 +637,7 @@ mod tests {
         let s = Setup::from_toml("units = \"mm\"\naxes = \"xyz uvw\"\n").unwrap();
         assert_eq!(s.axes.letters(), "XYZUVW");
         assert!(s.axes.contains(b'U') && !s.axes.contains(b'A'));
-        let e = Setup::from_toml_in("units = \"mm\"\naxes = \"XYZQ\"\n", "s.toml").unwrap_err();
+        let e = refused("units = \"mm\"\naxes = \"XYZQ\"\n");
         assert!(
             e.to_string()
                 .starts_with("s.toml:2:12: `Q` is not an axis letter"),
@@ -656,24 +661,18 @@ mod tests {
 
     #[test]
     fn positions_need_exactly_three_values() {
-        let e = Setup::from_toml_in(
-            "units = \"mm\"\n[work_offsets]\nG54 = [250, 200, 150, 1]\n",
-            "s.toml",
-        )
-        .unwrap_err();
+        let e = refused("units = \"mm\"\n[work_offsets]\nG54 = [250, 200, 150, 1]\n");
         assert_eq!((e.line, e.column), (3, 7), "{e}");
         assert!(e.to_string().contains("G54 has 4 value(s)"), "{e}");
-        let e = Setup::from_toml_in("units = \"mm\"\nstart = [1, 2]\n", "s.toml").unwrap_err();
+        let e = refused("units = \"mm\"\nstart = [1, 2]\n");
         assert_eq!((e.line, e.column), (2, 9), "{e}");
-        let e = Setup::from_toml_in("units = \"mm\"\n[reference]\nG28 = [0,0,0,0]\n", "s.toml")
-            .unwrap_err();
+        let e = refused("units = \"mm\"\n[reference]\nG28 = [0,0,0,0]\n");
         assert_eq!(e.line, 3, "{e}");
     }
 
     #[test]
     fn one_tool_given_twice_is_refused() {
-        let e = Setup::from_toml_in("units = \"mm\"\n[tools]\n1 = 75\nT1 = 80\n", "s.toml")
-            .unwrap_err();
+        let e = refused("units = \"mm\"\n[tools]\n1 = 75\nT1 = 80\n");
         assert_eq!(e.line, 4, "{e}");
         assert!(
             e.to_string().contains("both give the length of tool 1"),
@@ -695,40 +694,27 @@ mod tests {
         assert_eq!(l.servo_period_s, Some(0.0005));
         assert_eq!(l.arc_blend_enable, Some(false));
         assert_eq!(Setup::from_toml("units = \"mm\"\n").unwrap().limits, None);
-        let e = Setup::from_toml_in(
-            "units = \"mm\"\n[limits]\nmax_velocity = [1, 2]\n",
-            "s.toml",
-        )
-        .unwrap_err();
+        let e = refused("units = \"mm\"\n[limits]\nmax_velocity = [1, 2]\n");
         assert_eq!((e.line, e.column), (3, 16), "{e}");
         assert!(e.to_string().contains("has 2 value(s)"), "{e}");
-        let e = Setup::from_toml_in(
-            "units = \"mm\"\n[limits]\nservo_period = 1000000\n",
-            "s.toml",
-        )
-        .unwrap_err();
+        let e = refused("units = \"mm\"\n[limits]\nservo_period = 1000000\n");
         assert!(e.to_string().contains("in seconds"), "{e}");
-        let e = Setup::from_toml_in(
-            "units = \"mm\"\n[limits]\nmax_acceleration = -5\n",
-            "s.toml",
-        )
-        .unwrap_err();
+        let e = refused("units = \"mm\"\n[limits]\nmax_acceleration = -5\n");
         assert_eq!(e.line, 3, "{e}");
         assert!(Setup::from_toml("units = \"mm\"\n[limits]\nmax_jerk = 5\n").is_err());
     }
 
     #[test]
     fn errors_are_located() {
-        let e = Setup::from_toml_in("units = \"mm\"\n[work_offsets]\nG60 = [0,0,0]\n", "s.toml")
-            .unwrap_err();
+        let e = refused("units = \"mm\"\n[work_offsets]\nG60 = [0,0,0]\n");
         assert_eq!((e.line, e.column), (3, 1), "{e}");
         assert!(
             e.to_string().starts_with("s.toml:3:1: unknown work offset"),
             "{e}"
         );
-        let e = Setup::from_toml_in("units = \"mm\"\nbogus = 1\n", "s.toml").unwrap_err();
+        let e = refused("units = \"mm\"\nbogus = 1\n");
         assert_eq!(e.line, 2, "{e}");
-        let e = Setup::from_toml_in("units = \"cm\"\n", "s.toml").unwrap_err();
+        let e = refused("units = \"cm\"\n");
         assert_eq!(e.line, 1, "{e}");
     }
 }

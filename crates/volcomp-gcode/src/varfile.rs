@@ -26,38 +26,33 @@ pub fn parse(text: &str, file: &str) -> Result<BTreeMap<usize, f64>, GcodeError>
     let mut out = BTreeMap::new();
     for (i, line) in text.lines().enumerate() {
         let n = i as u64 + 1;
+        // Every refusal names the file, the line and its column, and shows the line.
+        let refuse = |col: usize, message: String, help: &str| {
+            error(file, n, col, message, help).with_source_line(line.as_bytes())
+        };
         let mut fields = line.split_whitespace();
         let Some(num) = fields.next() else { continue };
         let col = line.find(num).unwrap_or(0) + 1;
         let index: usize = num.parse().map_err(|_| {
-            error(
-                file,
-                n,
+            refuse(
                 col,
                 format!("`{num}` is not a parameter number"),
                 "each line holds a parameter number and its value",
             )
-            .with_source_line(line.as_bytes())
         })?;
         if !(1..5602).contains(&index) {
-            return Err(error(
-                file,
-                n,
+            return Err(refuse(
                 col,
                 format!("parameter number {index} is out of range"),
                 "parameters are #1 to #5601",
-            )
-            .with_source_line(line.as_bytes()));
+            ));
         }
         let Some(value) = fields.next() else {
-            return Err(error(
-                file,
-                n,
+            return Err(refuse(
                 col,
                 format!("parameter {index} has no value"),
                 "write the value after the number",
-            )
-            .with_source_line(line.as_bytes()));
+            ));
         };
         let vcol = line.rfind(value).unwrap_or(0) + 1;
         let v: f64 = value
@@ -65,18 +60,14 @@ pub fn parse(text: &str, file: &str) -> Result<BTreeMap<usize, f64>, GcodeError>
             .ok()
             .filter(|v: &f64| v.is_finite())
             .ok_or_else(|| {
-                error(
-                    file,
-                    n,
+                refuse(
                     vcol,
                     format!("`{value}` is not a number"),
                     "write the value as a number",
                 )
-                .with_source_line(line.as_bytes())
             })?;
         if out.keys().next_back().is_some_and(|&last| last >= index) {
-            return Err(error(file, n, col, format!("parameter {index} is out of order: the numbers must increase from line to line"), "sort the file by parameter number, as LinuxCNC requires (\"Parameter file out of order\")")
-                .with_source_line(line.as_bytes()));
+            return Err(refuse(col, format!("parameter {index} is out of order: the numbers must increase from line to line"), "sort the file by parameter number, as LinuxCNC requires (\"Parameter file out of order\")"));
         }
         out.insert(index, v);
     }

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::example::ballbar::Machine;
+use crate::model::axis_table::AxisTableMap;
 use crate::rng::Rng;
 use std::f64::consts::PI;
 
@@ -86,12 +87,39 @@ fn machine_b() -> Machine {
     }
 }
 
-fn test_circle(plane: Plane) -> TestCircle {
+/// Gaussian noise of `sigma_um` on every sample of `trace`, run by run.
+fn add_noise(trace: &mut Trace, sigma_um: f64, rng: &mut Rng) {
+    for run in &mut trace.runs {
+        for d in &mut run.deviation_um {
+            *d += sigma_um * rng.normal();
+        }
+    }
+}
+
+/// `m`'s map over the tests' volume, its circle in XY sampled every
+/// `step_deg`, and the trace predicted for it.
+fn xy_trace(m: &Machine, step_deg: f64) -> (AxisTableMap, TestCircle, Trace) {
+    let map = m.map(0.0, 300.0, 0.05);
+    let t = test_circle(Plane::XY, step_deg);
+    let trace = predict(&map, &t).unwrap();
+    (map, t, trace)
+}
+
+/// The fit's options with the pitches of `m`'s cyclic errors given.
+fn pitched(m: &Machine) -> FitOptions {
+    FitOptions {
+        pitch_mm: m.pitch.map(Some),
+        ..FitOptions::default()
+    }
+}
+
+/// The tests' circle in `plane`, sampled every `step_deg`.
+fn test_circle(plane: Plane, step_deg: f64) -> TestCircle {
     TestCircle {
         plane,
         centre_mm: volcomp_gcode::Vec3::new(150.0, 140.0, 130.0),
         radius_mm: 100.0,
-        step_deg: 0.1,
+        step_deg,
         ..TestCircle::default()
     }
 }
@@ -101,10 +129,7 @@ fn predict_agrees_with_an_independent_dead_band_simulation() {
     for m in [machine_a(), machine_b()] {
         let map = m.map(0.0, 300.0, 0.05);
         for plane in Plane::ALL {
-            let t = TestCircle {
-                step_deg: 0.5,
-                ..test_circle(plane)
-            };
+            let t = test_circle(plane, 0.5);
             let trace = predict(&map, &t).unwrap();
             let want = independent(&m, &t);
             for (run, w) in trace.runs.iter().zip(&want) {
@@ -186,21 +211,14 @@ fn fit_recovers_each_cause_within_three_standard_uncertainties() {
     for (mi, m) in [machine_a(), machine_b()].iter().enumerate() {
         let map = m.map(0.0, 300.0, 0.05);
         for (pi, plane) in Plane::ALL.into_iter().enumerate() {
-            let t = test_circle(plane);
+            let t = test_circle(plane, 0.1);
             let clean = predict(&map, &t).unwrap();
             for seed in 0..3u64 {
                 let mut rng = Rng::new(100 * seed + 10 * mi as u64 + pi as u64);
                 let noise = 0.1 + 0.1 * seed as f64;
                 let mut trace = clean.clone();
-                for run in &mut trace.runs {
-                    for d in &mut run.deviation_um {
-                        *d += noise * rng.normal();
-                    }
-                }
-                let options = FitOptions {
-                    pitch_mm: m.pitch.map(Some),
-                    ..FitOptions::default()
-                };
+                add_noise(&mut trace, noise, &mut rng);
+                let options = pitched(m);
                 let f = fit(&trace, &options).unwrap();
                 for (id, want) in truth(m, plane, t.centre_mm.to_array(), t.radius_mm) {
                     let c = f.cause(&id).unwrap_or_else(|| panic!("{id}"));
@@ -226,10 +244,7 @@ fn fit_recovers_each_cause_within_three_standard_uncertainties() {
 /// Writes the program of a test, for a look by hand.
 #[test]
 fn the_program_of_a_test() {
-    let t = TestCircle {
-        plane: Plane::ZX,
-        ..test_circle(Plane::ZX)
-    };
+    let t = test_circle(Plane::ZX, 0.1);
     let p = program::program(&t).unwrap();
     std::fs::write(std::env::temp_dir().join("ballbar-zx.ngc"), &p).unwrap();
     eprintln!("{p}");
@@ -239,13 +254,7 @@ fn the_program_of_a_test() {
 /// trace as the direct prediction.
 #[test]
 fn the_test_program_predicts_the_same_trace() {
-    let m = machine_a();
-    let map = m.map(0.0, 300.0, 0.05);
-    let t = TestCircle {
-        step_deg: 1.0,
-        ..test_circle(Plane::XY)
-    };
-    let direct = predict(&map, &t).unwrap();
+    let (map, t, direct) = xy_trace(&machine_a(), 1.0);
     let text = program::program(&t).unwrap();
     let setup = crate::compensate::MachineSetup::default();
     let via = predict::predict_program(&map, &t, text.as_bytes(), "t.ngc", &setup).unwrap();
@@ -274,30 +283,17 @@ fn the_quick_map_reduces_the_circular_deviation() {
         let mut fits = Vec::new();
         let mut rng = Rng::new(42 + mi as u64);
         for plane in Plane::ALL {
-            let t = TestCircle {
-                step_deg: 0.2,
-                ..test_circle(plane)
-            };
+            let t = test_circle(plane, 0.2);
             let mut trace = predict(&map, &t).unwrap();
-            for run in &mut trace.runs {
-                for d in &mut run.deviation_um {
-                    *d += 0.2 * rng.normal();
-                }
-            }
-            let options = FitOptions {
-                pitch_mm: m.pitch.map(Some),
-                ..FitOptions::default()
-            };
+            add_noise(&mut trace, 0.2, &mut rng);
+            let options = pitched(m);
             fits.push((plane, t.radius_mm, fit(&trace, &options).unwrap()));
         }
         let refs: Vec<(Plane, f64, &TraceFit)> = fits.iter().map(|(p, r, f)| (*p, *r, f)).collect();
         let quick = quick_map::quick_model(&refs, m.pitch.map(Some)).unwrap();
         let qmap = quick.map([[0.0, 300.0]; 3]).unwrap();
         for plane in Plane::ALL {
-            let t = TestCircle {
-                step_deg: 0.2,
-                ..test_circle(plane)
-            };
+            let t = test_circle(plane, 0.2);
             let before = figures(&predict(&map, &t).unwrap()).unwrap();
             let text = program::program(&t).unwrap();
             let mut out = Vec::new();
@@ -328,26 +324,14 @@ fn the_quick_map_reduces_the_circular_deviation() {
 #[test]
 fn the_standard_uncertainties_are_the_scatter_of_the_estimates() {
     let m = machine_b();
-    let map = m.map(0.0, 300.0, 0.05);
-    let t = TestCircle {
-        step_deg: 0.25,
-        ..test_circle(Plane::XY)
-    };
-    let clean = predict(&map, &t).unwrap();
+    let (_, t, clean) = xy_trace(&m, 0.25);
     let truth = truth(&m, Plane::XY, t.centre_mm.to_array(), t.radius_mm);
     let mut z: Vec<Vec<f64>> = vec![Vec::new(); truth.len()];
-    let options = FitOptions {
-        pitch_mm: m.pitch.map(Some),
-        ..FitOptions::default()
-    };
+    let options = pitched(&m);
     for seed in 0..40u64 {
         let mut rng = Rng::new(1000 + seed);
         let mut trace = clean.clone();
-        for run in &mut trace.runs {
-            for d in &mut run.deviation_um {
-                *d += 0.2 * rng.normal();
-            }
-        }
+        add_noise(&mut trace, 0.2, &mut rng);
         let f = fit(&trace, &options).unwrap();
         for (k, (id, want)) in truth.iter().enumerate() {
             let c = f.cause(id).unwrap();
@@ -375,19 +359,13 @@ fn fit_recovers_the_causes_from_one_run_and_other_test_sizes() {
         let map = m.map(-100.0, 400.0, 0.05);
         let t = TestCircle {
             radius_mm: radius,
-            step_deg: step,
             senses: vec![sense],
-            ..test_circle(Plane::XY)
+            ..test_circle(Plane::XY, step)
         };
         let mut trace = predict(&map, &t).unwrap();
         let mut rng = Rng::new(7);
-        for d in &mut trace.runs[0].deviation_um {
-            *d += 0.15 * rng.normal();
-        }
-        let options = FitOptions {
-            pitch_mm: m.pitch.map(Some),
-            ..FitOptions::default()
-        };
+        add_noise(&mut trace, 0.15, &mut rng);
+        let options = pitched(&m);
         let f = fit(&trace, &options).unwrap();
         assert!(f.cause("servo_mismatch_XY").is_none());
         for (id, want) in truth(&m, Plane::XY, t.centre_mm.to_array(), radius) {
@@ -408,7 +386,7 @@ fn fit_recovers_the_causes_from_one_run_and_other_test_sizes() {
 #[test]
 fn a_program_that_is_not_the_test_is_refused() {
     let map = machine_a().map(0.0, 300.0, 0.5);
-    let t = test_circle(Plane::XY);
+    let t = test_circle(Plane::XY, 0.1);
     let setup = crate::compensate::MachineSetup::default();
     for text in [
         "G21 G90\nG0 X50 Y140 Z130\nG1 X250 F1000\nM2\n",

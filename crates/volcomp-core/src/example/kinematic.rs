@@ -9,6 +9,7 @@
 //! squareness errors of 6–12 µrad. Measured along lines through
 //! (300, 200, 150) mm with the reflector 100 mm below the spindle nose.
 
+use super::bow_at;
 use crate::model::kinematic::{
     AxisComponents, ComponentTable, KinematicModel, Kinematics, MeasuringLine, Squareness,
 };
@@ -76,7 +77,7 @@ pub fn example_model() -> KinematicModel {
             .iter()
             .map(|&x| {
                 let u = x / len;
-                let bow = 4.0 * u * (1.0 - u);
+                let bow = bow_at(x, len);
                 let mut g = Vec3::ZERO;
                 for (k, [trend, bw, offset]) in sh.angles_urad.iter().enumerate() {
                     g[k] = round(trend * u + bw * bow + offset, 2);
@@ -88,8 +89,7 @@ pub fn example_model() -> KinematicModel {
             positions
                 .iter()
                 .map(|&x| {
-                    let u = x / len;
-                    let bow = 4.0 * u * (1.0 - u);
+                    let bow = bow_at(x, len);
                     let mut e = Vec3::ZERO;
                     e[a] = sh.slope_um_per_m * x * 1e-3
                         + 0.6 * (std::f64::consts::TAU * x / 150.0).sin()

@@ -34,6 +34,13 @@ struct AxisShape {
     backlash_um: f64,
 }
 
+/// The shape of an axis' bow at `x_mm` over its travel `len_mm`: 0 at the
+/// ends, 1 in the middle (a parabola).
+fn bow_at(x_mm: f64, len_mm: f64) -> f64 {
+    let u = x_mm / len_mm;
+    4.0 * u * (1.0 - u)
+}
+
 /// The example map, tables every 2 mm.
 pub fn example_map() -> AxisTableMap {
     let shapes = [
@@ -75,8 +82,7 @@ pub fn example_map() -> AxisTableMap {
             let errors_um = positions
                 .iter()
                 .map(|&x| {
-                    let u = x / len;
-                    let bow = 4.0 * u * (1.0 - u);
+                    let bow = bow_at(x, len);
                     let mut e = Vec3::ZERO;
                     e[a] = sh.slope_um_per_m * x * 1e-3
                         + sh.cyclic_um * (std::f64::consts::TAU * x / sh.lead_mm).sin()

@@ -74,31 +74,27 @@ pub fn truth(model: &PolyModel, t_c: &[f64]) -> Vec<f64> {
 /// Temperatures (°C) of test 0 (training: warm-up, spindle stop at 14 h)
 /// or test 1 (check: slower warm-up, shifted ambient) at `time_h`.
 pub fn temperatures(test: usize, time_h: f64) -> Vec<f64> {
+    // Per test: the bed's rise (K) and time constant (h); the column's rise
+    // (K), time constant (h), spindle stop (h) and cooling time constant
+    // (h); the ambient's daily swing (K), its phase (h) and shift (K).
+    const COURSES: [[f64; 9]; 2] = [
+        [3.0, 6.0, 5.0, 2.0, 14.0, 3.0, 1.5, 8.0, 0.0],
+        [2.5, 8.0, 4.0, 3.0, 18.0, 2.5, 1.2, 11.0, 0.3],
+    ];
+    let [bed_k, bed_h, column_k, column_h, stop_h, cool_h, ambient_k, phase_h, shift_k] =
+        COURSES[test.min(1)];
     let t = time_h;
     let tau = std::f64::consts::TAU;
-    if test == 0 {
-        let column = if t < 14.0 {
-            5.0 * (1.0 - (-t / 2.0).exp())
-        } else {
-            5.0 * (1.0 - (-7.0f64).exp()) * (-(t - 14.0) / 3.0).exp()
-        };
-        vec![
-            20.0 + 3.0 * (1.0 - (-t / 6.0).exp()),
-            20.0 + column,
-            20.0 + 1.5 * (tau * (t - 8.0) / 24.0).sin(),
-        ]
+    let column = if t < stop_h {
+        column_k * (1.0 - (-t / column_h).exp())
     } else {
-        let column = if t < 18.0 {
-            4.0 * (1.0 - (-t / 3.0).exp())
-        } else {
-            4.0 * (1.0 - (-6.0f64).exp()) * (-(t - 18.0) / 2.5).exp()
-        };
-        vec![
-            20.0 + 2.5 * (1.0 - (-t / 8.0).exp()),
-            20.0 + column,
-            20.0 + 1.2 * (tau * (t - 11.0) / 24.0).sin() + 0.3,
-        ]
-    }
+        column_k * (1.0 - (-stop_h / column_h).exp()) * (-(t - stop_h) / cool_h).exp()
+    };
+    vec![
+        20.0 + bed_k * (1.0 - (-t / bed_h).exp()),
+        20.0 + column,
+        20.0 + ambient_k * (tau * (t - phase_h) / 24.0).sin() + shift_k,
+    ]
 }
 
 /// One simulated test: times (h), temperatures and measured placements per

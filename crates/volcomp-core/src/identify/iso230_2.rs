@@ -42,7 +42,7 @@
 //! all the same and reported in [`Iso230_2Report::notes`].
 
 use crate::error::MapFileError;
-use crate::io::table::{CsvTable, Header, UnknownColumns};
+use crate::io::table::{CsvTable, Header};
 use std::collections::BTreeMap;
 
 /// Statistics at one target position (µm).
@@ -265,15 +265,7 @@ pub fn evaluate(data: &[(f64, Vec<f64>, Vec<f64>)]) -> Result<Iso230_2Report, To
 /// Reads a test CSV (layout in the module documentation) and evaluates it.
 pub fn from_csv(text: &str, file: &str) -> Result<Iso230_2Report, MapFileError> {
     let layout = "target_mm, cycle, direction and deviation_um (or actual_mm), in any order";
-    let t = CsvTable::parse(
-        text,
-        file,
-        &Header {
-            known: &[],
-            unknown: UnknownColumns::Keep,
-            layout,
-        },
-    )?;
+    let t = CsvTable::parse(text, file, &Header::keep_all(layout))?;
     let help = format!("the header names {layout}");
     for (c, name) in t.header.iter().enumerate() {
         match name.as_str() {

@@ -26,6 +26,8 @@
 //! model with X as the reference cannot hold them.
 
 use crate::error::MapFileError;
+use crate::io::controllers::located;
+use crate::io::finite;
 use crate::model::axis_table::Table;
 use crate::model::kinematic::{AxisComponents, ComponentTable, KinematicModel, Kinematics};
 use crate::model::topology::Topology;
@@ -56,29 +58,16 @@ pub struct Imported {
     pub not_used: Vec<String>,
 }
 
-fn err(
-    file: &str,
-    text: &str,
-    row: usize,
-    m: impl Into<String>,
-    h: impl Into<String>,
-) -> MapFileError {
-    crate::io::controllers::located(file, text, row, m, h)
-}
-
 fn number(file: &str, text: &str, row: usize, s: &str) -> Result<f64, MapFileError> {
-    s.parse::<f64>()
-        .ok()
-        .filter(|v| v.is_finite())
-        .ok_or_else(|| {
-            err(
-                file,
-                text,
-                row,
-                format!("`{s}` is not a number"),
-                "values are numbers in mm or rad, positions in mm",
-            )
-        })
+    finite(s).ok_or_else(|| {
+        located(
+            file,
+            text,
+            row,
+            format!("`{s}` is not a number"),
+            "values are numbers in mm or rad, positions in mm",
+        )
+    })
 }
 
 /// Reads an ISG CSV file: `//` comments, a header line of names, rows of
@@ -103,7 +92,7 @@ pub fn parse_isg_csv(text: &str, file: &str) -> Result<Parameters, MapFileError>
             match args.as_slice() {
                 [] => {
                     let [(row, values)] = rows.as_slice() else {
-                        return Err(err(
+                        return Err(located(
                             file,
                             text,
                             *hrow,
@@ -126,7 +115,7 @@ pub fn parse_isg_csv(text: &str, file: &str) -> Result<Parameters, MapFileError>
                         }
                     }
                 }
-                _ => return Err(err(
+                _ => return Err(located(
                     file,
                     text,
                     *hrow,
@@ -153,7 +142,7 @@ pub fn parse_isg_csv(text: &str, file: &str) -> Result<Parameters, MapFileError>
             None => header = Some((fields.iter().map(|f| f.to_ascii_uppercase()).collect(), row)),
             Some((names, _)) => {
                 if fields.len() != names.len() {
-                    return Err(err(
+                    return Err(located(
                         file,
                         text,
                         row,
@@ -194,7 +183,7 @@ pub fn parse_etalon(text: &str, file: &str) -> Result<Parameters, MapFileError> 
             }
             let f: Vec<&str> = line.split_whitespace().collect();
             let [p, v] = f.as_slice() else {
-                return Err(err(
+                return Err(located(
                     file,
                     text,
                     row,
@@ -210,7 +199,7 @@ pub fn parse_etalon(text: &str, file: &str) -> Result<Parameters, MapFileError> 
             continue;
         }
         let Some((key, value)) = line.split_once('=') else {
-            return Err(err(
+            return Err(located(
                 file,
                 text,
                 row,
@@ -219,7 +208,7 @@ pub fn parse_etalon(text: &str, file: &str) -> Result<Parameters, MapFileError> 
             ));
         };
         let Some((n, r)) = name.clone() else {
-            return Err(err(
+            return Err(located(
                 file,
                 text,
                 row,
@@ -233,7 +222,7 @@ pub fn parse_etalon(text: &str, file: &str) -> Result<Parameters, MapFileError> 
                 .push((n, number(file, text, row, value.trim())?, r)),
             "GRIDPOINTS" if value.trim() == "{" => grid = Some(Vec::new()),
             k => {
-                return Err(err(
+                return Err(located(
                     file,
                     text,
                     row,
@@ -244,7 +233,7 @@ pub fn parse_etalon(text: &str, file: &str) -> Result<Parameters, MapFileError> 
         }
     }
     if grid.is_some() {
-        return Err(err(
+        return Err(located(
             file,
             text,
             text.lines().count(),
@@ -274,7 +263,7 @@ pub fn to_model(
             _ if n.len() == 3 && n.as_bytes()[1] == b'0' && "ABC".contains(&n[2..]) => not_used.push(n.clone()),
             _ if *v == 0.0 => not_used.push(n.clone()),
             _ => {
-                return Err(err(file, text, *row, format!("position error {n} = {v}"), "with X as the reference volcomp's model holds the squareness C0Y, B0Z, A0Z only; refer the measurement to X"))
+                return Err(located(file, text, *row, format!("position error {n} = {v}"), "with X as the reference volcomp's model holds the squareness C0Y, B0Z, A0Z only; refer the measurement to X"))
             }
         }
     }
@@ -292,7 +281,7 @@ pub fn to_model(
             })
             .collect();
         if mine.is_empty() {
-            return Err(err(
+            return Err(located(
                 file,
                 text,
                 1,
@@ -316,7 +305,7 @@ pub fn to_model(
                 continue;
             };
             if pts.windows(2).any(|w| w[1].0 <= w[0].0) || pts.len() < 2 {
-                return Err(err(
+                return Err(located(
                     file,
                     text,
                     *row,
@@ -326,7 +315,7 @@ pub fn to_model(
             }
             let (lo, hi) = (pts[0].0, pts[pts.len() - 1].0);
             if lo > pos[0] || hi < pos[pos.len() - 1] {
-                return Err(err(file, text, *row, format!("{name} covers {lo} … {hi} mm, the axis' other tables {} … {} mm", pos[0], pos[pos.len() - 1]), "give every component of an axis over the same range (volcomp does not extrapolate)"));
+                return Err(located(file, text, *row, format!("{name} covers {lo} … {hi} mm, the axis' other tables {} … {} mm", pos[0], pos[pos.len() - 1]), "give every component of an axis over the same range (volcomp does not extrapolate)"));
             }
             let t = Table {
                 positions_mm: pts.iter().map(|q| q.0).collect(),
@@ -342,7 +331,7 @@ pub fn to_model(
             }
         }
         let table = ComponentTable::new(pos, lin, ang).ok_or_else(|| {
-            err(
+            located(
                 file,
                 text,
                 1,
@@ -357,7 +346,7 @@ pub fn to_model(
     }
     let axes: [AxisComponents; 3] = per_axis
         .try_into()
-        .map_err(|_| err(file, text, 1, "three axes expected", ""))?;
+        .map_err(|_| located(file, text, 1, "three axes expected", ""))?;
     Ok(Imported {
         model: KinematicModel::new(axes, kin),
         assumed_zero,

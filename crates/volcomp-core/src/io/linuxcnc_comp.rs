@@ -328,13 +328,14 @@ pub fn write(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::controllers::test_support::table;
 
     fn sample() -> Positioning {
-        Positioning {
-            positions_mm: vec![-50.0, 0.0, 37.5, 120.25],
-            forward_um: vec![-1.2345, 0.0, 2.5, 4.125],
-            reverse_um: vec![1.5, 3.0, 5.75, 6.0625],
-        }
+        table(
+            &[-50.0, 0.0, 37.5, 120.25],
+            &[-1.2345, 0.0, 2.5, 4.125],
+            &[1.5, 3.0, 5.75, 6.0625],
+        )
     }
 
     #[test]
@@ -380,48 +381,23 @@ mod tests {
 
     #[test]
     fn bad_files_name_row_and_column() {
-        let e = parse(
-            "0 0 0\n# comment\n10 0 0\n",
-            "x.comp",
-            CompFileType::Type1,
-            MachineUnits::Mm,
-        )
-        .unwrap_err();
+        let read = |text: &str| parse(text, "x.comp", CompFileType::Type1, MachineUnits::Mm);
+        let e = read("0 0 0\n# comment\n10 0 0\n").unwrap_err();
         assert_eq!((e.file.as_str(), e.row, e.column), ("x.comp", 2, 1), "{e}");
         assert!(e.help.contains("stops reading"));
-        let e = parse(
-            "0 0 0\n10 0 nan\n",
-            "x.comp",
-            CompFileType::Type1,
-            MachineUnits::Mm,
-        )
-        .unwrap_err();
-        assert_eq!((e.row, e.column), (2, 3), "{e}");
-        let e = parse(
-            "0 0 0\n0 0 0\n",
-            "x.comp",
-            CompFileType::Type1,
-            MachineUnits::Mm,
-        )
-        .unwrap_err();
-        assert_eq!((e.row, e.column), (2, 1), "{e}");
-        let e = parse(
-            "0 0 0\n10 0,0 0\n",
-            "x.comp",
-            CompFileType::Type1,
-            MachineUnits::Mm,
-        )
-        .unwrap_err();
-        assert_eq!((e.row, e.column), (2, 2), "{e}");
-        assert!(parse("0 0 0\n", "x.comp", CompFileType::Type1, MachineUnits::Mm).is_err());
+        // A value that is not finite, a nominal position that does not
+        // increase, a decimal comma: each at its row and column.
+        for (text, at) in [
+            ("0 0 0\n10 0 nan\n", (2, 3)),
+            ("0 0 0\n0 0 0\n", (2, 1)),
+            ("0 0 0\n10 0,0 0\n", (2, 2)),
+        ] {
+            let e = read(text).unwrap_err();
+            assert_eq!((e.row, e.column), at, "{e}");
+        }
+        assert!(read("0 0 0\n").is_err());
         // Trailing blank lines are harmless.
-        assert!(parse(
-            "0 0 0\n1 0 0\n\n\n",
-            "x.comp",
-            CompFileType::Type1,
-            MachineUnits::Mm
-        )
-        .is_ok());
+        assert!(read("0 0 0\n1 0 0\n\n\n").is_ok());
         let many = Positioning {
             positions_mm: (0..300).map(f64::from).collect(),
             forward_um: vec![0.0; 300],

@@ -347,26 +347,26 @@ mod tests {
         );
     }
 
+    /// The located error of loading a model file `m.toml` holding `text`.
+    fn refused(text: &str) -> crate::error::MapFileError {
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(dir.path(), "m.toml", text);
+        match load_model(&p, &LoadOptions::default()).unwrap_err() {
+            LoadError::File(f) => f,
+            e => panic!("{e}"),
+        }
+    }
+
     #[test]
     fn missing_kind_is_located_and_lists_the_kinds() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = write(dir.path(), "m.toml", "chain = \"w X' Y' b Z t\"\n");
-        let e = load_model(&p, &LoadOptions::default()).unwrap_err();
-        let LoadError::File(f) = &e else {
-            panic!("{e}")
-        };
+        let f = refused("chain = \"w X' Y' b Z t\"\n");
         assert_eq!((f.row, f.column), (1, 1));
-        assert!(f.help.contains("\"kinematic-21\", \"straightness\""), "{e}");
+        assert!(f.help.contains("\"kinematic-21\", \"straightness\""), "{f}");
     }
 
     #[test]
     fn unknown_kind_is_located_at_its_value() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = write(dir.path(), "m.toml", "# a model\nmodel = \"thermal-9\"\n");
-        let e = load_model(&p, &LoadOptions::default()).unwrap_err();
-        let LoadError::File(f) = &e else {
-            panic!("{e}")
-        };
+        let f = refused("# a model\nmodel = \"thermal-9\"\n");
         // Row 2, column 9: the opening quote of the value.
         assert_eq!((f.row, f.column), (2, 9));
         assert!(f.message.contains("thermal-9"));

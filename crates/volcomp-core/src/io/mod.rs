@@ -73,6 +73,12 @@ pub(crate) fn read_text(path: &std::path::Path, role: &str) -> Result<String, Fi
     Ok(table::utf8(&bytes, &file)?.to_string())
 }
 
+/// `text` read as a finite number (`None` for anything else, `inf` and
+/// `NaN` too).
+pub(crate) fn finite(text: &str) -> Option<f64> {
+    text.parse().ok().filter(|v: &f64| v.is_finite())
+}
+
 /// A path as printed in messages ([`shown_name`]).
 pub fn shown_path(path: &std::path::Path) -> String {
     shown_name(&path.display().to_string())

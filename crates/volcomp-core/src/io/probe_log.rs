@@ -42,6 +42,7 @@
 //! `states` (`ffr`) and `tool_length_mm`.
 
 use crate::error::MapFileError;
+use crate::io::finite;
 use crate::io::table::{CsvTable, Header, UnknownColumns};
 use crate::model::{Direction, Directions};
 use volcomp_gcode::Vec3;
@@ -179,6 +180,11 @@ fn err(file: &str, line: usize, col: usize, text: &str, msg: String, help: &str)
     MapFileError::new(file, line, col, msg, help).with_source(text, col.saturating_sub(1))
 }
 
+/// An error of the file as a whole (told at its first line and column).
+fn of_the_file(file: &str, message: impl Into<String>, help: &str) -> MapFileError {
+    MapFileError::new(file, 1, 1, message, help)
+}
+
 fn parse_states(s: &str) -> Option<Directions> {
     let b = s.as_bytes();
     if b.len() != 3 {
@@ -226,10 +232,8 @@ struct Frame {
 /// ```
 pub fn read_linuxcnc_log(text: &str, file: &str) -> Result<Vec<Touch>, MapFileError> {
     if text.len() > MAX_LOG_BYTES {
-        return Err(MapFileError::new(
+        return Err(of_the_file(
             file,
-            1,
-            1,
             format!(
                 "{} bytes: larger than a probing log ({MAX_LOG_BYTES} bytes at most)",
                 text.len()
@@ -248,12 +252,12 @@ pub fn read_linuxcnc_log(text: &str, file: &str) -> Result<Vec<Touch>, MapFileEr
             continue;
         }
         let col_of = |needle: &str| text_line.find(needle).map_or(1, |c| c + 1);
+        // An error at column `col` of this line.
+        let refuse =
+            |col: usize, msg: String, help: &str| err(file, line, col, text_line, msg, help);
         if t.contains("######") {
-            return Err(err(
-                file,
-                line,
+            return Err(refuse(
                 col_of("######"),
-                text_line,
                 "LinuxCNC wrote ###### for a parameter it did not know".into(),
                 "the program was not run by LinuxCNC 2.9 as written: generate it again with `volcomp probe plan` and run it unchanged",
             ));
@@ -269,11 +273,8 @@ pub fn read_linuxcnc_log(text: &str, file: &str) -> Result<Vec<Touch>, MapFileEr
                 .find(|(k, _)| *k == key)
                 .map(|(_, v)| *v)
                 .ok_or_else(|| {
-                    err(
-                        file,
-                        line,
+                    refuse(
                         1,
-                        text_line,
                         format!("`{kind}` line without `{key}=`"),
                         "the log is read as the probing program writes it: do not edit it",
                     )
@@ -281,33 +282,21 @@ pub fn read_linuxcnc_log(text: &str, file: &str) -> Result<Vec<Touch>, MapFileEr
         };
         let number = |key: &str| -> Result<f64, MapFileError> {
             let v = get(key)?;
-            v.parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| {
-                    err(
-                        file,
-                        line,
-                        col_of(&format!("{key}=")),
-                        text_line,
-                        format!("{key}=`{v}` is not a number"),
-                        "the log is read as the probing program writes it: do not edit it",
-                    )
-                })
+            finite(v).ok_or_else(|| {
+                refuse(
+                    col_of(&format!("{key}=")),
+                    format!("{key}=`{v}` is not a number"),
+                    "the log is read as the probing program writes it: do not edit it",
+                )
+            })
         };
         let triple = |key: &str| -> Result<Vec3, MapFileError> {
             let v = get(key)?;
-            let parts: Vec<Option<f64>> = v
-                .split(',')
-                .map(|p| p.parse::<f64>().ok().filter(|x| x.is_finite()))
-                .collect();
+            let parts: Vec<Option<f64>> = v.split(',').map(finite).collect();
             match parts.as_slice() {
                 [Some(x), Some(y), Some(z)] => Ok(Vec3::new(*x, *y, *z)),
-                _ => Err(err(
-                    file,
-                    line,
+                _ => Err(refuse(
                     col_of(&format!("{key}=")),
-                    text_line,
                     format!("{key}=`{v}` is not three numbers"),
                     "the log is read as the probing program writes it: do not edit it",
                 )),
@@ -317,11 +306,8 @@ pub fn read_linuxcnc_log(text: &str, file: &str) -> Result<Vec<Touch>, MapFileEr
             "volcomp-probe" => {
                 let version = fields.first().map(|(k, _)| *k).unwrap_or("");
                 if version != LOG_VERSION.to_string() {
-                    return Err(err(
-                        file,
-                        line,
+                    return Err(refuse(
                         15,
-                        text_line,
                         format!(
                             "log version `{version}`: this volcomp reads version {LOG_VERSION}"
                         ),
@@ -333,21 +319,15 @@ pub fn read_linuxcnc_log(text: &str, file: &str) -> Result<Vec<Touch>, MapFileEr
             }
             "frame" => {
                 if number("metric")? != 1.0 {
-                    return Err(err(
-                        file,
-                        line,
+                    return Err(refuse(
                         col_of("metric="),
-                        text_line,
                         "the program ran in inches (#<_metric> = 0)".into(),
                         "run the generated program unchanged: it selects G21",
                     ));
                 }
                 if number("r")? != 0.0 {
-                    return Err(err(
-                        file,
-                        line,
+                    return Err(refuse(
                         col_of("r="),
-                        text_line,
                         "the coordinate system is rotated (G10 L2 R)".into(),
                         "probe in a coordinate system without rotation",
                     ));
@@ -367,43 +347,31 @@ pub fn read_linuxcnc_log(text: &str, file: &str) -> Result<Vec<Touch>, MapFileEr
             }
             "touch" => {
                 let Some(art) = artifact.clone() else {
-                    return Err(err(
-                        file,
-                        line,
+                    return Err(refuse(
                         1,
-                        text_line,
                         "a touch before the `volcomp-probe` header".into(),
                         "give the whole log the program wrote",
                     ));
                 };
                 let Some(fr) = frame else {
-                    return Err(err(
-                        file,
-                        line,
+                    return Err(refuse(
                         1,
-                        text_line,
                         "a touch before the `frame` line".into(),
                         "give the whole log the program wrote",
                     ));
                 };
                 let d = get("d")?;
                 let direction = AxisDir::parse(d).ok_or_else(|| {
-                    err(
-                        file,
-                        line,
+                    refuse(
                         col_of("d="),
-                        text_line,
                         format!("d=`{d}` is not a direction"),
                         "write +X, -X, +Y, -Y, +Z or -Z",
                     )
                 })?;
                 let st = get("st")?;
                 let states = parse_states(st).ok_or_else(|| {
-                    err(
-                        file,
-                        line,
+                    refuse(
                         col_of("st="),
-                        text_line,
                         format!("st=`{st}` is not three of f/r"),
                         "the direction states of X, Y, Z: f (forward) or r (reverse)",
                     )
@@ -412,11 +380,8 @@ pub fn read_linuxcnc_log(text: &str, file: &str) -> Result<Vec<Touch>, MapFileEr
                 let at = triple("at")?;
                 let ok = number("ok")?;
                 if fr.tool_mm.x != 0.0 || fr.tool_mm.y != 0.0 {
-                    return Err(err(
-                        file,
-                        line,
+                    return Err(refuse(
                         1,
-                        text_line,
                         "the tool offset has X or Y parts".into(),
                         "probe with a tool length offset along Z only (G43 H)",
                     ));
@@ -438,22 +403,15 @@ pub fn read_linuxcnc_log(text: &str, file: &str) -> Result<Vec<Touch>, MapFileEr
                 });
             }
             other => {
-                return Err(err(
-                    file,
-                    line,
-                    1,
-                    text_line,
-                    format!("`{other}` is not a line of a volcomp probing log"),
+                return Err(refuse(1, format!("`{other}` is not a line of a volcomp probing log"),
                     "give the log the generated program wrote (volcomp-probe, frame and touch lines), or a CSV of points",
                 ));
             }
         }
     }
     if touches.is_empty() {
-        return Err(MapFileError::new(
+        return Err(of_the_file(
             file,
-            1,
-            1,
             "no touches in the log",
             "run the probing program to its end; the log is written as it probes",
         ));
@@ -461,45 +419,40 @@ pub fn read_linuxcnc_log(text: &str, file: &str) -> Result<Vec<Touch>, MapFileEr
     Ok(touches)
 }
 
+/// The columns of a CSV of probed points: the first
+/// [`REQUIRED_POINT_COLUMNS`] in every file, then the optional ones.
+const POINT_COLUMNS: [&str; 9] = [
+    "artifact",
+    "placement",
+    "feature",
+    "direction",
+    "x_mm",
+    "y_mm",
+    "z_mm",
+    "states",
+    "tool_length_mm",
+];
+const REQUIRED_POINT_COLUMNS: usize = 7;
+
 /// Reads a CSV of probed points (columns in the module documentation).
 pub fn read_points_csv(text: &str, file: &str) -> Result<Vec<Touch>, MapFileError> {
     if text.len() > MAX_LOG_BYTES {
-        return Err(MapFileError::new(
+        return Err(of_the_file(
             file,
-            1,
-            1,
             format!("{} bytes: larger than a probing log", text.len()),
             "give the points of one campaign",
         ));
     }
     let header = Header {
-        known: &[
-            "artifact",
-            "placement",
-            "feature",
-            "direction",
-            "x_mm",
-            "y_mm",
-            "z_mm",
-            "states",
-            "tool_length_mm",
-        ],
+        known: &POINT_COLUMNS,
         unknown: UnknownColumns::Refuse,
         layout: "artifact,placement,feature,direction,x_mm,y_mm,z_mm[,states][,tool_length_mm]",
     };
     let csv = CsvTable::parse(text, file, &header)?;
-    let cols: Vec<usize> = [
-        "artifact",
-        "placement",
-        "feature",
-        "direction",
-        "x_mm",
-        "y_mm",
-        "z_mm",
-    ]
-    .iter()
-    .map(|c| csv.require(c))
-    .collect::<Result<_, _>>()?;
+    let cols: Vec<usize> = POINT_COLUMNS[..REQUIRED_POINT_COLUMNS]
+        .iter()
+        .map(|c| csv.require(c))
+        .collect::<Result<_, _>>()?;
     let states_col = csv.column("states");
     let tool_col = csv.column("tool_length_mm");
     let mut out = Vec::new();
@@ -563,10 +516,8 @@ pub fn read_points_csv(text: &str, file: &str) -> Result<Vec<Touch>, MapFileErro
         });
     }
     if out.is_empty() {
-        return Err(MapFileError::new(
+        return Err(of_the_file(
             file,
-            1,
-            1,
             "no points",
             "add one row per touch below the header",
         ));

@@ -413,14 +413,15 @@ mod tests {
         format!("{axis},both,0,0,0,0\n{axis},both,100,0,0,0\n")
     }
 
+    /// A map file with these rows of X (after the header) and flat Y and Z.
+    fn with_x(x_rows: &str) -> String {
+        format!("{HEAD}{x_rows}{}{}", flat("Y"), flat("Z"))
+    }
+
     #[test]
     fn interpolates_by_hand() {
         // X forward: 0 → 0 µm, 15 → 1.21 µm; at 5 mm: 1.21·5/15 = 0.40333… µm.
-        let csv = format!(
-            "{HEAD}# comment\nX,forward,0,0,0,0\nX,forward,15,1.21,-0.30,0.12\nX,reverse,0,1,0,0\nX,reverse,15,3,0,0\n{}{}",
-            flat("Y"),
-            flat("Z")
-        );
+        let csv = with_x("# comment\nX,forward,0,0,0,0\nX,forward,15,1.21,-0.30,0.12\nX,reverse,0,1,0,0\nX,reverse,15,3,0,0\n");
         let m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
         let e = m
             .deviation_um(Vec3::new(5.0, 50.0, 50.0), ALL_FORWARD, Components::All)
@@ -485,29 +486,17 @@ mod tests {
 
     #[test]
     fn bad_files_name_row_and_column() {
-        let csv = format!(
-            "{HEAD}X,both,0,0,0,0\nX,both,10,nan,0,0\n{}{}",
-            flat("Y"),
-            flat("Z")
-        );
+        let csv = with_x("X,both,0,0,0,0\nX,both,10,nan,0,0\n");
         let e = AxisTableMap::from_csv(&csv, "m.csv").unwrap_err();
         assert_eq!((e.row, e.column), (3, 4));
-        let csv = format!(
-            "{HEAD}X,both,0,0,0,0\nX,both,0,1,0,0\n{}{}",
-            flat("Y"),
-            flat("Z")
-        );
+        let csv = with_x("X,both,0,0,0,0\nX,both,0,1,0,0\n");
         let e = AxisTableMap::from_csv(&csv, "m.csv").unwrap_err();
         assert_eq!((e.row, e.column), (3, 3));
         assert!(e.message.contains("does not increase"));
         let e = AxisTableMap::from_csv("axis,direction,position_in,ex_um,ey_um,ez_um\n", "m.csv")
             .unwrap_err();
         assert_eq!((e.row, e.column), (1, 3));
-        let csv = format!(
-            "{HEAD}X,forward,0,0,0,0\nX,forward,10,0,0,0\n{}{}",
-            flat("Y"),
-            flat("Z")
-        );
+        let csv = with_x("X,forward,0,0,0,0\nX,forward,10,0,0,0\n");
         assert!(AxisTableMap::from_csv(&csv, "m.csv").is_err());
     }
 

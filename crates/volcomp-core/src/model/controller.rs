@@ -392,6 +392,30 @@ mod tests {
     use crate::model::axis_table::AxisTableMap;
     use crate::model::{Direction::Forward as F, Direction::Reverse as R};
 
+    /// The residual of `r` at `q` (mm) with direction state `s` is `want`
+    /// (µm).
+    fn assert_residual(
+        r: &ControllerResidual<AxisTableMap>,
+        q: [f64; 3],
+        s: Directions,
+        want: [f64; 3],
+    ) {
+        let [x, y, z] = q;
+        let v = r
+            .deviation_um(Vec3::new(x, y, z), s, Components::All)
+            .unwrap();
+        let [x, y, z] = want;
+        assert!((v - Vec3::new(x, y, z)).norm() < 1e-12, "{v:?}");
+    }
+
+    /// The controller applies `tables` to [`map`].
+    fn with_tables(tables: ControllerCorrection) -> ControllerResidual<AxisTableMap> {
+        ControllerResidual {
+            map: map(),
+            controller: ControllerApplies::Tables(Box::new(tables)),
+        }
+    }
+
     fn map() -> AxisTableMap {
         // X: E_XX = 0 → 10 µm over 0 … 100 mm forward, 2 → 12 reverse;
         // E_YX (straightness) 0 → 3 µm. Y, Z: no error.
@@ -406,27 +430,15 @@ mod tests {
     fn a_table_is_subtracted_as_the_controller_interpolates_it() {
         // The controller's X table every 50 mm, one table for both directions
         // (the mean 1, 6, 11 µm), rounded to 1 µm as written.
-        let table = Positioning {
-            positions_mm: vec![0.0, 50.0, 100.0],
-            forward_um: vec![1.0, 6.0, 11.0],
-            reverse_um: vec![1.0, 6.0, 11.0],
-        };
-        let r = ControllerResidual {
-            map: map(),
-            controller: ControllerApplies::Tables(Box::new(ControllerCorrection {
-                format: Format::SiemensEec,
-                backlash: [None; 3],
-                notes: Vec::new(),
-                axes: [Some(table), None, None],
-                squareness_urad: None,
-                cross: Vec::new(),
-            })),
-        };
+        let table = Positioning::new(&[0.0, 50.0, 100.0], &[1.0, 6.0, 11.0], &[1.0, 6.0, 11.0]);
+        let r = with_tables(ControllerCorrection {
+            axes: [Some(table), None, None],
+            ..ControllerCorrection::empty(Format::SiemensEec)
+        });
         let q = Vec3::new(25.0, 10.0, 10.0);
         // Forward: e = (2.5, 0.75, 0), c = (3.5, 0, 0) → r = (−1, 0.75, 0):
         // the controller's one table is the mean, so forward is 1 µm short.
-        let f = r.deviation_um(q, [F, F, F], Components::All).unwrap();
-        assert!((f - Vec3::new(-1.0, 0.75, 0.0)).norm() < 1e-12, "{f:?}");
+        assert_residual(&r, q.to_array(), [F, F, F], [-1.0, 0.75, 0.0]);
         // Reverse: e_x = 4.5 → r_x = +1.
         let b = r.deviation_um(q, [R, F, F], Components::All).unwrap();
         assert!((b.x - 1.0).abs() < 1e-12);
@@ -440,60 +452,33 @@ mod tests {
             map: map(),
             controller: ControllerApplies::MapPositioning,
         };
-        let v = r
-            .deviation_um(Vec3::new(50.0, 0.0, 0.0), [R, F, F], Components::All)
-            .unwrap();
         // e = (7, 1.5, 0) reverse; the positioning part 7 is the controller's.
-        assert!((v - Vec3::new(0.0, 1.5, 0.0)).norm() < 1e-12, "{v:?}");
+        assert_residual(&r, [50.0, 0.0, 0.0], [R, F, F], [0.0, 1.5, 0.0]);
     }
 
     #[test]
     fn a_cross_table_corrects_its_output_axis() {
         // The controller corrects E_YX = 0 → 3 µm over X 0 … 100 (the map's
         // straightness): at x = 50 the residual in Y is 1.5 − 1.5 = 0.
-        let r = ControllerResidual {
-            map: map(),
-            controller: ControllerApplies::Tables(Box::new(ControllerCorrection {
-                format: Format::SiemensCec,
-                backlash: [None; 3],
-                notes: Vec::new(),
-                axes: [None, None, None],
-                squareness_urad: None,
-                cross: vec![(
-                    0,
-                    1,
-                    Positioning {
-                        positions_mm: vec![0.0, 100.0],
-                        forward_um: vec![0.0, 3.0],
-                        reverse_um: vec![0.0, 3.0],
-                    },
-                )],
-            })),
-        };
-        let v = r
-            .deviation_um(Vec3::new(50.0, 0.0, 0.0), [F, F, F], Components::All)
-            .unwrap();
-        assert!((v - Vec3::new(5.0, 0.0, 0.0)).norm() < 1e-12, "{v:?}");
+        let r = with_tables(ControllerCorrection {
+            cross: vec![(
+                0,
+                1,
+                Positioning::new(&[0.0, 100.0], &[0.0, 3.0], &[0.0, 3.0]),
+            )],
+            ..ControllerCorrection::empty(Format::SiemensCec)
+        });
+        assert_residual(&r, [50.0, 0.0, 0.0], [F, F, F], [5.0, 0.0, 0.0]);
     }
 
     #[test]
     fn squareness_of_a_firmware_is_subtracted() {
-        let r = ControllerResidual {
-            map: map(),
-            controller: ControllerApplies::Tables(Box::new(ControllerCorrection {
-                format: Format::Klipper,
-                backlash: [None; 3],
-                notes: Vec::new(),
-                axes: [None, None, None],
-                squareness_urad: Some([10.0, -20.0, 30.0]),
-                cross: Vec::new(),
-            })),
-        };
+        let r = with_tables(ControllerCorrection {
+            squareness_urad: Some([10.0, -20.0, 30.0]),
+            ..ControllerCorrection::empty(Format::Klipper)
+        });
         // At (0, 50, 20): c = (10·50 + 30·20, −20·20, 0)·10⁻³ = (1.1, −0.4, 0) µm; e = 0.
-        let v = r
-            .deviation_um(Vec3::new(0.0, 50.0, 20.0), [F, F, F], Components::All)
-            .unwrap();
-        assert!((v - Vec3::new(-1.1, 0.4, 0.0)).norm() < 1e-12, "{v:?}");
+        assert_residual(&r, [0.0, 50.0, 20.0], [F, F, F], [-1.1, 0.4, 0.0]);
         // Positioning only: the squareness is not part of it.
         let p = r
             .deviation_um(

@@ -40,6 +40,16 @@ pub fn grid_axis(lo_mm: f64, hi_mm: f64, step_mm: f64) -> Vec<f64> {
 }
 
 impl Positioning {
+    /// A table from its positions (mm, strictly increasing) and its values
+    /// forward and in reverse (µm), as written by hand.
+    pub fn new(positions_mm: &[f64], forward_um: &[f64], reverse_um: &[f64]) -> Self {
+        Positioning {
+            positions_mm: positions_mm.to_vec(),
+            forward_um: forward_um.to_vec(),
+            reverse_um: reverse_um.to_vec(),
+        }
+    }
+
     /// Points the table has when resampled every `step_mm` (both ends
     /// kept); `None` for a step that is not a positive finite length.
     pub fn resampled_points(&self, step_mm: f64) -> Option<u64> {
@@ -156,11 +166,7 @@ mod tests {
 
     #[test]
     fn resample_interpolates_linearly() {
-        let p = Positioning {
-            positions_mm: vec![0.0, 10.0, 30.0],
-            forward_um: vec![0.0, 10.0, 30.0],
-            reverse_um: vec![4.0, 4.0, 0.0],
-        };
+        let p = Positioning::new(&[0.0, 10.0, 30.0], &[0.0, 10.0, 30.0], &[4.0, 4.0, 0.0]);
         let r = p.resample(10.0);
         assert_eq!(r.positions_mm, vec![0.0, 10.0, 20.0, 30.0]);
         assert_eq!(r.forward_um, vec![0.0, 10.0, 20.0, 30.0]);
@@ -203,11 +209,7 @@ mod tests {
 
     #[test]
     fn tables_of_positioning_hold_only_the_axis_own_column() {
-        let p = |k: f64| Positioning {
-            positions_mm: vec![0.0, 100.0],
-            forward_um: vec![0.0, k],
-            reverse_um: vec![1.0, k + 1.0],
-        };
+        let p = |k: f64| Positioning::new(&[0.0, 100.0], &[0.0, k], &[1.0, k + 1.0]);
         let m = AxisTableMap::from_positioning(&[p(2.0), p(3.0), p(4.0)]);
         assert!(!m.clamp);
         assert_eq!(m.axes[1].forward.errors_um[1], Vec3::new(0.0, 3.0, 0.0));

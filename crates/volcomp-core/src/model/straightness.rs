@@ -279,20 +279,19 @@ impl StraightnessModel {
                 "a straightness model is written by `volcomp straightness fit`; see docs/straightness.md for its keys",
             ))
         })?;
+        // The top-level keys' errors.
+        let top = |key: &str, message: String, help: &str| err(Scope::Top, key, message, help);
         if raw.kind != KIND {
-            return Err(err(
-                Scope::Top,
+            let kind = crate::text::table::shown(&raw.kind);
+            let message = format!("kind is `{kind}`, not `{KIND}`");
+            return Err(top(
                 "kind",
-                format!(
-                    "kind is `{}`, not `{KIND}`",
-                    crate::text::table::shown(&raw.kind)
-                ),
+                message,
                 "this file is not a straightness model",
             ));
         }
         if raw.format_version != FORMAT_VERSION {
-            return Err(err(
-                Scope::Top,
+            return Err(top(
                 "format_version",
                 format!(
                     "format_version {} is not supported (this volcomp reads {FORMAT_VERSION})",
@@ -307,12 +306,8 @@ impl StraightnessModel {
             ("alpha_yz_urad", raw.alpha_yz_urad),
         ] {
             if !v.is_finite() {
-                return Err(err(
-                    Scope::Top,
-                    name,
-                    format!("{name} = {v} is not a finite number"),
-                    "write a finite number",
-                ));
+                let message = format!("{name} = {v} is not a finite number");
+                return Err(top(name, message, "write a finite number"));
             }
         }
         let axis =

@@ -168,27 +168,16 @@ impl Topology {
             i += len;
         }
         let end = chars.len() + 1;
-        match links.first() {
-            Some((Link::Workpiece, _)) => {}
-            Some((_, col)) => {
-                return Err(err(
-                    *col,
-                    "the chain must start at the workpiece `w`".into(),
-                    grammar,
-                ))
+        let (Some(first), Some(last)) = (links.first(), links.last()) else {
+            return Err(err(1, "the chain is empty".into(), grammar));
+        };
+        for ((link, col), end, must) in [
+            (first, Link::Workpiece, "start at the workpiece `w`"),
+            (last, Link::Tool, "end at the tool `t`"),
+        ] {
+            if *link != end {
+                return Err(err(*col, format!("the chain must {must}"), grammar));
             }
-            None => return Err(err(1, "the chain is empty".into(), grammar)),
-        }
-        match links.last() {
-            Some((Link::Tool, _)) => {}
-            Some((_, col)) => {
-                return Err(err(
-                    *col,
-                    "the chain must end at the tool `t`".into(),
-                    grammar,
-                ))
-            }
-            None => unreachable!("links is not empty"),
         }
         let mut order = Vec::with_capacity(3);
         let mut base: Option<usize> = None;

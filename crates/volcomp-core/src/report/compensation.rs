@@ -8,7 +8,7 @@
 
 use super::svg::{self, Chart, Mark, PlanPanel, PlanPiece, Series, PALETTE};
 use super::text::count;
-use super::trace::{LengthHistogram, PathTrace};
+use super::trace::{LengthHistogram, PathBin, PathTrace};
 use super::{Block, Section, Table};
 use crate::compensate::{CompensateSummary, PointRecord};
 use crate::io::provenance::ProgramHeader;
@@ -299,38 +299,39 @@ fn zoomed(before: Option<&Measured>, after: &Measured, shared_max_um: f64) -> Op
     (before.is_some() && after_max > 0.0 && after_max < 0.2 * shared_max_um).then_some(after_max)
 }
 
-fn contour_series(m: &Measured, colour: &str) -> Series {
+/// A run's error along the path: `what` of each bin, drawn as `mark` at the
+/// bin's middle.
+fn along_series(
+    m: &Measured,
+    colour: &str,
+    what: &str,
+    mark: Mark,
+    value: impl Fn(&PathBin) -> Option<(f64, f64)>,
+) -> Series {
     Series {
-        name: format!("{}: largest contour error per command", m.label),
+        name: format!("{}: {what}", m.label),
         colour: colour.to_string(),
-        mark: Mark::Envelope,
+        mark,
         points: m
             .trace
             .bins
             .iter()
-            .map(|b| {
-                (
-                    (b.s0_mm + b.s1_mm) / 2.0,
-                    b.contour_min_um,
-                    b.contour_max_um,
-                )
-            })
+            .filter_map(|b| value(b).map(|(lo, hi)| (b.mid_mm(), lo, hi)))
             .collect(),
     }
 }
 
+fn contour_series(m: &Measured, colour: &str) -> Series {
+    let what = "largest contour error per command";
+    along_series(m, colour, what, Mark::Envelope, |b| {
+        Some((b.contour_min_um, b.contour_max_um))
+    })
+}
+
 fn point_series(m: &Measured, colour: &str) -> Series {
-    Series {
-        name: format!("{}: point error", m.label),
-        colour: colour.to_string(),
-        mark: Mark::Markers,
-        points: m
-            .trace
-            .bins
-            .iter()
-            .filter_map(|b| b.point_max_um.map(|p| ((b.s0_mm + b.s1_mm) / 2.0, p, 0.0)))
-            .collect(),
-    }
+    along_series(m, colour, "point error", Mark::Markers, |b| {
+        b.point_max_um.map(|p| (p, 0.0))
+    })
 }
 
 fn along_chart(y_label: &str, plot_height: f64, series: Vec<Series>) -> String {
@@ -459,62 +460,63 @@ pub const DEFINED_ONCE: &str =
 /// The definitions of the metrics, as the tables use them: given once per
 /// document, on its first page ([`super::Document::front`]).
 pub fn definitions() -> Block {
-    Block::Table(Table {
-        headers: vec!["metric".into(), "definition (docs/design.md)".into()],
-        rows: vec![
+    Block::Table(Table::new(
+        &["metric", "definition (docs/design.md)"],
+        &[],
+        vec![
             vec!["point error".into(), POINT_DEFINITION.into()],
             vec!["contour error".into(), CONTOUR_DEFINITION.into()],
         ],
-        numeric: vec![],
-    })
+    ))
 }
 
 /// The compensation's own figures.
 pub fn summary_table(s: &CompensateSummary) -> Table {
-    Table {
-        headers: vec!["compensation".into(), "".into()],
-        rows: vec![
-            vec![
-                "lines read / written".into(),
-                format!("{} / {}", s.lines_in, s.lines_out),
-            ],
-            vec!["target points compensated".into(), s.points.to_string()],
-            vec![
-                "largest correction (µm)".into(),
-                format!("{:.3}", s.max_correction_um),
-            ],
-            vec![
-                "largest model residual (µm)".into(),
-                format!("{:.4}", s.max_residual_um),
-            ],
-            vec![
-                "take-up blocks written (a stop each)".into(),
-                s.take_ups.to_string(),
-            ],
-            vec![
-                "take-ups folded into their moves".into(),
-                s.take_ups_folded.to_string(),
-            ],
-            vec![
-                "largest excursion at a folded reversal (µm)".into(),
-                format!("{:.3}", s.max_fold_excursion_um),
-            ],
-            vec!["points with an axis held".into(), s.held_count.to_string()],
-            vec![
-                "canned-cycle holes kept as cycles / written as moves".into(),
-                format!("{} / {}", s.cycle_holes_kept, s.cycle_holes_expanded),
-            ],
-            vec![
-                "largest error a kept cycle leaves (µm)".into(),
-                format!("{:.3}", s.max_cycle_error_um),
-            ],
-            vec![
-                "feed moves NOT compensated (an axis never set)".into(),
-                s.uncompensated_moves.to_string(),
-            ],
-        ],
-        numeric: vec![false, true],
-    }
+    let rows = [
+        (
+            "lines read / written",
+            format!("{} / {}", s.lines_in, s.lines_out),
+        ),
+        ("target points compensated", s.points.to_string()),
+        (
+            "largest correction (µm)",
+            format!("{:.3}", s.max_correction_um),
+        ),
+        (
+            "largest model residual (µm)",
+            format!("{:.4}", s.max_residual_um),
+        ),
+        (
+            "take-up blocks written (a stop each)",
+            s.take_ups.to_string(),
+        ),
+        (
+            "take-ups folded into their moves",
+            s.take_ups_folded.to_string(),
+        ),
+        (
+            "largest excursion at a folded reversal (µm)",
+            format!("{:.3}", s.max_fold_excursion_um),
+        ),
+        ("points with an axis held", s.held_count.to_string()),
+        (
+            "canned-cycle holes kept as cycles / written as moves",
+            format!("{} / {}", s.cycle_holes_kept, s.cycle_holes_expanded),
+        ),
+        (
+            "largest error a kept cycle leaves (µm)",
+            format!("{:.3}", s.max_cycle_error_um),
+        ),
+        (
+            "feed moves NOT compensated (an axis never set)",
+            s.uncompensated_moves.to_string(),
+        ),
+    ];
+    Table::new(
+        &["compensation", ""],
+        &[false, true],
+        rows.into_iter().map(|(k, v)| vec![k.into(), v]).collect(),
+    )
 }
 
 fn axes_text(f: [bool; 3]) -> String {
@@ -712,16 +714,17 @@ pub fn corrections_section(
         "The {} largest corrections ‖command − target‖ of the run (targets in the machine's axis frame).",
         corrections.items.len()
     ))];
-    blocks.push(Block::Table(Table {
-        headers: vec![
-            "line".into(),
-            "program line".into(),
-            "target X, Y, Z (mm)".into(),
-            "correction (µm)".into(),
-            "residual (µm)".into(),
-            "held".into(),
+    blocks.push(Block::Table(Table::new(
+        &[
+            "line",
+            "program line",
+            "target X, Y, Z (mm)",
+            "correction (µm)",
+            "residual (µm)",
+            "held",
         ],
-        rows: corrections
+        &[true, false, true, true, true, false],
+        corrections
             .items
             .iter()
             .map(|c| {
@@ -738,8 +741,7 @@ pub fn corrections_section(
                 ]
             })
             .collect(),
-        numeric: vec![true, false, true, true, true, false],
-    }));
+    )));
     if summary.held_count == 0 {
         blocks.push(Block::Text(
             "No axis was held: every reversal could be compensated.".into(),

@@ -101,11 +101,11 @@ pub fn markdown(columns: &[Column], rows: &[Row]) -> String {
 
 /// The table of the HTML report's overview.
 pub fn overview(columns: &[Column], rows: &[Row]) -> Table {
-    let mut t = Table {
-        headers: vec!["program".into(), "error RMS (µm)".into(), "before".into()],
-        rows: Vec::new(),
-        numeric: vec![false, false, true],
-    };
+    let mut t = Table::new(
+        &["program", "error RMS (µm)", "before"],
+        &[false, false, true],
+        Vec::new(),
+    );
     for c in columns {
         t.headers.push(c.label.into());
         t.numeric.push(true);

@@ -81,14 +81,15 @@ pub fn sections(r: &Iso230_2Report) -> Vec<Section> {
         ..Chart::default()
     });
     let a = &r.axis;
-    let figures = Table {
-        headers: vec![
-            "figure (ISO 230-2)".into(),
-            "↑ (µm)".into(),
-            "↓ (µm)".into(),
-            "bidirectional (µm)".into(),
+    let figures = Table::new(
+        &[
+            "figure (ISO 230-2)",
+            "↑ (µm)",
+            "↓ (µm)",
+            "bidirectional (µm)",
         ],
-        rows: vec![
+        &[false, true, true, true],
+        vec![
             vec![
                 "B reversal value (B̄ mean)".into(),
                 String::new(),
@@ -120,8 +121,7 @@ pub fn sections(r: &Iso230_2Report) -> Vec<Section> {
                 um(a.accuracy_um),
             ],
         ],
-        numeric: vec![false, true, true, true],
-    };
+    );
     let per_target = Table {
         headers: [
             "Pᵢ (mm)",

@@ -103,6 +103,18 @@ pub struct Table {
     pub numeric: Vec<bool>,
 }
 
+impl Table {
+    /// A table with these headings, `numeric[i]` for each column aligned
+    /// right (none when empty), and these rows.
+    pub fn new(headers: &[&str], numeric: &[bool], rows: Vec<Vec<String>>) -> Self {
+        Self {
+            headers: headers.iter().map(|h| h.to_string()).collect(),
+            rows,
+            numeric: numeric.to_vec(),
+        }
+    }
+}
+
 /// One piece of a section.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Block {

@@ -21,17 +21,17 @@ pub fn sections(out: &FitOutput, ranges_mm: [[f64; 2]; 3]) -> Vec<Section> {
     let id = &out.identified;
     let mut s = Vec::new();
     // Parameters.
-    let mut t = Table {
-        headers: vec![
-            "parameter".into(),
-            "value".into(),
-            "standard uncertainty".into(),
-            "unit".into(),
-            "status".into(),
+    let mut t = Table::new(
+        &[
+            "parameter",
+            "value",
+            "standard uncertainty",
+            "unit",
+            "status",
         ],
-        rows: Vec::new(),
-        numeric: vec![false, true, true, false, false],
-    };
+        &[false, true, true, false, false],
+        Vec::new(),
+    );
     // With a Monte Carlo, the two uncertainties it took the larger of.
     let mc = id.monte_carlo.as_ref();
     if let Some(mc) = mc {
@@ -128,19 +128,15 @@ pub fn sections(out: &FitOutput, ranges_mm: [[f64; 2]; 3]) -> Vec<Section> {
     // Probe calibration.
     let mut blocks = Vec::new();
     for c in &out.fitted.calibrations {
-        let mut t = Table {
-            headers: vec![
-                "quantity".into(),
-                "value".into(),
-                "standard uncertainty".into(),
-            ],
-            rows: vec![row(&[
+        let mut t = Table::new(
+            &["quantity", "value", "standard uncertainty"],
+            &[false, true, true],
+            vec![row(&[
                 "effective tip radius (mm)".into(),
                 numfmt::fixed(c.tip_radius_mm.value, 5),
                 format!("{} µm", numfmt::fixed(c.tip_radius_mm.sigma, 3)),
             ])],
-            numeric: vec![false, true, true],
-        };
+        );
         for d in AxisDir::ALL {
             if let Some(e) = c.pretravel_um[d.index()] {
                 t.rows.push(row(&[
@@ -212,38 +208,31 @@ pub fn sections(out: &FitOutput, ranges_mm: [[f64; 2]; 3]) -> Vec<Section> {
         "Every measured sphere centre and face touch of the {} placements, coloured by what the identified model leaves of it (µm): the artifact's own errors and the placements are solved together with the machine.",
         placements.len()
     ))];
-    blocks.push(Block::Figure {
-        svg: svg::plan_view(
+    for (panels, y_label, caption) in [
+        (
             &panels_xy,
-            (0.0, hi.max(1e-3)),
-            6.0,
-            "residual (µm)",
-            "X (mm)",
             "Y (mm)",
+            "Placements seen from above, residual per sphere or touch.",
         ),
-        caption: "Placements seen from above, residual per sphere or touch.".into(),
-    });
-    blocks.push(Block::Figure {
-        svg: svg::plan_view(
-            &panels_xz,
-            (0.0, hi.max(1e-3)),
-            6.0,
-            "residual (µm)",
-            "X (mm)",
-            "Z (mm)",
-        ),
-        caption: "Placements seen from the front.".into(),
-    });
-    let mut t = Table {
-        headers: vec![
-            "artifact".into(),
-            "placement".into(),
-            "observations".into(),
-            "RMS residual (µm)".into(),
-        ],
-        rows: Vec::new(),
-        numeric: vec![false, false, true, true],
-    };
+        (&panels_xz, "Z (mm)", "Placements seen from the front."),
+    ] {
+        blocks.push(Block::Figure {
+            svg: svg::plan_view(
+                panels,
+                (0.0, hi.max(1e-3)),
+                6.0,
+                "residual (µm)",
+                "X (mm)",
+                y_label,
+            ),
+            caption: caption.into(),
+        });
+    }
+    let mut t = Table::new(
+        &["artifact", "placement", "observations", "RMS residual (µm)"],
+        &[false, false, true, true],
+        Vec::new(),
+    );
     for (a, p) in &placements {
         let v: Vec<f64> = id
             .residuals
@@ -261,17 +250,11 @@ pub fn sections(out: &FitOutput, ranges_mm: [[f64; 2]; 3]) -> Vec<Section> {
     }
     blocks.push(Block::Table(t));
     if !id.artifact_deviations.is_empty() {
-        let mut t = Table {
-            headers: vec![
-                "artifact".into(),
-                "feature".into(),
-                "dx".into(),
-                "dy".into(),
-                "dz".into(),
-            ],
-            rows: Vec::new(),
-            numeric: vec![false, false, true, true, true],
-        };
+        let mut t = Table::new(
+            &["artifact", "feature", "dx", "dy", "dz"],
+            &[false, false, true, true, true],
+            Vec::new(),
+        );
         for (a, f, d) in &id.artifact_deviations {
             t.rows.push(row(&[
                 a.clone(),
@@ -291,16 +274,16 @@ pub fn sections(out: &FitOutput, ranges_mm: [[f64; 2]; 3]) -> Vec<Section> {
     });
     // Leave one placement out.
     if !out.held_out.is_empty() {
-        let mut t = Table {
-            headers: vec![
-                "artifact".into(),
-                "placement".into(),
-                "uncorrected (µm)".into(),
-                "predicted (µm)".into(),
+        let mut t = Table::new(
+            &[
+                "artifact",
+                "placement",
+                "uncorrected (µm)",
+                "predicted (µm)",
             ],
-            rows: Vec::new(),
-            numeric: vec![false, false, true, true],
-        };
+            &[false, false, true, true],
+            Vec::new(),
+        );
         let mut before = Vec::new();
         let mut after = Vec::new();
         for (k, h) in out.held_out.iter().enumerate() {

@@ -425,24 +425,13 @@ fn legend_height(names: &[&Series]) -> f64 {
 /// An x–y chart as an SVG element.
 pub fn chart(c: &Chart) -> String {
     // On a logarithmic axis everything is drawn in decades (log10).
-    let tx = |v: f64| {
-        if !c.log_x {
-            v
-        } else if v > 0.0 {
-            v.log10()
-        } else {
-            f64::NAN
-        }
+    let decades = |log: bool, v: f64| match (log, v > 0.0) {
+        (false, _) => v,
+        (true, true) => v.log10(),
+        (true, false) => f64::NAN,
     };
-    let ty = |v: f64| {
-        if !c.log_y {
-            v
-        } else if v > 0.0 {
-            v.log10()
-        } else {
-            f64::NAN
-        }
-    };
+    let tx = |v: f64| decades(c.log_x, v);
+    let ty = |v: f64| decades(c.log_y, v);
     let series: Vec<Series> = c
         .series
         .iter()

@@ -56,6 +56,14 @@ pub struct PathBin {
     pub commands: u64,
 }
 
+impl PathBin {
+    /// The middle of the bin (mm of commanded feed path), where a chart
+    /// draws it.
+    pub fn mid_mm(&self) -> f64 {
+        (self.s0_mm + self.s1_mm) / 2.0
+    }
+}
+
 /// Path length by contour error on bins `[k w, (k + 1) w)` whose width `w`
 /// doubles (neighbours merged) when a larger value arrives, so that
 /// [`HISTOGRAM_BINS`] bins always cover every value.

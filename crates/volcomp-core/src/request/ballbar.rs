@@ -23,71 +23,51 @@ request! {
     /// A prediction of the circular test, as plain values.
     pub struct BallbarPredictRequest {}
     /// The options of [`BallbarPredictRequest`].
-    pub const BALLBAR_PREDICT_OPTIONS;
-    options [BALLBAR_PREDICT_OPTIONS], unknown "plane";
+    pub const BALLBAR_PREDICT_OPTIONS, unknown "plane";
 
     /// The pivot (mm).
-    centre_mm: Option<[f64; 3]> = None,
-        Triple "The ballbar's pivot: the circle's centre in machine coordinates (mm, X,Y,Z)."
-        .value("X,Y,Z")
-        .required();
+    centre_mm: Option<[f64; 3]> = None, Triple.value("X,Y,Z").required(),
+        "The ballbar's pivot: the circle's centre in machine coordinates (mm, X,Y,Z).";
 
     /// `XY`, `YZ` or `ZX`.
-    plane: String = "XY".into(),
-        Choice "The test plane."
-        .value("PLANE")
-        .default("XY")
-        .choices(PLANES);
+    plane: String = "XY".into(), Choice.value("PLANE").default("XY").choices(PLANES),
+        "The test plane.";
 
     /// The radius (mm).
-    radius_mm: f64 = TestCircle::default().radius_mm,
-        Number "The ballbar's nominal length: the circle's radius (mm)."
-        .value("MM")
-        .default("100");
+    radius_mm: f64 = TestCircle::default().radius_mm, Number.value("MM").default("100"),
+        "The ballbar's nominal length: the circle's radius (mm).";
 
     /// The feed (mm/min).
-    feed_mm_per_min: f64 = TestCircle::default().feed_mm_per_min,
-        Number "The programmed feed (mm/min)."
-        .value("F")
-        .default("1000");
+    feed_mm_per_min: f64 = TestCircle::default().feed_mm_per_min, Number.value("F").default("1000"),
+        "The programmed feed (mm/min).";
 
     /// `both`, `ccw` or `cw`.
-    direction: String = "both".into(),
-        Choice "The runs: counter-clockwise then clockwise (`both`), or one of them."
-        .value("DIR")
-        .default("both")
-        .choices(&[
-                ("both", "Counter-clockwise (G3), then clockwise (G2)"),
-                ("ccw", "Counter-clockwise only (G3)"),
-                ("cw", "Clockwise only (G2)"),
-            ]);
+    direction: String = "both".into(), Choice.value("DIR").default("both").choices(&[
+        ("both", "Counter-clockwise (G3), then clockwise (G2)"),
+        ("ccw", "Counter-clockwise only (G3)"),
+        ("cw", "Clockwise only (G2)"),
+    ]),
+        "The runs: counter-clockwise then clockwise (`both`), or one of them.";
 
     /// The data arc's start (degrees).
-    start_deg: f64 = TestCircle::default().start_deg,
-        Number "Where the data arc starts: degrees from the plane's first axis toward its second."
-        .value("DEG")
-        .default("0");
+    start_deg: f64 = TestCircle::default().start_deg, Number.value("DEG").default("0"),
+        "Where the data arc starts: degrees from the plane's first axis toward its second.";
 
     /// The feed-in and feed-out arcs (degrees).
-    overshoot_deg: f64 = TestCircle::default().overshoot_deg,
-        Number "The feed-in and feed-out arcs before and after the data arc (degrees)."
-        .value("DEG")
-        .default("180");
+    overshoot_deg: f64 = TestCircle::default().overshoot_deg, Number.value("DEG").default("180"),
+        "The feed-in and feed-out arcs before and after the data arc (degrees).";
 
     /// The sample step (degrees).
-    step_deg: f64 = TestCircle::default().step_deg,
-        Number "The angle between samples (degrees; 360 a whole multiple of it)."
-        .value("DEG")
-        .default("0.1");
+    step_deg: f64 = TestCircle::default().step_deg, Number.value("DEG").default("0.1"),
+        "The angle between samples (degrees; 360 a whole multiple of it).";
 
     /// A program run instead of the test's own.
-    program: Option<Input> = None,
-        Input "The program the machine runs instead of the test's own (the test's program after `volcomp compensate`): the trace after compensation."
-        .value("PROGRAM");
+    program: Option<Input> = None, Input.value("PROGRAM"),
+        "The program the machine runs instead of the test's own (the test's program after `volcomp compensate`): the trace after compensation.";
 
     /// Clamp the map.
-    clamp: bool = false,
-        Switch "Clamp positions outside the map's range to its end instead of refusing.";
+    clamp: bool = false, Switch,
+        "Clamp positions outside the map's range to its end instead of refusing.";
 }
 
 /// A predicted test: the trace, its figures, the test's program.
@@ -174,40 +154,31 @@ request! {
     pub struct BallbarFitRequest {}
     /// The options of [`BallbarFitRequest`] (the set-up options fill what a
     /// trace file does not say).
-    pub const BALLBAR_FIT_OPTIONS;
-    options [BALLBAR_FIT_OPTIONS], unknown "pitch_mm";
+    pub const BALLBAR_FIT_OPTIONS, unknown "pitch_mm";
 
     /// Pitches of X, Y, Z (0: none).
-    pitch_mm: Option<[f64; 3]> = None,
-        Triple "Lead-screw pitch of X, Y, Z for the cyclic error (mm; 0: none)."
-        .value("X,Y,Z");
+    pitch_mm: Option<[f64; 3]> = None, Triple.value("X,Y,Z"),
+        "Lead-screw pitch of X, Y, Z for the cyclic error (mm; 0: none).";
 
     /// A spike's decay angle (degrees).
-    spike_width_deg: f64 = FitOptions::default().spike_width_deg,
-        Number "How fast a reversal spike decays: its angle of decay to 1/e (degrees)."
-        .value("DEG")
-        .default("2");
+    spike_width_deg: f64 = FitOptions::default().spike_width_deg, Number.value("DEG").default("2"),
+        "How fast a reversal spike decays: its angle of decay to 1/e (degrees).";
 
     /// The plane, when the file does not say it.
-    trace_plane: Option<String> = None,
-        Choice "The test plane, when the trace file does not say it (`# plane = XY`)."
-        .value("PLANE")
-        .choices(PLANES);
+    trace_plane: Option<String> = None, Choice.value("PLANE").choices(PLANES),
+        "The test plane, when the trace file does not say it (`# plane = XY`).";
 
     /// The radius, when the file does not say it.
-    trace_radius_mm: Option<f64> = None,
-        Number "The ballbar's nominal length, when the trace file does not say it (`# radius_mm = …`)."
-        .value("MM");
+    trace_radius_mm: Option<f64> = None, Number.value("MM"),
+        "The ballbar's nominal length, when the trace file does not say it (`# radius_mm = …`).";
 
     /// The pivot, when the file does not say it.
-    trace_centre_mm: Option<[f64; 3]> = None,
-        Triple "The pivot in machine coordinates, when the trace file does not say it (`# centre_mm = …`; only cyclic errors need it)."
-        .value("X,Y,Z");
+    trace_centre_mm: Option<[f64; 3]> = None, Triple.value("X,Y,Z"),
+        "The pivot in machine coordinates, when the trace file does not say it (`# centre_mm = …`; only cyclic errors need it).";
 
     /// The feed, when the file does not say it.
-    trace_feed_mm_per_min: Option<f64> = None,
-        Number "The test's feed, when the trace file does not say it (`# feed_mm_per_min = …`; only the servo mismatch needs it)."
-        .value("F");
+    trace_feed_mm_per_min: Option<f64> = None, Number.value("F"),
+        "The test's feed, when the trace file does not say it (`# feed_mm_per_min = …`; only the servo mismatch needs it).";
 }
 
 impl BallbarFitRequest {
@@ -336,10 +307,8 @@ request! {
     options [BALLBAR_MAP_OPTIONS, BALLBAR_FIT_OPTIONS], unknown "range_mm";
 
     /// The map's range per axis (mm).
-    range_mm: Option<[[f64; 2]; 3]> = None,
-        Ranges "The quick map's range per axis (mm): X0:X1,Y0:Y1,Z0:Z1, the volume programs will be compensated in."
-        .value("RANGES")
-        .required();
+    range_mm: Option<[[f64; 2]; 3]> = None, Ranges.value("RANGES").required(),
+        "The quick map's range per axis (mm): X0:X1,Y0:Y1,Z0:Z1, the volume programs will be compensated in.";
 }
 
 /// A quick model: its values, the fit of each trace, the map file's text.

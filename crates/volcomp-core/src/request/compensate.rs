@@ -41,128 +41,100 @@ request! {
     options [MACHINE_OPTIONS, COMPENSATE_OPTIONS], unknown "method";
 
     /// `exact`, `ilc`, `direct` or `pitch`.
-    method: String = "exact".into(),
-        Choice "Compensation method."
-        .default("exact")
-        .value("METHOD")
-        .choices(&[
-                ("exact", "Solve q + e(q, s) = t to a tolerance (default)"),
-                ("ilc", "Iterative learning control, q ← q + γ·(t − actual(q))"),
-                ("direct", "One step, q = t − e(t, s)"),
-                ("pitch", "Exact, but only with the positioning errors E_XX, E_YY, E_ZZ"),
-            ]);
+    method: String = "exact".into(), Choice.default("exact").value("METHOD").choices(&[
+        ("exact", "Solve q + e(q, s) = t to a tolerance (default)"),
+        ("ilc", "Iterative learning control, q ← q + γ·(t − actual(q))"),
+        ("direct", "One step, q = t − e(t, s)"),
+        ("pitch", "Exact, but only with the positioning errors E_XX, E_YY, E_ZZ"),
+    ]),
+        "Compensation method.";
 
     /// Fixed segment length (mm).
-    segment_length_mm: Option<f64> = None,
-        Number "Split feed moves into segments of at most this length (mm) instead of adaptively."
-        .flag("segment-length")
-        .value("MM");
+    segment_length_mm: Option<f64> = None, Number.flag("segment-length").value("MM"),
+        "Split feed moves into segments of at most this length (mm) instead of adaptively.";
 
     /// Fixed number of segments per move.
-    segments: Option<u64> = None,
-        Count "Split every feed move into this many segments (as the papers do)."
-        .value("N");
+    segments: Option<u64> = None, Count.value("N"),
+        "Split every feed move into this many segments (as the papers do).";
 
     /// No splitting.
-    no_split: bool = false,
-        Switch "Do not split feed moves (only arcs are linearised).";
+    no_split: bool = false, Switch,
+        "Do not split feed moves (only arcs are linearised).";
 
     /// Adaptive splitting's contour tolerance (µm).
-    contour_tolerance_um: Option<f64> = None,
-        Number "Contour tolerance (µm, default 0.1): feed moves are split adaptively, at the map's table points and where the map bends the path by more than this (the default segmentation)."
-        .value("UM");
+    contour_tolerance_um: Option<f64> = None, Number.value("UM"),
+        "Contour tolerance (µm, default 0.1): feed moves are split adaptively, at the map's table points and where the map bends the path by more than this (the default segmentation).";
 
     /// Adaptive splitting's shortest segment (mm); `None`: the default.
     min_segment_length_mm: Option<f64> = None,
-        Number "Shortest segment of adaptive splitting (mm)."
-        .flag("min-segment-length")
-        .value("MM")
-        .default("0.01");
+        Number.flag("min-segment-length").value("MM").default("0.01"),
+        "Shortest segment of adaptive splitting (mm).";
 
     /// ILC gain; an option of ILC only.
-    gain: f64 = DEFAULT_ILC_GAIN,
-        Number "ILC gain γ, 0 < γ ≤ 1."
-        .value("GAIN")
-        .default("0.5");
+    gain: f64 = DEFAULT_ILC_GAIN, Number.value("GAIN").default("0.5"),
+        "ILC gain γ, 0 < γ ≤ 1.";
 
     /// ILC iteration limit; an option of ILC only.
-    max_iterations: u64 = DEFAULT_ILC_ITERATIONS,
-        Count "ILC iteration limit (at least 1)."
-        .value("N")
-        .default("20");
+    max_iterations: u64 = DEFAULT_ILC_ITERATIONS, Count.value("N").default("20"),
+        "ILC iteration limit (at least 1).";
 
     /// Largest residual accepted (µm).
-    max_residual_um: f64 = DEFAULT_MAX_RESIDUAL_UM,
-        Number "Largest model residual accepted at a point (µm) with the exact and ILC solvers; a point that is not reached is an error at its line."
-        .value("UM")
-        .default("1");
+    max_residual_um: f64 = DEFAULT_MAX_RESIDUAL_UM, Number.value("UM").default("1"),
+        "Largest model residual accepted at a point (µm) with the exact and ILC solvers; a point that is not reached is an error at its line.";
 
     /// Largest output (bytes); `None`: no limit.
     max_output_bytes: Option<u64> = Some(DEFAULT_MAX_OUTPUT_BYTES),
-        Size "Largest output accepted, in bytes (suffixes K, M, G: powers of 1024), or `none`; a bigger output is refused and nothing is written."
-        .flag("max-output-size")
-        .value("BYTES")
-        .default("256M");
+        Size.flag("max-output-size").value("BYTES").default("256M"),
+        "Largest output accepted, in bytes (suffixes K, M, G: powers of 1024), or `none`; a bigger output is refused and nothing is written.";
 
     /// Chord tolerance (mm).
-    chord_tolerance_mm: f64 = 1e-4,
-        Number "Chord tolerance for linearising arcs and splines (mm)."
-        .flag("chord-tolerance")
-        .value("MM")
-        .default("0.0001");
+    chord_tolerance_mm: f64 = 1e-4, Number.flag("chord-tolerance").value("MM").default("0.0001"),
+        "Chord tolerance for linearising arcs and splines (mm).";
 
     /// Arcs as G1 lines.
-    arcs_as_lines: bool = false,
-        Switch "Write arcs as G1 lines within {chord_tolerance_mm} instead of as compensated arcs (pieces of the original arc).";
+    arcs_as_lines: bool = false, Switch,
+        "Write arcs as G1 lines within {chord_tolerance_mm} instead of as compensated arcs (pieces of the original arc).";
 
     /// Written decimals.
-    decimals: Option<u64> = None,
-        Count "Decimal places of written coordinates (default 5 in mm, 6 in inch)."
-        .value("DECIMALS");
+    decimals: Option<u64> = None, Count.value("DECIMALS"),
+        "Decimal places of written coordinates (default 5 in mm, 6 in inch).";
 
     /// Largest correction accepted (mm).
-    max_correction_mm: f64 = 0.1,
-        Number "Largest correction accepted (mm); larger ones mean a wrong map unit."
-        .flag("max-correction")
-        .value("MM")
-        .default("0.1");
+    max_correction_mm: f64 = 0.1, Number.flag("max-correction").value("MM").default("0.1"),
+        "Largest correction accepted (mm); larger ones mean a wrong map unit.";
 
     /// Tables chosen by the nominal direction.
-    nominal_directions: bool = false,
-        Switch "Choose error tables by the nominal move direction, as the papers do, instead of the direction of the compensated command (for comparison).";
+    nominal_directions: bool = false, Switch,
+        "Choose error tables by the nominal move direction, as the papers do, instead of the direction of the compensated command (for comparison).";
 
     /// Take-up moves at reversals.
-    take_up: bool = true,
-        Switch "Do not insert backlash take-up moves at reversals."
-        .default("true");
+    take_up: bool = true, Switch.default("true"),
+        "Do not insert backlash take-up moves at reversals.";
 
     /// Every take-up a block of its own.
-    separate_take_ups: bool = false,
-        Switch "Write every take-up as a block of its own, even where the move that reverses can take it up within the contour tolerance (the default folds those, so the controller does not stop for them).";
+    separate_take_ups: bool = false, Switch,
+        "Write every take-up as a block of its own, even where the move that reverses can take it up within the contour tolerance (the default folds those, so the controller does not stop for them).";
 
     /// What a folded take-up may leave (µm).
-    take_up_tolerance_um: Option<f64> = None,
-        Number "The contour error a take-up folded into its move may leave (µm), for the whole program instead of the program's path-control mode (default: G61/G61.1 take up exactly, G64 P p folds within p, G64 folds every take-up). Larger folds more take-ups, so the controller stops less, at the price of up to that error at reversals (docs/compensation.md, \"Reversals by path-control mode\")."
-        .value("UM");
+    take_up_tolerance_um: Option<f64> = None, Number.value("UM"),
+        "The contour error a take-up folded into its move may leave (µm), for the whole program instead of the program's path-control mode (default: G61/G61.1 take up exactly, G64 P p folds within p, G64 folds every take-up). Larger folds more take-ups, so the controller stops less, at the price of up to that error at reversals (docs/compensation.md, \"Reversals by path-control mode\").";
 
     /// See [`CompensateOptions::drill_tolerance_mm`] (µm).
     drill_tolerance_um: f64 = crate::compensate::DEFAULT_DRILL_TOLERANCE_UM,
-        Number "The error a drilling cycle (G73, G81, G82, G83) written as a cycle may leave along its stroke (µm): the map's drift across the stroke and the peck levels inside the hole. The hole's position at the bottom and its depth are compensated exactly either way; a hole past it is written as its moves. Never below the contour tolerance; boring cycles (G85, G86, G89) keep the contour tolerance (docs/compensation.md, \"Canned cycles\")."
-        .value("UM")
-        .default("5");
+        Number.value("UM").default("5"),
+        "The error a drilling cycle (G73, G81, G82, G83) written as a cycle may leave along its stroke (µm): the map's drift across the stroke and the peck levels inside the hole. The hole's position at the bottom and its depth are compensated exactly either way; a hole past it is written as its moves. Never below the contour tolerance; boring cycles (G85, G86, G89) keep the contour tolerance (docs/compensation.md, \"Canned cycles\").";
 
     /// `(volcomp Ln)` comments.
-    trace: bool = true,
-        Switch "Do not tag inserted lines with `(volcomp Ln)` comments."
-        .default("true");
+    trace: bool = true, Switch.default("true"),
+        "Do not tag inserted lines with `(volcomp Ln)` comments.";
 
     /// Compensate a compensated program again.
-    allow_recompensate: bool = false,
-        Switch "Compensate a program that volcomp compensated already (its header or trace comments say so); the corrections are then applied twice.";
+    allow_recompensate: bool = false, Switch,
+        "Compensate a program that volcomp compensated already (its header or trace comments say so); the corrections are then applied twice.";
 
     /// Write feed moves on an axis never set without compensation.
-    allow_uncompensated_axes: bool = false,
-        Switch "Write feed moves made while an axis has never been set (a 2-D program without Z words, and no `start` in the set-up) without compensation, with a warning and a header that count them, instead of refusing the program.";
+    allow_uncompensated_axes: bool = false, Switch,
+        "Write feed moves made while an axis has never been set (a 2-D program without Z words, and no `start` in the set-up) without compensation, with a warning and a header that count them, instead of refusing the program.";
 }
 
 impl CompensateRequest {

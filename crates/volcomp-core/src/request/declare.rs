@@ -17,22 +17,40 @@
 ///
 ///     /// Chord tolerance (mm).
 ///     chord_tolerance_mm: f64 = DEFAULT_CHORD_TOLERANCE_MM,
-///         Number "Chord tolerance for linearising arcs and splines (mm)."
-///         .flag("chord-tolerance")
-///         .value("MM")
-///         .default("0.00001");
+///         Number.flag("chord-tolerance").value("MM").default("0.00001"),
+///         "Chord tolerance for linearising arcs and splines (mm).";
 /// }
 /// ```
 ///
 /// The struct derives `Debug`, `Clone` and `PartialEq` (every request is
-/// compared and copied the same way). Each option is its field (with its rustdoc and its default), its row in
-/// the table (named by the field, of the [`Kind`](super::Kind) given, with
-/// its help and the row's builder methods) and its arm in `try_set`, which
-/// reads the value by the field's type ([`FromValue`](super::option::FromValue)).
+/// compared and copied the same way). Each option is one entry:
+/// its field (rustdoc, name, type and default), the [`Kind`](super::Kind) of
+/// its row in the table with the row's builder methods (flag, placeholder,
+/// shown default, choices), then its help. The entry makes the field, the
+/// row (named by the field) and the arm in `try_set`, which reads the value
+/// by the field's type ([`FromValue`](super::option::FromValue)).
 /// `options [...]` is the request's [`Request::OPTIONS`](super::Request::OPTIONS)
 /// (the groups in help order); `unknown` the option a refused name is
-/// reported against.
+/// reported against. A request that holds no other request writes
+/// `pub const NAME_OPTIONS, unknown "…";` instead: its own table is its
+/// only group.
 macro_rules! request {
+    (
+        $(#[$meta:meta])*
+        pub struct $name:ident {$($parts:tt)*}
+        $(#[$table_meta:meta])*
+        pub const $table:ident, unknown $unknown:literal;
+        $($entries:tt)+
+    ) => {
+        request! {
+            $(#[$meta])*
+            pub struct $name {$($parts)*}
+            $(#[$table_meta])*
+            pub const $table;
+            options [$table], unknown $unknown;
+            $($entries)+
+        }
+    };
     (
         $(#[$meta:meta])*
         pub struct $name:ident {
@@ -43,8 +61,8 @@ macro_rules! request {
         options [$($group:ident),+], unknown $unknown:literal;
         $(
             $(#[$field_meta:meta])*
-            $field:ident: $type:ty = $default:expr,
-                $kind:ident $help:literal $(.$with:ident($($arg:expr),*))*;
+            $field:ident: $type:ty = $default:expr, $kind:ident $(.$with:ident($($arg:expr),*))*,
+                $help:literal;
         )+
     ) => {
         $(#[$meta])*

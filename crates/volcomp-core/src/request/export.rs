@@ -76,18 +76,13 @@ request! {
     #[allow(missing_docs)]
     pub struct CompRequest {}
     /// The LinuxCNC side of a comp file ([`CompRequest`]).
-    pub const COMP_OPTIONS;
-    options [COMP_OPTIONS], unknown "comp_type";
+    pub const COMP_OPTIONS, unknown "comp_type";
 
-    comp_type: Option<u64> = None,
-        Count "COMP_FILE_TYPE: 0 (nominal, actual forward, actual reverse) or 1 (nominal, trim forward, trim reverse; trim = nominal − actual)."
-        .flag("type")
-        .value("0|1");
+    comp_type: Option<u64> = None, Count.flag("type").value("0|1"),
+        "COMP_FILE_TYPE: 0 (nominal, actual forward, actual reverse) or 1 (nominal, trim forward, trim reverse; trim = nominal − actual).";
 
-    units: Option<String> = None,
-        Choice "The machine's [TRAJ] LINEAR_UNITS, the unit of every number in the file."
-        .value("UNITS")
-        .choices(&[("mm", ""), ("inch", "")]);
+    units: Option<String> = None, Choice.value("UNITS").choices(&[("mm", ""), ("inch", "")]),
+        "The machine's [TRAJ] LINEAR_UNITS, the unit of every number in the file.";
 }
 
 /// The units a comp file's numbers are in.
@@ -137,27 +132,19 @@ request! {
     pub struct MapToolRequest {}
     /// Where a 21-component model is evaluated as tables (shared by the jobs
     /// that turn a model into tables).
-    pub const MAP_TOOL_OPTIONS;
-    options [MAP_TOOL_OPTIONS], unknown "tool_length_mm";
+    pub const MAP_TOOL_OPTIONS, unknown "tool_length_mm";
 
-    tool_length_mm: Option<f64> = None,
-        Number "Tool length (mm) as G43 applies it: the tip lies this far below the spindle's gauge point. Default 0 (the gauge point)."
-        .flag("tool-length")
-        .value("MM");
+    tool_length_mm: Option<f64> = None, Number.flag("tool-length").value("MM"),
+        "Tool length (mm) as G43 applies it: the tip lies this far below the spindle's gauge point. Default 0 (the gauge point).";
 
-    tool_offset_mm: Option<[f64; 3]> = None,
-        Triple "Tool length offset vector (mm) as G43.1 applies it, for angle heads."
-        .flag("tool-offset")
-        .value("X,Y,Z");
+    tool_offset_mm: Option<[f64; 3]> = None, Triple.flag("tool-offset").value("X,Y,Z"),
+        "Tool length offset vector (mm) as G43.1 applies it, for angle heads.";
 
-    form: String = "htm".into(),
-        Choice "Evaluation of the 21-component model."
-        .value("FORM")
-        .default("htm")
-        .choices(&[
-                ("htm", "Exact products of homogeneous transformation matrices"),
-                ("first-order", "The small-angle (first-order) form"),
-            ]);
+    form: String = "htm".into(), Choice.value("FORM").default("htm").choices(&[
+        ("htm", "Exact products of homogeneous transformation matrices"),
+        ("first-order", "The small-angle (first-order) form"),
+    ]),
+        "Evaluation of the 21-component model.";
 }
 
 impl MapToolRequest {
@@ -283,102 +270,71 @@ request! {
     pub const EXPORT_OPTIONS;
     options [EXPORT_OPTIONS, COMP_OPTIONS, MAP_TOOL_OPTIONS], unknown "tool_length_mm";
 
-    to: Option<String> = None,
-        Choice "The controller's format."
-        .value("TO")
-        .required()
-        .choices(FORMATS);
+    to: Option<String> = None, Choice.value("TO").required().choices(FORMATS),
+        "The controller's format.";
 
-    step_mm: Option<f64> = None,
-        Number "Spacing of the table's points (mm): required by equidistant tables (siemens-eec); resamples the others (linear interpolation)."
-        .flag("step")
-        .value("MM");
+    step_mm: Option<f64> = None, Number.flag("step").value("MM"),
+        "Spacing of the table's points (mm): required by equidistant tables (siemens-eec); resamples the others (linear interpolation).";
 
-    at: Option<[f64; 3]> = None,
-        Triple "Where the positioning error of a 21-component model is taken (axis position, mm; default: its measuring lines)."
-        .value("X,Y,Z");
+    at: Option<[f64; 3]> = None, Triple.value("X,Y,Z"),
+        "Where the positioning error of a 21-component model is taken (axis position, mm; default: its measuring lines).";
 
     max_table_error_um: f64 = table_error::DEFAULT_MAX_TABLE_ERROR_UM,
-        Number "The largest deviation (µm) of the written table, as the controller applies it, from the map between and at its points: a larger one is refused with a finer step to choose."
-        .value("UM")
-        .default("1");
+        Number.value("UM").default("1"),
+        "The largest deviation (µm) of the written table, as the controller applies it, from the map between and at its points: a larger one is refused with a finer step to choose.";
 
-    backlash_only: bool = false,
-        Switch "linuxcnc: write each joint's BACKLASH (the mean reversal value) and no comp files.";
+    backlash_only: bool = false, Switch,
+        "linuxcnc: write each joint's BACKLASH (the mean reversal value) and no comp files.";
 
-    axis_names: String = "X1,Y1,Z1".into(),
-        Text "siemens-eec: the machine axis names of X, Y, Z."
-        .value("X,Y,Z")
-        .default("X1,Y1,Z1");
+    axis_names: String = "X1,Y1,Z1".into(), Text.value("X,Y,Z").default("X1,Y1,Z1"),
+        "siemens-eec: the machine axis names of X, Y, Z.";
 
-    resolution_um: f64 = 1.0,
-        Number "siemens-eec: the NC's resolution of a compensation value (µm), 1/MD10200 mm."
-        .value("UM")
-        .default("1");
+    resolution_um: f64 = 1.0, Number.value("UM").default("1"),
+        "siemens-eec: the NC's resolution of a compensation value (µm), 1/MD10200 mm.";
 
-    max_points: Option<u64> = None,
-        Count "The controller's largest number of points per table: siemens-eec MD38000 $MA_MM_ENC_COMP_MAX_POINTS (default 5000), isg-ssfk P-COMP-00059 (default 1500)."
-        .value("N");
+    max_points: Option<u64> = None, Count.value("N"),
+        "The controller's largest number of points per table: siemens-eec MD38000 $MA_MM_ENC_COMP_MAX_POINTS (default 5000), isg-ssfk P-COMP-00059 (default 1500).";
 
-    detection_unit_um: f64 = 1.0,
-        Number "fanuc: the detection unit (µm; 1 for IS-B)."
-        .value("UM")
-        .default("1");
+    detection_unit_um: f64 = 1.0, Number.value("UM").default("1"),
+        "fanuc: the detection unit (µm; 1 for IS-B).";
 
     fanuc_sign: String = "correction".into(),
-        Choice "fanuc: the sign of the values (not in the public documentation): correction = −e (default) or error = +e."
-        .value("FANUC_SIGN")
-        .default("correction")
-        .choices(&[
-                ("correction", "The values are the correction the control outputs, −e"),
-                ("error", "The values are the error, +e"),
-            ]);
+        Choice.value("FANUC_SIGN").default("correction").choices(&[
+            ("correction", "The values are the correction the control outputs, −e"),
+            ("error", "The values are the error, +e"),
+        ]),
+        "fanuc: the sign of the values (not in the public documentation): correction = −e (default) or error = +e.";
 
-    fanuc_data_offset: u64 = 10000,
-        Count "fanuc: the tape's data number of compensation point 0."
-        .value("N")
-        .default("10000");
+    fanuc_data_offset: u64 = 10000, Count.value("N").default("10000"),
+        "fanuc: the tape's data number of compensation point 0.";
 
     fanuc_bidirectional: String = "auto".into(),
-        Choice "fanuc: one table per direction (3605#0, 3626, 3627): auto = where forward and reverse differ by more than the detection unit."
-        .value("FANUC_BIDIRECTIONAL")
-        .default("auto")
-        .choices(&[
-                ("auto", "Bidirectional where the reversal exceeds the detection unit"),
-                ("on", "Always bidirectional"),
-                ("off", "One table, the mean of both directions"),
-            ]);
+        Choice.value("FANUC_BIDIRECTIONAL").default("auto").choices(&[
+            ("auto", "Bidirectional where the reversal exceeds the detection unit"),
+            ("on", "Always bidirectional"),
+            ("off", "One table, the mean of both directions"),
+        ]),
+        "fanuc: one table per direction (3605#0, 3626, 3627): auto = where forward and reverse differ by more than the detection unit.";
 
     fanuc_reference_return: String = "positive".into(),
-        Choice "fanuc: the direction of the reference position return (1006#5), whose table is zero at the reference; 3627 holds the other's value."
-        .value("FANUC_REFERENCE_RETURN")
-        .default("positive")
-        .choices(RETURN);
+        Choice.value("FANUC_REFERENCE_RETURN").default("positive").choices(RETURN),
+        "fanuc: the direction of the reference position return (1006#5), whose table is zero at the reference; 3627 holds the other's value.";
 
     reference_direction: String = "positive".into(),
-        Choice "siemens-eec: the direction of the reference point approach (MD34010 $MA_REFP_CAM_DIR_IS_MINUS 0 = positive): MD32450's backlash acts on travel the other way."
-        .value("REFERENCE_DIRECTION")
-        .default("positive")
-        .choices(RETURN);
+        Choice.value("REFERENCE_DIRECTION").default("positive").choices(RETURN),
+        "siemens-eec: the direction of the reference point approach (MD34010 $MA_REFP_CAM_DIR_IS_MINUS 0 = positive): MD32450's backlash acts on travel the other way.";
 
-    cec_sign: String = "error".into(),
-        Choice "siemens-cec: the sign of the values (the manual does not settle it): error = +e (default, as the leadscrew tables) or correction = −e."
-        .value("CEC_SIGN")
-        .default("error")
-        .choices(&[
-                ("error", "The values are the measured error, +e"),
-                ("correction", "The values are the correction, −e"),
-            ]);
+    cec_sign: String = "error".into(), Choice.value("CEC_SIGN").default("error").choices(&[
+        ("error", "The values are the measured error, +e"),
+        ("correction", "The values are the correction, −e"),
+    ]),
+        "siemens-cec: the sign of the values (the manual does not settle it): error = +e (default, as the leadscrew tables) or correction = −e.";
 
-    homing_dir_mask: u64 = 0,
-        Count "grblhal: the machine's $23 (homing direction invert mask): the side grblHAL adds the backlash to."
-        .value("MASK")
-        .default("0");
+    homing_dir_mask: u64 = 0, Count.value("MASK").default("0"),
+        "grblhal: the machine's $23 (homing direction invert mask): the side grblHAL adds the backlash to.";
 
-    profile: String = "volcomp".into(),
-        Text "klipper: the profile's name (SKEW_PROFILE LOAD=NAME)."
-        .value("NAME")
-        .default("volcomp");
+    profile: String = "volcomp".into(), Text.value("NAME").default("volcomp"),
+        "klipper: the profile's name (SKEW_PROFILE LOAD=NAME).";
 }
 
 /// What an export gives: the controller's files, the sign-check files,

@@ -12,42 +12,36 @@ request! {
     /// How a program is set up on the machine, as plain values.
     pub struct MachineRequest {}
     /// The options of [`MachineRequest`].
-    pub const MACHINE_OPTIONS;
-    options [MACHINE_OPTIONS], unknown "setup";
+    pub const MACHINE_OPTIONS, unknown "setup";
 
     /// The set-up TOML file (docs/setup.md).
-    setup: Option<Input> = None,
-        Input "TOML setup file: work offsets, tool lengths, reference points."
-        .value("FILE");
+    setup: Option<Input> = None, Input.value("FILE"),
+        "TOML setup file: work offsets, tool lengths, reference points.";
 
     /// G54 in machine coordinates (mm), overriding the set-up's.
-    work_offset_mm: Option<[f64; 3]> = None,
-        Triple "G54 work offset in mm (machine coordinates), overriding the setup's."
-        .flag("work-offset")
-        .value("X,Y,Z");
+    work_offset_mm: Option<[f64; 3]> = None, Triple.flag("work-offset").value("X,Y,Z"),
+        "G54 work offset in mm (machine coordinates), overriding the setup's.";
 
     /// Arc centres are absolute from the start (G90.1).
-    absolute_arc_centers: bool = false,
-        Switch "Read I/J/K as absolute arc centres (as if the program began with G90.1).";
+    absolute_arc_centers: bool = false, Switch,
+        "Read I/J/K as absolute arc centres (as if the program began with G90.1).";
 
     /// Accept `K0` on G17 arcs.
-    accept_k0: bool = false,
-        Switch "Accept `K0` on G17 arcs (FreeCAD writes it; LinuxCNC refuses it, and so does volcomp by default).";
+    accept_k0: bool = false, Switch,
+        "Accept `K0` on G17 arcs (FreeCAD writes it; LinuxCNC refuses it, and so does volcomp by default).";
 
     /// Refuse `K0` on G17 arcs (the default; kept for old scripts).
-    strict_k0: bool = false,
-        Switch "Refuse `K0` on G17 arcs: the default now, kept for old scripts."
-        .hidden();
+    strict_k0: bool = false, Switch.hidden(),
+        "Refuse `K0` on G17 arcs: the default now, kept for old scripts.";
 
     /// Do not warn about a program without M2, M30 or a closing `%`.
-    allow_no_program_end: bool = false,
-        Switch "Do not warn about a program that ends without M2, M30 or a closing `%` (LinuxCNC runs it to its last line, then reports an error; grbl-family and other controllers need no end).";
+    allow_no_program_end: bool = false, Switch,
+        "Do not warn about a program that ends without M2, M30 or a closing `%` (LinuxCNC runs it to its last line, then reports an error; grbl-family and other controllers need no end).";
 
     /// Most lines executed again (loops, calls) in one run.
     max_repeated_lines: u64 = volcomp_gcode::ngc::flow::MAX_EXECUTED_LINES,
-        Count "Most lines a run executes again (every pass of a loop after the first, every line of a called subroutine) before it is refused as a loop that never ends; a program without loops runs whatever its length."
-        .value("N")
-        .default("5000000");
+        Count.value("N").default("5000000"),
+        "Most lines a run executes again (every pass of a loop after the first, every line of a called subroutine) before it is refused as a loop that never ends; a program without loops runs whatever its length.";
 }
 
 /// A machine set-up ready for a job, with where it came from (for the

@@ -14,32 +14,26 @@ request! {
     /// The map file and what the controller compensates itself.
     pub struct MapRequest {}
     /// The options of [`MapRequest`].
-    pub const MAP_OPTIONS;
-    options [MAP_OPTIONS], unknown "map";
+    pub const MAP_OPTIONS, unknown "map";
 
     /// The map file: axis tables (CSV) or a model (TOML).
-    map: Option<PathBuf> = None,
-        Path "Error map: axis-table CSV (docs/design.md, \"The axis-table map\") or a TOML model (the 21-component kinematic model of docs/kinematic.md, evaluated at each line's tool)."
-        .value("MAP")
-        .required();
+    map: Option<PathBuf> = None, Path.value("MAP").required(),
+        "Error map: axis-table CSV (docs/design.md, \"The axis-table map\") or a TOML model (the 21-component kinematic model of docs/kinematic.md, evaluated at each line's tool).";
 
     /// Hold positions outside the map at its ends.
-    clamp: bool = false,
-        Switch "Clamp positions outside the map's range to its end instead of refusing.";
+    clamp: bool = false, Switch,
+        "Clamp positions outside the map's range to its end instead of refusing.";
 
     /// A table the controller applies itself.
-    controller: Option<PathBuf> = None,
-        Path "A compensation table the controller applies itself (exported or read from it: Siemens EEC, Heidenhain .COM/.CMA, Klipper, Marlin; docs/controllers.md): only the rest of the map is compensated."
-        .value("FILE");
+    controller: Option<PathBuf> = None, Path.value("FILE"),
+        "A compensation table the controller applies itself (exported or read from it: Siemens EEC, Heidenhain .COM/.CMA, Klipper, Marlin; docs/controllers.md): only the rest of the map is compensated.";
 
     /// What the controller compensates from this very map (`positioning`).
-    controller_compensates: Option<String> = None,
-        Choice "What the controller compensates from this very map: `positioning` (its pitch tables hold the map's E_XX, E_YY, E_ZZ)."
-        .value("WHAT")
-        .choices(&[(
-                "positioning",
-                "The positioning errors E_XX, E_YY, E_ZZ (pitch/leadscrew compensation)",
-            )]);
+    controller_compensates: Option<String> = None, Choice.value("WHAT").choices(&[(
+        "positioning",
+        "The positioning errors E_XX, E_YY, E_ZZ (pitch/leadscrew compensation)",
+    )]),
+        "What the controller compensates from this very map: `positioning` (its pitch tables hold the map's E_XX, E_YY, E_ZZ).";
 }
 
 fn controller_error(e: ControllerReadError) -> Error {

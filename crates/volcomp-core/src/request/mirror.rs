@@ -32,133 +32,93 @@ request! {
     pub const MIRROR_OPTIONS;
     options [MIRROR_OPTIONS, MACHINE_OPTIONS], unknown "nominal";
 
-    nominal: Option<Input> = None,
-        Input "Nominal finishing surface: a B-spline surface (.toml) or a grid of points (.csv), in the program frame."
-        .value("SURF")
-        .required();
+    nominal: Option<Input> = None, Input.value("SURF").required(),
+        "Nominal finishing surface: a B-spline surface (.toml) or a grid of points (.csv), in the program frame.";
 
-    measured: Option<Input> = None,
-        Input "Probe points of the semi-finished part (CSV: x_mm,y_mm,z_mm; optional id, i, j)."
-        .value("POINTS")
-        .required();
+    measured: Option<Input> = None, Input.value("POINTS").required(),
+        "Probe points of the semi-finished part (CSV: x_mm,y_mm,z_mm; optional id, i, j).";
 
-    stock_mm: Option<f64> = None,
-        Number "Stock D the semi-finishing pass leaves on the nominal surface (mm)."
-        .flag("stock")
-        .value("D")
-        .required();
+    stock_mm: Option<f64> = None, Number.flag("stock").value("D").required(),
+        "Stock D the semi-finishing pass leaves on the nominal surface (mm).";
 
-    nominal_format: Option<String> = None,
-        Choice "The nominal's format when its file name does not say it (a file object in Python)."
-        .value("FORMAT")
-        .choices(&[
-                ("bspline", "A B-spline surface (TOML)"),
-                ("grid", "A grid of points (CSV)"),
-            ]);
+    nominal_format: Option<String> = None, Choice.value("FORMAT").choices(&[
+        ("bspline", "A B-spline surface (TOML)"),
+        ("grid", "A grid of points (CSV)"),
+    ]),
+        "The nominal's format when its file name does not say it (a file object in Python).";
 
-    material: String = "below".into(),
-        Choice "Which side of the surface the material is on."
-        .value("MATERIAL")
-        .default("below")
-        .choices(&[
-                ("below", "Below the surface (−Z): the tool comes from above"),
-                ("above", "Above the surface (+Z)"),
-                ("normal-out", "The surface's own normal (Su × Sv) points out of the material"),
-                ("normal-in", "The surface's own normal (Su × Sv) points into the material"),
-            ]);
+    material: String = "below".into(), Choice.value("MATERIAL").default("below").choices(&[
+        ("below", "Below the surface (−Z): the tool comes from above"),
+        ("above", "Above the surface (+Z)"),
+        ("normal-out", "The surface's own normal (Su × Sv) points out of the material"),
+        ("normal-in", "The surface's own normal (Su × Sv) points into the material"),
+    ]),
+        "Which side of the surface the material is on.";
 
-    probe_radius_mm: Option<f64> = None,
-        Number "Probe ball radius (mm) when the points are ball centres; leave out when the probing software already compensated it."
-        .flag("probe-radius")
-        .value("MM");
+    probe_radius_mm: Option<f64> = None, Number.flag("probe-radius").value("MM"),
+        "Probe ball radius (mm) when the points are ball centres; leave out when the probing software already compensated it.";
 
-    max_error_mm: f64 = 0.1,
-        Number "Largest accepted distance of a probe point from where it should be (nominal + stock), in mm; farther points are refused as mismatched."
-        .flag("max-error")
-        .value("MM")
-        .default("0.1");
+    max_error_mm: f64 = 0.1, Number.flag("max-error").value("MM").default("0.1"),
+        "Largest accepted distance of a probe point from where it should be (nominal + stock), in mm; farther points are refused as mismatched.";
 
-    fit: String = "least-squares".into(),
-        Choice "How the compensation points are fitted."
-        .value("FIT")
-        .default("least-squares")
-        .choices(&[
-                (
-                    "least-squares",
-                    "Bicubic least squares, the control net chosen by leave-one-out cross-validation (any probe pattern)",
-                ),
-                (
-                    "interpolate",
-                    "Bicubic interpolation through every point (probe grid with i,j columns)",
-                ),
-            ]);
+    fit: String = "least-squares".into(), Choice.value("FIT").default("least-squares").choices(&[
+        (
+            "least-squares",
+            "Bicubic least squares, the control net chosen by leave-one-out cross-validation (any probe pattern)",
+        ),
+        (
+            "interpolate",
+            "Bicubic interpolation through every point (probe grid with i,j columns)",
+        ),
+    ]),
+        "How the compensation points are fitted.";
 
-    tolerance_um: Option<f64> = None,
-        Number "Only consider control nets whose residual at every compensation point is within this (µm). Every residual includes the probe noise: give at least 3× its σ. Without it the net is chosen by leave-one-out cross-validation alone."
-        .flag("tolerance")
-        .value("UM");
+    tolerance_um: Option<f64> = None, Number.flag("tolerance").value("UM"),
+        "Only consider control nets whose residual at every compensation point is within this (µm). Every residual includes the probe noise: give at least 3× its σ. Without it the net is chosen by leave-one-out cross-validation alone.";
 
-    refuse_worse: bool = false,
-        Switch "Refuse (write nothing) when the leave-one-out prediction of the finishing error after compensation is worse (larger std) than not compensating; without it a warning is given.";
+    refuse_worse: bool = false, Switch,
+        "Refuse (write nothing) when the leave-one-out prediction of the finishing error after compensation is worse (larger std) than not compensating; without it a warning is given.";
 
     grid_params: String = "chord-length".into(),
-        Choice "Parameters used to interpolate a grid nominal (CSV)."
-        .value("PARAMS")
-        .default("chord-length")
-        .choices(&[
-                ("chord-length", "Chord length, averaged over the grid rows"),
-                ("centripetal", "Centripetal (square root of the chord length), averaged"),
-                ("uniform", "Equally spaced"),
-            ]);
+        Choice.value("PARAMS").default("chord-length").choices(&[
+            ("chord-length", "Chord length, averaged over the grid rows"),
+            ("centripetal", "Centripetal (square root of the chord length), averaged"),
+            ("uniform", "Equally spaced"),
+        ]),
+        "Parameters used to interpolate a grid nominal (CSV).";
 
-    grid_size: u64 = 41,
-        Count "Nodes per direction of the compensated grid when the nominal is a B-spline (a grid nominal keeps its own nodes)."
-        .value("N")
-        .default("41");
+    grid_size: u64 = 41, Count.value("N").default("41"),
+        "Nodes per direction of the compensated grid when the nominal is a B-spline (a grid nominal keeps its own nodes).";
 
-    finishing: Option<Input> = None,
-        Input "Ball-end finishing program to compensate."
-        .value("PROGRAM");
+    finishing: Option<Input> = None, Input.value("PROGRAM"),
+        "Ball-end finishing program to compensate.";
 
-    tool_radius_mm: Option<f64> = None,
-        Number "Ball radius of the finishing tool (mm; half its diameter)."
-        .flag("tool-radius")
-        .value("MM");
+    tool_radius_mm: Option<f64> = None, Number.flag("tool-radius").value("MM"),
+        "Ball radius of the finishing tool (mm; half its diameter).";
 
-    cl_point: String = "tip".into(),
-        Choice "Which point of the tool the program's coordinates give."
-        .value("CL")
-        .default("tip")
-        .choices(&[
-                ("tip", "The tool tip (the ball centre is one radius above it, +Z)"),
-                ("center", "The ball centre"),
-            ]);
+    cl_point: String = "tip".into(), Choice.value("CL").default("tip").choices(&[
+        ("tip", "The tool tip (the ball centre is one radius above it, +Z)"),
+        ("center", "The ball centre"),
+    ]),
+        "Which point of the tool the program's coordinates give.";
 
-    contact_tolerance_mm: f64 = 0.02,
-        Number "A CL point is on the surface when its ball is this close to it (mm)."
-        .flag("contact-tolerance")
-        .value("MM")
-        .default("0.02");
+    contact_tolerance_mm: f64 = 0.02, Number.flag("contact-tolerance").value("MM").default("0.02"),
+        "A CL point is on the surface when its ball is this close to it (mm).";
 
-    segment_length_mm: f64 = 2.0,
-        Number "Split feed moves into pieces of at most this length (mm)."
-        .flag("segment-length")
-        .value("MM")
-        .default("2");
+    segment_length_mm: f64 = 2.0, Number.flag("segment-length").value("MM").default("2"),
+        "Split feed moves into pieces of at most this length (mm).";
 
-    no_split: bool = false,
-        Switch "Do not split feed moves (arcs are still linearised).";
+    no_split: bool = false, Switch,
+        "Do not split feed moves (arcs are still linearised).";
 
-    decimals: Option<u64> = None,
-        Count "Decimal places of written coordinates (default 5 in mm, 6 in inch)."
-        .value("DECIMALS");
+    decimals: Option<u64> = None, Count.value("DECIMALS"),
+        "Decimal places of written coordinates (default 5 in mm, 6 in inch).";
 
-    trace: bool = true,
-        Switch "Do not tag inserted lines with `(volcomp Ln)` comments."
-        .default("true");
+    trace: bool = true, Switch.default("true"),
+        "Do not tag inserted lines with `(volcomp Ln)` comments.";
 
-    allow_recompensate: bool = false,
-        Switch "Compensate a finishing program that volcomp compensated already.";
+    allow_recompensate: bool = false, Switch,
+        "Compensate a finishing program that volcomp compensated already.";
 }
 
 /// The checked options of a mirror compensation.

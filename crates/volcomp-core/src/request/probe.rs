@@ -13,121 +13,88 @@ request! {
     pub struct ProbePlanRequest {}
     /// The options of a probing program ([`ProbePlanRequest`]); their ranges
     /// are checked by [`PlanOptions::validate`].
-    pub const PROBE_PLAN_OPTIONS;
-    options [PROBE_PLAN_OPTIONS], unknown "tip_diameter_mm";
+    pub const PROBE_PLAN_OPTIONS, unknown "tip_diameter_mm";
 
-    tip_diameter_mm: Option<f64> = None,
-        Number "Diameter of the probe's tip (mm)."
-        .value("MM")
-        .required();
+    tip_diameter_mm: Option<f64> = None, Number.value("MM").required(),
+        "Diameter of the probe's tip (mm).";
 
-    probe_tool: Option<u64> = None,
-        Count "The probe's tool number (G43 H, its length from the set-up's [tools])."
-        .value("N");
+    probe_tool: Option<u64> = None, Count.value("N"),
+        "The probe's tool number (G43 H, its length from the set-up's [tools]).";
 
-    work_system: String = "G54".into(),
-        Text "Coordinate system the program runs in: G54 … G59.3."
-        .value("WORK_SYSTEM")
-        .default("G54");
+    work_system: String = "G54".into(), Text.value("WORK_SYSTEM").default("G54"),
+        "Coordinate system the program runs in: G54 … G59.3.";
 
-    placement: Option<String> = None,
-        Text "Only this placement (default: all, with a pause between them)."
-        .value("PLACEMENT");
+    placement: Option<String> = None, Text.value("PLACEMENT"),
+        "Only this placement (default: all, with a pause between them).";
 
     fast_feed_mm_min: f64 = PlanOptions::default().fast_feed_mm_min,
-        Number "Feed of the searching touch (mm/min)."
-        .value("FAST_FEED_MM_MIN")
-        .default("300");
+        Number.value("FAST_FEED_MM_MIN").default("300"),
+        "Feed of the searching touch (mm/min).";
 
     slow_feed_mm_min: f64 = PlanOptions::default().slow_feed_mm_min,
-        Number "Feed of the recorded touch (mm/min): its trigger lag is this feed × the servo period."
-        .value("SLOW_FEED_MM_MIN")
-        .default("20");
+        Number.value("SLOW_FEED_MM_MIN").default("20"),
+        "Feed of the recorded touch (mm/min): its trigger lag is this feed × the servo period.";
 
-    approach_mm: f64 = PlanOptions::default().approach_mm,
-        Number "Start of a touch before the nominal surface (mm)."
-        .value("APPROACH_MM")
-        .default("2");
+    approach_mm: f64 = PlanOptions::default().approach_mm, Number.value("APPROACH_MM").default("2"),
+        "Start of a touch before the nominal surface (mm).";
 
     overtravel_mm: f64 = PlanOptions::default().overtravel_mm,
-        Number "How far past the nominal surface a probe move may go (mm)."
-        .value("OVERTRAVEL_MM")
-        .default("2");
+        Number.value("OVERTRAVEL_MM").default("2"),
+        "How far past the nominal surface a probe move may go (mm).";
 
-    backoff_mm: f64 = PlanOptions::default().backoff_mm,
-        Number "Back-off between the fast and the slow touch (mm)."
-        .value("BACKOFF_MM")
-        .default("0.5");
+    backoff_mm: f64 = PlanOptions::default().backoff_mm, Number.value("BACKOFF_MM").default("0.5"),
+        "Back-off between the fast and the slow touch (mm).";
 
     clearance_mm: f64 = PlanOptions::default().clearance_mm,
-        Number "Height of the travel plane above the artifact (mm)."
-        .value("CLEARANCE_MM")
-        .default("5");
+        Number.value("CLEARANCE_MM").default("5"),
+        "Height of the travel plane above the artifact (mm).";
 
-    take_up_mm: f64 = PlanOptions::default().take_up_mm,
-        Number "The move that sets an axis' direction before a touch (mm)."
-        .value("TAKE_UP_MM")
-        .default("1");
+    take_up_mm: f64 = PlanOptions::default().take_up_mm, Number.value("TAKE_UP_MM").default("1"),
+        "The move that sets an axis' direction before a touch (mm).";
 
-    sphere_touches: String = "5".into(),
-        Choice "Touches per sphere (the reference sphere has its own set)."
-        .value("SPHERE_TOUCHES")
-        .default("5")
-        .choices(&[
-                ("5", "Pole and equator"),
-                ("9", "Pole, equator and four 45° shoulders"),
-            ]);
+    sphere_touches: String = "5".into(), Choice.value("SPHERE_TOUCHES").default("5").choices(&[
+        ("5", "Pole and equator"),
+        ("9", "Pole, equator and four 45° shoulders"),
+    ]),
+        "Touches per sphere (the reference sphere has its own set).";
 
-    repeats: u64 = PlanOptions::default().repeats as u64,
-        Count "How often each touch is made."
-        .value("REPEATS")
-        .default("1");
+    repeats: u64 = PlanOptions::default().repeats as u64, Count.value("REPEATS").default("1"),
+        "How often each touch is made.";
 
     reference_repeats: u64 = PlanOptions::default().reference_repeats as u64,
-        Count "How often each touch of the reference sphere is made."
-        .value("REFERENCE_REPEATS")
-        .default("3");
+        Count.value("REFERENCE_REPEATS").default("3"),
+        "How often each touch of the reference sphere is made.";
 
     edge_points: u64 = PlanOptions::default().edge_points as u64,
-        Count "Touches along each edge of a square."
-        .value("EDGE_POINTS")
-        .default("7");
+        Count.value("EDGE_POINTS").default("7"),
+        "Touches along each edge of a square.";
 
     edge_margin_mm: f64 = PlanOptions::default().edge_margin_mm,
-        Number "Distance of the first and last edge touch from an edge's ends (mm)."
-        .value("EDGE_MARGIN_MM")
-        .default("10");
+        Number.value("EDGE_MARGIN_MM").default("10"),
+        "Distance of the first and last edge touch from an edge's ends (mm).";
 
-    no_contact: String = "stop".into(),
-        Choice "What a probe move that touches nothing does."
-        .value("NO_CONTACT")
-        .default("stop")
-        .choices(&[
-                ("stop", "G38.2: the controller stops with an error"),
-                (
-                    "skip",
-                    "G38.3: the program goes on; the touch is logged as missed",
-                ),
-            ]);
+    no_contact: String = "stop".into(), Choice.value("NO_CONTACT").default("stop").choices(&[
+        ("stop", "G38.2: the controller stops with an error"),
+        (
+            "skip",
+            "G38.3: the program goes on; the touch is logged as missed",
+        ),
+    ]),
+        "What a probe move that touches nothing does.";
 
-    log_file: String = PlanOptions::default().log_file,
-        Text "The log file the program writes (LOGOPEN), as LinuxCNC opens it."
-        .value("LOG_FILE")
-        .default("probe.log");
+    log_file: String = PlanOptions::default().log_file, Text.value("LOG_FILE").default("probe.log"),
+        "The log file the program writes (LOGOPEN), as LinuxCNC opens it.";
 
-    safe_z_mm: Option<f64> = None,
-        Number "Machine Z for moves between placements (default: 25 mm above the artifact)."
-        .value("SAFE_Z_MM");
+    safe_z_mm: Option<f64> = None, Number.value("SAFE_Z_MM"),
+        "Machine Z for moves between placements (default: 25 mm above the artifact).";
 
     rapid_mm_min: f64 = PlanOptions::default().rapid_mm_min,
-        Number "Rapid speed for the time estimate (mm/min)."
-        .value("RAPID_MM_MIN")
-        .default("3000");
+        Number.value("RAPID_MM_MIN").default("3000"),
+        "Rapid speed for the time estimate (mm/min).";
 
     accel_mm_s2: f64 = PlanOptions::default().accel_mm_s2,
-        Number "Acceleration for the time estimate (mm/s²)."
-        .value("ACCEL_MM_S2")
-        .default("500");
+        Number.value("ACCEL_MM_S2").default("500"),
+        "Acceleration for the time estimate (mm/s²).";
 }
 
 /// The coordinate systems a probing program may run in, G54 first.
@@ -220,44 +187,32 @@ request! {
     #[allow(missing_docs)]
     pub struct ProbeIdentifyRequest {}
     /// The options of every probing identification ([`ProbeIdentifyRequest`]).
-    pub const PROBE_IDENTIFY_OPTIONS;
-    options [PROBE_IDENTIFY_OPTIONS], unknown "ranges_mm";
+    pub const PROBE_IDENTIFY_OPTIONS, unknown "ranges_mm";
 
-    ranges_mm: Option<[[f64; 2]; 3]> = None,
-        Ranges "The machine's travel, mm: \"X0:X1,Y0:Y1,Z0:Z1\" (the polynomials live on it)."
-        .value("RANGES")
-        .required();
+    ranges_mm: Option<[[f64; 2]; 3]> = None, Ranges.value("RANGES").required(),
+        "The machine's travel, mm: \"X0:X1,Y0:Y1,Z0:Z1\" (the polynomials live on it).";
 
-    chain: String = "w X' Y' b Z t".into(),
-        Text "Kinematic chain, workpiece to tool (docs/kinematic.md)."
-        .value("CHAIN")
-        .default("w X' Y' b Z t");
+    chain: String = "w X' Y' b Z t".into(), Text.value("CHAIN").default("w X' Y' b Z t"),
+        "Kinematic chain, workpiece to tool (docs/kinematic.md).";
 
-    order: u64 = 2,
-        Count "Largest Legendre order of the components."
-        .value("ORDER")
-        .default("2");
+    order: u64 = 2, Count.value("ORDER").default("2"),
+        "Largest Legendre order of the components.";
 
-    model: String = "auto".into(),
-        Choice "Which model to identify."
-        .value("MODEL")
-        .default("auto")
-        .choices(&[
-                (
-                    "auto",
-                    "Full when spheres were measured in two placements or more, else reduced (default)",
-                ),
-                ("full", "The 21-component model"),
-                (
-                    "reduced",
-                    "Positioning, straightness and squareness; angles zero and unknown",
-                ),
-            ]);
+    model: String = "auto".into(), Choice.value("MODEL").default("auto").choices(&[
+        (
+            "auto",
+            "Full when spheres were measured in two placements or more, else reduced (default)",
+        ),
+        ("full", "The 21-component model"),
+        (
+            "reduced",
+            "Positioning, straightness and squareness; angles zero and unknown",
+        ),
+    ]),
+        "Which model to identify.";
 
-    threshold: f64 = 0.001,
-        Number "Relative singular-value threshold for what the measurements cannot see."
-        .value("THRESHOLD")
-        .default("0.001");
+    threshold: f64 = 0.001, Number.value("THRESHOLD").default("0.001"),
+        "Relative singular-value threshold for what the measurements cannot see.";
 }
 
 impl ProbeIdentifyRequest {

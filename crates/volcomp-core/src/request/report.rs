@@ -22,13 +22,11 @@ request! {
     pub struct ReportRequest {}
     /// The options of [`ReportRequest`]: what an HTML report says besides the
     /// run (the compensation's and the simulation's).
-    pub const REPORT_OPTIONS;
-    options [REPORT_OPTIONS], unknown "report_title";
+    pub const REPORT_OPTIONS, unknown "report_title";
 
     /// The title-block file.
-    report_title: Option<PathBuf> = None,
-        Path "Title block of the HTML report: a TOML file with customer, order, part, drawing, revision, material, machine, tolerance, operator, notes (each optional; docs/report.md, \"Title block\")."
-        .value("FILE.toml");
+    report_title: Option<PathBuf> = None, Path.value("FILE.toml"),
+        "Title block of the HTML report: a TOML file with customer, order, part, drawing, revision, material, machine, tolerance, operator, notes (each optional; docs/report.md, \"Title block\").";
 }
 
 impl ReportRequest {

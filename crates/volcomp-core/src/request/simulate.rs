@@ -19,16 +19,13 @@ request! {
     options [MACHINE_OPTIONS, SIMULATE_OPTIONS], unknown "reference";
 
     /// The original of a compensated program.
-    reference: Option<Input> = None,
-        Input "The original program whose nominal path the program is judged against (the program written by `volcomp compensate` from it: its `(volcomp Ln)` comments pair them)."
-        .value("ORIGINAL");
+    reference: Option<Input> = None, Input.value("ORIGINAL"),
+        "The original program whose nominal path the program is judged against (the program written by `volcomp compensate` from it: its `(volcomp Ln)` comments pair them).";
 
     /// Chord tolerance (mm).
     chord_tolerance_mm: f64 = DEFAULT_CHORD_TOLERANCE_MM,
-        Number "Chord tolerance for linearising arcs and splines (mm)."
-        .flag("chord-tolerance")
-        .value("MM")
-        .default("0.00001");
+        Number.flag("chord-tolerance").value("MM").default("0.00001"),
+        "Chord tolerance for linearising arcs and splines (mm).";
 }
 
 impl SimulateRequest {

@@ -13,67 +13,52 @@ request! {
     #[allow(missing_docs)]
     pub struct StraightnessFitRequest {}
     /// The options of [`StraightnessFitRequest`].
-    pub const STRAIGHTNESS_OPTIONS;
-    options [STRAIGHTNESS_OPTIONS], unknown "axis";
+    pub const STRAIGHTNESS_OPTIONS, unknown "axis";
 
     axis: Option<String> = None,
-        Choice "The axis of runs whose file has no `# axis =` line: X or Y."
-        .value("AXIS")
-        .choices(&[("X", "Runs along X"), ("Y", "Runs along Y")]);
+        Choice.value("AXIS").choices(&[("X", "Runs along X"), ("Y", "Runs along Y")]),
+        "The axis of runs whose file has no `# axis =` line: X or Y.";
 
-    sigma_t: f64 = 0.05,
-        Number "σ_t: largest relative standard deviation (σ/P̄) across feed rates of a geometric line."
-        .value("SIGMA")
-        .default("0.05");
+    sigma_t: f64 = 0.05, Number.value("SIGMA").default("0.05"),
+        "σ_t: largest relative standard deviation (σ/P̄) across feed rates of a geometric line.";
 
-    p_t: f64 = 0.01,
-        Number "P_t: smallest normalised mean power P̄ of a modelled line (0.01 = 1 % of the power)."
-        .value("P")
-        .default("0.01");
+    p_t: f64 = 0.01, Number.value("P").default("0.01"),
+        "P_t: smallest normalised mean power P̄ of a modelled line (0.01 = 1 % of the power).";
 
-    taper_fraction: f64 = 0.1,
-        Number "Fraction of the samples in each raised-cosine end of the taper window (0 … 0.5)."
-        .flag("taper")
-        .value("FRACTION")
-        .default("0.1");
+    taper_fraction: f64 = 0.1, Number.flag("taper").value("FRACTION").default("0.1"),
+        "Fraction of the samples in each raised-cosine end of the taper window (0 … 0.5).";
 
     normalisation: String = "common".into(),
-        Choice "How spectra are normalised before P̄ and σ are taken."
-        .flag("normalise")
-        .value("NORMALISE")
-        .default("common")
-        .choices(&[
-                (
-                    "common",
-                    "One common scale for all feed rates: their mean total power (default)",
-                ),
-                (
-                    "per-run",
-                    "Each feed rate's spectrum as fractions of its own total power",
-                ),
-            ]);
+        Choice.flag("normalise").value("NORMALISE").default("common").choices(&[
+            (
+                "common",
+                "One common scale for all feed rates: their mean total power (default)",
+            ),
+            (
+                "per-run",
+                "Each feed rate's spectrum as fractions of its own total power",
+            ),
+        ]),
+        "How spectra are normalised before P̄ and σ are taken.";
 
     cutoff: String = "cross-validation".into(),
-        Choice "How the number of harmonics m is chosen (σ_t and P_t apply to `thresholds`; they still mark the lines reported as rejected)."
-        .value("CUTOFF")
-        .default("cross-validation")
-        .choices(&[
-                (
-                    "cross-validation",
-                    "m that best predicts each left-out feed rate from the others (default)",
-                ),
-                (
-                    "thresholds",
-                    "The paper's rule: shortest wavelength with σ < σ_t and P̄ > P_t",
-                ),
-            ]);
+        Choice.value("CUTOFF").default("cross-validation").choices(&[
+            (
+                "cross-validation",
+                "m that best predicts each left-out feed rate from the others (default)",
+            ),
+            (
+                "thresholds",
+                "The paper's rule: shortest wavelength with σ < σ_t and P̄ > P_t",
+            ),
+        ]),
+        "How the number of harmonics m is chosen (σ_t and P_t apply to `thresholds`; they still mark the lines reported as rejected).";
 
-    harmonics: Option<u64> = None,
-        Count "Use this number of harmonics m instead of the one the rule chooses."
-        .value("M");
+    harmonics: Option<u64> = None, Count.value("M"),
+        "Use this number of harmonics m instead of the one the rule chooses.";
 
-    negate: bool = false,
-        Switch "The files' displacement has the opposite sign of the deviation (e.g. workpiece relative to tool): negate it.";
+    negate: bool = false, Switch,
+        "The files' displacement has the opposite sign of the deviation (e.g. workpiece relative to tool): negate it.";
 }
 
 /// The request's name of an identification option.

@@ -23,63 +23,40 @@ request! {
     #[allow(missing_docs)]
     pub struct ThermalFitRequest {}
     /// The options of [`ThermalFitRequest`].
-    pub const THERMAL_FIT_OPTIONS;
-    options [THERMAL_FIT_OPTIONS], unknown "chain";
+    pub const THERMAL_FIT_OPTIONS, unknown "chain";
 
-    measurements: Option<Input> = None,
-        Input "Measured sphere centres: cycle,time_h,placement,sphere,x_mm,y_mm,z_mm."
-        .value("CSV")
-        .required();
+    measurements: Option<Input> = None, Input.value("CSV").required(),
+        "Measured sphere centres: cycle,time_h,placement,sphere,x_mm,y_mm,z_mm.";
 
-    temperatures: Option<Input> = None,
-        Input "Temperatures per cycle: cycle,time_h,<sensor>_C,…"
-        .value("CSV")
-        .required();
+    temperatures: Option<Input> = None, Input.value("CSV").required(),
+        "Temperatures per cycle: cycle,time_h,<sensor>_C,…";
 
-    artifact: Option<Input> = None,
-        Input "Artifact: sphere,distance_mm (calibrated distance from sphere 1)."
-        .value("CSV")
-        .required();
+    artifact: Option<Input> = None, Input.value("CSV").required(),
+        "Artifact: sphere,distance_mm (calibrated distance from sphere 1).";
 
-    ranges_mm: Option<[[f64; 2]; 3]> = None,
-        Ranges "Axis ranges the polynomials live on, mm: \"X0:X1,Y0:Y1,Z0:Z1\"."
-        .value("RANGES")
-        .required();
+    ranges_mm: Option<[[f64; 2]; 3]> = None, Ranges.value("RANGES").required(),
+        "Axis ranges the polynomials live on, mm: \"X0:X1,Y0:Y1,Z0:Z1\".";
 
-    chain: String = "w X' Y' b Z t".into(),
-        Text "Kinematic chain, workpiece to tool (docs/kinematic.md)."
-        .value("CHAIN")
-        .default("w X' Y' b Z t");
+    chain: String = "w X' Y' b Z t".into(), Text.value("CHAIN").default("w X' Y' b Z t"),
+        "Kinematic chain, workpiece to tool (docs/kinematic.md).";
 
-    order: u64 = 2,
-        Count "Maximum Legendre order of the components."
-        .value("ORDER")
-        .default("2");
+    order: u64 = 2, Count.value("ORDER").default("2"),
+        "Maximum Legendre order of the components.";
 
-    probe_length_mm: f64 = 0.0,
-        Number "Tool length offset of the probe (mm)."
-        .value("MM")
-        .default("0");
+    probe_length_mm: f64 = 0.0, Number.value("MM").default("0"),
+        "Tool length offset of the probe (mm).";
 
-    lags: u64 = 0,
-        Count "Lagged cycles of every sensor in the regression (ARX-style inputs)."
-        .value("LAGS")
-        .default("0");
+    lags: u64 = 0, Count.value("LAGS").default("0"),
+        "Lagged cycles of every sensor in the regression (ARX-style inputs).";
 
-    threshold: f64 = DEFAULT_RELATIVE_THRESHOLD,
-        Number "Relative singular-value threshold for rank deficiency."
-        .value("THRESHOLD")
-        .default("0.001");
+    threshold: f64 = DEFAULT_RELATIVE_THRESHOLD, Number.value("THRESHOLD").default("0.001"),
+        "Relative singular-value threshold for rank deficiency.";
 
-    table_samples: u64 = 61,
-        Count "Points per component table in predicted models."
-        .value("N")
-        .default("61");
+    table_samples: u64 = 61, Count.value("N").default("61"),
+        "Points per component table in predicted models.";
 
-    bands_samples: Option<u64> = None,
-        Count "Monte Carlo draws of the 95 % confidence bands of the last cycle's identified TCP error along lines through the middle of the volume (default 400 where bands are asked for)."
-        .flag("samples")
-        .value("N");
+    bands_samples: Option<u64> = None, Count.flag("samples").value("N"),
+        "Monte Carlo draws of the 95 % confidence bands of the last cycle's identified TCP error along lines through the middle of the volume (default 400 where bands are asked for).";
 }
 
 /// An input file's text.
@@ -255,20 +232,16 @@ request! {
     #[allow(missing_docs)]
     pub struct ThermalPredictRequest {}
     /// The options of [`ThermalPredictRequest`].
-    pub const THERMAL_PREDICT_OPTIONS;
-    options [THERMAL_PREDICT_OPTIONS], unknown "cycle";
+    pub const THERMAL_PREDICT_OPTIONS, unknown "cycle";
 
-    temperatures: Option<Input> = None,
-        Input "Temperatures (same sensor columns as for the fit)."
-        .value("CSV")
-        .required();
+    temperatures: Option<Input> = None, Input.value("CSV").required(),
+        "Temperatures (same sensor columns as for the fit).";
 
-    cycle: Option<u64> = None,
-        Count "Cycle number of the moment (default: the last row)."
-        .value("CYCLE");
+    cycle: Option<u64> = None, Count.value("CYCLE"),
+        "Cycle number of the moment (default: the last row).";
 
-    extrapolate: bool = false,
-        Switch "Predict even at temperatures outside the training range (with a warning) instead of refusing.";
+    extrapolate: bool = false, Switch,
+        "Predict even at temperatures outside the training range (with a warning) instead of refusing.";
 }
 
 /// The model's parameters at one moment.

@@ -36,6 +36,18 @@ pub struct Header<'a> {
     pub layout: &'a str,
 }
 
+impl<'a> Header<'a> {
+    /// A header whose every column is kept (the reader looks its columns
+    /// up itself); `layout` for the help of header errors.
+    pub const fn keep_all(layout: &'a str) -> Self {
+        Header {
+            known: &[],
+            unknown: UnknownColumns::Keep,
+            layout,
+        }
+    }
+}
+
 /// One data record: its 1-based line; its trimmed fields are read through
 /// the table ([`CsvTable::text`], [`CsvTable::fields`]), which holds the
 /// fields of every record in one buffer (a table of millions of rows takes
@@ -511,27 +523,28 @@ impl<'a> CsvTable<'a> {
 
     /// A whole number (may be negative).
     pub fn integer(&self, record: &Record, col: usize) -> Result<i64, MapFileError> {
-        let text = self.text(record, col);
-        text.parse::<i64>().map_err(|_| {
-            let text = shown(text);
-            self.error(
-                record,
-                col,
-                format!("`{text}` is not a whole number"),
-                "write an integer such as 3",
-            )
-        })
+        self.whole(record, col, "a whole number")
     }
 
     /// A whole number ≥ 0.
     pub fn index(&self, record: &Record, col: usize) -> Result<usize, MapFileError> {
+        self.whole(record, col, "a whole number ≥ 0")
+    }
+
+    /// A whole number of type `T`, refused as not `what`.
+    fn whole<T: std::str::FromStr>(
+        &self,
+        record: &Record,
+        col: usize,
+        what: &str,
+    ) -> Result<T, MapFileError> {
         let text = self.text(record, col);
-        text.parse::<usize>().map_err(|_| {
+        text.parse::<T>().map_err(|_| {
             let text = shown(text);
             self.error(
                 record,
                 col,
-                format!("`{text}` is not a whole number ≥ 0"),
+                format!("`{text}` is not {what}"),
                 "write an integer such as 3",
             )
         })

@@ -680,23 +680,13 @@ impl Interpreter {
         if w.has_g(800) {
             self.motion_mode = None;
         }
-        for (code, mode) in [
-            (0u16, MotionMode::Rapid),
-            (10, MotionMode::Feed),
-            (20, MotionMode::Cw),
-            (30, MotionMode::Ccw),
-            (330, MotionMode::Synced(330)),
-            (331, MotionMode::Synced(331)),
-            (382, MotionMode::Probe(382)),
-            (383, MotionMode::Probe(383)),
-            (384, MotionMode::Probe(384)),
-            (385, MotionMode::Probe(385)),
-            // G5 and G5.1 leave the motion mode as it was, and G5.3 is
-            // non-modal (`Interp::convert_motion`, interp_convert.cc).
-            (52, MotionMode::Spline(52)),
-        ] {
-            if w.has_g(code) {
-                self.motion_mode = Some(mode);
+        // G5 and G5.1 leave the motion mode as it was, and G5.3 is
+        // non-modal (`Interp::convert_motion`, interp_convert.cc); the canned
+        // cycles set it below.
+        for &(code, _) in &w.g {
+            match words::motion_of(code) {
+                None | Some(MotionMode::Spline(50 | 51 | 53) | MotionMode::Cycle(_)) => {}
+                mode => self.motion_mode = mode,
             }
         }
         self.end_spline_block_unless(self.motion_mode);

@@ -423,16 +423,16 @@ impl Interpreter {
 mod tests {
     use super::*;
 
+    /// Control points of weight 1.
+    fn weight_1(xy: &[[f64; 2]]) -> Vec<[f64; 3]> {
+        xy.iter().map(|&[x, y]| [x, y, 1.0]).collect()
+    }
+
     #[test]
     fn cubic_bezier_midpoint_by_hand() {
         // P0 (0,0), P1 (0,3), P2 (5,-2), P3 (1,1): B(½) = (P0 + 3P1 + 3P2 + P3)/8
         // = ((0 + 0 + 15 + 1)/8, (0 + 9 − 6 + 1)/8) = (2, 0.5).
-        let pts = [
-            [0.0, 0.0, 1.0],
-            [0.0, 3.0, 1.0],
-            [5.0, -2.0, 1.0],
-            [1.0, 1.0, 1.0],
-        ];
+        let pts = weight_1(&[[0.0, 0.0], [0.0, 3.0], [5.0, -2.0], [1.0, 1.0]]);
         let c = Nurbs::new(&pts, 4).unwrap();
         assert_eq!(c.u_max(), 1.0);
         let (x, y) = c.point(0.5).unwrap();
@@ -462,13 +462,7 @@ mod tests {
         // Five points, order 3: knots 0 0 0 1 2 3 3 3, u_max 3. At u = 1
         // (an interior knot) only P1, P2 contribute: (P1 + P2)/2 for a
         // uniform quadratic B-spline.
-        let pts = [
-            [0.0, 0.0, 1.0],
-            [2.0, 0.0, 1.0],
-            [2.0, 2.0, 1.0],
-            [4.0, 2.0, 1.0],
-            [4.0, 4.0, 1.0],
-        ];
+        let pts = weight_1(&[[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [4.0, 2.0], [4.0, 4.0]]);
         let c = Nurbs::new(&pts, 3).unwrap();
         assert_eq!(c.u_max(), 3.0);
         let (x, y) = c.point(1.0).unwrap();
@@ -478,12 +472,7 @@ mod tests {
 
     #[test]
     fn chords_stay_within_tolerance() {
-        let pts = [
-            [0.0, 0.0, 1.0],
-            [0.0, 30.0, 1.0],
-            [50.0, -20.0, 1.0],
-            [10.0, 10.0, 1.0],
-        ];
+        let pts = weight_1(&[[0.0, 0.0], [0.0, 30.0], [50.0, -20.0], [10.0, 10.0]]);
         let c = Nurbs::new(&pts, 4).unwrap();
         let tol = 1e-3;
         let params = chord_params(&c, tol).unwrap();

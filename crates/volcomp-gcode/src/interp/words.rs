@@ -42,6 +42,22 @@ impl CodeSet {
     fn contains(&self, code: u16) -> Option<bool> {
         (code < Self::LIMIT).then(|| self.0[usize::from(code / 64)] & (1 << (code % 64)) != 0)
     }
+
+    /// Whether `codes` (this set's codes with their columns) has `code`:
+    /// one bit test below the limit.
+    fn has(&self, codes: &[(u16, usize)], code: u16) -> bool {
+        self.contains(code)
+            .unwrap_or_else(|| codes.iter().any(|(c, _)| *c == code))
+    }
+
+    /// The column of `code` in `codes` (this set's codes with their
+    /// columns), if the block has it.
+    fn col(&self, codes: &[(u16, usize)], code: u16) -> Option<usize> {
+        if self.contains(code) == Some(false) {
+            return None;
+        }
+        codes.iter().find(|(c, _)| *c == code).map(|(_, col)| *col)
+    }
 }
 
 /// Slot of a word letter in [`WordTable::values`].
@@ -74,15 +90,10 @@ impl WordTable {
             || self.extra_col().is_some()
     }
     pub(super) fn has_g(&self, code: u16) -> bool {
-        self.g_set
-            .contains(code)
-            .unwrap_or_else(|| self.g.iter().any(|(c, _)| *c == code))
+        self.g_set.has(&self.g, code)
     }
     pub(super) fn g_col(&self, code: u16) -> Option<usize> {
-        if self.g_set.contains(code) == Some(false) {
-            return None;
-        }
-        self.g.iter().find(|(c, _)| *c == code).map(|(_, col)| *col)
+        self.g_set.col(&self.g, code)
     }
     /// `Some(true)` when the block has `on`, `Some(false)` when it has `off`
     /// (two codes of one modal group, so never both).
@@ -96,15 +107,10 @@ impl WordTable {
         }
     }
     pub(super) fn has_m(&self, code: u16) -> bool {
-        self.m_set
-            .contains(code)
-            .unwrap_or_else(|| self.m.iter().any(|(c, _)| *c == code))
+        self.m_set.has(&self.m, code)
     }
     pub(super) fn m_col(&self, code: u16) -> Option<usize> {
-        if self.m_set.contains(code) == Some(false) {
-            return None;
-        }
-        self.m.iter().find(|(c, _)| *c == code).map(|(_, col)| *col)
+        self.m_set.col(&self.m, code)
     }
 }
 
@@ -168,6 +174,21 @@ const PROBING_REFUSED: &str = "probing ends where the probe touches, which is kn
 
 /// The canned cycles volcomp expands (G-code × 10).
 pub(super) const CYCLE_CODES: [u16; 11] = [730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890];
+
+/// The motion a G code (× 10) of modal group 1 selects.
+pub(super) fn motion_of(code: u16) -> Option<MotionMode> {
+    Some(match code {
+        0 => MotionMode::Rapid,
+        10 => MotionMode::Feed,
+        20 => MotionMode::Cw,
+        30 => MotionMode::Ccw,
+        50..=53 => MotionMode::Spline(code),
+        330 | 331 => MotionMode::Synced(code),
+        c if PROBE_CODES.contains(&c) => MotionMode::Probe(c),
+        c if CYCLE_CODES.contains(&c) => MotionMode::Cycle(c),
+        _ => return None,
+    })
+}
 
 /// A G code ×10 as LinuxCNC's `read_g` (interp_read.cc) makes it: ten
 /// times the value, taken to the whole number below unless that is more
@@ -266,6 +287,15 @@ impl Interpreter {
                 ..
             } = word;
             let col = span.start;
+            // A code volcomp refuses, with why.
+            let not_supported = |letter: char, code: u16, why: &str| {
+                unsupported(
+                    line,
+                    col,
+                    format!("{} is not supported: {why}", code_name(letter, code)),
+                    "remove or replace this code; volcomp never guesses what a code means",
+                )
+            };
             let value = &match letter {
                 b'M' | b'T' | b'H' | b'L' => integer_word(*letter, *value).map_err(|why| {
                     invalid(line, col, why, "write a whole number, e.g. T2 or L3")
@@ -283,24 +313,9 @@ impl Interpreter {
                         )
                     })?;
                     if PROBE_CODES.contains(&code) && !probing {
-                        return Err(unsupported(
-                            line,
-                            col,
-                            format!(
-                                "{} is not supported: {PROBING_REFUSED}",
-                                code_name('G', code)
-                            ),
-                            "remove or replace this code; volcomp never guesses what a code means",
-                        ));
+                        return Err(not_supported('G', code, PROBING_REFUSED));
                     }
-                    let group = g_group(code).map_err(|why| {
-                        unsupported(
-                            line,
-                            col,
-                            format!("{} is not supported: {why}", code_name('G', code)),
-                            "remove or replace this code; volcomp never guesses what a code means",
-                        )
-                    })?;
+                    let group = g_group(code).map_err(|why| not_supported('G', code, why))?;
                     // LinuxCNC accepts G80 beside G0/G1 (`G00 G17 G40 G49 G80 G90`,
                     // a common safe-start line): the cycle is cancelled and the
                     // other motion code takes effect.
@@ -325,14 +340,7 @@ impl Interpreter {
                 b'M' => {
                     // A whole number (above): M199 and below are looked up.
                     let code = (*value * 10.0).min(9990.0) as u16;
-                    let group = m_group(code).map_err(|why| {
-                        unsupported(
-                            line,
-                            col,
-                            format!("{} is not supported: {why}", code_name('M', code)),
-                            "remove or replace this code; volcomp never guesses what a code means",
-                        )
-                    })?;
+                    let group = m_group(code).map_err(|why| not_supported('M', code, why))?;
                     if let Some((other, _)) = w.m.iter().find(|(c, _)| m_group(*c) == Ok(group)) {
                         return Err(invalid(
                             line,
@@ -429,25 +437,15 @@ impl Interpreter {
     /// it: the block's own group-1 code, else the modal motion when the block
     /// has axis or polar words, or arc centre words in an arc mode.
     pub(super) fn motion_to_be(&self, w: &WordTable) -> Option<MotionMode> {
-        for (code, mode) in [
-            (0u16, MotionMode::Rapid),
-            (10, MotionMode::Feed),
-            (20, MotionMode::Cw),
-            (30, MotionMode::Ccw),
-            (50, MotionMode::Spline(50)),
-            (51, MotionMode::Spline(51)),
-            (52, MotionMode::Spline(52)),
-            (53, MotionMode::Spline(53)),
-            (330, MotionMode::Synced(330)),
-            (331, MotionMode::Synced(331)),
-        ]
-        .into_iter()
-        .chain(CYCLE_CODES.map(|c| (c, MotionMode::Cycle(c))))
-        .chain(PROBE_CODES.map(|c| (c, MotionMode::Probe(c))))
+        // G5.3 (non-modal) yields to G0–G5.2 on its line.
+        let codes = [0u16, 10, 20, 30, 50, 51, 52, 53, 330, 331];
+        if let Some(code) = codes
+            .into_iter()
+            .chain(CYCLE_CODES)
+            .chain(PROBE_CODES)
+            .find(|&code| w.has_g(code))
         {
-            if w.has_g(code) {
-                return Some(mode);
-            }
+            return motion_of(code);
         }
         if w.has_g(800) || [100u16, 280, 300, 520, 920].iter().any(|c| w.has_g(*c)) {
             return None;

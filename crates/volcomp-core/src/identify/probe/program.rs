@@ -72,12 +72,8 @@ impl Frame {
 }
 
 fn xyz(p: Vec3) -> String {
-    format!(
-        "X{} Y{} Z{}",
-        numfmt::mm(p.x),
-        numfmt::mm(p.y),
-        numfmt::mm(p.z)
-    )
+    let [x, y, z] = p.to_array().map(numfmt::mm);
+    format!("X{x} Y{y} Z{z}")
 }
 
 fn coord(letter: char, v: f64) -> String {

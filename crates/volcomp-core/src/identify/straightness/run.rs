@@ -146,17 +146,11 @@ impl Run {
                 );
             }
         }
-        let mut steps: Vec<f64> = positions_mm.windows(2).map(|w| w[1] - w[0]).collect();
-        steps.sort_by(f64::total_cmp);
-        let step = steps[steps.len() / 2];
-        for i in 1..n {
-            let d = positions_mm[i] - positions_mm[i - 1];
-            if (d - step).abs() > SPACING_TOLERANCE * step {
-                return fail(
-                    format!("unequal sampling: step {d:.6} mm from sample {} to sample {i}, the run's typical step is {step:.6} mm", i - 1),
-                    "the spectrum needs evenly spaced samples: resample the run onto an even grid (or fill the missing samples) before fitting",
-                );
-            }
+        if let Some((i, d, step)) = unequal_step(&positions_mm) {
+            return fail(
+                format!("unequal sampling: step {d:.6} mm from sample {} to sample {i}, the run's typical step is {step:.6} mm", i - 1),
+                "the spectrum needs evenly spaced samples: resample the run onto an even grid (or fill the missing samples) before fitting",
+            );
         }
         Ok(Run {
             file: name.to_string(),
@@ -191,36 +185,32 @@ impl Run {
                 continue;
             };
             let (key, value) = (key.trim().to_ascii_lowercase(), value.trim());
+            // A header comment's error: at its row, first column.
+            let refused = |message: String, help: &str| err(row, 1, message, help);
             match key.as_str() {
                 "axis" => {
                     let a = Axis::parse(value).ok_or_else(|| {
-                        err(
-                            row,
-                            1,
-                            format!("unknown axis `{}`", shown(value)),
-                            "write `# axis = X` or `# axis = Y`: the axis whose motion the run follows",
-                        )
+                        let help = "write `# axis = X` or `# axis = Y`: the axis whose motion the run follows";
+                        refused(format!("unknown axis `{}`", shown(value)), help)
                     })?;
                     axis = Some((a, row));
                 }
                 "feed_mm_per_min" => {
                     let f = parse_feed(value).ok_or_else(|| {
-                        err(
-                            row,
-                            1,
+                        let help = "write the feed rate in mm/min, like `# feed_mm_per_min = 4800`";
+                        refused(
                             format!("feed rate `{}` is not a positive number", shown(value)),
-                            "write the feed rate in mm/min, like `# feed_mm_per_min = 4800`",
+                            help,
                         )
                     })?;
                     feed_comment = Some((f, row));
                 }
                 k if k.starts_with("feed") => {
-                    return Err(err(
-                        row,
-                        1,
+                    let help = "write the feed rate in mm/min as `# feed_mm_per_min = 4800`";
+                    return Err(refused(
                         format!("feed rate key `{}` has no known unit", shown(k)),
-                        "write the feed rate in mm/min as `# feed_mm_per_min = 4800`",
-                    ))
+                        help,
+                    ));
                 }
                 _ => {}
             }
@@ -320,25 +310,16 @@ impl Run {
             }
         };
         // Even spacing.
-        // Each step against the median step (a missing sample must not
-        // shift the reference).
-        let n = positions.len();
-        let mut steps: Vec<f64> = positions.windows(2).map(|w| w[1] - w[0]).collect();
-        steps.sort_by(f64::total_cmp);
-        let step = steps[steps.len() / 2];
-        for i in 1..n {
-            let d = positions[i] - positions[i - 1];
-            if (d - step).abs() > SPACING_TOLERANCE * step {
-                return Err(err(
-                    rows[i],
-                    pc + 1,
-                    format!(
-                        "unequal sampling: step {d:.6} mm from row {} to here, the run's typical step is {step:.6} mm",
-                        rows[i - 1]
-                    ),
-                    "the spectrum needs evenly spaced samples: resample the run onto an even grid (or fill the missing samples) before fitting",
-                ));
-            }
+        if let Some((i, d, step)) = unequal_step(&positions) {
+            return Err(err(
+                rows[i],
+                pc + 1,
+                format!(
+                    "unequal sampling: step {d:.6} mm from row {} to here, the run's typical step is {step:.6} mm",
+                    rows[i - 1]
+                ),
+                "the spectrum needs evenly spaced samples: resample the run onto an even grid (or fill the missing samples) before fitting",
+            ));
         }
         Ok(Run {
             file: file.to_string(),
@@ -348,6 +329,19 @@ impl Run {
             displacement_um: values,
         })
     }
+}
+
+/// The first step of `positions_mm` (increasing, at least two) off the
+/// median step by more than [`SPACING_TOLERANCE`]: `(i, step from sample
+/// i − 1 to i, median step)`. Each step is held against the median (a
+/// missing sample must not shift the reference).
+fn unequal_step(positions_mm: &[f64]) -> Option<(usize, f64, f64)> {
+    let mut steps: Vec<f64> = positions_mm.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let step = steps[steps.len() / 2];
+    (1..positions_mm.len())
+        .map(|i| (i, positions_mm[i] - positions_mm[i - 1], step))
+        .find(|&(_, d, step)| (d - step).abs() > SPACING_TOLERANCE * step)
 }
 
 fn parse_feed(text: &str) -> Option<f64> {

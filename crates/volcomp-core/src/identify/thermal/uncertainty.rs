@@ -71,71 +71,65 @@ pub fn monte_carlo(
     samples: usize,
     seed: u64,
 ) -> Vec<Band> {
-    monte_carlo_with_progress(
-        model,
-        ident,
-        trajectory_mm,
-        tool_mm,
-        samples,
-        seed,
-        &mut crate::progress::Silent,
-    )
-}
-
-/// [`monte_carlo`], telling `progress` of each trajectory point done.
-pub fn monte_carlo_with_progress(
-    model: &PolyModel,
-    ident: &Identification,
-    trajectory_mm: &[Vec3],
-    tool_mm: Vec3,
-    samples: usize,
-    seed: u64,
-    progress: &mut dyn crate::progress::Progress,
-) -> Vec<Band> {
-    let base = estimate(ident);
-    let rank = ident.cov_factor.first().map_or(0, Vec::len);
-    let mut rng = Rng::new(seed);
-    let draws: Vec<Vec<f64>> = (0..samples.max(2))
-        .map(|_| {
-            let z: Vec<f64> = (0..rank).map(|_| rng.normal()).collect();
-            base.iter()
-                .zip(&ident.cov_factor)
-                .map(|(b, f)| b + f.iter().zip(&z).map(|(a, c)| a * c).sum::<f64>())
-                .map(|x| if x.is_finite() { x } else { 0.0 })
-                .collect()
-        })
-        .collect();
+    let draws = Draws::new(ident, samples, seed);
     trajectory_mm
         .iter()
-        .enumerate()
-        .map(|(i, &q)| {
-            progress.advance_to(i as u64);
-            let estimate_um = model.deviation_um(&base, q, tool_mm, false);
-            let mut vals: [Vec<f64>; 3] = Default::default();
-            for d in &draws {
-                let e = model.deviation_um(d, q, tool_mm, false);
-                for c in 0..3 {
-                    vals[c].push(e[c]);
-                }
-            }
-            let mut band = Band {
-                estimate_um,
-                std_um: Vec3::ZERO,
-                lo_um: Vec3::ZERO,
-                hi_um: Vec3::ZERO,
-            };
-            for (c, v) in vals.iter_mut().enumerate() {
-                let n = v.len() as f64;
-                let mean = v.iter().sum::<f64>() / n;
-                band.std_um[c] =
-                    (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-                v.sort_by(f64::total_cmp);
-                band.lo_um[c] = quantile(v, 0.025);
-                band.hi_um[c] = quantile(v, 0.975);
-            }
-            band
-        })
+        .map(|&q| draws.band(model, q, tool_mm))
         .collect()
+}
+
+/// The estimate and `samples` (at least 2) parameter sets drawn around it,
+/// `θ = θ̂ + F·z` (seeded; parameters that come out not finite are 0).
+struct Draws {
+    base: Vec<f64>,
+    draws: Vec<Vec<f64>>,
+}
+
+impl Draws {
+    fn new(ident: &Identification, samples: usize, seed: u64) -> Self {
+        let base = estimate(ident);
+        let rank = ident.cov_factor.first().map_or(0, Vec::len);
+        let mut rng = Rng::new(seed);
+        let draws: Vec<Vec<f64>> = (0..samples.max(2))
+            .map(|_| {
+                let z: Vec<f64> = (0..rank).map(|_| rng.normal()).collect();
+                base.iter()
+                    .zip(&ident.cov_factor)
+                    .map(|(b, f)| b + f.iter().zip(&z).map(|(a, c)| a * c).sum::<f64>())
+                    .map(|x| if x.is_finite() { x } else { 0.0 })
+                    .collect()
+            })
+            .collect();
+        Draws { base, draws }
+    }
+
+    /// The band at `q`: the estimate's deviation, and the spread and the
+    /// 2.5 % and 97.5 % quantiles of the drawn ones.
+    fn band(&self, model: &PolyModel, q: Vec3, tool_mm: Vec3) -> Band {
+        let estimate_um = model.deviation_um(&self.base, q, tool_mm, false);
+        let mut vals: [Vec<f64>; 3] = Default::default();
+        for d in &self.draws {
+            let e = model.deviation_um(d, q, tool_mm, false);
+            for c in 0..3 {
+                vals[c].push(e[c]);
+            }
+        }
+        let mut band = Band {
+            estimate_um,
+            std_um: Vec3::ZERO,
+            lo_um: Vec3::ZERO,
+            hi_um: Vec3::ZERO,
+        };
+        for (c, v) in vals.iter_mut().enumerate() {
+            let n = v.len() as f64;
+            let mean = v.iter().sum::<f64>() / n;
+            band.std_um[c] = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+            v.sort_by(f64::total_cmp);
+            band.lo_um[c] = quantile(v, 0.025);
+            band.hi_um[c] = quantile(v, 0.975);
+        }
+        band
+    }
 }
 
 /// The Monte Carlo bands along one straight line through the middle of the
@@ -185,13 +179,6 @@ pub fn axis_line_bands_with_progress(
     samples: usize,
     progress: &mut dyn crate::progress::Progress,
 ) -> Vec<LineBands> {
-    /// The points of the lines before this one, added.
-    struct Offset<'a>(u64, &'a mut dyn crate::progress::Progress);
-    impl crate::progress::Progress for Offset<'_> {
-        fn advance_to(&mut self, done: u64) {
-            self.1.advance_to(self.0 + done);
-        }
-    }
     let per_line = u64::from(LINE_INTERVALS) + 1;
     progress.start("Monte Carlo bands", Some(3 * per_line));
     let mid = Vec3::new(
@@ -200,6 +187,8 @@ pub fn axis_line_bands_with_progress(
         0.5 * (ranges_mm[2][0] + ranges_mm[2][1]),
     );
     let tool = Vec3::new(0.0, 0.0, probe_length_mm);
+    // Every line with the same draws (seed 1).
+    let draws = Draws::new(ident, samples, 1);
     let lines = (0..3)
         .map(|axis| {
             let [lo, hi] = ranges_mm[axis];
@@ -210,9 +199,14 @@ pub fn axis_line_bands_with_progress(
                     p
                 })
                 .collect();
-            let mut offset = Offset(axis as u64 * per_line, &mut *progress);
-            let bands =
-                monte_carlo_with_progress(model, ident, &points_mm, tool, samples, 1, &mut offset);
+            let bands = points_mm
+                .iter()
+                .enumerate()
+                .map(|(i, &q)| {
+                    progress.advance_to(axis as u64 * per_line + i as u64);
+                    draws.band(model, q, tool)
+                })
+                .collect();
             LineBands {
                 axis,
                 points_mm,

@@ -666,6 +666,7 @@ pub fn parse(text: &str, file: &str, o: &FanucOptions) -> Result<ControllerCorre
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::controllers::test_support::{assert_noted, table};
 
     #[test]
     fn hand_computed_tape() {
@@ -674,11 +675,11 @@ mod tests {
         // 0, −4.4, −6.0, −5.2 → rounded 0, −4, −6, −5 µm; increments 0, −4,
         // −2, +1 at points 0, 1, 2, 3; 3620 = 0 (reference), 3621 = 0,
         // 3622 = 3, magnification 1, interval 10000 units.
-        let x = Positioning {
-            positions_mm: vec![0.0, 10.0, 20.0, 30.0],
-            forward_um: vec![0.0, 4.4, 6.0, 5.2],
-            reverse_um: vec![0.0, 4.4, 6.0, 5.2],
-        };
+        let x = table(
+            &[0.0, 10.0, 20.0, 30.0],
+            &[0.0, 4.4, 6.0, 5.2],
+            &[0.0, 4.4, 6.0, 5.2],
+        );
         let e = export(&[Some(x), None, None], &FanucOptions::default()).unwrap();
         let t = &e.files[0].text;
         for line in [
@@ -721,11 +722,11 @@ mod tests {
         // Correction relative to the reference: −300, −150, 0; increments
         // (point 1: −150 − (−300) = 150, point 2: 150) exceed 127: magnification 2,
         // values 75, 75.
-        let y = Positioning {
-            positions_mm: vec![-20.0, -10.0, 0.0],
-            forward_um: vec![300.0, 150.0, 0.0],
-            reverse_um: vec![300.0, 150.0, 0.0],
-        };
+        let y = table(
+            &[-20.0, -10.0, 0.0],
+            &[300.0, 150.0, 0.0],
+            &[300.0, 150.0, 0.0],
+        );
         let e = export(&[None, Some(y), None], &FanucOptions::default()).unwrap();
         let t = &e.files[0].text;
         assert!(
@@ -743,11 +744,7 @@ mod tests {
             back.axes[1].as_ref().unwrap().positions_mm,
             vec![-20.0, -10.0, 0.0]
         );
-        let long = Positioning {
-            positions_mm: vec![0.0, 2000.0],
-            forward_um: vec![0.0, 0.0],
-            reverse_um: vec![0.0, 0.0],
-        };
+        let long = table(&[0.0, 2000.0], &[0.0, 0.0], &[0.0, 0.0]);
         let err = export(
             &[Some(long), None, None],
             &FanucOptions {
@@ -773,11 +770,7 @@ mod tests {
         //   the reference); relative to it 4, 0, −4.6 → 4, 0, −5; values at
         //   points 3, 4, 5: 0, −4, −5; absolute −1, −5, −10.
         // 3626 = 3 (the − table follows the + table's points 0 … 2).
-        let x = Positioning {
-            positions_mm: vec![-10.0, 0.0, 10.0],
-            forward_um: vec![-3.0, 0.0, 4.4],
-            reverse_um: vec![1.0, 5.0, 9.6],
-        };
+        let x = table(&[-10.0, 0.0, 10.0], &[-3.0, 0.0, 4.4], &[1.0, 5.0, 9.6]);
         let e = export(&[Some(x.clone()), None, None], &FanucOptions::default()).unwrap();
         let t = &e.files[0].text;
         let expected = "%\n\
@@ -800,13 +793,7 @@ mod tests {
         assert_eq!(applied.forward_um, vec![-3.0, 0.0, 4.0]);
         assert_eq!(applied.reverse_um, vec![1.0, 5.0, 10.0]);
         assert!((e.rounding.max_um - 0.4).abs() < 1e-9, "{:?}", e.rounding);
-        assert!(
-            e.notes
-                .iter()
-                .any(|n| n.contains("1851 (and 1852) is written 0")),
-            "{:?}",
-            e.notes
-        );
+        assert_noted(&e.notes, "1851 (and 1852) is written 0");
         // Read back: each direction its own table, as the control applies it.
         let back = parse(t, "pitch.tap", &FanucOptions::default()).unwrap();
         assert_eq!(back, e.applied);
@@ -826,13 +813,7 @@ mod tests {
         // Off: the reversal 4, 5, 5.2 µm → B̄ = 4.7333 → 1851 = 5 units,
         // acting on travel in − (reference return in +).
         assert!(ut.contains("N1851 A1 P5\nN1852 A1 P5\n"), "{ut}");
-        assert!(
-            u.notes
-                .iter()
-                .any(|n| n.contains("1851 (and 1852 for rapid traverse) = 5")),
-            "{:?}",
-            u.notes
-        );
+        assert_noted(&u.notes, "1851 (and 1852 for rapid traverse) = 5");
         let back = parse(ut, "pitch.tap", &off).unwrap();
         assert_eq!(back.backlash, u.applied.backlash);
         assert_eq!(back.backlash[0].unwrap().side, BacklashSide::Reverse);
@@ -847,11 +828,7 @@ mod tests {
         // from zero); relative to it the − table wants +0.5 everywhere:
         // 1, 0 (the reference holds 3627), 1 → values 0, −1, +1; the
         // control applies −2, −3, −2 units, each 0.5 from −2.5.
-        let tie = Positioning {
-            positions_mm: vec![-10.0, 0.0, 10.0],
-            forward_um: vec![0.0, 0.0, 0.0],
-            reverse_um: vec![2.5, 2.5, 2.5],
-        };
+        let tie = table(&[-10.0, 0.0, 10.0], &[0.0, 0.0, 0.0], &[2.5, 2.5, 2.5]);
         let t = export(&[Some(tie), None, None], &FanucOptions::default()).unwrap();
         assert!(
             t.files[0].text.contains("N3627 A1 P-3\n")
@@ -884,11 +861,7 @@ mod tests {
     #[test]
     fn bidirectional_limits() {
         // Three points per direction need 6 numbers: 0 … 4 is too few.
-        let x = Positioning {
-            positions_mm: vec![-10.0, 0.0, 10.0],
-            forward_um: vec![0.0, 0.0, 0.0],
-            reverse_um: vec![5.0, 5.0, 5.0],
-        };
+        let x = table(&[-10.0, 0.0, 10.0], &[0.0, 0.0, 0.0], &[5.0, 5.0, 5.0]);
         let small = FanucOptions {
             max_number: 4,
             ..FanucOptions::default()

@@ -206,16 +206,13 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::controllers::test_support::{assert_noted, table};
 
     #[test]
     fn backlash_by_hand() {
         // X reversal values 3.0, 4.0, 5.2 µm → mean 4.0667 → 4 µm = 0.004 mm;
         // spread 1.1333 µm, rounding 0.0667 µm.
-        let x = Positioning {
-            positions_mm: vec![0.0, 50.0, 100.0],
-            forward_um: vec![0.0, 1.0, 2.0],
-            reverse_um: vec![3.0, 5.0, 7.2],
-        };
+        let x = table(&[0.0, 50.0, 100.0], &[0.0, 1.0, 2.0], &[3.0, 5.0, 7.2]);
         let e = export(&[Some(x), None, None], 0).unwrap();
         assert!(
             e.files[0].text.contains("$160=0.004\n"),
@@ -227,24 +224,16 @@ mod tests {
             "{:?}",
             e.rounding
         );
-        assert!(e.notes.iter().any(|n| n.contains("1.133")), "{:?}", e.notes);
+        assert_noted(&e.notes, "1.133");
         // grblHAL's default: homing towards +, pull-off towards −, so the
         // 4 µm are added to forward travel (motors 4 µm ahead: c = −4).
         let back = parse(&e.files[0].text, "b.txt").unwrap();
         assert_eq!(back.backlash, e.applied.backlash);
         assert_eq!(back.correction_um(0, 30.0, true), -4.0);
         assert_eq!(back.correction_um(0, 30.0, false), 0.0);
-        assert!(
-            back.notes.iter().any(|n| n.contains("$23")),
-            "{:?}",
-            back.notes
-        );
+        assert_noted(&back.notes, "$23");
         // The same reversal everywhere: no "varies by up to 0".
-        let same = Positioning {
-            positions_mm: vec![0.0, 100.0],
-            forward_um: vec![0.0, 1.0],
-            reverse_um: vec![3.0, 4.0],
-        };
+        let same = table(&[0.0, 100.0], &[0.0, 1.0], &[3.0, 4.0]);
         let notes = export(&[Some(same), None, None], 0).unwrap().notes;
         let x = notes
             .iter()
@@ -255,11 +244,7 @@ mod tests {
             "{x}"
         );
         // Forward above reverse: refused.
-        let y = Positioning {
-            positions_mm: vec![0.0, 1.0],
-            forward_um: vec![2.0, 2.0],
-            reverse_um: vec![0.0, 0.0],
-        };
+        let y = table(&[0.0, 1.0], &[2.0, 2.0], &[0.0, 0.0]);
         assert!(export(&[None, Some(y), None], 0)
             .unwrap_err()
             .message

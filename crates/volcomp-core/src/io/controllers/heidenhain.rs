@@ -28,6 +28,7 @@ use super::{
     axis_letter, located, ControllerCorrection, Export, ExportFile, Format, LimitError,
     Positioning, ReadError, Rounding,
 };
+use crate::io::finite;
 use crate::io::numfmt::fixed;
 
 /// Points per `.COM` table.
@@ -200,10 +201,7 @@ pub fn parse_com(text: &str, file: &str, axis: usize) -> Result<Positioning, Rea
             "the second line names the columns: NR AXISPOS BACKLASH X",
         ));
     };
-    let cols: Vec<String> = header
-        .split_whitespace()
-        .map(str::to_ascii_uppercase)
-        .collect();
+    let cols = column_names(header);
     let col = |name: &str| cols.iter().position(|c| c == name);
     let (Some(pos_c), Some(val_c)) = (col("AXISPOS"), col(&ax)) else {
         return Err(err(
@@ -234,16 +232,13 @@ pub fn parse_com(text: &str, file: &str, axis: usize) -> Result<Positioning, Rea
             ));
         }
         let num = |c: usize| -> Result<f64, ReadError> {
-            f[c].parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    err(
-                        row,
-                        format!("`{}` in column {} is not a number", f[c], cols[c]),
-                        "write numbers in mm, e.g. +0.0012",
-                    )
-                })
+            finite(f[c]).ok_or_else(|| {
+                err(
+                    row,
+                    format!("`{}` in column {} is not a number", f[c], cols[c]),
+                    "write numbers in mm, e.g. +0.0012",
+                )
+            })
         };
         let x = num(pos_c)?;
         if out.positions_mm.last().is_some_and(|&p| x <= p) {
@@ -279,6 +274,15 @@ pub fn parse_com(text: &str, file: &str, axis: usize) -> Result<Positioning, Rea
     Ok(out)
 }
 
+/// The column names of a table's header line, in upper case (compared
+/// so).
+fn column_names(header: &str) -> Vec<String> {
+    header
+        .split_whitespace()
+        .map(str::to_ascii_uppercase)
+        .collect()
+}
+
 /// Reads a `.CMA` assignment table: the `.COM` file names of its active
 /// line (`*` in `ACTIVE`; the only line if there is one) in the columns
 /// X, Y, Z. A table in column X compensates X as a function of X.
@@ -300,10 +304,7 @@ pub fn parse_cma(text: &str, file: &str) -> Result<[Option<String>; 3], ReadErro
             "a .CMA table names its columns: NR ACTIVE X Y Z",
         ));
     };
-    let cols: Vec<String> = header
-        .split_whitespace()
-        .map(str::to_ascii_uppercase)
-        .collect();
+    let cols = column_names(header);
     let active_c = cols.iter().position(|c| c == "ACTIVE");
     let data = &rows[1..];
     let chosen: Vec<&(usize, &str)> = match active_c {
@@ -340,17 +341,18 @@ pub fn parse_cma(text: &str, file: &str) -> Result<[Option<String>; 3], ReadErro
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::controllers::test_support::table;
 
     #[test]
     fn hand_computed_tables() {
         // Z at −200, −100, 0 mm: forward e = 0, +3.12, −2.06 µm, reverse
         // +1.0, +4.25, −1.0 µm → +0.0000, +0.0031, −0.0021 and +0.0010,
         // +0.0043 (4.25 rounds away from zero), −0.0010 mm.
-        let z = Positioning {
-            positions_mm: vec![-200.0, -100.0, 0.0],
-            forward_um: vec![0.0, 3.12, -2.06],
-            reverse_um: vec![1.0, 4.25, -1.0],
-        };
+        let z = table(
+            &[-200.0, -100.0, 0.0],
+            &[0.0, 3.12, -2.06],
+            &[1.0, 4.25, -1.0],
+        );
         let e = export(&[None, None, Some(z)]).unwrap();
         assert_eq!(e.files.len(), 2);
         assert_eq!(e.files[0].name, "Z.COM");

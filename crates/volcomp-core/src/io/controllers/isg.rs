@@ -21,6 +21,7 @@ use super::{
     axis_letter, located, ControllerCorrection, Export, ExportFile, Format, LimitError,
     Positioning, ReadError, Rounding,
 };
+use crate::io::finite;
 use crate::io::numfmt::fixed;
 use volcomp_gcode::Vec3;
 
@@ -142,17 +143,13 @@ pub fn ssfk_parse(text: &str, file: &str) -> Result<Positioning, ReadError> {
                 "volcomp reads the leadscrew error compensation (kw.ssfk.*) of a list",
             ));
         };
-        let v: f64 = value
-            .parse()
-            .ok()
-            .filter(|v: &f64| v.is_finite())
-            .ok_or_else(|| {
-                err(
-                    row,
-                    format!("`{value}` is not a number"),
-                    "positions and values are integers in 0.1 µm",
-                )
-            })?;
+        let v = finite(value).ok_or_else(|| {
+            err(
+                row,
+                format!("`{value}` is not a number"),
+                "positions and values are integers in 0.1 µm",
+            )
+        })?;
         last_row = row;
         let slot = |list: &mut Vec<Option<f64>>, idx: &str| -> Result<(), ReadError> {
             let k: usize = idx.parse().ok().filter(|&k| k < 100_000).ok_or_else(|| {
@@ -265,17 +262,18 @@ pub fn ssfk_parse(text: &str, file: &str) -> Result<Positioning, ReadError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::controllers::test_support::table;
 
     #[test]
     fn the_documentations_example_point() {
         // [ISG SSFK] example: at setpoint 19866.7 µm the axis reached
         // 19856.5 µm going positive and 19874.7 µm going negative:
         // Δs = −10.2 µm → −102 and +8.0 µm → 80 (0.1 µm units).
-        let y = Positioning {
-            positions_mm: vec![0.0, 19.8667],
-            forward_um: vec![0.0, 19856.5 - 19866.7],
-            reverse_um: vec![0.0, 19874.7 - 19866.7],
-        };
+        let y = table(
+            &[0.0, 19.8667],
+            &[0.0, 19856.5 - 19866.7],
+            &[0.0, 19874.7 - 19866.7],
+        );
         let e = ssfk_export(&[None, Some(y), None], SSFK_MAX_POINTS).unwrap();
         assert_eq!(e.files[0].name, "achskw_y.lis");
         let t = &e.files[0].text;
@@ -299,22 +297,14 @@ mod tests {
     #[test]
     fn rounding_limits_and_equidistant_lists() {
         // 1.26 µm → 13 (0.1 µm), 0.04 µm rounding.
-        let x = Positioning {
-            positions_mm: vec![0.0, 10.0],
-            forward_um: vec![0.0, 1.26],
-            reverse_um: vec![0.0, 1.26],
-        };
+        let x = table(&[0.0, 10.0], &[0.0, 1.26], &[0.0, 1.26]);
         let e = ssfk_export(&[Some(x.clone()), None, None], SSFK_MAX_POINTS).unwrap();
         assert!(e.files[0].text.contains("kw.ssfk.table[1].pos        13\n"));
         assert!((e.rounding.max_um - 0.04).abs() < 1e-9);
         let err = ssfk_export(&[Some(x), None, None], 1).unwrap_err();
         assert!(err.message.contains("smaller than P-COMP-00059"), "{err}");
         // Two points need max_points 3: kw_nr_max 2 < 3.
-        let two = Positioning {
-            positions_mm: vec![0.0, 10.0],
-            forward_um: vec![0.0, 0.0],
-            reverse_um: vec![0.0, 0.0],
-        };
+        let two = table(&[0.0, 10.0], &[0.0, 0.0], &[0.0, 0.0]);
         assert!(ssfk_export(&[Some(two.clone()), None, None], 2).is_err());
         assert!(ssfk_export(&[Some(two), None, None], 3).is_ok());
         // An equidistant, unilateral list: −200 mm every 0.5 mm.
@@ -408,26 +398,20 @@ pub fn parse_volcomp_lis(
                 .and_then(|r| r.strip_suffix(']'))
                 .and_then(|n| n.parse().ok())
         };
-        if let Some(j) = index("file[") {
+        let listed = match index("file[") {
+            Some(j) => Some(("file", j, &mut files)),
+            None => index("file_format[").map(|j| ("file_format", j, &mut formats)),
+        };
+        if let Some((list, j, slots)) = listed {
             if j >= 10 {
                 return Err(err(
                     row,
                     format!("{key}: no such parameter file"),
-                    "the volumetric compensation reads file[0] … file[9]",
+                    &format!("the volumetric compensation reads {list}[0] … {list}[9]"),
                 )
                 .into());
             }
-            files[j] = Some((value.to_string(), row));
-        } else if let Some(j) = index("file_format[") {
-            if j >= 10 {
-                return Err(err(
-                    row,
-                    format!("{key}: no such parameter file"),
-                    "the volumetric compensation reads file_format[0] … file_format[9]",
-                )
-                .into());
-            }
-            formats[j] = Some((value.to_string(), row));
+            slots[j] = Some((value.to_string(), row));
         } else {
             match lower.as_str() {
                 "negate" => negate = axes_of(value, row, &mut notes)?,
@@ -718,25 +702,15 @@ mod csv_tests {
 #[cfg(test)]
 mod lis_tests {
     use super::*;
+    use crate::io::controllers::test_support::reader;
     use crate::model::controller::{ControllerApplies, ControllerResidual};
     use crate::model::{Components, ErrorModel, ALL_FORWARD};
-    use std::collections::HashMap;
 
     fn parse(
         lis: &str,
         files: &[(&str, &str)],
     ) -> Result<crate::model::controller::Volumetric, super::super::ControllerReadError> {
-        let files: HashMap<String, String> = files
-            .iter()
-            .map(|(n, t)| (n.to_string(), t.to_string()))
-            .collect();
-        parse_volcomp_lis(lis, "v.lis", |n| match files.get(n) {
-            Some(t) => Ok((n.to_string(), t.clone())),
-            None => Err(super::super::ControllerReadError::Io {
-                path: n.into(),
-                source: std::io::Error::from(std::io::ErrorKind::NotFound),
-            }),
-        })
+        parse_volcomp_lis(lis, "v.lis", reader(files))
     }
 
     // EXX 0 → 5 µm over X 0 … 100 (ISG CSV); EYY, EZZ zero.

@@ -484,15 +484,12 @@ fn differ(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::controllers::test_support::table;
 
     #[test]
     fn type_1_by_hand() {
         // e = +2 µm forward, +5 µm reverse at 100 mm → trims −0.002, −0.005 mm.
-        let p = Positioning {
-            positions_mm: vec![0.0, 100.0],
-            forward_um: vec![0.0, 2.0],
-            reverse_um: vec![3.0, 5.0],
-        };
+        let p = table(&[0.0, 100.0], &[0.0, 2.0], &[3.0, 5.0]);
         let e = export(
             &[None, Some(p.clone()), None],
             LinuxcncExport::CompFiles(CompFileType::Type1),
@@ -525,24 +522,14 @@ mod tests {
 #[cfg(test)]
 mod ini_tests {
     use super::*;
-    use std::collections::HashMap;
+    use crate::io::controllers::test_support::{assert_noted, reader, table};
 
     /// `parse_ini` with comp files from `files`.
     fn read(
         ini: &str,
         files: &[(&str, &str)],
     ) -> Result<ControllerCorrection, ControllerReadError> {
-        let files: HashMap<String, String> = files
-            .iter()
-            .map(|(n, t)| (n.to_string(), t.to_string()))
-            .collect();
-        parse_ini(ini, "m.ini", |n| match files.get(n) {
-            Some(t) => Ok((n.to_string(), t.clone())),
-            None => Err(ControllerReadError::Io {
-                path: n.into(),
-                source: std::io::Error::from(std::io::ErrorKind::NotFound),
-            }),
-        })
+        parse_ini(ini, "m.ini", reader(files))
     }
 
     const HEAD: &str =
@@ -559,13 +546,7 @@ mod ini_tests {
         // Y: the comp file only; BACKLASH 0.003 is not applied, and said so.
         assert!((c.correction_um(1, 100.0, false) - 5.0).abs() < 1e-9);
         assert!(c.backlash[1].is_none());
-        assert!(
-            c.notes
-                .iter()
-                .any(|n| n.contains("BACKLASH = 0.003 is not applied")),
-            "{:?}",
-            c.notes
-        );
+        assert_noted(&c.notes, "BACKLASH = 0.003 is not applied");
     }
 
     #[test]
@@ -577,11 +558,7 @@ mod ini_tests {
         )
         .unwrap();
         assert!((c.correction_um(2, 100.0, true) - 2.0).abs() < 1e-9);
-        assert!(
-            c.notes.iter().any(|n| n.contains("default 0")),
-            "{:?}",
-            c.notes
-        );
+        assert_noted(&c.notes, "default 0");
         // A comment after the name is part of the name for LinuxCNC.
         let e = read(
             &format!("{HEAD}[JOINT_2]\nCOMP_FILE = z.comp # Z\n"),
@@ -601,13 +578,7 @@ mod ini_tests {
         let c = read(&format!("{HEAD}[JOINT_1]\nTYPE = LINEAR\n\n[JOINT_1]\nCOMP_FILE = y.comp\nCOMP_FILE_TYPE = 1\n"), &[("y.comp", Y1)]).unwrap();
         assert!(c.axes[1].is_none());
         assert_eq!(c.correction_um(1, 100.0, true), 0.0);
-        assert!(
-            c.notes
-                .iter()
-                .any(|n| n.contains("second [JOINT_1] section")),
-            "{:?}",
-            c.notes
-        );
+        assert_noted(&c.notes, "second [JOINT_1] section");
     }
 
     #[test]
@@ -618,11 +589,7 @@ mod ini_tests {
         // Joint 2 is the second Y motor, joint 3 is Z.
         assert!(c.axes[1].is_some() && c.axes[2].is_none());
         assert_eq!(c.correction_um(2, 0.0, true), -1.0);
-        assert!(
-            c.notes.iter().any(|n| n.contains("gantry")),
-            "{:?}",
-            c.notes
-        );
+        assert_noted(&c.notes, "gantry");
         // One Y motor compensated, the other not: refused at its section.
         let one = format!(
             "{head}[JOINT_1]\nCOMP_FILE = y.comp\nCOMP_FILE_TYPE = 1\n[JOINT_2]\nTYPE = LINEAR\n"
@@ -661,21 +628,13 @@ mod ini_tests {
         let c = read("[TRAJ]\nLINEAR_UNITS = 1.0\n[KINS]\nKINEMATICS = trivkins\nJOINTS = 1\n[JOINT_0]\nBACKLASH = 0.002 # mm\n[JOINT_1]\nBACKLASH = 0.004\n", &[]).unwrap();
         assert_eq!(c.correction_um(0, 0.0, false), 1.0);
         assert!(c.backlash[1].is_none());
-        assert!(
-            c.notes.iter().any(|n| n.contains("JOINTS = 1")),
-            "{:?}",
-            c.notes
-        );
+        assert_noted(&c.notes, "JOINTS = 1");
     }
 
     #[test]
     fn backlash_only_export_reads_back() {
         // Reversal 3, 4, 5.2 µm → mean 4.0667 µm, split ±2.0333.
-        let x = Positioning {
-            positions_mm: vec![0.0, 50.0, 100.0],
-            forward_um: vec![0.0, 1.0, 2.0],
-            reverse_um: vec![3.0, 5.0, 7.2],
-        };
+        let x = table(&[0.0, 50.0, 100.0], &[0.0, 1.0, 2.0], &[3.0, 5.0, 7.2]);
         let e = export(
             &[Some(x), None, None],
             LinuxcncExport::BacklashOnly,

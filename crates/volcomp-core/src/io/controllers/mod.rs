@@ -427,17 +427,57 @@ pub(crate) fn axis_letter(a: usize) -> char {
     ['X', 'Y', 'Z'][a]
 }
 
+/// What the controllers' tests share.
+#[cfg(test)]
+pub(crate) mod test_support {
+    use super::Positioning;
+
+    /// A positioning table from its columns: positions (mm), forward and
+    /// reverse errors (µm).
+    pub(crate) fn table(
+        positions_mm: &[f64],
+        forward_um: &[f64],
+        reverse_um: &[f64],
+    ) -> Positioning {
+        Positioning {
+            positions_mm: positions_mm.to_vec(),
+            forward_um: forward_um.to_vec(),
+            reverse_um: reverse_um.to_vec(),
+        }
+    }
+
+    /// A reader of the files a controller file names, over `files` (name,
+    /// text): a name not among them is not found.
+    pub(crate) fn reader<'a>(
+        files: &'a [(&str, &str)],
+    ) -> impl FnMut(&str) -> Result<(String, String), super::ControllerReadError> + 'a {
+        move |name| match files.iter().find(|(n, _)| *n == name) {
+            Some((n, t)) => Ok((n.to_string(), t.to_string())),
+            None => Err(super::ControllerReadError::Io {
+                path: name.into(),
+                source: std::io::Error::from(std::io::ErrorKind::NotFound),
+            }),
+        }
+    }
+
+    /// Fails, listing the notes, unless one of them contains `text`.
+    #[track_caller]
+    pub(crate) fn assert_noted(notes: &[String], text: &str) {
+        assert!(
+            notes.iter().any(|n| n.contains(text)),
+            "no note with `{text}` in {notes:?}"
+        );
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use test_support::table;
 
     #[test]
     fn equidistant_samples_and_holds_the_ends() {
-        let p = Positioning {
-            positions_mm: vec![0.0, 20.0],
-            forward_um: vec![0.0, 8.0],
-            reverse_um: vec![2.0, 2.0],
-        };
+        let p = table(&[0.0, 20.0], &[0.0, 8.0], &[2.0, 2.0]);
         // From −10 every 10 mm, 5 points: −10 (held 0), 0, 10 (4), 20 (8), 30 (held 8).
         let e = equidistant(&p, -10.0, 10.0, 5);
         assert_eq!(e.positions_mm, vec![-10.0, 0.0, 10.0, 20.0, 30.0]);
@@ -447,11 +487,7 @@ mod tests {
 
     #[test]
     fn bidirectional_mean_and_reversal() {
-        let p = Positioning {
-            positions_mm: vec![0.0, 10.0],
-            forward_um: vec![1.0, 2.0],
-            reverse_um: vec![3.0, 7.0],
-        };
+        let p = table(&[0.0, 10.0], &[1.0, 2.0], &[3.0, 7.0]);
         let (m, b) = bidirectional_mean(&p);
         assert_eq!(m.forward_um, vec![2.0, 4.5]);
         assert_eq!(m.reverse_um, m.forward_um);

@@ -33,6 +33,7 @@ use super::{
     Backlash, ControllerCorrection, Export, ExportFile, Format, LimitError, Positioning, ReadError,
     ReferenceDirection, Rounding,
 };
+use crate::io::finite;
 use crate::io::numfmt::fixed;
 
 /// Options of the EEC export.
@@ -222,18 +223,13 @@ pub fn parse(
                 "an EEC file holds lines `$AA_ENC_COMP...[...]=value`",
             ));
         };
-        let value: f64 = rhs
-            .trim()
-            .parse()
-            .ok()
-            .filter(|v: &f64| v.is_finite())
-            .ok_or_else(|| {
-                err(
-                    row,
-                    format!("`{}` is not a number", rhs.trim()),
-                    "write the value in mm, e.g. 0.003",
-                )
-            })?;
+        let value = finite(rhs.trim()).ok_or_else(|| {
+            err(
+                row,
+                format!("`{}` is not a number", rhs.trim()),
+                "write the value in mm, e.g. 0.003",
+            )
+        })?;
         let lhs = lhs.trim();
         let (var, args) = lhs
             .strip_suffix(']')
@@ -427,6 +423,7 @@ pub fn parse(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::controllers::test_support::{assert_noted, table};
 
     fn names() -> [String; 3] {
         ["X1".into(), "Y1".into(), "Z1".into()]
@@ -440,11 +437,7 @@ mod tests {
         // the table is the mean 0.5, 3.0, 6.5 minus B̄/2: −0.0333, 2.4667,
         // 5.9667. Every 10 mm from 0: −0.0333, −0.0333 + 2.5·10/15 = 1.6333,
         // 2.4667 + 3.5·5/15 = 3.6333, 5.9667 µm → 0, 2, 4, 6 µm.
-        let x = Positioning {
-            positions_mm: vec![0.0, 15.0, 30.0],
-            forward_um: vec![0.0, 2.4, 6.0],
-            reverse_um: vec![1.0, 3.6, 7.0],
-        };
+        let x = table(&[0.0, 15.0, 30.0], &[0.0, 2.4, 6.0], &[1.0, 3.6, 7.0]);
         let o = EecOptions::default();
         let e = export(&[Some(x), None, None], &o).unwrap();
         let t = &e.files[0].text;
@@ -478,7 +471,7 @@ mod tests {
             "{:?}",
             e.notes
         );
-        assert!(e.notes.iter().any(|n| n.contains(">= 4")));
+        assert_noted(&e.notes, ">= 4");
         let back = parse(t, "eec.ini", Some(&names())).unwrap();
         assert_eq!(back.axes, e.applied.axes);
         assert_eq!(back.backlash, e.applied.backlash);
@@ -492,11 +485,7 @@ mod tests {
             reference: ReferenceDirection::Negative,
             ..EecOptions::default()
         };
-        let x = Positioning {
-            positions_mm: vec![0.0, 10.0],
-            forward_um: vec![0.0, 0.0],
-            reverse_um: vec![4.0, 4.0],
-        };
+        let x = table(&[0.0, 10.0], &[0.0, 0.0], &[4.0, 4.0]);
         let e = export(&[Some(x), None, None], &neg).unwrap();
         assert!(
             e.files[0].text.contains("$AA_ENC_COMP[0,0,X1]=0.004\n"),
@@ -544,11 +533,7 @@ mod tests {
 
     #[test]
     fn limits_and_bad_files_are_refused() {
-        let x = Positioning {
-            positions_mm: vec![0.0, 1000.0],
-            forward_um: vec![0.0, 1.0],
-            reverse_um: vec![0.0, 1.0],
-        };
+        let x = table(&[0.0, 1000.0], &[0.0, 1.0], &[0.0, 1.0]);
         let o = EecOptions {
             max_points: 200,
             step_mm: 1.0,
@@ -726,10 +711,7 @@ pub fn cec_parse(text: &str, file: &str, sign: CecSign) -> Result<Vec<CecTable>,
         let t = tables.entry(idx[0]).or_default();
         let rhs = rhs.trim();
         let num = || -> Result<f64, ReadError> {
-            rhs.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| err(row, format!("`{rhs}` is not a number"), "values in mm"))
+            finite(rhs).ok_or_else(|| err(row, format!("`{rhs}` is not a number"), "values in mm"))
         };
         let axis = || -> Result<usize, ReadError> {
             "XYZ"
@@ -795,16 +777,13 @@ pub fn cec_parse(text: &str, file: &str, sign: CecSign) -> Result<Vec<CecTable>,
 #[cfg(test)]
 mod cec_tests {
     use super::*;
+    use crate::io::controllers::test_support::table;
 
     #[test]
     fn straightness_table_by_hand() {
         // E_ZY (Z deviation along Y): 0, −3.4, −1.2 µm at 0, 100, 200 mm,
         // every 100 mm at 1 µm: 0, −0.003, −0.001 mm (−3.4 → −3, −1.2 → −1).
-        let ezy = Positioning {
-            positions_mm: vec![0.0, 100.0, 200.0],
-            forward_um: vec![0.0, -3.4, -1.2],
-            reverse_um: vec![0.0, -3.4, -1.2],
-        };
+        let ezy = table(&[0.0, 100.0, 200.0], &[0.0, -3.4, -1.2], &[0.0, -3.4, -1.2]);
         let o = EecOptions {
             step_mm: 100.0,
             ..EecOptions::default()

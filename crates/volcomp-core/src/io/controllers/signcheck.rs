@@ -236,6 +236,19 @@ fn stops(pr: &Probe, to: impl Fn(f64) -> String, zero: &str, read: &str) -> [Str
     ]
 }
 
+/// Each probe as a comment naming it and its stops (`M0` commented A and
+/// B), for the dialects whose comments start with `;`.
+fn commented(probes: &[Probe], to: impl Fn(&Probe, f64) -> String) -> Vec<String> {
+    probes
+        .iter()
+        .flat_map(|pr| {
+            let zero = "M0 ; A: zero the indicator";
+            let read = "M0 ; B: read the indicator";
+            std::iter::once(format!("; {}", pr.what)).chain(stops(pr, |v| to(pr, v), zero, read))
+        })
+        .collect()
+}
+
 /// The controller dialect of a check program.
 fn program(format: Format, probes: &[Probe]) -> Option<ExportFile> {
     let l = |a: usize| axis_letter(a);
@@ -247,15 +260,9 @@ fn program(format: Format, probes: &[Probe]) -> Option<ExportFile> {
             name = "SIGNCHECK.MPF";
             lines.push("; volcomp sign check (sign_check.txt): machine coordinates, SUPA".into());
             lines.push("G90 G71 G94".into());
-            for pr in probes {
-                lines.push(format!("; {}", pr.what));
-                lines.extend(stops(
-                    pr,
-                    |v| format!("G1 SUPA {}{} F{FEED}", l(pr.axis), p(v)),
-                    "M0 ; A: zero the indicator",
-                    "M0 ; B: read the indicator",
-                ));
-            }
+            lines.extend(commented(probes, |pr, v| {
+                format!("G1 SUPA {}{} F{FEED}", l(pr.axis), p(v))
+            }));
             lines.push("M30".into());
         }
         Format::Fanuc => {
@@ -278,16 +285,10 @@ fn program(format: Format, probes: &[Probe]) -> Option<ExportFile> {
             name = "SIGNCHECK.H";
             let mut body =
                 vec!["; volcomp sign check (sign_check.txt): M91 machine coordinates".to_string()];
-            for pr in probes {
-                let s = |v: f64| format!("{}{}", if v < 0.0 { "" } else { "+" }, p(v));
-                body.push(format!("; {}", pr.what));
-                body.extend(stops(
-                    pr,
-                    |v| format!("L {}{} R0 F{FEED} M91", l(pr.axis), s(v)),
-                    "M0 ; A: zero the indicator",
-                    "M0 ; B: read the indicator",
-                ));
-            }
+            let s = |v: f64| format!("{}{}", if v < 0.0 { "" } else { "+" }, p(v));
+            body.extend(commented(probes, |pr, v| {
+                format!("L {}{} R0 F{FEED} M91", l(pr.axis), s(v))
+            }));
             lines.push("0 BEGIN PGM SIGNCHECK MM".into());
             for (k, b) in body.iter().enumerate() {
                 lines.push(format!("{} {b}", k + 1));
@@ -296,46 +297,26 @@ fn program(format: Format, probes: &[Probe]) -> Option<ExportFile> {
         }
         Format::IsgCsv => {
             name = "signcheck.nc";
-            let mut n = 10;
-            let mut push = |t: String, lines: &mut Vec<String>| {
-                lines.push(format!("N{n} {t}"));
-                n += 10;
-            };
             lines.push("; volcomp sign check (sign_check.txt): machine coordinates (G53), compensation off, then on".into());
+            let mut body = Vec::new();
             for pr in probes {
-                for on in [false, true] {
-                    push(
-                        format!("#VOLCOMP {} [ID0]", if on { "ON" } else { "OFF" }),
-                        &mut lines,
-                    );
-                    push(
-                        format!(
-                            "G53 G90 G01 {}{} F{}",
-                            l(pr.axis),
-                            p(pr.start_mm(APPROACH_MM)),
-                            FEED
-                        ),
-                        &mut lines,
-                    );
-                    push(format!("G01 {}{}", l(pr.axis), p(pr.a_mm)), &mut lines);
-                    push(
-                        format!(
-                            "M00 ; A, compensation {}: zero the indicator",
-                            if on { "on" } else { "off" }
-                        ),
-                        &mut lines,
-                    );
-                    push(format!("G01 {}{}", l(pr.axis), p(pr.b_mm)), &mut lines);
-                    push(
-                        format!(
-                            "M00 ; B, compensation {}: read the indicator",
-                            if on { "on" } else { "off" }
-                        ),
-                        &mut lines,
-                    );
+                for (on, state) in [("OFF", "off"), ("ON", "on")] {
+                    body.push(format!("#VOLCOMP {on} [ID0]"));
+                    let zero = format!("M00 ; A, compensation {state}: zero the indicator");
+                    let read = format!("M00 ; B, compensation {state}: read the indicator");
+                    let mut moves =
+                        stops(pr, |v| format!("G01 {}{}", l(pr.axis), p(v)), &zero, &read);
+                    // The run-up in machine coordinates, at the check's feed.
+                    moves[0] = format!("G53 G90 {} F{FEED}", moves[0]);
+                    body.extend(moves);
                 }
             }
-            push("M30".into(), &mut lines);
+            body.push("M30".into());
+            lines.extend(
+                body.iter()
+                    .zip(1..)
+                    .map(|(b, k)| format!("N{} {b}", 10 * k)),
+            );
         }
         _ => return None,
     }
@@ -438,6 +419,33 @@ mod tests {
         assert!(text.contains("near 16 um"), "{text}");
         assert!(f[1].text.contains("G53 X5\nG53 X10\nM00"), "{}", f[1].text);
         assert!(f[1].text.contains("G53 X95\nG53 X90\nM00"), "{}", f[1].text);
+    }
+
+    #[test]
+    fn isg_numbers_its_blocks_and_checks_with_the_compensation_off_then_on() {
+        let pr = Probe {
+            axis: 1,
+            measured: 1,
+            a_mm: 10.0,
+            b_mm: 90.0,
+            off_um: 8.0,
+            table_um: 8.0,
+            what: "the volumetric compensation along Y".into(),
+            switch: "negate",
+        };
+        let f = program(Format::IsgCsv, &[pr]).unwrap();
+        assert_eq!(f.name, "signcheck.nc");
+        // The run-up 5 mm before A, in machine coordinates, at F500.
+        assert_eq!(
+            f.text,
+            "; volcomp sign check (sign_check.txt): machine coordinates (G53), compensation off, then on\n\
+             N10 #VOLCOMP OFF [ID0]\nN20 G53 G90 G01 Y5 F500\nN30 G01 Y10\n\
+             N40 M00 ; A, compensation off: zero the indicator\nN50 G01 Y90\n\
+             N60 M00 ; B, compensation off: read the indicator\n\
+             N70 #VOLCOMP ON [ID0]\nN80 G53 G90 G01 Y5 F500\nN90 G01 Y10\n\
+             N100 M00 ; A, compensation on: zero the indicator\nN110 G01 Y90\n\
+             N120 M00 ; B, compensation on: read the indicator\nN130 M30\n"
+        );
     }
 
     #[test]

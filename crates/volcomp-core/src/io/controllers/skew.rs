@@ -25,6 +25,7 @@
 use super::{
     located, ControllerCorrection, Export, ExportFile, Format, LimitError, ReadError, Rounding,
 };
+use crate::io::finite;
 use crate::io::numfmt::fixed;
 
 /// Decimals written for a skew factor: 10⁻⁹ = 0.001 µrad.
@@ -238,19 +239,15 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
         let row = i + 1;
         let line = raw.split(['#', ';']).next().unwrap_or("").trim();
         let number = |s: &str| -> Result<f64, ReadError> {
-            s.trim()
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    located(
-                        file,
-                        text,
-                        row,
-                        format!("`{}` is not a number", s.trim()),
-                        "a skew factor is a number such as 0.000012",
-                    )
-                })
+            finite(s.trim()).ok_or_else(|| {
+                located(
+                    file,
+                    text,
+                    row,
+                    format!("`{}` is not a number", s.trim()),
+                    "a skew factor is a number such as 0.000012",
+                )
+            })
         };
         if let Some((key, value)) = line.split_once(['=', ':']) {
             let k = match key.trim() {

@@ -394,13 +394,9 @@ fn toml_string(s: &str) -> String {
     toml::Value::String(s.to_string()).to_string()
 }
 
+/// A point as a TOML array of three lengths (mm).
 fn triple(v: Vec3) -> String {
-    format!(
-        "[{}, {}, {}]",
-        numfmt::mm(v.x),
-        numfmt::mm(v.y),
-        numfmt::mm(v.z)
-    )
+    format!("[{}]", [v.x, v.y, v.z].map(numfmt::mm).join(", "))
 }
 
 /// Writes the TOML description of `model`, naming `tables` as its table file.
@@ -559,6 +555,7 @@ pub fn positioning_model(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::controllers::test_support::table;
 
     const CSV: &str = "axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad\n\
         X,forward,0,0,0,0,0,0,0\nX,forward,100,1,0.5,0,2,0,4\n\
@@ -664,51 +661,41 @@ mod tests {
 
     #[test]
     fn bad_descriptions_name_row_and_column() {
-        let e = err(&TOML.replace("zx = 2.5\n", ""), CSV);
+        // The model file with `from` replaced by `to`: refused.
+        let edited = |from: &str, to: &str| err(&TOML.replace(from, to), CSV);
+        let e = edited("zx = 2.5\n", "");
         assert!(e.message.contains("`zx` is missing"), "{e}");
         assert_eq!(e.row, 6, "{e}");
-        let e = err(&TOML.replace("w X' Y' b Z t", "w X' Y' b X t"), CSV);
+        let e = edited("w X' Y' b Z t", "w X' Y' b X t");
         assert_eq!((e.row, e.column), (2, 20), "{e}");
         assert!(e.message.contains("twice"), "{e}");
-        let e = err(&TOML.replace("measuring_point_mm", "measuring_point"), CSV);
+        let e = edited("measuring_point_mm", "measuring_point");
         assert_eq!(e.row, 4, "{e}");
         assert!(e.message.contains("unknown field"), "{e}");
         assert!(e.help.contains("unit"), "{e}");
-        let e = err(&TOML.replace("t.csv", "missing.csv"), CSV);
+        let e = edited("t.csv", "missing.csv");
         assert_eq!((e.file.as_str(), e.row, e.column), ("m.toml", 3, 10), "{e}");
-        let e = err(&TOML.replace("kinematic-21", "thermal"), CSV);
+        let e = edited("kinematic-21", "thermal");
         assert_eq!((e.row, e.column), (1, 9), "{e}");
-        let e = err(&TOML.replace("model = \"kinematic-21\"\n", ""), CSV);
+        let e = edited("model = \"kinematic-21\"\n", "");
         assert!(e.message.contains("what model"), "{e}");
-        let e = err(
-            &TOML.replace("[squareness_urad]\nxy = 10\nyz = -5\nzx = 2.5\n", ""),
-            CSV,
-        );
+        let e = edited("[squareness_urad]\nxy = 10\nyz = -5\nzx = 2.5\n", "");
         assert!(e.message.contains("squareness"), "{e}");
-        let e = err(
-            &TOML.replace(
-                "measuring_point_mm = [0, 50, 60]",
-                "measuring_point_mm = [0, nan, 60]",
-            ),
-            CSV,
+        let e = edited(
+            "measuring_point_mm = [0, 50, 60]",
+            "measuring_point_mm = [0, nan, 60]",
         );
         assert_eq!(e.row, 4, "{e}");
         // Four values where a point has three: refused at the array.
-        let e = err(
-            &TOML.replace(
-                "measuring_point_mm = [0, 50, 60]",
-                "measuring_point_mm = [0, 50, 60, 70]",
-            ),
-            CSV,
+        let e = edited(
+            "measuring_point_mm = [0, 50, 60]",
+            "measuring_point_mm = [0, 50, 60, 70]",
         );
         assert_eq!((e.row, e.column), (4, 22), "{e}");
         assert!(e.message.contains("has 4 values"), "{e}");
-        let e = err(
-            &TOML.replace(
-                "tables = \"t.csv\"\n",
-                "tables = \"t.csv\"\nangles = \"absolute\"\n",
-            ),
-            CSV,
+        let e = edited(
+            "tables = \"t.csv\"\n",
+            "tables = \"t.csv\"\nangles = \"absolute\"\n",
         );
         assert!(e.message.contains("angle convention"), "{e}");
         assert_eq!((e.row, e.column), (4, 10), "{e}");
@@ -728,11 +715,7 @@ mod tests {
 
     #[test]
     fn positioning_rows_hold_the_axis_own_column() {
-        let p = Positioning {
-            positions_mm: vec![0.0, 50.0],
-            forward_um: vec![1.0, 2.5],
-            reverse_um: vec![-1.0, 0.0],
-        };
+        let p = table(&[0.0, 50.0], &[1.0, 2.5], &[-1.0, 0.0]);
         let s = positioning_rows_csv(&p, Axis::Y, "test");
         assert_eq!(
             s,

@@ -31,6 +31,17 @@ fn single(
     KinematicModel::new(axes, k)
 }
 
+/// Only the angular errors `angular_urad` of axis `a`, chain `w X' Y' b Z t`.
+fn angular_only(a: usize, angular_urad: Vec3) -> KinematicModel {
+    single(
+        "w X' Y' b Z t",
+        a,
+        Vec3::ZERO,
+        angular_urad,
+        Squareness::default(),
+    )
+}
+
 fn eval(m: &KinematicModel, q: Vec3, tool: Vec3, form: Form) -> Vec3 {
     m.deviation_form_um(q, ALL_FORWARD, tool, form).unwrap()
 }
@@ -48,13 +59,7 @@ fn pure_yaw_of_x_at_two_tool_lengths() {
     // lies along the rotation axis and does not matter.
     // At y = 200 mm: e_x = −10e-6 · 200 mm = −2.0e-3 mm = −2.0 µm,
     // for L = 0 and for L = 150 mm alike.
-    let m = single(
-        "w X' Y' b Z t",
-        0,
-        Vec3::ZERO,
-        Vec3::new(0.0, 0.0, 10.0),
-        Squareness::default(),
-    );
+    let m = angular_only(0, Vec3::new(0.0, 0.0, 10.0));
     let q = Vec3::new(300.0, 200.0, 50.0);
     for l in [0.0, 150.0] {
         let tool = Vec3::new(0.0, 0.0, l);
@@ -84,13 +89,7 @@ fn pure_pitch_of_x_sees_the_tool_length() {
     // (0, ε, 0) × (0, y, z − L) = (ε·(z − L), 0, 0).
     // z = 50, L = 0:   e_x = 20e-6 · 50 mm   = +1.0 µm
     // z = 50, L = 150: e_x = 20e-6 · (−100) = −2.0 µm
-    let m = single(
-        "w X' Y' b Z t",
-        0,
-        Vec3::ZERO,
-        Vec3::new(0.0, 20.0, 0.0),
-        Squareness::default(),
-    );
+    let m = angular_only(0, Vec3::new(0.0, 20.0, 0.0));
     let q = Vec3::new(300.0, 200.0, 50.0);
     let short = eval(&m, q, Vec3::ZERO, Form::FirstOrder);
     let long = eval(&m, q, Vec3::new(0.0, 0.0, 150.0), Form::FirstOrder);
@@ -106,13 +105,7 @@ fn pure_pitch_of_z_with_a_tool_offset() {
     // e_y = 20e-6 · 150 mm = 3.0e-3 mm = +3.0 µm.
     // Exactly: Rx(ε)·(0, 0, −L) = (0, L·sin ε, −L·cos ε), so
     // e_y = 150·sin(2e-5)·1e3 µm and e_z = 150·(1 − cos 2e-5)·1e3 = 3e-5 µm.
-    let m = single(
-        "w X' Y' b Z t",
-        2,
-        Vec3::ZERO,
-        Vec3::new(20.0, 0.0, 0.0),
-        Squareness::default(),
-    );
+    let m = angular_only(2, Vec3::new(20.0, 0.0, 0.0));
     let q = Vec3::new(100.0, 100.0, 100.0);
     let tool = Vec3::new(0.0, 0.0, 150.0);
     let fo = eval(&m, q, tool, Form::FirstOrder);
@@ -222,13 +215,7 @@ fn moving_part_angles_flip_only_on_the_workpiece_side() {
     // EBX = 20 µrad recorded on the moving table (X' carries the
     // workpiece): the relative rotation is −20 µrad. At z = 50, L = 0:
     // relative convention e_x = +1.0 µm (see the pitch test), moving-part −1.0 µm.
-    let mut m = single(
-        "w X' Y' b Z t",
-        0,
-        Vec3::ZERO,
-        Vec3::new(0.0, 20.0, 0.0),
-        Squareness::default(),
-    );
+    let mut m = angular_only(0, Vec3::new(0.0, 20.0, 0.0));
     let q = Vec3::new(0.0, 0.0, 50.0);
     m.kinematics.angles = AngleConvention::MovingPart;
     // (HTM adds e_z = 50 mm·(cos ε − 1) = −1e-5 µm.)
@@ -237,13 +224,7 @@ fn moving_part_angles_flip_only_on_the_workpiece_side() {
         assert!(close(e, Vec3::new(-1.0, 0.0, 0.0), 2e-5), "{e:?}");
     }
     // Z moves the tool: its angles are not flipped.
-    let mut z = single(
-        "w X' Y' b Z t",
-        2,
-        Vec3::ZERO,
-        Vec3::new(20.0, 0.0, 0.0),
-        Squareness::default(),
-    );
+    let mut z = angular_only(2, Vec3::new(20.0, 0.0, 0.0));
     z.kinematics.angles = AngleConvention::MovingPart;
     let e = eval(&z, q, Vec3::new(0.0, 0.0, 150.0), Form::FirstOrder);
     assert!(close(e, Vec3::new(0.0, 3.0, 0.0), 1e-12), "{e:?}");
@@ -386,13 +367,7 @@ fn htm_and_first_order_agree_to_second_order() {
 
 #[test]
 fn the_tool_offset_comes_from_the_caller() {
-    let m = single(
-        "w X' Y' b Z t",
-        2,
-        Vec3::ZERO,
-        Vec3::new(20.0, 0.0, 0.0),
-        Squareness::default(),
-    );
+    let m = angular_only(2, Vec3::new(20.0, 0.0, 0.0));
     let q = Vec3::new(1.0, 2.0, 3.0);
     let tool = WithTool {
         model: &m,
@@ -418,21 +393,12 @@ fn out_of_range_names_the_axis_and_clamp_holds_the_end() {
         .unwrap_err();
     assert!(matches!(e, ModelError::OutOfRange { axis: 'Y', .. }), "{e}");
     m.clamp = true;
-    let a = m
-        .deviation_um(
-            Vec3::new(0.0, 600.0, 0.0),
-            ALL_FORWARD,
-            Components::PositioningOnly,
-        )
-        .unwrap();
-    let b = m
-        .deviation_um(
-            Vec3::new(0.0, 500.0, 0.0),
-            ALL_FORWARD,
-            Components::PositioningOnly,
-        )
-        .unwrap();
-    assert_eq!(a, b);
+    let at_y = |y: f64| {
+        let q = Vec3::new(0.0, y, 0.0);
+        m.deviation_um(q, ALL_FORWARD, Components::PositioningOnly)
+            .unwrap()
+    };
+    assert_eq!(at_y(600.0), at_y(500.0));
 }
 
 #[test]

@@ -172,17 +172,14 @@ fn least_squares_reproduces_what_the_space_contains_and_smooths_noise() {
     let f = |u: f64, v: f64| 2.0 + u - 3.0 * v * v + u * u * u * v - 0.5 * u * v;
     let mut rng = Rng::new(21);
     let uv: Vec<(f64, f64)> = (0..200).map(|_| (rng.uniform(), rng.uniform())).collect();
-    let vals: Vec<[f64; 1]> = uv.iter().map(|(u, v)| [f(*u, *v)]).collect();
-    let fit = fit_least_squares(
-        &uv,
-        &vals,
-        3,
-        3,
-        uniform_knots(0.0, 1.0, 3, 3),
-        uniform_knots(0.0, 1.0, 2, 3),
-        0.0,
-    )
-    .unwrap();
+    // Bicubic least squares of `g` at the points, `spans` knot spans per
+    // direction, with `penalty`.
+    let fit_of = |g: &dyn Fn(f64, f64) -> f64, spans: [usize; 2], penalty: f64| {
+        let vals: Vec<[f64; 1]> = uv.iter().map(|(u, v)| [g(*u, *v)]).collect();
+        let [su, sv] = spans.map(|n| uniform_knots(0.0, 1.0, n, 3));
+        fit_least_squares(&uv, &vals, 3, 3, su, sv, penalty).unwrap()
+    };
+    let fit = fit_of(&f, [3, 2], 0.0);
     for _ in 0..50 {
         let (u, v) = (rng.uniform(), rng.uniform());
         assert!((fit.surface.point(u, v)[0] - f(u, v)).abs() < 1e-9);
@@ -190,17 +187,7 @@ fn least_squares_reproduces_what_the_space_contains_and_smooths_noise() {
     assert!(fit.residuals.iter().all(|r| r[0].abs() < 1e-9));
     // The penalty's null space holds the linear fields: still exact for one.
     let g = |u: f64, v: f64| 1.0 + 2.0 * u - v;
-    let vals: Vec<[f64; 1]> = uv.iter().map(|(u, v)| [g(*u, *v)]).collect();
-    let fit = fit_least_squares(
-        &uv,
-        &vals,
-        3,
-        3,
-        uniform_knots(0.0, 1.0, 4, 3),
-        uniform_knots(0.0, 1.0, 4, 3),
-        1e-3,
-    )
-    .unwrap();
+    let fit = fit_of(&g, [4, 4], 1e-3);
     assert!(fit.residuals.iter().all(|r| r[0].abs() < 1e-9));
     // Leave-one-out residuals agree with refitting without the point.
     let noisy: Vec<[f64; 1]> = uv

@@ -5,7 +5,7 @@
 use super::nominal::{MaterialSide, NominalSurface};
 use super::MirrorError;
 use crate::error::MapFileError;
-use crate::io::table::{CsvTable, Header, Record, UnknownColumns};
+use crate::io::table::{CsvTable, Header, Record};
 use crate::surface::bspline::{self, BSplineSurface, Parameterization};
 use std::path::Path;
 use volcomp_gcode::{Units, Vec3};
@@ -20,11 +20,7 @@ fn read_csv<'a>(text: &'a str, file: &str) -> Result<Csv<'a>, MirrorError> {
     let table = CsvTable::parse(
         text,
         file,
-        &Header {
-            known: &[],
-            unknown: UnknownColumns::Keep,
-            layout: "x_mm,y_mm,z_mm (or x_in,y_in,z_in)",
-        },
+        &Header::keep_all("x_mm,y_mm,z_mm (or x_in,y_in,z_in)"),
     )?;
     Ok(Csv { table })
 }

@@ -422,18 +422,23 @@ mod tests {
     use super::*;
     use crate::surface::bspline::{self, Parameterization};
 
+    /// A probe point of `row` (no id, no grid node) at `position_mm`.
+    fn probe(row: usize, position_mm: Vec3) -> ProbePoint {
+        ProbePoint {
+            row,
+            id: None,
+            grid: None,
+            position_mm,
+        }
+    }
+
     #[test]
     fn the_mirror_reflects_the_measured_point_in_the_halfway_surface() {
         // A flat nominal at z = 0, material below, stock 0.2 mm. A point
         // measured at 0.205 mm (5 µm left over) has D_M = 105 µm and its
         // compensation point lies 5 µm below the nominal.
         let nominal = NominalSurface::new(plane_surface(), MaterialSide::Below, "s").unwrap();
-        let probes = vec![ProbePoint {
-            row: 2,
-            id: None,
-            grid: None,
-            position_mm: Vec3::new(12.0, 17.0, 0.205),
-        }];
+        let probes = vec![probe(2, Vec3::new(12.0, 17.0, 0.205))];
         let opts = MirrorOptions {
             stock_mm: 0.2,
             ..MirrorOptions::default()
@@ -463,12 +468,7 @@ mod tests {
         let nominal = NominalSurface::new(plane_surface(), MaterialSide::Below, "s").unwrap();
         let opts = MirrorOptions::default();
         let one = |p: Vec3| {
-            let probes = vec![ProbePoint {
-                row: 7,
-                id: None,
-                grid: None,
-                position_mm: p,
-            }];
+            let probes = vec![probe(7, p)];
             match_points(&nominal, &probes, &opts, "p.csv")
                 .unwrap_err()
                 .to_string()
@@ -500,12 +500,7 @@ mod tests {
         let nominal = NominalSurface::new(s, MaterialSide::Below, "s").unwrap();
         let (rho, _) = nominal.min_concave_radius().unwrap();
         assert!((rho - 5.0).abs() < 1e-6, "{rho}");
-        let probes = vec![ProbePoint {
-            row: 2,
-            id: None,
-            grid: None,
-            position_mm: Vec3::new(0.0, 4.0, 5.0),
-        }];
+        let probes = vec![probe(2, Vec3::new(0.0, 4.0, 5.0))];
         let opts = MirrorOptions {
             stock_mm: 5.0,
             ..MirrorOptions::default()
@@ -530,15 +525,15 @@ mod tests {
     fn too_few_points_are_refused() {
         let nominal = NominalSurface::new(plane_surface(), MaterialSide::Below, "s").unwrap();
         let probes: Vec<ProbePoint> = (0..9)
-            .map(|k| ProbePoint {
-                row: k + 2,
-                id: None,
-                grid: None,
-                position_mm: Vec3::new(
-                    5.0 + 10.0 * (k / 3) as f64,
-                    5.0 + 10.0 * (k % 3) as f64,
-                    0.2,
-                ),
+            .map(|k| {
+                probe(
+                    k + 2,
+                    Vec3::new(
+                        5.0 + 10.0 * (k / 3) as f64,
+                        5.0 + 10.0 * (k % 3) as f64,
+                        0.2,
+                    ),
+                )
             })
             .collect();
         let e = mirror(&nominal, &probes, &MirrorOptions::default(), "p").unwrap_err();
