@@ -28,7 +28,6 @@ Usage: check.py [WORK_DIR]  (default: a new temporary folder)
 import math
 import os
 import sys
-import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import lcnc  # noqa: E402
@@ -72,9 +71,7 @@ CASES = [
 
 
 def main():
-    work = sys.argv[1] if len(sys.argv) > 1 else tempfile.mkdtemp(prefix="ct-check-")
-    os.makedirs(work, exist_ok=True)
-    lcnc.check_installed()
+    work = lcnc.work_dir("ct-check-")
     print("Hand check: single moves from rest (G91, mm), expected from the")
     print("trapezoidal profile t = L/v + v/a (triangular 2 sqrt(L/a) when v is not reached).")
     print()
@@ -82,11 +79,9 @@ def main():
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
     failures = []
     for i, (name, body, length, speed, accel, feed) in enumerate(CASES):
-        prog = os.path.join(work, f"check{i}.ngc")
-        with open(prog, "w") as f:
-            f.write(f"(cycle-time hand check: {body})\nG21 G91\n{body}\nM2\n")
         expected = trapezoid_time_s(length, speed, accel)
-        r = lcnc.run_program(prog, work)
+        text = f"(cycle-time hand check: {body})\nG21 G91\n{body}\nM2\n"
+        r = lcnc.run_text(text, os.path.join(work, f"check{i}.ngc"), work)
         measured = r["moving_s"]
         diff = measured - expected
         expected_feed = measured if feed else 0.0
@@ -109,8 +104,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except lcnc.LinuxCncError as err:
-        print(f"check.py: {err}", file=sys.stderr)
-        sys.exit(1)
+    lcnc.exit_with(main, "check.py")

@@ -74,6 +74,33 @@ START_FAILURES = ("waiting for machine on", "waiting for estop reset",
 START_RETRIES = 2
 
 
+def work_dir(prefix):
+    """The folder a script works in: its first argument, else a new
+    temporary folder named `prefix`...; LinuxCNC is checked installed."""
+    work = sys.argv[1] if len(sys.argv) > 1 else tempfile.mkdtemp(prefix=prefix)
+    os.makedirs(work, exist_ok=True)
+    check_installed()
+    return work
+
+
+def run_text(text, program, work_dir):
+    """Writes the program `text` to the file `program` and runs it
+    (`run_program`)."""
+    with open(program, "w") as f:
+        f.write(text)
+    return run_program(program, work_dir)
+
+
+def exit_with(main, script):
+    """Exits with what `main()` returns; a LinuxCncError is told as
+    `script: error` on standard error, with exit status 1."""
+    try:
+        sys.exit(main())
+    except LinuxCncError as err:
+        print(f"{script}: {err}", file=sys.stderr)
+        sys.exit(1)
+
+
 def run_program(program, work_dir, timeout_s=None):
     """`run_once`, started again where the machine failed to start up
     (START_FAILURES; at most START_RETRIES more times)."""

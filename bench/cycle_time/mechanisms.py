@@ -22,7 +22,6 @@ Usage: mechanisms.py [WORK_DIR]
 import math
 import os
 import sys
-import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import lcnc  # noqa: E402
@@ -49,19 +48,15 @@ CASES += [
 
 
 def main():
-    work = sys.argv[1] if len(sys.argv) > 1 else tempfile.mkdtemp(prefix="ct-mech-")
-    os.makedirs(work, exist_ok=True)
-    lcnc.check_installed()
+    work = lcnc.work_dir("ct-mech-")
     print("| program (G91, mm, default G64) | s | more than the plain one |")
     print("|---|---:|---:|")
     times = []
     for i, (name, base, body) in enumerate(CASES):
         if base == "previous":
             base = i - 1
-        prog = os.path.join(work, f"mech{i}.ngc")
-        with open(prog, "w") as f:
-            f.write("G21 G91\n" + "\n".join(body) + "\nM2\n")
-        t = lcnc.run_program(prog, work)["moving_s"]
+        text = "G21 G91\n" + "\n".join(body) + "\nM2\n"
+        t = lcnc.run_text(text, os.path.join(work, f"mech{i}.ngc"), work)["moving_s"]
         times.append(t)
         more = "" if base is None else f"{(t - times[base]) * 1000:+.0f} ms"
         print(f"| {name} | {t:.3f} | {more} |")
@@ -69,8 +64,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except lcnc.LinuxCncError as err:
-        print(f"mechanisms.py: {err}", file=sys.stderr)
-        sys.exit(1)
+    lcnc.exit_with(main, "mechanisms.py")

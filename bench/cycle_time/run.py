@@ -186,6 +186,20 @@ def pct(new, old):
     return f"{(new / old - 1.0) * 100.0:+.1f} %"
 
 
+def markdown_table(rows, labels, first, per_variant):
+    """The lines of a markdown table of `rows`: the `first` columns
+    (header, alignment rule, cells of a row), then those of `per_variant`
+    for each variant label (header after "label: ", rule, cells of a row
+    and a label)."""
+    head, rule, cells = first
+    v_head, v_rule, v_cells = per_variant
+    lines = [head + "".join(f" {label}: {v_head}" for label in labels),
+             rule + v_rule * len(labels)]
+    for row in rows:
+        lines.append(cells(row) + "".join(v_cells(row, label) for label in labels))
+    return lines
+
+
 def main():
     if len(sys.argv) != 3:
         print(__doc__, file=sys.stderr)
@@ -288,38 +302,30 @@ def main():
         "than F covers in one servo cycle (LinuxCNC caps their speed below F):",
         "",
     ]
-    head = "| program | mode | F mm/min | blocks | original |"
-    rule = "|---|---|---:|---:|---:|"
-    for label, _ in variants:
-        head += f" {label}: blocks (take-ups, short) | s | Δ |"
-        rule += "---:|---:|---:|"
-    lines += [head, rule]
-    for row in rows:
-        line = (f"| {row['program']} | {row['mode']} | {row['feed_mm_min']} | {row['blocks']} "
-                f"| {row['original_feed_s']:.3f} |")
-        for label, _ in variants:
-            line += (f" {row[f'{label} blocks']} ({row[f'{label} take-ups']}, "
-                     f"{row[f'{label} short moves']}) | {row[f'{label} feed_s']:.3f} "
-                     f"| {pct(row[f'{label} feed_s'], row['original_feed_s'])} |")
-        lines.append(line)
+    labels = [label for label, _ in variants]
+    lines += markdown_table(
+        rows, labels,
+        ("| program | mode | F mm/min | blocks | original |", "|---|---|---:|---:|---:|",
+         lambda row: (f"| {row['program']} | {row['mode']} | {row['feed_mm_min']} | "
+                      f"{row['blocks']} | {row['original_feed_s']:.3f} |")),
+        ("blocks (take-ups, short) | s | Δ |", "---:|---:|---:|",
+         lambda row, label: (f" {row[f'{label} blocks']} ({row[f'{label} take-ups']}, "
+                             f"{row[f'{label} short moves']}) | {row[f'{label} feed_s']:.3f} "
+                             f"| {pct(row[f'{label} feed_s'], row['original_feed_s'])} |")))
     lines += [
         "",
         "Whole program (first motion to end of the last, with the rapids from "
         "home at machine 0), s:",
         "",
     ]
-    head = "| program | mode | F mm/min | original |"
-    rule = "|---|---|---:|---:|"
-    for label, _ in variants:
-        head += f" {label}: s | Δ |"
-        rule += "---:|---:|"
-    lines += [head, rule]
-    for row in rows:
-        line = f"| {row['program']} | {row['mode']} | {row['feed_mm_min']} | {row['original_s']:.3f} |"
-        for label, _ in variants:
-            line += (f" {row[f'{label} s']:.3f} "
-                     f"| {pct(row[f'{label} s'], row['original_s'])} |")
-        lines.append(line)
+    lines += markdown_table(
+        rows, labels,
+        ("| program | mode | F mm/min | original |", "|---|---|---:|---:|",
+         lambda row: (f"| {row['program']} | {row['mode']} | {row['feed_mm_min']} | "
+                      f"{row['original_s']:.3f} |")),
+        ("s | Δ |", "---:|---:|",
+         lambda row, label: (f" {row[f'{label} s']:.3f} "
+                             f"| {pct(row[f'{label} s'], row['original_s'])} |")))
     table = "\n".join(lines) + "\n"
     with open(os.path.join(work, "table.md"), "w") as f:
         f.write(table)

@@ -256,7 +256,7 @@ fn a_program_that_never_sets_z_is_compensated_from_the_start_or_refused_or_count
 
     // With the set-up's start (Z = 20): compensated, the Z word written.
     let o = run("start.toml", "a.ngc", &[]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    common::ok(&o);
     let a = read(&d, "a.ngc");
     assert!(
         a.starts_with(volcomp_core::io::provenance::FIRST_LINE),
@@ -306,8 +306,8 @@ fn a_program_that_never_sets_z_is_compensated_from_the_start_or_refused_or_count
 
     // Allowed: written as it is, the header and the summary say so.
     let o = run("nostart.toml", "c.ngc", &["--allow-uncompensated-axes"]);
+    common::ok(&o);
     let msg = stderr(&o);
-    assert_eq!(o.status.code(), Some(0), "{msg}");
     assert!(
         msg.contains("0 points compensated, 2 feed moves NOT compensated"),
         "{msg}"

@@ -6,15 +6,9 @@
 
 use std::f64::consts::PI;
 use std::path::Path;
-use std::process::Output;
 
 use crate::common;
 use common::{stderr, tempdir, volcomp};
-
-fn stdout(o: &Output) -> String {
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
 
 /// A run along X over 0 … 200 mm at `feed`: a 10 mm lead (0.4 µm), a bow,
 /// 2 µrad of slope, a 150 Hz vibration of 0.15 µm and a small
@@ -57,7 +51,7 @@ fn straightness_fit_summary() {
     insta::assert_snapshot!("straightness_fit_summary", stderr(&o));
 
     let o = common::run(&d, "straightness predict model.toml 52.5,0 100,0 150.25,0");
-    insta::assert_snapshot!("straightness_predict", stdout(&o));
+    insta::assert_snapshot!("straightness_predict", common::ok(&o));
 }
 
 #[test]
@@ -83,8 +77,8 @@ fn straightness_option_refusals_name_the_flags() {
 #[test]
 fn thermal_fit_and_predict_output() {
     let d = tempdir("snap-thermal");
-    stdout(&common::run(&d, "thermal example -o ex"));
-    let fit = stdout(&common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o ex/thermal.toml"));
+    common::ok(&common::run(&d, "thermal example -o ex"));
+    let fit = common::ok(&common::run(&d, "thermal fit --measurements ex/measurements_train.csv --temperatures ex/temperatures_train.csv --artifact ex/artifact.csv --ranges-mm 0:600,0:400,0:300 -o ex/thermal.toml"));
     insta::assert_snapshot!("thermal_fit", fit);
     // What was written is said on standard error (quiet under --quiet).
     let predict = common::run(&d, "thermal predict --model ex/thermal.toml --temperatures ex/temperatures_check.csv --cycle 6 -o ex/predicted.toml");

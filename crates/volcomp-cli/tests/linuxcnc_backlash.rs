@@ -215,7 +215,7 @@ fn comp_map(work: &Path) {
         work,
         "map export m.csv --to linuxcnc --type 1 --units mm --step 5 -o lc",
     );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::ok(&o);
 }
 
 /// Runs MDI `lines` on the cycle-time machine whose folder is `config`
@@ -349,7 +349,7 @@ fn backlash_keys(work: &Path) -> Vec<(usize, String)> {
         work,
         "map export m.csv --to linuxcnc --backlash-only --units mm -o lb",
     );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::ok(&o);
     let lb = read(work, "lb/comp.ini");
     (0..3)
         .map(|j| {
@@ -449,7 +449,7 @@ fn a_hybrid_program_leaves_nothing_at_every_stop_beside_backlash() {
         ],
         &work,
     );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::ok(&o);
     let hybrid: Vec<String> = read(&work, "h.ngc")
         .lines()
         .map(str::trim)

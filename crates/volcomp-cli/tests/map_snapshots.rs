@@ -24,7 +24,7 @@ fn eval_of_axis_tables() {
     let dir = tempdir("eval_tables");
     write(&dir, "m.csv", MAP);
     let o = common::run(&dir, "map eval m.csv --at 50,25,100");
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::ok(&o);
     let text = String::from_utf8(o.stdout).unwrap();
     // By hand: X half way (1, 0.5, 0), Y a quarter (0, 1, 0), Z at its end
     // (0, 0, −6): e = (1, 1.5, −6), |e| = √39.25 = 6.2650 µm.

@@ -127,8 +127,10 @@ fn set_up_errors_are_located() {
         "s.toml",
         "units = \"mm\"\n[work_offsets]\nG54 = [250, 200, 150, 1]\n",
     );
-    let msg = stderr(&compensate(&d, &["--setup", "s.toml"]));
-    assert!(msg.contains("s.toml:3:7: G54 has 4 value(s)"), "{msg}");
+    common::said(
+        &compensate(&d, &["--setup", "s.toml"]),
+        "s.toml:3:7: G54 has 4 value(s)",
+    );
     assert!(!d.join("out.ngc").exists());
     write(&d, "s.toml", "units = \"mm\"\n[tools]\n1 = 75\nT1 = 80\n");
     let msg = stderr(&compensate(&d, &["--setup", "s.toml"]));
@@ -304,10 +306,9 @@ fn map_values_that_cannot_be_are_refused_where_they_are_written() {
         .replace("X,both,500000,1,0,0", "X,both,500,0,0,0")
         .replace("Y,both,500,1,0,0", "Y,both,500,0,25000,0");
     write(&d, "map.csv", nm);
-    let msg = stderr(&compensate(&d, &["--work-offset", "0,0,0"]));
-    assert!(
-        msg.contains("map.csv:5:5: column 5 `ey_um`: an error of 25000 µm is more than 10000 µm"),
-        "{msg}"
+    common::said(
+        &compensate(&d, &["--work-offset", "0,0,0"]),
+        "map.csv:5:5: column 5 `ey_um`: an error of 25000 µm is more than 10000 µm",
     );
 }
 

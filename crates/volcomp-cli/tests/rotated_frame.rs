@@ -34,7 +34,7 @@ const PROGRAM: &str = "G21 G90 G17\nG10 L2 P1 X20 Y10 R30\nG0 X0 Y0 Z5\nG1 X10 Y
 /// Axis end points of `volcomp moves FILE`, with their output line numbers.
 fn moves(dir: &Path, file: &str) -> Vec<(u64, [f64; 3])> {
     let o = volcomp(&["moves", file], dir);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::ok(&o);
     String::from_utf8_lossy(&o.stdout)
         .lines()
         .skip(1)
@@ -85,7 +85,7 @@ fn compensate(dir: &Path) {
         ],
         dir,
     );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::ok(&o);
 }
 
 /// Writes the map (`zero`: without error) and compensates the program into

@@ -2,20 +2,12 @@
 //! report, and located refusals of bad input with nothing written.
 
 use std::path::Path;
-use std::process::Output;
 use volcomp_core::surface::mirror::{read_bspline_toml, write_bspline_toml, NominalSurface};
 use volcomp_gcode::Vec3;
 
 use crate::common;
 use crate::example_data::{finishing_passes, mirror_nominal, probe_grid, saddle};
 use common::{read, tempdir, volcomp, write};
-
-fn text(o: &Output) -> (String, String) {
-    (
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
 
 /// The machine's error (µm, positive = material left).
 fn error_um(x: f64, y: f64) -> f64 {
@@ -87,8 +79,7 @@ fn writes_the_program_the_surface_and_the_report() {
         "--no-split",
     ]);
     let o = volcomp(&args, &dir);
-    let (out, err) = text(&o);
-    assert!(o.status.success(), "{err}");
+    let out = common::ok(&o);
     assert!(
         out.contains("tool-radius baseline") && out.contains("mirror, predicted"),
         "{out}"
@@ -154,8 +145,7 @@ fn writes_the_program_the_surface_and_the_report() {
     args.extend(["--json", "--surface-out", "out/s"]);
     std::fs::create_dir_all(dir.join("out")).unwrap();
     let o = volcomp(&args, &dir);
-    assert!(o.status.success(), "{}", text(&o).1);
-    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let j = common::json(&o);
     assert!(j["finishing"]["moved"].as_u64().unwrap() >= 6 * 41);
     assert!(dir.join("out/s.csv").exists() && dir.join("out/s.toml").exists());
 }
@@ -165,8 +155,7 @@ fn a_grid_nominal_and_an_interpolated_fit_work_too() {
     let dir = tempdir("grid");
     write_inputs(&dir);
     let o = common::run(&dir, "surface mirror --nominal nominal-grid.csv --measured probes.csv --stock 0.3 --fit interpolate --report r.csv");
-    let (out, err) = text(&o);
-    assert!(o.status.success(), "{err}");
+    let out = common::ok(&o);
     assert!(out.contains("interpolation"), "{out}");
     let grid = read(&dir, "probes.compensated.csv");
     // The grid nominal's own nodes.
@@ -186,7 +175,7 @@ fn a_grid_nominal_and_an_interpolated_fit_work_too() {
 
 fn refused(dir: &Path, args: &[&str], expect: &[&str]) {
     let o = volcomp(args, dir);
-    let (_, err) = text(&o);
+    let err = common::stderr(&o);
     assert!(!o.status.success(), "{args:?} should fail");
     for e in expect {
         assert!(err.contains(e), "{args:?}: `{e}` not in\n{err}");
@@ -310,7 +299,7 @@ fn warns_or_refuses_when_compensation_is_predicted_worse() {
     args[5] = "noise.csv";
     args.push("--refuse-worse");
     let o = volcomp(&args, &dir);
-    let (_, err) = text(&o);
+    let err = common::stderr(&o);
     assert!(!o.status.success(), "{err}");
     assert!(
         err.contains("worse than not compensating") && err.contains("nothing was written"),
@@ -320,8 +309,8 @@ fn warns_or_refuses_when_compensation_is_predicted_worse() {
     assert!(!dir.join("noise.compensated.csv").exists());
     args.pop();
     let o = volcomp(&args, &dir);
-    let (_, err) = text(&o);
-    assert!(o.status.success(), "{err}");
+    common::ok(&o);
+    let err = common::stderr(&o);
     assert!(
         err.contains("warning") && err.contains("worse than not compensating"),
         "{err}"
@@ -331,8 +320,7 @@ fn warns_or_refuses_when_compensation_is_predicted_worse() {
     std::fs::remove_file(dir.join("finish.comp.ngc")).unwrap();
     args.push("--json");
     let o = volcomp(&args, &dir);
-    let (out, err) = text(&o);
-    assert!(o.status.success(), "{err}");
+    let out = common::ok(&o);
     assert!(
         out.contains("\"compensation_predicted_worse\":true"),
         "{out}"

@@ -29,7 +29,7 @@ const RUN: &str = "surface mirror --nominal face.toml --measured probes.csv --st
 fn summary_of_the_documented_run() {
     let dir = inputs("summary");
     let o = common::run(&dir, RUN);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::ok(&o);
     assert_eq!(String::from_utf8_lossy(&o.stderr), "");
     insta::assert_snapshot!("mirror_summary", String::from_utf8_lossy(&o.stdout));
 }
@@ -38,7 +38,7 @@ fn summary_of_the_documented_run() {
 fn report_csv_header_and_first_rows() {
     let dir = inputs("report");
     let o = common::run(&dir, RUN);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::ok(&o);
     let report = read(&dir, "report.csv");
     // The `#` summary lines, the column header and the first three points.
     let head: Vec<&str> = report

@@ -438,6 +438,95 @@ fn a_take_up_is_spread_along_the_path_where_the_compensation_moves_the_axis() {
     assert!(out.contains("take-up"), "{out}");
 }
 
+#[test]
+fn under_g61_a_take_up_is_spread_as_a_smooth_step_over_short_pieces() {
+    // e_x = 0.1 µm per mm of |Y − 8|: on a Y move the X command rises to
+    // Y 8, then falls, so X reverses at Y 8 inside the block (the path runs
+    // on) with nominal X not moving. Under G61 the 4 µm take-up is spread
+    // as a smooth step 3u² − 2u³ over pieces of ℓ (the shortest piece: 0.01
+    // mm at F100): each join turns the path by at most 6·4 µm·ℓ/L², within
+    // 0.6 of LinuxCNC's tangency tolerance κ (tp.c, tpSetupTangent:
+    // 0.1·A/(v/T + A) = 0.0375 at v = 1.667 mm/s, T = 1 ms, A = 1000
+    // mm/s²), so L = √(6·0.004·0.01/(0.6·0.0375)) = 0.1033 mm, against
+    // 0.004/(0.6·0.0375) = 0.178 mm for a straight ramp.
+    let map = map_from(|a, p, rev| match (a, rev) {
+        (0, true) => [4.0, 0.0, 0.0],
+        (1, _) => [0.1 * (p - 8.0).abs(), 0.0, 0.0],
+        _ => [0.0; 3],
+    });
+    let program = "G61\nG0 X0 Y0 Z0\nG1 Y20 F100\nM2\n";
+    let (out, records) = compensate(program, &map, CompensateOptions::default());
+    // The rapid leaves X on its other flank: a take-up block at the corner
+    // before the move (the machine stops there), none inside it.
+    let inside = out.split_once("G1").map_or("", |(_, rest)| rest);
+    assert!(!inside.contains("take-up"), "{out}");
+    let line3: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
+    let tol: f64 = 0.1 * 1000.0 / (100.0 / 60.0 / 0.001 + 1000.0);
+    let ell = (6.0 * 0.004 * 0.01 / (0.6 * tol)).sqrt();
+    let on_ramp: Vec<&&PointRecord> = line3
+        .iter()
+        .filter(|r| r.target_mm.y > 8.0 + 1e-9 && r.target_mm.y < 8.0 + ell * (1.0 + 1e-6))
+        .collect();
+    assert!(on_ramp.len() >= 8, "{out}");
+    let end = on_ramp.last().unwrap().target_mm.y - 8.0;
+    assert!(
+        (end - ell).abs() < 1e-3 * ell,
+        "ramp ends {end} after Y 8, by hand {ell}: {out}"
+    );
+    // Every join of the written commands, start of the move to its end:
+    // within the tolerance for two lines.
+    let start = records.iter().rfind(|r| r.line == 2).unwrap().command_mm;
+    let unit = |v: Vec3| v * (1.0 / v.norm());
+    let a_inst = 100.0 / 60.0 / 0.001 + 1000.0;
+    let mut prev = start;
+    let mut t_prev: Option<Vec3> = None;
+    for r in &line3 {
+        let t = unit(r.command_mm - prev);
+        if let Some(t1) = t_prev {
+            let ratio = (0..3).fold(0.0f64, |m, i| m.max(a_inst * (t[i] - t1[i]).abs() / 1000.0));
+            assert!(
+                ratio < 0.1,
+                "kink ratio {ratio} at Y {}: {out}",
+                r.target_mm.y
+            );
+        }
+        t_prev = Some(t);
+        prev = r.command_mm;
+    }
+    // The tool stands still in X while the carriage crosses its band: off
+    // by what the compensation travels over L (0.1 µm/mm · 0.103 mm), plus
+    // the written step.
+    let report = against_original(&out, program, &map);
+    assert!(report.contour_max_um < 0.0104 + 0.1, "{report:?}: {out}");
+}
+
+#[test]
+fn under_g61_a_take_up_block_moves_a_crossing_axis_as_far_as_its_next_command() {
+    // X reverses at the corner X5 (band 4 µm) and its reverse table moves
+    // the tool −0.3 µm in Y: holding the tool there needs Y +0.3 µm. The
+    // next move ends at Y −0.1 µm nominal, Y +0.2 µm commanded (the new
+    // table's −0.3 added back): Y may go that far on the take-up block
+    // without reversing on the move, and stops 0.1 µm short of where it
+    // holds the tool, not 0.3 µm. X, whose lag would leave the tool across
+    // the steep next move, takes up on the block: 5 − 0.004.
+    let map = map_from(|a, _, rev| match (a, rev) {
+        (0, true) => [4.0, -0.3, 0.0],
+        _ => [0.0; 3],
+    });
+    let program = "G61\nG0 X0 Y0 Z0\nG1 X5 F100\nG1 X4 Y-0.0001 Z5\nM2\n";
+    let (out, _) = compensate(program, &map, CompensateOptions::default());
+    let take_up = out
+        .lines()
+        .find(|l| l.contains("take-up"))
+        .unwrap_or_else(|| panic!("no take-up block: {out}"));
+    assert!(
+        take_up.contains("X4.996 ") && take_up.contains("Y0.0002 "),
+        "{take_up}: {out}"
+    );
+    let after = out.split_once(take_up).map_or("", |(_, rest)| rest);
+    assert!(after.contains("X3.996 Y0.0002 Z5"), "{out}");
+}
+
 /// The unit tangents at the start and the end of every XY arc block of a
 /// program written in absolute mm, read from its words (the tangent of a
 /// circle is square to its radius, turned by the direction of travel).

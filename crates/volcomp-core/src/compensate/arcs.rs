@@ -686,7 +686,8 @@ impl State<'_> {
                 Vec3::ZERO,
             )
             .map_err(|source| command_error(model, file, line, t_mid, source))?
-            .q_mm;
+            .q_mm
+                + self.ramp_mids.get(i).copied().unwrap_or(Vec3::ZERO);
             let mut w = ArcWords {
                 center: piece_center(&piece, start, q_mid, *q, options.chord_tolerance_mm),
                 plane: arc.plane,

@@ -126,6 +126,7 @@ impl<'w> State<'w> {
             extra_text: String::new(),
             line_words: String::new(),
             states: Vec::new(),
+            ramp_mids: Vec::new(),
             transitions: Vec::new(),
             transitions_written: Vec::new(),
             estimate_mm: 0.0,
@@ -810,6 +811,9 @@ struct State<'w> {
     line_words: String,
     /// Direction state of each command of the last [`State::solve_targets`].
     states: Vec<Directions>,
+    /// The offset a take-up ramp puts on the middle of the piece that
+    /// ends at each target (zero off a ramp), for the arc written through it.
+    ramp_mids: Vec<Vec3>,
     /// S-curve take-ups of the arc the next [`State::solve_targets`] solves
     /// ([`arcs::plan_transitions`]); it takes them.
     transitions: Vec<arcs::Transition>,

@@ -15,13 +15,21 @@ use volcomp_gcode::Vec3;
 /// The command that takes up the reversing axes' backlash at `q_prev`
 /// without moving the tool: for each reversing axis `a`, the position where
 /// the new direction's image along `a` equals the old one's.
+///
+/// With `up_to_toward` (G61, G61.1: the machine stands still on the
+/// take-up block), an axis that follows the switch toward the segment's
+/// own command but would pass it goes as far as that command: the tool
+/// then starts the segment off by only what is left beyond it, where
+/// otherwise it would start off by the whole step the switch made (the
+/// reversing axis' straightness across the others, a few tenths of a
+/// micrometre), fading over the whole segment.
 fn take_up_command(
     model: &dyn ErrorModel,
     q_prev: Vec3,
     s_old: Directions,
     s_new: Directions,
     reversed: [bool; 3],
-    toward: Vec3,
+    (toward, up_to_toward): (Vec3, bool),
     frame: &Frame,
 ) -> Result<Vec3, ModelError> {
     use crate::model::{actual_mm, Components};
@@ -47,8 +55,12 @@ fn take_up_command(
             } else {
                 let next = q[a] + held[a] - img[a];
                 let (d, room) = (next - q_prev[a], toward[a] - q_prev[a]);
-                moves[a] = d * room > 0.0 && d.abs() <= room.abs();
-                q[a] = if moves[a] { next } else { q_prev[a] };
+                moves[a] = d * room > 0.0 && (up_to_toward || d.abs() <= room.abs());
+                q[a] = match (moves[a], d.abs() <= room.abs()) {
+                    (false, _) => q_prev[a],
+                    (true, true) => next,
+                    (true, false) => toward[a],
+                };
             }
         }
     }
@@ -253,9 +265,10 @@ pub(super) struct RampPlan {
     /// The share of `delta` still to catch up at each target of the ramp,
     /// from the reversal's target on (the last 0: the ramp's end).
     pub(super) fracs: Vec<f64>,
-    /// The target to insert (its index, the point, and on an arc its
-    /// parameter) where the ramp ends inside a move.
-    pub(super) insert: Option<(usize, Vec3, Option<f64>)>,
+    /// The targets to insert (each with the index it goes before, the
+    /// point, and on an arc its parameter), in order along the path: where
+    /// the ramp ends inside a move, and on a smooth ramp its inner points.
+    pub(super) insert: Vec<(usize, Vec3, Option<f64>)>,
     /// The tool's largest distance from the path on the ramp (mm).
     pub(super) bound_mm: f64,
 }
@@ -274,9 +287,21 @@ fn plan_ramp(
     point: &crate::compensate::solve::PointSolution,
     (delta, lags): (Vec3, &[Vec3; 3]),
     (kink_tolerance, tolerance_mm, shortest_mm): ([f64; 3], f64, f64),
+    smooth: bool,
 ) -> Result<Option<RampPlan>, ModelError> {
+    // A straight ramp turns the path by `|Δ|/L` at both ends; a smooth
+    // step `3u² − 2u³` over pieces of `ℓ` turns it by at most `6|Δ|ℓ/L²`
+    // at each join, so it needs only `L = √(6|Δ|ℓ/κ)`.
     let need = (0..3).fold(0.0f64, |m, i| {
-        m.max(delta[i].abs() / (RAMP_SHARE * kink_tolerance[i]).max(1e-300))
+        let kappa = (RAMP_SHARE * kink_tolerance[i]).max(1e-300);
+        let straight = delta[i].abs() / kappa;
+        m.max(if smooth {
+            (6.0 * delta[i].abs() * shortest_mm / kappa)
+                .sqrt()
+                .min(straight)
+        } else {
+            straight
+        })
     });
     if !(need > 0.0 && need.is_finite()) {
         return Ok(None);
@@ -309,7 +334,23 @@ fn plan_ramp(
     let s_before = if k == index { 0.0 } else { along(k - 1) };
     let s_k = along(k);
     let mut window: Vec<(Vec3, f64)> = (index..k).map(|j| (targets[j], along(j))).collect();
-    let mut insert = None;
+    // The point `s` along the path from `t_prev`, in the piece that ends
+    // at target `j` (and starts `s_from` along).
+    let point_at = |j: usize, s_from: f64, s: f64| -> (Vec3, Option<f64>) {
+        match (arc, leads) {
+            (Some(a), Leads::Arc { .. }) => {
+                let l = l_prev + s / a.length();
+                (a.point_at(l), Some(l))
+            }
+            _ => {
+                let from = if j == index { t_prev } else { targets[j - 1] };
+                let s_to = along(j);
+                let f = (s - s_from) / (s_to - s_from);
+                (from + (targets[j] - from) * f, None)
+            }
+        }
+    };
+    let mut insert: Vec<(usize, Vec3, Option<f64>, f64)> = Vec::new();
     let end_s = if s_k - need <= 0.5 * need || s_k - need < shortest_mm {
         s_k
     } else {
@@ -317,28 +358,48 @@ fn plan_ramp(
         if s_k - s_new < shortest_mm {
             s_k
         } else {
-            let (p, param) = match (arc, leads) {
-                (Some(a), Leads::Arc { .. }) => {
-                    let l = l_prev + s_new / a.length();
-                    (a.point_at(l), Some(l))
-                }
-                _ => {
-                    let from = if k == index { t_prev } else { targets[k - 1] };
-                    let f = (s_new - s_before) / (s_k - s_before);
-                    (from + (targets[k] - from) * f, None)
-                }
-            };
-            insert = Some((k, p, param));
+            let (p, param) = point_at(k, s_before, s_new);
+            insert.push((k, p, param, s_new));
             window.push((p, s_new));
             s_new
         }
     };
-    if insert.is_none() {
+    if insert.is_empty() {
         window.push((targets[k], s_k));
+    }
+    // A smooth ramp's inner points, about `shortest_mm` apart, where no
+    // target is within half of that already.
+    if smooth && end_s > 2.0 * shortest_mm {
+        let n = (end_s / shortest_mm).floor() as usize;
+        let step = end_s / n as f64;
+        let mut inner = Vec::new();
+        for m in 1..n {
+            let s = step * m as f64;
+            if window.iter().any(|(_, w)| (w - s).abs() < 0.5 * step) {
+                continue;
+            }
+            let j = (index..=k).find(|j| along(*j) > s).unwrap_or(k);
+            let s_from = if j == index { 0.0 } else { along(j - 1) };
+            let (p, param) = point_at(j, s_from, s);
+            inner.push((j, p, param, s));
+        }
+        for (j, p, param, s) in inner {
+            insert.push((j, p, param, s));
+            window.push((p, s));
+        }
+        insert.sort_by(|a, b| a.3.partial_cmp(&b.3).unwrap_or(std::cmp::Ordering::Equal));
+        window.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal));
     }
     let fracs: Vec<f64> = window
         .iter()
-        .map(|(_, s)| (1.0 - s / end_s).max(0.0))
+        .map(|(_, s)| {
+            let u = (s / end_s).clamp(0.0, 1.0);
+            if smooth {
+                1.0 - u * u * (3.0 - 2.0 * u)
+            } else {
+                1.0 - u
+            }
+        })
         .collect();
     // The commands the ramp writes, estimated in the new state: no axis may
     // turn against its direction on it.
@@ -376,7 +437,7 @@ fn plan_ramp(
     }
     Ok(Some(RampPlan {
         fracs,
-        insert,
+        insert: insert.into_iter().map(|(j, p, l, _)| (j, p, l)).collect(),
         bound_mm: bound,
     }))
 }
@@ -609,6 +670,7 @@ impl State<'_> {
         let rule = options.take_up_rule(run.mode);
         let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
         self.states.clear();
+        self.ramp_mids.clear();
         let mut t_prev = start;
         let mut forced: Option<Directions> = None;
         let mut transitions = std::mem::take(&mut self.transitions);
@@ -619,7 +681,7 @@ impl State<'_> {
         // and the share of it still to catch up at each next target; and
         // the index a ramp's end was last inserted before (one insertion
         // per reversal).
-        let mut ramp: Option<(Vec3, std::collections::VecDeque<f64>)> = None;
+        let mut ramp: Option<(Vec3, std::collections::VecDeque<f64>, f64)> = None;
         let mut ramp_inserted: Option<usize> = None;
         let mut index = 0;
         while index < targets.len() {
@@ -733,7 +795,7 @@ impl State<'_> {
                         self.s,
                         point.s,
                         point.reversed,
-                        point.q_mm,
+                        (point.q_mm, matches!(rule, TakeUpRule::Exact { .. })),
                         if commands.is_empty() {
                             first_take_up_frame
                         } else {
@@ -838,20 +900,24 @@ impl State<'_> {
                         &point,
                         (delta, &lags),
                         (kink_tolerance, ramp_tol, shortest_piece),
+                        matches!(rule, TakeUpRule::Exact { .. }),
                     )
                     .map_err(|source| model_error(file, line, source))?
-                    .filter(|p| p.insert.is_none() || ramp_inserted != Some(index));
+                    .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index));
                 }
                 if let Some(plan) = planned {
-                    if let Some((k, p, param)) = plan.insert {
-                        // The ramp ends inside a piece: its end becomes a
-                        // target, and this one is solved again.
-                        targets.insert(k, p);
-                        if let (Leads::Arc { pieces, .. }, Some(l)) = (&mut leads, param) {
-                            pieces.insert(k, l);
-                        }
-                        for tr in transitions.iter_mut().filter(|tr| tr.index >= k) {
-                            tr.index += 1;
+                    if !plan.insert.is_empty() {
+                        // The ramp ends inside a piece (or a smooth ramp
+                        // has inner points): they become targets, last
+                        // first, and this one is solved again.
+                        for &(k, p, param) in plan.insert.iter().rev() {
+                            targets.insert(k, p);
+                            if let (Leads::Arc { pieces, .. }, Some(l)) = (&mut leads, param) {
+                                pieces.insert(k, l);
+                            }
+                            for tr in transitions.iter_mut().filter(|tr| tr.index >= k) {
+                                tr.index += 1;
+                            }
                         }
                         ramp_inserted = Some(index);
                         // Solved in the state the reversal turned to.
@@ -861,7 +927,7 @@ impl State<'_> {
                     take_up = None;
                     self.note_fold(plan.bound_mm);
                     last_lead = Some(index + plan.fracs.len());
-                    ramp = Some((delta, plan.fracs.into_iter().collect()));
+                    ramp = Some((delta, plan.fracs.into_iter().collect(), 1.0));
                 } else if bound <= tolerance {
                     take_up = None;
                     self.note_fold(bound);
@@ -970,9 +1036,12 @@ impl State<'_> {
                     self.note_fold(bound);
                 }
             }
-            if let Some((delta, fracs)) = ramp.as_mut() {
+            let mut ramp_mid = Vec3::ZERO;
+            if let Some((delta, fracs, f_before)) = ramp.as_mut() {
                 if let Some(f) = fracs.pop_front() {
                     point.q_mm = frame.quantize(point.q_mm - *delta * f, self.q_out);
+                    ramp_mid = *delta * (-0.5 * (*f_before + f));
+                    *f_before = f;
                 }
                 if fracs.is_empty() {
                     ramp = None;
@@ -1007,6 +1076,7 @@ impl State<'_> {
             });
             commands.push((point.q_mm, take_up));
             self.states.push(point.s);
+            self.ramp_mids.push(ramp_mid);
             self.q_out = point.q_mm;
             self.s = point.s;
             self.s_nominal = next_state(self.s_nominal, *t - t_prev);

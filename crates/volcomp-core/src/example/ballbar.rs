@@ -4,7 +4,7 @@
 //! noise (a fixed seed of the crate's generator: the same files every run).
 
 use crate::ballbar::{predict, Plane, TestCircle};
-use crate::model::axis_table::AxisTableMap;
+use crate::model::axis_table::{AxisTableMap, CSV_HEADER};
 use crate::rng::Rng;
 use std::f64::consts::PI;
 
@@ -54,7 +54,7 @@ impl Machine {
 
     /// The machine as an axis-table map over `[lo, hi]` per axis, every `h` mm.
     pub fn map(&self, lo: f64, hi: f64, h: f64) -> AxisTableMap {
-        let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+        let mut csv = format!("{CSV_HEADER}\n");
         let n = ((hi - lo) / h).round() as usize;
         for a in 0..3 {
             for (dir, rev) in [("forward", false), ("reverse", true)] {

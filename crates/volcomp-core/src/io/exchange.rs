@@ -253,6 +253,8 @@ pub fn to_model(
 ) -> Result<Imported, MapFileError> {
     let axes = ['X', 'Y', 'Z'];
     let dirs = ['X', 'Y', 'Z', 'A', 'B', 'C'];
+    // A refusal at a row of the file.
+    let refuse = |row: usize, message: String, help: &str| located(file, text, row, message, help);
     let mut not_used = Vec::new();
     let mut kin = Kinematics::new(chain);
     for (n, v, row) in &p.constants {
@@ -263,7 +265,7 @@ pub fn to_model(
             _ if n.len() == 3 && n.as_bytes()[1] == b'0' && "ABC".contains(&n[2..]) => not_used.push(n.clone()),
             _ if *v == 0.0 => not_used.push(n.clone()),
             _ => {
-                return Err(located(file, text, *row, format!("position error {n} = {v}"), "with X as the reference volcomp's model holds the squareness C0Y, B0Z, A0Z only; refer the measurement to X"))
+                return Err(refuse(*row, format!("position error {n} = {v}"), "with X as the reference volcomp's model holds the squareness C0Y, B0Z, A0Z only; refer the measurement to X"))
             }
         }
     }
@@ -281,9 +283,7 @@ pub fn to_model(
             })
             .collect();
         if mine.is_empty() {
-            return Err(located(
-                file,
-                text,
+            return Err(refuse(
                 1,
                 format!("no component errors of {ax} (E?{ax})"),
                 "the file must hold at least one table per axis, e.g. EXX",
@@ -305,9 +305,7 @@ pub fn to_model(
                 continue;
             };
             if pts.windows(2).any(|w| w[1].0 <= w[0].0) || pts.len() < 2 {
-                return Err(located(
-                    file,
-                    text,
+                return Err(refuse(
                     *row,
                     format!("{name}: positions do not strictly increase (or fewer than two)"),
                     "give each table's positions in increasing order",
@@ -315,7 +313,7 @@ pub fn to_model(
             }
             let (lo, hi) = (pts[0].0, pts[pts.len() - 1].0);
             if lo > pos[0] || hi < pos[pos.len() - 1] {
-                return Err(located(file, text, *row, format!("{name} covers {lo} … {hi} mm, the axis' other tables {} … {} mm", pos[0], pos[pos.len() - 1]), "give every component of an axis over the same range (volcomp does not extrapolate)"));
+                return Err(refuse(*row, format!("{name} covers {lo} … {hi} mm, the axis' other tables {} … {} mm", pos[0], pos[pos.len() - 1]), "give every component of an axis over the same range (volcomp does not extrapolate)"));
             }
             let t = Table {
                 positions_mm: pts.iter().map(|q| q.0).collect(),
@@ -331,9 +329,7 @@ pub fn to_model(
             }
         }
         let table = ComponentTable::new(pos, lin, ang).ok_or_else(|| {
-            located(
-                file,
-                text,
+            refuse(
                 1,
                 format!("the tables of {ax} have fewer than two positions"),
                 "give at least two positions per axis",
@@ -346,7 +342,7 @@ pub fn to_model(
     }
     let axes: [AxisComponents; 3] = per_axis
         .try_into()
-        .map_err(|_| located(file, text, 1, "three axes expected", ""))?;
+        .map_err(|_| refuse(1, "three axes expected".into(), ""))?;
     Ok(Imported {
         model: KinematicModel::new(axes, kin),
         assumed_zero,

@@ -328,10 +328,9 @@ pub fn write(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::controllers::test_support::table;
 
     fn sample() -> Positioning {
-        table(
+        Positioning::new(
             &[-50.0, 0.0, 37.5, 120.25],
             &[-1.2345, 0.0, 2.5, 4.125],
             &[1.5, 3.0, 5.75, 6.0625],

@@ -262,14 +262,9 @@ impl ErrorModel for AxisTableMap {
     }
 }
 
-const COLUMNS: [&str; 6] = [
-    "axis",
-    "direction",
-    "position_mm",
-    "ex_um",
-    "ey_um",
-    "ez_um",
-];
+/// The header of an axis-table CSV file: its columns as volcomp writes them
+/// (a file may give them in any order).
+pub const CSV_HEADER: &str = "axis,direction,position_mm,ex_um,ey_um,ez_um";
 
 impl AxisTableMap {
     /// Parses the CSV text of a map; `file` names it in errors.
@@ -290,17 +285,19 @@ impl AxisTableMap {
         let err = |row: usize, column: usize, message: String, help: &str| {
             MapFileError::new(file, row, column, message, help)
         };
+        let columns: Vec<&str> = CSV_HEADER.split(',').collect();
+        let layout = format!("{CSV_HEADER} (positions in mm, errors in µm) in any order");
         let t = CsvTable::parse(
             text,
             file,
             &Header {
-                known: &COLUMNS,
+                known: &columns,
                 unknown: UnknownColumns::Refuse,
-                layout: "axis,direction,position_mm,ex_um,ey_um,ez_um (positions in mm, errors in µm) in any order",
+                layout: &layout,
             },
         )?;
         let mut cols = [0; 6];
-        for (k, name) in COLUMNS.iter().enumerate() {
+        for (k, name) in columns.iter().enumerate() {
             cols[k] = t.require(name)?;
         }
         let header = Some(cols);
@@ -373,7 +370,7 @@ impl AxisTableMap {
 
     /// Writes the map as CSV (the layout of docs/design.md, "The axis-table map").
     pub fn to_csv(&self) -> String {
-        let mut s = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+        let mut s = format!("{CSV_HEADER}\n");
         for (a, t) in self.axes.iter().enumerate() {
             let same = t.forward == t.reverse;
             let dirs: &[(&str, &Table)] = if same {

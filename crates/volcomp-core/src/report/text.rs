@@ -40,11 +40,15 @@ mod tests {
 
     #[test]
     fn four_significant_digits_at_most_four_decimals() {
-        assert_eq!(um(10.768), "10.77 µm");
-        assert_eq!(um(0.0078123), "0.0078 µm");
-        assert_eq!(um(1.000_000_000_000_000_1e-7), "0 µm");
-        assert_eq!(um(0.0), "0 µm");
-        assert_eq!(um(-2.5), "-2.5 µm");
+        for (v, want) in [
+            (10.768, "10.77 µm"),
+            (0.0078123, "0.0078 µm"),
+            (1.000_000_000_000_000_1e-7, "0 µm"),
+            (0.0, "0 µm"),
+            (-2.5, "-2.5 µm"),
+        ] {
+            assert_eq!(um(v), want);
+        }
         assert_eq!(urad(1234.56), "1235 µrad");
         assert_eq!(count(1, "take-up move", "take-up moves"), "1 take-up move");
         assert_eq!(count(2, "point", "points"), "2 points");

@@ -48,11 +48,12 @@ from ._volcomp import (
 _F = TypeVar("_F", bound=Callable[..., object])
 
 
-def _with_options(fn: _F, job: str) -> _F:
-    """``fn`` with the library's options of ``job`` as keyword parameters:
-    its signature and docstring list them, from the library's one table
-    (the CLI's flags are built from the same table)."""
-    options = _volcomp._options(job)
+def _with_options(fn: _F) -> _F:
+    """``fn`` with the library's options of its job (the job is the
+    function's name) as keyword parameters: its signature and docstring list
+    them, from the library's one table (the CLI's flags are built from the
+    same table)."""
+    options = _volcomp._options(fn.__name__)
     signature = _inspect.signature(fn)
     params = [p for p in signature.parameters.values() if p.kind != p.VAR_KEYWORD]
     # Options the function takes as its own parameters (mirror's nominal
@@ -79,18 +80,13 @@ def _with_options(fn: _F, job: str) -> _F:
     return call  # type: ignore[return-value]
 
 
-compensate = _with_options(compensate, "compensate")
-simulate = _with_options(simulate, "simulate")
-moves = _with_options(moves, "moves")
-machining_time = _with_options(machining_time, "machining_time")
-mirror = _with_options(mirror, "mirror")
-thermal_fit = _with_options(thermal_fit, "thermal_fit")
-straightness_fit = _with_options(straightness_fit, "straightness_fit")
-export = _with_options(export, "export")
-ballbar_predict = _with_options(ballbar_predict, "ballbar_predict")
-ballbar_fit = _with_options(ballbar_fit, "ballbar_fit")
-probe_fit = _with_options(probe_fit, "probe_fit")
-probe_plan = _with_options(probe_plan, "probe_plan")
+# Each job's function, with its options as keyword parameters.
+for _job in (
+    compensate, simulate, moves, machining_time, mirror, thermal_fit, straightness_fit, export,
+    ballbar_predict, ballbar_fit, probe_fit, probe_plan,
+):
+    globals()[_job.__name__] = _with_options(_job)
+del _job
 
 __all__ = [
     "BadInputError",

@@ -666,7 +666,7 @@ pub fn parse(text: &str, file: &str, o: &FanucOptions) -> Result<ControllerCorre
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::controllers::test_support::{assert_noted, table};
+    use crate::io::controllers::test_support::assert_noted;
 
     #[test]
     fn hand_computed_tape() {
@@ -675,7 +675,7 @@ mod tests {
         // 0, −4.4, −6.0, −5.2 → rounded 0, −4, −6, −5 µm; increments 0, −4,
         // −2, +1 at points 0, 1, 2, 3; 3620 = 0 (reference), 3621 = 0,
         // 3622 = 3, magnification 1, interval 10000 units.
-        let x = table(
+        let x = Positioning::new(
             &[0.0, 10.0, 20.0, 30.0],
             &[0.0, 4.4, 6.0, 5.2],
             &[0.0, 4.4, 6.0, 5.2],
@@ -722,7 +722,7 @@ mod tests {
         // Correction relative to the reference: −300, −150, 0; increments
         // (point 1: −150 − (−300) = 150, point 2: 150) exceed 127: magnification 2,
         // values 75, 75.
-        let y = table(
+        let y = Positioning::new(
             &[-20.0, -10.0, 0.0],
             &[300.0, 150.0, 0.0],
             &[300.0, 150.0, 0.0],
@@ -744,7 +744,7 @@ mod tests {
             back.axes[1].as_ref().unwrap().positions_mm,
             vec![-20.0, -10.0, 0.0]
         );
-        let long = table(&[0.0, 2000.0], &[0.0, 0.0], &[0.0, 0.0]);
+        let long = Positioning::new(&[0.0, 2000.0], &[0.0, 0.0], &[0.0, 0.0]);
         let err = export(
             &[Some(long), None, None],
             &FanucOptions {
@@ -770,7 +770,7 @@ mod tests {
         //   the reference); relative to it 4, 0, −4.6 → 4, 0, −5; values at
         //   points 3, 4, 5: 0, −4, −5; absolute −1, −5, −10.
         // 3626 = 3 (the − table follows the + table's points 0 … 2).
-        let x = table(&[-10.0, 0.0, 10.0], &[-3.0, 0.0, 4.4], &[1.0, 5.0, 9.6]);
+        let x = Positioning::new(&[-10.0, 0.0, 10.0], &[-3.0, 0.0, 4.4], &[1.0, 5.0, 9.6]);
         let e = export(&[Some(x.clone()), None, None], &FanucOptions::default()).unwrap();
         let t = &e.files[0].text;
         let expected = "%\n\
@@ -828,7 +828,7 @@ mod tests {
         // from zero); relative to it the − table wants +0.5 everywhere:
         // 1, 0 (the reference holds 3627), 1 → values 0, −1, +1; the
         // control applies −2, −3, −2 units, each 0.5 from −2.5.
-        let tie = table(&[-10.0, 0.0, 10.0], &[0.0, 0.0, 0.0], &[2.5, 2.5, 2.5]);
+        let tie = Positioning::new(&[-10.0, 0.0, 10.0], &[0.0, 0.0, 0.0], &[2.5, 2.5, 2.5]);
         let t = export(&[Some(tie), None, None], &FanucOptions::default()).unwrap();
         assert!(
             t.files[0].text.contains("N3627 A1 P-3\n")
@@ -861,7 +861,7 @@ mod tests {
     #[test]
     fn bidirectional_limits() {
         // Three points per direction need 6 numbers: 0 … 4 is too few.
-        let x = table(&[-10.0, 0.0, 10.0], &[0.0, 0.0, 0.0], &[5.0, 5.0, 5.0]);
+        let x = Positioning::new(&[-10.0, 0.0, 10.0], &[0.0, 0.0, 0.0], &[5.0, 5.0, 5.0]);
         let small = FanucOptions {
             max_number: 4,
             ..FanucOptions::default()

@@ -206,13 +206,13 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::controllers::test_support::{assert_noted, table};
+    use crate::io::controllers::test_support::assert_noted;
 
     #[test]
     fn backlash_by_hand() {
         // X reversal values 3.0, 4.0, 5.2 µm → mean 4.0667 → 4 µm = 0.004 mm;
         // spread 1.1333 µm, rounding 0.0667 µm.
-        let x = table(&[0.0, 50.0, 100.0], &[0.0, 1.0, 2.0], &[3.0, 5.0, 7.2]);
+        let x = Positioning::new(&[0.0, 50.0, 100.0], &[0.0, 1.0, 2.0], &[3.0, 5.0, 7.2]);
         let e = export(&[Some(x), None, None], 0).unwrap();
         assert!(
             e.files[0].text.contains("$160=0.004\n"),
@@ -233,7 +233,7 @@ mod tests {
         assert_eq!(back.correction_um(0, 30.0, false), 0.0);
         assert_noted(&back.notes, "$23");
         // The same reversal everywhere: no "varies by up to 0".
-        let same = table(&[0.0, 100.0], &[0.0, 1.0], &[3.0, 4.0]);
+        let same = Positioning::new(&[0.0, 100.0], &[0.0, 1.0], &[3.0, 4.0]);
         let notes = export(&[Some(same), None, None], 0).unwrap().notes;
         let x = notes
             .iter()
@@ -244,7 +244,7 @@ mod tests {
             "{x}"
         );
         // Forward above reverse: refused.
-        let y = table(&[0.0, 1.0], &[2.0, 2.0], &[0.0, 0.0]);
+        let y = Positioning::new(&[0.0, 1.0], &[2.0, 2.0], &[0.0, 0.0]);
         assert!(export(&[None, Some(y), None], 0)
             .unwrap_err()
             .message

@@ -341,14 +341,13 @@ pub fn parse_cma(text: &str, file: &str) -> Result<[Option<String>; 3], ReadErro
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::controllers::test_support::table;
 
     #[test]
     fn hand_computed_tables() {
         // Z at −200, −100, 0 mm: forward e = 0, +3.12, −2.06 µm, reverse
         // +1.0, +4.25, −1.0 µm → +0.0000, +0.0031, −0.0021 and +0.0010,
         // +0.0043 (4.25 rounds away from zero), −0.0010 mm.
-        let z = table(
+        let z = Positioning::new(
             &[-200.0, -100.0, 0.0],
             &[0.0, 3.12, -2.06],
             &[1.0, 4.25, -1.0],

@@ -262,14 +262,13 @@ pub fn ssfk_parse(text: &str, file: &str) -> Result<Positioning, ReadError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::controllers::test_support::table;
 
     #[test]
     fn the_documentations_example_point() {
         // [ISG SSFK] example: at setpoint 19866.7 µm the axis reached
         // 19856.5 µm going positive and 19874.7 µm going negative:
         // Δs = −10.2 µm → −102 and +8.0 µm → 80 (0.1 µm units).
-        let y = table(
+        let y = Positioning::new(
             &[0.0, 19.8667],
             &[0.0, 19856.5 - 19866.7],
             &[0.0, 19874.7 - 19866.7],
@@ -297,14 +296,14 @@ mod tests {
     #[test]
     fn rounding_limits_and_equidistant_lists() {
         // 1.26 µm → 13 (0.1 µm), 0.04 µm rounding.
-        let x = table(&[0.0, 10.0], &[0.0, 1.26], &[0.0, 1.26]);
+        let x = Positioning::new(&[0.0, 10.0], &[0.0, 1.26], &[0.0, 1.26]);
         let e = ssfk_export(&[Some(x.clone()), None, None], SSFK_MAX_POINTS).unwrap();
         assert!(e.files[0].text.contains("kw.ssfk.table[1].pos        13\n"));
         assert!((e.rounding.max_um - 0.04).abs() < 1e-9);
         let err = ssfk_export(&[Some(x), None, None], 1).unwrap_err();
         assert!(err.message.contains("smaller than P-COMP-00059"), "{err}");
         // Two points need max_points 3: kw_nr_max 2 < 3.
-        let two = table(&[0.0, 10.0], &[0.0, 0.0], &[0.0, 0.0]);
+        let two = Positioning::new(&[0.0, 10.0], &[0.0, 0.0], &[0.0, 0.0]);
         assert!(ssfk_export(&[Some(two.clone()), None, None], 2).is_err());
         assert!(ssfk_export(&[Some(two), None, None], 3).is_ok());
         // An equidistant, unilateral list: −200 mm every 0.5 mm.

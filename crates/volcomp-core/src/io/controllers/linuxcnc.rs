@@ -484,12 +484,11 @@ fn differ(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::controllers::test_support::table;
 
     #[test]
     fn type_1_by_hand() {
         // e = +2 µm forward, +5 µm reverse at 100 mm → trims −0.002, −0.005 mm.
-        let p = table(&[0.0, 100.0], &[0.0, 2.0], &[3.0, 5.0]);
+        let p = Positioning::new(&[0.0, 100.0], &[0.0, 2.0], &[3.0, 5.0]);
         let e = export(
             &[None, Some(p.clone()), None],
             LinuxcncExport::CompFiles(CompFileType::Type1),
@@ -522,7 +521,7 @@ mod tests {
 #[cfg(test)]
 mod ini_tests {
     use super::*;
-    use crate::io::controllers::test_support::{assert_noted, reader, table};
+    use crate::io::controllers::test_support::{assert_noted, reader};
 
     /// `parse_ini` with comp files from `files`.
     fn read(
@@ -634,7 +633,7 @@ mod ini_tests {
     #[test]
     fn backlash_only_export_reads_back() {
         // Reversal 3, 4, 5.2 µm → mean 4.0667 µm, split ±2.0333.
-        let x = table(&[0.0, 50.0, 100.0], &[0.0, 1.0, 2.0], &[3.0, 5.0, 7.2]);
+        let x = Positioning::new(&[0.0, 50.0, 100.0], &[0.0, 1.0, 2.0], &[3.0, 5.0, 7.2]);
         let e = export(
             &[Some(x), None, None],
             LinuxcncExport::BacklashOnly,

@@ -430,22 +430,6 @@ pub(crate) fn axis_letter(a: usize) -> char {
 /// What the controllers' tests share.
 #[cfg(test)]
 pub(crate) mod test_support {
-    use super::Positioning;
-
-    /// A positioning table from its columns: positions (mm), forward and
-    /// reverse errors (µm).
-    pub(crate) fn table(
-        positions_mm: &[f64],
-        forward_um: &[f64],
-        reverse_um: &[f64],
-    ) -> Positioning {
-        Positioning {
-            positions_mm: positions_mm.to_vec(),
-            forward_um: forward_um.to_vec(),
-            reverse_um: reverse_um.to_vec(),
-        }
-    }
-
     /// A reader of the files a controller file names, over `files` (name,
     /// text): a name not among them is not found.
     pub(crate) fn reader<'a>(
@@ -473,11 +457,10 @@ pub(crate) mod test_support {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use test_support::table;
 
     #[test]
     fn equidistant_samples_and_holds_the_ends() {
-        let p = table(&[0.0, 20.0], &[0.0, 8.0], &[2.0, 2.0]);
+        let p = Positioning::new(&[0.0, 20.0], &[0.0, 8.0], &[2.0, 2.0]);
         // From −10 every 10 mm, 5 points: −10 (held 0), 0, 10 (4), 20 (8), 30 (held 8).
         let e = equidistant(&p, -10.0, 10.0, 5);
         assert_eq!(e.positions_mm, vec![-10.0, 0.0, 10.0, 20.0, 30.0]);
@@ -487,7 +470,7 @@ mod tests {
 
     #[test]
     fn bidirectional_mean_and_reversal() {
-        let p = table(&[0.0, 10.0], &[1.0, 2.0], &[3.0, 7.0]);
+        let p = Positioning::new(&[0.0, 10.0], &[1.0, 2.0], &[3.0, 7.0]);
         let (m, b) = bidirectional_mean(&p);
         assert_eq!(m.forward_um, vec![2.0, 4.5]);
         assert_eq!(m.reverse_um, m.forward_um);

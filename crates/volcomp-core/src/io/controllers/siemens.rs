@@ -423,7 +423,7 @@ pub fn parse(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::controllers::test_support::{assert_noted, table};
+    use crate::io::controllers::test_support::assert_noted;
 
     fn names() -> [String; 3] {
         ["X1".into(), "Y1".into(), "Z1".into()]
@@ -437,7 +437,7 @@ mod tests {
         // the table is the mean 0.5, 3.0, 6.5 minus B̄/2: −0.0333, 2.4667,
         // 5.9667. Every 10 mm from 0: −0.0333, −0.0333 + 2.5·10/15 = 1.6333,
         // 2.4667 + 3.5·5/15 = 3.6333, 5.9667 µm → 0, 2, 4, 6 µm.
-        let x = table(&[0.0, 15.0, 30.0], &[0.0, 2.4, 6.0], &[1.0, 3.6, 7.0]);
+        let x = Positioning::new(&[0.0, 15.0, 30.0], &[0.0, 2.4, 6.0], &[1.0, 3.6, 7.0]);
         let o = EecOptions::default();
         let e = export(&[Some(x), None, None], &o).unwrap();
         let t = &e.files[0].text;
@@ -485,7 +485,7 @@ mod tests {
             reference: ReferenceDirection::Negative,
             ..EecOptions::default()
         };
-        let x = table(&[0.0, 10.0], &[0.0, 0.0], &[4.0, 4.0]);
+        let x = Positioning::new(&[0.0, 10.0], &[0.0, 0.0], &[4.0, 4.0]);
         let e = export(&[Some(x), None, None], &neg).unwrap();
         assert!(
             e.files[0].text.contains("$AA_ENC_COMP[0,0,X1]=0.004\n"),
@@ -533,7 +533,7 @@ mod tests {
 
     #[test]
     fn limits_and_bad_files_are_refused() {
-        let x = table(&[0.0, 1000.0], &[0.0, 1.0], &[0.0, 1.0]);
+        let x = Positioning::new(&[0.0, 1000.0], &[0.0, 1.0], &[0.0, 1.0]);
         let o = EecOptions {
             max_points: 200,
             step_mm: 1.0,
@@ -777,13 +777,12 @@ pub fn cec_parse(text: &str, file: &str, sign: CecSign) -> Result<Vec<CecTable>,
 #[cfg(test)]
 mod cec_tests {
     use super::*;
-    use crate::io::controllers::test_support::table;
 
     #[test]
     fn straightness_table_by_hand() {
         // E_ZY (Z deviation along Y): 0, −3.4, −1.2 µm at 0, 100, 200 mm,
         // every 100 mm at 1 µm: 0, −0.003, −0.001 mm (−3.4 → −3, −1.2 → −1).
-        let ezy = table(&[0.0, 100.0, 200.0], &[0.0, -3.4, -1.2], &[0.0, -3.4, -1.2]);
+        let ezy = Positioning::new(&[0.0, 100.0, 200.0], &[0.0, -3.4, -1.2], &[0.0, -3.4, -1.2]);
         let o = EecOptions {
             step_mm: 100.0,
             ..EecOptions::default()

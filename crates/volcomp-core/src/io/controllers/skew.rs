@@ -108,6 +108,25 @@ fn one_file(
     }
 }
 
+/// A firmware file of the factors of `squareness`, rounded to
+/// [`DECIMALS`]: `name`, a header after the firmware's `comment` sign saying
+/// `what` it is, then `body` of the factors `[xy, xz, yz]` as written.
+/// `limit` refuses rounded factors the firmware does not take.
+fn factor_file(
+    format: Format,
+    squareness: [f64; 3],
+    (name, comment, what): (&str, char, &str),
+    limit: impl Fn([f64; 3]) -> Result<(), LimitError>,
+    body: impl Fn([String; 3]) -> String,
+    notes: Vec<String>,
+) -> Result<Export, LimitError> {
+    let mut rounding = unrounded();
+    let f = rounded(squareness, &mut rounding);
+    limit(f)?;
+    let text = header(comment, squareness, what) + &body(f.map(|v| fixed(v, DECIMALS)));
+    Ok(one_file(name, text, applied(format, f), rounding, notes))
+}
+
 /// A Klipper profile `[skew_correction NAME]` for the squareness (µrad).
 /// The rounding is reported in µrad (in [`Rounding::max_um`]'s field).
 pub fn klipper(squareness: [f64; 3], profile: &str) -> Result<Export, LimitError> {
@@ -119,60 +138,44 @@ pub fn klipper(squareness: [f64; 3], profile: &str) -> Result<Export, LimitError
             help: "name the profile with letters, digits and _ (it is loaded with SKEW_PROFILE LOAD=NAME)".into(),
         });
     }
-    let mut rounding = unrounded();
-    let f = rounded(squareness, &mut rounding);
-    let text = format!(
-        "{}[skew_correction {profile}]\nxy_skew = {}\nxz_skew = {}\nyz_skew = {}\n",
-        header('#', squareness, "Klipper skew factors"),
-        fixed(f[0], DECIMALS),
-        fixed(f[1], DECIMALS),
-        fixed(f[2], DECIMALS)
-    );
-    Ok(one_file(
-        "skew_correction.cfg",
-        text,
-        applied(Format::Klipper, f),
-        rounding,
+    factor_file(
+        Format::Klipper,
+        squareness,
+        ("skew_correction.cfg", '#', "Klipper skew factors"),
+        |_| Ok(()),
+        |[xy, xz, yz]| {
+            format!("[skew_correction {profile}]\nxy_skew = {xy}\nxz_skew = {xz}\nyz_skew = {yz}\n")
+        },
         vec![
             "printer.cfg: [skew_correction] and this profile section (or [include skew_correction.cfg])".into(),
             format!("load it after homing: SKEW_PROFILE LOAD={profile}"),
         ],
-    ))
+    )
 }
 
 /// Marlin's `M852 I J K` line (with `G21`: Marlin reads the factors as
 /// linear units) for the squareness (µrad). Marlin refuses factors outside
 /// `SKEW_FACTOR_MIN … SKEW_FACTOR_MAX` = −1 … 1.
 pub fn marlin(squareness: [f64; 3]) -> Result<Export, LimitError> {
-    let mut rounding = unrounded();
-    let f = rounded(squareness, &mut rounding);
-    for (k, v) in f.iter().enumerate() {
-        if !(-1.0..=1.0).contains(v) {
-            return Err(LimitError {
+    factor_file(
+        Format::Marlin,
+        squareness,
+        ("skew.gcode", ';', "Marlin skew factors"),
+        |f| match f.iter().position(|v| !(-1.0..=1.0).contains(v)) {
+            Some(k) => Err(LimitError {
                 format: "marlin",
                 axis: ['X', 'X', 'Y'][k],
-                message: format!("skew factor {v} is outside SKEW_FACTOR_MIN … SKEW_FACTOR_MAX (−1 … 1)"),
+                message: format!("skew factor {} is outside SKEW_FACTOR_MIN … SKEW_FACTOR_MAX (−1 … 1)", f[k]),
                 help: "a squareness of more than 45° is not a machine error: check the model's units (µrad)".into(),
-            });
-        }
-    }
-    let text = format!(
-        "{}G21\nM852 I{} J{} K{}\nM500\n",
-        header(';', squareness, "Marlin skew factors"),
-        fixed(f[0], DECIMALS),
-        fixed(f[1], DECIMALS),
-        fixed(f[2], DECIMALS)
-    );
-    Ok(one_file(
-        "skew.gcode",
-        text,
-        applied(Format::Marlin, f),
-        rounding,
+            }),
+            None => Ok(()),
+        },
+        |[i, j, k]| format!("G21\nM852 I{i} J{j} K{k}\nM500\n"),
         vec![
             "Marlin needs SKEW_CORRECTION and SKEW_CORRECTION_GCODE; J and K (XZ, YZ) need SKEW_CORRECTION_FOR_Z".into(),
             "M500 stores the factors in EEPROM".into(),
         ],
-    ))
+    )
 }
 
 /// The sample length of the `M556` line volcomp writes (mm): RepRapFirmware

@@ -308,7 +308,6 @@ pub fn squareness_error(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::controllers::test_support::table;
     use crate::model::controller::{BacklashSide, Format};
 
     /// A sine of 16 mm period, 1 µm amplitude, every 2 mm over 0 … 160 mm.
@@ -353,9 +352,9 @@ mod tests {
         // travel; the intended table is the mean minus 1.5 µm. A table
         // exactly that, with B̄ = 3, has no table error; it leaves
         // |B − B̄|/2 = 0.5 µm of the map at the ends.
-        let p = table(&[0.0, 100.0], &[0.0, 0.0], &[2.0, 4.0]);
+        let p = Positioning::new(&[0.0, 100.0], &[0.0, 0.0], &[2.0, 4.0]);
         let mut applied = ControllerCorrection::empty(Format::SiemensEec);
-        applied.axes[0] = Some(table(
+        applied.axes[0] = Some(Positioning::new(
             &[0.0, 50.0, 100.0],
             &[-0.5, 0.0, 0.5],
             &[-0.5, 0.0, 0.5],

@@ -555,7 +555,6 @@ pub fn positioning_model(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::controllers::test_support::table;
 
     const CSV: &str = "axis,direction,position_mm,ex_um,ey_um,ez_um,ea_urad,eb_urad,ec_urad\n\
         X,forward,0,0,0,0,0,0,0\nX,forward,100,1,0.5,0,2,0,4\n\
@@ -715,7 +714,7 @@ mod tests {
 
     #[test]
     fn positioning_rows_hold_the_axis_own_column() {
-        let p = table(&[0.0, 50.0], &[1.0, 2.5], &[-1.0, 0.0]);
+        let p = Positioning::new(&[0.0, 50.0], &[1.0, 2.5], &[-1.0, 0.0]);
         let s = positioning_rows_csv(&p, Axis::Y, "test");
         assert_eq!(
             s,

@@ -1,7 +1,7 @@
 //! Tests of the 21-component model.
 
 use super::*;
-use crate::model::axis_table::{AxisTableMap, AxisTables};
+use crate::model::axis_table::{AxisTableMap, AxisTables, CSV_HEADER};
 use crate::model::{WithTool, ALL_FORWARD};
 
 const F: Direction = Direction::Forward;
@@ -475,10 +475,11 @@ fn a_computed_position_at_the_range_end_is_in_range() {
     // off again, (181.5362 + 128.1) − 128.1, lands 4·10⁻¹⁴ mm beyond it:
     // still the end, for the axis tables and the model made of them. A
     // real 0.1 µm beyond is refused.
-    let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
-               X,both,0,0,0,0\nX,both,100,1,0,0\nY,both,0,0,0,0\nY,both,100,0,0,0\n\
-               Z,both,0,0,0,0\nZ,both,181.5362,0,0,3\n";
-    let map = AxisTableMap::from_csv(csv, "m.csv").unwrap();
+    let csv = format!(
+        "{CSV_HEADER}\nX,both,0,0,0,0\nX,both,100,1,0,0\nY,both,0,0,0,0\nY,both,100,0,0,0\n\
+         Z,both,0,0,0,0\nZ,both,181.5362,0,0,3\n"
+    );
+    let map = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
     let model = KinematicModel::from_axis_tables(&map, crate::model::topology::Topology::SEED);
     let z = (181.5362 + 128.1) - 128.1;
     assert!(z > 181.5362);
