@@ -93,7 +93,7 @@ impl MachineExt for Machine {
     }
 
     fn walk(&self, path: &Path) -> Result<Walker<Box<dyn BufRead>>, CliError> {
-        // speed lane: the program is read ahead on a thread of its own.
+        // For speed, the program is read ahead on a thread of its own.
         let reader: Box<dyn BufRead> = if path.as_os_str() == "-" {
             volcomp_core::io::inputs::record_stdin("the program (standard input)");
             Box::new(ReadAhead::new(io::stdin()))
@@ -141,7 +141,7 @@ pub fn print_warnings(file: &str, warnings: &[volcomp_gcode::Warning]) {
 const MOVES_BATCH: usize = 4096;
 
 /// What `volcomp moves` prints of a motion: the reading thread hands
-/// these to the writing thread (speed lane: about half a [`Motion`]; the
+/// these to the writing thread (for speed: about half a [`Motion`]; the
 /// extra axes, zero in most programs, go in the batch's own list only
 /// where they are printed).
 #[derive(Clone, Copy)]
@@ -178,7 +178,7 @@ impl MoveBatch {
             MotionKind::Arc(arc) => (true, arc.center),
             _ => (false, Vec3::ZERO),
         };
-        // speed lane: element by element, no slice comparison call.
+        // Element by element, for speed: no slice comparison call.
         let extra = extra_columns || m.extra.end.iter().any(|&v| v != 0.0);
         if extra {
             self.extra.push(m.extra.end);
@@ -379,7 +379,7 @@ fn push_extra(v: &[f64; 6], text: &mut Vec<u8>, num: impl Fn(f64, &mut Vec<u8>))
 }
 
 fn push_uint(v: u64, text: &mut Vec<u8>) {
-    // speed lane: a fixed-size copy, no `memcpy` call per number.
+    // For speed, a fixed-size copy: no `memcpy` call per number.
     format_uint_bytes(v, text);
 }
 

@@ -116,7 +116,7 @@ impl BiarcArc {
     }
 
     /// The point at a fraction of the arc, as a function of the fraction
-    /// (speed lane: the centre, start angle and sweep found once for all
+    /// (for speed: the centre, start angle and sweep found once for all
     /// the points sampled, not per point).
     fn sampler(&self) -> impl Fn(f64) -> P2 + '_ {
         let arc = self.center().map(|c| {
@@ -233,7 +233,7 @@ fn window_deviation(r: f64, b: f64, arcs: &[BiarcArc; 2]) -> Option<f64> {
     let y_n = |x: f64| (r * r - x * x).sqrt() - r;
     let p1 = arcs[0].start;
     // Sample the command along both arcs, in order; x must advance along
-    // the path (speed lane: on the stack, stopping at the first point
+    // the path (for speed: on the stack, stopping at the first point
     // that does not).
     const N: usize = 200;
     let mut pts = [[0.0; 2]; 2 * N + 1];

@@ -27,7 +27,7 @@ pub const MAX_COORDINATE_MM: f64 = 100_000.0;
 /// Refuses a point (axis frame, mm) with a coordinate beyond
 /// [`MAX_COORDINATE_MM`] or not finite.
 pub(super) fn check_reach(line: u64, col: usize, what: &str, p: Vec3) -> Result<(), GcodeError> {
-    // speed lane: one test for the common point (a NaN fails `<=`).
+    // For speed, one test for the common point (a NaN fails `<=`).
     if p.x.abs() <= MAX_COORDINATE_MM
         && p.y.abs() <= MAX_COORDINATE_MM
         && p.z.abs() <= MAX_COORDINATE_MM

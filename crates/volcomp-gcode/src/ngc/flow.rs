@@ -529,7 +529,7 @@ impl<R: BufRead> Walker<R> {
 
     /// Runs one o-word statement at `pos`.
     pub(crate) fn control(&mut self, pos: Pos, o: &OWord) -> Result<(), GcodeError> {
-        // speed lane: the statement is borrowed (no copy of its
+        // For speed, the statement is borrowed (no copy of its
         // expressions per pass of a loop).
         let evaluated;
         let label: &str = match &o.label_expr {
