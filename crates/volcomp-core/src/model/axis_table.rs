@@ -10,7 +10,7 @@
 
 use crate::error::{MapFileError, ModelError};
 use crate::limits::{MAX_ERROR_UM, MAX_POSITION_MM};
-use crate::model::{Components, Direction, Directions, ErrorModel};
+use crate::model::{Affine, Components, Direction, Directions, ErrorModel};
 use crate::text::table::{shown, CsvTable, Header, Record, UnknownColumns};
 use volcomp_gcode::Vec3;
 
@@ -23,20 +23,58 @@ pub struct Table {
     pub errors_um: Vec<Vec3>,
 }
 
+/// Where a position lies in a table: on its only point, or between two.
+enum At {
+    Point(Vec3),
+    Between { t: f64, p: [f64; 2], e: [Vec3; 2] },
+}
+
 impl Table {
     /// Linear interpolation at `x_mm`; `None` outside the range.
+    #[inline]
     pub fn eval(&self, x_mm: f64) -> Option<Vec3> {
-        let p = &self.positions_mm;
-        let (first, last) = (*p.first()?, *p.last()?);
-        if !(first..=last).contains(&x_mm) {
-            return None;
+        Some(match self.at(x_mm)? {
+            At::Point(v) => v,
+            At::Between { t, e, .. } => e[0].lerp(e[1], t),
+        })
+    }
+
+    /// [`Table::eval`] at `x_mm` (the same value to the bit) with the
+    /// slope (µm per mm) of the interval that holds it and that interval
+    /// (mm); `None` outside the table. A table of one point is constant on
+    /// it (slope zero).
+    pub fn eval_cell(&self, x_mm: f64) -> Option<(Vec3, Vec3, [f64; 2])> {
+        Some(match self.at(x_mm)? {
+            At::Point(v) => (v, Vec3::ZERO, [x_mm; 2]),
+            At::Between { t, p, e } => {
+                (e[0].lerp(e[1], t), (e[1] - e[0]) * (1.0 / (p[1] - p[0])), p)
+            }
+        })
+    }
+
+    #[inline]
+    fn at(&self, x_mm: f64) -> Option<At> {
+        let (p, e) = (self.positions_mm.as_slice(), self.errors_um.as_slice());
+        match p {
+            [] => None,
+            [only] => (*only == x_mm).then(|| At::Point(e[0])),
+            [first, .., last] => {
+                if !(*first <= x_mm && x_mm <= *last) {
+                    return None;
+                }
+                // `interval` keeps `i + 1` within `p`; `e` has one error per
+                // position (checked once here, not per element).
+                let i = interval(p, x_mm);
+                let (Some(&[p0, p1]), Some(&[e0, e1])) = (p.get(i..i + 2), e.get(i..i + 2)) else {
+                    unreachable!("a table has one error per position")
+                };
+                Some(At::Between {
+                    t: (x_mm - p0) / (p1 - p0),
+                    p: [p0, p1],
+                    e: [e0, e1],
+                })
+            }
         }
-        if p.len() == 1 {
-            return Some(self.errors_um[0]);
-        }
-        let i = interval(p, x_mm);
-        let t = (x_mm - p[i]) / (p[i + 1] - p[i]);
-        Some(self.errors_um[i].lerp(self.errors_um[i + 1], t))
     }
 
     /// `[first, last]` position.
@@ -53,20 +91,24 @@ impl Table {
 /// Measured tables are nearly always evenly spaced, so the first guess is
 /// the proportional position, corrected by a step or two; uneven tables fall
 /// back to a binary search.
+#[inline]
 fn interval(p: &[f64], x: f64) -> usize {
     let last = p.len() - 2;
-    let span = p[last + 1] - p[0];
+    let (first, end) = (p[0], p[last + 1]);
     // Through `i64`: the float-to-unsigned conversion costs several times
     // more; out-of-range and NaN guesses land on the ends all the same.
-    let guess = ((x - p[0]) / span * (last + 1) as f64) as i64;
-    let mut i = guess.clamp(0, last as i64) as usize;
-    for _ in 0..3 {
-        if x < p[i] && i > 0 {
-            i -= 1;
-        } else if x >= p[i + 1] && i < last {
-            i += 1;
-        } else {
+    let guess = ((x - first) / (end - first) * (last + 1) as f64) as i64;
+    let i = guess.clamp(0, last as i64) as usize;
+    // The guess is right (the usual case on an even table), or one off.
+    if let Some(&[lo, hi]) = p.get(i..i + 2) {
+        if lo <= x && (x < hi || i == last) {
             return i;
+        }
+        if x < lo && i > 0 && p[i - 1] <= x {
+            return i - 1;
+        }
+        if x >= hi && i < last && (x < p[i + 2] || i + 1 == last) {
+            return i + 1;
         }
     }
     p.partition_point(|&v| v <= x).clamp(1, last + 1) - 1
@@ -215,22 +257,11 @@ impl ErrorModel for AxisTableMap {
         let mut e = Vec3::ZERO;
         for a in 0..3 {
             let table = self.axes[a].table(s[a]);
-            let [lo, hi] = table.range();
-            let x = q_mm[a];
-            let x = if (lo..=hi).contains(&x) {
-                x
-            } else if self.clamp {
-                x.clamp(lo, hi)
-            } else {
-                // Within the rounding of a computed position: at the end.
-                crate::model::within_range(x, lo, hi).unwrap_or(x)
+            // Inside the table (nearly always): no range work beyond eval's.
+            let v = match table.eval(q_mm[a]) {
+                Some(v) => v,
+                None => self.eval_outside(table, a, q_mm[a])?,
             };
-            let v = table.eval(x).ok_or_else(|| ModelError::OutOfRange {
-                axis: AXES[a],
-                position_mm: q_mm[a],
-                min_mm: lo,
-                max_mm: hi,
-            })?;
             match components {
                 Components::All => e += v,
                 Components::PositioningOnly => e[a] += v[a],
@@ -248,6 +279,40 @@ impl ErrorModel for AxisTableMap {
         [r(0), r(1), r(2)]
     }
 
+    /// Inside every table: each axis' cell gives the slope of its column
+    /// and its side of the box. The value is summed as
+    /// [`ErrorModel::deviation_um`] sums it, so it is the same to the bit.
+    /// Outside a table (clamped, or at an end within rounding): `None`.
+    fn deviation_affine_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Option<Affine>, ModelError> {
+        let mut out = Affine {
+            value_um: Vec3::ZERO,
+            slope_um_per_mm: [Vec3::ZERO; 3],
+            box_mm: [[0.0; 2]; 3],
+        };
+        for a in 0..3 {
+            let Some((v, slope, cell)) = self.axes[a].table(s[a]).eval_cell(q_mm[a]) else {
+                return Ok(None);
+            };
+            out.box_mm[a] = cell;
+            match components {
+                Components::All => {
+                    out.value_um += v;
+                    out.slope_um_per_mm[a] = slope;
+                }
+                Components::PositioningOnly => {
+                    out.value_um[a] += v[a];
+                    out.slope_um_per_mm[a][a] = slope[a];
+                }
+            }
+        }
+        Ok(Some(out))
+    }
+
     /// The table's points: linear interpolation changes slope only there.
     fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
         self.axes
@@ -259,6 +324,28 @@ impl ErrorModel for AxisTableMap {
     /// when clamped): affine between table points.
     fn piecewise_linear(&self) -> bool {
         true
+    }
+}
+
+impl AxisTableMap {
+    /// The error of `table` (axis `a`) at `x_mm` where `x_mm` is not inside
+    /// the table: at its end when clamped or within the rounding of a
+    /// computed position of it, else out of range.
+    #[cold]
+    fn eval_outside(&self, table: &Table, a: usize, x_mm: f64) -> Result<Vec3, ModelError> {
+        let [lo, hi] = table.range();
+        let x = if self.clamp {
+            x_mm.clamp(lo, hi)
+        } else {
+            // Within the rounding of a computed position: at the end.
+            crate::model::within_range(x_mm, lo, hi).unwrap_or(x_mm)
+        };
+        table.eval(x).ok_or(ModelError::OutOfRange {
+            axis: AXES[a],
+            position_mm: x_mm,
+            min_mm: lo,
+            max_mm: hi,
+        })
     }
 }
 
@@ -466,6 +553,59 @@ mod tests {
                 assert_eq!(count_at_or_below(p, x), expected, "x = {x}, p = {p:?}");
             }
         }
+    }
+
+    /// The affine form's value is the evaluation's to the bit; inside its
+    /// box it predicts the evaluation (a hand-made map of uneven cells,
+    /// both directions, positioning-only too); outside a table it is
+    /// `None`.
+    #[test]
+    fn the_affine_form_is_the_map_inside_its_cells() {
+        let csv = format!(
+            "{HEAD}X,forward,0,0,0,0\nX,forward,3,1.5,-0.3,0.2\nX,forward,10,-2,0.4,0.1\n\
+             X,reverse,0,1,0,0\nX,reverse,10,3,0.5,0\n\
+             Y,both,-5,0.2,1,0\nY,both,5,0.1,-1,0.3\nY,both,20,0,2,0\n\
+             Z,both,-10,0,0,-1\nZ,both,0,0.3,0.1,0\nZ,both,10,0,0,2\n"
+        );
+        let m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        let states = [
+            ALL_FORWARD,
+            [Direction::Reverse, Direction::Forward, Direction::Reverse],
+        ];
+        for s in states {
+            for c in [Components::All, Components::PositioningOnly] {
+                for k in 0..200 {
+                    let f = k as f64 / 199.0;
+                    let q = Vec3::new(10.0 * f, -5.0 + 25.0 * f * f, 10.0 - 20.0 * f);
+                    let form = m.deviation_affine_um(q, s, c).unwrap().unwrap();
+                    let e = m.deviation_um(q, s, c).unwrap();
+                    assert_eq!(form.value_um, e, "q = {q:?}");
+                    assert!(form.holds_at(q));
+                    // Another point in the same box (its middle).
+                    let mid = Vec3::new(
+                        (form.box_mm[0][0] + form.box_mm[0][1]) / 2.0,
+                        (form.box_mm[1][0] + form.box_mm[1][1]) / 2.0,
+                        (form.box_mm[2][0] + form.box_mm[2][1]) / 2.0,
+                    );
+                    let d = mid - q;
+                    let j = form.slope_um_per_mm;
+                    let predicted = form.value_um + j[0] * d.x + j[1] * d.y + j[2] * d.z;
+                    let actual = m.deviation_um(mid, s, c).unwrap();
+                    assert!((predicted - actual).norm() < 1e-12, "q = {q:?}");
+                }
+            }
+        }
+        // By hand: X forward from 3 to 10 mm goes 1.5 → −2 µm in X, so its
+        // slope there is −0.5 µm/mm.
+        let form = m
+            .deviation_affine_um(Vec3::new(4.0, 0.0, 0.0), ALL_FORWARD, Components::All)
+            .unwrap()
+            .unwrap();
+        assert!((form.slope_um_per_mm[0].x + 0.5).abs() < 1e-15);
+        assert_eq!(form.box_mm[0], [3.0, 10.0]);
+        let outside =
+            m.deviation_affine_um(Vec3::new(10.5, 0.0, 0.0), ALL_FORWARD, Components::All);
+        assert_eq!(outside.unwrap(), None);
     }
 
     #[test]

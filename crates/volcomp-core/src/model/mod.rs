@@ -164,6 +164,22 @@ pub trait ErrorModel: Send + Sync {
         &[]
     }
 
+    /// The error at `q_mm` with its local affine form, where the model has
+    /// one: `e(q′) = e(q) + J·(q′ − q)` for every `q′` in the returned box
+    /// ([`Affine`]), exactly but for rounding. The value is the one
+    /// [`ErrorModel::deviation_um`] gives at `q_mm`, to the bit. Models that
+    /// are not piecewise affine keep the default (`None`); the solver then
+    /// iterates on plain evaluations.
+    fn deviation_affine_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Option<Affine>, ModelError> {
+        let _ = (q_mm, s, components);
+        Ok(None)
+    }
+
     /// Whether the error, with the direction state fixed, is the sum of
     /// per-axis functions each linear between its [`ErrorModel::knots_mm`]
     /// (and constant outside a clamped range): then `e` is affine along a
@@ -171,6 +187,26 @@ pub trait ErrorModel: Send + Sync {
     /// segmentation needs to look at the knots only.
     fn piecewise_linear(&self) -> bool {
         false
+    }
+}
+
+/// The error of a model around a point, where it is affine: what
+/// [`ErrorModel::deviation_affine_um`] gives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Affine {
+    /// `e(q)` in µm at the point asked for.
+    pub value_um: Vec3,
+    /// `∂e/∂q_a` (µm per mm) in column `a` (axis X, Y, Z).
+    pub slope_um_per_mm: [Vec3; 3],
+    /// `[min, max]` per axis (mm) of the box around the point where the
+    /// affine form holds.
+    pub box_mm: [[f64; 2]; 3],
+}
+
+impl Affine {
+    /// Whether `q_mm` lies in the box where the form holds.
+    pub fn holds_at(&self, q_mm: Vec3) -> bool {
+        (0..3).all(|a| self.box_mm[a][0] <= q_mm[a] && q_mm[a] <= self.box_mm[a][1])
     }
 }
 
@@ -229,6 +265,20 @@ impl ErrorModel for WithTool<'_> {
         self.model.uses_tool_offset()
     }
 
+    /// The model's affine form where its error does not depend on the
+    /// tool (the form is of the model without one).
+    fn deviation_affine_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Option<Affine>, ModelError> {
+        if self.model.uses_tool_offset() {
+            return Ok(None);
+        }
+        self.model.deviation_affine_um(q_mm, s, components)
+    }
+
     fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
         self.model.knots_mm(axis, d)
     }
@@ -266,6 +316,15 @@ impl<M: ErrorModel + ?Sized> ErrorModel for Box<M> {
 
     fn uses_tool_offset(&self) -> bool {
         (**self).uses_tool_offset()
+    }
+
+    fn deviation_affine_um(
+        &self,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Option<Affine>, ModelError> {
+        (**self).deviation_affine_um(q_mm, s, components)
     }
 }
 
