@@ -259,11 +259,7 @@ impl<'w> State<'w> {
     /// A line without a compensated motion: written as it is (to `out`),
     /// or with the words a G92/G10 L20 or a G53 move needs where the
     /// machine is not at the nominal point; its motions followed.
-    fn pass_through(
-        &mut self,
-        line: &Line,
-        out: &mut dyn Write,
-    ) -> Result<(), CompensationError> {
+    fn pass_through(&mut self, line: &Line, out: &mut dyn Write) -> Result<(), CompensationError> {
         let ev = line.ev;
         let (options, survey) = (self.walk.options, self.walk.survey);
         let added = g53_words_to_add(ev, line.all_known, options, survey);

@@ -10,7 +10,7 @@
 
 use crate::error::{MapFileError, ModelError};
 use crate::limits::{MAX_ERROR_UM, MAX_POSITION_MM};
-use crate::model::{Affine, Components, Direction, Directions, ErrorModel};
+use crate::model::{Cell, Cells, Components, Direction, Directions, ErrorModel};
 use crate::text::table::{shown, CsvTable, Header, Record, UnknownColumns};
 use volcomp_gcode::Vec3;
 
@@ -39,16 +39,19 @@ impl Table {
         })
     }
 
-    /// [`Table::eval`] at `x_mm` (the same value to the bit) with the
-    /// slope (µm per mm) of the interval that holds it and that interval
-    /// (mm); `None` outside the table. A table of one point is constant on
-    /// it (slope zero).
-    pub fn eval_cell(&self, x_mm: f64) -> Option<(Vec3, Vec3, [f64; 2])> {
+    /// The cell that holds `x_mm` ([`Cell`]); `None` outside the table.
+    pub fn cell(&self, x_mm: f64) -> Option<Cell> {
         Some(match self.at(x_mm)? {
-            At::Point(v) => (v, Vec3::ZERO, [x_mm; 2]),
-            At::Between { t, p, e } => {
-                (e[0].lerp(e[1], t), (e[1] - e[0]) * (1.0 / (p[1] - p[0])), p)
-            }
+            At::Point(v) => Cell {
+                p: [x_mm; 2],
+                e: [v; 2],
+                upper: true,
+            },
+            At::Between { p, e, .. } => Cell {
+                p,
+                e,
+                upper: self.positions_mm.last() == Some(&p[1]),
+            },
         })
     }
 
@@ -279,38 +282,15 @@ impl ErrorModel for AxisTableMap {
         [r(0), r(1), r(2)]
     }
 
-    /// Inside every table: each axis' cell gives the slope of its column
-    /// and its side of the box. The value is summed as
-    /// [`ErrorModel::deviation_um`] sums it, so it is the same to the bit.
-    /// Outside a table (clamped, or at an end within rounding): `None`.
-    fn deviation_affine_um(
-        &self,
-        q_mm: Vec3,
-        s: Directions,
-        components: Components,
-    ) -> Result<Option<Affine>, ModelError> {
-        let mut out = Affine {
-            value_um: Vec3::ZERO,
-            slope_um_per_mm: [Vec3::ZERO; 3],
-            box_mm: [[0.0; 2]; 3],
-        };
-        for a in 0..3 {
-            let Some((v, slope, cell)) = self.axes[a].table(s[a]).eval_cell(q_mm[a]) else {
-                return Ok(None);
-            };
-            out.box_mm[a] = cell;
-            match components {
-                Components::All => {
-                    out.value_um += v;
-                    out.slope_um_per_mm[a] = slope;
-                }
-                Components::PositioningOnly => {
-                    out.value_um[a] += v[a];
-                    out.slope_um_per_mm[a][a] = slope[a];
-                }
-            }
-        }
-        Ok(Some(out))
+    /// The cell of each axis' table that holds `q_mm` (as [`Table::eval`]
+    /// finds it); `None` outside a table (clamped, or at an end within
+    /// rounding: [`ErrorModel::deviation_um`] then takes the end).
+    fn deviation_cells(&self, q_mm: Vec3, s: Directions, components: Components) -> Option<Cells> {
+        let cell = |a: usize| self.axes[a].table(s[a]).cell(q_mm[a]);
+        Some(Cells {
+            axes: [cell(0)?, cell(1)?, cell(2)?],
+            components,
+        })
     }
 
     /// The table's points: linear interpolation changes slope only there.
@@ -555,12 +535,12 @@ mod tests {
         }
     }
 
-    /// The affine form's value is the evaluation's to the bit; inside its
-    /// box it predicts the evaluation (a hand-made map of uneven cells,
-    /// both directions, positioning-only too); outside a table it is
-    /// `None`.
+    /// Inside the cells the map's value is the evaluation's to the bit,
+    /// on a hand-made map of uneven cells, both directions, positioning
+    /// only too, on the table points themselves and at the tables' ends;
+    /// outside a cell it is `None`, outside a table there are no cells.
     #[test]
-    fn the_affine_form_is_the_map_inside_its_cells() {
+    fn the_cells_give_the_map_to_the_bit() {
         let csv = format!(
             "{HEAD}X,forward,0,0,0,0\nX,forward,3,1.5,-0.3,0.2\nX,forward,10,-2,0.4,0.1\n\
              X,reverse,0,1,0,0\nX,reverse,10,3,0.5,0\n\
@@ -572,40 +552,48 @@ mod tests {
             ALL_FORWARD,
             [Direction::Reverse, Direction::Forward, Direction::Reverse],
         ];
+        let mut points: Vec<Vec3> = (0..300)
+            .map(|k| {
+                let f = f64::from(k) / 299.0;
+                Vec3::new(10.0 * f, -5.0 + 25.0 * f * f, 10.0 - 20.0 * f)
+            })
+            .collect();
+        points.extend([
+            Vec3::new(3.0, 5.0, 0.0),
+            Vec3::new(10.0, 20.0, 10.0),
+            Vec3::new(0.0, -5.0, -10.0),
+        ]);
         for s in states {
             for c in [Components::All, Components::PositioningOnly] {
-                for k in 0..200 {
-                    let f = k as f64 / 199.0;
-                    let q = Vec3::new(10.0 * f, -5.0 + 25.0 * f * f, 10.0 - 20.0 * f);
-                    let form = m.deviation_affine_um(q, s, c).unwrap().unwrap();
+                for (i, &q) in points.iter().enumerate() {
+                    let cells = m.deviation_cells(q, s, c).unwrap();
                     let e = m.deviation_um(q, s, c).unwrap();
-                    assert_eq!(form.value_um, e, "q = {q:?}");
-                    assert!(form.holds_at(q));
-                    // Another point in the same box (its middle).
-                    let mid = Vec3::new(
-                        (form.box_mm[0][0] + form.box_mm[0][1]) / 2.0,
-                        (form.box_mm[1][0] + form.box_mm[1][1]) / 2.0,
-                        (form.box_mm[2][0] + form.box_mm[2][1]) / 2.0,
-                    );
-                    let d = mid - q;
-                    let j = form.slope_um_per_mm;
-                    let predicted = form.value_um + j[0] * d.x + j[1] * d.y + j[2] * d.z;
-                    let actual = m.deviation_um(mid, s, c).unwrap();
-                    assert!((predicted - actual).norm() < 1e-12, "q = {q:?}");
+                    assert_eq!(cells.deviation_um(q), Some(e), "q = {q:?}");
+                    // The cells of q at every other point: the map's value
+                    // where that point lies in them, else none.
+                    for &r in &points[i..] {
+                        if let Some(v) = cells.deviation_um(r) {
+                            assert_eq!(v, m.deviation_um(r, s, c).unwrap(), "{q:?} {r:?}");
+                            assert_eq!(m.deviation_cells(r, s, c), Some(cells));
+                        }
+                    }
                 }
             }
         }
-        // By hand: X forward from 3 to 10 mm goes 1.5 → −2 µm in X, so its
-        // slope there is −0.5 µm/mm.
-        let form = m
-            .deviation_affine_um(Vec3::new(4.0, 0.0, 0.0), ALL_FORWARD, Components::All)
-            .unwrap()
-            .unwrap();
-        assert!((form.slope_um_per_mm[0].x + 0.5).abs() < 1e-15);
-        assert_eq!(form.box_mm[0], [3.0, 10.0]);
-        let outside =
-            m.deviation_affine_um(Vec3::new(10.5, 0.0, 0.0), ALL_FORWARD, Components::All);
-        assert_eq!(outside.unwrap(), None);
+        // By hand: X forward's cell [3, 10) holds 4 mm, not 10 (the last
+        // cell holds its end); 3 mm lies in it, not in [0, 3).
+        let cells = m.deviation_cells(Vec3::new(4.0, 0.0, 0.0), ALL_FORWARD, Components::All);
+        let x = cells.unwrap().axes[0];
+        assert_eq!((x.p, x.upper), ([3.0, 10.0], true));
+        let cells = m.deviation_cells(Vec3::new(1.0, 0.0, 0.0), ALL_FORWARD, Components::All);
+        let cells = cells.unwrap();
+        assert_eq!((cells.axes[0].p, cells.axes[0].upper), ([0.0, 3.0], false));
+        assert_eq!(cells.deviation_um(Vec3::new(3.0, 0.0, 0.0)), None);
+        let outside = Vec3::new(10.5, 0.0, 0.0);
+        assert_eq!(
+            m.deviation_cells(outside, ALL_FORWARD, Components::All),
+            None
+        );
     }
 
     #[test]

@@ -164,20 +164,16 @@ pub trait ErrorModel: Send + Sync {
         &[]
     }
 
-    /// The error at `q_mm` with its local affine form, where the model has
-    /// one: `e(q′) = e(q) + J·(q′ − q)` for every `q′` in the returned box
-    /// ([`Affine`]), exactly but for rounding. The value is the one
-    /// [`ErrorModel::deviation_um`] gives at `q_mm`, to the bit. Models that
-    /// are not piecewise affine keep the default (`None`); the solver then
-    /// iterates on plain evaluations.
-    fn deviation_affine_um(
-        &self,
-        q_mm: Vec3,
-        s: Directions,
-        components: Components,
-    ) -> Result<Option<Affine>, ModelError> {
+    /// The table cells that hold `q_mm` for direction state `s`, where
+    /// the model is a sum of per-axis tables interpolated linearly: inside
+    /// them [`Cells::deviation_um`] gives [`ErrorModel::deviation_um`]'s
+    /// value to the bit, without looking the cells up again. An iteration
+    /// whose points stay in one cell per axis (a solve's steps of a few
+    /// micrometres) evaluates the map once. Models that are not such a sum
+    /// keep the default (`None`).
+    fn deviation_cells(&self, q_mm: Vec3, s: Directions, components: Components) -> Option<Cells> {
         let _ = (q_mm, s, components);
-        Ok(None)
+        None
     }
 
     /// Whether the error, with the direction state fixed, is the sum of
@@ -190,23 +186,55 @@ pub trait ErrorModel: Send + Sync {
     }
 }
 
-/// The error of a model around a point, where it is affine: what
-/// [`ErrorModel::deviation_affine_um`] gives.
+/// One axis' table cell: positions `p[0] < p[1]` (mm) and the errors at
+/// them (µm); `upper` when the cell holds its upper end too (the table's
+/// last cell: any other cell's upper end is the next cell's start). A table
+/// of one point is a cell with `p[0] == p[1]`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Affine {
-    /// `e(q)` in µm at the point asked for.
-    pub value_um: Vec3,
-    /// `∂e/∂q_a` (µm per mm) in column `a` (axis X, Y, Z).
-    pub slope_um_per_mm: [Vec3; 3],
-    /// `[min, max]` per axis (mm) of the box around the point where the
-    /// affine form holds.
-    pub box_mm: [[f64; 2]; 3],
+pub struct Cell {
+    /// The cell's ends (mm).
+    pub p: [f64; 2],
+    /// The errors at them (µm).
+    pub e: [Vec3; 2],
+    /// The upper end belongs to the cell.
+    pub upper: bool,
 }
 
-impl Affine {
-    /// Whether `q_mm` lies in the box where the form holds.
-    pub fn holds_at(&self, q_mm: Vec3) -> bool {
-        (0..3).all(|a| self.box_mm[a][0] <= q_mm[a] && q_mm[a] <= self.box_mm[a][1])
+/// The cells of the three axes' tables around a point, for one direction
+/// state and set of components ([`ErrorModel::deviation_cells`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cells {
+    /// X, Y and Z's cells.
+    pub axes: [Cell; 3],
+    /// The components summed.
+    pub components: Components,
+}
+
+impl Cells {
+    /// The model's deviation (µm) at `q_mm`, computed as the table model
+    /// computes it (linear interpolation in each axis' cell, summed X, Y,
+    /// Z), so the same to the bit; `None` where `q_mm` lies outside a cell.
+    #[inline]
+    pub fn deviation_um(&self, q_mm: Vec3) -> Option<Vec3> {
+        let mut e = Vec3::ZERO;
+        for a in 0..3 {
+            let c = &self.axes[a];
+            let x = q_mm[a];
+            let inside = c.p[0] <= x && (x < c.p[1] || (c.upper && x == c.p[1]));
+            if !inside {
+                return None;
+            }
+            let v = if c.p[0] == c.p[1] {
+                c.e[0]
+            } else {
+                c.e[0].lerp(c.e[1], (x - c.p[0]) / (c.p[1] - c.p[0]))
+            };
+            match self.components {
+                Components::All => e += v,
+                Components::PositioningOnly => e[a] += v[a],
+            }
+        }
+        Some(e)
     }
 }
 
@@ -265,18 +293,13 @@ impl ErrorModel for WithTool<'_> {
         self.model.uses_tool_offset()
     }
 
-    /// The model's affine form where its error does not depend on the
-    /// tool (the form is of the model without one).
-    fn deviation_affine_um(
-        &self,
-        q_mm: Vec3,
-        s: Directions,
-        components: Components,
-    ) -> Result<Option<Affine>, ModelError> {
+    /// The model's cells where its error does not depend on the tool
+    /// (they are the model's without one).
+    fn deviation_cells(&self, q_mm: Vec3, s: Directions, components: Components) -> Option<Cells> {
         if self.model.uses_tool_offset() {
-            return Ok(None);
+            return None;
         }
-        self.model.deviation_affine_um(q_mm, s, components)
+        self.model.deviation_cells(q_mm, s, components)
     }
 
     fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
@@ -318,13 +341,8 @@ impl<M: ErrorModel + ?Sized> ErrorModel for Box<M> {
         (**self).uses_tool_offset()
     }
 
-    fn deviation_affine_um(
-        &self,
-        q_mm: Vec3,
-        s: Directions,
-        components: Components,
-    ) -> Result<Option<Affine>, ModelError> {
-        (**self).deviation_affine_um(q_mm, s, components)
+    fn deviation_cells(&self, q_mm: Vec3, s: Directions, components: Components) -> Option<Cells> {
+        (**self).deviation_cells(q_mm, s, components)
     }
 }
 
