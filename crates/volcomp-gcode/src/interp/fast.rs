@@ -15,7 +15,7 @@
 //! change to the general path that this mirror does not follow fails it.
 
 use super::options::MotionMode;
-use super::{FeedMode, Interpreter, Motion, MotionSource};
+use super::{FeedMode, Interpreter, Motion, MotionKind, MotionSource};
 use crate::error::GcodeError;
 use crate::lexer::{Lexed, Token};
 
@@ -112,8 +112,12 @@ impl Interpreter {
         let col = g.map(|(_, c)| c).or(axis_col).unwrap_or(0);
         let feed_mm = self.to_mm(self.feed);
         self.arc_not_allowed = false;
-        let rapid = mode == MotionMode::Rapid;
-        self.push_straight(out, rapid, MotionSource::Program, t, line, col, feed_mm)?;
+        let kind = if mode == MotionMode::Rapid {
+            MotionKind::Rapid
+        } else {
+            MotionKind::Feed
+        };
+        self.push(out, kind, MotionSource::Program, t, line, col, feed_mm)?;
         Ok(true)
     }
 }

@@ -512,6 +512,12 @@ impl Interpreter {
         Ok(())
     }
 
+    /// Appends a motion to `out` and moves there. Inline where it is
+    /// called, for speed: with the kind known there (the straight moves of
+    /// the fast path), the motion is written straight into `out`; through
+    /// a by-reference `kind` it is built on the stack and copied, a copy
+    /// that reads back what was just stored and stalls the CPU.
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn push(
         &mut self,
@@ -523,50 +529,10 @@ impl Interpreter {
         column: usize,
         feed: f64,
     ) -> Result<(), GcodeError> {
+        check_reach(line, column, "end point", end)?;
         if let MotionKind::Arc(arc) = kind {
-            check_reach(line, column, "end point", end)?;
             check_reach(line, column, "arc centre", arc.center)?;
         }
-        self.store(out, kind, source, end, line, column, feed)
-    }
-
-    /// [`Self::push`] of a straight move, inline where it is called: with
-    /// the kind known there, the motion is written straight into `out`
-    /// (through a by-reference `kind` it is built on the stack and copied,
-    /// a copy that reads back what was just stored and stalls the CPU).
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn push_straight(
-        &mut self,
-        out: &mut Vec<Motion>,
-        rapid: bool,
-        source: MotionSource,
-        end: Vec3,
-        line: u64,
-        column: usize,
-        feed: f64,
-    ) -> Result<(), GcodeError> {
-        let kind = if rapid {
-            MotionKind::Rapid
-        } else {
-            MotionKind::Feed
-        };
-        self.store(out, kind, source, end, line, column, feed)
-    }
-
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn store(
-        &mut self,
-        out: &mut Vec<Motion>,
-        kind: MotionKind,
-        source: MotionSource,
-        end: Vec3,
-        line: u64,
-        column: usize,
-        feed: f64,
-    ) -> Result<(), GcodeError> {
-        check_reach(line, column, "end point", end)?;
         out.push(Motion {
             kind,
             source,
