@@ -46,6 +46,35 @@ pub(crate) struct Exec {
     pub periods: Periods,
     /// The motion type shown (`tp->motionType`).
     shown: Option<Canon>,
+    /// Which way of running the next period [`run_next`] tries first.
+    first: First,
+}
+
+/// The ways of running periods, from the one that runs most at once:
+/// [`run_cruise`], [`run_steps`], [`run_period`]. Each gives bit for bit
+/// what [`run_period`] gives or runs nothing, so which is tried first
+/// changes only the work: after a cruise run in one step the segment
+/// speeds up or slows down (the cruise is not tried again), and after
+/// the tight loop stopped at a period that takes a decision that period
+/// is run at once.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+enum First {
+    #[default]
+    Cruise,
+    Steps,
+    Period,
+}
+
+/// Runs the queue's next period or periods; `false` when the queue is
+/// empty (the machine is in position).
+pub(crate) fn run_next(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -> bool {
+    match ex.first {
+        First::Cruise => {
+            run_cruise(q, ex, limits) || run_steps(q, ex, limits) || run_period(q, ex, limits)
+        }
+        First::Steps => run_steps(q, ex, limits) || run_period(q, ex, limits),
+        First::Period => run_period(q, ex, limits),
+    }
 }
 
 fn saturate(x: f64, max: f64) -> f64 {
@@ -228,6 +257,7 @@ fn activate(s: &mut Seg, limits: &Limits, shown: &mut Option<Canon>) {
 /// Runs one servo period; `false` when the queue is empty (the machine is
 /// in position).
 pub(crate) fn run_period(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -> bool {
+    ex.first = First::Cruise;
     if q.is_empty() {
         ex.shown = None;
         return false;
@@ -300,6 +330,7 @@ pub(crate) fn run_cruise(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
     tc.vel_at_blend_start = v;
     tc.on_final_decel = false;
     ex.shown = Some(canon);
+    ex.first = First::Steps;
     ex.periods.moving += periods;
     match canon {
         Canon::Feed | Canon::Arc => ex.periods.cutting += periods,
@@ -599,12 +630,16 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
     let mut vel_at_blend_start = tc.vel_at_blend_start;
     let mut n = 0u64;
     let mut changing = false;
+    // Whether the loop stopped at a period that takes a decision (else
+    // at a cruise).
+    let mut decides = true;
     while let Some(s) = h.step(v, progress) {
         let cruise = s.v == v;
         vel_at_blend_start = v;
         (v, progress, on_final_decel) = (s.v, s.progress, s.on_final_decel);
         n += 1;
         if cruise && changing {
+            decides = false;
             break;
         }
         changing |= !cruise;
@@ -612,6 +647,11 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
     if n == 0 {
         return false;
     }
+    ex.first = if decides {
+        First::Period
+    } else {
+        First::Cruise
+    };
     tc.currentvel = v;
     tc.progress = progress;
     tc.on_final_decel = on_final_decel;
