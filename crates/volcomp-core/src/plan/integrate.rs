@@ -390,6 +390,12 @@ fn add_repeated(mut x: f64, step: f64, mut n: u64) -> f64 {
             x = next + m as f64 * inc;
             n -= m;
         }
+        // The few additions left in the binade (about three): one by
+        // one, without another quotient.
+        while n > 0 && exponent_field(x) == binade {
+            x += step;
+            n -= 1;
+        }
     }
     x
 }
