@@ -55,7 +55,7 @@ impl Table {
         })
     }
 
-    #[inline]
+    #[inline(always)]
     fn at(&self, x_mm: f64) -> Option<At> {
         let (p, e) = (self.positions_mm.as_slice(), self.errors_um.as_slice());
         match p {
@@ -94,7 +94,7 @@ impl Table {
 /// Measured tables are nearly always evenly spaced, so the first guess is
 /// the proportional position, corrected by a step or two; uneven tables fall
 /// back to a binary search.
-#[inline]
+#[inline(always)]
 fn interval(p: &[f64], x: f64) -> usize {
     let last = p.len() - 2;
     let (first, end) = (p[0], p[last + 1]);
