@@ -508,15 +508,19 @@ struct Ahead {
     /// The target the ramp starts with (its axes solved in their new
     /// direction from there).
     index: usize,
-    /// The target solved again from: the ramp's start point, where it was
-    /// `inserted`.
+    /// The target solved again from (the ramp's start point).
     from: usize,
-    inserted: bool,
     /// The new direction of each axis taken up ahead.
     axes: [Option<crate::model::Direction>; 3],
     /// The ramp's length (mm): to the S-curve's start.
     length_mm: f64,
+    /// The S-curve's place in the motion's transitions.
+    transition: usize,
 }
+
+/// The targets, the arc parameters of their pieces and the transitions of
+/// a motion before a take-up was moved ahead ([`Ahead`]).
+type AheadSaved = (Vec<Vec3>, Option<Vec<f64>>, Vec<super::arcs::Transition>);
 
 /// How a motion runs on the machine, for the take-up decisions
 /// ([`super::TakeUpRule`]): its path-control mode, its feed (mm/min; `None`
@@ -768,6 +772,12 @@ impl State<'_> {
         let mut history: Vec<Snapshot> = Vec::new();
         let mut ahead: Option<Ahead> = None;
         let mut ahead_tried: Vec<usize> = Vec::new();
+        // The targets (arc parameters) and transitions before one was
+        // moved ahead, for going back to them.
+        let mut ahead_saved: Option<AheadSaved> = None;
+        // The axes taken up ahead, held in their new direction up to the
+        // S-curve (its place in the transitions).
+        let mut ahead_hold: Option<(usize, [bool; 3])> = None;
         // The per-point records, passed on once the motion is solved (a
         // take-up moved ahead solves some targets again).
         let mut records: Vec<PointRecord> = Vec::with_capacity(targets.len());
@@ -869,11 +879,18 @@ impl State<'_> {
             let mut point = point;
             // On a take-up moved ahead, its axes keep their new direction
             // to the S-curve ([`Ahead`]).
-            if let Some((.., hold)) = ramp.as_ref() {
-                for (a, held) in hold.iter().enumerate() {
-                    if !(*held && point.reversed[a]) {
-                        continue;
+            let mut hold = ramp.as_ref().map_or([false; 3], |r| r.3);
+            if let Some((k, axes)) = ahead_hold {
+                if transitions.get(k).is_some_and(|tr| index <= tr.index) {
+                    for a in 0..3 {
+                        hold[a] |= axes[a];
                     }
+                } else {
+                    ahead_hold = None;
+                }
+            }
+            for (a, held) in hold.iter().enumerate() {
+                if *held && point.reversed[a] {
                     point.q_mm[a] = self.q_out[a];
                     point.s[a] = self.s[a];
                     point.reversed[a] = false;
@@ -987,9 +1004,9 @@ impl State<'_> {
                                 ahead = Some(Ahead {
                                     index: if insert { p + 1 } else { p },
                                     from: p,
-                                    inserted: insert,
                                     axes,
                                     length_mm: (l_end - l_start) * len,
+                                    transition: k,
                                 });
                                 back_to =
                                     Some((p, insert.then(|| (arc.point_at(l_start), l_start))));
@@ -1003,7 +1020,15 @@ impl State<'_> {
                 history.truncate(p + 1);
                 let h = &history[p];
                 (t_prev, last_lead, ramp_inserted) = (h.t_prev, h.last_lead, h.ramp_inserted);
-                (ramp, forced) = (None, None);
+                (ramp, forced, ahead_hold) = (None, None, None);
+                ahead_saved = Some((
+                    targets.clone(),
+                    match &leads {
+                        Leads::Arc { pieces, .. } => Some(pieces.to_vec()),
+                        _ => None,
+                    },
+                    transitions.clone(),
+                ));
                 if let Some((pt, l)) = insert {
                     targets.insert(p, pt);
                     if let Leads::Arc { pieces, .. } = &mut leads {
@@ -1280,27 +1305,38 @@ impl State<'_> {
             // folded): solved as before from the ramp's start.
             if let Some(ah) = ahead.filter(|ah| ah.index == index) {
                 ahead = None;
+                let saved = ahead_saved.take();
                 let taken = (0..3).any(|a| ah.axes[a].is_some() && point.reversed[a]);
-                if take_up.is_some() || !taken {
+                // Or a ramp from the start point itself (the target turned
+                // there already) took them to their new direction: held on
+                // it as on their own.
+                let already =
+                    ramp.is_some() && (0..3).all(|a| ah.axes[a].is_none_or(|d| self.s[a] == d));
+                if let (true, Some((.., hold))) = (already, ramp.as_mut()) {
+                    for (a, d) in ah.axes.iter().enumerate() {
+                        hold[a] |= d.is_some();
+                    }
+                    ahead_hold = Some((ah.transition, ah.axes.map(|d| d.is_some())));
+                } else if take_up.is_some() || !taken {
                     let p = ah.from;
                     self.go_back(&history[p], p, (&mut commands, &mut records));
                     history.truncate(p + 1);
                     let h = &history[p];
                     (t_prev, last_lead, ramp_inserted) = (h.t_prev, h.last_lead, h.ramp_inserted);
                     (ramp, forced) = (None, None);
-                    // The ramp's start point goes too: the targets are
-                    // the motion's own again.
-                    if ah.inserted {
-                        targets.remove(p);
-                        if let Leads::Arc { pieces, .. } = &mut leads {
-                            pieces.remove(p);
+                    // The targets are the motion's own again (the ramp's
+                    // start point and what its ramp inserted go).
+                    if let Some((saved, saved_pieces, saved_transitions)) = saved {
+                        *targets = saved;
+                        if let (Leads::Arc { pieces, .. }, Some(sp)) = (&mut leads, saved_pieces) {
+                            **pieces = sp;
                         }
-                        for tr in transitions.iter_mut().filter(|tr| tr.index > p) {
-                            tr.index -= 1;
-                        }
+                        transitions = saved_transitions;
                     }
                     index = p;
                     continue;
+                } else {
+                    ahead_hold = Some((ah.transition, ah.axes.map(|d| d.is_some())));
                 }
             }
             let mut ramp_mid = Vec3::ZERO;
