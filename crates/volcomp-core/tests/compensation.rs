@@ -501,6 +501,57 @@ fn under_g61_a_take_up_is_spread_as_a_smooth_step_over_short_pieces() {
 }
 
 #[test]
+fn under_g61_a_reversal_that_an_s_curve_causes_is_taken_up_ahead_of_it() {
+    // A G2 circle of R10 from the top, F6000. X's table moves the tool
+    // 0.02 µm per mm of |X| in Z, so the Z command −0.02·|x| rises toward
+    // the bottom (0, −10) and falls after it. There Y reverses (an
+    // S-curve: its band of 3 µm), and its forward table moves the tool
+    // +0.3 µm in Z: the Z command steps 0.3 µm down with it, so Z reverses
+    // exactly where Y does, onto its 2 µm band. Taken up after the S-curve,
+    // Z's carriage would stand in its band over the whole ramp, the tool
+    // 0.3 µm off; taken up ahead of it, Z is engaged downward when the
+    // step comes. By hand, at the S-curve's start (the last target with
+    // X > 0): Z commanded −2 − 0.02·x µm (the new direction's −2 µm band,
+    // x ≈ 0.1 mm), against −0.02·x µm with the take-up after it.
+    let map = map_from(|a, p, rev| match (a, rev) {
+        (0, _) => [0.0, 0.0, 0.02 * p.abs()],
+        (1, true) => [0.0, 3.0, 0.0],
+        (1, false) => [0.0, 0.0, 0.3],
+        (2, true) => [0.0, 0.0, 2.0],
+        _ => [0.0; 3],
+    });
+    let program = "G61\nG0 X0 Y10 Z0\nG2 X0 Y10 I0 J-10 F6000\nM2\n";
+    let mut records = Vec::new();
+    let (out, summary) = compensate_with(program, &map, &CompensateOptions::default(), |r| {
+        records.push(*r)
+    });
+    let arc: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
+    let bottom = arc
+        .iter()
+        .position(|r| r.target_mm.x < 0.0 && r.target_mm.y < -9.0)
+        .unwrap_or_else(|| panic!("{out}"));
+    let before = arc[bottom - 1];
+    let z_um = before.command_mm.z * 1e3;
+    assert!(
+        (-2.1..=-1.9).contains(&z_um),
+        "Z {z_um} µm at X {} before the bottom: {out}",
+        before.target_mm.x
+    );
+    // No stop for it: the circle keeps its one take-up block, at its start.
+    assert!(out.matches("take-up").count() <= 1, "{summary:?}: {out}");
+    // After the bottom Z only falls (no second reversal) down to X −5.
+    let mut z = before.command_mm.z;
+    for r in arc[bottom..].iter().take_while(|r| r.target_mm.x > -5.0) {
+        assert!(
+            r.command_mm.z <= z + 1e-9,
+            "Z rises at X {}: {out}",
+            r.target_mm.x
+        );
+        z = r.command_mm.z;
+    }
+}
+
+#[test]
 fn under_g61_a_take_up_block_moves_a_crossing_axis_as_far_as_its_next_command() {
     // X reverses at the corner X5 (band 4 µm) and its reverse table moves
     // the tool −0.3 µm in Y: holding the tool there needs Y +0.3 µm. The

@@ -753,6 +753,49 @@ mod tests {
     }
 
     #[test]
+    fn a_line_the_lexer_reads_is_a_block() {
+        // The walker lexes a line first and classifies it only when the
+        // lexer stops: every line the lexer reads must be a block. All
+        // lines of up to five symbols that matter to either (a `%`, an O
+        // word, blanks, a byte-order mark, comments, block delete).
+        let symbols: [&[u8]; 15] = [
+            b"%", b"O", b"o", b"/", b" ", b"\t", b"0", b"1", b".", b"(", b")", b";", b"G", b"-",
+            UTF8_BOM,
+        ];
+        let mut lexed = Lexed::default();
+        let mut line = Vec::new();
+        let mut counts = vec![0usize];
+        while counts.len() <= 5 {
+            line.clear();
+            for &k in &counts {
+                line.extend_from_slice(symbols[k]);
+            }
+            if lex_block(&line, &mut lexed).is_ok() {
+                assert_eq!(
+                    classify(&line),
+                    LineKind::Block,
+                    "{:?}",
+                    String::from_utf8_lossy(&line)
+                );
+            }
+            // The next combination (an odometer over the symbols).
+            let mut at = 0;
+            loop {
+                if at == counts.len() {
+                    counts.push(0);
+                    break;
+                }
+                counts[at] += 1;
+                if counts[at] < symbols.len() {
+                    break;
+                }
+                counts[at] = 0;
+                at += 1;
+            }
+        }
+    }
+
+    #[test]
     fn content_len_strips_any_line_ending() {
         assert_eq!(content_len(b"G1\r\n"), 2);
         assert_eq!(content_len(b"G1\n"), 2);

@@ -152,6 +152,14 @@ pub fn format_number_bytes(value: f64, style: NumberStyle, out: &mut Vec<u8>) {
     }
 }
 
+/// [`format_number_bytes`] in [`NumberStyle::fixed`]`(DECIMALS)`: the same
+/// text, for speed with the style fixed when compiled (a writer of many
+/// numbers in one style, such as the rows of `volcomp moves`).
+#[inline]
+pub fn format_fixed_bytes<const DECIMALS: u8>(value: f64, out: &mut Vec<u8>) {
+    format_number_bytes(value, NumberStyle::fixed(DECIMALS), out);
+}
+
 /// An unsigned integer's decimal digits into bytes (a line or column
 /// number of a row being written): the same fixed-size copy as
 /// [`format_number_bytes`], no `memcpy` call per number.
@@ -584,6 +592,20 @@ mod tests {
                 }
             }
         }
+        // The writer with the style fixed when compiled (the slow way's
+        // decimals too).
+        fn fixed<const D: u8>(values: &[f64]) {
+            for &v in values {
+                let mut reference = String::new();
+                format_number_slow(v, NumberStyle::fixed(D), &mut reference);
+                let mut bytes = b"X".to_vec();
+                format_fixed_bytes::<D>(v, &mut bytes);
+                assert_eq!(bytes[1..], *reference.as_bytes(), "{v} {D}");
+            }
+        }
+        fixed::<0>(&values);
+        fixed::<6>(&values);
+        fixed::<19>(&values);
     }
 
     #[test]

@@ -34,6 +34,7 @@ fn too_long(line: &[u8]) -> bool {
 }
 
 /// Line `p` of the main program or a subroutine file, if held.
+#[inline]
 fn bytes_of<'a>(main: &'a Lines, flow: &'a crate::ngc::flow::Flow, p: Pos) -> Option<&'a [u8]> {
     if p.src == MAIN {
         main.get(p.line)
@@ -173,37 +174,42 @@ impl<R: BufRead> Walker<R> {
     }
 
     /// Makes line `p` available (reads the main program up to it).
+    #[inline]
     pub(crate) fn fetch(&mut self, p: Pos) -> Result<bool, GcodeError> {
         if p.src == MAIN {
             if let Err(e) = self.main.fill_to(&mut self.reader, p.line) {
-                let err = if e.kind() == std::io::ErrorKind::InvalidData {
-                    // A line too long to hold: the line after those held.
-                    GcodeError::new(
-                        ErrorClass::Invalid,
-                        self.main.read_so_far() as u64 + 1,
-                        MAX_LINE_BYTES + 1,
-                        e.to_string(),
-                        "split the line, or shorten its comment",
-                    )
-                } else {
-                    GcodeError::new(
-                        ErrorClass::Io,
-                        p.line as u64 + 1,
-                        1,
-                        format!("cannot read: {e}"),
-                        "check that the file is readable",
-                    )
-                };
-                return Err(match &self.file {
-                    Some(f) => err.with_file(f.clone()),
-                    None => err,
-                });
+                return Err(self.read_error(p, e));
             }
-        }
-        if p.src == MAIN {
             return Ok(self.main.holds(p.line));
         }
         Ok(self.line_bytes(p).is_some())
+    }
+
+    /// The error of reading the main program up to line `p`.
+    #[cold]
+    fn read_error(&self, p: Pos, e: std::io::Error) -> GcodeError {
+        let err = if e.kind() == std::io::ErrorKind::InvalidData {
+            // A line too long to hold: the line after those held.
+            GcodeError::new(
+                ErrorClass::Invalid,
+                self.main.read_so_far() as u64 + 1,
+                MAX_LINE_BYTES + 1,
+                e.to_string(),
+                "split the line, or shorten its comment",
+            )
+        } else {
+            GcodeError::new(
+                ErrorClass::Io,
+                p.line as u64 + 1,
+                1,
+                format!("cannot read: {e}"),
+                "check that the file is readable",
+            )
+        };
+        match &self.file {
+            Some(f) => err.with_file(f.clone()),
+            None => err,
+        }
     }
 
     /// The next line, or `None` at the end of the input.
@@ -279,38 +285,29 @@ impl<R: BufRead> Walker<R> {
     /// event (control statements, parameter settings alone).
     fn prepare(&mut self, pos: Pos) -> Result<Option<LineKind>, GcodeError> {
         self.rendered = false;
+        // For speed, the line is looked up once on the common path.
         let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
         let content_len = lexer::content_len(original);
-        if too_long(original) {
-            // The ending counts: LinuxCNC's fgets holds 253 bytes of a line
-            // and its ending, so a CR LF line may have one character less
-            // (checked against rs274: 252 characters and CR LF are refused).
-            let crlf = original[content_len..].starts_with(b"\r");
-            let (ending, most, help) = if crlf {
-                (" and ends in CR LF", MAX_LINE_BYTES - 1, "split the line, or shorten its comment; saved with LF endings it may have one character more")
-            } else {
-                ("", MAX_LINE_BYTES, "split the line, or shorten its comment")
-            };
-            let e = GcodeError::new(
-                ErrorClass::Invalid,
-                pos.line as u64 + 1,
-                most + 1,
-                format!(
-                    "the line is {content_len} characters long{ending}; LinuxCNC reads {most} characters at most before {} (\"Command too long\")",
-                    if crlf { "CR LF" } else { "LF" }
-                ),
-                help,
-            );
-            return Err(self.locate(e));
+        if original.len() > MAX_LINE_BYTES && too_long(original) {
+            return Err(self.too_long_error(pos, original, content_len));
         }
-        let kind = lexer::classify(&original[..content_len]);
+        let content = &original[..content_len];
+        // A literal line is lexed where it was read: one pass, no copy. The
+        // lexer stops at the first `#`, `[` or o-word and notes them in
+        // comments; only then is the line looked at as a whole. A line the
+        // lexer reads is a block: a `%` line or a program number stops it
+        // at its first character, so it is classified only then.
+        let lexed = lexer::lex_block(content, &mut self.lexed);
+        if lexed.is_ok() && !self.lexed.ngc_in_comment {
+            self.check_block(pos, content)?;
+            return self.execute_block(pos);
+        }
+        let kind = lexer::classify(content);
         match kind {
             LineKind::Percent => {
                 if pos.src == MAIN {
-                    // gcode lane: the line's text decides `%` alone vs. stray.
-                    let r = self
-                        .interp
-                        .percent_line(pos.line as u64 + 1, &original[..content_len]);
+                    // The line's text decides `%` alone vs. stray.
+                    let r = self.interp.percent_line(pos.line as u64 + 1, content);
                     r.map_err(|e| self.locate(e))?;
                 }
                 return Ok(Some(kind));
@@ -322,92 +319,119 @@ impl<R: BufRead> Walker<R> {
             }
             LineKind::Block => {}
         }
-        // A literal line is lexed where it was read: one pass, no copy. The
-        // lexer stops at the first `#`, `[` or o-word and notes them in
-        // comments; only then is the line looked at as a whole.
-        let content = &original[..content_len];
-        let ngc = match lexer::lex_block(content, &mut self.lexed) {
-            Ok(()) => self.lexed.ngc_in_comment,
-            Err(e) => {
-                if !line::needs_ngc(content) {
-                    let e = e.at_line(pos.line as u64 + 1);
-                    return Err(self.locate(e));
+        if let Err(e) = lexed {
+            if !line::needs_ngc(content) {
+                let e = e.at_line(pos.line as u64 + 1);
+                return Err(self.locate(e));
+            }
+        }
+        self.prepare_ngc(pos, content_len)
+    }
+
+    /// The refusal of line `pos`, too long for LinuxCNC's reader.
+    #[cold]
+    fn too_long_error(&self, pos: Pos, original: &[u8], content_len: usize) -> GcodeError {
+        // The ending counts: LinuxCNC's fgets holds 253 bytes of a line
+        // and its ending, so a CR LF line may have one character less
+        // (checked against rs274: 252 characters and CR LF are refused).
+        let crlf = original[content_len..].starts_with(b"\r");
+        let (ending, most, help) = if crlf {
+            (" and ends in CR LF", MAX_LINE_BYTES - 1, "split the line, or shorten its comment; saved with LF endings it may have one character more")
+        } else {
+            ("", MAX_LINE_BYTES, "split the line, or shorten its comment")
+        };
+        let e = GcodeError::new(
+            ErrorClass::Invalid,
+            pos.line as u64 + 1,
+            most + 1,
+            format!(
+                "the line is {content_len} characters long{ending}; LinuxCNC reads {most} characters at most before {} (\"Command too long\")",
+                if crlf { "CR LF" } else { "LF" }
+            ),
+            help,
+        );
+        self.locate(e)
+    }
+
+    /// Line `pos` with parameters, expressions or control flow (the lexer
+    /// stopped at them): evaluated as a whole, rendered as a literal line
+    /// when it is a block, lexed again and executed.
+    fn prepare_ngc(
+        &mut self,
+        pos: Pos,
+        content_len: usize,
+    ) -> Result<Option<LineKind>, GcodeError> {
+        self.buf.clear();
+        let stmt = match self.statements.get(&(pos.src, pos.line)) {
+            Some(stmt) => Arc::clone(stmt),
+            None => {
+                let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
+                let norm = Norm::of(&original[..content_len]);
+                let stmt = line::parse(&norm).map_err(|e| self.expr_error(pos, e))?;
+                let stmt = Arc::new(stmt);
+                if self.flow.keeps_lines() && self.statements.len() < MAX_CACHED_STATEMENTS {
+                    self.statements
+                        .insert((pos.src, pos.line), Arc::clone(&stmt));
                 }
-                true
+                stmt
             }
         };
-        if ngc {
-            self.buf.clear();
-            let stmt = match self.statements.get(&(pos.src, pos.line)) {
-                Some(stmt) => Arc::clone(stmt),
-                None => {
-                    let norm = Norm::of(&original[..content_len]);
-                    let stmt = line::parse(&norm).map_err(|e| self.expr_error(pos, e))?;
-                    let stmt = Arc::new(stmt);
-                    if self.flow.keeps_lines() && self.statements.len() < MAX_CACHED_STATEMENTS {
-                        self.statements
-                            .insert((pos.src, pos.line), Arc::clone(&stmt));
-                    }
-                    stmt
-                }
-            };
-            match &*stmt {
-                Statement::OWord(o) => {
-                    self.flow.keep_lines();
-                    self.control(pos, o)?;
-                    return Ok(None);
-                }
-                Statement::Block { words, settings } => {
-                    if !words.is_empty() || !settings.is_empty() {
-                        let line_no = pos.line as u64 + 1;
-                        let mut out = std::mem::take(&mut self.buf);
-                        let values = {
-                            let scope = Scope {
-                                params: &self.flow.params,
-                                interp: &self.interp,
-                                line: line_no,
-                            };
-                            let original = self.line_bytes(pos).unwrap_or(&[]);
-                            line::render(
-                                &original[..content_len],
-                                words,
-                                settings,
-                                &scope,
-                                // gcode lane: computed values in the program's decimals.
-                                self.interp.computed_decimals(),
-                                &mut out,
-                            )
+        match &*stmt {
+            Statement::OWord(o) => {
+                self.flow.keep_lines();
+                self.control(pos, o)?;
+                return Ok(None);
+            }
+            Statement::Block { words, settings } => {
+                if !words.is_empty() || !settings.is_empty() {
+                    let line_no = pos.line as u64 + 1;
+                    let mut out = std::mem::take(&mut self.buf);
+                    let values = {
+                        let scope = Scope {
+                            params: &self.flow.params,
+                            interp: &self.interp,
+                            line: line_no,
                         };
-                        let values = values.map_err(|e| self.expr_error(pos, e))?;
                         let original = self.line_bytes(pos).unwrap_or(&[]);
-                        out.extend_from_slice(&original[content_len..]);
-                        self.buf = out;
-                        self.rendered = true;
-                        // Settings take effect after the line is read.
-                        self.flow
-                            .apply_settings(settings, &values, &self.interp)
-                            .map_err(|e| self.expr_error(pos, e))?;
-                        if words.is_empty()
-                            && self.buf[..lexer::content_len(&self.buf)]
-                                .iter()
-                                .all(|b| matches!(b, b' ' | b'\t' | b'\r'))
-                        {
-                            return Ok(None);
-                        }
+                        line::render(
+                            &original[..content_len],
+                            words,
+                            settings,
+                            &scope,
+                            // Computed values in the program's decimals.
+                            self.interp.computed_decimals(),
+                            &mut out,
+                        )
+                    };
+                    let values = values.map_err(|e| self.expr_error(pos, e))?;
+                    let original = self.line_bytes(pos).unwrap_or(&[]);
+                    out.extend_from_slice(&original[content_len..]);
+                    self.buf = out;
+                    self.rendered = true;
+                    // Settings take effect after the line is read.
+                    self.flow
+                        .apply_settings(settings, &values, &self.interp)
+                        .map_err(|e| self.expr_error(pos, e))?;
+                    if words.is_empty()
+                        && self.buf[..lexer::content_len(&self.buf)]
+                            .iter()
+                            .all(|b| matches!(b, b' ' | b'\t' | b'\r'))
+                    {
+                        return Ok(None);
                     }
                 }
             }
-            let lexed = if self.rendered {
-                let n = lexer::content_len(&self.buf);
-                lexer::lex_block(&self.buf[..n], &mut self.lexed)
-            } else {
-                let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
-                lexer::lex_block(&original[..content_len], &mut self.lexed)
-            };
-            if let Err(e) = lexed {
-                let e = e.at_line(pos.line as u64 + 1);
-                return Err(self.locate_rendered(e));
-            }
+        }
+        let lexed = if self.rendered {
+            let n = lexer::content_len(&self.buf);
+            lexer::lex_block(&self.buf[..n], &mut self.lexed)
+        } else {
+            let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
+            lexer::lex_block(&original[..content_len], &mut self.lexed)
+        };
+        if let Err(e) = lexed {
+            let e = e.at_line(pos.line as u64 + 1);
+            return Err(self.locate_rendered(e));
         }
         let content = if self.rendered {
             &self.buf[..lexer::content_len(&self.buf)]
@@ -415,9 +439,15 @@ impl<R: BufRead> Walker<R> {
             let original = bytes_of(&self.main, &self.flow, pos).unwrap_or(&[]);
             &original[..content_len]
         };
-        // gcode lane: what LinuxCNC's reader refuses in a line the lexer
-        // reads (only a `( )` comment or a byte-order mark can hold it, so
-        // most lines skip the check).
+        self.check_block(pos, content)?;
+        self.execute_block(pos)
+    }
+
+    /// What LinuxCNC's reader refuses in a lexed block `content` (only a
+    /// `( )` comment or a byte-order mark can hold it, so most lines skip
+    /// the check), and an `(abort, …)` comment.
+    #[inline(always)]
+    fn check_block(&self, pos: Pos, content: &[u8]) -> Result<(), GcodeError> {
         if self.lexed.has_comment || content.starts_with(lexer::UTF8_BOM) {
             if let Err(e) = crate::interp::check_line(pos.line as u64 + 1, content, &self.lexed) {
                 return Err(self.locate_rendered(e));
@@ -434,6 +464,13 @@ impl<R: BufRead> Walker<R> {
             )));
             }
         }
+        Ok(())
+    }
+
+    /// Runs the lexed block of line `pos`: an M98/M99 call or return, or
+    /// the interpreter.
+    #[inline(always)]
+    fn execute_block(&mut self, pos: Pos) -> Result<Option<LineKind>, GcodeError> {
         // M98/M99 (a line without M words calls nothing).
         if self.lexed.has_letter(b'M') {
             if let Some(m) = self.fanuc_call()? {
@@ -446,7 +483,7 @@ impl<R: BufRead> Walker<R> {
         if let Err(e) = self.interp.execute(line_no, &self.lexed, &mut self.motions) {
             return Err(self.locate_rendered(e));
         }
-        Ok(Some(kind))
+        Ok(Some(LineKind::Block))
     }
 
     /// Locates an error of a rendered line: the caret under the rendered

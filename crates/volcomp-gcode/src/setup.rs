@@ -130,6 +130,12 @@ impl AxisLetters {
     /// X Y Z A B C: LinuxCNC's stand-alone interpreter's machine.
     pub const XYZABC: AxisLetters = AxisLetters(0x3f);
 
+    /// Whether the `i`-th letter of [`Self::ALL`] is one of the set's axes.
+    #[inline]
+    pub(crate) fn has_index(self, i: usize) -> bool {
+        self.0 & (1 << i) != 0
+    }
+
     /// Whether `letter` (upper case) is one of the set's axes.
     pub fn contains(self, letter: u8) -> bool {
         Self::ALL

@@ -294,27 +294,21 @@ fn plan_ramp(
     (targets, leads, transitions): (&[Vec3], &Leads<'_>, &[super::arcs::Transition]),
     (index, t_prev, q_prev): (usize, Vec3, Vec3),
     point: &crate::compensate::solve::PointSolution,
-    (delta, lags): (Vec3, &[Vec3; 3]),
-    (kink_tolerance, tolerance_mm, shortest_mm): ([f64; 3], f64, f64),
+    (delta, lags, hold): (Vec3, &[Vec3; 3], [bool; 3]),
+    (kink_tolerance, tolerance_mm, shortest_mm, length_mm): ([f64; 3], f64, f64, Option<f64>),
     smooth: bool,
 ) -> Result<Option<RampPlan>, ModelError> {
-    // A straight ramp turns the path by `|Δ|/L` at both ends; a smooth
-    // step `3u² − 2u³` over pieces of `ℓ` turns it by at most `6|Δ|ℓ/L²`
-    // at each join, so it needs only `L = √(6|Δ|ℓ/κ)`.
-    let need = (0..3).fold(0.0f64, |m, i| {
-        let kappa = (RAMP_SHARE * kink_tolerance[i]).max(1e-300);
-        let straight = delta[i].abs() / kappa;
-        m.max(if smooth {
-            (6.0 * delta[i].abs() * shortest_mm / kappa)
-                .sqrt()
-                .min(straight)
-        } else {
-            straight
-        })
-    });
+    let need = ramp_length_mm(delta, kink_tolerance, shortest_mm, smooth);
     if !(need > 0.0 && need.is_finite()) {
         return Ok(None);
     }
+    // A ramp of a given length (one taken up ahead of an S-curve, ending
+    // where it begins): refused where that is too short.
+    let need = match length_mm {
+        Some(l) if l < need * (1.0 - 1e-9) => return Ok(None),
+        Some(l) => l,
+        None => need,
+    };
     // Distance along the path from `t_prev` to each target from `index`.
     let (arc, l_prev) = match leads {
         Leads::Arc { arc, pieces } => (
@@ -411,11 +405,13 @@ fn plan_ramp(
         })
         .collect();
     // The commands the ramp writes, estimated in the new state: no axis may
-    // turn against its direction on it.
+    // turn against its direction on it (an axis in `hold` stands instead,
+    // [`hold_on_ramp`]).
     let mut prev = q_prev;
     for ((t, _), f) in window.iter().zip(&fracs) {
         let sol = solve_fixed(model, options.method, *t, point.s, [false; 3], prev)?;
-        let q = quantize(sol.q_mm - delta * *f, prev);
+        let mut q = quantize(sol.q_mm - delta * *f, prev);
+        hold_on_ramp(&mut q, prev, point.s, hold);
         for a in 0..3 {
             if (q[a] - prev[a]) * point.s[a].sign() < -1e-9 {
                 return Ok(None);
@@ -449,6 +445,86 @@ fn plan_ramp(
         insert: insert.into_iter().map(|(j, p, l, _)| (j, p, l)).collect(),
         bound_mm: bound,
     }))
+}
+
+/// The shortest ramp (mm) of a take-up `delta` whose joins the planner
+/// takes as tangent ([`RampPlan`]): a straight ramp turns the path by
+/// `|Δ|/L` at both ends; a `smooth` step `3u² − 2u³` over pieces of `ℓ`
+/// (`shortest_mm`) turns it by at most `6|Δ|ℓ/L²` at each join, so it
+/// needs only `L = √(6|Δ|ℓ/κ)` (κ the share [`RAMP_SHARE`] of the
+/// tangency tolerance `kink_tolerance`).
+fn ramp_length_mm(delta: Vec3, kink_tolerance: [f64; 3], shortest_mm: f64, smooth: bool) -> f64 {
+    (0..3).fold(0.0f64, |m, i| {
+        let kappa = (RAMP_SHARE * kink_tolerance[i]).max(1e-300);
+        let straight = delta[i].abs() / kappa;
+        m.max(if smooth {
+            (6.0 * delta[i].abs() * shortest_mm / kappa)
+                .sqrt()
+                .min(straight)
+        } else {
+            straight
+        })
+    })
+}
+
+/// On a take-up moved ahead ([`Ahead`]), an axis in `hold` whose command
+/// `q` would turn against its new direction `s` from `prev` stands
+/// instead: its target still drifts the old way there, by far less than
+/// the band, and the carriage, crossing its band, could not follow it.
+fn hold_on_ramp(q: &mut Vec3, prev: Vec3, s: Directions, hold: [bool; 3]) {
+    for a in 0..3 {
+        if hold[a] && (q[a] - prev[a]) * s[a].sign() < 0.0 {
+            q[a] = prev[a];
+        }
+    }
+}
+
+/// The length of a smooth ramp's pieces (mm): twice the feed per servo
+/// period (the planner caps a segment's speed at its length per period,
+/// and a blend may take half of it), never below the shortest segment.
+fn shortest_ramp_piece_mm(options: &CompensateOptions, v_mm_s: f64) -> f64 {
+    let min_segment = match options.segmentation {
+        super::Segmentation::Adaptive { min_length_mm, .. } => min_length_mm,
+        _ => super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
+    };
+    (2.0 * options.planner.shortest_at_feed_mm(v_mm_s * 60.0)).max(min_segment)
+}
+
+/// What [`State::solve_targets`] had before solving a target: where it
+/// goes back to when a take-up is moved ahead of an S-curve
+/// ([`Ahead`]).
+struct Snapshot {
+    q_out: Vec3,
+    s: Directions,
+    s_nominal: Directions,
+    t_prev: Vec3,
+    summary: super::CompensateSummary,
+    ramp_on: bool,
+    last_lead: Option<usize>,
+    ramp_inserted: Option<usize>,
+}
+
+/// A take-up moved ahead of an S-curve under G61/G61.1: the reversal
+/// another axis' S-curve causes (its straightness across this axis
+/// changes with its direction, by tenths of a micrometre) would otherwise
+/// be taken up on a ramp after it, where this axis' carriage stands in
+/// its band and leaves the tool off by that step over the whole ramp. The
+/// ramp ends where the S-curve begins instead, so the axis is engaged in
+/// its new direction when the step comes; before it, its target drifts
+/// the other way by far less.
+#[derive(Clone, Copy)]
+struct Ahead {
+    /// The target the ramp starts with (its axes solved in their new
+    /// direction from there).
+    index: usize,
+    /// The target solved again from: the ramp's start point, where it was
+    /// `inserted`.
+    from: usize,
+    inserted: bool,
+    /// The new direction of each axis taken up ahead.
+    axes: [Option<crate::model::Direction>; 3],
+    /// The ramp's length (mm): to the S-curve's start.
+    length_mm: f64,
 }
 
 /// How a motion runs on the machine, for the take-up decisions
@@ -708,10 +784,34 @@ impl State<'_> {
         // and the share of it still to catch up at each next target; and
         // the index a ramp's end was last inserted before (one insertion
         // per reversal).
-        let mut ramp: Option<(Vec3, std::collections::VecDeque<f64>, f64)> = None;
+        let mut ramp: Option<(Vec3, std::collections::VecDeque<f64>, f64, [bool; 3])> = None;
         let mut ramp_inserted: Option<usize> = None;
+        // Take-ups moved ahead of an S-curve ([`Ahead`]): the state before
+        // each target (kept only where one may happen), the one pending,
+        // and the transitions already tried.
+        let keep_history = matches!(rule, TakeUpRule::Exact { smooth: true })
+            && matches!(leads, Leads::Arc { .. })
+            && !transitions.is_empty();
+        let mut history: Vec<Snapshot> = Vec::new();
+        let mut ahead: Option<Ahead> = None;
+        let mut ahead_tried: Vec<usize> = Vec::new();
+        // The per-point records, passed on once the motion is solved (a
+        // take-up moved ahead solves some targets again).
+        let mut records: Vec<PointRecord> = Vec::with_capacity(targets.len());
         let mut index = 0;
         while index < targets.len() {
+            if keep_history && history.len() == index {
+                history.push(Snapshot {
+                    q_out: self.q_out,
+                    s: self.s,
+                    s_nominal: self.s_nominal,
+                    t_prev,
+                    summary: self.summary.clone(),
+                    ramp_on: ramp.is_some(),
+                    last_lead,
+                    ramp_inserted,
+                });
+            }
             let t = &targets[index];
             let q_from = self.q_out;
             // On a lead piece the reversing axis runs its new way from the
@@ -722,6 +822,13 @@ impl State<'_> {
             let transition = transitions.iter().find(|tr| tr.index == index).copied();
             if let Some(tr) = transition {
                 s_from[tr.axis] = tr.direction;
+            }
+            if let Some(ah) = ahead.filter(|ah| ah.index == index) {
+                for (a, d) in ah.axes.iter().enumerate() {
+                    if let Some(d) = d {
+                        s_from[a] = *d;
+                    }
+                }
             }
             let quantize = |q: Vec3| frame.quantize(q, q_from);
             let point = match options.directions {
@@ -813,6 +920,18 @@ impl State<'_> {
                 None
             };
             let mut point = point;
+            // On a take-up moved ahead, its axes keep their new direction
+            // to the S-curve ([`Ahead`]).
+            if let Some((.., hold)) = ramp.as_ref() {
+                for (a, held) in hold.iter().enumerate() {
+                    if !(*held && point.reversed[a]) {
+                        continue;
+                    }
+                    point.q_mm[a] = self.q_out[a];
+                    point.s[a] = self.s[a];
+                    point.reversed[a] = false;
+                }
+            }
             if let Some(tr) = transition {
                 for a in (0..3).filter(|a| *a != tr.axis) {
                     if point.reversed[a] {
@@ -835,6 +954,123 @@ impl State<'_> {
                     help: crate::error::help::CORRECTION_LIMIT.into(),
                 });
             }
+            // A reversal right after another axis' S-curve: taken up ahead
+            // of it where the arc before leaves room ([`Ahead`]).
+            let mut back_to: Option<(usize, Option<(Vec3, f64)>)> = None;
+            if let (true, Leads::Arc { arc, pieces }) = (
+                keep_history
+                    && ramp.is_none()
+                    && feed_like
+                    && options.take_up
+                    && options.fold_take_ups
+                    && options.directions == DirectionPolicy::Commanded,
+                &leads,
+            ) {
+                let found = transitions
+                    .iter()
+                    .enumerate()
+                    .find(|(_, tr)| tr.index >= 1 && tr.index + 1 == index)
+                    .map(|(k, tr)| (k, *tr));
+                if let Some((k, tr)) = found.filter(|(k, _)| !ahead_tried.contains(k)) {
+                    let reversing = [0, 1, 2].map(|a| a != tr.axis && point.reversed[a]);
+                    if reversing.iter().any(|r| *r) {
+                        ahead_tried.push(k);
+                        let mut s_new = self.s;
+                        for a in (0..3).filter(|a| reversing[*a]) {
+                            s_new[a] = point.s[a];
+                        }
+                        let tu = take_up_command(
+                            model,
+                            self.q_out,
+                            self.s,
+                            s_new,
+                            reversing,
+                            (point.q_mm, true),
+                            frame,
+                        )
+                        .map_err(|source| model_error(file, line, source))?;
+                        // Only a reversal the S-curve makes: the axis'
+                        // command, its band aside, went back against its
+                        // old direction across the S-curve by more than
+                        // the contour tolerance (a target that turns
+                        // there by itself drifts far less).
+                        let from = commands[tr.index - 1].0;
+                        let axes = [0, 1, 2].map(|a| {
+                            let back = (point.q_mm[a] - (tu[a] - self.q_out[a]) - from[a])
+                                * self.s[a].sign();
+                            (reversing[a] && back < -options.fold_tolerance_mm())
+                                .then_some(point.s[a])
+                        });
+                        let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+                        let shortest = shortest_ramp_piece_mm(options, v_mm_s);
+                        let need = ramp_length_mm(
+                            tu - self.q_out,
+                            options.planner.tangent_tolerance(v_mm_s.max(1e-9), true),
+                            shortest,
+                            true,
+                        );
+                        let len = arc.length();
+                        let l_end = pieces[tr.index - 1];
+                        let l0 = l_end - need / len;
+                        if axes.iter().any(Option::is_some)
+                            && v_mm_s > 0.0
+                            && need > 0.0
+                            && need.is_finite()
+                            && l0 > 0.0
+                        {
+                            let p = pieces.partition_point(|x| *x <= l0);
+                            let l_ps = if p == 0 { 0.0 } else { pieces[p - 1] };
+                            let mut l_start = l0.min(pieces[p] - shortest / len);
+                            let insert = (l_start - l_ps) * len >= shortest;
+                            if !insert {
+                                l_start = l_ps;
+                            }
+                            // Nothing else happens between the ramp's
+                            // start and the S-curve.
+                            let quiet = l_start > 0.0
+                                && p < tr.index
+                                && (p..=tr.index).all(|j| !history[j].ramp_on)
+                                && (p..tr.index).all(|j| {
+                                    commands[j].1.is_none() && self.states[j] == self.states[p]
+                                })
+                                && transitions
+                                    .iter()
+                                    .all(|o| o.index < p || o.index >= tr.index);
+                            if quiet {
+                                ahead = Some(Ahead {
+                                    index: if insert { p + 1 } else { p },
+                                    from: p,
+                                    inserted: insert,
+                                    axes,
+                                    length_mm: (l_end - l_start) * len,
+                                });
+                                back_to =
+                                    Some((p, insert.then(|| (arc.point_at(l_start), l_start))));
+                            }
+                        }
+                    }
+                }
+            }
+            if let Some((p, insert)) = back_to {
+                self.go_back(&history[p], p, (&mut commands, &mut records));
+                history.truncate(p + 1);
+                let h = &history[p];
+                (t_prev, last_lead, ramp_inserted) = (h.t_prev, h.last_lead, h.ramp_inserted);
+                (ramp, forced) = (None, None);
+                if let Some((pt, l)) = insert {
+                    targets.insert(p, pt);
+                    if let Leads::Arc { pieces, .. } = &mut leads {
+                        pieces.insert(p, l);
+                    }
+                    for tr in transitions.iter_mut().filter(|tr| tr.index >= p) {
+                        tr.index += 1;
+                    }
+                }
+                index = p;
+                continue;
+            }
+            let pre_length = ahead.filter(|ah| ah.index == index).map(|ah| ah.length_mm);
+            let ahead_axes = ahead.filter(|ah| ah.index == index).map(|ah| ah.axes);
             let mut take_up = None;
             if options.take_up
                 && feed_like
@@ -937,12 +1173,7 @@ impl State<'_> {
                         && v_mm_s > 0.0
                         && ramp.is_none(),
                 ) {
-                    let min_segment = match options.segmentation {
-                        super::Segmentation::Adaptive { min_length_mm, .. } => min_length_mm,
-                        _ => super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
-                    };
-                    let shortest_piece =
-                        (2.0 * options.planner.shortest_at_feed_mm(v_mm_s * 60.0)).max(min_segment);
+                    let shortest_piece = shortest_ramp_piece_mm(options, v_mm_s);
                     planned = plan_ramp(
                         model,
                         options,
@@ -950,8 +1181,12 @@ impl State<'_> {
                         (targets.as_slice(), &leads, transitions.as_slice()),
                         (index, t_prev, self.q_out),
                         &point,
-                        (delta, &lags),
-                        (kink_tolerance, ramp_tol, shortest_piece),
+                        (
+                            delta,
+                            &lags,
+                            ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
+                        ),
+                        (kink_tolerance, ramp_tol, shortest_piece, pre_length),
                         matches!(rule, TakeUpRule::Exact { .. }),
                     )
                     .map_err(|source| model_error(file, line, source))?
@@ -979,7 +1214,12 @@ impl State<'_> {
                     take_up = None;
                     self.note_fold(plan.bound_mm);
                     last_lead = Some(index + plan.fracs.len());
-                    ramp = Some((delta, plan.fracs.into_iter().collect(), 1.0));
+                    ramp = Some((
+                        delta,
+                        plan.fracs.into_iter().collect(),
+                        1.0,
+                        ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
+                    ));
                 } else if bound <= tolerance {
                     match hold_alt.take().filter(|_| !fold_is_tangent) {
                         Some(held) => point = self.take_hold(held, &mut take_up),
@@ -1099,10 +1339,38 @@ impl State<'_> {
                     self.note_fold(bound);
                 }
             }
+            // A take-up moved ahead that was not spread over its ramp (or
+            // folded): solved as before from the ramp's start.
+            if let Some(ah) = ahead.filter(|ah| ah.index == index) {
+                ahead = None;
+                let taken = (0..3).any(|a| ah.axes[a].is_some() && point.reversed[a]);
+                if take_up.is_some() || !taken {
+                    let p = ah.from;
+                    self.go_back(&history[p], p, (&mut commands, &mut records));
+                    history.truncate(p + 1);
+                    let h = &history[p];
+                    (t_prev, last_lead, ramp_inserted) = (h.t_prev, h.last_lead, h.ramp_inserted);
+                    (ramp, forced) = (None, None);
+                    // The ramp's start point goes too: the targets are
+                    // the motion's own again.
+                    if ah.inserted {
+                        targets.remove(p);
+                        if let Leads::Arc { pieces, .. } = &mut leads {
+                            pieces.remove(p);
+                        }
+                        for tr in transitions.iter_mut().filter(|tr| tr.index > p) {
+                            tr.index -= 1;
+                        }
+                    }
+                    index = p;
+                    continue;
+                }
+            }
             let mut ramp_mid = Vec3::ZERO;
-            if let Some((delta, fracs, f_before)) = ramp.as_mut() {
+            if let Some((delta, fracs, f_before, hold)) = ramp.as_mut() {
                 if let Some(f) = fracs.pop_front() {
                     point.q_mm = frame.quantize(point.q_mm - *delta * f, self.q_out);
+                    hold_on_ramp(&mut point.q_mm, self.q_out, point.s, *hold);
                     ramp_mid = *delta * (-0.5 * (*f_before + f));
                     *f_before = f;
                 }
@@ -1126,7 +1394,7 @@ impl State<'_> {
                 }
             }
             self.summary.take_ups += u64::from(take_up.is_some());
-            (self.on_point)(&PointRecord {
+            records.push(PointRecord {
                 line,
                 target_mm: *t,
                 command_mm: point.q_mm,
@@ -1147,7 +1415,28 @@ impl State<'_> {
             index += 1;
         }
         self.transitions_written = transitions;
+        for r in &records {
+            (self.on_point)(r);
+        }
         Ok(commands)
+    }
+
+    /// Goes back to the state `h` kept before target `p`: the commands,
+    /// states and records from `p` on are dropped ([`Ahead`]).
+    fn go_back(
+        &mut self,
+        h: &Snapshot,
+        p: usize,
+        (commands, records): (&mut Vec<(Vec3, Option<Vec3>)>, &mut Vec<PointRecord>),
+    ) {
+        self.q_out = h.q_out;
+        self.s = h.s;
+        self.s_nominal = h.s_nominal;
+        self.summary = h.summary.clone();
+        commands.truncate(p);
+        records.truncate(p);
+        self.states.truncate(p);
+        self.ramp_mids.truncate(p);
     }
 }
 

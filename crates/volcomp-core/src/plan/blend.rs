@@ -514,9 +514,12 @@ pub(crate) fn try_blend_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Op
 }
 
 fn line_line(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
-    let (Shape::Line(l1), Shape::Line(l2)) = (prev.shape, tc.shape) else {
+    // The two shapes by reference: a copy of the pair is two of the
+    // largest shape whatever they are.
+    let (Shape::Line(l1), Shape::Line(l2)) = (&prev.shape, &tc.shape) else {
         return None;
     };
+    let (l1, l2) = (*l1, *l2);
     let g = geom_init(prev, tc)?;
     let mut p = Params {
         theta: g.theta_tan,
@@ -577,9 +580,10 @@ fn line_circle_center(
 }
 
 fn line_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
-    let (Shape::Line(l1), Shape::Circle(c2)) = (prev.shape, tc.shape) else {
+    let (Shape::Line(l1), Shape::Circle(c2)) = (&prev.shape, &tc.shape) else {
         return None;
     };
+    let (l1, c2) = (*l1, *c2);
     let mut g = geom_init(prev, tc)?;
     (g.center2, g.radius2) = spiral_approximation(&c2, g.p, g.u_tan2);
     let mut p = Params::default();
@@ -641,9 +645,10 @@ fn line_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
 }
 
 fn arc_line(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
-    let (Shape::Circle(c1), Shape::Line(l2)) = (prev.shape, tc.shape) else {
+    let (Shape::Circle(c1), Shape::Line(l2)) = (&prev.shape, &tc.shape) else {
         return None;
     };
+    let (c1, l2) = (*c1, *l2);
     let mut g = geom_init(prev, tc)?;
     (g.center1, g.radius1) = spiral_approximation(&c1, g.p, g.u_tan1);
     let mut p = Params::default();
@@ -704,9 +709,10 @@ fn arc_line(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
 }
 
 fn arc_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
-    let (Shape::Circle(c1), Shape::Circle(c2)) = (prev.shape, tc.shape) else {
+    let (Shape::Circle(c1), Shape::Circle(c2)) = (&prev.shape, &tc.shape) else {
         return None;
     };
+    let (c1, c2) = (*c1, *c2);
     if !colinear(c1.normal, c2.normal) {
         return None;
     }

@@ -46,6 +46,35 @@ pub(crate) struct Exec {
     pub periods: Periods,
     /// The motion type shown (`tp->motionType`).
     shown: Option<Canon>,
+    /// Which way of running the next period [`run_next`] tries first.
+    first: First,
+}
+
+/// The ways of running periods, from the one that runs most at once:
+/// [`run_cruise`], [`run_steps`], [`run_period`]. Each gives bit for bit
+/// what [`run_period`] gives or runs nothing, so which is tried first
+/// changes only the work: after a cruise run in one step the segment
+/// speeds up or slows down (the cruise is not tried again), and after
+/// the tight loop stopped at a period that takes a decision that period
+/// is run at once.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+enum First {
+    #[default]
+    Cruise,
+    Steps,
+    Period,
+}
+
+/// Runs the queue's next period or periods; `false` when the queue is
+/// empty (the machine is in position).
+pub(crate) fn run_next(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -> bool {
+    match ex.first {
+        First::Cruise => {
+            run_cruise(q, ex, limits) || run_steps(q, ex, limits) || run_period(q, ex, limits)
+        }
+        First::Steps => run_steps(q, ex, limits) || run_period(q, ex, limits),
+        First::Period => run_period(q, ex, limits),
+    }
 }
 
 fn saturate(x: f64, max: f64) -> f64 {
@@ -68,19 +97,23 @@ fn real_target_vel(s: &Seg, limits: &Limits) -> f64 {
 /// End speed: zero unless the segment runs through at speed into the next
 /// (`tpGetRealFinalVel`).
 fn real_final_vel(s: &Seg, next: Option<&Seg>, limits: &Limits) -> f64 {
+    final_vel_at(s, real_target_vel(s, limits), next, limits)
+}
+
+/// [`real_final_vel`] with the segment's [`real_target_vel`] given
+/// (computed once per period).
+fn final_vel_at(s: &Seg, target_vel: f64, next: Option<&Seg>, limits: &Limits) -> f64 {
     if s.term != Term::Tangent {
         return 0.0;
     }
     let next_vel = next.map_or(0.0, |n| real_target_vel(n, limits));
-    s.finalvel.min(real_target_vel(s, limits)).min(next_vel)
+    s.finalvel.min(target_vel).min(next_vel)
 }
 
-/// `tpCalculateTrapezoidalAccel`: (acceleration, desired speed).
-fn trapezoidal(s: &Seg, next: Option<&Seg>, limits: &Limits) -> (f64, f64) {
-    let target_vel = real_target_vel(s, limits);
-    let finalvel = real_final_vel(s, next, limits);
+/// `tpCalculateTrapezoidalAccel`: (acceleration, desired speed), with the
+/// segment's requested and end speeds and acceleration given.
+fn trapezoidal(s: &Seg, target_vel: f64, finalvel: f64, a: f64) -> (f64, f64) {
     let dx = s.target - s.progress;
-    let a = s.tangential_max_accel();
     let dt = s.cycle_time;
     let half = a * dt * 0.5;
     let disc = finalvel * finalvel + a * (2.0 * dx - s.currentvel * dt) + half * half;
@@ -93,24 +126,18 @@ fn trapezoidal(s: &Seg, next: Option<&Seg>, limits: &Limits) -> (f64, f64) {
     (acc, maxnewvel)
 }
 
-/// `tpCalculateRampAccel`: a constant rate to the end speed, for short
+/// `tpCalculateRampAccel`: a constant rate to the end speed `vel_final`
+/// (at least `VEL_EPSILON`: below it the trapezoid is used), for short
 /// segments run through at speed.
-fn ramp(s: &mut Seg, next: Option<&Seg>, limits: &Limits) -> Option<(f64, f64)> {
+fn ramp(s: &Seg, vel_final: f64, a: f64) -> (f64, f64) {
     let dx = s.target - s.progress;
-    if !s.blending_next {
-        s.vel_at_blend_start = s.currentvel;
-    }
-    let vel_final = real_final_vel(s, next, limits);
-    if vel_final < VEL_EPSILON {
-        return None;
-    }
     let vel_avg = (s.currentvel + vel_final) / 2.0;
     let mut dt = 1e-16;
     if vel_avg > VEL_EPSILON {
         dt = (dx / vel_avg).max(1e-16);
     }
-    let acc = saturate((vel_final - s.currentvel) / dt, s.tangential_max_accel());
-    Some((acc, vel_final))
+    let acc = saturate((vel_final - s.currentvel) / dt, a);
+    (acc, vel_final)
 }
 
 /// `tcUpdateDistFromAccel`.
@@ -137,9 +164,9 @@ fn set_split(s: &mut Seg, split_time: f64, v_f: f64) {
 }
 
 /// `tpCheckEndCondition`: whether the segment ends within the next period
-/// and how long into it.
-fn check_end(s: &mut Seg, next: Option<&Seg>, limits: &Limits) {
-    let period = limits.servo_period_s;
+/// and how long into it (`final_vel` and `a_max` the segment's end speed
+/// and acceleration).
+fn check_end(s: &mut Seg, final_vel: f64, a_max: f64, period: f64) {
     s.cycle_time = period;
     let dx = s.target - s.progress;
     if dx <= POS_EPSILON {
@@ -153,7 +180,7 @@ fn check_end(s: &mut Seg, next: Option<&Seg>, limits: &Limits) {
     if matches!(s.term, Term::Stop | Term::Exact) {
         return;
     }
-    let mut v_f = real_final_vel(s, next, limits);
+    let mut v_f = final_vel;
     let v_avg = (s.currentvel + v_f) / 2.0;
     let mut dt = TIME_EPSILON / 2.0;
     if v_avg > VEL_EPSILON {
@@ -162,7 +189,6 @@ fn check_end(s: &mut Seg, next: Option<&Seg>, limits: &Limits) {
         return;
     }
     let a_f = (v_f - s.currentvel) / dt;
-    let a_max = s.tangential_max_accel();
     if a_f.abs() > a_max {
         let a = saturate(a_f, a_max);
         let v = s.currentvel;
@@ -187,18 +213,26 @@ fn check_end(s: &mut Seg, next: Option<&Seg>, limits: &Limits) {
     }
 }
 
-/// `tpUpdateCycle`: one period (or the rest of one) of a segment.
-fn update(s: &mut Seg, next: Option<&Seg>, limits: &Limits) {
+/// `tpUpdateCycle`: one period (or the rest of one) of a segment. The
+/// requested speed, the end speed and the acceleration, which every step
+/// of it reads and none changes, are computed once; gives the requested
+/// speed.
+fn update(s: &mut Seg, next: Option<&Seg>, limits: &Limits) -> f64 {
     if !s.blending_next {
         s.vel_at_blend_start = s.currentvel;
     }
-    let mut step = None;
-    if s.ramp && s.term == Term::Tangent {
-        step = ramp(s, next, limits);
-    }
-    let (acc, vel_desired) = step.unwrap_or_else(|| trapezoidal(s, next, limits));
+    let target_vel = real_target_vel(s, limits);
+    let final_vel = final_vel_at(s, target_vel, next, limits);
+    let a = s.tangential_max_accel();
+    // `tpCalculateRampAccel` fails below `VEL_EPSILON`: the trapezoid then.
+    let (acc, vel_desired) = if s.ramp && s.term == Term::Tangent && final_vel >= VEL_EPSILON {
+        ramp(s, final_vel, a)
+    } else {
+        trapezoidal(s, target_vel, final_vel, a)
+    };
     advance(s, acc, vel_desired);
-    check_end(s, next, limits);
+    check_end(s, final_vel, a, limits.servo_period_s);
+    target_vel
 }
 
 /// `tpActivateSegment`: a segment becomes the active one.
@@ -223,6 +257,7 @@ fn activate(s: &mut Seg, limits: &Limits, shown: &mut Option<Canon>) {
 /// Runs one servo period; `false` when the queue is empty (the machine is
 /// in position).
 pub(crate) fn run_period(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -> bool {
+    ex.first = First::Cruise;
     if q.is_empty() {
         ex.shown = None;
         return false;
@@ -295,6 +330,7 @@ pub(crate) fn run_cruise(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
     tc.vel_at_blend_start = v;
     tc.on_final_decel = false;
     ex.shown = Some(canon);
+    ex.first = First::Steps;
     ex.periods.moving += periods;
     match canon {
         Canon::Feed | Canon::Arc => ex.periods.cutting += periods,
@@ -324,21 +360,23 @@ fn add_repeated(mut x: f64, step: f64, mut n: u64) -> f64 {
         }
         return x;
     }
+    // A tie (`step` half-way between two grid points of `x`'s binade:
+    // an odd multiple of half its spacing) is a step whose lowest set bit
+    // is worth half the spacing: that bit's exponent, found once.
+    let tie_binade = lowest_bit_exponent(step).map(|e| e + 1);
     while n > 0 {
         let next = x + step;
         n -= 1;
-        let ulp = grid(x);
         let inc = next - x;
+        let binade = exponent_field(x);
         x = next;
-        if n == 0 || inc <= 0.0 || ulp == 0.0 || grid(next) != ulp {
+        // Zero and subnormal sums (no fixed spacing), the last addition, a
+        // sum that left its binade: one by one.
+        if n == 0 || inc <= 0.0 || !(1..0x7ff).contains(&binade) || exponent_field(next) != binade {
             continue;
         }
-        // A tie: `step` half-way between grid points, `2·step / ulp` an
-        // odd whole number (exact: a scaling by a power of two; from 2^53
-        // on every float is even). Tested through integers: `floor` is a
-        // library call on the baseline x86-64 target.
-        let twice = 2.0 * step / ulp;
-        if twice < TWO_POW_53 && twice as u64 as f64 == twice && twice as u64 % 2 == 1 {
+        // The spacing of binade `b` is `2^(b − 1075)`.
+        if tie_binade == Some(binade as i32 - 1075) {
             continue;
         }
         // Additions whose exact sum stays below the binade's end (with a
@@ -352,11 +390,33 @@ fn add_repeated(mut x: f64, step: f64, mut n: u64) -> f64 {
             x = next + m as f64 * inc;
             n -= m;
         }
+        // The few additions left in the binade (about three): one by
+        // one, without another quotient.
+        while n > 0 && exponent_field(x) == binade {
+            x += step;
+            n -= 1;
+        }
     }
     x
 }
 
-const TWO_POW_53: f64 = 9_007_199_254_740_992.0;
+/// The biased exponent of a non-negative float (0 for zero and
+/// subnormal numbers).
+fn exponent_field(x: f64) -> u64 {
+    x.to_bits() >> 52
+}
+
+/// The exponent of the lowest set bit of positive finite `x`
+/// (`x = m·2^e` with `m` odd); `None` for zero.
+fn lowest_bit_exponent(x: f64) -> Option<i32> {
+    let bits = x.to_bits();
+    let (field, fraction) = (bits >> 52, bits & ((1 << 52) - 1));
+    let (mantissa, scale) = match field {
+        0 => (fraction, -1074),
+        f => (fraction | (1 << 52), f as i32 - 1075),
+    };
+    (mantissa != 0).then(|| scale + mantissa.trailing_zeros() as i32)
+}
 
 /// Up to this many additions [`add_repeated`] makes one by one.
 const FEW_ADDITIONS: u64 = 64;
@@ -576,12 +636,16 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
     let mut vel_at_blend_start = tc.vel_at_blend_start;
     let mut n = 0u64;
     let mut changing = false;
+    // Whether the loop stopped at a period that takes a decision (else
+    // at a cruise).
+    let mut decides = true;
     while let Some(s) = h.step(v, progress) {
         let cruise = s.v == v;
         vel_at_blend_start = v;
         (v, progress, on_final_decel) = (s.v, s.progress, s.on_final_decel);
         n += 1;
         if cruise && changing {
+            decides = false;
             break;
         }
         changing |= !cruise;
@@ -589,6 +653,11 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
     if n == 0 {
         return false;
     }
+    ex.first = if decides {
+        First::Period
+    } else {
+        First::Cruise
+    };
     tc.currentvel = v;
     tc.progress = progress;
     tc.on_final_decel = on_final_decel;
@@ -627,18 +696,10 @@ fn regular_period(
         return;
     }
     tc.cycle_time = limits.servo_period_s;
-    update(tc, next.as_deref(), limits);
+    let target_vel = update(tc, next.as_deref(), limits);
     if tc.term == Term::Parabolic {
         tc.blend_vel = match next.as_deref() {
-            Some(n) => {
-                blend::parabolic_velocity(
-                    tc,
-                    n,
-                    real_target_vel(tc, limits),
-                    real_target_vel(n, limits),
-                )
-                .0
-            }
+            Some(n) => blend::parabolic_velocity(tc, n, target_vel, real_target_vel(n, limits)).0,
             None => 0.0,
         };
     }
@@ -735,6 +796,14 @@ mod tests {
             let step = 10f64.powf(unit() * 6.0 - 5.0);
             let n = (unit() * 30_000.0) as u64;
             cases.push((x, step, n));
+        }
+        // Ties: an odd multiple of half the spacing at `x` (or at the
+        // binades above it), where round-half-even alternates.
+        for _ in 0..1_000 {
+            let x = 10f64.powf(unit() * 4.0 - 2.0);
+            let half = super::grid(x) / 2.0 * (1u64 << (unit() * 4.0) as u32) as f64;
+            let odd = 2.0 * ((unit() * 1e9) as u64) as f64 + 1.0;
+            cases.push((x, odd * half, 64 + (unit() * 50_000.0) as u64));
         }
         for (x, step, n) in cases {
             let want = one_by_one(x, step, n);

@@ -120,7 +120,10 @@ pub(crate) fn optimize(q: &mut VecDeque<Seg>, limits: &Limits) {
             }
             hit_non_tangent = true;
         } else {
-            if prev.progress / prev.target >= 0.25 || prev.splitting || prev.blending_next {
+            // A segment not begun (progress 0: the quotient is 0 or NaN,
+            // never at least a quarter) skips the division.
+            let quarter_run = prev.progress != 0.0 && prev.progress / prev.target >= 0.25;
+            if quarter_run || prev.splitting || prev.blending_next {
                 return;
             }
             if !tc.finalized {

@@ -378,10 +378,7 @@ impl Planner {
         self.queue_fresh();
         let keep = self.limits.blend.optimization_depth + 6;
         while self.queue.len() > keep {
-            let (q, ex, l) = (&mut self.queue, &mut self.exec, &self.limits);
-            if !(integrate::run_cruise(q, ex, l) || integrate::run_steps(q, ex, l)) {
-                integrate::run_period(q, ex, l);
-            }
+            integrate::run_next(&mut self.queue, &mut self.exec, &self.limits);
         }
     }
 
@@ -397,11 +394,7 @@ impl Planner {
     pub fn wait(&mut self) {
         self.canon.finish(&self.limits, &mut self.fresh);
         self.queue_fresh();
-        let (q, ex, l) = (&mut self.queue, &mut self.exec, &self.limits);
-        while integrate::run_cruise(q, ex, l)
-            || integrate::run_steps(q, ex, l)
-            || integrate::run_period(q, ex, l)
-        {}
+        while integrate::run_next(&mut self.queue, &mut self.exec, &self.limits) {}
     }
 
     /// Runs what is left and gives the time.

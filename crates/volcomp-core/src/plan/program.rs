@@ -43,30 +43,57 @@ fn code10(value: f64) -> i64 {
     (value * 10.0).round() as i64
 }
 
-/// What makes the machine wait for motion to end on a line: (before the
-/// line's motions, after them), and the dwell in seconds.
-fn waits_of_line(lexed: &Lexed) -> (bool, bool, f64) {
-    let (mut before, mut after, mut dwell_s) = (false, false, 0.0);
-    let mut dwell = false;
+/// What a line says beyond its motions: whether the machine waits for
+/// motion to end before its motions and after them, the dwell in
+/// seconds, and the spindle speed of its S word.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct LineWaits {
+    before: bool,
+    after: bool,
+    dwell_s: f64,
+    spindle_rpm: Option<f64>,
+}
+
+/// What makes the machine wait for motion to end on a line (see
+/// [`LineWaits`]). One pass over the words; only G and M words are
+/// decoded (a line of coordinates costs a letter test per word).
+fn waits_of_line(lexed: &Lexed) -> LineWaits {
+    let (mut before, mut after, mut dwell) = (false, false, false);
+    let (mut p_word, mut spindle_rpm) = (None, None);
     for w in lexed.words() {
-        match (w.letter, code10(w.value)) {
-            (b'S', _) => before = true,
-            (b'M', 30 | 40 | 50 | 60 | 70 | 80 | 90 | 190 | 660) => before = true,
-            (b'M', 0 | 10 | 600) => after = true,
-            (b'G', 40) => dwell = true,
-            (b'G', 100 | 430 | 431 | 432 | 490 | 520 | 920 | 921 | 922 | 923) => before = true,
-            (b'G', 540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593) => before = true,
+        match w.letter {
+            b'S' => {
+                before = true;
+                spindle_rpm.get_or_insert(w.value);
+            }
+            b'P' => {
+                p_word.get_or_insert(w.value);
+            }
+            b'M' => match code10(w.value) {
+                30 | 40 | 50 | 60 | 70 | 80 | 90 | 190 | 660 => before = true,
+                0 | 10 | 600 => after = true,
+                _ => {}
+            },
+            b'G' => match code10(w.value) {
+                40 => dwell = true,
+                100 | 430 | 431 | 432 | 490 | 520 | 920 | 921 | 922 | 923 => before = true,
+                540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => before = true,
+                _ => {}
+            },
             _ => {}
         }
     }
+    let mut dwell_s = 0.0;
     if dwell {
         before = true;
-        dwell_s = lexed
-            .words()
-            .find(|w| w.letter == b'P')
-            .map_or(0.0, |w| w.value.max(0.0));
+        dwell_s = p_word.map_or(0.0, |p: f64| p.max(0.0));
     }
-    (before, after, dwell_s)
+    LineWaits {
+        before,
+        after,
+        dwell_s,
+        spindle_rpm,
+    }
 }
 
 /// The program's time on LinuxCNC's planner with `limits`, read with the
@@ -97,9 +124,14 @@ pub fn estimate_program(
             continue;
         }
         let units = ev.interp.units().mm_per_unit();
-        let (before, after, dwell_s) = waits_of_line(ev.lexed);
-        if let Some(s) = ev.lexed.words().find(|w| w.letter == b'S') {
-            spindle_rpm = s.value;
+        let LineWaits {
+            before,
+            after,
+            dwell_s,
+            spindle_rpm: s_word,
+        } = waits_of_line(ev.lexed);
+        if let Some(s) = s_word {
+            spindle_rpm = s;
         }
         if before {
             planner.wait();
@@ -163,11 +195,19 @@ mod tests {
 
     #[test]
     fn spindle_coolant_tools_dwells_and_offsets_wait_for_motion() {
-        assert_eq!(waits_of_line(&lex("M3 S1000")), (true, false, 0.0));
-        assert_eq!(waits_of_line(&lex("G4 P1.5")), (true, false, 1.5));
-        assert_eq!(waits_of_line(&lex("G1 X1 M0")), (false, true, 0.0));
-        assert_eq!(waits_of_line(&lex("G55")), (true, false, 0.0));
-        assert_eq!(waits_of_line(&lex("G1 X1 F100")), (false, false, 0.0));
-        assert_eq!(waits_of_line(&lex("M62 P1")), (false, false, 0.0));
+        let w = |s: &str| {
+            let l = waits_of_line(&lex(s));
+            (l.before, l.after, l.dwell_s)
+        };
+        assert_eq!(w("M3 S1000"), (true, false, 0.0));
+        assert_eq!(w("G4 P1.5"), (true, false, 1.5));
+        assert_eq!(w("P1.5 G4"), (true, false, 1.5));
+        assert_eq!(w("G1 X1 M0"), (false, true, 0.0));
+        assert_eq!(w("G55"), (true, false, 0.0));
+        assert_eq!(w("G1 X1 F100"), (false, false, 0.0));
+        assert_eq!(w("M62 P1"), (false, false, 0.0));
+        assert_eq!(w("G1 X1 P2"), (false, false, 0.0));
+        assert_eq!(waits_of_line(&lex("M3 S1000")).spindle_rpm, Some(1000.0));
+        assert_eq!(waits_of_line(&lex("G1 X1")).spindle_rpm, None);
     }
 }

@@ -19,6 +19,13 @@ use super::{FeedMode, Interpreter, Motion, MotionKind, MotionSource};
 use crate::error::GcodeError;
 use crate::lexer::{Lexed, Token};
 
+// The fast path takes X, Y, Z as axes 0, 1, 2 of the setup's letters.
+const _: () = assert!(
+    crate::setup::AxisLetters::ALL[0] == b'X'
+        && crate::setup::AxisLetters::ALL[1] == b'Y'
+        && crate::setup::AxisLetters::ALL[2] == b'Z'
+);
+
 impl Interpreter {
     /// Executes `lexed` if it is a plain straight move (see the module
     /// documentation); `Ok(false)`, with nothing changed, if it is not.
@@ -40,9 +47,11 @@ impl Interpreter {
         // locals: nothing is stored that is read back before the move.
         let off = self.frame_offset_mm();
         let mut t = self.words_base();
+        let (absolute, mm) = (self.absolute, self.units.mm_per_unit());
+        // X, Y, Z are the first three of `AxisLetters::ALL`.
         let axes = self.setup.axes;
         let mut g: Option<(f64, usize)> = None;
-        let (mut x_col, mut y_col, mut z_col) = (None, None, None);
+        let mut cols: [Option<usize>; 3] = [None; 3];
         let mut f: Option<f64> = None;
         for (k, token) in lexed.tokens.iter().enumerate() {
             let w = match token {
@@ -50,10 +59,10 @@ impl Interpreter {
                 Token::Comment(_) | Token::LineComment(_) => continue,
                 Token::BlockDelete(_) => return Ok(false),
             };
-            let (i, col) = match w.letter {
-                b'X' => (0, &mut x_col),
-                b'Y' => (1, &mut y_col),
-                b'Z' => (2, &mut z_col),
+            let i = match w.letter {
+                b'X' => 0,
+                b'Y' => 1,
+                b'Z' => 2,
                 b'G' if g.is_none() => {
                     g = Some((w.value, w.span.start));
                     continue;
@@ -67,17 +76,18 @@ impl Interpreter {
                 b'N' if k == 0 && w.value >= 0.0 => continue,
                 _ => return Ok(false),
             };
-            if col.is_some() || !axes.contains(w.letter) {
+            if cols[i].is_some() || !axes.has_index(i) {
                 return Ok(false);
             }
-            *col = Some(w.span.start);
-            t[i] = if self.absolute {
-                self.to_mm(w.value) + off[i]
+            cols[i] = Some(w.span.start);
+            // `to_mm`, with the units looked up once.
+            t[i] = if absolute {
+                w.value * mm + off[i]
             } else {
-                t[i] + self.to_mm(w.value)
+                t[i] + w.value * mm
             };
         }
-        let axis_col = x_col.or(y_col).or(z_col);
+        let axis_col = cols[0].or(cols[1]).or(cols[2]);
         let mode = match g {
             Some((0.0, _)) => MotionMode::Rapid,
             Some((1.0, _)) => MotionMode::Feed,

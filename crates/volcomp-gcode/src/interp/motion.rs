@@ -26,14 +26,22 @@ pub const MAX_COORDINATE_MM: f64 = 100_000.0;
 
 /// Refuses a point (axis frame, mm) with a coordinate beyond
 /// [`MAX_COORDINATE_MM`] or not finite.
+#[inline]
 pub(super) fn check_reach(line: u64, col: usize, what: &str, p: Vec3) -> Result<(), GcodeError> {
-    // For speed, one test for the common point (a NaN fails `<=`).
+    // For speed, one test for the common point (a NaN fails `<=`), inline;
+    // the message out of line.
     if p.x.abs() <= MAX_COORDINATE_MM
         && p.y.abs() <= MAX_COORDINATE_MM
         && p.z.abs() <= MAX_COORDINATE_MM
     {
         return Ok(());
     }
+    beyond_reach(line, col, what, p)
+}
+
+#[cold]
+#[inline(never)]
+fn beyond_reach(line: u64, col: usize, what: &str, p: Vec3) -> Result<(), GcodeError> {
     for a in Axis::ALL {
         let (v, letter) = (p[a], a.letter());
         if v.is_nan() || v.abs() > MAX_COORDINATE_MM {
@@ -504,6 +512,12 @@ impl Interpreter {
         Ok(())
     }
 
+    /// Appends a motion to `out` and moves there. Inline where it is
+    /// called, for speed: with the kind known there (the straight moves of
+    /// the fast path), the motion is written straight into `out`; through
+    /// a by-reference `kind` it is built on the stack and copied, a copy
+    /// that reads back what was just stored and stalls the CPU.
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn push(
         &mut self,

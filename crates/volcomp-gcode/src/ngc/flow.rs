@@ -204,6 +204,7 @@ impl Flow {
     /// Counts the line at `pos` about to run: a line of the main program
     /// run for the first time is free, any other (a loop's next pass, a
     /// subroutine's body) counts against the limit.
+    #[inline]
     pub fn count_line(&mut self, pos: Pos) -> Result<(), GcodeError> {
         if pos.src == MAIN && pos.line >= self.first_unrun {
             self.first_unrun = pos.line + 1;
