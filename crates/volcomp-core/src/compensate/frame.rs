@@ -132,11 +132,17 @@ impl Frame {
     /// The word value to write for axis `a` when moving from `from` to `q`
     /// (in G7 an X word is the diameter: twice the program coordinate).
     pub(super) fn word_value(&self, q: Vec3, from: Vec3, a: usize) -> f64 {
+        self.word_of(self.program(q), from, a)
+    }
+
+    /// [`Self::word_value`] of the program point `p = self.program(q)`
+    /// (computed once for the three axes).
+    fn word_of(&self, p: Vec3, from: Vec3, a: usize) -> f64 {
         let k = if a == 0 { self.x_word_scale } else { 1.0 };
         if self.absolute {
-            self.round(self.program(q)[a] * k)
+            self.round(p[a] * k)
         } else {
-            self.round((self.program(q)[a] - self.program(from)[a]) * k)
+            self.round((p[a] - self.program(from)[a]) * k)
         }
     }
 
@@ -146,9 +152,10 @@ impl Frame {
             return self.quantize_rotated(q, from);
         }
         let mut out = q;
+        let p = self.program(q);
         for a in 0..3 {
             let k = if a == 0 { self.x_word_scale } else { 1.0 };
-            let v = self.word_value(q, from, a) / k;
+            let v = self.word_of(p, from, a) / k;
             out[a] = if self.absolute {
                 v * self.mm_per_unit + self.offset_mm[a]
             } else {

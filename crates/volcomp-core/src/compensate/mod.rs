@@ -88,8 +88,7 @@ pub fn compensate_program<R: BufRead>(
     // gcode lane: every written line within LinuxCNC's 252 characters
     // (compensate/line_limit.rs); the count is of what reaches `out`.
     let mut counted = size::Counted::new(out);
-    let mut limited = line_limit::LineLimit::new(&mut counted);
-    let mut out = size::Counted::new(&mut limited);
+    let mut out = line_limit::LineLimit::new(&mut counted);
     while let Some(ev) = walker.next_line()? {
         let line = st.begin_line(&ev);
         let after = st.write_line(&line, &mut out)?;
@@ -97,7 +96,7 @@ pub fn compensate_program<R: BufRead>(
         st.frame_before = Some(after);
     }
     st.summary.blocks_in = st.blocks_in.finish();
-    limited.end()?;
+    out.end()?;
     (st.summary.bytes_out, st.summary.blocks_out) = counted.finish();
     st.summary.max_estimated_contour_um =
         matches!(options.segmentation, Segmentation::Adaptive { .. })
@@ -142,7 +141,7 @@ impl<'w> State<'w> {
     fn write_line(
         &mut self,
         line: &Line,
-        out: &mut size::Counted,
+        out: &mut dyn Write,
     ) -> Result<(Frame, NumberStyle), CompensationError> {
         let ev = line.ev;
         let own = (line.frame, line.style);
@@ -260,11 +259,7 @@ impl<'w> State<'w> {
     /// A line without a compensated motion: written as it is (to `out`),
     /// or with the words a G92/G10 L20 or a G53 move needs where the
     /// machine is not at the nominal point; its motions followed.
-    fn pass_through(
-        &mut self,
-        line: &Line,
-        out: &mut size::Counted,
-    ) -> Result<(), CompensationError> {
+    fn pass_through(&mut self, line: &Line, out: &mut dyn Write) -> Result<(), CompensationError> {
         let ev = line.ev;
         let (options, survey) = (self.walk.options, self.walk.survey);
         let added = g53_words_to_add(ev, line.all_known, options, survey);

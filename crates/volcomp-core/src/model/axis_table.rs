@@ -10,7 +10,7 @@
 
 use crate::error::{MapFileError, ModelError};
 use crate::limits::{MAX_ERROR_UM, MAX_POSITION_MM};
-use crate::model::{Components, Direction, Directions, ErrorModel};
+use crate::model::{Cell, Cells, Components, Direction, Directions, ErrorModel};
 use crate::text::table::{shown, CsvTable, Header, Record, UnknownColumns};
 use volcomp_gcode::Vec3;
 
@@ -23,20 +23,61 @@ pub struct Table {
     pub errors_um: Vec<Vec3>,
 }
 
+/// Where a position lies in a table: on its only point, or between two.
+enum At {
+    Point(Vec3),
+    Between { t: f64, p: [f64; 2], e: [Vec3; 2] },
+}
+
 impl Table {
     /// Linear interpolation at `x_mm`; `None` outside the range.
+    #[inline]
     pub fn eval(&self, x_mm: f64) -> Option<Vec3> {
-        let p = &self.positions_mm;
-        let (first, last) = (*p.first()?, *p.last()?);
-        if !(first..=last).contains(&x_mm) {
-            return None;
+        Some(match self.at(x_mm)? {
+            At::Point(v) => v,
+            At::Between { t, e, .. } => e[0].lerp(e[1], t),
+        })
+    }
+
+    /// The cell that holds `x_mm` ([`Cell`]); `None` outside the table.
+    pub fn cell(&self, x_mm: f64) -> Option<Cell> {
+        Some(match self.at(x_mm)? {
+            At::Point(v) => Cell {
+                p: [x_mm; 2],
+                e: [v; 2],
+                upper: true,
+            },
+            At::Between { p, e, .. } => Cell {
+                p,
+                e,
+                upper: self.positions_mm.last() == Some(&p[1]),
+            },
+        })
+    }
+
+    #[inline(always)]
+    fn at(&self, x_mm: f64) -> Option<At> {
+        let (p, e) = (self.positions_mm.as_slice(), self.errors_um.as_slice());
+        match p {
+            [] => None,
+            [only] => (*only == x_mm).then(|| At::Point(e[0])),
+            [first, .., last] => {
+                if !(*first <= x_mm && x_mm <= *last) {
+                    return None;
+                }
+                // `interval` keeps `i + 1` within `p`; `e` has one error per
+                // position (checked once here, not per element).
+                let i = interval(p, x_mm);
+                let (Some(&[p0, p1]), Some(&[e0, e1])) = (p.get(i..i + 2), e.get(i..i + 2)) else {
+                    unreachable!("a table has one error per position")
+                };
+                Some(At::Between {
+                    t: (x_mm - p0) / (p1 - p0),
+                    p: [p0, p1],
+                    e: [e0, e1],
+                })
+            }
         }
-        if p.len() == 1 {
-            return Some(self.errors_um[0]);
-        }
-        let i = interval(p, x_mm);
-        let t = (x_mm - p[i]) / (p[i + 1] - p[i]);
-        Some(self.errors_um[i].lerp(self.errors_um[i + 1], t))
     }
 
     /// `[first, last]` position.
@@ -53,20 +94,24 @@ impl Table {
 /// Measured tables are nearly always evenly spaced, so the first guess is
 /// the proportional position, corrected by a step or two; uneven tables fall
 /// back to a binary search.
+#[inline(always)]
 fn interval(p: &[f64], x: f64) -> usize {
     let last = p.len() - 2;
-    let span = p[last + 1] - p[0];
+    let (first, end) = (p[0], p[last + 1]);
     // Through `i64`: the float-to-unsigned conversion costs several times
     // more; out-of-range and NaN guesses land on the ends all the same.
-    let guess = ((x - p[0]) / span * (last + 1) as f64) as i64;
-    let mut i = guess.clamp(0, last as i64) as usize;
-    for _ in 0..3 {
-        if x < p[i] && i > 0 {
-            i -= 1;
-        } else if x >= p[i + 1] && i < last {
-            i += 1;
-        } else {
+    let guess = ((x - first) / (end - first) * (last + 1) as f64) as i64;
+    let i = guess.clamp(0, last as i64) as usize;
+    // The guess is right (the usual case on an even table), or one off.
+    if let Some(&[lo, hi]) = p.get(i..i + 2) {
+        if lo <= x && (x < hi || i == last) {
             return i;
+        }
+        if x < lo && i > 0 && p[i - 1] <= x {
+            return i - 1;
+        }
+        if x >= hi && i < last && (x < p[i + 2] || i + 1 == last) {
+            return i + 1;
         }
     }
     p.partition_point(|&v| v <= x).clamp(1, last + 1) - 1
@@ -215,22 +260,11 @@ impl ErrorModel for AxisTableMap {
         let mut e = Vec3::ZERO;
         for a in 0..3 {
             let table = self.axes[a].table(s[a]);
-            let [lo, hi] = table.range();
-            let x = q_mm[a];
-            let x = if (lo..=hi).contains(&x) {
-                x
-            } else if self.clamp {
-                x.clamp(lo, hi)
-            } else {
-                // Within the rounding of a computed position: at the end.
-                crate::model::within_range(x, lo, hi).unwrap_or(x)
+            // Inside the table (nearly always): no range work beyond eval's.
+            let v = match table.eval(q_mm[a]) {
+                Some(v) => v,
+                None => self.eval_outside(table, a, q_mm[a])?,
             };
-            let v = table.eval(x).ok_or_else(|| ModelError::OutOfRange {
-                axis: AXES[a],
-                position_mm: q_mm[a],
-                min_mm: lo,
-                max_mm: hi,
-            })?;
             match components {
                 Components::All => e += v,
                 Components::PositioningOnly => e[a] += v[a],
@@ -248,6 +282,17 @@ impl ErrorModel for AxisTableMap {
         [r(0), r(1), r(2)]
     }
 
+    /// The cell of each axis' table that holds `q_mm` (as [`Table::eval`]
+    /// finds it); `None` outside a table (clamped, or at an end within
+    /// rounding: [`ErrorModel::deviation_um`] then takes the end).
+    fn deviation_cells(&self, q_mm: Vec3, s: Directions, components: Components) -> Option<Cells> {
+        let cell = |a: usize| self.axes[a].table(s[a]).cell(q_mm[a]);
+        Some(Cells {
+            axes: [cell(0)?, cell(1)?, cell(2)?],
+            components,
+        })
+    }
+
     /// The table's points: linear interpolation changes slope only there.
     fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
         self.axes
@@ -259,6 +304,28 @@ impl ErrorModel for AxisTableMap {
     /// when clamped): affine between table points.
     fn piecewise_linear(&self) -> bool {
         true
+    }
+}
+
+impl AxisTableMap {
+    /// The error of `table` (axis `a`) at `x_mm` where `x_mm` is not inside
+    /// the table: at its end when clamped or within the rounding of a
+    /// computed position of it, else out of range.
+    #[cold]
+    fn eval_outside(&self, table: &Table, a: usize, x_mm: f64) -> Result<Vec3, ModelError> {
+        let [lo, hi] = table.range();
+        let x = if self.clamp {
+            x_mm.clamp(lo, hi)
+        } else {
+            // Within the rounding of a computed position: at the end.
+            crate::model::within_range(x_mm, lo, hi).unwrap_or(x_mm)
+        };
+        table.eval(x).ok_or(ModelError::OutOfRange {
+            axis: AXES[a],
+            position_mm: x_mm,
+            min_mm: lo,
+            max_mm: hi,
+        })
     }
 }
 
@@ -466,6 +533,67 @@ mod tests {
                 assert_eq!(count_at_or_below(p, x), expected, "x = {x}, p = {p:?}");
             }
         }
+    }
+
+    /// Inside the cells the map's value is the evaluation's to the bit,
+    /// on a hand-made map of uneven cells, both directions, positioning
+    /// only too, on the table points themselves and at the tables' ends;
+    /// outside a cell it is `None`, outside a table there are no cells.
+    #[test]
+    fn the_cells_give_the_map_to_the_bit() {
+        let csv = format!(
+            "{HEAD}X,forward,0,0,0,0\nX,forward,3,1.5,-0.3,0.2\nX,forward,10,-2,0.4,0.1\n\
+             X,reverse,0,1,0,0\nX,reverse,10,3,0.5,0\n\
+             Y,both,-5,0.2,1,0\nY,both,5,0.1,-1,0.3\nY,both,20,0,2,0\n\
+             Z,both,-10,0,0,-1\nZ,both,0,0.3,0.1,0\nZ,both,10,0,0,2\n"
+        );
+        let m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        let states = [
+            ALL_FORWARD,
+            [Direction::Reverse, Direction::Forward, Direction::Reverse],
+        ];
+        let mut points: Vec<Vec3> = (0..300)
+            .map(|k| {
+                let f = f64::from(k) / 299.0;
+                Vec3::new(10.0 * f, -5.0 + 25.0 * f * f, 10.0 - 20.0 * f)
+            })
+            .collect();
+        points.extend([
+            Vec3::new(3.0, 5.0, 0.0),
+            Vec3::new(10.0, 20.0, 10.0),
+            Vec3::new(0.0, -5.0, -10.0),
+        ]);
+        for s in states {
+            for c in [Components::All, Components::PositioningOnly] {
+                for (i, &q) in points.iter().enumerate() {
+                    let cells = m.deviation_cells(q, s, c).unwrap();
+                    let e = m.deviation_um(q, s, c).unwrap();
+                    assert_eq!(cells.deviation_um(q), Some(e), "q = {q:?}");
+                    // The cells of q at every other point: the map's value
+                    // where that point lies in them, else none.
+                    for &r in &points[i..] {
+                        if let Some(v) = cells.deviation_um(r) {
+                            assert_eq!(v, m.deviation_um(r, s, c).unwrap(), "{q:?} {r:?}");
+                            assert_eq!(m.deviation_cells(r, s, c), Some(cells));
+                        }
+                    }
+                }
+            }
+        }
+        // By hand: X forward's cell [3, 10) holds 4 mm, not 10 (the last
+        // cell holds its end); 3 mm lies in it, not in [0, 3).
+        let cells = m.deviation_cells(Vec3::new(4.0, 0.0, 0.0), ALL_FORWARD, Components::All);
+        let x = cells.unwrap().axes[0];
+        assert_eq!((x.p, x.upper), ([3.0, 10.0], true));
+        let cells = m.deviation_cells(Vec3::new(1.0, 0.0, 0.0), ALL_FORWARD, Components::All);
+        let cells = cells.unwrap();
+        assert_eq!((cells.axes[0].p, cells.axes[0].upper), ([0.0, 3.0], false));
+        assert_eq!(cells.deviation_um(Vec3::new(3.0, 0.0, 0.0)), None);
+        let outside = Vec3::new(10.5, 0.0, 0.0);
+        assert_eq!(
+            m.deviation_cells(outside, ALL_FORWARD, Components::All),
+            None
+        );
     }
 
     #[test]

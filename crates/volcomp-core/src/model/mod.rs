@@ -164,6 +164,18 @@ pub trait ErrorModel: Send + Sync {
         &[]
     }
 
+    /// The table cells that hold `q_mm` for direction state `s`, where
+    /// the model is a sum of per-axis tables interpolated linearly: inside
+    /// them [`Cells::deviation_um`] gives [`ErrorModel::deviation_um`]'s
+    /// value to the bit, without looking the cells up again. An iteration
+    /// whose points stay in one cell per axis (a solve's steps of a few
+    /// micrometres) evaluates the map once. Models that are not such a sum
+    /// keep the default (`None`).
+    fn deviation_cells(&self, q_mm: Vec3, s: Directions, components: Components) -> Option<Cells> {
+        let _ = (q_mm, s, components);
+        None
+    }
+
     /// Whether the error, with the direction state fixed, is the sum of
     /// per-axis functions each linear between its [`ErrorModel::knots_mm`]
     /// (and constant outside a clamped range): then `e` is affine along a
@@ -171,6 +183,58 @@ pub trait ErrorModel: Send + Sync {
     /// segmentation needs to look at the knots only.
     fn piecewise_linear(&self) -> bool {
         false
+    }
+}
+
+/// One axis' table cell: positions `p[0] < p[1]` (mm) and the errors at
+/// them (µm); `upper` when the cell holds its upper end too (the table's
+/// last cell: any other cell's upper end is the next cell's start). A table
+/// of one point is a cell with `p[0] == p[1]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cell {
+    /// The cell's ends (mm).
+    pub p: [f64; 2],
+    /// The errors at them (µm).
+    pub e: [Vec3; 2],
+    /// The upper end belongs to the cell.
+    pub upper: bool,
+}
+
+/// The cells of the three axes' tables around a point, for one direction
+/// state and set of components ([`ErrorModel::deviation_cells`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cells {
+    /// X, Y and Z's cells.
+    pub axes: [Cell; 3],
+    /// The components summed.
+    pub components: Components,
+}
+
+impl Cells {
+    /// The model's deviation (µm) at `q_mm`, computed as the table model
+    /// computes it (linear interpolation in each axis' cell, summed X, Y,
+    /// Z), so the same to the bit; `None` where `q_mm` lies outside a cell.
+    #[inline]
+    pub fn deviation_um(&self, q_mm: Vec3) -> Option<Vec3> {
+        let mut e = Vec3::ZERO;
+        for a in 0..3 {
+            let c = &self.axes[a];
+            let x = q_mm[a];
+            let inside = c.p[0] <= x && (x < c.p[1] || (c.upper && x == c.p[1]));
+            if !inside {
+                return None;
+            }
+            let v = if c.p[0] == c.p[1] {
+                c.e[0]
+            } else {
+                c.e[0].lerp(c.e[1], (x - c.p[0]) / (c.p[1] - c.p[0]))
+            };
+            match self.components {
+                Components::All => e += v,
+                Components::PositioningOnly => e[a] += v[a],
+            }
+        }
+        Some(e)
     }
 }
 
@@ -229,6 +293,15 @@ impl ErrorModel for WithTool<'_> {
         self.model.uses_tool_offset()
     }
 
+    /// The model's cells where its error does not depend on the tool
+    /// (they are the model's without one).
+    fn deviation_cells(&self, q_mm: Vec3, s: Directions, components: Components) -> Option<Cells> {
+        if self.model.uses_tool_offset() {
+            return None;
+        }
+        self.model.deviation_cells(q_mm, s, components)
+    }
+
     fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
         self.model.knots_mm(axis, d)
     }
@@ -266,6 +339,10 @@ impl<M: ErrorModel + ?Sized> ErrorModel for Box<M> {
 
     fn uses_tool_offset(&self) -> bool {
         (**self).uses_tool_offset()
+    }
+
+    fn deviation_cells(&self, q_mm: Vec3, s: Directions, components: Components) -> Option<Cells> {
+        (**self).deviation_cells(q_mm, s, components)
     }
 }
 

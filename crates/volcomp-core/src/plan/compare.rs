@@ -136,10 +136,7 @@ pub fn compare_while_writing<T, E>(
         let stop = &stop;
         let original = original.map(|(r, name)| {
             let r = Stoppable { inner: r, stop };
-            scope.spawn(move || {
-                yield_to_the_writing();
-                estimate_program(r, name, setup, &limits)
-            })
+            scope.spawn(move || estimate_program(r, name, setup, &limits))
         });
         let program = scope.spawn(move || {
             let r = ChunkReader {
@@ -165,31 +162,6 @@ pub fn compare_while_writing<T, E>(
     });
     Ok((written?, comparison(setup, program, original)))
 }
-
-/// Lowers the priority of the calling thread (the original's estimate)
-/// below the writing's and the written program's estimate, which the
-/// writing waits for when its chunks are not taken: on a machine with two
-/// cores the writing keeps one, the written program's estimate takes what
-/// it needs of the other and the original's the rest, so the three end
-/// about when the writing does, instead of the writing sharing its core.
-/// On Linux a thread's nice value is its own (setpriority(2), "a
-/// per-thread attribute"); elsewhere, and when refused, nothing changes.
-fn yield_to_the_writing() {
-    #[cfg(target_os = "linux")]
-    {
-        use rustix::process::{getpriority_process, setpriority_process};
-        let me = Some(rustix::thread::gettid());
-        // Ten nice steps lower (a tenth of the share of the threads it
-        // runs beside; not starved by other work on a busy machine).
-        if let Ok(nice) = getpriority_process(me) {
-            let _ = setpriority_process(me, (nice + ESTIMATE_NICE_STEPS).min(19));
-        }
-    }
-}
-
-/// How much nicer the original's estimate runs beside the writing.
-#[cfg(target_os = "linux")]
-const ESTIMATE_NICE_STEPS: i32 = 10;
 
 /// The result of an estimate's thread (its panic goes on in this one).
 fn joined<T>(h: std::thread::ScopedJoinHandle<'_, T>) -> T {

@@ -77,8 +77,17 @@ pub(crate) fn run_next(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) ->
     }
 }
 
+/// `x` within `±max` (`saturate`, tp.c): as `f64::clamp`, without its
+/// check that the bounds are ordered (`max` is a speed or an
+/// acceleration, never negative).
 fn saturate(x: f64, max: f64) -> f64 {
-    x.clamp(-max, max)
+    if x > max {
+        max
+    } else if x < -max {
+        -max
+    } else {
+        x
+    }
 }
 
 /// Requested speed within the limits (`tpGetRealTargetVel` at 100 % feed
@@ -151,7 +160,11 @@ fn advance(s: &mut Seg, acc: f64, vel_desired: f64) {
         }
     } else {
         s.progress += (v_next + s.currentvel) * 0.5 * dt;
-        s.progress = s.progress.clamp(0.0, s.target);
+        if s.progress < 0.0 {
+            s.progress = 0.0;
+        } else if s.progress > s.target {
+            s.progress = s.target;
+        }
     }
     s.currentvel = v_next;
     s.on_final_decel = (vel_desired - s.currentvel).abs() < VEL_EPSILON && acc < 0.0;

@@ -26,20 +26,21 @@ const MIN_SEGMENT_CYCLES: f64 = 1.02;
 /// Peaks after which the look-ahead stops (`TP_OPTIMIZATION_CUTOFF`).
 const OPTIMIZATION_CUTOFF: usize = 4;
 
-/// Queues `tc` after the queue's last segment.
-pub(crate) fn add(q: &mut VecDeque<Seg>, mut tc: Seg, limits: &Limits, stats: &mut super::Counts) {
+/// Queues `tc` after the queue's last segment (settled in place, then
+/// copied once into the queue).
+pub(crate) fn add(q: &mut VecDeque<Seg>, tc: &mut Seg, limits: &Limits, stats: &mut super::Counts) {
     let n = q.len();
     let mut consumed = false;
     if let Some(prev) = q.back_mut() {
         // `handleModeChange`: no blend between a rapid and a feed move.
         if (prev.canon == Canon::Traverse) != (tc.canon == Canon::Traverse) {
-            blend::set_term(prev, &mut tc, Term::Stop);
+            blend::set_term(prev, tc, Term::Stop);
         }
         if limits.blend.enable {
-            match blend::setup_tangent(prev, &mut tc, limits) {
+            match blend::setup_tangent(prev, tc, limits) {
                 Tangency::Fail => {}
                 Tangency::Tangent => stats.tangent_joints += 1,
-                Tangency::Corner => match blend::try_blend_arc(prev, &mut tc, limits) {
+                Tangency::Corner => match blend::try_blend_arc(prev, tc, limits) {
                     Some(b) => {
                         stats.blend_arcs += 1;
                         tc.shape = b.tc_shape;
@@ -52,11 +53,11 @@ pub(crate) fn add(q: &mut VecDeque<Seg>, mut tc: Seg, limits: &Limits, stats: &m
                             let prev = q.back_mut().expect("the previous segment");
                             prev.shape = b.prev_shape;
                             prev.target = b.prev_target;
-                            blend::set_term(prev, &mut tc, Term::Tangent);
+                            blend::set_term(prev, tc, Term::Tangent);
                         }
                         q.push_back(b.arc);
                     }
-                    None => match blend::choose_best(prev, &mut tc, None, limits) {
+                    None => match blend::choose_best(prev, tc, None, limits) {
                         blend::Chosen::Parabolic => stats.parabolic_blends += 1,
                         blend::Chosen::Tangent => stats.tangent_joints += 1,
                         _ => {}
@@ -68,7 +69,7 @@ pub(crate) fn add(q: &mut VecDeque<Seg>, mut tc: Seg, limits: &Limits, stats: &m
             q[n - 1].finalize();
         }
     }
-    q.push_back(tc);
+    q.push_back(tc.clone());
     optimize(q, limits);
 }
 

@@ -383,10 +383,12 @@ impl Planner {
     }
 
     fn queue_fresh(&mut self) {
-        for s in self.fresh.drain(..) {
+        // By reference: each segment is copied once, into the queue.
+        for s in &mut self.fresh {
             self.counts.segments += 1;
             lookahead::add(&mut self.queue, s, &self.limits, &mut self.counts);
         }
+        self.fresh.clear();
     }
 
     /// The machine waits for the motion to end (a dwell, a tool change, a
