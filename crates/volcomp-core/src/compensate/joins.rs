@@ -30,6 +30,11 @@ use volcomp_gcode::{PathMode, Vec3};
 /// `ARC_BLEND_KINK_RATIO`'s default ([TRAJ] in the INI, initraj.cc).
 const KINK_RATIO: f64 = 0.1;
 
+/// Half the angle within which two tangents are anti-parallel for the
+/// planner, which stops there instead of blending (`tpSetupTangent`, tp.c:
+/// `|u₁ + u₂| < 2°`).
+const REVERSAL_HALF_ANGLE_RAD: f64 = std::f64::consts::PI / 180.0;
+
 /// `BLEND_ACC_RATIO_TANGENTIAL` (blendmath.h): the share of the
 /// acceleration an arc may use along its path; the tangency ratio is
 /// divided by it where an arc takes part.
@@ -134,6 +139,50 @@ impl PlannerLimits {
         }
         let theta = 0.5 * (std::f64::consts::PI - phi);
         tolerance_mm * theta.cos() / (1.0 - theta.sin())
+    }
+
+    /// The farthest from a corner of unknown angle the planner's blend can
+    /// reach into a line of `length_mm` run at `v_mm_s` (mm): the largest,
+    /// over the half-angle `θ` between the segments, of
+    /// `min(L/2, R/tan θ, T·tan(π/4 + θ/2))` (`blendComputeParameters`,
+    /// blendmath.c: `d` is at most half a neighbour, at most
+    /// `d_tol = T cos θ/(1 − sin θ) = T tan(π/4 + θ/2)` for the blend
+    /// tolerance `T`, and at full speed `R = v²/a_n`). `T` is the G64 P
+    /// tolerance `tolerance_mm` (at most a quarter of the line), or under
+    /// G64 without P a quarter of the line (`tcFindBlendTolerance`, tc.c;
+    /// a shorter neighbour only makes it smaller). The speed term falls
+    /// and the tolerance term rises with `θ`, so the largest is where they
+    /// meet: with `t = tan(θ/2)`, `R(1 − t)² = 2Tt`, so
+    /// `t = (R + T − √(T² + 2RT))/R` and `d = T(1 + t)/(1 − t)`.
+    ///
+    /// A corner whose tangents are anti-parallel within 2° is a reversal,
+    /// which stops (`tpSetupTangent`), so `θ ≥ 1°`.
+    ///
+    /// A split nearer than twice this to the end of a line whose next
+    /// move is not known yet may cut that corner's blend short (a blend
+    /// takes at most half of the piece next to it).
+    pub fn blend_reach_any_corner_mm(
+        &self,
+        v_mm_s: f64,
+        length_mm: f64,
+        tolerance_mm: Option<f64>,
+    ) -> f64 {
+        let half = 0.5 * length_mm;
+        let quarter = 0.25 * length_mm;
+        let t_mm = tolerance_mm.map_or(quarter, |p| p.min(quarter));
+        let r_mm = v_mm_s * v_mm_s / self.blend_normal_acceleration();
+        if !(t_mm > 0.0 && r_mm > 0.0) {
+            return 0.0;
+        }
+        let t = (r_mm + t_mm - (t_mm * t_mm + 2.0 * r_mm * t_mm).sqrt()) / r_mm;
+        let reach = if 2.0 * t.atan() >= REVERSAL_HALF_ANGLE_RAD {
+            t_mm * (1.0 + t) / (1.0 - t)
+        } else {
+            // Where they meet the corner is a reversal, which stops: the
+            // sharpest corner blended has the largest reach.
+            r_mm / REVERSAL_HALF_ANGLE_RAD.tan()
+        };
+        reach.min(half)
     }
 }
 
@@ -262,6 +311,49 @@ mod tests {
         // Collinear: nothing to blend.
         let x = Vec3::new(1.0, 0.0, 0.0);
         assert_eq!(p.blend_distance_mm(x, x, 100.0), 0.0);
+    }
+
+    /// Under G64 P0.005 at F6000 (R = 11.547 mm) the reach of a blend at
+    /// any corner is about `√(2RT)` = √(2 · 11.547 · 0.005) = 0.3398 mm
+    /// (`θ` near π/2: `R/tan θ ≈ R ε`, `T tan(π/4 + θ/2) ≈ 2T/ε`); it is
+    /// the largest over a fine sweep of `θ` (a second method); under G64
+    /// without P a hexagon's 15 mm edge can be blended up to its middle
+    /// (7.5 mm), and at F3000 a 30 mm line to 9.98 mm of its end.
+    #[test]
+    fn the_reach_of_a_blend_at_a_corner_not_known_yet() {
+        let p = PlannerLimits::default();
+        let d = p.blend_reach_any_corner_mm(100.0, 15.0, Some(0.005));
+        assert!(
+            (d - (2.0f64 * 11.547005 * 0.005).sqrt()).abs() < 1e-4,
+            "{d}"
+        );
+        let sweep = |v: f64, l: f64, t: f64| {
+            let r = v * v / (1000.0 * 0.75f64.sqrt());
+            (1..20_000).fold(0.0f64, |m, k| {
+                let th = f64::from(k) / 20_000.0 * std::f64::consts::FRAC_PI_2;
+                let tol = t * (std::f64::consts::FRAC_PI_4 + th / 2.0).tan();
+                m.max((r / th.tan()).min(tol).min(l / 2.0))
+            })
+        };
+        for (v, l, t) in [(100.0, 15.0, 0.005), (50.0, 30.0, 7.5), (100.0, 60.0, 15.0)] {
+            let tol = (t < 0.25 * l - 1e-12).then_some(t);
+            let d = p.blend_reach_any_corner_mm(v, l, tol);
+            assert!(
+                (d - sweep(v, l, t)).abs() < 2e-3 * d.max(1.0),
+                "{v} {l} {t}: {d}"
+            );
+        }
+        assert!((p.blend_reach_any_corner_mm(100.0, 15.0, None) - 7.5).abs() < 1e-12);
+        let d = p.blend_reach_any_corner_mm(50.0, 30.0, None);
+        assert!((d - 9.978).abs() < 1e-3, "{d}");
+        // F500 on a 200 mm line: R = 8.333²/866.03 = 0.0802 mm; the terms
+        // would meet below 1°, at a reversal: the reach is R / tan 1° =
+        // 4.594 mm.
+        let v = 500.0 / 60.0;
+        let d = p.blend_reach_any_corner_mm(v, 200.0, None);
+        let r = v * v / (1000.0 * 0.75f64.sqrt());
+        assert!((d - r / 1f64.to_radians().tan()).abs() < 1e-9, "{d}");
+        assert!((d - 4.594).abs() < 1e-3, "{d}");
     }
 
     #[test]

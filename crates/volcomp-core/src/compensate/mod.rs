@@ -377,7 +377,11 @@ impl<'w> State<'w> {
         };
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
         if arc_nominal.is_none() && matches!(motion.kind, MotionKind::Feed) {
-            points::protect_blends(&mut targets, motion.start, run.protect_mm);
+            points::protect_blends(
+                &mut targets,
+                motion.start,
+                (run.protect_mm, run.protect_end_mm),
+            );
         }
         if targets.len() > 1 && interp.feed_mode() == FeedMode::InverseTime {
             return Err(CompensationError::AtLine {

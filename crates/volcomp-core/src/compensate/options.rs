@@ -188,11 +188,12 @@ impl CompensateOptions {
     ///   tolerance the pieces between the points may add, so every
     ///   excursion stays within p (the program bounds the path by p, and
     ///   nothing more).
-    /// * G64 without P: none. Away from the program's own reversals the
-    ///   tool keeps within half a micrometre there; a hold within that
-    ///   (0.4 µm) moved take-ups into short pieces and cost time, a hold
-    ///   within the band cost the chord circles up to 6 points of their
-    ///   RMS reduction for no time (docs/compensation.md, "Small reversals
+    /// * G64 without P: none here: an axis is held there (within its band
+    ///   alone) only where the take-up it replaces would turn the path by
+    ///   more than the planner takes as tangent, which the solving of the
+    ///   targets decides (compensate/points.rs); a hold at every small
+    ///   reversal cost the chord circles up to 6 points of their RMS
+    ///   reduction for no time (docs/compensation.md, "Small reversals
     ///   held").
     /// * G61/G61.1: none (exactness first: every reversal taken up).
     ///

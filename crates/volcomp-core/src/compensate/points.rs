@@ -140,6 +140,15 @@ fn fold_deviation_mm(lags: &[Vec3; 3], q_prev: Vec3, q: Vec3, nominal_delta: Vec
     fold_deviation_sampled_mm(lags, q_prev, q, &|_| u, 1)
 }
 
+/// Whether a take-up `delta` folded into a piece of `piece_mm` turns the
+/// path by no more than the planner takes as tangent there, less the room
+/// left for the compensation's own turn: `|Δ_i| / ℓ ≤ RAMP_SHARE · κ_i`
+/// with `κ` the tangency tolerance at the feed
+/// ([`super::PlannerLimits::tangent_tolerance`]).
+fn fold_is_tangent(delta: Vec3, kink: [f64; 3], piece_mm: f64) -> bool {
+    (0..3).all(|i| delta[i].abs() <= RAMP_SHARE * kink[i] * piece_mm)
+}
+
 /// A lead piece for a take-up that the whole move cannot fold (see
 /// [`fold_deviation_mm`]): the point at a fraction ½, ¼, … of the move from
 /// `t_prev`, on its line or arc, on which the reversing axes, running their
@@ -540,6 +549,11 @@ pub(super) struct Run {
     /// a blend may take of either neighbour (half of it); 0 elsewhere
     /// ([`protect_blends`]).
     pub(super) protect_mm: f64,
+    /// Under G64, how far from its end a piece must reach: twice the
+    /// farthest a blend at a corner of any angle reaches into the motion
+    /// (the next motion is not known yet;
+    /// [`super::PlannerLimits::blend_reach_any_corner_mm`]); 0 elsewhere.
+    pub(super) protect_end_mm: f64,
 }
 
 impl Run {
@@ -582,12 +596,20 @@ impl Run {
             }
             _ => (true, 0.0),
         };
+        let protect_end_mm = match (m.path_mode, feed_mm_min) {
+            (volcomp_gcode::PathMode::Blend { tolerance_mm, .. }, Some(f)) => {
+                let p = (tolerance_mm > 0.0).then_some(tolerance_mm);
+                2.0 * planner.blend_reach_any_corner_mm(f / 60.0, length_mm(m), p)
+            }
+            _ => protect_mm,
+        };
         Run {
             mode: m.path_mode,
             feed_mm_min,
             arc,
             corner_before,
             protect_mm,
+            protect_end_mm,
         }
     }
 }
@@ -606,13 +628,17 @@ pub(super) fn length_mm(m: &volcomp_gcode::Motion) -> f64 {
 /// Where points were dropped, one is put at that distance, so the rest of
 /// the line keeps its own; the pieces at the ends then run whole, and the
 /// planner blends the corners as it blends the original's.
-pub(super) fn protect_blends(targets: &mut Vec<Vec3>, start: Vec3, protect_mm: f64) {
+pub(super) fn protect_blends(
+    targets: &mut Vec<Vec3>,
+    start: Vec3,
+    (protect_mm, protect_end_mm): (f64, f64),
+) {
     let Some(&end) = targets.last() else { return };
     let length = (end - start).norm();
-    if protect_mm <= 0.0 || targets.len() < 2 || length <= 0.0 {
+    if protect_mm.max(protect_end_mm) <= 0.0 || targets.len() < 2 || length <= 0.0 {
         return;
     }
-    if length <= 2.0 * protect_mm {
+    if length <= protect_mm + protect_end_mm {
         targets.clear();
         targets.push(end);
         return;
@@ -620,12 +646,13 @@ pub(super) fn protect_blends(targets: &mut Vec<Vec3>, start: Vec3, protect_mm: f
     let u = (end - start) * (1.0 / length);
     let along = |p: Vec3| (p - start).dot(u);
     let splits = &targets[..targets.len() - 1];
-    let near_start = splits.iter().any(|p| along(*p) <= protect_mm);
-    let near_end = splits.iter().any(|p| along(*p) >= length - protect_mm);
+    let near_start = protect_mm > 0.0 && splits.iter().any(|p| along(*p) <= protect_mm);
+    let near_end =
+        protect_end_mm > 0.0 && splits.iter().any(|p| along(*p) >= length - protect_end_mm);
     let inner: Vec<Vec3> = splits
         .iter()
         .copied()
-        .filter(|p| along(*p) > protect_mm && along(*p) < length - protect_mm)
+        .filter(|p| along(*p) > protect_mm && along(*p) < length - protect_end_mm)
         .collect();
     targets.clear();
     if near_start {
@@ -633,7 +660,7 @@ pub(super) fn protect_blends(targets: &mut Vec<Vec3>, start: Vec3, protect_mm: f
     }
     targets.extend(inner);
     if near_end {
-        targets.push(start + u * (length - protect_mm));
+        targets.push(start + u * (length - protect_end_mm));
     }
     targets.push(end);
 }
@@ -876,6 +903,32 @@ impl State<'_> {
             // direction, by tenths of a micrometre) is held for the piece,
             // and reverses on the next one, where the piece is long enough
             // to take its band up gently.
+            // G64 without P: an axis whose command turns back by less than
+            // its band is held instead of its take-up only where that
+            // take-up, folded or on a lead piece, would turn the path by
+            // more than the planner takes as tangent (decided below, where
+            // its piece is known); a hold that leaves any axis reversing
+            // is not taken (its take-up would be lost).
+            let mut hold_alt = if matches!(rule, TakeUpRule::Always)
+                && feed_like
+                && !was_forced
+                && transition.is_none()
+                && point.reversed.iter().any(|r| *r)
+            {
+                hold_small_reversals(
+                    model,
+                    options.method,
+                    *t,
+                    (self.q_out, self.s),
+                    &quantize,
+                    &point,
+                    f64::INFINITY,
+                )
+                .map_err(|source| model_error(file, line, source))?
+                .filter(|h| !h.reversed.iter().any(|r| *r))
+            } else {
+                None
+            };
             let mut point = point;
             // On a take-up moved ahead, its axes keep their new direction
             // to the S-curve ([`Ahead`]).
@@ -1128,8 +1181,7 @@ impl State<'_> {
                     .tangent_tolerance(v_mm_s.max(1e-9), run.arc || index == 0);
                 let delta = take_up.map_or(Vec3::ZERO, |tu| tu - self.q_out);
                 let piece_mm = (*t - t_prev).norm();
-                let fold_is_tangent =
-                    (0..3).all(|i| delta[i].abs() <= RAMP_SHARE * kink_tolerance[i] * piece_mm);
+                let fold_is_tangent = fold_is_tangent(delta, kink_tolerance, piece_mm);
                 let ramp_tolerance = match rule {
                     TakeUpRule::Exact { smooth: true } if smooth => {
                         Some(RUN_THROUGH_TOLERANCE_MM.max(tolerance))
@@ -1194,8 +1246,13 @@ impl State<'_> {
                         ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
                     ));
                 } else if bound <= tolerance {
-                    take_up = None;
-                    self.note_fold(bound);
+                    match hold_alt.take().filter(|_| !fold_is_tangent) {
+                        Some(held) => point = self.take_hold(held, &mut take_up),
+                        None => {
+                            take_up = None;
+                            self.note_fold(bound);
+                        }
+                    }
                 } else if let Some(shortest) = shortest.filter(|_| {
                     feed_like
                         && !matches!(leads, Leads::Nowhere)
@@ -1272,7 +1329,11 @@ impl State<'_> {
                             }
                         }
                     }
-                    if let Some(f) = lead {
+                    let lead_kinks = lead
+                        .is_some_and(|f| !self::fold_is_tangent(delta, kink_tolerance, f * length));
+                    if let Some(held) = hold_alt.take_if(|_| lead_kinks) {
+                        point = self.take_hold(held, &mut take_up);
+                    } else if let Some(f) = lead {
                         // Solve the lead piece first (it takes the take-up up),
                         // then this target again from there.
                         targets.insert(index, at(f));
@@ -1294,7 +1355,9 @@ impl State<'_> {
                     TakeUpRule::Within(t) => t,
                     TakeUpRule::Exact { .. } => 0.0,
                 };
-                if take_up.is_some() && bound <= allowed {
+                if let Some(held) = hold_alt.take_if(|_| take_up.is_some() && !fold_is_tangent) {
+                    point = self.take_hold(held, &mut take_up);
+                } else if take_up.is_some() && bound <= allowed {
                     // G64: folded all the same, the tool leaving the path by
                     // the bound (at most the reversal value; within P).
                     take_up = None;
@@ -1414,6 +1477,19 @@ impl State<'_> {
 }
 
 impl State<'_> {
+    /// The held point `held` in place of a reversal and its
+    /// take-up: no take-up written, the hold counted.
+    fn take_hold(
+        &mut self,
+        held: crate::compensate::solve::PointSolution,
+        take_up: &mut Option<Vec3>,
+    ) -> crate::compensate::solve::PointSolution {
+        *take_up = None;
+        self.summary.small_reversals_held += 1;
+        self.summary.max_hold_error_um = self.summary.max_hold_error_um.max(held.residual_um);
+        held
+    }
+
     /// Counts a folded take-up and the excursion its bound allows.
     fn note_fold(&mut self, bound_mm: f64) {
         self.summary.take_ups_folded += 1;
@@ -1601,16 +1677,40 @@ mod tests {
         // at both ends: 0.5 and 9.7 go, 1 and 9 come in their place.
         let x = |v: f64| Vec3::new(v, 0.0, 0.0);
         let mut t = vec![x(0.5), x(3.0), x(5.0), x(9.7), x(10.0)];
-        super::protect_blends(&mut t, x(0.0), 1.0);
+        super::protect_blends(&mut t, x(0.0), (1.0, 1.0));
         assert_eq!(t, vec![x(1.0), x(3.0), x(5.0), x(9.0), x(10.0)]);
         // Nothing near the ends: nothing changes.
         let mut t = vec![x(3.0), x(10.0)];
-        super::protect_blends(&mut t, x(0.0), 1.0);
+        super::protect_blends(&mut t, x(0.0), (1.0, 1.0));
         assert_eq!(t, vec![x(3.0), x(10.0)]);
         // A line shorter than both zones runs whole.
         let mut t = vec![x(0.7), x(1.5)];
-        super::protect_blends(&mut t, x(0.0), 1.0);
+        super::protect_blends(&mut t, x(0.0), (1.0, 1.0));
         assert_eq!(t, vec![x(1.5)]);
+        // Zones of their own: 1 mm at the start, 6 mm at the end (a corner
+        // not known yet): 5 and 9.7 go, one point comes at 4.
+        let mut t = vec![x(0.5), x(3.0), x(5.0), x(9.7), x(10.0)];
+        super::protect_blends(&mut t, x(0.0), (1.0, 6.0));
+        assert_eq!(t, vec![x(1.0), x(3.0), x(4.0), x(10.0)]);
+        // Together longer than the line: it runs whole.
+        let mut t = vec![x(3.0), x(10.0)];
+        super::protect_blends(&mut t, x(0.0), (0.0, 10.0));
+        assert_eq!(t, vec![x(10.0)]);
+    }
+
+    #[test]
+    fn a_take_up_is_tangent_over_a_piece_long_enough_for_the_planner() {
+        // F6000, 1 ms, 1000 mm/s², at a block's first piece (the tolerance
+        // halved): κ = 0.05 · 1000 / 101 000 = 0.495 mrad, 60 % of it for
+        // the take-up: a 4 µm take-up needs 4e-3 / (0.6 · 0.495e-3) =
+        // 13.47 mm. A 0.217 mm lead piece turns the path by 18 mrad.
+        let kink = crate::compensate::PlannerLimits::default().tangent_tolerance(100.0, true);
+        let delta = Vec3::new(0.0, 4.0 * UM, 0.0);
+        let need: f64 = 4e-3 / (0.6 * 0.05 * 1000.0 / 101_000.0);
+        assert!((need - 13.4667).abs() < 1e-3, "{need}");
+        assert!(super::fold_is_tangent(delta, kink, need * 1.001));
+        assert!(!super::fold_is_tangent(delta, kink, need * 0.999));
+        assert!(!super::fold_is_tangent(delta, kink, 0.217));
     }
 
     #[test]
