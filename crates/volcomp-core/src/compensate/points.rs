@@ -909,25 +909,34 @@ impl State<'_> {
             // more than the planner takes as tangent (decided below, where
             // its piece is known); a hold that leaves any axis reversing
             // is not taken (its take-up would be lost).
-            let mut hold_alt = if matches!(rule, TakeUpRule::Always)
+            // The hold is solved only where it is asked for (most take-ups
+            // fold tangent): from the point and state as they are here.
+            let mut hold_alt = (matches!(rule, TakeUpRule::Always)
                 && feed_like
                 && !was_forced
                 && transition.is_none()
-                && point.reversed.iter().any(|r| *r)
-            {
+                && point.reversed.iter().any(|r| *r))
+            .then_some((*t, self.q_out, self.s, point));
+            let held_instead = |from: Option<(
+                Vec3,
+                Vec3,
+                Directions,
+                crate::compensate::solve::PointSolution,
+            )>| {
+                let Some((t, q_prev, s_prev, point)) = from else {
+                    return Ok(None);
+                };
                 hold_small_reversals(
                     model,
                     options.method,
-                    *t,
-                    (self.q_out, self.s),
+                    t,
+                    (q_prev, s_prev),
                     &quantize,
                     &point,
                     f64::INFINITY,
                 )
-                .map_err(|source| model_error(file, line, source))?
-                .filter(|h| !h.reversed.iter().any(|r| *r))
-            } else {
-                None
+                .map(|held| held.filter(|h| !h.reversed.iter().any(|r| *r)))
+                .map_err(|source| model_error(file, line, source))
             };
             let mut point = point;
             // On a take-up moved ahead, its axes keep their new direction
@@ -1246,7 +1255,8 @@ impl State<'_> {
                         ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
                     ));
                 } else if bound <= tolerance {
-                    match hold_alt.take().filter(|_| !fold_is_tangent) {
+                    let from = hold_alt.take().filter(|_| !fold_is_tangent);
+                    match held_instead(from)? {
                         Some(held) => point = self.take_hold(held, &mut take_up),
                         None => {
                             take_up = None;
@@ -1331,7 +1341,7 @@ impl State<'_> {
                     }
                     let lead_kinks = lead
                         .is_some_and(|f| !self::fold_is_tangent(delta, kink_tolerance, f * length));
-                    if let Some(held) = hold_alt.take_if(|_| lead_kinks) {
+                    if let Some(held) = held_instead(hold_alt.take_if(|_| lead_kinks))? {
                         point = self.take_hold(held, &mut take_up);
                     } else if let Some(f) = lead {
                         // Solve the lead piece first (it takes the take-up up),
@@ -1355,7 +1365,9 @@ impl State<'_> {
                     TakeUpRule::Within(t) => t,
                     TakeUpRule::Exact { .. } => 0.0,
                 };
-                if let Some(held) = hold_alt.take_if(|_| take_up.is_some() && !fold_is_tangent) {
+                if let Some(held) =
+                    held_instead(hold_alt.take_if(|_| take_up.is_some() && !fold_is_tangent))?
+                {
                     point = self.take_hold(held, &mut take_up);
                 } else if take_up.is_some() && bound <= allowed {
                     // G64: folded all the same, the tool leaving the path by
