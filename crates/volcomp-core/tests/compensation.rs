@@ -933,16 +933,14 @@ fn a_blend_within_p_reaches_no_further_than_its_tolerance_allows() {
 }
 
 #[test]
-fn under_g64_a_line_is_not_split_inside_the_blend_zone_of_its_corners() {
+fn under_g64_a_line_keeps_the_splits_its_contour_tolerance_needs() {
     // Y's error along X bends at the table points 4 and 8 mm (0 up to 4 mm,
     // −20 µm from 8 mm on; the command's Y only rises, no reversal): the
-    // 16 mm line X0 → X16 needs cuts there for the contour tolerance, and
-    // G61 gets them. Under G64 at F6000 the planner may
-    // blend a corner at its end up to half the line (8 mm: the reach at
-    // any angle, R = 100²/866 = 11.5 mm and T = 16/4 = 4 mm, is 10.4 mm,
-    // above the half; compensate/joins.rs), and a piece next to the
-    // corner must be at least twice that: the whole line. It is written
-    // as one move, as the original.
+    // 16 mm line X0 → X16 needs cuts there for the contour tolerance. Under
+    // G64 without P the planner may blend a corner at the line's end up to
+    // half the line, but dropping the cut at 8 mm would leave the second
+    // half 20 µm off: the cuts stay, in every mode. Under G64 P0.005 the
+    // blend's reach is 0.34 mm (compensate/joins.rs), far from both cuts.
     let map = one_table(0, |x| [0.0, if x >= 8.0 { -20.0 } else { 0.0 }, 0.0]);
     let feeds = |mode: &str| {
         let program = format!("{mode}\nG0 X0 Y0 Z0\nG1 X16 F6000\nG1 X16 Y16\nM2\n");
@@ -954,7 +952,8 @@ fn under_g64_a_line_is_not_split_inside_the_blend_zone_of_its_corners() {
             .collect::<Vec<f64>>()
     };
     assert_eq!(feeds("G61"), vec![4.0, 8.0, 16.0]);
-    assert_eq!(feeds("G64"), vec![16.0]);
+    assert_eq!(feeds("G64"), vec![4.0, 8.0, 16.0]);
+    assert_eq!(feeds("G64 P0.005"), vec![4.0, 8.0, 16.0]);
 }
 
 /// Each feed motion of `out` as (the output line, its path-control mode).

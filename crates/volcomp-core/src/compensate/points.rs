@@ -596,10 +596,16 @@ impl Run {
             }
             _ => (true, 0.0),
         };
+        // Under G64 P p only: the reach within p is short (0.34 mm at
+        // P0.005 and F6000). Without P it is up to half the line, and the
+        // splits the contour tolerance needs there would be lost.
         let protect_end_mm = match (m.path_mode, feed_mm_min) {
-            (volcomp_gcode::PathMode::Blend { tolerance_mm, .. }, Some(f)) => {
-                let p = (tolerance_mm > 0.0).then_some(tolerance_mm);
-                2.0 * planner.blend_reach_any_corner_mm(f / 60.0, length_mm(m), p)
+            (volcomp_gcode::PathMode::Blend { tolerance_mm, .. }, Some(f))
+                if tolerance_mm > 0.0 =>
+            {
+                2.0 * planner
+                    .blend_reach_any_corner_mm(f / 60.0, length_mm(m), Some(tolerance_mm))
+                    .max(protect_mm)
             }
             _ => protect_mm,
         };
