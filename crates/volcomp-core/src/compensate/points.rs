@@ -603,9 +603,7 @@ impl Run {
             (volcomp_gcode::PathMode::Blend { tolerance_mm, .. }, Some(f))
                 if tolerance_mm > 0.0 =>
             {
-                2.0 * planner
-                    .blend_reach_any_corner_mm(f / 60.0, length_mm(m), Some(tolerance_mm))
-                    .max(protect_mm)
+                2.0 * planner.blend_reach_any_corner_mm(f / 60.0, length_mm(m), Some(tolerance_mm))
             }
             _ => protect_mm,
         };
