@@ -47,14 +47,19 @@ pub fn compensate_into(
     job: &Compensation,
     model: &dyn ErrorModel,
     on_point: impl FnMut(&PointRecord),
+    program_copy: Option<&mut dyn Write>,
 ) -> Result<CompensateSummary, CliError> {
     let bar = Bar::reading(&format!("compensating {}", program.display()), program);
     let reader = Counted::new(open_program(program)?, bar.clone());
     let file = program_name(program);
-    let result = job
+    let mut compensator = job
         .compensator(model, &file)
         .on_point(on_point)
-        .on_warning(|w| eprintln!("{file}:{w}"))
+        .on_warning(|w| eprintln!("{file}:{w}"));
+    if let Some(copy) = program_copy {
+        compensator = compensator.copy_program_to(copy);
+    }
+    let result = compensator
         .run(reader, out)
         .map_err(|e| job.machine.refused(e));
     bar.finish();
@@ -75,7 +80,7 @@ pub fn compensate_file(
     let mut summary = None;
     let mut staged = Staged::new();
     staged.write(output, |out| {
-        summary = Some(compensate_into(program, out, job, model, on_point)?);
+        summary = Some(compensate_into(program, out, job, model, on_point, None)?);
         Ok(())
     })?;
     staged.commit()?;
@@ -149,10 +154,13 @@ fn write_program(
     let mut summary = None;
     let max = job.max_output_bytes;
     staged.write(output, |out| {
+        // The machining-time estimate's stream gets the program from the
+        // compensation as it is made, not the output (whose header, and so
+        // all of it, waits for the end).
         let mut tee = Tee {
             inner: out,
             copy: written.as_mut(),
-            stream,
+            stream: None,
         };
         let mut out = LimitedWriter::new(&mut tee, max);
         let on_point = |p: &PointRecord| {
@@ -168,7 +176,9 @@ fn write_program(
                 point_csv_row(p, r);
             }
         };
-        summary = Some(compensate_into(&a.program, &mut out, job, model, on_point)?);
+        summary = Some(compensate_into(
+            &a.program, &mut out, job, model, on_point, stream,
+        )?);
         Ok(())
     })?;
     if let Some(r) = &points_csv {

@@ -100,6 +100,7 @@ pub struct Compensator<'a> {
     allow_recompensate: bool,
     on_point: Option<Callback<'a, PointRecord>>,
     on_warning: Option<Callback<'a, Warning>>,
+    program_copy: Option<&'a mut dyn Write>,
 }
 
 impl<'a> Compensator<'a> {
@@ -114,6 +115,7 @@ impl<'a> Compensator<'a> {
             allow_recompensate: false,
             on_point: None,
             on_warning: None,
+            program_copy: None,
         }
     }
 
@@ -160,6 +162,16 @@ impl<'a> Compensator<'a> {
         self
     }
 
+    /// Also writes the compensated program to `copy` as it is made, without
+    /// the provenance header (comment lines, written at the top of the
+    /// output once the program is done: the body waits for it). What the
+    /// copy gets times and runs as the output does: a machining-time
+    /// estimate can read it while the compensation goes on.
+    pub fn copy_program_to(mut self, copy: &'a mut dyn Write) -> Self {
+        self.program_copy = Some(copy);
+        self
+    }
+
     /// Reads `program`, writes it compensated to `out`, and says what it did.
     /// Nothing is written past an error; the caller discards a partial
     /// output (see [`crate::io::output`] for outputs written completely or
@@ -201,8 +213,8 @@ impl<'a> Compensator<'a> {
         };
         // The whole output is counted here, the header included.
         let mut out = super::size::Counted::new(&mut out);
-        let result = match &self.header {
-            Some(h) => compensate_program_with_header(
+        let result = match (&self.header, self.program_copy.take()) {
+            (Some(h), copy) => compensate_program_with_header(
                 &mut walker,
                 &self.file,
                 self.model,
@@ -210,17 +222,25 @@ impl<'a> Compensator<'a> {
                 &self.options,
                 h,
                 &mut out,
+                copy,
                 on_point,
             ),
-            None => compensate_program(
-                &mut walker,
-                &self.file,
-                self.model,
-                &style,
-                &self.options,
-                &mut out,
-                on_point,
-            ),
+            (None, copy) => {
+                let mut out = crate::io::stream::Tee {
+                    inner: &mut out,
+                    copy: None,
+                    stream: copy,
+                };
+                compensate_program(
+                    &mut walker,
+                    &self.file,
+                    self.model,
+                    &style,
+                    &self.options,
+                    &mut out,
+                    on_point,
+                )
+            }
         };
         let result = result.map(|mut summary| {
             (summary.bytes_out, summary.blocks_out) = out.finish();
@@ -262,6 +282,63 @@ mod tests {
             .allow_recompensate(true)
             .run(program.as_bytes(), Vec::new());
         assert!(ok.is_ok(), "{ok:?}");
+    }
+
+    #[test]
+    fn the_program_copy_is_the_output_without_its_header_and_times_as_it() {
+        // A map with slopes (every point corrected), a `%` program with
+        // corners, arcs and path modes: the header goes after the `%`.
+        let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+        for a in ["X", "Y", "Z"] {
+            csv.push_str(&format!("{a},both,-100,0,0,0\n{a},both,200,9,-6,3\n"));
+        }
+        let map = AxisTableMap::from_csv(&csv, "slope.csv").unwrap();
+        let mut program = String::from("%\n(a part)\nG21 G90 G17 G64\nG0 X0 Y0 Z1\nG1 Z0 F300\n");
+        for i in 0..40 {
+            let y = i as f64 * 0.5;
+            program += &format!("G1 X{} Y{y} F{}\n", [0, 60][i % 2], [1200, 3000][i % 2]);
+            program += &format!("G3 X{} Y{} R0.25\n", [0, 60][i % 2], y + 0.5);
+        }
+        program += "G61\nG1 X10 Y10\nG2 X20 Y10 I5 J0\nM2\n%\n";
+        let header = crate::io::provenance::ProgramHeader::for_compensation(
+            vec![("slope.csv".into(), sha256_hex(csv.as_bytes()))],
+            None,
+            Setup::default(),
+            &CompensateOptions::default(),
+            "2026-01-01T00:00:00Z".into(),
+        );
+        let mut copy = Vec::new();
+        let mut out = Vec::new();
+        Compensator::new(&map)
+            .header(header)
+            .copy_program_to(&mut copy)
+            .run(program.as_bytes(), &mut out)
+            .unwrap();
+        let (out, copy) = (
+            String::from_utf8(out).unwrap(),
+            String::from_utf8(copy).unwrap(),
+        );
+        // The output's lines are the copy's with the header's comment
+        // lines after the first (`%`).
+        let (out_lines, copy_lines): (Vec<_>, Vec<_>) =
+            (out.lines().collect(), copy.lines().collect());
+        let header_len = out_lines.len() - copy_lines.len();
+        assert!(header_len > 5, "{out}");
+        assert_eq!(out_lines[0], "%");
+        assert_eq!(copy_lines[0], "%");
+        assert!(out_lines[1..=header_len]
+            .iter()
+            .all(|l| l.starts_with('(') && l.ends_with(')')));
+        assert_eq!(out_lines[header_len + 1..], copy_lines[1..]);
+        // Timed as the output itself.
+        let setup = MachineSetup::default();
+        let limits = crate::plan::Limits::default();
+        let timed = |p: &str| {
+            crate::plan::estimate_program(p.as_bytes(), "p.ngc", &setup, &limits).unwrap()
+        };
+        let (of_out, of_copy) = (timed(&out), timed(&copy));
+        assert!(of_out.motion.periods > 1000, "{of_out:?}");
+        assert_eq!(of_copy, of_out);
     }
 
     #[test]

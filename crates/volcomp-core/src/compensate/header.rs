@@ -97,7 +97,30 @@ pub fn describe_options(o: &CompensateOptions) -> (String, String) {
     (method, parts.join(", "))
 }
 
-/// [`compensate_program`] with the header inserted at the top of the output.
+/// A writer that also hands what passes through it to a second writer,
+/// when one is given.
+struct CopyTo<'a, W> {
+    inner: W,
+    copy: Option<&'a mut dyn Write>,
+}
+
+impl<W: Write> Write for CopyTo<'_, W> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        if let Some(c) = self.copy.as_mut() {
+            c.write_all(&buf[..n])?;
+        }
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// [`compensate_program`] with the header inserted at the top of the
+/// output; the program without its header (the header is comment lines
+/// only) is also written to `body_copy`, when given, as it is made.
 #[allow(clippy::too_many_arguments)]
 pub fn compensate_program_with_header<R: BufRead>(
     walker: &mut Walker<R>,
@@ -107,15 +130,23 @@ pub fn compensate_program_with_header<R: BufRead>(
     options: &CompensateOptions,
     header: &ProgramHeader,
     out: &mut dyn Write,
+    body_copy: Option<&mut dyn Write>,
     on_point: impl FnMut(&PointRecord),
 ) -> Result<CompensateSummary, CompensationError> {
     // The header says what was done at reversals, which is known once the
     // program has been written: the body waits in a spool (in memory up to
     // BODY_IN_MEMORY, then in an unnamed temporary file) until then.
     // Buffered: once the spool has rolled over to its file, every line
-    // would otherwise be a write system call of its own.
-    let mut spool =
-        io::BufWriter::with_capacity(64 << 10, tempfile::SpooledTempFile::new(BODY_IN_MEMORY));
+    // would otherwise be a write system call of its own. The copy goes on
+    // meanwhile (a machining-time estimate of the program reads it while
+    // the compensation runs, not after it).
+    let mut spool = io::BufWriter::with_capacity(
+        64 << 10,
+        CopyTo {
+            inner: tempfile::SpooledTempFile::new(BODY_IN_MEMORY),
+            copy: body_copy,
+        },
+    );
     let summary = compensate_program(
         walker,
         file,
@@ -127,7 +158,8 @@ pub fn compensate_program_with_header<R: BufRead>(
     )?;
     let mut body = spool
         .into_inner()
-        .map_err(|e| CompensationError::from(e.into_error()))?;
+        .map_err(|e| CompensationError::from(e.into_error()))?
+        .inner;
     let mut lines = header.lines();
     let end = lines.len().saturating_sub(1);
     lines.insert(

@@ -7,7 +7,8 @@ use crate::compensate::MachineSetup;
 use crate::error::Error;
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError, TrySendError};
+use std::sync::{Condvar, Mutex};
 
 /// The estimated time of a program and, when given, of its original.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -118,11 +119,14 @@ pub fn compare_programs(
 
 /// Estimates the program `write` writes (named `name`) while it is being
 /// written, and, when given, its `original`, each on a thread of its own
-/// beside the writing: on a machine with two cores the estimates take
-/// little more wait than the writing alone. The written bytes reach the
-/// estimate in chunks of fixed size through a bounded channel, so the
-/// memory held stays bounded whatever the program's length. When `write`
-/// fails the estimates are stopped and its error returned.
+/// beside the writing. The written bytes reach the estimate in chunks of
+/// fixed size through a bounded channel, so the memory held stays bounded
+/// whatever the program's length. While the writing goes on the two
+/// estimates take turns (see [`Turns`]): together they keep to one core,
+/// and the writing, which the estimate of its program follows, keeps the
+/// other of a two-core machine to itself; once it is done both run at
+/// once. When `write` fails the estimates are stopped and its error
+/// returned.
 pub fn compare_while_writing<T, E>(
     name: &str,
     original: Option<(Box<dyn Read + Send + '_>, &str)>,
@@ -131,11 +135,19 @@ pub fn compare_while_writing<T, E>(
 ) -> Result<(T, Result<TimeComparison, Error>), E> {
     let limits = Limits::from_setup(setup.setup.limits.as_ref());
     let stop = AtomicBool::new(false);
+    let turns = Turns::default();
     let (tx, rx) = sync_channel(CHUNKS_IN_FLIGHT);
     let (written, program, original) = std::thread::scope(|scope| {
-        let stop = &stop;
+        let (stop, turns) = (&stop, &turns);
+        // However the writing ends (a panic included), the original's
+        // estimate no longer waits for turns.
+        let _writing = WritingDone(turns);
         let original = original.map(|(r, name)| {
-            let r = Stoppable { inner: r, stop };
+            let r = Stoppable {
+                inner: r,
+                stop,
+                turns,
+            };
             scope.spawn(move || estimate_program(r, name, setup, &limits))
         });
         let program = scope.spawn(move || {
@@ -143,12 +155,14 @@ pub fn compare_while_writing<T, E>(
                 rx,
                 chunk: Vec::new(),
                 at: 0,
+                turns,
             };
             estimate_program(r, name, setup, &limits)
         });
         let mut sink = ChunkWriter {
             tx: Some(tx),
             buf: Vec::with_capacity(CHUNK_BYTES),
+            turns,
         };
         let written = write(&mut sink);
         if written.is_ok() {
@@ -158,6 +172,7 @@ pub fn compare_while_writing<T, E>(
         }
         // The end of the program: the estimate reads to here.
         drop(sink);
+        turns.writing_done();
         (written, joined(program), original.map(joined))
     });
     Ok((written?, comparison(setup, program, original)))
@@ -191,24 +206,40 @@ const CHUNKS_IN_FLIGHT: usize = 4;
 /// Collects written bytes into chunks and sends each when full. Once the
 /// estimate no longer reads (it ended on an error), the bytes are
 /// dropped: the writing goes on, the estimate's error is what is reported.
-struct ChunkWriter {
+struct ChunkWriter<'a> {
     tx: Option<SyncSender<Vec<u8>>>,
     buf: Vec<u8>,
+    turns: &'a Turns,
 }
 
-impl ChunkWriter {
+impl ChunkWriter<'_> {
     fn send(&mut self) {
         if self.buf.is_empty() {
             return;
         }
         let full = std::mem::replace(&mut self.buf, Vec::with_capacity(CHUNK_BYTES));
-        if self.tx.as_ref().is_some_and(|tx| tx.send(full).is_err()) {
+        let Some(tx) = &self.tx else {
+            return;
+        };
+        let sent = match tx.try_send(full) {
+            Ok(()) => Ok(()),
+            Err(TrySendError::Full(full)) => {
+                // The estimate is behind: while the writing waits for
+                // it, the original's estimate may take the idle core.
+                self.turns.writer_waits(true);
+                let sent = tx.send(full);
+                self.turns.writer_waits(false);
+                sent.map_err(drop)
+            }
+            Err(TrySendError::Disconnected(_)) => Err(()),
+        };
+        if sent.is_err() {
             self.tx = None;
         }
     }
 }
 
-impl Write for ChunkWriter {
+impl Write for ChunkWriter<'_> {
     fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
         if self.tx.is_some() {
             self.buf.extend_from_slice(bytes);
@@ -224,20 +255,119 @@ impl Write for ChunkWriter {
     }
 }
 
+/// Which of the two estimates beside a writing runs: the written
+/// program's whenever it has bytes to read, the original's only while
+/// that one waits for the writing, until the writing is done (then both).
+///
+/// Three busy threads on two cores get two thirds of a core each, so
+/// the writing, which the written program's estimate follows, would run
+/// at two thirds of its speed for as long as the original's estimate
+/// runs; taking turns, the estimates share one core (they need less
+/// time than the writing) and the writing keeps the other.
+#[derive(Default)]
+struct Turns {
+    state: Mutex<TurnState>,
+    changed: Condvar,
+}
+
+#[derive(Default)]
+struct TurnState {
+    /// The written program's estimate has bytes to read.
+    program_busy: bool,
+    /// The writing waits for the written program's estimate (its chunks
+    /// in flight are full): the original's estimate may run meanwhile.
+    writer_waits: bool,
+    /// The writing is done (or failed): no more turns.
+    writing_done: bool,
+}
+
+impl Turns {
+    fn lock(&self) -> std::sync::MutexGuard<'_, TurnState> {
+        // A thread that panicked holding the lock left plain flags,
+        // valid as they are.
+        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// The written program's estimate has bytes to read (`true`) or
+    /// waits for the writing (`false`).
+    fn program_busy(&self, busy: bool) {
+        let mut s = self.lock();
+        if s.program_busy != busy {
+            s.program_busy = busy;
+            if !busy {
+                self.changed.notify_all();
+            }
+        }
+    }
+
+    /// The writing waits for the written program's estimate (`true`), or
+    /// no longer.
+    fn writer_waits(&self, waits: bool) {
+        self.lock().writer_waits = waits;
+        if waits {
+            self.changed.notify_all();
+        }
+    }
+
+    fn writing_done(&self) {
+        self.lock().writing_done = true;
+        self.changed.notify_all();
+    }
+
+    /// Waits until the original's estimate may run.
+    fn original_turn(&self) {
+        let mut s = self.lock();
+        while s.program_busy && !s.writer_waits && !s.writing_done {
+            s = self.changed.wait(s).unwrap_or_else(|p| p.into_inner());
+        }
+    }
+}
+
+/// Ends the turns when dropped (the writing returned or unwound).
+struct WritingDone<'a>(&'a Turns);
+
+impl Drop for WritingDone<'_> {
+    fn drop(&mut self) {
+        self.0.writing_done();
+    }
+}
+
 /// Reads the chunks a [`ChunkWriter`] sends, to the end of the program
-/// (the writer dropped).
-struct ChunkReader {
+/// (the writer dropped), telling the [`Turns`] whether it has bytes.
+struct ChunkReader<'a> {
     rx: Receiver<Vec<u8>>,
     chunk: Vec<u8>,
     at: usize,
+    turns: &'a Turns,
 }
 
-impl Read for ChunkReader {
+impl Drop for ChunkReader<'_> {
+    fn drop(&mut self) {
+        // The estimate ended (or failed): it reads no more.
+        self.turns.program_busy(false);
+    }
+}
+
+impl Read for ChunkReader<'_> {
     fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
         while self.at == self.chunk.len() {
-            match self.rx.recv() {
-                Ok(c) => (self.chunk, self.at) = (c, 0),
-                Err(_) => return Ok(0),
+            let chunk = match self.rx.try_recv() {
+                Ok(c) => Ok(c),
+                Err(TryRecvError::Empty) => {
+                    self.turns.program_busy(false);
+                    self.rx.recv().map_err(|_| ())
+                }
+                Err(TryRecvError::Disconnected) => Err(()),
+            };
+            match chunk {
+                Ok(c) => {
+                    self.turns.program_busy(true);
+                    (self.chunk, self.at) = (c, 0);
+                }
+                Err(()) => {
+                    self.turns.program_busy(false);
+                    return Ok(0);
+                }
             }
         }
         let n = out.len().min(self.chunk.len() - self.at);
@@ -247,15 +377,18 @@ impl Read for ChunkReader {
     }
 }
 
-/// A reader that fails once `stop` is set (the writing it runs beside
-/// failed: its estimate is not wanted).
+/// The original's reader beside a writing: it reads in its [`Turns`],
+/// and fails once `stop` is set (the writing failed: its estimate is not
+/// wanted).
 struct Stoppable<'a, R> {
     inner: R,
     stop: &'a AtomicBool,
+    turns: &'a Turns,
 }
 
 impl<R: Read> Read for Stoppable<'_, R> {
     fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        self.turns.original_turn();
         if self.stop.load(Ordering::Relaxed) {
             return Err(std::io::Error::other("the estimate was stopped"));
         }
@@ -334,6 +467,50 @@ mod tests {
         assert!(n > 100);
         assert_eq!(streamed.unwrap(), whole);
         assert!(whole.program.motion.total_s > 10.0 * whole.original.unwrap().motion.total_s);
+    }
+
+    #[test]
+    fn the_original_waits_while_the_written_program_has_bytes_until_the_writing_is_done() {
+        use std::sync::mpsc::channel;
+        use std::time::Duration;
+        let turns = Turns::default();
+        // Nothing written yet: the original's turn.
+        turns.original_turn();
+        std::thread::scope(|scope| {
+            let (go, go_rx) = channel::<()>();
+            let (ran, ran_rx) = channel();
+            let turns = &turns;
+            // The original's estimate: a turn each time it is told to try.
+            scope.spawn(move || {
+                for k in 1..=3 {
+                    go_rx.recv().unwrap();
+                    turns.original_turn();
+                    ran.send(k).unwrap();
+                }
+            });
+            let short = Duration::from_millis(50);
+            turns.program_busy(true);
+            go.send(()).unwrap();
+            assert!(
+                ran_rx.recv_timeout(short).is_err(),
+                "ran beside a busy estimate"
+            );
+            turns.program_busy(false);
+            assert_eq!(ran_rx.recv().unwrap(), 1);
+            // Busy again, but the writing waits for it: the original runs.
+            turns.program_busy(true);
+            turns.writer_waits(true);
+            go.send(()).unwrap();
+            assert_eq!(ran_rx.recv().unwrap(), 2);
+            turns.writer_waits(false);
+            go.send(()).unwrap();
+            assert!(
+                ran_rx.recv_timeout(short).is_err(),
+                "ran beside a busy estimate"
+            );
+            turns.writing_done();
+            assert_eq!(ran_rx.recv().unwrap(), 3);
+        });
     }
 
     #[test]
