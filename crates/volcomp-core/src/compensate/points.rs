@@ -6,7 +6,9 @@ use super::frame::Frame;
 use super::{
     command_error, model_error, CompensateOptions, DirectionPolicy, PointRecord, State, TakeUpRule,
 };
-use crate::compensate::solve::{hold_small_reversals, solve_consistent, solve_fixed, Method};
+use crate::compensate::solve::{
+    hold_small_reversals, solve_consistent, solve_fixed, Method, NearEval,
+};
 use crate::error::{CompensationError, ModelError};
 use crate::model::next_state;
 use crate::model::{Directions, ErrorModel};
@@ -47,8 +49,13 @@ fn take_up_command(
         }
     }
     let mut moves = reversed;
+    // The iteration's points lie micrometres apart: evaluated in the
+    // tables' cells. It stops where the command repeats bit for bit: every
+    // later round would compute the same command and the same `moves`.
+    let mut near = NearEval::new(model, s, Components::All);
     for _ in 0..8 {
-        let img = actual_mm(model, q, s, Components::All)?;
+        let img = q + near.deviation_um(q)? * 1e-3;
+        let before = q;
         for a in 0..3 {
             if reversed[a] {
                 q[a] += held[a] - img[a];
@@ -62,6 +69,9 @@ fn take_up_command(
                     (true, false) => toward[a],
                 };
             }
+        }
+        if (0..3).all(|a| q[a].to_bits() == before[a].to_bits()) {
+            break;
         }
     }
     let mut out = frame.quantize(q, q_prev);

@@ -56,6 +56,42 @@ impl Method {
     }
 }
 
+/// The model's deviation at a run of nearby points for one direction
+/// state and set of components: where the model gives its table cells
+/// ([`ErrorModel::deviation_cells`]), computed in them (the same value to
+/// the bit, [`Cells::deviation_um`]), the map looked up again only when a
+/// point leaves them; elsewhere [`ErrorModel::deviation_um`] itself.
+pub(crate) struct NearEval<'m> {
+    model: &'m dyn ErrorModel,
+    s: Directions,
+    components: Components,
+    cells: Option<Cells>,
+}
+
+impl<'m> NearEval<'m> {
+    /// No cells yet: the first point looks them up.
+    pub(crate) fn new(model: &'m dyn ErrorModel, s: Directions, components: Components) -> Self {
+        NearEval {
+            model,
+            s,
+            components,
+            cells: None,
+        }
+    }
+
+    /// `e(q, s)` in µm, [`ErrorModel::deviation_um`]'s value to the bit.
+    pub(crate) fn deviation_um(&mut self, q: Vec3) -> Result<Vec3, ModelError> {
+        if let Some(e) = self.cells.as_ref().and_then(|c| c.deviation_um(q)) {
+            return Ok(e);
+        }
+        self.cells = self.model.deviation_cells(q, self.s, self.components);
+        match self.cells.as_ref().and_then(|c| c.deviation_um(q)) {
+            Some(e) => Ok(e),
+            None => self.model.deviation_um(q, self.s, self.components),
+        }
+    }
+}
+
 /// Solves `q + e(q, s) = t` for fixed `s`, keeping the axes in `hold` at
 /// `held_q` (their residual is then whatever it is).
 pub fn solve_fixed(
@@ -117,20 +153,9 @@ pub fn solve_fixed(
             // model gives its table cells, the residual is computed in
             // them (the same value to the bit, `Cells::deviation_um`) and
             // the map is looked up again only when a point leaves them.
-            let mut cells: Option<Cells> = None;
+            let mut near = NearEval::new(model, s, comps);
             let mut residual = |q: Vec3| -> Result<Vec3, ModelError> {
-                let in_cells = |c: &Option<Cells>| c.as_ref().and_then(|c| c.deviation_um(q));
-                let e = match in_cells(&cells) {
-                    Some(e) => e,
-                    None => {
-                        cells = model.deviation_cells(q, s, comps);
-                        match in_cells(&cells) {
-                            Some(e) => e,
-                            None => model.deviation_um(q, s, comps)?,
-                        }
-                    }
-                };
-                Ok(t_mm - (q + e * 1e-3))
+                Ok(t_mm - (q + near.deviation_um(q)? * 1e-3))
             };
             let mut q = fix(t_mm);
             let mut r = residual(q)?;
