@@ -821,7 +821,9 @@ impl State<'_> {
         let mut ahead_hold: Option<(usize, [bool; 3])> = None;
         // The per-point records, passed on once the motion is solved (a
         // take-up moved ahead solves some targets again).
-        let mut records: Vec<PointRecord> = Vec::with_capacity(targets.len());
+        // (One buffer kept between motions: no allocation per line.)
+        let mut records = std::mem::take(&mut self.records);
+        records.clear();
         let mut index = 0;
         while index < targets.len() {
             if keep_history && history.len() == index {
@@ -1480,6 +1482,7 @@ impl State<'_> {
         for r in &records {
             (self.on_point)(r);
         }
+        self.records = records;
         Ok(commands)
     }
 
