@@ -275,52 +275,6 @@ fn window_deviation(r: f64, b: f64, arcs: &[BiarcArc; 2]) -> Option<f64> {
     Some(worst)
 }
 
-/// A lower bound of [`window_deviation`] where that gives a value, from
-/// every eighth of its samples (the same points to the bit). Wherever the
-/// sample lies, the tool there is at the command (rising), at the peak
-/// (frozen: at or above the highest sample and the command) or at the
-/// command plus `b` (engaged), so its distance from the path is at least
-/// the least of the three; a sample below an earlier one lies past the
-/// command's first fall, where the tool is frozen or engaged only. The
-/// rounding of each difference is monotonic, so the bound holds for the
-/// computed values. `NEG_INFINITY` where a sample is not finite.
-fn window_deviation_at_least(r: f64, b: f64, arcs: &[BiarcArc; 2]) -> f64 {
-    const N: usize = 200;
-    const STRIDE: usize = 8;
-    let y_n = |x: f64| (r * r - x * x).sqrt() - r;
-    let mut pts = [[0.0; 2]; 2 * (N / STRIDE) + 1];
-    pts[0] = arcs[0].start;
-    let mut n = 1;
-    for a in arcs {
-        let point = a.sampler();
-        for k in (STRIDE..=N).step_by(STRIDE) {
-            pts[n] = point(k as f64 / N as f64);
-            n += 1;
-        }
-    }
-    if pts.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
-        return f64::NEG_INFINITY;
-    }
-    let highest = pts.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p[1]));
-    let mut least = f64::NEG_INFINITY;
-    let mut top = f64::NEG_INFINITY;
-    let mut fallen = false;
-    for p in &pts {
-        let (x, y) = (p[0], p[1]);
-        fallen |= y < top;
-        top = top.max(y);
-        let yn = y_n(x);
-        let frozen = (highest.max(y) - yn).max(0.0);
-        let engaged = (y + b - yn).abs();
-        let mut d = frozen.min(engaged);
-        if !fallen {
-            d = d.min((y - yn).abs());
-        }
-        least = least.max(d);
-    }
-    least
-}
-
 /// The window that takes up a band `b` (mm) at a quarter point of an arc
 /// of radius `r` fed at `v` (mm/s) with the tool within `tol` (mm) of the
 /// path, at the least time on `planner`'s machine; `None` where no window
@@ -336,22 +290,6 @@ pub(super) fn best_window(
     v: f64,
     planner: &PlannerLimits,
     after_only: bool,
-) -> Option<Window> {
-    search_windows(r, b, tol, v, planner, after_only, true)
-}
-
-/// [`best_window`]'s search; with `prune`, a window whose deviation is
-/// bounded below ([`window_deviation_at_least`]) beyond the tolerance, or
-/// (costing no less) at or beyond the best window's, is not sampled
-/// whole: it could not be taken, so the result is the same.
-fn search_windows(
-    r: f64,
-    b: f64,
-    tol: f64,
-    v: f64,
-    planner: &PlannerLimits,
-    after_only: bool,
-    prune: bool,
 ) -> Option<Window> {
     let a_min = planner
         .max_acceleration_mm_s2
@@ -393,14 +331,6 @@ fn search_windows(
             // deviation, so the deviation (400 points) is not sampled.
             if best.is_some_and(|b| cost > b.cost_s + 1e-4) {
                 continue;
-            }
-            if prune {
-                let least = window_deviation_at_least(r, b, &arcs);
-                if least > tol
-                    || best.is_some_and(|b| !(cost < b.cost_s - 1e-4) && least >= b.deviation_mm)
-                {
-                    continue;
-                }
             }
             let Some(dev) = window_deviation(r, b, &arcs) else {
                 continue;
@@ -550,52 +480,5 @@ mod tests {
         let hand = r - (r * r - x * x).sqrt();
         assert!(dev >= hand, "{dev} vs {hand}");
         assert!(dev <= 2.0 * lo * lo / r, "{dev} vs {lo}");
-    }
-
-    /// The pruned search finds the window the whole search finds, to the
-    /// bit, on 600 arcs from 0.05 to 10 mm, bands of 0.5 to 5.5 µm, the
-    /// three rules' tolerances, feeds of 5 to 100 mm/s, from the point or
-    /// around it; and the bound is a bound: never above the deviation.
-    #[test]
-    fn the_pruned_window_search_is_the_whole_search() {
-        let p = PlannerLimits::default();
-        let mut seed: u64 = 0x853c_49e6_748f_ea9b;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let bits = |w: Option<Window>| {
-            w.map(|w| {
-                [
-                    w.before_mm,
-                    w.after_mm,
-                    w.deviation_mm,
-                    w.speed_mm_s,
-                    w.cost_s,
-                ]
-                .map(f64::to_bits)
-            })
-        };
-        let mut found = 0;
-        for i in 0..600 {
-            let r = if i % 2 == 0 { 0.1 } else { 0.05 + 10.0 * rnd() };
-            let b = 0.0005 + 0.005 * rnd();
-            let tol = 0.85 * [b, 0.4e-3, b.min(0.005)][i % 3];
-            let v = [5.0, 20.0, 50.0, 100.0][i % 4];
-            let after_only = i % 5 == 0;
-            let whole = search_windows(r, b, tol, v, &p, after_only, false);
-            let pruned = search_windows(r, b, tol, v, &p, after_only, true);
-            assert_eq!(bits(whole), bits(pruned), "r {r} b {b} tol {tol} v {v}");
-            found += usize::from(whole.is_some());
-            let w = 0.005 * 1.25f64.powi(i as i32 % 8);
-            if let Some(arcs) = window_biarc(r, b, if after_only { 0.0 } else { w }, w) {
-                if let Some(dev) = window_deviation(r, b, &arcs) {
-                    assert!(window_deviation_at_least(r, b, &arcs) <= dev);
-                }
-            }
-        }
-        assert!(found > 500, "{found}");
     }
 }
