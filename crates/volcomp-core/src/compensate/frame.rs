@@ -89,14 +89,12 @@ impl Frame {
         (self, style)
     }
 
-    #[inline]
     pub(super) fn round(&self, v: f64) -> f64 {
         let k = pow10(self.decimals);
         volcomp_gcode::number::round_bits(v * k) / k
     }
 
     /// Program-frame value (program units) of axis-frame `q`.
-    #[inline]
     pub(super) fn program(&self, q: Vec3) -> Vec3 {
         if self.rotation_deg != 0.0 {
             return self.program_mm(q) * (1.0 / self.mm_per_unit);
@@ -139,7 +137,6 @@ impl Frame {
 
     /// [`Self::word_value`] of the program point `p = self.program(q)`
     /// (computed once for the three axes).
-    #[inline]
     fn word_of(&self, p: Vec3, from: Vec3, a: usize) -> f64 {
         let k = if a == 0 { self.x_word_scale } else { 1.0 };
         if self.absolute {

@@ -31,7 +31,7 @@ enum At {
 
 impl Table {
     /// Linear interpolation at `x_mm`; `None` outside the range.
-    #[inline(always)]
+    #[inline]
     pub fn eval(&self, x_mm: f64) -> Option<Vec3> {
         Some(match self.at(x_mm)? {
             At::Point(v) => v,
@@ -40,7 +40,6 @@ impl Table {
     }
 
     /// The cell that holds `x_mm` ([`Cell`]); `None` outside the table.
-    #[inline(always)]
     pub fn cell(&self, x_mm: f64) -> Option<Cell> {
         Some(match self.at(x_mm)? {
             At::Point(v) => Cell {
