@@ -126,6 +126,7 @@ impl<'w> State<'w> {
             line_words: String::new(),
             states: Vec::new(),
             ramp_mids: Vec::new(),
+            records: Vec::new(),
             transitions: Vec::new(),
             transitions_written: Vec::new(),
             estimate_mm: 0.0,
@@ -813,6 +814,9 @@ struct State<'w> {
     /// The offset a take-up ramp puts on the middle of the piece that
     /// ends at each target (zero off a ramp), for the arc written through it.
     ramp_mids: Vec<Vec3>,
+    /// The per-point records of the motion being solved (a buffer kept
+    /// between motions, compensate/points.rs).
+    records: Vec<PointRecord>,
     /// S-curve take-ups of the arc the next [`State::solve_targets`] solves
     /// ([`arcs::plan_transitions`]); it takes them.
     transitions: Vec<arcs::Transition>,
