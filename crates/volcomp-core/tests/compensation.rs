@@ -342,6 +342,51 @@ fn the_path_control_mode_decides_a_reversal_across_the_path() {
 }
 
 #[test]
+fn under_g64_a_take_up_at_a_corner_is_over_within_a_millimetre_of_it() {
+    // The 45° reversal above at F1000 under G64 without P. The planner's
+    // blend at the corner takes d = R / tan 22.5° of each line, R = v²/a_n
+    // (v = 16.667 mm/s, a_n = 1000·√0.75 = 866.03 mm/s²): d = 0.77436 mm,
+    // so the pieces next to the corner keep 2d = 1.5487 mm (a lead piece
+    // of that length, before). Its take-up of 4 µm fades over it: at 1 mm
+    // from the corner the tool is still 4·(1 − 1/1.5487)·sin 45° = 1.0 µm
+    // off. On a lead piece of ℓ = 1 mm / (1 − 0.4 µm / 4 µm) = 1.1111 mm
+    // what is left after the band fades to 0.4 µm at 1 mm and to zero at
+    // the piece's end, and the blend keeps √(ℓ / 2d) = 85 % of its speed
+    // (at least 80 %). The piece ends at X 10 − ℓ/√2, Y ℓ/√2 (the target),
+    // commanded 4 µm lower in X (the reverse table), and the tool leaves
+    // the path there by 4·ℓx/(4 + ℓx)·sin 45° = 2.8141 µm (ℓx = ℓ/√2, µm).
+    let map = x_backlash_map(0.0);
+    let program = "G64\nG0 X0 Y0 Z0\nG1 X10 F1000\nG1 X5 Y5\nM2\n";
+    let mut records = Vec::new();
+    let (out, summary) = compensate_with(program, &map, &CompensateOptions::default(), |r| {
+        records.push(*r)
+    });
+    let ell = 1.0 / (1.0 - 0.4 / 4.0);
+    let lx = ell / 2f64.sqrt();
+    let lead: Vec<&PointRecord> = records.iter().filter(|r| r.line == 4).collect();
+    assert_eq!(lead.len(), 2, "a lead piece and the rest: {out}");
+    let t = lead[0].target_mm;
+    assert!(
+        (t.x - (10.0 - lx)).abs() < 1e-9 && (t.y - lx).abs() < 1e-9,
+        "lead piece ends at {t:?}, by hand ({}, {lx}): {out}",
+        10.0 - lx
+    );
+    assert!(
+        out.contains(&format!("X{:.5} Y{:.5}", 10.0 - lx - 0.004, lx)),
+        "{out}"
+    );
+    assert!(!out.contains("take-up"), "{out}");
+    let excursion_um = 4.0 * (lx * 1e3) / (4.0 + lx * 1e3) * std::f64::consts::FRAC_1_SQRT_2;
+    assert!(
+        (summary.max_fold_excursion_um - excursion_um).abs() < 0.005,
+        "{} vs {excursion_um}",
+        summary.max_fold_excursion_um
+    );
+    let report = against_original(&out, program, &map);
+    assert!(report.contour_max_um <= excursion_um + 0.06, "{report:?}");
+}
+
+#[test]
 fn the_rule_of_each_path_control_mode() {
     let o = CompensateOptions::default();
     let blend = |p: f64| PathMode::Blend {

@@ -147,7 +147,27 @@ fn fold_deviation_mm(lags: &[Vec3; 3], q_prev: Vec3, q: Vec3, nominal_delta: Vec
     };
     // Speed lane: with one direction the part across it is convex between
     // the breakpoints, so the ends and the breakpoints give the largest.
-    fold_deviation_sampled_mm(lags, q_prev, q, &|_| u, 1)
+    fold_deviation_sampled_mm(lags, q_prev, q, &|_| u, (0.0, 1))
+}
+
+/// [`fold_deviation_mm`] counted from the fraction `from_lambda` of the
+/// move on: what a fold leaves beyond that much of its path (mm). Zero
+/// where the reversing axes have crossed their bands and the command has
+/// caught the path up by then.
+fn fold_deviation_beyond_mm(
+    lags: &[Vec3; 3],
+    q_prev: Vec3,
+    q: Vec3,
+    nominal_delta: Vec3,
+    from_lambda: f64,
+) -> f64 {
+    let length = nominal_delta.norm();
+    let u = if length > 0.0 {
+        nominal_delta * (1.0 / length)
+    } else {
+        Vec3::ZERO
+    };
+    fold_deviation_sampled_mm(lags, q_prev, q, &|_| u, (from_lambda.clamp(0.0, 1.0), 1))
 }
 
 /// Whether a take-up `delta` folded into a piece of `piece_mm` turns the
@@ -211,16 +231,17 @@ fn fold_deviation_along_mm(
     q: Vec3,
     tangent: &dyn Fn(f64) -> Vec3,
 ) -> f64 {
-    fold_deviation_sampled_mm(lags, q_prev, q, tangent, 32)
+    fold_deviation_sampled_mm(lags, q_prev, q, tangent, (0.0, 32))
 }
 
-/// [`fold_deviation_along_mm`] sampled at `steps + 1` fractions.
+/// [`fold_deviation_along_mm`] sampled at `steps + 1` fractions from
+/// `from` to 1 (and at the breakpoints in between).
 fn fold_deviation_sampled_mm(
     lags: &[Vec3; 3],
     q_prev: Vec3,
     q: Vec3,
     tangent: &dyn Fn(f64) -> Vec3,
-    steps: u32,
+    (from, steps): (f64, u32),
 ) -> f64 {
     let dq = q - q_prev;
     let ratio = |a: usize| -> Option<f64> {
@@ -243,10 +264,12 @@ fn fold_deviation_sampled_mm(
         (off - u * off.dot(u)).norm()
     };
     let mut worst = (0..=steps).fold(0.0f64, |m, k| {
-        m.max(across(f64::from(k) / f64::from(steps)))
+        m.max(across(
+            from + (1.0 - from) * f64::from(k) / f64::from(steps),
+        ))
     });
     for a in 0..3 {
-        if let Some(r) = ratio(a).filter(|r| *r > 1.0) {
+        if let Some(r) = ratio(a).filter(|r| *r > 1.0 && 1.0 / *r >= from) {
             worst = worst.max(across(1.0 / r));
         }
     }
@@ -263,6 +286,27 @@ fn fold_deviation_sampled_mm(
 /// wants the contour tolerance there asks for it with the take-up
 /// tolerance (the G64 P rule, which keeps every take-up within it).
 pub(super) const RUN_THROUGH_TOLERANCE_MM: f64 = 0.4e-3;
+
+/// Under G64 without P, the path after a reversal within which its take-up
+/// is over (mm): beyond it the tool keeps within
+/// [`RUN_THROUGH_TOLERANCE_MM`] of the path. G64 lets the tool leave the
+/// path at a reversal by up to the axis' reversal value, as the
+/// controller's own backlash compensation does when it takes the band up
+/// at the reversal at the axis' limits; away from reversals the product's
+/// accuracy target holds (docs/compensation.md, "Reversals by
+/// path-control mode").
+pub(super) const TAKE_UP_REACH_MM: f64 = 1.0;
+
+/// Under G64 without P, the share of its speed a corner's blend keeps
+/// where a take-up's lead piece after the corner shortens it. LinuxCNC
+/// blends two lines with an arc that takes at most half of the next piece
+/// (`blendComputeParameters`, src/emc/tp/blendmath.c; the planner model's
+/// `line_line`), of radius `tan θ · d` for the length `d` it takes of each
+/// line, run at `√(a_n · tan θ · d)`: a lead piece `ℓ` shorter than twice
+/// the blend's own `d` (`Run::protect_mm`) keeps `√(ℓ / 2d)` of its speed.
+/// Slowing from `v` to 0.8 `v` and back costs at most about
+/// `(0.2 v)² / (a v) = 0.04 v/a` (4 ms at 100 mm/s and 1,000 mm/s²).
+const BLEND_SPEED_KEPT: f64 = 0.8;
 
 /// The share of the planner's tangency tolerance a take-up may turn the
 /// path by at a join (a fold or the ends of a ramp): the rest is for the
@@ -1189,13 +1233,9 @@ impl State<'_> {
                 // move, or where the original joins its moves without a
                 // corner.
                 let smooth = index > 0 || !run.corner_before;
-                let shortest = self.lead_shortest_mm(rule, &run, &lags, smooth).map(|s| {
-                    if index == 0 {
-                        s.max(run.protect_mm)
-                    } else {
-                        s
-                    }
-                });
+                let plain_shortest = self.lead_shortest_mm(rule, &run, &lags, smooth);
+                let shortest =
+                    plain_shortest.map(|s| if index == 0 { s.max(run.protect_mm) } else { s });
                 // A fold into this piece alone turns the path by the
                 // take-up over its length at both ends: where the planner
                 // would not take that as tangent, the take-up is spread
@@ -1317,6 +1357,10 @@ impl State<'_> {
                         &point,
                     )
                     .map_err(|source| model_error(file, line, source))?;
+                    let within_tolerance = lead.is_some();
+                    // The excursion of the lead piece taken beyond the
+                    // tolerance (µm), counted once it is chosen.
+                    let mut lead_excursion_um = 0.0f64;
                     // Under G64 a take-up that no lead piece keeps within
                     // the tolerance still gets the shortest one the planner
                     // runs at speed, where the rule allows what it leaves:
@@ -1349,12 +1393,92 @@ impl State<'_> {
                             });
                             let b = fold_deviation_mm(&lags, self.q_out, q, lead_t - t_prev);
                             if consistent && b <= allowed {
-                                self.summary.max_fold_excursion_um =
-                                    self.summary.max_fold_excursion_um.max(b * 1e3);
+                                lead_excursion_um = b * 1e3;
                                 lead = Some(f);
                             }
                         }
                     }
+                    // G64 without P: the take-up over within the reach
+                    // after the reversal ([`TAKE_UP_REACH_MM`]), on the
+                    // longest lead piece that leaves no more beyond it.
+                    let reach = TAKE_UP_REACH_MM;
+                    if let (TakeUpRule::Always, Some(plain), true) = (
+                        rule,
+                        plain_shortest,
+                        reach > 0.0 && length > 0.0 && !within_tolerance,
+                    ) {
+                        let lead_q = |f: f64| -> Result<Option<Vec3>, CompensationError> {
+                            let q = solve_fixed(
+                                model,
+                                options.method,
+                                at(f),
+                                point.s,
+                                [false; 3],
+                                self.q_out,
+                            )
+                            .map(|sol| quantize(sol.q_mm))
+                            .map_err(|source| model_error(file, line, source))?;
+                            let consistent = (0..3).all(|a| {
+                                !point.reversed[a]
+                                    || crate::model::Direction::of_delta(q[a] - self.q_out[a])
+                                        == Some(point.s[a])
+                            });
+                            Ok(consistent.then_some(q))
+                        };
+                        let tail = |q: Vec3, piece_mm: f64, nominal: Vec3| {
+                            fold_deviation_beyond_mm(
+                                &lags,
+                                self.q_out,
+                                q,
+                                nominal,
+                                reach / piece_mm.max(1e-12),
+                            )
+                        };
+                        let tail_now = match lead {
+                            Some(f) => lead_q(f)?
+                                .map_or(f64::INFINITY, |q| tail(q, f * length, at(f) - t_prev)),
+                            None => tail(point.q_mm, length, t - t_prev),
+                        };
+                        if tail_now > RUN_THROUGH_TOLERANCE_MM {
+                            let total = lags.iter().fold(Vec3::ZERO, |s, l| s + *l).norm();
+                            // Not so short that the corner's blend before it
+                            // loses more than its share of speed, and the
+                            // rest of the move long enough for the blend at
+                            // its end alike.
+                            let keep = BLEND_SPEED_KEPT * BLEND_SPEED_KEPT;
+                            let floor = if index == 0 {
+                                plain.max(keep * run.protect_mm)
+                            } else {
+                                plain
+                            };
+                            let mut piece = if total > RUN_THROUGH_TOLERANCE_MM {
+                                reach / (1.0 - RUN_THROUGH_TOLERANCE_MM / total)
+                            } else {
+                                length
+                            }
+                            .min(length - plain.max(keep * run.protect_end_mm));
+                            while piece >= floor {
+                                let f = piece / length;
+                                if let Some(q) = lead_q(f)? {
+                                    let lead_t = at(f);
+                                    if tail(q, piece, lead_t - t_prev) <= RUN_THROUGH_TOLERANCE_MM {
+                                        let b = fold_deviation_mm(
+                                            &lags,
+                                            self.q_out,
+                                            q,
+                                            lead_t - t_prev,
+                                        );
+                                        lead_excursion_um = b * 1e3;
+                                        lead = Some(f);
+                                        break;
+                                    }
+                                }
+                                piece *= 0.8;
+                            }
+                        }
+                    }
+                    self.summary.max_fold_excursion_um =
+                        self.summary.max_fold_excursion_um.max(lead_excursion_um);
                     let lead_kinks = lead
                         .is_some_and(|f| !self::fold_is_tangent(delta, kink_tolerance, f * length));
                     if let Some(held) = held_instead(hold_alt.take_if(|_| lead_kinks))? {
