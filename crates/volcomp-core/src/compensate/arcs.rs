@@ -336,6 +336,37 @@ pub(super) struct Transition {
     pub(super) axis: usize,
     pub(super) direction: Direction,
     pub(super) deviation_mm: f64,
+    /// Where the step the S-curve makes in the plane's normal axis is to
+    /// be spread as a smooth step (the arc parameters of its start and
+    /// end, both cuts of the pieces; [`normal_step_span`]), if anywhere.
+    pub(super) spread: Option<(f64, f64)>,
+}
+
+/// The span (arc parameters) over which the step `step_mm` that an
+/// S-curve from `lo` to `hi` makes in the plane's normal axis is spread
+/// as a smooth step `3u² − 2u³` whose joins the planner takes as tangent,
+/// on an arc of `length_mm` cut into pieces of about `piece_mm`: a smooth
+/// step over `L` turns the path by at most `6|Δ|ℓ/L²` at a join between
+/// pieces of `ℓ`, so it needs `L = √(6|Δ|ℓ/κ)` (`κ` the share of the
+/// planner's tangency tolerance, tp.c `tpSetupTangent`), centred on the
+/// S-curve; `None` where the S-curve's own length keeps the step's turn
+/// within `κ` at its joins (then nothing is spread).
+pub(super) fn normal_step_span(
+    (lo, hi): (f64, f64),
+    length_mm: f64,
+    step_mm: f64,
+    (piece_mm, kappa): (f64, f64),
+) -> Option<(f64, f64)> {
+    let s_mm = (hi - lo) * length_mm;
+    if !(s_mm > 0.0 && kappa > 0.0 && piece_mm > 0.0) || step_mm.abs() <= kappa * s_mm {
+        return None;
+    }
+    let need_mm = (6.0 * step_mm.abs() * piece_mm / kappa).sqrt();
+    if need_mm <= s_mm {
+        return None;
+    }
+    let d = 0.5 * (need_mm - s_mm) / length_mm;
+    Some((lo - d, hi + d))
 }
 
 /// The plane axis whose coordinate is extreme at parameter `t` of `arc`
@@ -376,11 +407,12 @@ pub(super) fn plan_transitions(
     planner: &super::PlannerLimits,
     min_length_mm: f64,
     smooth_start: bool,
+    spread: Option<(f64, f64)>,
 ) -> Result<(Vec<f64>, Vec<Transition>), ModelError> {
     let length = arc.length();
     let r = 0.5 * (arc.start_radius() + arc.end_radius());
     let mut out: Vec<f64> = pieces.to_vec();
-    let mut found: Vec<(f64, f64, usize, Direction, f64)> = Vec::new();
+    let mut found: Vec<(f64, f64, usize, Direction, f64, f64)> = Vec::new();
     if !(length > 0.0 && r > 0.0 && v_mm_s > 0.0) {
         return Ok((out, Vec::new()));
     }
@@ -388,6 +420,7 @@ pub(super) fn plan_transitions(
     // 10 µm along the arc: the axis moves by 5·10⁻⁵ µm/mm of radius there,
     // far above the rounding of the point's angle.
     let step = 0.01 / length.max(1e-9);
+    let w = arc.plane.axes().2;
     // The window of the quarter point at `to` where the direction state
     // is `s`: the reversing axis, its new direction and the window, if the
     // rule asks for an S-curve there and one fits.
@@ -406,6 +439,9 @@ pub(super) fn plan_transitions(
         let e_old = model.deviation_um(p0, s_old, Components::All)?;
         let e_new = model.deviation_um(p0, s_new, Components::All)?;
         let band_mm = (e_old[a] - e_new[a]) * new.sign() * 1e-3;
+        // The step the S-curve makes in the plane's normal axis (its
+        // straightness across the plane switching tables).
+        let step_w_mm = (e_old[w] - e_new[w]) * 1e-3;
         if band_mm <= 0.0 {
             return Ok(None);
         }
@@ -417,7 +453,7 @@ pub(super) fn plan_transitions(
         // tolerance.
         Ok(
             super::scurve::best_window(r, band_mm, 0.85 * tol, v_mm_s, planner, after_only)
-                .map(|w| (a, new, w)),
+                .map(|win| (a, new, win, step_w_mm)),
         )
     };
     // A reversal at the start, where the block before ends and the
@@ -428,8 +464,8 @@ pub(super) fn plan_transitions(
         if let Some(a) = extreme_axis(arc, 0.0) {
             let moves = Direction::of_delta(arc.point_at(step)[a] - arc.start[a]);
             if moves.is_some_and(|d| s_before[a] == d.flipped()) {
-                if let Some((a, new, w)) = window_at(0.0, s_before, true)? {
-                    found.push((0.0, w.after_mm / length, a, new, w.deviation_mm));
+                if let Some((a, new, win, _)) = window_at(0.0, s_before, true)? {
+                    found.push((0.0, win.after_mm / length, a, new, win.deviation_mm, 0.0));
                 }
             }
         }
@@ -442,13 +478,15 @@ pub(super) fn plan_transitions(
         if to >= 1.0 {
             break;
         }
-        if let Some((a, new, w)) = window_at(to, s, false)? {
-            let (lo, hi) = (to - w.before_mm / length, to + w.after_mm / length);
-            found.push((lo, hi, a, new, w.deviation_mm));
+        if let Some((a, new, win, step_w)) = window_at(to, s, false)? {
+            let (lo, hi) = (to - win.before_mm / length, to + win.after_mm / length);
+            found.push((lo, hi, a, new, win.deviation_mm, step_w));
         }
     }
     let mut transitions = Vec::new();
-    for (lo, hi, a, new, dev) in found {
+    // The windows taken (their ends, for the spans below).
+    let mut taken: Vec<(f64, f64, f64)> = Vec::new();
+    for (lo, hi, a, new, dev, step_w) in found {
         if lo <= 0.0 {
             // The window from the start: its end is the first cut.
             let after = out.iter().find(|c| **c > hi).copied().unwrap_or(1.0);
@@ -462,7 +500,9 @@ pub(super) fn plan_transitions(
                 axis: a,
                 direction: new,
                 deviation_mm: dev,
+                spread: None,
             });
+            taken.push((0.0, hi, 0.0));
             continue;
         }
         let before = out.iter().rev().find(|c| **c < lo).copied().unwrap_or(0.0);
@@ -479,7 +519,53 @@ pub(super) fn plan_transitions(
             axis: a,
             direction: new,
             deviation_mm: dev,
+            spread: None,
         });
+        taken.push((lo, hi, step_w));
+    }
+    // Under G61, the normal axis' step spread as a smooth step around each
+    // S-curve: cuts about `piece_mm` apart over its span, none inside a
+    // window nor nearer than `min_step` to another cut; a span that leaves
+    // the block is not used.
+    if let Some((piece_mm, kappa)) = spread {
+        for (k, &(lo, hi, step_w)) in taken.iter().enumerate() {
+            let Some((a, b)) = (lo > 0.0)
+                .then(|| normal_step_span((lo, hi), length, step_w, (piece_mm, kappa)))
+                .flatten()
+            else {
+                continue;
+            };
+            let clear = |x: f64| taken.iter().all(|t| x < t.0 || x > t.1);
+            if a <= min_step || b >= 1.0 - min_step || !clear(a) || !clear(b) {
+                continue;
+            }
+            let cuts_on = |from: f64, to: f64| -> Vec<f64> {
+                let n = ((to - from).abs() * length / piece_mm).round().max(1.0) as usize;
+                (1..=n)
+                    .map(|j| from + (to - from) * j as f64 / n as f64)
+                    .collect()
+            };
+            for c in cuts_on(lo, a).into_iter().chain(cuts_on(hi, b)) {
+                let free = out.iter().all(|x| (x - c).abs() >= min_step);
+                if free && clear(c) {
+                    let at = out.partition_point(|x| *x < c);
+                    out.insert(at, c);
+                }
+            }
+            // The span ends at the cuts nearest its ends.
+            let nearest = |e: f64| {
+                out.iter()
+                    .copied()
+                    .filter(|x| (x - e).abs() < min_step.max(0.5 * piece_mm / length))
+                    .min_by(|x, y| (x - e).abs().total_cmp(&(y - e).abs()))
+            };
+            if let (Some(a), Some(b)) = (nearest(a), nearest(b)) {
+                transitions[k].spread = Some((a, b));
+            }
+        }
+        for (k, t) in taken.iter().enumerate() {
+            transitions[k].index = out.partition_point(|x| *x < t.1 - 1e-15);
+        }
     }
     Ok((out, transitions))
 }
@@ -622,6 +708,18 @@ impl State<'_> {
             super::TakeUpRule::Always => Some(band_mm),
             super::TakeUpRule::Exact { smooth: false } => None,
         };
+        // Under G61 the step an S-curve makes in the plane's normal axis
+        // is spread as a smooth step over pieces the planner runs at the
+        // feed, within the share of its tangency tolerance a ramp may use.
+        let v_mm_s = run.feed_mm_min.unwrap_or(0.0) / 60.0;
+        let spread = (matches!(rule, super::TakeUpRule::Exact { smooth: true }) && v_mm_s > 0.0)
+            .then(|| {
+                let w = arc.plane.axes().2;
+                (
+                    super::points::shortest_ramp_piece_mm(options, v_mm_s),
+                    super::points::RAMP_SHARE * options.planner.tangent_tolerance(v_mm_s, true)[w],
+                )
+            });
         let (pieces, transitions) = plan_transitions(
             arc,
             &pieces,
@@ -632,6 +730,7 @@ impl State<'_> {
             &options.planner,
             min_length_mm,
             !run.corner_before,
+            spread,
         )
         .map_err(|source| model_error(file, line, source))?;
         self.transitions = transitions;
