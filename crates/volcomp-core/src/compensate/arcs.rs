@@ -85,6 +85,13 @@ pub(super) fn commanded_arc(nominal: &Arc, start: Vec3, mid: Vec3, end: Vec3) ->
     })
 }
 
+/// The largest change of a correction's slope per millimetre of path
+/// (1/mm) that a map can make: a sagitta `Δs` over a chord `c` is such a
+/// bend of `8·Δs/c²`. A correction of micrometres that changes its slope
+/// by 10 µm/mm within a millimetre is ten times beyond a ripple of 2 µm
+/// over 10 mm (`A·(2π/λ)²` = 0.8·10⁻³/mm).
+const MAX_CORRECTION_BEND_PER_MM: f64 = 1e-2;
+
 /// The centre to write for a compensated piece of the nominal arc `piece`
 /// (commanded `start`, `mid`, `end`), or `None` to write the piece as a G1
 /// chord when the piece departs from its own chord by no more than
@@ -94,12 +101,24 @@ pub(super) fn commanded_arc(nominal: &Arc, start: Vec3, mid: Vec3, end: Vec3) ->
 /// half: the rounding of the written ends, up to 0.09 µm, then dominates
 /// a sagitta of a few tenths of a µm, or the points are collinear): then
 /// the nominal centre moved by the mean correction of the two ends.
+///
+/// With `turn_tolerance` (G61, where the planner must join the pieces
+/// without a stop) the circle through the three points is also refused
+/// where its sagitta differs from the nominal one by more than would turn
+/// the piece's end tangents by that much (`4·Δs/c` for a chord `c`): on a
+/// short piece (a ramp's, 0.2 mm) a few hundredths of a micrometre at the
+/// middle (a take-up's share across the plane, the rounding of the
+/// written ends) bend it by milliradians, far more than the compensation
+/// itself turns the path over so short a piece. Only where the nominal
+/// circle so moved stays within the chord tolerance of the three points,
+/// or where the bend the three points make is one no map makes
+/// ([`MAX_CORRECTION_BEND_PER_MM`]): on a long piece the compensated path
+/// itself bends by more.
 pub(super) fn piece_center(
     piece: &Arc,
-    start: Vec3,
-    mid: Vec3,
-    end: Vec3,
+    (start, mid, end): (Vec3, Vec3, Vec3),
     chord_tolerance_mm: f64,
+    turn_tolerance: Option<f64>,
 ) -> Option<Vec3> {
     let sagitta = sagitta_mm(piece);
     if sagitta <= chord_tolerance_mm {
@@ -107,7 +126,14 @@ pub(super) fn piece_center(
     }
     if let Some(cmd) = commanded_arc(piece, start, mid, end) {
         let fitted = cmd.start_radius() * (1.0 - (0.5 * cmd.sweep_rad.abs()).min(FRAC_PI_2).cos());
-        if (fitted - sagitta).abs() <= 0.5 * sagitta {
+        let chord = (end - start).norm();
+        let off = (fitted - sagitta).abs();
+        let bends = turn_tolerance.is_some_and(|k| {
+            4.0 * off > k * chord
+                && (off <= chord_tolerance_mm
+                    || 8.0 * off / (chord * chord) > MAX_CORRECTION_BEND_PER_MM)
+        });
+        if (fitted - sagitta).abs() <= 0.5 * sagitta && !bends {
             return Some(cmd.center);
         }
     }
@@ -651,6 +677,10 @@ pub(super) struct Piecewise<'a> {
     pub(super) arc: &'a Arc,
     pub(super) pieces: &'a [f64],
     pub(super) radius_style: bool,
+    /// Under G61, how far a piece's end tangents may turn from the
+    /// nominal arc's ([`piece_center`]): half the planner's tangency
+    /// tolerance in the plane at the feed; `None` elsewhere.
+    pub(super) turn_tolerance: Option<f64>,
 }
 
 impl State<'_> {
@@ -768,6 +798,7 @@ impl State<'_> {
             arc,
             pieces,
             radius_style,
+            turn_tolerance,
         } = p;
         let start0 = from;
         let (mut from, mut l_from) = (from, 0.0);
@@ -788,7 +819,12 @@ impl State<'_> {
             .q_mm
                 + self.ramp_mids.get(i).copied().unwrap_or(Vec3::ZERO);
             let mut w = ArcWords {
-                center: piece_center(&piece, start, q_mid, *q, options.chord_tolerance_mm),
+                center: piece_center(
+                    &piece,
+                    (start, q_mid, *q),
+                    options.chord_tolerance_mm,
+                    turn_tolerance,
+                ),
                 plane: arc.plane,
                 clockwise: arc.clockwise(),
                 radius_style,

@@ -490,6 +490,28 @@ pub(super) fn shortest_ramp_piece_mm(options: &CompensateOptions, v_mm_s: f64) -
     (2.0 * options.planner.shortest_at_feed_mm(v_mm_s * 60.0)).max(min_segment)
 }
 
+/// Under G61 (where the planner stops at a join it does not take as
+/// tangent), half its tangency tolerance in the plane of `arc` at the
+/// run's feed (tp.c `tpSetupTangent`): how far a piece's end tangents may
+/// turn from the nominal arc's ([`super::arcs::piece_center`]); `None`
+/// under the other modes.
+pub(super) fn piece_turn_tolerance(
+    options: &CompensateOptions,
+    run: &Run,
+    arc: &volcomp_gcode::Arc,
+) -> Option<f64> {
+    let v_mm_s = run.feed_mm_min? / 60.0;
+    if !matches!(
+        options.take_up_rule(run.mode),
+        TakeUpRule::Exact { smooth: true }
+    ) {
+        return None;
+    }
+    let (u, v, _) = arc.plane.axes();
+    let tol = options.planner.tangent_tolerance(v_mm_s, true);
+    Some(0.5 * tol[u].min(tol[v]))
+}
+
 /// Under G61, the step an S-curve makes in the plane's normal axis `w`
 /// (its axis' straightness across the plane switching tables with its
 /// direction: tenths of a micrometre over the S-curve's few tenths of a
