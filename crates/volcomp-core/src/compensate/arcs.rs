@@ -121,7 +121,11 @@ pub(super) fn piece_center(
     turn_tolerance: Option<f64>,
 ) -> Option<Vec3> {
     let sagitta = sagitta_mm(piece);
-    if sagitta <= chord_tolerance_mm {
+    // Under G61 a chord that turns from the arc's tangent at its ends (by
+    // half the piece's sweep) by more than the turn allowed stays an arc:
+    // the planner would stop at both its ends.
+    let chord_turns = turn_tolerance.is_some_and(|k| 0.5 * piece.sweep_rad.abs() > k);
+    if sagitta <= chord_tolerance_mm && !chord_turns {
         return None;
     }
     if let Some(cmd) = commanded_arc(piece, start, mid, end) {
@@ -944,6 +948,52 @@ mod tests {
     use super::*;
     use crate::model::ALL_FORWARD;
     use volcomp_gcode::Plane;
+
+    #[test]
+    fn under_g61_a_short_piece_bent_by_its_middle_keeps_the_nominal_circle() {
+        // A piece of 0.2 mm of a circle of R15 about the origin (sweep
+        // 0.2/15 rad), every point moved by the same correction (1, −2) µm,
+        // its middle 0.09 µm further out: the circle through the three
+        // points has a sagitta of 0.333 + 0.09 µm, R ≈ 15·0.333/0.423 =
+        // 11.8 mm, its end tangents turned by 4·0.09 µm / 0.2 mm = 1.8 mrad
+        // from the nominal circle's. Under G61 (half the tangency tolerance
+        // at F6000 with an arc: 0.2475 mrad) the nominal centre moved by
+        // the correction (0.001, −0.002) is written; elsewhere the three
+        // points' circle, as before. An 8 mm piece bent by 0.5 µm at its
+        // middle (a bend of 8·0.5 µm/(8 mm)² = 6·10⁻⁵/mm, which a map
+        // makes) keeps its three points' circle in both.
+        let r = 15.0;
+        let arc_of = |length: f64| Arc {
+            start: Vec3::new(r, 0.0, 0.0),
+            end: Vec3::new(r * (length / r).cos(), r * (length / r).sin(), 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: length / r,
+        };
+        let shift = Vec3::new(0.001, -0.002, 0.0);
+        let ends = |piece: &Arc, out_um: f64| {
+            let mid = piece.point_at(0.5);
+            let radial = mid * (1.0 / mid.norm());
+            (
+                piece.start + shift,
+                mid + shift + radial * (out_um * 1e-3),
+                piece.end + shift,
+            )
+        };
+        let short = arc_of(0.2);
+        let tol = Some(0.5 * 0.1 * 1000.0 / (100.0 / 0.001 + 1000.0));
+        let g61 = piece_center(&short, ends(&short, 0.09), 1e-7, tol).unwrap();
+        assert!((g61 - shift).norm() < 1e-12, "{g61:?}");
+        let other = piece_center(&short, ends(&short, 0.09), 1e-7, None).unwrap();
+        let (s, _, _) = ends(&short, 0.09);
+        let fitted_r = (s - other).norm();
+        assert!((fitted_r - 11.8).abs() < 0.1, "{other:?} R {fitted_r}");
+        let long = arc_of(8.0);
+        for t in [tol, None] {
+            let c = piece_center(&long, ends(&long, 0.5), 1e-7, t).unwrap();
+            assert!((c - shift).norm() > 1e-3, "{t:?}: {c:?}");
+        }
+    }
 
     #[test]
     fn circle_through_three_points_of_a_known_circle() {
