@@ -596,6 +596,96 @@ fn under_g61_a_reversal_that_an_s_curve_causes_is_taken_up_ahead_of_it() {
     }
 }
 
+/// The turn of Z's slope (dZ per mm of path, the Z part of the unit
+/// tangent for so small a slope) at each join between consecutive XY arcs
+/// of a program written in absolute mm, with the X, Y of the join: an
+/// arc's slope is its Z travel over its length `r·|Θ|` (LinuxCNC runs Z
+/// linear along a helix). A line between two arcs starts over.
+fn z_slope_turns(out: &str) -> Vec<(f64, f64, f64)> {
+    let word = |line: &str, letter: char| {
+        line.split_whitespace()
+            .find(|w| w.starts_with(letter))
+            .map(|w| w[1..].parse::<f64>().unwrap())
+    };
+    let mut p = Vec3::ZERO;
+    let mut before: Option<f64> = None;
+    let mut turns = Vec::new();
+    for line in out.lines() {
+        let code = line.split('(').next().unwrap().trim();
+        let (x, y, z) = (word(code, 'X'), word(code, 'Y'), word(code, 'Z'));
+        if x.is_none() && y.is_none() && z.is_none() {
+            continue;
+        }
+        let next = Vec3::new(x.unwrap_or(p.x), y.unwrap_or(p.y), z.unwrap_or(p.z));
+        let ccw = code.starts_with("G3");
+        if ccw || code.starts_with("G2") {
+            let c = Vec3::new(
+                p.x + word(code, 'I').unwrap(),
+                p.y + word(code, 'J').unwrap(),
+                0.0,
+            );
+            let angle = |q: Vec3| (q.y - c.y).atan2(q.x - c.x);
+            let tau = std::f64::consts::TAU;
+            let mut sweep = angle(next) - angle(p);
+            if ccw && sweep <= 0.0 {
+                sweep += tau;
+            } else if !ccw && sweep >= 0.0 {
+                sweep -= tau;
+            }
+            let r = 0.5 * ((p - c).norm() + (next - c).norm());
+            let slope = (next.z - p.z) / (r * sweep.abs());
+            if let Some(b) = before {
+                turns.push((p.x, p.y, slope - b));
+            }
+            before = Some(slope);
+        } else {
+            before = None;
+        }
+        p = next;
+    }
+    turns
+}
+
+#[test]
+fn under_g61_the_step_an_s_curve_makes_across_the_plane_is_spread_tangent() {
+    // The circle of the test above: where Y reverses at the bottom (an
+    // S-curve of about 0.3 mm), its forward table moves the tool 0.3 µm in
+    // Z, so Z's command steps 0.3 µm across the S-curve: written straight
+    // across it, Z's slope turns by about 0.3 µm / 0.3 mm = 1 mrad at both
+    // its joins (1.19 and 1.27 mrad), above LinuxCNC's tangency tolerance
+    // at F6000 with an arc, 0.1 · 1000 / (100 / 0.001 + 1000) / 2 =
+    // 0.495 mrad (tp.c tpSetupTangent), so the planner stops there twice.
+    // Spread as a smooth step over L = √(6 · 0.3 µm · 0.2 mm / (0.6 ·
+    // 0.495 mrad)) = 1.10 mm of pieces of 0.2 mm (twice the feed per servo
+    // period), every join near the bottom turns Z's slope by less than
+    // that tolerance, and the tool stays within the 0.4 µm a take-up run
+    // through may leave.
+    let map = map_from(|a, p, rev| match (a, rev) {
+        (0, _) => [0.0, 0.0, 0.02 * p.abs()],
+        (1, true) => [0.0, 3.0, 0.0],
+        (1, false) => [0.0, 0.0, 0.3],
+        (2, true) => [0.0, 0.0, 2.0],
+        _ => [0.0; 3],
+    });
+    // Written to 0.01 µm, as CAM programs are (one step of 0.1 µm would
+    // turn a 0.2 mm piece by 0.5 mrad).
+    let program = "G61\nG0 X0.00000 Y10.00000 Z0.00000\nG2 X0.00000 Y10.00000 I0.00000 J-10.00000 F6000\nM2\n";
+    let (out, _) = compensate(program, &map, CompensateOptions::default());
+    let near: Vec<(f64, f64, f64)> = z_slope_turns(&out)
+        .into_iter()
+        .filter(|(x, y, _)| x.abs() < 3.0 && *y < -9.0)
+        .collect();
+    // The S-curve's two joins and the spread's pieces (0.2 mm apart
+    // within about 0.6 mm of the bottom).
+    let spread = near.iter().filter(|(x, ..)| x.abs() < 0.7).count();
+    assert!(spread >= 5, "{near:?}: {out}");
+    for (x, _, turn) in &near {
+        assert!(turn.abs() < 0.495e-3, "Z turns by {turn} at X {x}: {out}");
+    }
+    let report = against_original(&out, program, &map);
+    assert!(report.contour_max_um < 0.4 + 0.01, "{report:?}: {out}");
+}
+
 #[test]
 fn under_g61_a_take_up_block_moves_a_crossing_axis_as_far_as_its_next_command() {
     // X reverses at the corner X5 (band 4 µm) and its reverse table moves

@@ -85,6 +85,13 @@ pub(super) fn commanded_arc(nominal: &Arc, start: Vec3, mid: Vec3, end: Vec3) ->
     })
 }
 
+/// The largest change of a correction's slope per millimetre of path
+/// (1/mm) that a map can make: a sagitta `Δs` over a chord `c` is such a
+/// bend of `8·Δs/c²`. A correction of micrometres that changes its slope
+/// by 10 µm/mm within a millimetre is ten times beyond a ripple of 2 µm
+/// over 10 mm (`A·(2π/λ)²` = 0.8·10⁻³/mm).
+const MAX_CORRECTION_BEND_PER_MM: f64 = 1e-2;
+
 /// The centre to write for a compensated piece of the nominal arc `piece`
 /// (commanded `start`, `mid`, `end`), or `None` to write the piece as a G1
 /// chord when the piece departs from its own chord by no more than
@@ -94,20 +101,43 @@ pub(super) fn commanded_arc(nominal: &Arc, start: Vec3, mid: Vec3, end: Vec3) ->
 /// half: the rounding of the written ends, up to 0.09 µm, then dominates
 /// a sagitta of a few tenths of a µm, or the points are collinear): then
 /// the nominal centre moved by the mean correction of the two ends.
+///
+/// With `turn_tolerance` (G61, where the planner must join the pieces
+/// without a stop) the circle through the three points is also refused
+/// where its sagitta differs from the nominal one by more than would turn
+/// the piece's end tangents by that much (`4·Δs/c` for a chord `c`): on a
+/// short piece (a ramp's, 0.2 mm) a few hundredths of a micrometre at the
+/// middle (a take-up's share across the plane, the rounding of the
+/// written ends) bend it by milliradians, far more than the compensation
+/// itself turns the path over so short a piece. Only where the nominal
+/// circle so moved stays within the chord tolerance of the three points,
+/// or where the bend the three points make is one no map makes
+/// ([`MAX_CORRECTION_BEND_PER_MM`]): on a long piece the compensated path
+/// itself bends by more.
 pub(super) fn piece_center(
     piece: &Arc,
-    start: Vec3,
-    mid: Vec3,
-    end: Vec3,
+    (start, mid, end): (Vec3, Vec3, Vec3),
     chord_tolerance_mm: f64,
+    turn_tolerance: Option<f64>,
 ) -> Option<Vec3> {
     let sagitta = sagitta_mm(piece);
-    if sagitta <= chord_tolerance_mm {
+    // Under G61 a chord that turns from the arc's tangent at its ends (by
+    // half the piece's sweep) by more than the turn allowed stays an arc:
+    // the planner would stop at both its ends.
+    let chord_turns = turn_tolerance.is_some_and(|k| 0.5 * piece.sweep_rad.abs() > k);
+    if sagitta <= chord_tolerance_mm && !chord_turns {
         return None;
     }
     if let Some(cmd) = commanded_arc(piece, start, mid, end) {
         let fitted = cmd.start_radius() * (1.0 - (0.5 * cmd.sweep_rad.abs()).min(FRAC_PI_2).cos());
-        if (fitted - sagitta).abs() <= 0.5 * sagitta {
+        let chord = (end - start).norm();
+        let off = (fitted - sagitta).abs();
+        let bends = turn_tolerance.is_some_and(|k| {
+            4.0 * off > k * chord
+                && (off <= chord_tolerance_mm
+                    || 8.0 * off / (chord * chord) > MAX_CORRECTION_BEND_PER_MM)
+        });
+        if (fitted - sagitta).abs() <= 0.5 * sagitta && !bends {
             return Some(cmd.center);
         }
     }
@@ -336,6 +366,37 @@ pub(super) struct Transition {
     pub(super) axis: usize,
     pub(super) direction: Direction,
     pub(super) deviation_mm: f64,
+    /// Where the step the S-curve makes in the plane's normal axis is to
+    /// be spread as a smooth step (the arc parameters of its start and
+    /// end, both cuts of the pieces; [`normal_step_span`]), if anywhere.
+    pub(super) spread: Option<(f64, f64)>,
+}
+
+/// The span (arc parameters) over which the step `step_mm` that an
+/// S-curve from `lo` to `hi` makes in the plane's normal axis is spread
+/// as a smooth step `3u² − 2u³` whose joins the planner takes as tangent,
+/// on an arc of `length_mm` cut into pieces of about `piece_mm`: a smooth
+/// step over `L` turns the path by at most `6|Δ|ℓ/L²` at a join between
+/// pieces of `ℓ`, so it needs `L = √(6|Δ|ℓ/κ)` (`κ` the share of the
+/// planner's tangency tolerance, tp.c `tpSetupTangent`), centred on the
+/// S-curve; `None` where the S-curve's own length keeps the step's turn
+/// within `κ` at its joins (then nothing is spread).
+pub(super) fn normal_step_span(
+    (lo, hi): (f64, f64),
+    length_mm: f64,
+    step_mm: f64,
+    (piece_mm, kappa): (f64, f64),
+) -> Option<(f64, f64)> {
+    let s_mm = (hi - lo) * length_mm;
+    if !(s_mm > 0.0 && kappa > 0.0 && piece_mm > 0.0) || step_mm.abs() <= kappa * s_mm {
+        return None;
+    }
+    let need_mm = (6.0 * step_mm.abs() * piece_mm / kappa).sqrt();
+    if need_mm <= s_mm {
+        return None;
+    }
+    let d = 0.5 * (need_mm - s_mm) / length_mm;
+    Some((lo - d, hi + d))
 }
 
 /// The plane axis whose coordinate is extreme at parameter `t` of `arc`
@@ -376,11 +437,12 @@ pub(super) fn plan_transitions(
     planner: &super::PlannerLimits,
     min_length_mm: f64,
     smooth_start: bool,
+    spread: Option<(f64, f64)>,
 ) -> Result<(Vec<f64>, Vec<Transition>), ModelError> {
     let length = arc.length();
     let r = 0.5 * (arc.start_radius() + arc.end_radius());
     let mut out: Vec<f64> = pieces.to_vec();
-    let mut found: Vec<(f64, f64, usize, Direction, f64)> = Vec::new();
+    let mut found: Vec<(f64, f64, usize, Direction, f64, f64)> = Vec::new();
     if !(length > 0.0 && r > 0.0 && v_mm_s > 0.0) {
         return Ok((out, Vec::new()));
     }
@@ -388,6 +450,7 @@ pub(super) fn plan_transitions(
     // 10 µm along the arc: the axis moves by 5·10⁻⁵ µm/mm of radius there,
     // far above the rounding of the point's angle.
     let step = 0.01 / length.max(1e-9);
+    let w = arc.plane.axes().2;
     // The window of the quarter point at `to` where the direction state
     // is `s`: the reversing axis, its new direction and the window, if the
     // rule asks for an S-curve there and one fits.
@@ -406,6 +469,9 @@ pub(super) fn plan_transitions(
         let e_old = model.deviation_um(p0, s_old, Components::All)?;
         let e_new = model.deviation_um(p0, s_new, Components::All)?;
         let band_mm = (e_old[a] - e_new[a]) * new.sign() * 1e-3;
+        // The step the S-curve makes in the plane's normal axis (its
+        // straightness across the plane switching tables).
+        let step_w_mm = (e_old[w] - e_new[w]) * 1e-3;
         if band_mm <= 0.0 {
             return Ok(None);
         }
@@ -417,7 +483,7 @@ pub(super) fn plan_transitions(
         // tolerance.
         Ok(
             super::scurve::best_window(r, band_mm, 0.85 * tol, v_mm_s, planner, after_only)
-                .map(|w| (a, new, w)),
+                .map(|win| (a, new, win, step_w_mm)),
         )
     };
     // A reversal at the start, where the block before ends and the
@@ -428,8 +494,8 @@ pub(super) fn plan_transitions(
         if let Some(a) = extreme_axis(arc, 0.0) {
             let moves = Direction::of_delta(arc.point_at(step)[a] - arc.start[a]);
             if moves.is_some_and(|d| s_before[a] == d.flipped()) {
-                if let Some((a, new, w)) = window_at(0.0, s_before, true)? {
-                    found.push((0.0, w.after_mm / length, a, new, w.deviation_mm));
+                if let Some((a, new, win, _)) = window_at(0.0, s_before, true)? {
+                    found.push((0.0, win.after_mm / length, a, new, win.deviation_mm, 0.0));
                 }
             }
         }
@@ -442,13 +508,15 @@ pub(super) fn plan_transitions(
         if to >= 1.0 {
             break;
         }
-        if let Some((a, new, w)) = window_at(to, s, false)? {
-            let (lo, hi) = (to - w.before_mm / length, to + w.after_mm / length);
-            found.push((lo, hi, a, new, w.deviation_mm));
+        if let Some((a, new, win, step_w)) = window_at(to, s, false)? {
+            let (lo, hi) = (to - win.before_mm / length, to + win.after_mm / length);
+            found.push((lo, hi, a, new, win.deviation_mm, step_w));
         }
     }
     let mut transitions = Vec::new();
-    for (lo, hi, a, new, dev) in found {
+    // The windows taken (their ends, for the spans below).
+    let mut taken: Vec<(f64, f64, f64)> = Vec::new();
+    for (lo, hi, a, new, dev, step_w) in found {
         if lo <= 0.0 {
             // The window from the start: its end is the first cut.
             let after = out.iter().find(|c| **c > hi).copied().unwrap_or(1.0);
@@ -462,7 +530,9 @@ pub(super) fn plan_transitions(
                 axis: a,
                 direction: new,
                 deviation_mm: dev,
+                spread: None,
             });
+            taken.push((0.0, hi, 0.0));
             continue;
         }
         let before = out.iter().rev().find(|c| **c < lo).copied().unwrap_or(0.0);
@@ -479,7 +549,53 @@ pub(super) fn plan_transitions(
             axis: a,
             direction: new,
             deviation_mm: dev,
+            spread: None,
         });
+        taken.push((lo, hi, step_w));
+    }
+    // Under G61, the normal axis' step spread as a smooth step around each
+    // S-curve: cuts about `piece_mm` apart over its span, none inside a
+    // window nor nearer than `min_step` to another cut; a span that leaves
+    // the block is not used.
+    if let Some((piece_mm, kappa)) = spread {
+        for (k, &(lo, hi, step_w)) in taken.iter().enumerate() {
+            let Some((a, b)) = (lo > 0.0)
+                .then(|| normal_step_span((lo, hi), length, step_w, (piece_mm, kappa)))
+                .flatten()
+            else {
+                continue;
+            };
+            let clear = |x: f64| taken.iter().all(|t| x < t.0 || x > t.1);
+            if a <= min_step || b >= 1.0 - min_step || !clear(a) || !clear(b) {
+                continue;
+            }
+            let cuts_on = |from: f64, to: f64| -> Vec<f64> {
+                let n = ((to - from).abs() * length / piece_mm).round().max(1.0) as usize;
+                (1..=n)
+                    .map(|j| from + (to - from) * j as f64 / n as f64)
+                    .collect()
+            };
+            for c in cuts_on(lo, a).into_iter().chain(cuts_on(hi, b)) {
+                let free = out.iter().all(|x| (x - c).abs() >= min_step);
+                if free && clear(c) {
+                    let at = out.partition_point(|x| *x < c);
+                    out.insert(at, c);
+                }
+            }
+            // The span ends at the cuts nearest its ends.
+            let nearest = |e: f64| {
+                out.iter()
+                    .copied()
+                    .filter(|x| (x - e).abs() < min_step.max(0.5 * piece_mm / length))
+                    .min_by(|x, y| (x - e).abs().total_cmp(&(y - e).abs()))
+            };
+            if let (Some(a), Some(b)) = (nearest(a), nearest(b)) {
+                transitions[k].spread = Some((a, b));
+            }
+        }
+        for (k, t) in taken.iter().enumerate() {
+            transitions[k].index = out.partition_point(|x| *x < t.1 - 1e-15);
+        }
     }
     Ok((out, transitions))
 }
@@ -565,6 +681,10 @@ pub(super) struct Piecewise<'a> {
     pub(super) arc: &'a Arc,
     pub(super) pieces: &'a [f64],
     pub(super) radius_style: bool,
+    /// Under G61, how far a piece's end tangents may turn from the
+    /// nominal arc's ([`piece_center`]): half the planner's tangency
+    /// tolerance in the plane at the feed; `None` elsewhere.
+    pub(super) turn_tolerance: Option<f64>,
 }
 
 impl State<'_> {
@@ -622,6 +742,18 @@ impl State<'_> {
             super::TakeUpRule::Always => Some(band_mm),
             super::TakeUpRule::Exact { smooth: false } => None,
         };
+        // Under G61 the step an S-curve makes in the plane's normal axis
+        // is spread as a smooth step over pieces the planner runs at the
+        // feed, within the share of its tangency tolerance a ramp may use.
+        let v_mm_s = run.feed_mm_min.unwrap_or(0.0) / 60.0;
+        let spread = (matches!(rule, super::TakeUpRule::Exact { smooth: true }) && v_mm_s > 0.0)
+            .then(|| {
+                let w = arc.plane.axes().2;
+                (
+                    super::points::shortest_ramp_piece_mm(options, v_mm_s),
+                    super::points::RAMP_SHARE * options.planner.tangent_tolerance(v_mm_s, true)[w],
+                )
+            });
         let (pieces, transitions) = plan_transitions(
             arc,
             &pieces,
@@ -632,6 +764,7 @@ impl State<'_> {
             &options.planner,
             min_length_mm,
             !run.corner_before,
+            spread,
         )
         .map_err(|source| model_error(file, line, source))?;
         self.transitions = transitions;
@@ -669,6 +802,7 @@ impl State<'_> {
             arc,
             pieces,
             radius_style,
+            turn_tolerance,
         } = p;
         let start0 = from;
         let (mut from, mut l_from) = (from, 0.0);
@@ -689,7 +823,12 @@ impl State<'_> {
             .q_mm
                 + self.ramp_mids.get(i).copied().unwrap_or(Vec3::ZERO);
             let mut w = ArcWords {
-                center: piece_center(&piece, start, q_mid, *q, options.chord_tolerance_mm),
+                center: piece_center(
+                    &piece,
+                    (start, q_mid, *q),
+                    options.chord_tolerance_mm,
+                    turn_tolerance,
+                ),
                 plane: arc.plane,
                 clockwise: arc.clockwise(),
                 radius_style,
@@ -809,6 +948,52 @@ mod tests {
     use super::*;
     use crate::model::ALL_FORWARD;
     use volcomp_gcode::Plane;
+
+    #[test]
+    fn under_g61_a_short_piece_bent_by_its_middle_keeps_the_nominal_circle() {
+        // A piece of 0.2 mm of a circle of R15 about the origin (sweep
+        // 0.2/15 rad), every point moved by the same correction (1, −2) µm,
+        // its middle 0.09 µm further out: the circle through the three
+        // points has a sagitta of 0.333 + 0.09 µm, R ≈ 15·0.333/0.423 =
+        // 11.8 mm, its end tangents turned by 4·0.09 µm / 0.2 mm = 1.8 mrad
+        // from the nominal circle's. Under G61 (half the tangency tolerance
+        // at F6000 with an arc: 0.2475 mrad) the nominal centre moved by
+        // the correction (0.001, −0.002) is written; elsewhere the three
+        // points' circle, as before. An 8 mm piece bent by 0.5 µm at its
+        // middle (a bend of 8·0.5 µm/(8 mm)² = 6·10⁻⁵/mm, which a map
+        // makes) keeps its three points' circle in both.
+        let r = 15.0;
+        let arc_of = |length: f64| Arc {
+            start: Vec3::new(r, 0.0, 0.0),
+            end: Vec3::new(r * (length / r).cos(), r * (length / r).sin(), 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: length / r,
+        };
+        let shift = Vec3::new(0.001, -0.002, 0.0);
+        let ends = |piece: &Arc, out_um: f64| {
+            let mid = piece.point_at(0.5);
+            let radial = mid * (1.0 / mid.norm());
+            (
+                piece.start + shift,
+                mid + shift + radial * (out_um * 1e-3),
+                piece.end + shift,
+            )
+        };
+        let short = arc_of(0.2);
+        let tol = Some(0.5 * 0.1 * 1000.0 / (100.0 / 0.001 + 1000.0));
+        let g61 = piece_center(&short, ends(&short, 0.09), 1e-7, tol).unwrap();
+        assert!((g61 - shift).norm() < 1e-12, "{g61:?}");
+        let other = piece_center(&short, ends(&short, 0.09), 1e-7, None).unwrap();
+        let (s, _, _) = ends(&short, 0.09);
+        let fitted_r = (s - other).norm();
+        assert!((fitted_r - 11.8).abs() < 0.1, "{other:?} R {fitted_r}");
+        let long = arc_of(8.0);
+        for t in [tol, None] {
+            let c = piece_center(&long, ends(&long, 0.5), 1e-7, t).unwrap();
+            assert!((c - shift).norm() > 1e-3, "{t:?}: {c:?}");
+        }
+    }
 
     #[test]
     fn circle_through_three_points_of_a_known_circle() {

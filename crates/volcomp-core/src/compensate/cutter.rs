@@ -248,6 +248,7 @@ impl State<'_> {
                         arc: &a,
                         pieces: &pieces,
                         radius_style: false,
+                        turn_tolerance: None,
                     },
                     &commands,
                     from,

@@ -442,6 +442,7 @@ impl<'w> State<'w> {
                     arc: &arc,
                     pieces: &pieces,
                     radius_style: line.words().any(|w| w.letter == b'R'),
+                    turn_tolerance: points::piece_turn_tolerance(options, &run, &arc),
                 },
                 &commands,
                 q_line_start,

@@ -311,7 +311,7 @@ const BLEND_SPEED_KEPT: f64 = 0.8;
 /// The share of the planner's tangency tolerance a take-up may turn the
 /// path by at a join (a fold or the ends of a ramp): the rest is for the
 /// compensation's own turn there, which adds to it.
-const RAMP_SHARE: f64 = 0.6;
+pub(super) const RAMP_SHARE: f64 = 0.6;
 
 /// A take-up spread over the path after the reversal (a ramp): the
 /// reversing axes run their new way from the reversal on, and the command
@@ -536,12 +536,112 @@ fn hold_on_ramp(q: &mut Vec3, prev: Vec3, s: Directions, hold: [bool; 3]) {
 /// The length of a smooth ramp's pieces (mm): twice the feed per servo
 /// period (the planner caps a segment's speed at its length per period,
 /// and a blend may take half of it), never below the shortest segment.
-fn shortest_ramp_piece_mm(options: &CompensateOptions, v_mm_s: f64) -> f64 {
+pub(super) fn shortest_ramp_piece_mm(options: &CompensateOptions, v_mm_s: f64) -> f64 {
     let min_segment = match options.segmentation {
         super::Segmentation::Adaptive { min_length_mm, .. } => min_length_mm,
         _ => super::DEFAULT_MIN_SEGMENT_LENGTH_MM,
     };
     (2.0 * options.planner.shortest_at_feed_mm(v_mm_s * 60.0)).max(min_segment)
+}
+
+/// Under G61 (where the planner stops at a join it does not take as
+/// tangent), half its tangency tolerance in the plane of `arc` at the
+/// run's feed (tp.c `tpSetupTangent`): how far a piece's end tangents may
+/// turn from the nominal arc's ([`super::arcs::piece_center`]); `None`
+/// under the other modes.
+pub(super) fn piece_turn_tolerance(
+    options: &CompensateOptions,
+    run: &Run,
+    arc: &volcomp_gcode::Arc,
+) -> Option<f64> {
+    let v_mm_s = run.feed_mm_min? / 60.0;
+    if !matches!(
+        options.take_up_rule(run.mode),
+        TakeUpRule::Exact { smooth: true }
+    ) {
+        return None;
+    }
+    let (u, v, _) = arc.plane.axes();
+    let tol = options.planner.tangent_tolerance(v_mm_s, true);
+    Some(0.5 * tol[u].min(tol[v]))
+}
+
+/// Under G61, the step an S-curve makes in the plane's normal axis `w`
+/// (its axis' straightness across the plane switching tables with its
+/// direction: tenths of a micrometre over the S-curve's few tenths of a
+/// millimetre, a turn of about 1 mrad at both its joins, above the
+/// planner's tangency tolerance, tp.c `tpSetupTangent`) spread over the
+/// span around it (arc parameters, both cuts; [`super::arcs::normal_step_span`])
+/// as a smooth step `3u² − 2u³`: each command from the span's start to its
+/// end moves along `w` by `Δ·(σ − H)`, with `Δ` the step the S-curve's
+/// commands make, `σ` the smooth step over the span and `H` the step as
+/// written (0 before the S-curve, linear across it, 1 after). The commands
+/// at the span's ends do not move.
+///
+/// Taken only where no take-up lies inside the span, `w` keeps one
+/// direction over it and the step goes that way (so no command turns
+/// against it), and the largest turn of `w`'s slope at the span's joins
+/// (as written, quantized) falls below `kappa` or at least below what it
+/// was. Returns the largest distance it adds to the path along `w` (mm).
+fn spread_normal_step(
+    (commands, states): (&mut [(Vec3, Option<Vec3>)], &[Directions]),
+    (arc, pieces, q_in): (&volcomp_gcode::Arc, &[f64], Vec3),
+    (index, (a, b)): (usize, (f64, f64)),
+    kappa: f64,
+    quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
+) -> Option<f64> {
+    let w = arc.plane.axes().2;
+    let n = commands.len().min(pieces.len()).min(states.len());
+    let find = |x: f64| pieces.iter().position(|p| (p - x).abs() < 1e-12);
+    let (k0, k1) = (find(a)?, find(b)?);
+    if !(index >= 1 && k0 < index - 1 && k1 > index && k1 + 1 < n) {
+        return None;
+    }
+    let (lo, hi) = (pieces[index - 1], pieces[index]);
+    let step = commands[index].0[w] - commands[index - 1].0[w];
+    let dir = states[index][w].sign();
+    if step * dir <= 0.0
+        || (k0 + 1..=k1).any(|k| states[k][w] != states[index][w])
+        || (k0 + 1..=k1).any(|k| commands[k].1.is_some())
+    {
+        return None;
+    }
+    let len = arc.length();
+    let at = |k: usize| if k == 0 { 0.0 } else { pieces[k - 1] };
+    let start_of = |q: &[Vec3], k: usize| if k == 0 { q_in } else { q[k - 1] };
+    // The largest turn of w's slope at the joins from the piece before the
+    // span to the one after it.
+    let worst_turn = |q: &[Vec3]| {
+        let slope = |k: usize| (q[k][w] - start_of(q, k)[w]) / ((pieces[k] - at(k)) * len);
+        (k0..=k1)
+            .map(|k| (slope(k + 1) - slope(k)).abs())
+            .fold(0.0f64, f64::max)
+    };
+    let before: Vec<Vec3> = commands[..=k1 + 1].iter().map(|c| c.0).collect();
+    let mut after = before.clone();
+    let mut added: f64 = 0.0;
+    for k in k0 + 1..k1 {
+        let u = (pieces[k] - a) / (b - a);
+        let sigma = u * u * (3.0 - 2.0 * u);
+        let h = ((pieces[k] - lo) / (hi - lo)).clamp(0.0, 1.0);
+        let mut q = after[k];
+        q[w] += step * (sigma - h);
+        let q = quantize(q, after[k - 1]);
+        added = added.max((q[w] - before[k][w]).abs());
+        after[k] = q;
+    }
+    // No command turns against w's direction.
+    if (k0 + 1..=k1).any(|k| (after[k][w] - after[k - 1][w]) * dir < 0.0) {
+        return None;
+    }
+    let (was, now) = (worst_turn(&before), worst_turn(&after));
+    if !(now <= kappa || now < was) {
+        return None;
+    }
+    for k in k0 + 1..k1 {
+        commands[k].0 = after[k];
+    }
+    Some(added)
 }
 
 /// What [`State::solve_targets`] had before solving a target: where it
@@ -834,6 +934,7 @@ impl State<'_> {
         } = motion;
         let rule = options.take_up_rule(run.mode);
         let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
+        let commands_start = self.q_out;
         self.states.clear();
         self.ramp_mids.clear();
         let mut t_prev = start;
@@ -1601,6 +1702,34 @@ impl State<'_> {
             self.s_nominal = next_state(self.s_nominal, *t - t_prev);
             t_prev = *t;
             index += 1;
+        }
+        // Under G61 the step an S-curve makes in the plane's normal axis,
+        // spread as a smooth step around it ([`spread_normal_step`]).
+        if let (TakeUpRule::Exact { smooth: true }, Leads::Arc { arc, pieces }) = (rule, &leads) {
+            let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+            let w = arc.plane.axes().2;
+            let kappa = RAMP_SHARE * options.planner.tangent_tolerance(v_mm_s.max(1e-9), true)[w];
+            let q_in = commands_start;
+            for tr in &transitions {
+                let Some(span) = tr.spread else { continue };
+                let spread = spread_normal_step(
+                    (&mut commands, &self.states),
+                    (arc, pieces, q_in),
+                    (tr.index, span),
+                    kappa,
+                    &|q, from| frame.quantize(q, from),
+                );
+                if let Some(added_mm) = spread {
+                    for (r, c) in records.iter_mut().zip(&commands) {
+                        r.command_mm = c.0;
+                    }
+                    // The S-curve's take-up is counted already: the bound
+                    // it may leave grows by the offset across the plane.
+                    let bound_um = tr.deviation_mm.hypot(added_mm) * 1e3;
+                    self.summary.max_fold_excursion_um =
+                        self.summary.max_fold_excursion_um.max(bound_um);
+                }
+            }
         }
         self.transitions_written = transitions;
         for r in &records {
