@@ -220,7 +220,7 @@ impl<R: BufRead> Walker<R> {
             if self.interp.finished() {
                 return self.next_after_end();
             }
-            // gcode lane: lines LinuxCNC generates in place of a return
+            // Lines LinuxCNC generates in place of a return
             // (an M73 restore), run as a rendered line of the return.
             if let Some(text) = self.flow.next_injected() {
                 let line = self.current.line as u64 + 1;

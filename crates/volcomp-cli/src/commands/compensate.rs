@@ -217,7 +217,7 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         .prepare(machine, ModelSource::File(map_path), now_utc(), &Flags)?;
     a.map.note(&mut job.header)?;
     let mut staged = Staged::new();
-    // Speed lane: the machining time is estimated while the program is
+    // The machining time is estimated while the program is
     // written, when it will be (not quiet, the output readable back).
     let readable = readable_output(&a, &output);
     let (kept, time) = if !crate::progress::quiet() && readable {

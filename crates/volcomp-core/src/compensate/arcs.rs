@@ -26,13 +26,13 @@ use volcomp_gcode::{Arc, Vec3};
 const LIMIT: u64 = crate::limits::MAX_POINTS_PER_BLOCK;
 
 /// Table points of one piece at which its departure is sampled at most
-/// (inputs lane: bounded work on dense maps). A piece that crosses more is
+/// (bounded work on dense maps). A piece that crosses more is
 /// sampled at this many of them, evenly by index: on a table that dense
 /// (points closer than the shortest piece) the map is smooth at the scale
 /// of a piece, and every level of bisection samples again.
 const KNOTS_PER_PIECE: usize = 32;
 
-/// The sorted knots of `knots` within `[lo, hi]` (inputs lane: a window
+/// The sorted knots of `knots` within `[lo, hi]` (a window
 /// by binary search, so an arc looks only at the table points it can
 /// cross, not at every point of a dense table).
 fn window(knots: &[f64], lo: f64, hi: f64) -> &[f64] {

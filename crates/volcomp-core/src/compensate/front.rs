@@ -194,7 +194,7 @@ impl<'a> Compensator<'a> {
             HEAD_BYTES as usize,
             std::io::Cursor::new(head).chain(program),
         );
-        // gcode lane: computed values (`F[1/3]`) are written with the
+        // Computed values (`F[1/3]`) are written with the
         // decimals of the compensated words, not 17 digits.
         let decimals = |default: u8| {
             self.options

@@ -85,7 +85,7 @@ pub fn compensate_program<R: BufRead>(
     // The set-up's `start` gives every axis a known position before the
     // program sets any; without it an axis is unknown until set.
     st.known = [walker.interpreter().start_given(); 3];
-    // gcode lane: every written line within LinuxCNC's 252 characters
+    // Every written line within LinuxCNC's 252 characters
     // (compensate/line_limit.rs); the count is of what reaches `out`.
     let mut counted = size::Counted::new(out);
     let mut out = line_limit::LineLimit::new(&mut counted);
@@ -131,7 +131,7 @@ impl<'w> State<'w> {
             transitions_written: Vec::new(),
             estimate_mm: 0.0,
             blocks_in: size::Blocks::default(),
-            // cycles lane: the run of canned cycles in the written program.
+            // The run of canned cycles in the written program.
             cycles: cycle_keep::Series::default(),
         }
     }
@@ -154,7 +154,7 @@ impl<'w> State<'w> {
             self.write_cycle(line)?;
             return Ok(own);
         }
-        // cycles lane: a line that leaves the canned cycle ends the run.
+        // A line that leaves the canned cycle ends the run.
         self.cycles.follow(ev.interp);
         if (ev.interp.cutter_comp_on() || has(MotionSource::CutterComp))
             && !ev.after_end

@@ -145,7 +145,7 @@ fn fold_deviation_mm(lags: &[Vec3; 3], q_prev: Vec3, q: Vec3, nominal_delta: Vec
     } else {
         Vec3::ZERO
     };
-    // Speed lane: with one direction the part across it is convex between
+    // With one direction the part across it is convex between
     // the breakpoints, so the ends and the breakpoints give the largest.
     fold_deviation_sampled_mm(lags, q_prev, q, &|_| u, (0.0, 1))
 }

@@ -326,7 +326,7 @@ pub(super) fn best_window(
             });
             let len = arcs[0].length() + arcs[1].length();
             let cost = (v - speed).powi(2) / (a_t * v) + len * (1.0 / speed - 1.0 / v);
-            // Speed lane: a window that costs more than the best so far
+            // A window that costs more than the best so far
             // (beyond the margin below) cannot replace it whatever its
             // deviation, so the deviation (400 points) is not sampled.
             if best.is_some_and(|b| cost > b.cost_s + 1e-4) {

@@ -233,7 +233,7 @@ fn knot_cuts(
         }
         let knots = model.knots_mm(axis, s[axis]);
         // Knots closer than the shortest segment along this axis to the
-        // last one taken are skipped by binary search (inputs lane: bounded
+        // last one taken are skipped by binary search (bounded
         // work on tables denser than the shortest segment); the filter
         // below would drop them anyway.
         let step = min_length_mm / length * (hi - lo);

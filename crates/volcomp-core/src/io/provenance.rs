@@ -355,7 +355,7 @@ impl<W: Write> Write for HeaderWriter<W> {
                 "\n"
             };
             if !self.seen_percent && !self.seen_number && t.is_empty() {
-                // gcode lane: blank lines before the opening `%` stay
+                // Blank lines before the opening `%` stay
                 // before it (LinuxCNC looks for `%` at the first non-blank
                 // line; a header there would make the `%` a stray one).
             } else if !self.seen_percent && !self.seen_number && t.starts_with('%') {

@@ -621,7 +621,7 @@ pub fn summary_lines(s: &CompensateSummary, output: &str) -> [String; 2] {
         ),
         None => "not estimated (fixed segmentation)".into(),
     };
-    // cycles lane: what became of the canned-cycle holes.
+    // What became of the canned-cycle holes.
     let cycles = if s.cycle_holes_kept + s.cycle_holes_expanded > 0 {
         format!(
             "; canned-cycle holes: {} kept as cycles (largest error they leave {}), {} written as moves",

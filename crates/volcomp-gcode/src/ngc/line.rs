@@ -67,7 +67,7 @@ pub enum OKind {
     /// `continue`
     Continue,
     /// A bare `O<name>` or `O<n>` line: the start of a Fanuc-style program,
-    /// which runs on (gcode lane).
+    /// which runs on.
     Program,
 }
 
@@ -101,7 +101,7 @@ pub struct OWord {
     /// The label: a number (as its decimal integer) or a `<name>` (lower case).
     pub label: String,
     /// A number label given as an expression (`o[#2 * 10]`, `o#1`), which
-    /// LinuxCNC evaluates when it reads the line (gcode lane): the flow
+    /// LinuxCNC evaluates when it reads the line: the flow
     /// evaluates it and sets `label`.
     pub label_expr: Option<(Expr, usize)>,
     /// The statement.

@@ -250,7 +250,7 @@ pub(crate) fn read_text(path: &std::path::Path) -> Result<String, ControllerRead
 }
 
 /// [`read_text`] of a file named inside `parent` (a `.COM` table of a
-/// `.CMA`, a comp file of an INI), recorded as such (inputs lane: every
+/// `.CMA`, a comp file of an INI), recorded as such (every
 /// file read is recorded by `volcomp_geom::inputs` for the output plan).
 pub(crate) fn read_named(
     path: &std::path::Path,
@@ -298,7 +298,7 @@ pub fn read(path: &std::path::Path) -> Result<ControllerCorrection, ControllerRe
         for (a, com) in assigned.iter().enumerate() {
             if let Some(com) = com {
                 let p = dir.join(com);
-                // inputs lane: a table that cannot be read is reported at
+                // A table that cannot be read is reported at
                 // the .CMA line that names it.
                 let t = read_named(&p, path).map_err(|e| match e {
                     ControllerReadError::Io { path: p, source } => {

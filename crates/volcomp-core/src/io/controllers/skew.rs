@@ -331,7 +331,7 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
             "expected a Klipper section with xy_skew, xz_skew, yz_skew, a Marlin M852 or a RepRapFirmware M556 line",
         ));
     };
-    // inputs lane: Klipper reads a stored profile with `getfloat` and no
+    // Klipper reads a stored profile with `getfloat` and no
     // default for each of the three factors (klippy/extras/skew_correction.py,
     // `_load_storage`), so it refuses a profile that lacks one; so does
     // volcomp, rather than take the missing factor as 0. (Marlin's M852
@@ -359,7 +359,7 @@ pub fn parse(text: &str, file: &str) -> Result<ControllerCorrection, ReadError> 
 mod tests {
     use super::*;
 
-    /// inputs lane: a Klipper profile without one of its three factors is
+    /// A Klipper profile without one of its three factors is
     /// refused at its section, as Klipper refuses it.
     #[test]
     fn a_klipper_profile_without_a_factor_is_refused() {
