@@ -2114,13 +2114,7 @@ mod tests {
         .unwrap();
         assert_eq!(tu, Vec3::new(9.996, 20.0, 30.0));
         let map = sloped_map();
-        let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::compensate::solve::tests::uniform(0x9e37_79b9_7f4a_7c15);
         let dir = |x: f64| if x < 0.5 { F } else { R };
         for k in 0..3000 {
             let q_prev = Vec3::new(1.0 + 98.0 * rnd(), 1.0 + 98.0 * rnd(), 1.0 + 98.0 * rnd());

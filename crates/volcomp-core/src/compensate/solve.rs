@@ -478,9 +478,34 @@ fn search_states(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
+    use crate::model::axis_table::AxisTableMap;
     use crate::model::{ByDirection, ALL_FORWARD};
+
+    /// An axis-table map without its cells: every residual looked up
+    /// through the whole map (the second method the cell paths are
+    /// checked against).
+    pub(in crate::compensate) struct Plain<'a>(pub &'a AxisTableMap);
+    impl ErrorModel for Plain<'_> {
+        fn deviation_um(&self, q: Vec3, s: Directions, c: Components) -> Result<Vec3, ModelError> {
+            self.0.deviation_um(q, s, c)
+        }
+        fn range_mm(&self) -> [[f64; 2]; 3] {
+            self.0.range_mm()
+        }
+    }
+
+    /// Uniform numbers in [0, 1) from a xorshift generator (Marsaglia
+    /// 2003): reproducible random cases for the tests.
+    pub(in crate::compensate) fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
 
     /// A test model: constant offset plus optional backlash on X and a linear term.
     struct Toy {
@@ -592,21 +617,6 @@ mod tests {
             "{:?}",
             s.q_mm
         );
-        /// The same map without its cells: every residual looked up.
-        struct Plain<'a>(&'a AxisTableMap);
-        impl ErrorModel for Plain<'_> {
-            fn deviation_um(
-                &self,
-                q: Vec3,
-                s: Directions,
-                c: Components,
-            ) -> Result<Vec3, ModelError> {
-                self.0.deviation_um(q, s, c)
-            }
-            fn range_mm(&self) -> [[f64; 2]; 3] {
-                self.0.range_mm()
-            }
-        }
         let held = Vec3::new(1.0, 1.0, 1.0);
         for (t, hold) in [
             (Vec3::new(5.005, 2.0025, 0.0), [false; 3]),
@@ -877,29 +887,8 @@ mod tests {
                    Z,forward,0,0,0,0\nZ,forward,50,0.4,-0.3,1\nZ,forward,100,0.2,0.1,2\n\
                    Z,reverse,0,0.1,0,2\nZ,reverse,50,0.5,-0.2,3\nZ,reverse,100,0.3,0.2,4\n";
         let m = AxisTableMap::from_csv(csv, "m.csv").unwrap();
-        /// The same map without its cells: every residual looked up.
-        struct Plain<'a>(&'a AxisTableMap);
-        impl ErrorModel for Plain<'_> {
-            fn deviation_um(
-                &self,
-                q: Vec3,
-                s: Directions,
-                c: Components,
-            ) -> Result<Vec3, ModelError> {
-                self.0.deviation_um(q, s, c)
-            }
-            fn range_mm(&self) -> [[f64; 2]; 3] {
-                self.0.range_mm()
-            }
-        }
         let quantize = |q: Vec3| q.map(|v| (v * 1e4).round() / 1e4);
-        let mut seed: u64 = 0x2545_f491_4f6c_dd1d;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = uniform(0x2545_f491_4f6c_dd1d);
         let dir = |x: f64| if x < 0.5 { F } else { R };
         let mut held = 0;
         for k in 0..2000 {
