@@ -545,6 +545,20 @@ fn under_g61_a_take_up_is_spread_as_a_smooth_step_over_short_pieces() {
     assert!(report.contour_max_um < 0.0104 + 0.1, "{report:?}: {out}");
 }
 
+/// X's table moves the tool 0.02 µm per mm of |X| in Z; Y has a 3 µm
+/// band, and its forward table moves the tool +0.3 µm in Z; Z has a 2 µm
+/// band: on a circle about the origin, Z's command steps 0.3 µm where Y
+/// reverses.
+fn z_step_at_y_reversal_map() -> volcomp_core::model::axis_table::AxisTableMap {
+    map_from(|a, p, rev| match (a, rev) {
+        (0, _) => [0.0, 0.0, 0.02 * p.abs()],
+        (1, true) => [0.0, 3.0, 0.0],
+        (1, false) => [0.0, 0.0, 0.3],
+        (2, true) => [0.0, 0.0, 2.0],
+        _ => [0.0; 3],
+    })
+}
+
 #[test]
 fn under_g61_a_reversal_that_an_s_curve_causes_is_taken_up_ahead_of_it() {
     // A G2 circle of R10 from the top, F6000. X's table moves the tool
@@ -558,13 +572,7 @@ fn under_g61_a_reversal_that_an_s_curve_causes_is_taken_up_ahead_of_it() {
     // step comes. By hand, at the S-curve's start (the last target with
     // X > 0): Z commanded −2 − 0.02·x µm (the new direction's −2 µm band,
     // x ≈ 0.1 mm), against −0.02·x µm with the take-up after it.
-    let map = map_from(|a, p, rev| match (a, rev) {
-        (0, _) => [0.0, 0.0, 0.02 * p.abs()],
-        (1, true) => [0.0, 3.0, 0.0],
-        (1, false) => [0.0, 0.0, 0.3],
-        (2, true) => [0.0, 0.0, 2.0],
-        _ => [0.0; 3],
-    });
+    let map = z_step_at_y_reversal_map();
     let program = "G61\nG0 X0 Y10 Z0\nG2 X0 Y10 I0 J-10 F6000\nM2\n";
     let mut records = Vec::new();
     let (out, summary) = compensate_with(program, &map, &CompensateOptions::default(), |r| {
@@ -660,13 +668,7 @@ fn under_g61_the_step_an_s_curve_makes_across_the_plane_is_spread_tangent() {
     // period), every join near the bottom turns Z's slope by less than
     // that tolerance, and the tool stays within the 0.4 µm a take-up run
     // through may leave.
-    let map = map_from(|a, p, rev| match (a, rev) {
-        (0, _) => [0.0, 0.0, 0.02 * p.abs()],
-        (1, true) => [0.0, 3.0, 0.0],
-        (1, false) => [0.0, 0.0, 0.3],
-        (2, true) => [0.0, 0.0, 2.0],
-        _ => [0.0; 3],
-    });
+    let map = z_step_at_y_reversal_map();
     // Written to 0.01 µm, as CAM programs are (one step of 0.1 µm would
     // turn a 0.2 mm piece by 0.5 mrad).
     let program = "G61\nG0 X0.00000 Y10.00000 Z0.00000\nG2 X0.00000 Y10.00000 I0.00000 J-10.00000 F6000\nM2\n";
