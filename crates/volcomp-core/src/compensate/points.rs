@@ -137,17 +137,7 @@ fn switch_lags_mm(
 /// it is the tool arriving later). Zero where every reversing axis'
 /// command crosses exactly its band.
 fn fold_deviation_mm(lags: &[Vec3; 3], q_prev: Vec3, q: Vec3, nominal_delta: Vec3) -> f64 {
-    // Along a straight move the direction is the same everywhere; where
-    // the move has no length every offset counts.
-    let length = nominal_delta.norm();
-    let u = if length > 0.0 {
-        nominal_delta * (1.0 / length)
-    } else {
-        Vec3::ZERO
-    };
-    // With one direction the part across it is convex between
-    // the breakpoints, so the ends and the breakpoints give the largest.
-    fold_deviation_sampled_mm(lags, q_prev, q, &|_| u, (0.0, 1))
+    fold_deviation_beyond_mm(lags, q_prev, q, nominal_delta, 0.0)
 }
 
 /// [`fold_deviation_mm`] counted from the fraction `from_lambda` of the
@@ -161,12 +151,16 @@ fn fold_deviation_beyond_mm(
     nominal_delta: Vec3,
     from_lambda: f64,
 ) -> f64 {
+    // Along a straight move the direction is the same everywhere; where
+    // the move has no length every offset counts.
     let length = nominal_delta.norm();
     let u = if length > 0.0 {
         nominal_delta * (1.0 / length)
     } else {
         Vec3::ZERO
     };
+    // With one direction the part across it is convex between
+    // the breakpoints, so the ends and the breakpoints give the largest.
     fold_deviation_sampled_mm(lags, q_prev, q, &|_| u, (from_lambda.clamp(0.0, 1.0), 1))
 }
 
