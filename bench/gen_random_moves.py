@@ -2,15 +2,17 @@
 """A random program of G-code moves for comparing machining-time estimates
 (bench/same_estimates.sh): lines from 1 um to 100 mm, arcs (R and IJ, in
 the three planes), rapids, every path-control mode (G61, G61.1, G64,
-G64 P, G64 P Q), feeds per minute, inverse time (G93) and per revolution
-(G95 with an S word), dwells, spindle and coolant words, inch and mm.
+G64 P, G64 P Q), feeds per minute (with --per-rev also per
+revolution, G95 with an S word; not inverse time, G93, whose moves the
+compensation does not split), dwells, spindle and coolant words, inch and
+mm.
 With --expressions some coordinates and feeds are computed from
 parameters (`X[#1+0.25]`, `F[#2/3]`), as CAM post-processors and hand-
 written programs do.
 
-Inside X, Y in [-100, 100] mm and Z in [-50, 50] mm of the work offset.
+Inside X, Y in [-80, 80] mm and Z in [-40, 40] mm of the work offset.
 
-usage: gen_random_moves.py SEED [MOVES] [--expressions]
+usage: gen_random_moves.py SEED [MOVES] [--expressions] [--per-rev]
 """
 import random
 import sys
@@ -19,6 +21,7 @@ import sys
 def main():
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     expressions = "--expressions" in sys.argv
+    per_rev = "--per-rev" in sys.argv
     seed = int(args[0])
     moves = int(args[1]) if len(args) > 1 else 400
     r = random.Random(seed)
@@ -35,12 +38,14 @@ def main():
         k = r.random()
         words = []
         if r.random() < 0.06:
-            words.append(r.choice(["G61", "G61.1", "G64", f"G64 P{r.choice([0.001, 0.01, 0.05, 0.2]) / unit:g}",
-                                   f"G64 P{r.choice([0.01, 0.05]) / unit:g} Q{r.choice([0.001, 0.01]) / unit:g}"]))
+            # On a line of its own: a P word on an arc's line is its turns.
+            out.append(r.choice(["G61", "G61.1", "G64", f"G64 P{r.choice([0.001, 0.01, 0.05, 0.2]) / unit:.5f}",
+                                 f"G64 P{r.choice([0.01, 0.05]) / unit:.5f} Q{r.choice([0.001, 0.01]) / unit:.5f}"]))
         if r.random() < 0.02:
             out.append(r.choice(["M3 S%d" % r.randint(500, 12000), "M8", "M9", "G4 P%.2f" % r.uniform(0, 0.5)]))
         if r.random() < 0.03:
-            new = r.choice(["G93", "G94", "G95"])
+            # Not G93: the compensation refuses to split a G93 move.
+            new = r.choice(["G94", "G95"]) if per_rev else "G94"
             if new == "G95":
                 out.append("S%d M3" % r.randint(1000, 10000))
             if new != feed_mode:
@@ -50,9 +55,9 @@ def main():
         dx, dy, dz = (r.uniform(-1, 1) * step for _ in range(3))
         if r.random() < 0.7:
             dz *= 0.05
-        nx = min(max(x + dx, -100), 100)
-        ny = min(max(y + dy, -100), 100)
-        nz = min(max(z + dz, -50), 50)
+        nx = min(max(x + dx, -80), 80)
+        ny = min(max(y + dy, -80), 80)
+        nz = min(max(z + dz, -40), 40)
 
         def feed():
             if feed_mode == "G93":
@@ -70,7 +75,8 @@ def main():
 
         if k < 0.1:
             words += ["G0", coord("X", nx), coord("Y", ny), coord("Z", nz)]
-        elif k < 0.75 or step < 0.01:
+        elif k < 0.75 or step < 0.01 or step > 20:
+            # Arcs of chords up to 20 mm: a long way round stays in the map.
             words += ["G1", coord("X", nx), coord("Y", ny), coord("Z", nz), feed()]
         else:
             # An arc in one of the planes, to a point near the chord's end.

@@ -3,7 +3,7 @@
 # binaries on the planner fixtures, bench/cycle_time's programs, the real
 # programs of tests/corpus, the benchmark programs (shortened) and random
 # programs (bench/gen_random_moves.py, half of them with parameters and
-# expressions), under four set-ups (no [limits]; the benchmark machine's
+# expressions, half with feeds per revolution), under four set-ups (no [limits]; the benchmark machine's
 # limits; the same with arc blends off; slow axes with a slow blend ramp),
 # and compares
 #   * `volcomp time --json` of each program (every figure it prints, times
@@ -56,11 +56,11 @@ python3 bench/gen_program.py 20000 > "$p/raster.ngc"
 python3 bench/gen_cam.py 30000 > "$p/cam.nc"
 python3 bench/gen_loop.py 20000 > "$p/loop.ngc"
 for s in $(seq 1 "$n_random"); do
-  if [ $((s % 2)) = 0 ]; then
-    python3 bench/gen_random_moves.py "$s" 400 --expressions > "$p/random$s.ngc"
-  else
-    python3 bench/gen_random_moves.py "$s" 400 > "$p/random$s.ngc"
-  fi
+  # Every other one with expressions, every fourth with G95.
+  opts=()
+  [ $((s % 2)) = 0 ] && opts+=(--expressions)
+  [ $((s % 4)) -ge 2 ] && opts+=(--per-rev)
+  python3 bench/gen_random_moves.py "$s" 400 "${opts[@]}" > "$p/random$s.ngc"
 done
 
 # One case per line: NAME<TAB>KIND<TAB>PROGRAM<TAB>SETUP ("" for none).
