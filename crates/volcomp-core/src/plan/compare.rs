@@ -166,8 +166,10 @@ pub fn compare_while_compensating<T, E>(
                 turns,
             };
             let (fed, fed_rx) = sync_channel(super::feed::BATCHES_IN_FLIGHT);
-            feed = OriginalFeed::new(Some(fed), turns);
-            scope.spawn(move || estimate_fed(fed_rx, r, (name, setup, &limits)))
+            let (empty, empty_rx) = sync_channel(super::feed::BATCHES_IN_FLIGHT);
+            feed = OriginalFeed::new(Some((fed, empty_rx)), turns);
+            let rx = (fed_rx, empty);
+            scope.spawn(move || estimate_fed(rx, r, (name, setup, &limits)))
         });
         let program = scope.spawn(move || {
             let r = ChunkReader {

@@ -30,9 +30,10 @@ use volcomp_gcode::interp::Motion;
 use volcomp_gcode::LineEvent;
 
 /// Lines handed over at a time, and how many batches may wait at once:
-/// a few hundred KiB in flight whatever the program's length.
-const FEED_LINES: usize = 256;
-pub(super) const BATCHES_IN_FLIGHT: usize = 4;
+/// about 2 MiB held whatever the program's length. Few hand-overs: each
+/// may wake the estimate's thread, which costs the compensation's.
+const FEED_LINES: usize = 1024;
+pub(super) const BATCHES_IN_FLIGHT: usize = 3;
 
 /// Lines of the program: what the estimate takes of each line, and the
 /// motions of all of them in order (`motions` of each line in turn).
@@ -64,6 +65,9 @@ pub struct OriginalFeed<'a> {
     /// `None` once the feed stopped (a rendered line, or the estimate
     /// no longer reads).
     tx: Option<SyncSender<Fed>>,
+    /// Batches planned, back to be filled again (no allocation, and no
+    /// fresh pages, per batch).
+    empty: Option<Receiver<Batch>>,
     batch: Batch,
     turns: &'a Turns,
 }
@@ -88,9 +92,11 @@ impl LineFeed for OriginalFeed<'_> {
 }
 
 impl<'a> OriginalFeed<'a> {
-    pub(super) fn new(tx: Option<SyncSender<Fed>>, turns: &'a Turns) -> Self {
+    pub(super) fn new(tx: Option<(SyncSender<Fed>, Receiver<Batch>)>, turns: &'a Turns) -> Self {
+        let (tx, empty) = tx.unzip();
         Self {
             tx,
+            empty,
             batch: Batch::with_capacity(FEED_LINES),
             turns,
         }
@@ -117,7 +123,11 @@ impl<'a> OriginalFeed<'a> {
             self.batch.lines.push((l, ev.motions.len() as u32));
             self.batch.motions.extend_from_slice(ev.motions);
             if self.batch.lines.len() >= FEED_LINES {
-                let full = std::mem::replace(&mut self.batch, Batch::with_capacity(FEED_LINES));
+                let empty = match self.empty.as_ref().map(Receiver::try_recv) {
+                    Some(Ok(b)) => b,
+                    _ => Batch::with_capacity(FEED_LINES),
+                };
+                let full = std::mem::replace(&mut self.batch, empty);
                 self.send(Fed::Lines(full));
             }
         }
@@ -163,14 +173,14 @@ impl<'a> OriginalFeed<'a> {
 /// [`Turns`]; from `original` itself when the feed stops short of the
 /// program's end.
 pub(super) fn estimate_fed<R: Read>(
-    rx: Receiver<Fed>,
+    (rx, empty): (Receiver<Fed>, SyncSender<Batch>),
     original: Stoppable<'_, R>,
     (name, setup, limits): (&str, &MachineSetup, &Limits),
 ) -> Result<ProgramEstimate, Error> {
     let mut timing = Timing::new(limits)?;
     while let Ok(fed) = rx.recv() {
         match fed {
-            Fed::Lines(batch) => {
+            Fed::Lines(mut batch) => {
                 original.turns.original_turn();
                 if original.stopped() {
                     break;
@@ -181,6 +191,10 @@ pub(super) fn estimate_fed<R: Read>(
                     timing.timed_line(line, &batch.motions[motions_at..end]);
                     motions_at = end;
                 }
+                batch.lines.clear();
+                batch.motions.clear();
+                // Dropped when the feed has enough.
+                let _ = empty.try_send(batch);
             }
             Fed::End => return Ok(timing.finish()),
         }
