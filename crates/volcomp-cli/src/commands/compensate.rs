@@ -12,7 +12,7 @@ use volcomp_core::io::provenance::now_utc;
 use volcomp_core::io::stream::{LinePercent, Tee};
 use volcomp_core::limits::LimitedWriter;
 use volcomp_core::model::ErrorModel;
-use volcomp_core::plan::{OriginalFeed, TimeComparison};
+use volcomp_core::plan::TimeComparison;
 use volcomp_core::progress::Counted;
 use volcomp_core::report::compensation::{
     held_warning, point_csv_row, summary_lines, uncompensated_warning, LargestCorrections,
@@ -47,7 +47,7 @@ pub fn compensate_into(
     job: &Compensation,
     model: &dyn ErrorModel,
     on_point: impl FnMut(&PointRecord),
-    estimates: Option<(&mut dyn Write, &mut OriginalFeed<'_>)>,
+    program_copy: Option<&mut dyn Write>,
 ) -> Result<CompensateSummary, CliError> {
     let bar = Bar::reading(&format!("compensating {}", program.display()), program);
     let reader = Counted::new(open_program(program)?, bar.clone());
@@ -56,8 +56,8 @@ pub fn compensate_into(
         .compensator(model, &file)
         .on_point(on_point)
         .on_warning(|w| eprintln!("{file}:{w}"));
-    if let Some((copy, feed)) = estimates {
-        compensator = compensator.copy_program_to(copy).feed_lines_to(feed);
+    if let Some(copy) = program_copy {
+        compensator = compensator.copy_program_to(copy);
     }
     let result = compensator
         .run(reader, out)
@@ -144,7 +144,7 @@ fn write_program(
     job: &Compensation,
     model: &dyn ErrorModel,
     staged: &mut Staged,
-    estimates: Option<(&mut dyn Write, &mut OriginalFeed<'_>)>,
+    stream: Option<&mut dyn Write>,
 ) -> Result<Kept, CliError> {
     let mut percent = a.filter.then(|| LinePercent::of(&a.program));
     let mut points_csv = a.report.as_ref().map(|_| POINT_CSV_HEADER.to_string());
@@ -177,7 +177,7 @@ fn write_program(
             }
         };
         summary = Some(compensate_into(
-            &a.program, &mut out, job, model, on_point, estimates,
+            &a.program, &mut out, job, model, on_point, stream,
         )?);
         Ok(())
     })?;
@@ -221,11 +221,9 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     // written, when it will be (not quiet, the output readable back).
     let readable = readable_output(&a, &output);
     let (kept, time) = if !crate::progress::quiet() && readable {
-        let (kept, time) =
-            job.machining_time_while(&a.program, &shown(&output), |sink, feed| {
-                let estimates = Some((sink, feed));
-                write_program(&a, &output, &job, model.as_ref(), &mut staged, estimates)
-            })?;
+        let (kept, time) = job.machining_time_while(&a.program, &shown(&output), |sink| {
+            write_program(&a, &output, &job, model.as_ref(), &mut staged, Some(sink))
+        })?;
         (kept, Some(time))
     } else {
         let kept = write_program(&a, &output, &job, model.as_ref(), &mut staged, None)?;

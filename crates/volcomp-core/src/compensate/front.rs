@@ -26,12 +26,11 @@
 //! ```
 
 use super::header::compensate_program_with_header;
-use super::{compensate_lines, survey_style, CompensateOptions, CompensateSummary, PointRecord};
+use super::{compensate_program, survey_style, CompensateOptions, CompensateSummary, PointRecord};
 use crate::error::{CompensatedEvidence, Error};
 use crate::io::provenance::{find_compensation, Compensated};
 use crate::io::provenance::{sha256_hex, ProgramHeader};
 use crate::model::ErrorModel;
-use crate::plan::feed::LineFeed;
 use std::io::{BufReader, Read, Write};
 use std::path::Path;
 use volcomp_gcode::{Setup, Warning};
@@ -102,7 +101,6 @@ pub struct Compensator<'a> {
     on_point: Option<Callback<'a, PointRecord>>,
     on_warning: Option<Callback<'a, Warning>>,
     program_copy: Option<&'a mut dyn Write>,
-    line_feed: Option<&'a mut dyn LineFeed>,
 }
 
 impl<'a> Compensator<'a> {
@@ -118,7 +116,6 @@ impl<'a> Compensator<'a> {
             on_point: None,
             on_warning: None,
             program_copy: None,
-            line_feed: None,
         }
     }
 
@@ -175,16 +172,6 @@ impl<'a> Compensator<'a> {
         self
     }
 
-    /// Also hands every line of the program, as the interpreter gives it,
-    /// to `feed` (and, once the program is done, its end): the
-    /// machining-time estimate of the original can plan those lines
-    /// instead of interpreting the program again
-    /// ([`crate::plan::OriginalFeed`]).
-    pub fn feed_lines_to(mut self, feed: &'a mut dyn LineFeed) -> Self {
-        self.line_feed = Some(feed);
-        self
-    }
-
     /// Reads `program`, writes it compensated to `out`, and says what it did.
     /// Nothing is written past an error; the caller discards a partial
     /// output (see [`crate::io::output`] for outputs written completely or
@@ -226,12 +213,6 @@ impl<'a> Compensator<'a> {
         };
         // The whole output is counted here, the header included.
         let mut out = super::size::Counted::new(&mut out);
-        let mut feed = self.line_feed.take();
-        let mut on_line = |ev: &volcomp_gcode::LineEvent<'_>| {
-            if let Some(f) = feed.as_mut() {
-                f.line(ev);
-            }
-        };
         let result = match (&self.header, self.program_copy.take()) {
             (Some(h), copy) => compensate_program_with_header(
                 &mut walker,
@@ -242,7 +223,6 @@ impl<'a> Compensator<'a> {
                 h,
                 &mut out,
                 copy,
-                &mut on_line,
                 on_point,
             ),
             (None, copy) => {
@@ -251,17 +231,13 @@ impl<'a> Compensator<'a> {
                     copy: None,
                     stream: copy,
                 };
-                let to = super::Outputs {
-                    out: &mut out,
-                    on_line: &mut on_line,
-                };
-                compensate_lines(
+                compensate_program(
                     &mut walker,
                     &self.file,
                     self.model,
                     &style,
                     &self.options,
-                    to,
+                    &mut out,
                     on_point,
                 )
             }
@@ -270,10 +246,6 @@ impl<'a> Compensator<'a> {
             (summary.bytes_out, summary.blocks_out) = out.finish();
             summary
         });
-        if let (Ok(_), Some(f)) = (&result, feed.as_mut()) {
-            // Every line was interpreted and given.
-            f.end();
-        }
         if let Some(f) = self.on_warning.as_mut() {
             walker.warnings().iter().for_each(f);
         }

@@ -5,7 +5,7 @@
 
 use crate::compensate::solve::Method;
 use crate::compensate::{
-    compensate_lines, CompensateOptions, CompensateSummary, DirectionPolicy, Outputs, PointRecord,
+    compensate_program, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord,
     ProgramStyle, Segmentation,
 };
 use crate::error::CompensationError;
@@ -14,7 +14,7 @@ use crate::io::provenance::{
 };
 use crate::model::ErrorModel;
 use std::io::{self, BufRead, Seek, Write};
-use volcomp_gcode::{LineEvent, Setup, Walker};
+use volcomp_gcode::{Setup, Walker};
 
 /// How much of a compensated program's body is kept in memory while its
 /// header waits for the summary (bytes); the rest goes to a temporary file.
@@ -118,10 +118,9 @@ impl<W: Write> Write for CopyTo<'_, W> {
     }
 }
 
-/// [`compensate_program`](crate::compensate::compensate_program) with the header inserted at the top of the
+/// [`compensate_program`] with the header inserted at the top of the
 /// output; the program without its header (the header is comment lines
-/// only) is also written to `body_copy`, when given, as it is made, and
-/// every line interpreted is told to `on_line`.
+/// only) is also written to `body_copy`, when given, as it is made.
 #[allow(clippy::too_many_arguments)]
 pub fn compensate_program_with_header<R: BufRead>(
     walker: &mut Walker<R>,
@@ -132,7 +131,6 @@ pub fn compensate_program_with_header<R: BufRead>(
     header: &ProgramHeader,
     out: &mut dyn Write,
     body_copy: Option<&mut dyn Write>,
-    on_line: &mut dyn FnMut(&LineEvent<'_>),
     on_point: impl FnMut(&PointRecord),
 ) -> Result<CompensateSummary, CompensationError> {
     // The header says what was done at reversals, which is known once the
@@ -149,11 +147,15 @@ pub fn compensate_program_with_header<R: BufRead>(
             copy: body_copy,
         },
     );
-    let to = Outputs {
-        out: &mut spool,
-        on_line,
-    };
-    let summary = compensate_lines(walker, file, model, program_style, options, to, on_point)?;
+    let summary = compensate_program(
+        walker,
+        file,
+        model,
+        program_style,
+        options,
+        &mut spool,
+        on_point,
+    )?;
     let mut body = spool
         .into_inner()
         .map_err(|e| CompensationError::from(e.into_error()))?

@@ -61,7 +61,7 @@ use targets::check_target_count;
 use volcomp_gcode::edit::apply_edits;
 use volcomp_gcode::lexer::LineKind;
 use volcomp_gcode::number::NumberStyle;
-use volcomp_gcode::{FeedMode, LineEvent, MotionKind, MotionSource, Vec3, Walker};
+use volcomp_gcode::{FeedMode, MotionKind, MotionSource, Vec3, Walker};
 use walk::{Line, Place, Walk};
 
 /// Streams `walker`'s program to `out` with every program motion compensated.
@@ -72,34 +72,8 @@ pub fn compensate_program<R: BufRead>(
     program_style: &ProgramStyle,
     options: &CompensateOptions,
     out: &mut dyn Write,
-    on_point: impl FnMut(&PointRecord),
-) -> Result<CompensateSummary, CompensationError> {
-    let to = Outputs {
-        out,
-        on_line: &mut |_| {},
-    };
-    compensate_lines(walker, file, model, program_style, options, to, on_point)
-}
-
-/// Where a compensation's lines go: the program written, and each line as
-/// the interpreter gave it (before it is written), for whoever reads the
-/// original meanwhile.
-pub(crate) struct Outputs<'o> {
-    pub(crate) out: &'o mut dyn Write,
-    pub(crate) on_line: &'o mut dyn FnMut(&LineEvent<'_>),
-}
-
-/// [`compensate_program`] telling `to.on_line` every line interpreted.
-pub(crate) fn compensate_lines<R: BufRead>(
-    walker: &mut Walker<R>,
-    file: &str,
-    model: &dyn ErrorModel,
-    program_style: &ProgramStyle,
-    options: &CompensateOptions,
-    to: Outputs<'_>,
     mut on_point: impl FnMut(&PointRecord),
 ) -> Result<CompensateSummary, CompensationError> {
-    let Outputs { out, on_line } = to;
     let walk = Walk {
         model,
         options,
@@ -116,7 +90,6 @@ pub(crate) fn compensate_lines<R: BufRead>(
     let mut counted = size::Counted::new(out);
     let mut out = line_limit::LineLimit::new(&mut counted);
     while let Some(ev) = walker.next_line()? {
-        on_line(&ev);
         let line = st.begin_line(&ev);
         let after = st.write_line(&line, &mut out)?;
         out.write_all(&st.buf)?;

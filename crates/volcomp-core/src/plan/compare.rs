@@ -2,7 +2,6 @@
 //! was made from, in the words a summary, a report and a JSON output
 //! share.
 
-use super::feed::{estimate_fed, OriginalFeed};
 use super::{estimate_program, Limits, ProgramEstimate};
 use crate::compensate::MachineSetup;
 use crate::error::Error;
@@ -134,21 +133,6 @@ pub fn compare_while_writing<T, E>(
     setup: &MachineSetup,
     write: impl FnOnce(&mut dyn Write) -> Result<T, E>,
 ) -> Result<(T, Result<TimeComparison, Error>), E> {
-    // The original's feed unused: its estimate reads it.
-    compare_while_compensating(name, original, setup, |w, _| write(w))
-}
-
-/// [`compare_while_writing`] of a program `write` makes from `original`
-/// by interpreting it (a compensation): `write` also hands the lines it
-/// interprets to the [`OriginalFeed`], and the original's estimate plans
-/// them instead of interpreting the original again, where that gives the
-/// same figures (see [`super::feed`]); else it reads `original` itself.
-pub fn compare_while_compensating<T, E>(
-    name: &str,
-    original: Option<(Box<dyn Read + Send + '_>, &str)>,
-    setup: &MachineSetup,
-    write: impl FnOnce(&mut dyn Write, &mut OriginalFeed<'_>) -> Result<T, E>,
-) -> Result<(T, Result<TimeComparison, Error>), E> {
     let limits = Limits::from_setup(setup.setup.limits.as_ref());
     let stop = AtomicBool::new(false);
     let turns = Turns::default();
@@ -158,18 +142,13 @@ pub fn compare_while_compensating<T, E>(
         // However the writing ends (a panic included), the original's
         // estimate no longer waits for turns.
         let _writing = WritingDone(turns);
-        let mut feed = OriginalFeed::new(None, turns);
         let original = original.map(|(r, name)| {
             let r = Stoppable {
                 inner: r,
                 stop,
                 turns,
             };
-            let (fed, fed_rx) = sync_channel(super::feed::BATCHES_IN_FLIGHT);
-            let (empty, empty_rx) = sync_channel(super::feed::BATCHES_IN_FLIGHT);
-            feed = OriginalFeed::new(Some((fed, empty_rx)), turns);
-            let rx = (fed_rx, empty);
-            scope.spawn(move || estimate_fed(rx, r, (name, setup, &limits)))
+            scope.spawn(move || estimate_program(r, name, setup, &limits))
         });
         let program = scope.spawn(move || {
             let r = ChunkReader {
@@ -185,16 +164,14 @@ pub fn compare_while_compensating<T, E>(
             buf: Vec::with_capacity(CHUNK_BYTES),
             turns,
         };
-        let written = write(&mut sink, &mut feed);
+        let written = write(&mut sink);
         if written.is_ok() {
             sink.send();
         } else {
             stop.store(true, Ordering::Relaxed);
         }
-        // The end of the program: the estimate reads to here (and the
-        // original's, when its feed was not ended, reads the original).
+        // The end of the program: the estimate reads to here.
         drop(sink);
-        drop(feed);
         turns.writing_done();
         (written, joined(program), original.map(joined))
     });
@@ -288,7 +265,7 @@ impl Write for ChunkWriter<'_> {
 /// runs; taking turns, the estimates share one core (they need less
 /// time than the writing) and the writing keeps the other.
 #[derive(Default)]
-pub(super) struct Turns {
+struct Turns {
     state: Mutex<TurnState>,
     changed: Condvar,
 }
@@ -325,7 +302,7 @@ impl Turns {
 
     /// The writing waits for the written program's estimate (`true`), or
     /// no longer.
-    pub(super) fn writer_waits(&self, waits: bool) {
+    fn writer_waits(&self, waits: bool) {
         self.lock().writer_waits = waits;
         if waits {
             self.changed.notify_all();
@@ -338,7 +315,7 @@ impl Turns {
     }
 
     /// Waits until the original's estimate may run.
-    pub(super) fn original_turn(&self) {
+    fn original_turn(&self) {
         let mut s = self.lock();
         while s.program_busy && !s.writer_waits && !s.writing_done {
             s = self.changed.wait(s).unwrap_or_else(|p| p.into_inner());
@@ -403,23 +380,16 @@ impl Read for ChunkReader<'_> {
 /// The original's reader beside a writing: it reads in its [`Turns`],
 /// and fails once `stop` is set (the writing failed: its estimate is not
 /// wanted).
-pub(super) struct Stoppable<'a, R> {
+struct Stoppable<'a, R> {
     inner: R,
     stop: &'a AtomicBool,
-    pub(super) turns: &'a Turns,
-}
-
-impl<R> Stoppable<'_, R> {
-    /// Whether the estimate was stopped.
-    pub(super) fn stopped(&self) -> bool {
-        self.stop.load(Ordering::Relaxed)
-    }
+    turns: &'a Turns,
 }
 
 impl<R: Read> Read for Stoppable<'_, R> {
     fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
         self.turns.original_turn();
-        if self.stopped() {
+        if self.stop.load(Ordering::Relaxed) {
             return Err(std::io::Error::other("the estimate was stopped"));
         }
         self.inner.read(out)

@@ -32,17 +32,13 @@
 mod blend;
 mod canon;
 mod compare;
-pub mod feed;
 mod geometry;
 mod integrate;
 mod lookahead;
 pub mod program;
 mod segment;
 
-pub use compare::{
-    compare_programs, compare_while_compensating, compare_while_writing, TimeComparison,
-};
-pub use feed::OriginalFeed;
+pub use compare::{compare_programs, compare_while_writing, TimeComparison};
 pub use program::{estimate_program, ProgramEstimate};
 /// The path-control mode (G61, G61.1, G64 P Q), as the interpreter gives
 /// it with every motion.

@@ -19,9 +19,8 @@ use super::{Estimate, Limits, Move, MoveKind, PathMode, Planner};
 use crate::compensate::MachineSetup;
 use crate::error::Error;
 use std::io::Read;
-use volcomp_gcode::interp::{FeedMode, Motion, MotionKind};
+use volcomp_gcode::interp::{FeedMode, MotionKind};
 use volcomp_gcode::lexer::Lexed;
-use volcomp_gcode::LineEvent;
 
 /// The estimate of a whole program.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -106,74 +105,40 @@ pub fn estimate_program(
     setup: &MachineSetup,
     limits: &Limits,
 ) -> Result<ProgramEstimate, Error> {
-    let mut timing = Timing::new(limits)?;
+    limits.check().map_err(|m| {
+        Error::Setup(volcomp_gcode::GcodeError::new(
+            volcomp_gcode::ErrorClass::Invalid,
+            0,
+            0,
+            m,
+            "fix the [limits] table of the set-up file",
+        ))
+    })?;
     let reader = std::io::BufReader::new(program);
     let mut walker = setup.walker(reader, file);
+    let mut planner = Planner::new(*limits);
+    let mut out = ProgramEstimate::default();
+    let mut spindle_rpm = 0.0;
     while let Some(ev) = walker.next_line().map_err(Error::Gcode)? {
-        timing.line(&ev);
-    }
-    Ok(timing.finish())
-}
-
-/// A program's estimate made line by line from its interpreted lines
-/// ([`estimate_program`] over the interpreter's lines; a compensation's
-/// lines fed to it through [`super::feed`]).
-pub(crate) struct Timing {
-    planner: Planner,
-    out: ProgramEstimate,
-    /// The last S word (rev/min), for G95 feeds.
-    spindle_rpm: f64,
-}
-
-impl Timing {
-    /// An estimate with `limits`, refused when they are not usable.
-    pub(crate) fn new(limits: &Limits) -> Result<Self, Error> {
-        limits.check().map_err(|m| {
-            Error::Setup(volcomp_gcode::GcodeError::new(
-                volcomp_gcode::ErrorClass::Invalid,
-                0,
-                0,
-                m,
-                "fix the [limits] table of the set-up file",
-            ))
-        })?;
-        Ok(Self {
-            planner: Planner::new(*limits),
-            out: ProgramEstimate::default(),
-            spindle_rpm: 0.0,
-        })
-    }
-
-    /// The next line of the program as the interpreter gives it.
-    pub(crate) fn line(&mut self, ev: &LineEvent<'_>) {
-        if let Some(l) = TimedLine::of(ev) {
-            self.timed_line(&l, ev.motions);
+        if ev.after_end {
+            continue;
         }
-    }
-
-    /// The next line: what it says beyond its motions, and its motions.
-    pub(crate) fn timed_line(&mut self, l: &TimedLine, motions: &[Motion]) {
-        let out = &mut self.out;
-        let planner = &mut self.planner;
-        let TimedLine {
-            waits:
-                LineWaits {
-                    before,
-                    after,
-                    dwell_s,
-                    spindle_rpm: s_word,
-                },
-            mm_per_unit: units,
-        } = *l;
+        let units = ev.interp.units().mm_per_unit();
+        let LineWaits {
+            before,
+            after,
+            dwell_s,
+            spindle_rpm: s_word,
+        } = waits_of_line(ev.lexed);
         if let Some(s) = s_word {
-            self.spindle_rpm = s;
+            spindle_rpm = s;
         }
         if before {
             planner.wait();
             out.waits += 1;
         }
         out.dwell_s += dwell_s;
-        for m in motions {
+        for m in ev.motions {
             let length = match m.kind {
                 MotionKind::Arc(a) => a.length(),
                 _ => (m.end - m.start).norm(),
@@ -182,7 +147,7 @@ impl Timing {
                 FeedMode::PerMinute => m.feed / 60.0,
                 // `feed` is the inverse-time value converted as a length.
                 FeedMode::InverseTime => length * (m.feed / units) / 60.0,
-                FeedMode::PerRevolution => m.feed * self.spindle_rpm / 60.0,
+                FeedMode::PerRevolution => m.feed * spindle_rpm / 60.0,
             };
             let kind = match m.kind {
                 MotionKind::Rapid => MoveKind::Rapid,
@@ -214,31 +179,8 @@ impl Timing {
             out.waits += 1;
         }
     }
-
-    /// The estimate of the lines so far, as a whole program.
-    pub(crate) fn finish(mut self) -> ProgramEstimate {
-        self.out.motion = self.planner.finish();
-        self.out
-    }
-}
-
-/// What the estimate takes of an interpreted line besides its motions.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct TimedLine {
-    waits: LineWaits,
-    /// The program's length unit in mm after the line (G20/G21).
-    mm_per_unit: f64,
-}
-
-impl TimedLine {
-    /// The line's part of the estimate; `None` for a line after the
-    /// program's end, which the machine does not run.
-    pub(crate) fn of(ev: &LineEvent<'_>) -> Option<Self> {
-        (!ev.after_end).then(|| Self {
-            waits: waits_of_line(ev.lexed),
-            mm_per_unit: ev.interp.units().mm_per_unit(),
-        })
-    }
+    out.motion = planner.finish();
+    Ok(out)
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@ use super::simulate::SimulateRequest;
 use crate::compensate::{CompensateSummary, PointRecord};
 use crate::limits::LimitedWriter;
 use crate::model::ErrorModel;
-use crate::plan::{compare_programs, compare_while_compensating, OriginalFeed, TimeComparison};
+use crate::plan::{compare_programs, compare_while_writing, TimeComparison};
 use crate::simulate::report::SegmentError;
 use crate::simulate::SimReport;
 use crate::Error;
@@ -94,30 +94,24 @@ impl Compensation {
     }
 
     /// [`Compensation::machining_time`] of the program `write` writes,
-    /// estimated while it is written (see [`compare_while_compensating`]):
+    /// estimated while it is written (see [`compare_while_writing`]):
     /// what `write` gives, and the times (an error opening the original
-    /// is the times' error, as it is there). `write` hands the lines of
-    /// the original it interprets to the [`OriginalFeed`] (see
-    /// [`crate::Compensator::feed_lines_to`]), which spares the
-    /// original's estimate interpreting them again.
+    /// is the times' error, as it is there).
     pub fn machining_time_while<T, E>(
         &self,
         program: &Path,
         name: &str,
-        write: impl FnOnce(&mut dyn Write, &mut OriginalFeed<'_>) -> Result<T, E>,
+        write: impl FnOnce(&mut dyn Write) -> Result<T, E>,
     ) -> Result<(T, Result<TimeComparison, Error>), E> {
         let shown = program.display().to_string();
         let original = match program.as_os_str() == "-" {
             true => None,
             false => match open(program) {
                 Ok(f) => Some((Box::new(f) as Box<dyn Read + Send>, shown.as_str())),
-                Err(e) => {
-                    return OriginalFeed::unused(|feed| write(&mut std::io::sink(), feed))
-                        .map(|t| (t, Err(e)))
-                }
+                Err(e) => return write(&mut std::io::sink()).map(|t| (t, Err(e))),
             },
         };
-        compare_while_compensating(name, original, &self.machine.setup, write)
+        compare_while_writing(name, original, &self.machine.setup, write)
     }
 }
 
