@@ -1,12 +1,11 @@
 #!/usr/bin/env python3
 """A random program of G-code moves for comparing machining-time estimates
-(bench/same_estimates.sh): lines from 1 um to 100 mm, arcs (R and IJ, in
-the three planes), rapids, every path-control mode (G61, G61.1, G64,
-G64 P, G64 P Q), feeds per minute (with --per-rev also per
-revolution, G95 with an S word; not inverse time, G93, whose moves the
-compensation does not split), dwells, spindle and coolant words, inch and
-mm.
-With --expressions some coordinates and feeds are computed from
+(bench/same_estimates.sh): lines from 1 um to 100 mm, arcs of chords up
+to 20 mm (R and IJ, in the three planes), rapids, every path-control mode
+(G61, G61.1, G64, G64 P, G64 P Q), feeds per minute (with --per-rev also
+per revolution, G95 with an S word; not inverse time, G93, whose moves
+the compensation does not split), dwells, spindle and coolant words, inch
+and mm. With --expressions some coordinates and feeds are computed from
 parameters (`X[#1+0.25]`, `F[#2/3]`), as CAM post-processors and hand-
 written programs do.
 
@@ -14,6 +13,7 @@ Inside X, Y in [-80, 80] mm and Z in [-40, 40] mm of the work offset.
 
 usage: gen_random_moves.py SEED [MOVES] [--expressions] [--per-rev]
 """
+import math
 import random
 import sys
 
@@ -106,7 +106,6 @@ def main():
                 rad = ((u0 - cu) ** 2 + (v0 - cv) ** 2) ** 0.5
                 off = {"G17": ("I", "J"), "G18": ("K", "I"), "G19": ("J", "K")}[plane]
                 arc = [f"{off[0]}{(cu - u0) / unit:.4f}", f"{off[1]}{(cv - v0) / unit:.4f}"]
-                import math
                 a1 = math.atan2(v1 - cv, u1 - cu)
                 u1, v1 = cu + rad * math.cos(a1), cv + rad * math.sin(a1)
                 end = [coord(lu, u1), coord(lv, v1)]

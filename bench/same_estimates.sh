@@ -3,9 +3,9 @@
 # binaries on the planner fixtures, bench/cycle_time's programs, the real
 # programs of tests/corpus, the benchmark programs (shortened) and random
 # programs (bench/gen_random_moves.py, half of them with parameters and
-# expressions, half with feeds per revolution), under four set-ups (no [limits]; the benchmark machine's
-# limits; the same with arc blends off; slow axes with a slow blend ramp),
-# and compares
+# expressions, half with feeds per revolution), under four set-ups (no
+# [limits]; the benchmark machine's limits; the same with arc blends off;
+# slow axes with a slow blend ramp), and compares
 #   * `volcomp time --json` of each program (every figure it prints, times
 #     to the ms, counts of moves and waits), also with no set-up at all;
 #   * the estimates of both programs in the summary of `volcomp compensate`
