@@ -1536,18 +1536,29 @@ impl State<'_> {
                             Box::new(move |f| t_prev + (t - t_prev) * f),
                         ),
                     };
-                    let mut lead = lead_target(
-                        model,
-                        options,
-                        &quantize,
-                        self.q_out,
-                        &lags,
-                        (shortest, tolerance),
-                        t_prev,
-                        (&*at, length),
-                        &point,
-                    )
-                    .map_err(|source| model_error(file, line, source))?;
+                    // Under G64 without P, where the zones of the blends
+                    // at both ends of the motion cover it (a polygon's
+                    // edge at speed), a lead piece's end would be a split
+                    // inside one of them ([`ramp_floor_mm`]): none for the
+                    // contour tolerance nor the shortest one; the reach
+                    // rule below still ends the take-up within its reach.
+                    let zones_cover = index == 0 && ramp_floor_mm(rule, &run, index) >= length;
+                    let mut lead = if zones_cover {
+                        None
+                    } else {
+                        lead_target(
+                            model,
+                            options,
+                            &quantize,
+                            self.q_out,
+                            &lags,
+                            (shortest, tolerance),
+                            t_prev,
+                            (&*at, length),
+                            &point,
+                        )
+                        .map_err(|source| model_error(file, line, source))?
+                    };
                     let within_tolerance = lead.is_some();
                     // The excursion of the lead piece taken beyond the
                     // tolerance (µm), counted once it is chosen.
@@ -1563,7 +1574,7 @@ impl State<'_> {
                         TakeUpRule::Within(t) => Some(t),
                         TakeUpRule::Exact { .. } => None,
                     };
-                    if let (None, Some(allowed)) = (lead, allowed) {
+                    if let (None, Some(allowed), false) = (lead, allowed, zones_cover) {
                         if length >= 2.0 * shortest {
                             let f = shortest / length;
                             let lead_t = at(f);
