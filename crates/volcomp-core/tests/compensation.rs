@@ -1093,6 +1093,39 @@ fn under_g64_a_line_keeps_the_splits_its_contour_tolerance_needs() {
     assert_eq!(feeds("G64 P0.005"), vec![4.0, 8.0, 16.0]);
 }
 
+#[test]
+fn under_g64_no_split_inside_the_blend_zone_at_a_line_s_end() {
+    // Y's error along X bends by −0.5 µm/mm at X8 (and back at X40 on the
+    // long line; table points every 4 mm): the tolerance cuts the lines
+    // there. Each line follows a 4 mm line along Y: a right-angle corner
+    // at F6000, R = v²/a_n = 100²/(1000·√0.75) = 11.547 mm. Its blend
+    // takes d = min(R/tan 45°, 4/2, …) = 2 mm (tp.c `tpCreateLineLineBlend`,
+    // blendmath.c `blendComputeParameters`), so no cut within 4 mm of the
+    // start. The corner at the end is taken as that one, with the line's
+    // own half and a quarter of it for the tolerance T:
+    // d = min(11.547, T·cos 45°/(1 − sin 45°), L/2). On a 15 mm line
+    // (T = 3.75 mm: 9.053 mm) d = 7.5 mm: the zones cover the line and the
+    // cut at 8 goes. On a 60 mm line (T = 15 mm: 36.21 mm) d = 11.547 mm:
+    // the cut at 8 stays, the one at 40 moves to 60 − 23.094 = 36.906 mm.
+    let map = one_table(0, |x| [0.0, -0.5 * (x.clamp(8.0, 40.0) - 8.0), 0.0]);
+    let cuts = |program: &str| {
+        let (out, _) = compensate(program, &map, CompensateOptions::default());
+        ends(&out)
+            .into_iter()
+            .filter(|(k, p)| matches!(k, MotionKind::Feed) && (p.y - 4.0).abs() < 0.1 && p.x > 1.0)
+            .map(|(_, p)| (p.x * 10.0).round() / 10.0)
+            .collect::<Vec<f64>>()
+    };
+    assert_eq!(
+        cuts("G64\nG0 X0 Y0 Z0\nG1 Y4 F6000\nG1 X15\nM2\n"),
+        vec![15.0]
+    );
+    assert_eq!(
+        cuts("G64\nG0 X0 Y0 Z0\nG1 Y4 F6000\nG1 X60\nM2\n"),
+        vec![8.0, 36.9, 60.0]
+    );
+}
+
 /// Each feed motion of `out` as (the output line, its path-control mode).
 fn modes_of(out: &str) -> Vec<(String, PathMode)> {
     let lines: Vec<&str> = out.lines().collect();

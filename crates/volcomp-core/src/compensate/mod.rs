@@ -381,7 +381,7 @@ impl<'w> State<'w> {
             points::protect_blends(
                 &mut targets,
                 motion.start,
-                (run.protect_mm, run.protect_end_mm),
+                (run.protect_mm, run.split_end_mm),
             );
         }
         if targets.len() > 1 && interp.feed_mode() == FeedMode::InverseTime {

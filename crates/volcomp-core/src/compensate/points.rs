@@ -343,7 +343,13 @@ fn plan_ramp(
     (index, t_prev, q_prev): (usize, Vec3, Vec3),
     point: &crate::compensate::solve::PointSolution,
     (delta, lags, hold): (Vec3, &[Vec3; 3], [bool; 3]),
-    (kink_tolerance, tolerance_mm, shortest_mm, length_mm): ([f64; 3], f64, f64, Option<f64>),
+    (kink_tolerance, tolerance_mm, shortest_mm, length_mm, floor_mm): (
+        [f64; 3],
+        f64,
+        f64,
+        Option<f64>,
+        f64,
+    ),
     smooth: bool,
 ) -> Result<Option<RampPlan>, ModelError> {
     let need = ramp_length_mm(delta, kink_tolerance, shortest_mm, smooth);
@@ -371,6 +377,12 @@ fn plan_ramp(
             (Some(a), Leads::Arc { pieces, .. }) => a.length() * (pieces[k] - l_prev),
             _ => (targets[k] - t_prev).norm(),
         }
+    };
+    // A ramp whose end would fall inside a blend's zone ends at its edge,
+    // or at the motion's end where that edge is past it ([`ramp_floor_mm`]).
+    let need = match targets.len().checked_sub(1).map(along) {
+        Some(rest) if floor_mm > need && length_mm.is_none() => floor_mm.min(rest),
+        _ => need,
     };
     let Some(k) = (index..targets.len()).find(|k| along(*k) >= need * (1.0 - 1e-9)) else {
         return Ok(None);
@@ -493,6 +505,28 @@ fn plan_ramp(
         insert: insert.into_iter().map(|(j, p, l, _)| (j, p, l)).collect(),
         bound_mm: bound,
     }))
+}
+
+/// The shortest a ramp may be (mm; 0: no floor). Under G64 without P, a
+/// ramp from a motion's start after a corner the planner blends ends
+/// outside that blend's zone: its end is a split, and a split nearer the
+/// corner than twice the blend's distance `d` makes the planner round the
+/// corner tighter and slower (`Run::protect_mm`; blendmath.c
+/// `blendComputeParameters` takes at most half of the piece after the
+/// corner). Where the zone of the blend at the motion's end
+/// (`Run::split_end_mm`) meets it, the ramp runs to the motion's end: a
+/// fold into the whole motion, whose joins are the corners at its ends.
+/// The ramp's bound (the tool within the run-through tolerance) is
+/// checked as for any ramp; a longer ramp turns the path less.
+fn ramp_floor_mm(rule: TakeUpRule, run: &Run, index: usize) -> f64 {
+    if !(matches!(rule, TakeUpRule::Always) && index == 0 && run.corner_before) {
+        return 0.0;
+    }
+    if run.protect_mm + run.split_end_mm >= run.length_mm {
+        run.length_mm
+    } else {
+        run.protect_mm
+    }
 }
 
 /// The shortest ramp (mm) of a take-up `delta` whose joins the planner
@@ -702,6 +736,13 @@ pub(super) struct Run {
     /// (the next motion is not known yet;
     /// [`super::PlannerLimits::blend_reach_any_corner_mm`]); 0 elsewhere.
     pub(super) protect_end_mm: f64,
+    /// How far from its end no split point is put (mm; [`protect_blends`],
+    /// [`ramp_floor_mm`]): under G64 without P, after a corner, twice the
+    /// reach of the blend at its end taken as the one at its start
+    /// ([`end_blend_reach_mm`]); else `protect_end_mm`.
+    pub(super) split_end_mm: f64,
+    /// The motion's length (mm).
+    pub(super) length_mm: f64,
 }
 
 impl Run {
@@ -744,9 +785,12 @@ impl Run {
             }
             _ => (true, 0.0),
         };
-        // Under G64 P p only: the reach within p is short (0.34 mm at
-        // P0.005 and F6000). Without P it is up to half the line, and the
-        // splits the contour tolerance needs there would be lost.
+        // Under G64 P p: the reach within p of a corner of any angle is
+        // short (0.34 mm at P0.005 and F6000). Without P it is up to half
+        // the line at some angle, and the splits the contour tolerance
+        // needs there would be lost wherever the corner turns out gentler:
+        // the corner at the end is taken as the one at the start
+        // ([`end_blend_reach_mm`]).
         let protect_end_mm = match (m.path_mode, feed_mm_min) {
             (volcomp_gcode::PathMode::Blend { tolerance_mm, .. }, Some(f))
                 if tolerance_mm > 0.0 =>
@@ -755,6 +799,14 @@ impl Run {
             }
             _ => protect_mm,
         };
+        let split_end_mm = match (m.path_mode, feed_mm_min, before) {
+            (volcomp_gcode::PathMode::Blend { tolerance_mm, .. }, Some(f), Some((t1, _)))
+                if tolerance_mm <= 0.0 && corner_before =>
+            {
+                2.0 * end_blend_reach_mm(planner, t1, t2, f / 60.0, length_mm(m))
+            }
+            _ => protect_end_mm,
+        };
         Run {
             mode: m.path_mode,
             feed_mm_min,
@@ -762,8 +814,37 @@ impl Run {
             corner_before,
             protect_mm,
             protect_end_mm,
+            split_end_mm,
+            length_mm: length_mm(m),
         }
     }
+}
+
+/// Under G64 without P, how far from its end a motion of `length_mm` run
+/// at `v_mm_s` keeps its pieces whole for the blend at its end (mm, half
+/// the protected length): the corner there is not known when the motion
+/// is compensated (the next block is read after), so it is taken as the
+/// corner at its start, from unit tangent `t1` to `t2`, with what the
+/// motion itself allows that blend. LinuxCNC's line–line blend takes
+/// `d = min(L₁/2, L₂/2, d_tol, R/tan θ)` of each line
+/// (`blendComputeParameters`, src/emc/tp/blendmath.c, with `L/2` from
+/// `tpCreateLineLineBlend`, tp.c), `d_tol = T cos θ / (1 − sin θ)` for the
+/// blend tolerance `T`, a quarter of the shorter line without P
+/// (`tcFindBlendTolerance`, tc.c), and `R = v²/a_n` at full speed. Of
+/// these the motion's own half and its own quarter for `T` are known; the
+/// length of the motion before, which limits the corner at the start, is
+/// no limit at the end.
+pub(super) fn end_blend_reach_mm(
+    planner: &super::PlannerLimits,
+    t1: Vec3,
+    t2: Vec3,
+    v_mm_s: f64,
+    length_mm: f64,
+) -> f64 {
+    planner
+        .blend_distance_mm(t1, t2, v_mm_s)
+        .min(planner.blend_distance_within_mm(t1, t2, 0.25 * length_mm))
+        .min(0.5 * length_mm)
 }
 
 /// The length of a motion (mm): of its line, or of its arc (helix).
@@ -1359,23 +1440,38 @@ impl State<'_> {
                         && ramp.is_none(),
                 ) {
                     let shortest_piece = shortest_ramp_piece_mm(options, v_mm_s);
-                    planned = plan_ramp(
-                        model,
-                        options,
-                        &|q, from| frame.quantize(q, from),
-                        (targets.as_slice(), &leads, transitions.as_slice()),
-                        (index, t_prev, self.q_out),
-                        &point,
-                        (
-                            delta,
-                            &lags,
-                            ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
-                        ),
-                        (kink_tolerance, ramp_tol, shortest_piece, pre_length),
-                        matches!(rule, TakeUpRule::Exact { .. }),
-                    )
-                    .map_err(|source| model_error(file, line, source))?
-                    .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index));
+                    // Out of the blends' zones where the rule lets the
+                    // ramp run longer; as short as tangency allows where
+                    // that leaves the tool too far off.
+                    let floor = ramp_floor_mm(rule, &run, index);
+                    for floor_mm in [floor, 0.0] {
+                        planned = plan_ramp(
+                            model,
+                            options,
+                            &|q, from| frame.quantize(q, from),
+                            (targets.as_slice(), &leads, transitions.as_slice()),
+                            (index, t_prev, self.q_out),
+                            &point,
+                            (
+                                delta,
+                                &lags,
+                                ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
+                            ),
+                            (
+                                kink_tolerance,
+                                ramp_tol,
+                                shortest_piece,
+                                pre_length,
+                                floor_mm,
+                            ),
+                            matches!(rule, TakeUpRule::Exact { .. }),
+                        )
+                        .map_err(|source| model_error(file, line, source))?
+                        .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index));
+                        if planned.is_some() || floor <= 0.0 {
+                            break;
+                        }
+                    }
                 }
                 if let Some(plan) = planned {
                     if !plan.insert.is_empty() {
@@ -1440,18 +1536,29 @@ impl State<'_> {
                             Box::new(move |f| t_prev + (t - t_prev) * f),
                         ),
                     };
-                    let mut lead = lead_target(
-                        model,
-                        options,
-                        &quantize,
-                        self.q_out,
-                        &lags,
-                        (shortest, tolerance),
-                        t_prev,
-                        (&*at, length),
-                        &point,
-                    )
-                    .map_err(|source| model_error(file, line, source))?;
+                    // Under G64 without P, where the zones of the blends
+                    // at both ends of the motion cover it (a polygon's
+                    // edge at speed), a lead piece's end would be a split
+                    // inside one of them ([`ramp_floor_mm`]): none for the
+                    // contour tolerance nor the shortest one; the reach
+                    // rule below still ends the take-up within its reach.
+                    let zones_cover = index == 0 && ramp_floor_mm(rule, &run, index) >= length;
+                    let mut lead = if zones_cover {
+                        None
+                    } else {
+                        lead_target(
+                            model,
+                            options,
+                            &quantize,
+                            self.q_out,
+                            &lags,
+                            (shortest, tolerance),
+                            t_prev,
+                            (&*at, length),
+                            &point,
+                        )
+                        .map_err(|source| model_error(file, line, source))?
+                    };
                     let within_tolerance = lead.is_some();
                     // The excursion of the lead piece taken beyond the
                     // tolerance (µm), counted once it is chosen.
@@ -1467,7 +1574,7 @@ impl State<'_> {
                         TakeUpRule::Within(t) => Some(t),
                         TakeUpRule::Exact { .. } => None,
                     };
-                    if let (None, Some(allowed)) = (lead, allowed) {
+                    if let (None, Some(allowed), false) = (lead, allowed, zones_cover) {
                         if length >= 2.0 * shortest {
                             let f = shortest / length;
                             let lead_t = at(f);
@@ -1945,6 +2052,31 @@ mod tests {
         let q = Vec3::new(0.0, 2.0 * UM, -1.0);
         let d = fold_deviation_mm(&lags, Vec3::ZERO, q, plunge);
         assert!((d - 0.15f64.hypot(2.0) * UM).abs() < 1e-12, "{d}");
+    }
+
+    /// The reach of the blend at a line's end under G64 without P, the
+    /// corner taken as the one at its start (`end_blend_reach_mm`), by
+    /// hand: at F6000, `R = v²/a_n = 10 000 / (1000·√0.75)` = 11.547 mm.
+    /// A right angle (`θ` = 45°): a 40 mm line keeps `R/tan θ` = 11.547 mm
+    /// (`d_tol` = 10·cos θ/(1 − sin θ) = 24.14 mm), a 15 mm line its half,
+    /// 7.5 mm (`d_tol` 9.053 mm). A 140° turn (`θ` = 20°) on a 40 mm line:
+    /// the tolerance term, `T = 10` mm, 10·cos 20°/(1 − sin 20°) =
+    /// 14.281 mm (`R/tan θ` = 31.72 mm).
+    #[test]
+    fn the_blend_at_a_line_s_end_taken_as_the_one_at_its_start() {
+        let p = crate::compensate::PlannerLimits::default();
+        let x = Vec3::new(1.0, 0.0, 0.0);
+        let y = Vec3::new(0.0, 1.0, 0.0);
+        let d = super::end_blend_reach_mm(&p, x, y, 100.0, 40.0);
+        assert!((d - 11.547_005).abs() < 1e-5, "{d}");
+        let d = super::end_blend_reach_mm(&p, x, y, 100.0, 15.0);
+        assert!((d - 7.5).abs() < 1e-12, "{d}");
+        let turn = 140f64.to_radians();
+        let t2 = Vec3::new(turn.cos(), turn.sin(), 0.0);
+        let d = super::end_blend_reach_mm(&p, x, t2, 100.0, 40.0);
+        let th = 20f64.to_radians();
+        assert!((d - 10.0 * th.cos() / (1.0 - th.sin())).abs() < 1e-9, "{d}");
+        assert!((d - 14.281).abs() < 1e-3, "{d}");
     }
 
     #[test]
