@@ -179,17 +179,14 @@ impl CanonState {
         let start = self.chain.last().map_or(m.start, |(p, _)| *p);
         let tol = self.naivecam_mm();
         if plane == Plane::Xy && matches!(self.mode, PathMode::Blend { .. }) && tol > 0.0 {
-            // `chord_deviation`: the arc's sagitta, and its middle point.
-            let r = (start.x - center.x).hypot(start.y - center.y);
-            let th1 = (start.y - center.y).atan2(start.x - center.x);
-            let mid = th1 + sweep_rad / 2.0;
-            let dev = r * (1.0 - (sweep_rad.abs() / 2.0).cos());
+            let (dev, (mx, my)) = chord_deviation(
+                (start.x, start.y),
+                (m.end.x, m.end.y),
+                (center.x, center.y),
+                sweep_rad < 0.0,
+            );
             if dev < tol {
-                let mp = Vec3::new(
-                    center.x + r * mid.cos(),
-                    center.y + r * mid.sin(),
-                    (start.z + m.end.z) / 2.0,
-                );
+                let mp = Vec3::new(mx, my, (start.z + m.end.z) / 2.0);
                 self.see(mp, m.line, limits, out);
                 self.see(m.end, m.line, limits, out);
                 return;
@@ -232,4 +229,34 @@ impl CanonState {
             limits.servo_period_s,
         ));
     }
+}
+
+/// LinuxCNC's `chord_deviation` (src/emc/task/emccanon.cc): the sagitta of
+/// the arc from `start` to `end` about `center` in the XY plane (mm) and
+/// its middle point. The included angle is taken from the two end angles
+/// alone, within one turn: the arc's full turns (`P`) do not count, so a
+/// whole circle has the sagitta of its diameter, and an arc of more than a
+/// turn that of its principal part. The 1e-5 rad margins and the second
+/// correction (atan2's ±π edge) are LinuxCNC's.
+pub(crate) fn chord_deviation(
+    start: (f64, f64),
+    end: (f64, f64),
+    center: (f64, f64),
+    clockwise: bool,
+) -> (f64, (f64, f64)) {
+    let th1 = (start.1 - center.1).atan2(start.0 - center.0);
+    let mut th2 = (end.1 - center.1).atan2(end.0 - center.0);
+    let r = (start.1 - center.1).hypot(start.0 - center.0);
+    for _ in 0..2 {
+        let dth = th2 - th1;
+        if clockwise && dth >= -1e-5 {
+            th2 -= 2.0 * std::f64::consts::PI;
+        } else if !clockwise && dth <= 1e-5 {
+            th2 += 2.0 * std::f64::consts::PI;
+        }
+    }
+    let included = (th2 - th1).abs();
+    let mid = (th2 + th1) / 2.0;
+    let dev = r * (1.0 - (included / 2.0).cos());
+    (dev, (center.0 + r * mid.cos(), center.1 + r * mid.sin()))
 }

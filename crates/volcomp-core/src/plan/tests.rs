@@ -126,6 +126,67 @@ fn a_circle_runs_at_its_normal_acceleration_limit() {
 }
 
 #[test]
+fn a_circle_of_two_turns_under_naive_cam_is_still_a_circle() {
+    // G64 P0.005 (Q = P): LinuxCNC's `chord_deviation` (emccanon.cc) takes
+    // the included angle from the end angles alone, so a whole circle has
+    // the sagitta of its diameter (20 mm here), far above Q: it is sent as
+    // an arc, two turns of it, not as two lines through its middle. It
+    // runs at the normal acceleration cap from rest to rest (the closed
+    // form of the test above, over twice the length), with the tangent's
+    // 500 mm/s² halved as every G64 segment's is (the test of G64 above).
+    let s = x(10.0);
+    let arc = |mode| Move {
+        kind: MoveKind::Arc {
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: 2.0 * TAU,
+        },
+        start: s,
+        end: s,
+        feed_mm_s: 200.0,
+        mode,
+        line: 1,
+    };
+    let v = (1000.0 * 3f64.sqrt() / 2.0 * 10.0).sqrt();
+    let blend = PathMode::Blend {
+        tolerance_mm: 0.005,
+        naive_cam_mm: 0.005,
+    };
+    let e = estimate(&[arc(blend)], &Limits::default());
+    assert_close(
+        e.total_s,
+        trapezoid_s(2.0 * TAU * 10.0, v, 250.0),
+        "two turns under G64 P0.005",
+    );
+}
+
+#[test]
+fn chord_deviation_is_linuxcnc_s_within_one_turn() {
+    use super::canon::chord_deviation;
+    let r = 10.0;
+    // A counter-clockwise quarter from (10, 0) to (0, 10): 90° included,
+    // sagitta r·(1 − cos 45°), middle at 45°.
+    let (dev, (mx, my)) = chord_deviation((r, 0.0), (0.0, r), (0.0, 0.0), false);
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    assert!((dev - r * (1.0 - h)).abs() < 1e-12, "{dev}");
+    assert!((mx - r * h).abs() < 1e-12 && (my - r * h).abs() < 1e-12);
+    // The same ends clockwise: the other 270°, middle at −135°.
+    let (dev, (mx, my)) = chord_deviation((r, 0.0), (0.0, r), (0.0, 0.0), true);
+    assert!((dev - r * (1.0 + h)).abs() < 1e-12, "{dev}");
+    assert!((mx + r * h).abs() < 1e-12 && (my + r * h).abs() < 1e-12);
+    // A whole circle (ends equal), either way: 360°, the diameter.
+    for cw in [false, true] {
+        let (dev, _) = chord_deviation((r, 0.0), (r, 0.0), (0.0, 0.0), cw);
+        assert!((dev - 2.0 * r).abs() < 1e-12, "{dev}");
+    }
+    // Ends at −π and +π (atan2's edge: from (−10, −0) to (−10, 0))
+    // clockwise: the first correction makes the included angle zero, the
+    // second a whole turn.
+    let (dev, _) = chord_deviation((-r, -0.0), (-r, 0.0), (0.0, 0.0), true);
+    assert!((dev - 2.0 * r).abs() < 1e-9, "{dev}");
+}
+
+#[test]
 fn collinear_moves_run_through_at_speed() {
     // Ten 10 mm pieces of one line at 100 mm/s under G64: tangent joints
     // (no kink, so no acceleration given up). The last piece ends the
