@@ -127,6 +127,7 @@ impl<'w> State<'w> {
             states: Vec::new(),
             ramp_mids: Vec::new(),
             records: Vec::new(),
+            cells: crate::model::AxisCells::default(),
             transitions: Vec::new(),
             transitions_written: Vec::new(),
             estimate_mm: 0.0,
@@ -818,6 +819,10 @@ struct State<'w> {
     /// The per-point records of the motion being solved (a buffer kept
     /// between motions, compensate/points.rs).
     records: Vec<PointRecord>,
+    /// The map's table cells last used ([`crate::model::AxisCells`]),
+    /// kept between points and lines: the cells of the walk's map
+    /// ([`Walk::model`]), which every line's model is with the line's tool.
+    cells: crate::model::AxisCells,
     /// S-curve take-ups of the arc the next [`State::solve_targets`] solves
     /// ([`arcs::plan_transitions`]); it takes them.
     transitions: Vec<arcs::Transition>,

@@ -176,6 +176,16 @@ pub trait ErrorModel: Send + Sync {
         None
     }
 
+    /// The cell of axis `axis`'s table for direction `d` that holds
+    /// `x_mm`, where the model is a sum of per-axis tables interpolated
+    /// linearly (one axis of [`ErrorModel::deviation_cells`]): the cells
+    /// [`AxisCells`] keeps between evaluations. `None` outside the table,
+    /// and for models that are not such a sum (the default).
+    fn axis_cell(&self, axis: usize, d: Direction, x_mm: f64) -> Option<Cell> {
+        let _ = (axis, d, x_mm);
+        None
+    }
+
     /// Whether the error, with the direction state fixed, is the sum of
     /// per-axis functions each linear between its [`ErrorModel::knots_mm`]
     /// (and constant outside a clamped range): then `e` is affine along a
@@ -218,23 +228,123 @@ impl Cells {
     pub fn deviation_um(&self, q_mm: Vec3) -> Option<Vec3> {
         let mut e = Vec3::ZERO;
         for a in 0..3 {
-            let c = &self.axes[a];
-            let x = q_mm[a];
-            let inside = c.p[0] <= x && (x < c.p[1] || (c.upper && x == c.p[1]));
-            if !inside {
-                return None;
-            }
-            let v = if c.p[0] == c.p[1] {
-                c.e[0]
-            } else {
-                c.e[0].lerp(c.e[1], (x - c.p[0]) / (c.p[1] - c.p[0]))
-            };
+            let v = self.axes[a].value_at(q_mm[a])?;
             match self.components {
                 Components::All => e += v,
                 Components::PositioningOnly => e[a] += v[a],
             }
         }
         Some(e)
+    }
+}
+
+impl Cell {
+    /// The table's value (µm) at `x_mm`, computed as [`axis_table::Table::eval`]
+    /// computes it (linear interpolation between the cell's ends), so the
+    /// same to the bit; `None` where `x_mm` lies outside the cell.
+    #[inline]
+    pub fn value_at(&self, x_mm: f64) -> Option<Vec3> {
+        let (p, x) = (&self.p, x_mm);
+        let inside = p[0] <= x && (x < p[1] || (self.upper && x == p[1]));
+        if !inside {
+            return None;
+        }
+        Some(if p[0] == p[1] {
+            self.e[0]
+        } else {
+            self.e[0].lerp(self.e[1], (x - p[0]) / (p[1] - p[0]))
+        })
+    }
+}
+
+/// The table cells last used, one per axis and direction, kept between
+/// evaluations of one model: the points a compensation evaluates follow
+/// each other micrometres to millimetres apart, so an axis whose direction
+/// did not change finds its point in the cell it used last, and the table
+/// is searched again only when the point leaves it. The value is
+/// [`ErrorModel::deviation_um`]'s to the bit (the model's per-axis sum,
+/// [`Cells::deviation_um`]); a model without table cells
+/// ([`ErrorModel::axis_cell`]) is evaluated itself.
+///
+/// The cells belong to the model they were taken from: one cache serves
+/// one model (a model seen with different tools, [`WithTool`], is one
+/// model where its error does not depend on the tool, and gives no cells
+/// where it does).
+#[derive(Debug, Clone, Default)]
+pub struct AxisCells {
+    cells: [[Option<Cell>; 2]; 3],
+}
+
+impl AxisCells {
+    /// `e(q, s)` in µm: [`ErrorModel::deviation_um`]'s value to the bit
+    /// (the axes' values summed in the model's order, X, Y, Z, onto zero).
+    pub fn deviation_um(
+        &mut self,
+        model: &dyn ErrorModel,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Vec3, ModelError> {
+        let [x, y, z] = &mut self.cells;
+        let values = (
+            Self::value(x, model, 0, s[0], q_mm.x),
+            Self::value(y, model, 1, s[1], q_mm.y),
+            Self::value(z, model, 2, s[2], q_mm.z),
+        );
+        let (Some(vx), Some(vy), Some(vz)) = values else {
+            // Outside a table, or no cells: the model itself.
+            return model.deviation_um(q_mm, s, components);
+        };
+        Ok(match components {
+            Components::All => Vec3::ZERO + vx + vy + vz,
+            Components::PositioningOnly => Vec3::new(0.0 + vx.x, 0.0 + vy.y, 0.0 + vz.z),
+        })
+    }
+
+    /// Axis `axis`'s table value at `x_mm` for direction `d`, in the cell
+    /// kept for them, or in the cell looked up when `x_mm` left it.
+    #[inline(always)]
+    fn value(
+        cells: &mut [Option<Cell>; 2],
+        model: &dyn ErrorModel,
+        axis: usize,
+        d: Direction,
+        x_mm: f64,
+    ) -> Option<Vec3> {
+        let slot = match d {
+            Direction::Forward => &mut cells[0],
+            Direction::Reverse => &mut cells[1],
+        };
+        match slot.as_ref().and_then(|c| c.value_at(x_mm)) {
+            Some(v) => Some(v),
+            None => Self::refill(slot, model, axis, d, x_mm),
+        }
+    }
+
+    /// [`Self::value`] where `x_mm` left the cell kept (or none was).
+    #[cold]
+    #[inline(never)]
+    fn refill(
+        slot: &mut Option<Cell>,
+        model: &dyn ErrorModel,
+        axis: usize,
+        d: Direction,
+        x_mm: f64,
+    ) -> Option<Vec3> {
+        *slot = model.axis_cell(axis, d, x_mm);
+        slot.as_ref().and_then(|c| c.value_at(x_mm))
+    }
+
+    /// `q + e(q, s)` ([`actual_mm`]'s value to the bit).
+    #[inline]
+    pub fn actual_mm(
+        &mut self,
+        model: &dyn ErrorModel,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Vec3, ModelError> {
+        Ok(q_mm + self.deviation_um(model, q_mm, s, components)? * 1e-3)
     }
 }
 
@@ -302,6 +412,14 @@ impl ErrorModel for WithTool<'_> {
         self.model.deviation_cells(q_mm, s, components)
     }
 
+    /// The model's cell where its error does not depend on the tool.
+    fn axis_cell(&self, axis: usize, d: Direction, x_mm: f64) -> Option<Cell> {
+        if self.model.uses_tool_offset() {
+            return None;
+        }
+        self.model.axis_cell(axis, d, x_mm)
+    }
+
     fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
         self.model.knots_mm(axis, d)
     }
@@ -343,6 +461,10 @@ impl<M: ErrorModel + ?Sized> ErrorModel for Box<M> {
 
     fn deviation_cells(&self, q_mm: Vec3, s: Directions, components: Components) -> Option<Cells> {
         (**self).deviation_cells(q_mm, s, components)
+    }
+
+    fn axis_cell(&self, axis: usize, d: Direction, x_mm: f64) -> Option<Cell> {
+        (**self).axis_cell(axis, d, x_mm)
     }
 }
 
