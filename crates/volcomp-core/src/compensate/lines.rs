@@ -1,7 +1,8 @@
 //! Writing lines: inserted moves, byte-range edits of an original line, and
 //! the small lexical helpers they need.
 
-use super::frame::Frame;
+// `1.0 / pow10(d)` is `10f64.powi(-d)` to the bit (frame.rs, `pow10_is_powi`).
+use super::frame::{pow10, Frame};
 use super::walk::{Line, Place};
 use super::State;
 use std::ops::Range;
@@ -170,7 +171,7 @@ impl ArcWords {
         };
         let (u, v, _) = self.plane.axes();
         let k = frame.mm_per_unit;
-        let step_mm = 10f64.powi(-i32::from(style.decimals)) * k;
+        let step_mm = (1.0 / pow10(style.decimals)) * k;
         let chord_mm = (q[u] - from[u]).hypot(q[v] - from[v]);
         let inch = (k - 1.0).abs() > 1e-9;
         let radius_tolerance_mm = 0.00005 * 25.4;
@@ -420,13 +421,13 @@ impl State<'_> {
             // depends on the start: the words can only stay when the command
             // starts where the nominal move did (to the written resolution).
             let both = polar().count() == 2;
-            let half_lsb_mm = 0.5 * 10f64.powi(-i32::from(frame.decimals)) * frame.mm_per_unit;
+            let half_lsb_mm = 0.5 * (1.0 / pow10(frame.decimals)) * frame.mm_per_unit;
             let start_kept = (frame.absolute && both)
                 || (0..2).all(|a| (from[a] - polar_start[a]).abs() <= half_lsb_mm);
             let same = start_kept
                 && (0..2).all(|a| {
                     (frame.word_value(q, from, a) - frame.word_value(polar_nominal, from, a)).abs()
-                        < 0.5 * 10f64.powi(-i32::from(frame.decimals))
+                        < 0.5 * (1.0 / pow10(frame.decimals))
                 });
             if !same {
                 let start = edits.text_start();
@@ -463,7 +464,7 @@ impl State<'_> {
                     first_axis_start.get_or_insert(w.span.start);
                     last_axis_end = Some(w.span.end);
                     let v = frame.word_value(q, from, a);
-                    let lsb = 0.5 * 10f64.powi(-i32::from(frame.decimals));
+                    let lsb = 0.5 * (1.0 / pow10(frame.decimals));
                     if (v - w.value).abs() >= lsb * 0.999 {
                         // Never fewer decimals than the word replaced, even
                         // past the grid's MAX_DECIMALS.
@@ -650,6 +651,50 @@ fn tolerance_text(v: f64) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The edits kept in one buffer write what `apply_edits` writes from
+    /// the same edits (the second method), errors included: replacements,
+    /// deletions, insertions at one place (kept in their order), at the
+    /// line's end; overlapping edits and one past the end. By hand: the
+    /// first case gives `G1 X10.5 Y2 Z1 F100`.
+    #[test]
+    fn line_edits_apply_as_apply_edits() {
+        use volcomp_gcode::edit::apply_edits;
+        let line = b"G1 X10 Y2 I5 F100\r\n";
+        let cases: Vec<Vec<Edit>> = vec![
+            vec![
+                Edit::replace(4..6, "10.5"),
+                Edit::delete(9..12),
+                Edit::insert(9, " Z1"),
+            ],
+            vec![
+                Edit::insert(3, "A"),
+                Edit::insert(0, "N1 "),
+                Edit::insert(3, "B"),
+                Edit::replace(0..2, "G01"),
+                Edit::insert(17, " (end)"),
+            ],
+            vec![Edit::replace(3..6, "X1"), Edit::replace(5..9, "Y3")],
+            vec![Edit::replace(18..20, "")],
+            vec![Edit::insert(20, "!")],
+            vec![],
+        ];
+        let mut edits = LineEdits::default();
+        let mut outs = Vec::new();
+        for case in cases {
+            let (mut want, mut got) = (Vec::new(), Vec::new());
+            let expected = apply_edits(line, &mut case.clone(), &mut want);
+            edits.clear();
+            edits.extend(case);
+            assert_eq!(edits.apply(line, &mut got), expected);
+            if expected.is_ok() {
+                assert_eq!(got, want);
+            }
+            outs.push(got);
+        }
+        assert_eq!(outs[0], b"G1 X10.5 Y2 Z1 F100\r\n");
+        assert_eq!(outs[1], b"N1 G01 ABX10 Y2 I5 F100 (end)\r\n");
+    }
 
     #[test]
     fn a_tolerance_is_written_rounded_down_to_two_digits() {
