@@ -25,6 +25,7 @@ use volcomp_gcode::Vec3;
 /// otherwise it would start off by the whole step the switch made (the
 /// reversing axis' straightness across the others, a few tenths of a
 /// micrometre), fading over the whole segment.
+#[allow(clippy::too_many_arguments)]
 fn take_up_command(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,

@@ -575,3 +575,140 @@ mod direction_tests {
         }
     }
 }
+
+#[cfg(test)]
+mod axis_cells_tests {
+    use super::axis_table::AxisTableMap;
+    use super::*;
+    use Direction::{Forward as F, Reverse as R};
+
+    /// Uniform numbers in [0, 1) from a xorshift generator (Marsaglia
+    /// 2003): reproducible random cases.
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// Tables of 0 … 100 mm in steps of 10 (X, Y), forward and reverse
+    /// different, and a Z reverse table of one point.
+    fn map(clamp: bool) -> AxisTableMap {
+        let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+        for (axis, dir, k) in [("X", "forward", 1.0), ("X", "reverse", -0.7)] {
+            for i in 0..=10 {
+                let p = 10.0 * f64::from(i);
+                let e = k * (p * 0.031).sin() * 3.0;
+                csv += &format!("{axis},{dir},{p},{e},{},{}\n", 0.3 * e, -0.1 * e);
+            }
+        }
+        for (axis, dir, k) in [("Y", "forward", 0.4), ("Y", "reverse", 1.3)] {
+            for i in 0..=10 {
+                let p = 10.0 * f64::from(i);
+                let e = k * (p * 0.017).cos();
+                csv += &format!("{axis},{dir},{p},{},{e},{}\n", 0.2 * e, 0.05 * e);
+            }
+        }
+        csv += "Z,forward,0,0.1,0.2,0.3\nZ,forward,100,0.3,0.1,-0.2\n\
+                Z,reverse,0,0.5,0.4,0.9\nZ,reverse,100,0.5,0.4,0.9\n";
+        let mut m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        m.clamp = clamp;
+        // A table of one point (the file format asks for two; the type
+        // allows it).
+        m.axes[2].reverse = axis_table::Table {
+            positions_mm: vec![0.0],
+            errors_um: vec![Vec3::new(0.5, 0.4, 0.9)],
+        };
+        m
+    }
+
+    /// By hand: X forward goes 0 → 2 µm (along X) over 0 … 10 mm, so at
+    /// 2.5 mm the cell gives 0.5 µm; Y and Z tables are zero.
+    #[test]
+    fn a_cell_value_is_the_interpolation() {
+        let m = AxisTableMap::from_csv(
+            "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+             X,both,0,0,0,0\nX,both,10,2,0,0\nY,both,0,0,0,0\nY,both,10,0,0,0\n\
+             Z,both,0,0,0,0\nZ,both,10,0,0,0\n",
+            "m.csv",
+        )
+        .unwrap();
+        let mut cells = AxisCells::default();
+        let e = cells
+            .deviation_um(&m, Vec3::new(2.5, 1.0, 1.0), ALL_FORWARD, Components::All)
+            .unwrap();
+        assert_eq!(e, Vec3::new(0.5, 0.0, 0.0));
+    }
+
+    /// The cells kept from point to point give the map's own lookup to the
+    /// bit (the second method): on 20,000 points that walk in small and
+    /// large steps, land on table points, leave the tables (clamped, or
+    /// out of range: the same error), in random direction states, both
+    /// component sets; a Z reverse table of one point (its value only at
+    /// 0, out of range elsewhere); and through a model without cells.
+    #[test]
+    fn kept_cells_give_the_maps_values_to_the_bit() {
+        for clamp in [false, true] {
+            let m = map(clamp);
+            let with_tool = WithTool {
+                model: &m,
+                tool_length_offset_mm: Vec3::new(0.0, 0.0, 50.0),
+            };
+            let mut rnd = uniform(0x2545_f491_4f6c_dd1d);
+            let mut cells = AxisCells::default();
+            let mut q = Vec3::new(50.0, 50.0, 50.0);
+            let (mut hits, mut errors) = (0, 0);
+            for k in 0..20_000 {
+                let step = match k % 4 {
+                    0 => 1e-3,
+                    1 => 0.5,
+                    2 => 7.0,
+                    _ => 40.0,
+                };
+                for a in 0..3 {
+                    q[a] += (rnd() - 0.5) * step;
+                    q[a] = if k % 97 == 0 {
+                        // On a table point, or just outside the table.
+                        [0.0, 10.0, 100.0, -1e-3, 100.001][k % 5]
+                    } else {
+                        q[a].clamp(0.0, 100.0)
+                    };
+                }
+                let s = [0, 1, 2].map(|_| if rnd() < 0.5 { F } else { R });
+                let c = if k % 3 == 0 {
+                    Components::PositioningOnly
+                } else {
+                    Components::All
+                };
+                let model: &dyn ErrorModel = if k % 2 == 0 { &m } else { &with_tool };
+                let kept = cells.deviation_um(model, q, s, c);
+                let plain = m.deviation_um(q, s, c);
+                match (kept, plain) {
+                    (Ok(a), Ok(b)) => {
+                        hits += 1;
+                        let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+                        assert_eq!(bits(a), bits(b), "{q:?} {s:?} {c:?}");
+                    }
+                    (Err(a), Err(b)) => {
+                        errors += 1;
+                        assert_eq!(a, b);
+                    }
+                    (a, b) => panic!("{q:?} {s:?}: {a:?} against {b:?}"),
+                }
+            }
+            // Z reverse (half the states) has one point: out of range
+            // elsewhere unless clamped.
+            assert!(hits > 8_000, "{hits}");
+            assert!(clamp || errors > 100, "{errors}");
+        }
+        // A model without cells is evaluated itself.
+        let no_cells = ByDirection(|s: Directions| Vec3::new(s[0].sign(), 0.0, 0.0));
+        let mut cells = AxisCells::default();
+        let e = cells
+            .deviation_um(&no_cells, Vec3::ZERO, [R, F, F], Components::All)
+            .unwrap();
+        assert_eq!(e, Vec3::new(-1.0, 0.0, 0.0));
+    }
+}
