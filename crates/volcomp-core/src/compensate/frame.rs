@@ -151,24 +151,39 @@ impl Frame {
         if self.rotation_deg != 0.0 {
             return self.quantize_rotated(q, from);
         }
-        let mut out = q;
-        let p = self.program(q);
-        for a in 0..3 {
+        // `program`, `word_of` and `round` written out once for the three
+        // axes (the same operations in the same order: the same bits), the
+        // scale and the threshold computed once.
+        let per_mm = 1.0 / self.mm_per_unit;
+        let p = (q - self.offset_mm) * per_mm;
+        let p_from = (from - self.offset_mm) * per_mm;
+        let scale = pow10(self.decimals);
+        let still = 0.5 * (1.0 / scale) * self.mm_per_unit * 1e-3;
+        let axis = |a: usize, p: f64, p_from: f64| -> f64 {
             let k = if a == 0 { self.x_word_scale } else { 1.0 };
-            let v = self.word_of(p, from, a) / k;
-            out[a] = if self.absolute {
+            let word = if self.absolute {
+                p * k
+            } else {
+                (p - p_from) * k
+            };
+            let v = volcomp_gcode::number::round_bits(word * scale) / scale / k;
+            let out = if self.absolute {
                 v * self.mm_per_unit + self.offset_mm[a]
             } else {
                 from[a] + v * self.mm_per_unit
             };
             // An axis whose written value would not change stays exactly put.
-            if (out[a] - from[a]).abs()
-                < 0.5 * (1.0 / pow10(self.decimals)) * self.mm_per_unit * 1e-3
-            {
-                out[a] = from[a];
+            if (out - from[a]).abs() < still {
+                from[a]
+            } else {
+                out
             }
-        }
-        out
+        };
+        Vec3::new(
+            axis(0, p.x, p_from.x),
+            axis(1, p.y, p_from.y),
+            axis(2, p.z, p_from.z),
+        )
     }
 
     /// [`Self::quantize`] in a rotated frame: the words are rounded in the
@@ -211,7 +226,7 @@ fn rotate(x: f64, y: f64, theta_deg: f64) -> (f64, f64) {
 /// every power up to 10²² is exact in `f64`, as `powi`'s products of exact
 /// values are, and `1.0 / pow10(d)` is `powi(−d)`'s one division: the same
 /// bits.
-fn pow10(d: u8) -> f64 {
+pub(super) fn pow10(d: u8) -> f64 {
     const POW10: [f64; 23] = [
         1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
         1e17, 1e18, 1e19, 1e20, 1e21, 1e22,

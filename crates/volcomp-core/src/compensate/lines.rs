@@ -1,13 +1,96 @@
 //! Writing lines: inserted moves, byte-range edits of an original line, and
 //! the small lexical helpers they need.
 
-use super::frame::Frame;
+// `1.0 / pow10(d)` is `10f64.powi(-d)` to the bit (frame.rs, `pow10_is_powi`).
+use super::frame::{pow10, Frame};
 use super::walk::{Line, Place};
 use super::State;
-use volcomp_gcode::edit::Edit;
+use std::ops::Range;
+use volcomp_gcode::edit::{Edit, EditError};
 use volcomp_gcode::lexer::Word;
-use volcomp_gcode::number::{format_number, NumberStyle};
+use volcomp_gcode::number::{format_number, format_number_bytes, NumberStyle};
 use volcomp_gcode::{MotionKind, Vec3};
+
+/// The edits of one line (each an [`Edit`]: a byte range of the line and
+/// the text that replaces it) with their texts in one buffer, kept from
+/// line to line: no `String` per edit and, once the buffers have grown, no
+/// allocation per line. [`LineEdits::apply`] writes them as
+/// [`volcomp_gcode::edit::apply_edits`] writes a list of [`Edit`]s: the
+/// same bytes, the same errors.
+#[derive(Debug, Default)]
+pub(super) struct LineEdits {
+    /// Each edit: its range in the line, and its text's range in `text`.
+    list: Vec<(Range<usize>, Range<usize>)>,
+    text: Vec<u8>,
+}
+
+impl LineEdits {
+    /// No edits (the buffers kept).
+    pub(super) fn clear(&mut self) {
+        self.list.clear();
+        self.text.clear();
+    }
+
+    /// Replaces `range` of the line with `content` (inserts where the
+    /// range is empty).
+    pub(super) fn replace(&mut self, range: Range<usize>, content: &[u8]) {
+        let start = self.text.len();
+        self.text.extend_from_slice(content);
+        self.list.push((range, start..self.text.len()));
+    }
+
+    /// Inserts `content` before byte `at`.
+    pub(super) fn insert(&mut self, at: usize, content: &[u8]) {
+        self.replace(at..at, content);
+    }
+
+    /// Deletes `range`.
+    pub(super) fn delete(&mut self, range: Range<usize>) {
+        self.replace(range, b"");
+    }
+
+    /// Replaces `range` with the text written into the buffer from `start`
+    /// ([`LineEdits::text_start`]) on.
+    fn replace_written(&mut self, range: Range<usize>, start: usize) {
+        self.list.push((range, start..self.text.len()));
+    }
+
+    /// Where the next text written into the buffer starts.
+    fn text_start(&self) -> usize {
+        self.text.len()
+    }
+
+    /// Appends edits made elsewhere, in their order.
+    pub(super) fn extend(&mut self, edits: impl IntoIterator<Item = Edit>) {
+        for e in edits {
+            self.replace(e.range, e.content.as_bytes());
+        }
+    }
+
+    /// Appends `line` with the edits applied to `out`, in the order of
+    /// their ranges (edits at the same place in the order they were made;
+    /// the sort is stable), as [`volcomp_gcode::edit::apply_edits`] does.
+    pub(super) fn apply(&mut self, line: &[u8], out: &mut Vec<u8>) -> Result<(), EditError> {
+        self.list.sort_by_key(|(r, _)| (r.start, r.end));
+        let mut cursor = 0;
+        for (r, t) in &self.list {
+            if r.end > line.len() || r.start > r.end {
+                return Err(EditError::OutOfRange {
+                    end: r.end,
+                    len: line.len(),
+                });
+            }
+            if r.start < cursor {
+                return Err(EditError::Overlap(r.start));
+            }
+            out.extend_from_slice(&line[cursor..r.start]);
+            out.extend_from_slice(&self.text[t.clone()]);
+            cursor = r.end;
+        }
+        out.extend_from_slice(&line[cursor..]);
+        Ok(())
+    }
+}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum OutMode {
@@ -88,7 +171,7 @@ impl ArcWords {
         };
         let (u, v, _) = self.plane.axes();
         let k = frame.mm_per_unit;
-        let step_mm = 10f64.powi(-i32::from(style.decimals)) * k;
+        let step_mm = (1.0 / pow10(style.decimals)) * k;
         let chord_mm = (q[u] - from[u]).hypot(q[v] - from[v]);
         let inch = (k - 1.0).abs() > 1e-9;
         let radius_tolerance_mm = 0.00005 * 25.4;
@@ -303,13 +386,14 @@ impl State<'_> {
     }
 
     /// The edits that write the first command `c` into the original line
-    /// `line`, in the frame and style of `at`.
+    /// `line`, in the frame and style of `at`, appended to `edits`.
     pub(super) fn original_line_edits(
         &mut self,
+        edits: &mut LineEdits,
         line: &Line,
         at: &Place,
         c: FirstCommand,
-    ) -> Vec<Edit> {
+    ) {
         let (frame, style, sep) = (at.frame, at.style, self.walk.sep);
         let FirstCommand {
             from,
@@ -321,8 +405,6 @@ impl State<'_> {
             polar_start,
         } = c;
         let content = line.content();
-        let words: Vec<&Word> = line.words().collect();
-        let mut edits = Vec::new();
         let is_arc = matches!(kind, MotionKind::Arc(_));
         let mut has_motion_word = false;
         let mut last_axis_end = None;
@@ -331,54 +413,49 @@ impl State<'_> {
         // A polar end point (LinuxCNC `@` radius, `^` angle) is kept as
         // written while its X and Y round to the command's; otherwise the
         // polar words are replaced by the command's X and Y.
-        let polar: Vec<&&Word> = words
-            .iter()
-            .filter(|w| matches!(w.letter, b'@' | b'^'))
-            .collect();
-        if let Some(first) = polar.first() {
+        let polar = || line.words().filter(|w| matches!(w.letter, b'@' | b'^'));
+        if let Some(first) = polar().next() {
             present[0] = true;
             present[1] = true;
             // In G91, or with only one of `@`/`^` in G90, the polar end point
             // depends on the start: the words can only stay when the command
             // starts where the nominal move did (to the written resolution).
-            let both = polar.len() == 2;
-            let half_lsb_mm = 0.5 * 10f64.powi(-i32::from(frame.decimals)) * frame.mm_per_unit;
+            let both = polar().count() == 2;
+            let half_lsb_mm = 0.5 * (1.0 / pow10(frame.decimals)) * frame.mm_per_unit;
             let start_kept = (frame.absolute && both)
                 || (0..2).all(|a| (from[a] - polar_start[a]).abs() <= half_lsb_mm);
             let same = start_kept
                 && (0..2).all(|a| {
                     (frame.word_value(q, from, a) - frame.word_value(polar_nominal, from, a)).abs()
-                        < 0.5 * 10f64.powi(-i32::from(frame.decimals))
+                        < 0.5 * (1.0 / pow10(frame.decimals))
                 });
             if !same {
-                self.text.clear();
-                self.text.push('X');
-                format_number(frame.word_value(q, from, 0), style, &mut self.text);
-                self.text.push_str(sep);
-                self.text.push('Y');
-                format_number(frame.word_value(q, from, 1), style, &mut self.text);
-                edits.push(Edit::replace(first.span.clone(), self.text.clone()));
-                for w in &polar[1..] {
-                    edits.push(Edit::delete(
-                        blank_before(content, w.span.start)..w.span.end,
-                    ));
+                let start = edits.text_start();
+                edits.text.push(b'X');
+                format_number_bytes(frame.word_value(q, from, 0), style, &mut edits.text);
+                edits.text.extend_from_slice(sep.as_bytes());
+                edits.text.push(b'Y');
+                format_number_bytes(frame.word_value(q, from, 1), style, &mut edits.text);
+                edits.replace_written(first.span.clone(), start);
+                for w in polar().skip(1) {
+                    edits.delete(blank_before(content, w.span.start)..w.span.end);
                 }
             }
             first_axis_start = Some(first.span.start);
             last_axis_end = Some(first.span.end);
         }
-        for w in &words {
+        for w in line.words() {
             match w.letter {
                 b'G' if [0.0, 1.0, 2.0, 3.0].contains(&w.value) => {
                     has_motion_word = true;
                     if is_arc {
                         let text = &content[w.value_span.clone()];
-                        let new = if text.len() >= 2 && text[0] == b'0' {
-                            "01"
+                        let new: &[u8] = if text.len() >= 2 && text[0] == b'0' {
+                            b"01"
                         } else {
-                            "1"
+                            b"1"
                         };
-                        edits.push(Edit::replace(w.value_span.clone(), new));
+                        edits.replace(w.value_span.clone(), new);
                     }
                 }
                 b'X' | b'Y' | b'Z' => {
@@ -387,50 +464,46 @@ impl State<'_> {
                     first_axis_start.get_or_insert(w.span.start);
                     last_axis_end = Some(w.span.end);
                     let v = frame.word_value(q, from, a);
-                    let lsb = 0.5 * 10f64.powi(-i32::from(frame.decimals));
+                    let lsb = 0.5 * (1.0 / pow10(frame.decimals));
                     if (v - w.value).abs() >= lsb * 0.999 {
-                        self.text.clear();
                         // Never fewer decimals than the word replaced, even
                         // past the grid's MAX_DECIMALS.
                         let own =
                             volcomp_gcode::number::decimals_of(&content[w.value_span.clone()]);
                         let style = style.with_decimals(style.decimals.max(own.min(15)));
-                        format_number(v, style, &mut self.text);
-                        edits.push(Edit::replace(w.value_span.clone(), self.text.clone()));
+                        let start = edits.text_start();
+                        format_number_bytes(v, style, &mut edits.text);
+                        edits.replace_written(w.value_span.clone(), start);
                     }
                 }
                 b'I' | b'J' | b'K' | b'R' | b'P' if is_arc => {
-                    edits.push(Edit::delete(
-                        blank_before(content, w.span.start)..w.span.end,
-                    ));
+                    edits.delete(blank_before(content, w.span.start)..w.span.end);
                 }
                 _ => {}
             }
         }
         if let Some(w) = stop_word {
-            edits.push(Edit::delete(
-                blank_before(content, w.span.start)..w.span.end,
-            ));
+            edits.delete(blank_before(content, w.span.start)..w.span.end);
         }
         let at = last_axis_end.unwrap_or(content.len());
-        for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+        for (a, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
             if !present[a] && frame.changes(q, from, a) {
-                self.text.clear();
-                self.text.push_str(sep);
-                self.text.push(letter);
-                format_number(frame.word_value(q, from, a), style, &mut self.text);
-                edits.push(Edit::insert(at, self.text.clone()));
+                let start = edits.text_start();
+                edits.text.extend_from_slice(sep.as_bytes());
+                edits.text.push(letter);
+                format_number_bytes(frame.word_value(q, from, a), style, &mut edits.text);
+                edits.replace_written(at..at, start);
             }
         }
         if !has_motion_word && (self.mode != Some(needed) || is_arc) {
-            let code = needed.code();
             let at = first_axis_start.unwrap_or(0);
-            edits.push(Edit::insert(
-                at,
-                format!("{code}{}", if sep.is_empty() { "" } else { " " }),
-            ));
+            let start = edits.text_start();
+            edits.text.extend_from_slice(needed.code().as_bytes());
+            if !sep.is_empty() {
+                edits.text.push(b' ');
+            }
+            edits.replace_written(at..at, start);
         }
-        edits
     }
 }
 
@@ -578,6 +651,50 @@ fn tolerance_text(v: f64) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The edits kept in one buffer write what `apply_edits` writes from
+    /// the same edits (the second method), errors included: replacements,
+    /// deletions, insertions at one place (kept in their order), at the
+    /// line's end; overlapping edits and one past the end. By hand: the
+    /// first case gives `G1 X10.5 Y2 Z1 F100`.
+    #[test]
+    fn line_edits_apply_as_apply_edits() {
+        use volcomp_gcode::edit::apply_edits;
+        let line = b"G1 X10 Y2 I5 F100\r\n";
+        let cases: Vec<Vec<Edit>> = vec![
+            vec![
+                Edit::replace(4..6, "10.5"),
+                Edit::delete(9..12),
+                Edit::insert(9, " Z1"),
+            ],
+            vec![
+                Edit::insert(3, "A"),
+                Edit::insert(0, "N1 "),
+                Edit::insert(3, "B"),
+                Edit::replace(0..2, "G01"),
+                Edit::insert(17, " (end)"),
+            ],
+            vec![Edit::replace(3..6, "X1"), Edit::replace(5..9, "Y3")],
+            vec![Edit::replace(18..20, "")],
+            vec![Edit::insert(20, "!")],
+            vec![],
+        ];
+        let mut edits = LineEdits::default();
+        let mut outs = Vec::new();
+        for case in cases {
+            let (mut want, mut got) = (Vec::new(), Vec::new());
+            let expected = apply_edits(line, &mut case.clone(), &mut want);
+            edits.clear();
+            edits.extend(case);
+            assert_eq!(edits.apply(line, &mut got), expected);
+            if expected.is_ok() {
+                assert_eq!(got, want);
+            }
+            outs.push(got);
+        }
+        assert_eq!(outs[0], b"G1 X10.5 Y2 Z1 F100\r\n");
+        assert_eq!(outs[1], b"N1 G01 ABX10 Y2 I5 F100 (end)\r\n");
+    }
 
     #[test]
     fn a_tolerance_is_written_rounded_down_to_two_digits() {

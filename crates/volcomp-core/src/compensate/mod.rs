@@ -127,6 +127,8 @@ impl<'w> State<'w> {
             states: Vec::new(),
             ramp_mids: Vec::new(),
             records: Vec::new(),
+            line_edits: lines::LineEdits::default(),
+            cells: crate::model::AxisCells::default(),
             transitions: Vec::new(),
             transitions_written: Vec::new(),
             estimate_mm: 0.0,
@@ -627,7 +629,11 @@ impl<'w> State<'w> {
                     };
                     self.push_path_mode_line(words, &at);
                 }
-                let mut edits = self.original_line_edits(
+                // The line's edits, in a buffer kept between lines.
+                let mut edits = std::mem::take(&mut self.line_edits);
+                edits.clear();
+                self.original_line_edits(
+                    &mut edits,
                     line,
                     &place,
                     lines::FirstCommand {
@@ -654,7 +660,7 @@ impl<'w> State<'w> {
                 if let Some(plan) = extra_plan.as_mut() {
                     let words: Vec<_> = line.words().collect();
                     for (span, text) in plan.first_edits(&words, content, style) {
-                        edits.push(volcomp_gcode::edit::Edit::replace(span, text));
+                        edits.replace(span, text.as_bytes());
                     }
                 }
                 if let (Some((words, _, _)), None) = (start_here, first_arc) {
@@ -662,13 +668,14 @@ impl<'w> State<'w> {
                     // edit there).
                     let end = line.words().map(|w| w.span.end).max();
                     let space = if sep.is_empty() { "" } else { " " };
-                    edits.push(volcomp_gcode::edit::Edit::insert(
+                    edits.insert(
                         end.unwrap_or(content.len()),
-                        format!("{space}{words}"),
-                    ));
+                        format!("{space}{words}").as_bytes(),
+                    );
                 }
-                apply_edits(ev.bytes, &mut edits, &mut self.buf)
-                    .map_err(|e| edit_error(file, ev.number, e))?;
+                let applied = edits.apply(ev.bytes, &mut self.buf);
+                self.line_edits = edits;
+                applied.map_err(|e| edit_error(file, ev.number, e))?;
                 if content_len == ev.bytes.len() && commands.len() > 1 {
                     self.buf.extend_from_slice(b"\n");
                 }
@@ -818,6 +825,12 @@ struct State<'w> {
     /// The per-point records of the motion being solved (a buffer kept
     /// between motions, compensate/points.rs).
     records: Vec<PointRecord>,
+    /// The edits of the line being written (a buffer kept between lines).
+    line_edits: lines::LineEdits,
+    /// The map's table cells last used ([`crate::model::AxisCells`]),
+    /// kept between points and lines: the cells of the walk's map
+    /// ([`Walk::model`]), which every line's model is with the line's tool.
+    cells: crate::model::AxisCells,
     /// S-curve take-ups of the arc the next [`State::solve_targets`] solves
     /// ([`arcs::plan_transitions`]); it takes them.
     transitions: Vec<arcs::Transition>,

@@ -7,11 +7,11 @@ use super::{
     command_error, model_error, CompensateOptions, DirectionPolicy, PointRecord, State, TakeUpRule,
 };
 use crate::compensate::solve::{
-    hold_small_reversals, solve_consistent, solve_fixed, Method, NearEval,
+    hold_small_reversals_in, solve_consistent_in, solve_fixed_in, Method,
 };
 use crate::error::{CompensationError, ModelError};
 use crate::model::next_state;
-use crate::model::{Directions, ErrorModel};
+use crate::model::{AxisCells, Components, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
 
 /// The command that takes up the reversing axes' backlash at `q_prev`
@@ -25,7 +25,9 @@ use volcomp_gcode::Vec3;
 /// otherwise it would start off by the whole step the switch made (the
 /// reversing axis' straightness across the others, a few tenths of a
 /// micrometre), fading over the whole segment.
+#[allow(clippy::too_many_arguments)]
 fn take_up_command(
+    cells: &mut AxisCells,
     model: &dyn ErrorModel,
     q_prev: Vec3,
     s_old: Directions,
@@ -34,8 +36,7 @@ fn take_up_command(
     (toward, up_to_toward): (Vec3, bool),
     frame: &Frame,
 ) -> Result<Vec3, ModelError> {
-    use crate::model::{actual_mm, Components};
-    let held = actual_mm(model, q_prev, s_old, Components::All)?;
+    let held = cells.actual_mm(model, q_prev, s_old, Components::All)?;
     let mut q = q_prev;
     // The reversing axes move, with their new state during the move. The
     // other axes follow too where the tool would otherwise step (the new
@@ -50,11 +51,11 @@ fn take_up_command(
     }
     let mut moves = reversed;
     // The iteration's points lie micrometres apart: evaluated in the
-    // tables' cells. It stops where the command repeats bit for bit: every
-    // later round would compute the same command and the same `moves`.
-    let mut near = NearEval::new(model, s, Components::All);
+    // tables' cells ([`AxisCells`]). It stops where the command repeats bit
+    // for bit: every later round would compute the same command and the
+    // same `moves`.
     for _ in 0..8 {
-        let img = q + near.deviation_um(q)? * 1e-3;
+        let img = cells.actual_mm(model, q, s, Components::All)?;
         let before = q;
         for a in 0..3 {
             if reversed[a] {
@@ -95,20 +96,20 @@ fn take_up_command(
 /// whole jump. The written take-up is rounded to the output's step, so it
 /// is not used here.
 fn switch_lags_mm(
+    cells: &mut AxisCells,
     model: &dyn ErrorModel,
     q_prev: Vec3,
     s_old: Directions,
     s_new: Directions,
     reversed: [bool; 3],
 ) -> Result<[Vec3; 3], ModelError> {
-    use crate::model::{actual_mm, Components};
     let mut lags = [Vec3::ZERO; 3];
     let mut s = s_old;
     for a in 0..3 {
         if reversed[a] && s_new[a] != s[a] {
-            let before = actual_mm(model, q_prev, s, Components::All)?;
+            let before = cells.actual_mm(model, q_prev, s, Components::All)?;
             s[a] = s_new[a];
-            lags[a] = before - actual_mm(model, q_prev, s, Components::All)?;
+            lags[a] = before - cells.actual_mm(model, q_prev, s, Components::All)?;
         }
     }
     Ok(lags)
@@ -188,6 +189,7 @@ fn fold_is_tangent(delta: Vec3, kink: [f64; 3], piece_mm: f64) -> bool {
 /// is the fraction of the lead piece.
 #[allow(clippy::too_many_arguments)]
 fn lead_target(
+    cells: &mut AxisCells,
     model: &dyn ErrorModel,
     options: &CompensateOptions,
     quantize: &dyn Fn(Vec3) -> Vec3,
@@ -201,7 +203,15 @@ fn lead_target(
     let mut piece = 0.5 * length;
     while piece >= shortest_mm && piece > 0.0 {
         let lead = at(piece / length);
-        let sol = solve_fixed(model, options.method, lead, point.s, [false; 3], q_prev)?;
+        let sol = solve_fixed_in(
+            cells,
+            model,
+            options.method,
+            lead,
+            point.s,
+            [false; 3],
+            q_prev,
+        )?;
         let q = quantize(sol.q_mm);
         let consistent = (0..3).all(|a| {
             !point.reversed[a]
@@ -336,6 +346,7 @@ pub(super) struct RampPlan {
 /// than `tolerance_mm` from the path.
 #[allow(clippy::too_many_arguments)]
 fn plan_ramp(
+    cells: &mut AxisCells,
     model: &dyn ErrorModel,
     options: &CompensateOptions,
     quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
@@ -469,7 +480,7 @@ fn plan_ramp(
     // [`hold_on_ramp`]).
     let mut prev = q_prev;
     for ((t, _), f) in window.iter().zip(&fracs) {
-        let sol = solve_fixed(model, options.method, *t, point.s, [false; 3], prev)?;
+        let sol = solve_fixed_in(cells, model, options.method, *t, point.s, [false; 3], prev)?;
         let mut q = quantize(sol.q_mm - delta * *f, prev);
         hold_on_ramp(&mut q, prev, point.s, hold);
         for a in 0..3 {
@@ -1044,6 +1055,9 @@ impl State<'_> {
         // (One buffer kept between motions: no allocation per line.)
         let mut records = std::mem::take(&mut self.records);
         records.clear();
+        // The map's cells kept between points and motions ([`AxisCells`]):
+        // every line's model is the walk's map with the line's tool.
+        let mut cells = std::mem::take(&mut self.cells);
         let mut index = 0;
         while index < targets.len() {
             if keep_history && history.len() == index {
@@ -1078,29 +1092,40 @@ impl State<'_> {
             }
             let quantize = |q: Vec3| frame.quantize(q, q_from);
             let point = match options.directions {
-                DirectionPolicy::Commanded => {
-                    solve_consistent(model, options.method, *t, self.q_out, s_from, &quantize).map(
-                        |mut p| {
-                            p.reversed = [0, 1, 2].map(|a| p.s[a] != self.s[a]);
-                            p
-                        },
-                    )
-                }
+                DirectionPolicy::Commanded => solve_consistent_in(
+                    &mut cells,
+                    model,
+                    options.method,
+                    *t,
+                    (self.q_out, s_from),
+                    &quantize,
+                )
+                .map(|mut p| {
+                    p.reversed = [0, 1, 2].map(|a| p.s[a] != self.s[a]);
+                    p
+                }),
                 DirectionPolicy::Nominal => {
                     let s_nom = next_state(self.s_nominal, *t - t_prev);
-                    solve_fixed(model, options.method, *t, s_nom, [false; 3], Vec3::ZERO).map(
-                        |sol| {
-                            let q = quantize(sol.q_mm);
-                            crate::compensate::solve::PointSolution {
-                                q_mm: q,
-                                s: s_nom,
-                                iterations: sol.iterations,
-                                residual_um: sol.residual_um,
-                                reversed: [false; 3],
-                                held: [false; 3],
-                            }
-                        },
+                    solve_fixed_in(
+                        &mut cells,
+                        model,
+                        options.method,
+                        *t,
+                        s_nom,
+                        [false; 3],
+                        Vec3::ZERO,
                     )
+                    .map(|sol| {
+                        let q = quantize(sol.q_mm);
+                        crate::compensate::solve::PointSolution {
+                            q_mm: q,
+                            s: s_nom,
+                            iterations: sol.iterations,
+                            residual_um: sol.residual_um,
+                            reversed: [false; 3],
+                            held: [false; 3],
+                        }
+                    })
                 }
             }
             .map_err(|source| command_error(model, file, line, *t, source))?;
@@ -1116,14 +1141,14 @@ impl State<'_> {
             check_converged(&point, options, *t, file, line)?;
             let solve_residual_um = point.residual_um;
             let point = match hold_bound {
-                Some(bound) => hold_small_reversals(
+                Some(bound) => hold_small_reversals_in(
+                    &mut cells,
                     model,
                     options.method,
                     *t,
                     (self.q_out, self.s),
                     &quantize,
-                    &point,
-                    bound,
+                    (&point, bound),
                 )
                 .map_err(|source| model_error(file, line, source))?
                 .map_or(point, |held| {
@@ -1153,7 +1178,8 @@ impl State<'_> {
                 && transition.is_none()
                 && point.reversed.iter().any(|r| *r))
             .then_some((*t, self.q_out, self.s, point));
-            let held_instead = |from: Option<(
+            let held_instead = |cells: &mut AxisCells,
+                                from: Option<(
                 Vec3,
                 Vec3,
                 Directions,
@@ -1162,14 +1188,14 @@ impl State<'_> {
                 let Some((t, q_prev, s_prev, point)) = from else {
                     return Ok(None);
                 };
-                hold_small_reversals(
+                hold_small_reversals_in(
+                    cells,
                     model,
                     options.method,
                     t,
                     (q_prev, s_prev),
                     &quantize,
-                    &point,
-                    f64::INFINITY,
+                    (&point, f64::INFINITY),
                 )
                 .map(|held| held.filter(|h| !h.reversed.iter().any(|r| *r)))
                 .map_err(|source| model_error(file, line, source))
@@ -1242,6 +1268,7 @@ impl State<'_> {
                             s_new[a] = point.s[a];
                         }
                         let tu = take_up_command(
+                            &mut cells,
                             model,
                             self.q_out,
                             self.s,
@@ -1349,6 +1376,7 @@ impl State<'_> {
             {
                 take_up = Some(
                     take_up_command(
+                        &mut cells,
                         model,
                         self.q_out,
                         self.s,
@@ -1386,8 +1414,15 @@ impl State<'_> {
                 self.note_fold(tr.deviation_mm);
             }
             if take_up.is_some() && options.fold_take_ups {
-                let lags = switch_lags_mm(model, self.q_out, self.s, point.s, point.reversed)
-                    .map_err(|source| model_error(file, line, source))?;
+                let lags = switch_lags_mm(
+                    &mut cells,
+                    model,
+                    self.q_out,
+                    self.s,
+                    point.s,
+                    point.reversed,
+                )
+                .map_err(|source| model_error(file, line, source))?;
                 let bound = fold_deviation_mm(&lags, self.q_out, point.q_mm, *t - t_prev);
                 // On an arc piece the bound above, taken along its chord,
                 // may fall short of what the tool leaves beside the arc; the
@@ -1446,6 +1481,7 @@ impl State<'_> {
                     let floor = ramp_floor_mm(rule, &run, index);
                     for floor_mm in [floor, 0.0] {
                         planned = plan_ramp(
+                            &mut cells,
                             model,
                             options,
                             &|q, from| frame.quantize(q, from),
@@ -1503,7 +1539,7 @@ impl State<'_> {
                     ));
                 } else if bound <= tolerance {
                     let from = hold_alt.take().filter(|_| !fold_is_tangent);
-                    match held_instead(from)? {
+                    match held_instead(&mut cells, from)? {
                         Some(held) => point = self.take_hold(held, &mut take_up),
                         None => {
                             take_up = None;
@@ -1547,6 +1583,7 @@ impl State<'_> {
                         None
                     } else {
                         lead_target(
+                            &mut cells,
                             model,
                             options,
                             &quantize,
@@ -1578,7 +1615,8 @@ impl State<'_> {
                         if length >= 2.0 * shortest {
                             let f = shortest / length;
                             let lead_t = at(f);
-                            let q = solve_fixed(
+                            let q = solve_fixed_in(
+                                &mut cells,
                                 model,
                                 options.method,
                                 lead_t,
@@ -1609,8 +1647,9 @@ impl State<'_> {
                         plain_shortest,
                         reach > 0.0 && length > 0.0 && !within_tolerance,
                     ) {
-                        let lead_q = |f: f64| -> Result<Option<Vec3>, CompensationError> {
-                            let q = solve_fixed(
+                        let mut lead_q = |f: f64| -> Result<Option<Vec3>, CompensationError> {
+                            let q = solve_fixed_in(
+                                &mut cells,
                                 model,
                                 options.method,
                                 at(f),
@@ -1683,7 +1722,8 @@ impl State<'_> {
                         self.summary.max_fold_excursion_um.max(lead_excursion_um);
                     let lead_kinks = lead
                         .is_some_and(|f| !self::fold_is_tangent(delta, kink_tolerance, f * length));
-                    if let Some(held) = held_instead(hold_alt.take_if(|_| lead_kinks))? {
+                    if let Some(held) = held_instead(&mut cells, hold_alt.take_if(|_| lead_kinks))?
+                    {
                         point = self.take_hold(held, &mut take_up);
                     } else if let Some(f) = lead {
                         // Solve the lead piece first (it takes the take-up up),
@@ -1707,9 +1747,10 @@ impl State<'_> {
                     TakeUpRule::Within(t) => t,
                     TakeUpRule::Exact { .. } => 0.0,
                 };
-                if let Some(held) =
-                    held_instead(hold_alt.take_if(|_| take_up.is_some() && !fold_is_tangent))?
-                {
+                if let Some(held) = held_instead(
+                    &mut cells,
+                    hold_alt.take_if(|_| take_up.is_some() && !fold_is_tangent),
+                )? {
                     point = self.take_hold(held, &mut take_up);
                 } else if take_up.is_some() && bound <= allowed {
                     // G64: folded all the same, the tool leaving the path by
@@ -1837,6 +1878,7 @@ impl State<'_> {
             (self.on_point)(r);
         }
         self.records = records;
+        self.cells = cells;
         Ok(commands)
     }
 
@@ -2212,7 +2254,7 @@ mod tests {
     }
 
     /// The take-up that stops where its command repeats, in the tables'
-    /// cells, is the eight rounds' command to the bit: on 3,000 points,
+    /// cells kept from case to case, is the eight rounds' command to the bit: on 3,000 points,
     /// states, reversing axes and segment commands (toward or past the
     /// take-up, up to it or not), at 4 and 6 decimals. By hand: X alone
     /// reverses at 10 mm on a map whose X reverse table lies 4 µm above the
@@ -2229,6 +2271,7 @@ mod tests {
         .unwrap();
         let q0 = Vec3::new(10.0, 20.0, 30.0);
         let tu = super::take_up_command(
+            &mut crate::model::AxisCells::default(),
             &flat,
             q0,
             [F; 3],
@@ -2242,6 +2285,8 @@ mod tests {
         let map = sloped_map();
         let mut rnd = crate::compensate::solve::tests::uniform(0x9e37_79b9_7f4a_7c15);
         let dir = |x: f64| if x < 0.5 { F } else { R };
+        // One cache for every case, as the walk keeps it between points.
+        let mut cells = crate::model::AxisCells::default();
         for k in 0..3000 {
             let q_prev = Vec3::new(1.0 + 98.0 * rnd(), 1.0 + 98.0 * rnd(), 1.0 + 98.0 * rnd());
             let s_old = [dir(rnd()), dir(rnd()), dir(rnd())];
@@ -2257,8 +2302,10 @@ mod tests {
             let step = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * (0.02 * rnd());
             let toward = (q_prev + step, k % 2 == 0);
             let frame = frame_mm(if k % 4 == 0 { 6 } else { 4 });
-            let fast = super::take_up_command(&map, q_prev, s_old, s_new, reversed, toward, &frame)
-                .unwrap();
+            let fast = super::take_up_command(
+                &mut cells, &map, q_prev, s_old, s_new, reversed, toward, &frame,
+            )
+            .unwrap();
             let slow = take_up_eight_rounds(&map, q_prev, s_old, s_new, reversed, toward, &frame);
             let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
             assert_eq!(bits(fast), bits(slow), "{q_prev:?} {s_old:?} {reversed:?}");

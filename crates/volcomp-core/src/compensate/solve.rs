@@ -11,7 +11,7 @@
 //! chosen by is the direction of the command actually sent (docs/design.md, "Direction state and backlash").
 
 use crate::error::ModelError;
-use crate::model::{actual_mm, Cells, Components, Direction, Directions, ErrorModel};
+use crate::model::{AxisCells, Components, Direction, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
 
 /// How a point is compensated.
@@ -56,42 +56,6 @@ impl Method {
     }
 }
 
-/// The model's deviation at a run of nearby points for one direction
-/// state and set of components: where the model gives its table cells
-/// ([`ErrorModel::deviation_cells`]), computed in them (the same value to
-/// the bit, [`Cells::deviation_um`]), the map looked up again only when a
-/// point leaves them; elsewhere [`ErrorModel::deviation_um`] itself.
-pub(crate) struct NearEval<'m> {
-    model: &'m dyn ErrorModel,
-    s: Directions,
-    components: Components,
-    cells: Option<Cells>,
-}
-
-impl<'m> NearEval<'m> {
-    /// No cells yet: the first point looks them up.
-    pub(crate) fn new(model: &'m dyn ErrorModel, s: Directions, components: Components) -> Self {
-        NearEval {
-            model,
-            s,
-            components,
-            cells: None,
-        }
-    }
-
-    /// `e(q, s)` in µm, [`ErrorModel::deviation_um`]'s value to the bit.
-    pub(crate) fn deviation_um(&mut self, q: Vec3) -> Result<Vec3, ModelError> {
-        if let Some(e) = self.cells.as_ref().and_then(|c| c.deviation_um(q)) {
-            return Ok(e);
-        }
-        self.cells = self.model.deviation_cells(q, self.s, self.components);
-        match self.cells.as_ref().and_then(|c| c.deviation_um(q)) {
-            Some(e) => Ok(e),
-            None => self.model.deviation_um(q, self.s, self.components),
-        }
-    }
-}
-
 /// Solves `q + e(q, s) = t` for fixed `s`, keeping the axes in `hold` at
 /// `held_q` (their residual is then whatever it is).
 pub fn solve_fixed(
@@ -102,21 +66,30 @@ pub fn solve_fixed(
     hold: [bool; 3],
     held_q: Vec3,
 ) -> Result<Solved, ModelError> {
-    solve_fixed_near(model, method, t_mm, s, hold, held_q).map(|(sol, _)| sol)
+    solve_fixed_in(
+        &mut AxisCells::default(),
+        model,
+        method,
+        t_mm,
+        s,
+        hold,
+        held_q,
+    )
 }
 
-/// [`solve_fixed`], with the evaluator of the full model in `s` that the
-/// exact solve used (`None` for the other methods): the solution's
-/// neighbours, the command on the output grid among them, are evaluated
-/// in its cells ([`full_actual_mm`]).
-fn solve_fixed_near<'m>(
-    model: &'m dyn ErrorModel,
+/// [`solve_fixed`] with the model evaluated in `cells` (kept between
+/// solves of `model`: the same values to the bit, [`AxisCells`]). The
+/// iteration's points lie micrometres apart, so they nearly always fall
+/// in the cells the last point used.
+pub(crate) fn solve_fixed_in(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
     method: Method,
     t_mm: Vec3,
     s: Directions,
     hold: [bool; 3],
     held_q: Vec3,
-) -> Result<(Solved, Option<NearEval<'m>>), ModelError> {
+) -> Result<Solved, ModelError> {
     let comps = method.components();
     let fix = |mut q: Vec3| {
         for a in 0..3 {
@@ -126,8 +99,6 @@ fn solve_fixed_near<'m>(
         }
         q
     };
-    let residual =
-        |q: Vec3| -> Result<Vec3, ModelError> { Ok(t_mm - actual_mm(model, q, s, comps)?) };
     let free_norm = |r: Vec3| {
         let mut r = r;
         for a in 0..3 {
@@ -137,12 +108,13 @@ fn solve_fixed_near<'m>(
         }
         r.norm()
     };
+    let mut residual =
+        |q: Vec3| -> Result<Vec3, ModelError> { Ok(t_mm - cells.actual_mm(model, q, s, comps)?) };
     // The residual at the final command when the method's model is the
     // full one (then it is the residual this reports: not evaluated again).
-    let mut kept: Option<NearEval<'m>> = None;
     let (q, iterations, full) = match method {
         Method::Direct => {
-            let e = model.deviation_um(fix(t_mm), s, comps)? * 1e-3;
+            let e = cells.deviation_um(model, fix(t_mm), s, comps)? * 1e-3;
             (fix(t_mm - e), 1, None)
         }
         Method::Ilc {
@@ -165,14 +137,6 @@ fn solve_fixed_near<'m>(
             (q, it, Some(r))
         }
         Method::Exact | Method::Pitch => {
-            // The iteration's points lie micrometres apart: where the
-            // model gives its table cells, the residual is computed in
-            // them (the same value to the bit, `Cells::deviation_um`) and
-            // the map is looked up again only when a point leaves them.
-            let mut near = NearEval::new(model, s, comps);
-            let mut residual = |q: Vec3| -> Result<Vec3, ModelError> {
-                Ok(t_mm - (q + near.deviation_um(q)? * 1e-3))
-            };
             let mut q = fix(t_mm);
             let mut r = residual(q)?;
             let mut it = 0;
@@ -181,39 +145,18 @@ fn solve_fixed_near<'m>(
                 r = residual(q)?;
                 it += 1;
             }
-            let full = comps == Components::All;
-            if full {
-                kept = Some(near);
-            }
-            (q, it, full.then_some(r))
+            (q, it, (comps == Components::All).then_some(r))
         }
     };
     let full = match full {
         Some(r) => r,
-        None => t_mm - actual_mm(model, q, s, Components::All)?,
+        None => t_mm - cells.actual_mm(model, q, s, Components::All)?,
     };
-    Ok((
-        Solved {
-            q_mm: q,
-            iterations,
-            residual_um: full.norm() * 1e3,
-        },
-        kept,
-    ))
-}
-
-/// `actual_mm(model, q, s, Components::All)` to the bit, in `near`'s
-/// cells where it evaluates the full model in the state `s`.
-fn full_actual_mm(
-    model: &dyn ErrorModel,
-    near: &mut Option<NearEval<'_>>,
-    q: Vec3,
-    s: Directions,
-) -> Result<Vec3, ModelError> {
-    match near {
-        Some(n) if n.s == s && n.components == Components::All => Ok(q + n.deviation_um(q)? * 1e-3),
-        _ => actual_mm(model, q, s, Components::All),
-    }
+    Ok(Solved {
+        q_mm: q,
+        iterations,
+        residual_um: full.norm() * 1e3,
+    })
 }
 
 /// A compensated point whose directions agree with the tables used.
@@ -257,14 +200,32 @@ pub fn solve_consistent(
     s_prev: Directions,
     quantize: &dyn Fn(Vec3) -> Vec3,
 ) -> Result<PointSolution, ModelError> {
+    solve_consistent_in(
+        &mut AxisCells::default(),
+        model,
+        method,
+        t_mm,
+        (q_prev, s_prev),
+        quantize,
+    )
+}
+
+/// [`solve_consistent`] with the model evaluated in `cells` (kept between
+/// solves of `model`, [`AxisCells`]).
+pub(crate) fn solve_consistent_in(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    method: Method,
+    t_mm: Vec3,
+    (q_prev, s_prev): (Vec3, Directions),
+    quantize: &dyn Fn(Vec3) -> Vec3,
+) -> Result<PointSolution, ModelError> {
     let mut s = s_prev;
     let mut hold = [false; 3];
     let mut flipped = [false; 3];
     let mut last = None;
-    let mut near = None;
     for _round in 0..4 {
-        let (sol, n) = solve_fixed_near(model, method, t_mm, s, hold, q_prev)?;
-        near = n;
+        let sol = solve_fixed_in(cells, model, method, t_mm, s, hold, q_prev)?;
         let q = quantize(sol.q_mm);
         let mut consistent = true;
         for a in 0..3 {
@@ -308,7 +269,7 @@ pub fn solve_consistent(
     let flips = flipped.iter().filter(|f| **f).count();
     if hold.contains(&true) || !walked_to_consistent || flips > 1 {
         if let Some((found_sol, found_q, found_s)) =
-            search_states(model, method, t_mm, q_prev, s_prev, quantize)?
+            search_states(cells, model, method, t_mm, (q_prev, s_prev), quantize)?
         {
             sol = found_sol;
             q = found_q;
@@ -317,7 +278,7 @@ pub fn solve_consistent(
         }
     }
     let reversed = [0, 1, 2].map(|a| s[a] != s_prev[a]);
-    let residual_um = (t_mm - full_actual_mm(model, &mut near, q, s)?).norm() * 1e3;
+    let residual_um = (t_mm - cells.actual_mm(model, q, s, Components::All)?).norm() * 1e3;
     Ok(PointSolution {
         q_mm: q,
         s,
@@ -359,17 +320,39 @@ pub fn hold_small_reversals(
     point: &PointSolution,
     bound_mm: f64,
 ) -> Result<Option<PointSolution>, ModelError> {
+    hold_small_reversals_in(
+        &mut AxisCells::default(),
+        model,
+        method,
+        t_mm,
+        (q_prev, s_prev),
+        quantize,
+        (point, bound_mm),
+    )
+}
+
+/// [`hold_small_reversals`] with the model evaluated in `cells` (kept
+/// between solves of `model`, [`AxisCells`]).
+pub(crate) fn hold_small_reversals_in(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    method: Method,
+    t_mm: Vec3,
+    (q_prev, s_prev): (Vec3, Directions),
+    quantize: &dyn Fn(Vec3) -> Vec3,
+    (point, bound_mm): (&PointSolution, f64),
+) -> Result<Option<PointSolution>, ModelError> {
     let reversing = [0, 1, 2].map(|a| point.reversed[a] && !point.held[a]);
     let count = reversing.iter().filter(|r| **r).count();
     if count == 0 || bound_mm <= 0.0 {
         return Ok(None);
     }
-    let at_prev = model.deviation_um(q_prev, s_prev, Components::All)?;
+    let at_prev = cells.deviation_um(model, q_prev, s_prev, Components::All)?;
     let mut band_um = [0.0; 3];
     for a in (0..3).filter(|a| reversing[*a]) {
         let mut s = s_prev;
         s[a] = s[a].flipped();
-        band_um[a] = (model.deviation_um(q_prev, s, Components::All)?[a] - at_prev[a]).abs();
+        band_um[a] = (cells.deviation_um(model, q_prev, s, Components::All)?[a] - at_prev[a]).abs();
     }
     // Every reversing axis together, then (of several) each alone.
     let alone = (0..3)
@@ -381,7 +364,7 @@ pub fn hold_small_reversals(
         for a in (0..3).filter(|a| set[*a]) {
             s[a] = s_prev[a];
         }
-        let (sol, mut near) = solve_fixed_near(model, method, t_mm, s, hold, q_prev)?;
+        let sol = solve_fixed_in(cells, model, method, t_mm, s, hold, q_prev)?;
         let mut q = quantize(sol.q_mm);
         for a in (0..3).filter(|a| set[*a]) {
             q[a] = q_prev[a];
@@ -389,7 +372,7 @@ pub fn hold_small_reversals(
         if !consistent_state(q, q_prev, s, s_prev, hold) {
             continue;
         }
-        let r_mm = t_mm - full_actual_mm(model, &mut near, q, s)?;
+        let r_mm = t_mm - cells.actual_mm(model, q, s, Components::All)?;
         let mut free_mm = r_mm;
         for a in (0..3).filter(|a| set[*a]) {
             free_mm[a] = 0.0;
@@ -440,11 +423,11 @@ fn consistent_state(
 /// (the smallest residual among equals), with no axis held; `None` when no
 /// state of the 2³ is consistent.
 fn search_states(
+    cells: &mut AxisCells,
     model: &dyn ErrorModel,
     method: Method,
     t_mm: Vec3,
-    q_prev: Vec3,
-    s_prev: Directions,
+    (q_prev, s_prev): (Vec3, Directions),
     quantize: &dyn Fn(Vec3) -> Vec3,
 ) -> Result<Option<(Solved, Vec3, Directions)>, ModelError> {
     let mut best: Option<(usize, f64, Solved, Vec3, Directions)> = None;
@@ -460,12 +443,12 @@ fn search_states(
         if best.as_ref().is_some_and(|b| b.0 < flips) {
             continue;
         }
-        let (sol, mut near) = solve_fixed_near(model, method, t_mm, s, [false; 3], q_prev)?;
+        let sol = solve_fixed_in(cells, model, method, t_mm, s, [false; 3], q_prev)?;
         let q = quantize(sol.q_mm);
         if !consistent_state(q, q_prev, s, s_prev, [false; 3]) {
             continue;
         }
-        let residual_um = (t_mm - full_actual_mm(model, &mut near, q, s)?).norm() * 1e3;
+        let residual_um = (t_mm - cells.actual_mm(model, q, s, Components::All)?).norm() * 1e3;
         let better = match &best {
             None => true,
             Some(b) => flips < b.0 || (flips == b.0 && residual_um < b.1),

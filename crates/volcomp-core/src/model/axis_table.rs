@@ -293,6 +293,12 @@ impl ErrorModel for AxisTableMap {
         })
     }
 
+    /// The cell of the axis' table for `d` that holds `x_mm` (as
+    /// [`Table::eval`] finds it); `None` outside the table.
+    fn axis_cell(&self, axis: usize, d: Direction, x_mm: f64) -> Option<Cell> {
+        self.axes.get(axis)?.table(d).cell(x_mm)
+    }
+
     /// The table's points: linear interpolation changes slope only there.
     fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
         self.axes

@@ -176,6 +176,16 @@ pub trait ErrorModel: Send + Sync {
         None
     }
 
+    /// The cell of axis `axis`'s table for direction `d` that holds
+    /// `x_mm`, where the model is a sum of per-axis tables interpolated
+    /// linearly (one axis of [`ErrorModel::deviation_cells`]): the cells
+    /// [`AxisCells`] keeps between evaluations. `None` outside the table,
+    /// and for models that are not such a sum (the default).
+    fn axis_cell(&self, axis: usize, d: Direction, x_mm: f64) -> Option<Cell> {
+        let _ = (axis, d, x_mm);
+        None
+    }
+
     /// Whether the error, with the direction state fixed, is the sum of
     /// per-axis functions each linear between its [`ErrorModel::knots_mm`]
     /// (and constant outside a clamped range): then `e` is affine along a
@@ -218,23 +228,123 @@ impl Cells {
     pub fn deviation_um(&self, q_mm: Vec3) -> Option<Vec3> {
         let mut e = Vec3::ZERO;
         for a in 0..3 {
-            let c = &self.axes[a];
-            let x = q_mm[a];
-            let inside = c.p[0] <= x && (x < c.p[1] || (c.upper && x == c.p[1]));
-            if !inside {
-                return None;
-            }
-            let v = if c.p[0] == c.p[1] {
-                c.e[0]
-            } else {
-                c.e[0].lerp(c.e[1], (x - c.p[0]) / (c.p[1] - c.p[0]))
-            };
+            let v = self.axes[a].value_at(q_mm[a])?;
             match self.components {
                 Components::All => e += v,
                 Components::PositioningOnly => e[a] += v[a],
             }
         }
         Some(e)
+    }
+}
+
+impl Cell {
+    /// The table's value (µm) at `x_mm`, computed as [`axis_table::Table::eval`]
+    /// computes it (linear interpolation between the cell's ends), so the
+    /// same to the bit; `None` where `x_mm` lies outside the cell.
+    #[inline]
+    pub fn value_at(&self, x_mm: f64) -> Option<Vec3> {
+        let (p, x) = (&self.p, x_mm);
+        let inside = p[0] <= x && (x < p[1] || (self.upper && x == p[1]));
+        if !inside {
+            return None;
+        }
+        Some(if p[0] == p[1] {
+            self.e[0]
+        } else {
+            self.e[0].lerp(self.e[1], (x - p[0]) / (p[1] - p[0]))
+        })
+    }
+}
+
+/// The table cells last used, one per axis and direction, kept between
+/// evaluations of one model: the points a compensation evaluates follow
+/// each other micrometres to millimetres apart, so an axis whose direction
+/// did not change finds its point in the cell it used last, and the table
+/// is searched again only when the point leaves it. The value is
+/// [`ErrorModel::deviation_um`]'s to the bit (the model's per-axis sum,
+/// [`Cells::deviation_um`]); a model without table cells
+/// ([`ErrorModel::axis_cell`]) is evaluated itself.
+///
+/// The cells belong to the model they were taken from: one cache serves
+/// one model (a model seen with different tools, [`WithTool`], is one
+/// model where its error does not depend on the tool, and gives no cells
+/// where it does).
+#[derive(Debug, Clone, Default)]
+pub struct AxisCells {
+    cells: [[Option<Cell>; 2]; 3],
+}
+
+impl AxisCells {
+    /// `e(q, s)` in µm: [`ErrorModel::deviation_um`]'s value to the bit
+    /// (the axes' values summed in the model's order, X, Y, Z, onto zero).
+    pub fn deviation_um(
+        &mut self,
+        model: &dyn ErrorModel,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Vec3, ModelError> {
+        let [x, y, z] = &mut self.cells;
+        let values = (
+            Self::value(x, model, 0, s[0], q_mm.x),
+            Self::value(y, model, 1, s[1], q_mm.y),
+            Self::value(z, model, 2, s[2], q_mm.z),
+        );
+        let (Some(vx), Some(vy), Some(vz)) = values else {
+            // Outside a table, or no cells: the model itself.
+            return model.deviation_um(q_mm, s, components);
+        };
+        Ok(match components {
+            Components::All => Vec3::ZERO + vx + vy + vz,
+            Components::PositioningOnly => Vec3::new(0.0 + vx.x, 0.0 + vy.y, 0.0 + vz.z),
+        })
+    }
+
+    /// Axis `axis`'s table value at `x_mm` for direction `d`, in the cell
+    /// kept for them, or in the cell looked up when `x_mm` left it.
+    #[inline(always)]
+    fn value(
+        cells: &mut [Option<Cell>; 2],
+        model: &dyn ErrorModel,
+        axis: usize,
+        d: Direction,
+        x_mm: f64,
+    ) -> Option<Vec3> {
+        let slot = match d {
+            Direction::Forward => &mut cells[0],
+            Direction::Reverse => &mut cells[1],
+        };
+        match slot.as_ref().and_then(|c| c.value_at(x_mm)) {
+            Some(v) => Some(v),
+            None => Self::refill(slot, model, axis, d, x_mm),
+        }
+    }
+
+    /// [`Self::value`] where `x_mm` left the cell kept (or none was).
+    #[cold]
+    #[inline(never)]
+    fn refill(
+        slot: &mut Option<Cell>,
+        model: &dyn ErrorModel,
+        axis: usize,
+        d: Direction,
+        x_mm: f64,
+    ) -> Option<Vec3> {
+        *slot = model.axis_cell(axis, d, x_mm);
+        slot.as_ref().and_then(|c| c.value_at(x_mm))
+    }
+
+    /// `q + e(q, s)` ([`actual_mm`]'s value to the bit).
+    #[inline]
+    pub fn actual_mm(
+        &mut self,
+        model: &dyn ErrorModel,
+        q_mm: Vec3,
+        s: Directions,
+        components: Components,
+    ) -> Result<Vec3, ModelError> {
+        Ok(q_mm + self.deviation_um(model, q_mm, s, components)? * 1e-3)
     }
 }
 
@@ -302,6 +412,14 @@ impl ErrorModel for WithTool<'_> {
         self.model.deviation_cells(q_mm, s, components)
     }
 
+    /// The model's cell where its error does not depend on the tool.
+    fn axis_cell(&self, axis: usize, d: Direction, x_mm: f64) -> Option<Cell> {
+        if self.model.uses_tool_offset() {
+            return None;
+        }
+        self.model.axis_cell(axis, d, x_mm)
+    }
+
     fn knots_mm(&self, axis: usize, d: Direction) -> &[f64] {
         self.model.knots_mm(axis, d)
     }
@@ -343,6 +461,10 @@ impl<M: ErrorModel + ?Sized> ErrorModel for Box<M> {
 
     fn deviation_cells(&self, q_mm: Vec3, s: Directions, components: Components) -> Option<Cells> {
         (**self).deviation_cells(q_mm, s, components)
+    }
+
+    fn axis_cell(&self, axis: usize, d: Direction, x_mm: f64) -> Option<Cell> {
+        (**self).axis_cell(axis, d, x_mm)
     }
 }
 
@@ -451,5 +573,142 @@ mod direction_tests {
         for s in [[F, F, F], [R, F, R], [F, R, R]] {
             assert_eq!(parse_directions(&direction_letters(s)).unwrap(), s);
         }
+    }
+}
+
+#[cfg(test)]
+mod axis_cells_tests {
+    use super::axis_table::AxisTableMap;
+    use super::*;
+    use Direction::{Forward as F, Reverse as R};
+
+    /// Uniform numbers in [0, 1) from a xorshift generator (Marsaglia
+    /// 2003): reproducible random cases.
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// Tables of 0 … 100 mm in steps of 10 (X, Y), forward and reverse
+    /// different, and a Z reverse table of one point.
+    fn map(clamp: bool) -> AxisTableMap {
+        let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+        for (axis, dir, k) in [("X", "forward", 1.0), ("X", "reverse", -0.7)] {
+            for i in 0..=10 {
+                let p = 10.0 * f64::from(i);
+                let e = k * (p * 0.031).sin() * 3.0;
+                csv += &format!("{axis},{dir},{p},{e},{},{}\n", 0.3 * e, -0.1 * e);
+            }
+        }
+        for (axis, dir, k) in [("Y", "forward", 0.4), ("Y", "reverse", 1.3)] {
+            for i in 0..=10 {
+                let p = 10.0 * f64::from(i);
+                let e = k * (p * 0.017).cos();
+                csv += &format!("{axis},{dir},{p},{},{e},{}\n", 0.2 * e, 0.05 * e);
+            }
+        }
+        csv += "Z,forward,0,0.1,0.2,0.3\nZ,forward,100,0.3,0.1,-0.2\n\
+                Z,reverse,0,0.5,0.4,0.9\nZ,reverse,100,0.5,0.4,0.9\n";
+        let mut m = AxisTableMap::from_csv(&csv, "m.csv").unwrap();
+        m.clamp = clamp;
+        // A table of one point (the file format asks for two; the type
+        // allows it).
+        m.axes[2].reverse = axis_table::Table {
+            positions_mm: vec![0.0],
+            errors_um: vec![Vec3::new(0.5, 0.4, 0.9)],
+        };
+        m
+    }
+
+    /// By hand: X forward goes 0 → 2 µm (along X) over 0 … 10 mm, so at
+    /// 2.5 mm the cell gives 0.5 µm; Y and Z tables are zero.
+    #[test]
+    fn a_cell_value_is_the_interpolation() {
+        let m = AxisTableMap::from_csv(
+            "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+             X,both,0,0,0,0\nX,both,10,2,0,0\nY,both,0,0,0,0\nY,both,10,0,0,0\n\
+             Z,both,0,0,0,0\nZ,both,10,0,0,0\n",
+            "m.csv",
+        )
+        .unwrap();
+        let mut cells = AxisCells::default();
+        let e = cells
+            .deviation_um(&m, Vec3::new(2.5, 1.0, 1.0), ALL_FORWARD, Components::All)
+            .unwrap();
+        assert_eq!(e, Vec3::new(0.5, 0.0, 0.0));
+    }
+
+    /// The cells kept from point to point give the map's own lookup to the
+    /// bit (the second method): on 20,000 points that walk in small and
+    /// large steps, land on table points, leave the tables (clamped, or
+    /// out of range: the same error), in random direction states, both
+    /// component sets; a Z reverse table of one point (its value only at
+    /// 0, out of range elsewhere); and through a model without cells.
+    #[test]
+    fn kept_cells_give_the_maps_values_to_the_bit() {
+        for clamp in [false, true] {
+            let m = map(clamp);
+            let with_tool = WithTool {
+                model: &m,
+                tool_length_offset_mm: Vec3::new(0.0, 0.0, 50.0),
+            };
+            let mut rnd = uniform(0x2545_f491_4f6c_dd1d);
+            let mut cells = AxisCells::default();
+            let mut q = Vec3::new(50.0, 50.0, 50.0);
+            let (mut hits, mut errors) = (0, 0);
+            for k in 0..20_000 {
+                let step = match k % 4 {
+                    0 => 1e-3,
+                    1 => 0.5,
+                    2 => 7.0,
+                    _ => 40.0,
+                };
+                for a in 0..3 {
+                    q[a] += (rnd() - 0.5) * step;
+                    q[a] = if k % 97 == 0 {
+                        // On a table point, or just outside the table.
+                        [0.0, 10.0, 100.0, -1e-3, 100.001][k % 5]
+                    } else {
+                        q[a].clamp(0.0, 100.0)
+                    };
+                }
+                let s = [0, 1, 2].map(|_| if rnd() < 0.5 { F } else { R });
+                let c = if k % 3 == 0 {
+                    Components::PositioningOnly
+                } else {
+                    Components::All
+                };
+                let model: &dyn ErrorModel = if k % 2 == 0 { &m } else { &with_tool };
+                let kept = cells.deviation_um(model, q, s, c);
+                let plain = m.deviation_um(q, s, c);
+                match (kept, plain) {
+                    (Ok(a), Ok(b)) => {
+                        hits += 1;
+                        let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+                        assert_eq!(bits(a), bits(b), "{q:?} {s:?} {c:?}");
+                    }
+                    (Err(a), Err(b)) => {
+                        errors += 1;
+                        assert_eq!(a, b);
+                    }
+                    (a, b) => panic!("{q:?} {s:?}: {a:?} against {b:?}"),
+                }
+            }
+            // Z reverse (half the states) has one point: out of range
+            // elsewhere unless clamped.
+            assert!(hits > 8_000, "{hits}");
+            assert!(clamp || errors > 100, "{errors}");
+        }
+        // A model without cells is evaluated itself.
+        let no_cells = ByDirection(|s: Directions| Vec3::new(s[0].sign(), 0.0, 0.0));
+        let mut cells = AxisCells::default();
+        let e = cells
+            .deviation_um(&no_cells, Vec3::ZERO, [R, F, F], Components::All)
+            .unwrap();
+        assert_eq!(e, Vec3::new(-1.0, 0.0, 0.0));
     }
 }
