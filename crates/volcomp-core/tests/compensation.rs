@@ -640,7 +640,8 @@ fn z_slope_turns(out: &str) -> Vec<(f64, f64, f64)> {
             } else if !ccw && sweep >= 0.0 {
                 sweep -= tau;
             }
-            let r = 0.5 * ((p - c).norm() + (next - c).norm());
+            // The radius in the plane (a helix' Z is not part of it).
+            let r = 0.5 * ((p.x - c.x).hypot(p.y - c.y) + (next.x - c.x).hypot(next.y - c.y));
             let slope = (next.z - p.z) / (r * sweep.abs());
             if let Some(b) = before {
                 turns.push((p.x, p.y, slope - b));
@@ -679,6 +680,33 @@ fn under_g61_the_step_an_s_curve_makes_across_the_plane_is_spread_tangent() {
         .collect();
     // The S-curve's two joins and the spread's pieces (0.2 mm apart
     // within about 0.6 mm of the bottom).
+    let spread = near.iter().filter(|(x, ..)| x.abs() < 0.7).count();
+    assert!(spread >= 5, "{near:?}: {out}");
+    for (x, _, turn) in &near {
+        assert!(turn.abs() < 0.495e-3, "Z turns by {turn} at X {x}: {out}");
+    }
+    let report = against_original(&out, program, &map);
+    assert!(report.contour_max_um < 0.4 + 0.01, "{report:?}: {out}");
+}
+
+#[test]
+fn under_g61_on_a_helix_the_step_an_s_curve_makes_is_spread_beyond_the_helix_own_descent() {
+    // The circle of the test above as a helix of one turn down 2 mm: Z
+    // descends at 2 / (2π·10) = 31.8 mrad, and across the S-curve at the
+    // bottom its command descends that much plus the 0.3 µm step (0.3 µm
+    // over the S-curve's ≈ 0.3 mm: about 1 mrad steeper, twice above the
+    // 0.495 mrad tangency tolerance, tp.c tpSetupTangent). Spread as on
+    // the flat circle (L = 1.10 mm), the slope of Z at every join near the
+    // bottom turns by less than the tolerance; taking the whole Z change
+    // across the S-curve (6.5 µm with the helix' own) as the step, the
+    // spread was refused and both joins turned by about 1 mrad.
+    let map = z_step_at_y_reversal_map();
+    let program = "G61\nG0 X0.00000 Y10.00000 Z0.00000\nG2 X0.00000 Y10.00000 Z-2.00000 I0.00000 J-10.00000 F6000\nM2\n";
+    let (out, _) = compensate(program, &map, CompensateOptions::default());
+    let near: Vec<(f64, f64, f64)> = z_slope_turns(&out)
+        .into_iter()
+        .filter(|(x, y, _)| x.abs() < 3.0 && *y < -9.0)
+        .collect();
     let spread = near.iter().filter(|(x, ..)| x.abs() < 0.7).count();
     assert!(spread >= 5, "{near:?}: {out}");
     for (x, _, turn) in &near {

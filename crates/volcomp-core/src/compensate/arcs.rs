@@ -370,6 +370,10 @@ pub(super) struct Transition {
     /// be spread as a smooth step (the arc parameters of its start and
     /// end, both cuts of the pieces; [`normal_step_span`]), if anywhere.
     pub(super) spread: Option<(f64, f64)>,
+    /// Under G61, the S-curve is the biarc whose tighter arc is the widest
+    /// of the two kinds ([`super::scurve::widest_biarc`]); elsewhere the
+    /// equal-distance biarc.
+    pub(super) widest: bool,
 }
 
 /// The span (arc parameters) over which the step `step_mm` that an
@@ -451,6 +455,9 @@ pub(super) fn plan_transitions(
     // far above the rounding of the point's angle.
     let step = 0.01 / length.max(1e-9);
     let w = arc.plane.axes().2;
+    // Under G61 (where the step is spread) the S-curve is the widest
+    // biarc: the planner runs its tighter arc faster.
+    let widest = spread.is_some();
     // The window of the quarter point at `to` where the direction state
     // is `s`: the reversing axis, its new direction and the window, if the
     // rule asks for an S-curve there and one fits.
@@ -482,7 +489,7 @@ pub(super) fn plan_transitions(
         // window, the rounding of the written words) takes a little of the
         // tolerance.
         Ok(
-            super::scurve::best_window(r, band_mm, 0.85 * tol, v_mm_s, planner, after_only)
+            super::scurve::best_window(r, band_mm, 0.85 * tol, v_mm_s, planner, after_only, widest)
                 .map(|win| (a, new, win, step_w_mm)),
         )
     };
@@ -531,6 +538,7 @@ pub(super) fn plan_transitions(
                 direction: new,
                 deviation_mm: dev,
                 spread: None,
+                widest,
             });
             taken.push((0.0, hi, 0.0));
             continue;
@@ -550,6 +558,7 @@ pub(super) fn plan_transitions(
             direction: new,
             deviation_mm: dev,
             spread: None,
+            widest,
         });
         taken.push((lo, hi, step_w));
     }
@@ -894,7 +903,12 @@ impl State<'_> {
             };
             let t2 = tangent(&words[i + 1], s_next, e_next, false);
             let (a, b) = (start_of(i), commands[i].0);
-            let Some([arc1, arc2]) = super::scurve::biarc(p2(a), t1, p2(b), t2) else {
+            let s_curve = if t.widest {
+                super::scurve::widest_biarc
+            } else {
+                super::scurve::biarc
+            };
+            let Some([arc1, arc2]) = s_curve(p2(a), t1, p2(b), t2) else {
                 continue;
             };
             let (l1, l2) = (arc1.length(), arc2.length());

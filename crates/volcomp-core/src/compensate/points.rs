@@ -613,13 +613,15 @@ pub(super) fn piece_turn_tolerance(
 /// span around it (arc parameters, both cuts; [`super::arcs::normal_step_span`])
 /// as a smooth step `3u² − 2u³`: each command from the span's start to its
 /// end moves along `w` by `Δ·(σ − H)`, with `Δ` the step the S-curve's
-/// commands make, `σ` the smooth step over the span and `H` the step as
+/// commands make (on a helix, beyond the arc's own progress along `w`
+/// across it), `σ` the smooth step over the span and `H` the step as
 /// written (0 before the S-curve, linear across it, 1 after). The commands
 /// at the span's ends do not move.
 ///
 /// Taken only where no take-up lies inside the span, `w` keeps one
-/// direction over it and the step goes that way (so no command turns
-/// against it), and the largest turn of `w`'s slope at the span's joins
+/// direction over it (on a planar arc, the step's: so no command turns
+/// against it; on a helix no command may turn against the helix's), and
+/// the largest turn of `w`'s slope at the span's joins
 /// (as written, quantized) falls below `kappa` or at least below what it
 /// was. Returns the largest distance it adds to the path along `w` (mm).
 fn spread_normal_step(
@@ -637,9 +639,18 @@ fn spread_normal_step(
         return None;
     }
     let (lo, hi) = (pieces[index - 1], pieces[index]);
-    let step = commands[index].0[w] - commands[index - 1].0[w];
+    // On a helix the commands across the S-curve also carry the arc's own
+    // progress along w: the step is only what they add to it.
+    let helical = arc.start[w] != arc.end[w];
+    let own_w = if helical {
+        arc.point_at(hi)[w] - arc.point_at(lo)[w]
+    } else {
+        0.0
+    };
+    let step = commands[index].0[w] - commands[index - 1].0[w] - own_w;
     let dir = states[index][w].sign();
-    if step * dir <= 0.0
+    if step == 0.0
+        || (!helical && step * dir <= 0.0)
         || (k0 + 1..=k1).any(|k| states[k][w] != states[index][w])
         || (k0 + 1..=k1).any(|k| commands[k].1.is_some())
     {

@@ -20,7 +20,9 @@
 //! The S-curve is the biarc from the arc at `x = −w₁` (old command, the
 //! arc's tangent) to the arc `b` lower at `x = w₂` (new command), the
 //! joint where both arcs are as far from their ends along their tangents
-//! (the equal-distance biarc). LinuxCNC runs an arc of radius `ρ` at no
+//! (the equal-distance biarc); under G61, where that one's tighter arc is
+//! narrower, the S of two equal radii ([`widest_biarc`]). LinuxCNC runs an
+//! arc of radius `ρ` at no
 //! more than `√(a_n ρ)` (`pmCircleActualMaxVel`, blendmath.c;
 //! `a_n = √0.75 · A`), so a tight S-curve slows the machine: the window is
 //! chosen, among lengths growing by ×1.25, as the one that keeps the tool
@@ -192,6 +194,91 @@ pub(super) fn biarc(p1: P2, t1: P2, p2: P2, t2: P2) -> Option<[BiarcArc; 2]> {
     Some([a1, a2])
 }
 
+/// The S-shaped biarc from `p1` (unit tangent `t1`) to `p2` (unit
+/// tangent `t2`) whose two arcs have the same radius and turn opposite
+/// ways; `None` where no such biarc leaves `p1` along `t1`. With `n₁`
+/// the unit normal at `p1` on the side the first arc turns to and `n₂`
+/// the one at `p2` on the side the second turns to, the centres are
+/// `c₁ = p1 + ρn₁` and `c₂ = p2 + ρn₂`, and the arcs join
+/// tangent-continuously where the circles touch, `|c₁ − c₂| = 2ρ`: with
+/// `w = p1 − p2` and `s = n₁ − n₂`,
+/// `(s·s − 4)ρ² + 2(w·s)ρ + w·w = 0`, whose one positive root is `ρ`
+/// (`s·s < 4`; linear where the tangents are parallel), the joint
+/// halfway between the centres. Of the two senses, the one whose arcs
+/// each turn by less than a quarter turn (the S, not a loop), the shorter
+/// if both do.
+pub(super) fn equal_radius_biarc(p1: P2, t1: P2, p2: P2, t2: P2) -> Option<[BiarcArc; 2]> {
+    let w = sub(p1, p2);
+    let mut best: Option<([BiarcArc; 2], f64)> = None;
+    for sense in [1.0, -1.0] {
+        // The first arc's centre on the left of t1 for sense +1, the
+        // second's on the right of t2.
+        let n1 = left(t1);
+        let n1 = [sense * n1[0], sense * n1[1]];
+        let n2 = left(t2);
+        let n2 = [-sense * n2[0], -sense * n2[1]];
+        let s = [n1[0] - n2[0], n1[1] - n2[1]];
+        // s·s − 4 = −|n₁ + n₂|² for unit normals (no cancellation).
+        let m = [n1[0] + n2[0], n1[1] + n2[1]];
+        let (qa, qb, qc) = (-dot(m, m), dot(w, s), dot(w, w));
+        // The positive root of qa ρ² + 2 qb ρ + qc = 0 (qa ≤ 0 < qc), in
+        // the form without cancellation for each sign of qb.
+        let d = (qb * qb - qa * qc).sqrt();
+        let rho = if qb <= 0.0 {
+            qc / (d - qb)
+        } else if qa < 0.0 {
+            (qb + d) / -qa
+        } else {
+            continue;
+        };
+        if !(rho > 0.0 && rho.is_finite()) {
+            continue;
+        }
+        let c1 = [p1[0] + rho * n1[0], p1[1] + rho * n1[1]];
+        let c2 = [p2[0] + rho * n2[0], p2[1] + rho * n2[1]];
+        let joint = [0.5 * (c1[0] + c2[0]), 0.5 * (c1[1] + c2[1])];
+        let a1 = BiarcArc::through(p1, t1, joint);
+        let a2 = BiarcArc::through(joint, a1.end_tangent(), p2);
+        // Each arc turns its own way by less than a quarter turn (no
+        // loop), and the second ends along t2.
+        let te = a2.end_tangent();
+        let quarter = std::f64::consts::FRAC_PI_2;
+        if !(a1.radius * sense > 0.0
+            && a2.radius * sense < 0.0
+            && a1.sweep().abs() < quarter
+            && a2.sweep().abs() < quarter
+            && dot(te, t2) > 1.0 - 1e-9)
+        {
+            continue;
+        }
+        let len = a1.length() + a2.length();
+        if best.is_none_or(|(_, l)| len < l) {
+            best = Some(([a1, a2], len));
+        }
+    }
+    best.map(|(arcs, _)| arcs)
+}
+
+/// The smaller of a biarc's two radii (mm; infinite for two straight
+/// pieces).
+pub(super) fn least_radius(arcs: &[BiarcArc; 2]) -> f64 {
+    arcs[0].radius.abs().min(arcs[1].radius.abs())
+}
+
+/// The biarc from `p1` (unit tangent `t1`) to `p2` (unit tangent `t2`)
+/// the planner runs fastest: an arc of radius `ρ` runs at no more than
+/// `√(a_n ρ)` (`pmCircleActualMaxVel`, blendmath.c), so of the
+/// equal-distance biarc ([`biarc`]) and the equal-radius S
+/// ([`equal_radius_biarc`]) the one whose tighter arc is wider.
+pub(super) fn widest_biarc(p1: P2, t1: P2, p2: P2, t2: P2) -> Option<[BiarcArc; 2]> {
+    let even = biarc(p1, t1, p2, t2);
+    match (even, equal_radius_biarc(p1, t1, p2, t2)) {
+        (Some(e), Some(s)) if least_radius(&s) > least_radius(&e) => Some(s),
+        (None, s) => s,
+        (e, _) => e,
+    }
+}
+
 /// The S-curve of a quarter point in its local frame (module
 /// documentation): the window before and after the point (mm along the
 /// path), the largest distance of the tool from the path under
@@ -210,8 +297,9 @@ pub(super) struct Window {
 }
 
 /// The biarc of the window `w1`, `w2` on an arc of radius `r` for a band
-/// `b` (mm); `None` where none fits.
-fn window_biarc(r: f64, b: f64, w1: f64, w2: f64) -> Option<[BiarcArc; 2]> {
+/// `b` (mm); `None` where none fits. With `widest`, the biarc of
+/// [`widest_biarc`]; else the equal-distance one ([`biarc`]).
+fn window_biarc(r: f64, b: f64, w1: f64, w2: f64, widest: bool) -> Option<[BiarcArc; 2]> {
     if w1 >= r || w2 >= r {
         return None;
     }
@@ -223,7 +311,11 @@ fn window_biarc(r: f64, b: f64, w1: f64, w2: f64) -> Option<[BiarcArc; 2]> {
     };
     let p1 = [-w1, y_n(-w1)];
     let p2 = [w2, y_n(w2) - b];
-    biarc(p1, unit(-w1), p2, unit(w2))
+    if widest {
+        widest_biarc(p1, unit(-w1), p2, unit(w2))
+    } else {
+        biarc(p1, unit(-w1), p2, unit(w2))
+    }
 }
 
 /// The tool's largest distance from the path under the dead band on the
@@ -283,6 +375,8 @@ fn window_deviation(r: f64, b: f64, arcs: &[BiarcArc; 2]) -> Option<f64> {
 /// point is the start of the block, the join with a block already written
 /// that the original runs through tangentially, so the S-curve lies on
 /// this block alone, starting along the tangent both blocks share there.
+/// With `widest` (G61) the S-curve is the biarc [`widest_biarc`] gives,
+/// as the writer then writes it; else the equal-distance one.
 pub(super) fn best_window(
     r: f64,
     b: f64,
@@ -290,6 +384,7 @@ pub(super) fn best_window(
     v: f64,
     planner: &PlannerLimits,
     after_only: bool,
+    widest: bool,
 ) -> Option<Window> {
     let a_min = planner
         .max_acceleration_mm_s2
@@ -310,7 +405,7 @@ pub(super) fn best_window(
     let mut best: Option<Window> = None;
     for &w1 in befores {
         for &w2 in &lengths {
-            let Some(arcs) = window_biarc(r, b, w1, w2) else {
+            let Some(arcs) = window_biarc(r, b, w1, w2, widest) else {
                 continue;
             };
             // Each arc runs at no more than √(a_n ρ), nor than its length
@@ -396,6 +491,84 @@ mod tests {
     }
 
     #[test]
+    fn the_equal_radius_s_is_the_widest_biarc_of_the_family() {
+        // A quarter point of R20 (local frame: y_n = √(r² − x²) − r) with
+        // a 4 µm band over an asymmetric window, as on the Ø40's bottom.
+        // Second method: every biarc from p1 along t1 to p2 along t2 is
+        // one of the family d₁ = k·d₂ (the joint d₁ from q₁ = p1 + d₁t₁
+        // toward q₂ = p2 − d₂t₂, |q₂ − q₁| = d₁ + d₂, solved here by
+        // bisection on d₂); scanning k, the largest least radius is the
+        // equal-radius S's, and it beats the equal-distance biarc (k = 1).
+        let (r, b, w1, w2) = (20.0, 0.004, 0.1, 0.19);
+        let y_n = |x: f64| (r * r - x * x).sqrt() - r;
+        let unit = |x: f64| {
+            let dy = -x / (r * r - x * x).sqrt();
+            let n = (1.0 + dy * dy).sqrt();
+            [1.0 / n, dy / n]
+        };
+        let (p1, t1) = ([-w1, y_n(-w1)], unit(-w1));
+        let (p2, t2) = ([w2, y_n(w2) - b], unit(w2));
+        let s = equal_radius_biarc(p1, t1, p2, t2).unwrap();
+        assert!(s[0].radius < 0.0 && s[1].radius > 0.0, "{s:?}");
+        assert!(
+            (s[0].radius + s[1].radius).abs() < 1e-9 * s[1].radius,
+            "{s:?}"
+        );
+        let tj = s[0].end_tangent();
+        assert!((tj[0] - s[1].tangent[0]).abs() < 1e-12 && (tj[1] - s[1].tangent[1]).abs() < 1e-12);
+        let te = s[1].end_tangent();
+        assert!(
+            (te[0] - t2[0]).abs() < 1e-9 && (te[1] - t2[1]).abs() < 1e-9,
+            "{te:?}"
+        );
+        let family = |k: f64| -> Option<f64> {
+            let gap = |d2: f64| {
+                let d1 = k * d2;
+                let q = [
+                    p2[0] - d2 * t2[0] - p1[0] - d1 * t1[0],
+                    p2[1] - d2 * t2[1] - p1[1] - d1 * t1[1],
+                ];
+                dot(q, q).sqrt() - (d1 + d2)
+            };
+            // gap > 0 at d₂ = 0 (the ends apart), < 0 once d₁ + d₂ passes
+            // the chord.
+            let (mut lo, mut hi) = (0.0, 1.0);
+            if gap(hi) > 0.0 {
+                return None;
+            }
+            for _ in 0..200 {
+                let m = 0.5 * (lo + hi);
+                if gap(m) > 0.0 {
+                    lo = m;
+                } else {
+                    hi = m;
+                }
+            }
+            let d2 = 0.5 * (lo + hi);
+            let d1 = k * d2;
+            let q1 = [p1[0] + d1 * t1[0], p1[1] + d1 * t1[1]];
+            let q2 = [p2[0] - d2 * t2[0], p2[1] - d2 * t2[1]];
+            let f = d1 / (d1 + d2);
+            let joint = [q1[0] + f * (q2[0] - q1[0]), q1[1] + f * (q2[1] - q1[1])];
+            let a1 = BiarcArc::through(p1, t1, joint);
+            let a2 = BiarcArc::through(joint, a1.end_tangent(), p2);
+            Some(least_radius(&[a1, a2]))
+        };
+        let best = (0..=4000)
+            .filter_map(|i| family(4f64.powf(i as f64 / 1000.0 - 2.0)))
+            .fold(0.0f64, f64::max);
+        let even = least_radius(&biarc(p1, t1, p2, t2).unwrap());
+        assert!((family(1.0).unwrap() - even).abs() < 1e-6 * even);
+        let rho = least_radius(&s);
+        // The scan steps k by 0.14 %: its best is within 0.1 % of the
+        // family's.
+        assert!((rho - best).abs() <= 1e-3 * best, "{rho} vs {best}");
+        assert!(rho > 1.1 * even, "{rho} vs {even}");
+        let w = widest_biarc(p1, t1, p2, t2).unwrap();
+        assert_eq!(least_radius(&w), rho);
+    }
+
+    #[test]
     fn the_window_keeps_the_tool_within_tolerance_and_no_faster_than_the_bound() {
         // Ø50 at F6000, a 4 µm band, 0.1 µm: the bound v* = 2√(1000·25·1e-4
         // / 0.0044) = 47.67 mm/s; the S-curve found runs no faster, and not
@@ -404,7 +577,7 @@ mod tests {
         let (r, b, tol) = (25.0, 0.004, 1e-4);
         let vs = least_speed_mm_s(r, b, tol, 1000.0);
         assert!((vs - 2.0 * (2.5f64 / 0.0044).sqrt()).abs() < 1e-9);
-        let w = best_window(r, b, tol, 100.0, &p, false).unwrap();
+        let w = best_window(r, b, tol, 100.0, &p, false, false).unwrap();
         assert!(w.deviation_mm <= tol, "{w:?}");
         assert!(w.speed_mm_s <= vs * 1.0001, "{} vs {vs}", w.speed_mm_s);
         assert!(w.speed_mm_s >= 0.6 * vs, "{} vs {vs}", w.speed_mm_s);
@@ -422,7 +595,7 @@ mod tests {
         let v_arc = (0.75f64.sqrt() * 1000.0 * r).sqrt();
         assert!((v_arc - 58.856).abs() < 1e-3);
         for after_only in [false, true] {
-            let w = best_window(r, b, 0.85 * b, 100.0, &p, after_only).unwrap();
+            let w = best_window(r, b, 0.85 * b, 100.0, &p, after_only, false).unwrap();
             assert!(w.deviation_mm <= 0.85 * b, "{w:?}");
             assert!(w.speed_mm_s >= 0.85 * v_arc, "{after_only}: {w:?}");
             assert!(w.cost_s < 0.01, "{after_only}: {w:?}");
@@ -439,7 +612,7 @@ mod tests {
         // x²/(2r) at the first point where the command is b below the
         // peak.
         let (r, b, w2) = (10.0, 0.004, 0.3);
-        let arcs = window_biarc(r, b, 0.0, w2).unwrap();
+        let arcs = window_biarc(r, b, 0.0, w2, false).unwrap();
         let dev = window_deviation(r, b, &arcs).unwrap();
         assert_eq!(arcs[0].start, [0.0, 0.0]);
         assert_eq!(arcs[0].tangent, [1.0, 0.0]);
