@@ -655,6 +655,28 @@ fn z_slope_turns(out: &str) -> Vec<(f64, f64, f64)> {
     turns
 }
 
+/// The checks of the two tests below: `program` (a circle of R10 about the
+/// origin, under G61) compensated with `map`; near the bottom (|X| < 3 mm,
+/// Y < −9 mm) every join turns Z's slope by less than LinuxCNC's tangency
+/// tolerance at F6000 with an arc (0.495 mrad), at least five joins lie in
+/// the spread (the S-curve's two and the pieces 0.2 mm apart within about
+/// 0.6 mm of the bottom), and the tool stays within the 0.4 µm a take-up
+/// run through may leave.
+fn assert_z_step_spread_tangent(program: &str, map: &AxisTableMap) {
+    let (out, _) = compensate(program, map, CompensateOptions::default());
+    let near: Vec<(f64, f64, f64)> = z_slope_turns(&out)
+        .into_iter()
+        .filter(|(x, y, _)| x.abs() < 3.0 && *y < -9.0)
+        .collect();
+    let spread = near.iter().filter(|(x, ..)| x.abs() < 0.7).count();
+    assert!(spread >= 5, "{near:?}: {out}");
+    for (x, _, turn) in &near {
+        assert!(turn.abs() < 0.495e-3, "Z turns by {turn} at X {x}: {out}");
+    }
+    let report = against_original(&out, program, map);
+    assert!(report.contour_max_um < 0.4 + 0.01, "{report:?}: {out}");
+}
+
 #[test]
 fn under_g61_the_step_an_s_curve_makes_across_the_plane_is_spread_tangent() {
     // The circle of the test above: where Y reverses at the bottom (an
@@ -673,20 +695,7 @@ fn under_g61_the_step_an_s_curve_makes_across_the_plane_is_spread_tangent() {
     // Written to 0.01 µm, as CAM programs are (one step of 0.1 µm would
     // turn a 0.2 mm piece by 0.5 mrad).
     let program = "G61\nG0 X0.00000 Y10.00000 Z0.00000\nG2 X0.00000 Y10.00000 I0.00000 J-10.00000 F6000\nM2\n";
-    let (out, _) = compensate(program, &map, CompensateOptions::default());
-    let near: Vec<(f64, f64, f64)> = z_slope_turns(&out)
-        .into_iter()
-        .filter(|(x, y, _)| x.abs() < 3.0 && *y < -9.0)
-        .collect();
-    // The S-curve's two joins and the spread's pieces (0.2 mm apart
-    // within about 0.6 mm of the bottom).
-    let spread = near.iter().filter(|(x, ..)| x.abs() < 0.7).count();
-    assert!(spread >= 5, "{near:?}: {out}");
-    for (x, _, turn) in &near {
-        assert!(turn.abs() < 0.495e-3, "Z turns by {turn} at X {x}: {out}");
-    }
-    let report = against_original(&out, program, &map);
-    assert!(report.contour_max_um < 0.4 + 0.01, "{report:?}: {out}");
+    assert_z_step_spread_tangent(program, &map);
 }
 
 #[test]
@@ -702,18 +711,7 @@ fn under_g61_on_a_helix_the_step_an_s_curve_makes_is_spread_beyond_the_helix_own
     // spread was refused and both joins turned by about 1 mrad.
     let map = z_step_at_y_reversal_map();
     let program = "G61\nG0 X0.00000 Y10.00000 Z0.00000\nG2 X0.00000 Y10.00000 Z-2.00000 I0.00000 J-10.00000 F6000\nM2\n";
-    let (out, _) = compensate(program, &map, CompensateOptions::default());
-    let near: Vec<(f64, f64, f64)> = z_slope_turns(&out)
-        .into_iter()
-        .filter(|(x, y, _)| x.abs() < 3.0 && *y < -9.0)
-        .collect();
-    let spread = near.iter().filter(|(x, ..)| x.abs() < 0.7).count();
-    assert!(spread >= 5, "{near:?}: {out}");
-    for (x, _, turn) in &near {
-        assert!(turn.abs() < 0.495e-3, "Z turns by {turn} at X {x}: {out}");
-    }
-    let report = against_original(&out, program, &map);
-    assert!(report.contour_max_um < 0.4 + 0.01, "{report:?}: {out}");
+    assert_z_step_spread_tangent(program, &map);
 }
 
 #[test]
