@@ -5,7 +5,6 @@
 
 use crate::common;
 
-use std::process::Command;
 use volcomp_core::compensate::Compensator;
 use volcomp_core::model::axis_table::AxisTableMap;
 
@@ -35,27 +34,7 @@ fn compensate(program: &str) -> String {
 /// rs274's error on `program`, `None` when it accepts it; skipped (`Some(None)`
 /// never) when rs274 is not installed.
 fn rs274_refusal(program: &str) -> Option<Option<String>> {
-    let rs274 = common::rs274("the line lengths on rs274")?;
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("t.ngc");
-    std::fs::write(&file, program).unwrap();
-    let out = Command::new(rs274)
-        .arg("-g")
-        .arg(&file)
-        .arg(dir.path().join("out.txt"))
-        .env("HOME", dir.path())
-        .current_dir(dir.path())
-        .stdin(std::process::Stdio::null())
-        .output()
-        .unwrap();
-    let text =
-        String::from_utf8_lossy(&out.stderr).into_owned() + &String::from_utf8_lossy(&out.stdout);
-    let msg: Vec<&str> = text
-        .lines()
-        .map(str::trim)
-        .filter(|l| !l.is_empty() && *l != "executing")
-        .collect();
-    Some((!out.status.success() || !msg.is_empty()).then(|| msg.join(" | ")))
+    common::rs274_refusal(program, "the line lengths on rs274")
 }
 
 #[test]

@@ -224,6 +224,9 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
         let (kept, time) = job.machining_time_while(&a.program, &shown(&output), |sink| {
             write_program(&a, &output, &job, model.as_ref(), &mut staged, Some(sink))
         })?;
+        // The estimate read the program as made, without the header the
+        // output has on top: its errors are located in the written file.
+        let time = time.map_err(|e| kept.summary.header.locate_in_written(e));
         (kept, Some(time))
     } else {
         let kept = write_program(&a, &output, &job, model.as_ref(), &mut staged, None)?;

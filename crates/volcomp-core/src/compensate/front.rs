@@ -309,7 +309,7 @@ mod tests {
         );
         let mut copy = Vec::new();
         let mut out = Vec::new();
-        Compensator::new(&map)
+        let summary = Compensator::new(&map)
             .header(header)
             .copy_program_to(&mut copy)
             .run(program.as_bytes(), &mut out)
@@ -330,6 +330,19 @@ mod tests {
             .iter()
             .all(|l| l.starts_with('(') && l.ends_with(')')));
         assert_eq!(out_lines[header_len + 1..], copy_lines[1..]);
+        // The summary says where the header went: after the `%`, as long
+        // as counted here; each line of the copy is at its written line.
+        assert_eq!(
+            summary.header,
+            crate::io::provenance::HeaderPlace {
+                body_lines_before: 1,
+                lines: header_len as u64
+            }
+        );
+        for (k, l) in copy_lines.iter().enumerate() {
+            let at = summary.header.written_line(k as u64 + 1) as usize;
+            assert_eq!(out_lines[at - 1], *l, "copy line {}", k + 1);
+        }
         // Timed as the output itself.
         let setup = MachineSetup::default();
         let limits = crate::plan::Limits::default();
@@ -339,6 +352,64 @@ mod tests {
         let (of_out, of_copy) = (timed(&out), timed(&copy));
         assert!(of_out.motion.periods > 1000, "{of_out:?}");
         assert_eq!(of_copy, of_out);
+    }
+
+    #[test]
+    fn an_error_in_the_copy_is_located_at_its_line_in_the_written_file() {
+        // The compensation reads the probing move (the set-up accepts it);
+        // an estimate of the copy with the default set-up refuses it. The
+        // written program has the header after its `%`: the error names the
+        // line of the written file that holds the G38.2, counted here.
+        let map = AxisTableMap::from_csv(
+            "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+             X,both,0,0,0,0\nX,both,100,2,0,0\nY,both,0,0,0,0\n\
+             Y,both,100,0,0,0\nZ,both,0,0,0,0\nZ,both,100,0,0,0\n",
+            "x.csv",
+        )
+        .unwrap();
+        let program = "%\nG21 G90\nG0 X10 Y10 Z10\nG1 X20 F100\nG38.2 Z5 F50\nM2\n%\n";
+        let header = crate::io::provenance::ProgramHeader::for_compensation(
+            vec![("x.csv".into(), sha256_hex(b"x"))],
+            None,
+            Setup::default(),
+            &CompensateOptions::default(),
+            "2026-01-01T00:00:00Z".into(),
+        );
+        let probing = MachineSetup {
+            interp: volcomp_gcode::InterpOptions {
+                accept_probing: true,
+                ..Default::default()
+            },
+            ..MachineSetup::default()
+        };
+        let (mut copy, mut out) = (Vec::new(), Vec::new());
+        let summary = Compensator::new(&map)
+            .setup(probing)
+            .header(header)
+            .copy_program_to(&mut copy)
+            .run(program.as_bytes(), &mut out)
+            .unwrap();
+        let out = String::from_utf8(out).unwrap();
+        let probe_line = 1 + out.lines().position(|l| l.starts_with("G38.2")).unwrap() as u64;
+        assert!(probe_line > 10, "{out}");
+        let limits = crate::plan::Limits::default();
+        let e =
+            crate::plan::estimate_program(&copy[..], "o.ngc", &MachineSetup::default(), &limits)
+                .unwrap_err();
+        let Error::Gcode(g) = &e else { panic!("{e}") };
+        // In the copy the G38.2 is line 5, as in the program.
+        assert_eq!(g.diagnostic.line, 5, "{e}");
+        let located = summary.header.locate_in_written(e);
+        let Error::Gcode(g) = &located else {
+            panic!("{located}")
+        };
+        assert_eq!(g.diagnostic.line, probe_line, "{located}\n{out}");
+        assert!(
+            located
+                .to_string()
+                .starts_with(&format!("o.ngc:{probe_line}:")),
+            "{located}"
+        );
     }
 
     #[test]

@@ -188,6 +188,9 @@ pub fn compensate_program_with_header<R: BufRead>(
     body.seek(io::SeekFrom::Start(0))
         .map_err(CompensationError::from)?;
     io::copy(&mut body, &mut w).map_err(CompensationError::from)?;
-    w.finish().map_err(CompensationError::from)?;
-    Ok(summary)
+    let (_, place) = w.finish_placed().map_err(CompensationError::from)?;
+    Ok(CompensateSummary {
+        header: place,
+        ..summary
+    })
 }

@@ -9,7 +9,7 @@ use std::ops::Range;
 use volcomp_gcode::edit::{Edit, EditError};
 use volcomp_gcode::lexer::Word;
 use volcomp_gcode::number::{format_number, format_number_bytes, NumberStyle};
-use volcomp_gcode::{MotionKind, Vec3};
+use volcomp_gcode::{FeedMode, MotionKind, Vec3};
 
 /// The edits of one line (each an [`Edit`]: a byte range of the line and
 /// the text that replaces it) with their texts in one buffer, kept from
@@ -571,8 +571,67 @@ pub(super) fn explicit_mode<'a>(words: impl Iterator<Item = &'a Word>) -> Option
     mode
 }
 
-pub(super) fn has_feed<'a>(mut words: impl Iterator<Item = &'a Word>) -> bool {
-    words.any(|w| w.letter == b'F' && w.value > 0.0)
+/// The feed mode and rate in force at a point of the program: the
+/// interpreter's after a line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct FeedInForce {
+    pub mode: FeedMode,
+    /// The last F in the units of `mode`; 0 until an F sets it and again
+    /// after a G94 or G95 (LinuxCNC, src/emc/rs274ngc/interp_convert.cc,
+    /// `Interp::convert_feed_mode`: "settings->feed_rate = 0.0" for G_94
+    /// and G_95, not for G_93).
+    pub rate: f64,
+}
+
+impl Default for FeedInForce {
+    /// LinuxCNC's start: G94, no feed rate.
+    fn default() -> Self {
+        FeedInForce {
+            mode: FeedMode::PerMinute,
+            rate: 0.0,
+        }
+    }
+}
+
+/// How a feed move the compensation inserts (a take-up) is written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum InsertedFeed {
+    /// `G1` without F: a positive rate is in force.
+    InForce,
+    /// `G1` with the line's own F word (the rate the line sets in the same
+    /// feed mode, units per minute or per revolution).
+    LineF,
+    /// `G0`: no feed rate in force and none the move may take from the
+    /// line (a feed move would be refused: "Cannot do g1 with zero feed
+    /// rate"); and under inverse time (G93), where every feed move needs
+    /// its own F (LinuxCNC: "F word missing with inverse time g1 move") and
+    /// the line's F would make a take-up of micrometres last as long as the
+    /// line.
+    Rapid,
+}
+
+impl FeedInForce {
+    /// The feed state the interpreter leaves after a line.
+    pub fn after(interp: &volcomp_gcode::Interpreter) -> Self {
+        FeedInForce {
+            mode: interp.feed_mode(),
+            rate: interp.feed_rate(),
+        }
+    }
+
+    /// How a feed move inserted where `self` is in force is written, for a
+    /// line that leaves `line` in force and carries a positive F word
+    /// where `line_f`: the line's F is used only in the mode it is written
+    /// for (an F of G95 read under G94 would be mm/min).
+    pub fn for_move_before(self, line: FeedInForce, line_f: bool) -> InsertedFeed {
+        let same_mode = self.mode == line.mode;
+        match self.mode {
+            FeedMode::InverseTime => InsertedFeed::Rapid,
+            _ if self.rate > 0.0 => InsertedFeed::InForce,
+            _ if same_mode && line_f => InsertedFeed::LineF,
+            _ => InsertedFeed::Rapid,
+        }
+    }
 }
 
 pub(super) fn stop_m_word<'a>(mut words: impl Iterator<Item = &'a Word>) -> Option<&'a Word> {

@@ -55,7 +55,10 @@ use crate::error::{CompensationError, ModelError};
 use crate::model::next_state;
 use crate::model::{Directions, ErrorModel, ALL_FORWARD};
 use frame::Frame;
-use lines::{arc_line_edits, explicit_mode, has_feed, line_ending, stop_m_word, ArcWords, OutMode};
+use lines::{
+    arc_line_edits, explicit_mode, line_ending, stop_m_word, ArcWords, FeedInForce, InsertedFeed,
+    OutMode,
+};
 use std::io::{BufRead, Write};
 use targets::check_target_count;
 use volcomp_gcode::edit::apply_edits;
@@ -85,6 +88,7 @@ pub fn compensate_program<R: BufRead>(
     // The set-up's `start` gives every axis a known position before the
     // program sets any; without it an axis is unknown until set.
     st.known = [walker.interpreter().start_given(); 3];
+    st.feed_before = FeedInForce::after(walker.interpreter());
     // Every written line within LinuxCNC's 252 characters
     // (compensate/line_limit.rs); the count is of what reaches `out`.
     let mut counted = size::Counted::new(out);
@@ -113,7 +117,7 @@ impl<'w> State<'w> {
             s: ALL_FORWARD,
             s_nominal: ALL_FORWARD,
             mode: None,
-            feed_known: false,
+            feed_before: FeedInForce::default(),
             last_tangent: None,
             frame_before: None,
             g93_before: false,
@@ -252,11 +256,10 @@ impl<'w> State<'w> {
         Ok(())
     }
 
-    /// The feed state after a line that is not a compensated motion line:
-    /// a positive F outside inverse time sets it.
+    /// The feed state after a line that is not a compensated motion line
+    /// (the interpreter's: an F sets the rate, G94 and G95 reset it to 0).
     fn note_feed(&mut self, line: &Line) {
-        self.feed_known |=
-            line.ev.interp.feed_mode() != FeedMode::InverseTime && has_feed(line.words());
+        self.feed_before = FeedInForce::after(line.ev.interp);
     }
 
     /// A line without a compensated motion: written as it is (to `out`),
@@ -335,8 +338,9 @@ impl<'w> State<'w> {
             .frame
             .with_line_decimals(line.words(), ev.bytes, line.style);
         let (frame0, style0) = line.before_or((frame, style));
-        let feed_known_before = self.feed_known;
-        let feed_known_in_line = self.feed_known || has_feed(line.words());
+        let feed_before = self.feed_before;
+        let feed_after = FeedInForce::after(interp);
+        let line_f = line.words().find(|w| w.letter == b'F' && w.value > 0.0);
         let options = self.walk.options;
         // Arcs are written as arcs unless the line needs what that path
         // does not write: a rotated frame, polar words, extra axes, or
@@ -568,27 +572,31 @@ impl<'w> State<'w> {
         for (i, (q, take_up)) in commands.iter().enumerate() {
             if let Some(tu) = take_up {
                 // The first take-up runs before the line's own words: in the
-                // previous line's frame, distance mode, units and feed.
+                // previous line's frame, distance mode, units and feed (the
+                // feed the line's F sets where none is in force before it);
+                // later ones in the line's.
                 let (tu_frame, tu_style, tu_feed) = if i == 0 {
-                    (&frame0, style0, feed_known_before)
+                    (
+                        &frame0,
+                        style0,
+                        feed_before.for_move_before(feed_after, line_f.is_some()),
+                    )
                 } else {
-                    (&frame, style, feed_known_in_line)
+                    (
+                        &frame,
+                        style,
+                        feed_after.for_move_before(feed_after, line_f.is_some()),
+                    )
                 };
-                let tu_mode = if tu_feed {
-                    OutMode::Feed
-                } else {
-                    OutMode::Rapid
+                let tu_mode = match tu_feed {
+                    InsertedFeed::InForce | InsertedFeed::LineF => OutMode::Feed,
+                    InsertedFeed::Rapid => OutMode::Rapid,
                 };
-                // Under G93 every feed move needs its own F (LinuxCNC: "F
-                // word missing with inverse time g1 move"): the take-up
-                // carries the block's, so it takes no longer than the block.
-                if interp.feed_mode() == FeedMode::InverseTime {
-                    if let Some(w) = line.words().find(|w| w.letter == b'F') {
-                        self.extra_text = format!(
-                            "{sep}{}",
-                            String::from_utf8_lossy(&ev.bytes[w.span.clone()])
-                        );
-                    }
+                if let (InsertedFeed::LineF, Some(w)) = (tu_feed, line_f) {
+                    self.extra_text = format!(
+                        "{sep}{}",
+                        String::from_utf8_lossy(&ev.bytes[w.span.clone()])
+                    );
                 }
                 let at = Place {
                     frame: tu_frame,
@@ -727,7 +735,7 @@ impl<'w> State<'w> {
             self.buf.extend_from_slice(line_ending);
             self.summary.lines_out += 1;
         }
-        self.feed_known = feed_known_in_line;
+        self.feed_before = feed_after;
         self.last_tangent =
             feed_like.then(|| (points::tangents(&motion).1, points::length_mm(&motion)));
         Ok((frame, style))
@@ -797,7 +805,8 @@ struct State<'w> {
     s: Directions,
     s_nominal: Directions,
     mode: Option<OutMode>,
-    feed_known: bool,
+    /// The feed mode and rate in force after the previous line.
+    feed_before: FeedInForce,
     /// The end tangent and the length of the last motion, where it was a
     /// compensated feed motion of the program (for the corner test of the
     /// next, and its blend).

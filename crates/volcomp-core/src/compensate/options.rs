@@ -306,6 +306,14 @@ pub struct PointRecord {
 #[derive(Debug, Clone, Default, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct CompensateSummary {
+    /// Where the provenance header went into the written program (none
+    /// where [`compensate_program`](crate::compensate::compensate_program)
+    /// wrote it without one): lines of the program as made (the copy a
+    /// machining-time estimate reads while it is written) map to the
+    /// written file's by
+    /// [`HeaderPlace::written_line`](crate::io::provenance::HeaderPlace::written_line).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub header: crate::io::provenance::HeaderPlace,
     /// Lines read.
     pub lines_in: u64,
     /// Lines written.

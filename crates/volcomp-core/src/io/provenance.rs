@@ -288,11 +288,49 @@ fn is_program_number(t: &str) -> bool {
     rest.is_empty() || rest.starts_with('(')
 }
 
+/// Where a header went into a program: after its first `body_lines_before`
+/// lines (blank lines, `%`, an O-number), `lines` lines long. The default
+/// is no header: every line where it was.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct HeaderPlace {
+    /// Lines of the program before the header.
+    pub body_lines_before: u64,
+    /// Lines of the header.
+    pub lines: u64,
+}
+
+impl HeaderPlace {
+    /// The line of the written file (1-based) that holds line `body_line`
+    /// of the program without its header (0, no line, stays 0).
+    pub fn written_line(&self, body_line: u64) -> u64 {
+        if body_line > self.body_lines_before {
+            body_line + self.lines
+        } else {
+            body_line
+        }
+    }
+
+    /// `e`, an error found reading the program without its header (the
+    /// machining-time estimate of the copy made while it was written),
+    /// located at the line of the written file instead.
+    pub fn locate_in_written(&self, e: crate::Error) -> crate::Error {
+        match e {
+            crate::Error::Gcode(mut g) => {
+                g.diagnostic.line = self.written_line(g.diagnostic.line);
+                crate::Error::Gcode(g)
+            }
+            e => e,
+        }
+    }
+}
+
 /// A writer that inserts the header after a leading `%` line and an
 /// O-number line (where present), before the first other line.
 pub struct HeaderWriter<W: Write> {
     inner: W,
     header: Option<Vec<String>>,
+    /// Where the header goes: the lines passed before it so far.
+    place: HeaderPlace,
     pending: Vec<u8>,
     seen_percent: bool,
     seen_number: bool,
@@ -303,6 +341,10 @@ impl<W: Write> HeaderWriter<W> {
     pub fn new(inner: W, lines: Vec<String>) -> Self {
         Self {
             inner,
+            place: HeaderPlace {
+                body_lines_before: 0,
+                lines: lines.len() as u64,
+            },
             header: Some(lines),
             pending: Vec::new(),
             seen_percent: false,
@@ -321,18 +363,24 @@ impl<W: Write> HeaderWriter<W> {
     }
 
     /// Writes the header if the program ended before its first block.
-    pub fn finish(mut self) -> io::Result<W> {
+    pub fn finish(self) -> io::Result<W> {
+        self.finish_placed().map(|(w, _)| w)
+    }
+
+    /// [`HeaderWriter::finish`], and where the header went.
+    pub fn finish_placed(mut self) -> io::Result<(W, HeaderPlace)> {
         if self.header.is_some() {
             let pending = std::mem::take(&mut self.pending);
             if !pending.is_empty() {
                 // A last line without a line ending.
                 self.inner.write_all(&pending)?;
                 self.inner.write_all(b"\n")?;
+                self.place.body_lines_before += 1;
             }
             self.emit_header("\n")?;
         }
         self.inner.flush()?;
-        Ok(self.inner)
+        Ok((self.inner, self.place))
     }
 }
 
@@ -364,6 +412,9 @@ impl<W: Write> Write for HeaderWriter<W> {
                 self.seen_number = true;
             } else {
                 self.emit_header(eol)?;
+            }
+            if self.header.is_some() {
+                self.place.body_lines_before += 1;
             }
             self.inner.write_all(&line)?;
         }
@@ -463,6 +514,35 @@ mod tests {
         assert_eq!(insert("o100 sub\nM2\n"), "(H1)\n(H2)\no100 sub\nM2\n");
         assert_eq!(insert("%\n"), "%\n(H1)\n(H2)\n");
         assert_eq!(insert(""), "(H1)\n(H2)\n");
+    }
+
+    #[test]
+    fn header_place_counts_the_lines_before_and_of_the_header() {
+        // Counted by hand in the written texts of `header_position`.
+        let place = |program: &str| {
+            let mut w = HeaderWriter::new(Vec::new(), vec!["(H1)".into(), "(H2)".into()]);
+            w.write_all(program.as_bytes()).unwrap();
+            w.finish_placed().unwrap().1
+        };
+        let at = |before, lines| HeaderPlace {
+            body_lines_before: before,
+            lines,
+        };
+        assert_eq!(place("G0 X1\nM2\n"), at(0, 2));
+        assert_eq!(place("%\r\nO1234 (PART)\r\nG0 X1\r\n"), at(2, 2));
+        assert_eq!(place("\n%\nG0 X1\n"), at(2, 2));
+        // A last line without an ending goes before the header: written
+        // "%\nG0 X1\n(H1)\n(H2)\n".
+        assert_eq!(place("%\nG0 X1"), at(2, 2));
+        assert_eq!(place("%\nO12"), at(2, 2));
+        // "%\nO1234 (PART)\n(H1)\n(H2)\nG0 X1\nM2": M2, line 4 without
+        // the header, is line 6 of the written file; the `%` stays line 1.
+        let p = at(2, 2);
+        assert_eq!(p.written_line(4), 6);
+        assert_eq!(p.written_line(3), 5);
+        assert_eq!(p.written_line(1), 1);
+        assert_eq!(p.written_line(0), 0);
+        assert_eq!(HeaderPlace::default().written_line(7), 7);
     }
 
     #[test]

@@ -115,3 +115,29 @@ pub fn rs274(not_checked: &str) -> Option<PathBuf> {
     }
     found
 }
+
+/// rs274's error on `program`, `None` when it accepts it; skipped (`Some(None)`
+/// never) when rs274 is not installed ([`rs274`], `not_checked` says what).
+pub fn rs274_refusal(program: &str, not_checked: &str) -> Option<Option<String>> {
+    let rs274 = rs274(not_checked)?;
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("t.ngc");
+    std::fs::write(&file, program).unwrap();
+    let out = std::process::Command::new(rs274)
+        .arg("-g")
+        .arg(&file)
+        .arg(dir.path().join("out.txt"))
+        .env("HOME", dir.path())
+        .current_dir(dir.path())
+        .stdin(std::process::Stdio::null())
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stderr).into_owned() + &String::from_utf8_lossy(&out.stdout);
+    let msg: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && *l != "executing")
+        .collect();
+    Some((!out.status.success() || !msg.is_empty()).then(|| msg.join(" | ")))
+}

@@ -434,6 +434,13 @@ impl Interpreter {
         self.feed_mode
     }
 
+    /// Feed rate in effect (the last F, in the units of the feed mode; 0
+    /// until an F word sets it, and again after a G94 or G95, as in
+    /// LinuxCNC's `Interp::convert_feed_mode`, src/emc/rs274ngc/interp_convert.cc).
+    pub fn feed_rate(&self) -> f64 {
+        self.feed
+    }
+
     /// Decimals of computed values in rendered lines in the units in
     /// effect ([`InterpOptions::computed_decimals`]).
     pub fn computed_decimals(&self) -> Option<u8> {
