@@ -224,13 +224,13 @@ fn backlash_reversal_gets_a_take_up_move() {
 }
 
 #[test]
-fn a_take_up_after_a_feed_mode_change_carries_the_feed_of_its_line() {
+fn a_take_up_after_a_feed_mode_change_is_a_rapid() {
     // LinuxCNC's interpreter sets the feed rate to 0 on G94 and G95
     // (src/emc/rs274ngc/interp_convert.cc, `Interp::convert_feed_mode`), so
     // after the rapid that switches to G95 a G1 take-up without F is refused
     // ("Cannot do g1 with zero feed rate"). The take-up before line 5 runs
-    // under G95 with no rate in force: it carries the F0.1 (mm/rev) the line
-    // sets. The words as in `backlash_reversal_gets_a_take_up_move`: X
+    // under G95 with no rate in force: it is a G0, as where no F was set
+    // yet. The words as in `backlash_reversal_gets_a_take_up_move`: X
     // reverses at X12, so the take-up goes to 12 − 0.004.
     let map = map_from(|a, _, rev| {
         if a == 0 && rev {
@@ -247,7 +247,7 @@ fn a_take_up_after_a_feed_mode_change_carries_the_feed_of_its_line() {
     let (out, _) = compensate(program, &map, opts);
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines[3], "G95 G0 X12", "{out}");
-    assert_eq!(lines[4], "G1 X11.9960 F0.1 (volcomp L5 take-up)", "{out}");
+    assert_eq!(lines[4], "X11.9960 (volcomp L5 take-up)", "{out}");
     assert_eq!(lines[5], "G1 X4.9960 F0.1", "{out}");
     if let Some(verdict) = common::rs274_refusal(&out, "the G95 take-up on rs274") {
         assert_eq!(verdict, None, "{out}");
@@ -256,7 +256,7 @@ fn a_take_up_after_a_feed_mode_change_carries_the_feed_of_its_line() {
     let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG94 G0 X12\nG1 X5 F200\nM2\n";
     let (out, _) = compensate(program, &map, opts);
     let lines: Vec<&str> = out.lines().collect();
-    assert_eq!(lines[3], "G1 X11.9960 F200 (volcomp L4 take-up)", "{out}");
+    assert_eq!(lines[3], "X11.9960 (volcomp L4 take-up)", "{out}");
     if let Some(verdict) = common::rs274_refusal(&out, "the G94 take-up on rs274") {
         assert_eq!(verdict, None, "{out}");
     }
@@ -576,12 +576,9 @@ fn under_g61_a_take_up_is_spread_as_a_smooth_step_over_short_pieces() {
     let program = "G61\nG0 X0 Y0 Z0\nG1 Y20 F100\nM2\n";
     let (out, records) = compensate(program, &map, CompensateOptions::default());
     // The rapid leaves X on its other flank: a take-up block at the corner
-    // before the move (the machine stops there; a G1 at the line's F100, no
-    // feed rate being in force before it), none inside it.
-    assert!(
-        out.contains("G1 X-0.0008 F100 (volcomp L3 take-up)\n"),
-        "{out}"
-    );
+    // before the move (the machine stops there; a rapid, no feed rate
+    // being in force before it), none inside it.
+    assert!(out.contains("X-0.0008 (volcomp L3 take-up)\n"), "{out}");
     let inside = out.split_once("G1 Y").map_or("", |(_, rest)| rest);
     assert!(!inside.contains("take-up"), "{out}");
     let line3: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();

@@ -598,15 +598,14 @@ impl Default for FeedInForce {
 pub(super) enum InsertedFeed {
     /// `G1` without F: a positive rate is in force.
     InForce,
-    /// `G1` with the line's own F word (the rate the line sets in the same
-    /// feed mode, units per minute or per revolution).
-    LineF,
-    /// `G0`: no feed rate in force and none the move may take from the
-    /// line (a feed move would be refused: "Cannot do g1 with zero feed
+    /// `G0`: no feed rate in force (none set yet, or reset to 0 by G94 or
+    /// G95: a feed move would be refused, "Cannot do g1 with zero feed
     /// rate"); and under inverse time (G93), where every feed move needs
     /// its own F (LinuxCNC: "F word missing with inverse time g1 move") and
     /// the line's F would make a take-up of micrometres last as long as the
-    /// line.
+    /// line. A G1 at the line's own F would be valid where the line keeps
+    /// the feed mode, but it runs slower than the rapid and counts as
+    /// cutting time (+0.5 point on a G61 circle at F6000).
     Rapid,
 }
 
@@ -619,16 +618,11 @@ impl FeedInForce {
         }
     }
 
-    /// How a feed move inserted where `self` is in force is written, for a
-    /// line that leaves `line` in force and carries a positive F word
-    /// where `line_f`: the line's F is used only in the mode it is written
-    /// for (an F of G95 read under G94 would be mm/min).
-    pub fn for_move_before(self, line: FeedInForce, line_f: bool) -> InsertedFeed {
-        let same_mode = self.mode == line.mode;
+    /// How a feed move inserted where `self` is in force is written.
+    pub fn inserted_feed(self) -> InsertedFeed {
         match self.mode {
             FeedMode::InverseTime => InsertedFeed::Rapid,
             _ if self.rate > 0.0 => InsertedFeed::InForce,
-            _ if same_mode && line_f => InsertedFeed::LineF,
             _ => InsertedFeed::Rapid,
         }
     }

@@ -340,7 +340,6 @@ impl<'w> State<'w> {
         let (frame0, style0) = line.before_or((frame, style));
         let feed_before = self.feed_before;
         let feed_after = FeedInForce::after(interp);
-        let line_f = line.words().find(|w| w.letter == b'F' && w.value > 0.0);
         let options = self.walk.options;
         // Arcs are written as arcs unless the line needs what that path
         // does not write: a rotated frame, polar words, extra axes, or
@@ -572,32 +571,17 @@ impl<'w> State<'w> {
         for (i, (q, take_up)) in commands.iter().enumerate() {
             if let Some(tu) = take_up {
                 // The first take-up runs before the line's own words: in the
-                // previous line's frame, distance mode, units and feed (the
-                // feed the line's F sets where none is in force before it);
-                // later ones in the line's.
+                // previous line's frame, distance mode, units and feed; later
+                // ones in the line's.
                 let (tu_frame, tu_style, tu_feed) = if i == 0 {
-                    (
-                        &frame0,
-                        style0,
-                        feed_before.for_move_before(feed_after, line_f.is_some()),
-                    )
+                    (&frame0, style0, feed_before.inserted_feed())
                 } else {
-                    (
-                        &frame,
-                        style,
-                        feed_after.for_move_before(feed_after, line_f.is_some()),
-                    )
+                    (&frame, style, feed_after.inserted_feed())
                 };
                 let tu_mode = match tu_feed {
-                    InsertedFeed::InForce | InsertedFeed::LineF => OutMode::Feed,
+                    InsertedFeed::InForce => OutMode::Feed,
                     InsertedFeed::Rapid => OutMode::Rapid,
                 };
-                if let (InsertedFeed::LineF, Some(w)) = (tu_feed, line_f) {
-                    self.extra_text = format!(
-                        "{sep}{}",
-                        String::from_utf8_lossy(&ev.bytes[w.span.clone()])
-                    );
-                }
                 let at = Place {
                     frame: tu_frame,
                     style: tu_style,
