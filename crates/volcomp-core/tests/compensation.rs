@@ -232,17 +232,7 @@ fn a_take_up_after_a_feed_mode_change_is_a_rapid() {
     // under G95 with no rate in force: it is a G0, as where no F was set
     // yet. The words as in `backlash_reversal_gets_a_take_up_move`: X
     // reverses at X12, so the take-up goes to 12 − 0.004.
-    let map = map_from(|a, _, rev| {
-        if a == 0 && rev {
-            [4.0, 0.0, 0.0]
-        } else {
-            [0.0; 3]
-        }
-    });
-    let opts = CompensateOptions {
-        fold_take_ups: false,
-        ..unsplit()
-    };
+    let (map, opts) = (x_backlash_map(0.0), take_up_blocks());
     let program = "G0 X0 Y0 Z0\nG1 X10 F100\nS1000 M3\nG95 G0 X12\nG1 X5 F0.1\nM2\n";
     let (out, _) = compensate(program, &map, opts);
     let lines: Vec<&str> = out.lines().collect();
@@ -264,17 +254,7 @@ fn a_take_up_after_a_feed_mode_change_is_a_rapid() {
 
 #[test]
 fn a_take_up_under_inverse_time_is_a_rapid_and_before_it_runs_at_the_feed_in_force() {
-    let map = map_from(|a, _, rev| {
-        if a == 0 && rev {
-            [4.0, 0.0, 0.0]
-        } else {
-            [0.0; 3]
-        }
-    });
-    let opts = CompensateOptions {
-        fold_take_ups: false,
-        ..unsplit()
-    };
+    let (map, opts) = (x_backlash_map(0.0), take_up_blocks());
     // Under G93 every feed move needs its own F (LinuxCNC: "F word missing
     // with inverse time g1 move"), and the line's F20 would make the 4 µm
     // take-up last 1/20 min, as long as the line: the take-up is a G0.
@@ -294,6 +274,14 @@ fn a_take_up_under_inverse_time_is_a_rapid_and_before_it_runs_at_the_feed_in_for
     assert_eq!(lines[2], "X9.9960 (volcomp L3 take-up)", "{out}");
     if let Some(verdict) = common::rs274_refusal(&out, "the take-up before G93 on rs274") {
         assert_eq!(verdict, None, "{out}");
+    }
+}
+
+/// Unsplit moves with every take-up written as a block of its own.
+fn take_up_blocks() -> CompensateOptions {
+    CompensateOptions {
+        fold_take_ups: false,
+        ..unsplit()
     }
 }
 
