@@ -37,7 +37,7 @@ pub fn run(a: TimeArgs) -> Result<(), CliError> {
             // The lines' text beside their times, when the program is a
             // file (standard input has been read).
             let texts = (a.program.as_os_str() != "-")
-                .then(|| std::fs::File::open(&a.program).ok())
+                .then(|| volcomp_core::io::inputs::open(&a.program, "a program").ok())
                 .flatten()
                 .map(std::io::BufReader::new);
             out.extend(per_line_rows(&lines, texts));
