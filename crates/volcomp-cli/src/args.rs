@@ -174,6 +174,11 @@ pub struct TimeArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Also give the time the planner spends on each line of the program
+    /// (where the time goes): one row per line that moves, or `per_line`
+    /// in the JSON object.
+    #[arg(long)]
+    pub per_line: bool,
 }
 
 #[derive(Args, Debug)]

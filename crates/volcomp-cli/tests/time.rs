@@ -44,6 +44,66 @@ fn time_of_a_single_move_is_the_trapezoid() {
     assert_eq!(v["limits_from_setup"], true);
 }
 
+/// `--per-line`: each moving line's time, by hand. Under G61.1 every
+/// line stops, so each is its own trapezoid from rest to rest at
+/// 500 mm/s² (Y at 500 too): line 3, 60 mm at 50 mm/s, 60/50 + 50/500 =
+/// 1.3 s; line 4, 40 mm, 40/50 + 0.1 = 0.9 s; line 2 a rapid of 10 mm at
+/// 200 mm/s, a triangle 2√(10/500) = 0.283 s (each within two periods).
+#[test]
+fn per_line_gives_each_line_its_trapezoid() {
+    let d = tempdir("per_line");
+    write(&d, "s.toml", SETUP);
+    write(
+        &d,
+        "p.ngc",
+        "G21 G90 G61.1\nG0 X-10\nG1 X50 F3000\nG1 Y40\nM2\n",
+    );
+    let v = common::json(&common::run(
+        &d,
+        "time p.ngc --setup s.toml --per-line --json",
+    ));
+    let rows = v["per_line"].as_array().unwrap_or_else(|| panic!("{v}"));
+    let got: Vec<(u64, f64, f64, f64)> = rows
+        .iter()
+        .map(|r| {
+            let f = |k: &str| r[k].as_f64().unwrap();
+            (
+                r["line"].as_u64().unwrap(),
+                f("total_s"),
+                f("cutting_s"),
+                f("rapid_s"),
+            )
+        })
+        .collect();
+    let want = [(2, 2.0 * (10.0f64 / 500.0).sqrt()), (3, 1.3), (4, 0.9)];
+    assert_eq!(got.len(), want.len(), "{v}");
+    for ((line, total, cutting, rapid), (w_line, w_total)) in got.iter().zip(want) {
+        assert_eq!(*line, w_line, "{v}");
+        assert!(
+            (total - w_total).abs() <= 0.002,
+            "line {line}: {total} s, by hand {w_total} s"
+        );
+        let (c, r) = if *line == 2 {
+            (0.0, *total)
+        } else {
+            (*total, 0.0)
+        };
+        assert_eq!((*cutting, *rapid), (c, r), "{v}");
+    }
+    // The lines' times add up to the program's.
+    let sum: f64 = got.iter().map(|g| g.1).sum();
+    let total = v["program"]["motion"]["total_s"].as_f64().unwrap();
+    assert!((sum - total).abs() < 1e-9, "{sum} against {total}");
+    // The text: a row per line with its words.
+    let out = common::ok(&common::run(&d, "time p.ngc --setup s.toml --per-line"));
+    assert!(out.contains("time per line (3 lines)"), "{out}");
+    let row = out
+        .lines()
+        .find(|l| l.trim_start().starts_with("3 "))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(row.ends_with("G1 X50 F3000"), "{row}");
+}
+
 #[test]
 fn compensate_and_simulate_state_both_times_and_the_change() {
     let d = tempdir("both");

@@ -200,13 +200,18 @@ impl PlannerLimits {
 /// what follows the block runs under the program's own Q again.
 ///
 /// `None` where the mode is not G64 with both P and a naive-CAM tolerance,
-/// where the block's line carries P, Q or a path-control word of its own (a
-/// line is left as the program wrote it), or where p or q rounds to nothing
-/// in the program's units.
+/// where the block's line carries Q, a path-control word, or a P that is
+/// not an arc's turn count (a line is left as the program wrote it), or
+/// where p or q rounds to nothing in the program's units. `arc`: the block
+/// is an arc, whose P is its turn count (rs274ngc reads P on a G2/G3 line
+/// as the number of turns; the written pieces drop it, and the words here
+/// stand on lines of their own): an arc of more than one turn is wrapped
+/// as any other.
 pub(super) fn naive_cam_words<'a>(
     mode: PathMode,
     mut words: impl Iterator<Item = &'a Word>,
     mm_per_unit: (f64, f64),
+    arc: bool,
     sep: &str,
 ) -> Option<(String, String)> {
     let PathMode::Blend {
@@ -220,7 +225,8 @@ pub(super) fn naive_cam_words<'a>(
         return None;
     }
     if words.any(|w| {
-        matches!(w.letter, b'P' | b'Q')
+        (w.letter == b'P' && !arc)
+            || w.letter == b'Q'
             || (w.letter == b'G'
                 && [61.0, 61.1, 64.0]
                     .iter()
@@ -255,7 +261,7 @@ mod tests {
             naive_cam_mm: 0.005,
         };
         let none: [Word; 0] = [];
-        let (before, after) = naive_cam_words(mode, none.iter(), (1.0, 1.0), " ").unwrap();
+        let (before, after) = naive_cam_words(mode, none.iter(), (1.0, 1.0), true, " ").unwrap();
         assert_eq!(before, "G64 P0.005 Q0");
         assert_eq!(after, "G64 P0.005 Q0.005");
         // Inch: P0.0002 in = 0.00508 mm, Q0.001 in; written back in inch.
@@ -263,7 +269,7 @@ mod tests {
             tolerance_mm: 0.0002 * 25.4,
             naive_cam_mm: 0.001 * 25.4,
         };
-        let (before, after) = naive_cam_words(mode, none.iter(), (25.4, 25.4), "").unwrap();
+        let (before, after) = naive_cam_words(mode, none.iter(), (25.4, 25.4), true, "").unwrap();
         assert_eq!(before, "G64P0.0002Q0");
         assert_eq!(after, "G64P0.0002Q0.001");
         // No naive-CAM (Q0, or G64 without P), or another mode: nothing.
@@ -278,7 +284,44 @@ mod tests {
             },
             PathMode::ExactPath,
         ] {
-            assert_eq!(naive_cam_words(mode, none.iter(), (1.0, 1.0), " "), None);
+            assert_eq!(
+                naive_cam_words(mode, none.iter(), (1.0, 1.0), true, " "),
+                None
+            );
+        }
+    }
+
+    /// An arc's turn count (P on a G2/G3 line, rs274ngc) does not keep its
+    /// pieces from being wrapped; a P on a line that is not an arc, a Q or
+    /// a path-control word of the line's own does.
+    #[test]
+    fn an_arc_of_two_turns_is_wrapped_and_a_line_s_own_p_or_q_is_left_alone() {
+        let mode = PathMode::Blend {
+            tolerance_mm: 0.005,
+            naive_cam_mm: 0.005,
+        };
+        let words = |s: &str| {
+            let mut l = volcomp_gcode::lexer::Lexed::default();
+            volcomp_gcode::lexer::lex_block(s.as_bytes(), &mut l).unwrap();
+            l.words().cloned().collect::<Vec<Word>>()
+        };
+        let turns = words("G3 X15 Y0 I-15 J0 P2");
+        let (before, after) = naive_cam_words(mode, turns.iter(), (1.0, 1.0), true, " ").unwrap();
+        assert_eq!(
+            (before.as_str(), after.as_str()),
+            ("G64 P0.005 Q0", "G64 P0.005 Q0.005")
+        );
+        assert_eq!(
+            naive_cam_words(mode, turns.iter(), (1.0, 1.0), false, " "),
+            None
+        );
+        for own in ["G3 X15 Y0 I-15 J0 Q0.01", "G64 P0.01 G3 X15 Y0 I-15 J0"] {
+            let w = words(own);
+            assert_eq!(
+                naive_cam_words(mode, w.iter(), (1.0, 1.0), true, " "),
+                None,
+                "{own}"
+            );
         }
     }
 

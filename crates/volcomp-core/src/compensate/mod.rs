@@ -542,6 +542,7 @@ impl<'w> State<'w> {
                 motion.path_mode,
                 line.words(),
                 (frame0.mm_per_unit, frame.mm_per_unit),
+                matches!(motion.kind, MotionKind::Arc(_)),
                 sep,
             )
         } else {

@@ -1608,6 +1608,30 @@ impl State<'_> {
                         .map_err(|source| model_error(file, line, source))?
                     };
                     let within_tolerance = lead.is_some();
+                    // The command at the end of a lead piece ending at
+                    // `f` of the move: solved in the reversal's new
+                    // directions and written as it will be read back,
+                    // `None` where it does not move each reversing axis
+                    // its new way (the take-up would not be over there).
+                    let mut lead_command = |f: f64| -> Result<Option<Vec3>, CompensationError> {
+                        let q = solve_fixed_in(
+                            &mut cells,
+                            model,
+                            options.method,
+                            at(f),
+                            point.s,
+                            [false; 3],
+                            self.q_out,
+                        )
+                        .map(|sol| quantize(sol.q_mm))
+                        .map_err(|source| model_error(file, line, source))?;
+                        let consistent = (0..3).all(|a| {
+                            !point.reversed[a]
+                                || crate::model::Direction::of_delta(q[a] - self.q_out[a])
+                                    == Some(point.s[a])
+                        });
+                        Ok(consistent.then_some(q))
+                    };
                     // The excursion of the lead piece taken beyond the
                     // tolerance (µm), counted once it is chosen.
                     let mut lead_excursion_um = 0.0f64;
@@ -1625,27 +1649,12 @@ impl State<'_> {
                     if let (None, Some(allowed), false) = (lead, allowed, zones_cover) {
                         if length >= 2.0 * shortest {
                             let f = shortest / length;
-                            let lead_t = at(f);
-                            let q = solve_fixed_in(
-                                &mut cells,
-                                model,
-                                options.method,
-                                lead_t,
-                                point.s,
-                                [false; 3],
-                                self.q_out,
-                            )
-                            .map(|sol| quantize(sol.q_mm))
-                            .map_err(|source| model_error(file, line, source))?;
-                            let consistent = (0..3).all(|a| {
-                                !point.reversed[a]
-                                    || crate::model::Direction::of_delta(q[a] - self.q_out[a])
-                                        == Some(point.s[a])
-                            });
-                            let b = fold_deviation_mm(&lags, self.q_out, q, lead_t - t_prev);
-                            if consistent && b <= allowed {
-                                lead_excursion_um = b * 1e3;
-                                lead = Some(f);
+                            if let Some(q) = lead_command(f)? {
+                                let b = fold_deviation_mm(&lags, self.q_out, q, at(f) - t_prev);
+                                if b <= allowed {
+                                    lead_excursion_um = b * 1e3;
+                                    lead = Some(f);
+                                }
                             }
                         }
                     }
@@ -1658,25 +1667,6 @@ impl State<'_> {
                         plain_shortest,
                         reach > 0.0 && length > 0.0 && !within_tolerance,
                     ) {
-                        let mut lead_q = |f: f64| -> Result<Option<Vec3>, CompensationError> {
-                            let q = solve_fixed_in(
-                                &mut cells,
-                                model,
-                                options.method,
-                                at(f),
-                                point.s,
-                                [false; 3],
-                                self.q_out,
-                            )
-                            .map(|sol| quantize(sol.q_mm))
-                            .map_err(|source| model_error(file, line, source))?;
-                            let consistent = (0..3).all(|a| {
-                                !point.reversed[a]
-                                    || crate::model::Direction::of_delta(q[a] - self.q_out[a])
-                                        == Some(point.s[a])
-                            });
-                            Ok(consistent.then_some(q))
-                        };
                         let tail = |q: Vec3, piece_mm: f64, nominal: Vec3| {
                             fold_deviation_beyond_mm(
                                 &lags,
@@ -1687,7 +1677,7 @@ impl State<'_> {
                             )
                         };
                         let tail_now = match lead {
-                            Some(f) => lead_q(f)?
+                            Some(f) => lead_command(f)?
                                 .map_or(f64::INFINITY, |q| tail(q, f * length, at(f) - t_prev)),
                             None => tail(point.q_mm, length, t - t_prev),
                         };
@@ -1711,7 +1701,7 @@ impl State<'_> {
                             .min(length - plain.max(keep * run.protect_end_mm));
                             while piece >= floor {
                                 let f = piece / length;
-                                if let Some(q) = lead_q(f)? {
+                                if let Some(q) = lead_command(f)? {
                                     let lead_t = at(f);
                                     if tail(q, piece, lead_t - t_prev) <= RUN_THROUGH_TOLERANCE_MM {
                                         let b = fold_deviation_mm(

@@ -2,7 +2,7 @@
 //! was made from, in the words a summary, a report and a JSON output
 //! share.
 
-use super::{estimate_program, Limits, ProgramEstimate};
+use super::{estimate_program, estimate_program_per_line, Limits, LineTime, ProgramEstimate};
 use crate::compensate::MachineSetup;
 use crate::error::Error;
 use std::io::{Read, Write};
@@ -107,14 +107,43 @@ pub fn compare_programs(
     original: Option<(Box<dyn Read + Send + '_>, &str)>,
     setup: &MachineSetup,
 ) -> Result<TimeComparison, Error> {
+    compare(program, original, setup, false).map(|(t, _)| t)
+}
+
+/// [`compare_programs`], and the program's time per line
+/// ([`estimate_program_per_line`]; the original's is not broken down).
+pub fn compare_programs_per_line(
+    program: (impl Read, &str),
+    original: Option<(Box<dyn Read + Send + '_>, &str)>,
+    setup: &MachineSetup,
+) -> Result<(TimeComparison, Vec<LineTime>), Error> {
+    compare(program, original, setup, true)
+}
+
+/// [`compare_programs`], with the program's time per line when
+/// `per_line` (else none).
+fn compare(
+    program: (impl Read, &str),
+    original: Option<(Box<dyn Read + Send + '_>, &str)>,
+    setup: &MachineSetup,
+    per_line: bool,
+) -> Result<(TimeComparison, Vec<LineTime>), Error> {
     let limits = Limits::from_setup(setup.setup.limits.as_ref());
     let (program, original) = std::thread::scope(|scope| {
         let original = original
             .map(|(r, name)| scope.spawn(move || estimate_program(r, name, setup, &limits)));
-        let program = estimate_program(program.0, program.1, setup, &limits);
+        let program = if per_line {
+            estimate_program_per_line(program.0, program.1, setup, &limits)
+        } else {
+            estimate_program(program.0, program.1, setup, &limits).map(|e| (e, Vec::new()))
+        };
         (program, original.map(joined))
     });
-    comparison(setup, program, original)
+    let (program, lines) = match program {
+        Ok((p, l)) => (Ok(p), l),
+        Err(e) => (Err(e), Vec::new()),
+    };
+    Ok((comparison(setup, program, original)?, lines))
 }
 
 /// Estimates the program `write` writes (named `name`) while it is being

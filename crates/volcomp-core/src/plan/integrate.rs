@@ -40,12 +40,29 @@ pub(crate) struct Periods {
     pub rapid: u64,
 }
 
+/// The segment shown as active: its motion type (`tp->motionType`) and
+/// the program line it comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Shown {
+    pub canon: Canon,
+    pub line: u64,
+}
+
+impl Seg {
+    fn shown(&self) -> Option<Shown> {
+        Some(Shown {
+            canon: self.canon,
+            line: self.line,
+        })
+    }
+}
+
 /// The state the motion controller keeps between periods.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Exec {
     pub periods: Periods,
-    /// The motion type shown (`tp->motionType`).
-    shown: Option<Canon>,
+    /// The segment shown as active.
+    pub shown: Option<Shown>,
     /// Which way of running the next period [`run_next`] tries first.
     first: First,
 }
@@ -249,7 +266,7 @@ fn update(s: &mut Seg, next: Option<&Seg>, limits: &Limits) -> f64 {
 }
 
 /// `tpActivateSegment`: a segment becomes the active one.
-fn activate(s: &mut Seg, limits: &Limits, shown: &mut Option<Canon>) {
+fn activate(s: &mut Seg, limits: &Limits, shown: &mut Option<Shown>) {
     let cutoff = 1.0 / limits.blend.ramp_frequency_hz.max(TIME_EPSILON);
     let length = s.target - s.progress;
     let reach = s.finalvel.min(real_target_vel(s, limits));
@@ -262,7 +279,7 @@ fn activate(s: &mut Seg, limits: &Limits, shown: &mut Option<Canon>) {
         s.ramp = true;
     }
     s.active = true;
-    *shown = Some(s.canon);
+    *shown = s.shown();
     s.blending_next = false;
     s.on_final_decel = false;
 }
@@ -297,7 +314,7 @@ pub(crate) fn run_period(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
         q.pop_front();
     }
     ex.periods.moving += 1;
-    match ex.shown {
+    match ex.shown.map(|s| s.canon) {
         Some(Canon::Feed | Canon::Arc) => ex.periods.cutting += 1,
         Some(Canon::Traverse) => ex.periods.rapid += 1,
         None => {}
@@ -334,6 +351,7 @@ pub(crate) fn run_cruise(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
         return false;
     };
     let canon = q[0].canon;
+    let shown = q[0].shown();
     let tc = q.front_mut().expect("a segment");
     let v = tc.currentvel;
     // `advance` with `v_next == v`, as many times (the clamp to the
@@ -342,7 +360,7 @@ pub(crate) fn run_cruise(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
     tc.progress = add_repeated(tc.progress, step, periods);
     tc.vel_at_blend_start = v;
     tc.on_final_decel = false;
-    ex.shown = Some(canon);
+    ex.shown = shown;
     ex.first = First::Steps;
     ex.periods.moving += periods;
     match canon {
@@ -678,7 +696,7 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
     if let Some(b) = h.blend_vel {
         tc.blend_vel = b;
     }
-    ex.shown = Some(tc.canon);
+    ex.shown = tc.shown();
     ex.periods.moving += n;
     match tc.canon {
         Canon::Feed | Canon::Arc => ex.periods.cutting += n,
@@ -703,7 +721,7 @@ fn regular_period(
     tc: &mut Seg,
     next: Option<&mut Seg>,
     limits: &Limits,
-    shown: &mut Option<Canon>,
+    shown: &mut Option<Shown>,
 ) {
     if tc.remove {
         return;
@@ -728,13 +746,13 @@ fn regular_period(
             // one slows down.
             next.is_blending = true;
             update(next, None, limits);
-            *shown = Some(if tc.currentvel > next.currentvel {
-                tc.canon
+            *shown = if tc.currentvel > next.currentvel {
+                tc.shown()
             } else {
-                next.canon
-            });
+                next.shown()
+            };
         }
-        _ => *shown = Some(tc.canon),
+        _ => *shown = tc.shown(),
     }
 }
 
@@ -745,7 +763,7 @@ fn split_period(
     next: Option<&mut Seg>,
     after: Option<&Seg>,
     limits: &Limits,
-    shown: &mut Option<Canon>,
+    shown: &mut Option<Shown>,
 ) {
     if tc.remove {
         return;
@@ -760,13 +778,11 @@ fn split_period(
         next.currentvel = tc.term_vel;
     }
     update(next, after, limits);
-    *shown = Some(
-        if tc.cycle_time > next.cycle_time && tc.term == Term::Tangent {
-            tc.canon
-        } else {
-            next.canon
-        },
-    );
+    *shown = if tc.cycle_time > next.cycle_time && tc.term == Term::Tangent {
+        tc.shown()
+    } else {
+        next.shown()
+    };
 }
 
 #[cfg(test)]

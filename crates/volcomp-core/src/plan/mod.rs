@@ -38,8 +38,10 @@ mod lookahead;
 pub mod program;
 mod segment;
 
-pub use compare::{compare_programs, compare_while_writing, TimeComparison};
-pub use program::{estimate_program, ProgramEstimate};
+pub use compare::{
+    compare_programs, compare_programs_per_line, compare_while_writing, TimeComparison,
+};
+pub use program::{estimate_program, estimate_program_per_line, ProgramEstimate};
 /// The path-control mode (G61, G61.1, G64 P Q), as the interpreter gives
 /// it with every motion.
 pub use volcomp_gcode::PathMode;
@@ -341,6 +343,83 @@ pub struct Estimate {
     pub counts: Counts,
 }
 
+/// The time the planner spends on one program line: the servo periods
+/// whose segment shown as active comes from that line, in seconds. A
+/// blend arc counts for the line of the segment it leaves; a period shared
+/// by two segments (a split, a parabolic blend) for the one shown; moves
+/// the canonical layer merges into one line under G64 P Q (naive CAM, an
+/// arc piece sent as two lines) for the last line merged.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct LineTime {
+    /// The program line (1-based, as in messages).
+    pub line: u64,
+    /// All its periods, s.
+    pub total_s: f64,
+    /// Those of feed moves and arcs, s.
+    pub cutting_s: f64,
+    /// Those of rapids, s.
+    pub rapid_s: f64,
+}
+
+/// Periods per line, in the order they ran (consecutive periods of one
+/// line in one entry).
+#[derive(Debug, Clone, Default)]
+struct LineLog {
+    runs: Vec<(u64, integrate::Periods)>,
+}
+
+impl LineLog {
+    /// Adds the periods from `before` to `after` to `line`.
+    fn add(&mut self, line: u64, before: integrate::Periods, after: integrate::Periods) {
+        let d = integrate::Periods {
+            moving: after.moving - before.moving,
+            cutting: after.cutting - before.cutting,
+            rapid: after.rapid - before.rapid,
+        };
+        if d.moving == 0 {
+            return;
+        }
+        match self.runs.last_mut() {
+            Some((l, p)) if *l == line => {
+                p.moving += d.moving;
+                p.cutting += d.cutting;
+                p.rapid += d.rapid;
+            }
+            _ => self.runs.push((line, d)),
+        }
+    }
+
+    /// One [`LineTime`] per line, in line order, with a servo period of
+    /// `dt` s.
+    fn times(mut self, dt: f64) -> Vec<LineTime> {
+        self.runs.sort_by_key(|(l, _)| *l);
+        let mut out: Vec<LineTime> = Vec::new();
+        for (line, p) in self.runs {
+            let t = LineTime {
+                line,
+                total_s: p.moving as f64 * dt,
+                cutting_s: p.cutting as f64 * dt,
+                rapid_s: p.rapid as f64 * dt,
+            };
+            match out.last_mut() {
+                Some(o) if o.line == line => {
+                    o.total_s += t.total_s;
+                    o.cutting_s += t.cutting_s;
+                    o.rapid_s += t.rapid_s;
+                }
+                _ => out.push(t),
+            }
+        }
+        // Whole periods, rounded to the nanosecond (as [`Planner::finish`]).
+        let ns = |x: f64| (x * 1e9).round() / 1e9;
+        for o in &mut out {
+            (o.total_s, o.cutting_s, o.rapid_s) = (ns(o.total_s), ns(o.cutting_s), ns(o.rapid_s));
+        }
+        out
+    }
+}
+
 /// LinuxCNC's planner fed one move at a time.
 #[derive(Debug, Clone)]
 pub struct Planner {
@@ -350,6 +429,8 @@ pub struct Planner {
     exec: integrate::Exec,
     counts: Counts,
     fresh: Vec<segment::Seg>,
+    /// The periods per line, when asked for ([`Planner::per_line`]).
+    lines: Option<LineLog>,
 }
 
 impl Planner {
@@ -363,7 +444,28 @@ impl Planner {
             exec: integrate::Exec::default(),
             counts: Counts::default(),
             fresh: Vec::new(),
+            lines: None,
         }
+    }
+
+    /// A planner that also counts the time per program line
+    /// ([`Planner::finish_per_line`]).
+    pub fn per_line(limits: Limits) -> Planner {
+        Planner {
+            lines: Some(LineLog::default()),
+            ..Planner::new(limits)
+        }
+    }
+
+    /// Runs the queue's next period or periods (`false`: the queue is
+    /// empty), counting them for the line shown when asked to.
+    fn run_next(&mut self) -> bool {
+        let before = self.exec.periods;
+        let more = integrate::run_next(&mut self.queue, &mut self.exec, &self.limits);
+        if let (Some(log), Some(shown)) = (&mut self.lines, self.exec.shown) {
+            log.add(shown.line, before, self.exec.periods);
+        }
+        more
     }
 
     /// The limits in use.
@@ -378,7 +480,7 @@ impl Planner {
         self.queue_fresh();
         let keep = self.limits.blend.optimization_depth + 6;
         while self.queue.len() > keep {
-            integrate::run_next(&mut self.queue, &mut self.exec, &self.limits);
+            self.run_next();
         }
     }
 
@@ -396,7 +498,16 @@ impl Planner {
     pub fn wait(&mut self) {
         self.canon.finish(&self.limits, &mut self.fresh);
         self.queue_fresh();
-        while integrate::run_next(&mut self.queue, &mut self.exec, &self.limits) {}
+        while self.run_next() {}
+    }
+
+    /// Runs what is left and gives the time and, for a planner made with
+    /// [`Planner::per_line`], the time per line (else empty).
+    pub fn finish_per_line(mut self) -> (Estimate, Vec<LineTime>) {
+        self.wait();
+        let lines = self.lines.take().unwrap_or_default();
+        let dt = self.limits.servo_period_s;
+        (self.finish(), lines.times(dt))
     }
 
     /// Runs what is left and gives the time.

@@ -15,7 +15,7 @@
 //! Feed rates: G94 F (mm/min) as given; G93 (inverse time) the move's
 //! length times F per minute; G95 (per revolution) F times the last S.
 
-use super::{Estimate, Limits, Move, MoveKind, PathMode, Planner};
+use super::{Estimate, Limits, LineTime, Move, MoveKind, PathMode, Planner};
 use crate::compensate::MachineSetup;
 use crate::error::Error;
 use std::io::Read;
@@ -105,6 +105,34 @@ pub fn estimate_program(
     setup: &MachineSetup,
     limits: &Limits,
 ) -> Result<ProgramEstimate, Error> {
+    let (mut out, planner) = run_program(program, file, setup, Planner::new(*limits))?;
+    out.motion = planner.finish();
+    Ok(out)
+}
+
+/// [`estimate_program`], and the time per program line
+/// ([`LineTime`], [`Planner::per_line`]): where the time goes.
+pub fn estimate_program_per_line(
+    program: impl Read,
+    file: &str,
+    setup: &MachineSetup,
+    limits: &Limits,
+) -> Result<(ProgramEstimate, Vec<LineTime>), Error> {
+    let (mut out, planner) = run_program(program, file, setup, Planner::per_line(*limits))?;
+    let (motion, lines) = planner.finish_per_line();
+    out.motion = motion;
+    Ok((out, lines))
+}
+
+/// The program's moves and waits fed to `planner` (its limits checked
+/// first); the estimate without its motion, and the planner to finish.
+fn run_program(
+    program: impl Read,
+    file: &str,
+    setup: &MachineSetup,
+    mut planner: Planner,
+) -> Result<(ProgramEstimate, Planner), Error> {
+    let limits = *planner.limits();
     limits.check().map_err(|m| {
         Error::Setup(volcomp_gcode::GcodeError::new(
             volcomp_gcode::ErrorClass::Invalid,
@@ -116,7 +144,6 @@ pub fn estimate_program(
     })?;
     let reader = std::io::BufReader::new(program);
     let mut walker = setup.walker(reader, file);
-    let mut planner = Planner::new(*limits);
     let mut out = ProgramEstimate::default();
     let mut spindle_rpm = 0.0;
     while let Some(ev) = walker.next_line().map_err(Error::Gcode)? {
@@ -179,8 +206,7 @@ pub fn estimate_program(
             out.waits += 1;
         }
     }
-    out.motion = planner.finish();
-    Ok(out)
+    Ok((out, planner))
 }
 
 #[cfg(test)]

@@ -338,3 +338,42 @@ fn cruising_in_one_step_counts_the_periods_stepping_counts() {
     }
     assert!(cruised > 100_000, "{cruised} periods");
 }
+
+/// The time per line: under G61.1 each line stops, so each is its own
+/// trapezoid (100 mm: 1.1 s; 50 mm: 0.6 s); under G64 the corner is
+/// blended, and the lines' times still add up to the estimate's, which
+/// counting them does not change.
+#[test]
+fn each_line_s_time_is_its_trapezoid_and_they_add_up() {
+    let lim = Limits::default();
+    let y = |v: f64| Vec3::new(100.0, v, 0.0);
+    for mode in [PathMode::ExactStop, PathMode::default()] {
+        let mut a = Move::feed(Vec3::ZERO, x(100.0), 100.0, mode);
+        a.line = 7;
+        let mut b = Move::feed(x(100.0), y(50.0), 100.0, mode);
+        b.line = 8;
+        let mut p = Planner::per_line(lim);
+        p.push(&a);
+        p.push(&b);
+        let (e, lines) = p.finish_per_line();
+        assert_eq!(e, estimate(&[a, b], &lim), "{mode:?}");
+        assert_eq!(lines.iter().map(|l| l.line).collect::<Vec<_>>(), [7, 8]);
+        let sum: f64 = lines.iter().map(|l| l.total_s).sum();
+        assert!(
+            (sum - e.total_s).abs() < 1e-9,
+            "{sum} against {}",
+            e.total_s
+        );
+        assert!(lines
+            .iter()
+            .all(|l| l.cutting_s == l.total_s && l.rapid_s == 0.0));
+        if mode == PathMode::ExactPath {
+            assert_close(
+                lines[0].total_s,
+                trapezoid_s(100.0, 100.0, 1000.0),
+                "line 7",
+            );
+            assert_close(lines[1].total_s, trapezoid_s(50.0, 100.0, 1000.0), "line 8");
+        }
+    }
+}

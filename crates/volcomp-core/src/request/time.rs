@@ -9,7 +9,9 @@ use super::simulate::SimulateRequest;
 use crate::compensate::{CompensateSummary, PointRecord};
 use crate::limits::LimitedWriter;
 use crate::model::ErrorModel;
-use crate::plan::{compare_programs, compare_while_writing, TimeComparison};
+use crate::plan::{
+    compare_programs, compare_programs_per_line, compare_while_writing, LineTime, TimeComparison,
+};
 use crate::simulate::report::SegmentError;
 use crate::simulate::SimReport;
 use crate::Error;
@@ -58,12 +60,33 @@ impl TimeRequest {
         program: impl Read,
         name: &str,
     ) -> Result<TimeComparison, Error> {
+        self.with_reference(|original| compare_programs((program, name), original, &machine.setup))
+    }
+
+    /// [`TimeRequest::run`], and the program's time per line
+    /// ([`crate::plan::estimate_program_per_line`]): where the time goes.
+    pub fn run_per_line(
+        &self,
+        machine: &Machine,
+        program: impl Read,
+        name: &str,
+    ) -> Result<(TimeComparison, Vec<LineTime>), Error> {
+        self.with_reference(|original| {
+            compare_programs_per_line((program, name), original, &machine.setup)
+        })
+    }
+
+    /// `f` given the reference, opened, and its name, when there is one.
+    fn with_reference<T>(
+        &self,
+        f: impl FnOnce(Option<(Box<dyn Read + Send + '_>, &str)>) -> Result<T, Error>,
+    ) -> Result<T, Error> {
         let ref_name = self.reference.as_ref().map(Input::name);
         let original = match (&self.reference, &ref_name) {
             (Some(r), Some(n)) => Some((r.reader()?, n.as_str())),
             _ => None,
         };
-        compare_programs((program, name), original, &machine.setup)
+        f(original)
     }
 }
 
