@@ -362,61 +362,40 @@ pub struct LineTime {
     pub rapid_s: f64,
 }
 
-/// Periods per line, in the order they ran (consecutive periods of one
-/// line in one entry).
+/// Periods per program line, kept by line number: a line run many times
+/// (a loop, a subroutine) holds one entry, so the log is bounded by the
+/// program's moving lines, not by the lines executed.
 #[derive(Debug, Clone, Default)]
 struct LineLog {
-    runs: Vec<(u64, integrate::Periods)>,
+    lines: std::collections::BTreeMap<u64, integrate::Periods>,
 }
 
 impl LineLog {
     /// Adds the periods from `before` to `after` to `line`.
     fn add(&mut self, line: u64, before: integrate::Periods, after: integrate::Periods) {
-        let d = integrate::Periods {
-            moving: after.moving - before.moving,
-            cutting: after.cutting - before.cutting,
-            rapid: after.rapid - before.rapid,
-        };
-        if d.moving == 0 {
+        if after.moving == before.moving {
             return;
         }
-        match self.runs.last_mut() {
-            Some((l, p)) if *l == line => {
-                p.moving += d.moving;
-                p.cutting += d.cutting;
-                p.rapid += d.rapid;
-            }
-            _ => self.runs.push((line, d)),
-        }
+        let p = self.lines.entry(line).or_default();
+        p.moving += after.moving - before.moving;
+        p.cutting += after.cutting - before.cutting;
+        p.rapid += after.rapid - before.rapid;
     }
 
     /// One [`LineTime`] per line, in line order, with a servo period of
-    /// `dt` s.
-    fn times(mut self, dt: f64) -> Vec<LineTime> {
-        self.runs.sort_by_key(|(l, _)| *l);
-        let mut out: Vec<LineTime> = Vec::new();
-        for (line, p) in self.runs {
-            let t = LineTime {
+    /// `dt` s: whole periods, rounded to the nanosecond (as
+    /// [`Planner::finish`]).
+    fn times(self, dt: f64) -> Vec<LineTime> {
+        let s = |periods: u64| (periods as f64 * dt * 1e9).round() / 1e9;
+        self.lines
+            .into_iter()
+            .map(|(line, p)| LineTime {
                 line,
-                total_s: p.moving as f64 * dt,
-                cutting_s: p.cutting as f64 * dt,
-                rapid_s: p.rapid as f64 * dt,
-            };
-            match out.last_mut() {
-                Some(o) if o.line == line => {
-                    o.total_s += t.total_s;
-                    o.cutting_s += t.cutting_s;
-                    o.rapid_s += t.rapid_s;
-                }
-                _ => out.push(t),
-            }
-        }
-        // Whole periods, rounded to the nanosecond (as [`Planner::finish`]).
-        let ns = |x: f64| (x * 1e9).round() / 1e9;
-        for o in &mut out {
-            (o.total_s, o.cutting_s, o.rapid_s) = (ns(o.total_s), ns(o.cutting_s), ns(o.rapid_s));
-        }
-        out
+                total_s: s(p.moving),
+                cutting_s: s(p.cutting),
+                rapid_s: s(p.rapid),
+            })
+            .collect()
     }
 }
 

@@ -367,7 +367,7 @@ fn each_line_s_time_is_its_trapezoid_and_they_add_up() {
         assert!(lines
             .iter()
             .all(|l| l.cutting_s == l.total_s && l.rapid_s == 0.0));
-        if mode == PathMode::ExactPath {
+        if mode == PathMode::ExactStop {
             assert_close(
                 lines[0].total_s,
                 trapezoid_s(100.0, 100.0, 1000.0),
@@ -375,5 +375,41 @@ fn each_line_s_time_is_its_trapezoid_and_they_add_up() {
             );
             assert_close(lines[1].total_s, trapezoid_s(50.0, 100.0, 1000.0), "line 8");
         }
+    }
+}
+
+/// A line run again (a loop's body) keeps one row holding all its runs:
+/// under G61.1 each run is a trapezoid from rest to rest, so line 7 run
+/// three times takes three trapezoids.
+#[test]
+fn a_line_run_again_keeps_one_row_with_all_its_runs() {
+    let lim = Limits::default();
+    let mode = PathMode::ExactStop;
+    let mut p = Planner::per_line(lim);
+    let mut moves = Vec::new();
+    for _ in 0..3 {
+        let mut there = Move::feed(Vec3::ZERO, x(100.0), 100.0, mode);
+        there.line = 7;
+        let mut back = Move::feed(x(100.0), Vec3::ZERO, 50.0, mode);
+        back.line = 8;
+        moves.extend([there, back]);
+    }
+    for m in &moves {
+        p.push(m);
+    }
+    let (e, lines) = p.finish_per_line();
+    assert_eq!(e, estimate(&moves, &lim));
+    assert_eq!(lines.iter().map(|l| l.line).collect::<Vec<_>>(), [7, 8]);
+    // Each run within the two periods `assert_close` allows one.
+    for (l, want) in lines.iter().zip([
+        3.0 * trapezoid_s(100.0, 100.0, 1000.0),
+        3.0 * trapezoid_s(100.0, 50.0, 1000.0),
+    ]) {
+        assert!(
+            (l.total_s - want).abs() <= 6.0 * PERIOD_S,
+            "line {}: {:.4} s, closed form {want:.4} s",
+            l.line,
+            l.total_s
+        );
     }
 }
