@@ -114,20 +114,39 @@ fn split_comments(content: &[u8]) -> (Vec<&[u8]>, Vec<u8>) {
 impl Write for LineLimit<'_> {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
         let mut rest = buf;
-        while let Some(end) = memchr::memchr(b'\n', rest) {
-            if self.line.is_empty() {
-                // The common case: a whole line in the buffer.
-                self.emit(&rest[..=end])?;
-            } else {
-                self.line.extend_from_slice(&rest[..=end]);
-                let line = std::mem::take(&mut self.line);
-                self.emit(&line)?;
-                self.line = line;
-                self.line.clear();
-            }
+        if !self.line.is_empty() {
+            // The end of a line begun in an earlier piece.
+            let Some(end) = memchr::memchr(b'\n', rest) else {
+                self.line.extend_from_slice(rest);
+                return Ok(buf.len());
+            };
+            self.line.extend_from_slice(&rest[..=end]);
+            let line = std::mem::take(&mut self.line);
+            self.emit(&line)?;
+            self.line = line;
+            self.line.clear();
             rest = &rest[end + 1..];
         }
-        self.line.extend_from_slice(rest);
+        // The common case: whole lines in the piece. A line of `n` bytes
+        // with its `\n` counts `n − 1` for LinuxCNC (a `\r\n`'s `\r`
+        // included), so one whose `\n` lies at most `MAX_LINE_BYTES` in
+        // passes byte for byte: the lines before a long one are written
+        // together, as they are.
+        let mut run = 0;
+        while let Some(end) = memchr::memchr(b'\n', &rest[run..]) {
+            if end <= MAX_LINE_BYTES {
+                run += end + 1;
+                continue;
+            }
+            self.inner.write_all(&rest[..run])?;
+            self.emit(&rest[run..=run + end])?;
+            rest = &rest[run + end + 1..];
+            run = 0;
+        }
+        if run > 0 {
+            self.inner.write_all(&rest[..run])?;
+        }
+        self.line.extend_from_slice(&rest[run..]);
         Ok(buf.len())
     }
 
@@ -172,6 +191,51 @@ mod tests {
         let out = through(&exact).unwrap();
         assert!(out.starts_with("(c"), "{out}");
         assert!(out.ends_with("\r\nG1 X1\r\n"), "{out}");
+    }
+
+    /// Lines written in one piece give the bytes they give written one
+    /// byte at a time (every line then ends in a piece of its own and is
+    /// checked alone), at the limit and one past it, with `\n` and `\r\n`:
+    /// 252 bytes before the `\n` pass, 253 are split (LinuxCNC's `LINELEN`,
+    /// interp_read.cc: the `\r` counts).
+    #[test]
+    fn lines_in_one_piece_pass_as_lines_one_by_one() {
+        let at = |n: usize, eol: &str| format!("G1 X1 ({}){eol}", "c".repeat(n - 8));
+        let mut text = String::new();
+        for n in [9, 251, 252, 253] {
+            text += &at(n, "\n");
+            text += "G0 X2\n";
+            text += &at(n, "\r\n");
+        }
+        text += "M2";
+        let mut whole = Vec::new();
+        let mut w = LineLimit::new(&mut whole);
+        w.write_all(text.as_bytes()).unwrap();
+        w.end().unwrap();
+        let mut bytes = Vec::new();
+        let mut w = LineLimit::new(&mut bytes);
+        for b in text.as_bytes() {
+            w.write_all(std::slice::from_ref(b)).unwrap();
+        }
+        w.end().unwrap();
+        assert_eq!(whole, bytes);
+        let out = String::from_utf8(whole).unwrap();
+        // By hand: the 252-byte lines whole, the 253-byte ones (and the
+        // 252 + `\r\n`) split, their comment first.
+        assert!(out.contains(&at(252, "\n")), "{out}");
+        assert!(out.contains(&at(251, "\r\n")), "{out}");
+        assert!(!out.contains(&at(253, "\n")), "{out}");
+        assert!(!out.contains(&at(252, "\r\n")), "{out}");
+        assert!(out.contains("\nG1 X1\r\n"), "{out}");
+        assert!(out.split('\n').all(|l| l.len() <= MAX_LINE_BYTES), "{out}");
+        // A piece that ends inside a line, then the rest.
+        let mut pieces = Vec::new();
+        let mut w = LineLimit::new(&mut pieces);
+        let (a, b) = text.split_at(text.len() / 3);
+        w.write_all(a.as_bytes()).unwrap();
+        w.write_all(b.as_bytes()).unwrap();
+        w.end().unwrap();
+        assert_eq!(pieces, bytes);
     }
 
     #[test]

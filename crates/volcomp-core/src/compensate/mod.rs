@@ -372,12 +372,17 @@ impl<'w> State<'w> {
                 .iter()
                 .map(|l| if *l >= 1.0 { arc.end } else { arc.point_at(*l) })
                 .collect(),
-            None => targets::targets_with_estimate(
+            // The map's cells the solves keep (the line's model is the
+            // walk's map with the line's tool, as for them): the
+            // segmentation's evaluations also leave them where the solves
+            // along the move look next.
+            None => targets::targets_in(
                 &motion,
                 &line_options,
                 model,
                 self.s,
                 &mut self.estimate_mm,
+                &mut self.cells,
             )
             .map_err(|source| model_error(file, ev.number, source))?,
         };

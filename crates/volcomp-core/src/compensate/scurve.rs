@@ -318,33 +318,41 @@ fn window_biarc(r: f64, b: f64, w1: f64, w2: f64, widest: bool) -> Option<[Biarc
     }
 }
 
+/// Points [`window_deviation`] samples on each arc of a window's biarc.
+const SAMPLES_PER_ARC: usize = 200;
+
 /// The tool's largest distance from the path under the dead band on the
 /// window's biarc `arcs` ([`window_biarc`]) on an arc of radius `r` for a
 /// band `b`; `None` where the band is not crossed inside the window.
-fn window_deviation(r: f64, b: f64, arcs: &[BiarcArc; 2]) -> Option<f64> {
+/// `pts` is room for the sampled points, kept between windows (its
+/// contents are overwritten).
+fn window_deviation(r: f64, b: f64, arcs: &[BiarcArc; 2], pts: &mut Vec<P2>) -> Option<f64> {
     let y_n = |x: f64| (r * r - x * x).sqrt() - r;
     let p1 = arcs[0].start;
     // Sample the command along both arcs, in order; x must advance along
-    // the path (for speed: on the stack, stopping at the first point
-    // that does not).
-    const N: usize = 200;
-    let mut pts = [[0.0; 2]; 2 * N + 1];
-    pts[0] = p1;
-    for (i, a) in arcs.iter().enumerate() {
+    // the path (stopping at the first point that does not). The highest
+    // point is kept as they are sampled (the maximum in the same order).
+    const N: usize = SAMPLES_PER_ARC;
+    pts.clear();
+    pts.push(p1);
+    let mut peak = f64::NEG_INFINITY.max(p1[1]);
+    let mut last_x = p1[0];
+    for a in arcs {
         let point = a.sampler();
         for k in 1..=N {
-            let j = i * N + k;
-            pts[j] = point(k as f64 / N as f64);
-            if pts[j][0] <= pts[j - 1][0] {
+            let p = point(k as f64 / N as f64);
+            if p[0] <= last_x {
                 return None;
             }
+            last_x = p[0];
+            peak = peak.max(p[1]);
+            pts.push(p);
         }
     }
-    let peak = pts.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p[1]));
     let mut worst: f64 = 0.0;
     let mut state = 0; // 0 rising, 1 frozen, 2 engaged
     let mut last_y = f64::NEG_INFINITY;
-    for p in &pts {
+    for p in pts.iter() {
         let (x, y) = (p[0], p[1]);
         if state == 0 && y < last_y {
             state = 1;
@@ -386,6 +394,13 @@ pub(super) fn best_window(
     after_only: bool,
     widest: bool,
 ) -> Option<Window> {
+    // The search is a function of its arguments alone: a program that
+    // turns the same way again (the same radius, band, tolerance and feed,
+    // to the bit) gets the window found before, not a new search.
+    let key = WindowKey::of(r, b, tol, v, planner, after_only, widest);
+    if let Some(found) = WINDOWS.with_borrow(|memo| memo.get(&key)) {
+        return found;
+    }
     let a_min = planner
         .max_acceleration_mm_s2
         .iter()
@@ -403,6 +418,7 @@ pub(super) fn best_window(
         .collect();
     let befores: &[f64] = if after_only { &[0.0] } else { &lengths };
     let mut best: Option<Window> = None;
+    let mut pts = Vec::with_capacity(2 * SAMPLES_PER_ARC + 1);
     for &w1 in befores {
         for &w2 in &lengths {
             let Some(arcs) = window_biarc(r, b, w1, w2, widest) else {
@@ -427,7 +443,7 @@ pub(super) fn best_window(
             if best.is_some_and(|b| cost > b.cost_s + 1e-4) {
                 continue;
             }
-            let Some(dev) = window_deviation(r, b, &arcs) else {
+            let Some(dev) = window_deviation(r, b, &arcs, &mut pts) else {
                 continue;
             };
             if dev > tol {
@@ -448,7 +464,68 @@ pub(super) fn best_window(
             }
         }
     }
+    WINDOWS.with_borrow_mut(|memo| memo.put(key, best));
     best
+}
+
+/// The arguments of [`best_window`], to the bit.
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct WindowKey([u64; 10]);
+
+impl WindowKey {
+    fn of(
+        r: f64,
+        b: f64,
+        tol: f64,
+        v: f64,
+        planner: &PlannerLimits,
+        after_only: bool,
+        widest: bool,
+    ) -> WindowKey {
+        let [ax, ay, az] = planner.max_acceleration_mm_s2;
+        WindowKey([
+            r.to_bits(),
+            b.to_bits(),
+            tol.to_bits(),
+            v.to_bits(),
+            ax.to_bits(),
+            ay.to_bits(),
+            az.to_bits(),
+            planner.servo_period_s.to_bits(),
+            u64::from(after_only),
+            u64::from(widest),
+        ])
+    }
+}
+
+/// The windows [`best_window`] found last, by their arguments: the
+/// 32 most recent searches, the oldest replaced first.
+#[derive(Default)]
+struct WindowMemo {
+    found: Vec<(WindowKey, Option<Window>)>,
+    next: usize,
+}
+
+impl WindowMemo {
+    const SIZE: usize = 32;
+
+    fn get(&self, key: &WindowKey) -> Option<Option<Window>> {
+        self.found.iter().find(|(k, _)| k == key).map(|(_, w)| *w)
+    }
+
+    fn put(&mut self, key: WindowKey, window: Option<Window>) {
+        if self.found.len() < Self::SIZE {
+            self.found.push((key, window));
+        } else {
+            self.found[self.next] = (key, window);
+            self.next = (self.next + 1) % Self::SIZE;
+        }
+    }
+}
+
+thread_local! {
+    /// [`best_window`]'s searches on this thread ([`WindowMemo`]).
+    static WINDOWS: std::cell::RefCell<WindowMemo> = std::cell::RefCell::new(WindowMemo::default());
 }
 
 /// The highest feed (mm/s) at which any command takes up a band `b` at a
@@ -603,6 +680,51 @@ mod tests {
         }
     }
 
+    /// A search answered from the memo is the search itself: each
+    /// argument set (radii of the raster's turns and of a Ø50, bands a bit
+    /// apart, both starts, both biarcs) gives, however the calls are
+    /// interleaved and after its entry was replaced, the window a search
+    /// on an empty memo gives, to the bit.
+    #[test]
+    fn a_window_found_again_is_the_one_searched() {
+        let p = PlannerLimits::default();
+        let slow = PlannerLimits {
+            max_acceleration_mm_s2: [1000.0, 400.0, 1000.0],
+            ..p
+        };
+        let mut args = Vec::new();
+        for (r, v) in [(0.1, 20.0), (1.0, 50.0), (4.0, 100.0), (25.0, 100.0)] {
+            for b in [0.003, f64::from_bits(0.003f64.to_bits() + 1), 0.004] {
+                for (after_only, widest) in [(false, false), (true, false), (false, true)] {
+                    args.push((r, b, 0.85 * b, v, p, after_only, widest));
+                }
+            }
+            args.push((r, 0.004, 1e-4, v, slow, false, false));
+        }
+        let search = |a: &(f64, f64, f64, f64, PlannerLimits, bool, bool)| {
+            best_window(a.0, a.1, a.2, a.3, &a.4, a.5, a.6)
+        };
+        let fresh: Vec<String> = args
+            .iter()
+            .map(|a| {
+                WINDOWS.with_borrow_mut(|m| *m = WindowMemo::default());
+                format!("{:?}", search(a))
+            })
+            .collect();
+        // Windows were found (the memo holds more than `None`s), and the
+        // band one bit wider finds its own search, not its neighbour's.
+        assert!(fresh.iter().filter(|w| w.starts_with("Some")).count() > 20);
+        // More argument sets than the memo holds: entries are replaced.
+        assert!(args.len() > WindowMemo::SIZE);
+        for round in 0..3 {
+            for (i, a) in args.iter().enumerate().rev() {
+                assert_eq!(format!("{:?}", search(a)), fresh[i], "{round}: {a:?}");
+                let key = WindowKey::of(a.0, a.1, a.2, a.3, &a.4, a.5, a.6);
+                assert!(WINDOWS.with_borrow(|m| m.get(&key)).is_some());
+            }
+        }
+    }
+
     #[test]
     fn a_window_from_the_join_starts_along_the_shared_tangent() {
         // After the join only: the biarc leaves the point itself along the
@@ -613,7 +735,7 @@ mod tests {
         // peak.
         let (r, b, w2) = (10.0, 0.004, 0.3);
         let arcs = window_biarc(r, b, 0.0, w2, false).unwrap();
-        let dev = window_deviation(r, b, &arcs).unwrap();
+        let dev = window_deviation(r, b, &arcs, &mut Vec::new()).unwrap();
         assert_eq!(arcs[0].start, [0.0, 0.0]);
         assert_eq!(arcs[0].tangent, [1.0, 0.0]);
         let te = arcs[1].end_tangent();

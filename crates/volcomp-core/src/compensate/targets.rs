@@ -5,7 +5,7 @@
 use super::{CompensateOptions, Segmentation};
 use crate::error::{CompensationError, ModelError};
 use crate::model::next_state;
-use crate::model::{Directions, ErrorModel};
+use crate::model::{AxisCells, Components, Directions, ErrorModel};
 use volcomp_gcode::{MotionKind, Vec3};
 
 /// An upper bound of the number of targets [`targets_of`] makes of
@@ -85,6 +85,27 @@ pub(super) fn targets_with_estimate(
     s: Directions,
     worst_mm: &mut f64,
 ) -> Result<Vec<Vec3>, ModelError> {
+    targets_in(
+        motion,
+        options,
+        model,
+        s,
+        worst_mm,
+        &mut AxisCells::default(),
+    )
+}
+
+/// [`targets_with_estimate`], the adaptive segmentation evaluating `model`
+/// in the table cells `cells` keeps (kept for `model` between calls: the
+/// map's values to the bit, [`AxisCells`]).
+pub(super) fn targets_in(
+    motion: &volcomp_gcode::Motion,
+    options: &CompensateOptions,
+    model: &dyn ErrorModel,
+    s: Directions,
+    worst_mm: &mut f64,
+    cells: &mut AxisCells,
+) -> Result<Vec<Vec3>, ModelError> {
     let mut out = Vec::new();
     let seg = options.segmentation;
     // Under G64 a departure along the move is no reason to split it (the
@@ -102,7 +123,7 @@ pub(super) fn targets_with_estimate(
             model,
             s,
             across_only,
-            &mut out,
+            (&mut out, cells),
             worst_mm,
         )?,
         MotionKind::Arc(arc) if options.arcs_as_arcs => {
@@ -127,7 +148,8 @@ pub(super) fn targets_with_estimate(
                 let mut worst = 0.0;
                 arc.for_each_chord_end(options.chord_tolerance_mm, |p| {
                     if result.is_ok() {
-                        result = split((prev, p), seg, model, s, across_only, &mut out, &mut worst);
+                        let to = (&mut out, &mut *cells);
+                        result = split((prev, p), seg, model, s, across_only, to, &mut worst);
                     }
                     prev = p;
                 });
@@ -147,7 +169,7 @@ fn split(
     model: &dyn ErrorModel,
     s: Directions,
     across_only: bool,
-    out: &mut Vec<Vec3>,
+    (out, cells): (&mut Vec<Vec3>, &mut AxisCells),
     worst_mm: &mut f64,
 ) -> Result<(), ModelError> {
     let n = match seg {
@@ -159,9 +181,6 @@ fn split(
             min_length_mm,
         } => {
             let s = next_state(s, b - a);
-            let e = |p: Vec3| -> Result<Vec3, ModelError> {
-                Ok(model.deviation_um(p, s, crate::model::Components::All)? * 1e-3)
-            };
             let knots = |p: Vec3, q: Vec3, cuts: &mut Vec<f64>| {
                 knot_cuts(model, p, q, s, min_length_mm, cuts)
             };
@@ -176,7 +195,6 @@ fn split(
                     out.push(b);
                     return Ok(());
                 }
-                let (ea, eb) = (e(a)?, e(b)?);
                 let length = (b - a).norm();
                 let piece = Piece {
                     along: if across_only && length > 0.0 {
@@ -186,11 +204,13 @@ fn split(
                     },
                     tol: tolerance_mm,
                     min_len: min_length_mm,
-                    e: &e,
+                    model,
+                    s,
                     knots: &knots,
                     linear,
                 };
-                piece.refine(a, b, ea, eb, 0, true, cuts, out, worst_mm)
+                let (ea, eb) = (piece.e(cells, a)?, piece.e(cells, b)?);
+                piece.refine(a, b, ea, eb, 0, true, cuts, cells, out, worst_mm)
             });
         }
     };
@@ -279,8 +299,9 @@ struct Piece<'a> {
     tol: f64,
     /// Shortest piece, mm.
     min_len: f64,
-    /// The map's error at a point, mm.
-    e: &'a dyn Fn(Vec3) -> Result<Vec3, ModelError>,
+    /// The map, and the direction state of the move.
+    model: &'a dyn ErrorModel,
+    s: Directions,
     /// [`knot_cuts`] of a piece.
     knots: &'a dyn Fn(Vec3, Vec3, &mut Vec<f64>),
     /// The map is piecewise linear ([`ErrorModel::piecewise_linear`]).
@@ -288,6 +309,12 @@ struct Piece<'a> {
 }
 
 impl Piece<'_> {
+    /// The map's error at `p` (mm), evaluated in the table cells `cells`
+    /// keeps: [`ErrorModel::deviation_um`]'s value to the bit.
+    fn e(&self, cells: &mut AxisCells, p: Vec3) -> Result<Vec3, ModelError> {
+        Ok(cells.deviation_um(self.model, p, self.s, Components::All)? * 1e-3)
+    }
+
     /// Adaptive splitting of `a`–`b` (errors `ea`, `eb` at the ends, mm).
     ///
     /// The departure of the map from its chord is taken at the quarter points
@@ -310,10 +337,11 @@ impl Piece<'_> {
         depth: u32,
         have_cuts: bool,
         cuts: &mut Vec<f64>,
+        cells: &mut AxisCells,
         out: &mut Vec<Vec3>,
         worst_mm: &mut f64,
     ) -> Result<(), ModelError> {
-        let e = self.e;
+        let mut e = |p: Vec3| self.e(cells, p);
         let across = |d: Vec3| (d - self.along * d.dot(self.along)).norm();
         let mut worst: f64 = 0.0;
         if !self.linear {
@@ -339,8 +367,8 @@ impl Piece<'_> {
                 _ => (0.5, e(a.lerp(b, 0.5))?),
             };
             let m = a.lerp(b, t);
-            self.refine(a, m, ea, em, depth + 1, false, cuts, out, worst_mm)?;
-            return self.refine(m, b, em, eb, depth + 1, false, cuts, out, worst_mm);
+            self.refine(a, m, ea, em, depth + 1, false, cuts, cells, out, worst_mm)?;
+            return self.refine(m, b, em, eb, depth + 1, false, cuts, cells, out, worst_mm);
         }
         *worst_mm = worst_mm.max(worst);
         out.push(b);
@@ -504,6 +532,78 @@ mod tests {
         };
         let t = targets_of(&g61, &adaptive(0.1), &m, ALL_FORWARD).unwrap();
         assert_eq!(t, vec![Vec3::new(5.0, 0.0, 0.0), b]);
+    }
+
+    /// The map seen without its cells: every evaluation is the map's own
+    /// lookup ([`ErrorModel::deviation_um`]), as [`AxisCells`] does for a
+    /// model without cells.
+    struct Lookups<'a>(&'a AxisTableMap);
+
+    impl ErrorModel for Lookups<'_> {
+        fn deviation_um(&self, q: Vec3, s: Directions, c: Components) -> Result<Vec3, ModelError> {
+            self.0.deviation_um(q, s, c)
+        }
+        fn range_mm(&self) -> [[f64; 2]; 3] {
+            self.0.range_mm()
+        }
+        fn knots_mm(&self, axis: usize, d: crate::model::Direction) -> &[f64] {
+            self.0.knots_mm(axis, d)
+        }
+        fn piecewise_linear(&self) -> bool {
+            self.0.piecewise_linear()
+        }
+    }
+
+    /// The split evaluates the map in the table cells kept across moves;
+    /// its targets and its estimate are those the map's own lookup at
+    /// every point gives, to the bit: random moves over the example map (2 mm
+    /// tables, with backlash), short and long, in every direction, under
+    /// G61 and G64, at tolerances that split some and not others, and moves
+    /// that leave the table (clamped there: the lookup's own values).
+    #[test]
+    fn the_split_in_kept_cells_is_the_split_of_the_maps_lookups() {
+        let map = crate::example::example_map();
+        let range = map.range_mm();
+        let mut rng = crate::rng::Rng::new(28);
+        let (mut pieces, mut split) = (0, 0);
+        // One cache for the whole walk, as the compensation keeps it.
+        let mut cells = AxisCells::default();
+        for i in 0..4000 {
+            let mut u = || rng.next_u64() as f64 / u64::MAX as f64;
+            let at = |u: f64, a: usize| range[a][0] - 5.0 + u * (range[a][1] - range[a][0] + 10.0);
+            let a = Vec3::new(at(u(), 0), at(u(), 1), at(u(), 2));
+            let len = [0.05, 0.5, 3.0, 40.0, 400.0][i % 5];
+            let d = Vec3::new(u() - 0.5, u() - 0.5, u() - 0.5);
+            let b = a + d * (len / d.norm());
+            let s = [i & 1, (i >> 1) & 1, (i >> 2) & 1].map(|k| {
+                if k == 0 {
+                    crate::model::Direction::Forward
+                } else {
+                    crate::model::Direction::Reverse
+                }
+            });
+            let tol_um = [0.02, 0.1, 0.5][i % 3];
+            let mut m = feed(a, b);
+            if i % 4 == 0 {
+                m.path_mode = volcomp_gcode::PathMode::ExactPath;
+            }
+            let (mut w1, mut w2) = (0.0, 0.0);
+            let kept = targets_in(&m, &adaptive(tol_um), &map, s, &mut w1, &mut cells);
+            let looked = targets_with_estimate(&m, &adaptive(tol_um), &Lookups(&map), s, &mut w2);
+            match (kept, looked) {
+                (Ok(t1), Ok(t2)) => {
+                    assert_eq!(t1, t2, "{a:?} {b:?}");
+                    pieces += t1.len();
+                    split += usize::from(t1.len() > 1);
+                }
+                (Err(e1), Err(e2)) => assert_eq!(e1.to_string(), e2.to_string()),
+                (k, l) => panic!("{k:?} vs {l:?}"),
+            }
+            assert_eq!(w1.to_bits(), w2.to_bits(), "{a:?} {b:?}");
+        }
+        // Many moves were split, many not.
+        assert!(split > 500 && split < 3500, "{split}");
+        assert!(pieces > 8000, "{pieces}");
     }
 
     /// Knots closer than the shortest segment to a cut or to the end are
