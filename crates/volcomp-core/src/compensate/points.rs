@@ -7,8 +7,7 @@ use super::{
     command_error, model_error, CompensateOptions, DirectionPolicy, PointRecord, State, TakeUpRule,
 };
 use crate::compensate::solve::{
-    hold_small_reversals_in, jacobian_times_mm, newton_step_mm, solve_consistent_in,
-    solve_fixed_in, Method, TOLERANCE_MM,
+    hold_small_reversals_in, solve_consistent_in, solve_fixed_in, Method,
 };
 use crate::error::{CompensationError, ModelError};
 use crate::model::next_state;
@@ -51,92 +50,30 @@ fn take_up_command(
         }
     }
     let mut moves = reversed;
-    // Where a following axis goes given its unconstrained next position
-    // `next` (and whether it moves): not back, and not past the segment's
-    // command unless `up_to_toward` (then to it).
-    let follow = |a: usize, next: f64| -> (bool, f64) {
-        let (d, room) = (next - q_prev[a], toward[a] - q_prev[a]);
-        let moves = d * room > 0.0 && (up_to_toward || d.abs() <= room.abs());
-        let to = match (moves, d.abs() <= room.abs()) {
-            (false, _) => q_prev[a],
-            (true, true) => next,
-            (true, false) => toward[a],
-        };
-        (moves, to)
-    };
     // The iteration's points lie micrometres apart: evaluated in the
-    // tables' cells ([`AxisCells`]). Inside them the image is affine in
-    // the command, and a round is a Newton step with their exact slopes
-    // ([`newton_step_mm`]): the moving axes land on the solution, the
-    // following axes that stop (at `q_prev` or `toward`) held there while
-    // the others solve for the rest. Where the new command stays in the
-    // cells its image is the affine form's (`img + J·Δ`, the same to
-    // rounding) and the map is not evaluated again; the iteration ends
-    // where a round changed the command by no more than the point solve's
-    // tolerance (its next round, on the same stops, would change nothing).
-    // Elsewhere (no cells, outside a table) a round is the fixed-point step
-    // `q += held − img`, and the iteration stops where the command repeats
-    // bit for bit: every later round would compute the same command and
-    // the same `moves`.
-    let mut img = None;
+    // tables' cells ([`AxisCells`]). It stops where the command repeats bit
+    // for bit: every later round would compute the same command and the
+    // same `moves`.
     for _ in 0..8 {
-        let (img_now, patch) = match img {
-            Some(v) => v,
-            None => {
-                let (e, patch) = cells.deviation_and_patch_um(model, q, s, Components::All)?;
-                (q + e * 1e-3, patch)
-            }
-        };
+        let img = cells.actual_mm(model, q, s, Components::All)?;
         let before = q;
-        let r = held - img_now;
-        let newton = patch.and_then(|p| {
-            let step = newton_step_mm(p.slopes_um_per_mm, r, [true; 3])?;
-            Some((p, step))
-        });
-        if let Some((p, step)) = newton {
-            let j = p.slopes_um_per_mm;
-            let next = q + step;
-            let mut to = next;
-            let mut stopped = [false; 3];
-            for a in (0..3).filter(|a| !reversed[*a]) {
-                (moves[a], to[a]) = follow(a, next[a]);
-                stopped[a] = !moves[a] || to[a] != next[a];
-            }
-            if stopped.contains(&true) {
-                // The stopped axes' change is fixed: the others solve
-                // `J_ff·Δ_f = r_f − (J·Δ_stopped)_f`.
-                let mut fixed = Vec3::ZERO;
-                for a in (0..3).filter(|a| stopped[*a]) {
-                    fixed[a] = to[a] - q[a];
-                }
-                let pushed = jacobian_times_mm(j, fixed);
-                if let Some(rest) = newton_step_mm(j, r - pushed, stopped.map(|h| !h)) {
-                    for a in (0..3).filter(|a| !stopped[*a]) {
-                        to[a] = q[a] + rest[a];
-                    }
-                }
-            }
-            q = to;
-            let moved = (0..3).map(|a| (q[a] - before[a]).abs()).fold(0.0, f64::max);
-            if moved <= TOLERANCE_MM * 1e-3 {
-                break;
-            }
-            img = p
-                .holds(q)
-                .then(|| (img_now + jacobian_times_mm(j, q - before), Some(p)));
-            continue;
-        }
         for a in 0..3 {
             if reversed[a] {
-                q[a] += held[a] - img_now[a];
+                q[a] += held[a] - img[a];
             } else {
-                (moves[a], q[a]) = follow(a, q[a] + held[a] - img_now[a]);
+                let next = q[a] + held[a] - img[a];
+                let (d, room) = (next - q_prev[a], toward[a] - q_prev[a]);
+                moves[a] = d * room > 0.0 && (up_to_toward || d.abs() <= room.abs());
+                q[a] = match (moves[a], d.abs() <= room.abs()) {
+                    (false, _) => q_prev[a],
+                    (true, true) => next,
+                    (true, false) => toward[a],
+                };
             }
         }
         if (0..3).all(|a| q[a].to_bits() == before[a].to_bits()) {
             break;
         }
-        img = None;
     }
     let mut out = frame.quantize(q, q_prev);
     for a in 0..3 {
@@ -2327,12 +2264,10 @@ mod tests {
         out
     }
 
-    /// The take-up solved with Newton steps in the tables' cells kept from
-    /// case to case writes the command of eight fixed-point rounds
-    /// through the plain map lookup (the second method; converged to the
-    /// last bits): on 3,000 points, states, reversing axes and segment
-    /// commands (toward or past the take-up, up to it or not: following
-    /// axes that stop), at 4 and 6 decimals. By hand: X alone
+    /// The take-up that stops where its command repeats, in the tables'
+    /// cells kept from case to case, is the eight rounds' command to the bit: on 3,000 points,
+    /// states, reversing axes and segment commands (toward or past the
+    /// take-up, up to it or not), at 4 and 6 decimals. By hand: X alone
     /// reverses at 10 mm on a map whose X reverse table lies 4 µm above the
     /// forward one (no slope): the command goes 4 µm back, to 9.996.
     #[test]

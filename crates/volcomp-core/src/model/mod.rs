@@ -244,37 +244,16 @@ impl Cell {
     /// same to the bit; `None` where `x_mm` lies outside the cell.
     #[inline]
     pub fn value_at(&self, x_mm: f64) -> Option<Vec3> {
-        if !self.holds(x_mm) {
+        let (p, x) = (&self.p, x_mm);
+        let inside = p[0] <= x && (x < p[1] || (self.upper && x == p[1]));
+        if !inside {
             return None;
         }
-        let (p, x) = (&self.p, x_mm);
         Some(if p[0] == p[1] {
             self.e[0]
         } else {
             self.e[0].lerp(self.e[1], (x - p[0]) / (p[1] - p[0]))
         })
-    }
-
-    /// Whether `x_mm` lies in the cell: `p[0] ≤ x < p[1]`, or `x = p[1]`
-    /// where the cell holds its upper end.
-    #[inline]
-    pub fn holds(&self, x_mm: f64) -> bool {
-        let (p, x) = (&self.p, x_mm);
-        p[0] <= x && (x < p[1] || (self.upper && x == p[1]))
-    }
-
-    /// The error's rate of change along the axis inside the cell (µm per
-    /// mm): `(e[1] − e[0]) / (p[1] − p[0])`, the slope of the linear
-    /// interpolation [`Cell::value_at`] computes; zero in a cell of one
-    /// point (its value is constant).
-    #[inline]
-    pub fn slope_um_per_mm(&self) -> Vec3 {
-        let p = &self.p;
-        if p[0] == p[1] {
-            Vec3::ZERO
-        } else {
-            (self.e[1] - self.e[0]) / (p[1] - p[0])
-        }
     }
 }
 
@@ -294,36 +273,6 @@ impl Cell {
 #[derive(Debug, Clone, Default)]
 pub struct AxisCells {
     cells: [[Option<Cell>; 2]; 3],
-    /// Each kept cell's [`Cell::slope_um_per_mm`], computed when it is
-    /// looked up.
-    slopes: [[Vec3; 2]; 3],
-}
-
-/// The affine piece of a sum of per-axis tables around a point: within
-/// the cells that hold it (one per axis, for one direction state), `e(q)`
-/// is `e(q₀) + Σ_a slopes_a·(q_a − q₀_a)` exactly, up to rounding
-/// ([`AxisCells::deviation_and_patch_um`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Patch {
-    /// The columns of `e`'s Jacobian (µm per mm): column `a` is
-    /// `∂e/∂q_a`, the slope of axis `a`'s cell ([`Cell::slope_um_per_mm`];
-    /// only its own component with [`Components::PositioningOnly`]).
-    pub slopes_um_per_mm: [Vec3; 3],
-    /// Each axis' cell: its ends (mm) and whether it holds its upper end.
-    bounds_mm: [(f64, f64, bool); 3],
-}
-
-impl Patch {
-    /// Whether `q_mm` lies in the piece's cells on every axis
-    /// ([`Cell::holds`]).
-    #[inline]
-    pub fn holds(&self, q_mm: Vec3) -> bool {
-        (0..3).all(|a| {
-            let (lo, hi, upper) = self.bounds_mm[a];
-            let x = q_mm[a];
-            lo <= x && (x < hi || (upper && x == hi))
-        })
-    }
 }
 
 impl AxisCells {
@@ -336,74 +285,20 @@ impl AxisCells {
         s: Directions,
         components: Components,
     ) -> Result<Vec3, ModelError> {
-        match self.values(model, q_mm, s) {
-            Some(v) => Ok(Self::sum(v, components)),
-            // Outside a table, or no cells: the model itself.
-            None => model.deviation_um(q_mm, s, components),
-        }
-    }
-
-    /// [`Self::deviation_um`], and the affine piece of `e` around `q_mm`
-    /// where the three axes' kept cells hold it ([`Patch`]; `None` outside
-    /// a table or without cells).
-    pub fn deviation_and_patch_um(
-        &mut self,
-        model: &dyn ErrorModel,
-        q_mm: Vec3,
-        s: Directions,
-        components: Components,
-    ) -> Result<(Vec3, Option<Patch>), ModelError> {
-        let Some(v) = self.values(model, q_mm, s) else {
-            return Ok((model.deviation_um(q_mm, s, components)?, None));
-        };
-        let mut patch = Patch {
-            slopes_um_per_mm: [Vec3::ZERO; 3],
-            bounds_mm: [(0.0, 0.0, false); 3],
-        };
-        for a in 0..3 {
-            let d = usize::from(s[a] == Direction::Reverse);
-            // `values` found every axis in its kept cell.
-            let Some(c) = &self.cells[a][d] else {
-                return Ok((Self::sum(v, components), None));
-            };
-            patch.bounds_mm[a] = (c.p[0], c.p[1], c.upper);
-            let slope = self.slopes[a][d];
-            patch.slopes_um_per_mm[a] = match components {
-                Components::All => slope,
-                Components::PositioningOnly => {
-                    let mut own = Vec3::ZERO;
-                    own[a] = slope[a];
-                    own
-                }
-            };
-        }
-        Ok((Self::sum(v, components), Some(patch)))
-    }
-
-    /// The three axes' table values at `q_mm` in their kept cells (looked
-    /// up again where a point left one), or `None` where an axis has none.
-    #[inline(always)]
-    fn values(&mut self, model: &dyn ErrorModel, q_mm: Vec3, s: Directions) -> Option<[Vec3; 3]> {
         let [x, y, z] = &mut self.cells;
-        let [sx, sy, sz] = &mut self.slopes;
         let values = (
-            Self::value(x, sx, model, 0, s[0], q_mm.x),
-            Self::value(y, sy, model, 1, s[1], q_mm.y),
-            Self::value(z, sz, model, 2, s[2], q_mm.z),
+            Self::value(x, model, 0, s[0], q_mm.x),
+            Self::value(y, model, 1, s[1], q_mm.y),
+            Self::value(z, model, 2, s[2], q_mm.z),
         );
         let (Some(vx), Some(vy), Some(vz)) = values else {
-            return None;
+            // Outside a table, or no cells: the model itself.
+            return model.deviation_um(q_mm, s, components);
         };
-        Some([vx, vy, vz])
-    }
-
-    /// The axes' values summed as the model sums them.
-    #[inline(always)]
-    fn sum([vx, vy, vz]: [Vec3; 3], components: Components) -> Vec3 {
-        match components {
+        Ok(match components {
             Components::All => Vec3::ZERO + vx + vy + vz,
             Components::PositioningOnly => Vec3::new(0.0 + vx.x, 0.0 + vy.y, 0.0 + vz.z),
-        }
+        })
     }
 
     /// Axis `axis`'s table value at `x_mm` for direction `d`, in the cell
@@ -411,19 +306,18 @@ impl AxisCells {
     #[inline(always)]
     fn value(
         cells: &mut [Option<Cell>; 2],
-        slopes: &mut [Vec3; 2],
         model: &dyn ErrorModel,
         axis: usize,
         d: Direction,
         x_mm: f64,
     ) -> Option<Vec3> {
-        let (slot, slope) = match d {
-            Direction::Forward => (&mut cells[0], &mut slopes[0]),
-            Direction::Reverse => (&mut cells[1], &mut slopes[1]),
+        let slot = match d {
+            Direction::Forward => &mut cells[0],
+            Direction::Reverse => &mut cells[1],
         };
         match slot.as_ref().and_then(|c| c.value_at(x_mm)) {
             Some(v) => Some(v),
-            None => Self::refill(slot, slope, model, axis, d, x_mm),
+            None => Self::refill(slot, model, axis, d, x_mm),
         }
     }
 
@@ -432,14 +326,12 @@ impl AxisCells {
     #[inline(never)]
     fn refill(
         slot: &mut Option<Cell>,
-        slope: &mut Vec3,
         model: &dyn ErrorModel,
         axis: usize,
         d: Direction,
         x_mm: f64,
     ) -> Option<Vec3> {
         *slot = model.axis_cell(axis, d, x_mm);
-        *slope = slot.as_ref().map_or(Vec3::ZERO, Cell::slope_um_per_mm);
         slot.as_ref().and_then(|c| c.value_at(x_mm))
     }
 
@@ -748,92 +640,6 @@ mod axis_cells_tests {
             .deviation_um(&m, Vec3::new(2.5, 1.0, 1.0), ALL_FORWARD, Components::All)
             .unwrap();
         assert_eq!(e, Vec3::new(0.5, 0.0, 0.0));
-    }
-
-    /// By hand: X forward rises 0 → 2 µm (along X) and 0 → −1 µm (along
-    /// Y) over 0 … 10 mm, Y and Z flat: the patch at (2.5, 1, 1) has X's
-    /// column (0.2, −0.1, 0) µm per mm and zero columns for Y and Z; its
-    /// X cell is the table's last, so it holds 10 mm but not 10.001 mm.
-    /// Positioning only keeps X's own 0.2.
-    #[test]
-    fn a_patch_has_the_cells_slopes() {
-        let m = AxisTableMap::from_csv(
-            "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
-             X,both,0,0,0,0\nX,both,10,2,-1,0\nY,both,0,0,0,0\nY,both,10,0,0,0\n\
-             Z,both,0,0,0,0\nZ,both,10,0,0,0\n",
-            "m.csv",
-        )
-        .unwrap();
-        let mut cells = AxisCells::default();
-        let q = Vec3::new(2.5, 1.0, 1.0);
-        let (e, patch) = cells
-            .deviation_and_patch_um(&m, q, ALL_FORWARD, Components::All)
-            .unwrap();
-        assert_eq!(e, Vec3::new(0.5, -0.25, 0.0));
-        let patch = patch.unwrap();
-        let close = |a: Vec3, b: Vec3| (a - b).norm() < 1e-15;
-        assert!(close(patch.slopes_um_per_mm[0], Vec3::new(0.2, -0.1, 0.0)));
-        assert_eq!(patch.slopes_um_per_mm[1], Vec3::ZERO);
-        assert_eq!(patch.slopes_um_per_mm[2], Vec3::ZERO);
-        assert!(patch.holds(Vec3::new(10.0, 0.0, 10.0)));
-        assert!(!patch.holds(Vec3::new(10.001, 1.0, 1.0)));
-        assert!(!patch.holds(Vec3::new(5.0, -0.001, 1.0)));
-        let (_, pitch) = cells
-            .deviation_and_patch_um(&m, q, ALL_FORWARD, Components::PositioningOnly)
-            .unwrap();
-        assert!(close(
-            pitch.unwrap().slopes_um_per_mm[0],
-            Vec3::new(0.2, 0.0, 0.0)
-        ));
-        // Outside the table (unclamped): the model's error, and no patch.
-        assert!(cells
-            .deviation_and_patch_um(&m, Vec3::new(11.0, 1.0, 1.0), ALL_FORWARD, Components::All)
-            .is_err());
-    }
-
-    /// A patch predicts the map at every point it holds: on 5,000 pairs of
-    /// points up to 8 mm apart (random states, both component sets), where
-    /// the patch at the first holds the second, the affine form
-    /// `e(q₀) + Σ slopes_a·(q_a − q₀_a)` is the map's own lookup at the
-    /// second (the second method) within 10⁻¹² µm; where it does not hold
-    /// it, the second point lies outside one of the first's cells.
-    #[test]
-    fn a_patch_is_the_map_where_it_holds() {
-        let m = map(false);
-        let mut rnd = uniform(0x6a09_e667_f3bc_c908);
-        let mut cells = AxisCells::default();
-        let mut held = 0;
-        for k in 0..5_000 {
-            let q0 = Vec3::new(1.0 + 98.0 * rnd(), 1.0 + 98.0 * rnd(), 0.0);
-            let q1 = q0 + Vec3::new(rnd() - 0.5, rnd() - 0.5, 0.0) * 16.0;
-            let s = [
-                if rnd() < 0.5 { F } else { R },
-                if rnd() < 0.5 { F } else { R },
-                F,
-            ];
-            let c = if k % 3 == 0 {
-                Components::PositioningOnly
-            } else {
-                Components::All
-            };
-            let (e0, patch) = cells.deviation_and_patch_um(&m, q0, s, c).unwrap();
-            assert_eq!(e0, m.deviation_um(q0, s, c).unwrap());
-            let patch = patch.unwrap();
-            let same_cells = (0..2).all(|a| (q0[a] / 10.0).floor() == (q1[a] / 10.0).floor());
-            assert_eq!(patch.holds(q1), same_cells, "{q0:?} {q1:?}");
-            if patch.holds(q1) {
-                held += 1;
-                let d = q1 - q0;
-                let [sx, sy, sz] = patch.slopes_um_per_mm;
-                let affine = e0 + sx * d.x + sy * d.y + sz * d.z;
-                let e1 = m.deviation_um(q1, s, c).unwrap();
-                assert!(
-                    (affine - e1).norm() < 1e-12,
-                    "{q0:?} {q1:?} {affine:?} {e1:?}"
-                );
-            }
-        }
-        assert!(held > 1_000, "{held}");
     }
 
     /// The cells kept from point to point give the map's own lookup to the
