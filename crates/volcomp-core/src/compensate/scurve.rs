@@ -482,7 +482,12 @@ impl WindowKey {
         after_only: bool,
         widest: bool,
     ) -> WindowKey {
-        let [ax, ay, az] = planner.max_acceleration_mm_s2;
+        // Every field, by an exhaustive pattern: a field added to the
+        // limits fails to compile here until the key holds it too.
+        let PlannerLimits {
+            max_acceleration_mm_s2: [ax, ay, az],
+            servo_period_s,
+        } = *planner;
         WindowKey([
             r.to_bits(),
             b.to_bits(),
@@ -491,7 +496,7 @@ impl WindowKey {
             ax.to_bits(),
             ay.to_bits(),
             az.to_bits(),
-            planner.servo_period_s.to_bits(),
+            servo_period_s.to_bits(),
             u64::from(after_only),
             u64::from(widest),
         ])
