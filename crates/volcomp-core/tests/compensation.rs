@@ -1022,7 +1022,11 @@ fn under_g61_an_s_curve_at_a_tangent_join_straddles_the_join() {
     assert_joins_tangent(&tangents, &out);
     let arcs = written_arcs(&out);
     let (b_mm, tol_mm) = (4e-3, 0.4e-3);
-    for (join, r_mm) in [(Vec3::new(-3.0, 0.0, 0.0), 4.0), (Vec3::new(5.0, 0.0, 0.0), 5.0), (Vec3::new(-5.0, 0.0, 0.0), 6.0)] {
+    for (join, r_mm) in [
+        (Vec3::new(-3.0, 0.0, 0.0), 4.0),
+        (Vec3::new(5.0, 0.0, 0.0), 5.0),
+        (Vec3::new(-5.0, 0.0, 0.0), 6.0),
+    ] {
         let near = |p: Vec3| (p - join).norm() < 0.3;
         let tightest = arcs
             .iter()

@@ -643,7 +643,10 @@ mod tests {
             let best = best_window(r, b, tol, v, &planner, false, widest).unwrap();
             let join = join_window((r, r), b, tol, v, &planner, best.before_mm, widest).unwrap();
             // (Equal within the margin both searches break ties by.)
-            assert!((join.cost_s - best.cost_s).abs() <= 1e-4, "{best:?} {join:?}");
+            assert!(
+                (join.cost_s - best.cost_s).abs() <= 1e-4,
+                "{best:?} {join:?}"
+            );
             // Starting at the point (after only), the tool is frozen at the
             // peak while the path falls as x²/2R: the band is crossed within
             // x₀ = √(2 R tol), and a command leaving the peak along the
@@ -654,7 +657,10 @@ mod tests {
             let a_n = 1000.0 * 0.75f64.sqrt();
             let ceiling = (a_n * (r * tol / b + 0.5 * b)).sqrt();
             let after_only = best_window(r, b, tol, v, &planner, true, widest).unwrap();
-            assert!(after_only.speed_mm_s <= ceiling * 1.001, "{after_only:?} {ceiling}");
+            assert!(
+                after_only.speed_mm_s <= ceiling * 1.001,
+                "{after_only:?} {ceiling}"
+            );
             assert!(join.speed_mm_s > 1.5 * ceiling, "{join:?} {ceiling}");
         }
     }
@@ -695,7 +701,11 @@ mod tests {
             }
             worst
         };
-        assert!((reading(5.0) - w.deviation_mm).abs() < 2e-6, "{} {w:?}", reading(5.0));
+        assert!(
+            (reading(5.0) - w.deviation_mm).abs() < 2e-6,
+            "{} {w:?}",
+            reading(5.0)
+        );
         assert!(w.deviation_mm <= tol, "{w:?}");
     }
 
