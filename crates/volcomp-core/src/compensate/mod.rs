@@ -381,16 +381,20 @@ impl<'w> State<'w> {
         // on through the join; else it is written first.
         // A tail whose block left the program's mode to restore is taken
         // only by a line that restores it on its own last piece.
-        let restores = lines::piece_mode_words(
-            motion.path_mode,
-            line.words(),
-            piece_blend_tolerance_mm(options) / frame.mm_per_unit,
-            true,
-            sep,
-        )
-        .is_some();
+        let restores = || {
+            lines::piece_mode_words(
+                motion.path_mode,
+                line.words(),
+                piece_blend_tolerance_mm(options) / frame.mm_per_unit,
+                true,
+                sep,
+            )
+            .is_some()
+        };
         let held = match (&self.tail, &arc_nominal) {
-            (Some(t), Some(arc)) if t.may_start(arc, &run) && (restores || t.restore.is_none()) => {
+            (Some(t), Some(arc))
+                if t.may_start(arc, &run) && (t.restore.is_none() || restores()) =>
+            {
                 Some((t.held.before_mm, t.held.radius_mm))
             }
             _ => None,
