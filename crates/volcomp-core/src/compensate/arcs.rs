@@ -700,11 +700,13 @@ pub(super) fn plan_transitions(
     Ok(planned)
 }
 
-/// The tail a line from `start` to `end` holds back under G61 for an
-/// S-curve across its end ([`HeldEnd`], parameter along the line): an arc
-/// that runs on from it tangentially turns an axis the line does not move
-/// (the line's tangent has no component along it), to the direction
-/// opposite its state `s`. On the line the nominal path stays flat, so
+/// The tail a line from `start` to `end` in `plane` (the plane in effect:
+/// an arc that follows runs in it) holds back under G61 for an S-curve
+/// across its end ([`HeldEnd`], parameter along the line): an arc that
+/// runs on from it tangentially turns an axis of the plane the line does
+/// not move (the line's tangent has no component along it), to the
+/// direction opposite its state `s`; a line that leaves the plane has no
+/// such arc after it. On the line the nominal path stays flat, so
 /// while that axis crosses its band `b` (the map's, at the end) the tool
 /// stays on the path, and an S-curve of two arcs of radius `ρ` over a
 /// length `w` drops by `b` where `w²/(4ρ) = b`: with `w = 2·v·√(b/a_n)`
@@ -714,6 +716,7 @@ pub(super) fn plan_transitions(
 /// and the line is at least twice as long (plus `min_length_mm`).
 pub(super) fn line_tail(
     (start, end): (Vec3, Vec3),
+    plane: volcomp_gcode::Plane,
     model: &dyn ErrorModel,
     s: Directions,
     v_mm_s: f64,
@@ -722,7 +725,8 @@ pub(super) fn line_tail(
 ) -> Result<Option<HeldEnd>, ModelError> {
     let d = end - start;
     let length = d.norm();
-    if !(length > 0.0 && v_mm_s > 0.0) {
+    let (u, v, w) = plane.axes();
+    if !(length > 0.0 && v_mm_s > 0.0) || d[w].abs() > 1e-12 * length {
         return Ok(None);
     }
     let a_min = planner
@@ -732,7 +736,7 @@ pub(super) fn line_tail(
     let a_n = a_min * 0.75f64.sqrt();
     let e_now = model.deviation_um(end, s, Components::All)?;
     let mut best: Option<HeldEnd> = None;
-    for a in 0..3 {
+    for a in [u, v] {
         if d[a].abs() > 1e-12 * length {
             continue;
         }

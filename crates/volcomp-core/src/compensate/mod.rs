@@ -468,6 +468,7 @@ impl<'w> State<'w> {
                 let min_mm = options.arc_tolerances_mm().1;
                 held_end = arcs::line_tail(
                     (motion.start, motion.end),
+                    interp.plane(),
                     model,
                     self.s,
                     f / 60.0,
