@@ -397,7 +397,7 @@ pub(super) fn best_window(
     // The search is a function of its arguments alone: a program that
     // turns the same way again (the same radius, band, tolerance and feed,
     // to the bit) gets the window found before, not a new search.
-    let key = WindowKey::of(r, b, tol, v, planner, after_only, widest);
+    let key = WindowKey::of([r, b, tol, v], planner, [after_only, widest]);
     if let Some(found) = WINDOWS.with_borrow(|memo| memo.get(&key)) {
         return found;
     }
@@ -473,14 +473,12 @@ pub(super) fn best_window(
 struct WindowKey([u64; 10]);
 
 impl WindowKey {
+    /// The key of `best_window(r, b, tol, v, planner, after_only, widest)`
+    /// from `[r, b, tol, v]`, `planner` and `[after_only, widest]`.
     fn of(
-        r: f64,
-        b: f64,
-        tol: f64,
-        v: f64,
+        [r, b, tol, v]: [f64; 4],
         planner: &PlannerLimits,
-        after_only: bool,
-        widest: bool,
+        [after_only, widest]: [bool; 2],
     ) -> WindowKey {
         // Every field, by an exhaustive pattern: a field added to the
         // limits fails to compile here until the key holds it too.
@@ -724,7 +722,7 @@ mod tests {
         for round in 0..3 {
             for (i, a) in args.iter().enumerate().rev() {
                 assert_eq!(format!("{:?}", search(a)), fresh[i], "{round}: {a:?}");
-                let key = WindowKey::of(a.0, a.1, a.2, a.3, &a.4, a.5, a.6);
+                let key = WindowKey::of([a.0, a.1, a.2, a.3], &a.4, [a.5, a.6]);
                 assert!(WINDOWS.with_borrow(|m| m.get(&key)).is_some());
             }
         }
