@@ -132,40 +132,86 @@ fn walker(text: &str) -> Walker<Cursor<Vec<u8>>> {
     Walker::new(Cursor::new(text.as_bytes().to_vec()), None, setup, opts)
 }
 
+/// Compensates `text` with the example map, simulates the output against
+/// it, and checks the tool stays on the nominal path (the bound below).
+fn follows_the_nominal_path(text: &str, inch: bool) -> Result<(), TestCaseError> {
+    let text = text.to_string();
+    let map = example_map();
+    let style = survey_style(text.as_bytes());
+    let mut out = Vec::new();
+    let options = CompensateOptions::default();
+    compensate_program(
+        &mut walker(&text),
+        "random.ngc",
+        &map,
+        &style,
+        &options,
+        &mut out,
+        |_| {},
+    )
+    .map_err(|e| TestCaseError::fail(format!("{e}\n{text}")))?;
+    let out = String::from_utf8(out).unwrap();
+    let before = simulate_program(
+        &mut walker(&text),
+        "random.ngc",
+        None::<&mut Walker<Cursor<Vec<u8>>>>,
+        &map,
+        1e-4,
+        |_| {},
+    )
+    .map_err(|e| TestCaseError::fail(format!("{e}")))?;
+    let after = simulate_program(
+        &mut walker(&out),
+        "out.ngc",
+        Some(&mut walker(&text)),
+        &map,
+        1e-4,
+        |_| {},
+    )
+    .map_err(|e| TestCaseError::fail(format!("{e}\n{out}")))?;
+    // 1 mm segments on a map with 2 mm knots and ≤ 1 µm waviness leave
+    // a few hundredths of a µm; the written decimals (0.1 µm in mm,
+    // 0.254 µm in inch) at most half a step per axis (0.09 / 0.22 µm);
+    // and at a reversal the example map's reverse straightness tables
+    // sit 0.3 µm off the forward ones: a take-up move holds the reversing
+    // axis, not that transverse step, which the next point corrects.
+    //
+    // Under the physical dead band (a reversal's transverse lag fades
+    // with its own axis' take-up) that sum is not a bound: a G18 arc
+    // whose Y reverses at its quarter points leaves 0.489 µm in mm (the
+    // case kept in random_programs.proptest-regressions), the cause not
+    // yet derived. The bound is then the product's own accuracy target
+    // for the maximum, 0.5 µm, in both units (the inch sum, 0.57 µm,
+    // stays above it).
+    let bound = if inch { 0.3 + 0.22 + 0.05 } else { 0.5 };
+    prop_assert!(
+        after.contour_max_um < bound,
+        "after {after:?}\nbefore {before:?}\n{text}\n{out}"
+    );
+    prop_assert!(
+        after.contour_rms_um < 0.2 * before.contour_rms_um.max(0.5),
+        "after {after:?}\nbefore {before:?}"
+    );
+    Ok(())
+}
+
+/// A G61 program the random test drew: a G19 arc right after a Y
+/// reversal, which once left 0.501 µm (take-up ramps bent in five pieces).
+#[test]
+fn a_g19_arc_after_a_y_reversal_stays_on_the_path() {
+    let text = "G21 G90 G17 G94 G61\nG0 X0 Y0 Z5.0000\nG1 Z-5.0000 F400.0000\n\
+G1 X0.0000 Y2.6554 Z-8.2970\nG91 G1 X0.0000 Y-2.0217\nG90\n\
+G1 X0.0000 Y-26.7824 Z-8.9976\nG17 G2 X9.6810 Y-18.7876 Z-9.2008 I8.1416 J0\nG17\n\
+G19 G3 X9.6192 Y-1.8657 Z-2.8659 J9.6467 K0\nG17\nG0 Z5.0000\nM2\n";
+    follows_the_nominal_path(text, false).unwrap();
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
 
     #[test]
     fn compensated_random_programs_follow_the_nominal_path(steps in prop::collection::vec(step(), 1..12), inch in any::<bool>()) {
-        let text = program(&steps, inch);
-        let map = example_map();
-        let style = survey_style(text.as_bytes());
-        let mut out = Vec::new();
-        let options = CompensateOptions::default();
-        compensate_program(&mut walker(&text), "random.ngc", &map, &style, &options, &mut out, |_| {})
-            .map_err(|e| TestCaseError::fail(format!("{e}\n{text}")))?;
-        let out = String::from_utf8(out).unwrap();
-        let before = simulate_program(&mut walker(&text), "random.ngc", None::<&mut Walker<Cursor<Vec<u8>>>>, &map, 1e-4, |_| {})
-            .map_err(|e| TestCaseError::fail(format!("{e}")))?;
-        let after = simulate_program(&mut walker(&out), "out.ngc", Some(&mut walker(&text)), &map, 1e-4, |_| {})
-            .map_err(|e| TestCaseError::fail(format!("{e}\n{out}")))?;
-        // 1 mm segments on a map with 2 mm knots and ≤ 1 µm waviness leave
-        // a few hundredths of a µm; the written decimals (0.1 µm in mm,
-        // 0.254 µm in inch) at most half a step per axis (0.09 / 0.22 µm);
-        // and at a reversal the example map's reverse straightness tables
-        // sit 0.3 µm off the forward ones: a take-up move holds the reversing
-        // axis, not that transverse step, which the next point corrects.
-        //
-        // Under the physical dead band (a reversal's transverse lag fades
-        // with its own axis' take-up) that sum is not a bound: a G18 arc
-        // whose Y reverses at its quarter points leaves 0.489 µm in mm (the
-        // case kept in random_programs.proptest-regressions), the cause not
-        // yet derived. The bound is then the product's own accuracy target
-        // for the maximum, 0.5 µm, in both units (the inch sum, 0.57 µm,
-        // stays above it).
-        let bound = if inch { 0.3 + 0.22 + 0.05 } else { 0.5 };
-        prop_assert!(after.contour_max_um < bound, "after {after:?}\nbefore {before:?}\n{text}\n{out}");
-        prop_assert!(after.contour_rms_um < 0.2 * before.contour_rms_um.max(0.5), "after {after:?}\nbefore {before:?}");
+        follows_the_nominal_path(&program(&steps, inch), inch)?;
     }
 }
 
