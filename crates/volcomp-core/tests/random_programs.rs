@@ -207,7 +207,7 @@ G19 G3 X9.6192 Y-1.8657 Z-2.8659 J9.6467 K0\nG17\nG0 Z5.0000\nM2\n";
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    #![proptest_config(crate::common::proptest_config(48))]
 
     #[test]
     fn compensated_random_programs_follow_the_nominal_path(steps in prop::collection::vec(step(), 1..12), inch in any::<bool>()) {
@@ -216,7 +216,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(200))]
+    #![proptest_config(crate::common::proptest_config(200))]
 
     /// Whatever the bytes, compensation and simulation end with a result or
     /// a located error, never a panic.

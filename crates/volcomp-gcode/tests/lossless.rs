@@ -130,7 +130,7 @@ fn styled(value_thousandths: i64, style: u8, spaces: bool) -> String {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(300))]
+    #![proptest_config(crate::common::proptest_config(300))]
 
     #[test]
     fn numbers_in_any_style_lex_to_their_value(

@@ -102,7 +102,7 @@ fn run(text: &str) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(2000))]
+    #![proptest_config(crate::common::proptest_config(2000))]
     #[test]
     fn random_ngc_never_panics(picks in proptest::collection::vec(0..PIECES.len(), 0..60)) {
         let text: String = picks.iter().map(|&i| PIECES[i]).collect();

@@ -173,3 +173,25 @@ pub fn rs274(program: &[u8]) -> Option<Rs274> {
     }
     unreachable!()
 }
+
+/// proptest's configuration for this crate's property tests: `default_cases`
+/// cases unless the `PROPTEST_CASES` variable gives a count (proptest's own
+/// `Config::with_cases` overrides the variable), and failing cases kept beside
+/// the test file as `<file>.proptest-regressions`, which proptest replays
+/// before new cases. (Its default place, a tree parallel to `src/`, does not
+/// exist for `tests/`: it warns and falls back to the same file.)
+pub fn proptest_config(default_cases: u32) -> proptest::test_runner::Config {
+    let cases = match std::env::var("PROPTEST_CASES") {
+        Ok(text) => text
+            .parse()
+            .unwrap_or_else(|_| panic!("PROPTEST_CASES={text:?} is not a count of cases")),
+        Err(_) => default_cases,
+    };
+    proptest::test_runner::Config {
+        cases,
+        failure_persistence: Some(Box::new(
+            proptest::test_runner::FileFailurePersistence::WithSource("proptest-regressions"),
+        )),
+        ..proptest::test_runner::Config::default()
+    }
+}
