@@ -854,7 +854,7 @@ mod axis_cells_tests {
     /// second method): 20,000 points in random states, each asked for
     /// once, twice, or again after another point, through the bare map
     /// and through [`WithTool`], clamped and not. Asserts that the kept
-    /// value was given back (more than 5,000 times).
+    /// value was given back (more than 2,000 times).
     #[test]
     fn a_value_kept_at_an_end_is_the_maps_to_the_bit() {
         for clamp in [false, true] {
@@ -904,7 +904,9 @@ mod axis_cells_tests {
                     (a, b) => panic!("{p:?} {sp:?}: {a:?} against {b:?}"),
                 }
             }
-            assert!(kept_back > 5_000, "{kept_back}");
+            // A quarter of the asks repeat the point before; unclamped,
+            // half the states are outside the Z reverse table (not kept).
+            assert!(kept_back > 2_000, "{kept_back}");
         }
     }
 
