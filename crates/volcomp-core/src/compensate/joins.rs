@@ -62,6 +62,12 @@ impl Default for PlannerLimits {
     }
 }
 
+/// The deflection `φ` (rad) of a corner from unit tangent `t1` to `t2`:
+/// the angle between them, which the blend distances turn on.
+pub fn deflection_rad(t1: Vec3, t2: Vec3) -> f64 {
+    t1.dot(t2).clamp(-1.0, 1.0).acos()
+}
+
 impl PlannerLimits {
     /// The target velocity (mm/s) of a segment of `length_mm` at
     /// `feed_mm_min`: the feed, capped by the length per servo period.
@@ -115,8 +121,12 @@ impl PlannerLimits {
     /// `R = v²/a_n` (module documentation); 0 where the segments are
     /// collinear.
     pub fn blend_distance_mm(&self, t1: Vec3, t2: Vec3, v_mm_s: f64) -> f64 {
-        let cos_phi = t1.dot(t2).clamp(-1.0, 1.0);
-        let phi = cos_phi.acos();
+        self.blend_distance_at_mm(deflection_rad(t1, t2), v_mm_s)
+    }
+
+    /// [`Self::blend_distance_mm`] at a corner of deflection `phi`
+    /// ([`deflection_rad`]).
+    pub fn blend_distance_at_mm(&self, phi: f64, v_mm_s: f64) -> f64 {
         if phi <= 1e-12 {
             return 0.0;
         }
@@ -133,7 +143,12 @@ impl PlannerLimits {
     /// (tp.c, `tpCreateLineLineBlend`: the blend's deviation is limited by
     /// the segment's tolerance). Infinite where the lines are collinear.
     pub fn blend_distance_within_mm(&self, t1: Vec3, t2: Vec3, tolerance_mm: f64) -> f64 {
-        let phi = t1.dot(t2).clamp(-1.0, 1.0).acos();
+        self.blend_distance_within_at_mm(deflection_rad(t1, t2), tolerance_mm)
+    }
+
+    /// [`Self::blend_distance_within_mm`] at a corner of deflection `phi`
+    /// ([`deflection_rad`]).
+    pub fn blend_distance_within_at_mm(&self, phi: f64, tolerance_mm: f64) -> f64 {
         if phi <= 1e-12 {
             return f64::INFINITY;
         }

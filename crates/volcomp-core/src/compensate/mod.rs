@@ -132,7 +132,7 @@ impl<'w> State<'w> {
             ramp_mids: Vec::new(),
             records: Vec::new(),
             line_edits: lines::LineEdits::default(),
-            cells: crate::model::AxisCells::default(),
+            cells: Some(Box::default()),
             transitions: Vec::new(),
             transitions_written: Vec::new(),
             estimate_mm: 0.0,
@@ -382,7 +382,7 @@ impl<'w> State<'w> {
                 model,
                 self.s,
                 &mut self.estimate_mm,
-                &mut self.cells,
+                self.cells.get_or_insert_with(Box::default),
             )
             .map_err(|source| model_error(file, ev.number, source))?,
         };
@@ -829,7 +829,9 @@ struct State<'w> {
     /// The map's table cells last used ([`crate::model::AxisCells`]),
     /// kept between points and lines: the cells of the walk's map
     /// ([`Walk::model`]), which every line's model is with the line's tool.
-    cells: crate::model::AxisCells,
+    /// Boxed, so [`State::solve_targets`] takes them for its motion and
+    /// puts them back without copying them.
+    cells: Option<Box<crate::model::AxisCells>>,
     /// S-curve take-ups of the arc the next [`State::solve_targets`] solves
     /// ([`arcs::plan_transitions`]); it takes them.
     transitions: Vec<arcs::Transition>,

@@ -108,8 +108,9 @@ pub(crate) fn solve_fixed_in(
         }
         r.norm()
     };
-    let mut residual =
-        |q: Vec3| -> Result<Vec3, ModelError> { Ok(t_mm - cells.actual_mm(model, q, s, comps)?) };
+    let residual = |cells: &mut AxisCells, q: Vec3| -> Result<Vec3, ModelError> {
+        Ok(t_mm - cells.actual_mm(model, q, s, comps)?)
+    };
     // The residual at the final command when the method's model is the
     // full one (then it is the residual this reports: not evaluated again).
     let (q, iterations, full) = match method {
@@ -122,11 +123,11 @@ pub(crate) fn solve_fixed_in(
             max_iterations,
         } => {
             let mut q = fix(t_mm);
-            let mut r = residual(q)?;
+            let mut r = residual(cells, q)?;
             let mut it = 0;
             while it < max_iterations && free_norm(r) > TOLERANCE_MM {
                 let next = fix(q + r * gain);
-                let r_next = residual(next)?;
+                let r_next = residual(cells, next)?;
                 it += 1;
                 if free_norm(r_next) >= free_norm(r) {
                     break;
@@ -138,11 +139,20 @@ pub(crate) fn solve_fixed_in(
         }
         Method::Exact | Method::Pitch => {
             let mut q = fix(t_mm);
-            let mut r = residual(q)?;
+            // The first step at the target itself, where the split of its
+            // move may have evaluated the map last
+            // ([`AxisCells::deviation_end_um`]).
+            let kept = (comps == Components::All && hold == [false; 3])
+                .then(|| cells.end_um(q, s))
+                .flatten();
+            let mut r = match kept {
+                Some(e_um) => t_mm - (q + e_um * 1e-3),
+                None => residual(cells, q)?,
+            };
             let mut it = 0;
             while free_norm(r) > TOLERANCE_MM * 1e-3 && it < 60 {
                 q = fix(q + r);
-                r = residual(q)?;
+                r = residual(cells, q)?;
                 it += 1;
             }
             (q, it, (comps == Components::All).then_some(r))
@@ -278,7 +288,8 @@ pub(crate) fn solve_consistent_in(
         }
     }
     let reversed = [0, 1, 2].map(|a| s[a] != s_prev[a]);
-    let residual_um = (t_mm - cells.actual_mm(model, q, s, Components::All)?).norm() * 1e3;
+    // The command a reversal after it is taken up from ([`AxisCells::deviation_again_um`]).
+    let residual_um = (t_mm - cells.actual_again_mm(model, q, s)?).norm() * 1e3;
     Ok(PointSolution {
         q_mm: q,
         s,
@@ -347,12 +358,12 @@ pub(crate) fn hold_small_reversals_in(
     if count == 0 || bound_mm <= 0.0 {
         return Ok(None);
     }
-    let at_prev = cells.deviation_um(model, q_prev, s_prev, Components::All)?;
+    let at_prev = cells.deviation_again_um(model, q_prev, s_prev)?;
     let mut band_um = [0.0; 3];
     for a in (0..3).filter(|a| reversing[*a]) {
         let mut s = s_prev;
         s[a] = s[a].flipped();
-        band_um[a] = (cells.deviation_um(model, q_prev, s, Components::All)?[a] - at_prev[a]).abs();
+        band_um[a] = (cells.deviation_again_um(model, q_prev, s)?[a] - at_prev[a]).abs();
     }
     // Every reversing axis together, then (of several) each alone.
     let alone = (0..3)

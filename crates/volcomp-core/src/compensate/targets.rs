@@ -209,7 +209,14 @@ fn split(
                     knots: &knots,
                     linear,
                 };
-                let (ea, eb) = (piece.e(cells, a)?, piece.e(cells, b)?);
+                // The move's ends: its start was the last move's end, or
+                // the first step of the last solve; its end is where the
+                // solve of its last target starts
+                // ([`AxisCells::deviation_end_um`]).
+                let end = |cells: &mut AxisCells, p: Vec3| -> Result<Vec3, ModelError> {
+                    Ok(cells.deviation_end_um(model, p, s)? * 1e-3)
+                };
+                let (ea, eb) = (end(cells, a)?, end(cells, b)?);
                 piece.refine(a, b, ea, eb, 0, true, cuts, cells, out, worst_mm)
             });
         }

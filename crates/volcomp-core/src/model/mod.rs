@@ -270,9 +270,69 @@ impl Cell {
 /// one model (a model seen with different tools, [`WithTool`], is one
 /// model where its error does not depend on the tool, and gives no cells
 /// where it does).
+///
+/// It also remembers the last few values asked for again
+/// ([`AxisCells::deviation_again_um`]): at a reversal the point the last
+/// command reached is evaluated under its old state and with the
+/// reversing axes switched by the hold, the take-up and the lags in turn.
+/// And it keeps the value at the last end of a move its split evaluated
+/// ([`AxisCells::deviation_end_um`]): the solve of the move's last target
+/// starts there, and the next move's split at the same point.
 #[derive(Debug, Clone, Default)]
 pub struct AxisCells {
     cells: [[Option<Cell>; 2]; 3],
+    again: [Again; AGAIN],
+    next_again: usize,
+    end: Again,
+}
+
+/// How many values [`AxisCells::deviation_again_um`] remembers: the old
+/// state and the states with one reversing axis switched, at one point,
+/// and the point solved after it.
+const AGAIN: usize = 4;
+
+/// A value [`AxisCells::deviation_again_um`] remembers: `e(q, s)` (µm,
+/// every component), computed in the kept cells, for `q`'s bits and `s`
+/// (a bit per reversing axis; [`Again::NONE`] for no value).
+#[derive(Debug, Clone, Copy)]
+struct Again {
+    q_bits: [u64; 3],
+    s_bits: u8,
+    e_um: Vec3,
+}
+
+impl Again {
+    /// No value: a state no [`Directions`] has.
+    const NONE: u8 = u8::MAX;
+
+    /// The key of `q` and `s`.
+    #[inline(always)]
+    fn key(q_mm: Vec3, s: Directions) -> ([u64; 3], u8) {
+        let bit = |a: usize| u8::from(s[a] == Direction::Reverse) << a;
+        (
+            [q_mm.x.to_bits(), q_mm.y.to_bits(), q_mm.z.to_bits()],
+            bit(0) | bit(1) | bit(2),
+        )
+    }
+
+    /// Whether this is the value of the key.
+    #[inline(always)]
+    fn holds(&self, (q_bits, s_bits): ([u64; 3], u8)) -> bool {
+        self.s_bits == s_bits
+            && self.q_bits[0] == q_bits[0]
+            && self.q_bits[1] == q_bits[1]
+            && self.q_bits[2] == q_bits[2]
+    }
+}
+
+impl Default for Again {
+    fn default() -> Self {
+        Self {
+            q_bits: [0; 3],
+            s_bits: Self::NONE,
+            e_um: Vec3::ZERO,
+        }
+    }
 }
 
 impl AxisCells {
@@ -299,6 +359,104 @@ impl AxisCells {
             Components::All => Vec3::ZERO + vx + vy + vz,
             Components::PositioningOnly => Vec3::new(0.0 + vx.x, 0.0 + vy.y, 0.0 + vz.z),
         })
+    }
+
+    /// [`Self::deviation_um`] with every component, for a point and state
+    /// likely asked for again: the value is remembered (the last
+    /// [`AGAIN`] of them) and given back for the same bits of `q_mm` and
+    /// the same `s` without evaluating the cells. Only values the cells
+    /// gave are remembered; they do not depend on the tool, as the cells
+    /// do not ([`AxisCells`]), so a value is the model's to the bit
+    /// whichever line asks. Anything else (outside a table, a model
+    /// without cells) is the model's own evaluation each time.
+    pub fn deviation_again_um(
+        &mut self,
+        model: &dyn ErrorModel,
+        q_mm: Vec3,
+        s: Directions,
+    ) -> Result<Vec3, ModelError> {
+        let key = Again::key(q_mm, s);
+        for kept in &self.again {
+            if kept.holds(key) {
+                return Ok(kept.e_um);
+            }
+        }
+        let (e_um, from_cells) = self.all_components_um(model, q_mm, s)?;
+        if from_cells {
+            self.again[self.next_again] = Again {
+                q_bits: key.0,
+                s_bits: key.1,
+                e_um,
+            };
+            self.next_again = (self.next_again + 1) % AGAIN;
+        }
+        Ok(e_um)
+    }
+
+    /// [`Self::deviation_um`] with every component at an end of a move
+    /// (evaluated by its split): the last such value is kept and given back
+    /// for the same bits of `q_mm` and the same `s`, as
+    /// [`Self::deviation_again_um`] gives its values back; the solve of
+    /// the move's last target starts there ([`Self::end_um`]).
+    pub fn deviation_end_um(
+        &mut self,
+        model: &dyn ErrorModel,
+        q_mm: Vec3,
+        s: Directions,
+    ) -> Result<Vec3, ModelError> {
+        let key = Again::key(q_mm, s);
+        if self.end.holds(key) {
+            return Ok(self.end.e_um);
+        }
+        let (e_um, from_cells) = self.all_components_um(model, q_mm, s)?;
+        if from_cells {
+            self.end = Again {
+                q_bits: key.0,
+                s_bits: key.1,
+                e_um,
+            };
+        }
+        Ok(e_um)
+    }
+
+    /// The value [`Self::deviation_end_um`] keeps, where it is the one of
+    /// `q_mm` and `s` (µm, every component: the map's to the bit).
+    #[inline]
+    pub fn end_um(&self, q_mm: Vec3, s: Directions) -> Option<Vec3> {
+        self.end.holds(Again::key(q_mm, s)).then_some(self.end.e_um)
+    }
+
+    /// [`Self::deviation_um`] with every component, and whether the cells
+    /// gave it (not the model itself).
+    #[inline(always)]
+    fn all_components_um(
+        &mut self,
+        model: &dyn ErrorModel,
+        q_mm: Vec3,
+        s: Directions,
+    ) -> Result<(Vec3, bool), ModelError> {
+        let [x, y, z] = &mut self.cells;
+        let values = (
+            Self::value(x, model, 0, s[0], q_mm.x),
+            Self::value(y, model, 1, s[1], q_mm.y),
+            Self::value(z, model, 2, s[2], q_mm.z),
+        );
+        let (Some(vx), Some(vy), Some(vz)) = values else {
+            return Ok((model.deviation_um(q_mm, s, Components::All)?, false));
+        };
+        Ok((Vec3::ZERO + vx + vy + vz, true))
+    }
+
+    /// `q + e(q, s)` with every component ([`actual_mm`]'s value to the
+    /// bit), remembered as [`Self::deviation_again_um`] remembers it.
+    #[inline]
+    pub fn actual_again_mm(
+        &mut self,
+        model: &dyn ErrorModel,
+        q_mm: Vec3,
+        s: Directions,
+    ) -> Result<Vec3, ModelError> {
+        Ok(q_mm + self.deviation_again_um(model, q_mm, s)? * 1e-3)
     }
 
     /// Axis `axis`'s table value at `x_mm` for direction `d`, in the cell
@@ -622,6 +780,134 @@ mod axis_cells_tests {
             errors_um: vec![Vec3::new(0.5, 0.4, 0.9)],
         };
         m
+    }
+
+    /// A value asked for again is the map's own lookup to the bit (the
+    /// second method): on a 20,000-point walk in random states, each point
+    /// asked for once or twice more, later, with its state or another,
+    /// through the bare map and through [`WithTool`], clamped and not
+    /// (errors outside the table are the map's, never remembered). Asserts
+    /// that remembered values were given back (more than 10,000 times).
+    #[test]
+    fn values_asked_again_are_the_maps_to_the_bit() {
+        for clamp in [false, true] {
+            let m = map(clamp);
+            let with_tool = WithTool {
+                model: &m,
+                tool_length_offset_mm: Vec3::new(0.0, 0.0, 50.0),
+            };
+            let mut rnd = uniform(0x9e37_79b9_7f4a_7c15);
+            let mut cells = AxisCells::default();
+            let mut q = Vec3::new(50.0, 50.0, 50.0);
+            let mut earlier: Vec<(Vec3, Directions)> = Vec::new();
+            let (mut again, mut errors) = (0, 0);
+            for k in 0..20_000 {
+                let step = [1e-4, 0.3, 20.0][k % 3];
+                for a in 0..3 {
+                    q[a] = if k % 89 == 0 {
+                        [0.0, 10.0, 100.0, -1e-3, 100.001][k % 5]
+                    } else {
+                        (q[a] + (rnd() - 0.5) * step).clamp(0.0, 100.0)
+                    };
+                }
+                let s = [0, 1, 2].map(|_| if rnd() < 0.5 { F } else { R });
+                earlier.push((q, s));
+                // The point itself, then some of the last six again, in
+                // their own state or with one axis switched.
+                let mut asks = vec![(q, s)];
+                for _ in 0..3 {
+                    let back = (rnd() * 6.0) as usize;
+                    if let Some(&(p, mut sp)) = earlier.iter().rev().nth(back) {
+                        if rnd() < 0.3 {
+                            let a = (rnd() * 3.0) as usize % 3;
+                            sp[a] = sp[a].flipped();
+                        }
+                        asks.push((p, sp));
+                    }
+                }
+                for (p, sp) in asks {
+                    let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+                    let known = cells.again.iter().any(|kept| kept.holds(Again::key(p, sp)));
+                    let model: &dyn ErrorModel = if k % 2 == 0 { &m } else { &with_tool };
+                    let kept = cells.deviation_again_um(model, p, sp);
+                    let plain = m.deviation_um(p, sp, Components::All);
+                    match (kept, plain) {
+                        (Ok(a), Ok(b)) => {
+                            again += usize::from(known);
+                            assert_eq!(bits(a), bits(b), "{p:?} {sp:?}");
+                        }
+                        (Err(a), Err(b)) => {
+                            errors += 1;
+                            assert!(!known);
+                            assert_eq!(a, b);
+                        }
+                        (a, b) => panic!("{p:?} {sp:?}: {a:?} against {b:?}"),
+                    }
+                }
+            }
+            assert!(again > 10_000, "{again}");
+            assert!(clamp || errors > 100, "{errors}");
+        }
+    }
+
+    /// The value kept at an end is the map's own lookup to the bit (the
+    /// second method): 20,000 points in random states, each asked for
+    /// once, twice, or again after another point, through the bare map
+    /// and through [`WithTool`], clamped and not. Asserts that the kept
+    /// value was given back (more than 2,000 times).
+    #[test]
+    fn a_value_kept_at_an_end_is_the_maps_to_the_bit() {
+        for clamp in [false, true] {
+            let m = map(clamp);
+            let with_tool = WithTool {
+                model: &m,
+                tool_length_offset_mm: Vec3::new(0.0, 0.0, 50.0),
+            };
+            let mut rnd = uniform(0xdead_beef_cafe_f00d);
+            let mut cells = AxisCells::default();
+            let (mut q, mut s) = (Vec3::new(50.0, 50.0, 50.0), [F; 3]);
+            let mut kept_back = 0;
+            for k in 0..20_000 {
+                let (p, sp) = match k % 4 {
+                    // The same point again, or in another state.
+                    1 => (q, s),
+                    2 if rnd() < 0.5 => (q, [R, F, R]),
+                    _ => {
+                        for a in 0..3 {
+                            q[a] = if k % 89 == 0 {
+                                [0.0, 10.0, 100.0, -1e-3, 100.001][k % 5]
+                            } else {
+                                (q[a] + (rnd() - 0.5) * 5.0).clamp(0.0, 100.0)
+                            };
+                        }
+                        s = [0, 1, 2].map(|_| if rnd() < 0.5 { F } else { R });
+                        (q, s)
+                    }
+                };
+                let known = cells.end.holds(Again::key(p, sp));
+                let end = cells.end_um(p, sp);
+                assert_eq!(end.is_some(), known);
+                let model: &dyn ErrorModel = if k % 2 == 0 { &m } else { &with_tool };
+                let kept = cells.deviation_end_um(model, p, sp);
+                let plain = m.deviation_um(p, sp, Components::All);
+                let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+                match (kept, plain) {
+                    (Ok(a), Ok(b)) => {
+                        kept_back += usize::from(known);
+                        assert_eq!(bits(a), bits(b), "{p:?} {sp:?}");
+                        assert!(end.is_none_or(|e| bits(e) == bits(b)));
+                    }
+                    (Err(a), Err(b)) => {
+                        assert!(!known);
+                        assert_eq!(a, b);
+                    }
+                    (a, b) => panic!("{p:?} {sp:?}: {a:?} against {b:?}"),
+                }
+            }
+            // A quarter of the asks repeat the point before; unclamped,
+            // half the states are outside the Z reverse table (not kept).
+            assert!(kept_back > 2_000, "{kept_back}");
+        }
     }
 
     /// By hand: X forward goes 0 → 2 µm (along X) over 0 … 10 mm, so at
