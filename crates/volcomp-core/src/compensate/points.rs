@@ -340,6 +340,18 @@ pub(super) struct RampPlan {
     pub(super) bound_mm: f64,
 }
 
+/// How a ramp's command catches up its take-up along the path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum RampShape {
+    /// Linearly, over one piece or the motion's own pieces.
+    Straight,
+    /// As a smooth step `3u² − 2u³` over pieces of the shortest length.
+    Smooth,
+    /// As a straight ramp bent at its ends ([`bent_ramp_nodes_mm`]): five
+    /// pieces at most.
+    Bent,
+}
+
 /// The ramp of a take-up `delta` at target `index` (see [`RampPlan`]), or
 /// `None` where the motion's rest is too short for it, an S-curve or a
 /// reversal of any axis lies inside it, or it leaves the tool further
@@ -361,9 +373,9 @@ fn plan_ramp(
         Option<f64>,
         f64,
     ),
-    smooth: bool,
+    shape: RampShape,
 ) -> Result<Option<RampPlan>, ModelError> {
-    let need = ramp_length_mm(delta, kink_tolerance, shortest_mm, smooth);
+    let need = ramp_length_mm(delta, kink_tolerance, shortest_mm, shape);
     if !(need > 0.0 && need.is_finite()) {
         return Ok(None);
     }
@@ -425,7 +437,11 @@ fn plan_ramp(
         }
     };
     let mut insert: Vec<(usize, Vec3, Option<f64>, f64)> = Vec::new();
-    let end_s = if s_k - need <= 0.5 * need || s_k - need < shortest_mm {
+    // A bent ramp ends at its length unless a target is within the
+    // shortest piece past it: its vertices all fall before that length, so
+    // the ramp planned again over the targets they became ends there too.
+    let bent = shape == RampShape::Bent;
+    let end_s = if (!bent && s_k - need <= 0.5 * need) || s_k - need < shortest_mm {
         s_k
     } else {
         let s_new = need.max(s_before + shortest_mm);
@@ -443,7 +459,7 @@ fn plan_ramp(
     }
     // A smooth ramp's inner points, about `shortest_mm` apart, where no
     // target is within half of that already.
-    if smooth && end_s > 2.0 * shortest_mm {
+    if shape == RampShape::Smooth && end_s > 2.0 * shortest_mm {
         let n = (end_s / shortest_mm).floor() as usize;
         let step = end_s / n as f64;
         let mut inner = Vec::new();
@@ -464,14 +480,49 @@ fn plan_ramp(
         insert.sort_by(|a, b| a.3.partial_cmp(&b.3).unwrap_or(std::cmp::Ordering::Equal));
         window.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal));
     }
+    // A bent ramp's inner points: the vertices of its profile
+    // ([`bent_ramp_nodes_mm`]), stretched to the ramp's end; a vertex with a
+    // target within half the shortest piece of it moves onto that target.
+    let profile: Vec<(f64, f64)> = if bent {
+        let nodes = bent_ramp_nodes_mm(ramp_ratio_mm(delta, kink_tolerance), shortest_mm, end_s);
+        let mut vertices = vec![0.0];
+        for &s in &nodes[1..nodes.len() - 1] {
+            if let Some(&(_, w)) = window
+                .iter()
+                .find(|(_, w)| *w > 0.0 && (w - s).abs() < 0.5 * shortest_mm)
+            {
+                vertices.push(w);
+                continue;
+            }
+            let j = (index..=k).find(|j| along(*j) > s).unwrap_or(k);
+            let s_from = if j == index { 0.0 } else { along(j - 1) };
+            let (p, param) = point_at(j, s_from, s);
+            insert.push((j, p, param, s));
+            window.push((p, s));
+            vertices.push(s);
+        }
+        vertices.push(end_s);
+        insert.sort_by(|a, b| a.3.partial_cmp(&b.3).unwrap_or(std::cmp::Ordering::Equal));
+        window.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal));
+        let profile = bent_ramp_profile(&vertices);
+        // The slope changes by the same step at every vertex: no more than
+        // the tangency share allows on any axis.
+        let turn = bent_ramp_turn_per_mm(&profile);
+        if (0..3).any(|a| delta[a].abs() * turn > RAMP_SHARE * kink_tolerance[a] * (1.0 + 1e-9)) {
+            return Ok(None);
+        }
+        profile
+    } else {
+        vec![(0.0, 0.0), (end_s, 1.0)]
+    };
     let fracs: Vec<f64> = window
         .iter()
         .map(|(_, s)| {
-            let u = (s / end_s).clamp(0.0, 1.0);
-            if smooth {
+            if shape == RampShape::Smooth {
+                let u = (s / end_s).clamp(0.0, 1.0);
                 1.0 - u * u * (3.0 - 2.0 * u)
             } else {
-                1.0 - u
+                1.0 - profile_at(&profile, *s)
             }
         })
         .collect();
@@ -542,22 +593,129 @@ fn ramp_floor_mm(rule: TakeUpRule, run: &Run, index: usize) -> f64 {
 
 /// The shortest ramp (mm) of a take-up `delta` whose joins the planner
 /// takes as tangent ([`RampPlan`]): a straight ramp turns the path by
-/// `|Δ|/L` at both ends; a `smooth` step `3u² − 2u³` over pieces of `ℓ`
-/// (`shortest_mm`) turns it by at most `6|Δ|ℓ/L²` at each join, so it
-/// needs only `L = √(6|Δ|ℓ/κ)` (κ the share [`RAMP_SHARE`] of the
-/// tangency tolerance `kink_tolerance`).
-fn ramp_length_mm(delta: Vec3, kink_tolerance: [f64; 3], shortest_mm: f64, smooth: bool) -> f64 {
+/// `|Δ|/L` at both ends, so it needs `L = |Δ|/κ` (κ the share
+/// [`RAMP_SHARE`] of the tangency tolerance `kink_tolerance`); a smooth
+/// step `3u² − 2u³` over pieces of `ℓ` (`shortest_mm`) turns it by at most
+/// `6|Δ|ℓ/L²` at each join, so it needs only `L = √(6|Δ|ℓ/κ)`; a bent one
+/// ([`bent_ramp_nodes_mm`]) needs `|Δ|/(pκ) + (p − 1)ℓ` for `p` bends.
+fn ramp_length_mm(
+    delta: Vec3,
+    kink_tolerance: [f64; 3],
+    shortest_mm: f64,
+    shape: RampShape,
+) -> f64 {
+    match shape {
+        RampShape::Straight => ramp_ratio_mm(delta, kink_tolerance),
+        RampShape::Smooth => (0..3).fold(0.0f64, |m, i| {
+            let kappa = (RAMP_SHARE * kink_tolerance[i]).max(1e-300);
+            let straight = delta[i].abs() / kappa;
+            m.max(
+                (6.0 * delta[i].abs() * shortest_mm / kappa)
+                    .sqrt()
+                    .min(straight),
+            )
+        }),
+        RampShape::Bent => {
+            let ratio_mm = ramp_ratio_mm(delta, kink_tolerance);
+            let p = bent_ramp_bends(ratio_mm, shortest_mm);
+            ratio_mm / p as f64 + (p - 1) as f64 * shortest_mm
+        }
+    }
+}
+
+/// The straight ramp's length (mm) of a take-up `delta`: the largest
+/// `|Δ_i| / κ_i` over the axes, κ the share [`RAMP_SHARE`] of the
+/// tangency tolerance `kink_tolerance`.
+fn ramp_ratio_mm(delta: Vec3, kink_tolerance: [f64; 3]) -> f64 {
     (0..3).fold(0.0f64, |m, i| {
         let kappa = (RAMP_SHARE * kink_tolerance[i]).max(1e-300);
-        let straight = delta[i].abs() / kappa;
-        m.max(if smooth {
-            (6.0 * delta[i].abs() * shortest_mm / kappa)
-                .sqrt()
-                .min(straight)
-        } else {
-            straight
-        })
+        m.max(delta[i].abs() / kappa)
     })
+}
+
+/// The most bends at each end of a smooth ramp: `2p − 1` pieces. LinuxCNC's
+/// look-ahead (tp.c `tpRunOptimization`) stops its backward pass once more
+/// than `TP_OPTIMIZATION_CUTOFF` (4, tp_types.h) segments were found at
+/// their speed limit: a run of more than six short pieces after a long one
+/// leaves the long one's end speed at what the run queued behind it allowed
+/// (docs/compensation.md, "Runs of short pieces after a long one"). Five
+/// pieces leave room for a piece or two of the path's own around them.
+const BENT_RAMP_MAX_BENDS: usize = 3;
+
+/// The bends `p` at each end of a smooth ramp whose straight length is
+/// `ratio_mm` ([`ramp_ratio_mm`]): the most, up to [`BENT_RAMP_MAX_BENDS`],
+/// whose middle piece `ratio/p − (p − 1)ℓ` is at least `ℓ`
+/// (`shortest_mm`), i.e. `p²ℓ ≤ ratio`; the ramp `ratio/p + (p − 1)ℓ` is
+/// shortest there (it falls with `p` while `p² ℓ < ratio`).
+fn bent_ramp_bends(ratio_mm: f64, shortest_mm: f64) -> usize {
+    (1..=BENT_RAMP_MAX_BENDS)
+        .rev()
+        .find(|p| ((p * p) as f64) * shortest_mm <= ratio_mm)
+        .unwrap_or(1)
+}
+
+/// The vertices (mm along the path, from 0 to `end_mm`) of a smooth ramp
+/// whose straight length is `ratio_mm`: a straight ramp bent at each end
+/// in `p − 1` pieces of `ℓ` (`shortest_mm`; [`bent_ramp_bends`]) whose
+/// slopes climb `1, 2, …, p` steps to the middle piece and back down
+/// ([`bent_ramp_profile`]), so the slope changes by one step at each of
+/// its `2p` vertices, the ends included: the piecewise-linear profile of
+/// `2p − 1` pieces with the least length for that turn (the middle piece,
+/// steepest, takes what the bends do not). The lengths are stretched to
+/// `end_mm`, which turns the path less.
+fn bent_ramp_nodes_mm(ratio_mm: f64, shortest_mm: f64, end_mm: f64) -> Vec<f64> {
+    let p = bent_ramp_bends(ratio_mm, shortest_mm);
+    let side = (p - 1) as f64 * shortest_mm;
+    let middle = ratio_mm / p as f64 - side;
+    let scale = end_mm / (2.0 * side + middle);
+    let mut nodes: Vec<f64> = (0..p).map(|j| j as f64 * shortest_mm * scale).collect();
+    nodes.extend(
+        (0..p)
+            .rev()
+            .map(|j| end_mm - j as f64 * shortest_mm * scale),
+    );
+    nodes
+}
+
+/// The share of the step made at each vertex of a bent ramp (mm along the
+/// path, the first 0): the `j`-th of its `n` pieces (from 0) climbs with
+/// slope `min(j + 1, n − j)/A`, `A` the sum of those weights times the
+/// pieces' lengths, so the slope changes by `1/A` at every vertex.
+fn bent_ramp_profile(vertices: &[f64]) -> Vec<(f64, f64)> {
+    let n = vertices.len().saturating_sub(1);
+    let weight = |j: usize| (j + 1).min(n - j) as f64;
+    let area: f64 = (0..n)
+        .map(|j| weight(j) * (vertices[j + 1] - vertices[j]))
+        .sum();
+    let mut at = 0.0;
+    let mut profile = vec![(vertices[0], 0.0)];
+    for j in 0..n {
+        at += weight(j) * (vertices[j + 1] - vertices[j]) / area;
+        profile.push((vertices[j + 1], at));
+    }
+    profile
+}
+
+/// The change of slope at each vertex of a bent ramp's `profile` per unit
+/// step (1/mm): its first piece's slope.
+fn bent_ramp_turn_per_mm(profile: &[(f64, f64)]) -> f64 {
+    match profile {
+        [(s0, f0), (s1, f1), ..] if s1 > s0 => (f1 - f0) / (s1 - s0),
+        _ => f64::INFINITY,
+    }
+}
+
+/// The share of the step a piecewise-linear `profile` has made at `s`
+/// (mm along the path): 0 before it, 1 after it.
+fn profile_at(profile: &[(f64, f64)], s: f64) -> f64 {
+    let Some(j) = profile.iter().position(|(v, _)| *v >= s) else {
+        return 1.0;
+    };
+    if j == 0 {
+        return profile[0].1;
+    }
+    let ((s0, f0), (s1, f1)) = (profile[j - 1], profile[j]);
+    f0 + (f1 - f0) * (s - s0) / (s1 - s0)
 }
 
 /// On a take-up moved ahead ([`Ahead`]), an axis in `hold` whose command
@@ -1307,7 +1465,7 @@ impl State<'_> {
                             tu - self.q_out,
                             options.planner.tangent_tolerance(v_mm_s.max(1e-9), true),
                             shortest,
-                            true,
+                            RampShape::Smooth,
                         );
                         let len = arc.length();
                         let l_end = pieces[tr.index - 1];
@@ -1490,7 +1648,18 @@ impl State<'_> {
                     // ramp run longer; as short as tangency allows where
                     // that leaves the tool too far off.
                     let floor = ramp_floor_mm(rule, &run, index);
-                    for floor_mm in [floor, 0.0] {
+                    // Under G61 the bent ramp first (five pieces at most),
+                    // the smooth step where that one is refused.
+                    let shapes: &[RampShape] = if matches!(rule, TakeUpRule::Exact { .. }) {
+                        &[RampShape::Bent, RampShape::Smooth]
+                    } else {
+                        &[RampShape::Straight]
+                    };
+                    let tries = shapes.iter().flat_map(|shape| {
+                        std::iter::once((*shape, floor))
+                            .chain((floor > 0.0).then_some((*shape, 0.0)))
+                    });
+                    for (shape, floor_mm) in tries {
                         planned = plan_ramp(
                             &mut cells,
                             model,
@@ -1511,11 +1680,11 @@ impl State<'_> {
                                 pre_length,
                                 floor_mm,
                             ),
-                            matches!(rule, TakeUpRule::Exact { .. }),
+                            shape,
                         )
                         .map_err(|source| model_error(file, line, source))?
                         .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index));
-                        if planned.is_some() || floor <= 0.0 {
+                        if planned.is_some() {
                             break;
                         }
                     }
@@ -2311,5 +2480,53 @@ mod tests {
             let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
             assert_eq!(bits(fast), bits(slow), "{q_prev:?} {s_old:?} {reversed:?}");
         }
+    }
+
+    #[test]
+    fn a_bent_ramp_turns_by_one_step_at_each_of_its_vertices() {
+        // Straight length r = 6 mm, ℓ = 0.2 mm: three bends (3²·0.2 = 1.8
+        // ≤ 6 < 4²·0.2), so by hand five pieces 0.2, 0.2, m, 0.2, 0.2 with
+        // the middle m = r/3 − 2ℓ = 1.6 mm, L = 2.4 mm; their weights
+        // 1, 2, 3, 2, 1 give the area 0.2 + 0.4 + 4.8 + 0.4 + 0.2 = 6 = r.
+        use super::{bent_ramp_bends, bent_ramp_nodes_mm, bent_ramp_profile};
+        use super::{bent_ramp_turn_per_mm, profile_at, ramp_length_mm, RampShape};
+        assert_eq!(bent_ramp_bends(6.0, 0.2), 3);
+        assert_eq!(bent_ramp_bends(1.0, 0.2), 2);
+        assert_eq!(bent_ramp_bends(0.5, 0.2), 1);
+        let nodes = bent_ramp_nodes_mm(6.0, 0.2, 2.4);
+        let by_hand = [0.0, 0.2, 0.4, 2.0, 2.2, 2.4];
+        assert_eq!(nodes.len(), by_hand.len());
+        for (n, h) in nodes.iter().zip(by_hand) {
+            assert!((n - h).abs() < 1e-12, "{nodes:?}");
+        }
+        let profile = bent_ramp_profile(&nodes);
+        let rise = [0.0, 0.2 / 6.0, 0.6 / 6.0, 5.4 / 6.0, 5.8 / 6.0, 1.0];
+        for ((_, f), h) in profile.iter().zip(rise) {
+            assert!((f - h).abs() < 1e-12, "{profile:?}");
+        }
+        // A second method: each piece's slope from the profile, and their
+        // changes at every vertex (from 0 before the ramp to 0 after it).
+        let mut slopes = vec![0.0];
+        slopes.extend(
+            profile
+                .windows(2)
+                .map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0)),
+        );
+        slopes.push(0.0);
+        for w in slopes.windows(2) {
+            assert!(
+                ((w[1] - w[0]).abs() - 1.0 / 6.0).abs() < 1e-12,
+                "{slopes:?}"
+            );
+        }
+        assert!((bent_ramp_turn_per_mm(&profile) - 1.0 / 6.0).abs() < 1e-12);
+        assert!((profile_at(&profile, 1.2) - 0.5).abs() < 1e-12);
+        assert_eq!(profile_at(&profile, 3.0), 1.0);
+        // A take-up of 6κ on one axis needs r = 6 mm straight, 2.4 mm bent.
+        let kappa = 1e-3 / super::RAMP_SHARE;
+        let delta = Vec3::new(0.0, 6e-3, 0.0);
+        let tol = [kappa, kappa, kappa];
+        assert!((ramp_length_mm(delta, tol, 0.2, RampShape::Straight) - 6.0).abs() < 1e-9);
+        assert!((ramp_length_mm(delta, tol, 0.2, RampShape::Bent) - 2.4).abs() < 1e-9);
     }
 }
