@@ -152,6 +152,34 @@ pub fn format_number_bytes(value: f64, style: NumberStyle, out: &mut Vec<u8>) {
     }
 }
 
+/// Appends the number `scaled / 10^style.decimals` written in `style`,
+/// given as `scaled`, the integer count of the written resolution it
+/// already is (a value rounded to the decimals it is written with:
+/// `round(v · 10^d)`), without multiplying and rounding it again.
+///
+/// The same text as [`format_number_bytes`]`(scaled / 10^d, style)`: for
+/// `|scaled| < 2^49` the quotient times `10^d` lies within `2^-3` of
+/// `scaled` (two roundings of relative error `2^-53` each), so that
+/// function rounds it back to `scaled`; past that bound, or for a value
+/// that is not an integer count, it is what this calls.
+#[inline]
+pub fn format_scaled_bytes(scaled: f64, style: NumberStyle, out: &mut Vec<u8>) {
+    const EXACT: f64 = (1u64 << 49) as f64;
+    if style.decimals > NumberBuf::MAX_DECIMALS || !(scaled.abs() < EXACT) || scaled.fract() != 0.0
+    {
+        format_number_bytes(scaled / pow10(u32::from(style.decimals)), style, out);
+        return;
+    }
+    let mut buf = NumberBuf::new();
+    let at = buf.scaled_at(scaled as i64, style);
+    // At most 1 + 15 + 1 + 18 bytes: within one copy but for 18 decimals.
+    if NumberBuf::END - at <= NumberBuf::COPY {
+        buf.push_tail(at, out);
+    } else {
+        out.extend_from_slice(&buf.bytes[at..NumberBuf::END]);
+    }
+}
+
 /// [`format_number_bytes`] in [`NumberStyle::fixed`]`(DECIMALS)`: the same
 /// text, for speed with the style fixed when compiled (a writer of many
 /// numbers in one style, such as the rows of `volcomp moves`) and written
@@ -316,7 +344,13 @@ impl NumberBuf {
         if !scaled.is_finite() || scaled.abs() > 9.0e15 {
             return None;
         }
-        let scaled = scaled as i64;
+        Some(self.scaled_at(scaled as i64, style))
+    }
+
+    /// The text of `scaled / 10^style.decimals` in `style` (decimals at
+    /// most [`NumberBuf::MAX_DECIMALS`]), giving where it starts.
+    #[inline]
+    fn scaled_at(&mut self, scaled: i64, style: NumberStyle) -> usize {
         let magnitude = scaled.unsigned_abs();
         let divisor = POW10_U64[usize::from(style.decimals)];
         let int_part = magnitude / divisor;
@@ -345,7 +379,7 @@ impl NumberBuf {
             at -= 1;
             self.bytes[at] = b'-';
         }
-        Some(at)
+        at
     }
 }
 

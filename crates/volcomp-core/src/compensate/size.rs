@@ -18,7 +18,20 @@ pub(super) struct Blocks {
 }
 
 impl Blocks {
-    pub(super) fn scan(&mut self, mut bytes: &[u8]) {
+    /// Counts the blocks of `bytes`, which continue those given before.
+    pub(super) fn scan(&mut self, bytes: &[u8]) {
+        // Line by line (the line ends found in one pass over the bytes),
+        // then the start of a line they end inside.
+        let mut start = 0;
+        for end in memchr::memchr_iter(b'\n', bytes) {
+            self.scan_line(&bytes[start..=end]);
+            start = end + 1;
+        }
+        self.scan_bytes(&bytes[start..]);
+    }
+
+    /// [`Blocks::scan`] byte by byte.
+    fn scan_bytes(&mut self, mut bytes: &[u8]) {
         while let Some((&b, rest)) = bytes.split_first() {
             if self.word || self.semicolon {
                 // Nothing more on this line can change the count: skip to
@@ -42,6 +55,20 @@ impl Blocks {
                 b' ' | b'\t' | b'\r' | b'%' => {}
                 _ => self.word = true,
             }
+        }
+    }
+
+    /// [`Blocks::scan`] of one line ending in `\n` (or of its end, the
+    /// line begun in bytes given before): a line that begins with a
+    /// letter, as almost every block does, is a block without a look
+    /// further.
+    #[inline]
+    pub(super) fn scan_line(&mut self, line: &[u8]) {
+        match line.first() {
+            Some(b) if b.is_ascii_alphabetic() && !(self.word || self.paren || self.semicolon) => {
+                self.count += 1;
+            }
+            _ => self.scan_bytes(line),
         }
     }
 
@@ -107,5 +134,28 @@ mod tests {
         b.scan(b"G1 X1\n(only a comment)\n   \n%\n(c) X2\n; note X3\nG");
         b.scan(b"0 X4");
         assert_eq!(b.finish(), 3);
+    }
+
+    /// The same count whatever the pieces: the text in one piece, byte by
+    /// byte, and cut at every place in two; by hand 5 blocks (`G1 X1`,
+    /// `(c) X2`, `/G0 Z1`, `( a ; b ) M3`, `M2`), lines that begin inside
+    /// a comment, after blanks, with `;` or `%`, and a `\r\n` ending.
+    #[test]
+    fn blocks_are_counted_alike_in_any_pieces() {
+        let text: &[u8] = b"G1 X1\r\n(only)\n  ;G1\n(c) X2\n%\n/G0 Z1\n( a ; b ) M3\n(x\n\n\tM2";
+        let count = |pieces: &[&[u8]]| {
+            let mut b = Blocks::default();
+            for p in pieces {
+                b.scan(p);
+            }
+            b.finish()
+        };
+        assert_eq!(count(&[text]), 5);
+        let bytes: Vec<&[u8]> = text.chunks(1).collect();
+        assert_eq!(count(&bytes), 5);
+        for k in 0..=text.len() {
+            let (a, b) = text.split_at(k);
+            assert_eq!(count(&[a, b]), 5, "cut at {k}");
+        }
     }
 }
