@@ -498,6 +498,60 @@ mod tests {
         s
     }
 
+    /// A value rounded to its decimals and written from its integer count
+    /// gives the text [`format_number_bytes`] gives from the value (the
+    /// second method): every style, signs, zeros (−0 without its sign),
+    /// values at the 2^49 bound and past it, more than 18 decimals.
+    #[test]
+    fn a_count_of_steps_is_written_as_its_value() {
+        let styles = |d: u8| {
+            [
+                NumberStyle::fixed(d),
+                NumberStyle {
+                    decimals: d,
+                    leading_zero: false,
+                    trim_trailing_zeros: true,
+                    trailing_dot: true,
+                },
+                NumberStyle {
+                    decimals: d,
+                    leading_zero: true,
+                    trim_trailing_zeros: true,
+                    trailing_dot: false,
+                },
+            ]
+        };
+        let mut values = vec![
+            0.0, -0.0, 1.0, -1.0, 0.5, -0.00004, -0.00005, 12.3456789, 1e6,
+        ];
+        let mut x = 0.123_456_789_f64;
+        for _ in 0..2000 {
+            // A spread of magnitudes and digits.
+            x = (x * 7919.0 + 0.318_309_886).fract();
+            values.push((x - 0.5) * 10f64.powi((x * 1e4) as i32 % 9 - 3));
+        }
+        for d in [0u8, 1, 3, 4, 5, 9, 12, 18, 19] {
+            let k = pow10(u32::from(d));
+            let mut near = vec![(1u64 << 49) as f64 - 1.0, (1u64 << 49) as f64, 9.0e15];
+            near.extend(near.clone().iter().map(|n| -n));
+            let counts = values
+                .iter()
+                .map(|v| round_bits(v * k))
+                .chain(near.into_iter());
+            for n in counts {
+                for st in styles(d) {
+                    let (mut want, mut got) = (Vec::new(), Vec::new());
+                    format_number_bytes(n / k, st, &mut want);
+                    format_scaled_bytes(n, st, &mut got);
+                    assert_eq!(got, want, "{n} in {st:?}");
+                }
+            }
+        }
+        let mut t = Vec::new();
+        format_scaled_bytes(-123450.0, NumberStyle::fixed(4), &mut t);
+        assert_eq!(t, b"-12.3450");
+    }
+
     #[test]
     fn fixed_style() {
         let st = NumberStyle::fixed(4);
