@@ -307,23 +307,23 @@ impl Write for LineLimit<'_> {
         // included), so one whose `\n` lies at most `MAX_LINE_BYTES` in
         // passes byte for byte: the lines before a long one are written
         // together, as they are.
-        // Whole lines from a line start, each counted as it is found; the
-        // lines not yet written are `rest[run..start]`.
-        let (mut run, mut start) = (0, 0);
-        for end in memchr::memchr_iter(b'\n', rest) {
-            if end - start <= MAX_LINE_BYTES {
-                self.blocks.scan_line(&rest[start..=end]);
-            } else {
-                self.write_run(&rest[run..start])?;
-                self.emit(&rest[start..=end])?;
-                run = end + 1;
+        // Whole lines from a line start: each counted as it is found.
+        let mut run = 0;
+        while let Some(end) = memchr::memchr(b'\n', &rest[run..]) {
+            if end <= MAX_LINE_BYTES {
+                self.blocks.scan_line(&rest[run..=run + end]);
+                run += end + 1;
+                continue;
             }
-            start = end + 1;
+            self.write_run(&rest[..run])?;
+            self.emit(&rest[run..=run + end])?;
+            rest = &rest[run + end + 1..];
+            run = 0;
         }
-        if start > run {
-            self.write_run(&rest[run..start])?;
+        if run > 0 {
+            self.write_run(&rest[..run])?;
         }
-        self.line.extend_from_slice(&rest[start..]);
+        self.line.extend_from_slice(&rest[run..]);
         Ok(buf.len())
     }
 

@@ -18,20 +18,7 @@ pub(super) struct Blocks {
 }
 
 impl Blocks {
-    /// Counts the blocks of `bytes`, which continue those given before.
-    pub(super) fn scan(&mut self, bytes: &[u8]) {
-        // Line by line (the line ends found in one pass over the bytes),
-        // then the start of a line they end inside.
-        let mut start = 0;
-        for end in memchr::memchr_iter(b'\n', bytes) {
-            self.scan_line(&bytes[start..=end]);
-            start = end + 1;
-        }
-        self.scan_bytes(&bytes[start..]);
-    }
-
-    /// [`Blocks::scan`] byte by byte.
-    fn scan_bytes(&mut self, mut bytes: &[u8]) {
+    pub(super) fn scan(&mut self, mut bytes: &[u8]) {
         while let Some((&b, rest)) = bytes.split_first() {
             if self.word || self.semicolon {
                 // Nothing more on this line can change the count: skip to
@@ -58,17 +45,16 @@ impl Blocks {
         }
     }
 
-    /// [`Blocks::scan`] of one line ending in `\n` (or of its end, the
-    /// line begun in bytes given before): a line that begins with a
-    /// letter, as almost every block does, is a block without a look
-    /// further.
+    /// [`Blocks::scan`] of one whole line (ending in `\n`): a line that
+    /// begins with a letter at a line start, as almost every block does,
+    /// is a block without a look further.
     #[inline]
     pub(super) fn scan_line(&mut self, line: &[u8]) {
         match line.first() {
             Some(b) if b.is_ascii_alphabetic() && !(self.word || self.paren || self.semicolon) => {
                 self.count += 1;
             }
-            _ => self.scan_bytes(line),
+            _ => self.scan(line),
         }
     }
 
