@@ -216,6 +216,10 @@ pub(super) fn acted_on(c: &[u8]) -> bool {
     }
 }
 
+/// One comment of a cut one: its opening (`(` or `;`), a piece of the
+/// text, its closing (`)`, or nothing after `;`).
+type Piece<'a> = (&'a [u8], &'a [u8], &'a [u8]);
+
 /// A comment too long for a line of `most` bytes as several comments of
 /// at most `most` bytes each (`( … )` pieces of a `( … )` comment, `;…`
 /// pieces of a `;` comment), each `(open, text, close)`: the texts joined
@@ -223,7 +227,7 @@ pub(super) fn acted_on(c: &[u8]) -> bool {
 /// character, and never where the piece after it would be a comment
 /// LinuxCNC acts on ([`acted_on`]). `None` for a comment LinuxCNC acts on,
 /// or one that cannot be cut so.
-fn cut_comment(c: &[u8], most: usize) -> Option<Vec<(&[u8], &[u8], &[u8])>> {
+fn cut_comment(c: &[u8], most: usize) -> Option<Vec<Piece<'_>>> {
     if acted_on(c) {
         return None;
     }
