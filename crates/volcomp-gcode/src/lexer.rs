@@ -41,6 +41,11 @@ pub struct Word {
     pub span: Range<usize>,
     /// Range of the number only (may contain spaces, e.g. `1 0 . 5`).
     pub value_span: Range<usize>,
+    /// Digits after the decimal point as written: what
+    /// [`crate::number::decimals_of`] counts in the number's text, kept
+    /// from the lexing (a rewritten word needs it, and the text is not
+    /// read twice).
+    pub decimals: u8,
 }
 
 /// Why a line could not be lexed.
@@ -257,17 +262,17 @@ pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
             let letter = b.to_ascii_uppercase();
             let start = i;
             i += 1;
-            let (value, value_span) = match lex_plain_number(content, i) {
+            let (value, value_span, decimals) = match lex_plain_number(content, i) {
                 // The blanks after the number are skipped here (the loop
                 // would skip them one by one).
-                Some((value, end, next)) => {
+                Some((value, end, next, decimals)) => {
                     i = next;
-                    (value, start + 1..end)
+                    (value, start + 1..end, decimals)
                 }
                 None => {
-                    let (value, span) = lex_number(content, i, letter)?;
+                    let (value, span, decimals) = lex_number(content, i, letter)?;
                     i = span.end.max(i);
-                    (value, span)
+                    (value, span, decimals)
                 }
             };
             if letter == b'O' {
@@ -282,6 +287,7 @@ pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
                 value,
                 span: start..value_span.end,
                 value_span,
+                decimals,
             }));
             continue;
         }
@@ -340,9 +346,10 @@ pub fn lex_block(content: &[u8], out: &mut Lexed) -> Result<(), LexError> {
 /// Reads a number after a word letter, skipping blanks inside it.
 /// The general path of the lexer's numbers (blanks inside, more than 15
 /// significant digits); `i` is just after the letter. The number ends at
-/// the returned span's end, or, when it is empty, at `i`.
+/// the returned span's end, or, when it is empty, at `i`; its digits after
+/// the point come last.
 #[cold]
-fn lex_number(content: &[u8], i: usize, letter: u8) -> Result<(f64, Range<usize>), LexError> {
+fn lex_number(content: &[u8], i: usize, letter: u8) -> Result<(f64, Range<usize>, u8), LexError> {
     let mut i = i;
     let i = &mut i;
     let n = content.len();
@@ -413,16 +420,18 @@ fn lex_number(content: &[u8], i: usize, letter: u8) -> Result<(f64, Range<usize>
         column: *i,
     })?;
     *i = end;
-    Ok((value, start.unwrap_or(end)..end))
+    // The blanks are not in `buf`: the digits after its point.
+    let decimals = crate::number::decimals_of(&buf[..len]);
+    Ok((value, start.unwrap_or(end)..end, decimals))
 }
 
 /// The common case in one pass: a number written without blanks inside
 /// (`X-12.5`, `Z.25`, `F1200`) and at most 15 significant digits, starting
-/// at `start`: its value, where it ends and where the blanks after it end.
-/// Returns `None` for anything else, which [`lex_number`]'s general path
-/// handles.
+/// at `start`: its value, where it ends, where the blanks after it end and
+/// its digits after the point. Returns `None` for anything else, which
+/// [`lex_number`]'s general path handles.
 #[inline]
-fn lex_plain_number(content: &[u8], start: usize) -> Option<(f64, usize, usize)> {
+fn lex_plain_number(content: &[u8], start: usize) -> Option<(f64, usize, usize, u8)> {
     let n = content.len();
     let mut j = start;
     let mut negative = false;
@@ -482,7 +491,13 @@ fn lex_plain_number(content: &[u8], start: usize) -> Option<(f64, usize, usize)>
     // as a signed integer, whose conversion is one instruction (an
     // unsigned one takes several on x86-64).
     let value = mantissa as i64 as f64 / crate::number::pow10(frac_digits as u32);
-    Some((if negative { -value } else { value }, j, k))
+    // At most 15 digits: the count fits in a u8.
+    Some((
+        if negative { -value } else { value },
+        j,
+        k,
+        frac_digits as u8,
+    ))
 }
 
 /// The value of an ASCII digit.
@@ -668,6 +683,28 @@ mod tests {
         }
     }
 
+    /// The digits after the point, counted by hand: blanks inside the
+    /// number (the general path) and a point without digits count nothing.
+    #[test]
+    fn a_word_keeps_the_digits_after_its_point() {
+        let mut out = Lexed::default();
+        lex_block(
+            b"X1. Y-.25 Z 1 0 . 2 5 0 F1200 I0.000100 J12345678901234567.5",
+            &mut out,
+        )
+        .unwrap();
+        let got: Vec<(u8, u8)> = out.words().map(|w| (w.letter, w.decimals)).collect();
+        let want = [
+            (b'X', 0),
+            (b'Y', 2),
+            (b'Z', 3),
+            (b'F', 0),
+            (b'I', 6),
+            (b'J', 1),
+        ];
+        assert_eq!(got, want);
+    }
+
     #[test]
     fn digit_runs_of_every_length_read_as_the_standard_parser_reads_them() {
         // Runs of 0 to 17 digits before and after the point (the plain path
@@ -698,6 +735,7 @@ mod tests {
                                 };
                                 assert_eq!(w.value.to_bits(), expected.to_bits(), "{line}");
                                 assert_eq!(w.value_span, 1..1 + t.len(), "{line}");
+                                assert_eq!(usize::from(w.decimals), frac_len, "{line}");
                             }
                             Err(e) => assert!(
                                 matches!(e.kind, LexErrorKind::UnexpectedByte(b'/' | b':')),

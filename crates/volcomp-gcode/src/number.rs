@@ -152,6 +152,35 @@ pub fn format_number_bytes(value: f64, style: NumberStyle, out: &mut Vec<u8>) {
     }
 }
 
+/// Appends the number `scaled / 10^style.decimals` written in `style`,
+/// given as `scaled`, the integer count of the written resolution it
+/// already is (a value rounded to the decimals it is written with:
+/// `round(v · 10^d)`), without multiplying and rounding it again.
+///
+/// The same text as [`format_number_bytes`]`(scaled / 10^d, style)`: for
+/// `|scaled| < 2^49` the quotient times `10^d` lies within `2^-3` of
+/// `scaled` (two roundings of relative error `2^-53` each), so that
+/// function rounds it back to `scaled`; past that bound, or for a value
+/// that is not an integer count, it is what this calls.
+#[inline]
+pub fn format_scaled_bytes(scaled: f64, style: NumberStyle, out: &mut Vec<u8>) {
+    const EXACT: f64 = (1u64 << 49) as f64;
+    // False for NaN too.
+    let within = scaled.abs() < EXACT;
+    if style.decimals > NumberBuf::MAX_DECIMALS || !within || scaled.fract() != 0.0 {
+        format_number_bytes(scaled / pow10(u32::from(style.decimals)), style, out);
+        return;
+    }
+    let mut buf = NumberBuf::new();
+    let at = buf.scaled_at(scaled as i64, style);
+    // At most 1 + 15 + 1 + 18 bytes: within one copy but for 18 decimals.
+    if NumberBuf::END - at <= NumberBuf::COPY {
+        buf.push_tail(at, out);
+    } else {
+        out.extend_from_slice(&buf.bytes[at..NumberBuf::END]);
+    }
+}
+
 /// [`format_number_bytes`] in [`NumberStyle::fixed`]`(DECIMALS)`: the same
 /// text, for speed with the style fixed when compiled (a writer of many
 /// numbers in one style, such as the rows of `volcomp moves`) and written
@@ -316,7 +345,13 @@ impl NumberBuf {
         if !scaled.is_finite() || scaled.abs() > 9.0e15 {
             return None;
         }
-        let scaled = scaled as i64;
+        Some(self.scaled_at(scaled as i64, style))
+    }
+
+    /// The text of `scaled / 10^style.decimals` in `style` (decimals at
+    /// most [`NumberBuf::MAX_DECIMALS`]), giving where it starts.
+    #[inline]
+    fn scaled_at(&mut self, scaled: i64, style: NumberStyle) -> usize {
         let magnitude = scaled.unsigned_abs();
         let divisor = POW10_U64[usize::from(style.decimals)];
         let int_part = magnitude / divisor;
@@ -345,7 +380,7 @@ impl NumberBuf {
             at -= 1;
             self.bytes[at] = b'-';
         }
-        Some(at)
+        at
     }
 }
 
@@ -462,6 +497,57 @@ mod tests {
         let mut s = String::new();
         format_number(v, st, &mut s);
         s
+    }
+
+    /// A value rounded to its decimals and written from its integer count
+    /// gives the text [`format_number_bytes`] gives from the value (the
+    /// second method): every style, signs, zeros (−0 without its sign),
+    /// values at the 2^49 bound and past it, more than 18 decimals.
+    #[test]
+    fn a_count_of_steps_is_written_as_its_value() {
+        let styles = |d: u8| {
+            [
+                NumberStyle::fixed(d),
+                NumberStyle {
+                    decimals: d,
+                    leading_zero: false,
+                    trim_trailing_zeros: true,
+                    trailing_dot: true,
+                },
+                NumberStyle {
+                    decimals: d,
+                    leading_zero: true,
+                    trim_trailing_zeros: true,
+                    trailing_dot: false,
+                },
+            ]
+        };
+        let mut values = vec![
+            0.0, -0.0, 1.0, -1.0, 0.5, -0.00004, -0.00005, 12.3456789, 1e6,
+        ];
+        let mut x = 0.123_456_789_f64;
+        for _ in 0..2000 {
+            // A spread of magnitudes and digits.
+            x = (x * 7919.0 + 0.123_457).fract();
+            values.push((x - 0.5) * 10f64.powi((x * 1e4) as i32 % 9 - 3));
+        }
+        for d in [0u8, 1, 3, 4, 5, 9, 12, 18, 19] {
+            let k = pow10(u32::from(d));
+            let mut near = vec![(1u64 << 49) as f64 - 1.0, (1u64 << 49) as f64, 9.0e15];
+            near.extend(near.clone().iter().map(|n| -n));
+            let counts = values.iter().map(|v| round_bits(v * k)).chain(near);
+            for n in counts {
+                for st in styles(d) {
+                    let (mut want, mut got) = (Vec::new(), Vec::new());
+                    format_number_bytes(n / k, st, &mut want);
+                    format_scaled_bytes(n, st, &mut got);
+                    assert_eq!(got, want, "{n} in {st:?}");
+                }
+            }
+        }
+        let mut t = Vec::new();
+        format_scaled_bytes(-123450.0, NumberStyle::fixed(4), &mut t);
+        assert_eq!(t, b"-12.3450");
     }
 
     #[test]

@@ -406,7 +406,7 @@ impl State<'_> {
         let model = line.model();
         let options = self.walk.options;
         let frame = &line.frame;
-        let (frame_w, style) = frame.with_line_decimals(line.words(), line.ev.bytes, line.style);
+        let (frame_w, style) = frame.with_line_decimals(line.words(), line.style);
         let ax = block.axes;
         let n = ax[2];
         let comps = if options.method == Method::Pitch {

@@ -11,7 +11,7 @@
 
 use super::frame::Frame;
 use volcomp_gcode::lexer::Word;
-use volcomp_gcode::number::{decimals_of, format_number, NumberStyle};
+use volcomp_gcode::number::{format_number, NumberStyle};
 use volcomp_gcode::{ExtraAxes, Vec3, EXTRA_LETTERS};
 
 /// The extra-axis words of each command of a split motion.
@@ -106,7 +106,6 @@ impl ExtraPlan {
     pub(super) fn first_edits(
         &mut self,
         words: &[&Word],
-        content: &[u8],
         style: NumberStyle,
     ) -> Vec<(std::ops::Range<usize>, String)> {
         let mut edits = Vec::new();
@@ -114,7 +113,7 @@ impl ExtraPlan {
             let Some(a) = EXTRA_LETTERS.iter().position(|l| *l == w.letter) else {
                 continue;
             };
-            let own = decimals_of(&content[w.value_span.clone()]).min(15);
+            let own = w.decimals.min(15);
             let style = style.with_decimals(style.decimals.max(own));
             if let Some(v) = self.value(0, a, style.decimals) {
                 let mut text = String::new();

@@ -73,12 +73,11 @@ impl Frame {
     pub(super) fn with_line_decimals<'a>(
         mut self,
         words: impl Iterator<Item = &'a Word>,
-        bytes: &[u8],
         style: NumberStyle,
     ) -> (Frame, NumberStyle) {
         let most = words
             .filter(|w| matches!(w.letter, b'X' | b'Y' | b'Z'))
-            .map(|w| volcomp_gcode::number::decimals_of(&bytes[w.value_span.clone()]))
+            .map(|w| w.decimals)
             .max()
             .unwrap_or(0)
             .min(volcomp_gcode::number::MAX_DECIMALS);
@@ -138,12 +137,25 @@ impl Frame {
     /// [`Self::word_value`] of the program point `p = self.program(q)`
     /// (computed once for the three axes).
     fn word_of(&self, p: Vec3, from: Vec3, a: usize) -> f64 {
+        // `self.round`: the count of steps over the scale.
+        self.scaled_word_of(p, from, a) / pow10(self.decimals)
+    }
+
+    /// [`Self::word_value`] as the integer count of the written resolution
+    /// it is (`round(word · 10^decimals)`, before the division): what
+    /// [`volcomp_gcode::number::format_scaled_bytes`] writes.
+    pub(super) fn word_scaled(&self, q: Vec3, from: Vec3, a: usize) -> f64 {
+        self.scaled_word_of(self.program(q), from, a)
+    }
+
+    fn scaled_word_of(&self, p: Vec3, from: Vec3, a: usize) -> f64 {
         let k = if a == 0 { self.x_word_scale } else { 1.0 };
-        if self.absolute {
-            self.round(p[a] * k)
+        let word = if self.absolute {
+            p[a] * k
         } else {
-            self.round((p[a] - self.program(from)[a]) * k)
-        }
+            (p[a] - self.program(from)[a]) * k
+        };
+        volcomp_gcode::number::round_bits(word * pow10(self.decimals))
     }
 
     /// The command the controller really executes for a wish `q` from `from`.

@@ -8,7 +8,9 @@ use super::State;
 use std::ops::Range;
 use volcomp_gcode::edit::{Edit, EditError};
 use volcomp_gcode::lexer::Word;
-use volcomp_gcode::number::{format_number, format_number_bytes, NumberStyle};
+use volcomp_gcode::number::{
+    format_number_bytes, format_scaled_bytes, format_uint_bytes, NumberStyle,
+};
 use volcomp_gcode::{FeedMode, MotionKind, Vec3};
 
 /// The edits of one line (each an [`Edit`]: a byte range of the line and
@@ -207,31 +209,44 @@ impl ArcWords {
     /// The centre words (` I… J…`, or ` R…`) of the piece from `from`, in
     /// the frame's units; empty for a chord.
     pub(super) fn text(&self, frame: &Frame, style: NumberStyle, sep: &str, from: Vec3) -> String {
+        let mut t = Vec::new();
+        self.push_text(frame, style, sep, from, &mut t);
+        // Letters, digits, points, signs and the separator: ASCII.
+        String::from_utf8(t).unwrap_or_default()
+    }
+
+    /// [`ArcWords::text`] appended to the bytes of a line being written.
+    pub(super) fn push_text(
+        &self,
+        frame: &Frame,
+        style: NumberStyle,
+        sep: &str,
+        from: Vec3,
+        t: &mut Vec<u8>,
+    ) {
         let Some(c) = self.center else {
-            return String::new();
+            return;
         };
         let (u, v, _) = self.plane.axes();
-        let mut t = String::new();
         if self.radius_style {
-            t.push_str(sep);
-            t.push('R');
+            t.extend_from_slice(sep.as_bytes());
+            t.push(b'R');
             let r = (from[u] - c[u]).hypot(from[v] - c[v]) / frame.mm_per_unit;
-            format_number(r, style, &mut t);
-            return t;
+            format_number_bytes(r, style, t);
+            return;
         }
         let mut axes = [u, v];
         axes.sort_unstable();
         for a in axes {
-            t.push_str(sep);
-            t.push(['I', 'J', 'K'][a]);
+            t.extend_from_slice(sep.as_bytes());
+            t.push([b'I', b'J', b'K'][a]);
             let value = if self.absolute_centers {
                 frame.program(c)[a]
             } else {
                 (c[a] - from[a]) / frame.mm_per_unit
             };
-            format_number(value, style, &mut t);
+            format_number_bytes(value, style, t);
         }
-        t
     }
 }
 
@@ -264,28 +279,28 @@ impl State<'_> {
         note: &str,
     ) {
         let (frame, style, sep) = (at.frame, at.style, self.walk.sep);
+        let code: &[u8] = if mode == OutMode::Rapid { b"G0" } else { b"G1" };
         self.text.clear();
         if self.mode != Some(mode) {
-            self.text
-                .push_str(if mode == OutMode::Rapid { "G0" } else { "G1" });
+            self.text.extend_from_slice(code);
             self.mode = Some(mode);
         }
-        for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+        for (a, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
             if frame.changes(q, from, a) {
                 if !self.text.is_empty() {
-                    self.text.push_str(sep);
+                    self.text.extend_from_slice(sep.as_bytes());
                 }
                 self.text.push(letter);
-                format_number(frame.word_value(q, from, a), style, &mut self.text);
+                push_word_value(frame, q, from, a, style, &mut self.text);
             }
         }
         if !self.extra_text.is_empty() {
             if self.text.is_empty() {
-                self.text
-                    .push_str(if mode == OutMode::Rapid { "G0" } else { "G1" });
+                self.text.extend_from_slice(code);
                 self.mode = Some(mode);
             }
-            self.text.push_str(&std::mem::take(&mut self.extra_text));
+            self.text.extend_from_slice(self.extra_text.as_bytes());
+            self.extra_text.clear();
         }
         if self.text.is_empty() {
             return;
@@ -297,7 +312,7 @@ impl State<'_> {
     /// (an arc cannot carry P), tagged `(volcomp Ln path mode)`.
     pub(super) fn push_path_mode_line(&mut self, words: &str, at: &Place) {
         self.text.clear();
-        self.text.push_str(words);
+        self.text.extend_from_slice(words.as_bytes());
         self.push_inserted(at, "path mode");
         self.summary.path_mode_lines += 1;
     }
@@ -310,21 +325,25 @@ impl State<'_> {
         // Path-control words waiting for this line (the mode restored on a
         // block's last piece, `piece_mode_words`).
         if !self.line_words.is_empty() {
-            self.text.push_str(self.walk.sep);
-            self.text.push_str(&std::mem::take(&mut self.line_words));
+            self.text.extend_from_slice(self.walk.sep.as_bytes());
+            self.text.extend_from_slice(self.line_words.as_bytes());
+            self.line_words.clear();
         }
         if self.walk.options.trace_comments {
-            self.text.push_str(self.walk.sep);
-            if note.is_empty() {
-                self.text.push_str(&format!("(volcomp L{line})"));
-            } else {
-                self.text.push_str(&format!("(volcomp L{line} {note})"));
+            // `(volcomp Ln)`, or `(volcomp Ln note)`.
+            self.text.extend_from_slice(self.walk.sep.as_bytes());
+            self.text.extend_from_slice(b"(volcomp L");
+            format_uint_bytes(line, &mut self.text);
+            if !note.is_empty() {
+                self.text.push(b' ');
+                self.text.extend_from_slice(note.as_bytes());
             }
+            self.text.push(b')');
         }
         if !self.buf.is_empty() && !self.buf.ends_with(b"\n") {
             self.buf.extend_from_slice(b"\n");
         }
-        self.buf.extend_from_slice(self.text.as_bytes());
+        self.buf.extend_from_slice(&self.text);
         self.buf.extend_from_slice(if at.ending.is_empty() {
             b"\n"
         } else {
@@ -371,17 +390,16 @@ impl State<'_> {
         let mode = arc.mode();
         let (u, v, _) = arc.plane.axes();
         self.text.clear();
-        self.text.push_str(mode.code());
+        self.text.extend_from_slice(mode.code().as_bytes());
         self.mode = Some(mode);
-        for (a, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+        for (a, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
             if a == u || a == v || frame.changes(q, from, a) {
-                self.text.push_str(sep);
+                self.text.extend_from_slice(sep.as_bytes());
                 self.text.push(letter);
-                format_number(frame.word_value(q, from, a), style, &mut self.text);
+                push_word_value(frame, q, from, a, style, &mut self.text);
             }
         }
-        let centre = arc.text(frame, style, sep, from);
-        self.text.push_str(&centre);
+        arc.push_text(frame, style, sep, from, &mut self.text);
         self.push_inserted(at, note);
     }
 
@@ -463,16 +481,21 @@ impl State<'_> {
                     present[a] = true;
                     first_axis_start.get_or_insert(w.span.start);
                     last_axis_end = Some(w.span.end);
-                    let v = frame.word_value(q, from, a);
+                    let scaled = frame.word_scaled(q, from, a);
+                    // `frame.word_value`, the same operations.
+                    let v = scaled / pow10(frame.decimals);
                     let lsb = 0.5 * (1.0 / pow10(frame.decimals));
                     if (v - w.value).abs() >= lsb * 0.999 {
                         // Never fewer decimals than the word replaced, even
                         // past the grid's MAX_DECIMALS.
-                        let own =
-                            volcomp_gcode::number::decimals_of(&content[w.value_span.clone()]);
+                        let own = w.decimals;
                         let style = style.with_decimals(style.decimals.max(own.min(15)));
                         let start = edits.text_start();
-                        format_number_bytes(v, style, &mut edits.text);
+                        if style.decimals == frame.decimals {
+                            format_scaled_bytes(scaled, style, &mut edits.text);
+                        } else {
+                            format_number_bytes(v, style, &mut edits.text);
+                        }
                         edits.replace_written(w.value_span.clone(), start);
                     }
                 }
@@ -491,7 +514,7 @@ impl State<'_> {
                 let start = edits.text_start();
                 edits.text.extend_from_slice(sep.as_bytes());
                 edits.text.push(letter);
-                format_number_bytes(frame.word_value(q, from, a), style, &mut edits.text);
+                push_word_value(frame, q, from, a, style, &mut edits.text);
                 edits.replace_written(at..at, start);
             }
         }
@@ -504,6 +527,25 @@ impl State<'_> {
             }
             edits.replace_written(at..at, start);
         }
+    }
+}
+
+/// Appends the word of axis `a` moving from `from` to `q`
+/// ([`Frame::word_value`]) in `style`: from the integer count of steps it
+/// was rounded to where the style writes the frame's decimals (the same
+/// text, [`format_scaled_bytes`]), else from the value.
+fn push_word_value(
+    frame: &Frame,
+    q: Vec3,
+    from: Vec3,
+    a: usize,
+    style: NumberStyle,
+    out: &mut Vec<u8>,
+) {
+    if style.decimals == frame.decimals {
+        format_scaled_bytes(frame.word_scaled(q, from, a), style, out);
+    } else {
+        format_number_bytes(frame.word_value(q, from, a), style, out);
     }
 }
 

@@ -90,18 +90,26 @@ pub fn compensate_program<R: BufRead>(
     st.known = [walker.interpreter().start_given(); 3];
     st.feed_before = FeedInForce::after(walker.interpreter());
     // Every written line within LinuxCNC's 252 characters
-    // (compensate/line_limit.rs); the count is of what reaches `out`.
-    let mut counted = size::Counted::new(out);
-    let mut out = line_limit::LineLimit::new(&mut counted);
+    // (compensate/line_limit.rs), which counts what reaches `out`.
+    let mut out = line_limit::LineLimit::new(out);
+    out.file = file;
     while let Some(ev) = walker.next_line()? {
+        out.source_line = ev.number;
         let line = st.begin_line(&ev);
-        let after = st.write_line(&line, &mut out)?;
-        out.write_all(&st.buf)?;
+        let after = match st.write_line(&line, &mut out) {
+            Ok(after) => after,
+            Err(e) => return Err(out.error(e)),
+        };
+        if let Err(e) = out.write_all(&st.buf) {
+            return Err(out.error(e.into()));
+        }
         st.frame_before = Some(after);
     }
     st.summary.blocks_in = st.blocks_in.finish();
-    out.end()?;
-    (st.summary.bytes_out, st.summary.blocks_out) = counted.finish();
+    if let Err(e) = out.end() {
+        return Err(out.error(e.into()));
+    }
+    (st.summary.bytes_out, st.summary.blocks_out) = out.counts();
     st.summary.max_estimated_contour_um =
         matches!(options.segmentation, Segmentation::Adaptive { .. })
             .then_some(st.estimate_mm * 1e3);
@@ -125,7 +133,7 @@ impl<'w> State<'w> {
             known: [false; 3],
             summary: CompensateSummary::default(),
             buf: Vec::with_capacity(1024),
-            text: String::with_capacity(128),
+            text: Vec::with_capacity(128),
             extra_text: String::new(),
             line_words: String::new(),
             states: Vec::new(),
@@ -334,9 +342,7 @@ impl<'w> State<'w> {
         let model = line.model();
         // The line's words are quantised and written with at least their own
         // decimals, so an unchanged word is written back as it was.
-        let (frame, style) = line
-            .frame
-            .with_line_decimals(line.words(), ev.bytes, line.style);
+        let (frame, style) = line.frame.with_line_decimals(line.words(), line.style);
         let (frame0, style0) = line.before_or((frame, style));
         let feed_before = self.feed_before;
         let feed_after = FeedInForce::after(interp);
@@ -611,7 +617,7 @@ impl<'w> State<'w> {
                 // words on a line of their own, a line piece on its line.
                 if arc_words.get(i).is_some_and(|w| w.center.is_some()) {
                     self.text.clear();
-                    self.text.push_str(own);
+                    self.text.extend_from_slice(own.as_bytes());
                     self.push_inserted(&place.with_ending(line_ending), "path mode");
                     self.summary.path_mode_lines += 1;
                 } else {
@@ -657,7 +663,7 @@ impl<'w> State<'w> {
                 }
                 if let Some(plan) = extra_plan.as_mut() {
                     let words: Vec<_> = line.words().collect();
-                    for (span, text) in plan.first_edits(&words, content, style) {
+                    for (span, text) in plan.first_edits(&words, style) {
                         edits.replace(span, text.as_bytes());
                     }
                 }
@@ -707,7 +713,7 @@ impl<'w> State<'w> {
                 self.line_words.clear();
                 if let Some(restore) = restore_here {
                     self.text.clear();
-                    self.text.push_str(restore);
+                    self.text.extend_from_slice(restore.as_bytes());
                     self.push_inserted(&place.with_ending(ending), "path mode");
                     self.summary.path_mode_lines += 1;
                 }
@@ -716,7 +722,7 @@ impl<'w> State<'w> {
         }
         if let Some((_, after)) = &naive_cam {
             self.text.clear();
-            self.text.push_str(after);
+            self.text.extend_from_slice(after.as_bytes());
             self.push_inserted(&place.with_ending(line_ending), "path mode");
             self.summary.path_mode_lines += 1;
         }
@@ -810,7 +816,9 @@ struct State<'w> {
     g93_last: bool,
     summary: CompensateSummary,
     buf: Vec<u8>,
-    text: String,
+    /// The inserted line being written (ASCII but for the words of
+    /// path-control and extra axes, copied from the program's own).
+    text: Vec<u8>,
     /// Extra-axis words (A … W) for the next inserted command.
     extra_text: String,
     /// Path-control words for the next inserted line (the program's mode
@@ -877,14 +885,13 @@ fn offset_setting_edits(
         return edits;
     }
     let d = frame.program(q_out) - frame.program(ev.interp.position());
-    let content = &ev.bytes[..volcomp_gcode::lexer::content_len(ev.bytes)];
     for w in ev.lexed.words() {
         if !matches!(w.letter, b'X' | b'Y' | b'Z') {
             continue;
         }
         let a = usize::from(w.letter - b'X');
         let k = if a == 0 { frame.x_word_scale } else { 1.0 };
-        let own = volcomp_gcode::number::decimals_of(&content[w.value_span.clone()]);
+        let own = w.decimals;
         // Less than half a step of the written resolution: the word stays.
         if (d[a] * k).abs() < 0.5 * 10f64.powi(-i32::from(style.decimals.max(own))) {
             continue;

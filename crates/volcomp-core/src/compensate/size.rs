@@ -45,6 +45,19 @@ impl Blocks {
         }
     }
 
+    /// [`Blocks::scan`] of one whole line (ending in `\n`): a line that
+    /// begins with a letter at a line start, as almost every block does,
+    /// is a block without a look further.
+    #[inline]
+    pub(super) fn scan_line(&mut self, line: &[u8]) {
+        match line.first() {
+            Some(b) if b.is_ascii_alphabetic() && !(self.word || self.paren || self.semicolon) => {
+                self.count += 1;
+            }
+            _ => self.scan(line),
+        }
+    }
+
     fn end_line(&mut self) {
         self.count += u64::from(self.word);
         *self = Blocks {
@@ -107,5 +120,28 @@ mod tests {
         b.scan(b"G1 X1\n(only a comment)\n   \n%\n(c) X2\n; note X3\nG");
         b.scan(b"0 X4");
         assert_eq!(b.finish(), 3);
+    }
+
+    /// The same count whatever the pieces: the text in one piece, byte by
+    /// byte, and cut at every place in two; by hand 5 blocks (`G1 X1`,
+    /// `(c) X2`, `/G0 Z1`, `( a ; b ) M3`, `M2`), lines that begin inside
+    /// a comment, after blanks, with `;` or `%`, and a `\r\n` ending.
+    #[test]
+    fn blocks_are_counted_alike_in_any_pieces() {
+        let text: &[u8] = b"G1 X1\r\n(only)\n  ;G1\n(c) X2\n%\n/G0 Z1\n( a ; b ) M3\n(x\n\n\tM2";
+        let count = |pieces: &[&[u8]]| {
+            let mut b = Blocks::default();
+            for p in pieces {
+                b.scan(p);
+            }
+            b.finish()
+        };
+        assert_eq!(count(&[text]), 5);
+        let bytes: Vec<&[u8]> = text.chunks(1).collect();
+        assert_eq!(count(&bytes), 5);
+        for k in 0..=text.len() {
+            let (a, b) = text.split_at(k);
+            assert_eq!(count(&[a, b]), 5, "cut at {k}");
+        }
     }
 }
