@@ -1012,11 +1012,13 @@ fn under_g61_an_s_curve_at_a_tangent_join_straddles_the_join() {
     // `pmCircleActualMaxVel`). The block before holds back its tail, so
     // the S-curve straddles the join and its tighter arc is wider than
     // that bound. Every written join stays within tp.c's tangency
-    // tolerance (as above). (The tool's distance from the path is judged by
-    // bench/eval's dead-band simulation, which reads the whole nominal
-    // path: `simulate` reads each written line against the block it is
-    // traced to, and the S-curve's lines, traced to the block after, begin
-    // on the block before's tail.)
+    // tolerance (as above). The S-curve is cut where it crosses the normal
+    // through the join, and its part before the cut is traced to the block
+    // before, so `simulate` reads each line against the block it runs
+    // along: the tool stays within the S-curve's tolerance (0.4 µm) of
+    // the path, and at each join (the block before's end) it is at most
+    // that far from the point (frozen at the S-curve's peak, below the
+    // path), 0.01 µm added for the written resolution.
     let map = x_backlash_map(0.0);
     let program = "G61\nG0 X0 Y5 Z0\nG0 X3\nG1 Y0 F6000\nG2 X-3 Y0 I-3 J0\nG2 X5 Y0 I4 J0\n\
                    G2 X-5 Y0 I-5 J0\nG2 X7 Y0 I6 J0\nM2\n";
@@ -1042,6 +1044,11 @@ fn under_g61_an_s_curve_at_a_tangent_join_straddles_the_join() {
             "at {join:?}: {tightest} mm against {after_only_mm} mm\n{out}"
         );
     }
+    let report = against_original(&out, program, &map);
+    assert!(
+        report.point_max_um <= 0.41 && report.contour_max_um <= 0.41,
+        "{report:?}\n{out}"
+    );
 }
 
 /// The start, end and radius of every arc a written XY program writes

@@ -1360,6 +1360,82 @@ mod tests {
     }
 
     #[test]
+    fn an_s_curve_is_cut_on_the_normal_through_the_join_about_its_own_centres() {
+        // An S-curve of two arcs in XY: the first clockwise about (0, −2),
+        // R 2, from 0.05 rad before its top (0, 0) to 0.03 rad past it (the
+        // joint J); the second counter-clockwise, R 3, about the point 3 mm
+        // from J away from the first centre, on for 0.04 rad. Cut on the
+        // normal x = 0 (the tangent (1, 0) through the origin) it is cut at
+        // the first arc's top, (0, 0); on x = 0.1, past J, on the second
+        // arc's lower half at y = c₂y − √(9 − (0.1 − c₂x)²) (closed form),
+        // each on the 4-decimal grid (half a step, 0.05 µm). Each part
+        // keeps its arc's centre; the part of the first arc after the cut
+        // carries the second arc on. A normal beyond the end cuts nothing.
+        let frame = Frame {
+            offset_mm: Vec3::ZERO,
+            mm_per_unit: 1.0,
+            decimals: 4,
+            absolute: true,
+            rotation_deg: 0.0,
+            before_mm: Vec3::ZERO,
+            after_mm: Vec3::ZERO,
+            x_word_scale: 1.0,
+            arc_absolute: false,
+            arc_absolute_by_option: false,
+        };
+        let style = NumberStyle::fixed(4);
+        let c1 = Vec3::new(0.0, -2.0, 0.0);
+        let on1 = |t: f64| c1 + Vec3::new(2.0 * t.sin(), 2.0 * t.cos(), 0.0);
+        let (a, joint) = (on1(-0.05), on1(0.03));
+        let c2 = joint + (joint - c1) * (3.0 / 2.0);
+        let back = c1 - c2;
+        let phi = back.y.atan2(back.x);
+        let b = c2 + Vec3::new(3.0 * (phi + 0.04).cos(), 3.0 * (phi + 0.04).sin(), 0.0);
+        let words = ArcWords {
+            center: Some(c1),
+            plane: Plane::Xy,
+            clockwise: true,
+            radius_style: false,
+            absolute_centers: false,
+            second: Some(SecondArc {
+                joint,
+                center: Some(c2),
+                clockwise: false,
+            }),
+        };
+        let cut = |x: f64| {
+            split_at_normal(
+                &words,
+                (a, b),
+                (Vec3::new(x, 0.0, 0.0), [1.0, 0.0]),
+                &frame,
+                style,
+            )
+        };
+        let first = cut(0.0).unwrap();
+        assert!(first.at.norm() < 5.1e-5, "{:?}", first.at);
+        assert_eq!(first.before.center, Some(c1));
+        assert!(first.before.second.is_none() && first.before.clockwise);
+        assert_eq!(first.after.center, Some(c1));
+        assert_eq!(first.after.second.map(|s| s.center), Some(Some(c2)));
+        let second = cut(0.1).unwrap();
+        let y = c2.y - (9.0 - (0.1 - c2.x).powi(2)).sqrt();
+        assert!(
+            (second.at - Vec3::new(0.1, y, 0.0)).norm() < 7.1e-5,
+            "{:?} {y}",
+            second.at
+        );
+        assert_eq!(second.before.center, Some(c1));
+        assert_eq!(
+            second.before.second.map(|s| (s.joint, s.center)),
+            Some((joint, Some(c2)))
+        );
+        assert_eq!(second.after.center, Some(c2));
+        assert!(second.after.second.is_none() && !second.after.clockwise);
+        assert!(cut(b.x + 0.01).is_none() && cut(a.x - 0.01).is_none());
+    }
+
+    #[test]
     fn circle_through_three_points_of_a_known_circle() {
         // Centre (3, −2), radius 5: points at 0°, 90° and 210°.
         let p = |deg: f64| {

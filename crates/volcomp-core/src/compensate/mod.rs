@@ -414,6 +414,8 @@ impl<'w> State<'w> {
                 && matches!(options.segmentation, Segmentation::Adaptive { .. }),
         };
         let mut held_end = None;
+        // A line's own targets beyond the tail it holds back.
+        let mut tail_targets = Vec::new();
         let mut start_tangent = None;
         let mut restore_pending = false;
         // The tail this arc's first S-curve starts from.
@@ -486,9 +488,20 @@ impl<'w> State<'w> {
                 )
                 .map_err(|source| model_error(file, ev.number, source))?;
                 if let Some(h) = held_end {
+                    // The targets beyond the tail's start go with the tail
+                    // (the end among them), those before it stay.
                     let length = (motion.end - motion.start).norm();
-                    let keep_mm = length * h.at - min_mm;
-                    targets.retain(|t| (*t - motion.start).norm() < keep_mm);
+                    let tail_mm = length * h.at;
+                    let along = |t: &Vec3| (*t - motion.start).norm();
+                    tail_targets = targets
+                        .iter()
+                        .filter(|t| along(t) > tail_mm + min_mm)
+                        .copied()
+                        .collect();
+                    if tail_targets.last() != Some(&motion.end) {
+                        tail_targets.push(motion.end);
+                    }
+                    targets.retain(|t| along(t) < tail_mm - min_mm);
                     targets.push(motion.start + (motion.end - motion.start) * h.at);
                 }
             }
@@ -782,6 +795,24 @@ impl<'w> State<'w> {
                     },
                 );
                 if let Some(w) = first_arc {
+                    // The line's own G2/G3 turns the way its first arc does
+                    // (the part of an S-curve after the cut at a block join,
+                    // `write_join_split`, may turn the other way).
+                    for g in line
+                        .words()
+                        .filter(|g| g.letter == b'G' && (g.value == 2.0 || g.value == 3.0))
+                    {
+                        if (g.value == 2.0) != w.clockwise {
+                            let zero = content[g.value_span.clone()].starts_with(b"0");
+                            let code: &[u8] = match (w.clockwise, zero) {
+                                (true, false) => b"2",
+                                (true, true) => b"02",
+                                (false, false) => b"3",
+                                (false, true) => b"03",
+                            };
+                            edits.replace(g.value_span.clone(), code);
+                        }
+                    }
                     edits.extend(arc_line_edits(
                         line.words(),
                         content,
@@ -867,6 +898,7 @@ impl<'w> State<'w> {
                     Some(arc) => TailPath::Arc(arc),
                     None => TailPath::Line(motion.start, motion.end),
                 },
+                targets: tail_targets,
                 held,
                 frame,
                 style,
@@ -984,7 +1016,10 @@ impl<'w> State<'w> {
             (TailPath::Line(a, b), None) => (a + (b - a) * t.held.at, b),
             (TailPath::Arc(_), None) => unreachable!("an arc's tail is an arc piece"),
         };
-        let mut targets = vec![end];
+        let mut targets = match t.path {
+            TailPath::Line(..) => t.targets,
+            TailPath::Arc(_) => vec![end],
+        };
         let from = self.q_out;
         self.transitions.clear();
         let commands = self.solve_targets(
@@ -1054,6 +1089,9 @@ impl<'w> State<'w> {
 /// words.
 struct Tail {
     path: TailPath,
+    /// A line's targets from the tail's start on (its end the last): the
+    /// points its segmentation put there.
+    targets: Vec<Vec3>,
     held: arcs::HeldEnd,
     frame: Frame,
     style: NumberStyle,
