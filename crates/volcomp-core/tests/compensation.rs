@@ -1007,6 +1007,90 @@ fn a_reversal_at_a_tangent_join_keeps_the_join_tangent() {
 }
 
 #[test]
+fn under_g61_an_s_curve_at_a_tangent_join_straddles_the_join() {
+    // The spiral of half circles above, under G61: X reverses exactly where
+    // one G2 ends and the next begins ((−3, 0), (5, 0), (−5, 0)). An
+    // S-curve that starts at the join has the tool frozen at its peak there
+    // while the nominal path falls away as x²/2R, so the band b must be
+    // crossed within x₀ = √(2 R tol) of it; a command that leaves the peak
+    // along the tangent and drops b within x₀ bends somewhere at a radius
+    // of at most x₀²/(2b) = R·tol/b (0.4, 0.5 and 0.6 mm with the larger R
+    // of the two blocks, b = 4 µm, tol = 0.4 µm), and LinuxCNC runs an arc
+    // of radius ρ at no more than √(a_n ρ) (blendmath.c
+    // `pmCircleActualMaxVel`). The block before holds back its tail, so
+    // the S-curve straddles the join and its tighter arc is wider than
+    // that bound. Every written join stays within tp.c's tangency
+    // tolerance (as above). The S-curve is cut where it crosses the normal
+    // through the join, and its part before the cut is traced to the block
+    // before, so `simulate` reads each line against the block it runs
+    // along: the tool stays within the S-curve's tolerance (0.4 µm) of
+    // the path, and at each join (the block before's end) it is at most
+    // that far from the point (frozen at the S-curve's peak, below the
+    // path), 0.01 µm added for the written resolution.
+    let map = x_backlash_map(0.0);
+    let program = "G61\nG0 X0 Y5 Z0\nG0 X3\nG1 Y0 F6000\nG2 X-3 Y0 I-3 J0\nG2 X5 Y0 I4 J0\n\
+                   G2 X-5 Y0 I-5 J0\nG2 X7 Y0 I6 J0\nM2\n";
+    let (out, _) = compensate_summary(program, &map, CompensateOptions::default());
+    let tangents = feed_tangents(&out);
+    assert!(tangents.len() > 8, "{out}");
+    assert_joins_tangent(&tangents, &out);
+    let arcs = written_arcs(&out);
+    let (b_mm, tol_mm) = (4e-3, 0.4e-3);
+    for (join, r_mm) in [
+        (Vec3::new(-3.0, 0.0, 0.0), 4.0),
+        (Vec3::new(5.0, 0.0, 0.0), 5.0),
+        (Vec3::new(-5.0, 0.0, 0.0), 6.0),
+    ] {
+        let near = |p: Vec3| (p - join).norm() < 0.3;
+        let tightest = arcs
+            .iter()
+            .filter(|(a, b, _)| near(*a) && near(*b))
+            .fold(f64::INFINITY, |m, (_, _, r)| m.min(*r));
+        let after_only_mm = r_mm * tol_mm / b_mm;
+        assert!(
+            tightest.is_finite() && tightest > 1.5 * after_only_mm,
+            "at {join:?}: {tightest} mm against {after_only_mm} mm\n{out}"
+        );
+    }
+    let report = against_original(&out, program, &map);
+    assert!(
+        report.point_max_um <= 0.41 && report.contour_max_um <= 0.41,
+        "{report:?}\n{out}"
+    );
+}
+
+/// The start, end and radius of every arc a written XY program writes
+/// (G2/G3 lines with I and J, modal motion; Z ignored).
+fn written_arcs(out: &str) -> Vec<(Vec3, Vec3, f64)> {
+    let word = |line: &str, letter: char| {
+        line.split_whitespace()
+            .find(|w| w.starts_with(letter))
+            .map(|w| w[1..].parse::<f64>().unwrap())
+    };
+    let (mut p, mut modal) = (Vec3::ZERO, 0);
+    let mut arcs = Vec::new();
+    for line in out.lines() {
+        let line = line.split('(').next().unwrap();
+        for (code, m) in [("G0", 0), ("G1", 1), ("G2", 2), ("G3", 3)] {
+            if line.split_whitespace().any(|w| w == code) {
+                modal = m;
+            }
+        }
+        let (x, y) = (word(line, 'X'), word(line, 'Y'));
+        if x.is_none() && y.is_none() {
+            continue;
+        }
+        let next = Vec3::new(x.unwrap_or(p.x), y.unwrap_or(p.y), 0.0);
+        if modal >= 2 {
+            let (i, j) = (word(line, 'I').unwrap(), word(line, 'J').unwrap());
+            arcs.push((p, next, i.hypot(j)));
+        }
+        p = next;
+    }
+    arcs
+}
+
+#[test]
 fn coordinates_are_written_with_5_decimals_in_mm_and_6_in_inch() {
     // A constant −1.2345 µm in X: X10 becomes X10.0012345, written to the
     // default step of 0.01 µm in mm (X10.00123) and 0.0254 µm in inch

@@ -10,7 +10,8 @@
 //! start, the compensated middle and the compensated end, so the actual path
 //! lands on the nominal arc at three points of every piece.
 
-use super::lines::ArcWords;
+use super::frame::{pow10, Frame};
+use super::lines::{ArcWords, SecondArc};
 use super::walk::Place;
 use super::{command_error, model_error, solve, State};
 use crate::error::{CompensationError, ModelError};
@@ -18,6 +19,7 @@ use crate::geometry::arc_distance_mm;
 use crate::model::next_state;
 use crate::model::{Components, Direction, Directions, ErrorModel};
 use std::f64::consts::{FRAC_PI_2, TAU};
+use volcomp_gcode::number::NumberStyle;
 use volcomp_gcode::{Arc, Vec3};
 
 /// Pieces (and table crossings) generated at most for one arc: past
@@ -442,13 +444,16 @@ pub(super) fn plan_transitions(
     min_length_mm: f64,
     smooth_start: bool,
     spread: Option<(f64, f64)>,
-) -> Result<(Vec<f64>, Vec<Transition>), ModelError> {
+    joins: JoinTails,
+) -> Result<Planned, ModelError> {
     let length = arc.length();
     let r = 0.5 * (arc.start_radius() + arc.end_radius());
     let mut out: Vec<f64> = pieces.to_vec();
     let mut found: Vec<(f64, f64, usize, Direction, f64, f64)> = Vec::new();
+    let mut planned = Planned::default();
     if !(length > 0.0 && r > 0.0 && v_mm_s > 0.0) {
-        return Ok((out, Vec::new()));
+        planned.pieces = out;
+        return Ok(planned);
     }
     let min_step = min_length_mm / length;
     // 10 µm along the arc: the axis moves by 5·10⁻⁵ µm/mm of radius there,
@@ -458,6 +463,23 @@ pub(super) fn plan_transitions(
     // Under G61 (where the step is spread) the S-curve is the widest
     // biarc: the planner runs its tighter arc faster.
     let widest = spread.is_some();
+    // The band of the quarter point at `to` where the direction state is
+    // `s` and the reversing axis turns to `new`, and the tolerance the
+    // rule gives it.
+    let band_at = |to: f64, s: Directions, a: usize, new: Direction| -> Result<_, ModelError> {
+        let p0 = arc.point_at(to);
+        let mut s_old = s;
+        s_old[a] = new.flipped();
+        let mut s_new = s;
+        s_new[a] = new;
+        let e_old = model.deviation_um(p0, s_old, Components::All)?;
+        let e_new = model.deviation_um(p0, s_new, Components::All)?;
+        let band_mm = (e_old[a] - e_new[a]) * new.sign() * 1e-3;
+        if band_mm <= 0.0 {
+            return Ok(None);
+        }
+        Ok(tolerance_mm(band_mm).map(|tol| (band_mm, tol)))
+    };
     // The window of the quarter point at `to` where the direction state
     // is `s`: the reversing axis, its new direction and the window, if the
     // rule asks for an S-curve there and one fits.
@@ -469,6 +491,21 @@ pub(super) fn plan_transitions(
         let Some(new) = Direction::of_delta(p1[a] - p0[a]) else {
             return Ok(None);
         };
+        if let Some((before_mm, r_before)) = joins.held_before.filter(|_| to == 0.0) {
+            // The block before held back its tail for this S-curve.
+            return Ok(band_at(0.0, s, a, new)?.and_then(|(band_mm, tol)| {
+                super::scurve::join_window(
+                    (r_before, r),
+                    band_mm,
+                    0.85 * tol,
+                    v_mm_s,
+                    planner,
+                    before_mm,
+                    widest,
+                )
+                .map(|win| (a, new, win, 0.0))
+            }));
+        }
         let mut s_old = s;
         s_old[a] = new.flipped();
         let mut s_new = s;
@@ -503,6 +540,9 @@ pub(super) fn plan_transitions(
             if moves.is_some_and(|d| s_before[a] == d.flipped()) {
                 if let Some((a, new, win, _)) = window_at(0.0, s_before, true)? {
                     found.push((0.0, win.after_mm / length, a, new, win.deviation_mm, 0.0));
+                    // Where the window fits (below), the held tail is its
+                    // start.
+                    planned.absorbed = joins.held_before.is_some();
                 }
             }
         }
@@ -528,6 +568,7 @@ pub(super) fn plan_transitions(
             // The window from the start: its end is the first cut.
             let after = out.iter().find(|c| **c > hi).copied().unwrap_or(1.0);
             if after - hi < min_step {
+                planned.absorbed = false;
                 continue;
             }
             out.retain(|c| *c > hi);
@@ -606,7 +647,290 @@ pub(super) fn plan_transitions(
             transitions[k].index = out.partition_point(|x| *x < t.1 - 1e-15);
         }
     }
-    Ok((out, transitions))
+    // A quarter point at the end: the block after may run on through it
+    // tangentially (not known yet), the reversing axis turning there. The
+    // part of the window the best S-curve takes before the point
+    // ([`super::scurve::best_window`], on this arc's radius) is held back
+    // (the block ends short of it), for the block after to start its
+    // S-curve there, or to write it as it is.
+    if joins.hold_end {
+        if let Some(a) = extreme_axis(arc, 1.0) {
+            let moves = Direction::of_delta(arc.end[a] - arc.point_at(1.0 - step)[a]);
+            let window = match moves {
+                Some(d) => band_at(1.0, s, a, d.flipped())?.and_then(|(band_mm, tol)| {
+                    super::scurve::best_window(
+                        r,
+                        band_mm,
+                        0.85 * tol,
+                        v_mm_s,
+                        planner,
+                        false,
+                        widest,
+                    )
+                }),
+                None => None,
+            };
+            // The held tail lies beyond every cut of a take-up window or
+            // of a spread step, at least `min_step` from the last cut kept.
+            let busy = transitions
+                .iter()
+                .map(|t| {
+                    let hi = out.get(t.index).copied().unwrap_or(1.0);
+                    t.spread.map_or(hi, |(_, b)| b.max(hi))
+                })
+                .fold(0.0, f64::max);
+            if let Some(win) = window.filter(|w| w.before_mm > 0.0) {
+                let lo = 1.0 - win.before_mm / length;
+                if lo - busy >= min_step {
+                    let prev = out.iter().copied().filter(|c| *c < lo).fold(0.0, f64::max);
+                    if lo - prev >= min_step {
+                        out.retain(|c| *c < lo);
+                        out.push(lo);
+                        planned.held_end = Some(HeldEnd {
+                            at: lo,
+                            axis: a,
+                            before_mm: win.before_mm,
+                            radius_mm: r,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    planned.pieces = out;
+    planned.transitions = transitions;
+    Ok(planned)
+}
+
+/// The tail a line from `start` to `end` in `plane` (the plane in effect:
+/// an arc that follows runs in it) holds back under G61 for an S-curve
+/// across its end ([`HeldEnd`], parameter along the line): an arc that
+/// runs on from it tangentially turns an axis of the plane the line does
+/// not move (the line's tangent has no component along it), to the
+/// direction opposite its state `s`; a line that leaves the plane has no
+/// such arc after it. On the line the nominal path stays flat, so
+/// while that axis crosses its band `b` (the map's, at the end) the tool
+/// stays on the path, and an S-curve of two arcs of radius `ρ` over a
+/// length `w` drops by `b` where `w²/(4ρ) = b`: with `w = 2·v·√(b/a_n)`
+/// its arcs have `ρ = v²/a_n`, which LinuxCNC runs at the feed `v`
+/// (`pmCircleActualMaxVel`, blendmath.c, `a_n = √0.75·A`). The largest
+/// such `w` over the axes the line does not move, if a band is positive
+/// and the line is at least twice as long (plus `min_length_mm`).
+pub(super) fn line_tail(
+    (start, end): (Vec3, Vec3),
+    plane: volcomp_gcode::Plane,
+    model: &dyn ErrorModel,
+    s: Directions,
+    v_mm_s: f64,
+    planner: &super::PlannerLimits,
+    min_length_mm: f64,
+) -> Result<Option<HeldEnd>, ModelError> {
+    let d = end - start;
+    let length = d.norm();
+    let (u, v, w) = plane.axes();
+    if !(length > 0.0 && v_mm_s > 0.0) || d[w].abs() > 1e-12 * length {
+        return Ok(None);
+    }
+    let a_min = planner
+        .max_acceleration_mm_s2
+        .iter()
+        .fold(f64::INFINITY, |m, x| m.min(*x));
+    let a_n = a_min * 0.75f64.sqrt();
+    let e_now = model.deviation_um(end, s, Components::All)?;
+    let mut best: Option<HeldEnd> = None;
+    for a in [u, v] {
+        if d[a].abs() > 1e-12 * length {
+            continue;
+        }
+        let new = s[a].flipped();
+        let mut s_new = s;
+        s_new[a] = new;
+        let e_new = model.deviation_um(end, s_new, Components::All)?;
+        let band_mm = (e_now[a] - e_new[a]) * new.sign() * 1e-3;
+        if band_mm <= 0.0 {
+            continue;
+        }
+        let w = 2.0 * v_mm_s * (band_mm / a_n).sqrt();
+        if 2.0 * w + min_length_mm > length || best.is_some_and(|b| b.before_mm >= w) {
+            continue;
+        }
+        best = Some(HeldEnd {
+            at: 1.0 - w / length,
+            axis: a,
+            before_mm: w,
+            radius_mm: f64::INFINITY,
+        });
+    }
+    Ok(best)
+}
+
+/// What a block join lends or borrows ([`plan_transitions`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct JoinTails {
+    /// The tail the block before held back for an S-curve at this arc's
+    /// start: its length (mm) and the block before's radius (mm).
+    pub(super) held_before: Option<(f64, f64)>,
+    /// Whether this arc may hold back its own tail ([`HeldEnd`]).
+    pub(super) hold_end: bool,
+}
+
+/// The tail of an arc held back for an S-curve across its end: the
+/// block's written part ends at parameter `at`; the reversing axis;
+/// the window's length before the join (mm) and the arc's radius (mm).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct HeldEnd {
+    pub(super) at: f64,
+    pub(super) axis: usize,
+    pub(super) before_mm: f64,
+    pub(super) radius_mm: f64,
+}
+
+/// The pieces and S-curves [`plan_transitions`] plans: the end parameters
+/// of the pieces, the transitions, whether the tail the block before held
+/// back starts the first S-curve, and the tail this arc holds back.
+#[derive(Debug, Default)]
+pub(super) struct Planned {
+    pub(super) pieces: Vec<f64>,
+    pub(super) transitions: Vec<Transition>,
+    pub(super) absorbed: bool,
+    pub(super) held_end: Option<HeldEnd>,
+}
+
+/// An S-curve across a block join cut where it crosses the normal through
+/// the join ([`split_at_normal`]): the words from its start to `at`
+/// (traced to the block before), the point `at`, and the words from `at`
+/// to its end (traced to the block after).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct JoinSplit {
+    pub(super) before: ArcWords,
+    pub(super) at: Vec3,
+    pub(super) after: ArcWords,
+}
+
+/// Cuts the piece written with `words` from `a` to `b` (one arc, or two
+/// where it is an S-curve: `words.second`) where it crosses the line of
+/// the plane through `q_join` normal to the unit tangent `t_join` (the
+/// plane's axes), the helix axis shared in proportion to the length as
+/// [`State::arc_piece_words`] shares it. Each part keeps its arc's centre,
+/// so the path and its tangent are unchanged; the cut is put on the
+/// written grid of `frame`, and a part whose words LinuxCNC would not read
+/// as that arc ([`ArcWords::readable`]) is written as its chord. `None`
+/// where the piece does not cross from behind the normal to beyond it, or
+/// a part would be shorter than two written steps.
+pub(super) fn split_at_normal(
+    words: &ArcWords,
+    (a, b): (Vec3, Vec3),
+    (q_join, t_join): (Vec3, [f64; 2]),
+    frame: &Frame,
+    style: NumberStyle,
+) -> Option<JoinSplit> {
+    let min_mm = 2.0 * frame.mm_per_unit / pow10(style.decimals);
+    let (u, v, w) = words.plane.axes();
+    let ahead = |p: Vec3| (p[u] - q_join[u]) * t_join[0] + (p[v] - q_join[v]) * t_join[1];
+    let first = ArcWords {
+        second: None,
+        ..*words
+    };
+    // The arcs of the piece: (start, end, words).
+    let mut arcs = vec![(a, b, first)];
+    if let Some(s) = words.second {
+        arcs[0].1 = s.joint;
+        arcs.push((
+            s.joint,
+            b,
+            ArcWords {
+                center: s.center,
+                clockwise: s.clockwise,
+                ..first
+            },
+        ));
+    }
+    if !(ahead(a) < 0.0 && ahead(b) > 0.0) {
+        return None;
+    }
+    let k = arcs.iter().position(|(_, e, _)| ahead(*e) >= 0.0)?;
+    let (s, e, aw) = arcs[k];
+    let point = arc_point(&aw, s, e);
+    // Bisection on the arc's parameter: `ahead` grows along it (the piece
+    // runs along the tangent within the S-curve's turn).
+    let (mut lo, mut hi) = (0.0, 1.0);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if ahead(point(mid)) < 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let mut at = point(hi);
+    at[w] = s[w] + (e[w] - s[w]) * hi;
+    let at = frame.quantize(at, s);
+    let far = |p: Vec3, q: Vec3| (q[u] - p[u]).hypot(q[v] - p[v]) >= min_mm;
+    if !(far(s, at) && far(at, e)) {
+        return None;
+    }
+    // The arc cut in two: each part read as that arc, or its chord.
+    let (mut head, mut rest) = (aw, aw);
+    if !head.readable(frame, style, s, at) {
+        head.center = None;
+    }
+    if !rest.readable(frame, style, at, e) {
+        rest.center = None;
+    }
+    let (before, after) = match words.second {
+        Some(second) if k == 0 => (
+            head,
+            ArcWords {
+                second: Some(second),
+                ..rest
+            },
+        ),
+        Some(second) => (
+            ArcWords {
+                second: Some(SecondArc {
+                    center: head.center,
+                    ..second
+                }),
+                ..*words
+            },
+            rest,
+        ),
+        None => (head, rest),
+    };
+    Some(JoinSplit { before, at, after })
+}
+
+/// The point at parameter `l` (0…1) of the arc written with `words` from
+/// `s` to `e` in its plane (the radius taken linearly from the start's to
+/// the end's, as rounded ends leave them), or of the chord where it has no
+/// centre; the other axis as at `s`.
+fn arc_point(words: &ArcWords, s: Vec3, e: Vec3) -> impl Fn(f64) -> Vec3 {
+    let (u, v, _) = words.plane.axes();
+    let clockwise = words.clockwise;
+    let center = words.center;
+    move |l: f64| match center {
+        None => s + (e - s) * l,
+        Some(c) => {
+            let (rs, re) = (
+                (s[u] - c[u]).hypot(s[v] - c[v]),
+                (e[u] - c[u]).hypot(e[v] - c[v]),
+            );
+            let (ts, te) = (
+                (s[v] - c[v]).atan2(s[u] - c[u]),
+                (e[v] - c[v]).atan2(e[u] - c[u]),
+            );
+            let sweep = if clockwise {
+                -(ts - te).rem_euclid(TAU)
+            } else {
+                (te - ts).rem_euclid(TAU)
+            };
+            let (r, t) = (rs + (re - rs) * l, ts + sweep * l);
+            let mut p = s;
+            p[u] = c[u] + r * t.cos();
+            p[v] = c[v] + r * t.sin();
+            p
+        }
+    }
 }
 
 /// Splits the piece `[a, b]` of `arc` while its estimated departure — at
@@ -694,6 +1018,24 @@ pub(super) struct Piecewise<'a> {
     /// nominal arc's ([`piece_center`]): half the planner's tangency
     /// tolerance in the plane at the feed; `None` elsewhere.
     pub(super) turn_tolerance: Option<f64>,
+    /// The unit tangent (in the plane's axes) the path leaves the start
+    /// along where it is not the arc's own: the end of the tail the block
+    /// before held back for an S-curve across the join ([`HeldEnd`]).
+    pub(super) start_tangent: Option<[f64; 2]>,
+}
+
+/// The unit tangent of `arc` at parameter `t`, in its plane's axes (the
+/// radial direction turned a quarter turn the way the arc runs).
+pub(super) fn plane_tangent(arc: &Arc, t: f64) -> [f64; 2] {
+    let (u, v, _) = arc.plane.axes();
+    let p = arc.point_at(t);
+    let (du, dv) = (p[u] - arc.center[u], p[v] - arc.center[v]);
+    let n = du.hypot(dv);
+    if arc.clockwise() {
+        [dv / n, -du / n]
+    } else {
+        [-dv / n, du / n]
+    }
 }
 
 impl State<'_> {
@@ -707,7 +1049,8 @@ impl State<'_> {
         model: &dyn ErrorModel,
         line: u64,
         run: &super::points::Run,
-    ) -> Result<Vec<f64>, CompensationError> {
+        joins: JoinTails,
+    ) -> Result<Planned, CompensationError> {
         let (options, file) = (self.walk.options, self.walk.file);
         let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm();
         let pieces = arc_pieces(
@@ -735,7 +1078,10 @@ impl State<'_> {
             && options.fold_take_ups
             && options.directions == super::DirectionPolicy::Commanded)
         {
-            return Ok(pieces);
+            return Ok(Planned {
+                pieces,
+                ..Planned::default()
+            });
         }
         let rule = options.take_up_rule(run.mode);
         let contour = options.fold_tolerance_mm();
@@ -763,7 +1109,14 @@ impl State<'_> {
                     super::points::RAMP_SHARE * options.planner.tangent_tolerance(v_mm_s, true)[w],
                 )
             });
-        let (pieces, transitions) = plan_transitions(
+        // Tails are held back and taken across a block join under G61 only
+        // (where the normal step is spread).
+        let joins = if spread.is_some() {
+            joins
+        } else {
+            JoinTails::default()
+        };
+        let mut planned = plan_transitions(
             arc,
             &pieces,
             model,
@@ -774,10 +1127,11 @@ impl State<'_> {
             min_length_mm,
             !run.corner_before,
             spread,
+            joins,
         )
         .map_err(|source| model_error(file, line, source))?;
-        self.transitions = transitions;
-        Ok(pieces)
+        self.transitions = std::mem::take(&mut planned.transitions);
+        Ok(planned)
     }
 
     /// How each solved piece of an arc is written (module documentation):
@@ -812,6 +1166,7 @@ impl State<'_> {
             pieces,
             radius_style,
             turn_tolerance,
+            start_tangent,
         } = p;
         let start0 = from;
         let (mut from, mut l_from) = (from, 0.0);
@@ -889,14 +1244,9 @@ impl State<'_> {
             let t1 = if i == 0 {
                 // The block before ends along the arc's own start tangent
                 // (the join is tangent in the original; the compensation
-                // turns it by the map's slope, micro-radians).
-                let (du, dv) = (arc.start[u] - arc.center[u], arc.start[v] - arc.center[v]);
-                let n = du.hypot(dv);
-                if arc.clockwise() {
-                    [dv / n, -du / n]
-                } else {
-                    [-dv / n, du / n]
-                }
+                // turns it by the map's slope, micro-radians), or, where it
+                // held back its tail, along its own tangent there.
+                start_tangent.unwrap_or_else(|| plane_tangent(arc, 0.0))
             } else {
                 let (s_prev, e_prev) = (start_of(i - 1), commands[i - 1].0);
                 tangent(&words[i - 1], s_prev, e_prev, true)
@@ -1007,6 +1357,82 @@ mod tests {
             let c = piece_center(&long, ends(&long, 0.5), 1e-7, t).unwrap();
             assert!((c - shift).norm() > 1e-3, "{t:?}: {c:?}");
         }
+    }
+
+    #[test]
+    fn an_s_curve_is_cut_on_the_normal_through_the_join_about_its_own_centres() {
+        // An S-curve of two arcs in XY: the first clockwise about (0, −2),
+        // R 2, from 0.05 rad before its top (0, 0) to 0.03 rad past it (the
+        // joint J); the second counter-clockwise, R 3, about the point 3 mm
+        // from J away from the first centre, on for 0.04 rad. Cut on the
+        // normal x = 0 (the tangent (1, 0) through the origin) it is cut at
+        // the first arc's top, (0, 0); on x = 0.1, past J, on the second
+        // arc's lower half at y = c₂y − √(9 − (0.1 − c₂x)²) (closed form),
+        // each on the 4-decimal grid (half a step, 0.05 µm). Each part
+        // keeps its arc's centre; the part of the first arc after the cut
+        // carries the second arc on. A normal beyond the end cuts nothing.
+        let frame = Frame {
+            offset_mm: Vec3::ZERO,
+            mm_per_unit: 1.0,
+            decimals: 4,
+            absolute: true,
+            rotation_deg: 0.0,
+            before_mm: Vec3::ZERO,
+            after_mm: Vec3::ZERO,
+            x_word_scale: 1.0,
+            arc_absolute: false,
+            arc_absolute_by_option: false,
+        };
+        let style = NumberStyle::fixed(4);
+        let c1 = Vec3::new(0.0, -2.0, 0.0);
+        let on1 = |t: f64| c1 + Vec3::new(2.0 * t.sin(), 2.0 * t.cos(), 0.0);
+        let (a, joint) = (on1(-0.05), on1(0.03));
+        let c2 = joint + (joint - c1) * (3.0 / 2.0);
+        let back = c1 - c2;
+        let phi = back.y.atan2(back.x);
+        let b = c2 + Vec3::new(3.0 * (phi + 0.04).cos(), 3.0 * (phi + 0.04).sin(), 0.0);
+        let words = ArcWords {
+            center: Some(c1),
+            plane: Plane::Xy,
+            clockwise: true,
+            radius_style: false,
+            absolute_centers: false,
+            second: Some(SecondArc {
+                joint,
+                center: Some(c2),
+                clockwise: false,
+            }),
+        };
+        let cut = |x: f64| {
+            split_at_normal(
+                &words,
+                (a, b),
+                (Vec3::new(x, 0.0, 0.0), [1.0, 0.0]),
+                &frame,
+                style,
+            )
+        };
+        let first = cut(0.0).unwrap();
+        assert!(first.at.norm() < 5.1e-5, "{:?}", first.at);
+        assert_eq!(first.before.center, Some(c1));
+        assert!(first.before.second.is_none() && first.before.clockwise);
+        assert_eq!(first.after.center, Some(c1));
+        assert_eq!(first.after.second.map(|s| s.center), Some(Some(c2)));
+        let second = cut(0.1).unwrap();
+        let y = c2.y - (9.0 - (0.1 - c2.x).powi(2)).sqrt();
+        assert!(
+            (second.at - Vec3::new(0.1, y, 0.0)).norm() < 7.1e-5,
+            "{:?} {y}",
+            second.at
+        );
+        assert_eq!(second.before.center, Some(c1));
+        assert_eq!(
+            second.before.second.map(|s| (s.joint, s.center)),
+            Some((joint, Some(c2)))
+        );
+        assert_eq!(second.after.center, Some(c2));
+        assert!(second.after.second.is_none() && !second.after.clockwise);
+        assert!(cut(b.x + 0.01).is_none() && cut(a.x - 0.01).is_none());
     }
 
     #[test]

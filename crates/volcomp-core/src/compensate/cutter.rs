@@ -212,7 +212,9 @@ impl State<'_> {
             };
             let (mut targets, pieces) = match arc {
                 Some(a) => {
-                    let pieces = self.pieces_of_arc(&a, model, line, &run)?;
+                    let pieces = self
+                        .pieces_of_arc(&a, model, line, &run, super::arcs::JoinTails::default())?
+                        .pieces;
                     let targets = pieces
                         .iter()
                         .map(|l| if *l >= 1.0 { a.end } else { a.point_at(*l) })
@@ -249,6 +251,7 @@ impl State<'_> {
                         pieces: &pieces,
                         radius_style: false,
                         turn_tolerance: None,
+                        start_tangent: None,
                     },
                     &commands,
                     from,

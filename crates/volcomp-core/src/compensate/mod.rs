@@ -96,6 +96,17 @@ pub fn compensate_program<R: BufRead>(
     while let Some(ev) = walker.next_line()? {
         out.source_line = ev.number;
         let line = st.begin_line(&ev);
+        if st.tail.is_some() && !may_take_tail(&line) {
+            // A held tail the line cannot start an S-curve from is
+            // written before it.
+            if let Err(e) = st.flush_tail() {
+                return Err(out.error(e));
+            }
+            if let Err(e) = out.write_all(&st.buf) {
+                return Err(out.error(e.into()));
+            }
+            st.buf.clear();
+        }
         let after = match st.write_line(&line, &mut out) {
             Ok(after) => after,
             Err(e) => return Err(out.error(e)),
@@ -104,6 +115,15 @@ pub fn compensate_program<R: BufRead>(
             return Err(out.error(e.into()));
         }
         st.frame_before = Some(after);
+    }
+    if st.tail.is_some() {
+        st.buf.clear();
+        if let Err(e) = st.flush_tail() {
+            return Err(out.error(e));
+        }
+        if let Err(e) = out.write_all(&st.buf) {
+            return Err(out.error(e.into()));
+        }
     }
     st.summary.blocks_in = st.blocks_in.finish();
     if let Err(e) = out.end() {
@@ -147,6 +167,8 @@ impl<'w> State<'w> {
             blocks_in: size::Blocks::default(),
             // The run of canned cycles in the written program.
             cycles: cycle_keep::Series::default(),
+            tail: None,
+            defer_points: false,
         }
     }
 
@@ -369,8 +391,69 @@ impl<'w> State<'w> {
         };
         check_target_count(&motion, &line_options, file, ev.number)?;
         let run = points::Run::of(&motion, self.last_tangent, &options.planner);
+        // The tail the block before held back (arcs.rs, `HeldEnd`): the
+        // S-curve at this arc's start begins there where the original runs
+        // on through the join; else it is written first.
+        // A tail whose block left the program's mode to restore is taken
+        // only by a line that restores it on its own last piece.
+        let restores = || {
+            lines::piece_mode_words(
+                motion.path_mode,
+                line.words(),
+                piece_blend_tolerance_mm(options) / frame.mm_per_unit,
+                true,
+                sep,
+            )
+            .is_some()
+        };
+        let held = match (&self.tail, &arc_nominal) {
+            (Some(t), Some(arc))
+                if t.may_start(arc, &run) && (t.restore.is_none() || restores()) =>
+            {
+                Some((t.held.before_mm, t.held.radius_mm))
+            }
+            _ => None,
+        };
+        if held.is_none() {
+            self.flush_tail()?;
+        }
+        // An arc may hold back its own tail for the block after where the
+        // block ends as a plain compensated motion (no stop word, no
+        // inverse time, no extra axes, adaptive segmentation).
+        let joins = arcs::JoinTails {
+            held_before: held,
+            hold_end: stop_m_word(line.words()).is_none()
+                && interp.feed_mode() != FeedMode::InverseTime
+                && !motion.extra.moves()
+                && matches!(options.segmentation, Segmentation::Adaptive { .. }),
+        };
+        let mut held_end = None;
+        // A line's own targets beyond the tail it holds back.
+        let mut tail_targets = Vec::new();
+        let mut start_tangent = None;
+        let mut restore_pending = false;
+        // The tail this arc's first S-curve starts from.
+        let mut taken: Option<Tail> = None;
         let mut pieces: Vec<f64> = match arc_nominal {
-            Some(arc) => self.pieces_of_arc(&arc, model, ev.number, &run)?,
+            Some(arc) => {
+                let mut planned = self.pieces_of_arc(&arc, model, ev.number, &run, joins)?;
+                if held.is_some() && !planned.absorbed {
+                    // No S-curve fits from the tail: it is written first.
+                    self.flush_tail()?;
+                    let joins = arcs::JoinTails {
+                        held_before: None,
+                        ..joins
+                    };
+                    planned = self.pieces_of_arc(&arc, model, ev.number, &run, joins)?;
+                }
+                if let Some(t) = self.tail.take() {
+                    start_tangent = Some(t.end_tangent(arc.plane));
+                    restore_pending = t.restore.is_some();
+                    taken = Some(t);
+                }
+                held_end = planned.held_end;
+                planned.pieces
+            }
             None => Vec::new(),
         };
         let mut targets = match arc_nominal {
@@ -399,6 +482,43 @@ impl<'w> State<'w> {
                 motion.start,
                 (run.protect_mm, run.split_end_mm),
             );
+            // Under G61 a line holds back its tail for an S-curve into an
+            // arc that may run on from it (arcs.rs, `line_tail`): its
+            // targets end short of its end.
+            let smooth = options.take_up
+                && options.fold_take_ups
+                && options.directions == DirectionPolicy::Commanded
+                && options.take_up_rule(run.mode) == TakeUpRule::Exact { smooth: true };
+            if let (true, true, Some(f)) = (smooth, joins.hold_end, run.feed_mm_min) {
+                let min_mm = options.arc_tolerances_mm().1;
+                held_end = arcs::line_tail(
+                    (motion.start, motion.end),
+                    interp.plane(),
+                    model,
+                    self.s,
+                    f / 60.0,
+                    &options.planner,
+                    min_mm,
+                )
+                .map_err(|source| model_error(file, ev.number, source))?;
+                if let Some(h) = held_end {
+                    // The targets beyond the tail's start go with the tail
+                    // (the end among them), those before it stay.
+                    let length = (motion.end - motion.start).norm();
+                    let tail_mm = length * h.at;
+                    let along = |t: &Vec3| (*t - motion.start).norm();
+                    tail_targets = targets
+                        .iter()
+                        .filter(|t| along(t) > tail_mm + min_mm)
+                        .copied()
+                        .collect();
+                    if tail_targets.last() != Some(&motion.end) {
+                        tail_targets.push(motion.end);
+                    }
+                    targets.retain(|t| along(t) < tail_mm - min_mm);
+                    targets.push(motion.start + (motion.end - motion.start) * h.at);
+                }
+            }
         }
         if targets.len() > 1 && interp.feed_mode() == FeedMode::InverseTime {
             return Err(CompensationError::AtLine {
@@ -415,6 +535,10 @@ impl<'w> State<'w> {
         let content = line.content();
         // Solve every target first (the original line carries the first).
         let q_line_start = self.q_out;
+        let s_line_start = self.s;
+        // Where this arc takes the tail of the block before, that block's
+        // end is written with the first S-curve: its point goes out first.
+        self.defer_points = taken.is_some();
         // A take-up may get a lead piece of a line or an arc piece
         // (compensate/points.rs) where the segmentation adapts to the path
         // anyway; not on moves that carry extra axes, or under inverse time.
@@ -441,7 +565,9 @@ impl<'w> State<'w> {
                 run,
             },
             ev.number,
-        )?;
+        );
+        self.defer_points = false;
+        let commands = commands?;
         let place = Place {
             frame: &frame,
             style,
@@ -450,7 +576,7 @@ impl<'w> State<'w> {
         };
         // Arc pieces: the centre of each, through its compensated start,
         // middle and end (compensate/arcs.rs).
-        let arc_words: Vec<ArcWords> = match arc_nominal {
+        let mut arc_words: Vec<ArcWords> = match arc_nominal {
             Some(arc) => self.arc_piece_words(
                 model,
                 &place,
@@ -459,6 +585,7 @@ impl<'w> State<'w> {
                     pieces: &pieces,
                     radius_style: line.words().any(|w| w.letter == b'R'),
                     turn_tolerance: points::piece_turn_tolerance(options, &run, &arc),
+                    start_tangent,
                 },
                 &commands,
                 q_line_start,
@@ -475,6 +602,15 @@ impl<'w> State<'w> {
         );
         // Write: the commands were solved from the position before the line.
         let mut pos = q_line_start;
+        if let (Some(t), Some(arc)) = (&taken, &arc_nominal) {
+            pos = self.write_join_split(
+                t,
+                (arc, &mut arc_words),
+                (q_line_start, &commands),
+                model,
+                s_line_start,
+            )?;
+        }
         let stop_word = if commands.len() > 1 {
             stop_m_word(line.words())
         } else {
@@ -509,8 +645,17 @@ impl<'w> State<'w> {
         // A piece that is an arc cannot carry P (its turn count): the words
         // go on a line of their own before it, read in the units in effect
         // there.
+        // A tail held back (arcs.rs, `HeldEnd`) is a line of the block,
+        // written later: the block's last run of pieces ends on it, so the
+        // program's mode is restored there, not on the last piece written
+        // now. A tail taken from the block before with its mode not yet
+        // restored begins the first run.
         let n_pieces = commands.len();
-        let lines_of_block = n_pieces + usize::from(first_split.is_some());
+        let holds = held_end.is_some();
+        let lines_of_block = n_pieces
+            + usize::from(first_split.is_some())
+            + usize::from(holds)
+            + usize::from(restore_pending);
         let p_mm = piece_blend_tolerance_mm(options);
         let piece_words = |mm_per_unit: f64| {
             let arc = matches!(motion.kind, MotionKind::Arc(_));
@@ -527,6 +672,7 @@ impl<'w> State<'w> {
         // of one line are left alone).
         // (Read only where `piece_modes` is set: allocated only then.)
         let runs = if piece_modes.is_some() { n_pieces } else { 0 };
+        let mut tail_restore = None;
         let mut run_starts = vec![false; runs];
         let mut run_ends = vec![false; runs];
         if piece_modes.is_some() {
@@ -535,9 +681,17 @@ impl<'w> State<'w> {
                 let end = (k + 1..n_pieces)
                     .find(|j| commands[*j].1.is_some())
                     .unwrap_or(n_pieces);
-                if end - k + usize::from(k == 0 && first_split.is_some()) > 1 {
+                let last = end == n_pieces && holds;
+                let lines = end - k
+                    + usize::from(k == 0 && (first_split.is_some() || restore_pending))
+                    + usize::from(last);
+                if lines > 1 {
                     run_starts[k] = true;
-                    run_ends[end - 1] = true;
+                    if last {
+                        tail_restore = piece_modes.as_ref().map(|(_, _, r)| *r);
+                    } else {
+                        run_ends[end - 1] = true;
+                    }
                 }
                 k = end;
             }
@@ -655,6 +809,24 @@ impl<'w> State<'w> {
                     },
                 );
                 if let Some(w) = first_arc {
+                    // The line's own G2/G3 turns the way its first arc does
+                    // (the part of an S-curve after the cut at a block join,
+                    // `write_join_split`, may turn the other way).
+                    for g in line
+                        .words()
+                        .filter(|g| g.letter == b'G' && (g.value == 2.0 || g.value == 3.0))
+                    {
+                        if (g.value == 2.0) != w.clockwise {
+                            let zero = content[g.value_span.clone()].starts_with(b"0");
+                            let code: &[u8] = match (w.clockwise, zero) {
+                                (true, false) => b"2",
+                                (true, true) => b"02",
+                                (false, false) => b"3",
+                                (false, true) => b"03",
+                            };
+                            edits.replace(g.value_span.clone(), code);
+                        }
+                    }
                     edits.extend(arc_line_edits(
                         line.words(),
                         content,
@@ -734,8 +906,272 @@ impl<'w> State<'w> {
         self.feed_before = feed_after;
         self.last_tangent =
             feed_like.then(|| (points::tangents(&motion).1, points::length_mm(&motion)));
+        if let Some(held) = held_end {
+            self.tail = Some(Tail {
+                path: match arc_nominal {
+                    Some(arc) => TailPath::Arc(arc),
+                    None => TailPath::Line(motion.start, motion.end),
+                },
+                targets: tail_targets,
+                held,
+                frame,
+                style,
+                line: ev.number,
+                ending: line_ending.to_vec(),
+                run,
+                tool_length_offset_mm: interp.tool_length_offset_mm(),
+                radius_style: line.words().any(|w| w.letter == b'R'),
+                turn_tolerance: arc_nominal
+                    .and_then(|arc| points::piece_turn_tolerance(options, &run, &arc)),
+                restore: tail_restore,
+            });
+        }
         Ok((frame, style))
     }
+
+    /// Writes the part of an arc's first S-curve that lies before the block
+    /// join, from the tail `t` the block before held back: the S-curve cut
+    /// where it crosses the normal through the join
+    /// ([`arcs::split_at_normal`]; the normal through the join's command
+    /// solved in the state the block arrives in, so the tool reaches the
+    /// join's normal where the block before ends), written in that block's
+    /// frame and traced to its line, with a point record for its end ahead
+    /// of this block's (deferred by `defer_points`). The first words of
+    /// `arc_words` become the part after the cut. Returns where this
+    /// block's own line starts (the tail's start where no cut is found).
+    fn write_join_split(
+        &mut self,
+        t: &Tail,
+        (arc, arc_words): (&volcomp_gcode::Arc, &mut [ArcWords]),
+        (from, commands): (Vec3, &[(Vec3, Option<Vec3>)]),
+        model: &dyn ErrorModel,
+        s_arrived: Directions,
+    ) -> Result<Vec3, CompensationError> {
+        let join = arc.start;
+        let split = match (arc_words.first(), commands.first()) {
+            (Some(words), Some((q, None))) => {
+                let q_join = solve::solve_fixed(
+                    model,
+                    self.walk.options.method,
+                    join,
+                    s_arrived,
+                    [false; 3],
+                    Vec3::ZERO,
+                )
+                .map_err(|source| command_error(model, self.walk.file, t.line, join, source))?
+                .q_mm;
+                arcs::split_at_normal(
+                    words,
+                    (from, *q),
+                    (q_join, arcs::plane_tangent(arc, 0.0)),
+                    &t.frame,
+                    t.style,
+                )
+            }
+            _ => None,
+        };
+        let mut start = from;
+        if let Some(split) = split {
+            let place = Place {
+                frame: &t.frame,
+                style: t.style,
+                line: t.line,
+                ending: &t.ending,
+            };
+            self.write_inserted_arc(&place, from, split.at, &split.before, "");
+            arc_words[0] = split.after;
+            start = split.at;
+            let residual_um = (crate::model::actual_mm(
+                model,
+                split.at,
+                s_arrived,
+                crate::model::Components::All,
+            )
+            .map_err(|source| model_error(self.walk.file, t.line, source))?
+                - join)
+                .norm()
+                * 1e3;
+            self.summary.points += 1;
+            (self.on_point)(&PointRecord {
+                line: t.line,
+                target_mm: join,
+                command_mm: split.at,
+                iterations: 0,
+                residual_um,
+                reversed: [false; 3],
+                held: [false; 3],
+                take_up: false,
+                rapid: false,
+            });
+        }
+        for r in &self.records {
+            (self.on_point)(r);
+        }
+        Ok(start)
+    }
+
+    /// Writes the held tail, if any, into the buffer: the last piece of
+    /// its arc, from the command its block ended at to the compensated end,
+    /// traced to its block's line.
+    fn flush_tail(&mut self) -> Result<(), CompensationError> {
+        let Some(t) = self.tail.take() else {
+            return Ok(());
+        };
+        let model = crate::model::WithTool {
+            model: self.walk.model,
+            tool_length_offset_mm: t.tool_length_offset_mm,
+        };
+        let piece = match t.path {
+            TailPath::Arc(arc) => Some(arcs::sub_arc(&arc, t.held.at, 1.0)),
+            TailPath::Line(..) => None,
+        };
+        let (start, end) = match (t.path, &piece) {
+            (_, Some(p)) => (p.start, p.end),
+            (TailPath::Line(a, b), None) => (a + (b - a) * t.held.at, b),
+            (TailPath::Arc(_), None) => unreachable!("an arc's tail is an arc piece"),
+        };
+        let mut targets = match t.path {
+            TailPath::Line(..) => t.targets,
+            TailPath::Arc(_) => vec![end],
+        };
+        let from = self.q_out;
+        self.transitions.clear();
+        let commands = self.solve_targets(
+            &model,
+            (&t.frame, &t.frame),
+            points::Targets {
+                points: &mut targets,
+                leads: points::Leads::Nowhere,
+                start,
+                feed_like: true,
+                run: t.run,
+            },
+            t.line,
+        )?;
+        let place = Place {
+            frame: &t.frame,
+            style: t.style,
+            line: t.line,
+            ending: &t.ending,
+        };
+        let words = match &piece {
+            Some(piece) => self.arc_piece_words(
+                &model,
+                &place,
+                arcs::Piecewise {
+                    arc: piece,
+                    pieces: &[1.0],
+                    radius_style: t.radius_style,
+                    turn_tolerance: t.turn_tolerance,
+                    start_tangent: None,
+                },
+                &commands,
+                from,
+            )?,
+            None => Vec::new(),
+        };
+        let mut pos = from;
+        for (i, (q, take_up)) in commands.iter().enumerate() {
+            if let Some(tu) = take_up {
+                self.write_inserted(&place, pos, *tu, OutMode::Feed, "take-up");
+                pos = *tu;
+            }
+            // The block's mode comes back on its last line.
+            if let Some(restore) = t.restore.filter(|_| i + 1 == commands.len()) {
+                self.line_words = restore.to_string();
+            }
+            match words.get(i) {
+                Some(w) => self.write_inserted_arc(&place, pos, *q, w, ""),
+                None => self.write_inserted(&place, pos, *q, OutMode::Feed, ""),
+            }
+            pos = *q;
+        }
+        if !self.line_words.is_empty() {
+            // The piece rounded to nothing: the mode on a line of its own.
+            self.text.clear();
+            self.text.push_str(&std::mem::take(&mut self.line_words));
+            self.push_inserted(&place, "path mode");
+            self.summary.path_mode_lines += 1;
+        }
+        Ok(())
+    }
+}
+
+/// The tail of an arc under G61 held back for an S-curve across its end
+/// ([`arcs::HeldEnd`]), with what writing it as it is takes: its block's
+/// nominal arc, frame, style, line and line ending, run, tool and arc
+/// words.
+struct Tail {
+    path: TailPath,
+    /// A line's targets from the tail's start on (its end the last): the
+    /// points its segmentation put there.
+    targets: Vec<Vec3>,
+    held: arcs::HeldEnd,
+    frame: Frame,
+    style: NumberStyle,
+    line: u64,
+    ending: Vec<u8>,
+    run: points::Run,
+    tool_length_offset_mm: Vec3,
+    radius_style: bool,
+    turn_tolerance: Option<f64>,
+    /// The program's path-control word its block's last run of pieces
+    /// restores on the tail (lines.rs, `piece_mode_words`), if any.
+    restore: Option<&'static str>,
+}
+
+/// The nominal path of a held tail's block.
+#[derive(Clone, Copy)]
+enum TailPath {
+    Arc(volcomp_gcode::Arc),
+    /// A line from its start to its end.
+    Line(Vec3, Vec3),
+}
+
+impl Tail {
+    /// Whether an arc that runs `run` may start its S-curve from this tail:
+    /// it starts where the tail's block ends (an arc: in the same plane),
+    /// without a corner, at the same feed and path mode (whether the
+    /// reversing axis turns there and a window fits,
+    /// [`arcs::plan_transitions`] decides).
+    fn may_start(&self, arc: &volcomp_gcode::Arc, run: &points::Run) -> bool {
+        let (same_plane, end) = match self.path {
+            TailPath::Arc(a) => (a.plane == arc.plane, a.end),
+            TailPath::Line(_, end) => (true, end),
+        };
+        !run.corner_before
+            && run.feed_mm_min == self.run.feed_mm_min
+            && run.mode == self.run.mode
+            && same_plane
+            && (arc.start - end).norm() <= 1e-9
+    }
+
+    /// The unit tangent of the tail's block where the tail starts, in the
+    /// axes of `plane`.
+    fn end_tangent(&self, plane: volcomp_gcode::Plane) -> [f64; 2] {
+        match self.path {
+            TailPath::Arc(a) => arcs::plane_tangent(&a, self.held.at),
+            TailPath::Line(a, b) => {
+                let (u, v, _) = plane.axes();
+                let (du, dv) = (b[u] - a[u], b[v] - a[v]);
+                let n = du.hypot(dv);
+                [du / n, dv / n]
+            }
+        }
+    }
+}
+
+/// Whether `line` may start an S-curve from a held tail: one program arc,
+/// compensated (every axis known, before the program end, outside cutter
+/// compensation); the writer decides the rest ([`Tail::may_start`]).
+fn may_take_tail(line: &Line) -> bool {
+    let ev = line.ev;
+    ev.kind == LineKind::Block
+        && !ev.after_end
+        && line.all_known
+        && !ev.interp.cutter_comp_on()
+        && matches!(ev.motions, [m] if m.source == MotionSource::Program
+            && matches!(m.kind, MotionKind::Arc(_)))
 }
 
 /// The tolerance (mm) within which the planner may blend the joins between
@@ -853,6 +1289,13 @@ struct State<'w> {
     /// The run of canned cycles in the written program
     /// (compensate/cycle_keep.rs).
     cycles: cycle_keep::Series,
+    /// The tail of the last arc, held back for an S-curve across its end
+    /// ([`Tail`]).
+    tail: Option<Tail>,
+    /// The point records of the motion being solved are kept in `records`
+    /// rather than passed on (the block before's end, written with this
+    /// motion's first S-curve, goes first: `write_join_split`).
+    defer_points: bool,
 }
 
 /// Edits of a line that sets an offset from the current point (G92, or

@@ -2265,7 +2265,7 @@ impl State<'_> {
             }
         }
         self.transitions_written = transitions;
-        for r in &records {
+        for r in records.iter().filter(|_| !self.defer_points) {
             (self.on_point)(r);
         }
         self.records = records;

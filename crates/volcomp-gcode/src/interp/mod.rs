@@ -396,6 +396,11 @@ impl Interpreter {
         self.absolute
     }
 
+    /// The arc plane in effect (G17, G18, G19).
+    pub fn plane(&self) -> Plane {
+        self.plane
+    }
+
     /// Whether lathe diameter mode (G7) is in effect: a written X word is
     /// twice the program's X coordinate.
     pub fn diameter_mode(&self) -> bool {
