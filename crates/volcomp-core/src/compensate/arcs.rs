@@ -1052,7 +1052,7 @@ impl State<'_> {
         joins: JoinTails,
     ) -> Result<Planned, CompensationError> {
         let (options, file) = (self.walk.options, self.walk.file);
-        let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm();
+        let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm(run.mode);
         let pieces = arc_pieces(
             arc,
             model,

@@ -67,11 +67,19 @@ pub fn describe_options(o: &CompensateOptions) -> (String, String) {
         Segmentation::Adaptive {
             tolerance_mm,
             min_length_mm,
-        } => format!(
-            "contour tolerance {} um, min segment {} mm",
-            num(tolerance_mm * 1e3),
-            num(min_length_mm)
-        ),
+        } => match o.exact_contour_tolerance_mm {
+            Some(exact) if exact < tolerance_mm => format!(
+                "contour tolerance {} um ({} um under G61), min segment {} mm",
+                num(tolerance_mm * 1e3),
+                num(exact * 1e3),
+                num(min_length_mm)
+            ),
+            _ => format!(
+                "contour tolerance {} um, min segment {} mm",
+                num(tolerance_mm * 1e3),
+                num(min_length_mm)
+            ),
+        },
     };
     let mut parts = vec![
         split,

@@ -43,8 +43,8 @@ pub use joins::PlannerLimits;
 pub use options::{
     unset_axes_text, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord,
     Segmentation, TakeUpRule, DEFAULT_CONTOUR_TOLERANCE_UM, DEFAULT_DECIMALS_INCH,
-    DEFAULT_DECIMALS_MM, DEFAULT_DRILL_TOLERANCE_UM, DEFAULT_MAX_RESIDUAL_UM,
-    DEFAULT_MIN_SEGMENT_LENGTH_MM,
+    DEFAULT_DECIMALS_MM, DEFAULT_DRILL_TOLERANCE_UM, DEFAULT_EXACT_CONTOUR_TOLERANCE_UM,
+    DEFAULT_MAX_RESIDUAL_UM, DEFAULT_MIN_SEGMENT_LENGTH_MM,
 };
 pub use scurve::{least_cost_s, least_speed_mm_s};
 pub use style::{survey_style, ProgramStyle};

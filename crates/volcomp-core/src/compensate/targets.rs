@@ -107,7 +107,7 @@ pub(super) fn targets_in(
     cells: &mut AxisCells,
 ) -> Result<Vec<Vec3>, ModelError> {
     let mut out = Vec::new();
-    let seg = options.segmentation;
+    let seg = options.segmentation_in(motion.path_mode);
     // Under G64 a departure along the move is no reason to split it (the
     // splits it made cut the planner's blends short). Under G61/G61.1 the
     // machine stops at the program's corners anyway, and the pieces stay
@@ -127,7 +127,7 @@ pub(super) fn targets_in(
             worst_mm,
         )?,
         MotionKind::Arc(arc) if options.arcs_as_arcs => {
-            let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm();
+            let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm(motion.path_mode);
             let pieces =
                 super::arcs::arc_pieces(&arc, model, s, tolerance_mm, min_length_mm, worst_mm)?;
             for l in pieces {
@@ -498,6 +498,47 @@ mod tests {
         // A tolerance just above the 8-piece departure keeps 8 pieces.
         let t = targets_of(&feed(a, b), &adaptive(0.16), &Bow, ALL_FORWARD).unwrap();
         assert_eq!(t.len(), 8);
+    }
+
+    /// Under G61 and G61.1 the default tolerance is halved (0.05 µm): the
+    /// bow of A = 5 µm departs `5/4^k` µm from the chords of `2^k` pieces,
+    /// so G64 keeps 8 pieces (5/64 = 0.078 ≤ 0.1; 4 pieces leave 0.31) and
+    /// G61/G61.1 cut 16 (0.078 > 0.05; 5/256 = 0.020). Without the exact
+    /// tolerance (a contour tolerance given) G61 keeps 8 too.
+    #[test]
+    fn under_g61_a_bow_is_cut_to_half_the_tolerance() {
+        struct Bow;
+        impl ErrorModel for Bow {
+            fn deviation_um(
+                &self,
+                q: Vec3,
+                _: Directions,
+                _: Components,
+            ) -> Result<Vec3, ModelError> {
+                let u = q.x / 80.0;
+                Ok(Vec3::new(0.0, 20.0 * u * (1.0 - u), 0.0))
+            }
+            fn range_mm(&self) -> [[f64; 2]; 3] {
+                [[-1e3, 1e3]; 3]
+            }
+        }
+        let (a, b) = (Vec3::ZERO, Vec3::new(80.0, 0.0, 0.0));
+        let pieces = |mode: volcomp_gcode::PathMode, options: &CompensateOptions| {
+            let m = Motion {
+                path_mode: mode,
+                ..feed(a, b)
+            };
+            targets_of(&m, options, &Bow, ALL_FORWARD).unwrap().len()
+        };
+        let defaults = CompensateOptions::default();
+        assert_eq!(pieces(Default::default(), &defaults), 8);
+        assert_eq!(pieces(volcomp_gcode::PathMode::ExactPath, &defaults), 16);
+        assert_eq!(pieces(volcomp_gcode::PathMode::ExactStop, &defaults), 16);
+        let given = CompensateOptions {
+            exact_contour_tolerance_mm: None,
+            ..defaults
+        };
+        assert_eq!(pieces(volcomp_gcode::PathMode::ExactPath, &given), 8);
     }
 
     /// A table point is a cut only where the kink matters: the departure

@@ -8,7 +8,8 @@ use super::positive;
 use crate::compensate::solve::Method;
 use crate::compensate::{
     file_name, header_for_map, CompensateOptions, Compensator, DirectionPolicy, Segmentation,
-    DEFAULT_CONTOUR_TOLERANCE_UM, DEFAULT_MAX_RESIDUAL_UM, DEFAULT_MIN_SEGMENT_LENGTH_MM,
+    DEFAULT_CONTOUR_TOLERANCE_UM, DEFAULT_EXACT_CONTOUR_TOLERANCE_UM, DEFAULT_MAX_RESIDUAL_UM,
+    DEFAULT_MIN_SEGMENT_LENGTH_MM,
 };
 use crate::io::provenance::{sha256_hex, ProgramHeader};
 use crate::io::LoadedModel;
@@ -63,7 +64,7 @@ request! {
 
     /// Adaptive splitting's contour tolerance (µm).
     contour_tolerance_um: Option<f64> = None, Number.value("UM"),
-        "Contour tolerance (µm, default 0.1): feed moves are split adaptively, at the map's table points and where the map bends the path by more than this (the default segmentation).";
+        "Contour tolerance (µm, default 0.1, and 0.05 under G61/G61.1 unless given): feed moves are split adaptively, at the map's table points and where the map bends the path by more than this (the default segmentation).";
 
     /// Adaptive splitting's shortest segment (mm); `None`: the default.
     min_segment_length_mm: Option<f64> = None,
@@ -357,6 +358,11 @@ impl CompensateRequest {
             take_up: self.take_up,
             fold_take_ups: !self.separate_take_ups,
             take_up_tolerance_mm: self.take_up_tolerance_um.map(|t| t * 1e-3),
+            // A contour tolerance given holds in every path-control mode.
+            exact_contour_tolerance_mm: match self.contour_tolerance_um {
+                Some(_) => None,
+                None => Some(DEFAULT_EXACT_CONTOUR_TOLERANCE_UM * 1e-3),
+            },
             drill_tolerance_mm: self.drill_tolerance_um * 1e-3,
             planner: Default::default(),
             trace_comments: self.trace,

@@ -190,6 +190,25 @@ mod tests {
         consistent(|r: &BallbarMapRequest| r.clone());
     }
 
+    /// The G61 contour tolerance is a default only: a contour tolerance
+    /// given holds in every path-control mode (docs/compensation.md,
+    /// "Adaptive segmentation").
+    #[test]
+    fn a_contour_tolerance_given_holds_under_g61_too() {
+        let o = CompensateRequest::default().options().unwrap();
+        let exact = o.exact_contour_tolerance_mm.unwrap();
+        assert!((exact - 0.05e-3).abs() < 1e-15, "{exact}");
+        let mut r = CompensateRequest::default();
+        r.set_named("contour_tolerance_um", Value::Number(0.2))
+            .unwrap();
+        let o = r.options().unwrap();
+        assert_eq!(o.exact_contour_tolerance_mm, None);
+        assert!(matches!(
+            o.segmentation,
+            crate::compensate::Segmentation::Adaptive { tolerance_mm, .. } if (tolerance_mm - 0.2e-3).abs() < 1e-15
+        ));
+    }
+
     #[test]
     fn the_same_bad_value_gets_the_same_message_whatever_the_spelling() {
         let mut r = CompensateRequest::default();

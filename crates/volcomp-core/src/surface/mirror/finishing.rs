@@ -294,6 +294,8 @@ pub fn compensate_finishing<R: BufRead>(
         take_up: false,
         fold_take_ups: false,
         take_up_tolerance_mm: None,
+        // Fixed segmentation and chords: no contour tolerance to tighten.
+        exact_contour_tolerance_mm: None,
         drill_tolerance_mm: crate::compensate::DEFAULT_DRILL_TOLERANCE_UM * 1e-3,
         planner: Default::default(),
         trace_comments: options.trace_comments,
