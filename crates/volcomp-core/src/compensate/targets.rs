@@ -467,6 +467,21 @@ mod tests {
         );
     }
 
+    /// The bow `e_y = 4A·u(1 − u)`, `u = x/80 mm`, of amplitude `A`.
+    struct Bow {
+        amplitude_um: f64,
+    }
+
+    impl ErrorModel for Bow {
+        fn deviation_um(&self, q: Vec3, _: Directions, _: Components) -> Result<Vec3, ModelError> {
+            let u = q.x / 80.0;
+            Ok(Vec3::new(0.0, 4.0 * self.amplitude_um * u * (1.0 - u), 0.0))
+        }
+        fn range_mm(&self) -> [[f64; 2]; 3] {
+            [[-1e3, 1e3]; 3]
+        }
+    }
+
     /// A bow `e_y = 4A·u(1 − u)`, `u = x/L`, departs from the chord of a
     /// piece of length `h` by `A·(h/L)²` at its middle (the same for every
     /// piece). With A = 10 µm and a tolerance of 0.1 µm, halving stops at
@@ -474,29 +489,15 @@ mod tests {
     /// k = 3 gives 10/64 = 0.156 > 0.1), so exactly 16 equal pieces.
     #[test]
     fn a_quadratic_bow_needs_the_predicted_pieces() {
-        struct Bow;
-        impl ErrorModel for Bow {
-            fn deviation_um(
-                &self,
-                q: Vec3,
-                _: Directions,
-                _: Components,
-            ) -> Result<Vec3, ModelError> {
-                let u = q.x / 80.0;
-                Ok(Vec3::new(0.0, 40.0 * u * (1.0 - u), 0.0))
-            }
-            fn range_mm(&self) -> [[f64; 2]; 3] {
-                [[-1e3, 1e3]; 3]
-            }
-        }
+        let bow = Bow { amplitude_um: 10.0 };
         let (a, b) = (Vec3::ZERO, Vec3::new(80.0, 0.0, 0.0));
-        let t = targets_of(&feed(a, b), &adaptive(0.1), &Bow, ALL_FORWARD).unwrap();
+        let t = targets_of(&feed(a, b), &adaptive(0.1), &bow, ALL_FORWARD).unwrap();
         let expected: Vec<Vec3> = (1..=16)
             .map(|k| Vec3::new(5.0 * k as f64, 0.0, 0.0))
             .collect();
         assert_eq!(t, expected);
         // A tolerance just above the 8-piece departure keeps 8 pieces.
-        let t = targets_of(&feed(a, b), &adaptive(0.16), &Bow, ALL_FORWARD).unwrap();
+        let t = targets_of(&feed(a, b), &adaptive(0.16), &bow, ALL_FORWARD).unwrap();
         assert_eq!(t.len(), 8);
     }
 
@@ -507,28 +508,14 @@ mod tests {
     /// tolerance (a contour tolerance given) G61 keeps 8 too.
     #[test]
     fn under_g61_a_bow_is_cut_to_half_the_tolerance() {
-        struct Bow;
-        impl ErrorModel for Bow {
-            fn deviation_um(
-                &self,
-                q: Vec3,
-                _: Directions,
-                _: Components,
-            ) -> Result<Vec3, ModelError> {
-                let u = q.x / 80.0;
-                Ok(Vec3::new(0.0, 20.0 * u * (1.0 - u), 0.0))
-            }
-            fn range_mm(&self) -> [[f64; 2]; 3] {
-                [[-1e3, 1e3]; 3]
-            }
-        }
+        let bow = Bow { amplitude_um: 5.0 };
         let (a, b) = (Vec3::ZERO, Vec3::new(80.0, 0.0, 0.0));
         let pieces = |mode: volcomp_gcode::PathMode, options: &CompensateOptions| {
             let m = Motion {
                 path_mode: mode,
                 ..feed(a, b)
             };
-            targets_of(&m, options, &Bow, ALL_FORWARD).unwrap().len()
+            targets_of(&m, options, &bow, ALL_FORWARD).unwrap().len()
         };
         let defaults = CompensateOptions::default();
         assert_eq!(pieces(Default::default(), &defaults), 8);
