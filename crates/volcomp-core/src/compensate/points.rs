@@ -286,86 +286,6 @@ fn fold_deviation_sampled_mm(
     worst
 }
 
-/// The contour error (mm) a ramp leaves, taken piece by piece from the
-/// commands it writes, under the simulator's dead band (simulate/mod.rs,
-/// `Simulator::move_to` and `Band`): `points` holds, from the reversal's
-/// command `q_prev` on, each command `q_i`, the offset `o_i` of its image
-/// in the new directions from its target, and the path's unit tangent
-/// there. The machine moves linearly between commands, so over a piece
-/// the image's offset runs linearly from `o_{i−1}` to `o_i` (the map is
-/// affine at this scale), and each reversing axis' lag `ℓ_a` is left at
-/// `max(0, 1 − T_a/b_a)`, `T_a` that axis' command travel toward its own
-/// lag `b_a = |ℓ_a[a]|` since the reversal (all of it gone once the axis
-/// moves away from it). The tool is off the target by the image's offset
-/// plus the lags left; only its part across the tangent leaves the path.
-/// Both are piecewise linear in the piece's fraction, so each piece's ends
-/// and the points where an axis leaves its band give the largest (with a
-/// few more between them for the tangent's turn on an arc).
-///
-/// A straight ramp's catch-up and travel are linear over it, where
-/// [`fold_deviation_along_mm`] is exact; a bent or smooth one's are not:
-/// its command lags behind the straight ramp early on while the reversing
-/// axis' own travel along a path that turns from it (an arc at its
-/// quarter point) grows as the square of the distance, so the lag it has
-/// not yet crossed can leave the tool further off than the straight
-/// ramp's bound says.
-fn ramp_deviation_mm(
-    lags: &[Vec3; 3],
-    (q_prev, offset_prev, tangent_prev): (Vec3, Vec3, Vec3),
-    points: &[(Vec3, Vec3, Vec3)],
-) -> f64 {
-    let own = |a: usize| lags[a][a];
-    // Per axis: the travel toward its lag so far, or `None` once gone.
-    let mut travel: [Option<f64>; 3] = [0, 1, 2].map(|a| (own(a) != 0.0).then_some(0.0));
-    let mut worst = 0.0f64;
-    let (mut q0, mut o0, mut u0) = (q_prev, offset_prev, tangent_prev);
-    for &(q1, o1, u1) in points {
-        let dq = q1 - q0;
-        for (a, t) in travel.iter_mut().enumerate() {
-            if own(a) * dq[a] < 0.0 {
-                *t = None;
-            }
-        }
-        let left = |a: usize, mu: f64| -> f64 {
-            travel[a].map_or(0.0, |t| {
-                (1.0 - (t + dq[a].abs() * mu) / own(a).abs()).max(0.0)
-            })
-        };
-        let across = |mu: f64| -> f64 {
-            let mut off = o0 + (o1 - o0) * mu;
-            for (a, lag) in lags.iter().enumerate() {
-                off += *lag * left(a, mu);
-            }
-            let u = u0 + (u1 - u0) * mu;
-            let n = u.norm();
-            let u = if n > 0.0 { u * (1.0 / n) } else { u };
-            (off - u * off.dot(u)).norm()
-        };
-        const STEPS: u32 = 4;
-        for k in 0..=STEPS {
-            worst = worst.max(across(f64::from(k) / f64::from(STEPS)));
-        }
-        for a in 0..3 {
-            if let Some(t) = travel[a] {
-                let d = dq[a].abs();
-                if d > 0.0 {
-                    let mu = (own(a).abs() - t) / d;
-                    if mu > 0.0 && mu < 1.0 {
-                        worst = worst.max(across(mu));
-                    }
-                }
-            }
-        }
-        for (a, t) in travel.iter_mut().enumerate() {
-            if let Some(t) = t.as_mut() {
-                *t += dq[a].abs();
-            }
-        }
-        (q0, o0, u0) = (q1, o1, u1);
-    }
-    worst
-}
-
 /// How far a take-up the machine runs through without a stop (a ramp,
 /// [`RampPlan`], or an S-curve at a quarter point, compensate/scurve.rs)
 /// may leave the tool from the path under G61 and G64 without P (mm), where
@@ -424,20 +344,6 @@ pub(super) struct RampPlan {
     pub(super) insert: Vec<(usize, Vec3, Option<f64>)>,
     /// The tool's largest distance from the path on the ramp (mm).
     pub(super) bound_mm: f64,
-    /// The path's own targets inside the ramp (before its end).
-    pub(super) own_targets: usize,
-}
-
-/// How a ramp's command catches up its take-up along the path.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum RampShape {
-    /// Linearly, over one piece or the motion's own pieces.
-    Straight,
-    /// As a smooth step `3u² − 2u³` over pieces of the shortest length.
-    Smooth,
-    /// As a straight ramp bent at its ends ([`bent_ramp_nodes_mm`]): five
-    /// pieces at most.
-    Bent,
 }
 
 /// The ramp of a take-up `delta` at target `index` (see [`RampPlan`]), or
@@ -461,9 +367,9 @@ fn plan_ramp(
         Option<f64>,
         f64,
     ),
-    shape: RampShape,
+    smooth: bool,
 ) -> Result<Option<RampPlan>, ModelError> {
-    let need = ramp_length_mm(delta, kink_tolerance, shortest_mm, shape);
+    let need = ramp_length_mm(delta, kink_tolerance, shortest_mm, smooth);
     if !(need > 0.0 && need.is_finite()) {
         return Ok(None);
     }
@@ -525,11 +431,7 @@ fn plan_ramp(
         }
     };
     let mut insert: Vec<(usize, Vec3, Option<f64>, f64)> = Vec::new();
-    // A bent ramp ends at its length unless a target is within the
-    // shortest piece past it: its vertices all fall before that length, so
-    // the ramp planned again over the targets they became ends there too.
-    let bent = shape == RampShape::Bent;
-    let end_s = if (!bent && s_k - need <= 0.5 * need) || s_k - need < shortest_mm {
+    let end_s = if s_k - need <= 0.5 * need || s_k - need < shortest_mm {
         s_k
     } else {
         let s_new = need.max(s_before + shortest_mm);
@@ -547,7 +449,7 @@ fn plan_ramp(
     }
     // A smooth ramp's inner points, about `shortest_mm` apart, where no
     // target is within half of that already.
-    if shape == RampShape::Smooth && end_s > 2.0 * shortest_mm {
+    if smooth && end_s > 2.0 * shortest_mm {
         let n = (end_s / shortest_mm).floor() as usize;
         let step = end_s / n as f64;
         let mut inner = Vec::new();
@@ -568,49 +470,14 @@ fn plan_ramp(
         insert.sort_by(|a, b| a.3.partial_cmp(&b.3).unwrap_or(std::cmp::Ordering::Equal));
         window.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal));
     }
-    // A bent ramp's inner points: the vertices of its profile
-    // ([`bent_ramp_nodes_mm`]), stretched to the ramp's end; a vertex with a
-    // target within half the shortest piece of it moves onto that target.
-    let profile: Vec<(f64, f64)> = if bent {
-        let nodes = bent_ramp_nodes_mm(ramp_ratio_mm(delta, kink_tolerance), shortest_mm, end_s);
-        let mut vertices = vec![0.0];
-        for &s in &nodes[1..nodes.len() - 1] {
-            if let Some(&(_, w)) = window
-                .iter()
-                .find(|(_, w)| *w > 0.0 && (w - s).abs() < 0.5 * shortest_mm)
-            {
-                vertices.push(w);
-                continue;
-            }
-            let j = (index..=k).find(|j| along(*j) > s).unwrap_or(k);
-            let s_from = if j == index { 0.0 } else { along(j - 1) };
-            let (p, param) = point_at(j, s_from, s);
-            insert.push((j, p, param, s));
-            window.push((p, s));
-            vertices.push(s);
-        }
-        vertices.push(end_s);
-        insert.sort_by(|a, b| a.3.partial_cmp(&b.3).unwrap_or(std::cmp::Ordering::Equal));
-        window.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal));
-        let profile = bent_ramp_profile(&vertices);
-        // The slope changes by the same step at every vertex: no more than
-        // the tangency share allows on any axis.
-        let turn = bent_ramp_turn_per_mm(&profile);
-        if (0..3).any(|a| delta[a].abs() * turn > RAMP_SHARE * kink_tolerance[a] * (1.0 + 1e-9)) {
-            return Ok(None);
-        }
-        profile
-    } else {
-        vec![(0.0, 0.0), (end_s, 1.0)]
-    };
     let fracs: Vec<f64> = window
         .iter()
         .map(|(_, s)| {
-            if shape == RampShape::Smooth {
-                let u = (s / end_s).clamp(0.0, 1.0);
+            let u = (s / end_s).clamp(0.0, 1.0);
+            if smooth {
                 1.0 - u * u * (3.0 - 2.0 * u)
             } else {
-                1.0 - profile_at(&profile, *s)
+                1.0 - u
             }
         })
         .collect();
@@ -618,7 +485,6 @@ fn plan_ramp(
     // turn against its direction on it (an axis in `hold` stands instead,
     // [`hold_on_ramp`]).
     let mut prev = q_prev;
-    let mut written = Vec::with_capacity(window.len());
     for ((t, _), f) in window.iter().zip(&fracs) {
         let sol = solve_fixed_in(cells, model, options.method, *t, point.s, [false; 3], prev)?;
         let mut q = quantize(sol.q_mm - delta * *f, prev);
@@ -628,52 +494,25 @@ fn plan_ramp(
                 return Ok(None);
             }
         }
-        written.push(q);
         prev = q;
     }
     let end_t = window.last().map_or(t_prev, |w| w.0);
-    // The path's unit tangent `s` along it from `t_prev`.
-    let tangent_at = |s: f64| -> Vec3 {
-        let d = match arc {
-            Some(a) => {
-                let l = l_prev + s / a.length();
-                let h = 1e-6;
-                a.point_at((l + h).min(1.0)) - a.point_at((l - h).max(0.0))
-            }
-            None => end_t - t_prev,
-        };
-        let n = d.norm();
-        if n > 0.0 {
-            d * (1.0 / n)
-        } else {
-            d
-        }
-    };
     let bound = match arc {
         Some(a) => {
             let l_end = l_prev + end_s / a.length();
+            let h = 1e-6;
             fold_deviation_along_mm(lags, q_prev, prev, &|lambda| {
-                tangent_at((l_end - l_prev) * lambda * a.length())
+                let l = l_prev + (l_end - l_prev) * lambda;
+                let d = a.point_at((l + h).min(1.0)) - a.point_at((l - h).max(0.0));
+                let n = d.norm();
+                if n > 0.0 {
+                    d * (1.0 / n)
+                } else {
+                    d
+                }
             })
         }
         None => fold_deviation_mm(lags, q_prev, prev, end_t - t_prev),
-    };
-    // A bent or smooth ramp's catch-up is not linear along it: its bound
-    // is taken piece by piece from the commands it writes as well.
-    let bound = if shape == RampShape::Straight {
-        bound
-    } else {
-        let start = (
-            q_prev,
-            cells.actual_mm(model, q_prev, point.s, Components::All)? - t_prev,
-            tangent_at(0.0),
-        );
-        let mut points = Vec::with_capacity(written.len());
-        for (q, (t, s)) in written.iter().zip(&window) {
-            let image = cells.actual_mm(model, *q, point.s, Components::All)?;
-            points.push((*q, image - *t, tangent_at(*s)));
-        }
-        bound.max(ramp_deviation_mm(lags, start, &points))
     };
     if bound > tolerance_mm {
         return Ok(None);
@@ -682,7 +521,6 @@ fn plan_ramp(
         fracs,
         insert: insert.into_iter().map(|(j, p, l, _)| (j, p, l)).collect(),
         bound_mm: bound,
-        own_targets: k - index,
     }))
 }
 
@@ -710,129 +548,22 @@ fn ramp_floor_mm(rule: TakeUpRule, run: &Run, index: usize) -> f64 {
 
 /// The shortest ramp (mm) of a take-up `delta` whose joins the planner
 /// takes as tangent ([`RampPlan`]): a straight ramp turns the path by
-/// `|Δ|/L` at both ends, so it needs `L = |Δ|/κ` (κ the share
-/// [`RAMP_SHARE`] of the tangency tolerance `kink_tolerance`); a smooth
-/// step `3u² − 2u³` over pieces of `ℓ` (`shortest_mm`) turns it by at most
-/// `6|Δ|ℓ/L²` at each join, so it needs only `L = √(6|Δ|ℓ/κ)`; a bent one
-/// ([`bent_ramp_nodes_mm`]) needs `|Δ|/(pκ) + (p − 1)ℓ` for `p` bends.
-fn ramp_length_mm(
-    delta: Vec3,
-    kink_tolerance: [f64; 3],
-    shortest_mm: f64,
-    shape: RampShape,
-) -> f64 {
-    match shape {
-        RampShape::Straight => ramp_ratio_mm(delta, kink_tolerance),
-        RampShape::Smooth => (0..3).fold(0.0f64, |m, i| {
-            let kappa = (RAMP_SHARE * kink_tolerance[i]).max(1e-300);
-            let straight = delta[i].abs() / kappa;
-            m.max(
-                (6.0 * delta[i].abs() * shortest_mm / kappa)
-                    .sqrt()
-                    .min(straight),
-            )
-        }),
-        RampShape::Bent => {
-            let ratio_mm = ramp_ratio_mm(delta, kink_tolerance);
-            let p = bent_ramp_bends(ratio_mm, shortest_mm);
-            ratio_mm / p as f64 + (p - 1) as f64 * shortest_mm
-        }
-    }
-}
-
-/// The straight ramp's length (mm) of a take-up `delta`: the largest
-/// `|Δ_i| / κ_i` over the axes, κ the share [`RAMP_SHARE`] of the
-/// tangency tolerance `kink_tolerance`.
-fn ramp_ratio_mm(delta: Vec3, kink_tolerance: [f64; 3]) -> f64 {
+/// `|Δ|/L` at both ends; a `smooth` step `3u² − 2u³` over pieces of `ℓ`
+/// (`shortest_mm`) turns it by at most `6|Δ|ℓ/L²` at each join, so it
+/// needs only `L = √(6|Δ|ℓ/κ)` (κ the share [`RAMP_SHARE`] of the
+/// tangency tolerance `kink_tolerance`).
+fn ramp_length_mm(delta: Vec3, kink_tolerance: [f64; 3], shortest_mm: f64, smooth: bool) -> f64 {
     (0..3).fold(0.0f64, |m, i| {
         let kappa = (RAMP_SHARE * kink_tolerance[i]).max(1e-300);
-        m.max(delta[i].abs() / kappa)
+        let straight = delta[i].abs() / kappa;
+        m.max(if smooth {
+            (6.0 * delta[i].abs() * shortest_mm / kappa)
+                .sqrt()
+                .min(straight)
+        } else {
+            straight
+        })
     })
-}
-
-/// The most bends at each end of a smooth ramp: `2p − 1` pieces. LinuxCNC's
-/// look-ahead (tp.c `tpRunOptimization`) stops its backward pass once more
-/// than `TP_OPTIMIZATION_CUTOFF` (4, tp_types.h) segments were found at
-/// their speed limit: a run of more than six short pieces after a long one
-/// leaves the long one's end speed at what the run queued behind it allowed
-/// (docs/compensation.md, "Runs of short pieces after a long one"). Five
-/// pieces leave room for a piece or two of the path's own around them.
-const BENT_RAMP_MAX_BENDS: usize = 3;
-
-/// The bends `p` at each end of a smooth ramp whose straight length is
-/// `ratio_mm` ([`ramp_ratio_mm`]): the most, up to [`BENT_RAMP_MAX_BENDS`],
-/// whose middle piece `ratio/p − (p − 1)ℓ` is at least `ℓ`
-/// (`shortest_mm`), i.e. `p²ℓ ≤ ratio`; the ramp `ratio/p + (p − 1)ℓ` is
-/// shortest there (it falls with `p` while `p² ℓ < ratio`).
-fn bent_ramp_bends(ratio_mm: f64, shortest_mm: f64) -> usize {
-    (1..=BENT_RAMP_MAX_BENDS)
-        .rev()
-        .find(|p| ((p * p) as f64) * shortest_mm <= ratio_mm)
-        .unwrap_or(1)
-}
-
-/// The vertices (mm along the path, from 0 to `end_mm`) of a smooth ramp
-/// whose straight length is `ratio_mm`: a straight ramp bent at each end
-/// in `p − 1` pieces of `ℓ` (`shortest_mm`; [`bent_ramp_bends`]) whose
-/// slopes climb `1, 2, …, p` steps to the middle piece and back down
-/// ([`bent_ramp_profile`]), so the slope changes by one step at each of
-/// its `2p` vertices, the ends included: the piecewise-linear profile of
-/// `2p − 1` pieces with the least length for that turn (the middle piece,
-/// steepest, takes what the bends do not). The lengths are stretched to
-/// `end_mm`, which turns the path less.
-fn bent_ramp_nodes_mm(ratio_mm: f64, shortest_mm: f64, end_mm: f64) -> Vec<f64> {
-    let p = bent_ramp_bends(ratio_mm, shortest_mm);
-    let side = (p - 1) as f64 * shortest_mm;
-    let middle = ratio_mm / p as f64 - side;
-    let scale = end_mm / (2.0 * side + middle);
-    let mut nodes: Vec<f64> = (0..p).map(|j| j as f64 * shortest_mm * scale).collect();
-    nodes.extend(
-        (0..p)
-            .rev()
-            .map(|j| end_mm - j as f64 * shortest_mm * scale),
-    );
-    nodes
-}
-
-/// The share of the step made at each vertex of a bent ramp (mm along the
-/// path, the first 0): the `j`-th of its `n` pieces (from 0) climbs with
-/// slope `min(j + 1, n − j)/A`, `A` the sum of those weights times the
-/// pieces' lengths, so the slope changes by `1/A` at every vertex.
-fn bent_ramp_profile(vertices: &[f64]) -> Vec<(f64, f64)> {
-    let n = vertices.len().saturating_sub(1);
-    let weight = |j: usize| (j + 1).min(n - j) as f64;
-    let area: f64 = (0..n)
-        .map(|j| weight(j) * (vertices[j + 1] - vertices[j]))
-        .sum();
-    let mut at = 0.0;
-    let mut profile = vec![(vertices[0], 0.0)];
-    for j in 0..n {
-        at += weight(j) * (vertices[j + 1] - vertices[j]) / area;
-        profile.push((vertices[j + 1], at));
-    }
-    profile
-}
-
-/// The change of slope at each vertex of a bent ramp's `profile` per unit
-/// step (1/mm): its first piece's slope.
-fn bent_ramp_turn_per_mm(profile: &[(f64, f64)]) -> f64 {
-    match profile {
-        [(s0, f0), (s1, f1), ..] if s1 > s0 => (f1 - f0) / (s1 - s0),
-        _ => f64::INFINITY,
-    }
-}
-
-/// The share of the step a piecewise-linear `profile` has made at `s`
-/// (mm along the path): 0 before it, 1 after it.
-fn profile_at(profile: &[(f64, f64)], s: f64) -> f64 {
-    let Some(j) = profile.iter().position(|(v, _)| *v >= s) else {
-        return 1.0;
-    };
-    if j == 0 {
-        return profile[0].1;
-    }
-    let ((s0, f0), (s1, f1)) = (profile[j - 1], profile[j]);
-    f0 + (f1 - f0) * (s - s0) / (s1 - s0)
 }
 
 /// On a take-up moved ahead ([`Ahead`]), an axis in `hold` whose command
@@ -980,54 +711,7 @@ struct Snapshot {
     summary: super::CompensateSummary,
     ramp_on: bool,
     last_lead: Option<usize>,
-    ramp_inserted: Option<(usize, RampShape)>,
-    switches: [Option<Switch>; 3],
-}
-
-/// An axis' last reversal in a motion ([`carried_lags_mm`]): its command
-/// there (mm), the lag it switched (the band's, with what an earlier one
-/// left), and the reversal before it (for solving the same one again).
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Switch {
-    q_mm: f64,
-    lag: Vec3,
-    before: Option<(f64, Vec3)>,
-}
-
-/// The lags of a reversal at the command `q` with the switches `lags`
-/// ([`switch_lags_mm`]), with what each reversing axis' previous reversal
-/// in `switches` left: an axis that reverses again before its command has
-/// crossed the band it switched there (travel `T < b`) still carries
-/// `(1 − T/b)` of that lag, and the new switch adds to it (the simulator's
-/// dead band, simulate/mod.rs: "an axis that reverses again before its
-/// band is crossed adds the new switch to what is left"). The reversal
-/// recorded at the same command is the one being solved again: the one
-/// before it counts. Updates `switches` with the lags returned.
-fn carried_lags_mm(lags: &[Vec3; 3], switches: &mut [Option<Switch>; 3], q: Vec3) -> [Vec3; 3] {
-    let mut out = *lags;
-    for a in 0..3 {
-        if lags[a] == Vec3::ZERO {
-            continue;
-        }
-        let before = match switches[a] {
-            Some(sw) if sw.q_mm == q[a] => sw.before,
-            Some(sw) => Some((sw.q_mm, sw.lag)),
-            None => None,
-        };
-        if let Some((q_at, lag)) = before {
-            let band = lag[a].abs();
-            let travel = (q[a] - q_at).abs();
-            if band > 0.0 && travel < band {
-                out[a] += lag * (1.0 - travel / band);
-            }
-        }
-        switches[a] = Some(Switch {
-            q_mm: q[a],
-            lag: out[a],
-            before,
-        });
-    }
-    out
+    ramp_inserted: Option<usize>,
 }
 
 /// A take-up moved ahead of an S-curve under G61/G61.1: the reversal
@@ -1390,12 +1074,10 @@ impl State<'_> {
         let mut last_lead: Option<usize> = None;
         // A take-up being spread along the path ([`RampPlan`]): the take-up
         // and the share of it still to catch up at each next target; and
-        // the index a ramp's end was last inserted before, with its shape
-        // (one insertion per reversal; planned again in that shape).
+        // the index a ramp's end was last inserted before (one insertion
+        // per reversal).
         let mut ramp: Option<(Vec3, std::collections::VecDeque<f64>, f64, [bool; 3])> = None;
-        let mut ramp_inserted: Option<(usize, RampShape)> = None;
-        // Each axis' last reversal in the motion ([`carried_lags_mm`]).
-        let mut switches: [Option<Switch>; 3] = [None; 3];
+        let mut ramp_inserted: Option<usize> = None;
         // Take-ups moved ahead of an S-curve ([`Ahead`]): the state before
         // each target (kept only where one may happen), the one pending,
         // and the transitions already tried.
@@ -1432,7 +1114,6 @@ impl State<'_> {
                     ramp_on: ramp.is_some(),
                     last_lead,
                     ramp_inserted,
-                    switches,
                 });
             }
             let t = &targets[index];
@@ -1659,7 +1340,7 @@ impl State<'_> {
                             tu - self.q_out,
                             options.planner.tangent_tolerance(v_mm_s.max(1e-9), true),
                             shortest,
-                            RampShape::Smooth,
+                            true,
                         );
                         let len = arc.length();
                         let l_end = pieces[tr.index - 1];
@@ -1707,8 +1388,7 @@ impl State<'_> {
                 self.go_back(&history[p], p, (&mut commands, &mut records));
                 history.truncate(p + 1);
                 let h = &history[p];
-                (t_prev, last_lead, ramp_inserted, switches) =
-                    (h.t_prev, h.last_lead, h.ramp_inserted, h.switches);
+                (t_prev, last_lead, ramp_inserted) = (h.t_prev, h.last_lead, h.ramp_inserted);
                 (ramp, forced, ahead_hold) = (None, None, None);
                 ahead_saved = Some((
                     targets.clone(),
@@ -1787,14 +1467,6 @@ impl State<'_> {
                     point.reversed,
                 )
                 .map_err(|source| model_error(file, line, source))?;
-                // Under G61 a ramp's bound counts what an earlier reversal
-                // of the same axis left in its band.
-                let carried = carried_lags_mm(&lags, &mut switches, self.q_out);
-                let ramp_lags = if matches!(rule, TakeUpRule::Exact { .. }) {
-                    carried
-                } else {
-                    lags
-                };
                 let bound = fold_deviation_mm(&lags, self.q_out, point.q_mm, *t - t_prev);
                 // On an arc piece the bound above, taken along its chord,
                 // may fall short of what the tool leaves beside the arc; the
@@ -1851,30 +1523,8 @@ impl State<'_> {
                     // ramp run longer; as short as tangency allows where
                     // that leaves the tool too far off.
                     let floor = ramp_floor_mm(rule, &run, index);
-                    // Under G61 the bent ramp first (five pieces at most),
-                    // the smooth step where that one is refused, or where
-                    // the path is already cut inside the ramp (a
-                    // transition's or a normal step's pieces): the run is
-                    // not shortened there, and the bent ramp turns the path
-                    // by its whole share at every vertex, each taking that
-                    // share of the pieces' acceleration (tp.c
-                    // `tpSetupTangent`, `kink_accel_reduce`). A ramp
-                    // planned again over the targets it inserted keeps its
-                    // shape.
-                    let exact = matches!(rule, TakeUpRule::Exact { .. });
-                    let again = ramp_inserted.filter(|(i, _)| *i == index).map(|(_, s)| s);
-                    let shapes: &[RampShape] = match again {
-                        Some(RampShape::Bent) => &[RampShape::Bent, RampShape::Smooth],
-                        Some(RampShape::Smooth) => &[RampShape::Smooth],
-                        _ if exact => &[RampShape::Bent, RampShape::Smooth],
-                        _ => &[RampShape::Straight],
-                    };
-                    let tries = shapes.iter().flat_map(|shape| {
-                        std::iter::once((*shape, floor))
-                            .chain((floor > 0.0).then_some((*shape, 0.0)))
-                    });
-                    for (shape, floor_mm) in tries {
-                        let plan = plan_ramp(
+                    for floor_mm in [floor, 0.0] {
+                        planned = plan_ramp(
                             &mut cells,
                             model,
                             options,
@@ -1884,7 +1534,7 @@ impl State<'_> {
                             &point,
                             (
                                 delta,
-                                &ramp_lags,
+                                &lags,
                                 ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
                             ),
                             (
@@ -1894,22 +1544,16 @@ impl State<'_> {
                                 pre_length,
                                 floor_mm,
                             ),
-                            shape,
+                            matches!(rule, TakeUpRule::Exact { .. }),
                         )
                         .map_err(|source| model_error(file, line, source))?
-                        .filter(|p| p.insert.is_empty() || again.is_none());
-                        let cut = shape == RampShape::Bent
-                            && again.is_none()
-                            && plan.as_ref().is_some_and(|p| p.own_targets > 0);
-                        if let Some(plan) = plan {
-                            planned = Some((plan, shape));
-                            if !cut {
-                                break;
-                            }
+                        .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index));
+                        if planned.is_some() || floor <= 0.0 {
+                            break;
                         }
                     }
                 }
-                if let Some((plan, shape)) = planned {
+                if let Some(plan) = planned {
                     if !plan.insert.is_empty() {
                         // The ramp ends inside a piece (or a smooth ramp
                         // has inner points): they become targets, last
@@ -1923,7 +1567,7 @@ impl State<'_> {
                                 tr.index += 1;
                             }
                         }
-                        ramp_inserted = Some((index, shape));
+                        ramp_inserted = Some(index);
                         // Solved in the state the reversal turned to.
                         forced = Some(point.s);
                         continue;
@@ -2170,8 +1814,7 @@ impl State<'_> {
                     self.go_back(&history[p], p, (&mut commands, &mut records));
                     history.truncate(p + 1);
                     let h = &history[p];
-                    (t_prev, last_lead, ramp_inserted, switches) =
-                        (h.t_prev, h.last_lead, h.ramp_inserted, h.switches);
+                    (t_prev, last_lead, ramp_inserted) = (h.t_prev, h.last_lead, h.ramp_inserted);
                     (ramp, forced) = (None, None);
                     // The targets are the motion's own again (the ramp's
                     // start point and what its ramp inserted go).
@@ -2791,122 +2434,5 @@ mod tests {
             let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
             assert_eq!(bits(fast), bits(slow), "{q_prev:?} {s_old:?} {reversed:?}");
         }
-    }
-
-    #[test]
-    fn a_bent_ramp_turns_by_one_step_at_each_of_its_vertices() {
-        // Straight length r = 6 mm, ℓ = 0.2 mm: three bends (3²·0.2 = 1.8
-        // ≤ 6 < 4²·0.2), so by hand five pieces 0.2, 0.2, m, 0.2, 0.2 with
-        // the middle m = r/3 − 2ℓ = 1.6 mm, L = 2.4 mm; their weights
-        // 1, 2, 3, 2, 1 give the area 0.2 + 0.4 + 4.8 + 0.4 + 0.2 = 6 = r.
-        use super::{bent_ramp_bends, bent_ramp_nodes_mm, bent_ramp_profile};
-        use super::{bent_ramp_turn_per_mm, profile_at, ramp_length_mm, RampShape};
-        assert_eq!(bent_ramp_bends(6.0, 0.2), 3);
-        assert_eq!(bent_ramp_bends(1.0, 0.2), 2);
-        assert_eq!(bent_ramp_bends(0.5, 0.2), 1);
-        let nodes = bent_ramp_nodes_mm(6.0, 0.2, 2.4);
-        let by_hand = [0.0, 0.2, 0.4, 2.0, 2.2, 2.4];
-        assert_eq!(nodes.len(), by_hand.len());
-        for (n, h) in nodes.iter().zip(by_hand) {
-            assert!((n - h).abs() < 1e-12, "{nodes:?}");
-        }
-        let profile = bent_ramp_profile(&nodes);
-        let rise = [0.0, 0.2 / 6.0, 0.6 / 6.0, 5.4 / 6.0, 5.8 / 6.0, 1.0];
-        for ((_, f), h) in profile.iter().zip(rise) {
-            assert!((f - h).abs() < 1e-12, "{profile:?}");
-        }
-        // A second method: each piece's slope from the profile, and their
-        // changes at every vertex (from 0 before the ramp to 0 after it).
-        let mut slopes = vec![0.0];
-        slopes.extend(
-            profile
-                .windows(2)
-                .map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0)),
-        );
-        slopes.push(0.0);
-        for w in slopes.windows(2) {
-            assert!(
-                ((w[1] - w[0]).abs() - 1.0 / 6.0).abs() < 1e-12,
-                "{slopes:?}"
-            );
-        }
-        assert!((bent_ramp_turn_per_mm(&profile) - 1.0 / 6.0).abs() < 1e-12);
-        assert!((profile_at(&profile, 1.2) - 0.5).abs() < 1e-12);
-        assert_eq!(profile_at(&profile, 3.0), 1.0);
-        // A take-up of 6κ on one axis needs r = 6 mm straight, 2.4 mm bent.
-        let kappa = 1e-3 / super::RAMP_SHARE;
-        let delta = Vec3::new(0.0, 6e-3, 0.0);
-        let tol = [kappa, kappa, kappa];
-        assert!((ramp_length_mm(delta, tol, 0.2, RampShape::Straight) - 6.0).abs() < 1e-9);
-        assert!((ramp_length_mm(delta, tol, 0.2, RampShape::Bent) - 2.4).abs() < 1e-9);
-    }
-
-    #[test]
-    fn a_ramp_whose_catch_up_lags_the_straight_one_is_bounded_piece_by_piece() {
-        // A path along Y; X reversed with a band b = 2 µm (its lag all
-        // along X, across the path). The ramp has two pieces of equal
-        // length; the image of each command sits short of its target by
-        // the share not yet caught up, `−b(1 − φ)` along X, and X's
-        // command travels `bφ + D` (D the compensation's own drift along X
-        // in the new direction). Vertex: φ = 0.1, D = 0.2 µm; end: φ = 1,
-        // D = 0.8 µm.
-        use super::{fold_deviation_mm, ramp_deviation_mm};
-        let b = 2e-3;
-        let lags = [Vec3::new(b, 0.0, 0.0), Vec3::ZERO, Vec3::ZERO];
-        let y = Vec3::new(0.0, 1.0, 0.0);
-        let point = |phi: f64, d: f64, s: f64| {
-            (
-                Vec3::new(b * phi + d, s, 0.0),
-                Vec3::new(-b * (1.0 - phi), 0.0, 0.0),
-                y,
-            )
-        };
-        let start = point(0.0, 0.0, 0.0);
-        let points = [point(0.1, 0.2e-3, 1.0), point(1.0, 0.8e-3, 2.0)];
-        // By hand: X's carriage stands while `φ + D/b < 1`, so the tool is
-        // off by D there: 0.2 µm at the vertex; on the second piece
-        // (fraction μ) `φ + D/b = 0.2 + 1.2μ` reaches 1 at μ = 2/3, where
-        // D = 0.2 + 0.6·2/3 = 0.6 µm; past it the band is crossed and the
-        // tool is off by `b(1 − φ)`, falling to 0 at the end.
-        let piecewise = ramp_deviation_mm(&lags, start, &points);
-        assert!((piecewise - 0.6e-3).abs() < 1e-12, "{piecewise}");
-        // The straight ramp's bound over the same end command (travel
-        // b + 0.8 µm, r = 1.4): `b(1 − 1/r) = 4/7 µm` at λ = 1/r, below it.
-        let straight = fold_deviation_mm(&lags, start.0, points[1].0, y * 2.0);
-        assert!((straight - 4e-3 / 7.0).abs() < 1e-12, "{straight}");
-        // A second method: with the catch-up linear (φ = 0.5 at the
-        // vertex, D = 0.4 µm) both bounds are the straight ramp's.
-        let linear = [point(0.5, 0.4e-3, 1.0), point(1.0, 0.8e-3, 2.0)];
-        let piecewise = ramp_deviation_mm(&lags, start, &linear);
-        assert!(
-            (piecewise - straight).abs() < 1e-12,
-            "{piecewise} {straight}"
-        );
-    }
-
-    #[test]
-    fn an_axis_reversing_again_inside_its_band_carries_what_is_left() {
-        // X reverses at 0 (lag +3 µm along X, +0.3 µm along Y), travels
-        // 2.86 µm, and reverses back (lag −3, −0.3 µm): by hand the band is
-        // 0.14 µm short, 0.14/3 of the first lag left, so the second
-        // reversal's lag is (−3 + 0.14, −0.3 + 0.014) µm.
-        use super::{carried_lags_mm, Switch};
-        let first = [Vec3::new(3e-3, 0.3e-3, 0.0), Vec3::ZERO, Vec3::ZERO];
-        let mut switches: [Option<Switch>; 3] = [None; 3];
-        let out = carried_lags_mm(&first, &mut switches, Vec3::ZERO);
-        assert_eq!(out, first);
-        let second = [-first[0], Vec3::ZERO, Vec3::ZERO];
-        let q = Vec3::new(2.86e-3, 0.0, 0.0);
-        let out = carried_lags_mm(&second, &mut switches, q);
-        let by_hand = Vec3::new(-2.86e-3, -0.286e-3, 0.0);
-        assert!((out[0] - by_hand).norm() < 1e-15, "{out:?}");
-        // The same reversal solved again counts the first one, not itself.
-        let again = carried_lags_mm(&second, &mut switches, q);
-        assert!((again[0] - by_hand).norm() < 1e-15, "{again:?}");
-        // Past the band nothing is carried: a third reversal 2.86 µm on.
-        let third = carried_lags_mm(&first, &mut switches, Vec3::ZERO);
-        assert!((third[0] - (first[0] + by_hand * (1.0 - 2.86 / 2.86))).norm() < 1e-15);
-        let fourth = carried_lags_mm(&second, &mut switches, Vec3::new(3.5e-3, 0.0, 0.0));
-        assert_eq!(fourth, second);
     }
 }
