@@ -209,9 +209,9 @@ G19 G3 X9.6192 Y-1.8657 Z-2.8659 J9.6467 K0\nG17\nG0 Z5.0000\nM2\n";
 /// A G61 program the random test drew: a plunge whose last piece takes
 /// Y up to its forward flank, then a line in X whose first command would
 /// turn Y back by less than Y's band, which once left 2.688 µm (the
-/// take-up stopped at the line's command, Y left inside its band).
+/// take-up stopped at the line's command, Y left inside its band; now Y
+/// keeps its direction and Z reverses instead: 0.043 µm).
 #[test]
-#[ignore = "2.688 um: L7's first piece reverses Y by less than its band, the take-up is cut at the piece's command (compensate/points.rs) and Y stays inside its band for 2.1 mm"]
 fn a_reversal_inside_the_band_after_a_plunge_stays_on_the_path() {
     let text = "G21 G90 G17 G94 G61\nG0 X0 Y0 Z5.0000\nG1 Z-5.0000 F400.0000\n\
 G0 Z5.0000\nG0 X17.8879 Y39.8462\nG1 Z-1.0000\n\
