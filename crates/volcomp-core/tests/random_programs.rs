@@ -206,6 +206,19 @@ G19 G3 X9.6192 Y-1.8657 Z-2.8659 J9.6467 K0\nG17\nG0 Z5.0000\nM2\n";
     follows_the_nominal_path(text, false).unwrap();
 }
 
+/// A G61 program the random test drew: a plunge whose last piece takes
+/// Y up to its forward flank, then a line in X whose first command would
+/// turn Y back by less than Y's band, which once left 2.688 µm (the
+/// take-up stopped at the line's command, Y left inside its band; now Y
+/// keeps its direction and Z reverses instead: 0.043 µm).
+#[test]
+fn a_reversal_inside_the_band_after_a_plunge_stays_on_the_path() {
+    let text = "G21 G90 G17 G94 G61\nG0 X0 Y0 Z5.0000\nG1 Z-5.0000 F400.0000\n\
+G0 Z5.0000\nG0 X17.8879 Y39.8462\nG1 Z-1.0000\n\
+G91 G1 X4.3141 Y0.0047\nG90\nG0 Z5.0000\nM2\n";
+    follows_the_nominal_path(text, false).unwrap();
+}
+
 proptest! {
     #![proptest_config(crate::common::proptest_config(48))]
 

@@ -7,7 +7,7 @@ use super::{
     command_error, model_error, CompensateOptions, DirectionPolicy, PointRecord, State, TakeUpRule,
 };
 use crate::compensate::solve::{
-    hold_small_reversals_in, solve_consistent_in, solve_fixed_in, Method,
+    hold_small_reversals_in, solve_consistent_in, solve_fixed_in, solve_keeping_in, Method,
 };
 use crate::error::{CompensationError, ModelError};
 use crate::model::next_state;
@@ -1438,10 +1438,78 @@ impl State<'_> {
             }
             // A take-up never goes past the segment's own command: the segment
             // must continue in the new direction, not reverse once more.
+            let mut short_mm = [0.0; 3];
             if let Some(tu) = take_up.as_mut() {
                 for a in 0..3 {
                     if point.reversed[a] && (tu[a] - point.q_mm[a]) * point.s[a].sign() > 0.0 {
+                        short_mm[a] = (tu[a] - point.q_mm[a]).abs();
                         tu[a] = point.q_mm[a];
+                    }
+                }
+            }
+            // Under G61 and G61.1, a reversing axis whose take-up that cut
+            // stops short of its new flank by more than the contour
+            // tolerance never crosses its band: the command turned back by
+            // less than the band, so the dead band keeps the carriage on
+            // its old flank (docs/compensation.md, "Take-ups folded into
+            // the move") and the state the point was solved in is not the
+            // machine's. The point is solved again with those axes in
+            // their old direction (the others reversing as they need), if
+            // that is consistent and its own take-ups reach their flanks.
+            let tolerance_mm = options.fold_tolerance_mm();
+            if let (Some(_), TakeUpRule::Exact { .. }, true) = (
+                take_up,
+                rule,
+                feed_like
+                    && !was_forced
+                    && transition.is_none()
+                    && ramp.is_none()
+                    && ahead.is_none()
+                    && short_mm.iter().any(|s| *s > tolerance_mm),
+            ) {
+                let keep = short_mm.map(|s| s > tolerance_mm);
+                let kept = solve_keeping_in(
+                    &mut cells,
+                    model,
+                    options.method,
+                    *t,
+                    (self.q_out, self.s),
+                    &quantize,
+                    keep,
+                )
+                .map_err(|source| model_error(file, line, source))?;
+                if let Some(kept) = kept {
+                    let tu = if kept.reversed.iter().any(|r| *r) {
+                        let mut tu = take_up_command(
+                            &mut cells,
+                            model,
+                            self.q_out,
+                            self.s,
+                            kept.s,
+                            kept.reversed,
+                            (kept.q_mm, true),
+                            if commands.is_empty() {
+                                first_take_up_frame
+                            } else {
+                                frame
+                            },
+                        )
+                        .map_err(|source| model_error(file, line, source))?;
+                        let mut reaches = true;
+                        for a in 0..3 {
+                            let past = (tu[a] - kept.q_mm[a]) * kept.s[a].sign();
+                            if kept.reversed[a] && past > 0.0 {
+                                reaches &= past <= tolerance_mm;
+                                tu[a] = kept.q_mm[a];
+                            }
+                        }
+                        reaches.then_some(Some(tu))
+                    } else {
+                        Some(None)
+                    };
+                    if let Some(tu) = tu {
+                        point = kept;
+                        take_up = tu;
                     }
                 }
             }

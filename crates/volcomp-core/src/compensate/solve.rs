@@ -278,9 +278,15 @@ pub(crate) fn solve_consistent_in(
     // done right").
     let flips = flipped.iter().filter(|f| **f).count();
     if hold.contains(&true) || !walked_to_consistent || flips > 1 {
-        if let Some((found_sol, found_q, found_s)) =
-            search_states(cells, model, method, t_mm, (q_prev, s_prev), quantize)?
-        {
+        if let Some((found_sol, found_q, found_s)) = search_states(
+            cells,
+            model,
+            method,
+            t_mm,
+            (q_prev, s_prev),
+            quantize,
+            [false; 3],
+        )? {
             sol = found_sol;
             q = found_q;
             s = found_s;
@@ -430,9 +436,40 @@ fn consistent_state(
     })
 }
 
+/// The point solved in the consistent direction state with the fewest
+/// reversals from `s_prev` in which the `keep` axes keep their direction
+/// (the smallest residual among equals), or `None` where no such state is
+/// consistent: the state a dead band leaves where a reversal of a `keep`
+/// axis would not carry its carriage across its band (docs/compensation.md,
+/// "Take-ups folded into the move").
+pub(crate) fn solve_keeping_in(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    method: Method,
+    t_mm: Vec3,
+    (q_prev, s_prev): (Vec3, Directions),
+    quantize: &dyn Fn(Vec3) -> Vec3,
+    keep: [bool; 3],
+) -> Result<Option<PointSolution>, ModelError> {
+    let Some((sol, q, s)) =
+        search_states(cells, model, method, t_mm, (q_prev, s_prev), quantize, keep)?
+    else {
+        return Ok(None);
+    };
+    let residual_um = (t_mm - cells.actual_again_mm(model, q, s)?).norm() * 1e3;
+    Ok(Some(PointSolution {
+        q_mm: q,
+        s,
+        iterations: sol.iterations,
+        residual_um,
+        reversed: [0, 1, 2].map(|a| s[a] != s_prev[a]),
+        held: [false; 3],
+    }))
+}
+
 /// The consistent direction state with the fewest reversals from `s_prev`
-/// (the smallest residual among equals), with no axis held; `None` when no
-/// state of the 2³ is consistent.
+/// (the smallest residual among equals), with no axis held and no `keep`
+/// axis reversed; `None` when no such state of the 2³ is consistent.
 fn search_states(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,
@@ -440,9 +477,13 @@ fn search_states(
     t_mm: Vec3,
     (q_prev, s_prev): (Vec3, Directions),
     quantize: &dyn Fn(Vec3) -> Vec3,
+    keep: [bool; 3],
 ) -> Result<Option<(Solved, Vec3, Directions)>, ModelError> {
     let mut best: Option<(usize, f64, Solved, Vec3, Directions)> = None;
     for bits in 0..8u8 {
+        if (0..3).any(|a| keep[a] && bits & (1 << a) != 0) {
+            continue;
+        }
         let s = [0, 1, 2].map(|a| {
             if bits & (1 << a) != 0 {
                 s_prev[a].flipped()
