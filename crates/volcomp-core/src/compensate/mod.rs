@@ -490,7 +490,7 @@ impl<'w> State<'w> {
                 && options.directions == DirectionPolicy::Commanded
                 && options.take_up_rule(run.mode) == TakeUpRule::Exact { smooth: true };
             if let (true, true, Some(f)) = (smooth, joins.hold_end, run.feed_mm_min) {
-                let min_mm = options.arc_tolerances_mm().1;
+                let min_mm = options.arc_tolerances_mm(run.mode).1;
                 held_end = arcs::line_tail(
                     (motion.start, motion.end),
                     interp.plane(),
@@ -1089,7 +1089,8 @@ impl<'w> State<'w> {
         if !self.line_words.is_empty() {
             // The piece rounded to nothing: the mode on a line of its own.
             self.text.clear();
-            self.text.push_str(&std::mem::take(&mut self.line_words));
+            self.text
+                .extend_from_slice(std::mem::take(&mut self.line_words).as_bytes());
             self.push_inserted(&place, "path mode");
             self.summary.path_mode_lines += 1;
         }
