@@ -640,6 +640,16 @@ fn join_deviation(r1: f64, r2: f64, b: f64, arcs: &[BiarcArc; 2]) -> Option<f64>
     engaged.then_some(worst)
 }
 
+/// The shortest part after the join (mm) of a join window run at `v`
+/// (mm/s): the length the planner runs at `v` in `TP_MIN_SEGMENT_CYCLES`
+/// (1.02, src/emc/tp/tp_types.h) servo periods (tp.c,
+/// `tpComputeOptimalVelocity`), plus 10 µm for the rounding of the cut
+/// and the written words.
+pub(super) fn min_join_after_mm(v: f64, planner: &PlannerLimits) -> f64 {
+    const TP_MIN_SEGMENT_CYCLES: f64 = 1.02;
+    v * planner.servo_period_s * TP_MIN_SEGMENT_CYCLES + 0.01
+}
+
 /// The window of a quarter point that falls on a block join (the block
 /// before an arc of radius `r1` or a line, `r1` infinite, the one after an
 /// arc of radius `r2`, the original
@@ -650,6 +660,15 @@ fn join_deviation(r1: f64, r2: f64, b: f64, arcs: &[BiarcArc; 2]) -> Option<f64>
 /// the tool within `tol` at the least time ([`best_window`]'s cost, the
 /// feed `v` capped by the tighter block's `√(a_n r)`); `None` where none
 /// does.
+///
+/// The S-curve is cut on the normal through the join and the part after
+/// the cut is written as a segment of its own ([`super::arcs::split_at_normal`]),
+/// at least as long as the part after the join. LinuxCNC's planner caps a
+/// segment's speed at its length per `TP_MIN_SEGMENT_CYCLES` (1.02) servo
+/// periods (src/emc/tp/tp.c, `tpComputeOptimalVelocity`: `sample_maxvel =
+/// tc->target / (tp->cycleTime * TP_MIN_SEGMENT_CYCLES)`), so a part after
+/// the join shorter than [`min_join_after_mm`] would slow the tool below
+/// the window's speed: such lengths are not searched.
 pub(super) fn join_window(
     (r1, r2): (f64, f64),
     b: f64,
@@ -667,10 +686,12 @@ pub(super) fn join_window(
     let r = r1.min(r2);
     let v = v.min((a_n * r).sqrt());
     let a_t = a_min * (1.0 - ((v * v / r) / a_min).min(1.0).powi(2)).sqrt();
+    let shortest_mm = min_join_after_mm(v, planner);
     let mut best: Option<Window> = None;
     for w2 in (0..40)
         .map(|k| 0.005 * 1.25f64.powi(k))
         .take_while(|w| *w <= 0.25 * r2)
+        .filter(|w| *w >= shortest_mm)
     {
         let Some(arcs) = join_biarc(r1, r2, b, before_mm, w2, widest) else {
             continue;
@@ -742,6 +763,23 @@ mod tests {
                 "{after_only:?} {ceiling}"
             );
             assert!(join.speed_mm_s > 1.5 * ceiling, "{join:?} {ceiling}");
+        }
+    }
+
+    #[test]
+    fn a_join_windows_part_after_the_join_is_run_at_the_feed() {
+        // A line into an R12 arc (the pocket's line→arc joins), a 4 µm
+        // band, 0.34 µm, F6000 on the bench machine: the part after the
+        // join is written as a segment of its own, which LinuxCNC runs at
+        // most at its length per 1.02 servo periods (tp.c,
+        // `tpComputeOptimalVelocity`); at 100 mm/s and 1 ms it is at least
+        // 100 · 0.001 · 1.02 = 0.102 mm long, so the window runs at the feed.
+        let planner = PlannerLimits::default();
+        let (b, tol, v) = (4e-3, 0.34e-3, 100.0);
+        for before_mm in [0.05, 0.2, 0.5] {
+            let w = join_window((f64::INFINITY, 12.0), b, tol, v, &planner, before_mm, true)
+                .expect("a window");
+            assert!(w.after_mm >= 0.102, "{w:?}");
         }
     }
 
