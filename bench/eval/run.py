@@ -7,8 +7,9 @@ joins it stops at or blends that were tangent in the original, the segments
 below their feed), and its accuracy under both dead-band readings
 (judge.py: RMS reduction, maximum, maximum at reversals and elsewhere).
 Under G61, the least time the dead band costs the original at the 0.5 µm
-goal (least.py: smooth reversals only; corners stop anyway), as a share of
-its cutting time: how close the compensated program comes to the physics.
+goal (least.py: smooth reversals, and corners whose reversing axis moved
+into them, the take-up at the stop; a corner after a move in which the axis
+stood still is free), as a share of its cutting time: how close the compensated program comes to the physics.
 
 With --planner VOLCOMP_WITH_TIME (a volcomp that has `volcomp time`, the
 machining-time estimate on a model of LinuxCNC 2.9's planner), the cutting
