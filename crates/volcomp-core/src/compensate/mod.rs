@@ -53,7 +53,7 @@ pub use targets::{target_count_bound, targets_of};
 
 use crate::error::{CompensationError, ModelError};
 use crate::model::next_state;
-use crate::model::{Directions, ErrorModel, ALL_FORWARD};
+use crate::model::{Components, Direction, Directions, ErrorModel, ALL_FORWARD};
 use frame::Frame;
 use lines::{
     arc_line_edits, explicit_mode, line_ending, stop_m_word, ArcWords, FeedInForce, InsertedFeed,
@@ -169,6 +169,7 @@ impl<'w> State<'w> {
             cycles: cycle_keep::Series::default(),
             tail: None,
             defer_points: false,
+            approached: false,
         }
     }
 
@@ -568,6 +569,17 @@ impl<'w> State<'w> {
         );
         self.defer_points = false;
         let commands = commands?;
+        // The program's first compensated motion, where a rapid: it ends
+        // with a short move towards its end from one side on every axis
+        // (`approach_point`), so each axis' dead band is in the state the
+        // compensation goes on from, wherever the machine stood before;
+        // not where take-ups are off (no move is written for a dead band).
+        let approach = match (self.approached, feed_like, commands.as_slice()) {
+            (false, false, [(q, None)]) if options.take_up => approach_point(model, *q, self.s)
+                .map_err(|source| model_error(file, ev.number, source))?,
+            _ => None,
+        };
+        self.approached = true;
         let place = Place {
             frame: &frame,
             style,
@@ -734,6 +746,16 @@ impl<'w> State<'w> {
         } else {
             line_ending
         };
+        if let Some(p) = approach {
+            let at = Place {
+                frame: &frame0,
+                style: style0,
+                ..place
+            };
+            self.write_inserted(&at, pos, p, OutMode::Rapid, "approach");
+            pos = p;
+            self.summary.approach_lines += 1;
+        }
         for (i, (q, take_up)) in commands.iter().enumerate() {
             if let Some(tu) = take_up {
                 // The first take-up runs before the line's own words: in the
@@ -1297,7 +1319,55 @@ struct State<'w> {
     /// rather than passed on (the block before's end, written with this
     /// motion's first S-curve, goes first: `write_join_split`).
     defer_points: bool,
+    /// Whether a motion has been compensated yet: the first one, where a
+    /// rapid, approaches its end from one side ([`approach_point`]).
+    approached: bool,
 }
+
+/// The point a program's first compensated rapid goes to before its end
+/// `q_mm` (command, axis frame), so that the last stretch of it moves every
+/// axis towards the end in the direction `s` the compensation holds there:
+/// `q − δ·sign(s)` per axis, `δ = 2·b + 10 µm` for the axis' reversal value
+/// `b` at `q` (the difference of its own component between its reverse and
+/// forward tables, docs/design.md's model); an axis whose reverse and forward
+/// tables agree at `q` stays at `q` (`None` where no axis moves: a map
+/// without direction-dependent tables writes the program as it was).
+///
+/// Before the program's first motion the machine's position, and so the
+/// direction its first rapid takes and the side each axis' dead band rests
+/// on, is not known: the model's `forward` before any motion (docs/design.md)
+/// is an assumption the machine need not meet. After a move of at least the
+/// band in one direction the band's state is that direction whatever it was
+/// before (a unidirectional approach, as in ISO 230-2's positioning tests),
+/// so from the end of this rapid on the machine is in the state the
+/// compensation assumes, and the tool reaches the rapid's end as solved.
+fn approach_point(
+    model: &dyn ErrorModel,
+    q_mm: Vec3,
+    s: Directions,
+) -> Result<Option<Vec3>, ModelError> {
+    let mut p = q_mm;
+    for a in 0..3 {
+        let mut fwd = s;
+        fwd[a] = Direction::Forward;
+        let mut rev = s;
+        rev[a] = Direction::Reverse;
+        let jump_um = model.deviation_um(q_mm, rev, Components::All)?
+            - model.deviation_um(q_mm, fwd, Components::All)?;
+        // An axis whose direction changes nothing here needs no approach.
+        if jump_um.norm() == 0.0 {
+            continue;
+        }
+        let delta_mm = (2.0 * jump_um[a].abs() + APPROACH_MARGIN_UM) * 1e-3;
+        p[a] -= delta_mm * s[a].sign();
+    }
+    Ok((p != q_mm).then_some(p))
+}
+
+/// What a program's first rapid approaches its end by beyond twice an
+/// axis' reversal value (µm, [`approach_point`]): a band of zero still gets
+/// a move of its own.
+const APPROACH_MARGIN_UM: f64 = 10.0;
 
 /// Edits of a line that sets an offset from the current point (G92, or
 /// G10 L20: "the current point has these coordinates"), so that the offset

@@ -387,6 +387,10 @@ pub struct CompensateSummary {
     pub take_ups: u64,
     /// Take-ups folded into the move that reverses (no block written).
     pub take_ups_folded: u64,
+    /// Lines written for the approach of the program's first rapid
+    /// (docs/compensation.md, "The first rapid approaches from one side"):
+    /// 0 or 1.
+    pub approach_lines: u64,
     /// The largest excursion from the path a folded take-up may leave
     /// (µm): the bound of docs/compensation.md, "Take-ups folded into the
     /// move", at most the reversal value.
