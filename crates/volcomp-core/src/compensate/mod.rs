@@ -28,6 +28,7 @@ mod line_limit;
 mod lines;
 mod options;
 mod points;
+mod ramp_cross;
 mod scurve;
 mod size;
 pub mod solve;
