@@ -140,6 +140,14 @@ fn plan(a: &CompensateArgs, map: &Path, output: &Path) -> Result<(), CliError> {
     Ok(())
 }
 
+/// What the machining-time estimate gets while the program is written:
+/// the program as it is made, and each line of the original as the
+/// compensation reads it (`plan::compare_while_writing_fed`).
+type Feeds<'a, 'b> = (
+    Option<&'a mut dyn Write>,
+    Option<&'b mut dyn FnMut(&volcomp_gcode::LineEvent<'_>)>,
+);
+
 /// Writes the compensated program to `output`, keeping what the other
 /// outputs need. As a LinuxCNC filter, prints `FILTER_PROGRESS=n`
 /// (percent), which AXIS reads from a filter's standard error (axis.py,
@@ -150,10 +158,7 @@ fn write_program(
     job: &Compensation,
     model: &dyn ErrorModel,
     staged: &mut Staged,
-    (stream, on_line): (
-        Option<&mut dyn Write>,
-        Option<&mut dyn FnMut(&volcomp_gcode::LineEvent<'_>)>,
-    ),
+    (stream, on_line): Feeds<'_, '_>,
 ) -> Result<Kept, CliError> {
     let mut percent = a.filter.then(|| LinePercent::of(&a.program));
     let mut points_csv = a.report.as_ref().map(|_| POINT_CSV_HEADER.to_string());

@@ -169,7 +169,8 @@ mod tests {
     fn program(zigzag: usize, computed: &str) -> String {
         let mut p = String::from("G21 G90 G17 G64\nG0 X0 Y0 Z5\nM3 S1000\nG1 Z0 F300\n");
         for i in 0..zigzag {
-            let y = (i / 2) as f64 * 0.25;
+            // Within the map's table (±500 mm).
+            let y = ((i / 2) % 200) as f64 * 0.25;
             let x = if i % 4 < 2 { 0.0 } else { 40.0 };
             writeln!(p, "G1 X{x:.3} Y{y:.3} F{}", 1500 + 500 * (i % 3)).unwrap();
             if i == zigzag / 2 {
@@ -219,7 +220,10 @@ mod tests {
         assert_eq!(fed, read);
         let o = read.original.unwrap();
         assert!(o.moves > 30_000 && o.waits >= 4, "{o:?}");
-        assert!(o.dwell_s == 0.5 && o.moves_by_mode.iter().all(|n| *n > 0), "{o:?}");
+        assert!(
+            o.dwell_s == 0.5 && o.moves_by_mode.iter().all(|n| *n > 0),
+            "{o:?}"
+        );
         assert!(o.motion.total_s > 100.0, "{o:?}");
     }
 
@@ -228,11 +232,14 @@ mod tests {
         // The compensation writes `X[10/3]` with the program's decimals;
         // the estimate's reading keeps every digit (3.3333333333333335),
         // so the original is read again from its start, after chunks of
-        // steps were sent.
-        let computed = "#1=[2/3]\nG1 X[10/3] Y#1 F[1000/3]\n";
+        // steps were sent. A dwell of `P[1/3]`, written `P0.333`, would
+        // change the dwell's sum were the compensation's lines planned.
+        let computed = "#1=[2/3]\nG1 X[10/3] Y#1 F[1000/3]\nG4 P[1/3]\n";
         let (fed, read) = fed_and_read(&program(20_000, computed));
         assert_eq!(fed, read);
-        assert!(read.original.unwrap().moves > 20_000);
+        let o = read.original.unwrap();
+        assert!(o.moves > 20_000);
+        assert_eq!(o.dwell_s, 0.5 + 1.0 / 3.0);
     }
 
     #[test]

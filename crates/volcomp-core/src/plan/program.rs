@@ -199,16 +199,14 @@ pub(super) fn steps_of_line(ev: &LineEvent<'_>, spindle_rpm: &mut f64, mut f: im
         f(Step::Dwell(dwell_s));
     }
     for m in ev.motions {
+        let length = match m.kind {
+            MotionKind::Arc(a) => a.length(),
+            _ => (m.end - m.start).norm(),
+        };
         let feed_mm_s = match m.feed_mode {
             FeedMode::PerMinute => m.feed / 60.0,
             // `feed` is the inverse-time value converted as a length.
-            FeedMode::InverseTime => {
-                let length = match m.kind {
-                    MotionKind::Arc(a) => a.length(),
-                    _ => (m.end - m.start).norm(),
-                };
-                length * (m.feed / units) / 60.0
-            }
+            FeedMode::InverseTime => length * (m.feed / units) / 60.0,
             FeedMode::PerRevolution => m.feed * *spindle_rpm / 60.0,
         };
         let kind = match m.kind {
