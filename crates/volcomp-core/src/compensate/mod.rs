@@ -65,7 +65,7 @@ use targets::check_target_count;
 use volcomp_gcode::edit::apply_edits;
 use volcomp_gcode::lexer::LineKind;
 use volcomp_gcode::number::NumberStyle;
-use volcomp_gcode::{FeedMode, MotionKind, MotionSource, Vec3, Walker};
+use volcomp_gcode::{FeedMode, LineEvent, MotionKind, MotionSource, Vec3, Walker};
 use walk::{Line, Place, Walk};
 
 /// Streams `walker`'s program to `out` with every program motion compensated.
@@ -76,7 +76,34 @@ pub fn compensate_program<R: BufRead>(
     program_style: &ProgramStyle,
     options: &CompensateOptions,
     out: &mut dyn Write,
+    on_point: impl FnMut(&PointRecord),
+) -> Result<CompensateSummary, CompensationError> {
+    let on_line = &mut |_: &LineEvent<'_>| {};
+    compensate_program_seen(
+        walker,
+        file,
+        model,
+        program_style,
+        options,
+        out,
+        on_point,
+        on_line,
+    )
+}
+
+/// [`compensate_program`], every line `walker` reads also given to
+/// `on_line` as it is read (a machining-time estimate of the original
+/// plans its moves: `crate::plan::compare_while_writing_fed`).
+#[allow(clippy::too_many_arguments)]
+pub fn compensate_program_seen<R: BufRead>(
+    walker: &mut Walker<R>,
+    file: &str,
+    model: &dyn ErrorModel,
+    program_style: &ProgramStyle,
+    options: &CompensateOptions,
+    out: &mut dyn Write,
     mut on_point: impl FnMut(&PointRecord),
+    on_line: &mut dyn FnMut(&LineEvent<'_>),
 ) -> Result<CompensateSummary, CompensationError> {
     let walk = Walk {
         model,
@@ -95,6 +122,7 @@ pub fn compensate_program<R: BufRead>(
     let mut out = line_limit::LineLimit::new(out);
     out.file = file;
     while let Some(ev) = walker.next_line()? {
+        on_line(&ev);
         out.source_line = ev.number;
         let line = st.begin_line(&ev);
         if st.tail.is_some() && !may_take_tail(&line) {
@@ -160,6 +188,8 @@ impl<'w> State<'w> {
             states: Vec::new(),
             ramp_mids: Vec::new(),
             records: Vec::new(),
+            targets: Vec::new(),
+            commands: Vec::new(),
             line_edits: lines::LineEdits::default(),
             cells: Some(Box::default()),
             transitions: Vec::new(),
@@ -472,7 +502,10 @@ impl<'w> State<'w> {
                 model,
                 self.s,
                 &mut self.estimate_mm,
-                self.cells.get_or_insert_with(Box::default),
+                (
+                    self.cells.get_or_insert_with(Box::default),
+                    std::mem::take(&mut self.targets),
+                ),
             )
             .map_err(|source| model_error(file, ev.number, source))?,
         };
@@ -927,6 +960,8 @@ impl<'w> State<'w> {
                 restore: tail_restore,
             });
         }
+        // The buffers back for the next motion line.
+        (self.targets, self.commands) = (targets, commands);
         Ok((frame, style))
     }
 
@@ -1270,6 +1305,10 @@ struct State<'w> {
     /// The per-point records of the motion being solved (a buffer kept
     /// between motions, compensate/points.rs).
     records: Vec<PointRecord>,
+    /// The targets and the solved commands of the motion line being
+    /// written (buffers kept between motion lines).
+    targets: Vec<Vec3>,
+    commands: Vec<(Vec3, Option<Vec3>)>,
     /// The edits of the line being written (a buffer kept between lines).
     line_edits: lines::LineEdits,
     /// The map's table cells last used ([`crate::model::AxisCells`]),

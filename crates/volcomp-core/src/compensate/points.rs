@@ -1062,7 +1062,10 @@ impl State<'_> {
             run,
         } = motion;
         let rule = options.take_up_rule(run.mode);
-        let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
+        // The buffer kept between motion lines (the writer gives it back).
+        let mut commands = std::mem::take(&mut self.commands);
+        commands.clear();
+        commands.reserve(targets.len());
         let commands_start = self.q_out;
         self.states.clear();
         self.ramp_mids.clear();
