@@ -96,7 +96,8 @@ fn a_zigzag_takes_up_x_during_the_y_step_in_every_path_mode() {
             "{mode}: {out}"
         );
         assert!(
-            s.reversals_text().contains("1 taken up ahead in an idle move"),
+            s.reversals_text()
+                .contains("1 taken up ahead in an idle move"),
             "{}",
             s.reversals_text()
         );
@@ -135,7 +136,11 @@ fn a_comment_between_the_step_and_the_pass_lets_the_step_go_as_solved() {
     let program = "G21 G90 G17 G64\nG0 X0 Y0 Z0\nG1 X30 F6000\nG1 Y5\n(pass back)\nG1 X0\nM2\n";
     let (out, s) = compensate(program, &map);
     let lines: Vec<&str> = out.lines().collect();
-    assert_eq!(lines[3..6], ["G1 Y5", "(pass back)", "G1 X-0.0040"], "{out}");
+    assert_eq!(
+        lines[3..6],
+        ["G1 Y5", "(pass back)", "G1 X-0.0040"],
+        "{out}"
+    );
     assert_eq!(
         (s.take_ups, s.take_ups_folded, s.take_ups_idle),
         (0, 1, 0),

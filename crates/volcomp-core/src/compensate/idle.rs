@@ -14,11 +14,11 @@
 //! back (`IdleHold`) with one variant per axis it may take up, and the
 //! variant the next motion asks for goes out when that motion is known.
 
+use super::arcs::Transition;
 use super::frame::Frame;
 use super::lines::OutMode;
-use super::walk::Place;
 use super::points::{fold_deviation_mm, switch_lags_mm};
-use super::arcs::Transition;
+use super::walk::Place;
 use super::{model_error, DirectionPolicy, PointRecord, State, TakeUpRule};
 use crate::compensate::solve::solve_fixed_in;
 use crate::error::CompensationError;
@@ -274,12 +274,7 @@ impl State<'_> {
 
     /// Holds back what the line wrote (the buffer) with its variants, or,
     /// without any, passes its point records on.
-    pub(super) fn hold_idle(
-        &mut self,
-        line: u64,
-        last: std::ops::Range<usize>,
-        flips: Vec<Flip>,
-    ) {
+    pub(super) fn hold_idle(&mut self, line: u64, last: std::ops::Range<usize>, flips: Vec<Flip>) {
         let records = std::mem::take(&mut self.records);
         if flips.is_empty() {
             for r in &records {

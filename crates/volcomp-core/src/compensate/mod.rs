@@ -1125,7 +1125,10 @@ impl<'w> State<'w> {
     /// its arc, from the command its block ended at to the compensated end,
     /// traced to its block's line. A line's tail takes up ahead an axis
     /// the motion `next` reverses, where it can (compensate/idle.rs).
-    fn flush_tail(&mut self, next: Option<&volcomp_gcode::Motion>) -> Result<(), CompensationError> {
+    fn flush_tail(
+        &mut self,
+        next: Option<&volcomp_gcode::Motion>,
+    ) -> Result<(), CompensationError> {
         let Some(t) = self.tail.take() else {
             return Ok(());
         };
