@@ -23,6 +23,7 @@ mod extra;
 mod frame;
 mod front;
 pub mod header;
+mod idle;
 mod joins;
 mod line_limit;
 mod lines;
@@ -123,12 +124,25 @@ pub fn compensate_program_seen<R: BufRead>(
     out.file = file;
     while let Some(ev) = walker.next_line()? {
         on_line(&ev);
-        out.source_line = ev.number;
         let line = st.begin_line(&ev);
+        if st.idle.is_some() {
+            // A line held back for a take-up ahead (compensate/idle.rs)
+            // goes out before this one, as this line's motion asks.
+            let mut held = std::mem::take(&mut st.buf);
+            out.source_line = st
+                .release_idle(idle::next_motion(&line), &mut held)
+                .unwrap_or(0);
+            if let Err(e) = out.write_all(&held) {
+                return Err(out.error(e.into()));
+            }
+            held.clear();
+            st.buf = held;
+        }
+        out.source_line = ev.number;
         if st.tail.is_some() && !may_take_tail(&line) {
             // A held tail the line cannot start an S-curve from is
             // written before it.
-            if let Err(e) = st.flush_tail() {
+            if let Err(e) = st.flush_tail(idle::next_motion(&line)) {
                 return Err(out.error(e));
             }
             if let Err(e) = out.write_all(&st.buf) {
@@ -145,9 +159,16 @@ pub fn compensate_program_seen<R: BufRead>(
         }
         st.frame_before = Some(after);
     }
+    if st.idle.is_some() {
+        let mut held = Vec::new();
+        out.source_line = st.release_idle(None, &mut held).unwrap_or(0);
+        if let Err(e) = out.write_all(&held) {
+            return Err(out.error(e.into()));
+        }
+    }
     if st.tail.is_some() {
         st.buf.clear();
-        if let Err(e) = st.flush_tail() {
+        if let Err(e) = st.flush_tail(None) {
             return Err(out.error(e));
         }
         if let Err(e) = out.write_all(&st.buf) {
@@ -199,6 +220,7 @@ impl<'w> State<'w> {
             // The run of canned cycles in the written program.
             cycles: cycle_keep::Series::default(),
             tail: None,
+            idle: None,
             defer_points: false,
         }
     }
@@ -445,8 +467,9 @@ impl<'w> State<'w> {
             }
             _ => None,
         };
+        let next = Some(&motion).filter(|m| m.kind != MotionKind::Rapid);
         if held.is_none() {
-            self.flush_tail()?;
+            self.flush_tail(next)?;
         }
         // An arc may hold back its own tail for the block after where the
         // block ends as a plain compensated motion (no stop word, no
@@ -470,7 +493,7 @@ impl<'w> State<'w> {
                 let mut planned = self.pieces_of_arc(&arc, model, ev.number, &run, joins)?;
                 if held.is_some() && !planned.absorbed {
                     // No S-curve fits from the tail: it is written first.
-                    self.flush_tail()?;
+                    self.flush_tail(next)?;
                     let joins = arcs::JoinTails {
                         held_before: None,
                         ..joins
@@ -572,7 +595,27 @@ impl<'w> State<'w> {
         let s_line_start = self.s;
         // Where this arc takes the tail of the block before, that block's
         // end is written with the first S-curve: its point goes out first.
-        self.defer_points = taken.is_some();
+        // A feed line that leaves still an axis the motion before moved
+        // may take that axis up ahead for the next motion: it is held back
+        // with its points (compensate/idle.rs).
+        let idle_axes = match (&arc_nominal, &held_end, &taken) {
+            (None, None, None)
+                if matches!(motion.kind, MotionKind::Feed)
+                    && options.take_up
+                    && options.fold_take_ups
+                    && options.directions == DirectionPolicy::Commanded
+                    && matches!(options.segmentation, Segmentation::Adaptive { .. })
+                    && !motion.extra.moves()
+                    && interp.feed_mode() != FeedMode::InverseTime
+                    && stop_m_word(line.words()).is_none()
+                    && !line.words().any(|w| matches!(w.letter, b'@' | b'^')) =>
+            {
+                idle::candidate_axes(motion.start, motion.end, self.last_tangent.map(|t| t.0))
+            }
+            _ => [false; 3],
+        };
+        let idle_any = idle_axes.iter().any(|a| *a);
+        self.defer_points = taken.is_some() || idle_any;
         // A take-up may get a lead piece of a line or an arc piece
         // (compensate/points.rs) where the segmentation adapts to the path
         // anyway; not on moves that carry extra axes, or under inverse time.
@@ -602,6 +645,36 @@ impl<'w> State<'w> {
         );
         self.defer_points = false;
         let commands = commands?;
+        let mut idle_flips = Vec::new();
+        let n = commands.len();
+        let last_record = self.records.last();
+        let plain_end = last_record.is_some_and(|r| {
+            !r.take_up && !r.reversed.iter().any(|r| *r) && !r.held.iter().any(|h| *h)
+        });
+        if let (true, true, true, Segmentation::Adaptive { min_length_mm, .. }) = (
+            idle_any && plain_end,
+            targets.len() == n && n > 0,
+            commands.last().is_some_and(|c| c.1.is_none()),
+            options.segmentation,
+        ) {
+            let (q_prev, t_prev) = match n {
+                1 => (q_line_start, motion.start),
+                _ => (commands[n - 2].0, targets[n - 2]),
+            };
+            if (targets[n - 1] - t_prev).norm() >= min_length_mm {
+                let piece = idle::LastPiece {
+                    model,
+                    frame: &frame,
+                    q_prev,
+                    t_prev,
+                    t_end: targets[n - 1],
+                    rule: options.take_up_rule(run.mode),
+                    line: ev.number,
+                };
+                idle_flips = self.idle_flips(&piece, idle_axes)?;
+            }
+        }
+        let mut idle_last = 0..0;
         let place = Place {
             frame: &frame,
             style,
@@ -769,6 +842,7 @@ impl<'w> State<'w> {
             line_ending
         };
         for (i, (q, take_up)) in commands.iter().enumerate() {
+            let piece_at = (self.buf.len(), self.mode);
             if let Some(tu) = take_up {
                 // The first take-up runs before the line's own words: in the
                 // previous line's frame, distance mode, units and feed; later
@@ -821,6 +895,30 @@ impl<'w> State<'w> {
                     };
                     self.push_path_mode_line(words, &at);
                 }
+                // A line of one piece held for a take-up ahead: the line's
+                // edits with each variant's end (compensate/idle.rs).
+                let mut flips = std::mem::take(&mut idle_flips);
+                for f in flips.iter_mut().filter(|_| n == 1) {
+                    let mut edits = lines::LineEdits::default();
+                    self.original_line_edits(
+                        &mut edits,
+                        line,
+                        &place,
+                        lines::FirstCommand {
+                            from: pos,
+                            q: f.q_mm,
+                            kind: &motion.kind,
+                            needed: needed_first,
+                            stop_word,
+                            polar_nominal: targets[0],
+                            polar_start: motion.start,
+                        },
+                    );
+                    edits
+                        .apply(ev.bytes, &mut f.text)
+                        .map_err(|e| edit_error(file, ev.number, e))?;
+                }
+                idle_flips = flips;
                 // The line's edits, in a buffer kept between lines.
                 let mut edits = std::mem::take(&mut self.line_edits);
                 edits.clear();
@@ -924,6 +1022,16 @@ impl<'w> State<'w> {
                     self.summary.path_mode_lines += 1;
                 }
             }
+            if i + 1 == n && !idle_flips.is_empty() {
+                idle_last = piece_at.0..self.buf.len();
+                if i > 0 {
+                    self.idle_piece_texts(
+                        &mut idle_flips,
+                        (&place.with_ending(ending), pos, needed, piece_at.1),
+                        restore_here,
+                    );
+                }
+            }
             pos = *q;
         }
         if let Some((_, after)) = &naive_cam {
@@ -959,6 +1067,9 @@ impl<'w> State<'w> {
                     .and_then(|arc| points::piece_turn_tolerance(options, &run, &arc)),
                 restore: tail_restore,
             });
+        }
+        if idle_any {
+            self.hold_idle(ev.number, idle_last, idle_flips);
         }
         // The buffers back for the next motion line.
         (self.targets, self.commands) = (targets, commands);
@@ -1048,8 +1159,12 @@ impl<'w> State<'w> {
 
     /// Writes the held tail, if any, into the buffer: the last piece of
     /// its arc, from the command its block ended at to the compensated end,
-    /// traced to its block's line.
-    fn flush_tail(&mut self) -> Result<(), CompensationError> {
+    /// traced to its block's line. A line's tail takes up ahead an axis
+    /// the motion `next` reverses, where it can (compensate/idle.rs).
+    fn flush_tail(
+        &mut self,
+        next: Option<&volcomp_gcode::Motion>,
+    ) -> Result<(), CompensationError> {
         let Some(t) = self.tail.take() else {
             return Ok(());
         };
@@ -1072,6 +1187,23 @@ impl<'w> State<'w> {
         };
         let from = self.q_out;
         self.transitions.clear();
+        let ahead = match (t.path, next, targets.as_slice()) {
+            (TailPath::Line(a, b), Some(m), [_]) => {
+                let piece = idle::LastPiece {
+                    model: &model,
+                    frame: &t.frame,
+                    q_prev: from,
+                    t_prev: start,
+                    t_end: end,
+                    rule: self.walk.options.take_up_rule(t.run.mode),
+                    line: t.line,
+                };
+                self.tail_take_up(&piece, (a, b), m)?
+            }
+            _ => None,
+        };
+        self.transitions.extend(ahead);
+        let folded = self.summary.take_ups_folded;
         let commands = self.solve_targets(
             &model,
             (&t.frame, &t.frame),
@@ -1084,6 +1216,11 @@ impl<'w> State<'w> {
             },
             t.line,
         )?;
+        if ahead.is_some() && self.summary.take_ups_folded > folded {
+            // Counted as taken up ahead, not as a fold.
+            self.summary.take_ups_folded -= 1;
+            self.summary.take_ups_idle += 1;
+        }
         let place = Place {
             frame: &t.frame,
             style: t.style,
@@ -1333,6 +1470,9 @@ struct State<'w> {
     /// The tail of the last arc, held back for an S-curve across its end
     /// ([`Tail`]).
     tail: Option<Tail>,
+    /// The last line, held back for a take-up ahead in it
+    /// (compensate/idle.rs): it never holds a [`Tail`] too.
+    idle: Option<idle::IdleHold>,
     /// The point records of the motion being solved are kept in `records`
     /// rather than passed on (the block before's end, written with this
     /// motion's first S-curve, goes first: `write_join_split`).

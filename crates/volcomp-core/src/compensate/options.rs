@@ -387,6 +387,10 @@ pub struct CompensateSummary {
     pub take_ups: u64,
     /// Take-ups folded into the move that reverses (no block written).
     pub take_ups_folded: u64,
+    /// Take-ups made during the move before the one that reverses, where
+    /// the reversing axis stands still (docs/compensation.md, "Take-ups
+    /// ahead in an idle move"): no block, no fold.
+    pub take_ups_idle: u64,
     /// The largest excursion from the path a folded take-up may leave
     /// (µm): the bound of docs/compensation.md, "Take-ups folded into the
     /// move", at most the reversal value.
@@ -465,8 +469,13 @@ impl CompensateSummary {
         } else {
             String::new()
         };
+        let idle = if self.take_ups_idle > 0 {
+            format!("; {} taken up ahead in an idle move", self.take_ups_idle)
+        } else {
+            String::new()
+        };
         format!(
-            "reversals: {} folded, up to {:.3} um off the path; {} take-up {}{held}",
+            "reversals: {} folded, up to {:.3} um off the path; {} take-up {}{idle}{held}",
             self.take_ups_folded,
             self.max_fold_excursion_um,
             self.take_ups,

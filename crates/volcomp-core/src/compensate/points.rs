@@ -101,7 +101,7 @@ fn take_up_command(
 /// its own component and what its tables change across. They add up to the
 /// whole jump. The written take-up is rounded to the output's step, so it
 /// is not used here.
-fn switch_lags_mm(
+pub(super) fn switch_lags_mm(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,
     q_prev: Vec3,
@@ -143,7 +143,12 @@ fn switch_lags_mm(
 /// Only the part across the move's direction leaves the path (a lag along
 /// it is the tool arriving later). Zero where every reversing axis'
 /// command crosses exactly its band.
-fn fold_deviation_mm(lags: &[Vec3; 3], q_prev: Vec3, q: Vec3, nominal_delta: Vec3) -> f64 {
+pub(super) fn fold_deviation_mm(
+    lags: &[Vec3; 3],
+    q_prev: Vec3,
+    q: Vec3,
+    nominal_delta: Vec3,
+) -> f64 {
     fold_deviation_beyond_mm(lags, q_prev, q, nominal_delta, 0.0)
 }
 
