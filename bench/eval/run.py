@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """The evaluation set, compensated and judged: per program (make_set.py's
-kinds, each in G61, G64 P0.005 and G64) and map (the example map of
-`volcomp demo`, the ripple map of bench/ripple_map.py), the compensated
+kinds, or with --set b make_set_b.py's other sizes and shapes, each in G61,
+G64 P0.005 and G64) and map (the example map of `volcomp demo`, the ripple
+map of bench/ripple_map.py, the shop map of bench/shop_map.py: bands of
+2.5-7 um and straightness that jumps at reversals), the compensated
 program's size, how LinuxCNC's planner will join its moves (joins.py: the
 joins it stops at or blends that were tangent in the original, the segments
 below their feed), and its accuracy under both dead-band readings
@@ -16,7 +18,8 @@ machining-time estimate on a model of LinuxCNC 2.9's planner), the cutting
 time of the original and the compensated program, on the cycle-time
 benchmark's machine (bench/cycle_time/setup.toml: 1,000 mm/s², 1 ms).
 
-Usage: run.py VOLCOMP [--work DIR] [--feed 6000] [--only SUBSTRING] [--planner BIN] [-- EXTRA COMPENSATE ARGS]
+Usage: run.py VOLCOMP [--work DIR] [--feed 6000] [--set a|b] [--maps example,ripple,shop]
+              [--only SUBSTRING] [--planner BIN] [-- EXTRA COMPENSATE ARGS]
 Prints a markdown table and writes DIR/results.json.
 """
 import argparse
@@ -51,11 +54,14 @@ def main():
     ap.add_argument("--only", default="")
     ap.add_argument("--maps", default="example,ripple")
     ap.add_argument("--planner", default="")
+    ap.add_argument("--set", default="a", choices=["a", "b"],
+                    help="a: make_set.py; b: make_set_b.py (other sizes and shapes)")
     ap.add_argument("extra", nargs="*")
     args = ap.parse_args()
     work = args.work
     os.makedirs(work, exist_ok=True)
-    progs = subprocess.run([sys.executable, os.path.join(HERE, "make_set.py"), os.path.join(work, "programs"), args.feed],
+    maker = "make_set.py" if args.set == "a" else "make_set_b.py"
+    progs = subprocess.run([sys.executable, os.path.join(HERE, maker), os.path.join(work, "programs"), args.feed],
                            check=True, capture_output=True, text=True).stdout.split()
     maps = {}
     if "example" in args.maps:
@@ -67,6 +73,11 @@ def main():
         with open(ripple, "w") as f:
             subprocess.run([sys.executable, os.path.join(HERE, "..", "ripple_map.py")], check=True, stdout=f)
         maps["ripple"] = ripple
+    if "shop" in args.maps:
+        shop = os.path.join(work, "shop.csv")
+        with open(shop, "w") as f:
+            subprocess.run([sys.executable, os.path.join(HERE, "..", "shop_map.py")], check=True, stdout=f)
+        maps["shop"] = shop
     env = dict(os.environ, SOURCE_DATE_EPOCH="0")
     rows = []
     print("| program | mode | map | blocks in → out | stops/blends added | short | cutting s | Δ | band: RMS red. % | max µm | max at rev. | max away | instant: RMS red. % | max µm | max away | least Δ |")

@@ -683,6 +683,82 @@ fn under_g61_a_take_up_is_spread_as_a_smooth_step_over_short_pieces() {
     assert!(report.contour_max_um < 0.0104 + 0.1, "{report:?}: {out}");
 }
 
+#[test]
+fn under_g61_a_ramp_spreads_the_step_the_reversal_makes_across_it() {
+    // As above at F6000, e_x = 0.02 µm per mm of |Y − 8|: X reverses at
+    // Y 8 inside the block, onto its 4 µm band, and its reverse table also
+    // moves the tool −0.3 µm in Z, so Z's command (Z stands still) steps
+    // up 0.3 µm with the switch. The take-up command lets no axis but X
+    // move (Z's own command does not move), so without spreading it the
+    // step falls on the ramp's first piece of ℓ = 2·v·T = 0.2 mm: a turn
+    // of 0.3 µm / 0.2 mm = 1.5 mrad, above LinuxCNC's tangency tolerance
+    // for two lines at F6000 (tp.c, tpSetupTangent: 0.1·A/(v/T + A) =
+    // 0.99 mrad). Spread with X's take-up over the smooth step 3u² − 2u³,
+    // Z rises by 0.3 µm · (3u² − 2u³) at u = ℓ/L, L = √(6·4 µm·ℓ/(0.6·
+    // 0.99 mrad)) = 2.84 mm by hand: 0.004 µm at the first target, and
+    // every join stays within the tolerance.
+    let map = map_from(|a, p, rev| match (a, rev) {
+        (0, true) => [4.0, 0.0, -0.3],
+        (1, _) => [0.02 * (p - 8.0).abs(), 0.0, 0.0],
+        _ => [0.0; 3],
+    });
+    let program = "G61\nG0 X0 Y0 Z0\nG1 Y20 F6000\nM2\n";
+    let opts = CompensateOptions {
+        decimals: Some(5),
+        ..Default::default()
+    };
+    let (out, records) = compensate(program, &map, opts);
+    let line3: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
+    let first = line3
+        .iter()
+        .find(|r| r.target_mm.y > 8.0 + 1e-9)
+        .unwrap_or_else(|| panic!("{out}"));
+    let tol: f64 = 0.1 * 1000.0 / (100.0 / 0.001 + 1000.0);
+    let ell = 2.0 * 100.0 * 0.001;
+    let l = (6.0 * 0.004 * ell / (0.6 * tol)).sqrt();
+    let u = (first.target_mm.y - 8.0) / l;
+    let z_um = 0.3 * u * u * (3.0 - 2.0 * u);
+    assert!(
+        (first.command_mm.z * 1e3 - z_um).abs() < 0.011,
+        "Z {} µm at Y {}, by hand {z_um}: {out}",
+        first.command_mm.z * 1e3,
+        first.target_mm.y
+    );
+    let last = line3.last().unwrap();
+    assert!(
+        (last.command_mm.z * 1e3 - 0.3).abs() < 0.011,
+        "{last:?}: {out}"
+    );
+    // Every join of the written commands within the tolerance for two
+    // lines.
+    let start = records.iter().rfind(|r| r.line == 2).unwrap().command_mm;
+    let unit = |v: Vec3| v * (1.0 / v.norm());
+    let a_inst = 100.0 / 0.001 + 1000.0;
+    let mut prev = start;
+    let mut t_prev: Option<Vec3> = None;
+    for r in &line3 {
+        let t = unit(r.command_mm - prev);
+        if let Some(t1) = t_prev {
+            let ratio = (0..3).fold(0.0f64, |m, i| m.max(a_inst * (t[i] - t1[i]).abs() / 1000.0));
+            assert!(
+                ratio < 0.1,
+                "kink ratio {ratio} at Y {}: {out}",
+                r.target_mm.y
+            );
+        }
+        t_prev = Some(t);
+        prev = r.command_mm;
+    }
+    // Off the path by Z's step fading over the ramp, and by what X's
+    // compensation travels over L while its carriage crosses the band
+    // (0.02 µm/mm · 2.84 mm), with the written rounding.
+    let report = against_original(&out, program, &map);
+    assert!(
+        report.contour_max_um < 0.3 + 0.057 + 0.02,
+        "{report:?}: {out}"
+    );
+}
+
 /// X's table moves the tool 0.02 µm per mm of |X| in Z; Y has a 3 µm
 /// band, and its forward table moves the tool +0.3 µm in Z; Z has a 2 µm
 /// band: on a circle about the origin, Z's command steps 0.3 µm where Y

@@ -11,6 +11,7 @@ mod compensation;
 mod cutter_comp_write_back;
 mod extra_axes_and_splines;
 mod folder_imports;
+mod idle_take_ups;
 mod kinematic;
 mod line_length;
 mod mirror_study;

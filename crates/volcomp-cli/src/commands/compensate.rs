@@ -48,6 +48,7 @@ pub fn compensate_into(
     model: &dyn ErrorModel,
     on_point: impl FnMut(&PointRecord),
     program_copy: Option<&mut dyn Write>,
+    on_line: Option<&mut dyn FnMut(&volcomp_gcode::LineEvent<'_>)>,
 ) -> Result<CompensateSummary, CliError> {
     let bar = Bar::reading(&format!("compensating {}", program.display()), program);
     let reader = Counted::new(open_program(program)?, bar.clone());
@@ -58,6 +59,9 @@ pub fn compensate_into(
         .on_warning(|w| eprintln!("{file}:{w}"));
     if let Some(copy) = program_copy {
         compensator = compensator.copy_program_to(copy);
+    }
+    if let Some(f) = on_line {
+        compensator = compensator.on_line(f);
     }
     let result = compensator
         .run(reader, out)
@@ -80,7 +84,9 @@ pub fn compensate_file(
     let mut summary = None;
     let mut staged = Staged::new();
     staged.write(output, |out| {
-        summary = Some(compensate_into(program, out, job, model, on_point, None)?);
+        summary = Some(compensate_into(
+            program, out, job, model, on_point, None, None,
+        )?);
         Ok(())
     })?;
     staged.commit()?;
@@ -134,6 +140,14 @@ fn plan(a: &CompensateArgs, map: &Path, output: &Path) -> Result<(), CliError> {
     Ok(())
 }
 
+/// What the machining-time estimate gets while the program is written:
+/// the program as it is made, and each line of the original as the
+/// compensation reads it (`plan::compare_while_writing_fed`).
+type Feeds<'a, 'b> = (
+    Option<&'a mut dyn Write>,
+    Option<&'b mut dyn FnMut(&volcomp_gcode::LineEvent<'_>)>,
+);
+
 /// Writes the compensated program to `output`, keeping what the other
 /// outputs need. As a LinuxCNC filter, prints `FILTER_PROGRESS=n`
 /// (percent), which AXIS reads from a filter's standard error (axis.py,
@@ -144,7 +158,7 @@ fn write_program(
     job: &Compensation,
     model: &dyn ErrorModel,
     staged: &mut Staged,
-    stream: Option<&mut dyn Write>,
+    (stream, on_line): Feeds<'_, '_>,
 ) -> Result<Kept, CliError> {
     let mut percent = a.filter.then(|| LinePercent::of(&a.program));
     let mut points_csv = a.report.as_ref().map(|_| POINT_CSV_HEADER.to_string());
@@ -177,7 +191,7 @@ fn write_program(
             }
         };
         summary = Some(compensate_into(
-            &a.program, &mut out, job, model, on_point, stream,
+            &a.program, &mut out, job, model, on_point, stream, on_line,
         )?);
         Ok(())
     })?;
@@ -221,15 +235,17 @@ pub fn run(a: CompensateArgs) -> Result<(), CliError> {
     // written, when it will be (not quiet, the output readable back).
     let readable = readable_output(&a, &output);
     let (kept, time) = if !crate::progress::quiet() && readable {
-        let (kept, time) = job.machining_time_while(&a.program, &shown(&output), |sink| {
-            write_program(&a, &output, &job, model.as_ref(), &mut staged, Some(sink))
-        })?;
+        let (kept, time) =
+            job.machining_time_while(&a.program, &shown(&output), |sink, on_line| {
+                let feeds = (Some(sink), Some(on_line));
+                write_program(&a, &output, &job, model.as_ref(), &mut staged, feeds)
+            })?;
         // The estimate read the program as made, without the header the
         // output has on top: its errors are located in the written file.
         let time = time.map_err(|e| kept.summary.header.locate_in_written(e));
         (kept, Some(time))
     } else {
-        let kept = write_program(&a, &output, &job, model.as_ref(), &mut staged, None)?;
+        let kept = write_program(&a, &output, &job, model.as_ref(), &mut staged, (None, None))?;
         (kept, None)
     };
     if let (Some(path), Some(csv)) = (&a.report, &kept.points_csv) {

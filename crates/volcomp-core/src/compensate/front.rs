@@ -26,7 +26,9 @@
 //! ```
 
 use super::header::compensate_program_with_header;
-use super::{compensate_program, survey_style, CompensateOptions, CompensateSummary, PointRecord};
+use super::{
+    compensate_program_seen, survey_style, CompensateOptions, CompensateSummary, PointRecord,
+};
 use crate::error::{CompensatedEvidence, Error};
 use crate::io::provenance::{find_compensation, Compensated};
 use crate::io::provenance::{sha256_hex, ProgramHeader};
@@ -101,6 +103,7 @@ pub struct Compensator<'a> {
     on_point: Option<Callback<'a, PointRecord>>,
     on_warning: Option<Callback<'a, Warning>>,
     program_copy: Option<&'a mut dyn Write>,
+    on_line: Option<&'a mut dyn FnMut(&volcomp_gcode::LineEvent<'_>)>,
 }
 
 impl<'a> Compensator<'a> {
@@ -116,6 +119,7 @@ impl<'a> Compensator<'a> {
             on_point: None,
             on_warning: None,
             program_copy: None,
+            on_line: None,
         }
     }
 
@@ -172,6 +176,16 @@ impl<'a> Compensator<'a> {
         self
     }
 
+    /// Called with every line of the program as it is read (with its
+    /// lexed words, its motions and the interpreter after it), before it
+    /// is written: a machining-time estimate of the program can plan its
+    /// moves without reading it again
+    /// ([`crate::plan::compare_while_writing_fed`]).
+    pub fn on_line(mut self, f: &'a mut dyn FnMut(&volcomp_gcode::LineEvent<'_>)) -> Self {
+        self.on_line = Some(f);
+        self
+    }
+
     /// Reads `program`, writes it compensated to `out`, and says what it did.
     /// Nothing is written past an error; the caller discards a partial
     /// output (see [`crate::io::output`] for outputs written completely or
@@ -213,6 +227,11 @@ impl<'a> Compensator<'a> {
         };
         // The whole output is counted here, the header included.
         let mut out = super::size::Counted::new(&mut out);
+        let mut no_line = |_: &volcomp_gcode::LineEvent<'_>| {};
+        let on_line: &mut dyn FnMut(&volcomp_gcode::LineEvent<'_>) = match self.on_line.take() {
+            Some(f) => f,
+            None => &mut no_line,
+        };
         let result = match (&self.header, self.program_copy.take()) {
             (Some(h), copy) => compensate_program_with_header(
                 &mut walker,
@@ -224,6 +243,7 @@ impl<'a> Compensator<'a> {
                 &mut out,
                 copy,
                 on_point,
+                on_line,
             ),
             (None, copy) => {
                 let mut out = crate::io::stream::Tee {
@@ -231,7 +251,7 @@ impl<'a> Compensator<'a> {
                     copy: None,
                     stream: copy,
                 };
-                compensate_program(
+                compensate_program_seen(
                     &mut walker,
                     &self.file,
                     self.model,
@@ -239,6 +259,7 @@ impl<'a> Compensator<'a> {
                     &self.options,
                     &mut out,
                     on_point,
+                    on_line,
                 )
             }
         };

@@ -5,7 +5,7 @@
 
 use crate::compensate::solve::Method;
 use crate::compensate::{
-    compensate_program, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord,
+    compensate_program_seen, CompensateOptions, CompensateSummary, DirectionPolicy, PointRecord,
     ProgramStyle, Segmentation,
 };
 use crate::error::CompensationError;
@@ -126,7 +126,7 @@ impl<W: Write> Write for CopyTo<'_, W> {
     }
 }
 
-/// [`compensate_program`] with the header inserted at the top of the
+/// [`super::compensate_program`] with the header inserted at the top of the
 /// output; the program without its header (the header is comment lines
 /// only) is also written to `body_copy`, when given, as it is made.
 #[allow(clippy::too_many_arguments)]
@@ -140,6 +140,7 @@ pub fn compensate_program_with_header<R: BufRead>(
     out: &mut dyn Write,
     body_copy: Option<&mut dyn Write>,
     on_point: impl FnMut(&PointRecord),
+    on_line: &mut dyn FnMut(&volcomp_gcode::LineEvent<'_>),
 ) -> Result<CompensateSummary, CompensationError> {
     // The header says what was done at reversals, which is known once the
     // program has been written: the body waits in a spool (in memory up to
@@ -155,7 +156,7 @@ pub fn compensate_program_with_header<R: BufRead>(
             copy: body_copy,
         },
     );
-    let summary = compensate_program(
+    let summary = compensate_program_seen(
         walker,
         file,
         model,
@@ -163,6 +164,7 @@ pub fn compensate_program_with_header<R: BufRead>(
         options,
         &mut spool,
         on_point,
+        on_line,
     )?;
     let mut body = spool
         .into_inner()

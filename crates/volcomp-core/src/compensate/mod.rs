@@ -23,11 +23,13 @@ mod extra;
 mod frame;
 mod front;
 pub mod header;
+mod idle;
 mod joins;
 mod line_limit;
 mod lines;
 mod options;
 mod points;
+mod ramp_cross;
 mod scurve;
 mod size;
 pub mod solve;
@@ -64,7 +66,7 @@ use targets::check_target_count;
 use volcomp_gcode::edit::apply_edits;
 use volcomp_gcode::lexer::LineKind;
 use volcomp_gcode::number::NumberStyle;
-use volcomp_gcode::{FeedMode, MotionKind, MotionSource, Vec3, Walker};
+use volcomp_gcode::{FeedMode, LineEvent, MotionKind, MotionSource, Vec3, Walker};
 use walk::{Line, Place, Walk};
 
 /// Streams `walker`'s program to `out` with every program motion compensated.
@@ -75,7 +77,34 @@ pub fn compensate_program<R: BufRead>(
     program_style: &ProgramStyle,
     options: &CompensateOptions,
     out: &mut dyn Write,
+    on_point: impl FnMut(&PointRecord),
+) -> Result<CompensateSummary, CompensationError> {
+    let on_line = &mut |_: &LineEvent<'_>| {};
+    compensate_program_seen(
+        walker,
+        file,
+        model,
+        program_style,
+        options,
+        out,
+        on_point,
+        on_line,
+    )
+}
+
+/// [`compensate_program`], every line `walker` reads also given to
+/// `on_line` as it is read (a machining-time estimate of the original
+/// plans its moves: `crate::plan::compare_while_writing_fed`).
+#[allow(clippy::too_many_arguments)]
+pub fn compensate_program_seen<R: BufRead>(
+    walker: &mut Walker<R>,
+    file: &str,
+    model: &dyn ErrorModel,
+    program_style: &ProgramStyle,
+    options: &CompensateOptions,
+    out: &mut dyn Write,
     mut on_point: impl FnMut(&PointRecord),
+    on_line: &mut dyn FnMut(&LineEvent<'_>),
 ) -> Result<CompensateSummary, CompensationError> {
     let walk = Walk {
         model,
@@ -94,12 +123,26 @@ pub fn compensate_program<R: BufRead>(
     let mut out = line_limit::LineLimit::new(out);
     out.file = file;
     while let Some(ev) = walker.next_line()? {
-        out.source_line = ev.number;
+        on_line(&ev);
         let line = st.begin_line(&ev);
+        if st.idle.is_some() {
+            // A line held back for a take-up ahead (compensate/idle.rs)
+            // goes out before this one, as this line's motion asks.
+            let mut held = std::mem::take(&mut st.buf);
+            out.source_line = st
+                .release_idle(idle::next_motion(&line), &mut held)
+                .unwrap_or(0);
+            if let Err(e) = out.write_all(&held) {
+                return Err(out.error(e.into()));
+            }
+            held.clear();
+            st.buf = held;
+        }
+        out.source_line = ev.number;
         if st.tail.is_some() && !may_take_tail(&line) {
             // A held tail the line cannot start an S-curve from is
             // written before it.
-            if let Err(e) = st.flush_tail() {
+            if let Err(e) = st.flush_tail(idle::next_motion(&line)) {
                 return Err(out.error(e));
             }
             if let Err(e) = out.write_all(&st.buf) {
@@ -116,9 +159,16 @@ pub fn compensate_program<R: BufRead>(
         }
         st.frame_before = Some(after);
     }
+    if st.idle.is_some() {
+        let mut held = Vec::new();
+        out.source_line = st.release_idle(None, &mut held).unwrap_or(0);
+        if let Err(e) = out.write_all(&held) {
+            return Err(out.error(e.into()));
+        }
+    }
     if st.tail.is_some() {
         st.buf.clear();
-        if let Err(e) = st.flush_tail() {
+        if let Err(e) = st.flush_tail(None) {
             return Err(out.error(e));
         }
         if let Err(e) = out.write_all(&st.buf) {
@@ -159,6 +209,8 @@ impl<'w> State<'w> {
             states: Vec::new(),
             ramp_mids: Vec::new(),
             records: Vec::new(),
+            targets: Vec::new(),
+            commands: Vec::new(),
             line_edits: lines::LineEdits::default(),
             cells: Some(Box::default()),
             transitions: Vec::new(),
@@ -168,6 +220,7 @@ impl<'w> State<'w> {
             // The run of canned cycles in the written program.
             cycles: cycle_keep::Series::default(),
             tail: None,
+            idle: None,
             defer_points: false,
             approached: false,
         }
@@ -415,8 +468,9 @@ impl<'w> State<'w> {
             }
             _ => None,
         };
+        let next = Some(&motion).filter(|m| m.kind != MotionKind::Rapid);
         if held.is_none() {
-            self.flush_tail()?;
+            self.flush_tail(next)?;
         }
         // An arc may hold back its own tail for the block after where the
         // block ends as a plain compensated motion (no stop word, no
@@ -440,7 +494,7 @@ impl<'w> State<'w> {
                 let mut planned = self.pieces_of_arc(&arc, model, ev.number, &run, joins)?;
                 if held.is_some() && !planned.absorbed {
                     // No S-curve fits from the tail: it is written first.
-                    self.flush_tail()?;
+                    self.flush_tail(next)?;
                     let joins = arcs::JoinTails {
                         held_before: None,
                         ..joins
@@ -472,7 +526,10 @@ impl<'w> State<'w> {
                 model,
                 self.s,
                 &mut self.estimate_mm,
-                self.cells.get_or_insert_with(Box::default),
+                (
+                    self.cells.get_or_insert_with(Box::default),
+                    std::mem::take(&mut self.targets),
+                ),
             )
             .map_err(|source| model_error(file, ev.number, source))?,
         };
@@ -539,7 +596,27 @@ impl<'w> State<'w> {
         let s_line_start = self.s;
         // Where this arc takes the tail of the block before, that block's
         // end is written with the first S-curve: its point goes out first.
-        self.defer_points = taken.is_some();
+        // A feed line that leaves still an axis the motion before moved
+        // may take that axis up ahead for the next motion: it is held back
+        // with its points (compensate/idle.rs).
+        let idle_axes = match (&arc_nominal, &held_end, &taken) {
+            (None, None, None)
+                if matches!(motion.kind, MotionKind::Feed)
+                    && options.take_up
+                    && options.fold_take_ups
+                    && options.directions == DirectionPolicy::Commanded
+                    && matches!(options.segmentation, Segmentation::Adaptive { .. })
+                    && !motion.extra.moves()
+                    && interp.feed_mode() != FeedMode::InverseTime
+                    && stop_m_word(line.words()).is_none()
+                    && !line.words().any(|w| matches!(w.letter, b'@' | b'^')) =>
+            {
+                idle::candidate_axes(motion.start, motion.end, self.last_tangent.map(|t| t.0))
+            }
+            _ => [false; 3],
+        };
+        let idle_any = idle_axes.iter().any(|a| *a);
+        self.defer_points = taken.is_some() || idle_any;
         // A take-up may get a lead piece of a line or an arc piece
         // (compensate/points.rs) where the segmentation adapts to the path
         // anyway; not on moves that carry extra axes, or under inverse time.
@@ -580,6 +657,36 @@ impl<'w> State<'w> {
             _ => None,
         };
         self.approached = true;
+        let mut idle_flips = Vec::new();
+        let n = commands.len();
+        let last_record = self.records.last();
+        let plain_end = last_record.is_some_and(|r| {
+            !r.take_up && !r.reversed.iter().any(|r| *r) && !r.held.iter().any(|h| *h)
+        });
+        if let (true, true, true, Segmentation::Adaptive { min_length_mm, .. }) = (
+            idle_any && plain_end,
+            targets.len() == n && n > 0,
+            commands.last().is_some_and(|c| c.1.is_none()),
+            options.segmentation,
+        ) {
+            let (q_prev, t_prev) = match n {
+                1 => (q_line_start, motion.start),
+                _ => (commands[n - 2].0, targets[n - 2]),
+            };
+            if (targets[n - 1] - t_prev).norm() >= min_length_mm {
+                let piece = idle::LastPiece {
+                    model,
+                    frame: &frame,
+                    q_prev,
+                    t_prev,
+                    t_end: targets[n - 1],
+                    rule: options.take_up_rule(run.mode),
+                    line: ev.number,
+                };
+                idle_flips = self.idle_flips(&piece, idle_axes)?;
+            }
+        }
+        let mut idle_last = 0..0;
         let place = Place {
             frame: &frame,
             style,
@@ -757,6 +864,7 @@ impl<'w> State<'w> {
             self.summary.approach_lines += 1;
         }
         for (i, (q, take_up)) in commands.iter().enumerate() {
+            let piece_at = (self.buf.len(), self.mode);
             if let Some(tu) = take_up {
                 // The first take-up runs before the line's own words: in the
                 // previous line's frame, distance mode, units and feed; later
@@ -809,6 +917,30 @@ impl<'w> State<'w> {
                     };
                     self.push_path_mode_line(words, &at);
                 }
+                // A line of one piece held for a take-up ahead: the line's
+                // edits with each variant's end (compensate/idle.rs).
+                let mut flips = std::mem::take(&mut idle_flips);
+                for f in flips.iter_mut().filter(|_| n == 1) {
+                    let mut edits = lines::LineEdits::default();
+                    self.original_line_edits(
+                        &mut edits,
+                        line,
+                        &place,
+                        lines::FirstCommand {
+                            from: pos,
+                            q: f.q_mm,
+                            kind: &motion.kind,
+                            needed: needed_first,
+                            stop_word,
+                            polar_nominal: targets[0],
+                            polar_start: motion.start,
+                        },
+                    );
+                    edits
+                        .apply(ev.bytes, &mut f.text)
+                        .map_err(|e| edit_error(file, ev.number, e))?;
+                }
+                idle_flips = flips;
                 // The line's edits, in a buffer kept between lines.
                 let mut edits = std::mem::take(&mut self.line_edits);
                 edits.clear();
@@ -912,6 +1044,16 @@ impl<'w> State<'w> {
                     self.summary.path_mode_lines += 1;
                 }
             }
+            if i + 1 == n && !idle_flips.is_empty() {
+                idle_last = piece_at.0..self.buf.len();
+                if i > 0 {
+                    self.idle_piece_texts(
+                        &mut idle_flips,
+                        (&place.with_ending(ending), pos, needed, piece_at.1),
+                        restore_here,
+                    );
+                }
+            }
             pos = *q;
         }
         if let Some((_, after)) = &naive_cam {
@@ -948,6 +1090,11 @@ impl<'w> State<'w> {
                 restore: tail_restore,
             });
         }
+        if idle_any {
+            self.hold_idle(ev.number, idle_last, idle_flips);
+        }
+        // The buffers back for the next motion line.
+        (self.targets, self.commands) = (targets, commands);
         Ok((frame, style))
     }
 
@@ -1034,8 +1181,12 @@ impl<'w> State<'w> {
 
     /// Writes the held tail, if any, into the buffer: the last piece of
     /// its arc, from the command its block ended at to the compensated end,
-    /// traced to its block's line.
-    fn flush_tail(&mut self) -> Result<(), CompensationError> {
+    /// traced to its block's line. A line's tail takes up ahead an axis
+    /// the motion `next` reverses, where it can (compensate/idle.rs).
+    fn flush_tail(
+        &mut self,
+        next: Option<&volcomp_gcode::Motion>,
+    ) -> Result<(), CompensationError> {
         let Some(t) = self.tail.take() else {
             return Ok(());
         };
@@ -1058,6 +1209,23 @@ impl<'w> State<'w> {
         };
         let from = self.q_out;
         self.transitions.clear();
+        let ahead = match (t.path, next, targets.as_slice()) {
+            (TailPath::Line(a, b), Some(m), [_]) => {
+                let piece = idle::LastPiece {
+                    model: &model,
+                    frame: &t.frame,
+                    q_prev: from,
+                    t_prev: start,
+                    t_end: end,
+                    rule: self.walk.options.take_up_rule(t.run.mode),
+                    line: t.line,
+                };
+                self.tail_take_up(&piece, (a, b), m)?
+            }
+            _ => None,
+        };
+        self.transitions.extend(ahead);
+        let folded = self.summary.take_ups_folded;
         let commands = self.solve_targets(
             &model,
             (&t.frame, &t.frame),
@@ -1070,6 +1238,11 @@ impl<'w> State<'w> {
             },
             t.line,
         )?;
+        if ahead.is_some() && self.summary.take_ups_folded > folded {
+            // Counted as taken up ahead, not as a fold.
+            self.summary.take_ups_folded -= 1;
+            self.summary.take_ups_idle += 1;
+        }
         let place = Place {
             frame: &t.frame,
             style: t.style,
@@ -1291,6 +1464,10 @@ struct State<'w> {
     /// The per-point records of the motion being solved (a buffer kept
     /// between motions, compensate/points.rs).
     records: Vec<PointRecord>,
+    /// The targets and the solved commands of the motion line being
+    /// written (buffers kept between motion lines).
+    targets: Vec<Vec3>,
+    commands: Vec<(Vec3, Option<Vec3>)>,
     /// The edits of the line being written (a buffer kept between lines).
     line_edits: lines::LineEdits,
     /// The map's table cells last used ([`crate::model::AxisCells`]),
@@ -1315,6 +1492,9 @@ struct State<'w> {
     /// The tail of the last arc, held back for an S-curve across its end
     /// ([`Tail`]).
     tail: Option<Tail>,
+    /// The last line, held back for a take-up ahead in it
+    /// (compensate/idle.rs): it never holds a [`Tail`] too.
+    idle: Option<idle::IdleHold>,
     /// The point records of the motion being solved are kept in `records`
     /// rather than passed on (the block before's end, written with this
     /// motion's first S-curve, goes first: `write_join_split`).
@@ -1329,8 +1509,8 @@ struct State<'w> {
 /// axis towards the end in the direction `s` the compensation holds there:
 /// `q − δ·sign(s)` per axis, `δ = 2·b + 10 µm` for the axis' reversal value
 /// `b` at `q` (the difference of its own component between its reverse and
-/// forward tables, docs/design.md's model); an axis whose reverse and forward
-/// tables agree at `q` stays at `q` (`None` where no axis moves: a map
+/// forward tables, docs/design.md's model); an axis without a reversal value
+/// of its own at `q` stays at `q` (`None` where no axis moves: a map
 /// without direction-dependent tables writes the program as it was).
 ///
 /// Before the program's first motion the machine's position, and so the
@@ -1354,8 +1534,10 @@ fn approach_point(
         rev[a] = Direction::Reverse;
         let jump_um = model.deviation_um(q_mm, rev, Components::All)?
             - model.deviation_um(q_mm, fwd, Components::All)?;
-        // An axis whose direction changes nothing here needs no approach.
-        if jump_um.norm() == 0.0 {
+        // An axis without a reversal value of its own here has no dead band
+        // to bring to one side (a controller that takes up backlash itself,
+        // or a map without direction-dependent tables).
+        if jump_um[a].abs() < APPROACH_NO_BAND_UM {
             continue;
         }
         let delta_mm = (2.0 * jump_um[a].abs() + APPROACH_MARGIN_UM) * 1e-3;
@@ -1363,6 +1545,11 @@ fn approach_point(
     }
     Ok((p != q_mm).then_some(p))
 }
+
+/// A reversal value below which an axis has no band to approach (µm): a
+/// nanometre, a tenth of the finest step volcomp writes; what is left of a
+/// band a controller takes up itself (a hybrid set-up's tables) is rounding.
+const APPROACH_NO_BAND_UM: f64 = 1e-3;
 
 /// What a program's first rapid approaches its end by beyond twice an
 /// axis' reversal value (µm, [`approach_point`]): a band of zero still gets

@@ -391,6 +391,10 @@ pub struct CompensateSummary {
     /// (docs/compensation.md, "The first rapid approaches from one side"):
     /// 0 or 1.
     pub approach_lines: u64,
+    /// Take-ups made during the move before the one that reverses, where
+    /// the reversing axis stands still (docs/compensation.md, "Take-ups
+    /// ahead in an idle move"): no block, no fold.
+    pub take_ups_idle: u64,
     /// The largest excursion from the path a folded take-up may leave
     /// (µm): the bound of docs/compensation.md, "Take-ups folded into the
     /// move", at most the reversal value.
@@ -469,8 +473,13 @@ impl CompensateSummary {
         } else {
             String::new()
         };
+        let idle = if self.take_ups_idle > 0 {
+            format!("; {} taken up ahead in an idle move", self.take_ups_idle)
+        } else {
+            String::new()
+        };
         format!(
-            "reversals: {} folded, up to {:.3} um off the path; {} take-up {}{held}",
+            "reversals: {} folded, up to {:.3} um off the path; {} take-up {}{idle}{held}",
             self.take_ups_folded,
             self.max_fold_excursion_um,
             self.take_ups,

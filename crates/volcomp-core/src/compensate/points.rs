@@ -101,7 +101,7 @@ fn take_up_command(
 /// its own component and what its tables change across. They add up to the
 /// whole jump. The written take-up is rounded to the output's step, so it
 /// is not used here.
-fn switch_lags_mm(
+pub(super) fn switch_lags_mm(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,
     q_prev: Vec3,
@@ -143,7 +143,12 @@ fn switch_lags_mm(
 /// Only the part across the move's direction leaves the path (a lag along
 /// it is the tool arriving later). Zero where every reversing axis'
 /// command crosses exactly its band.
-fn fold_deviation_mm(lags: &[Vec3; 3], q_prev: Vec3, q: Vec3, nominal_delta: Vec3) -> f64 {
+pub(super) fn fold_deviation_mm(
+    lags: &[Vec3; 3],
+    q_prev: Vec3,
+    q: Vec3,
+    nominal_delta: Vec3,
+) -> f64 {
     fold_deviation_beyond_mm(lags, q_prev, q, nominal_delta, 0.0)
 }
 
@@ -1062,7 +1067,10 @@ impl State<'_> {
             run,
         } = motion;
         let rule = options.take_up_rule(run.mode);
-        let mut commands: Vec<(Vec3, Option<Vec3>)> = Vec::with_capacity(targets.len());
+        // The buffer kept between motion lines (the writer gives it back).
+        let mut commands = std::mem::take(&mut self.commands);
+        commands.clear();
+        commands.reserve(targets.len());
         let commands_start = self.q_out;
         self.states.clear();
         self.ramp_mids.clear();
@@ -1591,37 +1599,73 @@ impl State<'_> {
                     // ramp run longer; as short as tangency allows where
                     // that leaves the tool too far off.
                     let floor = ramp_floor_mm(rule, &run, index);
-                    for floor_mm in [floor, 0.0] {
-                        planned = plan_ramp(
-                            &mut cells,
-                            model,
-                            options,
-                            &|q, from| frame.quantize(q, from),
-                            (targets.as_slice(), &leads, transitions.as_slice()),
-                            (index, t_prev, self.q_out),
-                            &point,
-                            (
+                    // Under G61 the ramp first tries to spread the whole
+                    // step the switch makes across the reversing axis too
+                    // (compensate/ramp_cross.rs), within its tolerance.
+                    let across = match (take_up, rule) {
+                        (Some(_), TakeUpRule::Exact { .. }) => {
+                            let full = super::ramp_cross::full_take_up_mm(
+                                &mut cells,
+                                model,
+                                self.q_out,
+                                (self.s, point.s),
+                                point.reversed,
+                                if commands.is_empty() {
+                                    first_take_up_frame
+                                } else {
+                                    frame
+                                },
+                            )
+                            .map_err(|source| model_error(file, line, source))?;
+                            let d = super::ramp_cross::ramp_delta_mm(
                                 delta,
-                                &lags,
-                                ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
-                            ),
-                            (
-                                kink_tolerance,
-                                ramp_tol,
-                                shortest_piece,
-                                pre_length,
-                                floor_mm,
-                            ),
-                            matches!(rule, TakeUpRule::Exact { .. }),
-                        )
-                        .map_err(|source| model_error(file, line, source))?
-                        .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index));
-                        if planned.is_some() || floor <= 0.0 {
+                                full,
+                                self.q_out,
+                                point.reversed,
+                            );
+                            (d != delta).then_some(d)
+                        }
+                        _ => None,
+                    };
+                    'floors: for floor_mm in [floor, 0.0] {
+                        for d in [across, Some(delta)].into_iter().flatten() {
+                            let step_mm = (d - delta).norm();
+                            planned = plan_ramp(
+                                &mut cells,
+                                model,
+                                options,
+                                &|q, from| frame.quantize(q, from),
+                                (targets.as_slice(), &leads, transitions.as_slice()),
+                                (index, t_prev, self.q_out),
+                                &point,
+                                (
+                                    d,
+                                    &lags,
+                                    ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
+                                ),
+                                (
+                                    kink_tolerance,
+                                    ramp_tol,
+                                    shortest_piece,
+                                    pre_length,
+                                    floor_mm,
+                                ),
+                                matches!(rule, TakeUpRule::Exact { .. }),
+                            )
+                            .map_err(|source| model_error(file, line, source))?
+                            .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index))
+                            .filter(|p| p.bound_mm + step_mm <= ramp_tol)
+                            .map(|p| (p, d));
+                            if planned.is_some() {
+                                break 'floors;
+                            }
+                        }
+                        if floor <= 0.0 {
                             break;
                         }
                     }
                 }
-                if let Some(plan) = planned {
+                if let Some((plan, delta)) = planned {
                     if !plan.insert.is_empty() {
                         // The ramp ends inside a piece (or a smooth ramp
                         // has inner points): they become targets, last

@@ -91,22 +91,23 @@ pub(super) fn targets_with_estimate(
         model,
         s,
         worst_mm,
-        &mut AxisCells::default(),
+        (&mut AxisCells::default(), Vec::new()),
     )
 }
 
 /// [`targets_with_estimate`], the adaptive segmentation evaluating `model`
 /// in the table cells `cells` keeps (kept for `model` between calls: the
-/// map's values to the bit, [`AxisCells`]).
+/// map's values to the bit, [`AxisCells`]). The targets are written into
+/// `out` (emptied first: a buffer kept between motions) and given back.
 pub(super) fn targets_in(
     motion: &volcomp_gcode::Motion,
     options: &CompensateOptions,
     model: &dyn ErrorModel,
     s: Directions,
     worst_mm: &mut f64,
-    cells: &mut AxisCells,
+    (cells, mut out): (&mut AxisCells, Vec<Vec3>),
 ) -> Result<Vec<Vec3>, ModelError> {
-    let mut out = Vec::new();
+    out.clear();
     let seg = options.segmentation_in(motion.path_mode);
     // Under G64 a departure along the move is no reason to split it (the
     // splits it made cut the planner's blends short). Under G61/G61.1 the
@@ -623,7 +624,14 @@ mod tests {
                 m.path_mode = volcomp_gcode::PathMode::ExactPath;
             }
             let (mut w1, mut w2) = (0.0, 0.0);
-            let kept = targets_in(&m, &adaptive(tol_um), &map, s, &mut w1, &mut cells);
+            let kept = targets_in(
+                &m,
+                &adaptive(tol_um),
+                &map,
+                s,
+                &mut w1,
+                (&mut cells, Vec::new()),
+            );
             let looked = targets_with_estimate(&m, &adaptive(tol_um), &Lookups(&map), s, &mut w2);
             match (kept, looked) {
                 (Ok(t1), Ok(t2)) => {

@@ -9,6 +9,7 @@ use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError, TrySendError};
 use std::sync::{Condvar, Mutex};
+use volcomp_gcode::LineEvent;
 
 /// The estimated time of a program and, when given, of its original.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -162,10 +163,42 @@ pub fn compare_while_writing<T, E>(
     setup: &MachineSetup,
     write: impl FnOnce(&mut dyn Write) -> Result<T, E>,
 ) -> Result<(T, Result<TimeComparison, Error>), E> {
+    while_writing(name, original, setup, false, |w, _| write(w))
+}
+
+/// [`compare_while_writing`] where `write` also reads the original with
+/// the estimate's set-up and gives each of its lines, as
+/// [`volcomp_gcode::Walker`] read it, to the function it is handed (a
+/// compensation does: [`crate::compensate::Compensator::on_line`]). The
+/// original's estimate plans the moves of those lines instead of reading
+/// and interpreting the original again ([`super::fed`]); from a line
+/// with computed values on (which its reader may have written with other
+/// decimals) it reads the original itself from the start. `write` must
+/// give every line of the original, in order, when it succeeds.
+pub fn compare_while_writing_fed<T, E>(
+    name: &str,
+    original: Option<(Box<dyn Read + Send + '_>, &str)>,
+    setup: &MachineSetup,
+    write: impl FnOnce(&mut dyn Write, &mut dyn FnMut(&LineEvent<'_>)) -> Result<T, E>,
+) -> Result<(T, Result<TimeComparison, Error>), E> {
+    while_writing(name, original, setup, true, write)
+}
+
+/// [`compare_while_writing`], the original's estimate fed by `write`'s
+/// lines when `fed` ([`compare_while_writing_fed`]).
+fn while_writing<T, E>(
+    name: &str,
+    original: Option<(Box<dyn Read + Send + '_>, &str)>,
+    setup: &MachineSetup,
+    fed: bool,
+    write: impl FnOnce(&mut dyn Write, &mut dyn FnMut(&LineEvent<'_>)) -> Result<T, E>,
+) -> Result<(T, Result<TimeComparison, Error>), E> {
     let limits = Limits::from_setup(setup.setup.limits.as_ref());
     let stop = AtomicBool::new(false);
     let turns = Turns::default();
     let (tx, rx) = sync_channel(CHUNKS_IN_FLIGHT);
+    let (lines_tx, lines_rx) = sync_channel(super::fed::CHUNKS_IN_FLIGHT);
+    let lines_tx = (fed && original.is_some()).then_some(lines_tx);
     let (written, program, original) = std::thread::scope(|scope| {
         let (stop, turns) = (&stop, &turns);
         // However the writing ends (a panic included), the original's
@@ -177,7 +210,11 @@ pub fn compare_while_writing<T, E>(
                 stop,
                 turns,
             };
-            scope.spawn(move || estimate_program(r, name, setup, &limits))
+            let limits = &limits;
+            scope.spawn(move || match fed {
+                true => super::fed::estimate_fed(lines_rx, r, name, setup, limits, turns),
+                false => estimate_program(r, name, setup, limits),
+            })
         });
         let program = scope.spawn(move || {
             let r = ChunkReader {
@@ -193,14 +230,17 @@ pub fn compare_while_writing<T, E>(
             buf: Vec::with_capacity(CHUNK_BYTES),
             turns,
         };
-        let written = write(&mut sink);
+        let mut feed = super::fed::Feed::new(lines_tx, turns);
+        let written = write(&mut sink, &mut |ev| feed.line(ev));
         if written.is_ok() {
             sink.send();
+            feed.send();
         } else {
             stop.store(true, Ordering::Relaxed);
         }
-        // The end of the program: the estimate reads to here.
+        // The end of the program: the estimates read to here.
         drop(sink);
+        drop(feed);
         turns.writing_done();
         (written, joined(program), original.map(joined))
     });
@@ -294,7 +334,7 @@ impl Write for ChunkWriter<'_> {
 /// runs; taking turns, the estimates share one core (they need less
 /// time than the writing) and the writing keeps the other.
 #[derive(Default)]
-struct Turns {
+pub(super) struct Turns {
     state: Mutex<TurnState>,
     changed: Condvar,
 }
@@ -331,7 +371,7 @@ impl Turns {
 
     /// The writing waits for the written program's estimate (`true`), or
     /// no longer.
-    fn writer_waits(&self, waits: bool) {
+    pub(super) fn writer_waits(&self, waits: bool) {
         self.lock().writer_waits = waits;
         if waits {
             self.changed.notify_all();
@@ -344,7 +384,7 @@ impl Turns {
     }
 
     /// Waits until the original's estimate may run.
-    fn original_turn(&self) {
+    pub(super) fn original_turn(&self) {
         let mut s = self.lock();
         while s.program_busy && !s.writer_waits && !s.writing_done {
             s = self.changed.wait(s).unwrap_or_else(|p| p.into_inner());
@@ -409,7 +449,7 @@ impl Read for ChunkReader<'_> {
 /// The original's reader beside a writing: it reads in its [`Turns`],
 /// and fails once `stop` is set (the writing failed: its estimate is not
 /// wanted).
-struct Stoppable<'a, R> {
+pub(super) struct Stoppable<'a, R> {
     inner: R,
     stop: &'a AtomicBool,
     turns: &'a Turns,

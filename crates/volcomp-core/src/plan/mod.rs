@@ -32,6 +32,7 @@
 mod blend;
 mod canon;
 mod compare;
+mod fed;
 mod geometry;
 mod integrate;
 mod lookahead;
@@ -39,7 +40,8 @@ pub mod program;
 mod segment;
 
 pub use compare::{
-    compare_programs, compare_programs_per_line, compare_while_writing, TimeComparison,
+    compare_programs, compare_programs_per_line, compare_while_writing, compare_while_writing_fed,
+    TimeComparison,
 };
 pub use program::{estimate_program, estimate_program_per_line, ProgramEstimate};
 /// The path-control mode (G61, G61.1, G64 P Q), as the interpreter gives

@@ -21,6 +21,7 @@ use crate::error::Error;
 use std::io::Read;
 use volcomp_gcode::interp::{FeedMode, MotionKind};
 use volcomp_gcode::lexer::Lexed;
+use volcomp_gcode::LineEvent;
 
 /// The estimate of a whole program.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -124,15 +125,9 @@ pub fn estimate_program_per_line(
     Ok((out, lines))
 }
 
-/// The program's moves and waits fed to `planner` (its limits checked
-/// first); the estimate without its motion, and the planner to finish.
-fn run_program(
-    program: impl Read,
-    file: &str,
-    setup: &MachineSetup,
-    mut planner: Planner,
-) -> Result<(ProgramEstimate, Planner), Error> {
-    let limits = *planner.limits();
+/// The planner's limits checked before any move: an error naming the
+/// set-up's `[limits]` table.
+pub(super) fn check_limits(limits: &Limits) -> Result<(), Error> {
     limits.check().map_err(|m| {
         Error::Setup(volcomp_gcode::GcodeError::new(
             volcomp_gcode::ErrorClass::Invalid,
@@ -141,70 +136,119 @@ fn run_program(
             m,
             "fix the [limits] table of the set-up file",
         ))
-    })?;
+    })
+}
+
+/// What one program line gives the estimate, in order: the waits for the
+/// motion to end, its dwell and its moves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Step {
+    /// The machine waits for the motion to end.
+    Wait,
+    /// A dwell (G4 P), s.
+    Dwell(f64),
+    /// A move of the program.
+    Move(Move),
+}
+
+impl Step {
+    /// The step fed to `planner`, counted in `out`.
+    pub(super) fn apply(self, planner: &mut Planner, out: &mut ProgramEstimate) {
+        match self {
+            Step::Wait => {
+                planner.wait();
+                out.waits += 1;
+            }
+            Step::Dwell(s) => out.dwell_s += s,
+            Step::Move(m) => {
+                out.moves += 1;
+                out.moves_by_mode[match m.mode {
+                    PathMode::ExactStop => 0,
+                    PathMode::ExactPath => 1,
+                    PathMode::Blend { .. } => 2,
+                }] += 1;
+                planner.push(&m);
+            }
+        }
+    }
+}
+
+/// The [`Step`]s of the line `ev` (none after the program end), given to
+/// `f` in order; `spindle_rpm` is the last S word's speed, kept from line
+/// to line (for feeds per revolution).
+pub(super) fn steps_of_line(ev: &LineEvent<'_>, spindle_rpm: &mut f64, mut f: impl FnMut(Step)) {
+    if ev.after_end {
+        return;
+    }
+    let units = ev.interp.units().mm_per_unit();
+    let LineWaits {
+        before,
+        after,
+        dwell_s,
+        spindle_rpm: s_word,
+    } = waits_of_line(ev.lexed);
+    if let Some(s) = s_word {
+        *spindle_rpm = s;
+    }
+    if before {
+        f(Step::Wait);
+    }
+    // A line without a dwell adds nothing (the sum is never negative:
+    // `x + 0.0` is `x`).
+    if dwell_s != 0.0 {
+        f(Step::Dwell(dwell_s));
+    }
+    for m in ev.motions {
+        let length = match m.kind {
+            MotionKind::Arc(a) => a.length(),
+            _ => (m.end - m.start).norm(),
+        };
+        let feed_mm_s = match m.feed_mode {
+            FeedMode::PerMinute => m.feed / 60.0,
+            // `feed` is the inverse-time value converted as a length.
+            FeedMode::InverseTime => length * (m.feed / units) / 60.0,
+            FeedMode::PerRevolution => m.feed * *spindle_rpm / 60.0,
+        };
+        let kind = match m.kind {
+            MotionKind::Rapid => MoveKind::Rapid,
+            MotionKind::Feed => MoveKind::Feed,
+            MotionKind::Arc(a) => MoveKind::Arc {
+                center: a.center,
+                plane: a.plane,
+                sweep_rad: a.sweep_rad,
+            },
+        };
+        f(Step::Move(Move {
+            kind,
+            start: m.start,
+            end: m.end,
+            feed_mm_s,
+            mode: m.path_mode,
+            line: m.line,
+        }));
+    }
+    if after {
+        f(Step::Wait);
+    }
+}
+
+/// The program's moves and waits fed to `planner` (its limits checked
+/// first); the estimate without its motion, and the planner to finish.
+fn run_program(
+    program: impl Read,
+    file: &str,
+    setup: &MachineSetup,
+    mut planner: Planner,
+) -> Result<(ProgramEstimate, Planner), Error> {
+    check_limits(planner.limits())?;
     let reader = std::io::BufReader::new(program);
     let mut walker = setup.walker(reader, file);
     let mut out = ProgramEstimate::default();
     let mut spindle_rpm = 0.0;
     while let Some(ev) = walker.next_line().map_err(Error::Gcode)? {
-        if ev.after_end {
-            continue;
-        }
-        let units = ev.interp.units().mm_per_unit();
-        let LineWaits {
-            before,
-            after,
-            dwell_s,
-            spindle_rpm: s_word,
-        } = waits_of_line(ev.lexed);
-        if let Some(s) = s_word {
-            spindle_rpm = s;
-        }
-        if before {
-            planner.wait();
-            out.waits += 1;
-        }
-        out.dwell_s += dwell_s;
-        for m in ev.motions {
-            let length = match m.kind {
-                MotionKind::Arc(a) => a.length(),
-                _ => (m.end - m.start).norm(),
-            };
-            let feed_mm_s = match m.feed_mode {
-                FeedMode::PerMinute => m.feed / 60.0,
-                // `feed` is the inverse-time value converted as a length.
-                FeedMode::InverseTime => length * (m.feed / units) / 60.0,
-                FeedMode::PerRevolution => m.feed * spindle_rpm / 60.0,
-            };
-            let kind = match m.kind {
-                MotionKind::Rapid => MoveKind::Rapid,
-                MotionKind::Feed => MoveKind::Feed,
-                MotionKind::Arc(a) => MoveKind::Arc {
-                    center: a.center,
-                    plane: a.plane,
-                    sweep_rad: a.sweep_rad,
-                },
-            };
-            out.moves += 1;
-            let mode = m.path_mode;
-            out.moves_by_mode[match mode {
-                PathMode::ExactStop => 0,
-                PathMode::ExactPath => 1,
-                PathMode::Blend { .. } => 2,
-            }] += 1;
-            planner.push(&Move {
-                kind,
-                start: m.start,
-                end: m.end,
-                feed_mm_s,
-                mode,
-                line: m.line,
-            });
-        }
-        if after {
-            planner.wait();
-            out.waits += 1;
-        }
+        steps_of_line(&ev, &mut spindle_rpm, |step| {
+            step.apply(&mut planner, &mut out);
+        });
     }
     Ok((out, planner))
 }

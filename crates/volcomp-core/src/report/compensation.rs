@@ -495,6 +495,10 @@ pub fn summary_table(s: &CompensateSummary) -> Table {
             s.take_ups_folded.to_string(),
         ),
         (
+            "take-ups ahead in an idle move",
+            s.take_ups_idle.to_string(),
+        ),
+        (
             "largest excursion at a folded reversal (µm)",
             format!("{:.3}", s.max_fold_excursion_um),
         ),

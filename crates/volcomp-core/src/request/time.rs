@@ -10,14 +10,15 @@ use crate::compensate::{CompensateSummary, PointRecord};
 use crate::limits::LimitedWriter;
 use crate::model::ErrorModel;
 use crate::plan::{
-    compare_programs, compare_programs_per_line, compare_while_writing, LineTime, TimeComparison,
+    compare_programs, compare_programs_per_line, compare_while_writing_fed, LineTime,
+    TimeComparison,
 };
 use crate::simulate::report::SegmentError;
 use crate::simulate::SimReport;
 use crate::Error;
 use std::io::{Read, Write};
 use std::path::Path;
-use volcomp_gcode::Warning;
+use volcomp_gcode::{LineEvent, Warning};
 
 /// The options of [`TimeRequest`] beside the machine's.
 pub const TIME_OPTIONS: &[OptionInfo] = &[OptionInfo::new(
@@ -117,24 +118,27 @@ impl Compensation {
     }
 
     /// [`Compensation::machining_time`] of the program `write` writes,
-    /// estimated while it is written (see [`compare_while_writing`]):
-    /// what `write` gives, and the times (an error opening the original
-    /// is the times' error, as it is there).
+    /// estimated while it is written (see [`compare_while_writing_fed`]:
+    /// `write` compensates the program file `program` with this job's
+    /// set-up and gives each line it reads to the function it is handed,
+    /// [`crate::compensate::Compensator::on_line`]): what `write` gives,
+    /// and the times (an error opening the original is the times' error,
+    /// as it is there).
     pub fn machining_time_while<T, E>(
         &self,
         program: &Path,
         name: &str,
-        write: impl FnOnce(&mut dyn Write) -> Result<T, E>,
+        write: impl FnOnce(&mut dyn Write, &mut dyn FnMut(&LineEvent<'_>)) -> Result<T, E>,
     ) -> Result<(T, Result<TimeComparison, Error>), E> {
         let shown = program.display().to_string();
         let original = match program.as_os_str() == "-" {
             true => None,
             false => match open(program) {
                 Ok(f) => Some((Box::new(f) as Box<dyn Read + Send>, shown.as_str())),
-                Err(e) => return write(&mut std::io::sink()).map(|t| (t, Err(e))),
+                Err(e) => return write(&mut std::io::sink(), &mut |_| {}).map(|t| (t, Err(e))),
             },
         };
-        compare_while_writing(name, original, &self.machine.setup, write)
+        compare_while_writing_fed(name, original, &self.machine.setup, write)
     }
 }
 
