@@ -178,12 +178,13 @@ def programs(feed):
     }
 
 
-def main():
+def main(programs_at=programs):
+    """Writes the set `programs_at(feed)` (this file's, or another set's)."""
     out_dir = sys.argv[1]
     feed = float(sys.argv[2]) if len(sys.argv) > 2 else 6000.0
     feed = int(feed) if feed == int(feed) else feed
     os.makedirs(out_dir, exist_ok=True)
-    for kind, (title, body, inch) in programs(feed).items():
+    for kind, (title, body, inch) in programs_at(feed).items():
         for tag, mode in MODES.items():
             path = os.path.join(out_dir, f"{kind}.{tag}.ngc")
             lines = ["%"] + header(f"{title}, {mode}", mode, inch) + body + ["M2", "%"]

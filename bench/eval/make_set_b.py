@@ -2,10 +2,14 @@
 """A second, held-out-like evaluation set: the kinds of make_set.py with
 other sizes, counts, start angles and directions, plus shapes the first set
 lacks (a zigzag along Y, a rotated rectangle, an octagon, a pentagon)."""
-import math, os, sys
+import math
+import os
+import sys
+
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from make_set import (MODES, fmt, header, chord_circle, one_block_circle, arcs_all_planes_inch,
-                           pocket_with_arcs, raster_surface, spiral_lines, spiral_arcs, polygon)
+import make_set  # noqa: E402
+from make_set import (chord_circle, fmt, one_block_circle, pocket_with_arcs,  # noqa: E402
+                      polygon, raster_surface, spiral_arcs, spiral_lines)
 
 
 def helix_cw(r, depth, turns, feed):
@@ -71,19 +75,5 @@ def programs(feed):
     }
 
 
-def main():
-    out_dir = sys.argv[1]
-    feed = float(sys.argv[2]) if len(sys.argv) > 2 else 6000.0
-    feed = int(feed) if feed == int(feed) else feed
-    os.makedirs(out_dir, exist_ok=True)
-    for kind, (title, body, inch) in programs(feed).items():
-        for tag, mode in MODES.items():
-            path = os.path.join(out_dir, f"{kind}.{tag}.ngc")
-            lines = ["%"] + header(f"{title}, {mode}", mode, inch) + body + ["M2", "%"]
-            with open(path, "w") as f:
-                f.write("\n".join(lines) + "\n")
-            print(path)
-
-
 if __name__ == "__main__":
-    main()
+    make_set.main(programs)
