@@ -71,9 +71,10 @@ pub(crate) struct Exec {
 /// [`run_cruise`], [`run_steps`], [`run_period`]. Each gives bit for bit
 /// what [`run_period`] gives or runs nothing, so which is tried first
 /// changes only the work: after a cruise run in one step the segment
-/// speeds up or slows down (the cruise is not tried again), and after
-/// the tight loop stopped at a period that takes a decision that period
-/// is run at once.
+/// speeds up or slows down (the cruise is not tried again), after the
+/// tight loop stopped at a period that takes a decision that period is
+/// run at once, and after a period the front segment's state tells which
+/// can run it ([`first_after`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 enum First {
     #[default]
@@ -346,24 +347,27 @@ pub(crate) fn run_cruise(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
     let Some(periods) = cruise_periods(&q[0], q.get(1), limits) else {
         return false;
     };
-    let canon = q[0].canon;
-    let shown = q[0].shown();
     let tc = q.front_mut().expect("a segment");
-    let v = tc.currentvel;
-    // `advance` with `v_next == v`, as many times (the clamp to the
-    // target never acts: the cruise stops short of it).
-    let step = (v + v) * 0.5 * period;
-    tc.progress = add_repeated(tc.progress, step, periods);
-    tc.vel_at_blend_start = v;
-    tc.on_final_decel = false;
-    ex.shown = shown;
+    cruise(tc, periods, period);
+    ex.shown = tc.shown();
     ex.first = First::Steps;
     ex.periods.moving += periods;
-    match canon {
+    match tc.canon {
         Canon::Feed | Canon::Arc => ex.periods.cutting += periods,
         Canon::Traverse => ex.periods.rapid += periods,
     }
     true
+}
+
+/// The `periods` cruise periods of `tc` (see [`cruise_periods`]):
+/// `advance` with `v_next == v`, as many times (the clamp to the target
+/// never acts: the cruise stops short of it).
+fn cruise(tc: &mut Seg, periods: u64, period: f64) {
+    let v = tc.currentvel;
+    let step = (v + v) * 0.5 * period;
+    tc.progress = add_repeated(tc.progress, step, periods);
+    tc.vel_at_blend_start = v;
+    tc.on_final_decel = false;
 }
 
 /// `x` after `n` floating-point additions of `step` (`x += step`, `n`
@@ -478,17 +482,23 @@ fn binade_start(x: f64) -> f64 {
 /// additions (half a grid step of the target each) plus a relative
 /// margin for the few operations of each test.
 fn cruise_periods(tc: &Seg, next: Option<&Seg>, limits: &Limits) -> Option<u64> {
-    let dt = tc.cycle_time;
-    let v = tc.currentvel;
     let target_vel = real_target_vel(tc, limits);
     let a = tc.tangential_max_accel();
+    let vf = final_vel_at(tc, target_vel, next, limits);
+    cruise_periods_with(tc, target_vel, vf, a)
+}
+
+/// [`cruise_periods`] with the segment's requested speed, end speed and
+/// acceleration given.
+fn cruise_periods_with(tc: &Seg, target_vel: f64, vf: f64, a: f64) -> Option<u64> {
+    let dt = tc.cycle_time;
+    let v = tc.currentvel;
     // With `v' ≥ target_vel` the trapezoid asks for `target_vel`: a fixed
     // point when the acceleration that follows leaves `v` as it is.
     let acc = saturate((target_vel - v) / dt.max(TIME_EPSILON), a);
     if !(v > VEL_EPSILON && a > 0.0) || v + acc * dt != v {
         return None;
     }
-    let vf = final_vel_at(tc, target_vel, next, limits);
     let half = a * dt * 0.5;
     let w = target_vel.max(v) + 4.0 * VEL_EPSILON;
     let dx_min = ((w + half).powi(2) - half * half - vf * vf + a * v * dt) / (2.0 * a);
@@ -642,9 +652,9 @@ impl Hoisted {
 /// [`run_period`] on the same values, so bit for bit what it gives. A
 /// segment not yet active is activated first, as [`run_period`] does at
 /// the start of its first period (and the first period after it is
-/// counted as a change of speed). Stops after the first period of a
-/// cruise that follows a change of speed (the cruise is left to
-/// [`run_cruise`]), or runs the first period that takes a decision as
+/// counted as a change of speed). A cruise that follows a change of
+/// speed runs in one step as [`run_cruise`] runs it, and the stepping
+/// goes on after it. Runs the first period that takes a decision as
 /// [`run_period`]'s regular period (`tpHandleRegularCycle`) with the
 /// values computed once, and stops after it; a segment ending in a
 /// parabolic blend leaves that period to [`run_period`] (it may show the
@@ -682,21 +692,39 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
     let mut vel_at_blend_start = tc.vel_at_blend_start;
     let mut n = 0u64;
     let mut changing = fresh;
-    // Whether the loop stopped at a period that takes a decision (else
-    // at a cruise).
-    let mut decides = true;
-    while let Some(s) = h.step(v, progress) {
-        let cruise = s.v == v;
-        vel_at_blend_start = v;
-        (v, progress, on_final_decel) = (s.v, s.progress, s.on_final_decel);
-        n += 1;
-        if cruise && changing {
-            decides = false;
+    // `run_cruise`'s test of the segment's state (the others hold here).
+    let may_cruise = !(tc.ramp && tc.term == Term::Tangent);
+    loop {
+        // Whether the steps stopped at a cruise that follows a change of
+        // speed (else at a period that takes a decision).
+        let mut cruising = false;
+        while let Some(s) = h.step(v, progress) {
+            let cruise = s.v == v;
+            vel_at_blend_start = v;
+            (v, progress, on_final_decel) = (s.v, s.progress, s.on_final_decel);
+            n += 1;
+            if cruise && changing {
+                cruising = true;
+                break;
+            }
+            changing |= !cruise;
+        }
+        if !cruising {
             break;
         }
-        changing |= !cruise;
+        // The cruise as `run_cruise` runs it, then the periods after it
+        // as a new call of this function (nothing they read has changed).
+        if may_cruise {
+            (tc.currentvel, tc.progress) = (v, progress);
+            if let Some(k) = cruise_periods_with(tc, h.target_vel, h.final_vel, h.a) {
+                cruise(tc, k, period);
+                (progress, vel_at_blend_start, on_final_decel) = (tc.progress, v, false);
+                n += k;
+            }
+        }
+        changing = false;
     }
-    let deciding_here = decides && h.blend_vel.is_none();
+    let deciding_here = h.blend_vel.is_none();
     if n == 0 && !deciding_here {
         return false;
     }
@@ -712,10 +740,6 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
     match tc.canon {
         Canon::Feed | Canon::Arc => ex.periods.cutting += n,
         Canon::Traverse => ex.periods.rapid += n,
-    }
-    if !decides {
-        ex.first = First::Cruise;
-        return true;
     }
     if !deciding_here {
         ex.first = First::Period;
