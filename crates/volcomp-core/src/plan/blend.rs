@@ -133,6 +133,19 @@ pub(crate) fn parabolic_velocity(
     target_vel_this: f64,
     target_vel_next: f64,
 ) -> (f64, f64, f64) {
+    parabolic_velocity_at(tc, next, target_vel_this, target_vel_next, None)
+}
+
+/// [`parabolic_velocity`] with the corner's half angle given when it is
+/// known (that of two lines, whose directions of acceleration are their
+/// tangents: the same operations on the same vectors as [`geom_init`]).
+fn parabolic_velocity_at(
+    tc: &Seg,
+    next: &Seg,
+    target_vel_this: f64,
+    target_vel_next: f64,
+    half_angle: Option<f64>,
+) -> (f64, f64, f64) {
     let acc_this = tc.tangential_max_accel();
     let acc_next = next.tangential_max_accel();
     let triangle = |s: &Seg, a: f64| {
@@ -150,9 +163,11 @@ pub(crate) fn parabolic_velocity(
     let t_blend = t_max_reachable.min(t_max_blend);
     let mut v_this = reach_this.min(t_blend * acc_this);
     let mut v_next = reach_next.min(t_blend * acc_next);
-    let v1 = tc.end_accel_direction();
-    let v2 = next.start_accel_direction();
-    let theta = (-v1.dot(v2)).clamp(-1.0, 1.0).acos() / 2.0;
+    let theta = half_angle.unwrap_or_else(|| {
+        let v1 = tc.end_accel_direction();
+        let v2 = next.start_accel_direction();
+        (-v1.dot(v2)).clamp(-1.0, 1.0).acos() / 2.0
+    });
     let cos_theta = theta.cos();
     if tc.tolerance > 0.0 {
         let min_cos = (FRAC_PI_2 - 1e-3).cos();
@@ -182,14 +197,27 @@ pub(crate) fn choose_best(
     arc_maxvel: Option<f64>,
     limits: &Limits,
 ) -> Chosen {
+    choose_best_at(prev, tc, arc_maxvel, None, limits)
+}
+
+/// [`choose_best`] with the corner's half angle given when it is known
+/// (see [`parabolic_velocity_at`]).
+fn choose_best_at(
+    prev: &mut Seg,
+    tc: &mut Seg,
+    arc_maxvel: Option<f64>,
+    half_angle: Option<f64>,
+    limits: &Limits,
+) -> Chosen {
     if matches!(prev.term, Term::Exact | Term::Stop) {
         return Chosen::None;
     }
-    let (_, _, v_net) = parabolic_velocity(
+    let (_, _, v_net) = parabolic_velocity_at(
         prev,
         tc,
         max_target_vel(prev, limits),
         max_target_vel(tc, limits),
+        half_angle,
     );
     let perf = [v_net / 2.0, prev.kink_vel, arc_maxvel.unwrap_or(0.0)];
     let mut best = 0;
@@ -533,7 +561,7 @@ fn line_line(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
     check_consume(&mut p, &pts, prev, limits);
     let arc = BlendArc::from_points(pts.arc_start, pts.arc_end, pts.arc_center, p.line_length)?;
     let seg = blend_seg(prev, arc, &p, tc.tolerance, limits);
-    if choose_best(prev, tc, Some(seg.maxvel), limits) != Chosen::Arc {
+    if choose_best_at(prev, tc, Some(seg.maxvel), Some(g.theta_tan), limits) != Chosen::Arc {
         return None;
     }
     let new1 = Line::new(l1.start, pts.arc_start);

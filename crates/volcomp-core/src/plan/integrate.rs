@@ -71,9 +71,10 @@ pub(crate) struct Exec {
 /// [`run_cruise`], [`run_steps`], [`run_period`]. Each gives bit for bit
 /// what [`run_period`] gives or runs nothing, so which is tried first
 /// changes only the work: after a cruise run in one step the segment
-/// speeds up or slows down (the cruise is not tried again), and after
-/// the tight loop stopped at a period that takes a decision that period
-/// is run at once.
+/// speeds up or slows down (the cruise is not tried again), after the
+/// tight loop stopped at a period that takes a decision that period is
+/// run at once, and after a period the front segment's state tells which
+/// can run it ([`first_after`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 enum First {
     #[default]
@@ -121,12 +122,7 @@ fn real_target_vel(s: &Seg, limits: &Limits) -> f64 {
 }
 
 /// End speed: zero unless the segment runs through at speed into the next
-/// (`tpGetRealFinalVel`).
-fn real_final_vel(s: &Seg, next: Option<&Seg>, limits: &Limits) -> f64 {
-    final_vel_at(s, real_target_vel(s, limits), next, limits)
-}
-
-/// [`real_final_vel`] with the segment's [`real_target_vel`] given
+/// (`tpGetRealFinalVel`), with the segment's [`real_target_vel`] given
 /// (computed once per period).
 fn final_vel_at(s: &Seg, target_vel: f64, next: Option<&Seg>, limits: &Limits) -> f64 {
     if s.term != Term::Tangent {
@@ -248,12 +244,19 @@ fn check_end(s: &mut Seg, final_vel: f64, a_max: f64, period: f64) {
 /// of it reads and none changes, are computed once; gives the requested
 /// speed.
 fn update(s: &mut Seg, next: Option<&Seg>, limits: &Limits) -> f64 {
-    if !s.blending_next {
-        s.vel_at_blend_start = s.currentvel;
-    }
     let target_vel = real_target_vel(s, limits);
     let final_vel = final_vel_at(s, target_vel, next, limits);
     let a = s.tangential_max_accel();
+    update_with(s, target_vel, final_vel, a, limits);
+    target_vel
+}
+
+/// [`update`] with the segment's requested speed, end speed and
+/// acceleration given (none of which a period changes).
+fn update_with(s: &mut Seg, target_vel: f64, final_vel: f64, a: f64, limits: &Limits) {
+    if !s.blending_next {
+        s.vel_at_blend_start = s.currentvel;
+    }
     // `tpCalculateRampAccel` fails below `VEL_EPSILON`: the trapezoid then.
     let (acc, vel_desired) = if s.ramp && s.term == Term::Tangent && final_vel >= VEL_EPSILON {
         ramp(s, final_vel, a)
@@ -262,7 +265,6 @@ fn update(s: &mut Seg, next: Option<&Seg>, limits: &Limits) -> f64 {
     };
     advance(s, acc, vel_desired);
     check_end(s, final_vel, a, limits.servo_period_s);
-    target_vel
 }
 
 /// `tpActivateSegment`: a segment becomes the active one.
@@ -287,7 +289,6 @@ fn activate(s: &mut Seg, limits: &Limits, shown: &mut Option<Shown>) {
 /// Runs one servo period; `false` when the queue is empty (the machine is
 /// in position).
 pub(crate) fn run_period(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -> bool {
-    ex.first = First::Cruise;
     if q.is_empty() {
         ex.shown = None;
         return false;
@@ -313,12 +314,8 @@ pub(crate) fn run_period(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
     if q[0].remove {
         q.pop_front();
     }
-    ex.periods.moving += 1;
-    match ex.shown.map(|s| s.canon) {
-        Some(Canon::Feed | Canon::Arc) => ex.periods.cutting += 1,
-        Some(Canon::Traverse) => ex.periods.rapid += 1,
-        None => {}
-    }
+    count_period(ex);
+    ex.first = first_after(q);
     true
 }
 
@@ -350,24 +347,27 @@ pub(crate) fn run_cruise(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
     let Some(periods) = cruise_periods(&q[0], q.get(1), limits) else {
         return false;
     };
-    let canon = q[0].canon;
-    let shown = q[0].shown();
     let tc = q.front_mut().expect("a segment");
-    let v = tc.currentvel;
-    // `advance` with `v_next == v`, as many times (the clamp to the
-    // target never acts: the cruise stops short of it).
-    let step = (v + v) * 0.5 * period;
-    tc.progress = add_repeated(tc.progress, step, periods);
-    tc.vel_at_blend_start = v;
-    tc.on_final_decel = false;
-    ex.shown = shown;
+    cruise(tc, periods, period);
+    ex.shown = tc.shown();
     ex.first = First::Steps;
     ex.periods.moving += periods;
-    match canon {
+    match tc.canon {
         Canon::Feed | Canon::Arc => ex.periods.cutting += periods,
         Canon::Traverse => ex.periods.rapid += periods,
     }
     true
+}
+
+/// The `periods` cruise periods of `tc` (see [`cruise_periods`]):
+/// `advance` with `v_next == v`, as many times (the clamp to the target
+/// never acts: the cruise stops short of it).
+fn cruise(tc: &mut Seg, periods: u64, period: f64) {
+    let v = tc.currentvel;
+    let step = (v + v) * 0.5 * period;
+    tc.progress = add_repeated(tc.progress, step, periods);
+    tc.vel_at_blend_start = v;
+    tc.on_final_decel = false;
 }
 
 /// `x` after `n` floating-point additions of `step` (`x += step`, `n`
@@ -482,17 +482,23 @@ fn binade_start(x: f64) -> f64 {
 /// additions (half a grid step of the target each) plus a relative
 /// margin for the few operations of each test.
 fn cruise_periods(tc: &Seg, next: Option<&Seg>, limits: &Limits) -> Option<u64> {
-    let dt = tc.cycle_time;
-    let v = tc.currentvel;
     let target_vel = real_target_vel(tc, limits);
     let a = tc.tangential_max_accel();
+    let vf = final_vel_at(tc, target_vel, next, limits);
+    cruise_periods_with(tc, target_vel, vf, a)
+}
+
+/// [`cruise_periods`] with the segment's requested speed, end speed and
+/// acceleration given.
+fn cruise_periods_with(tc: &Seg, target_vel: f64, vf: f64, a: f64) -> Option<u64> {
+    let dt = tc.cycle_time;
+    let v = tc.currentvel;
     // With `v' ≥ target_vel` the trapezoid asks for `target_vel`: a fixed
     // point when the acceleration that follows leaves `v` as it is.
     let acc = saturate((target_vel - v) / dt.max(TIME_EPSILON), a);
     if !(v > VEL_EPSILON && a > 0.0) || v + acc * dt != v {
         return None;
     }
-    let vf = real_final_vel(tc, next, limits);
     let half = a * dt * 0.5;
     let w = target_vel.max(v) + 4.0 * VEL_EPSILON;
     let dx_min = ((w + half).powi(2) - half * half - vf * vf + a * v * dt) / (2.0 * a);
@@ -548,7 +554,7 @@ impl Hoisted {
         let a = tc.tangential_max_accel();
         let dt = tc.cycle_time;
         let target_vel = real_target_vel(tc, limits);
-        let final_vel = real_final_vel(tc, next, limits);
+        let final_vel = final_vel_at(tc, target_vel, next, limits);
         // `tpCalculateRampAccel` fails below this end speed.
         let too_slow = final_vel < VEL_EPSILON;
         let blend_vel = (tc.term == Term::Parabolic).then(|| match next {
@@ -643,52 +649,85 @@ impl Hoisted {
 /// front segment that take no decision (see [`Hoisted::step`]): the
 /// speeding up, the slowing down, the ramps and the cruise periods
 /// [`run_cruise`] leaves to stepping, each with the operations of
-/// [`run_period`] on the same values, so bit for bit what it gives. Stops
-/// before the first period that takes a decision (that one is left to
-/// [`run_period`]) and after the first period of a cruise that follows a
-/// change of speed (the cruise is left to [`run_cruise`]). `false` when
-/// no period was run.
+/// [`run_period`] on the same values, so bit for bit what it gives. A
+/// segment not yet active is activated first, as [`run_period`] does at
+/// the start of its first period (and the first period after it is
+/// counted as a change of speed). A cruise that follows a change of
+/// speed runs in one step as [`run_cruise`] runs it, and the stepping
+/// goes on after it. Runs the first period that takes a decision as
+/// [`run_period`]'s regular period (`tpHandleRegularCycle`) with the
+/// values computed once, and stops after it; a segment ending in a
+/// parabolic blend leaves that period to [`run_period`] (it may show the
+/// next segment, to which the periods of one call are counted per line).
+/// `false` when no period was run.
 pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -> bool {
     let period = limits.servo_period_s;
-    let ready = |tc: &Seg| {
-        tc.active && tc.cycle_time == period && !(tc.splitting || tc.remove || tc.blending_next)
+    let Some(front) = q.front() else {
+        return false;
     };
-    if !q.front().is_some_and(ready) {
+    if front.splitting || front.remove || front.blending_next {
         return false;
     }
-    // What every period does first (see `run_cruise`).
-    for s in q.iter_mut().take(2) {
-        s.is_blending = false;
+    let fresh = !front.active;
+    if !fresh && front.cycle_time != period {
+        return false;
     }
-    let h = Hoisted::new(&q[0], q.get(1), limits);
-    let tc = q.front_mut().expect("a segment");
+    let mut front = q.iter_mut();
+    let tc = front.next().expect("a segment");
+    // What every period does first (see `run_period`): activation with
+    // the blending flags as they are, then the flags cleared.
+    if fresh {
+        activate(tc, limits, &mut ex.shown);
+    }
+    let mut next = front.next();
+    tc.is_blending = false;
+    if let Some(n) = next.as_deref_mut() {
+        n.is_blending = false;
+    }
+    // `tpHandleRegularCycle` runs the period with the whole servo period.
+    tc.cycle_time = period;
+    let h = Hoisted::new(tc, next.as_deref(), limits);
     let (mut v, mut progress) = (tc.currentvel, tc.progress);
     let mut on_final_decel = tc.on_final_decel;
     let mut vel_at_blend_start = tc.vel_at_blend_start;
     let mut n = 0u64;
-    let mut changing = false;
-    // Whether the loop stopped at a period that takes a decision (else
-    // at a cruise).
-    let mut decides = true;
-    while let Some(s) = h.step(v, progress) {
-        let cruise = s.v == v;
-        vel_at_blend_start = v;
-        (v, progress, on_final_decel) = (s.v, s.progress, s.on_final_decel);
-        n += 1;
-        if cruise && changing {
-            decides = false;
+    let mut changing = fresh;
+    // `run_cruise`'s test of the segment's state (the others hold here).
+    let may_cruise = !(tc.ramp && tc.term == Term::Tangent);
+    loop {
+        // Whether the steps stopped at a cruise that follows a change of
+        // speed (else at a period that takes a decision).
+        let mut cruising = false;
+        while let Some(s) = h.step(v, progress) {
+            let cruise = s.v == v;
+            vel_at_blend_start = v;
+            (v, progress, on_final_decel) = (s.v, s.progress, s.on_final_decel);
+            n += 1;
+            if cruise && changing {
+                cruising = true;
+                break;
+            }
+            changing |= !cruise;
+        }
+        if !cruising {
             break;
         }
-        changing |= !cruise;
+        // The cruise as `run_cruise` runs it, then the periods after it
+        // as a new call of this function (nothing they read has changed).
+        if may_cruise {
+            (tc.currentvel, tc.progress) = (v, progress);
+            if let Some(k) = cruise_periods_with(tc, h.target_vel, h.final_vel, h.a) {
+                cruise(tc, k, period);
+                (progress, vel_at_blend_start, on_final_decel) = (tc.progress, v, false);
+                n += k;
+            }
+        }
+        changing = false;
     }
-    if n == 0 {
+    let deciding_here = h.blend_vel.is_none();
+    if n == 0 && !deciding_here {
         return false;
     }
-    ex.first = if decides {
-        First::Period
-    } else {
-        First::Cruise
-    };
     tc.currentvel = v;
     tc.progress = progress;
     tc.on_final_decel = on_final_decel;
@@ -702,7 +741,45 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
         Canon::Feed | Canon::Arc => ex.periods.cutting += n,
         Canon::Traverse => ex.periods.rapid += n,
     }
+    if !deciding_here {
+        ex.first = First::Period;
+        return true;
+    }
+    // The period that takes a decision: `run_period`'s regular period
+    // (the segment neither splits nor is removed nor blends yet, and it
+    // does not end in a parabolic blend, so it shows itself).
+    update_with(tc, h.target_vel, h.final_vel, h.a, limits);
+    blend_or_show(tc, next, limits, &mut ex.shown);
+    count_period(ex);
+    if q[0].remove {
+        q.pop_front();
+    }
+    ex.first = first_after(q);
     true
+}
+
+/// Counts one period of [`run_period`] by the segment shown as active.
+fn count_period(ex: &mut Exec) {
+    ex.periods.moving += 1;
+    match ex.shown.map(|s| s.canon) {
+        Some(Canon::Feed | Canon::Arc) => ex.periods.cutting += 1,
+        Some(Canon::Traverse) => ex.periods.rapid += 1,
+        None => {}
+    }
+}
+
+/// Which way of running the next period to try first after a period
+/// that may have changed the front segment's state: [`run_period`] for
+/// a segment that ends within the period, is removed or blends
+/// (neither [`run_cruise`] nor [`run_steps`] runs those), [`run_steps`]
+/// for one not yet active ([`run_cruise`] runs only active ones),
+/// [`run_cruise`] else.
+fn first_after(q: &VecDeque<Seg>) -> First {
+    match q.front() {
+        Some(f) if f.splitting || f.remove || f.blending_next => First::Period,
+        Some(f) if !f.active => First::Steps,
+        _ => First::Cruise,
+    }
 }
 
 /// `⌊x⌋` for `x ≥ 0`, and −1 for any other `x` (NaN included): through
@@ -734,6 +811,13 @@ fn regular_period(
             None => 0.0,
         };
     }
+    blend_or_show(tc, next, limits, shown);
+}
+
+/// The end of `tpHandleRegularCycle` after the segment's update: a
+/// parabolic blend starts or goes on (the next segment runs too), and the
+/// segment shown as active.
+fn blend_or_show(tc: &mut Seg, next: Option<&mut Seg>, limits: &Limits, shown: &mut Option<Shown>) {
     let blending = {
         let starts =
             tc.term == Term::Parabolic && tc.on_final_decel && tc.currentvel < tc.blend_vel;

@@ -80,8 +80,9 @@ fn initial_vel(tc: &Seg, limits: &Limits) -> f64 {
     triangle.min(blend::max_target_vel(tc, limits))
 }
 
-/// One step of the backward pass (`tpComputeOptimalVelocity`).
-fn optimal_velocity(tc: &mut Seg, prev: &mut Seg, limits: &Limits) {
+/// One step of the backward pass (`tpComputeOptimalVelocity`); whether
+/// it changed a value (the bits of a speed, a flag).
+fn optimal_velocity(tc: &mut Seg, prev: &mut Seg, limits: &Limits) -> bool {
     let acc_this = tc.tangential_max_accel();
     let mut vs_back = (tc.finalvel * tc.finalvel + 2.0 * acc_this * tc.target).sqrt();
     let mut vf_limit_prev = prev.maxvel;
@@ -89,14 +90,46 @@ fn optimal_velocity(tc: &mut Seg, prev: &mut Seg, limits: &Limits) {
         vf_limit_prev = vf_limit_prev.min(prev.kink_vel);
     }
     let vf_limit = tc.maxvel.min(vf_limit_prev);
+    let mut changed = false;
     if vs_back >= vf_limit {
         vs_back = vf_limit;
+        changed |= !prev.at_max;
         prev.at_max = true;
     }
+    changed |= prev.finalvel.to_bits() != vs_back.to_bits();
     prev.finalvel = vs_back;
-    tc.maxvel = tc
+    let maxvel = tc
         .maxvel
         .min(tc.target / (limits.servo_period_s * MIN_SEGMENT_CYCLES));
+    if maxvel.to_bits() != tc.maxvel.to_bits() {
+        tc.walk_clamped = true;
+        changed = true;
+    }
+    tc.maxvel = maxvel;
+    tc.walked = true;
+    changed
+}
+
+/// Whether the step of the pair `prev`, `tc` would compute what it
+/// computed in an earlier pass and change nothing, given that the step
+/// of the pair after it (the one that sets `tc.finalvel`) changed nothing
+/// in this pass. A step reads `tc`'s end speed, length, acceleration and
+/// speed limit and `prev`'s speed limit, kink speed and end condition;
+/// of these, between passes only the queue's last segment changes (its
+/// joint with a new one, its length trimmed by a blend arc, its
+/// finalisation: it has not been `walked`), the end speeds (written by
+/// the pass alone: unchanged here, the step after this one having
+/// changed nothing) and the speed limits, lowered by a step's length
+/// clamp (`walk_clamped`: such pairs are always computed). A pass visits
+/// no pair of older segments the pass before it did not visit (it starts
+/// one segment later, the peaks it counts only grow, the front only
+/// moves on), so the earlier pass computed this pair with the same
+/// inputs, finalised, and wrote what this one would; every pair after it
+/// is the same case. Skipping such pairs leaves the queue bit for bit as
+/// computing them does (tested against the full pass on random programs
+/// in plan/tests.rs).
+fn settled(tc: &Seg, prev: &Seg) -> bool {
+    tc.walked && !tc.walk_clamped && !prev.walk_clamped
 }
 
 /// The backward pass over the queue's end (`tpRunOptimization`).
@@ -110,6 +143,9 @@ pub(crate) fn optimize(q: &mut VecDeque<Seg>, limits: &Limits) {
     let Some(mut tc) = back.next() else {
         return;
     };
+    // Whether the pair after this one (nearer the end) changed nothing.
+    let mut unchanged_after = false;
+    let skip = skipping_settled();
     for x in 1..limits.blend.optimization_depth + 2 {
         if x + 1 > len {
             return;
@@ -120,6 +156,7 @@ pub(crate) fn optimize(q: &mut VecDeque<Seg>, limits: &Limits) {
                 return;
             }
             hit_non_tangent = true;
+            unchanged_after = false;
         } else {
             // A segment not begun (progress 0: the quotient is 0 or NaN,
             // never at least a quarter) skips the division.
@@ -133,8 +170,12 @@ pub(crate) fn optimize(q: &mut VecDeque<Seg>, limits: &Limits) {
                     prev.finalvel = prev.finalvel.min(prev.kink_vel);
                 }
                 tc.finalvel = 0.0;
+                unchanged_after = false;
+            } else if skip && unchanged_after && settled(tc, prev) {
+                #[cfg(test)]
+                SKIPPED.with(|n| n.set(n.get() + 1));
             } else {
-                optimal_velocity(tc, prev, limits);
+                unchanged_after = !optimal_velocity(tc, prev, limits);
             }
             if tc.at_max {
                 hit_peaks += 1;
@@ -145,4 +186,24 @@ pub(crate) fn optimize(q: &mut VecDeque<Seg>, limits: &Limits) {
         }
         tc = prev;
     }
+}
+
+/// Whether [`optimize`] skips the pairs that are [`settled`]: always,
+/// but for the test that compares the queue with and without.
+#[cfg(not(test))]
+fn skipping_settled() -> bool {
+    true
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Set by the test that runs the full pass.
+    pub(crate) static FULL_PASS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// Pairs skipped, for that test.
+    pub(crate) static SKIPPED: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+#[cfg(test)]
+fn skipping_settled() -> bool {
+    !FULL_PASS.with(|f| f.get())
 }

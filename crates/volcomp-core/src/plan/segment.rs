@@ -102,6 +102,12 @@ pub(crate) struct Seg {
     pub tolerance: f64,
     pub vel_at_blend_start: f64,
     pub at_max: bool,
+    /// The look-ahead has run its step with this segment as the later of
+    /// the pair, the segment finalised ([`super::lookahead`]'s `settled`).
+    pub walked: bool,
+    /// Such a step lowered the speed limit to the length per
+    /// `TP_MIN_SEGMENT_CYCLES` servo periods.
+    pub walk_clamped: bool,
     pub on_final_decel: bool,
     /// Short segment run on a constant-acceleration ramp.
     pub ramp: bool,
@@ -153,6 +159,8 @@ impl Seg {
             tolerance,
             vel_at_blend_start: 0.0,
             at_max: false,
+            walked: false,
+            walk_clamped: false,
             on_final_decel: false,
             ramp: false,
             splitting: false,

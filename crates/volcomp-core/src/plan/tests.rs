@@ -339,6 +339,109 @@ fn cruising_in_one_step_counts_the_periods_stepping_counts() {
     assert!(cruised > 100_000, "{cruised} periods");
 }
 
+#[test]
+fn the_look_ahead_skipping_settled_pairs_leaves_the_queue_as_the_full_pass() {
+    // Random programs: lines from 0.3 µm to 30 mm (many shorter than a
+    // servo period's travel, whose speed limit the pass clamps), rapids,
+    // arcs, feeds from 3 to 200 mm/s, every path mode, look-ahead depths
+    // 50, 8 and 3, blend arcs on and off, now and then a wait that runs
+    // the queue empty. Two planners take the same moves, one running the
+    // look-ahead's full pass (`tpRunOptimization` as LinuxCNC runs it);
+    // after every move both queues must be equal field by field (end
+    // speeds, limits, flags, progress, speeds), and so must the estimates.
+    let mut seed = 0x2f6b_51a3_97c4_d80e_u64;
+    let mut unit = move || {
+        seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let full = |on: bool| lookahead::FULL_PASS.with(|f| f.set(on));
+    let modes = [
+        PathMode::default(),
+        PathMode::Blend {
+            tolerance_mm: 0.01,
+            naive_cam_mm: 0.0,
+        },
+        PathMode::ExactPath,
+        PathMode::ExactStop,
+    ];
+    let mut pushed = 0u64;
+    for program in 0..48 {
+        let limits = Limits {
+            blend: BlendSettings {
+                enable: program % 6 != 5,
+                optimization_depth: [50, 8, 3][program % 3],
+                ..BlendSettings::default()
+            },
+            ..Limits::default()
+        };
+        let (mut skipping, mut reference) = (Planner::new(limits), Planner::new(limits));
+        let mut at = Vec3::ZERO;
+        let mut dir = Vec3::new(1.0, 0.0, 0.0);
+        // Half the programs are mostly G64 (every fourth move of another
+        // mode), half change mode freely.
+        let g64 = program % 2 == 0;
+        for _ in 0..400 {
+            let len = 10f64.powf(unit() * 5.0 - 3.5);
+            if unit() < 0.5 {
+                dir = Vec3::new(unit() - 0.5, unit() - 0.5, (unit() - 0.5) * 0.2);
+            }
+            let end = at + dir * (len / dir.norm());
+            let feed = 10f64.powf(unit() * 1.8 + 0.5);
+            let mode = if g64 && unit() < 0.75 {
+                modes[0]
+            } else {
+                modes[(unit() * 4.0) as usize]
+            };
+            let pick = unit();
+            let m = if pick < 0.05 {
+                Move::rapid(at, end, mode)
+            } else if pick < 0.2 {
+                let r = 0.05 + unit() * 20.0;
+                let center = at + Vec3::new(r, 0.0, 0.0);
+                let sweep_rad = (unit() - 0.5) * 8.0;
+                let (s, c) = sweep_rad.sin_cos();
+                Move {
+                    kind: MoveKind::Arc {
+                        center,
+                        plane: Plane::Xy,
+                        sweep_rad,
+                    },
+                    start: at,
+                    end: center + Vec3::new(-r * c, -r * s, 0.0),
+                    feed_mm_s: feed,
+                    mode,
+                    line: 0,
+                }
+            } else {
+                Move::feed(at, end, feed, mode)
+            };
+            at = m.end;
+            full(false);
+            skipping.push(&m);
+            full(true);
+            reference.push(&m);
+            if unit() < 0.01 {
+                full(false);
+                skipping.wait();
+                full(true);
+                reference.wait();
+            }
+            assert!(skipping.queue == reference.queue, "program {program}");
+            pushed += 1;
+        }
+        full(false);
+        let fast = skipping.finish();
+        full(true);
+        let slow = reference.finish();
+        assert_eq!(fast, slow, "program {program}");
+    }
+    full(false);
+    let skipped = lookahead::SKIPPED.with(|n| n.get());
+    assert!(skipped > 1_000, "{skipped} pairs skipped in {pushed} moves");
+}
+
 /// The time per line: under G61.1 each line stops, so each is its own
 /// trapezoid (100 mm: 1.1 s; 50 mm: 0.6 s); under G64 the corner is
 /// blended, and the lines' times still add up to the estimate's, which
