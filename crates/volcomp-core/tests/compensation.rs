@@ -289,7 +289,9 @@ fn backlash_reversal_gets_a_take_up_move() {
     // unknown: before the first feed move X goes 2·4 + 10 = 18 µm back and
     // returns.
     assert!(
-        out.starts_with("G0 X0 Y0 Z0\nX-0.0180 (volcomp L2 approach)\nX0.0000 (volcomp L2 approach)\n"),
+        out.starts_with(
+            "G0 X0 Y0 Z0\nX-0.0180 (volcomp L2 approach)\nX0.0000 (volcomp L2 approach)\n"
+        ),
         "{out}"
     );
     assert_eq!(lines[3], "G1 X4.9960", "{out}");

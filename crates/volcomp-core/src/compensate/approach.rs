@@ -127,7 +127,10 @@ mod tests {
             [true, true, true],
         )
         .unwrap();
-        assert!((p - Vec3::new(0.982, 2.016, 3.0)).max_abs() < 1e-12, "{p:?}");
+        assert!(
+            (p - Vec3::new(0.982, 2.016, 3.0)).max_abs() < 1e-12,
+            "{p:?}"
+        );
         assert!(off_line(Vec3::new(1.0, 2.0, 3.0), [F; 3], [None; 3], [true; 3]).is_none());
     }
 }
