@@ -198,21 +198,40 @@ fn y_backlash_map() -> AxisTableMap {
 const CUT_ALONG_X: &str = "G21 G90\nG0 X10 Y10 Z5\nG1 Z0 F100\nG1 X40\nM2\n";
 
 #[test]
-fn the_first_rapid_approaches_its_end_from_one_side() {
-    // From machine zero the first rapid moves every axis forward, so it ends
-    // with a rapid from 2·b + 10 µm short of its end on Y (b = 3 µm: 16 µm),
-    // written before the rapid's own line, which is unchanged (no error in
-    // the forward state). X and Z, whose tables do not depend on their
-    // direction, go straight to their ends.
+fn before_the_first_cut_each_axis_approaches_from_one_side() {
+    // The first rapid starts where the machine stood, so the side Y's band
+    // rests on after it is not known. Before the first feed move Y goes
+    // 2·b + 10 µm back against the direction the compensation holds
+    // (forward, from machine zero: b = 3 µm, 16 µm) and returns, while the
+    // machine stands between the rapid and the feed move anyway. X and Z,
+    // whose tables do not depend on their direction, do not move; the
+    // rapid's own line is unchanged (no error in the forward state).
     let (out, _) = compensate(CUT_ALONG_X, &y_backlash_map(), unsplit());
     let lines: Vec<&str> = out.lines().collect();
-    assert_eq!(
-        lines[1], "G0 X10.0000 Y9.9840 Z5.0000 (volcomp L2 approach)",
-        "{out}"
-    );
-    assert_eq!(lines[2], "G0 X10 Y10 Z5", "{out}");
-    // Only the first rapid.
-    assert_eq!(out.matches("approach").count(), 1, "{out}");
+    assert_eq!(lines[1], "G0 X10 Y10 Z5", "{out}");
+    assert_eq!(lines[2], "Y9.9840 (volcomp L3 approach)", "{out}");
+    assert_eq!(lines[3], "Y10.0000 (volcomp L3 approach)", "{out}");
+    assert_eq!(lines[4], "G1 Z0 F100", "{out}");
+    // Only before the first feed move.
+    assert_eq!(out.matches("approach").count(), 2, "{out}");
+}
+
+#[test]
+fn a_rapid_from_where_the_program_put_the_machine_settles_the_axes_it_moves() {
+    // The second rapid starts where the first left the machine, and moves
+    // Y by 20 mm forward: Y's band rests on its forward side after it
+    // whatever the first rapid did, so no approach is written, and the cut
+    // is on the path from machine zero and from a start at 50 (which turns
+    // the first rapid's Y backwards).
+    let map = y_backlash_map();
+    let program = "G21 G90\nG0 X10 Y10 Z5\nG0 Y30\nG1 Z0 F100\nG1 X40\nM2\n";
+    let (out, _) = compensate(program, &map, unsplit());
+    assert!(!out.contains("approach"), "{out}");
+    let started_at_50 = |text: &str| text.replacen("G21 G90\n", "G21 G90 G0 X50 Y50 Z50\n", 1);
+    let from_zero = against_original(&out, program, &map);
+    let from_50 = against_original(&started_at_50(&out), &started_at_50(program), &map);
+    assert!(from_zero.contour_max_um < 1e-6, "{from_zero:?}");
+    assert!(from_50.contour_max_um < 1e-6, "{from_50:?}");
 }
 
 #[test]
@@ -262,14 +281,17 @@ fn backlash_reversal_gets_a_take_up_move() {
         ..unsplit()
     };
     let (out, records) = compensate(program, &map, opts);
-    // The first rapid's approach (tested on its own) left out.
+    // The approach before the first cut (tested on its own) left out.
     let lines: Vec<&str> = out.lines().filter(|l| !l.contains("approach")).collect();
     assert_eq!(lines[1], "G1 X10 F100", "{out}");
     assert_eq!(lines[2], "X9.9960 (volcomp L3 take-up)", "{out}");
-    // The first rapid, from machine zero to X0 (X forward by assumption),
-    // approaches X0 from 2·4 + 10 = 18 µm below it.
+    // The first rapid, to X0 (X forward by assumption), leaves X's side
+    // unknown: before the first feed move X goes 2·4 + 10 = 18 µm back and
+    // returns.
     assert!(
-        out.starts_with("G0 X-0.0180 (volcomp L1 approach)\n"),
+        out.starts_with(
+            "G0 X0 Y0 Z0\nX-0.0180 (volcomp L2 approach)\nX0.0000 (volcomp L2 approach)\n"
+        ),
         "{out}"
     );
     assert_eq!(lines[3], "G1 X4.9960", "{out}");
@@ -305,7 +327,7 @@ fn a_take_up_after_a_feed_mode_change_is_a_rapid() {
     let (map, opts) = (x_backlash_map(0.0), take_up_blocks());
     let program = "G0 X0 Y0 Z0\nG1 X10 F100\nS1000 M3\nG95 G0 X12\nG1 X5 F0.1\nM2\n";
     let (out, _) = compensate(program, &map, opts);
-    // The first rapid's approach (tested on its own) left out.
+    // The approach before the first cut (tested on its own) left out.
     let lines: Vec<&str> = out.lines().filter(|l| !l.contains("approach")).collect();
     assert_eq!(lines[3], "G95 G0 X12", "{out}");
     assert_eq!(lines[4], "X11.9960 (volcomp L5 take-up)", "{out}");
@@ -316,7 +338,7 @@ fn a_take_up_after_a_feed_mode_change_is_a_rapid() {
     // The same after G94 (which resets the rate too, even in G94).
     let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG94 G0 X12\nG1 X5 F200\nM2\n";
     let (out, _) = compensate(program, &map, opts);
-    // The first rapid's approach (tested on its own) left out.
+    // The approach before the first cut (tested on its own) left out.
     let lines: Vec<&str> = out.lines().filter(|l| !l.contains("approach")).collect();
     assert_eq!(lines[3], "X11.9960 (volcomp L4 take-up)", "{out}");
     if let Some(verdict) = common::rs274_refusal(&out, "the G94 take-up on rs274") {
@@ -332,7 +354,7 @@ fn a_take_up_under_inverse_time_is_a_rapid_and_before_it_runs_at_the_feed_in_for
     // take-up last 1/20 min, as long as the line: the take-up is a G0.
     let program = "G93\nG0 X0 Y0 Z0\nG1 X10 F10\nG1 X5 F20\nM2\n";
     let (out, _) = compensate(program, &map, opts);
-    // The first rapid's approach (tested on its own) left out.
+    // The approach before the first cut (tested on its own) left out.
     let lines: Vec<&str> = out.lines().filter(|l| !l.contains("approach")).collect();
     assert_eq!(lines[3], "G0 X9.9960 (volcomp L4 take-up)", "{out}");
     assert_eq!(lines[4], "G1 X4.9960 F20", "{out}");
@@ -343,7 +365,7 @@ fn a_take_up_under_inverse_time_is_a_rapid_and_before_it_runs_at_the_feed_in_for
     // the F100 mm/min in force, not at F20 read as mm/min.
     let program = "G0 X0 Y0 Z0\nG1 X10 F100\nG93 G1 X5 F20\nM2\n";
     let (out, _) = compensate(program, &map, opts);
-    // The first rapid's approach (tested on its own) left out.
+    // The approach before the first cut (tested on its own) left out.
     let lines: Vec<&str> = out.lines().filter(|l| !l.contains("approach")).collect();
     assert_eq!(lines[2], "X9.9960 (volcomp L3 take-up)", "{out}");
     if let Some(verdict) = common::rs274_refusal(&out, "the take-up before G93 on rs274") {

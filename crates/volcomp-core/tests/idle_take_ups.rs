@@ -28,10 +28,10 @@ fn x_reversal_map(b_um: f64) -> AxisTableMap {
 }
 
 /// `program` compensated with the defaults at 4 decimals (a step of
-/// 0.1 µm, what the words below were worked out with), without the line
-/// that approaches the first rapid's end (tests/compensation.rs checks it;
-/// from machine zero, where the simulation starts too, it changes no
-/// direction the rapid leaves).
+/// 0.1 µm, what the words below were worked out with), without the lines
+/// of the approach before the first cut (tests/compensation.rs checks them;
+/// a short move away and back, they change no direction the compensation
+/// holds).
 fn compensate(program: &str, map: &AxisTableMap) -> (String, CompensateSummary) {
     let options = CompensateOptions {
         decimals: Some(4),

@@ -15,6 +15,7 @@
 //! axis takes up its reversal value. Axes for which no consistent reversal
 //! exists (negative reversal value) are held and reported.
 
+mod approach;
 mod arcs;
 mod cutter;
 mod cycle;
@@ -55,7 +56,7 @@ pub use targets::{target_count_bound, targets_of};
 
 use crate::error::{CompensationError, ModelError};
 use crate::model::next_state;
-use crate::model::{Components, Direction, Directions, ErrorModel, ALL_FORWARD};
+use crate::model::{Directions, ErrorModel, ALL_FORWARD};
 use frame::Frame;
 use lines::{
     arc_line_edits, explicit_mode, line_ending, stop_m_word, ArcWords, FeedInForce, InsertedFeed,
@@ -222,7 +223,7 @@ impl<'w> State<'w> {
             tail: None,
             idle: None,
             defer_points: false,
-            approached: false,
+            approach_pending: None,
         }
     }
 
@@ -646,17 +647,36 @@ impl<'w> State<'w> {
         );
         self.defer_points = false;
         let commands = commands?;
-        // The program's first compensated motion, where a rapid: it ends
-        // with a short move towards its end from one side on every axis
-        // (`approach_point`), so each axis' dead band is in the state the
-        // compensation goes on from, wherever the machine stood before;
-        // not where take-ups are off (no move is written for a dead band).
-        let approach = match (self.approached, feed_like, commands.as_slice()) {
-            (false, false, [(q, None)]) if options.take_up => approach_point(model, *q, self.s)
-                .map_err(|source| model_error(file, ev.number, source))?,
-            _ => None,
+        // Each axis' dead band brought to a known side before the program
+        // cuts (compensate/approach.rs): the first motion, where a rapid,
+        // leaves every axis with a band unsettled (its start is not known);
+        // a later rapid settles the axes it moves by their approach
+        // distance; before the first feed move the axes still unsettled go
+        // a short way back and forth. Not where the program's first motion
+        // is a feed move, nor where take-ups are off (no move is written
+        // for a dead band).
+        let approach = match (self.approach_pending, feed_like) {
+            (None, _) => {
+                self.approach_pending = Some([!feed_like && options.take_up; 3]);
+                None
+            }
+            (Some(pending), _) if !pending.iter().any(|a| *a) => None,
+            (Some(pending), false) => {
+                let q = commands.last().map_or(q_line_start, |c| c.0);
+                let deltas = approach::deltas_mm(model, q, self.s)
+                    .map_err(|source| model_error(file, ev.number, source))?;
+                let settled = approach::settled(q_line_start, q, deltas, pending);
+                self.approach_pending = Some(std::array::from_fn(|a| pending[a] && !settled[a]));
+                None
+            }
+            (Some(pending), true) => {
+                let deltas = approach::deltas_mm(model, q_line_start, s_line_start)
+                    .map_err(|source| model_error(file, ev.number, source))?;
+                self.approach_pending = Some([false; 3]);
+                approach::off_line(q_line_start, s_line_start, deltas, pending)
+                    .map(|p| [p, q_line_start])
+            }
         };
-        self.approached = true;
         let mut idle_flips = Vec::new();
         let n = commands.len();
         let last_record = self.records.last();
@@ -853,7 +873,7 @@ impl<'w> State<'w> {
         } else {
             line_ending
         };
-        if let Some(p) = approach {
+        for p in approach.into_iter().flatten() {
             let at = Place {
                 frame: &frame0,
                 style: style0,
@@ -1499,62 +1519,10 @@ struct State<'w> {
     /// rather than passed on (the block before's end, written with this
     /// motion's first S-curve, goes first: `write_join_split`).
     defer_points: bool,
-    /// Whether a motion has been compensated yet: the first one, where a
-    /// rapid, approaches its end from one side ([`approach_point`]).
-    approached: bool,
+    /// The axes whose dead band's side is not known yet
+    /// (compensate/approach.rs); `None` before the first compensated motion.
+    approach_pending: Option<[bool; 3]>,
 }
-
-/// The point a program's first compensated rapid goes to before its end
-/// `q_mm` (command, axis frame), so that the last stretch of it moves every
-/// axis towards the end in the direction `s` the compensation holds there:
-/// `q − δ·sign(s)` per axis, `δ = 2·b + 10 µm` for the axis' reversal value
-/// `b` at `q` (the difference of its own component between its reverse and
-/// forward tables, docs/design.md's model); an axis without a reversal value
-/// of its own at `q` stays at `q` (`None` where no axis moves: a map
-/// without direction-dependent tables writes the program as it was).
-///
-/// Before the program's first motion the machine's position, and so the
-/// direction its first rapid takes and the side each axis' dead band rests
-/// on, is not known: the model's `forward` before any motion (docs/design.md)
-/// is an assumption the machine need not meet. After a move of at least the
-/// band in one direction the band's state is that direction whatever it was
-/// before (a unidirectional approach, as in ISO 230-2's positioning tests),
-/// so from the end of this rapid on the machine is in the state the
-/// compensation assumes, and the tool reaches the rapid's end as solved.
-fn approach_point(
-    model: &dyn ErrorModel,
-    q_mm: Vec3,
-    s: Directions,
-) -> Result<Option<Vec3>, ModelError> {
-    let mut p = q_mm;
-    for a in 0..3 {
-        let mut fwd = s;
-        fwd[a] = Direction::Forward;
-        let mut rev = s;
-        rev[a] = Direction::Reverse;
-        let jump_um = model.deviation_um(q_mm, rev, Components::All)?
-            - model.deviation_um(q_mm, fwd, Components::All)?;
-        // An axis without a reversal value of its own here has no dead band
-        // to bring to one side (a controller that takes up backlash itself,
-        // or a map without direction-dependent tables).
-        if jump_um[a].abs() < APPROACH_NO_BAND_UM {
-            continue;
-        }
-        let delta_mm = (2.0 * jump_um[a].abs() + APPROACH_MARGIN_UM) * 1e-3;
-        p[a] -= delta_mm * s[a].sign();
-    }
-    Ok((p != q_mm).then_some(p))
-}
-
-/// A reversal value below which an axis has no band to approach (µm): a
-/// nanometre, a tenth of the finest step volcomp writes; what is left of a
-/// band a controller takes up itself (a hybrid set-up's tables) is rounding.
-const APPROACH_NO_BAND_UM: f64 = 1e-3;
-
-/// What a program's first rapid approaches its end by beyond twice an
-/// axis' reversal value (µm, [`approach_point`]): a band of zero still gets
-/// a move of its own.
-const APPROACH_MARGIN_UM: f64 = 10.0;
 
 /// Edits of a line that sets an offset from the current point (G92, or
 /// G10 L20: "the current point has these coordinates"), so that the offset

@@ -387,9 +387,9 @@ pub struct CompensateSummary {
     pub take_ups: u64,
     /// Take-ups folded into the move that reverses (no block written).
     pub take_ups_folded: u64,
-    /// Lines written for the approach of the program's first rapid
-    /// (docs/compensation.md, "The first rapid approaches from one side"):
-    /// 0 or 1.
+    /// Lines written so that each axis approaches from one side before the
+    /// first cut (docs/compensation.md, "Each axis approaches from one side
+    /// before the first cut"): 0 or 2.
     pub approach_lines: u64,
     /// Take-ups made during the move before the one that reverses, where
     /// the reversing axis stands still (docs/compensation.md, "Take-ups
