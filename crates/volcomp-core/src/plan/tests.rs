@@ -250,6 +250,53 @@ fn estimate_period_by_period(moves: &[Move], limits: &Limits) -> Estimate {
     p.finish()
 }
 
+/// Uniform draws in [0, 1) from a linear congruential generator (Knuth's
+/// MMIX constants, the top 53 bits): the same sequence for a seed.
+fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A random move from `at`: a rapid to `end` where the first draw is below
+/// `shares.0`, an XY arc of radius `r_mm.0 + draw·r_mm.1` (centre on +X,
+/// sweep ±4 rad) below `shares.1`, else a feed move to `end`.
+fn random_move(
+    unit: &mut impl FnMut() -> f64,
+    (at, end): (Vec3, Vec3),
+    feed_mm_s: f64,
+    mode: PathMode,
+    shares: (f64, f64),
+    r_mm: (f64, f64),
+) -> Move {
+    let pick = unit();
+    if pick < shares.0 {
+        Move::rapid(at, end, mode)
+    } else if pick < shares.1 {
+        let r = r_mm.0 + unit() * r_mm.1;
+        let center = at + Vec3::new(r, 0.0, 0.0);
+        let sweep_rad = (unit() - 0.5) * 8.0;
+        let (s, c) = sweep_rad.sin_cos();
+        Move {
+            kind: MoveKind::Arc {
+                center,
+                plane: Plane::Xy,
+                sweep_rad,
+            },
+            start: at,
+            end: center + Vec3::new(-r * c, -r * s, 0.0),
+            feed_mm_s,
+            mode,
+            line: 0,
+        }
+    } else {
+        Move::feed(at, end, feed_mm_s, mode)
+    }
+}
+
 #[test]
 fn cruising_in_one_step_counts_the_periods_stepping_counts() {
     // Random programs: lines from 1 µm to 100 mm, rapids, arcs in the
@@ -260,13 +307,7 @@ fn cruising_in_one_step_counts_the_periods_stepping_counts() {
     // programs are mostly short moves (10 µm to 1 mm: segments run
     // through at speed on a ramp); programs 48 on have no blend arcs
     // (every G64 corner a parabolic blend).
-    let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-    let mut unit = move || {
-        seed = seed
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut unit = uniform(0x9e37_79b9_7f4a_7c15);
     let mut cruised = 0;
     for program in 0..64 {
         let limits = Limits {
@@ -304,30 +345,7 @@ fn cruising_in_one_step_counts_the_periods_stepping_counts() {
             }
             let end = at + dir * (len / dir.norm());
             let feed = 10f64.powf(unit() * 1.8 + 0.5);
-            let pick = unit();
-            let m = if pick < 0.1 {
-                Move::rapid(at, end, mode)
-            } else if pick < 0.3 {
-                let r = 0.5 + unit() * 40.0;
-                let center = at + Vec3::new(r, 0.0, 0.0);
-                let sweep_rad = (unit() - 0.5) * 8.0;
-                let (s, c) = sweep_rad.sin_cos();
-                let arc_end = center + Vec3::new(-r * c, -r * s, 0.0);
-                Move {
-                    kind: MoveKind::Arc {
-                        center,
-                        plane: Plane::Xy,
-                        sweep_rad,
-                    },
-                    start: at,
-                    end: arc_end,
-                    feed_mm_s: feed,
-                    mode,
-                    line: 0,
-                }
-            } else {
-                Move::feed(at, end, feed, mode)
-            };
+            let m = random_move(&mut unit, (at, end), feed, mode, (0.1, 0.3), (0.5, 40.0));
             at = m.end;
             moves.push(m);
         }
@@ -349,13 +367,7 @@ fn the_look_ahead_skipping_settled_pairs_leaves_the_queue_as_the_full_pass() {
     // look-ahead's full pass (`tpRunOptimization` as LinuxCNC runs it);
     // after every move both queues must be equal field by field (end
     // speeds, limits, flags, progress, speeds), and so must the estimates.
-    let mut seed = 0x2f6b_51a3_97c4_d80e_u64;
-    let mut unit = move || {
-        seed = seed
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut unit = uniform(0x2f6b_51a3_97c4_d80e);
     let full = |on: bool| lookahead::FULL_PASS.with(|f| f.set(on));
     let modes = [
         PathMode::default(),
@@ -394,29 +406,7 @@ fn the_look_ahead_skipping_settled_pairs_leaves_the_queue_as_the_full_pass() {
             } else {
                 modes[(unit() * 4.0) as usize]
             };
-            let pick = unit();
-            let m = if pick < 0.05 {
-                Move::rapid(at, end, mode)
-            } else if pick < 0.2 {
-                let r = 0.05 + unit() * 20.0;
-                let center = at + Vec3::new(r, 0.0, 0.0);
-                let sweep_rad = (unit() - 0.5) * 8.0;
-                let (s, c) = sweep_rad.sin_cos();
-                Move {
-                    kind: MoveKind::Arc {
-                        center,
-                        plane: Plane::Xy,
-                        sweep_rad,
-                    },
-                    start: at,
-                    end: center + Vec3::new(-r * c, -r * s, 0.0),
-                    feed_mm_s: feed,
-                    mode,
-                    line: 0,
-                }
-            } else {
-                Move::feed(at, end, feed, mode)
-            };
+            let m = random_move(&mut unit, (at, end), feed, mode, (0.05, 0.2), (0.05, 20.0));
             at = m.end;
             full(false);
             skipping.push(&m);
