@@ -217,6 +217,22 @@ fn before_the_first_cut_each_axis_approaches_from_one_side() {
 }
 
 #[test]
+fn a_first_cut_that_is_a_spline_approaches_too() {
+    // A spline is written as compensated segments by a writer of its own;
+    // its first segment is the first cut, and Y approaches before it as
+    // before a line (2·3 + 10 = 16 µm).
+    let program = "G21 G90\nG0 X10 Y10 Z5\nG5 X20 Y20 I5 J0 P5 Q0 F100\nM2\n";
+    let (out, _) = compensate(program, &y_backlash_map(), unsplit());
+    let lines: Vec<&str> = out.lines().collect();
+    // The spline block's own words (its F) stay on a line before them.
+    assert_eq!(lines[1..3], ["G0 X10 Y10 Z5", " F100"], "{out}");
+    assert_eq!(lines[3], "G0 Y9.9840 (volcomp L3 approach)", "{out}");
+    assert_eq!(lines[4], "Y10.0000 (volcomp L3 approach)", "{out}");
+    assert!(lines[5].starts_with("G1 X10.0335 "), "{out}");
+    assert_eq!(out.matches("approach").count(), 2, "{out}");
+}
+
+#[test]
 fn a_rapid_from_where_the_program_put_the_machine_settles_the_axes_it_moves() {
     // The second rapid starts where the first left the machine, and moves
     // Y by 20 mm forward: Y's band rests on its forward side after it

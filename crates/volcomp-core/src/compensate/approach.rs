@@ -20,9 +20,46 @@
 //!   (18 ms for δ = 20 µm at 1,000 mm/s²) and the rapids are written as
 //!   they were. The move away goes back along the way the axis came.
 
+use super::State;
 use crate::error::ModelError;
 use crate::model::{Components, Direction, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
+
+impl State<'_> {
+    /// The approach before a motion from `from_mm` (the direction state
+    /// `s_from` there) to `q_mm` (the state `self.s` after it): the first
+    /// motion, where a rapid, leaves every axis with a band unsettled; a
+    /// later rapid settles the axes it moves by their `δ`; before the first
+    /// feed move the axes still unsettled go to the returned point and back
+    /// to `from_mm`. Not where the program's first motion is a feed move,
+    /// nor where take-ups are off (`take_up`: no move is written for a
+    /// dead band).
+    pub(super) fn approach_before(
+        &mut self,
+        model: &dyn ErrorModel,
+        feed_like: bool,
+        (from_mm, s_from): (Vec3, Directions),
+        q_mm: Vec3,
+        take_up: bool,
+    ) -> Result<Option<Vec3>, ModelError> {
+        let Some(pending) = self.approach_pending else {
+            self.approach_pending = Some([!feed_like && take_up; 3]);
+            return Ok(None);
+        };
+        if !pending.iter().any(|a| *a) {
+            return Ok(None);
+        }
+        if feed_like {
+            let deltas = deltas_mm(model, from_mm, s_from)?;
+            self.approach_pending = Some([false; 3]);
+            return Ok(off_line(from_mm, s_from, deltas, pending));
+        }
+        let deltas = deltas_mm(model, q_mm, self.s)?;
+        let settled = settled(from_mm, q_mm, deltas, pending);
+        self.approach_pending = Some(std::array::from_fn(|a| pending[a] && !settled[a]));
+        Ok(None)
+    }
+}
 
 /// A reversal value below which an axis has no band to approach (µm): a
 /// nanometre, a tenth of the finest step volcomp writes; what is left of a

@@ -265,6 +265,14 @@ pub(super) struct FirstCommand<'a> {
 }
 
 impl State<'_> {
+    /// The approach before the first cut (compensate/approach.rs): a
+    /// rapid from `from` to `away` and back, tagged `approach`.
+    pub(super) fn write_approach(&mut self, at: &Place, from: Vec3, away: Vec3) {
+        self.write_inserted(at, from, away, OutMode::Rapid, "approach");
+        self.write_inserted(at, away, from, OutMode::Rapid, "approach");
+        self.summary.approach_lines += 2;
+    }
+
     /// Writes the move from `from` to `q` as an inserted line at `at` (the
     /// motion word where the output's modal motion differs, the words of
     /// the coordinates that change, the extra-axis words waiting in

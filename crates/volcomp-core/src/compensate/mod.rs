@@ -253,7 +253,10 @@ impl<'w> State<'w> {
         {
             // Cutter compensation becomes the compensated tool-centre path
             // under G40: G0/G1 segments and G2/G3 arc pieces
-            // (compensate/cutter.rs).
+            // (compensate/cutter.rs). Its cut starts from the side each band
+            // is assumed on: no approach is written before or after it
+            // (compensate/approach.rs).
+            self.approach_pending = Some([false; 3]);
             self.write_cutter(line)?;
             self.mode = Some(OutMode::Other);
             self.known = [true; 3];
@@ -648,35 +651,16 @@ impl<'w> State<'w> {
         self.defer_points = false;
         let commands = commands?;
         // Each axis' dead band brought to a known side before the program
-        // cuts (compensate/approach.rs): the first motion, where a rapid,
-        // leaves every axis with a band unsettled (its start is not known);
-        // a later rapid settles the axes it moves by their approach
-        // distance; before the first feed move the axes still unsettled go
-        // a short way back and forth. Not where the program's first motion
-        // is a feed move, nor where take-ups are off (no move is written
-        // for a dead band).
-        let approach = match (self.approach_pending, feed_like) {
-            (None, _) => {
-                self.approach_pending = Some([!feed_like && options.take_up; 3]);
-                None
-            }
-            (Some(pending), _) if !pending.iter().any(|a| *a) => None,
-            (Some(pending), false) => {
-                let q = commands.last().map_or(q_line_start, |c| c.0);
-                let deltas = approach::deltas_mm(model, q, self.s)
-                    .map_err(|source| model_error(file, ev.number, source))?;
-                let settled = approach::settled(q_line_start, q, deltas, pending);
-                self.approach_pending = Some(std::array::from_fn(|a| pending[a] && !settled[a]));
-                None
-            }
-            (Some(pending), true) => {
-                let deltas = approach::deltas_mm(model, q_line_start, s_line_start)
-                    .map_err(|source| model_error(file, ev.number, source))?;
-                self.approach_pending = Some([false; 3]);
-                approach::off_line(q_line_start, s_line_start, deltas, pending)
-                    .map(|p| [p, q_line_start])
-            }
-        };
+        // cuts (compensate/approach.rs).
+        let approach = self
+            .approach_before(
+                model,
+                feed_like,
+                (q_line_start, s_line_start),
+                commands.last().map_or(q_line_start, |c| c.0),
+                options.take_up,
+            )
+            .map_err(|source| model_error(file, ev.number, source))?;
         let mut idle_flips = Vec::new();
         let n = commands.len();
         let last_record = self.records.last();
@@ -873,15 +857,13 @@ impl<'w> State<'w> {
         } else {
             line_ending
         };
-        for p in approach.into_iter().flatten() {
+        if let Some(p) = approach {
             let at = Place {
                 frame: &frame0,
                 style: style0,
                 ..place
             };
-            self.write_inserted(&at, pos, p, OutMode::Rapid, "approach");
-            pos = p;
-            self.summary.approach_lines += 1;
+            self.write_approach(&at, pos, p);
         }
         for (i, (q, take_up)) in commands.iter().enumerate() {
             let piece_at = (self.buf.len(), self.mode);
@@ -1411,7 +1393,7 @@ fn edit_error(file: &str, line: u64, e: impl std::fmt::Display) -> CompensationE
     }
 }
 
-fn model_error(file: &str, line: u64, source: ModelError) -> CompensationError {
+pub(super) fn model_error(file: &str, line: u64, source: ModelError) -> CompensationError {
     CompensationError::Model {
         file: file.into(),
         line,
