@@ -20,8 +20,9 @@
 //!   (18 ms for δ = 20 µm at 1,000 mm/s²) and the rapids are written as
 //!   they were. The move away goes back along the way the axis came.
 
+use super::walk::{Line, Place};
 use super::State;
-use crate::error::ModelError;
+use crate::error::{CompensationError, ModelError};
 use crate::model::{Components, Direction, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
 
@@ -58,6 +59,28 @@ impl State<'_> {
         let settled = settled(from_mm, q_mm, deltas, pending);
         self.approach_pending = Some(std::array::from_fn(|a| pending[a] && !settled[a]));
         Ok(None)
+    }
+
+    /// [`State::approach_before`] for the writers of their own (canned
+    /// cycles, splines): the approach, where one is due, written at `at`
+    /// before the motion of `line` from `from_mm` (state `s_from`) to
+    /// `end_mm`.
+    pub(super) fn write_approach_before(
+        &mut self,
+        line: &Line,
+        at: &Place,
+        feed_like: bool,
+        (from_mm, s_from): (Vec3, Directions),
+        end_mm: Vec3,
+    ) -> Result<(), CompensationError> {
+        let take_up = self.walk.options.take_up;
+        let away = self
+            .approach_before(line.model(), feed_like, (from_mm, s_from), end_mm, take_up)
+            .map_err(|source| super::model_error(self.walk.file, line.number(), source))?;
+        if let Some(away) = away {
+            self.write_approach(at, from_mm, away);
+        }
+        Ok(())
     }
 }
 

@@ -74,13 +74,7 @@ impl State<'_> {
                     // unsettled approach before it, from where the machine
                     // stands (compensate/approach.rs).
                     let (at_mm, s_at) = (self.q_out, self.s);
-                    let take_up = self.walk.options.take_up;
-                    if let Some(away) = self
-                        .approach_before(line.model(), true, (at_mm, s_at), at_mm, take_up)
-                        .map_err(|source| super::model_error(file, number, source))?
-                    {
-                        self.write_approach(&line.place(), at_mm, away);
-                    }
+                    self.write_approach_before(line, &line.place(), true, (at_mm, s_at), at_mm)?;
                     if line_written {
                         self.write_kept_inserted(line, code, &kept.words);
                     } else {
@@ -271,13 +265,7 @@ impl State<'_> {
             let (from, s_from) = (self.q_out, self.s);
             let commands = self.solve_motion(line.model(), &frame, m, feed_like, number)?;
             let end = commands.last().map_or(from, |c| c.0);
-            let take_up = self.walk.options.take_up;
-            if let Some(away) = self
-                .approach_before(line.model(), feed_like, (from, s_from), end, take_up)
-                .map_err(|source| super::model_error(self.walk.file, number, source))?
-            {
-                self.write_approach(&at, from, away);
-            }
+            self.write_approach_before(line, &at, feed_like, (from, s_from), end)?;
             let mode = if feed_like {
                 OutMode::Feed
             } else {

@@ -80,13 +80,7 @@ impl State<'_> {
             let (from, s_from) = (self.q_out, self.s);
             let commands = self.solve_motion(line.model(), &line.frame, m, true, number)?;
             let end = commands.last().map_or(from, |c| c.0);
-            let take_up = self.walk.options.take_up;
-            if let Some(away) = self
-                .approach_before(line.model(), true, (from, s_from), end, take_up)
-                .map_err(|source| super::model_error(self.walk.file, number, source))?
-            {
-                self.write_approach(&at, from, away);
-            }
+            self.write_approach_before(line, &at, true, (from, s_from), end)?;
             let mut pos = from;
             for (q, take_up) in commands {
                 if let Some(tu) = take_up {
