@@ -278,12 +278,86 @@ impl Cell {
 /// And it keeps the value at the last end of a move its split evaluated
 /// ([`AxisCells::deviation_end_um`]): the solve of the move's last target
 /// starts there, and the next move's split at the same point.
+///
+/// Two cells are kept per axis and direction, the last two used: a split
+/// evaluates a move at a table point, which opens the next cell, and then
+/// again inside the cell before it.
 #[derive(Debug, Clone, Default)]
 pub struct AxisCells {
-    cells: [[Option<Cell>; 2]; 3],
+    cells: [[KeptCells; 2]; 3],
     again: [Again; AGAIN],
     next_again: usize,
     end: Again,
+}
+
+/// The two cells [`AxisCells`] keeps for one axis and direction, the one
+/// used last first.
+type KeptCells = [KeptCell; 2];
+
+/// A [`Cell`] as [`AxisCells`] keeps it: with the two differences its
+/// linear interpolation takes, `p[1] − p[0]` and `e[1] − e[0]`, computed
+/// once. [`Cell::value_at`] computes the same differences on every call
+/// with the same operations ([`Vec3::lerp`] is `e₀ + (e₁ − e₀)·t`), so a
+/// value is the same to the bit.
+#[derive(Debug, Clone, Copy)]
+struct KeptCell {
+    /// The cell's lower end (mm); NaN for no cell (no point is inside).
+    p0_mm: f64,
+    /// Its upper end (mm).
+    p1_mm: f64,
+    /// `p1_mm − p0_mm`.
+    width_mm: f64,
+    /// The error at the lower end (µm).
+    e0_um: Vec3,
+    /// The error at the upper end less the one at the lower end (µm).
+    rise_um: Vec3,
+    /// The upper end belongs to the cell ([`Cell::upper`]).
+    upper: bool,
+    /// A table of one point (`p[0] == p[1]`).
+    point: bool,
+}
+
+impl Default for KeptCell {
+    fn default() -> Self {
+        Self {
+            p0_mm: f64::NAN,
+            p1_mm: f64::NAN,
+            width_mm: f64::NAN,
+            e0_um: Vec3::ZERO,
+            rise_um: Vec3::ZERO,
+            upper: false,
+            point: false,
+        }
+    }
+}
+
+impl KeptCell {
+    fn of(c: &Cell) -> Self {
+        Self {
+            p0_mm: c.p[0],
+            p1_mm: c.p[1],
+            width_mm: c.p[1] - c.p[0],
+            e0_um: c.e[0],
+            rise_um: c.e[1] - c.e[0],
+            upper: c.upper,
+            point: c.p[0] == c.p[1],
+        }
+    }
+
+    /// [`Cell::value_at`]: the same operations on the same values.
+    #[inline(always)]
+    fn value_at(&self, x_mm: f64) -> Option<Vec3> {
+        let x = x_mm;
+        let inside = self.p0_mm <= x && (x < self.p1_mm || (self.upper && x == self.p1_mm));
+        if !inside {
+            return None;
+        }
+        Some(if self.point {
+            self.e0_um
+        } else {
+            self.e0_um + self.rise_um * ((x - self.p0_mm) / self.width_mm)
+        })
+    }
 }
 
 /// How many values [`AxisCells::deviation_again_um`] remembers: the old
@@ -463,34 +537,42 @@ impl AxisCells {
     /// kept for them, or in the cell looked up when `x_mm` left it.
     #[inline(always)]
     fn value(
-        cells: &mut [Option<Cell>; 2],
+        cells: &mut [KeptCells; 2],
         model: &dyn ErrorModel,
         axis: usize,
         d: Direction,
         x_mm: f64,
     ) -> Option<Vec3> {
-        let slot = match d {
+        let kept = match d {
             Direction::Forward => &mut cells[0],
             Direction::Reverse => &mut cells[1],
         };
-        match slot.as_ref().and_then(|c| c.value_at(x_mm)) {
+        match kept[0].value_at(x_mm) {
             Some(v) => Some(v),
-            None => Self::refill(slot, model, axis, d, x_mm),
+            None => Self::refill(kept, model, axis, d, x_mm),
         }
     }
 
-    /// [`Self::value`] where `x_mm` left the cell kept (or none was).
+    /// [`Self::value`] where `x_mm` left the cell used last: in the other
+    /// cell kept (which becomes the one used last), or in the cell looked
+    /// up (the one used last becomes the other).
     #[cold]
     #[inline(never)]
     fn refill(
-        slot: &mut Option<Cell>,
+        kept: &mut KeptCells,
         model: &dyn ErrorModel,
         axis: usize,
         d: Direction,
         x_mm: f64,
     ) -> Option<Vec3> {
-        *slot = model.axis_cell(axis, d, x_mm);
-        slot.as_ref().and_then(|c| c.value_at(x_mm))
+        if let Some(v) = kept[1].value_at(x_mm) {
+            kept.swap(0, 1);
+            return Some(v);
+        }
+        let cell = model.axis_cell(axis, d, x_mm)?;
+        kept[1] = kept[0];
+        kept[0] = KeptCell::of(&cell);
+        kept[0].value_at(x_mm)
     }
 
     /// `q + e(q, s)` ([`actual_mm`]'s value to the bit).
