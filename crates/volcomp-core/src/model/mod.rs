@@ -412,6 +412,7 @@ impl Default for Again {
 impl AxisCells {
     /// `e(q, s)` in µm: [`ErrorModel::deviation_um`]'s value to the bit
     /// (the axes' values summed in the model's order, X, Y, Z, onto zero).
+    #[inline]
     pub fn deviation_um(
         &mut self,
         model: &dyn ErrorModel,
@@ -990,6 +991,62 @@ mod axis_cells_tests {
             // half the states are outside the Z reverse table (not kept).
             assert!(kept_back > 2_000, "{kept_back}");
         }
+    }
+
+    /// The map, counting the cells it is asked for.
+    struct Counting<'a> {
+        map: &'a AxisTableMap,
+        lookups: std::sync::atomic::AtomicUsize,
+    }
+
+    impl ErrorModel for Counting<'_> {
+        fn deviation_um(&self, q: Vec3, s: Directions, c: Components) -> Result<Vec3, ModelError> {
+            self.map.deviation_um(q, s, c)
+        }
+        fn range_mm(&self) -> [[f64; 2]; 3] {
+            self.map.range_mm()
+        }
+        fn axis_cell(&self, axis: usize, d: Direction, x_mm: f64) -> Option<Cell> {
+            self.lookups
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            self.map.axis_cell(axis, d, x_mm)
+        }
+    }
+
+    /// Points that go back and forth across table points (as a split
+    /// evaluates a move at a table point, which opens the next cell, and
+    /// then inside the cell before it) give the map's own lookup to the
+    /// bit (the second method), and each cell is looked up once: X visits
+    /// the cells 0 … 10 and 10 … 20 mm, Y 40 … 50 and 50 … 60 mm, Z the
+    /// one cell 0 … 100 mm, forward, so 5 lookups by count (a single kept
+    /// cell per axis would look one up on most of the 3,000 points).
+    #[test]
+    fn points_back_and_forth_across_a_table_point_look_each_cell_up_once() {
+        let m = map(false);
+        let counting = Counting {
+            map: &m,
+            lookups: std::sync::atomic::AtomicUsize::new(0),
+        };
+        let mut rnd = uniform(0x0123_4567_89ab_cdef);
+        let mut cells = AxisCells::default();
+        let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+        for k in 0..3_000 {
+            let q = match k % 3 {
+                0 => Vec3::new(10.0, 50.0, 50.0),
+                1 => Vec3::new(10.0 - rnd(), 50.0 - rnd(), 50.0 - rnd()),
+                _ => Vec3::new(10.0 + rnd(), 50.0 + rnd(), 50.0 + rnd()),
+            };
+            let c = if k % 5 == 0 {
+                Components::PositioningOnly
+            } else {
+                Components::All
+            };
+            let kept = cells.deviation_um(&counting, q, ALL_FORWARD, c).unwrap();
+            let plain = m.deviation_um(q, ALL_FORWARD, c).unwrap();
+            assert_eq!(bits(kept), bits(plain), "{q:?} {c:?}");
+        }
+        let lookups = counting.lookups.load(std::sync::atomic::Ordering::Relaxed);
+        assert_eq!(lookups, 5);
     }
 
     /// By hand: X forward goes 0 → 2 µm (along X) over 0 … 10 mm, so at
