@@ -278,12 +278,86 @@ impl Cell {
 /// And it keeps the value at the last end of a move its split evaluated
 /// ([`AxisCells::deviation_end_um`]): the solve of the move's last target
 /// starts there, and the next move's split at the same point.
+///
+/// Two cells are kept per axis and direction, the last two used: a split
+/// evaluates a move at a table point, which opens the next cell, and then
+/// again inside the cell before it.
 #[derive(Debug, Clone, Default)]
 pub struct AxisCells {
-    cells: [[Option<Cell>; 2]; 3],
+    cells: [[KeptCells; 2]; 3],
     again: [Again; AGAIN],
     next_again: usize,
     end: Again,
+}
+
+/// The two cells [`AxisCells`] keeps for one axis and direction, the one
+/// used last first.
+type KeptCells = [KeptCell; 2];
+
+/// A [`Cell`] as [`AxisCells`] keeps it: with the two differences its
+/// linear interpolation takes, `p[1] − p[0]` and `e[1] − e[0]`, computed
+/// once. [`Cell::value_at`] computes the same differences on every call
+/// with the same operations ([`Vec3::lerp`] is `e₀ + (e₁ − e₀)·t`), so a
+/// value is the same to the bit.
+#[derive(Debug, Clone, Copy)]
+struct KeptCell {
+    /// The cell's lower end (mm); NaN for no cell (no point is inside).
+    p0_mm: f64,
+    /// Its upper end (mm).
+    p1_mm: f64,
+    /// `p1_mm − p0_mm`.
+    width_mm: f64,
+    /// The error at the lower end (µm).
+    e0_um: Vec3,
+    /// The error at the upper end less the one at the lower end (µm).
+    rise_um: Vec3,
+    /// The upper end belongs to the cell ([`Cell::upper`]).
+    upper: bool,
+    /// A table of one point (`p[0] == p[1]`).
+    point: bool,
+}
+
+impl Default for KeptCell {
+    fn default() -> Self {
+        Self {
+            p0_mm: f64::NAN,
+            p1_mm: f64::NAN,
+            width_mm: f64::NAN,
+            e0_um: Vec3::ZERO,
+            rise_um: Vec3::ZERO,
+            upper: false,
+            point: false,
+        }
+    }
+}
+
+impl KeptCell {
+    fn of(c: &Cell) -> Self {
+        Self {
+            p0_mm: c.p[0],
+            p1_mm: c.p[1],
+            width_mm: c.p[1] - c.p[0],
+            e0_um: c.e[0],
+            rise_um: c.e[1] - c.e[0],
+            upper: c.upper,
+            point: c.p[0] == c.p[1],
+        }
+    }
+
+    /// [`Cell::value_at`]: the same operations on the same values.
+    #[inline(always)]
+    fn value_at(&self, x_mm: f64) -> Option<Vec3> {
+        let x = x_mm;
+        let inside = self.p0_mm <= x && (x < self.p1_mm || (self.upper && x == self.p1_mm));
+        if !inside {
+            return None;
+        }
+        Some(if self.point {
+            self.e0_um
+        } else {
+            self.e0_um + self.rise_um * ((x - self.p0_mm) / self.width_mm)
+        })
+    }
 }
 
 /// How many values [`AxisCells::deviation_again_um`] remembers: the old
@@ -338,6 +412,7 @@ impl Default for Again {
 impl AxisCells {
     /// `e(q, s)` in µm: [`ErrorModel::deviation_um`]'s value to the bit
     /// (the axes' values summed in the model's order, X, Y, Z, onto zero).
+    #[inline]
     pub fn deviation_um(
         &mut self,
         model: &dyn ErrorModel,
@@ -463,34 +538,42 @@ impl AxisCells {
     /// kept for them, or in the cell looked up when `x_mm` left it.
     #[inline(always)]
     fn value(
-        cells: &mut [Option<Cell>; 2],
+        cells: &mut [KeptCells; 2],
         model: &dyn ErrorModel,
         axis: usize,
         d: Direction,
         x_mm: f64,
     ) -> Option<Vec3> {
-        let slot = match d {
+        let kept = match d {
             Direction::Forward => &mut cells[0],
             Direction::Reverse => &mut cells[1],
         };
-        match slot.as_ref().and_then(|c| c.value_at(x_mm)) {
+        match kept[0].value_at(x_mm) {
             Some(v) => Some(v),
-            None => Self::refill(slot, model, axis, d, x_mm),
+            None => Self::refill(kept, model, axis, d, x_mm),
         }
     }
 
-    /// [`Self::value`] where `x_mm` left the cell kept (or none was).
+    /// [`Self::value`] where `x_mm` left the cell used last: in the other
+    /// cell kept (which becomes the one used last), or in the cell looked
+    /// up (the one used last becomes the other).
     #[cold]
     #[inline(never)]
     fn refill(
-        slot: &mut Option<Cell>,
+        kept: &mut KeptCells,
         model: &dyn ErrorModel,
         axis: usize,
         d: Direction,
         x_mm: f64,
     ) -> Option<Vec3> {
-        *slot = model.axis_cell(axis, d, x_mm);
-        slot.as_ref().and_then(|c| c.value_at(x_mm))
+        if let Some(v) = kept[1].value_at(x_mm) {
+            kept.swap(0, 1);
+            return Some(v);
+        }
+        let cell = model.axis_cell(axis, d, x_mm)?;
+        kept[1] = kept[0];
+        kept[0] = KeptCell::of(&cell);
+        kept[0].value_at(x_mm)
     }
 
     /// `q + e(q, s)` ([`actual_mm`]'s value to the bit).
@@ -908,6 +991,62 @@ mod axis_cells_tests {
             // half the states are outside the Z reverse table (not kept).
             assert!(kept_back > 2_000, "{kept_back}");
         }
+    }
+
+    /// The map, counting the cells it is asked for.
+    struct Counting<'a> {
+        map: &'a AxisTableMap,
+        lookups: std::sync::atomic::AtomicUsize,
+    }
+
+    impl ErrorModel for Counting<'_> {
+        fn deviation_um(&self, q: Vec3, s: Directions, c: Components) -> Result<Vec3, ModelError> {
+            self.map.deviation_um(q, s, c)
+        }
+        fn range_mm(&self) -> [[f64; 2]; 3] {
+            self.map.range_mm()
+        }
+        fn axis_cell(&self, axis: usize, d: Direction, x_mm: f64) -> Option<Cell> {
+            self.lookups
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            self.map.axis_cell(axis, d, x_mm)
+        }
+    }
+
+    /// Points that go back and forth across table points (as a split
+    /// evaluates a move at a table point, which opens the next cell, and
+    /// then inside the cell before it) give the map's own lookup to the
+    /// bit (the second method), and each cell is looked up once: X visits
+    /// the cells 0 … 10 and 10 … 20 mm, Y 40 … 50 and 50 … 60 mm, Z the
+    /// one cell 0 … 100 mm, forward, so 5 lookups by count (a single kept
+    /// cell per axis would look one up on most of the 3,000 points).
+    #[test]
+    fn points_back_and_forth_across_a_table_point_look_each_cell_up_once() {
+        let m = map(false);
+        let counting = Counting {
+            map: &m,
+            lookups: std::sync::atomic::AtomicUsize::new(0),
+        };
+        let mut rnd = uniform(0x0123_4567_89ab_cdef);
+        let mut cells = AxisCells::default();
+        let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+        for k in 0..3_000 {
+            let q = match k % 3 {
+                0 => Vec3::new(10.0, 50.0, 50.0),
+                1 => Vec3::new(10.0 - rnd(), 50.0 - rnd(), 50.0 - rnd()),
+                _ => Vec3::new(10.0 + rnd(), 50.0 + rnd(), 50.0 + rnd()),
+            };
+            let c = if k % 5 == 0 {
+                Components::PositioningOnly
+            } else {
+                Components::All
+            };
+            let kept = cells.deviation_um(&counting, q, ALL_FORWARD, c).unwrap();
+            let plain = m.deviation_um(q, ALL_FORWARD, c).unwrap();
+            assert_eq!(bits(kept), bits(plain), "{q:?} {c:?}");
+        }
+        let lookups = counting.lookups.load(std::sync::atomic::Ordering::Relaxed);
+        assert_eq!(lookups, 5);
     }
 
     /// By hand: X forward goes 0 → 2 µm (along X) over 0 … 10 mm, so at
