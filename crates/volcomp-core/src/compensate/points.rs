@@ -501,6 +501,15 @@ fn plan_ramp(
         }
         prev = q;
     }
+    // Each reversing axis must cross its band on the ramp: where the
+    // solved commands run against its new way, its command can travel
+    // less than its take-up before the ramp ends, the dead band keeps the
+    // carriage short of its new flank, and the targets after the ramp are
+    // solved in a state the machine is not in (docs/compensation.md,
+    // "Take-ups spread along the path").
+    if !reaches_flank_mm(delta, q_prev, prev, point, options.fold_tolerance_mm()) {
+        return Ok(None);
+    }
     let end_t = window.last().map_or(t_prev, |w| w.0);
     let bound = match arc {
         Some(a) => {
@@ -527,6 +536,24 @@ fn plan_ramp(
         insert: insert.into_iter().map(|(j, p, l, _)| (j, p, l)).collect(),
         bound_mm: bound,
     }))
+}
+
+/// Whether every reversing axis' command travels its whole take-up
+/// (`delta`'s own component) in its new way between the ramp's start
+/// `q_prev` and its end `q_end`, within `tolerance_mm`: the dead band
+/// keeps the carriage on its old flank until the command has crossed the
+/// band (docs/design.md, "Direction state and backlash").
+fn reaches_flank_mm(
+    delta: Vec3,
+    q_prev: Vec3,
+    q_end: Vec3,
+    point: &crate::compensate::solve::PointSolution,
+    tolerance_mm: f64,
+) -> bool {
+    (0..3).all(|a| {
+        !point.reversed[a]
+            || (q_end[a] - q_prev[a]) * point.s[a].sign() >= delta[a].abs() - tolerance_mm
+    })
 }
 
 /// The shortest a ramp may be (mm; 0: no floor). Under G64 without P, a
