@@ -501,6 +501,45 @@ fn plan_ramp(
         }
         prev = q;
     }
+    // Each reversing axis must cross its band before its command turns
+    // back: where the solved commands run against the new way, the
+    // command can turn back after less than the band, the dead band keeps
+    // the carriage on its old flank, and the targets after the reversal
+    // are solved in a state the machine is not in (docs/compensation.md,
+    // "Take-ups spread along the path"). Short at the ramp's end, the
+    // motion's later targets (solved in the new state) must carry it the
+    // rest of the way without turning back. Under G61 and G61.1 (`smooth`)
+    // only: under G64 a ramp may leave the tool off by the rule's own
+    // tolerance (0.4 µm, or P), and refusing it there folded the take-up
+    // instead, which measured worse.
+    let tolerance_band_mm = options.fold_tolerance_mm();
+    if smooth && !reaches_flank_mm(delta, q_prev, prev, point, tolerance_band_mm) {
+        let mut p = prev;
+        let mut crossed = false;
+        for j in (index..targets.len()).filter(|j| along(*j) > end_s * (1.0 + 1e-9)) {
+            let sol = solve_fixed_in(
+                cells,
+                model,
+                options.method,
+                targets[j],
+                point.s,
+                [false; 3],
+                p,
+            )?;
+            let q = quantize(sol.q_mm, p);
+            if (0..3).any(|a| point.reversed[a] && (q[a] - p[a]) * point.s[a].sign() < -1e-9) {
+                break;
+            }
+            p = q;
+            if reaches_flank_mm(delta, q_prev, p, point, tolerance_band_mm) {
+                crossed = true;
+                break;
+            }
+        }
+        if !crossed {
+            return Ok(None);
+        }
+    }
     let end_t = window.last().map_or(t_prev, |w| w.0);
     let bound = match arc {
         Some(a) => {
@@ -527,6 +566,24 @@ fn plan_ramp(
         insert: insert.into_iter().map(|(j, p, l, _)| (j, p, l)).collect(),
         bound_mm: bound,
     }))
+}
+
+/// Whether every reversing axis' command has travelled its whole take-up
+/// (`delta`'s own component) in its new way from the ramp's start
+/// `q_prev` to `q_end`, within `tolerance_mm`: the dead band keeps the
+/// carriage on its old flank until the command has crossed the band
+/// (docs/design.md, "Direction state and backlash").
+fn reaches_flank_mm(
+    delta: Vec3,
+    q_prev: Vec3,
+    q_end: Vec3,
+    point: &crate::compensate::solve::PointSolution,
+    tolerance_mm: f64,
+) -> bool {
+    (0..3).all(|a| {
+        !point.reversed[a]
+            || (q_end[a] - q_prev[a]) * point.s[a].sign() >= delta[a].abs() - tolerance_mm
+    })
 }
 
 /// The shortest a ramp may be (mm; 0: no floor). Under G64 without P, a
