@@ -1612,7 +1612,8 @@ impl State<'_> {
                     // step the switch makes across the reversing axis too
                     // (compensate/ramp_cross.rs), within its tolerance:
                     // [`plan_ramp`]'s bound, whose lags carry that step
-                    // fading with the reversing axis' band.
+                    // fading with the reversing axis' band, plus the step
+                    // where it would turn another axis back.
                     let across = match (take_up, rule) {
                         (Some(_), TakeUpRule::Exact { .. }) => {
                             let full = super::ramp_cross::full_take_up_mm(
@@ -1641,6 +1642,16 @@ impl State<'_> {
                     let exact = matches!(rule, TakeUpRule::Exact { .. });
                     'floors: for (floor_mm, judged) in super::ramp_band::tries(floor, exact) {
                         for d in [across, Some(delta)].into_iter().flatten() {
+                            let back = super::ramp_cross::step_turns_back(
+                                d,
+                                delta,
+                                self.s,
+                                point.reversed,
+                            );
+                            if judged && back {
+                                continue;
+                            }
+                            let step_mm = if back { (d - delta).norm() } else { 0.0 };
                             planned = plan_ramp(
                                 &mut cells,
                                 model,
@@ -1665,6 +1676,7 @@ impl State<'_> {
                             )
                             .map_err(|source| model_error(file, line, source))?
                             .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index))
+                            .filter(|p| p.bound_mm + step_mm <= ramp_tol)
                             .map(|p| (p, d));
                             if planned.is_some() {
                                 break 'floors;
