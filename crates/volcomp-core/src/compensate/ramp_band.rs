@@ -1,6 +1,6 @@
 //! A G61 ramp's excursion read from the commands it writes, where the
 //! fold bound refuses it (docs/compensation.md, "A ramp judged by its own
-//! commands (G61)").
+//! commands (G61): built, measured, not used").
 //!
 //! [`super::points`] `plan_ramp` bounds a ramp as a fold into a move of
 //! its length: the command taken as running linearly from the reversal to
@@ -11,10 +11,12 @@
 //! stands still only until then; and the tool stands still while the
 //! compensation moves the axis its new way, so what it leaves grows with
 //! the square of that time near the axis' turning point. Where the fold
-//! bound refuses the ramp, a ramp ending where the tangency needs it to is
-//! tried, judged by the dead-band reading of its written commands
+//! bound refuses the ramp, a ramp ending where the tangency needs it to can
+//! be tried, judged by the dead-band reading of its written commands
 //! ([`excursion_mm`]): the model of `crate::simulate` (module
-//! documentation) and of bench/eval/judge.py's band reading.
+//! documentation) and of bench/eval/judge.py's band reading. It is not
+//! tried at present (`points.rs` passes `false` to [`tries`]): on a random
+//! G18 arc the simulator's contour maximum was above what this reads.
 
 use crate::model::Directions;
 use volcomp_gcode::Vec3;
