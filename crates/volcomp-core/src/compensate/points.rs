@@ -513,7 +513,7 @@ fn plan_ramp(
     // tolerance (0.4 µm, or P), and refusing it there folded the take-up
     // instead, which measured worse.
     let tolerance_band_mm = options.fold_tolerance_mm();
-    if smooth && !reaches_flank_mm(delta, q_prev, prev, point, tolerance_band_mm) {
+    if smooth && !reaches_flank(delta, q_prev, prev, point, tolerance_band_mm) {
         let mut p = prev;
         let mut crossed = false;
         for j in (index..targets.len()).filter(|j| along(*j) > end_s * (1.0 + 1e-9)) {
@@ -531,7 +531,7 @@ fn plan_ramp(
                 break;
             }
             p = q;
-            if reaches_flank_mm(delta, q_prev, p, point, tolerance_band_mm) {
+            if reaches_flank(delta, q_prev, p, point, tolerance_band_mm) {
                 crossed = true;
                 break;
             }
@@ -573,7 +573,7 @@ fn plan_ramp(
 /// `q_prev` to `q_end`, within `tolerance_mm`: the dead band keeps the
 /// carriage on its old flank until the command has crossed the band
 /// (docs/design.md, "Direction state and backlash").
-fn reaches_flank_mm(
+fn reaches_flank(
     delta: Vec3,
     q_prev: Vec3,
     q_end: Vec3,
