@@ -244,16 +244,7 @@ impl Cell {
     /// same to the bit; `None` where `x_mm` lies outside the cell.
     #[inline]
     pub fn value_at(&self, x_mm: f64) -> Option<Vec3> {
-        let (p, x) = (&self.p, x_mm);
-        let inside = p[0] <= x && (x < p[1] || (self.upper && x == p[1]));
-        if !inside {
-            return None;
-        }
-        Some(if p[0] == p[1] {
-            self.e[0]
-        } else {
-            self.e[0].lerp(self.e[1], (x - p[0]) / (p[1] - p[0]))
-        })
+        KeptCell::of(self).value_at(x_mm)
     }
 }
 
@@ -296,8 +287,8 @@ type KeptCells = [KeptCell; 2];
 
 /// A [`Cell`] as [`AxisCells`] keeps it: with the two differences its
 /// linear interpolation takes, `p[1] − p[0]` and `e[1] − e[0]`, computed
-/// once. [`Cell::value_at`] computes the same differences on every call
-/// with the same operations ([`Vec3::lerp`] is `e₀ + (e₁ − e₀)·t`), so a
+/// once; [`Cell::value_at`] takes them on every call, through this one
+/// interpolation (`e₀ + (e₁ − e₀)·t`, [`Vec3::lerp`]'s operations), so a
 /// value is the same to the bit.
 #[derive(Debug, Clone, Copy)]
 struct KeptCell {
@@ -344,7 +335,10 @@ impl KeptCell {
         }
     }
 
-    /// [`Cell::value_at`]: the same operations on the same values.
+    /// The value at `x_mm` where it lies in the cell: the error at the
+    /// lower end plus the rise times the share of the width (linear
+    /// interpolation, [`Vec3::lerp`]'s operations); at a table of one point
+    /// its one value.
     #[inline(always)]
     fn value_at(&self, x_mm: f64) -> Option<Vec3> {
         let x = x_mm;
