@@ -20,6 +20,7 @@ mod arcs;
 mod cutter;
 mod cycle;
 mod cycle_keep;
+mod end_zone;
 mod extra;
 mod frame;
 mod front;
@@ -140,6 +141,9 @@ pub fn compensate_program_seen<R: BufRead>(
             st.buf = held;
         }
         out.source_line = ev.number;
+        if let Err(e) = st.settle_end_zone(Some(&line)) {
+            return Err(out.error(e));
+        }
         if st.tail.is_some() && !may_take_tail(&line) {
             // A held tail the line cannot start an S-curve from is
             // written before it.
@@ -169,7 +173,7 @@ pub fn compensate_program_seen<R: BufRead>(
     }
     if st.tail.is_some() {
         st.buf.clear();
-        if let Err(e) = st.flush_tail(None) {
+        if let Err(e) = st.settle_end_zone(None).and_then(|()| st.flush_tail(None)) {
             return Err(out.error(e));
         }
         if let Err(e) = out.write_all(&st.buf) {
@@ -538,12 +542,28 @@ impl<'w> State<'w> {
             .map_err(|source| model_error(file, ev.number, source))?,
         };
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
+        let mut tail_kind = TailKind::SCurve;
         if arc_nominal.is_none() && matches!(motion.kind, MotionKind::Feed) {
-            points::protect_blends(
+            // Under G64 without P the pieces after the first wait for the
+            // next motion, which the blend at the end depends on
+            // (compensate/end_zone.rs).
+            let hold = end_zone::holds_end(&run, joins.hold_end, !line.ending.is_empty());
+            if let Some((rest, at)) = self.protect_line(
                 &mut targets,
-                motion.start,
-                (run.protect_mm, run.split_end_mm),
-            );
+                (motion.start, motion.end),
+                &run,
+                hold,
+                ev.number,
+            )? {
+                tail_targets = rest;
+                held_end = Some(arcs::HeldEnd {
+                    at,
+                    axis: 0,
+                    before_mm: 0.0,
+                    radius_mm: 0.0,
+                });
+                tail_kind = TailKind::BlendZone;
+            }
             // Under G61 a line holds back its tail for an S-curve into an
             // arc that may run on from it (arcs.rs, `line_tail`): its
             // targets end short of its end.
@@ -1080,6 +1100,7 @@ impl<'w> State<'w> {
                 },
                 targets: tail_targets,
                 held,
+                kind: tail_kind,
                 frame,
                 style,
                 line: ev.number,
@@ -1233,7 +1254,13 @@ impl<'w> State<'w> {
             (&t.frame, &t.frame),
             points::Targets {
                 points: &mut targets,
-                leads: points::Leads::Nowhere,
+                // A line's pieces held for the blend at its end get the
+                // lead pieces its own get (`may_lead` in `write_line`).
+                leads: if t.kind == TailKind::Settled {
+                    points::Leads::Lines
+                } else {
+                    points::Leads::Nowhere
+                },
                 start,
                 feed_like: true,
                 run: t.run,
@@ -1301,6 +1328,8 @@ impl<'w> State<'w> {
 /// words.
 struct Tail {
     path: TailPath,
+    /// Why the tail is held.
+    kind: TailKind,
     /// A line's targets from the tail's start on (its end the last): the
     /// points its segmentation put there.
     targets: Vec<Vec3>,
@@ -1316,6 +1345,19 @@ struct Tail {
     /// The program's path-control word its block's last run of pieces
     /// restores on the tail (lines.rs, `piece_mode_words`), if any.
     restore: Option<&'static str>,
+}
+
+/// Why a tail is held back.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum TailKind {
+    /// For an S-curve across its end into the next block
+    /// ([`arcs::HeldEnd`]).
+    SCurve,
+    /// A line's pieces after its first, under G64 without P, until the
+    /// corner at its end is known (compensate/end_zone.rs).
+    BlendZone,
+    /// A [`TailKind::BlendZone`] whose corner is known: written as it is.
+    Settled,
 }
 
 /// The nominal path of a held tail's block.
@@ -1337,7 +1379,8 @@ impl Tail {
             TailPath::Arc(a) => (a.plane == arc.plane, a.end),
             TailPath::Line(_, end) => (true, end),
         };
-        !run.corner_before
+        self.kind == TailKind::SCurve
+            && !run.corner_before
             && run.feed_mm_min == self.run.feed_mm_min
             && run.mode == self.run.mode
             && same_plane
