@@ -1521,11 +1521,12 @@ fn under_g64_the_zone_at_a_line_s_end_is_the_real_next_corner_s() {
     let (cuts, estimate_um) = run("G64\nG0 X0 Y0 Z0\nG1 X30 F6000\nG1 Y2.5\nM2\n");
     assert_eq!(cuts, vec![8.0, 27.5, 30.0]);
     assert!((estimate_um - 0.2).abs() < 1e-6, "{estimate_um}");
-    // Into a 30 mm step the zone is 2 · 11.547 = 23.094 mm, from 6.906 mm
-    // on: the cut at 28 goes. The line's first piece, which ends at 8, is
-    // written before the next line is read and stays.
+    // Into a 30 mm step the zone is 2 · 11.547 = 23.094 mm, from
+    // 30 − 23.094 = 6.906 mm on: the cuts at 8 and 28 go, and the line is
+    // cut at the zone's edge instead, so the part before it keeps its own
+    // (the line is written whole once the next line is read).
     let (cuts, _) = run("G64\nG0 X0 Y0 Z0\nG1 X30 F6000\nG1 Y30\nM2\n");
-    assert_eq!(cuts, vec![8.0, 30.0]);
+    assert_eq!(cuts, vec![6.9, 30.0]);
     // Where the program ends after the line (no blend), every cut stays
     // and nothing is left.
     let (cuts, estimate_um) = run("G64\nG0 X0 Y0 Z0\nG1 X30 F6000\nM2\n");

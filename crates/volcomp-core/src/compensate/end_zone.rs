@@ -1,33 +1,37 @@
 //! The end zone of a line under G64 without P, kept whole from the real
-//! corner at its end (docs/compensation.md, "Pieces the planner runs at
-//! full speed").
+//! corner at its end (docs/compensation.md, "No split inside the reach of a
+//! corner's blend (G64)").
 //!
-//! When a line is compensated the next motion is not known yet, yet the
-//! blend LinuxCNC puts at the line's end takes a length that depends on it:
+//! When a line is read the next motion is not known yet, yet the blend
+//! LinuxCNC puts at the line's end takes a length that depends on it:
 //! `d = min(L₁/2, L₂/2, d_tol, R/tan θ)` of each line
 //! (`blendComputeParameters`, src/emc/tp/blendmath.c). A split nearer the
 //! corner than `2d` cuts that blend short and slows it; a split kept out of
-//! a longer zone than `2d` leaves the map's error there uncorrected. So the
-//! line's pieces beyond its first are held back (a kind of the held tail,
-//! [`super::TailKind::BlendZone`]) and settled when the next line is read:
-//! only `2d` of the real corner before the end is kept whole.
+//! a longer zone than `2d` leaves the map's error there uncorrected. So a
+//! line with splits waits whole ([`HeldLine`]: its event, its interpreter
+//! state and its targets; one line, the memory it holds) until the next
+//! line is read ([`NextCorner`]); it is then solved and written whole, with
+//! `2d` of the real corner before its end kept whole.
 
+use super::frame::Frame;
 use super::points::{self, Run};
 use super::walk::Line;
-use super::{PlannerLimits, State, TailKind, TailPath};
+use super::{PlannerLimits, Segmentation, State};
 use crate::error::CompensationError;
-use crate::model::Directions;
-use volcomp_gcode::lexer::LineKind;
-use volcomp_gcode::{FeedMode, MotionKind, MotionSource, PathMode, Vec3};
+use crate::model::{Directions, ErrorModel};
+use std::io::Write;
+use volcomp_gcode::lexer::{Lexed, LineKind};
+use volcomp_gcode::number::NumberStyle;
+use volcomp_gcode::{
+    FeedMode, Interpreter, LineEvent, Motion, MotionKind, MotionSource, PathMode, Vec3,
+};
 
-/// Whether a line run as `run` holds its end zone back for the real corner
-/// at its end: under G64 without P at a feed per minute, where the block may
-/// hold its end at all (`may_hold_end`: no stop word, no inverse time, no
-/// extra axes, adaptive segmentation) and its line has an ending (the held
-/// pieces are written on lines after it).
-pub(super) fn holds_end(run: &Run, may_hold_end: bool, has_ending: bool) -> bool {
+/// Whether a line run as `run` waits for the real corner at its end: under
+/// G64 without P at a feed per minute, where the block may hold its end at
+/// all (`may_hold_end`: no stop word, no inverse time, no extra axes,
+/// adaptive segmentation).
+pub(super) fn holds_end(run: &Run, may_hold_end: bool) -> bool {
     may_hold_end
-        && has_ending
         && run.feed_mm_min.is_some()
         && matches!(run.mode, PathMode::Blend { tolerance_mm, .. } if tolerance_mm <= 0.0)
 }
@@ -74,57 +78,137 @@ pub(super) fn corner_reach_mm(
         .min(0.5 * l2_mm)
 }
 
-/// The length (mm) before the end of the line `(a, b)` run as `run` that
-/// its pieces leave whole for the corner into `next`'s first motion: twice
-/// [`corner_reach_mm`] of that corner. After the program's end, before a
-/// line that stops the machine (M0, M1, M2, M30, M60), or before a rapid,
-/// nothing: the planner does not blend into a stop, nor a feed move into a
-/// rapid (it ends the feed move in a stop, `handleModeChange`,
-/// src/emc/tp/tp.c). Where the next motion is not one
-/// the corner can be read from (a line without motion, a canned cycle,
-/// cutter compensation, an axis not known yet) the zone is the one taken
-/// alike at the start (`Run::split_end_mm`), as before the next line was
-/// read.
-fn end_zone_mm(planner: &PlannerLimits, run: &Run, (a, b): (Vec3, Vec3), next: &Line) -> f64 {
-    let ev = next.ev;
-    if ev.after_end || super::lines::stop_m_word(next.words()).is_some() {
-        return 0.0;
+/// The motion after a held line, as far as the blend at the line's end
+/// depends on it.
+#[derive(Clone, Copy)]
+pub(super) enum NextCorner {
+    /// The planner does not blend into it: the program's end, a line that
+    /// stops the machine (M0, M1, M2, M30, M60), a rapid (a feed move into
+    /// a rapid ends in a stop, `handleModeChange`, src/emc/tp/tp.c).
+    Stop,
+    /// A line the corner cannot be read from (a line without motion, a
+    /// canned cycle, cutter compensation, an axis not known yet): the zone
+    /// is the one taken alike at the start (`Run::split_end_mm`).
+    Unknown,
+    /// A feed motion: its unit tangent at its start, its length (mm), its
+    /// feed (mm/min; infinite where not per minute), whether it is an arc,
+    /// and its G64 P (mm; 0 where none).
+    Motion {
+        t2: Vec3,
+        l2_mm: f64,
+        feed_mm_min: f64,
+        arc: bool,
+        p2_mm: f64,
+    },
+}
+
+impl NextCorner {
+    /// The corner into the line `ev`, after which the axes `known` are set.
+    pub(super) fn of(ev: &LineEvent<'_>, known: [bool; 3]) -> Self {
+        if ev.after_end || super::lines::stop_m_word(ev.lexed.words()).is_some() {
+            return NextCorner::Stop;
+        }
+        let m = match ev.motions {
+            [m, ..] if m.source == MotionSource::Program => *m,
+            _ => return NextCorner::Unknown,
+        };
+        if ev.kind != LineKind::Block || !known.iter().all(|k| *k) || ev.interp.cutter_comp_on() {
+            return NextCorner::Unknown;
+        }
+        if m.kind == MotionKind::Rapid {
+            return NextCorner::Stop;
+        }
+        NextCorner::Motion {
+            t2: points::tangents(&m).0,
+            l2_mm: points::length_mm(&m),
+            // A feed not per minute runs at a speed not known here: the
+            // blend is taken as fast as the lengths and the tolerance let
+            // it be.
+            feed_mm_min: match m.feed_mode {
+                FeedMode::PerMinute if m.feed > 0.0 => m.feed,
+                _ => f64::INFINITY,
+            },
+            arc: matches!(m.kind, MotionKind::Arc(_)),
+            p2_mm: match m.path_mode {
+                PathMode::Blend { tolerance_mm, .. } => tolerance_mm,
+                _ => 0.0,
+            },
+        }
     }
-    let program_motion = matches!(ev.motions, [m, ..] if m.source == MotionSource::Program);
-    if ev.kind != LineKind::Block
-        || !program_motion
-        || !next.all_known
-        || ev.interp.cutter_comp_on()
-    {
-        return run.split_end_mm;
+
+    /// The length (mm) before the end of the line `(a, b)` run as `run`
+    /// that its pieces leave whole for this corner: twice
+    /// [`corner_reach_mm`]; nothing before a stop.
+    pub(super) fn end_zone_mm(
+        &self,
+        planner: &PlannerLimits,
+        run: &Run,
+        (a, b): (Vec3, Vec3),
+    ) -> f64 {
+        let (t2, l2_mm, feed_mm_min, arc, p2_mm) = match *self {
+            NextCorner::Stop => return 0.0,
+            NextCorner::Unknown => return run.split_end_mm,
+            NextCorner::Motion {
+                t2,
+                l2_mm,
+                feed_mm_min,
+                arc,
+                p2_mm,
+            } => (t2, l2_mm, feed_mm_min, arc, p2_mm),
+        };
+        let l1_mm = (b - a).norm();
+        let t1 = (b - a) * (1.0 / l1_mm);
+        let v1_mm_s = run.feed_mm_min.unwrap_or(f64::INFINITY) / 60.0;
+        let v2_mm_s = feed_mm_min / 60.0;
+        let v_mm_s = v1_mm_s.max(v2_mm_s);
+        let kink = planner.kink_ratio(t1, t2, v1_mm_s.min(v2_mm_s), arc);
+        2.0 * corner_reach_mm(planner, (t1, t2), (l1_mm, l2_mm), v_mm_s, p2_mm, kink)
     }
-    let m = ev.motions[0];
-    if m.kind == MotionKind::Rapid {
-        return 0.0;
+}
+
+/// A line waiting for the corner at its end: what its [`Line`] is built
+/// from (the event's parts owned, the interpreter after it), and its
+/// targets. One line: its bytes, tokens, motions, the interpreter's modal
+/// state and at most the target count a line may have
+/// (`check_target_count`).
+pub(super) struct HeldLine {
+    pub(super) number: u64,
+    file: Option<String>,
+    bytes: Vec<u8>,
+    rendered: bool,
+    kind: LineKind,
+    lexed: Lexed,
+    motions: Vec<Motion>,
+    interp: Interpreter,
+    after_end: bool,
+    frame: Frame,
+    style: NumberStyle,
+    before: Option<(Frame, NumberStyle)>,
+    all_known: bool,
+    targets: Vec<Vec3>,
+}
+
+impl HeldLine {
+    /// The line `line`, held with its `targets`.
+    pub(super) fn of(line: &Line<'_>, targets: Vec<Vec3>) -> Self {
+        let ev = line.ev;
+        HeldLine {
+            number: ev.number,
+            file: ev.file.map(str::to_owned),
+            bytes: ev.bytes.to_vec(),
+            rendered: ev.rendered,
+            kind: ev.kind.clone(),
+            lexed: ev.lexed.clone(),
+            motions: ev.motions.to_vec(),
+            interp: ev.interp.clone(),
+            after_end: ev.after_end,
+            frame: line.frame,
+            style: line.style,
+            before: line.before,
+            all_known: line.all_known,
+            targets,
+        }
     }
-    let l1_mm = (b - a).norm();
-    let t1 = (b - a) * (1.0 / l1_mm);
-    let (t2, _) = points::tangents(&m);
-    let l2_mm = points::length_mm(&m);
-    let v1_mm_s = run.feed_mm_min.unwrap_or(f64::INFINITY) / 60.0;
-    // A feed not per minute runs at a speed not known here: the blend is
-    // taken as fast as the lengths and the tolerance let it be.
-    let v2_mm_s = match m.feed_mode {
-        FeedMode::PerMinute if m.feed > 0.0 => m.feed / 60.0,
-        _ => f64::INFINITY,
-    };
-    let v_mm_s = v1_mm_s.max(v2_mm_s);
-    let kink = planner.kink_ratio(
-        t1,
-        t2,
-        v1_mm_s.min(v2_mm_s),
-        matches!(m.kind, MotionKind::Arc(_)),
-    );
-    let p2_mm = match m.path_mode {
-        PathMode::Blend { tolerance_mm, .. } => tolerance_mm,
-        _ => 0.0,
-    };
-    2.0 * corner_reach_mm(planner, (t1, t2), (l1_mm, l2_mm), v_mm_s, p2_mm, kink)
 }
 
 /// The command a target `p_mm` needs with every axis in the state `s`
@@ -176,125 +260,158 @@ fn turns(c: &[Vec3], bands_mm: &[Vec3], s: Directions) -> usize {
     turns
 }
 
+/// Drops the split just before the edge of the end zone (`edge_mm` along
+/// the line from `start`) where [`points::protect_blends`] put a point at
+/// that edge and the split lies nearer it than the adaptive segmentation's
+/// shortest piece (`min_length_mm`, targets.rs `split`): the segmentation
+/// makes no piece that short, and a piece that short is one the planner
+/// runs at a crawl. The start zone's edge point stays.
+fn drop_short_before_edge(
+    targets: &mut Vec<Vec3>,
+    start: Vec3,
+    (edge_mm, start_mm): (f64, f64),
+    min_length_mm: f64,
+) {
+    let n = targets.len();
+    if n < 3 {
+        return;
+    }
+    let along = |p: &Vec3| (*p - start).norm();
+    let (before, edge) = (along(&targets[n - 3]), along(&targets[n - 2]));
+    let is_edge = (edge - edge_mm).abs() <= 1e-9;
+    let is_split = before > start_mm + 1e-9;
+    if is_edge && is_split && edge - before < min_length_mm {
+        targets.remove(n - 3);
+    }
+}
+
 impl State<'_> {
     /// Keeps the split points of the line `(start, end)` run as `run` out
-    /// of its blend zones ([`points::protect_blends`]). Where the line
-    /// holds its end (`hold`, [`holds_end`]) only its start zone is kept
-    /// now, and the pieces after its first are returned with the share of
-    /// the line where the first ends, to be held until the corner at the
-    /// end is known ([`TailKind::BlendZone`]). The first piece ends where
-    /// it ended when the corner at the end was taken as the one at the
-    /// start (`Run::split_end_mm`): at its first split outside that zone,
-    /// else at that zone's edge. Where that zone covers the line nothing is
-    /// held and the line is protected as before. What the pieces kept whole
-    /// leave is added to the estimate (the held ones' when settled).
+    /// of its blend zones ([`points::protect_blends`]): the start zone,
+    /// and at the end the zone of the real corner (`real_end_mm`, a held
+    /// line's, [`NextCorner::end_zone_mm`]) or else the one taken alike at
+    /// the start (`Run::split_end_mm`). Of a held line, no split is kept
+    /// nearer the end zone's edge than the shortest piece
+    /// ([`drop_short_before_edge`]), and the cuts the real zone keeps that
+    /// the zone taken at the start dropped are made only where they turn
+    /// no axis' command back more often than the pieces of that zone do
+    /// ([`turns`]): a cut is made to bring the tool onto the map's curve
+    /// between its neighbours, and a turn it adds costs a reversal (a hold
+    /// or a take-up) where the other pieces had none. What the pieces kept
+    /// whole leave is added to the estimate. `model` is the line's, the
+    /// direction state the one the line starts in.
     pub(super) fn protect_line(
         &mut self,
+        model: &dyn ErrorModel,
         targets: &mut Vec<Vec3>,
-        (start, end): (Vec3, Vec3),
+        start: Vec3,
         run: &Run,
-        mut hold: bool,
+        real_end_mm: Option<f64>,
         line: u64,
-    ) -> Result<Option<(Vec<Vec3>, f64)>, CompensationError> {
+    ) -> Result<(), CompensationError> {
         // A line whose zones drop no split is left as it is, without a copy
         // of its targets (the common case: most lines are one piece).
         let Some((_, splits)) = targets.split_last() else {
-            return Ok(None);
+            return Ok(());
         };
+        let end_mm = real_end_mm.unwrap_or(run.split_end_mm);
         let along = |p: &Vec3| (*p - start).norm();
-        let edge_mm = run.length_mm - run.split_end_mm;
+        let drops_end = |zone_mm: f64| {
+            zone_mm > 0.0 && splits.iter().any(|p| along(p) >= run.length_mm - zone_mm)
+        };
         let start_drops = run.protect_mm > 0.0 && splits.iter().any(|p| along(p) <= run.protect_mm);
-        let end_drops = run.split_end_mm > 0.0 && splits.iter().any(|p| along(p) >= edge_mm);
-        if !start_drops && !end_drops {
-            return Ok(None);
+        if !start_drops && !drops_end(end_mm) && !drops_end(run.split_end_mm) {
+            return Ok(());
         }
-        // Only a line whose zone taken at the start drops a split waits for
-        // the real corner; elsewhere its pieces are the same either way and
-        // the line is solved whole, as before.
-        hold = hold && end_drops;
-        let split = (targets.len() > 1).then(|| targets.clone());
-        let end_mm = if hold { 0.0 } else { run.split_end_mm };
+        let split = targets.clone();
         points::protect_blends(targets, start, (run.protect_mm, end_mm));
-        let mut first_mm = (targets[0] - start).norm();
-        if hold && targets.len() > 1 && first_mm > edge_mm && run.protect_mm < edge_mm {
-            first_mm = edge_mm;
-            let u = (end - start) * (1.0 / run.length_mm);
-            targets.insert(0, start + u * edge_mm);
+        if real_end_mm.is_some() && end_mm > 0.0 && end_mm < run.length_mm {
+            if let Segmentation::Adaptive { min_length_mm, .. } = self.walk.options.segmentation {
+                let edge_mm = run.length_mm - end_mm;
+                drop_short_before_edge(targets, start, (edge_mm, run.protect_mm), min_length_mm);
+            }
         }
-        if hold && !(targets.len() > 1 && first_mm <= edge_mm) {
-            hold = false;
-            points::protect_blends(targets, start, (run.protect_mm, run.split_end_mm));
+        if real_end_mm.is_some() && end_mm < run.split_end_mm && targets.len() > 1 {
+            let mut proxy = split.clone();
+            points::protect_blends(&mut proxy, start, (run.protect_mm, run.split_end_mm));
+            if proxy != *targets
+                && self.turns_of(model, start, targets, line)?
+                    > self.turns_of(model, start, &proxy, line)?
+            {
+                *targets = proxy;
+            }
         }
-        if let Some(split) = split.filter(|s| s != targets) {
-            // The held pieces are estimated when they are settled.
+        if split != *targets {
             self.estimate_whole_pieces(start, &split, targets, line)?;
         }
-        Ok(hold.then(|| (targets.split_off(1), first_mm / run.length_mm)))
+        Ok(())
     }
 
-    /// Settles the end zone of a held line tail ([`TailKind::BlendZone`])
-    /// now that `next` (`None`: the program's end) is known: its pieces
-    /// keep out of the real corner's zone ([`end_zone_mm`],
-    /// [`points::protect_blends`]), and what the whole piece there leaves
-    /// is added to the estimate of the contour error left.
-    pub(super) fn settle_end_zone(&mut self, next: Option<&Line>) -> Result<(), CompensationError> {
-        let options = self.walk.options;
-        let Some(t) = self.tail.as_mut() else {
-            return Ok(());
+    /// The turns ([`turns`]) of the commands of the pieces from `start`
+    /// through `targets`, each taken at its target in the current
+    /// direction state ([`command_and_band_mm`]).
+    fn turns_of(
+        &mut self,
+        model: &dyn ErrorModel,
+        start: Vec3,
+        targets: &[Vec3],
+        line: u64,
+    ) -> Result<usize, CompensationError> {
+        let s = self.s;
+        let file = self.walk.file;
+        let cells = self.cells.get_or_insert_with(Box::default);
+        let mut commands = Vec::with_capacity(targets.len() + 1);
+        let mut bands_mm = Vec::with_capacity(targets.len() + 1);
+        for p in std::iter::once(&start).chain(targets) {
+            let (c, band) = command_and_band_mm(model, cells, *p, s)
+                .map_err(|source| super::model_error(file, line, source))?;
+            commands.push(c);
+            bands_mm.push(band);
+        }
+        Ok(turns(&commands, &bands_mm, s))
+    }
+
+    /// Writes the held line `held` now that the corner at its end (`next`)
+    /// is known: solved and written whole as any line is
+    /// ([`State::write_line`]), its targets kept out of that corner's zone.
+    pub(super) fn write_held_line(
+        &mut self,
+        held: HeldLine,
+        next: NextCorner,
+        out: &mut dyn Write,
+    ) -> Result<(), CompensationError> {
+        let ev = LineEvent {
+            number: held.number,
+            file: held.file.as_deref(),
+            bytes: &held.bytes,
+            rendered: held.rendered,
+            kind: held.kind,
+            lexed: &held.lexed,
+            motions: &held.motions,
+            interp: &held.interp,
+            after_end: held.after_end,
         };
-        let (TailKind::BlendZone, TailPath::Line(a, b)) = (t.kind, t.path) else {
-            return Ok(());
-        };
-        t.kind = TailKind::Settled;
-        let zone_mm = next.map_or(0.0, |line| {
-            end_zone_mm(&options.planner, &t.run, (a, b), line)
-        });
-        let from = a + (b - a) * t.held.at;
-        let before = t.targets.clone();
-        points::protect_blends(&mut t.targets, from, (0.0, zone_mm));
-        // The cuts the real corner's zone keeps and the zone taken at the
-        // start dropped are made only where they turn no axis' command back
-        // more often than the pieces of that zone do ([`turns`]): a cut is
-        // made to bring the tool onto the map's curve between its
-        // neighbours, and a turn it adds costs a reversal (a hold or a
-        // take-up) where the old pieces had none.
-        if zone_mm < t.run.split_end_mm && t.targets.len() > 1 {
-            // The first piece ends at that zone's edge or beyond (within a
-            // nanometre: no piece of rounding).
-            let mut proxy = before.clone();
-            if (b - from).norm() <= t.run.split_end_mm + 1e-6 {
-                proxy.drain(..proxy.len() - 1);
-            } else {
-                points::protect_blends(&mut proxy, from, (0.0, t.run.split_end_mm));
-            }
-            let model = crate::model::WithTool {
+        let line = Line {
+            ev: &ev,
+            model: crate::model::WithTool {
                 model: self.walk.model,
-                tool_length_offset_mm: t.tool_length_offset_mm,
-            };
-            let (line, s) = (t.line, self.s);
-            let cells = self.cells.get_or_insert_with(Box::default);
-            let file = self.walk.file;
-            let mut count = |targets: &[Vec3]| -> Result<usize, CompensationError> {
-                let mut commands = Vec::with_capacity(targets.len() + 1);
-                let mut bands_mm = Vec::with_capacity(targets.len() + 1);
-                for p in std::iter::once(&from).chain(targets) {
-                    let (c, band) = command_and_band_mm(&model, cells, *p, s)
-                        .map_err(|source| super::model_error(file, line, source))?;
-                    commands.push(c);
-                    bands_mm.push(band);
-                }
-                Ok(turns(&commands, &bands_mm, s))
-            };
-            let t = self.tail.as_mut().expect("the tail settled above");
-            if count(&t.targets)? > count(&proxy)? {
-                t.targets = proxy;
-            }
-        }
-        let t = self.tail.as_ref().expect("the tail settled above");
-        if t.targets != before {
-            let (targets, line) = (t.targets.clone(), t.line);
-            self.estimate_whole_pieces(from, &before, &targets, line)?;
-        }
+                tool_length_offset_mm: held.interp.tool_length_offset_mm(),
+            },
+            frame: held.frame,
+            style: held.style,
+            before: held.before,
+            ending: super::lines::line_ending(&held.bytes),
+            all_known: held.all_known,
+        };
+        self.buf.clear();
+        self.targets = held.targets;
+        self.next_corner = Some(next);
+        let after = self.write_line(&line, out);
+        self.next_corner = None;
+        let after = after?;
+        out.write_all(&self.buf)?;
+        self.buf.clear();
+        self.frame_before = Some(after);
         Ok(())
     }
 

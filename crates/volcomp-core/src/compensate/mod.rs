@@ -125,6 +125,15 @@ pub fn compensate_program_seen<R: BufRead>(
     let mut out = line_limit::LineLimit::new(out);
     out.file = file;
     while let Some(ev) = walker.next_line()? {
+        if let Some(held) = st.held_line.take() {
+            // The line held for the corner at its end is written now that
+            // the next line is known (compensate/end_zone.rs).
+            let next = end_zone::NextCorner::of(&ev, walk::known_after(st.known, &ev));
+            out.source_line = held.number;
+            if let Err(e) = st.write_held_line(held, next, &mut out) {
+                return Err(out.error(e));
+            }
+        }
         on_line(&ev);
         let line = st.begin_line(&ev);
         if st.idle.is_some() {
@@ -141,9 +150,6 @@ pub fn compensate_program_seen<R: BufRead>(
             st.buf = held;
         }
         out.source_line = ev.number;
-        if let Err(e) = st.settle_end_zone(Some(&line)) {
-            return Err(out.error(e));
-        }
         if st.tail.is_some() && !may_take_tail(&line) {
             // A held tail the line cannot start an S-curve from is
             // written before it.
@@ -162,7 +168,17 @@ pub fn compensate_program_seen<R: BufRead>(
         if let Err(e) = out.write_all(&st.buf) {
             return Err(out.error(e.into()));
         }
+        if let Some(targets) = st.hold_line.take() {
+            st.held_line = Some(end_zone::HeldLine::of(&line, targets));
+        }
         st.frame_before = Some(after);
+    }
+    if let Some(held) = st.held_line.take() {
+        // After the program's last line the planner stops: no blend.
+        out.source_line = held.number;
+        if let Err(e) = st.write_held_line(held, end_zone::NextCorner::Stop, &mut out) {
+            return Err(out.error(e));
+        }
     }
     if st.idle.is_some() {
         let mut held = Vec::new();
@@ -173,7 +189,7 @@ pub fn compensate_program_seen<R: BufRead>(
     }
     if st.tail.is_some() {
         st.buf.clear();
-        if let Err(e) = st.settle_end_zone(None).and_then(|()| st.flush_tail(None)) {
+        if let Err(e) = st.flush_tail(None) {
             return Err(out.error(e));
         }
         if let Err(e) = out.write_all(&st.buf) {
@@ -225,6 +241,9 @@ impl<'w> State<'w> {
             // The run of canned cycles in the written program.
             cycles: cycle_keep::Series::default(),
             tail: None,
+            hold_line: None,
+            held_line: None,
+            next_corner: None,
             idle: None,
             defer_points: false,
             approach_pending: None,
@@ -520,6 +539,9 @@ impl<'w> State<'w> {
             None => Vec::new(),
         };
         let mut targets = match arc_nominal {
+            // A held line's targets were found when it was first read
+            // (`State::write_held_line` puts them back).
+            None if self.next_corner.is_some() => std::mem::take(&mut self.targets),
             Some(arc) => pieces
                 .iter()
                 .map(|l| if *l >= 1.0 { arc.end } else { arc.point_at(*l) })
@@ -542,28 +564,27 @@ impl<'w> State<'w> {
             .map_err(|source| model_error(file, ev.number, source))?,
         };
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
-        let mut tail_kind = TailKind::SCurve;
         if arc_nominal.is_none() && matches!(motion.kind, MotionKind::Feed) {
-            // Under G64 without P the pieces after the first wait for the
-            // next motion, which the blend at the end depends on
-            // (compensate/end_zone.rs).
-            let hold = end_zone::holds_end(&run, joins.hold_end, !line.ending.is_empty());
-            if let Some((rest, at)) = self.protect_line(
-                &mut targets,
-                (motion.start, motion.end),
-                &run,
-                hold,
-                ev.number,
-            )? {
-                tail_targets = rest;
-                held_end = Some(arcs::HeldEnd {
-                    at,
-                    axis: 0,
-                    before_mm: 0.0,
-                    radius_mm: 0.0,
-                });
-                tail_kind = TailKind::BlendZone;
+            // Under G64 without P a line with splits waits for the next
+            // line, which the blend at its end depends on
+            // (compensate/end_zone.rs): it is written whole then.
+            let holds = end_zone::holds_end(&run, joins.hold_end) && targets.len() > 1;
+            if holds && self.next_corner.is_none() {
+                self.hold_line = Some(targets);
+                return Ok((frame, style));
             }
+            let real_end_mm = self
+                .next_corner
+                .filter(|_| holds)
+                .map(|next| next.end_zone_mm(&options.planner, &run, (motion.start, motion.end)));
+            self.protect_line(
+                model,
+                &mut targets,
+                motion.start,
+                &run,
+                real_end_mm,
+                ev.number,
+            )?;
             // Under G61 a line holds back its tail for an S-curve into an
             // arc that may run on from it (arcs.rs, `line_tail`): its
             // targets end short of its end.
@@ -1100,7 +1121,6 @@ impl<'w> State<'w> {
                 },
                 targets: tail_targets,
                 held,
-                kind: tail_kind,
                 frame,
                 style,
                 line: ev.number,
@@ -1254,13 +1274,7 @@ impl<'w> State<'w> {
             (&t.frame, &t.frame),
             points::Targets {
                 points: &mut targets,
-                // A line's pieces held for the blend at its end get the
-                // lead pieces its own get (`may_lead` in `write_line`).
-                leads: if t.kind == TailKind::Settled {
-                    points::Leads::Lines
-                } else {
-                    points::Leads::Nowhere
-                },
+                leads: points::Leads::Nowhere,
                 start,
                 feed_like: true,
                 run: t.run,
@@ -1328,8 +1342,6 @@ impl<'w> State<'w> {
 /// words.
 struct Tail {
     path: TailPath,
-    /// Why the tail is held.
-    kind: TailKind,
     /// A line's targets from the tail's start on (its end the last): the
     /// points its segmentation put there.
     targets: Vec<Vec3>,
@@ -1345,19 +1357,6 @@ struct Tail {
     /// The program's path-control word its block's last run of pieces
     /// restores on the tail (lines.rs, `piece_mode_words`), if any.
     restore: Option<&'static str>,
-}
-
-/// Why a tail is held back.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum TailKind {
-    /// For an S-curve across its end into the next block
-    /// ([`arcs::HeldEnd`]).
-    SCurve,
-    /// A line's pieces after its first, under G64 without P, until the
-    /// corner at its end is known (compensate/end_zone.rs).
-    BlendZone,
-    /// A [`TailKind::BlendZone`] whose corner is known: written as it is.
-    Settled,
 }
 
 /// The nominal path of a held tail's block.
@@ -1379,8 +1378,7 @@ impl Tail {
             TailPath::Arc(a) => (a.plane == arc.plane, a.end),
             TailPath::Line(_, end) => (true, end),
         };
-        self.kind == TailKind::SCurve
-            && !run.corner_before
+        !run.corner_before
             && run.feed_mm_min == self.run.feed_mm_min
             && run.mode == self.run.mode
             && same_plane
@@ -1537,6 +1535,14 @@ struct State<'w> {
     /// The tail of the last arc, held back for an S-curve across its end
     /// ([`Tail`]).
     tail: Option<Tail>,
+    /// Set by [`State::write_motion_line`] where the line waits for the
+    /// corner at its end (compensate/end_zone.rs): its targets.
+    hold_line: Option<Vec<Vec3>>,
+    /// The line waiting for the corner at its end: written when the next
+    /// line is read ([`State::write_held_line`]).
+    held_line: Option<end_zone::HeldLine>,
+    /// While a held line is written: the corner at its end.
+    next_corner: Option<end_zone::NextCorner>,
     /// The last line, held back for a take-up ahead in it
     /// (compensate/idle.rs): it never holds a [`Tail`] too.
     idle: Option<idle::IdleHold>,
