@@ -260,27 +260,37 @@ fn turns(c: &[Vec3], bands_mm: &[Vec3], s: Directions) -> usize {
     turns
 }
 
-/// Drops the split just before the edge of the end zone (`edge_mm` along
-/// the line from `start`) where [`points::protect_blends`] put a point at
-/// that edge and the split lies nearer it than the adaptive segmentation's
-/// shortest piece (`min_length_mm`, targets.rs `split`): the segmentation
-/// makes no piece that short, and a piece that short is one the planner
-/// runs at a crawl. The start zone's edge point stays.
-fn drop_short_before_edge(
+/// Drops a split nearer a zone's edge than `shortest_mm`, where
+/// [`points::protect_blends`] put a point at that edge: the split just
+/// after the start zone's edge (`start_mm` along the line from `start`)
+/// and the one just before the end zone's (`edge_mm`). The edge points
+/// stay. `shortest_mm` is the longer of the adaptive segmentation's
+/// shortest piece (targets.rs `split`), which it makes none shorter than,
+/// and the shortest piece the planner runs at the feed
+/// ([`PlannerLimits::shortest_at_feed_mm`]: `tcClampVelocityByLength`,
+/// src/emc/tp/tc.c, caps a segment's speed at its length per servo period).
+fn drop_short_at_edges(
     targets: &mut Vec<Vec3>,
     start: Vec3,
-    (edge_mm, start_mm): (f64, f64),
-    min_length_mm: f64,
+    (start_mm, edge_mm): (f64, f64),
+    shortest_mm: f64,
 ) {
-    let n = targets.len();
-    if n < 3 {
-        return;
-    }
     let along = |p: &Vec3| (*p - start).norm();
-    let (before, edge) = (along(&targets[n - 3]), along(&targets[n - 2]));
-    let is_edge = (edge - edge_mm).abs() <= 1e-9;
-    let is_split = before > start_mm + 1e-9;
-    if is_edge && is_split && edge - before < min_length_mm {
+    let at = |p: &Vec3, mm: f64| (along(p) - mm).abs() <= 1e-9;
+    if targets.len() >= 3
+        && start_mm > 0.0
+        && at(&targets[0], start_mm)
+        && !at(&targets[1], edge_mm)
+        && along(&targets[1]) - start_mm < shortest_mm
+    {
+        targets.remove(1);
+    }
+    let n = targets.len();
+    if n >= 3
+        && at(&targets[n - 2], edge_mm)
+        && !(start_mm > 0.0 && at(&targets[n - 3], start_mm))
+        && edge_mm - along(&targets[n - 3]) < shortest_mm
+    {
         targets.remove(n - 3);
     }
 }
@@ -291,8 +301,8 @@ impl State<'_> {
     /// and at the end the zone of the real corner (`real_end_mm`, a held
     /// line's, [`NextCorner::end_zone_mm`]) or else the one taken alike at
     /// the start (`Run::split_end_mm`). Of a held line, no split is kept
-    /// nearer the end zone's edge than the shortest piece
-    /// ([`drop_short_before_edge`]), and the cuts the real zone keeps that
+    /// nearer a zone's edge than the shortest piece
+    /// ([`drop_short_at_edges`]), and the cuts the real zone keeps that
     /// the zone taken at the start dropped are made only where they turn
     /// no axis' command back more often than the pieces of that zone do
     /// ([`turns`]): a cut is made to bring the tool onto the map's curve
@@ -325,11 +335,15 @@ impl State<'_> {
         }
         let split = targets.clone();
         points::protect_blends(targets, start, (run.protect_mm, end_mm));
-        if real_end_mm.is_some() && end_mm > 0.0 && end_mm < run.length_mm {
-            if let Segmentation::Adaptive { min_length_mm, .. } = self.walk.options.segmentation {
-                let edge_mm = run.length_mm - end_mm;
-                drop_short_before_edge(targets, start, (edge_mm, run.protect_mm), min_length_mm);
-            }
+        if let (Some(_), Segmentation::Adaptive { min_length_mm, .. }) =
+            (real_end_mm, self.walk.options.segmentation)
+        {
+            let edges_mm = (run.protect_mm, run.length_mm - end_mm);
+            let planner = &self.walk.options.planner;
+            let at_feed_mm = run
+                .feed_mm_min
+                .map_or(0.0, |f| planner.shortest_at_feed_mm(f));
+            drop_short_at_edges(targets, start, edges_mm, min_length_mm.max(at_feed_mm));
         }
         if real_end_mm.is_some() && end_mm < run.split_end_mm && targets.len() > 1 {
             let mut proxy = split.clone();
@@ -348,8 +362,12 @@ impl State<'_> {
     }
 
     /// The turns ([`turns`]) of the commands of the pieces from `start`
-    /// through `targets`, each taken at its target in the current
-    /// direction state ([`command_and_band_mm`]).
+    /// through `targets`: from the command the machine stands at, each
+    /// target's taken at it ([`command_and_band_mm`]) in the state the
+    /// line's motion puts the axes in (each axis that moves along the line
+    /// runs its way, `next_state`; the others keep theirs): an axis'
+    /// error depends on the other axes' states (a map's straightness
+    /// tables), and the line turns them at its start.
     fn turns_of(
         &mut self,
         model: &dyn ErrorModel,
@@ -357,13 +375,21 @@ impl State<'_> {
         targets: &[Vec3],
         line: u64,
     ) -> Result<usize, CompensationError> {
+        let Some(&end) = targets.last() else {
+            return Ok(0);
+        };
         let s = self.s;
-        let file = self.walk.file;
+        let along = crate::model::next_state(s, end - start);
+        let (q_mm, file) = (self.q_out, self.walk.file);
         let cells = self.cells.get_or_insert_with(Box::default);
         let mut commands = Vec::with_capacity(targets.len() + 1);
         let mut bands_mm = Vec::with_capacity(targets.len() + 1);
-        for p in std::iter::once(&start).chain(targets) {
-            let (c, band) = command_and_band_mm(model, cells, *p, s)
+        let (_, band) = command_and_band_mm(model, cells, start, s)
+            .map_err(|source| super::model_error(file, line, source))?;
+        commands.push(q_mm);
+        bands_mm.push(band);
+        for p in targets {
+            let (c, band) = command_and_band_mm(model, cells, *p, along)
                 .map_err(|source| super::model_error(file, line, source))?;
             commands.push(c);
             bands_mm.push(band);
@@ -529,6 +555,26 @@ mod tests {
         // From Z's reverse state the first step up is a turn too.
         assert_eq!(turns(&c, &band, [Forward, Forward, Reverse]), 3);
         assert_eq!(turns(&c, &[Vec3::ZERO; 4], s), 0);
+    }
+
+    /// A 20 mm X line with a 5 mm start zone and an 8 mm end zone (edge
+    /// at 12 mm), the shortest piece 0.5 mm: the split 0.025 mm after the
+    /// start zone's edge and the one 0.2 mm before the end zone's edge go
+    /// (by hand: 0.025 and 0.2 < 0.5); the edges, and a split 2 mm from
+    /// each, stay.
+    #[test]
+    fn no_split_nearer_a_zone_edge_than_the_shortest_piece() {
+        let x = |v: f64| Vec3::new(v, 0.0, 0.0);
+        let mut t: Vec<Vec3> = [5.0, 5.025, 10.0, 11.8, 12.0, 20.0].map(x).to_vec();
+        drop_short_at_edges(&mut t, x(0.0), (5.0, 12.0), 0.5);
+        assert_eq!(t, [5.0, 10.0, 12.0, 20.0].map(x).to_vec());
+        let mut t: Vec<Vec3> = [5.0, 7.0, 10.0, 12.0, 20.0].map(x).to_vec();
+        drop_short_at_edges(&mut t, x(0.0), (5.0, 12.0), 0.5);
+        assert_eq!(t, [5.0, 7.0, 10.0, 12.0, 20.0].map(x).to_vec());
+        // No start zone: the first split is no edge point and stays.
+        let mut t: Vec<Vec3> = [0.2, 11.9, 12.0, 20.0].map(x).to_vec();
+        drop_short_at_edges(&mut t, x(0.0), (0.0, 12.0), 0.5);
+        assert_eq!(t, [0.2, 12.0, 20.0].map(x).to_vec());
     }
 
     /// No blend, no zone: a join the planner takes as tangent, and a
