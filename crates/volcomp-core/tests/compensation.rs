@@ -1436,13 +1436,14 @@ fn under_g64_a_line_keeps_the_splits_its_contour_tolerance_needs() {
     // Y's error along X bends at the table points 4 and 8 mm (0 up to 4 mm,
     // −20 µm from 8 mm on; the command's Y only rises, no reversal): the
     // 16 mm line X0 → X16 needs cuts there for the contour tolerance. Under
-    // G64 without P the planner may blend a corner at the line's end up to
-    // half the line, but dropping the cut at 8 mm would leave the second
-    // half 20 µm off: the cuts stay, in every mode. Under G64 P0.005 the
-    // blend's reach is 0.34 mm (compensate/joins.rs), far from both cuts.
+    // G64 without P the planner blends the corner at the line's end into
+    // the 1 mm step after it by d = min(1/2, …) = 0.5 mm (blendmath.c
+    // `blendComputeParameters`): the zone kept whole is the last 1 mm, far
+    // from both cuts, which stay, in every mode. Under G64 P0.005 the
+    // blend's reach is 0.34 mm (compensate/joins.rs).
     let map = one_table(0, |x| [0.0, if x >= 8.0 { -20.0 } else { 0.0 }, 0.0]);
     let feeds = |mode: &str| {
-        let program = format!("{mode}\nG0 X0 Y0 Z0\nG1 X16 F6000\nG1 X16 Y16\nM2\n");
+        let program = format!("{mode}\nG0 X0 Y0 Z0\nG1 X16 F6000\nG1 X16 Y1\nM2\n");
         let (out, _) = compensate(&program, &map, CompensateOptions::default());
         ends(&out)
             .into_iter()
@@ -1463,12 +1464,14 @@ fn under_g64_no_split_inside_the_blend_zone_at_a_line_s_end() {
     // at F6000, R = v²/a_n = 100²/(1000·√0.75) = 11.547 mm. Its blend
     // takes d = min(R/tan 45°, 4/2, …) = 2 mm (tp.c `tpCreateLineLineBlend`,
     // blendmath.c `blendComputeParameters`), so no cut within 4 mm of the
-    // start. The corner at the end is taken as that one, with the line's
-    // own half and a quarter of it for the tolerance T:
-    // d = min(11.547, T·cos 45°/(1 − sin 45°), L/2). On a 15 mm line
-    // (T = 3.75 mm: 9.053 mm) d = 7.5 mm: the zones cover the line and the
-    // cut at 8 goes. On a 60 mm line (T = 15 mm: 36.21 mm) d = 11.547 mm:
-    // the cut at 8 stays, the one at 40 moves to 60 − 23.094 = 36.906 mm.
+    // start. The corner at the end is a right angle into a line as long as
+    // the X line (compensate/end_zone.rs), with a quarter of it for the
+    // tolerance T: d = min(11.547, T·cos 45°/(1 − sin 45°), L/2). On a
+    // 15 mm line (T = 3.75 mm: 9.053 mm) d = 7.5 mm: the zones cover the
+    // line and the cut at 8 goes. On a 60 mm line (T = 15 mm: 36.21 mm)
+    // d = 11.547 mm: the cut at 8 stays, the one at 40 moves to
+    // 60 − 23.094 = 36.906 mm. Where the program ends after the line, the
+    // planner stops there and does not blend: every cut stays.
     let map = one_table(0, |x| [0.0, -0.5 * (x.clamp(8.0, 40.0) - 8.0), 0.0]);
     let cuts = |program: &str| {
         let (out, _) = compensate(program, &map, CompensateOptions::default());
@@ -1479,13 +1482,62 @@ fn under_g64_no_split_inside_the_blend_zone_at_a_line_s_end() {
             .collect::<Vec<f64>>()
     };
     assert_eq!(
-        cuts("G64\nG0 X0 Y0 Z0\nG1 Y4 F6000\nG1 X15\nM2\n"),
+        cuts("G64\nG0 X0 Y0 Z0\nG1 Y4 F6000\nG1 X15\nG1 Y19\nM2\n"),
         vec![15.0]
     );
     assert_eq!(
-        cuts("G64\nG0 X0 Y0 Z0\nG1 Y4 F6000\nG1 X60\nM2\n"),
+        cuts("G64\nG0 X0 Y0 Z0\nG1 Y4 F6000\nG1 X60\nG1 Y64\nM2\n"),
         vec![8.0, 36.9, 60.0]
     );
+    assert_eq!(
+        cuts("G64\nG0 X0 Y0 Z0\nG1 Y4 F6000\nG1 X60\nM2\n"),
+        vec![8.0, 40.0, 60.0]
+    );
+}
+
+#[test]
+fn under_g64_the_zone_at_a_line_s_end_is_the_real_next_corner_s() {
+    // Y's error along X: −0.5 µm/mm from X8 to X28, flat beyond (table
+    // points every 4 mm): the 30 mm line X0 → X30 is cut at 8 and 28. The
+    // 2.5 mm step along Y after it at F6000 makes a right-angle corner
+    // that LinuxCNC blends by d = min(L₁/2 = 15, L₂/2 = 1.25,
+    // T·cos 45°/(1 − sin 45°) = 1.509 with T = 2.5/4, R/tan 45° = 11.547)
+    // = 1.25 mm (blendmath.c `blendComputeParameters`, tc.c
+    // `tcFindBlendTolerance`): the last 2.5 mm are kept whole, the cut at
+    // 28 moves to 27.5 and the one at 8 stays. The piece 27.5 → 30 then
+    // leaves, at X28, the error there less its chord:
+    // |−10 − (−9.75 − 0.25 · 0.5/2.5)| = 0.2 µm, the summary's estimate
+    // (the other pieces follow the map's straight parts exactly).
+    let map = one_table(0, |x| [0.0, -0.5 * (x.clamp(8.0, 28.0) - 8.0), 0.0]);
+    let run = |program: &str| {
+        let (out, summary) = compensate_summary(program, &map, CompensateOptions::default());
+        let cuts: Vec<f64> = ends(&out)
+            .into_iter()
+            .filter(|(k, p)| matches!(k, MotionKind::Feed) && p.y.abs() < 0.1)
+            .map(|(_, p)| (p.x * 10.0).round() / 10.0)
+            .collect();
+        (cuts, summary.max_estimated_contour_um.unwrap())
+    };
+    let (cuts, estimate_um) = run("G64\nG0 X0 Y0 Z0\nG1 X30 F6000\nG1 Y2.5\nM2\n");
+    assert_eq!(cuts, vec![8.0, 27.5, 30.0]);
+    assert!((estimate_um - 0.2).abs() < 1e-6, "{estimate_um}");
+    // Into a 30 mm step the zone is 2 · 11.547 = 23.094 mm, from
+    // 30 − 23.094 = 6.906 mm on: the cuts at 8 and 28 go, and the line is
+    // cut at the zone's edge instead, so the part before it keeps its own
+    // (the line is written whole once the next line is read).
+    let (cuts, _) = run("G64\nG0 X0 Y0 Z0\nG1 X30 F6000\nG1 Y30\nM2\n");
+    assert_eq!(cuts, vec![6.9, 30.0]);
+    // Where the program ends after the line (no blend), every cut stays
+    // and nothing is left.
+    let (cuts, estimate_um) = run("G64\nG0 X0 Y0 Z0\nG1 X30 F6000\nM2\n");
+    assert_eq!(cuts, vec![8.0, 28.0, 30.0]);
+    assert!(estimate_um < 1e-9, "{estimate_um}");
+    // Nor into a rapid: LinuxCNC ends a feed move before a rapid in a stop
+    // (`handleModeChange`, src/emc/tp/tp.c), whatever the corner (a
+    // right angle into a 30 mm rapid would take 23.094 mm if blended).
+    let (cuts, estimate_um) = run("G64\nG0 X0 Y0 Z0\nG1 X30 F6000\nG0 Y30\nM2\n");
+    assert_eq!(cuts, vec![8.0, 28.0, 30.0]);
+    assert!(estimate_um < 1e-9, "{estimate_um}");
 }
 
 /// Each feed motion of `out` as (the output line, its path-control mode).

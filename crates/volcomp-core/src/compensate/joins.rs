@@ -33,7 +33,7 @@ const KINK_RATIO: f64 = 0.1;
 /// Half the angle within which two tangents are anti-parallel for the
 /// planner, which stops there instead of blending (`tpSetupTangent`, tp.c:
 /// `|u₁ + u₂| < 2°`).
-const REVERSAL_HALF_ANGLE_RAD: f64 = std::f64::consts::PI / 180.0;
+pub(super) const REVERSAL_HALF_ANGLE_RAD: f64 = std::f64::consts::PI / 180.0;
 
 /// `BLEND_ACC_RATIO_TANGENTIAL` (blendmath.h): the share of the
 /// acceleration an arc may use along its path; the tangency ratio is

@@ -20,6 +20,7 @@ mod arcs;
 mod cutter;
 mod cycle;
 mod cycle_keep;
+mod end_zone;
 mod extra;
 mod frame;
 mod front;
@@ -124,6 +125,15 @@ pub fn compensate_program_seen<R: BufRead>(
     let mut out = line_limit::LineLimit::new(out);
     out.file = file;
     while let Some(ev) = walker.next_line()? {
+        if let Some(held) = st.held_line.take() {
+            // The line held for the corner at its end is written now that
+            // the next line is known (compensate/end_zone.rs).
+            let next = end_zone::NextCorner::of(&ev, walk::known_after(st.known, &ev));
+            out.source_line = held.number;
+            if let Err(e) = st.write_held_line(held, next, &mut out) {
+                return Err(out.error(e));
+            }
+        }
         on_line(&ev);
         let line = st.begin_line(&ev);
         if st.idle.is_some() {
@@ -158,7 +168,17 @@ pub fn compensate_program_seen<R: BufRead>(
         if let Err(e) = out.write_all(&st.buf) {
             return Err(out.error(e.into()));
         }
+        if let Some(targets) = st.hold_line.take() {
+            st.held_line = Some(end_zone::HeldLine::of(&line, targets));
+        }
         st.frame_before = Some(after);
+    }
+    if let Some(held) = st.held_line.take() {
+        // After the program's last line the planner stops: no blend.
+        out.source_line = held.number;
+        if let Err(e) = st.write_held_line(held, end_zone::NextCorner::Stop, &mut out) {
+            return Err(out.error(e));
+        }
     }
     if st.idle.is_some() {
         let mut held = Vec::new();
@@ -221,6 +241,9 @@ impl<'w> State<'w> {
             // The run of canned cycles in the written program.
             cycles: cycle_keep::Series::default(),
             tail: None,
+            hold_line: None,
+            held_line: None,
+            next_corner: None,
             idle: None,
             defer_points: false,
             approach_pending: None,
@@ -516,6 +539,9 @@ impl<'w> State<'w> {
             None => Vec::new(),
         };
         let mut targets = match arc_nominal {
+            // A held line's targets were found when it was first read
+            // (`State::write_held_line` puts them back).
+            None if self.next_corner.is_some() => std::mem::take(&mut self.targets),
             Some(arc) => pieces
                 .iter()
                 .map(|l| if *l >= 1.0 { arc.end } else { arc.point_at(*l) })
@@ -539,11 +565,26 @@ impl<'w> State<'w> {
         };
         let feed_like = !matches!(motion.kind, MotionKind::Rapid);
         if arc_nominal.is_none() && matches!(motion.kind, MotionKind::Feed) {
-            points::protect_blends(
+            // Under G64 without P a line with splits waits for the next
+            // line, which the blend at its end depends on
+            // (compensate/end_zone.rs): it is written whole then.
+            let holds = end_zone::holds_end(&run, joins.hold_end) && targets.len() > 1;
+            if holds && self.next_corner.is_none() {
+                self.hold_line = Some(targets);
+                return Ok((frame, style));
+            }
+            let real_end_mm = self
+                .next_corner
+                .filter(|_| holds)
+                .map(|next| next.end_zone_mm(&options.planner, &run, (motion.start, motion.end)));
+            self.protect_line(
+                model,
                 &mut targets,
                 motion.start,
-                (run.protect_mm, run.split_end_mm),
-            );
+                &run,
+                real_end_mm,
+                ev.number,
+            )?;
             // Under G61 a line holds back its tail for an S-curve into an
             // arc that may run on from it (arcs.rs, `line_tail`): its
             // targets end short of its end.
@@ -1494,6 +1535,14 @@ struct State<'w> {
     /// The tail of the last arc, held back for an S-curve across its end
     /// ([`Tail`]).
     tail: Option<Tail>,
+    /// Set by [`State::write_motion_line`] where the line waits for the
+    /// corner at its end (compensate/end_zone.rs): its targets.
+    hold_line: Option<Vec<Vec3>>,
+    /// The line waiting for the corner at its end: written when the next
+    /// line is read ([`State::write_held_line`]).
+    held_line: Option<end_zone::HeldLine>,
+    /// While a held line is written: the corner at its end.
+    next_corner: Option<end_zone::NextCorner>,
     /// The last line, held back for a take-up ahead in it
     /// (compensate/idle.rs): it never holds a [`Tail`] too.
     idle: Option<idle::IdleHold>,

@@ -164,6 +164,38 @@ pub(super) fn targets_in(
     Ok(out)
 }
 
+/// How far the map departs across the move from its chord on the line
+/// `a`–`b` kept as one piece (mm; quarter points and table points, as the
+/// adaptive segmentation measures a piece, [`Piece::refine`]): what a piece
+/// the planner's blend zone keeps whole leaves. 0 outside the adaptive
+/// segmentation.
+pub(super) fn whole_piece_departure_mm(
+    (a, b): (Vec3, Vec3),
+    options: &CompensateOptions,
+    model: &dyn ErrorModel,
+    s: Directions,
+    cells: &mut AxisCells,
+) -> Result<f64, ModelError> {
+    let Segmentation::Adaptive { min_length_mm, .. } = options.segmentation else {
+        return Ok(0.0);
+    };
+    let whole = Segmentation::Adaptive {
+        tolerance_mm: f64::INFINITY,
+        min_length_mm,
+    };
+    let mut worst_mm = 0.0;
+    split(
+        (a, b),
+        whole,
+        model,
+        s,
+        true,
+        (&mut Vec::new(), cells),
+        &mut worst_mm,
+    )?;
+    Ok(worst_mm)
+}
+
 fn split(
     (a, b): (Vec3, Vec3),
     seg: Segmentation,

@@ -105,6 +105,23 @@ impl<'p> Place<'p> {
     }
 }
 
+/// The axes whose position the program has set after the line `ev`, from
+/// those set before it (`known`): the axes its motion words name, or all
+/// three after a reference move (G28/G30).
+pub(super) fn known_after(mut known: [bool; 3], ev: &LineEvent<'_>) -> [bool; 3] {
+    if !ev.motions.is_empty() {
+        mark_axes_set(ev.lexed, &mut known);
+    }
+    if ev
+        .motions
+        .iter()
+        .any(|m| m.source == MotionSource::Reference)
+    {
+        known = [true; 3];
+    }
+    known
+}
+
 impl<'w> State<'w> {
     /// The prologue of every line: counts it, clears the output buffer,
     /// follows the feed mode and the axes the program has set, and builds
@@ -119,16 +136,7 @@ impl<'w> State<'w> {
         self.summary.bytes_in += ev.bytes.len() as u64;
         self.blocks_in.scan(ev.bytes);
         self.buf.clear();
-        if !ev.motions.is_empty() {
-            mark_axes_set(ev.lexed, &mut self.known);
-        }
-        if ev
-            .motions
-            .iter()
-            .any(|m| m.source == MotionSource::Reference)
-        {
-            self.known = [true; 3];
-        }
+        self.known = known_after(self.known, ev);
         let (frame, style) = Frame::of(ev.interp, self.walk.options, self.walk.survey);
         Line {
             ev,
