@@ -495,7 +495,9 @@ fn plan_ramp(
         let sol = solve_fixed_in(cells, model, options.method, *t, point.s, [false; 3], prev)?;
         let mut q = quantize(sol.q_mm - delta * *f, prev);
         hold_on_ramp(&mut q, prev, point.s, hold);
-        written.push((*t, q, sol.q_mm));
+        if judged {
+            written.push((*t, q, sol.q_mm));
+        }
         for a in 0..3 {
             if (q[a] - prev[a]) * point.s[a].sign() < -1e-9 {
                 return Ok(None);
@@ -561,9 +563,15 @@ fn plan_ramp(
         None => fold_deviation_mm(lags, q_prev, prev, end_t - t_prev),
     };
     // A ramp ending where the tangency needs it, judged by its written
-    // commands (compensate/ramp_band.rs).
+    // commands (compensate/ramp_band.rs): its largest distance from the
+    // path within the tolerance, its mean square within a quarter of the
+    // tolerance's square ([`super::ramp_band::within`]).
     let bound = if judged {
-        super::ramp_band::excursion_mm(lags, q_prev, point.s, t_prev, &written)
+        let e = super::ramp_band::excursion(lags, q_prev, point.s, t_prev, &written);
+        if !super::ramp_band::within(e, tolerance_mm) {
+            return Ok(None);
+        }
+        e.max_mm
     } else {
         bound
     };
