@@ -1707,12 +1707,13 @@ impl State<'_> {
                     let exact = matches!(rule, TakeUpRule::Exact { .. });
                     'floors: for (floor_mm, judged) in super::ramp_band::tries(floor, exact) {
                         for d in [across, Some(delta)].into_iter().flatten() {
-                            let back = super::ramp_cross::step_turns_back(
-                                d,
-                                delta,
-                                self.s,
-                                point.reversed,
-                            );
+                            let back = d != delta
+                                && super::ramp_cross::step_turns_back(
+                                    d,
+                                    delta,
+                                    self.s,
+                                    point.reversed,
+                                );
                             if judged && back {
                                 continue;
                             }

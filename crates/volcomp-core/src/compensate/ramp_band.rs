@@ -22,15 +22,14 @@ use volcomp_gcode::Vec3;
 /// The ramps to try, in order, as `(floor_mm, judged_by_commands)`: the
 /// ramp at the floor, without it where there is one, and under G61
 /// (`exact`) last a ramp that ends where the tangency needs it, judged by
-/// [`excursion_mm`].
+/// [`excursion`] (an array, no allocation: this runs at every ramp).
 pub(super) fn tries(floor_mm: f64, exact: bool) -> impl Iterator<Item = (f64, bool)> {
-    [
-        (floor_mm, false, true),
-        (0.0, false, floor_mm > 0.0),
-        (0.0, true, exact),
-    ]
-    .into_iter()
-    .filter_map(|(floor_mm, judged, tried)| tried.then_some((floor_mm, judged)))
+    let n = 1 + usize::from(floor_mm > 0.0) + usize::from(exact);
+    let skip = usize::from(floor_mm <= 0.0);
+    [(floor_mm, false), (0.0, false), (0.0, true)]
+        .into_iter()
+        .skip(skip)
+        .take(n)
 }
 
 /// What a ramp's written commands leave, in the dead-band reading
@@ -200,6 +199,15 @@ mod tests {
         // + (2/3)(1/9)/3 = 4/27 µm²·mm over 4 mm, an RMS of 1/√27 µm.
         let rms_um = (1.0f64 / 27.0).sqrt();
         assert!((e.rms_mm * 1e3 - rms_um).abs() < 1e-9, "{e:?}");
+    }
+
+    #[test]
+    fn the_judged_ramp_is_tried_last_and_only_under_g61() {
+        let all = |f: f64, exact: bool| tries(f, exact).collect::<Vec<_>>();
+        assert_eq!(all(0.0, false), [(0.0, false)]);
+        assert_eq!(all(0.0, true), [(0.0, false), (0.0, true)]);
+        assert_eq!(all(2.0, false), [(2.0, false), (0.0, false)]);
+        assert_eq!(all(2.0, true), [(2.0, false), (0.0, false), (0.0, true)]);
     }
 
     #[test]
