@@ -31,6 +31,7 @@ mod line_limit;
 mod lines;
 mod options;
 mod points;
+mod ramp_band;
 mod ramp_cross;
 mod scurve;
 mod size;

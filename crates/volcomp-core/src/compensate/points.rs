@@ -372,7 +372,7 @@ fn plan_ramp(
         Option<f64>,
         f64,
     ),
-    smooth: bool,
+    (smooth, judged): (bool, bool),
 ) -> Result<Option<RampPlan>, ModelError> {
     let need = ramp_length_mm(delta, kink_tolerance, shortest_mm, smooth);
     if !(need > 0.0 && need.is_finite()) {
@@ -436,7 +436,7 @@ fn plan_ramp(
         }
     };
     let mut insert: Vec<(usize, Vec3, Option<f64>, f64)> = Vec::new();
-    let end_s = if s_k - need <= 0.5 * need || s_k - need < shortest_mm {
+    let end_s = if (s_k - need <= 0.5 * need && !judged) || s_k - need < shortest_mm {
         s_k
     } else {
         let s_new = need.max(s_before + shortest_mm);
@@ -490,10 +490,14 @@ fn plan_ramp(
     // turn against its direction on it (an axis in `hold` stands instead,
     // [`hold_on_ramp`]).
     let mut prev = q_prev;
+    let mut written = Vec::new();
     for ((t, _), f) in window.iter().zip(&fracs) {
         let sol = solve_fixed_in(cells, model, options.method, *t, point.s, [false; 3], prev)?;
         let mut q = quantize(sol.q_mm - delta * *f, prev);
         hold_on_ramp(&mut q, prev, point.s, hold);
+        if judged {
+            written.push((*t, q, sol.q_mm));
+        }
         for a in 0..3 {
             if (q[a] - prev[a]) * point.s[a].sign() < -1e-9 {
                 return Ok(None);
@@ -557,6 +561,19 @@ fn plan_ramp(
             })
         }
         None => fold_deviation_mm(lags, q_prev, prev, end_t - t_prev),
+    };
+    // A ramp ending where the tangency needs it, judged by its written
+    // commands (compensate/ramp_band.rs): its largest distance from the
+    // path within the tolerance, its mean square within a quarter of the
+    // tolerance's square ([`super::ramp_band::within`]).
+    let bound = if judged {
+        let e = super::ramp_band::excursion(lags, q_prev, point.s, t_prev, &written);
+        if !super::ramp_band::within(e, tolerance_mm) {
+            return Ok(None);
+        }
+        e.max_mm
+    } else {
+        bound
     };
     if bound > tolerance_mm {
         return Ok(None);
@@ -1658,7 +1675,10 @@ impl State<'_> {
                     let floor = ramp_floor_mm(rule, &run, index);
                     // Under G61 the ramp first tries to spread the whole
                     // step the switch makes across the reversing axis too
-                    // (compensate/ramp_cross.rs), within its tolerance.
+                    // (compensate/ramp_cross.rs), within its tolerance:
+                    // [`plan_ramp`]'s bound, whose lags carry that step
+                    // fading with the reversing axis' band, plus the step
+                    // where it would turn another axis back.
                     let across = match (take_up, rule) {
                         (Some(_), TakeUpRule::Exact { .. }) => {
                             let full = super::ramp_cross::full_take_up_mm(
@@ -1684,9 +1704,20 @@ impl State<'_> {
                         }
                         _ => None,
                     };
-                    'floors: for floor_mm in [floor, 0.0] {
+                    let exact = matches!(rule, TakeUpRule::Exact { .. });
+                    'floors: for (floor_mm, judged) in super::ramp_band::tries(floor, exact) {
                         for d in [across, Some(delta)].into_iter().flatten() {
-                            let step_mm = (d - delta).norm();
+                            let back = d != delta
+                                && super::ramp_cross::step_turns_back(
+                                    d,
+                                    delta,
+                                    self.s,
+                                    point.reversed,
+                                );
+                            if judged && back {
+                                continue;
+                            }
+                            let step_mm = if back { (d - delta).norm() } else { 0.0 };
                             planned = plan_ramp(
                                 &mut cells,
                                 model,
@@ -1707,7 +1738,7 @@ impl State<'_> {
                                     pre_length,
                                     floor_mm,
                                 ),
-                                matches!(rule, TakeUpRule::Exact { .. }),
+                                (exact, judged),
                             )
                             .map_err(|source| model_error(file, line, source))?
                             .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index))
@@ -1716,9 +1747,6 @@ impl State<'_> {
                             if planned.is_some() {
                                 break 'floors;
                             }
-                        }
-                        if floor <= 0.0 {
-                            break;
                         }
                     }
                 }

@@ -67,6 +67,18 @@ pub(super) fn ramp_delta_mm(delta: Vec3, full: Vec3, q_prev: Vec3, reversed: [bo
     d
 }
 
+/// Whether the step across in a ramp's take-up `d` (beyond the take-up
+/// command's own `delta`) moves an axis that does not reverse against its
+/// direction in `s`: that axis would reverse for it, there and back
+/// (docs/compensation.md, "Take-ups folded into the move"). Such a ramp is
+/// bounded with the whole step on top of its bound, as a ramp that may
+/// leave the step to a reversal of that axis; one whose step runs with
+/// the directions by its bound alone, whose lags carry the step fading
+/// with the reversing axis' band.
+pub(super) fn step_turns_back(d: Vec3, delta: Vec3, s: Directions, reversed: [bool; 3]) -> bool {
+    (0..3).any(|a| !reversed[a] && (d[a] - delta[a]) * s[a].sign() < 0.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -84,5 +96,20 @@ mod tests {
         assert!((d.x + 0.00028).abs() < 1e-12, "{d:?}");
         assert!((d.y - 0.00012).abs() < 1e-12, "{d:?}");
         assert!((d.z + 0.002).abs() < 1e-15, "{d:?}");
+    }
+
+    #[test]
+    fn a_step_against_an_axis_direction_turns_it_back() {
+        use crate::model::Direction::{Forward, Reverse};
+        // Z reverses; X was last moving forward (+), Y backward (−).
+        let delta = Vec3::new(0.0, 0.0, -0.002);
+        let rev = [false, false, true];
+        let s = [Forward, Reverse, Reverse];
+        let with = Vec3::new(0.0003, -0.0001, -0.002);
+        assert!(!step_turns_back(with, delta, s, rev));
+        let against_x = Vec3::new(-0.0003, -0.0001, -0.002);
+        assert!(step_turns_back(against_x, delta, s, rev));
+        let against_y = Vec3::new(0.0003, 0.0001, -0.002);
+        assert!(step_turns_back(against_y, delta, s, rev));
     }
 }
