@@ -20,6 +20,7 @@ mod arcs;
 mod cutter;
 mod cycle;
 mod cycle_keep;
+mod exact_hold;
 mod extra;
 mod frame;
 mod front;
