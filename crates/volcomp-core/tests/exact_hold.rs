@@ -34,16 +34,17 @@ fn map_with_z_command(z_um: impl Fn(f64) -> f64) -> AxisTableMap {
 }
 
 /// Z's command rises 0.1 µm per mm of X, dips by 0.2 µm between X 10 and
-/// X 11 and rises again at 0.2 µm per mm back to the line (1 µm at X 12).
+/// X 10.5 and rises again at 0.4 µm per mm back to the line (1 µm at
+/// X 11).
 fn dip_um(x: f64) -> f64 {
     if x <= 10.0 {
         0.1 * x
+    } else if x <= 10.5 {
+        1.0 - 0.4 * (x - 10.0)
     } else if x <= 11.0 {
-        1.0 - 0.2 * (x - 10.0)
-    } else if x <= 12.0 {
-        0.8 + 0.2 * (x - 11.0)
+        0.8 + 0.4 * (x - 10.5)
     } else {
-        1.0 + 0.1 * (x - 12.0)
+        1.0 + 0.1 * (x - 11.0)
     }
 }
 
@@ -76,14 +77,15 @@ fn run(program: &str, map: &AxisTableMap) -> (String, Vec<PointRecord>, u64) {
 fn under_g61_a_dip_smaller_than_the_band_is_held_instead_of_a_take_up_block() {
     // At F6000 a smooth ramp of Z's 2 µm band needs L = √(6·2 µm·ℓ/(0.6·κ))
     // with ℓ = 2·v·T = 0.2 mm and κ = 0.1·A/(v/T + A) = 0.99 mrad (tp.c
-    // `tpSetupTangent`): 2.0 mm by hand, and Z's command turns back up
-    // 1 mm after it turned down, so no ramp fits: the take-up would be a
-    // block, a stop under G61. The dip (0.2 µm) is below the bound (0.4 µm
-    // less G61's 0.05 µm contour tolerance), and Z's target comes back
-    // above where it turned at X 12: held, Z's command never goes down,
-    // no take-up is written, and the tool is off by the dip at most.
+    // `tpSetupTangent`): 2.0 mm by hand, and the line ends 1.6 mm after Z
+    // turns down at X 10, so no ramp fits: the take-up would be a block, a
+    // stop under G61 (and another where Z turns up again at X 10.5). The
+    // dip (0.2 µm) is below the bound (0.4 µm less G61's 0.05 µm contour
+    // tolerance), and Z's target is back where it turned at X 11, inside
+    // the line: held, Z's command never goes down, no take-up is written,
+    // and the tool is off by the dip, 0.2 µm, at X 10.5.
     let map = map_with_z_command(dip_um);
-    let program = "G61\nG0 X0 Y0 Z0\nG1 X30 F6000\nM2\n";
+    let program = "G61\nG0 X0 Y0 Z0\nG1 X11.6 F6000\nM2\n";
     let (out, records, held) = run(program, &map);
     let line: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
     assert!(held > 0, "{out}");
@@ -95,11 +97,11 @@ fn under_g61_a_dip_smaller_than_the_band_is_held_instead_of_a_take_up_block() {
             w[1].target_mm.x
         );
     }
-    // Held at 1 µm (where it turned, X 10) through the dip, to X 12 where
+    // Held at 1 µm (where it turned, X 10) through the dip, to X 11 where
     // the target is back there.
     let dip: Vec<&&PointRecord> = line
         .iter()
-        .filter(|r| (10.0..=12.0).contains(&r.target_mm.x))
+        .filter(|r| (10.0..=11.0).contains(&r.target_mm.x))
         .collect();
     assert!(dip.len() >= 2, "{out}");
     for r in dip {
@@ -114,23 +116,28 @@ fn under_g61_a_dip_smaller_than_the_band_is_held_instead_of_a_take_up_block() {
         |_| {},
     )
     .unwrap();
-    assert!(report.contour_max_um < 0.2 + 0.02, "{report:?}: {out}");
+    assert!(
+        (report.contour_max_um - 0.2).abs() < 0.02,
+        "{report:?}: {out}"
+    );
 }
 
 #[test]
 fn under_g61_a_dip_the_move_ends_in_is_taken_up_not_held() {
     // The same dip with the line ending at X 10.8, before Z's target comes
-    // back: a hold would carry the reversal into whatever follows (here
-    // the program's end), so the reversal is taken up in the move.
+    // back (at X 11): a hold would carry the reversal into whatever follows
+    // (here the program's end), so Z is taken up where it turns down (X 10)
+    // and again where it turns up (X 10.5), as without the rule.
     let map = map_with_z_command(dip_um);
     let program = "G61\nG0 X0 Y0 Z0\nG1 X10.8 F6000\nM2\n";
     let (out, records, held) = run(program, &map);
     assert_eq!(held, 0, "{out}");
     let line: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
+    assert_eq!(line.iter().filter(|r| r.take_up).count(), 2, "{out}");
+    // Z's command at the end: the target (0.92 µm), Z forward again.
     let last = line.last().unwrap();
-    // Z's command at the end: the target (0.84 µm) less the 2 µm band.
     assert!(
-        (last.command_mm.z * 1e3 - (dip_um(10.8) - 2.0)).abs() < 0.011,
+        (last.command_mm.z * 1e3 - dip_um(10.8)).abs() < 0.011,
         "{last:?}: {out}"
     );
 }
