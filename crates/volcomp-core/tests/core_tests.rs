@@ -9,6 +9,7 @@ mod axis_never_set;
 mod compensate_cycles;
 mod compensation;
 mod cutter_comp_write_back;
+mod exact_hold;
 mod extra_axes_and_splines;
 mod folder_imports;
 mod idle_take_ups;

@@ -21,6 +21,7 @@ mod cutter;
 mod cycle;
 mod cycle_keep;
 mod end_zone;
+mod exact_hold;
 mod extra;
 mod frame;
 mod front;

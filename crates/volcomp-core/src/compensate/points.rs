@@ -1983,6 +1983,37 @@ impl State<'_> {
                     hold_alt.take_if(|_| take_up.is_some() && !fold_is_tangent),
                 )? {
                     point = self.take_hold(held, &mut take_up);
+                } else if let Some(held) = (take_up.is_some()
+                    && bound > allowed
+                    && feed_like
+                    && !was_forced
+                    && transition.is_none()
+                    && ramp.is_none()
+                    && ahead.is_none_or(|ah| ah.index != index))
+                .then(|| {
+                    // G61: a take-up that would be a block (nothing above
+                    // took it), outside ramps, S-curves and take-ups moved
+                    // ahead: held where the hold ends before the next
+                    // S-curve (compensate/exact_hold.rs).
+                    let end = transitions
+                        .iter()
+                        .filter(|tr| tr.index > index)
+                        .fold(targets.len(), |e, tr| e.min(tr.index));
+                    super::exact_hold::held_instead_of_stop(
+                        &mut cells,
+                        model,
+                        options,
+                        (rule, smooth),
+                        &quantize,
+                        (*t, self.q_out, self.s, &point),
+                        &targets[index + 1..end],
+                    )
+                })
+                .transpose()
+                .map_err(|source| model_error(file, line, source))?
+                .flatten()
+                {
+                    point = self.take_hold(held, &mut take_up);
                 } else if take_up.is_some() && bound <= allowed {
                     // G64: folded all the same, the tool leaving the path by
                     // the bound (at most the reversal value; within P).

@@ -1,0 +1,170 @@
+//! Under G61, a reversal smaller than its axis' band held where its
+//! take-up would otherwise be a stop on a path that runs on
+//! (docs/compensation.md, "Small reversals held where G61 would stop").
+//!
+//! A map's straightness moves an axis the program keeps still: on an arc in
+//! XY, Z's command rises and sinks by tenths of a micrometre as X and Y
+//! run through the straightness tables. Under G61 each turn of that
+//! command is a reversal whose take-up (the whole band, 2 µm of Z on the
+//! example map) must be written exactly: folded where the tool stays
+//! within the contour tolerance, on a ramp the planner joins as tangent,
+//! else as a take-up block. LinuxCNC's planner stops at the block's
+//! corners (tp.c `tpSetupTangent` finds them not tangent, and under G61
+//! `tpHandleBlendArc` does not blend them), which costs about `v/a_t` on
+//! an arc: 0.11 s at 55 mm/s with half of 1,000 mm/s² (blendmath.c
+//! `pmCircleActualMaxVel`, `BLEND_ACC_RATIO_TANGENTIAL`).
+//!
+//! A command that turns back by less than the band never brings the
+//! carriage off the flank it was pushing (docs/design.md, "Direction state
+//! and backlash"): held instead, the axis stands, and the tool is off the
+//! target by the target's change alone, which the solver bounds at each
+//! point (compensate/solve.rs `hold_small_reversals_in`). Here that bound
+//! is the run-through tolerance of a take-up the machine runs through
+//! without a stop less the contour tolerance the pieces between the points
+//! may add, so the tool stays within the run-through tolerance as on a
+//! G61 ramp or S-curve. Only where the stop would be the hold's doing:
+//! inside a move or at a join the original runs through without a corner
+//! (at a corner G61 stops anyway, and a hold would only carry the reversal
+//! into the next move); and only where the hold ends without a reversal
+//! within the move and before its next S-curve ([`hold_resolves`]): a
+//! hold that ends in the reversal after all would only move its stop, with
+//! the tool off by the hold's error up to it.
+
+use super::options::{CompensateOptions, TakeUpRule};
+use super::points::RUN_THROUGH_TOLERANCE_MM;
+use super::solve::{hold_small_reversals_in, solve_fixed_in, Method, PointSolution};
+use crate::error::ModelError;
+use crate::model::{AxisCells, Components, Directions, ErrorModel};
+use volcomp_gcode::{PathMode, Vec3};
+
+/// The error (mm) an axis held instead of a take-up block under `rule` may
+/// leave at a point, where the path runs on through the reversal
+/// (`path_runs_on`): under G61 (`TakeUpRule::Exact { smooth: true }`) the
+/// run-through tolerance less G61's contour tolerance; `None` elsewhere
+/// (G61.1 stops at every block end; the G64 rules hold by their own,
+/// [`CompensateOptions::hold_tolerance_mm`]).
+pub(super) fn hold_instead_of_stop_mm(
+    options: &CompensateOptions,
+    rule: TakeUpRule,
+    path_runs_on: bool,
+) -> Option<f64> {
+    if !(path_runs_on && matches!(rule, TakeUpRule::Exact { smooth: true })) {
+        return None;
+    }
+    // Only where the other G64 holds also hold: commanded directions and
+    // take-ups written (the same preconditions).
+    options.hold_tolerance_mm(TakeUpRule::Within(1.0))?;
+    let contour_mm = options.arc_tolerances_mm(PathMode::ExactPath).0;
+    let bound = RUN_THROUGH_TOLERANCE_MM - contour_mm;
+    (bound > 0.0).then_some(bound)
+}
+
+/// Whether a hold of the axes `held` at the command `q_mm` in the state
+/// `s` ends within the move without a reversal: at some target of `after`
+/// (the move's targets after the held point, in order) every held axis'
+/// command, solved freely in `s`, runs its old way again (or stands),
+/// and up to that target the hold (the axes kept at their command, the
+/// others solved again) leaves the tool within `bound_mm` of each target.
+/// `false` where `after` ends first: the caller ends it at the move's end
+/// (the reversal would then be taken up in the next move, where the
+/// original may run on without a stop) or at the move's next S-curve
+/// (compensate/scurve.rs: the S-curve switches another axis' tables, which
+/// steps the held axis' target, and its own tolerance assumes the tool on
+/// the path where it starts).
+pub(super) fn hold_resolves(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    method: Method,
+    (q_mm, s, held): (Vec3, Directions, [bool; 3]),
+    after: &[Vec3],
+    bound_mm: f64,
+) -> Result<bool, ModelError> {
+    let mut q = q_mm;
+    for t in after {
+        let free = solve_fixed_in(cells, model, method, *t, s, [false; 3], q)?;
+        if (0..3).all(|a| !held[a] || (free.q_mm[a] - q[a]) * s[a].sign() >= 0.0) {
+            return Ok(true);
+        }
+        let kept = solve_fixed_in(cells, model, method, *t, s, held, q)?;
+        let off_mm = *t - cells.actual_mm(model, kept.q_mm, s, Components::All)?;
+        if off_mm.norm() > bound_mm {
+            return Ok(false);
+        }
+        q = kept.q_mm;
+    }
+    Ok(false)
+}
+
+/// The point `point` (solved at the target `t_mm` from the command
+/// `q_prev` in the state `s_prev`) with its reversing axes held instead of
+/// a take-up block ([`hold_small_reversals_in`] within
+/// [`hold_instead_of_stop_mm`]), where no axis is left reversing and the
+/// hold ends over the targets `after` ([`hold_resolves`]); `None` where
+/// it is not held so.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn held_instead_of_stop(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    options: &CompensateOptions,
+    (rule, path_runs_on): (TakeUpRule, bool),
+    quantize: &dyn Fn(Vec3) -> Vec3,
+    (t_mm, q_prev, s_prev, point): (Vec3, Vec3, Directions, &PointSolution),
+    after: &[Vec3],
+) -> Result<Option<PointSolution>, ModelError> {
+    let Some(bound_mm) = hold_instead_of_stop_mm(options, rule, path_runs_on) else {
+        return Ok(None);
+    };
+    if !point.reversed.iter().any(|r| *r) {
+        return Ok(None);
+    }
+    let Some(held) = hold_small_reversals_in(
+        cells,
+        model,
+        options.method,
+        t_mm,
+        (q_prev, s_prev),
+        quantize,
+        (point, bound_mm),
+    )?
+    .filter(|h| !h.reversed.iter().any(|r| *r)) else {
+        return Ok(None);
+    };
+    let axes = [0, 1, 2].map(|a| point.reversed[a] && held.s[a] != point.s[a]);
+    Ok(hold_resolves(
+        cells,
+        model,
+        options.method,
+        (held.q_mm, held.s, axes),
+        after,
+        bound_mm,
+    )?
+    .then_some(held))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn g61_holds_within_the_run_through_tolerance_less_its_contour_tolerance() {
+        let o = CompensateOptions::default();
+        // 0.4 µm less G61's 0.05 µm contour tolerance (by hand).
+        let b = hold_instead_of_stop_mm(&o, TakeUpRule::Exact { smooth: true }, true).unwrap();
+        assert!((b - 0.35e-3).abs() < 1e-12, "{b}");
+        // At a corner the machine stops anyway; G61.1 at every block end;
+        // G64 holds by its own rules.
+        assert_eq!(
+            hold_instead_of_stop_mm(&o, TakeUpRule::Exact { smooth: true }, false),
+            None
+        );
+        assert_eq!(
+            hold_instead_of_stop_mm(&o, TakeUpRule::Exact { smooth: false }, true),
+            None
+        );
+        assert_eq!(hold_instead_of_stop_mm(&o, TakeUpRule::Always, true), None);
+        assert_eq!(
+            hold_instead_of_stop_mm(&o, TakeUpRule::Within(0.005), true),
+            None
+        );
+    }
+}

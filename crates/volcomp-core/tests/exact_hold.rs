@@ -1,0 +1,143 @@
+//! Under G61, a reversal smaller than its axis' band held where its take-up
+//! would be a stop on a path that runs on (docs/compensation.md, "Small
+//! reversals held where G61 would stop"), checked against hand values.
+
+use std::io::Cursor;
+use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, PointRecord};
+use volcomp_core::model::axis_table::AxisTableMap;
+use volcomp_core::simulate::report::simulate_program;
+use volcomp_gcode::Walker;
+
+use crate::common;
+
+fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
+    common::walker(program, "test.ngc")
+}
+
+/// X's table moves the tool in Z by `−z_um(x)` (both directions), so Z's
+/// command, with Z standing still in the program, is `z_um(x)`; Z has a
+/// 2 µm band (its reverse table). Table points every 0.25 mm.
+fn map_with_z_command(z_um: impl Fn(f64) -> f64) -> AxisTableMap {
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for dir in ["forward", "reverse"] {
+        for k in 0..=400 {
+            let p = -50.0 + 0.25 * k as f64;
+            csv.push_str(&format!("X,{dir},{p},0,0,{}\n", -z_um(p)));
+        }
+        for (name, ez) in [("Y", 0.0), ("Z", if dir == "reverse" { 2.0 } else { 0.0 })] {
+            for p in [-100.0, 100.0] {
+                csv.push_str(&format!("{name},{dir},{p},0,0,{ez}\n"));
+            }
+        }
+    }
+    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+}
+
+/// Z's command rises 0.1 µm per mm of X, dips by 0.2 µm between X 10 and
+/// X 10.5 and rises again at 0.4 µm per mm back to the line (1 µm at
+/// X 11).
+fn dip_um(x: f64) -> f64 {
+    if x <= 10.0 {
+        0.1 * x
+    } else if x <= 10.5 {
+        1.0 - 0.4 * (x - 10.0)
+    } else if x <= 11.0 {
+        0.8 + 0.4 * (x - 10.5)
+    } else {
+        1.0 + 0.1 * (x - 11.0)
+    }
+}
+
+fn run(program: &str, map: &AxisTableMap) -> (String, Vec<PointRecord>, u64) {
+    let options = CompensateOptions {
+        decimals: Some(5),
+        ..Default::default()
+    };
+    let style = survey_style(program.as_bytes());
+    let mut out = Vec::new();
+    let mut records = Vec::new();
+    let summary = compensate_program(
+        &mut walker(program),
+        "test.ngc",
+        map,
+        &style,
+        &options,
+        &mut out,
+        |r| records.push(*r),
+    )
+    .unwrap();
+    (
+        String::from_utf8(out).unwrap(),
+        records,
+        summary.small_reversals_held,
+    )
+}
+
+#[test]
+fn under_g61_a_dip_smaller_than_the_band_is_held_instead_of_a_take_up_block() {
+    // At F6000 a smooth ramp of Z's 2 µm band needs L = √(6·2 µm·ℓ/(0.6·κ))
+    // with ℓ = 2·v·T = 0.2 mm and κ = 0.1·A/(v/T + A) = 0.99 mrad (tp.c
+    // `tpSetupTangent`): 2.0 mm by hand, and the line ends 1.6 mm after Z
+    // turns down at X 10, so no ramp fits: the take-up would be a block, a
+    // stop under G61 (and another where Z turns up again at X 10.5). The
+    // dip (0.2 µm) is below the bound (0.4 µm less G61's 0.05 µm contour
+    // tolerance), and Z's target is back where it turned at X 11, inside
+    // the line: held, Z's command never goes down, no take-up is written,
+    // and the tool is off by the dip, 0.2 µm, at X 10.5.
+    let map = map_with_z_command(dip_um);
+    let program = "G61\nG0 X0 Y0 Z0\nG1 X11.6 F6000\nM2\n";
+    let (out, records, held) = run(program, &map);
+    let line: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
+    assert!(held > 0, "{out}");
+    assert!(line.iter().all(|r| !r.take_up), "{out}");
+    for w in line.windows(2) {
+        assert!(
+            w[1].command_mm.z >= w[0].command_mm.z - 1e-9,
+            "Z turns down at X {}: {out}",
+            w[1].target_mm.x
+        );
+    }
+    // Held at 1 µm (where it turned, X 10) through the dip, to X 11 where
+    // the target is back there.
+    let dip: Vec<&&PointRecord> = line
+        .iter()
+        .filter(|r| (10.0..=11.0).contains(&r.target_mm.x))
+        .collect();
+    assert!(dip.len() >= 2, "{out}");
+    for r in dip {
+        assert!((r.command_mm.z * 1e3 - 1.0).abs() < 0.011, "{r:?}: {out}");
+    }
+    let report = simulate_program(
+        &mut walker(&out),
+        "out",
+        Some(&mut walker(program)),
+        &map,
+        1e-4,
+        |_| {},
+    )
+    .unwrap();
+    assert!(
+        (report.contour_max_um - 0.2).abs() < 0.02,
+        "{report:?}: {out}"
+    );
+}
+
+#[test]
+fn under_g61_a_dip_the_move_ends_in_is_taken_up_not_held() {
+    // The same dip with the line ending at X 10.8, before Z's target comes
+    // back (at X 11): a hold would carry the reversal into whatever follows
+    // (here the program's end), so Z is taken up where it turns down (X 10)
+    // and again where it turns up (X 10.5), as without the rule.
+    let map = map_with_z_command(dip_um);
+    let program = "G61\nG0 X0 Y0 Z0\nG1 X10.8 F6000\nM2\n";
+    let (out, records, held) = run(program, &map);
+    assert_eq!(held, 0, "{out}");
+    let line: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
+    assert_eq!(line.iter().filter(|r| r.take_up).count(), 2, "{out}");
+    // Z's command at the end: the target (0.92 µm), Z forward again.
+    let last = line.last().unwrap();
+    assert!(
+        (last.command_mm.z * 1e3 - dip_um(10.8)).abs() < 0.011,
+        "{last:?}: {out}"
+    );
+}
