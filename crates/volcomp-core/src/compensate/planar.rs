@@ -255,6 +255,10 @@ impl State<'_> {
             return Ok(());
         }
         let (to, state) = (first.0, *state);
+        if to[arc.plane.axes().2] == from[arc.plane.axes().2] {
+            // Planar as solved.
+            return Ok(());
+        }
         let split = self.planar_split(
             model,
             at,
@@ -310,6 +314,11 @@ impl State<'_> {
             &self.walk.options.planner,
         );
         if !run.corner_before || !(run.protect_mm > 0.0) {
+            return None;
+        }
+        if p.from_mm[p.arc.plane.axes().2] == p.to_mm[p.arc.plane.axes().2] {
+            // Planar as solved: written as it is.
+            self.planar_before = true;
             return None;
         }
         let model = crate::model::WithTool {
