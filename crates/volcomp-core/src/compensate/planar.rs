@@ -162,7 +162,9 @@ impl State<'_> {
                 .map(|s| s.q_mm)
                 .map_err(|source| command_error(model, file, line, t, source))
         };
-        let mut d = reach_mm.min(piece_mm - min_mm);
+        // At most half the piece: both parts stay arcs (a part of the
+        // shortest length would be written as a chord).
+        let mut d = reach_mm.min(0.5 * piece_mm);
         let mut found = None;
         for _ in 0..TRIES {
             if !(d >= min_mm) {
