@@ -167,7 +167,7 @@ impl State<'_> {
         let mut d = reach_mm.min(0.5 * piece_mm);
         let mut found = None;
         for _ in 0..TRIES {
-            if !(d >= min_mm) {
+            if d.is_nan() || d < min_mm {
                 return Ok(None);
             }
             let at = match side {
@@ -315,7 +315,7 @@ impl State<'_> {
             Some((end_tangent, p.arc.length())),
             &self.walk.options.planner,
         );
-        if !run.corner_before || !(run.protect_mm > 0.0) {
+        if !run.corner_before || run.protect_mm.is_nan() || run.protect_mm <= 0.0 {
             return None;
         }
         if p.from_mm[p.arc.plane.axes().2] == p.to_mm[p.arc.plane.axes().2] {
