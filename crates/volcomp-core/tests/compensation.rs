@@ -1771,3 +1771,85 @@ fn the_pieces_of_a_g61_block_run_blended_and_its_end_stays_exact() {
         assert!(summary.path_mode_text().is_none());
     }
 }
+
+/// The written moves of `out` (G90, mm): each one's start and end (axis
+/// frame), Z tracked through lines that do not write it.
+fn written_moves_xyz(out: &str) -> Vec<(Vec3, Vec3)> {
+    let word = |line: &str, letter: char| {
+        line.split_whitespace()
+            .find(|w| w.starts_with(letter))
+            .map(|w| w[1..].parse::<f64>().unwrap())
+    };
+    let mut p = Vec3::ZERO;
+    let mut moves = Vec::new();
+    for line in out.lines() {
+        let line = line.split('(').next().unwrap();
+        let (x, y, z) = (word(line, 'X'), word(line, 'Y'), word(line, 'Z'));
+        if x.is_none() && y.is_none() && z.is_none() {
+            continue;
+        }
+        let next = Vec3::new(x.unwrap_or(p.x), y.unwrap_or(p.y), z.unwrap_or(p.z));
+        moves.push((p, next));
+        p = next;
+    }
+    moves
+}
+
+#[test]
+fn under_g64_the_pieces_at_a_corner_between_two_arcs_stay_planar_and_keep_the_blend_arc() {
+    // A 90° G64 corner at (10, 10) between two quarter circles of R10 in
+    // XY; the map's Z correction changes along X by 0.02 µm/mm (a helix
+    // piece's tangent leaves the plane by ~2e-5 rad, over LinuxCNC's 1e-6:
+    // tp.c `tpCreateArcArcBlend` would drop its blend arc), and X's by
+    // 2 µm sin(πx/8), which cuts each arc into pieces.
+    let map = one_table(0, |x| {
+        [2.0 * (x * std::f64::consts::PI / 8.0).sin(), 0.0, 0.02 * x]
+    });
+    let program = "G21 G90 G17 G64\nG0 X-5 Y0 Z0\nG1 X0 F6000\n\
+                   G3 X10 Y10 I0 J10\nG3 X20 Y20 I0 J10\nM2\n";
+    let (out, _) = compensate_with(program, &map, &CompensateOptions::default(), |_| {});
+    let moves = written_moves_xyz(&out);
+    // The pieces on both sides of the corner (the one ending within
+    // 5 µm of it, in X and Y, and the next) do not move Z.
+    let k = moves
+        .iter()
+        .position(|(_, e)| (e.x - 10.0).abs() < 0.005 && (e.y - 10.0).abs() < 0.005)
+        .unwrap_or_else(|| panic!("no piece ends at the corner:\n{out}"));
+    for (s, e) in &moves[k..k + 2] {
+        assert_eq!(s.z, e.z, "a piece at the corner moves Z:\n{out}");
+    }
+    // Both arcs carry the map's Z change elsewhere: the program is not
+    // merely planar (X 0 → 20: 0.4 µm).
+    assert!(moves.iter().any(|(s, e)| s.z != e.z), "{out}");
+    // The planner model (LinuxCNC 2.9's) makes a blend arc at the corner,
+    // no parabolic blend, and takes the time of the same program with
+    // every Z word removed (second method: a planar program) within 1 %.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/planner");
+    let setup =
+        volcomp_core::compensate::MachineSetup::from_setup_file(&dir.join("setup.toml")).unwrap();
+    let limits = volcomp_core::plan::Limits::from_setup(setup.setup.limits.as_ref());
+    let estimate = |text: &str| {
+        volcomp_core::plan::estimate_program(text.as_bytes(), "t.ngc", &setup, &limits)
+            .unwrap()
+            .motion
+    };
+    let planar: String = out
+        .lines()
+        .map(|l| {
+            l.split_whitespace()
+                .filter(|w| !w.starts_with('Z') || l.starts_with('('))
+                .collect::<Vec<_>>()
+                .join(" ")
+                + "\n"
+        })
+        .collect();
+    let (e, e_planar) = (estimate(&out), estimate(&planar));
+    assert_eq!(e.counts.parabolic_blends, 0, "{out}");
+    assert!(e.counts.blend_arcs >= 1, "{out}");
+    assert!(
+        (e.cutting_s - e_planar.cutting_s).abs() <= 0.01 * e_planar.cutting_s,
+        "{} s against {} s planar:\n{out}",
+        e.cutting_s,
+        e_planar.cutting_s
+    );
+}

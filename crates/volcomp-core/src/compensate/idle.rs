@@ -51,6 +51,10 @@ pub(super) struct IdleHold {
     records: Vec<PointRecord>,
     /// The variants, one per axis that may be taken up ahead.
     flips: Vec<Flip>,
+    /// The last piece of an arc written planar at its end, where the next
+    /// motion makes a corner that keeps its blend arc then
+    /// (compensate/planar.rs); its records are already passed on.
+    pub(super) planar: Option<super::planar::PlanarEnd>,
 }
 
 /// The last piece of a held line with axis `axis` taken up ahead.
@@ -290,6 +294,26 @@ impl State<'_> {
             s_keep: self.s,
             records,
             flips,
+            planar: None,
+        });
+    }
+
+    /// Holds back what an arc's line wrote (the buffer), its last piece at
+    /// `last`, for its planar variant `planar` (compensate/planar.rs).
+    pub(super) fn hold_planar(
+        &mut self,
+        line: u64,
+        last: std::ops::Range<usize>,
+        planar: super::planar::PlanarEnd,
+    ) {
+        self.idle = Some(IdleHold {
+            line,
+            text: std::mem::take(&mut self.buf),
+            last,
+            s_keep: self.s,
+            records: Vec::new(),
+            flips: Vec::new(),
+            planar: Some(planar),
         });
     }
 
@@ -326,7 +350,18 @@ impl State<'_> {
                         .max((f.q_mm - r.target_mm).norm() * 1e3);
                 }
             }
-            None => out.extend_from_slice(&h.text),
+            None => match h
+                .planar
+                .as_ref()
+                .and_then(|p| self.planar_end_text(p, next))
+            {
+                Some(text) => {
+                    out.extend_from_slice(&h.text[..h.last.start]);
+                    out.extend_from_slice(&text);
+                    out.extend_from_slice(&h.text[h.last.end..]);
+                }
+                None => out.extend_from_slice(&h.text),
+            },
         }
         for r in &records {
             (self.on_point)(r);

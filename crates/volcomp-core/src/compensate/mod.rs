@@ -31,6 +31,7 @@ mod joins;
 mod line_limit;
 mod lines;
 mod options;
+mod planar;
 mod points;
 mod ramp_band;
 mod ramp_cross;
@@ -248,6 +249,7 @@ impl<'w> State<'w> {
             next_corner: None,
             idle: None,
             defer_points: false,
+            planar_before: false,
             approach_pending: None,
         }
     }
@@ -474,6 +476,7 @@ impl<'w> State<'w> {
         };
         check_target_count(&motion, &line_options, file, ev.number)?;
         let run = points::Run::of(&motion, self.last_tangent, &options.planner);
+        let planar_before = std::mem::take(&mut self.planar_before);
         // The tail the block before held back (arcs.rs, `HeldEnd`): the
         // S-curve at this arc's start begins there where the original runs
         // on through the join; else it is written first.
@@ -692,7 +695,7 @@ impl<'w> State<'w> {
             ev.number,
         );
         self.defer_points = false;
-        let commands = commands?;
+        let mut commands = commands?;
         // Each axis' dead band brought to a known side before the program
         // cuts (compensate/approach.rs).
         let approach = self
@@ -734,6 +737,8 @@ impl<'w> State<'w> {
             }
         }
         let mut idle_last = 0..0;
+        // Where the last piece's text begins, and the mode before it.
+        let mut last_piece_at = (0, None);
         let place = Place {
             frame: &frame,
             style,
@@ -758,6 +763,37 @@ impl<'w> State<'w> {
             )?,
             None => Vec::new(),
         };
+        // The first piece after a G64 corner with the arc before written
+        // planar there (compensate/planar.rs).
+        let blend = matches!(motion.path_mode, volcomp_gcode::PathMode::Blend { .. });
+        let planar_arc = arc_nominal.filter(|a| {
+            blend
+                && run.feed_mm_min.is_some()
+                && held_end.is_none()
+                && taken.is_none()
+                && planar::planar_arc(&motion, a.plane).is_some()
+        });
+        if let (Some(arc), true, true, None) = (
+            planar_arc,
+            planar_before && run.corner_before && run.protect_mm > 0.0,
+            pieces.len() == commands.len(),
+            approach,
+        ) {
+            self.planar_start(
+                model,
+                (&frame, style, ev.number),
+                &arc,
+                0.5 * run.protect_mm,
+                q_line_start,
+                (&mut pieces, &mut targets),
+                (&mut commands, &mut arc_words),
+                (
+                    options.arc_tolerances_mm(run.mode).0,
+                    line.words().any(|w| w.letter == b'R'),
+                    points::piece_turn_tolerance(options, &run, &arc),
+                ),
+            )?;
+        }
         // Extra axes (A … W) of a split motion: each segment carries its share.
         let mut extra_plan = extra::ExtraPlan::new(
             motion.extra,
@@ -910,6 +946,9 @@ impl<'w> State<'w> {
         }
         for (i, (q, take_up)) in commands.iter().enumerate() {
             let piece_at = (self.buf.len(), self.mode);
+            if i + 1 == n {
+                last_piece_at = piece_at;
+            }
             if let Some(tu) = take_up {
                 // The first take-up runs before the line's own words: in the
                 // previous line's frame, distance mode, units and feed; later
@@ -1101,6 +1140,7 @@ impl<'w> State<'w> {
             }
             pos = *q;
         }
+        let last_piece = last_piece_at.0..self.buf.len();
         if let Some((_, after)) = &naive_cam {
             self.text.clear();
             self.text.extend_from_slice(after.as_bytes());
@@ -1137,6 +1177,42 @@ impl<'w> State<'w> {
         }
         if idle_any {
             self.hold_idle(ev.number, idle_last, idle_flips);
+        }
+        // An arc's line held back with its last piece's planar variant, for
+        // a G64 corner with the next arc (compensate/planar.rs).
+        if let (Some(arc), true) = (
+            planar_arc,
+            n >= 2
+                && pieces.len() == n
+                && stop_word.is_none()
+                && interp.feed_mode() != FeedMode::InverseTime
+                && matches!(options.segmentation, Segmentation::Adaptive { .. })
+                && piece_modes.is_none()
+                && self.idle.is_none()
+                && commands[n - 1].1.is_none()
+                && self.states.len() == n
+                && arc_words
+                    .get(n - 1)
+                    .is_some_and(|w| w.center.is_some() && w.second.is_none())
+                && self.buf[..last_piece.start].ends_with(b"\n"),
+        ) {
+            let planar = planar::PlanarEnd {
+                arc,
+                piece_from: pieces[n - 2],
+                from_mm: commands[n - 2].0,
+                to_mm: commands[n - 1].0,
+                state: self.states[n - 1],
+                frame,
+                style,
+                line: ev.number,
+                ending: last_ending.to_vec(),
+                line_ending: line_ending.to_vec(),
+                tool_length_offset_mm: interp.tool_length_offset_mm(),
+                radius_style: line.words().any(|w| w.letter == b'R'),
+                turn_tolerance: points::piece_turn_tolerance(options, &run, &arc),
+                mode: motion.path_mode,
+            };
+            self.hold_planar(ev.number, last_piece, planar);
         }
         // The buffers back for the next motion line.
         (self.targets, self.commands) = (targets, commands);
@@ -1555,6 +1631,9 @@ struct State<'w> {
     /// The axes whose dead band's side is not known yet
     /// (compensate/approach.rs); `None` before the first compensated motion.
     approach_pending: Option<[bool; 3]>,
+    /// The arc before ended planar at a G64 corner (compensate/planar.rs):
+    /// the next arc's first piece is written planar at the corner too.
+    planar_before: bool,
 }
 
 /// Edits of a line that sets an offset from the current point (G92, or

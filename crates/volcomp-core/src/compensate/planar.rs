@@ -1,0 +1,390 @@
+//! Corners next to an arc stay planar under G64 (docs/compensation.md,
+//! "Corners next to an arc stay planar (G64)").
+//!
+//! LinuxCNC 2.9 joins two moves at a G64 corner with a blend arc only where
+//! the corner's binormal (`u_tan1 × u_tan2`, src/emc/tp/blendmath.c,
+//! `blendInit3FromArcArc`) is colinear with each arc's normal within
+//! `TP_ANGLE_EPSILON` = 1e-6 rad (src/emc/tp/tp.c, `tpCreateArcArcBlend`,
+//! `pmUnitCartsColinear`); elsewhere it falls back to the slower parabolic
+//! blend. A compensated arc piece carries a normal-axis word (the map's
+//! correction changes along it): a helix whose tangent leaves the plane by
+//! about 1e-4 rad, so the blend arc is lost.
+//!
+//! At a corner between two arcs of one plane (neither a helix of its own),
+//! the part of each side within the blend's reach is written planar: the
+//! piece next to the corner is split at the reach's edge, the part at the
+//! corner keeps the corner's normal coordinate, and the rest of the piece
+//! carries the normal axis' change. The tool then leaves the path along the
+//! normal by the correction's change over the planar part, at most at the
+//! split; that is bounded by the contour tolerance (the planar part is
+//! shortened to keep within it, or the piece is kept as solved).
+//!
+//! The arc after the corner knows the corner when it is written (its
+//! start side). The arc before it does not: its line is held back
+//! (compensate/idle.rs, `IdleHold`) with what its last piece's planar
+//! variant needs ([`PlanarEnd`]), and the variant is written where the next
+//! motion makes such a corner.
+
+use super::arcs::{piece_center, sub_arc};
+use super::frame::Frame;
+use super::lines::ArcWords;
+use super::walk::Place;
+use super::{command_error, State};
+use crate::error::CompensationError;
+use crate::model::{Directions, ErrorModel};
+use volcomp_gcode::number::NumberStyle;
+use volcomp_gcode::{Arc, Motion, MotionKind, PathMode, Vec3};
+
+/// How many lengths of the planar part are tried, each shortened from the
+/// last in proportion to how far it moved the split ([`shortened_mm`]).
+const TRIES: usize = 4;
+
+/// What a move along the normal measured between two written numbers may
+/// exceed the tolerance by: their rounding in binary (mm).
+const QUANTUM_MM: f64 = 1e-9;
+
+/// Which end of a piece is written planar.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Side {
+    /// The piece's start (the corner is before the arc).
+    Start,
+    /// The piece's end (the corner is after the arc).
+    End,
+}
+
+/// A piece of an arc split in two, one part planar ([`State::planar_split`]).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Split {
+    /// Arc parameter of the split.
+    pub(super) at: f64,
+    /// The split's nominal point.
+    pub(super) target_mm: Vec3,
+    /// The split's command: solved, with the normal coordinate of the
+    /// piece's planar end.
+    pub(super) q_mm: Vec3,
+    /// The words of the part before the split and of the part after it.
+    pub(super) words: [ArcWords; 2],
+    /// How far the split's command was moved along the normal from where
+    /// it was solved (mm): the tool's largest distance from the path there.
+    pub(super) moved_mm: f64,
+}
+
+/// What writing the last piece of an arc planar at its end takes, kept with
+/// its held line until the next motion is known.
+#[derive(Debug, Clone)]
+pub(super) struct PlanarEnd {
+    /// The block's nominal arc and the arc parameter its last piece starts at.
+    pub(super) arc: Arc,
+    pub(super) piece_from: f64,
+    /// The last piece's commanded start and end.
+    pub(super) from_mm: Vec3,
+    pub(super) to_mm: Vec3,
+    /// The direction state the last piece was solved in.
+    pub(super) state: Directions,
+    pub(super) frame: Frame,
+    pub(super) style: NumberStyle,
+    pub(super) line: u64,
+    /// The ending of the piece's line, and of a line inserted before it.
+    pub(super) ending: Vec<u8>,
+    pub(super) line_ending: Vec<u8>,
+    pub(super) tool_length_offset_mm: Vec3,
+    pub(super) radius_style: bool,
+    pub(super) turn_tolerance: Option<f64>,
+    pub(super) mode: PathMode,
+}
+
+/// Whether a motion is an arc of `plane` without a rise of its own (a
+/// nominal helix is not planar in the original either).
+pub(super) fn planar_arc(m: &Motion, plane: volcomp_gcode::Plane) -> Option<Arc> {
+    match m.kind {
+        MotionKind::Arc(a)
+            if a.plane == plane && a.start[plane.axes().2] == a.end[plane.axes().2] =>
+        {
+            Some(a)
+        }
+        _ => None,
+    }
+}
+
+/// Whether the normal coordinate `split` lies between the piece's ends `a`
+/// and `b` (inclusive): the planar part then moves the normal axis in the
+/// direction the piece was solved in, or not at all.
+pub(super) fn between(a: f64, split: f64, b: f64) -> bool {
+    (split - a) * (b - split) >= 0.0
+}
+
+/// The length (mm) of the planar part that keeps the tool within
+/// `tolerance_mm` of the path along the normal, from a first try of
+/// `length_mm` that moved the split's command by `moved_mm`: the
+/// correction's change taken as linear along the piece, shortened by a
+/// further tenth for its curvature.
+pub(super) fn shortened_mm(length_mm: f64, moved_mm: f64, tolerance_mm: f64) -> f64 {
+    if moved_mm <= tolerance_mm {
+        return length_mm;
+    }
+    0.9 * length_mm * tolerance_mm / moved_mm
+}
+
+impl State<'_> {
+    /// The piece of `arc` from parameter `l_a` to `l_b`, commanded from
+    /// `from` to `to` in direction state `state`, split `reach_mm` from its
+    /// `side` with the part there planar (its normal coordinate that of
+    /// the piece's end on that side). `None` where the planar part would be
+    /// shorter than the shortest piece, where the split's command moves
+    /// along the normal by more than `tolerance_mm` even on a shortened
+    /// part, where the normal axis would turn back at the split, or where
+    /// either part is not written as an arc the controller reads.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn planar_split(
+        &mut self,
+        model: &dyn ErrorModel,
+        at: (&Frame, NumberStyle, u64),
+        arc: &Arc,
+        (l_a, l_b): (f64, f64),
+        (from, to): (Vec3, Vec3),
+        state: Directions,
+        (side, reach_mm, tolerance_mm): (Side, f64, f64),
+        (radius_style, turn_tolerance): (bool, Option<f64>),
+    ) -> Result<Option<Split>, CompensationError> {
+        let (frame, style, line) = at;
+        let options = self.walk.options;
+        let file = self.walk.file;
+        let min_mm = options.arc_tolerances_mm(PathMode::ExactPath).1.max(1e-6);
+        let w = arc.plane.axes().2;
+        let length_mm = arc.length();
+        let piece_mm = (l_b - l_a) * length_mm;
+        let keep = match side {
+            Side::Start => from[w],
+            Side::End => to[w],
+        };
+        let solve = |t: Vec3| {
+            super::solve::solve_fixed(model, options.method, t, state, [false; 3], Vec3::ZERO)
+                .map(|s| s.q_mm)
+                .map_err(|source| command_error(model, file, line, t, source))
+        };
+        // At most half the piece: both parts stay arcs (a part of the
+        // shortest length would be written as a chord).
+        let mut d = reach_mm.min(0.5 * piece_mm);
+        let mut found = None;
+        for _ in 0..TRIES {
+            if d.is_nan() || d < min_mm {
+                return Ok(None);
+            }
+            let at = match side {
+                Side::Start => l_a + d / length_mm,
+                Side::End => l_b - d / length_mm,
+            };
+            let target = arc.point_at(at);
+            let q = frame.quantize(solve(target)?, from);
+            let moved = (q[w] - keep).abs();
+            if moved <= tolerance_mm + QUANTUM_MM {
+                found = Some((at, target, q, moved));
+                break;
+            }
+            d = shortened_mm(d, moved, tolerance_mm);
+        }
+        let Some((at, target, q, moved)) = found else {
+            return Ok(None);
+        };
+        if !between(from[w], q[w], to[w]) {
+            return Ok(None);
+        }
+        let mut q_p = q;
+        q_p[w] = keep;
+        let mut words = [None, None];
+        let parts = [
+            (sub_arc(arc, l_a, at), from, q_p, side == Side::Start),
+            (sub_arc(arc, at, l_b), q_p, to, side == Side::End),
+        ];
+        for (k, (piece, s, e, planar)) in parts.into_iter().enumerate() {
+            let mut mid = solve(piece.point_at(0.5))?;
+            if planar {
+                mid[w] = keep;
+            }
+            let word = ArcWords {
+                center: piece_center(
+                    &piece,
+                    (s, mid, e),
+                    options.chord_tolerance_mm,
+                    turn_tolerance,
+                ),
+                plane: arc.plane,
+                clockwise: arc.clockwise(),
+                radius_style,
+                absolute_centers: frame.arc_absolute,
+                second: None,
+            };
+            if word.center.is_none() || !word.readable(frame, style, s, e) {
+                return Ok(None);
+            }
+            words[k] = Some(word);
+        }
+        let [Some(a), Some(b)] = words else {
+            return Ok(None);
+        };
+        Ok(Some(Split {
+            at,
+            target_mm: target,
+            q_mm: q_p,
+            words: [a, b],
+            moved_mm: moved,
+        }))
+    }
+
+    /// The arc's first piece after a G64 corner whose arc before it ended
+    /// planar (`self.planar_before`): split at the corner's blend reach
+    /// (`reach_mm`, [`super::points::Run::protect_mm`]'s half), the part at
+    /// the corner planar. `pieces`, `targets`, `commands` and `words` are
+    /// the block's, solved from `from` (no take-up before the first piece).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn planar_start(
+        &mut self,
+        model: &dyn ErrorModel,
+        at: (&Frame, NumberStyle, u64),
+        arc: &Arc,
+        reach_mm: f64,
+        from: Vec3,
+        (pieces, targets): (&mut Vec<f64>, &mut Vec<Vec3>),
+        (commands, words): (&mut Vec<(Vec3, Option<Vec3>)>, &mut Vec<ArcWords>),
+        (tolerance_mm, radius_style, turn_tolerance): (f64, bool, Option<f64>),
+    ) -> Result<(), CompensationError> {
+        let (Some(first), Some(w0), Some(state)) =
+            (commands.first(), words.first(), self.states.first())
+        else {
+            return Ok(());
+        };
+        if first.1.is_some() || w0.center.is_none() || w0.second.is_some() {
+            return Ok(());
+        }
+        let (to, state) = (first.0, *state);
+        if to[arc.plane.axes().2] == from[arc.plane.axes().2] {
+            // Planar as solved.
+            return Ok(());
+        }
+        let split = self.planar_split(
+            model,
+            at,
+            arc,
+            (0.0, pieces[0]),
+            (from, to),
+            state,
+            (Side::Start, reach_mm, tolerance_mm),
+            (radius_style, turn_tolerance),
+        )?;
+        let Some(split) = split else {
+            return Ok(());
+        };
+        pieces.insert(0, split.at);
+        targets.insert(0, split.target_mm);
+        commands.insert(0, (split.q_mm, None));
+        words[0] = split.words[1];
+        words.insert(0, split.words[0]);
+        self.states.insert(0, state);
+        self.estimate_mm = self.estimate_mm.max(split.moved_mm);
+        Ok(())
+    }
+
+    /// The text of the held arc's last piece written planar at its end,
+    /// where the motion `next` makes a corner LinuxCNC blends with an arc
+    /// once both sides are planar (an arc of the same plane without a rise
+    /// of its own, under G64 with a feed per minute, not tangent to the
+    /// arc's end: [`super::points::Run::of`]); `None` to write it as
+    /// solved. Sets `planar_before` for the next arc's start.
+    pub(super) fn planar_end_text(
+        &mut self,
+        p: &PlanarEnd,
+        next: Option<&Motion>,
+    ) -> Option<Vec<u8>> {
+        let next = next?;
+        planar_arc(next, p.arc.plane)?;
+        if !matches!(next.path_mode, PathMode::Blend { .. })
+            || !matches!(p.mode, PathMode::Blend { .. })
+        {
+            return None;
+        }
+        let end_tangent = {
+            let [tu, tv] = super::arcs::plane_tangent(&p.arc, 1.0);
+            let (u, v, _) = p.arc.plane.axes();
+            let mut t = Vec3::ZERO;
+            t[u] = tu;
+            t[v] = tv;
+            t
+        };
+        let run = super::points::Run::of(
+            next,
+            Some((end_tangent, p.arc.length())),
+            &self.walk.options.planner,
+        );
+        if !run.corner_before || run.protect_mm.is_nan() || run.protect_mm <= 0.0 {
+            return None;
+        }
+        if p.from_mm[p.arc.plane.axes().2] == p.to_mm[p.arc.plane.axes().2] {
+            // Planar as solved: written as it is.
+            self.planar_before = true;
+            return None;
+        }
+        let model = crate::model::WithTool {
+            model: self.walk.model,
+            tool_length_offset_mm: p.tool_length_offset_mm,
+        };
+        let tolerance_mm = self.walk.options.arc_tolerances_mm(p.mode).0;
+        let split = self
+            .planar_split(
+                &model,
+                (&p.frame, p.style, p.line),
+                &p.arc,
+                (p.piece_from, 1.0),
+                (p.from_mm, p.to_mm),
+                p.state,
+                (Side::End, 0.5 * run.protect_mm, tolerance_mm),
+                (p.radius_style, p.turn_tolerance),
+            )
+            .ok()??;
+        let place = Place {
+            frame: &p.frame,
+            style: p.style,
+            line: p.line,
+            ending: &p.line_ending,
+        };
+        let (mode, lines_out) = (self.mode, self.summary.lines_out);
+        let start = self.buf.len();
+        self.write_inserted_arc(&place, p.from_mm, split.q_mm, &split.words[0], "");
+        self.write_inserted_arc(
+            &place.with_ending(&p.ending),
+            split.q_mm,
+            p.to_mm,
+            &split.words[1],
+            "",
+        );
+        let text = self.buf[start..].to_vec();
+        self.buf.truncate(start);
+        self.mode = mode;
+        self.summary.lines_out = lines_out + 1;
+        self.estimate_mm = self.estimate_mm.max(split.moved_mm);
+        self.planar_before = true;
+        Some(text)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_split_between_the_ends_keeps_the_direction() {
+        assert!(between(0.0, 0.5, 1.0));
+        assert!(between(1.0, 0.5, 0.0));
+        assert!(between(0.0, 0.0, 1.0));
+        assert!(between(0.0, 1.0, 1.0));
+        assert!(!between(0.0, 1.5, 1.0));
+        assert!(!between(0.0, -0.1, 1.0));
+    }
+
+    #[test]
+    fn a_part_within_tolerance_is_kept_and_one_over_it_shortened_in_proportion() {
+        assert_eq!(shortened_mm(2.0, 0.5e-4, 1e-4), 2.0);
+        assert_eq!(shortened_mm(2.0, 1e-4, 1e-4), 2.0);
+        // 2 mm moved 0.4 µm against 0.1 µm: a quarter, less a tenth.
+        assert!((shortened_mm(2.0, 4e-4, 1e-4) - 0.45).abs() < 1e-12);
+    }
+}
