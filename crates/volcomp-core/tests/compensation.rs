@@ -770,23 +770,7 @@ fn under_g61_a_ramp_spreads_the_step_the_reversal_makes_across_it() {
     // Every join of the written commands within the tolerance for two
     // lines.
     let start = records.iter().rfind(|r| r.line == 2).unwrap().command_mm;
-    let unit = |v: Vec3| v * (1.0 / v.norm());
-    let a_inst = 100.0 / 0.001 + 1000.0;
-    let mut prev = start;
-    let mut t_prev: Option<Vec3> = None;
-    for r in &line3 {
-        let t = unit(r.command_mm - prev);
-        if let Some(t1) = t_prev {
-            let ratio = (0..3).fold(0.0f64, |m, i| m.max(a_inst * (t[i] - t1[i]).abs() / 1000.0));
-            assert!(
-                ratio < 0.1,
-                "kink ratio {ratio} at Y {}: {out}",
-                r.target_mm.y
-            );
-        }
-        t_prev = Some(t);
-        prev = r.command_mm;
-    }
+    assert_joins_tangent_at_f6000(start, &line3, &out);
     // Off the path by Z's step fading over the ramp, and by what X's
     // compensation travels over L while its carriage crosses the band
     // (0.02 µm/mm · 2.84 mm), with the written rounding.
@@ -845,23 +829,7 @@ fn under_g61_a_ramp_spreads_a_step_across_that_its_bound_plus_the_step_would_ref
     // Every join of the written commands within the tolerance for two
     // lines.
     let start = records.iter().rfind(|r| r.line == 2).unwrap().command_mm;
-    let unit = |v: Vec3| v * (1.0 / v.norm());
-    let a_inst = 100.0 / 0.001 + 1000.0;
-    let mut prev = start;
-    let mut t_prev: Option<Vec3> = None;
-    for r in &line3 {
-        let t = unit(r.command_mm - prev);
-        if let Some(t1) = t_prev {
-            let ratio = (0..3).fold(0.0f64, |m, i| m.max(a_inst * (t[i] - t1[i]).abs() / 1000.0));
-            assert!(
-                ratio < 0.1,
-                "kink ratio {ratio} at Y {}: {out}",
-                r.target_mm.y
-            );
-        }
-        t_prev = Some(t);
-        prev = r.command_mm;
-    }
+    assert_joins_tangent_at_f6000(start, &line3, &out);
     // Within the hand bound, with the written rounding (0.01 µm).
     let travel_um = 0.05 * l;
     let x_um = 4.0 * travel_um / (4.0 + travel_um);
@@ -1852,4 +1820,28 @@ fn under_g64_the_pieces_at_a_corner_between_two_arcs_stay_planar_and_keep_the_bl
         e.cutting_s,
         e_planar.cutting_s
     );
+}
+
+/// Asserts that every join of the commands from `start` through `points`,
+/// written as lines at F6000, is one LinuxCNC's planner takes as tangent
+/// (tp.c, `tpSetupTangent`: every axis' change of the unit tangent within
+/// 0.1 of `A / (v/T + A)`, A = 1,000 mm/s², v = 100 mm/s, T = 1 ms).
+fn assert_joins_tangent_at_f6000(start: Vec3, points: &[&PointRecord], out: &str) {
+    let unit = |v: Vec3| v * (1.0 / v.norm());
+    let a_inst = 100.0 / 0.001 + 1000.0;
+    let mut prev = start;
+    let mut t_prev: Option<Vec3> = None;
+    for r in points {
+        let t = unit(r.command_mm - prev);
+        if let Some(t1) = t_prev {
+            let ratio = (0..3).fold(0.0f64, |m, i| m.max(a_inst * (t[i] - t1[i]).abs() / 1000.0));
+            assert!(
+                ratio < 0.1,
+                "kink ratio {ratio} at Y {}: {out}",
+                r.target_mm.y
+            );
+        }
+        t_prev = Some(t);
+        prev = r.command_mm;
+    }
 }
