@@ -344,18 +344,37 @@ fn normals(g: &mut Geom) {
 /// Diameter of the circle inscribed in the section through the limits'
 /// box by the plane of normal `n` (`calculateInscribedDiameter`): the
 /// largest acceleration (or speed) in any direction of that plane.
+#[cfg(test)]
 fn inscribed_diameter(n: Vec3, bounds: &[f64; 3]) -> Option<f64> {
+    planar_norms(n).map(|norms| diameter_of(&norms, bounds))
+}
+
+/// The lengths `calculateInscribedDiameter` divides each axis' bound by:
+/// the norm of the axis' unit vector projected on the plane of normal
+/// `n` (at least `1e-12` along the axis); `None` when `n` is not a unit
+/// vector. They depend on the plane alone, so the acceleration's and the
+/// speed's diameters of one plane share them.
+fn planar_norms(n: Vec3) -> Option<[f64; 3]> {
     if (1.0 - n.norm_squared()).abs() > 1e-6 {
         return None;
     }
-    let mut extents = [0.0; 3];
-    for (i, e) in extents.iter_mut().enumerate() {
+    let mut norms = [0.0; 3];
+    for (i, l) in norms.iter_mut().enumerate() {
         let mut planar = n * -n[i];
         planar[i] += 1.0;
         let mut planar = planar.abs();
         planar[i] = planar[i].max(1e-12);
+        *l = planar.norm();
+    }
+    Some(norms)
+}
+
+/// `calculateInscribedDiameter` with the plane's [`planar_norms`] given.
+fn diameter_of(norms: &[f64; 3], bounds: &[f64; 3]) -> f64 {
+    let mut extents = [0.0; 3];
+    for (i, e) in extents.iter_mut().enumerate() {
         if bounds[i] != 0.0 {
-            *e = bounds[i] / planar.norm();
+            *e = bounds[i] / norms[i];
         }
     }
     let mut d = extents.iter().copied().fold(0.0, f64::max);
@@ -364,7 +383,7 @@ fn inscribed_diameter(n: Vec3, bounds: &[f64; 3]) -> Option<f64> {
             d = d.min(extents[i]);
         }
     }
-    Some(d)
+    d
 }
 
 /// `tcFindBlendTolerance`: the G64 P tolerance, else a quarter of the
@@ -390,12 +409,13 @@ fn blend_tolerance(prev: &Seg, tc: &Seg) -> f64 {
 fn kinematics(g: &Geom, p: &mut Params, prev: &Seg, tc: &Seg, limits: &Limits) -> Option<()> {
     p.phi = PI - p.theta * 2.0;
     p.tolerance = blend_tolerance(prev, tc);
-    p.a_max = inscribed_diameter(g.binormal, &limits.max_acceleration_mm_s2)?;
+    let norms = planar_norms(g.binormal)?;
+    p.a_max = diameter_of(&norms, &limits.max_acceleration_mm_s2);
     p.a_n_max = p.a_max * acc_ratio_normal();
     p.v_req = prev.max_target_vel(1.0).max(tc.max_target_vel(1.0));
     let scale = limits.max_feed_override;
     p.v_goal = prev.max_target_vel(scale).max(tc.max_target_vel(scale));
-    let v_planar_max = inscribed_diameter(g.binormal, &limits.max_velocity_mm_s)?;
+    let v_planar_max = diameter_of(&norms, &limits.max_velocity_mm_s);
     let phi_eff = p.phi.min(PI * 0.49);
     let v_max1 = prev.maxvel.min(tc.maxvel / phi_eff.cos());
     let v_max2 = tc.maxvel.min(prev.maxvel / phi_eff.cos());

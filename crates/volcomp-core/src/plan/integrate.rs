@@ -643,6 +643,39 @@ impl Hoisted {
             on_final_decel,
         })
     }
+
+    /// The periods of a ramp already at its end speed (`ramping`, `v ==
+    /// final_vel`), run as [`Hoisted::step`] runs them, up to the first
+    /// that takes a decision (not run): `tpCalculateRampAccel` asks for
+    /// `(v_f − v)/t = 0`, so the speed stays `v`, `on_final_decel` false,
+    /// and each period adds the same step `(v + v)·½·Δt` to the progress
+    /// (the expression `tcUpdateDistFromAccel` evaluates) and tests what
+    /// [`Hoisted::step`] tests after it, with the same values: the
+    /// progress within `[0, target]`, more than `POS_EPSILON` left, and
+    /// left at least the same `reach` margin (a ramp ends at speed, never
+    /// at rest, and never in a parabolic blend). Gives the periods run
+    /// and the progress after them.
+    fn flat_ramp(&self, v: f64, mut progress: f64) -> (u64, f64) {
+        debug_assert!(self.ramping && v == self.final_vel);
+        let dt = self.dt;
+        let step = (v + v) * 0.5 * dt;
+        let reach = (v.max(self.final_vel) + self.a * dt) * dt;
+        let need = reach * (1.0 + 1e-9) + POS_EPSILON;
+        let mut k = 0;
+        loop {
+            let next = progress + step;
+            if !(0.0..=self.target).contains(&next) {
+                break;
+            }
+            let left = self.target - next;
+            if left <= POS_EPSILON || !(left >= need) {
+                break;
+            }
+            progress = next;
+            k += 1;
+        }
+        (k, progress)
+    }
 }
 
 /// Runs, one after the other in a tight loop, the regular periods of the
@@ -698,7 +731,23 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
         // Whether the steps stopped at a cruise that follows a change of
         // speed (else at a period that takes a decision).
         let mut cruising = false;
-        while let Some(s) = h.step(v, progress) {
+        loop {
+            if h.ramping && v == h.final_vel {
+                // A ramp at its end speed: the rest of its periods that
+                // take no decision, without the ramp's two divisions.
+                let (k, p) = h.flat_ramp(v, progress);
+                if k > 0 {
+                    vel_at_blend_start = v;
+                    (progress, on_final_decel) = (p, false);
+                    n += k;
+                    // What the periods' cruise test below leaves (a ramp
+                    // does not cruise in one step).
+                    changing = false;
+                }
+            }
+            let Some(s) = h.step(v, progress) else {
+                break;
+            };
             let cruise = s.v == v;
             vel_at_blend_start = v;
             (v, progress, on_final_decel) = (s.v, s.progress, s.on_final_decel);
