@@ -680,8 +680,17 @@ impl Hoisted {
             progress = next;
             k += 1;
         }
+        #[cfg(test)]
+        FLAT_RAMP_PERIODS.with(|n| n.set(n.get() + k));
         (k, progress)
     }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Periods [`Hoisted::flat_ramp`] ran, for the test that compares them
+    /// with stepping.
+    pub(crate) static FLAT_RAMP_PERIODS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
 }
 
 /// Runs, one after the other in a tight loop, the regular periods of the
