@@ -20,7 +20,7 @@
 //! Under G61 only tangent joints run through; under G61.1 none.
 
 use super::geometry::{arc_tangent, unit, BlendArc, Circle, Line, DOUBLE_FUZZ};
-use super::segment::{acc_ratio_normal, Seg, Shape, Term, ACC_RATIO_TANGENTIAL};
+use super::segment::{acc_ratio_normal, Canon, Seg, Shape, Term, ACC_RATIO_TANGENTIAL};
 use super::Limits;
 use std::f64::consts::{FRAC_PI_2, PI};
 use volcomp_gcode::Vec3;
@@ -136,6 +136,23 @@ pub(crate) fn parabolic_velocity(
     parabolic_velocity_at(tc, next, target_vel_this, target_vel_next, None)
 }
 
+/// A corner's half angle with its sine and cosine, as the blend arc's
+/// computation has them (`f64::sin_cos`: glibc's `sincos`, which gives
+/// bit for bit `sin` and `cos`, checked in this module's tests).
+#[derive(Debug, Clone, Copy)]
+struct HalfAngle {
+    theta: f64,
+    sin: f64,
+    cos: f64,
+}
+
+impl HalfAngle {
+    fn new(theta: f64) -> HalfAngle {
+        let (sin, cos) = theta.sin_cos();
+        HalfAngle { theta, sin, cos }
+    }
+}
+
 /// [`parabolic_velocity`] with the corner's half angle given when it is
 /// known (that of two lines, whose directions of acceleration are their
 /// tangents: the same operations on the same vectors as [`geom_init`]).
@@ -144,7 +161,7 @@ fn parabolic_velocity_at(
     next: &Seg,
     target_vel_this: f64,
     target_vel_next: f64,
-    half_angle: Option<f64>,
+    half_angle: Option<HalfAngle>,
 ) -> (f64, f64, f64) {
     let acc_this = tc.tangential_max_accel();
     let acc_next = next.tangential_max_accel();
@@ -163,12 +180,15 @@ fn parabolic_velocity_at(
     let t_blend = t_max_reachable.min(t_max_blend);
     let mut v_this = reach_this.min(t_blend * acc_this);
     let mut v_next = reach_next.min(t_blend * acc_next);
-    let theta = half_angle.unwrap_or_else(|| {
-        let v1 = tc.end_accel_direction();
-        let v2 = next.start_accel_direction();
-        (-v1.dot(v2)).clamp(-1.0, 1.0).acos() / 2.0
-    });
-    let cos_theta = theta.cos();
+    let (sin_theta, cos_theta) = match half_angle {
+        Some(h) => (h.sin, h.cos),
+        None => {
+            let v1 = tc.end_accel_direction();
+            let v2 = next.start_accel_direction();
+            let theta = (-v1.dot(v2)).clamp(-1.0, 1.0).acos() / 2.0;
+            (theta.sin(), theta.cos())
+        }
+    };
     if tc.tolerance > 0.0 {
         let min_cos = (FRAC_PI_2 - 1e-3).cos();
         if cos_theta > min_cos {
@@ -177,7 +197,7 @@ fn parabolic_velocity_at(
             v_next = v_next.min(tblend_vel);
         }
     }
-    let v_net = theta.sin() * (v_this + v_next) / 2.0;
+    let v_net = sin_theta * (v_this + v_next) / 2.0;
     (v_this, v_next, v_net)
 }
 
@@ -206,7 +226,7 @@ fn choose_best_at(
     prev: &mut Seg,
     tc: &mut Seg,
     arc_maxvel: Option<f64>,
-    half_angle: Option<f64>,
+    half_angle: Option<HalfAngle>,
     limits: &Limits,
 ) -> Chosen {
     if matches!(prev.term, Term::Exact | Term::Stop) {
@@ -297,7 +317,7 @@ struct Points {
 /// A blend arc ready to be queued: the new shapes of both segments and
 /// whether the first is absorbed into the arc.
 pub(crate) struct Blend {
-    pub arc: Seg,
+    pub arc: ArcSeg,
     pub prev_shape: Shape,
     pub prev_target: f64,
     pub tc_shape: Shape,
@@ -344,18 +364,37 @@ fn normals(g: &mut Geom) {
 /// Diameter of the circle inscribed in the section through the limits'
 /// box by the plane of normal `n` (`calculateInscribedDiameter`): the
 /// largest acceleration (or speed) in any direction of that plane.
+#[cfg(test)]
 fn inscribed_diameter(n: Vec3, bounds: &[f64; 3]) -> Option<f64> {
+    planar_norms(n).map(|norms| diameter_of(&norms, bounds))
+}
+
+/// The lengths `calculateInscribedDiameter` divides each axis' bound by:
+/// the norm of the axis' unit vector projected on the plane of normal
+/// `n` (at least `1e-12` along the axis); `None` when `n` is not a unit
+/// vector. They depend on the plane alone, so the acceleration's and the
+/// speed's diameters of one plane share them.
+fn planar_norms(n: Vec3) -> Option<[f64; 3]> {
     if (1.0 - n.norm_squared()).abs() > 1e-6 {
         return None;
     }
-    let mut extents = [0.0; 3];
-    for (i, e) in extents.iter_mut().enumerate() {
+    let mut norms = [0.0; 3];
+    for (i, l) in norms.iter_mut().enumerate() {
         let mut planar = n * -n[i];
         planar[i] += 1.0;
         let mut planar = planar.abs();
         planar[i] = planar[i].max(1e-12);
+        *l = planar.norm();
+    }
+    Some(norms)
+}
+
+/// `calculateInscribedDiameter` with the plane's [`planar_norms`] given.
+fn diameter_of(norms: &[f64; 3], bounds: &[f64; 3]) -> f64 {
+    let mut extents = [0.0; 3];
+    for (i, e) in extents.iter_mut().enumerate() {
         if bounds[i] != 0.0 {
-            *e = bounds[i] / planar.norm();
+            *e = bounds[i] / norms[i];
         }
     }
     let mut d = extents.iter().copied().fold(0.0, f64::max);
@@ -364,7 +403,7 @@ fn inscribed_diameter(n: Vec3, bounds: &[f64; 3]) -> Option<f64> {
             d = d.min(extents[i]);
         }
     }
-    Some(d)
+    d
 }
 
 /// `tcFindBlendTolerance`: the G64 P tolerance, else a quarter of the
@@ -390,12 +429,13 @@ fn blend_tolerance(prev: &Seg, tc: &Seg) -> f64 {
 fn kinematics(g: &Geom, p: &mut Params, prev: &Seg, tc: &Seg, limits: &Limits) -> Option<()> {
     p.phi = PI - p.theta * 2.0;
     p.tolerance = blend_tolerance(prev, tc);
-    p.a_max = inscribed_diameter(g.binormal, &limits.max_acceleration_mm_s2)?;
+    let norms = planar_norms(g.binormal)?;
+    p.a_max = diameter_of(&norms, &limits.max_acceleration_mm_s2);
     p.a_n_max = p.a_max * acc_ratio_normal();
     p.v_req = prev.max_target_vel(1.0).max(tc.max_target_vel(1.0));
     let scale = limits.max_feed_override;
     p.v_goal = prev.max_target_vel(scale).max(tc.max_target_vel(scale));
-    let v_planar_max = inscribed_diameter(g.binormal, &limits.max_velocity_mm_s)?;
+    let v_planar_max = diameter_of(&norms, &limits.max_velocity_mm_s);
     let phi_eff = p.phi.min(PI * 0.49);
     let v_max1 = prev.maxvel.min(tc.maxvel / phi_eff.cos());
     let v_max2 = tc.maxvel.min(prev.maxvel / phi_eff.cos());
@@ -409,8 +449,15 @@ fn kinematics(g: &Geom, p: &mut Params, prev: &Seg, tc: &Seg, limits: &Limits) -
 
 /// `blendComputeParameters`: the arc's radius and speed.
 fn compute(p: &mut Params) -> Option<()> {
-    let h_tol = p.tolerance / (1.0 - p.theta.sin());
-    let d_tol = p.theta.cos() * h_tol;
+    compute_at(p, HalfAngle::new(p.theta))
+}
+
+/// [`compute`] with the sine and cosine of `p.theta` given (`h.theta ==
+/// p.theta`).
+fn compute_at(p: &mut Params, h: HalfAngle) -> Option<()> {
+    debug_assert_eq!(h.theta.to_bits(), p.theta.to_bits());
+    let h_tol = p.tolerance / (1.0 - h.sin);
+    let d_tol = h.cos * h_tol;
     let d_geom = p.l1.min(p.l2).min(d_tol);
     let r_geom = p.theta.tan() * d_geom;
     let v_normal = psqrt(p.a_n_max * r_geom);
@@ -429,9 +476,11 @@ fn compute(p: &mut Params) -> Option<()> {
     Some(())
 }
 
-/// `blendFindPoints3`: the arc on the corner's straight approximation.
-fn find_points(g: &Geom, p: &Params) -> Points {
-    let center_dist = p.r_plan / p.theta.sin();
+/// `blendFindPoints3`: the arc on the corner's straight approximation,
+/// with the half angle `p.theta`'s sine and cosine given.
+fn find_points(g: &Geom, p: &Params, h: HalfAngle) -> Points {
+    debug_assert_eq!(h.theta.to_bits(), p.theta.to_bits());
+    let center_dist = p.r_plan / h.sin;
     Points {
         arc_center: g.p + g.normal * center_dist,
         arc_start: g.p - g.u1 * p.d_plan,
@@ -507,22 +556,63 @@ fn tangent_ok(circle_tan: Vec3, arc_tan: Vec3, p: &Params, limits: &Limits) -> b
     angle <= angle_max
 }
 
-/// The blend arc segment (`tpInitBlendArcFromPrev`).
-fn blend_seg(prev: &Seg, arc: BlendArc, p: &Params, tolerance: f64, limits: &Limits) -> Seg {
-    let mut s = Seg::new(
-        Shape::Blend(arc),
-        prev.canon,
-        prev.line,
-        arc.length_mm(),
-        p.v_req,
-        p.v_plan,
-        p.a_max,
-        Term::Tangent,
+/// What the blend arc segment is made of (`tpInitBlendArcFromPrev`):
+/// the segment itself is made once the arc is chosen, where it is queued
+/// ([`ArcSeg::seg`]), not copied on its way there.
+pub(crate) struct ArcSeg {
+    arc: BlendArc,
+    canon: Canon,
+    line: u64,
+    length: f64,
+    v_req: f64,
+    v_plan: f64,
+    a_max: f64,
+    tolerance: f64,
+    cycle_time: f64,
+}
+
+impl ArcSeg {
+    /// The speed limit of the finalised segment: the planned speed, no
+    /// more than the length per servo period (`tcClampVelocityByLength`,
+    /// the operation [`Seg::new`] and [`Seg::finalize`] make; a blend arc
+    /// is no circle to `tcFinalizeLength`).
+    fn maxvel(&self) -> f64 {
+        self.v_plan.min(self.length / self.cycle_time)
+    }
+
+    /// The finalised blend arc segment (`tpInitBlendArcFromPrev`).
+    pub(crate) fn seg(&self) -> Seg {
+        let mut s = Seg::new(
+            Shape::Blend(self.arc),
+            self.canon,
+            self.line,
+            self.length,
+            self.v_req,
+            self.v_plan,
+            self.a_max,
+            Term::Tangent,
+            self.tolerance,
+            self.cycle_time,
+        );
+        s.finalize();
+        debug_assert_eq!(s.maxvel.to_bits(), self.maxvel().to_bits());
+        s
+    }
+}
+
+/// The blend arc segment's parts (`tpInitBlendArcFromPrev`).
+fn blend_seg(prev: &Seg, arc: BlendArc, p: &Params, tolerance: f64, limits: &Limits) -> ArcSeg {
+    ArcSeg {
+        arc,
+        canon: prev.canon,
+        line: prev.line,
+        length: arc.length_mm(),
+        v_req: p.v_req,
+        v_plan: p.v_plan,
+        a_max: p.a_max,
         tolerance,
-        limits.servo_period_s,
-    );
-    s.finalize();
-    s
+        cycle_time: limits.servo_period_s,
+    }
 }
 
 /// Tries the blend arc between `prev` and `tc` (`tpCreateBlendIfPossible`);
@@ -556,12 +646,15 @@ fn line_line(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
         ..Params::default()
     };
     kinematics(&g, &mut p, prev, tc, limits)?;
-    compute(&mut p)?;
-    let pts = find_points(&g, &p);
+    // The half angle's sine and cosine, for the arc and the parabolic
+    // blend it is compared with.
+    let half = HalfAngle::new(g.theta_tan);
+    compute_at(&mut p, half)?;
+    let pts = find_points(&g, &p, half);
     check_consume(&mut p, &pts, prev, limits);
     let arc = BlendArc::from_points(pts.arc_start, pts.arc_end, pts.arc_center, p.line_length)?;
     let seg = blend_seg(prev, arc, &p, tc.tolerance, limits);
-    if choose_best_at(prev, tc, Some(seg.maxvel), Some(g.theta_tan), limits) != Chosen::Arc {
+    if choose_best_at(prev, tc, Some(seg.maxvel()), Some(half), limits) != Chosen::Arc {
         return None;
     }
     let new1 = Line::new(l1.start, pts.arc_start);
@@ -659,7 +752,7 @@ fn line_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
     if !tangent_ok(circ2.start_tangent(), arc_tan, &p, limits) {
         return None;
     }
-    if choose_best(prev, tc, Some(seg.maxvel), limits) != Chosen::Arc {
+    if choose_best(prev, tc, Some(seg.maxvel()), limits) != Chosen::Arc {
         return None;
     }
     Some(Blend {
@@ -723,7 +816,7 @@ fn arc_line(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
     if !tangent_ok(circ1.end_tangent(), arc_tan, &p, limits) {
         return None;
     }
-    if choose_best(prev, tc, Some(seg.maxvel), limits) != Chosen::Arc {
+    if choose_best(prev, tc, Some(seg.maxvel()), limits) != Chosen::Arc {
         return None;
     }
     Some(Blend {
@@ -832,7 +925,7 @@ fn arc_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
     {
         return None;
     }
-    if choose_best(prev, tc, Some(seg.maxvel), limits) != Chosen::Arc {
+    if choose_best(prev, tc, Some(seg.maxvel()), limits) != Chosen::Arc {
         return None;
     }
     Some(Blend {
@@ -848,7 +941,6 @@ fn arc_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::segment::Canon;
 
     fn line_seg(a: Vec3, b: Vec3, feed: f64, limits: &Limits) -> Seg {
         let l = Line::new(a, b);
@@ -888,8 +980,9 @@ mod tests {
         );
         assert_eq!(setup_tangent(&mut a, &mut b, &lim), Tangency::Corner);
         let blend = try_blend_arc(&mut a, &mut b, &lim).expect("a blend arc");
+        let arc_seg = blend.arc.seg();
         let r = 20.0 / std::f64::consts::FRAC_PI_2;
-        match blend.arc.shape {
+        match arc_seg.shape {
             Shape::Blend(arc) => {
                 assert!((arc.radius_mm - r).abs() < 1e-9, "{}", arc.radius_mm);
                 assert!((arc.angle_rad - std::f64::consts::FRAC_PI_2).abs() < 1e-9);
@@ -897,11 +990,7 @@ mod tests {
             _ => panic!("not a blend arc"),
         }
         assert!((blend.prev_target - (40.0 - r)).abs() < 1e-9);
-        assert!(
-            (blend.arc.maxvel - 100.0).abs() < 1e-9,
-            "{}",
-            blend.arc.maxvel
-        );
+        assert!((arc_seg.maxvel - 100.0).abs() < 1e-9, "{}", arc_seg.maxvel);
         assert!(!blend.consume);
     }
 
@@ -938,5 +1027,39 @@ mod tests {
         assert!((d - 1000.0).abs() < 1e-9, "{d}");
         let b2 = [1000.0, 500.0, 1000.0];
         assert!((inscribed_diameter(Vec3::new(0.0, 0.0, 1.0), &b2).unwrap() - 500.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_half_angle_s_sine_and_cosine_together_are_those_taken_one_at_a_time() {
+        // The blend arc takes both at once (`sincos`), the parabolic blend
+        // it is compared with took them one at a time (`sin`, `cos`): the
+        // same bits, on half angles across the range a corner has
+        // (1e-6 to π/2 − 1e-6, `geom_init`) and near its ends.
+        use std::hint::black_box;
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut unit = || {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut angles = vec![
+            1e-6,
+            FRAC_PI_2 - 1e-6,
+            0.5,
+            1.0,
+            std::f64::consts::FRAC_PI_4,
+        ];
+        for _ in 0..200_000 {
+            angles.push(1e-6 + unit() * (FRAC_PI_2 - 2e-6));
+            angles.push(10f64.powf(-6.0 + 6.0 * unit()));
+        }
+        for theta in angles {
+            let h = HalfAngle::new(black_box(theta));
+            let sin = black_box(theta).sin();
+            let cos = black_box(theta).cos();
+            assert_eq!(h.sin.to_bits(), sin.to_bits(), "sin {theta:e}");
+            assert_eq!(h.cos.to_bits(), cos.to_bits(), "cos {theta:e}");
+        }
     }
 }

@@ -384,8 +384,9 @@ fn add_repeated(mut x: f64, step: f64, mut n: u64) -> f64 {
     debug_assert!(x >= 0.0 && step >= 0.0);
     if n <= FEW_ADDITIONS {
         // A short cruise (a raster's half-millimetre moves: about twenty
-        // periods): the additions themselves cost less than the binade
-        // bookkeeping below.
+        // periods, a CAM program's third of a millimetre: about 65): the
+        // additions themselves cost less than the binade bookkeeping
+        // below.
         for _ in 0..n {
             x += step;
         }
@@ -449,8 +450,13 @@ fn lowest_bit_exponent(x: f64) -> Option<i32> {
     (mantissa != 0).then(|| scale + mantissa.trailing_zeros() as i32)
 }
 
-/// Up to this many additions [`add_repeated`] makes one by one.
-const FEW_ADDITIONS: u64 = 64;
+/// Up to this many additions [`add_repeated`] makes one by one: the loop
+/// costs about 1.25 instructions an addition (unrolled by eight), a binade
+/// of the way below about 70, and a cruise from near the segment's start
+/// crosses about `log2(n)` binades, so one by one costs fewer instructions
+/// up to about 500 additions (a 0.33 mm CAM move at 5 mm/s cruises for
+/// about 65 periods).
+const FEW_ADDITIONS: u64 = 512;
 
 /// The spacing of the floating-point numbers at positive normal `x` (0
 /// for zero and subnormal numbers: those are added one by one).
@@ -643,6 +649,48 @@ impl Hoisted {
             on_final_decel,
         })
     }
+
+    /// The periods of a ramp already at its end speed (`ramping`, `v ==
+    /// final_vel`), run as [`Hoisted::step`] runs them, up to the first
+    /// that takes a decision (not run): `tpCalculateRampAccel` asks for
+    /// `(v_f − v)/t = 0`, so the speed stays `v`, `on_final_decel` false,
+    /// and each period adds the same step `(v + v)·½·Δt` to the progress
+    /// (the expression `tcUpdateDistFromAccel` evaluates) and tests what
+    /// [`Hoisted::step`] tests after it, with the same values: the
+    /// progress within `[0, target]`, more than `POS_EPSILON` left, and
+    /// left at least the same `reach` margin (a ramp ends at speed, never
+    /// at rest, and never in a parabolic blend). Gives the periods run
+    /// and the progress after them.
+    fn flat_ramp(&self, v: f64, mut progress: f64) -> (u64, f64) {
+        debug_assert!(self.ramping && v == self.final_vel);
+        let dt = self.dt;
+        let step = (v + v) * 0.5 * dt;
+        let reach = (v.max(self.final_vel) + self.a * dt) * dt;
+        let need = reach * (1.0 + 1e-9) + POS_EPSILON;
+        let mut k = 0;
+        loop {
+            let next = progress + step;
+            if !(0.0..=self.target).contains(&next) {
+                break;
+            }
+            let left = self.target - next;
+            if left <= POS_EPSILON || !(left >= need) {
+                break;
+            }
+            progress = next;
+            k += 1;
+        }
+        #[cfg(test)]
+        FLAT_RAMP_PERIODS.with(|n| n.set(n.get() + k));
+        (k, progress)
+    }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Periods [`Hoisted::flat_ramp`] ran, for the test that compares them
+    /// with stepping.
+    pub(crate) static FLAT_RAMP_PERIODS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
 }
 
 /// Runs, one after the other in a tight loop, the regular periods of the
@@ -698,7 +746,23 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
         // Whether the steps stopped at a cruise that follows a change of
         // speed (else at a period that takes a decision).
         let mut cruising = false;
-        while let Some(s) = h.step(v, progress) {
+        loop {
+            if h.ramping && v == h.final_vel {
+                // A ramp at its end speed: the rest of its periods that
+                // take no decision, without the ramp's two divisions.
+                let (k, p) = h.flat_ramp(v, progress);
+                if k > 0 {
+                    vel_at_blend_start = v;
+                    (progress, on_final_decel) = (p, false);
+                    n += k;
+                    // What the periods' cruise test below leaves (a ramp
+                    // does not cruise in one step).
+                    changing = false;
+                }
+            }
+            let Some(s) = h.step(v, progress) else {
+                break;
+            };
             let cruise = s.v == v;
             vel_at_blend_start = v;
             (v, progress, on_final_decel) = (s.v, s.progress, s.on_final_decel);
@@ -916,7 +980,11 @@ mod tests {
             let x = 10f64.powf(unit() * 4.0 - 2.0);
             let half = super::grid(x) / 2.0 * (1u64 << (unit() * 4.0) as u32) as f64;
             let odd = 2.0 * ((unit() * 1e9) as u64) as f64 + 1.0;
-            cases.push((x, odd * half, 64 + (unit() * 50_000.0) as u64));
+            cases.push((
+                x,
+                odd * half,
+                super::FEW_ADDITIONS + 1 + (unit() * 50_000.0) as u64,
+            ));
         }
         for (x, step, n) in cases {
             let want = one_by_one(x, step, n);

@@ -55,7 +55,7 @@ pub(crate) fn add(q: &mut VecDeque<Seg>, tc: &mut Seg, limits: &Limits, stats: &
                             prev.target = b.prev_target;
                             blend::set_term(prev, tc, Term::Tangent);
                         }
-                        q.push_back(b.arc);
+                        q.push_back(b.arc.seg());
                     }
                     None => match blend::choose_best(prev, tc, None, limits) {
                         blend::Chosen::Parabolic => stats.parabolic_blends += 1,

@@ -298,6 +298,47 @@ fn random_move(
 }
 
 #[test]
+fn ramps_at_their_end_speed_count_the_periods_stepping_counts() {
+    // A CAM finishing pass as bench/run.sh's cam.nc has it: 0.333 mm moves
+    // along X at F300 (5 mm/s), the height following a surface by a few
+    // hundredths of a millimetre a move, under G64: a blend arc in every
+    // corner, shorter than the ramp's 10 ms at the feed, run through on a
+    // ramp already at its end speed (`flat_ramp`). Every period must be the
+    // one of the planner that steps each period (`run_period`, LinuxCNC's
+    // operations in their order), and most of the arcs' periods must have
+    // been run that way.
+    let limits = Limits {
+        traj_max_velocity_mm_s: 166.7,
+        ..Limits::default()
+    };
+    let mut unit = uniform(0x2545_f491_4f6c_dd1d);
+    let mut at = Vec3::new(-1.833, 0.0, -6.0);
+    let mut moves = Vec::new();
+    // The surface's slope wanders by up to ±0.15 a move (corners of up to
+    // about 0.15 rad, the smallest of them tangent joints).
+    let mut slope: f64 = 0.0;
+    for i in 0..600 {
+        slope = (slope + (unit() - 0.5) * 0.3).clamp(-1.0, 1.0);
+        let z = at.z + 0.333 * slope;
+        let x = if (i / 300) % 2 == 0 {
+            at.x + 0.333
+        } else {
+            at.x - 0.333
+        };
+        let end = Vec3::new(x, at.y, (z * 1000.0).round() / 1000.0);
+        moves.push(Move::feed(at, end, 5.0, PathMode::default()));
+        at = end;
+    }
+    integrate::FLAT_RAMP_PERIODS.with(|n| n.set(0));
+    let fast = estimate(&moves, &limits);
+    let flat = integrate::FLAT_RAMP_PERIODS.with(|n| n.get());
+    let slow = estimate_period_by_period(&moves, &limits);
+    assert_eq!(fast, slow);
+    assert!(fast.counts.blend_arcs > 300, "{:?}", fast.counts);
+    assert!(flat > 1_000, "{flat} periods of ramps at their end speed");
+}
+
+#[test]
 fn cruising_in_one_step_counts_the_periods_stepping_counts() {
     // Random programs: lines from 1 µm to 100 mm, rapids, arcs in the
     // XY plane, feeds from 3 to 200 mm/s, every path mode; the
