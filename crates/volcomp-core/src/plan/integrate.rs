@@ -674,7 +674,8 @@ impl Hoisted {
                 break;
             }
             let left = self.target - next;
-            if left <= POS_EPSILON || !(left >= need) {
+            let far = left >= need;
+            if left <= POS_EPSILON || !far {
                 break;
             }
             progress = next;
