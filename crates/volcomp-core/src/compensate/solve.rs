@@ -91,7 +91,13 @@ pub(crate) fn solve_fixed_in(
     held_q: Vec3,
 ) -> Result<Solved, ModelError> {
     let comps = method.components();
+    // Most solves hold no axis: then `fix` and `free_norm` are the
+    // identity and the norm, tested once here instead of per axis and step.
+    let none_held = hold == [false; 3];
     let fix = |mut q: Vec3| {
+        if none_held {
+            return q;
+        }
         for a in 0..3 {
             if hold[a] {
                 q[a] = held_q[a];
@@ -100,6 +106,9 @@ pub(crate) fn solve_fixed_in(
         q
     };
     let free_norm = |r: Vec3| {
+        if none_held {
+            return r.norm();
+        }
         let mut r = r;
         for a in 0..3 {
             if hold[a] {
@@ -142,7 +151,7 @@ pub(crate) fn solve_fixed_in(
             // The first step at the target itself, where the split of its
             // move may have evaluated the map last
             // ([`AxisCells::deviation_end_um`]).
-            let kept = (comps == Components::All && hold == [false; 3])
+            let kept = (comps == Components::All && none_held)
                 .then(|| cells.end_um(q, s))
                 .flatten();
             let mut r = match kept {
@@ -234,9 +243,15 @@ pub(crate) fn solve_consistent_in(
     let mut hold = [false; 3];
     let mut flipped = [false; 3];
     let mut last = None;
-    for _round in 0..4 {
+    // The rounds solved with no axis held: [`search_states`] takes their
+    // states' solves from here (the same function of the same arguments).
+    let mut tried: [Option<(Directions, Solved, Vec3)>; 4] = [None; 4];
+    for round in 0..4 {
         let sol = solve_fixed_in(cells, model, method, t_mm, s, hold, q_prev)?;
         let q = quantize(sol.q_mm);
+        if hold == [false; 3] {
+            tried[round] = Some((s, sol, q));
+        }
         let mut consistent = true;
         for a in 0..3 {
             if hold[a] {
@@ -284,7 +299,7 @@ pub(crate) fn solve_consistent_in(
             method,
             t_mm,
             (q_prev, s_prev),
-            quantize,
+            (quantize, &tried),
             [false; 3],
         )? {
             sol = found_sol;
@@ -451,8 +466,15 @@ pub(crate) fn solve_keeping_in(
     quantize: &dyn Fn(Vec3) -> Vec3,
     keep: [bool; 3],
 ) -> Result<Option<PointSolution>, ModelError> {
-    let Some((sol, q, s)) =
-        search_states(cells, model, method, t_mm, (q_prev, s_prev), quantize, keep)?
+    let Some((sol, q, s)) = search_states(
+        cells,
+        model,
+        method,
+        t_mm,
+        (q_prev, s_prev),
+        (quantize, &[]),
+        keep,
+    )?
     else {
         return Ok(None);
     };
@@ -470,13 +492,17 @@ pub(crate) fn solve_keeping_in(
 /// The consistent direction state with the fewest reversals from `s_prev`
 /// (the smallest residual among equals), with no axis held and no `keep`
 /// axis reversed; `None` when no such state of the 2³ is consistent.
+/// `tried` holds states already solved for `t_mm` with no axis held, with
+/// their solves and quantized commands: taken as they are (a solve is a
+/// function of its arguments alone, the kept cells giving the map's
+/// values to the bit), not solved again.
 fn search_states(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,
     method: Method,
     t_mm: Vec3,
     (q_prev, s_prev): (Vec3, Directions),
-    quantize: &dyn Fn(Vec3) -> Vec3,
+    (quantize, tried): (&dyn Fn(Vec3) -> Vec3, &[Option<(Directions, Solved, Vec3)>]),
     keep: [bool; 3],
 ) -> Result<Option<(Solved, Vec3, Directions)>, ModelError> {
     let mut best: Option<(usize, f64, Solved, Vec3, Directions)> = None;
@@ -495,8 +521,14 @@ fn search_states(
         if best.as_ref().is_some_and(|b| b.0 < flips) {
             continue;
         }
-        let sol = solve_fixed_in(cells, model, method, t_mm, s, [false; 3], q_prev)?;
-        let q = quantize(sol.q_mm);
+        let known = tried.iter().flatten().find(|(known_s, ..)| *known_s == s);
+        let (sol, q) = match known {
+            Some((_, sol, q)) => (*sol, *q),
+            None => {
+                let sol = solve_fixed_in(cells, model, method, t_mm, s, [false; 3], q_prev)?;
+                (sol, quantize(sol.q_mm))
+            }
+        };
         if !consistent_state(q, q_prev, s, s_prev, [false; 3]) {
             continue;
         }

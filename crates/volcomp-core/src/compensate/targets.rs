@@ -217,12 +217,16 @@ fn split(
             let knots = |p: Vec3, q: Vec3, cuts: &mut Vec<f64>| {
                 knot_cuts(model, p, q, s, min_length_mm, cuts)
             };
+            // A piecewise linear map is affine between table points: a
+            // move that crosses none needs no split and no evaluation.
+            let linear = model.piecewise_linear();
+            if linear && within_kept_cells(cells, a, b, s) {
+                out.push(b);
+                return Ok(());
+            }
             // One buffer for the cuts of every piece (a piece's cuts are
             // used up before its halves are refined): no allocation per line.
             return CUTS.with_borrow_mut(|cuts| {
-                // A piecewise linear map is affine between table points: a
-                // move that crosses none needs no split and no evaluation.
-                let linear = model.piecewise_linear();
                 knots(a, b, cuts);
                 if linear && cuts.is_empty() {
                     out.push(b);
@@ -327,6 +331,21 @@ fn knot_cuts(
         }
         keep
     });
+}
+
+/// Whether the line `a`–`b` crosses no table point of the direction state
+/// `s` (strictly between its ends) by the cells `cells` keeps: each
+/// moving axis' span lies in one kept cell, whose ends are two neighbouring
+/// points of its table ([`AxisCells::spans_mm`]). Then [`knot_cuts`] finds
+/// no cut: a move that stays in the cells its start was solved in (most
+/// moves of a CAM program, fractions of a millimetre against table
+/// points millimetres apart) needs no search of the tables. `false` where
+/// the cells do not tell (the tables are searched).
+fn within_kept_cells(cells: &AxisCells, a: Vec3, b: Vec3, s: Directions) -> bool {
+    (0..3).all(|axis| {
+        let (lo, hi) = (a[axis].min(b[axis]), a[axis].max(b[axis]));
+        hi <= lo || cells.spans_mm(axis, s[axis], lo, hi)
+    })
 }
 
 /// What the adaptive splitting of one move needs at every piece.
