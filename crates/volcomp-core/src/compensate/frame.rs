@@ -166,10 +166,27 @@ impl Frame {
         // `program`, `word_of` and `round` written out once for the three
         // axes (the same operations in the same order: the same bits), the
         // scale and the threshold computed once.
+        let scale = pow10(self.decimals);
+        if self.absolute && self.mm_per_unit == 1.0 && self.x_word_scale == 1.0 {
+            // Absolute millimetres outside G7 (most programs): the products
+            // and quotients by 1 below are left out (`x · 1` and `x / 1`
+            // are `x`: the same bits).
+            let still = 0.5 * (1.0 / scale) * 1e-3;
+            let axis = |a: usize| -> f64 {
+                let v =
+                    volcomp_gcode::number::round_bits((q[a] - self.offset_mm[a]) * scale) / scale;
+                let out = v + self.offset_mm[a];
+                if (out - from[a]).abs() < still {
+                    from[a]
+                } else {
+                    out
+                }
+            };
+            return Vec3::new(axis(0), axis(1), axis(2));
+        }
         let per_mm = 1.0 / self.mm_per_unit;
         let p = (q - self.offset_mm) * per_mm;
         let p_from = (from - self.offset_mm) * per_mm;
-        let scale = pow10(self.decimals);
         let still = 0.5 * (1.0 / scale) * self.mm_per_unit * 1e-3;
         let axis = |a: usize, p: f64, p_from: f64| -> f64 {
             let k = if a == 0 { self.x_word_scale } else { 1.0 };
