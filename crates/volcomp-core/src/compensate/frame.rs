@@ -300,6 +300,59 @@ mod tests {
         }
     }
 
+    /// The quantisation of absolute millimetres outside G7 (without the
+    /// products and quotients by 1) is the written words' command to the
+    /// bit: the second method is the word of each axis
+    /// ([`Frame::word_value`]) read back through the frame, an axis whose
+    /// word would not change left where it was, on 100,000 random
+    /// commands near the previous one (steps from 1 nm to 10 mm, 3 to 6
+    /// decimals, work offsets with fractions, the previous command written
+    /// or not). Asserts that both kinds of axis occurred.
+    #[test]
+    fn quantize_in_millimetres_is_the_words_read_back() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut moved, mut still) = (0, 0);
+        for k in 0..100_000 {
+            let f = Frame {
+                offset_mm: Vec3::new(250.0 + rnd(), 200.125, -150.0 - rnd()),
+                decimals: 3 + (k % 4) as u8,
+                absolute: true,
+                ..rotated(0.0, true)
+            };
+            let raw = Vec3::new(rnd() * 600.0 - 300.0, rnd() * 400.0, -rnd() * 150.0);
+            // Every other command from a written one (its words on the
+            // grid), as the compensation's are.
+            let far = raw + Vec3::new(1.0, 1.0, 1.0);
+            let from = if k % 2 == 0 {
+                f.quantize(raw, far)
+            } else {
+                raw
+            };
+            let step = [1e-6, 1e-4, 1e-2, 10.0][k % 4];
+            let q = from + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * step;
+            let out = f.quantize(q, from);
+            let half_step_mm = 0.5 * (1.0 / pow10(f.decimals)) * 1e-3;
+            for a in 0..3 {
+                let read = f.word_value(q, from, a) + f.offset_mm[a];
+                let expected = if (read - from[a]).abs() < half_step_mm {
+                    still += 1;
+                    from[a]
+                } else {
+                    moved += 1;
+                    read
+                };
+                assert_eq!(out[a].to_bits(), expected.to_bits(), "{q:?} from {from:?}");
+            }
+        }
+        assert!(moved > 100_000 && still > 10_000, "{moved} {still}");
+    }
+
     #[test]
     fn r90_program_x_is_axis_y() {
         // q = Rot(90°)(p + (1, 0, 0)) + (10, 5, 2): program (2, 0, 0) is

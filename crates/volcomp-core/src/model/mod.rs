@@ -896,6 +896,65 @@ mod axis_cells_tests {
         m
     }
 
+    /// The next `f64` up, by hand: 1 + 2⁻⁵² above 1, −1 + 2⁻⁵³ above −1
+    /// (the spacing halves below 1 in magnitude), the least subnormal
+    /// above either zero, +∞ above the largest finite value; NaN and +∞
+    /// stay.
+    #[test]
+    fn next_up_is_the_next_float() {
+        assert_eq!(next_up(1.0), 1.0 + f64::EPSILON);
+        assert_eq!(next_up(-1.0), -1.0 + f64::EPSILON / 2.0);
+        assert_eq!(next_up(0.0), f64::from_bits(1));
+        assert_eq!(next_up(-0.0), f64::from_bits(1));
+        assert_eq!(next_up(-f64::from_bits(1)), -0.0);
+        assert_eq!(next_up(f64::MAX), f64::INFINITY);
+        assert_eq!(next_up(f64::NEG_INFINITY), f64::MIN);
+        assert_eq!(next_up(f64::INFINITY), f64::INFINITY);
+        assert!(next_up(f64::NAN).is_nan());
+        assert_eq!(next_up(100.0), 100.0 + 2f64.powi(-46));
+    }
+
+    /// Where a kept cell spans an interval no table point lies strictly
+    /// inside it (the second method: a scan of the table's points,
+    /// [`ErrorModel::knots_mm`]): intervals around a 20,000-point walk in
+    /// random states, both directions of every axis, the Z reverse table
+    /// of one point (whose cell spans nothing). Asserts that the cells
+    /// spanned many intervals (more than 20,000) and left many to the
+    /// search (more than 5,000).
+    #[test]
+    fn a_kept_cell_spans_no_table_point() {
+        let m = map(false);
+        let mut rnd = uniform(0x5eed_0f_ce11);
+        let mut cells = AxisCells::default();
+        let mut q = Vec3::new(50.0, 50.0, 50.0);
+        let (mut spanned, mut not) = (0, 0);
+        for _ in 0..20_000 {
+            for a in 0..3 {
+                q[a] = (q[a] + (rnd() - 0.5) * 4.0).clamp(0.0, 100.0);
+            }
+            let s = [0, 1, 2].map(|_| if rnd() < 0.5 { F } else { R });
+            // Keeps the cells of `q` (a point outside a table keeps none).
+            let _ = cells.deviation_um(&m, q, s, Components::All);
+            for a in 0..3 {
+                for d in [F, R] {
+                    let x = q[a] + (rnd() - 0.5) * 6.0;
+                    let y = x + rnd() * [0.01, 1.0, 8.0][(rnd() * 3.0) as usize % 3];
+                    if !(x < y) {
+                        continue;
+                    }
+                    let inside = m.knots_mm(a, d).iter().any(|k| x < *k && *k < y);
+                    if cells.spans_mm(a, d, x, y) {
+                        spanned += 1;
+                        assert!(!inside, "axis {a} {d:?}: [{x}, {y}]");
+                    } else {
+                        not += 1;
+                    }
+                }
+            }
+        }
+        assert!(spanned > 20_000 && not > 5_000, "{spanned} {not}");
+    }
+
     /// A value asked for again is the map's own lookup to the bit (the
     /// second method): on a 20,000-point walk in random states, each point
     /// asked for once or twice more, later, with its state or another,
