@@ -245,12 +245,12 @@ pub(crate) fn solve_consistent_in(
     let mut last = None;
     // The rounds solved with no axis held: [`search_states`] takes their
     // states' solves from here (the same function of the same arguments).
-    let mut tried: [Option<(Directions, Solved, Vec3)>; 4] = [None; 4];
-    for round in 0..4 {
+    let mut tried: [Option<Tried>; 4] = [None; 4];
+    for kept in &mut tried {
         let sol = solve_fixed_in(cells, model, method, t_mm, s, hold, q_prev)?;
         let q = quantize(sol.q_mm);
         if hold == [false; 3] {
-            tried[round] = Some((s, sol, q));
+            *kept = Some((s, sol, q));
         }
         let mut consistent = true;
         for a in 0..3 {
@@ -489,6 +489,10 @@ pub(crate) fn solve_keeping_in(
     }))
 }
 
+/// A state solved for a target with no axis held: the state, its solve and
+/// the solve's command quantized ([`search_states`] takes it as it is).
+type Tried = (Directions, Solved, Vec3);
+
 /// The consistent direction state with the fewest reversals from `s_prev`
 /// (the smallest residual among equals), with no axis held and no `keep`
 /// axis reversed; `None` when no such state of the 2³ is consistent.
@@ -502,7 +506,7 @@ fn search_states(
     method: Method,
     t_mm: Vec3,
     (q_prev, s_prev): (Vec3, Directions),
-    (quantize, tried): (&dyn Fn(Vec3) -> Vec3, &[Option<(Directions, Solved, Vec3)>]),
+    (quantize, tried): (&dyn Fn(Vec3) -> Vec3, &[Option<Tried>]),
     keep: [bool; 3],
 ) -> Result<Option<(Solved, Vec3, Directions)>, ModelError> {
     let mut best: Option<(usize, f64, Solved, Vec3, Directions)> = None;
