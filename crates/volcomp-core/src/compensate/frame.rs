@@ -166,10 +166,27 @@ impl Frame {
         // `program`, `word_of` and `round` written out once for the three
         // axes (the same operations in the same order: the same bits), the
         // scale and the threshold computed once.
+        let scale = pow10(self.decimals);
+        if self.absolute && self.mm_per_unit == 1.0 && self.x_word_scale == 1.0 {
+            // Absolute millimetres outside G7 (most programs): the products
+            // and quotients by 1 below are left out (`x · 1` and `x / 1`
+            // are `x`: the same bits).
+            let still = 0.5 * (1.0 / scale) * 1e-3;
+            let axis = |a: usize| -> f64 {
+                let v =
+                    volcomp_gcode::number::round_bits((q[a] - self.offset_mm[a]) * scale) / scale;
+                let out = v + self.offset_mm[a];
+                if (out - from[a]).abs() < still {
+                    from[a]
+                } else {
+                    out
+                }
+            };
+            return Vec3::new(axis(0), axis(1), axis(2));
+        }
         let per_mm = 1.0 / self.mm_per_unit;
         let p = (q - self.offset_mm) * per_mm;
         let p_from = (from - self.offset_mm) * per_mm;
-        let scale = pow10(self.decimals);
         let still = 0.5 * (1.0 / scale) * self.mm_per_unit * 1e-3;
         let axis = |a: usize, p: f64, p_from: f64| -> f64 {
             let k = if a == 0 { self.x_word_scale } else { 1.0 };
@@ -281,6 +298,59 @@ mod tests {
                 "10^-{d}"
             );
         }
+    }
+
+    /// The quantisation of absolute millimetres outside G7 (without the
+    /// products and quotients by 1) is the written words' command to the
+    /// bit: the second method is the word of each axis
+    /// ([`Frame::word_value`]) read back through the frame, an axis whose
+    /// word would not change left where it was, on 100,000 random
+    /// commands near the previous one (steps from 1 nm to 10 mm, 3 to 6
+    /// decimals, work offsets with fractions, the previous command written
+    /// or not). Asserts that both kinds of axis occurred.
+    #[test]
+    fn quantize_in_millimetres_is_the_words_read_back() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut moved, mut still) = (0, 0);
+        for k in 0..100_000 {
+            let f = Frame {
+                offset_mm: Vec3::new(250.0 + rnd(), 200.125, -150.0 - rnd()),
+                decimals: 3 + (k % 4) as u8,
+                absolute: true,
+                ..rotated(0.0, true)
+            };
+            let raw = Vec3::new(rnd() * 600.0 - 300.0, rnd() * 400.0, -rnd() * 150.0);
+            // Every other command from a written one (its words on the
+            // grid), as the compensation's are.
+            let far = raw + Vec3::new(1.0, 1.0, 1.0);
+            let from = if k % 2 == 0 {
+                f.quantize(raw, far)
+            } else {
+                raw
+            };
+            let step = [1e-6, 1e-4, 1e-2, 10.0][k % 4];
+            let q = from + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * step;
+            let out = f.quantize(q, from);
+            let half_step_mm = 0.5 * (1.0 / pow10(f.decimals)) * 1e-3;
+            for a in 0..3 {
+                let read = f.word_value(q, from, a) + f.offset_mm[a];
+                let expected = if (read - from[a]).abs() < half_step_mm {
+                    still += 1;
+                    from[a]
+                } else {
+                    moved += 1;
+                    read
+                };
+                assert_eq!(out[a].to_bits(), expected.to_bits(), "{q:?} from {from:?}");
+            }
+        }
+        assert!(moved > 100_000 && still > 10_000, "{moved} {still}");
     }
 
     #[test]

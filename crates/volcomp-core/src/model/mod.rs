@@ -244,6 +244,10 @@ impl Cell {
     /// same to the bit; `None` where `x_mm` lies outside the cell.
     #[inline]
     pub fn value_at(&self, x_mm: f64) -> Option<Vec3> {
+        if self.p[0] == self.p[1] {
+            // A table of one point: its value itself (the sign of a zero kept).
+            return (self.upper && x_mm == self.p[0]).then_some(self.e[0]);
+        }
         KeptCell::of(self).value_at(x_mm)
     }
 }
@@ -290,67 +294,85 @@ type KeptCells = [KeptCell; 2];
 /// once; [`Cell::value_at`] takes them on every call, through this one
 /// interpolation (`e₀ + (e₁ − e₀)·t`, [`Vec3::lerp`]'s operations), so a
 /// value is the same to the bit.
+///
+/// Its bounds are one comparison each: the upper one is exclusive, the
+/// next `f64` above the upper end where the cell holds that end
+/// ([`Cell::upper`]; `x < next_up(p₁)` is `x ≤ p₁` for every `x`). A
+/// table of one point is a cell of no rise and width 1, whose value at its
+/// point is `e₀ + 0`: `e₀` but for the sign of a zero, which the sums
+/// that take it ([`AxisCells::deviation_um`], onto `+0`) lose anyway.
 #[derive(Debug, Clone, Copy)]
 struct KeptCell {
     /// The cell's lower end (mm); NaN for no cell (no point is inside).
     p0_mm: f64,
-    /// Its upper end (mm).
-    p1_mm: f64,
-    /// `p1_mm − p0_mm`.
+    /// Its upper end (mm), exclusive: the next `f64` above the table's
+    /// upper end where the cell holds it.
+    below_mm: f64,
+    /// `p[1] − p[0]` (1 for a table of one point).
     width_mm: f64,
     /// The error at the lower end (µm).
     e0_um: Vec3,
-    /// The error at the upper end less the one at the lower end (µm).
+    /// The error at the upper end less the one at the lower end (µm; 0
+    /// for a table of one point).
     rise_um: Vec3,
-    /// The upper end belongs to the cell ([`Cell::upper`]).
-    upper: bool,
-    /// A table of one point (`p[0] == p[1]`).
-    point: bool,
 }
 
 impl Default for KeptCell {
     fn default() -> Self {
         Self {
             p0_mm: f64::NAN,
-            p1_mm: f64::NAN,
+            below_mm: f64::NAN,
             width_mm: f64::NAN,
             e0_um: Vec3::ZERO,
             rise_um: Vec3::ZERO,
-            upper: false,
-            point: false,
         }
     }
 }
 
+/// The least `f64` above `x` (`f64::next_up`, which this crate's minimum
+/// Rust does not have): `x` itself for NaN and +∞.
+fn next_up(x: f64) -> f64 {
+    if x.is_nan() || x == f64::INFINITY {
+        return x;
+    }
+    if x == 0.0 {
+        return f64::from_bits(1);
+    }
+    let bits = x.to_bits();
+    f64::from_bits(if x > 0.0 { bits + 1 } else { bits - 1 })
+}
+
 impl KeptCell {
     fn of(c: &Cell) -> Self {
+        let point = c.p[0] == c.p[1];
         Self {
             p0_mm: c.p[0],
-            p1_mm: c.p[1],
-            width_mm: c.p[1] - c.p[0],
+            below_mm: if c.upper { next_up(c.p[1]) } else { c.p[1] },
+            width_mm: if point { 1.0 } else { c.p[1] - c.p[0] },
             e0_um: c.e[0],
-            rise_um: c.e[1] - c.e[0],
-            upper: c.upper,
-            point: c.p[0] == c.p[1],
+            rise_um: if point { Vec3::ZERO } else { c.e[1] - c.e[0] },
         }
     }
 
     /// The value at `x_mm` where it lies in the cell: the error at the
     /// lower end plus the rise times the share of the width (linear
     /// interpolation, [`Vec3::lerp`]'s operations); at a table of one point
-    /// its one value.
+    /// its one value plus zero.
     #[inline(always)]
     fn value_at(&self, x_mm: f64) -> Option<Vec3> {
         let x = x_mm;
-        let inside = self.p0_mm <= x && (x < self.p1_mm || (self.upper && x == self.p1_mm));
-        if !inside {
+        if !(self.p0_mm <= x && x < self.below_mm) {
             return None;
         }
-        Some(if self.point {
-            self.e0_um
-        } else {
-            self.e0_um + self.rise_um * ((x - self.p0_mm) / self.width_mm)
-        })
+        Some(self.e0_um + self.rise_um * ((x - self.p0_mm) / self.width_mm))
+    }
+
+    /// Whether the cell holds the whole closed interval `[lo, hi]` with
+    /// `lo < hi`: then no table point lies strictly between them (the
+    /// cell's ends are two neighbouring table points).
+    #[inline(always)]
+    fn spans(&self, lo_mm: f64, hi_mm: f64) -> bool {
+        self.p0_mm <= lo_mm && hi_mm < self.below_mm
     }
 }
 
@@ -526,6 +548,21 @@ impl AxisCells {
         s: Directions,
     ) -> Result<Vec3, ModelError> {
         Ok(q_mm + self.deviation_again_um(model, q_mm, s)? * 1e-3)
+    }
+
+    /// Whether a cell kept for axis `axis` and direction `d` holds the
+    /// whole interval `[lo_mm, hi_mm]` (`lo_mm < hi_mm`): then no point of
+    /// that table lies strictly between them, which a move's adaptive split
+    /// needs to know, without searching the table
+    /// ([`ErrorModel::knots_mm`]: the cells' ends are its neighbouring
+    /// points). `false` where no kept cell holds it (not known).
+    #[inline]
+    pub fn spans_mm(&self, axis: usize, d: Direction, lo_mm: f64, hi_mm: f64) -> bool {
+        let kept = &self.cells[axis][match d {
+            Direction::Forward => 0,
+            Direction::Reverse => 1,
+        }];
+        kept[0].spans(lo_mm, hi_mm) || kept[1].spans(lo_mm, hi_mm)
     }
 
     /// Axis `axis`'s table value at `x_mm` for direction `d`, in the cell
@@ -857,6 +894,65 @@ mod axis_cells_tests {
             errors_um: vec![Vec3::new(0.5, 0.4, 0.9)],
         };
         m
+    }
+
+    /// The next `f64` up, by hand: 1 + 2⁻⁵² above 1, −1 + 2⁻⁵³ above −1
+    /// (the spacing halves below 1 in magnitude), the least subnormal
+    /// above either zero, +∞ above the largest finite value; NaN and +∞
+    /// stay.
+    #[test]
+    fn next_up_is_the_next_float() {
+        assert_eq!(next_up(1.0), 1.0 + f64::EPSILON);
+        assert_eq!(next_up(-1.0), -1.0 + f64::EPSILON / 2.0);
+        assert_eq!(next_up(0.0), f64::from_bits(1));
+        assert_eq!(next_up(-0.0), f64::from_bits(1));
+        assert_eq!(next_up(-f64::from_bits(1)), -0.0);
+        assert_eq!(next_up(f64::MAX), f64::INFINITY);
+        assert_eq!(next_up(f64::NEG_INFINITY), f64::MIN);
+        assert_eq!(next_up(f64::INFINITY), f64::INFINITY);
+        assert!(next_up(f64::NAN).is_nan());
+        assert_eq!(next_up(100.0), 100.0 + 2f64.powi(-46));
+    }
+
+    /// Where a kept cell spans an interval no table point lies strictly
+    /// inside it (the second method: a scan of the table's points,
+    /// [`ErrorModel::knots_mm`]): intervals around a 20,000-point walk in
+    /// random states, both directions of every axis, the Z reverse table
+    /// of one point (whose cell spans nothing). Asserts that the cells
+    /// spanned many intervals (more than 20,000) and left many to the
+    /// search (more than 5,000).
+    #[test]
+    fn a_kept_cell_spans_no_table_point() {
+        let m = map(false);
+        let mut rnd = uniform(0x5eed_f0ce_1100);
+        let mut cells = AxisCells::default();
+        let mut q = Vec3::new(50.0, 50.0, 50.0);
+        let (mut spanned, mut not) = (0, 0);
+        for _ in 0..20_000 {
+            for a in 0..3 {
+                q[a] = (q[a] + (rnd() - 0.5) * 4.0).clamp(0.0, 100.0);
+            }
+            let s = [0, 1, 2].map(|_| if rnd() < 0.5 { F } else { R });
+            // Keeps the cells of `q` (a point outside a table keeps none).
+            let _ = cells.deviation_um(&m, q, s, Components::All);
+            for a in 0..3 {
+                for d in [F, R] {
+                    let x = q[a] + (rnd() - 0.5) * 6.0;
+                    let y = x + rnd() * [0.01, 1.0, 8.0][(rnd() * 3.0) as usize % 3];
+                    if x >= y {
+                        continue;
+                    }
+                    let inside = m.knots_mm(a, d).iter().any(|k| x < *k && *k < y);
+                    if cells.spans_mm(a, d, x, y) {
+                        spanned += 1;
+                        assert!(!inside, "axis {a} {d:?}: [{x}, {y}]");
+                    } else {
+                        not += 1;
+                    }
+                }
+            }
+        }
+        assert!(spanned > 20_000 && not > 5_000, "{spanned} {not}");
     }
 
     /// A value asked for again is the map's own lookup to the bit (the
