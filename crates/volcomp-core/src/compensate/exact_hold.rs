@@ -65,18 +65,20 @@ pub(super) fn hold_instead_of_stop_mm(
 /// command, solved freely in `s`, runs its old way again (or stands),
 /// and up to that target the hold (the axes kept at their command, the
 /// others solved again) leaves the tool within `bound_mm` of each target.
-/// `false` where `after` ends first: the caller ends it at the move's end
-/// (the reversal would then be taken up in the next move, where the
-/// original may run on without a stop) or at the move's next S-curve
-/// (compensate/scurve.rs: the S-curve switches another axis' tables, which
-/// steps the held axis' target, and its own tolerance assumes the tool on
-/// the path where it starts).
+/// Where `after` ends first: `to_move_end` where it runs to the move's end
+/// (the hold then ends with the move, and the next move takes the reversal
+/// up from its start, where its whole length is there for a ramp the
+/// planner runs through, or the machine stops at a corner anyway); `false`
+/// where it ends at the move's next S-curve (compensate/scurve.rs: the
+/// S-curve switches another axis' tables, which steps the held axis'
+/// target, and its own tolerance assumes the tool on the path where it
+/// starts).
 pub(super) fn hold_resolves(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,
     method: Method,
     (q_mm, s, held): (Vec3, Directions, [bool; 3]),
-    after: &[Vec3],
+    (after, to_move_end): (&[Vec3], bool),
     bound_mm: f64,
 ) -> Result<bool, ModelError> {
     let mut q = q_mm;
@@ -92,7 +94,17 @@ pub(super) fn hold_resolves(
         }
         q = kept.q_mm;
     }
-    Ok(false)
+    Ok(to_move_end)
+}
+
+/// The length (mm) of the polyline from `from_mm` through the targets
+/// `after`: the path left to a move's end (chords on an arc, within the
+/// segmentation's chord tolerance of its length).
+pub(super) fn path_mm(from_mm: Vec3, after: &[Vec3]) -> f64 {
+    after
+        .iter()
+        .fold((0.0, from_mm), |(s, p), t| (s + (*t - p).norm(), *t))
+        .0
 }
 
 /// The point `point` (solved at the target `t_mm` from the command
@@ -109,7 +121,7 @@ pub(super) fn held_instead_of_stop(
     (rule, path_runs_on): (TakeUpRule, bool),
     quantize: &dyn Fn(Vec3) -> Vec3,
     (t_mm, q_prev, s_prev, point): (Vec3, Vec3, Directions, &PointSolution),
-    after: &[Vec3],
+    after: (&[Vec3], bool),
 ) -> Result<Option<PointSolution>, ModelError> {
     let Some(bound_mm) = hold_instead_of_stop_mm(options, rule, path_runs_on) else {
         return Ok(None);
