@@ -1994,15 +1994,17 @@ impl State<'_> {
                     // G61: a take-up that would be a block (nothing above
                     // took it), outside ramps, S-curves and take-ups moved
                     // ahead: held where the hold ends before the next
-                    // S-curve, or with the move where the rest of it is
-                    // shorter than the ramp the take-up needs (the reason
-                    // no ramp took it; compensate/exact_hold.rs).
+                    // S-curve, or, on an arc, with the move where the rest
+                    // of it is shorter than the ramp the take-up needs (the
+                    // reason no ramp took it): the next move takes the
+                    // reversal up from its start (compensate/exact_hold.rs).
                     let end = transitions
                         .iter()
                         .filter(|tr| tr.index > index)
                         .fold(targets.len(), |e, tr| e.min(tr.index));
                     let after = &targets[index + 1..end];
                     let to_move_end = end == targets.len()
+                        && matches!(leads, Leads::Arc { .. })
                         && super::exact_hold::path_mm(*t, after)
                             <= ramp_length_mm(
                                 delta,
