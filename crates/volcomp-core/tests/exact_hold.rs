@@ -127,7 +127,9 @@ fn under_g61_a_dip_the_move_ends_in_is_taken_up_not_held() {
     // The same dip with the line ending at X 10.8, before Z's target comes
     // back (at X 11): a hold would carry the reversal into whatever follows
     // (here the program's end), so Z is taken up where it turns down (X 10)
-    // and again where it turns up (X 10.5), as without the rule.
+    // and again where it turns up (X 10.5), as without the rule. (On an arc
+    // the hold may end with the move where the rest of it is shorter than
+    // the ramp: the next test; not on a line, where it cost accuracy.)
     let map = map_with_z_command(dip_um);
     let program = "G61\nG0 X0 Y0 Z0\nG1 X10.8 F6000\nM2\n";
     let (out, records, held) = run(program, &map);
@@ -140,4 +142,75 @@ fn under_g61_a_dip_the_move_ends_in_is_taken_up_not_held() {
         (last.command_mm.z * 1e3 - dip_um(10.8)).abs() < 0.011,
         "{last:?}: {out}"
     );
+}
+
+/// Z's command rises 0.1 µm per mm of X, dips by 0.2 µm between X 9.25
+/// and X 9.75 and rises again at 0.4 µm per mm, back where it turned
+/// (0.925 µm) at X 10.25 (table points every 0.25 mm: the breaks lie on
+/// them).
+fn dip_at_join_um(x: f64) -> f64 {
+    if x <= 9.25 {
+        0.1 * x
+    } else if x <= 9.75 {
+        0.925 - 0.4 * (x - 9.25)
+    } else if x <= 10.25 {
+        0.725 + 0.4 * (x - 9.75)
+    } else {
+        0.925 + 0.1 * (x - 10.25)
+    }
+}
+
+#[test]
+fn under_g61_a_dip_across_a_tangent_join_is_held_across_it() {
+    // A G2 R100 arc from X 0 to X 10 and the line that leaves it along its
+    // end tangent: the centre is at (5, −√(100² − 5²)), so the end tangent
+    // is (√(100² − 5²), −5)/100 = (0.99875, −0.05) and the line to
+    // (14.99375, −0.25) follows it (a join the planner takes as tangent).
+    // Z turns down at X 9.25, 0.75 mm before the arc's end: less than the
+    // 1.4 mm a smooth ramp of Z's 2 µm band needs on an arc at F6000
+    // (L = √(6·2 µm·ℓ/(0.6·κ)), ℓ = 0.2 mm, κ = 0.2·A/(v/T + A) =
+    // 1.98 mrad, tp.c `tpSetupTangent`), so no ramp fits in the arc, and
+    // main b110b8c writes two take-up blocks (X 9.25, X 9.75), stops of the
+    // planner under G61: +35.8 % cutting time (release build, planner
+    // model). The hold instead ends with the arc, and the line, where Z's
+    // target is back at X 10.25, holds it to there: no take-up, Z's
+    // command never goes down, the tool off by the dip, 0.2 µm, at X 9.75.
+    let map = map_with_z_command(dip_at_join_um);
+    let program = "G61\nG0 X-5 Y0 Z0\nG1 X0 F6000\nG2 X10 Y0 R100\nG1 X14.99375 Y-0.25\nM2\n";
+    let (out, records, held) = run(program, &map);
+    assert!(held > 0, "{out}");
+    let path: Vec<&PointRecord> = records.iter().filter(|r| r.line >= 4).collect();
+    assert!(path.iter().all(|r| !r.take_up), "{out}");
+    for w in path.windows(2) {
+        assert!(
+            w[1].command_mm.z >= w[0].command_mm.z - 1e-9,
+            "Z turns down at X {}: {out}",
+            w[1].target_mm.x
+        );
+    }
+    let report = simulate_program(
+        &mut walker(&out),
+        "out",
+        Some(&mut walker(program)),
+        &map,
+        1e-4,
+        |_| {},
+    )
+    .unwrap();
+    assert!(
+        (report.contour_max_um - 0.2).abs() < 0.02,
+        "{report:?}: {out}"
+    );
+    // No stop added: the planner model (LinuxCNC 2.9's planner) runs the
+    // output as fast as the original, within 1 %.
+    let setup = volcomp_core::compensate::MachineSetup::default();
+    let limits = volcomp_core::plan::Limits::default();
+    let cutting_s = |p: &str| {
+        volcomp_core::plan::estimate_program(p.as_bytes(), "t.ngc", &setup, &limits)
+            .unwrap()
+            .motion
+            .cutting_s
+    };
+    let (c0, c1) = (cutting_s(program), cutting_s(&out));
+    assert!(c1 <= c0 * 1.01, "{c0} s → {c1} s: {out}");
 }

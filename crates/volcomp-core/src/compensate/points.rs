@@ -1994,11 +1994,24 @@ impl State<'_> {
                     // G61: a take-up that would be a block (nothing above
                     // took it), outside ramps, S-curves and take-ups moved
                     // ahead: held where the hold ends before the next
-                    // S-curve (compensate/exact_hold.rs).
+                    // S-curve, or, on an arc, with the move where the rest
+                    // of it is shorter than the ramp the take-up needs (the
+                    // reason no ramp took it): the next move takes the
+                    // reversal up from its start (compensate/exact_hold.rs).
                     let end = transitions
                         .iter()
                         .filter(|tr| tr.index > index)
                         .fold(targets.len(), |e, tr| e.min(tr.index));
+                    let after = &targets[index + 1..end];
+                    let to_move_end = end == targets.len()
+                        && matches!(leads, Leads::Arc { .. })
+                        && super::exact_hold::path_mm(*t, after)
+                            <= ramp_length_mm(
+                                delta,
+                                kink_tolerance,
+                                shortest_ramp_piece_mm(options, v_mm_s),
+                                true,
+                            );
                     super::exact_hold::held_instead_of_stop(
                         &mut cells,
                         model,
@@ -2006,7 +2019,7 @@ impl State<'_> {
                         (rule, smooth),
                         &quantize,
                         (*t, self.q_out, self.s, &point),
-                        &targets[index + 1..end],
+                        (after, to_move_end),
                     )
                 })
                 .transpose()
