@@ -168,6 +168,14 @@ pub fn compensate_program_seen<R: BufRead>(
             Ok(after) => after,
             Err(e) => return Err(out.error(e)),
         };
+        if let Some(p) = st.planar_pending.take() {
+            // The arc before, its end planar only where this arc's start
+            // is (compensate/planar.rs).
+            let text = st.resolve_planar_end(p);
+            if let Err(e) = out.write_all(&text) {
+                return Err(out.error(e.into()));
+            }
+        }
         if let Err(e) = out.write_all(&st.buf) {
             return Err(out.error(e.into()));
         }
@@ -250,6 +258,8 @@ impl<'w> State<'w> {
             idle: None,
             defer_points: false,
             planar_before: false,
+            planar_pending: None,
+            planar_start_kept: false,
             approach_pending: None,
         }
     }
@@ -477,6 +487,7 @@ impl<'w> State<'w> {
         check_target_count(&motion, &line_options, file, ev.number)?;
         let run = points::Run::of(&motion, self.last_tangent, &options.planner);
         let planar_before = std::mem::take(&mut self.planar_before);
+        self.planar_start_kept = false;
         // The tail the block before held back (arcs.rs, `HeldEnd`): the
         // S-curve at this arc's start begins there where the original runs
         // on through the join; else it is written first.
@@ -1634,6 +1645,11 @@ struct State<'w> {
     /// The arc before ended planar at a G64 corner (compensate/planar.rs):
     /// the next arc's first piece is written planar at the corner too.
     planar_before: bool,
+    /// The arc before's line with and without its planar end, written once
+    /// the next arc's first piece is solved (compensate/planar.rs).
+    planar_pending: Option<planar::PendingEnd>,
+    /// The last arc's first piece is planar at the corner before it.
+    planar_start_kept: bool,
 }
 
 /// Edits of a line that sets an offset from the current point (G92, or
