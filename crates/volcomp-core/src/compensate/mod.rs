@@ -41,6 +41,7 @@ pub mod solve;
 mod spline;
 mod style;
 mod targets;
+mod turn_back;
 mod walk;
 
 pub use front::{

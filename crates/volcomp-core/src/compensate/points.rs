@@ -1285,6 +1285,37 @@ impl State<'_> {
                 }),
                 None => point,
             };
+            // G64 without P: a reversal the next target of the move turns
+            // back is held instead (compensate/turn_back.rs).
+            let point = match (rule, targets.get(index + 1)) {
+                (TakeUpRule::Always, Some(next))
+                    if feed_like
+                        && !was_forced
+                        && transition.is_none()
+                        && ramp.is_none()
+                        && options.fold_take_ups
+                        && point.reversed.iter().any(|r| *r) =>
+                {
+                    super::turn_back::held_before_turn_back(
+                        &mut cells,
+                        model,
+                        options.method,
+                        &quantize,
+                        (*t, self.q_out, self.s),
+                        &point,
+                        *next,
+                        RUN_THROUGH_TOLERANCE_MM,
+                    )
+                    .map_err(|source| model_error(file, line, source))?
+                    .map_or(point, |held| {
+                        self.summary.small_reversals_held += 1;
+                        self.summary.max_hold_error_um =
+                            self.summary.max_hold_error_um.max(held.residual_um);
+                        held
+                    })
+                }
+                _ => point,
+            };
             // Across an S-curve only its own axis reverses: another axis
             // that would (its straightness changing with the S-curve's axis'
             // direction, by tenths of a micrometre) is held for the piece,

@@ -1,0 +1,194 @@
+//! G64 without P: a reversal that the next target turns back is held
+//! (docs/compensation.md, "A reversal the next point turns back is held
+//! (G64)").
+//!
+//! Under G64 without P a reversal is folded into the move (the tool may
+//! leave the path by the axis' reversal value at the reversal) and held
+//! only where the fold would kink the path (solve.rs
+//! `hold_small_reversals`, points.rs). A reversal forced by a change
+//! smaller than the axis' band, whose command the very next target of the
+//! same move asks to turn back, crosses the band twice for nothing: the
+//! carriage moves across the band and back while the target barely moved.
+//! Worse, the second turn is often held (its change is again smaller than
+//! the band), and the hold then leaves the tool off by the straightness
+//! accumulated since the first, and on a straight pass that grows with the
+//! pass (a zigzag's pass after a plunge on a map whose straightness jumps
+//! with another axis' direction).
+//!
+//! Under the dead band of docs/design.md ("Simulation and metrics") an axis
+//! whose command stays put keeps its carriage where it is: holding the
+//! axis at its command, in its old direction, leaves the tool off the
+//! target by the change alone. So the point is solved with those axes held
+//! and the other axes in the consistent state with the fewest reversals
+//! (a transverse table depends on the held axis' direction: holding one
+//! axis may take away another's reversal), where the tool stays within
+//! `bound_mm` of the target and each held axis within its band.
+//!
+//! At a G64 corner between two arcs this also keeps the arc after the
+//! corner planar at its start where the normal axis' reversal was such a
+//! turn (compensate/planar.rs): LinuxCNC keeps its blend arc only where both
+//! arcs' normals are colinear with the corner's binormal (src/emc/tp/tp.c,
+//! `tpCreateArcArcBlend`).
+
+use super::solve::{consistent_state, solve_fixed_in, Method, PointSolution};
+use crate::error::ModelError;
+use crate::model::{AxisCells, Components, Directions, ErrorModel};
+use volcomp_gcode::Vec3;
+
+/// A step of a command smaller than this (mm) turns nothing: the written
+/// resolution's order (five decimals of a millimetre are 10 nm).
+const TURN_MM: f64 = 1e-6;
+
+/// The point `point` (solved for the target `t_mm` from the command `q_prev`
+/// in the state `s_prev`) with its reversing axes that the next target
+/// `next_mm` turns back held at their commands in their old direction, or
+/// `None` where none turns back or the hold leaves the tool further than
+/// `bound_mm` from the target, a held axis beyond its band, or the free
+/// axes further than the point did (a solve that did not converge is
+/// never hidden behind a hold). An axis turns back where the next target,
+/// solved in the state the point turns to, moves its command against its
+/// new direction.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn held_before_turn_back(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    method: Method,
+    quantize: &dyn Fn(Vec3) -> Vec3,
+    (t_mm, q_prev, s_prev): (Vec3, Vec3, Directions),
+    point: &PointSolution,
+    next_mm: Vec3,
+    bound_mm: f64,
+) -> Result<Option<PointSolution>, ModelError> {
+    let reversed = [0, 1, 2].map(|a| point.s[a] != s_prev[a] && !point.held[a]);
+    if !reversed.iter().any(|r| *r) || bound_mm <= 0.0 {
+        return Ok(None);
+    }
+    let next = solve_fixed_in(
+        cells,
+        model,
+        method,
+        next_mm,
+        point.s,
+        [false; 3],
+        Vec3::ZERO,
+    )?;
+    let turns = turning_back(&reversed, point, next.q_mm);
+    if !turns.iter().any(|t| *t) {
+        return Ok(None);
+    }
+    let at_prev = cells.deviation_again_um(model, q_prev, s_prev)?;
+    let mut band_um = [0.0; 3];
+    for a in (0..3).filter(|a| turns[*a]) {
+        let mut s = s_prev;
+        s[a] = s[a].flipped();
+        band_um[a] = (cells.deviation_again_um(model, q_prev, s)?[a] - at_prev[a]).abs();
+    }
+    // The free axes: every state, fewest reversals from `s_prev` first
+    // (the smallest residual among equals), as solve.rs `search_states`.
+    let mut best: Option<(u32, f64, PointSolution)> = None;
+    for bits in 0..8u8 {
+        if (0..3).any(|a| turns[a] && bits & (1 << a) != 0) {
+            continue;
+        }
+        let flips = bits.count_ones();
+        if best.as_ref().is_some_and(|b| b.0 < flips) {
+            continue;
+        }
+        let s = [0, 1, 2].map(|a| {
+            if bits & (1 << a) != 0 {
+                s_prev[a].flipped()
+            } else {
+                s_prev[a]
+            }
+        });
+        let sol = solve_fixed_in(cells, model, method, t_mm, s, turns, q_prev)?;
+        let mut q = quantize(sol.q_mm);
+        for a in (0..3).filter(|a| turns[*a]) {
+            q[a] = q_prev[a];
+        }
+        if !consistent_state(q, q_prev, s, s_prev, turns) {
+            continue;
+        }
+        let r_mm = t_mm - cells.actual_mm(model, q, s, Components::All)?;
+        let mut free_mm = r_mm;
+        for a in (0..3).filter(|a| turns[*a]) {
+            free_mm[a] = 0.0;
+        }
+        if r_mm.norm() > bound_mm
+            || (0..3).any(|a| turns[a] && r_mm[a].abs() * 1e3 >= band_um[a])
+            || free_mm.norm() * 1e3 > 2.0 * point.residual_um + 0.05
+        {
+            continue;
+        }
+        let residual_um = r_mm.norm() * 1e3;
+        if best
+            .as_ref()
+            .is_some_and(|b| b.0 == flips && b.1 <= residual_um)
+        {
+            continue;
+        }
+        best = Some((
+            flips,
+            residual_um,
+            PointSolution {
+                q_mm: q,
+                s,
+                iterations: sol.iterations,
+                residual_um,
+                reversed: [0, 1, 2].map(|a| s[a] != s_prev[a]),
+                held: [false; 3],
+            },
+        ));
+    }
+    Ok(best.map(|b| b.2))
+}
+
+/// The axes of `reversed` whose command the next one, `q_next_mm`, moves
+/// back against the direction `point` turned them to (by more than
+/// [`TURN_MM`]).
+fn turning_back(reversed: &[bool; 3], point: &PointSolution, q_next_mm: Vec3) -> [bool; 3] {
+    [0, 1, 2].map(|a| reversed[a] && (q_next_mm[a] - point.q_mm[a]) * point.s[a].sign() < -TURN_MM)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Direction::{Forward, Reverse};
+
+    fn point(q_mm: Vec3, s: Directions) -> PointSolution {
+        PointSolution {
+            q_mm,
+            s,
+            iterations: 1,
+            residual_um: 0.0,
+            reversed: [false; 3],
+            held: [false; 3],
+        }
+    }
+
+    /// Z turned to forward at 0.29 µm; the next target wants it at
+    /// 0.06 µm (down 0.23 µm, against forward): it turns back. X turned
+    /// forward at −4.64 µm and the next wants −4.27 µm (on its way): it
+    /// does not. A step of half a nanometre back turns nothing.
+    #[test]
+    fn an_axis_turns_back_where_the_next_command_runs_against_its_new_way() {
+        let p = point(
+            Vec3::new(-0.00464, 190.0, 0.00029),
+            [Forward, Forward, Forward],
+        );
+        let next = Vec3::new(-0.00427, 202.0, 0.00006);
+        assert_eq!(
+            turning_back(&[true, false, true], &p, next),
+            [false, false, true]
+        );
+        let barely = Vec3::new(-0.00427, 202.0, 0.000_289_5);
+        assert_eq!(turning_back(&[true, false, true], &p, barely), [false; 3]);
+        // Reverse: a step up is against it.
+        let r = point(Vec3::new(0.0, 0.0, -0.002), [Forward, Forward, Reverse]);
+        let up = Vec3::new(0.0, 0.0, -0.0015);
+        assert_eq!(
+            turning_back(&[false, false, true], &r, up),
+            [false, false, true]
+        );
+    }
+}
