@@ -261,6 +261,7 @@ impl<'w> State<'w> {
             planar_before: false,
             planar_pending: None,
             planar_start_kept: false,
+            planar_corner_normal: None,
             approach_pending: None,
         }
     }
@@ -694,6 +695,20 @@ impl<'w> State<'w> {
             },
             (None, true) => points::Leads::Lines,
         };
+        // An arc after a planar G64 corner: its normal axis' reversal at
+        // the corner may be held to keep it planar (compensate/turn_back.rs).
+        self.planar_corner_normal = arc_nominal
+            .filter(|a| {
+                planar_before
+                    && run.corner_before
+                    && run.protect_mm > 0.0
+                    && run.feed_mm_min.is_some()
+                    && held_end.is_none()
+                    && taken.is_none()
+                    && matches!(motion.path_mode, volcomp_gcode::PathMode::Blend { .. })
+                    && planar::planar_arc(&motion, a.plane).is_some()
+            })
+            .map(|a| a.plane.axes().2);
         let commands = self.solve_targets(
             model,
             (&frame, &frame0),
@@ -707,6 +722,7 @@ impl<'w> State<'w> {
             ev.number,
         );
         self.defer_points = false;
+        self.planar_corner_normal = None;
         let mut commands = commands?;
         // Each axis' dead band brought to a known side before the program
         // cuts (compensate/approach.rs).
@@ -1651,6 +1667,9 @@ struct State<'w> {
     planar_pending: Option<planar::PendingEnd>,
     /// The last arc's first piece is planar at the corner before it.
     planar_start_kept: bool,
+    /// While an arc after a planar G64 corner is solved: its plane's
+    /// normal axis (compensate/turn_back.rs).
+    planar_corner_normal: Option<usize>,
 }
 
 /// Edits of a line that sets an offset from the current point (G92, or

@@ -1287,8 +1287,8 @@ impl State<'_> {
             };
             // G64 without P: a reversal the next target of the move turns
             // back is held instead (compensate/turn_back.rs).
-            let point = match (rule, targets.get(index + 1)) {
-                (TakeUpRule::Always, Some(next))
+            let point = match rule {
+                TakeUpRule::Always
                     if feed_like
                         && !was_forced
                         && transition.is_none()
@@ -1303,8 +1303,21 @@ impl State<'_> {
                         &quantize,
                         (*t, self.q_out, self.s),
                         &point,
-                        *next,
-                        RUN_THROUGH_TOLERANCE_MM,
+                        (
+                            &targets[index + 1..],
+                            [0, 1, 2].map(|a| (t[a] - t_prev[a]).abs() > 1e-9),
+                        ),
+                        (
+                            RUN_THROUGH_TOLERANCE_MM,
+                            // The normal axis at the start of an arc after
+                            // a planar G64 corner (compensate/planar.rs):
+                            // the hold keeps the blend arc, and needs only
+                            // to end within the move.
+                            !(index == 0
+                                && self
+                                    .planar_corner_normal
+                                    .is_some_and(|w| point.s[w] != self.s[w])),
+                        ),
                     )
                     .map_err(|source| model_error(file, line, source))?
                     .map_or(point, |held| {

@@ -41,13 +41,18 @@ const TURN_MM: f64 = 1e-6;
 
 /// The point `point` (solved for the target `t_mm` from the command `q_prev`
 /// in the state `s_prev`) with its reversing axes that the next target
-/// `next_mm` turns back held at their commands in their old direction, or
-/// `None` where none turns back or the hold leaves the tool further than
-/// `bound_mm` from the target, a held axis beyond its band, or the free
-/// axes further than the point did (a solve that did not converge is
-/// never hidden behind a hold). An axis turns back where the next target,
-/// solved in the state the point turns to, moves its command against its
-/// new direction.
+/// (the first of `after`, the move's targets after this one) turns back
+/// held at their commands in their old direction, or `None` where none
+/// turns back, or the hold leaves the tool further than `bound_mm` from
+/// the target, a held axis beyond its band, or the free axes further than
+/// the point did (a solve that did not converge is never hidden behind a
+/// hold), or an axis the piece does not move (`moving`: the axes its
+/// nominal move changes) still reverses, or the hold does not end within the move without a reversal and
+/// within `bound_mm` (as compensate/exact_hold.rs `hold_resolves`; with
+/// `whole_move`, the held axes then run their old way to the move's end:
+/// [`hold_runs_on`]). An axis turns back
+/// where the next target, solved in the state the point turns to, moves
+/// its command against its new direction.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn held_before_turn_back(
     cells: &mut AxisCells,
@@ -56,10 +61,13 @@ pub(super) fn held_before_turn_back(
     quantize: &dyn Fn(Vec3) -> Vec3,
     (t_mm, q_prev, s_prev): (Vec3, Vec3, Directions),
     point: &PointSolution,
-    next_mm: Vec3,
-    bound_mm: f64,
+    (after, moving): (&[Vec3], [bool; 3]),
+    (bound_mm, whole_move): (f64, bool),
 ) -> Result<Option<PointSolution>, ModelError> {
     let reversed = [0, 1, 2].map(|a| point.s[a] != s_prev[a] && !point.held[a]);
+    let Some(&next_mm) = after.first() else {
+        return Ok(None);
+    };
     if !reversed.iter().any(|r| *r) || bound_mm <= 0.0 {
         return Ok(None);
     }
@@ -140,7 +148,70 @@ pub(super) fn held_before_turn_back(
             },
         ));
     }
-    Ok(best.map(|b| b.2))
+    let Some((_, _, held)) = best else {
+        return Ok(None);
+    };
+    if (0..3).any(|a| held.reversed[a] && !moving[a]) {
+        // An axis the piece does not move still reverses: the map's own
+        // reversal is left to the rules that decide it (a fold, a lead
+        // piece, or the hold of every reversing axis where the fold would
+        // kink the path); holding part of it would change their choice.
+        return Ok(None);
+    }
+    let ends = hold_runs_on(
+        cells,
+        model,
+        method,
+        (held.q_mm, held.s, turns),
+        after,
+        (bound_mm, whole_move),
+    )?;
+    Ok(ends.then_some(held))
+}
+
+/// Whether a hold of the axes `held` at the command `q_mm` in the state
+/// `s` ends within the move without a reversal: at some target of `after`
+/// (the move's targets after the held point, in order) every held axis'
+/// command, solved freely in `s`, runs its old way again (or stands), and
+/// up to that target the hold (the axes kept at their command, the others
+/// solved again) leaves the tool within `bound_mm` of each target. With
+/// `whole_move`, the held axes must then run their old way to the move's
+/// end: a hold that ends only to meet the reversal further along the move
+/// carries the reversal to a place where it may need a lead piece or kink
+/// the path (under G64 a fold there is no cheaper than here). A step back
+/// smaller than [`TURN_MM`] turns nothing.
+fn hold_runs_on(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    method: Method,
+    (q_mm, s, held): (Vec3, Directions, [bool; 3]),
+    after: &[Vec3],
+    (bound_mm, whole_move): (f64, bool),
+) -> Result<bool, ModelError> {
+    let mut q = q_mm;
+    let mut ended = false;
+    for t in after {
+        let free = solve_fixed_in(cells, model, method, *t, s, [false; 3], q)?;
+        let runs_on = (0..3).all(|a| !held[a] || (free.q_mm[a] - q[a]) * s[a].sign() >= -TURN_MM);
+        if runs_on {
+            if !whole_move {
+                return Ok(true);
+            }
+            ended = true;
+            q = free.q_mm;
+            continue;
+        }
+        if ended {
+            return Ok(false);
+        }
+        let kept = solve_fixed_in(cells, model, method, *t, s, held, q)?;
+        let off_mm = *t - cells.actual_mm(model, kept.q_mm, s, Components::All)?;
+        if off_mm.norm() > bound_mm {
+            return Ok(false);
+        }
+        q = kept.q_mm;
+    }
+    Ok(ended)
 }
 
 /// The axes of `reversed` whose command the next one, `q_next_mm`, moves
