@@ -1184,6 +1184,9 @@ impl State<'_> {
         // every line's model is the walk's map with the line's tool.
         // (Lost on an error return: the next motion starts from none.)
         let mut cells = self.cells.take().unwrap_or_default();
+        // The target a hold at an arc's planar start ends at
+        // (compensate/turn_back.rs).
+        let mut planar_hold_until: Option<usize> = None;
         let mut index = 0;
         while index < targets.len() {
             if keep_history && history.len() == index {
@@ -1313,14 +1316,18 @@ impl State<'_> {
                             // a planar G64 corner (compensate/planar.rs):
                             // the hold keeps the blend arc, and needs only
                             // to end within the move.
-                            !(index == 0
-                                && self
-                                    .planar_corner_normal
-                                    .is_some_and(|w| point.s[w] != self.s[w])),
+                            // (and on to where that hold ends).
+                            !(self
+                                .planar_corner_normal
+                                .is_some_and(|w| point.s[w] != self.s[w])
+                                && (index == 0 || planar_hold_until.is_some_and(|u| index < u))),
                         ),
                     )
                     .map_err(|source| model_error(file, line, source))?
-                    .map_or(point, |held| {
+                    .map_or(point, |(held, ends)| {
+                        if index == 0 && self.planar_corner_normal.is_some() {
+                            planar_hold_until = Some(index + 1 + ends);
+                        }
                         self.summary.small_reversals_held += 1;
                         self.summary.max_hold_error_um =
                             self.summary.max_hold_error_um.max(held.residual_um);

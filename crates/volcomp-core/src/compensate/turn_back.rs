@@ -63,7 +63,7 @@ pub(super) fn held_before_turn_back(
     point: &PointSolution,
     (after, moving): (&[Vec3], [bool; 3]),
     (bound_mm, whole_move): (f64, bool),
-) -> Result<Option<PointSolution>, ModelError> {
+) -> Result<Option<(PointSolution, usize)>, ModelError> {
     let reversed = [0, 1, 2].map(|a| point.s[a] != s_prev[a] && !point.held[a]);
     let Some(&next_mm) = after.first() else {
         return Ok(None);
@@ -166,7 +166,7 @@ pub(super) fn held_before_turn_back(
         after,
         (bound_mm, whole_move),
     )?;
-    Ok(ends.then_some(held))
+    Ok(ends.map(|k| (held, k)))
 }
 
 /// Whether a hold of the axes `held` at the command `q_mm` in the state
@@ -179,7 +179,8 @@ pub(super) fn held_before_turn_back(
 /// end: a hold that ends only to meet the reversal further along the move
 /// carries the reversal to a place where it may need a lead piece or kink
 /// the path (under G64 a fold there is no cheaper than here). A step back
-/// smaller than [`TURN_MM`] turns nothing.
+/// smaller than [`TURN_MM`] turns nothing. Returns the place in `after`
+/// of the target the hold ends at, or `None`.
 fn hold_runs_on(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,
@@ -187,27 +188,27 @@ fn hold_runs_on(
     (q_mm, s, held): (Vec3, Directions, [bool; 3]),
     after: &[Vec3],
     (bound_mm, whole_move): (f64, bool),
-) -> Result<bool, ModelError> {
+) -> Result<Option<usize>, ModelError> {
     let mut q = q_mm;
-    let mut ended = false;
-    for t in after {
+    let mut ended = None;
+    for (k, t) in after.iter().enumerate() {
         let free = solve_fixed_in(cells, model, method, *t, s, [false; 3], q)?;
         let runs_on = (0..3).all(|a| !held[a] || (free.q_mm[a] - q[a]) * s[a].sign() >= -TURN_MM);
         if runs_on {
             if !whole_move {
-                return Ok(true);
+                return Ok(Some(k));
             }
-            ended = true;
+            ended = ended.or(Some(k));
             q = free.q_mm;
             continue;
         }
-        if ended {
-            return Ok(false);
+        if ended.is_some() {
+            return Ok(None);
         }
         let kept = solve_fixed_in(cells, model, method, *t, s, held, q)?;
         let off_mm = *t - cells.actual_mm(model, kept.q_mm, s, Components::All)?;
         if off_mm.norm() > bound_mm {
-            return Ok(false);
+            return Ok(None);
         }
         q = kept.q_mm;
     }
