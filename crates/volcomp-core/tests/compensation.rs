@@ -1895,17 +1895,20 @@ fn under_g64_a_corner_between_two_arcs_is_planar_on_both_sides_or_on_neither() {
 #[test]
 fn under_g64_a_reversal_the_next_point_turns_back_is_held() {
     // A pass along +Y after a plunge. Z's band is 2 µm (its reverse
-    // table); Y's forward table moves Z by −0.3 + 0.002·y² µm. At Y's
-    // reversal (the pass after `G0 Y0`) Z's command in its reverse state
-    // (the plunge's) would rise by 0.3 − 0.002·y² µm, then fall along the
-    // pass: a take-up of Z (its 2 µm band crossed up) that the next point
-    // turns back (crossed down again). Held instead: Z stays at its plunge
-    // command; at the first split (Y8) the tool is off by the map's change
-    // alone, −0.3 + 0.002·64 = −0.172 µm (by hand), and from there on Z's
-    // command only falls (its reverse state runs on).
+    // table), and Z's reverse state moves X by −0.3 µm; Y's forward table
+    // moves Z by −0.3 + 0.002·y² µm. At Y's reversal (the pass after
+    // `G0 Y0`) Z's command in its reverse state (the plunge's) would rise
+    // by 0.3 − 0.002·y² µm, then fall along the pass: a take-up of Z (its
+    // 2 µm band crossed up; X's command then steps 0.3 µm back, a reversal
+    // of X too) that the next point turns back (crossed down again). Held
+    // instead, which takes X's reversal away as well: Z stays at its
+    // plunge command; at the first split (Y8) the tool is off by the map's
+    // change alone, −0.3 + 0.002·64 = −0.172 µm (by hand), and from there
+    // on Z's command only falls (its reverse state runs on); X never
+    // reverses.
     let map = map_from(|a, y, rev| match (a, rev) {
         (1, false) => [0.0, 0.0, -0.3 + 0.002 * y * y],
-        (2, true) => [0.0, 0.0, 2.0],
+        (2, true) => [-0.3, 0.0, 2.0],
         _ => [0.0; 3],
     });
     let program = "G21 G90 G17 G64\nG0 X0 Y10 Z5\nG0 Y0\nG1 Z0 F6000\nG1 Y40\nM2\n";
@@ -1929,6 +1932,7 @@ fn under_g64_a_reversal_the_next_point_turns_back_is_held() {
     for r in &pass {
         assert!(r.command_mm.z <= z, "Z rises at Y{}:\n{out}", r.target_mm.y);
         assert!(!r.reversed[2], "Z reverses at Y{}:\n{out}", r.target_mm.y);
+        assert!(!r.reversed[0], "X reverses at Y{}:\n{out}", r.target_mm.y);
         z = r.command_mm.z;
     }
     assert!(summary.small_reversals_held >= 1, "{out}");
