@@ -68,7 +68,11 @@ pub(super) fn held_before_turn_back(
     let Some(&next_mm) = after.first() else {
         return Ok(None);
     };
-    if !reversed.iter().any(|r| *r) || bound_mm <= 0.0 {
+    // The hold must take away more reversals than the axes it holds (one
+    // at least), so two reversing axes at least; the looser rule at an
+    // arc's planar start (`!whole_move`) needs one.
+    let reversing = reversed.iter().filter(|r| **r).count();
+    if reversing < if whole_move { 2 } else { 1 } || bound_mm <= 0.0 {
         return Ok(None);
     }
     let next = solve_fixed_in(
