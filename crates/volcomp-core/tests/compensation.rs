@@ -1845,3 +1845,95 @@ fn assert_joins_tangent_at_f6000(start: Vec3, points: &[&PointRecord], out: &str
         prev = r.command_mm;
     }
 }
+
+#[test]
+fn under_g64_a_corner_between_two_arcs_is_planar_on_both_sides_or_on_neither() {
+    // A G64 corner at (10, 10) between two quarter circles of R10 in XY.
+    // The map's Z correction changes along X by 0.2 µm/mm up to X10 (the
+    // arc before may end planar: its planar part moves the split by
+    // 0.2 µm/mm · d, within 0.1 µm for d up to 0.5 mm) and by 20 µm/mm
+    // after it (the arc after cannot start planar: over the shortest piece,
+    // 0.01 mm, Z moves 0.2 µm, beyond the 0.1 µm contour tolerance).
+    // LinuxCNC keeps its blend arc only where both arcs' normals are
+    // colinear with the corner's binormal (tp.c `tpCreateArcArcBlend`,
+    // blendmath.c `pmUnitCartsColinear`): one planar side alone keeps none,
+    // and adds a piece. So neither side is written planar.
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for axis in ["X", "Y", "Z"] {
+        for dir in ["forward", "reverse"] {
+            for k in 0..=200 {
+                let x = -100.0 + 2.0 * f64::from(k);
+                let ez = match axis {
+                    "X" if x <= 10.0 => 0.2 * x,
+                    "X" if x <= 14.0 => 2.0 + 20.0 * (x - 10.0),
+                    "X" => 82.0,
+                    _ => 0.0,
+                };
+                csv.push_str(&format!("{axis},{dir},{x},0,0,{ez}\n"));
+            }
+        }
+    }
+    let map = AxisTableMap::from_csv(&csv, "steep.csv").unwrap();
+    let program = "G21 G90 G17 G64\nG0 X-5 Y0 Z0\nG1 X0 F6000\n\
+                   G3 X10 Y10 I0 J10\nG3 X20 Y20 I0 J10\nM2\n";
+    let (out, _) = compensate_with(program, &map, &CompensateOptions::default(), |_| {});
+    let moves = written_moves_xyz(&out);
+    let k = moves
+        .iter()
+        .position(|(_, e)| (e.x - 10.0).abs() < 0.005 && (e.y - 10.0).abs() < 0.005)
+        .unwrap_or_else(|| panic!("no piece ends at the corner:\n{out}"));
+    let planar = |(s, e): &(Vec3, Vec3)| s.z == e.z;
+    // The arc after moves Z on its first piece (by hand: at least 20 µm/mm
+    // over the piece's X travel).
+    assert!(!planar(&moves[k + 1]), "{out}");
+    assert!(
+        !planar(&moves[k]),
+        "the arc before ends planar alone:\n{out}"
+    );
+}
+
+#[test]
+fn under_g64_a_reversal_the_next_point_turns_back_is_held() {
+    // A pass along +Y after a plunge. Z's band is 2 µm (its reverse
+    // table), and Z's reverse state moves X by −0.3 µm; Y's forward table
+    // moves Z by −0.3 + 0.002·y² µm. At Y's reversal (the pass after
+    // `G0 Y0`) Z's command in its reverse state (the plunge's) would rise
+    // by 0.3 − 0.002·y² µm, then fall along the pass: a take-up of Z (its
+    // 2 µm band crossed up; X's command then steps 0.3 µm back, a reversal
+    // of X too) that the next point turns back (crossed down again). Held
+    // instead, which takes X's reversal away as well: Z stays at its
+    // plunge command; at the first split (Y8) the tool is off by the map's
+    // change alone, −0.3 + 0.002·64 = −0.172 µm (by hand), and from there
+    // on Z's command only falls (its reverse state runs on); X never
+    // reverses.
+    let map = map_from(|a, y, rev| match (a, rev) {
+        (1, false) => [0.0, 0.0, -0.3 + 0.002 * y * y],
+        (2, true) => [-0.3, 0.0, 2.0],
+        _ => [0.0; 3],
+    });
+    let program = "G21 G90 G17 G64\nG0 X0 Y10 Z5\nG0 Y0\nG1 Z0 F6000\nG1 Y40\nM2\n";
+    let mut records = Vec::new();
+    let (out, summary) = compensate_with(program, &map, &CompensateOptions::default(), |r| {
+        records.push(*r)
+    });
+    let pass: Vec<&PointRecord> = records.iter().filter(|r| r.line == 5).collect();
+    let plunge = records.iter().rfind(|r| r.line == 4).unwrap();
+    let first = pass.first().unwrap();
+    assert!(first.target_mm.y > 0.0 && first.target_mm.y < 12.0, "{out}");
+    assert_eq!(first.command_mm.z, plunge.command_mm.z, "{out}");
+    let y = first.target_mm.y;
+    let off_um = (-0.3 + 0.002 * y * y).abs();
+    assert!(
+        (first.residual_um - off_um).abs() < 0.01,
+        "{} {off_um}\n{out}",
+        first.residual_um
+    );
+    let mut z = plunge.command_mm.z;
+    for r in &pass {
+        assert!(r.command_mm.z <= z, "Z rises at Y{}:\n{out}", r.target_mm.y);
+        assert!(!r.reversed[2], "Z reverses at Y{}:\n{out}", r.target_mm.y);
+        assert!(!r.reversed[0], "X reverses at Y{}:\n{out}", r.target_mm.y);
+        z = r.command_mm.z;
+    }
+    assert!(summary.small_reversals_held >= 1, "{out}");
+}

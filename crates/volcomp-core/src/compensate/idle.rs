@@ -355,10 +355,18 @@ impl State<'_> {
                 .as_ref()
                 .and_then(|p| self.planar_end_text(p, next))
             {
-                Some(text) => {
-                    out.extend_from_slice(&h.text[..h.last.start]);
-                    out.extend_from_slice(&text);
-                    out.extend_from_slice(&h.text[h.last.end..]);
+                Some((text, moved_mm)) => {
+                    // Both variants wait for the next arc's first piece
+                    // (compensate/planar.rs, `PendingEnd`).
+                    let mut planar = Vec::with_capacity(h.text.len() + text.len());
+                    planar.extend_from_slice(&h.text[..h.last.start]);
+                    planar.extend_from_slice(&text);
+                    planar.extend_from_slice(&h.text[h.last.end..]);
+                    self.planar_pending = Some(super::planar::PendingEnd {
+                        solved: h.text,
+                        planar,
+                        moved_mm,
+                    });
                 }
                 None => out.extend_from_slice(&h.text),
             },

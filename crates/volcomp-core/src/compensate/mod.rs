@@ -41,6 +41,7 @@ pub mod solve;
 mod spline;
 mod style;
 mod targets;
+mod turn_back;
 mod walk;
 
 pub use front::{
@@ -168,6 +169,14 @@ pub fn compensate_program_seen<R: BufRead>(
             Ok(after) => after,
             Err(e) => return Err(out.error(e)),
         };
+        if let Some(p) = st.planar_pending.take() {
+            // The arc before, its end planar only where this arc's start
+            // is (compensate/planar.rs).
+            let text = st.resolve_planar_end(p);
+            if let Err(e) = out.write_all(&text) {
+                return Err(out.error(e.into()));
+            }
+        }
         if let Err(e) = out.write_all(&st.buf) {
             return Err(out.error(e.into()));
         }
@@ -250,6 +259,9 @@ impl<'w> State<'w> {
             idle: None,
             defer_points: false,
             planar_before: false,
+            planar_pending: None,
+            planar_start_kept: false,
+            planar_corner_normal: None,
             approach_pending: None,
         }
     }
@@ -477,6 +489,7 @@ impl<'w> State<'w> {
         check_target_count(&motion, &line_options, file, ev.number)?;
         let run = points::Run::of(&motion, self.last_tangent, &options.planner);
         let planar_before = std::mem::take(&mut self.planar_before);
+        self.planar_start_kept = false;
         // The tail the block before held back (arcs.rs, `HeldEnd`): the
         // S-curve at this arc's start begins there where the original runs
         // on through the join; else it is written first.
@@ -682,6 +695,20 @@ impl<'w> State<'w> {
             },
             (None, true) => points::Leads::Lines,
         };
+        // An arc after a planar G64 corner: its normal axis' reversal at
+        // the corner may be held to keep it planar (compensate/turn_back.rs).
+        self.planar_corner_normal = arc_nominal
+            .filter(|a| {
+                planar_before
+                    && run.corner_before
+                    && run.protect_mm > 0.0
+                    && run.feed_mm_min.is_some()
+                    && held_end.is_none()
+                    && taken.is_none()
+                    && matches!(motion.path_mode, volcomp_gcode::PathMode::Blend { .. })
+                    && planar::planar_arc(&motion, a.plane).is_some()
+            })
+            .map(|a| a.plane.axes().2);
         let commands = self.solve_targets(
             model,
             (&frame, &frame0),
@@ -695,6 +722,7 @@ impl<'w> State<'w> {
             ev.number,
         );
         self.defer_points = false;
+        self.planar_corner_normal = None;
         let mut commands = commands?;
         // Each axis' dead band brought to a known side before the program
         // cuts (compensate/approach.rs).
@@ -1634,6 +1662,14 @@ struct State<'w> {
     /// The arc before ended planar at a G64 corner (compensate/planar.rs):
     /// the next arc's first piece is written planar at the corner too.
     planar_before: bool,
+    /// The arc before's line with and without its planar end, written once
+    /// the next arc's first piece is solved (compensate/planar.rs).
+    planar_pending: Option<planar::PendingEnd>,
+    /// The last arc's first piece is planar at the corner before it.
+    planar_start_kept: bool,
+    /// While an arc after a planar G64 corner is solved: its plane's
+    /// normal axis (compensate/turn_back.rs).
+    planar_corner_normal: Option<usize>,
 }
 
 /// Edits of a line that sets an offset from the current point (G92, or

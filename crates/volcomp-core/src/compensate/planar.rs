@@ -259,6 +259,7 @@ impl State<'_> {
         let (to, state) = (first.0, *state);
         if to[arc.plane.axes().2] == from[arc.plane.axes().2] {
             // Planar as solved.
+            self.planar_start_kept = true;
             return Ok(());
         }
         let split = self.planar_split(
@@ -281,6 +282,7 @@ impl State<'_> {
         words.insert(0, split.words[0]);
         self.states.insert(0, state);
         self.estimate_mm = self.estimate_mm.max(split.moved_mm);
+        self.planar_start_kept = true;
         Ok(())
     }
 
@@ -288,13 +290,16 @@ impl State<'_> {
     /// where the motion `next` makes a corner LinuxCNC blends with an arc
     /// once both sides are planar (an arc of the same plane without a rise
     /// of its own, under G64 with a feed per minute, not tangent to the
-    /// arc's end: [`super::points::Run::of`]); `None` to write it as
-    /// solved. Sets `planar_before` for the next arc's start.
+    /// arc's end: [`super::points::Run::of`]), and how far its split moved
+    /// along the normal (mm); `None` to write it as solved. Sets
+    /// `planar_before` for the next arc's start. The text is a candidate:
+    /// it is taken only where the next arc's start is planar too
+    /// ([`PendingEnd`]).
     pub(super) fn planar_end_text(
         &mut self,
         p: &PlanarEnd,
         next: Option<&Motion>,
-    ) -> Option<Vec<u8>> {
+    ) -> Option<(Vec<u8>, f64)> {
         let next = next?;
         planar_arc(next, p.arc.plane)?;
         if !matches!(next.path_mode, PathMode::Blend { .. })
@@ -359,11 +364,39 @@ impl State<'_> {
         let text = self.buf[start..].to_vec();
         self.buf.truncate(start);
         self.mode = mode;
-        self.summary.lines_out = lines_out + 1;
-        self.estimate_mm = self.estimate_mm.max(split.moved_mm);
+        self.summary.lines_out = lines_out;
         self.planar_before = true;
-        Some(text)
+        Some((text, split.moved_mm))
     }
+
+    /// The held arc's text as the next arc's start decided it: the planar
+    /// end where that start is planar too (`planar_start_kept`), else the
+    /// line as solved. A corner with one side planar keeps no blend arc
+    /// either (both normals must be colinear with the binormal:
+    /// `tpCreateArcArcBlend`, src/emc/tp/tp.c) and runs slower than with
+    /// none: the split adds a piece and the planar side's tangent differs
+    /// from the solved one.
+    pub(super) fn resolve_planar_end(&mut self, p: PendingEnd) -> Vec<u8> {
+        if std::mem::take(&mut self.planar_start_kept) {
+            self.summary.lines_out += 1;
+            self.estimate_mm = self.estimate_mm.max(p.moved_mm);
+            p.planar
+        } else {
+            p.solved
+        }
+    }
+}
+
+/// A held arc's line whose last piece may be written planar at its end,
+/// waiting for the next arc's first piece to be solved: both sides of the
+/// corner are decided together ([`State::resolve_planar_end`]).
+pub(super) struct PendingEnd {
+    /// The line with its last piece as solved.
+    pub(super) solved: Vec<u8>,
+    /// The line with its last piece split, the part at the corner planar.
+    pub(super) planar: Vec<u8>,
+    /// How far the split's command moved along the normal (mm).
+    pub(super) moved_mm: f64,
 }
 
 #[cfg(test)]

@@ -1184,6 +1184,9 @@ impl State<'_> {
         // every line's model is the walk's map with the line's tool.
         // (Lost on an error return: the next motion starts from none.)
         let mut cells = self.cells.take().unwrap_or_default();
+        // The target a hold at an arc's planar start ends at
+        // (compensate/turn_back.rs).
+        let mut planar_hold_until: Option<usize> = None;
         let mut index = 0;
         while index < targets.len() {
             if keep_history && history.len() == index {
@@ -1284,6 +1287,54 @@ impl State<'_> {
                     held
                 }),
                 None => point,
+            };
+            // G64 without P: a reversal the next target of the move turns
+            // back is held instead (compensate/turn_back.rs).
+            let point = match rule {
+                TakeUpRule::Always
+                    if feed_like
+                        && !was_forced
+                        && transition.is_none()
+                        && ramp.is_none()
+                        && options.fold_take_ups
+                        && point.reversed.iter().any(|r| *r) =>
+                {
+                    super::turn_back::held_before_turn_back(
+                        &mut cells,
+                        model,
+                        options.method,
+                        &quantize,
+                        (*t, self.q_out, self.s),
+                        &point,
+                        (
+                            &targets[index + 1..],
+                            [0, 1, 2].map(|a| (t[a] - t_prev[a]).abs() > 1e-9),
+                        ),
+                        (
+                            RUN_THROUGH_TOLERANCE_MM,
+                            // The normal axis at the start of an arc after
+                            // a planar G64 corner (compensate/planar.rs):
+                            // the hold keeps the blend arc, and needs only
+                            // to end within the move.
+                            // (and on to where that hold ends).
+                            !(self
+                                .planar_corner_normal
+                                .is_some_and(|w| point.s[w] != self.s[w])
+                                && (index == 0 || planar_hold_until.is_some_and(|u| index < u))),
+                        ),
+                    )
+                    .map_err(|source| model_error(file, line, source))?
+                    .map_or(point, |(held, ends)| {
+                        if index == 0 && self.planar_corner_normal.is_some() {
+                            planar_hold_until = Some(index + 1 + ends);
+                        }
+                        self.summary.small_reversals_held += 1;
+                        self.summary.max_hold_error_um =
+                            self.summary.max_hold_error_um.max(held.residual_um);
+                        held
+                    })
+                }
+                _ => point,
             };
             // Across an S-curve only its own axis reverses: another axis
             // that would (its straightness changing with the S-curve's axis'

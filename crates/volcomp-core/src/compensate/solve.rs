@@ -435,7 +435,7 @@ pub(crate) fn hold_small_reversals_in(
 /// stands still in its previous state (a controller keeps an axis' last
 /// direction while it stands, as LinuxCNC's `compute_screw_comp` in
 /// src/emc/motion/control.c does).
-fn consistent_state(
+pub(super) fn consistent_state(
     q: Vec3,
     q_prev: Vec3,
     s: Directions,
