@@ -379,55 +379,93 @@ pub(crate) fn hold_small_reversals_in(
     if count == 0 || bound_mm <= 0.0 {
         return Ok(None);
     }
-    let at_prev = cells.deviation_again_um(model, q_prev, s_prev)?;
-    let mut band_um = [0.0; 3];
-    for a in (0..3).filter(|a| reversing[*a]) {
-        let mut s = s_prev;
-        s[a] = s[a].flipped();
-        band_um[a] = (cells.deviation_again_um(model, q_prev, s)?[a] - at_prev[a]).abs();
-    }
+    let band_um = bands_um(cells, model, (q_prev, s_prev), reversing)?;
     // Every reversing axis together, then (of several) each alone.
     let alone = (0..3)
         .filter(|a| count > 1 && reversing[*a])
         .map(|a| [0, 1, 2].map(|b| b == a));
     for set in std::iter::once(reversing).chain(alone) {
         let mut s = point.s;
-        let hold = set;
         for a in (0..3).filter(|a| set[*a]) {
             s[a] = s_prev[a];
         }
-        let sol = solve_fixed_in(cells, model, method, t_mm, s, hold, q_prev)?;
-        let mut q = quantize(sol.q_mm);
-        for a in (0..3).filter(|a| set[*a]) {
-            q[a] = q_prev[a];
+        let held = held_solve(
+            cells,
+            model,
+            (method, quantize),
+            (t_mm, s, set),
+            (q_prev, s_prev),
+            (bound_mm, band_um, point.residual_um),
+        )?;
+        if held.is_some() {
+            return Ok(held);
         }
-        if !consistent_state(q, q_prev, s, s_prev, hold) {
-            continue;
-        }
-        let r_mm = t_mm - cells.actual_mm(model, q, s, Components::All)?;
-        let mut free_mm = r_mm;
-        for a in (0..3).filter(|a| set[*a]) {
-            free_mm[a] = 0.0;
-        }
-        // The free axes reached about as closely as without the hold (the
-        // written resolution aside): a solve that did not converge is
-        // never hidden behind one.
-        if r_mm.norm() > bound_mm
-            || (0..3).any(|a| set[a] && r_mm[a].abs() * 1e3 >= band_um[a])
-            || free_mm.norm() * 1e3 > 2.0 * point.residual_um + 0.05
-        {
-            continue;
-        }
-        return Ok(Some(PointSolution {
-            q_mm: q,
-            s,
-            iterations: sol.iterations,
-            residual_um: r_mm.norm() * 1e3,
-            reversed: [0, 1, 2].map(|a| s[a] != s_prev[a]),
-            held: [false; 3],
-        }));
     }
     Ok(None)
+}
+
+/// The dead band each axis of `axes` crosses if it reverses at `q_prev`
+/// (the change of its own deviation between its two tables there), in µm;
+/// 0 for the other axes.
+pub(super) fn bands_um(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    (q_prev, s_prev): (Vec3, Directions),
+    axes: [bool; 3],
+) -> Result<[f64; 3], ModelError> {
+    let at_prev = cells.deviation_again_um(model, q_prev, s_prev)?;
+    let mut band_um = [0.0; 3];
+    for a in (0..3).filter(|a| axes[*a]) {
+        let mut s = s_prev;
+        s[a] = s[a].flipped();
+        band_um[a] = (cells.deviation_again_um(model, q_prev, s)?[a] - at_prev[a]).abs();
+    }
+    Ok(band_um)
+}
+
+/// `t_mm` solved in the states `s` with the axes of `hold` held at their
+/// command in `q_prev` (their table unchanged), if the result is one a
+/// held reversal may take: the free axes move as their states say
+/// ([`consistent_state`]), the tool lands within `bound_mm` of `t_mm`,
+/// each held axis within its band `band_um` (it stays inside the dead
+/// band, docs/design.md), and the free axes about as close as the
+/// unheld solve (`point_residual_um`, the written resolution aside: a
+/// solve that did not converge is never hidden behind a hold).
+pub(super) fn held_solve(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    (method, quantize): (Method, &dyn Fn(Vec3) -> Vec3),
+    (t_mm, s, hold): (Vec3, Directions, [bool; 3]),
+    (q_prev, s_prev): (Vec3, Directions),
+    (bound_mm, band_um, point_residual_um): (f64, [f64; 3], f64),
+) -> Result<Option<PointSolution>, ModelError> {
+    let sol = solve_fixed_in(cells, model, method, t_mm, s, hold, q_prev)?;
+    let mut q = quantize(sol.q_mm);
+    for a in (0..3).filter(|a| hold[*a]) {
+        q[a] = q_prev[a];
+    }
+    if !consistent_state(q, q_prev, s, s_prev, hold) {
+        return Ok(None);
+    }
+    let r_mm = t_mm - cells.actual_mm(model, q, s, Components::All)?;
+    let mut free_mm = r_mm;
+    for a in (0..3).filter(|a| hold[*a]) {
+        free_mm[a] = 0.0;
+    }
+    if r_mm.norm() > bound_mm
+        || (0..3).any(|a| hold[a] && r_mm[a].abs() * 1e3 >= band_um[a])
+        || free_mm.norm() * 1e3 > 2.0 * point_residual_um + 0.05
+    {
+        return Ok(None);
+    }
+    Ok(Some(PointSolution {
+        q_mm: q,
+        s,
+        iterations: sol.iterations,
+        residual_um: r_mm.norm() * 1e3,
+        reversed: [0, 1, 2].map(|a| s[a] != s_prev[a]),
+        held: [false; 3],
+    }))
 }
 
 /// Whether the command `q` from `q_prev` moves every free axis in the

@@ -30,7 +30,7 @@
 //! arcs' normals are colinear with the corner's binormal (src/emc/tp/tp.c,
 //! `tpCreateArcArcBlend`).
 
-use super::solve::{consistent_state, solve_fixed_in, Method, PointSolution};
+use super::solve::{bands_um, held_solve, solve_fixed_in, Method, PointSolution};
 use crate::error::ModelError;
 use crate::model::{AxisCells, Components, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
@@ -88,13 +88,7 @@ pub(super) fn held_before_turn_back(
     if !turns.iter().any(|t| *t) {
         return Ok(None);
     }
-    let at_prev = cells.deviation_again_um(model, q_prev, s_prev)?;
-    let mut band_um = [0.0; 3];
-    for a in (0..3).filter(|a| turns[*a]) {
-        let mut s = s_prev;
-        s[a] = s[a].flipped();
-        band_um[a] = (cells.deviation_again_um(model, q_prev, s)?[a] - at_prev[a]).abs();
-    }
+    let band_um = bands_um(cells, model, (q_prev, s_prev), turns)?;
     // The free axes: every state, fewest reversals from `s_prev` first
     // (the smallest residual among equals), as solve.rs `search_states`.
     let mut best: Option<(u32, f64, PointSolution)> = None;
@@ -113,44 +107,24 @@ pub(super) fn held_before_turn_back(
                 s_prev[a]
             }
         });
-        let sol = solve_fixed_in(cells, model, method, t_mm, s, turns, q_prev)?;
-        let mut q = quantize(sol.q_mm);
-        for a in (0..3).filter(|a| turns[*a]) {
-            q[a] = q_prev[a];
-        }
-        if !consistent_state(q, q_prev, s, s_prev, turns) {
+        let Some(sol) = held_solve(
+            cells,
+            model,
+            (method, quantize),
+            (t_mm, s, turns),
+            (q_prev, s_prev),
+            (bound_mm, band_um, point.residual_um),
+        )?
+        else {
             continue;
-        }
-        let r_mm = t_mm - cells.actual_mm(model, q, s, Components::All)?;
-        let mut free_mm = r_mm;
-        for a in (0..3).filter(|a| turns[*a]) {
-            free_mm[a] = 0.0;
-        }
-        if r_mm.norm() > bound_mm
-            || (0..3).any(|a| turns[a] && r_mm[a].abs() * 1e3 >= band_um[a])
-            || free_mm.norm() * 1e3 > 2.0 * point.residual_um + 0.05
-        {
-            continue;
-        }
-        let residual_um = r_mm.norm() * 1e3;
+        };
         if best
             .as_ref()
-            .is_some_and(|b| b.0 == flips && b.1 <= residual_um)
+            .is_some_and(|b| b.0 == flips && b.1 <= sol.residual_um)
         {
             continue;
         }
-        best = Some((
-            flips,
-            residual_um,
-            PointSolution {
-                q_mm: q,
-                s,
-                iterations: sol.iterations,
-                residual_um,
-                reversed: [0, 1, 2].map(|a| s[a] != s_prev[a]),
-                held: [false; 3],
-            },
-        ));
+        best = Some((flips, sol.residual_um, sol));
     }
     let Some((_, _, held)) = best else {
         return Ok(None);
