@@ -318,7 +318,8 @@ impl Move {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Counts {
-    /// Planner segments queued (blend arcs included).
+    /// Planner segments made from the program's moves (the blend arcs put
+    /// into corners are not among them: they are counted in `blend_arcs`).
     pub segments: u64,
     /// Blend arcs put into corners.
     pub blend_arcs: u64,
