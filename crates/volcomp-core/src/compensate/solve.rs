@@ -468,6 +468,19 @@ pub(super) fn held_solve(
     }))
 }
 
+/// `s_prev` with the axes whose bit is set in `bits` (bit `a` for axis
+/// `a`) in their other direction: one of the eight direction states a
+/// search over the axes' states tries.
+pub(super) fn flipped_where(s_prev: Directions, bits: u8) -> Directions {
+    [0, 1, 2].map(|a| {
+        if bits & (1 << a) != 0 {
+            s_prev[a].flipped()
+        } else {
+            s_prev[a]
+        }
+    })
+}
+
 /// Whether the command `q` from `q_prev` moves every free axis in the
 /// direction its table was chosen for: a moving axis in `s[a]`, an axis that
 /// stands still in its previous state (a controller keeps an axis' last
@@ -552,13 +565,7 @@ fn search_states(
         if (0..3).any(|a| keep[a] && bits & (1 << a) != 0) {
             continue;
         }
-        let s = [0, 1, 2].map(|a| {
-            if bits & (1 << a) != 0 {
-                s_prev[a].flipped()
-            } else {
-                s_prev[a]
-            }
-        });
+        let s = flipped_where(s_prev, bits);
         let flips = bits.count_ones() as usize;
         if best.as_ref().is_some_and(|b| b.0 < flips) {
             continue;

@@ -30,7 +30,7 @@
 //! arcs' normals are colinear with the corner's binormal (src/emc/tp/tp.c,
 //! `tpCreateArcArcBlend`).
 
-use super::solve::{bands_um, held_solve, solve_fixed_in, Method, PointSolution};
+use super::solve::{bands_um, flipped_where, held_solve, solve_fixed_in, Method, PointSolution};
 use crate::error::ModelError;
 use crate::model::{AxisCells, Components, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
@@ -100,13 +100,7 @@ pub(super) fn held_before_turn_back(
         if best.as_ref().is_some_and(|b| b.0 < flips) {
             continue;
         }
-        let s = [0, 1, 2].map(|a| {
-            if bits & (1 << a) != 0 {
-                s_prev[a].flipped()
-            } else {
-                s_prev[a]
-            }
-        });
+        let s = flipped_where(s_prev, bits);
         let Some(sol) = held_solve(
             cells,
             model,
