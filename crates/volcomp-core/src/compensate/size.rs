@@ -72,25 +72,36 @@ impl Blocks {
     }
 }
 
-/// A writer that counts the bytes and blocks passing through it.
+/// The blocks of lines written whole (each without its line ending), as
+/// [`Blocks`] counts them in any text made of these lines.
+pub(super) fn blocks_of_lines<'a>(lines: impl IntoIterator<Item = &'a [u8]>) -> u64 {
+    lines
+        .into_iter()
+        .map(|l| {
+            let mut b = Blocks::default();
+            b.scan(l);
+            b.finish()
+        })
+        .sum()
+}
+
+/// A writer that counts the bytes passing through it. (The blocks are
+/// counted where the lines are made: the body's by the line-length stage,
+/// [`super::line_limit::LineLimit`], which finds every line's end anyway,
+/// and the header's from its lines; not a second time here.)
 pub(super) struct Counted<'a> {
     inner: &'a mut dyn Write,
     bytes: u64,
-    blocks: Blocks,
 }
 
 impl<'a> Counted<'a> {
     pub(super) fn new(inner: &'a mut dyn Write) -> Self {
-        Counted {
-            inner,
-            bytes: 0,
-            blocks: Blocks::default(),
-        }
+        Counted { inner, bytes: 0 }
     }
 
-    /// `(bytes, blocks)` written.
-    pub(super) fn finish(&self) -> (u64, u64) {
-        (self.bytes, self.blocks.finish())
+    /// Bytes written.
+    pub(super) fn bytes(&self) -> u64 {
+        self.bytes
     }
 }
 
@@ -98,7 +109,6 @@ impl Write for Counted<'_> {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
         let n = self.inner.write(buf)?;
         self.bytes += n as u64;
-        self.blocks.scan(&buf[..n]);
         Ok(n)
     }
 
