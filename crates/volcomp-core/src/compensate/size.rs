@@ -132,6 +132,52 @@ mod tests {
         assert_eq!(b.finish(), 3);
     }
 
+    /// Lines handed one at a time, each with its `\n` ([`Blocks::scan_line`],
+    /// as the compensation counts the lines it reads and writes), count
+    /// what a scan of the whole text counts (the second method): lines
+    /// that begin with a letter, a blank, `(`, `;`, `%`, `/`, a digit, a
+    /// comment left open to the line's end, `\r\n` endings, empty lines.
+    #[test]
+    fn lines_one_at_a_time_count_as_the_whole_text() {
+        let lines: [&[u8]; 14] = [
+            b"G1 X1\n",
+            b"(only)\n",
+            b"  G0 Z1\n",
+            b"(open comment\n",
+            b"X2 (then) Y3\n",
+            b"; G1 X9\n",
+            b"%\n",
+            b"/G1 X4\n",
+            b"\n",
+            b"m2\r\n",
+            b"(a) (b)\r\n",
+            b"1 (odd)\n",
+            b"\t;\n",
+            b"N10 G1 X5\n",
+        ];
+        let mut whole = Blocks::default();
+        let mut one_by_one = Blocks::default();
+        let mut text = Vec::new();
+        for (k, l) in lines.iter().cycle().take(200).enumerate() {
+            // Lines in every order the cycle and a shift give.
+            let l = if k % 3 == 0 {
+                lines[(k * 7) % lines.len()]
+            } else {
+                l
+            };
+            one_by_one.scan_line(l);
+            text.extend_from_slice(l);
+        }
+        whole.scan(&text);
+        assert!(whole.finish() > 50, "{}", whole.finish());
+        assert_eq!(one_by_one.finish(), whole.finish());
+        // By hand, the fourteen once: G1 X1, G0 Z1, X2 … Y3, /G1 X4, m2,
+        // 1 (odd), N10 G1 X5.
+        let mut b = Blocks::default();
+        lines.iter().for_each(|l| b.scan_line(l));
+        assert_eq!(b.finish(), 7);
+    }
+
     /// The same count whatever the pieces: the text in one piece, byte by
     /// byte, and cut at every place in two; by hand 5 blocks (`G1 X1`,
     /// `(c) X2`, `/G0 Z1`, `( a ; b ) M3`, `M2`), lines that begin inside
