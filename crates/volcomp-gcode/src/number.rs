@@ -641,8 +641,8 @@ mod tests {
             1000,
             9_000_000_000_000_000,
         ];
-        for k in 0..19 {
-            let p = POW10_U64[k] as i64;
+        for &p in &POW10_U64 {
+            let p = p as i64;
             counts.extend([
                 p - 1,
                 p,
@@ -697,8 +697,7 @@ mod tests {
     #[test]
     fn unsigned_integers_are_written_as_their_decimal_digits() {
         let mut values = vec![0u64, 1, 9, 10, 11, 99, 100, 101, u64::MAX, u64::MAX - 1];
-        for k in 0..19 {
-            let p = POW10_U64[k];
+        for &p in &POW10_U64 {
             values.extend([
                 p - 1,
                 p,
