@@ -179,6 +179,12 @@ impl Lexed {
         self.letters & (1 << (letter & 31)) != 0
     }
 
+    /// Whether the line has a polar word (`@` radius or `^` angle): the
+    /// letters noted as the words were lexed, no walk over the tokens.
+    pub fn has_polar(&self) -> bool {
+        self.has_letter(b'@') || self.has_letter(b'^')
+    }
+
     /// Whether the block starts with the block-delete character.
     pub fn block_delete(&self) -> bool {
         matches!(self.tokens.first(), Some(Token::BlockDelete(_)))

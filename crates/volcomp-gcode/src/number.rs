@@ -140,16 +140,17 @@ pub fn format_number(value: f64, style: NumberStyle, out: &mut String) {
 /// intermediate `String`.
 #[inline]
 pub fn format_number_bytes(value: f64, style: NumberStyle, out: &mut Vec<u8>) {
-    let mut buf = NumberBuf::new();
-    match buf.format_at(value, style) {
-        Some(at) if NumberBuf::END - at <= NumberBuf::COPY => buf.push_tail(at, out),
-        Some(at) => out.extend_from_slice(&buf.bytes[at..NumberBuf::END]),
-        None => {
-            let mut text = String::new();
-            format_number_slow(value, style, &mut text);
-            out.extend_from_slice(text.as_bytes());
+    // The bounds of `NumberBuf::format_at`; what is past them the slow way.
+    if style.decimals <= NumberBuf::MAX_DECIMALS {
+        let scaled = round_half_away(value * pow10(u32::from(style.decimals)));
+        if scaled.is_finite() && scaled.abs() <= 9.0e15 {
+            write_scaled(scaled as i64, style, out);
+            return;
         }
     }
+    let mut text = String::new();
+    format_number_slow(value, style, &mut text);
+    out.extend_from_slice(text.as_bytes());
 }
 
 /// Appends the number `scaled / 10^style.decimals` written in `style`,
@@ -167,18 +168,83 @@ pub fn format_scaled_bytes(scaled: f64, style: NumberStyle, out: &mut Vec<u8>) {
     const EXACT: f64 = (1u64 << 49) as f64;
     // False for NaN too.
     let within = scaled.abs() < EXACT;
-    if style.decimals > NumberBuf::MAX_DECIMALS || !within || scaled.fract() != 0.0 {
+    // Within the bound `scaled as i64` is exact for an integer and cuts a
+    // fraction off anything else: an integer count is one that converts
+    // back to itself (`fract() == 0`, without `trunc`'s libm call).
+    if style.decimals > NumberBuf::MAX_DECIMALS || !within || (scaled as i64) as f64 != scaled {
         format_number_bytes(scaled / pow10(u32::from(style.decimals)), style, out);
         return;
     }
-    let mut buf = NumberBuf::new();
-    let at = buf.scaled_at(scaled as i64, style);
-    // At most 1 + 15 + 1 + 18 bytes: within one copy but for 18 decimals.
-    if NumberBuf::END - at <= NumberBuf::COPY {
-        buf.push_tail(at, out);
-    } else {
-        out.extend_from_slice(&buf.bytes[at..NumberBuf::END]);
+    write_scaled(scaled as i64, style, out);
+}
+
+/// The text of `scaled / 10^style.decimals` in `style` (decimals at most
+/// [`NumberBuf::MAX_DECIMALS`], `|scaled|` at most 9·10^15) appended to
+/// `out`: the text [`NumberBuf::scaled_at`] gives, written where it goes
+/// (its length is known from its integer part's digits and its decimals
+/// left after trimming) instead of backwards into a zeroed stack buffer
+/// and copied: no buffer to clear, no copy, no bounds check per digit
+/// pair. The decimals go two at a time, as in [`format_fixed_bytes`].
+#[inline]
+fn write_scaled(scaled: i64, style: NumberStyle, out: &mut Vec<u8>) {
+    let decimals = usize::from(style.decimals);
+    let magnitude = scaled.unsigned_abs();
+    let divisor = POW10_U64[decimals];
+    let mut int_part = magnitude / divisor;
+    let mut frac_part = magnitude % divisor;
+    let mut frac_digits = decimals;
+    if style.trim_trailing_zeros {
+        while frac_digits > 0 && frac_part.is_multiple_of(10) {
+            frac_part /= 10;
+            frac_digits -= 1;
+        }
     }
+    let point =
+        frac_digits > 0 || style.trailing_dot || (!style.trim_trailing_zeros && style.decimals > 0);
+    let int_digits = if int_part != 0 || style.leading_zero || frac_digits == 0 {
+        let mut k = 1;
+        while k < POW10_U64.len() && int_part >= POW10_U64[k] {
+            k += 1;
+        }
+        k
+    } else {
+        0
+    };
+    let sign = usize::from(scaled < 0);
+    let len = sign + int_digits + usize::from(point) + frac_digits;
+    // At most 1 + 16 + 1 + 18 bytes (|scaled| ≤ 9·10^15).
+    let start = out.len();
+    out.extend_from_slice(&[b'-'; 40]);
+    let text = &mut out[start..start + 40];
+    let mut at = len;
+    while frac_digits >= 2 {
+        let pair = (frac_part % 100) as usize * 2;
+        frac_part /= 100;
+        text[at - 2..at].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+        at -= 2;
+        frac_digits -= 2;
+    }
+    if frac_digits == 1 {
+        text[at - 1] = b'0' + frac_part as u8;
+        at -= 1;
+    }
+    if point {
+        text[at - 1] = b'.';
+        at -= 1;
+    }
+    if int_digits > 0 {
+        while int_part >= 10 {
+            let pair = (int_part % 100) as usize * 2;
+            int_part /= 100;
+            text[at - 2..at].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+            at -= 2;
+        }
+        if at > sign {
+            text[at - 1] = b'0' + int_part as u8;
+        }
+    }
+    // The sign is the `-` the text was filled with.
+    out.truncate(start + len);
 }
 
 /// [`format_number_bytes`] in [`NumberStyle::fixed`]`(DECIMALS)`: the same
@@ -243,8 +309,10 @@ pub fn format_fixed_bytes<const DECIMALS: u8>(value: f64, out: &mut Vec<u8>) {
 }
 
 /// An unsigned integer's decimal digits into bytes (a line or column
-/// number of a row being written): the same fixed-size copy as
-/// [`format_number_bytes`], no `memcpy` call per number.
+/// number of a row being written): written backwards into a stack buffer
+/// and appended by a fixed-size copy, no `memcpy` call per number.
+/// (Measured against writing where the text goes, as [`write_scaled`]
+/// does: that needs the digits counted first, which cost more here.)
 #[inline]
 pub fn format_uint_bytes(value: u64, out: &mut Vec<u8>) {
     let mut buf = NumberBuf::new();
@@ -254,7 +322,9 @@ pub fn format_uint_bytes(value: u64, out: &mut Vec<u8>) {
 }
 
 /// A number written from its last digit backwards into a stack buffer: no
-/// allocation, two digits a step.
+/// allocation, two digits a step ([`format_number`]'s and
+/// [`format_uint_bytes`]'s writer; numbers with decimals are written where
+/// the text goes, [`write_scaled`]).
 struct NumberBuf {
     /// The text ends at [`NumberBuf::END`]; the bytes after it let a
     /// fixed-size copy of [`NumberBuf::COPY`] bytes start anywhere the
@@ -548,6 +618,107 @@ mod tests {
         let mut t = Vec::new();
         format_scaled_bytes(-123450.0, NumberStyle::fixed(4), &mut t);
         assert_eq!(t, b"-12.3450");
+    }
+
+    /// A count written where it goes ([`write_scaled`]) is the text the
+    /// stack buffer writes backwards ([`NumberBuf::scaled_at`], the second
+    /// method, which `format_number` still uses): every decimal count the
+    /// fast path takes, every combination of the style's flags, counts of
+    /// every length up to the 9·10^15 bound, zeros and powers of ten, their
+    /// negatives.
+    #[test]
+    fn a_count_is_written_in_place_as_the_buffer_writes_it() {
+        let mut counts: Vec<i64> = vec![
+            0,
+            1,
+            5,
+            9,
+            10,
+            11,
+            99,
+            100,
+            101,
+            1000,
+            9_000_000_000_000_000,
+        ];
+        for &p in &POW10_U64 {
+            let p = p as i64;
+            counts.extend([
+                p - 1,
+                p,
+                p + 1,
+                p.saturating_mul(7),
+                p.saturating_mul(10) / 4,
+            ]);
+        }
+        let mut x = 0.618_033_988_749_895_f64;
+        for _ in 0..3000 {
+            x = (x * 7919.0 + 0.123_457).fract();
+            let digits = (x * 1e6) as i32 % 17;
+            counts.push((x * 10f64.powi(digits)) as i64);
+        }
+        counts.retain(|c| c.unsigned_abs() <= 9_000_000_000_000_000);
+        let negatives: Vec<i64> = counts.iter().map(|c| -c).collect();
+        counts.extend(negatives);
+        let mut checked = 0;
+        for d in 0..=NumberBuf::MAX_DECIMALS {
+            for flags in 0..8u8 {
+                let style = NumberStyle {
+                    decimals: d,
+                    leading_zero: flags & 1 != 0,
+                    trim_trailing_zeros: flags & 2 != 0,
+                    trailing_dot: flags & 4 != 0,
+                };
+                for &n in &counts {
+                    let mut buf = NumberBuf::new();
+                    let at = buf.scaled_at(n, style);
+                    let mut got = b"G1 X".to_vec();
+                    write_scaled(n, style, &mut got);
+                    assert_eq!(&got[..4], b"G1 X");
+                    assert_eq!(
+                        &got[4..],
+                        &buf.bytes[at..NumberBuf::END],
+                        "{n} in {style:?}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 800_000, "{checked}");
+        // By hand.
+        let mut t = Vec::new();
+        write_scaled(-5, NumberStyle::fixed(3), &mut t);
+        assert_eq!(t, b"-0.005");
+    }
+
+    /// Unsigned integers are written as Rust's own formatting writes them
+    /// (the second method): every length from 1 to 20 digits, the powers
+    /// of ten and their neighbours, `u64::MAX`.
+    #[test]
+    fn unsigned_integers_are_written_as_their_decimal_digits() {
+        let mut values = vec![0u64, 1, 9, 10, 11, 99, 100, 101, u64::MAX, u64::MAX - 1];
+        for &p in &POW10_U64 {
+            values.extend([
+                p - 1,
+                p,
+                p + 1,
+                p.saturating_mul(9),
+                p.saturating_mul(10) - 1,
+            ]);
+        }
+        values.push(10_000_000_000_000_000_000);
+        let mut x = 0x9e37_79b9_7f4a_7c15_u64;
+        for _ in 0..5000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            values.push(x >> (x % 64));
+        }
+        for v in values {
+            let mut got = b"L".to_vec();
+            format_uint_bytes(v, &mut got);
+            assert_eq!(&got[1..], v.to_string().as_bytes(), "{v}");
+        }
     }
 
     #[test]

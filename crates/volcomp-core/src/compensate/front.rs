@@ -25,7 +25,7 @@
 //! # }
 //! ```
 
-use super::header::compensate_program_with_header;
+use super::header::compensate_program_with_header_counted;
 use super::{
     compensate_program_seen, survey_style, CompensateOptions, CompensateSummary, PointRecord,
 };
@@ -225,7 +225,7 @@ impl<'a> Compensator<'a> {
             Some(f) => f.as_mut(),
             None => &mut no_op,
         };
-        // The whole output is counted here, the header included.
+        // The whole output's bytes are counted here, the header included.
         let mut out = super::size::Counted::new(&mut out);
         let mut no_line = |_: &volcomp_gcode::LineEvent<'_>| {};
         let on_line: &mut dyn FnMut(&volcomp_gcode::LineEvent<'_>) = match self.on_line.take() {
@@ -233,7 +233,7 @@ impl<'a> Compensator<'a> {
             None => &mut no_line,
         };
         let result = match (&self.header, self.program_copy.take()) {
-            (Some(h), copy) => compensate_program_with_header(
+            (Some(h), copy) => compensate_program_with_header_counted(
                 &mut walker,
                 &self.file,
                 self.model,
@@ -244,7 +244,11 @@ impl<'a> Compensator<'a> {
                 copy,
                 on_point,
                 on_line,
-            ),
+            )
+            .map(|(mut summary, header_blocks)| {
+                summary.blocks_out += header_blocks;
+                summary
+            }),
             (None, copy) => {
                 let mut out = crate::io::stream::Tee {
                     inner: &mut out,
@@ -263,8 +267,10 @@ impl<'a> Compensator<'a> {
                 )
             }
         };
+        // The summary's blocks are the body's (counted as it was written)
+        // and, with a header, the header's (added by the header's writer).
         let result = result.map(|mut summary| {
-            (summary.bytes_out, summary.blocks_out) = out.finish();
+            summary.bytes_out = out.bytes();
             summary
         });
         if let Some(f) = self.on_warning.as_mut() {
@@ -303,6 +309,51 @@ mod tests {
             .allow_recompensate(true)
             .run(program.as_bytes(), Vec::new());
         assert!(ok.is_ok(), "{ok:?}");
+    }
+
+    /// The summary's size is the whole output's, the header included: its
+    /// bytes, and its blocks as a scan of the written text counts them
+    /// ([`super::super::size::Blocks`] over all of it, the second method)
+    /// and, for the simple programs, by hand (the header is comments only).
+    /// Programs with and without a header, a `%` or a program number
+    /// before it, comments, a `;` line, blank lines, a last line without
+    /// its ending, CR LF endings.
+    #[test]
+    fn the_summary_counts_what_was_written() {
+        let map = zero_map();
+        let programs: [(&str, u64); 5] = [
+            ("%\nG0 X1 Y1 Z1\n(c)\nG1 X2 F100\nM2\n%\n", 3),
+            ("G0 X1 Y1 Z1\n\nG1 X2 F100 (a)\n; note\nM2", 3),
+            ("O0001\n  \nG0 X1 ( a ) Y2 Z3\n(only)\nM30\n", 3),
+            ("\r\n%\r\nG0 X1 Y0 Z0\r\n(b) G1 X3 F200\r\nM2\r\n%\r\n", 3),
+            (
+                "(just a comment)\nG0 X1 Y1 Z1\nG1 X5 Y2 F500\nG1 X0 Y0\nM2\n",
+                4,
+            ),
+        ];
+        for (program, by_hand) in programs {
+            for with_header in [false, true] {
+                let mut c = Compensator::new(&map);
+                if with_header {
+                    c = c.header(crate::io::provenance::ProgramHeader::for_compensation(
+                        vec![("zero.csv".into(), sha256_hex(b"zero"))],
+                        None,
+                        Setup::default(),
+                        &CompensateOptions::default(),
+                        "2026-01-01T00:00:00Z".into(),
+                    ));
+                }
+                let mut out = Vec::new();
+                let summary = c.run(program.as_bytes(), &mut out).unwrap();
+                let mut scanned = super::super::size::Blocks::default();
+                scanned.scan(&out);
+                let text = String::from_utf8_lossy(&out);
+                assert_eq!(summary.bytes_out, out.len() as u64, "{text}");
+                assert_eq!(summary.blocks_out, scanned.finish(), "{text}");
+                assert_eq!(summary.blocks_out, by_hand, "{text}");
+                assert_eq!(text.lines().count() > 12, with_header, "{text}");
+            }
+        }
     }
 
     #[test]

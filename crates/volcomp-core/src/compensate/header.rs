@@ -142,6 +142,38 @@ pub fn compensate_program_with_header<R: BufRead>(
     on_point: impl FnMut(&PointRecord),
     on_line: &mut dyn FnMut(&volcomp_gcode::LineEvent<'_>),
 ) -> Result<CompensateSummary, CompensationError> {
+    let (summary, _) = compensate_program_with_header_counted(
+        walker,
+        file,
+        model,
+        program_style,
+        options,
+        header,
+        out,
+        body_copy,
+        on_point,
+        on_line,
+    )?;
+    Ok(summary)
+}
+
+/// [`compensate_program_with_header`], and the blocks of the header's
+/// lines (none for a header of comment lines): added to the body's
+/// (`blocks_out`, counted as it was written), the blocks of the whole
+/// output.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn compensate_program_with_header_counted<R: BufRead>(
+    walker: &mut Walker<R>,
+    file: &str,
+    model: &dyn ErrorModel,
+    program_style: &ProgramStyle,
+    options: &CompensateOptions,
+    header: &ProgramHeader,
+    out: &mut dyn Write,
+    body_copy: Option<&mut dyn Write>,
+    on_point: impl FnMut(&PointRecord),
+    on_line: &mut dyn FnMut(&volcomp_gcode::LineEvent<'_>),
+) -> Result<(CompensateSummary, u64), CompensationError> {
     // The header says what was done at reversals, which is known once the
     // program has been written: the body waits in a spool (in memory up to
     // BODY_IN_MEMORY, then in an unnamed temporary file) until then.
@@ -194,13 +226,18 @@ pub fn compensate_program_with_header<R: BufRead>(
             lines.insert(end + k, l);
         }
     }
+    // Written whole, each on a line of its own between the body's lines.
+    let header_blocks = super::size::blocks_of_lines(lines.iter().map(|l| l.as_bytes()));
     let mut w = HeaderWriter::new(out, lines);
     body.seek(io::SeekFrom::Start(0))
         .map_err(CompensationError::from)?;
     io::copy(&mut body, &mut w).map_err(CompensationError::from)?;
     let (_, place) = w.finish_placed().map_err(CompensationError::from)?;
-    Ok(CompensateSummary {
-        header: place,
-        ..summary
-    })
+    Ok((
+        CompensateSummary {
+            header: place,
+            ..summary
+        },
+        header_blocks,
+    ))
 }

@@ -313,7 +313,12 @@ impl Write for LineLimit<'_> {
         // together, as they are.
         // Whole lines from a line start: each counted as it is found.
         let mut run = 0;
-        while let Some(end) = memchr::memchr(b'\n', &rest[run..]) {
+        // A piece ends with its last line's `\n` (the writers hand whole
+        // lines): no search is made in the nothing after it.
+        while run < rest.len() {
+            let Some(end) = memchr::memchr(b'\n', &rest[run..]) else {
+                break;
+            };
             if end <= MAX_LINE_BYTES {
                 self.blocks.scan_line(&rest[run..=run + end]);
                 run += end + 1;

@@ -73,7 +73,13 @@ impl LineEdits {
     /// their ranges (edits at the same place in the order they were made;
     /// the sort is stable), as [`volcomp_gcode::edit::apply_edits`] does.
     pub(super) fn apply(&mut self, line: &[u8], out: &mut Vec<u8>) -> Result<(), EditError> {
-        self.list.sort_by_key(|(r, _)| (r.start, r.end));
+        // Most lines' edits are made in the order of the line (its words
+        // in turn): a list already in order is left as it is (a stable
+        // sort would leave it so too).
+        let key = |(r, _): &(Range<usize>, Range<usize>)| (r.start, r.end);
+        if !self.list.windows(2).all(|p| key(&p[0]) <= key(&p[1])) {
+            self.list.sort_by_key(key);
+        }
         let mut cursor = 0;
         for (r, t) in &self.list {
             if r.end > line.len() || r.start > r.end {
@@ -440,7 +446,14 @@ impl State<'_> {
         // written while its X and Y round to the command's; otherwise the
         // polar words are replaced by the command's X and Y.
         let polar = || line.words().filter(|w| matches!(w.letter, b'@' | b'^'));
-        if let Some(first) = polar().next() {
+        // The lexer noted the line's letters: most lines have no polar
+        // word and are not searched for one.
+        let first_polar = if line.ev.lexed.has_polar() {
+            polar().next()
+        } else {
+            None
+        };
+        if let Some(first) = first_polar {
             present[0] = true;
             present[1] = true;
             // In G91, or with only one of `@`/`^` in G90, the polar end point

@@ -476,7 +476,7 @@ impl<'w> State<'w> {
                     && frame.rotation_deg == 0.0
                     && !(interp.arc_absolute() && interp.arc_absolute_by_option())
                     && !motion.extra.moves()
-                    && !line.words().any(|w| matches!(w.letter, b'@' | b'^')) =>
+                    && !line.ev.lexed.has_polar() =>
             {
                 Some(arc)
             }
@@ -672,7 +672,7 @@ impl<'w> State<'w> {
                     && !motion.extra.moves()
                     && interp.feed_mode() != FeedMode::InverseTime
                     && stop_m_word(line.words()).is_none()
-                    && !line.words().any(|w| matches!(w.letter, b'@' | b'^')) =>
+                    && !line.ev.lexed.has_polar() =>
             {
                 idle::candidate_axes(motion.start, motion.end, self.last_tangent.map(|t| t.0))
             }

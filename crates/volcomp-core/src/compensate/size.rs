@@ -72,25 +72,36 @@ impl Blocks {
     }
 }
 
-/// A writer that counts the bytes and blocks passing through it.
+/// The blocks of lines written whole (each without its line ending), as
+/// [`Blocks`] counts them in any text made of these lines.
+pub(super) fn blocks_of_lines<'a>(lines: impl IntoIterator<Item = &'a [u8]>) -> u64 {
+    lines
+        .into_iter()
+        .map(|l| {
+            let mut b = Blocks::default();
+            b.scan(l);
+            b.finish()
+        })
+        .sum()
+}
+
+/// A writer that counts the bytes passing through it. (The blocks are
+/// counted where the lines are made: the body's by the line-length stage,
+/// [`super::line_limit::LineLimit`], which finds every line's end anyway,
+/// and the header's from its lines; not a second time here.)
 pub(super) struct Counted<'a> {
     inner: &'a mut dyn Write,
     bytes: u64,
-    blocks: Blocks,
 }
 
 impl<'a> Counted<'a> {
     pub(super) fn new(inner: &'a mut dyn Write) -> Self {
-        Counted {
-            inner,
-            bytes: 0,
-            blocks: Blocks::default(),
-        }
+        Counted { inner, bytes: 0 }
     }
 
-    /// `(bytes, blocks)` written.
-    pub(super) fn finish(&self) -> (u64, u64) {
-        (self.bytes, self.blocks.finish())
+    /// Bytes written.
+    pub(super) fn bytes(&self) -> u64 {
+        self.bytes
     }
 }
 
@@ -98,7 +109,6 @@ impl Write for Counted<'_> {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
         let n = self.inner.write(buf)?;
         self.bytes += n as u64;
-        self.blocks.scan(&buf[..n]);
         Ok(n)
     }
 
@@ -120,6 +130,52 @@ mod tests {
         b.scan(b"G1 X1\n(only a comment)\n   \n%\n(c) X2\n; note X3\nG");
         b.scan(b"0 X4");
         assert_eq!(b.finish(), 3);
+    }
+
+    /// Lines handed one at a time, each with its `\n` ([`Blocks::scan_line`],
+    /// as the compensation counts the lines it reads and writes), count
+    /// what a scan of the whole text counts (the second method): lines
+    /// that begin with a letter, a blank, `(`, `;`, `%`, `/`, a digit, a
+    /// comment left open to the line's end, `\r\n` endings, empty lines.
+    #[test]
+    fn lines_one_at_a_time_count_as_the_whole_text() {
+        let lines: [&[u8]; 14] = [
+            b"G1 X1\n",
+            b"(only)\n",
+            b"  G0 Z1\n",
+            b"(open comment\n",
+            b"X2 (then) Y3\n",
+            b"; G1 X9\n",
+            b"%\n",
+            b"/G1 X4\n",
+            b"\n",
+            b"m2\r\n",
+            b"(a) (b)\r\n",
+            b"1 (odd)\n",
+            b"\t;\n",
+            b"N10 G1 X5\n",
+        ];
+        let mut whole = Blocks::default();
+        let mut one_by_one = Blocks::default();
+        let mut text = Vec::new();
+        for (k, l) in lines.iter().cycle().take(200).enumerate() {
+            // Lines in every order the cycle and a shift give.
+            let l = if k % 3 == 0 {
+                lines[(k * 7) % lines.len()]
+            } else {
+                l
+            };
+            one_by_one.scan_line(l);
+            text.extend_from_slice(l);
+        }
+        whole.scan(&text);
+        assert!(whole.finish() > 50, "{}", whole.finish());
+        assert_eq!(one_by_one.finish(), whole.finish());
+        // By hand, the fourteen once: G1 X1, G0 Z1, X2 … Y3, /G1 X4, m2,
+        // 1 (odd), N10 G1 X5.
+        let mut b = Blocks::default();
+        lines.iter().for_each(|l| b.scan_line(l));
+        assert_eq!(b.finish(), 7);
     }
 
     /// The same count whatever the pieces: the text in one piece, byte by

@@ -134,7 +134,15 @@ impl<'w> State<'w> {
         self.g93_before = std::mem::replace(&mut self.g93_last, g93_now);
         self.summary.lines_in += 1;
         self.summary.bytes_in += ev.bytes.len() as u64;
-        self.blocks_in.scan(ev.bytes);
+        if !ev.rendered && ev.bytes.ends_with(b"\n") {
+            // A line of the program as read: one line, its only `\n` its
+            // last byte (the reader splits at every `\n`), so the
+            // one-line count applies (a line that begins with a letter is
+            // a block without a search for its end).
+            self.blocks_in.scan_line(ev.bytes);
+        } else {
+            self.blocks_in.scan(ev.bytes);
+        }
         self.buf.clear();
         self.known = known_after(self.known, ev);
         let (frame, style) = Frame::of(ev.interp, self.walk.options, self.walk.survey);
