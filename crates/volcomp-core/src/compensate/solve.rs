@@ -540,6 +540,10 @@ pub(crate) fn solve_keeping_in(
     }))
 }
 
+/// The eight bit sets of flipped axes ([`flipped_where`]) by how many
+/// axes they flip, then by value.
+const BITS_BY_FLIPS: [u8; 8] = [0, 1, 2, 4, 3, 5, 6, 7];
+
 /// A state solved for a target with no axis held: the state, its solve and
 /// the solve's command quantized ([`search_states`] takes it as it is).
 type Tried = (Directions, Solved, Vec3);
@@ -561,14 +565,18 @@ fn search_states(
     keep: [bool; 3],
 ) -> Result<Option<(Solved, Vec3, Directions)>, ModelError> {
     let mut best: Option<(usize, f64, Solved, Vec3, Directions)> = None;
-    for bits in 0..8u8 {
+    // Fewest flips first (in the order of their bits within a count): once
+    // a state is consistent, none with more flips can be taken, so none is
+    // solved. The states taken and the ties' order are those of a search
+    // of all eight.
+    for bits in BITS_BY_FLIPS {
         if (0..3).any(|a| keep[a] && bits & (1 << a) != 0) {
             continue;
         }
         let s = flipped_where(s_prev, bits);
         let flips = bits.count_ones() as usize;
         if best.as_ref().is_some_and(|b| b.0 < flips) {
-            continue;
+            break;
         }
         let known = tried.iter().flatten().find(|(known_s, ..)| *known_s == s);
         let (sol, q) = match known {
@@ -646,6 +654,91 @@ pub(super) mod tests {
             [[-1e3, 1e3]; 3]
         }
     }
+
+    /// The map of the search tests: reversal values and straightness
+    /// that differ with each axis' direction, so that several direction
+    /// states are consistent for a small move.
+    fn search_map() -> AxisTableMap {
+        let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+                   X,forward,0,0,0,0\nX,forward,10,3,1,0\n\
+                   X,reverse,0,4,-1,0\nX,reverse,10,6,2,0\n\
+                   Y,forward,0,0,0,0\nY,forward,10,0,2,0.5\n\
+                   Y,reverse,0,0,3,0\nY,reverse,10,0.4,4,0\n\
+                   Z,forward,0,0,0,0\nZ,forward,10,0,0,1\n\
+                   Z,reverse,0,0,0,2\nZ,reverse,10,0,0,2.5\n";
+        AxisTableMap::from_csv(csv, "m.csv").unwrap()
+    }
+
+    #[test]
+    fn the_search_takes_the_state_a_search_of_all_eight_takes() {
+        // The second method: every one of the eight states solved through
+        // the whole map (no cells), the consistent ones ranked by flips,
+        // then residual, then the bit set's value (the first found wins
+        // a tie, as in a search of all eight in the order of their bits).
+        let m = search_map();
+        let mut rnd = uniform(0x5ea2_c4ed);
+        let quantize = |q: Vec3| q.map(|v| (v * 1e5).round() / 1e5);
+        let (mut found, mut two_flips, mut kept_out) = (0, 0, 0);
+        for case in 0..3000 {
+            let q_prev = Vec3::new(1.0 + 8.0 * rnd(), 1.0 + 8.0 * rnd(), 1.0 + 8.0 * rnd());
+            let t = q_prev + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.01;
+            let s_prev = [0, 1, 2].map(|_| {
+                if rnd() < 0.5 {
+                    Direction::Forward
+                } else {
+                    Direction::Reverse
+                }
+            });
+            let keep = if case % 3 == 0 {
+                [0, 1, 2].map(|_| rnd() < 0.3)
+            } else {
+                [false; 3]
+            };
+            let mut all = Vec::new();
+            for bits in 0..8u8 {
+                if (0..3).any(|a| keep[a] && bits & (1 << a) != 0) {
+                    continue;
+                }
+                let s = [0, 1, 2].map(|a| {
+                    if bits & (1 << a) != 0 {
+                        s_prev[a].flipped()
+                    } else {
+                        s_prev[a]
+                    }
+                });
+                let sol = solve_fixed(&Plain(&m), Method::Exact, t, s, [false; 3], q_prev).unwrap();
+                let q = quantize(sol.q_mm);
+                if consistent_state(q, q_prev, s, s_prev, [false; 3]) {
+                    let r = (t - (q + m.deviation_um(q, s, Components::All).unwrap() * 1e-3))
+                        .norm()
+                        * 1e3;
+                    all.push((bits.count_ones(), r, bits, q, s));
+                }
+            }
+            all.sort_by(|a, b| (a.0, a.1, a.2).partial_cmp(&(b.0, b.1, b.2)).unwrap());
+            let want = all.first().map(|c| (c.3, c.4));
+            let got = search_states(
+                &mut AxisCells::default(),
+                &m,
+                Method::Exact,
+                t,
+                (q_prev, s_prev),
+                (&quantize, &[]),
+                keep,
+            )
+            .unwrap()
+            .map(|(_, q, s)| (q, s));
+            assert_eq!(got, want, "{t:?} from {q_prev:?} {s_prev:?}, keep {keep:?}");
+            found += usize::from(got.is_some());
+            two_flips += usize::from(all.first().is_some_and(|c| c.0 >= 2));
+            kept_out += usize::from(keep.contains(&true) && got.is_some());
+        }
+        assert!(
+            found > 1000 && two_flips > 20 && kept_out > 100,
+            "{found} {two_flips} {kept_out}"
+        );
+    }
+
 
     /// The search takes a state's solve from `tried` as the solve itself
     /// gives it: on the axis tables with backlash and a transverse table
