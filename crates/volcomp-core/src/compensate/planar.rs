@@ -27,7 +27,7 @@
 
 use super::arcs::{piece_center, sub_arc};
 use super::frame::Frame;
-use super::lines::ArcWords;
+use super::lines::{ArcWords, OutMode};
 use super::walk::Place;
 use super::{command_error, State};
 use crate::error::CompensationError;
@@ -91,6 +91,44 @@ pub(super) struct PlanarEnd {
     pub(super) radius_style: bool,
     pub(super) turn_tolerance: Option<f64>,
     pub(super) mode: PathMode,
+    /// `Some(m)` where the last piece is the arc's whole line (an arc of one
+    /// piece, [`plain_arc_line`]): its planar variant is written as two
+    /// inserted arcs after output motion mode `m`.
+    pub(super) mode_before: Option<Option<OutMode>>,
+}
+
+/// Whether an arc line of one piece may be written as two inserted arcs
+/// (its planar variant, [`State::planar_end_text`]) without losing
+/// anything: its words are G2/G3 and the end and centre words only, and it
+/// carries no comment and no block delete.
+pub(super) fn plain_arc_line<'a>(
+    mut words: impl Iterator<Item = &'a volcomp_gcode::lexer::Word>,
+    content: &[u8],
+) -> bool {
+    !content.iter().any(|b| matches!(b, b'(' | b';' | b'/'))
+        && words.all(|w| match w.letter {
+            b'G' => w.value == 2.0 || w.value == 3.0,
+            b'X' | b'Y' | b'Z' | b'I' | b'J' | b'K' | b'R' => true,
+            _ => false,
+        })
+}
+
+/// Whether a line's first piece, commanded from `from`, keeps the normal
+/// coordinate (axis `w`) of its start: LinuxCNC's blend arc between an arc
+/// and a line needs the line in the arc's plane (tp.c
+/// `tpCreateArcLineBlend`: the corner's binormal colinear with the arc's
+/// normal).
+pub(super) fn line_starts_planar(commands: &[(Vec3, Option<Vec3>)], from: Vec3, w: usize) -> bool {
+    matches!(commands.first(), Some((q, None)) if q[w] == from[w])
+}
+
+/// Whether `m` is a line of feed that does not move `plane`'s normal axis
+/// (nominally in the plane).
+fn planar_line(m: &Motion, plane: volcomp_gcode::Plane) -> bool {
+    let (u, v, w) = plane.axes();
+    matches!(m.kind, MotionKind::Feed)
+        && m.start[w] == m.end[w]
+        && (m.start[u] != m.end[u] || m.start[v] != m.end[v])
 }
 
 /// Whether a motion is an arc of `plane` without a rise of its own (a
@@ -104,6 +142,21 @@ pub(super) fn planar_arc(m: &Motion, plane: volcomp_gcode::Plane) -> Option<Arc>
         }
         _ => None,
     }
+}
+
+/// The shortest part of `arc` (mm) written as an arc: its sagitta
+/// `r (1 − cos(θ/2))` over `chord_tolerance_mm` (as `arcs::sagitta_mm`
+/// measures it), with a hundredth to spare; a shorter part is written as a
+/// chord, whose ends turn from the arc's tangent by half its sweep.
+/// Infinite where no part of the arc is that deep.
+pub(super) fn shortest_arc_mm(arc: &Arc, chord_tolerance_mm: f64) -> f64 {
+    let r = arc.start_radius().max(arc.end_radius());
+    let sweep = arc.sweep_rad.abs();
+    if !(r > chord_tolerance_mm && sweep > 0.0) {
+        return f64::INFINITY;
+    }
+    let sweep_min = 2.0 * (1.0 - chord_tolerance_mm / r).acos();
+    1.01 * sweep_min / sweep * arc.length()
 }
 
 /// Whether the normal coordinate `split` lies between the piece's ends `a`
@@ -162,12 +215,20 @@ impl State<'_> {
                 .map(|s| s.q_mm)
                 .map_err(|source| command_error(model, file, line, t, source))
         };
-        // At most half the piece: both parts stay arcs (a part of the
-        // shortest length would be written as a chord).
-        let mut d = reach_mm.min(0.5 * piece_mm);
+        // Each part stays an arc: no shorter than the shortest piece nor
+        // than the shortest part whose sagitta exceeds the chord tolerance
+        // (shorter, it would be written as a chord: `piece_center`). A
+        // reach shorter than that is lengthened to it: LinuxCNC's blend
+        // takes what it needs of the planar part and runs on along it.
+        let floor_mm = min_mm.max(shortest_arc_mm(arc, options.chord_tolerance_mm));
+        // At most half the piece: both parts stay arcs.
+        let mut d = reach_mm.min(0.5 * piece_mm).max(floor_mm);
+        if piece_mm - d < floor_mm {
+            return Ok(None);
+        }
         let mut found = None;
         for _ in 0..TRIES {
-            if d.is_nan() || d < min_mm {
+            if d.is_nan() || d < floor_mm {
                 return Ok(None);
             }
             let at = match side {
@@ -301,7 +362,12 @@ impl State<'_> {
         next: Option<&Motion>,
     ) -> Option<(Vec<u8>, f64)> {
         let next = next?;
-        planar_arc(next, p.arc.plane)?;
+        // The next motion: an arc of the plane (`tpCreateArcArcBlend`) or a
+        // line in it (`tpCreateArcLineBlend`, src/emc/tp/tp.c).
+        let to_line = planar_line(next, p.arc.plane);
+        if !to_line {
+            planar_arc(next, p.arc.plane)?;
+        }
         if !matches!(next.path_mode, PathMode::Blend { .. })
             || !matches!(p.mode, PathMode::Blend { .. })
         {
@@ -323,7 +389,11 @@ impl State<'_> {
         if !run.corner_before || run.protect_mm.is_nan() || run.protect_mm <= 0.0 {
             return None;
         }
-        if p.from_mm[p.arc.plane.axes().2] == p.to_mm[p.arc.plane.axes().2] {
+        let w = p.arc.plane.axes().2;
+        if to_line {
+            self.planar_line_normal = Some(w);
+        }
+        if p.from_mm[w] == p.to_mm[w] {
             // Planar as solved: written as it is.
             self.planar_before = true;
             return None;
@@ -345,6 +415,15 @@ impl State<'_> {
                 (p.radius_style, p.turn_tolerance),
             )
             .ok()??;
+        let reach_mm = 0.5 * run.protect_mm;
+        if to_line && (1.0 - split.at) * p.arc.length() < reach_mm * (1.0 - 1e-9) {
+            // A planar part shorter than the blend's reach shortens the
+            // segment the blend arc may take (blendmath.c
+            // `blendInit3FromArcLine`: the arc's length bounds it); at an arc
+            // to a line, measured on the planner model, that runs slower
+            // than the parabolic blend of the corner as solved.
+            return None;
+        }
         let place = Place {
             frame: &p.frame,
             style: p.style,
@@ -352,6 +431,10 @@ impl State<'_> {
             ending: &p.line_ending,
         };
         let (mode, lines_out) = (self.mode, self.summary.lines_out);
+        if let Some(before) = p.mode_before {
+            // The whole line is replaced: written after the mode before it.
+            self.mode = before;
+        }
         let start = self.buf.len();
         self.write_inserted_arc(&place, p.from_mm, split.q_mm, &split.words[0], "");
         self.write_inserted_arc(
