@@ -1222,7 +1222,7 @@ impl<'w> State<'w> {
         // a G64 corner with the next arc (compensate/planar.rs).
         if let (Some(arc), true) = (
             planar_arc,
-            (n >= 2 || (n == 1 && planar::plain_arc_line(line.words(), content)))
+            n >= 1
                 && pieces.len() == n
                 && stop_word.is_none()
                 && interp.feed_mode() != FeedMode::InverseTime
@@ -1235,7 +1235,10 @@ impl<'w> State<'w> {
                     .get(n - 1)
                     .is_some_and(|w| w.center.is_some() && w.second.is_none())
                 && (self.buf[..last_piece.start].ends_with(b"\n")
-                    || (n == 1 && last_piece.start == 0)),
+                    || (n == 1 && last_piece.start == 0))
+                // Last: it reads the line's text.
+                && (n >= 2
+                    || (planar_arc.is_some() && planar::plain_arc_line(line.words(), content))),
         ) {
             let planar = planar::PlanarEnd {
                 arc,

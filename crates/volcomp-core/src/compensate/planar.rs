@@ -19,6 +19,11 @@
 //! split; that is bounded by the contour tolerance (the planar part is
 //! shortened to keep within it, or the piece is kept as solved).
 //!
+//! A corner from an arc to a line in its plane is alike (tp.c
+//! `tpCreateArcLineBlend`: the binormal colinear with the arc's normal): the
+//! arc's end is written planar where the line's first piece is planar as
+//! solved and the planar part covers the blend's reach.
+//!
 //! The arc after the corner knows the corner when it is written (its
 //! start side). The arc before it does not: its line is held back
 //! (compensate/idle.rs, `IdleHold`) with what its last piece's planar
@@ -403,6 +408,12 @@ impl State<'_> {
             tool_length_offset_mm: p.tool_length_offset_mm,
         };
         let tolerance_mm = self.walk.options.arc_tolerances_mm(p.mode).0;
+        let reach_mm = 0.5 * run.protect_mm;
+        if to_line && 0.5 * (1.0 - p.piece_from) * p.arc.length() < reach_mm * (1.0 - 1e-9) {
+            // Half the piece (the longest planar part) is shorter than the
+            // reach: refused below; known before the split is solved.
+            return None;
+        }
         let split = self
             .planar_split(
                 &model,
@@ -415,7 +426,6 @@ impl State<'_> {
                 (p.radius_style, p.turn_tolerance),
             )
             .ok()??;
-        let reach_mm = 0.5 * run.protect_mm;
         if to_line && (1.0 - split.at) * p.arc.length() < reach_mm * (1.0 - 1e-9) {
             // A planar part shorter than the blend's reach shortens the
             // segment the blend arc may take (blendmath.c
@@ -494,6 +504,31 @@ mod tests {
         assert!(between(0.0, 1.0, 1.0));
         assert!(!between(0.0, 1.5, 1.0));
         assert!(!between(0.0, -0.1, 1.0));
+    }
+
+    #[test]
+    fn the_shortest_arc_part_has_a_sagitta_over_the_chord_tolerance() {
+        let quarter = Arc {
+            start: Vec3::new(0.0, 0.0, 0.0),
+            end: Vec3::new(10.0, 10.0, 0.0),
+            center: Vec3::new(0.0, 10.0, 0.0),
+            plane: volcomp_gcode::Plane::Xy,
+            sweep_rad: std::f64::consts::FRAC_PI_2,
+        };
+        // R10, 0.1 µm: sweep 2·acos(1 − 1e-5) ≈ 2·√(2e-5) = 8.9443e-3 rad,
+        // 0.089443 mm of arc, and a hundredth more (by hand).
+        let d = shortest_arc_mm(&quarter, 1e-4);
+        assert!((d - 1.01 * 0.089443).abs() < 1e-6, "{d}");
+        // Its sagitta, r (1 − cos(θ/2)), is over the tolerance.
+        let theta = d / 10.0;
+        assert!(10.0 * (1.0 - (0.5 * theta).cos()) > 1e-4);
+        // No part of a radius under the tolerance is an arc.
+        let tiny = Arc {
+            end: Vec3::new(5e-5, 5e-5, 0.0),
+            center: Vec3::new(0.0, 5e-5, 0.0),
+            ..quarter
+        };
+        assert_eq!(shortest_arc_mm(&tiny, 1e-4), f64::INFINITY);
     }
 
     #[test]
