@@ -447,6 +447,24 @@ impl State<'_> {
         }
         let start = self.buf.len();
         self.write_inserted_arc(&place, p.from_mm, split.q_mm, &split.words[0], "");
+        if p.mode_before.is_some() && self.walk.options.trace_comments {
+            // The first part stands for the program's own line: without a
+            // trace comment, as the line's first piece is written (a tagged
+            // line continues the untagged one before it).
+            let mut tag = self.walk.sep.as_bytes().to_vec();
+            tag.extend_from_slice(b"(volcomp L");
+            volcomp_gcode::number::format_uint_bytes(p.line, &mut tag);
+            tag.push(b')');
+            let ending: &[u8] = if p.line_ending.is_empty() {
+                b"\n"
+            } else {
+                &p.line_ending
+            };
+            let body_end = self.buf.len().saturating_sub(ending.len());
+            if self.buf[start..body_end].ends_with(&tag) {
+                self.buf.drain(body_end - tag.len()..body_end);
+            }
+        }
         self.write_inserted_arc(
             &place.with_ending(&p.ending),
             split.q_mm,
