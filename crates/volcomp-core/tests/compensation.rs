@@ -1945,7 +1945,7 @@ fn under_g64_p_a_planar_part_shorter_than_an_arc_is_lengthened_and_the_corner_ke
     // ends planar as solved on this map), and no longer than needed.
     let (s, e) = moves[k + 1];
     let chord = ((e.x - s.x).powi(2) + (e.y - s.y).powi(2)).sqrt();
-    assert!(chord >= 0.0894 && chord < 0.2, "{chord} mm:\n{out}");
+    assert!((0.0894..0.2).contains(&chord), "{chord} mm:\n{out}");
     assert_ne!(moves[k + 2].0.z, moves[k + 2].1.z, "{out}");
     let (e, e_planar) = (planner_motion(&out), planner_motion(&without_z(&out)));
     assert_eq!(e.counts.parabolic_blends, 0, "{out}");
