@@ -261,6 +261,7 @@ impl<'w> State<'w> {
             planar_before: false,
             planar_pending: None,
             planar_start_kept: false,
+            planar_line_normal: None,
             planar_corner_normal: None,
             approach_pending: None,
         }
@@ -489,6 +490,7 @@ impl<'w> State<'w> {
         check_target_count(&motion, &line_options, file, ev.number)?;
         let run = points::Run::of(&motion, self.last_tangent, &options.planner);
         let planar_before = std::mem::take(&mut self.planar_before);
+        let planar_line_normal = self.planar_line_normal.take();
         self.planar_start_kept = false;
         // The tail the block before held back (arcs.rs, `HeldEnd`): the
         // S-curve at this arc's start begins there where the original runs
@@ -822,6 +824,15 @@ impl<'w> State<'w> {
                 ),
             )?;
         }
+        // A line after a G64 corner whose arc before may end planar: its
+        // first piece planar keeps LinuxCNC's blend arc (planar.rs).
+        if let (Some(w), None, true) = (
+            planar_line_normal,
+            &arc_nominal,
+            planar_before && run.corner_before && run.protect_mm > 0.0 && approach.is_none(),
+        ) {
+            self.planar_start_kept = planar::line_starts_planar(&commands, q_line_start, w);
+        }
         // Extra axes (A … W) of a split motion: each segment carries its share.
         let mut extra_plan = extra::ExtraPlan::new(
             motion.extra,
@@ -832,6 +843,7 @@ impl<'w> State<'w> {
         );
         // Write: the commands were solved from the position before the line.
         let mut pos = q_line_start;
+        let mode_before = self.mode;
         if let (Some(t), Some(arc)) = (&taken, &arc_nominal) {
             pos = self.write_join_split(
                 t,
@@ -1210,7 +1222,7 @@ impl<'w> State<'w> {
         // a G64 corner with the next arc (compensate/planar.rs).
         if let (Some(arc), true) = (
             planar_arc,
-            n >= 2
+            n >= 1
                 && pieces.len() == n
                 && stop_word.is_none()
                 && interp.feed_mode() != FeedMode::InverseTime
@@ -1222,12 +1234,21 @@ impl<'w> State<'w> {
                 && arc_words
                     .get(n - 1)
                     .is_some_and(|w| w.center.is_some() && w.second.is_none())
-                && self.buf[..last_piece.start].ends_with(b"\n"),
+                && (self.buf[..last_piece.start].ends_with(b"\n")
+                    || (n == 1 && last_piece.start == 0))
+                // Last: it reads the line's text.
+                && (n >= 2
+                    || (planar_arc.is_some() && planar::plain_arc_line(line.words(), content))),
         ) {
             let planar = planar::PlanarEnd {
                 arc,
-                piece_from: pieces[n - 2],
-                from_mm: commands[n - 2].0,
+                piece_from: if n >= 2 { pieces[n - 2] } else { 0.0 },
+                from_mm: if n >= 2 {
+                    commands[n - 2].0
+                } else {
+                    q_line_start
+                },
+                mode_before: if n >= 2 { None } else { Some(mode_before) },
                 to_mm: commands[n - 1].0,
                 state: self.states[n - 1],
                 frame,
@@ -1667,6 +1688,9 @@ struct State<'w> {
     planar_pending: Option<planar::PendingEnd>,
     /// The last arc's first piece is planar at the corner before it.
     planar_start_kept: bool,
+    /// The arc before may end planar at a G64 corner with a line
+    /// (compensate/planar.rs): the normal axis of its plane.
+    planar_line_normal: Option<usize>,
     /// While an arc after a planar G64 corner is solved: its plane's
     /// normal axis (compensate/turn_back.rs).
     planar_corner_normal: Option<usize>,

@@ -19,6 +19,11 @@
 //! split; that is bounded by the contour tolerance (the planar part is
 //! shortened to keep within it, or the piece is kept as solved).
 //!
+//! A corner from an arc to a line in its plane is alike (tp.c
+//! `tpCreateArcLineBlend`: the binormal colinear with the arc's normal): the
+//! arc's end is written planar where the line's first piece is planar as
+//! solved and the planar part covers the blend's reach.
+//!
 //! The arc after the corner knows the corner when it is written (its
 //! start side). The arc before it does not: its line is held back
 //! (compensate/idle.rs, `IdleHold`) with what its last piece's planar
@@ -27,7 +32,7 @@
 
 use super::arcs::{piece_center, sub_arc};
 use super::frame::Frame;
-use super::lines::ArcWords;
+use super::lines::{ArcWords, OutMode};
 use super::walk::Place;
 use super::{command_error, State};
 use crate::error::CompensationError;
@@ -91,6 +96,44 @@ pub(super) struct PlanarEnd {
     pub(super) radius_style: bool,
     pub(super) turn_tolerance: Option<f64>,
     pub(super) mode: PathMode,
+    /// `Some(m)` where the last piece is the arc's whole line (an arc of one
+    /// piece, [`plain_arc_line`]): its planar variant is written as two
+    /// inserted arcs after output motion mode `m`.
+    pub(super) mode_before: Option<Option<OutMode>>,
+}
+
+/// Whether an arc line of one piece may be written as two inserted arcs
+/// (its planar variant, [`State::planar_end_text`]) without losing
+/// anything: its words are G2/G3 and the end and centre words only, and it
+/// carries no comment and no block delete.
+pub(super) fn plain_arc_line<'a>(
+    mut words: impl Iterator<Item = &'a volcomp_gcode::lexer::Word>,
+    content: &[u8],
+) -> bool {
+    !content.iter().any(|b| matches!(b, b'(' | b';' | b'/'))
+        && words.all(|w| match w.letter {
+            b'G' => w.value == 2.0 || w.value == 3.0,
+            b'X' | b'Y' | b'Z' | b'I' | b'J' | b'K' | b'R' => true,
+            _ => false,
+        })
+}
+
+/// Whether a line's first piece, commanded from `from`, keeps the normal
+/// coordinate (axis `w`) of its start: LinuxCNC's blend arc between an arc
+/// and a line needs the line in the arc's plane (tp.c
+/// `tpCreateArcLineBlend`: the corner's binormal colinear with the arc's
+/// normal).
+pub(super) fn line_starts_planar(commands: &[(Vec3, Option<Vec3>)], from: Vec3, w: usize) -> bool {
+    matches!(commands.first(), Some((q, None)) if q[w] == from[w])
+}
+
+/// Whether `m` is a line of feed that does not move `plane`'s normal axis
+/// (nominally in the plane).
+fn planar_line(m: &Motion, plane: volcomp_gcode::Plane) -> bool {
+    let (u, v, w) = plane.axes();
+    matches!(m.kind, MotionKind::Feed)
+        && m.start[w] == m.end[w]
+        && (m.start[u] != m.end[u] || m.start[v] != m.end[v])
 }
 
 /// Whether a motion is an arc of `plane` without a rise of its own (a
@@ -104,6 +147,21 @@ pub(super) fn planar_arc(m: &Motion, plane: volcomp_gcode::Plane) -> Option<Arc>
         }
         _ => None,
     }
+}
+
+/// The shortest part of `arc` (mm) written as an arc: its sagitta
+/// `r (1 − cos(θ/2))` over `chord_tolerance_mm` (as `arcs::sagitta_mm`
+/// measures it), with a hundredth to spare; a shorter part is written as a
+/// chord, whose ends turn from the arc's tangent by half its sweep.
+/// Infinite where no part of the arc is that deep.
+pub(super) fn shortest_arc_mm(arc: &Arc, chord_tolerance_mm: f64) -> f64 {
+    let r = arc.start_radius().max(arc.end_radius());
+    let sweep = arc.sweep_rad.abs();
+    if !(r > chord_tolerance_mm && sweep > 0.0) {
+        return f64::INFINITY;
+    }
+    let sweep_min = 2.0 * (1.0 - chord_tolerance_mm / r).acos();
+    1.01 * sweep_min / sweep * arc.length()
 }
 
 /// Whether the normal coordinate `split` lies between the piece's ends `a`
@@ -162,12 +220,20 @@ impl State<'_> {
                 .map(|s| s.q_mm)
                 .map_err(|source| command_error(model, file, line, t, source))
         };
-        // At most half the piece: both parts stay arcs (a part of the
-        // shortest length would be written as a chord).
-        let mut d = reach_mm.min(0.5 * piece_mm);
+        // Each part stays an arc: no shorter than the shortest piece nor
+        // than the shortest part whose sagitta exceeds the chord tolerance
+        // (shorter, it would be written as a chord: `piece_center`). A
+        // reach shorter than that is lengthened to it: LinuxCNC's blend
+        // takes what it needs of the planar part and runs on along it.
+        let floor_mm = min_mm.max(shortest_arc_mm(arc, options.chord_tolerance_mm));
+        // At most half the piece: both parts stay arcs.
+        let mut d = reach_mm.min(0.5 * piece_mm).max(floor_mm);
+        if piece_mm - d < floor_mm {
+            return Ok(None);
+        }
         let mut found = None;
         for _ in 0..TRIES {
-            if d.is_nan() || d < min_mm {
+            if d.is_nan() || d < floor_mm {
                 return Ok(None);
             }
             let at = match side {
@@ -301,7 +367,12 @@ impl State<'_> {
         next: Option<&Motion>,
     ) -> Option<(Vec<u8>, f64)> {
         let next = next?;
-        planar_arc(next, p.arc.plane)?;
+        // The next motion: an arc of the plane (`tpCreateArcArcBlend`) or a
+        // line in it (`tpCreateArcLineBlend`, src/emc/tp/tp.c).
+        let to_line = planar_line(next, p.arc.plane);
+        if !to_line {
+            planar_arc(next, p.arc.plane)?;
+        }
         if !matches!(next.path_mode, PathMode::Blend { .. })
             || !matches!(p.mode, PathMode::Blend { .. })
         {
@@ -323,7 +394,11 @@ impl State<'_> {
         if !run.corner_before || run.protect_mm.is_nan() || run.protect_mm <= 0.0 {
             return None;
         }
-        if p.from_mm[p.arc.plane.axes().2] == p.to_mm[p.arc.plane.axes().2] {
+        let w = p.arc.plane.axes().2;
+        if to_line {
+            self.planar_line_normal = Some(w);
+        }
+        if p.from_mm[w] == p.to_mm[w] {
             // Planar as solved: written as it is.
             self.planar_before = true;
             return None;
@@ -333,6 +408,12 @@ impl State<'_> {
             tool_length_offset_mm: p.tool_length_offset_mm,
         };
         let tolerance_mm = self.walk.options.arc_tolerances_mm(p.mode).0;
+        let reach_mm = 0.5 * run.protect_mm;
+        if to_line && 0.5 * (1.0 - p.piece_from) * p.arc.length() < reach_mm * (1.0 - 1e-9) {
+            // Half the piece (the longest planar part) is shorter than the
+            // reach: refused below; known before the split is solved.
+            return None;
+        }
         let split = self
             .planar_split(
                 &model,
@@ -345,6 +426,14 @@ impl State<'_> {
                 (p.radius_style, p.turn_tolerance),
             )
             .ok()??;
+        if to_line && (1.0 - split.at) * p.arc.length() < reach_mm * (1.0 - 1e-9) {
+            // A planar part shorter than the blend's reach shortens the
+            // segment the blend arc may take (blendmath.c
+            // `blendInit3FromArcLine`: the arc's length bounds it); at an arc
+            // to a line, measured on the planner model, that runs slower
+            // than the parabolic blend of the corner as solved.
+            return None;
+        }
         let place = Place {
             frame: &p.frame,
             style: p.style,
@@ -352,8 +441,30 @@ impl State<'_> {
             ending: &p.line_ending,
         };
         let (mode, lines_out) = (self.mode, self.summary.lines_out);
+        if let Some(before) = p.mode_before {
+            // The whole line is replaced: written after the mode before it.
+            self.mode = before;
+        }
         let start = self.buf.len();
         self.write_inserted_arc(&place, p.from_mm, split.q_mm, &split.words[0], "");
+        if p.mode_before.is_some() && self.walk.options.trace_comments {
+            // The first part stands for the program's own line: without a
+            // trace comment, as the line's first piece is written (a tagged
+            // line continues the untagged one before it).
+            let mut tag = self.walk.sep.as_bytes().to_vec();
+            tag.extend_from_slice(b"(volcomp L");
+            volcomp_gcode::number::format_uint_bytes(p.line, &mut tag);
+            tag.push(b')');
+            let ending: &[u8] = if p.line_ending.is_empty() {
+                b"\n"
+            } else {
+                &p.line_ending
+            };
+            let body_end = self.buf.len().saturating_sub(ending.len());
+            if self.buf[start..body_end].ends_with(&tag) {
+                self.buf.drain(body_end - tag.len()..body_end);
+            }
+        }
         self.write_inserted_arc(
             &place.with_ending(&p.ending),
             split.q_mm,
@@ -411,6 +522,31 @@ mod tests {
         assert!(between(0.0, 1.0, 1.0));
         assert!(!between(0.0, 1.5, 1.0));
         assert!(!between(0.0, -0.1, 1.0));
+    }
+
+    #[test]
+    fn the_shortest_arc_part_has_a_sagitta_over_the_chord_tolerance() {
+        let quarter = Arc {
+            start: Vec3::new(0.0, 0.0, 0.0),
+            end: Vec3::new(10.0, 10.0, 0.0),
+            center: Vec3::new(0.0, 10.0, 0.0),
+            plane: volcomp_gcode::Plane::Xy,
+            sweep_rad: std::f64::consts::FRAC_PI_2,
+        };
+        // R10, 0.1 µm: sweep 2·acos(1 − 1e-5) ≈ 2·√(2e-5) = 8.9443e-3 rad,
+        // 0.089443 mm of arc, and a hundredth more (by hand).
+        let d = shortest_arc_mm(&quarter, 1e-4);
+        assert!((d - 1.01 * 0.089443).abs() < 1e-6, "{d}");
+        // Its sagitta, r (1 − cos(θ/2)), is over the tolerance.
+        let theta = d / 10.0;
+        assert!(10.0 * (1.0 - (0.5 * theta).cos()) > 1e-4);
+        // No part of a radius under the tolerance is an arc.
+        let tiny = Arc {
+            end: Vec3::new(5e-5, 5e-5, 0.0),
+            center: Vec3::new(0.0, 5e-5, 0.0),
+            ..quarter
+        };
+        assert_eq!(shortest_arc_mm(&tiny, 1e-4), f64::INFINITY);
     }
 
     #[test]
