@@ -1125,6 +1125,46 @@ fn a_one_block_circle_takes_up_by_mode() {
     assert!(contour <= 1.0, "{contour}");
 }
 
+#[test]
+fn under_g61_a_quarter_point_s_curve_runs_as_fast_as_its_tolerance_allows() {
+    // A one-block circle of R12 at F6000, X's band 4 µm: at (−12, 0) the
+    // path runs on and the take-up is an S-curve within 0.34 µm (0.85 of
+    // the 0.4 µm a take-up the machine runs through may leave). LinuxCNC
+    // runs its tighter arc of radius ρ at √(a_n ρ), a_n = √0.75 · 1000
+    // mm/s² (pmCircleActualMaxVel, blendmath.c). A scan of every window
+    // 16 times finer than ×1.25 finds the fastest such S-curve at
+    // 61.9 mm/s (scurve.rs' unit test); the ×1.25 grid alone wrote one of
+    // R 3.16 mm, 52.3 mm/s. The tool stays within the tolerance.
+    let map = x_backlash_map(0.0);
+    let program = "G61\nG0 X0 Y0 Z0\nG1 X12 F6000\nG3 X12 Y0 I-12 J0\nM2\n";
+    let (out, summary) = compensate_summary(program, &map, CompensateOptions::default());
+    assert_eq!((summary.take_ups, summary.take_ups_folded), (1, 1), "{out}");
+    let word = |line: &str, letter: char| {
+        line.split_whitespace()
+            .find(|w| w.starts_with(letter))
+            .map_or(0.0, |w| w[1..].parse::<f64>().unwrap())
+    };
+    let tightest_mm = out
+        .lines()
+        .map(|l| l.split('(').next().unwrap())
+        .filter(|l| l.starts_with("G2") || l.starts_with("G3"))
+        .map(|l| word(l, 'I').hypot(word(l, 'J')))
+        .fold(f64::INFINITY, f64::min);
+    let a_n = 1000.0 * 0.75f64.sqrt();
+    let speed = (a_n * tightest_mm).sqrt();
+    assert!(
+        speed >= 0.98 * 61.9,
+        "{speed} mm/s (R {tightest_mm}): {out}"
+    );
+    let report = against_original(&out, program, &map);
+    assert!(
+        report.contour_max_um < 0.4 + 0.01,
+        "{}: {out}",
+        report.contour_max_um
+    );
+    assert_joins_tangent(&arc_tangents(&out), &out);
+}
+
 /// The unit tangents at the start and end of the XY arc from `p` to `next`
 /// about `c` (counter-clockwise if `ccw`, less than a turn). LinuxCNC runs
 /// an arc whose ends lie at different radii as a spiral, the radius linear
