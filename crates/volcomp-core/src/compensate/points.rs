@@ -662,7 +662,11 @@ fn line_ramp_length_mm(delta: Vec3, kink_tolerance: [f64; 3], shortest_mm: f64) 
     (0..3).fold(0.0f64, |m, i| {
         let kappa = (RAMP_SHARE * kink_tolerance[i]).max(1e-300);
         let straight = delta[i].abs() / kappa;
-        m.max((4.0 * delta[i].abs() * shortest_mm / kappa).sqrt().min(straight))
+        m.max(
+            (4.0 * delta[i].abs() * shortest_mm / kappa)
+                .sqrt()
+                .min(straight),
+        )
     })
 }
 
@@ -1604,7 +1608,13 @@ impl State<'_> {
                     );
                 let found = (tu != self.q_out)
                     .then(|| {
-                        super::ramp_centre::centred_start(start, targets.as_slice(), index, need, shortest)
+                        super::ramp_centre::centred_start(
+                            start,
+                            targets.as_slice(),
+                            index,
+                            need,
+                            shortest,
+                        )
                     })
                     .flatten();
                 if let Some(c) = found {
