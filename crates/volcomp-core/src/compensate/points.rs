@@ -374,7 +374,9 @@ fn plan_ramp(
     ),
     (smooth, judged): (bool, bool),
 ) -> Result<Option<RampPlan>, ModelError> {
-    let parabolic = smooth && matches!(leads, Leads::Lines);
+    // (Two parabolas on a ramp centred on a reversal along a line, the one
+    // ramp of a line given its length: compensate/ramp_centre.rs.)
+    let parabolic = smooth && matches!(leads, Leads::Lines) && length_mm.is_some();
     let need = if parabolic {
         line_ramp_length_mm(delta, kink_tolerance, shortest_mm)
     } else {
@@ -1572,77 +1574,6 @@ impl State<'_> {
                     }
                 }
             }
-            // G61 on a line: a reversal inside the line taken up on a ramp
-            // centred on it (compensate/ramp_centre.rs), where the line
-            // before it is quiet (no take-up, ramp or other state).
-            if centre_lines
-                && back_to.is_none()
-                && ramp.is_none()
-                && ahead.is_none()
-                && !was_forced
-                && index >= 1
-                && point.reversed.iter().any(|r| *r)
-                && !centred_tried.contains(&t_prev)
-            {
-                centred_tried.push(t_prev);
-                let tu = take_up_command(
-                    &mut cells,
-                    model,
-                    self.q_out,
-                    self.s,
-                    point.s,
-                    point.reversed,
-                    (point.q_mm, true),
-                    frame,
-                )
-                .map_err(|source| model_error(file, line, source))?;
-                let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
-                let shortest = shortest_ramp_piece_mm(options, v_mm_s);
-                // A tenth more than the ramp needs here: the take-up at
-                // the ramp's start (solved there) is a little different.
-                let need = 1.1
-                    * line_ramp_length_mm(
-                        tu - self.q_out,
-                        options.planner.tangent_tolerance(v_mm_s, false),
-                        shortest,
-                    );
-                let found = (tu != self.q_out)
-                    .then(|| {
-                        super::ramp_centre::centred_start(
-                            start,
-                            targets.as_slice(),
-                            index,
-                            need,
-                            shortest,
-                        )
-                    })
-                    .flatten();
-                if let Some(c) = found {
-                    let p = c.from;
-                    // (A take-up at the start of the piece the ramp's
-                    // start is inserted in comes before the ramp: solved
-                    // again there as it was.)
-                    let first = p + usize::from(c.insert.is_some());
-                    let quiet = (p..=index).all(|j| !history[j].ramp_on)
-                        && (first..index).all(|j| {
-                            commands[j].1.is_none() && self.states[j] == self.states[first]
-                        });
-                    if quiet {
-                        ahead = Some(Ahead {
-                            index: if c.insert.is_some() { p + 1 } else { p },
-                            from: p,
-                            axes: [0, 1, 2].map(|a| point.reversed[a].then_some(point.s[a])),
-                            length_mm: c.ramp_mm,
-                            // No S-curve: the axes are held on the ramp
-                            // only (`ahead_hold` finds no transition there
-                            // and ends).
-                            transition: usize::MAX,
-                            centred: true,
-                        });
-                        back_to = Some((p, c.insert.map(|pt| (pt, 0.0))));
-                    }
-                }
-            }
             if let Some((p, insert)) = back_to {
                 self.go_back(&history[p], p, (&mut commands, &mut records));
                 history.truncate(p + 1);
@@ -2216,6 +2147,92 @@ impl State<'_> {
                     // the bound (at most the reversal value; within P).
                     take_up = None;
                     self.note_fold(bound);
+                }
+            }
+            // G61 on a line: a reversal inside the line whose take-up is
+            // still a block (no fold, ramp or hold took it: a stop) taken
+            // up on a ramp centred on it instead (compensate/ramp_centre.rs),
+            // where the line before it is quiet (no take-up, ramp or other
+            // state).
+            if centre_lines
+                && take_up.is_some()
+                && ramp.is_none()
+                && ahead.is_none()
+                && !was_forced
+                && index >= 1
+                && point.reversed.iter().any(|r| *r)
+                && !centred_tried.contains(&t_prev)
+            {
+                centred_tried.push(t_prev);
+                let tu = take_up_command(
+                    &mut cells,
+                    model,
+                    self.q_out,
+                    self.s,
+                    point.s,
+                    point.reversed,
+                    (point.q_mm, true),
+                    frame,
+                )
+                .map_err(|source| model_error(file, line, source))?;
+                let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+                let shortest = shortest_ramp_piece_mm(options, v_mm_s);
+                // A tenth more than the ramp needs here: the take-up at
+                // the ramp's start (solved there) is a little different.
+                let need = 1.1
+                    * line_ramp_length_mm(
+                        tu - self.q_out,
+                        options.planner.tangent_tolerance(v_mm_s, false),
+                        shortest,
+                    );
+                let found = (tu != self.q_out)
+                    .then(|| {
+                        super::ramp_centre::centred_start(
+                            start,
+                            targets.as_slice(),
+                            index,
+                            need,
+                            shortest,
+                        )
+                    })
+                    .flatten();
+                if let Some(c) = found {
+                    let p = c.from;
+                    // (A take-up at the start of the piece the ramp's
+                    // start is inserted in comes before the ramp: solved
+                    // again there as it was.)
+                    let first = p + usize::from(c.insert.is_some());
+                    let quiet = (p..=index).all(|j| !history[j].ramp_on)
+                        && (first..index).all(|j| {
+                            commands[j].1.is_none() && self.states[j] == self.states[first]
+                        });
+                    if quiet {
+                        ahead = Some(Ahead {
+                            index: if c.insert.is_some() { p + 1 } else { p },
+                            from: p,
+                            axes: [0, 1, 2].map(|a| point.reversed[a].then_some(point.s[a])),
+                            length_mm: c.ramp_mm,
+                            // No S-curve: the axes are held on the ramp
+                            // only (`ahead_hold` finds no transition there
+                            // and ends).
+                            transition: usize::MAX,
+                            centred: true,
+                        });
+                        // Solved again from the ramp's start (as for a
+                        // take-up moved ahead of an S-curve, above).
+                        self.go_back(&history[p], p, (&mut commands, &mut records));
+                        history.truncate(p + 1);
+                        let h = &history[p];
+                        (t_prev, last_lead, ramp_inserted) =
+                            (h.t_prev, h.last_lead, h.ramp_inserted);
+                        (ramp, forced, ahead_hold) = (None, None, None);
+                        ahead_saved = Some((targets.clone(), None, transitions.clone()));
+                        if let Some(pt) = c.insert {
+                            targets.insert(p, pt);
+                        }
+                        index = p;
+                        continue;
+                    }
                 }
             }
             // A take-up moved ahead that was not spread over its ramp (or
