@@ -18,6 +18,7 @@ mod line_length;
 mod mirror_study;
 mod planner_linuxcnc;
 mod probe;
+mod ramp_centre;
 mod random_programs;
 mod simulate_pairing;
 mod straightness;

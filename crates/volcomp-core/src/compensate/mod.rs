@@ -34,6 +34,7 @@ mod options;
 mod planar;
 mod points;
 mod ramp_band;
+mod ramp_centre;
 mod ramp_cross;
 mod scurve;
 mod size;

@@ -374,7 +374,14 @@ fn plan_ramp(
     ),
     (smooth, judged): (bool, bool),
 ) -> Result<Option<RampPlan>, ModelError> {
-    let need = ramp_length_mm(delta, kink_tolerance, shortest_mm, smooth);
+    // (Two parabolas on a ramp centred on a reversal along a line, the one
+    // ramp of a line given its length: compensate/ramp_centre.rs.)
+    let parabolic = smooth && matches!(leads, Leads::Lines) && length_mm.is_some();
+    let need = if parabolic {
+        line_ramp_length_mm(delta, kink_tolerance, shortest_mm)
+    } else {
+        ramp_length_mm(delta, kink_tolerance, shortest_mm, smooth)
+    };
     if !(need > 0.0 && need.is_finite()) {
         return Ok(None);
     }
@@ -479,7 +486,9 @@ fn plan_ramp(
         .iter()
         .map(|(_, s)| {
             let u = (s / end_s).clamp(0.0, 1.0);
-            if smooth {
+            if parabolic {
+                1.0 - parabolic_step(u)
+            } else if smooth {
                 1.0 - u * u * (3.0 - 2.0 * u)
             } else {
                 1.0 - u
@@ -643,6 +652,37 @@ fn ramp_length_mm(delta: Vec3, kink_tolerance: [f64; 3], shortest_mm: f64, smoot
             straight
         })
     })
+}
+
+/// The shortest smooth ramp (mm) of a take-up `delta` on a line under G61
+/// ([`parabolic_step`]): its joins turn the path by at most `4|Δ|ℓ/L²`
+/// (the step's second derivative is ±4, against the cubic's 6), so
+/// `L = √(4|Δ|ℓ/κ)`, `√(2/3)` of [`ramp_length_mm`]'s. The shorter ramp
+/// leaves the tool off by less where the band is crossed (the target
+/// drifts from the held tool along the whole ramp).
+fn line_ramp_length_mm(delta: Vec3, kink_tolerance: [f64; 3], shortest_mm: f64) -> f64 {
+    (0..3).fold(0.0f64, |m, i| {
+        let kappa = (RAMP_SHARE * kink_tolerance[i]).max(1e-300);
+        let straight = delta[i].abs() / kappa;
+        m.max(
+            (4.0 * delta[i].abs() * shortest_mm / kappa)
+                .sqrt()
+                .min(straight),
+        )
+    })
+}
+
+/// The smooth step of a line's ramp: two parabolas, `2u²` to the middle
+/// and `1 − 2(1 − u)²` after it, the step of least largest curvature
+/// (constant `|σ''| = 4`) from rest to rest; at even pieces of `h` its
+/// second differences are `4h²` (`2h²` at the ends and at the middle).
+pub(super) fn parabolic_step(u: f64) -> f64 {
+    let u = u.clamp(0.0, 1.0);
+    if u <= 0.5 {
+        2.0 * u * u
+    } else {
+        1.0 - 2.0 * (1.0 - u) * (1.0 - u)
+    }
 }
 
 /// On a take-up moved ahead ([`Ahead`]), an axis in `hold` whose command
@@ -812,8 +852,12 @@ struct Ahead {
     axes: [Option<crate::model::Direction>; 3],
     /// The ramp's length (mm): to the S-curve's start.
     length_mm: f64,
-    /// The S-curve's place in the motion's transitions.
+    /// The S-curve's place in the motion's transitions (none for a ramp
+    /// centred on a reversal along a line).
     transition: usize,
+    /// A ramp centred on a reversal along a line
+    /// (compensate/ramp_centre.rs), not one ending at an S-curve.
+    centred: bool,
 }
 
 /// The targets, the arc parameters of their pieces and the transitions of
@@ -1163,9 +1207,21 @@ impl State<'_> {
         // Take-ups moved ahead of an S-curve ([`Ahead`]): the state before
         // each target (kept only where one may happen), the one pending,
         // and the transitions already tried.
-        let keep_history = matches!(rule, TakeUpRule::Exact { smooth: true })
+        // (Also on a line under G61, for a ramp centred on its reversal:
+        // compensate/ramp_centre.rs.)
+        let centre_lines = matches!(rule, TakeUpRule::Exact { smooth: true })
+            && matches!(leads, Leads::Lines)
+            && feed_like
+            && options.take_up
+            && options.fold_take_ups
+            && options.directions == DirectionPolicy::Commanded
+            && run.feed_mm_min.is_some_and(|f| f > 0.0);
+        let keep_history = (matches!(rule, TakeUpRule::Exact { smooth: true })
             && matches!(leads, Leads::Arc { .. })
-            && !transitions.is_empty();
+            && !transitions.is_empty())
+            || centre_lines;
+        // The reversals (their points) a centred ramp was tried for.
+        let mut centred_tried: Vec<Vec3> = Vec::new();
         let mut history: Vec<Snapshot> = Vec::new();
         let mut ahead: Option<Ahead> = None;
         let mut ahead_tried: Vec<usize> = Vec::new();
@@ -1509,6 +1565,7 @@ impl State<'_> {
                                     axes,
                                     length_mm: (l_end - l_start) * len,
                                     transition: k,
+                                    centred: false,
                                 });
                                 back_to =
                                     Some((p, insert.then(|| (arc.point_at(l_start), l_start))));
@@ -1710,6 +1767,13 @@ impl State<'_> {
                     TakeUpRule::Exact { .. } => None,
                     TakeUpRule::Within(t) => Some(t),
                     TakeUpRule::Always => Some(RUN_THROUGH_TOLERANCE_MM.max(tolerance)),
+                };
+                // A ramp centred on its reversal (compensate/ramp_centre.rs)
+                // within its own, tighter tolerance.
+                let ramp_tolerance = if ahead.is_some_and(|ah| ah.index == index && ah.centred) {
+                    ramp_tolerance.map(|t| t.min(super::ramp_centre::TOLERANCE_MM))
+                } else {
+                    ramp_tolerance
                 };
                 let mut planned = None;
                 if let (Some(ramp_tol), true) = (
@@ -2083,6 +2147,92 @@ impl State<'_> {
                     // the bound (at most the reversal value; within P).
                     take_up = None;
                     self.note_fold(bound);
+                }
+            }
+            // G61 on a line: a reversal inside the line whose take-up is
+            // still a block (no fold, ramp or hold took it: a stop) taken
+            // up on a ramp centred on it instead (compensate/ramp_centre.rs),
+            // where the line before it is quiet (no take-up, ramp or other
+            // state).
+            if centre_lines
+                && take_up.is_some()
+                && ramp.is_none()
+                && ahead.is_none()
+                && !was_forced
+                && index >= 1
+                && point.reversed.iter().any(|r| *r)
+                && !centred_tried.contains(&t_prev)
+            {
+                centred_tried.push(t_prev);
+                let tu = take_up_command(
+                    &mut cells,
+                    model,
+                    self.q_out,
+                    self.s,
+                    point.s,
+                    point.reversed,
+                    (point.q_mm, true),
+                    frame,
+                )
+                .map_err(|source| model_error(file, line, source))?;
+                let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+                let shortest = shortest_ramp_piece_mm(options, v_mm_s);
+                // A tenth more than the ramp needs here: the take-up at
+                // the ramp's start (solved there) is a little different.
+                let need = 1.1
+                    * line_ramp_length_mm(
+                        tu - self.q_out,
+                        options.planner.tangent_tolerance(v_mm_s, false),
+                        shortest,
+                    );
+                let found = (tu != self.q_out)
+                    .then(|| {
+                        super::ramp_centre::centred_start(
+                            start,
+                            targets.as_slice(),
+                            index,
+                            need,
+                            shortest,
+                        )
+                    })
+                    .flatten();
+                if let Some(c) = found {
+                    let p = c.from;
+                    // (A take-up at the start of the piece the ramp's
+                    // start is inserted in comes before the ramp: solved
+                    // again there as it was.)
+                    let first = p + usize::from(c.insert.is_some());
+                    let quiet = (p..=index).all(|j| !history[j].ramp_on)
+                        && (first..index).all(|j| {
+                            commands[j].1.is_none() && self.states[j] == self.states[first]
+                        });
+                    if quiet {
+                        ahead = Some(Ahead {
+                            index: if c.insert.is_some() { p + 1 } else { p },
+                            from: p,
+                            axes: [0, 1, 2].map(|a| point.reversed[a].then_some(point.s[a])),
+                            length_mm: c.ramp_mm,
+                            // No S-curve: the axes are held on the ramp
+                            // only (`ahead_hold` finds no transition there
+                            // and ends).
+                            transition: usize::MAX,
+                            centred: true,
+                        });
+                        // Solved again from the ramp's start (as for a
+                        // take-up moved ahead of an S-curve, above).
+                        self.go_back(&history[p], p, (&mut commands, &mut records));
+                        history.truncate(p + 1);
+                        let h = &history[p];
+                        (t_prev, last_lead, ramp_inserted) =
+                            (h.t_prev, h.last_lead, h.ramp_inserted);
+                        (ramp, forced, ahead_hold) = (None, None, None);
+                        ahead_saved = Some((targets.clone(), None, transitions.clone()));
+                        if let Some(pt) = c.insert {
+                            targets.insert(p, pt);
+                        }
+                        index = p;
+                        continue;
+                    }
                 }
             }
             // A take-up moved ahead that was not spread over its ramp (or
