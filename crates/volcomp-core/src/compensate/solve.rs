@@ -739,7 +739,6 @@ pub(super) mod tests {
         );
     }
 
-
     /// The search takes a state's solve from `tried` as the solve itself
     /// gives it: on the axis tables with backlash and a transverse table
     /// that depends on X's direction, 2,000 random targets a few
