@@ -669,6 +669,22 @@ pub(super) mod tests {
         AxisTableMap::from_csv(csv, "m.csv").unwrap()
     }
 
+    /// A previous command inside the search map's tables, a target within
+    /// ±5 µm of it on each axis and a random direction state: the start
+    /// of the search tests' cases.
+    fn random_start(rnd: &mut impl FnMut() -> f64) -> (Vec3, Vec3, Directions) {
+        let q_prev = Vec3::new(1.0 + 8.0 * rnd(), 1.0 + 8.0 * rnd(), 1.0 + 8.0 * rnd());
+        let t = q_prev + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.01;
+        let s_prev = [0, 1, 2].map(|_| {
+            if rnd() < 0.5 {
+                Direction::Forward
+            } else {
+                Direction::Reverse
+            }
+        });
+        (q_prev, t, s_prev)
+    }
+
     #[test]
     fn the_search_takes_the_state_a_search_of_all_eight_takes() {
         // The second method: every one of the eight states solved through
@@ -680,15 +696,7 @@ pub(super) mod tests {
         let quantize = |q: Vec3| q.map(|v| (v * 1e5).round() / 1e5);
         let (mut found, mut two_flips, mut kept_out) = (0, 0, 0);
         for case in 0..3000 {
-            let q_prev = Vec3::new(1.0 + 8.0 * rnd(), 1.0 + 8.0 * rnd(), 1.0 + 8.0 * rnd());
-            let t = q_prev + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.01;
-            let s_prev = [0, 1, 2].map(|_| {
-                if rnd() < 0.5 {
-                    Direction::Forward
-                } else {
-                    Direction::Reverse
-                }
-            });
+            let (q_prev, t, s_prev) = random_start(&mut rnd);
             let keep = if case % 3 == 0 {
                 [0, 1, 2].map(|_| rnd() < 0.3)
             } else {
@@ -747,27 +755,12 @@ pub(super) mod tests {
     /// method) and with none finds the same point, state and solve.
     #[test]
     fn the_search_takes_given_solves_as_solved() {
-        let csv = "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
-                   X,forward,0,0,0,0\nX,forward,10,3,1,0\n\
-                   X,reverse,0,4,-1,0\nX,reverse,10,6,2,0\n\
-                   Y,forward,0,0,0,0\nY,forward,10,0,2,0.5\n\
-                   Y,reverse,0,0,3,0\nY,reverse,10,0.4,4,0\n\
-                   Z,forward,0,0,0,0\nZ,forward,10,0,0,1\n\
-                   Z,reverse,0,0,0,2\nZ,reverse,10,0,0,2.5\n";
-        let m = AxisTableMap::from_csv(csv, "m.csv").unwrap();
+        let m = search_map();
         let mut rnd = uniform(0x0bad_5eed);
         let quantize = |q: Vec3| q.map(|v| (v * 1e5).round() / 1e5);
         let (mut found, mut given) = (0, 0);
         for _ in 0..2000 {
-            let q_prev = Vec3::new(1.0 + 8.0 * rnd(), 1.0 + 8.0 * rnd(), 1.0 + 8.0 * rnd());
-            let t = q_prev + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.01;
-            let s_prev = [0, 1, 2].map(|_| {
-                if rnd() < 0.5 {
-                    Direction::Forward
-                } else {
-                    Direction::Reverse
-                }
-            });
+            let (q_prev, t, s_prev) = random_start(&mut rnd);
             let mut cells = AxisCells::default();
             let mut tried = Vec::new();
             for bits in 0..8u8 {
