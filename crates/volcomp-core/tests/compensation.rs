@@ -1780,6 +1780,15 @@ fn the_pieces_of_a_g61_block_run_blended_and_its_end_stays_exact() {
     }
 }
 
+/// The index of the written piece that ends within 5 µm of the corner
+/// (`x_mm`, `y_mm`) in X and Y.
+fn piece_ending_at(moves: &[(Vec3, Vec3)], x_mm: f64, y_mm: f64, out: &str) -> usize {
+    moves
+        .iter()
+        .position(|(_, e)| (e.x - x_mm).abs() < 0.005 && (e.y - y_mm).abs() < 0.005)
+        .unwrap_or_else(|| panic!("no piece ends at the corner:\n{out}"))
+}
+
 /// The written moves of `out` (G90, mm): each one's start and end (axis
 /// frame), Z tracked through lines that do not write it.
 fn written_moves_xyz(out: &str) -> Vec<(Vec3, Vec3)> {
@@ -1819,10 +1828,7 @@ fn under_g64_the_pieces_at_a_corner_between_two_arcs_stay_planar_and_keep_the_bl
     let moves = written_moves_xyz(&out);
     // The pieces on both sides of the corner (the one ending within
     // 5 µm of it, in X and Y, and the next) do not move Z.
-    let k = moves
-        .iter()
-        .position(|(_, e)| (e.x - 10.0).abs() < 0.005 && (e.y - 10.0).abs() < 0.005)
-        .unwrap_or_else(|| panic!("no piece ends at the corner:\n{out}"));
+    let k = piece_ending_at(&moves, 10.0, 10.0, &out);
     for (s, e) in &moves[k..k + 2] {
         assert_eq!(s.z, e.z, "a piece at the corner moves Z:\n{out}");
     }
@@ -1918,10 +1924,7 @@ fn under_g64_a_corner_between_two_arcs_is_planar_on_both_sides_or_on_neither() {
                    G3 X10 Y10 I0 J10\nG3 X20 Y20 I0 J10\nM2\n";
     let (out, _) = compensate_with(program, &map, &CompensateOptions::default(), |_| {});
     let moves = written_moves_xyz(&out);
-    let k = moves
-        .iter()
-        .position(|(_, e)| (e.x - 10.0).abs() < 0.005 && (e.y - 10.0).abs() < 0.005)
-        .unwrap_or_else(|| panic!("no piece ends at the corner:\n{out}"));
+    let k = piece_ending_at(&moves, 10.0, 10.0, &out);
     let planar = |(s, e): &(Vec3, Vec3)| s.z == e.z;
     // The arc after moves Z on its first piece (by hand: at least 20 µm/mm
     // over the piece's X travel).
@@ -1974,10 +1977,7 @@ fn under_g64_p_a_planar_part_shorter_than_an_arc_is_lengthened_and_the_corner_ke
                    G3 X10 Y10 I0 J10\nG3 X20 Y20 I0 J10\nM2\n";
     let (out, _) = compensate_with(program, &map, &CompensateOptions::default(), |_| {});
     let moves = written_moves_xyz(&out);
-    let k = moves
-        .iter()
-        .position(|(_, e)| (e.x - 10.0).abs() < 0.005 && (e.y - 10.0).abs() < 0.005)
-        .unwrap_or_else(|| panic!("no piece ends at the corner:\n{out}"));
+    let k = piece_ending_at(&moves, 10.0, 10.0, &out);
     for (s, e) in &moves[k..k + 2] {
         assert_eq!(s.z, e.z, "a piece at the corner moves Z:\n{out}");
     }
@@ -2021,10 +2021,7 @@ fn under_g64_an_arc_of_one_piece_ends_planar_before_a_line_in_its_plane() {
                    G3 X10 Y10 R10\nG2 X20 Y20 R10\nG1 Y40\nM2\n";
     let (out, _) = compensate_with(program, &map, &CompensateOptions::default(), |_| {});
     let moves = written_moves_xyz(&out);
-    let k = moves
-        .iter()
-        .position(|(_, e)| (e.x - 20.0).abs() < 0.005 && (e.y - 20.0).abs() < 0.005)
-        .unwrap_or_else(|| panic!("no piece ends at the corner:\n{out}"));
+    let k = piece_ending_at(&moves, 20.0, 20.0, &out);
     for (s, e) in &moves[k..k + 2] {
         assert_eq!(s.z, e.z, "a piece at the corner moves Z:\n{out}");
     }
@@ -2063,10 +2060,7 @@ fn under_g64_an_arc_end_is_not_split_planar_shorter_than_the_blend_reach_before_
         .count();
     assert_eq!(arcs, 2, "{out}");
     let moves = written_moves_xyz(&out);
-    let (s, e) = moves
-        .iter()
-        .find(|(_, e)| (e.x - 20.0).abs() < 0.005 && (e.y - 20.0).abs() < 0.005)
-        .unwrap_or_else(|| panic!("no piece ends at the corner:\n{out}"));
+    let (s, e) = moves[piece_ending_at(&moves, 20.0, 20.0, &out)];
     // 0.02 µm/mm over X10 → X20, by hand.
     assert!((e.z - s.z + 0.0002).abs() < 2e-6, "{out}");
 }
