@@ -601,6 +601,55 @@ mod tests {
         assert_eq!(shortest_arc_mm(&tiny, 1e-4), f64::INFINITY);
     }
 
+    /// A motion of `kind` from `start` to `end` at F3000 under G64.
+    fn motion(kind: MotionKind, start: Vec3, end: Vec3) -> Motion {
+        Motion {
+            kind,
+            start,
+            end,
+            line: 1,
+            column: 1,
+            feed: 3000.0,
+            source: volcomp_gcode::MotionSource::Program,
+            extra: Default::default(),
+            feed_mode: volcomp_gcode::interp::FeedMode::PerMinute,
+            path_mode: PathMode::Blend {
+                tolerance_mm: 0.0,
+                naive_cam_mm: 0.0,
+            },
+        }
+    }
+
+    #[test]
+    fn a_corner_into_an_arc_out_of_its_plane_is_blended_parabolically() {
+        // Half a flat turn of R5 clockwise from (−5, 0): its tangent there is
+        // +Y, its normal Z.
+        let (start, end) = (Vec3::new(-5.0, 0.0, -1.0), Vec3::new(5.0, 0.0, -1.0));
+        let flat = motion(
+            MotionKind::Arc(Arc {
+                start,
+                end,
+                center: Vec3::new(0.0, 0.0, -1.0),
+                plane: volcomp_gcode::Plane::Xy,
+                sweep_rad: -std::f64::consts::PI,
+            }),
+            start,
+            end,
+        );
+        // Out of a helix falling 64 mrad: the binormal +Y × (0, 1, −0.064)
+        // lies along X, not Z (by hand).
+        let helix = Vec3::new(0.0, 1.0, -0.064) * (1.0 / 1.002_046f64);
+        assert!(parabolic_into(helix, &flat));
+        // Out of a plunge along −Z: the binormal lies along X too.
+        assert!(parabolic_into(Vec3::new(0.0, 0.0, -1.0), &flat));
+        // Out of a line in the plane at 90°: the binormal is Z, a blend arc.
+        assert!(!parabolic_into(Vec3::new(1.0, 0.0, 0.0), &flat));
+        // Tangent (no corner), and a line after the corner: not parabolic.
+        assert!(!parabolic_into(Vec3::new(0.0, 1.0, 0.0), &flat));
+        let line = motion(MotionKind::Feed, start, Vec3::new(-5.0, 10.0, -1.0));
+        assert!(!parabolic_into(helix, &line));
+    }
+
     #[test]
     fn a_part_within_tolerance_is_kept_and_one_over_it_shortened_in_proportion() {
         assert_eq!(shortened_mm(2.0, 0.5e-4, 1e-4), 2.0);
