@@ -136,7 +136,8 @@ pub(super) fn parabolic_into(t1: Vec3, m: &Motion) -> bool {
     let (t2, _) = super::points::tangents(m);
     let b = t1.cross(t2);
     let len = b.norm();
-    if !(len > 1e-12) {
+    // No corner (parallel tangents), or a tangent that is not a number.
+    if len.is_nan() || len <= 1e-12 {
         return false;
     }
     let b = b * (1.0 / len);
