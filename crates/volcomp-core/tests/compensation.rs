@@ -2110,3 +2110,92 @@ fn under_g64_a_reversal_the_next_point_turns_back_is_held() {
     }
     assert!(summary.small_reversals_held >= 1, "{out}");
 }
+
+#[test]
+fn under_g64_a_take_up_after_a_corner_blended_parabolically_has_a_lead_piece_of_its_reach() {
+    // Half a turn of helix (R5, down 1 mm) and then half a flat turn at
+    // F3000, as a helical bore ends. X's reverse table is 4 µm above its
+    // forward one, and X's straightness moves Z by 0.1 µm/mm of X (so the
+    // flat turn's pieces carry Z words). X reverses only at (−5, 0), where
+    // the helix meets the flat turn: a G64 corner whose binormal `t1 × t2`
+    // lies along X (the helix' tangent falls by 1/(5π) = 64 mrad, the flat
+    // turn's does not), not along the flat arc's normal Z, so LinuxCNC
+    // makes no blend arc there but a parabolic blend (tp.c
+    // `tpCreateArcArcBlend`, `pmUnitCartsColinear`). That blend overlaps
+    // both pieces and runs into the next at no more than √(a_t·ℓ/2)
+    // (`tpComputeBlendVelocity`; a_t = 500 mm/s² on an arc): 6.8 mm/s
+    // after a 0.184 mm lead piece, 15.8 mm/s after 1 mm. So the take-up's
+    // lead piece is the take-up's reach, 1 mm of arc (by hand: half the
+    // flat turn's first piece is longer).
+    let map = map_from(|a, p, rev| match (a, rev) {
+        (0, true) => [4.0, 0.0, 0.1 * p],
+        (0, false) => [0.0, 0.0, 0.1 * p],
+        _ => [0.0; 3],
+    });
+    let program = "G21 G90 G17 G64\nG0 X5 Y0 Z5\nG1 Z0 F3000\n\
+                   G2 X-5 Y0 Z-1 I-5 J0\nG2 X5 Y0 I5 J0\nM2\n";
+    let mut records = Vec::new();
+    let (out, _) = compensate_with(program, &map, &CompensateOptions::default(), |r| {
+        records.push(*r)
+    });
+    assert!(!out.contains("take-up"), "{out}");
+    let first = records.iter().find(|r| r.line == 5).unwrap();
+    let at = |ell: f64| {
+        let a = std::f64::consts::PI - ell / 5.0;
+        Vec3::new(5.0 * a.cos(), 5.0 * a.sin(), 0.0)
+    };
+    let t = first.target_mm;
+    assert!(
+        (t.x - at(1.0).x).abs() < 1e-6 && (t.y - at(1.0).y).abs() < 1e-6,
+        "the lead piece ends at {t:?}, by hand {:?}:\n{out}",
+        at(1.0)
+    );
+    // A second method: the same program with the lead piece's end moved
+    // back to 0.184 mm of arc (its command off the nominal point as much),
+    // each arc's centre kept, runs slower on the planner model.
+    let lines: Vec<&str> = out.lines().collect();
+    // The flat turn's first piece follows the helix' last.
+    let k = 1 + lines
+        .iter()
+        .rposition(|l| l.contains("(volcomp L4)"))
+        .unwrap_or_else(|| panic!("the helix is one piece:\n{out}"));
+    let word = |l: &str, c: char| -> f64 {
+        l.split_whitespace()
+            .find(|w| w.starts_with(c))
+            .map(|w| w[1..].parse().unwrap())
+            .unwrap()
+    };
+    let start = Vec3::new(word(lines[k - 1], 'X'), word(lines[k - 1], 'Y'), 0.0);
+    let end = Vec3::new(word(lines[k], 'X'), word(lines[k], 'Y'), 0.0);
+    let c1 = start + Vec3::new(word(lines[k], 'I'), word(lines[k], 'J'), 0.0);
+    let c2 = end + Vec3::new(word(lines[k + 1], 'I'), word(lines[k + 1], 'J'), 0.0);
+    let short = at(0.184) + (end - at(1.0));
+    let mut edited: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    edited[k] = format!(
+        "G2 X{:.5} Y{:.5} Z{} I{:.5} J{:.5}",
+        short.x,
+        short.y,
+        word(lines[k], 'Z'),
+        c1.x - start.x,
+        c1.y - start.y
+    );
+    edited[k + 1] = format!(
+        "G2 X{} Y{} Z{} I{:.5} J{:.5}",
+        word(lines[k + 1], 'X'),
+        word(lines[k + 1], 'Y'),
+        word(lines[k + 1], 'Z'),
+        c2.x - short.x,
+        c2.y - short.y
+    );
+    let (e, e_short) = (
+        planner_motion(&out),
+        planner_motion(&(edited.join("\n") + "\n")),
+    );
+    assert!(e.counts.parabolic_blends >= 1, "{out}");
+    assert!(
+        e.cutting_s < e_short.cutting_s - 0.02,
+        "{} s, with the 0.184 mm lead piece {} s:\n{out}",
+        e.cutting_s,
+        e_short.cutting_s
+    );
+}

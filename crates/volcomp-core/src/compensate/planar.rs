@@ -118,6 +118,59 @@ pub(super) fn plain_arc_line<'a>(
         })
 }
 
+/// Whether LinuxCNC joins a G64 corner from unit tangent `t1` into the arc
+/// `m` with a parabolic blend, having no blend arc for it: a blend arc into
+/// an arc needs the corner's binormal `t1 × t2` colinear with the arc's
+/// normal within `TP_ANGLE_EPSILON` = 1e-6 rad (src/emc/tp/tp.c,
+/// `tpCreateLineArcBlend` and `tpCreateArcArcBlend`, `pmUnitCartsColinear`;
+/// the planner model: crates/volcomp-core/src/plan/blend.rs). A corner out
+/// of a helix into a flat turn (the last turn of a helical bore) or out of
+/// a plunge into an arc is such a corner; so is any corner into a nominal
+/// helix. `false` for a line after the corner (the arc before it, whose
+/// normal decides there, is not known here) and where the tangents are
+/// parallel (no corner).
+pub(super) fn parabolic_into(t1: Vec3, m: &Motion) -> bool {
+    let MotionKind::Arc(arc) = m.kind else {
+        return false;
+    };
+    let (t2, _) = super::points::tangents(m);
+    let b = t1.cross(t2);
+    let len = b.norm();
+    // No corner (parallel tangents), or a tangent that is not a number.
+    if len.is_nan() || len <= 1e-12 {
+        return false;
+    }
+    let b = b * (1.0 / len);
+    let mut n = Vec3::ZERO;
+    n[arc.plane.axes().2] = 1.0;
+    let tol = 1e-6 * 1e-6;
+    !((b - n).norm_squared() < tol || (b + n).norm_squared() < tol)
+}
+
+/// Under G64 without P, the shortest lead piece (mm) for a take-up at the
+/// start of a move after a corner LinuxCNC blends parabolically
+/// ([`parabolic_into`]): as long as the take-up's reach allows
+/// ([`super::points::TAKE_UP_REACH_MM`], at most half the move), since the
+/// parabolic blend slows with the piece after it. It overlaps both pieces
+/// at once and runs into the next at no more than `√(a_t · ℓ / 2)` for a
+/// piece of `ℓ` (`tpComputeBlendVelocity`, src/emc/tp/tp.c: the triangle
+/// speed over half a piece not yet finalized; the planner model's
+/// `parabolic_velocity`): 6.8 mm/s after a 0.184 mm piece on an arc
+/// (`a_t` = 500 mm/s²), 15.8 mm/s after 1 mm, where the original's whole
+/// move gave the programmed feed. 0 elsewhere (the blend-arc rule,
+/// `Run::protect_mm`, applies there).
+pub(super) fn lead_floor_after_parabolic_mm(
+    rule: super::TakeUpRule,
+    run: &super::points::Run,
+    index: usize,
+) -> f64 {
+    if index == 0 && run.parabolic_before && rule == super::TakeUpRule::Always {
+        super::points::TAKE_UP_REACH_MM.min(0.5 * run.length_mm)
+    } else {
+        0.0
+    }
+}
+
 /// Whether a line's first piece, commanded from `from`, keeps the normal
 /// coordinate (axis `w`) of its start: LinuxCNC's blend arc between an arc
 /// and a line needs the line in the arc's plane (tp.c
@@ -547,6 +600,55 @@ mod tests {
             ..quarter
         };
         assert_eq!(shortest_arc_mm(&tiny, 1e-4), f64::INFINITY);
+    }
+
+    /// A motion of `kind` from `start` to `end` at F3000 under G64.
+    fn motion(kind: MotionKind, start: Vec3, end: Vec3) -> Motion {
+        Motion {
+            kind,
+            start,
+            end,
+            line: 1,
+            column: 1,
+            feed: 3000.0,
+            source: volcomp_gcode::MotionSource::Program,
+            extra: Default::default(),
+            feed_mode: volcomp_gcode::interp::FeedMode::PerMinute,
+            path_mode: PathMode::Blend {
+                tolerance_mm: 0.0,
+                naive_cam_mm: 0.0,
+            },
+        }
+    }
+
+    #[test]
+    fn a_corner_into_an_arc_out_of_its_plane_is_blended_parabolically() {
+        // Half a flat turn of R5 clockwise from (−5, 0): its tangent there is
+        // +Y, its normal Z.
+        let (start, end) = (Vec3::new(-5.0, 0.0, -1.0), Vec3::new(5.0, 0.0, -1.0));
+        let flat = motion(
+            MotionKind::Arc(Arc {
+                start,
+                end,
+                center: Vec3::new(0.0, 0.0, -1.0),
+                plane: volcomp_gcode::Plane::Xy,
+                sweep_rad: -std::f64::consts::PI,
+            }),
+            start,
+            end,
+        );
+        // Out of a helix falling 64 mrad: the binormal +Y × (0, 1, −0.064)
+        // lies along X, not Z (by hand).
+        let helix = Vec3::new(0.0, 1.0, -0.064) * (1.0 / 1.002_046f64);
+        assert!(parabolic_into(helix, &flat));
+        // Out of a plunge along −Z: the binormal lies along X too.
+        assert!(parabolic_into(Vec3::new(0.0, 0.0, -1.0), &flat));
+        // Out of a line in the plane at 90°: the binormal is Z, a blend arc.
+        assert!(!parabolic_into(Vec3::new(1.0, 0.0, 0.0), &flat));
+        // Tangent (no corner), and a line after the corner: not parabolic.
+        assert!(!parabolic_into(Vec3::new(0.0, 1.0, 0.0), &flat));
+        let line = motion(MotionKind::Feed, start, Vec3::new(-5.0, 10.0, -1.0));
+        assert!(!parabolic_into(helix, &line));
     }
 
     #[test]

@@ -894,6 +894,9 @@ pub(super) struct Run {
     pub(super) split_end_mm: f64,
     /// The motion's length (mm).
     pub(super) length_mm: f64,
+    /// Under G64, the corner before it is one LinuxCNC blends parabolically
+    /// ([`super::planar::parabolic_into`]).
+    pub(super) parabolic_before: bool,
 }
 
 impl Run {
@@ -913,11 +916,13 @@ impl Run {
         // computed once for the blend before and the one taken alike at
         // the end (`split_end_mm`).
         let mut blended_corner: Option<(f64, f64)> = None;
+        let mut parabolic_before = false;
         let (corner_before, protect_mm) = match (before, feed_mm_min) {
             (Some((t1, prev_len)), Some(f)) => {
                 let corner = planner.kink_ratio(t1, t2, f / 60.0, arc) >= 1.0;
                 let blend = matches!(m.path_mode, volcomp_gcode::PathMode::Blend { .. });
                 let protect = if corner && blend {
+                    parabolic_before = super::planar::parabolic_into(t1, m);
                     let phi = super::joins::deflection_rad(t1, t2);
                     let speed_mm = planner.blend_distance_at_mm(phi, f / 60.0);
                     blended_corner = Some((phi, speed_mm));
@@ -975,6 +980,7 @@ impl Run {
             protect_end_mm,
             split_end_mm,
             length_mm: length_mm(m),
+            parabolic_before,
         }
     }
 }
@@ -1747,8 +1753,15 @@ impl State<'_> {
                 // corner.
                 let smooth = index > 0 || !run.corner_before;
                 let plain_shortest = self.lead_shortest_mm(rule, &run, &lags, smooth);
-                let shortest =
-                    plain_shortest.map(|s| if index == 0 { s.max(run.protect_mm) } else { s });
+                let parabolic_floor =
+                    super::planar::lead_floor_after_parabolic_mm(rule, &run, index);
+                let shortest = plain_shortest.map(|s| {
+                    if index == 0 {
+                        s.max(run.protect_mm).max(parabolic_floor)
+                    } else {
+                        s
+                    }
+                });
                 // A fold into this piece alone turns the path by the
                 // take-up over its length at both ends: where the planner
                 // would not take that as tangent, the take-up is spread
@@ -2034,7 +2047,7 @@ impl State<'_> {
                             // its end alike.
                             let keep = BLEND_SPEED_KEPT * BLEND_SPEED_KEPT;
                             let floor = if index == 0 {
-                                plain.max(keep * run.protect_mm)
+                                plain.max(keep * run.protect_mm).max(parabolic_floor)
                             } else {
                                 plain
                             };
