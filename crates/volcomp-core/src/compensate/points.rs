@@ -351,6 +351,42 @@ pub(super) struct RampPlan {
     pub(super) bound_mm: f64,
 }
 
+/// The length [`plan_ramp`] first asks of a ramp for the take-up `delta`
+/// (mm): the tangency's, before a given length or the floor.
+fn ramp_need_mm(
+    leads: &Leads<'_>,
+    length_mm: Option<f64>,
+    smooth: bool,
+    delta: Vec3,
+    kink_tolerance: [f64; 3],
+    shortest_mm: f64,
+) -> f64 {
+    let parabolic = smooth && matches!(leads, Leads::Lines) && length_mm.is_some();
+    if parabolic {
+        line_ramp_length_mm(delta, kink_tolerance, shortest_mm)
+    } else {
+        ramp_length_mm(delta, kink_tolerance, shortest_mm, smooth)
+    }
+}
+
+/// Whether [`plan_ramp`] with the floor `floor_mm` can plan otherwise than
+/// without it (`judged` false in both): the floor is read nowhere but to
+/// lengthen a ramp of no given length whose tangency needs less; where it
+/// does not, both calls compute the same (the cells they evaluate in give
+/// the map's values to the bit), so a try without the floor after one with
+/// it that failed fails again.
+fn floor_lengthens_ramp(
+    (leads, length_mm, smooth): (&Leads<'_>, Option<f64>, bool),
+    delta: Vec3,
+    (kink_tolerance, shortest_mm): ([f64; 3], f64),
+    floor_mm: f64,
+) -> bool {
+    let need = ramp_need_mm(leads, length_mm, smooth, delta, kink_tolerance, shortest_mm);
+    // A need that is not positive and finite returns before the floor is
+    // read (as `floor_mm > NaN` is false).
+    length_mm.is_none() && need > 0.0 && need.is_finite() && floor_mm > need
+}
+
 /// The ramp of a take-up `delta` at target `index` (see [`RampPlan`]), or
 /// `None` where the motion's rest is too short for it, an S-curve or a
 /// reversal of any axis lies inside it, or it leaves the tool further
@@ -377,11 +413,7 @@ fn plan_ramp(
     // (Two parabolas on a ramp centred on a reversal along a line, the one
     // ramp of a line given its length: compensate/ramp_centre.rs.)
     let parabolic = smooth && matches!(leads, Leads::Lines) && length_mm.is_some();
-    let need = if parabolic {
-        line_ramp_length_mm(delta, kink_tolerance, shortest_mm)
-    } else {
-        ramp_length_mm(delta, kink_tolerance, shortest_mm, smooth)
-    };
+    let need = ramp_need_mm(leads, length_mm, smooth, delta, kink_tolerance, shortest_mm);
     if !(need > 0.0 && need.is_finite()) {
         return Ok(None);
     }
@@ -1830,6 +1862,21 @@ impl State<'_> {
                                     point.reversed,
                                 );
                             if judged && back {
+                                continue;
+                            }
+                            // The try without the floor repeats, for this
+                            // `d`, the one with it that just failed, where
+                            // the floor did not lengthen the ramp.
+                            if !judged
+                                && floor_mm == 0.0
+                                && floor > 0.0
+                                && !floor_lengthens_ramp(
+                                    (&leads, pre_length, exact),
+                                    d,
+                                    (kink_tolerance, shortest_piece),
+                                    floor,
+                                )
+                            {
                                 continue;
                             }
                             let step_mm = if back { (d - delta).norm() } else { 0.0 };
