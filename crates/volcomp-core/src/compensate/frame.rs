@@ -159,6 +159,8 @@ impl Frame {
     }
 
     /// The command the controller really executes for a wish `q` from `from`.
+    /// (Inlined: the solves call it a few times a target.)
+    #[inline]
     pub(super) fn quantize(&self, q: Vec3, from: Vec3) -> Vec3 {
         if self.rotation_deg != 0.0 {
             return self.quantize_rotated(q, from);
