@@ -2924,4 +2924,149 @@ mod tests {
             assert_eq!(bits(fast), bits(slow), "{q_prev:?} {s_old:?} {reversed:?}");
         }
     }
+
+    /// The try without the floor is skipped where [`super::floor_lengthens_ramp`]
+    /// says the floor changed nothing: there [`super::plan_ramp`] with the
+    /// floor plans to the bit what it plans without (the second method: both
+    /// calls made), on 3,000 take-ups of one to three reversing axes along
+    /// lines of targets 0.1–0.6 mm apart on the sloped map, G64 and G61
+    /// alike, floors from none to twice the tangency's length. Asserts that
+    /// both kinds of floor occurred and that plans were found. By hand: a
+    /// floor of 2 mm lengthens a ramp whose tangency needs 1 mm, one of
+    /// 0.5 mm does not, nor any floor where the ramp's length is given.
+    #[test]
+    fn a_floor_that_lengthens_no_ramp_plans_as_no_floor() {
+        use crate::model::Direction::{Forward as F, Reverse as R};
+        use crate::model::{AxisCells, Directions};
+        // The tangency's length by hand: |Δ| / (RAMP_SHARE · κ) with
+        // κ = 1e-3 / 0.6 on every axis and a take-up of 1 µm: 1 mm.
+        let kink = [1e-3 / super::RAMP_SHARE; 3];
+        let unit = Vec3::new(1e-3, 0.0, 0.0);
+        assert!(super::floor_lengthens_ramp(
+            (&super::Leads::Lines, None, false),
+            unit,
+            (kink, 0.01),
+            2.0
+        ));
+        assert!(!super::floor_lengthens_ramp(
+            (&super::Leads::Lines, None, false),
+            unit,
+            (kink, 0.01),
+            0.5
+        ));
+        assert!(!super::floor_lengthens_ramp(
+            (&super::Leads::Lines, Some(1.5), false),
+            unit,
+            (kink, 0.01),
+            2.0
+        ));
+        let map = sloped_map();
+        let options = super::CompensateOptions::default();
+        let frame = frame_mm(4);
+        let quantize = |q: Vec3, from: Vec3| frame.quantize(q, from);
+        let mut rnd = crate::compensate::solve::tests::uniform(0x2545_f491_4f6c_dd1d);
+        let mut cells = AxisCells::default();
+        let (mut same_floor, mut longer, mut planned) = (0, 0, 0);
+        for k in 0..3000 {
+            let smooth = k % 2 == 0;
+            let t_prev = Vec3::new(
+                10.0 + 80.0 * rnd(),
+                10.0 + 80.0 * rnd(),
+                10.0 + 80.0 * rnd(),
+            );
+            let dir = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+            let dir = dir * (1.0 / dir.norm());
+            let spacing = 0.1 + 0.5 * rnd();
+            let targets: Vec<Vec3> = (1..=12)
+                .map(|j| t_prev + dir * (spacing * j as f64))
+                .collect();
+            let s_old: Directions = [F, F, F];
+            let mut reversed = [rnd() < 0.4, rnd() < 0.4, rnd() < 0.4];
+            reversed[k % 3] = true;
+            let s_new: Directions = [0, 1, 2].map(|a| if reversed[a] { R } else { F });
+            let q_prev = crate::compensate::solve::solve_fixed(
+                &map,
+                options.method,
+                t_prev,
+                s_old,
+                [false; 3],
+                Vec3::ZERO,
+            )
+            .unwrap()
+            .q_mm;
+            let q = crate::compensate::solve::solve_fixed(
+                &map,
+                options.method,
+                targets[0],
+                s_new,
+                [false; 3],
+                Vec3::ZERO,
+            )
+            .unwrap()
+            .q_mm;
+            let point = crate::compensate::solve::PointSolution {
+                q_mm: frame.quantize(q, q_prev),
+                s: s_new,
+                iterations: 1,
+                residual_um: 0.0,
+                reversed,
+                held: [false; 3],
+            };
+            let lags =
+                super::switch_lags_mm(&mut cells, &map, q_prev, s_old, s_new, reversed).unwrap();
+            let delta = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 8e-3;
+            let v_mm_s = 20.0 + 80.0 * rnd();
+            let kink = options.planner.tangent_tolerance(v_mm_s, false);
+            let shortest = super::shortest_ramp_piece_mm(&options, v_mm_s);
+            let leads = super::Leads::Lines;
+            let need = super::ramp_need_mm(&leads, None, smooth, delta, kink, shortest);
+            let floor = if k % 5 == 0 { 0.0 } else { 2.0 * need * rnd() };
+            if floor <= 0.0
+                || super::floor_lengthens_ramp(
+                    (&leads, None, smooth),
+                    delta,
+                    (kink, shortest),
+                    floor,
+                )
+            {
+                longer += usize::from(floor > 0.0);
+                continue;
+            }
+            same_floor += 1;
+            let mut plan = |floor_mm: f64| {
+                super::plan_ramp(
+                    &mut cells,
+                    &map,
+                    &options,
+                    &quantize,
+                    (targets.as_slice(), &leads, &[]),
+                    (0, t_prev, q_prev),
+                    &point,
+                    (delta, &lags, [false; 3]),
+                    (kink, 0.5e-3, shortest, None, floor_mm),
+                    (smooth, false),
+                )
+                .unwrap()
+                .map(|p| {
+                    let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+                    (
+                        p.fracs.iter().map(|f| f.to_bits()).collect::<Vec<_>>(),
+                        p.insert
+                            .iter()
+                            .map(|(i, v, l)| (*i, bits(*v), l.map(f64::to_bits)))
+                            .collect::<Vec<_>>(),
+                        p.bound_mm.to_bits(),
+                    )
+                })
+            };
+            let with_floor = plan(floor);
+            let without = plan(0.0);
+            planned += usize::from(with_floor.is_some());
+            assert_eq!(with_floor, without, "case {k}: floor {floor} need {need}");
+        }
+        assert!(
+            same_floor > 500 && longer > 500 && planned > 100,
+            "{same_floor} {longer} {planned}"
+        );
+    }
 }
