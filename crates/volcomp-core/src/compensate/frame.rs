@@ -266,7 +266,8 @@ pub(super) fn round_bits(v: f64) -> f64 {
     const TWO_52: f64 = 4_503_599_627_370_496.0;
     const TWO_51: f64 = 2_251_799_813_685_248.0;
     let a = v.abs();
-    // Also NaN: the comparison is false.
+    // Also NaN: the comparison is false (one comparison for both).
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(a < TWO_51) {
         return v.round();
     }
