@@ -90,7 +90,7 @@ impl Frame {
 
     pub(super) fn round(&self, v: f64) -> f64 {
         let k = pow10(self.decimals);
-        volcomp_gcode::number::round_bits(v * k) / k
+        round_bits(v * k) / k
     }
 
     /// Program-frame value (program units) of axis-frame `q`.
@@ -155,10 +155,12 @@ impl Frame {
         } else {
             (p[a] - self.program(from)[a]) * k
         };
-        volcomp_gcode::number::round_bits(word * pow10(self.decimals))
+        round_bits(word * pow10(self.decimals))
     }
 
     /// The command the controller really executes for a wish `q` from `from`.
+    /// (Inlined: the solves call it a few times a target.)
+    #[inline]
     pub(super) fn quantize(&self, q: Vec3, from: Vec3) -> Vec3 {
         if self.rotation_deg != 0.0 {
             return self.quantize_rotated(q, from);
@@ -173,8 +175,7 @@ impl Frame {
             // are `x`: the same bits).
             let still = 0.5 * (1.0 / scale) * 1e-3;
             let axis = |a: usize| -> f64 {
-                let v =
-                    volcomp_gcode::number::round_bits((q[a] - self.offset_mm[a]) * scale) / scale;
+                let v = round_bits((q[a] - self.offset_mm[a]) * scale) / scale;
                 let out = v + self.offset_mm[a];
                 if (out - from[a]).abs() < still {
                     from[a]
@@ -195,7 +196,7 @@ impl Frame {
             } else {
                 (p - p_from) * k
             };
-            let v = volcomp_gcode::number::round_bits(word * scale) / scale / k;
+            let v = round_bits(word * scale) / scale / k;
             let out = if self.absolute {
                 v * self.mm_per_unit + self.offset_mm[a]
             } else {
@@ -251,6 +252,30 @@ fn rotate(x: f64, y: f64, theta_deg: f64) -> (f64, f64) {
     (x * cos - y * sin, x * sin + y * cos)
 }
 
+/// `v.round()` (half away from zero) bit for bit, as
+/// [`volcomp_gcode::number::round_bits`] gives it, in fewer instructions:
+/// below 2^51 adding and taking away 2^52 rounds `|v|` to an integer (the
+/// floats from 2^52 to 2^53 are the integers; IEEE 754 rounds to the
+/// nearest, a tie to the even one, and both operations are exact but for
+/// that rounding), and a tie that went down (`r − |v| = −½`, exact as
+/// both are within one of each other) goes up instead; the sign is
+/// `v`'s, as `round` keeps it (a zero result included). Larger and
+/// non-finite values (no fraction, or NaN) are `round`'s own.
+#[inline(always)]
+pub(super) fn round_bits(v: f64) -> f64 {
+    const TWO_52: f64 = 4_503_599_627_370_496.0;
+    const TWO_51: f64 = 2_251_799_813_685_248.0;
+    let a = v.abs();
+    // Also NaN: the comparison is false (one comparison for both).
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(a < TWO_51) {
+        return v.round();
+    }
+    let r = (a + TWO_52) - TWO_52;
+    let r = if r - a == -0.5 { r + 1.0 } else { r };
+    r.copysign(v)
+}
+
 /// `10^d` from a table (a `powi` call per written word cost time):
 /// every power up to 10²² is exact in `f64`, as `powi`'s products of exact
 /// values are, and `1.0 / pow10(d)` is `powi(−d)`'s one division: the same
@@ -283,6 +308,63 @@ mod tests {
             arc_absolute: false,
             arc_absolute_by_option: false,
         }
+    }
+
+    /// [`round_bits`] is `f64::round` to the bit (the second method; the
+    /// sign of a zero result included) on ties, near-ties, the ends of its
+    /// range, the written counts of coordinates and random floats: one
+    /// value by hand too (`-2.5` rounds away from zero to `-3`).
+    #[test]
+    fn round_bits_is_round() {
+        assert_eq!(round_bits(-2.5), -3.0);
+        assert_eq!(round_bits(0.49999999999999994), 0.0);
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            2.5,
+            -3.5,
+            0.49999999999999994,
+            -0.49999999999999994,
+            2_251_799_813_685_247.5,
+            -2_251_799_813_685_247.5,
+            2_251_799_813_685_248.0,
+            4_503_599_627_370_495.5,
+            4_503_599_627_370_497.0,
+            1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            5e-324,
+        ];
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut ties = 0;
+        for _ in 0..300_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let scale = [1e-3, 1.0, 1e3, 1e6, 1e9, 1e14, 1e16][(x % 7) as usize];
+            values.push(((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * scale);
+            values.push(f64::from_bits(x));
+            // Halves (ties) and their neighbours.
+            let half = (x % 2_000_000) as f64 * 0.5 - 500_000.0;
+            values.extend([
+                half,
+                f64::from_bits(half.to_bits().wrapping_add(1)),
+                f64::from_bits(half.to_bits().wrapping_sub(1)),
+            ]);
+            ties += usize::from(half.fract().abs() == 0.5);
+            // A coordinate's count of 10^-6 mm as quantising makes it.
+            values.push((((x >> 20) as f64 / (1u64 << 44) as f64) * 2000.0 - 1000.0) * 1e6);
+        }
+        assert!(ties > 100_000, "{ties}");
+        for v in values.into_iter().filter(|v| !v.is_nan()) {
+            assert_eq!(round_bits(v).to_bits(), v.round().to_bits(), "{v:e}");
+        }
+        assert!(round_bits(f64::NAN).is_nan());
     }
 
     /// The table gives `powi`'s bits (the rounding of every written word

@@ -458,7 +458,12 @@ impl<'w> State<'w> {
     ) -> Result<(Frame, NumberStyle), CompensationError> {
         let ev = line.ev;
         let (file, sep) = (self.walk.file, self.walk.sep);
-        let motion = ev.motions[0];
+        // By reference: the motion is a few hundred bytes.
+        let motion = &ev.motions[0];
+        // Asked for several times below; each is a walk or a dozen
+        // comparisons.
+        let extra_moves = motion.extra.moves();
+        let stop_any = stop_m_word(line.words());
         let interp = ev.interp;
         let model = line.model();
         // The line's words are quantised and written with at least their own
@@ -477,19 +482,29 @@ impl<'w> State<'w> {
                 if options.arcs_as_arcs
                     && frame.rotation_deg == 0.0
                     && !(interp.arc_absolute() && interp.arc_absolute_by_option())
-                    && !motion.extra.moves()
+                    && !extra_moves
                     && !line.ev.lexed.has_polar() =>
             {
                 Some(arc)
             }
             _ => None,
         };
-        let line_options = CompensateOptions {
-            arcs_as_arcs: arc_nominal.is_some(),
-            ..*options
+        // `arcs_as_arcs` is read only for an arc motion (targets.rs): the
+        // options are copied with it changed only where it changes.
+        let line_options_arc;
+        let line_options = if matches!(motion.kind, MotionKind::Arc(_))
+            && options.arcs_as_arcs != arc_nominal.is_some()
+        {
+            line_options_arc = CompensateOptions {
+                arcs_as_arcs: arc_nominal.is_some(),
+                ..*options
+            };
+            &line_options_arc
+        } else {
+            options
         };
-        check_target_count(&motion, &line_options, file, ev.number)?;
-        let run = points::Run::of(&motion, self.last_tangent, &options.planner);
+        check_target_count(motion, line_options, file, ev.number)?;
+        let run = points::Run::of(motion, self.last_tangent, &options.planner);
         let planar_before = std::mem::take(&mut self.planar_before);
         let planar_line_normal = self.planar_line_normal.take();
         self.planar_start_kept = false;
@@ -516,7 +531,7 @@ impl<'w> State<'w> {
             }
             _ => None,
         };
-        let next = Some(&motion).filter(|m| m.kind != MotionKind::Rapid);
+        let next = Some(motion).filter(|m| m.kind != MotionKind::Rapid);
         if held.is_none() {
             self.flush_tail(next)?;
         }
@@ -525,9 +540,9 @@ impl<'w> State<'w> {
         // inverse time, no extra axes, adaptive segmentation).
         let joins = arcs::JoinTails {
             held_before: held,
-            hold_end: stop_m_word(line.words()).is_none()
+            hold_end: stop_any.is_none()
                 && interp.feed_mode() != FeedMode::InverseTime
-                && !motion.extra.moves()
+                && !extra_moves
                 && matches!(options.segmentation, Segmentation::Adaptive { .. }),
         };
         let mut held_end = None;
@@ -572,8 +587,8 @@ impl<'w> State<'w> {
             // segmentation's evaluations also leave them where the solves
             // along the move look next.
             None => targets::targets_in(
-                &motion,
-                &line_options,
+                motion,
+                line_options,
                 model,
                 self.s,
                 &mut self.estimate_mm,
@@ -672,9 +687,9 @@ impl<'w> State<'w> {
                     && options.fold_take_ups
                     && options.directions == DirectionPolicy::Commanded
                     && matches!(options.segmentation, Segmentation::Adaptive { .. })
-                    && !motion.extra.moves()
+                    && !extra_moves
                     && interp.feed_mode() != FeedMode::InverseTime
-                    && stop_m_word(line.words()).is_none()
+                    && stop_any.is_none()
                     && !line.ev.lexed.has_polar() =>
             {
                 idle::candidate_axes(motion.start, motion.end, self.last_tangent.map(|t| t.0))
@@ -687,7 +702,7 @@ impl<'w> State<'w> {
         // (compensate/points.rs) where the segmentation adapts to the path
         // anyway; not on moves that carry extra axes, or under inverse time.
         let may_lead = feed_like
-            && !motion.extra.moves()
+            && !extra_moves
             && interp.feed_mode() != FeedMode::InverseTime
             && matches!(options.segmentation, Segmentation::Adaptive { .. });
         let leads = match (&arc_nominal, may_lead) {
@@ -709,7 +724,7 @@ impl<'w> State<'w> {
                     && held_end.is_none()
                     && taken.is_none()
                     && matches!(motion.path_mode, volcomp_gcode::PathMode::Blend { .. })
-                    && planar::planar_arc(&motion, a.plane).is_some()
+                    && planar::planar_arc(motion, a.plane).is_some()
             })
             .map(|a| a.plane.axes().2);
         let commands = self.solve_targets(
@@ -802,7 +817,7 @@ impl<'w> State<'w> {
                 && run.feed_mm_min.is_some()
                 && held_end.is_none()
                 && taken.is_none()
-                && planar::planar_arc(&motion, a.plane).is_some()
+                && planar::planar_arc(motion, a.plane).is_some()
         });
         if let (Some(arc), true, true, None) = (
             planar_arc,
@@ -854,11 +869,7 @@ impl<'w> State<'w> {
                 s_line_start,
             )?;
         }
-        let stop_word = if commands.len() > 1 {
-            stop_m_word(line.words())
-        } else {
-            None
-        };
+        let stop_word = if commands.len() > 1 { stop_any } else { None };
         let needed = if feed_like {
             OutMode::Feed
         } else {
@@ -1195,7 +1206,7 @@ impl<'w> State<'w> {
         }
         self.feed_before = feed_after;
         self.last_tangent =
-            feed_like.then(|| (points::tangents(&motion).1, points::length_mm(&motion)));
+            feed_like.then(|| (points::tangents(motion).1, points::length_mm(motion)));
         if let Some(held) = held_end {
             self.tail = Some(Tail {
                 path: match arc_nominal {

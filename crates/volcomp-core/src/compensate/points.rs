@@ -351,6 +351,42 @@ pub(super) struct RampPlan {
     pub(super) bound_mm: f64,
 }
 
+/// The length [`plan_ramp`] first asks of a ramp for the take-up `delta`
+/// (mm): the tangency's, before a given length or the floor.
+fn ramp_need_mm(
+    leads: &Leads<'_>,
+    length_mm: Option<f64>,
+    smooth: bool,
+    delta: Vec3,
+    kink_tolerance: [f64; 3],
+    shortest_mm: f64,
+) -> f64 {
+    let parabolic = smooth && matches!(leads, Leads::Lines) && length_mm.is_some();
+    if parabolic {
+        line_ramp_length_mm(delta, kink_tolerance, shortest_mm)
+    } else {
+        ramp_length_mm(delta, kink_tolerance, shortest_mm, smooth)
+    }
+}
+
+/// Whether [`plan_ramp`] with the floor `floor_mm` can plan otherwise than
+/// without it (`judged` false in both): the floor is read nowhere but to
+/// lengthen a ramp of no given length whose tangency needs less; where it
+/// does not, both calls compute the same (the cells they evaluate in give
+/// the map's values to the bit), so a try without the floor after one with
+/// it that failed fails again.
+fn floor_lengthens_ramp(
+    (leads, length_mm, smooth): (&Leads<'_>, Option<f64>, bool),
+    delta: Vec3,
+    (kink_tolerance, shortest_mm): ([f64; 3], f64),
+    floor_mm: f64,
+) -> bool {
+    let need = ramp_need_mm(leads, length_mm, smooth, delta, kink_tolerance, shortest_mm);
+    // A need that is not positive and finite returns before the floor is
+    // read (as `floor_mm > NaN` is false).
+    length_mm.is_none() && need > 0.0 && need.is_finite() && floor_mm > need
+}
+
 /// The ramp of a take-up `delta` at target `index` (see [`RampPlan`]), or
 /// `None` where the motion's rest is too short for it, an S-curve or a
 /// reversal of any axis lies inside it, or it leaves the tool further
@@ -377,11 +413,7 @@ fn plan_ramp(
     // (Two parabolas on a ramp centred on a reversal along a line, the one
     // ramp of a line given its length: compensate/ramp_centre.rs.)
     let parabolic = smooth && matches!(leads, Leads::Lines) && length_mm.is_some();
-    let need = if parabolic {
-        line_ramp_length_mm(delta, kink_tolerance, shortest_mm)
-    } else {
-        ramp_length_mm(delta, kink_tolerance, shortest_mm, smooth)
-    };
+    let need = ramp_need_mm(leads, length_mm, smooth, delta, kink_tolerance, shortest_mm);
     if !(need > 0.0 && need.is_finite()) {
         return Ok(None);
     }
@@ -1845,6 +1877,21 @@ impl State<'_> {
                             if judged && back {
                                 continue;
                             }
+                            // The try without the floor repeats, for this
+                            // `d`, the one with it that just failed, where
+                            // the floor did not lengthen the ramp.
+                            if !judged
+                                && floor_mm == 0.0
+                                && floor > 0.0
+                                && !floor_lengthens_ramp(
+                                    (&leads, pre_length, exact),
+                                    d,
+                                    (kink_tolerance, shortest_piece),
+                                    floor,
+                                )
+                            {
+                                continue;
+                            }
                             let step_mm = if back { (d - delta).norm() } else { 0.0 };
                             planned = plan_ramp(
                                 &mut cells,
@@ -2889,5 +2936,162 @@ mod tests {
             let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
             assert_eq!(bits(fast), bits(slow), "{q_prev:?} {s_old:?} {reversed:?}");
         }
+    }
+
+    /// The try without the floor is skipped where [`super::floor_lengthens_ramp`]
+    /// says the floor changed nothing: there [`super::plan_ramp`] with the
+    /// floor plans to the bit what it plans without (the second method: both
+    /// calls made), on 6,000 take-ups of one to three reversing axes along
+    /// lines of 80 targets 0.05–0.5 mm apart on the sloped map, G64 and G61
+    /// alike, floors from none to twice the tangency's length. Asserts that
+    /// both kinds of floor occurred and that plans were found. By hand: a
+    /// floor of 2 mm lengthens a ramp whose tangency needs 1 mm, one of
+    /// 0.5 mm does not, nor any floor where the ramp's length is given.
+    #[test]
+    fn a_floor_that_lengthens_no_ramp_plans_as_no_floor() {
+        use crate::model::Direction::{Forward as F, Reverse as R};
+        use crate::model::{AxisCells, Directions};
+        // The tangency's length by hand: |Δ| / (RAMP_SHARE · κ) with
+        // κ = 1e-3 / 0.6 on every axis and a take-up of 1 µm: 1 mm.
+        let kink = [1e-3 / super::RAMP_SHARE; 3];
+        let unit = Vec3::new(1e-3, 0.0, 0.0);
+        assert!(super::floor_lengthens_ramp(
+            (&super::Leads::Lines, None, false),
+            unit,
+            (kink, 0.01),
+            2.0
+        ));
+        assert!(!super::floor_lengthens_ramp(
+            (&super::Leads::Lines, None, false),
+            unit,
+            (kink, 0.01),
+            0.5
+        ));
+        assert!(!super::floor_lengthens_ramp(
+            (&super::Leads::Lines, Some(1.5), false),
+            unit,
+            (kink, 0.01),
+            2.0
+        ));
+        let map = sloped_map();
+        let options = super::CompensateOptions::default();
+        let frame = frame_mm(4);
+        let quantize = |q: Vec3, from: Vec3| frame.quantize(q, from);
+        let mut rnd = crate::compensate::solve::tests::uniform(0x2545_f491_4f6c_dd1d);
+        let mut cells = AxisCells::default();
+        let (mut same_floor, mut longer, mut planned) = (0, 0, 0);
+        for k in 0..6000 {
+            let smooth = k % 2 == 0;
+            let t_prev = Vec3::new(
+                10.0 + 80.0 * rnd(),
+                10.0 + 80.0 * rnd(),
+                10.0 + 80.0 * rnd(),
+            );
+            let dir = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+            let dir = dir * (1.0 / dir.norm());
+            let spacing = 0.05 + 0.45 * rnd();
+            let targets: Vec<Vec3> = (1..=80)
+                .map(|j| t_prev + dir * (spacing * j as f64))
+                .collect();
+            let s_old: Directions = [F, F, F];
+            let mut reversed = [rnd() < 0.4, rnd() < 0.4, rnd() < 0.4];
+            reversed[k % 3] = true;
+            let s_new: Directions = [0, 1, 2].map(|a| if reversed[a] { R } else { F });
+            let q_prev = crate::compensate::solve::solve_fixed(
+                &map,
+                options.method,
+                t_prev,
+                s_old,
+                [false; 3],
+                Vec3::ZERO,
+            )
+            .unwrap()
+            .q_mm;
+            let q = crate::compensate::solve::solve_fixed(
+                &map,
+                options.method,
+                targets[0],
+                s_new,
+                [false; 3],
+                Vec3::ZERO,
+            )
+            .unwrap()
+            .q_mm;
+            let point = crate::compensate::solve::PointSolution {
+                q_mm: frame.quantize(q, q_prev),
+                s: s_new,
+                iterations: 1,
+                residual_um: 0.0,
+                reversed,
+                held: [false; 3],
+            };
+            let lags =
+                super::switch_lags_mm(&mut cells, &map, q_prev, s_old, s_new, reversed).unwrap();
+            // The take-up toward the point, as the solve finds it.
+            let tu = super::take_up_command(
+                &mut cells,
+                &map,
+                q_prev,
+                s_old,
+                s_new,
+                reversed,
+                (point.q_mm, smooth),
+                &frame,
+            )
+            .unwrap();
+            let delta = tu - q_prev;
+            let v_mm_s = 20.0 + 80.0 * rnd();
+            let kink = options.planner.tangent_tolerance(v_mm_s, false);
+            let shortest = super::shortest_ramp_piece_mm(&options, v_mm_s);
+            let leads = super::Leads::Lines;
+            let need = super::ramp_need_mm(&leads, None, smooth, delta, kink, shortest);
+            let floor = if k % 5 == 0 { 0.0 } else { 2.0 * need * rnd() };
+            if floor <= 0.0
+                || super::floor_lengthens_ramp(
+                    (&leads, None, smooth),
+                    delta,
+                    (kink, shortest),
+                    floor,
+                )
+            {
+                longer += usize::from(floor > 0.0);
+                continue;
+            }
+            same_floor += 1;
+            let mut plan = |floor_mm: f64| {
+                super::plan_ramp(
+                    &mut cells,
+                    &map,
+                    &options,
+                    &quantize,
+                    (targets.as_slice(), &leads, &[]),
+                    (0, t_prev, q_prev),
+                    &point,
+                    (delta, &lags, [false; 3]),
+                    (kink, 2e-3, shortest, None, floor_mm),
+                    (smooth, false),
+                )
+                .unwrap()
+                .map(|p| {
+                    let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+                    (
+                        p.fracs.iter().map(|f| f.to_bits()).collect::<Vec<_>>(),
+                        p.insert
+                            .iter()
+                            .map(|(i, v, l)| (*i, bits(*v), l.map(f64::to_bits)))
+                            .collect::<Vec<_>>(),
+                        p.bound_mm.to_bits(),
+                    )
+                })
+            };
+            let with_floor = plan(floor);
+            let without = plan(0.0);
+            planned += usize::from(with_floor.is_some());
+            assert_eq!(with_floor, without, "case {k}: floor {floor} need {need}");
+        }
+        assert!(
+            same_floor > 1000 && longer > 1000 && planned > 40,
+            "{same_floor} {longer} {planned}"
+        );
     }
 }

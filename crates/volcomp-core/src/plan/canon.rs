@@ -50,24 +50,29 @@ impl CanonState {
         }
     }
 
-    /// A straight segment from the end point to `end` (`None` below the
+    /// A straight segment from the end point to `end`, appended to `out`
+    /// (built in place, not copied through an `Option`; none below the
     /// resolution).
-    fn line(&self, end: Vec3, canon: Canon, line: u64, limits: &Limits) -> Option<Seg> {
-        let start = self.end_point?;
-        let (v_max, acc) = line_limits(end - start, limits)?;
+    fn line(&self, end: Vec3, canon: Canon, line: u64, limits: &Limits, out: &mut Vec<Seg>) {
+        let Some(start) = self.end_point else {
+            return;
+        };
+        let Some((v_max, acc)) = line_limits(end - start, limits) else {
+            return;
+        };
         let l = super::geometry::Line::new(start, end);
         if l.length_mm < 1e-12 {
-            return None;
+            return;
         }
         let vel = match canon {
             Canon::Traverse => v_max,
             _ => self.feed_mm_s.min(v_max),
         };
         if vel <= 0.0 || acc <= 0.0 {
-            return None;
+            return;
         }
         let (term, tol) = self.term();
-        Some(Seg::new(
+        out.push(Seg::new(
             Shape::Line(l),
             canon,
             line,
@@ -78,7 +83,7 @@ impl CanonState {
             term,
             tol,
             limits.servo_period_s,
-        ))
+        ));
     }
 
     /// Sends the chained feed moves as one line (`flush_segments`).
@@ -86,9 +91,7 @@ impl CanonState {
         let Some(&(end, line)) = self.chain.last() else {
             return;
         };
-        if let Some(seg) = self.line(end, Canon::Feed, line, limits) {
-            out.push(seg);
-        }
+        self.line(end, Canon::Feed, line, limits, out);
         self.end_point = Some(end);
         self.chain.clear();
     }
@@ -138,9 +141,7 @@ impl CanonState {
         match m.kind {
             MoveKind::Rapid => {
                 self.flush(limits, out);
-                if let Some(seg) = self.line(m.end, Canon::Traverse, m.line, limits) {
-                    out.push(seg);
-                }
+                self.line(m.end, Canon::Traverse, m.line, limits, out);
                 self.end_point = Some(m.end);
             }
             MoveKind::Feed => {

@@ -69,7 +69,7 @@ pub(crate) fn add(q: &mut VecDeque<Seg>, tc: &mut Seg, limits: &Limits, stats: &
             q[n - 1].finalize();
         }
     }
-    q.push_back(tc.clone());
+    q.push_back(*tc);
     optimize(q, limits);
 }
 

@@ -70,7 +70,8 @@ pub(crate) enum Shape {
 
 /// One segment of the planner's queue (the fields of `TC_STRUCT` that
 /// time depends on; lengths in mm, speeds in mm/s, accelerations mm/s²).
-#[derive(Debug, Clone, PartialEq)]
+/// `Copy`: queued by one copy straight into the queue's slot.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Seg {
     pub shape: Shape,
     pub canon: Canon,
