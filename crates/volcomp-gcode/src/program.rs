@@ -259,6 +259,7 @@ impl<R: BufRead> Walker<R> {
         }
     }
 
+    #[inline]
     fn event(&self, pos: Pos, kind: LineKind, after_end: bool) -> LineEvent<'_> {
         LineEvent {
             number: pos.line as u64 + 1,
