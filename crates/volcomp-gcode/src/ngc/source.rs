@@ -135,17 +135,15 @@ impl Lines {
             let mut start = self.split_to;
             let mut searched = self.filled;
             let from = self.searched;
-            let starts = &mut self.starts;
-            for_each_line_feed(&self.bytes[from..self.filled], |k| {
+            for k in memchr::memchr_iter(b'\n', &self.bytes[from..self.filled]) {
                 let end = from + k + 1;
                 if end - start > limit {
                     searched = start;
-                    return false;
+                    break;
                 }
-                starts.push(start);
+                self.starts.push(start);
                 start = end;
-                true
-            });
+            }
             self.split_to = start;
             self.searched = searched.max(start);
             if self.starts.len() > before {
@@ -217,102 +215,9 @@ impl Lines {
     }
 }
 
-/// Calls `found` with the offset of each line feed in `bytes`, in order,
-/// until it returns `false`.
-///
-/// Sixteen bytes a step, as two words of eight: a byte equal to `\n` is a
-/// zero byte of `x = word ^ 0x0A…0A`, and a zero byte is one whose high bit
-/// stays clear in `((x & 0x7F…7F) + 0x7F…7F) | x` (a byte's low seven bits
-/// plus 0x7F reach 0x80 unless they are all zero, and never carry into the
-/// next byte), so every line feed of a word is found exactly (the exact
-/// zero-byte test of [Hacker's Delight], §6-1). On lines of CAM output
-/// (~20 bytes) this is cheaper than a `memchr` call per line feed, whose
-/// setup dominates there.
-#[inline]
-fn for_each_line_feed(bytes: &[u8], mut found: impl FnMut(usize) -> bool) {
-    let n = bytes.len();
-    let mut at = 0;
-    while at + 16 <= n {
-        let (a, b) = (
-            line_feeds(&bytes[at..at + 8]),
-            line_feeds(&bytes[at + 8..at + 16]),
-        );
-        if a | b != 0 {
-            for (mut feeds, base) in [(a, at), (b, at + 8)] {
-                while feeds != 0 {
-                    if !found(base + (feeds.trailing_zeros() / 8) as usize) {
-                        return;
-                    }
-                    feeds &= feeds - 1;
-                }
-            }
-        }
-        at += 16;
-    }
-    while at < n {
-        if bytes[at] == b'\n' && !found(at) {
-            return;
-        }
-        at += 1;
-    }
-}
-
-/// The high bit of each byte of the eight bytes `word` that is a line feed.
-#[inline(always)]
-fn line_feeds(word: &[u8]) -> u64 {
-    const LINE_FEEDS: u64 = 0x0A0A_0A0A_0A0A_0A0A;
-    const LOW_SEVEN: u64 = 0x7F7F_7F7F_7F7F_7F7F;
-    let mut w = [0u8; 8];
-    w.copy_from_slice(word);
-    let x = u64::from_le_bytes(w) ^ LINE_FEEDS;
-    !(((x & LOW_SEVEN) + LOW_SEVEN) | x | LOW_SEVEN)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn line_feeds_are_found_where_memchr_finds_them() {
-        // Every byte value next to line feeds, at every offset of a word,
-        // lengths 0 to 40 (the tail after the last whole word too); a
-        // second method: memchr's iterator.
-        let mut seed = 11u64;
-        for len in 0..=40usize {
-            for round in 0..200 {
-                let bytes: Vec<u8> = (0..len)
-                    .map(|_| {
-                        seed = seed
-                            .wrapping_mul(6364136223846793005)
-                            .wrapping_add(1442695040888963407);
-                        let r = (seed >> 33) as u32;
-                        match (r + round) % 4 {
-                            0 => b'\n',
-                            1 => (r >> 8) as u8,
-                            2 => [0x0B, 0x09, 0x8A, 0x0A ^ 0x80, 0x00, 0xFF][(r >> 8) as usize % 6],
-                            _ => b'0' + (r >> 8) as u8 % 10,
-                        }
-                    })
-                    .collect();
-                let want: Vec<usize> = memchr::memchr_iter(b'\n', &bytes).collect();
-                let mut got = Vec::new();
-                for_each_line_feed(&bytes, |k| {
-                    got.push(k);
-                    true
-                });
-                assert_eq!(got, want, "{bytes:?}");
-                // Stopping early stops at the one asked.
-                if let Some(&second) = want.get(1) {
-                    let mut seen = Vec::new();
-                    for_each_line_feed(&bytes, |k| {
-                        seen.push(k);
-                        k != second
-                    });
-                    assert_eq!(seen, want[..2], "{bytes:?}");
-                }
-            }
-        }
-    }
 
     /// Hands out its bytes in pieces of the lengths given in turn (a pipe,
     /// a slow device).
