@@ -484,7 +484,7 @@ impl Interpreter {
         if !lexed.tokens.is_empty() {
             self.nonblank_seen = true;
         }
-        self.check_after_stray_percent(line, lexed.words().next().is_some())?;
+        self.check_after_stray_percent(line, lexed)?;
         let before = out.len();
         if !self.fast_block(line, lexed, out)? {
             self.collect_words(line, lexed)?;

@@ -412,8 +412,11 @@ impl Interpreter {
 
     /// Drops a G5.2 block whose motion mode changed before G5.3, as
     /// LinuxCNC does.
+    /// (Inlined, and the block looked at first: a line outside a G5.2
+    /// block has nothing to drop, and the drop was a call per line.)
+    #[inline]
     pub(super) fn end_spline_block_unless(&mut self, mode: Option<MotionMode>) {
-        if !matches!(mode, Some(MotionMode::Spline(52 | 53))) {
+        if self.nurbs.is_some() && !matches!(mode, Some(MotionMode::Spline(52 | 53))) {
             self.nurbs = None;
         }
     }

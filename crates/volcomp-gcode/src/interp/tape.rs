@@ -106,13 +106,15 @@ impl Interpreter {
 
     /// Refuses a block with words after a stray `%` line (comments and
     /// blank lines may follow it).
+    #[inline]
     pub(super) fn check_after_stray_percent(
         &self,
         line: u64,
-        has_words: bool,
+        lexed: &crate::lexer::Lexed,
     ) -> Result<(), GcodeError> {
+        // The words are looked at only after a stray `%` (rare).
         match self.stray_percent {
-            Some(at) if has_words => Err(self.after_stray_percent(line, at)),
+            Some(at) if lexed.words().next().is_some() => Err(self.after_stray_percent(line, at)),
             _ => Ok(()),
         }
     }

@@ -210,6 +210,12 @@ impl Flow {
             self.first_unrun = pos.line + 1;
             return Ok(());
         }
+        self.count_executed(pos)
+    }
+
+    /// A line run again (a loop, a call): counted against the bound (out
+    /// of line, so that the first run's test above inlines).
+    fn count_executed(&mut self, pos: Pos) -> Result<(), GcodeError> {
         self.executed += 1;
         if self.executed > self.max_executed {
             return Err(GcodeError::new(
