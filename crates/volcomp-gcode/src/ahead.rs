@@ -346,6 +346,68 @@ mod tests {
         }
     }
 
+    /// `Pieces`, then an I/O error once its bytes are spent.
+    struct ThenFails(Pieces);
+
+    impl Read for ThenFails {
+        fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+            if self.0.at == self.0.bytes.len() {
+                return Err(std::io::Error::other("the disk went away"));
+            }
+            self.0.read(out)
+        }
+    }
+
+    #[test]
+    fn the_reader_yields_the_bytes_then_the_error_of_the_source() {
+        // 700,000 bytes of lines (so chunks end inside lines), read back
+        // through the reader in 40,000-byte reads: the same bytes, then the
+        // source's own error, then nothing.
+        let bytes: Vec<u8> = (0..700_000u32)
+            .map(|i| {
+                if i % 23 == 22 {
+                    b'\n'
+                } else {
+                    b'0' + (i * 7 % 10) as u8
+                }
+            })
+            .collect();
+        for lengths in [vec![1 << 16], vec![1, 5000, 70_000], vec![1 << 20]] {
+            for fails in [false, true] {
+                let pieces = Pieces {
+                    bytes: bytes.clone(),
+                    at: 0,
+                    lengths: lengths.clone(),
+                    next: 0,
+                };
+                let (mut r, _lexed) = if fails {
+                    lex_ahead(ThenFails(pieces))
+                } else {
+                    lex_ahead(pieces)
+                };
+                let mut got = Vec::new();
+                let mut buf = vec![0; 40_000];
+                let end = loop {
+                    match r.read(&mut buf) {
+                        Ok(0) => break None,
+                        Ok(n) => got.extend_from_slice(&buf[..n]),
+                        Err(e) => break Some(e.to_string()),
+                    }
+                };
+                assert!(got == bytes, "reads {lengths:?}: {} bytes", got.len());
+                assert_eq!(end.as_deref(), fails.then_some("the disk went away"));
+                if fails {
+                    assert_eq!(r.read(&mut buf).unwrap(), 0);
+                }
+            }
+        }
+        // Dropped before the end of an endless source: the thread stops at
+        // its next chunk (it would otherwise keep a core busy).
+        let (mut endless, lexed) = lex_ahead(std::io::repeat(b'x'));
+        assert_eq!(std::io::BufRead::fill_buf(&mut endless).unwrap()[0], b'x');
+        drop((endless, lexed));
+    }
+
     /// Everything the walker says of `program`, line by line (the line's
     /// number, bytes, kind, tokens, motions, state flags), its warnings and
     /// how it ends.
