@@ -1007,6 +1007,51 @@ fn bisect_arc(
     Ok(())
 }
 
+/// Where a take-up ramp of `length_mm` centred on a reversal inside an
+/// arc begins: the reversal at the start of target `index`'s piece, the
+/// targets at the arc parameters `pieces` (the motion from parameter 0).
+/// As on a line (compensate/ramp_centre.rs `centred_start`, the rule and
+/// its reason): `length_mm/2` before the reversal along the arc, moved to
+/// the nearer end of its piece where that is closer than `shortest_mm`,
+/// and to the arc's start where the arc is shorter before the reversal;
+/// `None` where the ramp would begin less than `shortest_mm` before the
+/// reversal. The target solved again from, the point inserted before it
+/// with its arc parameter (`None`: the ramp starts at a piece's start),
+/// and the ramp's length to its end `length_mm/2` after the reversal.
+pub(super) fn centred_start_on_arc(
+    arc: &Arc,
+    pieces: &[f64],
+    index: usize,
+    length_mm: f64,
+    shortest_mm: f64,
+) -> Option<(usize, Option<(Vec3, f64)>, f64)> {
+    let len = arc.length();
+    if index == 0
+        || index >= pieces.len()
+        || !(length_mm > 0.0 && length_mm.is_finite() && len > 0.0)
+    {
+        return None;
+    }
+    // The arc's length is linear in its parameter (a helix too).
+    let along = |j: usize| pieces[j] * len;
+    let s0 = along(index - 1);
+    let s_start = (s0 - 0.5 * length_mm).max(0.0);
+    let p = (0..index).find(|j| along(*j) > s_start + 1e-9)?;
+    let piece_start = if p == 0 { 0.0 } else { along(p - 1) };
+    let (from, insert, s_ramp) = if s_start - piece_start < shortest_mm {
+        (p, None, piece_start)
+    } else if along(p) - s_start < shortest_mm {
+        (p + 1, None, along(p))
+    } else {
+        let l = s_start / len;
+        (p, Some((arc.point_at(l), l)), s_start)
+    };
+    if s0 - s_ramp < shortest_mm || from >= index {
+        return None;
+    }
+    Some((from, insert, (s0 + 0.5 * length_mm - s_ramp).max(length_mm)))
+}
+
 /// An arc written as pieces of itself: the end parameters of the pieces
 /// ([`arc_pieces`]), and whether the program gives radii (R) rather than
 /// centres.

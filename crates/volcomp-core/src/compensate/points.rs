@@ -1216,10 +1216,19 @@ impl State<'_> {
             && options.fold_take_ups
             && options.directions == DirectionPolicy::Commanded
             && run.feed_mm_min.is_some_and(|f| f > 0.0);
+        // (And inside an arc: compensate/arcs.rs `centred_start_on_arc`.)
+        let centre_arcs = matches!(rule, TakeUpRule::Exact { smooth: true })
+            && matches!(leads, Leads::Arc { .. })
+            && feed_like
+            && options.take_up
+            && options.fold_take_ups
+            && options.directions == DirectionPolicy::Commanded
+            && run.feed_mm_min.is_some_and(|f| f > 0.0);
         let keep_history = (matches!(rule, TakeUpRule::Exact { smooth: true })
             && matches!(leads, Leads::Arc { .. })
             && !transitions.is_empty())
-            || centre_lines;
+            || centre_lines
+            || centre_arcs;
         // The reversals (their points) a centred ramp was tried for.
         let mut centred_tried: Vec<Vec3> = Vec::new();
         let mut history: Vec<Snapshot> = Vec::new();
@@ -2154,7 +2163,7 @@ impl State<'_> {
             // up on a ramp centred on it instead (compensate/ramp_centre.rs),
             // where the line before it is quiet (no take-up, ramp or other
             // state).
-            if centre_lines
+            if (centre_lines || centre_arcs)
                 && take_up.is_some()
                 && ramp.is_none()
                 && ahead.is_none()
@@ -2180,38 +2189,53 @@ impl State<'_> {
                 // A tenth more than the ramp needs here: the take-up at
                 // the ramp's start (solved there) is a little different.
                 let need = 1.1
-                    * line_ramp_length_mm(
-                        tu - self.q_out,
-                        options.planner.tangent_tolerance(v_mm_s, false),
-                        shortest,
-                    );
+                    * match &leads {
+                        Leads::Arc { .. } => ramp_length_mm(
+                            tu - self.q_out,
+                            options.planner.tangent_tolerance(v_mm_s, true),
+                            shortest,
+                            true,
+                        ),
+                        _ => line_ramp_length_mm(
+                            tu - self.q_out,
+                            options.planner.tangent_tolerance(v_mm_s, false),
+                            shortest,
+                        ),
+                    };
+                // (From, the point inserted and on an arc its parameter,
+                // the ramp's length.)
                 let found = (tu != self.q_out)
-                    .then(|| {
-                        super::ramp_centre::centred_start(
+                    .then(|| match &leads {
+                        Leads::Arc { arc, pieces } => {
+                            super::arcs::centred_start_on_arc(arc, pieces, index, need, shortest)
+                                .map(|(from, ins, l)| (from, ins.map(|(p, t)| (p, Some(t))), l))
+                        }
+                        _ => super::ramp_centre::centred_start(
                             start,
                             targets.as_slice(),
                             index,
                             need,
                             shortest,
                         )
+                        .map(|c| (c.from, c.insert.map(|p| (p, None)), c.ramp_mm)),
                     })
                     .flatten();
-                if let Some(c) = found {
-                    let p = c.from;
+                if let Some((p, c_insert, c_ramp_mm)) = found {
                     // (A take-up at the start of the piece the ramp's
                     // start is inserted in comes before the ramp: solved
                     // again there as it was.)
-                    let first = p + usize::from(c.insert.is_some());
+                    let first = p + usize::from(c_insert.is_some());
                     let quiet = (p..=index).all(|j| !history[j].ramp_on)
                         && (first..index).all(|j| {
                             commands[j].1.is_none() && self.states[j] == self.states[first]
-                        });
+                        })
+                        && transitions.iter().all(|o| o.index < p || o.index > index);
                     if quiet {
                         ahead = Some(Ahead {
-                            index: if c.insert.is_some() { p + 1 } else { p },
+                            index: if c_insert.is_some() { p + 1 } else { p },
                             from: p,
                             axes: [0, 1, 2].map(|a| point.reversed[a].then_some(point.s[a])),
-                            length_mm: c.ramp_mm,
+                            length_mm: c_ramp_mm,
                             // No S-curve: the axes are held on the ramp
                             // only (`ahead_hold` finds no transition there
                             // and ends).
@@ -2226,9 +2250,22 @@ impl State<'_> {
                         (t_prev, last_lead, ramp_inserted) =
                             (h.t_prev, h.last_lead, h.ramp_inserted);
                         (ramp, forced, ahead_hold) = (None, None, None);
-                        ahead_saved = Some((targets.clone(), None, transitions.clone()));
-                        if let Some(pt) = c.insert {
+                        ahead_saved = Some((
+                            targets.clone(),
+                            match &leads {
+                                Leads::Arc { pieces, .. } => Some(pieces.to_vec()),
+                                _ => None,
+                            },
+                            transitions.clone(),
+                        ));
+                        if let Some((pt, param)) = c_insert {
                             targets.insert(p, pt);
+                            if let (Leads::Arc { pieces, .. }, Some(l)) = (&mut leads, param) {
+                                pieces.insert(p, l);
+                            }
+                            for tr in transitions.iter_mut().filter(|tr| tr.index >= p) {
+                                tr.index += 1;
+                            }
                         }
                         index = p;
                         continue;
