@@ -2204,22 +2204,39 @@ impl State<'_> {
                     };
                 // (From, the point inserted and on an arc its parameter,
                 // the ramp's length.)
-                let found = (tu != self.q_out)
-                    .then(|| match &leads {
-                        Leads::Arc { arc, pieces } => {
-                            super::arcs::centred_start_on_arc(arc, pieces, index, need, shortest)
-                                .map(|(from, ins, l)| (from, ins.map(|(p, t)| (p, Some(t))), l))
-                        }
-                        _ => super::ramp_centre::centred_start(
-                            start,
-                            targets.as_slice(),
+                let found = match &leads {
+                    _ if tu == self.q_out => None,
+                    Leads::Arc { arc, pieces } => {
+                        // Before the reversal as much as the drifts on
+                        // both sides ask (compensate/arcs.rs
+                        // `ramp_lead_share`).
+                        let lead = arc_ramp_lead_share(
+                            &mut cells,
+                            model,
+                            options.method,
+                            (arc, pieces[index - 1], 0.5 * need),
+                            (self.q_out, self.s),
+                            (&point, tu - self.q_out),
+                        )
+                        .map_err(|source| model_error(file, line, source))?;
+                        super::arcs::centred_start_on_arc(
+                            arc,
+                            pieces,
                             index,
-                            need,
+                            (lead * need, need),
                             shortest,
                         )
-                        .map(|c| (c.from, c.insert.map(|p| (p, None)), c.ramp_mm)),
-                    })
-                    .flatten();
+                        .map(|(from, ins, l)| (from, ins.map(|(p, t)| (p, Some(t))), l))
+                    }
+                    _ => super::ramp_centre::centred_start(
+                        start,
+                        targets.as_slice(),
+                        index,
+                        need,
+                        shortest,
+                    )
+                    .map(|c| (c.from, c.insert.map(|p| (p, None)), c.ramp_mm)),
+                };
                 if let Some((p, c_insert, c_ramp_mm)) = found {
                     // (A take-up at the start of the piece the ramp's
                     // start is inserted in comes before the ramp: solved
@@ -2490,6 +2507,47 @@ impl State<'_> {
         };
         Some(shortest.max(min_segment))
     }
+}
+
+/// The share of a take-up ramp to put before a reversal inside an arc
+/// (compensate/arcs.rs `ramp_lead_share`): the drift of the reversing
+/// axis' command (its largest take-up) over `probe_mm` before the
+/// reversal at parameter `l_rev` in the old state `s_old`, and after it
+/// in the point's new state, each against the command at the reversal in
+/// that state.
+fn arc_ramp_lead_share(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    method: Method,
+    (arc, l_rev, probe_mm): (&volcomp_gcode::Arc, f64, f64),
+    (q_prev, s_old): (Vec3, Directions),
+    (point, delta): (&crate::compensate::solve::PointSolution, Vec3),
+) -> Result<f64, ModelError> {
+    let len = arc.length();
+    let a = (0..3)
+        .filter(|a| point.reversed[*a])
+        .max_by(|x, y| delta[*x].abs().total_cmp(&delta[*y].abs()));
+    let Some(a) = a.filter(|_| len > 0.0 && probe_mm > 0.0) else {
+        return Ok(0.5);
+    };
+    let l_before = (l_rev - probe_mm / len).max(0.0);
+    let l_after = (l_rev + probe_mm / len).min(1.0);
+    let mut q = |l: f64, s: Directions| -> Result<f64, ModelError> {
+        Ok(solve_fixed_in(cells, model, method, arc.point_at(l), s, [false; 3], q_prev)?.q_mm[a])
+    };
+    let s1 = if l_before < l_rev {
+        ((q(l_rev, s_old)? - q(l_before, s_old)?) * s_old[a].sign()).max(0.0)
+            / ((l_rev - l_before) * len)
+    } else {
+        0.0
+    };
+    let s2 = if l_after > l_rev {
+        ((q(l_after, point.s)? - q(l_rev, point.s)?) * point.s[a].sign()).max(0.0)
+            / ((l_after - l_rev) * len)
+    } else {
+        0.0
+    };
+    Ok(super::arcs::ramp_lead_share(s1 * 1e3, s2 * 1e3))
 }
 
 /// Refuses a solved point whose command or residual is not finite, or whose
