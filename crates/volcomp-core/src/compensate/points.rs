@@ -2251,7 +2251,13 @@ impl State<'_> {
                         ahead = Some(Ahead {
                             index: if c_insert.is_some() { p + 1 } else { p },
                             from: p,
-                            axes: [0, 1, 2].map(|a| point.reversed[a].then_some(point.s[a])),
+                            // (On an arc only the axes the take-up moves: one
+                            // with no band that turns at the same point, a
+                            // quarter point, runs on along the arc.)
+                            axes: [0, 1, 2].map(|a| {
+                                (point.reversed[a] && (!centre_arcs || tu[a] != self.q_out[a]))
+                                    .then_some(point.s[a])
+                            }),
                             length_mm: c_ramp_mm,
                             // No S-curve: the axes are held on the ramp
                             // only (`ahead_hold` finds no transition there
