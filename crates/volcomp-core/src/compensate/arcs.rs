@@ -1007,6 +1007,11 @@ fn bisect_arc(
     Ok(())
 }
 
+/// Where a ramp around a reversal in an arc starts
+/// ([`centred_start_on_arc`]): the target solved again from, the point
+/// inserted before it with its arc parameter, and the ramp's length (mm).
+pub(super) type ArcRampStart = (usize, Option<(Vec3, f64)>, f64);
+
 /// Where a take-up ramp of `length_mm` around a reversal inside an arc
 /// begins: the reversal at the start of target `index`'s piece, the
 /// targets at the arc parameters `pieces` (the motion from parameter 0),
@@ -1024,7 +1029,7 @@ pub(super) fn centred_start_on_arc(
     index: usize,
     (lead_mm, length_mm): (f64, f64),
     shortest_mm: f64,
-) -> Option<(usize, Option<(Vec3, f64)>, f64)> {
+) -> Option<ArcRampStart> {
     let len = arc.length();
     if index == 0
         || index >= pieces.len()
