@@ -5,6 +5,7 @@
 
 mod common;
 
+mod arc_ramp;
 mod axis_never_set;
 mod compensate_cycles;
 mod compensation;

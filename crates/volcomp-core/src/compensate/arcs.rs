@@ -1007,6 +1007,75 @@ fn bisect_arc(
     Ok(())
 }
 
+/// Where a ramp around a reversal in an arc starts
+/// ([`centred_start_on_arc`]): the target solved again from, the point
+/// inserted before it with its arc parameter, and the ramp's length (mm).
+pub(super) type ArcRampStart = (usize, Option<(Vec3, f64)>, f64);
+
+/// Where a take-up ramp of `length_mm` around a reversal inside an arc
+/// begins: the reversal at the start of target `index`'s piece, the
+/// targets at the arc parameters `pieces` (the motion from parameter 0),
+/// the ramp starting `lead_mm` before the reversal along the arc. As on a
+/// line (compensate/ramp_centre.rs `centred_start`): moved to the nearer
+/// end of its piece where that is closer than `shortest_mm`, and to the
+/// arc's start where the arc is shorter before the reversal; `None` where
+/// the ramp would begin less than `shortest_mm` before the reversal. The
+/// target solved again from, the point inserted before it with its arc
+/// parameter (`None`: the ramp starts at a piece's start), and the
+/// ramp's length to its end `length_mm − lead_mm` after the reversal.
+pub(super) fn centred_start_on_arc(
+    arc: &Arc,
+    pieces: &[f64],
+    index: usize,
+    (lead_mm, length_mm): (f64, f64),
+    shortest_mm: f64,
+) -> Option<ArcRampStart> {
+    let len = arc.length();
+    if index == 0
+        || index >= pieces.len()
+        || !(length_mm > 0.0 && length_mm.is_finite() && len > 0.0)
+        || !(0.0..=length_mm).contains(&lead_mm)
+    {
+        return None;
+    }
+    // The arc's length is linear in its parameter (a helix too).
+    let along = |j: usize| pieces[j] * len;
+    let s0 = along(index - 1);
+    let s_start = (s0 - lead_mm).max(0.0);
+    let p = (0..index).find(|j| along(*j) > s_start + 1e-9)?;
+    let piece_start = if p == 0 { 0.0 } else { along(p - 1) };
+    let (from, insert, s_ramp) = if s_start - piece_start < shortest_mm {
+        (p, None, piece_start)
+    } else if along(p) - s_start < shortest_mm {
+        (p + 1, None, along(p))
+    } else {
+        let l = s_start / len;
+        (p, Some((arc.point_at(l), l)), s_start)
+    };
+    if s0 - s_ramp < shortest_mm || from >= index {
+        return None;
+    }
+    let after_mm = length_mm - lead_mm;
+    Some((from, insert, (s0 + after_mm - s_ramp).max(length_mm)))
+}
+
+/// The share of a ramp of length `L` to put before a reversal where the
+/// target of the reversing axis drifts at `s1_um_mm` on its old way
+/// before it and at `s2_um_mm` on its new way after it (both ≥ 0): the
+/// tool, held at the level of the ramp's start while the motor crosses
+/// its band, is off by `s₁·a` at the reversal (`a` before it) and by
+/// `|s₂(L − a) − s₁a|` at the ramp's end; the larger of the two is least,
+/// `s₁s₂L/(2s₁ + s₂)`, at `a = s₂L/(2s₁ + s₂)`. A half where both are 0
+/// (or not finite).
+pub(super) fn ramp_lead_share(s1_um_mm: f64, s2_um_mm: f64) -> f64 {
+    let d = 2.0 * s1_um_mm + s2_um_mm;
+    if s1_um_mm >= 0.0 && s2_um_mm >= 0.0 && d > 0.0 && d.is_finite() {
+        s2_um_mm / d
+    } else {
+        0.5
+    }
+}
+
 /// An arc written as pieces of itself: the end parameters of the pieces
 /// ([`arc_pieces`]), and whether the program gives radii (R) rather than
 /// centres.
@@ -1433,6 +1502,90 @@ mod tests {
         assert_eq!(second.after.center, Some(c2));
         assert!(second.after.second.is_none() && !second.after.clockwise);
         assert!(cut(b.x + 0.01).is_none() && cut(a.x - 0.01).is_none());
+    }
+
+    #[test]
+    fn a_ramp_around_a_reversal_in_an_arc_starts_its_lead_before_it_along_the_arc() {
+        // A full G3 circle of R10 from (10, 0): 62.832 mm, targets at the
+        // quarters (15.708 mm apart); the reversal at the start of target
+        // 2's piece, 31.416 mm along. A 6 mm ramp with 4 mm before it
+        // starts 27.416 mm along, inside piece 1: a point inserted there
+        // (on the circle, at the angle 27.416/10 rad), solved again from
+        // target 1, and the ramp runs 4 + 2 = 6 mm.
+        let arc = Arc {
+            start: Vec3::new(10.0, 0.0, 0.0),
+            end: Vec3::new(10.0, 0.0, 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: TAU,
+        };
+        let pieces = [0.25, 0.5, 0.75, 1.0];
+        let half = 10.0 * std::f64::consts::PI;
+        let (from, insert, ramp_mm) =
+            centred_start_on_arc(&arc, &pieces, 2, (4.0, 6.0), 0.2).unwrap();
+        assert_eq!(from, 1);
+        let (p, l) = insert.unwrap();
+        let angle = (half - 4.0) / 10.0;
+        assert!((l - (half - 4.0) / (2.0 * half)).abs() < 1e-12, "{l}");
+        assert!((p.x - 10.0 * angle.cos()).abs() < 1e-9, "{p:?}");
+        assert!((p.y - 10.0 * angle.sin()).abs() < 1e-9, "{p:?}");
+        assert!((ramp_mm - 6.0).abs() < 1e-9, "{ramp_mm}");
+        // A start 0.1 mm after target 1 (15.708 mm along) moves back to it:
+        // no point inserted, the ramp 15.708 + 2 mm long.
+        let lead = half - 0.5 * half - 0.1;
+        let (from, insert, ramp_mm) =
+            centred_start_on_arc(&arc, &pieces, 2, (lead, lead + 2.0), 0.2).unwrap();
+        assert_eq!((from, insert), (1, None));
+        assert!((ramp_mm - (0.5 * half + 2.0)).abs() < 1e-9, "{ramp_mm}");
+        // No room: a lead shorter than the shortest piece, a lead longer
+        // than the ramp, no reversal before the first target.
+        assert_eq!(
+            centred_start_on_arc(&arc, &pieces, 2, (0.1, 6.0), 0.2),
+            None
+        );
+        assert_eq!(
+            centred_start_on_arc(&arc, &pieces, 2, (7.0, 6.0), 0.2),
+            None
+        );
+        assert_eq!(
+            centred_start_on_arc(&arc, &pieces, 0, (3.0, 6.0), 0.2),
+            None
+        );
+    }
+
+    #[test]
+    fn the_ramps_lead_leaves_the_least_of_the_largest_drift_a_scan_finds() {
+        // Second method: scan the ramp's start a over [0, L] in steps of
+        // L/100 000 for the least max(s₁a, |s₂(L − a) − s₁a|), the tool
+        // held at the start's level while the target drifts s₁ before
+        // the reversal and s₂ after it.
+        let l = 5.0;
+        for (s1, s2) in [
+            (1.0, 1.0),
+            (0.235, 0.08),
+            (0.032, 0.101),
+            (0.0, 0.3),
+            (0.4, 0.0),
+        ] {
+            let worst = |a: f64| (s1 * a).max((s2 * (l - a) - s1 * a).abs());
+            let n = 100_000;
+            let (best_a, best) = (0..=n)
+                .map(|k| l * k as f64 / n as f64)
+                .map(|a| (a, worst(a)))
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+                .unwrap();
+            let share = ramp_lead_share(s1, s2);
+            assert!(
+                worst(share * l) <= best + 1e-9,
+                "{s1} {s2}: {share} vs {best_a}"
+            );
+            // And the closed form of that least drift, s₁s₂L/(2s₁ + s₂).
+            assert!((worst(share * l) - s1 * s2 * l / (2.0 * s1 + s2)).abs() < 1e-12);
+        }
+        // Equal drifts: a third of the ramp before the reversal.
+        assert!((ramp_lead_share(1.0, 1.0) - 1.0 / 3.0).abs() < 1e-15);
+        // No drift on either side: centred.
+        assert_eq!(ramp_lead_share(0.0, 0.0), 0.5);
     }
 
     #[test]

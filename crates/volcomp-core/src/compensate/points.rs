@@ -1254,10 +1254,19 @@ impl State<'_> {
             && options.fold_take_ups
             && options.directions == DirectionPolicy::Commanded
             && run.feed_mm_min.is_some_and(|f| f > 0.0);
+        // (And inside an arc: compensate/arcs.rs `centred_start_on_arc`.)
+        let centre_arcs = matches!(rule, TakeUpRule::Exact { smooth: true })
+            && matches!(leads, Leads::Arc { .. })
+            && feed_like
+            && options.take_up
+            && options.fold_take_ups
+            && options.directions == DirectionPolicy::Commanded
+            && run.feed_mm_min.is_some_and(|f| f > 0.0);
         let keep_history = (matches!(rule, TakeUpRule::Exact { smooth: true })
             && matches!(leads, Leads::Arc { .. })
             && !transitions.is_empty())
-            || centre_lines;
+            || centre_lines
+            || centre_arcs;
         // The reversals (their points) a centred ramp was tried for.
         let mut centred_tried: Vec<Vec3> = Vec::new();
         let mut history: Vec<Snapshot> = Vec::new();
@@ -2214,7 +2223,7 @@ impl State<'_> {
             // up on a ramp centred on it instead (compensate/ramp_centre.rs),
             // where the line before it is quiet (no take-up, ramp or other
             // state).
-            if centre_lines
+            if (centre_lines || centre_arcs)
                 && take_up.is_some()
                 && ramp.is_none()
                 && ahead.is_none()
@@ -2240,38 +2249,76 @@ impl State<'_> {
                 // A tenth more than the ramp needs here: the take-up at
                 // the ramp's start (solved there) is a little different.
                 let need = 1.1
-                    * line_ramp_length_mm(
-                        tu - self.q_out,
-                        options.planner.tangent_tolerance(v_mm_s, false),
-                        shortest,
-                    );
-                let found = (tu != self.q_out)
-                    .then(|| {
-                        super::ramp_centre::centred_start(
-                            start,
-                            targets.as_slice(),
+                    * match &leads {
+                        Leads::Arc { .. } => ramp_length_mm(
+                            tu - self.q_out,
+                            options.planner.tangent_tolerance(v_mm_s, true),
+                            shortest,
+                            true,
+                        ),
+                        _ => line_ramp_length_mm(
+                            tu - self.q_out,
+                            options.planner.tangent_tolerance(v_mm_s, false),
+                            shortest,
+                        ),
+                    };
+                // (From, the point inserted and on an arc its parameter,
+                // the ramp's length.)
+                let found = match &leads {
+                    _ if tu == self.q_out => None,
+                    Leads::Arc { arc, pieces } => {
+                        // Before the reversal as much as the drifts on
+                        // both sides ask (compensate/arcs.rs
+                        // `ramp_lead_share`).
+                        let lead = arc_ramp_lead_share(
+                            &mut cells,
+                            model,
+                            options.method,
+                            (arc, pieces[index - 1], 0.5 * need),
+                            (self.q_out, self.s),
+                            (&point, tu - self.q_out),
+                        )
+                        .map_err(|source| model_error(file, line, source))?;
+                        super::arcs::centred_start_on_arc(
+                            arc,
+                            pieces,
                             index,
-                            need,
+                            (lead * need, need),
                             shortest,
                         )
-                    })
-                    .flatten();
-                if let Some(c) = found {
-                    let p = c.from;
+                        .map(|(from, ins, l)| (from, ins.map(|(p, t)| (p, Some(t))), l))
+                    }
+                    _ => super::ramp_centre::centred_start(
+                        start,
+                        targets.as_slice(),
+                        index,
+                        need,
+                        shortest,
+                    )
+                    .map(|c| (c.from, c.insert.map(|p| (p, None)), c.ramp_mm)),
+                };
+                if let Some((p, c_insert, c_ramp_mm)) = found {
                     // (A take-up at the start of the piece the ramp's
                     // start is inserted in comes before the ramp: solved
                     // again there as it was.)
-                    let first = p + usize::from(c.insert.is_some());
+                    let first = p + usize::from(c_insert.is_some());
                     let quiet = (p..=index).all(|j| !history[j].ramp_on)
                         && (first..index).all(|j| {
                             commands[j].1.is_none() && self.states[j] == self.states[first]
-                        });
+                        })
+                        && transitions.iter().all(|o| o.index < p || o.index > index);
                     if quiet {
                         ahead = Some(Ahead {
-                            index: if c.insert.is_some() { p + 1 } else { p },
+                            index: if c_insert.is_some() { p + 1 } else { p },
                             from: p,
-                            axes: [0, 1, 2].map(|a| point.reversed[a].then_some(point.s[a])),
-                            length_mm: c.ramp_mm,
+                            // (On an arc only the axes the take-up moves: one
+                            // with no band that turns at the same point, a
+                            // quarter point, runs on along the arc.)
+                            axes: [0, 1, 2].map(|a| {
+                                (point.reversed[a] && (!centre_arcs || tu[a] != self.q_out[a]))
+                                    .then_some(point.s[a])
+                            }),
+                            length_mm: c_ramp_mm,
                             // No S-curve: the axes are held on the ramp
                             // only (`ahead_hold` finds no transition there
                             // and ends).
@@ -2286,9 +2333,22 @@ impl State<'_> {
                         (t_prev, last_lead, ramp_inserted) =
                             (h.t_prev, h.last_lead, h.ramp_inserted);
                         (ramp, forced, ahead_hold) = (None, None, None);
-                        ahead_saved = Some((targets.clone(), None, transitions.clone()));
-                        if let Some(pt) = c.insert {
+                        ahead_saved = Some((
+                            targets.clone(),
+                            match &leads {
+                                Leads::Arc { pieces, .. } => Some(pieces.to_vec()),
+                                _ => None,
+                            },
+                            transitions.clone(),
+                        ));
+                        if let Some((pt, param)) = c_insert {
                             targets.insert(p, pt);
+                            if let (Leads::Arc { pieces, .. }, Some(l)) = (&mut leads, param) {
+                                pieces.insert(p, l);
+                            }
+                            for tr in transitions.iter_mut().filter(|tr| tr.index >= p) {
+                                tr.index += 1;
+                            }
                         }
                         index = p;
                         continue;
@@ -2513,6 +2573,47 @@ impl State<'_> {
         };
         Some(shortest.max(min_segment))
     }
+}
+
+/// The share of a take-up ramp to put before a reversal inside an arc
+/// (compensate/arcs.rs `ramp_lead_share`): the drift of the reversing
+/// axis' command (its largest take-up) over `probe_mm` before the
+/// reversal at parameter `l_rev` in the old state `s_old`, and after it
+/// in the point's new state, each against the command at the reversal in
+/// that state.
+fn arc_ramp_lead_share(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    method: Method,
+    (arc, l_rev, probe_mm): (&volcomp_gcode::Arc, f64, f64),
+    (q_prev, s_old): (Vec3, Directions),
+    (point, delta): (&crate::compensate::solve::PointSolution, Vec3),
+) -> Result<f64, ModelError> {
+    let len = arc.length();
+    let a = (0..3)
+        .filter(|a| point.reversed[*a])
+        .max_by(|x, y| delta[*x].abs().total_cmp(&delta[*y].abs()));
+    let Some(a) = a.filter(|_| len > 0.0 && probe_mm > 0.0) else {
+        return Ok(0.5);
+    };
+    let l_before = (l_rev - probe_mm / len).max(0.0);
+    let l_after = (l_rev + probe_mm / len).min(1.0);
+    let mut q = |l: f64, s: Directions| -> Result<f64, ModelError> {
+        Ok(solve_fixed_in(cells, model, method, arc.point_at(l), s, [false; 3], q_prev)?.q_mm[a])
+    };
+    let s1 = if l_before < l_rev {
+        ((q(l_rev, s_old)? - q(l_before, s_old)?) * s_old[a].sign()).max(0.0)
+            / ((l_rev - l_before) * len)
+    } else {
+        0.0
+    };
+    let s2 = if l_after > l_rev {
+        ((q(l_after, point.s)? - q(l_rev, point.s)?) * point.s[a].sign()).max(0.0)
+            / ((l_after - l_rev) * len)
+    } else {
+        0.0
+    };
+    Ok(super::arcs::ramp_lead_share(s1 * 1e3, s2 * 1e3))
 }
 
 /// Refuses a solved point whose command or residual is not finite, or whose

@@ -1,0 +1,119 @@
+//! Under G61, a reversal of Z inside an arc taken up on a ramp around it
+//! (docs/compensation.md, "A ramp around a reversal inside an arc"),
+//! checked against hand values.
+
+use std::io::Cursor;
+use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, PointRecord};
+use volcomp_core::model::axis_table::AxisTableMap;
+use volcomp_core::simulate::report::simulate_program;
+use volcomp_gcode::Walker;
+
+use crate::common;
+
+fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
+    common::walker(program, "test.ngc")
+}
+
+/// X's table moves the tool in Z so that Z, standing still in the
+/// program, is commanded `3 + 0.03·(x − 5)` µm for x < 5 and
+/// `3 − 0.12·(x − 5)` µm after (table points every 0.25 mm, both
+/// directions): it rises slowly to X 5 and falls four times as fast after
+/// it. Z has a 6 µm band (its
+/// reverse table), Y none.
+fn kink_map() -> AxisTableMap {
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for dir in ["forward", "reverse"] {
+        for k in 0..=400 {
+            let p = -50.0 + 0.25 * k as f64;
+            let z = if p < 5.0 {
+                3.0 + 0.03 * (p - 5.0)
+            } else {
+                3.0 - 0.12 * (p - 5.0)
+            };
+            csv.push_str(&format!("X,{dir},{p},0,0,{}\n", -z));
+        }
+        for (name, ez) in [("Y", 0.0), ("Z", if dir == "reverse" { 6.0 } else { 0.0 })] {
+            for p in [-200.0, 200.0] {
+                csv.push_str(&format!("{name},{dir},{p},0,0,{ez}\n"));
+            }
+        }
+    }
+    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+}
+
+#[test]
+fn under_g61_a_z_reversal_inside_an_arc_is_taken_up_on_a_ramp_around_it() {
+    // An arc of R100 over the top of its circle, X −20 → 20 (40.3 mm):
+    // along it X runs at cos ≥ 0.98 of the path, so Z's command drifts
+    // s₁ ≈ 0.03 µm/mm before X 5 and s₂ ≈ 0.12 after (Y's quarter
+    // point, X 0, lies outside the ramp). At F6000 on an arc
+    // LinuxCNC takes a join as tangent below κ = 0.1·0.5·A/(v/T + A) =
+    // 0.495 mrad (tp.c `tpSetupTangent`, `BLEND_ACC_RATIO_TANGENTIAL`); a
+    // ramp may use 0.6 of it, on pieces of ℓ = 2·v·T = 0.2 mm, so Z's
+    // 6 µm take-up as a cubic step needs L = √(6·6 µm·ℓ/(0.6·κ)) =
+    // 4.92 mm by hand. From X 5 on, the held tool would stand off by
+    // 0.12·4.92 = 0.59 µm, above the 0.4 µm of any G61 ramp: main 79062eb
+    // writes a take-up block there, a stop. Centred on X 5 (a tenth longer,
+    // 5.41 mm) it would be off by (0.12 − 0.03)·2.71 = 0.24 µm, above the
+    // 0.2 µm such a ramp may leave. Started a = s₂L/(2s₁ + s₂) = 2/3·L =
+    // 3.61 mm before X 5, it is off by at most s₁·a = 0.108 µm.
+    let map = kink_map();
+    let program = "G21 G61\nG0 X-20 Y-2.0204 Z0\nG2 X20 Y-2.0204 I20 J-97.9796 F6000\nM2\n";
+    let options = CompensateOptions {
+        decimals: Some(5),
+        ..Default::default()
+    };
+    let style = survey_style(program.as_bytes());
+    let mut out = Vec::new();
+    let mut records: Vec<PointRecord> = Vec::new();
+    compensate_program(
+        &mut walker(program),
+        "test.ngc",
+        &map,
+        &style,
+        &options,
+        &mut out,
+        |r| records.push(*r),
+    )
+    .unwrap();
+    let out = String::from_utf8(out).unwrap();
+    let line: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
+    assert!(!line.is_empty(), "{out}");
+    assert!(line.iter().all(|r| !r.take_up), "{out}");
+    // Z's command rises no more from the ramp's start, about 3.6 mm
+    // before X 5 (held there), then goes down.
+    let start = line
+        .iter()
+        .position(|r| r.target_mm.x > 0.5)
+        .expect("a point on the ramp");
+    for w in line[start..].windows(2) {
+        assert!(
+            w[1].command_mm.z <= w[0].command_mm.z + 1e-9,
+            "Z turns up at X {}: {out}",
+            w[1].target_mm.x
+        );
+    }
+    let report = simulate_program(
+        &mut walker(&out),
+        "out",
+        Some(&mut walker(program)),
+        &map,
+        1e-4,
+        |_| {},
+    )
+    .unwrap();
+    assert!(report.contour_max_um <= 0.2, "{report:?}: {out}");
+    // No stop: on an arc a stop at 100 mm/s costs about 2·v/a_t = 0.2 s
+    // (a_t = A/2); the ramp far less than a quarter of that on the planner
+    // model (LinuxCNC 2.9's planner).
+    let setup = volcomp_core::compensate::MachineSetup::default();
+    let limits = volcomp_core::plan::Limits::default();
+    let cutting_s = |p: &str| {
+        volcomp_core::plan::estimate_program(p.as_bytes(), "t.ngc", &setup, &limits)
+            .unwrap()
+            .motion
+            .cutting_s
+    };
+    let (c0, c1) = (cutting_s(program), cutting_s(&out));
+    assert!(c1 < c0 + 0.05, "{c0} s → {c1} s: {out}");
+}
