@@ -18,6 +18,7 @@ mod kinematic;
 mod line_length;
 mod mirror_study;
 mod planner_linuxcnc;
+mod plunge_hold;
 mod probe;
 mod ramp_centre;
 mod random_programs;

@@ -39,7 +39,8 @@
 //! measured on the shop map, chords, rasters and a rotated rectangle fell
 //! below 99 % RMS reduction with it (the hold's error over the line's last
 //! millimetre or two, at every line of many), and a line's take-up block
-//! before a corner costs the least.
+//! before a corner costs the least; but on a plunge, an X or Y reversal
+//! (points.rs `hold_to_plunge_end`).
 
 use super::options::{CompensateOptions, TakeUpRule};
 use super::points::RUN_THROUGH_TOLERANCE_MM;

@@ -264,6 +264,7 @@ impl<'w> State<'w> {
             planar_start_kept: false,
             planar_line_normal: None,
             planar_corner_normal: None,
+            plunge_held: [false; 3],
             approach_pending: None,
         }
     }
@@ -1706,6 +1707,10 @@ struct State<'w> {
     /// While an arc after a planar G64 corner is solved: its plane's
     /// normal axis (compensate/turn_back.rs).
     planar_corner_normal: Option<usize>,
+    /// The axes the last motion, a plunge, held through its end instead of
+    /// a take-up (compensate/points.rs `hold_to_plunge_end`): the next
+    /// line's start may hold them on.
+    plunge_held: [bool; 3],
 }
 
 /// Edits of a line that sets an offset from the current point (G92, or

@@ -176,6 +176,42 @@ fn fold_deviation_beyond_mm(
     fold_deviation_sampled_mm(lags, q_prev, q, &|_| u, (from_lambda.clamp(0.0, 1.0), 1))
 }
 
+/// Whether a G61 hold of a small reversal may run to the end of a straight
+/// move from `start_mm` to `end_mm` (the next move then takes it up from
+/// its start, or holds it on: compensate/exact_hold.rs `hold_resolves`):
+/// only on a plunge, a move along the tool axis Z alone with X and Y
+/// commanded still, and only for a reversal of X or Y (`reversed`), not
+/// of Z, the axis the plunge drives. On a plunge, X and Y turn back where
+/// Z crosses a point of its tables (their straightness along Z changes
+/// slope there, docs/design.md "Direction state and backlash"), by
+/// tenths of a micrometre, so a hold within the run-through tolerance
+/// (exact_hold.rs `hold_instead_of_stop_mm`) lasts to the plunge's end;
+/// taken up there instead, the X and Y switch moves the Z error where the
+/// next line starts, with Z running on its way along the line, which it
+/// cannot follow without a reversal of its own: measured on the shop map,
+/// pocket_r4's 0.52 µm at the start of the line after a plunge through
+/// Z 150 (docs/compensation.md, "A hold to the end of a plunge"). A line
+/// with X or Y commanded keeps the rule of exact_hold.rs (no hold to its
+/// end).
+fn hold_to_plunge_end(start_mm: Vec3, end_mm: Vec3, reversed: [bool; 3]) -> bool {
+    let d = end_mm - start_mm;
+    d.x == 0.0 && d.y == 0.0 && d.z != 0.0 && !reversed[2] && (reversed[0] || reversed[1])
+}
+
+/// Whether a G61 hold at the first target of a line may carry on the hold
+/// of the plunge before it through its end ([`hold_to_plunge_end`]; the
+/// axes `held_mm_before`): where only those axes reverse here. The machine
+/// stops at the corner between the two moves, but the axis has not
+/// switched: held on (within the same tolerance, and only where the hold
+/// ends within the line, exact_hold.rs `hold_resolves`), it never
+/// reverses; taken up here, it would reverse twice, here and again where
+/// its target turns back inside the line, a stop G61 does not make
+/// without it (measured on pocket_r4, shop map: a take-up block at X −10
+/// after the plunge through Z 150).
+fn carries_plunge_hold(held_before: [bool; 3], reversed: [bool; 3]) -> bool {
+    reversed.iter().any(|r| *r) && (0..3).all(|a| !reversed[a] || held_before[a])
+}
+
 /// Whether a take-up `delta` folded into a piece of `piece_mm` turns the
 /// path by no more than the planner takes as tangent there, less the room
 /// left for the compensation's own turn: `|Δ_i| / ℓ ≤ RAMP_SHARE · κ_i`
@@ -1290,6 +1326,10 @@ impl State<'_> {
         // The target a hold at an arc's planar start ends at
         // (compensate/turn_back.rs).
         let mut planar_hold_until: Option<usize> = None;
+        // The axes a plunge before held through its end, and those this
+        // motion holds through its end, a plunge ([`hold_to_plunge_end`]).
+        let plunge_held_before = std::mem::take(&mut self.plunge_held);
+        let mut plunge_held: Option<([bool; 3], Directions)> = None;
         let mut index = 0;
         while index < targets.len() {
             if keep_history && history.len() == index {
@@ -2188,23 +2228,40 @@ impl State<'_> {
                         .fold(targets.len(), |e, tr| e.min(tr.index));
                     let after = &targets[index + 1..end];
                     let to_move_end = end == targets.len()
-                        && matches!(leads, Leads::Arc { .. })
-                        && super::exact_hold::path_mm(*t, after)
-                            <= ramp_length_mm(
-                                delta,
-                                kink_tolerance,
-                                shortest_ramp_piece_mm(options, v_mm_s),
-                                true,
-                            );
-                    super::exact_hold::held_instead_of_stop(
+                        && match leads {
+                            Leads::Arc { .. } => {
+                                super::exact_hold::path_mm(*t, after)
+                                    <= ramp_length_mm(
+                                        delta,
+                                        kink_tolerance,
+                                        shortest_ramp_piece_mm(options, v_mm_s),
+                                        true,
+                                    )
+                            }
+                            Leads::Lines => targets
+                                .last()
+                                .is_some_and(|e| hold_to_plunge_end(start, *e, point.reversed)),
+                            Leads::Nowhere => false,
+                        };
+                    let on_from_plunge = index == 0
+                        && matches!(leads, Leads::Lines)
+                        && carries_plunge_hold(plunge_held_before, point.reversed);
+                    let held = super::exact_hold::held_instead_of_stop(
                         &mut cells,
                         model,
                         options,
-                        (rule, smooth),
+                        (rule, smooth || on_from_plunge),
                         &quantize,
                         (*t, self.q_out, self.s, &point),
-                        (after, to_move_end),
-                    )
+                        (after, to_move_end && !on_from_plunge),
+                    )?;
+                    if let Some(h) = held.as_ref().filter(|_| to_move_end) {
+                        if matches!(leads, Leads::Lines) {
+                            let axes = [0, 1, 2].map(|a| point.reversed[a] && h.s[a] != point.s[a]);
+                            plunge_held = Some((axes, h.s));
+                        }
+                    }
+                    Ok(held)
                 })
                 .transpose()
                 .map_err(|source| model_error(file, line, source))?
@@ -2470,6 +2527,9 @@ impl State<'_> {
             }
         }
         self.transitions_written = transitions;
+        if let Some((axes, s)) = plunge_held {
+            self.plunge_held = [0, 1, 2].map(|a| axes[a] && self.s[a] == s[a]);
+        }
         for r in records.iter().filter(|_| !self.defer_points) {
             (self.on_point)(r);
         }
@@ -2654,8 +2714,35 @@ fn check_converged(
 
 #[cfg(test)]
 mod tests {
-    use super::fold_deviation_mm;
+    use super::{carries_plunge_hold, fold_deviation_mm, hold_to_plunge_end};
     use volcomp_gcode::Vec3;
+
+    #[test]
+    fn only_a_plunge_holds_an_x_or_y_reversal_to_its_end() {
+        let (a, down) = (Vec3::new(-25.0, -16.0, 5.0), Vec3::new(-25.0, -16.0, -1.0));
+        // Z alone moves: X, Y or both reversing are held to the end.
+        assert!(hold_to_plunge_end(a, down, [true, false, false]));
+        assert!(hold_to_plunge_end(a, down, [true, true, false]));
+        assert!(hold_to_plunge_end(down, a, [false, true, false]));
+        // Z, the axis the plunge drives, reversing; nothing reversing.
+        assert!(!hold_to_plunge_end(a, down, [true, false, true]));
+        assert!(!hold_to_plunge_end(a, down, [false; 3]));
+        // A line with X or Y commanded (by 1 µm), or no move at all.
+        let slant = Vec3::new(-25.001, -16.0, -1.0);
+        assert!(!hold_to_plunge_end(a, slant, [false, true, false]));
+        assert!(!hold_to_plunge_end(a, a, [true, false, false]));
+        // The next line carries on a held Y, not an X the plunge did not
+        // hold.
+        assert!(carries_plunge_hold(
+            [false, true, false],
+            [false, true, false]
+        ));
+        assert!(!carries_plunge_hold(
+            [false, true, false],
+            [true, true, false]
+        ));
+        assert!(!carries_plunge_hold([false, true, false], [false; 3]));
+    }
 
     const UM: f64 = 1e-3;
 

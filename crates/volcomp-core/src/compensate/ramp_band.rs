@@ -256,4 +256,51 @@ mod tests {
         let short = excursion(&lags, Vec3::ZERO, down, Vec3::ZERO, &[(t, q, sol)]).max_mm;
         assert!(short.is_infinite(), "{short}");
     }
+
+    #[test]
+    fn a_cross_lag_is_carried_until_the_standing_axis_crosses_its_band() {
+        // A line along X; Y (band 2 µm) and Z (band 6 µm) reverse upward
+        // together, and Y's switch moves the Z error by c = 0.4 µm: lags
+        // Y (0, 2, 0.4) µm, Z (0, 0, 6) µm. No drift: the new state's
+        // solution stands at the take-up Δ = (0, 2, 6.4) µm above the old
+        // command. By hand, one step σ for both axes: Y's lag is left
+        // 1 − σ, Z's 1 − 6.4σ/6; the tool's Z is off by
+        // −6.4(1 − σ) + 0.4(1 − σ) + 6(1 − 6.4σ/6) = −0.4σ until Z
+        // crosses its band at σ = 6/6.4, then by −6(1 − σ): largest
+        // 0.4·6/6.4 = 0.375 µm, at any ramp length.
+        let up = [Direction::Forward; 3];
+        let um = |y: f64, z: f64| Vec3::new(0.0, y * 1e-3, z * 1e-3);
+        let lags = [Vec3::ZERO, um(2.0, 0.4), um(0.0, 6.0)];
+        let sol = um(2.0, 6.4);
+        let common = |n: u32| -> Vec<(Vec3, Vec3, Vec3)> {
+            (1..=n)
+                .map(|k| {
+                    let sigma = f64::from(k) / f64::from(n);
+                    (Vec3::new(f64::from(k), 0.0, 0.0), sol * sigma, sol)
+                })
+                .collect()
+        };
+        for n in [4, 8] {
+            let e = excursion(&lags, Vec3::ZERO, up, Vec3::ZERO, &common(n));
+            assert!((e.max_mm - 0.375e-3).abs() < 1e-12, "{n} points: {e:?}");
+        }
+        // Staged: Z's own 6 µm first (points 1–4), then Y's 2 µm with
+        // Z's 0.4 µm that Y's switch moves (points 5–8). Z has crossed
+        // its band before Y moves, and its command follows Y's lag as it
+        // fades: the tool stays on the path (Y: −2(1 − σ) + 2(1 − σ); Z:
+        // −0.4(1 − σ) + 0.4(1 − σ)).
+        let staged: Vec<(Vec3, Vec3, Vec3)> = (1..=8)
+            .map(|k| {
+                let (z_own, y) = if k <= 4 {
+                    (f64::from(k) / 4.0, 0.0)
+                } else {
+                    (1.0, f64::from(k - 4) / 4.0)
+                };
+                let q = um(2.0 * y, 6.0 * z_own + 0.4 * y);
+                (Vec3::new(f64::from(k), 0.0, 0.0), q, sol)
+            })
+            .collect();
+        let e = excursion(&lags, Vec3::ZERO, up, Vec3::ZERO, &staged);
+        assert!(e.max_mm < 1e-12, "{e:?}");
+    }
 }
