@@ -6,8 +6,8 @@ use crate::options::flags;
 use crate::output::CliError;
 use std::io::{self, BufRead, Write};
 use std::path::{Path, PathBuf};
+use volcomp_core::io::stream::ReadAhead;
 use volcomp_core::request::{Machine, MachineRequest};
-use volcomp_gcode::ahead::lex_ahead;
 use volcomp_gcode::number::{format_fixed_bytes, format_uint_bytes};
 use volcomp_gcode::{Motion, MotionKind, MotionSource, Vec3, Walker};
 
@@ -93,21 +93,16 @@ impl MachineExt for Machine {
     }
 
     fn walk(&self, path: &Path) -> Result<Walker<Box<dyn BufRead>>, CliError> {
-        // For speed, the program is read and its lines lexed ahead on a
-        // thread of its own (volcomp_gcode::ahead).
-        let (reader, lexed) = if path.as_os_str() == "-" {
+        // For speed, the program is read ahead on a thread of its own.
+        let reader: Box<dyn BufRead> = if path.as_os_str() == "-" {
             volcomp_core::io::inputs::record_stdin("the program (standard input)");
-            lex_ahead(io::stdin())
+            Box::new(ReadAhead::new(io::stdin()))
         } else {
             let f = volcomp_core::io::inputs::open(path, "the program")
                 .map_err(|e| CliError::Io(path.to_path_buf(), e))?;
-            lex_ahead(f)
+            Box::new(ReadAhead::new(f))
         };
-        let reader: Box<dyn BufRead> = Box::new(reader);
-        Ok(self
-            .setup
-            .walker(reader, &path.display().to_string())
-            .with_lexed_ahead(lexed))
+        Ok(self.setup.walker(reader, &path.display().to_string()))
     }
 }
 
@@ -210,9 +205,9 @@ impl MoveBatch {
     }
 }
 
-/// `volcomp moves`: one thread reads and lexes ahead ([`MachineExt::walk`]),
-/// one interprets, the third formats and writes, with bounded queues
-/// between them, so memory stays constant and every core works.
+/// `volcomp moves`: one thread reads and interprets, the other formats and
+/// writes, with a bounded queue of batches between them, so memory stays
+/// constant and both cores work.
 fn moves(a: MovesArgs) -> Result<(), CliError> {
     let machine = machine(&a.machine)?;
     let mut walker = machine.walk(&a.program)?;

@@ -189,22 +189,6 @@ impl Lexed {
     pub fn block_delete(&self) -> bool {
         matches!(self.tokens.first(), Some(Token::BlockDelete(_)))
     }
-
-    /// The word letters of the line (bit `letter & 31`).
-    pub(crate) fn letters(&self) -> u32 {
-        self.letters
-    }
-
-    /// What [`lex_block`] makes of a line it reads cleanly (no error,
-    /// nothing in a comment for the expression layer), from a lexing of
-    /// the same line elsewhere ([`crate::ahead`]): its `tokens` are swapped
-    /// in (the list held so far goes back in their place).
-    pub(crate) fn set_ahead(&mut self, tokens: &mut Vec<Token>, has_comment: bool, letters: u32) {
-        std::mem::swap(&mut self.tokens, tokens);
-        self.has_comment = has_comment;
-        self.ngc_in_comment = false;
-        self.letters = letters;
-    }
 }
 
 /// Blanks are insignificant outside comments. A stray `\r` (some files end

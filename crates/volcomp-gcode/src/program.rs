@@ -103,8 +103,6 @@ pub struct Walker<R> {
     /// subroutines), parsed once: a line's statement depends on its text
     /// alone. At most [`MAX_CACHED_STATEMENTS`].
     statements: crate::ngc::Map<(usize, usize), Arc<Statement>>,
-    /// Lines lexed on another thread ([`Walker::with_lexed_ahead`]).
-    pub(crate) ahead: Option<crate::ahead::LexedAhead>,
 }
 
 /// Statements kept parsed (a bound on the memory the cache takes).
@@ -133,17 +131,7 @@ impl<R: BufRead> Walker<R> {
             current: Pos { src: MAIN, line: 0 },
             after_end_at: None,
             statements: crate::ngc::Map::default(),
-            ahead: None,
         }
-    }
-
-    /// Takes the tokens of the lines `ahead` lexed on another thread
-    /// instead of lexing them on this one ([`crate::ahead`]). `ahead` must
-    /// come from the same [`crate::ahead::lex_ahead`] call as the walker's
-    /// reader. The events are the same as without it.
-    pub fn with_lexed_ahead(mut self, ahead: crate::ahead::LexedAhead) -> Self {
-        self.ahead = Some(ahead);
-        self
     }
 
     /// What was assumed because the program did not say it, so far.
@@ -252,9 +240,6 @@ impl<R: BufRead> Walker<R> {
             if !self.flow.keeps_lines() && pos.src == MAIN {
                 // Nothing jumps back: the line before is done with.
                 self.main.forget_before(pos.line);
-            } else if self.ahead.is_some() && self.flow.keeps_lines() {
-                // Lines may now run again or out of order: lexed here.
-                self.ahead = None;
             }
             if !self.fetch(pos)? {
                 self.end_of_source(pos)?;
@@ -313,19 +298,7 @@ impl<R: BufRead> Walker<R> {
         // comments; only then is the line looked at as a whole. A line the
         // lexer reads is a block: a `%` line or a program number stops it
         // at its first character, so it is classified only then.
-        // Lexed on another thread (a line as read, nothing kept for control
-        // flow: lines come in order), or here.
-        let taken = match self.ahead.as_mut() {
-            Some(ahead) if pos.src == MAIN && !self.flow.keeps_lines() => {
-                ahead.take(pos.line, content_len, &mut self.lexed)
-            }
-            _ => false,
-        };
-        let lexed = if taken {
-            Ok(())
-        } else {
-            lexer::lex_block(content, &mut self.lexed)
-        };
+        let lexed = lexer::lex_block(content, &mut self.lexed);
         if lexed.is_ok() && !self.lexed.ngc_in_comment {
             self.check_block(pos, content)?;
             return self.execute_block(pos);
