@@ -3,7 +3,7 @@
 //! checked against hand values.
 
 use std::io::Cursor;
-use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, PointRecord};
+use volcomp_core::compensate::PointRecord;
 use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::simulate::report::simulate_program;
 use volcomp_gcode::Walker;
@@ -59,24 +59,7 @@ fn under_g61_a_z_reversal_inside_an_arc_is_taken_up_on_a_ramp_around_it() {
     // 3.61 mm before X 5, it is off by at most s₁·a = 0.108 µm.
     let map = kink_map();
     let program = "G21 G61\nG0 X-20 Y-2.0204 Z0\nG2 X20 Y-2.0204 I20 J-97.9796 F6000\nM2\n";
-    let options = CompensateOptions {
-        decimals: Some(5),
-        ..Default::default()
-    };
-    let style = survey_style(program.as_bytes());
-    let mut out = Vec::new();
-    let mut records: Vec<PointRecord> = Vec::new();
-    compensate_program(
-        &mut walker(program),
-        "test.ngc",
-        &map,
-        &style,
-        &options,
-        &mut out,
-        |r| records.push(*r),
-    )
-    .unwrap();
-    let out = String::from_utf8(out).unwrap();
+    let (out, records, _) = common::compensate_recorded(program, &map);
     let line: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
     assert!(!line.is_empty(), "{out}");
     assert!(line.iter().all(|r| !r.take_up), "{out}");

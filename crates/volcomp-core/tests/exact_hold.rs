@@ -3,7 +3,7 @@
 //! reversals held where G61 would stop"), checked against hand values.
 
 use std::io::Cursor;
-use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, PointRecord};
+use volcomp_core::compensate::PointRecord;
 use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::simulate::report::simulate_program;
 use volcomp_gcode::Walker;
@@ -49,28 +49,8 @@ fn dip_um(x: f64) -> f64 {
 }
 
 fn run(program: &str, map: &AxisTableMap) -> (String, Vec<PointRecord>, u64) {
-    let options = CompensateOptions {
-        decimals: Some(5),
-        ..Default::default()
-    };
-    let style = survey_style(program.as_bytes());
-    let mut out = Vec::new();
-    let mut records = Vec::new();
-    let summary = compensate_program(
-        &mut walker(program),
-        "test.ngc",
-        map,
-        &style,
-        &options,
-        &mut out,
-        |r| records.push(*r),
-    )
-    .unwrap();
-    (
-        String::from_utf8(out).unwrap(),
-        records,
-        summary.small_reversals_held,
-    )
+    let (out, records, summary) = common::compensate_recorded(program, map);
+    (out, records, summary.small_reversals_held)
 }
 
 #[test]

@@ -3,7 +3,7 @@
 //! checked against hand values.
 
 use std::io::Cursor;
-use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions, PointRecord};
+use volcomp_core::compensate::PointRecord;
 use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_core::simulate::report::simulate_program;
 use volcomp_gcode::Walker;
@@ -50,24 +50,7 @@ fn under_g61_a_reversal_inside_a_line_is_taken_up_on_a_ramp_centred_on_it() {
     // taken where its dead-band reading stays within 0.2 µm.
     let map = peak_map();
     let program = "G21 G61\nG0 X-20 Y0 Z0\nG1 X20 F6000\nM2\n";
-    let options = CompensateOptions {
-        decimals: Some(5),
-        ..Default::default()
-    };
-    let style = survey_style(program.as_bytes());
-    let mut out = Vec::new();
-    let mut records: Vec<PointRecord> = Vec::new();
-    compensate_program(
-        &mut walker(program),
-        "test.ngc",
-        &map,
-        &style,
-        &options,
-        &mut out,
-        |r| records.push(*r),
-    )
-    .unwrap();
-    let out = String::from_utf8(out).unwrap();
+    let (out, records, _) = common::compensate_recorded(program, &map);
     let line: Vec<&PointRecord> = records.iter().filter(|r| r.line == 3).collect();
     assert!(line.iter().all(|r| !r.take_up), "{out}");
     // Z's command: rising no more from the ramp's start (held there), then

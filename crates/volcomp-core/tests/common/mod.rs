@@ -5,7 +5,9 @@
 
 use std::io::Cursor;
 use std::path::PathBuf;
-use volcomp_core::compensate::{compensate_program, survey_style, CompensateOptions};
+use volcomp_core::compensate::{
+    compensate_program, survey_style, CompensateOptions, CompensateSummary, PointRecord,
+};
 use volcomp_core::model::axis_table::AxisTableMap;
 use volcomp_gcode::{InterpOptions, Setup, Walker};
 
@@ -97,6 +99,32 @@ pub fn compensate_text(
     )
     .map_err(|e| e.to_string())?;
     Ok(String::from_utf8(out).unwrap())
+}
+
+/// `program` (named `test.ngc`) compensated for `map` at 5 decimals, the
+/// other options the defaults, every solved point recorded: the written
+/// program, the points and the summary.
+pub fn compensate_recorded(
+    program: &str,
+    map: &AxisTableMap,
+) -> (String, Vec<PointRecord>, CompensateSummary) {
+    let options = CompensateOptions {
+        decimals: Some(5),
+        ..Default::default()
+    };
+    let mut out = Vec::new();
+    let mut records = Vec::new();
+    let summary = compensate_program(
+        &mut walker(program, "test.ngc"),
+        "test.ngc",
+        map,
+        &survey_style(program.as_bytes()),
+        &options,
+        &mut out,
+        |r| records.push(*r),
+    )
+    .unwrap();
+    (String::from_utf8(out).unwrap(), records, summary)
 }
 
 /// LinuxCNC's stand-alone interpreter, where it is installed. Where it is
