@@ -2,17 +2,10 @@
 //! (docs/compensation.md, "A ramp around a reversal inside an arc"),
 //! checked against hand values.
 
-use std::io::Cursor;
 use volcomp_core::compensate::PointRecord;
 use volcomp_core::model::axis_table::AxisTableMap;
-use volcomp_core::simulate::report::simulate_program;
-use volcomp_gcode::Walker;
 
 use crate::common;
-
-fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
-    common::walker(program, "test.ngc")
-}
 
 /// X's table moves the tool in Z so that Z, standing still in the
 /// program, is commanded `3 + 0.03·(x − 5)` µm for x < 5 and
@@ -76,15 +69,7 @@ fn under_g61_a_z_reversal_inside_an_arc_is_taken_up_on_a_ramp_around_it() {
             w[1].target_mm.x
         );
     }
-    let report = simulate_program(
-        &mut walker(&out),
-        "out",
-        Some(&mut walker(program)),
-        &map,
-        1e-4,
-        |_| {},
-    )
-    .unwrap();
+    let report = common::simulated(&out, program, &map);
     assert!(report.contour_max_um <= 0.2, "{report:?}: {out}");
     // No stop: on an arc a stop at 100 mm/s costs about 2·v/a_t = 0.2 s
     // (a_t = A/2); the ramp far less than a quarter of that on the planner

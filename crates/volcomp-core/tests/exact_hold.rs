@@ -2,17 +2,10 @@
 //! would be a stop on a path that runs on (docs/compensation.md, "Small
 //! reversals held where G61 would stop"), checked against hand values.
 
-use std::io::Cursor;
 use volcomp_core::compensate::PointRecord;
 use volcomp_core::model::axis_table::AxisTableMap;
-use volcomp_core::simulate::report::simulate_program;
-use volcomp_gcode::Walker;
 
 use crate::common;
-
-fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
-    common::walker(program, "test.ngc")
-}
 
 /// X's table moves the tool in Z by `−z_um(x)` (both directions), so Z's
 /// command, with Z standing still in the program, is `z_um(x)`; Z has a
@@ -87,15 +80,7 @@ fn under_g61_a_dip_smaller_than_the_band_is_held_instead_of_a_take_up_block() {
     for r in dip {
         assert!((r.command_mm.z * 1e3 - 1.0).abs() < 0.011, "{r:?}: {out}");
     }
-    let report = simulate_program(
-        &mut walker(&out),
-        "out",
-        Some(&mut walker(program)),
-        &map,
-        1e-4,
-        |_| {},
-    )
-    .unwrap();
+    let report = common::simulated(&out, program, &map);
     assert!(
         (report.contour_max_um - 0.2).abs() < 0.02,
         "{report:?}: {out}"
@@ -168,15 +153,7 @@ fn under_g61_a_dip_across_a_tangent_join_is_held_across_it() {
             w[1].target_mm.x
         );
     }
-    let report = simulate_program(
-        &mut walker(&out),
-        "out",
-        Some(&mut walker(program)),
-        &map,
-        1e-4,
-        |_| {},
-    )
-    .unwrap();
+    let report = common::simulated(&out, program, &map);
     assert!(
         (report.contour_max_um - 0.2).abs() < 0.02,
         "{report:?}: {out}"

@@ -2,17 +2,10 @@
 //! plunge's end and on into the line after it (docs/compensation.md, "A
 //! hold to the end of a plunge"), checked against hand values.
 
-use std::io::Cursor;
 use volcomp_core::compensate::PointRecord;
 use volcomp_core::model::axis_table::AxisTableMap;
-use volcomp_core::simulate::report::simulate_program;
-use volcomp_gcode::Walker;
 
 use crate::common;
-
-fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
-    common::walker(program, "test.ngc")
-}
 
 /// Z's table moves the tool in Y by `−y_um(z)` and X's by `−g(x)`, with
 /// `g` 0 up to X 1 and rising 0.1 µm per mm from there (both directions),
@@ -103,15 +96,7 @@ fn under_g61_a_small_y_reversal_in_a_plunge_is_held_to_its_end_and_into_the_next
         (first.command_mm.y * 1e3 - 0.15).abs() < 0.011,
         "{first:?}: {out}"
     );
-    let report = simulate_program(
-        &mut walker(&out),
-        "out",
-        Some(&mut walker(program)),
-        &map,
-        1e-4,
-        |_| {},
-    )
-    .unwrap();
+    let report = common::simulated(&out, program, &map);
     assert!(
         (report.contour_max_um - 0.2).abs() < 0.02,
         "{report:?}: {out}"

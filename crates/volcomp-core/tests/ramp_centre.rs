@@ -2,17 +2,10 @@
 //! (docs/compensation.md, "A ramp centred on a reversal along a line"),
 //! checked against hand values.
 
-use std::io::Cursor;
 use volcomp_core::compensate::PointRecord;
 use volcomp_core::model::axis_table::AxisTableMap;
-use volcomp_core::simulate::report::simulate_program;
-use volcomp_gcode::Walker;
 
 use crate::common;
-
-fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
-    common::walker(program, "test.ngc")
-}
 
 /// X's table moves the tool in Z by `−(3 − 0.15·|x|)` µm (both directions,
 /// table points every 0.25 mm): Z, standing still in the program, is
@@ -72,15 +65,7 @@ fn under_g61_a_reversal_inside_a_line_is_taken_up_on_a_ramp_centred_on_it() {
         (last.command_mm.z * 1e3 + 6.0).abs() < 0.011,
         "{last:?}: {out}"
     );
-    let report = simulate_program(
-        &mut walker(&out),
-        "out",
-        Some(&mut walker(program)),
-        &map,
-        1e-4,
-        |_| {},
-    )
-    .unwrap();
+    let report = common::simulated(&out, program, &map);
     assert!(report.contour_max_um <= 0.235 + 0.01, "{report:?}: {out}");
     // No stop: a stop at 100 mm/s costs v/a = 0.1 s (slowing down and
     // speeding up again at A); the centred ramp costs far less than half

@@ -9,6 +9,7 @@ use volcomp_core::compensate::{
     compensate_program, survey_style, CompensateOptions, CompensateSummary, PointRecord,
 };
 use volcomp_core::model::axis_table::AxisTableMap;
+use volcomp_core::simulate::report::{simulate_program, SimReport};
 use volcomp_gcode::{InterpOptions, Setup, Walker};
 
 /// A map of zeros over ±10 m on every axis: compensation changes nothing,
@@ -125,6 +126,21 @@ pub fn compensate_recorded(
     )
     .unwrap();
     (String::from_utf8(out).unwrap(), records, summary)
+}
+
+/// The compensated program `out` run through the dead-band simulation of
+/// `map` and measured against the original `program`, arcs followed within
+/// a chord tolerance of 0.1 µm: the report.
+pub fn simulated(out: &str, program: &str, map: &AxisTableMap) -> SimReport {
+    simulate_program(
+        &mut walker(out, "out"),
+        "out",
+        Some(&mut walker(program, "test.ngc")),
+        map,
+        1e-4,
+        |_| {},
+    )
+    .unwrap()
 }
 
 /// LinuxCNC's stand-alone interpreter, where it is installed. Where it is
