@@ -1960,6 +1960,22 @@ fn without_z(out: &str) -> String {
         .collect()
 }
 
+/// `out` runs on the planner model with LinuxCNC's blend arcs and no
+/// parabolic blend, and within 1 % of its time with every Z word stripped
+/// (the same path written planar, [`without_z`]): its estimate.
+fn assert_blended_as_planar(out: &str) -> volcomp_core::plan::Estimate {
+    let (c, planar) = (planner_motion(out), planner_motion(&without_z(out)));
+    assert_eq!(c.counts.parabolic_blends, 0, "{out}");
+    assert!(c.counts.blend_arcs >= 1, "{out}");
+    assert!(
+        (c.cutting_s - planar.cutting_s).abs() <= 0.01 * planar.cutting_s,
+        "{} s against {} s planar:\n{out}",
+        c.cutting_s,
+        planar.cutting_s
+    );
+    c
+}
+
 #[test]
 fn under_g64_p_a_planar_part_shorter_than_an_arc_is_lengthened_and_the_corner_keeps_its_blend_arc()
 {
@@ -1987,15 +2003,7 @@ fn under_g64_p_a_planar_part_shorter_than_an_arc_is_lengthened_and_the_corner_ke
     let chord = ((e.x - s.x).powi(2) + (e.y - s.y).powi(2)).sqrt();
     assert!((0.0894..0.2).contains(&chord), "{chord} mm:\n{out}");
     assert_ne!(moves[k + 2].0.z, moves[k + 2].1.z, "{out}");
-    let (e, e_planar) = (planner_motion(&out), planner_motion(&without_z(&out)));
-    assert_eq!(e.counts.parabolic_blends, 0, "{out}");
-    assert!(e.counts.blend_arcs >= 1, "{out}");
-    assert!(
-        (e.cutting_s - e_planar.cutting_s).abs() <= 0.01 * e_planar.cutting_s,
-        "{} s against {} s planar:\n{out}",
-        e.cutting_s,
-        e_planar.cutting_s
-    );
+    let e = assert_blended_as_planar(&out);
     // Issue's bound, against the original on the same model: within 3 %.
     let original = planner_motion(program);
     assert!(
@@ -2029,15 +2037,7 @@ fn under_g64_an_arc_of_one_piece_ends_planar_before_a_line_in_its_plane() {
     let (s, e) = moves[k - 1];
     assert!((e.z - s.z + 0.00004).abs() < 2e-6, "{out}");
     assert!(s.x.abs() - 10.0 < 0.005 && e.x >= 12.0, "{out}");
-    let (c, c_planar) = (planner_motion(&out), planner_motion(&without_z(&out)));
-    assert_eq!(c.counts.parabolic_blends, 0, "{out}");
-    assert!(c.counts.blend_arcs >= 1, "{out}");
-    assert!(
-        (c.cutting_s - c_planar.cutting_s).abs() <= 0.01 * c_planar.cutting_s,
-        "{} s against {} s planar:\n{out}",
-        c.cutting_s,
-        c_planar.cutting_s
-    );
+    assert_blended_as_planar(&out);
 }
 
 #[test]
