@@ -69,7 +69,10 @@ pub(crate) fn add(q: &mut VecDeque<Seg>, tc: &mut Seg, limits: &Limits, stats: &
             q[n - 1].finalize();
         }
     }
-    q.push_back(*tc);
+    // From the slice straight into the ring's slot: `push_back(*tc)`
+    // copies the segment to the stack first (its growth check may call
+    // out), then into the slot.
+    q.extend(std::slice::from_ref(tc));
     optimize(q, limits);
 }
 

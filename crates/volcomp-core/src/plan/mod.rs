@@ -433,10 +433,10 @@ impl Planner {
     /// A planner that also counts the time per program line
     /// ([`Planner::finish_per_line`]).
     pub fn per_line(limits: Limits) -> Planner {
-        Planner {
-            lines: Some(LineLog::default()),
-            ..Planner::new(limits)
-        }
+        let mut p = Planner::new(limits);
+        p.lines = Some(LineLog::default());
+        p.exec.per_line = true;
+        p
     }
 
     /// Runs the queue's next period or periods (`false`: the queue is
