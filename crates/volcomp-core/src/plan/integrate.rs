@@ -747,6 +747,20 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
     let mut changing = fresh;
     // `run_cruise`'s test of the segment's state (the others hold here).
     let may_cruise = !(tc.ramp && tc.term == Term::Tangent);
+    // A segment activated at its cruising speed (a CAM move entered at
+    // speed from a blend arc) cruises from its first period: that cruise
+    // runs at once, as `run_cruise` runs it (the segment is active, at the
+    // whole servo period, neither splitting nor removed nor blending, no
+    // ramp), instead of after a first period stepped to see that the speed
+    // stays. Not cruising, it costs the first test of `cruise_periods_with`.
+    if fresh && may_cruise {
+        if let Some(k) = cruise_periods_with(tc, h.target_vel, h.final_vel, h.a) {
+            cruise(tc, k, period);
+            (progress, vel_at_blend_start, on_final_decel) = (tc.progress, v, false);
+            n += k;
+            changing = false;
+        }
+    }
     loop {
         // Whether the steps stopped at a cruise that follows a change of
         // speed (else at a period that takes a decision).
