@@ -210,15 +210,16 @@ fn bom_len(content: &[u8]) -> usize {
 }
 
 /// Strips a trailing `\n`, `\r\n` or `\r` and returns the content length.
+/// One match on the last two bytes: `\r\n` is two, a lone `\n` or `\r`
+/// one (as stripping `\n` and then `\r` does; `\r\r\n` keeps one `\r`).
+#[inline]
 pub fn content_len(line: &[u8]) -> usize {
-    let mut n = line.len();
-    if n > 0 && line[n - 1] == b'\n' {
-        n -= 1;
+    let n = line.len();
+    match line {
+        [.., b'\r', b'\n'] => n - 2,
+        [.., b'\n' | b'\r'] => n - 1,
+        _ => n,
     }
-    if n > 0 && line[n - 1] == b'\r' {
-        n -= 1;
-    }
-    n
 }
 
 /// Classifies a line (without its line ending).
@@ -844,5 +845,26 @@ mod tests {
         assert_eq!(content_len(b"G1\r\n"), 2);
         assert_eq!(content_len(b"G1\n"), 2);
         assert_eq!(content_len(b"G1"), 2);
+        // By hand: a lone CR ends a line; of CR CR LF one CR stays (a
+        // stray CR is a blank to the lexer); LF CR is CR's alone.
+        assert_eq!(content_len(b"G1\r"), 2);
+        assert_eq!(content_len(b"G1\r\r\n"), 3);
+        assert_eq!(content_len(b"G1\n\r"), 3);
+        assert_eq!(content_len(b""), 0);
+        assert_eq!(content_len(b"\n"), 0);
+        assert_eq!(content_len(b"\r\n"), 0);
+        // Second method: strip LF, then CR, on every line of up to five
+        // bytes from `x`, CR and LF.
+        let strip = |l: &[u8]| {
+            let l = l.strip_suffix(b"\n").unwrap_or(l);
+            l.strip_suffix(b"\r").unwrap_or(l).len()
+        };
+        let alphabet = [b'x', b'\r', b'\n'];
+        for len in 0..=5u32 {
+            for k in 0..3usize.pow(len) {
+                let line: Vec<u8> = (0..len).map(|d| alphabet[k / 3usize.pow(d) % 3]).collect();
+                assert_eq!(content_len(&line), strip(&line), "{line:?}");
+            }
+        }
     }
 }

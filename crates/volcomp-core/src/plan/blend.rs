@@ -389,6 +389,38 @@ fn planar_norms(n: Vec3) -> Option<[f64; 3]> {
     Some(norms)
 }
 
+/// The inscribed diameters of the acceleration and speed limits
+/// ([`planar_norms`], [`diameter_of`]) of the last blend plane asked for,
+/// kept with its binormal's bits: a CAM program's corners mostly lie in
+/// one plane (a raster's in XZ: the binormal ±Y exactly), whose
+/// diameters are the same function of the same bits each time. The
+/// limits are the planner's, fixed for its life.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct PlaneLimits {
+    /// The binormal the diameters are for (none asked yet: `None`).
+    binormal: Option<[u64; 3]>,
+    /// (acceleration, speed); `None` when the binormal is no unit vector.
+    diameters: Option<(f64, f64)>,
+}
+
+impl PlaneLimits {
+    /// The acceleration's and the speed's inscribed diameters in the
+    /// plane of normal `n` (`calculateInscribedDiameter` of both).
+    fn of(&mut self, n: Vec3, limits: &Limits) -> Option<(f64, f64)> {
+        let key = [n.x.to_bits(), n.y.to_bits(), n.z.to_bits()];
+        if self.binormal != Some(key) {
+            self.binormal = Some(key);
+            self.diameters = planar_norms(n).map(|norms| {
+                (
+                    diameter_of(&norms, &limits.max_acceleration_mm_s2),
+                    diameter_of(&norms, &limits.max_velocity_mm_s),
+                )
+            });
+        }
+        self.diameters
+    }
+}
+
 /// `calculateInscribedDiameter` with the plane's [`planar_norms`] given.
 fn diameter_of(norms: &[f64; 3], bounds: &[f64; 3]) -> f64 {
     let mut extents = [0.0; 3];
@@ -426,16 +458,21 @@ fn blend_tolerance(prev: &Seg, tc: &Seg) -> f64 {
 }
 
 /// `blendParamKinematics`: acceleration and speed limits of the blend.
-fn kinematics(g: &Geom, p: &mut Params, prev: &Seg, tc: &Seg, limits: &Limits) -> Option<()> {
+fn kinematics(
+    g: &Geom,
+    p: &mut Params,
+    (prev, tc): (&Seg, &Seg),
+    limits: &Limits,
+    planes: &mut PlaneLimits,
+) -> Option<()> {
     p.phi = PI - p.theta * 2.0;
     p.tolerance = blend_tolerance(prev, tc);
-    let norms = planar_norms(g.binormal)?;
-    p.a_max = diameter_of(&norms, &limits.max_acceleration_mm_s2);
+    let (a_max, v_planar_max) = planes.of(g.binormal, limits)?;
+    p.a_max = a_max;
     p.a_n_max = p.a_max * acc_ratio_normal();
     p.v_req = prev.max_target_vel(1.0).max(tc.max_target_vel(1.0));
     let scale = limits.max_feed_override;
     p.v_goal = prev.max_target_vel(scale).max(tc.max_target_vel(scale));
-    let v_planar_max = diameter_of(&norms, &limits.max_velocity_mm_s);
     let phi_eff = p.phi.min(PI * 0.49);
     let v_max1 = prev.maxvel.min(tc.maxvel / phi_eff.cos());
     let v_max2 = tc.maxvel.min(prev.maxvel / phi_eff.cos());
@@ -618,20 +655,30 @@ fn blend_seg(prev: &Seg, arc: BlendArc, p: &Params, tolerance: f64, limits: &Lim
 /// Tries the blend arc between `prev` and `tc` (`tpCreateBlendIfPossible`);
 /// the choice among parabolic, tangent and arc is made (and marked on
 /// the segments) as LinuxCNC makes it, whatever the outcome.
-pub(crate) fn try_blend_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
+pub(crate) fn try_blend_arc(
+    prev: &mut Seg,
+    tc: &mut Seg,
+    limits: &Limits,
+    planes: &mut PlaneLimits,
+) -> Option<Blend> {
     if prev.term != Term::Parabolic || tc.finalized || prev.finalized {
         return None;
     }
     match (&prev.shape, &tc.shape) {
-        (Shape::Line(_), Shape::Line(_)) => line_line(prev, tc, limits),
-        (Shape::Line(_), Shape::Circle(_)) => line_arc(prev, tc, limits),
-        (Shape::Circle(_), Shape::Line(_)) => arc_line(prev, tc, limits),
-        (Shape::Circle(_), Shape::Circle(_)) => arc_arc(prev, tc, limits),
+        (Shape::Line(_), Shape::Line(_)) => line_line(prev, tc, limits, planes),
+        (Shape::Line(_), Shape::Circle(_)) => line_arc(prev, tc, limits, planes),
+        (Shape::Circle(_), Shape::Line(_)) => arc_line(prev, tc, limits, planes),
+        (Shape::Circle(_), Shape::Circle(_)) => arc_arc(prev, tc, limits, planes),
         _ => None,
     }
 }
 
-fn line_line(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
+fn line_line(
+    prev: &mut Seg,
+    tc: &mut Seg,
+    limits: &Limits,
+    planes: &mut PlaneLimits,
+) -> Option<Blend> {
     // The two shapes by reference: a copy of the pair is two of the
     // largest shape whatever they are.
     let (Shape::Line(l1), Shape::Line(l2)) = (&prev.shape, &tc.shape) else {
@@ -645,7 +692,7 @@ fn line_line(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
         l2: tc.target * 0.5,
         ..Params::default()
     };
-    kinematics(&g, &mut p, prev, tc, limits)?;
+    kinematics(&g, &mut p, (prev, tc), limits, planes)?;
     // The half angle's sine and cosine, for the arc and the parabolic
     // blend it is compared with.
     let half = HalfAngle::new(g.theta_tan);
@@ -700,7 +747,12 @@ fn line_circle_center(
     Some((g.p + r_pc, d_l))
 }
 
-fn line_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
+fn line_arc(
+    prev: &mut Seg,
+    tc: &mut Seg,
+    limits: &Limits,
+    planes: &mut PlaneLimits,
+) -> Option<Blend> {
     let (Shape::Line(l1), Shape::Circle(c2)) = (&prev.shape, &tc.shape) else {
         return None;
     };
@@ -723,7 +775,7 @@ fn line_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
     } else {
         p.phi2_max * g.radius2
     };
-    kinematics(&g, &mut p, prev, tc, limits)?;
+    kinematics(&g, &mut p, (prev, tc), limits, planes)?;
     if !colinear(g.binormal, c2.normal) {
         return None;
     }
@@ -765,7 +817,12 @@ fn line_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
     })
 }
 
-fn arc_line(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
+fn arc_line(
+    prev: &mut Seg,
+    tc: &mut Seg,
+    limits: &Limits,
+    planes: &mut PlaneLimits,
+) -> Option<Blend> {
     let (Shape::Circle(c1), Shape::Line(l2)) = (&prev.shape, &tc.shape) else {
         return None;
     };
@@ -788,7 +845,7 @@ fn arc_line(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
         p.phi1_max * g.radius1
     };
     p.l2 = tc.nominal_length / 2.0;
-    kinematics(&g, &mut p, prev, tc, limits)?;
+    kinematics(&g, &mut p, (prev, tc), limits, planes)?;
     if !colinear(g.binormal, c1.normal) {
         return None;
     }
@@ -829,7 +886,12 @@ fn arc_line(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
     })
 }
 
-fn arc_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
+fn arc_arc(
+    prev: &mut Seg,
+    tc: &mut Seg,
+    limits: &Limits,
+    planes: &mut PlaneLimits,
+) -> Option<Blend> {
     let (Shape::Circle(c1), Shape::Circle(c2)) = (&prev.shape, &tc.shape) else {
         return None;
     };
@@ -873,7 +935,7 @@ fn arc_arc(prev: &mut Seg, tc: &mut Seg, limits: &Limits) -> Option<Blend> {
     } else {
         p.phi2_max * g.radius2
     };
-    kinematics(&g, &mut p, prev, tc, limits)?;
+    kinematics(&g, &mut p, (prev, tc), limits, planes)?;
     if !colinear(g.binormal, c1.normal) || !colinear(g.binormal, c2.normal) {
         return None;
     }
@@ -979,7 +1041,8 @@ mod tests {
             &lim,
         );
         assert_eq!(setup_tangent(&mut a, &mut b, &lim), Tangency::Corner);
-        let blend = try_blend_arc(&mut a, &mut b, &lim).expect("a blend arc");
+        let blend =
+            try_blend_arc(&mut a, &mut b, &lim, &mut PlaneLimits::default()).expect("a blend arc");
         let arc_seg = blend.arc.seg();
         let r = 20.0 / std::f64::consts::FRAC_PI_2;
         match arc_seg.shape {

@@ -65,6 +65,10 @@ pub(crate) struct Exec {
     pub shown: Option<Shown>,
     /// Which way of running the next period [`run_next`] tries first.
     first: First,
+    /// Periods are counted per program line ([`super::Planner::per_line`]):
+    /// each call of [`run_next`] ends where the segment shown may change,
+    /// so [`run_steps`] leaves a split period to [`run_period`].
+    pub per_line: bool,
 }
 
 /// The ways of running periods, from the one that runs most at once:
@@ -743,6 +747,20 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
     let mut changing = fresh;
     // `run_cruise`'s test of the segment's state (the others hold here).
     let may_cruise = !(tc.ramp && tc.term == Term::Tangent);
+    // A segment activated at its cruising speed (a CAM move entered at
+    // speed from a blend arc) cruises from its first period: that cruise
+    // runs at once, as `run_cruise` runs it (the segment is active, at the
+    // whole servo period, neither splitting nor removed nor blending, no
+    // ramp), instead of after a first period stepped to see that the speed
+    // stays. Not cruising, it costs the first test of `cruise_periods_with`.
+    if fresh && may_cruise {
+        if let Some(k) = cruise_periods_with(tc, h.target_vel, h.final_vel, h.a) {
+            cruise(tc, k, period);
+            (progress, vel_at_blend_start, on_final_decel) = (tc.progress, v, false);
+            n += k;
+            changing = false;
+        }
+    }
     loop {
         // Whether the steps stopped at a cruise that follows a change of
         // speed (else at a period that takes a decision).
@@ -814,8 +832,22 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
     // (the segment neither splits nor is removed nor blends yet, and it
     // does not end in a parabolic blend, so it shows itself).
     update_with(tc, h.target_vel, h.final_vel, h.a, limits);
-    blend_or_show(tc, next, limits, &mut ex.shown);
+    blend_or_show(tc, next.as_deref_mut(), limits, &mut ex.shown);
     count_period(ex);
+    // A segment that now ends within the next period (at speed: one that
+    // stops is removed instead) runs that period here as `run_period`
+    // runs it (`tpHandleSplitCycle`: the segment is active, the two front
+    // segments' blending flags are cleared first), unless the periods
+    // are counted per line (the split period may show the next segment).
+    if tc.splitting && !tc.remove && !ex.per_line {
+        let after = front.next();
+        tc.is_blending = false;
+        if let Some(n) = next.as_deref_mut() {
+            n.is_blending = false;
+        }
+        split_period(tc, next, after.as_deref(), limits, &mut ex.shown);
+        count_period(ex);
+    }
     if q[0].remove {
         q.pop_front();
     }

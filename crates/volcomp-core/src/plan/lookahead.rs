@@ -28,7 +28,13 @@ const OPTIMIZATION_CUTOFF: usize = 4;
 
 /// Queues `tc` after the queue's last segment (settled in place, then
 /// copied once into the queue).
-pub(crate) fn add(q: &mut VecDeque<Seg>, tc: &mut Seg, limits: &Limits, stats: &mut super::Counts) {
+pub(crate) fn add(
+    q: &mut VecDeque<Seg>,
+    tc: &mut Seg,
+    limits: &Limits,
+    stats: &mut super::Counts,
+    planes: &mut blend::PlaneLimits,
+) {
     let n = q.len();
     let mut consumed = false;
     if let Some(prev) = q.back_mut() {
@@ -40,7 +46,7 @@ pub(crate) fn add(q: &mut VecDeque<Seg>, tc: &mut Seg, limits: &Limits, stats: &
             match blend::setup_tangent(prev, tc, limits) {
                 Tangency::Fail => {}
                 Tangency::Tangent => stats.tangent_joints += 1,
-                Tangency::Corner => match blend::try_blend_arc(prev, tc, limits) {
+                Tangency::Corner => match blend::try_blend_arc(prev, tc, limits, planes) {
                     Some(b) => {
                         stats.blend_arcs += 1;
                         tc.shape = b.tc_shape;
@@ -69,7 +75,10 @@ pub(crate) fn add(q: &mut VecDeque<Seg>, tc: &mut Seg, limits: &Limits, stats: &
             q[n - 1].finalize();
         }
     }
-    q.push_back(*tc);
+    // From the slice straight into the ring's slot: `push_back(*tc)`
+    // copies the segment to the stack first (its growth check may call
+    // out), then into the slot.
+    q.extend(std::slice::from_ref(tc));
     optimize(q, limits);
 }
 

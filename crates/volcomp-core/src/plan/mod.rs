@@ -411,6 +411,8 @@ pub struct Planner {
     exec: integrate::Exec,
     counts: Counts,
     fresh: Vec<segment::Seg>,
+    /// The last blend plane's limits ([`blend::PlaneLimits`]).
+    planes: blend::PlaneLimits,
     /// The periods per line, when asked for ([`Planner::per_line`]).
     lines: Option<LineLog>,
 }
@@ -426,6 +428,7 @@ impl Planner {
             exec: integrate::Exec::default(),
             counts: Counts::default(),
             fresh: Vec::new(),
+            planes: blend::PlaneLimits::default(),
             lines: None,
         }
     }
@@ -433,10 +436,10 @@ impl Planner {
     /// A planner that also counts the time per program line
     /// ([`Planner::finish_per_line`]).
     pub fn per_line(limits: Limits) -> Planner {
-        Planner {
-            lines: Some(LineLog::default()),
-            ..Planner::new(limits)
-        }
+        let mut p = Planner::new(limits);
+        p.lines = Some(LineLog::default());
+        p.exec.per_line = true;
+        p
     }
 
     /// Runs the queue's next period or periods (`false`: the queue is
@@ -470,7 +473,13 @@ impl Planner {
         // By reference: each segment is copied once, into the queue.
         for s in &mut self.fresh {
             self.counts.segments += 1;
-            lookahead::add(&mut self.queue, s, &self.limits, &mut self.counts);
+            lookahead::add(
+                &mut self.queue,
+                s,
+                &self.limits,
+                &mut self.counts,
+                &mut self.planes,
+            );
         }
         self.fresh.clear();
     }

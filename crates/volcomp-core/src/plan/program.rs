@@ -39,9 +39,24 @@ pub struct ProgramEstimate {
     pub moves_by_mode: [u64; 3],
 }
 
-/// `code` (×10: G4 = 40, G92.1 = 921) of a G or M word.
+/// `code` (×10: G4 = 40, G92.1 = 921) of a G or M word: `(10·value)`
+/// rounded half away from zero, as `f64::round(x) as i64` gives it for
+/// every `x` (saturating, NaN 0), without the library call `round` is on
+/// the baseline x86-64 target: the integer part `t` of `x` (the
+/// conversion truncates and saturates) and the fraction `x − t`, exact
+/// (`t` is `x` without its fraction, or `x` itself from 2^52 on); one
+/// more away from zero when the fraction is at least a half.
 fn code10(value: f64) -> i64 {
-    (value * 10.0).round() as i64
+    let x = value * 10.0;
+    let t = x as i64;
+    let frac = x - t as f64;
+    if frac >= 0.5 {
+        t.saturating_add(1)
+    } else if frac <= -0.5 {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
 }
 
 /// What a line says beyond its motions: whether the machine waits for
@@ -261,6 +276,48 @@ mod tests {
         let mut l = Lexed::default();
         volcomp_gcode::lexer::lex_block(s.as_bytes(), &mut l).unwrap();
         l
+    }
+
+    #[test]
+    fn codes_are_the_words_times_ten_rounded_as_f64_round_rounds() {
+        // Second method: `f64::round` (half away from zero), on the codes
+        // of G and M words, their ties and neighbours, huge values,
+        // infinities, NaN and random bit patterns.
+        let by_round = |v: f64| (v * 10.0).round() as i64;
+        let mut values = vec![
+            0.0,
+            -0.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MAX,
+            f64::MIN,
+            f64::MIN_POSITIVE,
+            9.223_372_036_854_776e17,
+            -9.223_372_036_854_776e17,
+            4.503_599_627_370_496e14,
+            0.049_999_999_999_999_996,
+        ];
+        for code in -2000..20_000 {
+            let v = code as f64 / 100.0;
+            for x in [v, v + 0.005, v - 0.005] {
+                values.extend([x, x.next_up(), x.next_down(), -x]);
+            }
+        }
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        for _ in 0..200_000 {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            values.push(f64::from_bits(seed));
+        }
+        for v in values {
+            assert_eq!(code10(v), by_round(v), "{v:e}");
+        }
+        // By hand: G92.1 is 921, G4 40, M0 0; 0.45 (4.5 after the
+        // product) rounds away from zero to 5, −0.45 to −5.
+        assert_eq!((code10(92.1), code10(4.0), code10(0.0)), (921, 40, 0));
+        assert_eq!((code10(0.45), code10(-0.45)), (5, -5));
     }
 
     #[test]

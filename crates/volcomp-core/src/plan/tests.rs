@@ -512,6 +512,70 @@ fn each_line_s_time_is_its_trapezoid_and_they_add_up() {
     }
 }
 
+/// The time per line of a planner that steps every period
+/// ([`integrate::run_period`], LinuxCNC's order) and counts each period
+/// for the segment it shows.
+fn per_line_period_by_period(moves: &[Move], limits: &Limits) -> (Estimate, Vec<LineTime>) {
+    let mut p = Planner::per_line(*limits);
+    let keep = limits.blend.optimization_depth + 6;
+    let run = |p: &mut Planner| {
+        let before = p.exec.periods;
+        let more = integrate::run_period(&mut p.queue, &mut p.exec, &p.limits);
+        if let (Some(log), Some(shown)) = (&mut p.lines, p.exec.shown) {
+            log.add(shown.line, before, p.exec.periods);
+        }
+        more
+    };
+    for m in moves {
+        p.canon.push(m, &p.limits, &mut p.fresh);
+        p.queue_fresh();
+        while p.queue.len() > keep {
+            run(&mut p);
+        }
+    }
+    p.canon.finish(&p.limits, &mut p.fresh);
+    p.queue_fresh();
+    while run(&mut p) {}
+    p.finish_per_line()
+}
+
+#[test]
+fn the_time_per_line_counts_each_split_period_for_the_segment_it_shows() {
+    // Moves of a few tenths of a millimetre at 5 mm/s, each its own
+    // line, under G64 (blend arcs, ends at speed: a split period at
+    // every joint, which may show the next segment) and under G61 (tangent
+    // joints of collinear moves run through, the rest stop). The rows
+    // must be those of the planner that steps each period: the stepping
+    // that runs a split period with the period before it counts them
+    // apart here.
+    let mut unit = uniform(0x51f1_5eed_c0ff_ee00);
+    for mode in [PathMode::default(), PathMode::ExactPath] {
+        let lim = Limits::default();
+        let mut at = Vec3::ZERO;
+        let mut moves = Vec::new();
+        for i in 0..400u64 {
+            let turn = unit() < 0.5;
+            let end = at + Vec3::new(0.2 + 0.3 * unit(), 0.0, if turn { 0.02 } else { 0.0 });
+            let mut m = Move::feed(at, end, 5.0, mode);
+            m.line = i + 1;
+            moves.push(m);
+            at = end;
+        }
+        let (e, lines) = {
+            let mut p = Planner::per_line(lim);
+            for m in &moves {
+                p.push(m);
+            }
+            p.finish_per_line()
+        };
+        let (e_stepped, lines_stepped) = per_line_period_by_period(&moves, &lim);
+        assert_eq!(e, e_stepped, "{mode:?}");
+        assert_eq!(e, estimate(&moves, &lim), "{mode:?}");
+        assert_eq!(lines, lines_stepped, "{mode:?}");
+        assert!(lines.len() > 300, "{} rows", lines.len());
+    }
+}
+
 /// A line run again (a loop's body) keeps one row holding all its runs:
 /// under G61.1 each run is a trapezoid from rest to rest, so line 7 run
 /// three times takes three trapezoids.

@@ -39,9 +39,18 @@ pub struct ExtraAxes {
 }
 
 impl ExtraAxes {
-    /// Whether any extra axis moves.
+    /// Whether any extra axis moves: `start != end`, element by element
+    /// (an array's `!=` is "some element differs"), written out without the
+    /// slice comparison's loop and early exit (no branch per axis).
+    #[inline]
     pub fn moves(&self) -> bool {
-        self.start != self.end
+        let (s, e) = (&self.start, &self.end);
+        (s[0] != e[0])
+            | (s[1] != e[1])
+            | (s[2] != e[2])
+            | (s[3] != e[3])
+            | (s[4] != e[4])
+            | (s[5] != e[5])
     }
 
     /// The extra axes at fraction `t ∈ [0, 1]` of the motion: linear, as the
@@ -168,5 +177,34 @@ impl Interpreter {
     /// The extra axes' current position (A, B, C in degrees, U, V, W in mm).
     pub fn extra_position(&self) -> [f64; 6] {
         self.extra
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ExtraAxes;
+
+    #[test]
+    fn an_extra_axis_moves_when_its_end_differs_from_its_start_as_f64_compares() {
+        let still = ExtraAxes::default();
+        assert!(!still.moves());
+        // By hand: -0 equals 0 (still), NaN equals nothing (moves). Second
+        // method: the arrays' own `!=`.
+        for k in 0..6 {
+            for (v, moves) in [
+                (1e-300, true),
+                (-0.0, false),
+                (f64::NAN, true),
+                (360.0, true),
+            ] {
+                let mut e = still;
+                e.end[k] = v;
+                assert_eq!(e.moves(), moves, "axis {k}, {v}");
+                assert_eq!(e.moves(), e.start != e.end, "axis {k}, {v}");
+                let mut s = still;
+                s.start[k] = v;
+                assert_eq!(s.moves(), moves, "axis {k}, {v}");
+            }
+        }
     }
 }
