@@ -90,6 +90,23 @@ pub(crate) fn solve_fixed_in(
     hold: [bool; 3],
     held_q: Vec3,
 ) -> Result<Solved, ModelError> {
+    fixed_inline(cells, model, method, t_mm, s, hold, held_q)
+}
+
+/// [`solve_fixed_in`] inlined: for the walk to a consistent state
+/// ([`solve_consistent_in`]), which calls it ~113,000 times on a CAM
+/// program of 67,000 lines (the call's saving and restoring of registers
+/// and its result through memory are saved there).
+#[inline(always)]
+fn fixed_inline(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    method: Method,
+    t_mm: Vec3,
+    s: Directions,
+    hold: [bool; 3],
+    held_q: Vec3,
+) -> Result<Solved, ModelError> {
     let comps = method.components();
     // Most solves hold no axis: then `fix` and `free_norm` are the
     // identity and the norm, tested once here instead of per axis and step.
@@ -262,7 +279,7 @@ pub(crate) fn solve_consistent_in(
     // states' solves from here (the same function of the same arguments).
     let mut tried: [Option<Tried>; 4] = [None; 4];
     for kept in &mut tried {
-        let sol = solve_fixed_in(cells, model, method, t_mm, s, hold, q_prev)?;
+        let sol = fixed_inline(cells, model, method, t_mm, s, hold, q_prev)?;
         let q = quantize(sol.q_mm);
         if hold == [false; 3] {
             *kept = Some((s, sol, q));
