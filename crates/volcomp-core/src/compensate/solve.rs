@@ -95,8 +95,10 @@ pub(crate) fn solve_fixed_in(
 
 /// [`solve_fixed_in`] inlined: for the walk to a consistent state
 /// ([`solve_consistent_in`]), which calls it ~113,000 times on a CAM
-/// program of 67,000 lines (the call's saving and restoring of registers
-/// and its result through memory are saved there).
+/// program of 67,000 lines, the held solve ([`held_solve`], ~29,000) and
+/// the search of the states ([`search_states`], ~21,000): the call's
+/// saving and restoring of registers and its result through memory are
+/// saved there.
 #[inline(always)]
 fn fixed_inline(
     cells: &mut AxisCells,
@@ -471,7 +473,7 @@ pub(super) fn held_solve(
     (q_prev, s_prev): (Vec3, Directions),
     (bound_mm, band_um, point_residual_um): (f64, [f64; 3], f64),
 ) -> Result<Option<PointSolution>, ModelError> {
-    let sol = solve_fixed_in(cells, model, method, t_mm, s, hold, q_prev)?;
+    let sol = fixed_inline(cells, model, method, t_mm, s, hold, q_prev)?;
     let mut q = quantize(sol.q_mm);
     for a in (0..3).filter(|a| hold[*a]) {
         q[a] = q_prev[a];
@@ -614,7 +616,7 @@ fn search_states(
         let (sol, q) = match known {
             Some((_, sol, q)) => (*sol, *q),
             None => {
-                let sol = solve_fixed_in(cells, model, method, t_mm, s, [false; 3], q_prev)?;
+                let sol = fixed_inline(cells, model, method, t_mm, s, [false; 3], q_prev)?;
                 (sol, quantize(sol.q_mm))
             }
         };
