@@ -1178,6 +1178,44 @@ pub(super) mod tests {
         assert!((p.q_mm.z - 4.9995).abs() < 1e-9, "{:?}", p.q_mm);
     }
 
+    /// Every method's fixed-direction solve with its residuals evaluated
+    /// inline in the kept cells ([`residual_in`], [`fixed_inline`]) gives
+    /// the plain map lookup's command, iteration count and residual to
+    /// the bit (the second method: [`Plain`], the model's own
+    /// evaluation), on 500 random targets of the search map in random
+    /// states, with and without held axes, the cells kept from one solve
+    /// to the next as the compensation keeps them.
+    #[test]
+    fn the_inlined_solve_is_the_plain_lookups_for_every_method() {
+        let m = search_map();
+        let mut rnd = uniform(0x1f0e_d5a1);
+        let mut cells = AxisCells::default();
+        let methods = [
+            Method::Direct,
+            Method::Exact,
+            Method::Pitch,
+            Method::Ilc {
+                gain: 0.7,
+                max_iterations: 20,
+            },
+        ];
+        let mut iterated = 0;
+        for k in 0..500 {
+            let (q_prev, t, s) = random_start(&mut rnd);
+            let hold = [k % 5 == 1, k % 7 == 2, k % 3 == 0 && k % 2 == 0];
+            for method in methods {
+                let a = fixed_inline(&mut cells, &m, method, t, s, hold, q_prev).unwrap();
+                let b = solve_fixed(&Plain(&m), method, t, s, hold, q_prev).unwrap();
+                assert_eq!(a, b, "{t:?} {s:?} {hold:?} {method:?}");
+                let c = solve_fixed_in(&mut cells, &m, method, t, s, hold, q_prev).unwrap();
+                assert_eq!(a, c, "{t:?} {s:?} {hold:?} {method:?}");
+                iterated += usize::from(a.iterations > 1);
+            }
+        }
+        // The iterating methods took several steps.
+        assert!(iterated > 500, "{iterated}");
+    }
+
     /// The consistent solve, the search over states and the hold compute
     /// their last residuals in the exact solve's cells: the same points,
     /// states, residuals and holds to the bit as through the plain map
