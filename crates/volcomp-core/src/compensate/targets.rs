@@ -370,6 +370,7 @@ struct Piece<'a> {
 impl Piece<'_> {
     /// The map's error at `p` (mm), evaluated in the table cells `cells`
     /// keeps: [`ErrorModel::deviation_um`]'s value to the bit.
+    #[inline(always)]
     fn e(&self, cells: &mut AxisCells, p: Vec3) -> Result<Vec3, ModelError> {
         Ok(cells.deviation_um(self.model, p, self.s, Components::All)? * 1e-3)
     }

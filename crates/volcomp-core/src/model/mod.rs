@@ -463,6 +463,7 @@ impl AxisCells {
     /// do not ([`AxisCells`]), so a value is the model's to the bit
     /// whichever line asks. Anything else (outside a table, a model
     /// without cells) is the model's own evaluation each time.
+    #[inline(always)]
     pub fn deviation_again_um(
         &mut self,
         model: &dyn ErrorModel,
