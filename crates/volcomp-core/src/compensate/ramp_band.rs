@@ -75,16 +75,22 @@ pub(super) fn excursion(
             0.0
         }
     };
-    let left = |q: Vec3, a: usize| -> f64 {
+    // The travel is counted from the farthest the command went its old
+    // way (`turn`): an axis whose command follows its target the old way
+    // first (a staged ramp's later axis, compensate/ramp_stage.rs) turns
+    // there, its carriage on its old flank until then.
+    let left = |q: Vec3, turn: Vec3, a: usize| -> f64 {
         let own = own(a);
         if own == 0.0 {
             return 0.0;
         }
-        let travel = ((q[a] - q_prev[a]) * s[a].sign()).max(0.0);
+        let travel = ((q[a] - turn[a]) * s[a].sign()).max(0.0);
         (1.0 - travel / own).max(0.0)
     };
-    let off =
-        |q: Vec3, sol: Vec3| -> Vec3 { (0..3).fold(q - sol, |o, a| o + lags[a] * left(q, a)) };
+    let off = |q: Vec3, sol: Vec3, turn: Vec3| -> Vec3 {
+        (0..3).fold(q - sol, |o, a| o + lags[a] * left(q, turn, a))
+    };
+    let mut turn = q_prev;
     let across = |o: Vec3, u: Vec3| (o - u * o.dot(u)).norm();
     let mut worst = 0.0f64;
     // The integral of the squared distance along the chords, their length,
@@ -97,6 +103,11 @@ pub(super) fn excursion(
     };
     let (mut t0, mut q0, mut sol0) = (t_prev, q_prev, q_prev);
     for (k, &(t, q, sol)) in points.iter().enumerate() {
+        for a in 0..3 {
+            if (q[a] - turn[a]) * s[a].sign() < 0.0 {
+                turn[a] = q[a];
+            }
+        }
         let chord = t - t0;
         let n = chord.norm();
         let u = if n > 0.0 { chord * (1.0 / n) } else { chord };
@@ -108,8 +119,8 @@ pub(super) fn excursion(
             for (a, c) in crossings.iter_mut().enumerate() {
                 let own = own(a);
                 let (t_a, t_b) = (
-                    (q0[a] - q_prev[a]) * s[a].sign(),
-                    (q[a] - q_prev[a]) * s[a].sign(),
+                    (q0[a] - turn[a]) * s[a].sign(),
+                    (q[a] - turn[a]) * s[a].sign(),
                 );
                 if own > 0.0 && t_a < own && t_b > own {
                     *c = (own - t_a) / (t_b - t_a);
@@ -119,20 +130,20 @@ pub(super) fn excursion(
             for lambda in crossings.into_iter().filter(|l| l.is_finite()) {
                 let qc = q0 + (q - q0) * lambda;
                 let sc = sol0 + (sol - sol0) * lambda;
-                let d = across(off(qc, sc), u);
+                let d = across(off(qc, sc, turn), u);
                 worst = worst.max(d);
                 add(d, n * (lambda - at), &mut last);
                 at = lambda;
             }
         }
-        let d = across(off(q, sol), u);
+        let d = across(off(q, sol, turn), u);
         worst = worst.max(d);
         add(d, n * (1.0 - at), &mut last);
         (t0, q0, sol0) = (t, q, sol);
     }
     // A band the ramp's end has not crossed: the tool stands on past it,
     // by more than this reads; refused.
-    if (0..3).any(|a| left(q0, a) > 0.0) {
+    if (0..3).any(|a| left(q0, turn, a) > 0.0) {
         return Excursion {
             max_mm: f64::INFINITY,
             rms_mm: f64::INFINITY,
