@@ -607,7 +607,12 @@ fn plan_ramp(
         let sol = solve_fixed_in(cells, model, options.method, *t, point.s, [false; 3], prev)?;
         let (rest, waiting) = rests.get(k).copied().unwrap_or((delta * *f, [false; 3]));
         let mut q = quantize(sol.q_mm - rest, prev);
-        hold_on_ramp(&mut q, prev, point.s, [0, 1, 2].map(|a| hold[a] && !waiting[a]));
+        hold_on_ramp(
+            &mut q,
+            prev,
+            point.s,
+            [0, 1, 2].map(|a| hold[a] && !waiting[a]),
+        );
         if judged {
             written.push((*t, q, sol.q_mm));
         }
@@ -3398,7 +3403,7 @@ mod tests {
                     &point,
                     (delta, &lags, [false; 3]),
                     (kink, 2e-3, shortest, None, floor_mm),
-                    (smooth, false),
+                    (smooth, false, false),
                 )
                 .unwrap()
                 .map(|p| {

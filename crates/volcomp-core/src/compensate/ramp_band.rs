@@ -269,6 +269,29 @@ mod tests {
     }
 
     #[test]
+    fn an_axis_that_follows_its_target_the_old_way_first_turns_where_it_went_farthest() {
+        // Y reverses upward with a 2 µm band on a line along X, its target
+        // still drifting 0.5 µm down to X 1 (a staged ramp's later axis,
+        // ramp_stage.rs): the command follows it down to −0.5 µm (the new
+        // state's solution there, 1.5 µm, less the 2 µm lag), then rises to
+        // the solution at X 2. By hand: the carriage turns at −0.5 µm and
+        // crosses its 2 µm band exactly at X 2; on the way the offset is
+        // q − 1.5 + 2·(1 − (q + 0.5)/2) = 0: the tool on the path
+        // throughout. Counted from the ramp's start instead, the band
+        // would read 1.5 µm crossed at X 2 (a quarter of the lag left, the
+        // ramp refused as never crossing).
+        let up = [Direction::Forward; 3];
+        let lags = [Vec3::ZERO, Vec3::new(0.0, 2e-3, 0.0), Vec3::ZERO];
+        let sol = Vec3::new(0.0, 1.5e-3, 0.0);
+        let points = [
+            (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, -0.5e-3, 0.0), sol),
+            (Vec3::new(2.0, 0.0, 0.0), sol, sol),
+        ];
+        let e = excursion(&lags, Vec3::ZERO, up, Vec3::ZERO, &points);
+        assert!(e.max_mm < 1e-12 && e.rms_mm < 1e-12, "{e:?}");
+    }
+
+    #[test]
     fn a_cross_lag_is_carried_until_the_standing_axis_crosses_its_band() {
         // A line along X; Y (band 2 µm) and Z (band 6 µm) reverse upward
         // together, and Y's switch moves the Z error by c = 0.4 µm: lags

@@ -136,12 +136,26 @@ mod tests {
         // Targets at 10, 17.9, 20: the start X18 is 0.1 mm after 17.9,
         // less than the 0.2 mm piece: the ramp starts at 17.9 (target 2
         // solved again, no point inserted), 2.1 + 2 = 4.1 mm long.
-        let c = centred_start(x(0.0), &[x(10.0), x(17.9), x(20.0), x(30.0)], 3, (2.0, 4.0), 0.2).unwrap();
+        let c = centred_start(
+            x(0.0),
+            &[x(10.0), x(17.9), x(20.0), x(30.0)],
+            3,
+            (2.0, 4.0),
+            0.2,
+        )
+        .unwrap();
         assert_eq!((c.from, c.insert), (2, None));
         assert!((c.ramp_mm - 4.1).abs() < 1e-12);
         // Targets at 10, 18.1, 20: 0.1 mm before 18.1: starts at 18.1
         // (target 2 solved again from its start), 1.9 + 2 → at least 4.
-        let c = centred_start(x(0.0), &[x(10.0), x(18.1), x(20.0), x(30.0)], 3, (2.0, 4.0), 0.2).unwrap();
+        let c = centred_start(
+            x(0.0),
+            &[x(10.0), x(18.1), x(20.0), x(30.0)],
+            3,
+            (2.0, 4.0),
+            0.2,
+        )
+        .unwrap();
         assert_eq!((c.from, c.insert), (2, None));
         assert!((c.ramp_mm - 4.0).abs() < 1e-12);
     }
@@ -149,7 +163,10 @@ mod tests {
     #[test]
     fn no_room_before_the_reversal_gives_none_or_the_motion_start() {
         // The reversal 0.1 mm after the motion's start: no lead.
-        assert_eq!(centred_start(x(0.0), &[x(0.1), x(5.0)], 1, (2.0, 4.0), 0.2), None);
+        assert_eq!(
+            centred_start(x(0.0), &[x(0.1), x(5.0)], 1, (2.0, 4.0), 0.2),
+            None
+        );
         // The reversal 1 mm after it: the ramp starts at the motion's
         // start and runs 1 + 2 = 3 → at least its 4 mm.
         let c = centred_start(x(0.0), &[x(1.0), x(5.0)], 1, (2.0, 4.0), 0.2).unwrap();

@@ -16,8 +16,10 @@
 //! component and what it moves across), on the two-parabola step of a
 //! line's ramp (`points::parabolic_step`) over its own share of the ramp,
 //! the share its own tangency asks for (`points::line_ramp_length_mm`); the
-//! rest of the take-up (rounding, an axis with no band of its own) on the
-//! common step over the whole ramp. The ramp is judged by the dead-band
+//! rest of the take-up, on the axes not staged (the path's own axis, one
+//! with no band to cross), on the common step over the whole ramp. The
+//! later axes' commands follow their targets the old way until their own
+//! step begins ([`Stages::waiting`]). The ramp is judged by the dead-band
 //! reading of its written commands ([`super::ramp_band::excursion`]), as
 //! any ramp ending where the tangency needs it.
 
@@ -35,7 +37,7 @@ use volcomp_gcode::Vec3;
 const LAST_LEAD_SHARE: f64 = 1.0 / 3.0;
 
 /// The stages of a staged ramp: the axes in the order their steps run,
-/// and where (share `u` of the ramp) each step ends.
+/// and where (share `u` of the ramp) each step starts and ends.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Stages {
     axes: [usize; 3],
@@ -202,7 +204,10 @@ mod tests {
         assert_eq!(st.axes[..st.n], [2, 1]);
         let e = 6.844f64.sqrt() / (6.844f64.sqrt() + 2.707f64.sqrt());
         assert!((st.ends[0] - e).abs() < 1e-12, "{st:?}");
-        assert!((st.lead_share() - (e + (1.0 - e) / 3.0)).abs() < 1e-12, "{st:?}");
+        assert!(
+            (st.lead_share() - (e + (1.0 - e) / 3.0)).abs() < 1e-12,
+            "{st:?}"
+        );
         assert_eq!(st.waiting(0.5 * e), [false, true, false]);
         assert_eq!(st.waiting(e + 1e-9), [false; 3]);
         // Y alone, or Y with a Z whose lag points against its new way (no
