@@ -36,6 +36,7 @@ mod points;
 mod ramp_band;
 mod ramp_centre;
 mod ramp_cross;
+mod ramp_stage;
 mod scurve;
 mod size;
 pub mod solve;

@@ -379,6 +379,10 @@ pub(super) struct RampPlan {
     /// The share of `delta` still to catch up at each target of the ramp,
     /// from the reversal's target on (the last 0: the ramp's end).
     pub(super) fracs: Vec<f64>,
+    /// On a staged ramp ([`super::ramp_stage`]), the take-up still to catch
+    /// up at each of those targets, in place of `delta` times the share;
+    /// empty on a ramp of one step.
+    pub(super) rests: Vec<(Vec3, [bool; 3])>,
     /// The targets to insert (each with the index it goes before, the
     /// point, and on an arc its parameter), in order along the path: where
     /// the ramp ends inside a move, and on a smooth ramp its inner points.
@@ -386,6 +390,12 @@ pub(super) struct RampPlan {
     /// The tool's largest distance from the path on the ramp (mm).
     pub(super) bound_mm: f64,
 }
+
+/// How many of the motion's targets after a staged ramp's end are read on
+/// where its last axis has not crossed its band there
+/// (compensate/ramp_stage.rs): a few, the band short by a tenth of a
+/// micrometre and the targets a few millimetres apart.
+const STAGED_READ_ON_TARGETS: usize = 4;
 
 /// The length [`plan_ramp`] first asks of a ramp for the take-up `delta`
 /// (mm): the tangency's, before a given length or the floor.
@@ -444,7 +454,7 @@ fn plan_ramp(
         Option<f64>,
         f64,
     ),
-    (smooth, judged): (bool, bool),
+    (smooth, judged, staged): (bool, bool, bool),
 ) -> Result<Option<RampPlan>, ModelError> {
     // (Two parabolas on a ramp centred on a reversal along a line, the one
     // ramp of a line given its length: compensate/ramp_centre.rs.)
@@ -550,6 +560,31 @@ fn plan_ramp(
         insert.sort_by(|a, b| a.3.partial_cmp(&b.3).unwrap_or(std::cmp::Ordering::Equal));
         window.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal));
     }
+    // A staged ramp (judged by its commands only): each reversing axis'
+    // lag on a step of its own (compensate/ramp_stage.rs).
+    let stages = if staged {
+        if !(judged && parabolic) {
+            return Ok(None);
+        }
+        let Some(st) = super::ramp_stage::Stages::plan(lags, point.s, point.reversed, |v| {
+            line_ramp_length_mm(v, kink_tolerance, shortest_mm)
+        }) else {
+            return Ok(None);
+        };
+        Some(st)
+    } else {
+        None
+    };
+    let rests: Vec<(Vec3, [bool; 3])> = match stages {
+        Some(st) => window
+            .iter()
+            .map(|(_, s)| {
+                let u = (s / end_s).clamp(0.0, 1.0);
+                (st.rest(delta, lags, u, parabolic_step), st.waiting(u))
+            })
+            .collect(),
+        None => Vec::new(),
+    };
     let fracs: Vec<f64> = window
         .iter()
         .map(|(_, s)| {
@@ -568,14 +603,20 @@ fn plan_ramp(
     // [`hold_on_ramp`]).
     let mut prev = q_prev;
     let mut written = Vec::new();
-    for ((t, _), f) in window.iter().zip(&fracs) {
+    for (k, ((t, _), f)) in window.iter().zip(&fracs).enumerate() {
         let sol = solve_fixed_in(cells, model, options.method, *t, point.s, [false; 3], prev)?;
-        let mut q = quantize(sol.q_mm - delta * *f, prev);
-        hold_on_ramp(&mut q, prev, point.s, hold);
+        let (rest, waiting) = rests.get(k).copied().unwrap_or((delta * *f, [false; 3]));
+        let mut q = quantize(sol.q_mm - rest, prev);
+        hold_on_ramp(
+            &mut q,
+            prev,
+            point.s,
+            [0, 1, 2].map(|a| hold[a] && !waiting[a]),
+        );
         if judged {
             written.push((*t, q, sol.q_mm));
         }
-        for a in 0..3 {
+        for a in (0..3).filter(|a| !waiting[*a]) {
             if (q[a] - prev[a]) * point.s[a].sign() < -1e-9 {
                 return Ok(None);
             }
@@ -644,7 +685,38 @@ fn plan_ramp(
     // path within the tolerance, its mean square within a quarter of the
     // tolerance's square ([`super::ramp_band::within`]).
     let bound = if judged {
-        let e = super::ramp_band::excursion(lags, q_prev, point.s, t_prev, &written);
+        let mut e = super::ramp_band::excursion(lags, q_prev, point.s, t_prev, &written);
+        // A staged ramp whose last axis has not crossed its band by the
+        // ramp's end (its target drifted its old way over part of its
+        // step): read on over the motion's next targets, solved in the new
+        // state, as far as the band is crossed (the tool stands there).
+        if staged && e.max_mm.is_infinite() {
+            let mut p = prev;
+            for j in (index..targets.len())
+                .filter(|j| along(*j) > end_s * (1.0 + 1e-9))
+                .take(STAGED_READ_ON_TARGETS)
+            {
+                let sol = solve_fixed_in(
+                    cells,
+                    model,
+                    options.method,
+                    targets[j],
+                    point.s,
+                    [false; 3],
+                    p,
+                )?;
+                let q = quantize(sol.q_mm, p);
+                if (0..3).any(|a| (q[a] - p[a]) * point.s[a].sign() < -1e-9) {
+                    break;
+                }
+                written.push((targets[j], q, sol.q_mm));
+                p = q;
+                e = super::ramp_band::excursion(lags, q_prev, point.s, t_prev, &written);
+                if e.max_mm.is_finite() {
+                    break;
+                }
+            }
+        }
         if !super::ramp_band::within(e, tolerance_mm) {
             return Ok(None);
         }
@@ -657,6 +729,7 @@ fn plan_ramp(
     }
     Ok(Some(RampPlan {
         fracs,
+        rests,
         insert: insert.into_iter().map(|(j, p, l, _)| (j, p, l)).collect(),
         bound_mm: bound,
     }))
@@ -926,6 +999,9 @@ struct Ahead {
     /// A ramp centred on a reversal along a line
     /// (compensate/ramp_centre.rs), not one ending at an S-curve.
     centred: bool,
+    /// A centred ramp whose reversing axes catch up their take-ups one
+    /// after the other (compensate/ramp_stage.rs).
+    staged: bool,
 }
 
 /// The targets, the arc parameters of their pieces and the transitions of
@@ -1276,7 +1352,15 @@ impl State<'_> {
         // and the share of it still to catch up at each next target; and
         // the index a ramp's end was last inserted before (one insertion
         // per reversal).
-        let mut ramp: Option<(Vec3, std::collections::VecDeque<f64>, f64, [bool; 3])> = None;
+        // (On a staged ramp, the take-up left at each next target and at
+        // the last: [`RampPlan::rests`].)
+        let mut ramp: Option<(
+            Vec3,
+            std::collections::VecDeque<f64>,
+            f64,
+            [bool; 3],
+            (std::collections::VecDeque<(Vec3, [bool; 3])>, Vec3),
+        )> = None;
         let mut ramp_inserted: Option<usize> = None;
         // Take-ups moved ahead of an S-curve ([`Ahead`]): the state before
         // each target (kept only where one may happen), the one pending,
@@ -1303,8 +1387,9 @@ impl State<'_> {
             && !transitions.is_empty())
             || centre_lines
             || centre_arcs;
-        // The reversals (their points) a centred ramp was tried for.
-        let mut centred_tried: Vec<Vec3> = Vec::new();
+        // The reversals (their points) a centred ramp was tried for, and
+        // whether a staged one was too (compensate/ramp_stage.rs).
+        let mut centred_tried: Vec<(Vec3, bool)> = Vec::new();
         let mut history: Vec<Snapshot> = Vec::new();
         let mut ahead: Option<Ahead> = None;
         let mut ahead_tried: Vec<usize> = Vec::new();
@@ -1653,6 +1738,7 @@ impl State<'_> {
                                     length_mm: (l_end - l_start) * len,
                                     transition: k,
                                     centred: false,
+                                    staged: false,
                                 });
                                 back_to =
                                     Some((p, insert.then(|| (arc.point_at(l_start), l_start))));
@@ -1962,7 +2048,13 @@ impl State<'_> {
                                     pre_length,
                                     floor_mm,
                                 ),
-                                (exact, judged),
+                                (
+                                    exact,
+                                    judged,
+                                    ahead.is_some_and(|ah| {
+                                        ah.index == index && ah.centred && ah.staged
+                                    }),
+                                ),
                             )
                             .map_err(|source| model_error(file, line, source))?
                             .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index))
@@ -2001,6 +2093,7 @@ impl State<'_> {
                         plan.fracs.into_iter().collect(),
                         1.0,
                         ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
+                        (plan.rests.into_iter().collect(), delta),
                     ));
                 } else if bound <= tolerance {
                     let from = hold_alt.take().filter(|_| !fold_is_tangent);
@@ -2287,9 +2380,41 @@ impl State<'_> {
                 && !was_forced
                 && index >= 1
                 && point.reversed.iter().any(|r| *r)
-                && !centred_tried.contains(&t_prev)
+                && !centred_tried.contains(&(t_prev, true))
             {
-                centred_tried.push(t_prev);
+                let tried = centred_tried.iter().position(|(p, _)| *p == t_prev);
+                let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+                let shortest = shortest_ramp_piece_mm(options, v_mm_s);
+                // A reversal whose one-step centred ramp was refused: on a
+                // line, tried again staged where two axes cross a band
+                // (compensate/ramp_stage.rs).
+                let stages = match tried {
+                    Some(i) => {
+                        centred_tried[i].1 = true;
+                        if centre_lines {
+                            let lags = switch_lags_mm(
+                                &mut cells,
+                                model,
+                                self.q_out,
+                                self.s,
+                                point.s,
+                                point.reversed,
+                            )
+                            .map_err(|source| model_error(file, line, source))?;
+                            let kink = options.planner.tangent_tolerance(v_mm_s, false);
+                            super::ramp_stage::Stages::plan(&lags, point.s, point.reversed, |v| {
+                                line_ramp_length_mm(v, kink, shortest)
+                            })
+                        } else {
+                            None
+                        }
+                    }
+                    None => {
+                        centred_tried.push((t_prev, false));
+                        None
+                    }
+                };
+                let staged = stages.is_some();
                 let tu = take_up_command(
                     &mut cells,
                     model,
@@ -2301,8 +2426,6 @@ impl State<'_> {
                     frame,
                 )
                 .map_err(|source| model_error(file, line, source))?;
-                let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
-                let shortest = shortest_ramp_piece_mm(options, v_mm_s);
                 // A tenth more than the ramp needs here: the take-up at
                 // the ramp's start (solved there) is a little different.
                 let need = 1.1
@@ -2321,8 +2444,19 @@ impl State<'_> {
                     };
                 // (From, the point inserted and on an arc its parameter,
                 // the ramp's length.)
+                // Staged: each step over its own need, the first centred
+                // on the reversal (its target drifts the old way up to it,
+                // so its command cannot reach its new flank before).
+                let (lead, need) = match stages {
+                    Some(st) => {
+                        let l = (1.1 * st.need_mm()).max(need);
+                        (st.lead_share() * l, l)
+                    }
+                    None => (0.5 * need, need),
+                };
                 let found = match &leads {
                     _ if tu == self.q_out => None,
+                    _ if tried.is_some() && !staged => None,
                     Leads::Arc { arc, pieces } => {
                         // Before the reversal as much as the drifts on
                         // both sides ask (compensate/arcs.rs
@@ -2349,7 +2483,7 @@ impl State<'_> {
                         start,
                         targets.as_slice(),
                         index,
-                        need,
+                        (lead, need),
                         shortest,
                     )
                     .map(|c| (c.from, c.insert.map(|p| (p, None)), c.ramp_mm)),
@@ -2381,6 +2515,7 @@ impl State<'_> {
                             // and ends).
                             transition: usize::MAX,
                             centred: true,
+                            staged,
                         });
                         // Solved again from the ramp's start (as for a
                         // take-up moved ahead of an S-curve, above).
@@ -2423,7 +2558,7 @@ impl State<'_> {
                 // it as on their own.
                 let already =
                     ramp.is_some() && (0..3).all(|a| ah.axes[a].is_none_or(|d| self.s[a] == d));
-                if let (true, Some((.., hold))) = (already, ramp.as_mut()) {
+                if let (true, Some((_, _, _, hold, _))) = (already, ramp.as_mut()) {
                     for (a, d) in ah.axes.iter().enumerate() {
                         hold[a] |= d.is_some();
                     }
@@ -2451,11 +2586,22 @@ impl State<'_> {
                 }
             }
             let mut ramp_mid = Vec3::ZERO;
-            if let Some((delta, fracs, f_before, hold)) = ramp.as_mut() {
+            if let Some((delta, fracs, f_before, hold, (rests, rest_before))) = ramp.as_mut() {
                 if let Some(f) = fracs.pop_front() {
-                    point.q_mm = frame.quantize(point.q_mm - *delta * f, self.q_out);
-                    hold_on_ramp(&mut point.q_mm, self.q_out, point.s, *hold);
-                    ramp_mid = *delta * (-0.5 * (*f_before + f));
+                    let mut hold = *hold;
+                    match rests.pop_front() {
+                        Some((rest, waiting)) => {
+                            point.q_mm = frame.quantize(point.q_mm - rest, self.q_out);
+                            ramp_mid = (*rest_before + rest) * -0.5;
+                            *rest_before = rest;
+                            hold = [0, 1, 2].map(|a| hold[a] && !waiting[a]);
+                        }
+                        None => {
+                            point.q_mm = frame.quantize(point.q_mm - *delta * f, self.q_out);
+                            ramp_mid = *delta * (-0.5 * (*f_before + f));
+                        }
+                    }
+                    hold_on_ramp(&mut point.q_mm, self.q_out, point.s, hold);
                     *f_before = f;
                 }
                 if fracs.is_empty() {
@@ -3257,7 +3403,7 @@ mod tests {
                     &point,
                     (delta, &lags, [false; 3]),
                     (kink, 2e-3, shortest, None, floor_mm),
-                    (smooth, false),
+                    (smooth, false, false),
                 )
                 .unwrap()
                 .map(|p| {

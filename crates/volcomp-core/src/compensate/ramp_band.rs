@@ -75,16 +75,22 @@ pub(super) fn excursion(
             0.0
         }
     };
-    let left = |q: Vec3, a: usize| -> f64 {
+    // The travel is counted from the farthest the command went its old
+    // way (`turn`): an axis whose command follows its target the old way
+    // first (a staged ramp's later axis, compensate/ramp_stage.rs) turns
+    // there, its carriage on its old flank until then.
+    let left = |q: Vec3, turn: Vec3, a: usize| -> f64 {
         let own = own(a);
         if own == 0.0 {
             return 0.0;
         }
-        let travel = ((q[a] - q_prev[a]) * s[a].sign()).max(0.0);
+        let travel = ((q[a] - turn[a]) * s[a].sign()).max(0.0);
         (1.0 - travel / own).max(0.0)
     };
-    let off =
-        |q: Vec3, sol: Vec3| -> Vec3 { (0..3).fold(q - sol, |o, a| o + lags[a] * left(q, a)) };
+    let off = |q: Vec3, sol: Vec3, turn: Vec3| -> Vec3 {
+        (0..3).fold(q - sol, |o, a| o + lags[a] * left(q, turn, a))
+    };
+    let mut turn = q_prev;
     let across = |o: Vec3, u: Vec3| (o - u * o.dot(u)).norm();
     let mut worst = 0.0f64;
     // The integral of the squared distance along the chords, their length,
@@ -97,6 +103,11 @@ pub(super) fn excursion(
     };
     let (mut t0, mut q0, mut sol0) = (t_prev, q_prev, q_prev);
     for (k, &(t, q, sol)) in points.iter().enumerate() {
+        for a in 0..3 {
+            if (q[a] - turn[a]) * s[a].sign() < 0.0 {
+                turn[a] = q[a];
+            }
+        }
         let chord = t - t0;
         let n = chord.norm();
         let u = if n > 0.0 { chord * (1.0 / n) } else { chord };
@@ -108,8 +119,8 @@ pub(super) fn excursion(
             for (a, c) in crossings.iter_mut().enumerate() {
                 let own = own(a);
                 let (t_a, t_b) = (
-                    (q0[a] - q_prev[a]) * s[a].sign(),
-                    (q[a] - q_prev[a]) * s[a].sign(),
+                    (q0[a] - turn[a]) * s[a].sign(),
+                    (q[a] - turn[a]) * s[a].sign(),
                 );
                 if own > 0.0 && t_a < own && t_b > own {
                     *c = (own - t_a) / (t_b - t_a);
@@ -119,20 +130,20 @@ pub(super) fn excursion(
             for lambda in crossings.into_iter().filter(|l| l.is_finite()) {
                 let qc = q0 + (q - q0) * lambda;
                 let sc = sol0 + (sol - sol0) * lambda;
-                let d = across(off(qc, sc), u);
+                let d = across(off(qc, sc, turn), u);
                 worst = worst.max(d);
                 add(d, n * (lambda - at), &mut last);
                 at = lambda;
             }
         }
-        let d = across(off(q, sol), u);
+        let d = across(off(q, sol, turn), u);
         worst = worst.max(d);
         add(d, n * (1.0 - at), &mut last);
         (t0, q0, sol0) = (t, q, sol);
     }
     // A band the ramp's end has not crossed: the tool stands on past it,
     // by more than this reads; refused.
-    if (0..3).any(|a| left(q0, a) > 0.0) {
+    if (0..3).any(|a| left(q0, turn, a) > 0.0) {
         return Excursion {
             max_mm: f64::INFINITY,
             rms_mm: f64::INFINITY,
@@ -255,6 +266,29 @@ mod tests {
         // stands on past the ramp: refused.
         let short = excursion(&lags, Vec3::ZERO, down, Vec3::ZERO, &[(t, q, sol)]).max_mm;
         assert!(short.is_infinite(), "{short}");
+    }
+
+    #[test]
+    fn an_axis_that_follows_its_target_the_old_way_first_turns_where_it_went_farthest() {
+        // Y reverses upward with a 2 µm band on a line along X, its target
+        // still drifting 0.5 µm down to X 1 (a staged ramp's later axis,
+        // ramp_stage.rs): the command follows it down to −0.5 µm (the new
+        // state's solution there, 1.5 µm, less the 2 µm lag), then rises to
+        // the solution at X 2. By hand: the carriage turns at −0.5 µm and
+        // crosses its 2 µm band exactly at X 2; on the way the offset is
+        // q − 1.5 + 2·(1 − (q + 0.5)/2) = 0: the tool on the path
+        // throughout. Counted from the ramp's start instead, the band
+        // would read 1.5 µm crossed at X 2 (a quarter of the lag left, the
+        // ramp refused as never crossing).
+        let up = [Direction::Forward; 3];
+        let lags = [Vec3::ZERO, Vec3::new(0.0, 2e-3, 0.0), Vec3::ZERO];
+        let sol = Vec3::new(0.0, 1.5e-3, 0.0);
+        let points = [
+            (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, -0.5e-3, 0.0), sol),
+            (Vec3::new(2.0, 0.0, 0.0), sol, sol),
+        ];
+        let e = excursion(&lags, Vec3::ZERO, up, Vec3::ZERO, &points);
+        assert!(e.max_mm < 1e-12 && e.rms_mm < 1e-12, "{e:?}");
     }
 
     #[test]

@@ -50,14 +50,15 @@ pub(super) struct CentredStart {
     /// The point inserted before `targets[from]` where the ramp starts
     /// inside that piece; `None` where it starts at a piece's start.
     pub(super) insert: Option<Vec3>,
-    /// The ramp's length from where it starts to its end `length_mm/2`
-    /// after the reversal (mm).
+    /// The ramp's length from where it starts to its end `length_mm −
+    /// lead_mm` after the reversal (mm).
     pub(super) ramp_mm: f64,
 }
 
-/// The start of a ramp of `length_mm` centred on the reversal at
+/// The start of a ramp of `length_mm` around the reversal at
 /// `targets[index − 1]` (the start of target `index`'s piece), along the
-/// polyline from `start`: `length_mm/2` before it, moved to the nearer
+/// polyline from `start`: `lead_mm` before it (`length_mm/2`: centred),
+/// moved to the nearer
 /// end of its piece where that is closer than `shortest_mm` (no piece
 /// shorter than the planner runs at the feed), and to the motion's start
 /// where the motion is shorter before the reversal. `None` where the
@@ -67,10 +68,14 @@ pub(super) fn centred_start(
     start: Vec3,
     targets: &[Vec3],
     index: usize,
-    length_mm: f64,
+    (lead_mm, length_mm): (f64, f64),
     shortest_mm: f64,
 ) -> Option<CentredStart> {
-    if index == 0 || index >= targets.len() || !(length_mm > 0.0 && length_mm.is_finite()) {
+    if index == 0
+        || index >= targets.len()
+        || !(length_mm > 0.0 && length_mm.is_finite())
+        || !(lead_mm >= 0.0 && lead_mm <= length_mm)
+    {
         return None;
     }
     // Distance along the polyline to each target up to the reversal.
@@ -83,7 +88,7 @@ pub(super) fn centred_start(
         prev = *t;
     }
     let s0 = along[index - 1];
-    let s_start = (s0 - 0.5 * length_mm).max(0.0);
+    let s_start = (s0 - lead_mm).max(0.0);
     let p = along.iter().position(|a| *a > s_start + 1e-9)?;
     let piece_start = if p == 0 { 0.0 } else { along[p - 1] };
     let (from, insert, s_ramp) = if s_start - piece_start < shortest_mm {
@@ -101,7 +106,7 @@ pub(super) fn centred_start(
     Some(CentredStart {
         from,
         insert,
-        ramp_mm: (s0 + 0.5 * length_mm - s_ramp).max(length_mm),
+        ramp_mm: (s0 + (length_mm - lead_mm) - s_ramp).max(length_mm),
     })
 }
 
@@ -119,7 +124,7 @@ mod tests {
         // of target 2's piece). A 4 mm ramp starts at X18, inside the
         // piece 10–20: a point inserted there, solved again from target 1,
         // and the ramp runs 4 mm (X18 to X22).
-        let c = centred_start(x(0.0), &[x(10.0), x(20.0), x(30.0)], 2, 4.0, 0.2).unwrap();
+        let c = centred_start(x(0.0), &[x(10.0), x(20.0), x(30.0)], 2, (2.0, 4.0), 0.2).unwrap();
         assert_eq!(c.from, 1);
         let p = c.insert.unwrap();
         assert!((p.x - 18.0).abs() < 1e-12 && p.y == 0.0, "{p:?}");
@@ -131,12 +136,26 @@ mod tests {
         // Targets at 10, 17.9, 20: the start X18 is 0.1 mm after 17.9,
         // less than the 0.2 mm piece: the ramp starts at 17.9 (target 2
         // solved again, no point inserted), 2.1 + 2 = 4.1 mm long.
-        let c = centred_start(x(0.0), &[x(10.0), x(17.9), x(20.0), x(30.0)], 3, 4.0, 0.2).unwrap();
+        let c = centred_start(
+            x(0.0),
+            &[x(10.0), x(17.9), x(20.0), x(30.0)],
+            3,
+            (2.0, 4.0),
+            0.2,
+        )
+        .unwrap();
         assert_eq!((c.from, c.insert), (2, None));
         assert!((c.ramp_mm - 4.1).abs() < 1e-12);
         // Targets at 10, 18.1, 20: 0.1 mm before 18.1: starts at 18.1
         // (target 2 solved again from its start), 1.9 + 2 → at least 4.
-        let c = centred_start(x(0.0), &[x(10.0), x(18.1), x(20.0), x(30.0)], 3, 4.0, 0.2).unwrap();
+        let c = centred_start(
+            x(0.0),
+            &[x(10.0), x(18.1), x(20.0), x(30.0)],
+            3,
+            (2.0, 4.0),
+            0.2,
+        )
+        .unwrap();
         assert_eq!((c.from, c.insert), (2, None));
         assert!((c.ramp_mm - 4.0).abs() < 1e-12);
     }
@@ -144,13 +163,16 @@ mod tests {
     #[test]
     fn no_room_before_the_reversal_gives_none_or_the_motion_start() {
         // The reversal 0.1 mm after the motion's start: no lead.
-        assert_eq!(centred_start(x(0.0), &[x(0.1), x(5.0)], 1, 4.0, 0.2), None);
+        assert_eq!(
+            centred_start(x(0.0), &[x(0.1), x(5.0)], 1, (2.0, 4.0), 0.2),
+            None
+        );
         // The reversal 1 mm after it: the ramp starts at the motion's
         // start and runs 1 + 2 = 3 → at least its 4 mm.
-        let c = centred_start(x(0.0), &[x(1.0), x(5.0)], 1, 4.0, 0.2).unwrap();
+        let c = centred_start(x(0.0), &[x(1.0), x(5.0)], 1, (2.0, 4.0), 0.2).unwrap();
         assert_eq!((c.from, c.insert), (0, None));
         assert!((c.ramp_mm - 4.0).abs() < 1e-12);
         // No reversal before the first target.
-        assert_eq!(centred_start(x(0.0), &[x(1.0)], 0, 4.0, 0.2), None);
+        assert_eq!(centred_start(x(0.0), &[x(1.0)], 0, (2.0, 4.0), 0.2), None);
     }
 }
