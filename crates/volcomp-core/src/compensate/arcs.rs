@@ -421,7 +421,7 @@ pub(super) fn smooth_normal_kinks(
     (transitions, options, v_mm_s): (&[Transition], &super::CompensateOptions, f64),
     quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
 ) -> (f64, f64) {
-    if !(v_mm_s > 0.0) {
+    if v_mm_s.is_nan() || v_mm_s <= 0.0 {
         return (0.0, 0.0);
     }
     let w = arc.plane.axes().2;
