@@ -1567,7 +1567,10 @@ mod tests {
     /// An R15 arc in XY cut into pieces of 0.2 mm (plus a first piece of
     /// 3 mm), its commands on the arc with Z 0 up to point `at` and Z
     /// `step_um` from the point after it on: one piece climbs the step.
-    fn stepped_arc(at: usize, step_um: f64) -> (Arc, Vec<f64>, Vec<(Vec3, Option<Vec3>)>) {
+    /// Solved piece ends, each with the take-up written before it.
+    type Commands = Vec<(Vec3, Option<Vec3>)>;
+
+    fn stepped_arc(at: usize, step_um: f64) -> (Arc, Vec<f64>, Commands) {
         let r = 15.0;
         let ends_mm: Vec<f64> = std::iter::once(3.0)
             .chain((1..=30).map(|k| 3.0 + 0.2 * k as f64))
