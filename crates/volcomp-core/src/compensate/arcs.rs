@@ -405,6 +405,188 @@ pub(super) fn normal_step_span(
     Some((lo - d, hi + d))
 }
 
+/// Under G61, [`smooth_normal_turns`] on an arc's solved commands at the
+/// feed `v_mm_s`: the joins whose turn of the normal axis is above the
+/// planner's tangency tolerance there (`PlannerLimits::tangent_tolerance`,
+/// on an arc) are smoothed to within [`super::points::RAMP_SHARE`] of it,
+/// each command moved by no more than a ramp's tolerance
+/// ([`super::ramp_centre::TOLERANCE_MM`]) nor more than the run-through
+/// tolerance leaves beside the deviation of an S-curve (`transitions`)
+/// between the anchors, `√(tol² − dev²)` (the two lie across each other).
+/// Returns the largest distance a command moved and the largest distance
+/// from the path it may leave there (mm; zeros where nothing moved).
+pub(super) fn smooth_normal_kinks(
+    (commands, states): (&mut [(Vec3, Option<Vec3>)], &[Directions]),
+    (arc, pieces, q_in): (&Arc, &[f64], Vec3),
+    (transitions, options, v_mm_s): (&[Transition], &super::CompensateOptions, f64),
+    quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
+) -> (f64, f64) {
+    if v_mm_s.is_nan() || v_mm_s <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let w = arc.plane.axes().2;
+    let limit = options.planner.tangent_tolerance(v_mm_s, true)[w];
+    let run_through = super::points::RUN_THROUGH_TOLERANCE_MM;
+    // Point k ends piece k; transition t's S-curve is the piece from point
+    // t.index to t.index + 1.
+    let dev_between = |a: usize, b: usize| {
+        transitions
+            .iter()
+            .filter(|t| t.index < b && t.index + 1 > a)
+            .map(|t| t.deviation_mm)
+            .fold(0.0f64, f64::max)
+    };
+    let bound = |a: usize, b: usize| {
+        let dev = dev_between(a, b);
+        let beside = (run_through * run_through - dev * dev).max(0.0).sqrt();
+        super::ramp_centre::TOLERANCE_MM.min(beside)
+    };
+    let moved = smooth_normal_turns(
+        (commands, states),
+        (arc, pieces, q_in),
+        (limit, limit),
+        &bound,
+        quantize,
+    );
+    if moved > 0.0 {
+        let dev = dev_between(0, usize::MAX);
+        (moved, moved.hypot(dev))
+    } else {
+        (0.0, 0.0)
+    }
+}
+
+/// Pieces on each side of a kink the smoothing of the normal axis may
+/// reach ([`smooth_normal_turns`]).
+const SMOOTH_REACH: usize = 8;
+
+/// Under G61, the turns of the plane's normal axis `w` at the joins of an
+/// arc's pieces that the planner would not take as tangent, smoothed
+/// within an error bound.
+///
+/// Where the normal axis' command steps by tenths of a micrometre over a
+/// piece of a few tenths of a millimetre (its straightness switching
+/// tables when an axis of the plane reverses, next to a ramp that takes up
+/// the normal axis' own reversal), its slope turns by about 1 mrad at a
+/// join, above the planner's tangency tolerance (tp.c `tpSetupTangent`:
+/// `|Δt_w|·(v/T + A)/A_w / BLEND_ACC_RATIO_TANGENTIAL` against the kink
+/// ratio), and the planner slows to the kink's speed, about
+/// `0.05·A_w·T/|Δt_w|` (25–50 mm/s). Such a join `j` (a turn above
+/// `turn_limit`) is smoothed over the fewest pieces around it, up to
+/// [`SMOOTH_REACH`] on each side: the commands between two anchors `A < j
+/// < B` move along `w` onto the cubic Hermite curve through the anchors
+/// with the slopes of the pieces outside them (so the anchors' joins turn
+/// by little), quantized by `quantize`. Taken where every turn from `A` to
+/// `B` is then within `target` (below `turn_limit`, room for the
+/// rounding), no piece between the anchors carries a take-up block, every
+/// piece moves `w` in its direction state's way or not at all (so no
+/// reversal is made or moved), and no command moves by more than
+/// `bound_mm(A, B)` (commands `A`, `B` counted from the arc's start, 0).
+/// A helix is left alone (its own progress along `w` decides the joins).
+/// Returns the largest distance moved (mm; 0 where nothing was).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn smooth_normal_turns(
+    (commands, states): (&mut [(Vec3, Option<Vec3>)], &[Directions]),
+    (arc, pieces, q_in): (&Arc, &[f64], Vec3),
+    (turn_limit, target): (f64, f64),
+    bound_mm: &dyn Fn(usize, usize) -> f64,
+    quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
+) -> f64 {
+    let w = arc.plane.axes().2;
+    let n = commands.len().min(pieces.len()).min(states.len());
+    let len = arc.length();
+    if arc.start[w] != arc.end[w] || n < 3 || !(len > 0.0 && target > 0.0) {
+        return 0.0;
+    }
+    // Point k: 0 the start, k the end of piece k (commands[k − 1]).
+    let x: Vec<f64> = std::iter::once(0.0)
+        .chain(pieces[..n].iter().map(|p| p * len))
+        .collect();
+    let point = |c: &[(Vec3, Option<Vec3>)], k: usize| if k == 0 { q_in } else { c[k - 1].0 };
+    let slope = |c: &[(Vec3, Option<Vec3>)], k: usize| {
+        let dx = x[k] - x[k - 1];
+        if dx > 0.0 {
+            (point(c, k)[w] - point(c, k - 1)[w]) / dx
+        } else {
+            0.0
+        }
+    };
+    let turn = |c: &[(Vec3, Option<Vec3>)], j: usize| (slope(c, j + 1) - slope(c, j)).abs();
+    let mut moved: f64 = 0.0;
+    for j in 1..n {
+        if turn(commands, j) <= turn_limit {
+            continue;
+        }
+        // The best window: the fewest pieces that bring every turn within
+        // `target` (then the least error); where none does, the one that
+        // leaves the least turn, if below the worst it had.
+        let mut within: Option<(usize, f64, Vec<Vec3>, usize)> = None;
+        let mut least: Option<(f64, f64, Vec<Vec3>, usize)> = None;
+        for total in 1..=2 * SMOOTH_REACH {
+            if within.is_some() {
+                break;
+            }
+            for ma in 0..=total {
+                let mb = total - ma;
+                if ma > SMOOTH_REACH || mb > SMOOTH_REACH || ma >= j || j + mb >= n {
+                    continue;
+                }
+                let (a, b) = (j - ma, j + mb);
+                if b < a + 2 || (a + 1..=b).any(|k| commands[k - 1].1.is_some()) {
+                    continue;
+                }
+                let (wa, wb) = (point(commands, a)[w], point(commands, b)[w]);
+                let (sa, sb) = (slope(commands, a), slope(commands, b + 1));
+                let h = x[b] - x[a];
+                let mut trial: Vec<(Vec3, Option<Vec3>)> = commands[..n].to_vec();
+                let mut err: f64 = 0.0;
+                for k in a + 1..b {
+                    let u = (x[k] - x[a]) / h;
+                    let (u2, u3) = (u * u, u * u * u);
+                    let value = (2.0 * u3 - 3.0 * u2 + 1.0) * wa
+                        + (u3 - 2.0 * u2 + u) * h * sa
+                        + (-2.0 * u3 + 3.0 * u2) * wb
+                        + (u3 - u2) * h * sb;
+                    let mut q = trial[k - 1].0;
+                    q[w] = value;
+                    let q = quantize(q, point(&trial, k - 1));
+                    err = err.max((q[w] - commands[k - 1].0[w]).abs());
+                    trial[k - 1].0 = q;
+                }
+                if err > bound_mm(a, b) {
+                    continue;
+                }
+                let against = (a + 1..=b).any(|k| {
+                    let d = point(&trial, k)[w] - point(&trial, k - 1)[w];
+                    d * states[k - 1][w].sign() < 0.0
+                });
+                if against {
+                    continue;
+                }
+                let worst =
+                    |c: &[(Vec3, Option<Vec3>)]| (a..=b).map(|k| turn(c, k)).fold(0.0f64, f64::max);
+                let (was, now) = (worst(commands), worst(&trial));
+                let qs: Vec<Vec3> = trial[a..b].iter().map(|c| c.0).collect();
+                if now <= target {
+                    if within.as_ref().is_none_or(|(_, e, _, _)| err < *e) {
+                        within = Some((total, err, qs, a));
+                    }
+                } else if now < was && least.as_ref().is_none_or(|(t, _, _, _)| now < *t) {
+                    least = Some((now, err, qs, a));
+                }
+            }
+        }
+        let best = within.or(least.map(|(_, e, qs, a)| (0, e, qs, a)));
+        if let Some((_, err, qs, a)) = best {
+            for (i, q) in qs.into_iter().enumerate() {
+                commands[a + i].0 = q;
+            }
+            moved = moved.max(err);
+        }
+    }
+    moved
+}
+
 /// The plane axis whose coordinate is extreme at parameter `t` of `arc`
 /// (the tangent has no component along it), if `t` is a quarter point.
 fn extreme_axis(arc: &Arc, t: f64) -> Option<usize> {
@@ -1381,6 +1563,123 @@ mod tests {
     use super::*;
     use crate::model::ALL_FORWARD;
     use volcomp_gcode::Plane;
+
+    /// An R15 arc in XY cut into pieces of 0.2 mm (plus a first piece of
+    /// 3 mm), its commands on the arc with Z 0 up to point `at` and Z
+    /// `step_um` from the point after it on: one piece climbs the step.
+    /// Solved piece ends, each with the take-up written before it.
+    type Commands = Vec<(Vec3, Option<Vec3>)>;
+
+    fn stepped_arc(at: usize, step_um: f64) -> (Arc, Vec<f64>, Commands) {
+        let r = 15.0;
+        let ends_mm: Vec<f64> = std::iter::once(3.0)
+            .chain((1..=30).map(|k| 3.0 + 0.2 * k as f64))
+            .collect();
+        let length = *ends_mm.last().unwrap();
+        let arc = Arc {
+            start: Vec3::new(r, 0.0, 0.0),
+            end: Vec3::new(r * (length / r).cos(), r * (length / r).sin(), 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: length / r,
+        };
+        let pieces: Vec<f64> = ends_mm.iter().map(|e| e / length).collect();
+        let commands = pieces
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let mut q = arc.point_at(*p);
+                q.z = if i + 1 > at { step_um * 1e-3 } else { 0.0 };
+                (q, None)
+            })
+            .collect();
+        (arc, pieces, commands)
+    }
+
+    fn z_turns(arc: &Arc, pieces: &[f64], c: &[(Vec3, Option<Vec3>)]) -> Vec<f64> {
+        let len = arc.length();
+        let mut x = vec![0.0];
+        x.extend(pieces.iter().map(|p| p * len));
+        let z = |k: usize| if k == 0 { 0.0 } else { c[k - 1].0.z };
+        let slope = |k: usize| (z(k) - z(k - 1)) / (x[k] - x[k - 1]);
+        (1..c.len())
+            .map(|j| (slope(j + 1) - slope(j)).abs())
+            .collect()
+    }
+
+    #[test]
+    fn a_step_of_the_normal_axis_is_smoothed_within_the_planners_tangency_tolerance() {
+        // At F6000 the planner takes a join on an arc as tangent where
+        // |Δt_z|·(v/T + A)/A / ½ stays below the kink ratio 0.1 (tp.c
+        // `tpSetupTangent`): |Δt_z| < 0.05·1000/(100/0.001 + 1000) =
+        // 4.950e-4 rad (by hand). A step of 0.3 µm over the piece ending
+        // at point 16 (0.2 mm) turns Z by 0.3e-3/0.2 = 1.5e-3 rad at both
+        // its joins, and the planner slows to about 0.05/1.5e-3 = 33 mm/s.
+        let limit = 0.05 * 1000.0 / (100.0 / 0.001 + 1000.0);
+        let planner = super::super::PlannerLimits::default();
+        assert!((planner.tangent_tolerance(100.0, true)[2] - limit).abs() < 1e-12);
+        let (arc, pieces, before) = stepped_arc(15, 0.3);
+        assert!((z_turns(&arc, &pieces, &before)[14] - 1.5e-3).abs() < 1e-9);
+        let quantize = |q: Vec3, _from: Vec3| Vec3::new(q.x, q.y, (q.z * 1e5).round() / 1e5);
+        let bound = |_: usize, _: usize| 0.2e-3;
+        // Z moves up in every state: the step may spread both ways.
+        let states = vec![ALL_FORWARD; before.len()];
+        let mut c = before.clone();
+        let moved = smooth_normal_turns(
+            (&mut c, &states),
+            (&arc, &pieces, arc.start),
+            (limit, limit),
+            &bound,
+            &quantize,
+        );
+        let turns = z_turns(&arc, &pieces, &c);
+        let worst = turns.iter().fold(0.0f64, |m, t| m.max(*t));
+        assert!(worst <= limit, "{turns:?}");
+        assert!(moved > 0.0 && moved <= 0.2e-3, "{moved}");
+        for (k, (q, p)) in c.iter().zip(&before).enumerate() {
+            // Only Z moves, by no more than reported, never downward.
+            assert_eq!((q.0.x, q.0.y), (p.0.x, p.0.y));
+            assert!((q.0.z - p.0.z).abs() <= moved + 1e-15, "{k}");
+            let prev = if k == 0 { 0.0 } else { c[k - 1].0.z };
+            assert!(q.0.z >= prev, "{k}: {} < {prev}", q.0.z);
+        }
+        // The ends of the block stay.
+        assert_eq!(c.last().unwrap().0.z, 0.3e-3);
+        assert_eq!(c[0].0.z, 0.0);
+
+        // Z reverse before the step (its state down: no command may rise
+        // there), forward from the step's piece on: only the pieces after
+        // it may take it, and those before keep their Z.
+        let mut states = vec![ALL_FORWARD; before.len()];
+        for s in states.iter_mut().take(15) {
+            s[2] = Direction::Reverse;
+        }
+        let mut c = before.clone();
+        smooth_normal_turns(
+            (&mut c, &states),
+            (&arc, &pieces, arc.start),
+            (limit, limit),
+            &bound,
+            &quantize,
+        );
+        assert!(c[..15].iter().all(|q| q.0.z == 0.0));
+        assert!(c != before);
+        // Within 0.05 µm: no command moves by more.
+        let mut c = before.clone();
+        let tight = |_: usize, _: usize| 0.05e-3;
+        let moved = smooth_normal_turns(
+            (&mut c, &vec![ALL_FORWARD; before.len()]),
+            (&arc, &pieces, arc.start),
+            (limit, limit),
+            &tight,
+            &quantize,
+        );
+        assert!(moved <= 0.05e-3 + 1e-15, "{moved}");
+        assert!(c
+            .iter()
+            .zip(&before)
+            .all(|(q, p)| (q.0.z - p.0.z).abs() <= 0.05e-3 + 1e-15));
+    }
 
     #[test]
     fn under_g61_a_short_piece_bent_by_its_middle_keeps_the_nominal_circle() {

@@ -2671,6 +2671,20 @@ impl State<'_> {
                         self.summary.max_fold_excursion_um.max(bound_um);
                 }
             }
+            // Then the normal axis' kinks left (compensate/arcs.rs).
+            let (moved_mm, bound_mm) = super::arcs::smooth_normal_kinks(
+                (&mut commands, &self.states),
+                (arc, pieces, q_in),
+                (&transitions, options, v_mm_s),
+                &|q, from| frame.quantize(q, from),
+            );
+            if moved_mm > 0.0 {
+                for (r, c) in records.iter_mut().zip(&commands) {
+                    r.command_mm = c.0;
+                }
+                self.summary.max_fold_excursion_um =
+                    self.summary.max_fold_excursion_um.max(bound_mm * 1e3);
+            }
         }
         self.transitions_written = transitions;
         if let Some((axes, s)) = plunge_held {
