@@ -79,15 +79,15 @@ pub(super) fn corner_reach_mm(
 }
 
 /// The speed (mm/s) at which LinuxCNC runs the blend arc that takes
-/// `d_mm` of each side of a corner of deflection `phi`: its radius is
-/// `d·tan θ` (`θ` half the angle between the lines), run at `√(a_n R)`
-/// (`blendComputeParameters`, src/emc/tp/blendmath.c), which is
-/// [`PlannerLimits::blend_distance_at_mm`] (`R/tan θ` at `v`, `R = v²/a_n`)
-/// solved for `v`. Infinite where the lines are collinear.
-pub(super) fn blend_speed_mm_s(planner: &PlannerLimits, phi: f64, d_mm: f64) -> f64 {
-    let per_v2 = planner.blend_distance_at_mm(phi, 1.0);
-    if per_v2 > 0.0 {
-        (d_mm / per_v2).sqrt()
+/// `d_mm` of each side of a corner: its radius is `d·tan θ` (`θ` half the
+/// angle between the lines), run at `√(a_n R)` (`blendComputeParameters`,
+/// src/emc/tp/blendmath.c). At `v_mm_s` the blend would take `speed_mm`
+/// ([`PlannerLimits::blend_distance_at_mm`], `v²/(a_n tan θ)`), and the
+/// distance grows with `v²`, so `d` is taken at `v·√(d/speed_mm)`.
+/// Infinite where the lines are collinear.
+pub(super) fn blend_speed_mm_s(v_mm_s: f64, speed_mm: f64, d_mm: f64) -> f64 {
+    if speed_mm > 0.0 {
+        v_mm_s * (d_mm / speed_mm).sqrt()
     } else {
         f64::INFINITY
     }
@@ -568,7 +568,7 @@ mod tests {
         let th = 60f64.to_radians();
         let d = 0.005 * th.cos() / (1.0 - th.sin());
         assert!((d - 0.018_660).abs() < 1e-6, "{d}");
-        let v = blend_speed_mm_s(&p, 60f64.to_radians(), d);
+        let v = blend_speed_mm_s(100.0, p.blend_distance_at_mm(60f64.to_radians(), 100.0), d);
         assert!((v - 5.2906).abs() < 1e-3, "{v}");
         // The hexagon's edge from (14.4889, 3.8823) to (3.8823, 14.4889)
         // after the edge from (10.6066, −10.6066) to it.

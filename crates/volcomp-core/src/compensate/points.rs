@@ -986,11 +986,11 @@ pub(super) struct Run {
     /// Under G64, the corner before it is one LinuxCNC blends parabolically
     /// ([`super::planar::parabolic_into`]).
     pub(super) parabolic_before: bool,
-    /// Under G64, the speed (mm/s) of the blend at the corner before it,
+    /// Under G64 P, the speed (mm/s) of the blend at the corner before it,
     /// from the distance `d` it takes of each side (`protect_mm / 2`): its
     /// arc of radius `d·tan θ` run at `√(a_n · d · tan θ)`
-    /// ([`super::PlannerLimits::blend_distance_at_mm`] inverted); infinite
-    /// where there is no blended corner.
+    /// ([`super::end_zone::blend_speed_mm_s`]); infinite where there is
+    /// no corner blended within a P.
     pub(super) blend_speed_before_mm_s: f64,
 }
 
@@ -1035,8 +1035,10 @@ impl Run {
                         .min(within)
                         .min(0.5 * prev_len)
                         .min(0.5 * length_mm(m));
-                    blend_speed_before_mm_s =
-                        super::end_zone::blend_speed_mm_s(planner, phi, d).min(f / 60.0);
+                    if within.is_finite() {
+                        blend_speed_before_mm_s =
+                            super::end_zone::blend_speed_mm_s(f / 60.0, speed_mm, d).min(f / 60.0);
+                    }
                     2.0 * d
                 } else {
                     0.0
