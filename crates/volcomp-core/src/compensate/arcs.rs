@@ -1269,6 +1269,10 @@ pub(super) struct Piecewise<'a> {
     /// nominal arc's ([`piece_center`]): half the planner's tangency
     /// tolerance in the plane at the feed; `None` elsewhere.
     pub(super) turn_tolerance: Option<f64>,
+    /// Under G64 and G64 P, how far a chord written for a piece may turn
+    /// from the arc's tangents before the piece stays an arc
+    /// (compensate/planar.rs, `chord_turn_center`); `None` elsewhere.
+    pub(super) chord_turn_tolerance: Option<f64>,
     /// The unit tangent (in the plane's axes) the path leaves the start
     /// along where it is not the arc's own: the end of the tail the block
     /// before held back for an S-curve across the join ([`HeldEnd`]).
@@ -1417,6 +1421,7 @@ impl State<'_> {
             pieces,
             radius_style,
             turn_tolerance,
+            chord_turn_tolerance,
             start_tangent,
         } = p;
         let start0 = from;
@@ -1443,7 +1448,14 @@ impl State<'_> {
                     (start, q_mid, *q),
                     options.chord_tolerance_mm,
                     turn_tolerance,
-                ),
+                )
+                .or_else(|| {
+                    super::planar::chord_turn_center(
+                        &piece,
+                        (start, q_mid, *q),
+                        chord_turn_tolerance,
+                    )
+                }),
                 plane: arc.plane,
                 clockwise: arc.clockwise(),
                 radius_style,

@@ -251,6 +251,7 @@ impl State<'_> {
                         pieces: &pieces,
                         radius_style: false,
                         turn_tolerance: None,
+                        chord_turn_tolerance: None,
                         start_tangent: None,
                     },
                     &commands,

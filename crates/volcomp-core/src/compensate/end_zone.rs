@@ -78,6 +78,45 @@ pub(super) fn corner_reach_mm(
         .min(0.5 * l2_mm)
 }
 
+/// The speed (mm/s) at which LinuxCNC runs the blend arc that takes
+/// `d_mm` of each side of a corner: its radius is `d·tan θ` (`θ` half the
+/// angle between the lines), run at `√(a_n R)` (`blendComputeParameters`,
+/// src/emc/tp/blendmath.c). At `v_mm_s` the blend would take `speed_mm`
+/// ([`PlannerLimits::blend_distance_at_mm`], `v²/(a_n tan θ)`), and the
+/// distance grows with `v²`, so `d` is taken at `v·√(d/speed_mm)`.
+/// Infinite where the lines are collinear.
+pub(super) fn blend_speed_mm_s(v_mm_s: f64, speed_mm: f64, d_mm: f64) -> f64 {
+    if speed_mm > 0.0 {
+        v_mm_s * (d_mm / speed_mm).sqrt()
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Under G64 P, whether a take-up at the start of a move (`index` 0) after
+/// a corner is written as a block rather than on a lead piece or folded
+/// into the move: where the corner's blend, kept within P, runs no faster
+/// than the block itself may (`|delta|` per servo period: LinuxCNC caps a
+/// segment's speed at its length per period, `tcClampVelocityByLength`,
+/// src/emc/tp/tc.c). The machine all but stops at such a corner (5.7 mm/s
+/// at a hexagon's 60° at P0.005), so the stop the block makes costs about
+/// what the corner costs already, and the tool takes the reversal up at
+/// the corner, on the path. A lead piece there turns the path by the
+/// take-up over a few tenths of a millimetre (28 mrad for 7 µm over
+/// 0.24 mm), a second corner the planner slows for.
+pub(super) fn block_at_slow_corner(
+    rule: super::TakeUpRule,
+    run: &Run,
+    index: usize,
+    delta_mm: Vec3,
+    planner: &PlannerLimits,
+) -> bool {
+    matches!(rule, super::TakeUpRule::Within(_))
+        && index == 0
+        && run.corner_before
+        && run.blend_speed_before_mm_s <= delta_mm.norm() / planner.servo_period_s
+}
+
 /// The motion after a held line, as far as the blend at the line's end
 /// depends on it.
 #[derive(Clone, Copy)]
@@ -513,6 +552,68 @@ mod tests {
         let d = corner_reach_mm(&p, (x, y), (30.0, 10.0), 50.0, 0.0, kink);
         let r = 50.0 * 50.0 / (1000.0 * 0.75f64.sqrt());
         assert!((d - r).abs() < 1e-9, "{d} {r}");
+    }
+
+    /// A hexagon's corner (60° deflection, `θ = 60°`) under G64 P0.005 at
+    /// F6000: the blend keeps within 5 µm, `d = 0.005·cos 60°/(1 − sin 60°)`
+    /// = 0.018660 mm, its arc of radius `d·tan 60°` = 0.032321 mm run at
+    /// `√(a_n R)` = √(866.03 · 0.032321) = 5.2906 mm/s (`a_n` = 1000 ·
+    /// √(1 − 0.5²); by hand). A take-up block of 6 µm may run at 6 mm/s
+    /// (6 µm per 1 ms servo period): written as a block there. One of 4 µm
+    /// (4 mm/s), the move's second target, G64 without P, or a join with
+    /// no corner: not.
+    #[test]
+    fn a_take_up_at_a_corner_the_blend_all_but_stops_at_is_a_block_under_g64_p() {
+        let p = PlannerLimits::default();
+        let th = 60f64.to_radians();
+        let d = 0.005 * th.cos() / (1.0 - th.sin());
+        assert!((d - 0.018_660).abs() < 1e-6, "{d}");
+        let v = blend_speed_mm_s(100.0, p.blend_distance_at_mm(60f64.to_radians(), 100.0), d);
+        assert!((v - 5.2906).abs() < 1e-3, "{v}");
+        // The hexagon's edge from (14.4889, 3.8823) to (3.8823, 14.4889)
+        // after the edge from (10.6066, −10.6066) to it.
+        let (a, b, c) = (
+            Vec3::new(10.6066, -10.6066, 0.0),
+            Vec3::new(14.4889, 3.8823, 0.0),
+            Vec3::new(3.8823, 14.4889, 0.0),
+        );
+        let edge = |path_mode| Motion {
+            kind: volcomp_gcode::MotionKind::Feed,
+            start: b,
+            end: c,
+            line: 1,
+            column: 1,
+            feed: 6000.0,
+            source: MotionSource::Program,
+            extra: Default::default(),
+            feed_mode: FeedMode::PerMinute,
+            path_mode,
+        };
+        let t1 = (b - a) * (1.0 / (b - a).norm());
+        let within = PathMode::Blend {
+            tolerance_mm: 0.005,
+            naive_cam_mm: 0.005,
+        };
+        let run = Run::of(&edge(within), Some((t1, (b - a).norm())), &p);
+        assert!(
+            (run.blend_speed_before_mm_s - 5.2906).abs() < 2e-3,
+            "{}",
+            run.blend_speed_before_mm_s
+        );
+        let rule = super::super::TakeUpRule::Within(0.005);
+        let z6 = Vec3::new(0.0, 0.0, 0.006);
+        assert!(block_at_slow_corner(rule, &run, 0, z6, &p));
+        assert!(!block_at_slow_corner(rule, &run, 0, z6 * (4.0 / 6.0), &p));
+        assert!(!block_at_slow_corner(rule, &run, 1, z6, &p));
+        let always = super::super::TakeUpRule::Always;
+        assert!(!block_at_slow_corner(always, &run, 0, z6, &p));
+        // No corner before (the edge runs on along its own tangent).
+        let straight = Run::of(
+            &edge(within),
+            Some(((c - b) * (1.0 / (c - b).norm()), 5.0)),
+            &p,
+        );
+        assert!(!block_at_slow_corner(rule, &straight, 0, z6, &p));
     }
 
     /// A sharp corner (150° deflection, `θ = 15°`) is limited by the

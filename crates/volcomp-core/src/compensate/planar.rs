@@ -171,6 +171,53 @@ pub(super) fn lead_floor_after_parabolic_mm(
     }
 }
 
+/// Under G64 and G64 P, half the planner's tangency tolerance in the plane
+/// of `arc` at the run's feed (tp.c `tpSetupTangent`, as
+/// [`super::points::piece_turn_tolerance`] under G61): how far a chord
+/// written for a piece of `arc` may turn from the arc's tangents at its
+/// ends before it is kept an arc ([`chord_turn_center`]); `None` under G61
+/// and G61.1 (their rule is `piece_turn_tolerance`'s) and without a feed.
+pub(super) fn chord_turn_tolerance(
+    options: &super::CompensateOptions,
+    run: &super::points::Run,
+    arc: &Arc,
+) -> Option<f64> {
+    let v_mm_s = run.feed_mm_min? / 60.0;
+    if matches!(
+        options.take_up_rule(run.mode),
+        super::TakeUpRule::Exact { .. }
+    ) {
+        return None;
+    }
+    let (u, v, _) = arc.plane.axes();
+    let tol = options.planner.tangent_tolerance(v_mm_s, true);
+    Some(0.5 * tol[u].min(tol[v]))
+}
+
+/// The centre to write for an arc piece that [`piece_center`] would write
+/// as a G1 chord (its sagitta within the chord tolerance), where that
+/// chord turns from the arc's tangent at its ends (by half the piece's
+/// sweep) by more than `turn` ([`chord_turn_tolerance`]): LinuxCNC takes
+/// such a join as a corner (tp.c `tpSetupTangent`) and blends it, under
+/// G64 at a speed the piece's length caps (a piece of 0.07 mm on a
+/// spiral's half circle is two corners of 3 mrad). Kept an arc, the piece
+/// joins its neighbours tangent. The centre is `piece_center`'s with no
+/// chord tolerance (the circle through the three commanded points, or the
+/// nominal one moved by the mean correction of the ends). `None` where the
+/// chord turns less, or without `turn`.
+pub(super) fn chord_turn_center(
+    piece: &Arc,
+    ends: (Vec3, Vec3, Vec3),
+    turn: Option<f64>,
+) -> Option<Vec3> {
+    let k = turn?;
+    if 0.5 * piece.sweep_rad.abs() > k {
+        piece_center(piece, ends, 0.0, None)
+    } else {
+        None
+    }
+}
+
 /// Whether a line's first piece, commanded from `from`, keeps the normal
 /// coordinate (axis `w`) of its start: LinuxCNC's blend arc between an arc
 /// and a line needs the line in the arc's plane (tp.c
@@ -649,6 +696,62 @@ mod tests {
         assert!(!parabolic_into(Vec3::new(0.0, 1.0, 0.0), &flat));
         let line = motion(MotionKind::Feed, start, Vec3::new(-5.0, 10.0, -1.0));
         assert!(!parabolic_into(helix, &line));
+    }
+
+    /// A piece 0.073 mm long of an R12.25 arc (a spiral's half circle):
+    /// sweep 5.959 mrad, sagitta `r(1 − cos(Δ/2))` = 0.0544 µm, under the
+    /// 0.1 µm chord tolerance, so `piece_center` writes a chord; the chord
+    /// turns from the arc's tangents by half the sweep, 2.98 mrad, over
+    /// the G64 limit at F6000 (half of LinuxCNC's arc tangency tolerance
+    /// `0.1·0.5·1000/(100/0.001 + 1000)` = 0.495 mrad: 0.2475 mrad; tp.c
+    /// `tpSetupTangent`; by hand): the piece stays an arc, about the
+    /// nominal centre (the ends are the nominal ones here). A piece whose
+    /// half sweep is under the limit stays a chord, and G61 has no such
+    /// limit here (its rule is `piece_turn_tolerance`'s).
+    #[test]
+    fn a_chord_that_turns_from_the_arc_by_more_than_the_tangency_stays_an_arc_under_g64() {
+        let r = 12.25;
+        let sweep = 0.073 / r;
+        let center = Vec3::new(0.75, 0.0, 0.0);
+        let at = |a: f64| center + Vec3::new(r * a.cos(), r * a.sin(), 0.0);
+        let (a0, a1) = (
+            std::f64::consts::FRAC_PI_2 + 0.5 * sweep,
+            std::f64::consts::FRAC_PI_2 - 0.5 * sweep,
+        );
+        let piece = Arc {
+            start: at(a0),
+            end: at(a1),
+            center,
+            plane: volcomp_gcode::Plane::Xy,
+            sweep_rad: -sweep,
+        };
+        let ends = (piece.start, at(0.5 * (a0 + a1)), piece.end);
+        assert!((super::super::arcs::sagitta_mm(&piece) - 0.0544e-3).abs() < 0.001e-3);
+        assert_eq!(piece_center(&piece, ends, 1e-4, None), None);
+        let mut options = super::super::CompensateOptions::default();
+        let m = motion(MotionKind::Arc(piece), piece.start, piece.end);
+        let run =
+            super::super::points::Run::of(&Motion { feed: 6000.0, ..m }, None, &options.planner);
+        let k = chord_turn_tolerance(&options, &run, &piece).unwrap();
+        assert!((k - 0.2475e-3).abs() < 1e-6, "{k}");
+        let c = chord_turn_center(&piece, ends, Some(k)).unwrap();
+        assert!((c - center).norm() < 1e-6, "{c:?}");
+        // Half the sweep under the limit: a chord.
+        assert_eq!(
+            chord_turn_center(&piece, ends, Some(0.5 * sweep + 1e-6)),
+            None
+        );
+        // G61: none of this rule.
+        let g61 = Motion {
+            path_mode: PathMode::ExactPath,
+            feed: 6000.0,
+            ..m
+        };
+        let run = super::super::points::Run::of(&g61, None, &options.planner);
+        assert_eq!(chord_turn_tolerance(&options, &run, &piece), None);
+        // The take-up tolerance sets G64 P's rule for every mode: kept.
+        options.take_up_tolerance_mm = Some(0.005);
+        assert!(chord_turn_tolerance(&options, &run, &piece).is_some());
     }
 
     #[test]

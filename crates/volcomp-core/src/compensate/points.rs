@@ -163,6 +163,21 @@ fn fold_deviation_beyond_mm(
     nominal_delta: Vec3,
     from_lambda: f64,
 ) -> f64 {
+    fold_deviation_from_mm(lags, q_prev, q, nominal_delta, (from_lambda, Vec3::ZERO))
+}
+
+/// [`fold_deviation_beyond_mm`] where the tool starts the move off the
+/// nominal point by `start_mm` (a held axis, compensate/turn_back.rs
+/// `start_offset_mm`): the command, solved onto the path at the move's
+/// end, carries that offset off linearly, `start_mm·(1 − λ)`, on top of
+/// the lags' own.
+pub(super) fn fold_deviation_from_mm(
+    lags: &[Vec3; 3],
+    q_prev: Vec3,
+    q: Vec3,
+    nominal_delta: Vec3,
+    (from_lambda, start_mm): (f64, Vec3),
+) -> f64 {
     // Along a straight move the direction is the same everywhere; where
     // the move has no length every offset counts.
     let length = nominal_delta.norm();
@@ -173,7 +188,13 @@ fn fold_deviation_beyond_mm(
     };
     // With one direction the part across it is convex between
     // the breakpoints, so the ends and the breakpoints give the largest.
-    fold_deviation_sampled_mm(lags, q_prev, q, &|_| u, (from_lambda.clamp(0.0, 1.0), 1))
+    fold_deviation_sampled_mm(
+        lags,
+        (q_prev, start_mm),
+        q,
+        &|_| u,
+        (from_lambda.clamp(0.0, 1.0), 1),
+    )
 }
 
 /// Whether a G61 hold of a small reversal may run to the end of a straight
@@ -282,14 +303,14 @@ fn fold_deviation_along_mm(
     q: Vec3,
     tangent: &dyn Fn(f64) -> Vec3,
 ) -> f64 {
-    fold_deviation_sampled_mm(lags, q_prev, q, tangent, (0.0, 32))
+    fold_deviation_sampled_mm(lags, (q_prev, Vec3::ZERO), q, tangent, (0.0, 32))
 }
 
 /// [`fold_deviation_along_mm`] sampled at `steps + 1` fractions from
 /// `from` to 1 (and at the breakpoints in between).
 fn fold_deviation_sampled_mm(
     lags: &[Vec3; 3],
-    q_prev: Vec3,
+    (q_prev, start_mm): (Vec3, Vec3),
     q: Vec3,
     tangent: &dyn Fn(f64) -> Vec3,
     (from, steps): (f64, u32),
@@ -300,7 +321,7 @@ fn fold_deviation_sampled_mm(
         (own != 0.0 && own * dq[a] >= 0.0).then(|| dq[a].abs() / own.abs())
     };
     let offset = |lambda: f64| -> Vec3 {
-        let mut off = Vec3::ZERO;
+        let mut off = start_mm * (1.0 - lambda);
         for (a, lag) in lags.iter().enumerate() {
             if *lag != Vec3::ZERO {
                 let left = ratio(a).map_or(0.0, |r| (1.0 - r * lambda).max(0.0));
@@ -1041,6 +1062,12 @@ pub(super) struct Run {
     /// Under G64, the corner before it is one LinuxCNC blends parabolically
     /// ([`super::planar::parabolic_into`]).
     pub(super) parabolic_before: bool,
+    /// Under G64 P, the speed (mm/s) of the blend at the corner before it,
+    /// from the distance `d` it takes of each side (`protect_mm / 2`): its
+    /// arc of radius `d·tan θ` run at `√(a_n · d · tan θ)`
+    /// ([`super::end_zone::blend_speed_mm_s`]); infinite where there is
+    /// no corner blended within a P.
+    pub(super) blend_speed_before_mm_s: f64,
 }
 
 impl Run {
@@ -1061,6 +1088,7 @@ impl Run {
         // the end (`split_end_mm`).
         let mut blended_corner: Option<(f64, f64)> = None;
         let mut parabolic_before = false;
+        let mut blend_speed_before_mm_s = f64::INFINITY;
         let (corner_before, protect_mm) = match (before, feed_mm_min) {
             (Some((t1, prev_len)), Some(f)) => {
                 let corner = planner.kink_ratio(t1, t2, f / 60.0, arc) >= 1.0;
@@ -1083,6 +1111,10 @@ impl Run {
                         .min(within)
                         .min(0.5 * prev_len)
                         .min(0.5 * length_mm(m));
+                    if within.is_finite() {
+                        blend_speed_before_mm_s =
+                            super::end_zone::blend_speed_mm_s(f / 60.0, speed_mm, d).min(f / 60.0);
+                    }
                     2.0 * d
                 } else {
                     0.0
@@ -1125,6 +1157,7 @@ impl Run {
             split_end_mm,
             length_mm: length_mm(m),
             parabolic_before,
+            blend_speed_before_mm_s,
         }
     }
 }
@@ -1899,6 +1932,16 @@ impl State<'_> {
                 )
                 .map_err(|source| model_error(file, line, source))?;
                 let bound = fold_deviation_mm(&lags, self.q_out, point.q_mm, *t - t_prev);
+                // Under G64 P the tool starts where a hold left it
+                // (compensate/turn_back.rs).
+                let held_off_mm = super::turn_back::start_offset_mm(
+                    &mut cells,
+                    model,
+                    rule,
+                    (self.q_out, self.s),
+                    t_prev,
+                )
+                .map_err(|source| model_error(file, line, source))?;
                 // On an arc piece the bound above, taken along its chord,
                 // may fall short of what the tool leaves beside the arc; the
                 // whole lag is an upper bound (the tool is never further
@@ -1940,12 +1983,24 @@ impl State<'_> {
                 let delta = take_up.map_or(Vec3::ZERO, |tu| tu - self.q_out);
                 let piece_mm = (*t - t_prev).norm();
                 let fold_is_tangent = fold_is_tangent(delta, kink_tolerance, piece_mm);
+                // Under G64 P at a corner the machine all but stops at: a
+                // block, not a lead piece nor a fold beyond the contour
+                // tolerance (compensate/end_zone.rs).
+                let slow_block = super::end_zone::block_at_slow_corner(
+                    rule,
+                    &run,
+                    index,
+                    delta,
+                    &options.planner,
+                );
                 let ramp_tolerance = match rule {
                     TakeUpRule::Exact { smooth: true } if smooth => {
                         Some(RUN_THROUGH_TOLERANCE_MM.max(tolerance))
                     }
                     TakeUpRule::Exact { .. } => None,
-                    TakeUpRule::Within(t) => Some(t),
+                    // Less what a hold left at the start (the ramp's bound
+                    // counts from the path).
+                    TakeUpRule::Within(t) => Some(t - held_off_mm.norm()),
                     TakeUpRule::Always => Some(RUN_THROUGH_TOLERANCE_MM.max(tolerance)),
                 };
                 // A ramp centred on its reversal (compensate/ramp_centre.rs)
@@ -2106,6 +2161,7 @@ impl State<'_> {
                     }
                 } else if let Some(shortest) = shortest.filter(|_| {
                     feed_like
+                        && !slow_block
                         && !matches!(leads, Leads::Nowhere)
                         && last_lead.is_none_or(|l| index > l + 1)
                 }) {
@@ -2197,7 +2253,13 @@ impl State<'_> {
                         if length >= 2.0 * shortest {
                             let f = shortest / length;
                             if let Some(q) = lead_command(f)? {
-                                let b = fold_deviation_mm(&lags, self.q_out, q, at(f) - t_prev);
+                                let b = fold_deviation_from_mm(
+                                    &lags,
+                                    self.q_out,
+                                    q,
+                                    at(f) - t_prev,
+                                    (0.0, held_off_mm),
+                                );
                                 if b <= allowed {
                                     lead_excursion_um = b * 1e3;
                                     lead = Some(f);
@@ -2361,7 +2423,7 @@ impl State<'_> {
                 .flatten()
                 {
                     point = self.take_hold(held, &mut take_up);
-                } else if take_up.is_some() && bound <= allowed {
+                } else if take_up.is_some() && bound <= allowed && !slow_block {
                     // G64: folded all the same, the tool leaving the path by
                     // the bound (at most the reversal value; within P).
                     take_up = None;
@@ -2874,7 +2936,9 @@ fn check_converged(
 
 #[cfg(test)]
 mod tests {
-    use super::{carries_plunge_hold, fold_deviation_mm, hold_to_plunge_end};
+    use super::{
+        carries_plunge_hold, fold_deviation_from_mm, fold_deviation_mm, hold_to_plunge_end,
+    };
     use volcomp_gcode::Vec3;
 
     #[test]
@@ -3441,5 +3505,30 @@ mod tests {
             same_floor > 1000 && longer > 1000 && planned > 40,
             "{same_floor} {longer} {planned}"
         );
+    }
+
+    /// A fold along X of a Z take-up: Z's lag 4 µm, its command 8 µm up
+    /// over the move (it crosses its band at half the move, `r = 2`). The
+    /// tool is off `4·λ` µm below the path up to `λ = ½` and back onto it
+    /// at the end: 2 µm (docs/compensation.md, "Take-ups folded into the
+    /// move"). Started 1 µm below the path (where a hold left it), the
+    /// offset `1·(1 − λ)` adds: 2.5 µm at `λ = ½`; started 1 µm above, it
+    /// takes away: 1.5 µm there, 1 µm at the start (by hand).
+    #[test]
+    fn a_fold_from_where_a_hold_left_the_tool_counts_that_offset_fading() {
+        let lags = [Vec3::ZERO, Vec3::ZERO, Vec3::new(0.0, 0.0, 0.004)];
+        let q = Vec3::new(3.0, 0.0, 0.008);
+        let along = Vec3::new(3.0, 0.0, 0.0);
+        let d = fold_deviation_mm(&lags, Vec3::ZERO, q, along);
+        assert!((d - 0.002).abs() < 1e-12, "{d}");
+        let below = Vec3::new(0.0, 0.0, -0.001);
+        let d = fold_deviation_from_mm(&lags, Vec3::ZERO, q, along, (0.0, below));
+        assert!((d - 0.0025).abs() < 1e-12, "{d}");
+        let d = fold_deviation_from_mm(&lags, Vec3::ZERO, q, along, (0.0, -below));
+        assert!((d - 0.0015).abs() < 1e-12, "{d}");
+        // An offset along the move is the tool arriving later: none.
+        let behind = Vec3::new(-0.001, 0.0, 0.0);
+        let d = fold_deviation_from_mm(&lags, Vec3::ZERO, q, along, (0.0, behind));
+        assert!((d - 0.002).abs() < 1e-12, "{d}");
     }
 }

@@ -30,10 +30,33 @@
 //! arcs' normals are colinear with the corner's binormal (src/emc/tp/tp.c,
 //! `tpCreateArcArcBlend`).
 
+use super::options::TakeUpRule;
 use super::solve::{bands_um, flipped_where, held_solve, solve_fixed_in, Method, PointSolution};
 use crate::error::ModelError;
 use crate::model::{AxisCells, Components, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
+
+/// Under G64 P p, where the tool stands off the nominal point `t_prev_mm`
+/// when a take-up starts (mm): the image of the command `q_prev_mm` in the
+/// direction state `s_prev` it was written in, less that point. A held
+/// axis (solve.rs `hold_small_reversals`) leaves the tool off its target
+/// by up to p less the contour tolerance, and its command stays put, so
+/// the next take-up starts from there: the offset fades only as the command,
+/// solved onto the path at the piece's end, carries the image back
+/// (points.rs `fold_deviation_from_mm`). Counted under G64 P alone, where
+/// the program bounds every excursion by p; zero under the other rules.
+pub(super) fn start_offset_mm(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    rule: TakeUpRule,
+    (q_prev_mm, s_prev): (Vec3, Directions),
+    t_prev_mm: Vec3,
+) -> Result<Vec3, ModelError> {
+    match rule {
+        TakeUpRule::Within(_) => Ok(cells.actual_again_mm(model, q_prev_mm, s_prev)? - t_prev_mm),
+        TakeUpRule::Exact { .. } | TakeUpRule::Always => Ok(Vec3::ZERO),
+    }
+}
 
 /// A step of a command smaller than this (mm) turns nothing: the written
 /// resolution's order (five decimals of a millimetre are 10 nm).
