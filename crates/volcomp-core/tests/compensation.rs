@@ -457,8 +457,15 @@ fn the_path_control_mode_decides_a_reversal_across_the_path() {
     };
     // Exact path, exact stop, and a blend tolerance no fold meets: a
     // take-up block (the machine stops at this corner under G61 anyway),
-    // the tool on the path.
-    for mode in ["G61", "G61.1", "G64 P0.001", "G64 P0.002"] {
+    // the tool on the path. So too under G64 P0.005, where the blend all
+    // but stops at this corner: kept within p it takes d = p·cos θ/(1 −
+    // sin θ) of each line (θ = 22.5°, half the 45° between the lines:
+    // d = 7.4830 µm), its arc of radius d·tan θ = 3.0996 µm run at
+    // √(a_n R) = √(866.03 mm/s² · 3.0996 µm) = 1.64 mm/s (blendmath.c
+    // `blendComputeParameters`), slower than the 4 µm block itself may run
+    // (4 µm per 1 ms servo period, tc.c `tcClampVelocityByLength`): the
+    // block's stop costs what the corner costs already.
+    for mode in ["G61", "G61.1", "G64 P0.001", "G64 P0.002", "G64 P0.005"] {
         let (out, s, contour) = run(mode, CompensateOptions::default());
         assert!(
             out.contains("X9.99600 (volcomp L4 take-up)"),
@@ -467,10 +474,11 @@ fn the_path_control_mode_decides_a_reversal_across_the_path() {
         assert_eq!((s.take_ups, s.take_ups_folded), (1, 0), "{mode}: {out}");
         assert!(contour < 0.1, "{mode}: {contour}");
     }
-    // G64 without P (also the state a program starts in) and G64 P0.005:
+    // G64 without P (also the state a program starts in) and G64 P0.05:
     // folded, never a block; the tool leaves the path by the bound. Under
-    // G64 P0.005 the blend keeps within 5 µm of the corner (12 µm along
-    // each line), so a lead piece fits after it: the shortest the planner
+    // G64 P0.05 the blend runs at 5.18 mm/s (d = 74.830 µm, as above),
+    // faster than the block could, and keeps within 50 µm of the corner
+    // (75 µm along each line), so a lead piece fits after it: the shortest the planner
     // runs at F6000, ℓ = max(2·v·T, v·√(b/a_n), 20·b) = 100·√(0.004 /
     // 866.03) = 0.21491 mm, leaving 4·ℓx/(4 + ℓx)·sin 45° = 2.7559 µm
     // (ℓx = 151.97 µm). Without P the planner's blend may take half of each
@@ -479,7 +487,7 @@ fn the_path_control_mode_decides_a_reversal_across_the_path() {
         let lx = 100.0 * (0.004f64 / (1000.0 * 0.75f64.sqrt())).sqrt() * 1e3 / 2f64.sqrt();
         4.0 * lx / (4.0 + lx) * std::f64::consts::FRAC_1_SQRT_2
     };
-    for (mode, fold_um) in [("G64", fold_um), ("", fold_um), ("G64 P0.005", lead_um)] {
+    for (mode, fold_um) in [("G64", fold_um), ("", fold_um), ("G64 P0.05", lead_um)] {
         let (out, s, contour) = run(mode, CompensateOptions::default());
         assert!(!out.contains("take-up"), "{mode}: {out}");
         assert_eq!((s.take_ups, s.take_ups_folded), (0, 1), "{mode}: {out}");

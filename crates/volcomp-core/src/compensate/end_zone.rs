@@ -98,7 +98,7 @@ pub(super) fn blend_speed_mm_s(v_mm_s: f64, speed_mm: f64, d_mm: f64) -> f64 {
 /// into the move: where the corner's blend, kept within P, runs no faster
 /// than the block itself may (`|delta|` per servo period: LinuxCNC caps a
 /// segment's speed at its length per period, `tcClampVelocityByLength`,
-/// src/emc/tp/tc.c). The machine all but stops at such a corner (5.7 mm/s
+/// src/emc/tp/tc.c). The machine all but stops at such a corner (5.29 mm/s
 /// at a hexagon's 60° at P0.005), so the stop the block makes costs about
 /// what the corner costs already, and the tool takes the reversal up at
 /// the corner, on the path. A lead piece there turns the path by the
