@@ -1029,6 +1029,19 @@ struct Ahead {
 /// a motion before a take-up was moved ahead ([`Ahead`]).
 type AheadSaved = (Vec<Vec3>, Option<Vec<f64>>, Vec<super::arcs::Transition>);
 
+/// A take-up being spread along the path in `solve_targets`: the take-up,
+/// the share of it still to catch up at each next target, the share left
+/// before the current one, the axes held on the ramp, and (on a staged
+/// ramp, [`RampPlan::rests`]) the take-up left at each next target with the
+/// axes still waiting there, and the take-up left before the current one.
+type RampUnderWay = (
+    Vec3,
+    std::collections::VecDeque<f64>,
+    f64,
+    [bool; 3],
+    (std::collections::VecDeque<(Vec3, [bool; 3])>, Vec3),
+);
+
 /// How a motion runs on the machine, for the take-up decisions
 /// ([`super::TakeUpRule`]): its path-control mode, its feed (mm/min; `None`
 /// where not per minute), whether it is an arc, and whether the original
@@ -1387,13 +1400,7 @@ impl State<'_> {
         // per reversal).
         // (On a staged ramp, the take-up left at each next target and at
         // the last: [`RampPlan::rests`].)
-        let mut ramp: Option<(
-            Vec3,
-            std::collections::VecDeque<f64>,
-            f64,
-            [bool; 3],
-            (std::collections::VecDeque<(Vec3, [bool; 3])>, Vec3),
-        )> = None;
+        let mut ramp: Option<RampUnderWay> = None;
         let mut ramp_inserted: Option<usize> = None;
         // Take-ups moved ahead of an S-curve ([`Ahead`]): the state before
         // each target (kept only where one may happen), the one pending,

@@ -160,10 +160,10 @@ impl Stages {
         let mut rest = Vec3::ZERO;
         for k in 0..self.n {
             let lag = lags[self.axes[k]];
-            staged = staged + lag;
+            staged += lag;
             let (from, to) = (self.starts[k], self.ends[k]);
             let v = ((u - from) / (to - from)).clamp(0.0, 1.0);
-            rest = rest + lag * (1.0 - step(v));
+            rest += lag * (1.0 - step(v));
         }
         // The rest of the take-up on the axes not staged; a staged axis'
         // own component is its lags' (the take-up command's, cut to the
