@@ -230,6 +230,27 @@ fn exact_stop_stops_at_every_joint() {
     );
 }
 
+/// Feeds `moves` to `p` and steps it with `run` (one period a call, false
+/// once the queue is done), `keep` segments queued ahead while reading,
+/// then to the end: how LinuxCNC's motion controller drains its queue.
+fn drive_period_by_period(
+    p: &mut Planner,
+    moves: &[Move],
+    keep: usize,
+    run: impl Fn(&mut Planner) -> bool,
+) {
+    for m in moves {
+        p.canon.push(m, &p.limits, &mut p.fresh);
+        p.queue_fresh();
+        while p.queue.len() > keep {
+            run(p);
+        }
+    }
+    p.canon.finish(&p.limits, &mut p.fresh);
+    p.queue_fresh();
+    while run(p) {}
+}
+
 /// The planner as it was before cruising segments ran in one step and the
 /// periods that take no decision in a tight loop: every servo period by
 /// [`integrate::run_period`].
@@ -237,16 +258,7 @@ fn estimate_period_by_period(moves: &[Move], limits: &Limits) -> Estimate {
     let mut p = Planner::new(*limits);
     let keep = limits.blend.optimization_depth + 6;
     let run = |p: &mut Planner| integrate::run_period(&mut p.queue, &mut p.exec, &p.limits);
-    for m in moves {
-        p.canon.push(m, &p.limits, &mut p.fresh);
-        p.queue_fresh();
-        while p.queue.len() > keep {
-            run(&mut p);
-        }
-    }
-    p.canon.finish(&p.limits, &mut p.fresh);
-    p.queue_fresh();
-    while run(&mut p) {}
+    drive_period_by_period(&mut p, moves, keep, run);
     p.finish()
 }
 
@@ -526,16 +538,7 @@ fn per_line_period_by_period(moves: &[Move], limits: &Limits) -> (Estimate, Vec<
         }
         more
     };
-    for m in moves {
-        p.canon.push(m, &p.limits, &mut p.fresh);
-        p.queue_fresh();
-        while p.queue.len() > keep {
-            run(&mut p);
-        }
-    }
-    p.canon.finish(&p.limits, &mut p.fresh);
-    p.queue_fresh();
-    while run(&mut p) {}
+    drive_period_by_period(&mut p, moves, keep, run);
     p.finish_per_line()
 }
 
