@@ -180,30 +180,40 @@ pub fn format_scaled_bytes(scaled: f64, style: NumberStyle, out: &mut Vec<u8>) {
 
 /// The text of `scaled / 10^style.decimals` in `style` (decimals at most
 /// [`NumberBuf::MAX_DECIMALS`], `|scaled|` at most 9·10^15) appended to
-/// `out`: the text [`NumberBuf::scaled_at`] gives, written where it goes
-/// (its length is known from its integer part's digits and its decimals
-/// left after trimming) instead of backwards into a zeroed stack buffer
-/// and copied: no buffer to clear, no copy, no bounds check per digit
-/// pair. The decimals go two at a time, as in [`format_fixed_bytes`].
+/// `out`: the text [`NumberBuf::scaled_at`] gives.
 ///
-/// The common case — decimals kept (no trimming), a leading zero, 1 to 8
-/// decimals and an integer part below 10^8 — is [`write_fixed_scaled`].
-#[inline]
+/// The common case — decimals kept (no trimming), a leading zero, 1 to 7
+/// decimals and `|scaled|` below 10^8 (below 1,000 mm at 5 decimals) — is
+/// [`write_fixed_scaled`], inlined where numbers are written; the rest is
+/// [`write_scaled_general`].
+#[inline(always)]
 fn write_scaled(scaled: i64, style: NumberStyle, out: &mut Vec<u8>) {
+    let decimals = usize::from(style.decimals);
+    let magnitude = scaled.unsigned_abs();
+    if !style.trim_trailing_zeros
+        && style.leading_zero
+        && (1..=7).contains(&decimals)
+        && magnitude < 100_000_000
+    {
+        // Below 10^8: a `u32`.
+        write_fixed_scaled(scaled < 0, magnitude as u32, decimals, out);
+        return;
+    }
+    write_scaled_general(scaled, style, out);
+}
+
+/// [`write_scaled`] for any style: the text written where it goes (its
+/// length is known from its integer part's digits and its decimals left
+/// after trimming) instead of backwards into a zeroed stack buffer and
+/// copied: no buffer to clear, no copy, no bounds check per digit pair.
+/// The decimals go two at a time, as in [`format_fixed_bytes`].
+#[inline(never)]
+fn write_scaled_general(scaled: i64, style: NumberStyle, out: &mut Vec<u8>) {
     let decimals = usize::from(style.decimals);
     let magnitude = scaled.unsigned_abs();
     let divisor = POW10_U64[decimals];
     let mut int_part = magnitude / divisor;
     let mut frac_part = magnitude % divisor;
-    if !style.trim_trailing_zeros
-        && style.leading_zero
-        && (1..=8).contains(&decimals)
-        && int_part < 100_000_000
-    {
-        // Both parts are below 10^8: `frac_part < divisor ≤ 10^8`.
-        write_fixed_scaled(scaled < 0, int_part as u32, frac_part as u32, decimals, out);
-        return;
-    }
     let mut frac_digits = decimals;
     if style.trim_trailing_zeros {
         while frac_digits > 0 && frac_part.is_multiple_of(10) {
@@ -259,53 +269,38 @@ fn write_scaled(scaled: i64, style: NumberStyle, out: &mut Vec<u8>) {
     out.truncate(start + len);
 }
 
-/// [`write_scaled`]'s text where the style keeps its `decimals` (1 to 8,
-/// no trimming) and writes a leading zero: a `-` if `negative`, the digits
-/// of `int_part` (at least one), the point, then `frac_part` as exactly
-/// `decimals` digits, zero-padded. Both parts below 10^8: each is turned
-/// into its eight digits at once in one 64-bit word ([`eight_digits`]),
-/// whose bytes are stored eight at a time: no loop per digit pair, no
-/// count of the integer part's digits by comparisons (its leading zeros
-/// are the word's trailing zero bytes). What a store writes past the
-/// number's end is cut off.
-#[inline]
-fn write_fixed_scaled(
-    negative: bool,
-    int_part: u32,
-    frac_part: u32,
-    decimals: usize,
-    out: &mut Vec<u8>,
-) {
+/// [`write_scaled`]'s text where the style keeps its `decimals` (1 to 7,
+/// no trimming) and writes a leading zero, of a count `magnitude < 10^8`:
+/// a `-` if `negative`, the integer part's digits (at least one), the
+/// point, then the last `decimals` digits. The count's eight digits
+/// (zero-padded) are made at once in one 64-bit word ([`eight_digits`]):
+/// the first `8 − decimals` are the integer part's, the rest the decimals.
+/// The integer part's leading zeros are the word's trailing zero bytes (its
+/// first digit is the lowest byte), all but its last one dropped. The word
+/// is stored twice, eight bytes a store: from the integer part's first
+/// digit on, then from the first decimal on after the point; what a store
+/// writes past the number's end is overwritten or cut off. No loop per
+/// digit, no division by the scale, no count of digits by comparisons.
+#[inline(always)]
+fn write_fixed_scaled(negative: bool, magnitude: u32, decimals: usize, out: &mut Vec<u8>) {
     const ASCII_ZEROS: u64 = 0x3030_3030_3030_3030;
-    let int_digits = eight_digits(int_part);
-    let frac_digits = eight_digits(frac_part);
-    // Leading zeros of the integer part's eight digits (the first digit is
-    // the word's lowest byte); seven for zero, which is written as `0`.
-    let lead = if int_part == 0 {
-        7
-    } else {
-        (int_digits.trailing_zeros() / 8) as usize
-    };
-    let int_len = 8 - lead;
+    let digits = eight_digits(magnitude);
+    let int_slots = 8 - decimals;
+    // Zero is 64 trailing zero bits: eight bytes, the integer part `0`.
+    let lead = ((digits.trailing_zeros() / 8) as usize).min(int_slots - 1);
     let sign = usize::from(negative);
-    let len = sign + int_len + 1 + decimals;
-    // At most 1 + 8 + 1 + 8 bytes written, and the stores reach 8 bytes
-    // past the point (1 + 8 + 1 + 8).
+    let point = sign + int_slots - lead;
+    // At most 1 + 7 + 1 + 7 bytes; the second store reaches 1 + 7 + 1 + 8.
     let start = out.len();
     out.extend_from_slice(&[b'-'; 24]);
     let text: &mut [u8; 24] = (&mut out[start..start + 24])
         .try_into()
         .expect("24 bytes were just appended");
-    // The integer's digits from its first one (the bytes after them are
-    // overwritten by the point and the decimals, or cut off).
-    let int_text = (int_digits >> (8 * lead)) + ASCII_ZEROS;
-    text[sign..sign + 8].copy_from_slice(&int_text.to_le_bytes());
-    let point = sign + int_len;
+    text[sign..sign + 8].copy_from_slice(&((digits >> (8 * lead)) + ASCII_ZEROS).to_le_bytes());
     text[point] = b'.';
-    // The last `decimals` of the eight digits.
-    let frac_text = (frac_digits >> (8 * (8 - decimals))) + ASCII_ZEROS;
-    text[point + 1..point + 9].copy_from_slice(&frac_text.to_le_bytes());
-    out.truncate(start + len);
+    text[point + 1..point + 9]
+        .copy_from_slice(&((digits >> (8 * int_slots)) + ASCII_ZEROS).to_le_bytes());
+    out.truncate(start + point + 1 + decimals);
 }
 
 /// The eight decimal digits of `n < 10^8` (zero-padded), one a byte, the
@@ -810,11 +805,13 @@ mod tests {
         }
     }
 
-    /// The fixed-decimals writer gives the text of the integer and decimal
-    /// parts printed by Rust's own formatting (the second method), and
-    /// the buffer writer's (the first): every decimal count it takes,
-    /// integer parts of every length up to 10^8 − 1 and their boundaries,
-    /// decimals of every length, zero, both signs; and after other text.
+    /// A count in a fixed style is the text of its integer and decimal
+    /// parts printed by Rust's own formatting (the second method), and the
+    /// buffer writer's (the first): every decimal count from 1 to 8 (the
+    /// fixed-decimals writer takes 1 to 7), integer parts of every length
+    /// up to 10^8 − 1, those on both sides of the writer's bound (a count
+    /// of 10^8), decimals of every length, zero, both signs; and after
+    /// other text.
     #[test]
     fn a_count_with_fixed_decimals_is_written_as_its_parts_print() {
         let mut ints: Vec<u64> = vec![0, 1, 9, 10, 99, 100, 12_345, 99_999_999];
@@ -832,7 +829,8 @@ mod tests {
                 fracs.push((x * scale as f64) as u64 % scale);
             }
             let style = NumberStyle::fixed(d as u8);
-            for &i in &ints {
+            let bound = POW10_U64[8 - d];
+            for &i in ints.iter().chain(&[bound - 1, bound]) {
                 for &f in &fracs {
                     let magnitude = (i * scale + f) as i64;
                     for n in [magnitude, -magnitude] {
