@@ -223,6 +223,10 @@ impl Frame {
     /// [`Self::quantize`] in a rotated frame: the words are rounded in the
     /// program frame and the controller's point is the rotated program
     /// point; a program coordinate whose word would not change stays put.
+    /// (Out of line: inlined, its rotation's `sincos` call and spills made
+    /// every quantization save registers and reserve stack first.)
+    #[cold]
+    #[inline(never)]
     fn quantize_rotated(&self, q: Vec3, from: Vec3) -> Vec3 {
         let p_from = self.program_mm(from);
         let mut p = p_from;
