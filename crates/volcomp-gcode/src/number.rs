@@ -180,13 +180,35 @@ pub fn format_scaled_bytes(scaled: f64, style: NumberStyle, out: &mut Vec<u8>) {
 
 /// The text of `scaled / 10^style.decimals` in `style` (decimals at most
 /// [`NumberBuf::MAX_DECIMALS`], `|scaled|` at most 9·10^15) appended to
-/// `out`: the text [`NumberBuf::scaled_at`] gives, written where it goes
-/// (its length is known from its integer part's digits and its decimals
-/// left after trimming) instead of backwards into a zeroed stack buffer
-/// and copied: no buffer to clear, no copy, no bounds check per digit
-/// pair. The decimals go two at a time, as in [`format_fixed_bytes`].
-#[inline]
+/// `out`: the text [`NumberBuf::scaled_at`] gives.
+///
+/// The common case — decimals kept (no trimming), a leading zero, 1 to 7
+/// decimals and `|scaled|` below 10^8 (below 1,000 mm at 5 decimals) — is
+/// [`write_fixed_scaled`], inlined where numbers are written; the rest is
+/// [`write_scaled_general`].
+#[inline(always)]
 fn write_scaled(scaled: i64, style: NumberStyle, out: &mut Vec<u8>) {
+    let decimals = usize::from(style.decimals);
+    let magnitude = scaled.unsigned_abs();
+    if !style.trim_trailing_zeros
+        && style.leading_zero
+        && (1..=7).contains(&decimals)
+        && magnitude < 100_000_000
+    {
+        // Below 10^8: a `u32`.
+        write_fixed_scaled(scaled < 0, magnitude as u32, decimals, out);
+        return;
+    }
+    write_scaled_general(scaled, style, out);
+}
+
+/// [`write_scaled`] for any style: the text written where it goes (its
+/// length is known from its integer part's digits and its decimals left
+/// after trimming) instead of backwards into a zeroed stack buffer and
+/// copied: no buffer to clear, no copy, no bounds check per digit pair.
+/// The decimals go two at a time, as in [`format_fixed_bytes`].
+#[inline(never)]
+fn write_scaled_general(scaled: i64, style: NumberStyle, out: &mut Vec<u8>) {
     let decimals = usize::from(style.decimals);
     let magnitude = scaled.unsigned_abs();
     let divisor = POW10_U64[decimals];
@@ -245,6 +267,63 @@ fn write_scaled(scaled: i64, style: NumberStyle, out: &mut Vec<u8>) {
     }
     // The sign is the `-` the text was filled with.
     out.truncate(start + len);
+}
+
+/// [`write_scaled`]'s text where the style keeps its `decimals` (1 to 7,
+/// no trimming) and writes a leading zero, of a count `magnitude < 10^8`:
+/// a `-` if `negative`, the integer part's digits (at least one), the
+/// point, then the last `decimals` digits. The count's eight digits
+/// (zero-padded) are made at once in one 64-bit word ([`eight_digits`]):
+/// the first `8 − decimals` are the integer part's, the rest the decimals.
+/// The integer part's leading zeros are the word's trailing zero bytes (its
+/// first digit is the lowest byte), all but its last one dropped. The word
+/// is stored twice, eight bytes a store: from the integer part's first
+/// digit on, then from the first decimal on after the point; what a store
+/// writes past the number's end is overwritten or cut off. No loop per
+/// digit, no division by the scale, no count of digits by comparisons.
+#[inline(always)]
+fn write_fixed_scaled(negative: bool, magnitude: u32, decimals: usize, out: &mut Vec<u8>) {
+    const ASCII_ZEROS: u64 = 0x3030_3030_3030_3030;
+    let digits = eight_digits(magnitude);
+    let int_slots = 8 - decimals;
+    // Zero is 64 trailing zero bits: eight bytes, the integer part `0`.
+    let lead = ((digits.trailing_zeros() / 8) as usize).min(int_slots - 1);
+    let sign = usize::from(negative);
+    let point = sign + int_slots - lead;
+    // At most 1 + 7 + 1 + 7 bytes; the second store reaches 1 + 7 + 1 + 8.
+    let start = out.len();
+    out.extend_from_slice(&[b'-'; 24]);
+    let text: &mut [u8; 24] = (&mut out[start..start + 24])
+        .try_into()
+        .expect("24 bytes were just appended");
+    text[sign..sign + 8].copy_from_slice(&((digits >> (8 * lead)) + ASCII_ZEROS).to_le_bytes());
+    text[point] = b'.';
+    text[point + 1..point + 9]
+        .copy_from_slice(&((digits >> (8 * int_slots)) + ASCII_ZEROS).to_le_bytes());
+    out.truncate(start + point + 1 + decimals);
+}
+
+/// The eight decimal digits of `n < 10^8` (zero-padded), one a byte, the
+/// first (most significant) in the lowest byte: `n` split into halves of
+/// four digits (one division by 10^4), each half into two pairs and each
+/// pair into two digits, all lanes at once in one word ("SIMD within a
+/// register"). The quotients are multiplications by reciprocals,
+/// `⌊v·10486 / 2^20⌋ = ⌊v / 100⌋` for `v < 10^4` and
+/// `⌊v·103 / 2^10⌋ = ⌊v / 10⌋` for `v < 100` (both checked for every `v`
+/// in the tests), and no lane's product reaches the next lane:
+/// `10^4 · 10486 < 2^27` in 32-bit lanes, `100 · 103 < 2^14` in 16-bit ones.
+#[inline]
+fn eight_digits(n: u32) -> u64 {
+    debug_assert!(n < 100_000_000);
+    let (high, low) = (u64::from(n / 10_000), u64::from(n % 10_000));
+    // Lanes of 32 bits: the first four digits, then the last four.
+    let x = high | (low << 32);
+    let hundreds = ((x * 10_486) >> 20) & 0x0000_007f_0000_007f;
+    // Lanes of 16 bits: pairs of digits.
+    let pairs = hundreds | ((x - hundreds * 100) << 16);
+    let tens = ((pairs * 103) >> 10) & 0x000f_000f_000f_000f;
+    // Lanes of 8 bits: digits.
+    tens | ((pairs - tens * 10) << 8)
 }
 
 /// [`format_number_bytes`] in [`NumberStyle::fixed`]`(DECIMALS)`: the same
@@ -689,6 +768,91 @@ mod tests {
         let mut t = Vec::new();
         write_scaled(-5, NumberStyle::fixed(3), &mut t);
         assert_eq!(t, b"-0.005");
+    }
+
+    /// The eight digits of a word are each `n`'s digits as Rust's own
+    /// formatting writes them zero-padded (the second method), for every
+    /// `n` below 10^8; the reciprocals they rest on give the quotients for
+    /// every value they are used for.
+    #[test]
+    fn eight_digits_are_the_numbers_digits_for_every_number_below_ten_to_the_eight() {
+        for v in 0..10_000u64 {
+            assert_eq!((v * 10_486) >> 20, v / 100, "{v}");
+        }
+        for v in 0..100u64 {
+            assert_eq!((v * 103) >> 10, v / 10, "{v}");
+        }
+        // By hand.
+        assert_eq!(eight_digits(12_345_678), 0x0807_0605_0403_0201);
+        assert_eq!(eight_digits(9), 0x0900_0000_0000_0000);
+        // Every number: its digits from the least significant one up.
+        for n in 0..100_000_000u32 {
+            let word = eight_digits(n);
+            let mut m = n;
+            let mut expected = 0u64;
+            for i in (0..8).rev() {
+                expected |= u64::from(m % 10) << (8 * i);
+                m /= 10;
+            }
+            assert_eq!(word, expected, "{n}");
+        }
+        let mut text = String::new();
+        for n in [0u32, 7, 10, 99_999_999, 40_302_010, 1_000_000] {
+            text.clear();
+            let bytes = eight_digits(n).to_le_bytes();
+            text.extend(bytes.iter().map(|d| char::from(b'0' + d)));
+            assert_eq!(text, format!("{n:08}"));
+        }
+    }
+
+    /// A count in a fixed style is the text of its integer and decimal
+    /// parts printed by Rust's own formatting (the second method), and the
+    /// buffer writer's (the first): every decimal count from 1 to 8 (the
+    /// fixed-decimals writer takes 1 to 7), integer parts of every length
+    /// up to 10^8 − 1, those on both sides of the writer's bound (a count
+    /// of 10^8), decimals of every length, zero, both signs; and after
+    /// other text.
+    #[test]
+    fn a_count_with_fixed_decimals_is_written_as_its_parts_print() {
+        let mut ints: Vec<u64> = vec![0, 1, 9, 10, 99, 100, 12_345, 99_999_999];
+        let mut x = 0.414_213_562_373_095_f64;
+        for _ in 0..400 {
+            x = (x * 7919.0 + 0.271_828).fract();
+            ints.push((x * 10f64.powi((x * 1e7) as i32 % 9)) as u64);
+        }
+        let mut checked = 0;
+        for d in 1..=8usize {
+            let scale = POW10_U64[d];
+            let mut fracs: Vec<u64> = vec![0, 1, scale - 1, scale / 10, scale / 2];
+            for _ in 0..40 {
+                x = (x * 7919.0 + 0.271_828).fract();
+                fracs.push((x * scale as f64) as u64 % scale);
+            }
+            let style = NumberStyle::fixed(d as u8);
+            let bound = POW10_U64[8 - d];
+            for &i in ints.iter().chain(&[bound - 1, bound]) {
+                for &f in &fracs {
+                    let magnitude = (i * scale + f) as i64;
+                    for n in [magnitude, -magnitude] {
+                        let mut got = b"G1 X".to_vec();
+                        write_scaled(n, style, &mut got);
+                        let sign = if n < 0 { "-" } else { "" };
+                        let expected = format!("G1 X{sign}{i}.{f:0d$}");
+                        assert_eq!(String::from_utf8_lossy(&got), expected, "{n} {d}");
+                        let mut buf = NumberBuf::new();
+                        let at = buf.scaled_at(n, style);
+                        assert_eq!(&got[4..], &buf.bytes[at..NumberBuf::END]);
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 150_000, "{checked}");
+        // By hand.
+        let mut t = b"Y".to_vec();
+        write_scaled(-184_150, NumberStyle::fixed(5), &mut t);
+        write_scaled(9_999_999_999, NumberStyle::fixed(8), &mut t);
+        assert_eq!(t, b"Y-1.8415099.99999999");
     }
 
     /// Unsigned integers are written as Rust's own formatting writes them

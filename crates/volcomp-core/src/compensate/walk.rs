@@ -109,6 +109,11 @@ impl<'p> Place<'p> {
 /// those set before it (`known`): the axes its motion words name, or all
 /// three after a reference move (G28/G30).
 pub(super) fn known_after(mut known: [bool; 3], ev: &LineEvent<'_>) -> [bool; 3] {
+    // A line only ever adds axes: once all three are set (after the first
+    // moves of almost every program) its words need no look.
+    if known == [true; 3] {
+        return known;
+    }
     if !ev.motions.is_empty() {
         mark_axes_set(ev.lexed, &mut known);
     }
