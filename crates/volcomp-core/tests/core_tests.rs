@@ -13,6 +13,7 @@ mod cutter_comp_write_back;
 mod exact_hold;
 mod extra_axes_and_splines;
 mod folder_imports;
+mod g64p_line_hold;
 mod idle_take_ups;
 mod kinematic;
 mod line_length;

@@ -1532,6 +1532,13 @@ impl State<'_> {
             let hold_bound = options
                 .hold_tolerance_mm(rule)
                 .filter(|_| feed_like && !was_forced && transition.is_none());
+            // Under G64 P inside a line, held only where the take-up would
+            // kink the path, as under G64 (compensate/turn_back.rs).
+            let (hold_bound, kink_hold_bound) =
+                match super::turn_back::holds_at(rule, index, matches!(leads, Leads::Lines)) {
+                    true => (hold_bound, None),
+                    false => (None, hold_bound),
+                };
             // Checked before a hold: a held point is off the target by
             // what the hold allows, on purpose (the free axes no more than
             // here, solve.rs `hold_small_reversals`).
@@ -1617,7 +1624,7 @@ impl State<'_> {
             // is not taken (its take-up would be lost).
             // The hold is solved only where it is asked for (most take-ups
             // fold tangent): from the point and state as they are here.
-            let mut hold_alt = (matches!(rule, TakeUpRule::Always)
+            let mut hold_alt = ((matches!(rule, TakeUpRule::Always) || kink_hold_bound.is_some())
                 && feed_like
                 && !was_forced
                 && transition.is_none()
@@ -1640,7 +1647,7 @@ impl State<'_> {
                     t,
                     (q_prev, s_prev),
                     &quantize,
-                    (&point, f64::INFINITY),
+                    (&point, kink_hold_bound.unwrap_or(f64::INFINITY)),
                 )
                 .map(|held| held.filter(|h| !h.reversed.iter().any(|r| *r)))
                 .map_err(|source| model_error(file, line, source))

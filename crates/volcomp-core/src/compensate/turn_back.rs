@@ -36,6 +36,22 @@ use crate::error::ModelError;
 use crate::model::{AxisCells, Components, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
 
+/// Whether a small reversal at the target `index` of a move is held
+/// whenever the hold's bound allows (solve.rs `hold_small_reversals`,
+/// within `CompensateOptions::hold_tolerance_mm`): not under G64 P inside
+/// a line (`on_line`, a target after its first). A held axis' command
+/// stays put, so at the line's next target the same axis reverses again
+/// by as little and is held again, and the tool stays off by up to p less
+/// the contour tolerance for as long. Inside a line the take-up is taken
+/// where it keeps the path tangent (a ramp, a fold or a lead piece whose
+/// turn LinuxCNC's planner takes as tangent, src/emc/tp/tp.c
+/// `tpSetupTangent`), and held, as under G64 without P, only where it
+/// would kink the path (points.rs `solve_targets`). At a move's start
+/// (a corner) and inside an arc the hold stays as it was.
+pub(super) fn holds_at(rule: TakeUpRule, index: usize, on_line: bool) -> bool {
+    !(matches!(rule, TakeUpRule::Within(_)) && on_line && index > 0)
+}
+
 /// Under G64 P p, where the tool stands off the nominal point `t_prev_mm`
 /// when a take-up starts (mm): the image of the command `q_prev_mm` in the
 /// direction state `s_prev` it was written in, less that point. A held
