@@ -21,6 +21,7 @@ mod planner_linuxcnc;
 mod plunge_hold;
 mod probe;
 mod ramp_centre;
+mod ramp_stage;
 mod random_programs;
 mod simulate_pairing;
 mod straightness;
