@@ -25,5 +25,6 @@ mod ramp_stage;
 mod random_programs;
 mod simulate_pairing;
 mod straightness;
+mod take_up_stand;
 mod thermal;
 mod zero_map_round_trip;

@@ -104,13 +104,16 @@ mod tests {
         );
         // Its target not caught up inside the piece (rising 0.2 µm only).
         assert_eq!(
-            stand_share(tu, start, um(-0.13, 10_000.0, 8.23), s, [false, false, true]),
+            stand_share(
+                tu,
+                start,
+                um(-0.13, 10_000.0, 8.23),
+                s,
+                [false, false, true]
+            ),
             None
         );
         // A reversing axis is the take-up's own: never counted.
-        assert_eq!(
-            stand_share(tu, start, end, s, [true, false, true]),
-            None
-        );
+        assert_eq!(stand_share(tu, start, end, s, [true, false, true]), None);
     }
 }
