@@ -2688,28 +2688,14 @@ impl State<'_> {
                 centre_lines && ramp.is_none() && ahead.is_none() && stood != Some(t_prev),
             ) {
                 let t_end = *t;
-                let sol_start = solve_fixed_in(
-                    &mut cells,
-                    model,
-                    options.method,
-                    t_prev,
-                    point.s,
-                    [false; 3],
-                    tu,
-                )
-                .map_err(|source| model_error(file, line, source))?
-                .q_mm;
                 let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
-                let shortest = shortest_ramp_piece_mm(options, v_mm_s);
-                let len = (t_end - t_prev).norm();
-                let share = super::take_up_stand::stand_share(
+                let share = super::take_up_stand::stand_share_on_piece(
+                    (&mut cells, model, options),
+                    (t_prev, t_end, v_mm_s),
                     tu,
-                    sol_start,
-                    point.q_mm,
-                    point.s,
-                    point.reversed,
+                    &point,
                 )
-                .filter(|f| f * len >= shortest && (1.0 - f) * len >= shortest);
+                .map_err(|source| model_error(file, line, source))?;
                 if let Some(f) = share {
                     stood = Some(t_prev);
                     targets.insert(index, t_prev + (t_end - t_prev) * f);

@@ -21,7 +21,9 @@
 //! axis' drift alone (tenths of a micrometre per millimetre), far below
 //! the planner's tangency tolerance.
 
-use crate::model::Directions;
+use crate::compensate::solve::{solve_fixed_in, PointSolution};
+use crate::error::ModelError;
+use crate::model::{AxisCells, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
 
 /// The least offset (mm) worth a target of its own: the G61 contour
@@ -32,6 +34,41 @@ const LEAST_OFFSET_MM: f64 = 0.05e-3;
 /// step of five decimals, so that its solution there, quantized, does not
 /// fall behind the command (which would read as the axis reversing).
 const MARGIN_MM: f64 = 0.01e-3;
+
+/// [`stand_share`] on the piece from `t_prev` to `t_end` (run at
+/// `v_mm_s`) after the take-up `tu`, `point` the solution at `t_end`: the
+/// new state's solution at `t_prev` solved here, and the share kept only
+/// where it leaves both parts of the piece at least a smooth ramp's piece
+/// long (`points::shortest_ramp_piece_mm`: the planner runs them at the
+/// feed). Not inlined: it runs only under G61 on lines, and its code kept
+/// apart leaves the walk over targets as it was.
+#[inline(never)]
+pub(super) fn stand_share_on_piece(
+    (cells, model, options): (&mut AxisCells, &dyn ErrorModel, &super::CompensateOptions),
+    (t_prev, t_end, v_mm_s): (Vec3, Vec3, f64),
+    tu: Vec3,
+    point: &PointSolution,
+) -> Result<Option<f64>, ModelError> {
+    let shortest = super::points::shortest_ramp_piece_mm(options, v_mm_s);
+    let len = (t_end - t_prev).norm();
+    if !(len >= 2.0 * shortest) {
+        return Ok(None);
+    }
+    let sol_start = solve_fixed_in(
+        cells,
+        model,
+        options.method,
+        t_prev,
+        point.s,
+        [false; 3],
+        tu,
+    )?
+    .q_mm;
+    Ok(
+        stand_share(tu, sol_start, point.q_mm, point.s, point.reversed)
+            .filter(|f| f * len >= shortest && (1.0 - f) * len >= shortest),
+    )
+}
 
 /// The share of the piece after a take-up block at which every axis the
 /// block left ahead of its new target has been caught up: `tu` the
