@@ -51,7 +51,7 @@ pub(super) fn stand_share_on_piece(
 ) -> Result<Option<f64>, ModelError> {
     let shortest = super::points::shortest_ramp_piece_mm(options, v_mm_s);
     let len = (t_end - t_prev).norm();
-    if !(len >= 2.0 * shortest) {
+    if len.is_nan() || len < 2.0 * shortest {
         return Ok(None);
     }
     let sol_start = solve_fixed_in(
@@ -89,7 +89,7 @@ pub(super) fn stand_share(
     for a in (0..3).filter(|a| !reversed[*a]) {
         let sign = s[a].sign();
         let ahead = (tu[a] - sol_start[a]) * sign;
-        if !(ahead >= LEAST_OFFSET_MM) {
+        if ahead.is_nan() || ahead < LEAST_OFFSET_MM {
             continue;
         }
         let gain = (sol_end[a] - sol_start[a]) * sign;
