@@ -42,6 +42,7 @@ mod size;
 pub mod solve;
 mod spline;
 mod style;
+mod take_up_stand;
 mod targets;
 mod turn_back;
 mod walk;

@@ -1430,6 +1430,9 @@ impl State<'_> {
         // The reversals (their points) a centred ramp was tried for, and
         // whether a staged one was too (compensate/ramp_stage.rs).
         let mut centred_tried: Vec<(Vec3, bool)> = Vec::new();
+        // Where a target was inserted for an axis a take-up block left
+        // ahead of its target (compensate/take_up_stand.rs): once.
+        let mut stood: Option<Vec3> = None;
         let mut history: Vec<Snapshot> = Vec::new();
         let mut ahead: Option<Ahead> = None;
         let mut ahead_tried: Vec<usize> = Vec::new();
@@ -2682,6 +2685,34 @@ impl State<'_> {
                 }
                 if fracs.is_empty() {
                     ramp = None;
+                }
+            }
+            // G61 on a line: an axis the take-up block leaves ahead of its
+            // new target stands until the target catches up, at a target
+            // inserted there (compensate/take_up_stand.rs).
+            if let (Some(tu), true) = (
+                take_up,
+                centre_lines && ramp.is_none() && ahead.is_none() && stood != Some(t_prev),
+            ) {
+                let t_end = *t;
+                let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+                let share = super::take_up_stand::stand_share_on_piece(
+                    (&mut cells, model, options),
+                    (t_prev, t_end, v_mm_s),
+                    tu,
+                    &point,
+                )
+                .map_err(|source| model_error(file, line, source))?;
+                if let Some(f) = share {
+                    stood = Some(t_prev);
+                    targets.insert(index, t_prev + (t_end - t_prev) * f);
+                    for tr in transitions.iter_mut().filter(|tr| tr.index >= index) {
+                        tr.index += 1;
+                    }
+                    if let Some(h) = history.get(index) {
+                        self.summary = h.summary.clone();
+                    }
+                    continue;
                 }
             }
             if let Some(tu) = take_up {
