@@ -201,9 +201,38 @@ pub(super) fn piece_departure_mm(
     Ok(piece_departure_at_mm(arc, a, b, model, s, &[])?.0)
 }
 
+/// The departure along the plane's normal axis a G61 arc piece may keep,
+/// as a share of the contour tolerance. The controller runs a piece's
+/// normal axis linearly from end to end (a helix), while the correction
+/// along it follows the map's tables across the plane and bends: its
+/// departure is one-sided over the whole piece, a bump `κL²/8` at the
+/// middle of a piece of length `L` (zero only at the ends), where the
+/// plane's own departure, on the circle through the piece's ends and
+/// middle, changes sign at the middle and grows with `L³`. So the pieces
+/// are sized by the bump; at the tolerance the bump leaves
+/// `√(8/15) ≈ 0.73` of it as RMS over the whole piece. Half the tolerance
+/// costs `√2` as many pieces where the bump decides and nothing where it
+/// does not.
+pub(super) const NORMAL_DEPARTURE_SHARE: f64 = 0.5;
+
+/// The bound on a piece's departure along the plane's normal axis
+/// ([`NORMAL_DEPARTURE_SHARE`]) for the contour tolerance `tolerance_mm`
+/// in path-control mode `mode`: under G61/G61.1 its share, elsewhere the
+/// tolerance itself (no separate bound).
+pub(super) fn normal_tolerance_mm(tolerance_mm: f64, mode: volcomp_gcode::PathMode) -> f64 {
+    match mode {
+        volcomp_gcode::PathMode::ExactPath | volcomp_gcode::PathMode::ExactStop => {
+            NORMAL_DEPARTURE_SHARE * tolerance_mm
+        }
+        _ => tolerance_mm,
+    }
+}
+
 /// [`piece_departure_mm`], sampled also at the parameters `extra` of `arc`
 /// (inside `[a, b]`); with the one of them that departs most and its
-/// departure.
+/// departure, and the departure along the plane's normal axis at the
+/// middle of the piece (where the bump of that axis' linear run peaks,
+/// [`NORMAL_DEPARTURE_SHARE`]).
 #[allow(clippy::type_complexity)]
 fn piece_departure_at_mm(
     arc: &Arc,
@@ -212,20 +241,25 @@ fn piece_departure_at_mm(
     model: &dyn ErrorModel,
     s: Directions,
     extra: &[f64],
-) -> Result<(f64, Option<(f64, f64)>), ModelError> {
+) -> Result<(f64, Option<(f64, f64)>, f64), ModelError> {
     let nominal = sub_arc(arc, a, b);
     let s = next_state(s, nominal.end - nominal.start);
     let qa = solve_quick(model, nominal.start, s)?;
     let qm = solve_quick(model, nominal.point_at(0.5), s)?;
     let qb = solve_quick(model, nominal.end, s)?;
     let Some(cmd) = commanded_arc(&nominal, qa, qm, qb) else {
-        return Ok((f64::INFINITY, None));
+        return Ok((f64::INFINITY, None, f64::INFINITY));
     };
+    let (_, _, w) = arc.plane.axes();
     let mut worst: f64 = 0.0;
+    let mut normal: f64 = 0.0;
     let mut hint = 0.0;
     let mut at = |f: f64| -> Result<f64, ModelError> {
         let p = cmd.point_at(f);
         let actual = p + model.deviation_um(p, s, Components::All)? * 1e-3;
+        if f == 0.5 {
+            normal = (actual[w] - nominal.point_at(0.5)[w]).abs();
+        }
         Ok(arc_distance_mm(actual, &nominal, &mut hint))
     };
     for f in [0.25, 0.5, 0.75] {
@@ -239,7 +273,7 @@ fn piece_departure_at_mm(
             cut = Some((t, d));
         }
     }
-    Ok((worst, cut))
+    Ok((worst, cut, normal))
 }
 
 /// Parameters in `(0, 1)` (unsorted) where `arc` reaches a quarter point of
@@ -314,7 +348,7 @@ pub(super) fn arc_pieces(
     arc: &Arc,
     model: &dyn ErrorModel,
     s: Directions,
-    tolerance_mm: f64,
+    (tolerance_mm, normal_mm): (f64, f64),
     min_length_mm: f64,
     worst_mm: &mut f64,
 ) -> Result<Vec<f64>, ModelError> {
@@ -346,7 +380,7 @@ pub(super) fn arc_pieces(
             to,
             model,
             s,
-            tolerance_mm,
+            (tolerance_mm, normal_mm),
             min_step,
             &knots,
             0,
@@ -1127,7 +1161,7 @@ fn bisect_arc(
     b: f64,
     model: &dyn ErrorModel,
     s: Directions,
-    tol: f64,
+    (tol, normal_tol): (f64, f64),
     min_step: f64,
     knots: &[f64],
     depth: u32,
@@ -1146,8 +1180,12 @@ fn bisect_arc(
     } else {
         inside
     };
-    let (d, cut) = piece_departure_at_mm(arc, a, b, model, s, inside)?;
-    if b - a > 2.0 * min_step && depth < 64 && d > tol && (out.len() as u64) <= LIMIT {
+    let (d, cut, d_normal) = piece_departure_at_mm(arc, a, b, model, s, inside)?;
+    if b - a > 2.0 * min_step
+        && depth < 64
+        && (d > tol || d_normal > normal_tol)
+        && (out.len() as u64) <= LIMIT
+    {
         let m = match cut {
             Some((t, dc)) if dc > tol => t,
             _ => 0.5 * (a + b),
@@ -1158,7 +1196,7 @@ fn bisect_arc(
             m,
             model,
             s,
-            tol,
+            (tol, normal_tol),
             min_step,
             knots,
             depth + 1,
@@ -1171,7 +1209,7 @@ fn bisect_arc(
             b,
             model,
             s,
-            tol,
+            (tol, normal_tol),
             min_step,
             knots,
             depth + 1,
@@ -1312,7 +1350,7 @@ impl State<'_> {
             arc,
             model,
             self.s,
-            tolerance_mm,
+            (tolerance_mm, normal_tolerance_mm(tolerance_mm, run.mode)),
             min_length_mm,
             &mut self.estimate_mm,
         )
@@ -1989,7 +2027,7 @@ mod tests {
             sweep_rad: -TAU,
         };
         let mut worst = 0.0;
-        let t = arc_pieces(&arc, &Zero, ALL_FORWARD, 1e-4, 0.01, &mut worst).unwrap();
+        let t = arc_pieces(&arc, &Zero, ALL_FORWARD, (1e-4, 1e-4), 0.01, &mut worst).unwrap();
         assert!(worst < 1e-12, "{worst}");
         let expected = [0.125, 0.375, 0.625, 0.875, 1.0];
         assert_eq!(t.len(), 5);
