@@ -2035,4 +2035,81 @@ mod tests {
             assert!((a - b).abs() < 1e-12, "{t:?}");
         }
     }
+
+    #[test]
+    fn under_g61_a_piece_keeps_its_normal_axis_bump_within_half_the_tolerance() {
+        // Z's correction 0.05·x² µm (nothing across the plane): on the
+        // circle of radius 20 about the origin it is 20·cos²θ =
+        // 10 + 10·cos 2θ µm, which the controller runs linearly over a
+        // piece. A piece of sweep φ about θ₀ is off at its middle by
+        // 10·|cos 2θ₀|·(1 − cos φ) µm by hand (the mean of cos 2θ at its
+        // ends is cos 2θ₀·cos φ); in the plane nothing departs.
+        struct Bowl;
+        impl ErrorModel for Bowl {
+            fn deviation_um(
+                &self,
+                q: Vec3,
+                _: Directions,
+                _: Components,
+            ) -> Result<Vec3, ModelError> {
+                Ok(Vec3::new(0.0, 0.0, 0.05 * q.x * q.x))
+            }
+            fn range_mm(&self) -> [[f64; 2]; 3] {
+                [[-1e3, 1e3]; 3]
+            }
+        }
+        let arc = Arc {
+            start: Vec3::new(20.0, 0.0, 0.0),
+            end: Vec3::new(0.0, 20.0, 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: FRAC_PI_2,
+        };
+        let bump_um = |a: f64, b: f64| {
+            let (t0, phi) = (0.5 * (a + b) * FRAC_PI_2, (b - a) * FRAC_PI_2);
+            10.0 * (2.0 * t0).cos().abs() * (1.0 - phi.cos())
+        };
+        // 11.25° pieces are off by 0.188 µm (θ₀ = 5.6°), 5.6° ones by
+        // 0.047 µm, 2.8° ones by 0.012 µm (by the formula).
+        let tol_mm = 0.08e-3;
+        let worst_bump_um = |normal_mm: f64| {
+            let mut worst = 0.0;
+            let t = arc_pieces(
+                &arc,
+                &Bowl,
+                ALL_FORWARD,
+                (tol_mm, normal_mm),
+                0.01,
+                &mut worst,
+            )
+            .unwrap();
+            let mut from = 0.0;
+            let mut most: f64 = 0.0;
+            for to in &t {
+                most = most.max(bump_um(from, *to));
+                from = *to;
+            }
+            (most, t.len())
+        };
+        // With the tolerance alone (G64, and G61 before), a piece keeps a
+        // bump of more than half of it.
+        let (alone_um, alone_n) = worst_bump_um(tol_mm);
+        assert!(alone_um > 0.04 && alone_um <= 0.08, "{alone_um} µm");
+        // Under G61, within half (0.04 µm), the pieces halved once more
+        // (the bump grows with the square of the sweep: a quarter).
+        let g61_mm = normal_tolerance_mm(tol_mm, volcomp_gcode::PathMode::ExactPath);
+        assert!((g61_mm - 0.04e-3).abs() < 1e-15, "{g61_mm}");
+        let (half_um, half_n) = worst_bump_um(g61_mm);
+        assert!(half_um <= 0.04 && half_um > 0.01, "{half_um} µm");
+        assert!(
+            half_n > alone_n && half_n <= 2 * alone_n,
+            "{alone_n} → {half_n}"
+        );
+        // Elsewhere the tolerance alone.
+        let g64 = volcomp_gcode::PathMode::Blend {
+            tolerance_mm: 0.0,
+            naive_cam_mm: 0.0,
+        };
+        assert_eq!(normal_tolerance_mm(tol_mm, g64), tol_mm);
+    }
 }
