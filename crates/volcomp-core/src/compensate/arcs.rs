@@ -232,7 +232,8 @@ pub(super) fn normal_tolerance_mm(tolerance_mm: f64, mode: volcomp_gcode::PathMo
 /// (inside `[a, b]`); with the one of them that departs most and its
 /// departure, and the departure along the plane's normal axis at the
 /// middle of the piece (where the bump of that axis' linear run peaks,
-/// [`NORMAL_DEPARTURE_SHARE`]).
+/// [`NORMAL_DEPARTURE_SHARE`]); 0 where that axis' command turns back
+/// inside the piece.
 #[allow(clippy::type_complexity)]
 fn piece_departure_at_mm(
     arc: &Arc,
@@ -251,13 +252,17 @@ fn piece_departure_at_mm(
         return Ok((f64::INFINITY, None, f64::INFINITY));
     };
     let (_, _, w) = arc.plane.axes();
+    // Where the normal axis' command turns back inside the piece the
+    // bump is a reversal the controller never makes (it runs the axis
+    // linearly), not an interpolation error to be cut smaller.
+    let monotone = (qm[w] - qa[w]) * (qb[w] - qm[w]) > 0.0;
     let mut worst: f64 = 0.0;
     let mut normal: f64 = 0.0;
     let mut hint = 0.0;
     let mut at = |f: f64| -> Result<f64, ModelError> {
         let p = cmd.point_at(f);
         let actual = p + model.deviation_um(p, s, Components::All)? * 1e-3;
-        if f == 0.5 {
+        if f == 0.5 && monotone {
             normal = (actual[w] - nominal.point_at(0.5)[w]).abs();
         }
         Ok(arc_distance_mm(actual, &nominal, &mut hint))
@@ -2111,5 +2116,52 @@ mod tests {
             naive_cam_mm: 0.0,
         };
         assert_eq!(normal_tolerance_mm(tol_mm, g64), tol_mm);
+    }
+
+    #[test]
+    fn a_pieces_normal_bump_counts_only_where_the_normal_command_runs_one_way() {
+        // Z's correction 0.05·(x − y)² µm: on the circle of radius 20 it
+        // is 20·(1 − sin 2θ) µm, least at 45°.
+        struct Valley;
+        impl ErrorModel for Valley {
+            fn deviation_um(
+                &self,
+                q: Vec3,
+                _: Directions,
+                _: Components,
+            ) -> Result<Vec3, ModelError> {
+                Ok(Vec3::new(0.0, 0.0, 0.05 * (q.x - q.y) * (q.x - q.y)))
+            }
+            fn range_mm(&self) -> [[f64; 2]; 3] {
+                [[-1e3, 1e3]; 3]
+            }
+        }
+        let arc = Arc {
+            start: Vec3::new(20.0, 0.0, 0.0),
+            end: Vec3::new(0.0, 20.0, 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: FRAC_PI_2,
+        };
+        // 0° to 22.5°: Z's command runs one way; the bump at 11.25° by
+        // hand is 20·|sin 22.5° − sin 45°/2| = 0.5826 µm.
+        let (d, _, n) = piece_departure_at_mm(&arc, 0.0, 0.25, &Valley, ALL_FORWARD, &[]).unwrap();
+        let hand_um = 20.0 * (f64::to_radians(22.5).sin() - 0.5 * f64::to_radians(45.0).sin());
+        assert!(
+            (n * 1e3 - hand_um).abs() < 1e-3 * hand_um,
+            "{n} mm, by hand {hand_um} µm"
+        );
+        assert!(d >= n, "{d} {n}");
+        // 22.5° to 67.5°: Z's command turns back at 45°: no normal bump
+        // counted (the reversal is not an interpolation error), while the
+        // departure itself, 20·(1 − sin 45°) = 5.858 µm at the middle,
+        // still splits the piece.
+        let (d, _, n) = piece_departure_at_mm(&arc, 0.25, 0.75, &Valley, ALL_FORWARD, &[]).unwrap();
+        assert_eq!(n, 0.0);
+        let hand_um = 20.0 * (1.0 - f64::to_radians(45.0).sin());
+        assert!(
+            (d * 1e3 - hand_um).abs() < 1e-3 * hand_um,
+            "{d} mm, by hand {hand_um} µm"
+        );
     }
 }
