@@ -201,9 +201,39 @@ pub(super) fn piece_departure_mm(
     Ok(piece_departure_at_mm(arc, a, b, model, s, &[])?.0)
 }
 
+/// The departure along the plane's normal axis a G61 arc piece may keep,
+/// as a share of the contour tolerance. The controller runs a piece's
+/// normal axis linearly from end to end (a helix), while the correction
+/// along it follows the map's tables across the plane and bends: its
+/// departure is one-sided over the whole piece, a bump `κL²/8` at the
+/// middle of a piece of length `L` (zero only at the ends), where the
+/// plane's own departure, on the circle through the piece's ends and
+/// middle, changes sign at the middle and grows with `L³`. So the pieces
+/// are sized by the bump; at the tolerance the bump leaves
+/// `√(8/15) ≈ 0.73` of it as RMS over the whole piece. Half the tolerance
+/// costs `√2` as many pieces where the bump decides and nothing where it
+/// does not.
+pub(super) const NORMAL_DEPARTURE_SHARE: f64 = 0.5;
+
+/// The bound on a piece's departure along the plane's normal axis
+/// ([`NORMAL_DEPARTURE_SHARE`]) for the contour tolerance `tolerance_mm`
+/// in path-control mode `mode`: under G61/G61.1 its share, elsewhere the
+/// tolerance itself (no separate bound).
+pub(super) fn normal_tolerance_mm(tolerance_mm: f64, mode: volcomp_gcode::PathMode) -> f64 {
+    match mode {
+        volcomp_gcode::PathMode::ExactPath | volcomp_gcode::PathMode::ExactStop => {
+            NORMAL_DEPARTURE_SHARE * tolerance_mm
+        }
+        _ => tolerance_mm,
+    }
+}
+
 /// [`piece_departure_mm`], sampled also at the parameters `extra` of `arc`
 /// (inside `[a, b]`); with the one of them that departs most and its
-/// departure.
+/// departure, and the departure along the plane's normal axis at the
+/// middle of the piece (where the bump of that axis' linear run peaks,
+/// [`NORMAL_DEPARTURE_SHARE`]); 0 where that axis' command turns back
+/// inside the piece.
 #[allow(clippy::type_complexity)]
 fn piece_departure_at_mm(
     arc: &Arc,
@@ -212,20 +242,29 @@ fn piece_departure_at_mm(
     model: &dyn ErrorModel,
     s: Directions,
     extra: &[f64],
-) -> Result<(f64, Option<(f64, f64)>), ModelError> {
+) -> Result<(f64, Option<(f64, f64)>, f64), ModelError> {
     let nominal = sub_arc(arc, a, b);
     let s = next_state(s, nominal.end - nominal.start);
     let qa = solve_quick(model, nominal.start, s)?;
     let qm = solve_quick(model, nominal.point_at(0.5), s)?;
     let qb = solve_quick(model, nominal.end, s)?;
     let Some(cmd) = commanded_arc(&nominal, qa, qm, qb) else {
-        return Ok((f64::INFINITY, None));
+        return Ok((f64::INFINITY, None, f64::INFINITY));
     };
+    let (_, _, w) = arc.plane.axes();
+    // Where the normal axis' command turns back inside the piece the
+    // bump is a reversal the controller never makes (it runs the axis
+    // linearly), not an interpolation error to be cut smaller.
+    let monotone = (qm[w] - qa[w]) * (qb[w] - qm[w]) > 0.0;
     let mut worst: f64 = 0.0;
+    let mut normal: f64 = 0.0;
     let mut hint = 0.0;
     let mut at = |f: f64| -> Result<f64, ModelError> {
         let p = cmd.point_at(f);
         let actual = p + model.deviation_um(p, s, Components::All)? * 1e-3;
+        if f == 0.5 && monotone {
+            normal = (actual[w] - nominal.point_at(0.5)[w]).abs();
+        }
         Ok(arc_distance_mm(actual, &nominal, &mut hint))
     };
     for f in [0.25, 0.5, 0.75] {
@@ -239,7 +278,7 @@ fn piece_departure_at_mm(
             cut = Some((t, d));
         }
     }
-    Ok((worst, cut))
+    Ok((worst, cut, normal))
 }
 
 /// Parameters in `(0, 1)` (unsorted) where `arc` reaches a quarter point of
@@ -314,7 +353,7 @@ pub(super) fn arc_pieces(
     arc: &Arc,
     model: &dyn ErrorModel,
     s: Directions,
-    tolerance_mm: f64,
+    (tolerance_mm, normal_mm): (f64, f64),
     min_length_mm: f64,
     worst_mm: &mut f64,
 ) -> Result<Vec<f64>, ModelError> {
@@ -346,7 +385,7 @@ pub(super) fn arc_pieces(
             to,
             model,
             s,
-            tolerance_mm,
+            (tolerance_mm, normal_mm),
             min_step,
             &knots,
             0,
@@ -1127,7 +1166,7 @@ fn bisect_arc(
     b: f64,
     model: &dyn ErrorModel,
     s: Directions,
-    tol: f64,
+    (tol, normal_tol): (f64, f64),
     min_step: f64,
     knots: &[f64],
     depth: u32,
@@ -1146,8 +1185,12 @@ fn bisect_arc(
     } else {
         inside
     };
-    let (d, cut) = piece_departure_at_mm(arc, a, b, model, s, inside)?;
-    if b - a > 2.0 * min_step && depth < 64 && d > tol && (out.len() as u64) <= LIMIT {
+    let (d, cut, d_normal) = piece_departure_at_mm(arc, a, b, model, s, inside)?;
+    if b - a > 2.0 * min_step
+        && depth < 64
+        && (d > tol || d_normal > normal_tol)
+        && (out.len() as u64) <= LIMIT
+    {
         let m = match cut {
             Some((t, dc)) if dc > tol => t,
             _ => 0.5 * (a + b),
@@ -1158,7 +1201,7 @@ fn bisect_arc(
             m,
             model,
             s,
-            tol,
+            (tol, normal_tol),
             min_step,
             knots,
             depth + 1,
@@ -1171,7 +1214,7 @@ fn bisect_arc(
             b,
             model,
             s,
-            tol,
+            (tol, normal_tol),
             min_step,
             knots,
             depth + 1,
@@ -1312,7 +1355,7 @@ impl State<'_> {
             arc,
             model,
             self.s,
-            tolerance_mm,
+            (tolerance_mm, normal_tolerance_mm(tolerance_mm, run.mode)),
             min_length_mm,
             &mut self.estimate_mm,
         )
@@ -1989,12 +2032,136 @@ mod tests {
             sweep_rad: -TAU,
         };
         let mut worst = 0.0;
-        let t = arc_pieces(&arc, &Zero, ALL_FORWARD, 1e-4, 0.01, &mut worst).unwrap();
+        let t = arc_pieces(&arc, &Zero, ALL_FORWARD, (1e-4, 1e-4), 0.01, &mut worst).unwrap();
         assert!(worst < 1e-12, "{worst}");
         let expected = [0.125, 0.375, 0.625, 0.875, 1.0];
         assert_eq!(t.len(), 5);
         for (a, b) in t.iter().zip(expected) {
             assert!((a - b).abs() < 1e-12, "{t:?}");
         }
+    }
+
+    #[test]
+    fn under_g61_a_piece_keeps_its_normal_axis_bump_within_half_the_tolerance() {
+        // Z's correction 0.05·x² µm (nothing across the plane): on the
+        // circle of radius 20 about the origin it is 20·cos²θ =
+        // 10 + 10·cos 2θ µm, which the controller runs linearly over a
+        // piece. A piece of sweep φ about θ₀ is off at its middle by
+        // 10·|cos 2θ₀|·(1 − cos φ) µm by hand (the mean of cos 2θ at its
+        // ends is cos 2θ₀·cos φ); in the plane nothing departs.
+        struct Bowl;
+        impl ErrorModel for Bowl {
+            fn deviation_um(
+                &self,
+                q: Vec3,
+                _: Directions,
+                _: Components,
+            ) -> Result<Vec3, ModelError> {
+                Ok(Vec3::new(0.0, 0.0, 0.05 * q.x * q.x))
+            }
+            fn range_mm(&self) -> [[f64; 2]; 3] {
+                [[-1e3, 1e3]; 3]
+            }
+        }
+        let arc = Arc {
+            start: Vec3::new(20.0, 0.0, 0.0),
+            end: Vec3::new(0.0, 20.0, 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: FRAC_PI_2,
+        };
+        let bump_um = |a: f64, b: f64| {
+            let (t0, phi) = (0.5 * (a + b) * FRAC_PI_2, (b - a) * FRAC_PI_2);
+            10.0 * (2.0 * t0).cos().abs() * (1.0 - phi.cos())
+        };
+        // 11.25° pieces are off by 0.188 µm (θ₀ = 5.6°), 5.6° ones by
+        // 0.047 µm, 2.8° ones by 0.012 µm (by the formula).
+        let tol_mm = 0.08e-3;
+        let worst_bump_um = |normal_mm: f64| {
+            let mut worst = 0.0;
+            let t = arc_pieces(
+                &arc,
+                &Bowl,
+                ALL_FORWARD,
+                (tol_mm, normal_mm),
+                0.01,
+                &mut worst,
+            )
+            .unwrap();
+            let mut from = 0.0;
+            let mut most: f64 = 0.0;
+            for to in &t {
+                most = most.max(bump_um(from, *to));
+                from = *to;
+            }
+            (most, t.len())
+        };
+        // With the tolerance alone (G64, and G61 before), a piece keeps a
+        // bump of more than half of it.
+        let (alone_um, alone_n) = worst_bump_um(tol_mm);
+        assert!(alone_um > 0.04 && alone_um <= 0.08, "{alone_um} µm");
+        // Under G61, within half (0.04 µm), the pieces halved once more
+        // (the bump grows with the square of the sweep: a quarter).
+        let g61_mm = normal_tolerance_mm(tol_mm, volcomp_gcode::PathMode::ExactPath);
+        assert!((g61_mm - 0.04e-3).abs() < 1e-15, "{g61_mm}");
+        let (half_um, half_n) = worst_bump_um(g61_mm);
+        assert!(half_um <= 0.04 && half_um > 0.01, "{half_um} µm");
+        assert!(
+            half_n > alone_n && half_n <= 2 * alone_n,
+            "{alone_n} → {half_n}"
+        );
+        // Elsewhere the tolerance alone.
+        let g64 = volcomp_gcode::PathMode::Blend {
+            tolerance_mm: 0.0,
+            naive_cam_mm: 0.0,
+        };
+        assert_eq!(normal_tolerance_mm(tol_mm, g64), tol_mm);
+    }
+
+    #[test]
+    fn a_pieces_normal_bump_counts_only_where_the_normal_command_runs_one_way() {
+        // Z's correction 0.05·(x − y)² µm: on the circle of radius 20 it
+        // is 20·(1 − sin 2θ) µm, least at 45°.
+        struct Valley;
+        impl ErrorModel for Valley {
+            fn deviation_um(
+                &self,
+                q: Vec3,
+                _: Directions,
+                _: Components,
+            ) -> Result<Vec3, ModelError> {
+                Ok(Vec3::new(0.0, 0.0, 0.05 * (q.x - q.y) * (q.x - q.y)))
+            }
+            fn range_mm(&self) -> [[f64; 2]; 3] {
+                [[-1e3, 1e3]; 3]
+            }
+        }
+        let arc = Arc {
+            start: Vec3::new(20.0, 0.0, 0.0),
+            end: Vec3::new(0.0, 20.0, 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: FRAC_PI_2,
+        };
+        // 0° to 22.5°: Z's command runs one way; the bump at 11.25° by
+        // hand is 20·|sin 22.5° − sin 45°/2| = 0.5826 µm.
+        let (d, _, n) = piece_departure_at_mm(&arc, 0.0, 0.25, &Valley, ALL_FORWARD, &[]).unwrap();
+        let hand_um = 20.0 * (f64::to_radians(22.5).sin() - 0.5 * f64::to_radians(45.0).sin());
+        assert!(
+            (n * 1e3 - hand_um).abs() < 1e-3 * hand_um,
+            "{n} mm, by hand {hand_um} µm"
+        );
+        assert!(d >= n, "{d} {n}");
+        // 22.5° to 67.5°: Z's command turns back at 45°: no normal bump
+        // counted (the reversal is not an interpolation error), while the
+        // departure itself, 20·(1 − sin 45°) = 5.858 µm at the middle,
+        // still splits the piece.
+        let (d, _, n) = piece_departure_at_mm(&arc, 0.25, 0.75, &Valley, ALL_FORWARD, &[]).unwrap();
+        assert_eq!(n, 0.0);
+        let hand_um = 20.0 * (1.0 - f64::to_radians(45.0).sin());
+        assert!(
+            (d * 1e3 - hand_um).abs() < 1e-3 * hand_um,
+            "{d} mm, by hand {hand_um} µm"
+        );
     }
 }

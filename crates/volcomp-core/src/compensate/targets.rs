@@ -129,8 +129,15 @@ pub(super) fn targets_in(
         )?,
         MotionKind::Arc(arc) if options.arcs_as_arcs => {
             let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm(motion.path_mode);
-            let pieces =
-                super::arcs::arc_pieces(&arc, model, s, tolerance_mm, min_length_mm, worst_mm)?;
+            let normal_mm = super::arcs::normal_tolerance_mm(tolerance_mm, motion.path_mode);
+            let pieces = super::arcs::arc_pieces(
+                &arc,
+                model,
+                s,
+                (tolerance_mm, normal_mm),
+                min_length_mm,
+                worst_mm,
+            )?;
             for l in pieces {
                 out.push(if l >= 1.0 { arc.end } else { arc.point_at(l) });
             }
