@@ -26,7 +26,7 @@
 //! inside a move or at a join the original runs through without a corner
 //! (at a corner G61 stops anyway, and a hold would only carry the reversal
 //! into the next move); and only where the hold ends without a reversal
-//! within the move and before its next S-curve ([`hold_resolves`]): a
+//! within the move and before its next S-curve, or after it ([`hold_end`]): a
 //! hold that ends in the reversal after all would only move its stop, with
 //! the tool off by the hold's error up to it.
 //!
@@ -44,9 +44,11 @@
 
 use super::options::{CompensateOptions, TakeUpRule};
 use super::points::RUN_THROUGH_TOLERANCE_MM;
-use super::solve::{hold_small_reversals_in, solve_fixed_in, Method, PointSolution};
+use super::solve::{
+    bands_um, held_solve, hold_small_reversals_in, solve_fixed_in, Method, PointSolution,
+};
 use crate::error::ModelError;
-use crate::model::{AxisCells, Components, Directions, ErrorModel};
+use crate::model::{AxisCells, Components, Direction, Directions, ErrorModel};
 use volcomp_gcode::{PathMode, Vec3};
 
 /// The error (mm) an axis held instead of a take-up block under `rule` may
@@ -71,42 +73,173 @@ pub(super) fn hold_instead_of_stop_mm(
     (bound > 0.0).then_some(bound)
 }
 
-/// Whether a hold of the axes `held` at the command `q_mm` in the state
-/// `s` ends within the move without a reversal: at some target of `after`
-/// (the move's targets after the held point, in order) every held axis'
-/// command, solved freely in `s`, runs its old way again (or stands),
-/// and up to that target the hold (the axes kept at their command, the
-/// others solved again) leaves the tool within `bound_mm` of each target.
-/// Where `after` ends first: `to_move_end` where it runs to the move's end
-/// (the hold then ends with the move, and the next move takes the reversal
-/// up from its start, where its whole length is there for a ramp the
-/// planner runs through, or the machine stops at a corner anyway); `false`
-/// where it ends at the move's next S-curve (compensate/scurve.rs: the
-/// S-curve switches another axis' tables, which steps the held axis'
-/// target, and its own tolerance assumes the tool on the path where it
-/// starts).
-pub(super) fn hold_resolves(
+/// Where a hold of the axes `held` at the command `q_mm` in the state `s`
+/// ends over the targets `after` (the move's targets after the held point,
+/// in order): the index of the first target at which every held axis'
+/// command, solved freely in `s`, runs its held way again (or stands)
+/// while up to it the hold (the axes kept at their command, the others
+/// solved again) leaves the tool within `bound_mm` of each target, or
+/// `after.len()` where that never happens, with the largest distance (mm) the hold leaves the tool from
+/// a target before it and the command it keeps last (`q_mm` where none);
+/// `None` where that distance passes `bound_mm`.
+pub(super) fn hold_end(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,
     method: Method,
     (q_mm, s, held): (Vec3, Directions, [bool; 3]),
-    (after, to_move_end): (&[Vec3], bool),
+    after: &[Vec3],
     bound_mm: f64,
-) -> Result<bool, ModelError> {
+) -> Result<Option<(usize, f64, Vec3)>, ModelError> {
     let mut q = q_mm;
-    for t in after {
+    let mut worst_mm: f64 = 0.0;
+    for (k, t) in after.iter().enumerate() {
         let free = solve_fixed_in(cells, model, method, *t, s, [false; 3], q)?;
         if (0..3).all(|a| !held[a] || (free.q_mm[a] - q[a]) * s[a].sign() >= 0.0) {
-            return Ok(true);
+            return Ok(Some((k, worst_mm, q)));
         }
         let kept = solve_fixed_in(cells, model, method, *t, s, held, q)?;
         let off_mm = *t - cells.actual_mm(model, kept.q_mm, s, Components::All)?;
         if off_mm.norm() > bound_mm {
-            return Ok(false);
+            return Ok(None);
         }
+        worst_mm = worst_mm.max(off_mm.norm());
         q = kept.q_mm;
     }
-    Ok(to_move_end)
+    Ok(Some((after.len(), worst_mm, q)))
+}
+
+/// Under G61, the plane's normal axis `w` at the start of an arc the
+/// machine stops at anyway (a corner before it: LinuxCNC's planner finds
+/// the join not tangent, tp.c `tpSetupTangent`, and under G61 does not
+/// blend it, `tpHandleBlendArc`), where its command turns inside the arc
+/// soon after: a turn of the map's straightness, which the program's
+/// still axis follows (docs/compensation.md, "The normal axis' turns
+/// next to a corner taken at the corner"). A take-up inside the arc is a
+/// stop there (or a ramp, where one fits); at the corner it costs
+/// nothing. So, from the point `point` solved at the arc's first target
+/// `t_mm` (from the command `q_prev` at the corner `corner_mm` in the
+/// state `s_prev`):
+/// - where `w` reverses here and its command turns back within the arc
+///   before it has moved the tool off by more than the hold's bound: held
+///   (no take-up at the corner, and none where it turns back);
+/// - where no axis reverses here and `w` does a little later, its target
+///   drifting its old way by less than the bound up to there: taken up
+///   at the corner, and held in its new direction until its command runs
+///   that way.
+///
+/// The hold's bound is [`hold_instead_of_stop_mm`]'s (the tool stays
+/// within the run-through tolerance), and the hold must end before the
+/// arc's first S-curve (`after` are the arc's targets up to it). Gives the
+/// point and, where it is held, the index in `after` of the target where
+/// the hold ends and the axes held (`w` alone); `None` where neither
+/// applies.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn at_corner_before_arc(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    options: &CompensateOptions,
+    rule: TakeUpRule,
+    quantize: &dyn Fn(Vec3) -> Vec3,
+    (corner_mm, t_mm, q_prev, s_prev, point): (Vec3, Vec3, Vec3, Directions, &PointSolution),
+    after: &[Vec3],
+    w: usize,
+) -> Result<Option<(PointSolution, Option<(usize, [bool; 3])>)>, ModelError> {
+    let Some(bound_mm) = hold_instead_of_stop_mm(options, rule, true) else {
+        return Ok(None);
+    };
+    let axes = [0, 1, 2].map(|a| a == w);
+    let band_um = bands_um(cells, model, (q_prev, s_prev), axes)?;
+    if band_um[w] <= 0.0 || point.held[w] {
+        return Ok(None);
+    }
+    let method = options.method;
+    // The held command and state the point starts from: the corner's
+    // (the reversal held), or `w` taken up there (the take-up held).
+    let (from_q, from_s) = if point.reversed[w] {
+        (q_prev, s_prev)
+    } else if point.reversed.iter().any(|r| *r) {
+        // Not with another axis' take-up at the corner: that axis' switch
+        // steps the straightness `w` follows, so `w`'s take-up there
+        // keeping the tool still falls short of its band, and the lag it
+        // leaves adds to the other axis' where the arc starts (measured on
+        // the shop map: 0.497 → 0.519 µm at a plunge's corner).
+        return Ok(None);
+    } else {
+        // The command that keeps the tool at the corner with `w` on its
+        // new flank.
+        let mut s_up = point.s;
+        s_up[w] = s_prev[w].flipped();
+        let at_corner = solve_fixed_in(cells, model, method, corner_mm, s_up, [false; 3], q_prev)?;
+        let mut q = q_prev;
+        q[w] = quantize(at_corner.q_mm)[w];
+        if (q[w] - q_prev[w]) * s_up[w].sign() <= 0.0 {
+            return Ok(None);
+        }
+        let mut s_from = s_prev;
+        s_from[w] = s_up[w];
+        (q, s_from)
+    };
+    let mut s = point.s;
+    s[w] = from_s[w];
+    let Some(mut held) = held_solve(
+        cells,
+        model,
+        (method, quantize),
+        (t_mm, s, axes),
+        (from_q, from_s),
+        (bound_mm, band_um, point.residual_um),
+    )?
+    else {
+        return Ok(None);
+    };
+    let Some((end, _, _)) = hold_end(cells, model, method, (held.q_mm, s, axes), after, bound_mm)?
+    else {
+        return Ok(None);
+    };
+    if end >= after.len() {
+        return Ok(None);
+    }
+    // Against the corner's own state: `w` reverses there where it was
+    // taken up, and the other axes as the point had them.
+    held.reversed = [0, 1, 2].map(|a| s[a] != s_prev[a]);
+    Ok(Some((held, Some((end, axes)))))
+}
+
+/// A point whose axes `axes` a hold keeps at their command in `q_prev`
+/// (their state `s_prev`'s) while their command turns back
+/// ([`at_corner_before_arc`]): solved again with them held, the others free
+/// in the point's state ([`held_solve`] within `bound_mm`); where that
+/// finds none, the point with those axes set back alone.
+pub(super) fn kept_on_hold(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    (method, quantize): (Method, &dyn Fn(Vec3) -> Vec3),
+    (t_mm, q_prev, s_prev): (Vec3, Vec3, Directions),
+    point: &PointSolution,
+    (axes, bound_mm): ([bool; 3], f64),
+) -> Result<PointSolution, ModelError> {
+    let mut s = point.s;
+    for a in (0..3).filter(|a| axes[*a]) {
+        s[a] = s_prev[a];
+    }
+    let band_um = bands_um(cells, model, (q_prev, s_prev), axes)?;
+    if let Some(held) = held_solve(
+        cells,
+        model,
+        (method, quantize),
+        (t_mm, s, axes),
+        (q_prev, s_prev),
+        (bound_mm, band_um, point.residual_um),
+    )? {
+        return Ok(held);
+    }
+    let mut p = *point;
+    for a in (0..3).filter(|a| axes[*a]) {
+        p.q_mm[a] = q_prev[a];
+        p.s[a] = s_prev[a];
+        p.reversed[a] = false;
+    }
+    Ok(p)
 }
 
 /// The length (mm) of the polyline from `from_mm` through the targets
@@ -123,8 +256,25 @@ pub(super) fn path_mm(from_mm: Vec3, after: &[Vec3]) -> f64 {
 /// `q_prev` in the state `s_prev`) with its reversing axes held instead of
 /// a take-up block ([`hold_small_reversals_in`] within
 /// [`hold_instead_of_stop_mm`]), where no axis is left reversing and the
-/// hold ends over the targets `after` ([`hold_resolves`]); `None` where
-/// it is not held so.
+/// hold ends over the targets `after` ([`hold_end`]); `None` where it is
+/// not held so.
+///
+/// Where `after` ends first: held where it runs to the move's end and
+/// `to_move_end` (the hold then ends with the move, and the next move
+/// takes the reversal up from its start, where its whole length is there
+/// for a ramp the planner runs through, or the machine stops at a corner
+/// anyway). Where it ends at the move's next S-curve (`across`): held
+/// where the hold ends before the S-curve after that, the S-curve's axis
+/// in its new direction from the S-curve's target on, and the tool off by
+/// no more than √(0.4² − d²) µm where the S-curve starts and from there on
+/// (d the S-curve's own deviation from the arc, compensate/scurve.rs: its
+/// tolerance assumes the tool on the path, and the two add at most as
+/// the hypotenuse, the hold's error lying along the held axis and the
+/// S-curve's across the path in the plane; the run-through tolerance of
+/// 0.4 µm as on a G61 ramp). Measured on the shop map, whose straightness
+/// of the plane's normal axis switches tables with X's and Y's direction:
+/// a turn of that axis' command before a quarter point that the switch
+/// there turns back.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn held_instead_of_stop(
     cells: &mut AxisCells,
@@ -134,6 +284,7 @@ pub(super) fn held_instead_of_stop(
     quantize: &dyn Fn(Vec3) -> Vec3,
     (t_mm, q_prev, s_prev, point): (Vec3, Vec3, Directions, &PointSolution),
     after: (&[Vec3], bool),
+    across: Option<Across<'_>>,
 ) -> Result<Option<PointSolution>, ModelError> {
     let Some(bound_mm) = hold_instead_of_stop_mm(options, rule, path_runs_on) else {
         return Ok(None);
@@ -154,15 +305,53 @@ pub(super) fn held_instead_of_stop(
         return Ok(None);
     };
     let axes = [0, 1, 2].map(|a| point.reversed[a] && held.s[a] != point.s[a]);
-    Ok(hold_resolves(
+    let (after, to_move_end) = after;
+    let method = options.method;
+    let Some((k, _, q_last)) = hold_end(
         cells,
         model,
-        options.method,
+        method,
         (held.q_mm, held.s, axes),
         after,
         bound_mm,
     )?
-    .then_some(held))
+    else {
+        return Ok(None);
+    };
+    if k < after.len() || to_move_end {
+        return Ok(Some(held));
+    }
+    let Some(x) = across else {
+        return Ok(None);
+    };
+    // Across the S-curve: the tool within what the S-curve leaves room for
+    // where it starts and beside it, then the hold ending before the next.
+    let room_mm = (RUN_THROUGH_TOLERANCE_MM.powi(2) - x.deviation_mm.powi(2))
+        .max(0.0)
+        .sqrt()
+        .min(bound_mm);
+    let start_off_mm = match after.last() {
+        Some(t) => (*t - cells.actual_mm(model, q_last, held.s, Components::All)?).norm(),
+        None => (t_mm - cells.actual_mm(model, held.q_mm, held.s, Components::All)?).norm(),
+    };
+    if start_off_mm > room_mm {
+        return Ok(None);
+    }
+    let mut s = held.s;
+    s[x.axis] = x.direction;
+    let ends = hold_end(cells, model, method, (q_last, s, axes), x.targets, room_mm)?;
+    Ok(ends.filter(|(k, _, _)| *k < x.targets.len()).map(|_| held))
+}
+
+/// The S-curve a hold reaches ([`held_instead_of_stop`]): the targets from
+/// the S-curve's own up to the next S-curve or the move's end, the axis it
+/// reverses and its new direction, and the most it leaves the tool off
+/// the arc (mm).
+pub(super) struct Across<'a> {
+    pub(super) targets: &'a [Vec3],
+    pub(super) axis: usize,
+    pub(super) direction: Direction,
+    pub(super) deviation_mm: f64,
 }
 
 #[cfg(test)]

@@ -199,7 +199,7 @@ pub(super) fn fold_deviation_from_mm(
 
 /// Whether a G61 hold of a small reversal may run to the end of a straight
 /// move from `start_mm` to `end_mm` (the next move then takes it up from
-/// its start, or holds it on: compensate/exact_hold.rs `hold_resolves`):
+/// its start, or holds it on: compensate/exact_hold.rs `hold_end`):
 /// only on a plunge, a move along the tool axis Z alone with X and Y
 /// commanded still, and only for a reversal of X or Y (`reversed`), not
 /// of Z, the axis the plunge drives. On a plunge, X and Y turn back where
@@ -224,7 +224,7 @@ fn hold_to_plunge_end(start_mm: Vec3, end_mm: Vec3, reversed: [bool; 3]) -> bool
 /// axes `held_mm_before`): where only those axes reverse here. The machine
 /// stops at the corner between the two moves, but the axis has not
 /// switched: held on (within the same tolerance, and only where the hold
-/// ends within the line, exact_hold.rs `hold_resolves`), it never
+/// ends within the line, exact_hold.rs `hold_end`), it never
 /// reverses; taken up here, it would reverse twice, here and again where
 /// its target turns back inside the line, a stop G61 does not make
 /// without it (measured on pocket_r4, shop map: a take-up block at X −10
@@ -1451,6 +1451,10 @@ impl State<'_> {
         // The target a hold at an arc's planar start ends at
         // (compensate/turn_back.rs).
         let mut planar_hold_until: Option<usize> = None;
+        // Under G61, the normal axis held from an arc's start the machine
+        // stops at (compensate/exact_hold.rs `at_corner_before_arc`): the
+        // target the hold ends at, and the axes held.
+        let mut corner_hold: Option<(Vec3, [bool; 3])> = None;
         // The axes a plunge before held through its end, and those this
         // motion holds through its end, a plunge ([`hold_to_plunge_end`]).
         let plunge_held_before = std::mem::take(&mut self.plunge_held);
@@ -1646,6 +1650,22 @@ impl State<'_> {
                 .map_err(|source| model_error(file, line, source))
             };
             let mut point = point;
+            self.corner_hold(
+                (&mut cells, model),
+                &mut corner_hold,
+                &mut point,
+                (index, t_prev, targets.as_slice(), &transitions),
+                (&leads, &run, rule),
+                (
+                    centre_arcs
+                        && !was_forced
+                        && transition.is_none()
+                        && ramp.is_none()
+                        && ahead.is_none(),
+                    &quantize,
+                ),
+            )
+            .map_err(|source| model_error(file, line, source))?;
             // On a take-up moved ahead, its axes keep their new direction
             // to the S-curve ([`Ahead`]).
             let mut hold = ramp.as_ref().map_or([false; 3], |r| r.3);
@@ -2416,6 +2436,7 @@ impl State<'_> {
                         &quantize,
                         (*t, self.q_out, self.s, &point),
                         (after, to_move_end && !on_from_plunge),
+                        hold_across(&transitions, targets.as_slice(), end),
                     )?;
                     if let Some(h) = held.as_ref().filter(|_| to_move_end) {
                         if matches!(leads, Leads::Lines) {
@@ -2767,6 +2788,75 @@ impl State<'_> {
         Ok(commands)
     }
 
+    /// Under G61 on an arc after a corner: at its first target, the normal
+    /// axis' turn next to the corner held or taken up there
+    /// (compensate/exact_hold.rs `at_corner_before_arc`); at the targets
+    /// after, up to the one the hold ends at, the axis kept on its hold
+    /// (`exact_hold::kept_on_hold`).
+    #[allow(clippy::type_complexity)]
+    fn corner_hold(
+        &mut self,
+        (cells, model): (&mut AxisCells, &dyn ErrorModel),
+        corner_hold: &mut Option<(Vec3, [bool; 3])>,
+        point: &mut crate::compensate::solve::PointSolution,
+        (index, t_prev, targets, transitions): (usize, Vec3, &[Vec3], &[super::arcs::Transition]),
+        (leads, run, rule): (&Leads<'_>, &Run, TakeUpRule),
+        (allowed, quantize): (bool, &dyn Fn(Vec3) -> Vec3),
+    ) -> Result<(), ModelError> {
+        let options = self.walk.options;
+        let t = targets[index];
+        if index == 0 {
+            *corner_hold = None;
+            let Leads::Arc { arc, .. } = leads else {
+                return Ok(());
+            };
+            if !(allowed && run.corner_before) {
+                return Ok(());
+            }
+            let end = transitions
+                .iter()
+                .filter(|tr| tr.index > 0)
+                .fold(targets.len(), |e, tr| e.min(tr.index));
+            let after = &targets[1..end.max(1)];
+            if let Some((held, hold)) = super::exact_hold::at_corner_before_arc(
+                cells,
+                model,
+                options,
+                rule,
+                quantize,
+                (t_prev, t, self.q_out, self.s, point),
+                after,
+                arc.plane.axes().2,
+            )? {
+                *point = held;
+                *corner_hold = hold.map(|(k, axes)| (after[k], axes));
+                self.summary.small_reversals_held += 1;
+                self.summary.max_hold_error_um =
+                    self.summary.max_hold_error_um.max(held.residual_um);
+            }
+            return Ok(());
+        }
+        let Some((t_end, axes)) = *corner_hold else {
+            return Ok(());
+        };
+        if t == t_end {
+            *corner_hold = None;
+        } else if (0..3).any(|a| axes[a] && point.reversed[a]) {
+            let bound = super::exact_hold::hold_instead_of_stop_mm(options, rule, true)
+                .unwrap_or(RUN_THROUGH_TOLERANCE_MM);
+            *point = super::exact_hold::kept_on_hold(
+                cells,
+                model,
+                (options.method, quantize),
+                (t, self.q_out, self.s),
+                point,
+                (axes, bound),
+            )?;
+            self.summary.max_hold_error_um = self.summary.max_hold_error_um.max(point.residual_um);
+        }
+        Ok(())
+    }
+
     /// Goes back to the state `h` kept before target `p`: the commands,
     /// states and records from `p` on are dropped ([`Ahead`]).
     fn go_back(
@@ -2862,6 +2952,27 @@ impl State<'_> {
         };
         Some(shortest.max(min_segment))
     }
+}
+
+/// The S-curve at target `end` of an arc (if one is there) and the targets
+/// from it up to the next S-curve or the move's end, for a G61 hold that
+/// reaches it (compensate/exact_hold.rs `Across`).
+fn hold_across<'a>(
+    transitions: &[super::arcs::Transition],
+    targets: &'a [Vec3],
+    end: usize,
+) -> Option<super::exact_hold::Across<'a>> {
+    let tr = transitions.iter().find(|tr| tr.index == end)?;
+    let next = transitions
+        .iter()
+        .filter(|o| o.index > end)
+        .fold(targets.len(), |e, o| e.min(o.index));
+    Some(super::exact_hold::Across {
+        targets: targets.get(end..next)?,
+        axis: tr.axis,
+        direction: tr.direction,
+        deviation_mm: tr.deviation_mm,
+    })
 }
 
 /// The share of a take-up ramp to put before a reversal inside an arc
