@@ -1451,10 +1451,6 @@ impl State<'_> {
         // The target a hold at an arc's planar start ends at
         // (compensate/turn_back.rs).
         let mut planar_hold_until: Option<usize> = None;
-        // Under G61, the normal axis held from an arc's start the machine
-        // stops at (compensate/exact_hold.rs `at_corner_before_arc`): the
-        // target the hold ends at, and the axes held.
-        let mut corner_hold: Option<(Vec3, [bool; 3])> = None;
         // The axes a plunge before held through its end, and those this
         // motion holds through its end, a plunge ([`hold_to_plunge_end`]).
         let plunge_held_before = std::mem::take(&mut self.plunge_held);
@@ -1650,22 +1646,6 @@ impl State<'_> {
                 .map_err(|source| model_error(file, line, source))
             };
             let mut point = point;
-            self.corner_hold(
-                (&mut cells, model),
-                &mut corner_hold,
-                &mut point,
-                (index, t_prev, targets.as_slice(), &transitions),
-                (&leads, &run, rule),
-                (
-                    centre_arcs
-                        && !was_forced
-                        && transition.is_none()
-                        && ramp.is_none()
-                        && ahead.is_none(),
-                    &quantize,
-                ),
-            )
-            .map_err(|source| model_error(file, line, source))?;
             // On a take-up moved ahead, its axes keep their new direction
             // to the S-curve ([`Ahead`]).
             let mut hold = ramp.as_ref().map_or([false; 3], |r| r.3);
@@ -2786,75 +2766,6 @@ impl State<'_> {
         self.records = records;
         self.cells = Some(cells);
         Ok(commands)
-    }
-
-    /// Under G61 on an arc after a corner: at its first target, the normal
-    /// axis' turn next to the corner held or taken up there
-    /// (compensate/exact_hold.rs `at_corner_before_arc`); at the targets
-    /// after, up to the one the hold ends at, the axis kept on its hold
-    /// (`exact_hold::kept_on_hold`).
-    #[allow(clippy::type_complexity)]
-    fn corner_hold(
-        &mut self,
-        (cells, model): (&mut AxisCells, &dyn ErrorModel),
-        corner_hold: &mut Option<(Vec3, [bool; 3])>,
-        point: &mut crate::compensate::solve::PointSolution,
-        (index, t_prev, targets, transitions): (usize, Vec3, &[Vec3], &[super::arcs::Transition]),
-        (leads, run, rule): (&Leads<'_>, &Run, TakeUpRule),
-        (allowed, quantize): (bool, &dyn Fn(Vec3) -> Vec3),
-    ) -> Result<(), ModelError> {
-        let options = self.walk.options;
-        let t = targets[index];
-        if index == 0 {
-            *corner_hold = None;
-            let Leads::Arc { arc, .. } = leads else {
-                return Ok(());
-            };
-            if !(allowed && run.corner_before) {
-                return Ok(());
-            }
-            let end = transitions
-                .iter()
-                .filter(|tr| tr.index > 0)
-                .fold(targets.len(), |e, tr| e.min(tr.index));
-            let after = &targets[1..end.max(1)];
-            if let Some((held, hold)) = super::exact_hold::at_corner_before_arc(
-                cells,
-                model,
-                options,
-                rule,
-                quantize,
-                (t_prev, t, self.q_out, self.s, point),
-                after,
-                arc.plane.axes().2,
-            )? {
-                *point = held;
-                *corner_hold = hold.map(|(k, axes)| (after[k], axes));
-                self.summary.small_reversals_held += 1;
-                self.summary.max_hold_error_um =
-                    self.summary.max_hold_error_um.max(held.residual_um);
-            }
-            return Ok(());
-        }
-        let Some((t_end, axes)) = *corner_hold else {
-            return Ok(());
-        };
-        if t == t_end {
-            *corner_hold = None;
-        } else if (0..3).any(|a| axes[a] && point.reversed[a]) {
-            let bound = super::exact_hold::hold_instead_of_stop_mm(options, rule, true)
-                .unwrap_or(RUN_THROUGH_TOLERANCE_MM);
-            *point = super::exact_hold::kept_on_hold(
-                cells,
-                model,
-                (options.method, quantize),
-                (t, self.q_out, self.s),
-                point,
-                (axes, bound),
-            )?;
-            self.summary.max_hold_error_um = self.summary.max_hold_error_um.max(point.residual_um);
-        }
-        Ok(())
     }
 
     /// Goes back to the state `h` kept before target `p`: the commands,
