@@ -85,3 +85,68 @@ fn under_g61_a_z_reversal_inside_an_arc_is_taken_up_on_a_ramp_around_it() {
     let (c0, c1) = (cutting_s(program), cutting_s(&out));
     assert!(c1 < c0 + 0.05, "{c0} s → {c1} s: {out}");
 }
+
+/// X's table moves the tool in Z so that Z, standing still in the
+/// program, is commanded `1 + 0.05·(x + 20)` µm up to X −3, falls at
+/// 0.05 µm/mm to X 0 and rises at 0.05 µm/mm after it; Y's reverse
+/// table steps Z's command up by 0.3 µm (the shop map's straightness
+/// switching with an axis' direction) and gives Y a 3 µm band; Z has a
+/// 6 µm band, X none.
+fn dip_map() -> AxisTableMap {
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for dir in ["forward", "reverse"] {
+        for k in 0..=400 {
+            let p = -50.0 + 0.25 * k as f64;
+            let z = if p < -3.0 {
+                1.0 + 0.05 * (p + 20.0)
+            } else if p < 0.0 {
+                1.85 - 0.05 * (p + 3.0)
+            } else {
+                1.7 + 0.05 * p
+            };
+            csv.push_str(&format!("X,{dir},{p},0,0,{}\n", -z));
+        }
+        let (ey, ez) = if dir == "reverse" {
+            (3.0, -0.3)
+        } else {
+            (0.0, 0.0)
+        };
+        for p in [-200.0, 200.0] {
+            csv.push_str(&format!("Y,{dir},{p},0,{ey},{ez}\n"));
+            let z_band = if dir == "reverse" { 6.0 } else { 0.0 };
+            csv.push_str(&format!("Z,{dir},{p},0,0,{z_band}\n"));
+        }
+    }
+    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+}
+
+#[test]
+fn under_g61_a_turn_of_z_that_the_quarter_point_turns_back_is_held_across_it() {
+    // The arc of the test above: Y runs up to X 0 and down after it (its
+    // quarter point, an S-curve). Z's command turns down at X −3 by
+    // 0.05·3 = 0.15 µm up to X 0, less than its 6 µm band: held at X −3
+    // the tool is off by that alone. At the quarter point Y's switch steps
+    // Z's command up by 0.3 µm, past the held level (1.7 + 0.3 > 1.85 µm
+    // by hand), so the hold ends there, and Z never reverses. Main 81922d1
+    // ends a hold only before the S-curve: there Z reverses (a ramp or a
+    // take-up block) and its command falls by its band.
+    let map = dip_map();
+    let program =
+        "G21 G61\nG0 X-20 Y-10 Z0\nG1 Y-2.0204 F6000\nG2 X20 Y-2.0204 I20 J-97.9796\nM2\n";
+    let (out, records, _) = common::compensate_recorded(program, &map);
+    let line: Vec<&PointRecord> = records.iter().filter(|r| r.line == 4).collect();
+    assert!(!line.is_empty(), "{out}");
+    // (Z's take-up at the arc's start, a corner after the line, is free.)
+    assert!(line.iter().skip(1).all(|r| !r.take_up), "{out}");
+    for w in line.windows(2) {
+        assert!(
+            w[1].command_mm.z >= w[0].command_mm.z - 1e-9,
+            "Z falls at X {}: {out}",
+            w[1].target_mm.x
+        );
+    }
+    // The tool within the hold's 0.15 µm by hand plus the S-curve's own
+    // deviation, within the 0.4 µm a G61 run-through may leave.
+    let report = common::simulated(&out, program, &map);
+    assert!(report.contour_max_um <= 0.4, "{report:?}: {out}");
+}

@@ -199,7 +199,7 @@ pub(super) fn fold_deviation_from_mm(
 
 /// Whether a G61 hold of a small reversal may run to the end of a straight
 /// move from `start_mm` to `end_mm` (the next move then takes it up from
-/// its start, or holds it on: compensate/exact_hold.rs `hold_resolves`):
+/// its start, or holds it on: compensate/exact_hold.rs `hold_end`):
 /// only on a plunge, a move along the tool axis Z alone with X and Y
 /// commanded still, and only for a reversal of X or Y (`reversed`), not
 /// of Z, the axis the plunge drives. On a plunge, X and Y turn back where
@@ -224,7 +224,7 @@ fn hold_to_plunge_end(start_mm: Vec3, end_mm: Vec3, reversed: [bool; 3]) -> bool
 /// axes `held_mm_before`): where only those axes reverse here. The machine
 /// stops at the corner between the two moves, but the axis has not
 /// switched: held on (within the same tolerance, and only where the hold
-/// ends within the line, exact_hold.rs `hold_resolves`), it never
+/// ends within the line, exact_hold.rs `hold_end`), it never
 /// reverses; taken up here, it would reverse twice, here and again where
 /// its target turns back inside the line, a stop G61 does not make
 /// without it (measured on pocket_r4, shop map: a take-up block at X −10
@@ -2426,6 +2426,7 @@ impl State<'_> {
                         &quantize,
                         (*t, self.q_out, self.s, &point),
                         (after, to_move_end && !on_from_plunge),
+                        hold_across(&transitions, targets.as_slice(), end),
                     )?;
                     if let Some(h) = held.as_ref().filter(|_| to_move_end) {
                         if matches!(leads, Leads::Lines) {
@@ -2900,6 +2901,27 @@ impl State<'_> {
         };
         Some(shortest.max(min_segment))
     }
+}
+
+/// The S-curve at target `end` of an arc (if one is there) and the targets
+/// from it up to the next S-curve or the move's end, for a G61 hold that
+/// reaches it (compensate/exact_hold.rs `Across`).
+fn hold_across<'a>(
+    transitions: &[super::arcs::Transition],
+    targets: &'a [Vec3],
+    end: usize,
+) -> Option<super::exact_hold::Across<'a>> {
+    let tr = transitions.iter().find(|tr| tr.index == end)?;
+    let next = transitions
+        .iter()
+        .filter(|o| o.index > end)
+        .fold(targets.len(), |e, o| e.min(o.index));
+    Some(super::exact_hold::Across {
+        targets: targets.get(end..next)?,
+        axis: tr.axis,
+        direction: tr.direction,
+        deviation_mm: tr.deviation_mm,
+    })
 }
 
 /// The share of a take-up ramp to put before a reversal inside an arc

@@ -87,7 +87,7 @@ const TURN_MM: f64 = 1e-6;
 /// the point did (a solve that did not converge is never hidden behind a
 /// hold), or an axis the piece does not move (`moving`: the axes its
 /// nominal move changes) still reverses, or the hold does not end within the move without a reversal and
-/// within `bound_mm` (as compensate/exact_hold.rs `hold_resolves`; with
+/// within `bound_mm` (as compensate/exact_hold.rs `hold_end`; with
 /// `whole_move`, the held axes then run their old way to the move's end:
 /// [`hold_runs_on`]). An axis turns back
 /// where the next target, solved in the state the point turns to, moves
