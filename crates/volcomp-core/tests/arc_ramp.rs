@@ -74,15 +74,7 @@ fn under_g61_a_z_reversal_inside_an_arc_is_taken_up_on_a_ramp_around_it() {
     // No stop: on an arc a stop at 100 mm/s costs about 2·v/a_t = 0.2 s
     // (a_t = A/2); the ramp far less than a quarter of that on the planner
     // model (LinuxCNC 2.9's planner).
-    let setup = volcomp_core::compensate::MachineSetup::default();
-    let limits = volcomp_core::plan::Limits::default();
-    let cutting_s = |p: &str| {
-        volcomp_core::plan::estimate_program(p.as_bytes(), "t.ngc", &setup, &limits)
-            .unwrap()
-            .motion
-            .cutting_s
-    };
-    let (c0, c1) = (cutting_s(program), cutting_s(&out));
+    let (c0, c1) = (common::cutting_s(program), common::cutting_s(&out));
     assert!(c1 < c0 + 0.05, "{c0} s → {c1} s: {out}");
 }
 

@@ -160,14 +160,6 @@ fn under_g61_a_dip_across_a_tangent_join_is_held_across_it() {
     );
     // No stop added: the planner model (LinuxCNC 2.9's planner) runs the
     // output as fast as the original, within 1 %.
-    let setup = volcomp_core::compensate::MachineSetup::default();
-    let limits = volcomp_core::plan::Limits::default();
-    let cutting_s = |p: &str| {
-        volcomp_core::plan::estimate_program(p.as_bytes(), "t.ngc", &setup, &limits)
-            .unwrap()
-            .motion
-            .cutting_s
-    };
-    let (c0, c1) = (cutting_s(program), cutting_s(&out));
+    let (c0, c1) = (common::cutting_s(program), common::cutting_s(&out));
     assert!(c1 <= c0 * 1.01, "{c0} s → {c1} s: {out}");
 }

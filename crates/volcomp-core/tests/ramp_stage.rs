@@ -120,14 +120,6 @@ fn under_g61_two_axes_whose_switches_cross_are_taken_up_one_after_the_other() {
     assert!(report.contour_max_um <= 0.112 + 0.01, "{report:?}: {out}");
     // No stop: a stop at 100 mm/s costs v/a = 0.1 s; the ramp far less
     // than half of that on the planner model (LinuxCNC 2.9's planner).
-    let setup = volcomp_core::compensate::MachineSetup::default();
-    let limits = volcomp_core::plan::Limits::default();
-    let cutting_s = |p: &str| {
-        volcomp_core::plan::estimate_program(p.as_bytes(), "t.ngc", &setup, &limits)
-            .unwrap()
-            .motion
-            .cutting_s
-    };
-    let (c0, c1) = (cutting_s(program), cutting_s(&out));
+    let (c0, c1) = (common::cutting_s(program), common::cutting_s(&out));
     assert!(c1 < c0 + 0.05, "{c0} s → {c1} s: {out}");
 }

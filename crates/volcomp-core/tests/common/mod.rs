@@ -143,6 +143,17 @@ pub fn simulated(out: &str, program: &str, map: &AxisTableMap) -> SimReport {
     .unwrap()
 }
 
+/// The cutting time (s) of `program` on the planner model (LinuxCNC 2.9's
+/// planner; `plan::estimate_program`) with the default set-up and limits.
+pub fn cutting_s(program: &str) -> f64 {
+    let setup = volcomp_core::compensate::MachineSetup::default();
+    let limits = volcomp_core::plan::Limits::default();
+    volcomp_core::plan::estimate_program(program.as_bytes(), "t.ngc", &setup, &limits)
+        .unwrap()
+        .motion
+        .cutting_s
+}
+
 /// LinuxCNC's stand-alone interpreter, where it is installed. Where it is
 /// not, a test under CI (the `CI` variable set) fails, since CI installs it
 /// (`.ci/run`); elsewhere the caller skips its rs274 part, said loudly.
