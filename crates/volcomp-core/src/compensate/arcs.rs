@@ -1954,6 +1954,29 @@ mod tests {
         assert!(circle_through([0.0, 0.0], [1.0, 1.0], [2.0, 2.0]).is_none());
     }
 
+    /// A quarter of a circle of radius 20 about the origin, G3 in XY.
+    fn quarter_r20() -> Arc {
+        Arc {
+            start: Vec3::new(20.0, 0.0, 0.0),
+            end: Vec3::new(0.0, 20.0, 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: FRAC_PI_2,
+        }
+    }
+
+    /// A map given by one formula of the point (µm), the same in every
+    /// direction, over ±1 m.
+    struct Smooth(fn(Vec3) -> Vec3);
+    impl ErrorModel for Smooth {
+        fn deviation_um(&self, q: Vec3, _: Directions, _: Components) -> Result<Vec3, ModelError> {
+            Ok((self.0)(q))
+        }
+        fn range_mm(&self) -> [[f64; 2]; 3] {
+            [[-1e3, 1e3]; 3]
+        }
+    }
+
     /// A map with a smooth bend along X in Z (`e_z = k·x²`) and in-plane
     /// terms: on an XY arc the helix axis is matched at the two ends only,
     /// so the error left in a piece is the departure of
@@ -1963,35 +1986,11 @@ mod tests {
     /// matched at three points, is of higher order.
     #[test]
     fn the_error_of_a_piece_is_second_order() {
-        struct Bend;
-        impl ErrorModel for Bend {
-            fn deviation_um(
-                &self,
-                q: Vec3,
-                _: Directions,
-                _: Components,
-            ) -> Result<Vec3, ModelError> {
-                Ok(Vec3::new(
-                    0.02 * q.x * q.y,
-                    -0.03 * q.x * q.x,
-                    0.05 * q.x * q.x,
-                ))
-            }
-            fn range_mm(&self) -> [[f64; 2]; 3] {
-                [[-1e3, 1e3]; 3]
-            }
-        }
-        // A quarter of a circle of radius 20 about the origin, G3.
-        let arc = Arc {
-            start: Vec3::new(20.0, 0.0, 0.0),
-            end: Vec3::new(0.0, 20.0, 0.0),
-            center: Vec3::ZERO,
-            plane: Plane::Xy,
-            sweep_rad: FRAC_PI_2,
-        };
+        let bend = Smooth(|q| Vec3::new(0.02 * q.x * q.y, -0.03 * q.x * q.x, 0.05 * q.x * q.x));
+        let arc = quarter_r20();
         // Pieces from 0° of 8°, 4° and 2°.
         let d_um =
-            |deg: f64| piece_departure_mm(&arc, 0.0, deg / 90.0, &Bend, ALL_FORWARD).unwrap() * 1e3;
+            |deg: f64| piece_departure_mm(&arc, 0.0, deg / 90.0, &bend, ALL_FORWARD).unwrap() * 1e3;
         let hand_um = |deg: f64| {
             let delta = f64::to_radians(deg);
             0.05 * 400.0 * delta.cos() * delta * delta / 4.0
@@ -2049,27 +2048,8 @@ mod tests {
         // piece. A piece of sweep φ about θ₀ is off at its middle by
         // 10·|cos 2θ₀|·(1 − cos φ) µm by hand (the mean of cos 2θ at its
         // ends is cos 2θ₀·cos φ); in the plane nothing departs.
-        struct Bowl;
-        impl ErrorModel for Bowl {
-            fn deviation_um(
-                &self,
-                q: Vec3,
-                _: Directions,
-                _: Components,
-            ) -> Result<Vec3, ModelError> {
-                Ok(Vec3::new(0.0, 0.0, 0.05 * q.x * q.x))
-            }
-            fn range_mm(&self) -> [[f64; 2]; 3] {
-                [[-1e3, 1e3]; 3]
-            }
-        }
-        let arc = Arc {
-            start: Vec3::new(20.0, 0.0, 0.0),
-            end: Vec3::new(0.0, 20.0, 0.0),
-            center: Vec3::ZERO,
-            plane: Plane::Xy,
-            sweep_rad: FRAC_PI_2,
-        };
+        let bowl = Smooth(|q| Vec3::new(0.0, 0.0, 0.05 * q.x * q.x));
+        let arc = quarter_r20();
         let bump_um = |a: f64, b: f64| {
             let (t0, phi) = (0.5 * (a + b) * FRAC_PI_2, (b - a) * FRAC_PI_2);
             10.0 * (2.0 * t0).cos().abs() * (1.0 - phi.cos())
@@ -2081,7 +2061,7 @@ mod tests {
             let mut worst = 0.0;
             let t = arc_pieces(
                 &arc,
-                &Bowl,
+                &bowl,
                 ALL_FORWARD,
                 (tol_mm, normal_mm),
                 0.01,
@@ -2122,30 +2102,11 @@ mod tests {
     fn a_pieces_normal_bump_counts_only_where_the_normal_command_runs_one_way() {
         // Z's correction 0.05·(x − y)² µm: on the circle of radius 20 it
         // is 20·(1 − sin 2θ) µm, least at 45°.
-        struct Valley;
-        impl ErrorModel for Valley {
-            fn deviation_um(
-                &self,
-                q: Vec3,
-                _: Directions,
-                _: Components,
-            ) -> Result<Vec3, ModelError> {
-                Ok(Vec3::new(0.0, 0.0, 0.05 * (q.x - q.y) * (q.x - q.y)))
-            }
-            fn range_mm(&self) -> [[f64; 2]; 3] {
-                [[-1e3, 1e3]; 3]
-            }
-        }
-        let arc = Arc {
-            start: Vec3::new(20.0, 0.0, 0.0),
-            end: Vec3::new(0.0, 20.0, 0.0),
-            center: Vec3::ZERO,
-            plane: Plane::Xy,
-            sweep_rad: FRAC_PI_2,
-        };
+        let valley = Smooth(|q| Vec3::new(0.0, 0.0, 0.05 * (q.x - q.y) * (q.x - q.y)));
+        let arc = quarter_r20();
         // 0° to 22.5°: Z's command runs one way; the bump at 11.25° by
         // hand is 20·|sin 22.5° − sin 45°/2| = 0.5826 µm.
-        let (d, _, n) = piece_departure_at_mm(&arc, 0.0, 0.25, &Valley, ALL_FORWARD, &[]).unwrap();
+        let (d, _, n) = piece_departure_at_mm(&arc, 0.0, 0.25, &valley, ALL_FORWARD, &[]).unwrap();
         let hand_um = 20.0 * (f64::to_radians(22.5).sin() - 0.5 * f64::to_radians(45.0).sin());
         assert!(
             (n * 1e3 - hand_um).abs() < 1e-3 * hand_um,
@@ -2156,7 +2117,7 @@ mod tests {
         // counted (the reversal is not an interpolation error), while the
         // departure itself, 20·(1 − sin 45°) = 5.858 µm at the middle,
         // still splits the piece.
-        let (d, _, n) = piece_departure_at_mm(&arc, 0.25, 0.75, &Valley, ALL_FORWARD, &[]).unwrap();
+        let (d, _, n) = piece_departure_at_mm(&arc, 0.25, 0.75, &valley, ALL_FORWARD, &[]).unwrap();
         assert_eq!(n, 0.0);
         let hand_um = 20.0 * (1.0 - f64::to_radians(45.0).sin());
         assert!(
