@@ -8,7 +8,7 @@ programs of those kinds also have and sets a and b lack:
 * one-block circles in G18 and G19, a full circle of three turns (P3), small
   circles (D5 one block, D6 as 24 chords: pieces of 0.8 mm), a circle from a
   start angle that is no quarter point (37 degrees), clockwise chord circles;
-* a 60-gon, a zigzag with a 0.2 mm step-over, a helix of 10 turns, a helix
+* a 60-gon, a zigzag with a 0.2 mm step-over, a helix of 8 turns, a helix
   in G91 (G17 arcs with a Z move), a pocket with arcs in G91;
 * inch programs (G20) with arcs in G17 and G19, and R arcs;
 * a program in the work offset G55 with a tool-length offset (G43 H1): the
@@ -18,7 +18,7 @@ programs of those kinds also have and sets a and b lack:
   circles at a third of it), as CAM programs do.
 
 Every program is in the work frame G54 (except the G55 one) with the
-offsets of setup_c.toml: machine X 200-300, Y 150-250, Z 135-160 mm, inside
+offsets of setup_c.toml: machine X 200-300, Y 150-250, Z 125-160 mm, inside
 every map of run.py.
 
 Usage: make_set_c.py OUT_DIR [FEED_MM_PER_MIN]   (default F6000)
@@ -241,7 +241,7 @@ def programs(feed):
         "g19_d16": ("circle D16 in G19, YZ, as one G2 from 0 degrees", circle_g19(8.0, 0.0, feed), False),
         "polygon60": ("60-gon D40", polygon(20.0, 60, feed), False),
         "zigzag_fine": ("zigzag pocket 12 x 4, 0.2 mm step", zigzag(12.0, 4.0, 0.2, feed), False),
-        "helix_10": ("helical bore D14, 10 turns of 0.5 mm", helix_many(7.0, 0.5, 10, feed), False),
+        "helix_8": ("helical bore D14, 8 turns of 1.5 mm", helix_many(7.0, 1.5, 8, feed), False),
         "helix_g91": ("helix D18 clockwise in G91, 4 turns of 1 mm", helix_g91(9.0, 1.0, 4, feed), False),
         "pocket_g91": ("pocket 40 x 26 with R5 corners in G91, 2 offsets", pocket_g91(40.0, 26.0, 5.0, 4.0, 2, feed), False),
         "inch_pocket": ("pocket 1.6 x 1.0 in with R0.25 corners clockwise, and a D0.9 in circle, inch", inch_pocket(feed), True),

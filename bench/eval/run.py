@@ -31,7 +31,7 @@ judge reads the same offsets.
 
 Usage: run.py VOLCOMP [--work DIR] [--feed 6000] [--set a|b|c]
               [--maps example,ripple,shop,fine,coarse]
-              [--only SUBSTRING] [--planner BIN] [-- EXTRA COMPENSATE ARGS]
+              [--only SUBSTRING[,SUBSTRING...]] [--planner BIN] [-- EXTRA COMPENSATE ARGS]
 Prints a markdown table and writes DIR/results.json.
 """
 import argparse
@@ -112,7 +112,7 @@ def main():
     print("| program | mode | map | blocks in → out | stops/blends added | short | cutting s | Δ | band: RMS red. % | max µm | max at rev. | max away | instant: RMS red. % | max µm | max away | least Δ |")
     print("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for prog in progs:
-        if args.only and args.only not in prog:
+        if args.only and not any(o in prog for o in args.only.split(",")):
             continue
         kind, mode = os.path.basename(prog).split(".")[:2]
         orig_moves = judge.read_program(prog, OFFSET, work_offsets, tools)
