@@ -10,7 +10,7 @@ programs of those kinds also have and sets a and b lack:
   start angle that is no quarter point (37 degrees), clockwise chord circles;
 * a 60-gon, a zigzag with a 0.2 mm step-over, a helix of 8 turns, a helix
   in G91 (G17 arcs with a Z move), a pocket with arcs in G91;
-* inch programs (G20) with arcs in G17 and G19, and R arcs;
+* inch programs (G20) with arcs in G17, G18 and G19, and R arcs;
 * a program in the work offset G55 with a tool-length offset (G43 H1): the
   set-up bench/eval/setup_c.toml gives G55 and tool 1 (run.py passes it to
   `volcomp compensate` and `volcomp time`, and its offsets to judge.py);
