@@ -187,3 +187,88 @@ fn compensated_set_c_programs_are_accepted_by_rs274() {
         );
     }
 }
+
+/// The judge of bench/eval (judge.py, `read_program`) reads set c's feed
+/// moves in the axis frame as `volcomp moves` does (which the test above
+/// holds to rs274): the same lines, ends and arc centres, with G55 and tool
+/// 1's length offset from bench/eval/setup_c.toml, in inch and in G91. The
+/// judge starts from the program's zero (volcomp from the machine's), so
+/// rapids are left out.
+#[test]
+fn the_judge_reads_set_c_as_volcomp_moves_does() {
+    if !python_ok() {
+        common::missing(PYTHON, "judge.py against volcomp moves");
+        return;
+    }
+    let dir = common::tempdir("evalsetc-judge");
+    let setup = bench().join("eval").join("setup_c.toml");
+    let progs = programs("make_set_c.py", &dir);
+    let reader = dir.join("read.py");
+    std::fs::write(
+        &reader,
+        "import sys, tomllib\n\
+         sys.path.insert(0, sys.argv[1])\n\
+         import judge\n\
+         s = tomllib.load(open(sys.argv[2], 'rb'))\n\
+         wo = {k: [float(x) for x in v] for k, v in s['work_offsets'].items()}\n\
+         tl = {int(k): float(v) for k, v in s['tools'].items()}\n\
+         for m in judge.read_program(sys.argv[3], wo['G54'], wo, tl):\n\
+         \x20   if m['kind'] != 'rapid':\n\
+         \x20       print(m['line'], *m['end'], *m.get('centre', []))\n",
+    )
+    .unwrap();
+    let eval_dir = bench().join("eval");
+    let mut compared = 0;
+    for path in progs
+        .iter()
+        .filter(|p| p.to_string_lossy().ends_with(".g61.ngc"))
+    {
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        let judged: Vec<Vec<f64>> = python(
+            &reader,
+            &[eval_dir.as_path(), setup.as_path(), path.as_path()],
+        )
+        .lines()
+        .map(|l| l.split_whitespace().map(|x| x.parse().unwrap()).collect())
+        .collect();
+        let out = Command::new(env!("CARGO_BIN_EXE_volcomp"))
+            .arg("moves")
+            .arg("--extra-axes")
+            .arg("--setup")
+            .arg(&setup)
+            .arg(path)
+            .stdin(Stdio::null())
+            .output()
+            .expect("run volcomp moves");
+        assert!(out.status.success(), "{name}: {}", common::stderr(&out));
+        let moves = crate::rs274::parse_volcomp_csv(&String::from_utf8_lossy(&out.stdout)).unwrap();
+        let feeds: Vec<_> = moves
+            .iter()
+            .filter(|m| !matches!(m.kind, crate::rs274::Kind::Rapid))
+            .collect();
+        assert_eq!(judged.len(), feeds.len(), "{name}: feed moves");
+        for (j, v) in judged.iter().zip(&feeds) {
+            assert_eq!(j[0] as u64, v.line, "{name}");
+            let mut want = v.end.to_vec();
+            want.extend(v.center.iter().flatten());
+            assert_eq!(
+                j.len() - 1,
+                want.len(),
+                "{name} line {}: arc or line",
+                v.line
+            );
+            for (a, b) in j[1..].iter().zip(&want) {
+                // volcomp prints six decimals of a millimetre.
+                assert!(
+                    (a - b).abs() < 2e-6,
+                    "{name} line {}: judge {j:?}, volcomp {want:?}",
+                    v.line
+                );
+            }
+            compared += 1;
+        }
+    }
+    assert!(compared > 300, "{compared} feed moves compared");
+    println!("{compared} feed moves of set c read alike by judge.py and volcomp moves");
+    let _ = std::fs::remove_dir_all(&dir);
+}
