@@ -107,10 +107,18 @@ def strip_comments(line):
     return "".join(out).upper()
 
 
-def read_program(path, offset_mm):
+def read_program(path, offset_mm, work_offsets=None, tools=None):
     """Feed and rapid moves in the axis frame (mm): dicts with kind
     ('rapid', 'line', 'arc'), start, end and for arcs centre (axis frame),
-    plane axes (u, v, w) and signed sweep (rad)."""
+    plane axes (u, v, w) and signed sweep (rad). `offset_mm` is the work
+    offset in use at the start (G54); `work_offsets` ({"G55": [x, y, z]}, mm)
+    the ones a G55 ... G59 selects, `tools` ({1: length_mm}) the lengths a
+    G43 H adds to Z until G49, as LinuxCNC's canon does (docs/gcode.md,
+    "Frames")."""
+    offset_mm = list(offset_mm)
+    frames = {"G54": list(offset_mm)}
+    frames.update(work_offsets or {})
+    tool_mm = 0.0
     pos = None  # program coordinates, program units
     absolute, arc_abs, mm_per_unit, plane = True, False, 1.0, (0, 1, 2)
     motion = None
@@ -144,6 +152,23 @@ def read_program(path, offset_mm):
                 plane = (1, 2, 0)
             elif code in (0, 1, 2, 3):
                 motion = int(code)
+            elif code in (54, 55, 56, 57, 58, 59):
+                name = f"G{int(code)}"
+                if name not in frames:
+                    raise ValueError(f"{path}:{n}: {name} without its offset")
+                shift = [frames[name][a] - offset_mm[a] for a in range(3)]
+                offset_mm = list(frames[name])
+                if pos is not None:  # the position stays; its program coordinates change
+                    pos = [pos[a] - shift[a] / mm_per_unit for a in range(3)]
+            elif code == 43:
+                new_tool = (tools or {})[int(val["H"])]
+                if pos is not None:
+                    pos[2] -= (new_tool - tool_mm) / mm_per_unit
+                tool_mm = new_tool
+            elif code == 49:
+                if pos is not None:
+                    pos[2] += tool_mm / mm_per_unit
+                tool_mm = 0.0
         if "F" in val:
             feed = val["F"] * mm_per_unit
         axes = [k for k in "XYZ" if k in val]
@@ -155,7 +180,7 @@ def read_program(path, offset_mm):
             a = "XYZ".index(k)
             end[a] = val[k] if absolute else start[a] + val[k]
         pos = end
-        to_axis = lambda p: [p[a] * mm_per_unit + offset_mm[a] for a in range(3)]
+        to_axis = lambda p: [p[a] * mm_per_unit + offset_mm[a] + (tool_mm if a == 2 else 0.0) for a in range(3)]
         s_ax, e_ax = to_axis(start), to_axis(end)
         if motion in (0, 1):
             moves.append({"kind": "rapid" if motion == 0 else "line", "start": s_ax, "end": e_ax, "line": n,

@@ -1,9 +1,16 @@
 #!/usr/bin/env python3
 """The evaluation set, compensated and judged: per program (make_set.py's
-kinds, or with --set b make_set_b.py's other sizes and shapes, each in G61,
-G64 P0.005 and G64) and map (the example map of `volcomp demo`, the ripple
-map of bench/ripple_map.py, the shop map of bench/shop_map.py: bands of
-2.5-7 um and straightness that jumps at reversals), the compensated
+kinds, or with --set b make_set_b.py's other sizes and shapes, or with
+--set c make_set_c.py's held-out kinds: G18/G19 circles, P turns, small
+circles, a 60-gon, a 0.2 mm zigzag, helices in G90 and G91, a pocket in G91,
+inch arcs, G55 with G43 H1, feed changes; each in G61, G64 P0.005 and G64)
+and map (the example map of `volcomp demo`, the ripple map of
+bench/ripple_map.py, the shop map of bench/shop_map.py: bands of 2.5-7 um
+and straightness that jumps at reversals; the held-out maps fine
+(bench/fine_map.py: reversals of 1-2 um, a table every 5 mm) and coarse
+(bench/coarse_map.py: reversals of 10-15 um, a table every 25 mm,
+squareness, straightness that switches with the direction on every axis),
+chosen with --maps), the compensated
 program's size, how LinuxCNC's planner will join its moves (joins.py: the
 joins it stops at or blends that were tangent in the original, the segments
 below their feed), and its accuracy under both dead-band readings
@@ -18,12 +25,18 @@ machining-time estimate on a model of LinuxCNC 2.9's planner), the cutting
 time of the original and the compensated program, on the cycle-time
 benchmark's machine (bench/cycle_time/setup.toml: 1,000 mm/s², 1 ms).
 
-Usage: run.py VOLCOMP [--work DIR] [--feed 6000] [--set a|b] [--maps example,ripple,shop]
-              [--only SUBSTRING] [--planner BIN] [-- EXTRA COMPENSATE ARGS]
+Set c runs with the set-up bench/eval/setup_c.toml (G54 as --work-offset,
+G55 and tool 1 for its g55_tool program) for compensate and time, and the
+judge reads the same offsets.
+
+Usage: run.py VOLCOMP [--work DIR] [--feed 6000] [--set a|b|c]
+              [--maps example,ripple,shop,fine,coarse]
+              [--only SUBSTRING[,SUBSTRING...]] [--planner BIN] [-- EXTRA COMPENSATE ARGS]
 Prints a markdown table and writes DIR/results.json.
 """
 import argparse
 import json
+import tomllib
 import os
 import subprocess
 import sys
@@ -54,13 +67,23 @@ def main():
     ap.add_argument("--only", default="")
     ap.add_argument("--maps", default="example,ripple")
     ap.add_argument("--planner", default="")
-    ap.add_argument("--set", default="a", choices=["a", "b"],
-                    help="a: make_set.py; b: make_set_b.py (other sizes and shapes)")
+    ap.add_argument("--set", default="a", choices=["a", "b", "c"],
+                    help="a: make_set.py; b: make_set_b.py (other sizes and shapes); "
+                         "c: make_set_c.py (held-out kinds, with setup_c.toml)")
     ap.add_argument("extra", nargs="*")
     args = ap.parse_args()
     work = args.work
     os.makedirs(work, exist_ok=True)
-    maker = "make_set.py" if args.set == "a" else "make_set_b.py"
+    maker = {"a": "make_set.py", "b": "make_set_b.py", "c": "make_set_c.py"}[args.set]
+    setup = os.path.join(HERE, "..", "cycle_time", "setup.toml")
+    setup_args, work_offsets, tools = [], None, None
+    if args.set == "c":
+        setup = os.path.join(HERE, "setup_c.toml")
+        setup_args = ["--setup", setup]
+        with open(setup, "rb") as f:
+            s = tomllib.load(f)
+        work_offsets = {k: [float(v) for v in vs] for k, vs in s["work_offsets"].items()}
+        tools = {int(k): float(v) for k, v in s["tools"].items()}
     progs = subprocess.run([sys.executable, os.path.join(HERE, maker), os.path.join(work, "programs"), args.feed],
                            check=True, capture_output=True, text=True).stdout.split()
     maps = {}
@@ -78,26 +101,31 @@ def main():
         with open(shop, "w") as f:
             subprocess.run([sys.executable, os.path.join(HERE, "..", "shop_map.py")], check=True, stdout=f)
         maps["shop"] = shop
+    for name in ("fine", "coarse"):
+        if name in args.maps.split(","):
+            path = os.path.join(work, f"{name}.csv")
+            with open(path, "w") as f:
+                subprocess.run([sys.executable, os.path.join(HERE, "..", f"{name}_map.py")], check=True, stdout=f)
+            maps[name] = path
     env = dict(os.environ, SOURCE_DATE_EPOCH="0")
     rows = []
     print("| program | mode | map | blocks in → out | stops/blends added | short | cutting s | Δ | band: RMS red. % | max µm | max at rev. | max away | instant: RMS red. % | max µm | max away | least Δ |")
     print("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    setup = os.path.join(HERE, "..", "cycle_time", "setup.toml")
     for prog in progs:
-        if args.only and args.only not in prog:
+        if args.only and not any(o in prog for o in args.only.split(",")):
             continue
         kind, mode = os.path.basename(prog).split(".")[:2]
-        orig_moves = judge.read_program(prog, OFFSET)
+        orig_moves = judge.read_program(prog, OFFSET, work_offsets, tools)
         j0 = joins.analyse(orig_moves, 1000.0, 166.7, 0.001)
         for map_name, map_path in maps.items():
             out = os.path.join(work, f"{kind}.{mode}.{map_name}.ngc")
             r = subprocess.run([args.volcomp, "compensate", prog, "--map", map_path, "--work-offset",
-                                ",".join(str(x) for x in OFFSET), "-o", out, "--quiet"] + args.extra,
+                                ",".join(str(x) for x in OFFSET), "-o", out, "--quiet"] + setup_args + args.extra,
                                capture_output=True, text=True, env=env)
             if r.returncode != 0:
                 print(f"| {kind} | {mode} | {map_name} | refused: {r.stderr.strip()[:80]} |")
                 continue
-            comp_moves = judge.read_program(out, OFFSET)
+            comp_moves = judge.read_program(out, OFFSET, work_offsets, tools)
             j1 = joins.analyse(comp_moves, 1000.0, 166.7, 0.001)
             emap = judge.AxisTableMap(map_path)
             res = {"program": kind, "mode": mode, "map": map_name, "blocks_in": blocks(prog),

@@ -23,6 +23,7 @@ mod control_flow;
 mod controllers;
 mod cycles_kept;
 mod docs_commands;
+mod eval_sets;
 mod front_snapshots;
 mod identify_snapshots;
 mod linuxcnc_backlash;

@@ -437,7 +437,7 @@ fn wide_map() -> String {
 
 /// The set-up both interpreters run under, in a fresh directory
 /// `volcomp-rs274-NAME-…` of its own.
-fn tools(rs274: PathBuf, name: &str) -> Tools {
+pub(crate) fn tools(rs274: PathBuf, name: &str) -> Tools {
     let nanos = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_nanos())
