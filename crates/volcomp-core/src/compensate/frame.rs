@@ -53,14 +53,16 @@ impl Frame {
             }
             .max(survey.max_decimals()),
         );
+        // One call for both parts (a copy of the interpreter's offsets).
+        let (before_mm, after_mm) = interp.frame_parts_mm();
         let frame = Frame {
             offset_mm: interp.frame_offset_mm(),
             mm_per_unit: units.mm_per_unit(),
             decimals,
             absolute: interp.absolute(),
             rotation_deg: interp.rotation_deg(),
-            before_mm: interp.frame_parts_mm().0,
-            after_mm: interp.frame_parts_mm().1,
+            before_mm,
+            after_mm,
             x_word_scale: if interp.diameter_mode() { 2.0 } else { 1.0 },
             arc_absolute: interp.arc_absolute(),
             arc_absolute_by_option: interp.arc_absolute_by_option(),

@@ -80,6 +80,9 @@ impl LineEdits {
         if !self.list.windows(2).all(|p| key(&p[0]) <= key(&p[1])) {
             self.list.sort_by_key(key);
         }
+        // The result is at most the line and every edit's text: room for
+        // it is made once, not by each of the copies below.
+        out.reserve(line.len() + self.text.len());
         let mut cursor = 0;
         for (r, t) in &self.list {
             if r.end > line.len() || r.start > r.end {

@@ -20,7 +20,7 @@ pub fn target_count_bound(motion: &volcomp_gcode::Motion, options: &CompensateOp
             // `bisect` halves only segments longer than twice the minimum,
             // at most 40 levels deep.
             Segmentation::Adaptive { min_length_mm, .. } => {
-                (len_mm / min_length_mm).floor().min(2f64.powi(40)) + 1.0
+                floor_via_integer(len_mm / min_length_mm).min(2f64.powi(40)) + 1.0
             }
         }
     };
@@ -40,6 +40,21 @@ pub fn target_count_bound(motion: &volcomp_gcode::Motion, options: &CompensateOp
                 _ => chords * per(arc.length() / chords),
             }
         }
+    }
+}
+
+/// `x.floor()`, through an integer where that is exact (`0 < x < 2^52`:
+/// every such `f64` converts to the integer below or equal to it, and that
+/// integer back to itself), as `floor` is a library call on the baseline
+/// x86-64 target; `floor` itself for anything else (negative, huge,
+/// infinite, NaN, and zero, whose sign `floor` keeps).
+#[inline]
+fn floor_via_integer(x: f64) -> f64 {
+    const TWO_52: f64 = 4_503_599_627_370_496.0;
+    if x > 0.0 && x < TWO_52 {
+        x as u64 as f64
+    } else {
+        x.floor()
     }
 }
 
@@ -503,6 +518,48 @@ mod tests {
 
     /// An error that is affine along the move needs no split at all: the
     /// chord between two compensated points follows the target exactly.
+    #[test]
+    fn the_floor_through_an_integer_is_the_floor_of_every_value() {
+        // By hand: the integer part of a positive value, the value itself
+        // for an integer, and the boundary values that `floor` keeps.
+        assert_eq!(floor_via_integer(2.999), 2.0);
+        assert_eq!(floor_via_integer(7.0), 7.0);
+        assert_eq!(floor_via_integer(0.0).to_bits(), 0.0f64.to_bits());
+        assert_eq!(floor_via_integer(-0.0).to_bits(), (-0.0f64).to_bits());
+        assert_eq!(floor_via_integer(-0.5), -1.0);
+        // Second method: `f64::floor`, to the bit, on values around every
+        // power of two up to beyond 2^53, their neighbours, the specials and
+        // random bit patterns.
+        let mut values = vec![
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MIN_POSITIVE,
+        ];
+        for e in -1074..=1023 {
+            let p = 2f64.powi(e);
+            for v in [p, p * 1.5, p * 0.75] {
+                for w in [
+                    v,
+                    f64::from_bits(v.to_bits().wrapping_add(1)),
+                    f64::from_bits(v.to_bits().wrapping_sub(1)),
+                ] {
+                    values.extend([w, -w, w + 0.5, w - 0.5]);
+                }
+            }
+        }
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..200_000 {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            values.push(f64::from_bits(seed));
+        }
+        for v in values {
+            assert_eq!(floor_via_integer(v).to_bits(), v.floor().to_bits(), "{v:e}");
+        }
+    }
+
     #[test]
     fn a_linear_map_needs_no_split() {
         let m = map("X,both,-100,-20,5,1\nX,both,100,20,-5,-1\n");
