@@ -17,6 +17,7 @@ mod g64p_line_hold;
 mod idle_take_ups;
 mod kinematic;
 mod line_length;
+mod line_tail_hold;
 mod mirror_study;
 mod planner_linuxcnc;
 mod plunge_hold;

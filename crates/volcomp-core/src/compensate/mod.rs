@@ -1420,7 +1420,11 @@ impl<'w> State<'w> {
                 leads: points::Leads::Nowhere,
                 start,
                 feed_like: true,
-                run: t.run,
+                run: points::tail_run(
+                    t.run,
+                    matches!(t.path, TailPath::Line(..)),
+                    self.walk.options.take_up_rule(t.run.mode),
+                ),
             },
             t.line,
         )?;
