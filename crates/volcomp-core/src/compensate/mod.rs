@@ -1235,10 +1235,7 @@ impl<'w> State<'w> {
                 restore: tail_restore,
                 kept: None,
             });
-            self.keep_tail_piece(
-                (&targets, &pieces, &arc_words, &commands),
-                (last_piece_at, q_line_start, motion.start),
-            );
+            self.keep_tail_piece((&targets, &pieces, &arc_words, &commands), last_piece_at);
         }
         if idle_any {
             self.hold_idle(ev.number, idle_last, idle_flips);

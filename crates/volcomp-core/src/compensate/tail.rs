@@ -59,6 +59,9 @@ pub(super) struct LastPieceAt {
     pub(super) at_prev: f64,
 }
 
+/// A command and the take-up block before it, if any.
+type Command = (Vec3, Option<Vec3>);
+
 /// A held tail solved ([`State::solve_tail`]): the arc piece it runs on
 /// (none on a line) and the end parameters of its pieces on it, the
 /// commands (each with its take-up block, if any) and the command it
@@ -66,7 +69,7 @@ pub(super) struct LastPieceAt {
 pub(super) struct SolvedTail {
     pub(super) piece: Option<volcomp_gcode::Arc>,
     pub(super) piece_ends: Vec<f64>,
-    pub(super) commands: Vec<(Vec3, Option<Vec3>)>,
+    pub(super) commands: Vec<Command>,
     pub(super) from: Vec3,
 }
 
@@ -115,7 +118,7 @@ impl After {
 /// taken up there, off the path the tail alone takes it on (measured on
 /// pocket_arcs, example map: a ramp along the next line 0.38 µm off).
 pub(super) fn merge_keeps_reversals(
-    merged: &[(Vec3, Option<Vec3>)],
+    merged: &[Command],
     (s_merged, s_alone): (Directions, Directions),
     after: After,
 ) -> bool {
@@ -164,16 +167,11 @@ impl State<'_> {
     /// no reversal, hold or ramp at its end, so the state it ends in is the
     /// one it starts in) and the directions are the commanded ones.
     /// `last` is where the piece's text begins and the modal motion before
-    /// it, the command the block started from and its start point.
+    /// it.
     pub(super) fn keep_tail_piece(
         &mut self,
-        (targets, pieces, arc_words, commands): (
-            &[Vec3],
-            &[f64],
-            &[ArcWords],
-            &[(Vec3, Option<Vec3>)],
-        ),
-        (last, _q_line_start, _start): ((usize, Option<OutMode>), Vec3, Vec3),
+        (targets, pieces, arc_words, commands): (&[Vec3], &[f64], &[ArcWords], &[Command]),
+        last: (usize, Option<OutMode>),
     ) {
         let n = commands.len();
         if n < 2 {
