@@ -42,6 +42,7 @@ mod size;
 pub mod solve;
 mod spline;
 mod style;
+mod tail;
 mod take_up_stand;
 mod targets;
 mod turn_back;
@@ -160,7 +161,7 @@ pub fn compensate_program_seen<R: BufRead>(
         if st.tail.is_some() && !may_take_tail(&line) {
             // A held tail the line cannot start an S-curve from is
             // written before it.
-            if let Err(e) = st.flush_tail(idle::next_motion(&line)) {
+            if let Err(e) = st.flush_tail(idle::next_motion(&line), tail::After::of(&line)) {
                 return Err(out.error(e));
             }
             if let Err(e) = out.write_all(&st.buf) {
@@ -204,7 +205,7 @@ pub fn compensate_program_seen<R: BufRead>(
     }
     if st.tail.is_some() {
         st.buf.clear();
-        if let Err(e) = st.flush_tail(None) {
+        if let Err(e) = st.flush_tail(None, tail::After::CutEnds) {
             return Err(out.error(e));
         }
         if let Err(e) = out.write_all(&st.buf) {
@@ -536,7 +537,7 @@ impl<'w> State<'w> {
         };
         let next = Some(motion).filter(|m| m.kind != MotionKind::Rapid);
         if held.is_none() {
-            self.flush_tail(next)?;
+            self.flush_tail(next, tail::After::Arc)?;
         }
         // An arc may hold back its own tail for the block after where the
         // block ends as a plain compensated motion (no stop word, no
@@ -560,16 +561,19 @@ impl<'w> State<'w> {
                 let mut planned = self.pieces_of_arc(&arc, model, ev.number, &run, joins)?;
                 if held.is_some() && !planned.absorbed {
                     // No S-curve fits from the tail: it is written first.
-                    self.flush_tail(next)?;
+                    self.flush_tail(next, tail::After::Arc)?;
                     let joins = arcs::JoinTails {
                         held_before: None,
                         ..joins
                     };
                     planned = self.pieces_of_arc(&arc, model, ev.number, &run, joins)?;
                 }
-                if let Some(t) = self.tail.take() {
+                if let Some(mut t) = self.tail.take() {
                     start_tangent = Some(t.end_tangent(arc.plane));
                     restore_pending = t.restore.is_some();
+                    if let Some(k) = t.kept.take() {
+                        self.put_back(k);
+                    }
                     taken = Some(t);
                 }
                 held_end = planned.held_end;
@@ -1229,7 +1233,9 @@ impl<'w> State<'w> {
                 turn_tolerance: arc_nominal
                     .and_then(|arc| points::piece_turn_tolerance(options, &run, &arc)),
                 restore: tail_restore,
+                kept: None,
             });
+            self.keep_tail_piece((&targets, &pieces, &arc_words, &commands), last_piece_at);
         }
         if idle_any {
             self.hold_idle(ev.number, idle_last, idle_flips);
@@ -1369,28 +1375,57 @@ impl<'w> State<'w> {
     /// its arc, from the command its block ended at to the compensated end,
     /// traced to its block's line. A line's tail takes up ahead an axis
     /// the motion `next` reverses, where it can (compensate/idle.rs).
+    /// Where the block's last piece was kept back with it, the two are
+    /// written as one piece where that changes no reversal and writes no
+    /// take-up block (compensate/tail.rs), else the piece as it was first.
     fn flush_tail(
         &mut self,
         next: Option<&volcomp_gcode::Motion>,
+        after: tail::After,
     ) -> Result<(), CompensationError> {
-        let Some(t) = self.tail.take() else {
+        let Some(mut t) = self.tail.take() else {
             return Ok(());
         };
+        if let Some(k) = t.kept.take() {
+            if self.merge_tail(&t, &k, (next, after))? {
+                return Ok(());
+            }
+            self.write_kept(k);
+        }
+        let solved = self.solve_tail(&t, None, next)?;
+        self.write_tail(&t, solved)
+    }
+
+    /// Solves a held tail (see [`State::flush_tail`]): from the command its
+    /// block ended at, or, with the block's last piece `kept`, from the
+    /// command before that piece over both (lead pieces and ramps on it
+    /// where a take-up asks for them).
+    fn solve_tail(
+        &mut self,
+        t: &Tail,
+        kept: Option<&tail::KeptPiece>,
+        next: Option<&volcomp_gcode::Motion>,
+    ) -> Result<tail::SolvedTail, CompensationError> {
         let model = crate::model::WithTool {
             model: self.walk.model,
             tool_length_offset_mm: t.tool_length_offset_mm,
         };
+        let at_from = kept.map_or(t.held.at, |k| k.at_prev);
         let piece = match t.path {
-            TailPath::Arc(arc) => Some(arcs::sub_arc(&arc, t.held.at, 1.0)),
+            TailPath::Arc(arc) => Some(arcs::sub_arc(&arc, at_from, 1.0)),
             TailPath::Line(..) => None,
         };
         let (start, end) = match (t.path, &piece) {
             (_, Some(p)) => (p.start, p.end),
-            (TailPath::Line(a, b), None) => (a + (b - a) * t.held.at, b),
+            (TailPath::Line(a, b), None) => (kept.map_or(a + (b - a) * t.held.at, |k| k.t_prev), b),
             (TailPath::Arc(_), None) => unreachable!("an arc's tail is an arc piece"),
         };
+        if let Some(k) = kept {
+            self.q_out = k.q_prev;
+        }
+        let mut piece_ends = vec![1.0];
         let mut targets = match t.path {
-            TailPath::Line(..) => t.targets,
+            TailPath::Line(..) => t.targets.clone(),
             TailPath::Arc(_) => vec![end],
         };
         let from = self.q_out;
@@ -1417,7 +1452,14 @@ impl<'w> State<'w> {
             (&t.frame, &t.frame),
             points::Targets {
                 points: &mut targets,
-                leads: points::Leads::Nowhere,
+                leads: match (&piece, kept) {
+                    (Some(arc), Some(_)) => points::Leads::Arc {
+                        arc,
+                        pieces: &mut piece_ends,
+                    },
+                    (None, Some(_)) => points::Leads::Lines,
+                    (_, None) => points::Leads::Nowhere,
+                },
                 start,
                 feed_like: true,
                 run: points::tail_run(
@@ -1433,6 +1475,26 @@ impl<'w> State<'w> {
             self.summary.take_ups_folded -= 1;
             self.summary.take_ups_idle += 1;
         }
+        Ok(tail::SolvedTail {
+            piece,
+            piece_ends,
+            commands,
+            from,
+        })
+    }
+
+    /// Writes a solved tail ([`State::solve_tail`]) into the buffer.
+    fn write_tail(&mut self, t: &Tail, solved: tail::SolvedTail) -> Result<(), CompensationError> {
+        let model = crate::model::WithTool {
+            model: self.walk.model,
+            tool_length_offset_mm: t.tool_length_offset_mm,
+        };
+        let tail::SolvedTail {
+            piece,
+            piece_ends,
+            commands,
+            from,
+        } = solved;
         let place = Place {
             frame: &t.frame,
             style: t.style,
@@ -1445,7 +1507,7 @@ impl<'w> State<'w> {
                 &place,
                 arcs::Piecewise {
                     arc: piece,
-                    pieces: &[1.0],
+                    pieces: &piece_ends,
                     radius_style: t.radius_style,
                     turn_tolerance: t.turn_tolerance,
                     chord_turn_tolerance: None,
@@ -1505,6 +1567,9 @@ struct Tail {
     /// The program's path-control word its block's last run of pieces
     /// restores on the tail (lines.rs, `piece_mode_words`), if any.
     restore: Option<&'static str>,
+    /// The block's last piece before the tail, kept back with it
+    /// (compensate/tail.rs): merged with the tail where no S-curve takes it.
+    kept: Option<tail::KeptPiece>,
 }
 
 /// The nominal path of a held tail's block.
