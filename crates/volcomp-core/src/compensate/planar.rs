@@ -147,6 +147,50 @@ pub(super) fn parabolic_into(t1: Vec3, m: &Motion) -> bool {
     !((b - n).norm_squared() < tol || (b + n).norm_squared() < tol)
 }
 
+/// Under G64 without P, the first target of an arc after a planar corner
+/// (`State::planar_corner_normal`, the plane's normal axis `w`) with the
+/// normal axis' reversal held: `point` (solved for `t_mm` from the command
+/// `q_prev` in the state `s_prev`) solved again with `w` at its command in
+/// its old direction, the other axes as `point` turned them (their own
+/// take-ups, in the plane, stay); `None` where `w` does not reverse there or
+/// the hold leaves the tool further from the target than `w`'s band (its
+/// reversal value, what G64's fold may leave at a reversal), `w` beyond its
+/// band, or the free axes further than the point did (solve.rs
+/// `held_solve`).
+///
+/// Folded into the first piece, the take-up moves the normal axis there:
+/// the piece is a helix, the corner's binormal leaves the arcs' normal and
+/// LinuxCNC 2.9 joins the corner with a parabolic blend instead of a blend
+/// arc (src/emc/tp/tp.c `tpCreateArcArcBlend`, `pmUnitCartsColinear`).
+/// Held, the first piece stays planar and the take-up folds into the next
+/// piece, past the blend's reach, whose join inside the arc LinuxCNC takes
+/// as tangent where the fold's slope is as gentle as the piece is long
+/// (`tpSetupTangent`).
+pub(super) fn normal_held_at_start(
+    cells: &mut crate::model::AxisCells,
+    model: &dyn ErrorModel,
+    (method, quantize): (super::solve::Method, &dyn Fn(Vec3) -> Vec3),
+    (t_mm, q_prev, s_prev): (Vec3, Vec3, Directions),
+    point: &super::solve::PointSolution,
+    w: usize,
+) -> Result<Option<super::solve::PointSolution>, crate::error::ModelError> {
+    if point.s[w] == s_prev[w] || point.held[w] {
+        return Ok(None);
+    }
+    let hold = [0, 1, 2].map(|a| a == w);
+    let band_um = super::solve::bands_um(cells, model, (q_prev, s_prev), hold)?;
+    let mut s = point.s;
+    s[w] = s_prev[w];
+    super::solve::held_solve(
+        cells,
+        model,
+        (method, quantize),
+        (t_mm, s, hold),
+        (q_prev, s_prev),
+        (band_um[w] * 1e-3, band_um, point.residual_um),
+    )
+}
+
 /// Under G64 without P, the shortest lead piece (mm) for a take-up at the
 /// start of a move after a corner LinuxCNC blends parabolically
 /// ([`parabolic_into`]): as long as the take-up's reach allows

@@ -476,6 +476,7 @@ fn plan_ramp(
         f64,
     ),
     (smooth, judged, staged): (bool, bool, bool),
+    end_zone_mm: f64,
 ) -> Result<Option<RampPlan>, ModelError> {
     // (Two parabolas on a ramp centred on a reversal along a line, the one
     // ramp of a line given its length: compensate/ramp_centre.rs.)
@@ -542,7 +543,15 @@ fn plan_ramp(
         }
     };
     let mut insert: Vec<(usize, Vec3, Option<f64>, f64)> = Vec::new();
-    let end_s = if (s_k - need <= 0.5 * need && !judged) || s_k - need < shortest_mm {
+    // Under G64 without P, a ramp whose end would fall inside the zone a
+    // held line keeps whole for the blend at its end (compensate/end_zone.rs
+    // `NextCorner::end_zone_mm`) runs to the line's end: its end would be a
+    // split inside the blend's reach, which LinuxCNC then rounds tighter and
+    // slower (blendmath.c `blendComputeParameters`: the blend takes at most
+    // half of the piece next to the corner).
+    let in_end_zone = end_zone_mm > 0.0 && k + 1 == targets.len() && s_k - need < end_zone_mm;
+    let end_s = if in_end_zone || (s_k - need <= 0.5 * need && !judged) || s_k - need < shortest_mm
+    {
         s_k
     } else {
         let s_new = need.max(s_before + shortest_mm);
@@ -1454,6 +1463,10 @@ impl State<'_> {
         // The target a hold at an arc's planar start ends at
         // (compensate/turn_back.rs).
         let mut planar_hold_until: Option<usize> = None;
+        // Whether the normal axis was held at the first target of an arc
+        // after a planar corner (compensate/planar.rs
+        // `normal_held_at_start`).
+        let mut normal_held = false;
         // The axes a plunge before held through its end, and those this
         // motion holds through its end, a plunge ([`hold_to_plunge_end`]).
         let plunge_held_before = std::mem::take(&mut self.plunge_held);
@@ -1614,6 +1627,41 @@ impl State<'_> {
                 }
                 _ => point,
             };
+            // G64 without P: the normal axis' reversal at the start of an
+            // arc after a planar corner held over the first piece, which
+            // stays planar (compensate/planar.rs `normal_held_at_start`).
+            let point = match (rule, self.planar_corner_normal) {
+                (TakeUpRule::Always, Some(w))
+                    if index == 0
+                        && targets
+                            .get(1)
+                            .is_some_and(|n| (*n - *t).norm() >= TAKE_UP_REACH_MM)
+                        && feed_like
+                        && !was_forced
+                        && transition.is_none()
+                        && ramp.is_none()
+                        && options.fold_take_ups
+                        && point.reversed[w] =>
+                {
+                    super::planar::normal_held_at_start(
+                        &mut cells,
+                        model,
+                        (options.method, &quantize),
+                        (*t, self.q_out, self.s),
+                        &point,
+                        w,
+                    )
+                    .map_err(|source| model_error(file, line, source))?
+                    .map_or(point, |held| {
+                        normal_held = true;
+                        self.summary.small_reversals_held += 1;
+                        self.summary.max_hold_error_um =
+                            self.summary.max_hold_error_um.max(held.residual_um);
+                        held
+                    })
+                }
+                _ => point,
+            };
             // Across an S-curve only its own axis reverses: another axis
             // that would (its straightness changing with the S-curve's axis'
             // direction, by tenths of a micrometre) is held for the piece,
@@ -1627,7 +1675,11 @@ impl State<'_> {
             // is not taken (its take-up would be lost).
             // The hold is solved only where it is asked for (most take-ups
             // fold tangent): from the point and state as they are here.
+            // (Not on the piece after the normal axis' hold at a planar
+            // corner: the take-up folds there, whatever its kink.)
+            let after_normal_hold = index == 1 && normal_held;
             let mut hold_alt = ((matches!(rule, TakeUpRule::Always) || kink_hold_bound.is_some())
+                && !after_normal_hold
                 && feed_like
                 && !was_forced
                 && transition.is_none()
@@ -2100,38 +2152,48 @@ impl State<'_> {
                                 continue;
                             }
                             let step_mm = if back { (d - delta).norm() } else { 0.0 };
-                            planned = plan_ramp(
-                                &mut cells,
-                                model,
-                                options,
-                                &|q, from| frame.quantize(q, from),
-                                (targets.as_slice(), &leads, transitions.as_slice()),
-                                (index, t_prev, self.q_out),
-                                &point,
-                                (
-                                    d,
-                                    &lags,
-                                    ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
-                                ),
-                                (
-                                    kink_tolerance,
-                                    ramp_tol,
-                                    shortest_piece,
-                                    pre_length,
-                                    floor_mm,
-                                ),
-                                (
-                                    exact,
-                                    judged,
-                                    ahead.is_some_and(|ah| {
-                                        ah.index == index && ah.centred && ah.staged
-                                    }),
-                                ),
-                            )
-                            .map_err(|source| model_error(file, line, source))?
-                            .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index))
-                            .filter(|p| p.bound_mm + step_mm <= ramp_tol)
-                            .map(|p| (p, d));
+                            // With the end zone of a held line first
+                            // ([`plan_ramp`]), then without it where that
+                            // ramp leaves too much.
+                            for end_zone_mm in [self.ramp_end_zone_mm, 0.0] {
+                                planned = plan_ramp(
+                                    &mut cells,
+                                    model,
+                                    options,
+                                    &|q, from| frame.quantize(q, from),
+                                    (targets.as_slice(), &leads, transitions.as_slice()),
+                                    (index, t_prev, self.q_out),
+                                    &point,
+                                    (
+                                        d,
+                                        &lags,
+                                        ahead_axes
+                                            .map_or([false; 3], |axes| axes.map(|d| d.is_some())),
+                                    ),
+                                    (
+                                        kink_tolerance,
+                                        ramp_tol,
+                                        shortest_piece,
+                                        pre_length,
+                                        floor_mm,
+                                    ),
+                                    (
+                                        exact,
+                                        judged,
+                                        ahead.is_some_and(|ah| {
+                                            ah.index == index && ah.centred && ah.staged
+                                        }),
+                                    ),
+                                    end_zone_mm,
+                                )
+                                .map_err(|source| model_error(file, line, source))?
+                                .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index))
+                                .filter(|p| p.bound_mm + step_mm <= ramp_tol)
+                                .map(|p| (p, d));
+                                if planned.is_some() || end_zone_mm == 0.0 {
+                                    break;
+                                }
+                            }
                             if planned.is_some() {
                                 break 'floors;
                             }
@@ -2179,6 +2241,7 @@ impl State<'_> {
                 } else if let Some(shortest) = shortest.filter(|_| {
                     feed_like
                         && !slow_block
+                        && !after_normal_hold
                         && !matches!(leads, Leads::Nowhere)
                         && last_lead.is_none_or(|l| index > l + 1)
                 }) {
@@ -3549,6 +3612,7 @@ mod tests {
                     (delta, &lags, [false; 3]),
                     (kink, 2e-3, shortest, None, floor_mm),
                     (smooth, false, false),
+                    0.0,
                 )
                 .unwrap()
                 .map(|p| {
