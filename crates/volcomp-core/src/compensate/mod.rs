@@ -267,6 +267,7 @@ impl<'w> State<'w> {
             planar_line_normal: None,
             planar_corner_normal: None,
             ramp_end_zone_mm: 0.0,
+            planar_corner_blends: false,
             plunge_held: [false; 3],
             approach_pending: None,
         }
@@ -732,6 +733,13 @@ impl<'w> State<'w> {
                     && planar::planar_arc(motion, a.plane).is_some()
             })
             .map(|a| a.plane.axes().2);
+        // Its normal axis' reversal held over its first piece only where
+        // the corner is blended, not a reversal the planner stops at
+        // (compensate/planar.rs `normal_held_at_start`).
+        self.planar_corner_blends = self.planar_corner_normal.is_some()
+            && self
+                .last_tangent
+                .is_some_and(|(t1, _)| !planar::stops_at(t1, points::tangents(motion).0));
         let commands = self.solve_targets(
             model,
             (&frame, &frame0),
@@ -746,6 +754,7 @@ impl<'w> State<'w> {
         );
         self.defer_points = false;
         self.planar_corner_normal = None;
+        self.planar_corner_blends = false;
         self.ramp_end_zone_mm = 0.0;
         let mut commands = commands?;
         // Each axis' dead band brought to a known side before the program
@@ -1719,6 +1728,9 @@ struct State<'w> {
     /// blend (mm; compensate/end_zone.rs), where a ramp does not end
     /// (points.rs `plan_ramp`); 0 elsewhere.
     ramp_end_zone_mm: f64,
+    /// While an arc after a planar G64 corner is solved: whether that
+    /// corner is blended (not a reversal LinuxCNC stops at).
+    planar_corner_blends: bool,
     /// The axes the last motion, a plunge, held through its end instead of
     /// a take-up (compensate/points.rs `hold_to_plunge_end`): the next
     /// line's start may hold them on.

@@ -1633,9 +1633,16 @@ impl State<'_> {
             let point = match (rule, self.planar_corner_normal) {
                 (TakeUpRule::Always, Some(w))
                     if index == 0
-                        && targets
-                            .get(1)
-                            .is_some_and(|n| (*n - *t).norm() >= TAKE_UP_REACH_MM)
+                        && self.planar_corner_blends
+                        && targets.get(1).is_some_and(|n| {
+                            super::planar::fold_after_hold_is_gentle(
+                                &options.planner,
+                                run.feed_mm_min,
+                                (point.q_mm[w] - self.q_out[w]).abs(),
+                                (*n - *t).norm(),
+                                w,
+                            )
+                        })
                         && feed_like
                         && !was_forced
                         && transition.is_none()
@@ -3478,6 +3485,112 @@ mod tests {
             let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
             assert_eq!(bits(fast), bits(slow), "{q_prev:?} {s_old:?} {reversed:?}");
         }
+    }
+
+    /// Under G64 without P a ramp whose end would fall inside the zone a
+    /// held line keeps whole for the blend at its end runs to the line's
+    /// end ([`super::plan_ramp`]'s `end_zone_mm`). Z's band is 2 µm (its
+    /// reverse table 2 µm up, nothing else moves the tool), so the take-up
+    /// is 2 µm of Z; at 100 mm/s the tangency tolerance between lines is
+    /// 0.1 · 1,000 / (100 / 0.001 + 1,000) = 0.990 mrad (tp.c
+    /// `tpSetupTangent`), so the ramp needs 2e-3 · 101,000 / 60 = 3.367 mm
+    /// by hand. From the reversal 0.5 mm into an 8 mm line, it ends 3.367 mm
+    /// in: a point inserted there, 4.633 mm before the line's end. Inside a
+    /// 6.5 mm end zone none is inserted and the ramp ends at the line's end;
+    /// a 4 mm zone does not reach it, nor a zone where the line goes on.
+    #[test]
+    fn a_ramp_ending_inside_a_held_line_s_end_zone_runs_to_the_line_s_end() {
+        use crate::model::AxisCells;
+        use crate::model::Direction::{Forward as F, Reverse as R};
+        let map = crate::model::axis_table::AxisTableMap::from_csv(
+            "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+             Z,forward,0,0,0,0\nZ,forward,100,0,0,0\n\
+             Z,reverse,0,0,0,2\nZ,reverse,100,0,0,2\n",
+            "z.csv",
+        )
+        .unwrap();
+        let options = super::CompensateOptions::default();
+        let frame = frame_mm(5);
+        let quantize = |q: Vec3, from: Vec3| frame.quantize(q, from);
+        let mut cells = AxisCells::default();
+        let t_prev = Vec3::new(10.0, 10.0, 10.0);
+        let (s_old, s_new) = ([F, F, F], [F, F, R]);
+        let reversed = [false, false, true];
+        let solve = |t: Vec3, s| {
+            crate::compensate::solve::solve_fixed(
+                &map,
+                options.method,
+                t,
+                s,
+                [false; 3],
+                Vec3::ZERO,
+            )
+            .unwrap()
+            .q_mm
+        };
+        let q_prev = solve(t_prev, s_old);
+        let at = |x: f64| t_prev + Vec3::new(x, 0.0, 0.0);
+        let plan = |cells: &mut AxisCells, ends: &[f64], zone_mm: f64| {
+            let targets: Vec<Vec3> = ends.iter().map(|x| at(*x)).collect();
+            let point = crate::compensate::solve::PointSolution {
+                q_mm: frame.quantize(solve(targets[0], s_new), q_prev),
+                s: s_new,
+                iterations: 1,
+                residual_um: 0.0,
+                reversed,
+                held: [false; 3],
+            };
+            let lags = super::switch_lags_mm(cells, &map, q_prev, s_old, s_new, reversed).unwrap();
+            let tu = super::take_up_command(
+                cells,
+                &map,
+                q_prev,
+                s_old,
+                s_new,
+                reversed,
+                (point.q_mm, false),
+                &frame,
+            )
+            .unwrap();
+            let delta = tu - q_prev;
+            assert!((delta.z.abs() - 2e-3).abs() < 1e-6, "{delta:?}");
+            let kink = options.planner.tangent_tolerance(100.0, false);
+            let shortest = super::shortest_ramp_piece_mm(&options, 100.0);
+            super::plan_ramp(
+                cells,
+                &map,
+                &options,
+                &quantize,
+                (targets.as_slice(), &super::Leads::Lines, &[]),
+                (0, t_prev, q_prev),
+                &point,
+                (delta, &lags, [false; 3]),
+                (kink, 5e-3, shortest, None, 0.0),
+                (false, false, false),
+                zone_mm,
+            )
+            .unwrap()
+            .expect("a ramp")
+        };
+        let need_mm = 2e-3 * 101_000.0 / 60.0;
+        // No zone, and a 4 mm one: the ramp's end inserted 3.367 mm in.
+        for zone_mm in [0.0, 4.0] {
+            let p = plan(&mut cells, &[0.5, 8.0], zone_mm);
+            assert_eq!(p.insert.len(), 1, "{zone_mm}");
+            let (k, x, _) = p.insert[0];
+            assert_eq!(k, 1);
+            assert!(((x - t_prev).x - need_mm).abs() < 1e-6, "{x:?}");
+        }
+        // A 6.5 mm zone: none inserted, the ramp runs to the line's end.
+        let p = plan(&mut cells, &[0.5, 8.0], 6.5);
+        assert!(p.insert.is_empty(), "{:?}", p.insert);
+        assert_eq!(p.fracs.last().copied(), Some(0.0));
+        // 1 − 0.5 / 8 of the take-up left at the reversal's target.
+        assert_eq!(p.fracs.len(), 2, "{:?}", p.fracs);
+        assert!((p.fracs[0] - 0.9375).abs() < 1e-12, "{:?}", p.fracs);
+        // The line goes on past the ramp's piece: the zone is not there.
+        let p = plan(&mut cells, &[0.5, 8.0, 20.0], 6.5);
+        assert_eq!(p.insert.len(), 1);
     }
 
     /// The try without the floor is skipped where [`super::floor_lengthens_ramp`]
