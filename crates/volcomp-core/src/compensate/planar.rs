@@ -690,6 +690,66 @@ pub(super) struct PendingEnd {
 mod tests {
     use super::*;
 
+    /// The planner stops at a reversal within 2° (tp.c `tpSetupTangent`):
+    /// a semicircle retraced (tangents opposite) and a 1° kink back stop;
+    /// 3° back and a right angle do not.
+    #[test]
+    fn a_reversal_within_two_degrees_is_a_stop() {
+        let t1 = Vec3::new(1.0, 0.0, 0.0);
+        let back = |deg: f64| {
+            let r = deg.to_radians();
+            Vec3::new(-r.cos(), r.sin(), 0.0)
+        };
+        assert!(stops_at(t1, back(0.0)));
+        assert!(stops_at(t1, back(1.0)));
+        assert!(!stops_at(t1, back(3.0)));
+        assert!(!stops_at(t1, Vec3::new(0.0, 1.0, 0.0)));
+    }
+
+    /// The fold into the piece after a held normal axis is gentle within
+    /// the planner's tangency tolerance of a join of lines: at F6000 with
+    /// 1,000 mm/s² and 1 ms, 0.1 · 1,000 / (100 / 0.001 + 1,000) =
+    /// 0.990 mrad by hand. 8.6 µm over 11.9 mm (0.72 mrad) is; 12 µm over
+    /// 11.9 mm (1.01 mrad) and 9 µm over 2.6 mm (3.5 mrad) are not; at
+    /// F3000 (1.96 mrad) 20 µm over 11.9 mm (1.68 mrad) is. Never without
+    /// a feed per minute.
+    #[test]
+    fn the_fold_after_a_held_normal_axis_is_gentle_within_the_line_tangency() {
+        let planner = crate::compensate::PlannerLimits::default();
+        let tol = 0.1 * 1000.0 / (100.0 / 0.001 + 1000.0);
+        assert!((planner.tangent_tolerance(100.0, false)[2] - tol).abs() < 1e-12);
+        let z = 2;
+        assert!(fold_after_hold_is_gentle(
+            &planner,
+            Some(6000.0),
+            8.6e-3,
+            11.9,
+            z
+        ));
+        assert!(!fold_after_hold_is_gentle(
+            &planner,
+            Some(6000.0),
+            12e-3,
+            11.9,
+            z
+        ));
+        assert!(!fold_after_hold_is_gentle(
+            &planner,
+            Some(6000.0),
+            9e-3,
+            2.6,
+            z
+        ));
+        assert!(fold_after_hold_is_gentle(
+            &planner,
+            Some(3000.0),
+            20e-3,
+            11.9,
+            z
+        ));
+        assert!(!fold_after_hold_is_gentle(&planner, None, 1e-6, 11.9, z));
+    }
+
     #[test]
     fn a_split_between_the_ends_keeps_the_direction() {
         assert!(between(0.0, 0.5, 1.0));
