@@ -3504,6 +3504,8 @@ mod tests {
         use crate::model::Direction::{Forward as F, Reverse as R};
         let map = crate::model::axis_table::AxisTableMap::from_csv(
             "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+             X,both,0,0,0,0\nX,both,100,0,0,0\n\
+             Y,both,0,0,0,0\nY,both,100,0,0,0\n\
              Z,forward,0,0,0,0\nZ,forward,100,0,0,0\n\
              Z,reverse,0,0,0,2\nZ,reverse,100,0,0,2\n",
             "z.csv",
