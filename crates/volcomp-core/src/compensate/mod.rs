@@ -267,6 +267,8 @@ impl<'w> State<'w> {
             planar_start_kept: false,
             planar_line_normal: None,
             planar_corner_normal: None,
+            ramp_end_zone_mm: 0.0,
+            planar_corner_blends: false,
             plunge_held: [false; 3],
             approach_pending: None,
         }
@@ -628,6 +630,7 @@ impl<'w> State<'w> {
                 real_end_mm,
                 ev.number,
             )?;
+            self.ramp_end_zone_mm = real_end_mm.unwrap_or(0.0);
             // Under G61 a line holds back its tail for an S-curve into an
             // arc that may run on from it (arcs.rs, `line_tail`): its
             // targets end short of its end.
@@ -734,6 +737,13 @@ impl<'w> State<'w> {
                     && planar::planar_arc(motion, a.plane).is_some()
             })
             .map(|a| a.plane.axes().2);
+        // Its normal axis' reversal held over its first piece only where
+        // the corner is blended, not a reversal the planner stops at
+        // (compensate/planar.rs `normal_held_at_start`).
+        self.planar_corner_blends = self.planar_corner_normal.is_some()
+            && self
+                .last_tangent
+                .is_some_and(|(t1, _)| !planar::stops_at(t1, points::tangents(motion).0));
         let commands = self.solve_targets(
             model,
             (&frame, &frame0),
@@ -748,6 +758,8 @@ impl<'w> State<'w> {
         );
         self.defer_points = false;
         self.planar_corner_normal = None;
+        self.planar_corner_blends = false;
+        self.ramp_end_zone_mm = 0.0;
         let mut commands = commands?;
         // Each axis' dead band brought to a known side before the program
         // cuts (compensate/approach.rs).
@@ -1780,6 +1792,14 @@ struct State<'w> {
     /// While an arc after a planar G64 corner is solved: its plane's
     /// normal axis (compensate/turn_back.rs).
     planar_corner_normal: Option<usize>,
+    /// While a line held for the corner at its end is solved under G64
+    /// without P: the zone before its end kept whole for that corner's
+    /// blend (mm; compensate/end_zone.rs), where a ramp does not end
+    /// (points.rs `plan_ramp`); 0 elsewhere.
+    ramp_end_zone_mm: f64,
+    /// While an arc after a planar G64 corner is solved: whether that
+    /// corner is blended (not a reversal LinuxCNC stops at).
+    planar_corner_blends: bool,
     /// The axes the last motion, a plunge, held through its end instead of
     /// a take-up (compensate/points.rs `hold_to_plunge_end`): the next
     /// line's start may hold them on.

@@ -517,6 +517,7 @@ fn plan_ramp(
         f64,
     ),
     (smooth, judged, staged): (bool, bool, bool),
+    end_zone_mm: f64,
 ) -> Result<Option<RampPlan>, ModelError> {
     // (Two parabolas on a ramp centred on a reversal along a line, the one
     // ramp of a line given its length: compensate/ramp_centre.rs.)
@@ -583,7 +584,15 @@ fn plan_ramp(
         }
     };
     let mut insert: Vec<(usize, Vec3, Option<f64>, f64)> = Vec::new();
-    let end_s = if (s_k - need <= 0.5 * need && !judged) || s_k - need < shortest_mm {
+    // Under G64 without P, a ramp whose end would fall inside the zone a
+    // held line keeps whole for the blend at its end (compensate/end_zone.rs
+    // `NextCorner::end_zone_mm`) runs to the line's end: its end would be a
+    // split inside the blend's reach, which LinuxCNC then rounds tighter and
+    // slower (blendmath.c `blendComputeParameters`: the blend takes at most
+    // half of the piece next to the corner).
+    let in_end_zone = end_zone_mm > 0.0 && k + 1 == targets.len() && s_k - need < end_zone_mm;
+    let end_s = if in_end_zone || (s_k - need <= 0.5 * need && !judged) || s_k - need < shortest_mm
+    {
         s_k
     } else {
         let s_new = need.max(s_before + shortest_mm);
@@ -1495,6 +1504,10 @@ impl State<'_> {
         // The target a hold at an arc's planar start ends at
         // (compensate/turn_back.rs).
         let mut planar_hold_until: Option<usize> = None;
+        // Whether the normal axis was held at the first target of an arc
+        // after a planar corner (compensate/planar.rs
+        // `normal_held_at_start`).
+        let mut normal_held = false;
         // The axes a plunge before held through its end, and those this
         // motion holds through its end, a plunge ([`hold_to_plunge_end`]).
         let plunge_held_before = std::mem::take(&mut self.plunge_held);
@@ -1655,6 +1668,48 @@ impl State<'_> {
                 }
                 _ => point,
             };
+            // G64 without P: the normal axis' reversal at the start of an
+            // arc after a planar corner held over the first piece, which
+            // stays planar (compensate/planar.rs `normal_held_at_start`).
+            let point = match (rule, self.planar_corner_normal) {
+                (TakeUpRule::Always, Some(w))
+                    if index == 0
+                        && self.planar_corner_blends
+                        && targets.get(1).is_some_and(|n| {
+                            super::planar::fold_after_hold_is_gentle(
+                                &options.planner,
+                                run.feed_mm_min,
+                                (point.q_mm[w] - self.q_out[w]).abs(),
+                                (*n - *t).norm(),
+                                w,
+                            )
+                        })
+                        && feed_like
+                        && !was_forced
+                        && transition.is_none()
+                        && ramp.is_none()
+                        && options.fold_take_ups
+                        && point.reversed[w] =>
+                {
+                    super::planar::normal_held_at_start(
+                        &mut cells,
+                        model,
+                        (options.method, &quantize),
+                        (*t, self.q_out, self.s),
+                        &point,
+                        w,
+                    )
+                    .map_err(|source| model_error(file, line, source))?
+                    .map_or(point, |held| {
+                        normal_held = true;
+                        self.summary.small_reversals_held += 1;
+                        self.summary.max_hold_error_um =
+                            self.summary.max_hold_error_um.max(held.residual_um);
+                        held
+                    })
+                }
+                _ => point,
+            };
             // Across an S-curve only its own axis reverses: another axis
             // that would (its straightness changing with the S-curve's axis'
             // direction, by tenths of a micrometre) is held for the piece,
@@ -1668,7 +1723,11 @@ impl State<'_> {
             // is not taken (its take-up would be lost).
             // The hold is solved only where it is asked for (most take-ups
             // fold tangent): from the point and state as they are here.
+            // (Not on the piece after the normal axis' hold at a planar
+            // corner: the take-up folds there, whatever its kink.)
+            let after_normal_hold = index == 1 && normal_held;
             let mut hold_alt = ((matches!(rule, TakeUpRule::Always) || kink_hold_bound.is_some())
+                && !after_normal_hold
                 && feed_like
                 && !was_forced
                 && transition.is_none()
@@ -2141,38 +2200,48 @@ impl State<'_> {
                                 continue;
                             }
                             let step_mm = if back { (d - delta).norm() } else { 0.0 };
-                            planned = plan_ramp(
-                                &mut cells,
-                                model,
-                                options,
-                                &|q, from| frame.quantize(q, from),
-                                (targets.as_slice(), &leads, transitions.as_slice()),
-                                (index, t_prev, self.q_out),
-                                &point,
-                                (
-                                    d,
-                                    &lags,
-                                    ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
-                                ),
-                                (
-                                    kink_tolerance,
-                                    ramp_tol,
-                                    shortest_piece,
-                                    pre_length,
-                                    floor_mm,
-                                ),
-                                (
-                                    exact,
-                                    judged,
-                                    ahead.is_some_and(|ah| {
-                                        ah.index == index && ah.centred && ah.staged
-                                    }),
-                                ),
-                            )
-                            .map_err(|source| model_error(file, line, source))?
-                            .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index))
-                            .filter(|p| p.bound_mm + step_mm <= ramp_tol)
-                            .map(|p| (p, d));
+                            // With the end zone of a held line first
+                            // ([`plan_ramp`]), then without it where that
+                            // ramp leaves too much.
+                            for end_zone_mm in [self.ramp_end_zone_mm, 0.0] {
+                                planned = plan_ramp(
+                                    &mut cells,
+                                    model,
+                                    options,
+                                    &|q, from| frame.quantize(q, from),
+                                    (targets.as_slice(), &leads, transitions.as_slice()),
+                                    (index, t_prev, self.q_out),
+                                    &point,
+                                    (
+                                        d,
+                                        &lags,
+                                        ahead_axes
+                                            .map_or([false; 3], |axes| axes.map(|d| d.is_some())),
+                                    ),
+                                    (
+                                        kink_tolerance,
+                                        ramp_tol,
+                                        shortest_piece,
+                                        pre_length,
+                                        floor_mm,
+                                    ),
+                                    (
+                                        exact,
+                                        judged,
+                                        ahead.is_some_and(|ah| {
+                                            ah.index == index && ah.centred && ah.staged
+                                        }),
+                                    ),
+                                    end_zone_mm,
+                                )
+                                .map_err(|source| model_error(file, line, source))?
+                                .filter(|p| p.insert.is_empty() || ramp_inserted != Some(index))
+                                .filter(|p| p.bound_mm + step_mm <= ramp_tol)
+                                .map(|p| (p, d));
+                                if planned.is_some() || end_zone_mm == 0.0 {
+                                    break;
+                                }
+                            }
                             if planned.is_some() {
                                 break 'floors;
                             }
@@ -2220,6 +2289,7 @@ impl State<'_> {
                 } else if let Some(shortest) = shortest.filter(|_| {
                     feed_like
                         && !slow_block
+                        && !after_normal_hold
                         && !matches!(leads, Leads::Nowhere)
                         && last_lead.is_none_or(|l| index > l + 1)
                 }) {
@@ -3471,6 +3541,114 @@ mod tests {
         }
     }
 
+    /// Under G64 without P a ramp whose end would fall inside the zone a
+    /// held line keeps whole for the blend at its end runs to the line's
+    /// end ([`super::plan_ramp`]'s `end_zone_mm`). Z's band is 2 µm (its
+    /// reverse table 2 µm up, nothing else moves the tool), so the take-up
+    /// is 2 µm of Z; at 100 mm/s the tangency tolerance between lines is
+    /// 0.1 · 1,000 / (100 / 0.001 + 1,000) = 0.990 mrad (tp.c
+    /// `tpSetupTangent`), so the ramp needs 2e-3 · 101,000 / 60 = 3.367 mm
+    /// by hand. From the reversal 0.5 mm into an 8 mm line, it ends 3.367 mm
+    /// in: a point inserted there, 4.633 mm before the line's end. Inside a
+    /// 6.5 mm end zone none is inserted and the ramp ends at the line's end;
+    /// a 4 mm zone does not reach it, nor a zone where the line goes on.
+    #[test]
+    fn a_ramp_ending_inside_a_held_line_s_end_zone_runs_to_the_line_s_end() {
+        use crate::model::AxisCells;
+        use crate::model::Direction::{Forward as F, Reverse as R};
+        let map = crate::model::axis_table::AxisTableMap::from_csv(
+            "axis,direction,position_mm,ex_um,ey_um,ez_um\n\
+             X,both,0,0,0,0\nX,both,100,0,0,0\n\
+             Y,both,0,0,0,0\nY,both,100,0,0,0\n\
+             Z,forward,0,0,0,0\nZ,forward,100,0,0,0\n\
+             Z,reverse,0,0,0,2\nZ,reverse,100,0,0,2\n",
+            "z.csv",
+        )
+        .unwrap();
+        let options = super::CompensateOptions::default();
+        let frame = frame_mm(5);
+        let quantize = |q: Vec3, from: Vec3| frame.quantize(q, from);
+        let mut cells = AxisCells::default();
+        let t_prev = Vec3::new(10.0, 10.0, 10.0);
+        let (s_old, s_new) = ([F, F, F], [F, F, R]);
+        let reversed = [false, false, true];
+        let solve = |t: Vec3, s| {
+            crate::compensate::solve::solve_fixed(
+                &map,
+                options.method,
+                t,
+                s,
+                [false; 3],
+                Vec3::ZERO,
+            )
+            .unwrap()
+            .q_mm
+        };
+        let q_prev = solve(t_prev, s_old);
+        let at = |x: f64| t_prev + Vec3::new(x, 0.0, 0.0);
+        let plan = |cells: &mut AxisCells, ends: &[f64], zone_mm: f64| {
+            let targets: Vec<Vec3> = ends.iter().map(|x| at(*x)).collect();
+            let point = crate::compensate::solve::PointSolution {
+                q_mm: frame.quantize(solve(targets[0], s_new), q_prev),
+                s: s_new,
+                iterations: 1,
+                residual_um: 0.0,
+                reversed,
+                held: [false; 3],
+            };
+            let lags = super::switch_lags_mm(cells, &map, q_prev, s_old, s_new, reversed).unwrap();
+            let tu = super::take_up_command(
+                cells,
+                &map,
+                q_prev,
+                s_old,
+                s_new,
+                reversed,
+                (point.q_mm, false),
+                &frame,
+            )
+            .unwrap();
+            let delta = tu - q_prev;
+            assert!((delta.z.abs() - 2e-3).abs() < 1e-6, "{delta:?}");
+            let kink = options.planner.tangent_tolerance(100.0, false);
+            let shortest = super::shortest_ramp_piece_mm(&options, 100.0);
+            super::plan_ramp(
+                cells,
+                &map,
+                &options,
+                &quantize,
+                (targets.as_slice(), &super::Leads::Lines, &[]),
+                (0, t_prev, q_prev),
+                &point,
+                (delta, &lags, [false; 3]),
+                (kink, 5e-3, shortest, None, 0.0),
+                (false, false, false),
+                zone_mm,
+            )
+            .unwrap()
+            .expect("a ramp")
+        };
+        let need_mm = 2e-3 * 101_000.0 / 60.0;
+        // No zone, and a 4 mm one: the ramp's end inserted 3.367 mm in.
+        for zone_mm in [0.0, 4.0] {
+            let p = plan(&mut cells, &[0.5, 8.0], zone_mm);
+            assert_eq!(p.insert.len(), 1, "{zone_mm}");
+            let (k, x, _) = p.insert[0];
+            assert_eq!(k, 1);
+            assert!(((x - t_prev).x - need_mm).abs() < 1e-6, "{x:?}");
+        }
+        // A 6.5 mm zone: none inserted, the ramp runs to the line's end.
+        let p = plan(&mut cells, &[0.5, 8.0], 6.5);
+        assert!(p.insert.is_empty(), "{:?}", p.insert);
+        assert_eq!(p.fracs.last().copied(), Some(0.0));
+        // 1 − 0.5 / 8 of the take-up left at the reversal's target.
+        assert_eq!(p.fracs.len(), 2, "{:?}", p.fracs);
+        assert!((p.fracs[0] - 0.9375).abs() < 1e-12, "{:?}", p.fracs);
+        // The line goes on past the ramp's piece: the zone is not there.
+        let p = plan(&mut cells, &[0.5, 8.0, 20.0], 6.5);
+        assert_eq!(p.insert.len(), 1);
+    }
+
     /// The try without the floor is skipped where [`super::floor_lengthens_ramp`]
     /// says the floor changed nothing: there [`super::plan_ramp`] with the
     /// floor plans to the bit what it plans without (the second method: both
@@ -3603,6 +3781,7 @@ mod tests {
                     (delta, &lags, [false; 3]),
                     (kink, 2e-3, shortest, None, floor_mm),
                     (smooth, false, false),
+                    0.0,
                 )
                 .unwrap()
                 .map(|p| {
