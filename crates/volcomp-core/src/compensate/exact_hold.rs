@@ -194,9 +194,7 @@ pub(super) fn held_instead_of_stop(
     };
     // Across the S-curve: the tool within what the S-curve leaves room for
     // where it starts and beside it, then the hold ending before the next.
-    let room_mm = (RUN_THROUGH_TOLERANCE_MM.powi(2) - x.deviation_mm.powi(2))
-        .max(0.0)
-        .sqrt()
+    let room_mm = room_beside_scurve_mm(x.deviation_mm)
         .min(bound_mm)
         .min(super::ramp_centre::TOLERANCE_MM);
     let start_off_mm = match after.last() {
@@ -210,6 +208,36 @@ pub(super) fn held_instead_of_stop(
     s[x.axis] = x.direction;
     let ends = hold_end(cells, model, method, (q_last, s, axes), x.targets, room_mm)?;
     Ok(ends.filter(|(k, _, _)| *k < x.targets.len()).map(|_| held))
+}
+
+/// What an S-curve of deviation `deviation_mm` leaves of the run-through
+/// tolerance for another error where it runs (mm): the tool's offset that
+/// another axis leaves there and the S-curve's own deviation add at most
+/// as the hypotenuse (they are at right angles on a planar arc: the
+/// S-curve's across the path in the plane, the normal axis' along the
+/// plane's normal), so the two stay within [`RUN_THROUGH_TOLERANCE_MM`]
+/// where the other is within `√(0.4² − d²)` µm; none where the S-curve
+/// takes the whole tolerance.
+pub(super) fn room_beside_scurve_mm(deviation_mm: f64) -> f64 {
+    (RUN_THROUGH_TOLERANCE_MM.powi(2) - deviation_mm.powi(2))
+        .max(0.0)
+        .sqrt()
+}
+
+/// Whether a take-up ramp moved ahead of an S-curve of deviation
+/// `deviation_mm` (compensate/points.rs `Ahead`), leaving the tool up to
+/// `bound_mm` off, is taken where a ramp after the S-curve could take the
+/// reversal instead: within what the S-curve leaves room for
+/// ([`room_beside_scurve_mm`]) and what a centred ramp may leave
+/// (ramp_centre.rs `TOLERANCE_MM`), as a hold across an S-curve
+/// ([`held_instead_of_stop`]). The ramp's largest offset is at its end,
+/// where the S-curve begins: the reversing carriage stands in its band
+/// while its target drifts the old way, and the band is not crossed when
+/// the command has caught up, so the offset runs on through the S-curve
+/// until the axis has travelled the rest of its band (the dead-band
+/// reading of `crate::simulate` and bench/eval/judge.py).
+pub(super) fn ahead_ramp_within_room(bound_mm: f64, deviation_mm: f64) -> bool {
+    bound_mm <= room_beside_scurve_mm(deviation_mm).min(super::ramp_centre::TOLERANCE_MM)
 }
 
 /// The S-curve a hold reaches ([`held_instead_of_stop`]): the targets from
@@ -236,6 +264,26 @@ mod tests {
         );
         assert!((p - 18.0).abs() < 1e-12, "{p}");
         assert_eq!(path_mm(Vec3::new(1.0, 2.0, 3.0), &[]), 0.0);
+    }
+
+    #[test]
+    fn a_ramp_ahead_of_an_s_curve_is_taken_within_the_room_the_s_curve_leaves() {
+        // √(0.4² − 0.24²) = 0.32 µm (by hand: 0.1600 − 0.0576 = 0.1024).
+        assert!((room_beside_scurve_mm(0.24e-3) - 0.32e-3).abs() < 1e-12);
+        // An S-curve past the tolerance leaves none.
+        assert_eq!(room_beside_scurve_mm(0.45e-3), 0.0);
+        // A small S-curve: the 0.2 µm a centred ramp may leave decides.
+        assert!(ahead_ramp_within_room(0.2e-3, 0.1e-3));
+        assert!(!ahead_ramp_within_room(0.201e-3, 0.1e-3));
+        // A large one: √(0.4² − 0.35²) = 0.1936 µm by hand.
+        assert!(ahead_ramp_within_room(0.193e-3, 0.35e-3));
+        assert!(!ahead_ramp_within_room(0.194e-3, 0.35e-3));
+        assert!(!ahead_ramp_within_room(1e-9, 0.45e-3));
+        // The shop map's g2_d40 and g2_d60 at F3000 (the ramps' bounds
+        // and the S-curves' deviations the compensation computed there):
+        // refused, where main took them and left 0.528 and 0.591 µm.
+        assert!(!ahead_ramp_within_room(0.387e-3, 0.192e-3));
+        assert!(!ahead_ramp_within_room(0.371e-3, 0.140e-3));
     }
 
     #[test]

@@ -1486,6 +1486,11 @@ impl State<'_> {
         let mut history: Vec<Snapshot> = Vec::new();
         let mut ahead: Option<Ahead> = None;
         let mut ahead_tried: Vec<usize> = Vec::new();
+        // The S-curves (their places in the transitions) whose ramp ahead
+        // was refused for the room it leaves, and those where it is taken
+        // as before, the ramp after the S-curve needing a block.
+        let mut ahead_capped: Vec<usize> = Vec::new();
+        let mut ahead_loose: Vec<usize> = Vec::new();
         // The targets (arc parameters) and transitions before one was
         // moved ahead, for going back to them.
         let mut ahead_saved: Option<AheadSaved> = None;
@@ -2248,6 +2253,22 @@ impl State<'_> {
                         }
                     }
                 }
+                // A ramp moved ahead of an S-curve that leaves more than
+                // the S-curve leaves room for: refused while a ramp after
+                // the S-curve may take the reversal instead (one that
+                // needs a take-up block there comes back to it, below).
+                if let Some((k, tr)) = ahead
+                    .filter(|ah| ah.index == index && !ah.centred)
+                    .and_then(|ah| Some((ah.transition, transitions.get(ah.transition)?)))
+                    .filter(|(k, _)| !ahead_loose.contains(k))
+                {
+                    if planned.as_ref().is_some_and(|(plan, _)| {
+                        !super::exact_hold::ahead_ramp_within_room(plan.bound_mm, tr.deviation_mm)
+                    }) {
+                        planned = None;
+                        ahead_capped.push(k);
+                    }
+                }
                 if let Some((plan, delta)) = planned {
                     if !plan.insert.is_empty() {
                         // The ramp ends inside a piece (or a smooth ramp
@@ -2839,6 +2860,27 @@ impl State<'_> {
                     }
                     continue;
                 }
+            }
+            // The reversal right after an S-curve whose ramp ahead of it
+            // was refused ([`super::exact_hold::ahead_ramp_within_room`])
+            // and that needs a take-up block here after all: the ramp
+            // ahead as it was, rather than a stop.
+            if let (Some(_), false, Some(k)) = (
+                take_up,
+                was_forced || history.get(index).is_none_or(|h| h.ramp_on),
+                transitions
+                    .iter()
+                    .position(|tr| tr.index + 1 == index)
+                    .filter(|k| ahead_capped.contains(k) && !ahead_loose.contains(k)),
+            ) {
+                ahead_loose.push(k);
+                ahead_tried.retain(|x| *x != k);
+                self.go_back(&history[index], index, (&mut commands, &mut records));
+                history.truncate(index + 1);
+                let h = &history[index];
+                (t_prev, last_lead, ramp_inserted) = (h.t_prev, h.last_lead, h.ramp_inserted);
+                (ramp, forced, ahead_hold) = (None, None, None);
+                continue;
             }
             if let Some(tu) = take_up {
                 self.q_out = tu;
