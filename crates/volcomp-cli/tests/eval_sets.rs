@@ -54,6 +54,20 @@ fn python(script: &Path, args: &[&Path]) -> String {
     String::from_utf8(out.stdout).expect("utf-8 output")
 }
 
+/// Removes a test's work folder when nothing failed; else fails with every
+/// failure, the folder kept for a look.
+fn clean_up_or_fail(dir: &Path, failures: &[String]) {
+    if failures.is_empty() {
+        let _ = std::fs::remove_dir_all(dir);
+    } else {
+        panic!(
+            "(work files in {})\n{}",
+            dir.display(),
+            failures.join("\n\n")
+        );
+    }
+}
+
 /// The programs of one set at F6000, written into `dir`: their paths.
 fn programs(maker: &str, dir: &Path) -> Vec<PathBuf> {
     let listed = python(&bench().join("eval").join(maker), &[dir, Path::new("6000")]);
@@ -109,15 +123,7 @@ fn eval_set_programs_agree_with_rs274() {
         }
     }
     println!("{files} evaluation programs, {motions} motions agree with rs274");
-    if failures.is_empty() {
-        let _ = std::fs::remove_dir_all(&tools.dir);
-    } else {
-        panic!(
-            "(work files in {})\n{}",
-            tools.dir.display(),
-            failures.join("\n\n")
-        );
-    }
+    clean_up_or_fail(&tools.dir, &failures);
 }
 
 #[test]
@@ -177,15 +183,7 @@ fn compensated_set_c_programs_are_accepted_by_rs274() {
         "{} compensated set c programs accepted by rs274",
         progs.len() - failures.len()
     );
-    if failures.is_empty() {
-        let _ = std::fs::remove_dir_all(&tools.dir);
-    } else {
-        panic!(
-            "(work files in {})\n{}",
-            tools.dir.display(),
-            failures.join("\n\n")
-        );
-    }
+    clean_up_or_fail(&tools.dir, &failures);
 }
 
 /// The judge of bench/eval (judge.py, `read_program`) reads set c's feed
