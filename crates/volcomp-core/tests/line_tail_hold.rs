@@ -57,9 +57,12 @@ fn under_g61_a_reversal_on_a_lines_tail_is_held_to_the_corner_not_stopped_on() {
     assert!(take_ups > 0, "{out}");
     // The time: the planner model (LinuxCNC 2.9's planner to the ms)
     // gives main's output +3.2 % cutting time; issue 24's G61 goal is
-    // +1 %, and the lines' own take-ups at corners cost a few ms each.
+    // +1 %, and the lines' own take-ups at corners cost a few ms each
+    // (9.883 s against 9.781 s on LinuxCNC 2.9, +1.04 %). A line's tail
+    // merged with the line's last piece before the corner (the fold over
+    // the longer piece) gave +1.38 %: the bound keeps it out.
     let ratio = common::cutting_s(&out) / common::cutting_s(&program);
-    assert!(ratio < 1.015, "{ratio}\n{out}");
+    assert!(ratio < 1.012, "{ratio}\n{out}");
     // The hold leaves the tool within G61's 0.5 µm (issue 24) everywhere.
     let report = common::simulated(&out, &program, &map);
     assert!(report.contour_max_um <= 0.5, "{report:?}");
