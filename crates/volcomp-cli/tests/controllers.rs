@@ -1,7 +1,7 @@
 //! `volcomp map export` and `--controller`: a machine whose controller
 //! applies a pitch table volcomp exported, compensated for the rest only.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use crate::common;
 use common::{json, ok, read, refused, tempdir, text, volcomp, write};
@@ -38,7 +38,7 @@ const EEC: &str = "eec/%_N_AX_EEC_INI";
 
 /// A fresh folder `name` with the map (m.csv) and [`PART`] (part.ngc).
 #[track_caller]
-fn machine(name: &str) -> PathBuf {
+fn machine(name: &str) -> common::TempDir {
     let dir = tempdir(name);
     write_map(&dir);
     write(&dir, "part.ngc", PART);

@@ -158,7 +158,7 @@ fn actual(q: [f64; 3], fwd: [bool; 3]) -> [f64; 3] {
 }
 
 struct Run {
-    dir: PathBuf,
+    dir: common::TempDir,
     tools: Tools,
 }
 
@@ -178,7 +178,7 @@ fn set_up(name: &str) -> Option<Run> {
     let tools = Tools {
         rs274,
         volcomp: PathBuf::from(env!("CARGO_BIN_EXE_volcomp")),
-        dir: dir.clone(),
+        dir: dir.to_path_buf(),
         setup: dir.join("setup.toml"),
         tool_table: dir.join("tools.tbl"),
         var_text: "5220 1\n".into(),

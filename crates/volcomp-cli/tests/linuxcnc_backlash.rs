@@ -38,7 +38,7 @@ fn installed(not_checked: &str) -> bool {
 
 /// A fresh folder `name` holding the comp map, or `None` (saying what was
 /// not checked) where LinuxCNC is not installed.
-fn work_with_map(name: &str, not_checked: &str) -> Option<PathBuf> {
+fn work_with_map(name: &str, not_checked: &str) -> Option<common::TempDir> {
     if !installed(not_checked) {
         return None;
     }

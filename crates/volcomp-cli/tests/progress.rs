@@ -34,7 +34,7 @@ fn on_terminal(dir: &Path, args: &str) -> Option<String> {
     }
 }
 
-fn large(name: &str) -> std::path::PathBuf {
+fn large(name: &str) -> common::TempDir {
     let dir = fixture(name);
     // 60 000 lines, about 1.1 MiB: above the 1 MiB from which a bar is drawn.
     let p = large_program(&dir, 60_000);

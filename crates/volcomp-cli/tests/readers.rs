@@ -1,7 +1,7 @@
 //! Input files read the same way everywhere, and what used to be accepted
 //! silently is refused or warned about: located, with what to do.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
 use crate::common;
@@ -19,7 +19,7 @@ fn flat_map(dir: &Path, lo: f64, hi: f64) {
 /// A fresh folder `name` with a flat map over 0…500 mm and a program p.ngc
 /// that goes to (250, 250, 250).
 #[track_caller]
-fn flat_dir(name: &str) -> PathBuf {
+fn flat_dir(name: &str) -> common::TempDir {
     let d = tempdir(name);
     flat_map(&d, 0.0, 500.0);
     write(&d, "p.ngc", "G21 G90\nG0 X250 Y250 Z250\nM2\n");

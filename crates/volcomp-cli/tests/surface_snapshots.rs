@@ -13,7 +13,7 @@ fn example_data() -> PathBuf {
 }
 
 /// A copy of the example inputs the command reads, in a fresh directory.
-fn inputs(name: &str) -> PathBuf {
+fn inputs(name: &str) -> common::TempDir {
     let dir = tempdir(name);
     for f in ["face.toml", "probes.csv", "finish.ngc"] {
         std::fs::copy(example_data().join(f), dir.join(f)).unwrap();

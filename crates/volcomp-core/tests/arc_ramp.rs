@@ -14,24 +14,12 @@ use crate::common;
 /// it. Z has a 6 µm band (its
 /// reverse table), Y none.
 fn kink_map() -> AxisTableMap {
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for dir in ["forward", "reverse"] {
-        for k in 0..=400 {
-            let p = -50.0 + 0.25 * k as f64;
-            let z = if p < 5.0 {
-                3.0 + 0.03 * (p - 5.0)
-            } else {
-                3.0 - 0.12 * (p - 5.0)
-            };
-            csv.push_str(&format!("X,{dir},{p},0,0,{}\n", -z));
-        }
-        for (name, ez) in [("Y", 0.0), ("Z", if dir == "reverse" { 6.0 } else { 0.0 })] {
-            for p in [-200.0, 200.0] {
-                csv.push_str(&format!("{name},{dir},{p},0,0,{ez}\n"));
-            }
-        }
-    }
-    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+    common::map_fine_on(&[0], 200.0, |a, p, rev| match a {
+        0 if p < 5.0 => [0.0, 0.0, -(3.0 + 0.03 * (p - 5.0))],
+        0 => [0.0, 0.0, -(3.0 - 0.12 * (p - 5.0))],
+        2 if rev => [0.0, 0.0, 6.0],
+        _ => [0.0; 3],
+    })
 }
 
 #[test]
@@ -85,31 +73,14 @@ fn under_g61_a_z_reversal_inside_an_arc_is_taken_up_on_a_ramp_around_it() {
 /// switching with an axis' direction) and gives Y a 3 µm band; Z has a
 /// 6 µm band, X none.
 fn dip_map() -> AxisTableMap {
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for dir in ["forward", "reverse"] {
-        for k in 0..=400 {
-            let p = -50.0 + 0.25 * k as f64;
-            let z = if p < -3.0 {
-                1.0 + 0.05 * (p + 20.0)
-            } else if p < 0.0 {
-                1.85 - 0.05 * (p + 3.0)
-            } else {
-                1.7 + 0.05 * p
-            };
-            csv.push_str(&format!("X,{dir},{p},0,0,{}\n", -z));
-        }
-        let (ey, ez) = if dir == "reverse" {
-            (3.0, -0.3)
-        } else {
-            (0.0, 0.0)
-        };
-        for p in [-200.0, 200.0] {
-            csv.push_str(&format!("Y,{dir},{p},0,{ey},{ez}\n"));
-            let z_band = if dir == "reverse" { 6.0 } else { 0.0 };
-            csv.push_str(&format!("Z,{dir},{p},0,0,{z_band}\n"));
-        }
-    }
-    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+    common::map_fine_on(&[0], 200.0, |a, p, rev| match (a, rev) {
+        (0, _) if p < -3.0 => [0.0, 0.0, -(1.0 + 0.05 * (p + 20.0))],
+        (0, _) if p < 0.0 => [0.0, 0.0, -(1.85 - 0.05 * (p + 3.0))],
+        (0, _) => [0.0, 0.0, -(1.7 + 0.05 * p)],
+        (1, true) => [0.0, 3.0, -0.3],
+        (2, true) => [0.0, 0.0, 6.0],
+        _ => [0.0; 3],
+    })
 }
 
 #[test]

@@ -12,19 +12,11 @@ use crate::common;
 /// the program, is 0.2·x − 0.02·y² µm; Z has a 2 µm band (its reverse
 /// table moves the tool 2 µm up). Table points every 0.25 mm.
 fn corner_map() -> AxisTableMap {
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for dir in ["forward", "reverse"] {
-        for k in 0..=400 {
-            let p = -50.0 + 0.25 * k as f64;
-            csv.push_str(&format!("X,{dir},{p},0,0,{}\n", -0.2 * p));
-            csv.push_str(&format!("Y,{dir},{p},0,0,{}\n", 0.02 * p * p));
-        }
-        let ez = if dir == "reverse" { 2.0 } else { 0.0 };
-        for p in [-100.0, 100.0] {
-            csv.push_str(&format!("Z,{dir},{p},0,0,{ez}\n"));
-        }
-    }
-    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+    common::map_fine_on(&[0, 1], 100.0, |a, p, rev| match a {
+        0 => [0.0, 0.0, -0.2 * p],
+        1 => [0.0, 0.0, 0.02 * p * p],
+        _ => [0.0, 0.0, if rev { 2.0 } else { 0.0 }],
+    })
 }
 
 #[test]

@@ -12,19 +12,11 @@ use crate::common;
 /// commanded `3 − 0.15·|x|` µm, rising at 0.15 µm/mm to X 0 and falling
 /// after it. Z has a 6 µm band (its reverse table), as the shop map's.
 fn peak_map() -> AxisTableMap {
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for dir in ["forward", "reverse"] {
-        for k in 0..=400 {
-            let p = -50.0 + 0.25 * k as f64;
-            csv.push_str(&format!("X,{dir},{p},0,0,{}\n", -(3.0 - 0.15 * p.abs())));
-        }
-        for (name, ez) in [("Y", 0.0), ("Z", if dir == "reverse" { 6.0 } else { 0.0 })] {
-            for p in [-100.0, 100.0] {
-                csv.push_str(&format!("{name},{dir},{p},0,0,{ez}\n"));
-            }
-        }
-    }
-    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+    common::map_fine_on(&[0], 100.0, |a, p, rev| match a {
+        0 => [0.0, 0.0, -(3.0 - 0.15 * p.abs())],
+        2 if rev => [0.0, 0.0, 6.0],
+        _ => [0.0; 3],
+    })
 }
 
 #[test]

@@ -17,23 +17,12 @@ use crate::common;
 /// X by 0.3 µm: Z's switch moves X's command back by 0.3 µm. Tables every
 /// 0.25 mm (X, Y) and at ±100 (Z).
 fn corner_map() -> AxisTableMap {
-    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-    for dir in ["forward", "reverse"] {
-        for k in 0..=400 {
-            let p = -50.0 + 0.25 * k as f64;
-            csv.push_str(&format!("X,{dir},{p},0,0,{}\n", -0.2 * p));
-            csv.push_str(&format!("Y,{dir},{p},{},0,{}\n", -0.05 * p, 0.2 * p));
-        }
-        let (ex, ez) = if dir == "reverse" {
-            (0.3, 6.0)
-        } else {
-            (0.0, 0.0)
-        };
-        for p in [-100.0, 100.0] {
-            csv.push_str(&format!("Z,{dir},{p},{ex},0,{ez}\n"));
-        }
-    }
-    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+    common::map_fine_on(&[0, 1], 100.0, |a, p, rev| match (a, rev) {
+        (0, _) => [0.0, 0.0, -0.2 * p],
+        (1, _) => [-0.05 * p, 0.0, 0.2 * p],
+        (_, true) => [0.3, 0.0, 6.0],
+        (_, false) => [0.0; 3],
+    })
 }
 
 #[test]

@@ -67,17 +67,56 @@ pub fn command(dir: &Path, line: &str) -> Command {
     c
 }
 
+/// A test's own directory: removed when the test is done with it, kept when
+/// the test fails (a panic is unwinding), so its files can be looked at.
+pub struct TempDir(PathBuf);
+
+impl std::ops::Deref for TempDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl TempDir {
+    /// The directory's path.
+    pub fn as_path(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for TempDir {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for TempDir {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.as_os_str()
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
 /// A fresh, empty directory for one test, named after the calling test file,
 /// `name` and the process: the files' tests run side by side in one binary
-/// (tests/cli_tests.rs), and two files may use the same `name`.
+/// (tests/cli_tests.rs), and two files may use the same `name`. It is removed
+/// when the returned guard goes out of scope (kept if the test fails).
 #[track_caller]
-pub fn tempdir(name: &str) -> PathBuf {
+pub fn tempdir(name: &str) -> TempDir {
     let file = Path::new(std::panic::Location::caller().file());
     let stem = file.file_stem().unwrap_or_default().to_string_lossy();
     let d = std::env::temp_dir().join(format!("volcomp-{stem}-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    d
+    TempDir(d)
 }
 
 /// Writes `contents` as the file `name` in `dir` (a test's input).
@@ -171,7 +210,7 @@ pub const SETUP: &str = "units = \"mm\"\n[work_offsets]\nG54 = [200, 150, 100]\n
 
 /// A directory with the map, program and set-up above (see [`tempdir`]).
 #[track_caller]
-pub fn fixture(name: &str) -> PathBuf {
+pub fn fixture(name: &str) -> TempDir {
     let d = tempdir(name);
     write_map(&d);
     std::fs::write(d.join("part.ngc"), PROGRAM).unwrap();

@@ -559,11 +559,21 @@ pub fn parse_volcomp_csv(text: &str) -> Result<Vec<VolMotion>, String> {
 pub struct Tools {
     pub rs274: PathBuf,
     pub volcomp: PathBuf,
-    /// Shared temporary directory (setup, tool table).
+    /// Shared temporary directory (setup, tool table); removed on drop.
     pub dir: PathBuf,
     pub setup: PathBuf,
     pub tool_table: PathBuf,
     pub var_text: String,
+}
+
+/// `dir` is always a test's own scratch directory: removed when the tools are
+/// done, kept when the test fails (a panic is unwinding) for a look.
+impl Drop for Tools {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
+    }
 }
 
 /// The ripple map of tests/rs274_corpus.rs over ±`half_range_mm`, as an

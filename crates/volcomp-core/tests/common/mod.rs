@@ -40,6 +40,34 @@ pub fn map_from(f: impl Fn(usize, f64, bool) -> [f64; 3]) -> AxisTableMap {
     AxisTableMap::from_csv(&csv, "test.csv").unwrap()
 }
 
+/// A map whose axes in `fine` (0 = X) have tables over −50…50 mm every
+/// 0.25 mm and the others two rows at ±`coarse_half_mm` (so their errors
+/// should not depend on the position); the errors (µm) of axis `a` at
+/// position `p` in direction `reverse` are `f(a, p, reverse)`. The
+/// hand-built maps of the take-up tests: a shape in µm on a fine grid, and
+/// a band (a reverse table) elsewhere.
+pub fn map_fine_on(
+    fine: &[usize],
+    coarse_half_mm: f64,
+    f: impl Fn(usize, f64, bool) -> [f64; 3],
+) -> AxisTableMap {
+    let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+    for (a, name) in ["X", "Y", "Z"].iter().enumerate() {
+        for (dir, rev) in [("forward", false), ("reverse", true)] {
+            let rows: Vec<f64> = if fine.contains(&a) {
+                (0..=400).map(|k| -50.0 + 0.25 * k as f64).collect()
+            } else {
+                vec![-coarse_half_mm, coarse_half_mm]
+            };
+            for p in rows {
+                let e = f(a, p, rev);
+                csv.push_str(&format!("{name},{dir},{p},{},{},{}\n", e[0], e[1], e[2]));
+            }
+        }
+    }
+    AxisTableMap::from_csv(&csv, "test.csv").unwrap()
+}
+
 /// A walker over `program` named `name`, with the default set-up and
 /// interpreter options.
 pub fn walker(program: &str, name: &str) -> Walker<Cursor<Vec<u8>>> {
