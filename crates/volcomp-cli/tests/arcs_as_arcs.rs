@@ -1,6 +1,7 @@
 //! Compensated arcs written as arcs (docs/compensation.md, "Arcs as arcs"):
 //! programs with arcs in every plane, helices with P turns, R and IJK,
-//! G91, G90.1 and inch are compensated with a ripple map; every output must
+//! G91, G90.1, absolute centres by option and inch are compensated with a
+//! ripple map; every output must
 //! be accepted by LinuxCNC's `rs274` (its radius-consistency rule of
 //! interp_arc.cc `arc_data_ijk`/`arc_data_r` included), keep its arcs as
 //! G2/G3, be far smaller than the linearised output, and follow the nominal
@@ -34,6 +35,14 @@ const PROGRAMS: &[(&str, &str)] = &[
         "inch_absolute_centres.ngc",
         "G20 G90 G17 G90.1\nG0 X1 Y0 Z0.2\nG1 Z-0.05 F40\nG3 X-1 Y0 I0 J0\nG3 X1 Y0 I0 J0\n\
          G2 X0.5 Y-0.5 Z-0.1 I0.5 J0\nG91.1 G91 G3 X0.5 Y0.5 J0.5\nG90 G0 Z0.2\nM2\n",
+    ),
+    (
+        // Posted for a controller that reads I/J as absolute centres without
+        // G90.1 (BOTTLE.NC of the corpus): read with --absolute-arc-centers,
+        // written with absolute centres for that same controller.
+        "absolute_by_option.ngc",
+        "G21 G90 G17\nG0 X10 Y0 Z5\nG1 Z-1 F1000\nG3 X-10 Y0 I0 J0\nG3 X10 Y0 I0 J0\n\
+         G2 X0 Y-10 Z-2 I0 J0\nG2 X-10 Y0 I0 J0\nG0 Z5\nM2\n",
     ),
     (
         "circles_r.ngc",
@@ -118,7 +127,12 @@ fn arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
         std::fs::write(d.join(name), text).unwrap();
         let out = format!("{name}.comp.ngc");
         let lines = format!("{name}.lines.ngc");
-        let common = ["--map", "ripple.csv", "--work-offset", "250,200,150"];
+        let by_option = name.starts_with("absolute_by_option");
+        let mut common = vec!["--map", "ripple.csv", "--work-offset", "250,200,150"];
+        if by_option {
+            common.push("--absolute-arc-centers");
+        }
+        let common = common.as_slice();
         let mut args = vec!["compensate", name, "-o", &out];
         args.extend(common);
         let (_, said) = volcomp_both(&args, d);
@@ -171,9 +185,22 @@ fn arcs_stay_arcs_accepted_by_rs274_and_on_the_path() {
         if let Some(rs) = &rs {
             let home = d.join(format!("home-{name}"));
             std::fs::create_dir_all(&home).unwrap();
+            // rs274 has no option for absolute centres: the controller the
+            // program was posted for is stood in for by G90.1 at its start
+            // (after the `%` that must open it).
+            let read_by = if by_option {
+                let with = match written.strip_prefix("%\n") {
+                    Some(rest) => format!("%\nG90.1\n{rest}"),
+                    None => format!("G90.1\n{written}"),
+                };
+                std::fs::write(d.join("g90_1.ngc"), with).unwrap();
+                d.join("g90_1.ngc")
+            } else {
+                d.join(&out)
+            };
             let run = Command::new(rs)
                 .arg("-g")
-                .arg(d.join(&out))
+                .arg(read_by)
                 .env("HOME", &home)
                 .current_dir(&home)
                 .stdin(Stdio::null())

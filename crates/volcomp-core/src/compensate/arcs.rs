@@ -1804,7 +1804,6 @@ mod tests {
             after_mm: Vec3::ZERO,
             x_word_scale: 1.0,
             arc_absolute: false,
-            arc_absolute_by_option: false,
         };
         let style = NumberStyle::fixed(4);
         let c1 = Vec3::new(0.0, -2.0, 0.0);

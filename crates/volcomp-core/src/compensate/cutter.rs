@@ -190,15 +190,9 @@ impl State<'_> {
             // arc) is written as compensated pieces of itself, as program
             // arcs are (compensate/arcs.rs), unless arcs are linearised by
             // option or the frame needs what that path does not write (a
-            // rotation; centres absolute only by option).
+            // rotation).
             let arc = match m.kind {
-                MotionKind::Arc(a)
-                    if options.arcs_as_arcs
-                        && frame.rotation_deg == 0.0
-                        && !(frame.arc_absolute && frame.arc_absolute_by_option) =>
-                {
-                    Some(a)
-                }
+                MotionKind::Arc(a) if options.arcs_as_arcs && frame.rotation_deg == 0.0 => Some(a),
                 _ => None,
             };
             let options = &CompensateOptions {

@@ -30,10 +30,10 @@ pub(super) struct Frame {
     /// Written X word per program X: 2 in lathe diameter mode (G7), where
     /// an X word is a diameter, else 1.
     pub(super) x_word_scale: f64,
-    /// Arc centres (I, J, K) are absolute (G90.1), and whether only by
-    /// option (`--absolute-arc-centers`: the program does not say so).
+    /// Arc centres (I, J, K) are absolute (G90.1, or by option
+    /// `--absolute-arc-centers`: then written absolute too, for the program's
+    /// own controller).
     pub(super) arc_absolute: bool,
-    pub(super) arc_absolute_by_option: bool,
 }
 
 impl Frame {
@@ -65,7 +65,6 @@ impl Frame {
             after_mm,
             x_word_scale: if interp.diameter_mode() { 2.0 } else { 1.0 },
             arc_absolute: interp.arc_absolute(),
-            arc_absolute_by_option: interp.arc_absolute_by_option(),
         };
         (frame, survey.style(decimals))
     }
@@ -316,7 +315,6 @@ mod tests {
             after_mm: Vec3::new(10.0, 5.0, 2.0),
             x_word_scale: 1.0,
             arc_absolute: false,
-            arc_absolute_by_option: false,
         }
     }
 

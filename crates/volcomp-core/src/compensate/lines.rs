@@ -838,7 +838,6 @@ mod tests {
             after_mm: Vec3::ZERO,
             x_word_scale: 1.0,
             arc_absolute: false,
-            arc_absolute_by_option: false,
         }
     }
 

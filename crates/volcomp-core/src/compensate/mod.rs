@@ -480,14 +480,14 @@ impl<'w> State<'w> {
         let feed_after = FeedInForce::after(interp);
         let options = self.walk.options;
         // Arcs are written as arcs unless the line needs what that path
-        // does not write: a rotated frame, polar words, extra axes, or
-        // centres read as absolute by option (the program does not say so,
-        // so no other reader would read the written centres alike).
+        // does not write: a rotated frame, polar words or extra axes. Centres
+        // read as absolute by option are written absolute too: the program's
+        // own controller reads I/J/K so (docs/gcode.md, "Absolute arc
+        // centres without G90.1").
         let arc_nominal = match motion.kind {
             MotionKind::Arc(arc)
                 if options.arcs_as_arcs
                     && frame.rotation_deg == 0.0
-                    && !(interp.arc_absolute() && interp.arc_absolute_by_option())
                     && !extra_moves
                     && !line.ev.lexed.has_polar() =>
             {
