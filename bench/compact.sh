@@ -8,6 +8,9 @@
 #   arcs  : the defaults (adaptive lines, arcs as arcs)
 # with the ripple map of bench/ripple_map.py (3 µm / 1 µm waves, 5 mm table).
 # Usage: bench/compact.sh PROGRAM...   (needs a release build)
+# Programs posted for absolute arc centres without G90.1 are read with
+# --absolute-arc-centers: their base names in ABSOLUTE_CENTRES (space
+# separated; default the corpus' BOTTLE.NC).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 vc=./target/release/volcomp
@@ -17,11 +20,13 @@ python3 bench/ripple_map.py > "$work/ripple.csv"
 # Work offsets zero, tools 1 … 99 of length 0 (the map is defined over ±20 m).
 { echo 'units = "mm"'; echo; echo '[work_offsets]'; echo 'G54 = [0, 0, 0]'; echo; echo '[tools]'
   for i in $(seq 1 99); do echo "$i = 0"; done; } > "$work/setup.toml"
-common=(--map "$work/ripple.csv" --setup "$work/setup.toml")
+absolute=" ${ABSOLUTE_CENTRES:-MaestroFusion360__easy_gcode_plot__BOTTLE.NC} "
 echo "| program | blocks in | fixed ×| lines × | arcs × | contour RMS before µm | RMS fixed / lines / arcs µm | max fixed / lines / arcs µm | reduction (arcs) |"
 echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|"
 for p in "$@"; do
   name=$(basename "$p")
+  common=(--map "$work/ripple.csv" --setup "$work/setup.toml")
+  case "$absolute" in *" $name "*) common+=(--absolute-arc-centers) ;; esac
   in=$(python3 bench/blocks.py "$p" | cut -d' ' -f1)
   before=$($vc simulate "$p" "${common[@]}" --json 2>/dev/null) || { echo "| $name | $in | refused by simulate | | | | | | |"; continue; }
   rms0=$(echo "$before" | python3 -c 'import json,sys; print("%.3f" % json.load(sys.stdin)["contour_rms_um"])')
