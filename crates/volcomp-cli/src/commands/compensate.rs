@@ -63,6 +63,13 @@ pub fn compensate_into(
     if let Some(f) = on_line {
         compensator = compensator.on_line(f);
     }
+    if program.as_os_str() != "-" {
+        // The program's lines lexed on a thread of their own, from a
+        // second reader of the file (without one, lexed as they are read).
+        if let Ok(again) = volcomp_core::io::inputs::open(program, "the program") {
+            compensator = compensator.lex_ahead(std::io::BufReader::new(again));
+        }
+    }
     let result = compensator
         .run(reader, out)
         .map_err(|e| job.machine.refused(e));

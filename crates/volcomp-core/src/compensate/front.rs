@@ -104,6 +104,7 @@ pub struct Compensator<'a> {
     on_warning: Option<Callback<'a, Warning>>,
     program_copy: Option<&'a mut dyn Write>,
     on_line: Option<&'a mut dyn FnMut(&volcomp_gcode::LineEvent<'_>)>,
+    lex_ahead: Option<volcomp_gcode::ahead::LexAhead>,
 }
 
 impl<'a> Compensator<'a> {
@@ -120,6 +121,7 @@ impl<'a> Compensator<'a> {
             on_warning: None,
             program_copy: None,
             on_line: None,
+            lex_ahead: None,
         }
     }
 
@@ -186,6 +188,16 @@ impl<'a> Compensator<'a> {
         self
     }
 
+    /// Lexes the program's lines on a thread of their own, from `program_again`:
+    /// a second reader of the same program ([`volcomp_gcode::ahead`]). The
+    /// compensation takes those tokens where they are of the bytes it
+    /// reads itself (so the output is the same to the byte) and has the
+    /// lexing off its own thread.
+    pub fn lex_ahead(mut self, program_again: impl Read + Send + 'static) -> Self {
+        self.lex_ahead = Some(volcomp_gcode::ahead::LexAhead::spawn(program_again));
+        self
+    }
+
     /// Reads `program`, writes it compensated to `out`, and says what it did.
     /// Nothing is written past an error; the caller discards a partial
     /// output (see [`crate::io::output`] for outputs written completely or
@@ -220,6 +232,9 @@ impl<'a> Compensator<'a> {
             decimals(super::DEFAULT_DECIMALS_INCH),
         ]);
         let mut walker = self.setup.walker(reader, &self.file);
+        if let Some(ahead) = self.lex_ahead.take() {
+            walker.lex_ahead(ahead);
+        }
         let mut no_op = |_: &PointRecord| {};
         let on_point: &mut dyn FnMut(&PointRecord) = match self.on_point.as_mut() {
             Some(f) => f.as_mut(),
