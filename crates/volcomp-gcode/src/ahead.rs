@@ -19,9 +19,12 @@ use crate::lexer::{self, Lexed};
 use std::io::Read;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TryRecvError};
 
-/// Lines per batch, and batches that may wait for the walker at once.
-const BATCH_LINES: usize = 1024;
-const BATCHES_IN_FLIGHT: usize = 8;
+/// Lines per batch, batches that may wait for the walker at once, and
+/// batches made at most: those, the walker's and the thread's own (the
+/// thread waits for one to come back rather than make more).
+const BATCH_LINES: usize = 512;
+const BATCHES_IN_FLIGHT: usize = 4;
+const BATCHES_MADE: usize = BATCHES_IN_FLIGHT + 2;
 
 /// Bytes read at a time, and the longest line the thread lexes: a longer
 /// one ends the lexing ahead (the walker reads and refuses such lines
@@ -93,7 +96,9 @@ impl LexAhead {
     /// lexes, or once this end is dropped.
     pub fn spawn(program: impl Read + Send + 'static) -> LexAhead {
         let (tx, rx) = sync_channel(BATCHES_IN_FLIGHT);
-        let (back, back_rx) = sync_channel(BATCHES_IN_FLIGHT + 2);
+        // Room for every batch made and the walker's empty first one: a
+        // batch given back is never dropped on the walker's thread.
+        let (back, back_rx) = sync_channel(BATCHES_MADE + 1);
         let spawned = std::thread::Builder::new()
             .name("lex-ahead".into())
             .spawn(move || lex_lines(program, &tx, &back_rx));
@@ -173,12 +178,24 @@ impl LexAhead {
 fn lex_lines(mut program: impl Read, tx: &SyncSender<Batch>, back: &Receiver<Batch>) {
     let mut buf = vec![0u8; READ_BYTES + MAX_LINE_BYTES];
     let mut filled = 0;
-    let fresh = |first: usize| {
-        let mut b = back.try_recv().unwrap_or_default();
+    let mut made = 0;
+    // A batch given back, a new one while fewer than `BATCHES_MADE` were
+    // made, else the next given back (`None`: the walker is gone).
+    let mut fresh = |first: usize| {
+        let mut b = match back.try_recv() {
+            Ok(b) => b,
+            Err(_) if made < BATCHES_MADE => {
+                made += 1;
+                Batch::default()
+            }
+            Err(_) => back.recv().ok()?,
+        };
         b.reset(first);
-        b
+        Some(b)
     };
-    let mut batch = fresh(0);
+    let Some(mut batch) = fresh(0) else {
+        return;
+    };
     let mut eof = false;
     while !eof {
         match program.read(&mut buf[filled..]) {
@@ -195,10 +212,14 @@ fn lex_lines(mut program: impl Read, tx: &SyncSender<Batch>, back: &Receiver<Bat
             batch.push(&line[..lexer::content_len(line)]);
             start = k + 1;
             if batch.len() == BATCH_LINES {
-                let next = fresh(batch.end());
-                if tx.send(std::mem::replace(&mut batch, next)).is_err() {
+                let end = batch.end();
+                if tx.send(batch).is_err() {
                     return;
                 }
+                let Some(next) = fresh(end) else {
+                    return;
+                };
+                batch = next;
             }
         }
         if eof && start < filled {
@@ -266,10 +287,13 @@ mod tests {
         let mut a = LexAhead::spawn(std::io::Cursor::new(p));
         let mut batches = Vec::new();
         let rx = a.rx.take().unwrap();
-        // Nothing comes back: every batch has buffers of its own.
-        a.back = None;
+        let back = a.back.take().unwrap();
+        // Every batch kept, a new one given back for each: the thread
+        // makes no more than `BATCHES_MADE` itself.
         while let Ok(b) = rx.recv() {
             batches.push(b);
+            // (Refused once the thread has ended.)
+            let _ = back.send(Batch::default());
         }
         // Replay the batches through a channel of their own.
         let (tx, rx) = sync_channel(batches.len() + 1);
