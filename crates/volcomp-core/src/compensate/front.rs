@@ -515,4 +515,42 @@ mod tests {
         // No G20/G21: the interpreter says it assumed mm.
         assert!(warnings >= 1);
     }
+    /// A program compensated with its lines lexed ahead (a second reader of
+    /// the same bytes) is the program compensated without, to the byte,
+    /// with the same summary: a map with slopes (every point corrected),
+    /// G61 and G64 lines and arcs, a loop run three times (its lines read
+    /// again: lexed by the walk), and more lines than the lexing thread
+    /// keeps in flight.
+    #[test]
+    fn a_program_lexed_ahead_is_compensated_as_one_lexed_as_read() {
+        let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
+        for a in ["X", "Y", "Z"] {
+            csv.push_str(&format!("{a},both,-500,0,0,0\n{a},both,500,9,-6,3\n"));
+        }
+        let map = AxisTableMap::from_csv(&csv, "slope.csv").unwrap();
+        let mut p = String::from("G21 G90 G17 G64\nG0 X0 Y0 Z5\nG1 Z0 F600\n#1 = 0\n");
+        p += "o100 while [#1 LT 3]\nG1 X[#1] Y1\n#1 = [#1 + 1]\no100 endwhile\n";
+        for i in 0..6000 {
+            let (x, y) = (f64::from(i % 40) * 0.5, f64::from(i / 40) * 0.25);
+            p += &format!("G1 X{x:.3} Y{y:.3} (p{i})\n");
+            if i % 500 == 0 {
+                p += "G61\nG2 I-1 J0\nG64\n";
+            }
+        }
+        p += "M2\n";
+        let run = |ahead: bool| {
+            let mut c = Compensator::new(&map).file_name("p.ngc");
+            if ahead {
+                c = c.lex_ahead(std::io::Cursor::new(p.clone().into_bytes()));
+            }
+            let mut out = Vec::new();
+            let summary = c.run(p.as_bytes(), &mut out).unwrap();
+            (out, format!("{summary:?}"))
+        };
+        let (plain, plain_summary) = run(false);
+        let (ahead, ahead_summary) = run(true);
+        assert!(plain.len() > p.len(), "{}", plain.len());
+        assert!(plain == ahead, "the outputs differ");
+        assert_eq!(plain_summary, ahead_summary);
+    }
 }
