@@ -138,6 +138,10 @@ pub(super) enum NextCorner {
         feed_mm_min: f64,
         arc: bool,
         p2_mm: f64,
+        /// The normal axis of an arc of a plane without a rise of its own
+        /// run under G64 (LinuxCNC's blend arc into it needs the line in
+        /// that plane: compensate/line_arc.rs); `None` for anything else.
+        arc_normal: Option<usize>,
     },
 }
 
@@ -172,6 +176,7 @@ impl NextCorner {
                 PathMode::Blend { tolerance_mm, .. } => tolerance_mm,
                 _ => 0.0,
             },
+            arc_normal: super::line_arc::planar_arc_normal(&m),
         }
     }
 
@@ -193,6 +198,7 @@ impl NextCorner {
                 feed_mm_min,
                 arc,
                 p2_mm,
+                ..
             } => (t2, l2_mm, feed_mm_min, arc, p2_mm),
         };
         let l1_mm = (b - a).norm();
