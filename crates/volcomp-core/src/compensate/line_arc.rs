@@ -177,9 +177,11 @@ impl State<'_> {
 
     /// After the line is solved (`commands` for `targets`, the solve's
     /// lead points among them, from `q_start`): the planned split's command
-    /// given the end's normal coordinate where it moves no
-    /// further than the tolerance, both commands plain (no take-up) and in
-    /// one direction state; then, where the last piece is planar, the arc
+    /// given the end's normal coordinate where it moves no further than the
+    /// tolerance, both commands plain (no take-up) and in one direction
+    /// state (no axis turns at the end: the end's command was solved for
+    /// the turn); else the split is taken out again, and the line is written
+    /// as solved without it. Then, where the last piece is planar, the arc
     /// after it starts planar too (`planar_before`, planar.rs
     /// `planar_start`). Whether the split was kept: under G64 P its pieces
     /// then run under Q0 (LinuxCNC's naive-CAM layer would merge them back
@@ -187,7 +189,7 @@ impl State<'_> {
     pub(super) fn apply_planar_line_end(
         &mut self,
         p: PlanarLineEnd,
-        (targets, commands): (&[Vec3], &mut [(Vec3, Option<Vec3>)]),
+        (targets, commands): (&mut Vec<Vec3>, &mut Vec<(Vec3, Option<Vec3>)>),
         q_start: Vec3,
     ) -> bool {
         let n = commands.len();
@@ -195,34 +197,49 @@ impl State<'_> {
             return false;
         }
         let w = p.w;
+        let mut kept = false;
         if let Some(at) = p.split {
             // The split is the last piece's start, unless the solve put a
             // point of its own after it.
             let k = n.saturating_sub(2);
-            let plain = n >= 2
-                && targets.len() == n
-                && targets[k] == at
+            let ours = n >= 2 && targets.len() == n && targets[k] == at;
+            let plain = ours
                 && commands[k].1.is_none()
                 && commands[k + 1].1.is_none()
                 && self.states.len() == n
                 && self.states[k] == self.states[k + 1];
-            if !plain {
+            let moved = if plain {
+                (commands[k].0[w] - commands[k + 1].0[w]).abs()
+            } else {
+                f64::INFINITY
+            };
+            if moved <= p.tolerance_mm + QUANTUM_MM {
+                commands[k].0[w] = commands[k + 1].0[w];
+                if let Some(r) = self.records.get_mut(k) {
+                    r.command_mm = commands[k].0;
+                }
+                self.estimate_mm = self.estimate_mm.max(moved);
+                kept = true;
+            } else if ours && commands[k].1.is_none() && self.states.len() == n {
+                targets.remove(k);
+                commands.remove(k);
+                self.states.remove(k);
+                if self.records.len() == n {
+                    self.records.remove(k);
+                }
+                if self.ramp_mids.len() == n {
+                    self.ramp_mids.remove(k);
+                }
+                return false;
+            } else {
                 return false;
             }
-            let moved = (commands[k].0[w] - commands[k + 1].0[w]).abs();
-            if moved > p.tolerance_mm + QUANTUM_MM {
-                return false;
-            }
-            commands[k].0[w] = commands[k + 1].0[w];
-            if let Some(r) = self.records.get_mut(k) {
-                r.command_mm = commands[k].0;
-            }
-            self.estimate_mm = self.estimate_mm.max(moved);
         }
+        let n = commands.len();
         let start = if n > 1 { commands[n - 2].0 } else { q_start };
         if commands[n - 1].1.is_none() && start[w] == commands[n - 1].0[w] {
             self.planar_before = true;
         }
-        p.split.is_some()
+        kept
     }
 }

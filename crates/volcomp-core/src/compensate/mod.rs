@@ -776,7 +776,7 @@ impl<'w> State<'w> {
         self.ramp_end_zone_mm = 0.0;
         let mut commands = commands?;
         let planar_line_split = planar_line_end.is_some_and(|p| {
-            self.apply_planar_line_end(p, (&targets, &mut commands), q_line_start)
+            self.apply_planar_line_end(p, (&mut targets, &mut commands), q_line_start)
         });
         // Each axis' dead band brought to a known side before the program
         // cuts (compensate/approach.rs).
