@@ -12,6 +12,11 @@
 //! state and its targets; one line, the memory it holds) until the next
 //! line is read ([`NextCorner`]); it is then solved and written whole, with
 //! `2d` of the real corner before its end kept whole.
+//!
+//! Under G64 with or without P a line that leaves some axis still waits
+//! too, one piece or more: where the next motion is an arc of a plane the
+//! line lies in, its last piece is written in that plane
+//! (compensate/line_arc.rs).
 
 use super::frame::Frame;
 use super::points::{self, Run};
