@@ -16,6 +16,7 @@ mod folder_imports;
 mod g64p_line_hold;
 mod idle_take_ups;
 mod kinematic;
+mod line_arc_blend;
 mod line_length;
 mod line_tail_hold;
 mod mirror_study;

@@ -12,6 +12,11 @@
 //! state and its targets; one line, the memory it holds) until the next
 //! line is read ([`NextCorner`]); it is then solved and written whole, with
 //! `2d` of the real corner before its end kept whole.
+//!
+//! Under G64 with or without P a line that leaves some axis still waits
+//! too, one piece or more: where the next motion is an arc of a plane the
+//! line lies in, its last piece is written in that plane
+//! (compensate/line_arc.rs).
 
 use super::frame::Frame;
 use super::points::{self, Run};
@@ -138,6 +143,10 @@ pub(super) enum NextCorner {
         feed_mm_min: f64,
         arc: bool,
         p2_mm: f64,
+        /// The normal axis of an arc of a plane without a rise of its own
+        /// run under G64 (LinuxCNC's blend arc into it needs the line in
+        /// that plane: compensate/line_arc.rs); `None` for anything else.
+        arc_normal: Option<usize>,
     },
 }
 
@@ -172,6 +181,7 @@ impl NextCorner {
                 PathMode::Blend { tolerance_mm, .. } => tolerance_mm,
                 _ => 0.0,
             },
+            arc_normal: super::line_arc::planar_arc_normal(&m),
         }
     }
 
@@ -193,6 +203,7 @@ impl NextCorner {
                 feed_mm_min,
                 arc,
                 p2_mm,
+                ..
             } => (t2, l2_mm, feed_mm_min, arc, p2_mm),
         };
         let l1_mm = (b - a).norm();

@@ -28,6 +28,7 @@ mod front;
 pub mod header;
 mod idle;
 mod joins;
+mod line_arc;
 mod line_limit;
 mod lines;
 mod options;
@@ -614,7 +615,12 @@ impl<'w> State<'w> {
             // line, which the blend at its end depends on
             // (compensate/end_zone.rs): it is written whole then.
             let holds = end_zone::holds_end(&run, joins.hold_end) && targets.len() > 1;
-            if holds && self.next_corner.is_none() {
+            // Under G64 (with or without P) a line that may lie in the
+            // plane of an arc after it waits for the next line too: its
+            // last piece may be written in that plane (compensate/line_arc.rs).
+            let waits = line_arc::waits_for_arc(motion, &run, joins.hold_end)
+                && self.planar_pending.is_none();
+            if (holds || waits) && self.next_corner.is_none() {
                 self.hold_line = Some(targets);
                 return Ok((frame, style));
             }
@@ -723,6 +729,14 @@ impl<'w> State<'w> {
             },
             (None, true) => points::Leads::Lines,
         };
+        // A line into an arc of its plane: its last piece planar
+        // (compensate/line_arc.rs).
+        let planar_line_end = match arc_nominal {
+            None if taken.is_none() && held_end.is_none() && !extra_moves => {
+                self.plan_planar_line_end(model, &frame, (motion, &run), &mut targets, ev.number)?
+            }
+            _ => None,
+        };
         // An arc after a planar G64 corner: its normal axis' reversal at
         // the corner may be held to keep it planar (compensate/turn_back.rs).
         self.planar_corner_normal = arc_nominal
@@ -761,6 +775,9 @@ impl<'w> State<'w> {
         self.planar_corner_blends = false;
         self.ramp_end_zone_mm = 0.0;
         let mut commands = commands?;
+        let planar_line_split = planar_line_end.is_some_and(|p| {
+            self.apply_planar_line_end(p, (&mut targets, &mut commands), q_line_start)
+        });
         // Each axis' dead band brought to a known side before the program
         // cuts (compensate/approach.rs).
         let approach = self
@@ -975,7 +992,7 @@ impl<'w> State<'w> {
         // words come back on a line after it (joins.rs, `naive_cam_words`).
         let naive_cam = if lines_of_block > 1
             && piece_modes.is_none()
-            && arc_words.iter().any(|w| w.center.is_some())
+            && (arc_words.iter().any(|w| w.center.is_some()) || planar_line_split)
         {
             joins::naive_cam_words(
                 motion.path_mode,

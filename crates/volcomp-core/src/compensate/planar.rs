@@ -29,6 +29,10 @@
 //! (compensate/idle.rs, `IdleHold`) with what its last piece's planar
 //! variant needs ([`PlanarEnd`]), and the variant is written where the next
 //! motion makes such a corner.
+//!
+//! A line before an arc of its plane ends planar in compensate/line_arc.rs
+//! and sets `planar_before` for the arc's start as an arc ending planar
+//! does.
 
 use super::arcs::{piece_center, sub_arc};
 use super::frame::Frame;

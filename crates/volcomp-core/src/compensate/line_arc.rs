@@ -1,0 +1,248 @@
+//! A line into an arc of its plane keeps LinuxCNC's blend arc under G64
+//! (docs/compensation.md, "A line into an arc of its plane (G64)").
+//!
+//! LinuxCNC 2.9 joins a line and the arc after it with a blend arc only
+//! where the corner's binormal (`u_line × u_arc`, src/emc/tp/blendmath.c
+//! `blendInit3FromLineArc`, `blendGeom3Init`) is colinear with the arc's
+//! normal within `TP_ANGLE_EPSILON` = 1e-6 rad (src/emc/tp/tp.c,
+//! `tpCreateLineArcBlend`, `pmUnitCartsColinear`). The binormal is normal to
+//! both tangents, so both must lie in the arc's plane: the line's direction
+//! and the arc's start tangent (whose helix rise counts,
+//! `pmCircleTangentVector`). Else the planner blends parabolically and
+//! slows (a one-block G18 circle after its plunge, ripple map, planner
+//! model: 0.908 s in the original, 1.079 s compensated).
+//!
+//! A compensated line carries the map's change of the normal axis' correction
+//! along it (1.4 µm over a 7.3 mm plunge). So the line's last piece is
+//! written planar: where the next motion is such an arc (known once the line
+//! waits for it, compensate/end_zone.rs [`super::end_zone::HeldLine`]), the
+//! line is split before its end by the zone the corner's blend takes of it
+//! ([`super::end_zone::NextCorner::end_zone_mm`]), and the split's command
+//! keeps the end's normal coordinate. The tool then leaves the path along
+//! the normal by the correction's change over that part, at most at the
+//! split; the part is shortened to keep that within the contour tolerance
+//! ([`super::planar::shortened_mm`]). The arc's first piece is then written
+//! planar at its start as after an arc ending planar (planar.rs
+//! `planar_start`, through `planar_before`).
+
+use super::end_zone::NextCorner;
+use super::frame::Frame;
+use super::points::Run;
+use super::{command_error, Segmentation, State};
+use crate::error::CompensationError;
+use crate::model::ErrorModel;
+use volcomp_gcode::{FeedMode, Motion, MotionKind, PathMode, Vec3};
+
+/// How many lengths of the planar part are tried, each shortened from the
+/// last in proportion to how far it moved the split (as planar.rs).
+const TRIES: usize = 4;
+
+/// What a move along the normal measured between two written numbers may
+/// exceed the tolerance by: their rounding in binary (mm).
+const QUANTUM_MM: f64 = 1e-9;
+
+/// The normal axis of `m` where it is an arc of a plane without a rise of
+/// its own, run under G64 (with or without P) at a feed per minute: the
+/// arc a line before it may keep LinuxCNC's blend arc into. `None` for
+/// anything else.
+pub(super) fn planar_arc_normal(m: &Motion) -> Option<usize> {
+    let MotionKind::Arc(a) = m.kind else {
+        return None;
+    };
+    let blended = matches!(m.path_mode, PathMode::Blend { .. });
+    let per_minute = m.feed_mode == FeedMode::PerMinute && m.feed > 0.0;
+    if !(blended && per_minute) {
+        return None;
+    }
+    super::planar::planar_arc(m, a.plane).map(|a| a.plane.axes().2)
+}
+
+/// Whether the feed line `motion`, run as `run`, waits for the next line
+/// before it is written: under G64 P at a feed per minute, where the block
+/// may hold its end (`may_hold_end`, as [`super::end_zone::holds_end`]),
+/// and where the line leaves some axis still (else it lies in no plane an
+/// arc after it can have). Under G64 without P only a line with splits
+/// waits (`end_zone::holds_end`, for its end zone): holding every line
+/// (its event and interpreter state copied) cost 36 % more instructions on
+/// a CAM program of 20,000 lines without an arc (callgrind, cam20k).
+pub(super) fn waits_for_arc(motion: &Motion, run: &Run, may_hold_end: bool) -> bool {
+    may_hold_end
+        && matches!(motion.kind, MotionKind::Feed)
+        && run.feed_mm_min.is_some()
+        && matches!(run.mode, PathMode::Blend { tolerance_mm, .. } if tolerance_mm > 0.0)
+        && motion.start != motion.end
+        && (0..3).any(|a| motion.start[a] == motion.end[a])
+}
+
+/// The planar end planned for a line: the normal axis `w`, the split
+/// target inserted before the end (`None` where none is needed) and the
+/// tolerance (mm) the split's command may move along the normal.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct PlanarLineEnd {
+    w: usize,
+    split: Option<Vec3>,
+    tolerance_mm: f64,
+}
+
+impl State<'_> {
+    /// Before the line `motion` (run as `run`, its targets `targets`) is
+    /// solved: where the next motion (`self.next_corner`) is an arc of a
+    /// plane the line lies in and the corner is blended (a zone at the
+    /// line's end, not a tangent join or a stop), the split that makes its
+    /// last piece planar: `zone` before the end (no longer than the last
+    /// piece less the shortest piece), shortened until the split's solved
+    /// command lies within the contour tolerance of the end's normal
+    /// coordinate. The split is inserted into `targets`. `None` where no
+    /// such corner follows or no split keeps within the tolerance.
+    pub(super) fn plan_planar_line_end(
+        &mut self,
+        model: &dyn ErrorModel,
+        frame: &Frame,
+        (motion, run): (&Motion, &Run),
+        targets: &mut Vec<Vec3>,
+        line: u64,
+    ) -> Result<Option<PlanarLineEnd>, CompensationError> {
+        let Some(next) = self.next_corner else {
+            return Ok(None);
+        };
+        let NextCorner::Motion {
+            arc_normal: Some(w),
+            ..
+        } = next
+        else {
+            return Ok(None);
+        };
+        let (Some(f), MotionKind::Feed) = (run.feed_mm_min, motion.kind) else {
+            return Ok(None);
+        };
+        if motion.start[w] != motion.end[w] {
+            return Ok(None);
+        }
+        let options = self.walk.options;
+        let Segmentation::Adaptive { min_length_mm, .. } = options.segmentation else {
+            return Ok(None);
+        };
+        let zone_mm = next.end_zone_mm(&options.planner, run, (motion.start, motion.end));
+        if !(zone_mm > 0.0) {
+            return Ok(None);
+        }
+        let Some(&end) = targets.last() else {
+            return Ok(None);
+        };
+        let n = targets.len();
+        let before = if n > 1 { targets[n - 2] } else { motion.start };
+        let piece_mm = (end - before).norm();
+        if !(piece_mm > 0.0) {
+            return Ok(None);
+        }
+        let floor_mm = min_length_mm.max(options.planner.shortest_at_feed_mm(f));
+        let tolerance_mm = options.arc_tolerances_mm(run.mode).0;
+        let state = crate::model::next_state(self.s, motion.end - motion.start);
+        let file = self.walk.file;
+        let from = self.q_out;
+        let solve = |t: Vec3| {
+            super::solve::solve_fixed(model, options.method, t, state, [false; 3], Vec3::ZERO)
+                .map(|s| frame.quantize(s.q_mm, from))
+                .map_err(|source| command_error(model, file, line, t, source))
+        };
+        let q_end = solve(end)?;
+        let q_before = solve(before)?;
+        if q_before[w] == q_end[w] {
+            // Planar as solved: no split.
+            return Ok(Some(PlanarLineEnd {
+                w,
+                split: None,
+                tolerance_mm,
+            }));
+        }
+        let u = (end - before) * (1.0 / piece_mm);
+        // No shorter than a piece the planner runs at the feed: the blend
+        // takes what it needs of it.
+        let mut d = zone_mm.max(floor_mm).min(piece_mm - floor_mm);
+        for _ in 0..TRIES {
+            if d.is_nan() || d < floor_mm {
+                return Ok(None);
+            }
+            let at = end - u * d;
+            let moved = (solve(at)?[w] - q_end[w]).abs();
+            if moved <= tolerance_mm + QUANTUM_MM {
+                targets.insert(n - 1, at);
+                return Ok(Some(PlanarLineEnd {
+                    w,
+                    split: Some(at),
+                    tolerance_mm,
+                }));
+            }
+            d = super::planar::shortened_mm(d, moved, tolerance_mm);
+        }
+        Ok(None)
+    }
+
+    /// After the line is solved (`commands` for `targets`, the solve's
+    /// lead points among them, from `q_start`): the planned split's command
+    /// given the end's normal coordinate where it moves no further than the
+    /// tolerance, both commands plain (no take-up) and in one direction
+    /// state (no axis turns at the end: the end's command was solved for
+    /// the turn); else the split is taken out again, and the line is written
+    /// as solved without it. Then, where the last piece is planar, the arc
+    /// after it starts planar too (`planar_before`, planar.rs
+    /// `planar_start`). Whether the split was kept: under G64 P its pieces
+    /// then run under Q0 (LinuxCNC's naive-CAM layer would merge them back
+    /// into one line, emccanon.cc `linkable`; joins.rs `naive_cam_words`).
+    pub(super) fn apply_planar_line_end(
+        &mut self,
+        p: PlanarLineEnd,
+        (targets, commands): (&mut Vec<Vec3>, &mut Vec<(Vec3, Option<Vec3>)>),
+        q_start: Vec3,
+    ) -> bool {
+        let n = commands.len();
+        if n == 0 {
+            return false;
+        }
+        let w = p.w;
+        let mut kept = false;
+        if let Some(at) = p.split {
+            // The split is the last piece's start, unless the solve put a
+            // point of its own after it.
+            let k = n.saturating_sub(2);
+            let ours = n >= 2 && targets.len() == n && targets[k] == at;
+            let plain = ours
+                && commands[k].1.is_none()
+                && commands[k + 1].1.is_none()
+                && self.states.len() == n
+                && self.states[k] == self.states[k + 1];
+            let moved = if plain {
+                (commands[k].0[w] - commands[k + 1].0[w]).abs()
+            } else {
+                f64::INFINITY
+            };
+            if moved <= p.tolerance_mm + QUANTUM_MM {
+                commands[k].0[w] = commands[k + 1].0[w];
+                if let Some(r) = self.records.get_mut(k) {
+                    r.command_mm = commands[k].0;
+                }
+                self.estimate_mm = self.estimate_mm.max(moved);
+                kept = true;
+            } else if ours && commands[k].1.is_none() && self.states.len() == n {
+                targets.remove(k);
+                commands.remove(k);
+                self.states.remove(k);
+                if self.records.len() == n {
+                    self.records.remove(k);
+                }
+                if self.ramp_mids.len() == n {
+                    self.ramp_mids.remove(k);
+                }
+                return false;
+            } else {
+                return false;
+            }
+        }
+        let n = commands.len();
+        let start = if n > 1 { commands[n - 2].0 } else { q_start };
+        if commands[n - 1].1.is_none() && start[w] == commands[n - 1].0[w] {
+            self.planar_before = true;
+        }
+        kept
+    }
+}

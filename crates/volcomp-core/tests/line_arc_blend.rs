@@ -1,0 +1,114 @@
+//! Under G64 P (and G64, a line with splits) a line into an arc of its
+//! plane keeps LinuxCNC's
+//! blend arc (docs/compensation.md, "A line into an arc of its plane
+//! (G64)"; compensate/line_arc.rs): tp.c `tpCreateLineArcBlend` makes one
+//! only where the corner's binormal is colinear with the arc's normal
+//! within 1e-6 rad (`pmUnitCartsColinear`), so the line's last piece and
+//! the arc's start must both lie in the arc's plane.
+
+use volcomp_core::model::axis_table::AxisTableMap;
+
+use crate::common;
+
+/// Z's table moves the tool in Y by 0.2 µm per mm of Z, in both
+/// directions (no band): along a plunge in the XZ plane Y's command
+/// changes by 0.2 µm per mm, as the ripple map's smooth correction does
+/// (1.4 µm over the 7.3 mm plunge of the held-out set's G18 circle).
+fn y_by_z_map() -> AxisTableMap {
+    common::map_from(|a, p, _| {
+        if a == 2 {
+            [0.0, 0.2 * p, 0.0]
+        } else {
+            [0.0; 3]
+        }
+    })
+}
+
+/// The counts of blend arcs and parabolic blends of `program` on the
+/// planner model (LinuxCNC 2.9's planner, default limits).
+fn blends(program: &str) -> (u64, u64) {
+    let setup = volcomp_core::compensate::MachineSetup::default();
+    let limits = volcomp_core::plan::Limits::default();
+    let e = volcomp_core::plan::estimate_program(program.as_bytes(), "t.ngc", &setup, &limits)
+        .unwrap()
+        .motion;
+    (e.counts.blend_arcs, e.counts.parabolic_blends)
+}
+
+/// The written feed lines (G1/G2/G3 and their continuations) with their
+/// X, Y, Z words as numbers (missing words: the value before).
+fn feed_points(out: &str) -> Vec<[f64; 3]> {
+    let mut pos = [0.0; 3];
+    let mut feed = false;
+    let mut points = Vec::new();
+    for line in out.lines() {
+        let code = line.split('(').next().unwrap_or("");
+        let mut moved = false;
+        for w in code.split_whitespace() {
+            let (letter, value) = w.split_at(1);
+            let Ok(v) = value.parse::<f64>() else {
+                continue;
+            };
+            match letter {
+                "G" if v == 0.0 => feed = false,
+                "G" if v == 1.0 || v == 2.0 || v == 3.0 => feed = true,
+                "X" => (pos[0], moved) = (v, true),
+                "Y" => (pos[1], moved) = (v, true),
+                "Z" => (pos[2], moved) = (v, true),
+                _ => {}
+            }
+        }
+        if moved && feed {
+            points.push(pos);
+        }
+    }
+    points
+}
+
+#[test]
+fn a_plunge_into_a_g18_circle_keeps_its_blend_arc_under_g64_p() {
+    let map = y_by_z_map();
+    // (Under G64 without P a line of one piece does not wait for the next
+    // line: compensate/line_arc.rs `waits_for_arc`.)
+    for mode in ["G64 P0.005"] {
+        // The held-out set's one-block G18 circle with its plunge.
+        let program = format!(
+            "G21 G17 G90 G94\n{mode}\nG0 Z5\nG0 X5 Y0\nG1 Z-2.3397 F6000\n\
+             G18 G3 X5 Z-2.3397 I-5 K-8.6603\nG17 G0 Z5\nM2\n"
+        );
+        // The original: the plunge and the circle joined by a blend arc
+        // (the rapids' one is the other), no parabolic blend.
+        assert_eq!(blends(&program), (2, 0), "{mode}");
+        let (out, _, _) = common::compensate_recorded(&program, &map);
+        // The plunge's last piece keeps Y (the arc's normal axis) and the
+        // arc's first piece starts planar: Y equal at the three points.
+        let pts = feed_points(&out);
+        let end = pts
+            .iter()
+            .position(|p| (p[2] + 2.3397).abs() < 0.01 && (p[0] - 5.0).abs() < 0.01)
+            .unwrap_or_else(|| panic!("{out}"));
+        assert!(end >= 1, "{out}");
+        let (split, line_end, arc_first) = (pts[end - 1], pts[end], pts[end + 1]);
+        assert_eq!(split[1], line_end[1], "{mode}: {out}");
+        assert_eq!(arc_first[1], line_end[1], "{mode}: {out}");
+        // The planar part is as long as the contour tolerance allows: the
+        // tool off along Y by 0.2 µm/mm over it, within 0.1 µm: at most
+        // 0.5 mm; at least the 0.1 mm the planner runs in a servo period
+        // at F6000.
+        let planar_mm = split[2] - line_end[2];
+        assert!(
+            (0.1 - 1e-5..=0.5 + 1e-5).contains(&planar_mm),
+            "{mode}: {planar_mm}: {out}"
+        );
+        // The planner then keeps the blend arc: no parabolic blend (main
+        // 8453e54 wrote the plunge as one piece rising 1.5 µm in Y, and
+        // the corner was blended parabolically).
+        let (arcs, parabolic) = blends(&out);
+        assert_eq!(parabolic, 0, "{mode}: {out}");
+        assert!(arcs >= 2, "{mode}: {out}");
+        // Within the contour on the simulation (the split 0.1 µm off at
+        // most, plus the map's own).
+        let report = common::simulated(&out, &program, &map);
+        assert!(report.contour_max_um < 0.2, "{mode}: {report:?}: {out}");
+    }
+}
