@@ -31,8 +31,9 @@
 //! that ends it folds from there: its offset starts at the hold's and
 //! grows while the carriage crosses its band and the target moves on, so
 //! after a hold of the whole bound no fold fits within `p` and the take-up
-//! was a block. Where a reversing axis' band passes `p`, the hold is kept
-//! within half the bound ([`HOLD_SHARE`]), which leaves the other half to
+//! was a block. Where a reversing axis' band passes 1.5 `p`
+//! ([`HOLD_BAND_RATIO`]), the hold is kept within half the bound
+//! ([`HOLD_SHARE`]), which leaves the other half to
 //! the fold that ends it; and a hold along Z at an X or Y quarter point
 //! adds its offset to the S-curve's across the path (measured: 8.2 µm on
 //! the coarse map's spiral of arcs with the whole bound, 5.9 µm with
@@ -45,17 +46,26 @@ use volcomp_gcode::{Arc, Vec3};
 use super::options::TakeUpRule;
 
 /// The share of the hold bound (`p` less the contour tolerance) a hold
-/// may use under `G64 P p` where a reversing axis' band passes `p`: half,
+/// may use under `G64 P p` where a reversing axis' band passes [`HOLD_BAND_RATIO`] times `p`: half,
 /// the other half left to the fold that ends the hold. Measured on
 /// bench/eval (coarse map, F6000, G64 P0.005): spiral_arcs12 +86.2 →
 /// +30.2 %, max 8.16 → 5.90 µm; with the whole bound the take-ups stay
 /// blocks (+86.2 %).
 pub(super) const HOLD_SHARE: f64 = 0.5;
 
+/// How many times `p` a reversing axis' band must pass for the hold to be
+/// kept within [`HOLD_SHARE`]: 1.5, between the shop map's largest band
+/// (7 µm, 1.4 × P0.005), where the whole bound stays (measured with half:
+/// pocket_arcs shop F6000 +1.6 → +5.1 %, the shorter holds ending in
+/// take-ups at its corners), and the coarse map's smallest (Z 9.7 µm,
+/// 1.9 × P0.005). Chosen between the two maps, not derived.
+pub(super) const HOLD_BAND_RATIO: f64 = 1.5;
+
 /// The bound (mm) a hold of the reversal `reversed` at `q_prev` (in state
 /// `s_prev`) may leave under `rule`, `bound_mm` the mode's own
 /// (`CompensateOptions::hold_tolerance_mm`): [`HOLD_SHARE`] of it under
-/// `G64 P p` where a reversing axis' band passes `p`, else all of it.
+/// `G64 P p` where a reversing axis' band passes [`HOLD_BAND_RATIO`]
+/// times `p`, else all of it.
 pub(super) fn hold_bound_for_band_mm(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,
@@ -70,11 +80,13 @@ pub(super) fn hold_bound_for_band_mm(
         return Ok(bound_mm);
     }
     let band_um = super::solve::bands_um(cells, model, (q_prev, s_prev), reversed)?;
-    Ok(if band_um.iter().any(|b| *b * 1e-3 > p_mm) {
-        bound_mm * HOLD_SHARE
-    } else {
-        bound_mm
-    })
+    Ok(
+        if band_um.iter().any(|b| *b * 1e-3 > HOLD_BAND_RATIO * p_mm) {
+            bound_mm * HOLD_SHARE
+        } else {
+            bound_mm
+        },
+    )
 }
 
 /// The largest excursion (mm) of a take-up of `lags` (every reversing
@@ -112,25 +124,125 @@ fn tangent_at(arc: &Arc, l: f64) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::{ByDirection, Direction, ALL_FORWARD};
     use volcomp_gcode::Plane;
 
-    #[test]
-    fn the_tangent_of_a_g3_quarter_circle_turns_with_it() {
-        // G3 from (10, 0) about the origin to (0, 10): at the start the
-        // tangent is +Y, at the end −X, halfway (−1, 1)/√2 (by hand).
-        let arc = Arc {
+    const UM: f64 = 1e-3;
+
+    /// G3 quarter circle of radius 10 about the origin, from (10, 0) to
+    /// (0, 10), at Z 0.
+    fn quarter() -> Arc {
+        Arc {
             start: Vec3::new(10.0, 0.0, 0.0),
             end: Vec3::new(0.0, 10.0, 0.0),
             center: Vec3::ZERO,
             plane: Plane::Xy,
             sweep_rad: std::f64::consts::FRAC_PI_2,
-        };
-        let t0 = tangent_at(&arc, 0.0);
-        let t1 = tangent_at(&arc, 1.0);
-        let th = tangent_at(&arc, 0.5);
-        assert!((t0 - Vec3::new(0.0, 1.0, 0.0)).norm() < 1e-9, "{t0:?}");
-        assert!((t1 - Vec3::new(-1.0, 0.0, 0.0)).norm() < 1e-9, "{t1:?}");
+        }
+    }
+
+    #[test]
+    fn the_tangent_of_a_g3_quarter_circle_turns_with_it() {
+        // At the start +Y, at the end −X, halfway (−1, 1)/√2 (by hand).
+        let arc = quarter();
         let h = std::f64::consts::FRAC_1_SQRT_2;
-        assert!((th - Vec3::new(-h, h, 0.0)).norm() < 1e-9, "{th:?}");
+        for (l, want) in [
+            (0.0, Vec3::new(0.0, 1.0, 0.0)),
+            (1.0, Vec3::new(-1.0, 0.0, 0.0)),
+            (0.5, Vec3::new(-h, h, 0.0)),
+        ] {
+            let t = tangent_at(&arc, l);
+            assert!((t - want).norm() < 1e-9, "{l}: {t:?}");
+        }
+        // A helix rising 1 mm over the quarter: the tangent leans up by
+        // 1 / (10·π/2) (by hand).
+        let mut helix = quarter();
+        helix.end[2] = 1.0;
+        let t = tangent_at(&helix, 0.0);
+        let rise = 1.0 / (10.0 * std::f64::consts::FRAC_PI_2);
+        assert!((t[2] / t[1] - rise).abs() < 1e-9, "{t:?}");
+    }
+
+    #[test]
+    fn a_z_take_up_folded_into_an_arc_piece_leaves_the_target_s_rise_share() {
+        // Z reverses up with an 11.5 µm band (the coarse map's size, more
+        // than twice P0.005) while the target rises 3 µm over the piece:
+        // the command rises 14.5 µm, the carriage stays until it has
+        // crossed the band, at λ = 11.5/14.5, where the tool is off by
+        // 3 · 11.5/14.5 = 2.379 µm (docs/compensation.md, "Take-ups folded
+        // into the move": Δ·ℓ/(Δ + ℓ)). The whole lag, 11.5 µm, was the
+        // bound before: above P, a block.
+        let lags = [Vec3::ZERO, Vec3::ZERO, Vec3::new(0.0, 0.0, 11.5 * UM)];
+        let arc = quarter();
+        let q_prev = Vec3::new(10.0, 0.0, 0.0);
+        let q = Vec3::new(0.0, 10.0, 14.5 * UM);
+        let b = fold_bound_on_arc_mm(&lags, (q_prev, Vec3::ZERO), q, (&arc, 0.0, 1.0));
+        assert!((b - 3.0 * 11.5 / 14.5 * UM).abs() < 1e-9, "{}", b / UM);
+        // From where a hold left the tool 2 µm low: the offsets add,
+        // −2(1 − λ) − 3λ up to λ = 11.5/14.5, the most there (by hand:
+        // 2·0.2069 + 2.379 = 2.793 µm).
+        let h = Vec3::new(0.0, 0.0, -2.0 * UM);
+        let b = fold_bound_on_arc_mm(&lags, (q_prev, h), q, (&arc, 0.0, 1.0));
+        let lam = 11.5 / 14.5;
+        let want = 2.0 * (1.0 - lam) + 3.0 * lam;
+        assert!((b - want * UM).abs() < 1e-9, "{} vs {want}", b / UM);
+    }
+
+    #[test]
+    fn only_the_part_of_a_lag_across_the_arc_counts() {
+        // A 2 µm lag along Y, whose command stands still over the piece,
+        // stays whole (f = 1): the offset is 2λ µm along Y. Across the
+        // arc's tangent (−sin θ, cos θ), θ = λ·90°, that is 2λ·sin θ, the
+        // most at the end, 2 µm (by hand); across the chord's direction
+        // (−1, 1)/√2 it would be 2·sin 45° = 1.414 µm there.
+        let lags = [Vec3::ZERO, Vec3::new(0.0, 2.0 * UM, 0.0), Vec3::ZERO];
+        let arc = quarter();
+        let (q_prev, q) = (Vec3::new(10.0, 0.0, 0.0), Vec3::ZERO);
+        let b = fold_bound_on_arc_mm(&lags, (q_prev, Vec3::ZERO), q, (&arc, 0.0, 1.0));
+        assert!((b - 2.0 * UM).abs() < 1e-9, "{}", b / UM);
+        // On the first half of the arc alone: 2·sin 45° at its end.
+        let b = fold_bound_on_arc_mm(&lags, (q_prev, Vec3::ZERO), q, (&arc, 0.0, 0.5));
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        assert!((b - 2.0 * h * UM).abs() < 1e-9, "{}", b / UM);
+    }
+
+    #[test]
+    fn a_band_past_one_and_a_half_p_halves_the_hold_bound_under_g64_p_only() {
+        // Z's reverse error 11.5 µm above its forward one: its band.
+        let m = ByDirection(|s: [Direction; 3]| {
+            Vec3::new(
+                0.0,
+                0.0,
+                if s[2] == Direction::Reverse {
+                    11.5
+                } else {
+                    0.0
+                },
+            )
+        });
+        let mut cells = AxisCells::default();
+        let q = Vec3::new(1.0, 2.0, 3.0);
+        let z = [false, false, true];
+        let hold = |cells: &mut AxisCells, rule, reversed| {
+            hold_bound_for_band_mm(cells, &m, (rule, 4.9 * UM), (q, ALL_FORWARD), reversed).unwrap()
+        };
+        // P0.005: 11.5 µm > 1.5 × 5 µm, half of 4.9 µm.
+        let b = hold(&mut cells, TakeUpRule::Within(5.0 * UM), z);
+        assert!((b - 2.45 * UM).abs() < 1e-12, "{}", b / UM);
+        // P0.008: 11.5 µm is less than 1.5 × 8 µm, the whole bound.
+        let b = hold(&mut cells, TakeUpRule::Within(8.0 * UM), z);
+        assert!((b - 4.9 * UM).abs() < 1e-12, "{}", b / UM);
+        // No reversal, or X reversing (no band of its own): the whole bound.
+        let b = hold(&mut cells, TakeUpRule::Within(5.0 * UM), [false; 3]);
+        assert!((b - 4.9 * UM).abs() < 1e-12);
+        let b = hold(
+            &mut cells,
+            TakeUpRule::Within(5.0 * UM),
+            [true, false, false],
+        );
+        assert!((b - 4.9 * UM).abs() < 1e-12);
+        // G64 without P: the bound as given.
+        let b = hold(&mut cells, TakeUpRule::Always, z);
+        assert!((b - 4.9 * UM).abs() < 1e-12);
     }
 }
