@@ -16,6 +16,7 @@
 //! exists (negative reversal value) are held and reported.
 
 mod approach;
+mod arc_fold;
 mod arcs;
 mod cutter;
 mod cycle;

@@ -349,7 +349,7 @@ fn fold_deviation_along_mm(
 
 /// [`fold_deviation_along_mm`] sampled at `steps + 1` fractions from
 /// `from` to 1 (and at the breakpoints in between).
-fn fold_deviation_sampled_mm(
+pub(super) fn fold_deviation_sampled_mm(
     lags: &[Vec3; 3],
     (q_prev, start_mm): (Vec3, Vec3),
     q: Vec3,
@@ -1594,6 +1594,21 @@ impl State<'_> {
             let hold_bound = options
                 .hold_tolerance_mm(rule)
                 .filter(|_| feed_like && !was_forced && transition.is_none());
+            // Under G64 P, a reversal whose band passes P held within half
+            // the bound (compensate/arc_fold.rs).
+            let hold_bound = match hold_bound {
+                Some(b) => Some(
+                    super::arc_fold::hold_bound_for_band_mm(
+                        &mut cells,
+                        model,
+                        (rule, b),
+                        (self.q_out, self.s),
+                        point.reversed,
+                    )
+                    .map_err(|source| model_error(file, line, source))?,
+                ),
+                None => None,
+            };
             // Under G64 P inside a line, held only where the take-up would
             // kink the path, as under G64 (compensate/turn_back.rs).
             let (hold_bound, kink_hold_bound) =
@@ -2269,6 +2284,24 @@ impl State<'_> {
                         ahead_capped.push(k);
                     }
                 }
+                // G64 P on an arc where the path runs on: a take-up no ramp
+                // took folded into its piece where the tool stays within P
+                // (compensate/arc_fold.rs).
+                let arc_fold_bound = match (&leads, rule) {
+                    (Leads::Arc { arc, pieces }, TakeUpRule::Within(p))
+                        if smooth && feed_like && planned.is_none() && !slow_block =>
+                    {
+                        let l_prev = if index == 0 { 0.0 } else { pieces[index - 1] };
+                        Some(super::arc_fold::fold_bound_on_arc_mm(
+                            &lags,
+                            (self.q_out, held_off_mm),
+                            point.q_mm,
+                            (arc, l_prev, pieces[index]),
+                        ))
+                        .filter(|b| *b <= p)
+                    }
+                    _ => None,
+                };
                 if let Some((plan, delta)) = planned {
                     if !plan.insert.is_empty() {
                         // The ramp ends inside a piece (or a smooth ramp
@@ -2298,6 +2331,12 @@ impl State<'_> {
                         ahead_axes.map_or([false; 3], |axes| axes.map(|d| d.is_some())),
                         (plan.rests.into_iter().collect(), delta),
                     ));
+                } else if let Some(b) = arc_fold_bound.filter(|_| bound > tolerance) {
+                    // G64 P inside an arc: folded into the piece within P,
+                    // not on a short lead piece nor a block
+                    // (compensate/arc_fold.rs).
+                    take_up = None;
+                    self.note_fold(b);
                 } else if bound <= tolerance {
                     let from = hold_alt.take().filter(|_| !fold_is_tangent);
                     match held_instead(&mut cells, from)? {

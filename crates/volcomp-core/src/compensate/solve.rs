@@ -446,7 +446,7 @@ pub(crate) fn hold_small_reversals_in(
 /// The dead band each axis of `axes` crosses if it reverses at `q_prev`
 /// (the change of its own deviation between its two tables there), in µm;
 /// 0 for the other axes.
-pub(super) fn bands_um(
+pub(crate) fn bands_um(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,
     (q_prev, s_prev): (Vec3, Directions),
