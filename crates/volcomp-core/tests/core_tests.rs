@@ -29,6 +29,7 @@ mod random_programs;
 mod simulate_pairing;
 mod straightness;
 mod tail_merge;
+mod take_up_advance;
 mod take_up_stand;
 mod thermal;
 mod zero_map_round_trip;

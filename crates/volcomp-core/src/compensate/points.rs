@@ -2872,6 +2872,29 @@ impl State<'_> {
                     ramp = None;
                 }
             }
+            // G61 on a line: a take-up whose switches move an axis'
+            // correction against its new motion ends along the line, where
+            // that motion has caught the step up
+            // (compensate/take_up_advance.rs).
+            if let (Some(tu), true) = (
+                take_up,
+                centre_lines && ramp.is_none() && ahead.is_none() && transition.is_none(),
+            ) {
+                take_up = Some(
+                    self.advance_take_up(
+                        (&mut cells, model, options),
+                        (t_prev, *t, run.feed_mm_min),
+                        &point,
+                        tu,
+                        if commands.is_empty() {
+                            first_take_up_frame
+                        } else {
+                            frame
+                        },
+                    )
+                    .map_err(|source| model_error(file, line, source))?,
+                );
+            }
             // G61 on a line: an axis the take-up block leaves ahead of its
             // new target stands until the target catches up, at a target
             // inserted there (compensate/take_up_stand.rs).
@@ -3033,6 +3056,30 @@ impl State<'_> {
 impl State<'_> {
     /// The held point `held` in place of a reversal and its
     /// take-up: no take-up written, the hold counted.
+    /// [`super::take_up_advance::advanced_take_up`] from this walk's
+    /// command and state: the take-up `tu`, or its end moved along the
+    /// piece from `t_prev` to `t_end`.
+    fn advance_take_up(
+        &self,
+        (cells, model, options): (&mut AxisCells, &dyn ErrorModel, &CompensateOptions),
+        (t_prev, t_end, feed_mm_min): (Vec3, Vec3, Option<f64>),
+        point: &crate::compensate::solve::PointSolution,
+        tu: Vec3,
+        frame: &Frame,
+    ) -> Result<Vec3, ModelError> {
+        let shortest = shortest_ramp_piece_mm(options, feed_mm_min.map_or(0.0, |f| f / 60.0));
+        Ok(super::take_up_advance::advanced_take_up(
+            (cells, model, options.method),
+            (self.q_out, self.s),
+            (t_prev, t_end),
+            point,
+            tu,
+            shortest,
+            frame,
+        )?
+        .unwrap_or(tu))
+    }
+
     fn take_hold(
         &mut self,
         held: crate::compensate::solve::PointSolution,

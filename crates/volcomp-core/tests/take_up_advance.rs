@@ -1,0 +1,71 @@
+//! Under G61, a take-up block whose switches move an axis' correction
+//! against that axis' new motion ends along the line after the corner
+//! (docs/compensation.md, "A correction that jumps against an axis'
+//! motion: the take-up ends along the line"), checked end to end
+//! (compensate, then the dead-band simulation) against hand values.
+
+use volcomp_core::model::axis_table::AxisTableMap;
+
+use crate::common;
+
+/// X has a 10 µm band and its straightness of Z switches with its
+/// direction (+1.5 µm forward, −1.5 µm reverse); Z has a 6 µm band and its
+/// straightness of X switches the other way (−1.5 µm forward, +1.5 µm
+/// reverse). Y has no errors. The switching straightness is the kind of
+/// bench/coarse_map.py.
+fn switching_map() -> AxisTableMap {
+    common::map_from(|a, _p, rev| {
+        let s = if rev { -1.0 } else { 1.0 };
+        match a {
+            0 => [if rev { 10.0 } else { 0.0 }, 0.0, 1.5 * s],
+            2 => [-1.5 * s, 0.0, if rev { 6.0 } else { 0.0 }],
+            _ => [0.0; 3],
+        }
+    })
+}
+
+/// The X, Y and Z words of the written line whose comment is `comment`.
+fn words_of(out: &str, comment: &str) -> [f64; 3] {
+    let line = out
+        .lines()
+        .find(|l| l.contains(comment))
+        .unwrap_or_else(|| panic!("no {comment}: {out}"));
+    let mut q = [f64::NAN; 3];
+    for w in line.split_whitespace() {
+        for (a, c) in ['X', 'Y', 'Z'].iter().enumerate() {
+            if let Some(v) = w.strip_prefix(*c) {
+                q[a] = v.parse().unwrap();
+            }
+        }
+    }
+    q
+}
+
+#[test]
+fn under_g61_a_step_against_an_axis_motion_is_caught_up_along_the_next_line() {
+    // By hand. Before the corner X 10 Y 10 (after the plunge Z is on its
+    // reverse flank, X forward): X's command is 10 − 1.5 µm (Z's reverse
+    // straightness of X), Z's 0 − (1.5 + 6) µm. The line to X 0 Y 20 turns
+    // X back (band 10 µm); X's switch moves the tool −3 µm in Z, so Z must
+    // rise 3 µm, against its flank: Z reverses too (band 6 µm, command
+    // +1.5 µm). Z's switch moves the tool −3 µm in X, so X's new command at
+    // the corner is 10 − 10 + 1.5 µm: X turns back by only 7 µm of its
+    // 10 µm band and the tool would sit 3 µm off the corner in X (main
+    // 8453e54 writes X9.99150, 3·sin 45° = 2.1 µm across the next line).
+    // X moves along the next line at cos 45°, so it catches the 3 µm up
+    // after (3 + 0.01)/0.7071 = 4.257 µm of path: the block ends at
+    // X 10 − 0.00301, Y 10 + 0.00301, commanded X 9.99699 − 0.0085 =
+    // 9.98849 (10.01 µm back), Y 10.00301, Z 0.0015.
+    let map = switching_map();
+    let program = "G21 G61\nG0 X0 Y0 Z1\nG1 Z0 F6000\nG1 X10 Y10\nG1 X0 Y20\nM2\n";
+    let (out, _, _) = common::compensate_recorded(program, &map);
+    let q = words_of(&out, "(volcomp L5 take-up)");
+    let want = [9.98849, 10.00301, 0.0015];
+    for a in 0..3 {
+        assert!((q[a] - want[a]).abs() < 1.5e-5, "{q:?} vs {want:?}\n{out}");
+    }
+    // Through the dead band the tool stays on the path: the issue's G61
+    // bound of 0.5 µm (main: 2.1 µm at the corner).
+    let report = common::simulated(&out, program, &map);
+    assert!(report.contour_max_um <= 0.5, "{report:?}\n{out}");
+}
