@@ -297,6 +297,10 @@ pub(super) struct Window {
     #[cfg_attr(not(test), allow(dead_code))]
     pub(super) speed_mm_s: f64,
     pub(super) cost_s: f64,
+    /// The biarc family the window was found with: [`widest_biarc`]
+    /// (`true`) or the equal-distance [`biarc`] (`false`); the writer
+    /// draws the S-curve with the same one.
+    pub(super) widest: bool,
 }
 
 /// The biarc of the window `w1`, `w2` on an arc of radius `r` for a band
@@ -424,9 +428,9 @@ pub(super) fn best_window(
     let mut pts = Vec::with_capacity(2 * SAMPLES_PER_ARC + 1);
     // The window `w1`, `w2` replaces `best` where it keeps the tool within
     // `tol` at less cost.
-    let mut consider = |w1: f64, w2: f64, best: &mut Option<Window>| {
+    let mut consider = |w1: f64, w2: f64, family: bool, best: &mut Option<Window>| {
         {
-            let Some(arcs) = window_biarc(r, b, w1, w2, widest) else {
+            let Some(arcs) = window_biarc(r, b, w1, w2, family) else {
                 return;
             };
             // Each arc runs at no more than √(a_n ρ), nor than its length
@@ -465,29 +469,54 @@ pub(super) fn best_window(
                     deviation_mm: dev,
                     speed_mm_s: speed,
                     cost_s: cost,
+                    widest: family,
                 });
             }
         }
     };
-    for &w1 in befores {
-        for &w2 in &lengths {
-            consider(w1, w2, &mut best);
+    // Under G61 both biarcs of each window are tried ([`families`]).
+    for &family in families(widest) {
+        for &w1 in befores {
+            for &w2 in &lengths {
+                consider(w1, w2, family, &mut best);
+            }
         }
     }
     // Under G61 the best window of the ×1.25 grid is searched again
-    // between its neighbours ([`refined_lengths`]).
+    // between its neighbours ([`refined_lengths`]), with both biarcs.
     if let Some(found) = best.filter(|_| widest) {
         let (b1, b2) = (found.before_mm, found.after_mm);
-        for w1 in refined_lengths(b1, after_only) {
-            for w2 in refined_lengths(b2, false) {
-                if w2 <= 0.25 * r && w1 <= 0.25 * r {
-                    consider(w1, w2, &mut best);
+        for &family in families(widest) {
+            for w1 in refined_lengths(b1, after_only) {
+                for w2 in refined_lengths(b2, false) {
+                    if w2 <= 0.25 * r && w1 <= 0.25 * r {
+                        consider(w1, w2, family, &mut best);
+                    }
                 }
             }
         }
     }
     WINDOWS.with_borrow_mut(|memo| memo.put(key, best));
     best
+}
+
+/// The biarc families a window search tries: under G61 (`widest`) the
+/// widest biarc ([`widest_biarc`], `true`) and the equal-distance one
+/// ([`biarc`], `false`), each window taking whichever keeps the tool within
+/// the tolerance at less cost; else the equal-distance one alone.
+/// [`widest_biarc`] picks by the tighter arc's radius only, but the planner
+/// also runs an arc no faster than its length per servo period
+/// (`tcClampVelocityByLength`, src/emc/tp/tc.c), and the equal-radius S's
+/// second arc is short where the band is small against the window: on R12
+/// at F6000 with a 1.5 µm band (0.34 µm) the widest biarcs the search found
+/// ran at 55.5 mm/s (a 0.056 mm G2 of R4.73), the equal-distance ones at
+/// 87.8 mm/s (R8.9 then R18.4, both turning the arc's way).
+fn families(widest: bool) -> &'static [bool] {
+    if widest {
+        &[true, false]
+    } else {
+        &[false]
+    }
 }
 
 /// Steps between the lengths of the ×1.25 grid [`best_window`] and
@@ -734,8 +763,8 @@ pub(super) fn join_window(
     let mut best: Option<Window> = None;
     // The window whose part after the join is `w2` replaces `best` where
     // it keeps the tool within `tol` at less cost.
-    let consider = |w2: f64, best: &mut Option<Window>| {
-        let Some(arcs) = join_biarc(r1, r2, b, before_mm, w2, widest) else {
+    let consider = |w2: f64, family: bool, best: &mut Option<Window>| {
+        let Some(arcs) = join_biarc(r1, r2, b, before_mm, w2, family) else {
             return;
         };
         let speed = arcs.iter().fold(v, |m, a| {
@@ -764,25 +793,29 @@ pub(super) fn join_window(
                 deviation_mm: dev,
                 speed_mm_s: speed,
                 cost_s: cost,
+                widest: family,
             });
         }
     };
     // Under G61 the lengths step by ×1.25^(1/8) ([`refined_lengths`]):
     // the part before the join is fixed, so a grid of one length is
-    // searched whole.
+    // searched whole, with both biarcs ([`families`]: the tail before the
+    // join may have been sized for either).
     let steps = if widest { REFINE_STEPS } else { 1 };
-    for w2 in (0..40 * steps)
-        .map(|k| {
-            if widest {
-                0.005 * 1.25f64.powf(f64::from(k) / f64::from(steps))
-            } else {
-                0.005 * 1.25f64.powi(k)
-            }
-        })
-        .take_while(|w| *w <= 0.25 * r2)
-        .filter(|w| *w >= shortest_mm)
-    {
-        consider(w2, &mut best);
+    for &family in families(widest) {
+        for w2 in (0..40 * steps)
+            .map(|k| {
+                if widest {
+                    0.005 * 1.25f64.powf(f64::from(k) / f64::from(steps))
+                } else {
+                    0.005 * 1.25f64.powi(k)
+                }
+            })
+            .take_while(|w| *w <= 0.25 * r2)
+            .filter(|w| *w >= shortest_mm)
+        {
+            consider(w2, family, &mut best);
+        }
     }
     best
 }
