@@ -825,10 +825,15 @@ pub(super) fn join_window(
     // the part before the join is fixed, so a grid of one length is
     // searched whole. The equal-distance biarc is tried only where no
     // widest one fits ([`families`]: the tail before the join may have been
-    // sized for it, and without a window the take-up is a block, a stop);
-    // tried on cost alone it also replaced the widest S at the pocket's
-    // line → R3 joins, which the planner model ran ~10 ms slower each
-    // (pocket_arcs, fine map, F6000: +5.4 → +6.9 %).
+    // sized for it, and without a window the take-up is a block, a stop,
+    // or an S-curve on the arc alone). Tried on cost alone it also
+    // replaced the widest S at the pocket's line → R3 joins, which the
+    // planner model ran ~10 ms slower each (pocket_arcs, fine map, F6000:
+    // +5.4 → +6.9 %). Where no widest one fits after a line, the
+    // equal-distance one costs 6–12 ms more than an S-curve on the arc
+    // alone at the fine map's R1 joins (pocket_arcs +5.4 → +6.1 %) but
+    // saves more on the example and shop maps (pocket_arcs +15.1 → +12.7 %,
+    // +27.9 → +26.0 %; pocket_r4 +9.6 → +7.1 %, +40.4 → +38.5 %).
     let steps = if widest { REFINE_STEPS } else { 1 };
     for &family in families(widest) {
         if best.is_some() {
@@ -1116,12 +1121,74 @@ mod tests {
         assert!(w.deviation_mm <= tol, "{w:?}");
         assert!(w.speed_mm_s >= 0.98 * fastest, "{w:?} vs {fastest}");
         assert!(w.speed_mm_s <= fastest * (1.0 + 1e-9), "{w:?} vs {fastest}");
+        // At 4 µm the widest biarc is the faster one (the equal-distance
+        // biarcs' tighter arc is narrower).
+        assert!(w.widest, "{w:?}");
         let arcs = window_biarc(r, b, w.before_mm, w.after_mm, true).unwrap();
         let rho = least_radius(&arcs);
         assert!(
             (w.speed_mm_s - (a_n * rho).sqrt()).abs() < 1e-9,
             "{w:?} {rho}"
         );
+    }
+
+    #[test]
+    fn under_g61_a_small_band_takes_the_faster_of_both_biarcs_within_the_ramp_rms() {
+        // R12 at F6000, a 1.5 µm band (the fine map's Y), 0.34 µm. The
+        // widest biarcs of small windows end in a short second arc, which
+        // LinuxCNC runs no faster than its length per servo period
+        // (tcClampVelocityByLength, tc.c): the search over them alone
+        // found a 0.056 mm G2 of R4.73 run at 55.5 mm/s. A second method,
+        // every window of both biarcs on a grid 16 times finer, each arc's
+        // speed min(√(a_n ρ), length / 1 ms) (pmCircleActualMaxVel,
+        // blendmath.c; a_n = √0.75 · 1000 mm/s²), the equal-distance ones
+        // only within 0.1 µm RMS: the search comes within 3 % of the
+        // fastest, far above 55.5 mm/s, and keeps both bounds.
+        let p = PlannerLimits::default();
+        let (r, b, tol, v) = (12.0, 0.0015, 0.34e-3, 100.0);
+        let a_n = 1000.0 * 0.75f64.sqrt();
+        let speed_of = |arcs: &[BiarcArc; 2]| {
+            arcs.iter().fold((a_n * r).sqrt().min(v), |m, a| {
+                m.min((a_n * a.radius.abs()).sqrt()).min(a.length() / 0.001)
+            })
+        };
+        let mut pts = Vec::new();
+        let fine: Vec<f64> = (0..640)
+            .map(|k| 0.005 * 1.25f64.powf(f64::from(k) / 16.0))
+            .filter(|w| *w <= 0.25 * r)
+            .collect();
+        let mut fastest: f64 = 0.0;
+        for family in [true, false] {
+            for &w1 in &fine {
+                for &w2 in &fine {
+                    let Some(arcs) = window_biarc(r, b, w1, w2, family) else {
+                        continue;
+                    };
+                    let speed = speed_of(&arcs);
+                    if speed <= fastest {
+                        continue;
+                    }
+                    if window_deviation(r, b, &arcs, &mut pts)
+                        .is_some_and(|(d, rms)| d <= tol && (family || rms <= 1e-4))
+                    {
+                        fastest = speed;
+                    }
+                }
+            }
+        }
+        assert!(fastest > 60.0, "{fastest}");
+        let w = best_window(r, b, tol, v, &p, false, true).unwrap();
+        assert!(w.speed_mm_s >= 0.97 * fastest, "{w:?} vs {fastest}");
+        assert!(w.speed_mm_s <= fastest * (1.0 + 1e-9), "{w:?} vs {fastest}");
+        let arcs = window_biarc(r, b, w.before_mm, w.after_mm, w.widest).unwrap();
+        assert!((w.speed_mm_s - speed_of(&arcs)).abs() < 1e-9, "{w:?}");
+        let (dev, rms) = window_deviation(r, b, &arcs, &mut pts).unwrap();
+        assert!(dev <= tol && (dev - w.deviation_mm).abs() < 1e-12, "{w:?}");
+        assert!(w.widest || rms <= 1e-4, "{w:?} {rms}");
+        // Under G64 (the equal-distance biarc alone) nothing changes: the
+        // fastest window within the tolerance, whatever its RMS.
+        let g64 = best_window(r, b, tol, v, &p, false, false).unwrap();
+        assert!(!g64.widest && g64.speed_mm_s > w.speed_mm_s, "{g64:?}");
     }
 
     /// A search answered from the memo is the search itself: each
