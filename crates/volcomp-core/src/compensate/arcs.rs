@@ -411,9 +411,10 @@ pub(super) struct Transition {
     /// be spread as a smooth step (the arc parameters of its start and
     /// end, both cuts of the pieces; [`normal_step_span`]), if anywhere.
     pub(super) spread: Option<(f64, f64)>,
-    /// Under G61, the S-curve is the biarc whose tighter arc is the widest
-    /// of the two kinds ([`super::scurve::widest_biarc`]); elsewhere the
-    /// equal-distance biarc.
+    /// The S-curve is the biarc whose tighter arc is the widest of the two
+    /// kinds ([`super::scurve::widest_biarc`]) or the equal-distance biarc,
+    /// as its window was found (`super::scurve::Window::widest`; under
+    /// G61 either, elsewhere the equal-distance one).
     pub(super) widest: bool,
 }
 
@@ -670,7 +671,7 @@ pub(super) fn plan_transitions(
     let length = arc.length();
     let r = 0.5 * (arc.start_radius() + arc.end_radius());
     let mut out: Vec<f64> = pieces.to_vec();
-    let mut found: Vec<(f64, f64, usize, Direction, f64, f64)> = Vec::new();
+    let mut found: Vec<(f64, f64, usize, Direction, f64, f64, bool)> = Vec::new();
     let mut planned = Planned::default();
     if !(length > 0.0 && r > 0.0 && v_mm_s > 0.0) {
         planned.pieces = out;
@@ -760,7 +761,15 @@ pub(super) fn plan_transitions(
             let moves = Direction::of_delta(arc.point_at(step)[a] - arc.start[a]);
             if moves.is_some_and(|d| s_before[a] == d.flipped()) {
                 if let Some((a, new, win, _)) = window_at(0.0, s_before, true)? {
-                    found.push((0.0, win.after_mm / length, a, new, win.deviation_mm, 0.0));
+                    found.push((
+                        0.0,
+                        win.after_mm / length,
+                        a,
+                        new,
+                        win.deviation_mm,
+                        0.0,
+                        win.widest,
+                    ));
                     // Where the window fits (below), the held tail is its
                     // start.
                     planned.absorbed = joins.held_before.is_some();
@@ -778,13 +787,13 @@ pub(super) fn plan_transitions(
         }
         if let Some((a, new, win, step_w)) = window_at(to, s, false)? {
             let (lo, hi) = (to - win.before_mm / length, to + win.after_mm / length);
-            found.push((lo, hi, a, new, win.deviation_mm, step_w));
+            found.push((lo, hi, a, new, win.deviation_mm, step_w, win.widest));
         }
     }
     let mut transitions = Vec::new();
     // The windows taken (their ends, for the spans below).
     let mut taken: Vec<(f64, f64, f64)> = Vec::new();
-    for (lo, hi, a, new, dev, step_w) in found {
+    for (lo, hi, a, new, dev, step_w, family) in found {
         if lo <= 0.0 {
             // The window from the start: its end is the first cut.
             let after = out.iter().find(|c| **c > hi).copied().unwrap_or(1.0);
@@ -800,7 +809,7 @@ pub(super) fn plan_transitions(
                 direction: new,
                 deviation_mm: dev,
                 spread: None,
-                widest,
+                widest: family,
             });
             taken.push((0.0, hi, 0.0));
             continue;
@@ -820,7 +829,7 @@ pub(super) fn plan_transitions(
             direction: new,
             deviation_mm: dev,
             spread: None,
-            widest,
+            widest: family,
         });
         taken.push((lo, hi, step_w));
     }

@@ -297,6 +297,10 @@ pub(super) struct Window {
     #[cfg_attr(not(test), allow(dead_code))]
     pub(super) speed_mm_s: f64,
     pub(super) cost_s: f64,
+    /// The biarc family the window was found with: [`widest_biarc`]
+    /// (`true`) or the equal-distance [`biarc`] (`false`); the writer
+    /// draws the S-curve with the same one.
+    pub(super) widest: bool,
 }
 
 /// The biarc of the window `w1`, `w2` on an arc of radius `r` for a band
@@ -326,10 +330,16 @@ const SAMPLES_PER_ARC: usize = 200;
 
 /// The tool's largest distance from the path under the dead band on the
 /// window's biarc `arcs` ([`window_biarc`]) on an arc of radius `r` for a
-/// band `b`; `None` where the band is not crossed inside the window.
-/// `pts` is room for the sampled points, kept between windows (its
-/// contents are overwritten).
-fn window_deviation(r: f64, b: f64, arcs: &[BiarcArc; 2], pts: &mut Vec<P2>) -> Option<f64> {
+/// band `b`, and its root mean square along the window (by the trapezoid
+/// rule over the samples, against `x`); `None` where the band is not
+/// crossed inside the window. `pts` is room for the sampled points, kept
+/// between windows (its contents are overwritten).
+fn window_deviation(
+    r: f64,
+    b: f64,
+    arcs: &[BiarcArc; 2],
+    pts: &mut Vec<P2>,
+) -> Option<(f64, f64)> {
     let y_n = |x: f64| (r * r - x * x).sqrt() - r;
     let p1 = arcs[0].start;
     // Sample the command along both arcs, in order; x must advance along
@@ -355,6 +365,8 @@ fn window_deviation(r: f64, b: f64, arcs: &[BiarcArc; 2], pts: &mut Vec<P2>) -> 
     let mut worst: f64 = 0.0;
     let mut state = 0; // 0 rising, 1 frozen, 2 engaged
     let mut last_y = f64::NEG_INFINITY;
+    // ∫dev² dx by the trapezoid rule, from the previous sample.
+    let (mut square, mut last) = (0.0, None::<(f64, f64)>);
     for p in pts.iter() {
         let (x, y) = (p[0], p[1]);
         if state == 0 && y < last_y {
@@ -369,14 +381,30 @@ fn window_deviation(r: f64, b: f64, arcs: &[BiarcArc; 2], pts: &mut Vec<P2>) -> 
             _ => y + b - y_n(x),
         };
         worst = worst.max(dev.abs());
+        if let Some((x0, d0)) = last {
+            square += 0.5 * (x - x0) * (d0 * d0 + dev * dev);
+        }
+        last = Some((x, dev));
         last_y = y;
     }
     // Not engaged by the end of the window: the band is not crossed.
     if state != 2 {
         return None;
     }
-    Some(worst)
+    let span = pts[pts.len() - 1][0] - pts[0][0];
+    Some((worst, (square / span).sqrt()))
 }
+
+/// The root mean square of the tool's distance from the path along an
+/// equal-distance S-curve window that a G61 search may take
+/// ([`families`]): that of a ramp centred on a reversal
+/// (`ramp_centre::TOLERANCE_MM`, half of it, as `ramp_band::within` reads
+/// a ramp), 0.1 µm. Without it the fastest equal-distance windows stood
+/// the tool 0.34 µm off (RMS 0.19 µm) over 0.46 mm at every quarter
+/// point, and on the fine map (1.2–1.8 µm bands, F6000) the band RMS
+/// reduction fell below 99 % (helix_d24 99.61 → 98.68 %, g3_d16
+/// 98.27 %).
+const EQUAL_DISTANCE_RMS_MM: f64 = 0.5 * super::ramp_centre::TOLERANCE_MM;
 
 /// The window that takes up a band `b` (mm) at a quarter point of an arc
 /// of radius `r` fed at `v` (mm/s) with the tool within `tol` (mm) of the
@@ -424,9 +452,9 @@ pub(super) fn best_window(
     let mut pts = Vec::with_capacity(2 * SAMPLES_PER_ARC + 1);
     // The window `w1`, `w2` replaces `best` where it keeps the tool within
     // `tol` at less cost.
-    let mut consider = |w1: f64, w2: f64, best: &mut Option<Window>| {
+    let mut consider = |w1: f64, w2: f64, family: bool, best: &mut Option<Window>| {
         {
-            let Some(arcs) = window_biarc(r, b, w1, w2, widest) else {
+            let Some(arcs) = window_biarc(r, b, w1, w2, family) else {
                 return;
             };
             // Each arc runs at no more than √(a_n ρ), nor than its length
@@ -448,10 +476,10 @@ pub(super) fn best_window(
             if best.is_some_and(|b| cost > b.cost_s + 1e-4) {
                 return;
             }
-            let Some(dev) = window_deviation(r, b, &arcs, &mut pts) else {
+            let Some((dev, rms)) = window_deviation(r, b, &arcs, &mut pts) else {
                 return;
             };
-            if dev > tol {
+            if dev > tol || (!family && widest && rms > EQUAL_DISTANCE_RMS_MM) {
                 return;
             }
             // Of windows that cost the same (within 0.1 ms: at the feed,
@@ -465,29 +493,54 @@ pub(super) fn best_window(
                     deviation_mm: dev,
                     speed_mm_s: speed,
                     cost_s: cost,
+                    widest: family,
                 });
             }
         }
     };
-    for &w1 in befores {
-        for &w2 in &lengths {
-            consider(w1, w2, &mut best);
+    // Under G61 both biarcs of each window are tried ([`families`]).
+    for &family in families(widest) {
+        for &w1 in befores {
+            for &w2 in &lengths {
+                consider(w1, w2, family, &mut best);
+            }
         }
     }
     // Under G61 the best window of the ×1.25 grid is searched again
-    // between its neighbours ([`refined_lengths`]).
+    // between its neighbours ([`refined_lengths`]), with both biarcs.
     if let Some(found) = best.filter(|_| widest) {
         let (b1, b2) = (found.before_mm, found.after_mm);
-        for w1 in refined_lengths(b1, after_only) {
-            for w2 in refined_lengths(b2, false) {
-                if w2 <= 0.25 * r && w1 <= 0.25 * r {
-                    consider(w1, w2, &mut best);
+        for &family in families(widest) {
+            for w1 in refined_lengths(b1, after_only) {
+                for w2 in refined_lengths(b2, false) {
+                    if w2 <= 0.25 * r && w1 <= 0.25 * r {
+                        consider(w1, w2, family, &mut best);
+                    }
                 }
             }
         }
     }
     WINDOWS.with_borrow_mut(|memo| memo.put(key, best));
     best
+}
+
+/// The biarc families a window search tries: under G61 (`widest`) the
+/// widest biarc ([`widest_biarc`], `true`) and the equal-distance one
+/// ([`biarc`], `false`), each window taking whichever keeps the tool within
+/// the tolerance at less cost; else the equal-distance one alone.
+/// [`widest_biarc`] picks by the tighter arc's radius only, but the planner
+/// also runs an arc no faster than its length per servo period
+/// (`tcClampVelocityByLength`, src/emc/tp/tc.c), and the equal-radius S's
+/// second arc is short where the band is small against the window: on R12
+/// at F6000 with a 1.5 µm band (0.34 µm) the widest biarcs the search found
+/// ran at 55.5 mm/s (a 0.056 mm G2 of R4.73), the equal-distance ones at
+/// 87.8 mm/s (R8.9 then R18.4, both turning the arc's way).
+fn families(widest: bool) -> &'static [bool] {
+    if widest {
+        &[true, false]
+    } else {
+        &[false]
+    }
 }
 
 /// Steps between the lengths of the ×1.25 grid [`best_window`] and
@@ -734,8 +787,8 @@ pub(super) fn join_window(
     let mut best: Option<Window> = None;
     // The window whose part after the join is `w2` replaces `best` where
     // it keeps the tool within `tol` at less cost.
-    let consider = |w2: f64, best: &mut Option<Window>| {
-        let Some(arcs) = join_biarc(r1, r2, b, before_mm, w2, widest) else {
+    let consider = |w2: f64, family: bool, best: &mut Option<Window>| {
+        let Some(arcs) = join_biarc(r1, r2, b, before_mm, w2, family) else {
             return;
         };
         let speed = arcs.iter().fold(v, |m, a| {
@@ -764,25 +817,41 @@ pub(super) fn join_window(
                 deviation_mm: dev,
                 speed_mm_s: speed,
                 cost_s: cost,
+                widest: family,
             });
         }
     };
     // Under G61 the lengths step by ×1.25^(1/8) ([`refined_lengths`]):
     // the part before the join is fixed, so a grid of one length is
-    // searched whole.
+    // searched whole. The equal-distance biarc is tried only where no
+    // widest one fits ([`families`]: the tail before the join may have been
+    // sized for it, and without a window the take-up is a block, a stop,
+    // or an S-curve on the arc alone). Tried on cost alone it also
+    // replaced the widest S at the pocket's line → R3 joins, which the
+    // planner model ran ~10 ms slower each (pocket_arcs, fine map, F6000:
+    // +5.4 → +6.9 %). Where no widest one fits after a line, the
+    // equal-distance one costs 6–12 ms more than an S-curve on the arc
+    // alone at the fine map's R1 joins (pocket_arcs +5.4 → +6.1 %) but
+    // saves more on the example and shop maps (pocket_arcs +15.1 → +12.7 %,
+    // +27.9 → +26.0 %; pocket_r4 +9.6 → +7.1 %, +40.4 → +38.5 %).
     let steps = if widest { REFINE_STEPS } else { 1 };
-    for w2 in (0..40 * steps)
-        .map(|k| {
-            if widest {
-                0.005 * 1.25f64.powf(f64::from(k) / f64::from(steps))
-            } else {
-                0.005 * 1.25f64.powi(k)
-            }
-        })
-        .take_while(|w| *w <= 0.25 * r2)
-        .filter(|w| *w >= shortest_mm)
-    {
-        consider(w2, &mut best);
+    for &family in families(widest) {
+        if best.is_some() {
+            break;
+        }
+        for w2 in (0..40 * steps)
+            .map(|k| {
+                if widest {
+                    0.005 * 1.25f64.powf(f64::from(k) / f64::from(steps))
+                } else {
+                    0.005 * 1.25f64.powi(k)
+                }
+            })
+            .take_while(|w| *w <= 0.25 * r2)
+            .filter(|w| *w >= shortest_mm)
+        {
+            consider(w2, family, &mut best);
+        }
     }
     best
 }
@@ -1042,7 +1111,7 @@ mod tests {
                 if speed <= fastest {
                     continue;
                 }
-                if window_deviation(r, b, &arcs, &mut pts).is_some_and(|d| d <= tol) {
+                if window_deviation(r, b, &arcs, &mut pts).is_some_and(|d| d.0 <= tol) {
                     fastest = speed;
                 }
             }
@@ -1052,12 +1121,74 @@ mod tests {
         assert!(w.deviation_mm <= tol, "{w:?}");
         assert!(w.speed_mm_s >= 0.98 * fastest, "{w:?} vs {fastest}");
         assert!(w.speed_mm_s <= fastest * (1.0 + 1e-9), "{w:?} vs {fastest}");
+        // At 4 µm the widest biarc is the faster one (the equal-distance
+        // biarcs' tighter arc is narrower).
+        assert!(w.widest, "{w:?}");
         let arcs = window_biarc(r, b, w.before_mm, w.after_mm, true).unwrap();
         let rho = least_radius(&arcs);
         assert!(
             (w.speed_mm_s - (a_n * rho).sqrt()).abs() < 1e-9,
             "{w:?} {rho}"
         );
+    }
+
+    #[test]
+    fn under_g61_a_small_band_takes_the_faster_of_both_biarcs_within_the_ramp_rms() {
+        // R12 at F6000, a 1.5 µm band (the fine map's Y), 0.34 µm. The
+        // widest biarcs of small windows end in a short second arc, which
+        // LinuxCNC runs no faster than its length per servo period
+        // (tcClampVelocityByLength, tc.c): the search over them alone
+        // found a 0.056 mm G2 of R4.73 run at 55.5 mm/s. A second method,
+        // every window of both biarcs on a grid 16 times finer, each arc's
+        // speed min(√(a_n ρ), length / 1 ms) (pmCircleActualMaxVel,
+        // blendmath.c; a_n = √0.75 · 1000 mm/s²), the equal-distance ones
+        // only within 0.1 µm RMS: the search comes within 3 % of the
+        // fastest, far above 55.5 mm/s, and keeps both bounds.
+        let p = PlannerLimits::default();
+        let (r, b, tol, v) = (12.0, 0.0015, 0.34e-3, 100.0);
+        let a_n = 1000.0 * 0.75f64.sqrt();
+        let speed_of = |arcs: &[BiarcArc; 2]| {
+            arcs.iter().fold((a_n * r).sqrt().min(v), |m, a| {
+                m.min((a_n * a.radius.abs()).sqrt()).min(a.length() / 0.001)
+            })
+        };
+        let mut pts = Vec::new();
+        let fine: Vec<f64> = (0..640)
+            .map(|k| 0.005 * 1.25f64.powf(f64::from(k) / 16.0))
+            .filter(|w| *w <= 0.25 * r)
+            .collect();
+        let mut fastest: f64 = 0.0;
+        for family in [true, false] {
+            for &w1 in &fine {
+                for &w2 in &fine {
+                    let Some(arcs) = window_biarc(r, b, w1, w2, family) else {
+                        continue;
+                    };
+                    let speed = speed_of(&arcs);
+                    if speed <= fastest {
+                        continue;
+                    }
+                    if window_deviation(r, b, &arcs, &mut pts)
+                        .is_some_and(|(d, rms)| d <= tol && (family || rms <= 1e-4))
+                    {
+                        fastest = speed;
+                    }
+                }
+            }
+        }
+        assert!(fastest > 60.0, "{fastest}");
+        let w = best_window(r, b, tol, v, &p, false, true).unwrap();
+        assert!(w.speed_mm_s >= 0.97 * fastest, "{w:?} vs {fastest}");
+        assert!(w.speed_mm_s <= fastest * (1.0 + 1e-9), "{w:?} vs {fastest}");
+        let arcs = window_biarc(r, b, w.before_mm, w.after_mm, w.widest).unwrap();
+        assert!((w.speed_mm_s - speed_of(&arcs)).abs() < 1e-9, "{w:?}");
+        let (dev, rms) = window_deviation(r, b, &arcs, &mut pts).unwrap();
+        assert!(dev <= tol && (dev - w.deviation_mm).abs() < 1e-12, "{w:?}");
+        assert!(w.widest || rms <= 1e-4, "{w:?} {rms}");
+        // Under G64 (the equal-distance biarc alone) nothing changes: the
+        // fastest window within the tolerance, whatever its RMS.
+        let g64 = best_window(r, b, tol, v, &p, false, false).unwrap();
+        assert!(!g64.widest && g64.speed_mm_s > w.speed_mm_s, "{g64:?}");
     }
 
     /// A search answered from the memo is the search itself: each
@@ -1115,7 +1246,7 @@ mod tests {
         // peak.
         let (r, b, w2) = (10.0, 0.004, 0.3);
         let arcs = window_biarc(r, b, 0.0, w2, false).unwrap();
-        let dev = window_deviation(r, b, &arcs, &mut Vec::new()).unwrap();
+        let dev = window_deviation(r, b, &arcs, &mut Vec::new()).unwrap().0;
         assert_eq!(arcs[0].start, [0.0, 0.0]);
         assert_eq!(arcs[0].tangent, [1.0, 0.0]);
         let te = arcs[1].end_tangent();
