@@ -43,6 +43,7 @@ pub mod solve;
 mod spline;
 mod style;
 mod tail;
+mod take_up_across;
 mod take_up_stand;
 mod targets;
 mod turn_back;
