@@ -1,6 +1,6 @@
 //! Under G61, a take-up of the arc plane's normal axis right after a
-//! quarter-point S-curve, spread as a smooth ramp across the S-curve
-//! instead of written as a block (docs/compensation.md, "A normal-axis
+//! quarter-point S-curve (or on the piece right before it), spread as a
+//! smooth ramp across the S-curve instead of written as a block (docs/compensation.md, "A normal-axis
 //! take-up across the S-curve").
 //!
 //! At a quarter point the S-curve axis' straightness across the plane
@@ -77,10 +77,6 @@ pub(super) struct Spread {
 /// move (mm): their rounding, no take-up of their own.
 const OTHER_AXES_MM: f64 = 0.02e-3;
 
-fn dbg_on() -> bool {
-    std::env::var_os("ZB_DEBUG").is_some()
-}
-
 /// How far the ramp may leave the tool from the path (mm), its offset
 /// along the normal axis and the S-curve's own deviation across it added
 /// as the hypotenuse: the product's 0.5 µm (docs/compensation.md,
@@ -98,7 +94,7 @@ fn smooth(u: f64) -> f64 {
 }
 
 /// Spreads every take-up block of the normal axis written right after an
-/// S-curve (module documentation) where its ramp keeps the tool within
+/// S-curve (or before the piece right before one) (module documentation) where its ramp keeps the tool within
 /// the tolerance and the planner's tangency; returns one [`Spread`] per
 /// take-up replaced. The motion's vectors grow by the ramp's inner points.
 pub(super) fn spread_take_ups(
@@ -108,8 +104,9 @@ pub(super) fn spread_take_ups(
 ) -> Result<Vec<Spread>, ModelError> {
     let mut done = Vec::new();
     // From the last, so the indices of those before do not move.
-    let mut order: Vec<usize> = m.transitions.iter().map(|tr| tr.index + 1).collect();
-    order.sort_unstable();
+    let order: Vec<usize> = (1..m.commands.len())
+        .filter(|&k| m.commands[k].1.is_some())
+        .collect();
     for &k in order.iter().rev() {
         if let Some(s) = spread_one(cells, m, set, k)? {
             done.push(s);
@@ -131,16 +128,20 @@ fn spread_one(
 ) -> Result<Option<Spread>, ModelError> {
     let w = set.arc.plane.axes().2;
     let n = m.commands.len();
-    if k < 2 || k >= n || m.pieces.len() != n || m.states.len() != n || m.ramp_mids.len() != n {
+    if k < 1 || k >= n || m.pieces.len() != n || m.states.len() != n || m.ramp_mids.len() != n {
         return Ok(None);
     }
-    let Some(tr) = m.transitions.iter().find(|tr| tr.index + 1 == k).copied() else {
+    // The S-curve's piece right before the take-up, or right after the
+    // piece the take-up starts.
+    let Some(tr) = m
+        .transitions
+        .iter()
+        .find(|tr| tr.index + 1 == k || tr.index == k + 1)
+        .copied()
+    else {
         return Ok(None);
     };
     let Some(tu) = m.commands[k].1 else {
-        if dbg_on() {
-            eprintln!("zb k={k} no take-up after S-curve {}", tr.index);
-        }
         return Ok(None);
     };
     let before = m.commands[k - 1].0;
@@ -149,9 +150,6 @@ fn spread_one(
     }
     let delta = tu[w] - before[w];
     let (s_old, s_new) = (m.states[k - 1][w], m.states[k][w]);
-    if dbg_on() {
-        eprintln!("zb k={k} tu={tu:?} before={before:?} delta={delta} states {:?} {:?} dev={}", s_old, s_new, tr.deviation_mm);
-    }
     // A reversal of the normal axis, its take-up its new way.
     if s_old == s_new || delta == 0.0 || delta * s_new.sign() <= 0.0 {
         return Ok(None);
@@ -161,45 +159,41 @@ fn spread_one(
         return Ok(None);
     }
     let ramp_mm = (6.0 * delta.abs() * set.piece_mm / set.kappa).sqrt();
-    let (l_take, l_scurve) = (m.pieces[k - 1], m.pieces[tr.index - 1]);
+    let at = |j: usize| if j == 0 { 0.0 } else { m.pieces[j - 1] };
+    let (l_take, l_scurve, l_scurve_end) = (at(k), at(tr.index), m.pieces[tr.index]);
     // The S-curve's step along the normal axis is spread over its span as
     // a smooth step within the ramp (as `points::spread_normal_step` does
     // where no take-up follows): the ramp starts no later than the span.
-    let l_first = tr.spread.map_or(l_scurve, |(a, _)| a.min(l_scurve));
+    let l_first = tr
+        .spread
+        .map_or(l_scurve, |(a, _)| a.min(l_scurve))
+        .min(l_take);
+    let l_last = l_take.max(l_scurve_end);
     let span = step_span(m, set, &tr);
-    // Starts tried: the S-curve's start, and back from it by pieces while
-    // the ramp still ends a piece past the take-up; the one leaving the
-    // tool nearest the path is kept.
+    // Starts tried: the earliest of the S-curve's start (its span's) and
+    // the take-up, and back from it by pieces while the ramp still ends a
+    // piece past both; the one leaving the tool nearest the path is kept.
     let mut best: Option<(f64, Vec<RampPoint>, Vec<Vec3>)> = None;
     let steps = (ramp_mm / set.piece_mm).floor() as usize;
     for step in 0..steps {
         let l0 = l_first - (step as f64) * set.piece_mm / len;
         let l1 = l0 + ramp_mm / len;
-        if l0 < 0.0 || l1 >= 1.0 || (l1 - l_take) * len < set.piece_mm {
+        if l0 < 0.0 || l1 >= 1.0 || (l1 - l_last) * len < set.piece_mm {
             break;
         }
-        let Some(plan) = ramp_points(m, set, (l0, l1), tr.index) else {
-            if dbg_on() {
-                eprintln!("zb step {step} ramp_points refused");
-            }
+        let Some(plan) = ramp_points(m, set, (l0, l1), (tr.index, k)) else {
             continue;
         };
-        let Some((cmds, news)) = ramp_commands(cells, m, set, (&plan, span), (l0, l1), (k, delta))? else {
+        let Some((cmds, news)) = ramp_commands(cells, m, set, (&plan, span), (l0, l1), (k, delta))?
+        else {
             continue;
         };
         let start = piece_start(m, set, plan[0].1);
         let Some(off) = standing_offset(&cmds, &news, start[w], (delta, w)) else {
-            if dbg_on() {
-                eprintln!("zb step {step} standing refused: {:?}", cmds.iter().map(|q| q[w]).collect::<Vec<_>>());
-            }
             continue;
         };
         let bound = off.hypot(tr.deviation_mm);
-        if dbg_on() {
-            eprintln!("zb step {step} off={off} bound={bound} tangent={}", joins_tangent(m, set, &plan, &cmds, start));
-        }
-        let tol = std::env::var("ZB_TOL").ok().and_then(|v| v.parse::<f64>().ok()).unwrap_or(set.tolerance_mm);
-        if bound > tol || !joins_tangent(m, set, &plan, &cmds, start) {
+        if bound > set.tolerance_mm || !joins_tangent(m, set, &plan, &cmds, start) {
             continue;
         }
         if best.as_ref().is_none_or(|b| bound < b.0) {
@@ -252,13 +246,29 @@ impl StepSpan {
 fn step_span(m: &Solved<'_>, set: &Setting<'_>, tr: &Transition) -> Option<StepSpan> {
     let w = set.arc.plane.axes().2;
     let (a, b) = tr.spread?;
-    let (lo, hi) = (m.pieces[tr.index - 1], m.pieces[tr.index]);
+    let lo = if tr.index == 0 {
+        0.0
+    } else {
+        m.pieces[tr.index - 1]
+    };
+    let hi = m.pieces[tr.index];
     if !(a < lo && hi < b && hi > lo) {
         return None;
     }
     let own = set.arc.point_at(hi)[w] - set.arc.point_at(lo)[w];
-    let step_mm = m.commands[tr.index].0[w] - m.commands[tr.index - 1].0[w] - own;
-    Some(StepSpan { a, b, lo, hi, step_mm })
+    let from = if tr.index == 0 {
+        set.q_in
+    } else {
+        m.commands[tr.index - 1].0
+    };
+    let step_mm = m.commands[tr.index].0[w] - from[w] - own;
+    Some(StepSpan {
+        a,
+        b,
+        lo,
+        hi,
+        step_mm,
+    })
 }
 
 /// The ramp's points from `l0` to `l1` (arc parameters): the commands
@@ -266,7 +276,12 @@ fn step_span(m: &Solved<'_>, set: &Setting<'_>, tr: &Transition) -> Option<StepS
 /// within half a piece; none inside the S-curve (its piece ends at
 /// command `scurve`), which the writer writes whole. `None` where another
 /// S-curve, take-up or ramp lies on it.
-fn ramp_points(m: &Solved<'_>, set: &Setting<'_>, (l0, l1): (f64, f64), scurve: usize) -> Option<Vec<RampPoint>> {
+fn ramp_points(
+    m: &Solved<'_>,
+    set: &Setting<'_>,
+    (l0, l1): (f64, f64),
+    (scurve, k): (usize, usize),
+) -> Option<Vec<RampPoint>> {
     let len = set.arc.length();
     let n = m.pieces.len();
     let half = 0.5 * set.piece_mm / len;
@@ -275,23 +290,11 @@ fn ramp_points(m: &Solved<'_>, set: &Setting<'_>, (l0, l1): (f64, f64), scurve: 
     let first = m.pieces.partition_point(|p| *p < l0 - 1e-12);
     let last = m.pieces.partition_point(|p| *p < l1 - 1e-12);
     if last + 1 >= n {
-        if dbg_on() {
-            eprintln!("zb rp: last {last} n {n}");
-        }
         return None;
     }
-    if dbg_on() {
-        eprintln!(
-            "zb rp: first {first} last {last} mids {:?} tus {:?} trs {:?}",
-            (first..=last + 1).filter(|&j| m.ramp_mids[j] != Vec3::ZERO).collect::<Vec<_>>(),
-            (first..=last + 1).filter(|&j| m.commands[j].1.is_some()).collect::<Vec<_>>(),
-            m.transitions.iter().map(|t| t.index).collect::<Vec<_>>()
-        );
-    }
     if (first..=last + 1).any(|j| m.ramp_mids[j] != Vec3::ZERO)
-        || (first + 1..=last + 1).any(|j| j != scurve + 1 && m.commands[j].1.is_some())
-        || m
-            .transitions
+        || (first + 1..=last + 1).any(|j| j != k && m.commands[j].1.is_some())
+        || m.transitions
             .iter()
             .any(|tr| tr.index != scurve && tr.index >= first && tr.index <= last + 1)
     {
@@ -342,7 +345,16 @@ fn ramp_commands(
     for &(l, j, inserted) in plan {
         let solved = if inserted {
             let t = set.arc.point_at(l);
-            solve_fixed_in(cells, set.model, set.method, t, m.states[j], [false; 3], prev)?.q_mm
+            solve_fixed_in(
+                cells,
+                set.model,
+                set.method,
+                t,
+                m.states[j],
+                [false; 3],
+                prev,
+            )?
+            .q_mm
         } else {
             m.commands[j].0
         };
@@ -382,7 +394,12 @@ fn ramp_commands(
 /// offset is that less the new state's solution. `None` where the
 /// command turns its old way again after its turn, or the band is not
 /// crossed by the ramp's end.
-fn standing_offset(cmds: &[Vec3], news: &[Vec3], start: f64, (delta, w): (f64, usize)) -> Option<f64> {
+fn standing_offset(
+    cmds: &[Vec3],
+    news: &[Vec3],
+    start: f64,
+    (delta, w): (f64, usize),
+) -> Option<f64> {
     let old = -delta.signum();
     let (mut peak, mut last) = (start, start);
     let (mut turned, mut engaged) = (false, false);
@@ -415,7 +432,13 @@ fn standing_offset(cmds: &[Vec3], news: &[Vec3], start: f64, (delta, w): (f64, u
 /// read on the written commands (the compensation's own turn included):
 /// the ramp's own joins take the share `kappa` by its length, the
 /// S-curve's ends, a piece the ramp cannot split, take more.
-fn joins_tangent(m: &Solved<'_>, set: &Setting<'_>, plan: &[RampPoint], cmds: &[Vec3], start: Vec3) -> bool {
+fn joins_tangent(
+    m: &Solved<'_>,
+    set: &Setting<'_>,
+    plan: &[RampPoint],
+    cmds: &[Vec3],
+    start: Vec3,
+) -> bool {
     let w = set.arc.plane.axes().2;
     let len = set.arc.length();
     let first = plan[0].1;
@@ -428,13 +451,6 @@ fn joins_tangent(m: &Solved<'_>, set: &Setting<'_>, plan: &[RampPoint], cmds: &[
         pts.push((m.pieces[after], m.commands[after].0[w]));
     }
     let slope = |a: (f64, f64), b: (f64, f64)| (b.1 - a.1) / ((b.0 - a.0) * len);
-    if dbg_on() {
-        let t: Vec<String> = pts
-            .windows(3)
-            .map(|p| format!("{:.3}@{:.3}", (slope(p[1], p[2]) - slope(p[0], p[1])) * 1e3, (p[1].0 - pts[0].0) * len))
-            .collect();
-        eprintln!("zb joins (mrad@mm) tol {:.3}: {}", set.tangent * 1e3, t.join(" "));
-    }
     pts.windows(3)
         .all(|p| (slope(p[1], p[2]) - slope(p[0], p[1])).abs() <= set.tangent)
 }
@@ -489,5 +505,58 @@ fn apply(
             delta * smooth(u)
         };
         m.ramp_mids[j][w] += off + span.map_or(0.0, |sp| sp.offset(mid));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn z(v: &[f64]) -> Vec<Vec3> {
+        v.iter().map(|&z| Vec3::new(0.0, 0.0, z)).collect()
+    }
+
+    #[test]
+    fn the_carriage_stands_across_the_ramp_and_leaves_the_targets_step() {
+        // Z turns from up to down, its band 1 (the take-up −1), the ramp
+        // 3u² − 2u³ at u = 0, ¼, ½, ¾, 1 (σ = 0, 0.15625, 0.5, 0.84375,
+        // 1) over a new-state target that steps up 0.3 at the middle and
+        // falls after: the command is the target + (1 − σ). By hand the
+        // carriage follows up to the first point (command 1, the peak),
+        // stands at 1 − 1 = 0 while the command falls by less than 1
+        // (0.15625, 0.2, 0.74375), and is engaged at the last (1.1): off
+        // by 0, 0, 0.3, 0.1, 0.
+        let news = z(&[0.0, 0.0, 0.3, 0.1, -0.1]);
+        let cmds = z(&[1.0, 0.84375, 0.8, 0.25625, -0.1]);
+        let off = standing_offset(&cmds, &news, 1.0, (-1.0, 2)).unwrap();
+        assert!((off - 0.3).abs() < 1e-12, "{off}");
+        // The target ending 0.1 above where the carriage stands: the
+        // command has travelled 0.9 of the band by the ramp's end.
+        let news = z(&[0.0, 0.0, 0.3, 0.2, 0.1]);
+        let cmds = z(&[1.0, 0.84375, 0.8, 0.35625, 0.1]);
+        assert_eq!(standing_offset(&cmds, &news, 1.0, (-1.0, 2)), None);
+        // A command that turns back up after its turn: a second reversal.
+        let cmds = z(&[1.0, 0.8, 0.9, 0.2, -0.1]);
+        assert_eq!(standing_offset(&cmds, &z(&[0.0; 5]), 1.0, (-1.0, 2)), None);
+    }
+
+    #[test]
+    fn the_s_curves_step_is_spread_over_its_span_as_a_smooth_step() {
+        // A step of 0.3 across the S-curve from 0.4 to 0.6, spread over
+        // 0.2 to 0.8: the offset is 0.3·(σ − H), by hand 0 at the span's
+        // ends, 0.3·σ(1/3) = 0.3·7/27 before the S-curve at 0.4, and
+        // 0.3·(0.5 − 0.5) = 0 at its middle.
+        let sp = StepSpan {
+            a: 0.2,
+            b: 0.8,
+            lo: 0.4,
+            hi: 0.6,
+            step_mm: 0.3,
+        };
+        assert_eq!(sp.offset(0.2), 0.0);
+        assert_eq!(sp.offset(0.8), 0.0);
+        assert!((sp.offset(0.4) - 0.3 * 7.0 / 27.0).abs() < 1e-12);
+        assert!(sp.offset(0.5).abs() < 1e-12);
+        assert!((sp.offset(0.6) + 0.3 * 7.0 / 27.0).abs() < 1e-12);
     }
 }
