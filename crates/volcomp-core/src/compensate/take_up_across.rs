@@ -479,7 +479,13 @@ fn apply(
             rec.take_up = false;
             rec.reversed = [false; 3];
             let state = m.states[j];
-            m.commands.insert(j, (*q, None));
+            // A take-up written before the piece stays at its start.
+            let tu = m.commands[j].1.take();
+            rec.take_up = tu.is_some();
+            if let Some(r) = m.records.get_mut(j) {
+                r.take_up = false;
+            }
+            m.commands.insert(j, (*q, tu));
             m.targets.insert(j, rec.target_mm);
             m.pieces.insert(j, l);
             m.states.insert(j, state);
