@@ -45,6 +45,7 @@ pub mod solve;
 mod spline;
 mod style;
 mod tail;
+mod take_up_across;
 mod take_up_advance;
 mod take_up_stand;
 mod targets;

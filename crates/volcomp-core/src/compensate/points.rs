@@ -2980,6 +2980,45 @@ impl State<'_> {
             t_prev = *t;
             index += 1;
         }
+        // Under G61 a take-up block of the plane's normal axis right after
+        // an S-curve, spread as a ramp across it instead
+        // (compensate/take_up_across.rs).
+        if let (TakeUpRule::Exact { smooth: true }, Leads::Arc { arc, pieces }) = (rule, &mut leads)
+        {
+            if !transitions.is_empty() && commands.iter().any(|c| c.1.is_some()) {
+                let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+                let w = arc.plane.axes().2;
+                let tangent = options.planner.tangent_tolerance(v_mm_s.max(1e-9), true)[w];
+                let spread = super::take_up_across::spread_take_ups(
+                    &mut cells,
+                    &mut super::take_up_across::Solved {
+                        commands: &mut commands,
+                        targets: &mut *targets,
+                        pieces: &mut **pieces,
+                        states: &mut self.states,
+                        ramp_mids: &mut self.ramp_mids,
+                        records: &mut records,
+                        transitions: &mut transitions,
+                    },
+                    &super::take_up_across::Setting {
+                        model,
+                        method: options.method,
+                        arc: &**arc,
+                        q_in: commands_start,
+                        quantize: &|q, from| frame.quantize(q, from),
+                        piece_mm: shortest_ramp_piece_mm(options, v_mm_s),
+                        kappa: RAMP_SHARE * tangent,
+                        tangent,
+                        tolerance_mm: super::take_up_across::ACROSS_TOLERANCE_MM,
+                    },
+                )
+                .map_err(|source| model_error(file, line, source))?;
+                for s in spread {
+                    self.summary.take_ups -= 1;
+                    self.note_fold(s.bound_mm);
+                }
+            }
+        }
         // Under G61 the step an S-curve makes in the plane's normal axis,
         // spread as a smooth step around it ([`spread_normal_step`]).
         if let (TakeUpRule::Exact { smooth: true }, Leads::Arc { arc, pieces }) = (rule, &leads) {
