@@ -86,7 +86,7 @@ pub(super) fn advance_needed_mm(
             continue;
         }
         let gain = u[a] * sign;
-        if !(gain >= LEAST_COSINE) {
+        if gain.is_nan() || gain < LEAST_COSINE {
             return None;
         }
         d = d.max((short + MARGIN_MM) / gain);
@@ -125,7 +125,7 @@ pub(super) fn advanced_take_up(
     }
     let along = t_end - t_prev;
     let len = along.norm();
-    if !(len > 0.0) {
+    if len.is_nan() || len <= 0.0 {
         return Ok(None);
     }
     let u = along * (1.0 / len);
