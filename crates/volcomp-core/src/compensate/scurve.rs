@@ -334,12 +334,7 @@ const SAMPLES_PER_ARC: usize = 200;
 /// rule over the samples, against `x`); `None` where the band is not
 /// crossed inside the window. `pts` is room for the sampled points, kept
 /// between windows (its contents are overwritten).
-fn window_deviation(
-    r: f64,
-    b: f64,
-    arcs: &[BiarcArc; 2],
-    pts: &mut Vec<P2>,
-) -> Option<(f64, f64)> {
+fn window_deviation(r: f64, b: f64, arcs: &[BiarcArc; 2], pts: &mut Vec<P2>) -> Option<(f64, f64)> {
     let y_n = |x: f64| (r * r - x * x).sqrt() - r;
     let p1 = arcs[0].start;
     // Sample the command along both arcs, in order; x must advance along
