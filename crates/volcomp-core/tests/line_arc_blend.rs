@@ -70,7 +70,8 @@ fn a_plunge_into_a_g18_circle_keeps_its_blend_arc_under_g64_p() {
     let map = y_by_z_map();
     // (Under G64 without P a line of one piece does not wait for the next
     // line: compensate/line_arc.rs `waits_for_arc`.)
-    for mode in ["G64 P0.005"] {
+    {
+        let mode = "G64 P0.005";
         // The held-out set's one-block G18 circle with its plunge.
         let program = format!(
             "G21 G17 G90 G94\n{mode}\nG0 Z5\nG0 X5 Y0\nG1 Z-2.3397 F6000\n\

@@ -123,7 +123,7 @@ impl State<'_> {
             return Ok(None);
         };
         let zone_mm = next.end_zone_mm(&options.planner, run, (motion.start, motion.end));
-        if !(zone_mm > 0.0) {
+        if zone_mm.is_nan() || zone_mm <= 0.0 {
             return Ok(None);
         }
         let Some(&end) = targets.last() else {
@@ -132,7 +132,7 @@ impl State<'_> {
         let n = targets.len();
         let before = if n > 1 { targets[n - 2] } else { motion.start };
         let piece_mm = (end - before).norm();
-        if !(piece_mm > 0.0) {
+        if piece_mm.is_nan() || piece_mm <= 0.0 {
             return Ok(None);
         }
         let floor_mm = min_length_mm.max(options.planner.shortest_at_feed_mm(f));
