@@ -2994,7 +2994,7 @@ impl State<'_> {
                     &mut super::take_up_across::Solved {
                         commands: &mut commands,
                         targets: &mut *targets,
-                        pieces: &mut **pieces,
+                        pieces,
                         states: &mut self.states,
                         ramp_mids: &mut self.ramp_mids,
                         records: &mut records,
@@ -3003,7 +3003,7 @@ impl State<'_> {
                     &super::take_up_across::Setting {
                         model,
                         method: options.method,
-                        arc: &**arc,
+                        arc,
                         q_in: commands_start,
                         quantize: &|q, from| frame.quantize(q, from),
                         piece_mm: shortest_ramp_piece_mm(options, v_mm_s),

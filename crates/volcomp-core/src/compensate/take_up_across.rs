@@ -321,6 +321,10 @@ fn ramp_points(
     (!pts.is_empty()).then_some(pts)
 }
 
+/// The ramp's written commands at its points and the new state's solutions
+/// there.
+type RampCommands = (Vec<Vec3>, Vec<Vec3>);
+
 /// The commands the ramp writes at its points and the new state's
 /// solution there (the command the normal axis would have engaged in its
 /// new direction): a kept command is moved by the ramp's offset, an
@@ -332,7 +336,7 @@ fn ramp_commands(
     (plan, span): (&[RampPoint], Option<StepSpan>),
     (l0, l1): (f64, f64),
     (k, delta): (usize, f64),
-) -> Result<Option<(Vec<Vec3>, Vec<Vec3>)>, ModelError> {
+) -> Result<Option<RampCommands>, ModelError> {
     let w = set.arc.plane.axes().2;
     let mut cmds = Vec::with_capacity(plan.len());
     let mut news = Vec::with_capacity(plan.len());
