@@ -52,6 +52,17 @@ mod targets;
 mod turn_back;
 mod walk;
 
+/// Helpers shared by the take-up modules' unit tests.
+#[cfg(test)]
+pub(crate) mod test_support {
+    use volcomp_gcode::Vec3;
+
+    /// A vector given in µm, in mm (the map's and the tests' hand values).
+    pub(crate) fn um(x: f64, y: f64, z: f64) -> Vec3 {
+        Vec3::new(x * 1e-3, y * 1e-3, z * 1e-3)
+    }
+}
+
 pub use front::{
     file_name, header_for_map, refuse_if_compensated, Compensator, MachineSetup, HEAD_BYTES,
 };

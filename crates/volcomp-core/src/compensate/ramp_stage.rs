@@ -179,11 +179,8 @@ impl Stages {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::compensate::test_support::um;
     use crate::model::Direction;
-
-    fn um(x: f64, y: f64, z: f64) -> Vec3 {
-        Vec3::new(x * 1e-3, y * 1e-3, z * 1e-3)
-    }
 
     #[test]
     fn the_axis_the_other_switch_moves_goes_first() {

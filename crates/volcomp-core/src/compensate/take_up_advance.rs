@@ -179,11 +179,8 @@ pub(super) fn advanced_take_up(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::compensate::test_support::um;
     use crate::model::Direction;
-
-    fn um(x: f64, y: f64, z: f64) -> Vec3 {
-        Vec3::new(x * 1e-3, y * 1e-3, z * 1e-3)
-    }
 
     #[test]
     fn a_step_against_an_axis_motion_is_caught_up_along_the_line() {

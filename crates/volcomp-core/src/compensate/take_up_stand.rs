@@ -105,11 +105,8 @@ pub(super) fn stand_share(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::compensate::test_support::um;
     use crate::model::Direction;
-
-    fn um(x: f64, y: f64, z: f64) -> Vec3 {
-        Vec3::new(x * 1e-3, y * 1e-3, z * 1e-3)
-    }
 
     #[test]
     fn an_axis_left_ahead_stands_until_its_target_catches_up() {
