@@ -162,7 +162,7 @@ pub struct Lexed {
     /// as a whole (its comments are not literal text to it).
     pub(crate) ngc_in_comment: bool,
     /// The word letters of the line, bit `letter & 31`.
-    pub(crate) letters: u32,
+    letters: u32,
 }
 
 impl Lexed {

@@ -14,7 +14,6 @@
 // Files are read through `volcomp_geom::inputs` only (clippy.toml).
 #![cfg_attr(not(test), warn(clippy::disallowed_methods))]
 
-pub mod ahead;
 pub mod arc;
 pub mod edit;
 pub mod error;

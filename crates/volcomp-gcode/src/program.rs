@@ -103,9 +103,6 @@ pub struct Walker<R> {
     /// subroutines), parsed once: a line's statement depends on its text
     /// alone. At most [`MAX_CACHED_STATEMENTS`].
     statements: crate::ngc::Map<(usize, usize), Arc<Statement>>,
-    /// The main program's lines lexed on a thread of their own, if asked
-    /// for ([`Walker::lex_ahead`]).
-    pub(crate) ahead: Option<crate::ahead::LexAhead>,
 }
 
 /// Statements kept parsed (a bound on the memory the cache takes).
@@ -134,17 +131,7 @@ impl<R: BufRead> Walker<R> {
             current: Pos { src: MAIN, line: 0 },
             after_end_at: None,
             statements: crate::ngc::Map::default(),
-            ahead: None,
         }
-    }
-
-    /// Takes the main program's lines lexed by `ahead` (a second reader of
-    /// the same program, lexed on a thread of its own: [`crate::ahead`])
-    /// where they are the bytes this walker reads; every other line is
-    /// lexed here as before. The same lines, the same tokens: only the
-    /// work moves to the other thread.
-    pub fn lex_ahead(&mut self, ahead: crate::ahead::LexAhead) {
-        self.ahead = Some(ahead);
     }
 
     /// What was assumed because the program did not say it, so far.
@@ -311,13 +298,7 @@ impl<R: BufRead> Walker<R> {
         // comments; only then is the line looked at as a whole. A line the
         // lexer reads is a block: a `%` line or a program number stops it
         // at its first character, so it is classified only then.
-        let ahead = pos.src == MAIN
-            && (self.ahead.as_mut()).is_some_and(|a| a.take(pos.line, content, &mut self.lexed));
-        let lexed = if ahead {
-            Ok(())
-        } else {
-            lexer::lex_block(content, &mut self.lexed)
-        };
+        let lexed = lexer::lex_block(content, &mut self.lexed);
         if lexed.is_ok() && !self.lexed.ngc_in_comment {
             self.check_block(pos, content)?;
             return self.execute_block(pos);

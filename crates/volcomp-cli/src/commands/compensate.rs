@@ -63,19 +63,6 @@ pub fn compensate_into(
     if let Some(f) = on_line {
         compensator = compensator.on_line(f);
     }
-    // The program's lines lexed on a thread of their own, from a second
-    // reader of the file (without one, lexed as they are read). Only for a
-    // regular file: a second reader of a pipe would take bytes from the
-    // first.
-    let regular =
-        program.as_os_str() != "-" && std::fs::metadata(program).is_ok_and(|m| m.is_file());
-    if regular {
-        if let Ok(again) = volcomp_core::io::inputs::open(program, "the program") {
-            if again.metadata().is_ok_and(|m| m.is_file()) {
-                compensator = compensator.lex_ahead(std::io::BufReader::new(again));
-            }
-        }
-    }
     let result = compensator
         .run(reader, out)
         .map_err(|e| job.machine.refused(e));

@@ -104,7 +104,6 @@ pub struct Compensator<'a> {
     on_warning: Option<Callback<'a, Warning>>,
     program_copy: Option<&'a mut dyn Write>,
     on_line: Option<&'a mut dyn FnMut(&volcomp_gcode::LineEvent<'_>)>,
-    lex_ahead: Option<volcomp_gcode::ahead::LexAhead>,
 }
 
 impl<'a> Compensator<'a> {
@@ -121,7 +120,6 @@ impl<'a> Compensator<'a> {
             on_warning: None,
             program_copy: None,
             on_line: None,
-            lex_ahead: None,
         }
     }
 
@@ -188,16 +186,6 @@ impl<'a> Compensator<'a> {
         self
     }
 
-    /// Lexes the program's lines on a thread of their own, from `program_again`:
-    /// a second reader of the same program ([`volcomp_gcode::ahead`]). The
-    /// compensation takes those tokens where they are of the bytes it
-    /// reads itself (so the output is the same to the byte) and has the
-    /// lexing off its own thread.
-    pub fn lex_ahead(mut self, program_again: impl Read + Send + 'static) -> Self {
-        self.lex_ahead = Some(volcomp_gcode::ahead::LexAhead::spawn(program_again));
-        self
-    }
-
     /// Reads `program`, writes it compensated to `out`, and says what it did.
     /// Nothing is written past an error; the caller discards a partial
     /// output (see [`crate::io::output`] for outputs written completely or
@@ -232,9 +220,6 @@ impl<'a> Compensator<'a> {
             decimals(super::DEFAULT_DECIMALS_INCH),
         ]);
         let mut walker = self.setup.walker(reader, &self.file);
-        if let Some(ahead) = self.lex_ahead.take() {
-            walker.lex_ahead(ahead);
-        }
         let mut no_op = |_: &PointRecord| {};
         let on_point: &mut dyn FnMut(&PointRecord) = match self.on_point.as_mut() {
             Some(f) => f.as_mut(),
@@ -514,43 +499,5 @@ mod tests {
         assert_eq!(summary.points, 2);
         // No G20/G21: the interpreter says it assumed mm.
         assert!(warnings >= 1);
-    }
-    /// A program compensated with its lines lexed ahead (a second reader of
-    /// the same bytes) is the program compensated without, to the byte,
-    /// with the same summary: a map with slopes (every point corrected),
-    /// G61 and G64 lines and arcs, a loop run three times (its lines read
-    /// again: lexed by the walk), and more lines than the lexing thread
-    /// keeps in flight.
-    #[test]
-    fn a_program_lexed_ahead_is_compensated_as_one_lexed_as_read() {
-        let mut csv = String::from("axis,direction,position_mm,ex_um,ey_um,ez_um\n");
-        for a in ["X", "Y", "Z"] {
-            csv.push_str(&format!("{a},both,-500,0,0,0\n{a},both,500,9,-6,3\n"));
-        }
-        let map = AxisTableMap::from_csv(&csv, "slope.csv").unwrap();
-        let mut p = String::from("G21 G90 G17 G64\nG0 X0 Y0 Z5\nG1 Z0 F600\n#1 = 0\n");
-        p += "o100 while [#1 LT 3]\nG1 X[#1] Y1\n#1 = [#1 + 1]\no100 endwhile\n";
-        for i in 0..6000 {
-            let (x, y) = (f64::from(i % 40) * 0.5, f64::from(i / 40) * 0.25);
-            p += &format!("G1 X{x:.3} Y{y:.3} (p{i})\n");
-            if i % 500 == 0 {
-                p += "G61\nG2 I-1 J0\nG64\n";
-            }
-        }
-        p += "M2\n";
-        let run = |ahead: bool| {
-            let mut c = Compensator::new(&map).file_name("p.ngc");
-            if ahead {
-                c = c.lex_ahead(std::io::Cursor::new(p.clone().into_bytes()));
-            }
-            let mut out = Vec::new();
-            let summary = c.run(p.as_bytes(), &mut out).unwrap();
-            (out, format!("{summary:?}"))
-        };
-        let (plain, plain_summary) = run(false);
-        let (ahead, ahead_summary) = run(true);
-        assert!(plain.len() > p.len(), "{}", plain.len());
-        assert!(plain == ahead, "the outputs differ");
-        assert_eq!(plain_summary, ahead_summary);
     }
 }
