@@ -463,3 +463,69 @@ fn names_with_terminal_escapes_are_printed_escaped() {
     assert!(!msg.contains('\x1b') && !msg.contains('\x07'), "{msg:?}");
     assert!(msg.contains("wrote o\\x1b]0;t\\x07.ngc"), "{msg}");
 }
+
+/// A program read from a pipe (a FIFO here; `<(…)` in a shell) is
+/// compensated as the same program read from a file. The compensation
+/// lexes a regular file's lines on a second reader of it; a second reader
+/// of a pipe would take bytes from the first (a build that opened one
+/// refused the program with a number cut in two), so a pipe gets none.
+#[cfg(unix)]
+#[test]
+fn a_program_read_from_a_pipe_is_compensated_as_from_a_file() {
+    let d = tempdir("pipe");
+    flat_map(&d, 0.0, 500.0);
+    // More lines than a read takes at once (64 KiB), each with decimals.
+    let mut p = String::from("G21 G90 G64\nG0 X250 Y250 Z250\n");
+    for i in 0..20_000 {
+        let x = 250.0 + f64::from(i % 200) * 0.123;
+        p += &format!(
+            "G1 X{x:.4} Y{:.4} F1000\n",
+            250.0 + f64::from(i / 200) * 0.05
+        );
+    }
+    p += "M2\n";
+    write(&d, "p.ngc", &p);
+    let made = std::process::Command::new("mkfifo")
+        .arg(d.join("pipe.ngc"))
+        .status();
+    if !made.is_ok_and(|s| s.success()) {
+        eprintln!("no mkfifo: skipped");
+        return;
+    }
+    let fifo = d.join("pipe.ngc");
+    let bytes = p.clone().into_bytes();
+    // The writer blocks until the compensation opens the pipe.
+    let writer = std::thread::spawn(move || std::fs::write(fifo, bytes));
+    let piped = compensate_to(&d, "pipe.ngc", "out_pipe.ngc");
+    writer.join().unwrap().unwrap();
+    let filed = compensate_to(&d, "p.ngc", "out_file.ngc");
+    assert!(piped.status.success(), "{}", stderr(&piped));
+    assert!(filed.status.success(), "{}", stderr(&filed));
+    let body = |name: &str| -> String {
+        read(&d, name)
+            .lines()
+            .filter(|l| !l.starts_with("(date "))
+            .map(|l| format!("{l}\n"))
+            .collect()
+    };
+    let (a, b) = (body("out_pipe.ngc"), body("out_file.ngc"));
+    assert!(a.lines().count() > 20_000, "{}", a.lines().count());
+    assert!(a == b, "the outputs differ");
+}
+
+fn compensate_to(dir: &Path, program: &str, out: &str) -> Output {
+    volcomp(
+        &[
+            "--quiet",
+            "compensate",
+            program,
+            "--map",
+            "map.csv",
+            "-o",
+            out,
+            "--work-offset",
+            "0,0,0",
+        ],
+        dir,
+    )
+}
