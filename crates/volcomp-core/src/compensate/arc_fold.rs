@@ -58,7 +58,13 @@ pub(super) const HOLD_SHARE: f64 = 0.5;
 /// (7 µm, 1.4 × P0.005), where the whole bound stays (measured with half:
 /// pocket_arcs shop F6000 +1.6 → +5.1 %, the shorter holds ending in
 /// take-ups at its corners), and the coarse map's smallest (Z 9.7 µm,
-/// 1.9 × P0.005). Chosen between the two maps, not derived.
+/// 1.9 × P0.005). A decision, chosen between the two maps, not derived:
+/// the rules derived from the fold's own bound (the largest hold whose
+/// fold, `(h + ℓ)(h + n)/(ℓ + h + n)`, stays within `p`, with `n` the next
+/// piece's rise or `n = h`; or the room the motion's S-curves leave) were
+/// measured on the coarse map and lose what the half gains (spiral_arcs12
+/// +30.2 % back to +86.2 %, g2_d40 5.13 to 6.96–6.98 µm):
+/// docs/compensation.md, "A take-up inside an arc folded within P".
 pub(super) const HOLD_BAND_RATIO: f64 = 1.5;
 
 /// The bound (mm) a hold of the reversal `reversed` at `q_prev` (in state

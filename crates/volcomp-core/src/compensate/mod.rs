@@ -27,6 +27,7 @@ mod extra;
 mod frame;
 mod front;
 pub mod header;
+mod hold_fold;
 mod idle;
 mod joins;
 mod line_arc;

@@ -2625,11 +2625,20 @@ impl State<'_> {
                 .flatten()
                 {
                     point = self.take_hold(held, &mut take_up);
-                } else if take_up.is_some() && bound <= allowed && !slow_block {
+                } else if let Some(excursion) = super::hold_fold::fold_excursion_mm(
+                    (bound, allowed),
+                    &lags,
+                    (self.q_out, held_off_mm),
+                    (point.q_mm, *t - t_prev),
+                )
+                .filter(|_| take_up.is_some() && !slow_block)
+                {
                     // G64: folded all the same, the tool leaving the path by
-                    // the bound (at most the reversal value; within P).
+                    // the bound (at most the reversal value; within P,
+                    // counted from where a hold left the tool:
+                    // compensate/hold_fold.rs).
                     take_up = None;
-                    self.note_fold(bound);
+                    self.note_fold(excursion);
                 }
             }
             // G61 on a line: a reversal inside the line whose take-up is
