@@ -27,6 +27,21 @@
 //! offset is across the plane, the S-curve's own deviation in it: the two
 //! add as the hypotenuse, which must stay within the run-through
 //! tolerance (`points::RUN_THROUGH_TOLERANCE_MM`).
+//!
+//! The take-up block may also move an axis of the plane that does not
+//! reverse, by its share of the normal axis' band (the normal axis' tables
+//! move the tool across the plane too: 0.33 µm of X for Z's 6.84 µm on
+//! bench/shop_map.py's map). That axis' command takes the same ramp, and
+//! its lag fades as the normal axis crosses its band, which the offset
+//! counts beside the normal axis' own.
+//!
+//! A take-up of the normal axis away from the S-curves (its command
+//! turning inside the arc where the map's straightness across the plane
+//! turns, or a plane axis' table switching) is spread the same way, the
+//! ramp standing alone on the arc, within what a ramp centred on a
+//! reversal may leave ([`ALONE_TOLERANCE_MM`]): only where the walk left a
+//! take-up block (no fold, ramp or hold took it), so the ramp replaces a
+//! stop.
 
 use super::arcs::Transition;
 use super::solve::solve_fixed_in;
@@ -95,6 +110,14 @@ const CROSS_SHARE: f64 = 0.1;
 /// fifth for a local model that leaves a lag out.
 pub(super) const ACROSS_TOLERANCE_MM: f64 = 0.45e-3;
 
+/// How far a ramp of a take-up away from the S-curves (a turn of the
+/// normal axis' command inside the arc, the map's straightness across the
+/// plane turning there) may leave the tool from the path (mm): what a ramp
+/// centred on a reversal may leave (compensate/ramp_centre.rs
+/// `TOLERANCE_MM`, 0.2 µm), whose place it takes where that ramp was
+/// refused and a take-up block, a stop, would be written instead.
+const ALONE_TOLERANCE_MM: f64 = super::ramp_centre::TOLERANCE_MM;
+
 /// The smooth step `3u² − 2u³`, 0 before `u = 0` and 1 after `u = 1`.
 fn smooth(u: f64) -> f64 {
     let u = u.clamp(0.0, 1.0);
@@ -102,7 +125,8 @@ fn smooth(u: f64) -> f64 {
 }
 
 /// Spreads every take-up block of the normal axis written right after an
-/// S-curve (or before the piece right before one) (module documentation) where its ramp keeps the tool within
+/// S-curve (or before the piece right before one), or away from the
+/// S-curves (module documentation), where its ramp keeps the tool within
 /// the tolerance and the planner's tangency; returns one [`Spread`] per
 /// take-up replaced. The motion's vectors grow by the ramp's inner points.
 pub(super) fn spread_take_ups(
@@ -140,15 +164,16 @@ fn spread_one(
         return Ok(None);
     }
     // The S-curve's piece right before the take-up, or right after the
-    // piece the take-up starts.
-    let Some(tr) = m
+    // piece the take-up starts; none for a take-up away from the
+    // S-curves (the ramp then stands alone on the arc, [`ALONE_TOLERANCE_MM`]).
+    let tr = m
         .transitions
         .iter()
         .find(|tr| tr.index + 1 == k || tr.index == k + 1)
-        .copied()
-    else {
+        .copied();
+    if tr.is_none() && m.transitions.iter().any(|o| o.index.abs_diff(k) <= 1) {
         return Ok(None);
-    };
+    }
     let Some(tu) = m.commands[k].1 else {
         return Ok(None);
     };
@@ -177,16 +202,24 @@ fn spread_one(
     }
     let ramp_mm = (6.0 * delta.abs() * set.piece_mm / set.kappa).sqrt();
     let at = |j: usize| if j == 0 { 0.0 } else { m.pieces[j - 1] };
-    let (l_take, l_scurve, l_scurve_end) = (at(k), at(tr.index), m.pieces[tr.index]);
+    let l_take = at(k);
+    // (The S-curve's piece, its deviation, the ramp's tolerance.)
+    let (scurve, deviation_mm, tolerance_mm) = match &tr {
+        Some(tr) => (tr.index, tr.deviation_mm, set.tolerance_mm),
+        None => (usize::MAX, 0.0, ALONE_TOLERANCE_MM),
+    };
     // The S-curve's step along the normal axis is spread over its span as
     // a smooth step within the ramp (as `points::spread_normal_step` does
     // where no take-up follows): the ramp starts no later than the span.
-    let l_first = tr
-        .spread
-        .map_or(l_scurve, |(a, _)| a.min(l_scurve))
-        .min(l_take);
-    let l_last = l_take.max(l_scurve_end);
-    let span = step_span(m, set, &tr);
+    let (l_first, l_last) = match &tr {
+        Some(tr) => {
+            let (l_scurve, l_scurve_end) = (at(tr.index), m.pieces[tr.index]);
+            let first = tr.spread.map_or(l_scurve, |(a, _)| a.min(l_scurve));
+            (first.min(l_take), l_take.max(l_scurve_end))
+        }
+        None => (l_take, l_take),
+    };
+    let span = tr.as_ref().and_then(|tr| step_span(m, set, tr));
     // Starts tried: the earliest of the S-curve's start (its span's) and
     // the take-up, and back from it by pieces while the ramp still ends a
     // piece past both; the one leaving the tool nearest the path is kept.
@@ -198,7 +231,7 @@ fn spread_one(
         if l0 < 0.0 || l1 >= 1.0 || (l1 - l_last) * len < set.piece_mm {
             break;
         }
-        let Some(plan) = ramp_points(m, set, (l0, l1), (tr.index, k)) else {
+        let Some(plan) = ramp_points(m, set, (l0, l1), (scurve, k)) else {
             continue;
         };
         let Some((cmds, news)) =
@@ -210,8 +243,8 @@ fn spread_one(
         let Some(off) = standing_offset((&cmds, &news), start[w], (delta, w), cross) else {
             continue;
         };
-        let bound = off.hypot(tr.deviation_mm);
-        if bound > set.tolerance_mm || !joins_tangent(m, set, &plan, &cmds, start) {
+        let bound = off.hypot(deviation_mm);
+        if bound > tolerance_mm || !joins_tangent(m, set, &plan, &cmds, start) {
             continue;
         }
         if best.as_ref().is_none_or(|b| bound < b.0) {
@@ -292,7 +325,8 @@ fn step_span(m: &Solved<'_>, set: &Setting<'_>, tr: &Transition) -> Option<StepS
 /// The ramp's points from `l0` to `l1` (arc parameters): the commands
 /// there, and points inserted about a piece apart where no command is
 /// within half a piece; none inside the S-curve (its piece ends at
-/// command `scurve`), which the writer writes whole. `None` where another
+/// command `scurve`; `usize::MAX` for a ramp with no S-curve), which the
+/// writer writes whole. `None` where another
 /// S-curve, take-up or ramp lies on it.
 fn ramp_points(
     m: &Solved<'_>,
