@@ -192,8 +192,9 @@ fn under_g61_a_z_take_up_inside_an_arc_away_from_its_s_curves_is_spread_on_a_ram
     // rising with X's straightness in Z, turns down: Z reverses with no
     // S-curve near. Main 6d877ee writes a take-up block there (`G1
     // Y177.63742 Z149.99350`, a stop: three take-up blocks, 2.640 s
-    // cutting on the planner model, contour RMS 0.074 µm and max 0.329 µm
-    // by `volcomp simulate --reference`, all read from the base binary's
+    // cutting on the planner model, contour RMS 0.097 µm and max 0.369 µm
+    // by `volcomp simulate --reference --chord-tolerance 0.0001`, the
+    // reading of `common::simulated`; all read from the base binary's
     // output by CLI), so this test fails on main.
     let map = shop_map();
     let program = "G21 G17 G90 G94 G61\nG0 Z155\nG0 X280 Y200\nG1 Z150 F6000\n\
@@ -217,8 +218,8 @@ fn under_g61_a_z_take_up_inside_an_arc_away_from_its_s_curves_is_spread_on_a_ram
     assert!(cut < 2.55, "{cut}");
     // The ramp leaves the tool within the 0.2 µm a centred ramp may: the
     // contour's largest stays main's (at the plunge's corner) and its RMS
-    // no worse than main's.
+    // below main's (the lane's: 0.091 µm, by the same CLI reading).
     let report = common::simulated(&out, program, &map);
-    assert!(report.contour_max_um <= 0.335, "{report:?}: {out}");
-    assert!(report.contour_rms_um <= 0.074, "{report:?}: {out}");
+    assert!(report.contour_max_um <= 0.370, "{report:?}: {out}");
+    assert!(report.contour_rms_um < 0.097, "{report:?}: {out}");
 }
