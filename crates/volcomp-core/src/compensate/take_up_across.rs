@@ -420,7 +420,7 @@ fn ramp_commands(
         let mut new = solved;
         if j < k {
             new[w] += delta;
-            new = new + cross;
+            new += cross;
         }
         let rest = 1.0 - smooth((l - l0) / (l1 - l0));
         let mut q = new - cross * rest;
@@ -595,7 +595,7 @@ fn apply(
         } else {
             smooth(u)
         };
-        m.ramp_mids[j] = m.ramp_mids[j] + cross * share;
+        m.ramp_mids[j] += cross * share;
         m.ramp_mids[j][w] += delta * share + span.map_or(0.0, |sp| sp.offset(mid));
     }
 }
