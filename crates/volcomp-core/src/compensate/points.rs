@@ -2990,11 +2990,11 @@ impl State<'_> {
             index += 1;
         }
         // Under G61 a take-up block of the plane's normal axis right after
-        // an S-curve, spread as a ramp across it instead
-        // (compensate/take_up_across.rs).
+        // an S-curve, spread as a ramp across it instead, or away from the
+        // S-curves as a ramp of its own (compensate/take_up_across.rs).
         if let (TakeUpRule::Exact { smooth: true }, Leads::Arc { arc, pieces }) = (rule, &mut leads)
         {
-            if !transitions.is_empty() && commands.iter().any(|c| c.1.is_some()) {
+            if commands.iter().any(|c| c.1.is_some()) {
                 let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
                 let w = arc.plane.axes().2;
                 let tangent = options.planner.tangent_tolerance(v_mm_s.max(1e-9), true)[w];
