@@ -119,8 +119,9 @@ impl<R: BufRead> ReadAhead for Walker<R> {
             src: MAIN,
             line: pos.line + 1,
         };
-        if self.rendered
-            || pos.src != MAIN
+        // The line after an injected one (`Flow::next_injected`) is the
+        // caller's: `flow.pos` is then not the line after the return.
+        if pos.src != MAIN
             || self.flow.pos != next
             || self.flow.has_injected()
             || self.interp.finished()
