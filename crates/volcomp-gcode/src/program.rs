@@ -141,6 +141,9 @@ impl LineEvent<'_> {
     /// `false` is a statement (no G2/G3 word, no motion word the text does
     /// not show: no parameter `#`, no expression `[`, no o-word, no M70–M73
     /// (the modal state saved and restored), M98/M99 (calls, returns)).
+    // Not inlined: asked once per line that may wait, it would otherwise
+    // grow its caller's hot function (compensate's line writer).
+    #[inline(never)]
     pub fn next_may_start_arc(&self) -> bool {
         match self.next.bytes() {
             Some(bytes) if !self.after_end => self.interp.arc_mode() || text_may_start_arc(bytes),
