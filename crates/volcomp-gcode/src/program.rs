@@ -209,8 +209,9 @@ fn code_x10(rest: &[u8]) -> Option<u32> {
                 value = value.checked_mul(10)?.checked_add(u32::from(c - b'0'))?;
                 decimals = 2;
             }
+            // A second decimal: only zeros are read (`2.00`).
             b'0' => {}
-            b'0'..=b'9' => return None,
+            b'1'..=b'9' => return None,
             _ => break,
         }
     }
