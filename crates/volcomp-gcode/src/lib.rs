@@ -33,5 +33,5 @@ pub use interp::{
     ExtraAxes, FeedMode, InterpOptions, Interpreter, Motion, MotionKind, MotionSource, PathMode,
     Warning, EXTRA_LETTERS,
 };
-pub use program::{LineEvent, Walker};
+pub use program::{LineEvent, NextLine, Walker};
 pub use setup::{AxisLetters, MotionLimits, Setup};

@@ -80,6 +80,149 @@ pub struct LineEvent<'a> {
     pub interp: &'a Interpreter,
     /// Whether the line lies after the program end and was not executed.
     pub after_end: bool,
+    /// The line the walker runs next, as far as its text is known without
+    /// reading or running anything ([`NextLine::bytes`]).
+    pub next: NextLine<'a>,
+}
+
+/// A peek at the line a walker runs after the event's line: its text where
+/// that is the main program's next line, already read into the walker's
+/// buffer, with no control flow, no line LinuxCNC injects and no program
+/// end between. Nothing is looked up until asked ([`NextLine::bytes`]): an
+/// event carries one pointer for it.
+#[derive(Clone, Copy)]
+pub struct NextLine<'a>(Option<&'a dyn ReadAhead>);
+
+impl<'a> NextLine<'a> {
+    /// A next line not known (a line built outside a walker).
+    pub fn unknown() -> Self {
+        NextLine(None)
+    }
+
+    /// The next line's bytes with their ending, where known.
+    pub fn bytes(&self) -> Option<&'a [u8]> {
+        self.0.and_then(|w| w.next_bytes())
+    }
+}
+
+/// A walker, read ahead without running anything ([`NextLine`]).
+trait ReadAhead {
+    fn next_bytes(&self) -> Option<&[u8]>;
+}
+
+impl<R: BufRead> ReadAhead for Walker<R> {
+    /// The main program's line after the current one where it runs next
+    /// and is already read; `None` otherwise. Reads nothing.
+    fn next_bytes(&self) -> Option<&[u8]> {
+        let pos = self.current;
+        let next = Pos {
+            src: MAIN,
+            line: pos.line + 1,
+        };
+        // The line after an injected one (`Flow::next_injected`) is the
+        // caller's: `flow.pos` is then not the line after the return.
+        if pos.src != MAIN
+            || self.flow.pos != next
+            || self.flow.has_injected()
+            || self.interp.finished()
+        {
+            return None;
+        }
+        self.main.get(next.line)
+    }
+}
+
+impl LineEvent<'_> {
+    /// Whether the line run after this one may move along an arc (G2,
+    /// G3), read from its text ([`LineEvent::next`]) and the modal motion
+    /// after this line: `true` where the next line is not known, where the
+    /// modal motion is an arc (a line without a motion word continues
+    /// it), or where the text does not rule an arc out. Conservative: only
+    /// `false` is a statement (no G2/G3 word, no motion word the text does
+    /// not show: no parameter `#`, no expression `[`, no o-word, no M70–M73
+    /// (the modal state saved and restored), M98/M99 (calls, returns)).
+    // Not inlined: asked once per line that may wait, it would otherwise
+    // grow its caller's hot function (compensate's line writer).
+    #[inline(never)]
+    pub fn next_may_start_arc(&self) -> bool {
+        match self.next.bytes() {
+            Some(bytes) if !self.after_end => self.interp.arc_mode() || text_may_start_arc(bytes),
+            _ => true,
+        }
+    }
+}
+
+/// Whether the literal line `bytes` may name an arc motion or change the
+/// modal state or flow beyond what its text shows (see
+/// [`LineEvent::next_may_start_arc`]). LinuxCNC reads a line without its
+/// spaces and tabs outside comments, in either case (`close_and_downcase`,
+/// rs274ngc_pre.cc): `g 0 2` is G2. Comments `( … )` and what follows `;`
+/// are skipped; an unclosed comment, a signed or fractional code this scan
+/// does not read, is taken as a possible arc.
+fn text_may_start_arc(bytes: &[u8]) -> bool {
+    let mut i = 0;
+    while i < bytes.len() {
+        let c = bytes[i];
+        i += 1;
+        match c {
+            b'(' => match memchr::memchr(b')', &bytes[i..]) {
+                Some(k) => i += k + 1,
+                None => return true,
+            },
+            b';' => return false,
+            b'#' | b'[' | b'o' | b'O' => return true,
+            b'g' | b'G' => {
+                let v = code_x10(&bytes[i..]);
+                if v.is_none_or(|v| v == 20 || v == 30) {
+                    return true;
+                }
+            }
+            b'm' | b'M' => {
+                let v = code_x10(&bytes[i..]);
+                if v.is_none_or(|v| matches!(v, 700 | 710 | 720 | 730 | 980 | 990)) {
+                    return true;
+                }
+            }
+            _ => {}
+        }
+    }
+    false
+}
+
+/// Ten times the code written at the start of `rest` (after a G or M),
+/// spaces and tabs skipped: `Some` only for digits with at most one
+/// non-zero decimal (`2`, `02`, `2.0`, `64.1`); `None` for anything else
+/// (a sign, no digits, a second decimal, a number too large).
+fn code_x10(rest: &[u8]) -> Option<u32> {
+    let mut value: u32 = 0;
+    let mut digits = 0;
+    let mut decimals = 0;
+    for &c in rest {
+        match c {
+            b' ' | b'\t' => {}
+            b'0'..=b'9' if decimals == 0 => {
+                value = value.checked_mul(10)?.checked_add(u32::from(c - b'0'))?;
+                digits += 1;
+            }
+            b'.' if decimals == 0 => decimals = 1,
+            b'0'..=b'9' if decimals == 1 => {
+                value = value.checked_mul(10)?.checked_add(u32::from(c - b'0'))?;
+                decimals = 2;
+            }
+            // A second decimal: only zeros are read (`2.00`).
+            b'0' => {}
+            b'1'..=b'9' => return None,
+            _ => break,
+        }
+    }
+    if digits == 0 {
+        return None;
+    }
+    Some(if decimals == 2 {
+        value
+    } else {
+        value.checked_mul(10)?
+    })
 }
 
 /// Reads, evaluates, lexes and interprets a program one line at a time.
@@ -279,6 +422,7 @@ impl<R: BufRead> Walker<R> {
             motions: &self.motions,
             interp: &self.interp,
             after_end,
+            next: NextLine((!after_end).then_some(self as &dyn ReadAhead)),
         }
     }
 

@@ -11,6 +11,7 @@ mod cutter_comp;
 mod diagnostics;
 mod frames;
 mod lossless;
+mod next_line;
 mod ngc_robustness;
 mod path_mode;
 mod probing;

@@ -466,6 +466,8 @@ impl State<'_> {
             motions: &held.motions,
             interp: &held.interp,
             after_end: held.after_end,
+            // The next line is read by now: `next_corner` says what it is.
+            next: volcomp_gcode::NextLine::unknown(),
         };
         let line = Line {
             ev: &ev,

@@ -633,8 +633,14 @@ impl<'w> State<'w> {
             // Under G64 (with or without P) a line that may lie in the
             // plane of an arc after it waits for the next line too: its
             // last piece may be written in that plane (compensate/line_arc.rs).
+            // Only where the next line may be such an arc (a peek at its
+            // text, `LineEvent::next_may_start_arc`): before any other line
+            // the held line is written as it is now (`plan_planar_line_end`
+            // plans before an arc only), so it is written now, without the
+            // copy of the line and the interpreter a hold takes.
             let waits = line_arc::waits_for_arc(motion, &run, joins.hold_end)
-                && self.planar_pending.is_none();
+                && self.planar_pending.is_none()
+                && ev.next_may_start_arc();
             if (holds || waits) && self.next_corner.is_none() {
                 self.hold_line = Some(targets);
                 return Ok((frame, style));

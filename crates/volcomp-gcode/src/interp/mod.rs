@@ -459,6 +459,12 @@ impl Interpreter {
         self.path_mode
     }
 
+    /// Whether the modal motion is an arc (G2 or G3): a line with axis
+    /// words and no motion code of its own moves along an arc.
+    pub fn arc_mode(&self) -> bool {
+        matches!(self.motion_mode, Some(MotionMode::Cw | MotionMode::Ccw))
+    }
+
     /// Whether the program has ended (M2, M30 or the closing `%`); later
     /// lines are not executed, as on a controller.
     pub fn finished(&self) -> bool {

@@ -188,6 +188,13 @@ impl Flow {
         self.keep
     }
 
+    /// Whether lines LinuxCNC generates wait to run before the next line
+    /// ([`Flow::next_injected`]).
+    #[inline]
+    pub fn has_injected(&self) -> bool {
+        !self.injected.is_empty()
+    }
+
     /// The next line LinuxCNC generates and runs in place of the current
     /// one (the restore of an M73 at a return), with its line ending and a
     /// comment that says where it comes from.
