@@ -251,6 +251,23 @@ pub(super) fn lead_floor_after_parabolic_mm(
     }
 }
 
+/// How far a planar part may leave the path along the normal (mm): the
+/// correction's change over it, at most at its split. Under G64 without
+/// P ([`super::TakeUpRule::Always`]) the 0.4 µm a ramp may leave there too
+/// ([`super::points::RUN_THROUGH_TOLERANCE_MM`]: the product's 0.5 µm away
+/// from reversals less a fifth): the planar part then reaches four times
+/// as far along a steady change, and the blend arc LinuxCNC puts at the
+/// corner takes at most a third of it (blendmath.c
+/// `blendInit3FromLineArc`, `phi2_max`). Elsewhere the mode's contour
+/// tolerance (the program asked for the path).
+pub(super) fn planar_tolerance_mm(options: &super::CompensateOptions, mode: PathMode) -> f64 {
+    let contour_mm = options.arc_tolerances_mm(mode).0;
+    match options.take_up_rule(mode) {
+        super::TakeUpRule::Always => contour_mm.max(super::points::RUN_THROUGH_TOLERANCE_MM),
+        _ => contour_mm,
+    }
+}
+
 /// Under G64 and G64 P, half the planner's tangency tolerance in the plane
 /// of `arc` at the run's feed (tp.c `tpSetupTangent`, as
 /// [`super::points::piece_turn_tolerance`] under G61): how far a chord
@@ -587,7 +604,7 @@ impl State<'_> {
             model: self.walk.model,
             tool_length_offset_mm: p.tool_length_offset_mm,
         };
-        let tolerance_mm = self.walk.options.arc_tolerances_mm(p.mode).0;
+        let tolerance_mm = planar_tolerance_mm(self.walk.options, p.mode);
         let reach_mm = 0.5 * run.protect_mm;
         if to_line && 0.5 * (1.0 - p.piece_from) * p.arc.length() < reach_mm * (1.0 - 1e-9) {
             // Half the piece (the longest planar part) is shorter than the
