@@ -20,15 +20,17 @@
 //! ([`super::end_zone::NextCorner::end_zone_mm`]), and the split's command
 //! keeps the end's normal coordinate. The tool then leaves the path along
 //! the normal by the correction's change over that part, at most at the
-//! split; the part is shortened to keep that within the contour tolerance
-//! ([`super::planar::shortened_mm`]). The arc's first piece is then written
+//! split; the part is shortened to keep that within the contour tolerance,
+//! under G64 without P within 0.4 µm and at most half the piece
+//! ([`super::planar::planar_tolerance_mm`], [`super::planar::shortened_mm`]).
+//! The arc's first piece is then written
 //! planar at its start as after an arc ending planar (planar.rs
 //! `planar_start`, through `planar_before`).
 
 use super::end_zone::NextCorner;
 use super::frame::Frame;
 use super::points::Run;
-use super::{command_error, Segmentation, State};
+use super::{command_error, Segmentation, State, TakeUpRule};
 use crate::error::CompensationError;
 use crate::model::ErrorModel;
 use volcomp_gcode::{FeedMode, Motion, MotionKind, PathMode, Vec3};
@@ -58,18 +60,22 @@ pub(super) fn planar_arc_normal(m: &Motion) -> Option<usize> {
 }
 
 /// Whether the feed line `motion`, run as `run`, waits for the next line
-/// before it is written: under G64 P at a feed per minute, where the block
-/// may hold its end (`may_hold_end`, as [`super::end_zone::holds_end`]),
-/// and where the line leaves some axis still (else it lies in no plane an
-/// arc after it can have). Under G64 without P only a line with splits
-/// waits (`end_zone::holds_end`, for its end zone): holding every line
-/// (its event and interpreter state copied) cost 36 % more instructions on
-/// a CAM program of 20,000 lines without an arc (callgrind, cam20k).
+/// before it is written: under G64 with or without P at a feed per minute,
+/// where the block may hold its end (`may_hold_end`, as
+/// [`super::end_zone::holds_end`]), and where the line leaves some axis
+/// still (else it lies in no plane an arc after it can have). A property of
+/// the line alone: the hold's mechanism (compensate/mod.rs) may also ask
+/// whether the next line can be an arc at all before it holds one. Under
+/// G64 without P a one-piece line waits too: a plunge into a one-block G18
+/// circle (held-out set, F6000) cost +17…+35 % on the planner model
+/// without its planar end. Holding every such line by copying its event
+/// and interpreter state cost 36 % more instructions on a 20,000-line CAM
+/// program without an arc (callgrind, cam20k), hence that peek.
 pub(super) fn waits_for_arc(motion: &Motion, run: &Run, may_hold_end: bool) -> bool {
     may_hold_end
         && matches!(motion.kind, MotionKind::Feed)
         && run.feed_mm_min.is_some()
-        && matches!(run.mode, PathMode::Blend { tolerance_mm, .. } if tolerance_mm > 0.0)
+        && matches!(run.mode, PathMode::Blend { .. })
         && motion.start != motion.end
         && (0..3).any(|a| motion.start[a] == motion.end[a])
 }
@@ -136,7 +142,7 @@ impl State<'_> {
             return Ok(None);
         }
         let floor_mm = min_length_mm.max(options.planner.shortest_at_feed_mm(f));
-        let tolerance_mm = options.arc_tolerances_mm(run.mode).0;
+        let tolerance_mm = super::planar::planar_tolerance_mm(options, run.mode);
         let state = crate::model::next_state(self.s, motion.end - motion.start);
         let file = self.walk.file;
         let from = self.q_out;
@@ -159,6 +165,15 @@ impl State<'_> {
         // No shorter than a piece the planner runs at the feed: the blend
         // takes what it needs of it.
         let mut d = zone_mm.max(floor_mm).min(piece_mm - floor_mm);
+        if options.take_up_rule(run.mode) == TakeUpRule::Always {
+            // Under G64 without P the planar part may reach far (0.4 µm,
+            // `planar_tolerance_mm`): it takes at most half the piece, so
+            // that a take-up at the line's start still folds into a first
+            // piece of at least half of it (a split near the start made
+            // the fold steep enough for a lead piece: held-out inch R arcs,
+            // fine map, +15.4 → +17.9 % on the planner model).
+            d = d.min(0.5 * piece_mm);
+        }
         for _ in 0..TRIES {
             if d.is_nan() || d < floor_mm {
                 return Ok(None);

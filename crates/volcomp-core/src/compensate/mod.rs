@@ -892,7 +892,7 @@ impl<'w> State<'w> {
                 (&mut pieces, &mut targets),
                 (&mut commands, &mut arc_words),
                 (
-                    options.arc_tolerances_mm(run.mode).0,
+                    planar::planar_tolerance_mm(options, run.mode),
                     line.words().any(|w| w.letter == b'R'),
                     points::piece_turn_tolerance(options, &run, &arc),
                 ),
