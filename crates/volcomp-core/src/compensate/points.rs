@@ -2981,32 +2981,6 @@ impl State<'_> {
             index += 1;
         }
         // Under G61 a take-up block of the plane's normal axis right after
-        // an S-curve, moved before it where there every axis steps its own
-        // way (compensate/take_up_before.rs).
-        if let (TakeUpRule::Exact { smooth: true }, Leads::Arc { arc, pieces }) = (rule, &leads) {
-            if !transitions.is_empty() && commands.iter().any(|c| c.1.is_some()) {
-                super::take_up_before::move_take_ups_before(
-                    &mut cells,
-                    &mut super::take_up_before::Solved {
-                        commands: &mut commands,
-                        targets: &*targets,
-                        states: &mut self.states,
-                        records: &mut records,
-                        transitions: &mut transitions,
-                    },
-                    &super::take_up_before::Setting {
-                        model,
-                        arc,
-                        pieces,
-                        method: options.method,
-                        normal: arc.plane.axes().2,
-                        quantize: &|q, from| frame.quantize(q, from),
-                    },
-                )
-                .map_err(|source| model_error(file, line, source))?;
-            }
-        }
-        // Under G61 a take-up block of the plane's normal axis right after
         // an S-curve, spread as a ramp across it instead
         // (compensate/take_up_across.rs).
         if let (TakeUpRule::Exact { smooth: true }, Leads::Arc { arc, pieces }) = (rule, &mut leads)
@@ -3043,6 +3017,32 @@ impl State<'_> {
                     self.summary.take_ups -= 1;
                     self.note_fold(s.bound_mm);
                 }
+            }
+        }
+        // Under G61 a take-up block of the plane's normal axis right after
+        // an S-curve that the spread above left, moved before it where there
+        // every axis steps its own way (compensate/take_up_before.rs).
+        if let (TakeUpRule::Exact { smooth: true }, Leads::Arc { arc, pieces }) = (rule, &leads) {
+            if !transitions.is_empty() && commands.iter().any(|c| c.1.is_some()) {
+                super::take_up_before::move_take_ups_before(
+                    &mut cells,
+                    &mut super::take_up_before::Solved {
+                        commands: &mut commands,
+                        targets: &*targets,
+                        states: &mut self.states,
+                        records: &mut records,
+                        transitions: &mut transitions,
+                    },
+                    &super::take_up_before::Setting {
+                        model,
+                        arc,
+                        pieces,
+                        method: options.method,
+                        normal: arc.plane.axes().2,
+                        quantize: &|q, from| frame.quantize(q, from),
+                    },
+                )
+                .map_err(|source| model_error(file, line, source))?;
             }
         }
         // Under G61 the step an S-curve makes in the plane's normal axis,
