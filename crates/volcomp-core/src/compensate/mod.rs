@@ -48,6 +48,7 @@ mod style;
 mod tail;
 mod take_up_across;
 mod take_up_advance;
+mod take_up_before;
 mod take_up_stand;
 mod targets;
 mod turn_back;

@@ -3028,6 +3028,32 @@ impl State<'_> {
                 }
             }
         }
+        // Under G61 a take-up block of the plane's normal axis right after
+        // an S-curve that the spread above left, moved before it where there
+        // every axis steps its own way (compensate/take_up_before.rs).
+        if let (TakeUpRule::Exact { smooth: true }, Leads::Arc { arc, pieces }) = (rule, &leads) {
+            if !transitions.is_empty() && commands.iter().any(|c| c.1.is_some()) {
+                super::take_up_before::move_take_ups_before(
+                    &mut cells,
+                    &mut super::take_up_before::Solved {
+                        commands: &mut commands,
+                        targets: &*targets,
+                        states: &mut self.states,
+                        records: &mut records,
+                        transitions: &mut transitions,
+                    },
+                    &super::take_up_before::Setting {
+                        model,
+                        arc,
+                        pieces,
+                        method: options.method,
+                        normal: arc.plane.axes().2,
+                        quantize: &|q, from| frame.quantize(q, from),
+                    },
+                )
+                .map_err(|source| model_error(file, line, source))?;
+            }
+        }
         // Under G61 the step an S-curve makes in the plane's normal axis,
         // spread as a smooth step around it ([`spread_normal_step`]).
         if let (TakeUpRule::Exact { smooth: true }, Leads::Arc { arc, pieces }) = (rule, &leads) {

@@ -1,0 +1,91 @@
+//! Under G61, a take-up of the arc plane's normal axis that a quarter
+//! point's switch calls for is written right before the S-curve where the
+//! reversing axis' step from the normal axis' switch runs its old way
+//! (docs/compensation.md, "A normal-axis take-up before the S-curve"),
+//! checked on the written words against hand values.
+
+use volcomp_core::model::axis_table::AxisTableMap;
+
+use crate::common;
+
+/// The switching straightness of bench/coarse_map.py without its waves:
+/// bands X 12, Y 15, Z 10 µm; each off-axis column +s forward, −s reverse
+/// (X: Y 2, Z −1.5; Y: X 2.5, Z 1; Z: X 1.5, Y −2 µm).
+fn coarse_switching_map() -> AxisTableMap {
+    common::map_from(|a, _p, rev| {
+        let s = if rev { -1.0 } else { 1.0 };
+        let band = if rev { [12.0, 15.0, 10.0][a] } else { 0.0 };
+        let mut e = match a {
+            0 => [0.0, 2.0 * s, -1.5 * s],
+            1 => [2.5 * s, 0.0, 1.0 * s],
+            _ => [1.5 * s, -2.0 * s, 0.0],
+        };
+        e[a] = band;
+        e
+    })
+}
+
+/// Every written line with the modal X, Y, Z after it (absolute words).
+fn modal_lines(out: &str) -> Vec<(String, [f64; 3])> {
+    let mut q = [f64::NAN; 3];
+    let mut lines = Vec::new();
+    for line in out.lines() {
+        let code = line.split('(').next().unwrap_or("");
+        for w in code.split_whitespace() {
+            for (a, c) in ['X', 'Y', 'Z'].iter().enumerate() {
+                if let Some(v) = w.strip_prefix(*c) {
+                    q[a] = v.parse().unwrap();
+                }
+            }
+        }
+        lines.push((line.to_string(), q));
+    }
+    lines
+}
+
+#[test]
+fn under_g61_a_z_take_up_a_quarter_point_calls_for_comes_before_the_s_curve() {
+    // By hand. The circle runs clockwise from 30°, X forward, Y reverse, Z
+    // forward after the plunge's take-up. At X's quarter point (20, 0) X's
+    // switch moves the tool +3 µm in Z (X's Z column −1.5 → +1.5 µm), so
+    // Z's command must fall 3 µm against its flank: Z reverses. Z's own
+    // switch moves the tool by its band 10 µm in Z, −3 µm in X (Z's X
+    // column 1.5 → −1.5) and +4 µm in Y (−2 → 2): the take-up moves X
+    // +3 µm, Y −4 µm and Z −10 µm. After the quarter point X runs its
+    // reverse way and cannot step +3 µm (main 6d877ee writes the block
+    // after the S-curve without an X word: the tool stands 3 µm off in X);
+    // before it X still runs forward and Y reverse, so every step of the
+    // block runs its axis' way there.
+    let map = coarse_switching_map();
+    // The circle about (250, 200, 150), as bench/eval writes g2_d40 with its
+    // work offset: there the approach leaves Z on its forward flank.
+    let program = "G21 G17 G90 G61\nG0 X267.3205 Y210 Z155\nG1 Z150 F6000\n\
+                   G2 X267.3205 Y210 I-17.3205 J-10\nG0 Z155\nM2\n";
+    let (out, _, _) = common::compensate_recorded(program, &map);
+    let lines = modal_lines(&out);
+    let at = lines
+        .iter()
+        .position(|(l, q)| l.contains("(volcomp L4 take-up)") && (q[0] - 270.0).abs() < 0.01)
+        .unwrap_or_else(|| panic!("no take-up at X's quarter point:\n{out}"));
+    let (line, q) = &lines[at];
+    let before = lines[at - 1].1;
+    let want_um = [3.0, -4.0, -10.0];
+    for a in 0..3 {
+        let step_um = (q[a] - before[a]) * 1e3;
+        assert!(
+            (step_um - want_um[a]).abs() < 0.015,
+            "axis {a}: {step_um} µm, want {} ({line})\n{out}",
+            want_um[a]
+        );
+        assert!(
+            line.contains(['X', 'Y', 'Z'][a]),
+            "axis {a} not written ({line})\n{out}"
+        );
+    }
+    // The block is before the quarter point: X still rises to it and turns
+    // back on the S-curve after the block.
+    assert!(before[0] < q[0], "{out}");
+    let after: Vec<f64> = lines[at + 1..at + 6].iter().map(|(_, p)| p[0]).collect();
+    assert!(after.iter().all(|x| *x <= q[0]), "{after:?}\n{out}");
+    assert!(after[4] < q[0] - 0.005, "{after:?}\n{out}");
+}
