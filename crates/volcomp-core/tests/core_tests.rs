@@ -30,6 +30,7 @@ mod simulate_pairing;
 mod straightness;
 mod tail_merge;
 mod take_up_advance;
+mod take_up_order;
 mod take_up_stand;
 mod thermal;
 mod zero_map_round_trip;

@@ -2904,10 +2904,16 @@ impl State<'_> {
                 take_up,
                 centre_lines && ramp.is_none() && ahead.is_none() && transition.is_none(),
             ) {
+                // The path into the corner: the piece before in this
+                // motion, or the last motion's end tangent.
+                let u_in = match index {
+                    0 => self.last_tangent.map(|(t1, _)| t1),
+                    _ => (t_prev - targets[index - 1]).normalized(),
+                };
                 ordered = self
                     .order_take_up(
                         (&mut cells, model, options),
-                        (t_prev, *t, run.feed_mm_min),
+                        (t_prev, *t, u_in, run.feed_mm_min),
                         &point,
                         tu,
                         if commands.is_empty() {
@@ -3160,7 +3166,7 @@ impl State<'_> {
     fn order_take_up(
         &self,
         (cells, model, options): (&mut AxisCells, &dyn ErrorModel, &CompensateOptions),
-        (t_prev, t_end, feed_mm_min): (Vec3, Vec3, Option<f64>),
+        (t_prev, t_end, u_in, feed_mm_min): (Vec3, Vec3, Option<Vec3>, Option<f64>),
         point: &crate::compensate::solve::PointSolution,
         tu: Vec3,
         frame: &Frame,
@@ -3169,7 +3175,7 @@ impl State<'_> {
         Ok(super::take_up_order::ordered_take_up(
             (cells, model, options.method),
             (self.q_out, self.s),
-            (t_prev, t_end),
+            (t_prev, t_end, u_in),
             point,
             tu,
             shortest,
