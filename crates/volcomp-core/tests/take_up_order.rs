@@ -114,7 +114,11 @@ fn under_g61_two_reversals_whose_steps_run_against_the_line_take_up_one_axis_at_
     let mut worst = 0.0_f64;
     let mut last_q = q[0];
     let mut blocks = q[1..].to_vec();
-    let u = [10.0 / 102f64.sqrt(), -1.0 / 102f64.sqrt(), -1.0 / 102f64.sqrt()];
+    let u = [
+        10.0 / 102f64.sqrt(),
+        -1.0 / 102f64.sqrt(),
+        -1.0 / 102f64.sqrt(),
+    ];
     // The next line's first 0.05 mm: its command solved in (F, R, R).
     let e_new = error_mm([false, true, true]);
     blocks[2] = [0, 1, 2].map(|k| p1[k] + 0.05 * u[k] - e_new[k]);

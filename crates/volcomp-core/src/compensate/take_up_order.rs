@@ -194,7 +194,12 @@ pub(super) fn ordered_take_up(
     }
     let u = along * (1.0 / len);
     let all = super::points::switch_lags_mm(cells, model, q_prev, s_old, point.s, point.reversed)?;
-    let single_mm = block_offset_mm((cells, model), (q_prev, single, point.s), &all, (t_prev, u, u_in))?;
+    let single_mm = block_offset_mm(
+        (cells, model),
+        (q_prev, single, point.s),
+        &all,
+        (t_prev, u, u_in),
+    )?;
     if single_mm.is_nan() || single_mm <= SINGLE_BLOCK_FROM_MM {
         return Ok(None);
     }
@@ -305,7 +310,12 @@ fn in_order(
                 q_next[c] = q[c];
             }
         }
-        let off = block_offset_mm((cells, model), (q, q_next, s_next), &lags, (t_prev, u, u_in))?;
+        let off = block_offset_mm(
+            (cells, model),
+            (q, q_next, s_next),
+            &lags,
+            (t_prev, u, u_in),
+        )?;
         offset_mm = offset_mm.max(off);
         // A switch that needs no command (a negative or zero reversal
         // value) writes no block.
