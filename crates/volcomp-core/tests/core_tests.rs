@@ -31,6 +31,7 @@ mod straightness;
 mod tail_merge;
 mod take_up_advance;
 mod take_up_before;
+mod take_up_order;
 mod take_up_stand;
 mod thermal;
 mod zero_map_round_trip;

@@ -49,6 +49,7 @@ mod tail;
 mod take_up_across;
 mod take_up_advance;
 mod take_up_before;
+mod take_up_order;
 mod take_up_stand;
 mod targets;
 mod turn_back;
@@ -262,6 +263,7 @@ impl<'w> State<'w> {
             line_words: String::new(),
             states: Vec::new(),
             ramp_mids: Vec::new(),
+            take_up_blocks: Vec::new(),
             records: Vec::new(),
             targets: Vec::new(),
             commands: Vec::new(),
@@ -1078,6 +1080,7 @@ impl<'w> State<'w> {
                     style: tu_style,
                     ..place
                 };
+                pos = self.write_take_up_blocks(&at, pos, i, tu_mode);
                 self.write_inserted(&at, pos, *tu, tu_mode, "take-up");
                 pos = *tu;
             }
@@ -1572,6 +1575,7 @@ impl<'w> State<'w> {
         let mut pos = from;
         for (i, (q, take_up)) in commands.iter().enumerate() {
             if let Some(tu) = take_up {
+                pos = self.write_take_up_blocks(&place, pos, i, OutMode::Feed);
                 self.write_inserted(&place, pos, *tu, OutMode::Feed, "take-up");
                 pos = *tu;
             }
@@ -1768,6 +1772,10 @@ struct State<'w> {
     /// The offset a take-up ramp puts on the middle of the piece that
     /// ends at each target (zero off a ramp), for the arc written through it.
     ramp_mids: Vec<Vec3>,
+    /// Take-up blocks written before a command's own take-up (its index
+    /// in the last [`State::solve_targets`]' commands), in order
+    /// (compensate/take_up_order.rs).
+    take_up_blocks: Vec<(usize, Vec3)>,
     /// The per-point records of the motion being solved (a buffer kept
     /// between motions, compensate/points.rs).
     records: Vec<PointRecord>,

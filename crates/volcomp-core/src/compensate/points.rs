@@ -1438,6 +1438,7 @@ impl State<'_> {
         let commands_start = self.q_out;
         self.states.clear();
         self.ramp_mids.clear();
+        self.take_up_blocks.clear();
         let mut t_prev = start;
         let mut forced: Option<Directions> = None;
         let mut transitions = std::mem::take(&mut self.transitions);
@@ -2904,12 +2905,47 @@ impl State<'_> {
                     .map_err(|source| model_error(file, line, source))?,
                 );
             }
+            // G61 on a line: several axes reverse and the one block leaves
+            // the path; one block per axis, in order
+            // (compensate/take_up_order.rs).
+            let mut ordered = None;
+            if let (Some(tu), true) = (
+                take_up,
+                centre_lines && ramp.is_none() && ahead.is_none() && transition.is_none(),
+            ) {
+                // The path into the corner: the piece before in this
+                // motion, or the last motion's end tangent.
+                let u_in = match index {
+                    0 => self.last_tangent.map(|(t1, _)| t1),
+                    _ => (t_prev - targets[index - 1]).normalized(),
+                };
+                ordered = self
+                    .order_take_up(
+                        (&mut cells, model, options),
+                        (t_prev, *t, u_in, run.feed_mm_min),
+                        &point,
+                        tu,
+                        if commands.is_empty() {
+                            first_take_up_frame
+                        } else {
+                            frame
+                        },
+                    )
+                    .map_err(|source| model_error(file, line, source))?;
+                if let Some(last) = ordered.as_mut().and_then(|o| o.pop()) {
+                    take_up = Some(last);
+                }
+            }
             // G61 on a line: an axis the take-up block leaves ahead of its
             // new target stands until the target catches up, at a target
             // inserted there (compensate/take_up_stand.rs).
             if let (Some(tu), true) = (
                 take_up,
-                centre_lines && ramp.is_none() && ahead.is_none() && stood != Some(t_prev),
+                centre_lines
+                    && ramp.is_none()
+                    && ahead.is_none()
+                    && stood != Some(t_prev)
+                    && ordered.is_none(),
             ) {
                 let t_end = *t;
                 let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
@@ -2980,6 +3016,10 @@ impl State<'_> {
                 take_up: take_up.is_some(),
                 rapid: !feed_like,
             });
+            for q in ordered.into_iter().flatten() {
+                self.take_up_blocks.push((commands.len(), q));
+                self.summary.take_ups += 1;
+            }
             commands.push((point.q_mm, take_up));
             self.states.push(point.s);
             self.ramp_mids.push(ramp_mid);
@@ -3124,6 +3164,7 @@ impl State<'_> {
         records.truncate(p);
         self.states.truncate(p);
         self.ramp_mids.truncate(p);
+        self.take_up_blocks.retain(|(i, _)| *i < p);
     }
 }
 
@@ -3152,6 +3193,30 @@ impl State<'_> {
             frame,
         )?
         .unwrap_or(tu))
+    }
+
+    /// [`super::take_up_order::ordered_take_up`] from this walk's command
+    /// and state: the blocks in order (the last the take-up the piece
+    /// starts from), or `None` to keep the take-up `tu`.
+    fn order_take_up(
+        &self,
+        (cells, model, options): (&mut AxisCells, &dyn ErrorModel, &CompensateOptions),
+        (t_prev, t_end, u_in, feed_mm_min): (Vec3, Vec3, Option<Vec3>, Option<f64>),
+        point: &crate::compensate::solve::PointSolution,
+        tu: Vec3,
+        frame: &Frame,
+    ) -> Result<Option<Vec<Vec3>>, ModelError> {
+        let shortest = shortest_ramp_piece_mm(options, feed_mm_min.map_or(0.0, |f| f / 60.0));
+        Ok(super::take_up_order::ordered_take_up(
+            (cells, model, options.method),
+            (self.q_out, self.s),
+            (t_prev, t_end, u_in),
+            point,
+            tu,
+            shortest,
+            frame,
+        )?
+        .map(|o| o.blocks))
     }
 
     fn take_hold(
