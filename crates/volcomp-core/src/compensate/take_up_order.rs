@@ -118,7 +118,7 @@ pub(super) fn block_offset_mm(
             } else {
                 (1.0 - dq[a].abs() * lambda / own.abs()).max(0.0)
             };
-            tool = tool + lags[a] * f;
+            tool += lags[a] * f;
         }
         let v = tool - corner;
         let ahead = (v - u * v.dot(u).max(0.0)).norm();
