@@ -170,10 +170,17 @@ pub(super) fn advanced_take_up(
     // `fold_deviation_from_mm`: where the reversing axes' bands are
     // crossed at different rates, a block leaves the path on its way too,
     // and that the advance does not remove).
-    let left_at_corner =
+    // What the block at the corner leaves counts its end too: where its
+    // command stops short of the new state's solution across the line
+    // (an axis that keeps its direction cannot step back), the tool starts
+    // the line off by that much and the line's own end takes the whole
+    // line to bring it back.
+    let on_the_block =
         super::points::fold_deviation_from_mm(&lags, q_prev, tu, Vec3::ZERO, (1.0, Vec3::ZERO));
+    let short = tu - sol_start;
+    let left_at_corner = on_the_block.max((short - u * short.dot(u)).norm());
     let on_the_way = super::points::fold_deviation_mm(&lags, q_prev, q, u * d);
-    Ok((on_the_way < left_at_corner).then_some(q))
+    Ok((on_the_way < left_at_corner + LEAST_STEP_MM).then_some(q))
 }
 
 #[cfg(test)]
