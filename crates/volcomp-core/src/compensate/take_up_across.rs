@@ -42,6 +42,15 @@
 //! reversal may leave ([`ALONE_TOLERANCE_MM`]): only where the walk left a
 //! take-up block (no fold, ramp or hold took it), so the ramp replaces a
 //! stop.
+//!
+//! Where that lone ramp is refused and an S-curve lies within the ramp's
+//! length of the take-up (Z's command turning half a millimetre before a
+//! quarter point, as on the spirals' half circles), the ramp crosses that
+//! S-curve as it crosses the one next to a take-up, within the same
+//! bound. Where the S-curve's span and the take-up lie farther apart than
+//! the shortest ramp can span with a piece to spare, the ramp is made
+//! longer (flatter, its joins turn by less; its offset is checked all the
+//! same).
 
 use super::arcs::Transition;
 use super::solve::solve_fixed_in;
@@ -203,59 +212,104 @@ fn spread_one(
     let ramp_mm = (6.0 * delta.abs() * set.piece_mm / set.kappa).sqrt();
     let at = |j: usize| if j == 0 { 0.0 } else { m.pieces[j - 1] };
     let l_take = at(k);
-    // (The S-curve's piece, its deviation, the ramp's tolerance.)
-    let (scurve, deviation_mm, tolerance_mm) = match &tr {
-        Some(tr) => (tr.index, tr.deviation_mm, set.tolerance_mm),
-        None => (usize::MAX, 0.0, ALONE_TOLERANCE_MM),
+    // A take-up away from the S-curves that no ramp of its own can
+    // spread, where its ramp would reach an S-curve: the ramp then crosses
+    // that S-curve as it crosses the one next to a take-up ([`near_scurve`]).
+    let near = match tr {
+        Some(_) => None,
+        None => near_scurve(m, (l_take, len), ramp_mm),
     };
-    // The S-curve's step along the normal axis is spread over its span as
-    // a smooth step within the ramp (as `points::spread_normal_step` does
-    // where no take-up follows): the ramp starts no later than the span.
-    let (l_first, l_last) = match &tr {
-        Some(tr) => {
-            let (l_scurve, l_scurve_end) = (at(tr.index), m.pieces[tr.index]);
-            let first = tr.spread.map_or(l_scurve, |(a, _)| a.min(l_scurve));
-            (first.min(l_take), l_take.max(l_scurve_end))
+    let mut found = None;
+    for tr in std::iter::once(tr).chain(near.map(Some)) {
+        // (The S-curve's piece, its deviation, the ramp's tolerance.)
+        let (scurve, deviation_mm, tolerance_mm) = match &tr {
+            Some(tr) => (tr.index, tr.deviation_mm, set.tolerance_mm),
+            None => (usize::MAX, 0.0, ALONE_TOLERANCE_MM),
+        };
+        // The S-curve's step along the normal axis is spread over its span as
+        // a smooth step within the ramp (as `points::spread_normal_step` does
+        // where no take-up follows): the ramp starts no later than the span.
+        let (l_first, l_last) = match &tr {
+            Some(tr) => {
+                let (l_scurve, l_scurve_end) = (at(tr.index), m.pieces[tr.index]);
+                let first = tr.spread.map_or(l_scurve, |(a, _)| a.min(l_scurve));
+                (first.min(l_take), l_take.max(l_scurve_end))
+            }
+            None => (l_take, l_take),
+        };
+        let span = tr.as_ref().and_then(|tr| step_span(m, set, tr));
+        // Starts tried: the earliest of the S-curve's start (its span's) and
+        // the take-up, and back from it by pieces while the ramp still ends a
+        // piece past both; the one leaving the tool nearest the path is kept.
+        let mut best: Option<(f64, Vec<RampPoint>, Vec<Vec3>)> = None;
+        // Where the S-curve's span and the take-up lie farther apart than
+        // the shortest ramp leaves a piece past them, the ramp spans them
+        // with a piece and a half to spare: a longer ramp turns its joins
+        // by less, and its offset is bounded below all the same.
+        let reach_mm = (l_last - l_first) * len + set.piece_mm;
+        let ramp_mm = if reach_mm > ramp_mm {
+            reach_mm + 0.5 * set.piece_mm
+        } else {
+            ramp_mm
+        };
+        let steps = (ramp_mm / set.piece_mm).floor() as usize;
+        for step in 0..steps {
+            let l0 = l_first - (step as f64) * set.piece_mm / len;
+            let l1 = l0 + ramp_mm / len;
+            if l0 < 0.0 || l1 >= 1.0 || (l1 - l_last) * len < set.piece_mm {
+                break;
+            }
+            let Some(plan) = ramp_points(m, set, (l0, l1), (scurve, k)) else {
+                continue;
+            };
+            let Some((cmds, news)) =
+                ramp_commands(cells, m, set, (&plan, span), (l0, l1), (k, delta, cross))?
+            else {
+                continue;
+            };
+            let start = piece_start(m, set, plan[0].1);
+            let Some(off) = standing_offset((&cmds, &news), start[w], (delta, w), cross) else {
+                continue;
+            };
+            let bound = off.hypot(deviation_mm);
+            if bound > tolerance_mm || !joins_tangent(m, set, &plan, &cmds, start) {
+                continue;
+            }
+            if best.as_ref().is_none_or(|b| bound < b.0) {
+                best = Some((bound, plan, cmds));
+            }
         }
-        None => (l_take, l_take),
-    };
-    let span = tr.as_ref().and_then(|tr| step_span(m, set, tr));
-    // Starts tried: the earliest of the S-curve's start (its span's) and
-    // the take-up, and back from it by pieces while the ramp still ends a
-    // piece past both; the one leaving the tool nearest the path is kept.
-    let mut best: Option<(f64, Vec<RampPoint>, Vec<Vec3>)> = None;
-    let steps = (ramp_mm / set.piece_mm).floor() as usize;
-    for step in 0..steps {
-        let l0 = l_first - (step as f64) * set.piece_mm / len;
-        let l1 = l0 + ramp_mm / len;
-        if l0 < 0.0 || l1 >= 1.0 || (l1 - l_last) * len < set.piece_mm {
+        if let Some((bound, plan, cmds)) = best {
+            found = Some((bound, plan, cmds, span));
             break;
         }
-        let Some(plan) = ramp_points(m, set, (l0, l1), (scurve, k)) else {
-            continue;
-        };
-        let Some((cmds, news)) =
-            ramp_commands(cells, m, set, (&plan, span), (l0, l1), (k, delta, cross))?
-        else {
-            continue;
-        };
-        let start = piece_start(m, set, plan[0].1);
-        let Some(off) = standing_offset((&cmds, &news), start[w], (delta, w), cross) else {
-            continue;
-        };
-        let bound = off.hypot(deviation_mm);
-        if bound > tolerance_mm || !joins_tangent(m, set, &plan, &cmds, start) {
-            continue;
-        }
-        if best.as_ref().is_none_or(|b| bound < b.0) {
-            best = Some((bound, plan, cmds));
-        }
     }
-    let Some((bound, plan, cmds)) = best else {
+    let Some((bound, plan, cmds, span)) = found else {
         return Ok(None);
     };
     apply(m, set, (&plan, &cmds, span), (k, delta, s_new, cross));
     Ok(Some(Spread { bound_mm: bound }))
+}
+
+/// The S-curve nearest a take-up at arc parameter `l_take` (the arc `len`
+/// mm long) whose piece lies within the ramp's length `ramp_mm` of it, if
+/// any: a ramp standing alone there would run into it, which
+/// [`ramp_points`] refuses.
+fn near_scurve(m: &Solved<'_>, (l_take, len): (f64, f64), ramp_mm: f64) -> Option<Transition> {
+    let gap_mm = |tr: &Transition| {
+        let lo = if tr.index == 0 {
+            0.0
+        } else {
+            m.pieces[tr.index - 1]
+        };
+        let hi = m.pieces[tr.index];
+        (lo - l_take).max(l_take - hi).max(0.0) * len
+    };
+    m.transitions
+        .iter()
+        .filter(|tr| tr.index < m.pieces.len() && gap_mm(tr) < ramp_mm)
+        .min_by(|a, b| gap_mm(a).total_cmp(&gap_mm(b)))
+        .copied()
 }
 
 /// Where piece `j` starts as written: its take-up where one is written
