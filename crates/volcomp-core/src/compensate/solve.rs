@@ -270,6 +270,17 @@ pub fn solve_consistent(
 /// [`super::frame::Frame::quantize`]) is inlined into the rounds, not
 /// called through a pointer, at ~150,000 solves of a CAM program of 67,000
 /// lines; `&dyn Fn` is taken too.
+///
+/// The first round (the state before, no axis held) is solved here; where
+/// its command is consistent with that state, as for most points of a
+/// program, the point is taken from it. Every other case walks on out of
+/// line ([`walk_to_consistent`]): the rounds kept for the state search and
+/// the search itself stay out of the caller's stack frame, so that the
+/// hot path's data do not move with the layout of what the solves are
+/// inlined into (a 16-byte copy of a kept round crossing a cache line cost
+/// 3–5 % of the compensating thread's time on real cores, BENCHMARKS.md).
+/// The same solves in the same order as one loop over the rounds: the same
+/// bits.
 pub(crate) fn solve_consistent_in<Q: Fn(Vec3) -> Vec3 + ?Sized>(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,
@@ -278,16 +289,75 @@ pub(crate) fn solve_consistent_in<Q: Fn(Vec3) -> Vec3 + ?Sized>(
     (q_prev, s_prev): (Vec3, Directions),
     quantize: &Q,
 ) -> Result<PointSolution, ModelError> {
+    let sol = fixed_inline(cells, model, method, t_mm, s_prev, [false; 3], q_prev)?;
+    let q = quantize(sol.q_mm);
+    // Every moving axis in its state before: then no axis flips, none is
+    // held and the state is consistent ([`consistent_state`] with `s` =
+    // `s_prev`: an axis standing still keeps its state), so the walk
+    // would stop here and search no state.
+    let consistent = (0..3).all(|a| match Direction::of_delta(q[a] - q_prev[a]) {
+        Some(d) => d == s_prev[a],
+        None => true,
+    });
+    if !consistent {
+        return walk_to_consistent(
+            cells,
+            model,
+            method,
+            t_mm,
+            (q_prev, s_prev),
+            quantize,
+            (sol, q),
+        );
+    }
+    // The command a reversal after it is taken up from ([`AxisCells::deviation_again_um`]).
+    let residual_um = (t_mm - cells.actual_again_mm(model, q, s_prev)?).norm() * 1e3;
+    Ok(PointSolution {
+        q_mm: q,
+        s: s_prev,
+        iterations: sol.iterations,
+        residual_um,
+        reversed: [false; 3],
+        held: [false; 3],
+    })
+}
+
+/// [`solve_consistent_in`] past a first round (`first`: its solve in
+/// `s_prev` with no axis held, and its command quantized) whose command
+/// contradicts the state before: the axes that contradict their state are
+/// flipped, and solved again, for up to four rounds; an axis that
+/// contradicts both its directions is held. Where that walk holds an
+/// axis, ends inconsistent or flipped several axes, the state search
+/// ([`search_states`]) decides. (Out of line and cold: see
+/// [`solve_consistent_in`].)
+#[cold]
+#[inline(never)]
+fn walk_to_consistent<Q: Fn(Vec3) -> Vec3 + ?Sized>(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    method: Method,
+    t_mm: Vec3,
+    (q_prev, s_prev): (Vec3, Directions),
+    quantize: &Q,
+    first: (Solved, Vec3),
+) -> Result<PointSolution, ModelError> {
     let mut s = s_prev;
     let mut hold = [false; 3];
     let mut flipped = [false; 3];
     let mut last = None;
+    let mut first = Some(first);
     // The rounds solved with no axis held: [`search_states`] takes their
     // states' solves from here (the same function of the same arguments).
     let mut tried: [Option<Tried>; 4] = [None; 4];
     for kept in &mut tried {
-        let sol = fixed_inline(cells, model, method, t_mm, s, hold, q_prev)?;
-        let q = quantize(sol.q_mm);
+        let (sol, q) = match first.take() {
+            // The first round: `s_prev`, no axis held.
+            Some(round) => round,
+            None => {
+                let sol = fixed_inline(cells, model, method, t_mm, s, hold, q_prev)?;
+                (sol, quantize(sol.q_mm))
+            }
+        };
         if hold == [false; 3] {
             *kept = Some((s, sol, q));
         }
