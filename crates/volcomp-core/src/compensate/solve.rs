@@ -36,6 +36,17 @@ pub enum Method {
 /// controller's resolution.
 pub const TOLERANCE_MM: f64 = 1e-6;
 
+/// The exact iteration's test `‖r‖ > TOLERANCE_MM · 10⁻³` (mm) without the
+/// square root: the largest `f64` whose correctly rounded square root
+/// (IEEE 754, §5.4.1; `f64::sqrt`) is not above `TOLERANCE_MM · 10⁻³`,
+/// two units in the last place above that bound squared. The root is
+/// monotone, so `‖r‖² > CONVERGED_SQUARED_MM2` is `‖r‖ > TOLERANCE_MM ·
+/// 10⁻³` for every `‖r‖²`, NaN (false) and infinity (true) included: the
+/// same decisions to the bit. The square root held back the loop's branch
+/// on real cores (its sampled hot spot, BENCHMARKS.md); checked by
+/// `the_squared_bound_decides_as_the_root_does`.
+const CONVERGED_SQUARED_MM2: f64 = 1.000_000_000_000_000_3e-18;
+
 /// Result of one fixed-direction solve.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Solved {
@@ -124,9 +135,11 @@ fn fixed_inline(
         }
         q
     };
-    let free_norm = |r: Vec3| {
+    // The free axes' residual squared: its root is their norm
+    // ([`Vec3::norm`], the same sum).
+    let free_squared = |r: Vec3| {
         if none_held {
-            return r.norm();
+            return r.norm_squared();
         }
         let mut r = r;
         for a in 0..3 {
@@ -134,8 +147,9 @@ fn fixed_inline(
                 r[a] = 0.0;
             }
         }
-        r.norm()
+        r.norm_squared()
     };
+    let free_norm = |r: Vec3| free_squared(r).sqrt();
     let residual = |cells: &mut AxisCells, q: Vec3| residual_in(cells, model, t_mm, q, (s, comps));
     // The residual at the final command when the method's model is the
     // full one (then it is the residual this reports: not evaluated again).
@@ -176,7 +190,8 @@ fn fixed_inline(
                 None => residual(cells, q)?,
             };
             let mut it = 0;
-            while free_norm(r) > TOLERANCE_MM * 1e-3 && it < 60 {
+            // `free_norm(r) > TOLERANCE_MM * 1e-3`, without the root.
+            while free_squared(r) > CONVERGED_SQUARED_MM2 && it < 60 {
                 q = fix(q + r);
                 r = residual(cells, q)?;
                 it += 1;
@@ -1251,6 +1266,38 @@ pub(super) mod tests {
         let (p, held) = solve_with_hold(&m, t, Vec3::new(10.0, 10.0, 5.0), ALL_FORWARD, 0.4e-3);
         assert!(!held && p.reversed[2]);
         assert!((p.q_mm.z - 4.9995).abs() < 1e-9, "{:?}", p.q_mm);
+    }
+
+    /// The exact iteration's squared bound takes the decisions the
+    /// tolerance on the root took: its root is within the tolerance, the
+    /// next `f64`'s is not (so no square in between decides otherwise, the
+    /// root being monotone), and on squares around it, spread over the
+    /// residuals a solve meets, and NaN and infinity, both tests agree.
+    /// (The bound squared, `1e-18`, fails: two squares above it have roots
+    /// within the tolerance.)
+    #[test]
+    fn the_squared_bound_decides_as_the_root_does() {
+        let tol = TOLERANCE_MM * 1e-3;
+        assert!(CONVERGED_SQUARED_MM2.sqrt() <= tol);
+        assert!(CONVERGED_SQUARED_MM2.next_up().sqrt() > tol);
+        assert!((tol * tol).next_up().sqrt() <= tol);
+        let mut x = CONVERGED_SQUARED_MM2;
+        for _ in 0..1000 {
+            x = x.next_down();
+        }
+        for _ in 0..2000 {
+            assert_eq!(x > CONVERGED_SQUARED_MM2, x.sqrt() > tol, "{x:e}");
+            x = x.next_up();
+        }
+        let mut rnd = uniform(0x9e37_79b9_7f4a_7c15);
+        for _ in 0..100_000 {
+            let r = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 10f64.powf(-12.0 * rnd());
+            let n2 = r.norm_squared();
+            assert_eq!(n2 > CONVERGED_SQUARED_MM2, r.norm() > tol, "{r:?}");
+        }
+        for x in [f64::NAN, f64::INFINITY, 0.0, -0.0, f64::MIN_POSITIVE] {
+            assert_eq!(x > CONVERGED_SQUARED_MM2, x.sqrt() > tol, "{x:e}");
+        }
     }
 
     /// Every method's fixed-direction solve with its residuals evaluated
