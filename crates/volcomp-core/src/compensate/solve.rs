@@ -288,12 +288,14 @@ pub fn solve_consistent(
 ///
 /// The first round (the state before, no axis held) is solved here; where
 /// its command is consistent with that state (three points in five of a
-/// CAM program: 48,114 of cam20k's 79,823), the point is taken from it. Every other case walks on out of line
-/// ([`walk_to_consistent`]): the rounds kept for the state search and the
-/// search itself stay out of the caller's stack frame, so that the hot
-/// path's data do not move with the layout of what the solves are
-/// inlined into (a 16-byte copy of a kept round crossing a cache line cost
-/// 3–5 % of the compensating thread's time on real cores, BENCHMARKS.md).
+/// CAM program: 48,114 of the 79,823 points cam20k's motions solve), the
+/// point is taken from it.
+/// Every other case walks on out of line ([`walk_to_consistent`]): the
+/// rounds kept for the state search and the search itself stay out of the
+/// caller's stack frame, so that the hot path's data do not move with the
+/// layout of what the solves are inlined into (a 16-byte copy of a kept
+/// round crossing a cache line cost 3–5 % of the compensating thread's
+/// time on real cores, BENCHMARKS.md).
 /// The same solves in the same order as one loop over the rounds: the same
 /// bits.
 pub(crate) fn solve_consistent_in<Q: Fn(Vec3) -> Vec3 + ?Sized>(
@@ -344,7 +346,12 @@ pub(crate) fn solve_consistent_in<Q: Fn(Vec3) -> Vec3 + ?Sized>(
 /// contradicts both its directions is held. Where that walk holds an
 /// axis, ends inconsistent or flipped several axes, the state search
 /// ([`search_states`]) decides. (Out of line: see
-/// [`solve_consistent_in`].)
+/// [`solve_consistent_in`]. Marked cold although two points in five of a
+/// CAM program take it: so marked, the caller's hot path keeps the layout
+/// measured fastest, `--quiet compensate` of bench's 1,011,376-line CAM
+/// program 1,430 against 1,512 ms of task-clock unmarked, with the same
+/// instructions (BENCHMARKS.md).)
+#[cold]
 #[inline(never)]
 fn walk_to_consistent<Q: Fn(Vec3) -> Vec3 + ?Sized>(
     cells: &mut AxisCells,
