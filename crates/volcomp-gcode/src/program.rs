@@ -775,7 +775,7 @@ mod peek_tests {
                 seed ^= seed << 17;
                 // Digits and axis letters most often, as in CAM output.
                 let k = (seed >> 32) as usize;
-                let c = if k % 3 == 0 {
+                let c = if k.is_multiple_of(3) {
                     alphabet[k / 3 % alphabet.len()]
                 } else {
                     b"XYZ0123456789. -"[k / 3 % 16]
