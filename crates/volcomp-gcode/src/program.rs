@@ -159,11 +159,18 @@ impl LineEvent<'_> {
 /// rs274ngc_pre.cc): `g 0 2` is G2. Comments `( … )` and what follows `;`
 /// are skipped; an unclosed comment, a signed or fractional code this scan
 /// does not read, is taken as a possible arc.
+///
+/// The bytes between those it stops at are passed over by a lookup in
+/// [`PEEK_STOPS`] (a CAM line is mostly digits, axis letters, signs and
+/// points): a load and a test a byte instead of the match's comparisons.
 fn text_may_start_arc(bytes: &[u8]) -> bool {
     let mut i = 0;
     while i < bytes.len() {
-        let c = bytes[i];
-        i += 1;
+        let Some(k) = bytes[i..].iter().position(|&c| PEEK_STOPS[usize::from(c)]) else {
+            return false;
+        };
+        let c = bytes[i + k];
+        i += k + 1;
         match c {
             b'(' => match memchr::memchr(b')', &bytes[i..]) {
                 Some(k) => i += k + 1,
@@ -188,6 +195,20 @@ fn text_may_start_arc(bytes: &[u8]) -> bool {
     }
     false
 }
+
+/// The bytes [`text_may_start_arc`] acts on: a comment's start, `;`, `#`,
+/// `[`, an o-word's letter and the G and M words' letters, in either case.
+/// Any other byte is passed over.
+const PEEK_STOPS: [bool; 256] = {
+    let mut table = [false; 256];
+    let stops = b"(;#[oOgGmM";
+    let mut k = 0;
+    while k < stops.len() {
+        table[stops[k] as usize] = true;
+        k += 1;
+    }
+    table
+};
 
 /// Ten times the code written at the start of `rest` (after a G or M),
 /// spaces and tabs skipped: `Some` only for digits with at most one
@@ -669,5 +690,106 @@ impl<R: BufRead> Walker<R> {
         let kind = lexer::classify(&bytes[..lexer::content_len(bytes)]);
         self.current = pos;
         Ok(Some(self.event(pos, kind, true)))
+    }
+}
+
+#[cfg(test)]
+mod peek_tests {
+    use super::*;
+
+    /// The scan as it was written before the lookup table: every byte
+    /// through the match (the second method).
+    fn by_match(bytes: &[u8]) -> bool {
+        let mut i = 0;
+        while i < bytes.len() {
+            let c = bytes[i];
+            i += 1;
+            match c {
+                b'(' => match memchr::memchr(b')', &bytes[i..]) {
+                    Some(k) => i += k + 1,
+                    None => return true,
+                },
+                b';' => return false,
+                b'#' | b'[' | b'o' | b'O' => return true,
+                b'g' | b'G' => {
+                    let v = code_x10(&bytes[i..]);
+                    if v.is_none_or(|v| v == 20 || v == 30) {
+                        return true;
+                    }
+                }
+                b'm' | b'M' => {
+                    let v = code_x10(&bytes[i..]);
+                    if v.is_none_or(|v| matches!(v, 700 | 710 | 720 | 730 | 980 | 990)) {
+                        return true;
+                    }
+                }
+                _ => {}
+            }
+        }
+        false
+    }
+
+    /// The table holds exactly the bytes the match acts on, and the scan
+    /// through it decides as the byte-by-byte match on 200,000 random
+    /// lines of G-code's characters (words, codes with decimals and
+    /// spaces, comments open and closed, `;`, `#`, `[`, o-words) and on
+    /// hand cases; both answers occur often.
+    #[test]
+    fn the_scan_through_the_table_decides_as_the_match() {
+        for c in 0..=255u8 {
+            let acts = matches!(
+                c,
+                b'(' | b';' | b'#' | b'[' | b'o' | b'O' | b'g' | b'G' | b'm' | b'M'
+            );
+            assert_eq!(PEEK_STOPS[usize::from(c)], acts, "{c}");
+        }
+        for line in [
+            &b"G1 X52.833 Z-6.260"[..],
+            b"G2 X1 Y1 I1",
+            b"g 0 3",
+            b"G1 (G2) X1",
+            b"G1 (G2 X1",
+            b"X1 ; G3",
+            b"M98 P1",
+            b"M3 S1000",
+            b"G3.0",
+            b"G3.05",
+            b"",
+            b"#1 = 2",
+        ] {
+            assert_eq!(text_may_start_arc(line), by_match(line), "{line:?}");
+        }
+        let alphabet = b"GgMmXYZIJKFSoO0123456789.- \t();#[]";
+        let mut seed: u64 = 0x2545_f491_4f6c_dd1d;
+        let (mut yes, mut no) = (0, 0);
+        let mut line = Vec::new();
+        for _ in 0..200_000 {
+            line.clear();
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            let len = (seed % 24) as usize;
+            for _ in 0..len {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                // Digits and axis letters most often, as in CAM output.
+                let k = (seed >> 32) as usize;
+                let c = if k.is_multiple_of(3) {
+                    alphabet[k / 3 % alphabet.len()]
+                } else {
+                    b"XYZ0123456789. -"[k / 3 % 16]
+                };
+                line.push(c);
+            }
+            let got = text_may_start_arc(&line);
+            assert_eq!(got, by_match(&line), "{:?}", String::from_utf8_lossy(&line));
+            if got {
+                yes += 1;
+            } else {
+                no += 1;
+            }
+        }
+        assert!(yes > 10_000 && no > 10_000, "{yes} {no}");
     }
 }

@@ -36,6 +36,17 @@ pub enum Method {
 /// controller's resolution.
 pub const TOLERANCE_MM: f64 = 1e-6;
 
+/// The exact iteration's test `‖r‖ > TOLERANCE_MM · 10⁻³` (mm) without the
+/// square root: the largest `f64` whose correctly rounded square root
+/// (IEEE 754, §5.4.1; `f64::sqrt`) is not above `TOLERANCE_MM · 10⁻³`,
+/// two units in the last place above that bound squared. The root is
+/// monotone, so `‖r‖² > CONVERGED_SQUARED_MM2` is `‖r‖ > TOLERANCE_MM ·
+/// 10⁻³` for every `‖r‖²`, NaN (false) and infinity (true) included: the
+/// same decisions to the bit. The square root held back the loop's branch
+/// on real cores (its sampled hot spot, BENCHMARKS.md); checked by
+/// `the_squared_bound_decides_as_the_root_does`.
+const CONVERGED_SQUARED_MM2: f64 = 1.000_000_000_000_000_3e-18;
+
 /// Result of one fixed-direction solve.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Solved {
@@ -124,9 +135,11 @@ fn fixed_inline(
         }
         q
     };
-    let free_norm = |r: Vec3| {
+    // The free axes' residual squared: its root is their norm
+    // ([`Vec3::norm`], the same sum).
+    let free_squared = |r: Vec3| {
         if none_held {
-            return r.norm();
+            return r.norm_squared();
         }
         let mut r = r;
         for a in 0..3 {
@@ -134,8 +147,9 @@ fn fixed_inline(
                 r[a] = 0.0;
             }
         }
-        r.norm()
+        r.norm_squared()
     };
+    let free_norm = |r: Vec3| free_squared(r).sqrt();
     let residual = |cells: &mut AxisCells, q: Vec3| residual_in(cells, model, t_mm, q, (s, comps));
     // The residual at the final command when the method's model is the
     // full one (then it is the residual this reports: not evaluated again).
@@ -176,7 +190,8 @@ fn fixed_inline(
                 None => residual(cells, q)?,
             };
             let mut it = 0;
-            while free_norm(r) > TOLERANCE_MM * 1e-3 && it < 60 {
+            // `free_norm(r) > TOLERANCE_MM * 1e-3`, without the root.
+            while free_squared(r) > CONVERGED_SQUARED_MM2 && it < 60 {
                 q = fix(q + r);
                 r = residual(cells, q)?;
                 it += 1;
@@ -270,6 +285,19 @@ pub fn solve_consistent(
 /// [`super::frame::Frame::quantize`]) is inlined into the rounds, not
 /// called through a pointer, at ~150,000 solves of a CAM program of 67,000
 /// lines; `&dyn Fn` is taken too.
+///
+/// The first round (the state before, no axis held) is solved here; where
+/// its command is consistent with that state (three points in five of a
+/// CAM program: 48,114 of the 79,823 points cam20k's motions solve), the
+/// point is taken from it.
+/// Every other case walks on out of line ([`walk_to_consistent`]): the
+/// rounds kept for the state search and the search itself stay out of the
+/// caller's stack frame, so that the hot path's data do not move with the
+/// layout of what the solves are inlined into (a 16-byte copy of a kept
+/// round crossing a cache line cost 3–5 % of the compensating thread's
+/// time on real cores, BENCHMARKS.md).
+/// The same solves in the same order as one loop over the rounds: the same
+/// bits.
 pub(crate) fn solve_consistent_in<Q: Fn(Vec3) -> Vec3 + ?Sized>(
     cells: &mut AxisCells,
     model: &dyn ErrorModel,
@@ -278,16 +306,79 @@ pub(crate) fn solve_consistent_in<Q: Fn(Vec3) -> Vec3 + ?Sized>(
     (q_prev, s_prev): (Vec3, Directions),
     quantize: &Q,
 ) -> Result<PointSolution, ModelError> {
+    let sol = fixed_inline(cells, model, method, t_mm, s_prev, [false; 3], q_prev)?;
+    let q = quantize(sol.q_mm);
+    // Every moving axis in its state before: then no axis flips, none is
+    // held and the state is consistent ([`consistent_state`] with `s` =
+    // `s_prev`: an axis standing still keeps its state), so the walk
+    // would stop here and search no state.
+    let consistent = (0..3).all(|a| match Direction::of_delta(q[a] - q_prev[a]) {
+        Some(d) => d == s_prev[a],
+        None => true,
+    });
+    if !consistent {
+        return walk_to_consistent(
+            cells,
+            model,
+            method,
+            t_mm,
+            (q_prev, s_prev),
+            quantize,
+            (sol, q),
+        );
+    }
+    // The command a reversal after it is taken up from ([`AxisCells::deviation_again_um`]).
+    let residual_um = (t_mm - cells.actual_again_mm(model, q, s_prev)?).norm() * 1e3;
+    Ok(PointSolution {
+        q_mm: q,
+        s: s_prev,
+        iterations: sol.iterations,
+        residual_um,
+        reversed: [false; 3],
+        held: [false; 3],
+    })
+}
+
+/// [`solve_consistent_in`] past a first round (`first`: its solve in
+/// `s_prev` with no axis held, and its command quantized) whose command
+/// contradicts the state before: the axes that contradict their state are
+/// flipped, and solved again, for up to four rounds; an axis that
+/// contradicts both its directions is held. Where that walk holds an
+/// axis, ends inconsistent or flipped several axes, the state search
+/// ([`search_states`]) decides. (Out of line: see
+/// [`solve_consistent_in`]. Marked cold although two points in five of a
+/// CAM program take it: so marked, the caller's hot path keeps the layout
+/// measured fastest, `--quiet compensate` of bench's 1,011,376-line CAM
+/// program 1,430 against 1,512 ms of task-clock unmarked, with the same
+/// instructions (BENCHMARKS.md).)
+#[cold]
+#[inline(never)]
+fn walk_to_consistent<Q: Fn(Vec3) -> Vec3 + ?Sized>(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    method: Method,
+    t_mm: Vec3,
+    (q_prev, s_prev): (Vec3, Directions),
+    quantize: &Q,
+    first: (Solved, Vec3),
+) -> Result<PointSolution, ModelError> {
     let mut s = s_prev;
     let mut hold = [false; 3];
     let mut flipped = [false; 3];
     let mut last = None;
+    let mut first = Some(first);
     // The rounds solved with no axis held: [`search_states`] takes their
     // states' solves from here (the same function of the same arguments).
     let mut tried: [Option<Tried>; 4] = [None; 4];
     for kept in &mut tried {
-        let sol = fixed_inline(cells, model, method, t_mm, s, hold, q_prev)?;
-        let q = quantize(sol.q_mm);
+        let (sol, q) = match first.take() {
+            // The first round: `s_prev`, no axis held.
+            Some(round) => round,
+            None => {
+                let sol = fixed_inline(cells, model, method, t_mm, s, hold, q_prev)?;
+                (sol, quantize(sol.q_mm))
+            }
+        };
         if hold == [false; 3] {
             *kept = Some((s, sol, q));
         }
@@ -1181,6 +1272,72 @@ pub(super) mod tests {
         let (p, held) = solve_with_hold(&m, t, Vec3::new(10.0, 10.0, 5.0), ALL_FORWARD, 0.4e-3);
         assert!(!held && p.reversed[2]);
         assert!((p.q_mm.z - 4.9995).abs() < 1e-9, "{:?}", p.q_mm);
+    }
+
+    /// The exact iteration's squared bound takes the decisions the
+    /// tolerance on the root took: its root is within the tolerance, the
+    /// next `f64`'s is not (so no square in between decides otherwise, the
+    /// root being monotone), and on squares around it, spread over the
+    /// residuals a solve meets, and NaN and infinity, both tests agree.
+    /// (The bound squared, `1e-18`, fails: two squares above it have roots
+    /// within the tolerance.)
+    #[test]
+    fn the_squared_bound_decides_as_the_root_does() {
+        let tol = TOLERANCE_MM * 1e-3;
+        assert!(CONVERGED_SQUARED_MM2.sqrt() <= tol);
+        assert!(CONVERGED_SQUARED_MM2.next_up().sqrt() > tol);
+        assert!((tol * tol).next_up().sqrt() <= tol);
+        let mut x = CONVERGED_SQUARED_MM2;
+        for _ in 0..1000 {
+            x = x.next_down();
+        }
+        for _ in 0..2000 {
+            assert_eq!(x > CONVERGED_SQUARED_MM2, x.sqrt() > tol, "{x:e}");
+            x = x.next_up();
+        }
+        let mut rnd = uniform(0x9e37_79b9_7f4a_7c15);
+        for _ in 0..100_000 {
+            let r = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 10f64.powf(-12.0 * rnd());
+            let n2 = r.norm_squared();
+            assert_eq!(n2 > CONVERGED_SQUARED_MM2, r.norm() > tol, "{r:?}");
+        }
+        for x in [f64::NAN, f64::INFINITY, 0.0, -0.0, f64::MIN_POSITIVE] {
+            assert_eq!(x > CONVERGED_SQUARED_MM2, x.sqrt() > tol, "{x:e}");
+        }
+    }
+
+    /// The first round's short path in [`solve_consistent_in`] takes the
+    /// point the walk over the rounds takes from the same first round (the
+    /// second method: [`walk_to_consistent`] run on every point, those
+    /// whose first round is consistent included), on 3,000 random starts of
+    /// the search map with three methods, the cells kept from one solve to
+    /// the next as the compensation keeps them; both paths taken often.
+    #[test]
+    fn the_first_rounds_short_path_is_the_walks_point() {
+        let m = search_map();
+        let mut rnd = uniform(0x51de_0f1a_77c3);
+        let quantize = |q: Vec3| q.map(|v| (v * 1e5).round() / 1e5);
+        let mut cells = AxisCells::default();
+        let (mut short, mut walked) = (0, 0);
+        for _ in 0..3000 {
+            let (q_prev, t, s_prev) = random_start(&mut rnd);
+            for method in [Method::Exact, Method::Pitch, Method::Direct] {
+                let from = (q_prev, s_prev);
+                let a = solve_consistent_in(&mut cells, &m, method, t, from, &quantize).unwrap();
+                let sol =
+                    fixed_inline(&mut cells, &m, method, t, s_prev, [false; 3], q_prev).unwrap();
+                let q = quantize(sol.q_mm);
+                let b = walk_to_consistent(&mut cells, &m, method, t, from, &quantize, (sol, q))
+                    .unwrap();
+                assert_eq!(a, b, "{t:?} {q_prev:?} {s_prev:?} {method:?}");
+                if consistent_state(q, q_prev, s_prev, s_prev, [false; 3]) {
+                    short += 1;
+                } else {
+                    walked += 1;
+                }
+            }
+        }
+        assert!(short > 1000 && walked > 1000, "{short} {walked}");
     }
 
     /// Every method's fixed-direction solve with its residuals evaluated
