@@ -17,6 +17,7 @@
 
 mod approach;
 mod arc_fold;
+mod arc_zone;
 mod arcs;
 mod cutter;
 mod cycle;
@@ -890,7 +891,14 @@ impl<'w> State<'w> {
                 model,
                 (&frame, style, ev.number),
                 &arc,
-                0.5 * run.protect_mm,
+                (
+                    arc_zone::planar_reach_mm(
+                        options.take_up_rule(run.mode),
+                        &run,
+                        planar::Side::Start,
+                    ),
+                    0.5 * run.protect_mm,
+                ),
                 q_line_start,
                 (&mut pieces, &mut targets),
                 (&mut commands, &mut arc_words),
