@@ -1416,7 +1416,12 @@ impl State<'_> {
             self.s,
             tolerances_mm,
             min_length_mm,
-            super::arc_zone::zones(options.take_up_rule(run.mode), run, tolerances_mm),
+            super::arc_zone::zones(
+                options.take_up_rule(run.mode),
+                run,
+                self.arc_starts_planar,
+                tolerances_mm,
+            ),
             &mut self.estimate_mm,
         )
         .map_err(|source| model_error(file, line, source))?;
