@@ -1,5 +1,5 @@
-//! An arc's pieces next to a G64 corner kept whole (docs/compensation.md,
-//! "No split inside the reach of a corner's blend (G64)": arcs).
+//! An arc's pieces at a G64 corner split only past 0.4 µm (docs/compensation.md,
+//! "Arcs: pieces at a blended corner split only past 0.4 µm").
 //!
 //! LinuxCNC 2.9 sizes the blend at a corner next to an arc by the arc
 //! segment itself, not by the blend's need alone: a blend arc takes at most
@@ -18,20 +18,21 @@
 //!
 //! So under G64 without P ([`super::TakeUpRule::Always`]: the tool may
 //! leave the path by the reversal value at a reversal, the blend itself
-//! leaves it by much more) an arc after a corner the planner blends keeps
-//! no split other than its quarter points (where an axis reverses and its
-//! take-up is planned) within twelve times the blend distance the feed
-//! needs (`Run::protect_mm` is twice it) of that corner, and within six
-//! times it of its end (the corner there is not known when the arc is
-//! compensated; it is taken as the one at its start, as a line's end zone
-//! is, `Run::split_end_mm`). Inside these zones a piece is halved only
-//! where it leaves the path by more than the run-through tolerance (0.4 µm,
-//! what a G64 ramp may leave) instead of the contour tolerance. No zone
-//! after a parabolic blend (a plunge into a circle ran faster with the
-//! contour tolerance's pieces: set a g2_d40, ripple map, −9.5 % → −8.2 %
-//! with the whole circle one zone), and no start zone where the arc starts
-//! planar after the corner (its planar split needs the piece as the
-//! contour tolerance cut it: set c g18_d20, example map, +10.4 → +21.6 %).
+//! leaves it by much more) an arc after a corner the planner blends with
+//! an arc has zones at its ends: twelve times the blend distance the feed
+//! needs (`Run::protect_mm` is twice it) from that corner, and six times it
+//! from its end (the corner there is not known when the arc is compensated;
+//! it is taken as the one at its start, as a line's end zone is,
+//! `Run::split_end_mm`). A piece between quarter points (where an axis
+//! reverses and its take-up is planned) that lies inside a zone is halved
+//! only where it leaves the path by more than the run-through tolerance
+//! (0.4 µm, what a G64 ramp may leave) instead of the contour tolerance
+//! (super::arcs::arc_pieces_zoned). No zone after a parabolic blend (a
+//! plunge into a circle ran faster with the contour tolerance's pieces:
+//! set a g2_d40, ripple map, −9.5 % as main, −8.2 % with the whole circle
+//! one zone), and no start zone where the arc starts planar after the
+//! corner (its planar split needs the piece as the contour tolerance cut
+//! it: set c g18_d20, example map, +10.4 → +21.6 % with it).
 
 use super::points::Run;
 
