@@ -34,7 +34,7 @@ fn bent_map() -> AxisTableMap {
 /// pieces at the corners, and still brings the tool nearer the path than
 /// the original does. Measured on the planner model (LinuxCNC 2.9's
 /// planner): the original 1.080 s; with every piece cut by the contour
-/// tolerance (main before this rule) 1.656 s; with the zones 1.56 s. The
+/// tolerance (main before this rule) 1.656 s; with the zones 1.568 s. The
 /// bound 1.60 s lies between the two measurements (a decision: the
 /// planner model's time, not a hand figure). The simulator's contour RMS
 /// (dense samples against the original's path): the original 1.41 µm, the

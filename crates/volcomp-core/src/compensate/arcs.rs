@@ -370,12 +370,9 @@ pub(super) fn arc_pieces(
 
 /// [`arc_pieces`] with zones at its ends (`start_mm`, `end_mm` of the arc
 /// from its start and from its end) whose pieces are halved only past
-/// `zone_tolerances_mm` (compensate/arc_zone.rs): a piece between the
-/// quarter points that reaches out of the zones keeps the contour
-/// tolerance, and no cut is put at a zone's edge (a cut there made the
-/// piece at the corner short where the other end had no zone: set c's inch
-/// R arcs on a hand map, 1.135 → 1.158 s). Zones of 0 leave [`arc_pieces`]
-/// as it is.
+/// `zone_tolerances_mm` (compensate/arc_zone.rs); where the zones leave
+/// room between them, a cut at each zone's edge. Zones of 0 leave
+/// [`arc_pieces`] as it is.
 pub(super) fn arc_pieces_zoned(
     arc: &Arc,
     model: &dyn ErrorModel,
@@ -409,6 +406,17 @@ pub(super) fn arc_pieces_zoned(
         (0.0, 1.0)
     };
     let whole_zone = lo >= hi;
+    if !whole_zone {
+        for edge in [lo, hi] {
+            if edge >= min_step
+                && 1.0 - edge >= min_step
+                && kept.iter().all(|k: &f64| (k - edge).abs() >= min_step)
+            {
+                kept.push(edge);
+            }
+        }
+        kept.sort_by(f64::total_cmp);
+    }
     kept.push(1.0);
     let mut out = Vec::with_capacity(kept.len());
     let mut from = 0.0;
