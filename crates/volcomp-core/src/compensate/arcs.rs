@@ -353,8 +353,33 @@ pub(super) fn arc_pieces(
     arc: &Arc,
     model: &dyn ErrorModel,
     s: Directions,
+    tolerances_mm: (f64, f64),
+    min_length_mm: f64,
+    worst_mm: &mut f64,
+) -> Result<Vec<f64>, ModelError> {
+    arc_pieces_zoned(
+        arc,
+        model,
+        s,
+        tolerances_mm,
+        min_length_mm,
+        ((0.0, 0.0), tolerances_mm),
+        worst_mm,
+    )
+}
+
+/// [`arc_pieces`] with zones at its ends (`start_mm`, `end_mm` of the arc
+/// from its start and from its end) whose pieces are halved only past
+/// `zone_tolerances_mm` (compensate/arc_zone.rs); where the zones leave
+/// room between them, a cut at each zone's edge. Zones of 0 leave
+/// [`arc_pieces`] as it is.
+pub(super) fn arc_pieces_zoned(
+    arc: &Arc,
+    model: &dyn ErrorModel,
+    s: Directions,
     (tolerance_mm, normal_mm): (f64, f64),
     min_length_mm: f64,
+    ((start_mm, end_mm), zone_tolerances_mm): ((f64, f64), (f64, f64)),
     worst_mm: &mut f64,
 ) -> Result<Vec<f64>, ModelError> {
     let length = arc.length();
@@ -367,7 +392,7 @@ pub(super) fn arc_pieces(
     } else {
         1.0
     };
-    let mut kept = Vec::with_capacity(cuts.len() + 1);
+    let mut kept = Vec::with_capacity(cuts.len() + 3);
     let mut last = 0.0;
     for c in cuts {
         if c - last >= min_step && 1.0 - c >= min_step {
@@ -375,17 +400,39 @@ pub(super) fn arc_pieces(
             last = c;
         }
     }
+    let (lo, hi) = if length > 0.0 {
+        (start_mm / length, 1.0 - end_mm / length)
+    } else {
+        (0.0, 1.0)
+    };
+    let whole_zone = lo >= hi;
+    if !whole_zone {
+        for edge in [lo, hi] {
+            if edge >= min_step
+                && 1.0 - edge >= min_step
+                && kept.iter().all(|k: &f64| (k - edge).abs() >= min_step)
+            {
+                kept.push(edge);
+            }
+        }
+        kept.sort_by(f64::total_cmp);
+    }
     kept.push(1.0);
     let mut out = Vec::with_capacity(kept.len());
     let mut from = 0.0;
     for to in kept {
+        let in_zone = whole_zone || to <= lo || from >= hi;
         bisect_arc(
             arc,
             from,
             to,
             model,
             s,
-            (tolerance_mm, normal_mm),
+            if in_zone {
+                zone_tolerances_mm
+            } else {
+                (tolerance_mm, normal_mm)
+            },
             min_step,
             &knots,
             0,
@@ -1360,12 +1407,21 @@ impl State<'_> {
     ) -> Result<Planned, CompensationError> {
         let (options, file) = (self.walk.options, self.walk.file);
         let (tolerance_mm, min_length_mm) = options.arc_tolerances_mm(run.mode);
-        let pieces = arc_pieces(
+        let tolerances_mm = (tolerance_mm, normal_tolerance_mm(tolerance_mm, run.mode));
+        // Under G64 without P, the pieces at a corner's blend are split
+        // only past a looser tolerance (compensate/arc_zone.rs).
+        let pieces = arc_pieces_zoned(
             arc,
             model,
             self.s,
-            (tolerance_mm, normal_tolerance_mm(tolerance_mm, run.mode)),
+            tolerances_mm,
             min_length_mm,
+            super::arc_zone::zones(
+                options.take_up_rule(run.mode),
+                run,
+                self.arc_starts_planar,
+                tolerances_mm,
+            ),
             &mut self.estimate_mm,
         )
         .map_err(|source| model_error(file, line, source))?;

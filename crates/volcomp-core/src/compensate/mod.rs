@@ -17,6 +17,7 @@
 
 mod approach;
 mod arc_fold;
+mod arc_zone;
 mod arcs;
 mod cutter;
 mod cycle;
@@ -282,6 +283,7 @@ impl<'w> State<'w> {
             idle: None,
             defer_points: false,
             planar_before: false,
+            arc_starts_planar: false,
             planar_pending: None,
             planar_start_kept: false,
             planar_line_normal: None,
@@ -531,6 +533,7 @@ impl<'w> State<'w> {
         check_target_count(motion, line_options, file, ev.number)?;
         let run = points::Run::of(motion, self.last_tangent, &options.planner);
         let planar_before = std::mem::take(&mut self.planar_before);
+        self.arc_starts_planar = planar_before;
         let planar_line_normal = self.planar_line_normal.take();
         self.planar_start_kept = false;
         // The tail the block before held back (arcs.rs, `HeldEnd`): the
@@ -890,7 +893,14 @@ impl<'w> State<'w> {
                 model,
                 (&frame, style, ev.number),
                 &arc,
-                0.5 * run.protect_mm,
+                (
+                    arc_zone::planar_reach_mm(
+                        options.take_up_rule(run.mode),
+                        &run,
+                        planar::Side::Start,
+                    ),
+                    0.5 * run.protect_mm,
+                ),
                 q_line_start,
                 (&mut pieces, &mut targets),
                 (&mut commands, &mut arc_words),
@@ -1828,6 +1838,10 @@ struct State<'w> {
     /// The arc before ended planar at a G64 corner (compensate/planar.rs):
     /// the next arc's first piece is written planar at the corner too.
     planar_before: bool,
+    /// The motion being compensated starts after a corner the arc before
+    /// ended planar at (`planar_before` as it was taken for it): no zone at
+    /// its start (compensate/arc_zone.rs).
+    arc_starts_planar: bool,
     /// The arc before's line with and without its planar end, written once
     /// the next arc's first piece is solved (compensate/planar.rs).
     planar_pending: Option<planar::PendingEnd>,

@@ -496,9 +496,10 @@ impl State<'_> {
     }
 
     /// The arc's first piece after a G64 corner whose arc before it ended
-    /// planar (`self.planar_before`): split at the corner's blend reach
-    /// (`reach_mm`, [`super::points::Run::protect_mm`]'s half), the part at
-    /// the corner planar. `pieces`, `targets`, `commands` and `words` are
+    /// planar (`self.planar_before`): split at `reach_mm` from the corner
+    /// ([`super::arc_zone::planar_reach_mm`]), else at `fallback_mm` (the
+    /// corner's blend reach, [`super::points::Run::protect_mm`]'s half), the
+    /// part at the corner planar. `pieces`, `targets`, `commands` and `words` are
     /// the block's, solved from `from` (no take-up before the first piece).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn planar_start(
@@ -506,7 +507,7 @@ impl State<'_> {
         model: &dyn ErrorModel,
         at: (&Frame, NumberStyle, u64),
         arc: &Arc,
-        reach_mm: f64,
+        (reach_mm, fallback_mm): (f64, f64),
         from: Vec3,
         (pieces, targets): (&mut Vec<f64>, &mut Vec<Vec3>),
         (commands, words): (&mut Vec<(Vec3, Option<Vec3>)>, &mut Vec<ArcWords>),
@@ -526,16 +527,25 @@ impl State<'_> {
             self.planar_start_kept = true;
             return Ok(());
         }
-        let split = self.planar_split(
-            model,
-            at,
-            arc,
-            (0.0, pieces[0]),
-            (from, to),
-            state,
-            (Side::Start, reach_mm, tolerance_mm),
-            (radius_style, turn_tolerance),
-        )?;
+        // The longer reach first (G64 without P, compensate/arc_zone.rs);
+        // where its planar part cannot be kept within the tolerance, the
+        // blend's own distance.
+        let mut split = None;
+        for reach_mm in [reach_mm, fallback_mm] {
+            if split.is_some() || !(reach_mm > 0.0) {
+                continue;
+            }
+            split = self.planar_split(
+                model,
+                at,
+                arc,
+                (0.0, pieces[0]),
+                (from, to),
+                state,
+                (Side::Start, reach_mm, tolerance_mm),
+                (radius_style, turn_tolerance),
+            )?;
+        }
         let Some(split) = split else {
             return Ok(());
         };
@@ -616,18 +626,37 @@ impl State<'_> {
             // reach: refused below; known before the split is solved.
             return None;
         }
-        let split = self
-            .planar_split(
-                &model,
-                (&p.frame, p.style, p.line),
-                &p.arc,
-                (p.piece_from, 1.0),
-                (p.from_mm, p.to_mm),
-                p.state,
-                (Side::End, 0.5 * run.protect_mm, tolerance_mm),
-                (p.radius_style, p.turn_tolerance),
+        // Into an arc, the planar part reaches as far as that corner's
+        // blend arc takes of it (compensate/arc_zone.rs); into a line, the
+        // blend's distance.
+        let part_mm = if to_line {
+            reach_mm
+        } else {
+            super::arc_zone::planar_reach_mm(
+                self.walk.options.take_up_rule(p.mode),
+                &run,
+                Side::End,
             )
-            .ok()??;
+        };
+        let mut split = None;
+        for part_mm in [part_mm, reach_mm] {
+            if split.is_some() {
+                break;
+            }
+            split = self
+                .planar_split(
+                    &model,
+                    (&p.frame, p.style, p.line),
+                    &p.arc,
+                    (p.piece_from, 1.0),
+                    (p.from_mm, p.to_mm),
+                    p.state,
+                    (Side::End, part_mm, tolerance_mm),
+                    (p.radius_style, p.turn_tolerance),
+                )
+                .ok()?;
+        }
+        let split = split?;
         if to_line && (1.0 - split.at) * p.arc.length() < reach_mm * (1.0 - 1e-9) {
             // A planar part shorter than the blend's reach shortens the
             // segment the blend arc may take (blendmath.c
