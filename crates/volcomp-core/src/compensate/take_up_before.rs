@@ -355,7 +355,10 @@ fn advance_first(
     let l1 = set.pieces[0];
     let shift = m.targets[0] - set.arc.point_at(l1);
     let length_mm = set.arc.length() * l1;
-    if !(length_mm > 0.0) || (set.arc.point_at(0.0) + shift - t_start).norm() > 1e-6 {
+    if length_mm.is_nan()
+        || length_mm <= 0.0
+        || (set.arc.point_at(0.0) + shift - t_start).norm() > 1e-6
+    {
         return Ok(false);
     }
     let next = m.commands[0].0;
