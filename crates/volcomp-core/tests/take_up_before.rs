@@ -89,3 +89,42 @@ fn under_g61_a_z_take_up_a_quarter_point_calls_for_comes_before_the_s_curve() {
     assert!(after.iter().all(|x| *x <= q[0]), "{after:?}\n{out}");
     assert!(after[4] < q[0] - 0.005, "{after:?}\n{out}");
 }
+
+#[test]
+fn under_g61_the_take_up_after_an_s_curve_at_an_arcs_start_reaches_the_arc() {
+    // By hand. A G19 circle of radius 8 about (250, 200, 141) begins at the
+    // extreme of Y (208, 141), where the plunge meets it tangentially: Y
+    // reverses there on an S-curve, and the plane's normal X must reverse
+    // after it (Y's X column +2.5 → −2.5 µm moves the tool −5 µm in X).
+    // With the map's values X's command is 250 − e_x: after the plunge
+    // (X reverse, Y forward, Z reverse) e_x = 12 + 2.5 − 1.5 = 13 µm; on
+    // the circle (X forward, Y reverse, Z reverse) e_x = 0 − 2.5 − 1.5 =
+    // −4 µm. So the take-up moves X from 249.987 to 250.004 (+17 µm).
+    // Main 621cc8b kept the tool where the S-curve left it: X 249.999
+    // (+12 µm, the band only), 5 µm short until the first piece's end.
+    let map = coarse_switching_map();
+    let program = "G21 G17 G90 G61\nG0 X250 Y208 Z155\nG1 Z141 F6000\n\
+                   G19 G2 Y208 Z141 J-8 K0\nG17 G0 Z155\nM2\n";
+    let (out, _, _) = common::compensate_recorded(program, &map);
+    let lines = modal_lines(&out);
+    let at = lines
+        .iter()
+        .position(|(l, _)| l.contains("(volcomp L4 take-up)"))
+        .unwrap_or_else(|| panic!("no take-up on the circle:\n{out}"));
+    let (line, q) = &lines[at];
+    assert!(line.contains('X'), "no X word ({line})\n{out}");
+    assert!(
+        (q[0] - 250.004).abs() < 0.02e-3,
+        "X {} , want 250.004 ({line})\n{out}",
+        q[0]
+    );
+    // The block ends on the way down the circle (Z below where it starts)
+    // and the piece after it is still an arc of the circle.
+    assert!(q[2] < lines[at - 1].1[2], "{out}");
+    let next = &lines[at + 1..]
+        .iter()
+        .find(|(l, _)| !l.contains("path mode"))
+        .unwrap()
+        .0;
+    assert!(next.contains("G2") || next.contains("G3"), "{next}\n{out}");
+}

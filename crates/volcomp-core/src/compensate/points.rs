@@ -1436,6 +1436,7 @@ impl State<'_> {
         commands.clear();
         commands.reserve(targets.len());
         let commands_start = self.q_out;
+        let state_start = self.s;
         self.states.clear();
         self.ramp_mids.clear();
         self.take_up_blocks.clear();
@@ -3072,7 +3073,7 @@ impl State<'_> {
         // an S-curve that the spread above left, moved before it where there
         // every axis steps its own way (compensate/take_up_before.rs).
         if let (TakeUpRule::Exact { smooth: true }, Leads::Arc { arc, pieces }) = (rule, &leads) {
-            if !transitions.is_empty() && commands.iter().any(|c| c.1.is_some()) {
+            if commands.iter().any(|c| c.1.is_some()) {
                 super::take_up_before::move_take_ups_before(
                     &mut cells,
                     &mut super::take_up_before::Solved {
@@ -3089,6 +3090,15 @@ impl State<'_> {
                         method: options.method,
                         normal: arc.plane.axes().2,
                         quantize: &|q, from| frame.quantize(q, from),
+                        quantize_first: &|q, from| first_take_up_frame.quantize(q, from),
+                        // An S-curve that begins in the block before (a
+                        // tail taken) has its first part written there.
+                        start: (run.corner_before || !self.defer_points).then_some((
+                            commands_start,
+                            state_start,
+                            start,
+                        )),
+                        tolerance_mm: options.fold_tolerance_mm(),
                     },
                 )
                 .map_err(|source| model_error(file, line, source))?;
