@@ -53,6 +53,7 @@ mod take_up_before;
 mod take_up_order;
 mod take_up_stand;
 mod targets;
+mod transition_hold;
 mod turn_back;
 mod walk;
 

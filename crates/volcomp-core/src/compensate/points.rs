@@ -1466,6 +1466,15 @@ impl State<'_> {
             && options.fold_take_ups
             && options.directions == DirectionPolicy::Commanded
             && run.feed_mm_min.is_some_and(|f| f > 0.0);
+        // Under G64 P the same on a line: a take-up block there is one
+        // (compensate/take_up_advance.rs).
+        let adv_lines = matches!(rule, TakeUpRule::Within(_))
+            && matches!(leads, Leads::Lines)
+            && feed_like
+            && options.take_up
+            && options.fold_take_ups
+            && options.directions == DirectionPolicy::Commanded
+            && run.feed_mm_min.is_some_and(|f| f > 0.0);
         // (And inside an arc: compensate/arcs.rs `centred_start_on_arc`.)
         let centre_arcs = matches!(rule, TakeUpRule::Exact { smooth: true })
             && matches!(leads, Leads::Arc { .. })
@@ -1607,7 +1616,22 @@ impl State<'_> {
                         (self.q_out, self.s),
                         point.reversed,
                     )
-                    .map_err(|source| model_error(file, line, source))?,
+                    .map_err(|source| model_error(file, line, source))?
+                        // Under G64 P less what the next S-curve's switch
+                        // adds to the hold's offset
+                        // (compensate/transition_hold.rs).
+                        - if matches!(rule, TakeUpRule::Within(_)) {
+                            super::transition_hold::step_ahead_mm(
+                                &mut cells,
+                                model,
+                                (transitions.as_slice(), targets.as_slice(), index),
+                                &point,
+                                self.s,
+                            )
+                            .map_err(|source| model_error(file, line, source))?
+                        } else {
+                            0.0
+                        },
                 ),
                 None => None,
             };
@@ -1797,14 +1821,18 @@ impl State<'_> {
                     point.reversed[a] = false;
                 }
             }
+            // Under G64 P the free axes solved again with the held ones in
+            // their old tables (compensate/transition_hold.rs).
             if let Some(tr) = transition {
-                for a in (0..3).filter(|a| *a != tr.axis) {
-                    if point.reversed[a] {
-                        point.q_mm[a] = self.q_out[a];
-                        point.s[a] = self.s[a];
-                        point.reversed[a] = false;
-                    }
-                }
+                super::transition_hold::hold_across(
+                    &mut cells,
+                    model,
+                    (options.method, &quantize),
+                    (*t, self.q_out, self.s),
+                    &mut point,
+                    (tr.axis, matches!(rule, TakeUpRule::Within(_))),
+                )
+                .map_err(|source| model_error(file, line, source))?;
             }
             let correction = (point.q_mm - *t).norm();
             if correction > options.max_correction_mm {
@@ -2883,13 +2911,16 @@ impl State<'_> {
                     ramp = None;
                 }
             }
-            // G61 on a line: a take-up whose switches move an axis'
-            // correction against its new motion ends along the line, where
-            // that motion has caught the step up
+            // G61 (and G64 P) on a line: a take-up whose switches move an
+            // axis' correction against its new motion ends along the line,
+            // where that motion has caught the step up
             // (compensate/take_up_advance.rs).
             if let (Some(tu), true) = (
                 take_up,
-                centre_lines && ramp.is_none() && ahead.is_none() && transition.is_none(),
+                (centre_lines || adv_lines)
+                    && ramp.is_none()
+                    && ahead.is_none()
+                    && transition.is_none(),
             ) {
                 take_up = Some(
                     self.advance_take_up(
