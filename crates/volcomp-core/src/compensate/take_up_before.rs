@@ -308,6 +308,11 @@ fn most_advance_mm(set: &Setting<'_>, length_mm: f64) -> f64 {
         .min(MOST_SHARE * length_mm)
 }
 
+/// The largest step a corner block before an arc may leave for the first
+/// piece to carry (mm): what a piece may leave between its points under
+/// the other modes (`options::DEFAULT_CONTOUR_TOLERANCE_UM`, 0.1 µm).
+const SMALL_STEP_MM: f64 = super::options::DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3;
+
 /// How often [`advance_first`] halves the interval of its advance.
 const BISECTIONS: usize = 6;
 
@@ -344,10 +349,15 @@ fn advance_first(
     let s0 = m.states[0];
     let free = [false; 3];
     // The block's end where it would reach the arc's start in the new
-    // state: nothing to catch up where the block does.
+    // state: nothing to catch up where the block does, nor where what it
+    // leaves is no more than a piece may leave between its points (the
+    // contour tolerance of the other modes, 0.1 µm): an advance for a step
+    // that small moves the corner along the arc for nothing (0.07 µm moved
+    // the plunge's corner of tests/arc_ramp.rs, and its ramp then left
+    // 0.510 µm against 0.501).
     let full = solve_fixed_in(cells, set.model, set.method, t_start, s0, free, q_start)?;
     let full = (set.quantize_first)(full.q_mm, q_start);
-    if (0..3).all(|a| (full[a] - block[a]).abs() <= AGAINST_MM) {
+    if (0..3).all(|a| (full[a] - block[a]).abs() <= SMALL_STEP_MM) {
         return Ok(false);
     }
     // The arc in the targets' frame: the same shift at both ends of the
