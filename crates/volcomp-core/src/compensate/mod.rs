@@ -50,6 +50,7 @@ mod take_up_across;
 mod take_up_advance;
 mod take_up_before;
 mod take_up_order;
+mod tail_hold;
 mod take_up_stand;
 mod targets;
 mod turn_back;
