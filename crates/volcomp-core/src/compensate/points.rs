@@ -1642,10 +1642,12 @@ impl State<'_> {
                 None => point,
             };
             // G61: a reversal at a line's end of an axis the line does not
-            // move, held to the corner (compensate/tail_hold.rs).
-            let point = match rule {
-                TakeUpRule::Exact { .. }
+            // move and the next motion moves its old way, held through the
+            // corner (compensate/tail_hold.rs).
+            let point = match (rule, self.next_dir) {
+                (TakeUpRule::Exact { .. }, Some((end, next_dir)))
                     if feed_like
+                        && *t == end
                         && !was_forced
                         && transition.is_none()
                         && ramp.is_none()
@@ -1655,7 +1657,8 @@ impl State<'_> {
                             point.reversed,
                             start,
                             targets.as_slice(),
-                        ) =>
+                        )
+                        && super::tail_hold::next_turns_back(point.reversed, self.s, next_dir) =>
                 {
                     hold_small_reversals_in(
                         &mut cells,
