@@ -48,6 +48,9 @@ fn under_g61_a_still_axis_that_the_next_line_moves_its_old_way_is_held_at_the_li
     assert!(ys.len() >= 3, "{out}");
     assert!(ys.windows(2).all(|w| w[1] >= w[0]), "{ys:?}\n{out}");
     assert!((ys[ys.len() - 1] - 2.99998).abs() < 1e-9, "{ys:?}\n{out}");
-    assert!(!out.contains("L5 take-up") && !out.contains("L6 take-up"), "{out}");
+    assert!(
+        !out.contains("L5 take-up") && !out.contains("L6 take-up"),
+        "{out}"
+    );
     assert!(summary.small_reversals_held >= 1, "{out}");
 }

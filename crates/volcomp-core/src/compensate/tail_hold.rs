@@ -61,9 +61,8 @@ pub(super) fn only_still_axes_reverse(reversed: [bool; 3], start: Vec3, targets:
     let moved = |a: usize| targets.iter().any(|t| (t[a] - start[a]).abs() > STILL_MM);
     reversed.iter().any(|r| *r)
         && (moved(0) || moved(1))
-        && (0..3).all(|a| {
-            !reversed[a] || targets.iter().all(|t| (t[a] - start[a]).abs() <= STILL_MM)
-        })
+        && (0..3)
+            .all(|a| !reversed[a] || targets.iter().all(|t| (t[a] - start[a]).abs() <= STILL_MM))
 }
 
 /// The least direction cosine along which the next motion must move a held
@@ -178,16 +177,36 @@ mod tests {
         // A raster's step-over along +Y (and Z up) after a pass along +X:
         // Y was forward before the line's end turned it back.
         let step_over = Vec3::new(0.0, 3.0, 0.58) * (1.0 / (9.0_f64 + 0.58 * 0.58).sqrt());
-        assert!(next_turns_back([false, true, false], [Forward, Forward, Forward], step_over));
+        assert!(next_turns_back(
+            [false, true, false],
+            [Forward, Forward, Forward],
+            step_over
+        ));
         // Y was reversed: the step-over does not turn it back.
-        assert!(!next_turns_back([false, true, false], [Forward, Reverse, Forward], step_over));
+        assert!(!next_turns_back(
+            [false, true, false],
+            [Forward, Reverse, Forward],
+            step_over
+        ));
         // X reverses too, and the step-over does not move X: no hold.
-        assert!(!next_turns_back([true, true, false], [Forward, Forward, Forward], step_over));
+        assert!(!next_turns_back(
+            [true, true, false],
+            [Forward, Forward, Forward],
+            step_over
+        ));
         // Nothing reverses: nothing to hold.
-        assert!(!next_turns_back([false; 3], [Forward, Forward, Forward], step_over));
+        assert!(!next_turns_back(
+            [false; 3],
+            [Forward, Forward, Forward],
+            step_over
+        ));
         // A motion that moves Y by less than the least cosine.
         let across = Vec3::new(1.0, 0.01, 0.0) * (1.0 / (1.0_f64 + 1e-4).sqrt());
-        assert!(!next_turns_back([false, true, false], [Forward, Forward, Forward], across));
+        assert!(!next_turns_back(
+            [false, true, false],
+            [Forward, Forward, Forward],
+            across
+        ));
     }
 
     #[test]
@@ -203,18 +222,40 @@ mod tests {
     fn only_a_reversal_of_an_axis_the_line_does_not_move_is_held_at_its_end() {
         // A raster's pass along X at Y −12, Z rising: Y still.
         let start = Vec3::new(16.2, -12.0, -0.2089);
-        let targets = [Vec3::new(17.1, -12.0, -0.2020), Vec3::new(18.0, -12.0, -0.1950)];
-        assert!(only_still_axes_reverse([false, true, false], start, &targets));
+        let targets = [
+            Vec3::new(17.1, -12.0, -0.2020),
+            Vec3::new(18.0, -12.0, -0.1950),
+        ];
+        assert!(only_still_axes_reverse(
+            [false, true, false],
+            start,
+            &targets
+        ));
         // Z moves along the pass: not held.
-        assert!(!only_still_axes_reverse([false, true, true], start, &targets));
-        assert!(!only_still_axes_reverse([false, false, true], start, &targets));
+        assert!(!only_still_axes_reverse(
+            [false, true, true],
+            start,
+            &targets
+        ));
+        assert!(!only_still_axes_reverse(
+            [false, false, true],
+            start,
+            &targets
+        ));
         // Nothing reverses: nothing to hold.
         assert!(!only_still_axes_reverse([false; 3], start, &targets));
         // A plunge: left to its own hold.
         let plunge = [Vec3::new(16.2, -12.0, -1.0)];
-        assert!(!only_still_axes_reverse([false, true, false], start, &plunge));
+        assert!(!only_still_axes_reverse(
+            [false, true, false],
+            start,
+            &plunge
+        ));
         // Y moves by a micrometre on the way: not still.
-        let wavy = [Vec3::new(17.1, -12.001, -0.2020), Vec3::new(18.0, -12.0, -0.1950)];
+        let wavy = [
+            Vec3::new(17.1, -12.001, -0.2020),
+            Vec3::new(18.0, -12.0, -0.1950),
+        ];
         assert!(!only_still_axes_reverse([false, true, false], start, &wavy));
     }
 }
