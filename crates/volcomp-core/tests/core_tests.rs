@@ -28,7 +28,6 @@ mod ramp_stage;
 mod random_programs;
 mod simulate_pairing;
 mod straightness;
-mod tail_hold;
 mod tail_merge;
 mod take_up_advance;
 mod take_up_before;
