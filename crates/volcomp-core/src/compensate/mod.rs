@@ -47,6 +47,7 @@ pub mod solve;
 mod spline;
 mod style;
 mod tail;
+mod tail_hold;
 mod take_up_across;
 mod take_up_advance;
 mod take_up_before;
@@ -292,6 +293,7 @@ impl<'w> State<'w> {
             ramp_end_zone_mm: 0.0,
             planar_corner_blends: false,
             plunge_held: [false; 3],
+            next_dir: None,
             approach_pending: None,
         }
     }
@@ -533,6 +535,7 @@ impl<'w> State<'w> {
         };
         check_target_count(motion, line_options, file, ev.number)?;
         let run = points::Run::of(motion, self.last_tangent, &options.planner);
+        self.next_dir = None;
         let planar_before = std::mem::take(&mut self.planar_before);
         self.arc_starts_planar = planar_before;
         let planar_line_normal = self.planar_line_normal.take();
@@ -651,6 +654,11 @@ impl<'w> State<'w> {
             if (holds || waits) && self.next_corner.is_none() {
                 self.hold_line = Some(targets);
                 return Ok((frame, style));
+            }
+            // Under G61: where the next line goes, from its text
+            // (compensate/tail_hold.rs).
+            if matches!(options.take_up_rule(run.mode), TakeUpRule::Exact { .. }) {
+                self.next_dir = tail_hold::next_line_direction(ev).map(|u| (motion.end, u));
             }
             let real_end_mm = self
                 .next_corner
@@ -1512,6 +1520,19 @@ impl<'w> State<'w> {
         };
         self.transitions.extend(ahead);
         let folded = self.summary.take_ups_folded;
+        // Under G61 a line's end held where the next motion turns its
+        // reversal back (compensate/tail_hold.rs).
+        self.next_dir = match (t.path, next) {
+            (TailPath::Line(_, b), Some(m))
+                if matches!(
+                    self.walk.options.take_up_rule(t.run.mode),
+                    TakeUpRule::Exact { .. }
+                ) =>
+            {
+                Some((b, points::tangents(m).0)).filter(|(_, u)| u.norm() > 0.0)
+            }
+            _ => None,
+        };
         let commands = self.solve_targets(
             &model,
             (&t.frame, &t.frame),
@@ -1534,7 +1555,9 @@ impl<'w> State<'w> {
                 ),
             },
             t.line,
-        )?;
+        );
+        self.next_dir = None;
+        let commands = commands?;
         if ahead.is_some() && self.summary.take_ups_folded > folded {
             // Counted as taken up ahead, not as a fold.
             self.summary.take_ups_folded -= 1;
@@ -1866,6 +1889,10 @@ struct State<'w> {
     /// a take-up (compensate/points.rs `hold_to_plunge_end`): the next
     /// line's start may hold them on.
     plunge_held: [bool; 3],
+    /// While a G61 line (or a line's tail) is solved: its end and the unit
+    /// direction the next motion starts in, where known
+    /// (compensate/tail_hold.rs).
+    next_dir: Option<(Vec3, Vec3)>,
 }
 
 /// Edits of a line that sets an offset from the current point (G92, or

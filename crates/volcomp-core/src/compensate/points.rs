@@ -1666,6 +1666,44 @@ impl State<'_> {
                 }),
                 None => point,
             };
+            // G61: a reversal at a line's end of an axis the line does not
+            // move and the next motion moves its old way, held through the
+            // corner (compensate/tail_hold.rs).
+            let point = match (rule, self.next_dir) {
+                (TakeUpRule::Exact { .. }, Some((end, next_dir)))
+                    if feed_like
+                        && *t == end
+                        && !was_forced
+                        && transition.is_none()
+                        && ramp.is_none()
+                        && index + 1 == targets.len()
+                        && !matches!(leads, Leads::Arc { .. })
+                        && super::tail_hold::only_still_axes_reverse(
+                            point.reversed,
+                            start,
+                            targets.as_slice(),
+                        )
+                        && super::tail_hold::next_turns_back(point.reversed, self.s, next_dir) =>
+                {
+                    hold_small_reversals_in(
+                        &mut cells,
+                        model,
+                        options.method,
+                        *t,
+                        (self.q_out, self.s),
+                        &quantize,
+                        (&point, super::tail_hold::HOLD_MM),
+                    )
+                    .map_err(|source| model_error(file, line, source))?
+                    .map_or(point, |held| {
+                        self.summary.small_reversals_held += 1;
+                        self.summary.max_hold_error_um =
+                            self.summary.max_hold_error_um.max(held.residual_um);
+                        held
+                    })
+                }
+                _ => point,
+            };
             // G64 without P: a reversal the next target of the move turns
             // back is held instead (compensate/turn_back.rs).
             let point = match rule {
