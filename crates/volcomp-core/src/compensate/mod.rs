@@ -294,6 +294,7 @@ impl<'w> State<'w> {
             planar_corner_blends: false,
             plunge_held: [false; 3],
             next_dir: None,
+            next_text: Vec::new(),
             approach_pending: None,
         }
     }
@@ -657,8 +658,12 @@ impl<'w> State<'w> {
             }
             // Under G61: where the next line goes, from its text
             // (compensate/tail_hold.rs).
+            // Only the text is kept here (a copy into a buffer kept from
+            // line to line); it is read where a still axis reverses at
+            // the line's end, a few times a program.
             if matches!(options.take_up_rule(run.mode), TakeUpRule::Exact { .. }) {
-                self.next_dir = tail_hold::next_line_direction(ev).map(|u| (motion.end, u));
+                self.next_dir = tail_hold::keep_next_line(ev, &mut self.next_text)
+                    .map(|from| (motion.end, tail_hold::NextDir::Text(from)));
             }
             let real_end_mm = self
                 .next_corner
@@ -1529,7 +1534,8 @@ impl<'w> State<'w> {
                     TakeUpRule::Exact { .. }
                 ) =>
             {
-                Some((b, points::tangents(m).0)).filter(|(_, u)| u.norm() > 0.0)
+                let u = points::tangents(m).0;
+                (u.norm() > 0.0).then_some((b, tail_hold::NextDir::Known(u)))
             }
             _ => None,
         };
@@ -1890,9 +1896,11 @@ struct State<'w> {
     /// line's start may hold them on.
     plunge_held: [bool; 3],
     /// While a G61 line (or a line's tail) is solved: its end and the unit
-    /// direction the next motion starts in, where known
-    /// (compensate/tail_hold.rs).
-    next_dir: Option<(Vec3, Vec3)>,
+    /// direction the next motion starts in, where known, or the next line's
+    /// text to read it from (compensate/tail_hold.rs).
+    next_dir: Option<(Vec3, tail_hold::NextDir)>,
+    /// The next line's text for `next_dir` (one buffer, reused).
+    next_text: Vec<u8>,
 }
 
 /// Edits of a line that sets an offset from the current point (G92, or

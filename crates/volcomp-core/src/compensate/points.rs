@@ -1683,7 +1683,9 @@ impl State<'_> {
                             start,
                             targets.as_slice(),
                         )
-                        && super::tail_hold::next_turns_back(point.reversed, self.s, next_dir) =>
+                        && self.next_direction(next_dir).is_some_and(|u| {
+                            super::tail_hold::next_turns_back(point.reversed, self.s, u)
+                        }) =>
                 {
                     hold_small_reversals_in(
                         &mut cells,

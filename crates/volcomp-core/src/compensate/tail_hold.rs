@@ -29,7 +29,7 @@
 //! from the held command, with no reversal at all. Only where the next
 //! motion is known to do so: a held tail's next motion (mod.rs
 //! `solve_tail`), or the next line's text where it is a plain G0/G1 in
-//! absolute coordinates ([`next_line_direction`], a peek that reads and
+//! absolute coordinates ([`keep_next_line`] and [`direction_of`], a peek that reads and
 //! runs nothing: volcomp-gcode `LineEvent::next`). Held without that
 //! (the corner deciding), a reversal moved into a corner where another
 //! axis reverses too, and the two switches in one take-up block left the
@@ -86,14 +86,34 @@ pub(super) fn next_turns_back(reversed: [bool; 3], s_prev: Directions, next_dir:
         })
 }
 
-/// The unit direction (program frame, which the axis frame translates
-/// without rotation here) of the line after `ev`, from its text where it
-/// is a plain straight move: only G0/G1, N, F and X/Y/Z words with plain
-/// numbers (and comments), in absolute coordinates (G90), with no arc
-/// modal, no coordinate rotation and no cutter radius compensation in
-/// effect after `ev`, and some axis word that moves. `None` otherwise (not
-/// known: no hold).
-pub(super) fn next_line_direction(ev: &LineEvent) -> Option<Vec3> {
+/// Where the next motion starts, as a G61 line is solved: known (a held
+/// tail's next motion), or the next line's text kept in `State::next_text`
+/// with the program position it starts from, read only where a hold is
+/// asked ([`direction_of`]: parsing every line's successor cost 8 % of the
+/// instructions of a G61 CAM program, bench/callgrind.sh q20kg61).
+#[derive(Clone, Copy, Debug)]
+pub(super) enum NextDir {
+    Known(Vec3),
+    Text(Vec3),
+}
+
+impl super::State<'_> {
+    /// The unit direction of `next`, reading the kept text where needed.
+    pub(super) fn next_direction(&self, next: NextDir) -> Option<Vec3> {
+        match next {
+            NextDir::Known(u) => Some(u),
+            NextDir::Text(from) => direction_of(&self.next_text, from),
+        }
+    }
+}
+
+/// The text of the line after `ev` copied into `buf`, and the program
+/// position it starts from, where its direction may be read from it: in
+/// absolute coordinates (G90), with no arc modal, no coordinate rotation
+/// and no cutter radius compensation in effect after `ev`, the main
+/// program's next line already read and run next (volcomp-gcode
+/// `LineEvent::next`). `None` otherwise (not known: no hold).
+pub(super) fn keep_next_line(ev: &LineEvent, buf: &mut Vec<u8>) -> Option<Vec3> {
     let interp = ev.interp;
     if ev.after_end
         || !interp.absolute()
@@ -104,7 +124,17 @@ pub(super) fn next_line_direction(ev: &LineEvent) -> Option<Vec3> {
         return None;
     }
     let bytes = ev.next.bytes()?;
-    let from = interp.program_position();
+    buf.clear();
+    buf.extend_from_slice(bytes);
+    Some(interp.program_position())
+}
+
+/// The unit direction (program frame, which the axis frame translates
+/// without rotation here) of a line's text `bytes` from the program
+/// position `from`, where it is a plain straight move: only G0/G1, N, F
+/// and X/Y/Z words with plain numbers (and comments), and some axis word
+/// that moves. `None` otherwise.
+pub(super) fn direction_of(bytes: &[u8], from: Vec3) -> Option<Vec3> {
     let mut to = from;
     let mut moves = false;
     let mut i = 0;
@@ -207,6 +237,25 @@ mod tests {
             [Forward, Forward, Forward],
             across
         ));
+    }
+
+    #[test]
+    fn a_plain_straight_line_gives_its_direction_and_anything_else_none() {
+        let from = Vec3::new(18.0, -12.0, -0.195);
+        // A step-over to Y −9 (by hand: (0, 3, 0) / 3).
+        let u = direction_of(b"G1 Y-9.0 (step) F600", from).unwrap();
+        assert!((u - Vec3::new(0.0, 1.0, 0.0)).norm() < 1e-12);
+        // X and Z together: (−4, 0, 3) / 5.
+        let u = direction_of(b"N20 x14 z2.805", from).unwrap();
+        assert!((u - Vec3::new(-0.8, 0.0, 0.6)).norm() < 1e-12);
+        // No motion, an arc, a parameter, another word: not known.
+        assert_eq!(direction_of(b"G1 X18 F300", from).map(|_| ()), None);
+        assert_eq!(direction_of(b"G2 X20 Y-10 R2", from).map(|_| ()), None);
+        assert_eq!(direction_of(b"G1 X#1", from).map(|_| ()), None);
+        assert_eq!(direction_of(b"G1 X20 M8", from).map(|_| ()), None);
+        // A comment after `;` is skipped.
+        let u = direction_of(b"X20 ; Y5", from).unwrap();
+        assert!((u - Vec3::new(1.0, 0.0, 0.0)).norm() < 1e-12);
     }
 
     #[test]
