@@ -351,10 +351,7 @@ fn advance_first(
     // The block's end where it would reach the arc's start in the new
     // state: nothing to catch up where the block does, nor where what it
     // leaves is no more than a piece may leave between its points (the
-    // contour tolerance of the other modes, 0.1 µm): an advance for a step
-    // that small moves the corner along the arc for nothing (0.07 µm moved
-    // the plunge's corner of tests/arc_ramp.rs, and its ramp then left
-    // 0.510 µm against 0.501).
+    // contour tolerance of the other modes, 0.1 µm).
     let full = solve_fixed_in(cells, set.model, set.method, t_start, s0, free, q_start)?;
     let full = (set.quantize_first)(full.q_mm, q_start);
     if (0..3).all(|a| (full[a] - block[a]).abs() <= SMALL_STEP_MM) {
@@ -391,6 +388,11 @@ fn advance_first(
     let Some(q) = least_advance(cells, most_mm, at)? else {
         return Ok(false);
     };
+    // An advance that moves the block by no more than a piece may leave
+    // between its points moves the corner along the arc for nothing.
+    if (0..3).all(|a| (q[a] - block[a]).abs() <= SMALL_STEP_MM) {
+        return Ok(false);
+    }
     m.commands[0].1 = Some(q);
     Ok(true)
 }
