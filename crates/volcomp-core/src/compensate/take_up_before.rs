@@ -82,9 +82,11 @@ pub(super) fn move_take_ups_before(
             moved += 1;
         }
     }
-    if advance_first(cells, m, set)? {
-        moved += 1;
-    }
+    // A corner block before an arc's first piece (no S-curve there) is
+    // not advanced along the piece: an advance of 73 µm there left a
+    // random G61 program (tests/random_programs.rs, a plunge into a G3
+    // that starts at X's quarter point, example map) 1.09 µm off the
+    // path against 0.31 µm without it, the cause not derived.
     Ok(moved)
 }
 
@@ -237,7 +239,7 @@ fn advance_after(
     let length_mm = set.arc.length() * (l1 - l0);
     let q = if i == 0 {
         // After an S-curve at the arc's start (no piece before it in this
-        // motion): the least advance, as at a corner ([`advance_first`]).
+        // motion): the least advance ([`least_advance`]).
         let most = most_advance_mm(set, length_mm);
         let at = |d_mm: f64, cells: &mut AxisCells| -> Result<Option<Vec3>, ModelError> {
             let t = set.arc.point_at(l0 + (l1 - l0) * d_mm / length_mm) + shift;
@@ -286,7 +288,7 @@ fn hold_small_steps(mut q: Vec3, next: Vec3, s: Directions, tol_mm: f64) -> Vec3
     q
 }
 
-/// The least advance along the arc tried first for [`advance_first`] (mm),
+/// The least advance along the arc tried first by [`least_advance`] (mm),
 /// doubled up to the first piece's length, then halved between the last
 /// that failed and the first that worked ([`BISECTIONS`] times).
 const FIRST_ADVANCE_MM: f64 = 0.005;
@@ -308,94 +310,8 @@ fn most_advance_mm(set: &Setting<'_>, length_mm: f64) -> f64 {
         .min(MOST_SHARE * length_mm)
 }
 
-/// The largest step a corner block before an arc may leave for the first
-/// piece to carry (mm): what a piece may leave between its points under
-/// the other modes (`options::DEFAULT_CONTOUR_TOLERANCE_UM`, 0.1 µm).
-const SMALL_STEP_MM: f64 = super::options::DEFAULT_CONTOUR_TOLERANCE_UM * 1e-3;
-
-/// How often [`advance_first`] halves the interval of its advance.
+/// How often [`least_advance`] halves the interval of its advance.
 const BISECTIONS: usize = 6;
-
-/// A take-up block at the corner before an arc (before its first piece,
-/// no S-curve there) that leaves an axis short of its target because the
-/// step runs against that axis' side (bench/coarse_map.py: X's switch asks
-/// Z for +3 µm while Z runs down the arc), ended instead at the least
-/// advance along the first piece where every axis' step, the block's and
-/// the piece's after it, runs its axis' way: the motion along the arc
-/// catches that step up inside the block, as on a line
-/// (compensate/take_up_advance.rs), instead of the tool standing off by it
-/// until the first piece's end (4.3–5 µm on the coarse map's G18 circle,
-/// fading over 8 mm). The least advance keeps the reversing axes' stand
-/// (the dead band, bench/eval/judge.py `band`) short against the path's
-/// own motion. Returns whether the block was moved.
-fn advance_first(
-    cells: &mut AxisCells,
-    m: &mut Solved<'_>,
-    set: &Setting<'_>,
-) -> Result<bool, ModelError> {
-    let n = m.commands.len();
-    let Some((q_start, _, t_start)) = set.start else {
-        return Ok(false);
-    };
-    if n < 2 || set.pieces.len() != n || m.states.len() != n || m.targets.len() != n {
-        return Ok(false);
-    }
-    let Some(block) = m.commands[0].1 else {
-        return Ok(false);
-    };
-    if m.transitions.iter().any(|t| t.index == 0) {
-        return Ok(false);
-    }
-    let s0 = m.states[0];
-    let free = [false; 3];
-    // The block's end where it would reach the arc's start in the new
-    // state: nothing to catch up where the block does, nor where what it
-    // leaves is no more than a piece may leave between its points (the
-    // contour tolerance of the other modes, 0.1 µm).
-    let full = solve_fixed_in(cells, set.model, set.method, t_start, s0, free, q_start)?;
-    let full = (set.quantize_first)(full.q_mm, q_start);
-    if (0..3).all(|a| (full[a] - block[a]).abs() <= SMALL_STEP_MM) {
-        return Ok(false);
-    }
-    // The arc in the targets' frame: the same shift at both ends of the
-    // first piece (the motion starts at the arc's start).
-    let l1 = set.pieces[0];
-    let shift = m.targets[0] - set.arc.point_at(l1);
-    let length_mm = set.arc.length() * l1;
-    if length_mm.is_nan()
-        || length_mm <= 0.0
-        || (set.arc.point_at(0.0) + shift - t_start).norm() > 1e-6
-    {
-        return Ok(false);
-    }
-    let next = m.commands[0].0;
-    // Axes the first piece holds (a reversal smaller than the band, or
-    // an axis it leaves where the block put it) stay where it holds them.
-    let held = m.records.first().map_or([false; 3], |r| r.held);
-    let hold = [0, 1, 2].map(|a| held[a] || next[a].to_bits() == block[a].to_bits());
-    let most_mm = most_advance_mm(set, length_mm);
-    let at = |d_mm: f64, cells: &mut AxisCells| -> Result<Option<Vec3>, ModelError> {
-        let t = set.arc.point_at(l1 * d_mm / length_mm) + shift;
-        let q = solve_fixed_in(cells, set.model, set.method, t, s0, hold, next)?;
-        let q = hold_small_steps(
-            (set.quantize_first)(q.q_mm, q_start),
-            next,
-            s0,
-            set.tolerance_mm,
-        );
-        Ok((along(q_start, q, s0) && along(q, next, s0)).then_some(q))
-    };
-    let Some(q) = least_advance(cells, most_mm, at)? else {
-        return Ok(false);
-    };
-    // An advance that moves the block by no more than a piece may leave
-    // between its points moves the corner along the arc for nothing.
-    if (0..3).all(|a| (q[a] - block[a]).abs() <= SMALL_STEP_MM) {
-        return Ok(false);
-    }
-    m.commands[0].1 = Some(q);
-    Ok(true)
-}
 
 /// The least advance `d ≤ most_mm` (mm) along a piece at which `at(d)`
 /// gives a block's end, found by doubling from [`FIRST_ADVANCE_MM`] and
