@@ -66,7 +66,8 @@ pub(super) fn zones(
         || run.feed_mm_min.is_none()
         || !run.corner_before
         || run.parabolic_before
-        || !(run.protect_mm > 0.0)
+        || run.protect_mm.is_nan()
+        || run.protect_mm <= 0.0
     {
         return none;
     }

@@ -532,7 +532,7 @@ impl State<'_> {
         // blend's own distance.
         let mut split = None;
         for reach_mm in [reach_mm, fallback_mm] {
-            if split.is_some() || !(reach_mm > 0.0) {
+            if split.is_some() || reach_mm.is_nan() || reach_mm <= 0.0 {
                 continue;
             }
             split = self.planar_split(
