@@ -442,6 +442,13 @@ pub struct CompensateSummary {
 }
 
 impl CompensateSummary {
+    /// Counts a point held instead of a reversal smaller than its band,
+    /// leaving `residual_um` (µm).
+    pub(crate) fn count_hold(&mut self, residual_um: f64) {
+        self.small_reversals_held += 1;
+        self.max_hold_error_um = self.max_hold_error_um.max(residual_um);
+    }
+
     /// What was not compensated, in one line (no parentheses: it is also a
     /// comment of the header); `None` when every feed move was compensated.
     pub fn uncompensated_text(&self) -> Option<String> {

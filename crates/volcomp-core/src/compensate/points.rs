@@ -1659,9 +1659,7 @@ impl State<'_> {
                 )
                 .map_err(|source| model_error(file, line, source))?
                 .map_or(point, |held| {
-                    self.summary.small_reversals_held += 1;
-                    self.summary.max_hold_error_um =
-                        self.summary.max_hold_error_um.max(held.residual_um);
+                    self.summary.count_hold(held.residual_um);
                     held
                 }),
                 None => point,
@@ -1698,9 +1696,7 @@ impl State<'_> {
                     )
                     .map_err(|source| model_error(file, line, source))?
                     .map_or(point, |held| {
-                        self.summary.small_reversals_held += 1;
-                        self.summary.max_hold_error_um =
-                            self.summary.max_hold_error_um.max(held.residual_um);
+                        self.summary.count_hold(held.residual_um);
                         held
                     })
                 }
@@ -1746,9 +1742,7 @@ impl State<'_> {
                         if index == 0 && self.planar_corner_normal.is_some() {
                             planar_hold_until = Some(index + 1 + ends);
                         }
-                        self.summary.small_reversals_held += 1;
-                        self.summary.max_hold_error_um =
-                            self.summary.max_hold_error_um.max(held.residual_um);
+                        self.summary.count_hold(held.residual_um);
                         held
                     })
                 }
@@ -1788,9 +1782,7 @@ impl State<'_> {
                     .map_err(|source| model_error(file, line, source))?
                     .map_or(point, |held| {
                         normal_held = true;
-                        self.summary.small_reversals_held += 1;
-                        self.summary.max_hold_error_um =
-                            self.summary.max_hold_error_um.max(held.residual_um);
+                        self.summary.count_hold(held.residual_um);
                         held
                     })
                 }
@@ -3306,8 +3298,7 @@ impl State<'_> {
         take_up: &mut Option<Vec3>,
     ) -> crate::compensate::solve::PointSolution {
         *take_up = None;
-        self.summary.small_reversals_held += 1;
-        self.summary.max_hold_error_um = self.summary.max_hold_error_um.max(held.residual_um);
+        self.summary.count_hold(held.residual_um);
         held
     }
 
