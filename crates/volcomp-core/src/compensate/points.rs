@@ -1459,22 +1459,16 @@ impl State<'_> {
         // and the transitions already tried.
         // (Also on a line under G61, for a ramp centred on its reversal:
         // compensate/ramp_centre.rs.)
-        let centre_lines = matches!(rule, TakeUpRule::Exact { smooth: true })
-            && matches!(leads, Leads::Lines)
+        let line_take_ups = matches!(leads, Leads::Lines)
             && feed_like
             && options.take_up
             && options.fold_take_ups
             && options.directions == DirectionPolicy::Commanded
             && run.feed_mm_min.is_some_and(|f| f > 0.0);
+        let centre_lines = matches!(rule, TakeUpRule::Exact { smooth: true }) && line_take_ups;
         // Under G64 P the same on a line: a take-up block there is one
         // (compensate/take_up_advance.rs).
-        let adv_lines = matches!(rule, TakeUpRule::Within(_))
-            && matches!(leads, Leads::Lines)
-            && feed_like
-            && options.take_up
-            && options.fold_take_ups
-            && options.directions == DirectionPolicy::Commanded
-            && run.feed_mm_min.is_some_and(|f| f > 0.0);
+        let adv_lines = matches!(rule, TakeUpRule::Within(_)) && line_take_ups;
         // (And inside an arc: compensate/arcs.rs `centred_start_on_arc`.)
         let centre_arcs = matches!(rule, TakeUpRule::Exact { smooth: true })
             && matches!(leads, Leads::Arc { .. })
