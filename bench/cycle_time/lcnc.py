@@ -4,7 +4,12 @@ return its simulated machining time. Used by check.py and run.py.
 One LinuxCNC at a time: LinuxCNC keeps one lock file (/tmp/linuxcnc.lock)
 and one set of shared-memory segments per machine, and its start-up script
 stops any other running instance, so a run refuses to start while another
-LinuxCNC is up rather than stop it.
+LinuxCNC is up rather than stop it. A lock file that no LinuxCNC process
+stands behind (a run killed, or a machine started from a disk image taken
+while a run was up) is stale: LinuxCNC's own script clears it ("No display,
+no tty, trying to clean up other instance automatically", then its
+`Cleanup other`: HAL stopped and unloaded, the lock removed; scripts/linuxcnc.in
+in LinuxCNC 2.9), so a run goes ahead and says so on standard error.
 """
 
 import json
@@ -18,6 +23,10 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 CONFIG = os.path.join(HERE, "config")
 LOCKFILE = "/tmp/linuxcnc.lock"
+# A lock file younger than this, with no LinuxCNC process yet, may belong to
+# a LinuxCNC that is starting (its script touches the lock before it starts
+# the real-time host): wait and look again before calling it stale.
+STALE_LOCK_AGE_S = 10.0
 
 
 class LinuxCncError(Exception):
@@ -114,6 +123,40 @@ def run_program(program, work_dir, timeout_s=None):
             print(f"lcnc: start-up failed ({text[-80:]}); starting again", file=sys.stderr)
 
 
+def lock_age_s():
+    """Age of LinuxCNC's lock file in seconds, or None where there is none."""
+    try:
+        return time.time() - os.stat(LOCKFILE).st_mtime
+    except FileNotFoundError:
+        return None
+
+
+def check_no_other_linuxcnc():
+    """Raises LinuxCncError while another LinuxCNC runs on this machine.
+
+    A lock file with no LinuxCNC process behind it is stale once it is
+    STALE_LOCK_AGE_S old (waited for where it is younger): the run goes
+    ahead, LinuxCNC's script clears it, and standard error says so.
+    """
+    running = linuxcnc_running()
+    age = lock_age_s()
+    if not running and age is not None and age < STALE_LOCK_AGE_S:
+        time.sleep(STALE_LOCK_AGE_S - age)
+        running = linuxcnc_running()
+        age = lock_age_s()
+    if running or (age is not None and age < STALE_LOCK_AGE_S):
+        raise LinuxCncError(
+            f"another LinuxCNC is running ({', '.join(running) or LOCKFILE + ' just written'}): "
+            "wait for it to end, or stop it yourself if it is yours"
+        )
+    if age is not None:
+        print(
+            f"lcnc: {LOCKFILE} is {age:.0f} s old and no LinuxCNC process runs: "
+            "a stale lock, which LinuxCNC's start-up script clears",
+            file=sys.stderr,
+        )
+
+
 def run_once(program, work_dir, timeout_s=None):
     """Runs `program` once on a fresh copy of config/ under `work_dir`.
 
@@ -129,12 +172,7 @@ def run_once(program, work_dir, timeout_s=None):
     program = os.path.abspath(program)
     if not os.path.isfile(program):
         raise LinuxCncError(f"{program}: no such program")
-    if os.path.exists(LOCKFILE) or linuxcnc_running():
-        raise LinuxCncError(
-            f"another LinuxCNC is running ({LOCKFILE} exists or "
-            f"{', '.join(linuxcnc_running()) or 'lock file left'}): "
-            "wait for it to end, or stop it yourself if it is yours"
-        )
+    check_no_other_linuxcnc()
     os.makedirs(work_dir, exist_ok=True)
     run_dir = tempfile.mkdtemp(prefix="run-", dir=work_dir)
     machine = os.path.join(run_dir, "machine")
