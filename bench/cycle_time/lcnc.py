@@ -72,14 +72,21 @@ def check_installed():
         )
 
 
+MOTION_TIMEOUT = "motion controller timed out (host overloaded)"
+USRMOT_TIMEOUT = "USRMOT: ERROR: command timeout"
+
 # Failures of the machine's start-up (before the program is opened) that a
 # loaded machine shows now and then ("timed out after 10 s waiting for
 # machine on", "home all: command not completed"): the run is started again,
 # at most START_RETRIES more times. A program's own error is never retried.
+# A run whose motion controller missed a command's deadline (LinuxCNC's
+# usrmotintf.cc prints "USRMOT: ERROR: command timeout" when the real-time
+# thread did not answer in time: a host too loaded for its servo thread) is
+# started again too: the error is the host's, not the program's.
 START_FAILURES = ("waiting for machine on", "waiting for estop reset",
                   "waiting for task status", "home all", "waiting for all joints homed",
                   "Must be in MDI mode", "joint mode: command not completed",
-                  "manual mode: command not completed")
+                  "manual mode: command not completed", MOTION_TIMEOUT)
 START_RETRIES = 2
 
 
@@ -224,6 +231,11 @@ def run_once(program, work_dir, timeout_s=None):
             results = [json.loads(line) for line in f if line.strip()]
     if proc.returncode != 0 or len(results) != 1 or "error" in results[0]:
         detail = results[0].get("error") if results else "no result written"
+        printed = os.path.join(run_dir, "linuxcnc_print.txt")
+        if os.path.exists(printed):
+            with open(printed) as f:
+                if USRMOT_TIMEOUT in f.read():
+                    detail = f"{MOTION_TIMEOUT}: {detail}"
         logs = ""
         for name in ("linuxcnc_debug.txt", "display.log"):
             p = os.path.join(run_dir, name)
