@@ -81,13 +81,37 @@ pub(super) fn waits_for_arc(motion: &Motion, run: &Run, may_hold_end: bool) -> b
 }
 
 /// The planar end planned for a line: the normal axis `w`, the split
-/// target inserted before the end (`None` where none is needed) and the
-/// tolerance (mm) the split's command may move along the normal.
+/// target inserted before the end (`None` where none is needed), the
+/// tolerance (mm) the split's command may move along the normal, and
+/// whether an axis may turn at the line's end ([`turn_may_end_planar`]).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct PlanarLineEnd {
     w: usize,
     split: Option<Vec3>,
     tolerance_mm: f64,
+    turn_at_end: bool,
+}
+
+/// Whether a line's planar end is kept where an axis turns at the line's
+/// end (the end's command solved in the direction state after the turn,
+/// the split's in the one before it): under G64 without P
+/// ([`TakeUpRule::Always`]) only, where the commands as solved lie within
+/// the planar tolerance along the normal all the same (the check in
+/// [`State::apply_planar_line_end`] reads the two commands themselves, so a
+/// turn of the normal axis whose take-up moves the end's command further is
+/// refused by it). The turn's take-up is not moved: the split's command
+/// keeps its own in-plane coordinates, the end its own.
+///
+/// Such a turn is common at a line into an arc of its plane: the map's
+/// correction of the normal axis rises along the line and falls along the
+/// arc (or the other way), so the compensated normal axis turns at the
+/// corner. Without the planar end LinuxCNC blends that corner
+/// parabolically (the line's binormal is not colinear with the arc's
+/// normal, src/emc/tp/tp.c `tpCreateLineArcBlend`): set c g55_tool, ripple
+/// map, planner model 2.007 s against 1.824 s in the original; its planar
+/// end restores the blend arc (1.921 s).
+pub(super) fn turn_may_end_planar(rule: TakeUpRule) -> bool {
+    rule == TakeUpRule::Always
 }
 
 impl State<'_> {
@@ -159,6 +183,7 @@ impl State<'_> {
                 w,
                 split: None,
                 tolerance_mm,
+                turn_at_end: turn_may_end_planar(options.take_up_rule(run.mode)),
             }));
         }
         let u = (end - before) * (1.0 / piece_mm);
@@ -186,6 +211,7 @@ impl State<'_> {
                     w,
                     split: Some(at),
                     tolerance_mm,
+                    turn_at_end: turn_may_end_planar(options.take_up_rule(run.mode)),
                 }));
             }
             d = super::planar::shortened_mm(d, moved, tolerance_mm);
@@ -198,7 +224,8 @@ impl State<'_> {
     /// given the end's normal coordinate where it moves no further than the
     /// tolerance, both commands plain (no take-up) and in one direction
     /// state (no axis turns at the end: the end's command was solved for
-    /// the turn); else the split is taken out again, and the line is written
+    /// the turn; under G64 without P a turn is allowed,
+    /// [`turn_may_end_planar`]); else the split is taken out again, and the line is written
     /// as solved without it. Then, where the last piece is planar, the arc
     /// after it starts planar too (`planar_before`, planar.rs
     /// `planar_start`). Whether the split was kept: under G64 P its pieces
@@ -225,7 +252,7 @@ impl State<'_> {
                 && commands[k].1.is_none()
                 && commands[k + 1].1.is_none()
                 && self.states.len() == n
-                && self.states[k] == self.states[k + 1];
+                && (p.turn_at_end || self.states[k] == self.states[k + 1]);
             let moved = if plain {
                 (commands[k].0[w] - commands[k + 1].0[w]).abs()
             } else {
