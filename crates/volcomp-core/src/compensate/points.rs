@@ -1847,8 +1847,10 @@ impl State<'_> {
                     point.reversed[a] = false;
                 }
             }
-            // Under G64 P the free axes solved again with the held ones in
-            // their old tables (compensate/transition_hold.rs).
+            // Under G64 (with P or without) the free axes solved again with
+            // the held ones in their old tables; under G61 not: the take-up
+            // after the S-curve is written for the free axes where the new
+            // tables put them (compensate/transition_hold.rs).
             if let Some(tr) = transition {
                 super::transition_hold::hold_across(
                     &mut cells,
@@ -1856,7 +1858,7 @@ impl State<'_> {
                     (options.method, &quantize),
                     (*t, self.q_out, self.s),
                     &mut point,
-                    (tr.axis, matches!(rule, TakeUpRule::Within(_))),
+                    (tr.axis, super::transition_hold::resolves_free_axes(rule)),
                 )
                 .map_err(|source| model_error(file, line, source))?;
             }

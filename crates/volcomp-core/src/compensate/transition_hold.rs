@@ -14,10 +14,23 @@
 //! free axes are solved again with the held axes at their command in their
 //! old state, as a hold does (solve.rs `held_solve`).
 
+use crate::compensate::options::TakeUpRule;
 use crate::compensate::solve::{consistent_state, solve_fixed_in, Method, PointSolution};
 use crate::error::ModelError;
 use crate::model::{AxisCells, Directions, ErrorModel};
 use volcomp_gcode::Vec3;
+
+/// Whether the free axes are solved again across an S-curve under `rule`:
+/// under G64 P and G64 without P, where the held axis runs on in its old
+/// table and is taken up later (folded, on a lead piece or held on);
+/// not under G61, where the take-up block right after the S-curve moves
+/// the free axes from where the held axis' new table puts them, and
+/// re-solving them at the S-curve's end left that block to step them
+/// against their motion (docs/compensation.md, "An axis held across an
+/// S-curve": measured worse on 16 coarse G61 rows).
+pub(super) fn resolves_free_axes(rule: TakeUpRule) -> bool {
+    !matches!(rule, TakeUpRule::Exact { .. })
+}
 
 /// `point` (solved for `t_mm` from `q_prev` in state `s_prev`) with every
 /// axis but `axis` (the S-curve's) that reverses there held at its command
@@ -179,6 +192,55 @@ mod tests {
             let off_x_um = (actual(&m, p.q_mm, p.s).x - t.x) * 1e3;
             let want_um = if resolve { 0.0 } else { -3.0 };
             assert!((off_x_um - want_um).abs() < 1e-6, "{resolve}: {off_x_um}");
+        }
+    }
+
+    #[test]
+    fn under_g64_the_free_axes_are_solved_in_the_held_axis_old_table_under_g61_not() {
+        // The case above per path mode. Z held across X's S-curve in its
+        // reverse table: under G64 P and G64 the S-curve's end puts the
+        // tool on t in X (X's command t + 1.5 µm, Z's reverse straightness
+        // of X −1.5 µm, by hand); under G61 X keeps the command solved in
+        // Z's forward table (t − 1.5 µm) and the tool stands 3 µm short
+        // in X until the take-up block right after.
+        let m = map();
+        let plain = Plain(&m);
+        let t = Vec3::new(50.0, 50.0, 50.0);
+        let s_prev = [R, F, R];
+        let q_prev = t - um(10.5, 0.0, 11.5);
+        let mut cells = AxisCells::default();
+        let s_new = [F, F, F];
+        let sol =
+            solve_fixed_in(&mut cells, &plain, Method::Exact, t, s_new, [false; 3], t).unwrap();
+        let id = |q: Vec3| q;
+        for (rule, want_x_um) in [
+            (TakeUpRule::Within(5e-3), 0.0),
+            (TakeUpRule::Always, 0.0),
+            (TakeUpRule::Exact { smooth: true }, -3.0),
+            (TakeUpRule::Exact { smooth: false }, -3.0),
+        ] {
+            let mut p = PointSolution {
+                q_mm: sol.q_mm,
+                s: s_new,
+                iterations: sol.iterations,
+                residual_um: 0.0,
+                reversed: [true, false, true],
+                held: [false; 3],
+            };
+            hold_across(
+                &mut cells,
+                &plain,
+                (Method::Exact, &id),
+                (t, q_prev, s_prev),
+                &mut p,
+                (0, resolves_free_axes(rule)),
+            )
+            .unwrap();
+            let off_x_um = (actual(&m, p.q_mm, p.s).x - t.x) * 1e3;
+            assert!(
+                (off_x_um - want_x_um).abs() < 1e-6,
+                "{rule:?}: {off_x_um} µm"
+            );
         }
     }
 
