@@ -463,6 +463,44 @@ mod tests {
     }
 
     #[test]
+    fn a_still_axis_counts_where_its_state_is_against_the_programs_way() {
+        // A raster pass along +X at Y −6 after a step-over in +Y: Y reversed
+        // along the pass by the map, Y's program direction forward.
+        let pass = (Vec3::new(16.2, -6.0, 0.9562), Vec3::new(18.0, -6.0, 0.8928));
+        let program = [Some(Forward), Some(Forward), Some(Reverse)];
+        assert_eq!(
+            against_program(pass, [Forward, Reverse, Reverse], program),
+            [false, true, false]
+        );
+        // Y as the program moved it: nothing.
+        assert_eq!(
+            against_program(pass, [Forward, Forward, Reverse], program),
+            [false; 3]
+        );
+        // X moves on the pass (its state against the program's is a
+        // reversal on the line, not a still axis'); Z moves too.
+        assert_eq!(
+            against_program(pass, [Reverse, Forward, Forward], program),
+            [false; 3]
+        );
+        // Y never moved by the program: not known, not counted.
+        assert_eq!(
+            against_program(
+                pass,
+                [Forward, Reverse, Reverse],
+                [Some(Forward), None, None]
+            ),
+            [false; 3]
+        );
+        // The step-over (0, 3, 0.3478)/|·| moves Y forward by far more than
+        // the least cosine; a pass along X does not move Y at all.
+        let step = Vec3::new(0.0, 3.0, 0.3478) * (1.0 / (9.0_f64 + 0.3478 * 0.3478).sqrt());
+        assert!(moves_along(step, 1, Forward));
+        assert!(!moves_along(step, 1, Reverse));
+        assert!(!moves_along(Vec3::new(-1.0, 0.0, 0.0), 1, Forward));
+    }
+
+    #[test]
     fn the_pass_back_reverses_x_and_the_pass_on_does_not() {
         let back = line(Vec3::new(30.0, 5.0, 0.0), Vec3::new(0.0, 5.0, 0.0));
         assert!(reverses(&back, 0, Forward));
