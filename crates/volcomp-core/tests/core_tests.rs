@@ -28,6 +28,7 @@ mod ramp_centre;
 mod ramp_stage;
 mod random_programs;
 mod simulate_pairing;
+mod still_axis_turn;
 mod straightness;
 mod tail_merge;
 mod take_up_advance;

@@ -83,6 +83,32 @@ pub(super) fn candidate_axes(start: Vec3, end: Vec3, tangent_before: Option<Vec3
     [0, 1, 2].map(|a| end[a] == start[a] && t[a].abs() > 1e-9 && end != start)
 }
 
+/// The least end-tangent component (a direction cosine) along an axis for
+/// a motion to count as moving it (mod.rs `State::program_dirs`): far
+/// below any written step over any written length, so only an axis the
+/// program holds still is left out.
+pub(super) const STILL_COSINE: f64 = 1e-9;
+
+/// The axes a feed line from `start` to `end` does not move whose state
+/// (`s`) is against the direction the program last moved them in
+/// (`program`): a still axis the map's drift turned back along a pass (a
+/// raster's Y, on bench/coarse_map.py's map by the consistent solve of a
+/// hundredth of a micrometre, or by the Z peak's switch of straightness,
+/// 4 µm).
+pub(super) fn against_program(
+    (start, end): (Vec3, Vec3),
+    s: Directions,
+    program: [Option<Direction>; 3],
+) -> [bool; 3] {
+    [0, 1, 2].map(|a| end[a] == start[a] && end != start && program[a].is_some_and(|d| d != s[a]))
+}
+
+/// Whether a motion that starts along the unit `next_dir` moves axis `a`
+/// its way `d`, by at least [`LEAST_COSINE`].
+pub(super) fn moves_along(next_dir: Vec3, a: usize, d: Direction) -> bool {
+    next_dir[a] * d.sign() >= LEAST_COSINE
+}
+
 /// Whether `m` reverses axis `a` at its start against the direction `s_a`
 /// the axis last moved in: its start tangent points against it by at least
 /// [`LEAST_COSINE`] and it travels at least [`LEAST_TRAVEL_MM`] along `a`
@@ -142,6 +168,30 @@ pub(super) struct LastPiece<'a> {
 }
 
 impl State<'_> {
+    /// Under G61, the axes a feed line from `start` to `end` may take up
+    /// ahead besides [`candidate_axes`]: those [`against_program`] where the
+    /// next line is known to move them the program's way
+    /// ([`super::tail_hold::direction_of`] on its kept text, read only
+    /// where such an axis is). A raster's step-over after a pass on which
+    /// Y was turned back reverses Y at the corner where X reverses too, and
+    /// two switches in one take-up block leave the tool off the path by
+    /// what each asks of the other axes against their directions
+    /// (compensate/take_up_order.rs): 4.9–5.1 µm on bench/coarse_map.py's
+    /// map (bench/eval raster and raster_2, F6000). Taken up on the pass'
+    /// last piece instead, Y crosses its band along the pass with the tool
+    /// on the path (a folded take-up, [`State::idle_flips`]) and only X
+    /// (and Z) switch at the corner.
+    pub(super) fn turned_back_axes(&self, start: Vec3, end: Vec3) -> [bool; 3] {
+        let against = against_program((start, end), self.s, self.program_dirs);
+        if !against.iter().any(|a| *a) {
+            return [false; 3];
+        }
+        let Some(u) = self.next_dir.and_then(|(_, n)| self.next_direction(n)) else {
+            return [false; 3];
+        };
+        [0, 1, 2].map(|a| against[a] && self.program_dirs[a].is_some_and(|d| moves_along(u, a, d)))
+    }
+
     /// The end of the last piece solved with each axis of `axes` in its
     /// new direction, where that is consistent and the tool stays within
     /// the fold tolerance along the piece while the axis crosses its band
@@ -410,6 +460,44 @@ mod tests {
         // After a rapid (no tangent) nothing is held.
         let none = candidate_axes(Vec3::ZERO, Vec3::new(0.0, 5.0, 0.0), None);
         assert_eq!(none, [false; 3]);
+    }
+
+    #[test]
+    fn a_still_axis_counts_where_its_state_is_against_the_programs_way() {
+        // A raster pass along +X at Y −6 after a step-over in +Y: Y reversed
+        // along the pass by the map, Y's program direction forward.
+        let pass = (Vec3::new(16.2, -6.0, 0.9562), Vec3::new(18.0, -6.0, 0.8928));
+        let program = [Some(Forward), Some(Forward), Some(Reverse)];
+        assert_eq!(
+            against_program(pass, [Forward, Reverse, Reverse], program),
+            [false, true, false]
+        );
+        // Y as the program moved it: nothing.
+        assert_eq!(
+            against_program(pass, [Forward, Forward, Reverse], program),
+            [false; 3]
+        );
+        // X moves on the pass (its state against the program's is a
+        // reversal on the line, not a still axis'); Z moves too.
+        assert_eq!(
+            against_program(pass, [Reverse, Forward, Forward], program),
+            [false; 3]
+        );
+        // Y never moved by the program: not known, not counted.
+        assert_eq!(
+            against_program(
+                pass,
+                [Forward, Reverse, Reverse],
+                [Some(Forward), None, None]
+            ),
+            [false; 3]
+        );
+        // The step-over (0, 3, 0.3478)/|·| moves Y forward by far more than
+        // the least cosine; a pass along X does not move Y at all.
+        let step = Vec3::new(0.0, 3.0, 0.3478) * (1.0 / (9.0_f64 + 0.3478 * 0.3478).sqrt());
+        assert!(moves_along(step, 1, Forward));
+        assert!(!moves_along(step, 1, Reverse));
+        assert!(!moves_along(Vec3::new(-1.0, 0.0, 0.0), 1, Forward));
     }
 
     #[test]

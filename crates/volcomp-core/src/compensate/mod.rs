@@ -86,7 +86,7 @@ pub use targets::{target_count_bound, targets_of};
 
 use crate::error::{CompensationError, ModelError};
 use crate::model::next_state;
-use crate::model::{Directions, ErrorModel, ALL_FORWARD};
+use crate::model::{Direction, Directions, ErrorModel, ALL_FORWARD};
 use frame::Frame;
 use lines::{
     arc_line_edits, explicit_mode, line_ending, stop_m_word, ArcWords, FeedInForce, InsertedFeed,
@@ -295,6 +295,7 @@ impl<'w> State<'w> {
             plunge_held: [false; 3],
             next_dir: None,
             next_text: Vec::new(),
+            program_dirs: [None; 3],
             approach_pending: None,
         }
     }
@@ -537,6 +538,13 @@ impl<'w> State<'w> {
         check_target_count(motion, line_options, file, ev.number)?;
         let run = points::Run::of(motion, self.last_tangent, &options.planner);
         self.next_dir = None;
+        // An axis this line does not move keeps the direction it had.
+        let end_tangent = points::tangents(motion).1;
+        for (a, d) in self.program_dirs.iter_mut().enumerate() {
+            if end_tangent[a].abs() > idle::STILL_COSINE {
+                *d = Direction::of_delta(end_tangent[a]);
+            }
+        }
         let planar_before = std::mem::take(&mut self.planar_before);
         self.arc_starts_planar = planar_before;
         let planar_line_normal = self.planar_line_normal.take();
@@ -749,7 +757,18 @@ impl<'w> State<'w> {
                     && stop_any.is_none()
                     && !line.ev.lexed.has_polar() =>
             {
-                idle::candidate_axes(motion.start, motion.end, self.last_tangent.map(|t| t.0))
+                let mut axes =
+                    idle::candidate_axes(motion.start, motion.end, self.last_tangent.map(|t| t.0));
+                // Under G61 also a still axis in a state against the
+                // program's, which the next line moves the program's way
+                // (compensate/idle.rs `State::turned_back_axes`).
+                if matches!(options.take_up_rule(run.mode), TakeUpRule::Exact { .. }) {
+                    let back = self.turned_back_axes(motion.start, motion.end);
+                    for (a, b) in axes.iter_mut().zip(back) {
+                        *a |= b;
+                    }
+                }
+                axes
             }
             _ => [false; 3],
         };
@@ -1901,6 +1920,11 @@ struct State<'w> {
     next_dir: Option<(Vec3, tail_hold::NextDir)>,
     /// The next line's text for `next_dir` (one buffer, reused).
     next_text: Vec<u8>,
+    /// The direction the program's nominal path last moved each axis in
+    /// (its motions' end tangents), `None` before any: an axis a line
+    /// does not move whose state is against it may be taken up ahead
+    /// (compensate/idle.rs `State::turned_back_axes`).
+    program_dirs: [Option<Direction>; 3],
 }
 
 /// Edits of a line that sets an offset from the current point (G92, or
