@@ -186,7 +186,25 @@ impl State<'_> {
         if !against.iter().any(|a| *a) {
             return [false; 3];
         }
-        let Some(u) = self.next_dir.and_then(|(_, n)| self.next_direction(n)) else {
+        let Some((_, next)) = self.next_dir else {
+            return [false; 3];
+        };
+        // A kept line whose text names none of these axes does not move
+        // them (`direction_of` reads only straight moves in G90): the read
+        // is skipped, with the same answer. On CAM output most lines keep
+        // Z still and name X and Y only (cam20k under G61: the read on
+        // every such line cost 4 % of the compensating thread).
+        if let super::tail_hold::NextDir::Text(_) = next {
+            let named = |a: usize| {
+                self.next_text
+                    .iter()
+                    .any(|c| c.to_ascii_uppercase() == b"XYZ"[a])
+            };
+            if !(0..3).any(|a| against[a] && named(a)) {
+                return [false; 3];
+            }
+        }
+        let Some(u) = self.next_direction(next) else {
             return [false; 3];
         };
         [0, 1, 2].map(|a| against[a] && self.program_dirs[a].is_some_and(|d| moves_along(u, a, d)))
