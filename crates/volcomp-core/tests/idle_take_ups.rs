@@ -3,20 +3,11 @@
 //! it, where X stands still; checked by hand and by the dead-band
 //! simulation.
 
-use std::io::Cursor;
-use volcomp_core::compensate::{
-    compensate_program, survey_style, CompensateOptions, CompensateSummary,
-};
+use volcomp_core::compensate::CompensateSummary;
 use volcomp_core::model::axis_table::AxisTableMap;
-use volcomp_core::simulate::report::simulate_program;
-use volcomp_gcode::Walker;
 
 use crate::common;
 use common::map_from;
-
-fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
-    common::walker(program, "test.ngc")
-}
 
 /// X's reverse table `b_um` above its forward one (a reversal value of
 /// `b_um`), nothing else.
@@ -33,44 +24,13 @@ fn x_reversal_map(b_um: f64) -> AxisTableMap {
 /// a short move away and back, they change no direction the compensation
 /// holds).
 fn compensate(program: &str, map: &AxisTableMap) -> (String, CompensateSummary) {
-    let options = CompensateOptions {
-        decimals: Some(4),
-        ..Default::default()
-    };
-    let style = survey_style(program.as_bytes());
-    let mut out = Vec::new();
-    let summary = compensate_program(
-        &mut walker(program),
-        "test.ngc",
-        map,
-        &style,
-        &options,
-        &mut out,
-        |_| {},
-    )
-    .unwrap();
-    let text: String = String::from_utf8(out)
-        .unwrap()
-        .lines()
-        .filter(|l| !l.ends_with("approach)"))
-        .map(|l| format!("{l}\n"))
-        .collect();
-    (text, summary)
+    common::compensate_cut(program, map, 4)
 }
 
 /// The dead-band simulation's contour maximum (µm) of `out` against
 /// `program`.
 fn contour_max_um(out: &str, program: &str, map: &AxisTableMap) -> f64 {
-    simulate_program(
-        &mut walker(out),
-        "out",
-        Some(&mut walker(program)),
-        map,
-        1e-4,
-        |_| {},
-    )
-    .unwrap()
-    .contour_max_um
+    common::simulated(out, program, map).contour_max_um
 }
 
 /// Under G61 a line in the plane holds back its last `w = 2·v·√(b/a_n)`

@@ -7,20 +7,11 @@
 //! (compensate/idle.rs `State::turned_back_axes`). Checked by hand (the
 //! written Y) and by the dead-band simulation.
 
-use std::io::Cursor;
-use volcomp_core::compensate::{
-    compensate_program, survey_style, CompensateOptions, CompensateSummary,
-};
+use volcomp_core::compensate::CompensateSummary;
 use volcomp_core::model::axis_table::AxisTableMap;
-use volcomp_core::simulate::report::simulate_program;
-use volcomp_gcode::Walker;
 
 use crate::common;
 use common::map_from;
-
-fn walker(program: &str) -> Walker<Cursor<Vec<u8>>> {
-    common::walker(program, "test.ngc")
-}
 
 /// X's tables (both directions) with a straightness in Y of `slope_um`
 /// per mm of X (e = actual − commanded: the tool is `slope_um·x` high in
@@ -37,44 +28,13 @@ fn drift_map(slope_um: f64) -> AxisTableMap {
 /// `program` compensated with the defaults at `decimals` decimals, without
 /// the lines of the approach before the first cut.
 fn compensate(program: &str, map: &AxisTableMap, decimals: u8) -> (String, CompensateSummary) {
-    let options = CompensateOptions {
-        decimals: Some(decimals),
-        ..Default::default()
-    };
-    let style = survey_style(program.as_bytes());
-    let mut out = Vec::new();
-    let summary = compensate_program(
-        &mut walker(program),
-        "test.ngc",
-        map,
-        &style,
-        &options,
-        &mut out,
-        |_| {},
-    )
-    .unwrap();
-    let text: String = String::from_utf8(out)
-        .unwrap()
-        .lines()
-        .filter(|l| !l.ends_with("approach)"))
-        .map(|l| format!("{l}\n"))
-        .collect();
-    (text, summary)
+    common::compensate_cut(program, map, decimals)
 }
 
 /// The dead-band simulation's contour maximum (µm) of `out` against
 /// `program`.
 fn contour_max_um(out: &str, program: &str, map: &AxisTableMap) -> f64 {
-    simulate_program(
-        &mut walker(out),
-        "out",
-        Some(&mut walker(program)),
-        map,
-        1e-4,
-        |_| {},
-    )
-    .unwrap()
-    .contour_max_um
+    common::simulated(out, program, map).contour_max_um
 }
 
 /// Y as written (modal: the last Y word so far) on the last written line

@@ -156,6 +156,39 @@ pub fn compensate_recorded(
     (String::from_utf8(out).unwrap(), records, summary)
 }
 
+/// `program` (named `test.ngc`) compensated for `map` at `decimals`
+/// decimals, the other options the defaults, without the lines of the
+/// approach before the first cut (tests/compensation.rs checks them): the
+/// written program and the summary.
+pub fn compensate_cut(
+    program: &str,
+    map: &AxisTableMap,
+    decimals: u8,
+) -> (String, CompensateSummary) {
+    let options = CompensateOptions {
+        decimals: Some(decimals),
+        ..Default::default()
+    };
+    let mut out = Vec::new();
+    let summary = compensate_program(
+        &mut walker(program, "test.ngc"),
+        "test.ngc",
+        map,
+        &survey_style(program.as_bytes()),
+        &options,
+        &mut out,
+        |_| {},
+    )
+    .unwrap();
+    let text = String::from_utf8(out)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.ends_with("approach)"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    (text, summary)
+}
+
 /// The compensated program `out` run through the dead-band simulation of
 /// `map` and measured against the original `program`, arcs followed within
 /// a chord tolerance of 0.1 µm: the report.
