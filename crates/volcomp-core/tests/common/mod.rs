@@ -130,40 +130,14 @@ pub fn compensate_text(
     Ok(String::from_utf8(out).unwrap())
 }
 
-/// `program` (named `test.ngc`) compensated for `map` at 5 decimals, the
-/// other options the defaults, every solved point recorded: the written
-/// program, the points and the summary.
-pub fn compensate_recorded(
-    program: &str,
-    map: &AxisTableMap,
-) -> (String, Vec<PointRecord>, CompensateSummary) {
-    let options = CompensateOptions {
-        decimals: Some(5),
-        ..Default::default()
-    };
-    let mut out = Vec::new();
-    let mut records = Vec::new();
-    let summary = compensate_program(
-        &mut walker(program, "test.ngc"),
-        "test.ngc",
-        map,
-        &survey_style(program.as_bytes()),
-        &options,
-        &mut out,
-        |r| records.push(*r),
-    )
-    .unwrap();
-    (String::from_utf8(out).unwrap(), records, summary)
-}
-
 /// `program` (named `test.ngc`) compensated for `map` at `decimals`
-/// decimals, the other options the defaults, without the lines of the
-/// approach before the first cut (tests/compensation.rs checks them): the
-/// written program and the summary.
-pub fn compensate_cut(
+/// decimals, the other options the defaults, each solved point given to
+/// `on_point`: the written program and the summary.
+fn compensate_with(
     program: &str,
     map: &AxisTableMap,
     decimals: u8,
+    on_point: impl FnMut(&PointRecord),
 ) -> (String, CompensateSummary) {
     let options = CompensateOptions {
         decimals: Some(decimals),
@@ -177,11 +151,35 @@ pub fn compensate_cut(
         &survey_style(program.as_bytes()),
         &options,
         &mut out,
-        |_| {},
+        on_point,
     )
     .unwrap();
-    let text = String::from_utf8(out)
-        .unwrap()
+    (String::from_utf8(out).unwrap(), summary)
+}
+
+/// `program` (named `test.ngc`) compensated for `map` at 5 decimals, the
+/// other options the defaults, every solved point recorded: the written
+/// program, the points and the summary.
+pub fn compensate_recorded(
+    program: &str,
+    map: &AxisTableMap,
+) -> (String, Vec<PointRecord>, CompensateSummary) {
+    let mut records = Vec::new();
+    let (text, summary) = compensate_with(program, map, 5, |r| records.push(*r));
+    (text, records, summary)
+}
+
+/// `program` (named `test.ngc`) compensated for `map` at `decimals`
+/// decimals, the other options the defaults, without the lines of the
+/// approach before the first cut (tests/compensation.rs checks them): the
+/// written program and the summary.
+pub fn compensate_cut(
+    program: &str,
+    map: &AxisTableMap,
+    decimals: u8,
+) -> (String, CompensateSummary) {
+    let (out, summary) = compensate_with(program, map, decimals, |_| {});
+    let text = out
         .lines()
         .filter(|l| !l.ends_with("approach)"))
         .map(|l| format!("{l}\n"))
