@@ -180,6 +180,13 @@ def programs(feed):
 
 def main(programs_at=programs):
     """Writes the set `programs_at(feed)` (this file's, or another set's)."""
+    usage = sys.modules["__main__"].__doc__ or __doc__
+    if len(sys.argv) < 2 or sys.argv[1].startswith("-"):
+        # `--help` or no argument: print the usage and write nothing (a
+        # directory named `--help` was once written and committed).
+        asked = len(sys.argv) > 1 and sys.argv[1] in ("-h", "--help")
+        print(usage, file=sys.stderr)
+        sys.exit(0 if asked else 2)
     out_dir = sys.argv[1]
     feed = float(sys.argv[2]) if len(sys.argv) > 2 else 6000.0
     feed = int(feed) if feed == int(feed) else feed
