@@ -37,6 +37,15 @@ fn blends(program: &str) -> (u64, u64) {
 /// The written feed lines (G1/G2/G3 and their continuations) with their
 /// X, Y, Z words as numbers (missing words: the value before).
 fn feed_points(out: &str) -> Vec<[f64; 3]> {
+    moved_points(out)
+        .into_iter()
+        .filter_map(|(p, feed)| feed.then_some(p))
+        .collect()
+}
+
+/// Every written line that moves (rapid or feed), with its X, Y, Z words
+/// as numbers (missing words: the value before) and whether it feeds.
+fn moved_points(out: &str) -> Vec<([f64; 3], bool)> {
     let mut pos = [0.0; 3];
     let mut feed = false;
     let mut points = Vec::new();
@@ -57,8 +66,8 @@ fn feed_points(out: &str) -> Vec<[f64; 3]> {
                 _ => {}
             }
         }
-        if moved && feed {
-            points.push(pos);
+        if moved {
+            points.push((pos, feed));
         }
     }
     points
@@ -80,6 +89,60 @@ fn a_plunge_into_a_g18_circle_keeps_its_blend_arc_under_g64_p() {
 #[test]
 fn a_plunge_into_a_g18_circle_keeps_its_blend_arc_under_g64() {
     plunge_into_g18_circle("G64", (0.5, 2.0), 0.5);
+}
+
+/// A plunge from rest (after a rapid, no take-up at its start) into the
+/// G18 circle under G64 without P, on a map whose Z moves the tool in Y by
+/// 0.05 µm per mm: Y's command changes by 0.367 µm over the 7.34 mm
+/// plunge, within the 0.4 µm planar tolerance over all but its first
+/// piece. The flat part then reaches back to that first piece (not half
+/// the plunge), and the first piece is as short as a tangent join allows:
+/// by hand, LinuxCNC's tangency tolerance at F6000 (tp.c `tpSetupTangent`,
+/// `ARC_BLEND_KINK_RATIO` 0.1, 1,000 mm/s², 1 ms) is
+/// 0.1 · 1000 / (100 / 0.001 + 1000) = 0.990 mrad; at half of it (the
+/// margin for the written numbers' rounding) the 0.367 µm need a first
+/// piece of 0.367 µm / 0.495 mrad = 0.74 mm.
+#[test]
+fn a_plunge_from_rest_into_a_g18_circle_stays_flat_but_for_its_first_piece_under_g64() {
+    let map = common::map_from(|a, p, _| {
+        if a == 2 {
+            [0.0, 0.05 * p, 0.0]
+        } else {
+            [0.0; 3]
+        }
+    });
+    let program = "G21 G17 G90 G94\nG64\nG0 Z5\nG0 X5 Y0\nG1 Z-2.3397 F6000\n\
+G18 G3 X5 Z-2.3397 I-5 K-8.6603\nG17 G0 Z5\nM2\n";
+    let (out, _, _) = common::compensate_recorded(program, &map);
+    let pts: Vec<[f64; 3]> = moved_points(&out).into_iter().map(|(p, _)| p).collect();
+    let end = pts
+        .iter()
+        .position(|p| (p[2] + 2.3397).abs() < 0.01 && (p[0] - 5.0).abs() < 0.01)
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(end >= 2, "{out}");
+    // The rapid's end, the split, the plunge's end.
+    let (start, split, line_end) = (pts[end - 2], pts[end - 1], pts[end]);
+    assert!((start[2] - 5.0).abs() < 0.01, "the plunge's start: {out}");
+    // The flat part: Y as at the end, and all but 0.6 … 1.0 mm of the plunge.
+    assert_eq!(split[1], line_end[1], "{out}");
+    let first_mm = start[2] - split[2];
+    assert!(
+        (0.6..=1.0).contains(&first_mm),
+        "first piece {first_mm} mm: {out}"
+    );
+    // The first piece carries Y's whole change (0.05 µm/mm over the
+    // plunge, less what the start's rounding leaves) and joins the flat
+    // part within the planner's 0.990 mrad.
+    let dy_mm = split[1] - start[1];
+    assert!((dy_mm.abs() - 0.367e-3).abs() < 0.06e-3, "{dy_mm}: {out}");
+    assert!(dy_mm.abs() / first_mm < 0.990e-3, "{out}");
+    // The planner keeps its blend arc into the circle.
+    let (_, parabolic) = blends(&out);
+    assert_eq!(parabolic, 0, "{out}");
+    // Within the contour on the simulation: off along Y by the flat
+    // part's 0.33 µm at most.
+    let report = common::simulated(&out, program, &map);
+    assert!(report.contour_max_um < 0.45, "{report:?}: {out}");
 }
 
 /// The held-out set's one-block G18 circle with its plunge under `mode`,
