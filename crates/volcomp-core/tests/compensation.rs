@@ -1876,6 +1876,43 @@ fn under_g64_the_pieces_at_a_corner_between_two_arcs_stay_planar_and_keep_the_bl
     );
 }
 
+/// Under G64 without P an arc's end at a corner into an arc of its plane
+/// may leave the path along the normal by 0.4 µm, as the next arc's start
+/// may (compensate/planar.rs `planar_tolerance_mm`): a 90° corner at
+/// (10, 10) from a G2 ending along +X to a G2 starting along +Y, the map's
+/// Z correction changing along X by 0.05 µm/mm. By hand, the planar part
+/// of the first arc is then up to 0.4 µm / 0.05 µm/mm = 8 mm long along
+/// X, against 2 mm within the 0.1 µm contour tolerance; the blend at
+/// F6000 (R = v²/a_n = 11.5 mm) wants more than either. Measured on the
+/// planner model: 0.854 s with the contour tolerance, 0.816 s with the
+/// planar one (the original 0.700 s: the rest is the line's corner).
+#[test]
+fn under_g64_an_arc_into_an_arc_ends_planar_within_the_planar_tolerance() {
+    let map = one_table(0, |x| [0.0, 0.0, 0.05 * x]);
+    let program = "G21 G90 G17 G64\nG0 X-5 Y0 Z0\nG1 X0 F6000\n\
+                   G2 X10 Y10 I10 J0\nG2 X20 Y20 I10 J0\nM2\n";
+    let (out, _) = compensate_with(program, &map, &CompensateOptions::default(), |_| {});
+    let moves = written_moves_xyz(&out);
+    let k = piece_ending_at(&moves, 10.0, 10.0, &out);
+    let (s, e) = moves[k];
+    assert_eq!(s.z, e.z, "the first arc's last piece moves Z:\n{out}");
+    assert_eq!(
+        moves[k + 1].0.z,
+        moves[k + 1].1.z,
+        "the second arc's first piece moves Z:\n{out}"
+    );
+    // Its planar part: longer than the contour tolerance's 2 mm, within
+    // the planar tolerance's 8 mm (X, along which Z changes).
+    let along_x_mm = e.x - s.x;
+    assert!(
+        (2.0 + 1e-3..=8.0 + 1e-3).contains(&along_x_mm),
+        "planar part {along_x_mm} mm along X:\n{out}"
+    );
+    // The planner model keeps LinuxCNC's blend arc and the time of the
+    // same pieces written without Z (second method: a planar program).
+    assert_blended_as_planar(&out);
+}
+
 /// Asserts that every join of the commands from `start` through `points`,
 /// written as lines at F6000, is one LinuxCNC's planner takes as tangent
 /// (tp.c, `tpSetupTangent`: every axis' change of the unit tangent within
