@@ -1913,6 +1913,41 @@ fn under_g64_an_arc_into_an_arc_ends_planar_within_the_planar_tolerance() {
     assert_blended_as_planar(&out);
 }
 
+/// The same corner after a line, the map's Z correction changing by
+/// 0.05 µm/mm along Y too: the line along +X into the first G2, which
+/// starts along +Y, so the arc's first piece (0.7 mm, up to its end zone)
+/// moves Z and is split planar at its start (planar.rs `planar_start`
+/// adds a piece). Its end before the second G2 must then be planned on
+/// the pieces as written: main d33644a planned it on the count before the
+/// split, left the end as solved, and the corner at (10, 10) was blended
+/// parabolically (planner model 0.849 s; planar 0.839 s).
+#[test]
+fn under_g64_an_arc_split_planar_at_its_start_also_ends_planar() {
+    let map = map_from(|a, p, _| {
+        if a < 2 {
+            [0.0, 0.0, 0.05 * p]
+        } else {
+            [0.0; 3]
+        }
+    });
+    let program = "G21 G90 G17 G64\nG0 X-5 Y0 Z0\nG1 X0 F6000\n\
+                   G2 X10 Y10 I10 J0\nG2 X20 Y20 I10 J0\nM2\n";
+    let (out, _) = compensate_with(program, &map, &CompensateOptions::default(), |_| {});
+    let moves = written_moves_xyz(&out);
+    let planar = |(s, e): &(Vec3, Vec3)| s.z == e.z;
+    // The line's last piece and the arc's first at (0, 0), and the arc's
+    // first piece split: its second piece moves Z.
+    let k0 = piece_ending_at(&moves, 0.0, 0.0, &out);
+    assert!(planar(&moves[k0]) && planar(&moves[k0 + 1]), "{out}");
+    assert!(!planar(&moves[k0 + 2]), "{out}");
+    // Both sides of the corner at (10, 10).
+    let k = piece_ending_at(&moves, 10.0, 10.0, &out);
+    assert!(planar(&moves[k]) && planar(&moves[k + 1]), "{out}");
+    // Blend arcs at both corners, and the time of the same pieces without Z.
+    let c = assert_blended_as_planar(&out);
+    assert!(c.counts.blend_arcs >= 2, "{out}");
+}
+
 /// Asserts that every join of the commands from `start` through `points`,
 /// written as lines at F6000, is one LinuxCNC's planner takes as tangent
 /// (tp.c, `tpSetupTangent`: every axis' change of the unit tangent within

@@ -953,6 +953,10 @@ impl<'w> State<'w> {
         ) {
             self.planar_start_kept = planar::line_starts_planar(&commands, q_line_start, w);
         }
+        // The pieces as written: a planar start split after a corner
+        // (`planar_start`) added one since the count above, and the last
+        // piece (the one a planar end or a tail takes) is the last of them.
+        let n = commands.len();
         // Extra axes (A … W) of a split motion: each segment carries its share.
         let mut extra_plan = extra::ExtraPlan::new(
             motion.extra,
