@@ -9,14 +9,15 @@ use volcomp_core::model::axis_table::AxisTableMap;
 
 use crate::common;
 
-/// Z's table moves the tool in Y by 0.2 µm per mm of Z, in both
+/// Z's table moves the tool in Y by `um_per_mm` µm per mm of Z, in both
 /// directions (no band): along a plunge in the XZ plane Y's command
-/// changes by 0.2 µm per mm, as the ripple map's smooth correction does
-/// (1.4 µm over the 7.3 mm plunge of the held-out set's G18 circle).
-fn y_by_z_map() -> AxisTableMap {
+/// changes by as much per mm; at 0.2 µm/mm as the ripple map's smooth
+/// correction does (1.4 µm over the 7.3 mm plunge of the held-out set's
+/// G18 circle).
+fn y_by_z_map(um_per_mm: f64) -> AxisTableMap {
     common::map_from(|a, p, _| {
         if a == 2 {
-            [0.0, 0.2 * p, 0.0]
+            [0.0, um_per_mm * p, 0.0]
         } else {
             [0.0; 3]
         }
@@ -104,13 +105,7 @@ fn a_plunge_into_a_g18_circle_keeps_its_blend_arc_under_g64() {
 /// piece of 0.367 µm / 0.495 mrad = 0.74 mm.
 #[test]
 fn a_plunge_from_rest_into_a_g18_circle_stays_flat_but_for_its_first_piece_under_g64() {
-    let map = common::map_from(|a, p, _| {
-        if a == 2 {
-            [0.0, 0.05 * p, 0.0]
-        } else {
-            [0.0; 3]
-        }
-    });
+    let map = y_by_z_map(0.05);
     let program = "G21 G17 G90 G94\nG64\nG0 Z5\nG0 X5 Y0\nG1 Z-2.3397 F6000\n\
 G18 G3 X5 Z-2.3397 I-5 K-8.6603\nG17 G0 Z5\nM2\n";
     let (out, _, _) = common::compensate_recorded(program, &map);
@@ -146,11 +141,11 @@ G18 G3 X5 Z-2.3397 I-5 K-8.6603\nG17 G0 Z5\nM2\n";
 }
 
 /// The held-out set's one-block G18 circle with its plunge under `mode`,
-/// compensated on [`y_by_z_map`]: the plunge's planar part within
+/// compensated on [`y_by_z_map`] at 0.2 µm/mm: the plunge's planar part within
 /// `planar_mm` (mm), no parabolic blend, the simulated contour within
 /// `contour_um`.
 fn plunge_into_g18_circle(mode: &str, (least_mm, most_mm): (f64, f64), contour_um: f64) {
-    let map = y_by_z_map();
+    let map = y_by_z_map(0.2);
     {
         // The held-out set's one-block G18 circle with its plunge.
         let program = format!(
