@@ -1020,6 +1020,41 @@ fn under_g61_on_a_helix_the_step_an_s_curve_makes_is_spread_beyond_the_helix_own
 }
 
 #[test]
+fn under_g61_a_step_too_large_to_spread_within_the_run_through_tolerance_stays_on_the_path() {
+    // The circle above, X's table moving the tool −0.02 µm per mm of X in
+    // Z (so Z's command keeps falling through the bottom) and Y's forward
+    // table moving it +1.2 µm in Z (a worn machine's straightness that
+    // switches with the direction) instead of 0.3 µm. Spread as a smooth
+    // step, the 1.2 µm would need L = √(6 · 1.2 µm · 0.2 mm / (0.6 ·
+    // 0.495 mrad)) = 2.20 mm around an S-curve of about 0.3 mm; at the
+    // S-curve's ends the smooth step and the step as the S-curve writes it
+    // differ by σ(u), u = (2.20 − 0.3) / 2 / 2.20 = 0.432, σ = 3u² − 2u³
+    // = 0.40: the tool would leave the path by about 0.48 µm there on top
+    // of the S-curve's own deviation, more than the 0.4 µm a take-up run
+    // through may leave (spread, the simulated contour's max is 0.57 µm).
+    // G61 asks for the path: the step stays where the S-curve writes it,
+    // the planner stops at its joins (Z's slope turns there by more than
+    // the 0.495 mrad tangency tolerance, tp.c tpSetupTangent), and the
+    // tool stays within the 0.5 µm the exact modes promise.
+    let map = map_from(|a, p, rev| match (a, rev) {
+        (0, _) => [0.0, 0.0, -0.02 * p],
+        (1, true) => [0.0, 3.0, 0.0],
+        (1, false) => [0.0, 0.0, 1.2],
+        _ => [0.0; 3],
+    });
+    let program = "G61\nG0 X0.00000 Y10.00000 Z0.00000\nG2 X0.00000 Y10.00000 I0.00000 J-10.00000 F6000\nM2\n";
+    let (out, _) = compensate(program, &map, CompensateOptions::default());
+    let largest_turn = z_slope_turns(&out)
+        .into_iter()
+        .filter(|(x, y, _)| x.abs() < 3.0 && *y < -9.0)
+        .map(|(.., turn)| turn.abs())
+        .fold(0.0f64, f64::max);
+    assert!(largest_turn > 0.495e-3, "{largest_turn}: {out}");
+    let report = against_original(&out, program, &map);
+    assert!(report.contour_max_um < 0.5, "{report:?}: {out}");
+}
+
+#[test]
 fn under_g61_a_take_up_block_moves_a_crossing_axis_as_far_as_its_next_command() {
     // X reverses at the corner X5 (band 4 µm) and its reverse table moves
     // the tool −0.3 µm in Y: holding the tool there needs Y +0.3 µm. The

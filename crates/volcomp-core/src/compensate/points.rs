@@ -960,12 +960,16 @@ pub(super) fn piece_turn_tolerance(
 /// against it; on a helix no command may turn against the helix's), and
 /// the largest turn of `w`'s slope at the span's joins
 /// (as written, quantized) falls below `kappa` or at least below what it
-/// was. Returns the largest distance it adds to the path along `w` (mm).
+/// was, and no command moves along `w` by more than `limit_mm` (the tool
+/// would leave the path by that: G61 asks for the path first, and where the
+/// step is too large to spread within it the planner stops at the
+/// S-curve's joins instead). Returns the largest distance it adds to the
+/// path along `w` (mm).
 fn spread_normal_step(
     (commands, states): (&mut [(Vec3, Option<Vec3>)], &[Directions]),
     (arc, pieces, q_in): (&volcomp_gcode::Arc, &[f64], Vec3),
     (index, (a, b)): (usize, (f64, f64)),
-    kappa: f64,
+    (kappa, limit_mm): (f64, f64),
     quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
 ) -> Option<f64> {
     let w = arc.plane.axes().2;
@@ -1017,8 +1021,9 @@ fn spread_normal_step(
         added = added.max((q[w] - before[k][w]).abs());
         after[k] = q;
     }
-    // No command turns against w's direction.
-    if (k0 + 1..=k1).any(|k| (after[k][w] - after[k - 1][w]) * dir < 0.0) {
+    // No command turns against w's direction, nor leaves the path by more
+    // than the limit.
+    if added > limit_mm || (k0 + 1..=k1).any(|k| (after[k][w] - after[k - 1][w]) * dir < 0.0) {
         return None;
     }
     let (was, now) = (worst_turn(&before), worst_turn(&after));
@@ -3172,11 +3177,16 @@ impl State<'_> {
             let q_in = commands_start;
             for tr in &transitions {
                 let Some(span) = tr.spread else { continue };
+                // The S-curve's deviation and the spread lie across each
+                // other; together within the run-through tolerance.
+                let limit_mm = (RUN_THROUGH_TOLERANCE_MM.powi(2) - tr.deviation_mm.powi(2))
+                    .max(0.0)
+                    .sqrt();
                 let spread = spread_normal_step(
                     (&mut commands, &self.states),
                     (arc, pieces, q_in),
                     (tr.index, span),
-                    kappa,
+                    (kappa, limit_mm),
                     &|q, from| frame.quantize(q, from),
                 );
                 if let Some(added_mm) = spread {
