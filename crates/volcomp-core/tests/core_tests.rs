@@ -6,6 +6,7 @@
 mod common;
 
 mod arc_ramp;
+mod arc_tail_hold;
 mod arc_zone;
 mod axis_never_set;
 mod compensate_cycles;

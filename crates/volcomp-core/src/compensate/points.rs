@@ -2158,6 +2158,9 @@ impl State<'_> {
                     TakeUpRule::Within(t) => t.min(options.fold_tolerance_mm()),
                     _ => options.fold_tolerance_mm(),
                 };
+                // A fold left for a hold to try first (below), kept where
+                // the hold fails: its bound.
+                let mut deferred_fold: Option<f64> = None;
                 // Where the path runs on through the reversal: inside a
                 // move, or where the original joins its moves without a
                 // corner.
@@ -2404,6 +2407,18 @@ impl State<'_> {
                     let from = hold_alt.take().filter(|_| !fold_is_tangent);
                     match held_instead(&mut cells, from)? {
                         Some(held) => point = self.take_hold(held, &mut take_up),
+                        // G61 on an arc's tail (its last piece, where the
+                        // path runs on): a fold that kinks is a stop; the
+                        // hold to the move's end below is tried first, and
+                        // the fold kept where it fails.
+                        None if matches!(rule, TakeUpRule::Exact { smooth: true })
+                            && smooth
+                            && !fold_is_tangent
+                            && run.arc
+                            && matches!(leads, Leads::Nowhere) =>
+                        {
+                            deferred_fold = Some(bound);
+                        }
                         None => {
                             take_up = None;
                             self.note_fold(bound);
@@ -2649,6 +2664,9 @@ impl State<'_> {
                                 .is_some_and(|e| hold_to_plunge_end(start, *e, point.reversed)),
                             // A line's tail (mod.rs `flush_tail`,
                             // [`tail_run`]).
+                            // An arc's tail whose fold kinks (above): to
+                            // its end, which is the move's.
+                            Leads::Nowhere if deferred_fold.is_some() => !run.corner_before,
                             Leads::Nowhere => {
                                 !run.corner_before
                                     && !run.arc
@@ -2702,6 +2720,10 @@ impl State<'_> {
                     // compensate/hold_fold.rs).
                     take_up = None;
                     self.note_fold(excursion);
+                }
+                if let Some(b) = deferred_fold.filter(|_| take_up.is_some()) {
+                    take_up = None;
+                    self.note_fold(b);
                 }
             }
             // G61 on a line: a reversal inside the line whose take-up is
