@@ -59,8 +59,9 @@ fn under_g61_an_arcs_held_tail_that_no_s_curve_takes_is_no_piece_of_its_own() {
     // The planner model: the original's cutting time against the
     // compensated one's (main ba3c40c: 1.686 → 1.953 s, +15.8 %; the two
     // tails cost 21 ms; main d648139 +14.6 %). Z's reversal where an arc
-    // meets its line is held to the arc's end and taken up along the line (compensate/points.rs `deferred_fold`), not
-    // folded into a kink at the arc's end (two stops each): +7.1 %.
+    // meets its line is held to the arc's end and taken up along the line
+    // (compensate/points.rs `deferred_fold`), not folded into a kink at
+    // the arc's end (two stops each): +7.1 %.
     let (t0, t1) = (common::cutting_s(POCKET), common::cutting_s(&out));
     assert!(t1 / t0 - 1.0 < 0.09, "{t0} → {t1}\n{out}");
     // The dead-band simulation: max 0.400 µm as on main ba3c40c; contour

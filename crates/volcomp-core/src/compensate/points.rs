@@ -2662,11 +2662,11 @@ impl State<'_> {
                             Leads::Lines => targets
                                 .last()
                                 .is_some_and(|e| hold_to_plunge_end(start, *e, point.reversed)),
-                            // A line's tail (mod.rs `flush_tail`,
-                            // [`tail_run`]).
                             // An arc's tail whose fold kinks (above): to
                             // its end, which is the move's.
                             Leads::Nowhere if deferred_fold.is_some() => !run.corner_before,
+                            // A line's tail (mod.rs `flush_tail`,
+                            // [`tail_run`]).
                             Leads::Nowhere => {
                                 !run.corner_before
                                     && !run.arc
