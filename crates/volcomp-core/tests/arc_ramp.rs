@@ -118,8 +118,7 @@ fn under_g61_a_turn_of_z_that_the_quarter_point_turns_back_is_held_across_it() {
 /// bench/shop_map.py): bands of 2–9 µm and straightness tables that turn
 /// Z's command within tenths of a micrometre of X's quarter points.
 fn shop_map() -> AxisTableMap {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/shop_map.csv");
-    AxisTableMap::from_csv(&std::fs::read_to_string(path).unwrap(), "shop_map.csv").unwrap()
+    common::data_map("shop_map.csv")
 }
 
 #[test]

@@ -36,5 +36,6 @@ mod take_up_advance;
 mod take_up_before;
 mod take_up_order;
 mod take_up_stand;
+mod tangent_join;
 mod thermal;
 mod zero_map_round_trip;

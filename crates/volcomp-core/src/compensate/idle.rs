@@ -55,6 +55,9 @@ pub(super) struct IdleHold {
     /// motion makes a corner that keeps its blend arc then
     /// (compensate/planar.rs); its records are already passed on.
     pub(super) planar: Option<super::planar::PlanarEnd>,
+    /// An arc's end as solved, for a line after it when the text goes
+    /// out as solved (compensate/tangent_join.rs).
+    pub(super) arc_end: Option<super::tangent_join::WrittenArcEnd>,
 }
 
 /// The last piece of a held line with axis `axis` taken up ahead.
@@ -363,6 +366,7 @@ impl State<'_> {
             records,
             flips,
             planar: None,
+            arc_end: None,
         });
     }
 
@@ -382,6 +386,7 @@ impl State<'_> {
             records: Vec::new(),
             flips: Vec::new(),
             planar: Some(planar),
+            arc_end: None,
         });
     }
 
@@ -436,7 +441,10 @@ impl State<'_> {
                         moved_mm,
                     });
                 }
-                None => out.extend_from_slice(&h.text),
+                None => {
+                    out.extend_from_slice(&h.text);
+                    self.arc_end_written = h.arc_end;
+                }
             },
         }
         for r in &records {

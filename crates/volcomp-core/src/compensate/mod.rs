@@ -53,6 +53,7 @@ mod take_up_advance;
 mod take_up_before;
 mod take_up_order;
 mod take_up_stand;
+mod tangent_join;
 mod targets;
 mod transition_hold;
 mod turn_back;
@@ -296,6 +297,8 @@ impl<'w> State<'w> {
             next_dir: None,
             next_text: Vec::new(),
             program_dirs: [None; 3],
+            arc_end_written: None,
+            arc_end_before: None,
             approach_pending: None,
         }
     }
@@ -311,6 +314,13 @@ impl<'w> State<'w> {
         let ev = line.ev;
         let own = (line.frame, line.style);
         let before = self.last_tangent.take();
+        // The arc's written end reaches only the motion right after it
+        // (compensate/tangent_join.rs).
+        self.arc_end_before = if ev.motions.is_empty() {
+            self.arc_end_written
+        } else {
+            self.arc_end_written.take()
+        };
         let has = |source| ev.motions.iter().any(|m| m.source == source);
         let program_motion = has(MotionSource::Program);
         let runs = line.all_known && !ev.after_end;
@@ -662,6 +672,9 @@ impl<'w> State<'w> {
                 && ev.next_may_start_arc();
             if (holds || waits) && self.next_corner.is_none() {
                 self.hold_line = Some(targets);
+                // The arc's end waits with the line (it is written again
+                // from `write_held_line`).
+                self.arc_end_written = self.arc_end_before.take();
                 return Ok((frame, style));
             }
             // Under G61: where the next line goes, from its text
@@ -838,6 +851,21 @@ impl<'w> State<'w> {
         let planar_line_split = planar_line_end.is_some_and(|p| {
             self.apply_planar_line_end(p, (&mut targets, &mut commands), q_line_start)
         });
+        // A line after an arc it joins tangent in the original: its first
+        // piece begins along the arc's written end tangent
+        // (compensate/tangent_join.rs).
+        let arc_end = self.arc_end_before.take();
+        if let (Some(end), None, None, None, false) =
+            (arc_end, &arc_nominal, &taken, &held_end, extra_moves)
+        {
+            self.tangent_lead(
+                end,
+                model,
+                (motion, &run),
+                (&mut targets, &mut commands),
+                (&frame, q_line_start, s_line_start),
+            );
+        }
         // Each axis' dead band brought to a known side before the program
         // cuts (compensate/approach.rs).
         let approach = self
@@ -1386,6 +1414,28 @@ impl<'w> State<'w> {
             };
             self.hold_planar(ev.number, last_piece, planar);
         }
+        // An arc written whole, its last piece not held back: its end for
+        // a line after it (compensate/tangent_join.rs).
+        let arc_end = match (&arc_nominal, arc_words.last(), commands.last()) {
+            (Some(_), Some(w), Some((q, _))) if held_end.is_none() => {
+                let k = commands.len() - 1;
+                let before = if k == 0 {
+                    q_line_start
+                } else {
+                    commands[k - 1].0
+                };
+                let from = commands[k].1.unwrap_or(before);
+                tangent_join::end_tangent(w, from, *q)
+                    .map(|tangent| tangent_join::WrittenArcEnd { q_mm: *q, tangent })
+            }
+            _ => None,
+        };
+        // Held back (compensate/idle.rs): it counts where the text goes out
+        // as solved.
+        match self.idle.as_mut() {
+            Some(h) if h.line == ev.number => h.arc_end = arc_end,
+            _ => self.arc_end_written = arc_end,
+        }
         // The buffers back for the next motion line.
         (self.targets, self.commands) = (targets, commands);
         Ok((frame, style))
@@ -1929,6 +1979,13 @@ struct State<'w> {
     /// does not move whose state is against it may be taken up ahead
     /// (compensate/idle.rs `State::turned_back_axes`).
     program_dirs: [Option<Direction>; 3],
+    /// The last motion, an arc, as written: its end command and tangent
+    /// (compensate/tangent_join.rs); `None` after anything else, or where
+    /// its last piece is held back.
+    arc_end_written: Option<tangent_join::WrittenArcEnd>,
+    /// While a motion line is written: `arc_end_written` as the line
+    /// before left it.
+    arc_end_before: Option<tangent_join::WrittenArcEnd>,
 }
 
 /// Edits of a line that sets an offset from the current point (G92, or

@@ -202,6 +202,15 @@ pub fn simulated(out: &str, program: &str, map: &AxisTableMap) -> SimReport {
     .unwrap()
 }
 
+/// The axis-table map `name` kept in tests/data (a map a bench script
+/// wrote, copied there).
+pub fn data_map(name: &str) -> AxisTableMap {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name);
+    AxisTableMap::from_csv(&std::fs::read_to_string(path).unwrap(), name).unwrap()
+}
+
 /// The cutting time (s) of `program` on the planner model (LinuxCNC 2.9's
 /// planner; `plan::estimate_program`) with the default set-up and limits.
 pub fn cutting_s(program: &str) -> f64 {
