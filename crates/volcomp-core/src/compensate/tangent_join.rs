@@ -18,10 +18,14 @@
 //! written (its rise counted, as `pmCircleTangentVector` gives it): the
 //! join is tangent again, and the turn moves to the end of that short
 //! piece, between two lines, which LinuxCNC blends with an arc in any plane
-//! (`tpCreateLineLineBlend`). The split lies within the planar tolerance of
-//! the first piece as solved (0.4 µm under G64 without P); `ℓ` is twice the
-//! shortest piece the planner runs at the feed, shorter where the turn
-//! needs it, never below that shortest piece.
+//! (`tpCreateLineLineBlend`). The piece's end moves from the join by no
+//! more than the planar tolerance (0.4 µm under G64 without P) beyond what
+//! the command that keeps the tool on the line in the arc's direction
+//! state moves: where an axis reverses at the join it stands in its band
+//! while its command moves, so the take-up folded into the first piece then
+//! begins at the piece's end. `ℓ` is twice the shortest piece the planner
+//! runs at the feed, else once, and never where the rest of the first piece
+//! would be shorter than that.
 
 use super::frame::Frame;
 use super::lines::ArcWords;
@@ -35,8 +39,8 @@ use volcomp_gcode::{Motion, MotionKind, Vec3};
 const QUANTUM_MM: f64 = 1e-9;
 
 /// How far an axis of the piece along the tangent may move against the
-/// first piece's way and be held at the start instead (mm): a few steps
-/// of the written grid (10 nm in mm at five decimals), a turn of 0.1 mrad
+/// first piece's way and be held at the start instead (mm): two steps of
+/// the written grid (10 nm each in mm at five decimals), a turn of 0.2 mrad
 /// over the shortest piece at F6000, within the planner's tangency
 /// tolerance there (0.495 mrad where an arc takes part).
 const GRID_STEPS_MM: f64 = 2e-5;
@@ -99,9 +103,10 @@ impl State<'_> {
     /// written between) through a join the original runs through tangent,
     /// its first piece as solved (no take-up block before it) turns from
     /// the arc's end tangent by more than the planner's tangency tolerance,
-    /// and a piece along that tangent ends within the planar tolerance of
-    /// the first piece, that piece is put first ([`lead_length_mm`]; no
-    /// axis turns back at its end). Whether it was.
+    /// and a piece along that tangent keeps within the planar tolerance of
+    /// the line's command in the arc's direction state (see the module
+    /// documentation), that piece is put first (no axis turns back at its
+    /// end). Whether it was.
     pub(super) fn tangent_lead(
         &mut self,
         end: WrittenArcEnd,
