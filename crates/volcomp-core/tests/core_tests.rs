@@ -16,6 +16,7 @@ mod exact_hold;
 mod extra_axes_and_splines;
 mod folder_imports;
 mod g64p_line_hold;
+mod helix_normal_step;
 mod idle_take_ups;
 mod kinematic;
 mod line_arc_blend;

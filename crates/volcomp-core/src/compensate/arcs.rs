@@ -516,13 +516,7 @@ pub(super) fn smooth_normal_kinks(
     let run_through = super::points::RUN_THROUGH_TOLERANCE_MM;
     // Point k ends piece k; transition t's S-curve is the piece from point
     // t.index to t.index + 1.
-    let dev_between = |a: usize, b: usize| {
-        transitions
-            .iter()
-            .filter(|t| t.index < b && t.index + 1 > a)
-            .map(|t| t.deviation_mm)
-            .fold(0.0f64, f64::max)
-    };
+    let dev_between = |a: usize, b: usize| deviation_between_mm(transitions, a, b);
     let bound = |a: usize, b: usize| {
         let dev = dev_between(a, b);
         let beside = (run_through * run_through - dev * dev).max(0.0).sqrt();
@@ -534,6 +528,7 @@ pub(super) fn smooth_normal_kinks(
         (limit, limit),
         &bound,
         quantize,
+        Smoothing::Exact,
     );
     if moved > 0.0 {
         let dev = dev_between(0, usize::MAX);
@@ -543,9 +538,140 @@ pub(super) fn smooth_normal_kinks(
     }
 }
 
+/// The largest deviation (mm) of the S-curves among `transitions` that lie
+/// between the anchors `a < b` (point `k` ends piece `k`; transition `t`'s
+/// S-curve is the piece from point `t.index` to `t.index + 1`).
+fn deviation_between_mm(transitions: &[Transition], a: usize, b: usize) -> f64 {
+    transitions
+        .iter()
+        .filter(|t| t.index < b && t.index + 1 > a)
+        .map(|t| t.deviation_mm)
+        .fold(0.0f64, f64::max)
+}
+
+/// The step (mm) each S-curve among `transitions` makes in the plane's
+/// normal axis `w` beyond the arc's own progress: the S-curve's piece (from
+/// point `t.index` to `t.index + 1`; point 0 is `q_in`, point `k` the end
+/// of piece `k`) moves along `w` by that much more than the mean slope of
+/// the pieces on either side carries over its length. 0 where it has no
+/// piece on either side.
+fn normal_steps_mm(
+    commands: &[(Vec3, Option<Vec3>)],
+    (arc, pieces, q_in): (&Arc, &[f64], Vec3),
+    transitions: &[Transition],
+) -> Vec<f64> {
+    let w = arc.plane.axes().2;
+    let len = arc.length();
+    let n = commands.len().min(pieces.len());
+    let x = |k: usize| if k == 0 { 0.0 } else { pieces[k - 1] * len };
+    let point = |k: usize| {
+        if k == 0 {
+            q_in[w]
+        } else {
+            commands[k - 1].0[w]
+        }
+    };
+    // The slope of piece k (from point k − 1 to k), where it has a length.
+    let slope = |k: usize| {
+        if k == 0 || k > n {
+            return None;
+        }
+        let dx = x(k) - x(k - 1);
+        (dx > 0.0).then(|| (point(k) - point(k - 1)) / dx)
+    };
+    transitions
+        .iter()
+        .map(|t| {
+            let i = t.index;
+            let Some(own) = slope(i + 1) else { return 0.0 };
+            let beside: Vec<f64> = [i, i + 2].into_iter().filter_map(slope).collect();
+            if beside.is_empty() {
+                return 0.0;
+            }
+            let mean = beside.iter().sum::<f64>() / beside.len() as f64;
+            ((own - mean) * (x(i + 1) - x(i))).abs()
+        })
+        .collect()
+}
+
+/// Under G64 without P, [`smooth_normal_turns`] on an arc's solved commands
+/// at the feed `v_mm_s`, a helix included: the joins whose turn of the
+/// normal axis `w` is above the planner's tangency tolerance there are
+/// smoothed to within [`super::points::RAMP_SHARE`] of it.
+///
+/// Where an axis of the plane reverses on an S-curve, its straightness in
+/// `w` switches tables, and the normal command steps by that difference
+/// over the S-curve's two short arcs (2.9 µm over 3 mm on bench/eval's
+/// coarse map: a turn of about 1 mrad at both ends). Such a join between
+/// helical pieces is no tangent for LinuxCNC 2.9 (the turn counts the
+/// rise, tp.c `tpSetupTangent`), nor can it be blended by an arc (a helix
+/// is not in the corner's plane, `tpCreateArcArcBlend`): the planner
+/// blends it parabolically, at half the acceleration, at every quarter
+/// point of a helical bore. A program in G64 without P asks for speed and
+/// lets the tool leave the path at a reversal, so the step is spread over
+/// the pieces around it, a command moving by no more than the step it
+/// spreads ([`normal_steps_mm`]) of an S-curve between the anchors, and by
+/// the run-through tolerance ([`super::points::RUN_THROUGH_TOLERANCE_MM`])
+/// where none lies between them. Returns the largest distance a command
+/// moved and the largest distance from the path it may leave there (mm;
+/// zeros where nothing moved).
+pub(super) fn smooth_normal_kinks_folded(
+    (commands, states): (&mut [(Vec3, Option<Vec3>)], &[Directions]),
+    (arc, pieces, q_in): (&Arc, &[f64], Vec3),
+    (transitions, options, v_mm_s): (&[Transition], &super::CompensateOptions, f64),
+    quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
+) -> (f64, f64) {
+    if v_mm_s.is_nan() || v_mm_s <= 0.0 || transitions.is_empty() {
+        return (0.0, 0.0);
+    }
+    let w = arc.plane.axes().2;
+    let limit = options.planner.tangent_tolerance(v_mm_s, true)[w];
+    let target = super::points::RAMP_SHARE * limit;
+    let steps = normal_steps_mm(commands, (arc, pieces, q_in), transitions);
+    let bound = |a: usize, b: usize| {
+        transitions
+            .iter()
+            .zip(&steps)
+            .filter(|(t, _)| t.index < b && t.index + 1 > a)
+            .map(|(_, s)| *s)
+            .fold(super::points::RUN_THROUGH_TOLERANCE_MM, f64::max)
+    };
+    let moved = smooth_normal_turns(
+        (commands, states),
+        (arc, pieces, q_in),
+        (limit, target),
+        &bound,
+        quantize,
+        Smoothing::Folded,
+    );
+    if moved > 0.0 {
+        let dev = deviation_between_mm(transitions, 0, usize::MAX);
+        (moved, moved.hypot(dev))
+    } else {
+        (0.0, 0.0)
+    }
+}
+
 /// Pieces on each side of a kink the smoothing of the normal axis may
 /// reach ([`smooth_normal_turns`]).
 const SMOOTH_REACH: usize = 8;
+
+/// How [`smooth_normal_turns`] treats a helix and which of the windows that
+/// bring every turn within the target it takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Smoothing {
+    /// Under G61: a helix is left alone (its own progress along the normal
+    /// decides the joins); the window of the fewest pieces, then of the
+    /// least largest move.
+    Exact,
+    /// Under G64 without P: a helix too (its nominal rise is linear in the
+    /// arc's length, so the slopes compared differ by the compensation's
+    /// alone); the window whose moves leave the least squared error along
+    /// the path (`Σ Δw²` weighted by the length each command stands for),
+    /// whatever its size: where the bound allows micrometres, the fewest
+    /// pieces may take a window whose move is larger than a longer one's.
+    Folded,
+}
 
 /// Under G61, the turns of the plane's normal axis `w` at the joins of an
 /// arc's pieces that the planner would not take as tangent, smoothed
@@ -569,8 +695,8 @@ const SMOOTH_REACH: usize = 8;
 /// piece moves `w` in its direction state's way or not at all (so no
 /// reversal is made or moved), and no command moves by more than
 /// `bound_mm(A, B)` (commands `A`, `B` counted from the arc's start, 0).
-/// A helix is left alone (its own progress along `w` decides the joins).
-/// Returns the largest distance moved (mm; 0 where nothing was).
+/// [`Smoothing`] says whether a helix is smoothed and which window is
+/// taken. Returns the largest distance moved (mm; 0 where nothing was).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn smooth_normal_turns(
     (commands, states): (&mut [(Vec3, Option<Vec3>)], &[Directions]),
@@ -578,11 +704,13 @@ pub(super) fn smooth_normal_turns(
     (turn_limit, target): (f64, f64),
     bound_mm: &dyn Fn(usize, usize) -> f64,
     quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
+    smoothing: Smoothing,
 ) -> f64 {
     let w = arc.plane.axes().2;
     let n = commands.len().min(pieces.len()).min(states.len());
     let len = arc.length();
-    if arc.start[w] != arc.end[w] || n < 3 || !(len > 0.0 && target > 0.0) {
+    let helix_left = smoothing == Smoothing::Exact && arc.start[w] != arc.end[w];
+    if helix_left || n < 3 || !(len > 0.0 && target > 0.0) {
         return 0.0;
     }
     // Point k: 0 the start, k the end of piece k (commands[k − 1]).
@@ -605,12 +733,13 @@ pub(super) fn smooth_normal_turns(
             continue;
         }
         // The best window: the fewest pieces that bring every turn within
-        // `target` (then the least error); where none does, the one that
+        // `target` (then the least error), or under `Smoothing::Folded`
+        // the least squared error of all; where none does, the one that
         // leaves the least turn, if below the worst it had.
-        let mut within: Option<(usize, f64, Vec<Vec3>, usize)> = None;
+        let mut within: Option<(f64, f64, Vec<Vec3>, usize)> = None;
         let mut least: Option<(f64, f64, Vec<Vec3>, usize)> = None;
         for total in 1..=2 * SMOOTH_REACH {
-            if within.is_some() {
+            if within.is_some() && smoothing == Smoothing::Exact {
                 break;
             }
             for ma in 0..=total {
@@ -627,6 +756,7 @@ pub(super) fn smooth_normal_turns(
                 let h = x[b] - x[a];
                 let mut trial: Vec<(Vec3, Option<Vec3>)> = commands[..n].to_vec();
                 let mut err: f64 = 0.0;
+                let mut area: f64 = 0.0;
                 for k in a + 1..b {
                     let u = (x[k] - x[a]) / h;
                     let (u2, u3) = (u * u, u * u * u);
@@ -637,7 +767,9 @@ pub(super) fn smooth_normal_turns(
                     let mut q = trial[k - 1].0;
                     q[w] = value;
                     let q = quantize(q, point(&trial, k - 1));
-                    err = err.max((q[w] - commands[k - 1].0[w]).abs());
+                    let dw = q[w] - commands[k - 1].0[w];
+                    err = err.max(dw.abs());
+                    area += dw * dw * 0.5 * (x[k + 1] - x[k - 1]);
                     trial[k - 1].0 = q;
                 }
                 if err > bound_mm(a, b) {
@@ -655,15 +787,19 @@ pub(super) fn smooth_normal_turns(
                 let (was, now) = (worst(commands), worst(&trial));
                 let qs: Vec<Vec3> = trial[a..b].iter().map(|c| c.0).collect();
                 if now <= target {
-                    if within.as_ref().is_none_or(|(_, e, _, _)| err < *e) {
-                        within = Some((total, err, qs, a));
+                    let key = match smoothing {
+                        Smoothing::Exact => err,
+                        Smoothing::Folded => area,
+                    };
+                    if within.as_ref().is_none_or(|(k, _, _, _)| key < *k) {
+                        within = Some((key, err, qs, a));
                     }
                 } else if now < was && least.as_ref().is_none_or(|(t, _, _, _)| now < *t) {
                     least = Some((now, err, qs, a));
                 }
             }
         }
-        let best = within.or(least.map(|(_, e, qs, a)| (0, e, qs, a)));
+        let best = within.or(least);
         if let Some((_, err, qs, a)) = best {
             for (i, q) in qs.into_iter().enumerate() {
                 commands[a + i].0 = q;
@@ -1727,6 +1863,103 @@ mod tests {
             .collect()
     }
 
+    /// A helix of R7 about the origin falling 1.5 mm a turn, from (7, 0, 0)
+    /// over 20 mm of arc: pieces of 4, 4.5, 1.5 (the S-curve's, ending at
+    /// point 3), 5 and 5 mm of arc, its commands on the helix but for the
+    /// S-curve's end and what follows, lowered by `step_um`.
+    fn stepped_helix(step_um: f64) -> (Arc, Vec<f64>, Commands) {
+        let r = 7.0;
+        let (arc_mm, pitch) = (20.0, 1.5);
+        let sweep = arc_mm / r;
+        let fall = pitch * sweep / TAU;
+        let arc = Arc {
+            start: Vec3::new(r, 0.0, 0.0),
+            end: Vec3::new(r * sweep.cos(), r * sweep.sin(), -fall),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: sweep,
+        };
+        let pieces: Vec<f64> = [4.0, 8.5, 10.0, 15.0, 20.0]
+            .iter()
+            .map(|e| e / arc_mm)
+            .collect();
+        let commands = pieces
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let mut q = arc.point_at(*p);
+                if i >= 2 {
+                    q.z -= step_um * 1e-3;
+                }
+                (q, None)
+            })
+            .collect();
+        (arc, pieces, commands)
+    }
+
+    #[test]
+    fn under_g64_a_helix_spreads_the_step_of_its_s_curve_within_the_step() {
+        // The S-curve's piece falls by its share of the helix plus 2.9 µm:
+        // against the pieces on either side its slope differs by
+        // 2.9e-3 / 1.5 = 1.93e-3 rad, above the planner's tangency
+        // tolerance on an arc at F6000 (4.950e-4 rad, by hand in the test
+        // above), a join LinuxCNC blends parabolically.
+        let (arc, pieces, before) = stepped_helix(2.9);
+        let turns = z_turns(&arc, &pieces, &before);
+        let len = arc.length();
+        let by_hand = 2.9e-3 / (1.5 * len / arc.sweep_rad / 7.0);
+        assert!((turns[1] - by_hand).abs() < 1e-9, "{turns:?} {by_hand}");
+        assert!((turns[2] - by_hand).abs() < 1e-9, "{turns:?} {by_hand}");
+        let s_curve = Transition {
+            index: 2,
+            axis: 1,
+            direction: Direction::Forward,
+            deviation_mm: 12e-3,
+            spread: None,
+            widest: false,
+        };
+        // The step the S-curve makes beyond the helix' own fall, by hand.
+        let steps = normal_steps_mm(&before, (&arc, &pieces, arc.start), &[s_curve]);
+        assert!((steps[0] - 2.9e-3).abs() < 1e-9, "{steps:?}");
+        let quantize = |q: Vec3, _from: Vec3| Vec3::new(q.x, q.y, (q.z * 1e5).round() / 1e5);
+        // Z falls along the whole helix (its reverse state).
+        let mut down = ALL_FORWARD;
+        down[2] = Direction::Reverse;
+        let states = vec![down; before.len()];
+        let options = super::super::CompensateOptions::default();
+        let mut c = before.clone();
+        let (moved, bound) = smooth_normal_kinks_folded(
+            (&mut c, &states),
+            (&arc, &pieces, arc.start),
+            (&[s_curve], &options, 100.0),
+            &quantize,
+        );
+        // Every join now within 0.6 of the tolerance (2.970e-4 rad), no
+        // command moved by more than the step, the helix' ends kept, Z
+        // never rising.
+        let turns = z_turns(&arc, &pieces, &c);
+        assert!(
+            turns.iter().all(|t| *t <= 0.6 * 4.950e-4 + 1e-9),
+            "{turns:?}"
+        );
+        assert!(moved > 0.0 && moved <= 2.9e-3 + 1e-12, "{moved}");
+        assert!((bound - moved.hypot(12e-3)).abs() < 1e-15);
+        assert_eq!(c.last().unwrap().0, before.last().unwrap().0);
+        let z = |k: usize| if k == 0 { arc.start.z } else { c[k - 1].0.z };
+        assert!((1..=c.len()).all(|k| z(k) <= z(k - 1)), "{c:?}");
+        // Under G61 a helix is left alone.
+        let mut g61 = before.clone();
+        let moved = smooth_normal_turns(
+            (&mut g61, &states),
+            (&arc, &pieces, arc.start),
+            (4.950e-4, 4.950e-4),
+            &|_, _| 1.0,
+            &quantize,
+            Smoothing::Exact,
+        );
+        assert_eq!((moved, &g61), (0.0, &before));
+    }
+
     #[test]
     fn a_step_of_the_normal_axis_is_smoothed_within_the_planners_tangency_tolerance() {
         // At F6000 the planner takes a join on an arc as tangent where
@@ -1751,6 +1984,7 @@ mod tests {
             (limit, limit),
             &bound,
             &quantize,
+            Smoothing::Exact,
         );
         let turns = z_turns(&arc, &pieces, &c);
         let worst = turns.iter().fold(0.0f64, |m, t| m.max(*t));
@@ -1781,6 +2015,7 @@ mod tests {
             (limit, limit),
             &bound,
             &quantize,
+            Smoothing::Exact,
         );
         assert!(c[..15].iter().all(|q| q.0.z == 0.0));
         assert!(c != before);
@@ -1793,6 +2028,7 @@ mod tests {
             (limit, limit),
             &tight,
             &quantize,
+            Smoothing::Exact,
         );
         assert!(moved <= 0.05e-3 + 1e-15, "{moved}");
         assert!(c

@@ -3237,6 +3237,24 @@ impl State<'_> {
                     self.summary.max_fold_excursion_um.max(bound_mm * 1e3);
             }
         }
+        // Under G64 without P the normal axis' turns an S-curve leaves at
+        // its joins, smoothed within what the fold may leave (arcs.rs).
+        if let (TakeUpRule::Always, Leads::Arc { arc, pieces }) = (rule, &leads) {
+            let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+            let (moved_mm, bound_mm) = super::arcs::smooth_normal_kinks_folded(
+                (&mut commands, &self.states),
+                (arc, pieces, commands_start),
+                (&transitions, options, v_mm_s),
+                &|q, from| frame.quantize(q, from),
+            );
+            if moved_mm > 0.0 {
+                for (r, c) in records.iter_mut().zip(&commands) {
+                    r.command_mm = c.0;
+                }
+                self.summary.max_fold_excursion_um =
+                    self.summary.max_fold_excursion_um.max(bound_mm * 1e3);
+            }
+        }
         self.transitions_written = transitions;
         if let Some((axes, s)) = plunge_held {
             self.plunge_held = [0, 1, 2].map(|a| axes[a] && self.s[a] == s[a]);
