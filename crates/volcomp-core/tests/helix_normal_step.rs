@@ -1,6 +1,6 @@
 //! Under G64 without P, the step an S-curve makes in a helix' rise axis is
 //! spread over the pieces around it, so LinuxCNC joins the helical pieces
-//! as tangent (compensate/arcs.rs, `smooth_normal_kinks_folded`).
+//! as tangent (compensate/arcs.rs, `smooth_normal_kinks` under `Smoothing::Folded`).
 
 use crate::common;
 

@@ -492,14 +492,34 @@ pub(super) fn normal_step_span(
     Some((lo - d, hi + d))
 }
 
-/// Under G61, [`smooth_normal_turns`] on an arc's solved commands at the
-/// feed `v_mm_s`: the joins whose turn of the normal axis is above the
-/// planner's tangency tolerance there (`PlannerLimits::tangent_tolerance`,
-/// on an arc) are smoothed to within [`super::points::RAMP_SHARE`] of it,
-/// each command moved by no more than a ramp's tolerance
-/// ([`super::ramp_centre::TOLERANCE_MM`]) nor more than the run-through
-/// tolerance leaves beside the deviation of an S-curve (`transitions`)
-/// between the anchors, `√(tol² − dev²)` (the two lie across each other).
+/// [`smooth_normal_turns`] on an arc's solved commands at the feed
+/// `v_mm_s`, under the rule of the program's path-control mode:
+///
+/// * [`Smoothing::Exact`] (G61): the joins whose turn of the normal axis is
+///   above the planner's tangency tolerance there
+///   (`PlannerLimits::tangent_tolerance`, on an arc) are smoothed to within
+///   that tolerance, each command moved by no more than a ramp's tolerance
+///   ([`super::ramp_centre::TOLERANCE_MM`]) nor more than the run-through
+///   tolerance leaves beside the deviation of an S-curve (`transitions`)
+///   between the anchors, `√(tol² − dev²)` (the two lie across each other).
+/// * [`Smoothing::Folded`] (G64 without P), a helix included: to within
+///   [`super::points::RAMP_SHARE`] of the tolerance. Where an axis of the
+///   plane reverses on an S-curve, its straightness in `w` switches
+///   tables, and the normal command steps by that difference over the
+///   S-curve's two short arcs (about 3 µm over 1.5–3 mm on bench/eval's
+///   coarse map: a turn of about 1 mrad at both ends). Such a join between
+///   helical pieces is no tangent for LinuxCNC 2.9 (the turn counts the
+///   rise, tp.c `tpSetupTangent`), nor can it be blended by an arc (a
+///   helix is not in the corner's plane, `tpCreateArcArcBlend`): the
+///   planner blends it parabolically, at half the acceleration, at every
+///   quarter point of a helical bore. A program in G64 without P asks for
+///   speed and lets the tool leave the path at a reversal, so the step is
+///   spread over the pieces around it, a command moving by no more than
+///   the step it spreads ([`normal_steps_mm`]) of an S-curve between the
+///   anchors, and by the run-through tolerance
+///   ([`super::points::RUN_THROUGH_TOLERANCE_MM`]) where none lies between
+///   them.
+///
 /// Returns the largest distance a command moved and the largest distance
 /// from the path it may leave there (mm; zeros where nothing moved).
 pub(super) fn smooth_normal_kinks(
@@ -507,31 +527,47 @@ pub(super) fn smooth_normal_kinks(
     (arc, pieces, q_in): (&Arc, &[f64], Vec3),
     (transitions, options, v_mm_s): (&[Transition], &super::CompensateOptions, f64),
     quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
+    smoothing: Smoothing,
 ) -> (f64, f64) {
-    if v_mm_s.is_nan() || v_mm_s <= 0.0 {
+    // Under G64 without P only the steps S-curves make are spread.
+    let nothing_folded = smoothing == Smoothing::Folded && transitions.is_empty();
+    if v_mm_s.is_nan() || v_mm_s <= 0.0 || nothing_folded {
         return (0.0, 0.0);
     }
     let w = arc.plane.axes().2;
     let limit = options.planner.tangent_tolerance(v_mm_s, true)[w];
     let run_through = super::points::RUN_THROUGH_TOLERANCE_MM;
-    // Point k ends piece k; transition t's S-curve is the piece from point
-    // t.index to t.index + 1.
-    let dev_between = |a: usize, b: usize| deviation_between_mm(transitions, a, b);
-    let bound = |a: usize, b: usize| {
-        let dev = dev_between(a, b);
-        let beside = (run_through * run_through - dev * dev).max(0.0).sqrt();
-        super::ramp_centre::TOLERANCE_MM.min(beside)
+    let steps = match smoothing {
+        Smoothing::Exact => Vec::new(),
+        Smoothing::Folded => normal_steps_mm(commands, (arc, pieces, q_in), transitions),
+    };
+    let bound = |a: usize, b: usize| match smoothing {
+        Smoothing::Exact => {
+            let dev = deviation_between_mm(transitions, a, b);
+            let beside = (run_through * run_through - dev * dev).max(0.0).sqrt();
+            super::ramp_centre::TOLERANCE_MM.min(beside)
+        }
+        Smoothing::Folded => transitions
+            .iter()
+            .zip(&steps)
+            .filter(|(t, _)| t.index < b && t.index + 1 > a)
+            .map(|(_, s)| *s)
+            .fold(run_through, f64::max),
+    };
+    let target = match smoothing {
+        Smoothing::Exact => limit,
+        Smoothing::Folded => super::points::RAMP_SHARE * limit,
     };
     let moved = smooth_normal_turns(
         (commands, states),
         (arc, pieces, q_in),
-        (limit, limit),
+        (limit, target),
         &bound,
         quantize,
-        Smoothing::Exact,
+        smoothing,
     );
     if moved > 0.0 {
-        let dev = dev_between(0, usize::MAX);
+        let dev = deviation_between_mm(transitions, 0, usize::MAX);
         (moved, moved.hypot(dev))
     } else {
         (0.0, 0.0)
@@ -592,64 +628,6 @@ fn normal_steps_mm(
             ((own - mean) * (x(i + 1) - x(i))).abs()
         })
         .collect()
-}
-
-/// Under G64 without P, [`smooth_normal_turns`] on an arc's solved commands
-/// at the feed `v_mm_s`, a helix included: the joins whose turn of the
-/// normal axis `w` is above the planner's tangency tolerance there are
-/// smoothed to within [`super::points::RAMP_SHARE`] of it.
-///
-/// Where an axis of the plane reverses on an S-curve, its straightness in
-/// `w` switches tables, and the normal command steps by that difference
-/// over the S-curve's two short arcs (2.9 µm over 3 mm on bench/eval's
-/// coarse map: a turn of about 1 mrad at both ends). Such a join between
-/// helical pieces is no tangent for LinuxCNC 2.9 (the turn counts the
-/// rise, tp.c `tpSetupTangent`), nor can it be blended by an arc (a helix
-/// is not in the corner's plane, `tpCreateArcArcBlend`): the planner
-/// blends it parabolically, at half the acceleration, at every quarter
-/// point of a helical bore. A program in G64 without P asks for speed and
-/// lets the tool leave the path at a reversal, so the step is spread over
-/// the pieces around it, a command moving by no more than the step it
-/// spreads ([`normal_steps_mm`]) of an S-curve between the anchors, and by
-/// the run-through tolerance ([`super::points::RUN_THROUGH_TOLERANCE_MM`])
-/// where none lies between them. Returns the largest distance a command
-/// moved and the largest distance from the path it may leave there (mm;
-/// zeros where nothing moved).
-pub(super) fn smooth_normal_kinks_folded(
-    (commands, states): (&mut [(Vec3, Option<Vec3>)], &[Directions]),
-    (arc, pieces, q_in): (&Arc, &[f64], Vec3),
-    (transitions, options, v_mm_s): (&[Transition], &super::CompensateOptions, f64),
-    quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
-) -> (f64, f64) {
-    if v_mm_s.is_nan() || v_mm_s <= 0.0 || transitions.is_empty() {
-        return (0.0, 0.0);
-    }
-    let w = arc.plane.axes().2;
-    let limit = options.planner.tangent_tolerance(v_mm_s, true)[w];
-    let target = super::points::RAMP_SHARE * limit;
-    let steps = normal_steps_mm(commands, (arc, pieces, q_in), transitions);
-    let bound = |a: usize, b: usize| {
-        transitions
-            .iter()
-            .zip(&steps)
-            .filter(|(t, _)| t.index < b && t.index + 1 > a)
-            .map(|(_, s)| *s)
-            .fold(super::points::RUN_THROUGH_TOLERANCE_MM, f64::max)
-    };
-    let moved = smooth_normal_turns(
-        (commands, states),
-        (arc, pieces, q_in),
-        (limit, target),
-        &bound,
-        quantize,
-        Smoothing::Folded,
-    );
-    if moved > 0.0 {
-        let dev = deviation_between_mm(transitions, 0, usize::MAX);
-        (moved, moved.hypot(dev))
-    } else {
-        (0.0, 0.0)
-    }
 }
 
 /// Pieces on each side of a kink the smoothing of the normal axis may
@@ -1928,11 +1906,12 @@ mod tests {
         let states = vec![down; before.len()];
         let options = super::super::CompensateOptions::default();
         let mut c = before.clone();
-        let (moved, bound) = smooth_normal_kinks_folded(
+        let (moved, bound) = smooth_normal_kinks(
             (&mut c, &states),
             (&arc, &pieces, arc.start),
             (&[s_curve], &options, 100.0),
             &quantize,
+            Smoothing::Folded,
         );
         // Every join now within 0.6 of the tolerance (2.970e-4 rad), no
         // command moved by more than the step, the helix' ends kept, Z

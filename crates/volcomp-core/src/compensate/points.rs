@@ -3222,30 +3222,24 @@ impl State<'_> {
                         self.summary.max_fold_excursion_um.max(bound_um);
                 }
             }
-            // Then the normal axis' kinks left (compensate/arcs.rs).
-            let (moved_mm, bound_mm) = super::arcs::smooth_normal_kinks(
-                (&mut commands, &self.states),
-                (arc, pieces, q_in),
-                (&transitions, options, v_mm_s),
-                &|q, from| frame.quantize(q, from),
-            );
-            if moved_mm > 0.0 {
-                for (r, c) in records.iter_mut().zip(&commands) {
-                    r.command_mm = c.0;
-                }
-                self.summary.max_fold_excursion_um =
-                    self.summary.max_fold_excursion_um.max(bound_mm * 1e3);
-            }
         }
-        // Under G64 without P the normal axis' turns an S-curve leaves at
-        // its joins, smoothed within what the fold may leave (arcs.rs).
-        if let (TakeUpRule::Always, Leads::Arc { arc, pieces }) = (rule, &leads) {
+        // Then the normal axis' kinks left at the arc's joins
+        // (compensate/arcs.rs): under G61 within the run-through tolerance
+        // beside the S-curves, under G64 without P (a helix too) within the
+        // step an S-curve makes.
+        let smoothing = match rule {
+            TakeUpRule::Exact { smooth: true } => Some(super::arcs::Smoothing::Exact),
+            TakeUpRule::Always => Some(super::arcs::Smoothing::Folded),
+            _ => None,
+        };
+        if let (Some(smoothing), Leads::Arc { arc, pieces }) = (smoothing, &leads) {
             let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
-            let (moved_mm, bound_mm) = super::arcs::smooth_normal_kinks_folded(
+            let (moved_mm, bound_mm) = super::arcs::smooth_normal_kinks(
                 (&mut commands, &self.states),
                 (arc, pieces, commands_start),
                 (&transitions, options, v_mm_s),
                 &|q, from| frame.quantize(q, from),
+                smoothing,
             );
             if moved_mm > 0.0 {
                 for (r, c) in records.iter_mut().zip(&commands) {
