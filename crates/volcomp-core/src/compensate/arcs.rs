@@ -646,14 +646,14 @@ pub(super) enum Smoothing {
     /// arc's length, so the slopes compared differ by the compensation's
     /// alone); the window whose moves leave the least squared error along
     /// the path (`Σ Δw²` weighted by the length each command stands for),
-    /// whatever its size: where the bound allows micrometres, the fewest
-    /// pieces may take a window whose move is larger than a longer one's.
+    /// whatever its size (on bench/eval's bores it is the window of the
+    /// fewest pieces as well).
     Folded,
 }
 
-/// Under G61, the turns of the plane's normal axis `w` at the joins of an
-/// arc's pieces that the planner would not take as tangent, smoothed
-/// within an error bound.
+/// The turns of the plane's normal axis `w` at the joins of an arc's
+/// pieces that the planner would not take as tangent, smoothed within an
+/// error bound (under G61 and G64 without P: [`smooth_normal_kinks`]).
 ///
 /// Where the normal axis' command steps by tenths of a micrometre over a
 /// piece of a few tenths of a millimetre (its straightness switching
