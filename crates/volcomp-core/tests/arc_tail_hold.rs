@@ -20,7 +20,7 @@ G3 X220 Y216 I0 J-4\nG1 Y184\nG3 X224 Y180 I4 J0\nG0 Z155\nM2\n";
 #[test]
 fn under_g61_a_reversal_on_an_arcs_tail_into_a_tangent_line_is_no_stop() {
     let map = example_map();
-    let (out, _, _) = common::compensate_recorded(POCKET, &map);
+    let (out, ratio) = common::compensated_time_ratio(POCKET, &map);
     // On the example map Z's command turns back where the arc of L10 meets
     // the line of L11 (X stops there, and with it X's straightness along
     // Z). Folded into the arc's last 0.08 mm, the 2 µm of Z's band turned
@@ -30,7 +30,6 @@ fn under_g61_a_reversal_on_an_arcs_tail_into_a_tangent_line_is_no_stop() {
     // planner to the ms) main d648139 cut this loop in +6.7 % of the
     // original's time; held to the arc's end and taken up on the line's
     // first millimetres, +1.8 %.
-    let ratio = common::cutting_s(&out) / common::cutting_s(POCKET);
     assert!(ratio < 1.03, "{ratio}\n{out}");
     // The hold and the ramp after it leave the tool within the 0.4 µm a
     // take-up the machine runs through may leave under G61 (the 0.5 µm

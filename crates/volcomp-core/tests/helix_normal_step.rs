@@ -17,7 +17,7 @@ fn under_g64_a_helical_bore_keeps_its_pieces_tangent_across_the_s_curves() {
     // straightness that switches with the direction of X and Y, so Z's
     // command steps by about 3 µm across every S-curve at a quarter point.
     let map = common::data_map("coarse_map.csv");
-    let (out, _, _) = common::compensate_recorded(BORE, &map);
+    let (out, ratio) = common::compensated_time_ratio(BORE, &map);
     // Left on the S-curve's two short arcs, that step turned the helical
     // pieces' tangents by about 1 mrad at their joins, above LinuxCNC's
     // tangency tolerance (4.95e-4 rad on an arc at F6000): blended
@@ -25,7 +25,6 @@ fn under_g64_a_helical_bore_keeps_its_pieces_tangent_across_the_s_curves() {
     // (bench/cycle_time's sim, the same program in program coordinates):
     // 2.700 s of cutting in the original, 2.997 s compensated before,
     // 2.718 s with the step spread; the planner model gives each to the ms.
-    let ratio = common::cutting_s(&out) / common::cutting_s(BORE);
     assert!(ratio < 1.02, "{ratio}\n{out}");
     // The spread moves Z by up to the step near the quarter points: the
     // dead-band simulation's contour RMS 2.099 → 2.395 µm; its maximum is

@@ -169,6 +169,15 @@ pub fn compensate_recorded(
     (text, records, summary)
 }
 
+/// `program` compensated for `map` as [`compensate_recorded`] does, and the
+/// ratio of its cutting time to the original's on the planner model
+/// ([`cutting_s`]).
+pub fn compensated_time_ratio(program: &str, map: &AxisTableMap) -> (String, f64) {
+    let (out, _, _) = compensate_recorded(program, map);
+    let ratio = cutting_s(&out) / cutting_s(program);
+    (out, ratio)
+}
+
 /// `program` (named `test.ngc`) compensated for `map` at `decimals`
 /// decimals, the other options the defaults, without the lines of the
 /// approach before the first cut (tests/compensation.rs checks them): the
