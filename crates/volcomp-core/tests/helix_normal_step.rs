@@ -23,14 +23,20 @@ fn under_g64_a_helical_bore_keeps_its_pieces_tangent_across_the_s_curves() {
     // tangency tolerance (4.95e-4 rad on an arc at F6000): blended
     // parabolically at every quarter point. On LinuxCNC 2.9 itself
     // (bench/cycle_time's sim, the same program in program coordinates):
-    // 2.700 s of cutting in the original, 2.997 s compensated before,
-    // 2.718 s with the step spread; the planner model gives each to the ms.
-    assert!(ratio < 1.02, "{ratio}\n{out}");
+    // 2.700 s of cutting in the original, 2.997 s compensated with the
+    // step left, 2.718 s spread within each block, 2.522 s spread from the
+    // slope each turn comes in with as well (the S-curve at each turn's
+    // start, X's reversal); the planner model gives each to the ms.
+    assert!(ratio < 0.95, "{ratio}\n{out}");
     // The spread moves Z by up to the step near the quarter points: the
-    // dead-band simulation's contour RMS 2.099 → 2.395 µm; its maximum is
-    // at a reversal (10.389 µm, the fold of a 10–15 µm reversal value),
-    // unchanged.
+    // dead-band simulation's contour RMS 2.099 → 2.383 µm. Its maximum is
+    // at a reversal: the fold of a 10–15 µm reversal value (10.389 µm)
+    // with Z moved across it by up to the step (about 3 µm), at most
+    // √(10.389² + 3²) µm (10.571 µm here).
     let report = common::simulated(&out, BORE, &map);
     assert!(report.contour_rms_um <= 2.40, "{report:?}\n{out}");
-    assert!(report.contour_max_um <= 10.39, "{report:?}\n{out}");
+    assert!(
+        report.contour_max_um <= 10.389f64.hypot(3.0),
+        "{report:?}\n{out}"
+    );
 }

@@ -520,11 +520,16 @@ pub(super) fn normal_step_span(
 ///   ([`super::points::RUN_THROUGH_TOLERANCE_MM`]) where none lies between
 ///   them.
 ///
+/// `slope_in` is the normal axis' slope (`dw/ds`, along the path's
+/// length) of the written piece the arc starts tangent to, where known
+/// ([`NormalSlopeOut`]): then the join at the arc's start counts as well,
+/// and a window may start there.
+///
 /// Returns the largest distance a command moved and the largest distance
 /// from the path it may leave there (mm; zeros where nothing moved).
 pub(super) fn smooth_normal_kinks(
     (commands, states): (&mut [(Vec3, Option<Vec3>)], &[Directions]),
-    (arc, pieces, q_in): (&Arc, &[f64], Vec3),
+    (arc, pieces, q_in, slope_in): (&Arc, &[f64], Vec3, Option<f64>),
     (transitions, options, v_mm_s): (&[Transition], &super::CompensateOptions, f64),
     quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
     smoothing: Smoothing,
@@ -539,7 +544,7 @@ pub(super) fn smooth_normal_kinks(
     let run_through = super::points::RUN_THROUGH_TOLERANCE_MM;
     let steps = match smoothing {
         Smoothing::Exact => Vec::new(),
-        Smoothing::Folded => normal_steps_mm(commands, (arc, pieces, q_in), transitions),
+        Smoothing::Folded => normal_steps_mm(commands, (arc, pieces, q_in, slope_in), transitions),
     };
     let bound = |a: usize, b: usize| match smoothing {
         Smoothing::Exact => {
@@ -560,7 +565,7 @@ pub(super) fn smooth_normal_kinks(
     };
     let moved = smooth_normal_turns(
         (commands, states),
-        (arc, pieces, q_in),
+        (arc, pieces, q_in, slope_in),
         (limit, target),
         &bound,
         quantize,
@@ -571,6 +576,83 @@ pub(super) fn smooth_normal_kinks(
         (moved, moved.hypot(dev))
     } else {
         (0.0, 0.0)
+    }
+}
+
+/// The slope over the last written piece of a motion, for an arc that
+/// follows it tangent ([`smooth_normal_kinks`]' `slope_in`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct NormalSlopeOut {
+    /// Where the piece ends: the next motion starts there or the slope is
+    /// not its own.
+    pub(super) end_mm: Vec3,
+    /// For an arc, its plane's normal axis: the only axis whose slope is
+    /// kept (across the plane the slope turns along the arc). `None` for a
+    /// line: every axis'.
+    pub(super) arc_normal: Option<usize>,
+    /// The slope `dq/ds` of each axis over the piece (per length along
+    /// the path).
+    pub(super) slope: Vec3,
+}
+
+impl NormalSlopeOut {
+    /// The slope over the last of an arc's solved `commands` (pieces
+    /// ending at the arc parameters `pieces`, the first starting at
+    /// `q_in`); `None` where the last piece carries a take-up block or has
+    /// no length.
+    pub(super) fn of(
+        commands: &[(Vec3, Option<Vec3>)],
+        (arc, pieces, q_in): (&Arc, &[f64], Vec3),
+    ) -> Option<Self> {
+        let n = commands.len().min(pieces.len());
+        let (end, take_up) = *commands.get(n.checked_sub(1)?)?;
+        if take_up.is_some() {
+            return None;
+        }
+        let (t0, start) = if n >= 2 {
+            (pieces[n - 2], commands[n - 2].0)
+        } else {
+            (0.0, q_in)
+        };
+        let w = arc.plane.axes().2;
+        let ds = (pieces[n - 1] - t0) * arc.length();
+        (ds > 0.0).then(|| {
+            let mut slope = Vec3::ZERO;
+            slope[w] = (end[w] - start[w]) / ds;
+            Self {
+                end_mm: end,
+                arc_normal: Some(w),
+                slope,
+            }
+        })
+    }
+
+    /// The slope over the last of a straight motion's solved `commands`
+    /// (the first starting at `q_in`): the written piece's own direction,
+    /// its length the path's to within the compensation (micrometres on
+    /// millimetres). `None` where the last piece carries a take-up block
+    /// or has no length.
+    pub(super) fn of_line(commands: &[(Vec3, Option<Vec3>)], q_in: Vec3) -> Option<Self> {
+        let n = commands.len();
+        let (end, take_up) = *commands.get(n.checked_sub(1)?)?;
+        if take_up.is_some() {
+            return None;
+        }
+        let start = if n >= 2 { commands[n - 2].0 } else { q_in };
+        let ds = (end - start).norm();
+        (ds > 0.0).then(|| Self {
+            end_mm: end,
+            arc_normal: None,
+            slope: (end - start) / ds,
+        })
+    }
+
+    /// The slope of axis `w` the path comes in with, where this piece
+    /// gives one.
+    pub(super) fn along(&self, w: usize) -> Option<f64> {
+        self.arc_normal
+            .is_none_or(|a| a == w)
+            .then_some(self.slope[w])
     }
 }
 
@@ -589,11 +671,12 @@ fn deviation_between_mm(transitions: &[Transition], a: usize, b: usize) -> f64 {
 /// normal axis `w` beyond the arc's own progress: the S-curve's piece (from
 /// point `t.index` to `t.index + 1`; point 0 is `q_in`, point `k` the end
 /// of piece `k`) moves along `w` by that much more than the mean slope of
-/// the pieces on either side carries over its length. 0 where it has no
-/// piece on either side.
+/// the pieces on either side carries over its length (before the first
+/// piece: the slope the path comes in with, `slope_in`, where known). 0
+/// where it has no piece on either side.
 fn normal_steps_mm(
     commands: &[(Vec3, Option<Vec3>)],
-    (arc, pieces, q_in): (&Arc, &[f64], Vec3),
+    (arc, pieces, q_in, slope_in): (&Arc, &[f64], Vec3, Option<f64>),
     transitions: &[Transition],
 ) -> Vec<f64> {
     let w = arc.plane.axes().2;
@@ -607,9 +690,13 @@ fn normal_steps_mm(
             commands[k - 1].0[w]
         }
     };
-    // The slope of piece k (from point k − 1 to k), where it has a length.
+    // The slope of piece k (from point k − 1 to k), where it has a length;
+    // piece 0 is the one the path comes in along.
     let slope = |k: usize| {
-        if k == 0 || k > n {
+        if k == 0 {
+            return slope_in;
+        }
+        if k > n {
             return None;
         }
         let dx = x(k) - x(k - 1);
@@ -673,12 +760,15 @@ pub(super) enum Smoothing {
 /// piece moves `w` in its direction state's way or not at all (so no
 /// reversal is made or moved), and no command moves by more than
 /// `bound_mm(A, B)` (commands `A`, `B` counted from the arc's start, 0).
+/// Where the slope the path comes in with is known (`slope_in`, along
+/// `w` per length), the join at the start is one of them and a window may
+/// start there (`A = 0`, the start held, its slope that one).
 /// [`Smoothing`] says whether a helix is smoothed and which window is
 /// taken. Returns the largest distance moved (mm; 0 where nothing was).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn smooth_normal_turns(
     (commands, states): (&mut [(Vec3, Option<Vec3>)], &[Directions]),
-    (arc, pieces, q_in): (&Arc, &[f64], Vec3),
+    (arc, pieces, q_in, slope_in): (&Arc, &[f64], Vec3, Option<f64>),
     (turn_limit, target): (f64, f64),
     bound_mm: &dyn Fn(usize, usize) -> f64,
     quantize: &dyn Fn(Vec3, Vec3) -> Vec3,
@@ -696,7 +786,12 @@ pub(super) fn smooth_normal_turns(
         .chain(pieces[..n].iter().map(|p| p * len))
         .collect();
     let point = |c: &[(Vec3, Option<Vec3>)], k: usize| if k == 0 { q_in } else { c[k - 1].0 };
+    // Piece k runs from point k − 1 to k; piece 0 is the one the path
+    // comes in along (asked for only where `slope_in` is known).
     let slope = |c: &[(Vec3, Option<Vec3>)], k: usize| {
+        if k == 0 {
+            return slope_in.unwrap_or(0.0);
+        }
         let dx = x[k] - x[k - 1];
         if dx > 0.0 {
             (point(c, k)[w] - point(c, k - 1)[w]) / dx
@@ -705,8 +800,9 @@ pub(super) fn smooth_normal_turns(
         }
     };
     let turn = |c: &[(Vec3, Option<Vec3>)], j: usize| (slope(c, j + 1) - slope(c, j)).abs();
+    let first = if slope_in.is_some() { 0 } else { 1 };
     let mut moved: f64 = 0.0;
-    for j in 1..n {
+    for j in first..n {
         if turn(commands, j) <= turn_limit {
             continue;
         }
@@ -722,7 +818,7 @@ pub(super) fn smooth_normal_turns(
             }
             for ma in 0..=total {
                 let mb = total - ma;
-                if ma > SMOOTH_REACH || mb > SMOOTH_REACH || ma >= j || j + mb >= n {
+                if ma > SMOOTH_REACH || mb > SMOOTH_REACH || ma + first > j || j + mb >= n {
                     continue;
                 }
                 let (a, b) = (j - ma, j + mb);
@@ -1875,6 +1971,124 @@ mod tests {
         (arc, pieces, commands)
     }
 
+    /// [`stepped_helix`] with the S-curve's piece first: pieces of 1.5
+    /// (the S-curve's), 5, 5, 5 and 3.5 mm of arc, every command lowered
+    /// by `step_um`.
+    fn helix_stepped_at_its_start(step_um: f64) -> (Arc, Vec<f64>, Commands) {
+        let (arc, _, _) = stepped_helix(0.0);
+        let pieces: Vec<f64> = [1.5, 6.5, 11.5, 16.5, 20.0]
+            .iter()
+            .map(|e| e / 20.0)
+            .collect();
+        let commands = pieces
+            .iter()
+            .map(|p| (arc.point_at(*p) - Vec3::new(0.0, 0.0, step_um * 1e-3), None))
+            .collect();
+        (arc, pieces, commands)
+    }
+
+    #[test]
+    fn an_arcs_last_piece_gives_its_normal_slope_along_its_length() {
+        // On the helix the slope is its fall over its length, by hand:
+        // 1.5 mm a turn of 2π·7 mm in the plane, dw/ds = −1.5 / √((2π·7)² + 1.5²).
+        let (arc, pieces, commands) = stepped_helix(0.0);
+        let out = NormalSlopeOut::of(&commands, (&arc, &pieces, arc.start)).unwrap();
+        let by_hand = -1.5 / (TAU * 7.0).hypot(1.5);
+        let along = out.along(2).unwrap();
+        assert!((along - by_hand).abs() < 1e-12, "{along} {by_hand}");
+        assert_eq!(out.end_mm, commands[4].0);
+        // Across the plane an arc gives none (its slope turns along it).
+        assert_eq!((out.along(0), out.along(1)), (None, None));
+        // One piece: from the arc's start; a take-up block after the last
+        // piece: none (the path leaves along the take-up).
+        let one = NormalSlopeOut::of(&commands[..1], (&arc, &pieces, arc.start)).unwrap();
+        assert!((one.along(2).unwrap() - by_hand).abs() < 1e-12);
+        let mut taken = commands.clone();
+        taken[4].1 = Some(taken[4].0);
+        assert_eq!(NormalSlopeOut::of(&taken, (&arc, &pieces, arc.start)), None);
+    }
+
+    #[test]
+    fn a_lines_last_piece_gives_every_axis_slope() {
+        // The last piece from (0, 10, −1) to (0, 22, −1.003): 12 mm in Y
+        // with Z 3 µm lower, by hand dz/ds = −0.003 / √(12² + 0.003²),
+        // dy/ds = 12 / √(12² + 0.003²).
+        let commands = [
+            (Vec3::new(0.0, 10.0, -1.0), None),
+            (Vec3::new(0.0, 22.0, -1.003), None),
+        ];
+        let q_in = Vec3::new(0.0, 0.0, -1.0);
+        let out = NormalSlopeOut::of_line(&commands, q_in).unwrap();
+        let ds = 12f64.hypot(0.003);
+        assert!((out.along(2).unwrap() + 0.003 / ds).abs() < 1e-15);
+        assert!((out.along(1).unwrap() - 12.0 / ds).abs() < 1e-15);
+        assert_eq!(out.along(0), Some(0.0));
+        // One piece: from where the motion starts.
+        let one = NormalSlopeOut::of_line(&commands[..1], q_in).unwrap();
+        assert_eq!(one.along(2), Some(0.0));
+        // No length, or a take-up block last: none.
+        assert_eq!(NormalSlopeOut::of_line(&commands[..1], commands[0].0), None);
+        let taken = [commands[0], (commands[1].0, Some(commands[1].0))];
+        assert_eq!(NormalSlopeOut::of_line(&taken, q_in), None);
+    }
+
+    #[test]
+    fn under_g64_an_s_curve_at_an_arcs_start_is_spread_from_the_slope_it_comes_in_with() {
+        // The arc's first piece is the S-curve, falling 2.9 µm more than
+        // the helix: against the helix it comes in along (the last turn's
+        // last piece) and the piece after it, its slope differs by
+        // 2.9e-3 / 1.5 = 1.93e-3 rad at both ends.
+        let (arc, pieces, before) = helix_stepped_at_its_start(2.9);
+        let helix = -1.5 / (TAU * 7.0).hypot(1.5);
+        let len = arc.length();
+        let z = |c: &Commands, k: usize| if k == 0 { arc.start.z } else { c[k - 1].0.z };
+        let first_turn = |c: &Commands| ((z(c, 1) - z(c, 0)) / (pieces[0] * len) - helix).abs();
+        let by_hand = 2.9e-3 / (1.5 * len / 20.0);
+        assert!((first_turn(&before) - by_hand).abs() < 1e-9);
+        assert!((z_turns(&arc, &pieces, &before)[0] - by_hand).abs() < 1e-9);
+        let s_curve = Transition {
+            index: 0,
+            axis: 1,
+            direction: Direction::Forward,
+            deviation_mm: 12e-3,
+            spread: None,
+            widest: false,
+        };
+        let steps = normal_steps_mm(&before, (&arc, &pieces, arc.start, Some(helix)), &[s_curve]);
+        assert!((steps[0] - 2.9e-3).abs() < 1e-9, "{steps:?}");
+        let quantize = |q: Vec3, _from: Vec3| Vec3::new(q.x, q.y, (q.z * 1e5).round() / 1e5);
+        let mut down = ALL_FORWARD;
+        down[2] = Direction::Reverse;
+        let states = vec![down; before.len()];
+        let options = super::super::CompensateOptions::default();
+        let smooth = |slope_in: Option<f64>| {
+            let mut c = before.clone();
+            let (moved, _) = smooth_normal_kinks(
+                (&mut c, &states),
+                (&arc, &pieces, arc.start, slope_in),
+                (&[s_curve], &options, 100.0),
+                &quantize,
+                Smoothing::Folded,
+            );
+            (c, moved)
+        };
+        // Not knowing the slope the path comes in with, the join at the
+        // start keeps its turn whatever is done after it.
+        let (blind, _) = smooth(None);
+        assert!((first_turn(&blind) - by_hand).abs() < 1e-9);
+        // Knowing it, every join from the start on is within 0.6 of the
+        // tolerance (2.970e-4 rad at F6000), no command moved by more than
+        // the step, the start and the end kept, Z never rising.
+        let (c, moved) = smooth(Some(helix));
+        let limit = 0.6 * 4.950e-4 + 1e-9;
+        assert!(first_turn(&c) <= limit, "{}", first_turn(&c));
+        let turns = z_turns(&arc, &pieces, &c);
+        assert!(turns.iter().all(|t| *t <= limit), "{turns:?}");
+        assert!(moved > 0.0 && moved <= 2.9e-3 + 1e-12, "{moved}");
+        assert_eq!(c.last().unwrap().0, before.last().unwrap().0);
+        assert!((1..=c.len()).all(|k| z(&c, k) <= z(&c, k - 1)), "{c:?}");
+    }
+
     #[test]
     fn under_g64_a_helix_spreads_the_step_of_its_s_curve_within_the_step() {
         // The S-curve's piece falls by its share of the helix plus 2.9 µm:
@@ -1897,7 +2111,7 @@ mod tests {
             widest: false,
         };
         // The step the S-curve makes beyond the helix' own fall, by hand.
-        let steps = normal_steps_mm(&before, (&arc, &pieces, arc.start), &[s_curve]);
+        let steps = normal_steps_mm(&before, (&arc, &pieces, arc.start, None), &[s_curve]);
         assert!((steps[0] - 2.9e-3).abs() < 1e-9, "{steps:?}");
         let quantize = |q: Vec3, _from: Vec3| Vec3::new(q.x, q.y, (q.z * 1e5).round() / 1e5);
         // Z falls along the whole helix (its reverse state).
@@ -1908,7 +2122,7 @@ mod tests {
         let mut c = before.clone();
         let (moved, bound) = smooth_normal_kinks(
             (&mut c, &states),
-            (&arc, &pieces, arc.start),
+            (&arc, &pieces, arc.start, None),
             (&[s_curve], &options, 100.0),
             &quantize,
             Smoothing::Folded,
@@ -1930,7 +2144,7 @@ mod tests {
         let mut g61 = before.clone();
         let moved = smooth_normal_turns(
             (&mut g61, &states),
-            (&arc, &pieces, arc.start),
+            (&arc, &pieces, arc.start, None),
             (4.950e-4, 4.950e-4),
             &|_, _| 1.0,
             &quantize,
@@ -1959,7 +2173,7 @@ mod tests {
         let mut c = before.clone();
         let moved = smooth_normal_turns(
             (&mut c, &states),
-            (&arc, &pieces, arc.start),
+            (&arc, &pieces, arc.start, None),
             (limit, limit),
             &bound,
             &quantize,
@@ -1990,7 +2204,7 @@ mod tests {
         let mut c = before.clone();
         smooth_normal_turns(
             (&mut c, &states),
-            (&arc, &pieces, arc.start),
+            (&arc, &pieces, arc.start, None),
             (limit, limit),
             &bound,
             &quantize,
@@ -2003,7 +2217,7 @@ mod tests {
         let tight = |_: usize, _: usize| 0.05e-3;
         let moved = smooth_normal_turns(
             (&mut c, &vec![ALL_FORWARD; before.len()]),
-            (&arc, &pieces, arc.start),
+            (&arc, &pieces, arc.start, None),
             (limit, limit),
             &tight,
             &quantize,

@@ -256,6 +256,7 @@ impl<'w> State<'w> {
             mode: None,
             feed_before: FeedInForce::default(),
             last_tangent: None,
+            normal_slope_out: None,
             frame_before: None,
             g93_before: false,
             g93_last: false,
@@ -1863,6 +1864,9 @@ struct State<'w> {
     /// compensated feed motion of the program (for the corner test of the
     /// next, and its blend).
     last_tangent: Option<(Vec3, f64)>,
+    /// The normal axis' slope over the last arc's last piece, for an arc
+    /// that follows it tangent ([`arcs::NormalSlopeOut`]).
+    normal_slope_out: Option<arcs::NormalSlopeOut>,
     /// Frame and number style in effect before the current line (after the
     /// previous one): what a move written before the line's own words uses.
     frame_before: Option<(Frame, NumberStyle)>,

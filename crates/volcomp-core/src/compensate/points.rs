@@ -3232,11 +3232,23 @@ impl State<'_> {
             TakeUpRule::Always => Some(super::arcs::Smoothing::Folded),
             _ => None,
         };
+        let slope_out = self.normal_slope_out.take();
         if let (Some(smoothing), Leads::Arc { arc, pieces }) = (smoothing, &leads) {
             let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+            // The slope the path comes in with, where the arc starts
+            // tangent to an arc piece of its plane written just before.
+            let w = arc.plane.axes().2;
+            let slope_in = slope_out
+                .filter(|o| {
+                    smoothing == super::arcs::Smoothing::Folded
+                        && !run.corner_before
+                        && !self.defer_points
+                        && o.end_mm == commands_start
+                })
+                .and_then(|o| o.along(w));
             let (moved_mm, bound_mm) = super::arcs::smooth_normal_kinks(
                 (&mut commands, &self.states),
-                (arc, pieces, commands_start),
+                (arc, pieces, commands_start, slope_in),
                 (&transitions, options, v_mm_s),
                 &|q, from| frame.quantize(q, from),
                 smoothing,
@@ -3249,6 +3261,18 @@ impl State<'_> {
                     self.summary.max_fold_excursion_um.max(bound_mm * 1e3);
             }
         }
+        // The motion leaves its last piece's slope for an arc that may
+        // follow it tangent. (A line held back for a take-up ahead, idle.rs,
+        // keeps its slope only where its end goes out as solved: the arc
+        // checks the end. An arc that took the tail of the block before
+        // had its start rewritten: none.)
+        self.normal_slope_out = match &leads {
+            Leads::Arc { arc, pieces } if !self.defer_points => {
+                super::arcs::NormalSlopeOut::of(&commands, (arc, pieces, commands_start))
+            }
+            Leads::Lines => super::arcs::NormalSlopeOut::of_line(&commands, commands_start),
+            _ => None,
+        };
         self.transitions_written = transitions;
         if let Some((axes, s)) = plunge_held {
             self.plunge_held = [0, 1, 2].map(|a| axes[a] && self.s[a] == s[a]);
