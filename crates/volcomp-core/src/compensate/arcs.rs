@@ -1987,6 +1987,31 @@ mod tests {
         (arc, pieces, commands)
     }
 
+    /// `before` (the commands of a helix' pieces, Z falling along it in its
+    /// reverse state) smoothed under G64 without P at F6000 with the
+    /// S-curve `s_curve`, Z written to 0.01 µm: the commands, the largest
+    /// move and the bound ([`smooth_normal_kinks`]).
+    fn folded_on_helix(
+        before: &[(Vec3, Option<Vec3>)],
+        (arc, pieces, slope_in): (&Arc, &[f64], Option<f64>),
+        s_curve: Transition,
+    ) -> (Vec<(Vec3, Option<Vec3>)>, f64, f64) {
+        let quantize = |q: Vec3, _from: Vec3| Vec3::new(q.x, q.y, (q.z * 1e5).round() / 1e5);
+        let mut down = ALL_FORWARD;
+        down[2] = Direction::Reverse;
+        let states = vec![down; before.len()];
+        let options = super::super::CompensateOptions::default();
+        let mut c = before.to_vec();
+        let (moved, bound) = smooth_normal_kinks(
+            (&mut c, &states),
+            (arc, pieces, arc.start, slope_in),
+            (&[s_curve], &options, 100.0),
+            &quantize,
+            Smoothing::Folded,
+        );
+        (c, moved, bound)
+    }
+
     #[test]
     fn an_arcs_last_piece_gives_its_normal_slope_along_its_length() {
         // On the helix the slope is its fall over its length, by hand:
@@ -2056,20 +2081,8 @@ mod tests {
         };
         let steps = normal_steps_mm(&before, (&arc, &pieces, arc.start, Some(helix)), &[s_curve]);
         assert!((steps[0] - 2.9e-3).abs() < 1e-9, "{steps:?}");
-        let quantize = |q: Vec3, _from: Vec3| Vec3::new(q.x, q.y, (q.z * 1e5).round() / 1e5);
-        let mut down = ALL_FORWARD;
-        down[2] = Direction::Reverse;
-        let states = vec![down; before.len()];
-        let options = super::super::CompensateOptions::default();
         let smooth = |slope_in: Option<f64>| {
-            let mut c = before.clone();
-            let (moved, _) = smooth_normal_kinks(
-                (&mut c, &states),
-                (&arc, &pieces, arc.start, slope_in),
-                (&[s_curve], &options, 100.0),
-                &quantize,
-                Smoothing::Folded,
-            );
+            let (c, moved, _) = folded_on_helix(&before, (&arc, &pieces, slope_in), s_curve);
             (c, moved)
         };
         // Not knowing the slope the path comes in with, the join at the
@@ -2113,20 +2126,7 @@ mod tests {
         // The step the S-curve makes beyond the helix' own fall, by hand.
         let steps = normal_steps_mm(&before, (&arc, &pieces, arc.start, None), &[s_curve]);
         assert!((steps[0] - 2.9e-3).abs() < 1e-9, "{steps:?}");
-        let quantize = |q: Vec3, _from: Vec3| Vec3::new(q.x, q.y, (q.z * 1e5).round() / 1e5);
-        // Z falls along the whole helix (its reverse state).
-        let mut down = ALL_FORWARD;
-        down[2] = Direction::Reverse;
-        let states = vec![down; before.len()];
-        let options = super::super::CompensateOptions::default();
-        let mut c = before.clone();
-        let (moved, bound) = smooth_normal_kinks(
-            (&mut c, &states),
-            (&arc, &pieces, arc.start, None),
-            (&[s_curve], &options, 100.0),
-            &quantize,
-            Smoothing::Folded,
-        );
+        let (c, moved, bound) = folded_on_helix(&before, (&arc, &pieces, None), s_curve);
         // Every join now within 0.6 of the tolerance (2.970e-4 rad), no
         // command moved by more than the step, the helix' ends kept, Z
         // never rising.
@@ -2142,12 +2142,13 @@ mod tests {
         assert!((1..=c.len()).all(|k| z(k) <= z(k - 1)), "{c:?}");
         // Under G61 a helix is left alone.
         let mut g61 = before.clone();
+        let states = vec![ALL_FORWARD; before.len()];
         let moved = smooth_normal_turns(
             (&mut g61, &states),
             (&arc, &pieces, arc.start, None),
             (4.950e-4, 4.950e-4),
             &|_, _| 1.0,
-            &quantize,
+            &|q, _| q,
             Smoothing::Exact,
         );
         assert_eq!((moved, &g61), (0.0, &before));
