@@ -1864,8 +1864,9 @@ struct State<'w> {
     /// compensated feed motion of the program (for the corner test of the
     /// next, and its blend).
     last_tangent: Option<(Vec3, f64)>,
-    /// The normal axis' slope over the last arc's last piece, for an arc
-    /// that follows it tangent ([`arcs::NormalSlopeOut`]).
+    /// The slope over the last written piece of the last motion solved (an
+    /// arc's normal axis, a line's direction), for an arc that follows it
+    /// tangent ([`arcs::NormalSlopeOut`]).
     normal_slope_out: Option<arcs::NormalSlopeOut>,
     /// Frame and number style in effect before the current line (after the
     /// previous one): what a move written before the line's own words uses.

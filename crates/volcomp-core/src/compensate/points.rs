@@ -3236,7 +3236,8 @@ impl State<'_> {
         if let (Some(smoothing), Leads::Arc { arc, pieces }) = (smoothing, &leads) {
             let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
             // The slope the path comes in with, where the arc starts
-            // tangent to an arc piece of its plane written just before.
+            // tangent to the piece written just before (a line's, or an
+            // arc's of the same plane) and at its end.
             let w = arc.plane.axes().2;
             let slope_in = slope_out
                 .filter(|o| {
