@@ -102,6 +102,56 @@ fn per_line_gives_each_line_its_trapezoid() {
         .find(|l| l.trim_start().starts_with("3 "))
         .unwrap_or_else(|| panic!("{out}"));
     assert!(row.ends_with("G1 X50 F3000"), "{row}");
+    // Under G61.1 every line ends at rest.
+    for r in rows {
+        assert_eq!(r["end_speed_mm_s"].as_f64(), Some(0.0), "{v}");
+    }
+}
+
+/// `--per-line`'s end speed, by hand: under G61 a join the path runs
+/// straight through (two collinear lines) is tangent and runs at the feed,
+/// 3000 mm/min = 50 mm/s (each line is long enough to reach it: 2.5 mm at
+/// 500 mm/s²); a corner is an exact stop (0); a rapid into a feed move and
+/// the program's end stop too.
+#[test]
+fn per_line_gives_the_speed_each_line_ends_at() {
+    let d = tempdir("per_line_end");
+    write(&d, "s.toml", SETUP);
+    write(
+        &d,
+        "p.ngc",
+        "G21 G90 G61\nG0 X-10\nG1 X30 F3000\nG1 X60\nG1 Y40\nM2\n",
+    );
+    let v = common::json(&common::run(
+        &d,
+        "time p.ngc --setup s.toml --per-line --json",
+    ));
+    let rows = v["per_line"].as_array().unwrap_or_else(|| panic!("{v}"));
+    let got: Vec<(u64, f64)> = rows
+        .iter()
+        .map(|r| {
+            (
+                r["line"].as_u64().unwrap(),
+                r["end_speed_mm_s"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    let want = [(2, 0.0), (3, 50.0), (4, 0.0), (5, 0.0)];
+    assert_eq!(got.len(), want.len(), "{v}");
+    for ((line, end), (w_line, w_end)) in got.iter().zip(want) {
+        assert_eq!(*line, w_line, "{v}");
+        assert!(
+            (end - w_end).abs() <= 1e-6,
+            "line {line}: {end} mm/s, by hand {w_end}"
+        );
+    }
+    let out = common::ok(&common::run(&d, "time p.ngc --setup s.toml --per-line"));
+    assert!(out.contains("rapid ms, end mm/s, text"), "{out}");
+    let row = out
+        .lines()
+        .find(|l| l.trim_start().starts_with("3 "))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(row.contains(" 50.0  G1 X30 F3000"), "{row}");
 }
 
 #[test]

@@ -51,11 +51,12 @@ pub fn run(a: TimeArgs) -> Result<(), CliError> {
 }
 
 /// The rows of `--per-line`: a heading, then per line its number, its
-/// time, cutting and rapid time in ms, and its text when `program` gives
-/// it (read once, in step with the rows, which are in line order).
+/// time, cutting and rapid time in ms, the speed its motion ends at
+/// (mm/s), and its text when `program` gives it (read once, in step with
+/// the rows, which are in line order).
 fn per_line_rows(lines: &[LineTime], program: Option<impl BufRead>) -> Vec<String> {
     let mut rows = vec![format!(
-        "time per line ({} lines): line, ms, cutting ms, rapid ms, text",
+        "time per line ({} lines): line, ms, cutting ms, rapid ms, end mm/s, text",
         lines.len()
     )];
     let mut texts = program.map(|p| p.lines());
@@ -81,11 +82,12 @@ fn per_line_rows(lines: &[LineTime], program: Option<impl BufRead>) -> Vec<Strin
         }
         rows.push(
             format!(
-                "{:>8} {:>9.0} {:>9.0} {:>9.0}  {}",
+                "{:>8} {:>9.0} {:>9.0} {:>9.0} {:>8.1}  {}",
                 l.line,
                 l.total_s * 1e3,
                 l.cutting_s * 1e3,
                 l.rapid_s * 1e3,
+                l.end_speed_mm_s,
                 text.trim_end()
             )
             .trim_end()

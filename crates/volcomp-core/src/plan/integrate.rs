@@ -69,6 +69,32 @@ pub(crate) struct Exec {
     /// each call of [`run_next`] ends where the segment shown may change,
     /// so [`run_steps`] leaves a split period to [`run_period`].
     pub per_line: bool,
+    /// Under `per_line`, the segment the last call of [`run_next`] removed
+    /// from the queue (at most one a call): its program line and the speed
+    /// it ends at (mm/s, [`end_speed_mm_s`]).
+    pub removed: Option<(u64, f64)>,
+}
+
+/// The speed (mm/s) at which a segment being removed ends: 0 where it was
+/// planned to end at rest (its final speed 0: a stop, the program's end;
+/// its last period still moves at a fraction of a mm/s), else its speed in
+/// its last period, which the next segment takes over.
+fn end_speed_mm_s(s: &Seg) -> f64 {
+    if s.finalvel <= VEL_EPSILON {
+        0.0
+    } else {
+        s.currentvel
+    }
+}
+
+/// Removes the front segment of `q`, noting its line and end speed in
+/// `ex.removed` when periods are counted per line.
+fn remove_front(q: &mut VecDeque<Seg>, ex: &mut Exec) {
+    if let Some(s) = q.pop_front() {
+        if ex.per_line {
+            ex.removed = Some((s.line, end_speed_mm_s(&s)));
+        }
+    }
 }
 
 /// The ways of running periods, from the one that runs most at once:
@@ -316,7 +342,7 @@ pub(crate) fn run_period(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) 
         regular_period(tc, next, limits, &mut ex.shown);
     }
     if q[0].remove {
-        q.pop_front();
+        remove_front(q, ex);
     }
     count_period(ex);
     ex.first = first_after(q);
@@ -849,7 +875,7 @@ pub(crate) fn run_steps(q: &mut VecDeque<Seg>, ex: &mut Exec, limits: &Limits) -
         count_period(ex);
     }
     if q[0].remove {
-        q.pop_front();
+        remove_front(q, ex);
     }
     ex.first = first_after(q);
     true

@@ -363,6 +363,13 @@ pub struct LineTime {
     pub cutting_s: f64,
     /// Those of rapids, s.
     pub rapid_s: f64,
+    /// The speed at which the line's motion ends (mm/s): its last
+    /// segment's speed in its last period, where the next segment takes
+    /// over (0 where the machine stops there, the feed where the join runs
+    /// through; a blend arc counts for the line it leaves, so this is the
+    /// speed into the next line). The lowest of its runs for a line run
+    /// many times.
+    pub end_speed_mm_s: f64,
 }
 
 /// Periods per program line, kept by line number: a line run many times
@@ -371,6 +378,8 @@ pub struct LineTime {
 #[derive(Debug, Clone, Default)]
 struct LineLog {
     lines: std::collections::BTreeMap<u64, integrate::Periods>,
+    /// The lowest end speed of each line (mm/s), [`LineTime::end_speed_mm_s`].
+    ends: std::collections::BTreeMap<u64, f64>,
 }
 
 impl LineLog {
@@ -385,11 +394,18 @@ impl LineLog {
         p.rapid += after.rapid - before.rapid;
     }
 
+    /// Notes that a segment of `line` ended at `speed_mm_s`.
+    fn ended(&mut self, line: u64, speed_mm_s: f64) {
+        let e = self.ends.entry(line).or_insert(speed_mm_s);
+        *e = e.min(speed_mm_s);
+    }
+
     /// One [`LineTime`] per line, in line order, with a servo period of
     /// `dt` s: whole periods, rounded to the nanosecond (as
     /// [`Planner::finish`]).
     fn times(self, dt: f64) -> Vec<LineTime> {
         let s = |periods: u64| (periods as f64 * dt * 1e9).round() / 1e9;
+        let ends = self.ends;
         self.lines
             .into_iter()
             .map(|(line, p)| LineTime {
@@ -397,6 +413,7 @@ impl LineLog {
                 total_s: s(p.moving),
                 cutting_s: s(p.cutting),
                 rapid_s: s(p.rapid),
+                end_speed_mm_s: ends.get(&line).copied().unwrap_or(0.0),
             })
             .collect()
     }
@@ -447,10 +464,19 @@ impl Planner {
     fn run_next(&mut self) -> bool {
         let before = self.exec.periods;
         let more = integrate::run_next(&mut self.queue, &mut self.exec, &self.limits);
+        self.log_since(before);
+        more
+    }
+
+    /// Counts the periods run since `before` for the line shown, and the
+    /// end speed of a segment removed meanwhile, when asked to.
+    fn log_since(&mut self, before: integrate::Periods) {
         if let (Some(log), Some(shown)) = (&mut self.lines, self.exec.shown) {
             log.add(shown.line, before, self.exec.periods);
         }
-        more
+        if let (Some(log), Some((line, speed_mm_s))) = (&mut self.lines, self.exec.removed.take()) {
+            log.ended(line, speed_mm_s);
+        }
     }
 
     /// The limits in use.

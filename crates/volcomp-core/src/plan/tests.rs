@@ -533,9 +533,7 @@ fn per_line_period_by_period(moves: &[Move], limits: &Limits) -> (Estimate, Vec<
     let run = |p: &mut Planner| {
         let before = p.exec.periods;
         let more = integrate::run_period(&mut p.queue, &mut p.exec, &p.limits);
-        if let (Some(log), Some(shown)) = (&mut p.lines, p.exec.shown) {
-            log.add(shown.line, before, p.exec.periods);
-        }
+        p.log_since(before);
         more
     };
     drive_period_by_period(&mut p, moves, keep, run);
