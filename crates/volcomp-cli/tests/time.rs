@@ -44,6 +44,19 @@ fn time_of_a_single_move_is_the_trapezoid() {
     assert_eq!(v["limits_from_setup"], true);
 }
 
+/// `time p.ngc --setup s.toml --per-line --json` of `program` under
+/// [`SETUP`], in a new folder named `name` (returned with the JSON).
+fn per_line_json(name: &str, program: &str) -> (common::TempDir, serde_json::Value) {
+    let d = tempdir(name);
+    write(&d, "s.toml", SETUP);
+    write(&d, "p.ngc", program);
+    let v = common::json(&common::run(
+        &d,
+        "time p.ngc --setup s.toml --per-line --json",
+    ));
+    (d, v)
+}
+
 /// `--per-line`: each moving line's time, by hand. Under G61.1 every
 /// line stops, so each is its own trapezoid from rest to rest at
 /// 500 mm/s² (Y at 500 too): line 3, 60 mm at 50 mm/s, 60/50 + 50/500 =
@@ -51,17 +64,10 @@ fn time_of_a_single_move_is_the_trapezoid() {
 /// 200 mm/s, a triangle 2√(10/500) = 0.283 s (each within two periods).
 #[test]
 fn per_line_gives_each_line_its_trapezoid() {
-    let d = tempdir("per_line");
-    write(&d, "s.toml", SETUP);
-    write(
-        &d,
-        "p.ngc",
+    let (d, v) = per_line_json(
+        "per_line",
         "G21 G90 G61.1\nG0 X-10\nG1 X50 F3000\nG1 Y40\nM2\n",
     );
-    let v = common::json(&common::run(
-        &d,
-        "time p.ngc --setup s.toml --per-line --json",
-    ));
     let rows = v["per_line"].as_array().unwrap_or_else(|| panic!("{v}"));
     let got: Vec<(u64, f64, f64, f64)> = rows
         .iter()
@@ -115,17 +121,10 @@ fn per_line_gives_each_line_its_trapezoid() {
 /// the program's end stop too.
 #[test]
 fn per_line_gives_the_speed_each_line_ends_at() {
-    let d = tempdir("per_line_end");
-    write(&d, "s.toml", SETUP);
-    write(
-        &d,
-        "p.ngc",
+    let (d, v) = per_line_json(
+        "per_line_end",
         "G21 G90 G61\nG0 X-10\nG1 X30 F3000\nG1 X60\nG1 Y40\nM2\n",
     );
-    let v = common::json(&common::run(
-        &d,
-        "time p.ngc --setup s.toml --per-line --json",
-    ));
     let rows = v["per_line"].as_array().unwrap_or_else(|| panic!("{v}"));
     let got: Vec<(u64, f64)> = rows
         .iter()
