@@ -363,12 +363,13 @@ pub struct LineTime {
     pub cutting_s: f64,
     /// Those of rapids, s.
     pub rapid_s: f64,
-    /// The speed at which the line's motion ends (mm/s): its last
-    /// segment's speed in its last period, where the next segment takes
-    /// over (0 where the machine stops there, the feed where the join runs
-    /// through; a blend arc counts for the line it leaves, so this is the
-    /// speed into the next line). The lowest of its runs for a line run
-    /// many times.
+    /// The speed at which the line's motion ends (mm/s): its segment's
+    /// speed in its last period, where the next segment takes over (0
+    /// where the machine stops there, the feed where the join runs
+    /// through). A blend arc counts for the line it leaves, so this is the
+    /// speed into the next line; of a line of several segments (with its
+    /// blend arc, an arc the canonical layer sends as two lines) or run
+    /// many times, the lowest at which one of them ends.
     pub end_speed_mm_s: f64,
 }
 
@@ -377,9 +378,15 @@ pub struct LineTime {
 /// program's moving lines, not by the lines executed.
 #[derive(Debug, Clone, Default)]
 struct LineLog {
-    lines: std::collections::BTreeMap<u64, integrate::Periods>,
-    /// The lowest end speed of each line (mm/s), [`LineTime::end_speed_mm_s`].
-    ends: std::collections::BTreeMap<u64, f64>,
+    lines: std::collections::BTreeMap<u64, LineEntry>,
+}
+
+/// What [`LineLog`] keeps of one line: its periods, and the lowest speed
+/// one of its segments ended at (mm/s), [`LineTime::end_speed_mm_s`].
+#[derive(Debug, Clone, Copy, Default)]
+struct LineEntry {
+    periods: integrate::Periods,
+    end_mm_s: Option<f64>,
 }
 
 impl LineLog {
@@ -388,7 +395,7 @@ impl LineLog {
         if after.moving == before.moving {
             return;
         }
-        let p = self.lines.entry(line).or_default();
+        let p = &mut self.lines.entry(line).or_default().periods;
         p.moving += after.moving - before.moving;
         p.cutting += after.cutting - before.cutting;
         p.rapid += after.rapid - before.rapid;
@@ -396,24 +403,24 @@ impl LineLog {
 
     /// Notes that a segment of `line` ended at `speed_mm_s`.
     fn ended(&mut self, line: u64, speed_mm_s: f64) {
-        let e = self.ends.entry(line).or_insert(speed_mm_s);
-        *e = e.min(speed_mm_s);
+        let e = &mut self.lines.entry(line).or_default().end_mm_s;
+        *e = Some(e.map_or(speed_mm_s, |v| v.min(speed_mm_s)));
     }
 
-    /// One [`LineTime`] per line, in line order, with a servo period of
-    /// `dt` s: whole periods, rounded to the nanosecond (as
+    /// One [`LineTime`] per line that moved, in line order, with a servo
+    /// period of `dt` s: whole periods, rounded to the nanosecond (as
     /// [`Planner::finish`]).
     fn times(self, dt: f64) -> Vec<LineTime> {
         let s = |periods: u64| (periods as f64 * dt * 1e9).round() / 1e9;
-        let ends = self.ends;
         self.lines
             .into_iter()
-            .map(|(line, p)| LineTime {
+            .filter(|(_, e)| e.periods.moving > 0)
+            .map(|(line, e)| LineTime {
                 line,
-                total_s: s(p.moving),
-                cutting_s: s(p.cutting),
-                rapid_s: s(p.rapid),
-                end_speed_mm_s: ends.get(&line).copied().unwrap_or(0.0),
+                total_s: s(e.periods.moving),
+                cutting_s: s(e.periods.cutting),
+                rapid_s: s(e.periods.rapid),
+                end_speed_mm_s: e.end_mm_s.unwrap_or(0.0),
             })
             .collect()
     }
