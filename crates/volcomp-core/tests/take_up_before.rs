@@ -128,3 +128,39 @@ fn under_g61_the_take_up_after_an_s_curve_at_an_arcs_start_reaches_the_arc() {
         .0;
     assert!(next.contains("G2") || next.contains("G3"), "{next}\n{out}");
 }
+
+#[test]
+fn a_take_up_ending_along_an_arc_piece_leaves_the_piece_after_it_an_arc() {
+    // Set c's R-arc wave (bench/eval/make_set_c.py r_arcs_g91_b, with its
+    // G54 of (250, 200, 150) added by hand) on the coarse map, where Z
+    // reverses right after Y's quarter-point S-curve of the G2 and its
+    // take-up block ends a little along the piece after it. The faster the
+    // feed, the longer the S-curve's pieces and the fewer the pieces after
+    // it: from F8000 on, main c4f6cb2 ended the block 10 % along a 1.8 mm
+    // piece (a 0.17 mm chord) and fitted the piece after it as if it began
+    // where the block did; its words did not read as an arc, and it was
+    // written as a straight line, 121.9 µm off the arc in the dead-band
+    // simulation (a second method: simulate/) and 150.3 µm in its own
+    // estimate. Every feed now leaves at most what F3000 leaves, where no
+    // block ends along a piece: 3.70 µm, the coarse map's switching steps
+    // (the original: 25.9 µm).
+    let map = common::data_map("coarse_map.csv");
+    for feed in [3000, 8000, 10000] {
+        let program = format!(
+            "G21 G17 G90 G94 G61\nG0 X235 Y188 Z155\nG1 Z149.6 F{feed}\nG91\n\
+             G3 X4 Y1 R2.5\nG2 X4 Y1 R2.5\nG3 X4 Y1 R2.5\nG2 X4 Y1 R2.5\nG90\nG0 Z155\nM2\n"
+        );
+        let (out, _, summary) = common::compensate_recorded(&program, &map);
+        let report = common::simulated(&out, &program, &map);
+        assert!(
+            report.contour_max_um <= 3.75,
+            "F{feed}: {} µm\n{out}",
+            report.contour_max_um
+        );
+        let estimate_um = summary.max_estimated_contour_um.unwrap();
+        assert!(
+            estimate_um <= 0.1,
+            "F{feed}: estimate {estimate_um} µm\n{out}"
+        );
+    }
+}

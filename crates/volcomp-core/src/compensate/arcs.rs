@@ -154,6 +154,52 @@ pub(super) fn piece_center(
     Some(center)
 }
 
+/// The parameter of `arc` ([`Arc::point_at`]'s angle share) at the angle
+/// of `p` about the centre in the arc's plane, counted from the point at
+/// `l_from` (within half a turn of it): a command a few micrometres off
+/// the arc, across it or along its normal axis, reads as the nominal point
+/// it stands for.
+pub(super) fn param_near(arc: &Arc, l_from: f64, p: Vec3) -> f64 {
+    let (u, v, _) = arc.plane.axes();
+    let c = arc.center;
+    let a = arc.point_at(l_from);
+    let (ax, ay) = (a[u] - c[u], a[v] - c[v]);
+    let (px, py) = (p[u] - c[u], p[v] - c[v]);
+    let turn = (ax * py - ay * px).atan2(ax * px + ay * py);
+    let l = l_from + turn / arc.sweep_rad;
+    if l.is_finite() {
+        l
+    } else {
+        l_from
+    }
+}
+
+/// The centre of the circle of `piece`'s start radius through the written
+/// ends `from` and `to`, on the side of the chord the piece's own centre
+/// lies (its helix-axis component `from`'s, as [`sub_arc`] keeps it);
+/// `None` where the chord is longer than the diameter or has no length.
+pub(super) fn ends_center(piece: &Arc, from: Vec3, to: Vec3) -> Option<Vec3> {
+    let (u, v, w) = piece.plane.axes();
+    let r = piece.start_radius();
+    let (du, dv) = (to[u] - from[u], to[v] - from[v]);
+    let chord = du.hypot(dv);
+    let half = 0.5 * chord;
+    if !(chord > 0.0 && half < r) {
+        return None;
+    }
+    let d = (r * r - half * half).sqrt();
+    let (nu, nv) = (-dv / chord, du / chord);
+    let (mu, mv) = (from[u] + 0.5 * du, from[v] + 0.5 * dv);
+    // The side of the nominal centre.
+    let side = (piece.center[u] - mu) * nu + (piece.center[v] - mv) * nv;
+    let d = if side < 0.0 { -d } else { d };
+    let mut c = Vec3::ZERO;
+    c[u] = mu + d * nu;
+    c[v] = mv + d * nv;
+    c[w] = from[w];
+    Some(c)
+}
+
 /// How far an arc departs from its chord: `r(1 − cos(Δ/2))` (mm).
 pub(super) fn sagitta_mm(arc: &Arc) -> f64 {
     let r = arc.start_radius().max(arc.end_radius());
@@ -1747,7 +1793,13 @@ impl State<'_> {
         let mut words = Vec::with_capacity(commands.len());
         for (i, (q, take_up)) in commands.iter().enumerate() {
             let start = take_up.unwrap_or(from);
-            let piece = sub_arc(arc, l_from, pieces[i]);
+            // A take-up block may end a little along the piece (a chord
+            // of the arc, compensate/take_up_before.rs): the piece runs
+            // from there.
+            let l_start = take_up.map_or(l_from, |tu| {
+                param_near(arc, l_from, tu).clamp(l_from, pieces[i])
+            });
+            let piece = sub_arc(arc, l_start, pieces[i]);
             let t_mid = piece.point_at(0.5);
             let q_mid = solve::solve_fixed(
                 model,
@@ -1781,8 +1833,20 @@ impl State<'_> {
                 second: None,
             };
             if w.center.is_some() && !w.readable(frame, style, start, *q) {
-                w.center = None;
-                self.estimate_mm = self.estimate_mm.max(sagitta_mm(&piece));
+                // The circle of the piece's radius through its written
+                // ends, where LinuxCNC reads it, before a chord.
+                w.center = ends_center(&piece, start, *q);
+                match w.center {
+                    Some(c) if w.readable(frame, style, start, *q) => {
+                        let (u, v, _) = arc.plane.axes();
+                        let off = (q_mid[u] - c[u]).hypot(q_mid[v] - c[v]) - piece.start_radius();
+                        self.estimate_mm = self.estimate_mm.max(off.abs());
+                    }
+                    _ => {
+                        w.center = None;
+                        self.estimate_mm = self.estimate_mm.max(sagitta_mm(&piece));
+                    }
+                }
             }
             words.push(w);
             from = *q;
@@ -1893,6 +1957,54 @@ mod tests {
     use super::*;
     use crate::model::ALL_FORWARD;
     use volcomp_gcode::Plane;
+
+    #[test]
+    fn the_circle_through_the_written_ends_keeps_the_pieces_radius_and_side() {
+        // A counter-clockwise quarter of R5 about the origin from (5, 0) to
+        // (0, 5); its ends written 3 µm apart from the nominal (both moved
+        // by (0.003, 0)): the circle of radius 5 through them is centred
+        // at (0.003, 0), on the origin's side of the chord, not at its
+        // mirror (5.003, 5).
+        let piece = Arc {
+            start: Vec3::new(5.0, 0.0, 0.0),
+            end: Vec3::new(0.0, 5.0, 0.0),
+            center: Vec3::ZERO,
+            plane: Plane::Xy,
+            sweep_rad: std::f64::consts::FRAC_PI_2,
+        };
+        let c = ends_center(
+            &piece,
+            Vec3::new(5.003, 0.0, 0.0),
+            Vec3::new(0.003, 5.0, 0.0),
+        )
+        .expect("a centre");
+        assert!((c - Vec3::new(0.003, 0.0, 0.0)).norm() < 1e-12, "{c:?}");
+        // A chord longer than the diameter has none.
+        assert!(ends_center(&piece, Vec3::new(5.0, 0.0, 0.0), Vec3::new(-5.1, 0.0, 0.0)).is_none());
+    }
+
+    #[test]
+    fn a_point_off_the_arc_reads_as_the_parameter_of_its_angle() {
+        // A clockwise quarter circle R2 about (1, 1, 0) from (3, 1) to
+        // (1, −1), rising 1 mm in Z. The point at 45° (parameter 1/2) is
+        // (1 + √2, 1 − √2); moved 3 µm outward and 5 µm along Z it still
+        // reads 1/2, counted from 0 or from 0.4; 30° on from the start
+        // (the point at 1/3) moved inward by 2 µm reads 1/3.
+        let arc = Arc {
+            start: Vec3::new(3.0, 1.0, 0.0),
+            end: Vec3::new(1.0, -1.0, 1.0),
+            center: Vec3::new(1.0, 1.0, 0.0),
+            plane: Plane::Xy,
+            sweep_rad: -std::f64::consts::FRAC_PI_2,
+        };
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let at_45 = Vec3::new(1.0 + 2.003 * h, 1.0 - 2.003 * h, 0.505);
+        assert!((param_near(&arc, 0.0, at_45) - 0.5).abs() < 1e-12);
+        assert!((param_near(&arc, 0.4, at_45) - 0.5).abs() < 1e-12);
+        let (s, c) = (-std::f64::consts::FRAC_PI_6).sin_cos();
+        let at_30 = Vec3::new(1.0 + 1.998 * c, 1.0 + 1.998 * s, 0.0);
+        assert!((param_near(&arc, 0.0, at_30) - 1.0 / 3.0).abs() < 1e-12);
+    }
 
     /// An R15 arc in XY cut into pieces of 0.2 mm (plus a first piece of
     /// 3 mm), its commands on the arc with Z 0 up to point `at` and Z
