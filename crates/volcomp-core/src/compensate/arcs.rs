@@ -1796,8 +1796,10 @@ impl State<'_> {
             // A take-up block may end a little along the piece (a chord
             // of the arc, compensate/take_up_before.rs): the piece runs
             // from there.
+            // (`max`/`min` rather than `clamp`, which panics on an empty
+            // interval.)
             let l_start = take_up.map_or(l_from, |tu| {
-                param_near(arc, l_from, tu).clamp(l_from, pieces[i])
+                param_near(arc, l_from, tu).min(pieces[i]).max(l_from)
             });
             let piece = sub_arc(arc, l_start, pieces[i]);
             let t_mid = piece.point_at(0.5);
