@@ -20,6 +20,7 @@ mod helix_normal_step;
 mod idle_take_ups;
 mod kinematic;
 mod line_arc_blend;
+mod line_into_arc;
 mod line_length;
 mod line_tail_hold;
 mod mirror_study;

@@ -575,9 +575,22 @@ impl<'w> State<'w> {
             )
             .is_some()
         };
+        // A line's tail before an arc that reverses the axis it was held
+        // for crosses that axis' band on the line (`Tail::line_s_curve`).
+        let line_s = match (&self.tail, &arc_nominal) {
+            (Some(t), Some(arc)) if t.may_start(arc, &run) => t
+                .line_s_curve(arc, self.s, self.walk.model)
+                .map_err(|source| model_error(file, t.line, source))?,
+            _ => None,
+        };
+        if let (Some(t), Some(ls)) = (self.tail.as_mut(), line_s) {
+            t.s_curve = Some(ls);
+        }
         let held = match (&self.tail, &arc_nominal) {
             (Some(t), Some(arc))
-                if t.may_start(arc, &run) && (t.restore.is_none() || restores()) =>
+                if line_s.is_none()
+                    && t.may_start(arc, &run)
+                    && (t.restore.is_none() || restores()) =>
             {
                 Some((t.held.before_mm, t.held.radius_mm))
             }
@@ -1364,6 +1377,7 @@ impl<'w> State<'w> {
                     .and_then(|arc| points::piece_turn_tolerance(options, &run, &arc)),
                 restore: tail_restore,
                 kept: None,
+                s_curve: None,
             });
             self.keep_tail_piece((&targets, &pieces, &arc_words, &commands), last_piece_at);
         }
@@ -1583,6 +1597,16 @@ impl<'w> State<'w> {
         let from = self.q_out;
         self.transitions.clear();
         let ahead = match (t.path, next, targets.as_slice()) {
+            (TailPath::Line(..), Some(_), [_]) if t.s_curve.is_some() => {
+                t.s_curve.map(|ls| arcs::Transition {
+                    index: 0,
+                    axis: ls.axis,
+                    direction: ls.direction,
+                    deviation_mm: 0.0,
+                    spread: None,
+                    widest: true,
+                })
+            }
             (TailPath::Line(a, b), Some(m), [_]) => {
                 let piece = idle::LastPiece {
                     model: &model,
@@ -1693,13 +1717,36 @@ impl<'w> State<'w> {
                 self.write_inserted(&place, pos, *tu, OutMode::Feed, "take-up");
                 pos = *tu;
             }
-            // The block's mode comes back on its last line.
-            if let Some(restore) = t.restore.filter(|_| i + 1 == commands.len()) {
-                self.line_words = restore.to_string();
-            }
-            match words.get(i) {
-                Some(w) => self.write_inserted_arc(&place, pos, *q, w, ""),
-                None => self.write_inserted(&place, pos, *q, OutMode::Feed, ""),
+            let s_words = match (t.s_curve, commands.len(), take_up) {
+                (Some(ls), 1, None) => line_s_words(&ls, &t.frame, t.style, (pos, *q)),
+                _ => None,
+            };
+            let restore = t.restore.filter(|_| i + 1 == commands.len());
+            match (words.get(i), s_words) {
+                (None, Some(w)) => {
+                    // The block's mode comes back on a line of its own
+                    // after the S-curve (below), which so ends under the
+                    // pieces' blending: under G61 (exact path) its join with
+                    // the arc would be a stop wherever the plane's normal
+                    // axis turns there by more than the planner's kink
+                    // tolerance (tp.c `tpSetupTangent`: 0.8 mrad at 60 mm/s),
+                    // and the share of that axis' switch the S carries
+                    // turns it by up to ~1 mrad.
+                    self.write_inserted_arc(&place, pos, *q, &w, "");
+                    if let Some(restore) = restore {
+                        self.line_words = restore.to_string();
+                    }
+                }
+                (w, _) => {
+                    // The block's mode comes back on its last line.
+                    if let Some(restore) = restore {
+                        self.line_words = restore.to_string();
+                    }
+                    match w {
+                        Some(w) => self.write_inserted_arc(&place, pos, *q, w, ""),
+                        None => self.write_inserted(&place, pos, *q, OutMode::Feed, ""),
+                    }
+                }
             }
             pos = *q;
         }
@@ -1739,6 +1786,26 @@ struct Tail {
     /// The block's last piece before the tail, kept back with it
     /// (compensate/tail.rs): merged with the tail where no S-curve takes it.
     kept: Option<tail::KeptPiece>,
+    /// A line's tail that crosses the band of the axis the arc after it
+    /// reverses ([`Tail::line_s_curve`]), written as an S-curve on the line.
+    s_curve: Option<LineS>,
+}
+
+/// The largest step (µm) the switch of a line's S-curve ([`LineS`]) may
+/// make in the plane's normal axis against that axis' direction: the G61
+/// contour tolerance under which the adaptive segmentation keeps the path
+/// (a step that small held costs no more than the segmentation leaves).
+const LINE_S_NORMAL_STEP_UM: f64 = 0.05;
+
+/// The take-up of a line's held tail on the line itself: the axis the arc
+/// after the line reverses at its start (the line does not move it), its
+/// new direction, and the line's unit tangent in the arc's plane.
+#[derive(Debug, Clone, Copy)]
+struct LineS {
+    axis: usize,
+    direction: crate::model::Direction,
+    plane: volcomp_gcode::Plane,
+    tangent: [f64; 2],
 }
 
 /// The nominal path of a held tail's block.
@@ -1767,6 +1834,73 @@ impl Tail {
             && (arc.start - end).norm() <= 1e-9
     }
 
+    /// Where this tail is a line's and the arc `arc` after it (which may
+    /// start from it, [`Tail::may_start`]) turns the axis the line held its
+    /// tail for against its state `s`: the take-up on the line
+    /// ([`arcs::line_tail`]; docs/compensation.md, "A line into an arc
+    /// that reverses an axis").
+    ///
+    /// Not where the switch moves the command of the plane's normal axis
+    /// against that axis' direction by more than [`LINE_S_NORMAL_STEP_UM`]:
+    /// that axis would reverse there, so its step is held across the S
+    /// and left to the arc's first piece, a kink the planner slows for
+    /// (a pocket's R3 corner at F6000, example map: a 0.32 µm Z step over
+    /// 0.2 mm, 1.6 mrad, passed at 31 mm/s against 50 mm/s). The S-curve
+    /// across the join ([`arcs::plan_transitions`]) spreads such a step
+    /// along the arc instead.
+    fn line_s_curve(
+        &self,
+        arc: &volcomp_gcode::Arc,
+        s: Directions,
+        model: &dyn ErrorModel,
+    ) -> Result<Option<LineS>, ModelError> {
+        let TailPath::Line(start, end) = self.path else {
+            return Ok(None);
+        };
+        let (u, v, w) = arc.plane.axes();
+        let a = self.held.axis;
+        let d = end - start;
+        let length = d.norm();
+        // One target on the tail (its end): the S runs from the tail's
+        // start to it.
+        if self.targets.len() != 1
+            || !(a == u || a == v)
+            || d[w].abs() > 1e-12 * length
+            || d[a].abs() > 1e-12 * length
+        {
+            return Ok(None);
+        }
+        // 10 µm along the arc: its start is the quarter point of `a`.
+        let step = 0.01 / arc.length().max(1e-9);
+        let turns = Direction::of_delta(arc.point_at(step)[a] - arc.start[a]);
+        let tangent = self.end_tangent(arc.plane);
+        let along = arcs::plane_tangent(arc, 0.0);
+        let tangent_join = (tangent[0] * along[0] + tangent[1] * along[1]) > 1.0 - 1e-9;
+        if !(tangent_join && turns == Some(s[a].flipped())) {
+            return Ok(None);
+        }
+        // The command's step in the normal axis where `a` switches (the
+        // command is the target less the error, docs/design.md).
+        let model = crate::model::WithTool {
+            model,
+            tool_length_offset_mm: self.tool_length_offset_mm,
+        };
+        let mut s_new = s;
+        s_new[a] = s[a].flipped();
+        let e_old = model.deviation_um(end, s, crate::model::Components::All)?;
+        let e_new = model.deviation_um(end, s_new, crate::model::Components::All)?;
+        let step_um = e_old[w] - e_new[w];
+        if step_um.abs() > LINE_S_NORMAL_STEP_UM && Direction::of_delta(step_um) != Some(s[w]) {
+            return Ok(None);
+        }
+        Ok(Some(LineS {
+            axis: a,
+            direction: s[a].flipped(),
+            plane: arc.plane,
+            tangent,
+        }))
+    }
+
     /// The unit tangent of the tail's block where the tail starts, in the
     /// axes of `plane`.
     fn end_tangent(&self, plane: volcomp_gcode::Plane) -> [f64; 2] {
@@ -1793,6 +1927,59 @@ fn may_take_tail(line: &Line) -> bool {
         && !ev.interp.cutter_comp_on()
         && matches!(ev.motions, [m] if m.source == MotionSource::Program
             && matches!(m.kind, MotionKind::Arc(_)))
+}
+
+/// The words of a line's tail written as an S-curve ([`LineS`]): the
+/// biarc from `from` to `q` (axis frame) tangent to the line at both ends,
+/// of two arcs of one radius ([`scurve::widest_biarc`]), the plane's
+/// normal axis shared out by length; `None` where the command does not move
+/// the axis the way its new direction says, or the arcs do not read as
+/// written ([`ArcWords::readable`]).
+fn line_s_words(
+    ls: &LineS,
+    frame: &Frame,
+    style: NumberStyle,
+    (from, q): (Vec3, Vec3),
+) -> Option<ArcWords> {
+    if Direction::of_delta(q[ls.axis] - from[ls.axis]) != Some(ls.direction) {
+        return None;
+    }
+    let (u, v, w) = ls.plane.axes();
+    let [a1, a2] = scurve::widest_biarc([from[u], from[v]], ls.tangent, [q[u], q[v]], ls.tangent)?;
+    let (l1, l2) = (a1.length(), a2.length());
+    let mut joint = from;
+    joint[u] = a1.end[0];
+    joint[v] = a1.end[1];
+    joint[w] = from[w] + (q[w] - from[w]) * l1 / (l1 + l2);
+    let joint = frame.quantize(joint, from);
+    let center = |c: [f64; 2]| {
+        let mut p = from;
+        p[u] = c[0];
+        p[v] = c[1];
+        p
+    };
+    let first = ArcWords {
+        center: Some(center(a1.center()?)),
+        plane: ls.plane,
+        clockwise: a1.radius < 0.0,
+        radius_style: false,
+        absolute_centers: frame.arc_absolute,
+        second: None,
+    };
+    let second = ArcWords {
+        center: Some(center(a2.center()?)),
+        clockwise: a2.radius < 0.0,
+        ..first
+    };
+    (first.readable(frame, style, from, joint) && second.readable(frame, style, joint, q))
+        .then_some(ArcWords {
+            second: Some(lines::SecondArc {
+                joint,
+                center: second.center,
+                clockwise: second.clockwise,
+            }),
+            ..first
+        })
 }
 
 /// The tolerance (mm) within which the planner may blend the joins between
