@@ -1908,12 +1908,10 @@ impl State<'_> {
             let Some([arc1, arc2]) = s_curve(p2(a), t1, p2(b), t2) else {
                 continue;
             };
-            let (l1, l2) = (arc1.length(), arc2.length());
-            let mut joint = a;
-            joint[u] = arc1.end[0];
-            joint[v] = arc1.end[1];
-            joint[w] = a[w] + (b[w] - a[w]) * l1 / (l1 + l2);
-            let joint = frame.quantize(joint, a);
+            let joint = frame.quantize(
+                super::scurve::biarc_joint(&[arc1, arc2], (a, b), (u, v, w)),
+                a,
+            );
             let center = |arc: &super::scurve::BiarcArc, at_w: f64| {
                 arc.center().map(|c| {
                     let mut p = a;

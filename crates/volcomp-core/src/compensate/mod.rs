@@ -1946,12 +1946,7 @@ fn line_s_words(
     }
     let (u, v, w) = ls.plane.axes();
     let [a1, a2] = scurve::widest_biarc([from[u], from[v]], ls.tangent, [q[u], q[v]], ls.tangent)?;
-    let (l1, l2) = (a1.length(), a2.length());
-    let mut joint = from;
-    joint[u] = a1.end[0];
-    joint[v] = a1.end[1];
-    joint[w] = from[w] + (q[w] - from[w]) * l1 / (l1 + l2);
-    let joint = frame.quantize(joint, from);
+    let joint = frame.quantize(scurve::biarc_joint(&[a1, a2], (from, q), (u, v, w)), from);
     let center = |c: [f64; 2]| {
         let mut p = from;
         p[u] = c[0];

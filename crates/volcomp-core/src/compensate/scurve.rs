@@ -282,6 +282,24 @@ pub(super) fn widest_biarc(p1: P2, t1: P2, p2: P2, t2: P2) -> Option<[BiarcArc; 
     }
 }
 
+/// Where the first arc of `arcs` (a biarc drawn in the axes `(u, v)` of a
+/// plane whose normal axis is `w`) ends, in 3-D: the plane's coordinates
+/// from the biarc, the normal axis shared out from `from` to `to` by the
+/// arcs' lengths (each arc then a helix of the same slope). Not rounded
+/// to the written grid.
+pub(super) fn biarc_joint(
+    arcs: &[BiarcArc; 2],
+    (from, to): (volcomp_gcode::Vec3, volcomp_gcode::Vec3),
+    (u, v, w): (usize, usize, usize),
+) -> volcomp_gcode::Vec3 {
+    let (l1, l2) = (arcs[0].length(), arcs[1].length());
+    let mut joint = from;
+    joint[u] = arcs[0].end[0];
+    joint[v] = arcs[0].end[1];
+    joint[w] = from[w] + (to[w] - from[w]) * l1 / (l1 + l2);
+    joint
+}
+
 /// The S-curve of a quarter point in its local frame (module
 /// documentation): the window before and after the point (mm along the
 /// path), the largest distance of the tool from the path under
