@@ -1718,7 +1718,7 @@ impl<'w> State<'w> {
                 pos = *tu;
             }
             let s_words = match (t.s_curve, commands.len(), take_up) {
-                (Some(ls), 1, None) => line_s_words(&ls, &t.frame, t.style, (pos, *q)),
+                (Some(ls), 1, None) => tail::line_s_words(&ls, &t.frame, t.style, (pos, *q)),
                 _ => None,
             };
             let restore = t.restore.filter(|_| i + 1 == commands.len());
@@ -1788,24 +1788,7 @@ struct Tail {
     kept: Option<tail::KeptPiece>,
     /// A line's tail that crosses the band of the axis the arc after it
     /// reverses ([`Tail::line_s_curve`]), written as an S-curve on the line.
-    s_curve: Option<LineS>,
-}
-
-/// The largest step (µm) the switch of a line's S-curve ([`LineS`]) may
-/// make in the plane's normal axis against that axis' direction: the G61
-/// contour tolerance under which the adaptive segmentation keeps the path
-/// (a step that small held costs no more than the segmentation leaves).
-const LINE_S_NORMAL_STEP_UM: f64 = 0.05;
-
-/// The take-up of a line's held tail on the line itself: the axis the arc
-/// after the line reverses at its start (the line does not move it), its
-/// new direction, and the line's unit tangent in the arc's plane.
-#[derive(Debug, Clone, Copy)]
-struct LineS {
-    axis: usize,
-    direction: crate::model::Direction,
-    plane: volcomp_gcode::Plane,
-    tangent: [f64; 2],
+    s_curve: Option<tail::LineS>,
 }
 
 /// The nominal path of a held tail's block.
@@ -1834,73 +1817,6 @@ impl Tail {
             && (arc.start - end).norm() <= 1e-9
     }
 
-    /// Where this tail is a line's and the arc `arc` after it (which may
-    /// start from it, [`Tail::may_start`]) turns the axis the line held its
-    /// tail for against its state `s`: the take-up on the line
-    /// ([`arcs::line_tail`]; docs/compensation.md, "A line into an arc
-    /// that reverses an axis").
-    ///
-    /// Not where the switch moves the command of the plane's normal axis
-    /// against that axis' direction by more than [`LINE_S_NORMAL_STEP_UM`]:
-    /// that axis would reverse there, so its step is held across the S
-    /// and left to the arc's first piece, a kink the planner slows for
-    /// (a pocket's R3 corner at F6000, example map: a 0.32 µm Z step over
-    /// 0.2 mm, 1.6 mrad, passed at 31 mm/s against 50 mm/s). The S-curve
-    /// across the join ([`arcs::plan_transitions`]) spreads such a step
-    /// along the arc instead.
-    fn line_s_curve(
-        &self,
-        arc: &volcomp_gcode::Arc,
-        s: Directions,
-        model: &dyn ErrorModel,
-    ) -> Result<Option<LineS>, ModelError> {
-        let TailPath::Line(start, end) = self.path else {
-            return Ok(None);
-        };
-        let (u, v, w) = arc.plane.axes();
-        let a = self.held.axis;
-        let d = end - start;
-        let length = d.norm();
-        // One target on the tail (its end): the S runs from the tail's
-        // start to it.
-        if self.targets.len() != 1
-            || !(a == u || a == v)
-            || d[w].abs() > 1e-12 * length
-            || d[a].abs() > 1e-12 * length
-        {
-            return Ok(None);
-        }
-        // 10 µm along the arc: its start is the quarter point of `a`.
-        let step = 0.01 / arc.length().max(1e-9);
-        let turns = Direction::of_delta(arc.point_at(step)[a] - arc.start[a]);
-        let tangent = self.end_tangent(arc.plane);
-        let along = arcs::plane_tangent(arc, 0.0);
-        let tangent_join = (tangent[0] * along[0] + tangent[1] * along[1]) > 1.0 - 1e-9;
-        if !(tangent_join && turns == Some(s[a].flipped())) {
-            return Ok(None);
-        }
-        // The command's step in the normal axis where `a` switches (the
-        // command is the target less the error, docs/design.md).
-        let model = crate::model::WithTool {
-            model,
-            tool_length_offset_mm: self.tool_length_offset_mm,
-        };
-        let mut s_new = s;
-        s_new[a] = s[a].flipped();
-        let e_old = model.deviation_um(end, s, crate::model::Components::All)?;
-        let e_new = model.deviation_um(end, s_new, crate::model::Components::All)?;
-        let step_um = e_old[w] - e_new[w];
-        if step_um.abs() > LINE_S_NORMAL_STEP_UM && Direction::of_delta(step_um) != Some(s[w]) {
-            return Ok(None);
-        }
-        Ok(Some(LineS {
-            axis: a,
-            direction: s[a].flipped(),
-            plane: arc.plane,
-            tangent,
-        }))
-    }
-
     /// The unit tangent of the tail's block where the tail starts, in the
     /// axes of `plane`.
     fn end_tangent(&self, plane: volcomp_gcode::Plane) -> [f64; 2] {
@@ -1927,54 +1843,6 @@ fn may_take_tail(line: &Line) -> bool {
         && !ev.interp.cutter_comp_on()
         && matches!(ev.motions, [m] if m.source == MotionSource::Program
             && matches!(m.kind, MotionKind::Arc(_)))
-}
-
-/// The words of a line's tail written as an S-curve ([`LineS`]): the
-/// biarc from `from` to `q` (axis frame) tangent to the line at both ends,
-/// of two arcs of one radius ([`scurve::widest_biarc`]), the plane's
-/// normal axis shared out by length; `None` where the command does not move
-/// the axis the way its new direction says, or the arcs do not read as
-/// written ([`ArcWords::readable`]).
-fn line_s_words(
-    ls: &LineS,
-    frame: &Frame,
-    style: NumberStyle,
-    (from, q): (Vec3, Vec3),
-) -> Option<ArcWords> {
-    if Direction::of_delta(q[ls.axis] - from[ls.axis]) != Some(ls.direction) {
-        return None;
-    }
-    let (u, v, w) = ls.plane.axes();
-    let [a1, a2] = scurve::widest_biarc([from[u], from[v]], ls.tangent, [q[u], q[v]], ls.tangent)?;
-    let joint = frame.quantize(scurve::biarc_joint(&[a1, a2], (from, q), (u, v, w)), from);
-    let center = |c: [f64; 2]| {
-        let mut p = from;
-        p[u] = c[0];
-        p[v] = c[1];
-        p
-    };
-    let first = ArcWords {
-        center: Some(center(a1.center()?)),
-        plane: ls.plane,
-        clockwise: a1.radius < 0.0,
-        radius_style: false,
-        absolute_centers: frame.arc_absolute,
-        second: None,
-    };
-    let second = ArcWords {
-        center: Some(center(a2.center()?)),
-        clockwise: a2.radius < 0.0,
-        ..first
-    };
-    (first.readable(frame, style, from, joint) && second.readable(frame, style, joint, q))
-        .then_some(ArcWords {
-            second: Some(lines::SecondArc {
-                joint,
-                center: second.center,
-                clockwise: second.clockwise,
-            }),
-            ..first
-        })
 }
 
 /// The tolerance (mm) within which the planner may blend the joins between
