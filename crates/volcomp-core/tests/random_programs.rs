@@ -256,6 +256,21 @@ G17 G3 X13.9809 Y-5.6553 Z-8.7775 I8.1342 J0\nG17\nG0 Z5.0000\nM2\n";
     follows_the_nominal_path(text, false).unwrap();
 }
 
+/// A G61 program the random test drew on 2026-12-03 (main 6f430e2, and
+/// as well on 39b6a5a before it): a line in Y and Z into a G18 arc of
+/// 253° that starts at Z's quarter point and turns X at its own. The
+/// dead-band simulation leaves 0.847 µm off the path (original 7.73 µm),
+/// above the 0.5 µm bound; the cause is not derived yet. Kept ignored so
+/// the suite stays green while it is open: `cargo test --release -p
+/// volcomp-core --test core_tests -- --ignored a_3d_line_into_a_g18_arc`.
+#[test]
+#[ignore = "open: 0.847 µm against the 0.5 µm bound"]
+fn a_3d_line_into_a_g18_arc_of_253_degrees_stays_on_the_path() {
+    let text = "G21 G90 G17 G94 G61\nG0 X0 Y0 Z5.0000\nG1 Z-5.0000 F400.0000\n\
+G1 X0.0000 Y0.5566 Z0.0000\nG18 G3 X0.9566 Y0.5566 Z1.2915 K1.0000 I0\nG17\nG0 Z5.0000\nM2\n";
+    follows_the_nominal_path(text, false).unwrap();
+}
+
 proptest! {
     #![proptest_config(crate::common::proptest_config(48))]
 
