@@ -325,7 +325,7 @@ const LINE_S_NORMAL_STEP_UM: f64 = 0.05;
 #[derive(Debug, Clone, Copy)]
 pub(super) struct LineS {
     pub(super) axis: usize,
-    pub(super) direction: crate::model::Direction,
+    pub(super) direction: Direction,
     pub(super) plane: volcomp_gcode::Plane,
     pub(super) tangent: [f64; 2],
 }
