@@ -32,6 +32,7 @@ mod ramp_stage;
 mod random_programs;
 mod simulate_pairing;
 mod still_axis_turn;
+mod still_s;
 mod straightness;
 mod tail_merge;
 mod take_up_advance;

@@ -108,7 +108,7 @@ impl PlannerLimits {
     /// The normal acceleration of a blend (mm/s²): the smallest axis limit
     /// times `BLEND_ACC_RATIO_NORMAL` (a blend's plane may lie along any
     /// two axes).
-    fn blend_normal_acceleration(&self) -> f64 {
+    pub(super) fn blend_normal_acceleration(&self) -> f64 {
         let a = self
             .max_acceleration_mm_s2
             .iter()

@@ -334,6 +334,14 @@ impl State<'_> {
         self.summary.path_mode_lines += 1;
     }
 
+    /// Writes a plane selection `word` (G17, G18, G19) on a line of its
+    /// own, tagged `(volcomp Ln plane)` (compensate/still_s.rs).
+    pub(super) fn push_plane_line(&mut self, word: &str, at: &Place) {
+        self.text.clear();
+        self.text.extend_from_slice(word.as_bytes());
+        self.push_inserted(at, "plane");
+    }
+
     /// Ends the inserted line in `self.text` (its trace comment, `(volcomp
     /// Ln note)`, when asked for) and appends it to the buffer on a line of
     /// its own.

@@ -45,6 +45,7 @@ mod scurve;
 mod size;
 pub mod solve;
 mod spline;
+mod still_s;
 mod style;
 mod tail;
 mod tail_hold;
@@ -269,6 +270,8 @@ impl<'w> State<'w> {
             states: Vec::new(),
             ramp_mids: Vec::new(),
             take_up_blocks: Vec::new(),
+            s_line: None,
+            s_pieces: Vec::new(),
             records: Vec::new(),
             targets: Vec::new(),
             commands: Vec::new(),
@@ -845,6 +848,15 @@ impl<'w> State<'w> {
             && self
                 .last_tangent
                 .is_some_and(|(t1, _)| !planar::stops_at(t1, points::tangents(motion).0));
+        // Under G61 a still axis' take-up inside a line may go on an S
+        // (compensate/still_s.rs): not under cutter radius compensation,
+        // where the plane cannot change.
+        self.s_line =
+            (arc_nominal.is_none() && taken.is_none() && may_lead && !interp.cutter_comp_on())
+                .then_some(still_s::LineContext {
+                    plane: interp.plane(),
+                    style,
+                });
         let commands = self.solve_targets(
             model,
             (&frame, &frame0),
@@ -857,6 +869,7 @@ impl<'w> State<'w> {
             },
             ev.number,
         );
+        self.s_line = None;
         self.defer_points = false;
         self.planar_corner_normal = None;
         self.planar_corner_blends = false;
@@ -869,9 +882,17 @@ impl<'w> State<'w> {
         // piece begins along the arc's written end tangent
         // (compensate/tangent_join.rs).
         let arc_end = self.arc_end_before.take();
-        if let (Some(end), None, None, None, false) =
-            (arc_end, &arc_nominal, &taken, &held_end, extra_moves)
-        {
+        let s_at_first = commands
+            .first()
+            .is_some_and(|c| self.s_pieces.iter().any(|p| p.from == c.0));
+        if let (Some(end), None, None, None, false, false) = (
+            arc_end,
+            &arc_nominal,
+            &taken,
+            &held_end,
+            extra_moves,
+            s_at_first,
+        ) {
             self.tangent_lead(
                 end,
                 model,
@@ -931,6 +952,9 @@ impl<'w> State<'w> {
         };
         // Arc pieces: the centre of each, through its compensated start,
         // middle and end (compensate/arcs.rs).
+        // The program's plane to select again after each piece written as
+        // an S in another plane (compensate/still_s.rs).
+        let mut s_planes: Vec<Option<volcomp_gcode::Plane>> = Vec::new();
         let mut arc_words: Vec<ArcWords> = match arc_nominal {
             Some(arc) => self.arc_piece_words(
                 model,
@@ -946,6 +970,20 @@ impl<'w> State<'w> {
                 &commands,
                 q_line_start,
             )?,
+            None if !self.s_pieces.is_empty() => {
+                let (words, found) = still_s::piece_words(&self.s_pieces, &commands, q_line_start);
+                if found != self.s_pieces.len() {
+                    return Err(CompensationError::AtLine {
+                        file: file.into(),
+                        line: ev.number,
+                        message: "internal error: an S-curve take-up lost its place in the line"
+                            .into(),
+                        help: "please report this with the program line".into(),
+                    });
+                }
+                s_planes = words.iter().map(|w| w.1).collect();
+                words.into_iter().map(|w| w.0).collect()
+            }
             None => Vec::new(),
         };
         // The first piece after a G64 corner with the arc before written
@@ -1305,10 +1343,20 @@ impl<'w> State<'w> {
                     self.write_inserted_arc(&place.with_ending(ending), joint, *q, &second, "");
                 }
             } else if let Some(w) = arc_words.get(i) {
+                let back = s_planes.get(i).copied().flatten();
+                if back.is_some() {
+                    self.push_plane_line(
+                        still_s::plane_word(w.plane),
+                        &place.with_ending(line_ending),
+                    );
+                }
                 if let Some(restore) = restore_here {
                     self.line_words = restore.to_string();
                 }
                 self.write_inserted_arc(&place.with_ending(ending), pos, *q, w, "");
+                if let Some(p) = back {
+                    self.push_plane_line(still_s::plane_word(p), &place.with_ending(line_ending));
+                }
             } else {
                 if let Some(plan) = extra_plan.as_mut() {
                     self.extra_text = plan.words_for(i, style, sep);
@@ -1944,6 +1992,12 @@ struct State<'w> {
     /// in the last [`State::solve_targets`]' commands), in order
     /// (compensate/take_up_order.rs).
     take_up_blocks: Vec<(usize, Vec3)>,
+    /// Under G61, for the line being solved: what an S taking up an axis
+    /// it keeps still needs of the writer (compensate/still_s.rs); `None`
+    /// where no S is tried.
+    s_line: Option<still_s::LineContext>,
+    /// The S pieces of the last [`State::solve_targets`] (still_s.rs).
+    s_pieces: Vec<still_s::SPiece>,
     /// The per-point records of the motion being solved (a buffer kept
     /// between motions, compensate/points.rs).
     records: Vec<PointRecord>,

@@ -3262,6 +3262,27 @@ impl State<'_> {
                     self.summary.max_fold_excursion_um.max(bound_mm * 1e3);
             }
         }
+        // Under G61, a take-up block inside a line of an axis the line
+        // keeps still, written as an S where one fits
+        // (compensate/still_s.rs).
+        self.s_pieces.clear();
+        if let (Some(ctx), true, true) = (
+            self.s_line,
+            centre_lines,
+            commands.iter().skip(1).any(|c| c.1.is_some()),
+        ) {
+            let v_mm_s = run.feed_mm_min.map_or(0.0, |f| f / 60.0);
+            self.still_axis_s_curves(
+                &mut cells,
+                model,
+                frame,
+                &ctx,
+                (targets, &mut commands, &mut records),
+                (start, commands_start),
+                v_mm_s,
+            )
+            .map_err(|source| model_error(file, line, source))?;
+        }
         // The motion leaves its last piece's slope for an arc that may
         // follow it tangent. (A line held back for a take-up ahead, idle.rs,
         // keeps its slope only where its end goes out as solved: the arc

@@ -123,7 +123,7 @@ impl BiarcArc {
     /// The point at a fraction of the arc, as a function of the fraction
     /// (for speed: the centre, start angle and sweep found once for all
     /// the points sampled, not per point).
-    fn sampler(&self) -> impl Fn(f64) -> P2 + '_ {
+    pub(super) fn sampler(&self) -> impl Fn(f64) -> P2 + '_ {
         let arc = self.center().map(|c| {
             let a0 = (self.start[1] - c[1]).atan2(self.start[0] - c[0]);
             (c, a0, self.sweep(), self.radius.abs())
