@@ -459,6 +459,47 @@ type LineBuffers<'a> = (
 /// and residual.
 type PlanPoint = (Vec3, Vec3, Directions, u32, f64);
 
+/// The integral of the squared distance from the line (mm³) that the
+/// take-up block at `at` leaves over the span an S starting `lead_mm`
+/// before the reversal takes: the piece before from there to the
+/// reversal (old state), the block where the tool stands (no path), the
+/// piece after it (new state, the switches' lags fading from the
+/// reversal's command).
+fn block_square(
+    cells: &mut AxisCells,
+    model: &dyn ErrorModel,
+    at: &At,
+    lead_mm: f64,
+) -> Result<f64, ModelError> {
+    let lambda0 = 1.0 - lead_mm / at.len_before;
+    let before = |f: f64| at.q_piece + (at.q_rev - at.q_piece) * (lambda0 + (1.0 - lambda0) * f);
+    let lags =
+        super::points::switch_lags_mm(cells, model, at.q_rev, at.s_old, at.s_new, at.reversed)?;
+    let switch = [Switch {
+        from: at.q_rev,
+        lags,
+    }];
+    let after = |f: f64| at.tu + (at.q_next - at.tu) * f;
+    let line = (at.start, at.dir);
+    let (_, _, ms_before) = dead_band_deviation_mm(
+        cells,
+        model,
+        line,
+        (at.s_old, at.s_old, &[]),
+        &before,
+        SAMPLES,
+    )?;
+    let (_, _, ms_after) = dead_band_deviation_mm(
+        cells,
+        model,
+        line,
+        (at.s_new, at.s_new, &switch),
+        &after,
+        SAMPLES,
+    )?;
+    Ok(ms_before * lead_mm + ms_after * at.len_after)
+}
+
 /// The S legs for the reversing axes `order` at `at`, one after the other
 /// (module documentation): one axis' S starts `ℓ` before the reversal
 /// ([`lead_mm`]); of two, the first ends at the reversal and the second
@@ -672,36 +713,7 @@ fn plan(
     )?;
     bound = bound.max(dev_after).max(stand);
     square += ms * (at.len_after - (total - lead));
-    // The take-up block over the same span: the piece before from the S's
-    // start to the reversal (old state), the block where the tool stands,
-    // the piece after it (new state, the switches' lags fading from the
-    // reversal's command).
-    let lambda0 = 1.0 - lead / at.len_before;
-    let before = |f: f64| at.q_piece + (at.q_rev - at.q_piece) * (lambda0 + (1.0 - lambda0) * f);
-    let (_, _, ms_before) = dead_band_deviation_mm(
-        cells,
-        model,
-        (at.start, at.dir),
-        (at.s_old, at.s_old, &[]),
-        &before,
-        SAMPLES,
-    )?;
-    let block_lags =
-        super::points::switch_lags_mm(cells, model, at.q_rev, at.s_old, at.s_new, at.reversed)?;
-    let block_switch = [Switch {
-        from: at.q_rev,
-        lags: block_lags,
-    }];
-    let block_after = |f: f64| at.tu + (at.q_next - at.tu) * f;
-    let (_, _, ms_after) = dead_band_deviation_mm(
-        cells,
-        model,
-        (at.start, at.dir),
-        (at.s_new, at.s_new, &block_switch),
-        &block_after,
-        SAMPLES,
-    )?;
-    let square_block = ms_before * lead + ms_after * at.len_after;
+    let square_block = block_square(cells, model, at, lead)?;
     // What the machine leaves across the path over the span uncompensated
     // (at its start, the reversal and the next target).
     let mut raw = 0.0f64;
@@ -999,7 +1011,7 @@ pub(super) fn piece_words(
 /// The words of the S `arcs` from `from` to `q` in `plane`, the third axis
 /// shared out by length ([`scurve::biarc_joint`]); `None` where the arcs
 /// do not read as written ([`ArcWords::readable`]).
-fn s_words(
+pub(super) fn s_words(
     plane: Plane,
     arcs: &[BiarcArc; 2],
     frame: &Frame,

@@ -414,37 +414,9 @@ pub(super) fn line_s_words(
     if Direction::of_delta(q[ls.axis] - from[ls.axis]) != Some(ls.direction) {
         return None;
     }
-    let (u, v, w) = ls.plane.axes();
-    let [a1, a2] = scurve::widest_biarc([from[u], from[v]], ls.tangent, [q[u], q[v]], ls.tangent)?;
-    let joint = frame.quantize(scurve::biarc_joint(&[a1, a2], (from, q), (u, v, w)), from);
-    let center = |c: [f64; 2]| {
-        let mut p = from;
-        p[u] = c[0];
-        p[v] = c[1];
-        p
-    };
-    let first = ArcWords {
-        center: Some(center(a1.center()?)),
-        plane: ls.plane,
-        clockwise: a1.radius < 0.0,
-        radius_style: false,
-        absolute_centers: frame.arc_absolute,
-        second: None,
-    };
-    let second = ArcWords {
-        center: Some(center(a2.center()?)),
-        clockwise: a2.radius < 0.0,
-        ..first
-    };
-    (first.readable(frame, style, from, joint) && second.readable(frame, style, joint, q))
-        .then_some(ArcWords {
-            second: Some(super::lines::SecondArc {
-                joint,
-                center: second.center,
-                clockwise: second.clockwise,
-            }),
-            ..first
-        })
+    let (u, v, _) = ls.plane.axes();
+    let arcs = scurve::widest_biarc([from[u], from[v]], ls.tangent, [q[u], q[v]], ls.tangent)?;
+    super::still_s::s_words(ls.plane, &arcs, frame, style, (from, q))
 }
 
 #[cfg(test)]
