@@ -37,9 +37,17 @@
 //! direction's way on the S and the pieces next to it. The third axis
 //! runs as a helix along the S, shared out by length.
 //!
-//! Only on a line along one machine axis (the plane of the line and the
-//! reversing axis must be G17, G18 or G19), one axis reversing, and not
-//! under cutter radius compensation (a plane cannot change there). Where
+//! Where two axes reverse together (the shop map's axes share their table
+//! points), each gets a leg of its own, one after the other, in either
+//! order and meeting at one of a few places around the reversal
+//! ([`JOINT_SHARES`]); the plan leaving the least is taken. Every plan must
+//! also leave the span from the S's start to the next target no worse, in
+//! the mean square, than the take-up block does, or within the 99 % goal
+//! of what the machine leaves there uncompensated ([`GOAL_SHARE`]).
+//!
+//! Only on a line along one machine axis (the plane of the line and a
+//! reversing axis must be G17, G18 or G19), one or two axes reversing, and
+//! not under cutter radius compensation (a plane cannot change there). Where
 //! the S's plane is not the program's, the plane is selected on a line of
 //! its own before the S and the program's is selected again after it
 //! (SELECT_PLANE moves nothing: emccanon.cc only records it).
